@@ -1,0 +1,416 @@
+"""Command-line front end: parse, call the library, format. No kinematics here.
+
+``tf-between SOURCE TARGET`` prints T_SOURCE_TARGET (the pose of TARGET in
+SOURCE) like ROS 2 ``tf2_echo``; ``manipkit`` groups the other commands.
+User errors print one line on stderr and exit with status 2; a bug exits
+with status 1 and asks to be reported.
+
+argparse (standard library) is used rather than click/typer so that
+``tf-between`` starts fast; heavy modules are imported inside the commands.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from manipkit.errors import ManipkitError
+
+EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (usage goes to --help, not to every mistake)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class UsageError(ManipkitError):
+    """A malformed command-line value."""
+
+
+# ----------------------------------------------------------------------
+# Shared options
+# ----------------------------------------------------------------------
+
+
+def _add_robot_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--robot", default=None, metavar="R",
+        help="bundled name (course_arm, iiwa14, ...), example-robot-data name (panda, ur5, ...) "
+        "or a .urdf/.xacro path (default: course_arm)",
+    )
+    parser.add_argument(
+        "--arg", action="append", default=[], metavar="KEY=VALUE", help="xacro argument (repeatable)"
+    )
+    parser.add_argument(
+        "--package-dir", action="append", default=[], metavar="NAME=DIR",
+        help="folder of a ROS package, for $(find NAME) and package://NAME (repeatable)",
+    )
+
+
+def _add_joint_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--q", action="extend", nargs="+", default=[], metavar="NAME=VALUE",
+        help="joint values by name (repeatable), or all joint values in order; joints not given are 0",
+    )
+    parser.add_argument("--deg", action="store_true", help="angles are given in degrees (prismatic joints stay in metres)")
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    pairs = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise UsageError(f"{option} '{item}': expected NAME=VALUE")
+        pairs[key] = value
+    return pairs
+
+
+def _load(args):
+    import manipkit
+
+    package_dirs = {k: Path(v) for k, v in _pairs(args.package_dir, "--package-dir").items()}
+    return manipkit.load(args.robot, package_dirs=package_dirs, **_pairs(args.arg, "--arg"))
+
+
+def _joint_vector(robot, args):
+    """Joint vector from --q NAME=VALUE ... or --q V1 V2 ... (all joints in order)."""
+    items = args.q
+    if items and all(_is_number(item) for item in items):
+        if len(items) != len(robot.joint_names):
+            raise UsageError(
+                f"--q got {len(items)} values but {robot.name} has {len(robot.joint_names)} joints "
+                f"({', '.join(robot.joint_names)}); give all of them in order, or NAME=VALUE pairs"
+            )
+        values = dict(zip(robot.joint_names, items))
+    else:
+        values = _pairs(items, "--q")
+    return robot.q(values, degrees=args.deg)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+# ----------------------------------------------------------------------
+# tf-between / manipkit tf
+# ----------------------------------------------------------------------
+
+
+def _tf_parser(prog: str) -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog=prog,
+        description="Print T_SOURCE_TARGET, the pose of TARGET expressed in SOURCE (like tf2_echo SOURCE TARGET).",
+    )
+    _configure_tf(parser)
+    return parser
+
+
+def _configure_tf(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("source", metavar="SOURCE", help="reference frame (base_link and ee_link always work)")
+    parser.add_argument("target", metavar="TARGET", help="frame whose pose is printed")
+    _add_robot_options(parser)
+    _add_joint_options(parser)
+    parser.add_argument("--q-file", type=Path, metavar="FILE", help="CSV with a header of joint names, one configuration a row")
+    parser.add_argument("--precision", type=int, default=6, metavar="N", help="decimals printed (default 6)")
+    parser.add_argument("--format", choices=("text", "json", "csv"), default="text", help="output format (csv only with --q-file)")
+    parser.add_argument("--compare", type=Path, metavar="FILE", help="hand-derived 4x4 (text rows, CSV, JSON or .npy) to check against the model")
+    parser.add_argument("--tol", type=float, default=1e-6, help="agreement tolerance for --compare (m and rad, default 1e-6)")
+
+
+def _fmt(value: float, precision: int) -> str:
+    text = f"{value:.{precision}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text  # no "-0.000"
+
+
+def _vector(values, precision: int) -> str:
+    return "[" + ", ".join(_fmt(v, precision) for v in values) + "]"
+
+
+def _pose_text(robot, source: str, target: str, q, T, precision: int) -> list[str]:
+    from manipkit.pose import pose_fields
+
+    fields = pose_fields(T)
+    width = precision + 4
+    lines = [f"robot: {robot.name} ({robot.source.path})"]
+    lines.append("joints (rad/m): " + (" ".join(f"{k}={_fmt(v, precision)}" for k, v in robot.as_dict(q).items()) or "none"))
+    for alias in (source, target):
+        resolved = robot.frame(alias)
+        if resolved != alias:
+            note = f" ({robot.ee_reason})" if alias == "ee_link" else " (the root link)"
+            lines.append(f"frame {alias} = {resolved}{note}")
+    lines += [
+        f"pose of {target} expressed in {source} (T_{source}_{target}, as tf2_echo {source} {target}):",
+        f"- Translation (m): {_vector(fields['translation'], precision)}",
+        f"- Rotation: in Quaternion (x, y, z, w): {_vector(fields['quaternion_xyzw'], precision)}",
+        f"- Rotation: in RPY (radian) [roll, pitch, yaw]: {_vector(fields['rpy'], precision)}",
+        f"- Rotation: in RPY (degree) [roll, pitch, yaw]: {_vector(fields['rpy_deg'], precision)}",
+        "  (RPY as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes x, y, z)",
+        "- Matrix:",
+    ]
+    lines += ["  " + " ".join(_fmt(v, precision).rjust(width) for v in row) for row in T]
+    return lines
+
+
+def _pose_json(robot, source: str, target: str, q, T) -> dict:
+    from manipkit.pose import pose_fields
+
+    fields = pose_fields(T)
+    return {
+        "source": source,
+        "target": target,
+        "robot": robot.name,
+        "q": robot.as_dict(q),
+        "translation": fields["translation"].tolist(),
+        "quaternion_xyzw": fields["quaternion_xyzw"].tolist(),
+        "rpy": fields["rpy"].tolist(),
+        "matrix": fields["matrix"].tolist(),
+    }
+
+
+def _compare_lines(result, path: Path, tol: float) -> list[str]:
+    lines = [f"compare with {path} (tolerance {tol:g}):"]
+    if result.violations:
+        lines.append("  not a valid homogeneous transform:")
+        lines += [f"  - {v}" for v in result.violations]
+    else:
+        lines.append("  valid homogeneous transform (4x4, last row 0 0 0 1, R orthonormal with det +1)")
+    lines.append(f"  position error: {result.position_error:.6g} m")
+    lines.append(f"  rotation error: {result.rotation_error_deg:.6g} deg")
+    lines += [f"  {line}" for line in result.explain(summary=False)]
+    lines.append("  AGREES with the model" if result.agrees else "  DOES NOT AGREE with the model")
+    return lines
+
+
+def run_tf(args) -> int:
+    robot = _load(args)
+    source, target = args.source, args.target
+    robot.frame(source), robot.frame(target)  # unknown frames fail before anything else
+    if args.precision < 0 or args.precision > 17:
+        raise UsageError(f"--precision {args.precision}: give a number of decimals from 0 to 17")
+    if args.q_file is not None:
+        return _run_tf_batch(robot, args)
+    if args.format == "csv":
+        raise UsageError("--format csv needs --q-file; use text or json for one configuration")
+    q = _joint_vector(robot, args)
+    for warning in robot.outside_limits(q):
+        print(f"warning: {warning}; transform computed anyway", file=sys.stderr)
+    T = robot.transform(source, target, q)
+    status, comparison = EXIT_OK, None
+    if args.compare is not None:
+        from manipkit.compare import compare_transform, read_matrix
+
+        comparison = compare_transform(T, read_matrix(args.compare), tol=args.tol)
+        status = EXIT_OK if comparison.agrees else EXIT_MISMATCH
+    if args.format == "json":
+        out = _pose_json(robot, source, target, q, T)
+        if comparison is not None:
+            out["compare"] = {
+                "file": str(args.compare),
+                "violations": list(comparison.violations),
+                "position_error": comparison.position_error,
+                "rotation_error_deg": comparison.rotation_error_deg,
+                "agrees": comparison.agrees,
+                "explanation": comparison.explain(),
+            }
+        print(json.dumps(out, indent=2))
+    else:
+        lines = _pose_text(robot, source, target, q, T, args.precision)
+        if comparison is not None:
+            lines += _compare_lines(comparison, args.compare, args.tol)
+        print("\n".join(lines))
+    return status
+
+
+def _run_tf_batch(robot, args) -> int:
+    import numpy as np
+
+    from manipkit.pose import pose_fields
+
+    if args.q or args.compare is not None:
+        raise UsageError("--q-file cannot be combined with --q or --compare")
+    Q = read_q_file(robot, args.q_file, degrees=args.deg)
+    T = robot.fk(Q, args.target, base=args.source)
+    fields = pose_fields(T)
+    if args.format == "json":
+        rows = [
+            {"q": robot.as_dict(q), "translation": t.tolist(), "quaternion_xyzw": quat.tolist(),
+             "rpy": rpy.tolist(), "matrix": m.tolist()}
+            for q, t, quat, rpy, m in zip(Q, fields["translation"], fields["quaternion_xyzw"], fields["rpy"], fields["matrix"])
+        ]
+        print(json.dumps({"source": args.source, "target": args.target, "robot": robot.name, "poses": rows}, indent=2))
+        return EXIT_OK
+    header = "x,y,z,qx,qy,qz,qw,roll,pitch,yaw"
+    table = np.hstack([fields["translation"], fields["quaternion_xyzw"], fields["rpy"]])
+    print(f"# T_{args.source}_{args.target} of {robot.name}, one pose a row of {args.q_file}; m, rad, quaternion xyzw")
+    print(header)
+    for row in table:
+        print(",".join(_fmt(v, args.precision) for v in row))
+    return EXIT_OK
+
+
+def read_q_file(robot, path: Path, *, degrees: bool = False):
+    """Joint vectors (N, n) from a CSV whose header names joints; missing joints are 0."""
+    import csv
+
+    import numpy as np
+
+    try:
+        with open(path, newline="") as handle:
+            rows = [row for row in csv.reader(handle) if row and not row[0].lstrip().startswith("#")]
+    except OSError as exc:
+        raise UsageError(f"--q-file {path}: cannot read ({exc.strerror})") from None
+    if len(rows) < 2:
+        raise UsageError(f"--q-file {path}: needs a header of joint names and at least one row")
+    header = [cell.strip() for cell in rows[0]]
+    unknown = [name for name in header if name not in robot.joint_names]
+    if unknown:
+        raise UsageError(f"--q-file {path}: unknown joint column(s) {', '.join(unknown)}; joints: {', '.join(robot.joint_names)}")
+    Q = np.empty((len(rows) - 1, len(robot.joint_names)))
+    for number, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise UsageError(f"--q-file {path}: line {number} has {len(row)} values, the header has {len(header)}")
+        try:
+            Q[number - 2] = robot.q(dict(zip(header, row)), degrees=degrees)
+        except ManipkitError as exc:
+            raise UsageError(f"--q-file {path}: line {number}: {exc}") from None
+    return Q
+
+
+# ----------------------------------------------------------------------
+# manipkit robots | frames | tree
+# ----------------------------------------------------------------------
+
+
+def run_robots(args) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    import manipkit
+    from manipkit.robots import bundled_robots, example_robot_data_arms
+
+    table = Table(title="robots (--robot NAME); any .urdf/.xacro path works too")
+    for column in ("name", "from", "DOF", "base_link", "ee_link", "file"):
+        table.add_column(column)
+    entries = [(name, "bundled") for name in bundled_robots()] + [(name, "example-robot-data") for name in example_robot_data_arms()]
+    for name, origin in entries:
+        try:
+            robot = manipkit.load(name)
+        except ManipkitError as exc:
+            table.add_row(name, origin, "?", "?", "?", f"cannot load: {exc}")
+            continue
+        table.add_row(name, origin, str(len(robot.joints)), robot.root_link, robot.ee_frame, robot.source.path.name)
+    Console(width=160).print(table)
+    return EXIT_OK
+
+
+def run_frames(args) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    robot = _load(args)
+    console = Console(width=160)
+    console.print(f"robot {robot.name}: {len(robot.frame_names)} frames; base_link = {robot.root_link}; ee_link = {robot.ee_reason}")
+    console.print("frames: " + ", ".join(robot.frame_names))
+    table = Table(title=f"movable joints of {robot.name} (radians / metres)")
+    for column in ("#", "joint", "type", "axis", "parent -> child", "lower", "upper"):
+        table.add_column(column)
+    for index, joint in enumerate(robot.joints):
+        table.add_row(
+            str(index), joint.name, joint.type, " ".join(f"{a:g}" for a in joint.axis),
+            f"{joint.parent} -> {joint.child}", f"{joint.lower:.6g}", f"{joint.upper:.6g}",
+        )
+    console.print(table)
+    return EXIT_OK
+
+
+def run_tree(args) -> int:
+    from manipkit import tree
+    from manipkit.robots import parse_structure
+
+    robot = _load(args)
+    description = parse_structure(robot.urdf)
+    fmt = args.format
+    if fmt is None:
+        fmt = args.output.suffix.lstrip(".").lower() if args.output is not None else "text"
+        fmt = {"txt": "text", "gv": "dot"}.get(fmt, fmt)
+    if fmt not in ("text", "dot", "png", "svg"):
+        raise UsageError(f"tree format '{fmt}': choose text, dot, png or svg")
+    if fmt in ("png", "svg"):
+        if args.output is None:
+            raise UsageError(f"--format {fmt} needs -o FILE.{fmt}")
+        path = tree.write_tree_image(description, args.output, fmt=fmt)
+        print(f"wrote {path}")
+        return EXIT_OK
+    text = tree.tree_text(description) if fmt == "text" else tree.tree_dot(description)
+    if args.output is not None:
+        args.output.write_text(text + ("" if text.endswith("\n") else "\n"))
+        print(f"wrote {args.output}")
+    else:
+        print(text)
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------
+# Entry points
+# ----------------------------------------------------------------------
+
+
+def _main_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
+    tf = commands.add_parser("tf", help="pose of TARGET in SOURCE (same as tf-between)")
+    _configure_tf(tf)
+    tf.set_defaults(run=run_tf)
+    robots = commands.add_parser("robots", help="bundled and example-robot-data robots with DOF and frames")
+    robots.set_defaults(run=run_robots)
+    frames = commands.add_parser("frames", help="links/frames and joints (type, axis, parent/child, limits)")
+    _add_robot_options(frames)
+    frames.set_defaults(run=run_frames)
+    tree = commands.add_parser("tree", help="the link/joint tree as text, Graphviz DOT or an image")
+    _add_robot_options(tree)
+    tree.add_argument("--format", choices=("text", "dot", "png", "svg"), default=None, help="default: from -o's suffix, else text")
+    tree.add_argument("-o", "--output", type=Path, default=None, metavar="FILE")
+    tree.set_defaults(run=run_tree)
+    return parser
+
+
+def _run(parser: argparse.ArgumentParser, argv, runner=None) -> int:
+    args = parser.parse_args(argv)
+    try:
+        return (runner or args.run)(args)
+    except ManipkitError as exc:
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:  # a bug: short message, no traceback, exit 1
+        print(
+            f"{parser.prog}: internal error ({type(exc).__name__}: {exc}); please report it with the command line used",
+            file=sys.stderr,
+        )
+        return 1
+
+
+def tf_between_main(argv=None) -> int:
+    """``tf-between SOURCE TARGET [options]``."""
+    return _run(_tf_parser("tf-between"), argv, run_tf)
+
+
+def main(argv=None) -> int:
+    """``manipkit COMMAND [options]``."""
+    return _run(_main_parser(), argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

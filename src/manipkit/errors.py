@@ -1,0 +1,43 @@
+"""One exception family for every user-facing error.
+
+Each message names what is wrong and what would be valid, in one line, so
+the command line can print it as is (exit status 2) and a notebook user can
+read it without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class ManipkitError(Exception):
+    """Base class: a user error with a one-line, self-explaining message."""
+
+
+class UnknownRobotError(ManipkitError, LookupError):
+    """A robot name or path that is not bundled, not in example-robot-data and not a file."""
+
+
+class DescriptionError(ManipkitError, ValueError):
+    """A URDF or xacro description that cannot be expanded, parsed or trusted."""
+
+
+class PackageNotFoundError(DescriptionError):
+    """A ``package://`` URI or ``$(find PKG)`` that resolves to no folder."""
+
+
+class UnknownFrameError(ManipkitError, KeyError):
+    """A frame (link) name the robot does not have."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class JointValueError(ManipkitError, ValueError):
+    """An unknown joint name, a non-numeric or non-finite value, or a wrong count."""
+
+
+class InvalidRotationError(ManipkitError, ValueError):
+    """A 3x3 matrix that is not a rotation (within the stated tolerance)."""
+
+
+class InvalidTransformError(ManipkitError, ValueError):
+    """A matrix file that cannot be read as a 4x4 homogeneous transform."""

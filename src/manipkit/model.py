@@ -1,0 +1,443 @@
+"""A loaded robot: Pinocchio model, joints by name, transforms between frames.
+
+Conventions (DESIGN.md):
+
+- Units are metres and radians.
+- ``T_a_b`` is the pose of frame b expressed in frame a, a 4x4 homogeneous
+  matrix; ``robot.transform("a", "b", q)`` returns it, as ``tf2_echo a b``
+  prints it.
+- A joint vector ``q`` has one value per movable joint, in the order of
+  :attr:`Robot.joint_names`: an angle (rad) for revolute and continuous
+  joints, a distance (m) for prismatic ones. Pinocchio stores a continuous
+  joint as (cos, sin); that stays inside this module.
+- Frames are links (and fixed-joint frames). Every robot also answers to
+  ``base_link`` (its root link, unless it has a link of that name) and
+  ``ee_link`` (its end effector: a link of that name, the frame declared for
+  it, or the tip of its longest chain).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from manipkit.errors import DescriptionError, JointValueError, UnknownFrameError
+from manipkit.robots import RobotSource, resolve_robot, urdf_text
+from manipkit.rotations import matrix_from_axis_angle
+from manipkit.validate import parse_urdf
+
+BASE_ALIASES = ("base_link", "world")
+EE_ALIAS = "ee_link"
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A movable joint.
+
+    Attributes
+    ----------
+    name, type : str
+        URDF name and type (``revolute``, ``continuous`` or ``prismatic``).
+    axis : ndarray, shape (3,)
+        Unit axis in the joint frame.
+    lower, upper : float
+        Position limits (rad or m); -inf/+inf for continuous joints.
+    parent, child : str
+        Parent and child link names.
+    """
+
+    name: str
+    type: str
+    axis: np.ndarray
+    lower: float
+    upper: float
+    parent: str
+    child: str
+
+    @property
+    def is_angular(self) -> bool:
+        return self.type != "prismatic"
+
+    def default(self) -> float:
+        """0, or the nearest value inside the limits."""
+        return float(min(max(0.0, self.lower), self.upper))
+
+
+@dataclass(frozen=True)
+class _ChainStep:
+    rotation: np.ndarray  # joint placement in its parent joint frame
+    translation: np.ndarray
+    index: int  # position in the user's joint vector
+    prismatic: bool
+    axis: np.ndarray
+
+
+def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> "Robot":
+    """Load a robot by bundled name, example-robot-data name or path.
+
+    Parameters
+    ----------
+    robot : str or path-like, optional
+        ``course_arm`` (default), ``iiwa14``, ``panda``, ``ur5``,
+        ``path/to/robot.urdf.xacro``, ... (see :func:`manipkit.robots.resolve_robot`).
+    package_dirs : dict, optional
+        Package name -> folder, for ``$(find PKG)`` and ``package://PKG``.
+    **xacro_args
+        xacro arguments, e.g. ``load("planar_3r", l1=2)``.
+
+    Examples
+    --------
+    >>> robot = load("course_arm")
+    >>> robot.transform("base_link", "ee_link", robot.q()).shape
+    (4, 4)
+    """
+    source = resolve_robot(robot)
+    text = urdf_text(source, xacro_args, package_dirs)
+    return Robot.from_urdf(text, source=source, package_dirs=package_dirs)
+
+
+class Robot:
+    """A robot model (immutable) with a Pinocchio data workspace.
+
+    Build it with :func:`load`. ``model`` and ``data`` are Pinocchio's; the
+    rest of the API works with joint names, frame names and plain joint
+    vectors (one value per movable joint, radians or metres).
+    """
+
+    def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None):
+        self.model = model
+        self.data = model.createData()
+        self.urdf = urdf
+        self.source = source
+        self.name = robot_xml.get("name") or source.name
+        self.package_dirs = dict(package_dirs or {})
+        self.joints = _movable_joints(model, robot_xml)
+        self.joint_names = tuple(j.name for j in self.joints)
+        self._joint_index = {j.name: i for i, j in enumerate(self.joints)}
+        self.root_link = _root_link(robot_xml)
+        self.frame_names = tuple(
+            f.name for f in model.frames if f.type == pin.FrameType.BODY and f.name != "universe"
+        )
+        self._frame_ids = {}
+        for frame_id, frame in enumerate(model.frames):
+            if frame.type == pin.FrameType.BODY:  # links only, first of a name wins
+                self._frame_ids.setdefault(frame.name, frame_id)
+        self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
+        self._chains: dict[int, list[_ChainStep]] = {}
+
+    @classmethod
+    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> "Robot":
+        """Build a robot from URDF text (checked by :func:`manipkit.validate.parse_urdf`)."""
+        if source is None:
+            source = RobotSource("robot", Path("<string>"), "string")
+        where = source.path.name
+        robot_xml = parse_urdf(text, where)
+        try:
+            model = pin.buildModelFromXML(text)
+        except (ValueError, RuntimeError) as exc:
+            raise DescriptionError(f"{where}: Pinocchio cannot build a model: {' '.join(str(exc).split())}") from None
+        return cls(model, text, source, robot_xml, package_dirs)
+
+    def __repr__(self) -> str:
+        return (
+            f"Robot({self.name!r}, {len(self.joints)} joints, base {self.root_link!r}, "
+            f"ee {self.ee_frame!r}, from {self.source.path})"
+        )
+
+    # ------------------------------------------------------------------
+    # Frames
+    # ------------------------------------------------------------------
+
+    @property
+    def base_frame(self) -> str:
+        """The root link (what ``base_link`` means when the robot has no such link)."""
+        return self.root_link
+
+    def frame(self, name: str) -> str:
+        """The link name that ``name`` refers to, resolving ``base_link``/``world``/``ee_link``.
+
+        Raises
+        ------
+        UnknownFrameError
+            With the closest frame names.
+        """
+        if name in self._frame_ids:
+            return name
+        if name in BASE_ALIASES:
+            return self.root_link
+        if name == EE_ALIAS:
+            return self.ee_frame
+        close = difflib.get_close_matches(name, self.frame_names, n=3, cutoff=0.5)
+        hint = f"did you mean {', '.join(close)}? " if close else ""
+        listed = ", ".join(self.frame_names[:15]) + (", ..." if len(self.frame_names) > 15 else "")
+        raise UnknownFrameError(
+            f"robot '{self.name}' has no frame '{name}'; {hint}frames: {listed} "
+            f"(also base_link, ee_link; `manipkit frames` lists all)"
+        )
+
+    def frame_id(self, name: str) -> int:
+        """Pinocchio frame index of a frame name or alias."""
+        return self._frame_ids[self.frame(name)]
+
+    def _choose_ee(self, declared: str | None) -> tuple[str, str]:
+        if EE_ALIAS in self._frame_ids:
+            return EE_ALIAS, "the robot's ee_link"
+        if declared and declared in self._frame_ids:
+            return declared, f"{declared}, the end effector declared for {self.source.name}"
+        # Tip of the longest chain: most movable joints above it, then most frames above it.
+        def depth(frame_id: int) -> tuple[int, int]:
+            frame = self.model.frames[frame_id]
+            frames_above, f = 0, frame
+            while f.parentFrame != 0 and frames_above < 1000:
+                frames_above += 1
+                f = self.model.frames[f.parentFrame]
+            return len(self.model.supports[frame.parentJoint]), frames_above
+
+        bodies = [self._frame_ids[n] for n in self.frame_names]
+        tip = max(bodies, key=depth)
+        name = self.model.frames[tip].name
+        return name, f"{name}, the tip of the longest chain (no ee_link declared)"
+
+    # ------------------------------------------------------------------
+    # Joint vectors
+    # ------------------------------------------------------------------
+
+    def q(self, values: dict[str, float] | None = None, /, *, degrees: bool = False, **joint_values) -> np.ndarray:
+        """A joint vector from joint values by name.
+
+        Parameters
+        ----------
+        values : dict, optional
+            Joint name -> value (also accepted as keyword arguments).
+        degrees : bool, keyword-only
+            Angular values are in degrees (prismatic ones stay in metres).
+
+        Returns
+        -------
+        q : ndarray, shape (n,)
+            In :attr:`joint_names` order; joints not given are 0, or the
+            nearest value inside their limits.
+
+        Raises
+        ------
+        JointValueError
+            Unknown joint name (the valid ones are listed) or a value that is
+            not a finite number.
+
+        Examples
+        --------
+        >>> robot = load("planar_2r")
+        >>> robot.q(joint2=90, degrees=True)
+        array([0.        , 1.57079633])
+        """
+        given = dict(values or {}, **joint_values)
+        q = np.array([j.default() for j in self.joints], dtype=float)
+        for name, value in given.items():
+            if name not in self._joint_index:
+                close = difflib.get_close_matches(name, self.joint_names, n=1, cutoff=0.5)
+                hint = f"did you mean {close[0]}? " if close else ""
+                raise JointValueError(
+                    f"robot '{self.name}' has no joint '{name}'; {hint}joints: {', '.join(self.joint_names) or 'none'}"
+                )
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise JointValueError(f"joint '{name}': value '{value}' is not a number") from None
+            if not math.isfinite(number):
+                raise JointValueError(f"joint '{name}': value {value} is not finite; give a finite number")
+            index = self._joint_index[name]
+            q[index] = math.radians(number) if degrees and self.joints[index].is_angular else number
+        return q
+
+    def as_dict(self, q) -> dict[str, float]:
+        """Joint name -> value for a joint vector."""
+        q = self._check_q(q)
+        return {name: float(value) for name, value in zip(self.joint_names, q)}
+
+    def outside_limits(self, q) -> list[str]:
+        """One line per joint of ``q`` outside its limits (empty when all are inside)."""
+        q = self._check_q(q)
+        return [
+            f"{j.name}={value:.6g} is outside its limits [{j.lower:.6g}, {j.upper:.6g}]"
+            for j, value in zip(self.joints, q)
+            if not (j.lower - 1e-12 <= value <= j.upper + 1e-12)
+        ]
+
+    def _check_q(self, q) -> np.ndarray:
+        q = self.q() if q is None else np.asarray(q, dtype=float)
+        if q.shape != (len(self.joints),):
+            raise JointValueError(
+                f"robot '{self.name}' needs {len(self.joints)} joint values ({', '.join(self.joint_names)}), got shape {q.shape}"
+            )
+        if not np.all(np.isfinite(q)):
+            raise JointValueError("joint values must be finite numbers")
+        return q
+
+    def pinocchio_configuration(self, q) -> np.ndarray:
+        """Pinocchio's configuration vector (size ``model.nq``) for a joint vector."""
+        q = self._check_q(q)
+        config = pin.neutral(self.model)
+        for joint, value in zip(self.joints, q):
+            jmodel = self.model.joints[self.model.getJointId(joint.name)]
+            if jmodel.nq == 2:  # continuous joint: (cos, sin)
+                config[jmodel.idx_q : jmodel.idx_q + 2] = math.cos(value), math.sin(value)
+            else:
+                config[jmodel.idx_q] = value
+        return config
+
+    # ------------------------------------------------------------------
+    # Kinematics
+    # ------------------------------------------------------------------
+
+    def transform(self, source: str, target: str, q=None) -> np.ndarray:
+        """T_source_target: the pose of ``target`` expressed in ``source``.
+
+        Computed by Pinocchio's forward kinematics. Same direction as
+        ``tf2_echo source target``.
+
+        Parameters
+        ----------
+        source, target : str
+            Frame names (or the aliases ``base_link``, ``ee_link``).
+        q : array_like, shape (n,), optional
+            Joint vector (see :meth:`q`); default: every joint at 0.
+
+        Returns
+        -------
+        T : ndarray, shape (4, 4)
+        """
+        source_id, target_id = self.frame_id(source), self.frame_id(target)
+        pin.framesForwardKinematics(self.model, self.data, self.pinocchio_configuration(q))
+        T_root_source = self.data.oMf[source_id]
+        T_root_target = self.data.oMf[target_id]
+        return (T_root_source.actInv(T_root_target)).homogeneous.copy()
+
+    def fk(self, Q, frame: str, base: str | None = None) -> np.ndarray:
+        """Poses of ``frame`` for many joint vectors at once (vectorised, no Python loop over Q).
+
+        Parameters
+        ----------
+        Q : array_like, shape (..., n)
+            Joint vectors in :attr:`joint_names` order.
+        frame : str
+            Target frame.
+        base : str, optional
+            Frame the poses are expressed in (default: the root link).
+
+        Returns
+        -------
+        T_base_frame : ndarray, shape (..., 4, 4)
+        """
+        Q = np.asarray(Q, dtype=float)
+        if Q.shape[-1:] != (len(self.joints),):
+            raise JointValueError(
+                f"robot '{self.name}' needs {len(self.joints)} joint values per row ({', '.join(self.joint_names)}), "
+                f"got shape {Q.shape}"
+            )
+        if not np.all(np.isfinite(Q)):
+            raise JointValueError("joint values must be finite numbers")
+        lead = Q.shape[:-1]
+        flat = Q.reshape(-1, len(self.joints))
+        R, p = self._chain_fk(flat, self.frame_id(frame))
+        if base is not None and self.frame(base) != self.root_link:
+            R_base, p_base = self._chain_fk(flat, self.frame_id(base))
+            R_base_t = np.swapaxes(R_base, -1, -2)
+            R = R_base_t @ R
+            p = np.einsum("nij,nj->ni", R_base_t, p - p_base)
+        T = np.zeros((flat.shape[0], 4, 4))
+        T[:, :3, :3] = R
+        T[:, :3, 3] = p
+        T[:, 3, 3] = 1.0
+        return T.reshape(*lead, 4, 4)
+
+    def _chain(self, frame_id: int) -> list[_ChainStep]:
+        """The joints from the root to a frame, as constant placements and motion axes."""
+        if frame_id not in self._chains:
+            frame = self.model.frames[frame_id]
+            steps = []
+            for joint_id in list(self.model.supports[frame.parentJoint])[1:]:
+                placement = self.model.jointPlacements[joint_id]
+                jmodel = self.model.joints[joint_id]
+                kind, axis = _joint_kind_axis(jmodel)
+                steps.append(
+                    _ChainStep(
+                        placement.rotation.copy(),
+                        placement.translation.copy(),
+                        self._joint_index[self.model.names[joint_id]],
+                        kind == "prismatic",
+                        axis,
+                    )
+                )
+            steps.append(_ChainStep(frame.placement.rotation.copy(), frame.placement.translation.copy(), -1, False, None))
+            self._chains[frame_id] = steps
+        return self._chains[frame_id]
+
+    def _chain_fk(self, Q: np.ndarray, frame_id: int) -> tuple[np.ndarray, np.ndarray]:
+        n = Q.shape[0]
+        R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        p = np.zeros((n, 3))
+        for step in self._chain(frame_id):
+            p = p + R @ step.translation
+            R = R @ step.rotation
+            if step.index < 0:
+                continue
+            values = Q[:, step.index]
+            if step.prismatic:
+                p = p + (R @ step.axis) * values[:, None]
+            else:
+                R = R @ matrix_from_axis_angle(step.axis, values)
+        return R, p
+
+
+_ALIGNED_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+
+
+def _joint_kind_axis(jmodel) -> tuple[str, np.ndarray]:
+    """(``revolute``|``prismatic``, unit axis) of a one-degree-of-freedom Pinocchio joint."""
+    short = jmodel.shortname()[len("JointModel") :]
+    if short in ("RX", "RY", "RZ", "RUBX", "RUBY", "RUBZ"):
+        return "revolute", np.array(_ALIGNED_AXES[short[-1]])
+    if short in ("PX", "PY", "PZ"):
+        return "prismatic", np.array(_ALIGNED_AXES[short[-1]])
+    if short in ("RevoluteUnaligned", "RevoluteUnboundedUnaligned"):
+        return "revolute", np.array(jmodel.extract().axis, dtype=float)
+    if short == "PrismaticUnaligned":
+        return "prismatic", np.array(jmodel.extract().axis, dtype=float)
+    raise DescriptionError(f"joint model {short} is not supported")
+
+
+def _movable_joints(model: pin.Model, robot_xml) -> tuple[Joint, ...]:
+    by_name = {j.get("name"): j for j in robot_xml.findall("joint")}
+    joints = []
+    for joint_id in range(1, model.njoints):
+        name = model.names[joint_id]
+        jmodel = model.joints[joint_id]
+        element = by_name.get(name)
+        urdf_type = element.get("type") if element is not None else "?"
+        if jmodel.nv != 1:
+            raise DescriptionError(
+                f"joint '{name}' is {urdf_type} ({jmodel.nv} degrees of freedom); manipkit handles "
+                "revolute, continuous, prismatic and fixed joints"
+            )
+        kind, axis = _joint_kind_axis(jmodel)
+        if jmodel.nq == 2:
+            lower, upper, urdf_type = -math.inf, math.inf, "continuous"
+        else:
+            lower = float(model.lowerPositionLimit[jmodel.idx_q])
+            upper = float(model.upperPositionLimit[jmodel.idx_q])
+            urdf_type = kind if urdf_type not in ("revolute", "prismatic") else urdf_type
+        parent = element.find("parent").get("link") if element is not None else "?"
+        child = element.find("child").get("link") if element is not None else "?"
+        joints.append(Joint(name, urdf_type, axis, lower, upper, parent, child))
+    return tuple(joints)
+
+
+def _root_link(robot_xml) -> str:
+    children = {j.find("child").get("link") for j in robot_xml.findall("joint")}
+    return next(link.get("name") for link in robot_xml.findall("link") if link.get("name") not in children)

@@ -1,0 +1,43 @@
+"""A pose as the numbers people read: translation, quaternion, roll-pitch-yaw.
+
+Conventions: translation in metres; quaternion (x, y, z, w) with w >= 0;
+rpy = (roll, pitch, yaw) in radians with R = Rz(yaw) Ry(pitch) Rx(roll), the
+URDF convention (equal to Euler ZYX (yaw, pitch, roll)). The same numbers feed
+``tf-between`` (text, JSON, CSV) and the viewer's readout.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from manipkit.rotations import quaternion_from_matrix, rpy_from_matrix
+
+
+def pose_fields(T) -> dict[str, np.ndarray]:
+    """Split homogeneous transforms into the fields ``tf2_echo`` prints.
+
+    Parameters
+    ----------
+    T : array_like, shape (..., 4, 4)
+
+    Returns
+    -------
+    dict with ``translation`` (..., 3), ``quaternion_xyzw`` (..., 4),
+    ``rpy`` (..., 3) in radians, ``rpy_deg`` (..., 3) and ``matrix`` (..., 4, 4).
+
+    Examples
+    --------
+    >>> T = np.eye(4); T[:3, 3] = [0.1, 0.2, 0.3]
+    >>> pose_fields(T)["quaternion_xyzw"]
+    array([0., 0., 0., 1.])
+    """
+    T = np.asarray(T, dtype=float)
+    R = T[..., :3, :3]
+    rpy = rpy_from_matrix(R)
+    return {
+        "translation": T[..., :3, 3].copy(),
+        "quaternion_xyzw": quaternion_from_matrix(R),
+        "rpy": rpy,
+        "rpy_deg": np.degrees(rpy),
+        "matrix": T.copy(),
+    }

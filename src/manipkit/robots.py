@@ -1,0 +1,412 @@
+"""Where robot descriptions come from, and how they become URDF text.
+
+A robot is named in one of three ways:
+
+- a bundled name (``course_arm``, ``iiwa14``, ...): ``robots/NAME.urdf.xacro``
+  in this project;
+- an example-robot-data name (``panda``, ``ur5``, ...): the URDF files that
+  the PyPI distribution ``example-robot-data`` installs under
+  ``cmeel.prefix/share/example-robot-data/robots/`` (it ships no Python
+  loader, so they are found through ``importlib.metadata``);
+- a path to a ``.urdf`` or ``.xacro`` file.
+
+xacro files are expanded in-process with the ``xacro`` package. ROS is not
+needed: ``$(find PKG)`` and ``package://PKG/...`` resolve through
+:class:`PackageResolver` (explicit ``--package-dir NAME=DIR`` folders first,
+then the bundled and example-robot-data packages, then the folders around the
+description file, then ``ROS_PACKAGE_PATH``).
+
+This module knows nothing about kinematics; :mod:`manipkit.model` builds the
+Pinocchio model from the text returned here.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import re
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+from manipkit.errors import DescriptionError, PackageNotFoundError, UnknownRobotError
+
+DEFAULT_ROBOT = "course_arm"
+
+#: example-robot-data arms known by a short name: file under the
+#: distribution's ``robots/`` folder, and the frame used as ``ee_link``.
+EXAMPLE_ROBOT_DATA_ARMS: dict[str, tuple[str, str]] = {
+    "panda": ("panda_description/urdf/panda.urdf", "panda_hand_tcp"),
+    "ur3": ("ur_description/urdf/ur3_robot.urdf", "tool0"),
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
+    "ur10": ("ur_description/urdf/ur10_robot.urdf", "tool0"),
+    "kinova": ("kinova_description/robots/kinova.urdf", "j2s6s200_end_effector"),
+    "z1": ("z1_description/urdf/z1.urdf", "link06"),
+    "so_arm": ("so_arm_description/urdf/so101.urdf", "gripper_frame_link"),
+    "so100": ("so_arm_description/urdf/so100.urdf", "gripper"),
+    "so101": ("so_arm_description/urdf/so101.urdf", "gripper_frame_link"),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_eef"),
+}
+
+
+@dataclass(frozen=True)
+class RobotSource:
+    """A resolved robot description: where it is and how to read it.
+
+    Attributes
+    ----------
+    name : str
+        Short name (bundled or example-robot-data name, or the file stem).
+    path : Path
+        The ``.urdf`` or ``.xacro`` file.
+    origin : str
+        ``"bundled"``, ``"example-robot-data"`` or ``"file"``.
+    ee_frame : str or None
+        The frame declared as end effector, if known.
+    """
+
+    name: str
+    path: Path
+    origin: str
+    ee_frame: str | None = None
+
+    @property
+    def is_xacro(self) -> bool:
+        return self.path.suffix == ".xacro"
+
+
+# --------------------------------------------------------------------------
+# Where things live
+# --------------------------------------------------------------------------
+
+
+@lru_cache(maxsize=1)
+def bundled_dir() -> Path:
+    """The folder of bundled descriptions (``robots/`` of the source tree).
+
+    In a source or editable install this is ``<repo>/robots``; an installed
+    wheel carries a copy at ``manipkit/data/robots``.
+    """
+    here = Path(__file__).resolve().parent
+    for candidate in (here.parents[1] / "robots", here / "data" / "robots"):
+        if candidate.is_dir():
+            return candidate
+    raise UnknownRobotError(
+        f"bundled robots folder not found (looked in {here.parents[1] / 'robots'} "
+        f"and {here / 'data' / 'robots'}); reinstall manipkit"
+    )
+
+
+def bundled_robots() -> dict[str, Path]:
+    """Bundled robot names -> their top-level ``NAME.urdf.xacro`` file."""
+    return {
+        p.name[: -len(".urdf.xacro")]: p for p in sorted(bundled_dir().glob("*.urdf.xacro"))
+    }
+
+
+@lru_cache(maxsize=1)
+def example_robot_data_dir() -> Path | None:
+    """The ``share/example-robot-data`` folder of the installed distribution.
+
+    This folder is also what ``package://example-robot-data/...`` means.
+    Returns None when example-robot-data is not installed.
+    """
+    from importlib import metadata
+
+    try:
+        dist = metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        return None
+    path = Path(dist.locate_file("cmeel.prefix/share/example-robot-data"))
+    return path if path.is_dir() else None
+
+
+def example_robot_data_urdfs() -> dict[str, Path]:
+    """Every URDF file of example-robot-data by file stem (``ur5_robot``, ``talos_reduced``, ...)."""
+    root = example_robot_data_dir()
+    if root is None:
+        return {}
+    return {p.stem: p for p in sorted((root / "robots").glob("*/*/*.urdf"))}
+
+
+def example_robot_data_arms() -> dict[str, RobotSource]:
+    """The short-named arms of :data:`EXAMPLE_ROBOT_DATA_ARMS` that are installed."""
+    root = example_robot_data_dir()
+    if root is None:
+        return {}
+    arms = {}
+    for name, (relative, ee_frame) in EXAMPLE_ROBOT_DATA_ARMS.items():
+        path = root / "robots" / relative
+        if path.is_file():
+            arms[name] = RobotSource(name, path, "example-robot-data", ee_frame)
+    return arms
+
+
+# --------------------------------------------------------------------------
+# Name -> description file
+# --------------------------------------------------------------------------
+
+
+def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
+    """Find the description a robot name or path refers to.
+
+    Parameters
+    ----------
+    spec : str or path-like, optional
+        Bundled name, example-robot-data name (short arm name such as
+        ``panda`` or any URDF file stem such as ``talos_reduced``), or a path
+        to a ``.urdf`` / ``.xacro`` file. Defaults to :data:`DEFAULT_ROBOT`.
+
+    Raises
+    ------
+    UnknownRobotError
+        When nothing matches; the message lists the closest known names.
+    """
+    spec = DEFAULT_ROBOT if spec is None else spec
+    text = os.fspath(spec)
+    bundled = bundled_robots()
+    if text in bundled:
+        return RobotSource(text, bundled[text], "bundled")
+    arms = example_robot_data_arms()
+    if text in arms:
+        return arms[text]
+    urdfs = example_robot_data_urdfs()
+    if text in urdfs:
+        return RobotSource(text, urdfs[text], "example-robot-data")
+
+    path = Path(text).expanduser()
+    looks_like_path = os.sep in text or path.suffix in (".urdf", ".xacro")
+    if path.is_file():
+        if path.suffix not in (".urdf", ".xacro"):
+            raise UnknownRobotError(
+                f"{text}: not a robot description; give a .urdf or .xacro file"
+            )
+        name = path.name.split(".")[0]
+        return RobotSource(name, path.resolve(), "file")
+    if path.is_dir():
+        raise UnknownRobotError(f"{text} is a folder; give a .urdf or .xacro file inside it")
+    if looks_like_path:
+        raise UnknownRobotError(f"robot file not found: {text}")
+
+    known = list(bundled) + list(arms) + list(urdfs)
+    close = difflib.get_close_matches(text, known, n=4, cutoff=0.5)
+    hint = f"did you mean {', '.join(close)}? " if close else ""
+    raise UnknownRobotError(
+        f"unknown robot '{text}'; {hint}bundled: {', '.join(bundled)}; "
+        f"example-robot-data: {', '.join(arms)} (see `manipkit robots`), or a path to a .urdf/.xacro file"
+    )
+
+
+# --------------------------------------------------------------------------
+# Packages: $(find PKG) and package://PKG/...
+# --------------------------------------------------------------------------
+
+
+@dataclass
+class PackageResolver:
+    """Resolve ROS package names to folders without ROS.
+
+    Lookup order: ``package_dirs`` given by the user (``NAME=DIR``); the
+    built-in packages (``manipkit`` -> the folder holding ``robots/``,
+    ``example-robot-data`` -> its share folder, and each
+    ``*_description`` folder of example-robot-data by name); a folder named
+    PKG (or holding a ``package.xml`` that declares PKG) among the ancestors
+    of ``near`` and their sub-folders; the folders on ``ROS_PACKAGE_PATH``.
+    """
+
+    package_dirs: dict[str, Path] = field(default_factory=dict)
+    near: Path | None = None
+
+    def candidates(self) -> list[Path]:
+        """Folders searched for packages, in order (for error messages too)."""
+        places: list[Path] = []
+        if self.near is not None:
+            for ancestor in list(self.near.resolve().parents)[:4]:
+                if ancestor.parent != ancestor:  # never crawl the file-system root
+                    places.append(ancestor)
+        for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+            if entry:
+                places.append(Path(entry))
+        return places
+
+    def builtin(self) -> dict[str, Path]:
+        packages = {"manipkit": bundled_dir().parent}
+        erd = example_robot_data_dir()
+        if erd is not None:
+            packages["example-robot-data"] = erd
+            packages["example_robot_data"] = erd
+            for folder in sorted((erd / "robots").iterdir()):
+                if folder.is_dir():
+                    packages.setdefault(folder.name, folder)
+        return packages
+
+    def find(self, package: str) -> Path:
+        """The folder of ``package``; :class:`PackageNotFoundError` lists where it looked."""
+        if package in self.package_dirs:
+            folder = Path(self.package_dirs[package]).expanduser()
+            if not folder.is_dir():
+                raise PackageNotFoundError(
+                    f"--package-dir {package}={folder}: no such folder"
+                )
+            return folder.resolve()
+        builtin = self.builtin()
+        if package in builtin:
+            return builtin[package]
+        searched = []
+        for place in self.candidates():
+            searched.append(str(place))
+            found = _package_in(place, package)
+            if found is not None:
+                return found
+        raise PackageNotFoundError(
+            f"package '{package}' not found; searched --package-dir ({', '.join(self.package_dirs) or 'none given'}), "
+            f"built-in (manipkit, example-robot-data and its robot folders), and {'; '.join(searched) or 'no other folders'}; "
+            f"give it with --package-dir {package}=DIR"
+        )
+
+    def resolve_uri(self, uri: str) -> str:
+        """``package://PKG/rest`` -> absolute path; ``file://`` stripped; others unchanged."""
+        if uri.startswith("package://"):
+            package, _, rest = uri[len("package://") :].partition("/")
+            return str(self.find(package) / rest)
+        if uri.startswith("file://"):
+            return uri[len("file://") :]
+        return uri
+
+
+def _package_in(place: Path, package: str) -> Path | None:
+    """A folder for ``package``: ``place`` itself, a folder in it, or a folder in its ``src/``."""
+    if not place.is_dir():
+        return None
+    folders = [place]
+    for parent in (place, place / "src"):
+        try:
+            folders += sorted(p for p in parent.iterdir() if p.is_dir())
+        except OSError:
+            continue
+    for folder in folders:
+        if folder.name == package or _package_xml_name(folder) == package:
+            return folder.resolve()
+    return None
+
+
+def _package_xml_name(folder: Path) -> str | None:
+    manifest = folder / "package.xml"
+    if not manifest.is_file():
+        return None
+    match = re.search(r"<name>\s*([^<\s]+)\s*</name>", manifest.read_text(errors="replace"))
+    return match.group(1) if match else None
+
+
+# --------------------------------------------------------------------------
+# Description file -> URDF text
+# --------------------------------------------------------------------------
+
+
+def urdf_text(
+    source: RobotSource,
+    xacro_args: dict[str, object] | None = None,
+    package_dirs: dict[str, Path] | None = None,
+) -> str:
+    """The URDF XML of a description, expanding xacro in-process.
+
+    Parameters
+    ----------
+    source : RobotSource
+        From :func:`resolve_robot`.
+    xacro_args : dict, optional
+        xacro ``<xacro:arg>`` values (``--arg k=v``); values are turned into strings.
+        Given for a plain URDF, they are an error (they would be ignored silently).
+    package_dirs : dict, optional
+        Package name -> folder, for ``$(find PKG)``.
+    """
+    xacro_args = {k: str(v) for k, v in (xacro_args or {}).items()}
+    if not source.is_xacro:
+        if xacro_args:
+            raise DescriptionError(
+                f"{source.path.name} is plain URDF; xacro arguments "
+                f"({', '.join(xacro_args)}) only apply to .xacro files"
+            )
+        try:
+            return source.path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise DescriptionError(f"{source.path}: cannot read: {exc}") from None
+    resolver = PackageResolver(dict(package_dirs or {}), near=source.path)
+    return expand_xacro(source.path, xacro_args, resolver)
+
+
+def xacro_arg_names(path: Path) -> dict[str, str | None]:
+    """The ``<xacro:arg name default>`` declarations of a xacro file (name -> default)."""
+    text = path.read_text(errors="replace")
+    args = {}
+    for match in re.finditer(r"<xacro:arg\s+([^>]*)/?>", text):
+        attrs = dict(re.findall(r'(\w+)\s*=\s*"([^"]*)"', match.group(1)))
+        if "name" in attrs:
+            args[attrs["name"]] = attrs.get("default")
+    return args
+
+
+def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) -> str:
+    """Expand a xacro file to URDF text, with ``$(find)`` answered by ``resolver``.
+
+    Unknown argument names are an error listing the declared ones (xacro
+    itself would ignore them silently).
+    """
+    import io
+    import contextlib
+
+    import xacro
+    import xacro.substitution_args as substitution_args
+
+    declared = xacro_arg_names(path)
+    unknown = sorted(set(args) - set(declared))
+    if unknown:
+        valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
+        raise DescriptionError(
+            f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}"
+        )
+
+    missing: list[PackageNotFoundError] = []
+
+    def find(package: str) -> str:
+        try:
+            return str(resolver.find(package))
+        except PackageNotFoundError as exc:
+            missing.append(exc)  # xacro wraps exceptions; keep ours
+            raise
+
+    original_find = substitution_args._eval_find
+    substitution_args._eval_find = find
+    stderr = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
+            document = xacro.process_file(str(path), mappings=dict(args))
+        return document.toxml()
+    except Exception as exc:  # xacro raises many kinds; all are description errors
+        if missing:
+            raise PackageNotFoundError(f"{path.name}: $(find): {missing[0]}") from None
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        stack = [f for f in (xacro.filestack or []) if f]
+        where = Path(stack[-1]).name if stack else path.name
+        raise DescriptionError(f"{where}: xacro: {message}") from None
+    finally:
+        substitution_args._eval_find = original_find
+
+
+def parse_structure(text: str):
+    """The link/joint structure of URDF text as a ``yourdfpy.URDF`` (no meshes, no scene graph).
+
+    yourdfpy is a second, independent URDF parser; manipkit uses it for the
+    tree and as a cross-check of Pinocchio's kinematics.
+    """
+    from io import BytesIO
+
+    import yourdfpy
+
+    return yourdfpy.URDF.load(
+        BytesIO(text.encode()),
+        build_scene_graph=False,
+        load_meshes=False,
+        build_collision_scene_graph=False,
+        load_collision_meshes=False,
+    )

@@ -1,0 +1,238 @@
+"""The command line as a user runs it: real subprocesses of the installed entry points."""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from reference import POSE_A, POSE_B, course_arm_T_base_ee, course_arm_T_base_top_wrist
+
+BIN = Path(sys.executable).parent
+JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+
+# The seed's hand answers (seed 000, "Using the sliders..." and question 4).
+SEED_ZERO_POSE = [[1, 0, 0, 0.172], [1, 0, 0, 0], [1, 0, 0, 0], [1, 0, 0, 0]]
+SEED_POSE_A = [[-0.411, 0.897, -0.153, 0.2412], [0.910, 0.4, -0.05, 0.32], [-0.014, 0.16, 0.986, 0.11], [0, 0, 0, 1]]
+
+
+def run(command, *args, check_status=None):
+    result = subprocess.run([str(BIN / command), *map(str, args)], capture_output=True, text=True, timeout=120)
+    if check_status is not None:
+        assert result.returncode == check_status, result.stderr + result.stdout
+    return result
+
+
+def q_args(pose):
+    return ["--q", *(f"{name}={value}" for name, value in zip(JOINTS, pose))]
+
+
+def tf_json(*args):
+    return json.loads(run("tf-between", *args, "--format", "json", check_status=0).stdout)
+
+
+@pytest.mark.parametrize("pose", [(0, 0, 0, 0, 0), POSE_A, POSE_B], ids=["zero", "A", "B"])
+def test_tf_between_course_arm_matches_independent_chain(pose):
+    out = tf_json("base_link", "top_wrist", *q_args(pose))
+    assert np.abs(np.array(out["matrix"]) - course_arm_T_base_top_wrist(pose)).max() < 1e-12
+
+
+def test_tf_between_json_has_the_contract_keys():
+    out = tf_json("base_link", "ee_link", *q_args(POSE_A))
+    assert list(out) == ["source", "target", "robot", "q", "translation", "quaternion_xyzw", "rpy", "matrix"]
+    assert out["q"] == dict(zip(JOINTS, map(float, POSE_A)))
+    T = course_arm_T_base_ee(POSE_A)
+    assert np.allclose(out["translation"], T[:3, 3], atol=1e-12)
+    # quaternion (x, y, z, w) and rpy reproduce the matrix (R = Rz(yaw) Ry(pitch) Rx(roll)).
+    x, y, z, w = out["quaternion_xyzw"]
+    R_quat = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+    from reference import rot_x, rot_y, rot_z
+
+    roll, pitch, yaw = out["rpy"]
+    assert np.abs(R_quat - T[:3, :3]).max() < 1e-12
+    assert np.abs(rot_z(yaw) @ rot_y(pitch) @ rot_x(roll) - T[:3, :3]).max() < 1e-12
+
+
+def test_tf_between_text_reads_like_tf2_echo_with_direction_and_conventions():
+    out = run("tf-between", "base_link", "ee_link", check_status=0).stdout
+    assert "pose of ee_link expressed in base_link (T_base_link_ee_link, as tf2_echo base_link ee_link)" in out
+    assert "Quaternion (x, y, z, w)" in out and "RPY (radian) [roll, pitch, yaw]" in out and "RPY (degree)" in out
+    assert "R = Rz(yaw) Ry(pitch) Rx(roll)" in out
+    # Hand value at zero: z = 0.1 + 0.20271 + 0.269 + 0.13522 + 0.20994 + 0.13522 = 1.05209 m;
+    # x = -0.05166 + 0.05194 (bicep's -y offset turned by the 1.5708 yaw) = 0.00028 m.
+    assert "- Translation (m): [0.000280, 0.000000, 1.052090]" in out
+    rows = out.split("- Matrix:\n")[1].strip().splitlines()
+    matrix = np.array([[float(v) for v in row.split()] for row in rows])
+    assert np.abs(matrix - course_arm_T_base_ee((0,) * 5)).max() <= 5e-7
+
+
+def test_precision_sets_the_decimals():
+    out = run("tf-between", "base_link", "ee_link", "--precision", "3", check_status=0).stdout
+    assert "- Translation (m): [0.000, 0.000, 1.052]" in out
+
+
+def test_degrees_and_positional_values_give_the_same_pose():
+    by_name = tf_json("base_link", "ee_link", *q_args(POSE_A))
+    in_degrees = tf_json("base_link", "ee_link", "--deg", *q_args(np.degrees(POSE_A)))
+    positional = tf_json("base_link", "ee_link", "--q", *map(str, POSE_A))
+    assert np.allclose(by_name["matrix"], in_degrees["matrix"], atol=1e-12)
+    assert by_name["matrix"] == positional["matrix"]
+
+
+def test_manipkit_tf_is_tf_between():
+    a = run("tf-between", "bicep", "top_wrist", *q_args(POSE_B), check_status=0).stdout
+    b = run("manipkit", "tf", "bicep", "top_wrist", *q_args(POSE_B), check_status=0).stdout
+    assert a == b
+
+
+def test_alias_resolution_is_said(tmp_path):
+    out = run("tf-between", "base_link", "ee_link", "--robot", "panda", check_status=0).stdout
+    assert "frame base_link = panda_link0 (the root link)" in out
+    assert "frame ee_link = panda_hand_tcp (panda_hand_tcp, the end effector declared for panda)" in out
+
+
+def test_xacro_args_on_the_command_line():
+    # planar 3R with l1 = 2 (default l2 = 2, l3 = 1) stretched out: ee at x = 2 + 2 + 1 = 5.
+    out = tf_json("base_link", "ee_link", "--robot", "planar_3r", "--arg", "l1=2")
+    assert out["translation"] == pytest.approx([5, 0, 0], abs=1e-12)
+
+
+def test_compare_agrees_with_the_models_own_matrix(tmp_path):
+    T = course_arm_T_base_ee(POSE_A)
+    path = tmp_path / "hand.txt"
+    path.write_text("\n".join(" ".join(repr(float(v)) for v in row) for row in T))
+    result = run("tf-between", "base_link", "ee_link", *q_args(POSE_A), "--compare", path, check_status=0)
+    assert "valid homogeneous transform" in result.stdout and "AGREES with the model" in result.stdout
+
+
+def test_compare_shows_the_seeds_zero_pose_answer_invalid(tmp_path):
+    path = tmp_path / "seed.json"
+    path.write_text(json.dumps(SEED_ZERO_POSE))
+    result = run("tf-between", "base_link", "ee_link", "--compare", path, check_status=1)
+    assert "not a valid homogeneous transform" in result.stdout
+    assert "last row is [1 0 0 0], expected [0 0 0 1]" in result.stdout
+    assert "DOES NOT AGREE" in result.stdout
+
+
+def test_compare_gives_the_seeds_pose_a_errors(tmp_path):
+    path = tmp_path / "seed.csv"
+    path.write_text("\n".join(",".join(map(str, row)) for row in SEED_POSE_A))
+    result = run("tf-between", "base_link", "top_wrist", *q_args(POSE_A), "--compare", path, "--format", "json", check_status=1)
+    compare = json.loads(result.stdout)["compare"]
+    T = course_arm_T_base_top_wrist(POSE_A)
+    hand = np.array(SEED_POSE_A)
+    assert compare["position_error"] == pytest.approx(np.linalg.norm(hand[:3, 3] - T[:3, 3]), rel=1e-9)
+    assert compare["agrees"] is False
+
+
+def test_q_file_gives_one_pose_a_row(tmp_path):
+    path = tmp_path / "poses.csv"
+    path.write_text(",".join(JOINTS) + "\n" + "\n".join(",".join(map(str, p)) for p in (POSE_A, POSE_B, (0,) * 5)))
+    out = run("tf-between", "base_link", "ee_link", "--q-file", path, "--precision", "12", check_status=0).stdout
+    lines = [line for line in out.splitlines() if not line.startswith("#")]
+    assert lines[0] == "x,y,z,qx,qy,qz,qw,roll,pitch,yaw"
+    for line, pose in zip(lines[1:], (POSE_A, POSE_B, (0,) * 5)):
+        xyz = [float(v) for v in line.split(",")[:3]]
+        assert xyz == pytest.approx(course_arm_T_base_ee(pose)[:3, 3], abs=1e-11)
+    data = json.loads(run("tf-between", "base_link", "ee_link", "--q-file", path, "--format", "json", check_status=0).stdout)
+    assert len(data["poses"]) == 3
+    assert np.abs(np.array(data["poses"][1]["matrix"]) - course_arm_T_base_ee(POSE_B)).max() < 1e-12
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["base_link", "ee_link", "--robot", "pand"], "unknown robot 'pand'; did you mean panda"),
+        (["base_link", "ee_link", "--robot", "missing/robot.urdf"], "robot file not found: missing/robot.urdf"),
+        (["base_link", "top_wrst"], "no frame 'top_wrst'; did you mean top_wrist"),
+        (["base_link", "ee_link", "--q", "elbow=1"], "no joint 'elbow'; did you mean elbow_joint"),
+        (["base_link", "ee_link", "--q", "elbow_joint=abc"], "joint 'elbow_joint': value 'abc' is not a number"),
+        (["base_link", "ee_link", "--q", "elbow_joint=nan"], "joint 'elbow_joint': value nan is not finite"),
+        (["base_link", "ee_link", "--q", "1", "2"], "--q got 2 values but course_arm has 5 joints"),
+        (["base_link", "ee_link", "--q", "elbow_joint"], "--q 'elbow_joint': expected NAME=VALUE"),
+        (["base_link", "ee_link", "--arg", "l1=2"], "unknown xacro argument l1"),
+        (["base_link", "ee_link", "--compare", "nothere.txt"], "nothere.txt"),
+        (["base_link", "ee_link", "--format", "yaml"], "invalid choice: 'yaml'"),
+        (["base_link"], "the following arguments are required: TARGET"),
+        (["base_link", "ee_link", "--precision", "40"], "--precision 40"),
+    ],
+)
+def test_user_errors_exit_2_with_one_line_and_no_traceback(args, fragment):
+    result = run("tf-between", *args)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert result.stderr.count("\n") == 1 and fragment in result.stderr
+    assert "Traceback" not in result.stderr + result.stdout
+
+
+def test_malformed_description_exits_2(tmp_path):
+    path = tmp_path / "broken.urdf"
+    path.write_text('<robot name="b"><link name="a"></robot>')
+    result = run("tf-between", "a", "a", "--robot", path, check_status=2)
+    assert re.search(r"broken.urdf: malformed XML at line 1, column \d+", result.stderr)
+    assert result.stderr.count("\n") == 1
+
+
+def test_bad_q_file_cell_names_the_line(tmp_path):
+    path = tmp_path / "poses.csv"
+    path.write_text("elbow_joint\n0.1\nx\n")
+    result = run("tf-between", "base_link", "ee_link", "--q-file", path, check_status=2)
+    assert "line 3: joint 'elbow_joint': value 'x' is not a number" in result.stderr
+
+
+def test_out_of_limit_value_warns_but_answers():
+    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5", check_status=0)
+    assert "warning: iiwa_joint_2=2.5 is outside its limits [-2.0944, 2.0944]" in result.stderr
+
+
+BUNDLED = ["course_arm", "mobile_manipulator", "iiwa14", "planar_2r", "planar_3r"]
+
+
+@pytest.mark.parametrize("name", BUNDLED)
+def test_tree_text_lists_every_link(name):
+    import manipkit
+    from manipkit.robots import parse_structure
+
+    out = run("manipkit", "tree", "--robot", name, check_status=0).stdout
+    links = [link.name for link in parse_structure(manipkit.load(name).urdf).robot.links]
+    assert len(links) >= 3
+    for link in links:
+        assert re.search(rf"(^|\s){re.escape(link)}\b", out), link
+
+
+def test_mobile_manipulator_tree_shows_the_lidar():
+    out = run("manipkit", "tree", "--robot", "mobile_manipulator", check_status=0).stdout
+    assert "lidar_joint (fixed) ── lidar_link" in out
+
+
+def test_tree_png_is_a_real_image(tmp_path):
+    path = tmp_path / "tree.png"
+    run("manipkit", "tree", "--robot", "course_arm", "-o", path, check_status=0)
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    assert width > 200 and height > 200
+
+
+def test_tree_dot_to_file(tmp_path):
+    path = tmp_path / "tree.dot"
+    run("manipkit", "tree", "--robot", "iiwa14", "-o", path, check_status=0)
+    text = path.read_text()
+    assert text.startswith("digraph") and "iiwa_joint_4" in text and "iiwa_link_0" in text
+
+
+def test_robots_lists_bundled_and_example_robot_data_with_dof():
+    out = run("manipkit", "robots", check_status=0).stdout
+    assert re.search(r"iiwa14\s+│ bundled\s+│ 7\s+│ base_link\s+│ ee_link", out)
+    assert re.search(r"panda\s+│ example-robot-data │ 9\s+│ panda_link0\s+│ panda_hand_tcp", out)
+
+
+def test_frames_lists_joints_with_limits():
+    out = run("manipkit", "frames", "--robot", "iiwa14", check_status=0).stdout
+    assert "iiwa_joint_7" in out and "3.05433" in out and "iiwa_link_6 -> iiwa_link_7" in out
