@@ -236,3 +236,67 @@ def test_robots_lists_bundled_and_example_robot_data_with_dof():
 def test_frames_lists_joints_with_limits():
     out = run("manipkit", "frames", "--robot", "iiwa14", check_status=0).stdout
     assert "iiwa_joint_7" in out and "3.05433" in out and "iiwa_link_6 -> iiwa_link_7" in out
+
+
+def test_dh_show_prints_the_boxed_table_and_symbolic_transform():
+    out = run("manipkit", "dh", "show", "planar_2r", "--symbolic", check_status=0).stdout
+    assert "standard DH" in out and "┌" in out
+    # Hand value: 0T2 of a 2R arm with l1 = l2 = 1 has x = c_1 + c_12.
+    assert "c₁ + c₁₂" in out and "s₁ + s₁₂" in out
+
+
+def test_dh_show_latex():
+    out = run("manipkit", "dh", "show", "iiwa14_seed004", "--latex", check_status=0).stdout
+    assert "\\begin{bmatrix}" in out or "\\left[" in out
+
+
+def test_dh_check_seed_table_fails_with_its_diagnosis():
+    result = run("manipkit", "dh", "check", "iiwa14_seed004", "--robot", "iiwa14", check_status=1)
+    assert "FAIL" in result.stdout
+    assert "joint 2 (iiwa_joint_2) turns the other way" in result.stdout
+    assert "with joint(s) 2, 6 reversed, a constant tool transform xyz [0 0 0] m, rpy [0 0 180] deg" in result.stdout
+    data = json.loads(run("manipkit", "dh", "check", "iiwa14_seed004", "--robot", "iiwa14", "--format", "json", check_status=1).stdout)
+    assert {"max_position_error", "max_rotation_error", "pass", "diagnosis"} <= set(data)
+    assert data["pass"] is False and data["max_position_error"] > 1.0
+
+
+def test_dh_check_corrected_table_passes():
+    data = json.loads(run("manipkit", "dh", "check", "iiwa14", "--robot", "iiwa14", "--format", "json", check_status=0).stdout)
+    assert data["pass"] is True and data["max_position_error"] <= 1e-9 and data["diagnosis"] == []
+
+
+def test_dh_from_urdf_output_passes_dh_check(tmp_path):
+    path = tmp_path / "ur5.yaml"
+    run("manipkit", "dh", "from-urdf", "--robot", "ur5", "--base", "base", "--tip", "tool0", "--convention", "modified", "-o", path, check_status=0)
+    run("manipkit", "dh", "check", path, "--robot", "ur5", "--base", "base", "--tip", "tool0", check_status=0)
+
+
+def test_dh_to_urdf_loads_and_matches_the_table(tmp_path):
+    # The URDF written for the planar 3R table is a robot whose ee_link sits at x = 4 + 2 + 1 = 7 at q = 0.
+    path = tmp_path / "p3.urdf"
+    run("manipkit", "dh", "to-urdf", "planar_3r", "-o", path, check_status=0)
+    out = json.loads(run("tf-between", "base_link", "ee_link", "--robot", path, "--format", "json", check_status=0).stdout)
+    assert out["translation"] == pytest.approx([7, 0, 0], abs=1e-12)
+
+
+def test_dh_check_unknown_table_exits_2():
+    result = run("manipkit", "dh", "check", "iiwa15", "--robot", "iiwa14", check_status=2)
+    assert "DH table not found: iiwa15; did you mean iiwa14" in result.stderr
+
+
+def test_dh_check_wrong_count_is_a_mismatch():
+    result = run("manipkit", "dh", "check", "planar_2r", "--robot", "planar_3r", check_status=1)
+    assert "the table has 2 rows but the URDF chain base_link -> ee_link has 3 movable joints" in result.stdout
+
+
+def test_workspace_json_and_plot(tmp_path):
+    # Seed 004: lengths 4 2 1 reach 1 <= r <= 7 (|4 - 2 - 1| to 4 + 2 + 1) and every orientation for 3 <= r <= 5.
+    path = tmp_path / "ws.png"
+    data = json.loads(run("manipkit", "workspace", "--robot", "planar_3r", "--plot", path, "--format", "json", check_status=0).stdout)
+    assert data["reachable"] == pytest.approx([1, 7]) and data["dexterous"] == pytest.approx([3, 5])
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_workspace_of_a_non_planar_robot_exits_2():
+    result = run("manipkit", "workspace", "--robot", "course_arm", check_status=2)
+    assert "needs a 2R or 3R arm" in result.stderr

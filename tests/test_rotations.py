@@ -18,7 +18,11 @@ from manipkit.errors import InvalidRotationError, ManipkitError
 from manipkit.rotations import (
     axis_angle_from_matrix,
     check_rotation,
+    euler_zyx_from_matrix,
+    euler_zyz_from_matrix,
     matrix_from_axis_angle,
+    matrix_from_euler_zyx,
+    matrix_from_euler_zyz,
     matrix_from_quaternion,
     matrix_from_rpy,
     quaternion_from_matrix,
@@ -479,3 +483,247 @@ def test_rotation_violations_of_a_zero_matrix_lists_every_problem():
 
 def test_rotation_violations_of_a_rotation_is_empty():
     assert rotation_violations(matrix_from_rpy([0.1, -0.7, 2.0])) == []
+
+
+# ---------------------------------------------------------------- Euler ZYX (yaw, pitch, roll)
+
+# fewer examples than SETTINGS: many properties here, and the singular sets are sampled on purpose
+EULER_SETTINGS = settings(deadline=None, max_examples=100)
+
+zyx_locked_pitches = st.sampled_from([PI / 2, -PI / 2])
+
+
+@st.composite
+def zyx_locked_rotations(draw):
+    """Rotations with pitch exactly +-90 deg (the gimbal-lock set), sampled on purpose."""
+    return rot_z(draw(angles)) @ rot_y(draw(zyx_locked_pitches)) @ rot_x(draw(angles))
+
+
+@EULER_SETTINGS
+@given(angles, pitches, angles)
+def test_matrix_from_euler_zyx_equals_rz_ry_rx_product(alpha, beta, gamma):
+    expected = rot_z(alpha) @ rot_y(beta) @ rot_x(gamma)
+    assert max_error(matrix_from_euler_zyx([alpha, beta, gamma]), expected) < 1e-15
+
+
+def test_matrix_from_euler_zyx_matches_seed_general_formula():
+    # seed 004 eq. 1.2, entries written out by hand, at alpha = 30, beta = 45, gamma = 60 deg
+    a, b, g = math.radians(30), math.radians(45), math.radians(60)
+    ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
+    expected = [
+        [ca * cb, -sa * cg + sb * sg * ca, sa * sg + sb * ca * cg],
+        [sa * cb, sa * sb * sg + ca * cg, sa * sb * cg - sg * ca],
+        [-sb, sg * cb, cb * cg],
+    ]
+    assert max_error(matrix_from_euler_zyx([a, b, g]), expected) < 1e-15
+
+
+def test_matrix_from_euler_zyx_at_pitch_plus_90_is_seed_equation_1_4():
+    # seed 004 eq. 1.4: R(alpha, 90, gamma) = [[0, -s, c], [0, c, s], [-1, 0, 0]] with s, c of alpha - gamma
+    d = 0.5 - 0.2
+    expected = [[0, -math.sin(d), math.cos(d)], [0, math.cos(d), math.sin(d)], [-1, 0, 0]]
+    assert max_error(matrix_from_euler_zyx([0.5, PI / 2, 0.2]), expected) < 1e-15
+
+
+def test_matrix_from_euler_zyx_at_pitch_minus_90_is_seed_equation_1_5():
+    # seed 004 eq. 1.5: R(alpha, -90, gamma) = [[0, -s, -c], [0, c, -s], [1, 0, 0]] with s, c of alpha + gamma
+    t = 0.5 + 0.2
+    expected = [[0, -math.sin(t), -math.cos(t)], [0, math.cos(t), -math.sin(t)], [1, 0, 0]]
+    assert max_error(matrix_from_euler_zyx([0.5, -PI / 2, 0.2]), expected) < 1e-15
+
+
+def test_euler_zyx_from_matrix_hand_value():
+    # R = Rz(90) Rx(90) maps x->y, y->z, z->x: [[0, 0, 1], [1, 0, 0], [0, 1, 0]];
+    # alpha = atan2(r21, r11) = atan2(1, 0) = 90, beta = atan2(-r31, .) = 0, gamma = atan2(r32, r33) = 90
+    ypr = euler_zyx_from_matrix([[0, 0, 1], [1, 0, 0], [0, 1, 0]])
+    assert max_error(ypr, [PI / 2, 0.0, PI / 2]) < 1e-15
+
+
+def test_euler_zyx_at_pitch_plus_90_returns_alpha_minus_gamma_and_zero_roll():
+    # seed eq. 1.4 with alpha = 0.5, gamma = 0.2: only alpha - gamma = 0.3 is in R; roll is set to 0
+    ypr = euler_zyx_from_matrix(matrix_from_euler_zyx([0.5, PI / 2, 0.2]))
+    assert ypr[2] == 0.0
+    assert max_error(ypr, [0.3, PI / 2, 0.0]) < 1e-15
+
+
+def test_euler_zyx_at_pitch_minus_90_returns_alpha_plus_gamma_and_zero_roll():
+    # seed eq. 1.5 with alpha = 0.5, gamma = 0.2: only alpha + gamma = 0.7 is in R; roll is set to 0
+    ypr = euler_zyx_from_matrix(matrix_from_euler_zyx([0.5, -PI / 2, 0.2]))
+    assert ypr[2] == 0.0
+    assert max_error(ypr, [0.7, -PI / 2, 0.0]) < 1e-15
+
+
+@EULER_SETTINGS
+@given(angles, st.floats(-PI / 2 + 1e-3, PI / 2 - 1e-3), angles)
+def test_euler_zyx_round_trip_away_from_gimbal_lock(alpha, beta, gamma):
+    ypr = euler_zyx_from_matrix(matrix_from_euler_zyx([alpha, beta, gamma]))
+    assert np.max(np.abs(wrapped(ypr - [alpha, beta, gamma]))) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(angles, zyx_locked_pitches, angles)
+def test_euler_zyx_round_trip_at_gimbal_lock_keeps_the_determined_combination(alpha, beta, gamma):
+    # beta = +90: alpha - gamma is determined; beta = -90: alpha + gamma (seed eqs. 1.4, 1.5)
+    ypr = euler_zyx_from_matrix(matrix_from_euler_zyx([alpha, beta, gamma]))
+    combination = alpha - gamma if beta > 0 else alpha + gamma
+    assert ypr[1] == beta and ypr[2] == 0.0
+    assert abs(wrapped(ypr[0] - combination)) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(st.one_of(rotations(), zyx_locked_rotations()))
+def test_matrix_euler_zyx_matrix_round_trip_including_gimbal_lock(R):
+    assert max_error(matrix_from_euler_zyx(euler_zyx_from_matrix(R)), R) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(rotations())
+def test_euler_zyx_is_rpy_reversed(R):
+    assert euler_zyx_from_matrix(R).tolist() == rpy_from_matrix(R)[::-1].tolist()
+
+
+def test_euler_zyx_from_matrix_keeps_leading_dimensions():
+    R = matrix_from_euler_zyx(np.stack([np.linspace(-3, 3, 6), np.linspace(-1.5, 1.5, 6), np.zeros(6)], -1))
+    result = euler_zyx_from_matrix(R.reshape(2, 3, 3, 3))
+    assert result.shape == (2, 3, 3)
+    assert max_error(result[1, 2], euler_zyx_from_matrix(R[5])) == 0.0
+
+
+def test_euler_zyx_from_matrix_rejects_a_reflection():
+    with pytest.raises(InvalidRotationError, match="reflection"):
+        euler_zyx_from_matrix(np.diag([1.0, 1.0, -1.0]))
+
+
+# ---------------------------------------------------------------- Euler ZYZ (phi, theta, psi)
+
+zyz_singular_thetas = st.sampled_from([0.0, PI])
+
+
+@st.composite
+def zyz_singular_rotations(draw):
+    """Rotations with theta exactly 0 or pi (the ZYZ singular set), sampled on purpose."""
+    return rot_z(draw(angles)) @ rot_y(draw(zyz_singular_thetas)) @ rot_z(draw(angles))
+
+
+@EULER_SETTINGS
+@given(angles, st.floats(-PI, PI), angles)
+def test_matrix_from_euler_zyz_equals_rz_ry_rz_product(phi, theta, psi):
+    expected = rot_z(phi) @ rot_y(theta) @ rot_z(psi)
+    assert max_error(matrix_from_euler_zyz([phi, theta, psi]), expected) < 1e-15
+
+
+def test_matrix_from_euler_zyz_hand_value():
+    # Rz(90) Ry(90): Ry(90) sends x->-z, y->y, z->x; then Rz(90) sends x->y, y->-x, z->z;
+    # so x -> -z, y -> -x, z -> y, and those images are the columns
+    R = matrix_from_euler_zyz([PI / 2, PI / 2, 0.0])
+    assert max_error(R, [[0, -1, 0], [0, 0, 1], [-1, 0, 0]]) < 1e-15
+
+
+def test_euler_zyz_from_matrix_hand_value():
+    # the matrix above: theta = atan2(hypot(r31, r32), r33) = atan2(1, 0) = 90 deg,
+    # psi = atan2(r32, -r31) = atan2(0, 1) = 0, phi = atan2(r23, r13) = atan2(1, 0) = 90 deg
+    angles_ = euler_zyz_from_matrix([[0, -1, 0], [0, 0, 1], [-1, 0, 0]])
+    assert max_error(angles_, [PI / 2, PI / 2, 0.0]) < 1e-15
+
+
+def test_euler_zyz_negative_branch_hand_value():
+    # (phi, theta, psi) = (0.3, 0.2, 0.1) -> other branch (0.3 - pi, -0.2, 0.1 - pi), wrapped into (-pi, pi]
+    R = rot_z(0.3) @ rot_y(0.2) @ rot_z(0.1)
+    angles_ = euler_zyz_from_matrix(R, theta_negative=True)
+    assert max_error(angles_, [0.3 - PI, -0.2, 0.1 - PI]) < 1e-15
+
+
+@EULER_SETTINGS
+@given(angles, st.floats(1e-3, PI - 1e-3), angles)
+def test_euler_zyz_round_trip_away_from_singularity(phi, theta, psi):
+    result = euler_zyz_from_matrix(matrix_from_euler_zyz([phi, theta, psi]))
+    assert np.max(np.abs(wrapped(result - [phi, theta, psi]))) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(angles, st.floats(1e-3, PI - 1e-3), angles)
+def test_euler_zyz_negative_branch_is_phi_plus_pi_minus_theta_psi_plus_pi(phi, theta, psi):
+    result = euler_zyz_from_matrix(matrix_from_euler_zyz([phi, theta, psi]), theta_negative=True)
+    assert np.max(np.abs(wrapped(result - [phi + PI, -theta, psi + PI]))) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(angles, angles, st.booleans())
+def test_euler_zyz_at_theta_zero_returns_phi_plus_psi_and_zero_psi(phi, psi, negative):
+    # theta = 0: R = Rz(phi + psi), only the sum is determined
+    result = euler_zyz_from_matrix(matrix_from_euler_zyz([phi, 0.0, psi]), theta_negative=negative)
+    assert result[1] == 0.0 and result[2] == 0.0
+    assert abs(wrapped(result[0] - (phi + psi))) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(angles, angles, st.booleans())
+def test_euler_zyz_at_theta_pi_returns_phi_minus_psi_and_zero_psi(phi, psi, negative):
+    # theta = pi: R = Rz(phi) Ry(pi) Rz(psi) = Rz(phi - psi) Ry(pi), only the difference is determined
+    result = euler_zyz_from_matrix(matrix_from_euler_zyz([phi, PI, psi]), theta_negative=negative)
+    assert result[1] == (-PI if negative else PI) and result[2] == 0.0
+    assert abs(wrapped(result[0] - (phi - psi))) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(st.one_of(rotations(), zyz_singular_rotations()), st.booleans())
+def test_matrix_euler_zyz_matrix_round_trip_both_branches_including_singular(R, negative):
+    angles_ = euler_zyz_from_matrix(R, theta_negative=negative)
+    assert max_error(matrix_from_euler_zyz(angles_), R) <= 1e-12
+
+
+@EULER_SETTINGS
+@given(st.one_of(rotations(), zyz_singular_rotations()))
+def test_euler_zyz_ranges(R):
+    phi, theta, psi = euler_zyz_from_matrix(R)
+    assert -PI < phi <= PI and -PI < psi <= PI and 0.0 <= theta <= PI
+    phi, theta, psi = euler_zyz_from_matrix(R, theta_negative=True)
+    assert -PI < phi <= PI and -PI < psi <= PI and -PI <= theta <= 0.0
+
+
+@EULER_SETTINGS
+@given(angles, st.floats(0.0, 0.9e-12), st.sampled_from([0.0, PI]), angles, st.booleans())
+def test_euler_zyz_inside_singular_tolerance_reproduces_rotation_within_twice_the_tolerance(
+    phi, gap, theta0, psi, negative
+):
+    R = matrix_from_euler_zyz([phi, theta0 + gap if theta0 == 0.0 else theta0 - gap, psi])
+    result = euler_zyz_from_matrix(R, theta_negative=negative, gimbal_tol=1e-12)
+    assert result[2] == 0.0
+    assert max_error(matrix_from_euler_zyz(result), R) <= 2e-12 + 1e-15
+
+
+def test_euler_zyz_from_matrix_keeps_leading_dimensions():
+    zyz = np.stack([np.linspace(-3, 3, 6), np.linspace(0.1, 3, 6), np.linspace(3, -3, 6)], axis=-1)
+    R = matrix_from_euler_zyz(zyz.reshape(3, 2, 3))
+    assert R.shape == (3, 2, 3, 3)
+    result = euler_zyz_from_matrix(R)
+    assert result.shape == (3, 2, 3)
+    assert max_error(result.reshape(6, 3), zyz) < 1e-12
+
+
+def test_euler_zyz_from_matrix_rejects_a_reflection():
+    with pytest.raises(InvalidRotationError, match="reflection"):
+        euler_zyz_from_matrix(np.diag([1.0, -1.0, 1.0]))
+
+
+# ---------------------------------------------------------------- seed 004, section 3: axis-angle
+
+
+def test_axis_angle_seed_example_x_axis_45_deg():
+    # seed 004 A.4: axis (1, 0, 0), 45 deg; eq. 3.3 gives [[1, 0, 0], [0, c, -s], [0, s, c]] with
+    # c = s = sqrt(1/2); eq. 3.4 reads back theta = acos((1 + 2c - 1) / 2) = 45 deg and
+    # n = (r32 - r23, r13 - r31, r21 - r12) / (2 sin theta) = (2s, 0, 0) / (2s) = (1, 0, 0)
+    R = matrix_from_axis_angle([1.0, 0.0, 0.0], PI / 4)
+    assert max_error(R, [[1, 0, 0], [0, S45, -S45], [0, S45, S45]]) < 1e-15
+    axis, angle = axis_angle_from_matrix(R)
+    assert max_error(axis, [1.0, 0.0, 0.0]) < 1e-15
+    assert abs(angle - PI / 4) < 1e-15
+
+
+def test_axis_angle_at_half_turn_where_seed_equation_3_4_divides_by_zero():
+    # seed eq. 3.4 divides the skew part by 2 sin(theta) = 0 at 180 deg; Rx(pi) still has axis x
+    R = np.diag([1.0, -1.0, -1.0])
+    skew = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    assert np.all(skew == 0.0)  # 0 / 0: the seed's formula gives no axis here
+    axis, angle = axis_angle_from_matrix(R)
+    assert axis.tolist() == [1.0, 0.0, 0.0] and angle == PI

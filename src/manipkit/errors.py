@@ -41,3 +41,15 @@ class InvalidRotationError(ManipkitError, ValueError):
 
 class InvalidTransformError(ManipkitError, ValueError):
     """A matrix file that cannot be read as a 4x4 homogeneous transform."""
+
+
+class ChainError(ManipkitError, ValueError):
+    """Two frames that do not form a chain from a base down to a tip."""
+
+
+class PlanarArmError(ManipkitError, ValueError):
+    """A link length or target that a planar arm cannot take (not a number, not finite, not positive)."""
+
+
+class DHTableError(ManipkitError, ValueError):
+    """A DH table file (or table) that cannot be read or written: names the file, row and field."""

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from manipkit.errors import DescriptionError, JointValueError, UnknownFrameError
+from manipkit.errors import ChainError, DescriptionError, JointValueError, UnknownFrameError
 from manipkit.robots import RobotSource, resolve_robot, urdf_text
 from manipkit.rotations import matrix_from_axis_angle
 from manipkit.validate import parse_urdf
@@ -184,6 +184,46 @@ class Robot:
     def frame_id(self, name: str) -> int:
         """Pinocchio frame index of a frame name or alias."""
         return self._frame_ids[self.frame(name)]
+
+    def chain_joints(self, base: str, tip: str) -> tuple[str, ...]:
+        """Movable joints on the path from ``base`` down to ``tip``, base first.
+
+        ``base`` may hang off the path by fixed joints only (ur5's ``base``
+        beside ``base_link``): every movable joint between the two frames
+        then points from base to tip. Equal frames, or frames with only fixed
+        joints between them, give ``()``.
+
+        Raises
+        ------
+        ChainError
+            If ``tip`` is not below ``base`` (the message says whether to swap
+            them or that they are on different branches).
+        """
+        base_name, tip_name = self.frame(base), self.frame(tip)
+        base_joint = self.model.frames[self.frame_id(base_name)].parentJoint
+        tip_joint = self.model.frames[self.frame_id(tip_name)].parentJoint
+        tip_support = list(self.model.supports[tip_joint])
+        if base_joint not in tip_support:
+            if tip_joint in self.model.supports[base_joint]:
+                hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
+            else:
+                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.root_link}'"
+            raise ChainError(
+                f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
+                f"(a movable joint lies on the way up from '{base_name}'); {hint}"
+            )
+        return tuple(self.model.names[j] for j in tip_support[tip_support.index(base_joint) + 1 :])
+
+    def sample_q(self, n: int, *, seed: int = 0) -> np.ndarray:
+        """``n`` joint vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]).
+
+        Returns
+        -------
+        Q : ndarray, shape (n, len(joint_names))
+        """
+        lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in self.joints])
+        upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in self.joints])
+        return np.random.default_rng(seed).uniform(lower, upper, size=(n, len(self.joints)))
 
     def _choose_ee(self, declared: str | None) -> tuple[str, str]:
         if EE_ALIAS in self._frame_ids:
@@ -364,7 +404,7 @@ class Robot:
             for joint_id in list(self.model.supports[frame.parentJoint])[1:]:
                 placement = self.model.jointPlacements[joint_id]
                 jmodel = self.model.joints[joint_id]
-                kind, axis = _joint_kind_axis(jmodel)
+                kind, axis = _joint_kind_axis(self.model, joint_id)
                 steps.append(
                     _ChainStep(
                         placement.rotation.copy(),
@@ -395,21 +435,20 @@ class Robot:
         return R, p
 
 
-_ALIGNED_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+def _joint_kind_axis(model: pin.Model, joint_id: int) -> tuple[str, np.ndarray]:
+    """(``revolute``|``prismatic``, unit axis in the joint frame) of a one-degree-of-freedom joint.
 
-
-def _joint_kind_axis(jmodel) -> tuple[str, np.ndarray]:
-    """(``revolute``|``prismatic``, unit axis) of a one-degree-of-freedom Pinocchio joint."""
-    short = jmodel.shortname()[len("JointModel") :]
-    if short in ("RX", "RY", "RZ", "RUBX", "RUBY", "RUBZ"):
-        return "revolute", np.array(_ALIGNED_AXES[short[-1]])
-    if short in ("PX", "PY", "PZ"):
-        return "prismatic", np.array(_ALIGNED_AXES[short[-1]])
-    if short in ("RevoluteUnaligned", "RevoluteUnboundedUnaligned"):
-        return "revolute", np.array(jmodel.extract().axis, dtype=float)
-    if short == "PrismaticUnaligned":
-        return "prismatic", np.array(jmodel.extract().axis, dtype=float)
-    raise DescriptionError(f"joint model {short} is not supported")
+    Read from the joint's motion subspace S = (linear, angular), which every
+    Pinocchio joint model provides (aligned, unaligned, bounded or not).
+    """
+    jmodel = model.joints[joint_id]
+    jdata = jmodel.createData()
+    jmodel.calc(jdata, pin.neutral(model))
+    S = np.array(jdata.S, dtype=float).ravel()
+    linear, angular = S[:3], S[3:]
+    if np.linalg.norm(angular) > 0.5:
+        return "revolute", angular / np.linalg.norm(angular)
+    return "prismatic", linear / np.linalg.norm(linear)
 
 
 def _movable_joints(model: pin.Model, robot_xml) -> tuple[Joint, ...]:
@@ -425,7 +464,7 @@ def _movable_joints(model: pin.Model, robot_xml) -> tuple[Joint, ...]:
                 f"joint '{name}' is {urdf_type} ({jmodel.nv} degrees of freedom); manipkit handles "
                 "revolute, continuous, prismatic and fixed joints"
             )
-        kind, axis = _joint_kind_axis(jmodel)
+        kind, axis = _joint_kind_axis(model, joint_id)
         if jmodel.nq == 2:
             lower, upper, urdf_type = -math.inf, math.inf, "continuous"
         else:

@@ -197,6 +197,33 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
     )
 
 
+def bundled_dh_tables() -> dict[str, Path]:
+    """Bundled DH table names -> ``robots/dh/NAME.yaml``."""
+    return {p.stem: p for p in sorted((bundled_dir() / "dh").glob("*.yaml"))}
+
+
+def resolve_dh_table(spec: str | os.PathLike) -> Path:
+    """A DH table file from a bundled table name (``iiwa14_seed004``) or a path.
+
+    Raises
+    ------
+    UnknownRobotError
+        When neither exists; the message lists the bundled tables.
+    """
+    text = os.fspath(spec)
+    tables = bundled_dh_tables()
+    if text in tables:
+        return tables[text]
+    path = Path(text).expanduser()
+    if path.is_file():
+        return path
+    close = difflib.get_close_matches(text, list(tables), n=3, cutoff=0.5)
+    hint = f"did you mean {', '.join(close)}? " if close else ""
+    raise UnknownRobotError(
+        f"DH table not found: {text}; {hint}bundled tables: {', '.join(tables) or 'none'}, or a path to a .yaml file"
+    )
+
+
 # --------------------------------------------------------------------------
 # Packages: $(find PKG) and package://PKG/...
 # --------------------------------------------------------------------------
