@@ -22,6 +22,7 @@ import xacro
 import yourdfpy
 
 import manipkit
+from manipkit.robots import bundled_robots
 from reference import (
     rot_y,
     rot_z,
@@ -46,7 +47,7 @@ from reference import (
 
 TOL = 1e-12
 ROBOTS_DIR = pathlib.Path(__file__).resolve().parents[1] / "robots"
-BUNDLED = ["course_arm", "iiwa14", "mobile_manipulator", "planar_2r", "planar_3r"]
+BUNDLED = sorted(bundled_robots())
 
 
 

@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from manipkit.robots import bundled_robots
+
 from reference import POSE_A, POSE_B, course_arm_T_base_ee, course_arm_T_base_top_wrist
 
 BIN = Path(sys.executable).parent
@@ -191,7 +193,7 @@ def test_out_of_limit_value_warns_but_answers():
     assert "warning: iiwa_joint_2=2.5 is outside its limits [-2.0944, 2.0944]" in result.stderr
 
 
-BUNDLED = ["course_arm", "mobile_manipulator", "iiwa14", "planar_2r", "planar_3r"]
+BUNDLED = sorted(bundled_robots())
 
 
 @pytest.mark.parametrize("name", BUNDLED)
@@ -300,3 +302,44 @@ def test_workspace_json_and_plot(tmp_path):
 def test_workspace_of_a_non_planar_robot_exits_2():
     result = run("manipkit", "workspace", "--robot", "course_arm", check_status=2)
     assert "needs a 2R or 3R arm" in result.stderr
+
+
+def test_ik_solution_is_accepted_back_by_tf_between():
+    # Target: the iiwa's flange pose at a known configuration; the answer, fed to tf-between, must reproduce it.
+    q_known = ["iiwa_joint_1=0.3", "iiwa_joint_2=0.5", "iiwa_joint_4=-1.2", "iiwa_joint_6=0.7"]
+    pose = tf_json("base_link", "ee_link", "--robot", "iiwa14", "--q", *q_known)
+    out = json.loads(run("manipkit", "ik", "--robot", "iiwa14", "--xyz", *pose["translation"], "--rpy", *pose["rpy"],
+                         "--format", "json", check_status=0).stdout)
+    assert out["success"] is True and out["residual_position"] < 1e-9 and out["residual_rotation"] < 1e-9
+    answer = [f"{k}={v!r}" for k, v in out["solutions"][0].items()]
+    back = tf_json("base_link", "ee_link", "--robot", "iiwa14", "--q", *answer)
+    assert np.abs(np.array(back["matrix"]) - np.array(pose["matrix"])).max() < 1e-9
+
+
+def test_ik_analytic_stanford_gives_four_labelled_solutions():
+    q = ["joint1=0.4", "joint2=0.7", "joint3=0.5", "joint4=0.3", "joint5=1.1", "joint6=-0.4"]
+    pose = tf_json("base_link", "ee_link", "--robot", "stanford_arm", "--q", *q)
+    result = run("manipkit", "ik", "--robot", "stanford_arm", "--analytic", "--xyz", *pose["translation"],
+                 "--rpy", *pose["rpy"], check_status=0)
+    assert "closed form (decoupled.ik_stanford): 4 solution(s)" in result.stdout
+    assert "[front, no flip]" in result.stdout and "[back, flip]" in result.stdout
+
+
+def test_ik_analytic_without_a_closed_form_exits_2():
+    result = run("manipkit", "ik", "--robot", "iiwa14", "--analytic", "--xyz", "0.3", "0", "0.5", check_status=2)
+    assert "no closed-form solver for robot 'iiwa14'" in result.stderr
+
+
+def test_ik_unreachable_reports_failure_with_residual():
+    out = json.loads(run("manipkit", "ik", "--robot", "iiwa14", "--xyz", "3", "0", "0", "--restarts", "3",
+                         "--format", "json", check_status=1).stdout)
+    assert out["success"] is False and out["solutions"] == []
+    # The flange reaches at most 1.148 m from joint 1's origin at z = 0.1575, and (3, 0, 0) is 3.004 m from it.
+    assert out["residual_position"] >= 3.004 - 1.148 - 1e-6
+    assert "target out of reach" in out["notes"][0]
+
+
+def test_ik_course_arm_position_only_when_no_orientation_given():
+    pose = tf_json("base_link", "ee_link", *q_args(POSE_B))
+    out = json.loads(run("manipkit", "ik", "--xyz", *pose["translation"], "--format", "json", check_status=0).stdout)
+    assert out["mode"] == "position" and out["residual_position"] < 1e-9

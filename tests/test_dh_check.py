@@ -121,6 +121,9 @@ TABLE_ROBOTS = {
     "iiwa14_seed004": ("iiwa14", False),
     "course_arm_standard": ("course_arm", True),
     "course_arm_modified": ("course_arm", True),
+    "scara": ("scara", True),
+    "stanford_arm": ("stanford_arm", True),
+    "elbow_arm": ("elbow_arm", True),
 }
 
 

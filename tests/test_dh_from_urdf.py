@@ -35,7 +35,13 @@ BUNDLED_CHAINS = [
     ("mobile_manipulator", "base_footprint", "ee_link"),
     ("panda", "panda_link0", "panda_link8"),
     ("ur5", "base", "tool0"),  # ur5's `base` hangs beside base_link by a fixed joint
-]
+] + [(name, "base_link", "ee_link") for name in ("scara", "stanford_arm", "elbow_arm")]
+
+
+def test_every_bundled_robot_has_a_chain_here():
+    from manipkit.robots import bundled_robots
+
+    assert set(bundled_robots()) <= {name for name, _, _ in BUNDLED_CHAINS}
 
 
 @pytest.fixture(scope="module")

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 import manipkit
+from manipkit.robots import bundled_robots
 from manipkit.errors import JointValueError, UnknownFrameError
 
-ROBOTS = ["course_arm", "mobile_manipulator", "iiwa14", "planar_2r", "planar_3r", "panda", "ur5"]
+ROBOTS = sorted(bundled_robots()) + ["panda", "ur5"]
 
 
 @pytest.fixture(scope="module")

@@ -443,6 +443,87 @@ def run_dh_from_urdf(args) -> int:
     return EXIT_OK
 
 
+def _ik_target(args):
+    """T_base_frame from --xyz and --rpy/--quat (degrees for --rpy with --deg)."""
+    import numpy as np
+
+    from manipkit.rotations import matrix_from_quaternion, matrix_from_rpy
+
+    T = np.eye(4)
+    T[:3, 3] = args.xyz
+    if args.rpy is not None:
+        rpy = np.radians(args.rpy) if args.deg else np.array(args.rpy)
+        T[:3, :3] = matrix_from_rpy(rpy)
+    elif args.quat is not None:
+        T[:3, :3] = matrix_from_quaternion(args.quat)
+    if not np.all(np.isfinite(T)):
+        raise UsageError("--xyz/--rpy/--quat values must be finite numbers")
+    return T
+
+
+def _q_text(robot, q, precision: int) -> str:
+    return " ".join(f"{name}={_fmt(value, precision)}" for name, value in robot.as_dict(q).items())
+
+
+def run_ik(args) -> int:
+    from manipkit.ik import analytic_ik, ik
+
+    robot = _load(args)
+    target = _ik_target(args)
+    oriented = args.rpy is not None or args.quat is not None
+    mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
+    if args.analytic:
+        if args.frame != "ee_link" or args.base != "base_link":
+            raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
+        result = analytic_ik(robot, target)
+        answers = [(label, q) for label, q in zip(result.labels, result.solutions)]
+        success = bool(answers)
+        residuals = result.residuals.max(axis=0) if success else (None, None)
+        header = f"closed form ({result.solver}): {len(answers)} solution(s)" + (
+            f" (count: {result.count})" if result.count != len(answers) else "")
+        notes = [result.reason] if result.reason else []
+        fallback = None
+    else:
+        q0 = robot.q(_pairs(args.seed_q, "--seed-q"), degrees=args.deg) if args.seed_q else None
+        found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
+                   q0=q0, all=args.all, restarts=args.restarts, seed=args.seed)
+        results = list(found) if args.all else ([found] if found.success else [])
+        best = found.best if args.all else found
+        answers = [(None, r.q) for r in results]
+        success = bool(answers)
+        residuals = (best.residual_position, best.residual_rotation)
+        header = (f"numerical IK ({mode}, frame {args.frame} in {args.base}): "
+                  f"{'success' if success else 'FAILED'}; {best.iterations} iterations")
+        notes = [best.reason] if best.reason else []
+        fallback = None if success else best.q
+    if args.format == "json":
+        print(json.dumps({
+            "robot": robot.name,
+            "mode": "analytic" if args.analytic else mode,
+            "target": target.tolist(),
+            "solutions": [robot.as_dict(q) for _, q in answers],
+            "labels": [label for label, _ in answers] if args.analytic else None,
+            "success": success,
+            "residual_position": None if residuals[0] is None else float(residuals[0]),
+            "residual_rotation": None if residuals[1] is None else float(residuals[1]),
+            "notes": notes,
+        }, indent=2))
+    else:
+        print(header)
+        for index, (label, q) in enumerate(answers, start=1):
+            print(f"{index}. {('[' + label + '] ') if label else ''}{_q_text(robot, q, args.precision)}")
+        if fallback is not None:
+            print(f"best found (does not reach the target): {_q_text(robot, fallback, args.precision)}")
+        if residuals[0] is not None:
+            print(f"residual: position {residuals[0]:.3g} m, rotation {residuals[1]:.3g} rad")
+        for note in notes:
+            print(f"note: {note}")
+        if success:
+            print(f"check one with: tf-between {args.base} {args.frame} --robot {args.robot or robot.source.name} --q "
+                  + _q_text(robot, answers[0][1], args.precision))
+    return EXIT_OK if success else EXIT_MISMATCH
+
+
 def run_workspace(args) -> int:
     from manipkit.workspace import planar_link_lengths, planar_workspace, plot_planar_workspace
 
@@ -519,6 +600,25 @@ def _main_parser() -> argparse.ArgumentParser:
     from_urdf.add_argument("--convention", choices=("standard", "modified"), default="standard")
     from_urdf.add_argument("-o", "--output", type=Path, default=None, metavar="FILE.yaml", help="also save the table")
     from_urdf.set_defaults(run=run_dh_from_urdf)
+    ik = commands.add_parser("ik", help="joint values that put a frame at a target pose (numerical or closed form)")
+    _add_robot_options(ik)
+    ik.add_argument("--frame", default="ee_link", help="frame to place (default ee_link)")
+    ik.add_argument("--base", default="base_link", help="frame the target is given in (default base_link)")
+    ik.add_argument("--xyz", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
+    orientation = ik.add_mutually_exclusive_group()
+    orientation.add_argument("--rpy", type=float, nargs=3, metavar=("R", "P", "Y"), help="target orientation, URDF rpy (rad, or deg with --deg)")
+    orientation.add_argument("--quat", type=float, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
+    ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
+    ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
+    ik.add_argument("--analytic", action="store_true", help="use the robot's closed-form solver (planar_2r/3r, scara, stanford_arm, elbow_arm)")
+    ik.add_argument("--all", action="store_true", help="numerical: return every distinct solution found within the restart budget")
+    ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
+    ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
+    ik.add_argument("--restarts", type=int, default=50, metavar="N", help="random restarts (default 50)")
+    ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
+    ik.add_argument("--precision", type=int, default=6, metavar="N")
+    ik.add_argument("--format", choices=("text", "json"), default="text")
+    ik.set_defaults(run=run_ik)
     workspace = commands.add_parser("workspace", help="reachable and dexterous workspace of a planar 2R/3R arm, with a plot")
     _add_robot_options(workspace)
     workspace.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw sampled points, boundary circles and a few poses")

@@ -53,3 +53,11 @@ class PlanarArmError(ManipkitError, ValueError):
 
 class DHTableError(ManipkitError, ValueError):
     """A DH table file (or table) that cannot be read or written: names the file, row and field."""
+
+
+class ClosedFormIKError(ManipkitError, ValueError):
+    """A pose or arm parameter a closed-form (decoupled) IK solver cannot take: names the value and what is valid."""
+
+
+class IKOptionError(ManipkitError, ValueError):
+    """An IK option that is not valid (mode, axis, tolerance, budget)."""

@@ -28,7 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, DescriptionError, JointValueError, UnknownFrameError
-from manipkit.robots import RobotSource, resolve_robot, urdf_text
+from manipkit.robots import RobotSource, resolve_robot, urdf_text, xacro_arg_names
 from manipkit.rotations import matrix_from_axis_angle
 from manipkit.validate import parse_urdf
 
@@ -99,7 +99,11 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     """
     source = resolve_robot(robot)
     text = urdf_text(source, xacro_args, package_dirs)
-    return Robot.from_urdf(text, source=source, package_dirs=package_dirs)
+    loaded = Robot.from_urdf(text, source=source, package_dirs=package_dirs)
+    if source.is_xacro:
+        declared = {k: v for k, v in xacro_arg_names(source.path).items() if v is not None}
+        loaded.xacro_args = {**declared, **{k: str(v) for k, v in xacro_args.items()}}
+    return loaded
 
 
 class Robot:
@@ -117,6 +121,7 @@ class Robot:
         self.source = source
         self.name = robot_xml.get("name") or source.name
         self.package_dirs = dict(package_dirs or {})
+        self.xacro_args: dict[str, str] = {}  # effective xacro arguments (defaults and given), set by load()
         self.joints = _movable_joints(model, robot_xml)
         self.joint_names = tuple(j.name for j in self.joints)
         self._joint_index = {j.name: i for i, j in enumerate(self.joints)}
@@ -130,6 +135,15 @@ class Robot:
                 self._frame_ids.setdefault(frame.name, frame_id)
         self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
         self._chains: dict[int, list[_ChainStep]] = {}
+        # Index arrays for pinocchio_configuration: where each joint value goes in Pinocchio's q.
+        self._neutral_config = pin.neutral(model)
+        idx_q = np.array([model.joints[model.getJointId(j.name)].idx_q for j in self.joints], dtype=np.intp)
+        is_cs = np.array([model.joints[model.getJointId(j.name)].nq == 2 for j in self.joints], dtype=bool)
+        self._config_plain_user = np.flatnonzero(~is_cs)  # one value -> one entry
+        self._config_plain_q = idx_q[~is_cs]
+        self._config_cs_user = np.flatnonzero(is_cs)  # continuous: angle -> (cos, sin)
+        self._config_cos_q = idx_q[is_cs]
+        self._config_sin_q = idx_q[is_cs] + 1
 
     @classmethod
     def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> "Robot":
@@ -322,13 +336,12 @@ class Robot:
     def pinocchio_configuration(self, q) -> np.ndarray:
         """Pinocchio's configuration vector (size ``model.nq``) for a joint vector."""
         q = self._check_q(q)
-        config = pin.neutral(self.model)
-        for joint, value in zip(self.joints, q):
-            jmodel = self.model.joints[self.model.getJointId(joint.name)]
-            if jmodel.nq == 2:  # continuous joint: (cos, sin)
-                config[jmodel.idx_q : jmodel.idx_q + 2] = math.cos(value), math.sin(value)
-            else:
-                config[jmodel.idx_q] = value
+        config = self._neutral_config.copy()
+        config[self._config_plain_q] = q[self._config_plain_user]
+        if self._config_cs_user.size:  # continuous joints: (cos, sin)
+            angles = q[self._config_cs_user]
+            config[self._config_cos_q] = np.cos(angles)
+            config[self._config_sin_q] = np.sin(angles)
         return config
 
     # ------------------------------------------------------------------
