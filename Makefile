@@ -6,7 +6,9 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test clean
+CHROMIUM := /usr/bin/chromium
+
+.PHONY: setup demo test browser notebooks clean
 
 setup: $(STAMP)
 
@@ -19,8 +21,19 @@ $(STAMP): pyproject.toml
 demo: setup
 	$(BIN)/tf-between base_link ee_link --robot course_arm
 
-test: setup
+# The viewer tests drive Debian's Chromium (headless); install it when missing.
+browser: $(CHROMIUM)
+
+$(CHROMIUM):
+	@if [ "$$(id -u)" = 0 ]; then sudo=; else sudo=sudo; fi; \
+	$$sudo apt-get update -qq && $$sudo apt-get install -y -qq chromium chromium-driver
+
+test: setup browser
 	$(BIN)/python -m pytest
+
+notebooks: setup
+	$(BIN)/python -m pip install --quiet -e '.[notebooks]'
+	$(BIN)/jupyter lab notebooks/
 
 clean:
 	rm -rf $(VENV) .pytest_cache build dist

@@ -160,22 +160,6 @@ def _pose_text(robot, source: str, target: str, q, T, precision: int) -> list[st
     return lines
 
 
-def _pose_json(robot, source: str, target: str, q, T) -> dict:
-    from manipkit.pose import pose_fields
-
-    fields = pose_fields(T)
-    return {
-        "source": source,
-        "target": target,
-        "robot": robot.name,
-        "q": robot.as_dict(q),
-        "translation": fields["translation"].tolist(),
-        "quaternion_xyzw": fields["quaternion_xyzw"].tolist(),
-        "rpy": fields["rpy"].tolist(),
-        "matrix": fields["matrix"].tolist(),
-    }
-
-
 def _compare_lines(result, path: Path, tol: float) -> list[str]:
     lines = [f"compare with {path} (tolerance {tol:g}):"]
     if result.violations:
@@ -211,7 +195,9 @@ def run_tf(args) -> int:
         comparison = compare_transform(T, read_matrix(args.compare), tol=args.tol)
         status = EXIT_OK if comparison.agrees else EXIT_MISMATCH
     if args.format == "json":
-        out = _pose_json(robot, source, target, q, T)
+        from manipkit.pose import pose_report
+
+        out = pose_report(robot, source, target, q, T=T)
         if comparison is not None:
             out["compare"] = {
                 "file": str(args.compare),
@@ -552,6 +538,53 @@ def run_workspace(args) -> int:
     return EXIT_OK
 
 
+def run_view(args) -> int:
+    import os
+    import signal
+    import threading
+    import webbrowser
+
+    from manipkit import viewer
+
+    robot = _load(args)
+    q = _joint_vector(robot, args)
+    frames = tuple(args.frames)
+    for warning in robot.outside_limits(q):
+        print(f"warning: {warning}; the viewer clamps it into the limits", file=sys.stderr)
+    if args.static is not None:
+        path = viewer.write_static(robot, args.static, frames=frames, q=q)
+        size = path.stat().st_size / 1e6
+        print(f"wrote {path} ({size:.1f} MB): {robot.name} with triads at {frames[0]} and {frames[1]}; "
+              "open it in a browser, no server needed")
+        return EXIT_OK
+
+    def stop(signum, frame):  # `kill` (SIGTERM) stops as cleanly as Ctrl-C
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    view = None
+    try:
+        view = viewer.open_view(robot, frames=frames, q=q, port=args.port)
+        for warning in view.scene.warnings:
+            print(f"warning: {warning}", file=sys.stderr)
+        print(f"control page: {view.url}", flush=True)
+        print(f"meshcat scene: {view.scene_url}", flush=True)
+        print(f"robot {robot.name}, T_{frames[0]}_{frames[1]} live; Ctrl-C stops the viewer", flush=True)
+        if not args.no_browser:
+            if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+                print("no display found: open the control page in a browser yourself", flush=True)
+            else:  # in a thread: a console browser must not hold up the server
+                threading.Thread(target=webbrowser.open, args=(view.url,), daemon=True).start()
+        view.wait()
+    except KeyboardInterrupt:
+        print("viewer stopped", flush=True)
+    finally:
+        if view is not None:
+            view.close()
+        signal.signal(signal.SIGTERM, previous)
+    return EXIT_OK
+
+
 # ----------------------------------------------------------------------
 # Entry points
 # ----------------------------------------------------------------------
@@ -625,6 +658,16 @@ def _main_parser() -> argparse.ArgumentParser:
     workspace.add_argument("--samples", type=int, default=20000, metavar="N", help="random configurations drawn for the plot (default 20000)")
     workspace.add_argument("--format", choices=("text", "json"), default="text")
     workspace.set_defaults(run=run_workspace)
+    view = commands.add_parser("view", help="the robot in a browser (meshcat) with joint sliders and a live T_A_B readout")
+    _add_robot_options(view)
+    _add_joint_options(view)
+    view.add_argument("--frames", nargs=2, default=["base_link", "ee_link"], metavar=("A", "B"),
+                      help="frames of the readout T_A_B and of the two triads (default base_link ee_link)")
+    view.add_argument("--port", type=int, default=8700, metavar="P", help="port of the control page (default 8700, 0 = any free port)")
+    view.add_argument("--no-browser", action="store_true", help="print the URLs but do not open a browser")
+    view.add_argument("--static", type=Path, default=None, metavar="FILE.html",
+                      help="write a standalone HTML snapshot of the pose instead of serving")
+    view.set_defaults(run=run_view)
     return parser
 
 

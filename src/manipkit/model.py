@@ -168,11 +168,6 @@ class Robot:
     # Frames
     # ------------------------------------------------------------------
 
-    @property
-    def base_frame(self) -> str:
-        """The root link (what ``base_link`` means when the robot has no such link)."""
-        return self.root_link
-
     def frame(self, name: str) -> str:
         """The link name that ``name`` refers to, resolving ``base_link``/``world``/``ee_link``.
 

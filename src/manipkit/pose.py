@@ -41,3 +41,48 @@ def pose_fields(T) -> dict[str, np.ndarray]:
         "rpy_deg": np.degrees(rpy),
         "matrix": T.copy(),
     }
+
+
+def pose_report(robot, source: str, target: str, q, *, T=None) -> dict:
+    """T_source_target as the JSON ``tf-between SOURCE TARGET --format json`` prints.
+
+    The viewer's readout and the command line share this function, so the
+    two always agree.
+
+    Parameters
+    ----------
+    robot : manipkit.model.Robot
+    source, target : str
+        Frame names (or the aliases ``base_link``, ``ee_link``), kept as given.
+    q : array_like, shape (n,)
+        Joint vector in ``robot.joint_names`` order (radians, metres).
+    T : array_like, shape (4, 4), optional, keyword-only
+        ``robot.transform(source, target, q)`` when the caller already has it.
+
+    Returns
+    -------
+    dict with the keys ``source``, ``target``, ``robot``, ``q`` (joint name ->
+    value), ``translation``, ``quaternion_xyzw``, ``rpy`` (radians, URDF
+    convention) and ``matrix`` (4x4 rows), as plain Python lists and floats.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("planar_2r")
+    >>> report = pose_report(robot, "base_link", "ee_link", robot.q())
+    >>> list(report)
+    ['source', 'target', 'robot', 'q', 'translation', 'quaternion_xyzw', 'rpy', 'matrix']
+    """
+    if T is None:
+        T = robot.transform(source, target, q)
+    fields = pose_fields(T)
+    return {
+        "source": source,
+        "target": target,
+        "robot": robot.name,
+        "q": robot.as_dict(q),
+        "translation": fields["translation"].tolist(),
+        "quaternion_xyzw": fields["quaternion_xyzw"].tolist(),
+        "rpy": fields["rpy"].tolist(),
+        "matrix": fields["matrix"].tolist(),
+    }
