@@ -37,3 +37,18 @@ notebooks: setup
 
 clean:
 	rm -rf $(VENV) .pytest_cache build dist
+
+# Side-by-side speed comparisons with Robotics Toolbox, ikpy, kinpy and Pinocchio (minutes):
+# installs the bench extra, prints the table, writes benchmarks/results.json and results.png and
+# updates the table in benchmarks/README.md.
+.PHONY: bench
+bench: setup
+	$(BIN)/python -m pip install --quiet -e '.[bench]'
+	$(BIN)/python -m benchmarks
+
+# Fuzz the description loaders with 10,000 mutated URDF and 10,000 mutated xacro cases each
+# (tests/test_fuzz.py; `make test` runs 300 of each): about 15 minutes. A failing case's shrunk
+# input is written to /tmp/manipkit_fuzz_failure.urdf (or /tmp/manipkit_fuzz_failure_xacro/).
+.PHONY: fuzz
+fuzz: setup
+	MANIPKIT_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest tests/test_fuzz.py -q --hypothesis-show-statistics -k mutated

@@ -177,7 +177,7 @@ def test_malformed_description_exits_2(tmp_path):
     path = tmp_path / "broken.urdf"
     path.write_text('<robot name="b"><link name="a"></robot>')
     result = run("tf-between", "a", "a", "--robot", path, check_status=2)
-    assert re.search(r"broken.urdf: malformed XML at line 1, column \d+", result.stderr)
+    assert re.search(r"broken.urdf:1:\d+: malformed XML: Opening and ending tag mismatch", result.stderr)
     assert result.stderr.count("\n") == 1
 
 
@@ -188,9 +188,91 @@ def test_bad_q_file_cell_names_the_line(tmp_path):
     assert "line 3: joint 'elbow_joint': value 'x' is not a number" in result.stderr
 
 
-def test_out_of_limit_value_warns_but_answers():
-    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5", check_status=0)
-    assert "warning: iiwa_joint_2=2.5 is outside its limits [-2.0944, 2.0944]" in result.stderr
+def test_out_of_limit_value_is_an_error_naming_the_limit():
+    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5", check_status=2)
+    assert result.stderr == (
+        "tf-between: error: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 "
+        "(limits [-2.0944, 2.0944] rad); use --clamp to clamp\n"
+    )
+    assert result.stdout == ""
+
+
+def test_clamp_clamps_with_a_warning_and_answers_at_the_limit():
+    clamped = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5",
+                  "--clamp", "--format", "json", check_status=0)
+    assert clamped.stderr == "warning: joint 'iiwa_joint_2' = 2.5 rad clamped to its upper limit 2.0944 rad\n"
+    at_limit = tf_json("base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=120", "--deg")
+    assert np.abs(np.array(json.loads(clamped.stdout)["matrix"]) - np.array(at_limit["matrix"])).max() < 1e-12
+    assert json.loads(clamped.stdout)["q"]["iiwa_joint_2"] == pytest.approx(np.radians(120), abs=1e-12)
+
+
+def test_value_above_a_full_turn_without_deg_gets_a_degrees_hint():
+    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=90", check_status=2)
+    assert result.stderr.rstrip("\n").endswith("use --clamp to clamp (did you mean degrees? add --deg)")
+    # With --deg the same number is inside the limits (90 deg < 120 deg).
+    run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=90", "--deg", check_status=0)
+
+
+def test_limit_error_with_deg_speaks_degrees():
+    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=150", "--deg", check_status=2)
+    assert "joint 'iiwa_joint_2' = 150 is above its upper limit 120 (limits [-120, 120] deg)" in result.stderr
+
+
+def test_continuous_joint_above_a_full_turn_answers_with_a_degrees_warning():
+    result = run("tf-between", "base_link", "ee_link", "--q", "elbow_joint=90", check_status=0)
+    assert result.stderr == "warning: joint 'elbow_joint' = 90 rad is more than a full turn; did you mean degrees? add --deg\n"
+
+
+def test_q_file_row_outside_the_limits_names_the_line(tmp_path):
+    path = tmp_path / "poses.csv"
+    path.write_text("iiwa_joint_2,iiwa_joint_4\n0.1,0.2\n# a comment line\n2.5,0\n")
+    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q-file", path, check_status=2)
+    assert f"--q-file {path}: line 4: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944" in result.stderr
+    clamped = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q-file", path, "--clamp", check_status=0)
+    assert clamped.stderr == f"warning: --q-file {path}: clamped 1 value(s) into the joint limits (line 4 iiwa_joint_2)\n"
+
+
+def test_description_warnings_go_to_stderr_as_warning_lines(tmp_path):
+    path = tmp_path / "long_axis.urdf"
+    path.write_text('<robot name="t">\n<link name="a"/>\n<link name="b"/>\n<joint name="j" type="continuous">'
+                    '<parent link="a"/><child link="b"/><axis xyz="0 0 3"/></joint>\n</robot>')
+    result = run("tf-between", "a", "b", "--robot", path, "--q", "j=0.5", "--format", "json", check_status=0)
+    assert result.stderr == "warning: long_axis.urdf:4: joint 'j' axis '0 0 3' (length 3) normalised to '0 0 1'\n"
+    T = np.array(json.loads(result.stdout)["matrix"])
+    assert np.arctan2(T[1, 0], T[0, 0]) == pytest.approx(0.5, abs=1e-12)  # 0.5 rad about z, not 1.5
+
+
+def test_unresolved_mesh_is_a_warning_for_kinematics(tmp_path):
+    path = tmp_path / "meshy.urdf"
+    path.write_text('<robot name="t">\n<link name="a"/>\n<link name="b"><visual><geometry>'
+                    '<mesh filename="package://no_such_pkg/b.stl"/></geometry></visual></link>\n'
+                    '<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint>\n</robot>')
+    result = run("tf-between", "a", "b", "--robot", path, check_status=0)
+    assert result.stderr.startswith("warning: meshy.urdf:3: link 'b' mesh package://no_such_pkg/b.stl: package 'no_such_pkg' not found")
+    assert result.stderr.count("\n") == 1 and "- Translation (m): [0.000000, 0.000000, 0.000000]" in result.stdout
+
+
+def test_internal_error_exits_1_with_a_short_message_and_a_report_hint(capsys):
+    from manipkit.cli import _run, _tf_parser
+
+    def broken(args):
+        raise RuntimeError("an invariant broke")
+
+    status = _run(_tf_parser("tf-between"), ["base_link", "ee_link"], broken)
+    err = capsys.readouterr().err
+    assert status == 1
+    assert err == ("tf-between: internal error (RuntimeError: an invariant broke); this is a bug in manipkit, "
+                   "please report it with the command line used\n")
+
+
+def test_user_error_message_is_always_one_line(capsys):
+    from manipkit.cli import UsageError, _run, _tf_parser
+
+    def multiline(args):
+        raise UsageError("first line\nsecond line")
+
+    assert _run(_tf_parser("tf-between"), ["base_link", "ee_link"], multiline) == 2
+    assert capsys.readouterr().err == "tf-between: error: first line second line\n"
 
 
 BUNDLED = sorted(bundled_robots())

@@ -125,7 +125,7 @@ def test_package_uri_resolves_to_example_robot_data_meshes():
 def test_xacro_error_names_the_file(tmp_path):
     path = tmp_path / "bad.urdf.xacro"
     path.write_text('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="${1/0}"/></robot>')
-    with pytest.raises(DescriptionError, match=r"bad.urdf.xacro: xacro: division by zero"):
+    with pytest.raises(DescriptionError, match=r"bad.urdf.xacro:1: xacro expression \$\{1/0\}: division by zero"):
         manipkit.load(path)
 
 

@@ -3,7 +3,11 @@
 ``tf-between SOURCE TARGET`` prints T_SOURCE_TARGET (the pose of TARGET in
 SOURCE) like ROS 2 ``tf2_echo``; ``manipkit`` groups the other commands.
 User errors print one line on stderr and exit with status 2; a bug exits
-with status 1 and asks to be reported.
+with status 1 and asks to be reported. Warnings (a normalised joint axis, an
+unresolved ``package://`` mesh, a value moved into its limits by ``--clamp``)
+print as ``warning: ...`` lines on stderr; the answer stays alone on stdout.
+Joint values outside their limits are an error naming the joint, the value
+and the limits, unless ``--clamp`` is given.
 
 argparse (standard library) is used rather than click/typer so that
 ``tf-between`` starts fast; heavy modules are imported inside the commands.
@@ -13,12 +17,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
 from manipkit.errors import ManipkitError
 
 EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
+EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -30,6 +36,11 @@ class _Parser(argparse.ArgumentParser):
 
 class UsageError(ManipkitError):
     """A malformed command-line value."""
+
+
+def warn(message: str) -> None:
+    """The warnings channel: one ``warning: ...`` line on stderr (stdout stays the answer)."""
+    print(f"warning: {' '.join(str(message).split())}", file=sys.stderr)
 
 
 # ----------------------------------------------------------------------
@@ -58,38 +69,124 @@ def _add_joint_options(parser: argparse.ArgumentParser) -> None:
         help="joint values by name (repeatable), or all joint values in order; joints not given are 0",
     )
     parser.add_argument("--deg", action="store_true", help="angles are given in degrees (prismatic joints stay in metres)")
+    parser.add_argument(
+        "--clamp", action="store_true",
+        help="move joint values outside their limits to the nearest limit (with a warning) instead of an error",
+    )
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:
     pairs = {}
     for item in items:
         key, sep, value = item.partition("=")
+        key = key.strip()
         if not sep or not key:
             raise UsageError(f"{option} '{item}': expected NAME=VALUE")
+        if key in pairs:
+            raise UsageError(f"{option}: {key} given twice ({key}={pairs[key]} and {key}={value}); give it once")
         pairs[key] = value
     return pairs
 
 
-def _load(args):
+def _load(args, *, mesh_warnings: bool = True):
+    """The robot of --robot/--arg/--package-dir; its load warnings go to the warnings channel.
+
+    ``mesh_warnings=False`` leaves out unresolved ``package://`` meshes (the viewer makes them an error).
+    """
     import manipkit
 
-    package_dirs = {k: Path(v) for k, v in _pairs(args.package_dir, "--package-dir").items()}
-    return manipkit.load(args.robot, package_dirs=package_dirs, **_pairs(args.arg, "--arg"))
+    package_dirs = {}
+    for name, folder in _pairs(args.package_dir, "--package-dir").items():
+        if not folder:
+            raise UsageError(f"--package-dir {name}=: give the folder of package {name}")
+        package_dirs[name] = Path(folder)
+    robot = manipkit.load(args.robot, package_dirs=package_dirs, **_pairs(args.arg, "--arg"))
+    for message in robot.warnings:
+        if mesh_warnings or message not in robot.mesh_warnings:
+            warn(message)
+    return robot
 
 
-def _joint_vector(robot, args):
-    """Joint vector from --q NAME=VALUE ... or --q V1 V2 ... (all joints in order)."""
-    items = args.q
+def _joint_vector(robot, args, *, option: str = "--q", items=None):
+    """Joint vector from --q NAME=VALUE ... or --q V1 V2 ... (all joints in order), limits checked."""
+    items = args.q if items is None else items
     if items and all(_is_number(item) for item in items):
         if len(items) != len(robot.joint_names):
             raise UsageError(
-                f"--q got {len(items)} values but {robot.name} has {len(robot.joint_names)} joints "
-                f"({', '.join(robot.joint_names)}); give all of them in order, or NAME=VALUE pairs"
+                f"{option} got {len(items)} value{'s' if len(items) != 1 else ''} but {robot.name} has "
+                f"{len(robot.joint_names)} joints ({', '.join(robot.joint_names) or 'none'}); "
+                "give all of them in order, or NAME=VALUE pairs"
             )
         values = dict(zip(robot.joint_names, items))
     else:
-        values = _pairs(items, "--q")
-    return robot.q(values, degrees=args.deg)
+        values = _pairs(items, option)
+    prefix = "" if option == "--q" else f"{option}: "
+    try:
+        q = robot.q(values, degrees=args.deg)
+    except ManipkitError as exc:
+        if not prefix:
+            raise
+        raise UsageError(f"{prefix}{exc}") from None
+    return _limit_checked(robot, q, degrees=args.deg, clamp=args.clamp, given=set(values), prefix=prefix)
+
+
+def _limit_checked(robot, q, *, degrees: bool, clamp: bool, given=None, prefix: str = ""):
+    """``q`` if inside the joint limits; clamped with a warning under --clamp; else a one-line error.
+
+    The error names the joint, its value and the limits; a value above a
+    full turn on an angular joint without --deg gets a degrees hint.
+    Values of continuous joints above a full turn get the hint as a warning.
+    """
+    violations = robot.limit_violations(q)
+    for joint, value in zip(robot.joints, q):
+        unlimited = not (math.isfinite(joint.lower) and math.isfinite(joint.upper))
+        if unlimited and joint.is_angular and not degrees and abs(value) > 2 * math.pi and (given is None or joint.name in given):
+            warn(f"{prefix}joint '{joint.name}' = {value:.6g} rad is more than a full turn; "
+                 "did you mean degrees? add --deg")
+    if not violations:
+        return q
+    if clamp:
+        clamped = robot.clamp(q)
+        for error in violations:
+            side = "upper" if error.value > error.upper else "lower"
+            limit = error.upper if side == "upper" else error.lower
+            warn(f"{prefix}joint '{error.joint}' = {_joint_value_text(error.value, error.unit, degrees)} "
+                 f"clamped to its {side} limit {_joint_value_text(limit, error.unit, degrees)}")
+        return clamped
+    error = violations[0]
+    message = _limit_message(error, degrees)
+    if len(violations) > 1:
+        others = ", ".join(e.joint for e in violations[1:4]) + (", ..." if len(violations) > 4 else "")
+        message += f"; also outside: {others}"
+    hint = ""
+    if not degrees and error.unit == "rad" and abs(error.value) > 2 * math.pi:
+        hint = " (did you mean degrees? add --deg)"
+    elif error.unit == "m" and error.lower <= error.value / 1000 <= error.upper:
+        hint = f" (values are in metres: did you mean {error.value / 1000:g}?)"
+    raise UsageError(f"{prefix}{message}; use --clamp to clamp{hint}")
+
+
+def _joint_value_text(value: float, unit: str, degrees: bool) -> str:
+    return f"{math.degrees(value):.6g} deg" if degrees and unit == "rad" else f"{value:.6g} {unit}"
+
+
+def _limit_message(error, degrees: bool) -> str:
+    """JointLimitError's message, in degrees when the user gave degrees."""
+    if not (degrees and error.unit == "rad"):
+        return str(error)
+    value, lower, upper = (math.degrees(v) for v in (error.value, error.lower, error.upper))
+    side = f"above its upper limit {upper:.6g}" if error.value > error.upper else f"below its lower limit {lower:.6g}"
+    return f"joint '{error.joint}' = {value:.6g} is {side} (limits [{lower:.6g}, {upper:.6g}] deg)"
+
+
+def _check_precision(precision: int) -> None:
+    if precision < 0 or precision > 17:
+        raise UsageError(f"--precision {precision}: give a number of decimals from 0 to 17")
+
+
+def _check_tolerance(tol: float, option: str = "--tol") -> None:
+    if not (math.isfinite(tol) and tol > 0):
+        raise UsageError(f"{option} {tol:g}: give a positive finite tolerance (m and rad)")
 
 
 def _is_number(text: str) -> bool:
@@ -178,15 +275,14 @@ def run_tf(args) -> int:
     robot = _load(args)
     source, target = args.source, args.target
     robot.frame(source), robot.frame(target)  # unknown frames fail before anything else
-    if args.precision < 0 or args.precision > 17:
-        raise UsageError(f"--precision {args.precision}: give a number of decimals from 0 to 17")
+    _check_precision(args.precision)
+    if args.compare is not None:
+        _check_tolerance(args.tol)
     if args.q_file is not None:
         return _run_tf_batch(robot, args)
     if args.format == "csv":
         raise UsageError("--format csv needs --q-file; use text or json for one configuration")
     q = _joint_vector(robot, args)
-    for warning in robot.outside_limits(q):
-        print(f"warning: {warning}; transform computed anyway", file=sys.stderr)
     T = robot.transform(source, target, q)
     status, comparison = EXIT_OK, None
     if args.compare is not None:
@@ -223,7 +319,7 @@ def _run_tf_batch(robot, args) -> int:
 
     if args.q or args.compare is not None:
         raise UsageError("--q-file cannot be combined with --q or --compare")
-    Q = read_q_file(robot, args.q_file, degrees=args.deg)
+    Q = read_q_file(robot, args.q_file, degrees=args.deg, limits="clamp" if args.clamp else "error")
     T = robot.fk(Q, args.target, base=args.source)
     fields = pose_fields(T)
     if args.format == "json":
@@ -243,32 +339,72 @@ def _run_tf_batch(robot, args) -> int:
     return EXIT_OK
 
 
-def read_q_file(robot, path: Path, *, degrees: bool = False):
-    """Joint vectors (N, n) from a CSV whose header names joints; missing joints are 0."""
+def read_q_file(robot, path: Path, *, degrees: bool = False, limits: str = "ignore"):
+    """Joint vectors (N, n) from a CSV whose header names joints; missing joints are 0.
+
+    ``limits``: ``"ignore"`` (values as given), ``"error"`` (a value outside
+    its joint's limits is an error naming the line) or ``"clamp"`` (moved
+    to the nearest limit, with one warning summing up what was clamped).
+    """
     import csv
 
     import numpy as np
 
     try:
-        with open(path, newline="") as handle:
-            rows = [row for row in csv.reader(handle) if row and not row[0].lstrip().startswith("#")]
+        with open(path, newline="", encoding="utf-8") as handle:
+            numbered = [
+                (handle_line, row) for handle_line, row in _numbered_rows(csv.reader(handle))
+                if row and any(cell.strip() for cell in row) and not row[0].lstrip().startswith("#")
+            ]
+    except IsADirectoryError:
+        raise UsageError(f"--q-file {path}: is a folder, expected a CSV file") from None
     except OSError as exc:
-        raise UsageError(f"--q-file {path}: cannot read ({exc.strerror})") from None
-    if len(rows) < 2:
+        raise UsageError(f"--q-file {path}: cannot read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise UsageError(f"--q-file {path}: not a text file; expected CSV with a header of joint names") from None
+    except csv.Error as exc:
+        raise UsageError(f"--q-file {path}: not valid CSV ({exc})") from None
+    if len(numbered) < 2:
         raise UsageError(f"--q-file {path}: needs a header of joint names and at least one row")
-    header = [cell.strip() for cell in rows[0]]
+    header = [cell.strip() for cell in numbered[0][1]]
     unknown = [name for name in header if name not in robot.joint_names]
     if unknown:
-        raise UsageError(f"--q-file {path}: unknown joint column(s) {', '.join(unknown)}; joints: {', '.join(robot.joint_names)}")
-    Q = np.empty((len(rows) - 1, len(robot.joint_names)))
-    for number, row in enumerate(rows[1:], start=2):
+        import difflib
+
+        close = difflib.get_close_matches(unknown[0], robot.joint_names, n=1, cutoff=0.5)
+        hint = f"did you mean {close[0]}? " if close else ""
+        raise UsageError(f"--q-file {path}: unknown joint column(s) {', '.join(unknown)}; {hint}"
+                         f"joints: {', '.join(robot.joint_names)}")
+    repeated = sorted({name for name in header if header.count(name) > 1})
+    if repeated:
+        raise UsageError(f"--q-file {path}: column(s) {', '.join(repeated)} appear twice in the header")
+    Q = np.empty((len(numbered) - 1, len(robot.joint_names)))
+    clamped: list[str] = []
+    for index, (number, row) in enumerate(numbered[1:]):
         if len(row) != len(header):
             raise UsageError(f"--q-file {path}: line {number} has {len(row)} values, the header has {len(header)}")
         try:
-            Q[number - 2] = robot.q(dict(zip(header, row)), degrees=degrees)
+            q = robot.q(dict(zip(header, (cell.strip() for cell in row))), degrees=degrees)
         except ManipkitError as exc:
             raise UsageError(f"--q-file {path}: line {number}: {exc}") from None
+        if limits != "ignore":
+            violations = robot.limit_violations(q)
+            if violations and limits == "clamp":
+                clamped += [f"line {number} {e.joint}" for e in violations]
+                q = robot.clamp(q)
+            elif violations:  # the error of --q, with this file's line
+                _limit_checked(robot, q, degrees=degrees, clamp=False, given=set(), prefix=f"--q-file {path}: line {number}: ")
+        Q[index] = q
+    if clamped:
+        warn(f"--q-file {path}: clamped {len(clamped)} value(s) into the joint limits "
+             f"({', '.join(clamped[:3])}{', ...' if len(clamped) > 3 else ''})")
     return Q
+
+
+def _numbered_rows(reader):
+    """(line number in the file, row) for each CSV row."""
+    for row in reader:
+        yield reader.line_num, row
 
 
 # ----------------------------------------------------------------------
@@ -369,6 +505,7 @@ def run_dh_check(args) -> int:
     robot = _load(args)
     if args.samples < 1:
         raise UsageError(f"--samples {args.samples}: give at least 1")
+    _check_tolerance(args.tol)
     result = check_dh(table, robot, base=args.base, tip=args.tip, samples=args.samples, tol=args.tol)
     if args.format == "json":
         print(json.dumps({
@@ -435,6 +572,15 @@ def _ik_target(args):
 
     from manipkit.rotations import matrix_from_quaternion, matrix_from_rpy
 
+    for option, values, unit in (("--xyz", args.xyz, "m"), ("--rpy", args.rpy, "deg" if args.deg else "rad"),
+                                 ("--quat", args.quat, "")):
+        if values is not None and not all(math.isfinite(v) for v in values):
+            bad = next(v for v in values if not math.isfinite(v))
+            raise UsageError(f"{option} {' '.join(f'{v:g}' for v in values)}: {bad:g} is not finite; "
+                             f"give finite numbers{' (' + unit + ')' if unit else ''}")
+    if args.quat is not None and math.hypot(*args.quat) < 1e-9:
+        raise UsageError(f"--quat {' '.join(f'{v:g}' for v in args.quat)}: a zero quaternion is no rotation; "
+                         "give (x, y, z, w) with a non-zero length, e.g. 0 0 0 1")
     T = np.eye(4)
     T[:3, 3] = args.xyz
     if args.rpy is not None:
@@ -454,6 +600,9 @@ def _q_text(robot, q, precision: int) -> str:
 def run_ik(args) -> int:
     from manipkit.ik import analytic_ik, ik
 
+    _check_precision(args.precision)
+    if args.restarts < 0:
+        raise UsageError(f"--restarts {args.restarts}: give 0 or more")
     robot = _load(args)
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
@@ -470,7 +619,7 @@ def run_ik(args) -> int:
         notes = [result.reason] if result.reason else []
         fallback = None
     else:
-        q0 = robot.q(_pairs(args.seed_q, "--seed-q"), degrees=args.deg) if args.seed_q else None
+        q0 = _joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
         found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
                    q0=q0, all=args.all, restarts=args.restarts, seed=args.seed)
         results = list(found) if args.all else ([found] if found.success else [])
@@ -513,6 +662,8 @@ def run_ik(args) -> int:
 def run_workspace(args) -> int:
     from manipkit.workspace import planar_link_lengths, planar_workspace, plot_planar_workspace
 
+    if args.samples < 1:
+        raise UsageError(f"--samples {args.samples}: give at least 1")
     robot = _load(args)
     lengths = planar_link_lengths(robot)
     workspace = planar_workspace(lengths)
@@ -546,11 +697,13 @@ def run_view(args) -> int:
 
     from manipkit import viewer
 
-    robot = _load(args)
+    if not 0 <= args.port <= 65535:
+        raise UsageError(f"--port {args.port}: give a port from 1 to 65535 (0 = any free port)")
+    robot = _load(args, mesh_warnings=False)
     q = _joint_vector(robot, args)
     frames = tuple(args.frames)
-    for warning in robot.outside_limits(q):
-        print(f"warning: {warning}; the viewer clamps it into the limits", file=sys.stderr)
+    for frame in frames:
+        robot.frame(frame)  # unknown frames fail with the closest names before the viewer starts
     if args.static is not None:
         path = viewer.write_static(robot, args.static, frames=frames, q=q)
         size = path.stat().st_size / 1e6
@@ -647,6 +800,7 @@ def _main_parser() -> argparse.ArgumentParser:
     ik.add_argument("--all", action="store_true", help="numerical: return every distinct solution found within the restart budget")
     ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
+    ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
     ik.add_argument("--restarts", type=int, default=50, metavar="N", help="random restarts (default 50)")
     ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
     ik.add_argument("--precision", type=int, default=6, metavar="N")
@@ -676,18 +830,20 @@ def _run(parser: argparse.ArgumentParser, argv, runner=None) -> int:
     try:
         return (runner or args.run)(args)
     except ManipkitError as exc:
-        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        print(f"{parser.prog}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:  # a bug: short message, no traceback, exit 1
+        detail = " ".join(str(exc).split())[:300]
         print(
-            f"{parser.prog}: internal error ({type(exc).__name__}: {exc}); please report it with the command line used",
+            f"{parser.prog}: internal error ({type(exc).__name__}: {detail}); this is a bug in manipkit, "
+            "please report it with the command line used",
             file=sys.stderr,
         )
-        return 1
+        return EXIT_INTERNAL
 
 
 def tf_between_main(argv=None) -> int:

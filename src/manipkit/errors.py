@@ -61,3 +61,24 @@ class ClosedFormIKError(ManipkitError, ValueError):
 
 class IKOptionError(ManipkitError, ValueError):
     """An IK option that is not valid (mode, axis, tolerance, budget)."""
+
+
+class JointLimitError(JointValueError):
+    """A joint value outside its joint's limits (from :meth:`manipkit.model.Robot.check_limits`).
+
+    Attributes
+    ----------
+    joint : str
+    value, lower, upper : float
+        The value and the limits (rad for angular joints, m for prismatic ones).
+    unit : str
+        ``"rad"`` or ``"m"``.
+    """
+
+    def __init__(self, joint: str, value: float, lower: float, upper: float, unit: str = "rad"):
+        self.joint, self.value, self.lower, self.upper, self.unit = joint, value, lower, upper, unit
+        side = f"above its upper limit {upper:.6g}" if value > upper else f"below its lower limit {lower:.6g}"
+        super().__init__(
+            f"joint '{joint}' = {value:.6g} is {side} (limits [{lower:.6g}, {upper:.6g}] {unit})"
+        )
+

@@ -27,13 +27,18 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from manipkit.errors import ChainError, DescriptionError, JointValueError, UnknownFrameError
-from manipkit.robots import RobotSource, resolve_robot, urdf_text, xacro_arg_names
+from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
+from manipkit.robots import PackageResolver, RobotSource, resolve_robot, urdf_text, xacro_arg_names, xacro_locator
 from manipkit.rotations import matrix_from_axis_angle
-from manipkit.validate import parse_urdf
+from manipkit.validate import check_urdf, package_uri_warnings
 
 BASE_ALIASES = ("base_link", "world")
 EE_ALIAS = "ee_link"
+#: A joint value this far outside its limit still counts as inside (printed values round-trip).
+LIMIT_TOLERANCE = 1e-12
+#: More movable joints than this are refused: Pinocchio's Data holds nv x nv x nv tensors
+#: (about 0.6 GB at 200, 1.8 GB at 300, 64 GB at 1000); arms and humanoids have tens.
+MAX_DEGREES_OF_FREEDOM = 200
 
 
 @dataclass(frozen=True)
@@ -114,14 +119,33 @@ class Robot:
     vectors (one value per movable joint, radians or metres).
     """
 
-    def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None):
+    def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None, warnings=()):
         self.model = model
-        self.data = model.createData()
+        if model.nv > MAX_DEGREES_OF_FREEDOM:  # checked before Pinocchio allocates its workspace
+            raise DescriptionError(
+                f"{source.path.name}: {model.nv} degrees of freedom; manipkit handles up to {MAX_DEGREES_OF_FREEDOM} "
+                f"(Pinocchio's workspace grows with the cube of the count: about "
+                f"{64 * model.nv ** 3 / 1e9:.2g} GB here)"
+            )
+        try:
+            self.data = model.createData()
+        except MemoryError:
+            raise DescriptionError(
+                f"{source.path.name}: {model.nv} degrees of freedom: Pinocchio's workspace for this model does not "
+                "fit in memory"
+            ) from None
         self.urdf = urdf
         self.source = source
         self.name = robot_xml.get("name") or source.name
         self.package_dirs = dict(package_dirs or {})
         self.xacro_args: dict[str, str] = {}  # effective xacro arguments (defaults and given), set by load()
+        #: Problems found while loading that do not change the kinematics (a normalised axis, a joint
+        #: that cannot move, an unresolved package:// mesh, ...), one line each; the CLI prints them
+        #: as ``warning: ...`` on stderr.
+        self.warnings: list[str] = list(warnings)
+        #: The subset of :attr:`warnings` about ``package://`` meshes that do not resolve (the viewer's
+        #: own error covers them).
+        self.mesh_warnings: list[str] = []
         self.joints = _movable_joints(model, robot_xml)
         self.joint_names = tuple(j.name for j in self.joints)
         self._joint_index = {j.name: i for i, j in enumerate(self.joints)}
@@ -147,16 +171,30 @@ class Robot:
 
     @classmethod
     def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> "Robot":
-        """Build a robot from URDF text (checked by :func:`manipkit.validate.parse_urdf`)."""
+        """Build a robot from URDF text, checked first by :func:`manipkit.validate.check_urdf`.
+
+        Invalid descriptions raise :class:`DescriptionError` naming the file,
+        line and element; problems that leave the kinematics right (a
+        non-unit axis, normalised; a ``package://`` mesh that does not
+        resolve) are collected in :attr:`warnings`.
+        """
         if source is None:
             source = RobotSource("robot", Path("<string>"), "string")
         where = source.path.name
-        robot_xml = parse_urdf(text, where)
-        try:
-            model = pin.buildModelFromXML(text)
-        except (ValueError, RuntimeError) as exc:
-            raise DescriptionError(f"{where}: Pinocchio cannot build a model: {' '.join(str(exc).split())}") from None
-        return cls(model, text, source, robot_xml, package_dirs)
+        locate = xacro_locator(source.path) if source.is_xacro and source.path.is_file() else None
+        checked = check_urdf(text, where, locate=locate)
+        warnings = list(checked.warnings)
+        near = source.path if source.path.is_file() else None
+        resolver = PackageResolver({k: Path(v) for k, v in (package_dirs or {}).items()}, near=near)
+        mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate)
+        model, messages = _build_model(checked.text)
+        if model is None:
+            reason = "; ".join(messages) or "no reason given"
+            raise DescriptionError(f"{where}: Pinocchio cannot build a model: {reason}")
+        warnings += mesh_warnings + [f"{where}: URDF parser: {m}" for m in messages]
+        robot = cls(model, checked.text, source, checked.robot, package_dirs, warnings)
+        robot.mesh_warnings = list(mesh_warnings)
+        return robot
 
     def __repr__(self) -> str:
         return (
@@ -232,7 +270,8 @@ class Robot:
         """
         lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in self.joints])
         upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in self.joints])
-        return np.random.default_rng(seed).uniform(lower, upper, size=(n, len(self.joints)))
+        u = np.random.default_rng(seed).random(size=(n, len(self.joints)))
+        return lower * (1.0 - u) + upper * u  # not lower + (upper - lower) u: upper - lower may overflow
 
     def _choose_ee(self, declared: str | None) -> tuple[str, str]:
         if EE_ALIAS in self._frame_ids:
@@ -279,6 +318,15 @@ class Robot:
             Unknown joint name (the valid ones are listed) or a value that is
             not a finite number.
 
+        Notes
+        -----
+        Values outside the joint limits are accepted here (the pose such a
+        value would give can still be computed). For a strict check use
+        :meth:`check_limits` (raises :class:`JointLimitError` naming the
+        joint, value and limits), :meth:`limit_violations` to list them, or
+        :meth:`clamp` to move them to the nearest limit. The command line is
+        strict: a value outside the limits is an error unless ``--clamp``.
+
         Examples
         --------
         >>> robot = load("planar_2r")
@@ -315,8 +363,50 @@ class Robot:
         return [
             f"{j.name}={value:.6g} is outside its limits [{j.lower:.6g}, {j.upper:.6g}]"
             for j, value in zip(self.joints, q)
-            if not (j.lower - 1e-12 <= value <= j.upper + 1e-12)
+            if not (j.lower - LIMIT_TOLERANCE <= value <= j.upper + LIMIT_TOLERANCE)
         ]
+
+    def limit_violations(self, q) -> list[JointLimitError]:
+        """One :class:`JointLimitError` per joint of ``q`` outside its limits, in joint order (not raised)."""
+        q = self._check_q(q)
+        return [
+            JointLimitError(j.name, float(value), j.lower, j.upper, "m" if not j.is_angular else "rad")
+            for j, value in zip(self.joints, q)
+            if not (j.lower - LIMIT_TOLERANCE <= value <= j.upper + LIMIT_TOLERANCE)
+        ]
+
+    def check_limits(self, q) -> np.ndarray:
+        """``q`` itself when every value is inside its joint's limits, else :class:`JointLimitError`.
+
+        The rest of the API is permissive (:meth:`q`, :meth:`transform` and
+        :meth:`fk` take values outside the limits and compute the pose the
+        joints would have); call this for a strict check. The error names the
+        first joint outside its limits, its value and the limits:
+        ``joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits
+        [-2.0944, 2.0944] rad)``.
+
+        Examples
+        --------
+        >>> robot = load("iiwa14")
+        >>> robot.check_limits(robot.q(iiwa_joint_2=2.5))
+        Traceback (most recent call last):
+        ...
+        manipkit.errors.JointLimitError: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)
+        """
+        violations = self.limit_violations(q)
+        if violations:
+            raise violations[0]
+        return np.asarray(q, dtype=float)
+
+    def clamp(self, q) -> np.ndarray:
+        """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
+
+        Works on one joint vector (n,) or many (..., n).
+        """
+        Q = np.array(q, dtype=float)
+        lower = np.array([j.lower for j in self.joints], dtype=float)
+        upper = np.array([j.upper for j in self.joints], dtype=float)
+        return np.minimum(np.maximum(Q, lower), upper)
 
     def _check_q(self, q) -> np.ndarray:
         q = self.q() if q is None else np.asarray(q, dtype=float)
@@ -391,7 +481,7 @@ class Robot:
         if not np.all(np.isfinite(Q)):
             raise JointValueError("joint values must be finite numbers")
         lead = Q.shape[:-1]
-        flat = Q.reshape(-1, len(self.joints))
+        flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
         R, p = self._chain_fk(flat, self.frame_id(frame))
         if base is not None and self.frame(base) != self.root_link:
             R_base, p_base = self._chain_fk(flat, self.frame_id(base))
@@ -441,6 +531,47 @@ class Robot:
             else:
                 R = R @ matrix_from_axis_angle(step.axis, values)
         return R, p
+
+
+def _build_model(text: str) -> tuple[pin.Model | None, list[str]]:
+    """Pinocchio's model of URDF text, and what its C++ URDF parser printed on stderr.
+
+    urdfdom writes its reasons (and its complaints about descriptions it
+    still accepts) straight to file descriptor 2, out of reach of Python;
+    it is redirected to a temporary file for the call, so the reasons end up
+    in manipkit's one-line error or in :attr:`Robot.warnings` instead of
+    raw on the terminal.
+    """
+    import sys
+    import tempfile
+
+    model, failure = None, None
+    try:
+        sys.stderr.flush()
+    except (AttributeError, ValueError, OSError):
+        pass
+    with tempfile.TemporaryFile(mode="w+b") as captured:
+        try:
+            saved = os.dup(2)
+        except OSError:  # no file descriptor 2: nothing to capture
+            saved = None
+        try:
+            if saved is not None:
+                os.dup2(captured.fileno(), 2)
+            try:
+                model = pin.buildModelFromXML(text)
+            except (ValueError, RuntimeError) as exc:
+                failure = " ".join(str(exc).split())
+        finally:
+            if saved is not None:
+                os.dup2(saved, 2)
+                os.close(saved)
+        captured.seek(0)
+        output = captured.read().decode("utf-8", errors="replace")
+    messages = [" ".join(line.replace("Error:", "").split()) for line in output.splitlines() if line.strip()]
+    if model is None and failure and not messages:
+        messages = [failure]
+    return model, messages
 
 
 def _joint_kind_axis(model: pin.Model, joint_id: int) -> tuple[str, np.ndarray]:

@@ -354,17 +354,14 @@ def urdf_text(
                 f"{source.path.name} is plain URDF; xacro arguments "
                 f"({', '.join(xacro_args)}) only apply to .xacro files"
             )
-        try:
-            return source.path.read_text()
-        except (OSError, UnicodeDecodeError) as exc:
-            raise DescriptionError(f"{source.path}: cannot read: {exc}") from None
+        return _read_description(source.path)
     resolver = PackageResolver(dict(package_dirs or {}), near=source.path)
     return expand_xacro(source.path, xacro_args, resolver)
 
 
 def xacro_arg_names(path: Path) -> dict[str, str | None]:
     """The ``<xacro:arg name default>`` declarations of a xacro file (name -> default)."""
-    text = path.read_text(errors="replace")
+    text = _without_comments(path.read_text(errors="replace"))
     args = {}
     for match in re.finditer(r"<xacro:arg\s+([^>]*)/?>", text):
         attrs = dict(re.findall(r'(\w+)\s*=\s*"([^"]*)"', match.group(1)))
@@ -377,7 +374,10 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     """Expand a xacro file to URDF text, with ``$(find)`` answered by ``resolver``.
 
     Unknown argument names are an error listing the declared ones (xacro
-    itself would ignore them silently).
+    itself would ignore them silently). Every xacro error names the xacro
+    file and line it comes from (``FILE.xacro:LINE: ...``): xacro reports
+    no lines, so the line is found by searching the xacro sources for the
+    offending expression, argument, include or macro.
     """
     import io
     import contextlib
@@ -385,6 +385,7 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     import xacro
     import xacro.substitution_args as substitution_args
 
+    _read_description(path)
     declared = xacro_arg_names(path)
     unknown = sorted(set(args) - set(declared))
     if unknown:
@@ -393,13 +394,13 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
             f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}"
         )
 
-    missing: list[PackageNotFoundError] = []
+    missing: list[tuple[str, PackageNotFoundError]] = []
 
     def find(package: str) -> str:
         try:
             return str(resolver.find(package))
         except PackageNotFoundError as exc:
-            missing.append(exc)  # xacro wraps exceptions; keep ours
+            missing.append((package, exc))  # xacro wraps exceptions; keep ours
             raise
 
     original_find = substitution_args._eval_find
@@ -410,14 +411,185 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
             document = xacro.process_file(str(path), mappings=dict(args))
         return document.toxml()
     except Exception as exc:  # xacro raises many kinds; all are description errors
-        if missing:
-            raise PackageNotFoundError(f"{path.name}: $(find): {missing[0]}") from None
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        stack = [f for f in (xacro.filestack or []) if f]
-        where = Path(stack[-1]).name if stack else path.name
-        raise DescriptionError(f"{where}: xacro: {message}") from None
+        raise _xacro_error(exc, path, missing, declared) from None
     finally:
         substitution_args._eval_find = original_find
+
+
+def _read_description(path: Path) -> str:
+    """The text of a description file, or a one-line error (unreadable, not UTF-8 text, empty)."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DescriptionError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise DescriptionError(
+            f"{path.name}: not a text file (byte 0x{data[exc.start]:02x} at offset {exc.start} is not UTF-8); "
+            "a URDF or xacro description is XML text"
+        ) from None
+    if not data.strip():
+        raise DescriptionError(f"{path.name}: empty file; a description is XML with a <robot name=\"...\"> root element")
+    return data.decode("utf-8-sig")  # a byte-order mark is not part of the XML
+
+
+def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) -> DescriptionError:
+    """One-line error for a failed xacro expansion: ``FILE.xacro:LINE: what, and what would be valid``."""
+    import xml.parsers.expat
+
+    import xacro
+
+    stack = [Path(f) for f in (xacro.filestack or []) if f]
+    current = stack[-1] if stack else path
+    macros = [m for m in (getattr(xacro, "macrostack", None) or [])]
+    macro_files = [Path(h[-1]) for m in reversed(macros) for h in (m.history or [])[-1:] if h and h[-1]]
+    files = _xacro_search_files(path, macro_files + list(reversed(stack)))
+    text = " ".join(str(exc).split()) or type(exc).__name__
+
+    def at(*needles: str, pattern: str | None = None) -> str:
+        found = _find_in_files(files, needles, pattern)
+        return found or current.name
+
+    if missing:
+        package, error = missing[0]
+        location = at(pattern=r"\$\(find\s+" + re.escape(package) + r"\s*\)")
+        return PackageNotFoundError(f"{location}: $(find {package}): {error}")
+    if isinstance(exc, xml.parsers.expat.ExpatError):
+        reason = xml.parsers.expat.ErrorString(exc.code) if exc.code else text
+        return DescriptionError(f"{current.name}:{exc.lineno}:{exc.offset}: malformed XML: {reason}")
+    if isinstance(exc, RecursionError):
+        names = list(dict.fromkeys(m.body.getAttribute("name") for m in macros[-3:]))
+        location = at(pattern=r"<xacro:(" + "|".join(map(re.escape, names)) + r")\b") if names else current.name
+        return DescriptionError(f"{location}: xacro recursion too deep "
+                                f"(macro {', '.join(names) or '?'} calls itself without end?)")
+    match = re.search(r"(.*?)\s*when evaluating expression '(.*)'$", text)
+    if match:
+        reason, expression = match.groups()
+        location = at("${" + expression + "}", expression)
+        return DescriptionError(f"{location}: xacro expression ${{{expression}}}: {reason}")
+    if "missing attribute 'default'" in text and "xacro:arg" in text:
+        location = at(pattern=r"<xacro:arg\b(?![^>]*\bdefault\s*=)[^>]*>")
+        name = _attribute_on_line(files, location, "name") or "NAME"
+        return DescriptionError(f'{location}: <xacro:arg name="{name}"> has no default; xacro needs '
+                                f'default="..." (--arg {name}=VALUE then overrides it)')
+    match = re.search(r"Undefined substitution argument (\S+)", text)
+    if match:
+        name = match.group(1)
+        location = at(pattern=r"\$\(arg\s+" + re.escape(name) + r"\s*\)")
+        valid = ", ".join(declared) or "none"
+        return DescriptionError(f'{location}: $(arg {name}): no such xacro argument; declare '
+                                f'<xacro:arg name="{name}" default="..."/> (declared: {valid})')
+    match = re.search(r"No such file or directory: (\S+)", text)
+    if match:
+        missing_file = match.group(1)
+        location = at(pattern=r"<xacro:include\b[^>]*" + re.escape(Path(missing_file).name))
+        return DescriptionError(f"{location}: xacro:include: file not found: {missing_file}")
+    match = re.search(r"unknown macro name: (?:xacro:)?(\S+)", text)
+    if match:
+        name = match.group(1)
+        location = at(pattern=r"<xacro:" + re.escape(name) + r"\b")
+        known = _xacro_macro_names(files)
+        close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+        hint = f"did you mean {close[0]}? " if close else ""
+        return DescriptionError(f"{location}: unknown xacro macro '{name}'; {hint}macros: {', '.join(known) or 'none defined'}")
+    match = re.search(r"Undefined parameters? \[(.*)\]", text)
+    if match and macros:
+        name = macros[-1].body.getAttribute("name")
+        location = at(pattern=r"<xacro:" + re.escape(name) + r"\b")
+        return DescriptionError(f"{location}: xacro macro '{name}' called without parameter(s) {match.group(1)}; "
+                                "give them as attributes")
+    match = re.search(r"invalid expression: (.*)$", text)
+    if match:
+        location = at(match.group(1))
+        return DescriptionError(f"{location}: xacro: invalid expression {match.group(1)} (unclosed ${{...}}?)")
+    match = re.search(r"Unknown substitution command \[([^\]]*)\]", text)
+    if match:
+        command = match.group(1)
+        location = at("$(" + command)
+        return DescriptionError(f"{location}: xacro: unknown substitution $({command}); "
+                                "valid: find, arg, env, optenv, dirname, eval")
+    match = re.search(r'conditional "([^"]*)"', text)
+    if match:
+        return DescriptionError(f"{at(match.group(1))}: xacro: {text}")
+    quoted = re.findall(r"'([^']{2,})'", text)
+    location = at(*quoted) if quoted else current.name
+    return DescriptionError(f"{location}: xacro: {text}")
+
+
+def _xacro_search_files(top: Path, stack: list[Path]) -> list[Path]:
+    """Files to search for an error's source: the ones xacro was in, then the top file, then its xacro siblings."""
+    files: list[Path] = []
+    for candidate in stack + [top]:
+        candidate = candidate if candidate.is_absolute() else (Path.cwd() / candidate)
+        if candidate.is_file() and candidate not in files:
+            files.append(candidate)
+    for folder in dict.fromkeys(f.parent for f in list(files)):
+        for sibling in sorted(folder.glob("*.xacro"))[:50]:
+            if sibling not in files:
+                files.append(sibling)
+    return files
+
+
+def _find_in_files(files: list[Path], needles=(), pattern: str | None = None) -> str | None:
+    """``NAME:LINE`` of the first match of ``pattern`` or of a needle (in order) in ``files``, or None."""
+    regexes = ([re.compile(pattern)] if pattern else []) + [re.compile(re.escape(n)) for n in needles if n]
+    for regex in regexes:
+        for path in files:
+            try:
+                text = _without_comments(path.read_text(errors="replace"))
+            except OSError:
+                continue
+            found = regex.search(text)
+            if found:
+                return f"{path.name}:{text.count(chr(10), 0, found.start()) + 1}"
+    return None
+
+
+def _without_comments(text: str) -> str:
+    """XML text with each comment blanked out (newlines kept, so line numbers stay)."""
+    return re.sub(r"<!--.*?-->", lambda m: re.sub(r"[^\n]", " ", m.group()), text, flags=re.S)
+
+
+def _attribute_on_line(files: list[Path], location: str, attribute: str) -> str | None:
+    name, _, line = location.rpartition(":")
+    for path in files:
+        if path.name == name and line.isdigit():
+            lines = path.read_text(errors="replace").splitlines()
+            match = re.search(rf'\b{attribute}\s*=\s*["\']([^"\']*)', lines[int(line) - 1] if int(line) <= len(lines) else "")
+            return match.group(1) if match else None
+    return None
+
+
+def _xacro_macro_names(files: list[Path]) -> list[str]:
+    names: list[str] = []
+    for path in files:
+        try:
+            text = _without_comments(path.read_text(errors="replace"))
+        except OSError:
+            continue
+        names += re.findall(r"<xacro:macro\b[^>]*\bname\s*=\s*[\"']([^\"']+)", text)
+    return list(dict.fromkeys(names))
+
+
+def xacro_locator(path: Path):
+    """``locate(tag, name)`` for :func:`manipkit.validate.check_urdf`: where a link or joint is written in xacro.
+
+    Searches the xacro file and the xacro files beside it for
+    ``<TAG ... name="NAME"``; returns ``"FILE.xacro:LINE"`` or None (the
+    name may be built by an expression, e.g. ``${prefix}_joint``).
+    """
+    files = _xacro_search_files(path, [])
+    cache: dict[tuple[str, str], str | None] = {}
+
+    def locate(tag: str, name: str) -> str | None:
+        key = (tag, name)
+        if key not in cache:
+            pattern = rf"<{re.escape(tag)}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']"
+            cache[key] = _find_in_files(files, pattern=pattern)
+        return cache[key]
+
+    return locate
 
 
 def parse_structure(text: str):

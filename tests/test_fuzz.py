@@ -1,0 +1,917 @@
+"""Fuzzing the description loaders: mutated URDF and xacro never crash, hang or load wrong.
+
+Each case starts from a bundled robot: its expanded URDF (``Robot.from_urdf``
+or ``manipkit.load`` of a ``.urdf`` file) or its xacro files (``manipkit.load``
+of the top-level ``.urdf.xacro`` in a scratch copy of ``robots/``). The text is
+mutated: elements deleted, duplicated or swapped; attributes set to random
+numbers, NaN, inf, garbage, empty, huge or tiny values, or removed; links and
+joints renamed (dangling references); joint types changed; axes zeroed or
+scaled; limits swapped; the text truncated or spliced with random characters
+or bytes; a value moved into a DOCTYPE entity; for xacro also arguments and
+properties removed, ``${...}`` expressions, includes and macro calls broken,
+and xacro arguments given odd values.
+
+The oracle, for every case:
+
+- the loader raises a :class:`ManipkitError` whose message is one non-empty
+  line, or returns a robot; any other exception is a bug;
+- a returned robot was built from a valid description, as judged by
+  :func:`description_problems` below, written from the URDF specification
+  (and what urdfdom, the reference parser, refuses), independently of
+  ``manipkit.validate``;
+- a returned robot is consistent with its text: the movable joints, their
+  types, parents, children, axes and limits, the links and the root are those
+  the text declares; ``sample_q`` stays finite and inside the limits; FK of
+  every link at random joint values inside the limits is finite, the batched
+  ``Robot.fk`` equals ``Robot.transform``, and both agree with yourdfpy's FK
+  (a second parser composing the chain itself) to 1e-9 (rotation) and
+  1e-9 * (1 + the summed link offsets) (translation);
+- every case ends within the hypothesis deadline, and a hard alarm guards
+  against hangs that the deadline cannot interrupt.
+
+``MANIPKIT_FUZZ_EXAMPLES`` sets the number of cases per fuzz test (default
+300, deterministic; ``make fuzz`` runs 10,000 with fresh randomness and the
+example database). When a case fails, its shrunk input is written to
+``/tmp/manipkit_fuzz_failure.*`` (``/tmp/manipkit_fuzz_failure_xacro/`` for
+xacro) so it can be replayed with ``manipkit.load``.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import io
+import math
+import os
+import re
+import shutil
+import signal
+import tempfile
+import time
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
+from dataclasses import dataclass, field
+from datetime import timedelta
+from io import BytesIO
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yourdfpy
+from hypothesis import HealthCheck, currently_in_test_context, event, given, settings
+from hypothesis import strategies as st
+from lxml import etree
+
+import manipkit
+from manipkit.errors import ManipkitError
+from manipkit.model import Robot
+from manipkit.robots import bundled_dir, bundled_robots, resolve_robot, urdf_text
+
+EXAMPLES = int(os.environ.get("MANIPKIT_FUZZ_EXAMPLES", "300"))
+FUZZING = "MANIPKIT_FUZZ_EXAMPLES" in os.environ  # make fuzz: fresh randomness, example database
+DEADLINE_MS = int(os.environ.get("MANIPKIT_FUZZ_DEADLINE_MS", "2000"))
+# An include loop makes xacro recurse to Python's recursion limit before it fails: about 1 s.
+XACRO_DEADLINE_MS = int(os.environ.get("MANIPKIT_FUZZ_XACRO_DEADLINE_MS", "5000"))
+HARD_TIMEOUT_S = 20.0  # a case still running after this is a hang, even inside C++ or a busy loop
+FAILURE_PREFIX = Path(tempfile.gettempdir()) / "manipkit_fuzz_failure"
+
+FUZZ_SETTINGS = settings(
+    max_examples=EXAMPLES,
+    deadline=timedelta(milliseconds=DEADLINE_MS),
+    derandomize=not FUZZING,
+    database=settings.default.database if FUZZING else None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much],
+    print_blob=True,
+)
+XACRO_FUZZ_SETTINGS = settings(FUZZ_SETTINGS, deadline=timedelta(milliseconds=XACRO_DEADLINE_MS))
+# pytest-timeout's 300 s (pyproject) is for one ordinary test; the fuzz tests get a budget per case.
+FUZZ_TIMEOUT = pytest.mark.timeout(max(300, int(EXAMPLES * 0.5)))
+
+
+# ==========================================================================
+# The independent judge of a description: the URDF specification, written out
+# ==========================================================================
+
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+MOVABLE = ("revolute", "continuous", "prismatic")
+# A number as URDF (urdfdom, via std::istringstream in the C locale) reads one:
+# ASCII digits, optional sign, point and exponent; no nan, inf, hex, '_' or other scripts.
+NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
+
+
+class _Invalid(Exception):
+    """One reason a description is not valid URDF."""
+
+
+@dataclass
+class SpecJoint:
+    name: str
+    type: str
+    parent: str
+    child: str
+    xyz: np.ndarray
+    rpy: np.ndarray
+    axis: np.ndarray  # unit vector (URDF default 1 0 0), for movable joints
+    lower: float
+    upper: float
+
+
+@dataclass
+class Spec:
+    """What a URDF text declares, read by the rules of the specification."""
+
+    problems: list[str] = field(default_factory=list)
+    links: list[str] = field(default_factory=list)
+    joints: dict[str, SpecJoint] = field(default_factory=dict)
+    root: str | None = None
+
+
+def _numbers(value: str | None, count: int, what: str) -> list[float]:
+    if value is None:
+        raise _Invalid(f"{what} is missing")
+    tokens = value.split()
+    if len(tokens) != count or not all(NUMBER.match(t) for t in tokens):
+        raise _Invalid(f"{what} is {value!r}, not {count} number(s)")
+    numbers = [float(t) for t in tokens]
+    if not all(math.isfinite(x) for x in numbers):
+        raise _Invalid(f"{what} is {value!r}, not finite")
+    return numbers
+
+
+def _optional_numbers(element, attribute: str, count: int, what: str, default: float = 0.0) -> list[float]:
+    if element is None or element.get(attribute) is None:
+        return [default] * count
+    return _numbers(element.get(attribute), count, what)
+
+
+def _unit(vector: list[float]) -> np.ndarray:
+    v = np.array(vector, dtype=float)
+    big = np.max(np.abs(v))
+    if big == 0.0:
+        raise _Invalid("a movable joint's axis is zero")
+    v = v / big  # scale first: the norm of (5e-324, 0, 0) underflows, its direction does not
+    return v / np.linalg.norm(v)
+
+
+def _check_origin(parent, what: str) -> tuple[list[float], list[float]]:
+    origin = parent.find("origin")
+    return (_optional_numbers(origin, "xyz", 3, f"{what} origin xyz"),
+            _optional_numbers(origin, "rpy", 3, f"{what} origin rpy"))
+
+
+def _check_link_contents(link, name: str, problems: list[str]) -> None:
+    """Inertial, visual and collision numbers: urdfdom refuses a model whose numbers do not parse."""
+    def guarded(check):
+        try:
+            check()
+        except _Invalid as exc:
+            problems.append(f"link '{name}': {exc} (inertial/geometry)")
+
+    inertial = link.find("inertial")
+    if inertial is not None:
+        guarded(lambda: _check_origin(inertial, "inertial"))
+        mass, inertia = inertial.find("mass"), inertial.find("inertia")
+        guarded(lambda: _numbers(None if mass is None else mass.get("value"), 1, "inertial mass value"))
+        for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+            guarded(lambda key=key: _numbers(None if inertia is None else inertia.get(key), 1, f"inertia {key}"))
+    for kind in ("visual", "collision"):
+        for shape_owner in link.findall(kind):
+            guarded(lambda owner=shape_owner: _check_origin(owner, kind))
+            geometry = shape_owner.find("geometry")
+            for shape in [] if geometry is None else list(geometry):
+                sizes = {"box": (("size", 3),), "cylinder": (("radius", 1), ("length", 1)), "sphere": (("radius", 1),),
+                         "capsule": (("radius", 1), ("length", 1))}.get(shape.tag, ())
+                for attribute, count in sizes:
+                    guarded(lambda shape=shape, attribute=attribute, count=count:
+                            _numbers(shape.get(attribute), count, f"{kind} {shape.tag} {attribute}"))
+                if shape.tag == "mesh" and shape.get("scale") is not None:
+                    guarded(lambda shape=shape: _numbers(shape.get("scale"), 3, f"{kind} mesh scale"))
+
+
+def _joint(element, name: str, links: set[str]) -> SpecJoint:
+    kind = element.get("type")
+    if kind not in JOINT_TYPES:
+        raise _Invalid(f"joint '{name}' has type {kind!r}")
+    ends = []
+    for tag in ("parent", "child"):
+        end = element.find(tag)
+        link = None if end is None else end.get("link")
+        if not link or link not in links:
+            raise _Invalid(f"joint '{name}' {tag} link {link!r} is missing or does not exist")
+        ends.append(link)
+    xyz, rpy = _check_origin(element, f"joint '{name}'")
+    axis = np.array([1.0, 0.0, 0.0])
+    if kind in MOVABLE or kind == "planar":
+        axis_element = element.find("axis")
+        if axis_element is not None and axis_element.get("xyz") is not None:  # <axis/> keeps 1 0 0 (urdfdom)
+            axis = _unit(_numbers(axis_element.get("xyz"), 3, f"joint '{name}' axis xyz"))
+    limit = element.find("limit")
+    lower, upper = -math.inf, math.inf
+    if limit is None and kind in ("revolute", "prismatic"):
+        raise _Invalid(f"{kind} joint '{name}' has no <limit>")
+    if limit is not None:  # urdfdom reads a <limit> on any joint type
+        for attribute in ("effort", "velocity"):  # required by the URDF schema
+            _numbers(limit.get(attribute), 1, f"joint '{name}' limit {attribute}")
+        low = _optional_numbers(limit, "lower", 1, f"joint '{name}' limit lower")[0]
+        high = _optional_numbers(limit, "upper", 1, f"joint '{name}' limit upper")[0]
+        if kind in ("revolute", "prismatic"):
+            if low > high:
+                raise _Invalid(f"joint '{name}' has lower limit {low} above upper limit {high}")
+            lower, upper = low, high
+    return SpecJoint(name, kind, ends[0], ends[1], np.array(xyz), np.array(rpy), axis, lower, upper)
+
+
+def read_spec(text: str) -> Spec:
+    """Read a URDF text by the specification; ``problems`` lists why it is invalid (empty: valid)."""
+    spec = Spec()
+    parser = etree.XMLParser(resolve_entities=True, no_network=True, huge_tree=False, remove_comments=True)
+    try:
+        robot = etree.fromstring(text.encode("utf-8"), parser)
+    except (etree.XMLSyntaxError, UnicodeEncodeError, ValueError) as exc:
+        spec.problems.append(f"not well-formed XML: {exc}")
+        return spec
+    if robot.tag != "robot":
+        spec.problems.append(f"root element is {robot.tag!r}, not <robot>")
+        return spec
+    if not robot.get("name"):
+        spec.problems.append("<robot> has no name")
+    names: dict[str, list[str]] = {"link": [], "joint": []}
+    for tag in names:
+        for element in robot.findall(tag):
+            name = element.get("name")
+            if not name:
+                spec.problems.append(f"a <{tag}> has no name")
+            elif name in names[tag]:
+                spec.problems.append(f"two <{tag}> elements are named '{name}'")
+            names[tag].append(name)
+    spec.links = [n for n in names["link"] if n]
+    if not spec.links:
+        spec.problems.append("no <link>")
+    links = set(spec.links)
+    for element in robot.findall("link"):
+        _check_link_contents(element, element.get("name"), spec.problems)
+    for element in robot.findall("joint"):
+        name = element.get("name")
+        try:
+            spec.joints.setdefault(name, _joint(element, name, links))
+        except _Invalid as exc:
+            spec.problems.append(str(exc))
+    if spec.problems:
+        return spec
+
+    # The tree: every link has at most one parent, one root, every link below it.
+    parent_of: dict[str, str] = {}
+    for joint in spec.joints.values():
+        if joint.child in parent_of:
+            spec.problems.append(f"link '{joint.child}' has two parents")
+        parent_of[joint.child] = joint.parent
+    roots = [link for link in spec.links if link not in parent_of]
+    if len(roots) != 1:
+        spec.problems.append(f"{len(roots)} root links")
+        return spec
+    spec.root = roots[0]
+    for link in spec.links:
+        seen, up = {link}, link
+        while up in parent_of:
+            up = parent_of[up]
+            if up in seen:
+                spec.problems.append(f"link '{link}' is on a cycle")
+                return spec
+            seen.add(up)
+    return spec
+
+
+def description_problems(text: str) -> list[str]:
+    """Why a URDF text is invalid (empty list: valid)."""
+    return read_spec(text).problems
+
+
+# ==========================================================================
+# The oracle
+# ==========================================================================
+
+
+class CaseTimeout(BaseException):
+    """A case ran past the hard timeout (a BaseException, so no ``except Exception`` in the loader hides it)."""
+
+
+@contextmanager
+def hard_timeout(seconds: float):
+    """SIGALRM after ``seconds``; pytest-timeout's own timer (also SIGALRM) is put back afterwards."""
+    def on_alarm(signum, frame):
+        raise CaseTimeout(f"case still running after {seconds} s")
+
+    start = time.monotonic()
+    previous_handler = signal.signal(signal.SIGALRM, on_alarm)
+    previous_remaining, previous_interval = signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous_handler)
+        if previous_remaining:
+            left = max(previous_remaining - (time.monotonic() - start), 1e-3)
+            signal.setitimer(signal.ITIMER_REAL, left, previous_interval)
+
+
+def _event(label: str) -> None:
+    if currently_in_test_context():  # also called from the plain regression tests below
+        event(label)
+
+
+def load_cleanly_or_refuse(load) -> Robot | None:
+    """Run a loader: a robot, or None after a clean ManipkitError; anything else fails the case."""
+    try:
+        with hard_timeout(HARD_TIMEOUT_S):
+            robot = load()
+    except ManipkitError as exc:
+        message = str(exc)
+        assert message.strip(), f"{type(exc).__name__} with an empty message"
+        assert "\n" not in message and "\r" not in message, f"{type(exc).__name__} message is not one line: {message!r}"
+        _event(f"refused: {type(exc).__name__}")
+        return None
+    except CaseTimeout:
+        raise AssertionError(f"hang: the loader ran past {HARD_TIMEOUT_S} s") from None
+    except Exception as exc:  # noqa: BLE001 - any other exception is the bug this test looks for
+        raise AssertionError(f"uncaught {type(exc).__module__}.{type(exc).__name__}: {exc}") from exc
+    _event("loaded")
+    return robot
+
+
+def _yourdfpy(text: str):
+    urdf = yourdfpy.URDF.load(BytesIO(text.encode()), build_scene_graph=True, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+    # URDF axes are directions (ROS' KDL and Pinocchio normalise them); yourdfpy scales a
+    # prismatic step by the axis as written, so give it the unit axis.
+    for joint in urdf.robot.joints:
+        if joint.axis is not None and joint.type in MOVABLE:
+            joint.axis = _unit(list(joint.axis))
+    return urdf
+
+
+def _joint_values(robot: Robot, rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` joint vectors inside the limits (continuous: [-pi, pi]), without overflow for huge limits."""
+    Q = np.empty((n, len(robot.joints)))
+    for i, joint in enumerate(robot.joints):
+        u = rng.random(n)
+        if math.isfinite(joint.lower) and math.isfinite(joint.upper):
+            Q[:, i] = joint.lower * (1.0 - u) + joint.upper * u
+        else:
+            Q[:, i] = -math.pi * (1.0 - u) + math.pi * u
+    return Q
+
+
+def check_robot(robot: Robot, seed: int, text: str | None = None) -> None:
+    """A returned robot: valid description, and consistent with it and with yourdfpy.
+
+    ``text`` is the URDF as the user gave it (or as xacro expands it), judged and parsed by yourdfpy
+    as it is, whatever manipkit made of it; default: ``robot.urdf``.
+    """
+    text = robot.urdf if text is None else text
+    try:
+        _check_robot(robot, seed, text)
+    except AssertionError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a loaded robot's own API must not fail on it
+        raise AssertionError(f"a loaded robot's API raised {type(exc).__name__}: {exc}") from exc
+
+
+def _check_robot(robot: Robot, seed: int, text: str) -> None:
+    spec = read_spec(text)
+    assert not spec.problems, "model built from an invalid description: " + "; ".join(spec.problems[:4])
+
+    movable = {name: j for name, j in spec.joints.items() if j.type in MOVABLE}
+    assert set(robot.joint_names) == set(movable), f"joints {robot.joint_names} != movable joints {sorted(movable)}"
+    for joint in robot.joints:
+        declared = movable[joint.name]
+        assert (joint.type, joint.parent, joint.child) == (declared.type, declared.parent, declared.child), (
+            f"joint '{joint.name}': {joint.type} {joint.parent} -> {joint.child}, "
+            f"declared {declared.type} {declared.parent} -> {declared.child}")
+        assert np.allclose(joint.axis, declared.axis, atol=1e-12, rtol=0), (
+            f"joint '{joint.name}' axis {joint.axis}, declared {declared.axis}")
+        for got, want, which in ((joint.lower, declared.lower, "lower"), (joint.upper, declared.upper, "upper")):
+            assert got == want or abs(got - want) <= 1e-12 * abs(want), f"joint '{joint.name}' {which} {got}, declared {want}"
+    assert set(robot.frame_names) == set(spec.links), (
+        f"frames {sorted(robot.frame_names)} != links {sorted(spec.links)}")
+    assert robot.root_link == spec.root, f"root {robot.root_link!r}, declared {spec.root!r}"
+
+    sampled = robot.sample_q(3, seed=seed)
+    assert np.all(np.isfinite(sampled)), f"sample_q gave non-finite values {sampled}"
+    assert not [line for q in sampled for line in robot.outside_limits(q)], "sample_q left the limits"
+
+    try:
+        urdf = _yourdfpy(text)
+    except Exception as exc:  # noqa: BLE001
+        raise AssertionError(f"yourdfpy cannot read a description manipkit loaded: {type(exc).__name__}: {exc}") from exc
+    # Rounding in a translation grows with the lengths composed: offsets and prismatic strokes.
+    length = sum(float(np.linalg.norm(j.xyz)) for j in spec.joints.values())
+    length += sum(max(abs(j.lower), abs(j.upper)) for j in movable.values() if j.type == "prismatic")
+    tol_translation = 1e-9 * (1.0 + length)
+
+    Q = np.vstack([robot.q(), _joint_values(robot, np.random.default_rng(seed), 3)])
+    batched = {frame: robot.fk(Q, frame) for frame in robot.frame_names}
+    for q_index, q in enumerate(Q):
+        urdf.update_cfg({name: float(value) for name, value in zip(robot.joint_names, q)})
+        for frame in robot.frame_names:
+            T = robot.transform(robot.root_link, frame, q)
+            assert np.all(np.isfinite(T)), f"non-finite FK of '{frame}' at q = {q.tolist()}: {T.tolist()}"
+            T_batched = batched[frame][q_index]
+            T_yourdfpy = urdf.get_transform(frame_to=frame, frame_from=spec.root)
+            for other, who in ((T_batched, "Robot.fk"), (T_yourdfpy, "yourdfpy")):
+                rotation = float(np.abs(T[:3, :3] - other[:3, :3]).max())
+                translation = float(np.abs(T[:3, 3] - other[:3, 3]).max())
+                assert rotation <= 1e-9 and translation <= tol_translation, (
+                    f"silently wrong answer: T_{spec.root}_{frame} at q = {q.tolist()} differs from {who} by "
+                    f"{rotation:.3g} (rotation), {translation:.3g} m (translation)")
+
+
+# ==========================================================================
+# Mutations
+# ==========================================================================
+
+SPECIAL_NUMBERS = (
+    "nan", "NaN", "-nan", "inf", "-inf", "Infinity", "1e400", "-1e400", "1e300", "-1e300",
+    "1.7976931348623157e308", "1e12", "-1e12", "1e-12", "1e-300", "5e-324", "-0", "0", "1", "-1", "2",
+    "3.141592653589793", "0.5", "+1", "1.", ".5",
+)
+GARBAGE = ("", " ", "abc", "1,2,3", "0x10", "1_0", "1e", "--1", "\u0661", "1 2", "1 2 3 4", "${l1}", "None", "true")
+XML_TEXT = st.characters(codec="utf-8", exclude_categories=("Cs", "Cc", "Cn"))
+
+number_token = st.one_of(
+    st.sampled_from(SPECIAL_NUMBERS),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-10**6, 10**6).map(str),
+)
+attribute_value = st.one_of(
+    number_token,
+    st.lists(number_token, min_size=1, max_size=4).map(" ".join),
+    st.sampled_from(GARBAGE),
+    st.text(XML_TEXT, max_size=12),
+)
+JOINT_TYPE_CHOICES = JOINT_TYPES + ("", "Revolute", "hinge", "spherical", "continuous ")
+SCALES = (0.0, 5e-324, 1e-300, 1e-12, -1.0, 2.0, 1e12, 1e300, math.inf, math.nan)
+
+
+def _pick(data, items, label):
+    items = list(items)
+    if not items:
+        return None
+    return items[data.draw(st.integers(0, len(items) - 1), label=label)]
+
+
+def _elements(root) -> list:
+    return [e for e in root.iter() if e is not root and isinstance(e.tag, str)]
+
+
+def _named(root, tag: str) -> list:
+    return [e for e in root if e.tag == tag]
+
+
+def _names(root) -> list[str]:
+    return [e.get("name") for e in root if e.tag in ("link", "joint") and e.get("name")]
+
+
+def delete_element(data, root) -> None:
+    element = _pick(data, _elements(root), "delete")
+    if element is not None:
+        element.getparent().remove(element)
+
+
+def duplicate_element(data, root) -> None:
+    element = _pick(data, _elements(root), "duplicate")
+    if element is not None:
+        element.addnext(copy.deepcopy(element))
+
+
+def swap_elements(data, root) -> None:
+    elements = _elements(root)
+    a, b = _pick(data, elements, "swap a"), _pick(data, elements, "swap b")
+    if a is None or a is b or any(x is b for x in a.iter()) or any(x is a for x in b.iter()):
+        return
+    mark_a, mark_b = etree.Element("mark"), etree.Element("mark")
+    a.addprevious(mark_a)
+    b.addprevious(mark_b)
+    mark_a.getparent().replace(mark_a, b)
+    mark_b.getparent().replace(mark_b, a)
+
+
+def set_attribute(data, root) -> None:
+    element = _pick(data, [e for e in _elements(root) if e.attrib] or _elements(root), "set attribute of")
+    if element is None:
+        return
+    keys = list(element.attrib) + ["xyz", "rpy", "lower", "upper", "value", "name", "link", "type"]
+    key = _pick(data, keys, "attribute")
+    element.set(key, data.draw(attribute_value, label="value"))
+
+
+def remove_attribute(data, root) -> None:
+    element = _pick(data, [e for e in _elements(root) if e.attrib], "remove attribute of")
+    if element is not None:
+        del element.attrib[_pick(data, list(element.attrib), "attribute")]
+
+
+def rename(data, root) -> None:
+    element = _pick(data, [e for e in root if e.tag in ("link", "joint")], "rename")
+    if element is None:
+        return
+    name = element.get("name") or ""
+    choices = st.one_of(
+        st.sampled_from(_names(root) + ["world", "universe", "base_link", "ee_link", "", name + "_x", name.upper()]),
+        st.text(XML_TEXT, max_size=8),
+    )
+    element.set("name", data.draw(choices, label="new name"))
+
+
+def relink(data, root) -> None:
+    ends = [end for joint in _named(root, "joint") for end in joint if end.tag in ("parent", "child")]
+    end = _pick(data, ends, "relink")
+    if end is not None:
+        choices = st.one_of(st.sampled_from(_names(root) + ["", "missing_link"]), st.text(XML_TEXT, max_size=6))
+        end.set("link", data.draw(choices, label="link"))
+
+
+def change_joint_type(data, root) -> None:
+    joint = _pick(data, _named(root, "joint"), "joint type of")
+    if joint is not None:
+        joint.set("type", data.draw(st.sampled_from(JOINT_TYPE_CHOICES), label="type"))
+
+
+def change_axis(data, root) -> None:
+    joint = _pick(data, _named(root, "joint"), "axis of")
+    if joint is None:
+        return
+    axis = joint.find("axis")
+    if axis is None:
+        axis = etree.SubElement(joint, "axis")
+        axis.set("xyz", "0 0 1")
+    how = data.draw(st.sampled_from(["zero", "scale", "random", "remove"]), label="axis change")
+    if how == "remove":
+        joint.remove(axis)
+    elif how == "zero":
+        axis.set("xyz", "0 0 0")
+    elif how == "scale":
+        factor = data.draw(st.sampled_from(SCALES), label="factor")
+        try:
+            values = [float(v) * factor for v in axis.get("xyz", "1 0 0").split()]
+        except ValueError:
+            values = [factor]
+        axis.set("xyz", " ".join(repr(v) for v in values))
+    else:
+        axis.set("xyz", " ".join(data.draw(st.lists(number_token, min_size=3, max_size=3), label="axis")))
+
+
+def swap_limits(data, root) -> None:
+    limit = _pick(data, [e for e in _elements(root) if e.tag == "limit"], "limits of")
+    if limit is not None:
+        lower, upper = limit.get("lower", "0"), limit.get("upper", "0")
+        limit.set("lower", upper)
+        limit.set("upper", lower)
+
+
+TREE_OPS = (delete_element, duplicate_element, swap_elements, set_attribute, remove_attribute, rename, relink,
+            change_joint_type, change_axis, swap_limits)
+
+
+def truncate(data, text: str) -> str:
+    return text[: data.draw(st.integers(0, len(text)), label="truncate at")]
+
+
+def insert_text(data, text: str) -> str:
+    at = data.draw(st.integers(0, len(text)), label="insert at")
+    return text[:at] + data.draw(st.text(max_size=16), label="inserted") + text[at:]
+
+
+def delete_slice(data, text: str) -> str:
+    start = data.draw(st.integers(0, len(text)), label="cut from")
+    stop = data.draw(st.integers(start, min(len(text), start + 200)), label="cut to")
+    return text[:start] + text[stop:]
+
+
+def value_into_entity(data, text: str) -> str:
+    """Move one attribute value into a DOCTYPE entity (expanded by some XML parsers, not by others)."""
+    values = list(re.finditer(r'="([^"&<]*)"', text))
+    match = _pick(data, values, "entity for")
+    if match is None:
+        return text
+    body = text[: match.start(1)] + "&v;" + text[match.end(1):]
+    declaration = re.match(r"\s*<\?xml[^>]*\?>", body)
+    at = declaration.end() if declaration else 0
+    return body[:at] + f'<!DOCTYPE robot [<!ENTITY v "{match.group(1)}">]>' + body[at:]
+
+
+TEXT_OPS = (truncate, insert_text, delete_slice, value_into_entity)
+
+
+def mutate_xml(data, text: str, *, max_tree_ops: int = 3) -> str:
+    """Tree mutations (when the text parses), then text mutations."""
+    try:
+        root = etree.fromstring(text.encode())
+    except etree.XMLSyntaxError:
+        root = None
+    if root is not None:
+        for op in data.draw(st.lists(st.sampled_from(TREE_OPS), max_size=max_tree_ops), label="tree mutations"):
+            op(data, root)
+        text = etree.tostring(root, encoding="unicode")
+    for op in data.draw(st.lists(st.sampled_from(TEXT_OPS), max_size=2), label="text mutations"):
+        text = op(data, text)
+    return text
+
+
+# ==========================================================================
+# Seeds and scratch space
+# ==========================================================================
+
+
+@functools.lru_cache(maxsize=1)
+def urdf_seeds() -> dict[str, str]:
+    """Name -> expanded URDF of every bundled robot."""
+    return {name: urdf_text(resolve_robot(name)) for name in sorted(bundled_robots())}
+
+
+def xacro_includes(text: str) -> list[str]:
+    return re.findall(r'<xacro:include\s+filename="([^"$]+)"', text)
+
+
+@functools.lru_cache(maxsize=1)
+def xacro_seeds() -> dict[str, tuple[str, ...]]:
+    """Top-level xacro file -> the files it is made of (itself and its includes, transitively)."""
+    seeds = {}
+    for name, path in sorted(bundled_robots().items()):
+        files, todo = [path.name], [path.name]
+        while todo:
+            for included in xacro_includes((bundled_dir() / todo.pop()).read_text()):
+                if included not in files:
+                    files.append(included)
+                    todo.append(included)
+        seeds[path.name] = tuple(files)
+    return seeds
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("fuzz")
+
+
+def _save_failure(suffix: str, content: bytes | str) -> Path:
+    path = Path(f"{FAILURE_PREFIX}{suffix}")
+    path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8", "surrogateescape"))
+    return path
+
+
+# ==========================================================================
+# The fuzz tests
+# ==========================================================================
+
+
+def run_urdf_case(data, scratch: Path) -> None:
+    """One URDF case: draw a seed and mutations, load, judge (AssertionError on a bug)."""
+    seeds = urdf_seeds()
+    seed_name = data.draw(st.sampled_from(sorted(seeds)), label="seed robot")
+    q_seed = data.draw(st.integers(0, 2**16), label="q seed")  # every draw before the (slow) load
+    text = mutate_xml(data, seeds[seed_name])
+    if data.draw(st.booleans(), label="through a .urdf file"):
+        raw = text.encode("utf-8", "surrogatepass")
+        if data.draw(st.booleans(), label="insert raw bytes"):
+            at = data.draw(st.integers(0, len(raw)), label="bytes at")
+            raw = raw[:at] + data.draw(st.binary(min_size=1, max_size=8), label="bytes") + raw[at:]
+            try:
+                text = raw.decode("utf-8")
+            except UnicodeDecodeError:
+                text = None  # not UTF-8: not a valid description (the loader must refuse it)
+        path = scratch / f"{seed_name}.urdf"
+        path.write_bytes(raw)
+        loader = functools.partial(manipkit.load, path)
+    else:
+        raw = text
+        loader = functools.partial(Robot.from_urdf, text)
+    try:
+        robot = load_cleanly_or_refuse(loader)
+        if robot is not None:
+            assert text is not None, "model built from a file that is not UTF-8 text"
+            check_robot(robot, seed=q_seed, text=text)
+    except AssertionError:
+        _save_failure(".urdf", raw)
+        raise
+
+
+@FUZZ_TIMEOUT
+@FUZZ_SETTINGS
+@given(data=st.data())
+def test_mutated_urdf_is_refused_cleanly_or_loads_correctly(data, scratch):
+    run_urdf_case(data, scratch)
+
+
+XACRO_ARG_VALUES = st.one_of(number_token, st.sampled_from(GARBAGE + ("${1/0}", "$(arg l1)", "0", "-1")))
+BROKEN_EXPRESSIONS = ("", "1/0", "nope", "(", "l1 +", "'abc'", "1e999", "float('nan')", "pi * 1e308", "${", "}")
+BROKEN_INCLUDES = ("missing.xacro", "", "dh/iiwa14.yaml", "$(find no_such_package)/x.xacro", "../missing/x.xacro")
+
+
+def remove_xacro_declaration(data, text: str, _name: str) -> str:
+    tags = list(re.finditer(r"<xacro:(?:arg|property)\b[^>]*/>", text))
+    match = _pick(data, tags, "remove declaration")
+    return text if match is None else text[: match.start()] + text[match.end():]
+
+
+def break_expression(data, text: str, _name: str) -> str:
+    expressions = list(re.finditer(r"\$\{([^}]*)\}", text))
+    match = _pick(data, expressions, "break expression")
+    if match is None:
+        return text
+    broken = data.draw(st.one_of(st.sampled_from(BROKEN_EXPRESSIONS), st.text(XML_TEXT, max_size=6)), label="expression")
+    if broken in ("${", "}"):  # unbalanced: drop the closing brace
+        return text[: match.end() - 1] + text[match.end():]
+    return text[: match.start(1)] + broken.replace('"', "'") + text[match.end(1):]
+
+
+def break_include(data, text: str, name: str) -> str:
+    includes = list(re.finditer(r'<xacro:include\s+filename="([^"]*)"', text))
+    match = _pick(data, includes, "break include")
+    if match is None:
+        return text
+    target = data.draw(st.sampled_from(BROKEN_INCLUDES + (name,)), label="include target")  # name: includes itself
+    return text[: match.start(1)] + target + text[match.end(1):]
+
+
+def break_macro_call(data, text: str, _name: str) -> str:
+    calls = [m for m in re.finditer(r"<xacro:(\w+)((?:\s+\w+=\"[^\"]*\")*)", text)
+             if m.group(1) not in ("arg", "property", "include", "macro", "if", "unless", "insert_block")]
+    match = _pick(data, calls, "break macro call")
+    if match is None:
+        return text
+    if data.draw(st.booleans(), label="rename the macro"):
+        return text[: match.start(1)] + match.group(1) + "_missing" + text[match.end(1):]
+    params = list(re.finditer(r'\s+\w+="[^"]*"', match.group(2)))
+    param = _pick(data, params, "drop parameter")
+    if param is None:
+        return text
+    start = match.start(2) + param.start()
+    return text[:start] + text[start + len(param.group(0)):]
+
+
+def xml_mutations(data, text: str, _name: str) -> str:
+    return mutate_xml(data, text, max_tree_ops=2)
+
+
+XACRO_OPS = (remove_xacro_declaration, break_expression, break_include, break_macro_call, xml_mutations)
+
+
+def expand_xacro_independently(path: Path, args: dict[str, str]) -> str:
+    """The URDF that xacro itself makes of a file (not manipkit's expansion), for the oracle."""
+    import xacro
+
+    quiet = io.StringIO()
+    try:
+        with redirect_stdout(quiet), redirect_stderr(quiet):
+            return xacro.process_file(str(path), mappings=dict(args)).toxml()
+    except Exception as exc:  # noqa: BLE001
+        raise AssertionError(f"manipkit loaded a xacro file that xacro cannot expand: {type(exc).__name__}: {exc}") from exc
+
+
+def run_xacro_case(data, scratch: Path) -> None:
+    """One xacro case: draw a robot, a file of it, mutations and arguments, load, judge."""
+    top = data.draw(st.sampled_from(sorted(xacro_seeds())), label="seed robot")
+    target = data.draw(st.sampled_from(xacro_seeds()[top]), label="file to mutate")
+    q_seed = data.draw(st.integers(0, 2**16), label="q seed")  # every draw before the (slow) load
+    text = (bundled_dir() / target).read_text()
+    for op in data.draw(st.lists(st.sampled_from(XACRO_OPS), min_size=1, max_size=3), label="xacro mutations"):
+        text = op(data, text, target)
+    declared = re.findall(r'<xacro:arg\s+name="([^"]+)"', (bundled_dir() / top).read_text())
+    args = {}
+    if data.draw(st.booleans(), label="give an argument"):
+        name = data.draw(st.sampled_from(declared + ["not_an_argument"]), label="argument")
+        args[name] = data.draw(XACRO_ARG_VALUES, label="argument value")
+
+    case = Path(tempfile.mkdtemp(dir=scratch))
+    try:
+        shutil.copytree(bundled_dir(), case, dirs_exist_ok=True)
+        (case / target).write_text(text)
+        try:
+            robot = load_cleanly_or_refuse(functools.partial(manipkit.load, case / top, **args))
+            if robot is not None:
+                check_robot(robot, seed=q_seed, text=expand_xacro_independently(case / top, args))
+        except AssertionError:
+            saved = Path(f"{FAILURE_PREFIX}_xacro")
+            shutil.rmtree(saved, ignore_errors=True)
+            shutil.copytree(case, saved)
+            (saved / "HOW_TO_REPLAY.txt").write_text(f"manipkit.load({str(saved / top)!r}, **{args!r})\n")
+            raise
+    finally:
+        shutil.rmtree(case, ignore_errors=True)
+
+
+@FUZZ_TIMEOUT
+@XACRO_FUZZ_SETTINGS
+@given(data=st.data())
+def test_mutated_xacro_is_refused_cleanly_or_loads_correctly(data, scratch):
+    run_xacro_case(data, scratch)
+
+
+# ==========================================================================
+# The oracle itself: it passes every bundled robot and flags what it must
+# ==========================================================================
+
+
+@pytest.mark.parametrize("name", sorted(bundled_robots()))
+def test_every_bundled_robot_passes_the_oracle_unmutated(name):
+    robot = manipkit.load(name)
+    assert description_problems(robot.urdf) == []
+    check_robot(robot, seed=1)
+
+
+LINKS = '<link name="base"/><link name="arm"/>'
+JOINT = ('<joint name="j" type="{type}"><parent link="base"/><child link="arm"/><origin xyz="{xyz}"/>'
+         '<axis xyz="{axis}"/><limit lower="{lower}" upper="{upper}" effort="1" velocity="1"/></joint>')
+
+
+def _urdf(type="revolute", xyz="0 0 0.1", axis="0 0 1", lower="-1", upper="1", links=LINKS) -> str:
+    return f'<robot name="t">{links}{JOINT.format(type=type, xyz=xyz, axis=axis, lower=lower, upper=upper)}</robot>'
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        (_urdf(), None),
+        (_urdf(xyz="1e308 0 0"), None),  # huge but finite: valid
+        (_urdf(axis="0 0 1e-300"), None),  # tiny but not zero: a direction
+        (_urdf()[:-5], "not well-formed"),
+        (_urdf(xyz="nan 0 0"), "not 3 number"),
+        (_urdf(xyz="1_0 0 0"), "not 3 number"),
+        (_urdf(xyz="1e400 0 0"), "not finite"),
+        (_urdf(axis="0 0 0"), "axis is zero"),
+        (_urdf(lower="1", upper="-1"), "above upper limit"),
+        (_urdf(type="hinge"), "has type 'hinge'"),
+        (_urdf(links='<link name="base"/><link name="base"/>'), "two <link> elements"),
+        (_urdf(links='<link name="base"/>'), "child link 'arm'"),
+        (_urdf(links=LINKS + '<link name="c"/>'), "2 root links"),
+        (_urdf(links='<link name="base"><inertial><mass value="abc"/></inertial></link><link name="arm"/>'),
+         "mass value"),
+        (_urdf(links='<link name="base"><visual><geometry><box size="1 nan 1"/></geometry></visual></link>'
+                     '<link name="arm"/>'), "box size"),
+    ],
+)
+def test_the_oracle_judges_descriptions_by_the_specification(text, fragment):
+    problems = description_problems(text)
+    if fragment is None:
+        assert problems == []
+    else:
+        assert any(fragment in p for p in problems), problems
+
+
+# ==========================================================================
+# Regression cases: minimal inputs the fuzzer found (all fixed in issue 8;
+# `what` records what went wrong before the fix)
+# ==========================================================================
+
+
+def _two_links(joint: str, links=("a", "b"), head: str = "") -> str:
+    return head + '<robot name="t">' + "".join(f'<link name="{n}"/>' for n in links) + joint + "</robot>"
+
+
+def _refused_cleanly_or_correct(text: str) -> None:
+    robot = load_cleanly_or_refuse(functools.partial(Robot.from_urdf, text))
+    if robot is not None:
+        check_robot(robot, seed=0, text=text)
+
+
+def _found(name: str, text: str, what: str):
+    return pytest.param(text, id=name)
+
+
+FOUND = [
+    _found("entity_in_joint_name", _two_links(
+        '<joint name="&v;" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>',
+        head='<!DOCTYPE robot [<!ENTITY v "j1">]>'),
+        "expat (manipkit.validate) expands the entity, Pinocchio's parser does not: the joint is named '&v;'"),
+    _found("joint_named_universe", _two_links(
+        '<joint name="universe" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>'),
+        "Pinocchio's root joint is 'universe': the (cos, sin) of this joint go to the wrong entries, "
+        "T_a_b at q = 0.5 is [[1, -0.5], [0.5, 1]], not a rotation"),
+    _found("link_named_universe", _two_links(
+        '<joint name="j1" type="continuous"><parent link="a"/><child link="universe"/><axis xyz="0 0 1"/></joint>',
+        links=("a", "universe")),
+        "a link named 'universe' loads but is missing from Robot.frame_names"),
+    _found("huge_axis", _two_links(
+        '<joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="1e200 0 0"/>'
+        '<limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'),
+        "the axis' norm overflows (1e400): the axis becomes zero, T_a_b(q) = cos(q) I, not a rotation"),
+    _found("offsets_overflow", _two_links(
+        '<joint name="j1" type="continuous"><parent link="a"/><child link="b"/><origin xyz="1.7e308 0 0"/></joint>'
+        '<joint name="j2" type="fixed"><parent link="b"/><child link="c"/><origin xyz="1.7e308 0 0"/></joint>',
+        links=("a", "b", "c")),
+        "two finite offsets whose sum overflows: T_a_c has inf and nan (no magnitude bound on lengths)"),
+    _found("fk_without_movable_joints", _two_links(
+        '<joint name="j1" type="fixed"><parent link="a"/><child link="b"/><origin xyz="1 0 0"/></joint>'),
+        "Robot.fk(Q of shape (n, 0), 'b') raises ValueError (cannot reshape array of size 0)"),
+    _found("limits_overflow_sample_q", _two_links(
+        '<joint name="j1" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1e308" upper="1e308" effort="1" velocity="1"/></joint>'),
+        "Robot.sample_q raises OverflowError (upper - lower overflows)"),
+    _found("axis_without_xyz", _two_links(
+        '<joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis/>'
+        '<limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'),
+        "<axis/> means the default 1 0 0; the model gets a zero axis (Joint.axis NaN, T_a_b(q) = cos(q) I)"),
+]
+
+
+@pytest.mark.parametrize("text", FOUND)
+def test_found_by_the_fuzzer_is_refused_cleanly_or_loads_correctly(text):
+    _refused_cleanly_or_correct(text)
