@@ -29,7 +29,6 @@ import pinocchio as pin
 
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.robots import PackageResolver, RobotSource, resolve_robot, urdf_text, xacro_arg_names, xacro_locator
-from manipkit.rotations import matrix_from_axis_angle
 from manipkit.validate import check_urdf, package_uri_warnings
 
 BASE_ALIASES = ("base_link", "world")
@@ -159,6 +158,7 @@ class Robot:
                 self._frame_ids.setdefault(frame.name, frame_id)
         self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
         self._chains: dict[int, list[_ChainStep]] = {}
+        self._fk_kernels: dict = {}  # frame id -> manipkit.chain.ChainFK, built on first use
         # Index arrays for pinocchio_configuration: where each joint value goes in Pinocchio's q.
         self._neutral_config = pin.neutral(model)
         idx_q = np.array([model.joints[model.getJointId(j.name)].idx_q for j in self.joints], dtype=np.intp)
@@ -482,12 +482,13 @@ class Robot:
             raise JointValueError("joint values must be finite numbers")
         lead = Q.shape[:-1]
         flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
+        if base is None or self.frame(base) == self.root_link:
+            return self._fk_kernel(self.frame_id(frame)).transforms(flat).reshape(*lead, 4, 4)
         R, p = self._chain_fk(flat, self.frame_id(frame))
-        if base is not None and self.frame(base) != self.root_link:
-            R_base, p_base = self._chain_fk(flat, self.frame_id(base))
-            R_base_t = np.swapaxes(R_base, -1, -2)
-            R = R_base_t @ R
-            p = np.einsum("nij,nj->ni", R_base_t, p - p_base)
+        R_base, p_base = self._chain_fk(flat, self.frame_id(base))
+        R_base_t = np.swapaxes(R_base, -1, -2)
+        R = R_base_t @ R
+        p = np.einsum("nij,nj->ni", R_base_t, p - p_base)
         T = np.zeros((flat.shape[0], 4, 4))
         T[:, :3, :3] = R
         T[:, :3, 3] = p
@@ -516,21 +517,19 @@ class Robot:
             self._chains[frame_id] = steps
         return self._chains[frame_id]
 
+    def _fk_kernel(self, frame_id: int):
+        """The compiled batched FK from the root link to a frame (:class:`manipkit.chain.ChainFK`, built once)."""
+        kernel = self._fk_kernels.get(frame_id)
+        if kernel is None:
+            from manipkit.chain import ChainFK
+
+            kernel = self._fk_kernels[frame_id] = ChainFK(self._chain(frame_id), len(self.joints))
+        return kernel
+
     def _chain_fk(self, Q: np.ndarray, frame_id: int) -> tuple[np.ndarray, np.ndarray]:
-        n = Q.shape[0]
-        R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-        p = np.zeros((n, 3))
-        for step in self._chain(frame_id):
-            p = p + R @ step.translation
-            R = R @ step.rotation
-            if step.index < 0:
-                continue
-            values = Q[:, step.index]
-            if step.prismatic:
-                p = p + (R @ step.axis) * values[:, None]
-            else:
-                R = R @ matrix_from_axis_angle(step.axis, values)
-        return R, p
+        """(R (N, 3, 3), p (N, 3)) of T_root_frame for each row of Q."""
+        T = self._fk_kernel(frame_id).transforms(Q)
+        return T[:, :3, :3], T[:, :3, 3]
 
 
 def _build_model(text: str) -> tuple[pin.Model | None, list[str]]:

@@ -1,0 +1,374 @@
+"""`make bench`: run every workload in one process, print the table, write results.json and a chart.
+
+    python -m benchmarks                 # the full run (minutes); updates benchmarks/README.md
+    python -m benchmarks --quick --out /tmp/bench   # tiny sizes, as the tests run it
+    python -m benchmarks --only fk,ik --robots iiwa14
+
+The table gives, per workload and robot, each tool's median and 95th
+percentile time, and its ratio to manipkit's (peer median / ours: above 1,
+manipkit is faster). Rows whose answers failed their check carry no time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+WORKLOADS = ("fk", "ik", "planar", "cold", "viewer")
+ROBOTS = ("iiwa14", "panda")
+
+FULL = {
+    "fk": dict(n_single=1000, n_batch=100_000, repeats=15, loop_subset=2000),
+    "ik": dict(n_targets=1000, n_slow=200),
+    "planar": dict(n_targets=1_000_000, repeats=7, n_scalar=2000),
+    "cold": dict(runs=15),
+    "viewer": dict(moves=60),
+}
+QUICK = {
+    "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
+    "ik": dict(n_targets=5, n_slow=2),
+    "planar": dict(n_targets=2000, repeats=1, n_scalar=20),
+    "cold": dict(runs=1),
+    "viewer": dict(moves=3),
+}
+GROUP_LABELS = {
+    "fk_single": "FK, one configuration",
+    "fk_batch": "FK, batch",
+    "ik": "numerical IK, 6D pose",
+    "planar": "closed-form planar IK",
+    "cold_start": "cold start",
+    "viewer": "viewer round trip",
+}
+UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move"}
+
+
+# --------------------------------------------------------------------------
+# Machine
+
+
+def machine() -> dict:
+    cpu = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    uname = platform.uname()
+    versions = {}
+    from benchmarks.peers import version
+
+    for dist in ("numpy", "pin", "roboticstoolbox-python", "ikpy", "kinpy", "manipkit"):
+        versions[dist] = version(dist)
+    return {
+        "uname": f"{uname.system} {uname.release} {uname.machine}",
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "versions": versions,
+        "load_average_start": _load(),
+    }
+
+
+def _load():
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        return None
+
+
+# --------------------------------------------------------------------------
+# Ratios, goals, formatting
+
+
+def add_ratios(rows: list[dict]) -> None:
+    """ratio = median / manipkit's median in the same workload and robot (above 1: manipkit is faster)."""
+    ours = {}
+    for r in rows:
+        if r["ours"] and r["median_s"]:
+            ours.setdefault((r["workload"], r["robot"]), r["median_s"])  # the first of ours is the baseline
+    for r in rows:
+        base = ours.get((r["workload"], r["robot"]))
+        r["ratio"] = (r["median_s"] / base) if (base and r["median_s"] and not r["ours"]) else None
+
+
+def _find(rows, workload, robot, tool_start):
+    for r in rows:
+        if r["workload"] == workload and r["robot"] == robot and r["tool"].startswith(tool_start):
+            return r
+    return None
+
+
+def goals(rows: list[dict]) -> list[dict]:
+    """The issue's goals, each with what was measured and whether it is met (None: not measured)."""
+    out = []
+
+    def goal(text, measured, met, detail):
+        out.append({"goal": text, "measured": measured, "met": met, "detail": detail})
+
+    fk = _find(rows, "fk_batch", "iiwa14", "manipkit Robot.fk")
+    rtb = _find(rows, "fk_batch", "iiwa14", "Robotics Toolbox")
+    pin_loop = _find(rows, "fk_batch", "iiwa14", "Pinocchio")
+    if fk and fk["median_s"]:
+        us = fk["median_s"] * 1e6
+        goal("batched FK, iiwa14: <= 0.2 us per configuration", f"{us:.3f} us", us <= 0.2,
+             f"{0.2 / us:.1f}x under the bound" if us <= 0.2 else f"missed by {us / 0.2:.1f}x")
+        for peer, need, label in ((rtb, 25, "Robotics Toolbox batched fkine"), (pin_loop, 5, "a Python loop over Pinocchio")):
+            if peer and peer.get("ratio"):
+                goal(f"batched FK, iiwa14: >= {need}x faster than {label}", f"{peer['ratio']:.1f}x",
+                     peer["ratio"] >= need, f"{peer['ratio'] / need:.1f}x the goal" if peer["ratio"] >= need
+                     else f"missed by {need / peer['ratio']:.1f}x")
+            else:
+                goal(f"batched FK, iiwa14: >= {need}x faster than {label}", None, None,
+                     peer["note"] if peer else "not measured")
+    ik = _find(rows, "ik", "iiwa14", "manipkit ik")
+    ik_lm = _find(rows, "ik", "iiwa14", "Robotics Toolbox ik_LM")
+    if ik and ik["median_s"]:
+        us = ik["median_s"] * 1e6
+        goal("numerical IK, iiwa14: success >= 99.5%", f"{ik['success']:.1%}", ik["success"] >= 0.995,
+             "met" if ik["success"] >= 0.995 else f"short by {(0.995 - ik['success']) * 100:.1f} points")
+        goal("numerical IK, iiwa14: median <= 100 us per solve", f"{us:.0f} us", us <= 100,
+             f"{100 / us:.1f}x under the bound" if us <= 100 else f"missed by {us / 100:.1f}x")
+        if ik_lm and ik_lm.get("median_s"):
+            theirs = ik_lm["median_s"] * 1e6
+            goal("numerical IK, iiwa14: faster than Robotics Toolbox ik_LM (C++) on the same targets and starts",
+                 f"{us:.0f} us vs {theirs:.0f} us", us < theirs,
+                 f"{theirs / us:.1f}x faster" if us < theirs else f"{us / theirs:.1f}x slower")
+        else:
+            goal("numerical IK, iiwa14: faster than Robotics Toolbox ik_LM (C++)", None, None,
+                 ik_lm["note"] if ik_lm else "not measured")
+    for arm in ("2R", "3R"):
+        r = _find(rows, "planar", arm, "manipkit planar.ik_" + arm.lower() + "_batch")
+        if r and r["median_s"]:
+            rate = 1.0 / r["median_s"]
+            goal(f"closed-form {arm} IK: >= 10 million targets per second", f"{rate / 1e6:.1f} M/s", rate >= 1e7,
+                 f"{rate / 1e7:.1f}x the goal" if rate >= 1e7 else f"missed by {1e7 / rate:.1f}x")
+    cold = _find(rows, "cold_start", "-", "manipkit tf-between")
+    bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
+    if cold and cold["median_s"]:
+        s = cold["median_s"]
+        floor = f"; `import pinocchio` alone: {bare['median_s']:.3f} s in the same run" if bare and bare["median_s"] else ""
+        goal("tf-between cold start: median <= 0.25 s", f"{s:.3f} s", s <= 0.25,
+             (f"{0.25 - s:.3f} s to spare" if s <= 0.25 else f"missed by {s - 0.25:.3f} s ({s / 0.25:.2f}x)") + floor)
+    return out
+
+
+def fmt_time(seconds: float | None, unit: str) -> str:
+    if seconds is None:
+        return "-"
+    for scale, name in ((1.0, "s"), (1e-3, "ms"), (1e-6, "us"), (1e-9, "ns")):
+        if seconds >= scale or name == "ns":
+            value = seconds / scale
+            digits = 3 if value < 10 else (1 if value < 100 else 0)
+            return f"{value:.{digits}f} {name}/{UNIT_LABEL.get(unit, unit)}"
+    return "-"
+
+
+def fmt_ratio(r: dict) -> str:
+    if r["ours"]:
+        return "1 (ours)" if r["median_s"] else "-"
+    if r.get("ratio") is None:
+        return "-"
+    return f"{r['ratio']:.3g}"
+
+
+def fmt_result(r: dict) -> str:
+    if r["status"] == "missing":
+        return f"not run: {r['note']}"
+    if r["status"] == "wrong":
+        return f"WRONG, not timed: {r['check']}"
+    parts = []
+    if "success" in r and r["success"] is not None:
+        parts.append(f"success {r['success']:.1%} (at 1e-6: {r['success_1e6']:.1%})")
+    if r["check"]:
+        parts.append(r["check"])
+    if r["note"]:
+        parts.append(r["note"])
+    return "; ".join(parts)
+
+
+def markdown_table(rows: list[dict]) -> str:
+    lines = ["| workload | robot | tool | median | p95 | x ours | n | check, notes |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append("| " + " | ".join([
+            GROUP_LABELS.get(r["workload"], r["workload"]), r["robot"], r["tool"] + (f" ({r['version']})" if r.get("version") else ""),
+            fmt_time(r["median_s"], r["unit"]), fmt_time(r["p95_s"], r["unit"]), fmt_ratio(r), str(r["n"] or "-"),
+            fmt_result(r).replace("|", "\\|"),
+        ]) + " |")
+    return "\n".join(lines)
+
+
+def goals_markdown(goal_rows: list[dict]) -> str:
+    lines = ["| goal | measured | met | |", "|---|---|---|---|"]
+    for g in goal_rows:
+        met = {True: "yes", False: "**no**", None: "not measured"}[g["met"]]
+        lines.append(f"| {g['goal']} | {g['measured'] or '-'} | {met} | {g['detail']} |")
+    return "\n".join(lines)
+
+
+def text_table(rows: list[dict]) -> str:
+    header = ("workload", "robot", "tool", "median", "p95", "x ours", "result")
+    body = [(GROUP_LABELS.get(r["workload"], r["workload"]), r["robot"], r["tool"], fmt_time(r["median_s"], r["unit"]),
+             fmt_time(r["p95_s"], r["unit"]), fmt_ratio(r),
+             ("ok" if r["status"] == "ok" else r["status"].upper())
+             + (f", success {r['success']:.1%}" if r.get("success") is not None else "")) for r in rows]
+    widths = [max(len(str(x)) for x in column) for column in zip(header, *body)]
+    line = lambda cells: "  ".join(str(c).ljust(w) for c, w in zip(cells, widths))  # noqa: E731
+    return "\n".join([line(header), line(["-" * w for w in widths]), *map(line, body)])
+
+
+# --------------------------------------------------------------------------
+# Chart
+
+
+def chart(rows: list[dict], path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [(w, label) for w, label in GROUP_LABELS.items() if any(r["workload"] == w and r["median_s"] for r in rows)]
+    if not panels:
+        return
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 1.2 + sum(
+        0.32 * sum(1 for r in rows if r["workload"] == w and r["median_s"]) + 0.6 for w, _ in panels)), squeeze=False)
+    for ax, (workload, label) in zip(axes[:, 0], panels):
+        chosen = [r for r in rows if r["workload"] == workload and r["median_s"]]
+        names = [f"{r['tool']}  [{r['robot']}]" if r["robot"] != "-" else r["tool"] for r in chosen]
+        values = [r["median_s"] * 1e6 for r in chosen]
+        colors = ["#d95f02" if r["ours"] or r["tool"].startswith("manipkit") else "#7570b3" for r in chosen]
+        y = range(len(chosen))[::-1]
+        ax.barh(list(y), values, color=colors)
+        ax.set_yticks(list(y), names, fontsize=7)
+        ax.set_xscale("log")
+        unit = chosen[0]["unit"]
+        ax.set_title(f"{label}: median us per {unit} (log scale; orange: manipkit)", fontsize=9, loc="left")
+        for yi, r, v in zip(y, chosen, values):
+            text = fmt_time(r["median_s"], r["unit"]).split("/")[0]
+            if r.get("ratio") and not r["ours"]:
+                text += f"  ({r['ratio']:.3g}x ours)"
+            ax.text(v, yi, " " + text, va="center", fontsize=7)
+        ax.set_xlim(min(values) / 3, max(values) * 30)
+        ax.tick_params(axis="x", labelsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.985))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------
+# README
+
+
+START, END = "<!-- bench:results -->", "<!-- /bench:results -->"
+
+
+def update_readme(path: Path, results: dict, chart_name: str) -> None:
+    m = results["machine"]
+    block = "\n".join([
+        START,
+        f"Run of {results['date']} on {m['cpu']} ({m['cores']} cores), {m['uname']}, Python {m['python']}; "
+        f"load average {m['load_average_start']} at the start and {m['load_average_end']} at the end "
+        f"(other jobs shared the machine: ratios matter, not absolute times). Total {results['seconds']:.0f} s.",
+        "",
+        "### Goals",
+        "",
+        goals_markdown(results["goals"]),
+        "",
+        "### All measurements",
+        "",
+        markdown_table(results["rows"]),
+        "",
+        f"![benchmark chart]({chart_name})",
+        END,
+    ])
+    text = path.read_text(encoding="utf-8") if path.exists() else ""
+    if START in text and END in text:
+        text = text[: text.index(START)] + block + text[text.index(END) + len(END):]
+    else:
+        text = text.rstrip() + "\n\n" + block + "\n"
+    path.write_text(text, encoding="utf-8")
+
+
+# --------------------------------------------------------------------------
+
+
+def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
+    from benchmarks import workloads as w
+
+    sizes = QUICK if quick else FULL
+    started = time.perf_counter()
+    info = machine()
+    rows: list[dict] = []
+    steps = []
+    for robot in robots:
+        if "fk" in only:
+            steps.append((f"FK {robot}", lambda robot=robot: w.fk_workload(robot, **sizes["fk"])))
+    for robot in robots:
+        if "ik" in only:
+            steps.append((f"IK {robot}", lambda robot=robot: w.ik_workload(robot, **sizes["ik"])))
+    if "planar" in only:
+        steps.append(("closed-form planar IK", lambda: w.planar_workload(**sizes["planar"])))
+    if "cold" in only:
+        steps.append(("cold start", lambda: w.cold_start_workload(**sizes["cold"])))
+    if "viewer" in only:
+        steps.append(("viewer round trip", lambda: w.viewer_workload(**sizes["viewer"])))
+    for label, step in steps:
+        t = time.perf_counter()
+        log(f"[bench] {label} ...")
+        rows += step()
+        log(f"[bench] {label}: {time.perf_counter() - t:.1f} s")
+    add_ratios(rows)
+    order = list(GROUP_LABELS)
+    rows.sort(key=lambda r: order.index(r["workload"]) if r["workload"] in order else len(order))  # stable
+    info["load_average_end"] = _load()
+    return {
+        "date": dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "machine": info,
+        "quick": quick,
+        "seconds": time.perf_counter() - started,
+        "goals": goals(rows),
+        "rows": rows,
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="tiny sizes (seconds): what the tests run")
+    parser.add_argument("--only", default=",".join(WORKLOADS), help=f"comma-separated subset of {','.join(WORKLOADS)}")
+    parser.add_argument("--robots", default=",".join(ROBOTS), help="robots for the FK and IK workloads")
+    parser.add_argument("--out", type=Path, default=HERE, help="folder for results.json and results.png")
+    parser.add_argument("--no-readme", action="store_true", help="do not update benchmarks/README.md")
+    args = parser.parse_args(argv)
+    only = tuple(x for x in args.only.split(",") if x)
+    unknown = set(only) - set(WORKLOADS)
+    if unknown:
+        parser.error(f"unknown workload(s) {', '.join(sorted(unknown))}; choose from {', '.join(WORKLOADS)}")
+    results = run(only, tuple(args.robots.split(",")), args.quick, log=lambda m: print(m, file=sys.stderr, flush=True))
+    print(text_table(results["rows"]))
+    print()
+    for g in results["goals"]:
+        met = {True: "MET", False: "MISSED", None: "n/a"}[g["met"]]
+        print(f"{met:6s} {g['goal']}: {g['measured']} ({g['detail']})")
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+    m = results["machine"]
+    chart(results["rows"], args.out / "results.png",
+          f"manipkit benchmarks, {results['date'][:10]}, {m['cpu']} ({m['cores']} cores)")
+    if not args.no_readme and not args.quick and args.out.resolve() == HERE:
+        update_readme(HERE / "README.md", results, "results.png")
+    print(f"\nwrote {args.out / 'results.json'} and {args.out / 'results.png'}")
+    wrong = [r for r in results["rows"] if r["status"] == "wrong"]
+    return 1 if any(r["ours"] for r in wrong) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,526 @@
+"""The five workloads of `make bench`, each returning result rows after checking every answer.
+
+A row is a dict (see :func:`row`): workload, robot, tool, median and p95 time
+(seconds, per the row's ``unit``), the sample count, the check that was made
+and its outcome. A peer whose answers differ from manipkit's by more than
+``FK_TOL`` gets status ``"wrong"`` and no time: a fast wrong answer never
+counts. IK answers (many joint vectors reach one pose) are checked by
+putting them through Pinocchio's forward kinematics instead.
+
+Timings: ``time.perf_counter`` around each call (single calls) or around a
+whole batch (batched calls), garbage collection off while timing, after a
+warm-up. Everything runs in this one process on the same seeded inputs,
+except the cold-start and viewer workloads, which time separate processes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import json
+import math
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import queue
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import peers as peer_adapters
+
+FK_TOL = 1e-9  # a peer's pose must equal manipkit's to this (every entry of T)
+KERNEL_TOL = 1e-12  # manipkit's batched FK must equal Pinocchio's to this
+IK_ACCEPT = 1e-9  # an IK answer counts when Pinocchio puts the frame within this (m and rad) of the target
+RTB_IK_TOL = 1e-20  # RTB stops when E = e.e / 2 < tol: |e| < 1.4e-10, so its answers can meet IK_ACCEPT
+PLANAR_TOL = 1e-9  # closed-form solutions must reach their targets to this (m, rad)
+BIN = Path(sys.executable).parent
+
+
+def row(workload, robot, tool, times=None, *, unit, n=0, ours=False, status="ok", check="", note="", **extra) -> dict:
+    """One result: median and p95 of ``times`` (seconds per ``unit``)."""
+    times = None if times is None else np.asarray(times, dtype=float)
+    has = times is not None and times.size > 0 and status == "ok"
+    return {
+        "workload": workload,
+        "robot": robot,
+        "tool": tool,
+        "ours": ours,
+        "unit": unit,
+        "median_s": float(np.median(times)) if has else None,
+        "p95_s": float(np.percentile(times, 95)) if has else None,
+        "n": int(n),
+        "status": status,
+        "check": check,
+        "note": note,
+        **extra,
+    }
+
+
+@contextlib.contextmanager
+def no_gc():
+    enabled = gc.isenabled()
+    gc.collect()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def per_call(fn, inputs, *, warmup: int = 20) -> np.ndarray:
+    """Seconds of each ``fn(x)`` for x in ``inputs`` (after ``warmup`` untimed calls)."""
+    for x in inputs[:warmup]:
+        fn(x)
+    times = np.empty(len(inputs))
+    clock = time.perf_counter
+    with no_gc():
+        for i, x in enumerate(inputs):
+            start = clock()
+            fn(x)
+            times[i] = clock() - start
+    return times
+
+
+def per_item(fn, n_items: int, *, repeats: int) -> np.ndarray:
+    """Seconds per item of ``fn()`` (which handles ``n_items``), one value per repeat, after a warm-up call."""
+    fn()
+    times = np.empty(repeats)
+    with no_gc():
+        for i in range(repeats):
+            start = time.perf_counter()
+            fn()
+            times[i] = (time.perf_counter() - start) / n_items
+    return times
+
+
+def max_error(A, B) -> float:
+    return float(np.max(np.abs(np.asarray(A) - np.asarray(B)))) if np.size(A) else 0.0
+
+
+def _peer_rows(robot_name, urdf_path, robot, wanted=("rtb", "ikpy", "kinpy")):
+    loaded = {}
+    for key in wanted:
+        adapter, reason = peer_adapters.load_peer(key, robot, urdf_path)
+        loaded[key] = (adapter, reason)
+    return loaded
+
+
+# --------------------------------------------------------------------------
+# 1. forward kinematics
+
+
+def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000, repeats: int = 5,
+                loop_subset: int = 2000, seed: int = 7, peer_list=("rtb", "ikpy", "kinpy")) -> list[dict]:
+    """End-effector pose FK: one configuration per call, and a batch of ``n_batch``."""
+    import pinocchio as pin
+
+    import manipkit
+    from manipkit.chain import chain_fk_for
+
+    robot = manipkit.load(robot_name)
+    root, ee = robot.root_link, robot.frame("ee_link")
+    cols = peer_adapters.chain_columns(robot)
+    Q = robot.sample_q(n_batch, seed=seed)
+    rows: list[dict] = []
+    single = Q[:n_single]
+
+    # Pinocchio, the reference: a Python loop over forwardKinematics + updateFramePlacement
+    model, data, fid = robot.model, robot.model.createData(), robot.frame_id(ee)
+    configs = [robot.pinocchio_configuration(q) for q in Q]
+
+    def pin_pose(config):
+        pin.forwardKinematics(model, data, config)
+        return pin.updateFramePlacement(model, data, fid).homogeneous
+
+    T_pin = np.array([pin_pose(c) for c in configs])
+
+    # ours, batched: Robot.fk and the kernel alone, checked against Pinocchio
+    T_ours = robot.fk(Q, ee)
+    kernel = chain_fk_for(robot, ee)
+    T_kernel = kernel.transforms(Q)
+    err_fk, err_kernel = max_error(T_ours, T_pin), max_error(T_kernel, T_pin)
+    fk_ok, kernel_ok = err_fk <= KERNEL_TOL, err_kernel <= KERNEL_TOL
+    rows.append(row("fk_batch", robot_name, "manipkit Robot.fk(Q, frame)", per_item(lambda: robot.fk(Q, ee), n_batch, repeats=repeats)
+                    if fk_ok else None, unit="config", n=n_batch, ours=True, status="ok" if fk_ok else "wrong",
+                    check=f"max |T - Pinocchio| = {err_fk:.1e} over {n_batch} (<= {KERNEL_TOL:g})"))
+    out = np.empty_like(T_kernel)
+    rows.append(row("fk_batch", robot_name, "manipkit.chain.ChainFK (kernel alone)",
+                    per_item(lambda: kernel.transforms(Q, out=out), n_batch, repeats=repeats) if kernel_ok else None,
+                    unit="config", n=n_batch, status="ok" if kernel_ok else "wrong",
+                    check=f"max |T - Pinocchio| = {err_kernel:.1e} over {n_batch} (<= {KERNEL_TOL:g})",
+                    note=f"{kernel.n_ops} ufunc calls per block of {kernel.block}"))
+    rows.append(row("fk_batch", robot_name, "Pinocchio, Python loop", per_item(lambda: [pin_pose(c) for c in configs], n_batch,
+                                                                            repeats=max(1, repeats // 2)),
+                    unit="config", n=n_batch, check="the reference", note="forwardKinematics + updateFramePlacement per row"))
+
+    # ours, one configuration per call
+    err = max_error([robot.transform(root, ee, q) for q in single], T_pin[:n_single])
+    rows.append(row("fk_single", robot_name, "manipkit Robot.transform(base, ee, q)",
+                    per_call(lambda q: robot.transform(root, ee, q), single), unit="call", n=n_single, ours=True,
+                    check=f"max |T - Pinocchio| = {err:.1e} over {n_single}"))
+    rows.append(row("fk_single", robot_name, "Pinocchio (forwardKinematics + updateFramePlacement)",
+                    per_call(pin_pose, configs[:n_single]), unit="call", n=n_single, check="the reference"))
+
+    with tempfile.TemporaryDirectory() as folder:
+        urdf_path = peer_adapters.write_urdf(robot, Path(folder))
+        for key, (adapter, reason) in _peer_rows(robot_name, urdf_path, robot, peer_list).items():
+            name = peer_adapters.PEERS[key].name
+            if adapter is None:
+                for workload in ("fk_single", "fk_batch"):
+                    rows.append(row(workload, robot_name, name, unit="call" if workload == "fk_single" else "config",
+                                    status="missing", note=reason))
+                continue
+            version = f"{peer_adapters.PEER_PACKAGES[key]} {adapter.version}"
+            # single calls: check every answer first, then time
+            answers = np.array([adapter.fk(q[cols]) for q in single])
+            err = max_error(answers, T_ours[:n_single])
+            ok = err <= FK_TOL
+            check = f"max |T - manipkit| = {err:.1e} over {n_single} (<= {FK_TOL:g})"
+            rows.append(row("fk_single", robot_name, f"{name} fkine" if key == "rtb" else f"{name} forward_kinematics",
+                            per_call(lambda q: adapter.fk(q[cols]), single) if ok else None, unit="call", n=n_single,
+                            status="ok" if ok else "wrong", check=check, version=version))
+            # batches: RTB takes the whole batch; the others loop over single calls
+            if key == "rtb":
+                Qc = np.ascontiguousarray(Q[:, cols])
+                answers = adapter.fk_batch(Qc)
+                err = max_error(answers, T_ours)
+                ok = err <= FK_TOL
+                rows.append(row("fk_batch", robot_name, f"{name} fkine(Q), batched",
+                                per_item(lambda: adapter.fk_batch_call(Qc), n_batch, repeats=max(1, repeats // 2)) if ok else None,
+                                unit="config", n=n_batch, status="ok" if ok else "wrong",
+                                check=f"max |T - manipkit| = {err:.1e} over {n_batch} (<= {FK_TOL:g})", version=version,
+                                note="one call with an (N, n) array; returns an SE3 of N poses"))
+            else:
+                subset = Q[:loop_subset]
+                answers = np.array([adapter.fk(q[cols]) for q in subset])
+                err = max_error(answers, T_ours[:loop_subset])
+                ok = err <= FK_TOL
+                rows.append(row("fk_batch", robot_name, f"{name}, Python loop",
+                                per_item(lambda: [adapter.fk(q[cols]) for q in subset], loop_subset, repeats=1) if ok else None,
+                                unit="config", n=loop_subset, status="ok" if ok else "wrong",
+                                check=f"max |T - manipkit| = {err:.1e} over {loop_subset} (<= {FK_TOL:g})", version=version,
+                                note=f"no batched call; a loop over {loop_subset} rows"))
+    return rows
+
+
+# --------------------------------------------------------------------------
+# 2. numerical IK
+
+
+def _pose_residuals(robot, q_full: np.ndarray, T_target: np.ndarray) -> tuple[float, float]:
+    """Position (m) and rotation (rad) error of ee_link at ``q_full``, by Pinocchio."""
+    T = robot.transform(robot.root_link, "ee_link", q_full)
+    position = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
+    cos_angle = (float(np.trace(T[:3, :3].T @ T_target[:3, :3])) - 1.0) / 2.0
+    # the angle from the skew part too, so that 1e-10 rad is not lost in 1 - cos
+    skew = T[:3, :3].T @ T_target[:3, :3]
+    sin_angle = 0.5 * float(np.linalg.norm([skew[2, 1] - skew[1, 2], skew[0, 2] - skew[2, 0], skew[1, 0] - skew[0, 1]]))
+    return position, math.atan2(sin_angle, cos_angle)
+
+
+def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, seed: int = 11,
+                peer_list=("rtb", "ikpy")) -> list[dict]:
+    """6D pose IK from the same random starts: success (checked by Pinocchio), median and p95 per solve.
+
+    Targets are FK of random configurations inside the limits (so reachable);
+    starts are other random configurations, the same for every solver. The
+    Python solvers that take milliseconds (RTB ``ikine_LM``, ikpy) run on the
+    first ``n_slow`` targets.
+    """
+    import manipkit
+    from manipkit.ik import ik
+
+    robot = manipkit.load(robot_name)
+    root = robot.root_link
+    cols = peer_adapters.chain_columns(robot)
+    rng_targets, rng_starts = seed, seed + 1
+    Q_true = robot.sample_q(n_targets, seed=rng_targets)
+    Q_start = robot.sample_q(n_targets, seed=rng_starts)
+    targets = [robot.transform(root, "ee_link", q) for q in Q_true]
+    rows = []
+
+    def solve_all(solve, count):
+        """Time each solve; verify each answer with Pinocchio. (times, success at IK_ACCEPT, success at 1e-6)."""
+        times, answers = np.empty(count), []
+        solve(0)  # warm-up (first-call caches)
+        with no_gc():
+            for i in range(count):
+                start = time.perf_counter()
+                answers.append(solve(i))
+                times[i] = time.perf_counter() - start
+        residuals = []
+        for i, q_chain in enumerate(answers):
+            q_full = Q_start[i].copy()
+            q_full[cols] = q_chain
+            residuals.append(_pose_residuals(robot, q_full, targets[i]))
+        worst = np.max(np.asarray(residuals), axis=1)
+        return times, float(np.mean(worst <= IK_ACCEPT)), float(np.mean(worst <= 1e-6))
+
+    def ours(i):
+        return ik(robot, targets[i], q0=Q_start[i], seed=i).q[cols]
+
+    times, success, loose = solve_all(ours, n_targets)
+    rows.append(row("ik", robot_name, "manipkit ik (LM on Pinocchio Jacobians)", times, unit="solve", n=n_targets, ours=True,
+                    success=success, success_1e6=loose,
+                    check=f"answers put through Pinocchio FK: residual <= {IK_ACCEPT:g} m and rad",
+                    note="tol 1e-10, up to 50 random restarts"))
+
+    with tempfile.TemporaryDirectory() as folder:
+        urdf_path = peer_adapters.write_urdf(robot, Path(folder))
+        for key in peer_list:
+            adapter, reason = peer_adapters.load_peer(key, robot, urdf_path)
+            if adapter is None:
+                names = ["Robotics Toolbox ik_LM (C++)", "Robotics Toolbox ikine_LM (Python)"] if key == "rtb" else ["ikpy"]
+                rows += [row("ik", robot_name, name, unit="solve", status="missing", note=reason) for name in names]
+                continue
+            version = f"{peer_adapters.PEER_PACKAGES[key]} {adapter.version}"
+            check = f"answers put through Pinocchio FK: residual <= {IK_ACCEPT:g} m and rad"
+            if key == "rtb":
+                times, success, loose = solve_all(
+                    lambda i: adapter.ik_LM(targets[i], Q_start[i][cols], tol=RTB_IK_TOL), n_targets)
+                rows.append(row("ik", robot_name, "Robotics Toolbox ik_LM (C++)", times, unit="solve", n=n_targets,
+                                success=success, success_1e6=loose, check=check, version=version,
+                                note=f"ETS prepared once; tol {RTB_IK_TOL:g} on e.e/2, 100 searches"))
+                times, success, loose = solve_all(
+                    lambda i: adapter.ikine_LM(targets[i], Q_start[i][cols], tol=RTB_IK_TOL, seed=i), n_slow)
+                rows.append(row("ik", robot_name, "Robotics Toolbox ikine_LM (Python)", times, unit="solve", n=n_slow,
+                                success=success, success_1e6=loose, check=check, version=version,
+                                note=f"tol {RTB_IK_TOL:g}; first {n_slow} targets"))
+            else:
+                times, success, loose = solve_all(lambda i: adapter.ik(targets[i], Q_start[i][cols]), n_slow)
+                rows.append(row("ik", robot_name, "ikpy inverse_kinematics_frame", times, unit="solve", n=n_slow,
+                                success=success, success_1e6=loose, check=check, version=version,
+                                note=f"orientation_mode='all', its default tolerance; first {n_slow} targets"))
+    return rows
+
+
+# --------------------------------------------------------------------------
+# 3. closed-form planar IK
+
+
+def planar_workload(*, n_targets: int = 1_000_000, repeats: int = 5, n_scalar: int = 2000, seed: int = 5) -> list[dict]:
+    """ik_2r_batch and ik_3r_batch over ``n_targets`` reachable targets; every solution checked by FK."""
+    from manipkit import planar
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    l1, l2, l3 = 4.0, 2.0, 1.0  # the bundled planar_3r; 2R uses l1, l2
+    q = rng.uniform(-np.pi, np.pi, size=(n_targets, 3))
+    xy = np.stack(planar.fk_2r(q[:, 0], q[:, 1], l1, l2), axis=-1)  # (N, 2), all reachable
+    poses = np.stack(planar.fk_3r(q[:, 0], q[:, 1], q[:, 2], l1, l2, l3), axis=-1)  # (N, 3): x, y, phi
+
+    def angle_error(a, b):
+        return np.abs(np.pi - np.mod(np.pi - (a - b), 2.0 * np.pi))
+
+    def check_2r(result, targets):
+        """Largest distance from a target of the FK of its solutions (both, where there are two)."""
+        sol = result.solutions  # (N, 2, 2), NaN where absent
+        x, y = planar.fk_2r(sol[..., 0], sol[..., 1], l1, l2)
+        err = np.maximum(np.abs(x - targets[:, None, 0]), np.abs(y - targets[:, None, 1]))
+        return float(np.nanmax(err)), float(np.mean(result.counts >= 1))
+
+    def check_3r(result, targets):
+        sol = result.solutions  # (N, 2, 3)
+        x, y, phi = planar.fk_3r(sol[..., 0], sol[..., 1], sol[..., 2], l1, l2, l3)
+        err = np.maximum(np.maximum(np.abs(x - targets[:, None, 0]), np.abs(y - targets[:, None, 1])),
+                         angle_error(phi, targets[:, None, 2]))
+        return float(np.nanmax(err)), float(np.mean(result.counts >= 1))
+
+    for name, solve, scalar, targets, checker in (
+        ("2R", lambda: planar.ik_2r_batch(xy, l1, l2), lambda i: planar.ik_2r(xy[i, 0], xy[i, 1], l1, l2), xy, check_2r),
+        ("3R", lambda: planar.ik_3r_batch(poses, l1, l2, l3),
+         lambda i: planar.ik_3r(poses[i, 0], poses[i, 1], poses[i, 2], l1, l2, l3), poses, check_3r),
+    ):
+        err, solved = checker(solve(), targets)
+        ok = err <= PLANAR_TOL and solved == 1.0
+        check = f"FK of every solution: max error {err:.1e} (<= {PLANAR_TOL:g}); {solved:.0%} of targets solved"
+        rows.append(row("planar", name, f"manipkit planar.ik_{name.lower()}_batch (numpy)",
+                        per_item(solve, n_targets, repeats=repeats) if ok else None, unit="target", n=n_targets, ours=True,
+                        status="ok" if ok else "wrong", check=check, note="both solutions of every target"))
+        rows.append(row("planar", name, f"manipkit planar.ik_{name.lower()} (one target per call)",
+                        per_call(scalar, list(range(n_scalar))), unit="target", n=n_scalar,
+                        note="the scalar API in a Python loop, for scale"))
+    return rows
+
+
+# --------------------------------------------------------------------------
+# 4. cold start
+
+
+def _time_process(argv: list[str], env: dict) -> float:
+    start = time.perf_counter()
+    result = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=120)
+    elapsed = time.perf_counter() - start
+    if result.returncode != 0:
+        raise RuntimeError(f"{' '.join(argv)} exited with {result.returncode}: {result.stderr.strip()[-400:]}")
+    return elapsed
+
+
+def cold_start_workload(*, runs: int = 15) -> list[dict]:
+    """``tf-between base_link ee_link`` as a fresh process, against bare imports; interleaved runs, median."""
+    import manipkit
+
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHONPROFILE")}
+    tf_between = str(BIN / "tf-between")
+    commands = {
+        "manipkit tf-between base_link ee_link": [tf_between, "base_link", "ee_link"],
+        'python -c "import pinocchio"': [sys.executable, "-c", "import pinocchio"],
+        'python -c "import numpy"': [sys.executable, "-c", "import numpy"],
+    }
+    missing_rtb = peer_adapters.missing_reason("rtb")
+    if not missing_rtb:
+        commands['python -c "import roboticstoolbox"'] = [sys.executable, "-c", "import roboticstoolbox"]
+    # the answer first: the command must print the model's transform
+    result = subprocess.run([tf_between, "base_link", "ee_link", "--format", "json"], capture_output=True, text=True,
+                            env=env, timeout=120)
+    robot = manipkit.load("course_arm")
+    expected = robot.transform("base_link", "ee_link", robot.q())
+    shown = np.array(json.loads(result.stdout)["matrix"]) if result.returncode == 0 else None
+    err = max_error(shown, expected) if shown is not None else math.inf
+    ok = err <= 1e-9
+    times = {name: [] for name in commands}
+    for argv in commands.values():  # warm the file cache once
+        _time_process(argv, env)
+    for _ in range(runs):
+        for name, argv in commands.items():
+            times[name].append(_time_process(argv, env))
+    rows = []
+    for name in commands:
+        ours = name.startswith("manipkit")
+        rows.append(row("cold_start", "-", name, times[name] if (ok or not ours) else None,
+                        unit="run", n=runs, ours=ours, status="ok" if (ok or not ours) else "wrong",
+                        check=(f"prints course_arm's T_base_link_ee_link = the model's (max error {err:.1e})" if ours else "exit 0")))
+    if missing_rtb:
+        rows.append(row("cold_start", "-", 'python -c "import roboticstoolbox"', unit="run", status="missing", note=missing_rtb))
+    return rows
+
+
+# --------------------------------------------------------------------------
+# 5. viewer round trip
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _start_viewer(port: int, timeout: float = 60.0):
+    proc = subprocess.Popen([str(BIN / "manipkit"), "view", "--no-browser", "--port", str(port)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: queue.Queue = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in proc.stdout], daemon=True).start()
+    url, deadline = None, time.monotonic() + timeout
+    while url is None:
+        try:
+            line = lines.get(timeout=max(deadline - time.monotonic(), 0.01))
+        except queue.Empty:
+            proc.kill()
+            raise RuntimeError(f"manipkit view printed no URL within {timeout} s") from None
+        if line.startswith("control page: "):
+            url = line.split(": ", 1)[1].strip()
+        if proc.poll() is not None:
+            raise RuntimeError(f"manipkit view exited with {proc.returncode}: {proc.stderr.read()}")
+    return proc, url
+
+
+def _stop(proc) -> None:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+    "--disable-sync", "--no-first-run", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+]
+
+
+def viewer_workload(*, moves: int = 60, joint: str = "bottom_wrist_joint") -> list[dict]:
+    """Slider to readout: HTTP only (the server's answer), and in headless Chromium (the page's own timer).
+
+    Both move ``joint`` of the course arm ``moves`` times, one move at a time,
+    and check the last readout against ``robot.transform`` (1e-9).
+    """
+    import urllib.request
+
+    import manipkit
+
+    robot = manipkit.load("course_arm")
+    rows = []
+    proc, url = _start_viewer(_free_port())
+    try:
+        def post(body: dict) -> dict:
+            request = urllib.request.Request(url + "api/update", data=json.dumps(body).encode(),
+                                             headers={"Content-Type": "application/json"})
+            with urllib.request.urlopen(request, timeout=30) as response:
+                return json.loads(response.read())
+
+        values = [round(0.02 * (i + 1), 6) for i in range(moves)]
+        post({"q": {joint: 0.0}})
+        times = per_call(lambda v: post({"q": {joint: v}}), values, warmup=5)
+        answer = post({"q": {joint: values[-1]}})["readout"]  # tf-between's JSON keys
+        expected = robot.transform(answer["source"], answer["target"], robot.q(answer["q"]))
+        shown = np.array(answer["matrix"])
+        err = max_error(shown, expected)
+        ok = err <= 1e-9
+        rows.append(row("viewer", "course_arm", "manipkit view: POST /api/update (HTTP, no browser)", times if ok else None,
+                        unit="move", n=moves, ours=True, status="ok" if ok else "wrong",
+                        check=f"readout = robot.transform (max error {err:.1e})", note="keep-alive off: a new connection per move"))
+        rows += _browser_round_trip(url, robot, moves, joint)
+    finally:
+        _stop(proc)
+    return rows
+
+
+def _browser_round_trip(url: str, robot, moves: int, joint: str) -> list[dict]:
+    name = "manipkit view: slider -> readout in headless Chromium"
+    if not CHROMIUM.is_file():
+        return [row("viewer", "course_arm", name, unit="move", ours=True, status="missing", note=f"{CHROMIUM} is not installed")]
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        return [row("viewer", "course_arm", name, unit="move", ours=True, status="missing", note="playwright is not installed")]
+    profile = tempfile.mkdtemp(prefix="bench-chromium-")
+    try:
+        with sync_playwright() as playwright:
+            context = playwright.chromium.launch_persistent_context(profile, executable_path=str(CHROMIUM), headless=True,
+                                                                   args=CHROMIUM_ARGS)
+            page = context.new_page()
+            page.goto(url)
+            page.wait_for_function("document.querySelector('pre#readout-json').textContent.length > 0")
+            for i in range(moves):
+                before = page.text_content("pre#readout-json")
+                page.eval_on_selector(
+                    f'input[type=range][data-joint="{joint}"]',
+                    """(el, value) => { el.value = String(value);
+                        el.dispatchEvent(new Event('input', {bubbles: true}));
+                        el.dispatchEvent(new Event('change', {bubbles: true})); }""",
+                    round(-0.02 * (i + 1), 6),
+                )
+                page.wait_for_function("b => document.querySelector('pre#readout-json').textContent !== b", arg=before,
+                                       timeout=10_000)
+            timings = page.evaluate(f"window.manipkitTimings.slice(-{moves})")
+            shown = json.loads(page.text_content("pre#readout-json"))
+            context.close()
+    finally:
+        shutil.rmtree(profile, ignore_errors=True)
+    expected = robot.transform(shown["source"], shown["target"], robot.q(shown["q"]))
+    err = max_error(np.array(shown["matrix"]), expected)
+    ok = err <= 1e-9 and len(timings) == moves
+    return [row("viewer", "course_arm", name, np.asarray(timings) / 1000.0 if ok else None, unit="move", n=moves,
+                ours=True, status="ok" if ok else "wrong", check=f"readout = robot.transform (max error {err:.1e})",
+                note="the page's own timer: first input event to readout shown")]
