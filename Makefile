@@ -51,4 +51,4 @@ bench: setup
 # input is written to /tmp/manipkit_fuzz_failure.urdf (or /tmp/manipkit_fuzz_failure_xacro/).
 .PHONY: fuzz
 fuzz: setup
-	MANIPKIT_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest tests/test_fuzz.py -q --hypothesis-show-statistics -k mutated
+	HYPOTHESIS_PROFILE=explore MANIPKIT_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest tests/test_fuzz.py -q --hypothesis-show-statistics -k mutated

@@ -727,3 +727,24 @@ def test_axis_angle_at_half_turn_where_seed_equation_3_4_divides_by_zero():
     assert np.all(skew == 0.0)  # 0 / 0: the seed's formula gives no axis here
     axis, angle = axis_angle_from_matrix(R)
     assert axis.tolist() == [1.0, 0.0, 0.0] and angle == PI
+
+
+def test_wrap_angle_is_half_open_even_a_few_ulps_above_pi():
+    # pi - mod(pi - a, 2 pi) rounds to -pi for a = pi + 4.4e-16; the result must be +pi.
+    from manipkit.rotations import wrap_angle
+
+    angles = np.array([np.pi, -np.pi, np.pi + 4.440892098500626e-16, 3 * np.pi, -3 * np.pi, 0.5, -0.5 - 2 * np.pi])
+    wrapped = wrap_angle(angles)
+    assert np.all((wrapped > -np.pi) & (wrapped <= np.pi))
+    assert wrapped[:5] == pytest.approx([np.pi] * 5, abs=1e-15)
+    assert wrapped[5:] == pytest.approx([0.5, -0.5], abs=1e-15)
+
+
+def test_euler_zyz_other_branch_found_by_hypothesis_stays_in_range():
+    # A half turn about y (theta = pi, singular) with 4e-16 noise: psi + pi landed on -pi before the fix.
+    R = np.array([[-2.22044605e-16, 4.00614097e-16, -1.0],
+                  [-4.00614097e-16, -1.0, -4.00614097e-16],
+                  [-1.0, 4.00614097e-16, -2.22044605e-16]])
+    phi, theta, psi = euler_zyz_from_matrix(R, theta_negative=True, check=False)
+    assert -PI < phi <= PI and -PI < psi <= PI and -PI <= theta <= 0.0
+    assert np.abs(matrix_from_euler_zyz([phi, theta, psi]) - R).max() < 1e-12

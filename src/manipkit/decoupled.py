@@ -70,7 +70,15 @@ import numpy as np
 from manipkit.dh import DHRow, DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
 from manipkit.planar import ik_2r
-from manipkit.rotations import check_rotation, euler_zyz_from_matrix, rot_x, rot_y, rot_z, rotation_angle_between
+from manipkit.rotations import (
+    check_rotation,
+    euler_zyz_from_matrix,
+    rot_x,
+    rot_y,
+    rot_z,
+    rotation_angle_between,
+    wrap_angle,
+)
 
 __all__ = [
     "ClosedFormIK",
@@ -179,12 +187,7 @@ def _point(v) -> str:
 
 
 def _wrap(angle):
-    """Angles mapped to (-pi, pi]; angles already inside are returned unchanged (no rounding)."""
-    angle = np.asarray(angle, dtype=float)
-    inside = (angle > -np.pi) & (angle <= np.pi)
-    wrapped = np.pi - np.mod(np.pi - angle, 2.0 * np.pi)  # in [-pi, pi]: rounding can land on -pi
-    wrapped = np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
-    return np.where(inside, angle, wrapped) + 0.0
+    return wrap_angle(angle)
 
 
 def _number(value, what: str) -> float:

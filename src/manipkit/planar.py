@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from manipkit.errors import PlanarArmError
+from manipkit.rotations import wrap_angle
 
 __all__ = [
     "ELBOW_DOWN",
@@ -66,8 +67,7 @@ Q1_FREE = "q1 free"  # target at the base with l1 = l2: q2 = pi, any q1
 
 
 def _wrap(angle):
-    """Angles mapped to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    return wrap_angle(angle)
 
 
 def _scalar_or_array(array: np.ndarray):

@@ -97,6 +97,34 @@ def _wrap_minus_pi(angle: np.ndarray) -> np.ndarray:
     return np.where(angle <= -np.pi, angle + 2.0 * np.pi, angle)
 
 
+def wrap_angle(angle):
+    """Angles mapped to (-pi, pi], exactly at the edges.
+
+    ``pi - mod(pi - a, 2 pi)`` can round to ``-pi`` for ``a`` a few ulps above
+    ``pi`` (``mod`` of a tiny negative number returns ``2 pi``); such results
+    are moved to ``+pi``. Angles already inside are returned unchanged.
+
+    Parameters
+    ----------
+    angle : array_like, shape (...)
+        Radians.
+
+    Returns
+    -------
+    ndarray, shape (...), in (-pi, pi]
+
+    Examples
+    --------
+    >>> wrap_angle([-np.pi, 3 * np.pi / 2, np.nextafter(np.pi, 4)])
+    array([ 3.14159265, -1.57079633,  3.14159265])
+    """
+    angle = np.asarray(angle, dtype=float)
+    inside = (angle > -np.pi) & (angle <= np.pi)
+    wrapped = np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    wrapped = np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
+    return np.where(inside, angle, wrapped) + 0.0
+
+
 # --------------------------------------------------------------------------
 # elementary rotations
 
@@ -888,5 +916,5 @@ def euler_zyz_from_matrix(
 
 
 def _wrap_pi(angle: np.ndarray) -> np.ndarray:
-    """Any angle mapped to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    """Any angle mapped to (-pi, pi] (see :func:`wrap_angle`)."""
+    return wrap_angle(angle)

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from manipkit.rotations import rpy_from_matrix
+from manipkit.rotations import rpy_from_matrix, wrap_angle
 
 __all__ = ["tree_text", "tree_dot", "write_tree_image"]
 
@@ -171,8 +171,7 @@ def _analyse(urdf) -> _Tree:
 
 
 def _wrap(angle):
-    """Angles wrapped to (-pi, pi], without negative zeros."""
-    return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2 * np.pi) + 0.0
+    return wrap_angle(angle)
 
 
 def _rpy_as_written(R) -> np.ndarray:
