@@ -48,7 +48,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
-from manipkit.rotations import check_rotation, rotation_angle_between
+from manipkit.rotations import check_rotation, rotation_angle_between, wrap_angle
 
 __all__ = ["AnalyticIK", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "analytic_ik", "ik", "ik_solver"]
 
@@ -493,7 +493,7 @@ class IKSolver:
             x_new = clipped
             step = x_new - x
             if wrap is not None:
-                x_new[wrap] = math.pi - np.mod(math.pi - x_new[wrap], 2.0 * math.pi)
+                x_new[wrap] = wrap_angle(x_new[wrap])
             iterations += 1
             e_new, J_new, pos_new, rot_new = evaluate(x_new)
             cost_new = 0.5 * float(e_new.dot(e_new))
@@ -557,7 +557,7 @@ class IKSolver:
     def _project(self, x: np.ndarray) -> np.ndarray:
         x = np.minimum(np.maximum(x, self._lower), self._upper)
         if self._has_cs:
-            x[self._wrap] = math.pi - np.mod(math.pi - x[self._wrap], 2.0 * math.pi)
+            x[self._wrap] = wrap_angle(x[self._wrap])
         return x
 
     def _same(self, x: np.ndarray, y: np.ndarray) -> bool:
