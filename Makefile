@@ -47,7 +47,7 @@ bench: setup
 	$(BIN)/python -m benchmarks
 
 # Fuzz the description loaders with 10,000 mutated URDF and 10,000 mutated xacro cases each
-# (tests/test_fuzz.py; `make test` runs 300 of each): about 15 minutes. A failing case's shrunk
+# (tests/test_fuzz.py; `make test` runs 300 of each): about 10 minutes. A failing case's shrunk
 # input is written to /tmp/manipkit_fuzz_failure.urdf (or /tmp/manipkit_fuzz_failure_xacro/).
 .PHONY: fuzz
 fuzz: setup

@@ -89,7 +89,9 @@ def _z_to_axis(axis: np.ndarray) -> np.ndarray:
     """A rotation A with A @ e_z = axis: a signed permutation when the axis is a coordinate axis."""
     axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
     k = int(np.argmax(np.abs(axis)))
-    if abs(abs(axis[k]) - 1.0) < SNAP_TOL:
+    # Snap only when the other two entries are themselves below SNAP_TOL: |axis[k]| can round
+    # to 1 while they are as large as 1e-7, which would turn the joint about the wrong axis.
+    if np.delete(np.abs(axis), k).max() < SNAP_TOL:
         sign = math.copysign(1.0, axis[k])
         z = np.zeros(3)
         z[k] = sign
