@@ -186,9 +186,6 @@ def _point(v) -> str:
     return "(" + ", ".join(_g(x) for x in v) + ")"
 
 
-def _wrap(angle):
-    return wrap_angle(angle)
-
 
 def _number(value, what: str) -> float:
     try:
@@ -279,8 +276,8 @@ def _wrist(R_0_3: np.ndarray, R: np.ndarray, singular_tol: float) -> list[tuple[
         # Either way phi = atan2(-r12, r22) is that sum or difference (psi = 0 on the singular set).
         phi = float(euler_zyz_from_matrix(R_3_6, gimbal_tol=singular_tol, check=False)[0])
         if R_3_6[2, 2] > 0.0:
-            return [((0.0, 0.0, float(_wrap(phi))), WRIST_SINGULAR, True)]
-        return [((0.0, math.pi, float(_wrap(-phi))), WRIST_SINGULAR, True)]
+            return [((0.0, 0.0, float(wrap_angle(phi))), WRIST_SINGULAR, True)]
+        return [((0.0, math.pi, float(wrap_angle(-phi))), WRIST_SINGULAR, True)]
     up = euler_zyz_from_matrix(R_3_6, gimbal_tol=singular_tol, check=False)
     down = euler_zyz_from_matrix(R_3_6, theta_negative=True, gimbal_tol=singular_tol, check=False)
     return [(tuple(map(float, up)), NO_FLIP, False), (tuple(map(float, down)), FLIP, False)]
@@ -300,7 +297,7 @@ def _result(table: DHTable, R: np.ndarray, p: np.ndarray, candidates: list[_Cand
 
     Q = np.array([c.q for c in candidates], dtype=float)
     revolute = np.array([row.is_revolute for row in table.rows])
-    Q[:, revolute] = _wrap(Q[:, revolute])
+    Q[:, revolute] = wrap_angle(Q[:, revolute])
     T_fk = dh_fk(table, Q)
     position_error = np.linalg.norm(T_fk[:, :3, 3] - p, axis=-1)
     rotation_error = np.atleast_1d(rotation_angle_between(T_fk[:, :3, :3], R, check=False))

@@ -66,9 +66,6 @@ Q1_FREE = "q1 free"  # target at the base with l1 = l2: q2 = pi, any q1
 # helpers
 
 
-def _wrap(angle):
-    return wrap_angle(angle)
-
 
 def _scalar_or_array(array: np.ndarray):
     """A 0-d result as a numpy float, anything else unchanged."""
@@ -185,7 +182,7 @@ def fk_3r(q1, q2, q3, l1, l2, l3):
     q123 = q12 + q3
     x = l1 * np.cos(q1) + l2 * np.cos(q12) + l3 * np.cos(q123)
     y = l1 * np.sin(q1) + l2 * np.sin(q12) + l3 * np.sin(q123)
-    phi = _wrap(q123 + 0.0 * (l1 + l2 + l3))  # broadcast to the common shape
+    phi = wrap_angle(q123 + 0.0 * (l1 + l2 + l3))  # broadcast to the common shape
     return tuple(_scalar_or_array(np.asarray(v)) for v in (x, y, phi))
 
 
@@ -375,10 +372,10 @@ def _ik_2r_core(x: np.ndarray, y: np.ndarray, l1: float, l2: float, tol: float):
     has_first = (case == _TWO) | (case == _OUTER) | (case == _INNER) | (case == _FREE)
     has_second = case == _TWO
     solutions = np.empty(r.shape + (2, 2))
-    solutions[..., 0, 0] = np.where(has_first, _wrap(q1_down), nan)
-    solutions[..., 0, 1] = np.where(has_first, _wrap(q2), nan)
-    solutions[..., 1, 0] = np.where(has_second, _wrap(q1_up), nan)
-    solutions[..., 1, 1] = np.where(has_second, _wrap(-q2), nan)
+    solutions[..., 0, 0] = np.where(has_first, wrap_angle(q1_down), nan)
+    solutions[..., 0, 1] = np.where(has_first, wrap_angle(q2), nan)
+    solutions[..., 1, 0] = np.where(has_second, wrap_angle(q1_up), nan)
+    solutions[..., 1, 1] = np.where(has_second, wrap_angle(-q2), nan)
     outside = np.where(too_far, r - outer, np.where(too_close, inner - r, 0.0))
     return solutions, case, outside
 
@@ -537,7 +534,7 @@ def _wrist(x, y, phi, l3):
 
 def _add_q3(solutions_2r: np.ndarray, phi) -> np.ndarray:
     """(..., 2, 2) rows (q1, q2) -> (..., 2, 3) rows (q1, q2, q3) with q3 = phi - q1 - q2."""
-    q3 = _wrap(np.asarray(phi)[..., None] - solutions_2r[..., 0] - solutions_2r[..., 1])
+    q3 = wrap_angle(np.asarray(phi)[..., None] - solutions_2r[..., 0] - solutions_2r[..., 1])
     return np.concatenate([solutions_2r, q3[..., None]], axis=-1)
 
 

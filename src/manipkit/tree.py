@@ -170,9 +170,6 @@ def _analyse(urdf) -> _Tree:
 # --------------------------------------------------------------------------
 
 
-def _wrap(angle):
-    return wrap_angle(angle)
-
 
 def _rpy_as_written(R) -> np.ndarray:
     """Of the two rpy triples of a rotation, the one with the least total angle.
@@ -183,7 +180,7 @@ def _rpy_as_written(R) -> np.ndarray:
     ``3.141593 1.570793 3.141593``, so the smaller triple is shown.
     """
     rpy = rpy_from_matrix(np.asarray(R, dtype=float)[..., :3, :3], check=False)
-    other = _wrap(rpy * (1.0, -1.0, 1.0) + (np.pi, np.pi, np.pi))
+    other = wrap_angle(rpy * (1.0, -1.0, 1.0) + (np.pi, np.pi, np.pi))
     return other if np.abs(other).sum() < np.abs(rpy).sum() - 1e-12 else rpy
 
 
