@@ -268,7 +268,7 @@ def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, se
         return ik(robot, targets[i], q0=Q_start[i], seed=i).q[cols]
 
     times, success, loose = solve_all(ours, n_targets)
-    rows.append(row("ik", robot_name, "manipkit ik (LM on Pinocchio Jacobians)", times, unit="solve", n=n_targets, ours=True,
+    rows.append(row("ik", robot_name, "manipkit ik (compiled LM, numba)", times, unit="solve", n=n_targets, ours=True,
                     success=success, success_1e6=loose,
                     check=f"answers put through Pinocchio FK: residual <= {IK_ACCEPT:g} m and rad",
                     note="tol 1e-10, up to 50 random restarts"))

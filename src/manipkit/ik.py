@@ -1,4 +1,4 @@
-"""Numerical inverse kinematics for any URDF chain (Levenberg-Marquardt on Pinocchio Jacobians).
+"""Numerical inverse kinematics for any URDF chain (Levenberg-Marquardt, compiled, checked by Pinocchio).
 
 Conventions (DESIGN.md), restated:
 
@@ -35,6 +35,12 @@ root (the residuals do not depend on the axes), whose matching Jacobian is
 Pinocchio's ``LOCAL_WORLD_ALIGNED`` frame Jacobian; each step is projected
 into the joint limits; random restarts inside the limits (reproducible from
 ``seed``) until a solution is found.
+
+Speed: the iteration runs as compiled code (:mod:`manipkit.ik_kernel`, numba),
+with the chain's pose and Jacobian computed there (tested equal to
+Pinocchio's); Pinocchio then measures the residuals of every answer, so
+``success`` never rests on the compiled code alone. The first solve in a
+fresh installation compiles the kernel (a few seconds, cached on disk after).
 """
 
 from __future__ import annotations
@@ -48,6 +54,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
+from manipkit.ik_kernel import MODE_CODES, error_and_jacobian, lm_attempts, pack_chain
 from manipkit.rotations import check_rotation, rotation_angle_between, wrap_angle
 
 __all__ = ["AnalyticIK", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "analytic_ik", "ik", "ik_solver"]
@@ -57,19 +64,6 @@ AXES = ("x", "y", "z")
 DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solution
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 _EYE3 = np.eye(3)
-
-try:  # numpy's own solver kernel, without np.linalg.solve's ~5 us of Python checks per call
-    from numpy.linalg._umath_linalg import solve1 as _solve_kernel
-except ImportError:  # pragma: no cover - other numpy layouts
-    _solve_kernel = None
-
-
-def _solve(M: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve ``M x = b`` for the damped normal equations (symmetric positive definite ``M``)."""
-    if _solve_kernel is not None:
-        return _solve_kernel(M, b)  # M is regular (damping floor); a NaN would end the attempt safely
-    return np.linalg.solve(M, b)
-
 
 @dataclass(frozen=True, eq=False)
 class IKResult:
@@ -257,9 +251,9 @@ class IKSolver:
 
     Everything that does not depend on the target is computed once here: the
     chain's joint indices in the user vector and in Pinocchio's configuration
-    and velocity vectors, the limits as arrays, the reach bound, and a
-    Pinocchio data workspace of its own (the robot's ``data`` is not
-    touched). A solver keeps the current target while it solves: use one per
+    vector, the chain packed for the compiled kernel, the limits as arrays,
+    the reach bound, and a Pinocchio data workspace of its own (the robot's
+    ``data`` is not touched). A solver keeps the current target while it solves: use one per
     thread. :func:`ik_solver` builds and caches them; :func:`ik` uses that.
 
     Parameters
@@ -279,7 +273,8 @@ class IKSolver:
 
     Its Jacobian is Pinocchio's ``LOCAL_WORLD_ALIGNED`` frame Jacobian
     (linear rows: velocity of the frame origin; angular rows: angular
-    velocity; both in root axes), restricted to the chain's columns: at the
+    velocity; both in root axes), restricted to the chain's columns and
+    computed by :func:`manipkit.ik_kernel.chain_pose_jacobian`: at the
     solution ``de/dq = -J`` exactly (tested by finite differences). Residuals
     do not depend on the axes they are measured in, so they equal those of
     ``T_base_frame``. For ``"position+axis"`` the rotation error is
@@ -345,11 +340,6 @@ class IKSolver:
         self._sin_q = idx_q[continuous] + 1
         self._has_cs = bool(continuous.any())
         self._has_plain = bool((~continuous).any())
-        idx_v = np.array([jm.idx_v for jm in jmodels], dtype=np.intp)
-        if np.array_equal(idx_v, np.arange(idx_v[0], idx_v[0] + idx_v.size)):
-            self._columns = slice(int(idx_v[0]), int(idx_v[0]) + idx_v.size)  # a view, no copy
-        else:
-            self._columns = idx_v
         self._lower = np.array([j.lower for j in joints], dtype=float)
         self._upper = np.array([j.upper for j in joints], dtype=float)
         self._wrap = continuous
@@ -357,7 +347,6 @@ class IKSolver:
         self._sample_low = np.where(np.isfinite(self._lower), self._lower, -math.pi)
         self._sample_high = np.where(np.isfinite(self._upper), self._upper, math.pi)
         self._n = len(self.chain)
-        self._eye = np.eye(self._n)
         self._default_q = robot.q()
         self._robot_lower = np.array([j.lower for j in robot.joints], dtype=float)
         self._robot_upper = np.array([j.upper for j in robot.joints], dtype=float)
@@ -371,6 +360,18 @@ class IKSolver:
         reach += float(np.linalg.norm(model.frames[self._frame_id].placement.translation))
         self.reach = reach
         self._first_joint = joint_ids[0]
+
+        # The compiled iteration's view of the chain, root to frame (manipkit.ik_kernel).
+        steps = robot._chain(self._frame_id)
+        self._geometry, self._kinds = pack_chain(steps, self._chain_user)
+        above_base = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
+        self._fixed_steps = np.array(above_base, dtype=np.intp)  # joints above the base: constant in a solve
+        self._fixed_user = np.array([steps[k].index for k in above_base], dtype=np.intp)
+        self._q_fixed = np.zeros(len(steps))
+        self._mode_code = MODE_CODES[mode]
+        self._base_is_root = self.base == robot.root_link
+        self._x_out = np.empty((1, self._n))
+        self._kernel_results = np.empty((1, 4))
 
     def __repr__(self) -> str:
         return (
@@ -405,12 +406,16 @@ class IKSolver:
 
         # Target in root axes: T_root_target = T_root_base @ T_base_target (off-chain joints at q_full).
         config = self.robot.pinocchio_configuration(q_full)
-        pin.forwardKinematics(self._model, self._data, config)
-        T_root_target = pin.updateFramePlacement(self._model, self._data, self._base_id).homogeneous @ T_base_target
-        self._p_target = T_root_target[:3, 3].copy()
-        self._R_target = T_root_target[:3, :3].copy()
-        self._t_list = self._R_target[:, self._axis_index].tolist()
+        if self._base_is_root:
+            T_root_target = T_base_target
+        else:
+            pin.forwardKinematics(self._model, self._data, config)
+            T_root_target = pin.updateFramePlacement(self._model, self._data, self._base_id).homogeneous @ T_base_target
+        self._p_target = np.ascontiguousarray(T_root_target[:3, 3])
+        self._R_target = np.ascontiguousarray(T_root_target[:3, :3])
         self._config = config
+        if self._fixed_steps.size:
+            self._q_fixed[self._fixed_steps] = q_full[self._fixed_user]
 
         attempts = int(restarts) + 1
         starts = None  # random starts, drawn on first need (a generator costs ~10 us)
@@ -449,73 +454,41 @@ class IKSolver:
 
     # ------------------------------------------------------------------
 
-    def _attempt(self, x, tol_position, tol_rotation, max_iters, tau):
-        """One Levenberg-Marquardt run from ``x``: (x, cost, residual_position, residual_rotation, iterations).
+    def _attempt(self, x0, tol_position, tol_rotation, max_iters, tau):
+        """One Levenberg-Marquardt run from ``x0``: (x, cost, residual_position, residual_rotation, iterations).
 
-        Written for speed: one Pinocchio call and a handful of small numpy
-        operations per iteration, no Python loop over joints.
+        The iteration runs compiled (:func:`manipkit.ik_kernel.lm_attempts`);
+        the residuals it reports are then measured again by Pinocchio at the
+        answer, and those are the ones returned (success is never taken from
+        the kernel's word alone).
         """
-        lower, upper, eye, evaluate = self._lower, self._upper, self._eye, self._evaluate
-        wrap = self._wrap if self._has_cs else None
-        window, min_gain = self.STALL_WINDOW, self.STALL_GAIN
-        x = self._project(np.array(x, dtype=float))
-        e, J, pos, rot = evaluate(x)
-        cost = 0.5 * float(e.dot(e))
-        history = [cost]  # cost after each iteration, for the stall test
-        lam = lam_min = -1.0
-        nu = 2.0
-        iterations = 0
-        while iterations < max_iters:
-            if pos <= tol_position and rot <= tol_rotation:
-                break
-            if iterations >= window and cost > min_gain * history[-1 - window]:
-                break  # stalled: a local minimum (often against a limit); a restart does better
-            JT = J.T
-            A = JT.dot(J)
-            g = JT.dot(e)
-            if lam < 0.0:
-                scale = max(float(A.diagonal().max()), 1e-12)
-                lam = tau * scale * min(1.0, math.sqrt(2.0 * cost))  # little damping near the target
-                lam_min = 1e-12 * scale  # J^T J is singular for redundant arms: keep the system regular
-            elif lam < lam_min:
-                lam = lam_min
-            M = A + lam * eye
-            x_new = x + _solve(M, g)
-            clipped = np.minimum(np.maximum(x_new, lower), upper)
-            if (clipped != x_new).any():
-                # Joints at a limit that the step pushes further out stay there: re-solve without them.
-                blocked = ((x_new < lower) & (x <= lower)) | ((x_new > upper) & (x >= upper))
-                if blocked.any():  # a stiff diagonal pins them: the free joints get the reduced LM step
-                    M.flat[:: self._n + 1] += blocked * (1e12 * (scale + lam))
-                    clipped = np.minimum(np.maximum(x + _solve(M, g), lower), upper)
-                if not (clipped != x).any():
-                    break  # every joint that could move is pinned against a limit
-            x_new = clipped
-            step = x_new - x
-            if wrap is not None:
-                x_new[wrap] = wrap_angle(x_new[wrap])
-            iterations += 1
-            e_new, J_new, pos_new, rot_new = evaluate(x_new)
-            cost_new = 0.5 * float(e_new.dot(e_new))
-            predicted = float(step.dot(g)) - 0.5 * float(step.dot(A.dot(step)))
-            if predicted > 0.0:
-                rho = (cost - cost_new) / predicted
-            else:  # only possible after projection; accept any decrease
-                rho = 0.5 if cost_new < cost else -1.0
-            if rho > 0.0:
-                x, e, J, pos, rot, cost = x_new, e_new, J_new, pos_new, rot_new, cost_new
-                lam *= max(self.SHRINK_MIN, 1.0 - (2.0 * rho - 1.0) ** 3)
-                nu = 2.0
-            else:
-                lam *= nu
-                nu *= 2.0
-                if lam > 1e20:
-                    break
-            history.append(cost)
-        return x, cost, pos, rot, iterations
+        x = self._x_out
+        lm_attempts(
+            np.asarray(x0, dtype=float).reshape(1, self._n), self._q_fixed, self._geometry, self._kinds,
+            self._R_target, self._p_target, self._mode_code, self._axis_index, self._lower, self._upper, self._wrap,
+            tol_position, tol_rotation, max_iters, tau, self.STALL_WINDOW, self.STALL_GAIN, self.SHRINK_MIN,
+            True, x, self._kernel_results,
+        )
+        x = x[0].copy()
+        if self._has_cs:
+            x[self._wrap] = wrap_angle(x[self._wrap])
+        pos, rot = self._residuals(x)
+        cost = 0.5 * pos * pos + 0.5 * rot * rot
+        return x, cost, pos, rot, int(self._kernel_results[0, 3])
 
     def _evaluate(self, x):
-        """Error vector, chain Jacobian and residuals at chain values ``x`` (one Pinocchio call)."""
+        """(error, Jacobian, pos, rot) at chain values ``x`` for the current target, as the kernel sees them."""
+        J, e = np.zeros((6, self._n)), np.zeros(6)
+        R, p = np.empty((3, 3)), np.empty(3)
+        pos, rot = error_and_jacobian(
+            np.asarray(x, dtype=float), self._q_fixed, self._geometry, self._kinds, self._R_target, self._p_target,
+            self._mode_code, self._axis_index, R, p, J, e,
+        )
+        rows = 3 if self.mode == "position" else 6
+        return e[:rows], J[:rows], pos, rot
+
+    def _residuals(self, x) -> tuple[float, float]:
+        """(position, rotation) residuals at chain values ``x``, measured by Pinocchio (see :func:`ik`)."""
         config = self._config
         if self._has_plain:
             config[self._plain_q] = x[self._plain_x]
@@ -523,34 +496,19 @@ class IKSolver:
             angles = x[self._cs_x]
             config[self._cos_q] = np.cos(angles)
             config[self._sin_q] = np.sin(angles)
-        J_full = pin.computeFrameJacobian(self._model, self._data, config, self._frame_id, pin.LOCAL_WORLD_ALIGNED)
-        placement = self._data.oMf[self._frame_id]  # a reference into data: read it now
+        pin.forwardKinematics(self._model, self._data, config)
+        placement = pin.updateFramePlacement(self._model, self._data, self._frame_id)
         dp = self._p_target - placement.translation
         pos = math.sqrt(dp.dot(dp))
-        mode = self.mode
-        if mode == "position":
-            return dp, J_full[:3, self._columns], pos, 0.0
+        if self.mode == "position":
+            return pos, 0.0
         R = placement.rotation
-        J = J_full[:, self._columns]
-        if mode == "pose":
+        if self.mode == "pose":
             w = pin.log3(self._R_target.dot(R.T))
-            return np.concatenate((dp, w)), J, pos, math.sqrt(w.dot(w))
-        # position+axis: rotate the frame's axis a onto the target's t; spin about a is free.
-        a = R[:, self._axis_index].copy()
-        (a0, a1, a2), (t0, t1, t2) = a.tolist(), self._t_list
-        cross = (a1 * t2 - a2 * t1, a2 * t0 - a0 * t2, a0 * t1 - a1 * t0)  # a x t (np.cross is slow)
-        sin_angle = math.sqrt(cross[0] ** 2 + cross[1] ** 2 + cross[2] ** 2)
-        angle = math.atan2(sin_angle, a0 * t0 + a1 * t1 + a2 * t2)
-        if sin_angle > 1e-300:
-            w = np.array(cross) * (angle / sin_angle)
-        elif angle > 1.0:  # antiparallel: turn about any axis perpendicular to a
-            perpendicular = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
-            w = perpendicular * (angle / math.sqrt(float(perpendicular @ perpendicular)))
-        else:
-            w = np.zeros(3)
-        J_w = J[3:]  # J is fresh (Pinocchio returns a new array each call), safe to change in place
-        J_w -= a[:, None] * a.dot(J_w)
-        return np.concatenate((dp, w)), J, pos, angle
+            return pos, math.sqrt(w.dot(w))
+        a, t = R[:, self._axis_index], self._R_target[:, self._axis_index]
+        cross = np.cross(a, t)
+        return pos, math.atan2(math.sqrt(cross.dot(cross)), float(a.dot(t)))
 
     # ------------------------------------------------------------------
 
