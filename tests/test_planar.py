@@ -508,3 +508,191 @@ def test_workspace_2r_with_equal_links_is_dexterous_at_the_base_only():
     assert ws.reachable == (0.0, 1.6)
     assert ws.dexterous == ((0.0, 0.0),)
     assert "dexterous the base point only (r = 0)" in ws.description
+
+
+# ---------------------------------------------------------------- batch IK against a textbook reference
+
+
+def textbook_ik_2r(x, y, l1, l2, tol=1e-12):
+    """Reference 2R IK, the textbook (Spong) atan2 formulation, vectorised; independent of manipkit.
+
+    Law of cosines in the triangle base-elbow-tool: r^2 = l1^2 + l2^2 + 2 l1 l2 cos q2, so
+    D = cos q2 = (r^2 - l1^2 - l2^2) / (2 l1 l2) and q2 = atan2(+-sqrt(1 - D^2), D), + for elbow-down.
+    Seen from the base, the tool lies at atan2(y, x) = q1 + atan2(l2 sin q2, l1 + l2 cos q2) (the tool
+    in link 1's frame is (l1 + l2 cos q2, l2 sin q2)), so q1 = atan2(y, x) - atan2(l2 sin q2, l1 + l2 cos q2).
+    On a boundary circle (within tol) D = +-1 exactly: one solution; at the base with l1 = l2 the
+    representative (0, pi) of infinitely many. Returns solutions (n, 2, 2) NaN where absent, counts,
+    outside_by.
+    """
+    r = np.hypot(x, y)
+    outer, inner = l1 + l2, abs(l1 - l2)
+    free = (inner <= tol) & (r <= tol)
+    on_outer = ~free & (np.abs(r - outer) <= tol)
+    on_inner = ~free & ~on_outer & (np.abs(r - inner) <= tol)
+    too_far = ~on_outer & (r > outer)
+    too_close = ~free & ~on_inner & (r < inner)
+    two = ~(free | on_outer | on_inner | too_far | too_close)
+    D = np.clip((r * r - l1 * l1 - l2 * l2) / (2 * l1 * l2), -1.0, 1.0)
+    D = np.where(on_outer, 1.0, np.where(on_inner, -1.0, D))
+    solutions = np.full(r.shape + (2, 2), np.nan)
+    for slot, sign in enumerate((1.0, -1.0)):
+        q2 = np.arctan2(sign * np.sqrt(1.0 - D * D), D)
+        q1 = np.arctan2(y, x) - np.arctan2(l2 * np.sin(q2), l1 + l2 * np.cos(q2))
+        present = two | ((on_outer | on_inner) & (slot == 0))
+        solutions[present, slot] = np.stack([q1, q2], axis=-1)[present]
+    solutions[free, 0] = [0.0, PI]
+    counts = np.select([two, on_outer | on_inner, free], [2.0, 1.0, np.inf], 0.0)
+    outside = np.select([too_far, too_close], [r - outer, inner - r], 0.0)
+    return solutions, counts, outside
+
+
+def annulus_test_targets(l1, l2, n, seed, tol=1e-12):
+    """2R targets: random in and around the annulus, plus every boundary case many times over.
+
+    Exactly on both circles, within tol/2 of them (one solution), 2 tol to 100 tol outside them
+    (none, or two just inside), 1e-9 to 1e-4 inside them (two, ill-conditioned), at the base, on
+    the negative x axis with y = +-0.0 (where atan2 reads +-pi), and where link 1 of the elbow-down
+    solution points along -x (q1 = pi, which atan2 may round to -pi). For tol > 0 the distances from
+    the tol edges are at least tol/2, so a last-bit difference in r cannot change the count.
+    """
+    rng = np.random.default_rng(seed)
+    outer, inner = l1 + l2, abs(l1 - l2)
+    theta = rng.uniform(-PI, PI, n)
+    near = rng.uniform(2.0, 100.0, n) * tol * rng.choice([-1.0, 1.0], n)
+    deep = 10.0 ** rng.uniform(-9, -4, n)
+    kind = rng.integers(0, 9, n)
+    r = np.select(
+        [kind == 1, kind == 2, kind == 3, kind == 4, kind == 5, kind == 6, kind == 7, kind == 8],
+        [
+            np.full(n, outer), np.full(n, inner),
+            outer + rng.uniform(-0.5, 0.5, n) * tol, inner + rng.uniform(-0.5, 0.5, n) * tol,
+            outer + near, np.abs(inner + near),
+            np.where(rng.random(n) < 0.5, outer - deep, inner + deep), np.zeros(n),
+        ],
+        rng.uniform(0.0, 1.2 * outer, n),
+    )
+    theta[:200] = PI  # negative x axis; with y = +-0.0 below
+    xy = np.stack([r * np.cos(theta), r * np.sin(theta)], axis=-1)
+    xy[:100, 1] = 0.0
+    xy[100:200, 1] = -0.0
+    xy[200:500] = np.stack(fk_2r(PI, rng.uniform(0.05, PI - 0.05, 300), l1, l2), axis=-1)
+    return xy
+
+
+def condition(solutions, r, l1, l2):
+    """Per target: min(1, |sin q2|, r / (l1 + l2)). Angle errors from rounding in r scale like
+    1 / sin q2 next to the boundary circles and like 1 / r next to the base; 1 elsewhere."""
+    sin_q2 = np.abs(np.sin(np.nan_to_num(solutions[:, 0, 1])))
+    return np.minimum(1.0, np.minimum(sin_q2, r / (l1 + l2)))
+
+
+def angle_gap(a, b):
+    """|a - b| modulo 2 pi, 0 where both are NaN (angles at +-pi compare equal)."""
+    return np.where(np.isnan(a) & np.isnan(b), 0.0, np.abs(wrapped(a - b)))
+
+
+def assert_matches_textbook(batch, reference, r, l1, l2, fk_miss):
+    solutions, counts, outside = reference
+    assert np.array_equal(batch.counts, counts)
+    assert np.array_equal(np.isnan(batch.solutions), np.isnan(solutions))
+    assert np.max(np.abs(batch.outside_by - outside)) <= 1e-12
+    gap = np.max(angle_gap(batch.solutions, solutions), axis=(1, 2))
+    one = counts == 1  # q2 = 0 or pi exactly, q1 along or against the target direction: no conditioning
+    assert np.max(gap[one], initial=0.0) <= 1e-12
+    # ~1e-12 where well conditioned, more only as the problem itself gets ill-conditioned
+    two = counts == 2
+    assert np.max((gap * condition(solutions, r, l1, l2))[two], initial=0.0) <= 1e-12
+    well = two & (condition(solutions, r, l1, l2) > 0.05)
+    assert np.max(gap[well]) <= 1e-12
+    # every angle in (-pi, pi], and FK of every solution reaches the target: within rounding, or for
+    # a target within tol of a boundary circle, the point of the circle next to it (<= tol / 2 away here)
+    present = ~np.isnan(batch.solutions)
+    assert np.all((batch.solutions[present] > -PI) & (batch.solutions[present] <= PI))
+    assert np.max(fk_miss(batch.solutions)) <= 1e-12
+
+
+@pytest.mark.parametrize("tol", [1e-12, 0.0])
+@pytest.mark.parametrize("link_lengths", [(4.0, 2.0), (1.0, 1.0), (0.7, 1.3), LENGTHS_2R[3]])
+def test_ik_2r_batch_matches_textbook_reference_on_every_case(link_lengths, tol):
+    # tol = 0: the count follows r = hypot(x, y) exactly, also for targets within an ulp of a circle
+    l1, l2 = link_lengths
+    xy = annulus_test_targets(l1, l2, 30000, seed=11, tol=tol)
+    batch = ik_2r_batch(xy, l1, l2, tol=tol)
+    reference = textbook_ik_2r(xy[:, 0], xy[:, 1], l1, l2, tol=tol)
+    # every case is represented
+    assert {0.0, 1.0, 2.0} <= set(batch.counts.tolist())
+    assert (math.inf in batch.counts) == (l1 == l2)
+
+    def fk_miss(solutions):
+        x, y = fk_2r(solutions[..., 0], solutions[..., 1], l1, l2)
+        return np.nan_to_num(np.hypot(x - xy[:, None, 0], y - xy[:, None, 1]))
+
+    assert_matches_textbook(batch, reference, np.hypot(xy[:, 0], xy[:, 1]), l1, l2, fk_miss)
+    # the scalar solver shares the batch code: identical rows, on a sample of every kind
+    for i in np.random.default_rng(12).choice(len(xy), 300, replace=False):
+        result = ik_2r(*xy[i], l1, l2, tol=tol)
+        assert result.count == batch.counts[i] and result.outside_by == batch.outside_by[i]
+        assert np.array_equal(result.solutions, batch.solutions[i, : len(result.labels)])
+
+
+@pytest.mark.parametrize("link_lengths", [(4.0, 2.0, 1.0), (1.0, 1.0, 0.5), (0.7, 1.3, 0.4), LENGTHS_3R[2]])
+def test_ik_3r_batch_matches_textbook_reference_on_every_case(link_lengths):
+    # wrist points from annulus_test_targets; tool = wrist + l3 (cos phi, sin phi), with phi at +-pi,
+    # just inside -pi, and beyond (-pi, pi] too. Reference: textbook 2R for the wrist, q3 = phi - q1 - q2
+    l1, l2, l3 = link_lengths
+    wrist = annulus_test_targets(l1, l2, 30000, seed=13)
+    rng = np.random.default_rng(14)
+    phi = rng.uniform(-PI, PI, len(wrist))
+    phi[:300:3], phi[1:300:3], phi[2:300:3] = PI, -PI, np.nextafter(-PI, 0.0)
+    phi[300:600] = rng.uniform(-12.0, 12.0, 300)
+    poses = np.column_stack([wrist[:, 0] + l3 * np.cos(phi), wrist[:, 1] + l3 * np.sin(phi), phi])
+    batch = ik_3r_batch(poses, l1, l2, l3)
+
+    wx, wy = poses[:, 0] - l3 * np.cos(phi), poses[:, 1] - l3 * np.sin(phi)
+    solutions_2r, counts, outside = textbook_ik_2r(wx, wy, l1, l2)
+    q3 = phi[:, None] - solutions_2r[..., 0] - solutions_2r[..., 1]
+    reference = (np.concatenate([solutions_2r, q3[..., None]], axis=-1), counts, outside)
+    assert {0.0, 1.0, 2.0} <= set(batch.counts.tolist())
+
+    def fk_miss(solutions):
+        x, y, phi_reached = fk_3r(solutions[..., 0], solutions[..., 1], solutions[..., 2], l1, l2, l3)
+        miss = np.maximum(np.hypot(x - poses[:, None, 0], y - poses[:, None, 1]),
+                          np.abs(wrapped(phi_reached - phi[:, None])))
+        return np.nan_to_num(miss)
+
+    assert_matches_textbook(batch, reference, np.hypot(wx, wy), l1, l2, fk_miss)
+    for i in np.random.default_rng(15).choice(len(poses), 300, replace=False):
+        result = ik_3r(*poses[i], l1, l2, l3)
+        assert result.count == batch.counts[i] and result.outside_by == batch.outside_by[i]
+        assert np.array_equal(result.solutions, batch.solutions[i, : len(result.labels)])
+
+
+def test_ik_batch_large_input_in_blocks_equals_small_pieces():
+    # the batch solvers work through long inputs in blocks; a block edge must not show
+    rng = np.random.default_rng(16)
+    poses = np.column_stack([rng.uniform(-8, 8, (50_000, 2)), rng.uniform(-PI, PI, 50_000)])
+    whole = ik_3r_batch(poses, 4.0, 2.0, 1.0)
+    pieces = [ik_3r_batch(poses[i : i + 777], 4.0, 2.0, 1.0) for i in range(0, len(poses), 777)]
+    assert np.array_equal(whole.solutions, np.concatenate([p.solutions for p in pieces]), equal_nan=True)
+    assert np.array_equal(whole.counts, np.concatenate([p.counts for p in pieces]))
+    assert np.array_equal(whole.outside_by, np.concatenate([p.outside_by for p in pieces]))
+
+
+def test_batch_helpers_wrap_third_joint_and_wrist_point_exactly():
+    # private helpers of the fast batch pass, at edges random targets do not reach
+    from manipkit.planar import _third_joint, _wrist
+
+    # q3 = phi - q1 - q2 for phi, q1, q2 in (-pi, pi] lies in [-3 pi, 3 pi]; it equals -3 pi exactly
+    # for phi just above -pi and q1 = q2 = pi (-pi + ulp - pi rounds to -2 pi), and must read +pi
+    edge = np.array([np.nextafter(-PI, 0.0)])
+    assert _third_joint(edge, np.array([PI]), np.array([PI])).tolist() == [PI]
+    rng = np.random.default_rng(17)
+    phi, q1, q2 = (rng.uniform(-PI, PI, 100_000) for _ in range(3))
+    phi[:3], q1[:3], q2[:3] = [PI, -PI + 1e-16, 0.5], [-PI + 1e-16, PI, -0.5], [-PI + 1e-16, PI, 0.0]
+    q3 = _third_joint(phi, q1, q2)
+    assert np.all((q3 > -PI) & (q3 <= PI))
+    assert np.max(np.abs(wrapped(q3 - (phi - q1 - q2)))) <= 1e-15
+    # wrist point from tan(phi / 2): within a few 1e-16 of cos / sin, at +-pi and for large phi too
+    phi = np.concatenate([rng.uniform(-PI, PI, 100_000), rng.uniform(-1e6, 1e6, 1000), [PI, -PI, 0.0, PI / 2]])
+    wx, wy = _wrist(np.zeros_like(phi), np.zeros_like(phi), phi, 1.0)
+    assert np.max(np.abs(wx + np.cos(phi))) <= 1e-15 and np.max(np.abs(wy + np.sin(phi))) <= 1e-15

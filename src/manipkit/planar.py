@@ -323,19 +323,120 @@ class PlanarIKBatch:
 
 
 # --------------------------------------------------------------------------
-# inverse kinematics: the 2R core, shared by every solver
+# inverse kinematics: the core, shared by every solver
+#
+# Two passes. The fast one (_solve_inside) treats every target as if it were
+# inside the annulus |l1 - l2| < r < l1 + l2, with two solutions: the cosine
+# rule in components, no sin or cos, over blocks of _BLOCK targets so the
+# temporaries stay in the CPU cache. The few targets that are not safely
+# inside (on or near a boundary circle, at the base, unreachable) go to the
+# second pass (_solve_rest), which sorts them into cases and redoes their rows.
 
 
 _TWO, _OUTER, _INNER, _FREE, _FAR, _CLOSE = range(6)
+_COUNTS = np.array([2.0, 1.0, 1.0, np.inf, 0.0, 0.0])  # number of solutions per case code
+_BLOCK = 8192  # targets per fast pass: its ~20 temporaries of 64 kB stay in the L2 cache
+_PI, _TWO_PI = np.pi, 2.0 * np.pi
+_EPS = np.finfo(float).eps
 
 
-def _ik_2r_core(x: np.ndarray, y: np.ndarray, l1: float, l2: float, tol: float):
-    """Both 2R solutions for arrays of targets.
+def _wrist(x, y, phi, l3):
+    """Wrist point (joint 3): the tool pulled back along its x axis by l3.
 
-    Returns solutions (..., 2, 2) with NaN where absent, a case code per
-    target (``_TWO`` ... ``_CLOSE``) and the distance outside the annulus.
+    ``(x - l3 cos phi, y - l3 sin phi)`` with cos and sin from ``t = tan(phi / 2)``:
+    ``cos phi = 2 / (1 + t^2) - 1`` and ``sin phi = t * 2 / (1 + t^2)``. numpy's
+    tan is several times faster than its cos and sin, and as accurate here (a
+    few 1e-16 for any phi). At ``phi = +-pi``, ``t`` is about 1.6e16, ``t^2``
+    is far from overflowing, and ``cos = -1``, ``sin = 2 / t = sin(pi)``.
     """
-    r = np.hypot(x, y)
+    t = np.tan(0.5 * phi)
+    u = 2.0 / (1.0 + t * t)
+    return x - l3 * (u - 1.0), y - l3 * (t * u)
+
+
+def _atan2_half_open(angle: np.ndarray) -> None:
+    """In place: atan2 gives [-pi, pi]; its -pi (x < 0 with y = -0.0 or tiny) is +pi in (-pi, pi]."""
+    np.copyto(angle, _PI, where=angle == -_PI)
+
+
+def _third_joint(phi: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """``q3 = phi - q1 - q2`` wrapped to (-pi, pi], for phi, q1, q2 in [-pi, pi].
+
+    ``q3`` is then in [-3 pi, 3 pi]: one shift by 2 pi at most, and an exact one
+    (``a -+ 2 pi`` has no rounding for ``pi <= |a| <= 4 pi``, Sterbenz's lemma).
+    Only ``-3 pi`` itself lands on ``-pi``, which must read ``+pi``. (Adding
+    ``2 pi * mask``, 0 where the mask is False, beats a masked assignment
+    several times over when the mask is a random mix.)
+    """
+    q3 = phi - q1
+    q3 -= q2
+    q3 -= _TWO_PI * (q3 > _PI)
+    q3 += _TWO_PI * (q3 <= -_PI)
+    _atan2_half_open(q3)
+    return q3
+
+
+def _solve_inside(x, y, phi, l1: float, l2: float, l3: float, tol: float, out: np.ndarray) -> np.ndarray:
+    """Fast pass: both solutions of every target safely inside the annulus.
+
+    ``x``, ``y`` (n,) are 2R targets, or with ``phi`` (n,) (else None) 3R tool
+    poses, whose wrist point is the 2R target. Fills ``out`` (n, 2, 2 or 3)
+    with the rows elbow-down, elbow-up, angles in (-pi, pi]. Returns the
+    indices of the targets not safely inside: their rows are junk, for
+    :func:`_solve_rest` to redo.
+    """
+    if phi is not None:
+        phi = np.ascontiguousarray(phi)  # a column of the poses: a copy is faster to work on
+        x, y = _wrist(x, y, phi, l3)
+    outer, inner = l1 + l2, abs(l1 - l2)
+    r2 = x * x + y * y
+    r = np.sqrt(r2)
+    to_outer, from_inner = outer - r, r - inner
+    # inside by more than tol, plus a few ulps: this r may differ from the documented hypot(x, y) in
+    # the last bit, so _solve_rest, which uses hypot, decides every target near a boundary
+    margin = tol + 8.0 * _EPS * outer
+    inside = (to_outer > margin) & (from_inner > margin)
+
+    # cosine rule times 2 l1 l2, written so nothing cancels near the boundary circles:
+    #   C = 2 l1 l2 cos q2 = r^2 - l1^2 - l2^2,
+    #   S = 2 l1 l2 sin q2 = sqrt(((l1 + l2)^2 - r^2) (r^2 - (l1 - l2)^2)) >= 0,
+    # q2 = atan2(S, C) in [0, pi] is elbow-down, -q2 elbow-up. (Outside the annulus the product is
+    # negative; clamped to 0 it gives junk that _solve_rest replaces.)
+    S = np.sqrt(np.maximum((to_outer * (outer + r)) * (from_inner * (r + inner)), 0.0))
+    q2 = np.arctan2(S, r2 - (l1 * l1 + l2 * l2))
+    # shoulder: x = k1 cos q1 - k2 sin q1, y = k1 sin q1 + k2 cos q1 with k1 = l1 + l2 cos q2,
+    # k2 = l2 sin q2, so (k1 y - k2 x, k1 x + k2 y) = (k1^2 + k2^2) (sin q1, cos q1): one atan2, right
+    # quadrant. atan2 ignores the factor 2 l1 > 0 in 2 l1 k1 = A = r^2 + l1^2 - l2^2, 2 l1 k2 = +-S:
+    #   q1 = atan2(A y -+ S x, A x +- S y)   (upper signs elbow-down, lower elbow-up)
+    A = r2 + (l1 * l1 - l2 * l2)
+    Ax, Ay, Sx, Sy = A * x, A * y, S * x, S * y
+    q1_down = np.arctan2(Ay - Sx, Ax + Sy)
+    q1_up = np.arctan2(Ay + Sx, Ax - Sy)
+    q2_up = -q2
+    for angle in (q1_down, q1_up, q2_up):  # to (-pi, pi]; q2 in [0, pi] already is
+        _atan2_half_open(angle)
+    rows = [(q1_down, q2), (q1_up, q2_up)]
+
+    if phi is not None:
+        if not (phi.min() > -_PI and phi.max() <= _PI):
+            phi = wrap_angle(phi)  # so q3 = phi - q1 - q2 is in [-3 pi, 3 pi]
+        rows = [(q1, q2, _third_joint(phi, q1, q2)) for q1, q2 in rows]
+
+    for slot, angles in enumerate(rows):
+        for joint, angle in enumerate(angles):
+            np.add(angle, 0.0, out=out[:, slot, joint])  # + 0.0 turns -0.0 into 0.0, as wrap_angle does
+    return np.flatnonzero(~inside)
+
+
+def _solve_rest(x, y, phi, l1: float, l2: float, l3: float, tol: float):
+    """Second pass, for the targets :func:`_solve_inside` left: every case, as documented.
+
+    Same arguments as :func:`_solve_inside` (tool poses or 2R targets), any
+    number of targets. Returns rows (k, 2, 2 or 3), NaN where absent, a case
+    code per target and the distance of the (wrist) point outside the annulus.
+    """
+    wx, wy = (x, y) if phi is None else _wrist(x, y, phi, l3)
+    r = np.hypot(wx, wy)
     outer, inner = l1 + l2, abs(l1 - l2)
     free = (inner <= tol) & (r <= tol)
     on_outer = ~free & (np.abs(r - outer) <= tol)
@@ -346,41 +447,62 @@ def _ik_2r_core(x: np.ndarray, y: np.ndarray, l1: float, l2: float, tol: float):
     for mask, code in ((on_outer, _OUTER), (on_inner, _INNER), (free, _FREE), (too_far, _FAR), (too_close, _CLOSE)):
         case[mask] = code
 
-    # cosine rule, written so nothing cancels near the boundary circles:
-    # 2 l1 l2 cos q2 = r^2 - l1^2 - l2^2 and
-    # (2 l1 l2 sin q2)^2 = ((l1 + l2)^2 - r^2) (r^2 - (l1 - l2)^2)
-    with np.errstate(invalid="ignore"):
-        far_side = np.maximum((outer - r) * (outer + r), 0.0)
-        near_side = np.maximum((r - inner) * (r + inner), 0.0)
-        q2 = np.arctan2(np.sqrt(far_side * near_side), r * r - l1 * l1 - l2 * l2)  # in [0, pi]
-    q2 = np.where(case == _OUTER, 0.0, np.where((case == _INNER) | (case == _FREE), np.pi, q2))
-
-    def shoulder(q2_branch):
-        # x = k1 cos q1 - k2 sin q1, y = k1 sin q1 + k2 cos q1 with k1 = l1 + l2 cos q2, k2 = l2 sin q2,
-        # so (k1 y - k2 x, k1 x + k2 y) = (k1^2 + k2^2) (sin q1, cos q1): one atan2, right quadrant
-        k1, k2 = l1 + l2 * np.cos(q2_branch), l2 * np.sin(q2_branch)
-        return np.arctan2(k1 * y - k2 * x, k1 * x + k2 * y)
-
-    q1_down, q1_up = shoulder(q2), shoulder(-q2)
-    # on the boundary circles sin q2 is 0 and the reach is along (or against) the target direction
-    toward = np.arctan2(y, x)
-    q1_down = np.where(case == _OUTER, toward, q1_down)
-    q1_down = np.where(case == _INNER, toward + (np.pi if l2 > l1 else 0.0), q1_down)
-    q1_down = np.where(case == _FREE, 0.0, q1_down)
-
-    nan = np.nan
-    has_first = (case == _TWO) | (case == _OUTER) | (case == _INNER) | (case == _FREE)
-    has_second = case == _TWO
-    solutions = np.empty(r.shape + (2, 2))
-    solutions[..., 0, 0] = np.where(has_first, wrap_angle(q1_down), nan)
-    solutions[..., 0, 1] = np.where(has_first, wrap_angle(q2), nan)
-    solutions[..., 1, 0] = np.where(has_second, wrap_angle(q1_up), nan)
-    solutions[..., 1, 1] = np.where(has_second, wrap_angle(-q2), nan)
+    rows = np.full(r.shape + (2, 2), np.nan)
+    two = np.flatnonzero(case == _TWO)  # inside, but within a few ulps of the margin
+    if two.size:
+        inside = np.empty((two.size, 2, 2))
+        _solve_inside(wx[two], wy[two], None, l1, l2, 0.0, tol, inside)
+        rows[two] = inside
+    # on the boundary circles sin q2 = 0, and link 1 points along the target direction (straight, or
+    # folded with l1 > l2) or against it (folded with l2 > l1); at the base (l1 = l2) q1 = 0 stands for any
+    toward = np.arctan2(wy, wx)
+    q1 = np.where(case == _OUTER, toward, rows[:, 0, 0])
+    q1 = np.where(case == _INNER, toward + (_PI if l2 > l1 else 0.0), q1)
+    q1 = np.where(case == _FREE, 0.0, q1)
+    q2 = np.where(case == _OUTER, 0.0, np.where((case == _INNER) | (case == _FREE), _PI, rows[:, 0, 1]))
+    rows[:, 0, 0], rows[:, 0, 1] = wrap_angle(q1), q2
+    if phi is not None:
+        q3 = wrap_angle(phi[:, None] - rows[..., 0] - rows[..., 1])
+        rows = np.concatenate([rows, q3[..., None]], axis=-1)
     outside = np.where(too_far, r - outer, np.where(too_close, inner - r, 0.0))
-    return solutions, case, outside
+    return rows, case, outside
 
 
-_COUNTS = np.array([2.0, 1.0, 1.0, np.inf, 0.0, 0.0])
+def _ik_core(x, y, l1: float, l2: float, tol: float, phi=None, l3: float = 0.0):
+    """Every IK solution for arrays of 2R targets ``(x, y)``, or of 3R tool poses ``(x, y, phi)``.
+
+    Returns solutions (..., 2, 2 or 3) with NaN where absent (slot 0
+    elbow-down or the one solution, slot 1 elbow-up), a case code per target
+    (``_TWO`` ... ``_CLOSE``), the number of solutions per target and the
+    distance of the target (wrist point) outside the annulus.
+    """
+    shape = np.shape(x)
+    x, y = np.reshape(x, -1), np.reshape(y, -1)  # views, for the usual (..., 2 or 3) input
+    phi = None if phi is None else np.reshape(phi, -1)
+    n = x.size
+    solutions = np.empty((n, 2, 2 if phi is None else 3))
+    rest = []  # indices of the targets not safely inside, per block
+    with np.errstate(over="ignore", invalid="ignore"):  # x * x of a target beyond 1e154: inf, left for _solve_rest
+        for start in range(0, n, _BLOCK):
+            block = slice(start, start + _BLOCK)
+            index = _solve_inside(
+                x[block], y[block], None if phi is None else phi[block], l1, l2, l3, tol, solutions[block]
+            )
+            rest.append(index + start)
+    rest = np.concatenate(rest) if rest else np.zeros(0, dtype=np.intp)
+    case = np.full(n, _TWO, dtype=np.int8)
+    counts = np.full(n, _COUNTS[_TWO])
+    outside = np.zeros(n)
+    if rest.size:
+        phi_rest = None if phi is None else phi[rest]
+        solutions[rest], case[rest], outside[rest] = _solve_rest(x[rest], y[rest], phi_rest, l1, l2, l3, tol)
+        counts[rest] = _COUNTS[case[rest]]
+    return (
+        solutions.reshape(shape + solutions.shape[1:]),
+        case.reshape(shape),
+        counts.reshape(shape)[()],  # a 0-d input gives a numpy float, as _COUNTS[case] did
+        outside.reshape(shape),
+    )
 
 
 def _describe_2r(case: int, r: float, l1: float, l2: float, point: str) -> tuple[str, str | None]:
@@ -458,8 +580,8 @@ def ik_2r_batch(xy, l1, l2, *, tol: float = 1e-12) -> PlanarIKBatch:
     """
     l1, l2 = _length(l1, "l1"), _length(l2, "l2")
     xy = _finite(xy, "xy", shape_tail=(2,))
-    solutions, case, outside = _ik_2r_core(xy[..., 0], xy[..., 1], l1, l2, _tolerance(tol))
-    return PlanarIKBatch(solutions, _COUNTS[case], outside)
+    solutions, _, counts, outside = _ik_core(xy[..., 0], xy[..., 1], l1, l2, _tolerance(tol))
+    return PlanarIKBatch(solutions, counts, outside)
 
 
 def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> PlanarIKResult:
@@ -513,7 +635,7 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> PlanarIKResult:
     """
     l1, l2 = _length(l1, "l1"), _length(l2, "l2")
     x, y = _finite(x, "x", scalar=True), _finite(y, "y", scalar=True)
-    solutions, case, outside = _ik_2r_core(x, y, l1, l2, _tolerance(tol))
+    solutions, case, _, outside = _ik_core(x, y, l1, l2, _tolerance(tol))
     case = int(case)
     labels = _labels(case)
     rows = solutions[: len(labels)].copy()
@@ -525,17 +647,6 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> PlanarIKResult:
 
 # --------------------------------------------------------------------------
 # inverse kinematics: 3R
-
-
-def _wrist(x, y, phi, l3):
-    """Wrist point (joint 3): the tool pulled back along its x axis by l3."""
-    return x - l3 * np.cos(phi), y - l3 * np.sin(phi)
-
-
-def _add_q3(solutions_2r: np.ndarray, phi) -> np.ndarray:
-    """(..., 2, 2) rows (q1, q2) -> (..., 2, 3) rows (q1, q2, q3) with q3 = phi - q1 - q2."""
-    q3 = wrap_angle(np.asarray(phi)[..., None] - solutions_2r[..., 0] - solutions_2r[..., 1])
-    return np.concatenate([solutions_2r, q3[..., None]], axis=-1)
 
 
 def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKBatch:
@@ -566,9 +677,10 @@ def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKBatch:
     """
     l1, l2, l3 = _length(l1, "l1"), _length(l2, "l2"), _length(l3, "l3")
     poses = _finite(poses, "poses", shape_tail=(3,))
-    wx, wy = _wrist(poses[..., 0], poses[..., 1], poses[..., 2], l3)
-    solutions, case, outside = _ik_2r_core(wx, wy, l1, l2, _tolerance(tol))
-    return PlanarIKBatch(_add_q3(solutions, poses[..., 2]), _COUNTS[case], outside)
+    solutions, _, counts, outside = _ik_core(
+        poses[..., 0], poses[..., 1], l1, l2, _tolerance(tol), phi=poses[..., 2], l3=l3
+    )
+    return PlanarIKBatch(solutions, counts, outside)
 
 
 def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKResult:
@@ -613,11 +725,11 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKResult:
     l1, l2, l3 = _length(l1, "l1"), _length(l2, "l2"), _length(l3, "l3")
     x, y = _finite(x, "x", scalar=True), _finite(y, "y", scalar=True)
     phi = _finite(phi, "phi", scalar=True)
-    wx, wy = _wrist(x, y, phi, l3)
-    solutions, case, outside = _ik_2r_core(wx, wy, l1, l2, _tolerance(tol))
+    solutions, case, _, outside = _ik_core(x, y, l1, l2, _tolerance(tol), phi=phi, l3=l3)
+    wx, wy = _wrist(x, y, phi, l3)  # for the message
     case = int(case)
     labels = _labels(case)
-    rows = _add_q3(solutions, phi)[: len(labels)].copy()
+    rows = solutions[: len(labels)].copy()
     rows.setflags(write=False)
     point = f"wrist point ({_g(float(wx))}, {_g(float(wy))})"
     reason, side = _describe_2r(case, float(np.hypot(wx, wy)), l1, l2, point)
