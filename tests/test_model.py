@@ -76,6 +76,36 @@ def test_batched_fk_equals_pinocchio_per_configuration(loaded, name):
     assert np.abs(T_batch - T_loop).max() < 1e-12
 
 
+def pinocchio_poses(robot, base, frame, Q):
+    return np.array([robot.transform(base, frame, q) for q in Q])
+
+
+@pytest.mark.parametrize("name, base", [("mobile_manipulator", "arm_base"), ("iiwa14", "iiwa_link_3")])
+def test_fk_from_a_link_above_the_frame_runs_one_chain_equal_to_pinocchio(loaded, name, base):
+    robot = loaded[name]
+    frame_id, base_id = robot.frame_id("ee_link"), robot.frame_id(base)
+    assert robot._is_above(base_id, frame_id)
+    Q = np.vstack([robot.sample_q(300, seed=21), np.random.default_rng(22).uniform(-20, 20, (20, len(robot.joints)))])
+    T = robot.fk(Q, "ee_link", base=base)
+    assert (frame_id, base_id) in robot._fk_kernels  # the kernel of the chain base -> ee_link ran
+    # tan(q/2) vs Pinocchio's sin/cos at |q| up to 20 rad: a few ulps of 20, well inside 1e-12
+    assert np.abs(T - pinocchio_poses(robot, base, "ee_link", Q)).max() < 1e-12
+
+
+@pytest.mark.parametrize("name", ["mobile_manipulator", "iiwa14"])
+def test_fk_between_every_pair_of_frames_equals_pinocchio(loaded, name):
+    """Bases above the frame (one chain), equal to it, below it or on another branch (two chains composed)."""
+    robot = loaded[name]
+    Q = robot.sample_q(20, seed=23)
+    paths = set()
+    for base in robot.frame_names:
+        for frame in robot.frame_names:
+            paths.add(robot._is_above(robot.frame_id(base), robot.frame_id(frame)))
+            T = robot.fk(Q, frame, base=base)
+            assert np.abs(T - pinocchio_poses(robot, base, frame, Q)).max() < 1e-12, (base, frame)
+    assert paths == {True, False}
+
+
 def test_fk_keeps_leading_dimensions(loaded):
     robot = loaded["iiwa14"]
     Q = random_q(robot, np.random.default_rng(1), 12).reshape(3, 4, 7)

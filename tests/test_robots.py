@@ -134,3 +134,20 @@ def test_xacro_missing_include_names_the_missing_file(tmp_path):
     path.write_text('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><xacro:include filename="gone.xacro"/></robot>')
     with pytest.raises(DescriptionError, match="gone.xacro"):
         manipkit.load(path)
+
+
+def test_find_hook_is_removed_after_each_expansion_even_a_failed_one(tmp_path):
+    # expand_xacro patches xacro's $(...) handler (and, at the first $(...), $(find)) for one call only.
+    import xacro
+    import xacro.substitution_args as substitution_args
+
+    xacro_own = (xacro.eval_extension, substitution_args._eval_find)
+    package = _write_package(tmp_path / "elsewhere", "my_arm_description")
+    top = _write_top(tmp_path / "top.urdf.xacro", "my_arm_description")
+    manipkit.load(top, package_dirs={"my_arm_description": package})
+    assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own
+    with pytest.raises(PackageNotFoundError):
+        manipkit.load(_write_top(tmp_path / "other.urdf.xacro", "no_such_pkg"))
+    assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own
+    manipkit.load("course_arm")  # no $(...) at all
+    assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own

@@ -6,7 +6,9 @@ Conventions (DESIGN.md), restated:
   robot, in ``robot.joint_names`` order (radians, metres); only the chain's
   columns are read.
 - The result is ``T_root_frame``, shape (N, 4, 4): the pose of the chain's
-  tip frame in the root link, for each row of ``Q``.
+  tip frame in the frame the chain starts from (the root link, or a base
+  frame above the tip: ``Robot._chain(frame_id, base_id)``), for each row
+  of ``Q``.
 
 How it is fast (:class:`ChainFK`): a chain is a product of constant
 placements ``X_k = [C_k, t_k]`` and joint motions,
@@ -284,7 +286,7 @@ class ChainFK:
     Parameters
     ----------
     steps : sequence
-        The chain from the root, each step with ``rotation`` (3, 3) and
+        The chain from the root (or a base frame), each step with ``rotation`` (3, 3) and
         ``translation`` (3,) (the constant placement in the previous joint's
         frame, applied translation first), ``index`` (column of ``Q`` of the
         joint after it, or -1 for a fixed placement, e.g. the tip frame's),

@@ -10,14 +10,15 @@ Joint values outside their limits are an error naming the joint, the value
 and the limits, unless ``--clamp`` is given.
 
 argparse (standard library) is used rather than click/typer so that
-``tf-between`` starts fast; heavy modules are imported inside the commands.
+``tf-between`` starts fast; heavy modules (and json) are imported inside the
+commands.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -41,6 +42,35 @@ class UsageError(ManipkitError):
 def warn(message: str) -> None:
     """The warnings channel: one ``warning: ...`` line on stderr (stdout stays the answer)."""
     print(f"warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def _print_json(value) -> None:
+    import json
+
+    print(json.dumps(value, indent=2))
+
+
+_BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def _import_numpy_with_one_blas_thread() -> None:
+    """Import numpy (when not yet imported) with OpenBLAS limited to one thread, for a fast start.
+
+    OpenBLAS starts a worker thread per core when numpy loads it, and the
+    workers spin while the main thread goes on importing: 15-30 ms of wall
+    time per ``tf-between`` on a 2-core machine, more under load. ``tf``
+    multiplies nothing large enough for BLAS to use a second thread (4x4 and
+    stacked 3x3 matrices), so no result changes. OpenBLAS reads the variable
+    once, when numpy loads it; the environment is restored right after (child
+    processes see it unchanged), and a thread count the user set is kept.
+    """
+    if "numpy" in sys.modules or any(name in os.environ for name in _BLAS_THREAD_VARIABLES):
+        return
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    try:
+        import numpy  # noqa: F401
+    finally:
+        del os.environ["OPENBLAS_NUM_THREADS"]
 
 
 # ----------------------------------------------------------------------
@@ -272,6 +302,7 @@ def _compare_lines(result, path: Path, tol: float) -> list[str]:
 
 
 def run_tf(args) -> int:
+    _import_numpy_with_one_blas_thread()
     robot = _load(args)
     source, target = args.source, args.target
     robot.frame(source), robot.frame(target)  # unknown frames fail before anything else
@@ -303,7 +334,7 @@ def run_tf(args) -> int:
                 "agrees": comparison.agrees,
                 "explanation": comparison.explain(),
             }
-        print(json.dumps(out, indent=2))
+        _print_json(out)
     else:
         lines = _pose_text(robot, source, target, q, T, args.precision)
         if comparison is not None:
@@ -328,7 +359,7 @@ def _run_tf_batch(robot, args) -> int:
              "rpy": rpy.tolist(), "matrix": m.tolist()}
             for q, t, quat, rpy, m in zip(Q, fields["translation"], fields["quaternion_xyzw"], fields["rpy"], fields["matrix"])
         ]
-        print(json.dumps({"source": args.source, "target": args.target, "robot": robot.name, "poses": rows}, indent=2))
+        _print_json({"source": args.source, "target": args.target, "robot": robot.name, "poses": rows})
         return EXIT_OK
     header = "x,y,z,qx,qy,qz,qw,roll,pitch,yaw"
     table = np.hstack([fields["translation"], fields["quaternion_xyzw"], fields["rpy"]])
@@ -508,7 +539,7 @@ def run_dh_check(args) -> int:
     _check_tolerance(args.tol)
     result = check_dh(table, robot, base=args.base, tip=args.tip, samples=args.samples, tol=args.tol)
     if args.format == "json":
-        print(json.dumps({
+        _print_json({
             "table": str(path),
             "robot": robot.name,
             "base": args.base,
@@ -520,7 +551,7 @@ def run_dh_check(args) -> int:
             "max_rotation_error": None if result.max_rotation_error != result.max_rotation_error else result.max_rotation_error,
             "pass": result.passed,
             "diagnosis": list(result.diagnosis),
-        }, indent=2))
+        })
     else:
         print(f"{table.convention} DH table {path.name} vs {robot.name} URDF chain {args.base} -> {args.tip}"
               f" ({len(result.joints)} joints: {', '.join(result.joints)})")
@@ -632,7 +663,7 @@ def run_ik(args) -> int:
         notes = [best.reason] if best.reason else []
         fallback = None if success else best.q
     if args.format == "json":
-        print(json.dumps({
+        _print_json({
             "robot": robot.name,
             "mode": "analytic" if args.analytic else mode,
             "target": target.tolist(),
@@ -642,7 +673,7 @@ def run_ik(args) -> int:
             "residual_position": None if residuals[0] is None else float(residuals[0]),
             "residual_rotation": None if residuals[1] is None else float(residuals[1]),
             "notes": notes,
-        }, indent=2))
+        })
     else:
         print(header)
         for index, (label, q) in enumerate(answers, start=1):
@@ -680,7 +711,7 @@ def run_workspace(args) -> int:
         }
         if args.plot is not None:
             out["plot"] = str(args.plot)
-        print(json.dumps(out, indent=2))
+        _print_json(out)
     else:
         print(f"robot {robot.name}: planar arm with link lengths {', '.join(f'{v:g}' for v in lengths)} m")
         print(workspace.description)
@@ -690,7 +721,6 @@ def run_workspace(args) -> int:
 
 
 def run_view(args) -> int:
-    import os
     import signal
     import threading
     import webbrowser

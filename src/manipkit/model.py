@@ -157,8 +157,8 @@ class Robot:
             if frame.type == pin.FrameType.BODY:  # links only, first of a name wins
                 self._frame_ids.setdefault(frame.name, frame_id)
         self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
-        self._chains: dict[int, list[_ChainStep]] = {}
-        self._fk_kernels: dict = {}  # frame id -> manipkit.chain.ChainFK, built on first use
+        self._chains: dict[tuple, list[_ChainStep]] = {}  # (frame id, base id or None) -> steps
+        self._fk_kernels: dict = {}  # (frame id, base id or None) -> manipkit.chain.ChainFK, built on first use
         # Index arrays for pinocchio_configuration: where each joint value goes in Pinocchio's q.
         self._neutral_config = pin.neutral(model)
         idx_q = np.array([model.joints[model.getJointId(j.name)].idx_q for j in self.joints], dtype=np.intp)
@@ -471,6 +471,14 @@ class Robot:
         Returns
         -------
         T_base_frame : ndarray, shape (..., 4, 4)
+
+        Notes
+        -----
+        Computed by :class:`manipkit.chain.ChainFK` kernels (equal to
+        Pinocchio to about 1e-15). When ``base`` is above ``frame`` in the
+        link tree (the arm base of a mobile manipulator, an intermediate link
+        of the same chain), one kernel runs over the joints between them;
+        otherwise T_base_frame = T_root_base^-1 T_root_frame from two kernels.
         """
         Q = np.asarray(Q, dtype=float)
         if Q.shape[-1:] != (len(self.joints),):
@@ -482,10 +490,14 @@ class Robot:
             raise JointValueError("joint values must be finite numbers")
         lead = Q.shape[:-1]
         flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
-        if base is None or self.frame(base) == self.root_link:
-            return self._fk_kernel(self.frame_id(frame)).transforms(flat).reshape(*lead, 4, 4)
-        R, p = self._chain_fk(flat, self.frame_id(frame))
-        R_base, p_base = self._chain_fk(flat, self.frame_id(base))
+        frame_id = self.frame_id(frame)
+        base_id = None if base is None or self.frame(base) == self.root_link else self.frame_id(base)
+        if base_id is None or self._is_above(base_id, frame_id):
+            # One kernel over the chain from the base down to the frame.
+            return self._fk_kernel(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
+        # Base on another branch (or below the frame): T_base_frame = T_root_base^-1 T_root_frame.
+        R, p = self._chain_fk(flat, frame_id)
+        R_base, p_base = self._chain_fk(flat, base_id)
         R_base_t = np.swapaxes(R_base, -1, -2)
         R = R_base_t @ R
         p = np.einsum("nij,nj->ni", R_base_t, p - p_base)
@@ -495,14 +507,43 @@ class Robot:
         T[:, 3, 3] = 1.0
         return T.reshape(*lead, 4, 4)
 
-    def _chain(self, frame_id: int) -> list[_ChainStep]:
-        """The joints from the root to a frame, as constant placements and motion axes."""
-        if frame_id not in self._chains:
+    def _is_above(self, base_id: int, frame_id: int) -> bool:
+        """Whether T_base_frame depends only on joints between the two frames (see :meth:`_chain`).
+
+        True when the base frame's parent joint supports the frame: the base
+        is an ancestor of the frame, or hangs off its path by fixed joints
+        only (equal frames included).
+        """
+        base_joint = self.model.frames[base_id].parentJoint
+        return base_joint in self.model.supports[self.model.frames[frame_id].parentJoint]
+
+    def _chain(self, frame_id: int, base_id: int | None = None) -> list[_ChainStep]:
+        """The steps of T_base_frame: constant placements and the joints between them (built once).
+
+        Pinocchio keeps each link frame as a constant placement in its parent
+        joint's frame, so T_root_frame = M_1 J_1(q_1) ... M_k J_k(q_k) X_frame
+        over the joints supporting the frame, with M_i the placement of joint i
+        in joint i-1 (a step with the joint's column, kind and axis) and
+        X_frame the frame's placement (a fixed step, index -1).
+
+        With ``base_id`` (a frame for which :meth:`_is_above` holds; None is
+        the root link), the product starts below the base's parent joint j:
+        T_base_frame = X_base^-1 M_(j+1) J_(j+1)(q) ... X_frame, the inverse
+        X_base^-1 = [R^T, -R^T p] being one more fixed step.
+        """
+        key = (frame_id, base_id)
+        if key not in self._chains:
             frame = self.model.frames[frame_id]
-            steps = []
-            for joint_id in list(self.model.supports[frame.parentJoint])[1:]:
+            support = list(self.model.supports[frame.parentJoint])  # joint ids, universe (0) first
+            if base_id is None:
+                below, steps = support[1:], []
+            else:
+                base = self.model.frames[base_id]
+                below = support[support.index(base.parentJoint) + 1 :]
+                R, p = base.placement.rotation, base.placement.translation
+                steps = [_ChainStep(R.T.copy(), -R.T @ p, -1, False, None)]
+            for joint_id in below:
                 placement = self.model.jointPlacements[joint_id]
-                jmodel = self.model.joints[joint_id]
                 kind, axis = _joint_kind_axis(self.model, joint_id)
                 steps.append(
                     _ChainStep(
@@ -514,16 +555,17 @@ class Robot:
                     )
                 )
             steps.append(_ChainStep(frame.placement.rotation.copy(), frame.placement.translation.copy(), -1, False, None))
-            self._chains[frame_id] = steps
-        return self._chains[frame_id]
+            self._chains[key] = steps
+        return self._chains[key]
 
-    def _fk_kernel(self, frame_id: int):
-        """The compiled batched FK from the root link to a frame (:class:`manipkit.chain.ChainFK`, built once)."""
-        kernel = self._fk_kernels.get(frame_id)
+    def _fk_kernel(self, frame_id: int, base_id: int | None = None):
+        """The compiled batched FK of :meth:`_chain` (:class:`manipkit.chain.ChainFK`, built once)."""
+        key = (frame_id, base_id)
+        kernel = self._fk_kernels.get(key)
         if kernel is None:
             from manipkit.chain import ChainFK
 
-            kernel = self._fk_kernels[frame_id] = ChainFK(self._chain(frame_id), len(self.joints))
+            kernel = self._fk_kernels[key] = ChainFK(self._chain(frame_id, base_id), len(self.joints))
         return kernel
 
     def _chain_fk(self, Q: np.ndarray, frame_id: int) -> tuple[np.ndarray, np.ndarray]:

@@ -378,12 +378,17 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     file and line it comes from (``FILE.xacro:LINE: ...``): xacro reports
     no lines, so the line is found by searching the xacro sources for the
     offending expression, argument, include or macro.
+
+    ``$(find)`` is routed to ``resolver`` by patching
+    ``xacro.substitution_args._eval_find`` for the duration of the call.
+    xacro imports that module (and PyYAML, ~8 ms) only when it meets the
+    first ``$(...)``, so the patch is applied at that moment too: a file
+    without substitutions (the course arm) never pays for the import.
     """
     import io
     import contextlib
 
     import xacro
-    import xacro.substitution_args as substitution_args
 
     _read_description(path)
     declared = xacro_arg_names(path)
@@ -403,8 +408,18 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
             missing.append((package, exc))  # xacro wraps exceptions; keep ours
             raise
 
-    original_find = substitution_args._eval_find
-    substitution_args._eval_find = find
+    original_extension = xacro.eval_extension  # xacro's handler of every $(...)
+    patched = []  # (substitution_args module, its own _eval_find), once patched
+
+    def eval_extension(text: str):
+        if not patched:
+            import xacro.substitution_args as substitution_args
+
+            patched.append((substitution_args, substitution_args._eval_find))
+            substitution_args._eval_find = find
+        return original_extension(text)
+
+    xacro.eval_extension = eval_extension
     stderr = io.StringIO()
     try:
         with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
@@ -413,7 +428,9 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     except Exception as exc:  # xacro raises many kinds; all are description errors
         raise _xacro_error(exc, path, missing, declared) from None
     finally:
-        substitution_args._eval_find = original_find
+        xacro.eval_extension = original_extension
+        for substitution_args, original_find in patched:
+            substitution_args._eval_find = original_find
 
 
 def _read_description(path: Path) -> str:
