@@ -144,3 +144,12 @@ def test_random_chains_equal_pinocchio(joints):
     tip = f"l{len(joints) + 1}"
     T = chain_fk_for(robot, tip).transforms(Q)
     assert np.abs(T - pinocchio_poses(robot, tip, Q)).max() < TOL
+
+
+def test_importing_the_module_does_not_import_numba():
+    # numba (0.15-0.4 s) is imported when a ChainFK first runs, so that e.g. tf-between does not pay for it
+    import subprocess
+    import sys
+
+    code = "import sys, manipkit.chain, manipkit.model; print('numba' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"

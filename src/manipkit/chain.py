@@ -1,4 +1,4 @@
-"""Batched forward kinematics of one serial chain, compiled once into numpy structure-of-arrays code.
+"""Batched forward kinematics of one serial chain, run by one compiled loop over configurations.
 
 Conventions (DESIGN.md), restated:
 
@@ -22,19 +22,28 @@ placements ``X_k = [C_k, t_k]`` and joint motions,
    makes ``S`` a signed permutation, and ``alpha``/``gamma`` become angle
    offsets of the neighbouring revolute joints (a URDF ``rpy`` yaw, a tool
    frame turned about the last axis, a DH twist of +-90 deg cost nothing);
-3. the product is traced symbolically over the 9 rotation and 3 translation
-   entries, each an ``offset + scale * array`` of length N (or a constant):
-   entries that are 0 or +-1 are never multiplied, signs and constant scales
-   stay symbolic, and what is left is a straight-line list of numpy ufunc
-   calls on float64 arrays (about 20 per joint), with its temporaries packed
-   into a few reused rows of a workspace (in-place where the operand dies).
+3. the rotation ``R`` of the running product is kept as three stored columns
+   with labels: column ``j`` of ``R`` is ``sign[j] * stored[col[j]]``. A
+   signed permutation ``S`` only relabels (``R S`` costs nothing at run
+   time); a general rotation mixes the stored columns once (27 multiplications)
+   and resets the labels. A sign between the two columns a joint turns is
+   folded into the joint's angle, a sign on a translation into the constant.
+
+What is left per configuration is, for each joint, ``R <- R Rz(q)`` on two
+stored columns (12 multiplications) or ``p += q z`` (3), and ``p += R t``
+for the nonzero entries of each ``t`` (3 each): about 115 multiplications for
+a 7-joint arm. :func:`_poses` runs them compiled with numba, one step at a
+time over a chunk of 256 configurations held as structure of arrays in the L1
+cache, so that each step's loop over configurations is vectorised (SIMD);
+the last loop writes the (N, 4, 4) output.
 
 ``cos q`` and ``sin q`` of every revolute joint come from one ``tan(q / 2)``
 per angle (``c = 2 / (1 + t^2) - 1``, ``s = t * 2 / (1 + t^2)``; numpy's
 float64 ``tan`` is vectorised with SIMD where ``sin`` and ``cos`` are not),
-accurate to a few units in the last place for any angle. Configurations are
-processed in blocks that stay in the CPU cache; each block's 16 entries are
-written to the output with one transposing copy.
+accurate to a few units in the last place for any angle; ``tan`` runs in
+numpy on blocks of rows, the rest in the compiled loop. numba is imported
+and the loop compiled (or loaded from numba's cache) when a :class:`ChainFK`
+first runs, not when this module is imported.
 
 The answer equals Pinocchio's ``framesForwardKinematics`` to about 1e-15
 (tested to 1e-12): placement entries within 1e-14 of 0 or +-1 are taken as
@@ -63,7 +72,9 @@ __all__ = ["ChainFK", "chain_fk", "chain_fk_for"]
 
 SNAP_TOL = 1e-14  # placement entries this close to 0 or +-1 are taken as exactly that
 SPLIT_TOL = SNAP_TOL  # a rotation is split about z only if the rest is a signed permutation to this
-DEFAULT_BLOCK = 8192  # configurations per block: the workspace (about 20 rows of 64 KiB) stays in L2 cache
+DEFAULT_BLOCK = 8192  # rows per numpy tan call (the angles of a block stay in L2 cache)
+CHUNK = 256  # configurations per pass of the compiled loop (R and p of a chunk, 24 KiB, stay in L1 cache)
+_REVOLUTE, _PRISMATIC = 0, 1
 
 
 # --------------------------------------------------------------------------
@@ -169,111 +180,137 @@ def _segments(steps) -> list[_Segment]:
 
 
 # --------------------------------------------------------------------------
-# Symbolic entries and the straight-line program
+# The kernel's tables: stored columns of R, relabelled by signed permutations
 
 
-@dataclass(frozen=True)
-class _Entry:
-    """``const + scale * var``; var None means the constant ``const``."""
+@dataclass
+class _Program:
+    """What :func:`_poses` runs, for a chain of n joints (see the module docstring, step 3).
 
-    const: float = 0.0
-    scale: float = 0.0
-    var: int | None = None
+    ``R0`` (3, 3) and ``p0`` (3,) are ``X_0`` (``R0[c]`` is stored column ``c``);
+    joint ``k`` is ``joints[k] = (kind, a, b, row)``: a revolute joint turns
+    stored columns ``a`` (x) and ``b`` (y) by angle row ``row``, a prismatic
+    joint moves ``p`` along stored column ``a`` by value row ``row``; then
+    ``X_{k+1}``: ``p += sum_c shifts[k, c] * stored[c]``, and if ``mixed[k]``,
+    ``stored[c] <- sum_d mixes[k, d, c] * stored[d]``. At the end, column
+    ``j`` of ``R`` is ``out_signs[j] * stored[out_cols[j]]``. Each joint value
+    is multiplied by ``scales[k]`` (+-1) before use.
+    """
 
-    @property
-    def is_zero(self) -> bool:
-        return self.var is None and self.const == 0.0
-
-
-_ZERO = _Entry()
-
-
-class _Tracer:
-    """Emits ufunc calls on numbered variables; constant folding and signs stay symbolic."""
-
-    def __init__(self, n_inputs: int):
-        self.n_vars = n_inputs  # variables 0 .. n_inputs-1 are the cos/sin/value rows
-        self.ops: list[tuple[np.ufunc, object, object, int]] = []
-
-    def _emit(self, ufunc, a, b) -> int:
-        out = self.n_vars
-        self.n_vars += 1
-        self.ops.append((ufunc, a, b, out))
-        return out
-
-    @staticmethod
-    def constant(value: float) -> _Entry:
-        return _Entry(float(value))
-
-    def scaled(self, e: _Entry, k: float) -> _Entry:
-        if k == 0.0 or e.is_zero:
-            return _ZERO
-        return _Entry(e.const * k, e.scale * k, e.var)
-
-    def add(self, a: _Entry, b: _Entry) -> _Entry:
-        if a.var is None:
-            return _Entry(a.const + b.const, b.scale, b.var)
-        if b.var is None:
-            return _Entry(a.const + b.const, a.scale, a.var)
-        ratio = b.scale / a.scale
-        if ratio == 1.0:
-            var = self._emit(np.add, a.var, b.var)
-        elif ratio == -1.0:
-            var = self._emit(np.subtract, a.var, b.var)
-        else:
-            var = self._emit(np.add, a.var, self._emit(np.multiply, b.var, ratio))
-        return _Entry(a.const + b.const, a.scale, var)
-
-    def times(self, e: _Entry, var: int) -> _Entry:
-        """``e * x`` for an input row ``x`` (a cosine, a sine or a joint value)."""
-        if e.var is None:
-            return _ZERO if e.const == 0.0 else _Entry(0.0, e.const, var)
-        if e.const == 0.0:
-            return _Entry(0.0, e.scale, self._emit(np.multiply, e.var, var))
-        shifted = self._emit(np.add, e.var, e.const / e.scale)
-        return _Entry(0.0, e.scale, self._emit(np.multiply, shifted, var))
+    R0: np.ndarray
+    p0: np.ndarray
+    joints: np.ndarray  # (n, 4) int
+    scales: np.ndarray  # (n,)
+    shifts: np.ndarray  # (n, 3)
+    mixes: np.ndarray  # (n, 3, 3)
+    mixed: np.ndarray  # (n,) bool
+    out_cols: np.ndarray  # (3,) int
+    out_signs: np.ndarray  # (3,)
 
 
-def _trace(segments: list[_Segment]):
-    """Symbolic T = X_0 J_0 X_1 J_1 ... X_m: (tracer, R entries 3x3, p entries 3, input rows)."""
-    revolute = [s for s in segments if s.joint is not None and not s.prismatic]
-    prismatic = [s for s in segments if s.joint is not None and s.prismatic]
-    n_rev = len(revolute)
-    # input rows: cos of each revolute joint, then sin, then each prismatic joint's value
-    tracer = _Tracer(2 * n_rev + len(prismatic))
-    rows = {}
-    for i, seg in enumerate(revolute):
-        rows[id(seg)] = (i, n_rev + i)
-    for i, seg in enumerate(prismatic):
-        rows[id(seg)] = 2 * n_rev + i
-    first = segments[0]
-    R = [[tracer.constant(first.C[i, j]) for j in range(3)] for i in range(3)]
-    p = [tracer.constant(first.t[i]) for i in range(3)]
-    for k, seg in enumerate(segments[:-1]):
-        if seg.prismatic:  # p += R e_z q
-            q = rows[id(seg)]
-            p = [tracer.add(p[i], tracer.times(R[i][2], q)) for i in range(3)]
-        else:  # R = R Rz(q): x' = x c + y s, y' = y c - x s (columns x, y of R)
-            c, s = rows[id(seg)]
-            for i in range(3):
-                x, y = R[i][0], R[i][1]
-                R[i][0] = tracer.add(tracer.times(x, c), tracer.times(y, s))
-                R[i][1] = tracer.add(tracer.times(y, c), tracer.scaled(tracer.times(x, s), -1.0))
-        nxt = segments[k + 1]
-        for i in range(3):  # p += R t, then R = R C
+def _program(segments: list[_Segment]) -> _Program:
+    """The tables of :class:`_Program` for ``segments`` (from :func:`_segments`): signed permutations become labels."""
+    n = len(segments) - 1
+    joints = np.zeros((n, 4), dtype=np.int64)
+    scales, shifts = np.ones(n), np.zeros((n, 3))
+    mixes, mixed = np.zeros((n, 3, 3)), np.zeros(n, dtype=bool)
+    col, sign = [0, 1, 2], [1.0, 1.0, 1.0]  # column j of R is sign[j] * stored[col[j]]
+    n_rev = n_pri = 0
+    for k, (seg, nxt) in enumerate(zip(segments[:-1], segments[1:])):
+        if seg.prismatic:  # p += q R e_z = (sign[2] q) stored[col[2]]
+            joints[k] = (_PRISMATIC, col[2], -1, n_pri)
+            scales[k], n_pri = sign[2], n_pri + 1
+        else:  # x' = x c + y s, y' = y c - x s; on the stored columns the same with s -> sign[0] sign[1] s
+            joints[k] = (_REVOLUTE, col[0], col[1], n_rev)
+            scales[k], n_rev = sign[0] * sign[1], n_rev + 1
+        for j in range(3):  # p += R t
+            shifts[k, col[j]] += sign[j] * nxt.t[j]
+        if _is_signed_permutation(nxt.C):  # R S: column j of R S is S[i, j] * column i of R, i = perm[j]
+            perm = np.argmax(np.abs(nxt.C), axis=0)
+            sign = [float(np.sign(nxt.C[perm[j], j])) * sign[perm[j]] for j in range(3)]
+            col = [col[perm[j]] for j in range(3)]
+        else:  # R C: stored[c] <- sum over j of sign[j] C[j, c] stored[col[j]]
             for j in range(3):
-                if nxt.t[j] != 0.0:
-                    p[i] = tracer.add(p[i], tracer.scaled(R[i][j], nxt.t[j]))
-        R = [[_combine(tracer, R[i], nxt.C[:, j]) for j in range(3)] for i in range(3)]
-    return tracer, R, p, revolute, prismatic
+                mixes[k, col[j]] = sign[j] * nxt.C[j]
+            mixed[k] = True
+            col, sign = [0, 1, 2], [1.0, 1.0, 1.0]
+    return _Program(np.ascontiguousarray(segments[0].C.T), segments[0].t.copy(), joints, scales, shifts,
+                    mixes, mixed, np.array(col, dtype=np.int64), np.array(sign))
 
 
-def _combine(tracer: _Tracer, row: list[_Entry], column: np.ndarray) -> _Entry:
-    total = _ZERO
-    for entry, k in zip(row, column):
-        if k != 0.0:
-            total = tracer.add(total, tracer.scaled(entry, k))
-    return total
+def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out_signs, T):
+    """Write T[n] = X_0 J_0 X_1 ... X_m for every configuration n (compiled by numba, see :func:`_kernel`).
+
+    ``tan_half[r, n]`` is ``tan(q / 2)`` of revolute joint row ``r`` (offset
+    and sign folded in), ``values[r, n]`` the value of prismatic joint row
+    ``r`` (sign folded in); the other arguments are those of :class:`_Program`.
+    Configurations are taken ``CHUNK`` at a time; every loop over ``j`` (the
+    configurations of a chunk) reads and writes rows of ``R`` and ``p``, so it
+    is vectorised.
+    """
+    R = np.empty((3, 3, CHUNK))  # R[c, i, j]: entry i of stored column c, configuration j
+    p = np.empty((3, CHUNK))
+    for start in range(0, T.shape[0], CHUNK):
+        m = min(CHUNK, T.shape[0] - start)
+        for i in range(3):
+            p[i, :m] = p0[i]
+            for c in range(3):
+                R[c, i, :m] = R0[c, i]
+        for k in range(joints.shape[0]):
+            kind, a, b, row = joints[k, 0], joints[k, 1], joints[k, 2], joints[k, 3]
+            if kind == _REVOLUTE:  # R <- R Rz(q) on stored columns a (x) and b (y)
+                t = tan_half[row, start : start + m]
+                X, Y = R[a], R[b]
+                for j in range(m):
+                    w = 2.0 / (1.0 + t[j] * t[j])
+                    cos, sin = w - 1.0, t[j] * w
+                    for i in range(3):
+                        x, y = X[i, j], Y[i, j]
+                        X[i, j] = x * cos + y * sin
+                        Y[i, j] = y * cos - x * sin
+            else:  # p <- p + q z
+                v = values[row, start : start + m]
+                Z = R[a]
+                for j in range(m):
+                    for i in range(3):
+                        p[i, j] += Z[i, j] * v[j]
+            for c in range(3):  # p <- p + R t
+                d = shifts[k, c]
+                if d != 0.0:
+                    S = R[c]
+                    for j in range(m):
+                        for i in range(3):
+                            p[i, j] += S[i, j] * d
+            if mixed[k]:  # R <- R C, C not a signed permutation
+                M = mixes[k]
+                for j in range(m):
+                    for i in range(3):
+                        r0, r1, r2 = R[0, i, j], R[1, i, j], R[2, i, j]
+                        for c in range(3):
+                            R[c, i, j] = r0 * M[0, c] + r1 * M[1, c] + r2 * M[2, c]
+        for j in range(m):
+            n = start + j
+            for i in range(3):
+                for c in range(3):
+                    T[n, i, c] = out_signs[c] * R[out_cols[c], i, j]
+                T[n, i, 3] = p[i, j]
+                T[n, 3, i] = 0.0
+            T[n, 3, 3] = 1.0
+
+
+_compiled = None
+
+
+def _kernel():
+    """:func:`_poses` compiled with numba (imported here: ``import manipkit.chain`` does not pay for it)."""
+    global _compiled
+    if _compiled is None:
+        from numba import njit
+
+        # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would
+        # keep LLVM from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
+        _compiled = njit(cache=True, error_model="numpy")(_poses)
+    return _compiled
 
 
 # --------------------------------------------------------------------------
@@ -295,7 +332,12 @@ class ChainFK:
     n_joints : int
         Columns of ``Q`` (all of the robot's movable joints).
     block : int, keyword-only
-        Configurations per block (cache-sized; the answer does not depend on it).
+        Rows per numpy ``tan`` call (cache-sized; the answer does not depend on it).
+
+    Attributes
+    ----------
+    n_ops : int
+        Multiplications per configuration in the compiled loop, besides ``cos`` and ``sin``.
 
     Examples
     --------
@@ -316,79 +358,45 @@ class ChainFK:
         self.n_joints = int(n_joints)
         self.block = int(block)
         segments = _segments(steps)
-        tracer, R, p, revolute, prismatic = _trace(segments)
-        self.n_revolute, self.n_prismatic = len(revolute), len(prismatic)
-        self._rev_cols = np.array([s.joint for s in revolute], dtype=np.intp)
-        self._half_offsets = np.array([0.5 * s.offset for s in revolute])
-        self._has_offsets = bool(np.any(self._half_offsets != 0.0))
-        self._pri_cols = np.array([s.joint for s in prismatic], dtype=np.intp)
+        program = self._program = _program(segments)
+        joints = segments[:-1]
+        revolute = np.array([not s.prismatic for s in joints], dtype=bool)
+        self.n_revolute, self.n_prismatic = int(revolute.sum()), int((~revolute).sum())
+        self._rev_cols = np.array([s.joint for s in joints if not s.prismatic], dtype=np.intp)
+        self._pri_cols = np.array([s.joint for s in joints if s.prismatic], dtype=np.intp)
         self._rev_slice = _as_slice(self._rev_cols)
         self._pri_slice = _as_slice(self._pri_cols)
-        outputs = [R[i][j] for i in range(3) for j in range(3)] + p
-        self._ops, self._n_slots, self._finish = _allocate(tracer, outputs)
-        self.n_ops = len(self._ops) + len(self._finish)  # ufunc calls per block, besides the 6 for cos/sin
-        # the 16 entries of T per block (row-major), constants filled once
-        self._template = np.zeros(16)
-        self._template[15] = 1.0
-        for k, e in enumerate(outputs):
-            if e.var is None:
-                self._template[_row(k)] = e.const
-        self._bound: dict[int, tuple] = {}
+        # tan(half) with half = scale * (q + offset) / 2; prismatic values times their scale
+        self._half_scales = 0.5 * program.scales[revolute]
+        self._half_offsets = np.array([0.5 * s.offset for s in joints if not s.prismatic]) * program.scales[revolute]
+        self._has_offsets = bool(np.any(self._half_offsets != 0.0))
+        self._pri_scales = program.scales[~revolute]
+        # R Rz(q): 12, p += q z: 3, each nonzero entry of a t: 3, a general R C: 27, the signs of the output: 9
+        self.n_ops = (12 * self.n_revolute + 3 * self.n_prismatic + 3 * int(np.count_nonzero(program.shifts))
+                      + 27 * int(program.mixed.sum()) + 9)
+        self._buffers: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def __repr__(self) -> str:
         return (
             f"ChainFK({self.n_revolute} revolute, {self.n_prismatic} prismatic joints; "
-            f"{self.n_ops} ufunc calls per block of {self.block})"
+            f"{self.n_ops} multiplications per configuration)"
         )
 
-    # --------------------------------------------------------------
-
-    def _workspace(self, size: int):
-        """Arrays and the program bound to them, for blocks of ``size`` rows (cached)."""
-        bound = self._bound.get(size)
-        if bound is None:
-            n_rev, n_pri = self.n_revolute, self.n_prismatic
-            trig = np.empty((2 * n_rev, size))  # rows: cos of each revolute joint, then sin
-            half = np.empty((n_rev, size))  # q / 2, then 2 / (1 + tan^2)
-            values = np.empty((n_pri, size))
-            slots = np.empty((self._n_slots, size))
-            out = np.empty((16, size))
-            out[:] = self._template[:, None]
-            rows = list(trig) + list(values)
-
-            def ref(operand):
-                kind, index = operand
-                if kind == "in":
-                    return rows[index]
-                if kind == "slot":
-                    return slots[index]
-                if kind == "out":
-                    return out[index]
-                return index  # a float
-
-            program = [(ufunc, ref(a), ref(b), ref(o)) for ufunc, a, b, o in self._ops + self._finish]
-            bound = self._bound[size] = (trig, half, values, out, program)
-        return bound
-
-    def _run_block(self, Q_block: np.ndarray, T_block: np.ndarray) -> None:
-        trig, half, values, out, program = self._workspace(Q_block.shape[0])
-        n_rev = self.n_revolute
-        if n_rev:
-            cos, sin = trig[:n_rev], trig[n_rev:]
-            np.multiply(_columns(Q_block, self._rev_slice, self._rev_cols).T, 0.5, out=half)
+    def _run_block(self, kernel, Q_block: np.ndarray, T_block: np.ndarray) -> None:
+        size = Q_block.shape[0]
+        buffers = self._buffers.get(size)
+        if buffers is None:
+            buffers = self._buffers[size] = (np.empty((self.n_revolute, size)), np.empty((self.n_prismatic, size)))
+        tan_half, values = buffers
+        if self.n_revolute:
+            np.multiply(_columns(Q_block, self._rev_slice, self._rev_cols).T, self._half_scales[:, None], out=tan_half)
             if self._has_offsets:
-                half += self._half_offsets[:, None]
-            np.tan(half, out=sin)  # t = tan(q / 2)
-            np.multiply(sin, sin, out=cos)
-            cos += 1.0
-            np.divide(2.0, cos, out=half)  # 2 / (1 + t^2)
-            np.multiply(sin, half, out=sin)  # sin q = 2 t / (1 + t^2)
-            np.subtract(half, 1.0, out=cos)  # cos q = (1 - t^2) / (1 + t^2)
+                tan_half += self._half_offsets[:, None]
+            np.tan(tan_half, out=tan_half)
         if self.n_prismatic:
-            values[...] = _columns(Q_block, self._pri_slice, self._pri_cols).T
-        for ufunc, a, b, o in program:
-            ufunc(a, b, o)
-        T_block.reshape(-1, 16)[...] = out.T
+            np.multiply(_columns(Q_block, self._pri_slice, self._pri_cols).T, self._pri_scales[:, None], out=values)
+        P = self._program
+        kernel(tan_half, values, P.R0, P.p0, P.joints, P.shifts, P.mixes, P.mixed, P.out_cols, P.out_signs, T_block)
 
     def transforms(self, Q, out: np.ndarray | None = None) -> np.ndarray:
         """T_root_frame for every row of ``Q``.
@@ -412,13 +420,14 @@ class ChainFK:
             out = np.empty((n, 4, 4))
         elif out.shape != (n, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
             raise ValueError(f"out must be a C-contiguous float64 array of shape ({n}, 4, 4)")
+        kernel = _kernel()
         block = self.block
         full = n - n % block
         for start in range(0, full, block):
-            self._run_block(Q[start : start + block], out[start : start + block])
+            self._run_block(kernel, Q[start : start + block], out[start : start + block])
         if full < n:
-            self._run_block(Q[full:], out[full:])
-            self._bound.pop(n - full, None)  # do not keep workspaces for odd sizes
+            self._run_block(kernel, Q[full:], out[full:])
+            self._buffers.pop(n - full, None)  # do not keep buffers for odd sizes
         return out
 
     def rotations_translations(self, Q) -> tuple[np.ndarray, np.ndarray]:
@@ -436,93 +445,6 @@ def _as_slice(columns: np.ndarray):
 
 def _columns(Q_block: np.ndarray, as_slice, columns: np.ndarray) -> np.ndarray:
     return Q_block[:, as_slice] if as_slice is not None else Q_block[:, columns]
-
-
-def _row(k: int) -> int:
-    """Row of T (flattened 4x4) of output ``k``: R entries row-major (0..8), then p (9..11)."""
-    return 4 * (k // 3) + k % 3 if k < 9 else 4 * (k - 9) + 3
-
-
-def _allocate(tracer: _Tracer, outputs: list[_Entry]):
-    """Map the tracer's variables to workspace rows, reusing a row as soon as its variable is dead.
-
-    Returns (ops, number of slots, finishing ops that write the 12 outputs),
-    operands as ("in", row) / ("slot", row) / ("out", row) / ("const", value).
-    """
-    n_inputs = tracer.n_vars - len(tracer.ops)
-    ops = tracer.ops
-    last_use = {}
-    for i, (_, a, b, _) in enumerate(ops):
-        for v in (a, b):
-            if isinstance(v, int):
-                last_use[v] = i
-    for e in outputs:
-        if e.var is not None:
-            last_use[e.var] = len(ops)
-    # An output that is exactly a temporary nobody else reads is written by its producing op straight
-    # into the output row (a subtraction swaps its operands for a minus sign): one copy less each.
-    read = {v for _, a, b, _ in ops for v in (a, b) if isinstance(v, int)}
-    uses = {}
-    for e in outputs:
-        if e.var is not None:
-            uses[e.var] = uses.get(e.var, 0) + 1
-    producer = {out: i for i, (_, _, _, out) in enumerate(ops)}
-    direct: dict[int, int] = {}  # op index -> output row
-    done: set[int] = set()  # outputs written directly
-    for k, e in enumerate(outputs):
-        v = e.var
-        if v is None or v < n_inputs or v in read or uses[v] != 1 or e.const != 0.0:
-            continue
-        i = producer[v]
-        ufunc, a, b, out = ops[i]
-        if e.scale == -1.0 and ufunc is np.subtract:
-            ops[i] = (ufunc, b, a, out)
-        elif e.scale != 1.0:
-            continue
-        direct[i] = _row(k)
-        done.add(k)
-    slot_of: dict[int, int] = {}
-    free: list[int] = []
-    n_slots = 0
-    placed = []
-
-    def operand(v):
-        if isinstance(v, float):
-            return ("const", v)
-        if v < n_inputs:
-            return ("in", v)
-        return ("slot", slot_of[v])
-
-    for i, (ufunc, a, b, out) in enumerate(ops):
-        args = (operand(a), operand(b))
-        for v in {a, b}:
-            if isinstance(v, int) and v >= n_inputs and last_use[v] == i:
-                free.append(slot_of[v])  # dead after this op: its row can take the result (in place)
-        if i in direct:
-            placed.append((ufunc, args[0], args[1], ("out", direct[i])))
-            continue
-        if free:
-            slot_of[out] = free.pop()
-        else:
-            slot_of[out] = n_slots
-            n_slots += 1
-        if out not in last_use:  # never read (cannot happen for a traced chain, but cheap to guard)
-            free.append(slot_of[out])
-        placed.append((ufunc, args[0], args[1], ("slot", slot_of[out])))
-    finish = []
-    for k, e in enumerate(outputs):
-        if e.var is None or k in done:
-            continue  # constant (in the template) or already written
-        row = _row(k)
-        src = operand(e.var)
-        if e.scale == 1.0:
-            finish.append((np.add, src, ("const", e.const), ("out", row)))
-        elif e.const == 0.0:
-            finish.append((np.multiply, src, ("const", e.scale), ("out", row)))
-        else:
-            finish.append((np.multiply, src, ("const", e.scale), ("out", row)))
-            finish.append((np.add, ("out", row), ("const", e.const), ("out", row)))
-    return placed, n_slots, finish
 
 
 # --------------------------------------------------------------------------
