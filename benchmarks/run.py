@@ -66,7 +66,7 @@ def machine() -> dict:
     versions = {}
     from benchmarks.peers import version
 
-    for dist in ("numpy", "pin", "roboticstoolbox-python", "ikpy", "kinpy", "manipkit"):
+    for dist in ("numpy", "pin", "numba", "roboticstoolbox-python", "ikpy", "kinpy", "manipkit"):
         versions[dist] = version(dist)
     return {
         "uname": f"{uname.system} {uname.release} {uname.machine}",
