@@ -21,7 +21,8 @@ from hypothesis import strategies as st
 import manipkit
 from manipkit.ik import ik, ik_solver
 from manipkit.ik_kernel import chain_pose_jacobian, log3, pack_chain, solve_linear
-from manipkit.rotations import matrix_from_axis_angle
+from manipkit.rotations import matrix_from_axis_angle, rotation_angle_between
+from test_chain import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 # A chain with what the bundled arms lack: tilted revolute, continuous and prismatic axes
 # (one given non-unit, normalised by the loader), rpy placements and a fixed joint in between.
@@ -70,7 +71,7 @@ def pinocchio_pose_jacobian(robot, frame, chain, q):
     model, data = robot.model, robot.model.createData()
     config = robot.pinocchio_configuration(q)
     frame_id = robot.frame_id(frame)
-    J_full = pin.computeFrameJacobian(model, data, config, frame_id, pin.LOCAL_WORLD_ALIGNED)
+    J_full = pin.computeFrameJacobian(model, data, config, frame_id, pin.LOCAL_WORLD_ALIGNED).reshape(6, model.nv)
     columns = [model.joints[model.getJointId(name)].idx_v for name in chain]
     return data.oMf[frame_id].homogeneous, J_full[:, columns]
 
@@ -189,3 +190,50 @@ def test_ik_from_a_base_below_a_moving_joint(robots):
         assert np.array_equal(result.q[above], q0[above])
         reached = robot.transform("bicep", "ee_link", result.q)
         assert np.linalg.norm(reached[:3, 3] - T[:3, 3]) < 1e-9
+
+
+# ----------------------------------------------------------------------
+# Random chains (the generator of tests/test_chain.py): tilted, prismatic, continuous and fixed joints
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(joint_strategy, min_size=1, max_size=7).filter(lambda js: any(kind != "fixed" for kind, *_ in js)))
+def test_random_chains_pose_and_jacobian_equal_pinocchio(joints):
+    robot = manipkit.model.Robot.from_urdf(chain_urdf(joints))
+    tip = f"l{len(joints) + 1}"
+    for q in robot.sample_q(10, seed=5):
+        T_kernel, J_kernel, chain = kernel_pose_jacobian(robot, tip, robot.root_link, q)
+        T_pin, J_pin = pinocchio_pose_jacobian(robot, tip, chain, q)
+        np.testing.assert_allclose(T_kernel, T_pin, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(J_kernel, J_pin, rtol=0, atol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(joint_strategy, min_size=1, max_size=7).filter(lambda js: any(kind != "fixed" for kind, *_ in js)),
+    st.sampled_from(["pose", "position"]),
+)
+def test_random_chains_ik_from_a_nearby_start(joints, mode):
+    # Local convergence: from 1e-3 away, a chain whose Jacobian at the solution has full row rank with
+    # smallest singular value >= 0.05 must converge (Gauss-Newton contracts there); any chain's answer,
+    # success or not, lies inside the limits, and a success is confirmed by Robot.transform.
+    robot = manipkit.model.Robot.from_urdf(chain_urdf(joints))
+    tip = f"l{len(joints) + 1}"
+    rows = 6 if mode == "pose" else 3
+    for i, q_true in enumerate(robot.sample_q(4, seed=9)):
+        T = robot.transform(robot.root_link, tip, q_true)
+        q0 = q_true + 1e-3 * np.random.default_rng(i).standard_normal(q_true.size)
+        result = ik(robot, T, frame=tip, base=robot.root_link, mode=mode, q0=q0, restarts=0)
+        assert robot.outside_limits(result.q) == []
+        _, J, _ = kernel_pose_jacobian(robot, tip, robot.root_link, q_true)
+        sigma = np.linalg.svd(J[:rows], compute_uv=False)
+        well_conditioned = sigma.size >= rows and sigma[rows - 1] >= 0.05
+        at_limit = np.any(np.isclose(q_true, [j.lower for j in robot.joints], atol=2e-3)
+                          | np.isclose(q_true, [j.upper for j in robot.joints], atol=2e-3))
+        if well_conditioned and not at_limit:
+            assert result.success, (result.reason, sigma)
+        if result.success:
+            reached = robot.transform(robot.root_link, tip, result.q)
+            assert np.linalg.norm(reached[:3, 3] - T[:3, 3]) <= 1e-10
+            if mode == "pose":
+                assert rotation_angle_between(reached[:3, :3], T[:3, :3]) <= 1e-9
