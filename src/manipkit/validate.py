@@ -236,7 +236,10 @@ class _Checker:
             robot = etree.fromstring(text.encode("utf-8"), parser)
         except etree.XMLSyntaxError as exc:
             line, column = exc.position
-            reason = re.sub(r",? line \d+, column \d+.*$", "", exc.msg or str(exc)).strip() or "not XML"
+            # libxml2 may append the offending source after a newline ("Comment not terminated \n<!--"): keep line one
+            message = (exc.msg or str(exc)).strip()
+            first_line = message.splitlines()[0] if message else ""
+            reason = re.sub(r",? line \d+, column \d+.*$", "", first_line).strip() or "not XML"
             if "Start tag expected" in reason or "Document is empty" in reason:
                 reason += " (this is not an XML file)"
             location = f"{self.where}:{line}:{column}" if not self.expanded else f"{self.where} (expanded URDF, line {line})"
