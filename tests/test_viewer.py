@@ -25,6 +25,7 @@ import pytest
 import manipkit
 from manipkit.errors import JointValueError, ManipkitError, PackageNotFoundError, UnknownFrameError
 from manipkit.pose import pose_fields
+from reference import course_arm_T_base_top_wrist
 from manipkit.viewer import (
     TRIAD_PATHS, VISUALS_ROOT, ViewerServer, ViewerState, open_view, readout_text, visual_model, write_static,
 )
@@ -155,6 +156,9 @@ def test_readout_equals_the_tf_between_json(robots):
         state.set_joint(name, value)
     shown = json.loads(state.snapshot()["readout_json"])
     assert shown == tf_between_json("base_link", "top_wrist", shown["q"])
+    # and the number itself, against the course arm's joint table composed by hand (tests/reference.py)
+    by_hand = course_arm_T_base_top_wrist([shown["q"][name] for name in COURSE_ARM_JOINTS])
+    assert np.abs(np.array(shown["matrix"]) - by_hand).max() < 1e-12
 
 
 def test_readout_text_shows_the_readout_numbers(robots):

@@ -368,6 +368,13 @@ def wrist_center(T, d6) -> np.ndarray:
     return T[..., :3, 3] - d6[..., None] * T[..., :3, 2]
 
 
+def _wrist_centre_from_shoulder(T: np.ndarray, d1: float, d6: float):
+    """(xc, yc, zc, r, s, label): the wrist centre, its distance ``r`` from joint 1's axis and its
+    height ``s = zc - d1`` above the shoulder, as the decoupled solvers use them (Spong's r and s)."""
+    xc, yc, zc = (float(v) for v in wrist_center(T, d6))
+    return xc, yc, zc, math.hypot(xc, yc), zc - d1, f"wrist centre {_point((xc, yc, zc))}"
+
+
 # --------------------------------------------------------------------------
 # DH tables
 
@@ -679,10 +686,7 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
     tol, singular_tol = _tolerances(tol, singular_tol)
     T, R, p = _pose(T)
 
-    xc, yc, zc = (float(v) for v in wrist_center(T, d6))
-    s = zc - d1
-    r = math.hypot(xc, yc)
-    centre = f"wrist centre {_point((xc, yc, zc))}"
+    xc, yc, zc, r, s, centre = _wrist_centre_from_shoulder(T, d1, d6)
     problems, notes = [], []
 
     shoulders = []  # (theta1, rho, label, free, family)
@@ -805,10 +809,7 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
     tol, singular_tol = _tolerances(tol, singular_tol)
     T, R, p = _pose(T)
 
-    xc, yc, zc = (float(v) for v in wrist_center(T, d6))
-    s = zc - d1
-    r = math.hypot(xc, yc)
-    centre = f"wrist centre {_point((xc, yc, zc))}"
+    xc, yc, zc, r, s, centre = _wrist_centre_from_shoulder(T, d1, d6)
     distance = math.hypot(r, s)
     problems, notes = [], []
 

@@ -54,7 +54,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
-from manipkit.ik_kernel import MODE_CODES, error_and_jacobian, lm_attempts, pack_chain
+from manipkit.ik_kernel import MODE_CODES, error_and_jacobian, lm_attempt, pack_chain
 from manipkit.rotations import check_rotation, rotation_angle_between, wrap_angle
 
 __all__ = ["AnalyticIK", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "analytic_ik", "ik", "ik_solver"]
@@ -250,10 +250,10 @@ class IKSolver:
     """Prepared IK for one robot, tip frame, base frame and mode; :meth:`solve` answers targets.
 
     Everything that does not depend on the target is computed once here: the
-    chain's joint indices in the user vector and in Pinocchio's configuration
-    vector, the chain packed for the compiled kernel, the limits as arrays,
-    the reach bound, and a Pinocchio data workspace of its own (the robot's
-    ``data`` is not touched). A solver keeps the current target while it solves: use one per
+    chain's joint indices in the user vector, the chain packed for the
+    compiled kernel, the limits as arrays,
+    the reach bound, and a Pinocchio data workspace of its own for checking
+    answers. A solver keeps the current target while it solves: use one per
     thread. :func:`ik_solver` builds and caches them; :func:`ik` uses that.
 
     Parameters
@@ -325,31 +325,19 @@ class IKSolver:
         self._model = model
         self._data = model.createData()
         self._frame_id = robot.frame_id(self.frame)
-        self._base_id = robot.frame_id(self.base)
 
         user_index = {name: i for i, name in enumerate(robot.joint_names)}
         joints = [robot.joints[user_index[name]] for name in self.chain]
-        jmodels = [model.joints[model.getJointId(name)] for name in self.chain]
         self._chain_user = np.array([user_index[name] for name in self.chain], dtype=np.intp)
-        continuous = np.array([jm.nq == 2 for jm in jmodels], dtype=bool)
-        idx_q = np.array([jm.idx_q for jm in jmodels], dtype=np.intp)
-        self._plain_x = np.flatnonzero(~continuous)
-        self._plain_q = idx_q[~continuous]
-        self._cs_x = np.flatnonzero(continuous)
-        self._cos_q = idx_q[continuous]
-        self._sin_q = idx_q[continuous] + 1
-        self._has_cs = bool(continuous.any())
-        self._has_plain = bool((~continuous).any())
         self._lower = np.array([j.lower for j in joints], dtype=float)
         self._upper = np.array([j.upper for j in joints], dtype=float)
-        self._wrap = continuous
+        self._wrap = np.array([j.type == "continuous" for j in joints], dtype=bool)  # wrapped to (-pi, pi]
+        self._has_cs = bool(self._wrap.any())
         self._angular = np.array([j.is_angular for j in joints], dtype=bool)
         self._sample_low = np.where(np.isfinite(self._lower), self._lower, -math.pi)
         self._sample_high = np.where(np.isfinite(self._upper), self._upper, math.pi)
         self._n = len(self.chain)
         self._default_q = robot.q()
-        self._robot_lower = np.array([j.lower for j in robot.joints], dtype=float)
-        self._robot_upper = np.array([j.upper for j in robot.joints], dtype=float)
 
         # Reach bound: the frame origin stays within this distance of the first chain joint's origin.
         joint_ids = [model.getJointId(name) for name in self.chain]
@@ -370,8 +358,6 @@ class IKSolver:
         self._q_fixed = np.zeros(len(steps))
         self._mode_code = MODE_CODES[mode]
         self._base_is_root = self.base == robot.root_link
-        self._x_out = np.empty((1, self._n))
-        self._kernel_results = np.empty((1, 4))
 
     def __repr__(self) -> str:
         return (
@@ -405,15 +391,13 @@ class IKSolver:
         T_base_target = self._target_matrix(target)
 
         # Target in root axes: T_root_target = T_root_base @ T_base_target (off-chain joints at q_full).
-        config = self.robot.pinocchio_configuration(q_full)
         if self._base_is_root:
             T_root_target = T_base_target
         else:
-            pin.forwardKinematics(self._model, self._data, config)
-            T_root_target = pin.updateFramePlacement(self._model, self._data, self._base_id).homogeneous @ T_base_target
+            T_root_target = self.robot.transform(self.robot.root_link, self.base, q_full) @ T_base_target
         self._p_target = np.ascontiguousarray(T_root_target[:3, 3])
         self._R_target = np.ascontiguousarray(T_root_target[:3, :3])
-        self._config = config
+        self._q_full = q_full
         if self._fixed_steps.size:
             self._q_fixed[self._fixed_steps] = q_full[self._fixed_user]
 
@@ -457,24 +441,22 @@ class IKSolver:
     def _attempt(self, x0, tol_position, tol_rotation, max_iters, tau):
         """One Levenberg-Marquardt run from ``x0``: (x, cost, residual_position, residual_rotation, iterations).
 
-        The iteration runs compiled (:func:`manipkit.ik_kernel.lm_attempts`);
+        The iteration runs compiled (:func:`manipkit.ik_kernel.lm_attempt`);
         the residuals it reports are then measured again by Pinocchio at the
         answer, and those are the ones returned (success is never taken from
         the kernel's word alone).
         """
-        x = self._x_out
-        lm_attempts(
-            np.asarray(x0, dtype=float).reshape(1, self._n), self._q_fixed, self._geometry, self._kinds,
-            self._R_target, self._p_target, self._mode_code, self._axis_index, self._lower, self._upper, self._wrap,
-            tol_position, tol_rotation, max_iters, tau, self.STALL_WINDOW, self.STALL_GAIN, self.SHRINK_MIN,
-            True, x, self._kernel_results,
+        x = np.empty(self._n)
+        _, _, _, iterations = lm_attempt(
+            np.ascontiguousarray(x0, dtype=float), self._q_fixed, self._geometry, self._kinds, self._R_target, self._p_target,
+            self._mode_code, self._axis_index, self._lower, self._upper, self._wrap, tol_position, tol_rotation,
+            max_iters, tau, self.STALL_WINDOW, self.STALL_GAIN, self.SHRINK_MIN, x,
         )
-        x = x[0].copy()
         if self._has_cs:
             x[self._wrap] = wrap_angle(x[self._wrap])
         pos, rot = self._residuals(x)
         cost = 0.5 * pos * pos + 0.5 * rot * rot
-        return x, cost, pos, rot, int(self._kernel_results[0, 3])
+        return x, cost, pos, rot, iterations
 
     def _evaluate(self, x):
         """(error, Jacobian, pos, rot) at chain values ``x`` for the current target, as the kernel sees them."""
@@ -489,13 +471,7 @@ class IKSolver:
 
     def _residuals(self, x) -> tuple[float, float]:
         """(position, rotation) residuals at chain values ``x``, measured by Pinocchio (see :func:`ik`)."""
-        config = self._config
-        if self._has_plain:
-            config[self._plain_q] = x[self._plain_x]
-        if self._has_cs:
-            angles = x[self._cs_x]
-            config[self._cos_q] = np.cos(angles)
-            config[self._sin_q] = np.sin(angles)
+        config = self.robot.pinocchio_configuration(self._full_q(self._q_full, x))
         pin.forwardKinematics(self._model, self._data, config)
         placement = pin.updateFramePlacement(self._model, self._data, self._frame_id)
         dp = self._p_target - placement.translation
@@ -541,7 +517,7 @@ class IKSolver:
             )
         if not math.isfinite(float(q.sum())):
             raise JointValueError("q0: joint values must be finite numbers")
-        q = np.minimum(np.maximum(q, self._robot_lower), self._robot_upper)
+        q = robot.clamp(q)
         q[self._chain_user] = self._project(q[self._chain_user])
         return q
 

@@ -38,7 +38,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempts", "log3", "pack_chain", "solve_linear"]
+__all__ = ["MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempt", "log3", "pack_chain", "solve_linear"]
 
 MODE_CODES = {"pose": 0, "position": 1, "position+axis": 2}
 _REVOLUTE, _PRISMATIC, _TIP = 0, 1, -1
@@ -274,7 +274,7 @@ def error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, ax
 
 
 @njit(cache=True)
-def _attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, lower, upper, wrap,
+def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, lower, upper, wrap,
              tol_position, tol_rotation, max_iters, tau, stall_window, stall_gain, shrink_min, x_out):
     """One Levenberg-Marquardt run from ``x0`` into ``x_out``: returns (cost, pos, rot, iterations).
 
@@ -403,25 +403,6 @@ def _attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index,
     return cost, pos, rot, iterations
 
 
-@njit(cache=True)
-def lm_attempts(starts, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, lower, upper, wrap,
-                tol_position, tol_rotation, max_iters, tau, stall_window, stall_gain, shrink_min,
-                stop_at_first, X, results):
-    """Run one attempt per row of ``starts``; answers in ``X`` (rows) and ``results`` (rows of
-    ``cost, pos, rot, iterations``). Stops after the first success when ``stop_at_first``;
-    returns the number of attempts run.
-    """
-    for a in range(starts.shape[0]):
-        cost, pos, rot, its = _attempt(
-            starts[a], q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, lower, upper, wrap,
-            tol_position, tol_rotation, max_iters, tau, stall_window, stall_gain, shrink_min, X[a],
-        )
-        results[a, 0], results[a, 1], results[a, 2], results[a, 3] = cost, pos, rot, its
-        if stop_at_first and pos <= tol_position and rot <= tol_rotation:
-            return a + 1
-    return starts.shape[0]
-
-
 def warm_up() -> None:
     """Compile (or load from numba's on-disk cache) every kernel :mod:`manipkit.ik` calls.
 
@@ -436,9 +417,8 @@ def warm_up() -> None:
     geometry, kinds = pack_chain(steps, [0])
     R_target, p_target = np.eye(3), np.array([0.0, 1.0, 0.0])
     lower, upper, wrap = np.array([-math.pi]), np.array([math.pi]), np.array([True])
-    X, results = np.empty((1, 1)), np.empty((1, 4))
-    lm_attempts(np.zeros((1, 1)), np.zeros(2), geometry, kinds, R_target, p_target, 0, 2, lower, upper, wrap,
-                1e-10, 1e-10, 100, 0.1, 8, 0.9, 0.1, True, X, results)
+    lm_attempt(np.zeros(1), np.zeros(2), geometry, kinds, R_target, p_target, 0, 2, lower, upper, wrap,
+               1e-10, 1e-10, 100, 0.1, 8, 0.9, 0.1, np.empty(1))
     error_and_jacobian(np.zeros(1), np.zeros(2), geometry, kinds, R_target, p_target, 0, 2,
                        np.empty((3, 3)), np.empty(3), np.zeros((6, 1)), np.zeros(6))
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from manipkit.errors import PlanarArmError
-from manipkit.rotations import wrap_angle
+from manipkit.rotations import _scalar_or_array, wrap_angle
 
 __all__ = [
     "ELBOW_DOWN",
@@ -64,12 +64,6 @@ Q1_FREE = "q1 free"  # target at the base with l1 = l2: q2 = pi, any q1
 
 # --------------------------------------------------------------------------
 # helpers
-
-
-
-def _scalar_or_array(array: np.ndarray):
-    """A 0-d result as a numpy float, anything else unchanged."""
-    return array[()] if array.ndim == 0 else array
 
 
 def _as_float(value, what: str) -> np.ndarray:

@@ -912,9 +912,4 @@ def euler_zyz_from_matrix(
         # since turning the y axis half a turn about z reverses it
         flip = np.where(singular, 0.0, np.pi)
         phi, theta, psi = phi + flip, -theta, psi + flip
-    return np.stack([_wrap_pi(phi), theta + 0.0, _wrap_pi(psi)], axis=-1)
-
-
-def _wrap_pi(angle: np.ndarray) -> np.ndarray:
-    """Any angle mapped to (-pi, pi] (see :func:`wrap_angle`)."""
-    return wrap_angle(angle)
+    return np.stack([wrap_angle(phi), theta + 0.0, wrap_angle(psi)], axis=-1)
