@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.dh import DHRow, DHTable, dh_fk
+from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, transform_from_xyz_rpy
 from manipkit.dh_check import check_dh, screws
+from manipkit.robots import bundled_dh_tables
 
 # planar_3r with its default lengths 4 2 1: standard DH rows (a, alpha, d, theta) = (l_i, 0, 0, 0),
 # since every joint turns about z and each link runs along its x axis.
@@ -69,6 +70,38 @@ def test_constant_base_offset_is_found(planar_3r):
     base[:3, 3] = [0.1, 0.2, 0.3]
     text = "\n".join(check_dh(DHTable(PLANAR_3R, "standard", base=base), planar_3r).diagnosis)
     assert "a constant base transform xyz [-0.1 -0.2 -0.3] m, rpy [0 0 0] deg (before row 1): reconciles them fully" in text
+
+
+@pytest.mark.parametrize("robot_name", ["planar_3r", "scara"])
+def test_base_and_tool_transform_of_an_arm_with_parallel_axes_are_found(robot_name):
+    # The right table with a base B = xyz [.1 .2 .3], Rz(0.4) before row 1 and a tool X = xyz [.05 -.02 0],
+    # Rz(0.3) after the last row: the URDF needs B^-1 before and X^-1 after, by hand
+    #   B^-1 = Rz(-0.4), -Rz(-0.4) [.1 .2 .3] = [-(.1 cos .4 + .2 sin .4), -(.2 cos .4 - .1 sin .4), -.3]
+    #        = xyz [-0.16999 -0.14527 -0.3], rpy [0 0 -22.92 deg];
+    #   X^-1 = Rz(-0.3), -Rz(-0.3) [.05 -.02 0] = [-(.05 cos .3 - .02 sin .3), .02 cos .3 + .05 sin .3, 0]
+    #        = xyz [-0.0418564 0.0338827 0], rpy [0 0 -17.19 deg].
+    # Every joint turns or slides along z, so only the axes' offsets fix the turn of the base about z.
+    # (A shift along z would commute with the whole chain; the diagnosis puts it in the base.)
+    right = load_dh(bundled_dh_tables()[robot_name])
+    base = transform_from_xyz_rpy([0.1, 0.2, 0.3], [0.0, 0.0, 0.4])
+    tool = transform_from_xyz_rpy([0.05, -0.02, 0.0], [0.0, 0.0, 0.3])
+    table = DHTable(right.rows, "standard", base=base @ right.base, tool=right.tool @ tool)
+    text = "\n".join(check_dh(table, manipkit.load(robot_name)).diagnosis)
+    assert (
+        "a base transform xyz [-0.16999 -0.14527 -0.3] m, rpy [0 0 -22.92] deg and a tool transform "
+        "xyz [-0.0418564 0.0338827 0] m, rpy [0 0 -17.19] deg: reconciles them fully"
+    ) in text
+
+
+def test_revolute_joint_against_a_prismatic_row_says_which_turns(planar_3r):
+    rows = PLANAR_3R[:2] + [DHRow(1.0, 0.0, 0.0, 0.0, type="prismatic")]
+    text = "\n".join(check_dh(DHTable(rows, "standard"), planar_3r).diagnosis)
+    assert "the chains stop agreeing at joint 3 (joint3): the URDF joint turns, the table's row slides" in text
+    scara = load_dh(bundled_dh_tables()["scara"])  # row 3 is scara's quill, joint3 slides
+    rows = list(scara.rows)
+    rows[2] = DHRow(rows[2].a, rows[2].alpha, rows[2].d, rows[2].theta)
+    text = "\n".join(check_dh(DHTable(rows, "standard"), manipkit.load("scara")).diagnosis)
+    assert "the chains stop agreeing at joint 3 (joint3): the URDF joint slides, the table's row turns" in text
 
 
 def test_reversed_joint_is_found(planar_3r):

@@ -12,10 +12,12 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import manipkit
-from manipkit.dh import dh_fk
-from manipkit.dh_from_urdf import DHDerivationError, chain_joints, dh_from_urdf_chain
+from manipkit.dh import DHRow, DHTable, dh_fk, urdf_from_dh
+from manipkit.dh_from_urdf import DHDerivationError, dh_from_urdf_chain
 from manipkit.errors import ChainError, ManipkitError, UnknownFrameError
 from manipkit.model import Robot
 from manipkit.rotations import matrix_from_rpy, rot_z
@@ -70,7 +72,7 @@ def random_q(robot, rng, n=200, *, wide=False):
 
 
 def worst_fk_error(robot, table, base, tip, Q):
-    columns = [robot.joint_names.index(j.name) for j in chain_joints(robot, base, tip)]
+    columns = [robot.joint_names.index(name) for name in robot.chain_joints(base, tip)]
     return np.abs(dh_fk(table, Q[:, columns]) - robot.fk(Q, tip, base=base)).max()
 
 
@@ -244,16 +246,17 @@ def test_continuous_joint_on_a_skewed_axis():
 
 def test_mobile_manipulator_chain_leaves_out_the_wheels(robots):
     robot = robots("mobile_manipulator")
-    names = [j.name for j in chain_joints(robot, "base_footprint", "ee_link")]
-    assert names == ["arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint"]
+    assert robot.chain_joints("base_footprint", "ee_link") == (
+        "arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint"
+    )
     assert len(robot.joints) == 7  # the two wheels are movable joints of the robot, not of the chain
     assert dh_from_urdf_chain(robot, "base_footprint", "ee_link").n == 5
 
 
 def test_base_below_joints_starts_the_chain_there(robots):
     robot = robots("course_arm")
-    names = [j.name for j in chain_joints(robot, "bicep", "ee_link")]
-    assert names == ["bottom_wrist_joint", "elbow_joint", "top_wrist_joint"]
+    assert robot.chain_joints("bicep", "ee_link") == ("bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+    assert dh_from_urdf_chain(robot, "bicep", "ee_link").n == 3
 
 
 TWO_ARMS = """<robot name="two_arms">
@@ -275,7 +278,7 @@ TWO_ARMS = """<robot name="two_arms">
 @pytest.mark.parametrize("convention", CONVENTIONS)
 def test_branching_robot_uses_only_the_branch_to_the_tip(convention):
     robot = Robot.from_urdf(TWO_ARMS)
-    assert [j.name for j in chain_joints(robot, "torso", "right_hand")] == ["right_1", "right_2"]
+    assert robot.chain_joints("torso", "right_hand") == ("right_1", "right_2")
     table = dh_from_urdf_chain(robot, "torso", "right_hand", convention=convention)
     Q = random_q(robot, np.random.default_rng(9))  # left arm joints move too, and must not matter
     assert worst_fk_error(robot, table, "torso", "right_hand", Q) < 1e-9
@@ -553,11 +556,6 @@ def test_derivation_error_is_a_manipkit_value_error():
 
 # --------------------------------------------------------------------------
 # DH -> URDF -> DH round trip (property-based)
-
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
-
-from manipkit.dh import DHRow, DHTable, dh_fk, urdf_from_dh  # noqa: E402
 
 _lengths = st.floats(-0.5, 0.5, allow_nan=False).map(lambda v: round(v, 3))
 _angles = st.sampled_from([0.0, math.pi / 2, -math.pi / 2, math.pi]) | st.floats(-3.1, 3.1, allow_nan=False)

@@ -678,14 +678,19 @@ def _yaml_string(text: str) -> str:
     return yaml.safe_dump(text, default_style='"', allow_unicode=True, width=float("inf")).strip()
 
 
-def _xyz_rpy(T: np.ndarray, rpy_hint, what: str) -> tuple[np.ndarray, np.ndarray]:
-    """Translation and rpy (rad) of a rigid transform, keeping ``rpy_hint`` when it gives the rotation exactly."""
-    if not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
+def _xyz_rpy(T: np.ndarray, rpy_hint, what: str, *, check: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Translation and rpy (rad) of a rigid transform, keeping ``rpy_hint`` when it gives the rotation exactly.
+
+    ``check`` (default): a bottom row other than [0, 0, 0, 1] or a block that
+    is not a rotation raises DHTableError; without it (for printing) the
+    block's rpy are read as they are.
+    """
+    if check and not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
         raise DHTableError(f"DH table {what}: bottom row is {T[3].tolist()}, not [0, 0, 0, 1]")
     if rpy_hint is not None and np.array_equal(matrix_from_rpy(np.array(rpy_hint)), T[:3, :3]):
         return T[:3, 3], np.array(rpy_hint)
     try:
-        rpy = rpy_from_matrix(T[:3, :3])
+        rpy = rpy_from_matrix(T[:3, :3], check=check)
     except ValueError as exc:
         raise DHTableError(f"DH table {what}: {exc}") from None
     return T[:3, 3], rpy
@@ -798,12 +803,7 @@ def format_dh_table(table: DHTable) -> str:
         T = getattr(table, what)
         if np.array_equal(T, np.eye(4)):
             continue
-        xyz = T[:3, 3]
-        hint = getattr(table, f"{what}_rpy")
-        if hint is not None and np.array_equal(matrix_from_rpy(np.array(hint)), T[:3, :3]):
-            rpy = np.array(hint)
-        else:
-            rpy = rpy_from_matrix(T[:3, :3], check=False)
+        xyz, rpy = _xyz_rpy(T, getattr(table, f"{what}_rpy"), what, check=False)
         out.append(
             f"{what}: xyz = [{', '.join(_fmt(v) for v in xyz)}] m, "
             f"rpy = [{', '.join(_fmt_deg(v) for v in rpy)}] (R = Rz(yaw) Ry(pitch) Rx(roll))"

@@ -18,9 +18,11 @@ Two chains agree for all q exactly when their screws and their home poses
 - when every screw agrees (up to sign), a constant tool transform
   ``X = M_dh^-1 M_urdf`` reconciles them;
 - a constant base transform ``B`` with ``Ad(B) S_dh = S_urdf`` moves every
-  axis at once; joint zero offsets ``o`` move the axes after joint i about
-  axis i. Each candidate correction is checked on the samples, and the
-  report says whether it reconciles the two fully.
+  axis at once (a shift along axes that are all parallel commutes with the
+  chain: it is put in ``B``, not in the tool transform); joint zero offsets
+  ``o`` move the axes after joint i about axis i. Each candidate correction
+  is checked on the samples, and the report says whether it reconciles the
+  two fully.
 
 The screws are taken numerically (central differences of the FK, error
 about 1e-10), the same way for both sources, so no DH convention is assumed.
@@ -29,12 +31,13 @@ about 1e-10), the same way for both sources, so no DH convention is assumed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from manipkit.compare import pose_error
 from manipkit.dh import DHTable, dh_fk
-from manipkit.rotations import rotation_angle_between, rpy_from_matrix
+from manipkit.rotations import rpy_from_matrix
 
 SCREW_TOL = 1e-6  # screws equal within this (axis direction and moment)
 RECONCILE_TOL = 1e-8  # a correction "reconciles fully" when it leaves less than this (m, rad)
@@ -59,8 +62,6 @@ class DHCheck:
         URDF joints the rows map to.
     samples, tol : int, float
         How the check was run.
-    worst_q : ndarray or None
-        A configuration with the largest position error.
     """
 
     max_position_error: float
@@ -70,7 +71,6 @@ class DHCheck:
     joints: tuple[str, ...]
     samples: int
     tol: float
-    worst_q: np.ndarray | None = field(default=None, repr=False)
 
 
 def check_dh(table: DHTable, robot, *, base: str = "base_link", tip: str = "ee_link",
@@ -85,8 +85,10 @@ def check_dh(table: DHTable, robot, *, base: str = "base_link", tip: str = "ee_l
     base, tip : str
         URDF frames (aliases ``base_link`` and ``ee_link`` work).
     samples : int
-        Configurations drawn uniformly inside the joint limits (continuous
-        joints in [-pi, pi]) from the fixed ``seed``; joints off the chain stay at 0.
+        Configurations of the chain's joints drawn uniformly inside their
+        limits (continuous joints in [-pi, pi]) from the fixed ``seed``;
+        joints off the chain stay at ``robot.q()`` (0, or the nearest value
+        inside their limits).
     tol : float
         Pass when both maximum errors (m, rad) are within it.
 
@@ -104,21 +106,13 @@ def check_dh(table: DHTable, robot, *, base: str = "base_link", tip: str = "ee_l
         return DHCheck(math.nan, math.nan, False, (note,) + extra, joints, 0, tol)
 
     index = [robot.joint_names.index(name) for name in joints]
-    Q = robot.sample_q(samples, seed=seed)
-    keep = np.zeros(len(robot.joint_names), dtype=bool)
-    keep[index] = True
-    Q[:, ~keep] = robot.q()[~keep]
+    Q = robot.sample_q(samples, seed=seed)[:, index]
     urdf_fk = _urdf_fk(robot, base, tip, index)
-    T_urdf = urdf_fk(Q[:, index])
-    T_dh = dh_fk(table, Q[:, index])
-    position_errors, rotation_errors = _errors(T_urdf, T_dh)
-    worst = int(np.argmax(position_errors + rotation_errors))
+    position_errors, rotation_errors = pose_error(urdf_fk(Q), dh_fk(table, Q))
     max_position, max_rotation = float(position_errors.max()), float(rotation_errors.max())
     passed = max_position <= tol and max_rotation <= tol
-    diagnosis = () if passed else tuple(
-        _diagnose(table, urdf_fk, joints, Q[:, index], tol, max_position, max_rotation)
-    )
-    return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol, Q[worst, index])
+    diagnosis = () if passed else tuple(_diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation))
+    return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol)
 
 
 def _urdf_fk(robot, base, tip, index):
@@ -132,12 +126,6 @@ def _urdf_fk(robot, base, tip, index):
         return robot.fk(Q, tip, base=base)
 
     return fk
-
-
-def _errors(T_a, T_b):
-    position = np.linalg.norm(T_a[..., :3, 3] - T_b[..., :3, 3], axis=-1)
-    rotation = np.atleast_1d(rotation_angle_between(T_a[..., :3, :3], T_b[..., :3, :3], check=False))
-    return position, rotation
 
 
 def _count_hint(table: DHTable, n_joints: int) -> tuple[str, ...]:
@@ -200,8 +188,11 @@ def _compare_screws(S_urdf, S_dh):
     if np.abs(S_urdf + S_dh).max() < SCREW_TOL:
         return "reversed"
     (w_u, p_u), (w_d, p_d) = _screw_line(S_urdf), _screw_line(S_dh)
+    if (p_u is None) != (p_d is None):
+        urdf_moves, table_moves = ("slides", "turns") if p_u is None else ("turns", "slides")
+        return f"the URDF joint {urdf_moves}, the table's row {table_moves} (check the row's type)"
     angle = math.degrees(math.atan2(np.linalg.norm(np.cross(w_u, w_d)), abs(float(w_u @ w_d))))
-    if p_u is None or p_d is None:
+    if p_u is None:  # both slide
         return f"its axis differs by {angle:.3g} deg (URDF {_vec(w_u)}, table {_vec(w_d)})"
     distance = _line_distance(w_u, p_u, w_d, p_d)
     return (
@@ -263,21 +254,22 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
     dh = lambda q: dh_fk(table, q)  # noqa: E731
     flips = [i + 1 for i in range(n) if signs[i] < 0]
     flip_text = f"with joint(s) {', '.join(map(str, flips))} reversed, " if flips else ""
+    M_u, M_d = urdf_fk(np.zeros(n)), dh(np.zeros(n))  # home poses
     out = []
 
     # Tool only: T_urdf(q) = T_dh(s q) X.
-    X = _home_difference(urdf_fk, dh, np.zeros(n))
+    X = np.linalg.inv(M_d) @ M_u
     out.append((f"{flip_text}{_tool_line(X)}", _residual(urdf_fk, lambda q: dh(q * signs) @ X, Q)))
 
     # Base only: T_urdf(q) = B T_dh(s q).
-    B = urdf_fk(np.zeros(n)) @ np.linalg.inv(dh(np.zeros(n)))
+    B = M_u @ np.linalg.inv(M_d)
     out.append((f"{flip_text}a constant base transform {_pose_text(B)} (before row 1)",
                  _residual(urdf_fk, lambda q: B @ dh(q * signs), Q)))
 
     # Base and tool: align the table's axes with the URDF's by one rigid motion.
-    B = _align_axes(S_u, S_d * signs[:, None])
+    B = _align_axes(S_u, S_d * signs[:, None], M_u[:3, 3], M_d[:3, 3])
     if B is not None:
-        X = np.linalg.inv(B @ dh(np.zeros(n))) @ urdf_fk(np.zeros(n))
+        X = np.linalg.inv(B @ M_d) @ M_u
         out.append((f"{flip_text}a base transform {_pose_text(B)} and a tool transform {_pose_text(X)}",
                     _residual(urdf_fk, lambda q: B @ dh(q * signs) @ X, Q)))
 
@@ -297,35 +289,57 @@ def _home_difference(urdf_fk, dh, q_dh):
 
 
 def _residual(urdf_fk, corrected, Q) -> float:
-    T_u = urdf_fk(Q)
-    T_c = np.array([corrected(q) for q in Q]) if Q.ndim == 2 else corrected(Q)
-    position, rotation = _errors(T_u, T_c)
+    """Largest position (m) or rotation (rad) error of ``corrected(Q)``, a batch of poses, over the samples."""
+    position, rotation = pose_error(urdf_fk(Q), corrected(Q))
     return float(max(position.max(), rotation.max()))
 
 
-def _align_axes(S_u, S_d):
-    """A rigid transform B with Ad(B) S_d = S_u for every screw, if the axes allow one."""
-    directions_u = np.array([_screw_line(s)[0] for s in S_u])
-    directions_d = np.array([_screw_line(s)[0] for s in S_d])
-    H = directions_d.T @ directions_u
+def _align_axes(S_u, S_d, tip_u, tip_d):
+    """A rigid transform B with Ad(B) S_d = S_u for every screw, if the axes allow one.
+
+    The rotation is fitted to the axis directions and, for consecutive
+    parallel turning axes, to the offset between them, ``(I - w w^T)(p_j - p_i)``
+    (the same whichever points p are taken on the two lines). The offsets fix
+    the turn about the shared axis that the directions leave open when all
+    axes are parallel (planar arms, SCARA). A shift the axes leave open
+    (along parallel axes; any shift when every joint slides) goes into B,
+    chosen so that B takes the table's tool point ``tip_d`` (at q = 0) as
+    close to the URDF's ``tip_u`` as it can: the tool transform then has no
+    shift along the shared axis.
+    """
+    lines_u, lines_d = [_screw_line(s) for s in S_u], [_screw_line(s) for s in S_d]
+    directions_u, directions_d = np.array([w for w, _ in lines_u]), np.array([w for w, _ in lines_d])
+    turning = [i for i in range(len(S_u)) if lines_u[i][1] is not None and lines_d[i][1] is not None]
+    offsets_u, offsets_d = [], []
+    for i, j in zip(turning, turning[1:]):
+        if np.linalg.norm(np.cross(directions_u[i], directions_u[j])) < SCREW_TOL:
+            offsets_u.append(_across(directions_u[i], lines_u[j][1] - lines_u[i][1]))
+            offsets_d.append(_across(directions_d[i], lines_d[j][1] - lines_d[i][1]))
+    H = np.vstack([directions_d, *offsets_d]).T @ np.vstack([directions_u, *offsets_u])
     U, _, Vt = np.linalg.svd(H)
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
     R = Vt.T @ D @ U.T
     if np.abs(R @ directions_d.T - directions_u.T).max() > 1e-6:
         return None
     # Translation t: each rotated table axis point R p_d + t must lie on the URDF axis.
-    rows, rhs = [], []
-    for s_u, s_d in zip(S_u, S_d):
-        (w_u, p_u), (_, p_d) = _screw_line(s_u), _screw_line(s_d)
-        if p_u is None or p_d is None:
-            continue
-        projector = np.eye(3) - np.outer(w_u, w_u)
+    rows, rhs = [np.zeros((3, 3))], [np.zeros(3)]  # zero rows change nothing and keep A defined when no joint turns
+    for i in turning:
+        projector = np.eye(3) - np.outer(directions_u[i], directions_u[i])
         rows.append(projector)
-        rhs.append(projector @ (p_u - R @ p_d))
-    t = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0] if rows else np.zeros(3)
+        rhs.append(projector @ (lines_u[i][1] - R @ lines_d[i][1]))
+    A = np.vstack(rows)
+    t = np.linalg.lstsq(A, np.concatenate(rhs), rcond=None)[0]
+    _, sigma, Vt = np.linalg.svd(A, full_matrices=False)
+    free = Vt[np.count_nonzero(sigma > SCREW_TOL):]  # directions no axis fixes
+    t += free.T @ (free @ (tip_u - R @ tip_d - t))
     B = np.eye(4)
     B[:3, :3], B[:3, 3] = R, t
     return B
+
+
+def _across(w, v):
+    """The part of ``v`` perpendicular to the unit vector ``w``: ``(I - w w^T) v``."""
+    return v - (v @ w) * w
 
 
 def _fit_offsets(S_u, dh, signs, n, grid: int = 72):

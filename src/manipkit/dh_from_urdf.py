@@ -3,9 +3,10 @@
 ``dh_from_urdf_chain(robot, base, tip, convention=...)`` returns a
 :class:`~manipkit.dh.DHTable` whose forward kinematics equals the robot's:
 ``dh_fk(table, q_chain) == robot.fk(q, tip, base=base)`` for every joint
-vector ``q``, where ``q_chain`` holds the values of :func:`chain_joints`
-(the movable joints from ``base`` down to ``tip``, in order). Joints off that
-chain (the wheels of a mobile base, other branches) are left out.
+vector ``q``, where ``q_chain`` holds the values of the joints
+``robot.chain_joints(base, tip)`` (the movable joints from ``base`` down to
+``tip``, in order). Joints off that chain (the wheels of a mobile base, other
+branches) are left out.
 
 Conventions (DESIGN.md), restated:
 
@@ -74,82 +75,12 @@ import math
 import numpy as np
 
 from manipkit.dh import CONVENTIONS, DHRow, DHTable, dh_fk
-from manipkit.errors import ManipkitError
+from manipkit.errors import DHDerivationError
+from manipkit.rotations import matrix_from_axis_angle
 
-__all__ = ["DHDerivationError", "chain_joints", "dh_from_urdf_chain"]
+__all__ = ["DHDerivationError", "dh_from_urdf_chain"]
 
 _ZERO_SNAP = 1e-12  # parameters below this are rounding noise and written as 0
-
-
-class DHDerivationError(ManipkitError, ValueError):
-    """No DH table for this request: the tip is not below the base, there is no
-    movable joint between them, or the convention is unknown."""
-
-
-# --------------------------------------------------------------------------
-# the chain
-
-
-def _chain_joint_ids(robot, base: str, tip: str) -> list[int]:
-    """Pinocchio ids of the movable joints from ``base`` down to ``tip``, base first.
-
-    ``tip`` must be below ``base`` up to fixed joints: ``base`` may hang off
-    the chain by fixed joints only (ur5's ``base`` beside ``base_link``), so
-    that every movable joint between the two frames points from base to tip.
-    """
-    model = robot.model
-    base_name, tip_name = robot.frame(base), robot.frame(tip)  # UnknownFrameError with suggestions
-    base_id, tip_id = robot.frame_id(base_name), robot.frame_id(tip_name)
-    if base_id == tip_id:
-        same = f"'{base}'" if base == base_name else f"'{base}' ({base_name})"
-        raise DHDerivationError(
-            f"robot '{robot.name}': base and tip are the same frame {same}; a DH chain runs from a base "
-            f"frame down to a different tip frame below it, e.g. base='{robot.root_link}', tip='{robot.ee_frame}'"
-        )
-    names = robot.chain_joints(base_name, tip_name)  # ChainError when tip is not below base
-    ids = [model.getJointId(name) for name in names]
-    if not ids:
-        raise DHDerivationError(
-            f"robot '{robot.name}': no movable joint between '{base_name}' and '{tip_name}' (only fixed "
-            f"joints); a DH table needs at least one, and T_{base_name}_{tip_name} is constant: "
-            "use robot.transform instead"
-        )
-    return ids
-
-
-def chain_joints(robot, base: str = "base_link", tip: str = "ee_link") -> tuple:
-    """The movable joints from ``base`` down to ``tip``, base first: the rows of the DH table.
-
-    Parameters
-    ----------
-    robot : manipkit.model.Robot
-    base, tip : str
-        Frame (link) names or the aliases ``base_link`` and ``ee_link``;
-        ``tip`` must lie below ``base`` in the link tree.
-
-    Returns
-    -------
-    tuple of manipkit.model.Joint
-        Joints off the chain (wheels, other branches, joints above ``base``)
-        are left out. ``[robot.joint_names.index(j.name) for j in ...]``
-        picks the table's joint values out of a full joint vector.
-
-    Raises
-    ------
-    UnknownFrameError
-        If a frame name is unknown.
-    DHDerivationError
-        If ``tip`` is ``base`` or not below it, or no movable joint lies between.
-
-    Examples
-    --------
-    >>> import manipkit
-    >>> robot = manipkit.load("course_arm")
-    >>> [j.name for j in chain_joints(robot, "bicep", "ee_link")]
-    ['bottom_wrist_joint', 'elbow_joint', 'top_wrist_joint']
-    """
-    index = {name: i for i, name in enumerate(robot.joint_names)}
-    return tuple(robot.joints[index[robot.model.names[j]]] for j in _chain_joint_ids(robot, base, tip))
 
 
 # --------------------------------------------------------------------------
@@ -179,9 +110,7 @@ def _x_of_frame_0(z: np.ndarray) -> np.ndarray:
     sine = np.linalg.norm(axis)
     if sine < 1e-12:  # z = +-e_z: identity, or half a turn about x; both keep x
         return e_x
-    k = axis / sine
-    angle = math.atan2(sine, float(e_z @ z))
-    return e_x * math.cos(angle) + np.cross(k, e_x) * math.sin(angle) + k * (k @ e_x) * (1.0 - math.cos(angle))
+    return matrix_from_axis_angle(axis, math.atan2(sine, float(e_z @ z))) @ e_x
 
 
 def _common_normal(P, u, Q, w, start, x_prev, tol):
@@ -310,9 +239,9 @@ def dh_from_urdf_chain(
     Returns
     -------
     DHTable
-        One row per joint of :func:`chain_joints` (revolute for revolute and
-        continuous joints, prismatic for prismatic ones; ``qlim`` from the
-        URDF limits, ``None`` for continuous joints), with
+        One row per joint of ``robot.chain_joints(base, tip)`` (revolute
+        for revolute and continuous joints, prismatic for prismatic ones;
+        ``qlim`` from the URDF limits, ``None`` for continuous joints), with
         ``T_base_tip(q) = table.base @ A_1(q_1) @ ... @ A_n(q_n) @ table.tool``
         equal to ``robot.fk(q, tip, base=base)`` for every ``q``. The joint
         values are the URDF's: each DH z axis points along its URDF joint
@@ -324,9 +253,11 @@ def dh_from_urdf_chain(
     ------
     UnknownFrameError
         If ``base`` or ``tip`` is not a frame of the robot.
+    ChainError
+        If ``tip`` is not below ``base``.
     DHDerivationError
-        If ``tip`` is ``base`` or not below it, no movable joint lies
-        between them, or ``convention`` is unknown.
+        If ``tip`` is ``base``, no movable joint lies between them, or
+        ``convention`` is unknown.
 
     Examples
     --------
@@ -337,7 +268,21 @@ def dh_from_urdf_chain(
     """
     if convention not in CONVENTIONS:
         raise DHDerivationError(f"convention '{convention}': choose standard or modified")
-    joints = chain_joints(robot, base, tip)
+    base_name, tip_name = robot.frame(base), robot.frame(tip)  # UnknownFrameError with suggestions
+    if base_name == tip_name:
+        same = f"'{base}'" if base == base_name else f"'{base}' ({base_name})"
+        raise DHDerivationError(
+            f"robot '{robot.name}': base and tip are the same frame {same}; a DH chain runs from a base "
+            f"frame down to a different tip frame below it, e.g. base='{robot.root_link}', tip='{robot.ee_frame}'"
+        )
+    names = robot.chain_joints(base_name, tip_name)  # ChainError when tip is not below base
+    if not names:
+        raise DHDerivationError(
+            f"robot '{robot.name}': no movable joint between '{base_name}' and '{tip_name}' (only fixed "
+            f"joints); a DH table needs at least one, and T_{base_name}_{tip_name} is constant: "
+            "use robot.transform instead"
+        )
+    joints = [robot.joints[robot.joint_names.index(name)] for name in names]
     q0 = np.zeros(len(robot.joints))
     points, directions = [], []
     for joint in joints:

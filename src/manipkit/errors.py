@@ -55,6 +55,11 @@ class DHTableError(ManipkitError, ValueError):
     """A DH table file (or table) that cannot be read or written: names the file, row and field."""
 
 
+class DHDerivationError(ManipkitError, ValueError):
+    """No DH table for this request: base and tip are the same frame, no movable
+    joint lies between them, or the convention is unknown."""
+
+
 class ClosedFormIKError(ManipkitError, ValueError):
     """A pose or arm parameter a closed-form (decoupled) IK solver cannot take: names the value and what is valid."""
 
