@@ -216,6 +216,8 @@ def test_value_above_a_full_turn_without_deg_gets_a_degrees_hint():
 def test_limit_error_with_deg_speaks_degrees():
     result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=150", "--deg", check_status=2)
     assert "joint 'iiwa_joint_2' = 150 is above its upper limit 120 (limits [-120, 120] deg)" in result.stderr
+    below = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_7=-180", "--deg", check_status=2)
+    assert "joint 'iiwa_joint_7' = -180 is below its lower limit -175 (limits [-175, 175] deg)" in below.stderr
 
 
 def test_continuous_joint_above_a_full_turn_answers_with_a_degrees_warning():

@@ -18,7 +18,6 @@ from collections import Counter, defaultdict
 from importlib import metadata
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yourdfpy
 from hypothesis import given, settings
@@ -375,9 +374,15 @@ def _edges(urdf):
     return [(j.parent, j.child) for j in urdf.robot.joints]
 
 
+def _layout(urdf):
+    """(centre of each link's box, width of its column), as write_tree_image computes them."""
+    analysed = tree._analyse(urdf)
+    widths = tree._widths(analysed)
+    return tree._layout_tree(analysed, widths), widths
+
+
 def _assert_tidy(urdf):
-    position = tree._layout(urdf)
-    widths = tree._node_widths(urdf)
+    position, widths = _layout(urdf)
     assert set(position) == {link.name for link in urdf.robot.links}
     for parent, child in _edges(urdf):
         assert position[parent][1] > position[child][1], (parent, child)
@@ -406,7 +411,7 @@ def test_layout_of_a_branching_tree_is_tidy():
 
 
 def test_layout_gives_each_level_one_height(ur5):
-    position = tree._layout(ur5)
+    position, _ = _layout(ur5)
     depth = {"world": 0}
     for parent, child in _edges(ur5) * len(position):  # enough passes for any order
         if parent in depth:
@@ -419,7 +424,7 @@ def test_layout_gives_each_level_one_height(ur5):
 
 def test_layout_widths_hold_the_link_name_and_its_joint_label():
     urdf = load(BRANCHING)
-    widths = tree._node_widths(urdf)
+    widths = tree._widths(tree._analyse(urdf))
     # "left_upper_arm" is 14 characters, its joint's longest line
     # "revolute, axis 0 1 0" is 20.
     assert widths["left_upper_arm"] == pytest.approx(20 * tree._CHAR_W + 2 * tree._PAD_X)
@@ -451,8 +456,7 @@ def test_layout_packs_a_short_subtree_under_a_wide_neighbour():
 
 def test_layout_puts_every_root_on_the_top_level_side_by_side():
     urdf = load(robot("two", ["a", "a_child", "b"], [("ja", "fixed", "a", "a_child", "0 0 0", "0 0 0", "1 0 0")]))
-    position = tree._layout(urdf)
-    widths = tree._node_widths(urdf)
+    position, widths = _layout(urdf)
     assert position["a"][1] == position["b"][1] > position["a_child"][1]
     assert position["b"][0] - position["a"][0] >= (widths["a"] + widths["b"]) / 2
 
@@ -476,7 +480,7 @@ def test_layout_handles_a_chain_deeper_than_the_recursion_limit():
     n = sys.getrecursionlimit() + 10
     links = [f"l{k}" for k in range(n)]
     joints = [(f"j{k}", "fixed", links[k - 1], links[k], "0 0 0", "0 0 0", "1 0 0") for k in range(1, n)]
-    position = tree._layout(load(robot("deep", links, joints)))
+    position, _ = _layout(load(robot("deep", links, joints)))
     assert position[links[-1]][1] == pytest.approx(-(n - 1) * tree._LEVEL_H)
 
 

@@ -1,10 +1,10 @@
 """manipkit.viewer without a browser: state -> readout and scene, visual geometry, servers, --static, notebooks.
 
-Independent sources: the readout against ``Robot.transform``/``pose_fields``
-and against the ``tf-between`` command run as a subprocess; the scene
-placements against Pinocchio's own ``updateGeometryPlacements``; the static
-export decoded back from meshcat's msgpack commands. The browser half is in
-test_viewer_browser.py.
+Independent sources: the readout and the scene placements against the
+course arm's joint table composed by hand (tests/reference.py) and hand
+values, the readout also against the ``tf-between`` command run as a
+subprocess; the static export decoded back from meshcat's msgpack commands.
+The browser half is in test_viewer_browser.py.
 """
 
 import base64
@@ -19,15 +19,15 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 import manipkit
 from manipkit.errors import JointValueError, ManipkitError, PackageNotFoundError, UnknownFrameError
-from manipkit.pose import pose_fields
-from reference import course_arm_T_base_top_wrist
-from manipkit.viewer import (
-    TRIAD_PATHS, VISUALS_ROOT, ViewerServer, ViewerState, open_view, readout_text, visual_model, write_static,
+from manipkit.pose import pose_text
+from manipkit.viewer import TRIAD_PATHS, VISUALS_ROOT, ViewerServer, ViewerState, open_view, visual_model, write_static
+from reference import (
+    COURSE_ARM_JOINTS as COURSE_ARM_TABLE, POSE_A, compose_chain, course_arm_T_base_ee, course_arm_T_base_top_wrist,
+    matrix_from_axis_angle, matrix_from_rpy, rot_z, urdf_origin,
 )
 
 BIN = Path(sys.executable).parent
@@ -43,12 +43,24 @@ def random_q(robot, seed=0):
     return robot.sample_q(1, seed=seed)[0]
 
 
-def tf_between_json(source, target, q: dict, robot="course_arm") -> dict:
+def tf_between(source, target, q: dict, *options, robot="course_arm") -> str:
     args = [f"{name}={value!r}" for name, value in q.items()]
-    result = subprocess.run([str(BIN / "tf-between"), source, target, "--robot", robot, "--q", *args, "--format", "json"],
+    result = subprocess.run([str(BIN / "tf-between"), source, target, "--robot", robot, "--q", *args, *options],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
-    return json.loads(result.stdout)
+    return result.stdout
+
+
+def tf_between_json(source, target, q: dict, robot="course_arm") -> dict:
+    return json.loads(tf_between(source, target, q, "--format", "json", robot=robot))
+
+
+def course_arm_T_base(link: str, q) -> np.ndarray:
+    """T_base_link_<link> of the course arm from its joint table (tests/reference.py), q in joint order."""
+    if link == "ee_link":
+        return course_arm_T_base_ee(q)
+    chain = ("base_link", "arm_base", "bicep", "bottom_wrist", "elbow", "top_wrist").index(link)
+    return compose_chain(COURSE_ARM_TABLE[:chain], q[:chain])
 
 
 def listening_socket():
@@ -84,9 +96,16 @@ def test_continuous_joint_wraps_into_minus_pi_pi_and_keeps_the_pose(robots):
     state = ViewerState(robot)
     used = state.set_joint("shoulder_joint", 4.0)
     assert used == pytest.approx(4.0 - 2 * math.pi, abs=1e-15)
-    assert state.set_joint("elbow_joint", math.pi) == math.pi  # the ends stay
+    assert state.set_joint("elbow_joint", math.pi) == math.pi  # the upper end of (-pi, pi] stays
     q_given = robot.q(shoulder_joint=4.0, elbow_joint=math.pi)
     assert np.abs(robot.transform("base_link", "ee_link", state.q) - robot.transform("base_link", "ee_link", q_given)).max() < 1e-12
+
+
+@pytest.mark.parametrize("given", [-3 * math.pi, 3 * math.pi, -math.pi, -5 * math.pi])
+def test_continuous_joint_wraps_odd_multiples_of_pi_to_plus_pi(robots, given):
+    robot = robots["course_arm"]
+    assert ViewerState(robot).set_joint("shoulder_joint", given) == math.pi  # (-pi, pi], as DESIGN.md wraps angles
+    assert ViewerState(robot, q=robot.q(elbow_joint=given)).q[3] == math.pi  # the start pose too
 
 
 def test_set_joint_rejects_unknown_joints_and_non_numbers(robots):
@@ -124,7 +143,9 @@ def test_sliders_span_the_limits_and_continuous_joints_span_minus_pi_pi(robots):
     assert specs[1].value == 0.5 and specs[1].unit == "rad" and specs[1].type == "revolute"
     assert specs[0].step == pytest.approx((specs[0].upper - specs[0].lower) / 1000)
     course = ViewerState(robots["course_arm"]).sliders()
-    assert {(s.type, s.lower, s.upper) for s in course} == {("continuous", -math.pi, math.pi)}
+    # continuous joints: (-pi, pi] in 1000 steps, the left end one step above -pi (which wraps to +pi)
+    assert {(s.type, s.lower, s.upper) for s in course} == {("continuous", -math.pi + 2 * math.pi / 1000, math.pi)}
+    assert all(s.step == pytest.approx(2 * math.pi / 1000) for s in course)
     prismatic = ViewerState(robots["stanford_arm"]).sliders()[2]
     assert (prismatic.type, prismatic.unit, prismatic.lower, prismatic.upper) == ("prismatic", "m", 0.1, 1.0)
 
@@ -134,19 +155,22 @@ def test_sliders_span_the_limits_and_continuous_joints_span_minus_pi_pi(robots):
 # ----------------------------------------------------------------------
 
 
-def test_readout_equals_robot_transform_and_pose_fields(robots):
+def test_readout_is_the_pose_of_the_course_arm_joint_table(robots):
     robot = robots["course_arm"]
     q = random_q(robot, seed=4)
-    state = ViewerState(robot, frames=("bicep", "ee_link"), q=q)
-    shown = state.readout()
-    T = robot.transform("bicep", "ee_link", q)
-    fields = pose_fields(T)
+    shown = ViewerState(robot, frames=("bicep", "ee_link"), q=q).readout()
     assert list(shown) == ["source", "target", "robot", "q", "translation", "quaternion_xyzw", "rpy", "matrix"]
     assert (shown["source"], shown["target"], shown["robot"]) == ("bicep", "ee_link", "course_arm")
     assert shown["q"] == dict(zip(robot.joint_names, q))
-    assert np.array_equal(shown["matrix"], T)
-    for key in ("translation", "quaternion_xyzw", "rpy"):
-        assert np.array_equal(shown[key], fields[key])
+    # the joint table composed by hand (tests/reference.py): T_bicep_ee = inv(T_base_bicep) T_base_ee
+    by_hand = np.linalg.inv(course_arm_T_base("bicep", q)) @ course_arm_T_base_ee(q)
+    assert np.abs(np.array(shown["matrix"]) - by_hand).max() < 1e-12
+    assert np.abs(np.array(shown["translation"]) - by_hand[:3, 3]).max() < 1e-12
+    assert np.abs(matrix_from_rpy(*shown["rpy"]) - by_hand[:3, :3]).max() < 1e-12  # R = Rz(yaw) Ry(pitch) Rx(roll)
+    x, y, z, w = shown["quaternion_xyzw"]  # (x, y, z, w) = (sin(angle/2) axis, cos(angle/2))
+    axis = np.array([x, y, z]) / np.linalg.norm([x, y, z])
+    angle = 2 * math.atan2(np.linalg.norm([x, y, z]), w)
+    assert np.abs(matrix_from_axis_angle(axis, angle) - by_hand[:3, :3]).max() < 1e-12
 
 
 def test_readout_equals_the_tf_between_json(robots):
@@ -161,18 +185,19 @@ def test_readout_equals_the_tf_between_json(robots):
     assert np.abs(np.array(shown["matrix"]) - by_hand).max() < 1e-12
 
 
-def test_readout_text_shows_the_readout_numbers(robots):
+def test_readout_text_is_the_pose_text_of_tf_between(robots):
     robot = robots["course_arm"]
     state = ViewerState(robot, q=robot.q(shoulder_joint=0.5))
-    report = state.readout()
-    text = readout_text(report)
-    assert text.splitlines()[0] == "pose of ee_link expressed in base_link (T_base_link_ee_link, as tf-between base_link ee_link):"
+    text = state.snapshot()["readout_text"]
+    assert text.splitlines()[0] == "pose of ee_link expressed in base_link (T_base_link_ee_link, as tf2_echo base_link ee_link):"
+    # the command prints its robot and joint lines, then the same pose lines
+    assert tf_between("base_link", "ee_link", {"shoulder_joint": 0.5}).endswith("\n" + text + "\n")
+    # and the numbers are the pose of the joint table composed by hand
+    by_hand = course_arm_T_base_ee((0.0, 0.5, 0.0, 0.0, 0.0))
     translation = re.search(r"Translation \(m\): \[(.*)\]", text).group(1)
-    assert np.allclose([float(v) for v in translation.split(",")], report["translation"], atol=5e-7)
-    degrees = re.search(r"RPY \(degree\) \[roll, pitch, yaw\]: \[(.*)\]", text).group(1)
-    assert np.allclose([float(v) for v in degrees.split(",")], np.degrees(report["rpy"]), atol=5e-7)
+    assert np.allclose([float(v) for v in translation.split(",")], by_hand[:3, 3], atol=5e-7)
     matrix = [[float(v) for v in line.split()] for line in text.splitlines()[-4:]]
-    assert np.allclose(matrix, report["matrix"], atol=5e-7)
+    assert np.allclose(matrix, by_hand, atol=5e-7)
 
 
 def test_set_frames_rejects_unknown_frames_and_keeps_the_old_ones(robots):
@@ -195,20 +220,31 @@ def test_frame_choices_are_the_links_plus_the_aliases(robots):
 # ----------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["course_arm", "iiwa14", "panda", "ur5"])
-def test_geometry_placements_equal_pinocchios_geometry_placements(robots, name):
-    robot = robots[name]
-    visual = visual_model(robot)
-    assert visual.ngeoms > 0
-    for seed in range(3):
-        q = random_q(robot, seed)
-        placements = ViewerState(robot, q=q).geometry_placements(visual)
-        data, geometry_data = robot.model.createData(), visual.createData()
-        pin.updateGeometryPlacements(robot.model, data, visual, geometry_data, robot.pinocchio_configuration(q))
-        assert len(placements) == visual.ngeoms
-        for index, geometry in enumerate(visual.geometryObjects):
-            expected = geometry_data.oMg[index].homogeneous @ np.diag([*geometry.meshScale, 1.0])
-            assert np.abs(placements[f"{VISUALS_ROOT}/{geometry.name}"] - expected).max() < 1e-12, geometry.name
+@pytest.mark.parametrize("q", [(0.0,) * 5, POSE_A, (0.3, -1.2, 0.7, 2.0, -0.4)])
+def test_geometry_placements_are_the_course_arm_visuals_on_its_joint_table(robots, q):
+    robot = robots["course_arm"]
+    placements = ViewerState(robot, q=q).geometry_placements(visual_model(robot))
+    assert len(placements) == 7
+    # <visual><origin> of each link in robots/course_arm.xacro, on the link's pose composed by hand
+    expected = {
+        "bicep_0": course_arm_T_base("bicep", q) @ urdf_origin((0.0, -0.026, 0.1345), (0.0, -1.5708, 0.0)),
+        "top_wrist_0": course_arm_T_base_top_wrist(q) @ urdf_origin((0.0, 0.0, 0.13522 / 2), (3.14, 0.0, 1.5708)),
+        "ee_link_0": course_arm_T_base_ee(q),
+    }
+    for name, T in expected.items():
+        assert np.abs(placements[f"{VISUALS_ROOT}/{name}"] - T).max() < 1e-12, name
+
+
+def test_geometry_placements_scale_the_mesh(tmp_path):
+    (tmp_path / "arm.stl").write_text(STL)
+    robot = manipkit.load(one_mesh_urdf(tmp_path, "arm.stl", scale="2 3 4", origin="0.1 0 0.2"))
+    placements = ViewerState(robot, q=robot.q(joint1=0.5)).geometry_placements(visual_model(robot))
+    # T_base_arm = Rz(0.5) (joint1 about z at the origin), then the visual's offset, then diag(2, 3, 4) on the columns
+    T_base_arm = np.eye(4)
+    T_base_arm[:3, :3] = rot_z(0.5)
+    expected = T_base_arm @ urdf_origin((0.1, 0.0, 0.2), (0.0, 0.0, 0.0)) @ np.diag([2.0, 3.0, 4.0, 1.0])
+    assert list(placements) == [f"{VISUALS_ROOT}/arm_0"]
+    assert np.abs(placements[f"{VISUALS_ROOT}/arm_0"] - expected).max() < 1e-12
 
 
 def test_geometry_placements_move_with_their_links(robots):
@@ -229,24 +265,27 @@ def test_geometry_placements_move_with_their_links(robots):
 
 
 def test_triads_sit_at_frames_a_and_b(robots):
-    robot = robots["ur5"]
+    robot = robots["course_arm"]  # its root link is base_link
     q = random_q(robot, 5)
-    state = ViewerState(robot, frames=("shoulder_link", "ee_link"), q=q)
+    state = ViewerState(robot, frames=("bicep", "ee_link"), q=q)
     triads = state.frame_placements()
     assert list(triads) == list(TRIAD_PATHS)
-    assert np.array_equal(triads["manipkit/frame_a"], robot.transform(robot.root_link, "shoulder_link", q))
-    assert np.array_equal(triads["manipkit/frame_b"], robot.transform(robot.root_link, "ee_link", q))
+    assert np.abs(triads["manipkit/frame_a"] - course_arm_T_base("bicep", q)).max() < 1e-12
+    assert np.abs(triads["manipkit/frame_b"] - course_arm_T_base_ee(q)).max() < 1e-12
     T_a_b = np.linalg.inv(triads["manipkit/frame_a"]) @ triads["manipkit/frame_b"]
     assert np.abs(T_a_b - np.array(state.readout()["matrix"])).max() < 1e-12
 
 
 def test_bounds_are_the_box_around_the_frame_origins(robots):
-    robot = robots["ur5"]
+    robot = robots["course_arm"]
+    # at q = 0 the arm stands straight up: bicep at x = -0.05166 (its joint's origin), the joints above it
+    # at x = -0.05166 + 0.05194 = 0.00028, ee_link at z = 0.1 + 0.20271 + 0.269 + 0.13522 + 0.20994 + 0.13522 = 1.05209
+    lower, upper = ViewerState(robot).bounds()
+    assert np.allclose(lower, [-0.05166, 0.0, 0.0], atol=1e-6) and np.allclose(upper, [0.00028, 0.0, 1.05209], atol=1e-6)
     q = random_q(robot, 2)
+    origins = np.array([course_arm_T_base(link, q)[:3, 3] for link in robot.frame_names])
     lower, upper = ViewerState(robot, q=q).bounds()
-    origins = np.array([robot.transform(robot.root_link, f, q)[:3, 3] for f in robot.frame_names])
-    assert np.all(origins >= lower) and np.all(origins <= upper)
-    assert np.all(np.isclose(origins, lower).any(axis=0)) and np.all(np.isclose(origins, upper).any(axis=0))
+    assert np.abs(lower - origins.min(axis=0)).max() < 1e-12 and np.abs(upper - origins.max(axis=0)).max() < 1e-12
 
 
 # ----------------------------------------------------------------------
@@ -272,13 +311,13 @@ endsolid tetra
 """
 
 
-def one_mesh_urdf(folder: Path, filename: str) -> Path:
+def one_mesh_urdf(folder: Path, filename: str, *, scale: str = "1 1 1", origin: str = "0 0 0") -> Path:
     path = folder / "arm.urdf"
     path.write_text(f"""<?xml version="1.0"?>
 <robot name="mesh_arm">
   <link name="base_link"/>
   <link name="arm">
-    <visual><geometry><mesh filename="{filename}"/></geometry></visual>
+    <visual><origin xyz="{origin}"/><geometry><mesh filename="{filename}" scale="{scale}"/></geometry></visual>
   </link>
   <joint name="joint1" type="revolute">
     <parent link="base_link"/><child link="arm"/><axis xyz="0 0 1"/>
@@ -390,7 +429,7 @@ def test_update_answers_the_readout_and_draws_the_scene(view, robots):
     assert answer["q"] == robot.as_dict(q)
     assert np.array_equal(answer["readout"]["matrix"], robot.transform("base_link", "ee_link", q))
     assert json.loads(answer["readout_json"]) == answer["readout"]
-    assert answer["readout_text"] == readout_text(answer["readout"])
+    assert answer["readout_text"] == pose_text(answer["readout"])
     assert view.wait_for_scene()
     expected = ViewerState(robot, q=q).scene_placements(view.visual)
     for path, T in expected.items():
@@ -481,12 +520,13 @@ def notebook(robots):
 def test_notebook_sliders_drive_the_state_the_scene_and_the_readout(notebook, robots):
     robot = robots["course_arm"]
     assert list(notebook.sliders) == list(COURSE_ARM_JOINTS)
-    assert (notebook.sliders["elbow_joint"].min, notebook.sliders["elbow_joint"].max) == (-math.pi, math.pi)
+    elbow = notebook.sliders["elbow_joint"]  # continuous: (-pi, pi], the left end one step above -pi
+    assert (elbow.min, elbow.max) == (pytest.approx(-math.pi + 2 * math.pi / 1000), math.pi)
     notebook.sliders["elbow_joint"].value = 0.8
     q = robot.q(elbow_joint=0.8)
     assert list(notebook.state.q) == list(q)
     assert np.array_equal(notebook.scene.drawn["manipkit/frame_b"], robot.transform("base_link", "ee_link", q))
-    assert html.escape(readout_text(notebook.state.readout())) in notebook.readout.value
+    assert html.escape(pose_text(notebook.state.readout())) in notebook.readout.value
     notebook.frame_a.value = "bicep"
     assert notebook.state.frames == ("bicep", "ee_link")
     assert "T_bicep_ee_link" in notebook.readout.value

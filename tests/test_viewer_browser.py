@@ -257,9 +257,9 @@ def test_control_page_has_a_slider_and_a_number_per_joint_frame_pickers_and_the_
     assert page.input_value("select#frame-a") == "base_link" and page.input_value("select#frame-b") == "ee_link"
     assert page.locator("button#reset").count() == 1
     assert page.get_attribute("iframe#scene", "src") == viewer["scene_url"]
-    # continuous joints (the course arm's) slide over -pi..pi
+    # continuous joints (the course arm's) slide over (-pi, pi]: from one step (2 pi / 1000) above -pi to pi
     limits = page.eval_on_selector('input[type=range][data-joint="shoulder_joint"]', "el => [el.min, el.max]")
-    assert np.allclose([float(v) for v in limits], [-np.pi, np.pi])
+    assert np.allclose([float(v) for v in limits], [-np.pi + 2 * np.pi / 1000, np.pi])
 
 
 def test_moving_a_slider_shows_tf_between_for_that_joint_value(page):

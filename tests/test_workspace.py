@@ -13,8 +13,10 @@ from xml.etree import ElementTree
 import numpy as np
 import pytest
 
+import manipkit
+from manipkit.model import Robot
 from manipkit.planar import PlanarArmError
-from manipkit.workspace import planar_workspace, plot_planar_workspace, sample_planar_workspace
+from manipkit.workspace import planar_link_lengths, planar_workspace, plot_planar_workspace, sample_planar_workspace
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -93,3 +95,61 @@ def test_plot_planar_workspace_is_reproducible(tmp_path):
 def test_plot_planar_workspace_rejects_an_unknown_format(tmp_path):
     with pytest.raises(PlanarArmError, match=r"cannot write 'ws.jpg': use a file name ending in .png or .svg"):
         plot_planar_workspace([1.0, 1.0], tmp_path / "ws.jpg")
+
+
+# ----------------------------------------------------------------------
+# planar_link_lengths: lengths read off a URDF chain
+# ----------------------------------------------------------------------
+
+
+def two_joint_urdf(*, second_type="revolute", second_axis="0 0 1", second_xyz="1 0 0") -> str:
+    """base_link -joint1 (about z)-> link1 -joint2-> link2 -ee_joint (x = 0.5)-> ee_link."""
+    return f"""<?xml version="1.0"?>
+<robot name="hand_arm">
+  <link name="base_link"/><link name="link1"/><link name="link2"/><link name="ee_link"/>
+  <joint name="joint1" type="revolute">
+    <parent link="base_link"/><child link="link1"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+  <joint name="joint2" type="{second_type}">
+    <parent link="link1"/><child link="link2"/><origin xyz="{second_xyz}"/><axis xyz="{second_axis}"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+  <joint name="ee_joint" type="fixed">
+    <parent link="link2"/><child link="ee_link"/><origin xyz="0.5 0 0"/>
+  </joint>
+</robot>
+"""
+
+
+def test_planar_link_lengths_of_the_bundled_arms_are_their_xacro_lengths():
+    assert planar_link_lengths(manipkit.load("planar_3r")) == (4.0, 2.0, 1.0)  # the defaults l1, l2, l3
+    assert planar_link_lengths(manipkit.load("planar_2r", l1=0.7, l2=0.3)) == pytest.approx((0.7, 0.3), abs=1e-15)
+
+
+def test_planar_link_lengths_of_a_hand_written_arm():
+    # joint2 sits 1 m along x from joint1, the tip 0.5 m further
+    assert planar_link_lengths(Robot.from_urdf(two_joint_urdf())) == (1.0, 0.5)
+
+
+def test_planar_link_lengths_rejects_a_prismatic_joint():
+    robot = Robot.from_urdf(two_joint_urdf(second_type="prismatic", second_axis="1 0 0"))
+    with pytest.raises(PlanarArmError, match="^joint 'joint2' is prismatic; the planar workspace needs revolute joints$"):
+        planar_link_lengths(robot)
+
+
+def test_planar_link_lengths_rejects_axes_that_are_not_parallel():
+    robot = Robot.from_urdf(two_joint_urdf(second_axis="0 1 0"))
+    with pytest.raises(PlanarArmError, match="^robot 'hand_arm': the joint axes are not parallel, so it is not a planar arm$"):
+        planar_link_lengths(robot)
+
+
+def test_planar_link_lengths_rejects_joints_out_of_one_plane():
+    robot = Robot.from_urdf(two_joint_urdf(second_xyz="1 0 0.2"))  # joint2 0.2 m above joint1's plane
+    with pytest.raises(PlanarArmError, match="^robot 'hand_arm': the joints do not lie in one plane, so it is not a planar arm$"):
+        planar_link_lengths(robot)
+
+
+def test_planar_link_lengths_rejects_an_arm_with_five_joints():
+    with pytest.raises(PlanarArmError, match="has 5 joints from base_link to ee_link; the planar workspace needs a 2R or 3R arm"):
+        planar_link_lengths(manipkit.load("course_arm"))

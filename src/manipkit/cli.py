@@ -22,7 +22,7 @@ import os
 import sys
 from pathlib import Path
 
-from manipkit.errors import ManipkitError
+from manipkit.errors import JointLimitError, ManipkitError
 
 EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
 EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
@@ -204,9 +204,8 @@ def _limit_message(error, degrees: bool) -> str:
     """JointLimitError's message, in degrees when the user gave degrees."""
     if not (degrees and error.unit == "rad"):
         return str(error)
-    value, lower, upper = (math.degrees(v) for v in (error.value, error.lower, error.upper))
-    side = f"above its upper limit {upper:.6g}" if error.value > error.upper else f"below its lower limit {lower:.6g}"
-    return f"joint '{error.joint}' = {value:.6g} is {side} (limits [{lower:.6g}, {upper:.6g}] deg)"
+    in_degrees = (math.degrees(v) for v in (error.value, error.lower, error.upper))
+    return str(JointLimitError(error.joint, *in_degrees, unit="deg"))
 
 
 def _check_precision(precision: int) -> None:
@@ -253,37 +252,19 @@ def _configure_tf(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tol", type=float, default=1e-6, help="agreement tolerance for --compare (m and rad, default 1e-6)")
 
 
-def _fmt(value: float, precision: int) -> str:
-    text = f"{value:.{precision}f}"
-    return text[1:] if text.startswith("-") and float(text) == 0 else text  # no "-0.000"
+def _pose_lines(robot, report: dict, precision: int) -> list[str]:
+    """The text of ``tf-between``: robot, joint values, what the aliases stand for, then the pose."""
+    from manipkit.pose import number_text, pose_text
 
-
-def _vector(values, precision: int) -> str:
-    return "[" + ", ".join(_fmt(v, precision) for v in values) + "]"
-
-
-def _pose_text(robot, source: str, target: str, q, T, precision: int) -> list[str]:
-    from manipkit.pose import pose_fields
-
-    fields = pose_fields(T)
-    width = precision + 4
     lines = [f"robot: {robot.name} ({robot.source.path})"]
-    lines.append("joints (rad/m): " + (" ".join(f"{k}={_fmt(v, precision)}" for k, v in robot.as_dict(q).items()) or "none"))
-    for alias in (source, target):
+    joints = " ".join(f"{name}={number_text(value, precision)}" for name, value in report["q"].items())
+    lines.append(f"joints (rad/m): {joints or 'none'}")
+    for alias in (report["source"], report["target"]):
         resolved = robot.frame(alias)
         if resolved != alias:
             note = f" ({robot.ee_reason})" if alias == "ee_link" else " (the root link)"
             lines.append(f"frame {alias} = {resolved}{note}")
-    lines += [
-        f"pose of {target} expressed in {source} (T_{source}_{target}, as tf2_echo {source} {target}):",
-        f"- Translation (m): {_vector(fields['translation'], precision)}",
-        f"- Rotation: in Quaternion (x, y, z, w): {_vector(fields['quaternion_xyzw'], precision)}",
-        f"- Rotation: in RPY (radian) [roll, pitch, yaw]: {_vector(fields['rpy'], precision)}",
-        f"- Rotation: in RPY (degree) [roll, pitch, yaw]: {_vector(fields['rpy_deg'], precision)}",
-        "  (RPY as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes x, y, z)",
-        "- Matrix:",
-    ]
-    lines += ["  " + " ".join(_fmt(v, precision).rjust(width) for v in row) for row in T]
+    lines.append(pose_text(report, precision=precision))
     return lines
 
 
@@ -321,12 +302,12 @@ def run_tf(args) -> int:
 
         comparison = compare_transform(T, read_matrix(args.compare), tol=args.tol)
         status = EXIT_OK if comparison.agrees else EXIT_MISMATCH
-    if args.format == "json":
-        from manipkit.pose import pose_report
+    from manipkit.pose import pose_report
 
-        out = pose_report(robot, source, target, q, T=T)
+    report = pose_report(robot, source, target, q, T=T)
+    if args.format == "json":
         if comparison is not None:
-            out["compare"] = {
+            report["compare"] = {
                 "file": str(args.compare),
                 "violations": list(comparison.violations),
                 "position_error": comparison.position_error,
@@ -334,9 +315,9 @@ def run_tf(args) -> int:
                 "agrees": comparison.agrees,
                 "explanation": comparison.explain(),
             }
-        _print_json(out)
+        _print_json(report)
     else:
-        lines = _pose_text(robot, source, target, q, T, args.precision)
+        lines = _pose_lines(robot, report, args.precision)
         if comparison is not None:
             lines += _compare_lines(comparison, args.compare, args.tol)
         print("\n".join(lines))
@@ -346,7 +327,7 @@ def run_tf(args) -> int:
 def _run_tf_batch(robot, args) -> int:
     import numpy as np
 
-    from manipkit.pose import pose_fields
+    from manipkit.pose import number_text, pose_fields
 
     if args.q or args.compare is not None:
         raise UsageError("--q-file cannot be combined with --q or --compare")
@@ -366,7 +347,7 @@ def _run_tf_batch(robot, args) -> int:
     print(f"# T_{args.source}_{args.target} of {robot.name}, one pose a row of {args.q_file}; m, rad, quaternion xyzw")
     print(header)
     for row in table:
-        print(",".join(_fmt(v, args.precision) for v in row))
+        print(",".join(number_text(v, args.precision) for v in row))
     return EXIT_OK
 
 
@@ -609,23 +590,20 @@ def _ik_target(args):
             bad = next(v for v in values if not math.isfinite(v))
             raise UsageError(f"{option} {' '.join(f'{v:g}' for v in values)}: {bad:g} is not finite; "
                              f"give finite numbers{' (' + unit + ')' if unit else ''}")
-    if args.quat is not None and math.hypot(*args.quat) < 1e-9:
-        raise UsageError(f"--quat {' '.join(f'{v:g}' for v in args.quat)}: a zero quaternion is no rotation; "
-                         "give (x, y, z, w) with a non-zero length, e.g. 0 0 0 1")
     T = np.eye(4)
     T[:3, 3] = args.xyz
     if args.rpy is not None:
         rpy = np.radians(args.rpy) if args.deg else np.array(args.rpy)
         T[:3, :3] = matrix_from_rpy(rpy)
     elif args.quat is not None:
-        T[:3, :3] = matrix_from_quaternion(args.quat)
-    if not np.all(np.isfinite(T)):
-        raise UsageError("--xyz/--rpy/--quat values must be finite numbers")
+        T[:3, :3] = matrix_from_quaternion(args.quat)  # InvalidRotationError for a zero quaternion
     return T
 
 
 def _q_text(robot, q, precision: int) -> str:
-    return " ".join(f"{name}={_fmt(value, precision)}" for name, value in robot.as_dict(q).items())
+    from manipkit.pose import number_text
+
+    return " ".join(f"{name}={number_text(value, precision)}" for name, value in robot.as_dict(q).items())
 
 
 def run_ik(args) -> int:
@@ -727,13 +705,9 @@ def run_view(args) -> int:
 
     from manipkit import viewer
 
-    if not 0 <= args.port <= 65535:
-        raise UsageError(f"--port {args.port}: give a port from 1 to 65535 (0 = any free port)")
     robot = _load(args, mesh_warnings=False)
     q = _joint_vector(robot, args)
     frames = tuple(args.frames)
-    for frame in frames:
-        robot.frame(frame)  # unknown frames fail with the closest names before the viewer starts
     if args.static is not None:
         path = viewer.write_static(robot, args.static, frames=frames, q=q)
         size = path.stat().st_size / 1e6
@@ -749,7 +723,7 @@ def run_view(args) -> int:
     try:
         view = viewer.open_view(robot, frames=frames, q=q, port=args.port)
         for warning in view.scene.warnings:
-            print(f"warning: {warning}", file=sys.stderr)
+            warn(warning)
         print(f"control page: {view.url}", flush=True)
         print(f"meshcat scene: {view.scene_url}", flush=True)
         print(f"robot {robot.name}, T_{frames[0]}_{frames[1]} live; Ctrl-C stops the viewer", flush=True)

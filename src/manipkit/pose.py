@@ -3,7 +3,8 @@
 Conventions: translation in metres; quaternion (x, y, z, w) with w >= 0;
 rpy = (roll, pitch, yaw) in radians with R = Rz(yaw) Ry(pitch) Rx(roll), the
 URDF convention (equal to Euler ZYX (yaw, pitch, roll)). The same numbers feed
-``tf-between`` (text, JSON, CSV) and the viewer's readout.
+``tf-between`` (text, JSON, CSV) and the viewer's readout, and the same text
+(:func:`pose_text`) shows them to people in both.
 """
 
 from __future__ import annotations
@@ -86,3 +87,65 @@ def pose_report(robot, source: str, target: str, q, *, T=None) -> dict:
         "rpy": fields["rpy"].tolist(),
         "matrix": fields["matrix"].tolist(),
     }
+
+
+def number_text(value: float, precision: int = 6) -> str:
+    """``value`` with ``precision`` decimals, without the sign of a value that rounds to zero.
+
+    Examples
+    --------
+    >>> number_text(-1e-9), number_text(0.5, 3)
+    ('0.000000', '0.500')
+    """
+    text = f"{value:.{precision}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text  # no "-0.000"
+
+
+def pose_text(report: dict, *, precision: int = 6) -> str:
+    """A pose report for people: the pose lines of ``tf-between``'s text output, worded like ``tf2_echo``.
+
+    Translation (m), quaternion (x, y, z, w), RPY in radians and in degrees
+    (URDF convention, labelled) and the 4x4 matrix, under a header that says
+    the direction: the pose of ``target`` expressed in ``source``.
+
+    Parameters
+    ----------
+    report : dict
+        From :func:`pose_report` (the ``tf-between --format json`` keys).
+    precision : int, keyword-only
+        Decimals of every number.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("planar_2r")
+    >>> print(pose_text(pose_report(robot, "base_link", "ee_link", robot.q()), precision=1))
+    pose of ee_link expressed in base_link (T_base_link_ee_link, as tf2_echo base_link ee_link):
+    - Translation (m): [2.0, 0.0, 0.0]
+    - Rotation: in Quaternion (x, y, z, w): [0.0, 0.0, 0.0, 1.0]
+    - Rotation: in RPY (radian) [roll, pitch, yaw]: [0.0, 0.0, 0.0]
+    - Rotation: in RPY (degree) [roll, pitch, yaw]: [0.0, 0.0, 0.0]
+      (RPY as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes x, y, z)
+    - Matrix:
+        1.0   0.0   0.0   2.0
+        0.0   1.0   0.0   0.0
+        0.0   0.0   1.0   0.0
+        0.0   0.0   0.0   1.0
+    """
+
+    def vector(values) -> str:
+        return "[" + ", ".join(number_text(v, precision) for v in values) + "]"
+
+    source, target = report["source"], report["target"]
+    width = precision + 4
+    lines = [
+        f"pose of {target} expressed in {source} (T_{source}_{target}, as tf2_echo {source} {target}):",
+        f"- Translation (m): {vector(report['translation'])}",
+        f"- Rotation: in Quaternion (x, y, z, w): {vector(report['quaternion_xyzw'])}",
+        f"- Rotation: in RPY (radian) [roll, pitch, yaw]: {vector(report['rpy'])}",
+        f"- Rotation: in RPY (degree) [roll, pitch, yaw]: {vector(np.degrees(report['rpy']))}",
+        "  (RPY as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes x, y, z)",
+        "- Matrix:",
+    ]
+    lines += ["  " + " ".join(number_text(v, precision).rjust(width) for v in row) for row in report["matrix"]]
+    return "\n".join(lines)

@@ -378,7 +378,7 @@ def _parent_joint(tree: _Tree) -> dict[str, object]:
 
 
 def _widths(tree: _Tree) -> dict[str, float]:
-    """Width of each link's column: its box and the label of its joint."""
+    """Width in points of each link's column in the image: its box and the label of its joint."""
     parent_joint = _parent_joint(tree)
     widths = {}
     for link in tree.links:
@@ -387,11 +387,6 @@ def _widths(tree: _Tree) -> dict[str, float]:
             lines += _joint_lines(parent_joint[link])
         widths[link] = max(_text_width(line) for line in lines)
     return widths
-
-
-def _node_widths(urdf) -> dict[str, float]:
-    """Width in points reserved for each link in the image (box and joint label)."""
-    return _widths(_analyse(urdf))
 
 
 def _pack(contours: list[list[tuple[float, float]]], gap: float):
@@ -417,6 +412,14 @@ def _pack(contours: list[list[tuple[float, float]]], gap: float):
 
 
 def _layout_tree(tree: _Tree, widths: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Centre (x, y) of each link's box in the image, in points.
+
+    A tidy top-down layout: roots at y = 0, each level ``_LEVEL_H`` lower
+    (y decreases downwards), children in file order left to right, each
+    subtree packed as far left as its contour allows (per level, with a gap
+    between the ``widths`` of :func:`_widths`), and each parent centred over
+    its first and last child.
+    """
     kids = {link: [j.child for j in tree.tree_children(link)] for link in tree.links}
     # Post-order, iteratively (chains can be deeper than Python's recursion).
     postorder: list[str] = []
@@ -453,19 +456,6 @@ def _layout_tree(tree: _Tree, widths: dict[str, float]) -> dict[str, tuple[float
                 position[child] = (px + offset[child], py - _LEVEL_H)
                 todo.append(child)
     return position
-
-
-def _layout(urdf) -> dict[str, tuple[float, float]]:
-    """Centre (x, y) of each link's box in the image, in points.
-
-    A tidy top-down layout: roots at y = 0, each level ``_LEVEL_H`` lower
-    (y decreases downwards), children in file order left to right, each
-    subtree packed as far left as its contour allows (per level, with a gap
-    between the widths of :func:`_node_widths`), and each parent centred over
-    its first and last child.
-    """
-    tree = _analyse(urdf)
-    return _layout_tree(tree, _widths(tree))
 
 
 # --------------------------------------------------------------------------

@@ -5,9 +5,11 @@ Three layers, each usable on its own:
 - :class:`ViewerState` holds what the user chose: one value per movable
   joint (clamped into its limits) and two frames A and B. It answers the
   slider specs, the readout (exactly the JSON of ``tf-between A B --format
-  json``, from :func:`manipkit.pose.pose_report`) and where everything in the
-  scene goes (from :meth:`manipkit.model.Robot.transform`). No meshcat, no
-  browser: unit-testable as is.
+  json``, from :func:`manipkit.pose.pose_report`, and its text, from
+  :func:`manipkit.pose.pose_text`) and where everything in the scene goes
+  (triads from :meth:`manipkit.model.Robot.transform`, visuals from
+  Pinocchio's ``updateGeometryPlacements``). No meshcat, no browser:
+  unit-testable as is.
 - :class:`MeshcatScene` is a thin adapter: it starts a meshcat server, loads
   the robot's visual geometry through Pinocchio's ``MeshcatVisualizer`` and
   draws the placements the state computes, plus a triad at A and at B.
@@ -17,8 +19,8 @@ Three layers, each usable on its own:
 
 Conventions (DESIGN.md): metres and radians; ``T_a_b`` is the pose of frame b
 expressed in frame a; the scene's world frame is the robot's root link.
-meshcat, ``pinocchio.visualize`` and ipywidgets are imported inside the
-functions that need them, so importing this module stays cheap.
+Pinocchio, meshcat, ``pinocchio.visualize`` and ipywidgets are imported
+inside the functions that need them, so importing this module stays cheap.
 """
 
 from __future__ import annotations
@@ -41,7 +43,8 @@ from pathlib import Path
 import numpy as np
 
 from manipkit.errors import DescriptionError, JointValueError, ManipkitError, PackageNotFoundError
-from manipkit.pose import pose_report
+from manipkit.pose import pose_report, pose_text
+from manipkit.rotations import wrap_angle
 
 DEFAULT_PORT = 8700
 DEFAULT_FRAMES = ("base_link", "ee_link")
@@ -51,7 +54,7 @@ TRIAD_PATHS = ("manipkit/frame_a", "manipkit/frame_b")
 
 __all__ = [
     "DEFAULT_FRAMES", "DEFAULT_PORT", "SliderSpec", "ViewerState", "MeshcatScene", "ViewerServer",
-    "visual_model", "readout_text", "open_view", "write_static", "notebook_view", "NotebookView",
+    "visual_model", "open_view", "write_static", "notebook_view", "NotebookView",
 ]
 
 
@@ -64,7 +67,8 @@ __all__ = [
 class SliderSpec:
     """One slider of the control page.
 
-    ``lower``/``upper`` are the joint limits (continuous joints: -pi..pi);
+    ``lower``/``upper`` are the joint limits (continuous joints: one step
+    above -pi to pi, so every slider position is an angle in (-pi, pi]);
     ``unit`` is ``rad`` or ``m``; ``step`` is a thousandth of the range (for
     widgets that need one; the browser's range input takes any value).
     """
@@ -88,7 +92,8 @@ class ViewerState:
         A and B; the readout is T_A_B, the pose of B expressed in A.
     q : array_like, shape (n,), optional, keyword-only
         Start pose (radians, metres); default every joint at 0 or the nearest
-        value inside its limits. Clamped into the limits like a slider would.
+        value inside its limits. Clamped into the limits like a slider would
+        (continuous joints: wrapped to (-pi, pi]).
 
     Examples
     --------
@@ -103,9 +108,12 @@ class ViewerState:
     def __init__(self, robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None):
         self.robot = robot
         self._frames = self._checked_frames(frames)
-        start = robot.as_dict(robot.q() if q is None else q)  # checks the shape and the numbers
-        self._q = np.array([self._clamped(j, start[j.name]) for j in robot.joints], dtype=float)
+        self._continuous = np.array([joint.type == "continuous" for joint in robot.joints], dtype=bool)
+        start = robot.q() if q is None else q
+        robot.as_dict(start)  # checks the shape and that the values are finite numbers
+        self._q = self._in_range(start)
         self._start = self._q.copy()
+        self._data = robot.model.createData()  # the scene's own Pinocchio workspace (robot.data is the robot's)
 
     # Joint values -------------------------------------------------------
 
@@ -115,7 +123,7 @@ class ViewerState:
         return self._q.copy()
 
     def set_joint(self, name: str, value) -> float:
-        """Set one joint; returns the value used (clamped into the limits, continuous joints wrapped to [-pi, pi]).
+        """Set one joint; returns the value used (clamped into the limits, continuous joints wrapped to (-pi, pi]).
 
         Raises
         ------
@@ -124,7 +132,9 @@ class ViewerState:
         """
         self.robot.q({name: value})  # validates the name and the number, with the model's messages
         index = self.robot.joint_names.index(name)
-        self._q[index] = self._clamped(self.robot.joints[index], float(value))
+        q = self._q.copy()
+        q[index] = float(value)
+        self._q = self._in_range(q)
         return float(self._q[index])
 
     def set_joints(self, values: dict) -> None:
@@ -137,18 +147,23 @@ class ViewerState:
         """Back to the start pose (the ``q`` given at construction)."""
         self._q = self._start.copy()
 
-    @staticmethod
-    def _clamped(joint, value: float) -> float:
-        if joint.type == "continuous":
-            return value if -math.pi <= value <= math.pi else math.remainder(value, 2 * math.pi)
-        return min(max(value, joint.lower), joint.upper)
+    def _in_range(self, q) -> np.ndarray:
+        """``q`` clamped into the joint limits, continuous joints (no limits) wrapped to (-pi, pi]."""
+        q = self.robot.clamp(q)
+        q[self._continuous] = wrap_angle(q[self._continuous])
+        return q
 
     def sliders(self) -> list[SliderSpec]:
         """One :class:`SliderSpec` per movable joint, in ``robot.joint_names`` order."""
         specs = []
         for joint, value in zip(self.robot.joints, self._q):
-            lower, upper = (-math.pi, math.pi) if joint.type == "continuous" else (joint.lower, joint.upper)
-            specs.append(SliderSpec(joint.name, joint.type, float(lower), float(upper), float(upper - lower) / 1000,
+            if joint.type == "continuous":  # (-pi, pi]: the left end is one step above -pi, which would read as +pi
+                step = 2.0 * math.pi / 1000
+                lower, upper = -math.pi + step, math.pi
+            else:
+                lower, upper = joint.lower, joint.upper
+                step = (upper - lower) / 1000
+            specs.append(SliderSpec(joint.name, joint.type, float(lower), float(upper), float(step),
                                     float(value), "rad" if joint.is_angular else "m"))
         return specs
 
@@ -192,21 +207,18 @@ class ViewerState:
         """Scene path -> T_root_geometry (4x4, mesh scale applied to the rotation columns) of each visual.
 
         ``visual_model`` is the Pinocchio ``GeometryModel`` from :func:`visual_model`.
-        Each placement is the pose of the geometry's link, ``robot.transform(root,
-        link, q)``, times the geometry's constant offset in that link.
+        The placements are Pinocchio's (``updateGeometryPlacements``; its world
+        frame is the robot's root link); only the mesh scale is added here.
         """
-        model, root = self.robot.model, self.robot.root_link
-        links: dict[str, np.ndarray] = {}
-        placements = {}
-        for geometry in visual_model.geometryObjects:
-            frame = model.frames[geometry.parentFrame]
-            if frame.name not in links:
-                links[frame.name] = self.robot.transform(root, frame.name, self._q)
-            T_link_geometry = frame.placement.actInv(geometry.placement).homogeneous
-            T = links[frame.name] @ T_link_geometry
-            T[:3, :3] = T[:3, :3] * np.asarray(geometry.meshScale, dtype=float)  # = T @ diag(scale, 1)
-            placements[f"{VISUALS_ROOT}/{geometry.name}"] = T
-        return placements
+        import pinocchio as pin
+
+        geometry_data = visual_model.createData()
+        pin.updateGeometryPlacements(self.robot.model, self._data, visual_model, geometry_data,
+                                     self.robot.pinocchio_configuration(self._q))
+        return {
+            f"{VISUALS_ROOT}/{geometry.name}": placement.homogeneous * np.append(geometry.meshScale, 1.0)  # T @ diag(scale, 1)
+            for geometry, placement in zip(visual_model.geometryObjects, geometry_data.oMg)
+        }
 
     def scene_placements(self, visual_model=None) -> dict[str, np.ndarray]:
         """Everything the scene draws: the visuals (if a model is given) and the triads at A and B."""
@@ -231,39 +243,8 @@ class ViewerState:
             "frames": list(self._frames),
             "readout": report,
             "readout_json": json.dumps(report, indent=2),
-            "readout_text": readout_text(report),
+            "readout_text": pose_text(report),
         }
-
-
-def readout_text(report: dict, *, precision: int = 6) -> str:
-    """The readout for people, worded like ``tf-between``'s text output.
-
-    Parameters
-    ----------
-    report : dict
-        From :meth:`ViewerState.readout` (the ``tf-between`` JSON keys).
-    """
-
-    def number(value: float) -> str:
-        text = f"{value:.{precision}f}"
-        return text[1:] if text.startswith("-") and float(text) == 0 else text
-
-    def vector(values) -> str:
-        return "[" + ", ".join(number(v) for v in values) + "]"
-
-    a, b = report["source"], report["target"]
-    width = precision + 4
-    lines = [
-        f"pose of {b} expressed in {a} (T_{a}_{b}, as tf-between {a} {b}):",
-        f"- Translation (m): {vector(report['translation'])}",
-        f"- Rotation: in Quaternion (x, y, z, w): {vector(report['quaternion_xyzw'])}",
-        f"- Rotation: in RPY (radian) [roll, pitch, yaw]: {vector(report['rpy'])}",
-        f"- Rotation: in RPY (degree) [roll, pitch, yaw]: {vector(np.degrees(report['rpy']))}",
-        "  (RPY as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes x, y, z)",
-        "- Matrix:",
-    ]
-    lines += ["  " + " ".join(number(v).rjust(width) for v in row) for row in report["matrix"]]
-    return "\n".join(lines)
 
 
 # ----------------------------------------------------------------------
@@ -573,7 +554,7 @@ class ViewerServer:
 
     def __init__(self, port: int = DEFAULT_PORT, *, host: str = "127.0.0.1"):
         if not 0 <= int(port) <= 65535:
-            raise ManipkitError(f"port {port}: give a number from 1 to 65535 (0 picks a free one)")
+            raise ManipkitError(f"port {port}: give a port from 1 to 65535 (0 = any free port)")
         try:
             self._httpd = _HTTPServer((host, int(port)), _Handler)
         except OSError as exc:
@@ -721,12 +702,13 @@ def open_view(robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, port: 
     Raises
     ------
     ManipkitError
-        ``port P is in use; ...`` (checked first), unknown frames, meshes not found.
+        Unknown frames or joint values, then ``port P is in use; ...`` (both
+        before anything starts), meshes not found.
     """
+    state = ViewerState(robot, frames=frames, q=q)
     server = ViewerServer(port, host=host)
     scene = None
     try:
-        state = ViewerState(robot, frames=frames, q=q)
         visual = visual_model(robot)
         scene = MeshcatScene(visual, robot.model, bounds=state.bounds())
         server.attach(state, scene, visual)

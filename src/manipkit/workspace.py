@@ -24,6 +24,7 @@ from manipkit.planar import (
     workspace_2r,
     workspace_3r,
 )
+from manipkit.rotations import wrap_angle
 
 __all__ = ["plot_planar_workspace", "planar_workspace", "sample_planar_workspace"]
 
@@ -115,7 +116,7 @@ def _showcase_configurations(count: int, joints: int, rng: np.random.Generator) 
         rows.append(list(rng.uniform(-math.pi, math.pi, joints)))
     Q = np.array(rows, dtype=float).reshape(count, joints)
     Q[:, 0] += np.radians(30.0 + 360.0 * np.arange(count) / max(count, 1))
-    Q[:, 0] = np.pi - np.mod(np.pi - Q[:, 0], 2.0 * np.pi)
+    Q[:, 0] = wrap_angle(Q[:, 0])
     return Q
 
 
