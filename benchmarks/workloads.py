@@ -217,13 +217,11 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
 
 def _pose_residuals(robot, q_full: np.ndarray, T_target: np.ndarray) -> tuple[float, float]:
     """Position (m) and rotation (rad) error of ee_link at ``q_full``, by Pinocchio."""
+    from manipkit.rotations import rotation_angle_between  # atan2 form: 1e-10 rad is not lost in 1 - cos
+
     T = robot.transform(robot.root_link, "ee_link", q_full)
     position = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
-    cos_angle = (float(np.trace(T[:3, :3].T @ T_target[:3, :3])) - 1.0) / 2.0
-    # the angle from the skew part too, so that 1e-10 rad is not lost in 1 - cos
-    skew = T[:3, :3].T @ T_target[:3, :3]
-    sin_angle = 0.5 * float(np.linalg.norm([skew[2, 1] - skew[1, 2], skew[0, 2] - skew[2, 0], skew[1, 0] - skew[0, 1]]))
-    return position, math.atan2(sin_angle, cos_angle)
+    return position, float(rotation_angle_between(T[:3, :3], T_target[:3, :3], check=False))
 
 
 def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, seed: int = 11,

@@ -324,14 +324,3 @@ def test_mobile_manipulator_wheels_turn_about_their_axles_on_the_ground(mobile):
     caster_radius = links["caster_link"].visuals[0].geometry.sphere.radius
     T_caster = mobile.transform("base_footprint", "caster_link", mobile.q())
     assert T_caster[2, 3] == pytest.approx(caster_radius, abs=TOL)
-
-
-def test_course_arm_chain_is_the_same_when_mounted_on_the_mobile_base(course_arm, mobile):
-    rng = np.random.default_rng(5)
-    for _ in range(20):
-        q_mobile, arm_angles = random_mobile_q(mobile, rng)
-        q_course = course_arm.q(**dict(zip(COURSE_ARM_JOINT_NAMES, arm_angles)))
-        assert_transform_close(
-            mobile.transform("arm_base", "ee_link", q_mobile),
-            course_arm.transform("arm_base", "ee_link", q_course),
-        )

@@ -165,7 +165,8 @@ def test_continuous_joint_takes_angles_beyond_pi(loaded):
 def test_outside_limits_names_the_joint_and_limits(loaded):
     robot = loaded["iiwa14"]
     lines = robot.outside_limits(robot.q(iiwa_joint_2=2.5))
-    assert lines == ["iiwa_joint_2=2.5 is outside its limits [-2.0944, 2.0944]"]
+    # iiwa14's joint 2 limit is +-120 deg = +-2.0944 rad (shared/reference)
+    assert lines == ["joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)"]
 
 
 def test_base_link_alias_is_the_root_of_a_robot_without_such_link():

@@ -65,6 +65,26 @@ def test_unknown_xacro_argument_lists_declared_ones():
         urdf_text(resolve_robot("planar_2r"), {"l9": 1})
 
 
+def test_xacro_arguments_declared_in_an_included_file_are_accepted(tmp_path):
+    # The argument is declared in the included file only, with single quotes: both are valid xacro.
+    (tmp_path / "lengths.xacro").write_text(
+        "<robot xmlns:xacro='http://www.ros.org/wiki/xacro'><xacro:arg name='len' default='1'/></robot>"
+    )
+    top = tmp_path / "arm.urdf.xacro"
+    top.write_text(
+        '<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:include filename="lengths.xacro"/>'
+        '<link name="a"/><link name="b"/>'
+        '<joint name="j" type="fixed"><parent link="a"/><child link="b"/>'
+        '<origin xyz="$(arg len) 0 0"/></joint></robot>'
+    )
+    robot = manipkit.load(top, len=2.5)
+    assert robot.xacro_args == {"len": "2.5"}
+    assert robot.transform("a", "b")[0, 3] == 2.5  # the value given, not the default 1
+    with pytest.raises(DescriptionError, match=r"unknown xacro argument lenght; declared: len \(default 1\)"):
+        manipkit.load(top, lenght=2.5)
+
+
 def test_xacro_arguments_on_plain_urdf_are_an_error():
     with pytest.raises(DescriptionError, match="plain URDF; xacro arguments"):
         urdf_text(resolve_robot("ur5"), {"l1": 1})

@@ -13,7 +13,7 @@ import manipkit
 from manipkit.errors import DescriptionError, JointLimitError, PackageNotFoundError
 from manipkit.model import Robot, _build_model
 from manipkit.robots import PackageResolver
-from manipkit.validate import check_urdf, package_uri_warnings, parse_urdf
+from manipkit.validate import check_urdf, package_uri_warnings
 
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 BOX = '<visual><geometry><box size="1 1 1"/></geometry></visual>'
@@ -40,7 +40,6 @@ def arm_link(body):
 def test_valid_description_passes_without_warnings():
     checked = check_urdf(urdf(*LINKS, joint()), "t.urdf")
     assert checked.robot.get("name") == "t" and checked.warnings == []
-    assert parse_urdf(urdf(*LINKS, joint()), "t.urdf").get("name") == "t"
 
 
 CASES = {

@@ -458,5 +458,8 @@ def chain_fk(steps: Sequence, Q, *, n_joints: int | None = None) -> tuple[np.nda
 
 
 def chain_fk_for(robot, frame: str) -> ChainFK:
-    """The prepared :class:`ChainFK` from ``robot``'s root link to ``frame`` (rows of Q in ``robot.joint_names`` order)."""
-    return ChainFK(robot._chain(robot.frame_id(frame)), len(robot.joints))
+    """The prepared :class:`ChainFK` from ``robot``'s root link to ``frame`` (rows of Q in ``robot.joint_names`` order).
+
+    The one :meth:`manipkit.model.Robot.fk` uses (built once per robot and frame).
+    """
+    return robot._fk_kernel(robot.frame_id(frame))

@@ -69,7 +69,8 @@ import numpy as np
 
 from manipkit.dh import DHRow, DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
-from manipkit.planar import ik_2r
+from manipkit import planar as planar_ik  # its solution labels (a local 'planar' is an ik_2r result)
+from manipkit.planar import _g, ik_2r
 from manipkit.rotations import (
     check_rotation,
     euler_zyz_from_matrix,
@@ -174,12 +175,6 @@ class _Candidate:
 
 # --------------------------------------------------------------------------
 # input checks and small helpers
-
-
-def _g(value: float) -> str:
-    """A number for a message: up to 6 significant digits, rounding noise below 1e-12 dropped."""
-    text = f"{round(float(value), 12):.6g}"
-    return "0" if text == "-0" else text
 
 
 def _point(v) -> str:
@@ -507,7 +502,8 @@ def elbow_dh_table(*, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: fl
 # SCARA
 
 
-_SCARA_LABELS = {"elbow-down": RIGHTY, "elbow-up": LEFTY, "straight": STRAIGHT, "folded": FOLDED, "q1 free": THETA1_FREE}
+_SCARA_LABELS = {planar_ik.ELBOW_DOWN: RIGHTY, planar_ik.ELBOW_UP: LEFTY, planar_ik.STRAIGHT: STRAIGHT, planar_ik.FOLDED: FOLDED,
+                 planar_ik.Q1_FREE: THETA1_FREE}
 
 
 def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
@@ -593,16 +589,16 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
         return _result(table, R, p, [], problems=problems, notes=[], tol=tol, joint_names=SCARA_JOINTS)
 
     where = {
-        "elbow-down": f"inside the annulus |a1 - a2| = {_g(abs(a1 - a2))} < r < a1 + a2 = {_g(a1 + a2)} m",
-        "straight": f"on its outer circle r = a1 + a2 = {_g(a1 + a2)} m (arm straight, theta2 = 0)",
-        "folded": f"on its inner circle r = |a1 - a2| = {_g(abs(a1 - a2))} m (arm folded, theta2 = pi)",
-        "q1 free": "on joint 1's axis with a1 = a2",
+        planar_ik.ELBOW_DOWN: f"inside the annulus |a1 - a2| = {_g(abs(a1 - a2))} < r < a1 + a2 = {_g(a1 + a2)} m",
+        planar_ik.STRAIGHT: f"on its outer circle r = a1 + a2 = {_g(a1 + a2)} m (arm straight, theta2 = 0)",
+        planar_ik.FOLDED: f"on its inner circle r = |a1 - a2| = {_g(abs(a1 - a2))} m (arm folded, theta2 = pi)",
+        planar_ik.Q1_FREE: "on joint 1's axis with a1 = a2",
     }[planar.labels[0]]
     notes.append(f"quill axis at r = {_g(r)} m from joint 1's axis, {where}; d3 = {_g(d3)} m")
     alpha = math.atan2(R[1, 0], R[0, 0])
     for (theta1, theta2), label in zip(planar.solutions, planar.labels):
         free, family = (), ()
-        if label == "q1 free":
+        if label == planar_ik.Q1_FREE:
             free = (0,)
             family = (
                 "theta1 free (a1 = a2 and the quill on joint 1's axis, arm folded with theta2 = pi): the row holds "
@@ -740,11 +736,11 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
 
 
 def _elbow_label(planar_label: str, back: bool) -> str:
-    if planar_label == "elbow-down":  # theta3 > 0: the elbow on the clockwise side of the ray to the wrist
+    if planar_label == planar_ik.ELBOW_DOWN:  # theta3 > 0: the elbow on the clockwise side of the ray to the wrist
         return ELBOW_UP if back else ELBOW_DOWN
-    if planar_label == "elbow-up":
+    if planar_label == planar_ik.ELBOW_UP:
         return ELBOW_DOWN if back else ELBOW_UP
-    return {"straight": ARM_STRAIGHT, "folded": ARM_FOLDED, "q1 free": THETA2_FREE}[planar_label]
+    return {planar_ik.STRAIGHT: ARM_STRAIGHT, planar_ik.FOLDED: ARM_FOLDED, planar_ik.Q1_FREE: THETA2_FREE}[planar_label]
 
 
 def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float = 0.1,

@@ -28,7 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
-from manipkit.robots import PackageResolver, RobotSource, resolve_robot, urdf_text, xacro_arg_names, xacro_locator
+from manipkit.robots import PackageResolver, RobotSource, describe, resolve_robot, xacro_locator
 from manipkit.validate import check_urdf, package_uri_warnings
 
 BASE_ALIASES = ("base_link", "world")
@@ -102,11 +102,11 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     (4, 4)
     """
     source = resolve_robot(robot)
-    text = urdf_text(source, xacro_args, package_dirs)
+    text, declared = describe(source, xacro_args, package_dirs)
     loaded = Robot.from_urdf(text, source=source, package_dirs=package_dirs)
     if source.is_xacro:
-        declared = {k: v for k, v in xacro_arg_names(source.path).items() if v is not None}
-        loaded.xacro_args = {**declared, **{k: str(v) for k, v in xacro_args.items()}}
+        defaults = {k: v for k, v in declared.items() if v is not None}
+        loaded.xacro_args = {**defaults, **{k: str(v) for k, v in xacro_args.items()}}
     return loaded
 
 
@@ -358,13 +358,8 @@ class Robot:
         return {name: float(value) for name, value in zip(self.joint_names, q)}
 
     def outside_limits(self, q) -> list[str]:
-        """One line per joint of ``q`` outside its limits (empty when all are inside)."""
-        q = self._check_q(q)
-        return [
-            f"{j.name}={value:.6g} is outside its limits [{j.lower:.6g}, {j.upper:.6g}]"
-            for j, value in zip(self.joints, q)
-            if not (j.lower - LIMIT_TOLERANCE <= value <= j.upper + LIMIT_TOLERANCE)
-        ]
+        """One line per joint of ``q`` outside its limits (empty when all are inside): :meth:`limit_violations` as text."""
+        return [str(violation) for violation in self.limit_violations(q)]
 
     def limit_violations(self, q) -> list[JointLimitError]:
         """One :class:`JointLimitError` per joint of ``q`` outside its limits, in joint order (not raised)."""
@@ -496,15 +491,11 @@ class Robot:
             # One kernel over the chain from the base down to the frame.
             return self._fk_kernel(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
         # Base on another branch (or below the frame): T_base_frame = T_root_base^-1 T_root_frame.
-        R, p = self._chain_fk(flat, frame_id)
-        R_base, p_base = self._chain_fk(flat, base_id)
-        R_base_t = np.swapaxes(R_base, -1, -2)
-        R = R_base_t @ R
-        p = np.einsum("nij,nj->ni", R_base_t, p - p_base)
-        T = np.zeros((flat.shape[0], 4, 4))
-        T[:, :3, :3] = R
-        T[:, :3, 3] = p
-        T[:, 3, 3] = 1.0
+        T = self._fk_kernel(frame_id).transforms(flat)
+        T_root_base = self._fk_kernel(base_id).transforms(flat)
+        R_base_t = np.swapaxes(T_root_base[:, :3, :3], -1, -2)
+        T[:, :3, 3] = np.einsum("nij,nj->ni", R_base_t, T[:, :3, 3] - T_root_base[:, :3, 3])
+        T[:, :3, :3] = R_base_t @ T[:, :3, :3]
         return T.reshape(*lead, 4, 4)
 
     def _is_above(self, base_id: int, frame_id: int) -> bool:
@@ -567,11 +558,6 @@ class Robot:
 
             kernel = self._fk_kernels[key] = ChainFK(self._chain(frame_id, base_id), len(self.joints))
         return kernel
-
-    def _chain_fk(self, Q: np.ndarray, frame_id: int) -> tuple[np.ndarray, np.ndarray]:
-        """(R (N, 3, 3), p (N, 3)) of T_root_frame for each row of Q."""
-        T = self._fk_kernel(frame_id).transforms(Q)
-        return T[:, :3, :3], T[:, :3, 3]
 
 
 def _build_model(text: str) -> tuple[pin.Model | None, list[str]]:

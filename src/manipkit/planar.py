@@ -99,7 +99,7 @@ def _finite(value, what: str, *, shape_tail: tuple[int, ...] = (), scalar: bool 
 
 def _g(value: float) -> str:
     """A length or angle for a message: up to 6 significant digits, rounding noise below 1e-12 dropped."""
-    text = f"{round(value, 12):.6g}"
+    text = f"{round(float(value), 12):.6g}"
     return "0" if text == "-0" else text
 
 

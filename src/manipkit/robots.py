@@ -28,6 +28,7 @@ import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from typing import NamedTuple
 
 from manipkit.errors import DescriptionError, PackageNotFoundError, UnknownRobotError
 
@@ -330,6 +331,13 @@ def _package_xml_name(folder: Path) -> str | None:
 # --------------------------------------------------------------------------
 
 
+class XacroExpansion(NamedTuple):
+    """URDF text expanded from a xacro file, and the ``<xacro:arg>`` declarations it met (name -> default)."""
+
+    text: str
+    declared: dict
+
+
 def urdf_text(
     source: RobotSource,
     xacro_args: dict[str, object] | None = None,
@@ -347,6 +355,15 @@ def urdf_text(
     package_dirs : dict, optional
         Package name -> folder, for ``$(find PKG)``.
     """
+    return describe(source, xacro_args, package_dirs).text
+
+
+def describe(
+    source: RobotSource,
+    xacro_args: dict[str, object] | None = None,
+    package_dirs: dict[str, Path] | None = None,
+) -> XacroExpansion:
+    """As :func:`urdf_text`, with the xacro arguments the files declare (empty for plain URDF)."""
     xacro_args = {k: str(v) for k, v in (xacro_args or {}).items()}
     if not source.is_xacro:
         if xacro_args:
@@ -354,27 +371,39 @@ def urdf_text(
                 f"{source.path.name} is plain URDF; xacro arguments "
                 f"({', '.join(xacro_args)}) only apply to .xacro files"
             )
-        return _read_description(source.path)
+        return XacroExpansion(_read_description(source.path), {})
     resolver = PackageResolver(dict(package_dirs or {}), near=source.path)
     return expand_xacro(source.path, xacro_args, resolver)
 
 
-def xacro_arg_names(path: Path) -> dict[str, str | None]:
-    """The ``<xacro:arg name default>`` declarations of a xacro file (name -> default)."""
-    text = _without_comments(path.read_text(errors="replace"))
-    args = {}
-    for match in re.finditer(r"<xacro:arg\s+([^>]*)/?>", text):
-        attrs = dict(re.findall(r'(\w+)\s*=\s*"([^"]*)"', match.group(1)))
-        if "name" in attrs:
-            args[attrs["name"]] = attrs.get("default")
-    return args
+def xacro_arg_declarations(files) -> dict[str, str | None]:
+    """The ``<xacro:arg name default>`` declarations in xacro ``files`` (name -> default, first wins).
+
+    Read with lxml; a file that does not parse is skipped (xacro reports it).
+    """
+    from lxml import etree
+
+    declared: dict[str, str | None] = {}
+    parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True)
+    for file in files:
+        try:
+            root = etree.parse(str(file), parser).getroot()
+        except (OSError, etree.XMLSyntaxError):
+            continue
+        for element in root.iter(etree.Element):
+            if element.tag == "xacro:arg" or (element.prefix == "xacro" and etree.QName(element).localname == "arg"):
+                name = element.get("name")
+                if name:
+                    declared.setdefault(name, element.get("default"))
+    return declared
 
 
-def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) -> str:
+def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) -> XacroExpansion:
     """Expand a xacro file to URDF text, with ``$(find)`` answered by ``resolver``.
 
-    Unknown argument names are an error listing the declared ones (xacro
-    itself would ignore them silently). Every xacro error names the xacro
+    Unknown argument names (declared in none of the files the expansion
+    read) are an error listing the declared ones (xacro itself would ignore
+    them silently). Every xacro error names the xacro
     file and line it comes from (``FILE.xacro:LINE: ...``): xacro reports
     no lines, so the line is found by searching the xacro sources for the
     offending expression, argument, include or macro.
@@ -391,14 +420,6 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     import xacro
 
     _read_description(path)
-    declared = xacro_arg_names(path)
-    unknown = sorted(set(args) - set(declared))
-    if unknown:
-        valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
-        raise DescriptionError(
-            f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}"
-        )
-
     missing: list[tuple[str, PackageNotFoundError]] = []
 
     def find(package: str) -> str:
@@ -420,17 +441,25 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
         return original_extension(text)
 
     xacro.eval_extension = eval_extension
+    xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
     stderr = io.StringIO()
     try:
         with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
             document = xacro.process_file(str(path), mappings=dict(args))
-        return document.toxml()
     except Exception as exc:  # xacro raises many kinds; all are description errors
+        declared = xacro_arg_declarations([path, *xacro.all_includes])
         raise _xacro_error(exc, path, missing, declared) from None
     finally:
         xacro.eval_extension = original_extension
         for substitution_args, original_find in patched:
             substitution_args._eval_find = original_find
+    # xacro ignores arguments nobody declared; here they are an error (a typo would pass silently)
+    declared = xacro_arg_declarations([path, *xacro.all_includes])
+    unknown = sorted(set(args) - set(declared))
+    if unknown:
+        valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
+        raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
+    return XacroExpansion(document.toxml(), declared)
 
 
 def _read_description(path: Path) -> str:

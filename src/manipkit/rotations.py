@@ -92,11 +92,6 @@ def _scalar_or_array(array: np.ndarray):
     return array[()] if array.ndim == 0 else array
 
 
-def _wrap_minus_pi(angle: np.ndarray) -> np.ndarray:
-    """Map an angle of exactly -pi (atan2 of -0.0) to +pi, so ranges are (-pi, pi]."""
-    return np.where(angle <= -np.pi, angle + 2.0 * np.pi, angle)
-
-
 def wrap_angle(angle):
     """Angles mapped to (-pi, pi], exactly at the edges.
 
@@ -298,7 +293,7 @@ def rpy_from_matrix(R, *, gimbal_tol: float = 1e-12, check: bool = True, tol: fl
     cr, sr = np.cos(roll), np.sin(roll)
     # second column of R @ Rx(roll).T is (-sin yaw, cos yaw, 0)
     yaw = np.arctan2(R[..., 0, 2] * sr - R[..., 0, 1] * cr, R[..., 1, 1] * cr - R[..., 1, 2] * sr)
-    return np.stack([_wrap_minus_pi(roll) + 0.0, pitch, _wrap_minus_pi(yaw)], axis=-1)
+    return np.stack([wrap_angle(roll), pitch, wrap_angle(yaw)], axis=-1)  # atan2's -pi is +pi here
 
 
 # --------------------------------------------------------------------------

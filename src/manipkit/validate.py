@@ -81,11 +81,6 @@ class CheckedURDF:
     warnings: list[str] = field(default_factory=list)
 
 
-def parse_urdf(text: str, where: str) -> object:
-    """Parse and check URDF text; return the ``<robot>`` element (see :func:`check_urdf`)."""
-    return check_urdf(text, where).robot
-
-
 def check_urdf(
     text: str,
     where: str,
