@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
-	$(BIN)/python -m manipkit.ik_kernel   # compile the IK kernel once (numba caches it on disk)
+	$(BIN)/python -m manipkit.kinematics.ik_kernel   # compile the IK kernel once (numba caches it on disk)
 	touch $(STAMP)
 
 demo: setup

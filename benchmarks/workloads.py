@@ -123,7 +123,7 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
     import pinocchio as pin
 
     import manipkit
-    from manipkit.chain import chain_fk_for
+    from manipkit.kinematics.chain import chain_fk_for
 
     robot = manipkit.load(robot_name)
     root, ee = robot.root_link, robot.frame("ee_link")
@@ -152,7 +152,7 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
                     if fk_ok else None, unit="config", n=n_batch, ours=True, status="ok" if fk_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_fk:.1e} over {n_batch} (<= {KERNEL_TOL:g})"))
     out = np.empty_like(T_kernel)
-    rows.append(row("fk_batch", robot_name, "manipkit.chain.ChainFK (kernel alone)",
+    rows.append(row("fk_batch", robot_name, "manipkit.kinematics.chain.ChainFK (kernel alone)",
                     per_item(lambda: kernel.transforms(Q, out=out), n_batch, repeats=repeats) if kernel_ok else None,
                     unit="config", n=n_batch, status="ok" if kernel_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_kernel:.1e} over {n_batch} (<= {KERNEL_TOL:g})",
@@ -217,7 +217,7 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
 
 def _pose_residuals(robot, q_full: np.ndarray, T_target: np.ndarray) -> tuple[float, float]:
     """Position (m) and rotation (rad) error of ee_link at ``q_full``, by Pinocchio."""
-    from manipkit.rotations import rotation_angle_between  # atan2 form: 1e-10 rad is not lost in 1 - cos
+    from manipkit.spatial.rotations import rotation_angle_between  # atan2 form: 1e-10 rad is not lost in 1 - cos
 
     T = robot.transform(robot.root_link, "ee_link", q_full)
     position = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
@@ -234,7 +234,7 @@ def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, se
     first ``n_slow`` targets.
     """
     import manipkit
-    from manipkit.ik import ik
+    from manipkit.kinematics.ik import ik
 
     robot = manipkit.load(robot_name)
     root = robot.root_link
@@ -306,7 +306,7 @@ def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, se
 
 def planar_workload(*, n_targets: int = 1_000_000, repeats: int = 5, n_scalar: int = 2000, seed: int = 5) -> list[dict]:
     """ik_2r_batch and ik_3r_batch over ``n_targets`` reachable targets; every solution checked by FK."""
-    from manipkit import planar
+    from manipkit.closed_form import planar
 
     rng = np.random.default_rng(seed)
     rows = []

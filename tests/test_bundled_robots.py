@@ -22,7 +22,7 @@ import xacro
 import yourdfpy
 
 import manipkit
-from manipkit.robots import bundled_robots
+from manipkit.description.sources import bundled_robots
 from reference import (
     rot_y,
     rot_z,

@@ -1,4 +1,4 @@
-"""manipkit.dh_check: agreement of a DH table with a URDF chain, and the diagnosis.
+"""manipkit.dh.check: agreement of a DH table with a URDF chain, and the diagnosis.
 
 Each wrong table below is made from a right one by one known change (hand
 derivations in the comments); the diagnosis must name that change.
@@ -11,8 +11,8 @@ import pytest
 
 import manipkit
 from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, transform_from_xyz_rpy
-from manipkit.dh_check import check_dh, screws
-from manipkit.robots import bundled_dh_tables
+from manipkit.dh.check import check_dh, screws
+from manipkit.description.sources import bundled_dh_tables
 
 # planar_3r with its default lengths 4 2 1: standard DH rows (a, alpha, d, theta) = (l_i, 0, 0, 0),
 # since every joint turns about z and each link runs along its x axis.
@@ -161,7 +161,7 @@ TABLE_ROBOTS = {
 
 
 def test_every_bundled_table_is_registered_here():
-    from manipkit.robots import bundled_dh_tables
+    from manipkit.description.sources import bundled_dh_tables
 
     assert set(bundled_dh_tables()) == set(TABLE_ROBOTS)
 
@@ -169,7 +169,7 @@ def test_every_bundled_table_is_registered_here():
 @pytest.mark.parametrize("name", sorted(TABLE_ROBOTS))
 def test_bundled_table_against_its_urdf(name):
     from manipkit.dh import load_dh
-    from manipkit.robots import bundled_dh_tables
+    from manipkit.description.sources import bundled_dh_tables
 
     robot_name, should_pass = TABLE_ROBOTS[name]
     result = check_dh(load_dh(bundled_dh_tables()[name]), manipkit.load(robot_name), samples=1000, tol=1e-9)

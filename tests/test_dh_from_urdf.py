@@ -1,4 +1,4 @@
-"""Tests of manipkit.dh_from_urdf: DH tables derived from URDF chains.
+"""Tests of manipkit.dh.from_urdf: DH tables derived from URDF chains.
 
 Independent sources: every derived table is run through ``dh_fk`` (the DH
 product, numpy only) and compared with ``Robot.fk`` (the URDF chain) at 200
@@ -17,10 +17,10 @@ from hypothesis import strategies as st
 
 import manipkit
 from manipkit.dh import DHRow, DHTable, dh_fk, urdf_from_dh
-from manipkit.dh_from_urdf import DHDerivationError, dh_from_urdf_chain
+from manipkit.dh.from_urdf import DHDerivationError, dh_from_urdf_chain
 from manipkit.errors import ChainError, ManipkitError, UnknownFrameError
-from manipkit.model import Robot
-from manipkit.rotations import matrix_from_rpy, rot_z
+from manipkit.kinematics.robot import Robot
+from manipkit.spatial.rotations import matrix_from_rpy, rot_z
 
 CONVENTIONS = ("standard", "modified")
 DEG = math.pi / 180.0
@@ -41,7 +41,7 @@ BUNDLED_CHAINS = [
 
 
 def test_every_bundled_robot_has_a_chain_here():
-    from manipkit.robots import bundled_robots
+    from manipkit.description.sources import bundled_robots
 
     assert set(bundled_robots()) <= {name for name, _, _ in BUNDLED_CHAINS}
 

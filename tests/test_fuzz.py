@@ -18,7 +18,7 @@ The oracle, for every case:
 - a returned robot was built from a valid description, as judged by
   :func:`description_problems` below, written from the URDF specification
   (and what urdfdom, the reference parser, refuses), independently of
-  ``manipkit.validate``;
+  ``manipkit.description.validate``;
 - a returned robot is consistent with its text: the movable joints, their
   types, parents, children, axes and limits, the links and the root are those
   the text declares; ``sample_q`` stays finite and inside the limits; FK of
@@ -63,8 +63,8 @@ from lxml import etree
 
 import manipkit
 from manipkit.errors import ManipkitError
-from manipkit.model import Robot
-from manipkit.robots import bundled_dir, bundled_robots, resolve_robot, urdf_text
+from manipkit.kinematics.robot import Robot
+from manipkit.description.sources import bundled_dir, bundled_robots, resolve_robot, urdf_text
 
 EXAMPLES = int(os.environ.get("MANIPKIT_FUZZ_EXAMPLES", "300"))
 FUZZING = "MANIPKIT_FUZZ_EXAMPLES" in os.environ  # make fuzz: fresh randomness, example database
@@ -925,7 +925,7 @@ FOUND = [
     _found("entity_in_joint_name", _two_links(
         '<joint name="&v;" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>',
         head='<!DOCTYPE robot [<!ENTITY v "j1">]>'),
-        "expat (manipkit.validate) expands the entity, Pinocchio's parser does not: the joint is named '&v;'"),
+        "expat (manipkit.description.validate) expands the entity, Pinocchio's parser does not: the joint is named '&v;'"),
     _found("joint_named_universe", _two_links(
         '<joint name="universe" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>'),
         "Pinocchio's root joint is 'universe': the (cos, sin) of this joint go to the wrong entries, "

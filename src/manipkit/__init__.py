@@ -4,20 +4,76 @@
 >>> robot = manipkit.load("course_arm")
 >>> T_base_ee = robot.transform("base_link", "ee_link", robot.q(shoulder_joint=-1.34))
 
-Heavy modules (Pinocchio) load on first use, so the command line starts fast.
+The layers (docs/architecture.md), each importing only those below it:
+:mod:`manipkit.spatial`, :mod:`manipkit.description`,
+:mod:`manipkit.kinematics`, :mod:`manipkit.dh`, :mod:`manipkit.closed_form`,
+:mod:`manipkit.analysis`, :mod:`manipkit.app`.
+
+Heavy modules (Pinocchio, numba) load on first use, so the command line starts fast.
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.abc
+import importlib.util
+import sys
+import warnings
+
 __version__ = "0.1.0"
-__all__ = ["load", "Robot", "ManipkitError"]
+__all__ = ["load", "Robot", "ik", "ManipkitError"]
 
 from manipkit.errors import ManipkitError
 
+_LAZY = {"load": "manipkit.kinematics.robot", "Robot": "manipkit.kinematics.robot", "ik": "manipkit.kinematics.ik"}
+
 
 def __getattr__(name: str):
-    if name in ("load", "Robot"):
-        from manipkit import model
-
-        return getattr(model, name)
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'manipkit' has no attribute {name!r}")
+
+
+# --------------------------------------------------------------------------
+# Module paths of release 0.1 (before the subpackages): they keep working for
+# one release, with a DeprecationWarning naming the new path.
+
+MOVED_MODULES = {
+    "manipkit.rotations": "manipkit.spatial.rotations",
+    "manipkit.compare": "manipkit.spatial.compare",
+    "manipkit.robots": "manipkit.description.sources",
+    "manipkit.validate": "manipkit.description.validate",
+    "manipkit.tree": "manipkit.description.tree",
+    "manipkit.model": "manipkit.kinematics.robot",
+    "manipkit.chain": "manipkit.kinematics.chain",
+    "manipkit.ik_kernel": "manipkit.kinematics.ik_kernel",
+    "manipkit.dh_check": "manipkit.dh.check",
+    "manipkit.dh_from_urdf": "manipkit.dh.from_urdf",
+    "manipkit.planar": "manipkit.closed_form.planar",
+    "manipkit.decoupled": "manipkit.closed_form.decoupled",
+    "manipkit.workspace": "manipkit.analysis.workspace",
+    "manipkit.cli": "manipkit.app.cli",
+    "manipkit.viewer": "manipkit.app.viewer",
+    "manipkit.pose": "manipkit.app.pose",
+}
+
+
+class _MovedModuleFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Answers ``import manipkit.<old name>`` with the module at its new path."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname in MOVED_MODULES:
+            return importlib.util.spec_from_loader(fullname, self)
+        return None
+
+    def create_module(self, spec):
+        return None  # a placeholder, replaced in sys.modules by the real module below
+
+    def exec_module(self, module):
+        new = MOVED_MODULES[module.__name__]
+        warnings.warn(f"{module.__name__} moved to {new}; the old path goes in manipkit 0.3", DeprecationWarning, stacklevel=2)
+        sys.modules[module.__name__] = importlib.import_module(new)
+
+
+if not any(isinstance(finder, _MovedModuleFinder) for finder in sys.meta_path):
+    sys.meta_path.append(_MovedModuleFinder())

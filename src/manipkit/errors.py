@@ -69,7 +69,7 @@ class IKOptionError(ManipkitError, ValueError):
 
 
 class JointLimitError(JointValueError):
-    """A joint value outside its joint's limits (from :meth:`manipkit.model.Robot.check_limits`).
+    """A joint value outside its joint's limits (from :meth:`manipkit.kinematics.robot.Robot.check_limits`).
 
     Attributes
     ----------

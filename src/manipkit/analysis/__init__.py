@@ -1,0 +1,1 @@
+"""Analysis built on kinematics and closed forms: planar workspaces (later manipulability and maps)."""

@@ -1,0 +1,853 @@
+"""Closed-form inverse kinematics by kinematic decoupling: SCARA, Stanford arm, elbow arm.
+
+Conventions (DESIGN.md, "Conventions"), restated where they matter:
+
+- Metres and radians. ``T`` is ``T_base_tool``: the pose of the tool frame
+  (DH frame n, the bundled URDF's ``ee_link``) in the base frame (DH frame 0,
+  ``base_link``), a 4x4 homogeneous matrix.
+- Standard DH (Spong): ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``.
+  Each arm's table is built by :func:`scara_dh_table`,
+  :func:`stanford_dh_table` or :func:`elbow_dh_table`; at their default
+  parameters they are the bundled ``robots/dh/*.yaml`` tables and agree with
+  the bundled ``robots/*.urdf.xacro`` descriptions.
+- Joint vectors are in table order (``joint1 .. joint4`` or ``joint1 ..
+  joint6``); revolute values are wrapped to (-pi, pi], the prismatic value
+  d3 is in metres.
+- Every returned solution has been put through the table's forward
+  kinematics (:func:`manipkit.dh.dh_fk`) and reproduces ``T`` within ``tol``
+  in position (m) and in rotation angle (rad). A candidate that does not is
+  dropped and counted in ``rejected``; none is returned unchecked.
+
+Decoupling (Spong): the three axes of a spherical wrist meet at the wrist
+centre ``o_c = o - d6 R z`` (:func:`wrist_center`), which joints 4 to 6 do
+not move. So joints 1 to 3 are found from ``o_c`` alone (inverse position),
+and joints 4 to 6 from ``R_3^6 = (R_0^3)^T R`` (inverse orientation). With
+the wrist rows ``(0, -90, 0, theta4)``, ``(0, 90, 0, theta5)``,
+``(0, 0, d6, theta6)``, ``R_3^6 = Rz(theta4) Ry(theta5) Rz(theta6)``: the
+wrist angles are the ZYZ Euler angles of ``R_3^6``, two sets for every
+rotation off the singular set (:func:`manipkit.spatial.rotations.euler_zyz_from_matrix`).
+
+Labels (one per solution, parts joined by ``", "``; solutions come in the
+order listed):
+
+- SCARA: ``"righty"`` (theta2 in (0, pi): seen from above, the elbow lies to
+  the right of the line from joint 1 to the quill, as with a right arm),
+  then ``"lefty"`` (theta2 in (-pi, 0)); on the workspace boundary
+  ``"straight"`` (theta2 = 0) or ``"folded"`` (theta2 = pi).
+- Shoulder (Stanford and elbow arms): ``"front"`` (the arm reaches the wrist
+  centre on the side joint 1 faces: ``c1 x_c + s1 y_c > 0``; Stanford theta2
+  in (0, pi)), then ``"back"`` (joint 1 turned the other way and the arm
+  reaching back over its top; Stanford theta2 in (-pi, 0)); ``"vertical"``
+  (Stanford, boom vertical, ``c1 x_c + s1 y_c = 0``) or ``"overhead"``
+  (wrist centre on joint 1's axis, theta1 free).
+- Elbow (elbow arm): ``"elbow up"`` (the elbow above the line from the
+  shoulder to the wrist centre, in the arm's vertical plane: theta3 < 0 in
+  front, > 0 in back), then ``"elbow down"``; ``"arm straight"``
+  (theta3 = 0), ``"arm folded"`` (theta3 = pi) on the boundary spheres.
+- Wrist: ``"no flip"`` (theta5 in (0, pi)), then ``"flip"`` (theta5 in
+  (-pi, 0), the same pose with theta4 and theta6 turned by pi);
+  ``"wrist singular"`` (theta5 = 0 or pi, see below).
+
+Singular sets: where a joint (or a combination) is free the result holds one
+representative row with ``singular=True``, the free joints' indices in
+``free_joints`` and the family in words in ``family``. At the wrist
+singularity (z6 parallel to z3, theta5 = 0 or pi) only ``theta4 + theta6``
+(theta5 = 0) or ``theta4 - theta6`` (theta5 = pi) is fixed: the row holds
+theta4 = 0, and ``theta4 = t`` with ``theta6 = theta6_row - t`` (theta5 = 0)
+or ``theta6 = theta6_row + t`` (theta5 = pi) gives the same pose for every t.
+
+Only numpy is imported (with manipkit's numpy-only rotations, planar and dh
+modules).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from manipkit.dh.table import DHRow, DHTable, dh_fk
+from manipkit.errors import ClosedFormIKError
+from manipkit.closed_form import planar as planar_ik  # its solution labels (a local 'planar' is an ik_2r result)
+from manipkit.closed_form.planar import _g, ik_2r
+from manipkit.spatial.rotations import (
+    check_rotation,
+    euler_zyz_from_matrix,
+    rot_x,
+    rot_y,
+    rot_z,
+    rotation_angle_between,
+    wrap_angle,
+)
+
+__all__ = [
+    "ClosedFormIK",
+    "ClosedFormIKError",
+    "elbow_dh_table",
+    "ik_elbow",
+    "ik_scara",
+    "ik_stanford",
+    "scara_dh_table",
+    "stanford_dh_table",
+    "wrist_center",
+]
+
+# labels
+RIGHTY, LEFTY, STRAIGHT, FOLDED = "righty", "lefty", "straight", "folded"
+FRONT, BACK, VERTICAL, OVERHEAD = "front", "back", "vertical", "overhead"
+ELBOW_UP, ELBOW_DOWN, ARM_STRAIGHT, ARM_FOLDED = "elbow up", "elbow down", "arm straight", "arm folded"
+NO_FLIP, FLIP, WRIST_SINGULAR = "no flip", "flip", "wrist singular"
+THETA1_FREE, THETA2_FREE = "theta1 free", "theta2 free"
+
+_WRIST_FAMILY = (
+    "wrist singular (z6 parallel to z3) in the rows labelled 'wrist singular': only theta4 + theta6 "
+    "(theta5 = 0) or theta4 - theta6 (theta5 = pi) is fixed; each such row holds theta4 = 0, and theta4 = t "
+    "with theta6 = theta6_row - t (theta5 = 0) or theta6 = theta6_row + t (theta5 = pi) reaches the same pose "
+    "for every t"
+)
+
+SIX_JOINTS = ("joint1", "joint2", "joint3", "joint4", "joint5", "joint6")
+SCARA_JOINTS = SIX_JOINTS[:4]
+
+
+# --------------------------------------------------------------------------
+# result
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedFormIK:
+    """Every closed-form IK solution of a decoupled arm for one target pose.
+
+    Attributes
+    ----------
+    solutions : ndarray, shape (k, n)
+        One joint vector per row, in table order (``joint_names``): radians
+        wrapped to (-pi, pi], metres for a prismatic joint. Every row was
+        checked by the table's forward kinematics (``residuals``). Read-only.
+    labels : tuple of str
+        One per row (module docstring, "Labels"), e.g.
+        ``"front, elbow up, no flip"``.
+    reason : str
+        One line saying why there are that many solutions, with the numbers:
+        for none, how far the target is out of reach or which prismatic
+        limit it breaks.
+    joint_names : tuple of str
+        The joints the columns stand for (the bundled URDF's names).
+    residuals : ndarray, shape (k, 2)
+        Position error (m) and rotation angle error (rad) of each row's
+        forward kinematics against the target; each at most ``tol``.
+    singular : bool
+        True when a row stands for a one-parameter family (a free joint).
+    family : str or None
+        The family in words when ``singular``: which joint is free and how
+        the others follow from it.
+    free_joints : tuple of int
+        Indices (0-based columns) of the joints that are free in the family.
+    rejected : int
+        Candidates dropped because their forward kinematics missed the
+        target by more than ``tol`` (normally 0).
+    """
+
+    solutions: np.ndarray
+    labels: tuple[str, ...]
+    reason: str
+    joint_names: tuple[str, ...]
+    residuals: np.ndarray
+    singular: bool = False
+    family: str | None = None
+    free_joints: tuple[int, ...] = ()
+    rejected: int = 0
+
+    @property
+    def count(self) -> int:
+        """Number of solutions returned (rows)."""
+        return len(self.labels)
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    q: tuple[float, ...]
+    label: str
+    free: tuple[int, ...] = ()
+    family: tuple[str, ...] = ()
+
+
+# --------------------------------------------------------------------------
+# input checks and small helpers
+
+
+def _point(v) -> str:
+    return "(" + ", ".join(_g(x) for x in v) + ")"
+
+
+
+def _number(value, what: str) -> float:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ClosedFormIKError(f"{what} must be a number, got {value!r:.80}") from None
+    if array.ndim != 0:
+        raise ClosedFormIKError(f"{what} must be a single number, got shape {array.shape}")
+    number = float(array)
+    if not math.isfinite(number):
+        raise ClosedFormIKError(f"{what} = {number} is not finite; give a finite number")
+    return number
+
+
+def _positive(value, what: str) -> float:
+    number = _number(value, what)
+    if number <= 0.0:
+        raise ClosedFormIKError(f"{what} = {_g(number)} is not a valid link length; it must be > 0 (m)")
+    return number
+
+
+def _limits(value, what: str, *, lowest: float | None = None) -> tuple[float, float]:
+    try:
+        lower, upper = value
+    except (TypeError, ValueError):
+        raise ClosedFormIKError(f"{what} must be a pair (lower, upper) in metres, got {value!r:.80}") from None
+    lower, upper = _number(lower, f"{what}[0]"), _number(upper, f"{what}[1]")
+    if not lower < upper:
+        raise ClosedFormIKError(f"{what} = ({_g(lower)}, {_g(upper)}): the lower limit must be below the upper one")
+    if lowest is not None and lower < lowest:
+        raise ClosedFormIKError(
+            f"{what} = ({_g(lower)}, {_g(upper)}): the lower limit must be >= {_g(lowest)} m "
+            "(the boom cannot reach back through the shoulder)"
+        )
+    return lower, upper
+
+
+def _tolerances(tol, singular_tol) -> tuple[float, float]:
+    tol, singular_tol = _number(tol, "tol"), _number(singular_tol, "singular_tol")
+    if tol <= 0.0:
+        raise ClosedFormIKError(f"tol = {tol} must be > 0 (m and rad)")
+    if not 0.0 <= singular_tol <= tol / 4.0:
+        raise ClosedFormIKError(
+            f"singular_tol = {singular_tol} must be in [0, tol / 4] = [0, {_g(tol / 4.0)}], so that the "
+            "representative of a singular family still passes the forward-kinematics check"
+        )
+    return tol, singular_tol
+
+
+def _pose(T) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A homogeneous transform, checked, with its rotation and position."""
+    try:
+        T = np.asarray(T, dtype=float)
+    except (TypeError, ValueError):
+        raise ClosedFormIKError(f"T must be a numeric 4x4 homogeneous transform, got {T!r:.80}") from None
+    if T.shape != (4, 4):
+        raise ClosedFormIKError(f"T must be a 4x4 homogeneous transform, got shape {T.shape}")
+    if not np.all(np.isfinite(T)):
+        raise ClosedFormIKError("T has entries that are not finite; a pose needs finite numbers")
+    bottom = T[3] - np.array([0.0, 0.0, 0.0, 1.0])
+    if np.max(np.abs(bottom)) > 1e-9:
+        raise ClosedFormIKError(f"T's last row is {T[3].tolist()}; a homogeneous transform has [0, 0, 0, 1]")
+    R = check_rotation(T[:3, :3], what="T[:3, :3]")
+    return T, R, T[:3, 3].copy()
+
+
+def _prismatic(d3: float, limits: tuple[float, float], margin: float, low: str, high: str) -> tuple[float, str | None]:
+    """d3 clamped into its limits (when within ``margin`` of them), or the reason it is out of reach."""
+    lower, upper = limits
+    if d3 < lower - margin:
+        return d3, f"d3 = {_g(d3)} m is below its lower limit {_g(lower)} m by {_g(lower - d3)} m ({low})"
+    if d3 > upper + margin:
+        return d3, f"d3 = {_g(d3)} m is above its upper limit {_g(upper)} m by {_g(d3 - upper)} m ({high})"
+    return min(max(d3, lower), upper), None
+
+
+def _wrist(R_0_3: np.ndarray, R: np.ndarray, singular_tol: float) -> list[tuple[tuple[float, float, float], str, bool]]:
+    """Wrist angles (theta4, theta5, theta6) reaching R from frame 3: [(angles, label, singular)].
+
+    ``R_3^6 = (R_0^3)^T R = Rz(theta4) Ry(theta5) Rz(theta6)``. Off the
+    singular set both ZYZ branches, theta5 > 0 ("no flip") first. On it
+    (``|sin theta5| <= singular_tol``) one representative with theta4 = 0.
+    """
+    R_3_6 = R_0_3.T @ R
+    sin5 = math.hypot(R_3_6[2, 0], R_3_6[2, 1])
+    if sin5 <= singular_tol:
+        # theta5 = 0:  R_3_6 = Rz(theta4 + theta6);  theta5 = pi: R_3_6 = Rz(theta4 - theta6) Ry(pi).
+        # Either way phi = atan2(-r12, r22) is that sum or difference (psi = 0 on the singular set).
+        phi = float(euler_zyz_from_matrix(R_3_6, gimbal_tol=singular_tol, check=False)[0])
+        if R_3_6[2, 2] > 0.0:
+            return [((0.0, 0.0, float(wrap_angle(phi))), WRIST_SINGULAR, True)]
+        return [((0.0, math.pi, float(wrap_angle(-phi))), WRIST_SINGULAR, True)]
+    up = euler_zyz_from_matrix(R_3_6, gimbal_tol=singular_tol, check=False)
+    down = euler_zyz_from_matrix(R_3_6, theta_negative=True, gimbal_tol=singular_tol, check=False)
+    return [(tuple(map(float, up)), NO_FLIP, False), (tuple(map(float, down)), FLIP, False)]
+
+
+def _result(table: DHTable, R: np.ndarray, p: np.ndarray, candidates: list[_Candidate], *,
+            problems: list[str], notes: list[str], tol: float, joint_names: tuple[str, ...]) -> ClosedFormIK:
+    """Check every candidate by the table's FK, keep those within tol, say why."""
+    n = table.n
+    if not candidates:
+        reasons = list(dict.fromkeys(problems)) or ["no candidate solution"]
+        empty = np.empty((0, n))
+        empty.setflags(write=False)
+        residuals = np.empty((0, 2))
+        residuals.setflags(write=False)
+        return ClosedFormIK(empty, (), "no solution: " + "; ".join(reasons), joint_names, residuals)
+
+    Q = np.array([c.q for c in candidates], dtype=float)
+    revolute = np.array([row.is_revolute for row in table.rows])
+    Q[:, revolute] = wrap_angle(Q[:, revolute])
+    T_fk = dh_fk(table, Q)
+    position_error = np.linalg.norm(T_fk[:, :3, 3] - p, axis=-1)
+    rotation_error = np.atleast_1d(rotation_angle_between(T_fk[:, :3, :3], R, check=False))
+    keep = (position_error <= tol) & (rotation_error <= tol)
+    rejected = int(np.count_nonzero(~keep))
+    kept = [c for c, k in zip(candidates, keep) if k]
+
+    solutions = Q[keep]
+    solutions.setflags(write=False)
+    residuals = np.stack([position_error[keep], rotation_error[keep]], axis=-1)
+    residuals.setflags(write=False)
+    free = tuple(sorted({j for c in kept for j in c.free}))
+    families = list(dict.fromkeys(text for c in kept for text in c.family))
+    family = "; ".join(families) if families else None
+
+    lines = list(dict.fromkeys(notes))
+    if family:
+        lines.append("singular: " + family)
+    if rejected:
+        worst = float(np.max(np.maximum(position_error, rotation_error)[~keep]))
+        lines.append(
+            f"{rejected} candidate(s) failed the forward-kinematics check (worst residual {worst:.3g} > tol "
+            f"{tol:g}) and were dropped; is T a proper rigid transform?"
+        )
+    k = len(kept)
+    head = f"{k} solution{'s' if k != 1 else ''}" if k else "no solution"
+    return ClosedFormIK(
+        solutions, tuple(c.label for c in kept), head + ": " + "; ".join(lines), joint_names, residuals,
+        singular=bool(free), family=family, free_joints=free, rejected=rejected,
+    )
+
+
+# --------------------------------------------------------------------------
+# the wrist centre
+
+
+def wrist_center(T, d6) -> np.ndarray:
+    """Wrist centre ``o_c = o - d6 R z`` of a pose (Spong, decoupling).
+
+    Parameters
+    ----------
+    T : array_like, shape (..., 4, 4)
+        Tool poses ``T_base_tool`` (homogeneous; only the top three rows are read).
+    d6 : float or array_like, shape (...)
+        Distance (m) from the wrist centre to the tool frame along the tool's z axis.
+
+    Returns
+    -------
+    o_c : ndarray, shape (..., 3)
+        The wrist centre in the base frame: the tool origin ``o = T[:3, 3]``
+        moved back by ``d6`` along the tool's z axis ``R z = T[:3, 2]``, i.e.
+        ``(o_x - d6 r13, o_y - d6 r23, o_z - d6 r33)``.
+
+    Examples
+    --------
+    >>> T = np.eye(4)
+    >>> T[:3, 3] = [0.5, 0.0, 1.0]
+    >>> wrist_center(T, 0.2)  # tool z points up: the wrist centre is 0.2 below
+    array([0.5, 0. , 0.8])
+    """
+    try:
+        T = np.asarray(T, dtype=float)
+        d6 = np.asarray(d6, dtype=float)
+    except (TypeError, ValueError):
+        raise ClosedFormIKError("T and d6 must be numeric") from None
+    if T.ndim < 2 or T.shape[-2:] != (4, 4):
+        raise ClosedFormIKError(f"T must have shape (..., 4, 4), got {T.shape}")
+    return T[..., :3, 3] - d6[..., None] * T[..., :3, 2]
+
+
+def _wrist_centre_from_shoulder(T: np.ndarray, d1: float, d6: float):
+    """(xc, yc, zc, r, s, label): the wrist centre, its distance ``r`` from joint 1's axis and its
+    height ``s = zc - d1`` above the shoulder, as the decoupled solvers use them (Spong's r and s)."""
+    xc, yc, zc = (float(v) for v in wrist_center(T, d6))
+    return xc, yc, zc, math.hypot(xc, yc), zc - d1, f"wrist centre {_point((xc, yc, zc))}"
+
+
+# --------------------------------------------------------------------------
+# DH tables
+
+
+def scara_dh_table(*, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
+                   d3_limits: tuple[float, float] = (0.0, 0.3)) -> DHTable:
+    """Standard DH table of the SCARA (Spong's SCARA, base height in row 1).
+
+    Parameters
+    ----------
+    a1, a2 : float, keyword-only
+        Link lengths (m), > 0.
+    d1 : float, keyword-only
+        Height of the arm above the base frame (m).
+    d4 : float, keyword-only
+        Tool length below the quill tip (m).
+    d3_limits : (float, float), keyword-only
+        Quill stroke (m); d3 slides the tool *down*.
+
+    Returns
+    -------
+    DHTable
+        Rows ``(a, alpha, d, theta)``: ``(a1, 0, d1, t1)``, ``(a2, 180 deg, 0, t2)``,
+        ``(0, 0, d3, 0)`` prismatic, ``(0, 0, d4, t4)``; joints ``joint1 .. joint4``.
+        The defaults are the bundled ``scara`` robot (robots/dh/scara.yaml).
+
+    Examples
+    --------
+    >>> from manipkit.dh import dh_fk
+    >>> dh_fk(scara_dh_table(), [0.0, 0.0, 0.1, 0.0])[:3, 3].round(12) + 0.0  # stretched along x, 0.1 down
+    array([0.6 , 0.  , 0.25])
+    """
+    a1, a2 = _positive(a1, "a1"), _positive(a2, "a2")
+    d1, d4 = _number(d1, "d1"), _number(d4, "d4")
+    lower, upper = _limits(d3_limits, "d3_limits")
+    pi = math.pi
+    rows = (
+        DHRow(a1, 0.0, d1, 0.0, qlim=(-pi, pi), name="joint1"),
+        DHRow(a2, pi, 0.0, 0.0, qlim=(-pi, pi), name="joint2"),
+        DHRow(0.0, 0.0, 0.0, 0.0, type="prismatic", qlim=(lower, upper), name="joint3"),
+        DHRow(0.0, 0.0, d4, 0.0, qlim=(-pi, pi), name="joint4"),
+    )
+    return DHTable(rows, "standard", "scara")
+
+
+def stanford_dh_table(*, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
+                      d3_limits: tuple[float, float] = (0.1, 1.0)) -> DHTable:
+    """Standard DH table of the Stanford arm in the frames of Spong's Example 3.5.
+
+    Parameters
+    ----------
+    d1 : float, keyword-only
+        Shoulder height above the base frame (m); Spong takes 0.
+    d2 : float, keyword-only
+        Shoulder offset (m).
+    d6 : float, keyword-only
+        Wrist centre to tool (m).
+    d3_limits : (float, float), keyword-only
+        Boom stroke (m), lower limit >= 0.
+
+    Returns
+    -------
+    DHTable
+        Rows ``(theta, d, a, alpha)``: ``(t1, d1, 0, -90)``, ``(t2, d2, 0, 90)``,
+        ``(0, d3, 0, 0)`` prismatic, ``(t4, 0, 0, -90)``, ``(t5, 0, 0, 90)``,
+        ``(t6, d6, 0, 0)``; joints ``joint1 .. joint6``. The defaults are the
+        bundled ``stanford_arm`` robot (robots/dh/stanford_arm.yaml).
+
+    Examples
+    --------
+    >>> from manipkit.dh import dh_fk
+    >>> dh_fk(stanford_dh_table(), [0.0, 0.0, 0.5, 0.0, 0.0, 0.0])[:3, 3].round(12)  # boom up
+    array([0.   , 0.154, 0.763])
+    """
+    d1, d2, d6 = _number(d1, "d1"), _number(d2, "d2"), _number(d6, "d6")
+    lower, upper = _limits(d3_limits, "d3_limits", lowest=0.0)
+    pi, half = math.pi, math.pi / 2.0
+    rows = (
+        DHRow(0.0, -half, d1, 0.0, qlim=(-pi, pi), name="joint1"),
+        DHRow(0.0, half, d2, 0.0, qlim=(-pi, pi), name="joint2"),
+        DHRow(0.0, 0.0, 0.0, 0.0, type="prismatic", qlim=(lower, upper), name="joint3"),
+        DHRow(0.0, -half, 0.0, 0.0, qlim=(-pi, pi), name="joint4"),
+        DHRow(0.0, half, 0.0, 0.0, qlim=(-pi, pi), name="joint5"),
+        DHRow(0.0, 0.0, d6, 0.0, qlim=(-pi, pi), name="joint6"),
+    )
+    return DHTable(rows, "standard", "stanford_arm")
+
+
+def elbow_dh_table(*, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float = 0.1) -> DHTable:
+    """Standard DH table of Spong's elbow manipulator with a spherical wrist.
+
+    Parameters
+    ----------
+    d1 : float, keyword-only
+        Shoulder height above the base frame (m).
+    a2, a3 : float, keyword-only
+        Upper arm and forearm (shoulder axis to wrist centre) lengths (m), > 0.
+    d6 : float, keyword-only
+        Wrist centre to tool (m).
+
+    Returns
+    -------
+    DHTable
+        Rows ``(a, alpha, d, theta)``: ``(0, 90, d1, t1)``, ``(a2, 0, 0, t2)``,
+        ``(a3, 0, 0, t3)``, ``(0, -90, 0, t4)``, ``(0, 90, 0, t5)``,
+        ``(0, 0, d6, t6)``; joints ``joint1 .. joint6``. The defaults are the
+        bundled ``elbow_arm`` robot (robots/dh/elbow_arm.yaml).
+
+    Examples
+    --------
+    >>> from manipkit.dh import dh_fk
+    >>> dh_fk(elbow_dh_table(), np.zeros(6))[:3, 3].round(12) + 0.0  # arm along x, tool along -y
+    array([ 0.85, -0.1 ,  0.4 ])
+    """
+    d1, d6 = _number(d1, "d1"), _number(d6, "d6")
+    a2, a3 = _positive(a2, "a2"), _positive(a3, "a3")
+    pi, half = math.pi, math.pi / 2.0
+    rows = (
+        DHRow(0.0, half, d1, 0.0, qlim=(-pi, pi), name="joint1"),
+        DHRow(a2, 0.0, 0.0, 0.0, qlim=(-pi, pi), name="joint2"),
+        DHRow(a3, 0.0, 0.0, 0.0, qlim=(-pi, pi), name="joint3"),
+        DHRow(0.0, -half, 0.0, 0.0, qlim=(-pi, pi), name="joint4"),
+        DHRow(0.0, half, 0.0, 0.0, qlim=(-pi, pi), name="joint5"),
+        DHRow(0.0, 0.0, d6, 0.0, qlim=(-pi, pi), name="joint6"),
+    )
+    return DHTable(rows, "standard", "elbow_arm")
+
+
+# --------------------------------------------------------------------------
+# SCARA
+
+
+_SCARA_LABELS = {planar_ik.ELBOW_DOWN: RIGHTY, planar_ik.ELBOW_UP: LEFTY, planar_ik.STRAIGHT: STRAIGHT, planar_ik.FOLDED: FOLDED,
+                 planar_ik.Q1_FREE: THETA1_FREE}
+
+
+def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
+             d3_limits: tuple[float, float] = (0.0, 0.3), tol: float = 1e-9,
+             singular_tol: float = 1e-10) -> ClosedFormIK:
+    """Every joint vector ``(theta1, theta2, d3, theta4)`` putting the SCARA's tool at pose T.
+
+    Parameters
+    ----------
+    T : array_like, shape (4, 4)
+        Target ``T_base_tool`` (base_link to ee_link of the bundled ``scara``).
+    a1, a2, d1, d4, d3_limits : keyword-only
+        The arm, as in :func:`scara_dh_table` (defaults: the bundled robot).
+    tol : float, keyword-only
+        Every returned row reproduces T within ``tol`` in position (m) and
+        rotation (rad); also how far the tool's z axis may be from straight down.
+    singular_tol : float, keyword-only
+        Distances (m) within which the quill axis counts as on a boundary
+        circle (one solution) and d3 as at a limit.
+
+    Returns
+    -------
+    ClosedFormIK
+        Rows ``(theta1, theta2, d3, theta4)``, rad and m, angles in (-pi, pi]:
+
+        - 2 generically: ``"righty"`` (theta2 > 0) then ``"lefty"`` (theta2 < 0);
+        - 1 when the quill axis is on a boundary circle ``r = a1 + a2``
+          (``"straight"``) or ``r = |a1 - a2|`` (``"folded"``);
+        - 0 (with the reason) when the tool's z axis is not straight down,
+          the quill axis is outside that annulus, or d3 is outside its limits;
+        - a family when ``a1 = a2`` and the quill axis is joint 1's axis:
+          theta1 free (row: theta1 = 0), theta2 = pi, theta4 = theta4_row + theta1.
+
+    Notes
+    -----
+    With ``t12 = theta1 + theta2`` the pose is
+    ``R = Rz(t12 - theta4) Rx(pi)`` (tool z down) and
+    ``o = (a1 c1 + a2 c12, a1 s1 + a2 s12, d1 - d3 - d4)``. So
+    ``d3 = d1 - d4 - o_z`` (the quill moves down: seed 001's
+    ``l1 + l4 + d3 = z`` has the sign of d3 wrong), ``(theta1, theta2)`` are
+    the planar 2R solutions for ``(o_x, o_y)`` with lengths a1, a2
+    (:func:`manipkit.closed_form.planar.ik_2r`; seed 001 gives only the righty one), and
+    ``theta4 = theta1 + theta2 - alpha`` with ``alpha = atan2(r21, r11)``,
+    the heading of the tool's x axis.
+
+    Examples
+    --------
+    >>> from manipkit.dh import dh_fk
+    >>> T = dh_fk(scara_dh_table(), [0.3, 1.2, 0.1, -0.5])
+    >>> result = ik_scara(T)
+    >>> result.labels
+    ('righty', 'lefty')
+    >>> result.solutions.round(6)
+    array([[ 0.3     ,  1.2     ,  0.1     , -0.5     ],
+           [ 1.272935, -1.2     ,  0.1     , -1.927065]])
+    """
+    table = scara_dh_table(a1=a1, a2=a2, d1=d1, d4=d4, d3_limits=d3_limits)
+    a1, a2, d1, d4 = table.rows[0].a, table.rows[1].a, table.rows[0].d, table.rows[3].d
+    limits = table.rows[2].qlim
+    tol, singular_tol = _tolerances(tol, singular_tol)
+    T, R, p = _pose(T)
+
+    problems, notes, candidates = [], [], []
+    tilt = math.atan2(math.hypot(R[0, 2], R[1, 2]), -R[2, 2])
+    if tilt > tol:
+        problems.append(
+            f"the tool's z axis is tilted {_g(tilt)} rad ({_g(math.degrees(tilt))} deg) from straight down; "
+            "a SCARA's tool axis is always vertical, pointing down (T[:3, 2] = (0, 0, -1))"
+        )
+    d3, out = _prismatic(d1 - d4 - p[2], limits, singular_tol,
+                         f"the target is too high: z = {_g(p[2])} m", f"the target is too low: z = {_g(p[2])} m")
+    if out:
+        problems.append(out)
+    planar = ik_2r(p[0], p[1], a1, a2, tol=singular_tol)
+    r = math.hypot(p[0], p[1])
+    if planar.count == 0:
+        problems.append(
+            f"the quill axis at (x, y) = ({_g(p[0])}, {_g(p[1])}) is r = {_g(r)} m from joint 1's axis, "
+            f"{planar.side} for the annulus |a1 - a2| = {_g(abs(a1 - a2))} <= r <= a1 + a2 = {_g(a1 + a2)} m, "
+            f"outside by {_g(planar.outside_by)} m"
+        )
+    if problems:
+        return _result(table, R, p, [], problems=problems, notes=[], tol=tol, joint_names=SCARA_JOINTS)
+
+    where = {
+        planar_ik.ELBOW_DOWN: f"inside the annulus |a1 - a2| = {_g(abs(a1 - a2))} < r < a1 + a2 = {_g(a1 + a2)} m",
+        planar_ik.STRAIGHT: f"on its outer circle r = a1 + a2 = {_g(a1 + a2)} m (arm straight, theta2 = 0)",
+        planar_ik.FOLDED: f"on its inner circle r = |a1 - a2| = {_g(abs(a1 - a2))} m (arm folded, theta2 = pi)",
+        planar_ik.Q1_FREE: "on joint 1's axis with a1 = a2",
+    }[planar.labels[0]]
+    notes.append(f"quill axis at r = {_g(r)} m from joint 1's axis, {where}; d3 = {_g(d3)} m")
+    alpha = math.atan2(R[1, 0], R[0, 0])
+    for (theta1, theta2), label in zip(planar.solutions, planar.labels):
+        free, family = (), ()
+        if label == planar_ik.Q1_FREE:
+            free = (0,)
+            family = (
+                "theta1 free (a1 = a2 and the quill on joint 1's axis, arm folded with theta2 = pi): the row holds "
+                "theta1 = 0, and theta1 = t with theta4 = theta4_row + t reaches the same pose for every t",
+            )
+        candidates.append(_Candidate((theta1, theta2, d3, theta1 + theta2 - alpha), _SCARA_LABELS[label], free, family))
+    return _result(table, R, p, candidates, problems=problems, notes=notes, tol=tol, joint_names=SCARA_JOINTS)
+
+
+# --------------------------------------------------------------------------
+# Stanford arm
+
+
+def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
+                d3_limits: tuple[float, float] = (0.1, 1.0), tol: float = 1e-9,
+                singular_tol: float = 1e-10) -> ClosedFormIK:
+    """Every joint vector ``(theta1, theta2, d3, theta4, theta5, theta6)`` putting the Stanford arm's tool at T.
+
+    Parameters
+    ----------
+    T : array_like, shape (4, 4)
+        Target ``T_base_tool`` = Spong's ``T_0^6`` (base_link to ee_link of
+        the bundled ``stanford_arm``).
+    d1, d2, d6, d3_limits : keyword-only
+        The arm, as in :func:`stanford_dh_table` (defaults: the bundled robot,
+        d3 in 0.1 .. 1.0 m).
+    tol : float, keyword-only
+        Every returned row reproduces T within ``tol`` (m, rad).
+    singular_tol : float, keyword-only
+        Within it (m, or sin theta5) the wrist centre counts as on the
+        cylinder ``r = |d2|`` (one shoulder solution), the wrist as singular,
+        d3 as at a limit.
+
+    Returns
+    -------
+    ClosedFormIK
+        Rows in rad and m, angles in (-pi, pi]:
+
+        - 4 generically: ``"front, no flip"``, ``"front, flip"``,
+          ``"back, no flip"``, ``"back, flip"``;
+        - 2 shoulder-vertical rows (``"vertical, ..."``) when the wrist centre
+          is on the cylinder ``r = |d2|`` about joint 1's axis;
+        - one ``"wrist singular"`` row instead of two for each arm solution
+          whose z3 is parallel to z6 (``singular=True``);
+        - 0 with the reason when the wrist centre is inside that cylinder
+          (by how much) or d3 would break a limit (which, by how much).
+
+    Notes
+    -----
+    Inverse position (seed 001 part b, corrected). The wrist centre is
+    ``o_c = (c1 s2 d3 - s1 d2, s1 s2 d3 + c1 d2, c2 d3 + d1)``. With
+    ``rho = s2 d3`` this reads ``(x_c, y_c) = Rz(theta1) (rho, d2)``, so
+    ``rho = +-sqrt(r^2 - d2^2)`` (``r^2 = x_c^2 + y_c^2``) and
+    ``theta1 = atan2(rho y_c - d2 x_c, rho x_c + d2 y_c)``: "front" takes
+    ``rho > 0``, "back" ``rho < 0``; with ``phi = atan2(y_c, x_c)`` these
+    are ``phi - atan(d2 / sqrt(r^2 - d2^2))`` and
+    ``phi + atan(d2 / sqrt(r^2 - d2^2)) - pi``. (The seed writes
+    ``sin(theta1 - phi) = d2 / r`` for ``sin(phi - theta1) = d2 / r`` and
+    gives the second branch without the ``- pi``.) Then with
+    ``s = z_c - d1``: ``d3 = sqrt(rho^2 + s^2)``, ``theta2 = atan2(rho, s)``.
+    The other root ``d3 < 0`` (with theta2 + pi) would need the boom to
+    reach back through the shoulder; it is never a solution, since the
+    lower limit is >= 0.
+
+    Inverse orientation: ``R_0^3 = Rz(theta1) Ry(theta2)`` and the wrist
+    angles are the ZYZ angles of ``R_3^6 = (R_0^3)^T R``, both branches.
+
+    Examples
+    --------
+    >>> from manipkit.dh import dh_fk
+    >>> T = dh_fk(stanford_dh_table(), [0.4, 0.8, 0.6, 0.3, 1.0, -0.2])
+    >>> result = ik_stanford(T)
+    >>> result.labels
+    ('front, no flip', 'front, flip', 'back, no flip', 'back, flip')
+    >>> result.solutions[0].round(6)
+    array([ 0.4,  0.8,  0.6,  0.3,  1. , -0.2])
+    """
+    table = stanford_dh_table(d1=d1, d2=d2, d6=d6, d3_limits=d3_limits)
+    d1, d2, d6 = table.rows[0].d, table.rows[1].d, table.rows[5].d
+    limits = table.rows[2].qlim
+    tol, singular_tol = _tolerances(tol, singular_tol)
+    T, R, p = _pose(T)
+
+    xc, yc, zc, r, s, centre = _wrist_centre_from_shoulder(T, d1, d6)
+    problems, notes = [], []
+
+    shoulders = []  # (theta1, rho, label, free, family)
+    if abs(d2) <= singular_tol and r <= singular_tol:
+        shoulders.append((0.0, xc, OVERHEAD, (0,), (
+            "theta1 free (d2 = 0 and the wrist centre on joint 1's axis): the rows hold theta1 = 0; any other "
+            "theta1 = t reaches the pose too, with theta2, d3 unchanged and the wrist re-solved from "
+            "R_3^6 = (Rz(t) Ry(theta2))^T R",
+        )))
+    elif r < abs(d2) - singular_tol:
+        problems.append(
+            f"the {centre} is r = {_g(r)} m from joint 1's axis, inside the cylinder r < |d2| = {_g(abs(d2))} m "
+            f"that the offset boom cannot enter, by {_g(abs(d2) - r)} m"
+        )
+    elif r <= abs(d2) + singular_tol:
+        shoulders.append((math.atan2(-d2 * xc, d2 * yc), 0.0, VERTICAL, (), ()))
+        notes.append(f"{centre} on the cylinder r = |d2| = {_g(abs(d2))} m: one shoulder solution, boom vertical")
+    else:
+        rho = math.sqrt((r - abs(d2)) * (r + abs(d2)))
+        for signed, label in ((rho, FRONT), (-rho, BACK)):
+            shoulders.append((math.atan2(signed * yc - d2 * xc, signed * xc + d2 * yc), signed, label, (), ()))
+
+    candidates = []
+    for theta1, rho, shoulder, free, family in shoulders:
+        d3_raw = math.hypot(rho, s)
+        d3, out = _prismatic(d3_raw, limits, singular_tol,
+                             "the wrist centre is too close to the shoulder", "the wrist centre is too far from the shoulder")
+        if out:
+            problems.append(out)
+            continue
+        theta2 = math.atan2(rho, s)
+        if d3_raw <= singular_tol:
+            theta2, free = 0.0, free + (1,)
+            family = family + (
+                "theta2 free (d3 = 0: the wrist centre at the shoulder): the rows hold theta2 = 0; any other theta2 "
+                "reaches the pose too, with the wrist re-solved",
+            )
+        R_0_3 = rot_z(theta1) @ rot_y(theta2)
+        for (theta4, theta5, theta6), wrist_label, wrist_singular in _wrist(R_0_3, R, singular_tol):
+            candidates.append(_Candidate(
+                (theta1, theta2, d3, theta4, theta5, theta6), f"{shoulder}, {wrist_label}",
+                free + ((3,) if wrist_singular else ()), family + ((_WRIST_FAMILY,) if wrist_singular else ()),
+            ))
+    if candidates:
+        notes.insert(0, f"{centre}, r = {_g(r)} m from joint 1's axis, d3 = {_g(candidates[0].q[2])} m")
+    return _result(table, R, p, candidates, problems=problems, notes=notes, tol=tol, joint_names=SIX_JOINTS)
+
+
+# --------------------------------------------------------------------------
+# elbow manipulator
+
+
+def _elbow_label(planar_label: str, back: bool) -> str:
+    if planar_label == planar_ik.ELBOW_DOWN:  # theta3 > 0: the elbow on the clockwise side of the ray to the wrist
+        return ELBOW_UP if back else ELBOW_DOWN
+    if planar_label == planar_ik.ELBOW_UP:
+        return ELBOW_DOWN if back else ELBOW_UP
+    return {planar_ik.STRAIGHT: ARM_STRAIGHT, planar_ik.FOLDED: ARM_FOLDED, planar_ik.Q1_FREE: THETA2_FREE}[planar_label]
+
+
+def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float = 0.1,
+             tol: float = 1e-9, singular_tol: float = 1e-10) -> ClosedFormIK:
+    """Every joint vector ``(theta1, ..., theta6)`` putting the elbow arm's tool at T.
+
+    Parameters
+    ----------
+    T : array_like, shape (4, 4)
+        Target ``T_base_tool`` = the table's ``T_0^6`` (base_link to ee_link
+        of the bundled ``elbow_arm``).
+    d1, a2, a3, d6 : float, keyword-only
+        The arm, as in :func:`elbow_dh_table` (defaults: the bundled robot).
+    tol : float, keyword-only
+        Every returned row reproduces T within ``tol`` (m, rad).
+    singular_tol : float, keyword-only
+        Within it (m, or sin theta5) the wrist centre counts as on joint 1's
+        axis, on a boundary sphere about the shoulder, or the wrist as singular.
+
+    Returns
+    -------
+    ClosedFormIK
+        Rows in rad, wrapped to (-pi, pi]:
+
+        - 8 generically, in the order front/back x elbow up/down x no flip/flip,
+          e.g. ``"front, elbow up, no flip"``;
+        - 4 when the wrist centre is on a boundary sphere about the shoulder
+          (``"arm straight"``: distance a2 + a3, or ``"arm folded"``:
+          ``|a2 - a3|``);
+        - one ``"wrist singular"`` row instead of two for each arm solution
+          at the wrist singularity (z6 parallel to z3; then every arm
+          solution is singular, since z3 = (s1, -c1, 0) depends on theta1 only);
+        - ``"overhead"`` rows, theta1 free (rows hold theta1 = 0), when the
+          wrist centre is on joint 1's axis;
+        - 0 with the reason when the wrist centre is out of reach (how far).
+
+    Notes
+    -----
+    Inverse position: the wrist centre (frame 3's origin) is
+    ``o_c = (c1 u, s1 u, d1 + a2 s2 + a3 s23)`` with ``u = a2 c2 + a3 c23``.
+    So ``theta1 = atan2(y_c, x_c)`` ("front", ``u = r``) or that plus pi
+    ("back", ``u = -r``), and ``(theta2, theta3)`` solve the planar 2R arm
+    (a2, a3) for the point ``(u, z_c - d1)`` in the arm's vertical plane
+    (:func:`manipkit.closed_form.planar.ik_2r`, whose elbow-down / elbow-up become
+    elbow down / up in front and up / down in back).
+
+    Inverse orientation: ``R_0^3 = Rz(theta1) Rx(90 deg) Rz(theta2 + theta3)``
+    and the wrist angles are the ZYZ angles of ``R_3^6 = (R_0^3)^T R``.
+
+    Examples
+    --------
+    >>> from manipkit.dh import dh_fk
+    >>> T = dh_fk(elbow_dh_table(), [0.5, 0.4, -1.0, 0.3, 0.9, 0.2])
+    >>> result = ik_elbow(T)
+    >>> result.count, result.labels[0]
+    (8, 'front, elbow up, no flip')
+    >>> result.solutions[0].round(6)
+    array([ 0.5,  0.4, -1. ,  0.3,  0.9,  0.2])
+    """
+    table = elbow_dh_table(d1=d1, a2=a2, a3=a3, d6=d6)
+    d1, a2, a3, d6 = table.rows[0].d, table.rows[1].a, table.rows[2].a, table.rows[5].d
+    tol, singular_tol = _tolerances(tol, singular_tol)
+    T, R, p = _pose(T)
+
+    xc, yc, zc, r, s, centre = _wrist_centre_from_shoulder(T, d1, d6)
+    distance = math.hypot(r, s)
+    problems, notes = [], []
+
+    if r <= singular_tol:
+        shoulders = [(0.0, xc, OVERHEAD, False, (0,), (
+            "theta1 free (the wrist centre on joint 1's axis): the rows hold theta1 = 0; any other theta1 = t "
+            "reaches the pose too, with theta2, theta3 unchanged and the wrist re-solved from "
+            "R_3^6 = (Rz(t) Rx(90 deg) Rz(theta2 + theta3))^T R",
+        ))]
+    else:
+        heading = math.atan2(yc, xc)
+        shoulders = [(heading, r, FRONT, False, (), ()), (heading + math.pi, -r, BACK, True, (), ())]
+
+    candidates = []
+    for theta1, u, shoulder, back, free, family in shoulders:
+        planar = ik_2r(u, s, a2, a3, tol=singular_tol)
+        if planar.count == 0:
+            problems.append(
+                f"the {centre} is {_g(distance)} m from the shoulder {_point((0.0, 0.0, d1))}, {planar.side} for "
+                f"the shell |a2 - a3| = {_g(abs(a2 - a3))} <= distance <= a2 + a3 = {_g(a2 + a3)} m, "
+                f"outside by {_g(planar.outside_by)} m"
+            )
+            continue
+        arms = sorted(
+            ((row, _elbow_label(label, back)) for row, label in zip(planar.solutions, planar.labels)),
+            key=lambda item: item[1] != ELBOW_UP,
+        )
+        for (theta2, theta3), elbow in arms:
+            arm_free, arm_family = free, family
+            if elbow == THETA2_FREE:
+                arm_free = free + (1,)
+                arm_family = family + (
+                    "theta2 free (a2 = a3 and the wrist centre at the shoulder, arm folded with theta3 = pi): the rows "
+                    "hold theta2 = 0; any other theta2 reaches the pose too, with the wrist re-solved",
+                )
+            R_0_3 = rot_z(theta1) @ rot_x(math.pi / 2.0) @ rot_z(theta2 + theta3)
+            for (theta4, theta5, theta6), wrist_label, wrist_singular in _wrist(R_0_3, R, singular_tol):
+                candidates.append(_Candidate(
+                    (theta1, theta2, theta3, theta4, theta5, theta6), f"{shoulder}, {elbow}, {wrist_label}",
+                    arm_free + ((3,) if wrist_singular else ()),
+                    arm_family + ((_WRIST_FAMILY,) if wrist_singular else ()),
+                ))
+    if candidates:
+        notes.append(f"{centre}, {_g(distance)} m from the shoulder, r = {_g(r)} m from joint 1's axis")
+    return _result(table, R, p, candidates, problems=problems, notes=notes, tol=tol, joint_names=SIX_JOINTS)

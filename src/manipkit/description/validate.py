@@ -1,0 +1,581 @@
+"""Checks on URDF text before a model is built from it.
+
+Pinocchio's parser answers most invalid descriptions with one generic
+message (the reason goes to stderr from C++) and accepts some invalid ones
+(a joint axis of ``0 0 0`` loads and gives wrong kinematics, a lower limit
+above the upper one, a negative mass, a ``<mimic>`` of a joint that does not
+exist). These checks run first and say precisely what is wrong, where, and
+what would be valid.
+
+Every message starts with where the problem is: ``FILE:LINE:`` for a URDF
+file (``FILE:LINE:COLUMN:`` for malformed XML); for a description expanded
+from xacro, ``FILE.xacro:LINE:`` when the element's name is found written out
+in the xacro sources, else ``FILE.xacro (expanded URDF, line N):``. Then the
+element (``joint 'j1'``, ``link 'arm' <inertial>``), the value found, and what
+would be valid.
+
+Some problems do not make the kinematics wrong; they are returned as
+warnings instead (:attr:`CheckedURDF.warnings`): a non-unit joint axis (it is
+normalised in the returned text), a revolute or prismatic joint whose limits
+leave it no motion, an inertia tensor that is not positive semi-definite, and
+``package://`` mesh URIs that do not resolve (:func:`package_uri_warnings`;
+only the viewer needs the meshes).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Callable
+
+from manipkit.errors import DescriptionError
+
+#: Joint types manipkit computes kinematics for.
+SUPPORTED_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
+#: Every joint type of the URDF specification (floating and planar are multi-DOF).
+JOINT_TYPES = SUPPORTED_JOINT_TYPES + ("floating", "planar")
+XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
+
+#: Names Pinocchio gives its own root joint and frame; a link or joint of that name would be mixed up with them.
+RESERVED_NAMES = ("universe",)
+#: Largest length accepted in an origin (m): two finite offsets near 1.7e308 would sum to infinity.
+MAX_LENGTH = 1e6
+
+#: A non-unit joint axis is normalised silently below this deviation of its norm from 1
+#: (0.7071 0.7071 0 is a unit axis as written by hand), with a warning above it.
+AXIS_NORM_TOLERANCE = 1e-4
+
+# A decimal number as URDF writes it (no "1_000", "0x1f", "infinity"); nan/inf are recognised to say so.
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+_NON_FINITE = re.compile(r"[+-]?(nan|inf|infinity)", re.IGNORECASE)
+
+# Optional numeric attributes of joint children that urdfdom parses (and rejects when not numbers).
+_JOINT_NUMERIC_ATTRIBUTES = {
+    "dynamics": ("damping", "friction"),
+    "calibration": ("rising", "falling", "reference_position"),
+    "safety_controller": ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"),
+    "mimic": ("multiplier", "offset"),
+}
+_INERTIA_ATTRIBUTES = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+@dataclass
+class CheckedURDF:
+    """A URDF description that passed :func:`check_urdf`.
+
+    Attributes
+    ----------
+    robot : lxml element
+        The ``<robot>`` element (``.sourceline`` gives each element's line).
+    text : str
+        The URDF text to build the model from: the input, with non-unit joint
+        axes normalised (unchanged when there were none).
+    warnings : list of str
+        One line per problem that does not change the kinematics.
+    """
+
+    robot: object
+    text: str
+    warnings: list[str] = field(default_factory=list)
+
+
+def check_urdf(
+    text: str,
+    where: str,
+    *,
+    locate: Callable[[str, str], str | None] | None = None,
+) -> CheckedURDF:
+    """Parse and check URDF text before Pinocchio sees it.
+
+    Parameters
+    ----------
+    text : str
+        URDF XML.
+    where : str
+        How to name the description in messages (usually the file name).
+    locate : callable, optional
+        For text expanded from xacro: ``locate(tag, name)`` returns
+        ``"FILE.xacro:LINE"`` where the ``<link>``/``<joint>`` named ``name``
+        is written in the xacro sources, or None. Its presence also says the
+        line numbers of ``text`` are not the user's.
+
+    Returns
+    -------
+    CheckedURDF
+        The ``<robot>`` element, the text to build from, and warnings.
+
+    Raises
+    ------
+    DescriptionError
+        One line naming the file, the line, the element and what would be
+        valid, for: an empty file; malformed XML (line and column); a root
+        other than ``<robot name="...">``; xacro elements in a plain URDF;
+        links or joints without names or with duplicate names; a joint
+        without a type, with an unknown type, or of a type manipkit does not
+        handle (floating, planar); a joint without a parent or child, with a
+        parent or child link that does not exist, or joining a link to
+        itself; a link that is the child of two joints; no root link or more
+        than one; a cycle; a zero axis; a missing ``<limit>`` on a revolute or
+        prismatic joint, a ``<limit>`` without effort or velocity, a lower
+        limit above the upper one; anything that is not a finite number where
+        URDF needs one (origins, axes, limits, dynamics, calibration, safety
+        controller, mimic, mass, inertia, geometry sizes, colours); a
+        negative mass or size; a ``<mimic>`` of a joint that does not exist;
+        a ``<visual>``/``<collision>`` without a known geometry.
+    """
+    return _Checker(where, locate).run(text)
+
+
+# --------------------------------------------------------------------------
+# The checker
+# --------------------------------------------------------------------------
+
+
+class _Checker:
+    def __init__(self, where: str, locate):
+        self.where = where
+        self.locate = locate
+        self.expanded = locate is not None
+        self.warnings: list[str] = []
+        self.normalised: list[tuple[object, str]] = []  # (<axis> element, new xyz)
+
+    # -- messages -------------------------------------------------------
+
+    def at(self, element, owner=None) -> str:
+        """``FILE:LINE`` of ``element`` (or, after xacro, of its named ``owner`` in the xacro sources)."""
+        line = getattr(element, "sourceline", None)
+        if not self.expanded:
+            return f"{self.where}:{line}" if line else self.where
+        owner = owner if owner is not None else element
+        name = owner.get("name") if owner is not None else None
+        found = self.locate(owner.tag, name) if name and isinstance(owner.tag, str) else None
+        if found:
+            return found
+        return f"{self.where} (expanded URDF, line {line})" if line else self.where
+
+    def fail(self, element, message: str, owner=None):
+        raise DescriptionError(f"{self.at(element, owner)}: {message}")
+
+    def warn(self, element, message: str, owner=None) -> None:
+        self.warnings.append(f"{self.at(element, owner)}: {message}")
+
+    # -- numbers --------------------------------------------------------
+
+    def numbers(self, element, attribute: str, count: int, what: str, owner, *, default=None, unit="",
+                non_negative=False, bound=None) -> list[float] | None:
+        """``count`` finite numbers from an attribute, or an error naming the element and the value."""
+        raw = element.get(attribute)
+        if raw is None:
+            return default
+        tokens = raw.split()
+        expected = f"{count} finite number{'s' if count > 1 else ''}{' (' + unit + ')' if unit else ''}"
+        shown = f'{attribute}="{raw}"'
+        if "${" in raw or "$(" in raw:
+            self.fail(element, f"{what} {shown} is an unexpanded xacro expression; "
+                      "a file with ${...} or $(...) must be named .xacro (or .urdf.xacro) to be expanded", owner)
+        if len(tokens) != count:
+            commas = " separated by spaces, not commas" if "," in raw else ""
+            self.fail(element, f"{what} {shown} has {len(tokens)} value{'s' if len(tokens) != 1 else ''}; "
+                      f"expected {expected}{commas}", owner)
+        values = []
+        for token in tokens:
+            if _NON_FINITE.fullmatch(token):
+                self.fail(element, f"{what} {shown}: '{token}' is not finite; expected {expected}", owner)
+            if not _NUMBER.fullmatch(token):
+                self.fail(element, f"{what} {shown}: '{token}' is not a number; expected {expected}", owner)
+            value = float(token)
+            if not math.isfinite(value):
+                self.fail(element, f"{what} {shown}: '{token}' overflows to infinity; expected {expected}", owner)
+            if non_negative and value < 0:
+                self.fail(element, f"{what} {shown}: {token} is negative; expected {expected} >= 0", owner)
+            if bound is not None and abs(value) > bound:
+                self.fail(element, f"{what} {shown}: {token} {unit} is no robot dimension; expected |value| <= "
+                          f"{bound:g} {unit} (is the unit right?)", owner)
+            values.append(value)
+        return values
+
+    def origin(self, parent, what: str, owner) -> None:
+        origin = parent.find("origin")
+        if origin is None:
+            return
+        self.numbers(origin, "xyz", 3, f"{what} <origin>", owner, unit="m", bound=MAX_LENGTH)
+        self.numbers(origin, "rpy", 3, f"{what} <origin>", owner, unit="rad")
+
+    # -- the whole description --------------------------------------------
+
+    def run(self, text: str) -> CheckedURDF:
+        robot = self.parse(text)
+        links = self.named(robot, "link")
+        joints = self.named(robot, "joint")
+        if not links:
+            self.fail(robot, f"robot '{robot.get('name')}' has no <link> elements; a robot needs at least one link")
+        for link in links.values():
+            self.check_link(link)
+        children: dict[str, object] = {}
+        for name, joint in joints.items():
+            self.check_joint(joint, name, links, joints, children)
+        self.check_tree(robot, links, joints, children)
+        return CheckedURDF(robot, self.normalised_text(text, robot), self.warnings)
+
+    def parse(self, text: str):
+        from lxml import etree
+
+        if not text.strip():
+            raise DescriptionError(f"{self.where}: empty file; a URDF is XML with a <robot name=\"...\"> root element")
+        parser = etree.XMLParser(
+            resolve_entities="internal", no_network=True, remove_comments=True, remove_pis=True, huge_tree=False
+        )
+        try:
+            robot = etree.fromstring(text.encode("utf-8"), parser)
+        except etree.XMLSyntaxError as exc:
+            line, column = exc.position
+            # libxml2 may append the offending source after a newline ("Comment not terminated \n<!--"): keep line one
+            message = (exc.msg or str(exc)).strip()
+            first_line = message.splitlines()[0] if message else ""
+            reason = re.sub(r",? line \d+, column \d+.*$", "", first_line).strip() or "not XML"
+            if "Start tag expected" in reason or "Document is empty" in reason:
+                reason += " (this is not an XML file)"
+            location = f"{self.where}:{line}:{column}" if not self.expanded else f"{self.where} (expanded URDF, line {line})"
+            raise DescriptionError(f"{location}: malformed XML: {reason}") from None
+        except ValueError as exc:  # e.g. NUL bytes lxml refuses before parsing
+            raise DescriptionError(f"{self.where}: not XML text ({exc})") from None
+        if not isinstance(robot.tag, str) or robot.tag != "robot":
+            tag = robot.tag if isinstance(robot.tag, str) else "?"
+            hint = " (this looks like an SDF model; manipkit reads URDF)" if tag == "sdf" else ""
+            self.fail(robot, f"root element is <{_local(tag)}>, expected <robot name=\"...\">{hint}")
+        if not self.expanded:
+            for element in robot.iter():
+                if isinstance(element.tag, str) and element.tag.startswith("{" + XACRO_NAMESPACE + "}"):
+                    self.fail(element, f"<xacro:{_local(element.tag)}> in a plain URDF; this file needs xacro "
+                              "expansion: name it .urdf.xacro (or .xacro)")
+        if not robot.get("name"):
+            self.fail(robot, "<robot> has no name attribute; add name=\"...\" (URDF requires it)")
+        dtd = robot.getroottree().docinfo.internalDTD
+        if dtd is not None and any(True for _ in dtd.iterentities()):
+            line = text[: max(text.find("<!ENTITY"), 0)].count("\n") + 1
+            raise DescriptionError(
+                f"{self.where}:{line}: <!ENTITY> declarations: URDF parsers do not expand them (Pinocchio would "
+                "read '&name;' literally); write the values out (or use xacro properties in a .xacro file)"
+            )
+        return robot
+
+    def named(self, robot, tag: str) -> dict:
+        named: dict[str, object] = {}
+        for index, element in enumerate(robot.findall(tag), start=1):
+            name = element.get("name")
+            if not name:
+                self.fail(element, f"<{tag}> number {index} has no name attribute; every {tag} needs a unique name")
+            if name in RESERVED_NAMES:
+                self.fail(element, f"{tag} '{name}': the name '{name}' is reserved by Pinocchio (its root joint and "
+                          f"frame); rename the {tag}")
+            if name in named:
+                first = getattr(named[name], "sourceline", None)
+                first_at = f" (the first is at line {first})" if first and not self.expanded else ""
+                self.fail(element, f"two <{tag}> elements are named '{name}'{first_at}; names must be unique")
+            named[name] = element
+        return named
+
+    # -- links ----------------------------------------------------------
+
+    def check_link(self, link) -> None:
+        name = link.get("name")
+        what = f"link '{name}'"
+        for inertial in link.findall("inertial"):
+            self.check_inertial(inertial, what, link)
+        for kind in ("visual", "collision"):
+            for element in link.findall(kind):
+                self.origin(element, f"{what} <{kind}>", link)
+                self.check_geometry(element, f"{what} <{kind}>", link)
+                if kind == "visual":
+                    for material in element.findall("material"):
+                        self.check_material(material, f"{what} <visual>", link)
+
+    def check_inertial(self, inertial, what: str, link) -> None:
+        self.origin(inertial, f"{what} <inertial>", link)
+        mass = inertial.find("mass")
+        if mass is None or mass.get("value") is None:
+            self.fail(inertial if mass is None else mass,
+                      f"{what} <inertial> has no <mass value=\"...\"/>; give the mass in kg (or remove <inertial>)", link)
+        (value,) = self.numbers(mass, "value", 1, f"{what} <mass>", link, unit="kg")
+        if value < 0:
+            self.fail(mass, f"{what} has mass {value:g} kg; a mass must be >= 0", link)
+        inertia = inertial.find("inertia")
+        if inertia is None:
+            self.fail(inertial, f"{what} <inertial> has no <inertia ixx=... ixy=... ixz=... iyy=... iyz=... izz=.../>", link)
+        entries = {}
+        for attribute in _INERTIA_ATTRIBUTES:
+            if inertia.get(attribute) is None:
+                self.fail(inertia, f"{what} <inertia> has no {attribute} attribute; give all of "
+                          f"{', '.join(_INERTIA_ATTRIBUTES)} (kg m^2)", link)
+            entries[attribute] = self.numbers(inertia, attribute, 1, f"{what} <inertia>", link, unit="kg m^2")[0]
+        negative = [a for a in ("ixx", "iyy", "izz") if entries[a] < -1e-9]  # not rounding noise
+        if negative:
+            self.warn(inertia, f"{what} <inertia> has negative {', '.join(f'{a}={entries[a]:g}' for a in negative)} "
+                      "(a moment of inertia is >= 0); dynamics would be wrong, kinematics are not affected", link)
+
+    def check_geometry(self, element, what: str, link) -> None:
+        geometry = element.find("geometry")
+        if geometry is None:
+            self.fail(element, f"{what} has no <geometry>; give one of <box>, <cylinder>, <sphere>, <mesh>", link)
+        shapes = [child for child in geometry if isinstance(child.tag, str)]
+        if not shapes:
+            self.fail(geometry, f"{what} <geometry> is empty; give one of <box>, <cylinder>, <sphere>, <mesh>", link)
+        shape = shapes[0]
+        tag = shape.tag
+        if tag == "box":
+            if shape.get("size") is None:
+                self.fail(shape, f"{what} <box> has no size attribute; give size=\"X Y Z\" (m)", link)
+            self.numbers(shape, "size", 3, f"{what} <box>", link, unit="m", non_negative=True)
+        elif tag in ("cylinder", "capsule"):
+            for attribute in ("radius", "length"):
+                if shape.get(attribute) is None:
+                    self.fail(shape, f"{what} <{tag}> has no {attribute} attribute; give radius and length (m)", link)
+                self.numbers(shape, attribute, 1, f"{what} <{tag}>", link, unit="m", non_negative=True)
+        elif tag == "sphere":
+            if shape.get("radius") is None:
+                self.fail(shape, f"{what} <sphere> has no radius attribute; give radius=\"R\" (m)", link)
+            self.numbers(shape, "radius", 1, f"{what} <sphere>", link, unit="m", non_negative=True)
+        elif tag == "mesh":
+            if not shape.get("filename"):
+                self.fail(shape, f"{what} <mesh> has no filename attribute; give filename=\"package://PKG/...\" "
+                          "or a path", link)
+            self.numbers(shape, "scale", 3, f"{what} <mesh>", link)
+        else:
+            self.fail(shape, f"{what} <geometry> has <{_local(tag)}>; valid shapes: box, cylinder, sphere, mesh", link)
+
+    def check_material(self, material, what: str, link) -> None:
+        color = material.find("color")
+        if color is not None:
+            rgba = self.numbers(color, "rgba", 4, f"{what} <material> <color>", link, unit="red green blue alpha, 0 to 1")
+            if rgba is not None and not all(0.0 <= v <= 1.0 for v in rgba):
+                self.fail(color, f"{what} <color rgba=\"{color.get('rgba')}\">: each of red, green, blue, alpha "
+                          "must be between 0 and 1", link)
+
+    # -- joints ---------------------------------------------------------
+
+    def check_joint(self, joint, name: str, links: dict, joints: dict, children: dict) -> None:
+        what = f"joint '{name}'"
+        kind = joint.get("type")
+        supported = ", ".join(SUPPORTED_JOINT_TYPES)
+        if not kind:
+            self.fail(joint, f"{what} has no type attribute; valid types: {supported}")
+        if kind not in JOINT_TYPES:
+            close = difflib.get_close_matches(kind.lower(), JOINT_TYPES, n=1, cutoff=0.6)
+            hint = f"did you mean {close[0]}? " if close else ""
+            self.fail(joint, f"{what} has type '{kind}'; {hint}valid types: {supported}")
+        if kind not in SUPPORTED_JOINT_TYPES:
+            dof = {"floating": 6, "planar": 3}[kind]
+            self.fail(joint, f"{what} is {kind} ({dof} degrees of freedom); manipkit handles {supported} joints "
+                      "(make it fixed, or split it into revolute/prismatic joints)")
+        ends = {}
+        for role in ("parent", "child"):
+            element = joint.find(role)
+            if element is None or not element.get("link"):
+                self.fail(joint if element is None else element, f"{what} has no <{role} link=\"...\"/>", joint)
+            link = element.get("link")
+            if link not in links:
+                close = difflib.get_close_matches(link, list(links), n=2, cutoff=0.6)
+                hint = f"did you mean {', '.join(close)}? " if close else ""
+                listed = ", ".join(list(links)[:12]) + (", ..." if len(links) > 12 else "")
+                self.fail(element, f"{what} {role} link '{link}' does not exist; {hint}links are: {listed}", joint)
+            ends[role] = link
+        if ends["parent"] == ends["child"]:
+            self.fail(joint, f"{what} has link '{ends['parent']}' as both parent and child; "
+                      "a joint connects two different links")
+        if ends["child"] in children:
+            first = children[ends["child"]]
+            self.fail(joint, f"link '{ends['child']}' is the child of two joints ('{first.get('name')}' and '{name}'); "
+                      "a URDF is a tree: each link has at most one parent joint")
+        children[ends["child"]] = joint
+        self.origin(joint, what, joint)
+        if kind in ("revolute", "continuous", "prismatic"):
+            self.check_axis(joint, what)
+        limit = joint.find("limit")
+        if limit is None and kind in ("revolute", "prismatic"):
+            self.fail(joint, f"{kind} {what} has no <limit>; add <limit lower=... upper=... effort=... velocity=...>"
+                      + (" or make it continuous" if kind == "revolute" else ""))
+        if limit is not None:
+            self.check_limit(limit, kind, what, joint)
+        for tag, attributes in _JOINT_NUMERIC_ATTRIBUTES.items():
+            element = joint.find(tag)
+            if element is None:
+                continue
+            for attribute in attributes:
+                self.numbers(element, attribute, 1, f"{what} <{tag}>", joint)
+        mimic = joint.find("mimic")
+        if mimic is not None:
+            target = mimic.get("joint")
+            if not target or target not in joints:
+                close = difflib.get_close_matches(target or "", list(joints), n=1, cutoff=0.6)
+                hint = f" (did you mean {close[0]}?)" if close else ""
+                self.warn(mimic, f"{what} <mimic joint=\"{target or ''}\">: no such joint{hint}; "
+                          f"manipkit treats '{name}' as an independent joint (as it does every mimic joint)", joint)
+
+    def check_axis(self, joint, what: str) -> None:
+        axis = joint.find("axis")
+        if axis is None:
+            return  # URDF default: 1 0 0
+        if axis.get("xyz") is None:  # urdfdom leaves the axis at 0 0 0 then
+            self.fail(axis, f"{what} <axis> has no xyz attribute; give xyz=\"1 0 0\" (or another direction), "
+                      "or leave <axis> out for the default x axis", joint)
+        x, y, z = self.numbers(axis, "xyz", 3, f"{what} <axis>", joint)
+        norm = math.hypot(x, y, z)  # no overflow for huge components
+        if norm < 1e-9:
+            self.fail(axis, f"{what} has axis '{axis.get('xyz')}'; an axis must be a non-zero vector "
+                      "such as '0 0 1' (the direction the joint turns about or slides along)", joint)
+        if abs(norm - 1.0) > 1e-12:
+            unit = " ".join(_short(v / norm) for v in (x, y, z))
+            if abs(norm - 1.0) > AXIS_NORM_TOLERANCE:
+                self.warn(axis, f"{what} axis '{axis.get('xyz')}' (length {norm:.6g}) normalised to '{unit}'", joint)
+            self.normalised.append((axis, " ".join(repr(v / norm) for v in (x, y, z))))
+
+    def check_limit(self, limit, kind: str, what: str, joint) -> None:
+        for attribute in ("effort", "velocity"):
+            if limit.get(attribute) is None:
+                self.fail(limit, f"{what} <limit> has no {attribute} attribute; URDF requires it "
+                          f"(add {attribute}=\"...\"; kinematics do not use it)", joint)
+        unit = "m" if kind == "prismatic" else "rad"
+        values = {}
+        for attribute in ("lower", "upper", "effort", "velocity"):
+            number = self.numbers(limit, attribute, 1, f"{what} <limit>", joint,
+                                  unit=unit if attribute in ("lower", "upper") else "")
+            values[attribute] = number[0] if number is not None else 0.0
+        lower, upper = values["lower"], values["upper"]
+        if kind not in ("revolute", "prismatic"):
+            return  # continuous and fixed joints ignore lower/upper
+        if lower > upper:
+            self.fail(limit, f"{what} has lower limit {lower:g} above upper limit {upper:g} ({unit}); swap them", joint)
+        if lower == upper:
+            missing = [a for a in ("lower", "upper") if limit.get(a) is None]
+            why = f" ({' and '.join(missing)} not given: URDF's default is 0)" if missing else ""
+            self.warn(limit, f"{what} has limits [{lower:g}, {upper:g}] {unit}{why}: it cannot move; "
+                      "give lower= and upper=" + (" or make it continuous" if kind == "revolute" else ""), joint)
+
+    # -- the tree -------------------------------------------------------
+
+    def check_tree(self, robot, links: dict, joints: dict, children: dict) -> None:
+        roots = [name for name in links if name not in children]
+        if not roots:
+            self.fail(robot, "every link has a parent joint, so the joints form a cycle; "
+                      "a URDF is a tree with exactly one root link")
+        if len(roots) > 1:
+            listed = ", ".join(roots[:6]) + (", ..." if len(roots) > 6 else "")
+            self.fail(links[roots[1]], f"{len(roots)} root links ({listed}); a URDF has exactly one root: "
+                      f"connect the others (e.g. '{roots[1]}') to the tree with joints")
+        below: dict[str, list[str]] = {}
+        for joint in joints.values():
+            below.setdefault(joint.find("parent").get("link"), []).append(joint.find("child").get("link"))
+        seen, stack = {roots[0]}, [roots[0]]
+        while stack:
+            for child in below.get(stack.pop(), []):
+                if child not in seen:
+                    seen.add(child)
+                    stack.append(child)
+        unreachable = [name for name in links if name not in seen]
+        if unreachable:
+            cycle = _cycle_through(unreachable[0], children)
+            shown = " -> ".join(cycle) if cycle else ", ".join(unreachable[:6])
+            self.fail(children[unreachable[0]], f"links {', '.join(unreachable[:6])} form a cycle ({shown}) not "
+                      f"connected to root '{roots[0]}'; a URDF is a tree: remove one joint of the cycle")
+
+    # -- output ---------------------------------------------------------
+
+    def normalised_text(self, text: str, robot) -> str:
+        """The input text, or (when an axis was normalised) the tree written back with unit axes."""
+        if not self.normalised:
+            return text
+        from lxml import etree
+
+        for axis, xyz in self.normalised:
+            axis.set("xyz", xyz)
+        return etree.tostring(robot, encoding="unicode")
+
+
+def _cycle_through(link: str, children: dict) -> list[str]:
+    """Links met going up from ``link`` by parent joints until one repeats (the cycle, closed)."""
+    path, seen = [link], {link}
+    current = link
+    while current in children:
+        current = children[current].find("parent").get("link")
+        path.append(current)
+        if current in seen:
+            return path[path.index(current):]
+        seen.add(current)
+    return []
+
+
+def _local(tag: str) -> str:
+    return tag.split("}", 1)[-1]
+
+
+def _short(value: float) -> str:
+    text = f"{value:.6g}"
+    return "0" if text in ("-0", "0") else text
+
+
+# --------------------------------------------------------------------------
+# package:// URIs
+# --------------------------------------------------------------------------
+
+
+def package_uri_warnings(robot, resolver, where: str, *, locate=None, limit: int = 3) -> list[str]:
+    """Warnings for ``package://`` mesh and texture URIs that do not resolve to a file.
+
+    Kinematics do not need meshes, so these are warnings (the viewer raises
+    its own error for them).
+
+    Parameters
+    ----------
+    robot : lxml element
+        The ``<robot>`` element from :func:`check_urdf`.
+    resolver : manipkit.description.sources.PackageResolver
+        Anything with ``find(package) -> Path`` raising
+        :class:`manipkit.errors.PackageNotFoundError`.
+    where, locate
+        As for :func:`check_urdf`.
+    limit : int
+        At most this many missing files are named one by one (then a count).
+    """
+    import os
+
+    from manipkit.errors import PackageNotFoundError
+
+    checker = _Checker(where, locate)
+    uris: dict[str, tuple[object, object]] = {}
+    for link in robot.findall("link"):
+        for element in link.iter("mesh", "texture"):
+            uri = element.get("filename")
+            if uri and uri.startswith("package://") and uri not in uris:
+                uris[uri] = (element, link)
+    warnings, missing_packages, missing_files = [], {}, []
+    folders: dict[str, object] = {}
+    for uri, (element, link) in uris.items():
+        package, _, rest = uri[len("package://"):].partition("/")
+        if not package:
+            missing_packages.setdefault("", [(element, link, uri, "empty package name (package:/// has three "
+                                               "slashes; expected package://PKG/path)"), 0])[1] += 1
+            continue
+        if package in missing_packages:
+            missing_packages[package][1] += 1
+            continue
+        if package not in folders:
+            try:
+                folders[package] = resolver.find(package)
+            except PackageNotFoundError as exc:
+                missing_packages[package] = [(element, link, uri, str(exc)), 1]
+                continue
+        path = os.path.join(str(folders[package]), rest)
+        if not os.path.isfile(path):
+            missing_files.append((element, link, uri, path))
+    for package, ((element, link, uri, reason), count) in missing_packages.items():
+        more = f" and {count - 1} more mesh file(s) of it" if count > 1 else ""
+        warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}{more}: {reason} "
+                        "(kinematics do not need meshes; the viewer does)")
+    for element, link, uri, path in missing_files[:limit]:
+        warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}: no such file {path} "
+                        "(kinematics do not need meshes; the viewer does)")
+    if len(missing_files) > limit:
+        warnings.append(f"{where}: {len(missing_files) - limit} more package:// mesh file(s) not found")
+    return warnings

@@ -1,0 +1,316 @@
+"""A DH table derived from the joint axes of a URDF chain.
+
+``dh_from_urdf_chain(robot, base, tip, convention=...)`` returns a
+:class:`~manipkit.dh.DHTable` whose forward kinematics equals the robot's:
+``dh_fk(table, q_chain) == robot.fk(q, tip, base=base)`` for every joint
+vector ``q``, where ``q_chain`` holds the values of the joints
+``robot.chain_joints(base, tip)`` (the movable joints from ``base`` down to
+``tip``, in order). Joints off that chain (the wheels of a mobile base, other
+branches) are left out.
+
+Conventions (DESIGN.md), restated:
+
+- Standard DH (Spong, Corke): ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``;
+  DH frame ``i-1`` has its z axis on joint ``i``.
+- Modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``;
+  DH frame ``i`` has its z axis on joint ``i``.
+- ``T_base_tip(q) = table.base @ A_1(q_1) @ ... @ A_n(q_n) @ table.tool``;
+  ``table.base`` is T_base_dh0 (DH frame 0 in the base frame), ``table.tool``
+  is T_dhn_tip.
+- Joint values are the URDF's, unchanged: every DH z axis points along its
+  URDF joint axis (so positive q turns or slides the same way), and the
+  ``theta`` (revolute) or ``d`` (prismatic) column holds the constant offset
+  that makes the URDF zero pose ``q = 0``.
+- Metres and radians.
+
+How the table is built: at ``q = 0`` each joint axis is a line in the base
+frame (point and unit direction, from Pinocchio's placements); after the last
+joint comes the tip frame's z axis. Between consecutive lines ``L_i`` and
+``L_{i+1}`` a common normal ``N_i`` is chosen (foot ``A_i`` on ``L_i``, foot
+``B_i`` on ``L_{i+1}``, unit direction ``x_i``); it is the x axis of DH frame
+``i`` in both conventions. A standard DH frame ``i`` sits at ``B_i`` with z
+along ``L_{i+1}``; a modified DH frame ``i`` sits at ``A_i`` with z along
+``L_i``. Both conventions therefore share the same numbers, grouped
+differently: ``a_i, alpha_i`` belong to ``N_i``, ``d_i, theta_i`` to the
+move along ``L_i`` from ``N_{i-1}`` to ``N_i``.
+
+Where DH is not unique, these choices are made:
+
+- **DH frame 0** (both conventions): origin at the point of joint 1's axis
+  nearest the base origin, z along joint 1's axis, and the base frame turned
+  by the smallest rotation that takes its z axis onto joint 1's axis (so
+  ``table.base`` is the identity when joint 1 turns about the base z axis
+  through the base origin). In modified DH this gives ``a_0 = alpha_0 = 0``.
+- **Skew axes**: the common normal is unique.
+- **Intersecting axes**: the normal passes through the intersection
+  (``a = 0``), along ``+-(z_i x z_{i+1})``.
+- **Parallel axes** (``|sin(angle)| < tol``): the normal through the point
+  where the previous normal meets the axis, so ``d = 0``.
+- **Coincident axes**: no normal is defined; the previous x axis is kept
+  (``theta`` offset 0) at the previous foot (``d = 0``, ``a = 0``, ``alpha``
+  0 or 180 deg).
+- **Sign of x** (skew, intersecting and parallel cases): the one closer to
+  the previous x axis, so every ``theta`` offset lies in (-90, 90] deg
+  (``a`` may then be negative, as in the usual UR tables). When the normal
+  is perpendicular to the previous x axis, ``a > 0`` decides, and for
+  intersecting axes then ``x = +(z_i x z_{i+1})``, which makes ``alpha``
+  positive.
+- **Prismatic joints**: only the direction is defined; the line is taken
+  through the point where the previous normal meets the previous joint axis
+  (the previous standard-DH origin; the base origin for joint 1), so the
+  normal before it has ``a = 0`` and the row before it ``d = 0``.
+- **Last DH frame**: its normal runs from the last joint axis to the tip
+  frame's z axis (standard DH: frame n lies on the tip's z axis, so
+  ``table.tool`` is a turn about and a shift along z). Whatever remains
+  goes into ``table.tool``.
+
+Parameters smaller than 1e-12 in magnitude are written as exact zeros
+(rounding noise; their effect on the pose is below 1e-12).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.dh.table import CONVENTIONS, DHRow, DHTable, dh_fk
+from manipkit.errors import DHDerivationError
+from manipkit.spatial.rotations import matrix_from_axis_angle
+
+__all__ = ["DHDerivationError", "dh_from_urdf_chain"]
+
+_ZERO_SNAP = 1e-12  # parameters below this are rounding noise and written as 0
+
+
+# --------------------------------------------------------------------------
+# geometry (numpy only)
+
+
+def _frame(origin, z, x) -> np.ndarray:
+    """4x4 pose with the given origin and unit z; x is made exactly perpendicular to z."""
+    x = x - (x @ z) * z
+    x = x / np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, origin
+    return T
+
+
+def _rigid_inverse(T: np.ndarray) -> np.ndarray:
+    inverse = np.eye(4)
+    inverse[:3, :3] = T[:3, :3].T
+    inverse[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return inverse
+
+
+def _x_of_frame_0(z: np.ndarray) -> np.ndarray:
+    """The base x axis turned by the smallest rotation taking the base z axis onto ``z``."""
+    e_x, e_z = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
+    axis = np.cross(e_z, z)
+    sine = np.linalg.norm(axis)
+    if sine < 1e-12:  # z = +-e_z: identity, or half a turn about x; both keep x
+        return e_x
+    return matrix_from_axis_angle(axis, math.atan2(sine, float(e_z @ z))) @ e_x
+
+
+def _common_normal(P, u, Q, w, start, x_prev, tol):
+    """The DH common normal from line (P, u) to line (Q, w).
+
+    ``start`` is where the previous normal meets (P, u); ``x_prev`` is its
+    direction. Returns (A on the first line, B on the second line, unit x),
+    following the choices in the module docstring.
+    """
+    cross = np.cross(u, w)
+    sine = np.linalg.norm(cross)
+    if sine < tol:  # parallel: the normal through the previous foot (d = 0)
+        A = start
+        B = Q + ((A - Q) @ w) * w
+        mean = u + math.copysign(1.0, u @ w) * w
+        mean /= np.linalg.norm(mean)
+        gap = (B - A) - ((B - A) @ mean) * mean
+        if np.linalg.norm(gap) < tol:  # coincident: keep the previous x
+            return A, B, x_prev
+        normal = gap / np.linalg.norm(gap)
+    else:  # skew or intersecting: the unique common normal
+        normal = cross / sine
+        r = Q - P
+        b, e, c = r @ u, r @ w, u @ w
+        A = P + ((b - c * e) / sine**2) * u
+        B = Q + ((c * b - e) / sine**2) * w
+    toward = (B - A) @ normal
+    alignment = normal @ x_prev
+    if abs(alignment) > tol:
+        sign = math.copysign(1.0, alignment)
+    elif abs(toward) > tol:
+        sign = math.copysign(1.0, toward)
+    else:
+        sign = 1.0
+    return A, B, sign * normal
+
+
+def _row_parameters(T: np.ndarray, convention: str) -> tuple[float, float, float, float]:
+    """(a, alpha, d, theta) of a DH link transform (the inverse of ``dh_link_transform``)."""
+    R, p = T[:3, :3], T[:3, 3]
+    if convention == "standard":  # Rz(theta) Tz(d) Tx(a) Rx(alpha)
+        theta = math.atan2(R[1, 0], R[0, 0])
+        alpha = math.atan2(R[2, 1], R[2, 2])
+        a = p[0] * math.cos(theta) + p[1] * math.sin(theta)
+        d = p[2]
+    else:  # Rx(alpha) Tx(a) Rz(theta) Tz(d)
+        alpha = math.atan2(-R[1, 2], R[2, 2])
+        theta = math.atan2(-R[0, 1], R[0, 0])
+        a = p[0]
+        d = -p[1] * math.sin(alpha) + p[2] * math.cos(alpha)
+    return _clean(a), _clean_angle(alpha), _clean(d), _clean_angle(theta)
+
+
+def _clean(value: float) -> float:
+    return 0.0 if abs(value) < _ZERO_SNAP else float(value)
+
+
+def _clean_angle(angle: float) -> float:
+    if abs(angle) < _ZERO_SNAP:
+        return 0.0
+    if abs(abs(angle) - math.pi) < _ZERO_SNAP:
+        return math.pi
+    return float(angle)
+
+
+def _dh_frames(points, directions, prismatic, T_base_tip, tol):
+    """DH frames (4x4 in the base frame) of both conventions, from the joint lines at q = 0.
+
+    Returns (standard frames 0..n, modified frames 0..n).
+    """
+    n = len(directions)
+    points = [np.asarray(p, dtype=float) for p in points]
+    lines_z = list(directions) + [T_base_tip[:3, 2]]
+    lines_p = points + [T_base_tip[:3, 3]]
+    if prismatic[0]:
+        lines_p[0] = np.zeros(3)  # joint 1 slides along a line through the base origin
+    u1 = lines_z[0]
+    origin0 = lines_p[0] + (-lines_p[0] @ u1) * u1  # nearest point to the base origin
+    x0 = _x_of_frame_0(u1)
+    frame0 = _frame(origin0, u1, x0)
+    standard, modified = [frame0], [frame0]
+    start, x_prev = origin0, frame0[:3, 0]
+    for i in range(n):
+        if i + 1 < n and prismatic[i + 1]:
+            lines_p[i + 1] = start  # the next slide's line through the previous DH origin
+        A, B, x = _common_normal(lines_p[i], lines_z[i], lines_p[i + 1], lines_z[i + 1], start, x_prev, tol)
+        standard.append(_frame(B, lines_z[i + 1], x))
+        modified.append(_frame(A, lines_z[i], x))
+        start, x_prev = B, standard[-1][:3, 0]
+    return standard, modified
+
+
+# --------------------------------------------------------------------------
+# the table
+
+
+def dh_from_urdf_chain(
+    robot,
+    base: str = "base_link",
+    tip: str = "ee_link",
+    *,
+    convention: str = "standard",
+    tol: float = 1e-9,
+) -> DHTable:
+    """DH table (with base and tool transforms) of the chain from ``base`` to ``tip``.
+
+    Parameters
+    ----------
+    robot : manipkit.kinematics.robot.Robot
+        A loaded robot (:func:`manipkit.load`).
+    base, tip : str
+        Frame (link) names or the aliases ``base_link``, ``ee_link``; ``tip``
+        must lie below ``base`` in the link tree. ``base`` may be any link,
+        also one below some joints (then the chain starts there).
+    convention : {"standard", "modified"}, keyword-only
+        Standard DH (Spong, Corke): ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``.
+        Modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``.
+    tol : float, keyword-only
+        Axes whose directions differ by less than ``tol`` (sine of the angle)
+        are parallel; normals shorter than ``tol`` metres count as zero
+        (intersecting or coincident axes) when choosing a sign, and so do
+        alignments (cosines) below ``tol``. Near-parallel axes (angle
+        between about 1e-9 and 1e-6 rad) are ill-conditioned in any DH
+        table: their common normal lies far away.
+
+    Returns
+    -------
+    DHTable
+        One row per joint of ``robot.chain_joints(base, tip)`` (revolute
+        for revolute and continuous joints, prismatic for prismatic ones;
+        ``qlim`` from the URDF limits, ``None`` for continuous joints), with
+        ``T_base_tip(q) = table.base @ A_1(q_1) @ ... @ A_n(q_n) @ table.tool``
+        equal to ``robot.fk(q, tip, base=base)`` for every ``q``. The joint
+        values are the URDF's: each DH z axis points along its URDF joint
+        axis, and the constant ``theta`` (revolute) or ``d`` (prismatic)
+        offsets absorb the URDF zero pose. See the module docstring for the
+        choices made where DH is not unique.
+
+    Raises
+    ------
+    UnknownFrameError
+        If ``base`` or ``tip`` is not a frame of the robot.
+    ChainError
+        If ``tip`` is not below ``base``.
+    DHDerivationError
+        If ``tip`` is ``base``, no movable joint lies between them, or
+        ``convention`` is unknown.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> table = dh_from_urdf_chain(manipkit.load("planar_3r"), convention="standard")
+    >>> [(row.a, row.alpha, row.d, row.theta) for row in table.rows]
+    [(4.0, 0.0, 0.0, 0.0), (2.0, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)]
+    """
+    if convention not in CONVENTIONS:
+        raise DHDerivationError(f"convention '{convention}': choose standard or modified")
+    base_name, tip_name = robot.frame(base), robot.frame(tip)  # UnknownFrameError with suggestions
+    if base_name == tip_name:
+        same = f"'{base}'" if base == base_name else f"'{base}' ({base_name})"
+        raise DHDerivationError(
+            f"robot '{robot.name}': base and tip are the same frame {same}; a DH chain runs from a base "
+            f"frame down to a different tip frame below it, e.g. base='{robot.root_link}', tip='{robot.ee_frame}'"
+        )
+    names = robot.chain_joints(base_name, tip_name)  # ChainError when tip is not below base
+    if not names:
+        raise DHDerivationError(
+            f"robot '{robot.name}': no movable joint between '{base_name}' and '{tip_name}' (only fixed "
+            f"joints); a DH table needs at least one, and T_{base_name}_{tip_name} is constant: "
+            "use robot.transform instead"
+        )
+    joints = [robot.joints[robot.joint_names.index(name)] for name in names]
+    q0 = np.zeros(len(robot.joints))
+    points, directions = [], []
+    for joint in joints:
+        T_base_joint = robot.transform(base, joint.child, q0)  # the joint frame is its child link's frame
+        axis = T_base_joint[:3, :3] @ np.asarray(joint.axis, dtype=float)
+        points.append(T_base_joint[:3, 3])
+        directions.append(axis / np.linalg.norm(axis))
+    T_base_tip = robot.transform(base, tip, q0)
+    prismatic = [not joint.is_angular for joint in joints]
+    standard, modified = _dh_frames(points, directions, prismatic, T_base_tip, tol)
+    frames = standard if convention == "standard" else modified
+    rows = []
+    for i, joint in enumerate(joints):
+        a, alpha, d, theta = _row_parameters(_rigid_inverse(frames[i]) @ frames[i + 1], convention)
+        limits = (joint.lower, joint.upper)
+        rows.append(
+            DHRow(
+                a,
+                alpha,
+                d,
+                theta,
+                type="prismatic" if prismatic[i] else "revolute",
+                qlim=limits if all(map(math.isfinite, limits)) else None,
+            )
+        )
+    table = DHTable(tuple(rows), convention=convention, name=robot.name, base=frames[0])
+    # Tool from the table's own zero pose, so q = 0 is reproduced exactly.
+    T_base_dhn = dh_fk(table, np.zeros(table.n), upto=table.n)
+    tool = _rigid_inverse(T_base_dhn) @ T_base_tip
+    tool[np.abs(tool) < _ZERO_SNAP] = 0.0
+    return DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)

@@ -1,0 +1,648 @@
+"""A loaded robot: Pinocchio model, joints by name, transforms between frames.
+
+Conventions (DESIGN.md):
+
+- Units are metres and radians.
+- ``T_a_b`` is the pose of frame b expressed in frame a, a 4x4 homogeneous
+  matrix; ``robot.transform("a", "b", q)`` returns it, as ``tf2_echo a b``
+  prints it.
+- A joint vector ``q`` has one value per movable joint, in the order of
+  :attr:`Robot.joint_names`: an angle (rad) for revolute and continuous
+  joints, a distance (m) for prismatic ones. Pinocchio stores a continuous
+  joint as (cos, sin); that stays inside this module.
+- Frames are links (and fixed-joint frames). Every robot also answers to
+  ``base_link`` (its root link, unless it has a link of that name) and
+  ``ee_link`` (its end effector: a link of that name, the frame declared for
+  it, or the tip of its longest chain).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
+from manipkit.description.sources import PackageResolver, RobotSource, describe, resolve_robot, xacro_locator
+from manipkit.description.validate import check_urdf, package_uri_warnings
+
+BASE_ALIASES = ("base_link", "world")
+EE_ALIAS = "ee_link"
+#: A joint value this far outside its limit still counts as inside (printed values round-trip).
+LIMIT_TOLERANCE = 1e-12
+#: More movable joints than this are refused: Pinocchio's Data holds nv x nv x nv tensors
+#: (about 0.6 GB at 200, 1.8 GB at 300, 64 GB at 1000); arms and humanoids have tens.
+MAX_DEGREES_OF_FREEDOM = 200
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A movable joint.
+
+    Attributes
+    ----------
+    name, type : str
+        URDF name and type (``revolute``, ``continuous`` or ``prismatic``).
+    axis : ndarray, shape (3,)
+        Unit axis in the joint frame.
+    lower, upper : float
+        Position limits (rad or m); -inf/+inf for continuous joints.
+    parent, child : str
+        Parent and child link names.
+    """
+
+    name: str
+    type: str
+    axis: np.ndarray
+    lower: float
+    upper: float
+    parent: str
+    child: str
+
+    @property
+    def is_angular(self) -> bool:
+        return self.type != "prismatic"
+
+    def default(self) -> float:
+        """0, or the nearest value inside the limits."""
+        return float(min(max(0.0, self.lower), self.upper))
+
+
+@dataclass(frozen=True)
+class _ChainStep:
+    rotation: np.ndarray  # joint placement in its parent joint frame
+    translation: np.ndarray
+    index: int  # position in the user's joint vector
+    prismatic: bool
+    axis: np.ndarray
+
+
+def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> "Robot":
+    """Load a robot by bundled name, example-robot-data name or path.
+
+    Parameters
+    ----------
+    robot : str or path-like, optional
+        ``course_arm`` (default), ``iiwa14``, ``panda``, ``ur5``,
+        ``path/to/robot.urdf.xacro``, ... (see :func:`manipkit.description.sources.resolve_robot`).
+    package_dirs : dict, optional
+        Package name -> folder, for ``$(find PKG)`` and ``package://PKG``.
+    **xacro_args
+        xacro arguments, e.g. ``load("planar_3r", l1=2)``.
+
+    Examples
+    --------
+    >>> robot = load("course_arm")
+    >>> robot.transform("base_link", "ee_link", robot.q()).shape
+    (4, 4)
+    """
+    source = resolve_robot(robot)
+    text, declared = describe(source, xacro_args, package_dirs)
+    loaded = Robot.from_urdf(text, source=source, package_dirs=package_dirs)
+    if source.is_xacro:
+        defaults = {k: v for k, v in declared.items() if v is not None}
+        loaded.xacro_args = {**defaults, **{k: str(v) for k, v in xacro_args.items()}}
+    return loaded
+
+
+class Robot:
+    """A robot model (immutable) with a Pinocchio data workspace.
+
+    Build it with :func:`load`. ``model`` and ``data`` are Pinocchio's; the
+    rest of the API works with joint names, frame names and plain joint
+    vectors (one value per movable joint, radians or metres).
+    """
+
+    def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None, warnings=()):
+        self.model = model
+        if model.nv > MAX_DEGREES_OF_FREEDOM:  # checked before Pinocchio allocates its workspace
+            raise DescriptionError(
+                f"{source.path.name}: {model.nv} degrees of freedom; manipkit handles up to {MAX_DEGREES_OF_FREEDOM} "
+                f"(Pinocchio's workspace grows with the cube of the count: about "
+                f"{64 * model.nv ** 3 / 1e9:.2g} GB here)"
+            )
+        try:
+            self.data = model.createData()
+        except MemoryError:
+            raise DescriptionError(
+                f"{source.path.name}: {model.nv} degrees of freedom: Pinocchio's workspace for this model does not "
+                "fit in memory"
+            ) from None
+        self.urdf = urdf
+        self.source = source
+        self.name = robot_xml.get("name") or source.name
+        self.package_dirs = dict(package_dirs or {})
+        self.xacro_args: dict[str, str] = {}  # effective xacro arguments (defaults and given), set by load()
+        #: Problems found while loading that do not change the kinematics (a normalised axis, a joint
+        #: that cannot move, an unresolved package:// mesh, ...), one line each; the CLI prints them
+        #: as ``warning: ...`` on stderr.
+        self.warnings: list[str] = list(warnings)
+        #: The subset of :attr:`warnings` about ``package://`` meshes that do not resolve (the viewer's
+        #: own error covers them).
+        self.mesh_warnings: list[str] = []
+        self.joints = _movable_joints(model, robot_xml)
+        self.joint_names = tuple(j.name for j in self.joints)
+        self._joint_index = {j.name: i for i, j in enumerate(self.joints)}
+        self.root_link = _root_link(robot_xml)
+        self.frame_names = tuple(
+            f.name for f in model.frames if f.type == pin.FrameType.BODY and f.name != "universe"
+        )
+        self._frame_ids = {}
+        for frame_id, frame in enumerate(model.frames):
+            if frame.type == pin.FrameType.BODY:  # links only, first of a name wins
+                self._frame_ids.setdefault(frame.name, frame_id)
+        self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
+        self._chains: dict[tuple, list[_ChainStep]] = {}  # (frame id, base id or None) -> steps
+        self._fk_kernels: dict = {}  # (frame id, base id or None) -> manipkit.kinematics.chain.ChainFK, built on first use
+        # Index arrays for pinocchio_configuration: where each joint value goes in Pinocchio's q.
+        self._neutral_config = pin.neutral(model)
+        idx_q = np.array([model.joints[model.getJointId(j.name)].idx_q for j in self.joints], dtype=np.intp)
+        is_cs = np.array([model.joints[model.getJointId(j.name)].nq == 2 for j in self.joints], dtype=bool)
+        self._config_plain_user = np.flatnonzero(~is_cs)  # one value -> one entry
+        self._config_plain_q = idx_q[~is_cs]
+        self._config_cs_user = np.flatnonzero(is_cs)  # continuous: angle -> (cos, sin)
+        self._config_cos_q = idx_q[is_cs]
+        self._config_sin_q = idx_q[is_cs] + 1
+
+    @classmethod
+    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> "Robot":
+        """Build a robot from URDF text, checked first by :func:`manipkit.description.validate.check_urdf`.
+
+        Invalid descriptions raise :class:`DescriptionError` naming the file,
+        line and element; problems that leave the kinematics right (a
+        non-unit axis, normalised; a ``package://`` mesh that does not
+        resolve) are collected in :attr:`warnings`.
+        """
+        if source is None:
+            source = RobotSource("robot", Path("<string>"), "string")
+        where = source.path.name
+        locate = xacro_locator(source.path) if source.is_xacro and source.path.is_file() else None
+        checked = check_urdf(text, where, locate=locate)
+        warnings = list(checked.warnings)
+        near = source.path if source.path.is_file() else None
+        resolver = PackageResolver({k: Path(v) for k, v in (package_dirs or {}).items()}, near=near)
+        mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate)
+        model, messages = _build_model(checked.text)
+        if model is None:
+            reason = "; ".join(messages) or "no reason given"
+            raise DescriptionError(f"{where}: Pinocchio cannot build a model: {reason}")
+        warnings += mesh_warnings + [f"{where}: URDF parser: {m}" for m in messages]
+        robot = cls(model, checked.text, source, checked.robot, package_dirs, warnings)
+        robot.mesh_warnings = list(mesh_warnings)
+        return robot
+
+    def __repr__(self) -> str:
+        return (
+            f"Robot({self.name!r}, {len(self.joints)} joints, base {self.root_link!r}, "
+            f"ee {self.ee_frame!r}, from {self.source.path})"
+        )
+
+    # ------------------------------------------------------------------
+    # Frames
+    # ------------------------------------------------------------------
+
+    def frame(self, name: str) -> str:
+        """The link name that ``name`` refers to, resolving ``base_link``/``world``/``ee_link``.
+
+        Raises
+        ------
+        UnknownFrameError
+            With the closest frame names.
+        """
+        if name in self._frame_ids:
+            return name
+        if name in BASE_ALIASES:
+            return self.root_link
+        if name == EE_ALIAS:
+            return self.ee_frame
+        close = difflib.get_close_matches(name, self.frame_names, n=3, cutoff=0.5)
+        hint = f"did you mean {', '.join(close)}? " if close else ""
+        listed = ", ".join(self.frame_names[:15]) + (", ..." if len(self.frame_names) > 15 else "")
+        raise UnknownFrameError(
+            f"robot '{self.name}' has no frame '{name}'; {hint}frames: {listed} "
+            f"(also base_link, ee_link; `manipkit frames` lists all)"
+        )
+
+    def frame_id(self, name: str) -> int:
+        """Pinocchio frame index of a frame name or alias."""
+        return self._frame_ids[self.frame(name)]
+
+    def chain_joints(self, base: str, tip: str) -> tuple[str, ...]:
+        """Movable joints on the path from ``base`` down to ``tip``, base first.
+
+        ``base`` may hang off the path by fixed joints only (ur5's ``base``
+        beside ``base_link``): every movable joint between the two frames
+        then points from base to tip. Equal frames, or frames with only fixed
+        joints between them, give ``()``.
+
+        Raises
+        ------
+        ChainError
+            If ``tip`` is not below ``base`` (the message says whether to swap
+            them or that they are on different branches).
+        """
+        base_name, tip_name = self.frame(base), self.frame(tip)
+        base_joint = self.model.frames[self.frame_id(base_name)].parentJoint
+        tip_joint = self.model.frames[self.frame_id(tip_name)].parentJoint
+        tip_support = list(self.model.supports[tip_joint])
+        if base_joint not in tip_support:
+            if tip_joint in self.model.supports[base_joint]:
+                hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
+            else:
+                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.root_link}'"
+            raise ChainError(
+                f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
+                f"(a movable joint lies on the way up from '{base_name}'); {hint}"
+            )
+        return tuple(self.model.names[j] for j in tip_support[tip_support.index(base_joint) + 1 :])
+
+    def sample_q(self, n: int, *, seed: int = 0) -> np.ndarray:
+        """``n`` joint vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]).
+
+        Returns
+        -------
+        Q : ndarray, shape (n, len(joint_names))
+        """
+        lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in self.joints])
+        upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in self.joints])
+        u = np.random.default_rng(seed).random(size=(n, len(self.joints)))
+        return lower * (1.0 - u) + upper * u  # not lower + (upper - lower) u: upper - lower may overflow
+
+    def _choose_ee(self, declared: str | None) -> tuple[str, str]:
+        if EE_ALIAS in self._frame_ids:
+            return EE_ALIAS, "the robot's ee_link"
+        if declared and declared in self._frame_ids:
+            return declared, f"{declared}, the end effector declared for {self.source.name}"
+        # Tip of the longest chain: most movable joints above it, then most frames above it.
+        def depth(frame_id: int) -> tuple[int, int]:
+            frame = self.model.frames[frame_id]
+            frames_above, f = 0, frame
+            while f.parentFrame != 0 and frames_above < 1000:
+                frames_above += 1
+                f = self.model.frames[f.parentFrame]
+            return len(self.model.supports[frame.parentJoint]), frames_above
+
+        bodies = [self._frame_ids[n] for n in self.frame_names]
+        tip = max(bodies, key=depth)
+        name = self.model.frames[tip].name
+        return name, f"{name}, the tip of the longest chain (no ee_link declared)"
+
+    # ------------------------------------------------------------------
+    # Joint vectors
+    # ------------------------------------------------------------------
+
+    def q(self, values: dict[str, float] | None = None, /, *, degrees: bool = False, **joint_values) -> np.ndarray:
+        """A joint vector from joint values by name.
+
+        Parameters
+        ----------
+        values : dict, optional
+            Joint name -> value (also accepted as keyword arguments).
+        degrees : bool, keyword-only
+            Angular values are in degrees (prismatic ones stay in metres).
+
+        Returns
+        -------
+        q : ndarray, shape (n,)
+            In :attr:`joint_names` order; joints not given are 0, or the
+            nearest value inside their limits.
+
+        Raises
+        ------
+        JointValueError
+            Unknown joint name (the valid ones are listed) or a value that is
+            not a finite number.
+
+        Notes
+        -----
+        Values outside the joint limits are accepted here (the pose such a
+        value would give can still be computed). For a strict check use
+        :meth:`check_limits` (raises :class:`JointLimitError` naming the
+        joint, value and limits), :meth:`limit_violations` to list them, or
+        :meth:`clamp` to move them to the nearest limit. The command line is
+        strict: a value outside the limits is an error unless ``--clamp``.
+
+        Examples
+        --------
+        >>> robot = load("planar_2r")
+        >>> robot.q(joint2=90, degrees=True)
+        array([0.        , 1.57079633])
+        """
+        given = dict(values or {}, **joint_values)
+        q = np.array([j.default() for j in self.joints], dtype=float)
+        for name, value in given.items():
+            if name not in self._joint_index:
+                close = difflib.get_close_matches(name, self.joint_names, n=1, cutoff=0.5)
+                hint = f"did you mean {close[0]}? " if close else ""
+                raise JointValueError(
+                    f"robot '{self.name}' has no joint '{name}'; {hint}joints: {', '.join(self.joint_names) or 'none'}"
+                )
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise JointValueError(f"joint '{name}': value '{value}' is not a number") from None
+            if not math.isfinite(number):
+                raise JointValueError(f"joint '{name}': value {value} is not finite; give a finite number")
+            index = self._joint_index[name]
+            q[index] = math.radians(number) if degrees and self.joints[index].is_angular else number
+        return q
+
+    def as_dict(self, q) -> dict[str, float]:
+        """Joint name -> value for a joint vector."""
+        q = self._check_q(q)
+        return {name: float(value) for name, value in zip(self.joint_names, q)}
+
+    def outside_limits(self, q) -> list[str]:
+        """One line per joint of ``q`` outside its limits (empty when all are inside): :meth:`limit_violations` as text."""
+        return [str(violation) for violation in self.limit_violations(q)]
+
+    def limit_violations(self, q) -> list[JointLimitError]:
+        """One :class:`JointLimitError` per joint of ``q`` outside its limits, in joint order (not raised)."""
+        q = self._check_q(q)
+        return [
+            JointLimitError(j.name, float(value), j.lower, j.upper, "m" if not j.is_angular else "rad")
+            for j, value in zip(self.joints, q)
+            if not (j.lower - LIMIT_TOLERANCE <= value <= j.upper + LIMIT_TOLERANCE)
+        ]
+
+    def check_limits(self, q) -> np.ndarray:
+        """``q`` itself when every value is inside its joint's limits, else :class:`JointLimitError`.
+
+        The rest of the API is permissive (:meth:`q`, :meth:`transform` and
+        :meth:`fk` take values outside the limits and compute the pose the
+        joints would have); call this for a strict check. The error names the
+        first joint outside its limits, its value and the limits:
+        ``joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits
+        [-2.0944, 2.0944] rad)``.
+
+        Examples
+        --------
+        >>> robot = load("iiwa14")
+        >>> robot.check_limits(robot.q(iiwa_joint_2=2.5))
+        Traceback (most recent call last):
+        ...
+        manipkit.errors.JointLimitError: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)
+        """
+        violations = self.limit_violations(q)
+        if violations:
+            raise violations[0]
+        return np.asarray(q, dtype=float)
+
+    def clamp(self, q) -> np.ndarray:
+        """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
+
+        Works on one joint vector (n,) or many (..., n).
+        """
+        Q = np.array(q, dtype=float)
+        lower = np.array([j.lower for j in self.joints], dtype=float)
+        upper = np.array([j.upper for j in self.joints], dtype=float)
+        return np.minimum(np.maximum(Q, lower), upper)
+
+    def _check_q(self, q) -> np.ndarray:
+        q = self.q() if q is None else np.asarray(q, dtype=float)
+        if q.shape != (len(self.joints),):
+            raise JointValueError(
+                f"robot '{self.name}' needs {len(self.joints)} joint values ({', '.join(self.joint_names)}), got shape {q.shape}"
+            )
+        if not np.all(np.isfinite(q)):
+            raise JointValueError("joint values must be finite numbers")
+        return q
+
+    def pinocchio_configuration(self, q) -> np.ndarray:
+        """Pinocchio's configuration vector (size ``model.nq``) for a joint vector."""
+        q = self._check_q(q)
+        config = self._neutral_config.copy()
+        config[self._config_plain_q] = q[self._config_plain_user]
+        if self._config_cs_user.size:  # continuous joints: (cos, sin)
+            angles = q[self._config_cs_user]
+            config[self._config_cos_q] = np.cos(angles)
+            config[self._config_sin_q] = np.sin(angles)
+        return config
+
+    # ------------------------------------------------------------------
+    # Kinematics
+    # ------------------------------------------------------------------
+
+    def transform(self, source: str, target: str, q=None) -> np.ndarray:
+        """T_source_target: the pose of ``target`` expressed in ``source``.
+
+        Computed by Pinocchio's forward kinematics. Same direction as
+        ``tf2_echo source target``.
+
+        Parameters
+        ----------
+        source, target : str
+            Frame names (or the aliases ``base_link``, ``ee_link``).
+        q : array_like, shape (n,), optional
+            Joint vector (see :meth:`q`); default: every joint at 0.
+
+        Returns
+        -------
+        T : ndarray, shape (4, 4)
+        """
+        source_id, target_id = self.frame_id(source), self.frame_id(target)
+        pin.framesForwardKinematics(self.model, self.data, self.pinocchio_configuration(q))
+        T_root_source = self.data.oMf[source_id]
+        T_root_target = self.data.oMf[target_id]
+        return (T_root_source.actInv(T_root_target)).homogeneous.copy()
+
+    def fk(self, Q, frame: str, base: str | None = None) -> np.ndarray:
+        """Poses of ``frame`` for many joint vectors at once (vectorised, no Python loop over Q).
+
+        Parameters
+        ----------
+        Q : array_like, shape (..., n)
+            Joint vectors in :attr:`joint_names` order.
+        frame : str
+            Target frame.
+        base : str, optional
+            Frame the poses are expressed in (default: the root link).
+
+        Returns
+        -------
+        T_base_frame : ndarray, shape (..., 4, 4)
+
+        Notes
+        -----
+        Computed by :class:`manipkit.kinematics.chain.ChainFK` kernels (equal to
+        Pinocchio to about 1e-15). When ``base`` is above ``frame`` in the
+        link tree (the arm base of a mobile manipulator, an intermediate link
+        of the same chain), one kernel runs over the joints between them;
+        otherwise T_base_frame = T_root_base^-1 T_root_frame from two kernels.
+        """
+        Q = np.asarray(Q, dtype=float)
+        if Q.shape[-1:] != (len(self.joints),):
+            raise JointValueError(
+                f"robot '{self.name}' needs {len(self.joints)} joint values per row ({', '.join(self.joint_names)}), "
+                f"got shape {Q.shape}"
+            )
+        if not np.all(np.isfinite(Q)):
+            raise JointValueError("joint values must be finite numbers")
+        lead = Q.shape[:-1]
+        flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
+        frame_id = self.frame_id(frame)
+        base_id = None if base is None or self.frame(base) == self.root_link else self.frame_id(base)
+        if base_id is None or self._is_above(base_id, frame_id):
+            # One kernel over the chain from the base down to the frame.
+            return self._fk_kernel(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
+        # Base on another branch (or below the frame): T_base_frame = T_root_base^-1 T_root_frame.
+        T = self._fk_kernel(frame_id).transforms(flat)
+        T_root_base = self._fk_kernel(base_id).transforms(flat)
+        R_base_t = np.swapaxes(T_root_base[:, :3, :3], -1, -2)
+        T[:, :3, 3] = np.einsum("nij,nj->ni", R_base_t, T[:, :3, 3] - T_root_base[:, :3, 3])
+        T[:, :3, :3] = R_base_t @ T[:, :3, :3]
+        return T.reshape(*lead, 4, 4)
+
+    def _is_above(self, base_id: int, frame_id: int) -> bool:
+        """Whether T_base_frame depends only on joints between the two frames (see :meth:`_chain`).
+
+        True when the base frame's parent joint supports the frame: the base
+        is an ancestor of the frame, or hangs off its path by fixed joints
+        only (equal frames included).
+        """
+        base_joint = self.model.frames[base_id].parentJoint
+        return base_joint in self.model.supports[self.model.frames[frame_id].parentJoint]
+
+    def _chain(self, frame_id: int, base_id: int | None = None) -> list[_ChainStep]:
+        """The steps of T_base_frame: constant placements and the joints between them (built once).
+
+        Pinocchio keeps each link frame as a constant placement in its parent
+        joint's frame, so T_root_frame = M_1 J_1(q_1) ... M_k J_k(q_k) X_frame
+        over the joints supporting the frame, with M_i the placement of joint i
+        in joint i-1 (a step with the joint's column, kind and axis) and
+        X_frame the frame's placement (a fixed step, index -1).
+
+        With ``base_id`` (a frame for which :meth:`_is_above` holds; None is
+        the root link), the product starts below the base's parent joint j:
+        T_base_frame = X_base^-1 M_(j+1) J_(j+1)(q) ... X_frame, the inverse
+        X_base^-1 = [R^T, -R^T p] being one more fixed step.
+        """
+        key = (frame_id, base_id)
+        if key not in self._chains:
+            frame = self.model.frames[frame_id]
+            support = list(self.model.supports[frame.parentJoint])  # joint ids, universe (0) first
+            if base_id is None:
+                below, steps = support[1:], []
+            else:
+                base = self.model.frames[base_id]
+                below = support[support.index(base.parentJoint) + 1 :]
+                R, p = base.placement.rotation, base.placement.translation
+                steps = [_ChainStep(R.T.copy(), -R.T @ p, -1, False, None)]
+            for joint_id in below:
+                placement = self.model.jointPlacements[joint_id]
+                kind, axis = _joint_kind_axis(self.model, joint_id)
+                steps.append(
+                    _ChainStep(
+                        placement.rotation.copy(),
+                        placement.translation.copy(),
+                        self._joint_index[self.model.names[joint_id]],
+                        kind == "prismatic",
+                        axis,
+                    )
+                )
+            steps.append(_ChainStep(frame.placement.rotation.copy(), frame.placement.translation.copy(), -1, False, None))
+            self._chains[key] = steps
+        return self._chains[key]
+
+    def _fk_kernel(self, frame_id: int, base_id: int | None = None):
+        """The compiled batched FK of :meth:`_chain` (:class:`manipkit.kinematics.chain.ChainFK`, built once)."""
+        key = (frame_id, base_id)
+        kernel = self._fk_kernels.get(key)
+        if kernel is None:
+            from manipkit.kinematics.chain import ChainFK
+
+            kernel = self._fk_kernels[key] = ChainFK(self._chain(frame_id, base_id), len(self.joints))
+        return kernel
+
+
+def _build_model(text: str) -> tuple[pin.Model | None, list[str]]:
+    """Pinocchio's model of URDF text, and what its C++ URDF parser printed on stderr.
+
+    urdfdom writes its reasons (and its complaints about descriptions it
+    still accepts) straight to file descriptor 2, out of reach of Python;
+    it is redirected to a temporary file for the call, so the reasons end up
+    in manipkit's one-line error or in :attr:`Robot.warnings` instead of
+    raw on the terminal.
+    """
+    import sys
+    import tempfile
+
+    model, failure = None, None
+    try:
+        sys.stderr.flush()
+    except (AttributeError, ValueError, OSError):
+        pass
+    with tempfile.TemporaryFile(mode="w+b") as captured:
+        try:
+            saved = os.dup(2)
+        except OSError:  # no file descriptor 2: nothing to capture
+            saved = None
+        try:
+            if saved is not None:
+                os.dup2(captured.fileno(), 2)
+            try:
+                model = pin.buildModelFromXML(text)
+            except (ValueError, RuntimeError) as exc:
+                failure = " ".join(str(exc).split())
+        finally:
+            if saved is not None:
+                os.dup2(saved, 2)
+                os.close(saved)
+        captured.seek(0)
+        output = captured.read().decode("utf-8", errors="replace")
+    messages = [" ".join(line.replace("Error:", "").split()) for line in output.splitlines() if line.strip()]
+    if model is None and failure and not messages:
+        messages = [failure]
+    return model, messages
+
+
+def _joint_kind_axis(model: pin.Model, joint_id: int) -> tuple[str, np.ndarray]:
+    """(``revolute``|``prismatic``, unit axis in the joint frame) of a one-degree-of-freedom joint.
+
+    Read from the joint's motion subspace S = (linear, angular), which every
+    Pinocchio joint model provides (aligned, unaligned, bounded or not).
+    """
+    jmodel = model.joints[joint_id]
+    jdata = jmodel.createData()
+    jmodel.calc(jdata, pin.neutral(model))
+    S = np.array(jdata.S, dtype=float).ravel()
+    linear, angular = S[:3], S[3:]
+    if np.linalg.norm(angular) > 0.5:
+        return "revolute", angular / np.linalg.norm(angular)
+    return "prismatic", linear / np.linalg.norm(linear)
+
+
+def _movable_joints(model: pin.Model, robot_xml) -> tuple[Joint, ...]:
+    by_name = {j.get("name"): j for j in robot_xml.findall("joint")}
+    joints = []
+    for joint_id in range(1, model.njoints):
+        name = model.names[joint_id]
+        jmodel = model.joints[joint_id]
+        element = by_name.get(name)
+        urdf_type = element.get("type") if element is not None else "?"
+        if jmodel.nv != 1:
+            raise DescriptionError(
+                f"joint '{name}' is {urdf_type} ({jmodel.nv} degrees of freedom); manipkit handles "
+                "revolute, continuous, prismatic and fixed joints"
+            )
+        kind, axis = _joint_kind_axis(model, joint_id)
+        if jmodel.nq == 2:
+            lower, upper, urdf_type = -math.inf, math.inf, "continuous"
+        else:
+            lower = float(model.lowerPositionLimit[jmodel.idx_q])
+            upper = float(model.upperPositionLimit[jmodel.idx_q])
+            urdf_type = kind if urdf_type not in ("revolute", "prismatic") else urdf_type
+        parent = element.find("parent").get("link") if element is not None else "?"
+        child = element.find("child").get("link") if element is not None else "?"
+        joints.append(Joint(name, urdf_type, axis, lower, upper, parent, child))
+    return tuple(joints)
+
+
+def _root_link(robot_xml) -> str:
+    children = {j.find("child").get("link") for j in robot_xml.findall("joint")}
+    return next(link.get("name") for link in robot_xml.findall("link") if link.get("name") not in children)

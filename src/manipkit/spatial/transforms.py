@@ -1,0 +1,257 @@
+"""SE(3): homogeneous transforms, built, inverted, checked and compared, in one place.
+
+Conventions (docs/architecture.md): ``T_a_b`` is the pose of frame b expressed
+in frame a, a 4x4 matrix ``[[R, t], [0, 0, 0, 1]]`` with ``t`` in metres;
+``T_a_c = T_a_b @ T_b_c``. ``rpy`` is ``(roll, pitch, yaw)`` in radians with
+``R = Rz(yaw) Ry(pitch) Rx(roll)``, as in a URDF ``<origin>``; quaternions are
+``(x, y, z, w)``.
+
+Every part of manipkit that takes a transform from a user validates it with
+:func:`check_transform` (one error class, :class:`InvalidTransformError`) and
+measures residuals with :func:`pose_error`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from manipkit.errors import InvalidTransformError
+from manipkit.spatial.rotations import matrix_from_quaternion, matrix_from_rpy, rotation_angle_between, rotation_violations
+from manipkit.text import near_text
+
+__all__ = [
+    "EXACT_ROTATION_TOL",
+    "as_transforms",
+    "check_transform",
+    "invert_transform",
+    "nearest_rotation",
+    "pose_error",
+    "projected_rotation",
+    "transform_from_xyz_quaternion",
+    "transform_from_xyz_rpy",
+    "transform_violations",
+]
+
+
+# --------------------------------------------------------------------------
+# building and inverting
+
+
+def transform_from_xyz_rpy(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """A 4x4 homogeneous transform from a translation and roll-pitch-yaw angles.
+
+    Parameters
+    ----------
+    xyz : array_like, shape (3,)
+        Translation in metres.
+    rpy : array_like, shape (3,)
+        ``(roll, pitch, yaw)`` in radians, ``R = Rz(yaw) Ry(pitch) Rx(roll)`` as
+        in a URDF ``<origin>``.
+
+    Returns
+    -------
+    T : ndarray, shape (4, 4)
+
+    Examples
+    --------
+    >>> transform_from_xyz_rpy([0, 0, 0.126])[:3, 3]
+    array([0.   , 0.   , 0.126])
+    """
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_rpy(np.asarray(rpy, dtype=float))
+    T[:3, 3] = np.asarray(xyz, dtype=float)
+    return T
+
+
+def transform_from_xyz_quaternion(xyz, quaternion) -> np.ndarray:
+    """A 4x4 homogeneous transform from a translation (m) and a quaternion ``(x, y, z, w)``.
+
+    The quaternion is normalised; a zero quaternion raises
+    :class:`~manipkit.errors.InvalidRotationError`.
+
+    Examples
+    --------
+    >>> transform_from_xyz_quaternion([1, 2, 3], [0, 0, 1, 0])[:3, :3].round(12) + 0.0
+    array([[-1.,  0.,  0.],
+           [ 0., -1.,  0.],
+           [ 0.,  0.,  1.]])
+    """
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_quaternion(quaternion)
+    T[:3, 3] = np.asarray(xyz, dtype=float)
+    return T
+
+
+def invert_transform(T) -> np.ndarray:
+    """``T_b_a`` from ``T_a_b``: ``[[R^T, -R^T t], [0, 0, 0, 1]]``, for shape (..., 4, 4).
+
+    Uses the rigid structure (no general matrix inverse), so ``T`` must be a
+    homogeneous transform; check it first with :func:`check_transform` when it
+    comes from a user.
+
+    Examples
+    --------
+    >>> T = transform_from_xyz_rpy([1, 0, 0], [0, 0, np.pi / 2])
+    >>> np.allclose(invert_transform(T) @ T, np.eye(4))
+    True
+    """
+    T = np.asarray(T, dtype=float)
+    R_t = np.swapaxes(T[..., :3, :3], -1, -2)
+    inverse = np.zeros_like(T)
+    inverse[..., :3, :3] = R_t
+    inverse[..., :3, 3] = -(R_t @ T[..., :3, 3, None])[..., 0]
+    inverse[..., 3, 3] = 1.0
+    return inverse
+
+
+# --------------------------------------------------------------------------
+# validity
+
+
+def check_transform(T, *, tol: float = 1e-6, what: str = "T") -> np.ndarray:
+    """``T`` as a float (4, 4) array, or :class:`InvalidTransformError` naming the first problem.
+
+    The one validator of user-given transforms (IK targets, closed-form
+    poses, hand matrices): numeric, shape (4, 4), finite, last row
+    ``[0 0 0 1]`` and a rotation block, each within ``tol``
+    (:func:`transform_violations` lists every problem).
+
+    Examples
+    --------
+    >>> check_transform(np.eye(4)).shape
+    (4, 4)
+    >>> check_transform(np.zeros((4, 4)), what="IK target")
+    Traceback (most recent call last):
+    ...
+    manipkit.errors.InvalidTransformError: IK target: last row is [0 0 0 0], expected [0 0 0 1] (and 4 more problems)
+    """
+    problems = transform_violations(T, tol=tol)
+    if problems:
+        more = f" (and {len(problems) - 1} more problem{'s' if len(problems) > 2 else ''})" if len(problems) > 1 else ""
+        raise InvalidTransformError(f"{what}: {problems[0]}{more}")
+    return np.array(T, dtype=float)
+
+
+def transform_violations(T, *, tol: float = 1e-6) -> list[str]:
+    """Each way a matrix fails to be a 4x4 homogeneous transform, with its numbers.
+
+    Parameters
+    ----------
+    T : array_like, shape (4, 4)
+        Candidate ``[[R, t], [0, 0, 0, 1]]`` with ``R`` a rotation and ``t``
+        a translation in metres. Indices in messages are 0-based (numpy).
+    tol : float, keyword-only
+        Allowed deviation of the last row from ``[0 0 0 1]``, of the column
+        norms of ``R`` from 1, of their dot products from 0 and of
+        ``det(R)`` from +1.
+
+    Returns
+    -------
+    list of str
+        Empty when ``T`` is valid. Otherwise one line per problem, e.g.
+        ``"last row is [1 0 0 0], expected [0 0 0 1]"``,
+        ``"rotation column 0 (x axis) has norm 1.732, expected 1"``,
+        ``"rotation columns 0 and 1 are not orthogonal (dot 0.35)"``,
+        ``"det(R) = -1, expected +1 (is this a reflection?)"``,
+        ``"entry T[1, 3] is not finite (nan)"``, or a wrong shape.
+
+    Examples
+    --------
+    >>> transform_violations(np.eye(4))
+    []
+    >>> transform_violations([[1, 0, 0, 0.172], [1, 0, 0, 0], [1, 0, 0, 0], [1, 0, 0, 0]])[0]
+    'last row is [1 0 0 0], expected [0 0 0 1]'
+    """
+    try:
+        T = np.asarray(T, dtype=float)
+    except (TypeError, ValueError):
+        return [f"entries are not all numbers: {T!r:.80}"]
+    if T.shape != (4, 4):
+        return [f"shape is {T.shape}, expected (4, 4)"]
+    finite = np.isfinite(T)
+    problems = [f"entry T[{i}, {j}] is not finite ({T[i, j]})" for i, j in zip(*np.nonzero(~finite))]
+    if finite[3].all() and np.max(np.abs(T[3] - [0.0, 0.0, 0.0, 1.0])) > tol:
+        last_row = "[" + " ".join(near_text(v, e) for v, e in zip(T[3], (0.0, 0.0, 0.0, 1.0))) + "]"
+        problems.append(f"last row is {last_row}, expected [0 0 0 1]")
+    if finite[:3, :3].all():
+        for problem in rotation_violations(T[:3, :3], tol=tol):
+            problems.append(problem if problem.startswith("det") else f"rotation {problem}")
+    return problems
+
+
+# --------------------------------------------------------------------------
+# distance between poses
+
+
+def nearest_rotation(M: np.ndarray) -> np.ndarray:
+    """The rotation nearest to M in the Frobenius norm (SVD, det forced to +1)."""
+    U, _, Vt = np.linalg.svd(M)
+    D = np.ones(M.shape[:-1])
+    D[..., 2] = np.sign(np.linalg.det(U @ Vt))
+    D[..., 2] = np.where(D[..., 2] == 0.0, 1.0, D[..., 2])
+    return (U * D[..., None, :]) @ Vt
+
+
+def as_transforms(T, what: str) -> np.ndarray:
+    try:
+        T = np.asarray(T, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidTransformError(f"{what} must be numeric, got {T!r:.80}") from None
+    if T.ndim < 2 or T.shape[-2:] != (4, 4):
+        raise InvalidTransformError(f"{what} must have shape (..., 4, 4), got {T.shape}")
+    return T
+
+
+def pose_error(T_ref, T):
+    """Distance between two poses: translation in metres, rotation in radians.
+
+    Parameters
+    ----------
+    T_ref, T : array_like, shape (..., 4, 4)
+        Homogeneous transforms ``[[R, t], [0, 0, 0, 1]]``, ``t`` in metres;
+        leading dimensions broadcast. The last rows are ignored.
+
+    Returns
+    -------
+    position_error : float or ndarray, shape (...)
+        ``|t - t_ref|`` in metres.
+    rotation_error : float or ndarray, shape (...)
+        Geodesic angle between the rotation blocks in radians, in [0, pi]
+        (:func:`manipkit.spatial.rotations.rotation_angle_between`). A block that is
+        not a rotation (orthonormal with det +1 to 1e-12) is first projected
+        to its nearest rotation by SVD, so a slightly scaled, sheared or
+        rounded block still gives a meaningful angle; ``nan`` if an entry is
+        not finite. Use :func:`transform_violations` to learn whether a
+        projection was needed.
+
+    Examples
+    --------
+    >>> from manipkit.spatial.rotations import rot_z
+    >>> T = np.eye(4); T[:3, :3] = rot_z(0.5); T[:3, 3] = [0.3, 0.4, 0.0]
+    >>> tuple(round(float(e), 12) for e in pose_error(np.eye(4), T))
+    (0.5, 0.5)
+    """
+    T_ref, T = as_transforms(T_ref, "T_ref"), as_transforms(T, "T")
+    position = np.linalg.norm(T[..., :3, 3] - T_ref[..., :3, 3], axis=-1)
+    blocks = [projected_rotation(M[..., :3, :3]) for M in (T_ref, T)]
+    finite = np.all(np.isfinite(blocks[0]), axis=(-2, -1)) & np.all(np.isfinite(blocks[1]), axis=(-2, -1))
+    with np.errstate(invalid="ignore"):
+        rotation = np.where(finite, rotation_angle_between(*blocks, check=False), np.nan)
+    return position[()], rotation[()]
+
+
+# a block closer than this to orthonormal (with det > 0) is used as is, not projected
+EXACT_ROTATION_TOL = 1e-12
+
+
+def projected_rotation(M: np.ndarray) -> np.ndarray:
+    finite = np.all(np.isfinite(M), axis=(-2, -1))
+    clean = np.where(finite[..., None, None], M, 0.0)
+    deviation = np.max(np.abs(np.swapaxes(clean, -1, -2) @ clean - np.eye(3)), axis=(-2, -1))
+    is_rotation = (deviation <= EXACT_ROTATION_TOL) & (np.linalg.det(clean) > 0.0)
+    if np.all(is_rotation | ~finite):
+        return M
+    projected = nearest_rotation(clean)
+    return np.where(finite[..., None, None], np.where(is_rotation[..., None, None], M, projected), np.nan)
+
+

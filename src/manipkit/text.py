@@ -1,0 +1,94 @@
+"""Numbers as text, in one place: for printed answers and for error messages.
+
+Every layer formats numbers through these functions (docs/architecture.md,
+"Shared helpers"), so a value reads the same in a pose printout, a DH table
+and a message. None of them prints ``-0``.
+
+- :func:`number_text`: a fixed number of decimals (printed answers: poses, joint values).
+- :func:`short_text`: up to ``digits`` significant digits (messages, tables).
+- :func:`trimmed_text`: fixed decimals with trailing zeros dropped (link trees).
+- :func:`near_text`: enough digits to show how a value differs from an expected one.
+- :func:`vector_text`: ``[a b c]`` with any of the above.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Iterable
+
+__all__ = ["near_text", "number_text", "short_text", "trimmed_text", "vector_text"]
+
+
+def _no_negative_zero(text: str) -> str:
+    if text.startswith("-") and float(text) == 0.0:
+        return text[1:]
+    return text
+
+
+def number_text(value: float, precision: int = 6) -> str:
+    """``value`` with ``precision`` decimals, without the sign of a value that rounds to zero.
+
+    Examples
+    --------
+    >>> number_text(-1e-9), number_text(0.5, 3)
+    ('0.000000', '0.500')
+    """
+    return _no_negative_zero(f"{value:.{precision}f}")
+
+
+def short_text(value: float, digits: int = 6, *, zero: float = 0.0) -> str:
+    """Up to ``digits`` significant digits (``%g``); a value with ``|value| <= zero`` prints as ``0``.
+
+    ``zero`` drops rounding noise (for example ``1e-12`` after a numerical
+    derivation); with the default 0 only an exact or negative zero is ``0``.
+
+    Examples
+    --------
+    >>> short_text(0.1234567), short_text(-0.0), short_text(2.8e-10, zero=1e-9), short_text(1e-300)
+    ('0.123457', '0', '0', '1e-300')
+    """
+    value = float(value)
+    if math.isfinite(value) and abs(value) <= zero:
+        return "0"
+    return _no_negative_zero(f"{value:.{digits}g}")
+
+
+def trimmed_text(value: float, decimals: int = 6) -> str:
+    """``decimals`` decimals with trailing zeros (and a bare point) dropped.
+
+    Examples
+    --------
+    >>> trimmed_text(0.089159), trimmed_text(1.0), trimmed_text(-1e-12)
+    ('0.089159', '1', '0')
+    """
+    text = f"{round(float(value), decimals) + 0.0:.{decimals}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+def near_text(value: float, expected: float | None = None) -> str:
+    """``value`` with enough significant digits (4 to 15) to show how it differs from ``expected``.
+
+    Examples
+    --------
+    >>> near_text(1.0000004, 1.0), near_text(0.35)
+    ('1.0000004', '0.35')
+    """
+    value = float(value)
+    if not math.isfinite(value):
+        return str(value)
+    digits = 4
+    if expected is not None and value != expected:
+        gap = abs(value - expected)
+        digits = int(min(max(math.ceil(-math.log10(gap / max(abs(expected), 1.0))) + 2, 4), 15))
+    return _no_negative_zero(f"{value:.{digits}g}")
+
+
+def vector_text(values: Iterable[float], number: Callable[[float], str] = short_text) -> str:
+    """``[a b c]``, each entry formatted by ``number``.
+
+    Examples
+    --------
+    >>> vector_text([0, 0.5, -1e-20]), vector_text([0.1, 0.2], lambda v: number_text(v, 2))
+    ('[0 0.5 -1e-20]', '[0.10 0.20]')
+    """
+    return "[" + " ".join(number(float(v)) for v in values) + "]"

@@ -1,0 +1,543 @@
+"""manipkit.app.viewer without a browser: state -> readout and scene, visual geometry, servers, --static, notebooks.
+
+Independent sources: the readout and the scene placements against the
+course arm's joint table composed by hand (tests/reference.py) and hand
+values, the readout also against the ``tf-between`` command run as a
+subprocess; the static export decoded back from meshcat's msgpack commands.
+The browser half is in test_viewer_browser.py.
+"""
+
+import base64
+import html
+import http.client
+import json
+import math
+import re
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.errors import JointValueError, ManipkitError, PackageNotFoundError, UnknownFrameError
+from manipkit.app.pose import pose_text
+from manipkit.app.viewer import TRIAD_PATHS, VISUALS_ROOT, ViewerServer, ViewerState, open_view, visual_model, write_static
+from reference import (
+    COURSE_ARM_JOINTS as COURSE_ARM_TABLE, POSE_A, compose_chain, course_arm_T_base_ee, course_arm_T_base_top_wrist,
+    matrix_from_axis_angle, matrix_from_rpy, rot_z, urdf_origin,
+)
+
+BIN = Path(sys.executable).parent
+COURSE_ARM_JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+
+
+@pytest.fixture(scope="module")
+def robots():
+    return {name: manipkit.load(name) for name in ("course_arm", "iiwa14", "stanford_arm", "panda", "ur5")}
+
+
+def random_q(robot, seed=0):
+    return robot.sample_q(1, seed=seed)[0]
+
+
+def tf_between(source, target, q: dict, *options, robot="course_arm") -> str:
+    args = [f"{name}={value!r}" for name, value in q.items()]
+    result = subprocess.run([str(BIN / "tf-between"), source, target, "--robot", robot, "--q", *args, *options],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def tf_between_json(source, target, q: dict, robot="course_arm") -> dict:
+    return json.loads(tf_between(source, target, q, "--format", "json", robot=robot))
+
+
+def course_arm_T_base(link: str, q) -> np.ndarray:
+    """T_base_link_<link> of the course arm from its joint table (tests/reference.py), q in joint order."""
+    if link == "ee_link":
+        return course_arm_T_base_ee(q)
+    chain = ("base_link", "arm_base", "bicep", "bottom_wrist", "elbow", "top_wrist").index(link)
+    return compose_chain(COURSE_ARM_TABLE[:chain], q[:chain])
+
+
+def listening_socket():
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    sock.listen()
+    return sock
+
+
+# ----------------------------------------------------------------------
+# ViewerState: joint values
+# ----------------------------------------------------------------------
+
+
+def test_set_joint_clamps_into_the_limits(robots):
+    robot = robots["iiwa14"]
+    state = ViewerState(robot)
+    joint = robot.joints[1]
+    assert state.set_joint(joint.name, joint.upper + 0.5) == joint.upper
+    assert state.q[1] == joint.upper
+    assert state.set_joint(joint.name, -100) == joint.lower
+    assert state.set_joint(joint.name, 0.25) == 0.25
+
+
+def test_start_pose_outside_the_limits_is_clamped_and_defaults_are_inside(robots):
+    robot = robots["stanford_arm"]  # joint3 is prismatic with limits [0.1, 1]
+    assert ViewerState(robot).q[2] == 0.1
+    assert ViewerState(robot, q=robot.q(joint3=5.0)).q[2] == 1.0
+
+
+def test_continuous_joint_wraps_into_minus_pi_pi_and_keeps_the_pose(robots):
+    robot = robots["course_arm"]  # every joint of the course arm is continuous
+    state = ViewerState(robot)
+    used = state.set_joint("shoulder_joint", 4.0)
+    assert used == pytest.approx(4.0 - 2 * math.pi, abs=1e-15)
+    assert state.set_joint("elbow_joint", math.pi) == math.pi  # the upper end of (-pi, pi] stays
+    q_given = robot.q(shoulder_joint=4.0, elbow_joint=math.pi)
+    assert np.abs(robot.transform("base_link", "ee_link", state.q) - robot.transform("base_link", "ee_link", q_given)).max() < 1e-12
+
+
+@pytest.mark.parametrize("given", [-3 * math.pi, 3 * math.pi, -math.pi, -5 * math.pi])
+def test_continuous_joint_wraps_odd_multiples_of_pi_to_plus_pi(robots, given):
+    robot = robots["course_arm"]
+    assert ViewerState(robot).set_joint("shoulder_joint", given) == math.pi  # (-pi, pi], as DESIGN.md wraps angles
+    assert ViewerState(robot, q=robot.q(elbow_joint=given)).q[3] == math.pi  # the start pose too
+
+
+def test_set_joint_rejects_unknown_joints_and_non_numbers(robots):
+    state = ViewerState(robots["course_arm"])
+    with pytest.raises(JointValueError, match="has no joint 'shoulder'; did you mean shoulder_joint.*joints: arm_base_joint"):
+        state.set_joint("shoulder", 0.1)
+    with pytest.raises(JointValueError, match="'abc' is not a number"):
+        state.set_joint("shoulder_joint", "abc")
+    with pytest.raises(JointValueError, match="not finite"):
+        state.set_joint("shoulder_joint", float("nan"))
+    assert list(state.q) == [0.0] * 5
+
+
+def test_set_joints_checks_every_value_before_setting_any(robots):
+    state = ViewerState(robots["course_arm"])
+    with pytest.raises(JointValueError):
+        state.set_joints({"shoulder_joint": 0.3, "nope": 1.0})
+    assert state.q[1] == 0.0
+
+
+def test_reset_returns_to_the_start_pose(robots):
+    robot = robots["course_arm"]
+    state = ViewerState(robot, q=robot.q(elbow_joint=0.4))
+    state.set_joint("elbow_joint", -1.0)
+    state.set_joint("shoulder_joint", 1.0)
+    state.reset()
+    assert list(state.q) == list(robot.q(elbow_joint=0.4))
+
+
+def test_sliders_span_the_limits_and_continuous_joints_span_minus_pi_pi(robots):
+    iiwa = robots["iiwa14"]
+    specs = ViewerState(iiwa, q=iiwa.q(iiwa_joint_2=0.5)).sliders()
+    assert [s.name for s in specs] == list(iiwa.joint_names)
+    assert [(s.lower, s.upper) for s in specs] == [(j.lower, j.upper) for j in iiwa.joints]
+    assert specs[1].value == 0.5 and specs[1].unit == "rad" and specs[1].type == "revolute"
+    assert specs[0].step == pytest.approx((specs[0].upper - specs[0].lower) / 1000)
+    course = ViewerState(robots["course_arm"]).sliders()
+    # continuous joints: (-pi, pi] in 1000 steps, the left end one step above -pi (which wraps to +pi)
+    assert {(s.type, s.lower, s.upper) for s in course} == {("continuous", -math.pi + 2 * math.pi / 1000, math.pi)}
+    assert all(s.step == pytest.approx(2 * math.pi / 1000) for s in course)
+    prismatic = ViewerState(robots["stanford_arm"]).sliders()[2]
+    assert (prismatic.type, prismatic.unit, prismatic.lower, prismatic.upper) == ("prismatic", "m", 0.1, 1.0)
+
+
+# ----------------------------------------------------------------------
+# ViewerState: frames and readout
+# ----------------------------------------------------------------------
+
+
+def test_readout_is_the_pose_of_the_course_arm_joint_table(robots):
+    robot = robots["course_arm"]
+    q = random_q(robot, seed=4)
+    shown = ViewerState(robot, frames=("bicep", "ee_link"), q=q).readout()
+    assert list(shown) == ["source", "target", "robot", "q", "translation", "quaternion_xyzw", "rpy", "matrix"]
+    assert (shown["source"], shown["target"], shown["robot"]) == ("bicep", "ee_link", "course_arm")
+    assert shown["q"] == dict(zip(robot.joint_names, q))
+    # the joint table composed by hand (tests/reference.py): T_bicep_ee = inv(T_base_bicep) T_base_ee
+    by_hand = np.linalg.inv(course_arm_T_base("bicep", q)) @ course_arm_T_base_ee(q)
+    assert np.abs(np.array(shown["matrix"]) - by_hand).max() < 1e-12
+    assert np.abs(np.array(shown["translation"]) - by_hand[:3, 3]).max() < 1e-12
+    assert np.abs(matrix_from_rpy(*shown["rpy"]) - by_hand[:3, :3]).max() < 1e-12  # R = Rz(yaw) Ry(pitch) Rx(roll)
+    x, y, z, w = shown["quaternion_xyzw"]  # (x, y, z, w) = (sin(angle/2) axis, cos(angle/2))
+    axis = np.array([x, y, z]) / np.linalg.norm([x, y, z])
+    angle = 2 * math.atan2(np.linalg.norm([x, y, z]), w)
+    assert np.abs(matrix_from_axis_angle(axis, angle) - by_hand[:3, :3]).max() < 1e-12
+
+
+def test_readout_equals_the_tf_between_json(robots):
+    robot = robots["course_arm"]
+    state = ViewerState(robot, frames=("base_link", "top_wrist"))
+    for name, value in zip(COURSE_ARM_JOINTS, (0.3, -1.2, 0.7, 2.0, -0.4)):
+        state.set_joint(name, value)
+    shown = json.loads(state.snapshot()["readout_json"])
+    assert shown == tf_between_json("base_link", "top_wrist", shown["q"])
+    # and the number itself, against the course arm's joint table composed by hand (tests/reference.py)
+    by_hand = course_arm_T_base_top_wrist([shown["q"][name] for name in COURSE_ARM_JOINTS])
+    assert np.abs(np.array(shown["matrix"]) - by_hand).max() < 1e-12
+
+
+def test_readout_text_is_the_pose_text_of_tf_between(robots):
+    robot = robots["course_arm"]
+    state = ViewerState(robot, q=robot.q(shoulder_joint=0.5))
+    text = state.snapshot()["readout_text"]
+    assert text.splitlines()[0] == "pose of ee_link expressed in base_link (T_base_link_ee_link, as tf2_echo base_link ee_link):"
+    # the command prints its robot and joint lines, then the same pose lines
+    assert tf_between("base_link", "ee_link", {"shoulder_joint": 0.5}).endswith("\n" + text + "\n")
+    # and the numbers are the pose of the joint table composed by hand
+    by_hand = course_arm_T_base_ee((0.0, 0.5, 0.0, 0.0, 0.0))
+    translation = re.search(r"Translation \(m\): \[(.*)\]", text).group(1)
+    assert np.allclose([float(v) for v in translation.split(",")], by_hand[:3, 3], atol=5e-7)
+    matrix = [[float(v) for v in line.split()] for line in text.splitlines()[-4:]]
+    assert np.allclose(matrix, by_hand, atol=5e-7)
+
+
+def test_set_frames_rejects_unknown_frames_and_keeps_the_old_ones(robots):
+    state = ViewerState(robots["course_arm"])
+    with pytest.raises(UnknownFrameError, match="no frame 'elbw'; did you mean elbow"):
+        state.set_frames("base_link", "elbw")
+    assert state.frames == ("base_link", "ee_link")
+    with pytest.raises(UnknownFrameError):
+        ViewerState(robots["course_arm"], frames=("nowhere", "ee_link"))
+
+
+def test_frame_choices_are_the_links_plus_the_aliases(robots):
+    assert ViewerState(robots["course_arm"]).frame_choices() == robots["course_arm"].frame_names
+    panda = ViewerState(robots["panda"]).frame_choices()  # panda has no link called base_link or ee_link
+    assert panda == robots["panda"].frame_names + ("base_link", "ee_link")
+
+
+# ----------------------------------------------------------------------
+# ViewerState: scene placements
+# ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("q", [(0.0,) * 5, POSE_A, (0.3, -1.2, 0.7, 2.0, -0.4)])
+def test_geometry_placements_are_the_course_arm_visuals_on_its_joint_table(robots, q):
+    robot = robots["course_arm"]
+    placements = ViewerState(robot, q=q).geometry_placements(visual_model(robot))
+    assert len(placements) == 7
+    # <visual><origin> of each link in robots/course_arm.xacro, on the link's pose composed by hand
+    expected = {
+        "bicep_0": course_arm_T_base("bicep", q) @ urdf_origin((0.0, -0.026, 0.1345), (0.0, -1.5708, 0.0)),
+        "top_wrist_0": course_arm_T_base_top_wrist(q) @ urdf_origin((0.0, 0.0, 0.13522 / 2), (3.14, 0.0, 1.5708)),
+        "ee_link_0": course_arm_T_base_ee(q),
+    }
+    for name, T in expected.items():
+        assert np.abs(placements[f"{VISUALS_ROOT}/{name}"] - T).max() < 1e-12, name
+
+
+def test_geometry_placements_scale_the_mesh(tmp_path):
+    (tmp_path / "arm.stl").write_text(STL)
+    robot = manipkit.load(one_mesh_urdf(tmp_path, "arm.stl", scale="2 3 4", origin="0.1 0 0.2"))
+    placements = ViewerState(robot, q=robot.q(joint1=0.5)).geometry_placements(visual_model(robot))
+    # T_base_arm = Rz(0.5) (joint1 about z at the origin), then the visual's offset, then diag(2, 3, 4) on the columns
+    T_base_arm = np.eye(4)
+    T_base_arm[:3, :3] = rot_z(0.5)
+    expected = T_base_arm @ urdf_origin((0.1, 0.0, 0.2), (0.0, 0.0, 0.0)) @ np.diag([2.0, 3.0, 4.0, 1.0])
+    assert list(placements) == [f"{VISUALS_ROOT}/arm_0"]
+    assert np.abs(placements[f"{VISUALS_ROOT}/arm_0"] - expected).max() < 1e-12
+
+
+def test_geometry_placements_move_with_their_links(robots):
+    """Each visual keeps a constant pose in its link (robot.transform of the parent frame) whatever q is."""
+    robot = robots["panda"]
+    visual = visual_model(robot)
+    offsets = []
+    for seed in (1, 2):
+        q = random_q(robot, seed)
+        placements = ViewerState(robot, q=q).geometry_placements(visual)
+        offsets.append({
+            g.name: np.linalg.inv(robot.transform(robot.root_link, robot.model.frames[g.parentFrame].name, q))
+            @ placements[f"{VISUALS_ROOT}/{g.name}"]
+            for g in visual.geometryObjects
+        })
+    for name in offsets[0]:
+        assert np.abs(offsets[0][name] - offsets[1][name]).max() < 1e-12
+
+
+def test_triads_sit_at_frames_a_and_b(robots):
+    robot = robots["course_arm"]  # its root link is base_link
+    q = random_q(robot, 5)
+    state = ViewerState(robot, frames=("bicep", "ee_link"), q=q)
+    triads = state.frame_placements()
+    assert list(triads) == list(TRIAD_PATHS)
+    assert np.abs(triads["manipkit/frame_a"] - course_arm_T_base("bicep", q)).max() < 1e-12
+    assert np.abs(triads["manipkit/frame_b"] - course_arm_T_base_ee(q)).max() < 1e-12
+    T_a_b = np.linalg.inv(triads["manipkit/frame_a"]) @ triads["manipkit/frame_b"]
+    assert np.abs(T_a_b - np.array(state.readout()["matrix"])).max() < 1e-12
+
+
+def test_bounds_are_the_box_around_the_frame_origins(robots):
+    robot = robots["course_arm"]
+    # at q = 0 the arm stands straight up: bicep at x = -0.05166 (its joint's origin), the joints above it
+    # at x = -0.05166 + 0.05194 = 0.00028, ee_link at z = 0.1 + 0.20271 + 0.269 + 0.13522 + 0.20994 + 0.13522 = 1.05209
+    lower, upper = ViewerState(robot).bounds()
+    assert np.allclose(lower, [-0.05166, 0.0, 0.0], atol=1e-6) and np.allclose(upper, [0.00028, 0.0, 1.05209], atol=1e-6)
+    q = random_q(robot, 2)
+    origins = np.array([course_arm_T_base(link, q)[:3, 3] for link in robot.frame_names])
+    lower, upper = ViewerState(robot, q=q).bounds()
+    assert np.abs(lower - origins.min(axis=0)).max() < 1e-12 and np.abs(upper - origins.max(axis=0)).max() < 1e-12
+
+
+# ----------------------------------------------------------------------
+# Visual geometry and package:// meshes
+# ----------------------------------------------------------------------
+
+STL = """solid tetra
+facet normal 0 0 -1
+outer loop
+vertex 0 0 0
+vertex 0.1 0 0
+vertex 0 0.1 0
+endloop
+endfacet
+facet normal 0 -1 0
+outer loop
+vertex 0 0 0
+vertex 0 0 0.1
+vertex 0.1 0 0
+endloop
+endfacet
+endsolid tetra
+"""
+
+
+def one_mesh_urdf(folder: Path, filename: str, *, scale: str = "1 1 1", origin: str = "0 0 0") -> Path:
+    path = folder / "arm.urdf"
+    path.write_text(f"""<?xml version="1.0"?>
+<robot name="mesh_arm">
+  <link name="base_link"/>
+  <link name="arm">
+    <visual><origin xyz="{origin}"/><geometry><mesh filename="{filename}" scale="{scale}"/></geometry></visual>
+  </link>
+  <joint name="joint1" type="revolute">
+    <parent link="base_link"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+""")
+    return path
+
+
+def test_example_robot_data_meshes_resolve_to_files(robots):
+    for geometry in visual_model(robots["panda"]).geometryObjects:
+        assert Path(geometry.meshPath).is_absolute() and Path(geometry.meshPath).is_file(), geometry.meshPath
+
+
+def test_unresolved_package_mesh_names_the_uri_and_the_places_searched(tmp_path):
+    robot = manipkit.load(one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl"))
+    with pytest.raises(PackageNotFoundError) as error:
+        visual_model(robot)
+    message = str(error.value)
+    assert "link 'arm': mesh package://no_such_pkg/meshes/arm.stl cannot be resolved" in message
+    assert "package 'no_such_pkg' not found; searched" in message and str(tmp_path) in message
+    assert "--package-dir no_such_pkg=DIR" in message and "\n" not in message
+
+
+def test_mesh_missing_from_a_found_package_says_where_it_looked(tmp_path):
+    (tmp_path / "my_pkg").mkdir()
+    robot = manipkit.load(one_mesh_urdf(tmp_path, "package://my_pkg/meshes/arm.stl"),
+                          package_dirs={"my_pkg": tmp_path / "my_pkg"})
+    with pytest.raises(PackageNotFoundError, match=r"resolves to .*my_pkg/meshes/arm.stl, which does not exist"):
+        visual_model(robot)
+
+
+@pytest.mark.parametrize("how", ["package", "relative"])
+def test_package_and_relative_meshes_load(tmp_path, how):
+    (tmp_path / "my_pkg" / "meshes").mkdir(parents=True)
+    mesh = tmp_path / "my_pkg" / "meshes" / "arm.stl"
+    mesh.write_text(STL)
+    uri = "package://my_pkg/meshes/arm.stl" if how == "package" else "my_pkg/meshes/arm.stl"
+    robot = manipkit.load(one_mesh_urdf(tmp_path, uri), package_dirs={"my_pkg": tmp_path / "my_pkg"})
+    visual = visual_model(robot)
+    assert [Path(g.meshPath) for g in visual.geometryObjects] == [mesh.resolve()]
+
+
+def test_view_with_an_unresolved_mesh_exits_2_with_one_line(tmp_path):
+    path = one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl")
+    result = subprocess.run([str(BIN / "manipkit"), "view", "--robot", str(path), "--static", str(tmp_path / "x.html")],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "package://no_such_pkg/meshes/arm.stl" in result.stderr
+    assert "Traceback" not in result.stderr and not (tmp_path / "x.html").exists()
+
+
+# ----------------------------------------------------------------------
+# Servers
+# ----------------------------------------------------------------------
+
+
+def test_port_in_use_is_a_clear_error():
+    with listening_socket() as busy:
+        port = busy.getsockname()[1]
+        with pytest.raises(ManipkitError, match=f"^port {port} is in use; choose another with --port"):
+            ViewerServer(port)
+
+
+def test_view_on_a_busy_port_exits_2_before_starting_meshcat():
+    with listening_socket() as busy:
+        port = busy.getsockname()[1]
+        result = subprocess.run([str(BIN / "manipkit"), "view", "--no-browser", "--port", str(port)],
+                                capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr == f"manipkit: error: port {port} is in use; choose another with --port P (or stop the program using it)\n"
+    assert "meshcat" not in result.stdout
+
+
+@pytest.fixture(scope="module")
+def view(robots):
+    server = open_view(robots["course_arm"], port=0)
+    yield server
+    server.close()
+
+
+def request(server, method, path, body=None):
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=10)
+    connection.request(method, path, body=None if body is None else json.dumps(body),
+                       headers={"Content-Type": "application/json"})
+    response = connection.getresponse()
+    payload = response.read()
+    connection.close()
+    return response.status, payload
+
+
+def test_control_page_is_self_contained(view):
+    status, page = request(view, "GET", "/")
+    html = page.decode()
+    assert status == 200
+    for marker in ('id="readout-json"', 'id="frame-a"', 'id="frame-b"', 'id="reset"', 'iframe id="scene"',
+                   "window.manipkitTimings", '"shoulder_joint"', view.scene_url):
+        assert marker in html, marker
+    assert not re.search(r"<(script|link|img)[^>]+(src|href)=", html), "the page must load nothing else (offline)"
+
+
+def test_update_answers_the_readout_and_draws_the_scene(view, robots):
+    robot = robots["course_arm"]
+    status, payload = request(view, "POST", "/api/update", {"q": {"shoulder_joint": 0.6, "elbow_joint": -0.3}})
+    answer = json.loads(payload)
+    assert status == 200
+    q = robot.q(shoulder_joint=0.6, elbow_joint=-0.3)
+    assert answer["q"] == robot.as_dict(q)
+    assert np.array_equal(answer["readout"]["matrix"], robot.transform("base_link", "ee_link", q))
+    assert json.loads(answer["readout_json"]) == answer["readout"]
+    assert answer["readout_text"] == pose_text(answer["readout"])
+    assert view.wait_for_scene()
+    expected = ViewerState(robot, q=q).scene_placements(view.visual)
+    for path, T in expected.items():
+        assert np.array_equal(view.scene.drawn[path], T), path
+
+    status, payload = request(view, "POST", "/api/update", {"frames": ["bicep", "top_wrist"], "reset": True})
+    answer = json.loads(payload)
+    assert status == 200 and answer["frames"] == ["bicep", "top_wrist"] and set(answer["q"].values()) == {0.0}
+    assert view.wait_for_scene()
+    assert np.array_equal(view.scene.drawn["manipkit/frame_a"], robot.transform("base_link", "bicep"))
+
+
+def test_update_with_a_bad_joint_answers_400_and_the_unchanged_state(view):
+    status, payload = request(view, "POST", "/api/update", {"q": {"shoulder": 1.0}})
+    answer = json.loads(payload)
+    assert status == 400 and "has no joint 'shoulder'" in answer["error"]
+    assert answer["q"] == view.state.readout()["q"]
+    status, payload = request(view, "POST", "/api/update", b"not json".decode())
+    assert status == 400
+
+
+def test_close_stops_the_meshcat_server_and_frees_the_port(robots):
+    server = open_view(robots["course_arm"], port=0)
+    port, process = server.port, server.scene._proc
+    server.close()
+    assert process.poll() is not None
+    ViewerServer(port).close()  # the port can be bound again
+
+
+def test_importing_the_cli_does_not_import_meshcat():
+    code = "import sys, manipkit.app.cli; print(sorted(m for m in ('meshcat', 'pinocchio.visualize', 'manipkit.app.viewer') if m in sys.modules))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert result.stdout.strip() == "[]"
+
+
+# ----------------------------------------------------------------------
+# --static
+# ----------------------------------------------------------------------
+
+
+def meshcat_commands(html: str) -> list[dict]:
+    import umsgpack
+
+    blobs = re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+    return [umsgpack.unpackb(base64.b64decode(blob)) for blob in blobs]
+
+
+def test_static_html_holds_the_scene_at_the_pose(robots, tmp_path):
+    robot = robots["course_arm"]
+    q = robot.q(shoulder_joint=0.6, top_wrist_joint=1.1)
+    path = write_static(robot, tmp_path / "pose.html", frames=("bicep", "ee_link"), q=q)
+    html = path.read_text()
+    assert "MeshCat.Viewer" in html
+    commands = meshcat_commands(html)
+    objects = {c["path"] for c in commands if c["type"] == "set_object"}
+    transforms = {c["path"]: np.array(c["matrix"]).reshape(4, 4).T for c in commands if c["type"] == "set_transform"}
+    expected = ViewerState(robot, frames=("bicep", "ee_link"), q=q).scene_placements(visual_model(robot))
+    assert len(expected) == 7 + 2
+    for scene_path, T in expected.items():
+        assert np.abs(transforms[f"/meshcat/{scene_path}"] - T).max() < 1e-12, scene_path
+    for geometry in visual_model(robot).geometryObjects:
+        assert f"/meshcat/{VISUALS_ROOT}/{geometry.name}" in objects
+
+
+def test_cli_static_prints_the_path(tmp_path):
+    out = tmp_path / "snap.html"
+    result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(out), "--q", "shoulder_joint=0.3"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith(f"wrote {out} (") and out.stat().st_size > 100_000
+
+
+# ----------------------------------------------------------------------
+# Jupyter
+# ----------------------------------------------------------------------
+
+
+@pytest.fixture()
+def notebook(robots):
+    pytest.importorskip("ipywidgets")
+    from manipkit.app.viewer import notebook_view
+
+    view = notebook_view(robots["course_arm"])
+    yield view
+    view.close()
+
+
+def test_notebook_sliders_drive_the_state_the_scene_and_the_readout(notebook, robots):
+    robot = robots["course_arm"]
+    assert list(notebook.sliders) == list(COURSE_ARM_JOINTS)
+    elbow = notebook.sliders["elbow_joint"]  # continuous: (-pi, pi], the left end one step above -pi
+    assert (elbow.min, elbow.max) == (pytest.approx(-math.pi + 2 * math.pi / 1000), math.pi)
+    notebook.sliders["elbow_joint"].value = 0.8
+    q = robot.q(elbow_joint=0.8)
+    assert list(notebook.state.q) == list(q)
+    assert np.array_equal(notebook.scene.drawn["manipkit/frame_b"], robot.transform("base_link", "ee_link", q))
+    assert html.escape(pose_text(notebook.state.readout())) in notebook.readout.value
+    notebook.frame_a.value = "bicep"
+    assert notebook.state.frames == ("bicep", "ee_link")
+    assert "T_bicep_ee_link" in notebook.readout.value
+    notebook.reset_button.click()
+    assert notebook.sliders["elbow_joint"].value == 0.0 and list(notebook.state.q) == [0.0] * 5
+    assert notebook.scene.url in notebook.scene_widget.value
+
+
+def test_notebook_view_without_ipywidgets_says_how_to_install_it(robots, monkeypatch):
+    from manipkit.app.viewer import notebook_view
+
+    monkeypatch.setitem(sys.modules, "ipywidgets", None)  # import ipywidgets -> ImportError
+    with pytest.raises(ManipkitError, match="pip install ipywidgets"):
+        notebook_view(robots["course_arm"])

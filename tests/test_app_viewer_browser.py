@@ -1,0 +1,369 @@
+"""`manipkit view` end to end in a real headless Chromium.
+
+Debian's /usr/bin/chromium is driven by Playwright (Python); nothing here
+downloads a browser. The viewer runs as the user runs it, a subprocess of the
+installed `manipkit` entry point, and every number the page shows is checked
+against `tf-between ... --format json`, run as a second subprocess.
+
+Screenshots go to tests/artifacts/ (git-ignored): viewer_control.png (the
+control page), viewer_scene.png (the meshcat scene after a slider move),
+static_<robot>.png (the --static export); viewer_round_trip.json holds the
+measured slider-to-readout round trips.
+"""
+
+import json
+import queue
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = Path("/usr/bin/chromium")
+BIN = Path(sys.executable).parent
+ARTIFACTS = Path(__file__).parent / "artifacts"
+# Headless Chromium on a machine without a GPU: software WebGL (SwiftShader) so meshcat's canvas renders.
+CHROMIUM_ARGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync", "--no-first-run",
+    "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+]
+COURSE_ARM_JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+COURSE_ARM_FRAMES = ("base_link", "arm_base", "bicep", "bottom_wrist", "elbow", "top_wrist", "ee_link")
+
+
+# ----------------------------------------------------------------------
+# Fixtures: the browser, the viewer process
+# ----------------------------------------------------------------------
+
+
+MISSING_CHROMIUM = (f"{CHROMIUM} is missing: the viewer tests need Debian's chromium; `make test` installs it "
+                    "(apt-get install chromium chromium-driver)")
+
+
+def test_debian_chromium_is_installed():
+    assert CHROMIUM.is_file(), MISSING_CHROMIUM
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    """A headless Chromium context with a fresh profile; requests off this machine are refused and recorded."""
+    if not CHROMIUM.is_file():
+        pytest.fail(MISSING_CHROMIUM)
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.fail("the Python package playwright is missing; `make test` installs it with the dev extras")
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as playwright:
+        context = playwright.chromium.launch_persistent_context(
+            str(tmp_path_factory.mktemp("chromium-profile")), executable_path=str(CHROMIUM), headless=True,
+            args=CHROMIUM_ARGS, viewport={"width": 1280, "height": 800},
+        )
+        context.external_requests = []
+
+        def offline_only(route):
+            url = route.request.url
+            if url.startswith(("http://127.0.0.1", "ws://127.0.0.1", "file://", "data:", "blob:")):
+                route.continue_()
+            else:
+                context.external_requests.append(url)
+                route.abort()
+
+        context.route("**/*", offline_only)
+        yield context
+        context.close()
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def start_viewer(*args, timeout=60):
+    """Start `manipkit view --no-browser ...`; returns (process, control URL, meshcat URL)."""
+    proc = subprocess.Popen([str(BIN / "manipkit"), "view", "--no-browser", *map(str, args)],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines = queue.Queue()
+
+    def read_stdout():
+        for line in proc.stdout:
+            lines.put(line)
+
+    threading.Thread(target=read_stdout, daemon=True).start()
+    urls, deadline = {}, time.monotonic() + timeout
+    while len(urls) < 2:
+        try:
+            line = lines.get(timeout=max(deadline - time.monotonic(), 0.01))
+        except queue.Empty:
+            proc.kill()
+            pytest.fail(f"manipkit view printed no URLs within {timeout} s; stderr: {proc.stderr.read()}")
+        for label in ("control page", "meshcat scene"):
+            if line.startswith(label + ": "):
+                urls[label] = line.split(": ", 1)[1].strip()
+        if proc.poll() is not None:
+            pytest.fail(f"manipkit view exited with {proc.returncode}: {proc.stderr.read()}")
+    return proc, urls["control page"], urls["meshcat scene"]
+
+
+def stop(proc, sig=signal.SIGTERM):
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    return proc.returncode
+
+
+@pytest.fixture(scope="module")
+def viewer():
+    proc, url, scene_url = start_viewer("--port", free_port())
+    yield {"proc": proc, "url": url, "scene_url": scene_url}
+    stop(proc)
+
+
+@pytest.fixture(scope="module")
+def page(browser, viewer):
+    page = browser.new_page()
+    page.goto(viewer["url"])
+    page.wait_for_function("document.querySelector('pre#readout-json').textContent.length > 0")
+    yield page
+    page.close()
+
+
+# ----------------------------------------------------------------------
+# Helpers
+# ----------------------------------------------------------------------
+
+
+def tf_between(source, target, q: dict) -> dict:
+    args = [f"{name}={value!r}" for name, value in q.items()]
+    result = subprocess.run([str(BIN / "tf-between"), source, target, "--q", *args, "--format", "json"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def readout(page) -> dict:
+    return json.loads(page.text_content("pre#readout-json"))
+
+
+def after_change(page, action) -> dict:
+    """Run ``action()`` and wait until the JSON readout changes; returns the new readout."""
+    before = page.text_content("pre#readout-json")
+    action()
+    page.wait_for_function("before => document.querySelector('pre#readout-json').textContent !== before",
+                           arg=before, timeout=10_000)
+    return readout(page)
+
+
+def move_slider(page, joint: str, value: float):
+    """Set the range input like a user dragging it: new value, then input and change events."""
+    page.eval_on_selector(
+        f'input[type=range][data-joint="{joint}"]',
+        """(el, value) => { el.value = String(value);
+                            el.dispatchEvent(new Event('input', {bubbles: true}));
+                            el.dispatchEvent(new Event('change', {bubbles: true})); }""",
+        value,
+    )
+
+
+def assert_agrees_with_tf_between(shown: dict):
+    expected = tf_between(shown["source"], shown["target"], shown["q"])
+    assert list(shown) == list(expected) == ["source", "target", "robot", "q", "translation", "quaternion_xyzw", "rpy", "matrix"]
+    assert shown["q"] == expected["q"]
+    for key in ("translation", "quaternion_xyzw", "rpy", "matrix"):
+        assert np.abs(np.array(shown[key]) - np.array(expected[key])).max() < 1e-6, key
+
+
+def scene_frame(page):
+    return page.wait_for_selector("iframe#scene").content_frame()
+
+
+def visual_count(robot: str) -> int:
+    import manipkit
+    from manipkit.app.viewer import visual_model
+
+    return len(visual_model(manipkit.load(robot)).geometryObjects)
+
+
+def wait_for_scene(frame, n_visuals: int):
+    """Until meshcat's page holds a drawable object for each of the robot's visuals (and both triads)."""
+    frame.wait_for_function(
+        """n => {
+            if (typeof viewer === 'undefined') return false;
+            const drawn = node => node.children['<object>'] !== undefined &&
+                (node.children['<object>'].object.isMesh || node.children['<object>'].object.children.length > 0);
+            const visuals = Object.values(viewer.scene_tree.find(['meshcat', 'pinocchio', 'visuals']).children);
+            const triads = ['frame_a', 'frame_b'].map(f => viewer.scene_tree.find(['meshcat', 'manipkit', f, 'z']));
+            return visuals.filter(drawn).length >= n && triads.every(drawn);
+        }""", arg=n_visuals, timeout=20_000)
+    frame.wait_for_timeout(300)  # a few animation frames
+
+
+def set_robot_visible(frame, visible: bool):
+    frame.evaluate("visible => viewer.handle_command({type: 'set_property', path: '/meshcat/pinocchio/visuals', "
+                   "property: 'visible', value: visible})", visible)
+    frame.wait_for_timeout(300)
+
+
+def image(path: Path) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(path).convert("RGB"), dtype=float)
+
+
+def assert_robot_drawn(shoot, frame, name: str):
+    """Screenshot the scene, hide the robot, screenshot again: the robot must cover enough pixels.
+
+    ``shoot(path)`` takes a screenshot. A blank canvas (no WebGL) fails the first
+    check; a scene without the robot (meshes not loaded) fails the second.
+    """
+    shown, hidden = ARTIFACTS / f"{name}.png", ARTIFACTS / f"{name}_without_robot.png"
+    shoot(shown)
+    pixels = image(shown)
+    assert pixels.std() > 10, f"{shown} looks blank (pixel std {pixels.std():.1f})"
+    set_robot_visible(frame, False)
+    shoot(hidden)
+    set_robot_visible(frame, True)
+    robot_pixels = (np.abs(pixels - image(hidden)).max(axis=-1) > 30).mean()
+    assert robot_pixels > 0.002, f"the robot covers {robot_pixels:.2%} of {shown}"
+    hidden.unlink()
+    return robot_pixels
+
+
+# ----------------------------------------------------------------------
+# The live viewer
+# ----------------------------------------------------------------------
+
+
+def test_control_page_has_a_slider_and_a_number_per_joint_frame_pickers_and_the_scene(page, viewer):
+    for joint in COURSE_ARM_JOINTS:
+        assert page.locator(f'input[type=range][data-joint="{joint}"]').count() == 1
+        assert page.locator(f'input[type=number][data-joint="{joint}"]').count() == 1
+    assert page.locator("input[type=range]").count() == len(COURSE_ARM_JOINTS)
+    for picker in ("select#frame-a", "select#frame-b"):
+        options = page.eval_on_selector_all(f"{picker} option", "options => options.map(o => o.value)")
+        assert options == list(COURSE_ARM_FRAMES)
+    assert page.input_value("select#frame-a") == "base_link" and page.input_value("select#frame-b") == "ee_link"
+    assert page.locator("button#reset").count() == 1
+    assert page.get_attribute("iframe#scene", "src") == viewer["scene_url"]
+    # continuous joints (the course arm's) slide over (-pi, pi]: from one step (2 pi / 1000) above -pi to pi
+    limits = page.eval_on_selector('input[type=range][data-joint="shoulder_joint"]', "el => [el.min, el.max]")
+    assert np.allclose([float(v) for v in limits], [-np.pi + 2 * np.pi / 1000, np.pi])
+
+
+def test_moving_a_slider_shows_tf_between_for_that_joint_value(page):
+    shown = after_change(page, lambda: move_slider(page, "shoulder_joint", 0.7))
+    assert shown["q"]["shoulder_joint"] == 0.7
+    assert_agrees_with_tf_between(shown)
+    assert float(page.input_value('input[type=number][data-joint="shoulder_joint"]')) == 0.7
+    text = page.text_content("#readout")
+    assert "Translation (m)" in text and "Quaternion (x, y, z, w)" in text and "RPY (degree)" in text
+    page.screenshot(path=ARTIFACTS / "viewer_control.png")
+
+
+def test_a_slider_move_moves_the_robot_in_the_scene(page):
+    frame = scene_frame(page)
+    wait_for_scene(frame, visual_count("course_arm"))
+    iframe = page.locator("iframe#scene")
+    before = ARTIFACTS / "viewer_scene_before.png"
+    iframe.screenshot(path=before)
+    shown = after_change(page, lambda: move_slider(page, "shoulder_joint", -0.9))
+    # meshcat's node for triad B now holds T_base_link_B (course_arm's root is base_link), as tf-between says
+    T_root_b = np.array(tf_between("base_link", shown["target"], shown["q"])["matrix"])
+    frame.wait_for_function(
+        """expected => {
+            const m = viewer.scene_tree.find(['meshcat', 'manipkit', 'frame_b']).object.matrix.elements;
+            return expected.every((v, i) => Math.abs(v - m[i]) < 1e-6);
+        }""", arg=T_root_b.T.ravel().tolist(), timeout=10_000)  # three.js matrices are column-major
+    frame.wait_for_timeout(300)
+    assert_robot_drawn(lambda path: iframe.screenshot(path=path), frame, "viewer_scene")
+    moved = (np.abs(image(ARTIFACTS / "viewer_scene.png") - image(before)).max(axis=-1) > 30).mean()
+    assert moved > 0.002, f"the scene barely changed after the slider move ({moved:.2%} of the pixels)"
+    before.unlink()
+
+
+def test_number_entry_sets_the_joint(page):
+    def type_value():
+        page.fill('input[type=number][data-joint="top_wrist_joint"]', "-0.25")
+        page.press('input[type=number][data-joint="top_wrist_joint"]', "Enter")
+
+    shown = after_change(page, type_value)
+    assert shown["q"]["top_wrist_joint"] == -0.25
+    assert float(page.input_value('input[type=range][data-joint="top_wrist_joint"]')) == -0.25
+    assert_agrees_with_tf_between(shown)
+
+
+def test_frame_pickers_change_the_readout(page):
+    shown = after_change(page, lambda: page.select_option("select#frame-a", "bicep"))
+    assert (shown["source"], shown["target"]) == ("bicep", "ee_link")
+    shown = after_change(page, lambda: page.select_option("select#frame-b", "top_wrist"))
+    assert (shown["source"], shown["target"]) == ("bicep", "top_wrist")
+    assert_agrees_with_tf_between(shown)
+
+
+def test_reset_returns_to_the_start_pose(page):
+    after_change(page, lambda: move_slider(page, "arm_base_joint", 1.2))
+    shown = after_change(page, lambda: page.click("button#reset"))
+    assert set(shown["q"].values()) == {0.0}
+    assert float(page.input_value('input[type=range][data-joint="arm_base_joint"]')) == 0.0
+    assert_agrees_with_tf_between(shown)
+
+
+def test_slider_to_readout_round_trip(page):
+    """30 slider moves, one at a time; the page's own timings are reported (no timed assertion)."""
+    for i in range(30):
+        after_change(page, lambda: move_slider(page, "bottom_wrist_joint", round(0.05 * (i + 1), 6)))
+    timings = page.evaluate("window.manipkitTimings.slice(-30)")
+    assert len(timings) == 30 and all(t > 0 for t in timings)
+    median, p95 = statistics.median(timings), float(np.percentile(timings, 95))
+    (ARTIFACTS / "viewer_round_trip.json").write_text(json.dumps(
+        {"moves": 30, "median_ms": median, "p95_ms": p95, "timings_ms": timings}, indent=2))
+    print(f"slider-to-readout round trip over 30 moves: median {median:.1f} ms, p95 {p95:.1f} ms")
+    assert_agrees_with_tf_between(readout(page))
+
+
+def test_the_pages_fetch_nothing_from_the_internet(page, browser):
+    assert browser.external_requests == []
+
+
+def test_ctrl_c_stops_both_servers_cleanly():
+    proc, url, scene_url = start_viewer("--port", 0)
+    meshcat_port = int(scene_url.split(":")[2].split("/")[0])
+    assert stop(proc, signal.SIGINT) == 0
+    stderr = proc.stderr.read()
+    assert "Traceback" not in stderr, stderr
+    with socket.socket() as probe:  # the meshcat server went with it
+        assert probe.connect_ex(("127.0.0.1", meshcat_port)) != 0
+
+
+# ----------------------------------------------------------------------
+# --static
+# ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("robot, q", [("course_arm", "shoulder_joint=0.6"), ("panda", "panda_joint4=-1.8")])
+def test_static_export_renders_the_robot_without_a_server(browser, tmp_path, robot, q):
+    path = tmp_path / f"{robot}.html"
+    result = subprocess.run([str(BIN / "manipkit"), "view", "--robot", robot, "--q", q, "--static", str(path)],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert str(path) in result.stdout
+    page = browser.new_page()
+    try:
+        page.goto(path.as_uri())
+        frame = page.main_frame
+        wait_for_scene(frame, visual_count(robot))
+        assert_robot_drawn(lambda shot: page.screenshot(path=shot), frame, f"static_{robot}")
+    finally:
+        page.close()

@@ -1,0 +1,173 @@
+"""manipkit.description.sources: names -> description files, xacro expansion, $(find) without ROS."""
+
+import os
+from pathlib import Path
+
+import pytest
+
+import manipkit
+from manipkit.errors import DescriptionError, PackageNotFoundError, UnknownRobotError
+from manipkit.description.sources import (
+    PackageResolver,
+    bundled_robots,
+    example_robot_data_arms,
+    example_robot_data_dir,
+    resolve_robot,
+    urdf_text,
+)
+
+
+def test_bundled_robots_are_the_five_of_the_foundation():
+    assert {"course_arm", "mobile_manipulator", "iiwa14", "planar_2r", "planar_3r"} <= set(bundled_robots())
+
+
+def test_default_robot_is_the_course_arm():
+    assert resolve_robot().name == "course_arm"
+
+
+def test_example_robot_data_found_through_package_metadata():
+    root = example_robot_data_dir()
+    assert root is not None and (root / "robots" / "ur_description").is_dir()
+    arms = example_robot_data_arms()
+    for name in ("panda", "ur3", "ur5", "ur10", "kinova", "z1", "so_arm"):
+        assert name in arms and arms[name].path.is_file()
+
+
+def test_any_example_robot_data_urdf_by_file_stem():
+    source = resolve_robot("double_pendulum")
+    assert source.origin == "example-robot-data" and source.path.name == "double_pendulum.urdf"
+
+
+def test_unknown_robot_suggests_close_names():
+    with pytest.raises(UnknownRobotError, match="unknown robot 'pand'; did you mean panda"):
+        resolve_robot("pand")
+
+
+def test_missing_file_is_named():
+    with pytest.raises(UnknownRobotError, match="robot file not found: nowhere/robot.urdf"):
+        resolve_robot("nowhere/robot.urdf")
+
+
+def test_file_of_wrong_kind_is_rejected(tmp_path):
+    path = tmp_path / "robot.txt"
+    path.write_text("<robot/>")
+    with pytest.raises(UnknownRobotError, match="give a .urdf or .xacro file"):
+        resolve_robot(path)
+
+
+def test_xacro_arguments_change_the_expansion():
+    source = resolve_robot("planar_2r")
+    assert 'xyz="2.5 0 0"' in urdf_text(source, {"l1": 2.5}).replace("2.5 0.0 0.0", "2.5 0 0")
+
+
+def test_unknown_xacro_argument_lists_declared_ones():
+    with pytest.raises(DescriptionError, match=r"unknown xacro argument l9; declared: l1 \(default 1\)"):
+        urdf_text(resolve_robot("planar_2r"), {"l9": 1})
+
+
+def test_xacro_arguments_declared_in_an_included_file_are_accepted(tmp_path):
+    # The argument is declared in the included file only, with single quotes: both are valid xacro.
+    (tmp_path / "lengths.xacro").write_text(
+        "<robot xmlns:xacro='http://www.ros.org/wiki/xacro'><xacro:arg name='len' default='1'/></robot>"
+    )
+    top = tmp_path / "arm.urdf.xacro"
+    top.write_text(
+        '<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:include filename="lengths.xacro"/>'
+        '<link name="a"/><link name="b"/>'
+        '<joint name="j" type="fixed"><parent link="a"/><child link="b"/>'
+        '<origin xyz="$(arg len) 0 0"/></joint></robot>'
+    )
+    robot = manipkit.load(top, len=2.5)
+    assert robot.xacro_args == {"len": "2.5"}
+    assert robot.transform("a", "b")[0, 3] == 2.5  # the value given, not the default 1
+    with pytest.raises(DescriptionError, match=r"unknown xacro argument lenght; declared: len \(default 1\)"):
+        manipkit.load(top, lenght=2.5)
+
+
+def test_xacro_arguments_on_plain_urdf_are_an_error():
+    with pytest.raises(DescriptionError, match="plain URDF; xacro arguments"):
+        urdf_text(resolve_robot("ur5"), {"l1": 1})
+
+
+def _write_package(root: Path, name: str) -> Path:
+    package = root / name
+    (package / "urdf").mkdir(parents=True)
+    (package / "package.xml").write_text(f"<package><name>{name}</name></package>")
+    (package / "urdf" / "arm.xacro").write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:macro name="arm"><link name="tool"/>'
+        '<joint name="j" type="continuous"><parent link="base_link"/><child link="tool"/>'
+        '<origin xyz="0 0 0.5"/><axis xyz="0 0 1"/></joint></xacro:macro></robot>'
+    )
+    return package
+
+
+def _write_top(path: Path, package: str) -> Path:
+    path.write_text(
+        '<robot name="mine" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        f'<xacro:include filename="$(find {package})/urdf/arm.xacro"/>'
+        '<link name="base_link"/><xacro:arm/></robot>'
+    )
+    return path
+
+
+def test_find_resolves_a_package_given_with_package_dir(tmp_path):
+    package = _write_package(tmp_path / "elsewhere", "my_arm_description")
+    top = _write_top(tmp_path / "top.urdf.xacro", "my_arm_description")
+    robot = manipkit.load(top, package_dirs={"my_arm_description": package})
+    assert robot.transform("base_link", "tool")[2, 3] == 0.5
+
+
+def test_find_resolves_a_package_in_the_same_workspace(tmp_path):
+    # ws/src/my_arm_description and ws/src/my_robot/urdf/top.urdf.xacro, as in a ROS workspace.
+    _write_package(tmp_path / "ws" / "src", "my_arm_description")
+    (tmp_path / "ws" / "src" / "my_robot" / "urdf").mkdir(parents=True)
+    top = _write_top(tmp_path / "ws" / "src" / "my_robot" / "urdf" / "top.urdf.xacro", "my_arm_description")
+    assert manipkit.load(top).joint_names == ("j",)
+
+
+def test_unresolved_package_lists_the_places_searched(tmp_path):
+    top = _write_top(tmp_path / "top.urdf.xacro", "no_such_pkg")
+    with pytest.raises(PackageNotFoundError) as info:
+        manipkit.load(top)
+    message = str(info.value)
+    assert "package 'no_such_pkg' not found" in message
+    assert str(tmp_path) in message and "--package-dir no_such_pkg=DIR" in message
+
+
+def test_package_uri_resolves_to_example_robot_data_meshes():
+    resolver = PackageResolver()
+    path = resolver.resolve_uri("package://example-robot-data/robots/ur_description/meshes/ur5/visual/base.dae")
+    assert os.path.isfile(path)
+
+
+def test_xacro_error_names_the_file(tmp_path):
+    path = tmp_path / "bad.urdf.xacro"
+    path.write_text('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="${1/0}"/></robot>')
+    with pytest.raises(DescriptionError, match=r"bad.urdf.xacro:1: xacro expression \$\{1/0\}: division by zero"):
+        manipkit.load(path)
+
+
+def test_xacro_missing_include_names_the_missing_file(tmp_path):
+    path = tmp_path / "top.xacro"
+    path.write_text('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><xacro:include filename="gone.xacro"/></robot>')
+    with pytest.raises(DescriptionError, match="gone.xacro"):
+        manipkit.load(path)
+
+
+def test_find_hook_is_removed_after_each_expansion_even_a_failed_one(tmp_path):
+    # expand_xacro patches xacro's $(...) handler (and, at the first $(...), $(find)) for one call only.
+    import xacro
+    import xacro.substitution_args as substitution_args
+
+    xacro_own = (xacro.eval_extension, substitution_args._eval_find)
+    package = _write_package(tmp_path / "elsewhere", "my_arm_description")
+    top = _write_top(tmp_path / "top.urdf.xacro", "my_arm_description")
+    manipkit.load(top, package_dirs={"my_arm_description": package})
+    assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own
+    with pytest.raises(PackageNotFoundError):
+        manipkit.load(_write_top(tmp_path / "other.urdf.xacro", "no_such_pkg"))
+    assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own
+    manipkit.load("course_arm")  # no $(...) at all
+    assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own

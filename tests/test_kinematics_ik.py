@@ -1,0 +1,358 @@
+"""manipkit.kinematics.ik: numerical IK checked against forward kinematics.
+
+Independent sources: reachable targets are made by the numpy chain of
+``Robot.fk`` at random joint values (so a solution is known to exist), and
+every answer is checked with ``Robot.transform`` (Pinocchio) and, for the
+rotation, ``rotation_angle_between``: the solver's own residuals are not
+trusted. Unreachability is shown without the solver: by a covering grid with
+a Lipschitz bound (course arm) or by the reach sphere (iiwa).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.errors import InvalidRotationError, InvalidTransformError, JointValueError
+from manipkit.kinematics.ik import IKOptionError, IKSolutions, ik, ik_solver
+from manipkit.spatial.rotations import rot_x, rotation_angle_between
+
+
+@pytest.fixture(scope="module")
+def robots():
+    return {name: manipkit.load(name) for name in ("iiwa14", "panda", "ur5", "course_arm")}
+
+
+def pose_error(robot, base, frame, q, T_base_frame):
+    """(distance m, rotation angle rad) between the FK pose of ``frame`` at ``q`` and the target."""
+    T = robot.transform(base, frame, q)
+    return (
+        float(np.linalg.norm(T[:3, 3] - T_base_frame[:3, 3])),
+        float(rotation_angle_between(T[:3, :3], T_base_frame[:3, :3])),
+    )
+
+
+def axis_angle_between(u, v):
+    return math.atan2(np.linalg.norm(np.cross(u, v)), float(u @ v))
+
+
+def within_limits(robot, q):
+    return robot.outside_limits(q) == []
+
+
+def solve_random_reachable(robot, n, *, seed):
+    """Targets from FK of random q, solved from random starts; returns results and targets."""
+    frame = robot.ee_frame
+    targets = robot.fk(robot.sample_q(n, seed=seed), frame)
+    starts = robot.sample_q(n, seed=seed + 1)
+    results = [ik(robot, T, frame=frame, q0=q0, seed=i) for i, (T, q0) in enumerate(zip(targets, starts))]
+    return results, targets, starts
+
+
+# ----------------------------------------------------------------------
+# Reachable poses
+
+
+def test_iiwa_solves_at_least_99_percent_of_1000_random_reachable_poses_within_1e9(robots):
+    robot = robots["iiwa14"]
+    results, targets, _ = solve_random_reachable(robot, 1000, seed=100)
+    successes = [(r, T) for r, T in zip(results, targets) if r.success]
+    assert len(successes) >= 990
+    for result, T in successes:
+        position, angle = pose_error(robot, robot.root_link, "ee_link", result.q, T)
+        assert position < 1e-9 and angle < 1e-9
+        assert within_limits(robot, result.q)
+    assert all(within_limits(robot, r.q) for r in results)
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5"])
+def test_example_robot_data_arms_solve_random_reachable_poses(robots, name):
+    robot = robots[name]
+    results, targets, starts = solve_random_reachable(robot, 100, seed=200)
+    assert sum(r.success for r in results) >= 99
+    chain = set(robot.chain_joints(robot.root_link, robot.ee_frame))
+    off_chain = [i for i, joint in enumerate(robot.joint_names) if joint not in chain]  # panda's fingers
+    for result, T, q0 in zip(results, targets, starts):
+        assert within_limits(robot, result.q)
+        assert np.array_equal(result.q[off_chain], q0[off_chain])
+        if result.success:
+            position, angle = pose_error(robot, robot.root_link, robot.ee_frame, result.q, T)
+            assert position < 1e-9 and angle < 1e-9
+
+
+def test_reported_residuals_are_those_of_the_returned_q(robots):
+    robot = robots["iiwa14"]
+    results, targets, _ = solve_random_reachable(robot, 20, seed=300)
+    for result, T in zip(results, targets):
+        position, angle = pose_error(robot, robot.root_link, "ee_link", result.q, T)
+        assert result.residual_position == pytest.approx(position, abs=1e-12)
+        assert result.residual_rotation == pytest.approx(angle, abs=1e-12)
+
+
+def test_success_is_never_claimed_above_the_tolerance(robots):
+    # Tiny budgets leave many attempts unfinished: success must follow the measured residuals.
+    robot = robots["iiwa14"]
+    wanted = robot.sample_q(200, seed=400)
+    targets = robot.fk(wanted, "ee_link")
+    starts = wanted + np.random.default_rng(401).normal(scale=0.1, size=wanted.shape)
+    tol = (1e-6, 1e-5)
+    outcomes = []
+    for i, (T, q0) in enumerate(zip(targets, starts)):
+        result = ik(robot, T, q0=q0, tol=tol, max_iters=1 + i % 4, restarts=0)
+        position, angle = pose_error(robot, robot.root_link, "ee_link", result.q, T)
+        within = position <= tol[0] + 1e-15 and angle <= tol[1] + 1e-15
+        assert result.success == within
+        assert (result.reason is None) == result.success
+        outcomes.append(result.success)
+    assert 0 < sum(outcomes) < len(outcomes)  # both cases really occurred
+
+
+def test_same_seed_gives_the_same_answer(robots):
+    robot = robots["panda"]
+    T = robot.fk(robot.sample_q(1, seed=500)[0], robot.ee_frame)
+    first = ik(robot, T, frame=robot.ee_frame, seed=7)
+    again = ik(robot, T, frame=robot.ee_frame, seed=7)
+    other = ik(robot, T, frame=robot.ee_frame, seed=8)
+    assert np.array_equal(first.q, again.q) and first.iterations == again.iterations
+    assert not np.array_equal(first.q, other.q)
+
+
+# ----------------------------------------------------------------------
+# The Jacobian's frame matches the error's frame
+
+
+@pytest.mark.parametrize(
+    "name, mode", [("iiwa14", "pose"), ("course_arm", "pose"), ("course_arm", "position+axis"), ("ur5", "position")]
+)
+def test_error_derivative_equals_minus_the_jacobian(robots, name, mode):
+    # At the target (error 0) the error's derivative is exactly -J for the matching Jacobian;
+    # a LOCAL Jacobian against this LOCAL_WORLD_ALIGNED error would miss by O(1).
+    robot = robots[name]
+    solver = ik_solver(robot, frame=robot.ee_frame, mode=mode)
+    for q in robot.sample_q(5, seed=600):
+        T = robot.transform(robot.root_link, robot.ee_frame, q)
+        solver.solve(T, q0=q, max_iters=1, restarts=0)  # sets the target
+        x = q[solver._chain_user]
+        e0, J, _, _ = solver._evaluate(x)
+        assert np.abs(e0).max() < 1e-12
+        h = 1e-6
+        numeric = np.empty_like(J)
+        for k in range(x.size):
+            dx = np.zeros(x.size)
+            dx[k] = h
+            numeric[:, k] = -(solver._evaluate(x + dx)[0] - solver._evaluate(x - dx)[0]) / (2 * h)
+        assert np.abs(numeric - J).max() < 1e-7
+
+
+# ----------------------------------------------------------------------
+# Modes on the 5-joint course arm
+
+
+def test_position_mode_solves_course_arm_positions(robots):
+    robot = robots["course_arm"]
+    targets = robot.fk(robot.sample_q(100, seed=700), "ee_link")
+    for i, T in enumerate(targets):
+        # Only the translation counts: give the target a rotation no configuration has.
+        scrambled = T.copy()
+        scrambled[:3, :3] = T[:3, :3] @ rot_x(math.pi / 2)
+        result = ik(robot, scrambled, mode="position", seed=i)
+        assert result.success and result.residual_rotation == 0.0
+        assert np.linalg.norm(robot.transform("base_link", "ee_link", result.q)[:3, 3] - T[:3, 3]) < 1e-9
+
+
+def test_position_mode_accepts_a_translation_vector(robots):
+    robot = robots["course_arm"]
+    T = robot.fk(robot.sample_q(1, seed=701)[0], "ee_link")
+    result = ik(robot, T[:3, 3], mode="position")
+    assert result.success
+    assert np.linalg.norm(robot.transform("base_link", "ee_link", result.q)[:3, 3] - T[:3, 3]) < 1e-9
+
+
+def test_position_and_axis_mode_solves_course_arm_pointing_targets(robots):
+    robot = robots["course_arm"]
+    targets = robot.fk(robot.sample_q(100, seed=800), "ee_link")
+    for i, T in enumerate(targets):
+        result = ik(robot, T, mode="position+axis", axis="z", seed=i)
+        assert result.success
+        T_reached = robot.transform("base_link", "ee_link", result.q)
+        assert np.linalg.norm(T_reached[:3, 3] - T[:3, 3]) < 1e-9
+        assert axis_angle_between(T_reached[:3, 2], T[:3, 2]) < 1e-9
+        assert result.residual_rotation == pytest.approx(axis_angle_between(T_reached[:3, 2], T[:3, 2]), abs=1e-12)
+
+
+def test_position_and_axis_mode_uses_the_named_axis(robots):
+    robot = robots["course_arm"]
+    T = robot.fk(robot.sample_q(1, seed=801)[0], "ee_link")
+    result = ik(robot, T, mode="position+axis", axis="x")
+    assert result.success
+    T_reached = robot.transform("base_link", "ee_link", result.q)
+    assert axis_angle_between(T_reached[:3, 0], T[:3, 0]) < 1e-9
+
+
+def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_the_best_residual(robots):
+    robot = robots["course_arm"]
+    T_reachable = robot.fk(robot.sample_q(1, seed=5)[0], "ee_link")
+    T_turned = T_reachable.copy()
+    T_turned[:3, :3] = T_reachable[:3, :3] @ rot_x(math.pi / 2)
+
+    # Why unreachable, without the solver. Premises, checked at random q:
+    # the wrist point W (top_wrist origin) = p_ee - 0.13522 z_ee and depends on q1..q3 only;
+    # the tool's y axis is perpendicular to the z axis of top_wrist at q5 = 0 (= the elbow's z).
+    Q = robot.sample_q(50, seed=900)
+    T_ee, T_wrist = robot.fk(Q, "ee_link"), robot.fk(Q, "top_wrist")
+    assert np.abs(T_wrist[:, :3, 3] - (T_ee[:, :3, 3] - 0.13522 * T_ee[:, :3, 2])).max() < 1e-12
+    Q_wrist_zero = Q.copy()
+    Q_wrist_zero[:, 3:] = 0.0
+    T_wrist_zero = robot.fk(Q_wrist_zero, "top_wrist")
+    assert np.abs(T_wrist_zero[:, :3, 3] - T_wrist[:, :3, 3]).max() < 1e-12
+    assert np.abs(np.einsum("ni,ni->n", T_ee[:, :3, 1], T_wrist_zero[:, :3, 2])).max() < 1e-12
+    # So a pose (p, R) is reachable only if some (q1, q2, q3) puts W at p - 0.13522 z and has
+    # z_wrist . y = 0. On a cell-centred grid of spacing d, an exact solution has a grid point
+    # within d/2 per joint, where W is within 3 * (d/2) * 0.83 m (0.83 m bounds the path from
+    # the first joint to W: |(-0.05166, 0, 0.20271)| + |(0, -0.05194, 0.269)| + 0.13522 + 0.20994)
+    # and z_wrist . y within 3 * d/2.
+    n = 60
+    d = 2 * math.pi / n
+    grid = -math.pi + (np.arange(n) + 0.5) * d
+    Q_grid = np.zeros((n**3, 5))
+    Q_grid[:, :3] = np.stack(np.meshgrid(grid, grid, grid, indexing="ij"), axis=-1).reshape(-1, 3)
+    T_grid = robot.fk(Q_grid, "top_wrist")
+
+    def worst_case_perpendicularity(T):
+        W = T[:3, 3] - 0.13522 * T[:3, 2]
+        near = np.linalg.norm(T_grid[:, :3, 3] - W, axis=1) <= 3 * (d / 2) * 0.83
+        return float(np.abs(T_grid[near, :3, 2] @ T[:3, 1]).min())
+
+    assert worst_case_perpendicularity(T_turned) > 3 * d / 2  # no exact solution exists
+    assert worst_case_perpendicularity(T_reachable) < 3 * d / 2  # the test would see a reachable one
+
+    result = ik(robot, T_turned, restarts=20)
+    assert not result.success
+    assert result.reason.startswith("did not converge: best residual")
+    position, angle = pose_error(robot, "base_link", "ee_link", result.q, T_turned)
+    assert result.residual_position == pytest.approx(position, abs=1e-12)
+    assert result.residual_rotation == pytest.approx(angle, abs=1e-12)
+    # The best found is at least as good as 20000 random configurations (same measure as the solver's).
+    T_samples = robot.fk(robot.sample_q(20000, seed=901), "ee_link")
+    sampled = np.hypot(
+        np.linalg.norm(T_samples[:, :3, 3] - T_turned[:3, 3], axis=1),
+        rotation_angle_between(T_samples[:, :3, :3], T_turned[:3, :3]),
+    )
+    assert math.hypot(position, angle) <= sampled.min()
+    assert math.hypot(position, angle) > 1e-3
+
+
+def test_target_outside_the_reach_sphere_fails_with_its_distance_to_the_boundary(robots):
+    robot = robots["iiwa14"]
+    # Straight up: at q = 0 every iiwa link points up, so the farthest point up is the ee at q = 0.
+    top = robot.transform("base_link", "ee_link", robot.q())
+    T = top.copy()
+    T[2, 3] += 0.3
+    for mode in ("position", "pose"):
+        result = ik(robot, T, mode=mode, restarts=5)
+        assert not result.success
+        assert result.reason.startswith("target out of reach")
+        assert result.residual_position == pytest.approx(0.3, abs=1e-6)
+        assert within_limits(robot, result.q)
+
+
+# ----------------------------------------------------------------------
+# Joint space
+
+
+def test_continuous_joints_are_wrapped_into_minus_pi_pi(robots):
+    robot = robots["course_arm"]
+    assert all(j.type == "continuous" for j in robot.joints)
+    targets = robot.fk(robot.sample_q(30, seed=1000), "ee_link")
+    for i, T in enumerate(targets):
+        q0 = np.full(5, 10.0) + i  # far outside (-pi, pi]
+        result = ik(robot, T, q0=q0, mode="position+axis", seed=i)
+        assert result.success
+        assert np.all(result.q > -math.pi) and np.all(result.q <= math.pi)
+
+
+def test_all_returns_distinct_solutions_each_valid(robots):
+    robot = robots["course_arm"]
+    T = robot.fk(robot.sample_q(1, seed=5)[0], "ee_link")
+    solutions = ik(robot, T, mode="position+axis", all=True, restarts=60)
+    assert isinstance(solutions, IKSolutions)
+    assert len(solutions) >= 2  # a 5R arm pointing at a point has several postures
+    for result in solutions:
+        assert result.success
+        T_reached = robot.transform("base_link", "ee_link", result.q)
+        assert np.linalg.norm(T_reached[:3, 3] - T[:3, 3]) < 1e-9
+        assert axis_angle_between(T_reached[:3, 2], T[:3, 2]) < 1e-9
+    for a in range(len(solutions)):
+        for b in range(a):
+            wrapped = np.angle(np.exp(1j * (solutions[a].q - solutions[b].q)))
+            assert np.abs(wrapped).max() > 1e-6
+    single = ik(robot, T, mode="position+axis", restarts=60)
+    assert np.array_equal(solutions.best.q, single.q) and solutions[0] is solutions.best
+
+
+def test_all_without_any_solution_keeps_the_best_failure(robots):
+    robot = robots["iiwa14"]
+    T = np.eye(4)
+    T[0, 3] = 3.0
+    solutions = ik(robot, T, all=True, restarts=3)
+    assert len(solutions) == 0 and solutions.attempts == 4
+    assert not solutions.best.success and solutions.best.reason.startswith("target out of reach")
+
+
+def test_base_other_than_root_varies_only_the_chain_joints(robots):
+    robot = robots["iiwa14"]
+    assert robot.chain_joints("iiwa_link_2", "ee_link") == tuple(f"iiwa_joint_{i}" for i in range(3, 8))
+    wanted = robot.sample_q(20, seed=1100)
+    starts = robot.sample_q(20, seed=1101)
+    for q_wanted, q0 in zip(wanted, starts):
+        T_link2_ee = robot.transform("iiwa_link_2", "ee_link", q_wanted)
+        result = ik(robot, T_link2_ee, base="iiwa_link_2", frame="ee_link", q0=q0)
+        assert result.success
+        assert np.array_equal(result.q[:2], q0[:2])  # joints 1 and 2 are above the base: untouched
+        position, angle = pose_error(robot, "iiwa_link_2", "ee_link", result.q, T_link2_ee)
+        assert position < 1e-9 and angle < 1e-9
+
+
+def test_q0_is_the_first_start(robots):
+    robot = robots["iiwa14"]
+    q = robot.sample_q(1, seed=1200)[0]
+    T = robot.transform("base_link", "ee_link", q)
+    result = ik(robot, T, q0=q)
+    assert result.success and result.iterations == 0 and result.restarts == 0
+    assert np.array_equal(result.q, q)
+
+
+# ----------------------------------------------------------------------
+# Bad input
+
+
+def test_unknown_mode_names_the_valid_ones(robots):
+    with pytest.raises(IKOptionError, match="unknown IK mode 'orientation'; modes: pose, position, position\\+axis"):
+        ik(robots["iiwa14"], np.eye(4), mode="orientation")
+
+
+def test_unknown_axis_names_the_valid_ones(robots):
+    with pytest.raises(IKOptionError, match="axes: x, y, z"):
+        ik(robots["course_arm"], np.eye(4), mode="position+axis", axis="w")
+
+
+def test_target_with_a_reflection_is_rejected(robots):
+    T = np.diag([1.0, 1.0, -1.0, 1.0])
+    with pytest.raises(InvalidRotationError, match="reflection"):
+        ik(robots["iiwa14"], T)
+
+
+def test_target_of_the_wrong_shape_is_rejected(robots):
+    with pytest.raises(InvalidTransformError, match="shape \\(4, 4\\), got shape \\(3, 3\\)"):
+        ik(robots["iiwa14"], np.eye(3))
+
+
+def test_q0_of_the_wrong_length_names_the_joints(robots):
+    with pytest.raises(JointValueError, match="needs 7 joint values \\(iiwa_joint_1"):
+        ik(robots["iiwa14"], robots["iiwa14"].transform("base_link", "ee_link"), q0=np.zeros(6))
+
+
+def test_non_positive_tolerance_is_rejected(robots):
+    with pytest.raises(IKOptionError, match="tol must be a positive number"):
+        ik(robots["iiwa14"], np.eye(4), tol=0.0)

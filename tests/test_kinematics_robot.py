@@ -1,0 +1,217 @@
+"""manipkit.kinematics.robot: joint vectors, frame aliases, Pinocchio transforms and the batched FK path.
+
+Independent sources: Pinocchio (``Robot.transform``) against the numpy chain
+of ``Robot.fk``, and both against yourdfpy's own forward kinematics, which
+parses the URDF with a different parser and composes the chain itself.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.description.sources import bundled_robots
+from manipkit.errors import JointValueError, UnknownFrameError
+
+ROBOTS = sorted(bundled_robots()) + ["panda", "ur5"]
+
+
+@pytest.fixture(scope="module")
+def loaded():
+    return {name: manipkit.load(name) for name in ROBOTS}
+
+
+def random_q(robot, rng, n):
+    lower = np.array([max(j.lower, -math.pi) for j in robot.joints])
+    upper = np.array([min(j.upper, math.pi) for j in robot.joints])
+    return rng.uniform(lower, upper, size=(n, len(robot.joints)))
+
+
+def yourdfpy_model(robot):
+    import yourdfpy
+
+    from io import BytesIO
+
+    return yourdfpy.URDF.load(BytesIO(robot.urdf.encode()), build_scene_graph=True, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_pinocchio_agrees_with_yourdfpy_fk_at_100_random_configurations(loaded, name):
+    robot = loaded[name]
+    urdf = yourdfpy_model(robot)
+    actuated = set(urdf.actuated_joint_names)
+    mimicked = {j.name for j in urdf.robot.joints if j.mimic is not None}
+    # Frames whose chain has no mimic joint (yourdfpy applies mimic rules, Pinocchio does not).
+    frames = [f for f in robot.frame_names if not (mimicked & {j.name for j in robot.joints if j.child in _ancestors(urdf, f)})]
+    assert robot.ee_frame in frames and len(frames) >= 3
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for q in random_q(robot, rng, 100):
+        urdf.update_cfg({n: v for n, v in zip(robot.joint_names, q) if n in actuated})
+        for frame in frames:
+            T_yourdfpy = urdf.get_transform(frame_to=frame, frame_from=robot.root_link)
+            worst = max(worst, np.abs(T_yourdfpy - robot.transform(robot.root_link, frame, q)).max())
+    assert worst < 1e-9
+
+
+def _ancestors(urdf, link):
+    parents = {j.child: (j.parent, j.name) for j in urdf.robot.joints}
+    chain = {link}
+    while link in parents:
+        link = parents[link][0]
+        chain.add(link)
+    return chain
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_batched_fk_equals_pinocchio_per_configuration(loaded, name):
+    robot = loaded[name]
+    Q = random_q(robot, np.random.default_rng(3), 50)
+    source, target = robot.frame_names[1], robot.ee_frame
+    T_batch = robot.fk(Q, target, base=source)
+    T_loop = np.array([robot.transform(source, target, q) for q in Q])
+    assert T_batch.shape == (50, 4, 4)
+    assert np.abs(T_batch - T_loop).max() < 1e-12
+
+
+def pinocchio_poses(robot, base, frame, Q):
+    return np.array([robot.transform(base, frame, q) for q in Q])
+
+
+@pytest.mark.parametrize("name, base", [("mobile_manipulator", "arm_base"), ("iiwa14", "iiwa_link_3")])
+def test_fk_from_a_link_above_the_frame_runs_one_chain_equal_to_pinocchio(loaded, name, base):
+    robot = loaded[name]
+    frame_id, base_id = robot.frame_id("ee_link"), robot.frame_id(base)
+    assert robot._is_above(base_id, frame_id)
+    Q = np.vstack([robot.sample_q(300, seed=21), np.random.default_rng(22).uniform(-20, 20, (20, len(robot.joints)))])
+    T = robot.fk(Q, "ee_link", base=base)
+    assert (frame_id, base_id) in robot._fk_kernels  # the kernel of the chain base -> ee_link ran
+    # tan(q/2) vs Pinocchio's sin/cos at |q| up to 20 rad: a few ulps of 20, well inside 1e-12
+    assert np.abs(T - pinocchio_poses(robot, base, "ee_link", Q)).max() < 1e-12
+
+
+@pytest.mark.parametrize("name", ["mobile_manipulator", "iiwa14"])
+def test_fk_between_every_pair_of_frames_equals_pinocchio(loaded, name):
+    """Bases above the frame (one chain), equal to it, below it or on another branch (two chains composed)."""
+    robot = loaded[name]
+    Q = robot.sample_q(20, seed=23)
+    paths = set()
+    for base in robot.frame_names:
+        for frame in robot.frame_names:
+            paths.add(robot._is_above(robot.frame_id(base), robot.frame_id(frame)))
+            T = robot.fk(Q, frame, base=base)
+            assert np.abs(T - pinocchio_poses(robot, base, frame, Q)).max() < 1e-12, (base, frame)
+    assert paths == {True, False}
+
+
+def test_fk_keeps_leading_dimensions(loaded):
+    robot = loaded["iiwa14"]
+    Q = random_q(robot, np.random.default_rng(1), 12).reshape(3, 4, 7)
+    T = robot.fk(Q, "ee_link")
+    assert T.shape == (3, 4, 4, 4)
+    assert np.allclose(T[2, 1], robot.transform("base_link", "ee_link", Q[2, 1]), atol=1e-12)
+
+
+def test_fk_rejects_wrong_width(loaded):
+    with pytest.raises(JointValueError, match="needs 7 joint values per row"):
+        loaded["iiwa14"].fk(np.zeros((4, 6)), "ee_link")
+
+
+def test_q_by_name_in_joint_order_with_missing_joints_zero(loaded):
+    robot = loaded["course_arm"]
+    q = robot.q(elbow_joint=0.5, shoulder_joint=-1.0)
+    assert robot.joint_names == ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+    assert q.tolist() == [0.0, -1.0, 0.0, 0.5, 0.0]
+
+
+def test_q_in_degrees_converts_angles_only():
+    robot = manipkit.load("panda")
+    q = robot.q(panda_joint2=90, panda_finger_joint1=0.02, degrees=True)
+    assert q[1] == pytest.approx(math.pi / 2, abs=1e-15)
+    assert q[robot.joint_names.index("panda_finger_joint1")] == 0.02  # metres stay metres
+
+
+def test_missing_joint_defaults_to_nearest_value_inside_limits(loaded):
+    # panda_joint4 has limits [-3.0718, -0.0698]: 0 is outside, the nearest inside value is the upper limit.
+    robot = manipkit.load("panda")
+    joint4 = robot.joints[robot.joint_names.index("panda_joint4")]
+    assert joint4.upper < 0
+    assert robot.q()[3] == joint4.upper
+
+
+def test_unknown_joint_lists_the_valid_ones(loaded):
+    with pytest.raises(JointValueError, match=r"no joint 'elbow'; did you mean elbow_joint\? joints: arm_base_joint"):
+        loaded["course_arm"].q(elbow=1.0)
+
+
+@pytest.mark.parametrize("value", ["abc", "nan", "inf", None])
+def test_non_numeric_or_non_finite_joint_value_is_rejected(loaded, value):
+    with pytest.raises(JointValueError, match="elbow_joint"):
+        loaded["course_arm"].q(elbow_joint=value)
+
+
+def test_continuous_joint_takes_angles_beyond_pi(loaded):
+    # A continuous joint is (cos, sin) inside Pinocchio; 2 pi + a is the same pose as a.
+    robot = loaded["course_arm"]
+    a = 0.7
+    T1 = robot.transform("base_link", "ee_link", robot.q(elbow_joint=a))
+    T2 = robot.transform("base_link", "ee_link", robot.q(elbow_joint=a + 2 * math.pi))
+    assert np.abs(T1 - T2).max() < 1e-12
+    assert robot.model.nq == 10 and len(robot.joint_names) == 5
+
+
+def test_outside_limits_names_the_joint_and_limits(loaded):
+    robot = loaded["iiwa14"]
+    lines = robot.outside_limits(robot.q(iiwa_joint_2=2.5))
+    # iiwa14's joint 2 limit is +-120 deg = +-2.0944 rad (shared/reference)
+    assert lines == ["joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)"]
+
+
+def test_base_link_alias_is_the_root_of_a_robot_without_such_link():
+    robot = manipkit.load("panda")
+    assert "base_link" not in robot.frame_names
+    assert robot.frame("base_link") == "panda_link0" == robot.root_link
+    assert robot.frame("world") == "panda_link0"
+
+
+def test_real_link_wins_over_alias():
+    # ur5 has real links named world (root) and base_link; base_link is not the root.
+    robot = manipkit.load("ur5")
+    assert robot.root_link == "world"
+    assert robot.frame("base_link") == "base_link"
+
+
+def test_declared_end_effector_is_ee_link_alias():
+    robot = manipkit.load("panda")
+    assert robot.frame("ee_link") == "panda_hand_tcp"
+    assert "declared" in robot.ee_reason
+
+
+def test_ee_link_of_undeclared_robot_is_tip_of_longest_chain(tmp_path):
+    # A branching robot: base -> a -> b -> tip (3 joints) and base -> side (1 joint).
+    urdf = tmp_path / "branch.urdf"
+    joint = '<joint name="{0}" type="revolute"><parent link="{1}"/><child link="{2}"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+    links = "".join(f'<link name="{n}"/>' for n in ("base", "side", "a", "b", "tip"))
+    joints = "".join(joint.format(*j) for j in [("j_side", "base", "side"), ("j1", "base", "a"), ("j2", "a", "b"), ("j3", "b", "tip")])
+    urdf.write_text(f'<robot name="branch">{links}{joints}</robot>')
+    robot = manipkit.load(urdf)
+    assert robot.ee_frame == "tip"
+    assert "longest chain" in robot.ee_reason
+
+
+def test_unknown_frame_suggests_close_names(loaded):
+    with pytest.raises(UnknownFrameError, match="no frame 'top_wrst'; did you mean top_wrist"):
+        loaded["course_arm"].transform("base_link", "top_wrst")
+
+
+def test_transform_direction_is_pose_of_target_in_source(loaded):
+    # T_a_b @ T_b_a = I, and T_base_ee's translation is where ee is seen from base.
+    robot = loaded["iiwa14"]
+    q = random_q(robot, np.random.default_rng(5), 1)[0]
+    T_ab = robot.transform("iiwa_link_2", "ee_link", q)
+    T_ba = robot.transform("ee_link", "iiwa_link_2", q)
+    assert np.abs(T_ab @ T_ba - np.eye(4)).max() < 1e-12
+    # Hand value: at zero the iiwa stands straight up, ee_link 1.306 m above the base.
+    assert robot.transform("base_link", "ee_link")[:3, 3] == pytest.approx([0, 0, 1.306], abs=1e-12)
