@@ -26,18 +26,31 @@ Two chains agree for all q exactly when their screws and their home poses
 
 The screws are taken numerically (central differences of the FK, error
 about 1e-10), the same way for both sources, so no DH convention is assumed.
+
+Conventions (docs/architecture.md): ``T_a_b`` is the pose of frame b in frame
+a; metres and radians, degrees only in the messages; rpy is ``R = Rz(yaw)
+Ry(pitch) Rx(roll)``. The robot is used through its public methods only
+(``chain_joints``, ``joint_names``, ``sample_q``, ``q``, ``fk``), so this
+module does not import :mod:`manipkit.kinematics`.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.spatial.compare import pose_error
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.spatial.rotations import rpy_from_matrix
+from manipkit.spatial.transforms import invert_transform, pose_error
+from manipkit.text import short_text, vector_text
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["RECONCILE_TOL", "SCREW_TOL", "DHCheck", "check_dh", "screws"]
 
 SCREW_TOL = 1e-6  # screws equal within this (axis direction and moment)
 RECONCILE_TOL = 1e-8  # a correction "reconciles fully" when it leaves less than this (m, rad)
@@ -73,7 +86,7 @@ class DHCheck:
     tol: float
 
 
-def check_dh(table: DHTable, robot, *, base: str = "base_link", tip: str = "ee_link",
+def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str = "ee_link",
              samples: int = 1000, tol: float = 1e-9, seed: int = 0) -> DHCheck:
     """Compare a DH table's FK with a robot's URDF chain from ``base`` to ``tip``.
 
@@ -115,7 +128,7 @@ def check_dh(table: DHTable, robot, *, base: str = "base_link", tip: str = "ee_l
     return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol)
 
 
-def _urdf_fk(robot, base, tip, index):
+def _urdf_fk(robot: Robot, base: str, tip: str, index: list[int]):
     """FK of the URDF chain as a function of the chain's joint values only."""
     q_rest = robot.q()
 
@@ -132,8 +145,8 @@ def _count_hint(table: DHTable, n_joints: int) -> tuple[str, ...]:
     if table.n == n_joints + 1:
         last = table.rows[-1]
         return (
-            f"the last row (a={last.a:g}, alpha={math.degrees(last.alpha):g} deg, d={last.d:g}, "
-            f"theta={math.degrees(last.theta):g} deg) has no joint to map to: if it only places the tool, "
+            f"the last row (a={short_text(last.a)}, alpha={short_text(math.degrees(last.alpha))} deg, "
+            f"d={short_text(last.d)}, theta={short_text(math.degrees(last.theta))} deg) has no joint to map to: if it only places the tool, "
             "write it as `tool:` instead of a row",
         )
     if table.n < n_joints:
@@ -163,7 +176,7 @@ def screws(fk, n: int, q0=None, *, step: float = 1e-5) -> np.ndarray:
         ``(0, direction)`` for prismatic ones; ``[S_i] = dT/dq_i T^-1``.
     """
     q0 = np.zeros(n) if q0 is None else np.asarray(q0, dtype=float)
-    T_inv = np.linalg.inv(fk(q0))
+    T_inv = invert_transform(fk(q0))
     result = np.empty((n, 6))
     for i in range(n):
         e = np.zeros(n)
@@ -191,13 +204,14 @@ def _compare_screws(S_urdf, S_dh):
     if (p_u is None) != (p_d is None):
         urdf_moves, table_moves = ("slides", "turns") if p_u is None else ("turns", "slides")
         return f"the URDF joint {urdf_moves}, the table's row {table_moves} (check the row's type)"
-    angle = math.degrees(math.atan2(np.linalg.norm(np.cross(w_u, w_d)), abs(float(w_u @ w_d))))
+    angle = short_text(math.degrees(math.atan2(np.linalg.norm(np.cross(w_u, w_d)), abs(float(w_u @ w_d)))), 3)
+    along_u, along_d = _vector_message(w_u), _vector_message(w_d)
     if p_u is None:  # both slide
-        return f"its axis differs by {angle:.3g} deg (URDF {_vec(w_u)}, table {_vec(w_d)})"
-    distance = _line_distance(w_u, p_u, w_d, p_d)
+        return f"its axis differs by {angle} deg (URDF {along_u}, table {along_d})"
+    distance = short_text(_line_distance(w_u, p_u, w_d, p_d), 4)
     return (
-        f"its axis differs: URDF along {_vec(w_u)} through {_vec(p_u)}, table along {_vec(w_d)} "
-        f"through {_vec(p_d)} (angle {angle:.3g} deg, distance {distance:.4g} m)"
+        f"its axis differs: URDF along {along_u} through {_vector_message(p_u)}, table along {along_d} "
+        f"through {_vector_message(p_d)} (angle {angle} deg, distance {distance} m)"
     )
 
 
@@ -212,8 +226,8 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> lis
     n = len(joints)
     dh = lambda q: dh_fk(table, q)  # noqa: E731
     lines = [
-        f"does not agree: max position error {max_position:.4g} m, max rotation error "
-        f"{max_rotation:.4g} rad ({math.degrees(max_rotation):.4g} deg) over {len(Q)} samples"
+        f"does not agree: max position error {short_text(max_position, 4)} m, max rotation error "
+        f"{short_text(max_rotation, 4)} rad ({short_text(math.degrees(max_rotation), 4)} deg) over {len(Q)} samples"
     ]
     if n == 0:
         return lines + [_tool_line(_home_difference(urdf_fk, dh, np.zeros(0)))]
@@ -225,7 +239,7 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> lis
     for i in reversed_joints:
         lines.append(
             f"joint {i + 1} ({joints[i]}) turns the other way: the table's z axis points opposite to the URDF axis "
-            f"{_vec(_screw_line(S_u[i])[0])} at q = 0"
+            f"{_vector_message(_screw_line(S_u[i])[0])} at q = 0"
         )
     if differing:
         first = differing[0]
@@ -239,11 +253,11 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> lis
     candidates = _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol)
     full = [c for c in candidates if c[1] <= max(tol, RECONCILE_TOL)]
     if full:
-        lines.append(f"{full[0][0]}: reconciles them fully (remaining error {full[0][1]:.2g})")
+        lines.append(f"{full[0][0]}: reconciles them fully (remaining error {short_text(full[0][1], 2)})")
     else:
         best = min(candidates, key=lambda c: c[1], default=None)
         if best is not None and best[1] < 0.5 * max(max_position, max_rotation):
-            lines.append(f"{best[0]}: reduces the error to {best[1]:.3g} but does not reconcile them fully")
+            lines.append(f"{best[0]}: reduces the error to {short_text(best[1], 3)} but does not reconcile them fully")
         lines.append("no constant base or tool transform, joint zero offset or joint direction change reconciles them")
     return lines
 
@@ -258,18 +272,18 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
     out = []
 
     # Tool only: T_urdf(q) = T_dh(s q) X.
-    X = np.linalg.inv(M_d) @ M_u
+    X = invert_transform(M_d) @ M_u
     out.append((f"{flip_text}{_tool_line(X)}", _residual(urdf_fk, lambda q: dh(q * signs) @ X, Q)))
 
     # Base only: T_urdf(q) = B T_dh(s q).
-    B = M_u @ np.linalg.inv(M_d)
+    B = M_u @ invert_transform(M_d)
     out.append((f"{flip_text}a constant base transform {_pose_text(B)} (before row 1)",
                  _residual(urdf_fk, lambda q: B @ dh(q * signs), Q)))
 
     # Base and tool: align the table's axes with the URDF's by one rigid motion.
     B = _align_axes(S_u, S_d * signs[:, None], M_u[:3, 3], M_d[:3, 3])
     if B is not None:
-        X = np.linalg.inv(B @ M_d) @ M_u
+        X = invert_transform(B @ M_d) @ M_u
         out.append((f"{flip_text}a base transform {_pose_text(B)} and a tool transform {_pose_text(X)}",
                     _residual(urdf_fk, lambda q: B @ dh(q * signs) @ X, Q)))
 
@@ -277,7 +291,10 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
     offsets = _fit_offsets(S_u, dh, signs, n)
     if offsets is not None and np.abs(offsets).max() > 1e-9:
         X = _home_difference(urdf_fk, dh, offsets)
-        described = ", ".join(f"joint {i + 1} by {math.degrees(o):+.6g} deg" for i, o in enumerate(offsets) if abs(o) > 1e-9)
+        described = ", ".join(
+            f"joint {i + 1} by {'+' if o > 0 else '-'}{short_text(math.degrees(abs(o)))} deg"
+            for i, o in enumerate(offsets) if abs(o) > 1e-9
+        )
         out.append((f"{flip_text}joint zero offsets ({described} added to theta) and {_tool_line(X)}",
                     _residual(urdf_fk, lambda q: dh(q * signs + offsets) @ X, Q)))
     return out
@@ -285,7 +302,7 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
 
 def _home_difference(urdf_fk, dh, q_dh):
     n = len(q_dh)
-    return np.linalg.inv(dh(np.asarray(q_dh))) @ urdf_fk(np.zeros(n))
+    return invert_transform(dh(np.asarray(q_dh))) @ urdf_fk(np.zeros(n))
 
 
 def _residual(urdf_fk, corrected, Q) -> float:
@@ -384,8 +401,10 @@ def _tool_line(X) -> str:
 
 def _pose_text(T) -> str:
     rpy = np.degrees(rpy_from_matrix(T[:3, :3], check=False))
-    return f"xyz {_vec(T[:3, 3])} m, rpy {_vec(rpy, 4)} deg"
+    return f"xyz {_vector_message(T[:3, 3])} m, rpy {_vector_message(rpy, 4)} deg"
 
 
-def _vec(values, digits: int = 6) -> str:
-    return "[" + " ".join(f"{v + 0.0:.{digits}g}" if abs(v) > 1e-9 else "0" for v in values) + "]"
+def _vector_message(values, digits: int = 6) -> str:
+    """:func:`manipkit.text.vector_text` with ``digits`` significant digits; entries within 1e-9 of zero
+    (finite-difference noise) print as 0."""
+    return vector_text(values, lambda v: short_text(v, digits, zero=1e-9))

@@ -8,7 +8,7 @@ vector ``q``, where ``q_chain`` holds the values of the joints
 ``tip``, in order). Joints off that chain (the wheels of a mobile base, other
 branches) are left out.
 
-Conventions (DESIGN.md), restated:
+Conventions (docs/architecture.md), restated:
 
 - Standard DH (Spong, Corke): ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``;
   DH frame ``i-1`` has its z axis on joint ``i``.
@@ -71,13 +71,19 @@ Parameters smaller than 1e-12 in magnitude are written as exact zeros
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from manipkit.dh.table import CONVENTIONS, DHRow, DHTable, dh_fk
 from manipkit.errors import DHDerivationError
 from manipkit.spatial.rotations import matrix_from_axis_angle
+from manipkit.spatial.transforms import invert_transform
 
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+# DHDerivationError is re-exported: manipkit 0.1 offered it here (manipkit.dh_from_urdf)
 __all__ = ["DHDerivationError", "dh_from_urdf_chain"]
 
 _ZERO_SNAP = 1e-12  # parameters below this are rounding noise and written as 0
@@ -94,13 +100,6 @@ def _frame(origin, z, x) -> np.ndarray:
     T = np.eye(4)
     T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, origin
     return T
-
-
-def _rigid_inverse(T: np.ndarray) -> np.ndarray:
-    inverse = np.eye(4)
-    inverse[:3, :3] = T[:3, :3].T
-    inverse[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return inverse
 
 
 def _x_of_frame_0(z: np.ndarray) -> np.ndarray:
@@ -208,7 +207,7 @@ def _dh_frames(points, directions, prismatic, T_base_tip, tol):
 
 
 def dh_from_urdf_chain(
-    robot,
+    robot: Robot,
     base: str = "base_link",
     tip: str = "ee_link",
     *,
@@ -268,6 +267,28 @@ def dh_from_urdf_chain(
     """
     if convention not in CONVENTIONS:
         raise DHDerivationError(f"convention '{convention}': choose standard or modified")
+    joints = _movable_joints(robot, base, tip)
+    points, directions = _joint_lines(robot, base, joints)
+    T_base_tip = robot.transform(base, tip, np.zeros(len(robot.joints)))
+    prismatic = [not joint.is_angular for joint in joints]
+    standard, modified = _dh_frames(points, directions, prismatic, T_base_tip, tol)
+    frames = standard if convention == "standard" else modified
+    rows = []
+    for i, joint in enumerate(joints):
+        a, alpha, d, theta = _row_parameters(invert_transform(frames[i]) @ frames[i + 1], convention)
+        limits = (joint.lower, joint.upper)
+        qlim = limits if all(map(math.isfinite, limits)) else None
+        rows.append(DHRow(a, alpha, d, theta, type="prismatic" if prismatic[i] else "revolute", qlim=qlim))
+    table = DHTable(tuple(rows), convention=convention, name=robot.name, base=frames[0])
+    # Tool from the table's own zero pose, so q = 0 is reproduced exactly.
+    T_base_dhn = dh_fk(table, np.zeros(table.n), upto=table.n)
+    tool = invert_transform(T_base_dhn) @ T_base_tip
+    tool[np.abs(tool) < _ZERO_SNAP] = 0.0
+    return DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)
+
+
+def _movable_joints(robot: Robot, base: str, tip: str) -> list:
+    """The robot's joints (``robot.joints`` entries) on the chain from ``base`` down to ``tip``, in order."""
     base_name, tip_name = robot.frame(base), robot.frame(tip)  # UnknownFrameError with suggestions
     if base_name == tip_name:
         same = f"'{base}'" if base == base_name else f"'{base}' ({base_name})"
@@ -282,7 +303,11 @@ def dh_from_urdf_chain(
             f"joints); a DH table needs at least one, and T_{base_name}_{tip_name} is constant: "
             "use robot.transform instead"
         )
-    joints = [robot.joints[robot.joint_names.index(name)] for name in names]
+    return [robot.joints[robot.joint_names.index(name)] for name in names]
+
+
+def _joint_lines(robot: Robot, base: str, joints: list) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Each joint's axis at q = 0 as a line in the ``base`` frame: (points on the lines, unit directions)."""
     q0 = np.zeros(len(robot.joints))
     points, directions = [], []
     for joint in joints:
@@ -290,27 +315,4 @@ def dh_from_urdf_chain(
         axis = T_base_joint[:3, :3] @ np.asarray(joint.axis, dtype=float)
         points.append(T_base_joint[:3, 3])
         directions.append(axis / np.linalg.norm(axis))
-    T_base_tip = robot.transform(base, tip, q0)
-    prismatic = [not joint.is_angular for joint in joints]
-    standard, modified = _dh_frames(points, directions, prismatic, T_base_tip, tol)
-    frames = standard if convention == "standard" else modified
-    rows = []
-    for i, joint in enumerate(joints):
-        a, alpha, d, theta = _row_parameters(_rigid_inverse(frames[i]) @ frames[i + 1], convention)
-        limits = (joint.lower, joint.upper)
-        rows.append(
-            DHRow(
-                a,
-                alpha,
-                d,
-                theta,
-                type="prismatic" if prismatic[i] else "revolute",
-                qlim=limits if all(map(math.isfinite, limits)) else None,
-            )
-        )
-    table = DHTable(tuple(rows), convention=convention, name=robot.name, base=frames[0])
-    # Tool from the table's own zero pose, so q = 0 is reproduced exactly.
-    T_base_dhn = dh_fk(table, np.zeros(table.n), upto=table.n)
-    tool = _rigid_inverse(T_base_dhn) @ T_base_tip
-    tool[np.abs(tool) < _ZERO_SNAP] = 0.0
-    return DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)
+    return points, directions

@@ -1,0 +1,402 @@
+"""DH table files: read and write the YAML format (docs/architecture.md, "DH table files").
+
+:func:`load_dh` and :func:`dh_from_yaml` read a table (the format is in
+:func:`load_dh`'s docstring), :func:`save_dh` and :func:`yaml_from_dh` write
+one so that it reads back bit for bit. Every problem in a file is a
+:class:`~manipkit.errors.DHTableError` naming the file, the row and the field.
+
+PyYAML is imported inside the functions that need it.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, DHRow, DHTable
+from manipkit.errors import DHTableError
+from manipkit.spatial.transforms import transform_from_xyz_rpy
+from manipkit.text import short_text
+
+__all__ = ["ANGLE_UNITS", "dh_from_yaml", "load_dh", "save_dh", "yaml_from_dh"]
+
+ANGLE_UNITS = ("rad", "deg")
+
+_TOP_FIELDS = ("name", "convention", "angles", "base", "tool", "joints")
+_ROW_FIELDS = ("a", "alpha", "d", "theta")
+_ROW_OPTIONAL = ("type", "qlim", "name")
+_PLACEMENT_FIELDS = ("xyz", "rpy")
+
+
+def load_dh(path: str | os.PathLike) -> DHTable:
+    """Read a DH table file (YAML, docs/architecture.md "DH table files").
+
+    The format::
+
+        name: iiwa14                  # optional; default: the file name without .yaml
+        convention: modified          # required: standard or modified
+        angles: deg                   # optional: deg or rad (default rad)
+        base: {xyz: [0, 0, 0], rpy: [0, 0, 0]}      # optional, before row 1
+        tool: {xyz: [0, 0, 0.126], rpy: [0, 0, 0]}  # optional, after the last row
+        joints:                       # one row per movable joint, base to tip
+          - {a: 0, alpha: 0,  d: 0.36, theta: 0}
+          - {a: 0, alpha: 90, d: 0,    theta: 180, qlim: [-120, 120], name: iiwa_joint_2}
+          - {a: 0, alpha: 0,  d: 0.1,  theta: 0, type: prismatic, qlim: [0, 0.5]}
+
+    - ``a`` and ``d`` are metres; ``alpha`` and ``theta`` are in the file's
+      ``angles`` unit, and so are the ``rpy`` of ``base`` and ``tool`` and the
+      ``qlim`` of revolute rows (``qlim`` of prismatic rows is metres).
+    - Standard rows are ``(a_i, alpha_i, d_i, theta_i)``, modified rows
+      ``(a_{i-1}, alpha_{i-1}, d_i, theta_i)``; ``theta`` (revolute) or ``d``
+      (prismatic) is the offset added to the joint value.
+    - ``rpy`` is ``(roll, pitch, yaw)``, ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (URDF).
+    - ``type`` is ``revolute`` (default) or ``prismatic``; ``name`` is an
+      optional joint label.
+    - Numbers may be written as ``1e-3`` (which PyYAML reads as text).
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    DHTable
+        In metres and radians.
+
+    Raises
+    ------
+    DHTableError
+        One line naming the file, the row (1-based) and the field, and what
+        is valid: a missing file, malformed YAML (with line and column), a
+        missing or unknown field (with the closest valid name), a value that
+        is not a number or not finite, a bad ``convention``, ``angles`` or
+        ``type``, an empty ``joints`` list, a repeated key.
+
+    Examples
+    --------
+    >>> from manipkit.description.sources import bundled_dir
+    >>> table = load_dh(bundled_dir() / "dh" / "planar_2r.yaml")
+    >>> table.convention, table.n
+    ('standard', 2)
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise DHTableError(f"{path}: no such DH table file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DHTableError(f"{path}: cannot read the DH table file ({exc})") from None
+    name = path.name[: -len(".yaml")] if path.name.endswith(".yaml") else path.stem
+    return dh_from_yaml(text, source=str(path), default_name=name)
+
+
+def dh_from_yaml(text: str, *, source: str = "<string>", default_name: str = "") -> DHTable:
+    """A DH table from the text of a table file (see :func:`load_dh` for the format).
+
+    Parameters
+    ----------
+    text : str
+        YAML.
+    source : str, keyword-only
+        How messages name the text (a file name).
+    default_name : str, keyword-only
+        The table's name when the text has no ``name``.
+
+    Returns
+    -------
+    DHTable
+
+    Raises
+    ------
+    DHTableError
+        See :func:`load_dh`.
+
+    Examples
+    --------
+    >>> table = dh_from_yaml("convention: standard\\nangles: deg\\njoints:\\n  - {a: 1, alpha: 90, d: 0, theta: 0}")
+    >>> round(table.rows[0].alpha, 12)
+    1.570796326795
+    """
+    data = _parse_yaml(text, source)
+    if not isinstance(data, dict):
+        raise DHTableError(
+            f"{source}: a DH table is a mapping with the keys {', '.join(_TOP_FIELDS)}; "
+            f"got {_kind(data)}"
+        )
+    _check_keys(data, _TOP_FIELDS, ("convention", "joints"), source, "the table")
+
+    convention = _choice(data["convention"], CONVENTIONS, source, "field 'convention'")
+    angles = _choice(data.get("angles", "rad"), ANGLE_UNITS, source, "field 'angles'")
+    to_rad = math.radians if angles == "deg" else float
+    name = data.get("name", default_name)
+    name = "" if name is None else str(name)
+
+    joints = data["joints"]
+    if not isinstance(joints, list):
+        raise DHTableError(f"{source}: field 'joints' must be a list of rows {{a, alpha, d, theta}}; got {_kind(joints)}")
+    if not joints:
+        raise DHTableError(f"{source}: field 'joints' is empty; give one row {{a, alpha, d, theta}} per movable joint")
+    rows = [_row_from_yaml(item, i, source, angles, to_rad) for i, item in enumerate(joints, start=1)]
+
+    base, base_rpy = _placement_from_yaml(data.get("base", {}), "base", source, angles, to_rad)
+    tool, tool_rpy = _placement_from_yaml(data.get("tool", {}), "tool", source, angles, to_rad)
+    return DHTable(rows, convention, name, base, tool, base_rpy, tool_rpy)
+
+
+def _parse_yaml(text: str, source: str):
+    import yaml
+
+    class StrictSafeLoader(yaml.SafeLoader):
+        """SafeLoader that refuses a key given twice (PyYAML keeps the last one silently)."""
+
+    def construct_mapping(loader, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = loader.construct_object(key_node, deep=deep)
+            if isinstance(key, str) and key in seen:
+                mark = key_node.start_mark
+                raise DHTableError(
+                    f"{source}: key '{key}' given twice (line {seen[key]} and line {mark.line + 1}); keep one"
+                )
+            if isinstance(key, str):
+                seen[key] = key_node.start_mark.line + 1
+        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+    StrictSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+    try:
+        return yaml.load(text, Loader=StrictSafeLoader)  # a SafeLoader: same safety as yaml.safe_load
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise DHTableError(f"{source}: malformed YAML{where}: {problem}") from None
+
+
+def _kind(value) -> str:
+    if value is None:
+        return "nothing"
+    return {dict: "a mapping", list: "a list", str: f"the text {value!r:.40}"}.get(type(value), f"{value!r:.40}")
+
+
+def _check_keys(mapping: dict, valid, required, source: str, what: str) -> None:
+    for key in mapping:
+        if key not in valid:
+            close = difflib.get_close_matches(str(key), valid, n=1, cutoff=0.5)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise DHTableError(f"{source}: {what}: unknown field '{key}'{hint}; valid fields: {', '.join(valid)}")
+    for key in required:
+        if key not in mapping:
+            raise DHTableError(f"{source}: {what}: missing field '{key}'; required fields: {', '.join(required)}")
+
+
+def _choice(value, valid, source: str, what: str) -> str:
+    if value not in valid:
+        raise DHTableError(f"{source}: {what} is {value!r}; choose {' or '.join(valid)}")
+    return value
+
+
+def _number(value, source: str, what: str, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise DHTableError(f"{source}: {what} is {_kind(value)}, not a number; give a number in {unit}")
+    try:
+        number = float(value.strip()) if isinstance(value, str) else float(value)
+    except ValueError:
+        raise DHTableError(f"{source}: {what} is {value!r:.40}, not a number; give a number in {unit}") from None
+    if not math.isfinite(number):
+        raise DHTableError(f"{source}: {what} is {value}, not finite; give a finite number in {unit}")
+    return number
+
+
+def _numbers(value, count: int, source: str, what: str, unit: str) -> list[float]:
+    if not isinstance(value, list) or len(value) != count:
+        raise DHTableError(f"{source}: {what} must be a list of {count} numbers in {unit}; got {_kind(value)}")
+    return [_number(v, source, f"{what} entry {i}", unit) for i, v in enumerate(value, start=1)]
+
+
+def _angle_unit(angles: str) -> str:
+    return "degrees (angles: deg)" if angles == "deg" else "radians (angles: rad)"
+
+
+def _row_from_yaml(item, index: int, source: str, angles: str, to_rad) -> DHRow:
+    where = f"row {index}"
+    if not isinstance(item, dict):
+        raise DHTableError(f"{source}: {where} must be a mapping {{a, alpha, d, theta}}; got {_kind(item)}")
+    _check_keys(item, _ROW_FIELDS + _ROW_OPTIONAL, _ROW_FIELDS, source, where)
+    angle_unit = _angle_unit(angles)
+    a = _number(item["a"], source, f"{where}: field 'a'", "metres")
+    d = _number(item["d"], source, f"{where}: field 'd'", "metres")
+    alpha = to_rad(_number(item["alpha"], source, f"{where}: field 'alpha'", angle_unit))
+    theta = to_rad(_number(item["theta"], source, f"{where}: field 'theta'", angle_unit))
+    kind = _choice(item.get("type", "revolute"), JOINT_TYPES, source, f"{where}: field 'type'")
+    qlim = None
+    if item.get("qlim") is not None:
+        unit = angle_unit if kind == "revolute" else "metres"
+        lower, upper = _numbers(item["qlim"], 2, source, f"{where}: field 'qlim'", unit)
+        if not lower < upper:
+            raise DHTableError(f"{source}: {where}: field 'qlim' is [{short_text(lower)}, {short_text(upper)}]; the lower limit must be below the upper")
+        if kind == "revolute":
+            lower, upper = to_rad(lower), to_rad(upper)
+        qlim = (lower, upper)
+    name = item.get("name", "")
+    return DHRow(a, alpha, d, theta, kind, qlim, "" if name is None else str(name))
+
+
+def _placement_from_yaml(value, what: str, source: str, angles: str, to_rad):
+    if not isinstance(value, dict):
+        raise DHTableError(f"{source}: field '{what}' must be a mapping {{xyz: [x, y, z], rpy: [roll, pitch, yaw]}}; got {_kind(value)}")
+    _check_keys(value, _PLACEMENT_FIELDS, (), source, f"field '{what}'")
+    if not value:
+        return np.eye(4), None
+    xyz = _numbers(value.get("xyz", [0, 0, 0]), 3, source, f"{what}: field 'xyz'", "metres")
+    rpy = [to_rad(v) for v in _numbers(value.get("rpy", [0, 0, 0]), 3, source, f"{what}: field 'rpy'", _angle_unit(angles))]
+    return transform_from_xyz_rpy(xyz, rpy), tuple(rpy)
+
+
+def save_dh(table: DHTable, path: str | os.PathLike, *, angles: str = "deg", header: str | None = None) -> None:
+    """Write a DH table file (see :func:`load_dh` for the format).
+
+    Parameters
+    ----------
+    table : DHTable
+    path : str or path-like
+    angles : {"deg", "rad"}, keyword-only
+        Unit of ``alpha``, ``theta``, the ``rpy`` of base and tool and the
+        ``qlim`` of revolute rows in the file.
+    header : str, optional
+        Text written as ``#`` comment lines at the top.
+
+    Notes
+    -----
+    ``load_dh(path) == table`` after saving, bit for bit: numbers are written
+    with the shortest text that reads back to the same float. With
+    ``angles="deg"`` the written degrees are chosen (among the few floats
+    next to ``degrees(x)``) so that ``radians`` gives back ``x`` exactly;
+    this exists for every angle that is the radian value of some float
+    number of degrees, which covers every table read from a file in
+    degrees. (A few radian values are not such a value; they come back
+    within one unit in the last place.) Base and tool are written as
+    ``xyz`` and ``rpy``; a table read from a file keeps the file's ``rpy``.
+
+    Raises
+    ------
+    DHTableError
+        A value that is not finite, or a base or tool that is not a rigid
+        transform.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> table = DHTable([DHRow(1, 0, 0, 0), DHRow(1, 0, 0, 0)], "standard", "planar_2r")
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     save_dh(table, Path(folder) / "planar_2r.yaml")
+    ...     load_dh(Path(folder) / "planar_2r.yaml") == table
+    True
+    """
+    Path(path).write_text(yaml_from_dh(table, angles=angles, header=header), encoding="utf-8")
+
+
+def yaml_from_dh(table: DHTable, *, angles: str = "deg", header: str | None = None) -> str:
+    """The text of a DH table file (what :func:`save_dh` writes).
+
+    Parameters
+    ----------
+    table : DHTable
+    angles : {"deg", "rad"}, keyword-only
+    header : str, optional
+        Comment lines for the top.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(yaml_from_dh(DHTable([DHRow(1, np.pi / 2, 0, 0)], "standard", "one")))
+    name: one
+    convention: standard
+    angles: deg
+    joints:
+      - {a: 1, alpha: 90, d: 0, theta: 0}
+    <BLANKLINE>
+    """
+    if angles not in ANGLE_UNITS:
+        raise DHTableError(f"angles '{angles}': choose deg or rad")
+    angle = _degrees_for_file if angles == "deg" else (lambda x: x)
+    lines = [f"# {line}".rstrip() for line in (header.splitlines() if header else [])]
+    lines += [
+        f"name: {_yaml_string(table.name)}",
+        f"convention: {table.convention}",
+        f"angles: {angles}",
+    ]
+    for what in ("base", "tool"):
+        T = getattr(table, what)
+        if np.array_equal(T, np.eye(4)):
+            continue
+        xyz, rpy = table.placement_xyz_rpy(what)
+        lines.append(f"{what}: {{xyz: {_yaml_list(xyz, what + ' xyz')}, rpy: {_yaml_list([angle(v) for v in rpy], what + ' rpy')}}}")
+    lines.append("joints:")
+    for i, row in enumerate(table.rows, start=1):
+        where = f"row {i}"
+        fields = [
+            f"a: {_yaml_number(row.a, where + ' a')}",
+            f"alpha: {_yaml_number(angle(row.alpha), where + ' alpha')}",
+            f"d: {_yaml_number(row.d, where + ' d')}",
+            f"theta: {_yaml_number(angle(row.theta), where + ' theta')}",
+        ]
+        if not row.is_revolute:
+            fields.append("type: prismatic")
+        if row.qlim is not None:
+            limits = [angle(v) for v in row.qlim] if row.is_revolute else list(row.qlim)
+            fields.append(f"qlim: {_yaml_list(limits, where + ' qlim')}")
+        if row.name:
+            fields.append(f"name: {_yaml_string(row.name)}")
+        lines.append(f"  - {{{', '.join(fields)}}}")
+    return "\n".join(lines) + "\n"
+
+
+def _degrees_for_file(x: float) -> float:
+    """The float number of degrees, shortest in text, whose ``math.radians`` is exactly ``x``."""
+    guess = math.degrees(x)
+    candidates = [guess]
+    low = high = guess
+    for _ in range(4):
+        low, high = math.nextafter(low, -math.inf), math.nextafter(high, math.inf)
+        candidates += [low, high]
+    exact = [c for c in candidates if math.radians(c) == x]
+    if not exact:
+        return guess
+    return min(exact, key=lambda c: (len(_yaml_number(c, "")), abs(c - guess)))
+
+
+def _yaml_number(value: float, what: str) -> str:
+    value = float(value)
+    if not math.isfinite(value):
+        raise DHTableError(f"{what} is {value}; a DH table file holds finite numbers only")
+    if value.is_integer() and abs(value) < 1e15:
+        return "-0.0" if value == 0 and math.copysign(1.0, value) < 0 else str(int(value))
+    text = repr(value)
+    if "e" in text and "." not in text.split("e")[0]:  # PyYAML reads 1e-05 as text, 1.0e-05 as a number
+        mantissa, exponent = text.split("e")
+        text = f"{mantissa}.0e{exponent}"
+    return text
+
+
+def _yaml_list(values, what: str) -> str:
+    return "[" + ", ".join(_yaml_number(v, what) for v in values) + "]"
+
+
+_YAML_PLAIN = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*\Z")
+_YAML_RESERVED = {"y", "n", "yes", "no", "on", "off", "true", "false", "null"}
+
+
+def _yaml_string(text: str) -> str:
+    if _YAML_PLAIN.match(text) and text.lower() not in _YAML_RESERVED:
+        return text
+    import yaml
+
+    return yaml.safe_dump(text, default_style='"', allow_unicode=True, width=float("inf")).strip()

@@ -1,0 +1,275 @@
+"""Forward kinematics of a DH table in SymPy: exact matrices in the joint variables.
+
+:func:`dh_fk_symbolic` gives ``T_base_tool`` as a ``sympy.Matrix`` with the
+conventions of :func:`manipkit.dh.table.dh_fk` (docs/architecture.md);
+:func:`shorthand` writes it as textbooks do (``c_1``, ``s_12``) and
+:func:`format_symbolic` prints it as text or LaTeX.
+
+SymPy is imported inside the functions, so importing this module is cheap.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from manipkit.dh.table import DHTable
+from manipkit.errors import DHDerivationError
+
+__all__ = ["EXACT_ANGLE_TOL", "dh_fk_symbolic", "dh_symbols", "format_symbolic", "shorthand"]
+
+EXACT_ANGLE_TOL = 1e-12
+"""Relative tolerance within which an angle counts as a multiple of pi/12 in :func:`dh_fk_symbolic`."""
+
+
+def _exact_length(value: float):
+    """A SymPy number for a length: an Integer or the Rational of its shortest decimal text, else a Float."""
+    import sympy
+
+    if value.is_integer() and abs(value) < 2**53:
+        return sympy.Integer(int(value))
+    text = repr(value)
+    digits = text.lstrip("-").replace(".", "").lstrip("0")
+    if "e" not in text and len(digits) <= 9:
+        exact = sympy.Rational(text)  # the decimal as written; float(exact) == value since repr round-trips
+        if float(exact) == value:
+            return exact
+    return sympy.Float(value)
+
+
+def _exact_angle(value: float, tol: float = EXACT_ANGLE_TOL):
+    """A SymPy angle: ``k pi / 12`` when ``value`` is one (within relative ``tol``), else as a length."""
+    import sympy
+
+    k = value / (math.pi / 12)
+    nearest = round(k)
+    if abs(k - nearest) <= tol * max(1.0, abs(k)):
+        return sympy.Rational(nearest, 12) * sympy.pi
+    return _exact_length(value)
+
+
+def _symbolic_link(a, alpha, d, theta, convention: str):
+    import sympy
+
+    ct, st, ca, sa = sympy.cos(theta), sympy.sin(theta), sympy.cos(alpha), sympy.sin(alpha)
+    if convention == "standard":
+        rows = [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d]]
+    else:
+        rows = [[ct, -st, 0, a], [st * ca, ct * ca, -sa, -d * sa], [st * sa, ct * sa, ca, d * ca]]
+    return sympy.Matrix(rows + [[0, 0, 0, 1]])
+
+
+def _symbolic_placement(table: DHTable, which: str, tol: float):
+    """The table's ``base`` or ``tool`` from its xyz and rpy, each number made exact where it is nice."""
+    import sympy
+
+    xyz, rpy = table.placement_xyz_rpy(which)
+    roll, pitch, yaw = (_exact_angle(float(v), tol) for v in rpy)
+    c, s = sympy.cos, sympy.sin
+    Rx = sympy.Matrix([[1, 0, 0], [0, c(roll), -s(roll)], [0, s(roll), c(roll)]])
+    Ry = sympy.Matrix([[c(pitch), 0, s(pitch)], [0, 1, 0], [-s(pitch), 0, c(pitch)]])
+    Rz = sympy.Matrix([[c(yaw), -s(yaw), 0], [s(yaw), c(yaw), 0], [0, 0, 1]])
+    R = Rz * Ry * Rx
+    M = sympy.eye(4)
+    M[:3, :3] = R
+    M[:3, 3] = sympy.Matrix([_exact_length(float(v)) for v in xyz])
+    return M
+
+
+def dh_symbols(n: int, symbols=None) -> tuple:
+    """The joint symbols :func:`dh_fk_symbolic` uses.
+
+    Parameters
+    ----------
+    n : int
+        Number of joints.
+    symbols : str or sequence, optional
+        ``None``: ``q1 ... qn`` (real). A string is passed to
+        ``sympy.symbols`` (``"t1:4"``, ``"theta_1 theta_2"``); a sequence
+        holds names or SymPy symbols, one per joint.
+
+    Returns
+    -------
+    tuple of sympy.Symbol
+
+    Raises
+    ------
+    DHDerivationError
+        When ``symbols`` does not hold ``n`` symbols.
+
+    Examples
+    --------
+    >>> dh_symbols(3)
+    (q1, q2, q3)
+    """
+    import sympy
+
+    if symbols is None:
+        made = sympy.symbols(f"q1:{n + 1}", real=True)
+    elif isinstance(symbols, str):
+        made = sympy.symbols(symbols, real=True)
+        made = made if isinstance(made, tuple) else (made,)
+    else:
+        made = tuple(s if isinstance(s, sympy.Symbol) else sympy.Symbol(str(s), real=True) for s in symbols)
+    made = tuple(made)
+    if len(made) != n:
+        raise DHDerivationError(f"{n} joint symbols needed, got {len(made)}: {made}")
+    return made
+
+
+def dh_fk_symbolic(
+    table: DHTable,
+    *,
+    upto: int | None = None,
+    simplify: bool | str = True,
+    symbols=None,
+    exact_tol: float = EXACT_ANGLE_TOL,
+):
+    """T_base_tool of a DH table as a SymPy matrix in the joint variables.
+
+    Parameters
+    ----------
+    table : DHTable
+    upto : int, keyword-only, optional
+        Stop after this many rows and leave out the tool (as :func:`~manipkit.dh.table.dh_fk`).
+    simplify : {True, False, "trigsimp"}, keyword-only
+        ``True`` (default): after every row, fold ``sin a cos b + cos a sin b``
+        into ``sin(a + b)`` and the like (SymPy's Fu rule ``TR10i``). In a
+        serial chain each joint variable appears in one row only, so products
+        are multilinear in the ``sin``/``cos`` of the joints and angle sums are
+        the only simplification there is; this is fast (0.1 s for 7 joints).
+        ``"trigsimp"``: in addition ``sympy.trigsimp`` on every entry of
+        the result (slow: about 20 s for the 7-joint iiwa).
+        ``False``: the plain product.
+    symbols : str or sequence, keyword-only, optional
+        Joint symbols, see :func:`dh_symbols`; default ``q1 ... qn`` (real).
+        A revolute row's symbol is added to ``theta``, a prismatic row's to ``d``.
+    exact_tol : float, keyword-only
+        Relative tolerance within which an angle counts as a multiple of
+        ``pi/12`` (default ``EXACT_ANGLE_TOL`` = 1e-12), see Notes.
+
+    Returns
+    -------
+    sympy.Matrix, shape (4, 4)
+        ``base @ A_1 @ ... @ A_n @ tool`` with the conventions of :func:`~manipkit.dh.table.dh_fk`.
+
+    Notes
+    -----
+    Numbers become exact where they are "nice": an angle within a relative
+    ``exact_tol`` of a multiple of ``pi/12`` (15 deg) becomes
+    that exact multiple of ``pi``; a length (and any other angle) becomes an
+    Integer, or the Rational of its shortest decimal text when that has at
+    most 9 significant digits (``0.36 -> 9/25``; exact, since that text reads
+    back to the same float), and a Float otherwise. Base and tool enter as
+    their ``xyz`` and ``rpy`` converted the same way.
+
+    Examples
+    --------
+    >>> from manipkit.dh.table import DHRow
+    >>> table = DHTable([DHRow(1, 0, 0, 0), DHRow(1, 0, 0, 0)], "standard")
+    >>> T = dh_fk_symbolic(table)
+    >>> T[0, 3]
+    cos(q1) + cos(q1 + q2)
+    """
+    import sympy
+    from sympy.simplify.fu import TR10i
+
+    if simplify not in (True, False, "trigsimp"):
+        raise DHDerivationError(f"simplify={simplify!r}: choose True, False or 'trigsimp'")
+    q = dh_symbols(table.n, symbols)
+    count = table.n if upto is None else upto
+    T = sympy.eye(4) if np.array_equal(table.base, np.eye(4)) else _symbolic_placement(table, "base", exact_tol)
+    for row, qi in zip(table.rows[:count], q):
+        theta = _exact_angle(row.theta, exact_tol) + (qi if row.is_revolute else 0)
+        d = _exact_length(row.d) + (0 if row.is_revolute else qi)
+        T = T * _symbolic_link(_exact_length(row.a), _exact_angle(row.alpha, exact_tol), d, theta, table.convention)
+        if simplify:
+            T = T.applyfunc(TR10i)
+    if upto is None and not np.array_equal(table.tool, np.eye(4)):
+        T = T * _symbolic_placement(table, "tool", exact_tol)
+        if simplify:
+            T = T.applyfunc(TR10i)
+    if simplify == "trigsimp":
+        T = T.applyfunc(sympy.trigsimp)
+    return T
+
+
+def _index_of(symbol) -> str:
+    match = re.search(r"(\d+)$", symbol.name)
+    return match.group(1) if match else symbol.name
+
+
+def shorthand(expr):
+    """Write ``sin(q_i)`` as ``s_i`` and ``cos(q_i)`` as ``c_i``, as textbooks do.
+
+    Sums of joint symbols get joined indices: ``sin(q1 + q2) -> s_12``,
+    ``cos(q1 + q2 + q3) -> c_123`` (indices with more than one digit are
+    separated by commas: ``s_9,10``). The index is the trailing number of the
+    symbol's name (``q2``, ``theta_2``), or the whole name. Arguments other
+    than plain sums of symbols (``q1 - q2``, ``2*q1``) stay as they are.
+
+    Parameters
+    ----------
+    expr : sympy expression or Matrix
+
+    Returns
+    -------
+    The same type, with real symbols ``s_...`` and ``c_...``.
+
+    Examples
+    --------
+    >>> import sympy
+    >>> q1, q2 = sympy.symbols("q1 q2", real=True)
+    >>> shorthand(sympy.cos(q1) + sympy.sin(q1 + q2))
+    c_1 + s_12
+    """
+    import sympy
+
+    replacements = {}
+    for function in expr.atoms(sympy.sin, sympy.cos):
+        terms = sympy.Add.make_args(function.args[0])
+        if not all(isinstance(t, sympy.Symbol) for t in terms):
+            continue
+        indices = sorted((_index_of(t) for t in terms), key=lambda s: (not s.isdigit(), int(s) if s.isdigit() else 0, s))
+        joined = "".join(indices) if all(len(i) == 1 for i in indices) else ",".join(indices)
+        letter = "s" if isinstance(function, sympy.sin) else "c"
+        replacements[function] = sympy.Symbol(f"{letter}_{joined}", real=True)
+    return expr.xreplace(replacements)
+
+
+def format_symbolic(matrix, *, latex: bool = False, width: int = 100, name: str = "T") -> str:
+    """A SymPy matrix as text or LaTeX.
+
+    Parameters
+    ----------
+    matrix : sympy.Matrix
+    latex : bool, keyword-only
+        Return LaTeX: ``\\begin{bmatrix} ... \\end{bmatrix}`` (``sympy.latex``).
+    width : int, keyword-only
+        Text only: when ``sympy.pretty`` would print a line longer than this,
+        print one entry per line instead (``T[1,1] = ...``, 1-based indices).
+    name : str, keyword-only
+        The matrix name used in the one-entry-per-line form.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import sympy
+    >>> q1 = sympy.Symbol("q1", real=True)
+    >>> format_symbolic(sympy.Matrix([[sympy.cos(q1), 0], [0, 1]]), latex=True)
+    '\\\\begin{bmatrix}\\\\cos{\\\\left(q_{1} \\\\right)} & 0\\\\\\\\0 & 1\\\\end{bmatrix}'
+    """
+    import sympy
+
+    if latex:
+        return sympy.latex(matrix, mat_str="bmatrix", mat_delim="")
+    text = sympy.pretty(matrix, use_unicode=True, wrap_line=False)
+    if max((len(line) for line in text.splitlines()), default=0) <= width:
+        return text
+    rows, cols = matrix.shape
+    return "\n".join(f"{name}[{i + 1},{j + 1}] = {sympy.sstr(matrix[i, j])}" for i in range(rows) for j in range(cols))

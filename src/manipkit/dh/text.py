@@ -1,0 +1,126 @@
+"""A DH table as a boxed text table: :func:`format_dh_table`, also ``str(table)``.
+
+Angles print in degrees and lengths in metres, six significant digits
+(:func:`manipkit.text.short_text`); the conventions are those of
+:mod:`manipkit.dh.table` (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.dh.table import DHRow, DHTable
+from manipkit.text import short_text
+
+__all__ = ["format_dh_table"]
+
+_BOX = {"top": "┌┬┐", "mid": "├┼┤", "bottom": "└┴┘"}
+_HEADERS = {
+    "standard": ["j", "θⱼ", "dⱼ", "aⱼ", "αⱼ", "q limits"],
+    "modified": ["j", "aⱼ₋₁", "αⱼ₋₁", "θⱼ", "dⱼ", "q limits"],
+}
+
+
+def format_dh_table(table: DHTable) -> str:
+    """A DH table as a boxed text table (also ``str(table)``).
+
+    The heading names the table, the convention (``standard DH`` or
+    ``modified DH``), the joint count and kinds (R revolute, P prismatic).
+    Columns, standard DH: ``j, θⱼ, dⱼ, aⱼ, αⱼ, q limits``; modified DH:
+    ``j, aⱼ₋₁, αⱼ₋₁, θⱼ, dⱼ, q limits``. The joint variable ``qj`` appears in
+    the ``θ`` column of a revolute row and in the ``d`` column of a
+    prismatic row, with the row's offset (``q2 + 180°``). Angles are in
+    degrees, lengths in metres, six significant digits. A base or tool that
+    is not the identity is printed below the table as ``xyz`` (m) and
+    ``rpy`` (deg, ``R = Rz(yaw) Ry(pitch) Rx(roll)``).
+
+    Parameters
+    ----------
+    table : DHTable
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(format_dh_table(DHTable([DHRow(1, 0, 0, 0), DHRow(1, 0, 0, np.pi / 2)], "standard", "planar_2r")))
+    planar_2r: standard DH, 2 joints (RR)
+    ┌───┬──────────┬────┬────┬────┬──────────┐
+    │ j │ θⱼ       │ dⱼ │ aⱼ │ αⱼ │ q limits │
+    ├───┼──────────┼────┼────┼────┼──────────┤
+    │ 1 │ q1       │  0 │  1 │ 0° │        - │
+    │ 2 │ q2 + 90° │  0 │  1 │ 0° │        - │
+    └───┴──────────┴────┴────┴────┴──────────┘
+    """
+    header = list(_HEADERS[table.convention])
+    body = [_row_cells(row, j, table.convention) for j, row in enumerate(table.rows, start=1)]
+    # the joint variable's column and names read left-aligned, numbers right-aligned
+    left = {0, header.index("θⱼ")}
+    if any(row.name for row in table.rows):
+        header.insert(1, "joint")
+        for cells, row in zip(body, table.rows):
+            cells.insert(1, row.name or "-")
+        left = {0, 1} | {k + 1 for k in left if k > 0}
+    kinds = "".join("R" if row.is_revolute else "P" for row in table.rows)
+    title = f"{table.convention} DH, {table.n} joint{'s' if table.n != 1 else ''} ({kinds})"
+    lines = [f"{table.name}: {title}" if table.name else title, *_boxed(header, body, left)]
+    for what in ("base", "tool"):
+        if not np.array_equal(getattr(table, what), np.eye(4)):
+            xyz, rpy = table.placement_xyz_rpy(what, check=False)
+            lines.append(
+                f"{what}: xyz = [{', '.join(short_text(v) for v in xyz)}] m, "
+                f"rpy = [{', '.join(_degrees_text(v) for v in rpy)}] (R = Rz(yaw) Ry(pitch) Rx(roll))"
+            )
+    return "\n".join(lines)
+
+
+def _row_cells(row: DHRow, j: int, convention: str) -> list[str]:
+    """The cells of row ``j`` (1-based) in the column order of ``_HEADERS[convention]``."""
+    variable = f"q{j}"
+    if row.is_revolute:
+        theta, d = _with_variable(variable, short_text(math.degrees(row.theta)), "°"), short_text(row.d)
+    else:
+        theta, d = _degrees_text(row.theta), _with_variable(variable, short_text(row.d), "")
+    if row.qlim is None:
+        limits = "-"
+    elif row.is_revolute:
+        limits = f"[{_degrees_text(row.qlim[0])}, {_degrees_text(row.qlim[1])}]"
+    else:
+        limits = f"[{short_text(row.qlim[0])}, {short_text(row.qlim[1])}] m"
+    if convention == "standard":
+        return [str(j), theta, d, short_text(row.a), _degrees_text(row.alpha), limits]
+    return [str(j), short_text(row.a), _degrees_text(row.alpha), theta, d, limits]
+
+
+def _degrees_text(radians: float) -> str:
+    return short_text(math.degrees(radians)) + "°"
+
+
+def _with_variable(variable: str, offset_text: str, unit: str) -> str:
+    """``q2``, ``q2 + 90°`` or ``q2 - 90°``: the joint variable plus the row's offset."""
+    if offset_text == "0":
+        return variable
+    if offset_text.startswith("-"):
+        return f"{variable} - {offset_text[1:]}{unit}"
+    return f"{variable} + {offset_text}{unit}"
+
+
+def _boxed(header: list[str], body: list[list[str]], left: set[int]) -> list[str]:
+    """The lines of a box-drawn table; columns in ``left`` are left-aligned, the others right-aligned."""
+    widths = [max(len(cells[k]) for cells in [header] + body) for k in range(len(header))]
+
+    def rule(kind: str) -> str:
+        first, middle, last = _BOX[kind]
+        return first + middle.join("─" * (w + 2) for w in widths) + last
+
+    def cells_line(cells: list[str], is_header: bool = False) -> str:
+        parts = [
+            c.ljust(w) if (is_header or k in left) else c.rjust(w)
+            for k, (c, w) in enumerate(zip(cells, widths))
+        ]
+        return "│ " + " │ ".join(parts) + " │"
+
+    return [rule("top"), cells_line(header, True), rule("mid"), *(cells_line(c) for c in body), rule("bottom")]
