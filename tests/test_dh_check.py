@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import manipkit
+from manipkit.description.sources import bundled_dh_tables
 from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, transform_from_xyz_rpy
 from manipkit.dh.check import check_dh, screws
-from manipkit.description.sources import bundled_dh_tables
 
 # planar_3r with its default lengths 4 2 1: standard DH rows (a, alpha, d, theta) = (l_i, 0, 0, 0),
 # since every joint turns about z and each link runs along its x axis.
@@ -168,8 +168,8 @@ def test_every_bundled_table_is_registered_here():
 
 @pytest.mark.parametrize("name", sorted(TABLE_ROBOTS))
 def test_bundled_table_against_its_urdf(name):
-    from manipkit.dh import load_dh
     from manipkit.description.sources import bundled_dh_tables
+    from manipkit.dh import load_dh
 
     robot_name, should_pass = TABLE_ROBOTS[name]
     result = check_dh(load_dh(bundled_dh_tables()[name]), manipkit.load(robot_name), samples=1000, tol=1e-9)

@@ -27,7 +27,9 @@ from manipkit.dh.symbolic import dh_fk_symbolic, dh_symbols, format_symbolic, sh
 from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, DHRow, DHTable, dh_fk, dh_link_transform
 from manipkit.dh.text import format_dh_table
 from manipkit.dh.to_urdf import urdf_from_dh
-from manipkit.spatial.transforms import transform_from_xyz_rpy  # re-exported for compatibility (manipkit 0.1)
+
+# re-exported for compatibility: manipkit 0.1 offered it as manipkit.dh.transform_from_xyz_rpy
+from manipkit.spatial.transforms import transform_from_xyz_rpy
 
 __all__ = [
     "CONVENTIONS",

@@ -38,6 +38,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
+from itertools import pairwise
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -145,9 +147,11 @@ def _count_hint(table: DHTable, n_joints: int) -> tuple[str, ...]:
     if table.n == n_joints + 1:
         last = table.rows[-1]
         return (
-            f"the last row (a={short_text(last.a)}, alpha={short_text(math.degrees(last.alpha))} deg, "
-            f"d={short_text(last.d)}, theta={short_text(math.degrees(last.theta))} deg) has no joint to map to: if it only places the tool, "
-            "write it as `tool:` instead of a row",
+            (
+                f"the last row (a={short_text(last.a)}, alpha={short_text(math.degrees(last.alpha))} deg, "
+                f"d={short_text(last.d)}, theta={short_text(math.degrees(last.theta))} deg) has no joint to map to: "
+                "if it only places the tool, write it as `tool:` instead of a row"
+            ),
         )
     if table.n < n_joints:
         return (f"{n_joints - table.n} joint(s) of the URDF chain have no row; check --base and --tip",)
@@ -224,11 +228,11 @@ def _line_distance(w1, p1, w2, p2) -> float:
 
 def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> list[str]:
     n = len(joints)
-    dh = lambda q: dh_fk(table, q)  # noqa: E731
-    lines = [
+    dh = partial(dh_fk, table)
+    lines = [(
         f"does not agree: max position error {short_text(max_position, 4)} m, max rotation error "
         f"{short_text(max_rotation, 4)} rad ({short_text(math.degrees(max_rotation), 4)} deg) over {len(Q)} samples"
-    ]
+    )]
     if n == 0:
         return lines + [_tool_line(_home_difference(urdf_fk, dh, np.zeros(0)))]
     S_u, S_d = screws(urdf_fk, n), screws(dh, n)
@@ -265,7 +269,7 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> lis
 def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
     """Candidate corrections ``(description, remaining max error)``, simplest first."""
     n = len(signs)
-    dh = lambda q: dh_fk(table, q)  # noqa: E731
+    dh = partial(dh_fk, table)
     flips = [i + 1 for i in range(n) if signs[i] < 0]
     flip_text = f"with joint(s) {', '.join(map(str, flips))} reversed, " if flips else ""
     M_u, M_d = urdf_fk(np.zeros(n)), dh(np.zeros(n))  # home poses
@@ -328,7 +332,7 @@ def _align_axes(S_u, S_d, tip_u, tip_d):
     directions_u, directions_d = np.array([w for w, _ in lines_u]), np.array([w for w, _ in lines_d])
     turning = [i for i in range(len(S_u)) if lines_u[i][1] is not None and lines_d[i][1] is not None]
     offsets_u, offsets_d = [], []
-    for i, j in zip(turning, turning[1:]):
+    for i, j in pairwise(turning):
         if np.linalg.norm(np.cross(directions_u[i], directions_u[j])) < SCREW_TOL:
             offsets_u.append(_across(directions_u[i], lines_u[j][1] - lines_u[i][1]))
             offsets_d.append(_across(directions_d[i], lines_d[j][1] - lines_d[i][1]))
@@ -367,7 +371,7 @@ def _fit_offsets(S_u, dh, signs, n, grid: int = 72):
     """
     offsets = np.zeros(n)
     for i in range(n - 1):
-        def mismatch(angle):
+        def mismatch(angle, i=i):
             trial = offsets.copy()
             trial[i] = angle
             S = screws(dh, n, trial) * signs[:, None]

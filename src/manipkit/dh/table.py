@@ -168,7 +168,8 @@ class DHTable:
     __hash__ = None
 
     def __str__(self) -> str:
-        from manipkit.dh.text import format_dh_table  # the printout builds on this module
+        # imported here: the printout module builds on this one
+        from manipkit.dh.text import format_dh_table
 
         return format_dh_table(self)
 

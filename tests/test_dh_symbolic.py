@@ -1,0 +1,155 @@
+"""manipkit.dh.symbolic: DH forward kinematics in SymPy.
+
+Independent sources: ``dh_fk`` (numpy) against SymPy's ``dh_fk_symbolic``,
+and seed 004's home pose and printed t_x, t_z formulas.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import sympy
+from test_dh_table import DH_DIR, random_q, random_table, seed_table
+
+from manipkit.dh import DHRow, DHTable, dh_fk, dh_fk_symbolic, dh_symbols, format_symbolic, load_dh, shorthand
+
+# --------------------------------------------------------------------------
+# symbolic forward kinematics
+
+
+@pytest.mark.parametrize("filename", ["planar_2r.yaml", "planar_3r.yaml", "iiwa14.yaml", "iiwa14_seed004.yaml"])
+def test_symbolic_fk_equals_numeric_fk_at_random_configurations(filename):
+    table = load_dh(DH_DIR / filename)
+    f = sympy.lambdify(dh_symbols(table.n), dh_fk_symbolic(table), "numpy")
+    rng = np.random.default_rng(11)
+    worst = max(np.abs(np.array(f(*q), dtype=float) - dh_fk(table, q)).max() for q in rng.uniform(-3, 3, (50, table.n)))
+    assert worst < 1e-12
+
+
+@pytest.mark.parametrize("convention", ["standard", "modified"])
+def test_symbolic_fk_with_prismatic_rows_base_and_tool_equals_numeric_fk(convention):
+    rng = np.random.default_rng(4)
+    table = random_table(rng, convention)
+    f = sympy.lambdify(dh_symbols(table.n), dh_fk_symbolic(table), "numpy")
+    worst = max(np.abs(np.array(f(*q), dtype=float) - dh_fk(table, q)).max() for q in random_q(table, rng, 30))
+    assert worst < 1e-12
+
+
+def test_symbolic_fk_upto_stops_before_the_tool():
+    table = load_dh(DH_DIR / "iiwa14.yaml")
+    f = sympy.lambdify(dh_symbols(7), dh_fk_symbolic(table, upto=4), "numpy")
+    q = np.random.default_rng(2).uniform(-2, 2, 7)
+    assert np.abs(np.array(f(*q), dtype=float) - dh_fk(table, q, upto=4)).max() < 1e-12
+
+
+def test_seed_home_pose_comes_out_exactly():
+    # Seed eq. 4.4: at q = 0, 0T7 = [diag(-1, -1, 1) | (0, 0, L1 + L2 + L3)] and
+    # 0T8 = [diag(-1, -1, 1) | (0, 0, L1 + L2 + L3 + L4)], with
+    # L1 + L2 + L3 = 0.36 + 0.42 + 0.40 = 1.18 = 59/50 and + L4 = 1.306 = 653/500.
+    table = seed_table()
+    zero = {q: 0 for q in dh_symbols(7)}
+    T08 = dh_fk_symbolic(table).subs(zero)
+    T07 = dh_fk_symbolic(table, upto=7).subs(zero)
+    rotation = [[-1, 0, 0], [0, -1, 0], [0, 0, 1]]
+    assert T08 == sympy.Matrix([[*rotation[0], 0], [*rotation[1], 0], [*rotation[2], sympy.Rational(653, 500)], [0, 0, 0, 1]])
+    assert T07 == sympy.Matrix([[*rotation[0], 0], [*rotation[1], 0], [*rotation[2], sympy.Rational(59, 50)], [0, 0, 0, 1]])
+
+
+def test_seed_translation_matches_the_seeds_printed_formulas():
+    # Seed appendix, "Tooltip transformation matrix elements" (in the shorthand c_i, s_i):
+    # t_x = -L2 c1 s2 - L3 (c1 c4 s2 + s4 (c1 c2 c3 - s1 s3))
+    #       - L4 (c6 (c1 c4 s2 + s4 (c1 c2 c3 - s1 s3)) - s6 (c5 (c1 s2 s4 - c4 (c1 c2 c3 - s1 s3)) + s5 (c1 c2 s3 + c3 s1)))
+    # t_z = L1 + L2 c2 + L3 (c2 c4 - c3 s2 s4) + L4 (c6 (c2 c4 - c3 s2 s4) - s6 (c5 (c2 s4 + c3 c4 s2) - s2 s3 s5))
+    c = sympy.symbols("c_1:8", real=True)
+    s = sympy.symbols("s_1:8", real=True)
+    c1, c2, c3, c4, c5, c6, c7 = c
+    s1, s2, s3, s4, s5, s6, s7 = s
+    L1, L2, L3, L4 = (sympy.Rational(v) for v in ("0.36", "0.42", "0.40", "0.126"))
+    t_x = (-L2 * c1 * s2 - L3 * (c1 * c4 * s2 + s4 * (c1 * c2 * c3 - s1 * s3))
+           - L4 * (c6 * (c1 * c4 * s2 + s4 * (c1 * c2 * c3 - s1 * s3))
+                   - s6 * (c5 * (c1 * s2 * s4 - c4 * (c1 * c2 * c3 - s1 * s3)) + s5 * (c1 * c2 * s3 + c3 * s1))))
+    t_z = L1 + L2 * c2 + L3 * (c2 * c4 - c3 * s2 * s4) + L4 * (c6 * (c2 * c4 - c3 * s2 * s4) - s6 * (c5 * (c2 * s4 + c3 * c4 * s2) - s2 * s3 * s5))
+    T = shorthand(dh_fk_symbolic(seed_table()))
+    assert sympy.expand(T[0, 3] - t_x) == 0
+    assert sympy.expand(T[2, 3] - t_z) == 0
+
+
+def test_short_decimal_lengths_become_exact_rationals():
+    T = dh_fk_symbolic(DHTable([DHRow(0, 0, 0.36, 0)], "modified"))
+    assert T[2, 3] == sympy.Rational(9, 25)
+
+
+def test_long_decimal_lengths_stay_floats():
+    T = dh_fk_symbolic(DHTable([DHRow(0, 0, 0.1234567891234, 0)], "modified"))
+    assert isinstance(T[2, 3], sympy.Float) and float(T[2, 3]) == 0.1234567891234
+
+
+def test_angles_that_are_multiples_of_15_degrees_become_exact():
+    # alpha = 30 deg: row A = Rx(pi/6) Tx(0) Rz(q1) Tz(1); its (1, 2) entry is -sin(pi/6) = -1/2 exactly,
+    # and the z translation d cos(alpha) = cos(pi/6) = sqrt(3)/2.
+    T = dh_fk_symbolic(DHTable([DHRow(0, math.radians(30), 1, 0)], "modified"))
+    assert T[1, 2] == sympy.Rational(-1, 2) and T[2, 3] == sympy.sqrt(3) / 2
+
+
+def test_simplify_folds_sums_of_joint_angles():
+    # Planar 3R (4, 2, 1): x = 4 cos q1 + 2 cos(q1 + q2) + cos(q1 + q2 + q3) (the URDF's comment).
+    q1, q2, q3 = dh_symbols(3)
+    T = dh_fk_symbolic(load_dh(DH_DIR / "planar_3r.yaml"))
+    assert T[0, 3] == 4 * sympy.cos(q1) + 2 * sympy.cos(q1 + q2) + sympy.cos(q1 + q2 + q3)
+    assert T[0, 0] == sympy.cos(q1 + q2 + q3)
+
+
+def test_trigsimp_option_gives_the_same_matrix_as_the_default_on_a_planar_arm():
+    table = load_dh(DH_DIR / "planar_2r.yaml")
+    assert sympy.simplify(dh_fk_symbolic(table, simplify="trigsimp") - dh_fk_symbolic(table)) == sympy.zeros(4, 4)
+
+
+def test_without_simplify_the_product_is_left_as_it_is():
+    T = dh_fk_symbolic(load_dh(DH_DIR / "planar_2r.yaml"), simplify=False)
+    q1, q2 = dh_symbols(2)
+    assert T[0, 0] == sympy.cos(q1) * sympy.cos(q2) - sympy.sin(q1) * sympy.sin(q2)
+
+
+def test_custom_symbol_names_are_used():
+    t1, t2 = sympy.symbols("theta_1 theta_2", real=True)
+    T = dh_fk_symbolic(load_dh(DH_DIR / "planar_2r.yaml"), symbols=["theta_1", "theta_2"])
+    assert T[0, 3] == sympy.cos(t1) + sympy.cos(t1 + t2)
+
+
+def test_prismatic_symbol_is_added_to_d():
+    q1 = dh_symbols(1)[0]
+    T = dh_fk_symbolic(DHTable([DHRow(0, 0, 0.5, 0, "prismatic")], "standard"))
+    assert T[2, 3] == q1 + sympy.Rational(1, 2)
+
+
+def test_wrong_number_of_symbols_is_refused():
+    with pytest.raises(ValueError, match="2 joint symbols needed, got 3"):
+        dh_fk_symbolic(load_dh(DH_DIR / "planar_2r.yaml"), symbols="a b c")
+
+
+def test_shorthand_writes_c_i_s_i_and_joined_indices():
+    T = shorthand(dh_fk_symbolic(load_dh(DH_DIR / "planar_3r.yaml")))
+    c_1, c_12, c_123, s_123 = sympy.symbols("c_1 c_12 c_123 s_123", real=True)
+    assert T[0, 3] == 4 * c_1 + 2 * c_12 + c_123
+    assert T[1, 0] == s_123
+
+
+def test_shorthand_uses_the_number_in_custom_symbol_names():
+    t1 = sympy.Symbol("theta_1", real=True)
+    assert shorthand(sympy.sin(t1)) == sympy.Symbol("s_1", real=True)
+
+
+def test_latex_form_is_a_bmatrix():
+    text = format_symbolic(shorthand(dh_fk_symbolic(load_dh(DH_DIR / "planar_2r.yaml"))), latex=True)
+    assert text.startswith(r"\begin{bmatrix}") and text.endswith(r"\end{bmatrix}") and "c_{12}" in text
+
+
+def test_text_form_is_the_pretty_matrix_when_narrow():
+    text = format_symbolic(sympy.Matrix([[1, 0], [0, 1]]))
+    assert text == sympy.pretty(sympy.Matrix([[1, 0], [0, 1]]), use_unicode=True)
+
+
+def test_text_form_lists_entries_when_too_wide():
+    T = shorthand(dh_fk_symbolic(seed_table()))
+    lines = format_symbolic(T, width=100).splitlines()
+    assert len(lines) == 16 and lines[0].startswith("T[1,1] = ") and lines[-1] == "T[4,4] = 1"

@@ -1,0 +1,101 @@
+"""manipkit.dh.to_urdf: a URDF whose chain equals a DH table's.
+
+Independent sources: ``dh_fk`` against Pinocchio and yourdfpy on the URDF
+that ``urdf_from_dh`` writes, and the bundled iiwa14 URDF.
+"""
+
+import math
+from io import BytesIO
+
+import numpy as np
+import pytest
+from test_dh_table import DH_DIR, random_q, random_table, rot_x, samples_within_limits, trans_x
+
+import manipkit
+from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, urdf_from_dh
+from manipkit.kinematics.robot import Robot
+
+# --------------------------------------------------------------------------
+# URDF export
+
+
+def yourdfpy_fk(text, joint_names, Q, frame="ee_link"):
+    import yourdfpy
+
+    urdf = yourdfpy.URDF.load(BytesIO(text.encode()), build_scene_graph=True, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+    out = []
+    for q in Q:
+        urdf.update_cfg(dict(zip(joint_names, q)))
+        out.append(urdf.get_transform(frame_to=frame, frame_from="base_link"))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("convention", ["standard", "modified"])
+def test_urdf_chain_equals_dh_fk_in_pinocchio_at_200_configurations(convention):
+    # Revolute and prismatic rows, random twists and offsets, non-identity base and tool.
+    rng = np.random.default_rng(17)
+    table = random_table(rng, convention)
+    robot = Robot.from_urdf(urdf_from_dh(table))
+    assert robot.joint_names == tuple(f"joint_{i}" for i in range(1, 6))
+    Q = random_q(table, rng, 200)
+    assert np.abs(robot.fk(Q, "ee_link") - dh_fk(table, Q)).max() < 1e-12
+
+
+@pytest.mark.parametrize("convention", ["standard", "modified"])
+def test_urdf_chain_equals_dh_fk_in_yourdfpy_at_200_configurations(convention):
+    rng = np.random.default_rng(23)
+    table = random_table(rng, convention)
+    Q = random_q(table, rng, 200)
+    T = yourdfpy_fk(urdf_from_dh(table), [f"joint_{i}" for i in range(1, 6)], Q)
+    assert np.abs(T - dh_fk(table, Q)).max() < 1e-12
+
+
+def test_modified_urdf_links_are_the_dh_frames():
+    rng = np.random.default_rng(5)
+    table = random_table(rng, "modified")
+    robot = Robot.from_urdf(urdf_from_dh(table))
+    Q = random_q(table, rng, 50)
+    for i in range(table.n + 1):
+        assert np.abs(robot.fk(Q, f"link_{i}") - dh_fk(table, Q, upto=i)).max() < 1e-12, i
+
+
+def test_standard_urdf_link_i_is_dh_frame_i_before_its_common_normal():
+    # Standard DH: A_i = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i). URDF joint i turns about z_{i-1},
+    # so link_i = frame_{i-1} Rz(theta_i + q_i) Tz(d_i) and frame_i = link_i Tx(a_i) Rx(alpha_i).
+    rng = np.random.default_rng(6)
+    table = random_table(rng, "standard")
+    robot = Robot.from_urdf(urdf_from_dh(table))
+    Q = random_q(table, rng, 50)
+    assert np.abs(robot.fk(Q, "link_0") - dh_fk(table, Q, upto=0)).max() < 1e-12
+    for i, row in enumerate(table.rows, start=1):
+        T_frame_i = robot.fk(Q, f"link_{i}") @ trans_x(row.a) @ rot_x(row.alpha)
+        assert np.abs(T_frame_i - dh_fk(table, Q, upto=i)).max() < 1e-12, i
+
+
+def test_urdf_from_the_iiwa_table_agrees_with_the_bundled_iiwa():
+    table = load_dh(DH_DIR / "iiwa14.yaml")
+    exported, bundled = Robot.from_urdf(urdf_from_dh(table)), manipkit.load("iiwa14")
+    assert exported.joint_names == bundled.joint_names  # the rows' names
+    Q = samples_within_limits(bundled, 200, seed=9)
+    assert np.abs(exported.fk(Q, "ee_link") - bundled.fk(Q, "ee_link")).max() < 1e-12
+
+
+def test_urdf_joint_limits_are_the_rows_or_the_defaults():
+    table = DHTable([DHRow(0, 0, 0, 0, qlim=(-1.0, 2.0)), DHRow(0, 0, 0, 0), DHRow(0, 0, 0, 0, "prismatic")], "standard")
+    robot = Robot.from_urdf(urdf_from_dh(table))
+    assert [(j.type, j.lower, j.upper) for j in robot.joints] == [
+        ("revolute", -1.0, 2.0), ("revolute", -math.pi, math.pi), ("prismatic", -1.0, 1.0)]
+
+
+def test_urdf_links_have_visuals_and_positive_masses():
+    text = urdf_from_dh(load_dh(DH_DIR / "iiwa14.yaml"))
+    robot = Robot.from_urdf(text)
+    assert all(inertia.mass > 0 for inertia in robot.model.inertias[1:])
+    assert text.count("<cylinder ") >= 7 + 4  # a joint marker per moving link and the d segments
+    assert {"base_link", "link_0", "link_7", "ee_link"} <= set(robot.frame_names)
+
+
+def test_urdf_robot_name_defaults_to_the_table_name():
+    assert '<robot name="planar_2r">' in urdf_from_dh(load_dh(DH_DIR / "planar_2r.yaml"))
+    assert '<robot name="other">' in urdf_from_dh(load_dh(DH_DIR / "planar_2r.yaml"), name="other")
