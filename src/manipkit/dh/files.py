@@ -285,8 +285,8 @@ def save_dh(table: DHTable, path: str | os.PathLike, *, angles: str = "deg", hea
     Raises
     ------
     DHTableError
-        A value that is not finite, or a base or tool that is not a rigid
-        transform.
+        A value that is not finite, a base or tool that is not a rigid
+        transform, or a file that cannot be written.
 
     Examples
     --------
@@ -297,7 +297,11 @@ def save_dh(table: DHTable, path: str | os.PathLike, *, angles: str = "deg", hea
     ...     load_dh(Path(folder) / "planar_2r.yaml") == table
     True
     """
-    Path(path).write_text(yaml_from_dh(table, angles=angles, header=header), encoding="utf-8")
+    text = yaml_from_dh(table, angles=angles, header=header)
+    try:
+        Path(path).write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise DHTableError(f"{path}: cannot write the DH table file ({exc.strerror or exc})") from None
 
 
 def yaml_from_dh(table: DHTable, *, angles: str = "deg", header: str | None = None) -> str:
