@@ -169,7 +169,7 @@ def screws(fk, n: int, q0=None, *, step: float = 1e-5) -> np.ndarray:
     Parameters
     ----------
     fk : callable
-        ``fk(q) -> (4, 4)`` for q of shape (n,).
+        ``fk(q) -> (4, 4)`` homogeneous transform for q of shape (n,).
     n : int
         Number of joints.
 
