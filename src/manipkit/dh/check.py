@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manipkit.spatial.compare import pose_error
+from manipkit.spatial.transforms import pose_error
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.spatial.rotations import rpy_from_matrix
 
