@@ -34,7 +34,7 @@ from manipkit.spatial.transforms import (
     projected_rotation,
     transform_violations,
 )
-from manipkit.text import near_text, vector_text
+from manipkit.text import near_text, short_text, vector_text
 
 __all__ = ["ComparisonResult", "compare_transform", "read_matrix"]
 
@@ -262,13 +262,15 @@ class ComparisonResult:
         lines = []
         if summary and self.agrees:
             lines.append(
-                f"agrees with the model within tol {self.tol:g}: position error {self.position_error:.3g} m, "
-                f"rotation error {self.rotation_error_deg:.3g} deg"
+                f"agrees with the model within tol {short_text(self.tol)}: "
+                f"position error {short_text(self.position_error, 3)} m, "
+                f"rotation error {short_text(self.rotation_error_deg, 3)} deg"
             )
         elif summary:
             lines.append(
-                f"does not agree with the model (tol {self.tol:g}): position error {self.position_error:.4g} m, "
-                f"rotation error {self.rotation_error_deg:.4g} deg"
+                f"does not agree with the model (tol {short_text(self.tol)}): "
+                f"position error {short_text(self.position_error, 4)} m, "
+                f"rotation error {short_text(self.rotation_error_deg, 4)} deg"
             )
             lines += [f"hand matrix is not a homogeneous transform: {v}" for v in self.violations]
         if self.agrees:
@@ -288,7 +290,7 @@ class ComparisonResult:
             and not transform_violations(self.T_hand, tol=self.hint_tol)
         ):
             lines.append(
-                f"the differences are small; if your hand values are rounded, a tolerance of {self.hint_tol:g} "
+                f"the differences are small; if your hand values are rounded, a tolerance of {short_text(self.hint_tol)} "
                 "would accept them"
             )
         return lines
@@ -385,7 +387,7 @@ def _diagnose(T_model: np.ndarray, T_hand: np.ndarray, tol: float) -> list[str]:
         ]
     for factor, unit in ((1000.0, "millimetres"), (100.0, "centimetres")):
         if close(R_hand, R) and close(t_hand / factor, t) and last_row_ok:
-            return [f"the translation is {factor:g} times the model's: {unit} instead of metres?"]
+            return [f"the translation is {short_text(factor)} times the model's: {unit} instead of metres?"]
 
     # block by block
     rotation_ok, translation_ok = close(R_hand, R), close(t_hand, t)
@@ -421,4 +423,4 @@ def _rotation_difference(R: np.ndarray, R_hand: np.ndarray) -> str:
     axis, angle = axis_angle_from_matrix(relative, check=False)
     named = [f"{'+-'[int(axis[k] < 0)]}{AXIS_NAMES[k]}" for k in range(3) if abs(abs(axis[k]) - 1.0) < 1e-9]
     about = f"the model frame's {named[0]} axis" if named else f"axis {vector_text(np.round(axis, 4), near_text)} of the model frame"
-    return f"R_hand = R_model @ rotation of {np.degrees(angle):.4g} deg about {about}"
+    return f"R_hand = R_model @ rotation of {short_text(np.degrees(angle), 4)} deg about {about}"

@@ -163,6 +163,7 @@ def matrix_from_euler_zyz(angles) -> np.ndarray:
     return R
 
 
+# Over 80 lines because of the docstring: both branches and the singular set are stated in full.
 def euler_zyz_from_matrix(
     R,
     *,
