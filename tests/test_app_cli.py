@@ -283,7 +283,7 @@ BUNDLED = sorted(bundled_robots())
 @pytest.mark.parametrize("name", BUNDLED)
 def test_tree_text_lists_every_link(name):
     import manipkit
-    from manipkit.description.sources import parse_structure
+    from manipkit.description.tree import parse_structure
 
     out = run("manipkit", "tree", "--robot", name, check_status=0).stdout
     links = [link.name for link in parse_structure(manipkit.load(name).urdf).robot.links]

@@ -7,14 +7,9 @@ import pytest
 
 import manipkit
 from manipkit.errors import DescriptionError, PackageNotFoundError, UnknownRobotError
-from manipkit.description.sources import (
-    PackageResolver,
-    bundled_robots,
-    example_robot_data_arms,
-    example_robot_data_dir,
-    resolve_robot,
-    urdf_text,
-)
+from manipkit.description.packages import PackageResolver
+from manipkit.description.sources import bundled_robots, example_robot_data_arms, example_robot_data_dir, resolve_robot
+from manipkit.description.xacro import urdf_text
 
 
 def test_bundled_robots_are_the_five_of_the_foundation():
@@ -171,3 +166,27 @@ def test_find_hook_is_removed_after_each_expansion_even_a_failed_one(tmp_path):
     assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own
     manipkit.load("course_arm")  # no $(...) at all
     assert (xacro.eval_extension, substitution_args._eval_find) == xacro_own
+
+
+def test_the_description_package_exports_its_api_without_importing_heavy_modules():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, manipkit.description as d; heavy = ['lxml', 'xacro', 'yaml', 'yourdfpy', 'matplotlib'];"
+        "print([m for m in heavy if m in sys.modules]);"
+        "from manipkit.description.packages import PackageResolver; from manipkit.description.tree import tree_text;"
+        "print(d.PackageResolver is PackageResolver, d.tree_text is tree_text, sorted(d.__all__) == d.__all__)"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert result.stdout.split("\n")[:2] == ["[]", "True True True"]
+
+
+def test_names_moved_out_of_sources_still_import_from_it_with_a_warning():
+    import manipkit.description.sources as sources
+    from manipkit.description.packages import PackageResolver as moved
+
+    with pytest.warns(DeprecationWarning, match="moved to manipkit.description.packages.PackageResolver"):
+        assert sources.PackageResolver is moved
+    with pytest.raises(AttributeError):
+        sources.no_such_name

@@ -12,7 +12,7 @@ import pytest
 import manipkit
 from manipkit.errors import DescriptionError, JointLimitError, PackageNotFoundError
 from manipkit.kinematics.robot import Robot, _build_model
-from manipkit.description.sources import PackageResolver
+from manipkit.description.packages import PackageResolver
 from manipkit.description.validate import check_urdf, package_uri_warnings
 
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'

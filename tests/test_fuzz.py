@@ -64,7 +64,8 @@ from lxml import etree
 import manipkit
 from manipkit.errors import ManipkitError
 from manipkit.kinematics.robot import Robot
-from manipkit.description.sources import bundled_dir, bundled_robots, resolve_robot, urdf_text
+from manipkit.description.sources import bundled_dir, bundled_robots, resolve_robot
+from manipkit.description.xacro import urdf_text
 
 EXAMPLES = int(os.environ.get("MANIPKIT_FUZZ_EXAMPLES", "300"))
 FUZZING = "MANIPKIT_FUZZ_EXAMPLES" in os.environ  # make fuzz: fresh randomness, example database

@@ -1,4 +1,7 @@
-"""Tests of manipkit.spatial.compare: reading hand matrices, validity messages, pose errors, diagnoses."""
+"""Tests of manipkit.spatial.compare: reading hand matrices, comparing them with the model, diagnoses.
+
+Validity messages and pose errors are manipkit.spatial.transforms' (tests/test_spatial_transforms.py).
+"""
 
 from __future__ import annotations
 
@@ -9,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from manipkit.spatial.compare import ComparisonResult, compare_transform, pose_error, read_matrix, transform_violations
+from manipkit.spatial.compare import ComparisonResult, compare_transform, read_matrix
 from manipkit.errors import InvalidTransformError
 from manipkit.spatial.rotations import matrix_from_rpy, rot_x, rot_y, rot_z
 
@@ -202,109 +205,6 @@ def test_read_matrix_corrupt_npy(tmp_path):
     path = tmp_path / "hand.npy"
     path.write_bytes(b"not numpy at all")
     assert read_error(path).startswith(f"{path}: not a valid .npy file")
-
-
-# ---------------------------------------------------------------- transform_violations
-
-
-def test_valid_transform_has_no_violations():
-    assert transform_violations(T_MODEL) == []
-
-
-def test_seed_matrix_violations():
-    # R = [[1, 0, 0], [1, 0, 0], [1, 0, 0]]: column x = (1, 1, 1) has norm sqrt(3) = 1.732,
-    # columns y and z are zero, so det(R) = 0; the last row is [1 0 0 0]
-    assert transform_violations(SEED) == [
-        "last row is [1 0 0 0], expected [0 0 0 1]",
-        "rotation column 0 (x axis) has norm 1.732, expected 1",
-        "rotation column 1 (y axis) has norm 0, expected 1",
-        "rotation column 2 (z axis) has norm 0, expected 1",
-        "det(R) = 0, expected +1 (the matrix is singular)",
-    ]
-
-
-def test_last_row_violation():
-    T = T_MODEL.copy()
-    T[3] = [0.0, 0.0, 0.5, 1.0]
-    assert transform_violations(T) == ["last row is [0 0 0.5 1], expected [0 0 0 1]"]
-
-
-def test_column_norm_violation():
-    # y axis scaled by sqrt(2): norm 1.414, and det(R) = 1.414 with it
-    T = np.diag([1.0, math.sqrt(2), 1.0, 1.0])
-    assert transform_violations(T) == [
-        "rotation column 1 (y axis) has norm 1.414, expected 1",
-        "det(R) = 1.414, expected +1",
-    ]
-
-
-def test_orthogonality_violation():
-    # unit columns x and (0.35, sqrt(1 - 0.35^2), 0) meet at acos(0.35): dot 0.35, det 0.9367
-    T = np.eye(4)
-    T[:3, 1] = [0.35, math.sqrt(1 - 0.35**2), 0.0]
-    assert transform_violations(T) == [
-        "rotation columns 0 and 1 are not orthogonal (dot 0.35)",
-        "det(R) = 0.9367, expected +1",
-    ]
-
-
-def test_reflection_violation():
-    assert transform_violations(np.diag([1.0, 1.0, -1.0, 1.0])) == [
-        "det(R) = -1, expected +1 (is this a reflection?)"
-    ]
-
-
-def test_non_finite_entry_violation():
-    T = T_MODEL.copy()
-    T[1, 3] = np.nan
-    assert transform_violations(T) == ["entry T[1, 3] is not finite (nan)"]
-
-
-def test_wrong_shape_violation():
-    assert transform_violations(np.eye(3)) == ["shape is (3, 3), expected (4, 4)"]
-
-
-def test_violation_tolerance_shows_the_deviation():
-    T = T_MODEL.copy()
-    T[3, 3] = 1.0 + 1e-7
-    assert transform_violations(T) == []
-    assert transform_violations(T, tol=1e-9) == ["last row is [0 0 0 1.0000001], expected [0 0 0 1]"]
-
-
-# ---------------------------------------------------------------- pose_error
-
-
-def test_pose_error_hand_values():
-    # translation (0.3, 0.4, 0) is 0.5 m from the origin (3-4-5); Rz(0.5) is 0.5 rad from I
-    position, rotation = pose_error(np.eye(4), transform(rot_z(0.5), [0.3, 0.4, 0.0]))
-    assert abs(position - 0.5) < 1e-15
-    assert abs(rotation - 0.5) < 1e-15
-
-
-def test_pose_error_projects_a_scaled_rotation_block():
-    # 2 * Rz(0.3) is not a rotation; its nearest rotation is Rz(0.3)
-    position, rotation = pose_error(np.eye(4), transform(2.0 * rot_z(0.3), [0.0, 0.0, 0.0]))
-    assert position == 0.0
-    assert abs(rotation - 0.3) < 1e-12
-
-
-def test_pose_error_projects_a_reflection_to_a_proper_rotation():
-    # diag(1, 1, -1) has nearest proper rotation I (flip the smallest singular direction)
-    _, rotation = pose_error(np.eye(4), np.diag([1.0, 1.0, -1.0, 1.0]))
-    assert rotation < 1e-12
-
-
-def test_pose_error_is_nan_for_non_finite_rotation():
-    T = np.eye(4)
-    T[0, 0] = np.inf
-    assert math.isnan(pose_error(np.eye(4), T)[1])
-
-
-def test_pose_error_broadcasts_over_leading_dimensions():
-    stack = np.stack([transform(rot_x(a), [a, 0.0, 0.0]) for a in (0.1, 0.2, 0.3)])
-    position, rotation = pose_error(np.eye(4), stack)
-    assert position.shape == rotation.shape == (3,)
-    assert np.max(np.abs(rotation - [0.1, 0.2, 0.3])) < 1e-15
 
 
 # ---------------------------------------------------------------- compare_transform

@@ -15,14 +15,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from manipkit.errors import InvalidRotationError, ManipkitError
+from manipkit.spatial.euler import euler_zyx_from_matrix, euler_zyz_from_matrix, matrix_from_euler_zyx, matrix_from_euler_zyz
 from manipkit.spatial.rotations import (
     axis_angle_from_matrix,
     check_rotation,
-    euler_zyx_from_matrix,
-    euler_zyz_from_matrix,
     matrix_from_axis_angle,
-    matrix_from_euler_zyx,
-    matrix_from_euler_zyz,
     matrix_from_quaternion,
     matrix_from_rpy,
     quaternion_from_matrix,
@@ -742,3 +739,13 @@ def test_euler_zyz_other_branch_found_by_hypothesis_stays_in_range():
     phi, theta, psi = euler_zyz_from_matrix(R, theta_negative=True, check=False)
     assert -PI < phi <= PI and -PI < psi <= PI and -PI <= theta <= 0.0
     assert np.abs(matrix_from_euler_zyz([phi, theta, psi]) - R).max() < 1e-12
+
+
+def test_euler_functions_at_their_release_0_1_path_warn_and_are_the_same_functions():
+    import manipkit.spatial.euler as euler
+    import manipkit.spatial.rotations as rotations
+
+    with pytest.warns(DeprecationWarning, match="moved to manipkit.spatial.euler.euler_zyz_from_matrix"):
+        assert rotations.euler_zyz_from_matrix is euler.euler_zyz_from_matrix
+    with pytest.raises(AttributeError):
+        rotations.no_such_function

@@ -468,7 +468,7 @@ def run_frames(args) -> int:
 
 def run_tree(args) -> int:
     from manipkit.description import tree
-    from manipkit.description.sources import parse_structure
+    from manipkit.description.tree import parse_structure
 
     robot = _load(args)
     description = parse_structure(robot.urdf)

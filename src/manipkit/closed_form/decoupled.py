@@ -71,9 +71,9 @@ from manipkit.dh.table import DHRow, DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
 from manipkit.closed_form import planar as planar_ik  # its solution labels (a local 'planar' is an ik_2r result)
 from manipkit.closed_form.planar import _g, ik_2r
+from manipkit.spatial.euler import euler_zyz_from_matrix
 from manipkit.spatial.rotations import (
     check_rotation,
-    euler_zyz_from_matrix,
     rot_x,
     rot_y,
     rot_z,

@@ -1,9 +1,8 @@
 """The link/joint tree of a URDF: as text, as Graphviz DOT and as an image.
 
-All functions take a parsed :class:`yourdfpy.URDF` (or its ``.robot``), for
-example ``yourdfpy.URDF.load(path, build_scene_graph=False, load_meshes=False)``,
-and only read ``robot.links`` and ``robot.joints``; the description is never
-changed.
+All functions take a parsed :class:`yourdfpy.URDF` (or its ``.robot``), as
+:func:`parse_structure` returns it from URDF text, and only read
+``robot.links`` and ``robot.joints``; the description is never changed.
 
 Conventions, as in URDF and everywhere in manipkit:
 
@@ -35,8 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
+from manipkit.text import trimmed_text
 
-__all__ = ["tree_text", "tree_dot", "write_tree_image"]
+__all__ = ["parse_structure", "tree_dot", "tree_text", "write_tree_image"]
 
 #: Joint types that move along or about their axis.
 MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
@@ -48,6 +48,25 @@ _IMAGE_FORMATS = ("png", "svg")
 # --------------------------------------------------------------------------
 # The structure, read once
 # --------------------------------------------------------------------------
+
+
+def parse_structure(text: str):
+    """The link/joint structure of URDF text as a ``yourdfpy.URDF`` (no meshes, no scene graph).
+
+    yourdfpy is a second, independent URDF parser; manipkit uses it for the
+    tree and as a cross-check of Pinocchio's kinematics.
+    """
+    from io import BytesIO
+
+    import yourdfpy
+
+    return yourdfpy.URDF.load(
+        BytesIO(text.encode()),
+        build_scene_graph=False,
+        load_meshes=False,
+        build_collision_scene_graph=False,
+        load_collision_meshes=False,
+    )
 
 
 @dataclass(frozen=True)
@@ -79,6 +98,8 @@ class _Tree:
         return self.roots + self.detached
 
 
+# Over 80 lines: one pass over the description collecting every problem (duplicates, undeclared links,
+# second parents, roots, cycles); the steps share their tables, and splitting them would pass all of them around.
 def _analyse(urdf) -> _Tree:
     robot = getattr(urdf, "robot", urdf)
     warnings: list[str] = []
@@ -170,7 +191,6 @@ def _analyse(urdf) -> _Tree:
 # --------------------------------------------------------------------------
 
 
-
 def _rpy_as_written(R) -> np.ndarray:
     """Of the two rpy triples of a rotation, the one with the least total angle.
 
@@ -184,16 +204,6 @@ def _rpy_as_written(R) -> np.ndarray:
     return other if np.abs(other).sum() < np.abs(rpy).sum() - 1e-12 else rpy
 
 
-def _num(value: float, *, decimals: int = 6) -> str:
-    """``0.089159`` -> ``'0.089159'``, ``1.0`` -> ``'1'``, ``-1e-12`` -> ``'0'``."""
-    text = f"{round(float(value), decimals) + 0.0:.{decimals}f}"
-    return text.rstrip("0").rstrip(".") if "." in text else text
-
-
-def _nums(values) -> str:
-    return " ".join(_num(v) for v in values)
-
-
 def _origin_xyz_rpy(joint) -> tuple[np.ndarray, np.ndarray]:
     """(xyz in metres, rpy in radians) of a joint origin; identity if absent."""
     if joint.origin is None:
@@ -205,7 +215,7 @@ def _origin_xyz_rpy(joint) -> tuple[np.ndarray, np.ndarray]:
 def _joint_kind(joint) -> str:
     """``'revolute, axis 0 0 1'``, ``'fixed'``, ``'planar, normal 0 0 1'``."""
     kind = joint.type or "untyped"
-    axis = _nums(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0))
+    axis = " ".join(map(trimmed_text, joint.axis if joint.axis is not None else (1.0, 0.0, 0.0)))
     if kind in MOVABLE_TYPES:
         return f"{kind}, axis {axis}"
     if kind == "planar":
@@ -216,7 +226,8 @@ def _joint_kind(joint) -> str:
 def _joint_lines(joint) -> list[str]:
     """The label of a joint in DOT and in the image: name, type and axis, xyz, rpy."""
     xyz, rpy = _origin_xyz_rpy(joint)
-    return [joint.name, _joint_kind(joint), f"xyz {_nums(xyz)}", f"rpy {_nums(rpy)}"]
+    xyz_text, rpy_text = (" ".join(map(trimmed_text, v)) for v in (xyz, rpy))  # as URDF writes them: 0.089159 0 1
+    return [joint.name, _joint_kind(joint), f"xyz {xyz_text}", f"rpy {rpy_text}"]
 
 
 def _summary(tree: _Tree) -> str:
@@ -476,6 +487,8 @@ _MARGIN = 12.0
 _MAX_PIXELS = 30000  # per side; above it the PNG resolution is lowered
 
 
+# Over 80 lines: one figure drawn top to bottom (header, edges and joint labels, extra joints, link boxes);
+# each part uses the same axes, layout and text style, so it reads as one sequence.
 def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     """Draw the link tree with matplotlib and save it as PNG or SVG.
 

@@ -26,11 +26,29 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import re
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from manipkit.errors import DescriptionError
+from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
+from manipkit.errors import DescriptionError, PackageNotFoundError
+from manipkit.text import short_text
+
+if TYPE_CHECKING:
+    from manipkit.description.packages import PackageResolver
+
+__all__ = [
+    "AXIS_NORM_TOLERANCE",
+    "CheckedURDF",
+    "JOINT_TYPES",
+    "MAX_LENGTH",
+    "RESERVED_NAMES",
+    "SUPPORTED_JOINT_TYPES",
+    "XACRO_NAMESPACE",
+    "check_urdf",
+    "package_uri_warnings",
+]
 
 #: Joint types manipkit computes kinematics for.
 SUPPORTED_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
@@ -192,7 +210,7 @@ class _Checker:
                 self.fail(element, f"{what} {shown}: {token} is negative; expected {expected} >= 0", owner)
             if bound is not None and abs(value) > bound:
                 self.fail(element, f"{what} {shown}: {token} {unit} is no robot dimension; expected |value| <= "
-                          f"{bound:g} {unit} (is the unit right?)", owner)
+                          f"{short_text(bound)} {unit} (is the unit right?)", owner)
             values.append(value)
         return values
 
@@ -206,18 +224,18 @@ class _Checker:
     # -- the whole description --------------------------------------------
 
     def run(self, text: str) -> CheckedURDF:
-        robot = self.parse(text)
-        links = self.named(robot, "link")
-        joints = self.named(robot, "joint")
+        root = self.parse(text)
+        links = self.named(root, "link")
+        joints = self.named(root, "joint")
         if not links:
-            self.fail(robot, f"robot '{robot.get('name')}' has no <link> elements; a robot needs at least one link")
+            self.fail(root, f"robot '{root.get('name')}' has no <link> elements; a robot needs at least one link")
         for link in links.values():
             self.check_link(link)
         children: dict[str, object] = {}
         for name, joint in joints.items():
             self.check_joint(joint, name, links, joints, children)
-        self.check_tree(robot, links, joints, children)
-        return CheckedURDF(robot, self.normalised_text(text, robot), self.warnings)
+        self.check_tree(root, links, joints, children)
+        return CheckedURDF(root, self.normalised_text(text, root), self.warnings)
 
     def parse(self, text: str):
         from lxml import etree
@@ -228,7 +246,7 @@ class _Checker:
             resolve_entities="internal", no_network=True, remove_comments=True, remove_pis=True, huge_tree=False
         )
         try:
-            robot = etree.fromstring(text.encode("utf-8"), parser)
+            root = etree.fromstring(text.encode("utf-8"), parser)
         except etree.XMLSyntaxError as exc:
             line, column = exc.position
             # libxml2 may append the offending source after a newline ("Comment not terminated \n<!--"): keep line one
@@ -241,29 +259,29 @@ class _Checker:
             raise DescriptionError(f"{location}: malformed XML: {reason}") from None
         except ValueError as exc:  # e.g. NUL bytes lxml refuses before parsing
             raise DescriptionError(f"{self.where}: not XML text ({exc})") from None
-        if not isinstance(robot.tag, str) or robot.tag != "robot":
-            tag = robot.tag if isinstance(robot.tag, str) else "?"
+        if not isinstance(root.tag, str) or root.tag != "robot":
+            tag = root.tag if isinstance(root.tag, str) else "?"
             hint = " (this looks like an SDF model; manipkit reads URDF)" if tag == "sdf" else ""
-            self.fail(robot, f"root element is <{_local(tag)}>, expected <robot name=\"...\">{hint}")
+            self.fail(root, f"root element is <{_local(tag)}>, expected <robot name=\"...\">{hint}")
         if not self.expanded:
-            for element in robot.iter():
+            for element in root.iter():
                 if isinstance(element.tag, str) and element.tag.startswith("{" + XACRO_NAMESPACE + "}"):
                     self.fail(element, f"<xacro:{_local(element.tag)}> in a plain URDF; this file needs xacro "
                               "expansion: name it .urdf.xacro (or .xacro)")
-        if not robot.get("name"):
-            self.fail(robot, "<robot> has no name attribute; add name=\"...\" (URDF requires it)")
-        dtd = robot.getroottree().docinfo.internalDTD
+        if not root.get("name"):
+            self.fail(root, "<robot> has no name attribute; add name=\"...\" (URDF requires it)")
+        dtd = root.getroottree().docinfo.internalDTD
         if dtd is not None and any(True for _ in dtd.iterentities()):
             line = text[: max(text.find("<!ENTITY"), 0)].count("\n") + 1
             raise DescriptionError(
                 f"{self.where}:{line}: <!ENTITY> declarations: URDF parsers do not expand them (Pinocchio would "
                 "read '&name;' literally); write the values out (or use xacro properties in a .xacro file)"
             )
-        return robot
+        return root
 
-    def named(self, robot, tag: str) -> dict:
+    def named(self, root, tag: str) -> dict:
         named: dict[str, object] = {}
-        for index, element in enumerate(robot.findall(tag), start=1):
+        for index, element in enumerate(root.findall(tag), start=1):
             name = element.get("name")
             if not name:
                 self.fail(element, f"<{tag}> number {index} has no name attribute; every {tag} needs a unique name")
@@ -300,7 +318,7 @@ class _Checker:
                       f"{what} <inertial> has no <mass value=\"...\"/>; give the mass in kg (or remove <inertial>)", link)
         (value,) = self.numbers(mass, "value", 1, f"{what} <mass>", link, unit="kg")
         if value < 0:
-            self.fail(mass, f"{what} has mass {value:g} kg; a mass must be >= 0", link)
+            self.fail(mass, f"{what} has mass {short_text(value)} kg; a mass must be >= 0", link)
         inertia = inertial.find("inertia")
         if inertia is None:
             self.fail(inertial, f"{what} <inertial> has no <inertia ixx=... ixy=... ixz=... iyy=... iyz=... izz=.../>", link)
@@ -312,7 +330,8 @@ class _Checker:
             entries[attribute] = self.numbers(inertia, attribute, 1, f"{what} <inertia>", link, unit="kg m^2")[0]
         negative = [a for a in ("ixx", "iyy", "izz") if entries[a] < -1e-9]  # not rounding noise
         if negative:
-            self.warn(inertia, f"{what} <inertia> has negative {', '.join(f'{a}={entries[a]:g}' for a in negative)} "
+            listed = ", ".join(f"{a}={short_text(entries[a])}" for a in negative)
+            self.warn(inertia, f"{what} <inertia> has negative {listed} "
                       "(a moment of inertia is >= 0); dynamics would be wrong, kinematics are not affected", link)
 
     def check_geometry(self, element, what: str, link) -> None:
@@ -426,9 +445,10 @@ class _Checker:
             self.fail(axis, f"{what} has axis '{axis.get('xyz')}'; an axis must be a non-zero vector "
                       "such as '0 0 1' (the direction the joint turns about or slides along)", joint)
         if abs(norm - 1.0) > 1e-12:
-            unit = " ".join(_short(v / norm) for v in (x, y, z))
+            unit = " ".join(short_text(v / norm) for v in (x, y, z))
             if abs(norm - 1.0) > AXIS_NORM_TOLERANCE:
-                self.warn(axis, f"{what} axis '{axis.get('xyz')}' (length {norm:.6g}) normalised to '{unit}'", joint)
+                self.warn(axis, f"{what} axis '{axis.get('xyz')}' (length {short_text(norm)}) normalised to '{unit}'",
+                          joint)
             self.normalised.append((axis, " ".join(repr(v / norm) for v in (x, y, z))))
 
     def check_limit(self, limit, kind: str, what: str, joint) -> None:
@@ -446,19 +466,20 @@ class _Checker:
         if kind not in ("revolute", "prismatic"):
             return  # continuous and fixed joints ignore lower/upper
         if lower > upper:
-            self.fail(limit, f"{what} has lower limit {lower:g} above upper limit {upper:g} ({unit}); swap them", joint)
+            self.fail(limit, f"{what} has lower limit {short_text(lower)} above upper limit {short_text(upper)} "
+                      f"({unit}); swap them", joint)
         if lower == upper:
             missing = [a for a in ("lower", "upper") if limit.get(a) is None]
             why = f" ({' and '.join(missing)} not given: URDF's default is 0)" if missing else ""
-            self.warn(limit, f"{what} has limits [{lower:g}, {upper:g}] {unit}{why}: it cannot move; "
+            self.warn(limit, f"{what} has limits [{short_text(lower)}, {short_text(upper)}] {unit}{why}: it cannot move; "
                       "give lower= and upper=" + (" or make it continuous" if kind == "revolute" else ""), joint)
 
     # -- the tree -------------------------------------------------------
 
-    def check_tree(self, robot, links: dict, joints: dict, children: dict) -> None:
+    def check_tree(self, root, links: dict, joints: dict, children: dict) -> None:
         roots = [name for name in links if name not in children]
         if not roots:
-            self.fail(robot, "every link has a parent joint, so the joints form a cycle; "
+            self.fail(root, "every link has a parent joint, so the joints form a cycle; "
                       "a URDF is a tree with exactly one root link")
         if len(roots) > 1:
             listed = ", ".join(roots[:6]) + (", ..." if len(roots) > 6 else "")
@@ -482,7 +503,7 @@ class _Checker:
 
     # -- output ---------------------------------------------------------
 
-    def normalised_text(self, text: str, robot) -> str:
+    def normalised_text(self, text: str, root) -> str:
         """The input text, or (when an axis was normalised) the tree written back with unit axes."""
         if not self.normalised:
             return text
@@ -490,7 +511,7 @@ class _Checker:
 
         for axis, xyz in self.normalised:
             axis.set("xyz", xyz)
-        return etree.tostring(robot, encoding="unicode")
+        return etree.tostring(root, encoding="unicode")
 
 
 def _cycle_through(link: str, children: dict) -> list[str]:
@@ -510,49 +531,40 @@ def _local(tag: str) -> str:
     return tag.split("}", 1)[-1]
 
 
-def _short(value: float) -> str:
-    text = f"{value:.6g}"
-    return "0" if text in ("-0", "0") else text
-
-
 # --------------------------------------------------------------------------
 # package:// URIs
 # --------------------------------------------------------------------------
 
 
-def package_uri_warnings(robot, resolver, where: str, *, locate=None, limit: int = 3) -> list[str]:
+def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=None, limit: int = 3) -> list[str]:
     """Warnings for ``package://`` mesh and texture URIs that do not resolve to a file.
 
     Kinematics do not need meshes, so these are warnings (the viewer raises
-    its own error for them).
+    its own error for them, :func:`manipkit.description.meshes.mesh_path`).
+    A URI is resolved as the viewer resolves it, with
+    :meth:`~manipkit.description.packages.PackageResolver.resolve_uri`.
 
     Parameters
     ----------
-    robot : lxml element
+    root : lxml element
         The ``<robot>`` element from :func:`check_urdf`.
-    resolver : manipkit.description.sources.PackageResolver
-        Anything with ``find(package) -> Path`` raising
-        :class:`manipkit.errors.PackageNotFoundError`.
+    resolver : manipkit.description.packages.PackageResolver
+        Answers ``package://PKG``.
     where, locate
         As for :func:`check_urdf`.
     limit : int
         At most this many missing files are named one by one (then a count).
     """
-    import os
-
-    from manipkit.errors import PackageNotFoundError
-
     checker = _Checker(where, locate)
     uris: dict[str, tuple[object, object]] = {}
-    for link in robot.findall("link"):
+    for link in root.findall("link"):
         for element in link.iter("mesh", "texture"):
             uri = element.get("filename")
-            if uri and uri.startswith("package://") and uri not in uris:
+            if uri and uri.startswith(PACKAGE_SCHEME) and uri not in uris:
                 uris[uri] = (element, link)
     warnings, missing_packages, missing_files = [], {}, []
-    folders: dict[str, object] = {}
     for uri, (element, link) in uris.items():
-        package, _, rest = uri[len("package://"):].partition("/")
+        package, _ = split_package_uri(uri)
         if not package:
             missing_packages.setdefault("", [(element, link, uri, "empty package name (package:/// has three "
                                                "slashes; expected package://PKG/path)"), 0])[1] += 1
@@ -560,13 +572,11 @@ def package_uri_warnings(robot, resolver, where: str, *, locate=None, limit: int
         if package in missing_packages:
             missing_packages[package][1] += 1
             continue
-        if package not in folders:
-            try:
-                folders[package] = resolver.find(package)
-            except PackageNotFoundError as exc:
-                missing_packages[package] = [(element, link, uri, str(exc)), 1]
-                continue
-        path = os.path.join(str(folders[package]), rest)
+        try:
+            path = resolver.resolve_uri(uri)
+        except PackageNotFoundError as exc:
+            missing_packages[package] = [(element, link, uri, str(exc)), 1]
+            continue
         if not os.path.isfile(path):
             missing_files.append((element, link, uri, path))
     for package, ((element, link, uri, reason), count) in missing_packages.items():

@@ -28,7 +28,9 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
-from manipkit.description.sources import PackageResolver, RobotSource, describe, resolve_robot, xacro_locator
+from manipkit.description.packages import PackageResolver
+from manipkit.description.sources import RobotSource, resolve_robot
+from manipkit.description.xacro import describe, xacro_locator
 from manipkit.description.validate import check_urdf, package_uri_warnings
 
 BASE_ALIASES = ("base_link", "world")

@@ -4,8 +4,9 @@ A student derives ``T_a_b`` (the pose of frame b in frame a, 4x4 homogeneous,
 metres) on paper, types it into a file, and asks whether it matches the
 model. This module reads such a file in the formats people paste
 (:func:`read_matrix`), says how a matrix fails to be a homogeneous transform
-(:func:`transform_violations`), measures the distance between two poses
-(:func:`pose_error`) and recognises the usual mistakes: the inverse
+and how far it is from the model's (with
+:func:`~manipkit.spatial.transforms.transform_violations` and
+:func:`~manipkit.spatial.transforms.pose_error`) and recognises the usual mistakes: the inverse
 direction, a transposed matrix or rotation, a translation in millimetres or
 in the bottom row (:func:`compare_transform`, :meth:`ComparisonResult.explain`).
 
@@ -26,16 +27,16 @@ import numpy as np
 
 from manipkit.errors import InvalidTransformError
 from manipkit.spatial.rotations import AXIS_NAMES, axis_angle_from_matrix
-from manipkit.spatial.transforms import as_transforms, pose_error, projected_rotation, transform_violations
-from manipkit.text import near_text, vector_text
+from manipkit.spatial.transforms import (
+    as_transforms,
+    invert_transform,
+    pose_error,
+    projected_rotation,
+    transform_violations,
+)
+from manipkit.text import near_text, short_text, vector_text
 
-__all__ = [
-    "ComparisonResult",
-    "compare_transform",
-    "pose_error",
-    "read_matrix",
-    "transform_violations",
-]
+__all__ = ["ComparisonResult", "compare_transform", "read_matrix"]
 
 
 # --------------------------------------------------------------------------
@@ -65,7 +66,7 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
     -------
     T : ndarray, shape (4, 4)
         The matrix as written. It is not validated as a transform; see
-        :func:`transform_violations`.
+        :func:`~manipkit.spatial.transforms.transform_violations`.
 
     Raises
     ------
@@ -210,12 +211,12 @@ class ComparisonResult:
     ----------
     violations : tuple of str
         Ways ``T_hand`` fails to be a homogeneous transform
-        (:func:`transform_violations`); empty when it is one.
+        (:func:`~manipkit.spatial.transforms.transform_violations`); empty when it is one.
     position_error : float
         ``|t_hand - t_model|`` in metres.
     rotation_error_deg : float
         Angle between the rotation blocks in degrees (after projecting a
-        non-rotation block to the nearest rotation, see :func:`pose_error`).
+        non-rotation block to the nearest rotation, see :func:`~manipkit.spatial.transforms.pose_error`).
     agrees : bool
         No violations, ``position_error <= tol`` (metres) and the rotation
         error ``<= tol`` in radians.
@@ -261,13 +262,15 @@ class ComparisonResult:
         lines = []
         if summary and self.agrees:
             lines.append(
-                f"agrees with the model within tol {self.tol:g}: position error {self.position_error:.3g} m, "
-                f"rotation error {self.rotation_error_deg:.3g} deg"
+                f"agrees with the model within tol {short_text(self.tol)}: "
+                f"position error {short_text(self.position_error, 3)} m, "
+                f"rotation error {short_text(self.rotation_error_deg, 3)} deg"
             )
         elif summary:
             lines.append(
-                f"does not agree with the model (tol {self.tol:g}): position error {self.position_error:.4g} m, "
-                f"rotation error {self.rotation_error_deg:.4g} deg"
+                f"does not agree with the model (tol {short_text(self.tol)}): "
+                f"position error {short_text(self.position_error, 4)} m, "
+                f"rotation error {short_text(self.rotation_error_deg, 4)} deg"
             )
             lines += [f"hand matrix is not a homogeneous transform: {v}" for v in self.violations]
         if self.agrees:
@@ -287,7 +290,7 @@ class ComparisonResult:
             and not transform_violations(self.T_hand, tol=self.hint_tol)
         ):
             lines.append(
-                f"the differences are small; if your hand values are rounded, a tolerance of {self.hint_tol:g} "
+                f"the differences are small; if your hand values are rounded, a tolerance of {short_text(self.hint_tol)} "
                 "would accept them"
             )
         return lines
@@ -304,7 +307,7 @@ def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1
         The hand-derived transform meant to be the same ``T_a_b``.
     tol : float, keyword-only
         Agreement tolerance: metres for the translation, radians for the
-        rotation, and the tolerance of :func:`transform_violations`.
+        rotation, and the tolerance of :func:`~manipkit.spatial.transforms.transform_violations`.
     hint_tol : float, keyword-only
         Looser tolerance (metres, radians, matrix entries) used only by
         :meth:`ComparisonResult.explain` to recognise typical mistakes in
@@ -362,8 +365,7 @@ def _diagnose(T_model: np.ndarray, T_hand: np.ndarray, tol: float) -> list[str]:
     R, t = T_model[:3, :3], T_model[:3, 3]
     R_hand, t_hand = T_hand[:3, :3], T_hand[:3, 3]
     last_row_ok = close(T_hand[3], [0.0, 0.0, 0.0, 1.0])
-    inverse = np.eye(4)
-    inverse[:3, :3], inverse[:3, 3] = R.T, -R.T @ t
+    inverse = invert_transform(T_model)
 
     # whole-matrix mistakes, most specific first
     if close(T_hand, inverse):
@@ -385,7 +387,7 @@ def _diagnose(T_model: np.ndarray, T_hand: np.ndarray, tol: float) -> list[str]:
         ]
     for factor, unit in ((1000.0, "millimetres"), (100.0, "centimetres")):
         if close(R_hand, R) and close(t_hand / factor, t) and last_row_ok:
-            return [f"the translation is {factor:g} times the model's: {unit} instead of metres?"]
+            return [f"the translation is {short_text(factor)} times the model's: {unit} instead of metres?"]
 
     # block by block
     rotation_ok, translation_ok = close(R_hand, R), close(t_hand, t)
@@ -421,4 +423,4 @@ def _rotation_difference(R: np.ndarray, R_hand: np.ndarray) -> str:
     axis, angle = axis_angle_from_matrix(relative, check=False)
     named = [f"{'+-'[int(axis[k] < 0)]}{AXIS_NAMES[k]}" for k in range(3) if abs(abs(axis[k]) - 1.0) < 1e-9]
     about = f"the model frame's {named[0]} axis" if named else f"axis {vector_text(np.round(axis, 4), near_text)} of the model frame"
-    return f"R_hand = R_model @ rotation of {np.degrees(angle):.4g} deg about {about}"
+    return f"R_hand = R_model @ rotation of {short_text(np.degrees(angle), 4)} deg about {about}"

@@ -193,6 +193,12 @@ def nearest_rotation(M: np.ndarray) -> np.ndarray:
 
 
 def as_transforms(T, what: str) -> np.ndarray:
+    """``T`` as a float array of shape (..., 4, 4), or :class:`InvalidTransformError` naming ``what``.
+
+    Only the type and shape are checked (for stacks of poses whose values are
+    measured, not trusted, as in :func:`pose_error`); :func:`check_transform`
+    checks one transform completely.
+    """
     try:
         T = np.asarray(T, dtype=float)
     except (TypeError, ValueError):
@@ -245,6 +251,10 @@ EXACT_ROTATION_TOL = 1e-12
 
 
 def projected_rotation(M: np.ndarray) -> np.ndarray:
+    """Each (..., 3, 3) block that is a rotation to :data:`EXACT_ROTATION_TOL` as is, else its :func:`nearest_rotation`.
+
+    Blocks with an entry that is not finite come back as all ``nan``.
+    """
     finite = np.all(np.isfinite(M), axis=(-2, -1))
     clean = np.where(finite[..., None, None], M, 0.0)
     deviation = np.max(np.abs(np.swapaxes(clean, -1, -2) @ clean - np.eye(3)), axis=(-2, -1))

@@ -1,0 +1,146 @@
+"""manipkit.description.meshes: mesh URIs (package://, file://, relative) to files, with real files in tmp_path."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from manipkit.description.meshes import mesh_path, urdf_with_mesh_paths
+from manipkit.description.packages import PackageResolver
+from manipkit.description.validate import check_urdf, package_uri_warnings
+from manipkit.errors import PackageNotFoundError
+
+
+@pytest.fixture
+def files(tmp_path: Path) -> dict[str, Path]:
+    """A package ``my_pkg`` with one mesh in a workspace, and a robot folder with a relative mesh."""
+    package = tmp_path / "ws" / "my_pkg"
+    (package / "meshes").mkdir(parents=True)
+    (package / "meshes" / "arm.stl").write_bytes(b"solid arm\nendsolid arm\n")
+    robot = tmp_path / "robot"
+    (robot / "meshes").mkdir(parents=True)
+    (robot / "meshes" / "hand.stl").write_bytes(b"solid hand\nendsolid hand\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    return {"package": package, "robot": robot, "elsewhere": elsewhere}
+
+
+def resolver_for(files) -> PackageResolver:
+    return PackageResolver({"my_pkg": files["package"]})
+
+
+def mesh_error(uri: str, files, *, relative_to=None) -> str:
+    with pytest.raises(PackageNotFoundError) as info:
+        mesh_path(uri, resolver_for(files), relative_to=relative_to or files["robot"], link="arm")
+    return str(info.value)
+
+
+# ---------------------------------------------------------------- found
+
+
+def test_package_uri_is_the_file_in_the_package_folder(files):
+    path = mesh_path("package://my_pkg/meshes/arm.stl", resolver_for(files), relative_to=files["robot"], link="arm")
+    assert path == files["package"].resolve() / "meshes" / "arm.stl"
+    assert path.is_absolute() and path.is_file()
+
+
+def test_relative_path_is_found_beside_the_description(files, monkeypatch):
+    monkeypatch.chdir(files["elsewhere"])  # not in the current folder: relative_to it is
+    path = mesh_path("meshes/hand.stl", resolver_for(files), relative_to=files["robot"], link="hand")
+    assert path == (files["robot"] / "meshes" / "hand.stl").resolve()
+
+
+def test_relative_path_is_then_looked_for_in_the_current_folder(files, monkeypatch):
+    monkeypatch.chdir(files["robot"])
+    path = mesh_path("meshes/hand.stl", resolver_for(files), relative_to=files["elsewhere"], link="hand")
+    assert path == (files["robot"] / "meshes" / "hand.stl").resolve()
+
+
+def test_file_uri_and_absolute_path(files):
+    absolute = files["robot"] / "meshes" / "hand.stl"
+    for uri in (f"file://{absolute}", str(absolute)):
+        assert mesh_path(uri, resolver_for(files), relative_to=files["elsewhere"], link="hand") == absolute.resolve()
+
+
+# ---------------------------------------------------------------- not found
+
+
+def test_missing_file_in_a_found_package_names_the_path_and_the_package_folder(files):
+    folder = files["package"].resolve()
+    assert mesh_error("package://my_pkg/meshes/gone.stl", files) == (
+        f"link 'arm': mesh package://my_pkg/meshes/gone.stl resolves to {folder / 'meshes' / 'gone.stl'}, which does "
+        f"not exist (package 'my_pkg' is {folder}); give the right folder with --package-dir my_pkg=DIR"
+    )
+
+
+def test_missing_package_says_where_it_looked(files):
+    message = mesh_error("package://no_such_pkg/a.stl", files)
+    assert message.startswith("link 'arm': mesh package://no_such_pkg/a.stl cannot be resolved: "
+                              "package 'no_such_pkg' not found; searched --package-dir (my_pkg)")
+    assert message.endswith("give it with --package-dir no_such_pkg=DIR")
+
+
+def test_missing_relative_file_lists_both_places(files, monkeypatch):
+    monkeypatch.chdir(files["elsewhere"])
+    assert mesh_error("meshes/gone.stl", files) == (
+        f"link 'arm': mesh meshes/gone.stl not found; looked at {files['robot'] / 'meshes' / 'gone.stl'}, "
+        f"{files['elsewhere'] / 'meshes' / 'gone.stl'}"
+    )
+
+
+def test_missing_absolute_file_is_looked_for_once(files):
+    gone = files["robot"] / "gone.stl"
+    assert mesh_error(str(gone), files) == f"link 'arm': mesh {gone} not found; looked at {gone}"
+
+
+@pytest.mark.parametrize("uri", ["http://example.com/arm.stl", "model://arm/meshes/arm.stl"])
+def test_another_scheme_is_refused(files, uri):
+    assert mesh_error(uri, files) == f"link 'arm': mesh {uri}: only package://, file:// and file paths are supported"
+
+
+# ---------------------------------------------------------------- a whole description
+
+
+URDF = """<robot name="r">
+  <link name="base"><visual><geometry><mesh filename="package://my_pkg/meshes/arm.stl"/></geometry></visual></link>
+  <link name="hand"><visual><geometry><mesh filename="meshes/hand.stl" scale="2 2 2"/></geometry></visual>
+    <collision><geometry><mesh filename="package://my_pkg/collision/not_read.stl"/></geometry></collision></link>
+  <joint name="j" type="fixed"><parent link="base"/><child link="hand"/></joint>
+</robot>"""
+
+
+def test_urdf_with_mesh_paths_makes_visual_meshes_absolute_and_lists_package_parents(files):
+    text, folders = urdf_with_mesh_paths(URDF, resolver_for(files), relative_to=files["robot"])
+    root = ET.fromstring(text)
+    visual = [mesh.get("filename") for mesh in root.iterfind("link/visual/geometry/mesh")]
+    assert visual == [str(files["package"].resolve() / "meshes" / "arm.stl"),
+                      str((files["robot"] / "meshes" / "hand.stl").resolve())]
+    assert root.find("link[@name='hand']/visual/geometry/mesh").get("scale") == "2 2 2"
+    # collision meshes are not the viewer's: left as written
+    assert root.find("link[@name='hand']/collision/geometry/mesh").get("filename") == "package://my_pkg/collision/not_read.stl"
+    assert folders == [str(files["package"].resolve().parent)]
+
+
+def test_urdf_without_visual_meshes_comes_back_unchanged():
+    text = '<robot name="r"><link name="a"><visual><geometry><box size="1 1 1"/></geometry></visual></link></robot>'
+    assert urdf_with_mesh_paths(text, PackageResolver(), relative_to=".") == (text, [])
+
+
+def test_urdf_with_mesh_paths_raises_for_the_first_missing_mesh(files):
+    text = URDF.replace("meshes/hand.stl", "meshes/gone.stl")
+    with pytest.raises(PackageNotFoundError, match=r"^link 'hand': mesh meshes/gone.stl not found"):
+        urdf_with_mesh_paths(text, resolver_for(files), relative_to=files["robot"])
+
+
+def test_validation_warns_about_the_file_the_viewer_would_look_for(files):
+    # the same resolution: the warning names the path mesh_path reports as missing
+    text = URDF.replace("meshes/arm.stl", "meshes/gone.stl")
+    checked = check_urdf(text, "r.urdf")
+    warning, collision = package_uri_warnings(checked.robot, resolver_for(files), "r.urdf")
+    assert "mesh package://my_pkg/collision/not_read.stl: no such file" in collision  # validation reads every mesh
+    missing = files["package"].resolve() / "meshes" / "gone.stl"
+    assert warning == (f"r.urdf:2: link 'base' mesh package://my_pkg/meshes/gone.stl: no such file {missing} "
+                       "(kinematics do not need meshes; the viewer does)")
+    assert f"resolves to {missing}, which does not exist" in mesh_error("package://my_pkg/meshes/gone.stl", files)
