@@ -23,7 +23,8 @@ import csv
 import difflib
 import math
 import warnings
-from typing import TYPE_CHECKING, Iterator
+from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
 

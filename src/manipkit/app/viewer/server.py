@@ -37,7 +37,7 @@ def _page_template() -> str:
 
 class _HTTPServer(ThreadingHTTPServer):
     daemon_threads = True
-    app: "ViewerServer"
+    app: ViewerServer
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -128,7 +128,7 @@ class ViewerServer:
         self._scene_error: str | None = None
         self._scene_thread: threading.Thread | None = None
 
-    def attach(self, state: ViewerState, scene: MeshcatScene, visual) -> "ViewerServer":
+    def attach(self, state: ViewerState, scene: MeshcatScene, visual) -> ViewerServer:
         """Connect the state and the scene, and draw the start pose."""
         self.state, self.scene, self.visual = state, scene, visual
         scene.draw(state.scene_placements(visual))
@@ -166,7 +166,7 @@ class ViewerServer:
     def scene_url(self) -> str:
         return self.scene.url
 
-    def start(self) -> "ViewerServer":
+    def start(self) -> ViewerServer:
         """Serve in a daemon thread; returns at once."""
         self._scene_thread = threading.Thread(target=self._draw_loop, name="manipkit-viewer-scene", daemon=True)
         self._scene_thread.start()
