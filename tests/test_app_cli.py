@@ -255,12 +255,13 @@ def test_unresolved_mesh_is_a_warning_for_kinematics(tmp_path):
 
 
 def test_internal_error_exits_1_with_a_short_message_and_a_report_hint(capsys):
-    from manipkit.app.cli import _run, _tf_parser
+    from manipkit.app.cli import run_command
+    from manipkit.app.cli.tf import tf_parser
 
     def broken(args):
         raise RuntimeError("an invariant broke")
 
-    status = _run(_tf_parser("tf-between"), ["base_link", "ee_link"], broken)
+    status = run_command(tf_parser("tf-between"), ["base_link", "ee_link"], broken)
     err = capsys.readouterr().err
     assert status == 1
     assert err == ("tf-between: internal error (RuntimeError: an invariant broke); this is a bug in manipkit, "
@@ -268,12 +269,14 @@ def test_internal_error_exits_1_with_a_short_message_and_a_report_hint(capsys):
 
 
 def test_user_error_message_is_always_one_line(capsys):
-    from manipkit.app.cli import UsageError, _run, _tf_parser
+    from manipkit.app.cli import run_command
+    from manipkit.app.cli.common import UsageError
+    from manipkit.app.cli.tf import tf_parser
 
     def multiline(args):
         raise UsageError("first line\nsecond line")
 
-    assert _run(_tf_parser("tf-between"), ["base_link", "ee_link"], multiline) == 2
+    assert run_command(tf_parser("tf-between"), ["base_link", "ee_link"], multiline) == 2
     assert capsys.readouterr().err == "tf-between: error: first line second line\n"
 
 

@@ -1,6 +1,6 @@
 """A pose as the numbers people read: translation, quaternion, roll-pitch-yaw.
 
-Conventions: translation in metres; quaternion (x, y, z, w) with w >= 0;
+Conventions (docs/architecture.md): translation in metres; quaternion (x, y, z, w) with w >= 0;
 rpy = (roll, pitch, yaw) in radians with R = Rz(yaw) Ry(pitch) Rx(roll), the
 URDF convention (equal to Euler ZYX (yaw, pitch, roll)). The same numbers feed
 ``tf-between`` (text, JSON, CSV) and the viewer's readout, and the same text
@@ -9,10 +9,17 @@ URDF convention (equal to Euler ZYX (yaw, pitch, roll)). The same numbers feed
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from manipkit.spatial.rotations import quaternion_from_matrix, rpy_from_matrix
 from manipkit.text import number_text
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["pose_fields", "pose_report", "pose_text"]
 
 
 def pose_fields(T) -> dict[str, np.ndarray]:
@@ -45,7 +52,7 @@ def pose_fields(T) -> dict[str, np.ndarray]:
     }
 
 
-def pose_report(robot, source: str, target: str, q, *, T=None) -> dict:
+def pose_report(robot: Robot, source: str, target: str, q, *, T=None) -> dict:
     """T_source_target as the JSON ``tf-between SOURCE TARGET --format json`` prints.
 
     The viewer's readout and the command line share this function, so the
@@ -53,7 +60,7 @@ def pose_report(robot, source: str, target: str, q, *, T=None) -> dict:
 
     Parameters
     ----------
-    robot : manipkit.kinematics.robot.Robot
+    robot : Robot
     source, target : str
         Frame names (or the aliases ``base_link``, ``ee_link``), kept as given.
     q : array_like, shape (n,)

@@ -1,0 +1,79 @@
+"""Command-line front end: parse, call the library, format. No kinematics here.
+
+``tf-between SOURCE TARGET`` prints T_SOURCE_TARGET (the pose of TARGET in
+SOURCE) like ROS 2 ``tf2_echo``; ``manipkit`` groups the other commands.
+User errors print one line on stderr and exit with status 2; a bug exits
+with status 1 and asks to be reported. Warnings (a normalised joint axis, an
+unresolved ``package://`` mesh, a value moved into its limits by ``--clamp``)
+print as ``warning: ...`` lines on stderr; the answer stays alone on stdout.
+Joint values outside their limits are an error naming the joint, the value
+and the limits, unless ``--clamp`` is given.
+
+One module per command group, each with ``register(commands)`` adding its
+subparser(s) and the ``run_*`` functions they call: :mod:`.tf`,
+:mod:`.robots` (robots, frames), :mod:`.tree`, :mod:`.dh`, :mod:`.ik`,
+:mod:`.workspace`, :mod:`.view`; the options they share are in
+:mod:`.common`. How to add a command: docs/architecture.md.
+
+argparse (standard library) is used rather than click/typer so that
+``tf-between`` starts fast; heavy modules (and json) are imported inside the
+commands, and ``tf-between`` imports no other command's module.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser
+from manipkit.app.cli.tf import run_tf, tf_parser
+from manipkit.errors import ManipkitError
+
+__all__ = ["main", "run_command", "tf_between_main"]
+
+
+def main(argv=None) -> int:
+    """``manipkit COMMAND [options]``."""
+    return run_command(_main_parser(), argv)
+
+
+def tf_between_main(argv=None) -> int:
+    """``tf-between SOURCE TARGET [options]``."""
+    return run_command(tf_parser("tf-between"), argv, run_tf)
+
+
+def _main_parser() -> argparse.ArgumentParser:
+    from manipkit.app.cli import dh, ik, robots, tf, tree, view, workspace
+
+    parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
+    for group in (tf, robots, tree, dh, ik, workspace, view):  # the order of `manipkit --help`
+        group.register(commands)
+    return parser
+
+
+def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
+    """Parse ``argv`` and run the command (``runner``, else the one the parser chose); the exit status.
+
+    A :class:`~manipkit.errors.ManipkitError` prints one line
+    ``PROG: error: ...`` on stderr (status 2); any other exception is a bug:
+    one short line asking for a report (status 1), no traceback.
+    """
+    args = parser.parse_args(argv)
+    try:
+        return (runner or args.run)(args)
+    except ManipkitError as exc:
+        print(f"{parser.prog}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:  # a bug: short message, no traceback, exit 1
+        detail = " ".join(str(exc).split())[:300]
+        print(
+            f"{parser.prog}: internal error ({type(exc).__name__}: {detail}); this is a bug in manipkit, "
+            "please report it with the command line used",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL

@@ -1,0 +1,235 @@
+"""What every command shares: the parser class, exit statuses, robot and joint options, warnings.
+
+Only the command line prints or exits (docs/architecture.md, "app"); these
+helpers parse options into library arguments and format the answers'
+common parts. Heavy modules are imported inside the functions that need
+them, so ``tf-between`` starts fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from manipkit.errors import JointLimitError, ManipkitError
+from manipkit.text import number_text, short_text
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from manipkit.kinematics.robot import Robot
+
+__all__ = [
+    "EXIT_INTERNAL",
+    "EXIT_MISMATCH",
+    "EXIT_OK",
+    "EXIT_USAGE",
+    "Parser",
+    "UsageError",
+    "add_joint_options",
+    "add_robot_options",
+    "check_precision",
+    "check_tolerance",
+    "joint_vector",
+    "limit_checked",
+    "limit_hint",
+    "load_robot",
+    "print_json",
+    "q_text",
+    "warn",
+]
+
+EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
+EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (usage goes to --help, not to every mistake)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class UsageError(ManipkitError):
+    """A malformed command-line value."""
+
+
+def warn(message: str) -> None:
+    """The warnings channel: one ``warning: ...`` line on stderr (stdout stays the answer)."""
+    print(f"warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def print_json(value) -> None:
+    """``value`` as indented JSON on stdout."""
+    import json
+
+    print(json.dumps(value, indent=2))
+
+
+# ----------------------------------------------------------------------
+# Robot options
+# ----------------------------------------------------------------------
+
+
+def add_robot_options(parser: argparse.ArgumentParser) -> None:
+    """``--robot``, ``--arg`` and ``--package-dir`` (read by :func:`load_robot`)."""
+    parser.add_argument(
+        "--robot", default=None, metavar="R",
+        help="bundled name (course_arm, iiwa14, ...), example-robot-data name (panda, ur5, ...) "
+        "or a .urdf/.xacro path (default: course_arm)",
+    )
+    parser.add_argument(
+        "--arg", action="append", default=[], metavar="KEY=VALUE", help="xacro argument (repeatable)"
+    )
+    parser.add_argument(
+        "--package-dir", action="append", default=[], metavar="NAME=DIR",
+        help="folder of a ROS package, for $(find NAME) and package://NAME (repeatable)",
+    )
+
+
+def load_robot(args, *, mesh_warnings: bool = True) -> Robot:
+    """The robot of --robot/--arg/--package-dir; its load warnings go to the warnings channel.
+
+    ``mesh_warnings=False`` leaves out unresolved ``package://`` meshes (the viewer makes them an error).
+    """
+    import manipkit
+
+    package_dirs = {}
+    for name, folder in _pairs(args.package_dir, "--package-dir").items():
+        if not folder:
+            raise UsageError(f"--package-dir {name}=: give the folder of package {name}")
+        package_dirs[name] = Path(folder)
+    robot = manipkit.load(args.robot, package_dirs=package_dirs, **_pairs(args.arg, "--arg"))
+    for message in robot.warnings:
+        if mesh_warnings or message not in robot.mesh_warnings:
+            warn(message)
+    return robot
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    pairs = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise UsageError(f"{option} '{item}': expected NAME=VALUE")
+        if key in pairs:
+            raise UsageError(f"{option}: {key} given twice ({key}={pairs[key]} and {key}={value}); give it once")
+        pairs[key] = value
+    return pairs
+
+
+# ----------------------------------------------------------------------
+# Joint options
+# ----------------------------------------------------------------------
+
+
+def add_joint_options(parser: argparse.ArgumentParser) -> None:
+    """``--q``, ``--deg`` and ``--clamp`` (read by :func:`joint_vector`)."""
+    parser.add_argument(
+        "--q", action="extend", nargs="+", default=[], metavar="NAME=VALUE",
+        help="joint values by name (repeatable), or all joint values in order; joints not given are 0",
+    )
+    parser.add_argument("--deg", action="store_true", help="angles are given in degrees (prismatic joints stay in metres)")
+    parser.add_argument(
+        "--clamp", action="store_true",
+        help="move joint values outside their limits to the nearest limit (with a warning) instead of an error",
+    )
+
+
+def joint_vector(robot: Robot, args, *, option: str = "--q", items=None) -> np.ndarray:
+    """Joint vector from --q NAME=VALUE ... or --q V1 V2 ... (all joints in order), limits checked."""
+    items = args.q if items is None else items
+    if items and all(_is_number(item) for item in items):
+        if len(items) != len(robot.joint_names):
+            raise UsageError(
+                f"{option} got {len(items)} value{'s' if len(items) != 1 else ''} but {robot.name} has "
+                f"{len(robot.joint_names)} joints ({', '.join(robot.joint_names) or 'none'}); "
+                "give all of them in order, or NAME=VALUE pairs"
+            )
+        values = dict(zip(robot.joint_names, items))
+    else:
+        values = _pairs(items, option)
+    prefix = "" if option == "--q" else f"{option}: "
+    try:
+        q = robot.q(values, degrees=args.deg)
+    except ManipkitError as exc:
+        if not prefix:
+            raise
+        raise UsageError(f"{prefix}{exc}") from None
+    return limit_checked(robot, q, degrees=args.deg, clamp=args.clamp, given=set(values), prefix=prefix)
+
+
+def limit_checked(robot: Robot, q, *, degrees: bool, clamp: bool, given=None, prefix: str = "") -> np.ndarray:
+    """``q`` if inside the joint limits; clamped with a warning under --clamp; else a one-line error.
+
+    The error names the joint, its value and the limits; a value above a
+    full turn on an angular joint without --deg gets a degrees hint.
+    Values of continuous joints above a full turn get the hint as a warning.
+    """
+    from manipkit.kinematics.q_file import joint_limits_error
+
+    violations = robot.limit_violations(q)
+    for joint, value in zip(robot.joints, q):
+        unlimited = not (math.isfinite(joint.lower) and math.isfinite(joint.upper))
+        if unlimited and joint.is_angular and not degrees and abs(value) > 2 * math.pi and (given is None or joint.name in given):
+            warn(f"{prefix}joint '{joint.name}' = {short_text(value)} rad is more than a full turn; "
+                 "did you mean degrees? add --deg")
+    if not violations:
+        return q
+    if clamp:
+        clamped = robot.clamp(q)
+        for error in violations:
+            side = "upper" if error.value > error.upper else "lower"
+            limit = error.upper if side == "upper" else error.lower
+            warn(f"{prefix}joint '{error.joint}' = {_joint_value_text(error.value, error.unit, degrees)} "
+                 f"clamped to its {side} limit {_joint_value_text(limit, error.unit, degrees)}")
+        return clamped
+    error = joint_limits_error(violations, degrees=degrees)
+    raise UsageError(f"{prefix}{error}; use --clamp to clamp{limit_hint(error, degrees)}")
+
+
+def limit_hint(error: JointLimitError, degrees: bool) -> str:
+    """A guess at the unit mistake behind a value outside its limits (``""`` when there is none)."""
+    if not degrees and error.unit == "rad" and abs(error.value) > 2 * math.pi:
+        return " (did you mean degrees? add --deg)"
+    if error.unit == "m" and error.lower <= error.value / 1000 <= error.upper:
+        return f" (values are in metres: did you mean {short_text(error.value / 1000)}?)"
+    return ""
+
+
+def _joint_value_text(value: float, unit: str, degrees: bool) -> str:
+    return f"{short_text(math.degrees(value))} deg" if degrees and unit == "rad" else f"{short_text(value)} {unit}"
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def q_text(values: dict[str, float], precision: int) -> str:
+    """``name=value ...`` with ``precision`` decimals (the form ``--q`` takes back)."""
+    return " ".join(f"{name}={number_text(value, precision)}" for name, value in values.items())
+
+
+# ----------------------------------------------------------------------
+# Number options
+# ----------------------------------------------------------------------
+
+
+def check_precision(precision: int) -> None:
+    """A usage error unless ``--precision`` is 0 to 17 decimals."""
+    if precision < 0 or precision > 17:
+        raise UsageError(f"--precision {precision}: give a number of decimals from 0 to 17")
+
+
+def check_tolerance(tol: float, option: str = "--tol") -> None:
+    """A usage error unless the tolerance is positive and finite."""
+    if not (math.isfinite(tol) and tol > 0):
+        raise UsageError(f"{option} {short_text(tol)}: give a positive finite tolerance (m and rad)")

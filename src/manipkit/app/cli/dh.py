@@ -1,0 +1,144 @@
+"""``manipkit dh show | check | to-urdf | from-urdf``: DH tables printed, checked against a URDF, converted.
+
+The tables, their text and the check with its diagnosis come from
+:mod:`manipkit.dh`; DH conventions (standard, modified) are in
+docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from manipkit.app.cli.common import (
+    EXIT_MISMATCH,
+    EXIT_OK,
+    Parser,
+    UsageError,
+    add_robot_options,
+    check_tolerance,
+    load_robot,
+    print_json,
+)
+from manipkit.text import short_text
+
+__all__ = ["register", "run_dh_check", "run_dh_from_urdf", "run_dh_show", "run_dh_to_urdf"]
+
+
+def register(commands) -> None:
+    """Add ``manipkit dh`` and its four commands to the subparsers ``commands``."""
+    dh = commands.add_parser("dh", help="DH tables: show, check against a URDF, to-urdf, from-urdf")
+    dh_commands = dh.add_subparsers(dest="dh_command", required=True, metavar="COMMAND", parser_class=Parser)
+    show = dh_commands.add_parser("show", help="print a DH table (and its symbolic T_base_tool)")
+    show.add_argument("table", metavar="TABLE", help="a bundled table name (e.g. iiwa14_seed004) or a .yaml file")
+    show.add_argument("--symbolic", action="store_true", help="also print T_base_tool with SymPy (c_i/s_i shorthand)")
+    show.add_argument("--latex", action="store_true", help="print the symbolic transform as LaTeX")
+    show.set_defaults(run=run_dh_show)
+    check = dh_commands.add_parser("check", help="compare a DH table with a robot's URDF chain, with a diagnosis")
+    check.add_argument("table", metavar="TABLE", help="a bundled table name or a .yaml file")
+    add_robot_options(check)
+    check.add_argument("--base", default="base_link", help="URDF frame of the table's base (default base_link)")
+    check.add_argument("--tip", default="ee_link", help="URDF frame of the table's tool (default ee_link)")
+    check.add_argument("--samples", type=int, default=1000, metavar="N", help="configurations within the limits (default 1000, fixed seed)")
+    check.add_argument("--tol", type=float, default=1e-9, help="pass tolerance, m and rad (default 1e-9)")
+    check.add_argument("--format", choices=("text", "json"), default="text")
+    check.set_defaults(run=run_dh_check)
+    to_urdf = dh_commands.add_parser("to-urdf", help="write a URDF for a DH table")
+    to_urdf.add_argument("table", metavar="TABLE", help="a bundled table name or a .yaml file")
+    to_urdf.add_argument("-o", "--output", type=Path, default=None, metavar="FILE.urdf")
+    to_urdf.set_defaults(run=run_dh_to_urdf)
+    from_urdf = dh_commands.add_parser("from-urdf", help="derive a DH table from a robot's URDF chain")
+    add_robot_options(from_urdf)
+    from_urdf.add_argument("--base", default="base_link", help="URDF frame of the table's base (default base_link)")
+    from_urdf.add_argument("--tip", default="ee_link", help="URDF frame of the table's tool (default ee_link)")
+    from_urdf.add_argument("--convention", choices=("standard", "modified"), default="standard")
+    from_urdf.add_argument("-o", "--output", type=Path, default=None, metavar="FILE.yaml", help="also save the table")
+    from_urdf.set_defaults(run=run_dh_from_urdf)
+
+
+def run_dh_show(args) -> int:
+    """Print the table (and, asked, its symbolic T_base_tool as text or LaTeX)."""
+    from manipkit import dh
+    from manipkit.description.sources import resolve_dh_table
+
+    table = dh.load_dh(resolve_dh_table(args.table))
+    print(dh.format_dh_table(table))
+    if args.symbolic or args.latex:
+        T = dh.dh_fk_symbolic(table)
+        label = f"T_base_tool of {table.name or 'the table'} (c_i = cos q_i, s_i = sin q_i):"
+        print(label if not args.latex else f"% {label}")
+        print(dh.format_symbolic(dh.shorthand(T), latex=args.latex))
+    return EXIT_OK
+
+
+def run_dh_check(args) -> int:
+    """Compare the table's FK with the robot's chain; exit 1 on a mismatch, with the diagnosis."""
+    from manipkit import dh
+    from manipkit.description.sources import resolve_dh_table
+    from manipkit.dh.check import check_dh
+
+    path = resolve_dh_table(args.table)
+    table = dh.load_dh(path)
+    robot = load_robot(args)
+    if args.samples < 1:
+        raise UsageError(f"--samples {args.samples}: give at least 1")
+    check_tolerance(args.tol)
+    result = check_dh(table, robot, base=args.base, tip=args.tip, samples=args.samples, tol=args.tol)
+    if args.format == "json":
+        print_json({
+            "table": str(path),
+            "robot": robot.name,
+            "base": args.base,
+            "tip": args.tip,
+            "joints": list(result.joints),
+            "samples": result.samples,
+            "tol": result.tol,
+            "max_position_error": None if result.max_position_error != result.max_position_error else result.max_position_error,
+            "max_rotation_error": None if result.max_rotation_error != result.max_rotation_error else result.max_rotation_error,
+            "pass": result.passed,
+            "diagnosis": list(result.diagnosis),
+        })
+    else:
+        print(f"{table.convention} DH table {path.name} vs {robot.name} URDF chain {args.base} -> {args.tip}"
+              f" ({len(result.joints)} joints: {', '.join(result.joints)})")
+        if result.samples:
+            print(f"{result.samples} configurations inside the joint limits: max position error "
+                  f"{short_text(result.max_position_error, 3)} m, max rotation error {short_text(result.max_rotation_error, 3)} rad")
+        print(f"PASS (within {short_text(result.tol)})" if result.passed else f"FAIL (tolerance {short_text(result.tol)})")
+        for line in result.diagnosis[1 if result.samples else 0 :]:  # the first repeats the errors above
+            print(f"- {line}")
+    return EXIT_OK if result.passed else EXIT_MISMATCH
+
+
+def run_dh_to_urdf(args) -> int:
+    """Print the URDF of the table, or write it to ``-o``."""
+    from manipkit import dh
+    from manipkit.description.sources import resolve_dh_table
+
+    table = dh.load_dh(resolve_dh_table(args.table))
+    text = dh.urdf_from_dh(table)
+    if args.output is None:
+        print(text)
+    else:
+        args.output.write_text(text)
+        print(f"wrote {args.output} ({table.n} joints, frames base_link, link_1..link_{table.n}, ee_link)")
+    return EXIT_OK
+
+
+def run_dh_from_urdf(args) -> int:
+    """Print the DH table of the chain base -> tip (and save it to ``-o`` with a header saying how it was made)."""
+    from manipkit import dh
+    from manipkit.dh.from_urdf import dh_from_urdf_chain
+
+    robot = load_robot(args)
+    table = dh_from_urdf_chain(robot, args.base, args.tip, convention=args.convention)
+    if args.output is not None:
+        header = (
+            f"{table.convention} DH table of {robot.name} from {robot.frame(args.base)} to {robot.frame(args.tip)}, "
+            f"rows = joints {', '.join(robot.chain_joints(args.base, args.tip))};\n"
+            f"derived by `manipkit dh from-urdf --robot {args.robot or robot.source.name} --base {args.base} "
+            f"--tip {args.tip} --convention {args.convention}` (exact to the URDF's numbers)"
+        )
+        dh.save_dh(table, args.output, header=header)
+        print(f"wrote {args.output}")
+    print(dh.format_dh_table(table))
+    return EXIT_OK

@@ -1,0 +1,137 @@
+"""``manipkit ik``: joint values that put a frame at a target pose, numerical or closed form.
+
+The target T_base_frame is built from ``--xyz`` (m) and ``--rpy`` (URDF
+convention, R = Rz(yaw) Ry(pitch) Rx(roll)) or ``--quat`` (x, y, z, w) by
+:mod:`manipkit.spatial.transforms`; the solvers are
+:func:`manipkit.kinematics.ik.ik` and :func:`manipkit.kinematics.ik.analytic_ik`
+(docs/architecture.md). Exit status 1 when no solution reaches the target.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from manipkit.app.cli.common import (
+    EXIT_MISMATCH,
+    EXIT_OK,
+    UsageError,
+    add_robot_options,
+    check_precision,
+    joint_vector,
+    load_robot,
+    print_json,
+    q_text,
+)
+from manipkit.text import short_text
+
+if TYPE_CHECKING:
+    import numpy as np
+
+__all__ = ["register", "run_ik"]
+
+
+def register(commands) -> None:
+    """Add ``manipkit ik`` to the subparsers ``commands``."""
+    ik = commands.add_parser("ik", help="joint values that put a frame at a target pose (numerical or closed form)")
+    add_robot_options(ik)
+    ik.add_argument("--frame", default="ee_link", help="frame to place (default ee_link)")
+    ik.add_argument("--base", default="base_link", help="frame the target is given in (default base_link)")
+    ik.add_argument("--xyz", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
+    orientation = ik.add_mutually_exclusive_group()
+    orientation.add_argument("--rpy", type=float, nargs=3, metavar=("R", "P", "Y"), help="target orientation, URDF rpy (rad, or deg with --deg)")
+    orientation.add_argument("--quat", type=float, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
+    ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
+    ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
+    ik.add_argument("--analytic", action="store_true", help="use the robot's closed-form solver (planar_2r/3r, scara, stanford_arm, elbow_arm)")
+    ik.add_argument("--all", action="store_true", help="numerical: return every distinct solution found within the restart budget")
+    ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
+    ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
+    ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
+    ik.add_argument("--restarts", type=int, default=50, metavar="N", help="random restarts (default 50)")
+    ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
+    ik.add_argument("--precision", type=int, default=6, metavar="N")
+    ik.add_argument("--format", choices=("text", "json"), default="text")
+    ik.set_defaults(run=run_ik)
+
+
+def _ik_target(args) -> np.ndarray:
+    """T_base_frame from --xyz and --rpy/--quat (degrees for --rpy with --deg); no orientation: the identity rotation."""
+    import numpy as np
+
+    from manipkit.spatial.transforms import transform_from_xyz_quaternion, transform_from_xyz_rpy
+
+    for option, values, unit in (("--xyz", args.xyz, "m"), ("--rpy", args.rpy, "deg" if args.deg else "rad"),
+                                 ("--quat", args.quat, "")):
+        if values is not None and not all(math.isfinite(v) for v in values):
+            bad = next(v for v in values if not math.isfinite(v))
+            raise UsageError(f"{option} {' '.join(short_text(v) for v in values)}: {short_text(bad)} is not finite; "
+                             f"give finite numbers{' (' + unit + ')' if unit else ''}")
+    if args.rpy is not None:
+        return transform_from_xyz_rpy(args.xyz, np.radians(args.rpy) if args.deg else args.rpy)
+    # no orientation given: the identity rotation, (0, 0, 0, 1) (exact zeros, none of them -0.0 in the JSON)
+    quaternion = (0.0, 0.0, 0.0, 1.0) if args.quat is None else args.quat
+    return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
+
+
+def run_ik(args) -> int:
+    """Solve, then print the solutions (text or JSON) with the residual and a tf-between line to check one."""
+    from manipkit.kinematics.ik import analytic_ik, ik
+
+    check_precision(args.precision)
+    if args.restarts < 0:
+        raise UsageError(f"--restarts {args.restarts}: give 0 or more")
+    robot = load_robot(args)
+    target = _ik_target(args)
+    oriented = args.rpy is not None or args.quat is not None
+    mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
+    if args.analytic:
+        if args.frame != "ee_link" or args.base != "base_link":
+            raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
+        result = analytic_ik(robot, target)
+        answers = [(label, q) for label, q in zip(result.labels, result.solutions)]
+        success = bool(answers)
+        residuals = result.residuals.max(axis=0) if success else (None, None)
+        header = f"closed form ({result.solver}): {len(answers)} solution(s)" + (
+            f" (count: {result.count})" if result.count != len(answers) else "")
+        notes = [result.reason] if result.reason else []
+        fallback = None
+    else:
+        q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
+        found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
+                   q0=q0, all=args.all, restarts=args.restarts, seed=args.seed)
+        results = list(found) if args.all else ([found] if found.success else [])
+        best = found.best if args.all else found
+        answers = [(None, r.q) for r in results]
+        success = bool(answers)
+        residuals = (best.residual_position, best.residual_rotation)
+        header = (f"numerical IK ({mode}, frame {args.frame} in {args.base}): "
+                  f"{'success' if success else 'FAILED'}; {best.iterations} iterations")
+        notes = [best.reason] if best.reason else []
+        fallback = None if success else best.q
+    if args.format == "json":
+        print_json({
+            "robot": robot.name,
+            "mode": "analytic" if args.analytic else mode,
+            "target": target.tolist(),
+            "solutions": [robot.as_dict(q) for _, q in answers],
+            "labels": [label for label, _ in answers] if args.analytic else None,
+            "success": success,
+            "residual_position": None if residuals[0] is None else float(residuals[0]),
+            "residual_rotation": None if residuals[1] is None else float(residuals[1]),
+            "notes": notes,
+        })
+    else:
+        print(header)
+        for index, (label, q) in enumerate(answers, start=1):
+            print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}")
+        if fallback is not None:
+            print(f"best found (does not reach the target): {q_text(robot.as_dict(fallback), args.precision)}")
+        if residuals[0] is not None:
+            print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
+        for note in notes:
+            print(f"note: {note}")
+        if success:
+            print(f"check one with: tf-between {args.base} {args.frame} --robot {args.robot or robot.source.name} --q "
+                  + q_text(robot.as_dict(answers[0][1]), args.precision))
+    return EXIT_OK if success else EXIT_MISMATCH

@@ -1,0 +1,77 @@
+"""``manipkit view``: the robot in a browser (meshcat) with joint sliders and a live T_A_B readout.
+
+Serves the control page of :mod:`manipkit.app.viewer` until Ctrl-C (or
+SIGTERM), or writes a standalone HTML snapshot with ``--static``
+(docs/architecture.md, "app"). The viewer (meshcat, Pinocchio's visualizer)
+is imported only when this command runs.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from manipkit.app.cli.common import EXIT_OK, add_joint_options, add_robot_options, joint_vector, load_robot, warn
+from manipkit.text import number_text
+
+__all__ = ["register", "run_view"]
+
+
+def register(commands) -> None:
+    """Add ``manipkit view`` to the subparsers ``commands``."""
+    view = commands.add_parser("view", help="the robot in a browser (meshcat) with joint sliders and a live T_A_B readout")
+    add_robot_options(view)
+    add_joint_options(view)
+    view.add_argument("--frames", nargs=2, default=["base_link", "ee_link"], metavar=("A", "B"),
+                      help="frames of the readout T_A_B and of the two triads (default base_link ee_link)")
+    view.add_argument("--port", type=int, default=8700, metavar="P", help="port of the control page (default 8700, 0 = any free port)")
+    view.add_argument("--no-browser", action="store_true", help="print the URLs but do not open a browser")
+    view.add_argument("--static", type=Path, default=None, metavar="FILE.html",
+                      help="write a standalone HTML snapshot of the pose instead of serving")
+    view.set_defaults(run=run_view)
+
+
+def run_view(args) -> int:
+    """Serve the view until stopped (opening a browser when there is a display), or write ``--static``."""
+    import signal
+    import threading
+    import webbrowser
+
+    from manipkit.app import viewer
+
+    robot = load_robot(args, mesh_warnings=False)
+    q = joint_vector(robot, args)
+    frames = tuple(args.frames)
+    if args.static is not None:
+        path = viewer.write_static(robot, args.static, frames=frames, q=q)
+        size = path.stat().st_size / 1e6
+        print(f"wrote {path} ({number_text(size, 1)} MB): {robot.name} with triads at {frames[0]} and {frames[1]}; "
+              "open it in a browser, no server needed")
+        return EXIT_OK
+
+    def stop(signum, frame):  # `kill` (SIGTERM) stops as cleanly as Ctrl-C
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    view = None
+    try:
+        view = viewer.open_view(robot, frames=frames, q=q, port=args.port)
+        for warning in view.scene.warnings:
+            warn(warning)
+        print(f"control page: {view.url}", flush=True)
+        print(f"meshcat scene: {view.scene_url}", flush=True)
+        print(f"robot {robot.name}, T_{frames[0]}_{frames[1]} live; Ctrl-C stops the viewer", flush=True)
+        if not args.no_browser:
+            if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+                print("no display found: open the control page in a browser yourself", flush=True)
+            else:  # in a thread: a console browser must not hold up the server
+                threading.Thread(target=webbrowser.open, args=(view.url,), daemon=True).start()
+        view.wait()
+    except KeyboardInterrupt:
+        print("viewer stopped", flush=True)
+    finally:
+        if view is not None:
+            view.close()
+        signal.signal(signal.SIGTERM, previous)
+    return EXIT_OK

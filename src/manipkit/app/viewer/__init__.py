@@ -1,0 +1,32 @@
+"""Browser view of a robot: meshcat scene, joint sliders and a live T_A_B readout.
+
+Four layers, each usable on its own (docs/architecture.md, "app"):
+
+- :mod:`.state`: :class:`ViewerState` holds the joint values and the frames
+  A, B and answers the slider specs, the readout (the JSON of ``tf-between A
+  B --format json``) and the scene placements. No meshcat, no browser.
+- :mod:`.scene`: :func:`visual_model` (the robot's visual geometry) and
+  :class:`MeshcatScene`, a thin adapter that starts a meshcat server and
+  draws the placements it is given, with a triad at A and at B.
+- :mod:`.server`: :class:`ViewerServer` serves the control page
+  (``page.html``) and wires it to a state and a scene; :func:`open_view`
+  starts a view, :func:`write_static` writes a standalone HTML snapshot.
+- :mod:`.notebook`: :func:`notebook_view`, the same view in Jupyter with ipywidgets.
+
+Conventions: metres and radians; ``T_a_b`` is the pose of frame b expressed
+in frame a; the scene's world frame is the robot's root link. Pinocchio,
+meshcat, ``pinocchio.visualize`` and ipywidgets are imported inside the
+functions that need them, so importing this package stays cheap.
+"""
+
+from __future__ import annotations
+
+from manipkit.app.viewer.notebook import NotebookView, notebook_view
+from manipkit.app.viewer.scene import TRIAD_DOTS, MeshcatScene, visual_model
+from manipkit.app.viewer.server import DEFAULT_PORT, ViewerServer, open_view, write_static
+from manipkit.app.viewer.state import DEFAULT_FRAMES, TRIAD_PATHS, VISUALS_ROOT, SliderSpec, ViewerState
+
+__all__ = [
+    "DEFAULT_FRAMES", "DEFAULT_PORT", "TRIAD_DOTS", "TRIAD_PATHS", "VISUALS_ROOT", "SliderSpec", "ViewerState",
+    "MeshcatScene", "ViewerServer", "visual_model", "open_view", "write_static", "notebook_view", "NotebookView",
+]

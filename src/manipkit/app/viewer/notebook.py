@@ -1,0 +1,125 @@
+"""The view inside Jupyter: the same state and scene, with ipywidgets sliders, frame pickers and a readout.
+
+ipywidgets (and IPython) are imported when a view is built; see
+docs/architecture.md ("app").
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from manipkit.app.viewer.scene import MeshcatScene, visual_model
+from manipkit.app.viewer.state import DEFAULT_FRAMES, ViewerState
+from manipkit.errors import ManipkitError
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["NotebookView", "notebook_view"]
+
+
+class NotebookView:
+    """A view inside a notebook: ipywidgets sliders, frame pickers, a readout and the meshcat scene.
+
+    Build it with :func:`notebook_view`; display it as the last expression of
+    a cell. ``sliders`` (joint name -> FloatSlider), ``frame_a``/``frame_b``
+    (Dropdown), ``reset_button``, ``readout`` (HTML) and ``widget`` are the
+    ipywidgets; ``state`` and ``scene`` are the shared layers.
+    """
+
+    def __init__(self, state: ViewerState, scene: MeshcatScene, visual, *, height: int = 420):
+        import ipywidgets as w
+
+        self.state, self.scene, self.visual = state, scene, visual
+        self._syncing = False
+        self.sliders = {
+            spec.name: w.FloatSlider(
+                value=spec.value, min=spec.lower, max=spec.upper, step=spec.step, description=spec.name,
+                continuous_update=True, readout_format=".4f", style={"description_width": "initial"},
+                layout=w.Layout(width="100%"),
+            )
+            for spec in state.sliders()
+        }
+        choices = list(state.frame_choices())
+        self.frame_a = w.Dropdown(options=choices, value=state.frames[0], description="A")
+        self.frame_b = w.Dropdown(options=choices, value=state.frames[1], description="B")
+        self.reset_button = w.Button(description="reset")
+        self.readout = w.HTML()
+        self.error = w.HTML()
+        self.scene_widget = w.HTML(
+            f'<iframe src="{scene.url}" style="width:100%;height:{height}px;border:0"></iframe>',
+            layout=w.Layout(width="60%"),
+        )
+        for name, slider in self.sliders.items():
+            slider.observe(lambda change, name=name: self._on_joint(name, change["new"]), names="value")
+        self.frame_a.observe(lambda change: self._on_frames(), names="value")
+        self.frame_b.observe(lambda change: self._on_frames(), names="value")
+        self.reset_button.on_click(lambda button: self._on_reset())
+        controls = w.VBox([*self.sliders.values(), w.HBox([self.frame_a, self.frame_b]), self.reset_button,
+                           self.error, self.readout], layout=w.Layout(width="40%"))
+        self.widget = w.HBox([controls, self.scene_widget])
+        self._refresh()
+
+    def _on_joint(self, name: str, value: float) -> None:
+        if not self._syncing:
+            self.state.set_joint(name, value)
+            self._refresh()
+
+    def _on_frames(self) -> None:
+        if not self._syncing:
+            try:
+                self.state.set_frames(self.frame_a.value, self.frame_b.value)
+            except ManipkitError as exc:
+                self.error.value = f"<span style='color:#b00'>{exc}</span>"
+                return
+            self._refresh()
+
+    def _on_reset(self) -> None:
+        self.state.reset()
+        self._refresh()
+
+    def _refresh(self) -> None:
+        """Draw the scene and show the readout; put the sliders where the state says."""
+        import html
+
+        self.scene.draw(self.state.scene_placements(self.visual))
+        self._syncing = True
+        try:
+            for spec in self.state.sliders():
+                self.sliders[spec.name].value = spec.value
+        finally:
+            self._syncing = False
+        snapshot = self.state.snapshot()
+        self.error.value = ""
+        self.readout.value = f"<pre>{html.escape(snapshot['readout_text'])}</pre>"
+
+    def close(self) -> None:
+        """Stop the meshcat server."""
+        self.scene.close()
+
+    def _ipython_display_(self):
+        from IPython.display import display
+
+        display(self.widget)
+
+
+def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None) -> NotebookView:
+    """The viewer inline in Jupyter: meshcat scene plus ipywidgets sliders and a live T_A_B readout.
+
+    Raises
+    ------
+    ManipkitError
+        If ipywidgets is not installed (``pip install ipywidgets``).
+    """
+    try:
+        import ipywidgets  # noqa: F401
+    except ImportError:
+        raise ManipkitError("the notebook viewer needs ipywidgets: pip install ipywidgets") from None
+    state = ViewerState(robot, frames=frames, q=q)
+    visual = visual_model(robot)
+    scene = MeshcatScene(visual, robot.model, bounds=state.bounds())
+    try:
+        return NotebookView(state, scene, visual)
+    except BaseException:
+        scene.close()
+        raise

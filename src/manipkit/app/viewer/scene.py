@@ -1,0 +1,257 @@
+"""The scene of a view: the robot's visual geometry and a meshcat adapter that draws it with two triads.
+
+:func:`visual_model` loads the robot's ``<visual>`` geometry (meshes
+resolved first) as a Pinocchio ``GeometryModel``; :class:`MeshcatScene`
+starts a meshcat server, loads that geometry through Pinocchio's
+``MeshcatVisualizer`` and draws the placements :class:`ViewerState`
+computes, plus a triad at A and at B. It computes nothing itself.
+
+Conventions (docs/architecture.md): metres; placements are 4x4 ``T_root_node``
+in the robot's root link. meshcat and ``pinocchio.visualize`` are imported
+when a scene starts.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import io
+import queue
+import subprocess
+import sys
+import threading
+import warnings
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.app.viewer.state import TRIAD_PATHS, VISUALS_ROOT
+from manipkit.errors import DescriptionError, ManipkitError, PackageNotFoundError
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["TRIAD_DOTS", "MeshcatScene", "visual_model"]
+
+
+def visual_model(robot: Robot):
+    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.
+
+    Mesh files (``package://``, ``file://`` or relative paths) are resolved
+    with :class:`manipkit.description.sources.PackageResolver` (``--package-dir`` folders,
+    example-robot-data, folders around the description, ``ROS_PACKAGE_PATH``)
+    before Pinocchio reads them.
+
+    Raises
+    ------
+    PackageNotFoundError
+        A mesh whose package or file cannot be found; the message names the
+        URI, the link and the places searched.
+    """
+    import pinocchio as pin
+
+    text, package_dirs = _resolved_visual_urdf(robot)
+    try:
+        return pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
+    except (ValueError, RuntimeError) as exc:
+        raise DescriptionError(
+            f"{robot.name}: Pinocchio cannot load the visual geometry: {' '.join(str(exc).split())}"
+        ) from None
+
+
+def _resolved_visual_urdf(robot) -> tuple[str, list[str]]:
+    """URDF text whose visual mesh filenames are absolute paths, and the package folders used."""
+    import xml.etree.ElementTree as ET
+
+    from manipkit.description.sources import PackageResolver
+
+    root = ET.fromstring(robot.urdf)
+    meshes = [(link.get("name"), mesh) for link in root.iter("link") for mesh in link.findall("visual/geometry/mesh")]
+    if not meshes:
+        return robot.urdf, []
+    near = robot.source.path if robot.source.path.exists() else None
+    resolver = PackageResolver(dict(robot.package_dirs), near=near)
+    folders: set[str] = set()
+    for link, mesh in meshes:
+        uri = mesh.get("filename", "")
+        path = _mesh_path(resolver, uri, link, robot)
+        if uri.startswith("package://"):
+            folders.add(str(resolver.find(uri[len("package://"):].partition("/")[0]).parent))
+        mesh.set("filename", str(path))
+    return ET.tostring(root, encoding="unicode"), sorted(folders)
+
+
+def _mesh_path(resolver, uri: str, link: str, robot) -> Path:
+    where = f"link '{link}': mesh {uri}"
+    if uri.startswith("package://"):
+        try:
+            path = Path(resolver.resolve_uri(uri))
+        except PackageNotFoundError as exc:
+            raise PackageNotFoundError(f"{where} cannot be resolved: {exc}") from None
+        if not path.is_file():
+            package = uri[len("package://"):].partition("/")[0]
+            raise PackageNotFoundError(
+                f"{where} resolves to {path}, which does not exist (package '{package}' is {resolver.find(package)}); "
+                f"give the right folder with --package-dir {package}=DIR"
+            )
+        return path
+    if "://" in uri and not uri.startswith("file://"):
+        raise PackageNotFoundError(f"{where}: only package://, file:// and file paths are supported")
+    path = Path(resolver.resolve_uri(uri)).expanduser()
+    searched = [path] if path.is_absolute() else [robot.source.path.parent / path, Path.cwd() / path]
+    for candidate in searched:
+        if candidate.is_file():
+            return candidate.resolve()
+    raise PackageNotFoundError(f"{where} not found; looked at {', '.join(map(str, searched))}")
+
+
+# ----------------------------------------------------------------------
+# Scene: meshcat adapter
+# ----------------------------------------------------------------------
+
+_AXES = (  # triad axis -> (colour, T_frame_cylinder for a unit cylinder along y), lengths scaled later
+    ("x", 0xE41A1C, np.array([[0.0, 1, 0, 0.5], [-1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])),
+    ("y", 0x4DAF4A, np.array([[1.0, 0, 0, 0], [0, 1, 0, 0.5], [0, 0, 1, 0], [0, 0, 0, 1]])),
+    ("z", 0x377EB8, np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0.5], [0, 0, 0, 1]])),
+)
+TRIAD_DOTS = (0x222222, 0xE040E0)  # origin dot of A (near black) and B (magenta)
+
+
+class MeshcatScene:
+    """The meshcat side of a view: a meshcat server, the robot's visuals and two triads.
+
+    It computes nothing: :meth:`draw` sends the placements it is given
+    (scene path -> 4x4 in the robot's root frame), skipping unchanged ones.
+
+    Parameters
+    ----------
+    visual : pinocchio.GeometryModel
+        From :func:`visual_model`.
+    model : pinocchio.Model
+        ``robot.model`` (Pinocchio's visualizer wants it).
+    bounds : (lower, upper), keyword-only
+        Box around the robot (m, root frame; :meth:`ViewerState.bounds`): the
+        camera orbits its centre and the triads are sized from it.
+    """
+
+    def __init__(self, visual, model, *, bounds=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))):
+        with warnings.catch_warnings():  # meshcat 0.3 imports a deprecated pyzmq module
+            warnings.simplefilter("ignore", DeprecationWarning)
+            import meshcat
+            import meshcat.geometry as mg
+            from pinocchio.visualize import MeshcatVisualizer
+
+        self._proc, zmq_url, self.url = _start_meshcat_server()
+        self._closed = False
+        atexit.register(self.close)
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints its URL; the caller decides
+                self.viewer = meshcat.Visualizer(zmq_url=zmq_url)
+            self.visualizer = MeshcatVisualizer(model, visual_model=visual)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                self.visualizer.initViewer(viewer=self.viewer)
+                self.visualizer.loadViewerModel(rootNodeName=VISUALS_ROOT.split("/")[0])
+            #: Pinocchio's complaints about geometry it could not show (one line each).
+            self.warnings = [" ".join(str(w.message).split()) for w in caught if "get_image" not in str(w.message)]
+            lower, upper = np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float)
+            size = max(float(np.linalg.norm(upper - lower)), 0.2)
+            length = min(max(0.2 * size, 0.05), 0.3)
+            for path, dot in zip(TRIAD_PATHS, TRIAD_DOTS):
+                node = self.viewer[path]
+                for axis, colour, T in _AXES:
+                    node[axis].set_object(mg.Cylinder(length, 0.04 * length), mg.MeshLambertMaterial(color=colour))
+                    placement = T.copy()
+                    placement[:3, 3] *= length
+                    node[axis].set_transform(placement)
+                node["origin"].set_object(mg.Sphere(0.09 * length), mg.MeshLambertMaterial(color=dot))
+            # meshcat's camera orbits the origin: shift the robot, the grid and the axes so that the
+            # robot's centre sits there (the scene keeps its own geometry: the shift is one transform).
+            shift = np.eye(4)
+            shift[:3, 3] = -(lower + upper) / 2
+            for root in ("/meshcat", "/Grid", "/Axes"):
+                self.viewer[root].set_transform(shift)
+            # The camera node is y-up: its position is (x, z, -y) in the robot's frame.
+            distance = 1.1 * size
+            self.viewer["/Cameras/default/rotated/<object>"].set_property(
+                "position", [1.0 * distance, 0.6 * distance, 0.8 * distance])
+        except BaseException:
+            self.close()
+            raise
+        self._sent: dict[str, np.ndarray] = {}
+
+    def draw(self, placements: dict[str, np.ndarray]) -> None:
+        """Place scene nodes (path -> 4x4); nodes whose placement did not change are not re-sent."""
+        if self._closed or self._proc.poll() is not None:
+            raise ManipkitError("the meshcat server has stopped; restart the viewer")
+        for path, T in placements.items():
+            previous = self._sent.get(path)
+            if previous is None or not np.array_equal(previous, T):
+                self.viewer[path].set_transform(T)
+                self._sent[path] = np.array(T, copy=True)
+
+    @property
+    def drawn(self) -> dict[str, np.ndarray]:
+        """The placements last sent to meshcat (scene path -> 4x4)."""
+        return {path: T.copy() for path, T in self._sent.items()}
+
+    def static_html(self) -> str:
+        """meshcat's standalone page of the current scene (no server needed to open it)."""
+        return self.viewer.static_html()
+
+    def close(self) -> None:
+        """Stop the meshcat server (idempotent)."""
+        if getattr(self, "_closed", True):
+            return
+        self._closed = True
+        viewer = getattr(self, "viewer", None)
+        if viewer is not None:
+            viewer.window.zmq_socket.close(linger=0)
+        if self._proc.poll() is None:
+            self._proc.kill()
+            self._proc.wait(timeout=10)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _start_meshcat_server(timeout: float = 30.0):
+    """Start ``python -m meshcat.servers.zmqserver``; returns (process, zmq_url, web_url).
+
+    Started here rather than by ``meshcat.Visualizer()`` so that its output is
+    drained (a long session cannot fill a pipe) and the viewer owns its
+    lifetime; it runs in its own session so a notebook interrupt leaves it be.
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-u", "-m", "meshcat.servers.zmqserver"],
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+        text=True, start_new_session=True,
+    )
+    lines: queue.Queue = queue.Queue()
+
+    def drain():
+        for line in proc.stdout:
+            lines.put(line)
+        lines.put(None)
+
+    threading.Thread(target=drain, name="meshcat-server-output", daemon=True).start()
+    urls: dict[str, str] = {}
+    try:
+        while len(urls) < 2:
+            line = lines.get(timeout=timeout)
+            if line is None:
+                raise ManipkitError(f"the meshcat server exited at start-up (status {proc.wait()})")
+            key, _, value = line.strip().partition("=")
+            if key in ("zmq_url", "web_url"):
+                urls[key] = value
+    except queue.Empty:
+        proc.kill()
+        raise ManipkitError(f"the meshcat server did not start within {timeout:g} s") from None
+    except BaseException:
+        proc.kill()
+        raise
+    return proc, urls["zmq_url"], urls["web_url"]
