@@ -21,13 +21,12 @@ import subprocess
 import sys
 import threading
 import warnings
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from manipkit.app.viewer.state import TRIAD_PATHS, VISUALS_ROOT
-from manipkit.errors import DescriptionError, ManipkitError, PackageNotFoundError
+from manipkit.errors import DescriptionError, ManipkitError
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -39,7 +38,7 @@ def visual_model(robot: Robot):
     """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.
 
     Mesh files (``package://``, ``file://`` or relative paths) are resolved
-    with :class:`manipkit.description.sources.PackageResolver` (``--package-dir`` folders,
+    with :func:`manipkit.description.meshes.urdf_with_mesh_paths` (``--package-dir`` folders,
     example-robot-data, folders around the description, ``ROS_PACKAGE_PATH``)
     before Pinocchio reads them.
 
@@ -51,59 +50,18 @@ def visual_model(robot: Robot):
     """
     import pinocchio as pin
 
-    text, package_dirs = _resolved_visual_urdf(robot)
+    from manipkit.description.meshes import urdf_with_mesh_paths
+    from manipkit.description.packages import PackageResolver
+
+    near = robot.source.path if robot.source.path.exists() else None
+    resolver = PackageResolver(dict(robot.package_dirs), near=near)
+    text, package_dirs = urdf_with_mesh_paths(robot.urdf, resolver, relative_to=robot.source.path.parent)
     try:
         return pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
     except (ValueError, RuntimeError) as exc:
         raise DescriptionError(
             f"{robot.name}: Pinocchio cannot load the visual geometry: {' '.join(str(exc).split())}"
         ) from None
-
-
-def _resolved_visual_urdf(robot) -> tuple[str, list[str]]:
-    """URDF text whose visual mesh filenames are absolute paths, and the package folders used."""
-    import xml.etree.ElementTree as ET
-
-    from manipkit.description.sources import PackageResolver
-
-    root = ET.fromstring(robot.urdf)
-    meshes = [(link.get("name"), mesh) for link in root.iter("link") for mesh in link.findall("visual/geometry/mesh")]
-    if not meshes:
-        return robot.urdf, []
-    near = robot.source.path if robot.source.path.exists() else None
-    resolver = PackageResolver(dict(robot.package_dirs), near=near)
-    folders: set[str] = set()
-    for link, mesh in meshes:
-        uri = mesh.get("filename", "")
-        path = _mesh_path(resolver, uri, link, robot)
-        if uri.startswith("package://"):
-            folders.add(str(resolver.find(uri[len("package://"):].partition("/")[0]).parent))
-        mesh.set("filename", str(path))
-    return ET.tostring(root, encoding="unicode"), sorted(folders)
-
-
-def _mesh_path(resolver, uri: str, link: str, robot) -> Path:
-    where = f"link '{link}': mesh {uri}"
-    if uri.startswith("package://"):
-        try:
-            path = Path(resolver.resolve_uri(uri))
-        except PackageNotFoundError as exc:
-            raise PackageNotFoundError(f"{where} cannot be resolved: {exc}") from None
-        if not path.is_file():
-            package = uri[len("package://"):].partition("/")[0]
-            raise PackageNotFoundError(
-                f"{where} resolves to {path}, which does not exist (package '{package}' is {resolver.find(package)}); "
-                f"give the right folder with --package-dir {package}=DIR"
-            )
-        return path
-    if "://" in uri and not uri.startswith("file://"):
-        raise PackageNotFoundError(f"{where}: only package://, file:// and file paths are supported")
-    path = Path(resolver.resolve_uri(uri)).expanduser()
-    searched = [path] if path.is_absolute() else [robot.source.path.parent / path, Path.cwd() / path]
-    for candidate in searched:
-        if candidate.is_file():
-            return candidate.resolve()
-    raise PackageNotFoundError(f"{where} not found; looked at {', '.join(map(str, searched))}")
 
 
 # ----------------------------------------------------------------------
