@@ -7,6 +7,25 @@ read it without a traceback.
 
 from __future__ import annotations
 
+__all__ = [
+    "ChainError",
+    "ClosedFormIKError",
+    "DHDerivationError",
+    "DHTableError",
+    "DescriptionError",
+    "IKOptionError",
+    "InvalidRotationError",
+    "InvalidTransformError",
+    "JointLimitError",
+    "JointValueError",
+    "ManipkitError",
+    "OutputError",
+    "PackageNotFoundError",
+    "PlanarArmError",
+    "UnknownFrameError",
+    "UnknownRobotError",
+]
+
 
 class ManipkitError(Exception):
     """Base class: a user error with a one-line, self-explaining message."""
@@ -62,6 +81,10 @@ class DHDerivationError(ManipkitError, ValueError):
 
 class ClosedFormIKError(ManipkitError, ValueError):
     """A pose or arm parameter a closed-form (decoupled) IK solver cannot take: names the value and what is valid."""
+
+
+class OutputError(ManipkitError, ValueError):
+    """An output the user asked for that cannot be made: an unsupported file format, a path that cannot be written."""
 
 
 class IKOptionError(ManipkitError, ValueError):

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from manipkit.errors import OutputError
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
 from manipkit.text import trimmed_text
 
@@ -517,13 +518,13 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
 
     Raises
     ------
-    ValueError
+    OutputError
         If the format is neither PNG nor SVG.
     """
     path = Path(path)
     fmt = (fmt or path.suffix.lstrip(".")).lower()
     if fmt not in _IMAGE_FORMATS:
-        raise ValueError(
+        raise OutputError(
             f"cannot write a tree image as {fmt!r} ({path.name}); use a .png or .svg file or fmt='png'/'svg'"
         )
 
