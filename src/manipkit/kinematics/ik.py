@@ -350,7 +350,7 @@ class IKSolver:
         self._first_joint = joint_ids[0]
 
         # The compiled iteration's view of the chain, root to frame (manipkit.kinematics.ik_kernel).
-        steps = robot._chain(self._frame_id)
+        steps = robot.chain(self.frame)
         self._geometry, self._kinds = pack_chain(steps, self._chain_user)
         above_base = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
         self._fixed_steps = np.array(above_base, dtype=np.intp)  # joints above the base: constant in a solve
