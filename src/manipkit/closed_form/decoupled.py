@@ -331,6 +331,8 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     array([[ 0.3     ,  1.2     ,  0.1     , -0.5     ],
            [ 1.272935, -1.2     ,  0.1     , -1.927065]])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
+    # inverse position then inverse orientation.
     table = scara_dh_table(a1=a1, a2=a2, d1=d1, d4=d4, d3_limits=d3_limits)
     a1, a2, d1, d4 = table.rows[0].a, table.rows[1].a, table.rows[0].d, table.rows[3].d
     limits = table.rows[2].qlim
@@ -449,6 +451,8 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
     >>> result.solutions[0].round(6)
     array([ 0.4,  0.8,  0.6,  0.3,  1. , -0.2])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
+    # inverse position then inverse orientation.
     table = stanford_dh_table(d1=d1, d2=d2, d6=d6, d3_limits=d3_limits)
     d1, d2, d6 = table.rows[0].d, table.rows[1].d, table.rows[5].d
     limits = table.rows[2].qlim
@@ -574,6 +578,8 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
     >>> result.solutions[0].round(6)
     array([ 0.5,  0.4, -1. ,  0.3,  0.9,  0.2])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
+    # inverse position then inverse orientation.
     table = elbow_dh_table(d1=d1, a2=a2, a3=a3, d6=d6)
     d1, a2, a3, d6 = table.rows[0].d, table.rows[1].a, table.rows[2].a, table.rows[5].d
     tol, singular_tol = _tolerances(tol, singular_tol)

@@ -288,6 +288,9 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
     Nielsen's damping update, limits by projection with an active set, the
     stall test), step for step.
     """
+    # Over 80 lines: one compiled loop, step for step the algorithm documented in IKSolver; its fifteen
+    # work arrays would have to be passed to every piece if it were split, and the loop is easiest to check
+    # against that description whole.
     n = x0.shape[0]
     rows = 3 if mode == 1 else 6
     R = np.empty((3, 3))
