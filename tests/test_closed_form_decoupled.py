@@ -19,7 +19,7 @@ import yourdfpy
 
 import manipkit
 from manipkit.closed_form.decoupled import (
-    ClosedFormIK,
+    ClosedFormSolutions,
     elbow_dh_table,
     ik_elbow,
     ik_scara,
@@ -30,7 +30,7 @@ from manipkit.closed_form.decoupled import (
 )
 from manipkit.dh import dh_fk, load_dh
 from manipkit.dh.check import check_dh
-from manipkit.errors import ClosedFormIKError, InvalidRotationError, ManipkitError
+from manipkit.errors import ClosedFormIKError, InvalidTransformError, ManipkitError
 from manipkit.description.sources import bundled_dh_tables
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, rotation_angle_between
 
@@ -64,7 +64,7 @@ def urdf_pose(robot, q):
 
 def assert_all_reach(robot, result, T):
     """Every row maps back to T through the URDF model within 1e-9 (m, rad) and lies inside the URDF limits."""
-    assert result.solutions.shape == (result.count, len(robot.joint_names))
+    assert result.solutions.shape == (len(result.labels), len(robot.joint_names))
     assert result.joint_names == robot.joint_names
     poses = urdf_pose(robot, result.solutions)
     for i, pose in enumerate(poses):
@@ -255,7 +255,8 @@ def test_scara_with_equal_links_at_the_base_is_a_family_in_theta1():
     robot = manipkit.load("scara", a1=0.3, a2=0.3)
     T = urdf_pose(robot, [0.9, PI, 0.1, 0.4])
     result = ik_scara(T, a1=0.3, a2=0.3)
-    assert result.count == 1 and result.singular and result.free_joints == (0,)
+    assert len(result.solutions) == 1 and result.singular and result.free_joints == (0,)
+    assert result.count == math.inf and result.free_parameter == "theta1"
     assert "theta1 free" in result.family
     assert_all_reach(robot, result, T)
     row = result.solutions[0]
@@ -440,8 +441,9 @@ def test_elbow_wrist_singularity_makes_every_arm_solution_singular(elbow):
     q = [0.4, 0.8, -0.6, 0.3, 0.0, -0.2]
     T = urdf_pose(elbow, q)
     result = ik_elbow(T)
-    assert result.count == 4 and all(label.endswith("wrist singular") for label in result.labels)
+    assert len(result.solutions) == 4 and all(label.endswith("wrist singular") for label in result.labels)
     assert result.singular and result.free_joints == (3,)
+    assert result.count == math.inf and result.free_parameter == "theta4"
     assert_all_reach(elbow, result, T)
     for row in result.solutions:
         sign = -1.0 if abs(row[4]) < 1e-9 else 1.0
@@ -494,7 +496,7 @@ def test_candidates_failing_the_fk_check_are_dropped_and_counted():
 
 def test_result_is_read_only_data():
     result = ik_elbow(dh_fk(elbow_dh_table(), [0.5, 0.4, -1.0, 0.3, 0.9, 0.2]))
-    assert isinstance(result, ClosedFormIK)
+    assert isinstance(result, ClosedFormSolutions)
     with pytest.raises(ValueError):
         result.solutions[0, 0] = 1.0
 
@@ -502,9 +504,9 @@ def test_result_is_read_only_data():
 @pytest.mark.parametrize(
     "call, error, words",
     [
-        (lambda: ik_elbow(np.eye(3)), ClosedFormIKError, "4x4"),
-        (lambda: ik_elbow(np.diag([1.0, 1.0, 2.0, 1.0])), InvalidRotationError, "T[:3, :3]"),
-        (lambda: ik_elbow(np.full((4, 4), np.nan)), ClosedFormIKError, "not finite"),
+        (lambda: ik_elbow(np.eye(3)), InvalidTransformError, "expected (4, 4)"),
+        (lambda: ik_elbow(np.diag([1.0, 1.0, 2.0, 1.0])), InvalidTransformError, "T: rotation column 2 (z axis)"),
+        (lambda: ik_elbow(np.full((4, 4), np.nan)), InvalidTransformError, "not finite"),
         (lambda: ik_elbow(np.eye(4), a2=0.0), ClosedFormIKError, "a2 = 0"),
         (lambda: ik_scara(np.eye(4), d3_limits=(0.3, 0.1)), ClosedFormIKError, "lower limit must be below"),
         (lambda: ik_stanford(np.eye(4), d3_limits=(-0.1, 1.0)), ClosedFormIKError, ">= 0"),

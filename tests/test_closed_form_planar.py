@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 import manipkit
 from manipkit.errors import ManipkitError
 from manipkit.closed_form.planar import (
-    PlanarIKResult,
+    ClosedFormSolutions,
     PlanarArmError,
     chain_points,
     fk_2r,
@@ -307,7 +307,7 @@ def test_ik_2r_angles_are_wrapped_to_minus_pi_pi(l1, l2, x, y):
 
 def test_ik_2r_result_is_read_only():
     result = ik_2r(1.0, 1.0, 1.0, 1.0)
-    assert isinstance(result, PlanarIKResult)
+    assert isinstance(result, ClosedFormSolutions)
     with pytest.raises(ValueError):
         result.solutions[0, 0] = 1.0
     with pytest.raises(AttributeError):

@@ -54,8 +54,8 @@ def test_angles_far_outside_minus_pi_to_pi_and_at_pi():
 def test_block_boundaries_do_not_change_the_answer():
     robot = manipkit.load("panda")
     Q = robot.sample_q(1001, seed=4)
-    whole = ChainFK(robot._chain(robot.frame_id("ee_link")), 9).transforms(Q)
-    blocked = ChainFK(robot._chain(robot.frame_id("ee_link")), 9, block=64).transforms(Q)
+    whole = ChainFK(robot.chain("ee_link"), 9).transforms(Q)
+    blocked = ChainFK(robot.chain("ee_link"), 9, block=64).transforms(Q)
     assert np.array_equal(whole, blocked)
     assert np.abs(whole - pinocchio_poses(robot, "ee_link", Q)).max() < TOL
 
@@ -73,7 +73,7 @@ def test_out_is_filled_and_returned():
 def test_rotations_translations_match_transforms():
     robot = manipkit.load("iiwa14")
     Q = robot.sample_q(10, seed=6)
-    R, p = chain_fk(robot._chain(robot.frame_id("ee_link")), Q)
+    R, p = chain_fk(robot.chain("ee_link"), Q)
     T = chain_fk_for(robot, "ee_link").transforms(Q)
     assert np.array_equal(R, T[:, :3, :3]) and np.array_equal(p, T[:, :3, 3])
 
@@ -153,3 +153,13 @@ def test_importing_the_module_does_not_import_numba():
 
     code = "import sys, manipkit.kinematics.chain, manipkit.kinematics.robot; print('numba' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
+
+
+def test_bad_block_and_out_are_manipkit_errors():
+    from manipkit.errors import ChainError, JointValueError
+
+    robot = manipkit.load("iiwa14")
+    with pytest.raises(ChainError, match="block must be at least 1"):
+        ChainFK(robot.chain("ee_link"), 7, block=0)
+    with pytest.raises(JointValueError, match=r"out must be a C-contiguous float64 array of shape \(2, 4, 4\)"):
+        chain_fk_for(robot, "ee_link").transforms(np.zeros((2, 7)), out=np.empty((3, 4, 4)))

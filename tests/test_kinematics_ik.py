@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.errors import InvalidRotationError, InvalidTransformError, JointValueError
+from manipkit.errors import InvalidTransformError, JointValueError
 from manipkit.kinematics.ik import IKOptionError, IKSolutions, ik, ik_solver
 from manipkit.spatial.rotations import rot_x, rotation_angle_between
 
@@ -339,7 +339,7 @@ def test_unknown_axis_names_the_valid_ones(robots):
 
 def test_target_with_a_reflection_is_rejected(robots):
     T = np.diag([1.0, 1.0, -1.0, 1.0])
-    with pytest.raises(InvalidRotationError, match="reflection"):
+    with pytest.raises(InvalidTransformError, match="reflection"):
         ik(robots["iiwa14"], T)
 
 
@@ -356,3 +356,42 @@ def test_q0_of_the_wrong_length_names_the_joints(robots):
 def test_non_positive_tolerance_is_rejected(robots):
     with pytest.raises(IKOptionError, match="tol must be a positive number"):
         ik(robots["iiwa14"], np.eye(4), tol=0.0)
+
+
+# --------------------------------------------------------------------------
+# The properties IKSolutions shares with the closed-form ClosedFormSolutions
+
+
+def test_solutions_share_the_closed_form_properties(robots):
+    robot = robots["iiwa14"]
+    T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=41)[0])
+    found = ik(robot, T, all=True, restarts=5)
+    assert found.success and found.count == len(found) > 0 and found.reason == ""
+    assert found.labels == ("",) * found.count
+    assert found.solutions.shape == (found.count, 7) and not found.solutions.flags.writeable
+    assert np.array_equal(found.solutions[0], found[0].q)
+    assert found.residuals.shape == (found.count, 2) and np.all(found.residuals <= 1e-10)
+    assert np.array_equal(found.residual_position, [r.residual_position for r in found])
+
+
+def test_a_single_answer_becomes_a_solution_set(robots):
+    robot = robots["iiwa14"]
+    T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=42)[0])
+    single = ik(robot, T).as_solutions()
+    assert single.count == 1 and single.success and single.best.success
+    far = np.eye(4)
+    far[0, 3] = 5.0
+    missed = ik(robot, far, restarts=2).as_solutions()
+    assert missed.count == 0 and not missed.success and missed.solutions.shape == (0, 7)
+    assert missed.reason.startswith("target out of reach") and missed.residuals.shape == (0, 2)
+    assert missed.attempts == 3
+
+
+def test_target_slightly_off_rigid_within_the_tolerance_is_accepted(robots):
+    robot = robots["iiwa14"]
+    T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=43)[0])
+    T[:3, :3] *= 1.0 + 2e-7  # norms 1 + 2e-7, det 1 + 6e-7: inside check_transform's 1e-6, past the quick test
+    assert ik(robot, T, tol=1e-5).success
+    T[:3, :3] *= 1.0 + 4e-6
+    with pytest.raises(InvalidTransformError, match="IK target: rotation column 0 \\(x axis\\) has norm"):
+        ik(robot, T)

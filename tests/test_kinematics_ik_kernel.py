@@ -55,7 +55,7 @@ def robots():
 
 def kernel_pose_jacobian(robot, frame, base, q):
     """(T_root_frame 4x4, J 6 x n) from the kernel, for the chain base -> frame at the full joint vector q."""
-    steps = robot._chain(robot.frame_id(frame))
+    steps = robot.chain(frame)
     chain = robot.chain_joints(base, frame)
     columns = [robot.joint_names.index(name) for name in chain]
     geometry, kinds = pack_chain(steps, columns)

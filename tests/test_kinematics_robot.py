@@ -215,3 +215,53 @@ def test_transform_direction_is_pose_of_target_in_source(loaded):
     assert np.abs(T_ab @ T_ba - np.eye(4)).max() < 1e-12
     # Hand value: at zero the iiwa stands straight up, ee_link 1.306 m above the base.
     assert robot.transform("base_link", "ee_link")[:3, 3] == pytest.approx([0, 0, 1.306], abs=1e-12)
+
+
+# --------------------------------------------------------------------------
+# The public chain: Robot.chain, Robot.chain_fk, ChainStep
+
+
+def test_chain_steps_multiply_to_the_pose_pinocchio_gives(loaded):
+    from manipkit.kinematics.chain import ChainStep
+    from manipkit.spatial.rotations import matrix_from_axis_angle
+
+    robot = loaded["mobile_manipulator"]
+    q = robot.sample_q(1, seed=31)[0]
+    for base in (None, "arm_base"):
+        T = np.eye(4)
+        for step in robot.chain("ee_link", base):
+            assert isinstance(step, ChainStep)
+            placement = np.eye(4)
+            placement[:3, :3], placement[:3, 3] = step.rotation, step.translation
+            motion = np.eye(4)
+            if step.index >= 0 and step.prismatic:
+                motion[:3, 3] = q[step.index] * step.axis
+            elif step.index >= 0:
+                motion[:3, :3] = matrix_from_axis_angle(step.axis, q[step.index])
+            T = T @ placement @ motion
+        expected = robot.transform(base or robot.root_link, "ee_link", q)
+        assert np.abs(T - expected).max() < 1e-12, base
+
+
+def test_chain_is_shared_and_read_only(loaded):
+    robot = loaded["iiwa14"]
+    steps = robot.chain("ee_link")
+    assert [s.index for s in steps] == list(range(7)) + [-1]
+    with pytest.raises(ValueError):
+        steps[0].rotation[0, 0] = 2.0
+    assert robot.chain("ee_link")[0] is steps[0]
+
+
+def test_chain_from_a_base_below_the_frame_says_to_swap(loaded):
+    from manipkit.errors import ChainError
+
+    with pytest.raises(ChainError, match="swap them"):
+        loaded["iiwa14"].chain("iiwa_link_2", base="iiwa_link_5")
+
+
+def test_chain_fk_is_the_kernel_fk_runs(loaded):
+    robot = loaded["iiwa14"]
+    Q = robot.sample_q(5, seed=32)
+    assert robot.chain_fk("ee_link") is robot.chain_fk("ee_link", "base_link")
+    assert np.array_equal(robot.chain_fk("ee_link").transforms(Q), robot.fk(Q, "ee_link"))
+    assert np.array_equal(robot.chain_fk("ee_link", "iiwa_link_3").transforms(Q), robot.fk(Q, "ee_link", "iiwa_link_3"))

@@ -1,9 +1,9 @@
 """Sampled workspaces and their pictures (planar arms for now).
 
-Conventions (DESIGN.md): metres and radians; planar arms move in the x-y
+Conventions (docs/architecture.md): metres and radians; planar arms move in the x-y
 plane of their base frame, joints turn about +z (see :mod:`manipkit.closed_form.planar`).
-The analytic radii come from :func:`manipkit.closed_form.planar.workspace_2r` and
-:func:`manipkit.closed_form.planar.workspace_3r`; the samples here are an independent
+The analytic radii come from :func:`manipkit.closed_form.planar_workspace.workspace_2r` and
+:func:`manipkit.closed_form.planar_workspace.workspace_3r`; the samples here are an independent
 picture of the same sets. matplotlib is imported inside the plotting
 function only, so importing this module stays cheap.
 """
@@ -12,21 +12,20 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.closed_form.planar import (
-    PlanarArmError,
-    Workspace,
-    chain_points,
-    fk_2r,
-    fk_3r,
-    workspace_2r,
-    workspace_3r,
-)
+from manipkit.closed_form.planar import chain_points, fk_2r, fk_3r
+from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, workspace_3r
+from manipkit.errors import PlanarArmError
 from manipkit.spatial.rotations import wrap_angle
+from manipkit.text import number_text, short_text
 
-__all__ = ["plot_planar_workspace", "planar_workspace", "sample_planar_workspace"]
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["planar_link_lengths", "planar_workspace", "plot_planar_workspace", "sample_planar_workspace"]
 
 _PLOT_SUFFIXES = (".png", ".svg")
 
@@ -52,8 +51,8 @@ def planar_workspace(lengths) -> Workspace:
     Returns
     -------
     Workspace
-        From :func:`manipkit.closed_form.planar.workspace_2r` or
-        :func:`manipkit.closed_form.planar.workspace_3r`.
+        From :func:`manipkit.closed_form.planar_workspace.workspace_2r` or
+        :func:`manipkit.closed_form.planar_workspace.workspace_3r`.
 
     Examples
     --------
@@ -121,14 +120,64 @@ def _showcase_configurations(count: int, joints: int, rng: np.random.Generator) 
 
 
 def _radius_text(low: float, high: float) -> str:
-    def g(v):
-        return f"{v:.4g}"
-
     if low == high:
-        return f"r = {g(low)}"
+        return f"r = {short_text(low, 4)}"
     if low == 0.0:
-        return f"r ≤ {g(high)}"
-    return f"{g(low)} ≤ r ≤ {g(high)}"
+        return f"r ≤ {short_text(high, 4)}"
+    return f"{short_text(low, 4)} ≤ r ≤ {short_text(high, 4)}"
+
+
+def _draw_reachable(ax, points: np.ndarray, reachable: tuple[float, float]) -> None:
+    """The sampled tool positions (faint dots) and the reachable boundary circles (black)."""
+    from matplotlib.patches import Circle
+
+    ax.plot(
+        points[:, 0], points[:, 1], linestyle="none", marker=".", markersize=1.5, color="tab:blue",
+        alpha=0.25, rasterized=True, label=f"tool, {len(points)} random configurations",
+    )
+    r_min, r_max = reachable
+    reach_label = f"reachable boundary ({_radius_text(r_min, r_max)})"
+    for radius in (r_max, r_min):
+        if radius > 0.0:
+            ax.add_patch(Circle((0.0, 0.0), radius, fill=False, edgecolor="black", linewidth=1.4, label=reach_label))
+            reach_label = None
+
+
+def _draw_dexterous(ax, dexterous) -> None:
+    """The dexterous set: red circles, the area between them shaded (a marker for the base point alone)."""
+    from matplotlib.patches import Annulus, Circle
+
+    dext_label = "dexterous (" + ", ".join(_radius_text(lo, hi) for lo, hi in dexterous) + ")"
+    for low, high in dexterous:
+        if high == 0.0:
+            ax.plot([0.0], [0.0], marker="o", markersize=9, color="red", fillstyle="none", linestyle="none",
+                    label=dext_label)
+        else:
+            if high > low:
+                shade = Circle((0.0, 0.0), high) if low == 0.0 else Annulus((0.0, 0.0), high, high - low)
+                shade.set(facecolor="red", alpha=0.12, edgecolor="none")
+                ax.add_patch(shade)
+            for radius in (low, high):
+                if radius > 0.0:
+                    ax.add_patch(Circle((0.0, 0.0), radius, fill=False, edgecolor="red", linewidth=1.2,
+                                        label=dext_label))
+                    dext_label = None
+        dext_label = None
+
+
+def _draw_arms(ax, Q: np.ndarray, values: tuple[float, ...]) -> None:
+    """The arm at each configuration of ``Q`` as a polyline: base (blue), joints (cyan, magenta), tool (green)."""
+    colours = ["0.15", "tab:purple", "tab:brown", "tab:olive", "tab:gray"]
+    joint_colours = ["cyan", "magenta", "gold"]
+    for k, (q, chain) in enumerate(zip(Q, chain_points(Q, values))):
+        degrees = ", ".join(number_text(v, 0) for v in np.degrees(q))
+        ax.plot(chain[:, 0], chain[:, 1], color=colours[k % len(colours)], linewidth=2.2,
+                label=f"q = ({degrees}) deg", zorder=3)
+        ax.plot(0.0, 0.0, marker="o", markersize=8, color="blue", fillstyle="none", zorder=4)
+        for j in range(1, len(values)):
+            ax.plot(chain[j, 0], chain[j, 1], marker="o", markersize=7, color=joint_colours[j - 1],
+                    markeredgecolor=joint_colours[j - 1], fillstyle="none", markeredgewidth=1.8, zorder=4)
+        ax.plot(chain[-1, 0], chain[-1, 1], marker="o", markersize=7, color="green", zorder=4)
 
 
 def plot_planar_workspace(
@@ -176,9 +225,9 @@ def plot_planar_workspace(
     >>> out.read_bytes()[:8] == b"\\x89PNG\\r\\n\\x1a\\n"
     True
     """
+    # Over 80 lines: half of it is the docstring; the drawing steps are the _draw_* helpers.
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.patches import Annulus, Circle
 
     values = _planar_lengths(lengths)
     ws = planar_workspace(values)
@@ -202,47 +251,12 @@ def plot_planar_workspace(
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
 
-    ax.plot(
-        points[:, 0], points[:, 1], linestyle="none", marker=".", markersize=1.5, color="tab:blue",
-        alpha=0.25, rasterized=True, label=f"tool, {len(points)} random configurations",
-    )
-    reach_label = f"reachable boundary ({_radius_text(r_min, r_max)})"
-    for radius in (r_max, r_min):
-        if radius > 0.0:
-            ax.add_patch(Circle((0.0, 0.0), radius, fill=False, edgecolor="black", linewidth=1.4, label=reach_label))
-            reach_label = None
+    _draw_reachable(ax, points, ws.reachable)
 
-    dext_label = "dexterous (" + ", ".join(_radius_text(lo, hi) for lo, hi in ws.dexterous) + ")"
-    for low, high in ws.dexterous:
-        if high == 0.0:
-            ax.plot([0.0], [0.0], marker="o", markersize=9, color="red", fillstyle="none", linestyle="none",
-                    label=dext_label)
-        else:
-            if high > low:
-                shade = Circle((0.0, 0.0), high) if low == 0.0 else Annulus((0.0, 0.0), high, high - low)
-                shade.set(facecolor="red", alpha=0.12, edgecolor="none")
-                ax.add_patch(shade)
-            for radius in (low, high):
-                if radius > 0.0:
-                    ax.add_patch(Circle((0.0, 0.0), radius, fill=False, edgecolor="red", linewidth=1.2,
-                                        label=dext_label))
-                    dext_label = None
-        dext_label = None
+    _draw_dexterous(ax, ws.dexterous)
+    _draw_arms(ax, _showcase_configurations(int(configurations), len(values), rng), values)
 
-    Q = _showcase_configurations(int(configurations), len(values), rng)
-    colours = ["0.15", "tab:purple", "tab:brown", "tab:olive", "tab:gray"]
-    joint_colours = ["cyan", "magenta", "gold"]
-    for k, (q, chain) in enumerate(zip(Q, chain_points(Q, values))):
-        degrees = ", ".join(f"{v:.0f}" for v in np.degrees(q))
-        ax.plot(chain[:, 0], chain[:, 1], color=colours[k % len(colours)], linewidth=2.2,
-                label=f"q = ({degrees}) deg", zorder=3)
-        ax.plot(0.0, 0.0, marker="o", markersize=8, color="blue", fillstyle="none", zorder=4)
-        for j in range(1, len(values)):
-            ax.plot(chain[j, 0], chain[j, 1], marker="o", markersize=7, color=joint_colours[j - 1],
-                    markeredgecolor=joint_colours[j - 1], fillstyle="none", markeredgewidth=1.8, zorder=4)
-        ax.plot(chain[-1, 0], chain[-1, 1], marker="o", markersize=7, color="green", zorder=4)
-
-    lengths_text = ", ".join(f"{v:.4g}" for v in values)
+    lengths_text = ", ".join(short_text(v, 4) for v in values)
     if ws.dexterous:
         dext_text = ", ".join(_radius_text(lo, hi) for lo, hi in ws.dexterous)
     else:
@@ -261,7 +275,7 @@ def plot_planar_workspace(
     return path
 
 
-def planar_link_lengths(robot, *, base: str = "base_link", tip: str = "ee_link", tol: float = 1e-9) -> tuple[float, ...]:
+def planar_link_lengths(robot: Robot, *, base: str = "base_link", tip: str = "ee_link", tol: float = 1e-9) -> tuple[float, ...]:
     """Link lengths of a loaded planar arm, read off its URDF chain at q = 0.
 
     The arm is planar when every joint on the chain is revolute about the

@@ -1,13 +1,14 @@
 """Closed-form inverse kinematics by kinematic decoupling: SCARA, Stanford arm, elbow arm.
 
-Conventions (DESIGN.md, "Conventions"), restated where they matter:
+Conventions (docs/architecture.md, "Conventions"), restated where they matter:
 
 - Metres and radians. ``T`` is ``T_base_tool``: the pose of the tool frame
   (DH frame n, the bundled URDF's ``ee_link``) in the base frame (DH frame 0,
   ``base_link``), a 4x4 homogeneous matrix.
 - Standard DH (Spong): ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``.
   Each arm's table is built by :func:`scara_dh_table`,
-  :func:`stanford_dh_table` or :func:`elbow_dh_table`; at their default
+  :func:`stanford_dh_table` or :func:`elbow_dh_table` (from
+  :mod:`manipkit.closed_form.arm_tables`); at their default
   parameters they are the bundled ``robots/dh/*.yaml`` tables and agree with
   the bundled ``robots/*.urdf.xacro`` descriptions.
 - Joint vectors are in table order (``joint1 .. joint4`` or ``joint1 ..
@@ -16,7 +17,8 @@ Conventions (DESIGN.md, "Conventions"), restated where they matter:
 - Every returned solution has been put through the table's forward
   kinematics (:func:`manipkit.dh.dh_fk`) and reproduces ``T`` within ``tol``
   in position (m) and in rotation angle (rad). A candidate that does not is
-  dropped and counted in ``rejected``; none is returned unchecked.
+  dropped and counted in ``rejected``; none is returned unchecked. The
+  answer is a :class:`manipkit.closed_form.result.ClosedFormSolutions`.
 
 Decoupling (Spong): the three axes of a spherical wrist meet at the wrist
 centre ``o_c = o - d6 R z`` (:func:`wrist_center`), which joints 4 to 6 do
@@ -49,8 +51,9 @@ order listed):
   ``"wrist singular"`` (theta5 = 0 or pi, see below).
 
 Singular sets: where a joint (or a combination) is free the result holds one
-representative row with ``singular=True``, the free joints' indices in
-``free_joints`` and the family in words in ``family``. At the wrist
+representative row with ``singular=True``, ``count`` infinite, the free
+joints' indices in ``free_joints`` (their textbook names in
+``free_parameter``) and the family in words in ``family``. At the wrist
 singularity (z6 parallel to z3, theta5 = 0 or pi) only ``theta4 + theta6``
 (theta5 = 0) or ``theta4 - theta6`` (theta5 = pi) is fixed: the row holds
 theta4 = 0, and ``theta4 = t`` with ``theta6 = theta6_row - t`` (theta5 = 0)
@@ -67,23 +70,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manipkit.dh.table import DHRow, DHTable, dh_fk
-from manipkit.errors import ClosedFormIKError
 from manipkit.closed_form import planar as planar_ik  # its solution labels (a local 'planar' is an ik_2r result)
-from manipkit.closed_form.planar import _g, ik_2r
-from manipkit.spatial.euler import euler_zyz_from_matrix
-from manipkit.spatial.rotations import (
-    check_rotation,
-    rot_x,
-    rot_y,
-    rot_z,
-    rotation_angle_between,
-    wrap_angle,
+from manipkit.closed_form.arm_tables import (
+    ELBOW_VARIABLES,
+    SCARA_JOINTS,
+    SCARA_VARIABLES,
+    SIX_JOINTS,
+    STANFORD_VARIABLES,
+    elbow_dh_table,
+    finite_number,
+    scara_dh_table,
+    stanford_dh_table,
+    stroke_limits,
 )
+from manipkit.closed_form.planar import ik_2r
+from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.result import ClosedFormSolutions, read_only
+from manipkit.dh.table import DHTable, dh_fk
+from manipkit.errors import ClosedFormIKError
+from manipkit.spatial.euler import euler_zyz_from_matrix
+from manipkit.spatial.rotations import rot_x, rot_y, rot_z, wrap_angle
+from manipkit.spatial.transforms import check_transform, pose_error
 
 __all__ = [
-    "ClosedFormIK",
     "ClosedFormIKError",
+    "ClosedFormSolutions",
     "elbow_dh_table",
     "ik_elbow",
     "ik_scara",
@@ -107,62 +118,10 @@ _WRIST_FAMILY = (
     "for every t"
 )
 
-SIX_JOINTS = ("joint1", "joint2", "joint3", "joint4", "joint5", "joint6")
-SCARA_JOINTS = SIX_JOINTS[:4]
 
 
 # --------------------------------------------------------------------------
-# result
-
-
-@dataclass(frozen=True, eq=False)
-class ClosedFormIK:
-    """Every closed-form IK solution of a decoupled arm for one target pose.
-
-    Attributes
-    ----------
-    solutions : ndarray, shape (k, n)
-        One joint vector per row, in table order (``joint_names``): radians
-        wrapped to (-pi, pi], metres for a prismatic joint. Every row was
-        checked by the table's forward kinematics (``residuals``). Read-only.
-    labels : tuple of str
-        One per row (module docstring, "Labels"), e.g.
-        ``"front, elbow up, no flip"``.
-    reason : str
-        One line saying why there are that many solutions, with the numbers:
-        for none, how far the target is out of reach or which prismatic
-        limit it breaks.
-    joint_names : tuple of str
-        The joints the columns stand for (the bundled URDF's names).
-    residuals : ndarray, shape (k, 2)
-        Position error (m) and rotation angle error (rad) of each row's
-        forward kinematics against the target; each at most ``tol``.
-    singular : bool
-        True when a row stands for a one-parameter family (a free joint).
-    family : str or None
-        The family in words when ``singular``: which joint is free and how
-        the others follow from it.
-    free_joints : tuple of int
-        Indices (0-based columns) of the joints that are free in the family.
-    rejected : int
-        Candidates dropped because their forward kinematics missed the
-        target by more than ``tol`` (normally 0).
-    """
-
-    solutions: np.ndarray
-    labels: tuple[str, ...]
-    reason: str
-    joint_names: tuple[str, ...]
-    residuals: np.ndarray
-    singular: bool = False
-    family: str | None = None
-    free_joints: tuple[int, ...] = ()
-    rejected: int = 0
-
-    @property
-    def count(self) -> int:
-        """Number of solutions returned (rows)."""
-        return len(self.labels)
+# candidates, input checks and small helpers
 
 
 @dataclass(frozen=True)
@@ -173,87 +132,32 @@ class _Candidate:
     family: tuple[str, ...] = ()
 
 
-# --------------------------------------------------------------------------
-# input checks and small helpers
-
-
-def _point(v) -> str:
-    return "(" + ", ".join(_g(x) for x in v) + ")"
-
-
-
-def _number(value, what: str) -> float:
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ClosedFormIKError(f"{what} must be a number, got {value!r:.80}") from None
-    if array.ndim != 0:
-        raise ClosedFormIKError(f"{what} must be a single number, got shape {array.shape}")
-    number = float(array)
-    if not math.isfinite(number):
-        raise ClosedFormIKError(f"{what} = {number} is not finite; give a finite number")
-    return number
-
-
-def _positive(value, what: str) -> float:
-    number = _number(value, what)
-    if number <= 0.0:
-        raise ClosedFormIKError(f"{what} = {_g(number)} is not a valid link length; it must be > 0 (m)")
-    return number
-
-
-def _limits(value, what: str, *, lowest: float | None = None) -> tuple[float, float]:
-    try:
-        lower, upper = value
-    except (TypeError, ValueError):
-        raise ClosedFormIKError(f"{what} must be a pair (lower, upper) in metres, got {value!r:.80}") from None
-    lower, upper = _number(lower, f"{what}[0]"), _number(upper, f"{what}[1]")
-    if not lower < upper:
-        raise ClosedFormIKError(f"{what} = ({_g(lower)}, {_g(upper)}): the lower limit must be below the upper one")
-    if lowest is not None and lower < lowest:
-        raise ClosedFormIKError(
-            f"{what} = ({_g(lower)}, {_g(upper)}): the lower limit must be >= {_g(lowest)} m "
-            "(the boom cannot reach back through the shoulder)"
-        )
-    return lower, upper
-
-
 def _tolerances(tol, singular_tol) -> tuple[float, float]:
-    tol, singular_tol = _number(tol, "tol"), _number(singular_tol, "singular_tol")
+    tol, singular_tol = finite_number(tol, "tol"), finite_number(singular_tol, "singular_tol")
     if tol <= 0.0:
         raise ClosedFormIKError(f"tol = {tol} must be > 0 (m and rad)")
     if not 0.0 <= singular_tol <= tol / 4.0:
         raise ClosedFormIKError(
-            f"singular_tol = {singular_tol} must be in [0, tol / 4] = [0, {_g(tol / 4.0)}], so that the "
+            f"singular_tol = {singular_tol} must be in [0, tol / 4] = [0, {quantity_text(tol / 4.0)}], so that the "
             "representative of a singular family still passes the forward-kinematics check"
         )
     return tol, singular_tol
 
 
 def _pose(T) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A homogeneous transform, checked, with its rotation and position."""
-    try:
-        T = np.asarray(T, dtype=float)
-    except (TypeError, ValueError):
-        raise ClosedFormIKError(f"T must be a numeric 4x4 homogeneous transform, got {T!r:.80}") from None
-    if T.shape != (4, 4):
-        raise ClosedFormIKError(f"T must be a 4x4 homogeneous transform, got shape {T.shape}")
-    if not np.all(np.isfinite(T)):
-        raise ClosedFormIKError("T has entries that are not finite; a pose needs finite numbers")
-    bottom = T[3] - np.array([0.0, 0.0, 0.0, 1.0])
-    if np.max(np.abs(bottom)) > 1e-9:
-        raise ClosedFormIKError(f"T's last row is {T[3].tolist()}; a homogeneous transform has [0, 0, 0, 1]")
-    R = check_rotation(T[:3, :3], what="T[:3, :3]")
-    return T, R, T[:3, 3].copy()
+    """The target checked by :func:`manipkit.spatial.transforms.check_transform`, with its rotation and position."""
+    T = check_transform(T, what="T")
+    return T, T[:3, :3], T[:3, 3].copy()
 
 
 def _prismatic(d3: float, limits: tuple[float, float], margin: float, low: str, high: str) -> tuple[float, str | None]:
     """d3 clamped into its limits (when within ``margin`` of them), or the reason it is out of reach."""
     lower, upper = limits
+    d3_text = quantity_text(d3)
     if d3 < lower - margin:
-        return d3, f"d3 = {_g(d3)} m is below its lower limit {_g(lower)} m by {_g(lower - d3)} m ({low})"
+        return d3, f"d3 = {d3_text} m is below its lower limit {quantity_text(lower)} m by {quantity_text(lower - d3)} m ({low})"
     if d3 > upper + margin:
-        return d3, f"d3 = {_g(d3)} m is above its upper limit {_g(upper)} m by {_g(d3 - upper)} m ({high})"
+        return d3, f"d3 = {d3_text} m is above its upper limit {quantity_text(upper)} m by {quantity_text(d3 - upper)} m ({high})"
     return min(max(d3, lower), upper), None
 
 
@@ -278,32 +182,25 @@ def _wrist(R_0_3: np.ndarray, R: np.ndarray, singular_tol: float) -> list[tuple[
     return [(tuple(map(float, up)), NO_FLIP, False), (tuple(map(float, down)), FLIP, False)]
 
 
-def _result(table: DHTable, R: np.ndarray, p: np.ndarray, candidates: list[_Candidate], *,
-            problems: list[str], notes: list[str], tol: float, joint_names: tuple[str, ...]) -> ClosedFormIK:
-    """Check every candidate by the table's FK, keep those within tol, say why."""
+def _result(table: DHTable, T: np.ndarray, candidates: list[_Candidate], *, problems: list[str], notes: list[str],
+            tol: float, joint_names: tuple[str, ...], variables: tuple[str, ...]) -> ClosedFormSolutions:
+    """Check every candidate by the table's FK (residuals by :func:`manipkit.spatial.transforms.pose_error`),
+    keep those within tol, say why."""
     n = table.n
     if not candidates:
         reasons = list(dict.fromkeys(problems)) or ["no candidate solution"]
-        empty = np.empty((0, n))
-        empty.setflags(write=False)
-        residuals = np.empty((0, 2))
-        residuals.setflags(write=False)
-        return ClosedFormIK(empty, (), "no solution: " + "; ".join(reasons), joint_names, residuals)
+        nothing = read_only((), (n,))
+        return ClosedFormSolutions(nothing, (), 0, "no solution: " + "; ".join(reasons), read_only(()), read_only(()),
+                                   joint_names=joint_names)
 
     Q = np.array([c.q for c in candidates], dtype=float)
     revolute = np.array([row.is_revolute for row in table.rows])
     Q[:, revolute] = wrap_angle(Q[:, revolute])
-    T_fk = dh_fk(table, Q)
-    position_error = np.linalg.norm(T_fk[:, :3, 3] - p, axis=-1)
-    rotation_error = np.atleast_1d(rotation_angle_between(T_fk[:, :3, :3], R, check=False))
+    position_error, rotation_error = (np.atleast_1d(e) for e in pose_error(T, dh_fk(table, Q)))
     keep = (position_error <= tol) & (rotation_error <= tol)
     rejected = int(np.count_nonzero(~keep))
     kept = [c for c, k in zip(candidates, keep) if k]
 
-    solutions = Q[keep]
-    solutions.setflags(write=False)
-    residuals = np.stack([position_error[keep], rotation_error[keep]], axis=-1)
-    residuals.setflags(write=False)
     free = tuple(sorted({j for c in kept for j in c.free}))
     families = list(dict.fromkeys(text for c in kept for text in c.family))
     family = "; ".join(families) if families else None
@@ -319,9 +216,11 @@ def _result(table: DHTable, R: np.ndarray, p: np.ndarray, candidates: list[_Cand
         )
     k = len(kept)
     head = f"{k} solution{'s' if k != 1 else ''}" if k else "no solution"
-    return ClosedFormIK(
-        solutions, tuple(c.label for c in kept), head + ": " + "; ".join(lines), joint_names, residuals,
-        singular=bool(free), family=family, free_joints=free, rejected=rejected,
+    return ClosedFormSolutions(
+        read_only(Q[keep], (n,)), tuple(c.label for c in kept), math.inf if free else k, head + ": " + "; ".join(lines),
+        read_only(position_error[keep]), read_only(rotation_error[keep]),
+        free_parameter=", ".join(variables[j] for j in free), joint_names=joint_names, family=family,
+        free_joints=free, rejected=rejected,
     )
 
 
@@ -367,135 +266,8 @@ def _wrist_centre_from_shoulder(T: np.ndarray, d1: float, d6: float):
     """(xc, yc, zc, r, s, label): the wrist centre, its distance ``r`` from joint 1's axis and its
     height ``s = zc - d1`` above the shoulder, as the decoupled solvers use them (Spong's r and s)."""
     xc, yc, zc = (float(v) for v in wrist_center(T, d6))
-    return xc, yc, zc, math.hypot(xc, yc), zc - d1, f"wrist centre {_point((xc, yc, zc))}"
-
-
-# --------------------------------------------------------------------------
-# DH tables
-
-
-def scara_dh_table(*, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
-                   d3_limits: tuple[float, float] = (0.0, 0.3)) -> DHTable:
-    """Standard DH table of the SCARA (Spong's SCARA, base height in row 1).
-
-    Parameters
-    ----------
-    a1, a2 : float, keyword-only
-        Link lengths (m), > 0.
-    d1 : float, keyword-only
-        Height of the arm above the base frame (m).
-    d4 : float, keyword-only
-        Tool length below the quill tip (m).
-    d3_limits : (float, float), keyword-only
-        Quill stroke (m); d3 slides the tool *down*.
-
-    Returns
-    -------
-    DHTable
-        Rows ``(a, alpha, d, theta)``: ``(a1, 0, d1, t1)``, ``(a2, 180 deg, 0, t2)``,
-        ``(0, 0, d3, 0)`` prismatic, ``(0, 0, d4, t4)``; joints ``joint1 .. joint4``.
-        The defaults are the bundled ``scara`` robot (robots/dh/scara.yaml).
-
-    Examples
-    --------
-    >>> from manipkit.dh import dh_fk
-    >>> dh_fk(scara_dh_table(), [0.0, 0.0, 0.1, 0.0])[:3, 3].round(12) + 0.0  # stretched along x, 0.1 down
-    array([0.6 , 0.  , 0.25])
-    """
-    a1, a2 = _positive(a1, "a1"), _positive(a2, "a2")
-    d1, d4 = _number(d1, "d1"), _number(d4, "d4")
-    lower, upper = _limits(d3_limits, "d3_limits")
-    pi = math.pi
-    rows = (
-        DHRow(a1, 0.0, d1, 0.0, qlim=(-pi, pi), name="joint1"),
-        DHRow(a2, pi, 0.0, 0.0, qlim=(-pi, pi), name="joint2"),
-        DHRow(0.0, 0.0, 0.0, 0.0, type="prismatic", qlim=(lower, upper), name="joint3"),
-        DHRow(0.0, 0.0, d4, 0.0, qlim=(-pi, pi), name="joint4"),
-    )
-    return DHTable(rows, "standard", "scara")
-
-
-def stanford_dh_table(*, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
-                      d3_limits: tuple[float, float] = (0.1, 1.0)) -> DHTable:
-    """Standard DH table of the Stanford arm in the frames of Spong's Example 3.5.
-
-    Parameters
-    ----------
-    d1 : float, keyword-only
-        Shoulder height above the base frame (m); Spong takes 0.
-    d2 : float, keyword-only
-        Shoulder offset (m).
-    d6 : float, keyword-only
-        Wrist centre to tool (m).
-    d3_limits : (float, float), keyword-only
-        Boom stroke (m), lower limit >= 0.
-
-    Returns
-    -------
-    DHTable
-        Rows ``(theta, d, a, alpha)``: ``(t1, d1, 0, -90)``, ``(t2, d2, 0, 90)``,
-        ``(0, d3, 0, 0)`` prismatic, ``(t4, 0, 0, -90)``, ``(t5, 0, 0, 90)``,
-        ``(t6, d6, 0, 0)``; joints ``joint1 .. joint6``. The defaults are the
-        bundled ``stanford_arm`` robot (robots/dh/stanford_arm.yaml).
-
-    Examples
-    --------
-    >>> from manipkit.dh import dh_fk
-    >>> dh_fk(stanford_dh_table(), [0.0, 0.0, 0.5, 0.0, 0.0, 0.0])[:3, 3].round(12)  # boom up
-    array([0.   , 0.154, 0.763])
-    """
-    d1, d2, d6 = _number(d1, "d1"), _number(d2, "d2"), _number(d6, "d6")
-    lower, upper = _limits(d3_limits, "d3_limits", lowest=0.0)
-    pi, half = math.pi, math.pi / 2.0
-    rows = (
-        DHRow(0.0, -half, d1, 0.0, qlim=(-pi, pi), name="joint1"),
-        DHRow(0.0, half, d2, 0.0, qlim=(-pi, pi), name="joint2"),
-        DHRow(0.0, 0.0, 0.0, 0.0, type="prismatic", qlim=(lower, upper), name="joint3"),
-        DHRow(0.0, -half, 0.0, 0.0, qlim=(-pi, pi), name="joint4"),
-        DHRow(0.0, half, 0.0, 0.0, qlim=(-pi, pi), name="joint5"),
-        DHRow(0.0, 0.0, d6, 0.0, qlim=(-pi, pi), name="joint6"),
-    )
-    return DHTable(rows, "standard", "stanford_arm")
-
-
-def elbow_dh_table(*, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float = 0.1) -> DHTable:
-    """Standard DH table of Spong's elbow manipulator with a spherical wrist.
-
-    Parameters
-    ----------
-    d1 : float, keyword-only
-        Shoulder height above the base frame (m).
-    a2, a3 : float, keyword-only
-        Upper arm and forearm (shoulder axis to wrist centre) lengths (m), > 0.
-    d6 : float, keyword-only
-        Wrist centre to tool (m).
-
-    Returns
-    -------
-    DHTable
-        Rows ``(a, alpha, d, theta)``: ``(0, 90, d1, t1)``, ``(a2, 0, 0, t2)``,
-        ``(a3, 0, 0, t3)``, ``(0, -90, 0, t4)``, ``(0, 90, 0, t5)``,
-        ``(0, 0, d6, t6)``; joints ``joint1 .. joint6``. The defaults are the
-        bundled ``elbow_arm`` robot (robots/dh/elbow_arm.yaml).
-
-    Examples
-    --------
-    >>> from manipkit.dh import dh_fk
-    >>> dh_fk(elbow_dh_table(), np.zeros(6))[:3, 3].round(12) + 0.0  # arm along x, tool along -y
-    array([ 0.85, -0.1 ,  0.4 ])
-    """
-    d1, d6 = _number(d1, "d1"), _number(d6, "d6")
-    a2, a3 = _positive(a2, "a2"), _positive(a3, "a3")
-    pi, half = math.pi, math.pi / 2.0
-    rows = (
-        DHRow(0.0, half, d1, 0.0, qlim=(-pi, pi), name="joint1"),
-        DHRow(a2, 0.0, 0.0, 0.0, qlim=(-pi, pi), name="joint2"),
-        DHRow(a3, 0.0, 0.0, 0.0, qlim=(-pi, pi), name="joint3"),
-        DHRow(0.0, -half, 0.0, 0.0, qlim=(-pi, pi), name="joint4"),
-        DHRow(0.0, half, 0.0, 0.0, qlim=(-pi, pi), name="joint5"),
-        DHRow(0.0, 0.0, d6, 0.0, qlim=(-pi, pi), name="joint6"),
-    )
-    return DHTable(rows, "standard", "elbow_arm")
+    label = "wrist centre (" + ", ".join(quantity_text(v) for v in (xc, yc, zc)) + ")"
+    return xc, yc, zc, math.hypot(xc, yc), zc - d1, label
 
 
 # --------------------------------------------------------------------------
@@ -508,7 +280,7 @@ _SCARA_LABELS = {planar_ik.ELBOW_DOWN: RIGHTY, planar_ik.ELBOW_UP: LEFTY, planar
 
 def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
              d3_limits: tuple[float, float] = (0.0, 0.3), tol: float = 1e-9,
-             singular_tol: float = 1e-10) -> ClosedFormIK:
+             singular_tol: float = 1e-10) -> ClosedFormSolutions:
     """Every joint vector ``(theta1, theta2, d3, theta4)`` putting the SCARA's tool at pose T.
 
     Parameters
@@ -526,7 +298,7 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
 
     Returns
     -------
-    ClosedFormIK
+    ClosedFormSolutions
         Rows ``(theta1, theta2, d3, theta4)``, rad and m, angles in (-pi, pi]:
 
         - 2 generically: ``"righty"`` (theta2 > 0) then ``"lefty"`` (theta2 < 0);
@@ -560,6 +332,8 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     array([[ 0.3     ,  1.2     ,  0.1     , -0.5     ],
            [ 1.272935, -1.2     ,  0.1     , -1.927065]])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
+    # inverse position then inverse orientation.
     table = scara_dh_table(a1=a1, a2=a2, d1=d1, d4=d4, d3_limits=d3_limits)
     a1, a2, d1, d4 = table.rows[0].a, table.rows[1].a, table.rows[0].d, table.rows[3].d
     limits = table.rows[2].qlim
@@ -570,31 +344,32 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     tilt = math.atan2(math.hypot(R[0, 2], R[1, 2]), -R[2, 2])
     if tilt > tol:
         problems.append(
-            f"the tool's z axis is tilted {_g(tilt)} rad ({_g(math.degrees(tilt))} deg) from straight down; "
+            f"the tool's z axis is tilted {quantity_text(tilt)} rad ({quantity_text(math.degrees(tilt))} deg) from straight down; "
             "a SCARA's tool axis is always vertical, pointing down (T[:3, 2] = (0, 0, -1))"
         )
     d3, out = _prismatic(d1 - d4 - p[2], limits, singular_tol,
-                         f"the target is too high: z = {_g(p[2])} m", f"the target is too low: z = {_g(p[2])} m")
+                         f"the target is too high: z = {quantity_text(p[2])} m", f"the target is too low: z = {quantity_text(p[2])} m")
     if out:
         problems.append(out)
     planar = ik_2r(p[0], p[1], a1, a2, tol=singular_tol)
     r = math.hypot(p[0], p[1])
     if planar.count == 0:
         problems.append(
-            f"the quill axis at (x, y) = ({_g(p[0])}, {_g(p[1])}) is r = {_g(r)} m from joint 1's axis, "
-            f"{planar.side} for the annulus |a1 - a2| = {_g(abs(a1 - a2))} <= r <= a1 + a2 = {_g(a1 + a2)} m, "
-            f"outside by {_g(planar.outside_by)} m"
+            f"the quill axis at (x, y) = ({quantity_text(p[0])}, {quantity_text(p[1])}) is r = {quantity_text(r)} m from joint 1's axis, "
+            f"{planar.side} for the annulus |a1 - a2| = {quantity_text(abs(a1 - a2))} <= r <= a1 + a2 = {quantity_text(a1 + a2)} m, "
+            f"outside by {quantity_text(planar.outside_by)} m"
         )
     if problems:
-        return _result(table, R, p, [], problems=problems, notes=[], tol=tol, joint_names=SCARA_JOINTS)
+        return _result(table, T, [], problems=problems, notes=[], tol=tol, joint_names=SCARA_JOINTS,
+                       variables=SCARA_VARIABLES)
 
     where = {
-        planar_ik.ELBOW_DOWN: f"inside the annulus |a1 - a2| = {_g(abs(a1 - a2))} < r < a1 + a2 = {_g(a1 + a2)} m",
-        planar_ik.STRAIGHT: f"on its outer circle r = a1 + a2 = {_g(a1 + a2)} m (arm straight, theta2 = 0)",
-        planar_ik.FOLDED: f"on its inner circle r = |a1 - a2| = {_g(abs(a1 - a2))} m (arm folded, theta2 = pi)",
+        planar_ik.ELBOW_DOWN: f"inside the annulus |a1 - a2| = {quantity_text(abs(a1 - a2))} < r < a1 + a2 = {quantity_text(a1 + a2)} m",
+        planar_ik.STRAIGHT: f"on its outer circle r = a1 + a2 = {quantity_text(a1 + a2)} m (arm straight, theta2 = 0)",
+        planar_ik.FOLDED: f"on its inner circle r = |a1 - a2| = {quantity_text(abs(a1 - a2))} m (arm folded, theta2 = pi)",
         planar_ik.Q1_FREE: "on joint 1's axis with a1 = a2",
     }[planar.labels[0]]
-    notes.append(f"quill axis at r = {_g(r)} m from joint 1's axis, {where}; d3 = {_g(d3)} m")
+    notes.append(f"quill axis at r = {quantity_text(r)} m from joint 1's axis, {where}; d3 = {quantity_text(d3)} m")
     alpha = math.atan2(R[1, 0], R[0, 0])
     for (theta1, theta2), label in zip(planar.solutions, planar.labels):
         free, family = (), ()
@@ -605,7 +380,8 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
                 "theta1 = 0, and theta1 = t with theta4 = theta4_row + t reaches the same pose for every t",
             )
         candidates.append(_Candidate((theta1, theta2, d3, theta1 + theta2 - alpha), _SCARA_LABELS[label], free, family))
-    return _result(table, R, p, candidates, problems=problems, notes=notes, tol=tol, joint_names=SCARA_JOINTS)
+    return _result(table, T, candidates, problems=problems, notes=notes, tol=tol, joint_names=SCARA_JOINTS,
+                   variables=SCARA_VARIABLES)
 
 
 # --------------------------------------------------------------------------
@@ -614,7 +390,7 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
 
 def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
                 d3_limits: tuple[float, float] = (0.1, 1.0), tol: float = 1e-9,
-                singular_tol: float = 1e-10) -> ClosedFormIK:
+                singular_tol: float = 1e-10) -> ClosedFormSolutions:
     """Every joint vector ``(theta1, theta2, d3, theta4, theta5, theta6)`` putting the Stanford arm's tool at T.
 
     Parameters
@@ -634,7 +410,7 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
 
     Returns
     -------
-    ClosedFormIK
+    ClosedFormSolutions
         Rows in rad and m, angles in (-pi, pi]:
 
         - 4 generically: ``"front, no flip"``, ``"front, flip"``,
@@ -676,6 +452,8 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
     >>> result.solutions[0].round(6)
     array([ 0.4,  0.8,  0.6,  0.3,  1. , -0.2])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
+    # inverse position then inverse orientation.
     table = stanford_dh_table(d1=d1, d2=d2, d6=d6, d3_limits=d3_limits)
     d1, d2, d6 = table.rows[0].d, table.rows[1].d, table.rows[5].d
     limits = table.rows[2].qlim
@@ -694,12 +472,12 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
         )))
     elif r < abs(d2) - singular_tol:
         problems.append(
-            f"the {centre} is r = {_g(r)} m from joint 1's axis, inside the cylinder r < |d2| = {_g(abs(d2))} m "
-            f"that the offset boom cannot enter, by {_g(abs(d2) - r)} m"
+            f"the {centre} is r = {quantity_text(r)} m from joint 1's axis, inside the cylinder r < |d2| = {quantity_text(abs(d2))} m "
+            f"that the offset boom cannot enter, by {quantity_text(abs(d2) - r)} m"
         )
     elif r <= abs(d2) + singular_tol:
         shoulders.append((math.atan2(-d2 * xc, d2 * yc), 0.0, VERTICAL, (), ()))
-        notes.append(f"{centre} on the cylinder r = |d2| = {_g(abs(d2))} m: one shoulder solution, boom vertical")
+        notes.append(f"{centre} on the cylinder r = |d2| = {quantity_text(abs(d2))} m: one shoulder solution, boom vertical")
     else:
         rho = math.sqrt((r - abs(d2)) * (r + abs(d2)))
         for signed, label in ((rho, FRONT), (-rho, BACK)):
@@ -727,8 +505,9 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
                 free + ((3,) if wrist_singular else ()), family + ((_WRIST_FAMILY,) if wrist_singular else ()),
             ))
     if candidates:
-        notes.insert(0, f"{centre}, r = {_g(r)} m from joint 1's axis, d3 = {_g(candidates[0].q[2])} m")
-    return _result(table, R, p, candidates, problems=problems, notes=notes, tol=tol, joint_names=SIX_JOINTS)
+        notes.insert(0, f"{centre}, r = {quantity_text(r)} m from joint 1's axis, d3 = {quantity_text(candidates[0].q[2])} m")
+    return _result(table, T, candidates, problems=problems, notes=notes, tol=tol, joint_names=SIX_JOINTS,
+                   variables=STANFORD_VARIABLES)
 
 
 # --------------------------------------------------------------------------
@@ -744,7 +523,7 @@ def _elbow_label(planar_label: str, back: bool) -> str:
 
 
 def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float = 0.1,
-             tol: float = 1e-9, singular_tol: float = 1e-10) -> ClosedFormIK:
+             tol: float = 1e-9, singular_tol: float = 1e-10) -> ClosedFormSolutions:
     """Every joint vector ``(theta1, ..., theta6)`` putting the elbow arm's tool at T.
 
     Parameters
@@ -762,7 +541,7 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
 
     Returns
     -------
-    ClosedFormIK
+    ClosedFormSolutions
         Rows in rad, wrapped to (-pi, pi]:
 
         - 8 generically, in the order front/back x elbow up/down x no flip/flip,
@@ -800,6 +579,8 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
     >>> result.solutions[0].round(6)
     array([ 0.5,  0.4, -1. ,  0.3,  0.9,  0.2])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
+    # inverse position then inverse orientation.
     table = elbow_dh_table(d1=d1, a2=a2, a3=a3, d6=d6)
     d1, a2, a3, d6 = table.rows[0].d, table.rows[1].a, table.rows[2].a, table.rows[5].d
     tol, singular_tol = _tolerances(tol, singular_tol)
@@ -824,9 +605,9 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
         planar = ik_2r(u, s, a2, a3, tol=singular_tol)
         if planar.count == 0:
             problems.append(
-                f"the {centre} is {_g(distance)} m from the shoulder {_point((0.0, 0.0, d1))}, {planar.side} for "
-                f"the shell |a2 - a3| = {_g(abs(a2 - a3))} <= distance <= a2 + a3 = {_g(a2 + a3)} m, "
-                f"outside by {_g(planar.outside_by)} m"
+                f"the {centre} is {quantity_text(distance)} m from the shoulder (0, 0, {quantity_text(d1)}), {planar.side} for "
+                f"the shell |a2 - a3| = {quantity_text(abs(a2 - a3))} <= distance <= a2 + a3 = {quantity_text(a2 + a3)} m, "
+                f"outside by {quantity_text(planar.outside_by)} m"
             )
             continue
         arms = sorted(
@@ -849,5 +630,6 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
                     arm_family + ((_WRIST_FAMILY,) if wrist_singular else ()),
                 ))
     if candidates:
-        notes.append(f"{centre}, {_g(distance)} m from the shoulder, r = {_g(r)} m from joint 1's axis")
-    return _result(table, R, p, candidates, problems=problems, notes=notes, tol=tol, joint_names=SIX_JOINTS)
+        notes.append(f"{centre}, {quantity_text(distance)} m from the shoulder, r = {quantity_text(r)} m from joint 1's axis")
+    return _result(table, T, candidates, problems=problems, notes=notes, tol=tol, joint_names=SIX_JOINTS,
+                   variables=ELBOW_VARIABLES)

@@ -1,6 +1,6 @@
-"""Closed-form kinematics of planar 2R and 3R arms: FK, every IK solution, workspaces.
+"""Closed-form kinematics of planar 2R and 3R arms: FK and every IK solution (workspaces: :mod:`.planar_workspace`).
 
-Conventions (DESIGN.md, "Conventions"), restated where they matter:
+Conventions (docs/architecture.md, "Conventions"), restated where they matter:
 
 - The arm moves in the x-y plane of its base frame. Every joint turns about
   +z, so angles are counter-clockwise positive seen from +z (looking down on
@@ -30,16 +30,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from manipkit.closed_form.checks import as_float, finite_array, link_length, quantity_text, tolerance
+from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, workspace_3r  # documented here too
+from manipkit.closed_form.result import ClosedFormSolutions, read_only
 from manipkit.errors import PlanarArmError
-from manipkit.spatial.rotations import _scalar_or_array, wrap_angle
+from manipkit.spatial.rotations import wrap_angle
 
 __all__ = [
+    "ClosedFormSolutions",
     "ELBOW_DOWN",
     "ELBOW_UP",
     "FOLDED",
     "PlanarArmError",
     "PlanarIKBatch",
-    "PlanarIKResult",
     "Q1_FREE",
     "STRAIGHT",
     "Workspace",
@@ -60,47 +63,6 @@ ELBOW_UP = "elbow-up"  # q2 in (-pi, 0)
 STRAIGHT = "straight"  # q2 = 0: on the outer circle r = l1 + l2
 FOLDED = "folded"  # q2 = pi: on the inner circle r = |l1 - l2|
 Q1_FREE = "q1 free"  # target at the base with l1 = l2: q2 = pi, any q1
-
-
-# --------------------------------------------------------------------------
-# helpers
-
-
-def _as_float(value, what: str) -> np.ndarray:
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise PlanarArmError(f"{what} must be numeric, got {value!r:.80}") from None
-
-
-def _length(value, what: str) -> float:
-    """A link length: a finite scalar > 0."""
-    array = _as_float(value, what)
-    if array.ndim != 0:
-        raise PlanarArmError(f"{what} must be a single number, got shape {array.shape}")
-    length = float(array)
-    if not math.isfinite(length) or length <= 0.0:
-        raise PlanarArmError(f"{what} = {length} is not a valid link length; it must be a finite number > 0")
-    return length
-
-
-def _finite(value, what: str, *, shape_tail: tuple[int, ...] = (), scalar: bool = False) -> np.ndarray:
-    array = _as_float(value, what)
-    if scalar and array.ndim != 0:
-        raise PlanarArmError(f"{what} must be a single number, got shape {array.shape}; use the *_batch solver")
-    if shape_tail and array.shape[-len(shape_tail):] != shape_tail:
-        raise PlanarArmError(f"{what} must have shape (..., {', '.join(map(str, shape_tail))}), got {array.shape}")
-    if not np.all(np.isfinite(array)):
-        bad = np.argwhere(~np.isfinite(array))[0]
-        where = f"{what}[{', '.join(str(int(i)) for i in bad)}]" if array.ndim else what
-        raise PlanarArmError(f"{where} = {array[tuple(bad)]} is not finite; targets must be finite numbers")
-    return array
-
-
-def _g(value: float) -> str:
-    """A length or angle for a message: up to 6 significant digits, rounding noise below 1e-12 dropped."""
-    text = f"{round(float(value), 12):.6g}"
-    return "0" if text == "-0" else text
 
 
 # --------------------------------------------------------------------------
@@ -134,12 +96,12 @@ def fk_2r(q1, q2, l1, l2):
     >>> round(float(x), 12), round(float(y), 12)
     (0.5, 1.0)
     """
-    q1, q2 = _as_float(q1, "q1"), _as_float(q2, "q2")
-    l1, l2 = _as_float(l1, "l1"), _as_float(l2, "l2")
+    q1, q2 = as_float(q1, "q1"), as_float(q2, "q2")
+    l1, l2 = as_float(l1, "l1"), as_float(l2, "l2")
     q12 = q1 + q2
     x = l1 * np.cos(q1) + l2 * np.cos(q12)
     y = l1 * np.sin(q1) + l2 * np.sin(q12)
-    return _scalar_or_array(np.asarray(x)), _scalar_or_array(np.asarray(y))
+    return np.asarray(x)[()], np.asarray(y)[()]  # a float for scalar input
 
 
 def fk_3r(q1, q2, q3, l1, l2, l3):
@@ -170,14 +132,14 @@ def fk_3r(q1, q2, q3, l1, l2, l3):
     >>> round(float(x), 12), round(float(y), 12), round(float(phi), 12)
     (3.0, 2.0, 3.14159265359)
     """
-    q1, q2, q3 = _as_float(q1, "q1"), _as_float(q2, "q2"), _as_float(q3, "q3")
-    l1, l2, l3 = _as_float(l1, "l1"), _as_float(l2, "l2"), _as_float(l3, "l3")
+    q1, q2, q3 = as_float(q1, "q1"), as_float(q2, "q2"), as_float(q3, "q3")
+    l1, l2, l3 = as_float(l1, "l1"), as_float(l2, "l2"), as_float(l3, "l3")
     q12 = q1 + q2
     q123 = q12 + q3
     x = l1 * np.cos(q1) + l2 * np.cos(q12) + l3 * np.cos(q123)
     y = l1 * np.sin(q1) + l2 * np.sin(q12) + l3 * np.sin(q123)
     phi = wrap_angle(q123 + 0.0 * (l1 + l2 + l3))  # broadcast to the common shape
-    return tuple(_scalar_or_array(np.asarray(v)) for v in (x, y, phi))
+    return tuple(np.asarray(v)[()] for v in (x, y, phi))  # floats for scalar input
 
 
 def se2_3r(q1, q2, q3, l1, l2, l3) -> np.ndarray:
@@ -235,8 +197,8 @@ def chain_points(q, lengths) -> np.ndarray:
            [1. , 0. ],
            [1. , 0.5]])
     """
-    q = _as_float(q, "q")
-    lengths = _as_float(lengths, "lengths")
+    q = as_float(q, "q")
+    lengths = as_float(lengths, "lengths")
     if q.ndim == 0 or lengths.shape != q.shape[-1:]:
         raise PlanarArmError(f"q must have shape (..., n) with n = len(lengths) = {lengths.size}, got {q.shape}")
     heading = np.cumsum(q, axis=-1)
@@ -246,50 +208,7 @@ def chain_points(q, lengths) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------
-# inverse kinematics: results
-
-
-@dataclass(frozen=True, eq=False)
-class PlanarIKResult:
-    """Every solution of a planar IK problem (2R or 3R).
-
-    Attributes
-    ----------
-    solutions : ndarray, shape (k, n)
-        One row of joint angles (rad, wrapped to (-pi, pi]) per solution,
-        elbow-down first. ``k`` is 0, 1 or 2; for infinitely many solutions
-        it holds one representative of the family (``q1 = 0``). Read-only.
-    labels : tuple of str
-        One per row: ``"elbow-down"`` (q2 in (0, pi)), ``"elbow-up"``
-        (q2 in (-pi, 0)), ``"straight"`` (q2 = 0, outer boundary),
-        ``"folded"`` (q2 = pi, inner boundary) or ``"q1 free"``.
-    count : int or float
-        Number of solutions: 0, 1, 2, or ``math.inf``.
-    reason : str
-        One line saying why there are that many, with the numbers.
-    outside_by : float
-        How far (m) the target (2R) or wrist point (3R) lies outside the
-        reachable annulus; 0.0 when it is reachable.
-    side : str or None
-        ``"too far"`` (beyond ``l1 + l2``), ``"too close"`` (inside
-        ``|l1 - l2|``) when ``count == 0``, else None.
-    free_joint : int or None
-        When ``count`` is infinite, the index of the joint that may take any
-        value (0: q1; the other angles follow from it as ``reason`` says).
-    """
-
-    solutions: np.ndarray
-    labels: tuple[str, ...]
-    count: int | float
-    reason: str
-    outside_by: float = 0.0
-    side: str | None = None
-    free_joint: int | None = None
-
-    @property
-    def infinite(self) -> bool:
-        """True for a one-parameter family of solutions."""
-        return math.isinf(self.count)
+# inverse kinematics: many targets at once
 
 
 @dataclass(frozen=True, eq=False)
@@ -501,25 +420,25 @@ def _ik_core(x, y, l1: float, l2: float, tol: float, phi=None, l3: float = 0.0):
 
 def _describe_2r(case: int, r: float, l1: float, l2: float, point: str) -> tuple[str, str | None]:
     outer, inner = l1 + l2, abs(l1 - l2)
-    where = f"{point} at r = {_g(r)}"
+    r_text, outer_text, inner_text = (quantity_text(v) for v in (r, outer, inner))
+    where = f"{point} at r = {r_text}"
     if case == _TWO:
-        return f"2 solutions: {where} is inside the workspace |l1 - l2| = {_g(inner)} < r < l1 + l2 = {_g(outer)}", None
+        inside = f"|l1 - l2| = {inner_text} < r < l1 + l2 = {outer_text}"
+        return f"2 solutions: {where} is inside the workspace {inside}", None
     if case == _OUTER:
-        return f"1 solution: {where} is on the outer boundary r = l1 + l2 = {_g(outer)} (arm straight, q2 = 0)", None
+        return f"1 solution: {where} is on the outer boundary r = l1 + l2 = {outer_text} (arm straight, q2 = 0)", None
     if case == _INNER:
-        return f"1 solution: {where} is on the inner boundary r = |l1 - l2| = {_g(inner)} (arm folded, q2 = pi)", None
+        return f"1 solution: {where} is on the inner boundary r = |l1 - l2| = {inner_text} (arm folded, q2 = pi)", None
     if case == _FREE:
         return (
-            f"infinitely many solutions: {point} at the base with l1 = l2 = {_g(l1)}: "
+            f"infinitely many solutions: {point} at the base with l1 = l2 = {quantity_text(l1)}: "
             "q2 = pi (folded) and q1 takes any value"
         ), None
     if case == _FAR:
-        return (
-            f"no solution: {point} too far: r = {_g(r)} > l1 + l2 = {_g(outer)}, outside by {_g(r - outer)}"
-        ), "too far"
-    return (
-        f"no solution: {point} too close: r = {_g(r)} < |l1 - l2| = {_g(inner)}, outside by {_g(inner - r)}"
-    ), "too close"
+        gap = quantity_text(r - outer)
+        return f"no solution: {point} too far: r = {r_text} > l1 + l2 = {outer_text}, outside by {gap}", "too far"
+    gap = quantity_text(inner - r)
+    return f"no solution: {point} too close: r = {r_text} < |l1 - l2| = {inner_text}, outside by {gap}", "too close"
 
 
 def _labels(case: int) -> tuple[str, ...]:
@@ -529,13 +448,6 @@ def _labels(case: int) -> tuple[str, ...]:
         _INNER: (FOLDED,),
         _FREE: (Q1_FREE,),
     }.get(case, ())
-
-
-def _tolerance(tol) -> float:
-    tol = float(tol)
-    if not tol >= 0.0:
-        raise PlanarArmError(f"tol = {tol} must be a number >= 0")
-    return tol
 
 
 # --------------------------------------------------------------------------
@@ -572,13 +484,13 @@ def ik_2r_batch(xy, l1, l2, *, tol: float = 1e-12) -> PlanarIKBatch:
     array([[ 0.      ,  1.570796],
            [ 1.570796, -1.570796]])
     """
-    l1, l2 = _length(l1, "l1"), _length(l2, "l2")
-    xy = _finite(xy, "xy", shape_tail=(2,))
-    solutions, _, counts, outside = _ik_core(xy[..., 0], xy[..., 1], l1, l2, _tolerance(tol))
+    l1, l2 = link_length(l1, "l1"), link_length(l2, "l2")
+    xy = finite_array(xy, "xy", shape_tail=(2,))
+    solutions, _, counts, outside = _ik_core(xy[..., 0], xy[..., 1], l1, l2, tolerance(tol))
     return PlanarIKBatch(solutions, counts, outside)
 
 
-def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> PlanarIKResult:
+def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
     """Every joint solution ``(q1, q2)`` putting a planar 2R tool at ``(x, y)``.
 
     Parameters
@@ -595,16 +507,20 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> PlanarIKResult:
 
     Returns
     -------
-    PlanarIKResult
+    ClosedFormSolutions
         ``solutions`` (k, 2), rows ``(q1, q2)`` in radians wrapped to
         (-pi, pi], elbow-down (q2 > 0) first; ``labels``, ``count``,
-        ``reason``, and for unreachable targets ``outside_by`` and ``side``.
+        ``reason``, for unreachable targets ``outside_by`` and ``side``, and
+        per row the distance (m) of ``fk_2r`` of the row from the target in
+        ``residual_position`` (``residual_rotation`` is 0: a 2R target has
+        no orientation).
 
         - 2 solutions strictly inside the annulus ``|l1 - l2| < r < l1 + l2``;
         - 1 on either boundary circle (``"straight"`` or ``"folded"``);
         - 0 outside it (``side`` ``"too far"`` or ``"too close"``);
         - infinitely many at the base when ``l1 = l2``: ``q2 = pi`` and any
-          ``q1`` (``free_joint = 0``; ``solutions`` holds ``(0, pi)``).
+          ``q1`` (``free_parameter = "q1"``, ``free_joints = (0,)``;
+          ``solutions`` holds ``(0, pi)``).
 
     Notes
     -----
@@ -627,16 +543,16 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> PlanarIKResult:
     >>> ik_2r(3.0, 0.0, 1.0, 1.0).reason
     'no solution: target too far: r = 3 > l1 + l2 = 2, outside by 1'
     """
-    l1, l2 = _length(l1, "l1"), _length(l2, "l2")
-    x, y = _finite(x, "x", scalar=True), _finite(y, "y", scalar=True)
-    solutions, case, _, outside = _ik_core(x, y, l1, l2, _tolerance(tol))
+    l1, l2 = link_length(l1, "l1"), link_length(l2, "l2")
+    x, y = finite_array(x, "x", scalar=True), finite_array(y, "y", scalar=True)
+    solutions, case, _, outside = _ik_core(x, y, l1, l2, tolerance(tol))
     case = int(case)
     labels = _labels(case)
-    rows = solutions[: len(labels)].copy()
-    rows.setflags(write=False)
+    rows = read_only(solutions[: len(labels)], (2,))
     reason, side = _describe_2r(case, float(np.hypot(x, y)), l1, l2, "target")
-    count = math.inf if case == _FREE else len(labels)
-    return PlanarIKResult(rows, labels, count, reason, float(outside), side, 0 if case == _FREE else None)
+    x_fk, y_fk = fk_2r(rows[:, 0], rows[:, 1], l1, l2)
+    position = np.hypot(x_fk - x, y_fk - y)
+    return _planar_result(rows, case, reason, position, np.zeros(len(labels)), outside, side)
 
 
 # --------------------------------------------------------------------------
@@ -669,15 +585,15 @@ def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKBatch:
     >>> result.counts
     array([2., 0.])
     """
-    l1, l2, l3 = _length(l1, "l1"), _length(l2, "l2"), _length(l3, "l3")
-    poses = _finite(poses, "poses", shape_tail=(3,))
+    l1, l2, l3 = link_length(l1, "l1"), link_length(l2, "l2"), link_length(l3, "l3")
+    poses = finite_array(poses, "poses", shape_tail=(3,))
     solutions, _, counts, outside = _ik_core(
-        poses[..., 0], poses[..., 1], l1, l2, _tolerance(tol), phi=poses[..., 2], l3=l3
+        poses[..., 0], poses[..., 1], l1, l2, tolerance(tol), phi=poses[..., 2], l3=l3
     )
     return PlanarIKBatch(solutions, counts, outside)
 
 
-def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKResult:
+def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> ClosedFormSolutions:
     """Every joint solution ``(q1, q2, q3)`` putting a planar 3R tool at pose ``(x, y, phi)``.
 
     Parameters
@@ -694,11 +610,12 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKResult:
 
     Returns
     -------
-    PlanarIKResult
+    ClosedFormSolutions
         ``solutions`` (k, 3), rows ``(q1, q2, q3)`` in radians wrapped to
         (-pi, pi], elbow-down (q2 > 0) first, and the same ``labels``,
         ``count``, ``reason``, ``outside_by``, ``side`` as :func:`ik_2r` for
-        the wrist point. With infinitely many solutions (wrist at the base,
+        the wrist point; residuals of ``fk_3r`` of each row (m, and the
+        tool angle error in rad). With infinitely many solutions (wrist at the base,
         ``l1 = l2``) ``q1`` is free, ``q2 = pi`` and ``q3 = phi - q1 - pi``.
 
     Notes
@@ -716,190 +633,26 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKResult:
     array([[ 0.      ,  1.570796,  1.570796],
            [ 0.927295, -1.570796, -2.498092]])
     """
-    l1, l2, l3 = _length(l1, "l1"), _length(l2, "l2"), _length(l3, "l3")
-    x, y = _finite(x, "x", scalar=True), _finite(y, "y", scalar=True)
-    phi = _finite(phi, "phi", scalar=True)
-    solutions, case, _, outside = _ik_core(x, y, l1, l2, _tolerance(tol), phi=phi, l3=l3)
+    l1, l2, l3 = link_length(l1, "l1"), link_length(l2, "l2"), link_length(l3, "l3")
+    x, y = finite_array(x, "x", scalar=True), finite_array(y, "y", scalar=True)
+    phi = finite_array(phi, "phi", scalar=True)
+    solutions, case, _, outside = _ik_core(x, y, l1, l2, tolerance(tol), phi=phi, l3=l3)
     wx, wy = _wrist(x, y, phi, l3)  # for the message
     case = int(case)
     labels = _labels(case)
-    rows = solutions[: len(labels)].copy()
-    rows.setflags(write=False)
-    point = f"wrist point ({_g(float(wx))}, {_g(float(wy))})"
+    rows = read_only(solutions[: len(labels)], (3,))
+    point = f"wrist point ({quantity_text(float(wx))}, {quantity_text(float(wy))})"
     reason, side = _describe_2r(case, float(np.hypot(wx, wy)), l1, l2, point)
     if case == _FREE:
         reason += ", and q3 = phi - q1 - pi"
-    count = math.inf if case == _FREE else len(labels)
-    return PlanarIKResult(rows, labels, count, reason, float(outside), side, 0 if case == _FREE else None)
+    x_fk, y_fk, phi_fk = fk_3r(rows[:, 0], rows[:, 1], rows[:, 2], l1, l2, l3)
+    rotation = np.abs(wrap_angle(phi_fk - phi))
+    return _planar_result(rows, case, reason, np.hypot(x_fk - x, y_fk - y), rotation, outside, side)
 
 
-# --------------------------------------------------------------------------
-# workspaces
-
-
-def _interval_text(low: float, high: float) -> str:
-    if high == 0.0:
-        return "the base point only (r = 0)"
-    if low == 0.0:
-        return f"disc r <= {_g(high)}"
-    if low == high:
-        return f"circle r = {_g(low)}"
-    return f"annulus {_g(low)} <= r <= {_g(high)}"
-
-
-@dataclass(frozen=True)
-class Workspace:
-    """Reachable and dexterous workspaces of a planar arm, as radii about the base.
-
-    Both are rotationally symmetric (joint 1 turns the whole arm), so they
-    are sets of distances ``r`` from the base.
-
-    Attributes
-    ----------
-    lengths : tuple of float
-        Link lengths (m), base to tool.
-    reachable : tuple of float
-        ``(r_min, r_max)``: the tool reaches exactly the points with
-        ``r_min <= r <= r_max`` (a disc when ``r_min = 0``).
-    dexterous : tuple of (float, float)
-        The points the tool reaches with *every* orientation, as disjoint
-        closed intervals ``(r_min, r_max)`` of r in increasing order: ``()``
-        when empty, one interval usually, two when a disc around the base and
-        an annulus are both dexterous but the ring between them is not.
-        ``(0, 0)`` is the base point alone.
-    why_dexterous : str
-        The reasoning behind ``dexterous`` for these lengths, in one line.
-    """
-
-    lengths: tuple[float, ...]
-    reachable: tuple[float, float]
-    dexterous: tuple[tuple[float, float], ...]
-    why_dexterous: str
-
-    @property
-    def description(self) -> str:
-        """One line for humans: both workspaces in words, with the radii."""
-        lengths = ", ".join(_g(v) for v in self.lengths)
-        reach = _interval_text(*self.reachable)
-        if self.dexterous:
-            dext = " and ".join(_interval_text(*piece) for piece in self.dexterous)
-        else:
-            dext = "empty"
-        return f"planar {len(self.lengths)}R (l = {lengths}): reachable {reach}; dexterous {dext}: {self.why_dexterous}"
-
-    def __str__(self) -> str:
-        return self.description
-
-
-def workspace_2r(l1, l2, *, tol: float = 1e-12) -> Workspace:
-    """Reachable and dexterous workspaces of a planar 2R arm.
-
-    Parameters
-    ----------
-    l1, l2 : float
-        Link lengths (m), > 0.
-    tol : float, keyword-only
-        ``|l1 - l2| <= tol`` counts as equal links.
-
-    Returns
-    -------
-    Workspace
-        ``reachable = (|l1 - l2|, l1 + l2)``: link 2 sweeps a circle of radius
-        l2 around the elbow, which is at distance l1, so the tool's distance
-        ``sqrt(l1^2 + l2^2 + 2 l1 l2 cos q2)`` takes every value between
-        ``|l1 - l2|`` (q2 = pi) and ``l1 + l2`` (q2 = 0).
-
-        ``dexterous`` is empty: the tool orientation ``q1 + q2`` is fixed by
-        the position up to the two elbow solutions. The one exception is
-        ``l1 = l2``, where the base point is reached folded (q2 = pi) with
-        any q1, hence every orientation: ``dexterous = ((0, 0),)``.
-
-    Examples
-    --------
-    >>> workspace_2r(1.0, 0.5).reachable
-    (0.5, 1.5)
-    >>> workspace_2r(1.0, 1.0).dexterous  # folded at the base, any q1
-    ((0.0, 0.0),)
-    """
-    l1, l2 = _length(l1, "l1"), _length(l2, "l2")
-    tol = _tolerance(tol)
-    reachable = (abs(l1 - l2), l1 + l2)
-    if abs(l1 - l2) <= tol:
-        return Workspace(
-            (l1, l2), (0.0, l1 + l2), ((0.0, 0.0),),
-            "with l1 = l2 the arm folds onto the base, where any q1 turns the tool through every angle",
-        )
-    return Workspace(
-        (l1, l2), reachable, (), "a 2R tool's orientation q1 + q2 is fixed by its position, up to the elbow choice"
+def _planar_result(rows, case: int, reason: str, position, rotation, outside, side) -> ClosedFormSolutions:
+    free = case == _FREE
+    return ClosedFormSolutions(
+        rows, _labels(case), math.inf if free else len(rows), reason, read_only(position), read_only(rotation),
+        free_parameter="q1" if free else "", free_joints=(0,) if free else (), outside_by=float(outside), side=side,
     )
-
-
-def workspace_3r(l1, l2, l3, *, tol: float = 1e-12) -> Workspace:
-    """Reachable and dexterous workspaces of a planar 3R arm.
-
-    Parameters
-    ----------
-    l1, l2, l3 : float
-        Link lengths (m), > 0.
-    tol : float, keyword-only
-        Pieces of the dexterous set closer than this are merged.
-
-    Returns
-    -------
-    Workspace
-        For lengths 4, 2, 1: reachable ``1 <= r <= 7``, dexterous
-        ``3 <= r <= 5``.
-
-    Notes
-    -----
-    Reachable: a chain of links reaches every distance from
-    ``max(0, 2 l_max - (l1 + l2 + l3))`` (the longest link folded back on the
-    others, or 0 when they can close a triangle) to ``l1 + l2 + l3``.
-
-    Dexterous (every tool orientation phi): for orientation phi the wrist
-    (joint 3) must sit at ``p - l3 (cos phi, sin phi)``. As phi turns, that
-    point runs round the circle of radius l3 about the tool point ``p``, and
-    every one of its points must lie in the annulus ``a <= |w| <= b`` that the
-    2R arm (l1, l2) reaches, ``a = |l1 - l2|``, ``b = l1 + l2``. The circle's
-    points have distances from ``|r - l3|`` to ``r + l3`` from the base
-    (``r = |p|``), so the condition is
-
-        ``r + l3 <= b``  and  ``|r - l3| >= a``,
-
-    that is ``l3 + a <= r <= b - l3`` (the wrist circle between the two
-    boundary circles: an annulus, non-empty when ``2 l3 <= b - a``) or
-    ``r <= min(l3 - a, b - l3)`` (the wrist circle enclosing the inner
-    boundary circle: a disc around the base, when ``l3 >= a``). For 4, 2, 1:
-    ``a = 2``, ``b = 6``, so ``3 <= r <= 5``, and ``l3 = 1 < a`` rules out the
-    disc.
-
-    Examples
-    --------
-    >>> ws = workspace_3r(4.0, 2.0, 1.0)
-    >>> ws.reachable, ws.dexterous
-    ((1.0, 7.0), ((3.0, 5.0),))
-    >>> workspace_3r(1.0, 1.0, 0.5).dexterous  # a disc
-    ((0.0, 1.5),)
-    >>> workspace_3r(1.0, 1.0, 3.0).dexterous  # l3 longer than the 2R reach: empty
-    ()
-    """
-    l1, l2, l3 = _length(l1, "l1"), _length(l2, "l2"), _length(l3, "l3")
-    tol = _tolerance(tol)
-    total = l1 + l2 + l3
-    reachable = (max(0.0, 2.0 * max(l1, l2, l3) - total), total)
-    a, b = abs(l1 - l2), l1 + l2
-    pieces = []
-    if l3 >= a and b - l3 >= 0.0:
-        pieces.append([0.0, min(l3 - a, b - l3)])
-    if l3 + a <= b - l3:
-        if pieces and pieces[0][1] >= l3 + a - tol:
-            pieces[0][1] = max(pieces[0][1], b - l3)
-        else:
-            pieces.append([l3 + a, b - l3])
-    dexterous = tuple((float(lo), float(hi)) for lo, hi in pieces)
-    a_b = f"what links 1 and 2 reach ({_interval_text(a, b)})"
-    if not dexterous:
-        why = f"a wrist circle of radius l3 = {_g(l3)} fits nowhere in {a_b}"
-    else:
-        why = f"the wrist circle of radius l3 = {_g(l3)} about the tool lies in {a_b}"
-    return Workspace((l1, l2, l3), reachable, dexterous, why)

@@ -1,14 +1,16 @@
 """Batched forward kinematics of one serial chain, run by one compiled loop over configurations.
 
-Conventions (DESIGN.md), restated:
+Conventions (docs/architecture.md), restated:
 
 - ``Q`` has one row per configuration and one column per movable joint of the
   robot, in ``robot.joint_names`` order (radians, metres); only the chain's
   columns are read.
 - The result is ``T_root_frame``, shape (N, 4, 4): the pose of the chain's
   tip frame in the frame the chain starts from (the root link, or a base
-  frame above the tip: ``Robot._chain(frame_id, base_id)``), for each row
-  of ``Q``.
+  frame above the tip: :meth:`manipkit.kinematics.robot.Robot.chain`), for
+  each row of ``Q``.
+- A chain is a list of :class:`ChainStep`: constant placements and the
+  joints between them, from the base (or root) down to the frame.
 
 How it is fast (:class:`ChainFK`): a chain is a product of constant
 placements ``X_k = [C_k, t_k]`` and joint motions,
@@ -64,17 +66,61 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-__all__ = ["ChainFK", "chain_fk", "chain_fk_for"]
+from manipkit.errors import ChainError, JointValueError
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["ChainFK", "ChainStep", "chain_fk", "chain_fk_for"]
 
 SNAP_TOL = 1e-14  # placement entries this close to 0 or +-1 are taken as exactly that
 SPLIT_TOL = SNAP_TOL  # a rotation is split about z only if the rest is a signed permutation to this
 DEFAULT_BLOCK = 8192  # rows per numpy tan call (the angles of a block stay in L2 cache)
 CHUNK = 256  # configurations per pass of the compiled loop (R and p of a chunk, 24 KiB, stay in L1 cache)
 _REVOLUTE, _PRISMATIC = 0, 1
+
+
+# --------------------------------------------------------------------------
+# The chain: constant placements and the joints between them
+
+
+@dataclass(frozen=True)
+class ChainStep:
+    """One factor of a chain's pose product ``T_base_frame = S_0 S_1 ... S_m``.
+
+    A step is the constant placement ``[rotation, translation]`` (the
+    translation applied first, in the previous joint's frame, metres),
+    followed, for a joint step, by the joint's motion: a turn of ``q``
+    radians about ``axis`` (revolute) or a shift of ``q`` metres along it
+    (prismatic), ``q`` being column ``index`` of the robot's joint vector
+    (``robot.joint_names`` order). A fixed step (``index == -1``, ``axis``
+    None) is a placement only: the frame's own placement closes every chain,
+    and a base frame's inverse placement opens a chain that starts below
+    the root (:meth:`manipkit.kinematics.robot.Robot.chain`).
+
+    Attributes
+    ----------
+    rotation : ndarray, shape (3, 3)
+        Constant rotation of the step's frame in the previous joint's frame.
+    translation : ndarray, shape (3,)
+        Constant translation (m), in the previous joint's frame.
+    index : int
+        Column of the joint after the placement, or -1 for a fixed step.
+    prismatic : bool
+        The joint slides (m) instead of turning (rad).
+    axis : ndarray, shape (3,), or None
+        Unit joint axis in the joint's own frame (None for a fixed step).
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    index: int
+    prismatic: bool
+    axis: np.ndarray | None
 
 
 # --------------------------------------------------------------------------
@@ -322,13 +368,10 @@ class ChainFK:
 
     Parameters
     ----------
-    steps : sequence
-        The chain from the root (or a base frame), each step with ``rotation`` (3, 3) and
-        ``translation`` (3,) (the constant placement in the previous joint's
-        frame, applied translation first), ``index`` (column of ``Q`` of the
-        joint after it, or -1 for a fixed placement, e.g. the tip frame's),
-        ``prismatic`` (bool) and ``axis`` (3,) (unit, in the joint frame).
-        This is what ``Robot._chain(frame_id)`` holds; see :func:`chain_fk_for`.
+    steps : sequence of ChainStep
+        The chain from the root (or a base frame) down to the frame, as
+        :meth:`manipkit.kinematics.robot.Robot.chain` returns it; see also
+        :func:`chain_fk_for`.
     n_joints : int
         Columns of ``Q`` (all of the robot's movable joints).
     block : int, keyword-only
@@ -352,9 +395,9 @@ class ChainFK:
     True
     """
 
-    def __init__(self, steps: Sequence, n_joints: int, *, block: int = DEFAULT_BLOCK):
+    def __init__(self, steps: Sequence[ChainStep], n_joints: int, *, block: int = DEFAULT_BLOCK):
         if block < 1:
-            raise ValueError(f"block must be at least 1, got {block}")
+            raise ChainError(f"block must be at least 1 row, got {block}")
         self.n_joints = int(n_joints)
         self.block = int(block)
         segments = _segments(steps)
@@ -414,12 +457,12 @@ class ChainFK:
         """
         Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.n_joints:
-            raise ValueError(f"Q must have shape (N, {self.n_joints}), got {Q.shape}")
+            raise JointValueError(f"Q must have shape (N, {self.n_joints}), got {Q.shape}")
         n = Q.shape[0]
         if out is None:
             out = np.empty((n, 4, 4))
         elif out.shape != (n, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
-            raise ValueError(f"out must be a C-contiguous float64 array of shape ({n}, 4, 4)")
+            raise JointValueError(f"out must be a C-contiguous float64 array of shape ({n}, 4, 4), one pose per row of Q")
         kernel = _kernel()
         block = self.block
         full = n - n % block
@@ -451,15 +494,16 @@ def _columns(Q_block: np.ndarray, as_slice, columns: np.ndarray) -> np.ndarray:
 # Convenience
 
 
-def chain_fk(steps: Sequence, Q, *, n_joints: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def chain_fk(steps: Sequence[ChainStep], Q, *, n_joints: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(R (N, 3, 3), p (N, 3)) of the chain ``steps`` for every row of ``Q`` (prepares a :class:`ChainFK`)."""
     Q = np.asarray(Q, dtype=float)
     return ChainFK(steps, Q.shape[1] if n_joints is None else n_joints).rotations_translations(Q)
 
 
-def chain_fk_for(robot, frame: str) -> ChainFK:
+def chain_fk_for(robot: Robot, frame: str) -> ChainFK:
     """The prepared :class:`ChainFK` from ``robot``'s root link to ``frame`` (rows of Q in ``robot.joint_names`` order).
 
-    The one :meth:`manipkit.kinematics.robot.Robot.fk` uses (built once per robot and frame).
+    The one :meth:`manipkit.kinematics.robot.Robot.fk` uses (built once per
+    robot and frame): :meth:`manipkit.kinematics.robot.Robot.chain_fk`.
     """
-    return robot._fk_kernel(robot.frame_id(frame))
+    return robot.chain_fk(frame)

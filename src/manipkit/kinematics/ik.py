@@ -1,6 +1,6 @@
 """Numerical inverse kinematics for any URDF chain (Levenberg-Marquardt, compiled, checked by Pinocchio).
 
-Conventions (DESIGN.md), restated:
+Conventions (docs/architecture.md), restated:
 
 - ``target`` is ``T_base_frame``: the wanted pose of ``frame`` expressed in
   ``base``, a 4x4 homogeneous matrix in metres, the same direction as
@@ -49,21 +49,28 @@ import math
 import numbers
 import weakref
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
 from manipkit.kinematics.ik_kernel import MODE_CODES, error_and_jacobian, lm_attempt, pack_chain
-from manipkit.spatial.rotations import check_rotation, rotation_angle_between, wrap_angle
+from manipkit.spatial.rotations import wrap_angle
+from manipkit.spatial.transforms import check_transform
 
-__all__ = ["AnalyticIK", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "analytic_ik", "ik", "ik_solver"]
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["AXES", "DISTINCT_TOL", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "MODES", "ik", "ik_solver"]
 
 MODES = ("pose", "position", "position+axis")
 AXES = ("x", "y", "z")
 DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solution
+TARGET_TOL = 1e-6  # how far a target may be from a rigid transform (check_transform's tol)
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 _EYE3 = np.eye(3)
+
 
 @dataclass(frozen=True, eq=False)
 class IKResult:
@@ -101,21 +108,36 @@ class IKResult:
     reason: str | None
     restarts: int
 
+    def as_solutions(self) -> IKSolutions:
+        """This answer as an :class:`IKSolutions`: one solution on success, none otherwise (``best`` is this answer).
+
+        So one presenter prints a single answer, ``all=True`` answers and
+        closed-form answers alike (same properties, see :class:`IKSolutions`).
+        """
+        return IKSolutions((self,) if self.success else (), self, self.iterations, self.restarts + 1)
+
 
 @dataclass(frozen=True, eq=False)
 class IKSolutions:
     """The distinct solutions found with ``all=True``, a sequence of :class:`IKResult`.
 
-    ``len(solutions)``, iteration and indexing go over the successful,
+    ``len(found)``, iteration and indexing go over the successful,
     pairwise distinct answers in the order found: any two differ by more
     than 1e-6 (rad or m) on some chain joint, angles compared modulo 2 pi (so
     ``q`` and ``q + 2 pi`` on a joint with wide limits count once). ``best``
     is the first solution, or, when there is none, the best failed attempt
     with its ``reason``.
 
+    Shares ``solutions``, ``labels``, ``count``, ``reason``, ``success``,
+    ``residual_position``, ``residual_rotation`` and ``residuals`` with the
+    closed-form :class:`manipkit.closed_form.result.ClosedFormSolutions`, so
+    one presenter prints either; :meth:`IKResult.as_solutions` turns a single
+    answer into one of these.
+
     Attributes
     ----------
-    solutions : tuple of IKResult
+    results : tuple of IKResult
+        The successful answers (what iteration and indexing go over).
     best : IKResult
     iterations : int
         Iterations summed over every attempt.
@@ -123,23 +145,65 @@ class IKSolutions:
         Starts tried (1 + restarts).
     """
 
-    solutions: tuple[IKResult, ...]
+    results: tuple[IKResult, ...]
     best: IKResult
     iterations: int
     attempts: int
 
     def __len__(self) -> int:
-        return len(self.solutions)
+        return len(self.results)
 
     def __iter__(self):
-        return iter(self.solutions)
+        return iter(self.results)
 
     def __getitem__(self, index):
-        return self.solutions[index]
+        return self.results[index]
+
+    @property
+    def solutions(self) -> np.ndarray:
+        """(k, n) read-only: the joint vector of each answer, in ``robot.joint_names`` order."""
+        Q = np.array([r.q for r in self.results], dtype=float).reshape(len(self.results), self.best.q.size)
+        Q.setflags(write=False)
+        return Q
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """``""`` per answer: a numerical solver does not name its branches."""
+        return ("",) * len(self.results)
+
+    @property
+    def count(self) -> int:
+        """Solutions found (a numerical search does not prove there are no others, nor count a continuum)."""
+        return len(self.results)
+
+    @property
+    def reason(self) -> str:
+        """``""`` when a solution was found, else why not (the best attempt's reason)."""
+        return "" if self.results else (self.best.reason or "")
+
+    @property
+    def success(self) -> bool:
+        """At least one solution."""
+        return bool(self.results)
+
+    @property
+    def residual_position(self) -> np.ndarray:
+        """(k,) m: distance between the reached and the wanted frame origin, per answer."""
+        return np.array([r.residual_position for r in self.results], dtype=float)
+
+    @property
+    def residual_rotation(self) -> np.ndarray:
+        """(k,) rad: rotation residual per answer (see :func:`ik` for what it measures in each mode)."""
+        return np.array([r.residual_rotation for r in self.results], dtype=float)
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """(k, 2): position (m) and rotation (rad) residual of each answer."""
+        return np.column_stack([self.residual_position, self.residual_rotation]).reshape(-1, 2)
 
 
 def ik(
-    robot,
+    robot: Robot,
     target,
     *,
     frame: str = "ee_link",
@@ -227,6 +291,7 @@ def ik(
     >>> bool(np.allclose(robot.transform("base_link", "ee_link", result.q), T_base_ee, atol=1e-9))
     True
     """
+    # Over 80 lines: the docstring (every option and the conventions) is nearly all of it.
     solver = ik_solver(robot, frame=frame, base=base, mode=mode, axis=axis)
     return solver.solve(
         target, q0=q0, tol=tol, max_iters=max_iters, restarts=restarts, seed=seed, all=all, damping=damping
@@ -236,7 +301,7 @@ def ik(
 _SOLVERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def ik_solver(robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z") -> "IKSolver":
+def ik_solver(robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z") -> "IKSolver":
     """The prepared :class:`IKSolver` for a robot, frame pair and mode (built once, then cached per robot)."""
     key = (robot.frame(frame), robot.frame(base), mode, axis)
     per_robot = _SOLVERS.setdefault(robot, {})
@@ -305,7 +370,7 @@ class IKSolver:
     STALL_GAIN = 0.9
     SHRINK_MIN = 0.1
 
-    def __init__(self, robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z"):
+    def __init__(self, robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z"):
         if mode not in MODES:
             raise IKOptionError(f"unknown IK mode '{mode}'; modes: {', '.join(MODES)}")
         if axis not in AXES:
@@ -350,7 +415,7 @@ class IKSolver:
         self._first_joint = joint_ids[0]
 
         # The compiled iteration's view of the chain, root to frame (manipkit.kinematics.ik_kernel).
-        steps = robot._chain(self._frame_id)
+        steps = robot.chain(self.frame)
         self._geometry, self._kinds = pack_chain(steps, self._chain_user)
         above_base = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
         self._fixed_steps = np.array(above_base, dtype=np.intp)  # joints above the base: constant in a solve
@@ -522,26 +587,28 @@ class IKSolver:
         return q
 
     def _target_matrix(self, target) -> np.ndarray:
+        """``target`` as T_base_frame (4, 4), validated by :func:`manipkit.spatial.transforms.check_transform`.
+
+        Mode ``"position"`` also takes a 3-vector (the wanted origin). A
+        target that is plainly rigid (every test of ``check_transform``
+        passes with room to spare, in a few microseconds) skips the full
+        check, which costs as much as a solve; anything else gets it, and
+        its verdict.
+        """
         try:
             T = np.array(target, dtype=float)
         except (TypeError, ValueError):
-            raise InvalidTransformError(f"IK target: entries are not all numbers: {target!r:.80}") from None
-        if self.mode == "position" and T.shape == (3,):
-            position = T
-            T = np.eye(4)
+            T = None
+        if T is not None and self.mode == "position" and T.shape == (3,):
+            position, T = T, np.eye(4)
             T[:3, 3] = position
-        if T.shape != (4, 4):
+        if T is not None and T.shape != (4, 4):
             shapes = "(4, 4) or, for mode 'position', (3,)" if self.mode == "position" else "(4, 4)"
-            raise InvalidTransformError(f"IK target must be a homogeneous transform T_base_frame of shape {shapes}, got shape {T.shape}")
-        if not math.isfinite(float(T.sum())):
-            raise InvalidTransformError("IK target has non-finite entries")
-        if float(np.abs(T[3] - _LAST_ROW).max()) > 1e-9:
-            raise InvalidTransformError(f"IK target's last row is {T[3].tolist()}, expected [0, 0, 0, 1]")
-        R = T[:3, :3]
-        (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-        det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-        if abs(det - 1.0) > 1e-6 or float(np.abs(R.T @ R - _EYE3).max()) > 1e-6:
-            check_rotation(R, tol=1e-6, what="IK target rotation")  # raises, naming the problem
+            raise InvalidTransformError(
+                f"IK target must be a homogeneous transform T_base_frame of shape {shapes}, got shape {T.shape}"
+            )
+        if T is None or not _plainly_rigid(T):
+            T = check_transform(target, tol=TARGET_TOL, what="IK target")
         T[3] = _LAST_ROW
         return T
 
@@ -560,6 +627,17 @@ class IKSolver:
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)"
 
 
+def _plainly_rigid(T: np.ndarray) -> bool:
+    """Finite, last row [0 0 0 1] and ``R^T R = I``, ``det R = 1`` within ``TARGET_TOL / 2``: then
+    :func:`manipkit.spatial.transforms.check_transform` (tolerance ``TARGET_TOL``) passes too."""
+    if not math.isfinite(float(T.sum())) or float(np.abs(T[3] - _LAST_ROW).max()) > TARGET_TOL / 2:
+        return False
+    R = T[:3, :3]
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return abs(det - 1.0) <= TARGET_TOL / 2 and float(np.abs(R.T @ R - _EYE3).max()) <= TARGET_TOL / 2
+
+
 def _tolerances(tol) -> tuple[float, float]:
     if type(tol) is float and tol > 0.0 and math.isfinite(tol):  # the common case, fast
         return tol, tol
@@ -572,107 +650,15 @@ def _tolerances(tol) -> tuple[float, float]:
     return float(values[0]), float(values[-1])
 
 
-# --------------------------------------------------------------------------
-# Closed-form solvers of the bundled textbook arms
+def __getattr__(name: str):
+    # Transitional: analytic_ik binds bundled robots to closed-form solvers, so it lives in the
+    # closed_form layer now (kinematics does not import closed_form). Delete once the CLI calls
+    # manipkit.closed_form.robots.analytic_ik.
+    if name == "analytic_ik":
+        import importlib
+        import warnings
 
-
-@dataclass(frozen=True)
-class AnalyticIK:
-    """Every closed-form solution of a bundled textbook arm, checked through the URDF model.
-
-    Attributes
-    ----------
-    solver : str
-        The closed-form function used (e.g. ``decoupled.ik_stanford``).
-    solutions : tuple of ndarray
-        Joint vectors in ``robot.joint_names`` order, each verified with
-        Pinocchio's FK of the URDF (``T_base_link_ee_link``) to ``tol``.
-    labels : tuple of str
-        The solver's label of each solution (elbow up/down, wrist flip, ...).
-    count : int or float
-        Number of solutions the solver reports (``inf`` for a continuum,
-        of which ``solutions`` holds representatives).
-    reason : str or None
-        The solver's explanation (why none, singular families, ...).
-    residuals : ndarray, shape (k, 2)
-        URDF position (m) and rotation (rad) error of each solution.
-    """
-
-    solver: str
-    solutions: tuple
-    labels: tuple[str, ...]
-    count: float
-    reason: str | None
-    residuals: np.ndarray
-
-
-def _planar_2r(robot, T, args):
-    from manipkit.closed_form import planar
-
-    result = planar.ik_2r(T[0, 3], T[1, 3], float(args["l1"]), float(args["l2"]))
-    return "planar.ik_2r (position x, y)", result.solutions, result.labels, result.count, result.reason
-
-
-def _planar_3r(robot, T, args):
-    from manipkit.closed_form import planar
-
-    phi = math.atan2(T[1, 0], T[0, 0])
-    result = planar.ik_3r(T[0, 3], T[1, 3], phi, *(float(args[k]) for k in ("l1", "l2", "l3")))
-    return "planar.ik_3r (x, y, phi)", result.solutions, result.labels, result.count, result.reason
-
-
-def _decoupled(function, names, limits=None):
-    def solve(robot, T, args):
-        from manipkit.closed_form import decoupled
-
-        kwargs = {name: float(args[name]) for name in names}
-        if limits is not None:
-            kwargs["d3_limits"] = limits(args)
-        result = getattr(decoupled, function)(T, **kwargs)
-        return f"decoupled.{function}", result.solutions, result.labels, result.count, result.reason
-
-    return solve
-
-
-ANALYTIC_SOLVERS = {
-    "planar_2r": _planar_2r,
-    "planar_3r": _planar_3r,
-    "scara": _decoupled("ik_scara", ("a1", "a2", "d1", "d4"), lambda a: (0.0, float(a["d3_max"]))),
-    "stanford_arm": _decoupled("ik_stanford", ("d1", "d2", "d6"), lambda a: (float(a["d3_min"]), float(a["d3_max"]))),
-    "elbow_arm": _decoupled("ik_elbow", ("d1", "a2", "a3", "d6")),
-}
-
-
-def analytic_ik(robot, target, *, tol: float = 1e-9) -> AnalyticIK:
-    """All closed-form IK solutions for ``T_base_link_ee_link = target`` on a bundled textbook arm.
-
-    The solver parameters (link lengths, offsets, prismatic limits) are the
-    robot's xacro arguments, so ``load("stanford_arm", d2=0.2)`` is solved
-    with d2 = 0.2. Each solution is checked again through the URDF model.
-
-    Raises
-    ------
-    IKOptionError
-        If the robot has no closed-form solver here (the message lists those that do).
-    """
-    solve = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
-    if solve is None:
-        raise IKOptionError(
-            f"no closed-form solver for robot '{robot.name}'; closed forms exist for "
-            f"{', '.join(ANALYTIC_SOLVERS)} (use numerical IK otherwise)"
-        )
-    T = np.asarray(target, dtype=float)
-    name, solutions, labels, count, reason = solve(robot, T, robot.xacro_args)
-    kept, kept_labels, residuals = [], [], []
-    for q, label in zip(np.atleast_2d(solutions), labels):
-        if q.size != len(robot.joint_names):
-            continue
-        T_q = robot.transform("base_link", "ee_link", q)
-        position = float(np.linalg.norm(T_q[:3, 3] - T[:3, 3]))
-        rotation = 0.0 if robot.source.name == "planar_2r" else float(
-            rotation_angle_between(T_q[:3, :3], T[:3, :3], check=False))
-        if position <= tol and rotation <= tol:
-            kept.append(np.array(q, dtype=float))
-            kept_labels.append(label)
-            residuals.append((position, rotation))
-    return AnalyticIK(name, tuple(kept), tuple(kept_labels), count, reason, np.array(residuals).reshape(-1, 2))
+        warnings.warn("manipkit.kinematics.ik.analytic_ik moved to manipkit.closed_form.robots.analytic_ik",
+                      DeprecationWarning, stacklevel=2)
+        return importlib.import_module("manipkit.closed_form.robots").analytic_ik
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -9,7 +9,7 @@ a start to convergence, runs as one machine-code loop.
 Conventions:
 
 - The chain is the list of Pinocchio joints from the model root to the tip
-  frame (:meth:`manipkit.kinematics.robot.Robot._chain`), packed by :func:`pack_chain`:
+  frame (:meth:`manipkit.kinematics.robot.Robot.chain`), packed by :func:`pack_chain`:
   row ``k`` of ``geometry`` is the placement of joint ``k`` in its parent
   joint's frame (``R`` row-major, 9 numbers; ``t``, 3 numbers, metres) and
   the joint's unit axis in its own frame (3 numbers); the last row is the tip
@@ -34,21 +34,27 @@ function, tested on its own against Pinocchio and numpy.
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import numpy as np
 from numba import njit
 
-__all__ = ["MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempt", "log3", "pack_chain", "solve_linear"]
+from manipkit.kinematics.chain import ChainStep
+
+__all__ = [
+    "MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempt", "log3", "pack_chain", "solve_linear",
+    "warm_up",
+]
 
 MODE_CODES = {"pose": 0, "position": 1, "position+axis": 2}
 _REVOLUTE, _PRISMATIC, _TIP = 0, 1, -1
 _TWO_PI = 2.0 * math.pi
 
 
-def pack_chain(steps, chain_user_columns) -> tuple[np.ndarray, np.ndarray]:
+def pack_chain(steps: Sequence[ChainStep], chain_user_columns) -> tuple[np.ndarray, np.ndarray]:
     """(geometry (S+1, 15) float, kinds (S+1, 2) int) of root-to-tip ``steps`` for the kernel.
 
-    ``steps`` are :class:`manipkit.kinematics.robot._ChainStep` (the last one, index -1,
+    ``steps`` are :class:`manipkit.kinematics.chain.ChainStep` (the last one, index -1,
     is the tip); ``chain_user_columns[j]`` is the position in the robot's
     joint vector of the ``j``-th solved joint.
     """
@@ -282,6 +288,9 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
     Nielsen's damping update, limits by projection with an active set, the
     stall test), step for step.
     """
+    # Over 80 lines: one compiled loop, step for step the algorithm documented in IKSolver; its fifteen
+    # work arrays would have to be passed to every piece if it were split, and the loop is easiest to check
+    # against that description whole.
     n = x0.shape[0]
     rows = 3 if mode == 1 else 6
     R = np.empty((3, 3))
@@ -410,10 +419,8 @@ def warm_up() -> None:
     solve of a new installation does not pay the few seconds of compilation.
     The argument types are those :class:`manipkit.kinematics.ik.IKSolver` passes.
     """
-    from manipkit.kinematics.robot import _ChainStep
-
-    steps = [_ChainStep(np.eye(3), np.zeros(3), 0, False, np.array([0.0, 0.0, 1.0])),
-             _ChainStep(np.eye(3), np.array([1.0, 0.0, 0.0]), -1, False, None)]
+    steps = [ChainStep(np.eye(3), np.zeros(3), 0, False, np.array([0.0, 0.0, 1.0])),
+             ChainStep(np.eye(3), np.array([1.0, 0.0, 0.0]), -1, False, None)]
     geometry, kinds = pack_chain(steps, [0])
     R_target, p_target = np.eye(3), np.array([0.0, 1.0, 0.0])
     lower, upper, wrap = np.array([-math.pi]), np.array([math.pi]), np.array([True])

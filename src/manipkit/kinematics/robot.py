@@ -1,6 +1,6 @@
 """A loaded robot: Pinocchio model, joints by name, transforms between frames.
 
-Conventions (DESIGN.md):
+Conventions (docs/architecture.md):
 
 - Units are metres and radians.
 - ``T_a_b`` is the pose of frame b expressed in frame a, a 4x4 homogeneous
@@ -27,11 +27,14 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.description.packages import PackageResolver
 from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.description.validate import check_urdf, package_uri_warnings
+from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
+from manipkit.kinematics.chain import ChainFK, ChainStep
+
+__all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Robot", "load"]
 
 BASE_ALIASES = ("base_link", "world")
 EE_ALIAS = "ee_link"
@@ -73,15 +76,6 @@ class Joint:
     def default(self) -> float:
         """0, or the nearest value inside the limits."""
         return float(min(max(0.0, self.lower), self.upper))
-
-
-@dataclass(frozen=True)
-class _ChainStep:
-    rotation: np.ndarray  # joint placement in its parent joint frame
-    translation: np.ndarray
-    index: int  # position in the user's joint vector
-    prismatic: bool
-    axis: np.ndarray
 
 
 def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> "Robot":
@@ -159,8 +153,8 @@ class Robot:
             if frame.type == pin.FrameType.BODY:  # links only, first of a name wins
                 self._frame_ids.setdefault(frame.name, frame_id)
         self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
-        self._chains: dict[tuple, list[_ChainStep]] = {}  # (frame id, base id or None) -> steps
-        self._fk_kernels: dict = {}  # (frame id, base id or None) -> manipkit.kinematics.chain.ChainFK, built on first use
+        self._chains: dict[tuple, list[ChainStep]] = {}  # (frame id, base id or None) -> steps
+        self._fk_kernels: dict[tuple, ChainFK] = {}  # (frame id, base id or None) -> batched FK, built on first use
         # Index arrays for pinocchio_configuration: where each joint value goes in Pinocchio's q.
         self._neutral_config = pin.neutral(model)
         idx_q = np.array([model.joints[model.getJointId(j.name)].idx_q for j in self.joints], dtype=np.intp)
@@ -491,17 +485,90 @@ class Robot:
         base_id = None if base is None or self.frame(base) == self.root_link else self.frame_id(base)
         if base_id is None or self._is_above(base_id, frame_id):
             # One kernel over the chain from the base down to the frame.
-            return self._fk_kernel(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
+            return self._chain_fk_by_id(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
         # Base on another branch (or below the frame): T_base_frame = T_root_base^-1 T_root_frame.
-        T = self._fk_kernel(frame_id).transforms(flat)
-        T_root_base = self._fk_kernel(base_id).transforms(flat)
+        T = self._chain_fk_by_id(frame_id).transforms(flat)
+        T_root_base = self._chain_fk_by_id(base_id).transforms(flat)
         R_base_t = np.swapaxes(T_root_base[:, :3, :3], -1, -2)
         T[:, :3, 3] = np.einsum("nij,nj->ni", R_base_t, T[:, :3, 3] - T_root_base[:, :3, 3])
         T[:, :3, :3] = R_base_t @ T[:, :3, :3]
         return T.reshape(*lead, 4, 4)
 
+    def chain(self, frame: str, base: str | None = None) -> list[ChainStep]:
+        """The steps of ``T_base_frame``: constant placements and the joints between them.
+
+        ``T_base_frame = S_0 S_1 ... S_m`` (see :class:`manipkit.kinematics.chain.ChainStep`):
+        each joint step is the joint's constant placement in its parent
+        joint's frame followed by its motion, and the last step is the
+        frame's constant placement in its parent joint's frame (a fixed
+        step, ``index`` -1). Pinocchio keeps the robot this way, so the
+        product is exactly its ``T_root_frame``:
+        ``M_1 J_1(q_1) ... M_k J_k(q_k) X_frame`` over the joints supporting
+        the frame.
+
+        Parameters
+        ----------
+        frame : str
+            The tip frame (aliases ``ee_link``, ``base_link`` allowed).
+        base : str, optional
+            The frame the product is expressed in; default (or the root link):
+            the root, ``T_root_frame``. Otherwise it must be above ``frame``
+            (an ancestor, or hanging off its path by fixed joints only); the
+            chain then starts with a fixed step ``X_base^-1 = [R^T, -R^T p]``
+            (the base's placement in its parent joint, inverted) and holds
+            only the joints below the base's parent joint.
+
+        Returns
+        -------
+        steps : list of ChainStep
+            Base (or root) first; joint steps name their column of the joint
+            vector (``joint_names`` order) in ``index``. Built once per
+            (frame, base) and shared: the arrays are read-only.
+
+        Raises
+        ------
+        UnknownFrameError
+            A frame the robot does not have.
+        ChainError
+            ``base`` is not above ``frame``.
+
+        Examples
+        --------
+        >>> robot = load("planar_2r")
+        >>> [step.index for step in robot.chain("ee_link")]
+        [0, 1, -1]
+        """
+        frame_id, base_id = self._chain_ids(frame, base)
+        return list(self._chain_by_id(frame_id, base_id))
+
+    def chain_fk(self, frame: str, base: str | None = None) -> ChainFK:
+        """The prepared batched FK (:class:`manipkit.kinematics.chain.ChainFK`) of :meth:`chain` (built once).
+
+        ``chain_fk(frame, base).transforms(Q)`` is ``T_base_frame`` (N, 4, 4)
+        for every row of ``Q`` (N, len(joint_names)); :meth:`fk` uses it,
+        and also handles a base that is not above the frame.
+
+        Examples
+        --------
+        >>> robot = load("planar_2r")
+        >>> robot.chain_fk("ee_link").transforms([[0.0, 0.0]])[0, :3, 3]
+        array([2., 0., 0.])
+        """
+        return self._chain_fk_by_id(*self._chain_ids(frame, base))
+
+    def _chain_ids(self, frame: str, base: str | None) -> tuple[int, int | None]:
+        """(frame id, base id or None for the root), after checking that the base is above the frame."""
+        frame_id = self.frame_id(frame)
+        if base is None or self.frame(base) == self.root_link:
+            return frame_id, None
+        base_id = self.frame_id(base)
+        if not self._is_above(base_id, frame_id):
+            self.chain_joints(base, frame)  # raises ChainError saying why (swap them, different branches)
+            raise ChainError(f"robot '{self.name}': '{self.frame(base)}' is not above '{self.frame(frame)}'")
+        return frame_id, base_id
+
     def _is_above(self, base_id: int, frame_id: int) -> bool:
-        """Whether T_base_frame depends only on joints between the two frames (see :meth:`_chain`).
+        """Whether T_base_frame depends only on joints between the two frames (see :meth:`chain`).
 
         True when the base frame's parent joint supports the frame: the base
         is an ancestor of the frame, or hangs off its path by fixed joints
@@ -510,20 +577,8 @@ class Robot:
         base_joint = self.model.frames[base_id].parentJoint
         return base_joint in self.model.supports[self.model.frames[frame_id].parentJoint]
 
-    def _chain(self, frame_id: int, base_id: int | None = None) -> list[_ChainStep]:
-        """The steps of T_base_frame: constant placements and the joints between them (built once).
-
-        Pinocchio keeps each link frame as a constant placement in its parent
-        joint's frame, so T_root_frame = M_1 J_1(q_1) ... M_k J_k(q_k) X_frame
-        over the joints supporting the frame, with M_i the placement of joint i
-        in joint i-1 (a step with the joint's column, kind and axis) and
-        X_frame the frame's placement (a fixed step, index -1).
-
-        With ``base_id`` (a frame for which :meth:`_is_above` holds; None is
-        the root link), the product starts below the base's parent joint j:
-        T_base_frame = X_base^-1 M_(j+1) J_(j+1)(q) ... X_frame, the inverse
-        X_base^-1 = [R^T, -R^T p] being one more fixed step.
-        """
+    def _chain_by_id(self, frame_id: int, base_id: int | None = None) -> list[ChainStep]:
+        """:meth:`chain` by Pinocchio frame ids (``base_id`` None: the root link), cached."""
         key = (frame_id, base_id)
         if key not in self._chains:
             frame = self.model.frames[frame_id]
@@ -534,32 +589,41 @@ class Robot:
                 base = self.model.frames[base_id]
                 below = support[support.index(base.parentJoint) + 1 :]
                 R, p = base.placement.rotation, base.placement.translation
-                steps = [_ChainStep(R.T.copy(), -R.T @ p, -1, False, None)]
+                steps = [_fixed_step(R.T, -R.T @ p)]
             for joint_id in below:
                 placement = self.model.jointPlacements[joint_id]
                 kind, axis = _joint_kind_axis(self.model, joint_id)
+                axis.setflags(write=False)
                 steps.append(
-                    _ChainStep(
-                        placement.rotation.copy(),
-                        placement.translation.copy(),
+                    ChainStep(
+                        _read_only(placement.rotation),
+                        _read_only(placement.translation),
                         self._joint_index[self.model.names[joint_id]],
                         kind == "prismatic",
                         axis,
                     )
                 )
-            steps.append(_ChainStep(frame.placement.rotation.copy(), frame.placement.translation.copy(), -1, False, None))
+            steps.append(_fixed_step(frame.placement.rotation, frame.placement.translation))
             self._chains[key] = steps
         return self._chains[key]
 
-    def _fk_kernel(self, frame_id: int, base_id: int | None = None):
-        """The compiled batched FK of :meth:`_chain` (:class:`manipkit.kinematics.chain.ChainFK`, built once)."""
+    def _chain_fk_by_id(self, frame_id: int, base_id: int | None = None) -> ChainFK:
+        """:meth:`chain_fk` by Pinocchio frame ids, cached (the hot path of :meth:`fk`)."""
         key = (frame_id, base_id)
         kernel = self._fk_kernels.get(key)
         if kernel is None:
-            from manipkit.kinematics.chain import ChainFK
-
-            kernel = self._fk_kernels[key] = ChainFK(self._chain(frame_id, base_id), len(self.joints))
+            kernel = self._fk_kernels[key] = ChainFK(self._chain_by_id(frame_id, base_id), len(self.joints))
         return kernel
+
+
+def _read_only(array) -> np.ndarray:
+    copy = np.array(array, dtype=float)
+    copy.setflags(write=False)
+    return copy
+
+
+def _fixed_step(rotation, translation) -> ChainStep:
+    return ChainStep(_read_only(rotation), _read_only(translation), -1, False, None)
 
 
 def _build_model(text: str) -> tuple[pin.Model | None, list[str]]:

@@ -1,0 +1,72 @@
+"""What the closed-form modules share: the planar argument checks and the numbers in their messages.
+
+The checks raise :class:`PlanarArmError` naming the value; they serve
+:mod:`manipkit.closed_form.planar`, :mod:`manipkit.closed_form.planar_workspace`
+and the analysis built on them. :func:`quantity_text` is how every
+closed-form message prints a length or angle.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.errors import PlanarArmError
+from manipkit.text import short_text
+
+__all__ = ["NOISE", "as_float", "finite_array", "link_length", "quantity_text", "tolerance"]
+
+NOISE = 1e-12  # lengths and angles below this print as 0 in messages (rounding noise)
+
+
+def quantity_text(value: float) -> str:
+    """A length (m) or angle (rad) in a message: :func:`manipkit.text.short_text`, with ``|value| <= NOISE`` as 0.
+
+    Examples
+    --------
+    >>> quantity_text(0.35), quantity_text(-1.2e-16)
+    ('0.35', '0')
+    """
+    return short_text(value, zero=NOISE)
+
+
+def as_float(value, what: str) -> np.ndarray:
+    """``value`` as a float array, or :class:`PlanarArmError` when it is not numeric."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise PlanarArmError(f"{what} must be numeric, got {value!r:.80}") from None
+
+
+def link_length(value, what: str) -> float:
+    """A link length (m): a finite scalar > 0."""
+    array = as_float(value, what)
+    if array.ndim != 0:
+        raise PlanarArmError(f"{what} must be a single number, got shape {array.shape}")
+    length = float(array)
+    if not math.isfinite(length) or length <= 0.0:
+        raise PlanarArmError(f"{what} = {length} is not a valid link length; it must be a finite number > 0")
+    return length
+
+
+def finite_array(value, what: str, *, shape_tail: tuple[int, ...] = (), scalar: bool = False) -> np.ndarray:
+    """Finite targets: a scalar (``scalar=True``), or an array ending in ``shape_tail``."""
+    array = as_float(value, what)
+    if scalar and array.ndim != 0:
+        raise PlanarArmError(f"{what} must be a single number, got shape {array.shape}; use the *_batch solver")
+    if shape_tail and array.shape[-len(shape_tail):] != shape_tail:
+        raise PlanarArmError(f"{what} must have shape (..., {', '.join(map(str, shape_tail))}), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        bad = np.argwhere(~np.isfinite(array))[0]
+        where = f"{what}[{', '.join(str(int(i)) for i in bad)}]" if array.ndim else what
+        raise PlanarArmError(f"{where} = {array[tuple(bad)]} is not finite; targets must be finite numbers")
+    return array
+
+
+def tolerance(tol) -> float:
+    """A tolerance: a number >= 0."""
+    tol = float(tol)
+    if not tol >= 0.0:
+        raise PlanarArmError(f"tol = {tol} must be a number >= 0")
+    return tol

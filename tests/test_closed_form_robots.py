@@ -1,0 +1,96 @@
+"""analytic_ik: the bundled textbook arms bound to their closed-form solvers, checked through the URDF.
+
+Every solution is put through Pinocchio's FK of the robot (an independent
+model: the URDF, not the DH table the solvers use) in these tests too.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.closed_form.result import ClosedFormSolutions
+from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
+from manipkit.errors import IKOptionError, InvalidTransformError
+from manipkit.kinematics.ik import ik
+
+
+@pytest.fixture(scope="module")
+def arms():
+    return {name: manipkit.load(name) for name in ANALYTIC_SOLVERS}
+
+
+@pytest.mark.parametrize(
+    "name, q, count",
+    [
+        ("planar_2r", [0.3, 0.5], 2),
+        ("planar_3r", [0.3, 0.5, -0.4], 2),
+        ("scara", [0.3, 1.2, 0.1, -0.5], 2),
+        ("stanford_arm", [0.4, 0.8, 0.6, 0.3, 1.0, -0.2], 4),
+        ("elbow_arm", [0.5, 0.4, -1.0, 0.3, 0.9, 0.2], 8),
+    ],
+)
+def test_every_solution_reaches_the_target_through_the_urdf(arms, name, q, count):
+    robot = arms[name]
+    T = robot.transform("base_link", "ee_link", q)
+    result = analytic_ik(robot, T)
+    assert isinstance(result, ClosedFormSolutions) and result.success
+    assert result.count == count == len(result.labels) and result.solutions.shape == (count, len(q))
+    assert result.joint_names == robot.joint_names and result.solver.split(".")[0] in ("planar", "decoupled")
+    for row, position, rotation in zip(result.solutions, result.residual_position, result.residual_rotation):
+        reached = robot.transform("base_link", "ee_link", row)
+        assert abs(np.linalg.norm(reached[:3, 3] - T[:3, 3]) - position) < 1e-12
+        assert position <= 1e-9 and rotation <= 1e-9
+    assert np.allclose(result.residuals, np.column_stack([result.residual_position, result.residual_rotation]))
+    assert min(np.abs(np.angle(np.exp(1j * (result.solutions - q)))).max(axis=1)) < 1e-7  # q is among them
+
+
+def test_a_wrist_singular_pose_is_a_family_named_by_its_free_joint(arms):
+    robot = arms["stanford_arm"]
+    T = robot.transform("base_link", "ee_link", [0.4, 0.8, 0.6, 0.3, 0.0, -0.2])
+    result = analytic_ik(robot, T)
+    assert result.count == math.inf and result.free_parameter == "theta4" and result.success
+    assert all("wrist singular" in label for label in result.labels[:1])
+
+
+def test_unreachable_target_says_why(arms):
+    robot = arms["planar_2r"]
+    T = np.eye(4)
+    T[0, 3] = 5.0
+    result = analytic_ik(robot, T)
+    assert not result.success and result.count == 0 and result.solutions.shape == (0, 2)
+    assert result.reason == "no solution: target too far: r = 5 > l1 + l2 = 2, outside by 3"
+
+
+def test_robot_without_a_closed_form_is_an_option_error():
+    with pytest.raises(IKOptionError, match="no closed-form solver for robot 'iiwa14'"):
+        analytic_ik(manipkit.load("iiwa14"), np.eye(4))
+
+
+def test_target_is_checked_as_a_transform(arms):
+    with pytest.raises(InvalidTransformError, match="IK target: det\\(R\\) = -1"):
+        analytic_ik(arms["elbow_arm"], np.diag([1.0, 1.0, -1.0, 1.0]))
+
+
+def test_closed_form_and_numerical_answers_print_alike(arms):
+    # The properties a presenter reads exist on both result types, with the same shapes.
+    robot = arms["elbow_arm"]
+    T = robot.transform("base_link", "ee_link", [0.5, 0.4, -1.0, 0.3, 0.9, 0.2])
+    for result in (analytic_ik(robot, T), ik(robot, T, all=True, restarts=3), ik(robot, T).as_solutions()):
+        k = len(result.labels)
+        assert result.success and result.count >= k > 0 and isinstance(result.reason, str)
+        assert result.solutions.shape == (k, 6) and result.residuals.shape == (k, 2)
+        assert result.residual_position.shape == result.residual_rotation.shape == (k,)
+
+
+def test_the_old_path_still_answers_with_a_deprecation_warning(arms):
+    import manipkit.kinematics.ik as ik_module
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        old = ik_module.analytic_ik
+    assert old is analytic_ik and caught and issubclass(caught[0].category, DeprecationWarning)
