@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed
 
 CHROMIUM := /usr/bin/chromium
 
-.PHONY: setup demo test browser notebooks clean
+.PHONY: setup demo test lint browser notebooks clean
 
 setup: $(STAMP)
 
@@ -29,8 +29,12 @@ $(CHROMIUM):
 	@if [ "$$(id -u)" = 0 ]; then sudo=; else sudo=sudo; fi; \
 	$$sudo apt-get update -qq && $$sudo apt-get install -y -qq chromium chromium-driver
 
-test: setup browser
+test: setup browser lint
 	$(BIN)/python -m pytest
+
+# Style and import checks (ruff, configured in pyproject.toml); part of `make test`.
+lint: setup
+	$(BIN)/ruff check src tests benchmarks
 
 notebooks: setup
 	$(BIN)/python -m pip install --quiet -e '.[notebooks]'

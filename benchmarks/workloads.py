@@ -20,6 +20,7 @@ import gc
 import json
 import math
 import os
+import queue
 import shutil
 import signal
 import socket
@@ -28,7 +29,6 @@ import sys
 import tempfile
 import threading
 import time
-import queue
 from pathlib import Path
 
 import numpy as np

@@ -14,9 +14,14 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.kinematics.robot import Robot
+from manipkit.analysis.workspace import (
+    planar_link_lengths,
+    planar_workspace,
+    plot_planar_workspace,
+    sample_planar_workspace,
+)
 from manipkit.closed_form.planar import PlanarArmError
-from manipkit.analysis.workspace import planar_link_lengths, planar_workspace, plot_planar_workspace, sample_planar_workspace
+from manipkit.kinematics.robot import Robot
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

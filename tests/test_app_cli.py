@@ -8,10 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from reference import POSE_A, POSE_B, course_arm_T_base_ee, course_arm_T_base_top_wrist
 
 from manipkit.description.sources import bundled_robots
-
-from reference import POSE_A, POSE_B, course_arm_T_base_ee, course_arm_T_base_top_wrist
 
 BIN = Path(sys.executable).parent
 JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")

@@ -20,15 +20,32 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from reference import (
+    COURSE_ARM_JOINTS as COURSE_ARM_TABLE,
+)
+from reference import (
+    POSE_A,
+    compose_chain,
+    course_arm_T_base_ee,
+    course_arm_T_base_top_wrist,
+    matrix_from_axis_angle,
+    matrix_from_rpy,
+    rot_z,
+    urdf_origin,
+)
 
 import manipkit
-from manipkit.errors import JointValueError, ManipkitError, PackageNotFoundError, UnknownFrameError
 from manipkit.app.pose import pose_text
-from manipkit.app.viewer import TRIAD_PATHS, VISUALS_ROOT, ViewerServer, ViewerState, open_view, visual_model, write_static
-from reference import (
-    COURSE_ARM_JOINTS as COURSE_ARM_TABLE, POSE_A, compose_chain, course_arm_T_base_ee, course_arm_T_base_top_wrist,
-    matrix_from_axis_angle, matrix_from_rpy, rot_z, urdf_origin,
+from manipkit.app.viewer import (
+    TRIAD_PATHS,
+    VISUALS_ROOT,
+    ViewerServer,
+    ViewerState,
+    open_view,
+    visual_model,
+    write_static,
 )
+from manipkit.errors import JointValueError, ManipkitError, PackageNotFoundError, UnknownFrameError
 
 BIN = Path(sys.executable).parent
 COURSE_ARM_JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")

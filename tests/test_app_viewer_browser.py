@@ -323,7 +323,7 @@ def test_reset_returns_to_the_start_pose(page):
 def test_slider_to_readout_round_trip(page):
     """30 slider moves, one at a time; the page's own timings are reported (no timed assertion)."""
     for i in range(30):
-        after_change(page, lambda: move_slider(page, "bottom_wrist_joint", round(0.05 * (i + 1), 6)))
+        after_change(page, lambda i=i: move_slider(page, "bottom_wrist_joint", round(0.05 * (i + 1), 6)))
     timings = page.evaluate("window.manipkitTimings.slice(-30)")
     assert len(timings) == 30 and all(t > 0 for t in timings)
     median, p95 = statistics.median(timings), float(np.percentile(timings, 95))

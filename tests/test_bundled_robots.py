@@ -20,30 +20,30 @@ import numpy as np
 import pytest
 import xacro
 import yourdfpy
-
-import manipkit
-from manipkit.description.sources import bundled_robots
 from reference import (
-    rot_y,
-    rot_z,
-    homogeneous,
-    compose_chain,
     COURSE_ARM_JOINT_NAMES,
     COURSE_ARM_JOINTS,
-    T_TOP_WRIST_EE_LINK,
     COURSE_ARM_POSES,
     IIWA_JOINT_NAMES,
     IIWA_JOINTS,
     IIWA_LIMITS,
     IIWA_LIMITS_DEG,
+    MOBILE_ARM_JOINTS,
+    T_BASE_FOOTPRINT_BASE_LINK,
+    T_BASE_LINK_LIDAR_LINK,
     T_IIWA_LINK_7_EE_LINK,
+    T_TOP_WRIST_EE_LINK,
     WHEEL_RADIUS,
     WHEEL_X,
     WHEEL_Y,
-    T_BASE_FOOTPRINT_BASE_LINK,
-    T_BASE_LINK_LIDAR_LINK,
-    MOBILE_ARM_JOINTS,
+    compose_chain,
+    homogeneous,
+    rot_y,
+    rot_z,
 )
+
+import manipkit
+from manipkit.description.sources import bundled_robots
 
 TOL = 1e-12
 ROBOTS_DIR = pathlib.Path(__file__).resolve().parents[1] / "robots"
@@ -76,19 +76,12 @@ def expand(name, **args):
 # --------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def course_arm():
-    return manipkit.load("course_arm")
+# course_arm and iiwa14: session fixtures of conftest.py
 
 
 @pytest.fixture(scope="module")
-def iiwa14():
-    return manipkit.load("iiwa14")
-
-
-@pytest.fixture(scope="module")
-def mobile():
-    return manipkit.load("mobile_manipulator")
+def mobile(load_robot):
+    return load_robot("mobile_manipulator")
 
 
 # --------------------------------------------------------------------------

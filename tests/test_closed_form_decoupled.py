@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 import pytest
+import yourdfpy
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-import yourdfpy
 
 import manipkit
 from manipkit.closed_form.decoupled import (
@@ -28,10 +28,10 @@ from manipkit.closed_form.decoupled import (
     stanford_dh_table,
     wrist_center,
 )
+from manipkit.description.sources import bundled_dh_tables
 from manipkit.dh import dh_fk, load_dh
 from manipkit.dh.check import check_dh
 from manipkit.errors import ClosedFormIKError, InvalidTransformError, ManipkitError
-from manipkit.description.sources import bundled_dh_tables
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, rotation_angle_between
 
 TOL = 1e-9
@@ -43,18 +43,18 @@ SETTINGS = settings(max_examples=100, deadline=None)
 
 
 @pytest.fixture(scope="module")
-def scara():
-    return manipkit.load("scara")
+def scara(load_robot):
+    return load_robot("scara")
 
 
 @pytest.fixture(scope="module")
-def stanford():
-    return manipkit.load("stanford_arm")
+def stanford(load_robot):
+    return load_robot("stanford_arm")
 
 
 @pytest.fixture(scope="module")
-def elbow():
-    return manipkit.load("elbow_arm")
+def elbow(load_robot):
+    return load_robot("elbow_arm")
 
 
 def urdf_pose(robot, q):

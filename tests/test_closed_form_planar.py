@@ -21,7 +21,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.errors import ManipkitError
 from manipkit.closed_form.planar import (
     ClosedFormSolutions,
     PlanarArmError,
@@ -36,6 +35,7 @@ from manipkit.closed_form.planar import (
     workspace_2r,
     workspace_3r,
 )
+from manipkit.errors import ManipkitError
 
 PI = math.pi
 SETTINGS = settings(deadline=None, max_examples=60)
@@ -50,7 +50,7 @@ lengths = st.floats(0.1, 5.0, allow_nan=False)
 angles = st.floats(-PI, PI, allow_nan=False)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def robot(*link_lengths: float):
     """The bundled planar arm with these link lengths (xacro args l1, l2[, l3])."""
     name = {2: "planar_2r", 3: "planar_3r"}[len(link_lengths)]

@@ -7,7 +7,6 @@ model: the URDF, not the DH table the solvers use) in these tests too.
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest
@@ -85,12 +84,3 @@ def test_closed_form_and_numerical_answers_print_alike(arms):
         assert result.success and result.count >= k > 0 and isinstance(result.reason, str)
         assert result.solutions.shape == (k, 6) and result.residuals.shape == (k, 2)
         assert result.residual_position.shape == result.residual_rotation.shape == (k,)
-
-
-def test_the_old_path_still_answers_with_a_deprecation_warning(arms):
-    import manipkit.kinematics.ik as ik_module
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        old = ik_module.analytic_ik
-    assert old is analytic_ik and caught and issubclass(caught[0].category, DeprecationWarning)

@@ -6,10 +6,10 @@ from pathlib import Path
 import pytest
 
 import manipkit
-from manipkit.errors import DescriptionError, PackageNotFoundError, UnknownRobotError
 from manipkit.description.packages import PackageResolver
 from manipkit.description.sources import bundled_robots, example_robot_data_arms, example_robot_data_dir, resolve_robot
 from manipkit.description.xacro import urdf_text
+from manipkit.errors import DescriptionError, PackageNotFoundError, UnknownRobotError
 
 
 def test_bundled_robots_are_the_five_of_the_foundation():
@@ -189,4 +189,4 @@ def test_names_moved_out_of_sources_still_import_from_it_with_a_warning():
     with pytest.warns(DeprecationWarning, match="moved to manipkit.description.packages.PackageResolver"):
         assert sources.PackageResolver is moved
     with pytest.raises(AttributeError):
-        sources.no_such_name
+        _ = sources.no_such_name

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.errors import DescriptionError, JointLimitError, PackageNotFoundError
-from manipkit.kinematics.robot import Robot, _build_model
 from manipkit.description.packages import PackageResolver
 from manipkit.description.validate import check_urdf, package_uri_warnings
+from manipkit.errors import DescriptionError, JointLimitError, PackageNotFoundError
+from manipkit.kinematics.robot import Robot, _build_model
 
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 BOX = '<visual><geometry><box size="1 1 1"/></geometry></visual>'
@@ -112,7 +112,7 @@ CASES = {
     "origin_beyond_any_robot": (urdf(*LINKS, joint(origin="1.7e308 0 0")),
                                 "joint 'j1' <origin> xyz=\"1.7e308 0 0\": 1.7e308 m is no robot dimension; expected |value| <= 1e+06 m"),
     "commas_in_a_vector": (urdf(*LINKS, joint(origin="0,0,1")), "has 1 value; expected 3 finite numbers (m) separated by spaces, not commas"),
-    "bad_colour": (urdf(LINKS[0], arm_link(f'<visual><geometry><box size="1 1 1"/></geometry><material name="m"><color rgba="1 0 0"/></material></visual>'), joint()),
+    "bad_colour": (urdf(LINKS[0], arm_link('<visual><geometry><box size="1 1 1"/></geometry><material name="m"><color rgba="1 0 0"/></material></visual>'), joint()),
                    "link 'arm' <visual> <material> <color> rgba=\"1 0 0\" has 3 values; expected 4 finite numbers"),
 }
 

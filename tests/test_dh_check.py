@@ -19,14 +19,7 @@ from manipkit.dh.check import check_dh, screws
 PLANAR_3R = [DHRow(4.0, 0.0, 0.0, 0.0), DHRow(2.0, 0.0, 0.0, 0.0), DHRow(1.0, 0.0, 0.0, 0.0)]
 
 
-@pytest.fixture(scope="module")
-def planar_3r():
-    return manipkit.load("planar_3r")
-
-
-@pytest.fixture(scope="module")
-def iiwa14():
-    return manipkit.load("iiwa14")
+# planar_3r and iiwa14: session fixtures of conftest.py
 
 
 def seed_iiwa_table():

@@ -15,7 +15,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import manipkit
 from manipkit.dh import DHRow, DHTable, dh_fk, urdf_from_dh
 from manipkit.dh.from_urdf import DHDerivationError, dh_from_urdf_chain
 from manipkit.errors import ChainError, ManipkitError, UnknownFrameError
@@ -47,15 +46,8 @@ def test_every_bundled_robot_has_a_chain_here():
 
 
 @pytest.fixture(scope="module")
-def robots():
-    cache = {}
-
-    def get(name):
-        if name not in cache:
-            cache[name] = manipkit.load(name)
-        return cache[name]
-
-    return get
+def robots(load_robot):
+    return load_robot
 
 
 # --------------------------------------------------------------------------

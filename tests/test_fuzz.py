@@ -62,10 +62,10 @@ from hypothesis import strategies as st
 from lxml import etree
 
 import manipkit
-from manipkit.errors import ManipkitError
-from manipkit.kinematics.robot import Robot
 from manipkit.description.sources import bundled_dir, bundled_robots, resolve_robot
 from manipkit.description.xacro import urdf_text
+from manipkit.errors import ManipkitError
+from manipkit.kinematics.robot import Robot
 
 EXAMPLES = int(os.environ.get("MANIPKIT_FUZZ_EXAMPLES", "300"))
 FUZZING = "MANIPKIT_FUZZ_EXAMPLES" in os.environ  # make fuzz: fresh randomness, example database
@@ -681,7 +681,7 @@ def xacro_includes(text: str) -> list[str]:
 def xacro_seeds() -> dict[str, tuple[str, ...]]:
     """Top-level xacro file -> the files it is made of (itself and its includes, transitively)."""
     seeds = {}
-    for name, path in sorted(bundled_robots().items()):
+    for path in sorted(bundled_robots().values()):
         files, todo = [path.name], [path.name]
         while todo:
             for included in xacro_includes((bundled_dir() / todo.pop()).read_text()):

@@ -13,15 +13,14 @@ import math
 import numpy as np
 import pytest
 
-import manipkit
 from manipkit.errors import InvalidTransformError, JointValueError
 from manipkit.kinematics.ik import IKOptionError, IKSolutions, ik, ik_solver
 from manipkit.spatial.rotations import rot_x, rotation_angle_between
 
 
 @pytest.fixture(scope="module")
-def robots():
-    return {name: manipkit.load(name) for name in ("iiwa14", "panda", "ur5", "course_arm")}
+def robots(load_robot):
+    return {name: load_robot(name) for name in ("iiwa14", "panda", "ur5", "course_arm")}
 
 
 def pose_error(robot, base, frame, q, T_base_frame):

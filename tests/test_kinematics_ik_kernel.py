@@ -17,12 +17,12 @@ import pinocchio as pin
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_kinematics_chain import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 import manipkit
 from manipkit.kinematics.ik import ik, ik_solver
 from manipkit.kinematics.ik_kernel import chain_pose_jacobian, log3, pack_chain, solve_linear
 from manipkit.spatial.rotations import matrix_from_axis_angle, rotation_angle_between
-from test_kinematics_chain import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 # A chain with what the bundled arms lack: tilted revolute, continuous and prismatic axes
 # (one given non-unit, normalised by the loader), rpy placements and a fixed joint in between.
@@ -47,8 +47,8 @@ TILTED_URDF = """<?xml version="1.0"?>
 
 
 @pytest.fixture(scope="module")
-def robots():
-    loaded = {name: manipkit.load(name) for name in ("iiwa14", "panda", "course_arm", "scara", "stanford_arm", "mobile_manipulator")}
+def robots(load_robot):
+    loaded = {name: load_robot(name) for name in ("iiwa14", "panda", "course_arm", "scara", "stanford_arm", "mobile_manipulator")}
     loaded["tilted"] = manipkit.kinematics.robot.Robot.from_urdf(TILTED_URDF)
     return loaded
 

@@ -18,8 +18,8 @@ ROBOTS = sorted(bundled_robots()) + ["panda", "ur5"]
 
 
 @pytest.fixture(scope="module")
-def loaded():
-    return {name: manipkit.load(name) for name in ROBOTS}
+def loaded(load_robot):
+    return {name: load_robot(name) for name in ROBOTS}
 
 
 def random_q(robot, rng, n):
@@ -29,9 +29,9 @@ def random_q(robot, rng, n):
 
 
 def yourdfpy_model(robot):
-    import yourdfpy
-
     from io import BytesIO
+
+    import yourdfpy
 
     return yourdfpy.URDF.load(BytesIO(robot.urdf.encode()), build_scene_graph=True, load_meshes=False,
                               build_collision_scene_graph=False, load_collision_meshes=False)

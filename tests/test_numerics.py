@@ -37,10 +37,10 @@ import pytest
 
 import manipkit
 from manipkit.closed_form.decoupled import elbow_dh_table, ik_elbow, ik_stanford, stanford_dh_table
-from manipkit.dh import dh_fk, load_dh
-from manipkit.kinematics.ik import ik
 from manipkit.closed_form.planar import fk_2r, fk_3r, ik_2r, ik_3r
 from manipkit.description.sources import bundled_dh_tables
+from manipkit.dh import dh_fk, load_dh
+from manipkit.kinematics.ik import ik
 from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
 SCALES = [10.0**k for k in range(-6, 4)]  # 1e-6 m .. 1e3 m
@@ -57,7 +57,7 @@ STANFORD = {"d1": 0.1, "d2": 0.154, "d6": 0.263, "d3_min": 0.1, "d3_max": 1.0}
 ELBOW = {"d1": 0.4, "a2": 0.45, "a3": 0.4, "d6": 0.1}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def scaled_robot(name: str, s: float, **lengths: float) -> manipkit.kinematics.robot.Robot:
     """A bundled arm with every length argument multiplied by s (xacro args as exact float text)."""
     return manipkit.load(name, **{k: repr(float(v * s)) for k, v in lengths.items()})

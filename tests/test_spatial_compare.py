@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from manipkit.spatial.compare import ComparisonResult, compare_transform, read_matrix
 from manipkit.errors import InvalidTransformError
+from manipkit.spatial.compare import ComparisonResult, compare_transform, read_matrix
 from manipkit.spatial.rotations import matrix_from_rpy, rot_x, rot_y, rot_z
 
 # T_a_b with a rotation of 30 deg about z and a translation: the "model" answer

@@ -15,7 +15,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from manipkit.errors import InvalidRotationError, ManipkitError
-from manipkit.spatial.euler import euler_zyx_from_matrix, euler_zyz_from_matrix, matrix_from_euler_zyx, matrix_from_euler_zyz
+from manipkit.spatial.euler import (
+    euler_zyx_from_matrix,
+    euler_zyz_from_matrix,
+    matrix_from_euler_zyx,
+    matrix_from_euler_zyz,
+)
 from manipkit.spatial.rotations import (
     axis_angle_from_matrix,
     check_rotation,
@@ -748,4 +753,4 @@ def test_euler_functions_at_their_release_0_1_path_warn_and_are_the_same_functio
     with pytest.warns(DeprecationWarning, match="moved to manipkit.spatial.euler.euler_zyz_from_matrix"):
         assert rotations.euler_zyz_from_matrix is euler.euler_zyz_from_matrix
     with pytest.raises(AttributeError):
-        rotations.no_such_function
+        _ = rotations.no_such_function

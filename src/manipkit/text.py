@@ -14,7 +14,7 @@ and a message. None of them prints ``-0``.
 from __future__ import annotations
 
 import math
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 __all__ = ["near_text", "number_text", "short_text", "trimmed_text", "vector_text"]
 

@@ -81,10 +81,9 @@ from manipkit.closed_form.arm_tables import (
     finite_number,
     scara_dh_table,
     stanford_dh_table,
-    stroke_limits,
 )
-from manipkit.closed_form.planar import ik_2r
 from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.planar import ik_2r
 from manipkit.closed_form.result import ClosedFormSolutions, read_only
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError

@@ -28,8 +28,9 @@ import difflib
 import math
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import DescriptionError, PackageNotFoundError
@@ -579,7 +580,7 @@ def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=
             continue
         if not os.path.isfile(path):
             missing_files.append((element, link, uri, path))
-    for package, ((element, link, uri, reason), count) in missing_packages.items():
+    for (element, link, uri, reason), count in missing_packages.values():
         more = f" and {count - 1} more mesh file(s) of it" if count > 1 else ""
         warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}{more}: {reason} "
                         "(kinematics do not need meshes; the viewer does)")

@@ -118,8 +118,8 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     first ``$(...)``, so the patch is applied at that moment too: a file
     without substitutions (the course arm) never pays for the import.
     """
-    import io
     import contextlib
+    import io
 
     import xacro
 

@@ -298,10 +298,10 @@ def ik(
     )
 
 
-_SOLVERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_SOLVERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def ik_solver(robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z") -> "IKSolver":
+def ik_solver(robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z") -> IKSolver:
     """The prepared :class:`IKSolver` for a robot, frame pair and mode (built once, then cached per robot)."""
     key = (robot.frame(frame), robot.frame(base), mode, axis)
     per_robot = _SOLVERS.setdefault(robot, {})
@@ -648,17 +648,3 @@ def _tolerances(tol) -> tuple[float, float]:
     if values.shape not in ((1,), (2,)) or not np.all(np.isfinite(values)) or np.any(values <= 0.0):
         raise IKOptionError(f"tol must be a positive number or (position m, rotation rad), got {tol!r}")
     return float(values[0]), float(values[-1])
-
-
-def __getattr__(name: str):
-    # Transitional: analytic_ik binds bundled robots to closed-form solvers, so it lives in the
-    # closed_form layer now (kinematics does not import closed_form). Delete once the CLI calls
-    # manipkit.closed_form.robots.analytic_ik.
-    if name == "analytic_ik":
-        import importlib
-        import warnings
-
-        warnings.warn("manipkit.kinematics.ik.analytic_ik moved to manipkit.closed_form.robots.analytic_ik",
-                      DeprecationWarning, stacklevel=2)
-        return importlib.import_module("manipkit.closed_form.robots").analytic_ik
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -34,7 +34,7 @@ function, tested on its own against Pinocchio and numpy.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numba import njit

@@ -29,8 +29,8 @@ import pinocchio as pin
 
 from manipkit.description.packages import PackageResolver
 from manipkit.description.sources import RobotSource, resolve_robot
-from manipkit.description.xacro import describe, xacro_locator
 from manipkit.description.validate import check_urdf, package_uri_warnings
+from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import ChainFK, ChainStep
 
@@ -78,7 +78,7 @@ class Joint:
         return float(min(max(0.0, self.lower), self.upper))
 
 
-def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> "Robot":
+def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> Robot:
     """Load a robot by bundled name, example-robot-data name or path.
 
     Parameters
@@ -166,7 +166,7 @@ class Robot:
         self._config_sin_q = idx_q[is_cs] + 1
 
     @classmethod
-    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> "Robot":
+    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> Robot:
         """Build a robot from URDF text, checked first by :func:`manipkit.description.validate.check_urdf`.
 
         Invalid descriptions raise :class:`DescriptionError` naming the file,

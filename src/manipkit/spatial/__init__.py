@@ -11,13 +11,13 @@ expressed in frame a (4x4 homogeneous); quaternions are (x, y, z, w); rpy is
 - :mod:`manipkit.spatial.compare`: a hand-derived transform against the model's, with a diagnosis.
 """
 
-from manipkit.spatial.rotations import *  # noqa: F401,F403
-from manipkit.spatial.rotations import __all__ as _rotations_all
-from manipkit.spatial.euler import *  # noqa: F401,F403
-from manipkit.spatial.euler import __all__ as _euler_all
-from manipkit.spatial.transforms import *  # noqa: F401,F403
-from manipkit.spatial.transforms import __all__ as _transforms_all
 from manipkit.spatial.compare import *  # noqa: F401,F403
 from manipkit.spatial.compare import __all__ as _compare_all
+from manipkit.spatial.euler import *  # noqa: F401,F403
+from manipkit.spatial.euler import __all__ as _euler_all
+from manipkit.spatial.rotations import *  # noqa: F401,F403
+from manipkit.spatial.rotations import __all__ as _rotations_all
+from manipkit.spatial.transforms import *  # noqa: F401,F403
+from manipkit.spatial.transforms import __all__ as _transforms_all
 
 __all__ = [*_rotations_all, *_euler_all, *_transforms_all, *_compare_all]

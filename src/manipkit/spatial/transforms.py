@@ -16,7 +16,12 @@ from __future__ import annotations
 import numpy as np
 
 from manipkit.errors import InvalidTransformError
-from manipkit.spatial.rotations import matrix_from_quaternion, matrix_from_rpy, rotation_angle_between, rotation_violations
+from manipkit.spatial.rotations import (
+    matrix_from_quaternion,
+    matrix_from_rpy,
+    rotation_angle_between,
+    rotation_violations,
+)
 from manipkit.text import near_text
 
 __all__ = [

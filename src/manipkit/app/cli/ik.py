@@ -3,7 +3,7 @@
 The target T_base_frame is built from ``--xyz`` (m) and ``--rpy`` (URDF
 convention, R = Rz(yaw) Ry(pitch) Rx(roll)) or ``--quat`` (x, y, z, w) by
 :mod:`manipkit.spatial.transforms`; the solvers are
-:func:`manipkit.kinematics.ik.ik` and :func:`manipkit.kinematics.ik.analytic_ik`
+:func:`manipkit.kinematics.ik.ik` and :func:`manipkit.closed_form.robots.analytic_ik`
 (docs/architecture.md). Exit status 1 when no solution reaches the target.
 """
 
@@ -27,6 +27,8 @@ from manipkit.text import short_text
 
 if TYPE_CHECKING:
     import numpy as np
+
+    from manipkit.kinematics.robot import Robot
 
 __all__ = ["register", "run_ik"]
 
@@ -74,10 +76,35 @@ def _ik_target(args) -> np.ndarray:
     return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
 
 
-def run_ik(args) -> int:
-    """Solve, then print the solutions (text or JSON) with the residual and a tf-between line to check one."""
-    from manipkit.kinematics.ik import analytic_ik, ik
+def _solve(args, robot: Robot, target: np.ndarray, mode: str):
+    """(solutions, header): closed-form or numerical, as one result type with the same properties."""
+    if args.analytic:
+        from manipkit.closed_form.robots import analytic_ik
 
+        if args.frame != "ee_link" or args.base != "base_link":
+            raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
+        result = analytic_ik(robot, target)
+        found = len(result.solutions)
+        count = f" (count: {result.count})" if result.count != found else ""
+        return result, f"closed form ({result.solver}): {found} solution(s){count}"
+    from manipkit.kinematics.ik import ik
+
+    q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
+    found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
+               q0=q0, all=args.all, restarts=args.restarts, seed=args.seed)
+    result = found if args.all else found.as_solutions()
+    outcome = "success" if result.success else "FAILED"
+    return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.best.iterations} iterations"
+
+
+def run_ik(args) -> int:
+    """Solve, then print the solutions (text or JSON) with the residual and a tf-between line to check one.
+
+    Closed-form and numerical answers share their properties (``solutions``,
+    ``labels``, ``count``, ``reason``, ``success``, residuals measured by FK),
+    so they are printed alike; the residual line is the worst over the listed
+    solutions, or, when a numerical search found none, that of its best attempt.
+    """
     check_precision(args.precision)
     if args.restarts < 0:
         raise UsageError(f"--restarts {args.restarts}: give 0 or more")
@@ -85,30 +112,16 @@ def run_ik(args) -> int:
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
     mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
-    if args.analytic:
-        if args.frame != "ee_link" or args.base != "base_link":
-            raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
-        result = analytic_ik(robot, target)
-        answers = [(label, q) for label, q in zip(result.labels, result.solutions)]
-        success = bool(answers)
-        residuals = result.residuals.max(axis=0) if success else (None, None)
-        header = f"closed form ({result.solver}): {len(answers)} solution(s)" + (
-            f" (count: {result.count})" if result.count != len(answers) else "")
-        notes = [result.reason] if result.reason else []
-        fallback = None
-    else:
-        q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
-        found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
-                   q0=q0, all=args.all, restarts=args.restarts, seed=args.seed)
-        results = list(found) if args.all else ([found] if found.success else [])
-        best = found.best if args.all else found
-        answers = [(None, r.q) for r in results]
-        success = bool(answers)
+    result, header = _solve(args, robot, target, mode)
+    answers = list(zip(result.labels, result.solutions))
+    best = getattr(result, "best", None)  # a numerical search's closest attempt, shown when it found nothing
+    if result.success:
+        residuals = result.residuals.max(axis=0)
+    elif best is not None:
         residuals = (best.residual_position, best.residual_rotation)
-        header = (f"numerical IK ({mode}, frame {args.frame} in {args.base}): "
-                  f"{'success' if success else 'FAILED'}; {best.iterations} iterations")
-        notes = [best.reason] if best.reason else []
-        fallback = None if success else best.q
+    else:
+        residuals = (None, None)
+    notes = [result.reason] if result.reason else []
     if args.format == "json":
         print_json({
             "robot": robot.name,
@@ -116,7 +129,7 @@ def run_ik(args) -> int:
             "target": target.tolist(),
             "solutions": [robot.as_dict(q) for _, q in answers],
             "labels": [label for label, _ in answers] if args.analytic else None,
-            "success": success,
+            "success": result.success,
             "residual_position": None if residuals[0] is None else float(residuals[0]),
             "residual_rotation": None if residuals[1] is None else float(residuals[1]),
             "notes": notes,
@@ -125,13 +138,13 @@ def run_ik(args) -> int:
         print(header)
         for index, (label, q) in enumerate(answers, start=1):
             print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}")
-        if fallback is not None:
-            print(f"best found (does not reach the target): {q_text(robot.as_dict(fallback), args.precision)}")
+        if not result.success and best is not None:
+            print(f"best found (does not reach the target): {q_text(robot.as_dict(best.q), args.precision)}")
         if residuals[0] is not None:
             print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
         for note in notes:
             print(f"note: {note}")
-        if success:
+        if result.success:
             print(f"check one with: tf-between {args.base} {args.frame} --robot {args.robot or robot.source.name} --q "
                   + q_text(robot.as_dict(answers[0][1]), args.precision))
-    return EXIT_OK if success else EXIT_MISMATCH
+    return EXIT_OK if result.success else EXIT_MISMATCH
