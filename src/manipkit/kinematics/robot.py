@@ -447,6 +447,46 @@ class Robot:
         T_root_target = self.data.oMf[target_id]
         return (T_root_source.actInv(T_root_target)).homogeneous.copy()
 
+    def visual_model(self) -> pin.GeometryModel:
+        """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.
+
+        Mesh files (``package://``, ``file://`` or relative paths) are resolved
+        by :func:`manipkit.description.meshes.urdf_with_mesh_paths` (``--package-dir``
+        folders, the ROS workspace around the description, ``ROS_PACKAGE_PATH``,
+        example-robot-data) before Pinocchio reads them.
+
+        Raises
+        ------
+        PackageNotFoundError
+            A mesh whose package or file cannot be found; the message names
+            the URI, the link and the places searched.
+        DescriptionError
+            Pinocchio cannot read the resolved geometry.
+        """
+        from manipkit.description.meshes import urdf_with_mesh_paths
+
+        near = self.source.path if self.source.path.exists() else None
+        resolver = PackageResolver(dict(self.package_dirs), near=near)
+        text, package_dirs = urdf_with_mesh_paths(self.urdf, resolver, relative_to=self.source.path.parent)
+        try:
+            return pin.buildGeomFromUrdfString(self.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
+        except (ValueError, RuntimeError) as exc:
+            raise DescriptionError(
+                f"{self.name}: Pinocchio cannot load the visual geometry: {' '.join(str(exc).split())}"
+            ) from None
+
+    def geometry_placements(self, geometry_model: pin.GeometryModel, q=None) -> list[np.ndarray]:
+        """T_root_geometry (4x4, m) of each object of ``geometry_model`` at ``q``, in its order.
+
+        ``geometry_model`` comes from :meth:`visual_model`; the placements are
+        Pinocchio's ``updateGeometryPlacements`` (its world frame is the root
+        link). Mesh scale is not applied. Uses its own Pinocchio ``Data``, so
+        it may run beside :meth:`transform` (the viewer's server thread).
+        """
+        data, geometry_data = self.model.createData(), geometry_model.createData()
+        pin.updateGeometryPlacements(self.model, data, geometry_model, geometry_data, self.pinocchio_configuration(q))
+        return [placement.homogeneous.copy() for placement in geometry_data.oMg]
+
     def fk(self, Q, frame: str, base: str | None = None) -> np.ndarray:
         """Poses of ``frame`` for many joint vectors at once (vectorised, no Python loop over Q).
 

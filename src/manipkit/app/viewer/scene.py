@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.app.viewer.state import TRIAD_PATHS, VISUALS_ROOT
-from manipkit.errors import DescriptionError, ManipkitError
+from manipkit.errors import ManipkitError
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -35,33 +35,8 @@ __all__ = ["TRIAD_DOTS", "MeshcatScene", "visual_model"]
 
 
 def visual_model(robot: Robot):
-    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.
-
-    Mesh files (``package://``, ``file://`` or relative paths) are resolved
-    with :func:`manipkit.description.meshes.urdf_with_mesh_paths` (``--package-dir`` folders,
-    example-robot-data, folders around the description, ``ROS_PACKAGE_PATH``)
-    before Pinocchio reads them.
-
-    Raises
-    ------
-    PackageNotFoundError
-        A mesh whose package or file cannot be found; the message names the
-        URI, the link and the places searched.
-    """
-    import pinocchio as pin
-
-    from manipkit.description.meshes import urdf_with_mesh_paths
-    from manipkit.description.packages import PackageResolver
-
-    near = robot.source.path if robot.source.path.exists() else None
-    resolver = PackageResolver(dict(robot.package_dirs), near=near)
-    text, package_dirs = urdf_with_mesh_paths(robot.urdf, resolver, relative_to=robot.source.path.parent)
-    try:
-        return pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
-    except (ValueError, RuntimeError) as exc:
-        raise DescriptionError(
-            f"{robot.name}: Pinocchio cannot load the visual geometry: {' '.join(str(exc).split())}"
-        ) from None
+    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel`` (:meth:`Robot.visual_model`)."""
+    return robot.visual_model()
 
 
 # ----------------------------------------------------------------------

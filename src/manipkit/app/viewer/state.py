@@ -87,7 +87,6 @@ class ViewerState:
         robot.as_dict(start)  # checks the shape and that the values are finite numbers
         self._q = self._in_range(start)
         self._start = self._q.copy()
-        self._data = robot.model.createData()  # the scene's own Pinocchio workspace (robot.data is the robot's)
 
     # Joint values -------------------------------------------------------
 
@@ -181,17 +180,13 @@ class ViewerState:
         """Scene path -> T_root_geometry (4x4, mesh scale applied to the rotation columns) of each visual.
 
         ``visual_model`` is the Pinocchio ``GeometryModel`` from :func:`visual_model`.
-        The placements are Pinocchio's (``updateGeometryPlacements``; its world
-        frame is the robot's root link); only the mesh scale is added here.
+        The placements are :meth:`Robot.geometry_placements` (Pinocchio's, in
+        the robot's root link); only the mesh scale is added here.
         """
-        import pinocchio as pin
-
-        geometry_data = visual_model.createData()
-        pin.updateGeometryPlacements(self.robot.model, self._data, visual_model, geometry_data,
-                                     self.robot.pinocchio_configuration(self._q))
+        placements = self.robot.geometry_placements(visual_model, self._q)
         return {
-            f"{VISUALS_ROOT}/{geometry.name}": placement.homogeneous * np.append(geometry.meshScale, 1.0)  # T @ diag(scale, 1)
-            for geometry, placement in zip(visual_model.geometryObjects, geometry_data.oMg)
+            f"{VISUALS_ROOT}/{geometry.name}": T * np.append(geometry.meshScale, 1.0)  # T @ diag(scale, 1)
+            for geometry, T in zip(visual_model.geometryObjects, placements)
         }
 
     def scene_placements(self, visual_model=None) -> dict[str, np.ndarray]:
