@@ -1,13 +1,17 @@
-"""The bad-input corpus (tests/bad_inputs/cases.yaml): every case, run as a user runs it.
+"""The bad-input corpus (tests/bad_inputs/cases*.yaml): every case, run as a user runs it.
 
-Each case is a subprocess of the installed entry point. A user error must
-exit with status 2, print exactly one line on stderr naming the problem (the
-case's fragment), and never show a traceback. The subprocesses of all cases
-run a few at a time (each in its own empty folder), then each case is
-checked as its own test.
+Each case is a subprocess of the installed entry point, with at most
+``MEMORY_LIMIT`` bytes of address space and ``timeout`` seconds (default
+120). A user error must exit with status 2, print exactly one line on stderr
+naming the problem (the case's fragment), and never show a traceback; a case
+with ``forbid: NAME`` also requires that no file NAME appears in its folder
+(a description that tries to run a command, for example ``touch NAME``). The
+subprocesses of all cases run a few at a time (each in its own empty folder),
+then each case is checked as its own test.
 """
 
 import os
+import resource
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -18,13 +22,26 @@ import yaml
 
 HERE = Path(__file__).parent / "bad_inputs"
 BIN = Path(sys.executable).parent
-CASES = yaml.safe_load((HERE / "cases.yaml").read_text())
+CASES = [case for path in sorted(HERE.glob("cases*.yaml")) for case in yaml.safe_load(path.read_text())]
+MEMORY_LIMIT = 4 << 30  # bytes of address space per case: a bomb must be refused, not run out of memory
+KEYS = {"name", "argv", "expect"}
+OPTIONAL_KEYS = {"timeout", "forbid"}
+
+
+def _limit_memory():
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
 
 
 def _run_case(case, folder: Path) -> subprocess.CompletedProcess:
     folder.mkdir(parents=True, exist_ok=True)
     command, *args = (item.format(here=HERE, tmp=folder) for item in case["argv"])
-    return subprocess.run([str(BIN / command), *args], capture_output=True, text=True, timeout=120, cwd=folder)
+    try:
+        result = subprocess.run([str(BIN / command), *args], capture_output=True, text=True, cwd=folder,
+                                timeout=case.get("timeout", 120), preexec_fn=_limit_memory)
+    except subprocess.TimeoutExpired as exc:
+        result = subprocess.CompletedProcess(exc.cmd, "timeout", "", f"timed out after {exc.timeout} s")
+    result.folder = folder
+    return result
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +56,7 @@ def test_corpus_has_at_least_30_cases_with_unique_names():
     names = [case["name"] for case in CASES]
     assert len(names) >= 30 and len(set(names)) == len(names)
     for case in CASES:
-        assert set(case) == {"name", "argv", "expect"} and case["argv"][0] in ("tf-between", "manipkit"), case
+        assert KEYS <= set(case) <= KEYS | OPTIONAL_KEYS and case["argv"][0] in ("tf-between", "manipkit"), case
 
 
 def test_every_description_file_is_used_by_a_case():
@@ -64,3 +81,11 @@ def test_bad_input_exits_2_with_one_line_naming_the_problem(case, results):
     assert result.stderr.endswith("\n") and result.stderr.count("\n") == 1, result.stderr
     assert result.stderr.startswith(f"{command}: error: "), result.stderr
     assert case["expect"] in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if "forbid" in c], ids=[c["name"] for c in CASES if "forbid" in c])
+def test_a_description_runs_no_command(case, results):
+    result = results[case["name"]]
+    assert result.returncode == 2
+    assert not (result.folder / case["forbid"]).exists(), f"{case['forbid']} was created: the description ran a command"
+

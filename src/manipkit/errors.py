@@ -14,6 +14,7 @@ __all__ = [
     "DHTableError",
     "DescriptionError",
     "IKOptionError",
+    "InputFileError",
     "InvalidRotationError",
     "InvalidTransformError",
     "JointLimitError",
@@ -81,6 +82,10 @@ class DHDerivationError(ManipkitError, ValueError):
 
 class ClosedFormIKError(ManipkitError, ValueError):
     """A pose or arm parameter a closed-form (decoupled) IK solver cannot take: names the value and what is valid."""
+
+
+class InputFileError(ManipkitError, ValueError):
+    """An input file that cannot be read safely: missing, a folder, a FIFO or device, too large, not text."""
 
 
 class OutputError(ManipkitError, ValueError):
