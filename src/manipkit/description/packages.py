@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from manipkit.description.sources import bundled_dir, example_robot_data_dir
-from manipkit.errors import PackageNotFoundError
+from manipkit.errors import InputFileError, PackageNotFoundError
+from manipkit.inputs import MAX_TABLE_BYTES, check_input_file
 
 __all__ = ["PACKAGE_SCHEME", "PackageResolver", "split_package_uri"]
 
@@ -135,8 +136,12 @@ def _package_in(place: Path, package: str) -> Path | None:
 
 
 def _package_xml_name(folder: Path) -> str | None:
-    manifest = folder / "package.xml"
-    if not manifest.is_file():
+    """The ``<name>`` a ``package.xml`` in ``folder`` declares; None without one (or when it is a FIFO,
+    a device, a loop or larger than :data:`~manipkit.inputs.MAX_TABLE_BYTES`: never read then)."""
+    try:
+        manifest = check_input_file(folder / "package.xml", what="package.xml", max_bytes=MAX_TABLE_BYTES)
+        text = manifest.read_text(errors="replace")
+    except (InputFileError, OSError):
         return None
-    match = re.search(r"<name>\s*([^<\s]+)\s*</name>", manifest.read_text(errors="replace"))
+    match = re.search(r"<name>\s*([^<\s]+)\s*</name>", text)
     return match.group(1) if match else None

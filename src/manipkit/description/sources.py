@@ -23,12 +23,15 @@ Pinocchio model from the text of these files.
 from __future__ import annotations
 
 import difflib
+import errno
 import os
+import stat
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 from manipkit.errors import UnknownRobotError
+from manipkit.inputs import MAX_DESCRIPTION_BYTES, MAX_TABLE_BYTES, check_input_file
 
 __all__ = [
     "DEFAULT_ROBOT",
@@ -173,11 +176,21 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
     Raises
     ------
     UnknownRobotError
-        When nothing matches; the message lists the closest known names.
+        When nothing matches (the message lists the closest known names), the
+        name is empty, or the path is a folder or not a .urdf/.xacro file.
+    InputFileError
+        The path is a FIFO, device or socket, a symlink loop, not readable,
+        or larger than :data:`manipkit.inputs.MAX_DESCRIPTION_BYTES`: refused
+        before anything reads it.
     """
     spec = DEFAULT_ROBOT if spec is None else spec
     text = os.fspath(spec)
     bundled = bundled_robots()
+    if not text.strip():
+        raise UnknownRobotError(
+            f"the robot name is empty; give a bundled name ({', '.join(bundled)}), an example-robot-data name "
+            "(see `manipkit robots`) or a path to a .urdf/.xacro file"
+        )
     if text in bundled:
         return RobotSource(text, bundled[text], "bundled")
     arms = example_robot_data_arms()
@@ -189,15 +202,14 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
 
     path = Path(text).expanduser()
     looks_like_path = os.sep in text or path.suffix in (".urdf", ".xacro")
-    if path.is_file():
-        if path.suffix not in (".urdf", ".xacro"):
-            raise UnknownRobotError(
-                f"{text}: not a robot description; give a .urdf or .xacro file"
-            )
-        name = path.name.split(".")[0]
-        return RobotSource(name, path.resolve(), "file")
-    if path.is_dir():
+    mode = _file_mode(path, what="robot file", strict=looks_like_path)
+    if mode is not None and stat.S_ISDIR(mode):
         raise UnknownRobotError(f"{text} is a folder; give a .urdf or .xacro file inside it")
+    if mode is not None and stat.S_ISREG(mode) and path.suffix not in (".urdf", ".xacro"):
+        raise UnknownRobotError(f"{text}: not a robot description; give a .urdf or .xacro file")
+    if mode is not None:  # a regular file (size checked), or a FIFO, device or socket (refused)
+        path = check_input_file(path, what="robot file", max_bytes=MAX_DESCRIPTION_BYTES)
+        return RobotSource(path.name.split(".")[0], path.resolve(), "file")
     if looks_like_path:
         raise UnknownRobotError(f"robot file not found: {text}")
 
@@ -222,19 +234,40 @@ def resolve_dh_table(spec: str | os.PathLike) -> Path:
     ------
     UnknownRobotError
         When neither exists; the message lists the bundled tables.
+    InputFileError
+        The path is a folder, FIFO or device, a symlink loop, or larger than
+        :data:`manipkit.inputs.MAX_TABLE_BYTES`.
     """
     text = os.fspath(spec)
     tables = bundled_dh_tables()
     if text in tables:
         return tables[text]
     path = Path(text).expanduser()
-    if path.is_file():
-        return path
+    if text.strip() and _file_mode(path, what="DH table", strict=True) is not None:
+        return check_input_file(path, what="DH table", max_bytes=MAX_TABLE_BYTES)  # a folder, FIFO, huge file: refused
     close = difflib.get_close_matches(text, list(tables), n=3, cutoff=0.5)
     hint = f"did you mean {', '.join(close)}? " if close else ""
     raise UnknownRobotError(
         f"DH table not found: {text}; {hint}bundled tables: {', '.join(tables) or 'none'}, or a path to a .yaml file"
     )
+
+
+def _file_mode(path: Path, *, what: str, strict: bool) -> int | None:
+    """``st_mode`` of ``path`` (symlinks followed), or None when nothing is there.
+
+    A symlink loop (and, when ``strict``, any other reason ``stat`` fails
+    but a missing file: a name too long, a folder that cannot be searched)
+    raises :class:`~manipkit.errors.InputFileError` naming the reason, rather
+    than "not found". Nothing is opened: a FIFO is never read here.
+    """
+    try:
+        return path.stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        if strict or exc.errno == errno.ELOOP:
+            check_input_file(path, what=what)  # raises, naming the reason
+        return None
 
 
 # --------------------------------------------------------------------------

@@ -44,6 +44,7 @@ __all__ = [
     "CheckedURDF",
     "JOINT_TYPES",
     "MAX_LENGTH",
+    "MAX_TREE_DEPTH",
     "RESERVED_NAMES",
     "SUPPORTED_JOINT_TYPES",
     "XACRO_NAMESPACE",
@@ -61,6 +62,11 @@ XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 RESERVED_NAMES = ("universe",)
 #: Largest length accepted in an origin (m): two finite offsets near 1.7e308 would sum to infinity.
 MAX_LENGTH = 1e6
+
+#: Most joints on the way from the root link to any link. Pinocchio's URDF parser walks the tree by
+#: recursion, one C++ call per joint: with the usual 8 MB stack it crashes (segmentation fault,
+#: nothing printed) on a chain of about 3,800 joints (3,500 load). Real robots are tens deep.
+MAX_TREE_DEPTH = 2000
 
 #: A non-unit joint axis is normalised silently below this deviation of its norm from 1
 #: (0.7071 0.7071 0 is a unit axis as written by hand), with a warning above it.
@@ -136,12 +142,13 @@ def check_urdf(
         handle (floating, planar); a joint without a parent or child, with a
         parent or child link that does not exist, or joining a link to
         itself; a link that is the child of two joints; no root link or more
-        than one; a cycle; a zero axis; a missing ``<limit>`` on a revolute or
+        than one; a cycle; a tree deeper than :data:`MAX_TREE_DEPTH` joints
+        (checked without recursion); a zero axis; a missing ``<limit>`` on a revolute or
         prismatic joint, a ``<limit>`` without effort or velocity, a lower
         limit above the upper one; anything that is not a finite number where
         URDF needs one (origins, axes, limits, dynamics, calibration, safety
         controller, mimic, mass, inertia, geometry sizes, colours); a
-        negative mass or size; a ``<mimic>`` of a joint that does not exist;
+        negative mass or size; a ``<mimic>`` of a joint that does not exist or of itself (a warning);
         a ``<visual>``/``<collision>`` without a known geometry.
     """
     return _Checker(where, locate).run(text)
@@ -427,7 +434,10 @@ class _Checker:
         mimic = joint.find("mimic")
         if mimic is not None:
             target = mimic.get("joint")
-            if not target or target not in joints:
+            if target == name:
+                self.warn(mimic, f"{what} <mimic joint=\"{target}\">: a joint cannot mimic itself; "
+                          f"manipkit treats '{name}' as an independent joint (as it does every mimic joint)", joint)
+            elif not target or target not in joints:
                 close = difflib.get_close_matches(target or "", list(joints), n=1, cutoff=0.6)
                 hint = f" (did you mean {close[0]}?)" if close else ""
                 self.warn(mimic, f"{what} <mimic joint=\"{target or ''}\">: no such joint{hint}; "
@@ -489,18 +499,24 @@ class _Checker:
         below: dict[str, list[str]] = {}
         for joint in joints.values():
             below.setdefault(joint.find("parent").get("link"), []).append(joint.find("child").get("link"))
-        seen, stack = {roots[0]}, [roots[0]]
+        depth, stack = {roots[0]: 0}, [roots[0]]  # links reached -> joints above them; no recursion
         while stack:
-            for child in below.get(stack.pop(), []):
-                if child not in seen:
-                    seen.add(child)
+            parent = stack.pop()
+            for child in below.get(parent, []):
+                if child not in depth:
+                    depth[child] = depth[parent] + 1
                     stack.append(child)
-        unreachable = [name for name in links if name not in seen]
+        unreachable = [name for name in links if name not in depth]
         if unreachable:
             cycle = _cycle_through(unreachable[0], children)
             shown = " -> ".join(cycle) if cycle else ", ".join(unreachable[:6])
             self.fail(children[unreachable[0]], f"links {', '.join(unreachable[:6])} form a cycle ({shown}) not "
                       f"connected to root '{roots[0]}'; a URDF is a tree: remove one joint of the cycle")
+        deepest = max(depth, key=depth.get)
+        if depth[deepest] > MAX_TREE_DEPTH:
+            self.fail(children[deepest], f"link '{deepest}' is {depth[deepest]} joints below root '{roots[0]}'; "
+                      f"manipkit loads trees up to {MAX_TREE_DEPTH} joints deep (Pinocchio's URDF parser recurses "
+                      "once per joint and crashes near 3,800)")
 
     # -- output ---------------------------------------------------------
 

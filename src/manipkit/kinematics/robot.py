@@ -21,6 +21,7 @@ from __future__ import annotations
 import difflib
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -210,6 +211,9 @@ class Robot:
         UnknownFrameError
             With the closest frame names.
         """
+        if not isinstance(name, str):
+            raise UnknownFrameError(f"robot '{self.name}': a frame is named by a string such as 'base_link' or "
+                                    f"'ee_link', not {type(name).__name__} {_short_repr(name)}")
         if name in self._frame_ids:
             return name
         if name in BASE_ALIASES:
@@ -274,17 +278,17 @@ class Robot:
             return EE_ALIAS, "the robot's ee_link"
         if declared and declared in self._frame_ids:
             return declared, f"{declared}, the end effector declared for {self.source.name}"
-        # Tip of the longest chain: most movable joints above it, then most frames above it.
-        def depth(frame_id: int) -> tuple[int, int]:
-            frame = self.model.frames[frame_id]
-            frames_above, f = 0, frame
-            while f.parentFrame != 0 and frames_above < 1000:
-                frames_above += 1
-                f = self.model.frames[f.parentFrame]
-            return len(self.model.supports[frame.parentJoint]), frames_above
+        # Tip of the longest chain: most movable joints above it, then most frames above it. Counted in one
+        # pass, without a cap: Pinocchio adds a frame after its parent, so a parent's count is known first.
+        frames_above = [0] * len(self.model.frames)
+        for frame_id, frame in enumerate(self.model.frames):
+            parent = frame.parentFrame
+            frames_above[frame_id] = frames_above[parent] + 1 if 0 < parent < frame_id else 0
 
-        bodies = [self._frame_ids[n] for n in self.frame_names]
-        tip = max(bodies, key=depth)
+        def depth(frame_id: int) -> tuple[int, int]:
+            return len(self.model.supports[self.model.frames[frame_id].parentJoint]), frames_above[frame_id]
+
+        tip = max((self._frame_ids[n] for n in self.frame_names), key=depth)
         name = self.model.frames[tip].name
         return name, f"{name}, the tip of the longest chain (no ee_link declared)"
 
@@ -329,6 +333,12 @@ class Robot:
         >>> robot.q(joint2=90, degrees=True)
         array([0.        , 1.57079633])
         """
+        if values is not None and not isinstance(values, Mapping):
+            raise JointValueError(f"robot.q takes joint values by name (a dict or keywords), not "
+                                  f"{type(values).__name__}; a vector in joint_names order needs no conversion")
+        twice = sorted(set(values or {}) & set(joint_values))
+        if twice:
+            raise JointValueError(f"joint '{twice[0]}' is given twice (in the dict and as a keyword); give each joint once")
         given = dict(values or {}, **joint_values)
         q = np.array([j.default() for j in self.joints], dtype=float)
         for name, value in given.items():
@@ -339,6 +349,8 @@ class Robot:
                     f"robot '{self.name}' has no joint '{name}'; {hint}joints: {', '.join(self.joint_names) or 'none'}"
                 )
             try:
+                if isinstance(value, (complex, np.complexfloating)):
+                    raise TypeError("complex")  # float() would drop the imaginary part (or refuse it)
                 number = float(value)
             except (TypeError, ValueError):
                 raise JointValueError(f"joint '{name}': value '{value}' is not a number") from None
@@ -387,20 +399,20 @@ class Robot:
         violations = self.limit_violations(q)
         if violations:
             raise violations[0]
-        return np.asarray(q, dtype=float)
+        return _real_array(q)
 
     def clamp(self, q) -> np.ndarray:
         """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
 
         Works on one joint vector (n,) or many (..., n).
         """
-        Q = np.array(q, dtype=float)
+        Q = np.array(_real_array(q))
         lower = np.array([j.lower for j in self.joints], dtype=float)
         upper = np.array([j.upper for j in self.joints], dtype=float)
         return np.minimum(np.maximum(Q, lower), upper)
 
     def _check_q(self, q) -> np.ndarray:
-        q = self.q() if q is None else np.asarray(q, dtype=float)
+        q = self.q() if q is None else _real_array(q)
         if q.shape != (len(self.joints),):
             raise JointValueError(
                 f"robot '{self.name}' needs {len(self.joints)} joint values ({', '.join(self.joint_names)}), got shape {q.shape}"
@@ -511,7 +523,7 @@ class Robot:
         of the same chain), one kernel runs over the joints between them;
         otherwise T_base_frame = T_root_base^-1 T_root_frame from two kernels.
         """
-        Q = np.asarray(Q, dtype=float)
+        Q = _real_array(Q)
         if Q.shape[-1:] != (len(self.joints),):
             raise JointValueError(
                 f"robot '{self.name}' needs {len(self.joints)} joint values per row ({', '.join(self.joint_names)}), "
@@ -654,6 +666,31 @@ class Robot:
         if kernel is None:
             kernel = self._fk_kernels[key] = ChainFK(self._chain_by_id(frame_id, base_id), len(self.joints))
         return kernel
+
+
+def _real_array(values) -> np.ndarray:
+    """``values`` as a float array; complex or non-numeric entries raise :class:`JointValueError` (one line).
+
+    numpy would drop an imaginary part with a warning; a joint value is a real number (rad or m).
+    """
+    try:
+        array = np.asarray(values)
+        if array.dtype.kind == "c" or (
+            array.dtype.kind == "O" and any(isinstance(v, (complex, np.complexfloating)) for v in array.flat)
+        ):
+            raise JointValueError(f"joint values must be real numbers (rad or m); got complex values {_short_repr(values)}")
+        return array.astype(float, copy=False)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, JointValueError):
+            raise
+        raise JointValueError(f"joint values must be real numbers (rad or m), a vector or equal rows of them; "
+                              f"got {_short_repr(values)}") from None
+
+
+def _short_repr(value, limit: int = 60) -> str:
+    """``repr(value)`` on one line, cut to ``limit`` characters."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _read_only(array) -> np.ndarray:
