@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from manipkit.errors import InvalidTransformError
+from manipkit.errors import InputFileError, InvalidTransformError
+from manipkit.inputs import MAX_MATRIX_BYTES, check_input_file
 from manipkit.spatial.rotations import AXIS_NAMES, axis_angle_from_matrix
 from manipkit.spatial.transforms import (
     as_transforms,
@@ -72,9 +73,11 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
     ------
     InvalidTransformError
         One line naming the file and the problem: missing or unreadable file,
+        a FIFO, device or folder, a file larger than
+        :data:`manipkit.inputs.MAX_MATRIX_BYTES` (refused before it is read),
         a row with the wrong count of numbers ("row 3 has 3 numbers, expected
-        4"), an entry that is not a number, or a matrix of another shape
-        (named).
+        4"), an entry that is not a number or not finite (nan, inf), or a
+        matrix of another shape (named).
 
     Examples
     --------
@@ -85,16 +88,20 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
     array([1.   , 0.   , 0.   , 0.172])
     """
     name = os.fspath(path)
-    if not os.path.exists(name):
+    if not os.path.lexists(name):
         raise InvalidTransformError(f"{name}: no such file")
     if os.path.isdir(name):
         raise InvalidTransformError(f"{name}: is a folder, expected a matrix file")
+    try:  # a FIFO, device, symlink loop or huge file is refused here, before anything reads it
+        check_input_file(name, what="matrix file", max_bytes=MAX_MATRIX_BYTES)
+    except InputFileError as exc:
+        raise InvalidTransformError(str(exc)) from None
     suffix = os.path.splitext(name)[1].lower()
     try:
         if suffix in (".npy", ".npz"):
-            return _check_shape(_read_npy(name), name)
-        with open(name, encoding="utf-8") as stream:
-            text = stream.read()
+            return _finite(_read_npy(name), name)
+        with open(name, "rb") as stream:
+            text = stream.read(MAX_MATRIX_BYTES + 1).decode("utf-8").removeprefix("\ufeff")
     except OSError as exc:
         raise InvalidTransformError(f"{name}: cannot read ({exc.strerror or exc})") from None
     except UnicodeDecodeError:
@@ -103,19 +110,32 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
         rows = _rows_from_json(text, name)
     else:
         rows = _rows_from_text(text, name)
-    return _check_shape(_matrix_from_rows(rows, name), name)
+    return _finite(_check_shape(_matrix_from_rows(rows, name), name), name)
+
+
+def _finite(matrix: np.ndarray, name: str) -> np.ndarray:
+    """``matrix`` when every entry is finite; else the first nan or inf, named by row and entry (from 1)."""
+    bad = np.argwhere(~np.isfinite(matrix))
+    if bad.size:
+        row, column = bad[0]
+        raise InvalidTransformError(f"{name}: row {row + 1}, entry {column + 1} is {matrix[row, column]}, not a finite "
+                                    "number; a transform has finite entries")
+    return matrix
 
 
 def _read_npy(name: str) -> np.ndarray:
+    """The 4x4 array of a ``.npy`` file, memory-mapped first: a header claiming a huge shape allocates nothing."""
     try:
-        array = np.load(name, allow_pickle=False)
-    except ValueError as exc:
-        raise InvalidTransformError(f"{name}: not a valid .npy file ({exc})") from None
+        array = np.load(name, mmap_mode="r", allow_pickle=False)
+    except (ValueError, EOFError, OSError) as exc:
+        raise InvalidTransformError(f"{name}: not a valid .npy file ({' '.join(str(exc).split())})") from None
     if not isinstance(array, np.ndarray):
+        if hasattr(array, "close"):
+            array.close()
         raise InvalidTransformError(f"{name}: holds several arrays, expected one 4x4 array")
     if not (np.issubdtype(array.dtype, np.number) or array.dtype == bool) or np.iscomplexobj(array):
         raise InvalidTransformError(f"{name}: holds {array.dtype} values, expected real numbers")
-    return array.astype(float)
+    return np.array(_check_shape(array, name), dtype=float)  # a copy: the file is not kept open
 
 
 def _rows_from_json(text: str, name: str) -> list[list]:
@@ -124,6 +144,8 @@ def _rows_from_json(text: str, name: str) -> list[list]:
     except json.JSONDecodeError as exc:
         where = f"line {exc.lineno}, column {exc.colno}"
         raise InvalidTransformError(f"{name}: invalid JSON at {where}: {exc.msg}") from None
+    except RecursionError:
+        raise InvalidTransformError(f"{name}: JSON nested too deeply; expected rows like [[1, 0, 0, 0], ...]") from None
     if isinstance(data, dict):
         if "matrix" not in data:
             keys = ", ".join(map(str, list(data)[:8])) or "none"
