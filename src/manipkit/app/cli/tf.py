@@ -1,8 +1,10 @@
 """``tf-between SOURCE TARGET`` and ``manipkit tf``: T_SOURCE_TARGET, the pose of TARGET in SOURCE.
 
 Printed like ROS 2 ``tf2_echo SOURCE TARGET`` (text), as the JSON of the
-command-line contract, or one pose a CSV row for ``--q-file``; ``--compare``
-checks a hand-derived matrix against the model. Conventions (frames
+command-line contract, or for ``--q-file`` one pose a CSV row or a JSON Lines
+object (``--format jsonl``), or one JSON document; ``--q-file`` streams: rows
+are read, computed and written a batch at a time, in bounded memory however
+long the file. ``--compare`` checks a hand-derived matrix against the model. Conventions (frames
 ``T_a_b``, metres and radians, quaternion (x, y, z, w), URDF rpy):
 docs/architecture.md.
 """
@@ -35,7 +37,6 @@ from manipkit.errors import JointLimitError, ManipkitError
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
-    import numpy as np
 
     from manipkit.kinematics.robot import Robot
 
@@ -66,7 +67,10 @@ def _configure(parser: argparse.ArgumentParser) -> None:
     add_joint_options(parser)
     parser.add_argument("--q-file", type=Path, metavar="FILE", help="CSV with a header of joint names, one configuration a row")
     parser.add_argument("--precision", type=int, default=6, metavar="N", help="decimals printed (default 6)")
-    parser.add_argument("--format", choices=("text", "json", "csv"), default="text", help="output format (csv only with --q-file)")
+    parser.add_argument("--format", choices=("text", "json", "csv", "jsonl"), default="text",
+                        help="output format; with --q-file: text or csv (one pose a row), jsonl (JSON Lines: one pose "
+                             "a line) or json (one document); all stream, but only csv and jsonl can be read as "
+                             "they arrive (csv and jsonl only with --q-file)")
     parser.add_argument("--compare", type=Path, metavar="FILE", help="hand-derived 4x4 (text rows, CSV, JSON or .npy) to check against the model")
     parser.add_argument("--tol", type=float, default=1e-6, help="agreement tolerance for --compare (m and rad, default 1e-6)")
 
@@ -105,8 +109,8 @@ def run_tf(args) -> int:
         check_tolerance(args.tol)
     if args.q_file is not None:
         return _run_batch(robot, args)
-    if args.format == "csv":
-        raise UsageError("--format csv needs --q-file; use text or json for one configuration")
+    if args.format in ("csv", "jsonl"):
+        raise UsageError(f"--format {args.format} needs --q-file; use text or json for one configuration")
     q = joint_vector(robot, args)
     T = robot.transform(source, target, q)
     status, comparison = EXIT_OK, None
@@ -167,51 +171,100 @@ def _compare_lines(result, path: Path, tol: float) -> list[str]:
 
 
 def _run_batch(robot: Robot, args) -> int:
-    """``--q-file``: one pose a row, as CSV (text) or JSON."""
-    import numpy as np
+    """``--q-file``: one pose a row as CSV (text, csv), JSON Lines (jsonl) or one JSON document (json), streamed.
 
-    from manipkit.app.pose import pose_fields
-    from manipkit.text import number_text
+    Rows are read, computed (:meth:`Robot.fk` on a batch) and written a batch
+    at a time (:func:`manipkit.kinematics.q_file.iter_q_file`), so memory
+    does not grow with the file. A bad row in the first batch stops the
+    command before anything is written; a bad row further on stops the
+    output there (exit 2, the line named on stderr). ``--clamp`` warnings
+    come at the end.
+    """
+    import warnings
 
     if args.q or args.compare is not None:
         raise UsageError("--q-file cannot be combined with --q or --compare")
-    Q = _q_file_rows(robot, args)
-    T = robot.fk(Q, args.target, base=args.source)
-    fields = pose_fields(T)
-    if args.format == "json":
-        rows = [
-            {"q": robot.as_dict(q), "translation": t.tolist(), "quaternion_xyzw": quat.tolist(),
-             "rpy": rpy.tolist(), "matrix": m.tolist()}
-            for q, t, quat, rpy, m in zip(Q, fields["translation"], fields["quaternion_xyzw"], fields["rpy"], fields["matrix"])
-        ]
-        print_json({"source": args.source, "target": args.target, "robot": robot.name, "poses": rows})
-        return EXIT_OK
-    header = "x,y,z,qx,qy,qz,qw,roll,pitch,yaw"
-    table = np.hstack([fields["translation"], fields["quaternion_xyzw"], fields["rpy"]])
-    print(f"# T_{args.source}_{args.target} of {robot.name}, one pose a row of {args.q_file}; m, rad, quaternion xyzw")
-    print(header)
-    for row in table:
-        print(",".join(number_text(v, args.precision) for v in row))
-    return EXIT_OK
-
-
-def _q_file_rows(robot: Robot, args) -> np.ndarray:
-    """The joint vectors of ``--q-file``: limits checked (or clamped with --clamp), errors as usage errors."""
-    import warnings
-
-    from manipkit.kinematics.q_file import read_q_file
-
+    begin, pose_rows, separator, end = _batch_format(robot, args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
-        try:
-            Q = read_q_file(robot, args.q_file, degrees=args.deg, limits="clamp" if args.clamp else "error")
-        except JointLimitError as exc:
-            raise UsageError(f"--q-file {exc}; use --clamp to clamp{limit_hint(exc, args.deg)}") from None
-        except ManipkitError as exc:
-            raise UsageError(f"--q-file {exc}") from None
+        for index, Q in enumerate(_q_file_batches(robot, args)):
+            T = robot.fk(Q, args.target, base=args.source)
+            sys.stdout.write((begin if index == 0 else separator) + pose_rows(Q, T))
+        sys.stdout.write(end)
+        sys.stdout.flush()
     for caught_warning in caught:
         if issubclass(caught_warning.category, UserWarning):
             warn(f"--q-file {caught_warning.message}")
         else:
             warnings.showwarning(caught_warning.message, caught_warning.category, caught_warning.filename, caught_warning.lineno)
-    return Q
+    return EXIT_OK
+
+
+def _batch_format(robot: Robot, args):
+    """(text before the first batch, batch -> text, text between batches, text after the last batch).
+
+    The text is what the whole-file printout gave: CSV numbers as
+    :func:`manipkit.text.number_text` writes them, JSON as ``json.dumps``
+    (``indent=2`` for ``json``, one compact object a line for ``jsonl``).
+    Each batch is formatted with one %-template a pose (floats as ``repr``,
+    which is how ``json`` writes them), not value by value.
+    """
+    import json
+    import re
+
+    import numpy as np
+
+    from manipkit.app.pose import pose_fields
+
+    if args.format not in ("json", "jsonl"):
+        fmt = ",".join([f"%.{args.precision}f"] * 10)
+        negative_zero = re.compile(r"(?m)(^|,)-(?=0(?:\.0*)?(?:,|$))")  # "-0.000" -> "0.000", as number_text
+
+        def csv_rows(Q, T):
+            fields = pose_fields(T)
+            table = np.hstack([fields["translation"], fields["quaternion_xyzw"], fields["rpy"]])
+            return negative_zero.sub(r"\1", "\n".join(fmt % tuple(row) for row in table.tolist())) + "\n"
+
+        begin = (f"# T_{args.source}_{args.target} of {robot.name}, one pose a row of {args.q_file}; m, rad, quaternion xyzw\n"
+                 "x,y,z,qx,qy,qz,qw,roll,pitch,yaw\n")
+        return begin, csv_rows, "", ""
+    slot = "\x00"  # a placeholder no joint name holds (XML has no NUL); its JSON is "\u0000"
+    sample = {"q": dict.fromkeys(robot.joint_names, slot), "translation": [slot] * 3, "quaternion_xyzw": [slot] * 4,
+              "rpy": [slot] * 3, "matrix": [[slot] * 4 for _ in range(4)]}
+    indent = 2 if args.format == "json" else None
+    pose = json.dumps(sample, indent=indent).replace("%", "%%").replace(json.dumps(slot), "%r")
+    if args.format == "json":
+        pose = "\n".join("    " + line for line in pose.splitlines())
+    separator = ",\n" if args.format == "json" else "\n"
+
+    def json_rows(Q, T):
+        fields = pose_fields(T)
+        table = np.hstack([Q, fields["translation"], fields["quaternion_xyzw"], fields["rpy"],
+                           fields["matrix"].reshape(len(Q), 16)])
+        return separator.join(pose % tuple(row) for row in table.tolist())
+
+    if args.format == "jsonl":
+        return "", json_rows, "\n", "\n"
+    document = json.dumps({"source": args.source, "target": args.target, "robot": robot.name, "poses": [None]}, indent=2)
+    begin, end = document.split("\n    null\n")
+    return begin + "\n", json_rows, separator, "\n" + end + "\n"
+
+
+def _q_file_batches(robot: Robot, args):
+    """The joint vectors of ``--q-file`` a batch at a time: limits checked (or clamped with --clamp), errors as usage errors."""
+    from manipkit.errors import InputFileError
+    from manipkit.kinematics.q_file import iter_q_file
+
+    batches = iter_q_file(robot, args.q_file, degrees=args.deg, limits="clamp" if args.clamp else "error", what="--q-file")
+    while True:
+        try:
+            Q = next(batches)
+        except StopIteration:
+            return
+        except InputFileError:
+            raise  # names --q-file itself
+        except JointLimitError as exc:
+            raise UsageError(f"--q-file {exc}; use --clamp to clamp{limit_hint(exc, args.deg)}") from None
+        except ManipkitError as exc:
+            raise UsageError(f"--q-file {exc}") from None
+        yield Q
