@@ -190,3 +190,76 @@ def test_names_moved_out_of_sources_still_import_from_it_with_a_warning():
         assert sources.PackageResolver is moved
     with pytest.raises(AttributeError):
         _ = sources.no_such_name
+
+
+# ---------------------------------------------------------------- issue 15: files that are not regular files
+
+
+def test_an_empty_name_is_not_the_current_folder():
+    with pytest.raises(UnknownRobotError, match="the robot name is empty; give a bundled name \\(course_arm"):
+        resolve_robot("")
+    with pytest.raises(UnknownRobotError, match="the robot name is empty"):
+        resolve_robot("  ")
+
+
+def test_a_fifo_is_refused_without_being_opened(tmp_path):
+    from manipkit.errors import InputFileError
+
+    fifo = tmp_path / "arm.urdf"
+    os.mkfifo(fifo)  # opening it would block until a writer comes
+    with pytest.raises(InputFileError, match="robot file .*arm.urdf is a FIFO \\(named pipe\\), not a regular file"):
+        resolve_robot(fifo)
+
+
+def test_a_device_is_refused_even_without_a_description_suffix():
+    from manipkit.errors import InputFileError
+
+    with pytest.raises(InputFileError, match="robot file /dev/zero is a character device, not a regular file"):
+        resolve_robot("/dev/zero")
+
+
+def test_a_symlink_loop_is_not_called_missing(tmp_path):
+    from manipkit.errors import InputFileError
+
+    loop = tmp_path / "loop.urdf"
+    loop.symlink_to("loop.urdf")
+    with pytest.raises(InputFileError, match="loop.urdf: cannot be read \\(Too many levels of symbolic links\\)"):
+        resolve_robot(loop)
+
+
+def test_a_description_above_the_size_limit_is_refused_before_it_is_read(tmp_path):
+    from manipkit.errors import InputFileError
+    from manipkit.inputs import MAX_DESCRIPTION_BYTES
+
+    huge = tmp_path / "huge.urdf"
+    with open(huge, "wb") as stream:
+        stream.truncate(MAX_DESCRIPTION_BYTES + 1)  # sparse
+    with pytest.raises(InputFileError, match="above the limit of 64 MB for a robot file"):
+        resolve_robot(huge)
+
+
+def test_a_dh_table_that_is_a_fifo_or_a_folder_is_named_as_such(tmp_path):
+    from manipkit.description.sources import resolve_dh_table
+    from manipkit.errors import InputFileError
+
+    fifo = tmp_path / "table.yaml"
+    os.mkfifo(fifo)
+    with pytest.raises(InputFileError, match="DH table .*table.yaml is a FIFO \\(named pipe\\)"):
+        resolve_dh_table(fifo)
+    with pytest.raises(InputFileError, match="is a folder, not a regular file"):
+        resolve_dh_table(tmp_path)
+
+
+def test_a_package_xml_above_the_table_limit_is_not_read(tmp_path):
+    from manipkit.inputs import MAX_TABLE_BYTES
+
+    folder = tmp_path / "ws" / "src" / "renamed_folder"
+    folder.mkdir(parents=True)
+    with open(folder / "package.xml", "w") as stream:
+        stream.write("<package><name>my_pkg</name></package>")
+        stream.truncate(MAX_TABLE_BYTES + 1)
+    resolver = PackageResolver(near=tmp_path / "ws" / "robot.urdf")
+    with pytest.raises(PackageNotFoundError, match="package 'my_pkg' not found"):
+        resolver.find("my_pkg")
+    (folder / "package.xml").write_text("<package><name>my_pkg</name></package>")
+    assert PackageResolver(near=tmp_path / "ws" / "robot.urdf").find("my_pkg") == folder.resolve()

@@ -369,3 +369,41 @@ def test_sample_q_with_enormous_limits_stays_finite_and_inside():
     robot = Robot.from_urdf(urdf(*LINKS, joint(kind="prismatic", limit=limit)))
     Q = robot.sample_q(100)
     assert np.all(np.isfinite(Q)) and np.all(np.abs(Q) <= 1e308)
+
+
+def test_mimic_of_itself_is_a_warning():
+    checked = check_urdf(urdf(*LINKS, joint(extra='<mimic joint="j1" multiplier="2"/>')), "t.urdf")
+    assert checked.warnings == ["t.urdf:4: joint 'j1' <mimic joint=\"j1\">: a joint cannot mimic itself; "
+                                "manipkit treats 'j1' as an independent joint (as it does every mimic joint)"]
+
+
+def fixed_chain(depth: int) -> str:
+    """Links l0 ... l<depth> joined by fixed joints: the root l0 and ``depth`` joints down to the tip."""
+    lines = ['<link name="l0"/>']
+    for i in range(1, depth + 1):
+        lines.append(f'<link name="l{i}"/>{joint("fixed", f"l{i - 1}", f"l{i}", limit=None, name=f"j{i}")}')
+    return urdf(*lines)
+
+
+def test_tree_deeper_than_the_limit_is_refused_before_pinocchio_sees_it():
+    from manipkit.description.validate import MAX_TREE_DEPTH
+
+    assert MAX_TREE_DEPTH == 2000  # Pinocchio's recursive parser crashes near 3,800 joints (8 MB stack)
+    check_urdf(fixed_chain(MAX_TREE_DEPTH), "ok.urdf")
+    with pytest.raises(DescriptionError) as raised:
+        check_urdf(fixed_chain(MAX_TREE_DEPTH + 1), "deep.urdf")
+    # Line 1 is <robot>, line 2 the root l0, line k + 2 link l<k> and its joint.
+    assert str(raised.value) == ("deep.urdf:2003: link 'l2001' is 2001 joints below root 'l0'; manipkit loads trees up "
+                                 "to 2000 joints deep (Pinocchio's URDF parser recurses once per joint and crashes near 3,800)")
+
+
+def test_depth_is_measured_without_recursion_on_a_tree_of_10000_links():
+    import sys
+
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(200)  # a recursive walk would fail here long before 10,000 levels
+    try:
+        with pytest.raises(DescriptionError, match="link 'l10000' is 10000 joints below root 'l0'"):
+            check_urdf(fixed_chain(10_000), "deep.urdf")
+    finally:
+        sys.setrecursionlimit(limit)

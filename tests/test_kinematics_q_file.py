@@ -162,3 +162,77 @@ def test_joint_limits_error_keeps_metres_in_metres_with_degrees():
 def test_result_is_a_float_array_of_the_robots_width(course_arm, tmp_path):
     Q = read_q_file(course_arm, write(tmp_path, "elbow_joint\n1\n"))
     assert Q.dtype == np.float64 and Q.shape == (1, 5)
+
+
+# ---------------------------------------------------------------- issue 15: streaming, BOM, files that are not files
+
+
+def test_a_utf8_byte_order_mark_is_skipped(course_arm, tmp_path):
+    path = tmp_path / "excel.csv"
+    path.write_bytes(b"\xef\xbb\xbfelbow_joint,shoulder_joint\r\n0.5,0.25\r\n")  # Excel's "CSV UTF-8"
+    assert read_q_file(course_arm, path).tolist() == [[0, 0.25, 0, 0.5, 0]]
+
+
+def test_rows_stream_in_batches_in_file_order(course_arm, tmp_path):
+    from manipkit.kinematics.q_file import iter_q_file
+
+    values = np.arange(25 * 2, dtype=float).reshape(25, 2) / 100
+    path = write(tmp_path, "elbow_joint,shoulder_joint\n" + "".join(f"{a!r},{b!r}\n" for a, b in values.tolist()))
+    batches = list(iter_q_file(course_arm, path, batch_rows=10))
+    assert [len(batch) for batch in batches] == [10, 10, 5]
+    Q = np.concatenate(batches)
+    assert Q[:, 3].tolist() == values[:, 0].tolist() and Q[:, 1].tolist() == values[:, 1].tolist()
+    assert Q[:, [0, 2, 4]].tolist() == [[0, 0, 0]] * 25
+
+
+def test_a_bad_row_is_raised_when_its_batch_is_reached(course_arm, tmp_path):
+    from manipkit.kinematics.q_file import iter_q_file
+
+    path = write(tmp_path, "elbow_joint\n" + "0.1\n" * 12 + "x\n")  # the bad row is line 14
+    batches = iter_q_file(course_arm, path, batch_rows=5)
+    assert len(next(batches)) == 5 and len(next(batches)) == 5
+    with pytest.raises(JointValueError, match="q.csv: line 14: joint 'elbow_joint': value 'x' is not a number"):
+        next(batches)
+
+
+def test_whole_batches_give_what_row_by_row_robot_q_gives(iiwa, tmp_path):
+    # Degrees, columns out of order, values outside the limits clamped: the batch path against Robot.q and
+    # Robot.clamp a row at a time (the definition of each row's value).
+    rng = np.random.default_rng(7)
+    header = ["iiwa_joint_4", "iiwa_joint_1", "iiwa_joint_2"]
+    values = rng.uniform(-180, 180, size=(300, 3))
+    path = write(tmp_path, ",".join(header) + "\n" + "".join(",".join(map(repr, row)) + "\n" for row in values.tolist()))
+    with pytest.warns(UserWarning) as caught:
+        Q = read_q_file(iiwa, path, degrees=True, limits="clamp")
+    expected = np.array([iiwa.clamp(iiwa.q(dict(zip(header, row)), degrees=True)) for row in values])
+    assert np.array_equal(Q, expected)
+    outside = [f"line {line} {error.joint}" for line, row in enumerate(values, start=2)
+               for error in iiwa.limit_violations(iiwa.q(dict(zip(header, row)), degrees=True))]
+    assert len(caught) == 1 and str(caught[0].message) == (f"{path}: clamped {len(outside)} value(s) into the joint "
+                                                           f"limits ({', '.join(outside[:3])}, ...)")
+
+
+def test_clamp_warning_counts_every_batch_and_names_the_first_three(iiwa, tmp_path):
+    from manipkit.kinematics.q_file import iter_q_file
+
+    path = write(tmp_path, "iiwa_joint_2\n" + "0\n2.5\n" * 6)  # 6 values above 2.0944 rad on lines 3, 5, 7, ...
+    with pytest.warns(UserWarning) as caught:
+        Q = np.concatenate(list(iter_q_file(iiwa, path, limits="clamp", batch_rows=2)))
+    assert str(caught[0].message) == (f"{path}: clamped 6 value(s) into the joint limits "
+                                      "(line 3 iiwa_joint_2, line 5 iiwa_joint_2, line 7 iiwa_joint_2, ...)")
+    assert Q[1::2, 1] == pytest.approx([math.radians(120)] * 6, abs=1e-12)
+
+
+def test_a_line_longer_than_the_limit_is_refused_without_being_held(course_arm, tmp_path):
+    from manipkit.kinematics.q_file import MAX_LINE_CHARS
+
+    path = write(tmp_path, "elbow_joint\n0.1\n" + "1" * (MAX_LINE_CHARS + 1) + "\n")
+    with pytest.raises(JointValueError, match="q.csv: line 3 is longer than 65536 characters"):
+        read_q_file(course_arm, path)
+
+
+def test_a_device_is_refused_before_reading(course_arm):
+    from manipkit.errors import InputFileError
+
+    with pytest.raises(InputFileError, match="joint-value file /dev/null is a character device, not a regular file"):
+        read_q_file(course_arm, "/dev/null")

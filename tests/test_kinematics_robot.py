@@ -265,3 +265,60 @@ def test_chain_fk_is_the_kernel_fk_runs(loaded):
     assert robot.chain_fk("ee_link") is robot.chain_fk("ee_link", "base_link")
     assert np.array_equal(robot.chain_fk("ee_link").transforms(Q), robot.fk(Q, "ee_link"))
     assert np.array_equal(robot.chain_fk("ee_link", "iiwa_link_3").transforms(Q), robot.fk(Q, "ee_link", "iiwa_link_3"))
+
+
+# ---------------------------------------------------------------- issue 15: API faults and long chains
+
+
+def test_a_joint_given_in_the_dict_and_as_a_keyword_is_refused(planar_2r):
+    with pytest.raises(JointValueError, match="joint 'joint1' is given twice \\(in the dict and as a keyword\\); give each joint once"):
+        planar_2r.q({"joint1": 1}, joint1=2)
+    assert planar_2r.q({"joint1": 1}, joint2=2).tolist() == [1, 2]
+
+
+def test_joint_values_by_position_are_pointed_to_a_vector(planar_2r):
+    with pytest.raises(JointValueError, match="robot.q takes joint values by name \\(a dict or keywords\\), not list"):
+        planar_2r.q([1, 2])
+
+
+@pytest.mark.parametrize("value", [1 + 1j, np.complex128(1 + 0j), np.complex64(2j)])
+def test_complex_joint_values_are_refused_not_truncated(planar_2r, value):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's ComplexWarning would be the old behaviour
+        with pytest.raises(JointValueError, match="joint values must be real numbers \\(rad or m\\); got complex values"):
+            planar_2r.fk(np.array([[value, 0]]), "ee_link")
+        with pytest.raises(JointValueError, match="joint values must be real numbers"):
+            planar_2r.fk(np.array([[value, 0]], dtype=object), "ee_link")
+        with pytest.raises(JointValueError, match="joint values must be real numbers"):
+            planar_2r.transform("base_link", "ee_link", [value, 0])
+        with pytest.raises(JointValueError, match="is not a number"):
+            planar_2r.q(joint1=value)
+
+
+@pytest.mark.parametrize("q", ["abc", [["a", 0]], [[1, 2], [3]]])
+def test_joint_values_that_are_not_numbers_are_one_line_errors(planar_2r, q):
+    with pytest.raises(JointValueError, match="joint values must be real numbers \\(rad or m\\), a vector or equal rows"):
+        planar_2r.fk(q, "ee_link")
+
+
+@pytest.mark.parametrize("frame", [None, 3, ["base_link"]])
+def test_a_frame_that_is_not_a_string_is_an_unknown_frame(planar_2r, frame):
+    with pytest.raises(UnknownFrameError, match="a frame is named by a string such as 'base_link' or 'ee_link', not"):
+        planar_2r.transform(frame, "ee_link")
+    with pytest.raises(UnknownFrameError, match="not NoneType None"):
+        planar_2r.transform("base_link", None)
+
+
+def test_the_tip_of_a_1500_link_chain_is_ee_link(tmp_path):
+    # The tip search used to stop counting frames at 1,000 and chose l500 (equal counts, first found).
+    lines = ['<robot name="long">', '<link name="l0"/>']
+    for i in range(1, 1501):
+        lines.append(f'<link name="l{i}"/><joint name="j{i}" type="fixed"><parent link="l{i - 1}"/><child link="l{i}"/>'
+                     '<origin xyz="0 0 0.001"/></joint>')
+    path = tmp_path / "long.urdf"
+    path.write_text("\n".join(lines + ["</robot>"]))
+    robot = manipkit.load(path)
+    assert robot.ee_frame == "l1500"
+    assert robot.transform("base_link", "ee_link")[:3, 3] == pytest.approx([0, 0, 1.5], abs=1e-9)  # 1500 x 1 mm

@@ -382,3 +382,53 @@ def test_rot_y_hand_matrix_against_rot_z_model_names_both_differences():
     lines = compare_transform(T_model, T_hand).explain()
     assert any(line.startswith("the rotation differs: R_hand = R_model @ rotation of 120 deg") for line in lines)
     assert any("the translation differs: x: model 0.1, hand 0; y: model 0, hand 0.1" in line for line in lines)
+
+
+# ---------------------------------------------------------------- read_matrix: limits (issue 15)
+
+
+@pytest.mark.parametrize("text, entry", [("1 0 0 nan\n0 1 0 0\n0 0 1 0\n0 0 0 1", "row 1, entry 4 is nan"),
+                                         ("1 0 0 0; 0 1 0 0; 0 0 1 -inf; 0 0 0 1", "row 3, entry 4 is -inf")])
+def test_read_matrix_refuses_entries_that_are_not_finite(tmp_path, text, entry):
+    path = write(tmp_path, "hand.txt", text)
+    assert read_error(path) == f"{path}: {entry}, not a finite number; a transform has finite entries"
+
+
+def test_read_matrix_refuses_nan_in_json_and_npy(tmp_path):
+    path = write(tmp_path, "hand.json", '{"matrix": [[1, 0, 0, 0], [0, 1, 0, NaN], [0, 0, 1, 0], [0, 0, 0, 1]]}')
+    assert read_error(path).endswith("row 2, entry 4 is nan, not a finite number; a transform has finite entries")
+    T = np.eye(4)
+    T[3, 3] = np.inf
+    np.save(tmp_path / "hand.npy", T)
+    assert read_error(tmp_path / "hand.npy").endswith("row 4, entry 4 is inf, not a finite number; a transform has finite entries")
+
+
+def test_read_matrix_refuses_a_file_above_the_limit_before_reading_it(tmp_path):
+    from manipkit.inputs import MAX_MATRIX_BYTES
+
+    path = tmp_path / "hand.txt"
+    with open(path, "w") as stream:
+        stream.write("1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n")  # a valid matrix, then a sparse tail of NUL bytes
+        stream.truncate(2 * MAX_MATRIX_BYTES)
+    assert read_error(path) == f"matrix file {path} is 2 MB, above the limit of 1 MB for a matrix file"
+
+
+def test_read_matrix_npy_header_claiming_a_huge_shape_allocates_nothing(tmp_path):
+    from numpy.lib import format as npy_format
+
+    path = tmp_path / "hand.npy"
+    with open(path, "wb") as stream:  # 10^10 float64 claimed (75 GB), 128 bytes present
+        npy_format.write_array_header_1_0(stream, {"descr": "<f8", "fortran_order": False, "shape": (10**10,)})
+        stream.write(b"\0" * 128)
+    assert read_error(path).startswith(f"{path}: not a valid .npy file")
+
+
+def test_read_matrix_json_nested_deeper_than_python_recursion(tmp_path):
+    path = write(tmp_path, "hand.json", "[" * 5000)
+    assert read_error(path) == f"{path}: JSON nested too deeply; expected rows like [[1, 0, 0, 0], ...]"
+
+
+def test_read_matrix_skips_a_byte_order_mark(tmp_path):
+    path = tmp_path / "hand.csv"
+    path.write_bytes(b"\xef\xbb\xbf1,0,0,0.5\n0,1,0,0\n0,0,1,0\n0,0,0,1\n")
+    assert read_matrix(path)[0].tolist() == [1, 0, 0, 0.5]
