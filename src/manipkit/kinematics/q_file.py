@@ -88,6 +88,9 @@ def read_q_file(robot: Robot, path, *, degrees: bool = False, limits: str = "ign
         limits in degrees when ``degrees`` is true; the attributes
         (``joint``, ``value``, ``lower``, ``upper``, ``unit``) stay in
         radians and metres.
+    InputFileError
+        A FIFO, device or socket, or a symlink loop: refused before it is
+        opened (a FIFO would block).
 
     Examples
     --------
@@ -101,8 +104,7 @@ def read_q_file(robot: Robot, path, *, degrees: bool = False, limits: str = "ign
     array([[ 0.    ,  1.5708],
            [ 0.    , -0.7854]])
     """
-    Q = np.concatenate(list(iter_q_file(robot, path, degrees=degrees, limits=limits)))
-    return Q
+    return np.concatenate(list(iter_q_file(robot, path, degrees=degrees, limits=limits)))
 
 
 def iter_q_file(robot: Robot, path, *, degrees: bool = False, limits: str = "ignore", batch_rows: int = BATCH_ROWS,
