@@ -223,7 +223,7 @@ def test_a_symlink_loop_is_not_called_missing(tmp_path):
 
     loop = tmp_path / "loop.urdf"
     loop.symlink_to("loop.urdf")
-    with pytest.raises(InputFileError, match="loop.urdf: cannot be read \\(Too many levels of symbolic links\\)"):
+    with pytest.raises(InputFileError, match="loop.urdf is a symlink loop"):
         resolve_robot(loop)
 
 
@@ -234,7 +234,7 @@ def test_a_description_above_the_size_limit_is_refused_before_it_is_read(tmp_pat
     huge = tmp_path / "huge.urdf"
     with open(huge, "wb") as stream:
         stream.truncate(MAX_DESCRIPTION_BYTES + 1)  # sparse
-    with pytest.raises(InputFileError, match="above the limit of 64 MB for a robot file"):
+    with pytest.raises(InputFileError, match=r"is 67,108,865 bytes, above the limit of 64 MB \(67,108,864 bytes\) for a robot file"):
         resolve_robot(huge)
 
 

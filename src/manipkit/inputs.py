@@ -10,6 +10,7 @@ naming the file and what would be valid (docs/architecture.md, "Limits").
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 from pathlib import Path
@@ -37,6 +38,14 @@ def _size_text(size: int) -> str:
         if size >= scale:
             return f"{size / scale:.3g} {unit}"
     return f"{size} bytes"
+
+
+def _too_large(what: str, path: Path, size: int, limit: int) -> InputFileError:
+    """``... is 100 MB, above the limit of 1 MB``; exact bytes where rounding would hide the difference."""
+    size_text, limit_text = _size_text(size), _size_text(limit)
+    if size_text == limit_text:
+        size_text, limit_text = f"{size:,} bytes", f"{limit_text} ({limit:,} bytes)"
+    return InputFileError(f"{what} {path} is {size_text}, above the limit of {limit_text} for a {what}")
 
 
 def check_input_file(path: str | os.PathLike, *, what: str, max_bytes: int | None = None) -> Path:
@@ -69,6 +78,8 @@ def check_input_file(path: str | os.PathLike, *, what: str, max_bytes: int | Non
     except FileNotFoundError:
         raise InputFileError(f"{what} {path}: no such file") from None
     except OSError as exc:  # a symlink loop (ELOOP), a name too long, no permission on a folder
+        if exc.errno == errno.ELOOP:
+            raise InputFileError(f"{what} {path} is a symlink loop (it points back to itself); give a file") from None
         raise InputFileError(f"{what} {path}: cannot be read ({exc.strerror or exc})") from None
     mode = info.st_mode
     if not stat.S_ISREG(mode):
@@ -77,9 +88,7 @@ def check_input_file(path: str | os.PathLike, *, what: str, max_bytes: int | Non
                 else "a block device" if stat.S_ISBLK(mode) else "not a regular file")
         raise InputFileError(f"{what} {path} is {kind}, not a regular file; give a file")
     if max_bytes is not None and info.st_size > max_bytes:
-        raise InputFileError(
-            f"{what} {path} is {_size_text(info.st_size)}, above the limit of {_size_text(max_bytes)} for a {what}"
-        )
+        raise _too_large(what, path, info.st_size, max_bytes)
     if not os.access(path, os.R_OK):
         raise InputFileError(f"{what} {path}: permission denied (not readable)")
     return path
