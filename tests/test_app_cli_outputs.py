@@ -221,3 +221,17 @@ def test_tree_of_hostile_names_writes_every_format(tmp_path):
     for suffix in ("txt", "dot", "png", "svg"):
         result = run("manipkit", "tree", "--robot", HOSTILE, "-o", f"hostile.{suffix}", cwd=tmp_path)
         assert (result.returncode, result.stderr) == (0, ""), result.stderr
+
+
+def test_frames_prints_names_that_look_like_rich_markup_as_written(tmp_path):
+    # "[/]" once ended as an internal error (rich's MarkupError); "[red]" and ":smile:" must not style the text
+    path = tmp_path / "markup.urdf"
+    path.write_text('<robot name="r[/bold]"><link name="base_link"/><link name="[/]x[red] :smile:"/>'
+                    '<joint name="[bold]j[/bold]" type="revolute"><parent link="base_link"/>'
+                    '<child link="[/]x[red] :smile:"/><axis xyz="0 0 1"/>'
+                    '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
+    result = run("manipkit", "frames", "--robot", path)
+    assert (result.returncode, result.stderr) == (0, ""), result.stderr
+    assert result.stdout.splitlines()[1] == "frames: base_link, [/]x[red] :smile:"
+    assert "movable joints of r[/bold]" in result.stdout
+    assert "│ [bold]j[/bold] │" in result.stdout and "base_link -> [/]x[red] :smile:" in result.stdout

@@ -635,3 +635,15 @@ def test_cli_static_of_hostile_names(tmp_path):
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0 and result.stderr == "", result.stderr
     assert scripts_of(out.read_text()).tags.count("script") == 3
+
+
+def test_notebook_error_line_escapes_the_names_in_its_message(notebook, monkeypatch):
+    from manipkit.errors import UnknownFrameError
+
+    def refuse(a, b):
+        raise UnknownFrameError("no frame '</span><img src=x onerror=alert(1)>' & more")
+
+    monkeypatch.setattr(notebook.state, "set_frames", refuse)
+    notebook.frame_a.value = "bicep"  # the picker's change reaches set_frames, which refuses
+    assert notebook.error.value == ("<span style='color:#b00'>no frame &#x27;&lt;/span&gt;&lt;img src=x "
+                                    "onerror=alert(1)&gt;&#x27; &amp; more</span>")
