@@ -21,6 +21,7 @@ from manipkit.analysis.workspace import (
     sample_planar_workspace,
 )
 from manipkit.closed_form.planar import PlanarArmError
+from manipkit.errors import OutputError
 from manipkit.kinematics.robot import Robot
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -74,6 +75,7 @@ def test_sample_planar_workspace_rejects_bad_input(lengths, n, message):
 
 
 def test_plot_planar_workspace_writes_a_png(tmp_path):
+    (tmp_path / "figures").mkdir()
     out = plot_planar_workspace([4.0, 2.0, 1.0], tmp_path / "figures" / "ws.png", n_samples=2000)
     assert out == tmp_path / "figures" / "ws.png"
     width, height = png_size(out.read_bytes())
@@ -95,6 +97,28 @@ def test_plot_planar_workspace_is_reproducible(tmp_path):
     a = plot_planar_workspace([1.0, 1.0, 0.5], tmp_path / "a.png", n_samples=1000, seed=3)
     b = plot_planar_workspace([1.0, 1.0, 0.5], tmp_path / "b.png", n_samples=1000, seed=3)
     assert a.read_bytes() == b.read_bytes()
+
+
+def test_plot_planar_workspace_creates_no_folder(tmp_path):
+    # issue 15: parents were made silently (`workspace --plot /nonexistent/x.png` created /nonexistent/)
+    with pytest.raises(OutputError) as caught:
+        plot_planar_workspace([1.0, 1.0], tmp_path / "no_such_folder" / "ws.png", n_samples=10)
+    assert str(caught.value) == f"cannot write {tmp_path / 'no_such_folder' / 'ws.png'}: no such folder {tmp_path / 'no_such_folder'}"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plot_planar_workspace_refuses_a_folder(tmp_path):
+    with pytest.raises(OutputError, match=r": it is a folder; give a file name$"):
+        plot_planar_workspace([1.0, 1.0], tmp_path, n_samples=10)
+
+
+def test_plot_planar_workspace_reports_a_full_disk(tmp_path):
+    # /dev/full accepts the open and fails every write with ENOSPC, as a full disk does
+    full = tmp_path / "full.png"
+    full.symlink_to("/dev/full")
+    with pytest.raises(OutputError) as caught:
+        plot_planar_workspace([1.0, 1.0], full, n_samples=10)
+    assert str(caught.value) == f"cannot write {full}: No space left on device"
 
 
 def test_plot_planar_workspace_rejects_an_unknown_format(tmp_path):

@@ -9,6 +9,7 @@ The browser half is in test_viewer_browser.py.
 
 import base64
 import html
+import html.parser
 import http.client
 import json
 import math
@@ -558,3 +559,91 @@ def test_notebook_view_without_ipywidgets_says_how_to_install_it(robots, monkeyp
     monkeypatch.setitem(sys.modules, "ipywidgets", None)  # import ipywidgets -> ImportError
     with pytest.raises(ManipkitError, match="pip install ipywidgets"):
         notebook_view(robots["course_arm"])
+
+
+# ----------------------------------------------------------------------
+# Names that mean something in HTML and JavaScript (issue 15)
+# ----------------------------------------------------------------------
+
+HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names.urdf"
+HOSTILE_TEXTS = ["</script><script>alert(1)</script>", "<!--<script>", "</SCRIPT >", "a & b &amp; <b>c</b>",
+                 "'\"` \\ \u2028\u2029", "]]>", "<![CDATA[", "{{STATE_JSON}}"]
+
+
+class _Scripts(html.parser.HTMLParser):
+    """The elements and <script> texts of a page, as the standard library's HTML parser reads them."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.tags, self.scripts, self._open = [], [], None
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        if tag == "script":
+            self._open = []
+
+    def handle_data(self, data):
+        if self._open is not None:
+            self._open.append(data)
+
+    def handle_endtag(self, tag):
+        if tag == "script":
+            self.scripts.append("".join(self._open))
+            self._open = None
+
+
+def scripts_of(page: str) -> _Scripts:
+    parser = _Scripts()
+    parser.feed(page)
+    parser.close()
+    return parser
+
+
+def test_control_page_keeps_hostile_names_inside_its_json_block():
+    from manipkit.app.viewer.server import _page_template, page_html
+
+    initial = {"robot": HOSTILE_TEXTS[0], "frame_choices": HOSTILE_TEXTS, "frames": HOSTILE_TEXTS[:2],
+               "sliders": [{"name": text, "type": "revolute", "unit": "rad", "lower": -1, "upper": 1, "value": 0}
+                           for text in HOSTILE_TEXTS]}
+    page = page_html(initial)
+    template = scripts_of(_page_template())
+    parsed = scripts_of(page)
+    assert parsed.tags == template.tags  # no element added or lost
+    assert json.loads(parsed.scripts[0]) == initial  # JSON.parse gives every name back as written
+    assert parsed.scripts[1] == template.scripts[1]  # the page's own script is untouched
+    # No "<" at all inside the block: nothing in it can end it or open a comment (<!--), whatever the parser.
+    block = page.split('<script id="manipkit-state" type="application/json">', 1)[1].split("</script>", 1)[0]
+    assert "<" not in block and ">" not in block and "&" not in block
+
+
+def test_static_export_of_hostile_names_keeps_them_in_meshcats_commands(tmp_path):
+    robot = manipkit.load(HOSTILE)
+    path = write_static(robot, tmp_path / "hostile.html")
+    page = path.read_text()
+    parsed = scripts_of(page)
+    assert parsed.tags.count("script") == 3  # meshcat's page: its library, the drawing commands, an empty block
+    names = [link for link in robot.frame_names if link not in ("base_link", "ee_link")] + [robot.name]
+    outside = re.sub(r"data:application/octet-binary;base64,[A-Za-z0-9+/=]+", "", page)
+    assert not any(name in outside for name in names)  # names are only inside the base64 commands
+    objects = {c["path"] for c in meshcat_commands(page) if c["type"] == "set_object"}
+    assert any("say \"hi\" \\o/ <b>x</b>" in p for p in objects), objects
+
+
+def test_cli_static_of_hostile_names(tmp_path):
+    out = tmp_path / "hostile.html"
+    result = subprocess.run([str(BIN / "manipkit"), "view", "--robot", str(HOSTILE), "--static", str(out)],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0 and result.stderr == "", result.stderr
+    assert scripts_of(out.read_text()).tags.count("script") == 3
+
+
+def test_notebook_error_line_escapes_the_names_in_its_message(notebook, monkeypatch):
+    from manipkit.errors import UnknownFrameError
+
+    def refuse(a, b):
+        raise UnknownFrameError("no frame '</span><img src=x onerror=alert(1)>' & more")
+
+    monkeypatch.setattr(notebook.state, "set_frames", refuse)
+    notebook.frame_a.value = "bicep"  # the picker's change reaches set_frames, which refuses
+    assert notebook.error.value == ("<span style='color:#b00'>no frame &#x27;&lt;/span&gt;&lt;img src=x "
+                                    "onerror=alert(1)&gt;&#x27; &amp; more</span>")

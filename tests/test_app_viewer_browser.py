@@ -367,3 +367,41 @@ def test_static_export_renders_the_robot_without_a_server(browser, tmp_path, rob
         assert_robot_drawn(lambda shot: page.screenshot(path=shot), frame, f"static_{robot}")
     finally:
         page.close()
+
+
+# ----------------------------------------------------------------------
+# Names that mean something in HTML and JavaScript (issue 15)
+# ----------------------------------------------------------------------
+
+HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names.urdf"
+
+
+def test_control_page_shows_hostile_names_as_text(browser):
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(HOSTILE).getroot()
+    robot_name = root.get("name")
+    joints = [e.get("name") for e in root.findall("joint") if e.get("type") != "fixed"]
+    links = [e.get("name") for e in root.findall("link")]
+    proc, url, _ = start_viewer("--robot", HOSTILE, "--port", free_port())
+    page = browser.new_page()
+    errors = []
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    page.on("dialog", lambda dialog: (errors.append(f"dialog: {dialog.message}"), dialog.dismiss()))
+    try:
+        page.goto(url)
+        page.wait_for_function("document.querySelector('pre#readout-json').textContent.length > 0", timeout=20_000)
+        assert page.text_content("#robot-name") == robot_name
+        assert page.title() == f"manipkit view: {robot_name}"
+        shown = page.eval_on_selector_all("input[type=range]", "inputs => inputs.map(i => i.dataset.joint)")
+        assert shown == joints
+        options = page.eval_on_selector_all("select#frame-a option", "options => options.map(o => o.value)")
+        assert [o for o in options if o not in ("base_link", "ee_link")] == [n for n in links if n not in ("base_link", "ee_link")]
+        # nothing the names spell was made into markup: the page's own two scripts, no <b> or <i>
+        assert page.eval_on_selector_all("script", "s => s.length") == 2
+        assert page.eval_on_selector_all("b, i", "e => e.length") == 0
+        assert readout(page)["robot"] == robot_name
+        assert errors == []
+    finally:
+        page.close()
+        stop(proc)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import shutil
 import struct
 import subprocess
 import sys
@@ -24,6 +25,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from manipkit.description import tree
+from manipkit.errors import OutputError
 
 UR5_FILE = "cmeel.prefix/share/example-robot-data/robots/ur_description/urdf/ur5_robot.urdf"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -582,3 +584,193 @@ def test_import_leaves_matplotlib_unloaded():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, env={"PYTHONPATH": str(src)}
     )
     assert out.stdout.strip() == "False"
+
+
+# --------------------------------------------------------------------------
+# Names that mean something in DOT, HTML or mathtext (issue 15)
+# --------------------------------------------------------------------------
+
+HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names.urdf"
+
+
+def hostile_names():
+    """(robot name, link names, joint names) of hostile_names.urdf, read with xml.etree (not yourdfpy)."""
+    root = ET.parse(HOSTILE).getroot()
+    return root.get("name"), [e.get("name") for e in root.findall("link")], [e.get("name") for e in root.findall("joint")]
+
+
+def dot_tokens(dot: str) -> list[tuple[str, str]]:
+    """DOT text as tokens, by Graphviz's lexer (lib/cgraph/scan.l): in a quoted string only ``\\"`` is an
+    escape (and backslash-newline a continuation); every other character, backslashes included, is kept."""
+    tokens, i = [], 0
+    while i < len(dot):
+        c = dot[i]
+        if c.isspace():
+            i += 1
+        elif c == '"':
+            j, text = i + 1, []
+            while True:
+                assert j < len(dot), f"unterminated string from offset {i}"
+                if dot.startswith('\\"', j):
+                    text.append('"')
+                    j += 2
+                elif dot.startswith("\\\n", j):
+                    j += 2
+                elif dot[j] == '"':
+                    break
+                else:
+                    text.append(dot[j])
+                    j += 1
+            tokens.append(("id", "".join(text)))
+            i = j + 1
+        elif dot.startswith("->", i):
+            tokens.append(("op", "->"))
+            i += 2
+        elif c in "{}[];,=":
+            tokens.append(("op", c))
+            i += 1
+        else:
+            bare = re.match(r"[A-Za-z_0-9.]+", dot[i:])
+            assert bare, f"unexpected character {c!r} at offset {i}"
+            tokens.append(("id", bare.group()))
+            i += bare.end()
+    return tokens
+
+
+def read_dot(dot: str):
+    """(graph name, graph attributes, nodes {id: attrs}, edges [(tail, head)]) by DOT's grammar for a flat digraph."""
+    tokens = dot_tokens(dot)
+    pos = 0
+
+    def take(kind=None, value=None):
+        nonlocal pos
+        token = tokens[pos]
+        assert (kind is None or token[0] == kind) and (value is None or token[1] == value), (token, pos)
+        pos += 1
+        return token[1]
+
+    def attributes():
+        attrs = {}
+        take("op", "[")
+        while tokens[pos] != ("op", "]"):
+            key = take("id")
+            take("op", "=")
+            attrs[key] = take("id")
+            if tokens[pos] == ("op", ","):
+                take()
+        take("op", "]")
+        return attrs
+
+    take("id", "digraph")
+    name = take("id")
+    take("op", "{")
+    graph, nodes, edges = {}, {}, []
+    while tokens[pos] != ("op", "}"):
+        first = take("id")
+        if tokens[pos] == ("op", "->"):
+            take()
+            edges.append((first, take("id")))
+        elif first == "graph":
+            graph.update(attributes())
+        elif first in ("node", "edge"):
+            attributes()
+        else:
+            assert first not in nodes, f"node {first!r} declared twice"
+            nodes[first] = attributes()
+        take("op", ";")
+    take("op", "}")
+    assert pos == len(tokens), "text after the graph"
+    return name, graph, nodes, edges
+
+
+def label_text(label: str, node: str = "", graph: str = "") -> str:
+    """What Graphviz draws for a label (lib/common/labels.c): ``\\\\`` is a backslash; ``\\n``, ``\\l``, ``\\r``
+    end a line; ``\\N`` and ``\\G`` are the node and graph names; HTML entities are decoded. Lines are joined by
+    newlines (``\\r`` kept as a carriage return, so a name's own CR can be told from its newline)."""
+    import html
+
+    breaks = {"n": "\n", "l": "\n", "r": "\r", "N": node, "G": graph}
+    text = re.sub(r"\\(.)", lambda m: "\\" if m.group(1) == "\\" else breaks.get(m.group(1), m.group(1)), label, flags=re.S)
+    return html.unescape(text)
+
+
+def test_dot_of_hostile_names_parses_and_every_name_survives():
+    robot_name, links, joints = hostile_names()
+    dot = tree.tree_dot(load(HOSTILE.read_text()))
+    name, graph, nodes, edges = read_dot(dot)
+    assert len(dot.strip().splitlines()) == 4 + len(links) + 3 * len(joints) + 1  # one statement a line
+    assert label_text(graph["label"], graph=name).startswith(robot_name + ": 4 links, 3 joints")
+    link_nodes = {label_text(attrs["label"], node, name): node for node, attrs in nodes.items() if attrs["shape"] == "box"}
+    assert sorted(link_nodes) == sorted(links)
+    joint_labels = [label_text(attrs["label"], node, name) for node, attrs in nodes.items() if attrs["shape"] == "ellipse"]
+    assert [label.rsplit("\n", 3)[0] for label in joint_labels] == joints  # name, then type, xyz, rpy
+    parents = {e.get("name"): (e.find("parent").get("link"), e.find("child").get("link"))
+               for e in ET.parse(HOSTILE).getroot().findall("joint")}
+    joint_nodes = {label.rsplit("\n", 3)[0]: node for label, node in
+                   zip(joint_labels, [n for n, a in nodes.items() if a["shape"] == "ellipse"])}
+    expected = [edge for joint, (parent, child) in parents.items()
+                for edge in ((link_nodes[parent], joint_nodes[joint]), (joint_nodes[joint], link_nodes[child]))]
+    assert edges == expected
+
+
+def test_dot_label_writes_an_ampersand_as_an_entity_so_graphviz_shows_it_as_written():
+    # Graphviz decodes entities in every label: a link called "a &amp; b" would be drawn "a & b".
+    spelled = robot("amp", ["a &amp;amp; b", "c &lt; d"], [("j", "fixed", "a &amp;amp; b", "c &lt; d", "0 0 0", "0 0 0", "1 0 0")])
+    _, _, nodes, _ = read_dot(tree.tree_dot(load(spelled)))
+    assert nodes["link:a &amp; b"]["label"] == "a &amp;amp; b"
+    assert label_text(nodes["link:a &amp; b"]["label"]) == "a &amp; b"
+    assert label_text(nodes["link:c < d"]["label"]) == "c < d"
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="Graphviz's dot is not installed (apt-get install graphviz)")
+def test_graphviz_draws_hostile_names_as_written(tmp_path):
+    _, links, joints = hostile_names()
+    source = tmp_path / "tree.dot"
+    source.write_text(tree.tree_dot(load(HOSTILE.read_text())))
+    svg = subprocess.run(["dot", "-Tsvg", str(source)], capture_output=True, text=True, check=True, timeout=60).stdout
+    ns = "{http://www.w3.org/2000/svg}"
+    drawn = []
+    for group in ET.fromstring(svg).iter(f"{ns}g"):
+        if group.get("class") == "node":
+            drawn.append([text.text or "" for text in group.iter(f"{ns}text")])
+    # Graphviz draws one <text> per line; a line break inside a name (LF or CR) starts a new one.
+    assert sorted(lines for lines in drawn if len(lines) <= 3) == sorted(re.split("[\r\n]", link) for link in links)
+    assert [lines[:-3] for lines in drawn if len(lines) > 3] == [re.split("[\r\n]", joint) for joint in joints]
+
+
+def test_text_tree_shows_line_breaks_in_names_as_escapes():
+    robot_name, links, _ = hostile_names()
+    text = tree.tree_text(load(HOSTILE.read_text()))
+    assert text.splitlines()[0] == f"robot name is: {robot_name}"
+    assert len(text.splitlines()) == 1 + 1 + 1 + 3 + 1  # name, root line, root, one line per joint, summary
+    assert 'say "hi" \\o/ <b>x</b> &amp; \\N\\l\\ntwo\\rthree' in text
+
+
+@pytest.mark.parametrize("suffix", ["png", "svg"])
+def test_image_draws_hostile_names_as_plain_text(tmp_path, suffix):
+    # "tool$\frac{1}{$" once failed inside matplotlib's mathtext parser (an internal error)
+    _, links, joints = hostile_names()
+    path = tree.write_tree_image(load(HOSTILE.read_text()), tmp_path / f"hostile.{suffix}")
+    if suffix == "png":
+        assert path.read_bytes()[:8] == PNG_MAGIC
+        return
+    texts = {"".join(e.itertext()) for e in ET.parse(path).getroot().iter("{http://www.w3.org/2000/svg}text")}
+    shown = {name.replace("\n", "\\n").replace("\r", "\\r") for name in links + joints}
+    assert shown <= texts
+
+
+def test_image_into_a_missing_folder_is_an_output_error_and_creates_nothing(tmp_path):
+    target = tmp_path / "no_such_folder" / "tree.png"
+    with pytest.raises(OutputError) as caught:
+        tree.write_tree_image(load(CHAIN), target)
+    assert str(caught.value) == f"cannot write {target}: no such folder {target.parent}"
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("suffix", ["png", "svg"])
+def test_image_onto_a_full_disk_is_an_output_error(tmp_path, suffix):
+    full = tmp_path / f"full.{suffix}"
+    full.symlink_to("/dev/full")  # every write fails with ENOSPC, as on a full disk
+    with pytest.raises(OutputError) as caught:
+        tree.write_tree_image(load(CHAIN), full)
+    assert str(caught.value) == f"cannot write {full}: No space left on device"

@@ -19,6 +19,7 @@ import numpy as np
 from manipkit.closed_form.planar import chain_points, fk_2r, fk_3r
 from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, workspace_3r
 from manipkit.errors import PlanarArmError
+from manipkit.outputs import writable_path, writing
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.text import number_text, short_text
 
@@ -201,8 +202,8 @@ def plot_planar_workspace(
     lengths : sequence of float
         ``(l1, l2)`` or ``(l1, l2, l3)`` in metres, each > 0.
     path : str or path-like
-        Output file; the suffix ``.png`` or ``.svg`` picks the format. Missing
-        parent folders are created.
+        Output file; the suffix ``.png`` or ``.svg`` picks the format. Its
+        folder must exist: none is created (:mod:`manipkit.outputs`).
     n_samples : int, keyword-only
         Random configurations to sample (joint angles uniform in [-pi, pi)).
     configurations : int, keyword-only
@@ -218,6 +219,15 @@ def plot_planar_workspace(
     Path
         ``path``, written.
 
+    Raises
+    ------
+    PlanarArmError
+        Lengths that are not 2 or 3 positive numbers, a suffix other than
+        ``.png``/``.svg``, a bad ``configurations``.
+    OutputError
+        ``cannot write PATH: reason``: a missing folder or a folder as
+        ``path`` (checked before sampling), a full disk, no permission.
+
     Examples
     --------
     >>> import tempfile, os
@@ -231,7 +241,7 @@ def plot_planar_workspace(
 
     values = _planar_lengths(lengths)
     ws = planar_workspace(values)
-    path = Path(path)
+    path = writable_path(path)
     if path.suffix.lower() not in _PLOT_SUFFIXES:
         raise PlanarArmError(f"cannot write '{path.name}': use a file name ending in .png or .svg")
     if isinstance(configurations, bool) or not isinstance(configurations, (int, np.integer)) or configurations < 0:
@@ -270,8 +280,8 @@ def plot_planar_workspace(
     sample_handle = legend.legend_handles[0]  # the sample dots, drawn tiny and faint in the plot
     sample_handle.set_markersize(8)
     sample_handle.set_alpha(0.6)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110, bbox_inches="tight")
+    with writing(path) as target:
+        figure.savefig(target, dpi=110, bbox_inches="tight")
     return path
 
 

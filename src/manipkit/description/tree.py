@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from manipkit.errors import OutputError
+from manipkit.outputs import writable_path, writing
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
 from manipkit.text import trimmed_text
 
@@ -231,6 +232,14 @@ def _joint_lines(joint) -> list[str]:
     return [joint.name, _joint_kind(joint), f"xyz {xyz_text}", f"rpy {rpy_text}"]
 
 
+def _shown(text: str) -> str:
+    """``text`` for one line of the text tree or the image: line breaks and tabs in names as ``\\n``, ``\\r``, ``\\t``.
+
+    (XML allows no other control characters, even as character references.)
+    """
+    return text.replace("\n", "\\n").replace("\r", "\\r").replace("\t", "\\t")
+
+
 def _summary(tree: _Tree) -> str:
     def plural(n, word):
         return f"{n} {word}" + ("" if n == 1 else "s")
@@ -294,7 +303,7 @@ def tree_text(urdf) -> str:
                 shown.add(joint.child)
                 stack.append((list(tree.children.get(joint.child, ())), prefix + more))
     lines.append(_summary(tree))
-    return "\n".join(lines) + "\n"
+    return "\n".join(map(_shown, lines)) + "\n"
 
 
 # --------------------------------------------------------------------------
@@ -303,13 +312,25 @@ def tree_text(urdf) -> str:
 
 
 def _dot_string(text: str) -> str:
-    """A DOT quoted string: backslashes and quotes escaped, newlines as ``\\n``."""
-    escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+    """A DOT quoted string (an ID): backslashes and quotes escaped, line breaks as ``\\n`` and ``\\r``.
+
+    Graphviz's lexer ends a quoted string only at an unescaped ``"``; with every
+    backslash doubled, distinct names stay distinct IDs and each statement stays on one line.
+    """
+    escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r")
     return f'"{escaped}"'
 
 
 def _dot_label(lines) -> str:
-    return _dot_string("\n".join(lines))
+    """A DOT label of text lines, shown as written.
+
+    On top of :func:`_dot_string`, ``&`` becomes ``&amp;``: Graphviz reads
+    HTML entities (``&lt;``, ``&#60;``) in every label, so a name spelled
+    with one would otherwise be drawn as the character it names.
+    ``<``, ``>`` and escapes such as ``\\N`` need nothing more: a quoted
+    label is never HTML, and the doubled backslash is drawn as one.
+    """
+    return _dot_string("\n".join(lines).replace("&", "&amp;"))
 
 
 def tree_dot(urdf) -> str:
@@ -329,18 +350,20 @@ def tree_dot(urdf) -> str:
         (and axis, as in :func:`tree_text`) and its origin as ``xyz`` (metres) and ``rpy`` (radians, R = Rz(yaw)
         Ry(pitch) Rx(roll)), rounded to 6 decimals; two edges per joint,
         parent link -> joint -> child link. Render with
-        ``dot -Tpng tree.dot -o tree.png``.
+        ``dot -Tpng tree.dot -o tree.png``. Every name is escaped (quotes,
+        backslashes, line breaks; ``&`` in labels), so Graphviz draws it as
+        written and a name cannot end a string or add a statement.
     """
     tree = _analyse(urdf)
     out = [
         f"digraph {_dot_string(tree.name)} {{",
-        f"  graph [rankdir=TB, labelloc=t, label={_dot_string(tree.name + ': ' + _summary(tree))}];",
+        f"  graph [rankdir=TB, labelloc=t, label={_dot_label([tree.name + ': ' + _summary(tree)])}];",
         '  node [fontname="Helvetica", fontsize=10];',
         '  edge [arrowsize=0.7];',
     ]
     for link in tree.links:
         style = ', style=dashed, color=red, tooltip="not declared"' if link in tree.undeclared else ""
-        out.append(f"  {_dot_string('link:' + link)} [label={_dot_string(link)}, shape=box{style}];")
+        out.append(f"  {_dot_string('link:' + link)} [label={_dot_label([link])}, shape=box{style}];")
     joint_ids = _joint_ids(tree)
     for joint in tree.joints:
         out.append(f"  {_dot_string(joint_ids[id(joint)])} [label={_dot_label(_joint_lines(joint))}, shape=ellipse];")
@@ -382,7 +405,7 @@ _LEVEL_H = _LINK_H / 2 + _EDGE_DROP + _LABEL_H + _LABEL_GAP + _LINK_H / 2
 
 
 def _text_width(line: str) -> float:
-    return len(line) * _CHAR_W + 2 * _PAD_X
+    return len(_shown(line)) * _CHAR_W + 2 * _PAD_X
 
 
 def _parent_joint(tree: _Tree) -> dict[str, object]:
@@ -519,9 +542,11 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     Raises
     ------
     OutputError
-        If the format is neither PNG nor SVG.
+        If the format is neither PNG nor SVG, or the file cannot be written
+        (``cannot write PATH: reason``, checked before drawing: no folder is
+        created; see :mod:`manipkit.outputs`).
     """
-    path = Path(path)
+    path = writable_path(path)
     fmt = (fmt or path.suffix.lstrip(".")).lower()
     if fmt not in _IMAGE_FORMATS:
         raise OutputError(
@@ -559,7 +584,9 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)  # one data unit = one point: sizes match the text
     ax.set_axis_off()
-    text = dict(fontsize=_FONT_PT, family="monospace", color=_TEXT_COLOUR, ha="center", va="center")
+    # parse_math=False: a name with "$" is text, not mathtext (which could fail to parse)
+    text = dict(fontsize=_FONT_PT, family="monospace", color=_TEXT_COLOUR, ha="center", va="center",
+                parse_math=False)
 
     def box(cx, cy, w, h, face, edge, **kw):
         ax.add_patch(
@@ -571,7 +598,7 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
 
     for i, line in enumerate(header):
         colour, weight = (_TEXT_COLOUR, "bold") if i == 0 else ("#b00020", "normal")
-        ax.text(x0 + _MARGIN, top - (i + 0.5) * _LINE_H, line, **{**text, "ha": "left", "color": colour},
+        ax.text(x0 + _MARGIN, top - (i + 0.5) * _LINE_H, _shown(line), **{**text, "ha": "left", "color": colour},
                 weight=weight)
 
     line_kw = dict(color="#555555", linewidth=0.8, solid_capstyle="butt", zorder=1)
@@ -589,7 +616,7 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
         w = max(_text_width(line) for line in lines)
         box(x, label_top - _LABEL_H / 2, w, _LABEL_H, _JOINT_FACE.get(joint.type, "white"), "#777777", zorder=2)
         for i, line in enumerate(lines):
-            ax.text(x, label_top - _PAD_Y - (i + 0.5) * _LINE_H, line, **text,
+            ax.text(x, label_top - _PAD_Y - (i + 0.5) * _LINE_H, _shown(line), **text,
                     weight="bold" if i == 0 else "normal", zorder=3)
 
     warn = {**text, "color": "#b00020"}
@@ -601,7 +628,7 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
         dx, dy = cx - px, cy - py
         length = float(np.hypot(dx, dy))
         if length < 1.0:  # a joint from a link to itself
-            ax.text(px, py - _LINK_H / 2 - _LINE_H, "↺ " + name, **warn, zorder=3)
+            ax.text(px, py - _LINK_H / 2 - _LINE_H, "↺ " + _shown(name), **warn, zorder=3)
             continue
         # Bulge to the right (or down) by more than half the wider column,
         # so the arc and its label clear the boxes at both ends.
@@ -615,16 +642,16 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
             )
         )
         lx, ly = (px + cx) / 2 + sign * bulge * nx, (py + cy) / 2 + sign * bulge * ny
-        ax.text(lx, ly, name, **{**warn, "ha": "left" if sign * nx >= 0 else "right"}, zorder=3,
+        ax.text(lx, ly, _shown(name), **{**warn, "ha": "left" if sign * nx >= 0 else "right"}, zorder=3,
                 bbox=dict(facecolor="white", edgecolor="none", pad=1))
 
     for link, (x, y) in position.items():
         edge = "#b00020" if link in tree.undeclared else _LINK_EDGE
         box(x, y, _text_width(link), _LINK_H, _LINK_FACE, edge, zorder=2)
-        ax.text(x, y, link, **text, weight="bold", zorder=3)
+        ax.text(x, y, _shown(link), **text, weight="bold", zorder=3)
 
-    with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "manipkit"}):
-        fig.savefig(path, format=fmt, dpi=dpi, metadata=_deterministic_metadata(fmt))
+    with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "manipkit"}), writing(path) as target:
+        fig.savefig(target, format=fmt, dpi=dpi, metadata=_deterministic_metadata(fmt))
     return path
 
 

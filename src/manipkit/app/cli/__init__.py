@@ -3,7 +3,10 @@
 ``tf-between SOURCE TARGET`` prints T_SOURCE_TARGET (the pose of TARGET in
 SOURCE) like ROS 2 ``tf2_echo``; ``manipkit`` groups the other commands.
 User errors print one line on stderr and exit with status 2; a bug exits
-with status 1 and asks to be reported. Warnings (a normalised joint axis, an
+with status 1 and asks to be reported. Output that cannot be written (a
+file through :mod:`manipkit.outputs`, or stdout on a full disk or
+``/dev/full``) is a user error, ``cannot write PATH: reason``; a closed
+pipe (``| head -1``) ends the command quietly, as Unix tools do. Warnings (a normalised joint axis, an
 unresolved ``package://`` mesh, a value moved into its limits by ``--clamp``)
 print as ``warning: ...`` lines on stderr; the answer stays alone on stdout.
 Joint values outside their limits are an error naming the joint, the value
@@ -23,11 +26,13 @@ commands, and ``tf-between`` imports no other command's module.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser
 from manipkit.app.cli.tf import run_tf, tf_parser
 from manipkit.errors import ManipkitError
+from manipkit.outputs import cannot_write
 
 __all__ = ["main", "run_command", "tf_between_main"]
 
@@ -57,11 +62,19 @@ def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
 
     A :class:`~manipkit.errors.ManipkitError` prints one line
     ``PROG: error: ...`` on stderr (status 2); any other exception is a bug:
-    one short line asking for a report (status 1), no traceback.
+    one short line asking for a report (status 1), no traceback. stdout is
+    flushed before the command counts as done, so a full disk or
+    ``/dev/full`` ends as ``PROG: error: cannot write stdout: REASON``
+    (status 2), and a reader that went away (``| head -1``) ends the command
+    quietly with status 0.
     """
-    args = parser.parse_args(argv)
+    stdout = sys.stdout
+    sys.stdout = _GuardedStdout(stdout)
     try:
-        return (runner or args.run)(args)
+        args = parser.parse_args(argv)
+        status = (runner or args.run)(args)
+        sys.stdout.flush()  # inside the try: a write that fails shows here, not at interpreter exit
+        return status
     except ManipkitError as exc:
         print(f"{parser.prog}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return EXIT_USAGE
@@ -77,3 +90,54 @@ def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERNAL
+    finally:
+        sys.stdout = stdout
+        _settle(stdout)
+
+
+class _GuardedStdout:
+    """``sys.stdout`` while a command runs: a write or flush that fails (full disk, ``/dev/full``, EIO)
+    raises :class:`~manipkit.errors.OutputError` ``cannot write stdout: REASON``; a closed pipe
+    stays a :class:`BrokenPipeError`. Everything else is the stream's own."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise cannot_write("stdout", exc) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise cannot_write("stdout", exc) from None
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _settle(stream) -> None:
+    """Flush ``stream``; if it cannot take the output (closed pipe, full disk), drop what is left.
+
+    Python flushes stdout once more at exit and would print ``Exception
+    ignored ...`` for output that could not be written: pointing the
+    process's stdout at ``/dev/null`` lets it exit quietly (the Python
+    docs' advice for SIGPIPE). Only the process's own stdout is redirected.
+    """
+    try:
+        stream.flush()
+    except (OSError, ValueError):  # ValueError: already closed
+        if stream is sys.__stdout__:
+            try:
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, stream.fileno())
+                os.close(devnull)
+            except (OSError, ValueError):
+                pass

@@ -27,10 +27,12 @@ __all__ = [
     "EXIT_MISMATCH",
     "EXIT_OK",
     "EXIT_USAGE",
+    "MAX_ANGLE",
     "Parser",
     "UsageError",
     "add_joint_options",
     "add_robot_options",
+    "check_angles",
     "check_precision",
     "check_tolerance",
     "joint_vector",
@@ -44,6 +46,11 @@ __all__ = [
 
 EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
 EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
+
+#: Largest angle magnitude (rad) a command takes. Beyond it the spacing of float64 numbers
+#: (1.2e-10 rad at 1e6) grows towards a full turn (at about 1e16), so the angle names no definite
+#: rotation, and printed with fixed decimals it would run to hundreds of digits.
+MAX_ANGLE = 1e6
 
 
 class Parser(argparse.ArgumentParser):
@@ -160,7 +167,36 @@ def joint_vector(robot: Robot, args, *, option: str = "--q", items=None) -> np.n
         if not prefix:
             raise
         raise UsageError(f"{prefix}{exc}") from None
+    _check_unlimited_angles(robot, q, degrees=args.deg, prefix=prefix)
     return limit_checked(robot, q, degrees=args.deg, clamp=args.clamp, given=set(values), prefix=prefix)
+
+
+def _check_unlimited_angles(robot: Robot, q, *, degrees: bool, prefix: str) -> None:
+    """A usage error for an angle above :data:`MAX_ANGLE` on a joint without limits (continuous).
+
+    Limited joints need no check: their limits refuse (or ``--clamp`` clamps) such a value.
+    """
+    for joint, value in zip(robot.joints, q):
+        unlimited = not (math.isfinite(joint.lower) and math.isfinite(joint.upper))
+        if unlimited and joint.is_angular and abs(value) > MAX_ANGLE:
+            shown = f"{short_text(math.degrees(value))} deg" if degrees else f"{short_text(value)} rad"
+            raise UsageError(f"{prefix}joint '{joint.name}' = {shown} is too large to name a rotation; "
+                             f"give angles within {_angle_limit_text(degrees)}")
+
+
+def check_angles(option: str, values, *, degrees: bool) -> None:
+    """A usage error unless every angle of ``option`` (rad, or deg with ``degrees``) is within :data:`MAX_ANGLE`."""
+    limit, unit = (math.degrees(MAX_ANGLE), "deg") if degrees else (MAX_ANGLE, "rad")
+    for value in values:
+        if abs(value) > limit:
+            raise UsageError(f"{option} {' '.join(short_text(v) for v in values)}: {short_text(value)} {unit} is too "
+                             f"large to name a rotation; give angles within {_angle_limit_text(degrees)}")
+
+
+def _angle_limit_text(degrees: bool) -> str:
+    if degrees:
+        return f"+-{short_text(math.degrees(MAX_ANGLE))} deg ({short_text(MAX_ANGLE)} rad)"
+    return f"+-{short_text(MAX_ANGLE)} rad"
 
 
 def limit_checked(robot: Robot, q, *, degrees: bool, clamp: bool, given=None, prefix: str = "") -> np.ndarray:

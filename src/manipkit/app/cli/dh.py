@@ -19,6 +19,7 @@ from manipkit.app.cli.common import (
     load_robot,
     print_json,
 )
+from manipkit.outputs import writable_path, write_text
 from manipkit.text import short_text
 
 __all__ = ["register", "run_dh_check", "run_dh_from_urdf", "run_dh_show", "run_dh_to_urdf"]
@@ -110,25 +111,32 @@ def run_dh_check(args) -> int:
 
 
 def run_dh_to_urdf(args) -> int:
-    """Print the URDF of the table, or write it to ``-o``."""
+    """Print the URDF of the table, or write it to ``-o`` (checked before the table is read)."""
     from manipkit import dh
     from manipkit.description.sources import resolve_dh_table
 
+    if args.output is not None:
+        writable_path(args.output)
     table = dh.load_dh(resolve_dh_table(args.table))
     text = dh.urdf_from_dh(table)
     if args.output is None:
         print(text)
     else:
-        args.output.write_text(text)
+        write_text(args.output, text)
         print(f"wrote {args.output} ({table.n} joints, frames base_link, link_1..link_{table.n}, ee_link)")
     return EXIT_OK
 
 
 def run_dh_from_urdf(args) -> int:
-    """Print the DH table of the chain base -> tip (and save it to ``-o`` with a header saying how it was made)."""
+    """Print the DH table of the chain base -> tip (and save it to ``-o`` with a header saying how it was made).
+
+    ``-o`` is checked before the robot is loaded and written through :mod:`manipkit.outputs`.
+    """
     from manipkit import dh
     from manipkit.dh.from_urdf import dh_from_urdf_chain
 
+    if args.output is not None:
+        writable_path(args.output)  # before the robot is loaded
     robot = load_robot(args)
     table = dh_from_urdf_chain(robot, args.base, args.tip, convention=args.convention)
     if args.output is not None:
@@ -138,7 +146,7 @@ def run_dh_from_urdf(args) -> int:
             f"derived by `manipkit dh from-urdf --robot {args.robot or robot.source.name} --base {args.base} "
             f"--tip {args.tip} --convention {args.convention}` (exact to the URDF's numbers)"
         )
-        dh.save_dh(table, args.output, header=header)
+        write_text(args.output, dh.yaml_from_dh(table, header=header))  # what dh.save_dh writes
         print(f"wrote {args.output}")
     print(dh.format_dh_table(table))
     return EXIT_OK

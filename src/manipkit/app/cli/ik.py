@@ -17,6 +17,7 @@ from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
     add_robot_options,
+    check_angles,
     check_precision,
     joint_vector,
     load_robot,
@@ -70,6 +71,7 @@ def _ik_target(args) -> np.ndarray:
             raise UsageError(f"{option} {' '.join(short_text(v) for v in values)}: {short_text(bad)} is not finite; "
                              f"give finite numbers{' (' + unit + ')' if unit else ''}")
     if args.rpy is not None:
+        check_angles("--rpy", args.rpy, degrees=args.deg)
         return transform_from_xyz_rpy(args.xyz, np.radians(args.rpy) if args.deg else args.rpy)
     # no orientation given: the identity rotation, (0, 0, 0, 1) (exact zeros, none of them -0.0 in the JSON)
     quaternion = (0.0, 0.0, 0.0, 1.0) if args.quat is None else args.quat

@@ -1,7 +1,9 @@
 """``manipkit robots`` (every robot ``--robot`` can name) and ``manipkit frames`` (one robot's frames and joints).
 
 Tables drawn with rich; numbers as :mod:`manipkit.text` writes them
-(docs/architecture.md, "app").
+(docs/architecture.md, "app"). Names are printed as written: rich's markup
+(``[bold]``), emoji codes (``:smile:``) and highlighting are off, so a name
+such as ``[/]`` is text, not a (broken) style tag.
 """
 
 from __future__ import annotations
@@ -24,7 +26,6 @@ def register(commands) -> None:
 
 def run_robots(args) -> int:
     """A table of the bundled and example-robot-data robots: DOF, base_link, ee_link, file."""
-    from rich.console import Console
     from rich.table import Table
 
     import manipkit
@@ -41,17 +42,16 @@ def run_robots(args) -> int:
             table.add_row(name, origin, "?", "?", "?", f"cannot load: {exc}")
             continue
         table.add_row(name, origin, str(len(robot.joints)), robot.root_link, robot.ee_frame, robot.source.path.name)
-    Console(width=160).print(table)
+    _console().print(table)
     return EXIT_OK
 
 
 def run_frames(args) -> int:
     """The robot's frames, then a table of its movable joints (type, axis, parent -> child, limits)."""
-    from rich.console import Console
     from rich.table import Table
 
     robot = load_robot(args)
-    console = Console(width=160)
+    console = _console()
     console.print(f"robot {robot.name}: {len(robot.frame_names)} frames; base_link = {robot.root_link}; ee_link = {robot.ee_reason}")
     console.print("frames: " + ", ".join(robot.frame_names))
     table = Table(title=f"movable joints of {robot.name} (radians / metres)")
@@ -64,3 +64,10 @@ def run_frames(args) -> int:
         )
     console.print(table)
     return EXIT_OK
+
+
+def _console():
+    """A rich console that prints text as written (no markup, emoji codes or highlighting), 160 columns."""
+    from rich.console import Console
+
+    return Console(width=160, markup=False, emoji=False, highlight=False)

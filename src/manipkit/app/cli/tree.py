@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot
+from manipkit.outputs import writable_path, write_text
 
 __all__ = ["register", "run_tree"]
 
@@ -22,28 +23,44 @@ def register(commands) -> None:
 
 
 def run_tree(args) -> int:
-    """Print the tree, or write it to ``-o`` in the format given or named by the file's suffix."""
+    """Print the tree, or write it to ``-o`` in the format given or named by the file's suffix.
+
+    The output file is checked (its folder exists, it is not a folder) and
+    its format known before the robot is loaded.
+    """
     from manipkit.description import tree
     from manipkit.description.tree import parse_structure
 
+    if args.output is not None:
+        writable_path(args.output)
+    fmt = _tree_format(args.format, args.output)
     robot = load_robot(args)
     description = parse_structure(robot.urdf)
-    fmt = args.format
-    if fmt is None:
-        fmt = args.output.suffix.lstrip(".").lower() if args.output is not None else "text"
-        fmt = {"txt": "text", "gv": "dot"}.get(fmt, fmt)
-    if fmt not in ("text", "dot", "png", "svg"):
-        raise UsageError(f"tree format '{fmt}': choose text, dot, png or svg")
     if fmt in ("png", "svg"):
-        if args.output is None:
-            raise UsageError(f"--format {fmt} needs -o FILE.{fmt}")
         path = tree.write_tree_image(description, args.output, fmt=fmt)
         print(f"wrote {path}")
         return EXIT_OK
     text = tree.tree_text(description) if fmt == "text" else tree.tree_dot(description)
     if args.output is not None:
-        args.output.write_text(text + ("" if text.endswith("\n") else "\n"))
+        write_text(args.output, text + ("" if text.endswith("\n") else "\n"))
         print(f"wrote {args.output}")
     else:
         print(text)
     return EXIT_OK
+
+
+def _tree_format(fmt: str | None, output: Path | None) -> str:
+    """``--format``, else the one ``-o``'s suffix names (``.txt``, ``.dot``/``.gv``, ``.png``, ``.svg``), else text."""
+    if fmt is None and output is not None:
+        suffix = output.suffix.lstrip(".").lower()
+        if not suffix:
+            raise UsageError(f"tree -o {output}: the file name has no suffix to choose a format from; "
+                             "name a .txt, .dot, .png or .svg file, or give --format")
+        fmt = {"txt": "text", "gv": "dot"}.get(suffix, suffix)
+        if fmt not in ("text", "dot", "png", "svg"):
+            raise UsageError(f"tree -o {output}: no tree format for '.{suffix}' files; "
+                             "name a .txt, .dot, .png or .svg file, or give --format")
+    fmt = fmt or "text"
+    if fmt in ("png", "svg") and output is None:
+        raise UsageError(f"--format {fmt} needs -o FILE.{fmt}")
+    return fmt

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from manipkit.app.cli.common import EXIT_OK, add_joint_options, add_robot_options, joint_vector, load_robot, warn
+from manipkit.outputs import writable_path
 from manipkit.text import number_text
 
 __all__ = ["register", "run_view"]
@@ -40,6 +41,8 @@ def run_view(args) -> int:
 
     from manipkit.app import viewer
 
+    if args.static is not None:
+        writable_path(args.static)  # before the robot is loaded and meshcat started
     robot = load_robot(args, mesh_warnings=False)
     q = joint_vector(robot, args)
     frames = tuple(args.frames)

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json
+from manipkit.outputs import writable_path
 from manipkit.text import short_text
 
 __all__ = ["register", "run_workspace"]
@@ -30,6 +31,8 @@ def run_workspace(args) -> int:
 
     if args.samples < 1:
         raise UsageError(f"--samples {args.samples}: give at least 1")
+    if args.plot is not None:
+        writable_path(args.plot)  # before the robot is loaded; no folder is ever created
     robot = load_robot(args)
     lengths = planar_link_lengths(robot)
     workspace = planar_workspace(lengths)

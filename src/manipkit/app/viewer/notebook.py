@@ -69,8 +69,10 @@ class NotebookView:
         if not self._syncing:
             try:
                 self.state.set_frames(self.frame_a.value, self.frame_b.value)
-            except ManipkitError as exc:
-                self.error.value = f"<span style='color:#b00'>{exc}</span>"
+            except ManipkitError as exc:  # the message names frames: user text, escaped for the HTML widget
+                import html
+
+                self.error.value = f"<span style='color:#b00'>{html.escape(str(exc))}</span>"
                 return
             self._refresh()
 

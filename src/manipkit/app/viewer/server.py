@@ -20,11 +20,12 @@ from typing import TYPE_CHECKING
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
 from manipkit.app.viewer.state import DEFAULT_FRAMES, ViewerState
 from manipkit.errors import JointValueError, ManipkitError
+from manipkit.outputs import writable_path, write_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["DEFAULT_PORT", "ViewerServer", "open_view", "write_static"]
+__all__ = ["DEFAULT_PORT", "ViewerServer", "open_view", "page_html", "write_static"]
 
 DEFAULT_PORT = 8700
 
@@ -210,8 +211,8 @@ class ViewerServer:
             }
 
     def page(self) -> str:
-        data = json.dumps(self.initial()).replace("</", "<\\/")  # safe inside <script>
-        return _page_template().replace("{{STATE_JSON}}", data)
+        """The control page with the initial state (:func:`page_html`)."""
+        return page_html(self.initial())
 
     def update(self, body: dict) -> tuple[int, dict]:
         """Apply a change from the page; (HTTP status, answer).
@@ -239,6 +240,22 @@ class ViewerServer:
             except ManipkitError as exc:
                 return 400, {"error": str(exc), **state.snapshot()}
             return 200, state.snapshot()
+
+
+def page_html(initial: dict) -> str:
+    """The control page (``page.html``) with ``initial`` as its JSON state block.
+
+    Robot, link and joint names are user text: the JSON goes into a
+    ``<script type="application/json">`` block with ``<``, ``>`` and ``&``
+    written as ``\\u003c``, ``\\u003e``, ``\\u0026`` (as Django's
+    ``json_script`` does), so no name can end the block (``</script>``) or
+    change how the HTML parser reads it (``<!--``); ``JSON.parse`` gives the
+    names back unchanged and the page shows them with ``textContent``, as text.
+    """
+    data = json.dumps(initial)
+    for char, escape in (("&", "\\u0026"), ("<", "\\u003c"), (">", "\\u003e")):
+        data = data.replace(char, escape)
+    return _page_template().replace("{{STATE_JSON}}", data)
 
 
 def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, port: int = DEFAULT_PORT,
@@ -274,15 +291,17 @@ def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES
     """Write a standalone HTML snapshot of the pose (robot and triads at A and B); returns the path.
 
     The file is meshcat's static export: it opens in a browser without a server.
+    Names reach it only inside meshcat's base64-encoded drawing commands, never as markup.
+
+    Raises
+    ------
+    OutputError
+        ``cannot write PATH: reason`` (checked before meshcat starts; no folder is created).
     """
-    path = Path(path)
+    path = writable_path(path)
     state = ViewerState(robot, frames=frames, q=q)
     visual = visual_model(robot)
     with MeshcatScene(visual, robot.model, bounds=state.bounds()) as scene:
         scene.draw(state.scene_placements(visual))
         html = scene.static_html()
-    try:
-        path.write_text(html, encoding="utf-8")
-    except OSError as exc:
-        raise ManipkitError(f"cannot write {path}: {exc.strerror or exc}") from None
-    return path
+    return write_text(path, html)
