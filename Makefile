@@ -7,6 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
 CHROMIUM := /usr/bin/chromium
+DOT      := /usr/bin/dot
 
 .PHONY: setup demo test lint browser notebooks clean
 
@@ -22,12 +23,17 @@ $(STAMP): pyproject.toml
 demo: setup
 	$(BIN)/tf-between base_link ee_link --robot course_arm
 
-# The viewer tests drive Debian's Chromium (headless); install it when missing.
-browser: $(CHROMIUM)
+# The viewer tests drive Debian's Chromium (headless); the tree tests render DOT with Graphviz.
+# Both are installed when missing.
+browser: $(CHROMIUM) $(DOT)
 
 $(CHROMIUM):
 	@if [ "$$(id -u)" = 0 ]; then sudo=; else sudo=sudo; fi; \
 	$$sudo apt-get update -qq && $$sudo apt-get install -y -qq chromium chromium-driver
+
+$(DOT):
+	@if [ "$$(id -u)" = 0 ]; then sudo=; else sudo=sudo; fi; \
+	$$sudo apt-get update -qq && $$sudo apt-get install -y -qq graphviz
 
 test: setup browser lint
 	$(BIN)/python -m pytest
