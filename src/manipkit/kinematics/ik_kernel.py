@@ -39,6 +39,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+
 from manipkit.kinematics.chain import ChainStep, compile_kernel
 
 __all__ = [
