@@ -226,8 +226,15 @@ def _table_loader(source: str):
             return _HugeInteger(node.value)
         return yaml.SafeLoader.construct_yaml_int(loader, node)
 
+    def construct_timestamp(loader, node):
+        try:
+            return yaml.SafeLoader.construct_yaml_timestamp(loader, node)
+        except ValueError:  # 2020-13-45 looks like a date but is none: the text, refused where a number is due
+            return loader.construct_scalar(node)
+
     TableLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
     TableLoader.add_constructor("tag:yaml.org,2002:int", construct_integer)
+    TableLoader.add_constructor("tag:yaml.org,2002:timestamp", construct_timestamp)
     return TableLoader
 
 
@@ -266,7 +273,7 @@ def _kind(value) -> str:
     if value is None:
         return "nothing"
     if isinstance(value, _HugeInteger):
-        return f"an integer of {len(value)} characters"
+        return f"an integer of {len(value.lstrip('+-'))} digits"
     if isinstance(value, str):
         return f"the text {_short(value)}"
     if isinstance(value, (dict, list)):
@@ -302,7 +309,7 @@ def _number(value, source: str, what: str, unit: str) -> float:
     except ValueError:
         raise DHTableError(f"{source}: {what} is {_short(value)}, not a number; give a number in {unit}") from None
     except OverflowError:  # an integer above the largest float (1.8e308)
-        raise DHTableError(f"{source}: {what} is an integer of {len(str(value))} digits, too large; "
+        raise DHTableError(f"{source}: {what} is an integer of {len(str(abs(value)))} digits, too large; "
                            f"give a number in {unit}") from None
     if not math.isfinite(number):
         shown = value if not isinstance(value, str) else _short(value.strip())[1:-1]

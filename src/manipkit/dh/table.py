@@ -53,9 +53,10 @@ def check_dh_name(name: str, what: str) -> str:
     """``name`` if it is one line of printable text (a table's or a row's name), else DHTableError.
 
     Names are written into URDF (XML), YAML, LaTeX and boxed text, so a
-    control character (a line break, an escape sequence, NUL), a lone
-    surrogate or U+FFFE/U+FFFF, which XML cannot hold, is refused; ``what``
-    says where the name came from.
+    control character (Unicode category Cc: a line break, a tab, an escape
+    sequence, NUL) or a lone surrogate (not writable as UTF-8) is refused;
+    ``what`` says where the name came from. (The non-characters U+FFFE and
+    U+FFFF, which only XML refuses, are refused by ``urdf_from_dh``.)
 
     >>> check_dh_name("iiwa_joint_2", "row 2: field 'name'")
     'iiwa_joint_2'
@@ -69,8 +70,8 @@ def check_dh_name(name: str, what: str) -> str:
     return name
 
 
-# Unicode's control characters (category Cc), lone surrogates, and the two non-characters XML refuses
-_NOT_IN_A_NAME = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
+# Unicode's control characters (category Cc) and lone surrogates (category Cs)
+_NOT_IN_A_NAME = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff]")
 
 
 @dataclass(frozen=True)

@@ -83,7 +83,7 @@ def urdf_from_dh(table: DHTable, *, name: str | None = None) -> str:
     >>> text.count("<joint "), text.count('type="revolute"')
     (4, 2)
     """
-    robot_name = check_dh_name(str(name), "URDF robot name") if name else (table.name or "dh_robot")
+    robot_name = _xml_name(check_dh_name(str(name), "URDF robot name") if name else (table.name or "dh_robot"), "the robot name")
     joint_names = _joint_names(table)
     n = table.n
     origins = _joint_origins(table)
@@ -137,14 +137,31 @@ def save_urdf(table: DHTable, path: str | os.PathLike, *, name: str | None = Non
 def _joint_names(table: DHTable) -> list[str]:
     """The URDF joint of each row (its name, else ``joint_i``); a name two joints would share is refused."""
     names = [row.name or f"joint_{i}" for i, row in enumerate(table.rows, start=1)]
-    taken = {"base_joint": "the base joint", "tool_joint": "the tool joint"}
+    taken: dict[str, int] = {}
     for i, joint in enumerate(names, start=1):
+        _xml_name(joint, f"row {i}'s joint name")
+        if joint in ("base_joint", "tool_joint"):
+            raise DHTableError(f"DH table '{_shown(table.name)}': row {i} names its joint '{joint}', the name of the "
+                               f"URDF's fixed {joint.split('_')[0]} joint; rename the row")
         if joint in taken:
-            shown = joint if len(joint) <= 60 else joint[:57] + "..."
-            raise DHTableError(f"DH table '{table.name}': row {i} names its joint '{shown}', as {taken[joint]} is "
-                               "named; a URDF needs distinct joint names (rename one row)")
-        taken[joint] = f"row {i}"
+            raise DHTableError(f"DH table '{_shown(table.name)}': rows {taken[joint]} and {i} would both be joint "
+                               f"'{_shown(joint)}' in the URDF (a row without a name is joint_i); a URDF needs "
+                               "distinct joint names: rename one")
+        taken[joint] = i
     return names
+
+
+def _xml_name(name: str, what: str) -> str:
+    """``name`` unless it holds U+FFFE or U+FFFF, which XML cannot hold (control characters never reach here)."""
+    for index, char in enumerate(name):
+        if char in "\ufffe\uffff":
+            raise DHTableError(f"{what} '{_shown(name)}': character {index + 1} is U+{ord(char):04X}, which XML "
+                               "cannot hold; rename it")
+    return name
+
+
+def _shown(name: str, limit: int = 60) -> str:
+    return name if len(name) <= limit else name[: limit - 3] + "..."
 
 
 def _comment_text(text: str) -> str:
