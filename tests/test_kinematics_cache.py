@@ -194,3 +194,13 @@ def test_cache_that_cannot_be_written_in_full_falls_back_to_memory(tmp_path):
     again = _q_file_answer_is_right(tmp_path, lambda args: _run(args, env, tmp_path))  # no limit: cached again
     assert again.stderr == "" or "could not be read" in again.stderr, again.stderr
 
+
+def test_analytic_ik_in_a_read_only_install_needs_no_kernel(read_only_install):
+    env = _environment(read_only_install / "src", read_only_install / "home")
+    args = ["manipkit", "ik", "--robot", "planar_2r", "--analytic", "--xyz", "1", "1", "0", "--format", "json"]
+    result = _run(args, env, read_only_install / "work")
+    assert result.stderr == "", result.stderr  # importing the IK module no longer touches numba's cache
+    robot = manipkit.load("planar_2r")
+    for solution in json.loads(result.stdout)["solutions"]:  # unit links: (1, 1) is reached by both elbows
+        q = np.array([solution[name] for name in robot.joint_names])
+        np.testing.assert_allclose(robot.transform("base_link", "ee_link", q)[:2, 3], [1.0, 1.0], atol=1e-12)
