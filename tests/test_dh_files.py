@@ -1,6 +1,7 @@
 """manipkit.dh.files: DH table files, written and read back bit for bit, and one test per failure mode."""
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -9,7 +10,8 @@ from hypothesis import strategies as st
 from test_dh_table import BUNDLED_TABLES, DH_DIR
 
 from manipkit.dh import DHRow, DHTable, dh_from_yaml, load_dh, save_dh, transform_from_xyz_rpy, yaml_from_dh
-from manipkit.errors import DHTableError, ManipkitError
+from manipkit.errors import DHTableError, ManipkitError, OutputError
+from manipkit.inputs import MAX_TABLE_BYTES
 
 # --------------------------------------------------------------------------
 # helpers
@@ -257,3 +259,124 @@ def test_table_errors_are_manipkit_and_value_errors():
 def test_saving_a_non_finite_value_is_refused(tmp_path):
     with pytest.raises(DHTableError, match="row 1 d is nan"):
         save_dh(DHTable([DHRow(0, 0, math.nan, 0)]), tmp_path / "t.yaml")
+
+
+# --------------------------------------------------------------------------
+# files users download: bounded, no aliases, every fault one line (issue 15)
+
+ROW = "  - {a: 1, alpha: 0, d: 0, theta: 0}\n"
+
+
+def laughs(levels=9):
+    """A billion-laughs list: level k holds nine aliases of level k - 1, 9**levels items once expanded."""
+    items = ["&l0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    items += [f"&l{k} [{', '.join([f'*l{k - 1}'] * 9)}]" for k in range(1, levels)]
+    return "[" + ", ".join(items) + "]"
+
+
+@pytest.mark.parametrize("where", ["name", "qlim"])
+def test_nested_aliases_are_refused_before_they_expand(tmp_path, where):
+    text = (f"name: {laughs()}\nconvention: standard\njoints:\n{ROW}" if where == "name"
+            else f"convention: standard\njoints:\n  - {{a: 1, alpha: 0, d: 0, theta: 0, qlim: {laughs()}}}\n")
+    message = error_for(tmp_path, text)
+    assert "alias *l0 refused; a DH table file holds no aliases" in message
+
+
+def test_an_alias_of_a_list_that_contains_itself_is_refused(tmp_path):
+    assert "alias *rows refused" in error_for(tmp_path, "convention: standard\njoints: &rows\n  - {a: 1, alpha: 0, d: 0, theta: 0, name: *rows}\n")
+
+
+def test_an_anchor_without_an_alias_is_read(tmp_path):
+    table = load_dh(write(tmp_path, "convention: standard\njoints:\n  - {a: &len 0.5, alpha: 0, d: 0, theta: 0}\n"))
+    assert table.rows[0].a == 0.5
+
+
+@pytest.mark.parametrize("digits", [401, 5000])
+def test_an_integer_too_large_for_a_float_names_row_and_field(tmp_path, digits):
+    text = f"convention: standard\njoints:\n{ROW}  - {{a: 0, alpha: 0, d: {'7' * digits}, theta: 0}}\n"
+    message = error_for(tmp_path, text)
+    assert f"row 2: field 'd' is an integer of {digits} digits, too large; give a number in metres" in message
+    assert len(message) < 300
+
+
+def test_an_integer_of_300_digits_is_read_as_the_float_it_is(tmp_path):
+    table = load_dh(write(tmp_path, f"convention: standard\njoints:\n  - {{a: 0, alpha: 0, d: 1{'0' * 299}, theta: 0}}\n"))
+    assert table.rows[0].d == 1e299
+
+
+def test_nesting_deeper_than_a_table_needs_is_refused(tmp_path):
+    text = "convention: standard\njoints:\n  - {a: " + "[" * 5000 + "]" * 5000 + ", alpha: 0, d: 0, theta: 0}\n"
+    assert "line 3: nested more than 16 levels deep" in error_for(tmp_path, text)
+
+
+def test_more_values_than_a_table_can_hold_are_refused_while_reading(tmp_path):
+    text = "convention: standard\njoints:\n  - {a: 0, alpha: 0, d: 0, theta: 0, qlim: [" + ", ".join(["0"] * 30000) + "]}\n"
+    assert "more than 26000 values, above the limit for a DH table (1000 rows at most)" in error_for(tmp_path, text)
+
+
+def test_a_table_of_1000_rows_is_read_and_1001_refused(tmp_path):
+    assert load_dh(write(tmp_path, "convention: standard\njoints:\n" + ROW * 1000)).n == 1000
+    message = error_for(tmp_path, "convention: standard\njoints:\n" + ROW * 1001)
+    assert "field 'joints' has 1001 rows, above the limit of 1000 rows of a DH table" in message
+
+
+@pytest.mark.parametrize("name, index, code", [('"arm\\nx"', 4, "000A"), ('"a\\e[2J"', 2, "001B"), ('"j\\ud800"', 2, "D800"),
+                                               ('"tab\\tx"', 4, "0009")])
+def test_a_name_that_is_not_one_line_of_printable_text_is_refused(tmp_path, name, index, code):
+    message = error_for(tmp_path, f"name: {name}\nconvention: standard\njoints:\n{ROW}")
+    assert f"field 'name': character {index} is U+{code}, not printable text" in message
+    row_message = error_for(tmp_path, f"convention: standard\njoints:\n  - {{a: 1, alpha: 0, d: 0, theta: 0, name: {name}}}\n")
+    assert f"row 1: field 'name': character {index} is U+{code}" in row_message
+
+
+def test_a_value_yaml_takes_for_a_date_but_is_none_is_not_a_number(tmp_path):
+    message = error_for(tmp_path, "convention: standard\njoints:\n  - {a: 2020-13-45, alpha: 0, d: 0, theta: 0}\n")
+    assert "row 1: field 'a' is '2020-13-45', not a number" in message
+
+
+def test_messages_stay_short_whatever_the_file_holds(tmp_path):
+    key = error_for(tmp_path, "convention: standard\n? " + "k" * 100000 + "\n: 1\njoints:\n" + ROW)
+    convention = error_for(tmp_path, "convention: " + "s" * 100000 + "\njoints:\n" + ROW)
+    text = error_for(tmp_path, "convention: standard\njoints:\n  - {a: " + "x" * 100000 + ", alpha: 0, d: 0, theta: 0}\n")
+    assert "unknown field 'kkkkk" in key and "field 'convention' is 'sssss" in convention and "field 'a' is 'xxxx" in text
+    assert max(len(key), len(convention), len(text)) < 300
+
+
+def test_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path):
+    fifo = tmp_path / "table.yaml"
+    os.mkfifo(fifo)
+    with pytest.raises(DHTableError, match=r"table\.yaml is a FIFO \(named pipe\), not a regular file"):
+        load_dh(fifo)
+
+
+@pytest.mark.parametrize("path, kind", [("/dev/zero", "a character device"), (".", "a folder")])
+def test_a_device_or_folder_is_refused(path, kind):
+    with pytest.raises(DHTableError, match=f"is {kind}, not a regular file"):
+        load_dh(path)
+
+
+def test_a_file_above_the_table_size_limit_is_refused_unread(tmp_path):
+    path = tmp_path / "big.yaml"
+    with path.open("w") as stream:
+        stream.write("convention: standard\njoints:\n")
+        stream.truncate(MAX_TABLE_BYTES + 1)
+    with pytest.raises(DHTableError, match="big.yaml is 4 MB, above the limit of 4 MB"):
+        load_dh(path)
+
+
+def test_a_file_that_is_not_utf8_is_refused_with_the_byte(tmp_path):
+    path = tmp_path / "t.yaml"
+    path.write_bytes(b"name: caf\xe9\nconvention: standard\njoints:\n" + ROW.encode())
+    with pytest.raises(DHTableError, match=r"t\.yaml: not utf-8 text \(byte 9"):
+        load_dh(path)
+
+
+def test_saving_into_a_missing_folder_creates_nothing(tmp_path):
+    with pytest.raises(OutputError, match="cannot write .*missing/t.yaml: no such folder"):
+        save_dh(DHTable([DHRow(1, 0, 0, 0)]), tmp_path / "missing" / "t.yaml")
+    assert not (tmp_path / "missing").exists()
+
+
+def test_saving_onto_a_folder_is_refused(tmp_path):
+    with pytest.raises(OutputError, match="it is a folder"):
+        save_dh(DHTable([DHRow(1, 0, 0, 0)]), tmp_path)

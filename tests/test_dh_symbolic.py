@@ -12,6 +12,8 @@ import sympy
 from test_dh_table import DH_DIR, random_q, random_table, seed_table
 
 from manipkit.dh import DHRow, DHTable, dh_fk, dh_fk_symbolic, dh_symbols, format_symbolic, load_dh, shorthand
+from manipkit.dh.symbolic import MAX_SYMBOLIC_OPS
+from manipkit.errors import DHDerivationError
 
 # --------------------------------------------------------------------------
 # symbolic forward kinematics
@@ -153,3 +155,54 @@ def test_text_form_lists_entries_when_too_wide():
     T = shorthand(dh_fk_symbolic(seed_table()))
     lines = format_symbolic(T, width=100).splitlines()
     assert len(lines) == 16 and lines[0].startswith("T[1,1] = ") and lines[-1] == "T[4,4] = 1"
+
+
+# --------------------------------------------------------------------------
+# bounded work (issue 15): rows and operations, with a message pointing at the numeric form
+
+
+def twisted_table(n, alpha_deg=30):
+    return DHTable([DHRow(0.1 * (i + 1), math.radians(alpha_deg), 0.05, 0) for i in range(n)], "standard", f"twisted{n}")
+
+
+def test_symbolic_fk_of_more_rows_than_the_limit_is_refused_before_any_work():
+    with pytest.raises(DHDerivationError, match="200 rows, above the limit of 20 rows for symbolic forward kinematics; "
+                                                 r"print the numeric table instead \(manipkit dh show TABLE, without --symbolic"):
+        dh_fk_symbolic(twisted_table(200, alpha_deg=0))
+
+
+def test_symbolic_fk_stops_when_the_matrix_passes_the_operation_limit():
+    # 30 deg twists: about 4,500 operations after 5 rows, 12,000 after 6 (sympy.count_ops)
+    T5 = dh_fk_symbolic(twisted_table(5))
+    assert sum(sympy.count_ops(entry) for entry in T5) <= MAX_SYMBOLIC_OPS
+    with pytest.raises(DHDerivationError, match=r"twisted8': the symbolic T_base_tool grows to \d+ operations at row 6 of 8, "
+                                                 "above the limit of 10000"):
+        dh_fk_symbolic(twisted_table(8))
+
+
+def test_operation_and_row_limits_can_be_given():
+    table = load_dh(DH_DIR / "planar_2r.yaml")
+    with pytest.raises(DHDerivationError, match="at row 2 of 2, above the limit of 20"):
+        dh_fk_symbolic(table, max_ops=20)
+    with pytest.raises(DHDerivationError, match="2 rows, above the limit of 1 rows"):
+        dh_fk_symbolic(table, max_rows=1)
+
+
+def test_the_bundled_tables_stay_well_inside_the_limits():
+    for path in sorted(DH_DIR.glob("*.yaml")):
+        T = dh_fk_symbolic(load_dh(path))
+        assert sum(sympy.count_ops(entry) for entry in T) < MAX_SYMBOLIC_OPS / 4, path.name
+
+
+def test_latex_title_stays_inside_its_comment():
+    q1 = sympy.Symbol("q1", real=True)
+    text = format_symbolic(sympy.Matrix([[sympy.cos(q1)]]), latex=True, title="T of arm\n\\input{/etc/passwd}\r\u2028x")
+    first, rest = text.split("\n", 1)
+    assert first == "% T of arm \\input{/etc/passwd}  x" and rest.startswith("\\begin{bmatrix}")
+    assert format_symbolic(sympy.Matrix([[1]]), title="T of arm").splitlines()[0] == "T of arm"
+
+
+@pytest.mark.parametrize("names", [["q1", "x}\\input{y"], ["q1", "a b"], ["$", "q2"]])
+def test_joint_symbols_must_be_names(names):
+    with pytest.raises(DHDerivationError, match="is not a name; use letters, digits and _"):
+        dh_symbols(2, [sympy.Symbol(name) for name in names])

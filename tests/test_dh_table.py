@@ -16,6 +16,7 @@ import pytest
 
 import manipkit
 from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, transform_from_xyz_rpy
+from manipkit.errors import DHTableError
 
 DH_DIR = Path(__file__).resolve().parents[1] / "robots" / "dh"
 BUNDLED_TABLES = sorted(p.name for p in DH_DIR.glob("*.yaml"))
@@ -200,3 +201,20 @@ def test_tables_compare_equal_by_value():
 def test_row_with_an_unknown_type_is_refused():
     with pytest.raises(ValueError, match="choose revolute or prismatic"):
         DHRow(0, 0, 0, 0, "spherical")
+
+
+# --------------------------------------------------------------------------
+# names: one line of printable text (they go into XML, YAML, LaTeX and boxes)
+
+
+@pytest.mark.parametrize("name", ["a\nb", "x\x00", "esc\x1b[2J", "nel\x85", "\ud800"])
+def test_a_row_or_table_name_with_a_control_character_is_refused(name):
+    with pytest.raises(DHTableError, match="not printable text; a name is one line of printable text"):
+        DHRow(1, 0, 0, 0, name=name)
+    with pytest.raises(DHTableError, match="DH table name: character"):
+        DHTable([DHRow(1, 0, 0, 0)], "standard", name)
+
+
+def test_names_with_markup_characters_are_kept_as_text():
+    name = 'a --> <link name="extra"/> \\input{x} %'
+    assert DHTable([DHRow(1, 0, 0, 0, name=name)], "standard", name).rows[0].name == name

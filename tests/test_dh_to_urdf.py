@@ -12,7 +12,8 @@ import pytest
 from test_dh_table import DH_DIR, random_q, random_table, rot_x, samples_within_limits, trans_x
 
 import manipkit
-from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, urdf_from_dh
+from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, save_urdf, urdf_from_dh
+from manipkit.errors import DHTableError, OutputError
 from manipkit.kinematics.robot import Robot
 
 # --------------------------------------------------------------------------
@@ -99,3 +100,83 @@ def test_urdf_links_have_visuals_and_positive_masses():
 def test_urdf_robot_name_defaults_to_the_table_name():
     assert '<robot name="planar_2r">' in urdf_from_dh(load_dh(DH_DIR / "planar_2r.yaml"))
     assert '<robot name="other">' in urdf_from_dh(load_dh(DH_DIR / "planar_2r.yaml"), name="other")
+
+
+# --------------------------------------------------------------------------
+# S2: names cannot change the URDF's structure (issue 15)
+
+INJECTION = 'a --> <link name="extra"/><joint name="j" type="fixed"><parent link="ee_link"/><child link="extra"/></joint> <!-- b'
+
+
+def structure(text):
+    """(robot name, link names, joint names, comments) of URDF text, parsed by ElementTree."""
+    import xml.etree.ElementTree as ET
+
+    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
+    parser.feed(text.encode())
+    root = parser.close()
+    comments = [element.text for element in root.iter() if element.tag is ET.Comment]
+    return (root.get("name"), [link.get("name") for link in root.iter("link")],
+            [joint.get("name") for joint in root.iter("joint")], comments)
+
+
+def injected_table():
+    rows = [DHRow(0.5, math.pi / 2, 0.1, 0, name=INJECTION), DHRow(0.3, 0, 0, 0.2, "prismatic", (0, 0.4), name="<&>\"'")]
+    return DHTable(rows, "standard", INJECTION)
+
+
+def test_names_with_markup_do_not_change_the_urdf_structure():
+    table = injected_table()
+    text = urdf_from_dh(table)
+    name, links, joints, comments = structure(text)
+    assert name == INJECTION  # the table's name survives as text
+    assert links == ["base_link", "link_0", "link_1", "link_2", "ee_link"]
+    assert joints == ["base_joint", INJECTION, "<&>\"'", "tool_joint"]
+    assert len(comments) == 1 and "--" not in comments[0] and "a - -> <link" in comments[0]
+    robot = Robot.from_urdf(text)  # Pinocchio sees the same chain: the table's FK
+    assert robot.joint_names == (INJECTION, "<&>\"'")
+    Q = np.array([[0.3, 0.1], [-1.0, 0.35]])
+    assert np.abs(robot.fk(Q, "ee_link") - dh_fk(table, Q)).max() < 1e-12
+
+
+def test_dh_to_urdf_command_writes_the_table_s_structure_only(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from manipkit.dh import save_dh
+
+    save_dh(injected_table(), tmp_path / "injected.yaml")
+    manipkit_bin = Path(sys.executable).parent / "manipkit"
+    result = subprocess.run([str(manipkit_bin), "dh", "to-urdf", str(tmp_path / "injected.yaml")],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    name, links, joints, _ = structure(result.stdout)
+    assert name == INJECTION and links == ["base_link", "link_0", "link_1", "link_2", "ee_link"]
+    assert joints == ["base_joint", INJECTION, "<&>\"'", "tool_joint"]
+
+
+def test_two_rows_naming_one_joint_are_refused():
+    rows = [DHRow(1, 0, 0, 0, name="elbow"), DHRow(1, 0, 0, 0, name="elbow")]
+    with pytest.raises(DHTableError, match="rows 1 and 2 would both be joint 'elbow'"):
+        urdf_from_dh(DHTable(rows, "standard", "twice"))
+    with pytest.raises(DHTableError, match="rows 1 and 2 would both be joint 'joint_2'"):
+        urdf_from_dh(DHTable([DHRow(1, 0, 0, 0, name="joint_2"), DHRow(1, 0, 0, 0)], "standard"))
+    with pytest.raises(DHTableError, match="the name of the URDF's fixed base joint"):
+        urdf_from_dh(DHTable([DHRow(1, 0, 0, 0, name="base_joint")], "standard"))
+
+
+def test_a_name_xml_cannot_hold_is_refused():
+    with pytest.raises(DHTableError, match="U\\+FFFE, which XML cannot hold"):
+        urdf_from_dh(DHTable([DHRow(1, 0, 0, 0, name="j\ufffe")], "standard"))
+
+
+def test_save_urdf_writes_the_file_and_creates_no_folder(tmp_path):
+    table = load_dh(DH_DIR / "planar_2r.yaml")
+    path = save_urdf(table, tmp_path / "planar_2r.urdf")
+    assert path.read_text() == urdf_from_dh(table)
+    with pytest.raises(OutputError, match="no such folder"):
+        save_urdf(table, tmp_path / "missing" / "planar_2r.urdf")
+    assert not (tmp_path / "missing").exists()
+    with pytest.raises(OutputError, match="it is a folder"):
+        save_urdf(table, tmp_path)

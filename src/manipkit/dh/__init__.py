@@ -11,7 +11,8 @@ modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``
 - :mod:`~manipkit.dh.text`: :func:`format_dh_table`, the boxed printout (``str(table)``).
 - :mod:`~manipkit.dh.symbolic`: :func:`dh_symbols`, :func:`dh_fk_symbolic`,
   :func:`shorthand`, :func:`format_symbolic` (forward kinematics in SymPy).
-- :mod:`~manipkit.dh.to_urdf`: :func:`urdf_from_dh`, a URDF whose chain equals the table's.
+- :mod:`~manipkit.dh.to_urdf`: :func:`urdf_from_dh`, a URDF whose chain equals the table's
+  (:func:`save_urdf` writes it).
 - :mod:`~manipkit.dh.from_urdf`: :func:`dh_from_urdf_chain`, the table of a robot's chain.
 - :mod:`~manipkit.dh.check`: :func:`check_dh`, agreement with a robot and a diagnosis.
 
@@ -26,7 +27,7 @@ from manipkit.dh.from_urdf import dh_from_urdf_chain
 from manipkit.dh.symbolic import dh_fk_symbolic, dh_symbols, format_symbolic, shorthand
 from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, DHRow, DHTable, dh_fk, dh_link_transform
 from manipkit.dh.text import format_dh_table
-from manipkit.dh.to_urdf import urdf_from_dh
+from manipkit.dh.to_urdf import save_urdf, urdf_from_dh
 
 # re-exported for compatibility: manipkit 0.1 offered it as manipkit.dh.transform_from_xyz_rpy
 from manipkit.spatial.transforms import transform_from_xyz_rpy
@@ -48,6 +49,7 @@ __all__ = [
     "format_symbolic",
     "load_dh",
     "save_dh",
+    "save_urdf",
     "shorthand",
     "transform_from_xyz_rpy",
     "urdf_from_dh",

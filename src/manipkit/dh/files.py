@@ -5,6 +5,15 @@
 one so that it reads back bit for bit. Every problem in a file is a
 :class:`~manipkit.errors.DHTableError` naming the file, the row and the field.
 
+Tables are files users download, so reading one is bounded: the file through
+:func:`manipkit.inputs.read_text` (a regular file of at most
+``MAX_TABLE_BYTES``), YAML with PyYAML's safe loader, no aliases (``*name``:
+a few nested aliases expand to gigabytes), at most ``MAX_YAML_NODES`` values
+nested at most ``MAX_YAML_DEPTH`` deep (checked while the YAML is read, before
+any value is built), at most ``MAX_DH_ROWS`` rows, integers of any length
+refused as too large rather than converted, and names that are one line of
+printable text. Files are written through :mod:`manipkit.outputs`.
+
 PyYAML is imported inside the functions that need it.
 """
 
@@ -18,14 +27,21 @@ from pathlib import Path
 
 import numpy as np
 
-from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, DHRow, DHTable
-from manipkit.errors import DHTableError
+from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, MAX_DH_ROWS, DHRow, DHTable, check_dh_name
+from manipkit.errors import DHTableError, InputFileError
+from manipkit.inputs import MAX_TABLE_BYTES, read_text
+from manipkit.outputs import write_text
 from manipkit.spatial.transforms import transform_from_xyz_rpy
 from manipkit.text import short_text
 
-__all__ = ["ANGLE_UNITS", "dh_from_yaml", "load_dh", "save_dh", "yaml_from_dh"]
+__all__ = ["ANGLE_UNITS", "MAX_YAML_DEPTH", "MAX_YAML_NODES", "dh_from_yaml", "load_dh", "save_dh", "yaml_from_dh"]
 
 ANGLE_UNITS = ("rad", "deg")
+#: Values (scalars, lists, mappings) a DH table file may hold: about 20 a row, for ``MAX_DH_ROWS`` rows.
+MAX_YAML_NODES = 25 * MAX_DH_ROWS + 1000
+#: Nesting of a DH table file: table, joints, row, qlim is 4 deep.
+MAX_YAML_DEPTH = 16
+_LONGEST_INTEGER = 300  # characters of an integer literal; longer ones are above any DH number (1e300)
 
 _TOP_FIELDS = ("name", "convention", "angles", "base", "tool", "joints")
 _ROW_FIELDS = ("a", "alpha", "d", "theta")
@@ -72,10 +88,14 @@ def load_dh(path: str | os.PathLike) -> DHTable:
     ------
     DHTableError
         One line naming the file, the row (1-based) and the field, and what
-        is valid: a missing file, malformed YAML (with line and column), a
-        missing or unknown field (with the closest valid name), a value that
-        is not a number or not finite, a bad ``convention``, ``angles`` or
-        ``type``, an empty ``joints`` list, a repeated key.
+        is valid: a missing file, a FIFO, device or folder, a file above
+        ``MAX_TABLE_BYTES``, malformed YAML (with line and column), an alias,
+        more than ``MAX_YAML_NODES`` values or nesting deeper than
+        ``MAX_YAML_DEPTH``, more than ``MAX_DH_ROWS`` rows, a missing or
+        unknown field (with the closest valid name), a value that is not a
+        number, not finite or too large, a bad ``convention``, ``angles`` or
+        ``type``, an empty ``joints`` list, a repeated key, a name with a
+        control character.
 
     Examples
     --------
@@ -86,11 +106,11 @@ def load_dh(path: str | os.PathLike) -> DHTable:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise DHTableError(f"{path}: no such DH table file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DHTableError(f"{path}: cannot read the DH table file ({exc})") from None
+        text = read_text(path, what="DH table file", max_bytes=MAX_TABLE_BYTES)
+    except InputFileError as exc:
+        if not path.exists() and not path.is_symlink():
+            raise DHTableError(f"{path}: no such DH table file") from None
+        raise DHTableError(str(exc)) from None
     name = path.name[: -len(".yaml")] if path.name.endswith(".yaml") else path.stem
     return dh_from_yaml(text, source=str(path), default_name=name)
 
@@ -134,13 +154,15 @@ def dh_from_yaml(text: str, *, source: str = "<string>", default_name: str = "")
     angles = _choice(data.get("angles", "rad"), ANGLE_UNITS, source, "field 'angles'")
     to_rad = math.radians if angles == "deg" else float
     name = data.get("name", default_name)
-    name = "" if name is None else str(name)
+    name = check_dh_name("" if name is None else _text_of(name), f"{source}: field 'name'")
 
     joints = data["joints"]
     if not isinstance(joints, list):
         raise DHTableError(f"{source}: field 'joints' must be a list of rows {{a, alpha, d, theta}}; got {_kind(joints)}")
     if not joints:
         raise DHTableError(f"{source}: field 'joints' is empty; give one row {{a, alpha, d, theta}} per movable joint")
+    if len(joints) > MAX_DH_ROWS:
+        raise DHTableError(f"{source}: field 'joints' has {len(joints)} rows, above the limit of {MAX_DH_ROWS} rows of a DH table")
     rows = [_row_from_yaml(item, i, source, angles, to_rad) for i, item in enumerate(joints, start=1)]
 
     base, base_rpy = _placement_from_yaml(data.get("base", {}), "base", source, angles, to_rad)
@@ -148,11 +170,43 @@ def dh_from_yaml(text: str, *, source: str = "<string>", default_name: str = "")
     return DHTable(rows, convention, name, base, tool, base_rpy, tool_rpy)
 
 
-def _parse_yaml(text: str, source: str):
+class _HugeInteger(str):
+    """The text of an integer literal too long to be a DH number; :func:`_number` refuses it, naming the field."""
+
+
+def _table_loader(source: str):
+    """A PyYAML SafeLoader class for one file: bounded while composing, strict while constructing.
+
+    Composing (before any value is built): an alias is refused, and so are
+    more than ``MAX_YAML_NODES`` values or nesting deeper than
+    ``MAX_YAML_DEPTH``. Constructing: a key given twice is refused (PyYAML
+    keeps the last one silently), and an integer literal longer than
+    ``_LONGEST_INTEGER`` characters stays text (:class:`_HugeInteger`)
+    instead of a conversion that overflows or hits Python's digit limit.
+    """
     import yaml
 
-    class StrictSafeLoader(yaml.SafeLoader):
-        """SafeLoader that refuses a key given twice (PyYAML keeps the last one silently)."""
+    class TableLoader(yaml.SafeLoader):
+        nodes = depth = 0
+
+        def compose_node(self, parent, index):
+            event = self.peek_event()
+            line = event.start_mark.line + 1
+            if isinstance(event, yaml.AliasEvent):
+                raise DHTableError(f"{source}: line {line}: alias *{event.anchor[:40]} refused; "
+                                   "a DH table file holds no aliases (write the value out)")
+            self.nodes += 1
+            if self.nodes > MAX_YAML_NODES:
+                raise DHTableError(f"{source}: line {line}: more than {MAX_YAML_NODES} values, above the limit "
+                                   f"for a DH table ({MAX_DH_ROWS} rows at most)")
+            if self.depth >= MAX_YAML_DEPTH:
+                raise DHTableError(f"{source}: line {line}: nested more than {MAX_YAML_DEPTH} levels deep; "
+                                   "a DH table is a mapping with a list of rows")
+            self.depth += 1
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
 
     def construct_mapping(loader, node, deep=False):
         seen = {}
@@ -161,54 +215,105 @@ def _parse_yaml(text: str, source: str):
             if isinstance(key, str) and key in seen:
                 mark = key_node.start_mark
                 raise DHTableError(
-                    f"{source}: key '{key}' given twice (line {seen[key]} and line {mark.line + 1}); keep one"
+                    f"{source}: key '{_short(key)[1:-1]}' given twice (line {seen[key]} and line {mark.line + 1}); keep one"
                 )
             if isinstance(key, str):
                 seen[key] = key_node.start_mark.line + 1
         return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
 
-    StrictSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+    def construct_integer(loader, node):
+        if len(node.value) > _LONGEST_INTEGER:
+            return _HugeInteger(node.value)
+        return yaml.SafeLoader.construct_yaml_int(loader, node)
+
+    def construct_timestamp(loader, node):
+        try:
+            return yaml.SafeLoader.construct_yaml_timestamp(loader, node)
+        except ValueError:  # 2020-13-45 looks like a date but is none: the text, refused where a number is due
+            return loader.construct_scalar(node)
+
+    TableLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+    TableLoader.add_constructor("tag:yaml.org,2002:int", construct_integer)
+    TableLoader.add_constructor("tag:yaml.org,2002:timestamp", construct_timestamp)
+    return TableLoader
+
+
+def _parse_yaml(text: str, source: str):
+    import yaml
+
     try:
-        return yaml.load(text, Loader=StrictSafeLoader)  # a SafeLoader: same safety as yaml.safe_load
+        return yaml.load(text, Loader=_table_loader(source))  # a SafeLoader: same safety as yaml.safe_load
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise DHTableError(f"{source}: malformed YAML{where}: {problem}") from None
+    except DHTableError:
+        raise
+    except (ValueError, OverflowError) as exc:  # a value PyYAML's constructors cannot build (a date out of range)
+        raise DHTableError(f"{source}: a value cannot be read ({' '.join(str(exc).split())[:200]})") from None
+
+
+def _text_of(value) -> str:
+    """``str(value)`` for a name or key, described instead when it is a list or mapping (whose text can be huge)."""
+    if isinstance(value, (dict, list, set)):
+        return f"<a {type(value).__name__} of {len(value)} items>"
+    return str(value)
+
+
+def _short(value, limit: int = 40) -> str:
+    """``repr(value)`` cut to ``limit`` characters, so that a message stays short whatever a file holds."""
+    if isinstance(value, (dict, list, set)):
+        return _text_of(value)
+    text = repr(str(value)[: limit + 1] if isinstance(value, str) else value)
+    return text if len(text) <= limit else text[: limit - 4] + "...'"
 
 
 def _kind(value) -> str:
     if value is None:
         return "nothing"
-    return {dict: "a mapping", list: "a list", str: f"the text {value!r:.40}"}.get(type(value), f"{value!r:.40}")
+    if isinstance(value, _HugeInteger):
+        return f"an integer of {len(value.lstrip('+-'))} digits"
+    if isinstance(value, str):
+        return f"the text {_short(value)}"
+    if isinstance(value, (dict, list)):
+        return "a mapping" if isinstance(value, dict) else "a list"
+    return _short(value)
 
 
 def _check_keys(mapping: dict, valid, required, source: str, what: str) -> None:
     for key in mapping:
         if key not in valid:
-            close = difflib.get_close_matches(str(key), valid, n=1, cutoff=0.5)
+            key_text = _short(_text_of(key))[1:-1]
+            close = difflib.get_close_matches(_text_of(key)[:40], valid, n=1, cutoff=0.5)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise DHTableError(f"{source}: {what}: unknown field '{key}'{hint}; valid fields: {', '.join(valid)}")
+            raise DHTableError(f"{source}: {what}: unknown field '{key_text}'{hint}; valid fields: {', '.join(valid)}")
     for key in required:
         if key not in mapping:
             raise DHTableError(f"{source}: {what}: missing field '{key}'; required fields: {', '.join(required)}")
 
 
 def _choice(value, valid, source: str, what: str) -> str:
-    if value not in valid:
-        raise DHTableError(f"{source}: {what} is {value!r}; choose {' or '.join(valid)}")
+    if not isinstance(value, str) or isinstance(value, _HugeInteger) or value not in valid:
+        raise DHTableError(f"{source}: {what} is {_short(value)}; choose {' or '.join(valid)}")
     return value
 
 
 def _number(value, source: str, what: str, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise DHTableError(f"{source}: {what} is {_kind(value)}, not a number; give a number in {unit}")
+    if isinstance(value, _HugeInteger):
+        raise DHTableError(f"{source}: {what} is {_kind(value)}, too large; give a number in {unit}")
     try:
         number = float(value.strip()) if isinstance(value, str) else float(value)
     except ValueError:
-        raise DHTableError(f"{source}: {what} is {value!r:.40}, not a number; give a number in {unit}") from None
+        raise DHTableError(f"{source}: {what} is {_short(value)}, not a number; give a number in {unit}") from None
+    except OverflowError:  # an integer above the largest float (1.8e308)
+        raise DHTableError(f"{source}: {what} is an integer of {len(str(abs(value)))} digits, too large; "
+                           f"give a number in {unit}") from None
     if not math.isfinite(number):
-        raise DHTableError(f"{source}: {what} is {value}, not finite; give a finite number in {unit}")
+        shown = value if not isinstance(value, str) else _short(value.strip())[1:-1]
+        raise DHTableError(f"{source}: {what} is {shown}, not finite; give a finite number in {unit}")
     return number
 
 
@@ -243,7 +348,8 @@ def _row_from_yaml(item, index: int, source: str, angles: str, to_rad) -> DHRow:
             lower, upper = to_rad(lower), to_rad(upper)
         qlim = (lower, upper)
     name = item.get("name", "")
-    return DHRow(a, alpha, d, theta, kind, qlim, "" if name is None else str(name))
+    name = check_dh_name("" if name is None else _text_of(name), f"{source}: {where}: field 'name'")
+    return DHRow(a, alpha, d, theta, kind, qlim, name)
 
 
 def _placement_from_yaml(value, what: str, source: str, angles: str, to_rad):
@@ -286,7 +392,11 @@ def save_dh(table: DHTable, path: str | os.PathLike, *, angles: str = "deg", hea
     ------
     DHTableError
         A value that is not finite, a base or tool that is not a rigid
-        transform, or a file that cannot be written.
+        transform.
+    OutputError
+        The file cannot be written (``cannot write PATH: reason``: a missing
+        folder, which is not created, a path that is a folder, no
+        permission, a full disk).
 
     Examples
     --------
@@ -298,10 +408,7 @@ def save_dh(table: DHTable, path: str | os.PathLike, *, angles: str = "deg", hea
     True
     """
     text = yaml_from_dh(table, angles=angles, header=header)
-    try:
-        Path(path).write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise DHTableError(f"{path}: cannot write the DH table file ({exc.strerror or exc})") from None
+    write_text(path, text)
 
 
 def yaml_from_dh(table: DHTable, *, angles: str = "deg", header: str | None = None) -> str:

@@ -6,6 +6,14 @@ conventions of :func:`manipkit.dh.table.dh_fk` (docs/architecture.md);
 :func:`format_symbolic` prints it as text or LaTeX.
 
 SymPy is imported inside the functions, so importing this module is cheap.
+
+The work is bounded: a symbolic product grows about threefold a row when the
+twists are not multiples of 90 deg (8 rows at 30 deg: 84,000 operations,
+minutes to simplify), so :func:`dh_fk_symbolic` refuses more than
+``MAX_SYMBOLIC_ROWS`` rows and stops with a one-line error, suggesting the
+numeric form, as soon as the matrix passes ``MAX_SYMBOLIC_OPS`` operations
+(counted after each row, before it is simplified). The bundled arms stay
+below 700; a random 5-row table with a turned base and tool reaches 7,000.
 """
 
 from __future__ import annotations
@@ -18,10 +26,19 @@ import numpy as np
 from manipkit.dh.table import DHTable
 from manipkit.errors import DHDerivationError
 
-__all__ = ["EXACT_ANGLE_TOL", "dh_fk_symbolic", "dh_symbols", "format_symbolic", "shorthand"]
+__all__ = [
+    "EXACT_ANGLE_TOL", "MAX_SYMBOLIC_OPS", "MAX_SYMBOLIC_ROWS", "dh_fk_symbolic", "dh_symbols", "format_symbolic",
+    "shorthand",
+]
 
 EXACT_ANGLE_TOL = 1e-12
 """Relative tolerance within which an angle counts as a multiple of pi/12 in :func:`dh_fk_symbolic`."""
+MAX_SYMBOLIC_ROWS = 20
+"""Most rows :func:`dh_fk_symbolic` takes (real arms have up to about ten)."""
+MAX_SYMBOLIC_OPS = 10000
+"""Most operations (``sympy.count_ops``, all 16 entries) the symbolic matrix may reach; the 7-row iiwa needs 688."""
+
+_NUMERIC_HINT = "print the numeric table instead (manipkit dh show TABLE, without --symbolic; dh_fk in Python)"
 
 
 def _exact_length(value: float):
@@ -97,7 +114,8 @@ def dh_symbols(n: int, symbols=None) -> tuple:
     Raises
     ------
     DHDerivationError
-        When ``symbols`` does not hold ``n`` symbols.
+        When ``symbols`` does not hold ``n`` symbols, or a name is not an
+        identifier (letters, digits, ``_``): names are written into LaTeX.
 
     Examples
     --------
@@ -115,7 +133,11 @@ def dh_symbols(n: int, symbols=None) -> tuple:
         made = tuple(s if isinstance(s, sympy.Symbol) else sympy.Symbol(str(s), real=True) for s in symbols)
     made = tuple(made)
     if len(made) != n:
-        raise DHDerivationError(f"{n} joint symbols needed, got {len(made)}: {made}")
+        raise DHDerivationError(f"{n} joint symbols needed, got {len(made)}: {str(made)[:200]}")
+    for symbol in made:
+        if not symbol.name.isidentifier():
+            raise DHDerivationError(f"joint symbol {symbol.name[:40]!r} is not a name; use letters, digits and _ "
+                                    "(q1, theta_2)")
     return made
 
 
@@ -126,6 +148,8 @@ def dh_fk_symbolic(
     simplify: bool | str = True,
     symbols=None,
     exact_tol: float = EXACT_ANGLE_TOL,
+    max_rows: int = MAX_SYMBOLIC_ROWS,
+    max_ops: int = MAX_SYMBOLIC_OPS,
 ):
     """T_base_tool of a DH table as a SymPy matrix in the joint variables.
 
@@ -149,11 +173,22 @@ def dh_fk_symbolic(
     exact_tol : float, keyword-only
         Relative tolerance within which an angle counts as a multiple of
         ``pi/12`` (default ``EXACT_ANGLE_TOL`` = 1e-12), see Notes.
+    max_rows, max_ops : int, keyword-only
+        Bounds on the work (default ``MAX_SYMBOLIC_ROWS`` = 20 rows and
+        ``MAX_SYMBOLIC_OPS`` = 10000 operations in the matrix, counted by
+        ``sympy.count_ops`` after each row's product, before simplifying).
 
     Returns
     -------
     sympy.Matrix, shape (4, 4)
         ``base @ A_1 @ ... @ A_n @ tool`` with the conventions of :func:`~manipkit.dh.table.dh_fk`.
+
+    Raises
+    ------
+    DHDerivationError
+        More than ``max_rows`` rows, or the matrix passes ``max_ops``
+        operations (the message names the row and suggests the numeric
+        form); a bad ``simplify`` or ``symbols``.
 
     Notes
     -----
@@ -178,22 +213,40 @@ def dh_fk_symbolic(
 
     if simplify not in (True, False, "trigsimp"):
         raise DHDerivationError(f"simplify={simplify!r}: choose True, False or 'trigsimp'")
-    q = dh_symbols(table.n, symbols)
     count = table.n if upto is None else upto
+    if count > max_rows:
+        raise DHDerivationError(f"DH table '{table.name}': {count} rows, above the limit of {max_rows} rows for "
+                                f"symbolic forward kinematics; {_NUMERIC_HINT}")
+    q = dh_symbols(table.n, symbols)
     T = sympy.eye(4) if np.array_equal(table.base, np.eye(4)) else _symbolic_placement(table, "base", exact_tol)
-    for row, qi in zip(table.rows[:count], q):
+    for i, (row, qi) in enumerate(zip(table.rows[:count], q), start=1):
         theta = _exact_angle(row.theta, exact_tol) + (qi if row.is_revolute else 0)
         d = _exact_length(row.d) + (0 if row.is_revolute else qi)
         T = T * _symbolic_link(_exact_length(row.a), _exact_angle(row.alpha, exact_tol), d, theta, table.convention)
+        _check_size(T, max_ops, table, f"row {i} of {table.n}")
         if simplify:
             T = T.applyfunc(TR10i)
     if upto is None and not np.array_equal(table.tool, np.eye(4)):
         T = T * _symbolic_placement(table, "tool", exact_tol)
+        _check_size(T, max_ops, table, "the tool")
         if simplify:
             T = T.applyfunc(TR10i)
     if simplify == "trigsimp":
         T = T.applyfunc(sympy.trigsimp)
     return T
+
+
+def _check_size(T, max_ops: int, table: DHTable, where: str) -> None:
+    """DHDerivationError when the matrix ``T`` holds more than ``max_ops`` operations (before simplifying)."""
+    import sympy
+
+    ops = sum(sympy.count_ops(entry) for entry in T)
+    if ops > max_ops:
+        raise DHDerivationError(
+            f"DH table '{table.name}': the symbolic T_base_tool grows to {ops} operations at {where}, above the "
+            f"limit of {max_ops} (twists that are not multiples of 90 deg make it grow about threefold a row); "
+            f"{_NUMERIC_HINT}"
+        )
 
 
 def _index_of(symbol) -> str:
@@ -239,8 +292,8 @@ def shorthand(expr):
     return expr.xreplace(replacements)
 
 
-def format_symbolic(matrix, *, latex: bool = False, width: int = 100, name: str = "T") -> str:
-    """A SymPy matrix as text or LaTeX.
+def format_symbolic(matrix, *, latex: bool = False, width: int = 100, name: str = "T", title: str | None = None) -> str:
+    """A SymPy matrix as text or LaTeX, optionally after a title line.
 
     Parameters
     ----------
@@ -252,6 +305,10 @@ def format_symbolic(matrix, *, latex: bool = False, width: int = 100, name: str 
         print one entry per line instead (``T[1,1] = ...``, 1-based indices).
     name : str, keyword-only
         The matrix name used in the one-entry-per-line form.
+    title : str, keyword-only, optional
+        A first line (it may hold a table's name): as it is for text, as a
+        LaTeX comment ``% title`` for LaTeX, its line breaks and other
+        control characters made spaces so nothing of it leaves the comment.
 
     Returns
     -------
@@ -266,10 +323,16 @@ def format_symbolic(matrix, *, latex: bool = False, width: int = 100, name: str 
     """
     import sympy
 
+    head = "" if title is None else ("% " if latex else "") + _one_line(title) + "\n"
     if latex:
-        return sympy.latex(matrix, mat_str="bmatrix", mat_delim="")
+        return head + sympy.latex(matrix, mat_str="bmatrix", mat_delim="")
     text = sympy.pretty(matrix, use_unicode=True, wrap_line=False)
     if max((len(line) for line in text.splitlines()), default=0) <= width:
-        return text
+        return head + text
     rows, cols = matrix.shape
-    return "\n".join(f"{name}[{i + 1},{j + 1}] = {sympy.sstr(matrix[i, j])}" for i in range(rows) for j in range(cols))
+    return head + "\n".join(f"{name}[{i + 1},{j + 1}] = {sympy.sstr(matrix[i, j])}" for i in range(rows) for j in range(cols))
+
+
+def _one_line(text: str) -> str:
+    """``text`` with every control character (line breaks included) and line separator made a space."""
+    return "".join(" " if (ord(c) < 32 or 0x7F <= ord(c) <= 0x9F or c in "\u2028\u2029") else c for c in str(text))

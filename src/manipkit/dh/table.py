@@ -24,6 +24,7 @@ the check against a robot (:mod:`~manipkit.dh.check`).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,14 +35,43 @@ from manipkit.spatial.rotations import matrix_from_rpy, rpy_from_matrix
 __all__ = [
     "CONVENTIONS",
     "JOINT_TYPES",
+    "MAX_DH_ROWS",
     "DHRow",
     "DHTable",
+    "check_dh_name",
     "dh_fk",
     "dh_link_transform",
 ]
 
 CONVENTIONS = ("standard", "modified")
 JOINT_TYPES = ("revolute", "prismatic")
+#: Rows a DH table file may have (real arms have up to a dozen; snakes a few hundred).
+MAX_DH_ROWS = 1000
+
+
+def check_dh_name(name: str, what: str) -> str:
+    """``name`` if it is one line of printable text (a table's or a row's name), else DHTableError.
+
+    Names are written into URDF (XML), YAML, LaTeX and boxed text, so a
+    control character (Unicode category Cc: a line break, a tab, an escape
+    sequence, NUL) or a lone surrogate (not writable as UTF-8) is refused;
+    ``what`` says where the name came from. (The non-characters U+FFFE and
+    U+FFFF, which only XML refuses, are refused by ``urdf_from_dh``.)
+
+    >>> check_dh_name("iiwa_joint_2", "row 2: field 'name'")
+    'iiwa_joint_2'
+    """
+    bad = _NOT_IN_A_NAME.search(name)
+    if bad:
+        raise DHTableError(
+            f"{what}: character {bad.start() + 1} is U+{ord(bad.group()):04X}, not printable text; "
+            "a name is one line of printable text (no line break, tab or other control character)"
+        )
+    return name
+
+
+# Unicode's control characters (category Cc) and lone surrogates (category Cs)
+_NOT_IN_A_NAME = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff]")
 
 
 @dataclass(frozen=True)
@@ -86,7 +116,7 @@ class DHRow:
             except (TypeError, ValueError):
                 raise DHTableError(f"DH row qlim is {self.qlim!r:.60}; give two numbers (lower, upper)") from None
             object.__setattr__(self, "qlim", (lower, upper))
-        object.__setattr__(self, "name", str(self.name))
+        object.__setattr__(self, "name", check_dh_name(str(self.name), "DH row field 'name'"))
 
     @property
     def is_revolute(self) -> bool:
@@ -139,6 +169,7 @@ class DHTable:
         if self.convention not in CONVENTIONS:
             raise DHTableError(f"convention '{self.convention}': choose standard or modified")
         object.__setattr__(self, "rows", tuple(self.rows))
+        object.__setattr__(self, "name", check_dh_name(str(self.name), "DH table name"))
         for i, row in enumerate(self.rows, start=1):
             if not isinstance(row, DHRow):
                 raise DHTableError(f"DH table row {i} is a {type(row).__name__}, not a DHRow")

@@ -28,7 +28,9 @@ Conventions:
   documented in :class:`manipkit.kinematics.ik.IKSolver`.
 
 Each piece (``chain_pose_jacobian``, ``log3``, ``solve_linear``) is a plain
-function, tested on its own against Pinocchio and numpy.
+function, tested on its own against Pinocchio and numpy. Each is compiled by
+:func:`manipkit.kinematics.chain.compile_kernel` on first use: cached on disk
+by numba where that works, else compiled in memory with one warning.
 """
 
 from __future__ import annotations
@@ -37,9 +39,8 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 
-from manipkit.kinematics.chain import ChainStep
+from manipkit.kinematics.chain import ChainStep, compile_kernel
 
 __all__ = [
     "MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempt", "log3", "pack_chain", "solve_linear",
@@ -71,7 +72,7 @@ def pack_chain(steps: Sequence[ChainStep], chain_user_columns) -> tuple[np.ndarr
     return geometry, kinds
 
 
-@njit(cache=True)
+@compile_kernel
 def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
     """Pose of the tip in the root (``R`` 3x3, ``p`` 3) and its Jacobian ``J`` (6 x n) at ``x``, in place.
 
@@ -140,7 +141,7 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
             J[3, column], J[4, column], J[5, column] = z0, z1, z2
 
 
-@njit(cache=True)
+@compile_kernel
 def log3(R, w):
     """Rotation vector ``w`` (rad, angle in [0, pi]) of the rotation matrix ``R``, in place; returns the angle.
 
@@ -178,7 +179,7 @@ def log3(R, w):
     return theta
 
 
-@njit(cache=True)
+@compile_kernel
 def solve_linear(M, b, out):
     """``out = M^-1 b`` by Gaussian elimination with partial pivoting (``M`` n x n, modified in place).
 
@@ -214,14 +215,14 @@ def solve_linear(M, b, out):
     return True
 
 
-@njit(cache=True)
+@compile_kernel
 def _wrap(angle):
     """An angle in (-pi, pi] (the caller applies ``rotations.wrap_angle`` to the final answer)."""
     wrapped = angle - _TWO_PI * math.floor((angle + math.pi) / _TWO_PI)
     return math.pi if wrapped <= -math.pi else wrapped
 
 
-@njit(cache=True)
+@compile_kernel
 def error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, R, p, J, e):
     """Fill the error ``e`` (6) and Jacobian ``J`` (6 x n) at ``x``; returns the (pos, rot) residuals.
 
@@ -279,7 +280,7 @@ def error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, ax
     return pos, angle
 
 
-@njit(cache=True)
+@compile_kernel
 def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, lower, upper, wrap,
              tol_position, tol_rotation, max_iters, tau, stall_window, stall_gain, shrink_min, x_out):
     """One Levenberg-Marquardt run from ``x0`` into ``x_out``: returns (cost, pos, rot, iterations).
