@@ -76,8 +76,8 @@ class DHTableError(ManipkitError, ValueError):
 
 
 class DHDerivationError(ManipkitError, ValueError):
-    """No DH table for this request: base and tip are the same frame, no movable
-    joint lies between them, or the convention is unknown."""
+    """No DH table or DH expression for this request: base and tip are the same frame, no movable
+    joint lies between them, the convention is unknown, or symbolic FK would exceed its bounds."""
 
 
 class ClosedFormIKError(ManipkitError, ValueError):

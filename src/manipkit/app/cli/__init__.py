@@ -28,8 +28,9 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
-from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser
+from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser, warn
 from manipkit.app.cli.tf import run_tf, tf_parser
 from manipkit.errors import ManipkitError
 from manipkit.outputs import cannot_write
@@ -70,6 +71,17 @@ def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
     """
     stdout = sys.stdout
     sys.stdout = _GuardedStdout(stdout)
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_line
+        return _run_guarded(parser, argv, runner, stdout)
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A Python warning raised while a command runs (a kernel cache that cannot be written, ...) as one line."""
+    warn(str(message))
+
+
+def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
     try:
         args = parser.parse_args(argv)
         status = (runner or args.run)(args)

@@ -118,11 +118,10 @@ def run_dh_to_urdf(args) -> int:
     if args.output is not None:
         writable_path(args.output)
     table = dh.load_dh(resolve_dh_table(args.table))
-    text = dh.urdf_from_dh(table)
     if args.output is None:
-        print(text)
+        print(dh.urdf_from_dh(table))
     else:
-        write_text(args.output, text)
+        dh.save_urdf(table, args.output)
         print(f"wrote {args.output} ({table.n} joints, frames base_link, link_1..link_{table.n}, ee_link)")
     return EXIT_OK
 
