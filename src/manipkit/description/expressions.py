@@ -45,6 +45,7 @@ import re
 import string
 import time
 from collections.abc import Callable
+from xml.sax.saxutils import escape as xml_escape
 
 import simpleeval
 
@@ -68,6 +69,7 @@ __all__ = [
     "check_size",
     "checked_str_method",
     "evaluate",
+    "error_reason",
     "expression_error",
     "extend_deadline",
     "parse_expression",
@@ -116,7 +118,9 @@ def expression_error(expression: str, reason: str, *, kind: str = "${") -> Descr
     opening, closing = ("${", "}") if kind == "${" else ("$(eval ", ")")
     error = DescriptionError(f"xacro expression {opening}{shown}{closing}: {' '.join(str(reason).split())}")
     error.expression, error.reason, error.kind = str(expression), " ".join(str(reason).split()), kind
-    error.needles = (f"{opening}{expression}{closing}", f"{opening}{expression}", str(expression))  # to find its line
+    escaped = xml_escape(str(expression), {'"': "&quot;"})  # as written in an XML attribute
+    error.needles = tuple(dict.fromkeys((f"{opening}{expression}{closing}", f"{opening}{escaped}{closing}",
+                                         f"{opening}{expression}", str(expression), escaped)))  # to find its line
     return error
 
 
@@ -128,6 +132,12 @@ def refusal(reason: str) -> Exception:
     """The exception to raise from a function an expression calls when it refuses its arguments
     (:func:`evaluate` turns it into ``xacro expression ${EXPR}: REASON``)."""
     return _Refused(reason)
+
+
+def error_reason(exc: BaseException) -> str:
+    """One-line reason for an exception raised while evaluating (``KeyError('a')`` -> ``no key 'a'``)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return f"no key {text}" if isinstance(exc, KeyError) else text
 
 
 def parse_expression(expression: str) -> ast.Expression:
@@ -154,6 +164,9 @@ def parse_expression(expression: str) -> ast.Expression:
             raise _Refused(f"attribute '{node.attr}' is not allowed (names starting with '_' are private)")
         if kind is ast.Name and node.id.startswith("__"):
             raise _Refused(f"name '{node.id}' is not allowed (names starting with '__' are private)")
+        if kind is ast.comprehension and not all(isinstance(t, (ast.Name, ast.Tuple, ast.List))
+                                                 for t in ast.walk(node.target) if not isinstance(t, ast.Store)):
+            raise _Refused(f"a comprehension assigns to names only, not to '{ast.unparse(node.target)}'")
         if kind is ast.Constant and isinstance(node.value, (str, bytes)) and len(node.value) > MAX_SIZE:
             raise _Refused(f"a literal of {len(node.value)} characters, above the limit of {MAX_SIZE}")
         stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
@@ -418,6 +431,7 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
                  attribute: Callable[[object, str], object]):
         super().__init__(operators=OPERATORS, functions={}, names={})
         self.lookup, self.allowed_call, self.attribute = lookup, allowed_call, attribute
+        self._max_count = 0  # comprehension steps so far
         self.nodes[ast.SetComp] = lambda node: set(self._eval_comprehension(node))
         self.nodes[ast.Starred] = self._eval_starred
 
@@ -466,7 +480,56 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
         return check_size(super()._eval_dict(node), "the dict")
 
     def _eval_comprehension(self, node):
-        return check_size(super()._eval_comprehension(node), "the comprehension")
+        """List, set, dict comprehensions and generator expressions (made lists), as Python runs them,
+        counting steps (:data:`MAX_ITERATIONS`) and the size of the result as it grows (:data:`MAX_SIZE`)."""
+        result: list | dict = {} if isinstance(node, ast.DictComp) else []
+        scope: dict[str, object] = {}
+        size = 0
+        enclosing = self.nodes[ast.Name]
+
+        def name(name_node):
+            return scope[name_node.id] if name_node.id in scope else enclosing(name_node)
+
+        def bind(target, value) -> None:
+            if isinstance(target, ast.Name):
+                scope[target.id] = value
+                return
+            values = list(check_size(value, "the unpacked value") if isinstance(value, (str, bytes)) else value)
+            if len(values) != len(target.elts):
+                raise ValueError(f"cannot unpack {len(values)} values into {len(target.elts)} names")
+            for part, item in zip(target.elts, values):
+                bind(part, item)
+
+        def run(index: int) -> None:
+            nonlocal size
+            generator = node.generators[index]
+            for item in self._eval(generator.iter):
+                self._max_count += 1
+                if self._max_count > MAX_ITERATIONS:
+                    raise _Refused(f"comprehensions ran more than {MAX_ITERATIONS} steps (the limit)")
+                _check_time()
+                bind(generator.target, item)
+                if not all(self._eval(test) for test in generator.ifs):
+                    continue
+                if index + 1 < len(node.generators):
+                    run(index + 1)
+                    continue
+                if isinstance(result, dict):
+                    key = self._eval(node.key)
+                    result[key] = value = self._eval(node.value)
+                    size += value_size(key, MAX_SIZE) + value_size(value, MAX_SIZE)
+                else:
+                    result.append(self._eval(node.elt))
+                    size += value_size(result[-1], MAX_SIZE)
+                if size > MAX_SIZE:
+                    raise _Refused(f"the comprehension would have more than {MAX_SIZE} characters and items (the limit)")
+
+        self.nodes[ast.Name] = name
+        try:
+            run(0)
+        finally:
+            self.nodes[ast.Name] = enclosing
+        return result
 
     def _eval_call(self, node):
         function = self._eval(node.func)
@@ -530,20 +593,21 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         result = evaluator._eval(tree.body)
         return check_size(result, "the result")
     except ManipkitError as exc:  # a refusal from a function (xacro.load_yaml of a FIFO, ...)
-        if getattr(exc, "expression", None) is not None:
-            raise  # from a property evaluated on the way: it names its own expression
+        if getattr(exc, "needles", None):
+            raise  # from a property evaluated on the way: it names its own expression or text
         raise expression_error(expression, str(exc), kind=kind) from None
     except _Refused as exc:
         raise expression_error(expression, str(exc), kind=kind) from None
-    except simpleeval.IterableTooLong:
-        raise expression_error(expression, f"comprehensions ran more than {MAX_ITERATIONS} steps (the limit)",
-                               kind=kind) from None
     except simpleeval.InvalidExpression as exc:
         raise expression_error(expression, str(exc), kind=kind) from None
     except RecursionError:
         raise expression_error(expression, "nested too deeply", kind=kind) from None
     except MemoryError:
         raise expression_error(expression, "out of memory", kind=kind) from None
+    except Exception as exc:  # noqa: BLE001 - an error of the evaluation itself (name not defined, 1/0, ...)
+        if kind == "${":
+            raise  # xacro adds "when evaluating expression" and evaluates properties on the way: keep its chain
+        raise expression_error(expression, error_reason(exc), kind=kind) from None
     finally:
         if outermost:
             _deadline.clear()

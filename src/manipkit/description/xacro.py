@@ -47,8 +47,8 @@ MAX_XACRO_ELEMENTS = 500_000
 MAX_TEXT_CHARACTERS = 4 * 1024 * 1024
 #: Most characters all the evaluations of one expansion may make together.
 MAX_EXPANDED_CHARACTERS = 4 * MAX_DESCRIPTION_BYTES
-#: Seconds one xacro expansion may take.
-EXPANSION_SECONDS = 120.0
+#: Seconds one xacro expansion may take (real descriptions take well under one).
+EXPANSION_SECONDS = 30.0
 
 
 class XacroExpansion(NamedTuple):
@@ -211,7 +211,13 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
         return originals["parse"](inp, filename)
 
     def eval_text(text, symbols):
-        result = originals["eval_text"](text, symbols)
+        try:
+            result = originals["eval_text"](text, symbols)
+        except Exception as exc:
+            ours = next((e for e in _exception_chain(exc) if isinstance(e, ManipkitError)), None)
+            if ours is not None and getattr(ours, "needles", None):  # the text as written, before $(arg ...)
+                ours.needles = (*ours.needles, str(text))
+            raise
         if isinstance(result, str):
             counts["characters"] += len(result)
             if len(result) > MAX_TEXT_CHARACTERS or counts["characters"] > MAX_EXPANDED_CHARACTERS:
@@ -311,6 +317,8 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
 
     import xacro
 
+    from manipkit.description.expressions import error_reason
+
     stack = [Path(f) for f in (xacro.filestack or []) if f]
     current = stack[-1] if stack else path
     macros = [m for m in (getattr(xacro, "macrostack", None) or [])]
@@ -346,7 +354,7 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
     evaluating = [e for e in chain if "when evaluating expression '" in str(getattr(e, "suffix", "") or "")]
     if evaluating:  # the innermost expression (a property evaluated on the way names its own)
         expression = re.search(r"when evaluating expression '(.*)'", evaluating[-1].suffix, re.S).group(1)
-        reason = " ".join(str(evaluating[-1].exc).split()) or type(evaluating[-1].exc).__name__
+        reason = error_reason(evaluating[-1].exc)
         location = at("${" + expression + "}", expression)
         return DescriptionError(f"{location}: xacro expression ${{{' '.join(expression.split())}}}: {reason}")
     if "missing attribute 'default'" in text and "xacro:arg" in text:

@@ -254,13 +254,13 @@ def attribute(value: object, name: str) -> object:
         if allowed is None:
             continue
         if name not in allowed:
-            raise refusal(f"attribute '{name}' of a {type(value).__name__} is not allowed; allowed: "
+            raise refusal(f"attribute '{name}' of {type(value).__name__} values is not allowed; allowed: "
                           f"{', '.join(sorted(allowed))}")
         found = getattr(value, name)
         if kind is str:
             return BoundMethod(checked_str_method(value, name), f"str.{name}")
         return BoundMethod(found, f"{kind.__name__}.{name}") if callable(found) else found
-    raise refusal(f"attribute '{name}' of a {type(value).__name__} is not allowed "
+    raise refusal(f"attribute '{name}' of {type(value).__name__} values is not allowed "
                   "(attributes are read from strings, numbers, lists, dicts, sets, YAML data and namespaces)")
 
 
