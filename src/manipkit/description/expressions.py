@@ -558,6 +558,17 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
         return format(value, spec)
 
 
+def _located_error(exc: BaseException) -> ManipkitError | None:
+    """The first error with ``needles`` (it names its own expression) in ``exc`` and what it wraps."""
+    seen: list[BaseException] = []
+    while exc is not None and all(exc is not e for e in seen):
+        if isinstance(exc, ManipkitError) and getattr(exc, "needles", None):
+            return exc
+        seen.append(exc)
+        exc = getattr(exc, "exc", None) or exc.__cause__ or exc.__context__  # xacro's XacroException keeps .exc
+    return None
+
+
 def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: Callable[[object], bool],
              attribute: Callable[[object, str], object], kind: str = "${") -> object:
     """The value of a xacro expression, evaluated safely (module docstring).
@@ -592,21 +603,16 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         evaluator.expr = expression
         result = evaluator._eval(tree.body)
         return check_size(result, "the result")
-    except ManipkitError as exc:  # a refusal from a function (xacro.load_yaml of a FIFO, ...)
-        if getattr(exc, "needles", None):
-            raise  # from a property evaluated on the way: it names its own expression or text
-        raise expression_error(expression, str(exc), kind=kind) from None
     except _Refused as exc:
-        raise expression_error(expression, str(exc), kind=kind) from None
-    except simpleeval.InvalidExpression as exc:
         raise expression_error(expression, str(exc), kind=kind) from None
     except RecursionError:
         raise expression_error(expression, "nested too deeply", kind=kind) from None
     except MemoryError:
         raise expression_error(expression, "out of memory", kind=kind) from None
-    except Exception as exc:  # noqa: BLE001 - an error of the evaluation itself (name not defined, 1/0, ...)
-        if kind == "${":
-            raise  # xacro adds "when evaluating expression" and evaluates properties on the way: keep its chain
+    except Exception as exc:  # noqa: BLE001 - a refusal from a function, or an error of the evaluation itself
+        located = _located_error(exc)
+        if located is not None:
+            raise located from None  # from a property evaluated on the way: it names its own expression or text
         raise expression_error(expression, error_reason(exc), kind=kind) from None
     finally:
         if outermost:
