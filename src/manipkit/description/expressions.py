@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import ast
 import math
+import operator
 import re
 import string
 import time
@@ -323,10 +324,11 @@ def check_format_string(fmt: str) -> None:
 
 bounded_multiply = _multiply
 
-#: simpleeval's operators, with ``+ * ** << %`` bounded.
+#: simpleeval's operators, with ``+ * ** << %`` bounded (and ``>>`` plain).
 OPERATORS: dict[type, Callable] = {
     **simpleeval.DEFAULT_OPERATORS,
     ast.Add: _add, ast.Mult: _multiply, ast.Pow: _power, ast.LShift: _shift_left, ast.Mod: _modulo,
+    ast.RShift: operator.rshift,  # cannot grow (simpleeval bounds it like <<, with other messages than Python's)
 }
 
 
@@ -477,7 +479,14 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
         return check_size(set(self._items(node.elts)), "the set")
 
     def _eval_dict(self, node):
-        return check_size(super()._eval_dict(node), "the dict")
+        result = {}
+        for key, value in zip(node.keys, node.values):  # key before value, as Python (simpleeval: value first)
+            if key is None:
+                result.update(self._eval(value))
+            else:
+                evaluated = self._eval(key)
+                result[evaluated] = self._eval(value)
+        return check_size(result, "the dict")
 
     def _eval_comprehension(self, node):
         """List, set, dict comprehensions and generator expressions (made lists), as Python runs them,

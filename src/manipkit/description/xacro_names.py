@@ -253,6 +253,8 @@ def attribute(value: object, name: str) -> object:
         allowed = ALLOWED_ATTRIBUTES.get(kind)
         if allowed is None:
             continue
+        if not hasattr(kind, name):  # a plain value (an allowed type): as Python says it
+            raise AttributeError(f"'{type(value).__name__}' object has no attribute '{name}'")
         if name not in allowed:
             raise refusal(f"attribute '{name}' of {type(value).__name__} values is not allowed; allowed: "
                           f"{', '.join(sorted(allowed))}")
