@@ -187,7 +187,7 @@ REFUSED = [
     ("(lambda: 0)()", "lambda is not allowed"),
     ("().__class__", "attribute '__class__' is not allowed"),
     ("[c for c in ().__class__.__base__.__subclasses__()]", "attribute '__"),
-    ("[g.gi_frame for g in [(i for i in [1])]]", "attribute 'gi_frame' of list values is not allowed"),
+    ("[g.gi_frame for g in [(i for i in [1])]]", "'list' object has no attribute 'gi_frame'"),
     ("'{0.__class__}'.format(1)", "format field '{0.__class__}' is not allowed"),
     ("'{0[0]}'.format('ab')", "format field '{0[0]}' is not allowed"),
     ("f'{().__class__}'", "attribute '__class__' is not allowed"),
@@ -388,3 +388,32 @@ def test_xacros_own_functions_are_restored_after_an_expansion(tmp_path):
     with pytest.raises(DescriptionError):
         manipkit.load(path)
     assert (xacro.safe_eval, xacro.eval_extension, xacro.parse, xacro.eval_text, xacro.eval_all) == own
+
+
+def test_tokenize_takes_its_separators_as_characters():
+    # xacro puts them in a regular expression as they are: this one would backtrack without end
+    assert evaluate_expression("xacro.tokenize('a,b; c')", _table()) == ["a", "b", "c"]
+    assert evaluate_expression("xacro.tokenize('aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaac', 'x](a+)+b[y')", _table()) == ["c"]
+
+
+def test_an_include_namespace_is_looked_up_as_names_are(tmp_path):
+    (tmp_path / "parts.xacro").write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro">'
+                                          '<xacro:property name="w" value="2"/></robot>\n')
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(HEAD + '<xacro:include filename="parts.xacro" ns="parts"/>\n'
+                    '<link name="a${parts.w + parts[\'w\']}"/>\n</robot>\n')
+    assert '<link name="a4"/>' in describe(resolve_robot(path)).text
+    path.write_text(HEAD + '<xacro:include filename="parts.xacro" ns="parts"/>\n'
+                    '<link name="${parts[\'python\'].type}"/>\n</robot>\n')
+    with pytest.raises(DescriptionError, match="name 'type' is not defined"):
+        describe(resolve_robot(path))
+
+
+def test_elements_nested_too_deeply_do_not_blame_a_macro(tmp_path):
+    path = tmp_path / "deep.urdf.xacro"
+    path.write_text(HEAD + "<a>" * 3000 + "</a>" * 3000 + "\n</robot>\n")
+    with pytest.raises(DescriptionError) as info:
+        describe(resolve_robot(path))
+    assert str(info.value) == ("deep.urdf.xacro: xacro recursion too deep (elements or properties nested more than "
+                               "about a few hundred levels)")
+    assert "?" not in str(info.value)

@@ -430,9 +430,9 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
     """simpleeval, with xacro's names, allow-listed calls and attributes, and bounded cost."""
 
     def __init__(self, lookup: Callable[[str], object], allowed_call: Callable[[object], bool],
-                 attribute: Callable[[object, str], object]):
+                 attribute: Callable[[object, str], object], item: Callable[[object, object], object]):
         super().__init__(operators=OPERATORS, functions={}, names={})
-        self.lookup, self.allowed_call, self.attribute = lookup, allowed_call, attribute
+        self.lookup, self.allowed_call, self.attribute, self.item = lookup, allowed_call, attribute, item
         self._max_count = 0  # comprehension steps so far
         self.nodes[ast.SetComp] = lambda node: set(self._eval_comprehension(node))
         self.nodes[ast.Starred] = self._eval_starred
@@ -459,6 +459,10 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
 
     def _eval_attribute(self, node):
         return self.attribute(self._eval(node.value), node.attr)
+
+    def _eval_subscript(self, node):
+        container = self._eval(node.value)
+        return self.item(container, self._eval(node.slice))
 
     def _items(self, nodes) -> list:
         items = []
@@ -542,6 +546,8 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
 
     def _eval_call(self, node):
         function = self._eval(node.func)
+        if not callable(function):  # as Python says it
+            raise TypeError(f"'{type(function).__name__}' object is not callable")
         if not self.allowed_call(function):
             what = ast.unparse(node.func)
             raise _Refused(f"calling {what} is not allowed; callable are the math, python and xacro functions, "
@@ -579,7 +585,8 @@ def _located_error(exc: BaseException) -> ManipkitError | None:
 
 
 def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: Callable[[object], bool],
-             attribute: Callable[[object, str], object], kind: str = "${") -> object:
+             attribute: Callable[[object, str], object], item: Callable[[object, object], object] = operator.getitem,
+             kind: str = "${") -> object:
     """The value of a xacro expression, evaluated safely (module docstring).
 
     Parameters
@@ -593,6 +600,8 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
     attribute : callable
         ``attribute(value, name)`` -> ``value.name`` if allowed, else raises ``_Refused``
         (see :mod:`manipkit.description.xacro_names`).
+    item : callable, keyword-only
+        ``item(container, key)`` -> ``container[key]`` (a symbol table is looked up as names are).
     kind : str, keyword-only
         ``"${"`` or ``"$(eval"``, for messages.
 
@@ -608,7 +617,7 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         _deadline.append(time.monotonic() + TIME_BUDGET_S)
     try:
         tree = parse_expression(expression)
-        evaluator = _Evaluator(lookup, allowed_call, attribute)
+        evaluator = _Evaluator(lookup, allowed_call, attribute, item)
         evaluator.expr = expression
         result = evaluator._eval(tree.body)
         return check_size(result, "the result")

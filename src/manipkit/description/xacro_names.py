@@ -14,7 +14,8 @@ differences:
   :mod:`manipkit.description.expressions`): ``range`` (at most ``MAX_SIZE``
   items), ``round`` of an integer to ``-n`` digits, ``sum`` (numbers only),
   ``math.factorial``/``comb``/``perm``/``prod``/``lcm`` (results of at most
-  ``MAX_INT_BITS`` bits);
+  ``MAX_INT_BITS`` bits), ``xacro.tokenize`` (its separators are characters, not a
+  regular expression);
 - ``load_yaml`` (:func:`load_yaml`) checks the file first (a regular file of
   at most ``MAX_TABLE_BYTES``), reads YAML with PyYAML's safe loader (plain
   YAML and xacro's unit tags ``!degrees``, ``!radians``, ``!meters``,
@@ -61,6 +62,7 @@ __all__ = [
     "eval_lookup",
     "evaluate_eval",
     "evaluate_expression",
+    "item",
     "load_yaml",
     "symbol_lookup",
     "xacro_globals",
@@ -129,6 +131,15 @@ def _lcm(*integers):
     return math.lcm(*integers)
 
 
+def _tokenize(s, sep=",; ", skip_empty=True):
+    """``xacro.tokenize``, with the separators taken as characters (xacro puts them in a regular expression
+    unescaped: ``sep="x](a+)+b[y"`` would make one that backtracks without end)."""
+    import re
+
+    results = re.split("[" + re.escape(str(sep)) + "]", s)
+    return [item for item in results if item] if skip_empty else results
+
+
 _MATH_BOUNDED = {"factorial": _factorial, "comb": _comb, "perm": _perm, "prod": _prod, "lcm": _lcm}
 
 
@@ -153,7 +164,8 @@ def xacro_globals() -> dict[str, object]:
     math_names = Namespace({k: _MATH_BOUNDED.get(k, v) for k, v in vars(math).items() if not k.startswith("_")})
     own = xacro._global_symbols["xacro"]  # xacro's NameSpace: read its entries without lazy evaluation
     xacro_names = Namespace({k: dict.__getitem__(own, k) for k in
-                             ("arg", "message", "warning", "error", "print_location", "fatal", "tokenize")})
+                             ("arg", "message", "warning", "error", "print_location", "fatal")})
+    xacro_names["tokenize"] = _tokenize
     xacro_names.update(load_yaml=load_yaml, abs_filename=xacro.abs_filename_spec, dotify=xacro.YamlDictWrapper)
     names: dict[str, object] = {k: python[k] for k in ("list", "dict", "map", "len", "str", "float", "int", "bool",
                                                        "True", "False", "min", "max", "round", "sorted", "range")}
@@ -266,14 +278,26 @@ def attribute(value: object, name: str) -> object:
                   "(attributes are read from strings, numbers, lists, dicts, sets, YAML data and namespaces)")
 
 
+def item(container: object, key: object) -> object:
+    """``container[key]``; a xacro symbol table (an include's namespace) is looked up as names are, so
+    its parents end at :func:`xacro_globals`, never at xacro's own globals."""
+    import xacro
+
+    if isinstance(container, xacro.Table):
+        return symbol_lookup(container)(key)
+    return container[key]
+
+
 def evaluate_expression(expression: str, symbols) -> object:
     """The value of ``${expression}`` with xacro symbol table ``symbols`` (xacro's ``safe_eval``, made safe)."""
-    return evaluate(str(expression), symbol_lookup(symbols), allowed_call=allowed_call, attribute=attribute)
+    return evaluate(str(expression), symbol_lookup(symbols), allowed_call=allowed_call, attribute=attribute,
+                    item=item)
 
 
 def evaluate_eval(expression: str) -> str:
     """The text of ``$(eval expression)`` (xacro's ``substitution_args._eval``, made safe)."""
-    value = evaluate(str(expression), eval_lookup, allowed_call=allowed_call, attribute=attribute, kind="$(eval")
+    value = evaluate(str(expression), eval_lookup, allowed_call=allowed_call, attribute=attribute, item=item,
+                     kind="$(eval")
     return str(value)
 
 
