@@ -370,8 +370,11 @@ def checked_str_method(text: str, name: str) -> Callable:
             size = len(text) + (len(text) + 1) * len(args[1])
             if size > MAX_SIZE:
                 raise _Refused(f"str.replace could make {size} characters, above the limit of {MAX_SIZE}")
-        if name == "join" and args:
-            items = list(args[0])
+        if name == "join" and len(args) == 1 and not kwargs:
+            try:
+                items = list(args[0])
+            except TypeError:
+                raise TypeError("can only join an iterable") from None  # as str.join says it
             check_size(items, "the joined items")
             if len(text) * len(items) > MAX_SIZE:
                 raise _Refused(f"str.join would make more than {MAX_SIZE} characters (the limit)")
