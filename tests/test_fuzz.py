@@ -38,6 +38,7 @@ xacro) so it can be replayed with ``manipkit.load``.
 
 from __future__ import annotations
 
+import ast
 import copy
 import functools
 import io
@@ -849,6 +850,338 @@ def run_xacro_case(data, scratch: Path) -> None:
 @given(data=st.data())
 def test_mutated_xacro_is_refused_cleanly_or_loads_correctly(data, scratch):
     run_xacro_case(data, scratch)
+
+
+# ==========================================================================
+# xacro expressions: random syntax trees, allowed and forbidden
+# ==========================================================================
+#
+# Each case builds an expression's syntax tree from node types an expression may use (literals,
+# properties, arithmetic, comparisons, and/or/not, conditionals, calls of allowed functions, allowed
+# methods, subscripts, displays, comprehensions, f-strings) and node types it may not, turns it into
+# text (ast.unparse) and evaluates it inside a small xacro description (the text arrives as the xacro
+# argument `e` in `${$(arg e)}`, so any character reaches the evaluator). The oracle:
+#
+# - a tree with a statically forbidden part anywhere (lambda, :=, @, an attribute or name starting
+#   with '_', a comprehension assigning to an attribute; the escapes that run `touch SENTINEL`), even
+#   in a branch that would not run, is refused with one line naming the expression;
+# - a tree with a dynamically forbidden part (a name xacro does not give: getattr, open, type, ...; an
+#   attribute of a value that is not allowed: gi_frame, append, format_map, a '{0.x}' format field) is
+#   refused with one line, or evaluates when that part is not reached; never evaluated by Python here;
+# - any other tree gives what Python itself gives for the same text with the same names (the text in the
+#   expanded URDF equals str() of Python's value), or the same error, or a refusal naming a limit;
+# - no case creates the sentinel file, raises anything but a DescriptionError, or runs past the hard timeout.
+
+EXPRESSION_DEADLINE_MS = int(os.environ.get("MANIPKIT_FUZZ_EXPRESSION_DEADLINE_MS", "6000"))  # > the 2 s budget
+EXPRESSION_SETTINGS = settings(FUZZ_SETTINGS, deadline=timedelta(milliseconds=EXPRESSION_DEADLINE_MS))
+CLEAN, DYNAMIC, STATIC = 0, 1, 2  # classes of a tree: the worst part decides
+EXPRESSION_PROPERTIES = {"a": 3, "b": 0.5, "s": "arm", "l": [3, 1, 2], "d": {"k": 1, "j": 2}}
+EXPRESSION_DESCRIPTION = """<?xml version="1.0"?>
+<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:arg name="e" default="0"/>
+  <xacro:property name="a" value="3"/>
+  <xacro:property name="b" value="0.5"/>
+  <xacro:property name="s" value="arm"/>
+  <xacro:property name="l" value="${[3, 1, 2]}"/>
+  <xacro:property name="d" value="${dict(k=1, j=2)}"/>
+  <link name="base"><visual><geometry><box size="1 1 1"/></geometry><material name="${$(arg e)}"/></visual></link>
+</robot>
+"""
+FUNCTIONS = ("max", "min", "len", "str", "int", "float", "round", "sorted", "list", "sin", "cos", "sqrt", "radians",
+             "fabs", "floor", "ceil", "bool", "degrees", "atan2", "hypot", "isnan")
+NAMESPACED = (("python", "abs"), ("python", "tuple"), ("python", "sum"), ("python", "any"), ("python", "all"),
+              ("python", "range"), ("python", "reversed"), ("python", "zip"), ("math", "pi"), ("math", "cos"),
+              ("xacro", "tokenize"))
+STR_METHODS = ("upper", "lower", "strip", "split", "title", "count", "startswith", "replace", "join", "find", "zfill")
+OTHER_METHODS = ("index", "count", "copy", "get", "keys", "values", "items", "real", "imag", "bit_length")
+DUNDERS = ("__class__", "__dict__", "__globals__", "__subclasses__", "__base__", "__mro__", "__builtins__",
+           "__import__", "__init__", "_module", "__self__", "__code__", "__reduce__", "__getattribute__")
+UNSAFE_NAMES = ("getattr", "setattr", "eval", "exec", "open", "compile", "globals", "locals", "vars", "type",
+                "input", "breakpoint", "help", "memoryview", "object", "super", "classmethod")
+UNSAFE_ATTRIBUTES = ("gi_frame", "f_globals", "f_back", "f_locals", "gi_code", "cr_frame", "mro", "format_map",
+                     "append", "extend", "pop", "clear", "encode", "to_bytes", "translate", "expandtabs", "setdefault",
+                     "update", "sort", "insert", "remove", "system", "modules")
+BINARY = (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.FloorDiv, ast.Mod, ast.BitOr, ast.BitAnd, ast.BitXor, ast.RShift)
+COMPARE = (ast.Eq, ast.NotEq, ast.Lt, ast.LtE, ast.Gt, ast.GtE, ast.In, ast.NotIn)  # "is": identity of literals varies
+LETTERS = st.text("abcdefgh xyz", max_size=6)
+
+
+def _escapes(sentinel: Path) -> list[tuple[str, int]]:
+    """Known sandbox escapes (each creates ``sentinel`` when it runs), with their class."""
+    touch = f"'touch {sentinel}'"
+    return [
+        ("(lambda: [c for c in ().__class__.__base__.__subclasses__() if c.__name__ == 'catch_warnings'][0]()"
+         f"._module.sys.modules['os'].system({touch}))()", STATIC),
+        ("[c for c in ().__class__.__base__.__subclasses__() if c.__name__ == 'catch_warnings'][0]()"
+         f"._module.sys.modules['os'].system({touch})", STATIC),
+        (f"__import__('os').system({touch})", STATIC),
+        (f"[x for x in [1] if (x := __import__('os').system({touch}))]", STATIC),
+        (f"math.sin.__self__.__import__('os').system({touch})", STATIC),
+        (f"[g.gi_frame.f_back.f_back.f_globals['os'].system({touch}) for g in [(i for i in [1])]]", DYNAMIC),
+        (f"open('{sentinel}', 'w')", DYNAMIC),
+        ("python.type('X', (), dict())", DYNAMIC),
+        ("python.vars(math)", DYNAMIC),
+        ("'{0.__class__.__base__}'.format(1)", DYNAMIC),
+    ]
+
+
+def _node(tree: ast.AST) -> ast.AST:
+    return ast.fix_missing_locations(tree)
+
+
+@st.composite
+def clean_leaf(draw):
+    kind = draw(st.sampled_from(["int", "float", "str", "const", "property", "constant", "function"]))
+    if kind == "int":
+        return ast.Constant(draw(st.integers(-1000, 1000))), CLEAN
+    if kind == "float":
+        return ast.Constant(draw(st.sampled_from([0.5, -2.25, 1e-3, 3.0, 1e308, 0.1]))), CLEAN
+    if kind == "str":
+        return ast.Constant(draw(LETTERS)), CLEAN
+    if kind == "const":
+        return ast.Constant(draw(st.sampled_from([True, False, None]))), CLEAN
+    if kind == "property":
+        return ast.Name(draw(st.sampled_from(sorted(EXPRESSION_PROPERTIES))), ast.Load()), CLEAN
+    if kind == "constant":
+        return ast.Name(draw(st.sampled_from(["pi", "e", "tau", "inf"])), ast.Load()), CLEAN
+    space, name = draw(st.sampled_from(NAMESPACED))
+    return ast.Attribute(ast.Name(space, ast.Load()), name, ast.Load()), CLEAN
+
+
+@st.composite
+def forbidden_leaf(draw, sentinel: Path):
+    kind = draw(st.sampled_from(["escape", "dunder_name", "unsafe_name"]))
+    if kind == "escape":
+        text, cls = draw(st.sampled_from(_escapes(sentinel)))
+        return ast.parse(text, mode="eval").body, cls
+    if kind == "dunder_name":
+        name = draw(st.sampled_from(DUNDERS))
+        return ast.Name(name, ast.Load()), STATIC if name.startswith("__") else DYNAMIC  # a property may be _x
+    return ast.Name(draw(st.sampled_from(UNSAFE_NAMES)), ast.Load()), DYNAMIC
+
+
+def _worst(*parts) -> int:
+    return max((cls for _, cls in parts), default=CLEAN)
+
+
+# Over 80 lines: one branch per node type, allowed and forbidden, each a few lines, drawn from one list.
+@st.composite
+def compound(draw, children, forbidden: bool):
+    """One node over ``children`` (a strategy of (node, class)); forbidden node types when ``forbidden``."""
+    kinds = ["binop", "pow", "shift", "unary", "boolop", "compare", "ifexp", "call", "method", "subscript", "slice",
+             "list", "tuple", "set", "dict", "listcomp", "setcomp", "dictcomp", "genexp", "fstring", "keyword_call"]
+    if forbidden:
+        kinds += ["lambda", "walrus", "matmul", "dunder_attribute", "unsafe_attribute", "format_field",
+                  "store_attribute"]
+    kind = draw(st.sampled_from(kinds))
+    one = draw(children)
+    if kind == "binop":
+        two = draw(children)
+        return ast.BinOp(one[0], draw(st.sampled_from(BINARY))(), two[0]), _worst(one, two)
+    if kind == "pow":  # a small literal exponent keeps Python's own evaluation bounded
+        return ast.BinOp(one[0], ast.Pow(), ast.Constant(draw(st.integers(-2, 4)))), one[1]
+    if kind == "shift":
+        return ast.BinOp(one[0], ast.LShift(), ast.Constant(draw(st.integers(0, 8)))), one[1]
+    if kind == "unary":
+        return ast.UnaryOp(draw(st.sampled_from([ast.USub, ast.UAdd, ast.Not, ast.Invert]))(), one[0]), one[1]
+    if kind == "boolop":
+        two = draw(children)
+        return ast.BoolOp(draw(st.sampled_from([ast.And, ast.Or]))(), [one[0], two[0]]), _worst(one, two)
+    if kind == "compare":
+        rest = draw(st.lists(children, min_size=1, max_size=2))
+        ops = [draw(st.sampled_from(COMPARE))() for _ in rest]
+        return ast.Compare(one[0], ops, [r[0] for r in rest]), _worst(one, *rest)
+    if kind == "ifexp":
+        two, three = draw(children), draw(children)
+        return ast.IfExp(one[0], two[0], three[0]), _worst(one, two, three)
+    if kind in ("call", "keyword_call"):
+        args = [one] + draw(st.lists(children, max_size=2))
+        name = draw(st.sampled_from(FUNCTIONS))
+        keywords = [ast.keyword("key", ast.Name("str", ast.Load()))] if kind == "keyword_call" else []
+        name = "sorted" if keywords else name
+        return ast.Call(ast.Name(name, ast.Load()), [a[0] for a in args], keywords), _worst(*args)
+    if kind == "method":
+        name = draw(st.sampled_from(STR_METHODS + OTHER_METHODS))
+        args = draw(st.lists(children, max_size=1 if name not in ("replace",) else 2))
+        if name in ("real", "imag"):
+            return ast.Attribute(one[0], name, ast.Load()), one[1]
+        return (ast.Call(ast.Attribute(one[0], name, ast.Load()), [a[0] for a in args], []), _worst(one, *args))
+    if kind == "subscript":
+        two = draw(children)
+        return ast.Subscript(one[0], two[0], ast.Load()), _worst(one, two)
+    if kind == "slice":
+        bounds = [ast.Constant(draw(st.integers(-3, 3))) if draw(st.booleans()) else None for _ in range(3)]
+        if bounds[2] is not None and bounds[2].value == 0:
+            bounds[2] = None
+        return ast.Subscript(one[0], ast.Slice(*bounds), ast.Load()), one[1]
+    if kind in ("list", "tuple", "set"):
+        items = [one] + draw(st.lists(children, max_size=2))
+        elements = [i[0] for i in items]
+        display = ast.Set(elements) if kind == "set" else {"list": ast.List, "tuple": ast.Tuple}[kind](elements, ast.Load())
+        return display, _worst(*items)
+    if kind == "dict":
+        two = draw(children)
+        return ast.Dict([one[0]], [two[0]]), _worst(one, two)
+    if kind in ("listcomp", "setcomp", "dictcomp", "genexp"):
+        source = ast.Name(draw(st.sampled_from(["l", "s", "d"])), ast.Load())
+        loop = ast.comprehension(ast.Name("x", ast.Store()), source, [], 0)
+        elt = ast.BinOp(ast.Name("x", ast.Load()), ast.Mult(), one[0]) if draw(st.booleans()) else one[0]
+        if kind == "dictcomp":
+            return ast.DictComp(ast.Name("x", ast.Load()), elt, [loop]), one[1]
+        if kind == "genexp":  # a generator is made a list here: pass it to a function that consumes it
+            consumer = draw(st.sampled_from(["list", "sorted", "max", "min"]))
+            return ast.Call(ast.Name(consumer, ast.Load()), [ast.GeneratorExp(elt, [loop])], []), one[1]
+        return {"listcomp": ast.ListComp, "setcomp": ast.SetComp}[kind](elt, [loop]), one[1]
+    if kind == "fstring":
+        conversion = draw(st.sampled_from([-1, 115, 114]))
+        spec = ast.JoinedStr([ast.Constant(draw(st.sampled_from([".2f", ">6", "", "^5"])))])
+        value = ast.FormattedValue(one[0], conversion, spec if draw(st.booleans()) else None)
+        return ast.JoinedStr([ast.Constant(draw(LETTERS)), value]), one[1]
+    if kind == "lambda":
+        arguments = ast.arguments(posonlyargs=[], args=[], vararg=None, kwonlyargs=[], kw_defaults=[], kwarg=None,
+                                  defaults=[])
+        return ast.Call(ast.Lambda(arguments, one[0]), [], []), STATIC
+    if kind == "walrus":
+        return ast.NamedExpr(ast.Name("y", ast.Store()), one[0]), STATIC
+    if kind == "matmul":
+        return ast.BinOp(one[0], ast.MatMult(), draw(children)[0]), STATIC
+    if kind == "dunder_attribute":
+        return ast.Attribute(one[0], draw(st.sampled_from(DUNDERS)), ast.Load()), STATIC
+    if kind == "unsafe_attribute":
+        return ast.Attribute(one[0], draw(st.sampled_from(UNSAFE_ATTRIBUTES)), ast.Load()), max(one[1], DYNAMIC)
+    if kind == "format_field":
+        template = draw(st.sampled_from(["{0.real}", "{0[0]}", "{x.y}", "{0.__class__}"]))
+        return ast.Call(ast.Attribute(ast.Constant(template), "format", ast.Load()), [one[0]], []), max(one[1], DYNAMIC)
+    # store_attribute: a comprehension that assigns to an attribute
+    loop = ast.comprehension(ast.Attribute(ast.Name("l", ast.Load()), "x", ast.Store()), one[0], [], 0)
+    return ast.ListComp(ast.Constant(1), [loop]), STATIC
+
+
+def expression_trees(sentinel: Path, forbidden: bool):
+    leaves = clean_leaf() if not forbidden else st.one_of(clean_leaf(), clean_leaf(), forbidden_leaf(sentinel))
+    return st.recursive(leaves, lambda children: compound(children, forbidden), max_leaves=8)
+
+
+def _python_names() -> dict[str, object]:
+    """The names of xacro expressions for Python's own eval (namespaces as objects with attributes)."""
+    from types import SimpleNamespace
+
+    from manipkit.description.xacro_names import xacro_globals
+
+    names = dict(xacro_globals())
+    for space in ("python", "math", "xacro"):
+        names[space] = SimpleNamespace(**xacro_globals()[space])
+    names.update(copy.deepcopy(EXPRESSION_PROPERTIES))
+    return names
+
+
+def python_value(text: str):
+    """What Python itself makes of a clean expression: ("value", str of it) or ("error", message)."""
+    import warnings
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)  # "is" with a literal
+            value = eval(text, {"__builtins__": {}, **_python_names()})  # noqa: S307 - clean trees only (no escapes)
+        return "value", str(value)
+    except Exception as exc:  # noqa: BLE001 - the expression's own error
+        return "error", f"{type(exc).__name__}: {exc}"
+
+
+def _expanded_material(urdf: str) -> str:
+    return etree.fromstring(urdf.encode()).find("link/visual/material").get("name")
+
+
+LIMIT_WORDS = ("limit", "time budget", "adds numbers only", "'*' width")
+
+
+def run_expression_case(data, scratch: Path, forbidden: bool) -> None:
+    from manipkit.description.xacro import describe
+
+    sentinel = scratch / "SENTINEL"
+    tree, cls = data.draw(expression_trees(sentinel, forbidden), label="expression tree")
+    text = ast.unparse(_node(tree))
+    path = scratch / "expression.urdf.xacro"
+    if not path.exists():
+        path.write_text(EXPRESSION_DESCRIPTION)
+    source = resolve_robot(path)
+    outcome, detail = "value", None
+    try:
+        with hard_timeout(HARD_TIMEOUT_S):
+            detail = _expanded_material(describe(source, {"e": text}).text)
+    except ManipkitError as exc:
+        outcome, detail = "refused", str(exc)
+    except CaseTimeout:
+        raise AssertionError(f"hang: ${{{text}}} ran past {HARD_TIMEOUT_S} s") from None
+    except Exception as exc:  # noqa: BLE001 - any other exception is a bug
+        raise AssertionError(f"${{{text}}}: uncaught {type(exc).__name__}: {exc}") from exc
+    assert not sentinel.exists(), f"${{{text}}} ran code: {sentinel} was created"
+    if outcome == "refused":
+        assert detail.strip() and "\n" not in detail and "\r" not in detail, f"not one line: {detail!r}"
+        assert "xacro expression ${" in detail, detail
+    if cls == STATIC:
+        assert outcome == "refused", f"${{{text}}} has a forbidden part but gave {detail!r}"
+        assert any(w in detail for w in ("is not allowed", "assigns to names only", "syntax", "never closed",
+                                         "nested more than")), detail
+        _event("forbidden: refused")
+        return
+    if cls == DYNAMIC:  # refused when reached; never given to Python here (it could run)
+        _event(f"unsafe name or attribute: {'refused' if outcome == 'refused' else 'not reached'}")
+        return
+    if outcome == "refused" and any(word in detail for word in LIMIT_WORDS):
+        _event("allowed: refused at a limit")
+        return
+    if outcome == "refused" and "values is not allowed (attributes are read from" in detail:
+        _event("allowed: attribute of a function or type refused (Python would read it)")
+        return
+    with hard_timeout(HARD_TIMEOUT_S):
+        kind, expected = python_value(text)
+    if kind == "value" and " at 0x" in expected:  # an object's address: no text to compare
+        _event("allowed: value without a comparable text")
+        return
+    if kind == "value":
+        assert outcome == "value", f"${{{text}}}: Python gives {expected!r}, here: {detail}"
+        assert detail == expected, f"${{{text}}}: Python gives {expected!r}, here {detail!r}"
+        _event("allowed: same value as Python")
+    else:
+        assert outcome == "refused", f"${{{text}}}: Python raises {expected}, here the value {detail!r}"
+        message = " ".join(expected.split(": ", 1)[-1].split())
+        unqualified = re.compile(r"\b\w+\.(\w+\(\))")  # int.bit_length() or bool.bit_length(): how it was called
+        assert unqualified.sub(r"\1", message) in unqualified.sub(r"\1", detail), \
+            f"${{{text}}}: Python raises {expected}, here: {detail}"
+        _event("allowed: same error as Python")
+
+
+@FUZZ_TIMEOUT
+@EXPRESSION_SETTINGS
+@given(data=st.data())
+def test_xacro_expression_allowed_gives_pythons_value(data, scratch):
+    run_expression_case(data, scratch, forbidden=False)
+
+
+@FUZZ_TIMEOUT
+@EXPRESSION_SETTINGS
+@given(data=st.data())
+def test_xacro_expression_forbidden_is_refused_and_runs_nothing(data, scratch):
+    run_expression_case(data, scratch, forbidden=True)
+
+
+@pytest.mark.parametrize("index", range(10))
+def test_every_known_escape_is_refused_and_runs_nothing(index, scratch):
+    from manipkit.description.xacro import describe
+
+    path = scratch / "expression.urdf.xacro"
+    path.write_text(EXPRESSION_DESCRIPTION)
+    sentinel = scratch / "SENTINEL"
+    with pytest.raises(ManipkitError, match=r"xacro expression \$\{"):
+        describe(resolve_robot(path), {"e": _escapes(sentinel)[index][0]})
+    assert not sentinel.exists()
+
+
+def test_the_expression_oracle_compares_with_python():
+    assert python_value("max(l) + a") == ("value", "6")
+    assert python_value("1 / 0") == ("error", "ZeroDivisionError: division by zero")
+    assert python_value("s.upper() + str(d['k'])") == ("value", "ARM1")
 
 
 # ==========================================================================

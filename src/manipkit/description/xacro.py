@@ -15,16 +15,24 @@ them, so importing this module stays cheap (docs/architecture.md).
 
 from __future__ import annotations
 
+import contextlib
 import difflib
+import os
 import re
+import time
 from pathlib import Path
 from typing import NamedTuple
 
 from manipkit.description.packages import PackageResolver
 from manipkit.description.sources import RobotSource
-from manipkit.errors import DescriptionError, PackageNotFoundError
+from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError
+from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
 
 __all__ = [
+    "EXPANSION_SECONDS",
+    "MAX_EXPANDED_CHARACTERS",
+    "MAX_TEXT_CHARACTERS",
+    "MAX_XACRO_ELEMENTS",
     "XacroExpansion",
     "describe",
     "expand_xacro",
@@ -33,6 +41,14 @@ __all__ = [
     "xacro_locator",
 ]
 
+#: Most elements one xacro expansion may process (macros calling macros many times over).
+MAX_XACRO_ELEMENTS = 500_000
+#: Longest text (an attribute, a property, a text node) one evaluation may make.
+MAX_TEXT_CHARACTERS = 4 * 1024 * 1024
+#: Most characters all the evaluations of one expansion may make together.
+MAX_EXPANDED_CHARACTERS = 4 * MAX_DESCRIPTION_BYTES
+#: Seconds one xacro expansion may take (real descriptions take well under one).
+EXPANSION_SECONDS = 30.0
 
 
 class XacroExpansion(NamedTuple):
@@ -91,8 +107,9 @@ def xacro_arg_declarations(files) -> dict[str, str | None]:
     parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True)
     for file in files:
         try:
+            check_input_file(file, what="xacro file", max_bytes=MAX_DESCRIPTION_BYTES)  # a FIFO is not opened
             root = etree.parse(str(file), parser).getroot()
-        except (OSError, etree.XMLSyntaxError):
+        except (ManipkitError, OSError, etree.XMLSyntaxError):
             continue
         for element in root.iter(etree.Element):
             if element.tag == "xacro:arg" or (element.prefix == "xacro" and etree.QName(element).localname == "arg"):
@@ -112,19 +129,56 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     no lines, so the line is found by searching the xacro sources for the
     offending expression, argument, include or macro.
 
+    Descriptions are untrusted input, so for the duration of the call
+    (:func:`_xacro_hooks`) xacro's evaluation is replaced by a safe one:
+    ``${...}`` and ``$(eval ...)`` go through
+    :mod:`manipkit.description.expressions` (no code runs; bounded cost),
+    ``xacro.load_yaml`` through :func:`manipkit.description.xacro_names.load_yaml`,
+    every file is checked by :func:`manipkit.inputs.check_input_file` before xacro
+    opens it (a FIFO would block), a file that includes itself is refused, and the
+    expansion is bounded (:data:`MAX_XACRO_ELEMENTS`, :data:`MAX_TEXT_CHARACTERS`,
+    :data:`MAX_EXPANDED_CHARACTERS`, :data:`EXPANSION_SECONDS`).
+
     ``$(find)`` is routed to ``resolver`` by patching
-    ``xacro.substitution_args._eval_find`` for the duration of the call.
-    xacro imports that module (and PyYAML, ~8 ms) only when it meets the
-    first ``$(...)``, so the patch is applied at that moment too: a file
-    without substitutions (the course arm) never pays for the import.
+    ``xacro.substitution_args._eval_find``. xacro imports that module (and
+    PyYAML, ~8 ms) only when it meets the first ``$(...)``, so the patch is
+    applied at that moment too: a file without substitutions (the course arm)
+    never pays for the import.
     """
-    import contextlib
     import io
 
     import xacro
 
     _read_description(path)
     missing: list[tuple[str, PackageNotFoundError]] = []
+    xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
+    stderr = io.StringIO()
+    try:
+        with _xacro_hooks(path, resolver, missing), contextlib.redirect_stderr(stderr), \
+                contextlib.redirect_stdout(stderr):
+            document = xacro.process_file(str(path), mappings=dict(args))
+    except Exception as exc:  # xacro raises many kinds; all are description errors
+        declared = xacro_arg_declarations([path, *xacro.all_includes])
+        raise _xacro_error(exc, path, missing, declared) from None
+    files = [path, *(Path(f) for f in xacro.all_includes)]
+    _remember_files(path, files)
+    # xacro ignores arguments nobody declared; here they are an error (a typo would pass silently)
+    declared = xacro_arg_declarations(files)
+    unknown = sorted(set(args) - set(declared))
+    if unknown:
+        valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
+        raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
+    return XacroExpansion(document.toxml(), declared)
+
+
+# Over 80 lines: one hook per xacro function replaced, each a few lines, patched and restored together.
+@contextlib.contextmanager
+def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
+    """Replace xacro's evaluation, file opening and unbounded loops for one expansion (restored after)."""
+    import xacro
+
+    from manipkit.description.expressions import MAX_SIZE
+    from manipkit.description.xacro_names import evaluate_eval, evaluate_expression
 
     def find(package: str) -> str:
         try:
@@ -133,41 +187,112 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
             missing.append((package, exc))  # xacro wraps exceptions; keep ours
             raise
 
-    original_extension = xacro.eval_extension  # xacro's handler of every $(...)
+    originals = {name: getattr(xacro, name) for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all")}
     patched = []  # (substitution_args module, its own _eval_find), once patched
+    deadline = time.monotonic() + EXPANSION_SECONDS
+    counts = {"elements": 0, "characters": 0}
 
-    def eval_extension(text: str):
+    def eval_extension(text: str):  # every $(...)
         if not patched:
             import xacro.substitution_args as substitution_args
 
             patched.append((substitution_args, substitution_args._eval_find))
             substitution_args._eval_find = find
-        return original_extension(text)
+        if text.startswith("$(eval ") and text.endswith(")"):  # as xacro.substitution_args.resolve_args
+            return evaluate_eval(text[7:-1])
+        return originals["eval_extension"](text)
 
-    xacro.eval_extension = eval_extension
-    xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
-    stderr = io.StringIO()
+    def safe_eval(expression, symbols, locals=None):  # noqa: A002 - xacro's signature
+        return evaluate_expression(expression, symbols)
+
+    def parse(inp, filename=None):
+        if inp is None and filename:
+            _check_xacro_file(os.path.join(xacro.root_dir, filename), [f for f in xacro.filestack[:-1] if f])
+        return originals["parse"](inp, filename)
+
+    def eval_text(text, symbols):
+        try:
+            result = originals["eval_text"](text, symbols)
+        except Exception as exc:
+            ours = next((e for e in _exception_chain(exc) if isinstance(e, ManipkitError)), None)
+            if ours is not None and getattr(ours, "needles", None):  # the text as written, before $(arg ...)
+                ours.needles = (*ours.needles, str(text))
+            raise
+        if isinstance(result, str):
+            counts["characters"] += len(result)
+            if len(result) > MAX_TEXT_CHARACTERS or counts["characters"] > MAX_EXPANDED_CHARACTERS:
+                error = DescriptionError(
+                    f"xacro text '{_clip(text)}' makes {len(result)} characters ({counts['characters']} in all "
+                    f"so far), above the limit of {MAX_TEXT_CHARACTERS} for one text and "
+                    f"{MAX_EXPANDED_CHARACTERS} for a description (properties that repeat each other?)")
+                error.needles = (str(text),)
+                raise error
+        return result
+
+    def eval_all(node, macros, symbols):
+        counts["elements"] += 1
+        if counts["elements"] > MAX_XACRO_ELEMENTS:
+            raise DescriptionError(f"{path.name}: xacro expansion made more than {MAX_XACRO_ELEMENTS} elements, "
+                                   "the limit (macros that call each other many times over?)")
+        if time.monotonic() > deadline:
+            raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
+        return originals["eval_all"](node, macros, symbols)
+
+    assert MAX_SIZE <= MAX_TEXT_CHARACTERS  # an expression's value always fits in one text
+    hooks = {"eval_extension": eval_extension, "safe_eval": safe_eval, "parse": parse, "eval_text": eval_text,
+             "eval_all": eval_all}
+    for name, hook in hooks.items():
+        setattr(xacro, name, hook)
     try:
-        with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
-            document = xacro.process_file(str(path), mappings=dict(args))
-    except Exception as exc:  # xacro raises many kinds; all are description errors
-        declared = xacro_arg_declarations([path, *xacro.all_includes])
-        raise _xacro_error(exc, path, missing, declared) from None
+        yield
     finally:
-        xacro.eval_extension = original_extension
+        for name, original in originals.items():
+            setattr(xacro, name, original)
         for substitution_args, original_find in patched:
             substitution_args._eval_find = original_find
-    # xacro ignores arguments nobody declared; here they are an error (a typo would pass silently)
-    declared = xacro_arg_declarations([path, *xacro.all_includes])
-    unknown = sorted(set(args) - set(declared))
-    if unknown:
-        valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
-        raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
-    return XacroExpansion(document.toxml(), declared)
+
+
+def _clip(text: object, size: int = 60) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= size else text[: size - 3] + "..."
+
+
+def _check_xacro_file(filename: str, including: list[str]) -> None:
+    """Before xacro opens ``filename`` (included by the last of ``including``): a regular file of bounded
+    size that is not already being included (a file that includes itself recurses without end)."""
+    includer = Path(including[-1]) if including else None
+    where = ""
+    if includer is not None:
+        name = re.escape(Path(filename).name)
+        where = (_find_in_files([includer], pattern=r"<xacro:include\b[^>]*" + name) or includer.name) + ": "
+    if os.path.lexists(filename):  # a missing file: xacro's own error, located by _xacro_error
+        try:
+            check_input_file(filename, what="xacro file", max_bytes=MAX_DESCRIPTION_BYTES)
+        except InputFileError as exc:
+            raise InputFileError(f"{where}xacro:include: {exc}" if where else str(exc)) from None
+    opened = [os.path.realpath(f) for f in including]
+    me = os.path.realpath(filename)
+    if me in opened:
+        chain = " -> ".join(Path(f).name for f in [*including[opened.index(me):], filename])
+        raise DescriptionError(f"{where}xacro:include: {Path(filename).name} includes itself ({chain}); "
+                               "a file cannot include itself, directly or through other files")
+
+
+_EXPANDED_FILES: dict[Path, list[Path]] = {}  # top-level xacro file -> the files its last expansion read
+
+
+def _remember_files(path: Path, files: list[Path]) -> None:
+    key = path.resolve()
+    _EXPANDED_FILES.pop(key, None)
+    _EXPANDED_FILES[key] = [f if f.is_absolute() else Path.cwd() / f for f in files]
+    while len(_EXPANDED_FILES) > 64:
+        del _EXPANDED_FILES[next(iter(_EXPANDED_FILES))]
 
 
 def _read_description(path: Path) -> str:
-    """The text of a description file, or a one-line error (unreadable, not UTF-8 text, empty)."""
+    """The text of a description file, or a one-line error (not a regular file, too large, unreadable,
+    not UTF-8 text, empty)."""
+    check_input_file(path, what="robot file", max_bytes=MAX_DESCRIPTION_BYTES)
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -192,12 +317,16 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
 
     import xacro
 
+    from manipkit.description.expressions import error_reason
+
     stack = [Path(f) for f in (xacro.filestack or []) if f]
     current = stack[-1] if stack else path
     macros = [m for m in (getattr(xacro, "macrostack", None) or [])]
     macro_files = [Path(h[-1]) for m in reversed(macros) for h in (m.history or [])[-1:] if h and h[-1]]
-    files = _xacro_search_files(path, macro_files + list(reversed(stack)))
+    read = [Path(f) for f in xacro.all_includes]
+    files = _xacro_search_files(path, macro_files + list(reversed(stack)) + read)
     text = " ".join(str(exc).split()) or type(exc).__name__
+    chain = _exception_chain(exc)
 
     def at(*needles: str, pattern: str | None = None) -> str:
         found = _find_in_files(files, needles, pattern)
@@ -207,19 +336,27 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
         package, error = missing[0]
         location = at(pattern=r"\$\(find\s+" + re.escape(package) + r"\s*\)")
         return PackageNotFoundError(f"{location}: $(find {package}): {error}")
+    ours = next((e for e in chain if isinstance(e, ManipkitError)), None)
+    if ours is not None:  # a safe-evaluation refusal, an include or YAML file refused, a limit reached
+        needles = getattr(ours, "needles", None)
+        return type(ours)(f"{at(*needles)}: {ours}") if needles else ours
     if isinstance(exc, xml.parsers.expat.ExpatError):
         reason = xml.parsers.expat.ErrorString(exc.code) if exc.code else text
         return DescriptionError(f"{current.name}:{exc.lineno}:{exc.offset}: malformed XML: {reason}")
-    if isinstance(exc, RecursionError):
+    if any(isinstance(e, RecursionError) for e in chain):
         names = list(dict.fromkeys(m.body.getAttribute("name") for m in macros[-3:]))
-        location = at(pattern=r"<xacro:(" + "|".join(map(re.escape, names)) + r")\b") if names else current.name
+        if not names:
+            return DescriptionError(f"{current.name}: xacro recursion too deep (elements or properties nested "
+                                    "more than about a few hundred levels)")
+        location = at(pattern=r"<xacro:(" + "|".join(map(re.escape, names)) + r")\b")
         return DescriptionError(f"{location}: xacro recursion too deep "
-                                f"(macro {', '.join(names) or '?'} calls itself without end?)")
-    match = re.search(r"(.*?)\s*when evaluating expression '(.*)'$", text)
-    if match:
-        reason, expression = match.groups()
+                                f"(macro {', '.join(names)} calls itself without end?)")
+    evaluating = [e for e in chain if "when evaluating expression '" in str(getattr(e, "suffix", "") or "")]
+    if evaluating:  # the innermost expression (a property evaluated on the way names its own)
+        expression = re.search(r"when evaluating expression '(.*)'", evaluating[-1].suffix, re.S).group(1)
+        reason = error_reason(evaluating[-1].exc)
         location = at("${" + expression + "}", expression)
-        return DescriptionError(f"{location}: xacro expression ${{{expression}}}: {reason}")
+        return DescriptionError(f"{location}: xacro expression ${{{' '.join(expression.split())}}}: {reason}")
     if "missing attribute 'default'" in text and "xacro:arg" in text:
         location = at(pattern=r"<xacro:arg\b(?![^>]*\bdefault\s*=)[^>]*>")
         name = _attribute_on_line(files, location, "name") or "NAME"
@@ -269,29 +406,46 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
     return DescriptionError(f"{location}: xacro: {text}")
 
 
+def _exception_chain(exc: BaseException) -> list[BaseException]:
+    """``exc`` and the exceptions it wraps (xacro's ``XacroException.exc``, causes and contexts), outermost first."""
+    chain: list[BaseException] = []
+    while exc is not None and all(exc is not seen for seen in chain):
+        chain.append(exc)
+        exc = getattr(exc, "exc", None) or exc.__cause__ or exc.__context__
+    return chain
+
+
 def _xacro_search_files(top: Path, stack: list[Path]) -> list[Path]:
-    """Files to search for an error's source: the ones xacro was in, then the top file, then its xacro siblings."""
+    """Files to search for an error's source: the ones xacro was in and had read, then the top file.
+
+    Only files the expansion read: a sibling file that defines the same link would name the wrong file.
+    """
     files: list[Path] = []
     for candidate in stack + [top]:
         candidate = candidate if candidate.is_absolute() else (Path.cwd() / candidate)
-        if candidate.is_file() and candidate not in files:
+        if candidate not in files and _source_text(candidate) is not None:
             files.append(candidate)
-    for folder in dict.fromkeys(f.parent for f in list(files)):
-        for sibling in sorted(folder.glob("*.xacro"))[:50]:
-            if sibling not in files:
-                files.append(sibling)
     return files
+
+
+def _source_text(path: Path) -> str | None:
+    """The text of a xacro source file for searching, or None (missing, not a regular file, too large)."""
+    try:
+        check_input_file(path, what="xacro file", max_bytes=MAX_DESCRIPTION_BYTES)
+        return path.read_text(errors="replace")
+    except (ManipkitError, OSError):
+        return None
 
 
 def _find_in_files(files: list[Path], needles=(), pattern: str | None = None) -> str | None:
     """``NAME:LINE`` of the first match of ``pattern`` or of a needle (in order) in ``files``, or None."""
     regexes = ([re.compile(pattern)] if pattern else []) + [re.compile(re.escape(n)) for n in needles if n]
+    texts = {path: _source_text(path) for path in files}
     for regex in regexes:
         for path in files:
-            try:
-                text = _without_comments(path.read_text(errors="replace"))
-            except OSError:
+            if texts[path] is None:
                 continue
+            text = _without_comments(texts[path])
             found = regex.search(text)
             if found:
                 return f"{path.name}:{text.count(chr(10), 0, found.start()) + 1}"
@@ -306,8 +460,8 @@ def _without_comments(text: str) -> str:
 def _attribute_on_line(files: list[Path], location: str, attribute: str) -> str | None:
     name, _, line = location.rpartition(":")
     for path in files:
-        if path.name == name and line.isdigit():
-            lines = path.read_text(errors="replace").splitlines()
+        if path.name == name and line.isdigit() and _source_text(path) is not None:
+            lines = _source_text(path).splitlines()
             match = re.search(rf'\b{attribute}\s*=\s*["\']([^"\']*)', lines[int(line) - 1] if int(line) <= len(lines) else "")
             return match.group(1) if match else None
     return None
@@ -316,22 +470,36 @@ def _attribute_on_line(files: list[Path], location: str, attribute: str) -> str 
 def _xacro_macro_names(files: list[Path]) -> list[str]:
     names: list[str] = []
     for path in files:
-        try:
-            text = _without_comments(path.read_text(errors="replace"))
-        except OSError:
+        if _source_text(path) is None:
             continue
+        text = _without_comments(_source_text(path))
         names += re.findall(r"<xacro:macro\b[^>]*\bname\s*=\s*[\"']([^\"']+)", text)
     return list(dict.fromkeys(names))
+
+
+def _written_includes(path: Path, limit: int = 200) -> list[Path]:
+    """``path`` and the files its ``<xacro:include filename="...">`` name literally (no ``$(...)``), transitively."""
+    files, todo = [path], [path]
+    while todo and len(files) < limit:
+        current = todo.pop()
+        for name in re.findall(r'<xacro:include\s+filename="([^"$]+)"', _without_comments(_source_text(current) or "")):
+            included = current.parent / name
+            if included not in files:
+                files.append(included)
+                todo.append(included)
+    return files
 
 
 def xacro_locator(path: Path):
     """``locate(tag, name)`` for :func:`manipkit.description.validate.check_urdf`: where a link or joint is written in xacro.
 
-    Searches the xacro file and the xacro files beside it for
-    ``<TAG ... name="NAME"``; returns ``"FILE.xacro:LINE"`` or None (the
-    name may be built by an expression, e.g. ``${prefix}_joint``).
+    Searches the files the last expansion of ``path`` read (the file and its
+    includes; before any expansion, the file and the includes written out in
+    it) for ``<TAG ... name="NAME"``; returns ``"FILE.xacro:LINE"`` or None
+    (the name may be built by an expression, e.g. ``${prefix}_joint``).
     """
-    files = _xacro_search_files(path, [])
+    read = _EXPANDED_FILES.get(Path(path).resolve()) or _written_includes(Path(path))
+    files = _xacro_search_files(Path(path), read)
     cache: dict[tuple[str, str], str | None] = {}
 
     def locate(tag: str, name: str) -> str | None:

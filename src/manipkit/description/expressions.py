@@ -1,0 +1,640 @@
+"""Safe evaluation of xacro expressions (``${...}`` and ``$(eval ...)``), with bounded cost.
+
+xacro evaluates every ``${...}`` with Python's ``eval`` and checks only the
+expression's top-level names, so a lambda or a comprehension reaches
+``().__class__.__base__.__subclasses__()`` and runs commands. Here an
+expression is parsed to an AST, checked as a whole, then walked by
+`simpleeval <https://pypi.org/project/simpleeval/>`_ (an AST evaluator that
+has no ``eval``), extended with the rules below.
+
+What an expression may contain (checked before anything is evaluated, at
+every depth of the tree, in branches that would not run too):
+
+- literals (numbers, strings, lists, tuples, dicts, sets), names (xacro
+  properties and arguments, and the functions and constants of
+  :mod:`manipkit.description.xacro_names`), arithmetic, comparisons,
+  ``and``/``or``/``not``, ``a if c else b``, subscripts and slices,
+  comprehensions (genexps become lists), f-strings;
+- calls of allow-listed functions only (a name's value must be one of them);
+- attribute access only to allow-listed methods and attributes of plain
+  values (``'a b'.split()``, ``x.real``), to keys of YAML mappings
+  (``config.joint``) and to names in a namespace (``math.pi``); never to a
+  name starting with ``_``;
+- no lambda, no ``:=``, no ``@``, no ``await``/``yield``, no statements.
+
+What an evaluation may cost: an integer result of ``**``, ``*`` or ``<<``
+has at most :data:`MAX_INT_BITS` bits (``9**9**9`` is refused before it is
+computed), a string or container built has at most :data:`MAX_SIZE`
+characters and items (counted through nesting), a comprehension at most
+:data:`MAX_ITERATIONS` steps, a format string's widths add up to at most
+:data:`MAX_SIZE`, an expression at most :data:`MAX_DEPTH` levels of
+nesting, and an evaluation (with the properties it evaluates on the way) at
+most :data:`TIME_BUDGET_S` seconds.
+
+Every refusal is a :class:`~manipkit.errors.DescriptionError` whose message
+is one line, ``xacro expression ${EXPR}: REASON``; the error carries
+``expression`` and ``reason`` attributes so the caller can name the file and
+line (:mod:`manipkit.description.xacro`).
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import operator
+import re
+import string
+import time
+from collections.abc import Callable
+from xml.sax.saxutils import escape as xml_escape
+
+import simpleeval
+
+from manipkit.errors import DescriptionError, ManipkitError
+from manipkit.inputs import MAX_TABLE_BYTES
+
+__all__ = [
+    "ALLOWED_SYNTAX",
+    "MAX_DEPTH",
+    "MAX_INT_BITS",
+    "MAX_ITERATIONS",
+    "MAX_SIZE",
+    "TIME_BUDGET_S",
+    "ALLOWED_ATTRIBUTES",
+    "OPERATORS",
+    "BoundMethod",
+    "Namespace",
+    "bounded_multiply",
+    "check_format_string",
+    "check_percent_format",
+    "check_size",
+    "checked_str_method",
+    "evaluate",
+    "error_reason",
+    "expression_error",
+    "extend_deadline",
+    "parse_expression",
+    "refusal",
+    "remaining_time",
+    "value_size",
+]
+
+#: Most bits of an integer made by ``**``, ``*`` or ``<<`` (about 3,000 digits).
+MAX_INT_BITS = 10_000
+#: Most characters and items of a string or container an expression builds (counted through nesting);
+#: as large as the largest YAML file ``xacro.load_yaml`` reads (``manipkit.inputs.MAX_TABLE_BYTES``).
+MAX_SIZE = MAX_TABLE_BYTES
+#: Most steps of all comprehensions in one expression (simpleeval's own limit).
+MAX_ITERATIONS = simpleeval.MAX_COMPREHENSION_LENGTH
+#: Deepest nesting of an expression's syntax tree.
+MAX_DEPTH = 100
+#: Seconds one evaluation may take, including the properties it evaluates on the way.
+TIME_BUDGET_S = 2.0
+
+VALID = ("an expression may use numbers, strings, properties, arithmetic, comparisons, and/or/not, "
+         "'a if c else b', subscripts, comprehensions and calls of math, python and xacro functions")
+
+# Syntax (ast node types) an expression may contain; everything else is refused by name.
+ALLOWED_SYNTAX: frozenset[type] = frozenset({
+    ast.Expression, ast.Constant, ast.Name, ast.Load, ast.Store,
+    ast.UnaryOp, ast.UAdd, ast.USub, ast.Not, ast.Invert,
+    ast.BinOp, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.FloorDiv, ast.Mod, ast.Pow,
+    ast.LShift, ast.RShift, ast.BitOr, ast.BitXor, ast.BitAnd,
+    ast.BoolOp, ast.And, ast.Or,
+    ast.Compare, ast.Eq, ast.NotEq, ast.Lt, ast.LtE, ast.Gt, ast.GtE, ast.Is, ast.IsNot, ast.In, ast.NotIn,
+    ast.IfExp, ast.Call, ast.keyword, ast.Starred, ast.Attribute, ast.Subscript, ast.Slice,
+    ast.List, ast.Tuple, ast.Dict, ast.Set,
+    ast.ListComp, ast.SetComp, ast.DictComp, ast.GeneratorExp, ast.comprehension,
+    ast.JoinedStr, ast.FormattedValue,
+})
+_SYNTAX_NAMES = {
+    ast.Lambda: "lambda", ast.NamedExpr: "assignment (:=)", ast.MatMult: "the @ operator",
+    ast.Await: "await", ast.Yield: "yield", ast.YieldFrom: "yield from",
+}
+
+
+def expression_error(expression: str, reason: str, *, kind: str = "${") -> DescriptionError:
+    """``DescriptionError("xacro expression ${EXPR}: REASON")``, one line, with ``expression`` and ``reason`` attributes."""
+    shown = " ".join(str(expression).split())
+    opening, closing = ("${", "}") if kind == "${" else ("$(eval ", ")")
+    error = DescriptionError(f"xacro expression {opening}{shown}{closing}: {' '.join(str(reason).split())}")
+    error.expression, error.reason, error.kind = str(expression), " ".join(str(reason).split()), kind
+    escaped = xml_escape(str(expression), {'"': "&quot;"})  # as written in an XML attribute
+    error.needles = tuple(dict.fromkeys((f"{opening}{expression}{closing}", f"{opening}{escaped}{closing}",
+                                         f"{opening}{expression}", str(expression), escaped)))  # to find its line
+    return error
+
+
+class _Refused(Exception):
+    """Internal: an expression is refused for ``reason`` (turned into :func:`expression_error`)."""
+
+
+def refusal(reason: str) -> Exception:
+    """The exception to raise from a function an expression calls when it refuses its arguments
+    (:func:`evaluate` turns it into ``xacro expression ${EXPR}: REASON``)."""
+    return _Refused(reason)
+
+
+def error_reason(exc: BaseException) -> str:
+    """One-line reason for an exception raised while evaluating (``KeyError('a')`` -> ``no key 'a'``)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return f"no key {text}" if isinstance(exc, KeyError) else text
+
+
+def parse_expression(expression: str) -> ast.Expression:
+    """The expression's syntax tree, checked: allowed syntax only, no private names, bounded depth.
+
+    Raises ``_Refused`` (internal) with the reason.
+    """
+    try:
+        tree = ast.parse(expression.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise _Refused(exc.msg or "invalid syntax") from None
+    except (RecursionError, MemoryError, ValueError) as exc:  # nesting beyond the parser, a NUL byte
+        raise _Refused(f"not a valid expression ({type(exc).__name__}: {exc})") from None
+    stack = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise _Refused(f"nested more than {MAX_DEPTH} levels deep")
+        kind = type(node)
+        if kind not in ALLOWED_SYNTAX:
+            what = _SYNTAX_NAMES.get(kind, kind.__name__)
+            raise _Refused(f"{what} is not allowed; {VALID}")
+        if kind is ast.Attribute and node.attr.startswith("_"):
+            raise _Refused(f"attribute '{node.attr}' is not allowed (names starting with '_' are private)")
+        if kind is ast.Name and node.id.startswith("__"):
+            raise _Refused(f"name '{node.id}' is not allowed (names starting with '__' are private)")
+        if kind is ast.comprehension and not all(isinstance(t, (ast.Name, ast.Tuple, ast.List))
+                                                 for t in ast.walk(node.target) if not isinstance(t, ast.Store)):
+            raise _Refused(f"a comprehension assigns to names only, not to '{ast.unparse(node.target)}'")
+        if kind is ast.Constant and isinstance(node.value, (str, bytes)) and len(node.value) > MAX_SIZE:
+            raise _Refused(f"a literal of {len(node.value)} characters, above the limit of {MAX_SIZE}")
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return tree
+
+
+# --------------------------------------------------------------------------
+# Sizes and bounded operators
+# --------------------------------------------------------------------------
+
+
+def value_size(value: object, limit: int = MAX_SIZE) -> int:
+    """Characters plus items of ``value``, counted through nesting (shared parts each time), stopping past ``limit``."""
+    total, stack = 0, [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, (str, bytes, bytearray)):
+            total += len(item) or 1
+        elif isinstance(item, dict):
+            total += 1
+            stack.extend(item.keys())
+            stack.extend(item.values())
+        elif isinstance(item, (list, tuple, set, frozenset)):
+            total += 1
+            stack.extend(item)
+        elif isinstance(item, range):
+            total += len(item)
+        elif isinstance(item, int) and not isinstance(item, bool):
+            total += 1 + item.bit_length() // 64
+        else:
+            total += 1
+        if total > limit:
+            break
+    return total
+
+
+def check_size(value: object, what: str = "the value") -> object:
+    """``value`` if its :func:`value_size` is within :data:`MAX_SIZE`, else ``_Refused``."""
+    if isinstance(value, (str, bytes, list, tuple, dict, set, frozenset)) and value_size(value) > MAX_SIZE:
+        raise _Refused(f"{what} would have more than {MAX_SIZE} characters and items (the limit)")
+    return value
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _bits_refused(left, op: str, right, bits: float) -> _Refused:
+    return _Refused(f"{_short(left)} {op} {_short(right)} would have about {bits:.3g} bits, "
+                    f"above the limit of {MAX_INT_BITS} bits")
+
+
+def _short(value: object) -> str:
+    text = repr(value) if not _is_int(value) or value.bit_length() < 64 else f"<{value.bit_length()}-bit integer>"
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _power(left, right):
+    if _is_int(left) and _is_int(right) and right > 0 and abs(left) > 1:
+        bits = right * left.bit_length()
+        if bits > MAX_INT_BITS:
+            raise _bits_refused(left, "**", right, bits)
+    return left ** right
+
+
+def _repeat_size(sequence, count) -> None:
+    if isinstance(sequence, (str, bytes, list, tuple)) and isinstance(count, int):
+        size = value_size(sequence) * max(int(count), 0)
+        if size > MAX_SIZE:
+            raise _Refused(f"repeating a {type(sequence).__name__} of size {value_size(sequence)} {count} times "
+                           f"would make {size} characters and items, above the limit of {MAX_SIZE}")
+
+
+def _multiply(left, right):
+    if _is_int(left) and _is_int(right):
+        bits = left.bit_length() + right.bit_length()
+        if bits > MAX_INT_BITS:
+            raise _bits_refused(left, "*", right, bits)
+    elif isinstance(right, (int, bool)):
+        _repeat_size(left, right)
+    elif isinstance(left, (int, bool)):
+        _repeat_size(right, left)
+    return left * right
+
+
+def _add(left, right):
+    if not isinstance(left, (int, float, complex)) and not isinstance(right, (int, float, complex)):
+        size = value_size(left) + value_size(right)
+        if size > MAX_SIZE:
+            raise _Refused(f"adding would make {size} characters and items, above the limit of {MAX_SIZE}")
+    return left + right
+
+
+def _shift_left(left, right):
+    if _is_int(left) and _is_int(right) and left and right > 0:
+        bits = left.bit_length() + right
+        if bits > MAX_INT_BITS:
+            raise _bits_refused(left, "<<", right, bits)
+    return left << right
+
+
+def _modulo(left, right):
+    if isinstance(left, (str, bytes)):
+        check_percent_format(left if isinstance(left, str) else left.decode("latin-1"))
+        return check_size(left % right, "the formatted string")
+    return left % right
+
+
+# %[(name)][flags][width][.precision][length]type
+_PERCENT_FIELD = re.compile(r"%(?:\([^)]*\))?[-#0 +]*(\*|\d+)?(?:\.(\*|\d*))?[hlL]?(.?)", re.S)
+
+
+def _width(digits: str | None, what: str) -> int:
+    if not digits:
+        return 0
+    if digits == "*":
+        raise _Refused(f"a '*' width or precision in {what} is not allowed; write the number")
+    if len(digits) > 7:
+        raise _Refused(f"a width or precision of {len(digits)} digits in {what}, above the limit of {MAX_SIZE}")
+    return int(digits)
+
+
+def check_percent_format(fmt: str) -> None:
+    """Refuse a ``%`` format whose widths and precisions add up to more than :data:`MAX_SIZE` (or use ``*``)."""
+    total = 0
+    for match in _PERCENT_FIELD.finditer(fmt):
+        total += _width(match.group(1), "a % format") + _width(match.group(2), "a % format")
+    if total > MAX_SIZE:
+        raise _Refused(f"the widths in a % format add up to {total}, above the limit of {MAX_SIZE}")
+
+
+def _spec_width(spec: str) -> int:
+    if "{" in spec:
+        raise _Refused("a nested {...} inside a format spec is not allowed")
+    return sum(_width(digits, "a format spec") for digits in re.findall(r"\d+", spec))
+
+
+def check_format_string(fmt: str) -> None:
+    """Refuse a ``str.format`` template with attribute or index access in a field, nested specs, or huge widths."""
+    total = 0
+    try:
+        fields = list(string.Formatter().parse(fmt))
+    except ValueError as exc:
+        raise _Refused(f"format string: {exc}") from None
+    for _literal, field, spec, _conversion in fields:
+        if field is None:
+            continue
+        if "." in field or "[" in field:
+            raise _Refused(f"format field '{{{field}}}' is not allowed; a field is empty, a position or a name")
+        total += _spec_width(spec or "")
+    if total > MAX_SIZE:
+        raise _Refused(f"the widths in a format string add up to {total}, above the limit of {MAX_SIZE}")
+
+
+bounded_multiply = _multiply
+
+#: simpleeval's operators, with ``+ * ** << %`` bounded (and ``>>`` plain).
+OPERATORS: dict[type, Callable] = {
+    **simpleeval.DEFAULT_OPERATORS,
+    ast.Add: _add, ast.Mult: _multiply, ast.Pow: _power, ast.LShift: _shift_left, ast.Mod: _modulo,
+    ast.RShift: operator.rshift,  # cannot grow (simpleeval bounds it like <<, with other messages than Python's)
+}
+
+
+# --------------------------------------------------------------------------
+# Names, methods and namespaces
+# --------------------------------------------------------------------------
+
+
+class Namespace(dict):
+    """Names reached with a dot (``math.pi``, ``python.range``, ``xacro.load_yaml``): a plain mapping."""
+
+
+class BoundMethod:
+    """An allow-listed method of a value, bound to it (``'a b'.split``); calling it may be checked first."""
+
+    __slots__ = ("function", "name")
+
+    def __init__(self, function: Callable, name: str):
+        self.function, self.name = function, name
+
+    def __call__(self, *args, **kwargs):
+        return self.function(*args, **kwargs)
+
+    def __repr__(self) -> str:
+        return f"<method {self.name}>"
+
+
+def checked_str_method(text: str, name: str) -> Callable:
+    """``text.name`` (an allowed string method), with its arguments checked first where the result could be huge."""
+    method = getattr(text, name)
+
+    def checked(*args, **kwargs):
+        if name in ("center", "ljust", "rjust", "zfill") and args and _is_int(args[0]) and args[0] > MAX_SIZE:
+            raise _Refused(f"str.{name}({args[0]}) would make a string above the limit of {MAX_SIZE} characters")
+        if name == "format":
+            check_format_string(text)
+            return check_size(method(*args, **kwargs), "the formatted string")
+        if name == "replace" and len(args) >= 2 and isinstance(args[1], str):
+            size = len(text) + (len(text) + 1) * len(args[1])
+            if size > MAX_SIZE:
+                raise _Refused(f"str.replace could make {size} characters, above the limit of {MAX_SIZE}")
+        if name == "join" and len(args) == 1 and not kwargs:
+            try:
+                items = list(args[0])
+            except TypeError:
+                raise TypeError("can only join an iterable") from None  # as str.join says it
+            check_size(items, "the joined items")
+            if len(text) * len(items) > MAX_SIZE:
+                raise _Refused(f"str.join would make more than {MAX_SIZE} characters (the limit)")
+            return method(items)
+        return method(*args, **kwargs)
+
+    return checked
+
+
+_STR_METHODS = frozenset((
+    "capitalize casefold center count endswith find format index isalnum isalpha isascii isdecimal isdigit "
+    "isidentifier islower isnumeric isprintable isspace istitle isupper join ljust lower lstrip partition "
+    "removeprefix removesuffix replace rfind rindex rjust rpartition rsplit rstrip split splitlines "
+    "startswith strip swapcase title upper zfill").split())
+_NUMBER_ATTRIBUTES = frozenset(("as_integer_ratio", "bit_length", "conjugate", "denominator", "imag", "is_integer",
+                                "numerator", "real", "hex"))
+#: Attributes allowed on values of each type (methods that build or mutate nothing unbounded).
+ALLOWED_ATTRIBUTES: dict[type, frozenset[str]] = {
+    str: _STR_METHODS,
+    bool: _NUMBER_ATTRIBUTES, int: _NUMBER_ATTRIBUTES, float: _NUMBER_ATTRIBUTES, complex: _NUMBER_ATTRIBUTES,
+    list: frozenset(("count", "copy", "index")),
+    tuple: frozenset(("count", "index")),
+    dict: frozenset(("copy", "get", "items", "keys", "values")),
+    set: frozenset(("copy", "difference", "intersection", "isdisjoint", "issubset", "issuperset",
+                    "symmetric_difference", "union")),
+    frozenset: frozenset(("copy", "difference", "intersection", "isdisjoint", "issubset", "issuperset",
+                          "symmetric_difference", "union")),
+    slice: frozenset(("start", "step", "stop")),
+}
+
+
+# --------------------------------------------------------------------------
+# The evaluator
+# --------------------------------------------------------------------------
+
+_deadline: list[float] = []  # the deadline of the outermost evaluation under way (nested ones share it)
+
+
+def remaining_time() -> float:
+    """Seconds left in the evaluation under way (``inf`` when none is)."""
+    return _deadline[0] - time.monotonic() if _deadline else math.inf
+
+
+def extend_deadline(seconds: float) -> None:
+    """Give the evaluation under way ``seconds`` more (time spent reading a file, bounded by its size)."""
+    if _deadline:
+        _deadline[0] += seconds
+
+
+def _check_time() -> None:
+    if _deadline and time.monotonic() > _deadline[0]:
+        raise _Refused(f"evaluation took more than {TIME_BUDGET_S:g} s (the time budget)")
+
+
+class _Evaluator(simpleeval.EvalWithCompoundTypes):
+    """simpleeval, with xacro's names, allow-listed calls and attributes, and bounded cost."""
+
+    def __init__(self, lookup: Callable[[str], object], allowed_call: Callable[[object], bool],
+                 attribute: Callable[[object, str], object], item: Callable[[object, object], object]):
+        super().__init__(operators=OPERATORS, functions={}, names={})
+        self.lookup, self.allowed_call, self.attribute, self.item = lookup, allowed_call, attribute, item
+        self._max_count = 0  # comprehension steps so far
+        self.nodes[ast.SetComp] = lambda node: set(self._eval_comprehension(node))
+        self.nodes[ast.Starred] = self._eval_starred
+
+    def _eval(self, node):
+        _check_time()
+        return super()._eval(node)
+
+    def _check_disallowed_items(self, item):
+        """Nothing to do: every name and attribute is allow-listed already (simpleeval's walk of each
+        result through nested containers would cost the size of every value at every node)."""
+
+    def _eval_starred(self, node):
+        raise _Refused("*value is only allowed inside a call or a list, tuple or set")
+
+    def _eval_constant(self, node):
+        return node.value
+
+    def _eval_name(self, node):
+        try:
+            return self.lookup(node.id)
+        except KeyError:
+            raise NameError(f"name '{node.id}' is not defined") from None
+
+    def _eval_attribute(self, node):
+        return self.attribute(self._eval(node.value), node.attr)
+
+    def _eval_subscript(self, node):
+        container = self._eval(node.value)
+        return self.item(container, self._eval(node.slice))
+
+    def _items(self, nodes) -> list:
+        items = []
+        for item in nodes:
+            if isinstance(item, ast.Starred):
+                items.extend(self._eval(item.value))
+            else:
+                items.append(self._eval(item))
+        return items
+
+    def _eval_list(self, node):
+        return check_size(self._items(node.elts), "the list")
+
+    def _eval_tuple(self, node):
+        return check_size(tuple(self._items(node.elts)), "the tuple")
+
+    def _eval_set(self, node):
+        return check_size(set(self._items(node.elts)), "the set")
+
+    def _eval_dict(self, node):
+        result = {}
+        for key, value in zip(node.keys, node.values):  # key before value, as Python (simpleeval: value first)
+            if key is None:
+                result.update(self._eval(value))
+            else:
+                evaluated = self._eval(key)
+                result[evaluated] = self._eval(value)
+        return check_size(result, "the dict")
+
+    def _eval_comprehension(self, node):
+        """List, set, dict comprehensions and generator expressions (made lists), as Python runs them,
+        counting steps (:data:`MAX_ITERATIONS`) and the size of the result as it grows (:data:`MAX_SIZE`)."""
+        result: list | dict = {} if isinstance(node, ast.DictComp) else []
+        scope: dict[str, object] = {}
+        size = 0
+        enclosing = self.nodes[ast.Name]
+
+        def name(name_node):
+            return scope[name_node.id] if name_node.id in scope else enclosing(name_node)
+
+        def bind(target, value) -> None:
+            if isinstance(target, ast.Name):
+                scope[target.id] = value
+                return
+            values = list(check_size(value, "the unpacked value") if isinstance(value, (str, bytes)) else value)
+            if len(values) != len(target.elts):
+                raise ValueError(f"cannot unpack {len(values)} values into {len(target.elts)} names")
+            for part, item in zip(target.elts, values):
+                bind(part, item)
+
+        def run(index: int) -> None:
+            nonlocal size
+            generator = node.generators[index]
+            for item in self._eval(generator.iter):
+                self._max_count += 1
+                if self._max_count > MAX_ITERATIONS:
+                    raise _Refused(f"comprehensions ran more than {MAX_ITERATIONS} steps (the limit)")
+                _check_time()
+                bind(generator.target, item)
+                if not all(self._eval(test) for test in generator.ifs):
+                    continue
+                if index + 1 < len(node.generators):
+                    run(index + 1)
+                    continue
+                if isinstance(result, dict):
+                    key = self._eval(node.key)
+                    result[key] = value = self._eval(node.value)
+                    size += value_size(key, MAX_SIZE) + value_size(value, MAX_SIZE)
+                else:
+                    result.append(self._eval(node.elt))
+                    size += value_size(result[-1], MAX_SIZE)
+                if size > MAX_SIZE:
+                    raise _Refused(f"the comprehension would have more than {MAX_SIZE} characters and items (the limit)")
+
+        self.nodes[ast.Name] = name
+        try:
+            run(0)
+        finally:
+            self.nodes[ast.Name] = enclosing
+        return result
+
+    def _eval_call(self, node):
+        function = self._eval(node.func)
+        if not callable(function):  # as Python says it
+            raise TypeError(f"'{type(function).__name__}' object is not callable")
+        if not self.allowed_call(function):
+            what = ast.unparse(node.func)
+            raise _Refused(f"calling {what} is not allowed; callable are the math, python and xacro functions, "
+                           "str/int/float/bool/list/dict/tuple/set, and methods of plain values")
+        args = self._items(node.args)
+        kwargs = {}
+        for keyword in node.keywords:
+            if keyword.arg is None:
+                kwargs.update(self._eval(keyword.value))
+            else:
+                kwargs[keyword.arg] = self._eval(keyword.value)
+        return check_size(function(*args, **kwargs), f"the result of {ast.unparse(node.func)}()")
+
+    def _eval_joinedstr(self, node):
+        return check_size("".join(str(self._eval(value)) for value in node.values), "the f-string")
+
+    def _eval_formattedvalue(self, node):
+        value = self._eval(node.value)
+        value = {115: str, 114: repr, 97: ascii}.get(node.conversion, lambda v: v)(value)
+        spec = self._eval(node.format_spec) if node.format_spec is not None else ""
+        if _spec_width(spec) > MAX_SIZE:
+            raise _Refused(f"the width in the format spec '{spec}' is above the limit of {MAX_SIZE}")
+        return format(value, spec)
+
+
+def _located_error(exc: BaseException) -> ManipkitError | None:
+    """The first error with ``needles`` (it names its own expression) in ``exc`` and what it wraps."""
+    seen: list[BaseException] = []
+    while exc is not None and all(exc is not e for e in seen):
+        if isinstance(exc, ManipkitError) and getattr(exc, "needles", None):
+            return exc
+        seen.append(exc)
+        exc = getattr(exc, "exc", None) or exc.__cause__ or exc.__context__  # xacro's XacroException keeps .exc
+    return None
+
+
+def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: Callable[[object], bool],
+             attribute: Callable[[object, str], object], item: Callable[[object, object], object] = operator.getitem,
+             kind: str = "${") -> object:
+    """The value of a xacro expression, evaluated safely (module docstring).
+
+    Parameters
+    ----------
+    expression : str
+        The text inside ``${...}`` (or ``$(eval ...)``).
+    lookup : callable
+        ``lookup(name)`` -> the value of a name, or ``KeyError``.
+    allowed_call : callable
+        ``allowed_call(value)`` -> whether ``value`` may be called.
+    attribute : callable
+        ``attribute(value, name)`` -> ``value.name`` if allowed, else raises ``_Refused``
+        (see :mod:`manipkit.description.xacro_names`).
+    item : callable, keyword-only
+        ``item(container, key)`` -> ``container[key]`` (a symbol table is looked up as names are).
+    kind : str, keyword-only
+        ``"${"`` or ``"$(eval"``, for messages.
+
+    Raises
+    ------
+    DescriptionError
+        Refused syntax, names, calls or attributes, a limit exceeded, or an error of
+        the evaluation itself (``name 'x' is not defined``, ``division by zero``), as
+        one line ``xacro expression ${EXPR}: REASON``.
+    """
+    outermost = not _deadline
+    if outermost:
+        _deadline.append(time.monotonic() + TIME_BUDGET_S)
+    try:
+        tree = parse_expression(expression)
+        evaluator = _Evaluator(lookup, allowed_call, attribute, item)
+        evaluator.expr = expression
+        result = evaluator._eval(tree.body)
+        return check_size(result, "the result")
+    except _Refused as exc:
+        raise expression_error(expression, str(exc), kind=kind) from None
+    except RecursionError:
+        raise expression_error(expression, "nested too deeply", kind=kind) from None
+    except MemoryError:
+        raise expression_error(expression, "out of memory", kind=kind) from None
+    except Exception as exc:  # noqa: BLE001 - a refusal from a function, or an error of the evaluation itself
+        located = _located_error(exc)
+        if located is not None:
+            raise located from None  # from a property evaluated on the way: it names its own expression or text
+        raise expression_error(expression, error_reason(exc), kind=kind) from None
+    finally:
+        if outermost:
+            _deadline.clear()
