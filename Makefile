@@ -57,9 +57,10 @@ bench: setup
 	$(BIN)/python -m pip install --quiet -e '.[bench]'
 	$(BIN)/python -m benchmarks
 
-# Fuzz the description loaders with 10,000 mutated URDF and 10,000 mutated xacro cases each
-# (tests/test_fuzz.py; `make test` runs 300 of each): about 10 minutes. A failing case's shrunk
+# Fuzz the description loaders with 10,000 mutated URDF and 10,000 mutated xacro cases, and the
+# xacro expression evaluator with 10,000 random expression trees of allowed and forbidden nodes
+# twice (tests/test_fuzz.py; `make test` runs 300 of each): about 15 minutes. A failing case's shrunk
 # input is written to /tmp/manipkit_fuzz_failure.urdf (or /tmp/manipkit_fuzz_failure_xacro/).
 .PHONY: fuzz
 fuzz: setup
-	HYPOTHESIS_PROFILE=explore MANIPKIT_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest tests/test_fuzz.py -q --hypothesis-show-statistics -k mutated
+	HYPOTHESIS_PROFILE=explore MANIPKIT_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest tests/test_fuzz.py -q --hypothesis-show-statistics -k "mutated or xacro_expression"

@@ -360,7 +360,7 @@ def test_a_file_above_the_table_size_limit_is_refused_unread(tmp_path):
     with path.open("w") as stream:
         stream.write("convention: standard\njoints:\n")
         stream.truncate(MAX_TABLE_BYTES + 1)
-    with pytest.raises(DHTableError, match="big.yaml is 4 MB, above the limit of 4 MB"):
+    with pytest.raises(DHTableError, match=r"big.yaml is 4,194,305 bytes, above the limit of 4 MB \(4,194,304 bytes\)"):
         load_dh(path)
 
 
