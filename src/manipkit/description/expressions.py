@@ -40,13 +40,13 @@ line (:mod:`manipkit.description.xacro`).
 from __future__ import annotations
 
 import ast
+import html
 import math
 import operator
 import re
 import string
 import time
 from collections.abc import Callable
-from xml.sax.saxutils import escape as xml_escape
 
 import simpleeval
 
@@ -119,7 +119,7 @@ def expression_error(expression: str, reason: str, *, kind: str = "${") -> Descr
     opening, closing = ("${", "}") if kind == "${" else ("$(eval ", ")")
     error = DescriptionError(f"xacro expression {opening}{shown}{closing}: {' '.join(str(reason).split())}")
     error.expression, error.reason, error.kind = str(expression), " ".join(str(reason).split()), kind
-    escaped = xml_escape(str(expression), {'"': "&quot;"})  # as written in an XML attribute
+    escaped = html.escape(str(expression), quote=False).replace('"', "&quot;")  # as written in an XML attribute
     error.needles = tuple(dict.fromkeys((f"{opening}{expression}{closing}", f"{opening}{escaped}{closing}",
                                          f"{opening}{expression}", str(expression), escaped)))  # to find its line
     return error
