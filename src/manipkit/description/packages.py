@@ -2,14 +2,20 @@
 
 A description names files inside ROS packages (xacro's ``$(find PKG)``, mesh
 ``package://PKG/path`` URIs). :class:`PackageResolver` answers those names
-from folders on disk, in the order its docstring states (docs/architecture.md,
-"Loading descriptions"); :func:`split_package_uri` reads a ``package://`` URI.
+from folders on disk, as ROS would and then from manipkit's built-ins:
+``--package-dir``, the workspace around the description file (every
+``package.xml`` by its ``<name>``, as colcon and catkin index them),
+``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH``, then the bundled robots and
+example-robot-data (docs/architecture.md, "Loading descriptions").
+:func:`workspace_root` finds the workspace, :func:`package_index` indexes the
+packages below one folder; :func:`split_package_uri` reads a ``package://`` URI.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,9 +23,21 @@ from manipkit.description.sources import bundled_dir, example_robot_data_dir
 from manipkit.errors import InputFileError, PackageNotFoundError
 from manipkit.inputs import MAX_TABLE_BYTES, check_input_file
 
-__all__ = ["PACKAGE_SCHEME", "PackageResolver", "split_package_uri"]
+__all__ = [
+    "IGNORE_MARKERS", "MAX_SCAN_DEPTH", "MAX_SCAN_FOLDERS", "PACKAGE_SCHEME", "PackageResolver",
+    "package_index", "split_package_uri", "workspace_root",
+]
 
 PACKAGE_SCHEME = "package://"
+
+#: A folder scan for ``package.xml`` files stops (with a warning) after this many folders.
+MAX_SCAN_FOLDERS = 20_000
+#: ... and does not look deeper than this many folders below its root (with a warning).
+MAX_SCAN_DEPTH = 10
+#: Marker files that hide a folder (and everything below it) from colcon, catkin and ament.
+IGNORE_MARKERS = frozenset({"COLCON_IGNORE", "CATKIN_IGNORE", "AMENT_IGNORE"})
+#: The package a workspace search starts from must be the file's folder or at most this many levels above.
+_PACKAGE_SEARCH_LEVELS = 4
 
 
 def split_package_uri(uri: str) -> tuple[str, str]:
@@ -38,30 +56,55 @@ def split_package_uri(uri: str) -> tuple[str, str]:
 class PackageResolver:
     """Resolve ROS package names to folders without ROS.
 
-    Lookup order: ``package_dirs`` given by the user (``NAME=DIR``); the
-    built-in packages (``manipkit`` -> the folder holding ``robots/``,
-    ``example-robot-data`` -> its share folder, and each
-    ``*_description`` folder of example-robot-data by name); a folder named
-    PKG (or holding a ``package.xml`` that declares PKG) among the ancestors
-    of ``near`` and their sub-folders; the folders on ``ROS_PACKAGE_PATH``.
-    A package found once is not searched for again by the same resolver.
+    Lookup order (the first place that has the package wins):
+
+    1. ``package_dirs`` given by the user (``--package-dir NAME=DIR``);
+    2. the workspace around ``near`` (the description file): the nearest
+       ancestor with a ``src/`` folder (its ``src/`` is indexed), else the
+       outermost of the consecutive ancestors that are a package or hold one
+       (else the file's own folder, two levels deep); never the file-system
+       root or the home folder. Every ``package.xml`` below it is indexed by
+       its ``<name>``, as colcon and catkin do: folders holding
+       ``COLCON_IGNORE``, ``CATKIN_IGNORE`` or ``AMENT_IGNORE`` and hidden
+       folders are skipped, and nothing below a package is indexed;
+    3. ``ROS_PACKAGE_PATH`` (each entry a package or a folder of packages,
+       indexed the same way), then ``AMENT_PREFIX_PATH`` (``PREFIX/share/PKG``);
+    4. the built-in packages last: ``manipkit`` (the folder holding
+       ``robots/``), ``example-robot-data`` (its share folder) and each
+       robot folder of example-robot-data by its folder name.
+
+    A name found in more than one of places 2-4 (two packages with the same
+    ``<name>`` in a workspace, a workspace package that example-robot-data
+    also has, ...) gives one warning naming the place used and the others.
+    A package found once is not searched for again by the same resolver;
+    folder indexes are kept per folder for the whole process and re-read
+    only when a folder or ``package.xml`` in them changed. A scan stops after
+    :data:`MAX_SCAN_FOLDERS` folders (with a warning) and does not go deeper
+    than :data:`MAX_SCAN_DEPTH` folders below its root.
     """
 
     package_dirs: dict[str, Path] = field(default_factory=dict)
     near: Path | None = None
     _found: dict[str, Path] = field(default_factory=dict, init=False, repr=False, compare=False)
+    _indexes: dict[Path, dict[str, list[Path]]] = field(default_factory=dict, init=False, repr=False, compare=False)
+    _root: tuple | None = field(default=None, init=False, repr=False, compare=False)
+
+    def workspace(self) -> Path | None:
+        """The folder indexed as the workspace around ``near`` (None without ``near``); see :func:`workspace_root`."""
+        found = self._workspace()
+        return None if found is None else found[0]
+
+    def _workspace(self) -> tuple[Path, int] | None:
+        if self.near is None:
+            return None
+        if self._root is None:
+            self._root = (workspace_root(Path(self.near)),)
+        return self._root[0]
 
     def candidates(self) -> list[Path]:
-        """Folders searched for packages, in order (for error messages too)."""
-        places: list[Path] = []
-        if self.near is not None:
-            for ancestor in list(self.near.resolve().parents)[:4]:
-                if ancestor.parent != ancestor:  # never crawl the file-system root
-                    places.append(ancestor)
-        for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
-            if entry:
-                places.append(Path(entry))
-        return places
+        """Folders indexed for packages, in order (for error messages too)."""
+        root = self.workspace()
+        return ([] if root is None else [root]) + _ros_package_path()
 
     def builtin(self) -> dict[str, Path]:
         """The packages known without searching: ``manipkit``, example-robot-data and its robot folders."""
@@ -81,6 +124,33 @@ class PackageResolver:
             self._found[package] = self._search(package)
         return self._found[package]
 
+    def _index(self, root: Path, depth: int = MAX_SCAN_DEPTH) -> dict[str, list[Path]]:
+        if root not in self._indexes:
+            self._indexes[root] = package_index(root, max_depth=depth)
+        return self._indexes[root]
+
+    def places(self, package: str) -> list[Path]:
+        """Every folder (resolved, without repeats) that holds ``package`` in places 2-4 of the order."""
+        found: list[Path] = []
+        workspace = self._workspace()
+        if workspace is not None:
+            found += self._index(*workspace).get(package, [])
+        for entry in _ros_package_path():
+            found += self._index(entry).get(package, [])
+        for prefix in _env_path("AMENT_PREFIX_PATH"):
+            share = prefix / "share" / package
+            if share.is_dir():
+                found.append(share)
+        builtin = self.builtin()
+        if package in builtin:
+            found.append(builtin[package])
+        unique: list[Path] = []
+        for folder in found:
+            folder = folder.resolve()
+            if folder not in unique:
+                unique.append(folder)
+        return unique
+
     def _search(self, package: str) -> Path:
         if package in self.package_dirs:
             folder = Path(self.package_dirs[package]).expanduser()
@@ -89,20 +159,28 @@ class PackageResolver:
                     f"--package-dir {package}={folder}: no such folder"
                 )
             return folder.resolve()
-        builtin = self.builtin()
-        if package in builtin:
-            return builtin[package]
-        searched = []
-        for place in self.candidates():
-            searched.append(str(place))
-            found = _package_in(place, package)
-            if found is not None:
-                return found
-        raise PackageNotFoundError(
-            f"package '{package}' not found; searched --package-dir ({', '.join(self.package_dirs) or 'none given'}), "
-            f"built-in (manipkit, example-robot-data and its robot folders), and {'; '.join(searched) or 'no other folders'}; "
-            f"give it with --package-dir {package}=DIR"
-        )
+        found = self.places(package)
+        if not found:
+            raise PackageNotFoundError(f"package '{package}' not found; searched {self._searched_text()}; "
+                                       f"give it with --package-dir {package}=DIR")
+        if len(found) > 1:
+            # Once per resolver, but not once per process (warn_explicit without a registry): the first
+            # resolver of a load may warn while xacro runs with stderr captured, the next one must say it again.
+            warnings.warn_explicit(f"package '{package}' found in {len(found)} places: using {found[0]}; not "
+                                   f"{', '.join(map(str, found[1:]))} (choose with --package-dir {package}=DIR)",
+                                   UserWarning, __file__, 0, module=__name__, registry=None)
+        return found[0]
+
+    def _searched_text(self) -> str:
+        root = self.workspace()
+        parts = [
+            f"--package-dir ({', '.join(self.package_dirs) or 'none given'})",
+            f"the workspace {root}" if root is not None else "no workspace (no description file)",
+            f"ROS_PACKAGE_PATH ({'; '.join(map(str, _ros_package_path())) or 'not set'})",
+            f"AMENT_PREFIX_PATH ({'; '.join(str(p / 'share') for p in _env_path('AMENT_PREFIX_PATH')) or 'not set'})",
+            "built-in (manipkit, example-robot-data and its robot folders)",
+        ]
+        return ", ".join(parts)
 
     def resolve_uri(self, uri: str) -> str:
         """``package://PKG/rest`` -> absolute path; ``file://`` stripped; others unchanged.
@@ -119,20 +197,146 @@ class PackageResolver:
         return uri
 
 
-def _package_in(place: Path, package: str) -> Path | None:
-    """A folder for ``package``: ``place`` itself, a folder in it, or a folder in its ``src/``."""
-    if not place.is_dir():
+
+def _env_path(variable: str) -> list[Path]:
+    """The folders of a ``os.pathsep``-separated environment variable, empty entries left out."""
+    return [Path(entry).expanduser() for entry in os.environ.get(variable, "").split(os.pathsep) if entry]
+
+
+def _ros_package_path() -> list[Path]:
+    return _env_path("ROS_PACKAGE_PATH")
+
+
+def workspace_root(near: Path) -> tuple[Path, int] | None:
+    """The folder indexed as the workspace around the file ``near`` and how deep to look, or None.
+
+    The nearest ancestor that has a ``src/`` folder and is not itself a
+    package gives its ``src/`` (a catkin or colcon workspace); else the
+    outermost of the consecutive ancestors that are a package or have one
+    directly inside (a checkout of several packages), the first of them at
+    most four levels above the file; else the file's own folder, two levels
+    deep. The file-system root and the home folder (and what is above it)
+    are never indexed.
+    """
+    start = Path(near).expanduser().resolve().parent
+    stops = {Path(start.anchor), Path.home().resolve()}
+    chain: list[Path] = []
+    for folder in (start, *start.parents):
+        if folder in stops:
+            break
+        chain.append(folder)
+    for folder in chain:
+        if (folder / "src").is_dir() and not (folder / "package.xml").exists():
+            return folder / "src", MAX_SCAN_DEPTH
+    outermost = None
+    for level, folder in enumerate(chain):
+        if _holds_package(folder):
+            outermost = folder
+        elif outermost is not None or level >= _PACKAGE_SEARCH_LEVELS:
+            break
+    if outermost is not None:
+        return outermost, MAX_SCAN_DEPTH
+    return (start, 2) if chain else None
+
+
+def _holds_package(folder: Path) -> bool:
+    """``folder`` is a package or has a package directly inside."""
+    if (folder / "package.xml").is_file():
+        return True
+    try:
+        with os.scandir(folder) as entries:
+            return any(entry.is_dir() and os.path.isfile(os.path.join(entry.path, "package.xml")) for entry in entries)
+    except OSError:
+        return False
+
+
+#: (root, depth) -> (name -> package folders, the stamps that show whether the scan is still current).
+_INDEXES: dict[tuple[str, int], tuple[dict[str, list[Path]], list[tuple[str, tuple[int, int]]]]] = {}
+
+
+def package_index(root: str | os.PathLike, *, max_depth: int = MAX_SCAN_DEPTH) -> dict[str, list[Path]]:
+    """The packages below ``root``: ``<name>`` of each ``package.xml`` -> the folders declaring it, in scan order.
+
+    Indexed as colcon and catkin do: ``root`` itself may be a package;
+    folders holding ``COLCON_IGNORE``, ``CATKIN_IGNORE`` or ``AMENT_IGNORE``
+    and hidden folders are skipped; nothing below a package is indexed;
+    sub-folders are visited in name order, depth first. At most
+    :data:`MAX_SCAN_FOLDERS` folders and ``max_depth`` levels are visited
+    (a warning says so when the scan stops early). The index is kept for the
+    process and scanned again only when a visited folder or ``package.xml``
+    changed (its modification time or size).
+    """
+    key = (os.path.abspath(root), max_depth)
+    cached = _INDEXES.get(key)
+    if cached is not None and _current(cached[1]):
+        return cached[0]
+    packages, stamps = _scan(Path(key[0]), max_depth)
+    _INDEXES[key] = (packages, stamps)
+    return packages
+
+
+def _stamp(path: str) -> tuple[int, int] | None:
+    try:
+        status = os.stat(path)
+    except OSError:
         return None
-    folders = [place]
-    for parent in (place, place / "src"):
+    return status.st_mtime_ns, status.st_size
+
+
+def _current(stamps) -> bool:
+    return all(_stamp(path) == stamp for path, stamp in stamps)
+
+
+def _scan(root: Path, max_depth: int):
+    """Depth-first walk of ``root`` for :func:`package_index`: (packages, stamps)."""
+    packages: dict[str, list[Path]] = {}
+    stamps: list[tuple[str, tuple[int, int]]] = []
+    seen: set[tuple[int, int]] = set()
+    stack = [(str(root), 0)]
+    too_deep = None
+    while stack:
+        folder, depth = stack.pop()
         try:
-            folders += sorted(p for p in parent.iterdir() if p.is_dir())
+            status = os.stat(folder)
+            with os.scandir(folder) as listing:
+                entries = sorted(listing, key=lambda entry: entry.name)
         except OSError:
             continue
-    for folder in folders:
-        if folder.name == package or _package_xml_name(folder) == package:
-            return folder.resolve()
-    return None
+        if (status.st_dev, status.st_ino) in seen:  # a symbolic link back up the tree
+            continue
+        seen.add((status.st_dev, status.st_ino))
+        if len(seen) > MAX_SCAN_FOLDERS:
+            warnings.warn(f"package search in {root} stopped after {MAX_SCAN_FOLDERS} folders; packages not "
+                          f"found yet can be given with --package-dir NAME=DIR", UserWarning, stacklevel=3)
+            break
+        stamps.append((folder, (status.st_mtime_ns, status.st_size)))
+        names = {entry.name for entry in entries}
+        if names & IGNORE_MARKERS:
+            continue
+        if "package.xml" in names:
+            manifest = os.path.join(folder, "package.xml")
+            stamps.append((manifest, _stamp(manifest)))
+            name = _package_xml_name(Path(folder))
+            if name is not None:
+                packages.setdefault(name, []).append(Path(folder))
+            continue  # colcon and catkin index nothing below a package
+        subfolders = [entry.path for entry in entries if not entry.name.startswith(".") and _is_dir(entry)]
+        if depth >= max_depth:
+            too_deep = too_deep or (subfolders[0] if subfolders else None)
+            continue
+        stack.extend((path, depth + 1) for path in reversed(subfolders))
+    if too_deep is not None and max_depth == MAX_SCAN_DEPTH:
+        warnings.warn(f"package search in {root} does not look deeper than {MAX_SCAN_DEPTH} folders "
+                      f"(left out: {too_deep}, ...); give such packages with --package-dir NAME=DIR",
+                      UserWarning, stacklevel=3)
+    return packages, stamps
+
+
+def _is_dir(entry: os.DirEntry) -> bool:
+    try:
+        return entry.is_dir()
+    except OSError:
+        return False
 
 
 def _package_xml_name(folder: Path) -> str | None:

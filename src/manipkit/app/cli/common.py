@@ -42,6 +42,7 @@ __all__ = [
     "print_json",
     "q_text",
     "warn",
+    "xacro_arg_pairs",
 ]
 
 EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
@@ -89,7 +90,8 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
         "or a .urdf/.xacro path (default: course_arm)",
     )
     parser.add_argument(
-        "--arg", action="append", default=[], metavar="KEY=VALUE", help="xacro argument (repeatable)"
+        "--arg", action="append", default=[], metavar="KEY:=VALUE",
+        help="xacro argument, KEY:=VALUE as in ROS or KEY=VALUE (repeatable)",
     )
     parser.add_argument(
         "--package-dir", action="append", default=[], metavar="NAME=DIR",
@@ -109,20 +111,38 @@ def load_robot(args, *, mesh_warnings: bool = True) -> Robot:
         if not folder:
             raise UsageError(f"--package-dir {name}=: give the folder of package {name}")
         package_dirs[name] = Path(folder)
-    robot = manipkit.load(args.robot, package_dirs=package_dirs, **_pairs(args.arg, "--arg"))
+    robot = manipkit.load(args.robot, package_dirs=package_dirs, **xacro_arg_pairs(args.arg))
     for message in robot.warnings:
         if mesh_warnings or message not in robot.mesh_warnings:
             warn(message)
     return robot
 
 
-def _pairs(items: list[str], option: str) -> dict[str, str]:
+def xacro_arg_pairs(items: list[str]) -> dict[str, str]:
+    """``--arg`` values -> xacro arguments; ``name:=value`` (as in ROS) and ``name=value`` both work.
+
+    The first ``:=`` or ``=`` ends the name, so a value may hold either
+    (``--arg xyz:=a=b`` gives ``xyz`` the value ``a=b``).
+
+    Examples
+    --------
+    >>> xacro_arg_pairs(["hand:=true", "ur_type=ur5e", "prefix:="])
+    {'hand': 'true', 'ur_type': 'ur5e', 'prefix': ''}
+    """
+    plain = []
+    for item in items:
+        key, sep, value = item.partition("=")
+        plain.append(f"{key[:-1]}={value}" if sep and key.endswith(":") else item)
+    return _pairs(plain, "--arg", expected="NAME:=VALUE or NAME=VALUE", shown=dict(zip(plain, items)))
+
+
+def _pairs(items: list[str], option: str, *, expected: str = "NAME=VALUE", shown=None) -> dict[str, str]:
     pairs = {}
     for item in items:
         key, sep, value = item.partition("=")
         key = key.strip()
         if not sep or not key:
-            raise UsageError(f"{option} '{item}': expected NAME=VALUE")
+            raise UsageError(f"{option} '{(shown or {}).get(item, item)}': expected {expected}")
         if key in pairs:
             raise UsageError(f"{option}: {key} given twice ({key}={pairs[key]} and {key}={value}); give it once")
         pairs[key] = value
