@@ -326,3 +326,20 @@ def test_pose_error_is_symmetric_and_zero_for_equal_poses():
 def test_pose_error_rejects_a_non_4x4_argument():
     with pytest.raises(InvalidTransformError, match=r"T must have shape \(\.\.\., 4, 4\), got \(3, 3\)"):
         pose_error(np.eye(4), np.eye(3))
+
+
+@settings(max_examples=300)
+@given(
+    angles=st.tuples(*[st.floats(-np.pi, np.pi)] * 3),
+    noise=st.lists(st.floats(-1.0, 1.0), min_size=16, max_size=16),
+    scale=st.sampled_from([0.0, 1e-8, 2e-7, 4e-7, 6e-7, 1e-6, 3e-6]),
+)
+def test_check_transform_accepts_exactly_what_transform_violations_finds_nothing_in(angles, noise, scale):
+    # a rotation (rpy) and translation, perturbed entry by entry around the tolerance 1e-6: the quick
+    # acceptance inside check_transform must never let through what the full list of violations refuses
+    T = transform_from_xyz_rpy([0.3, -0.2, 0.5], angles) + scale * np.reshape(noise, (4, 4))
+    if transform_violations(T, tol=1e-6):
+        with pytest.raises(InvalidTransformError):
+            check_transform(T, tol=1e-6)
+    else:
+        assert np.array_equal(check_transform(T, tol=1e-6), T)

@@ -69,7 +69,6 @@ AXES = ("x", "y", "z")
 DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solution
 TARGET_TOL = 1e-6  # how far a target may be from a rigid transform (check_transform's tol)
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-_EYE3 = np.eye(3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -589,11 +588,7 @@ class IKSolver:
     def _target_matrix(self, target) -> np.ndarray:
         """``target`` as T_base_frame (4, 4), validated by :func:`manipkit.spatial.transforms.check_transform`.
 
-        Mode ``"position"`` also takes a 3-vector (the wanted origin). A
-        target that is plainly rigid (every test of ``check_transform``
-        passes with room to spare, in a few microseconds) skips the full
-        check, which costs as much as a solve; anything else gets it, and
-        its verdict.
+        Mode ``"position"`` also takes a 3-vector (the wanted origin).
         """
         try:
             T = np.array(target, dtype=float)
@@ -607,8 +602,7 @@ class IKSolver:
             raise InvalidTransformError(
                 f"IK target must be a homogeneous transform T_base_frame of shape {shapes}, got shape {T.shape}"
             )
-        if T is None or not _plainly_rigid(T):
-            T = check_transform(target, tol=TARGET_TOL, what="IK target")
+        T = check_transform(target if T is None else T, tol=TARGET_TOL, what="IK target")
         T[3] = _LAST_ROW
         return T
 
@@ -625,17 +619,6 @@ class IKSolver:
                 f"the chain to {self.frame} reaches at most {self.reach:.4g} m; {residual}"
             )
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)"
-
-
-def _plainly_rigid(T: np.ndarray) -> bool:
-    """Finite, last row [0 0 0 1] and ``R^T R = I``, ``det R = 1`` within ``TARGET_TOL / 2``: then
-    :func:`manipkit.spatial.transforms.check_transform` (tolerance ``TARGET_TOL``) passes too."""
-    if not math.isfinite(float(T.sum())) or float(np.abs(T[3] - _LAST_ROW).max()) > TARGET_TOL / 2:
-        return False
-    R = T[:3, :3]
-    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    return abs(det - 1.0) <= TARGET_TOL / 2 and float(np.abs(R.T @ R - _EYE3).max()) <= TARGET_TOL / 2
 
 
 def _tolerances(tol) -> tuple[float, float]:

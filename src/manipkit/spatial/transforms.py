@@ -130,6 +130,12 @@ def check_transform(T, *, tol: float = 1e-6, what: str = "T") -> np.ndarray:
     ...
     manipkit.errors.InvalidTransformError: IK target: last row is [0 0 0 0], expected [0 0 0 1] (and 4 more problems)
     """
+    try:
+        M = np.array(T, dtype=float)
+    except (TypeError, ValueError):
+        M = None
+    if M is not None and M.shape == (4, 4) and _plainly_rigid(M, tol / 2):
+        return M  # every test below passes with room to spare (a few microseconds instead of ~45)
     problems = transform_violations(T, tol=tol)
     if problems:
         more = f" (and {len(problems) - 1} more problem{'s' if len(problems) > 2 else ''})" if len(problems) > 1 else ""
@@ -182,6 +188,24 @@ def transform_violations(T, *, tol: float = 1e-6) -> list[str]:
         for problem in rotation_violations(T[:3, :3], tol=tol):
             problems.append(problem if problem.startswith("det") else f"rotation {problem}")
     return problems
+
+
+def _plainly_rigid(T: np.ndarray, tol: float) -> bool:
+    """Finite, last row ``[0 0 0 1]``, ``R^T R = I`` and ``det R = 1``, each within ``tol``.
+
+    Within ``tol`` = half the tolerance of :func:`transform_violations`, this
+    implies that it finds nothing (column norms, dot products, det, last row).
+    """
+    if not np.isfinite(T).all() or float(np.abs(T[3] - _LAST_ROW).max()) > tol:
+        return False
+    R = T[:3, :3]
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return abs(det - 1.0) <= tol and float(np.abs(R.T @ R - _EYE3).max()) <= tol
+
+
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_EYE3 = np.eye(3)
 
 
 # --------------------------------------------------------------------------
