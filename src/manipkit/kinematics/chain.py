@@ -122,6 +122,10 @@ class ChainStep:
         The joint slides (m) instead of turning (rad).
     axis : ndarray, shape (3,), or None
         Unit joint axis in the joint's own frame (None for a fixed step).
+    scale, offset : float
+        The joint's value is ``scale * q[index] + offset`` (rad or m): 1 and
+        0 for an independent joint; a URDF ``<mimic>`` joint reads its
+        leader's column with the mimic's ``multiplier`` and ``offset``.
     """
 
     rotation: np.ndarray
@@ -129,6 +133,8 @@ class ChainStep:
     index: int
     prismatic: bool
     axis: np.ndarray | None
+    scale: float = 1.0
+    offset: float = 0.0
 
 
 # --------------------------------------------------------------------------
