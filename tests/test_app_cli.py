@@ -318,7 +318,8 @@ def test_tree_dot_to_file(tmp_path):
 def test_robots_lists_bundled_and_example_robot_data_with_dof():
     out = run("manipkit", "robots", check_status=0).stdout
     assert re.search(r"iiwa14\s+│ bundled\s+│ 7\s+│ base_link\s+│ ee_link", out)
-    assert re.search(r"panda\s+│ example-robot-data │ 9\s+│ panda_link0\s+│ panda_hand_tcp", out)
+    # the hand's second finger mimics the first: 7 arm joints + 1 finger
+    assert re.search(r"panda\s+│ example-robot-data │ 8\s+│ panda_link0 \(root\)\s+│ panda_hand_tcp", out)
 
 
 def test_frames_lists_joints_with_limits():

@@ -289,14 +289,14 @@ def test_mobile_manipulator_fk_is_in_base_footprint_frame(mobile):
     rng = np.random.default_rng(4)
     pairs = [random_mobile_q(mobile, rng) for _ in range(10)]
     Q = np.array([q for q, _ in pairs])
-    for T, (_, arm_angles) in zip(mobile.fk(Q, "ee_link"), pairs):
+    for T, (_, arm_angles) in zip(mobile.fk(Q, "ee_link", base="base_footprint"), pairs):
         expected = (
             T_BASE_FOOTPRINT_BASE_LINK
             @ compose_chain(MOBILE_ARM_JOINTS, arm_angles)
             @ T_TOP_WRIST_EE_LINK
         )
         assert_transform_close(T, expected)
-    for T in mobile.fk(Q, "lidar_link"):
+    for T in mobile.fk(Q, "lidar_link", base="base_footprint"):
         assert_transform_close(T, T_BASE_FOOTPRINT_BASE_LINK @ T_BASE_LINK_LIDAR_LINK)
 
 

@@ -13,7 +13,8 @@ import manipkit
 from manipkit.description.packages import PackageResolver
 from manipkit.description.validate import check_urdf, package_uri_warnings
 from manipkit.errors import DescriptionError, JointLimitError, PackageNotFoundError
-from manipkit.kinematics.robot import Robot, _build_model
+from manipkit.kinematics.joints import build_model
+from manipkit.kinematics.robot import Robot
 
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 BOX = '<visual><geometry><box size="1 1 1"/></geometry></visual>'
@@ -60,9 +61,8 @@ CASES = {
     "duplicate_link": (urdf('<link name="a"/>', '<link name="a"/>'), "t.urdf:3: two <link> elements are named 'a' (the first is at line 2); names must be unique"),
     "duplicate_joint": (urdf(*LINKS, '<link name="c"/>', joint(), joint(child="c")), "t.urdf:6: two <joint> elements are named 'j1' (the first is at line 5)"),
     "joint_without_type": (urdf(*LINKS, '<joint name="j1"><parent link="base"/><child link="arm"/></joint>'),
-                           "t.urdf:4: joint 'j1' has no type attribute; valid types: revolute, continuous, prismatic, fixed"),
-    "unknown_joint_type": (urdf(*LINKS, joint(kind="revolut")), "t.urdf:4: joint 'j1' has type 'revolut'; did you mean revolute? valid types: revolute, continuous, prismatic, fixed"),
-    "floating_joint": (urdf(*LINKS, joint(kind="floating", limit=None)), "t.urdf:4: joint 'j1' is floating (6 degrees of freedom); manipkit handles revolute, continuous, prismatic, fixed joints"),
+                           "t.urdf:4: joint 'j1' has no type attribute; valid types: revolute, continuous, prismatic, fixed, floating, planar"),
+    "unknown_joint_type": (urdf(*LINKS, joint(kind="revolut")), "t.urdf:4: joint 'j1' has type 'revolut'; did you mean revolute? valid types: revolute, continuous, prismatic, fixed, floating, planar"),
     "missing_parent_element": (urdf(*LINKS, '<joint name="j1" type="fixed"><child link="arm"/></joint>'), "t.urdf:4: joint 'j1' has no <parent link=\"...\"/>"),
     "missing_parent_link": (urdf(*LINKS, joint(parent="bsae")), "t.urdf:4: joint 'j1' parent link 'bsae' does not exist; did you mean base? links are: base, arm"),
     "missing_child_link": (urdf(*LINKS, joint(child="nope")), "t.urdf:4: joint 'j1' child link 'nope' does not exist; links are: base, arm"),
@@ -129,7 +129,7 @@ def test_invalid_description_message_names_file_line_element_and_fix(text, fragm
 def test_pinocchio_accepts_what_the_checks_refuse():
     # The reason for the checks: each of these loads in Pinocchio without a word, and would be a wrong or untrustworthy model.
     for name in ("zero_axis", "lower_above_upper", "negative_mass"):
-        model, messages = _build_model(CASES[name][0])
+        model, messages = build_model(CASES[name][0])
         assert model is not None and messages == [], name
 
 
@@ -174,10 +174,12 @@ def test_joint_that_cannot_move_gets_a_warning():
     ]
 
 
-def test_mimic_of_a_missing_joint_is_a_warning():
-    checked = check_urdf(urdf(*LINKS, joint(extra='<mimic joint="j11"/>')), "t.urdf")
-    assert checked.warnings == ["t.urdf:4: joint 'j1' <mimic joint=\"j11\">: no such joint (did you mean j1?); "
-                                "manipkit treats 'j1' as an independent joint (as it does every mimic joint)"]
+def test_mimic_of_a_missing_joint_is_an_error():
+    # a mimic joint follows its leader (manipkit.kinematics.joints): without one its value is unknown
+    with pytest.raises(DescriptionError) as error:
+        check_urdf(urdf(*LINKS, joint(extra='<mimic joint="j11"/>')), "t.urdf")
+    assert str(error.value) == ("t.urdf:4: joint 'j1' <mimic joint=\"j11\">: no such joint (did you mean j1?); "
+                                "a mimic names the joint 'j1' follows")
 
 
 def test_unresolved_package_mesh_is_a_warning_naming_the_uri_and_the_places_searched(tmp_path):
@@ -211,7 +213,7 @@ def test_bundled_and_example_robot_data_arms_load_without_warnings():
 def test_cpp_parser_complaints_are_captured_not_printed(capfd):
     # urdfdom writes to file descriptor 2 directly; _build_model hands its lines back instead.
     text = urdf(LINKS[0], arm_link('<inertial><mass value="nan"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>'), joint())
-    model, messages = _build_model(text)
+    model, messages = build_model(text)
     assert any("mass" in m for m in messages)
     assert capfd.readouterr().err == ""
 
@@ -371,10 +373,11 @@ def test_sample_q_with_enormous_limits_stays_finite_and_inside():
     assert np.all(np.isfinite(Q)) and np.all(np.abs(Q) <= 1e308)
 
 
-def test_mimic_of_itself_is_a_warning():
-    checked = check_urdf(urdf(*LINKS, joint(extra='<mimic joint="j1" multiplier="2"/>')), "t.urdf")
-    assert checked.warnings == ["t.urdf:4: joint 'j1' <mimic joint=\"j1\">: a joint cannot mimic itself; "
-                                "manipkit treats 'j1' as an independent joint (as it does every mimic joint)"]
+def test_mimic_of_itself_is_an_error():
+    with pytest.raises(DescriptionError) as error:
+        check_urdf(urdf(*LINKS, joint(extra='<mimic joint="j1" multiplier="2"/>')), "t.urdf")
+    assert str(error.value) == ("t.urdf:4: joint 'j1' <mimic joint=\"j1\">: a joint cannot mimic itself; "
+                                "name the joint 'j1' follows, or remove the <mimic>")
 
 
 def fixed_chain(depth: int) -> str:

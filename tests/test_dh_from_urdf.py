@@ -207,7 +207,7 @@ def test_dh_z_axes_point_along_the_urdf_joint_axes(case, convention):
     for q in random_q(robot, np.random.default_rng(8), 20):
         for i, joint in enumerate(robot.joints):
             T_base_dh = dh_fk(table, q, upto=i if convention == "standard" else i + 1)
-            axis = robot.transform("link0", joint.child, q)[:3, :3] @ joint.axis
+            axis = robot.transform("link0", joint.child, q, check_limits=False)[:3, :3] @ joint.axis
             assert np.abs(T_base_dh[:3, 2] - axis).max() < 1e-12
 
 

@@ -23,7 +23,7 @@ TOL = 1e-12
 
 
 def pinocchio_poses(robot, frame, Q):
-    return np.array([robot.transform(robot.root_link, frame, q) for q in Q])
+    return np.array([robot.transform(robot.root_link, frame, q, check_limits=False) for q in Q])
 
 
 @pytest.mark.parametrize("name", ["iiwa14", "panda", "course_arm", "ur5", "scara", "stanford_arm", "planar_3r",
@@ -54,8 +54,9 @@ def test_angles_far_outside_minus_pi_to_pi_and_at_pi():
 def test_block_boundaries_do_not_change_the_answer():
     robot = manipkit.load("panda")
     Q = robot.sample_q(1001, seed=4)
-    whole = ChainFK(robot.chain("ee_link"), 9).transforms(Q)
-    blocked = ChainFK(robot.chain("ee_link"), 9, block=64).transforms(Q)
+    n = len(robot.joint_names)
+    whole = ChainFK(robot.chain("ee_link"), n).transforms(Q)
+    blocked = ChainFK(robot.chain("ee_link"), n, block=64).transforms(Q)
     assert np.array_equal(whole, blocked)
     assert np.abs(whole - pinocchio_poses(robot, "ee_link", Q)).max() < TOL
 

@@ -19,17 +19,46 @@ import sys
 import warnings
 
 __version__ = "0.1.0"
-__all__ = ["load", "Robot", "ik", "ManipkitError"]
-
 from manipkit.errors import ManipkitError
 
-_LAZY = {"load": "manipkit.kinematics.robot", "Robot": "manipkit.kinematics.robot", "ik": "manipkit.kinematics.ik"}
+#: Public name -> the module that holds it, imported on first use (``import manipkit`` stays cheap,
+#: so ``tf-between`` starts fast; the names still show in ``dir(manipkit)`` and tab completion).
+_LAZY = {
+    "load": "manipkit.kinematics.robot",
+    "Robot": "manipkit.kinematics.robot",
+    "ik": "manipkit.kinematics.ik",
+    "ik_solver": "manipkit.kinematics.ik",
+    "IKResult": "manipkit.kinematics.ik",
+    "IKSolutions": "manipkit.kinematics.ik",
+    "DHTable": "manipkit.dh.table",
+    "dh_fk": "manipkit.dh.table",
+    "load_dh": "manipkit.dh.files",
+    "check_dh": "manipkit.dh.check",
+    "analytic_ik": "manipkit.closed_form.robots",
+    "matrix_from_rpy": "manipkit.spatial.rotations",
+    "rpy_from_matrix": "manipkit.spatial.rotations",
+    "matrix_from_quaternion": "manipkit.spatial.rotations",
+    "quaternion_from_matrix": "manipkit.spatial.rotations",
+    "matrix_from_axis_angle": "manipkit.spatial.rotations",
+    "axis_angle_from_matrix": "manipkit.spatial.rotations",
+    "matrix_from_euler_zyx": "manipkit.spatial.euler",
+    "euler_zyx_from_matrix": "manipkit.spatial.euler",
+    "matrix_from_euler_zyz": "manipkit.spatial.euler",
+    "euler_zyz_from_matrix": "manipkit.spatial.euler",
+    "invert_transform": "manipkit.spatial.transforms",
+    "transform_from_xyz_rpy": "manipkit.spatial.transforms",
+}
+__all__ = ["ManipkitError", *_LAZY]
 
 
 def __getattr__(name: str):
     if name in _LAZY:
         return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'manipkit' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
 
 # --------------------------------------------------------------------------

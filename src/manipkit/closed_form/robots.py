@@ -116,7 +116,7 @@ def analytic_ik(robot: Robot, target, *, tol: float = 1e-9) -> ClosedFormSolutio
     n = len(robot.joint_names)
     rows = [i for i, q in enumerate(result.solutions) if q.size == n]
     Q = np.array([result.solutions[i] for i in rows], dtype=float).reshape(-1, n)
-    T_reached = np.array([robot.transform("base_link", "ee_link", q) for q in Q]).reshape(-1, 4, 4)
+    T_reached = np.array([robot.transform("base_link", "ee_link", q, check_limits=False) for q in Q]).reshape(-1, 4, 4)
     position, rotation = (np.atleast_1d(e) for e in pose_error(T, T_reached))
     if robot.source.name == "planar_2r":
         rotation = np.zeros_like(position)  # a position target: the tool's orientation is free

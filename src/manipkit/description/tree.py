@@ -215,10 +215,15 @@ def _origin_xyz_rpy(joint) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _joint_kind(joint) -> str:
-    """``'revolute, axis 0 0 1'``, ``'fixed'``, ``'planar, normal 0 0 1'``."""
+    """``'revolute, axis 0 0 1'``, ``'fixed'``, ``'planar, normal 0 0 1'``; a mimic joint adds ``mimics J (x m + o)``."""
     kind = joint.type or "untyped"
     axis = " ".join(map(trimmed_text, joint.axis if joint.axis is not None else (1.0, 0.0, 0.0)))
     if kind in MOVABLE_TYPES:
+        mimic = getattr(joint, "mimic", None)
+        if mimic is not None and mimic.joint:  # its value is multiplier * leader + offset: no value of its own
+            multiplier = 1.0 if mimic.multiplier is None else mimic.multiplier
+            offset = 0.0 if mimic.offset is None else mimic.offset
+            return f"{kind}, axis {axis}, mimics {mimic.joint} (x {trimmed_text(multiplier)} + {trimmed_text(offset)})"
         return f"{kind}, axis {axis}"
     if kind == "planar":
         return f"{kind}, normal {axis}"
@@ -249,6 +254,9 @@ def _summary(tree: _Tree) -> str:
     text = f"{plural(len(tree.links), 'link')}, {plural(len(tree.joints), 'joint')}"
     if by_type:
         text += ": " + ", ".join(f"{by_type[t]} {t}" for t in order)
+    mimics = sum(1 for j in tree.joints if getattr(j, "mimic", None) is not None and j.mimic.joint)
+    if mimics:
+        text += f" ({plural(mimics, 'mimic joint')}, moved by the joints they follow)"
     return text
 
 

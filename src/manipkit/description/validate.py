@@ -53,9 +53,9 @@ __all__ = [
 ]
 
 #: Joint types manipkit computes kinematics for.
-SUPPORTED_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
-#: Every joint type of the URDF specification (floating and planar are multi-DOF).
-JOINT_TYPES = SUPPORTED_JOINT_TYPES + ("floating", "planar")
+SUPPORTED_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+#: Every joint type of the URDF specification.
+JOINT_TYPES = SUPPORTED_JOINT_TYPES
 XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 
 #: Names Pinocchio gives its own root joint and frame; a link or joint of that name would be mixed up with them.
@@ -392,10 +392,6 @@ class _Checker:
             close = difflib.get_close_matches(kind.lower(), JOINT_TYPES, n=1, cutoff=0.6)
             hint = f"did you mean {close[0]}? " if close else ""
             self.fail(joint, f"{what} has type '{kind}'; {hint}valid types: {supported}")
-        if kind not in SUPPORTED_JOINT_TYPES:
-            dof = {"floating": 6, "planar": 3}[kind]
-            self.fail(joint, f"{what} is {kind} ({dof} degrees of freedom); manipkit handles {supported} joints "
-                      "(make it fixed, or split it into revolute/prismatic joints)")
         ends = {}
         for role in ("parent", "child"):
             element = joint.find(role)
@@ -435,13 +431,13 @@ class _Checker:
         if mimic is not None:
             target = mimic.get("joint")
             if target == name:
-                self.warn(mimic, f"{what} <mimic joint=\"{target}\">: a joint cannot mimic itself; "
-                          f"manipkit treats '{name}' as an independent joint (as it does every mimic joint)", joint)
+                self.fail(mimic, f"{what} <mimic joint=\"{target}\">: a joint cannot mimic itself; name the joint "
+                          f"'{name}' follows, or remove the <mimic>", joint)
             elif not target or target not in joints:
                 close = difflib.get_close_matches(target or "", list(joints), n=1, cutoff=0.6)
                 hint = f" (did you mean {close[0]}?)" if close else ""
-                self.warn(mimic, f"{what} <mimic joint=\"{target or ''}\">: no such joint{hint}; "
-                          f"manipkit treats '{name}' as an independent joint (as it does every mimic joint)", joint)
+                self.fail(mimic, f"{what} <mimic joint=\"{target or ''}\">: no such joint{hint}; a mimic names the "
+                          f"joint '{name}' follows", joint)
 
     def check_axis(self, joint, what: str) -> None:
         axis = joint.find("axis")

@@ -269,7 +269,7 @@ def dh_from_urdf_chain(
         raise DHDerivationError(f"convention '{convention}': choose standard or modified")
     joints = _movable_joints(robot, base, tip)
     points, directions = _joint_lines(robot, base, joints)
-    T_base_tip = robot.transform(base, tip, np.zeros(len(robot.joints)))
+    T_base_tip = robot.transform(base, tip, np.zeros(len(robot.joints)), check_limits=False)
     prismatic = [not joint.is_angular for joint in joints]
     standard, modified = _dh_frames(points, directions, prismatic, T_base_tip, tol)
     frames = standard if convention == "standard" else modified
@@ -311,7 +311,7 @@ def _joint_lines(robot: Robot, base: str, joints: list) -> tuple[list[np.ndarray
     q0 = np.zeros(len(robot.joints))
     points, directions = [], []
     for joint in joints:
-        T_base_joint = robot.transform(base, joint.child, q0)  # the joint frame is its child link's frame
+        T_base_joint = robot.transform(base, joint.child, q0, check_limits=False)  # the joint frame is its child link's frame
         axis = T_base_joint[:3, :3] @ np.asarray(joint.axis, dtype=float)
         points.append(T_base_joint[:3, 3])
         directions.append(axis / np.linalg.norm(axis))

@@ -208,7 +208,8 @@ class _Segment:
     t: np.ndarray
     joint: int | None = None  # column of Q
     prismatic: bool = False
-    offset: float = 0.0  # added to the joint value (rad): a rotation about z folded into it
+    offset: float = 0.0  # added to the joint value (rad or m): a mimic's offset, a rotation about z folded into it
+    multiplier: float = 1.0  # the joint value is multiplier * Q[:, joint] + offset (a mimic joint's multiplier)
 
 
 def _segments(steps) -> list[_Segment]:
@@ -224,7 +225,8 @@ def _segments(steps) -> list[_Segment]:
         if step.index < 0:
             continue
         A = _z_to_axis(step.axis)
-        segments.append(_Segment(A_prev_T @ C @ A, A_prev_T @ t, int(step.index), bool(step.prismatic)))
+        segments.append(_Segment(A_prev_T @ C @ A, A_prev_T @ t, int(step.index), bool(step.prismatic),
+                                 float(step.offset), float(step.scale)))
         C, t, A_prev_T = np.eye(3), np.zeros(3), A.T
     segments.append(_Segment(A_prev_T @ C, A_prev_T @ t))
     for k, seg in enumerate(segments):
@@ -553,11 +555,15 @@ class ChainFK:
         self._pri_cols = np.array([s.joint for s in joints if s.prismatic], dtype=np.intp)
         self._rev_slice = _as_slice(self._rev_cols)
         self._pri_slice = _as_slice(self._pri_cols)
-        # tan(half) with half = scale * (q + offset) / 2; prismatic values times their scale
-        self._half_scales = 0.5 * program.scales[revolute]
-        self._half_offsets = np.array([0.5 * s.offset for s in joints if not s.prismatic]) * program.scales[revolute]
+        # tan(half) with half = scale * (multiplier q + offset) / 2; prismatic values the same without the half
+        multipliers = np.array([s.multiplier for s in joints])
+        offsets = np.array([s.offset for s in joints])
+        self._half_scales = 0.5 * program.scales[revolute] * multipliers[revolute]
+        self._half_offsets = 0.5 * offsets[revolute] * program.scales[revolute]
         self._has_offsets = bool(np.any(self._half_offsets != 0.0))
-        self._pri_scales = program.scales[~revolute]
+        self._pri_scales = program.scales[~revolute] * multipliers[~revolute]
+        self._pri_offsets = offsets[~revolute] * program.scales[~revolute]
+        self._has_pri_offsets = bool(np.any(self._pri_offsets != 0.0))
         # R Rz(q): 12, p += q z: 3, each nonzero entry of a t: 3, a general R C: 27, the signs of the output: 9
         self.n_ops = (12 * self.n_revolute + 3 * self.n_prismatic + 3 * int(np.count_nonzero(program.shifts))
                       + 27 * int(program.mixed.sum()) + 9)
@@ -582,6 +588,8 @@ class ChainFK:
             np.tan(tan_half, out=tan_half)
         if self.n_prismatic:
             np.multiply(_columns(Q_block, self._pri_slice, self._pri_cols).T, self._pri_scales[:, None], out=values)
+            if self._has_pri_offsets:
+                values += self._pri_offsets[:, None]
         P = self._program
         kernel(tan_half, values, P.R0, P.p0, P.joints, P.shifts, P.mixes, P.mixed, P.out_cols, P.out_signs, T_block)
 

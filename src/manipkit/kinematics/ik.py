@@ -216,6 +216,7 @@ def ik(
     seed: int = 0,
     all: bool = False,
     damping: float = 1e-1,
+    free=(),
 ) -> IKResult | IKSolutions:
     """Joint values that put ``frame`` at ``target`` (T_base_frame), by damped least squares.
 
@@ -256,6 +257,9 @@ def ik(
         Initial Levenberg-Marquardt damping, relative to the largest diagonal
         entry of J^T J (and scaled down by the error when it is below 1); it
         then adapts (Nielsen's rule). See :class:`IKSolver`.
+    free : sequence of str, keyword-only
+        Floating or planar joints to solve for too (their coordinates);
+        by default they stay where ``q0`` puts them (the identity).
 
     Returns
     -------
@@ -291,7 +295,7 @@ def ik(
     True
     """
     # Over 80 lines: the docstring (every option and the conventions) is nearly all of it.
-    solver = ik_solver(robot, frame=frame, base=base, mode=mode, axis=axis)
+    solver = ik_solver(robot, frame=frame, base=base, mode=mode, axis=axis, free=tuple(free))
     return solver.solve(
         target, q0=q0, tol=tol, max_iters=max_iters, restarts=restarts, seed=seed, all=all, damping=damping
     )
@@ -300,13 +304,15 @@ def ik(
 _SOLVERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def ik_solver(robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z") -> IKSolver:
+def ik_solver(robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z",
+              free: tuple[str, ...] = ()) -> IKSolver:
     """The prepared :class:`IKSolver` for a robot, frame pair and mode (built once, then cached per robot)."""
-    key = (robot.frame(frame), robot.frame(base), mode, axis)
+    free = tuple(sorted(set(free)))
+    key = (robot.frame(frame), robot.frame(base), mode, axis, free)
     per_robot = _SOLVERS.setdefault(robot, {})
     solver = per_robot.get(key)
     if solver is None:
-        solver = per_robot[key] = IKSolver(robot, frame=frame, base=base, mode=mode, axis=axis)
+        solver = per_robot[key] = IKSolver(robot, frame=frame, base=base, mode=mode, axis=axis, free=free)
     return solver
 
 
@@ -369,7 +375,8 @@ class IKSolver:
     STALL_GAIN = 0.9
     SHRINK_MIN = 0.1
 
-    def __init__(self, robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z"):
+    def __init__(self, robot: Robot, *, frame: str = "ee_link", base: str = "base_link", mode: str = "pose", axis: str = "z",
+                 free: tuple[str, ...] = ()):
         if mode not in MODES:
             raise IKOptionError(f"unknown IK mode '{mode}'; modes: {', '.join(MODES)}")
         if axis not in AXES:
@@ -380,7 +387,18 @@ class IKSolver:
         self.mode = mode
         self.axis = axis
         self._axis_index = AXES.index(axis)
-        self.chain = robot.chain_joints(self.base, self.frame)
+        user_index = {name: i for i, name in enumerate(robot.joint_names)}
+        free = set(free)
+        unknown = sorted(free - {j.joint for j in robot.joints if j.coordinate is not None})
+        if unknown:
+            multi = sorted({j.joint for j in robot.joints if j.coordinate is not None})
+            raise IKOptionError(f"--free names a floating or planar joint to solve for; '{unknown[0]}' is not one "
+                                f"(this robot's: {', '.join(multi) or 'none'})")
+        # Floating and planar joints stay where q0 puts them unless freed.
+        self.chain = tuple(
+            name for name in robot.chain_joints(self.base, self.frame)
+            if robot.joints[user_index[name]].coordinate is None or robot.joints[user_index[name]].joint in free
+        )
         if not self.chain:
             raise ChainError(
                 f"robot '{robot.name}': no movable joint between '{self.base}' and '{self.frame}', nothing to solve for"
@@ -390,7 +408,6 @@ class IKSolver:
         self._data = model.createData()
         self._frame_id = robot.frame_id(self.frame)
 
-        user_index = {name: i for i, name in enumerate(robot.joint_names)}
         joints = [robot.joints[user_index[name]] for name in self.chain]
         self._chain_user = np.array([user_index[name] for name in self.chain], dtype=np.intp)
         self._lower = np.array([j.lower for j in joints], dtype=float)
@@ -403,22 +420,23 @@ class IKSolver:
         self._n = len(self.chain)
         self._default_q = robot.q()
 
-        # Reach bound: the frame origin stays within this distance of the first chain joint's origin.
-        joint_ids = [model.getJointId(name) for name in self.chain]
-        reach = sum(float(np.linalg.norm(model.jointPlacements[j].translation)) for j in joint_ids[1:])
-        for j in joints:
-            if not j.is_angular:
-                reach += max(abs(j.lower), abs(j.upper))
-        reach += float(np.linalg.norm(model.frames[self._frame_id].placement.translation))
-        self.reach = reach
-        self._first_joint = joint_ids[0]
-
         # The compiled iteration's view of the chain, root to frame (manipkit.kinematics.ik_kernel).
         steps = robot.chain(self.frame)
         self._geometry, self._kinds = pack_chain(steps, self._chain_user)
-        above_base = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
-        self._fixed_steps = np.array(above_base, dtype=np.intp)  # joints above the base: constant in a solve
-        self._fixed_user = np.array([steps[k].index for k in above_base], dtype=np.intp)
+        # Reach bound: the frame origin stays within this distance of the first solved joint's origin.
+        solved = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] >= 0]
+        reach = sum(float(np.linalg.norm(step.translation)) for step in steps[solved[0] + 1 :])
+        for k in solved:
+            if steps[k].prismatic:
+                joint = robot.joints[steps[k].index]
+                reach += abs(steps[k].scale) * max(abs(joint.lower), abs(joint.upper)) + abs(steps[k].offset)
+        self.reach = reach
+        self._first_joint = model.getJointId(joints[0].joint)
+        not_solved = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
+        self._fixed_steps = np.array(not_solved, dtype=np.intp)  # joints above the base, fixed coordinates
+        self._fixed_user = np.array([steps[k].index for k in not_solved], dtype=np.intp)
+        self._fixed_scale = np.array([steps[k].scale for k in not_solved], dtype=float)
+        self._fixed_offset = np.array([steps[k].offset for k in not_solved], dtype=float)
         self._q_fixed = np.zeros(len(steps))
         self._mode_code = MODE_CODES[mode]
         self._base_is_root = self.base == robot.root_link
@@ -458,12 +476,12 @@ class IKSolver:
         if self._base_is_root:
             T_root_target = T_base_target
         else:
-            T_root_target = self.robot.transform(self.robot.root_link, self.base, q_full) @ T_base_target
+            T_root_target = self.robot.transform(self.robot.root_link, self.base, q_full, check_limits=False) @ T_base_target
         self._p_target = np.ascontiguousarray(T_root_target[:3, 3])
         self._R_target = np.ascontiguousarray(T_root_target[:3, :3])
         self._q_full = q_full
         if self._fixed_steps.size:
-            self._q_fixed[self._fixed_steps] = q_full[self._fixed_user]
+            self._q_fixed[self._fixed_steps] = self._fixed_scale * q_full[self._fixed_user] + self._fixed_offset
 
         attempts = int(restarts) + 1
         starts = None  # random starts, drawn on first need (a generator costs ~10 us)

@@ -53,20 +53,23 @@ _TWO_PI = 2.0 * math.pi
 
 
 def pack_chain(steps: Sequence[ChainStep], chain_user_columns) -> tuple[np.ndarray, np.ndarray]:
-    """(geometry (S+1, 15) float, kinds (S+1, 2) int) of root-to-tip ``steps`` for the kernel.
+    """(geometry (S+1, 17) float, kinds (S+1, 2) int) of root-to-tip ``steps`` for the kernel.
 
     ``steps`` are :class:`manipkit.kinematics.chain.ChainStep` (the last one, index -1,
     is the tip); ``chain_user_columns[j]`` is the position in the robot's
-    joint vector of the ``j``-th solved joint.
+    joint vector of the ``j``-th solved joint. A row is the step's rotation
+    (9, row-major), translation (3), axis (3), then the ``scale`` and
+    ``offset`` of its joint value (a mimic joint reads its leader's column).
     """
     column_of = {int(user): j for j, user in enumerate(chain_user_columns)}
-    geometry = np.zeros((len(steps), 15))
+    geometry = np.zeros((len(steps), 17))
     kinds = np.full((len(steps), 2), -1, dtype=np.int64)
     for k, step in enumerate(steps):
         geometry[k, :9] = np.asarray(step.rotation, dtype=float).ravel()
         geometry[k, 9:12] = np.asarray(step.translation, dtype=float)
         if step.index >= 0:
             geometry[k, 12:15] = np.asarray(step.axis, dtype=float)
+            geometry[k, 15:17] = (step.scale, step.offset)
             kinds[k, 0] = _PRISMATIC if step.prismatic else _REVOLUTE
             kinds[k, 1] = column_of.get(int(step.index), -1)
     return geometry, kinds
@@ -77,7 +80,9 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
     """Pose of the tip in the root (``R`` 3x3, ``p`` 3) and its Jacobian ``J`` (6 x n) at ``x``, in place.
 
     ``x`` holds the solved joints (by column), ``q_fixed`` the values of the
-    joints above the base (by step). Each joint: ``T <- T X_k``, record the
+    joints above the base (by step). A step's joint value is
+    ``scale * x[column] + offset``, and its column of ``J`` gets ``scale``
+    times the step's motion (mimic joints add to their leader's column). Each joint: ``T <- T X_k``, record the
     joint's origin ``o = p`` and world axis ``z = R a``, then ``T <- T M(q)``
     with ``M`` Rodrigues' rotation ``I + sin q [a]x + (1 - cos q) [a]x^2`` or
     the translation ``q a``. Columns are filled once the tip is known.
@@ -104,7 +109,7 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
         if kind == _TIP:
             continue
         column = kinds[k, 1]
-        q = x[column] if column >= 0 else q_fixed[k]
+        q = g[15] * x[column] + g[16] if column >= 0 else q_fixed[k]
         a0, a1, a2 = g[12], g[13], g[14]
         for i in range(3):
             origins[k, i] = p[i]
@@ -125,20 +130,27 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
             tmp[i, 1] = r0 * m01 + r1 * m11 + r2 * m21
             tmp[i, 2] = r0 * m02 + r1 * m12 + r2 * m22
         R[:, :] = tmp
+    for j in range(J.shape[1]):
+        for i in range(6):
+            J[i, j] = 0.0
     for k in range(n_steps):
         column = kinds[k, 1]
         if kinds[k, 0] == _TIP or column < 0:
             continue
-        z0, z1, z2 = axes[k, 0], axes[k, 1], axes[k, 2]
+        scale = geometry[k, 15]
+        z0, z1, z2 = axes[k, 0] * scale, axes[k, 1] * scale, axes[k, 2] * scale
         if kinds[k, 0] == _PRISMATIC:
-            J[0, column], J[1, column], J[2, column] = z0, z1, z2
-            J[3, column] = J[4, column] = J[5, column] = 0.0
+            J[0, column] += z0
+            J[1, column] += z1
+            J[2, column] += z2
         else:
             d0, d1, d2 = p[0] - origins[k, 0], p[1] - origins[k, 1], p[2] - origins[k, 2]
-            J[0, column] = z1 * d2 - z2 * d1
-            J[1, column] = z2 * d0 - z0 * d2
-            J[2, column] = z0 * d1 - z1 * d0
-            J[3, column], J[4, column], J[5, column] = z0, z1, z2
+            J[0, column] += z1 * d2 - z2 * d1
+            J[1, column] += z2 * d0 - z0 * d2
+            J[2, column] += z0 * d1 - z1 * d0
+            J[3, column] += z0
+            J[4, column] += z1
+            J[5, column] += z2
 
 
 @compile_kernel

@@ -6,14 +6,14 @@ Conventions (docs/architecture.md):
 - ``T_a_b`` is the pose of frame b expressed in frame a, a 4x4 homogeneous
   matrix; ``robot.transform("a", "b", q)`` returns it, as ``tf2_echo a b``
   prints it.
-- A joint vector ``q`` has one value per movable joint, in the order of
-  :attr:`Robot.joint_names`: an angle (rad) for revolute and continuous
-  joints, a distance (m) for prismatic ones. Pinocchio stores a continuous
-  joint as (cos, sin); that stays inside this module.
+- A joint vector ``q`` has one value per independent degree of freedom, in
+  the order of :attr:`Robot.joint_names`: an angle (rad) for revolute and
+  continuous joints, a distance (m) for prismatic ones; mimic joints have
+  none, floating and planar joints several (:mod:`manipkit.kinematics.joints`).
 - Frames are links (and fixed-joint frames). Every robot also answers to
-  ``base_link`` (its root link, unless it has a link of that name) and
-  ``ee_link`` (its end effector: a link of that name, the frame declared for
-  it, or the tip of its longest chain).
+  ``base_link`` (:attr:`Robot.base_link`: the link of that name, else the
+  root link) and ``ee_link`` (its end effector: a link of that name, the
+  frame declared for it, or the tip of its longest chain).
 """
 
 from __future__ import annotations
@@ -22,7 +22,6 @@ import difflib
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +33,10 @@ from manipkit.description.validate import check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import ChainFK, ChainStep
+from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
+from manipkit.text import number_text
 
-__all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Robot", "load"]
+__all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Mimic", "Robot", "load"]
 
 BASE_ALIASES = ("base_link", "world")
 EE_ALIAS = "ee_link"
@@ -44,39 +45,6 @@ LIMIT_TOLERANCE = 1e-12
 #: More movable joints than this are refused: Pinocchio's Data holds nv x nv x nv tensors
 #: (about 0.6 GB at 200, 1.8 GB at 300, 64 GB at 1000); arms and humanoids have tens.
 MAX_DEGREES_OF_FREEDOM = 200
-
-
-@dataclass(frozen=True)
-class Joint:
-    """A movable joint.
-
-    Attributes
-    ----------
-    name, type : str
-        URDF name and type (``revolute``, ``continuous`` or ``prismatic``).
-    axis : ndarray, shape (3,)
-        Unit axis in the joint frame.
-    lower, upper : float
-        Position limits (rad or m); -inf/+inf for continuous joints.
-    parent, child : str
-        Parent and child link names.
-    """
-
-    name: str
-    type: str
-    axis: np.ndarray
-    lower: float
-    upper: float
-    parent: str
-    child: str
-
-    @property
-    def is_angular(self) -> bool:
-        return self.type != "prismatic"
-
-    def default(self) -> float:
-        """0, or the nearest value inside the limits."""
-        return float(min(max(0.0, self.lower), self.upper))
 
 
 def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> Robot:
@@ -142,10 +110,18 @@ class Robot:
         #: The subset of :attr:`warnings` about ``package://`` meshes that do not resolve (the viewer's
         #: own error covers them).
         self.mesh_warnings: list[str] = []
-        self.joints = _movable_joints(model, robot_xml)
+        self._layout = joint_layout(model, robot_xml, source.path.name)
+        self.joints: tuple[Joint, ...] = self._layout.joints
         self.joint_names = tuple(j.name for j in self.joints)
+        #: URDF joints that follow another (``<mimic>``), by name: no entry of ``q``; their value is
+        #: ``multiplier * q[leader] + offset`` (:class:`manipkit.kinematics.joints.Mimic`).
+        self.mimic_joints: dict[str, Mimic] = self._layout.mimics
         self._joint_index = {j.name: i for i, j in enumerate(self.joints)}
-        self.root_link = _root_link(robot_xml)
+        self._coordinates: dict[str, list[int]] = {}  # floating/planar joint name -> its entries of q
+        for i, j in enumerate(self.joints):
+            if j.coordinate is not None:
+                self._coordinates.setdefault(j.joint, []).append(i)
+        self.root_link = root_link(robot_xml)
         self.frame_names = tuple(
             f.name for f in model.frames if f.type == pin.FrameType.BODY and f.name != "universe"
         )
@@ -153,18 +129,12 @@ class Robot:
         for frame_id, frame in enumerate(model.frames):
             if frame.type == pin.FrameType.BODY:  # links only, first of a name wins
                 self._frame_ids.setdefault(frame.name, frame_id)
+        #: The link ``base_link`` means everywhere (CLI, :meth:`fk`'s default base, listings): the link
+        #: named ``base_link`` if there is one, else the root link.
+        self.base_link = "base_link" if "base_link" in self._frame_ids else self.root_link
         self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
         self._chains: dict[tuple, list[ChainStep]] = {}  # (frame id, base id or None) -> steps
         self._fk_kernels: dict[tuple, ChainFK] = {}  # (frame id, base id or None) -> batched FK, built on first use
-        # Index arrays for pinocchio_configuration: where each joint value goes in Pinocchio's q.
-        self._neutral_config = pin.neutral(model)
-        idx_q = np.array([model.joints[model.getJointId(j.name)].idx_q for j in self.joints], dtype=np.intp)
-        is_cs = np.array([model.joints[model.getJointId(j.name)].nq == 2 for j in self.joints], dtype=bool)
-        self._config_plain_user = np.flatnonzero(~is_cs)  # one value -> one entry
-        self._config_plain_q = idx_q[~is_cs]
-        self._config_cs_user = np.flatnonzero(is_cs)  # continuous: angle -> (cos, sin)
-        self._config_cos_q = idx_q[is_cs]
-        self._config_sin_q = idx_q[is_cs] + 1
 
     @classmethod
     def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> Robot:
@@ -184,7 +154,7 @@ class Robot:
         near = source.path if source.path.is_file() else None
         resolver = PackageResolver({k: Path(v) for k, v in (package_dirs or {}).items()}, near=near)
         mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate)
-        model, messages = _build_model(checked.text)
+        model, messages = build_model(checked.text)
         if model is None:
             reason = "; ".join(messages) or "no reason given"
             raise DescriptionError(f"{where}: Pinocchio cannot build a model: {reason}")
@@ -195,8 +165,8 @@ class Robot:
 
     def __repr__(self) -> str:
         return (
-            f"Robot({self.name!r}, {len(self.joints)} joints, base {self.root_link!r}, "
-            f"ee {self.ee_frame!r}, from {self.source.path})"
+            f"Robot({self.name!r}, {len(self.joints)} joints, base_link {self.base_link!r}, "
+            f"ee_link {self.ee_frame!r}, from {self.source.path})"
         )
 
     # ------------------------------------------------------------------
@@ -233,7 +203,11 @@ class Robot:
         return self._frame_ids[self.frame(name)]
 
     def chain_joints(self, base: str, tip: str) -> tuple[str, ...]:
-        """Movable joints on the path from ``base`` down to ``tip``, base first.
+        """The entries of ``q`` that move ``tip`` relative to ``base``, base first.
+
+        These are the movable joints on the path from ``base`` down to
+        ``tip``; a mimic joint on the path contributes its leader (once), a
+        floating or planar joint its coordinates (``base_joint.x``, ...).
 
         ``base`` may hang off the path by fixed joints only (ur5's ``base``
         beside ``base_link``): every movable joint between the two frames
@@ -254,12 +228,16 @@ class Robot:
             if tip_joint in self.model.supports[base_joint]:
                 hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
             else:
-                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.root_link}'"
+                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.base_link}'"
             raise ChainError(
                 f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
                 f"(a movable joint lies on the way up from '{base_name}'); {hint}"
             )
-        return tuple(self.model.names[j] for j in tip_support[tip_support.index(base_joint) + 1 :])
+        names: dict[str, None] = {}  # ordered set
+        for joint_id in tip_support[tip_support.index(base_joint) + 1 :]:
+            for column, *_ in self._layout.columns[joint_id]:
+                names[self.joint_names[column]] = None
+        return tuple(names)
 
     def sample_q(self, n: int, *, seed: int = 0) -> np.ndarray:
         """``n`` joint vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]).
@@ -296,13 +274,17 @@ class Robot:
     # Joint vectors
     # ------------------------------------------------------------------
 
-    def q(self, values: dict[str, float] | None = None, /, *, degrees: bool = False, **joint_values) -> np.ndarray:
-        """A joint vector from joint values by name.
+    def q(self, values=None, /, *, degrees: bool = False, **joint_values) -> np.ndarray:
+        """A joint vector from joint values: a sequence in joint order, a dict by name, or keywords.
 
         Parameters
         ----------
-        values : dict, optional
-            Joint name -> value (also accepted as keyword arguments).
+        values : sequence or dict, optional
+            One value per entry of :attr:`joint_names`, in that order; or joint
+            name -> value (names may also be given as keyword arguments). A
+            floating joint takes its six values ``[x, y, z, roll, pitch, yaw]``
+            under its own name (a planar joint ``[x, y, yaw]``), or one at a
+            time as ``base_joint.x`` etc.
         degrees : bool, keyword-only
             Angular values are in degrees (prismatic ones stay in metres).
 
@@ -315,8 +297,9 @@ class Robot:
         Raises
         ------
         JointValueError
-            Unknown joint name (the valid ones are listed) or a value that is
-            not a finite number.
+            Unknown joint name (the valid ones are listed), a mimic joint (its
+            leader is named), a value that is not a finite number, or a
+            sequence of the wrong length.
 
         Notes
         -----
@@ -324,41 +307,58 @@ class Robot:
         value would give can still be computed). For a strict check use
         :meth:`check_limits` (raises :class:`JointLimitError` naming the
         joint, value and limits), :meth:`limit_violations` to list them, or
-        :meth:`clamp` to move them to the nearest limit. The command line is
-        strict: a value outside the limits is an error unless ``--clamp``.
+        :meth:`clamp` to move them to the nearest limit. :meth:`transform`
+        and the command line are strict by default.
 
         Examples
         --------
         >>> robot = load("planar_2r")
         >>> robot.q(joint2=90, degrees=True)
         array([0.        , 1.57079633])
+        >>> robot.q([0, 90], degrees=True)
+        array([0.        , 1.57079633])
         """
         if values is not None and not isinstance(values, Mapping):
-            raise JointValueError(f"robot.q takes joint values by name (a dict or keywords), not "
-                                  f"{type(values).__name__}; a vector in joint_names order needs no conversion")
+            if isinstance(values, (str, bytes)):
+                raise JointValueError(f"robot.q takes joint values in joint order or by name, not the text {values!r}")
+            if joint_values:
+                raise JointValueError("give joint values either in joint order or by name, not both")
+            q = self._check_q(values)
+            if degrees:
+                q = np.where([j.is_angular for j in self.joints], np.radians(q), q) if len(q) else q
+            return np.array(q, dtype=float)
         twice = sorted(set(values or {}) & set(joint_values))
         if twice:
             raise JointValueError(f"joint '{twice[0]}' is given twice (in the dict and as a keyword); give each joint once")
-        given = dict(values or {}, **joint_values)
         q = np.array([j.default() for j in self.joints], dtype=float)
-        for name, value in given.items():
-            if name not in self._joint_index:
-                close = difflib.get_close_matches(name, self.joint_names, n=1, cutoff=0.5)
-                hint = f"did you mean {close[0]}? " if close else ""
-                raise JointValueError(
-                    f"robot '{self.name}' has no joint '{name}'; {hint}joints: {', '.join(self.joint_names) or 'none'}"
-                )
-            try:
-                if isinstance(value, (complex, np.complexfloating)):
-                    raise TypeError("complex")  # float() would drop the imaginary part (or refuse it)
-                number = float(value)
-            except (TypeError, ValueError):
-                raise JointValueError(f"joint '{name}': value '{value}' is not a number") from None
-            if not math.isfinite(number):
-                raise JointValueError(f"joint '{name}': value {value} is not finite; give a finite number")
-            index = self._joint_index[name]
-            q[index] = math.radians(number) if degrees and self.joints[index].is_angular else number
+        for name, value in dict(values or {}, **joint_values).items():
+            for index, number in self._entries(name, value):
+                q[index] = math.radians(number) if degrees and self.joints[index].is_angular else number
         return q
+
+    def _entries(self, name, value) -> list[tuple[int, float]]:
+        """(index in q, value) pairs for one named value of :meth:`q`, checked."""
+        if name in self._coordinates:
+            indices = self._coordinates[name]
+            coordinates = ", ".join(self.joints[i].coordinate for i in indices)
+            numbers = np.atleast_1d(np.asarray(value, dtype=object)).ravel() if not isinstance(value, str) else [value]
+            if len(numbers) != len(indices):
+                raise JointValueError(f"joint '{name}' is {self.joints[indices[0]].type}: give {len(indices)} values "
+                                      f"({coordinates}), got {_short_repr(value)}")
+            return [(i, _joint_number(self.joints[i].name, v)) for i, v in zip(indices, numbers)]
+        if name not in self._joint_index:
+            if name in self.mimic_joints:
+                mimic = self.mimic_joints[name]
+                raise JointValueError(
+                    f"joint '{name}' mimics '{mimic.leader}' ({number_text(mimic.multiplier)} x {mimic.leader} + "
+                    f"{number_text(mimic.offset)}); give a value to '{mimic.leader}' instead"
+                )
+            close = difflib.get_close_matches(str(name), self.joint_names, n=1, cutoff=0.5)
+            hint = f"did you mean {close[0]}? " if close else ""
+            raise JointValueError(
+                f"robot '{self.name}' has no joint '{name}'; {hint}joints: {', '.join(self.joint_names) or 'none'}"
+            )
+        return [(self._joint_index[name], _joint_number(name, value))]
 
     def as_dict(self, q) -> dict[str, float]:
         """Joint name -> value for a joint vector."""
@@ -399,7 +399,7 @@ class Robot:
         violations = self.limit_violations(q)
         if violations:
             raise violations[0]
-        return _real_array(q)
+        return self._check_q(q)
 
     def clamp(self, q) -> np.ndarray:
         """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
@@ -412,6 +412,9 @@ class Robot:
         return np.minimum(np.maximum(Q, lower), upper)
 
     def _check_q(self, q) -> np.ndarray:
+        """A joint vector from anything :meth:`q` takes (None: the default), checked for length and finiteness."""
+        if isinstance(q, Mapping):
+            return self.q(q)
         q = self.q() if q is None else _real_array(q)
         if q.shape != (len(self.joints),):
             raise JointValueError(
@@ -424,19 +427,13 @@ class Robot:
     def pinocchio_configuration(self, q) -> np.ndarray:
         """Pinocchio's configuration vector (size ``model.nq``) for a joint vector."""
         q = self._check_q(q)
-        config = self._neutral_config.copy()
-        config[self._config_plain_q] = q[self._config_plain_user]
-        if self._config_cs_user.size:  # continuous joints: (cos, sin)
-            angles = q[self._config_cs_user]
-            config[self._config_cos_q] = np.cos(angles)
-            config[self._config_sin_q] = np.sin(angles)
-        return config
+        return self._layout.configuration(q)
 
     # ------------------------------------------------------------------
     # Kinematics
     # ------------------------------------------------------------------
 
-    def transform(self, source: str, target: str, q=None) -> np.ndarray:
+    def transform(self, source: str, target: str, q=None, *, check_limits: bool = True) -> np.ndarray:
         """T_source_target: the pose of ``target`` expressed in ``source``.
 
         Computed by Pinocchio's forward kinematics. Same direction as
@@ -446,14 +443,20 @@ class Robot:
         ----------
         source, target : str
             Frame names (or the aliases ``base_link``, ``ee_link``).
-        q : array_like, shape (n,), optional
-            Joint vector (see :meth:`q`); default: every joint at 0.
+        q : array_like or dict, optional
+            Anything :meth:`q` takes: values in joint order, or by name
+            (joints not given at their default); default: every joint at 0.
+        check_limits : bool, keyword-only
+            Refuse values outside the joint limits with :class:`JointLimitError`,
+            as the command line does (default); False computes the pose the
+            joints would have there.
 
         Returns
         -------
         T : ndarray, shape (4, 4)
         """
         source_id, target_id = self.frame_id(source), self.frame_id(target)
+        q = self.check_limits(q) if check_limits else self._check_q(q)
         pin.framesForwardKinematics(self.model, self.data, self.pinocchio_configuration(q))
         T_root_source = self.data.oMf[source_id]
         T_root_target = self.data.oMf[target_id]
@@ -509,7 +512,8 @@ class Robot:
         frame : str
             Target frame.
         base : str, optional
-            Frame the poses are expressed in (default: the root link).
+            Frame the poses are expressed in (default: ``base_link``, i.e.
+            :attr:`base_link`, as everywhere else).
 
         Returns
         -------
@@ -534,7 +538,8 @@ class Robot:
         lead = Q.shape[:-1]
         flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
         frame_id = self.frame_id(frame)
-        base_id = None if base is None or self.frame(base) == self.root_link else self.frame_id(base)
+        base = self.base_link if base is None else base
+        base_id = None if self.frame(base) == self.root_link else self.frame_id(base)
         if base_id is None or self._is_above(base_id, frame_id):
             # One kernel over the chain from the base down to the frame.
             return self._chain_fk_by_id(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
@@ -644,17 +649,11 @@ class Robot:
                 steps = [_fixed_step(R.T, -R.T @ p)]
             for joint_id in below:
                 placement = self.model.jointPlacements[joint_id]
-                kind, axis = _joint_kind_axis(self.model, joint_id)
-                axis.setflags(write=False)
-                steps.append(
-                    ChainStep(
-                        _read_only(placement.rotation),
-                        _read_only(placement.translation),
-                        self._joint_index[self.model.names[joint_id]],
-                        kind == "prismatic",
-                        axis,
-                    )
-                )
+                rotation, translation = _read_only(placement.rotation), _read_only(placement.translation)
+                for column, scale, offset, kind, axis in self._layout.columns[joint_id]:
+                    # a floating or planar joint: its placement, then one motion per coordinate
+                    steps.append(ChainStep(rotation, translation, column, kind == "prismatic", axis, scale, offset))
+                    rotation, translation = _IDENTITY, _ZERO
             steps.append(_fixed_step(frame.placement.rotation, frame.placement.translation))
             self._chains[key] = steps
         return self._chains[key]
@@ -687,6 +686,19 @@ def _real_array(values) -> np.ndarray:
                               f"got {_short_repr(values)}") from None
 
 
+def _joint_number(name: str, value) -> float:
+    """``value`` as a finite real number, or :class:`JointValueError` naming the joint."""
+    try:
+        if isinstance(value, (complex, np.complexfloating)):
+            raise TypeError("complex")  # float() would drop the imaginary part (or refuse it)
+        number = float(value)
+    except (TypeError, ValueError):
+        raise JointValueError(f"joint '{name}': value '{value}' is not a number") from None
+    if not math.isfinite(number):
+        raise JointValueError(f"joint '{name}': value {value} is not finite; give a finite number")
+    return number
+
+
 def _short_repr(value, limit: int = 60) -> str:
     """``repr(value)`` on one line, cut to ``limit`` characters."""
     text = " ".join(repr(value).split())
@@ -699,93 +711,8 @@ def _read_only(array) -> np.ndarray:
     return copy
 
 
+_IDENTITY, _ZERO = _read_only(np.eye(3)), _read_only(np.zeros(3))
+
+
 def _fixed_step(rotation, translation) -> ChainStep:
     return ChainStep(_read_only(rotation), _read_only(translation), -1, False, None)
-
-
-def _build_model(text: str) -> tuple[pin.Model | None, list[str]]:
-    """Pinocchio's model of URDF text, and what its C++ URDF parser printed on stderr.
-
-    urdfdom writes its reasons (and its complaints about descriptions it
-    still accepts) straight to file descriptor 2, out of reach of Python;
-    it is redirected to a temporary file for the call, so the reasons end up
-    in manipkit's one-line error or in :attr:`Robot.warnings` instead of
-    raw on the terminal.
-    """
-    import sys
-    import tempfile
-
-    model, failure = None, None
-    try:
-        sys.stderr.flush()
-    except (AttributeError, ValueError, OSError):
-        pass
-    with tempfile.TemporaryFile(mode="w+b") as captured:
-        try:
-            saved = os.dup(2)
-        except OSError:  # no file descriptor 2: nothing to capture
-            saved = None
-        try:
-            if saved is not None:
-                os.dup2(captured.fileno(), 2)
-            try:
-                model = pin.buildModelFromXML(text)
-            except (ValueError, RuntimeError) as exc:
-                failure = " ".join(str(exc).split())
-        finally:
-            if saved is not None:
-                os.dup2(saved, 2)
-                os.close(saved)
-        captured.seek(0)
-        output = captured.read().decode("utf-8", errors="replace")
-    messages = [" ".join(line.replace("Error:", "").split()) for line in output.splitlines() if line.strip()]
-    if model is None and failure and not messages:
-        messages = [failure]
-    return model, messages
-
-
-def _joint_kind_axis(model: pin.Model, joint_id: int) -> tuple[str, np.ndarray]:
-    """(``revolute``|``prismatic``, unit axis in the joint frame) of a one-degree-of-freedom joint.
-
-    Read from the joint's motion subspace S = (linear, angular), which every
-    Pinocchio joint model provides (aligned, unaligned, bounded or not).
-    """
-    jmodel = model.joints[joint_id]
-    jdata = jmodel.createData()
-    jmodel.calc(jdata, pin.neutral(model))
-    S = np.array(jdata.S, dtype=float).ravel()
-    linear, angular = S[:3], S[3:]
-    if np.linalg.norm(angular) > 0.5:
-        return "revolute", angular / np.linalg.norm(angular)
-    return "prismatic", linear / np.linalg.norm(linear)
-
-
-def _movable_joints(model: pin.Model, robot_xml) -> tuple[Joint, ...]:
-    by_name = {j.get("name"): j for j in robot_xml.findall("joint")}
-    joints = []
-    for joint_id in range(1, model.njoints):
-        name = model.names[joint_id]
-        jmodel = model.joints[joint_id]
-        element = by_name.get(name)
-        urdf_type = element.get("type") if element is not None else "?"
-        if jmodel.nv != 1:
-            raise DescriptionError(
-                f"joint '{name}' is {urdf_type} ({jmodel.nv} degrees of freedom); manipkit handles "
-                "revolute, continuous, prismatic and fixed joints"
-            )
-        kind, axis = _joint_kind_axis(model, joint_id)
-        if jmodel.nq == 2:
-            lower, upper, urdf_type = -math.inf, math.inf, "continuous"
-        else:
-            lower = float(model.lowerPositionLimit[jmodel.idx_q])
-            upper = float(model.upperPositionLimit[jmodel.idx_q])
-            urdf_type = kind if urdf_type not in ("revolute", "prismatic") else urdf_type
-        parent = element.find("parent").get("link") if element is not None else "?"
-        child = element.find("child").get("link") if element is not None else "?"
-        joints.append(Joint(name, urdf_type, axis, lower, upper, parent, child))
-    return tuple(joints)
-
-
-def _root_link(robot_xml) -> str:
-    children = {j.find("child").get("link") for j in robot_xml.findall("joint")}
-    return next(link.get("name") for link in robot_xml.findall("link") if link.get("name") not in children)

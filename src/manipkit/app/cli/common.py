@@ -180,6 +180,8 @@ def joint_vector(robot: Robot, args, *, option: str = "--q", items=None) -> np.n
         values = dict(zip(robot.joint_names, items))
     else:
         values = _pairs(items, option)
+        multi = {j.joint for j in robot.joints if j.coordinate is not None}  # floating, planar: x,y,z,roll,pitch,yaw
+        values = {name: value.split(",") if name in multi else value for name, value in values.items()}
     prefix = "" if option == "--q" else f"{option}: "
     try:
         q = robot.q(values, degrees=args.deg)

@@ -41,7 +41,8 @@ def run_robots(args) -> int:
         except ManipkitError as exc:
             table.add_row(name, origin, "?", "?", "?", f"cannot load: {exc}")
             continue
-        table.add_row(name, origin, str(len(robot.joints)), robot.root_link, robot.ee_frame, robot.source.path.name)
+        base = robot.base_link if robot.base_link == "base_link" else f"{robot.base_link} (root)"
+        table.add_row(name, origin, str(len(robot.joints)), base, robot.ee_frame, robot.source.path.name)
     _console().print(table)
     return EXIT_OK
 
@@ -52,7 +53,11 @@ def run_frames(args) -> int:
 
     robot = load_robot(args)
     console = _console()
-    console.print(f"robot {robot.name}: {len(robot.frame_names)} frames; base_link = {robot.root_link}; ee_link = {robot.ee_reason}")
+    console.print(f"robot {robot.name}: {len(robot.frame_names)} frames; base_link = {_base_text(robot)}; "
+                  f"ee_link = {robot.ee_reason}")
+    if robot.mimic_joints:
+        console.print("mimic joints (no value of their own): " + "; ".join(
+            f"{m.name} = {short_text(m.multiplier)} {m.leader} + {short_text(m.offset)}" for m in robot.mimic_joints.values()))
     console.print("frames: " + ", ".join(robot.frame_names))
     table = Table(title=f"movable joints of {robot.name} (radians / metres)")
     for column in ("#", "joint", "type", "axis", "parent -> child", "lower", "upper"):
@@ -64,6 +69,11 @@ def run_frames(args) -> int:
         )
     console.print(table)
     return EXIT_OK
+
+
+def _base_text(robot) -> str:
+    """Which link ``base_link`` means: the link of that name, else the root (said so)."""
+    return robot.base_link if robot.base_link == "base_link" else f"{robot.base_link} (the root; no link named base_link)"
 
 
 def _console():

@@ -29,12 +29,14 @@ from manipkit.spatial.rotations import wrap_angle
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["DEFAULT_FRAMES", "TRIAD_PATHS", "VISUALS_ROOT", "SliderSpec", "ViewerState"]
+__all__ = ["DEFAULT_FRAMES", "FREE_RANGE", "TRIAD_PATHS", "VISUALS_ROOT", "SliderSpec", "ViewerState"]
 
 DEFAULT_FRAMES = ("base_link", "ee_link")
 #: meshcat paths: Pinocchio's MeshcatVisualizer puts visuals under VISUALS_ROOT/<geometry name>.
 VISUALS_ROOT = "pinocchio/visuals"
 TRIAD_PATHS = ("manipkit/frame_a", "manipkit/frame_b")
+#: Slider span (m) of a floating or planar joint's x, y, z, which have no limits.
+FREE_RANGE = 2.0
 
 
 @dataclass(frozen=True)
@@ -82,7 +84,8 @@ class ViewerState:
     def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None):
         self.robot = robot
         self._frames = self._checked_frames(frames)
-        self._continuous = np.array([joint.type == "continuous" for joint in robot.joints], dtype=bool)
+        self._continuous = np.array([joint.is_angular and not math.isfinite(joint.upper - joint.lower)
+                                     for joint in robot.joints], dtype=bool)
         start = robot.q() if q is None else q
         robot.as_dict(start)  # checks the shape and that the values are finite numbers
         self._q = self._in_range(start)
@@ -127,12 +130,20 @@ class ViewerState:
         return q
 
     def sliders(self) -> list[SliderSpec]:
-        """One :class:`SliderSpec` per movable joint, in ``robot.joint_names`` order."""
+        """One :class:`SliderSpec` per entry of ``q``, in ``robot.joint_names`` order (mimic joints follow their leader).
+
+        A floating or planar joint's x, y, z have no limits: their sliders span
+        [-FREE_RANGE, FREE_RANGE] m.
+        """
         specs = []
         for joint, value in zip(self.robot.joints, self._q):
-            if joint.type == "continuous":  # (-pi, pi]: the left end is one step above -pi, which would read as +pi
+            if joint.is_angular and not math.isfinite(joint.upper - joint.lower):
+                # continuous, or a floating/planar joint's angle: (-pi, pi], the left end one step above -pi
                 step = 2.0 * math.pi / 1000
                 lower, upper = -math.pi + step, math.pi
+            elif not math.isfinite(joint.upper - joint.lower):  # a floating or planar joint's x, y, z
+                lower, upper = -FREE_RANGE, FREE_RANGE
+                step = (upper - lower) / 1000
             else:
                 lower, upper = joint.lower, joint.upper
                 step = (upper - lower) / 1000
@@ -174,7 +185,7 @@ class ViewerState:
     def frame_placements(self) -> dict[str, np.ndarray]:
         """Scene path -> T_root_frame (4x4) of the triads at A and B."""
         root = self.robot.root_link
-        return {path: self.robot.transform(root, frame, self._q) for path, frame in zip(TRIAD_PATHS, self._frames)}
+        return {path: self.robot.transform(root, frame, self._q, check_limits=False) for path, frame in zip(TRIAD_PATHS, self._frames)}
 
     def geometry_placements(self, visual_model) -> dict[str, np.ndarray]:
         """Scene path -> T_root_geometry (4x4, mesh scale applied to the rotation columns) of each visual.
@@ -201,7 +212,7 @@ class ViewerState:
         Used to aim the camera and size the triads.
         """
         root = self.robot.root_link
-        origins = np.array([self.robot.transform(root, f, self._q)[:3, 3] for f in self.robot.frame_names])
+        origins = np.array([self.robot.transform(root, f, self._q, check_limits=False)[:3, 3] for f in self.robot.frame_names])
         return origins.min(axis=0), origins.max(axis=0)
 
     def snapshot(self) -> dict:
