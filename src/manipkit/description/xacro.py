@@ -20,10 +20,11 @@ import difflib
 import os
 import re
 import time
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
-from manipkit.description.packages import PackageResolver
+from manipkit.description.packages import WARNING_REGISTRY, PackageResolver
 from manipkit.description.sources import RobotSource
 from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
@@ -172,11 +173,16 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
     stderr = io.StringIO()
     try:
-        with _xacro_hooks(path, resolver, missing), contextlib.redirect_stderr(stderr), \
-                contextlib.redirect_stdout(stderr):
+        # xacro's own messages go to stderr, which is captured; Python warnings (a package found twice
+        # during $(find)) are recorded instead and issued once each after it (_reissue)
+        with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing), \
+                contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
+            warnings.simplefilter("always")
             document = xacro.process_file(str(path), mappings=dict(args))
     except Exception as exc:  # xacro raises many kinds; all are description errors
+        _reissue(caught)
         raise _xacro_error(exc, path, missing) from None
+    _reissue(caught)
     files = [path, *(Path(f) for f in xacro.all_includes)]
     _remember_files(path, files)
     # xacro ignores arguments nobody declared or reads; here they are an error (a typo would pass silently).
@@ -187,6 +193,17 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
         valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
         raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
     return XacroExpansion(document.toxml(), declared)
+
+
+def _reissue(caught: list) -> None:
+    """Issue the warnings recorded during an expansion again, once per text, into the package lookup's registry."""
+    seen = set()
+    for caught_warning in caught:
+        key = (str(caught_warning.message), caught_warning.category)
+        if key not in seen:
+            seen.add(key)
+            warnings.warn_explicit(caught_warning.message, caught_warning.category, caught_warning.filename,
+                                   caught_warning.lineno, registry=WARNING_REGISTRY)
 
 
 # Over 80 lines: one hook per xacro function replaced, each a few lines, patched and restored together.
