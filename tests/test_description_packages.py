@@ -3,6 +3,7 @@
 import io
 import json
 import os
+import shutil
 import subprocess
 import sys
 import warnings
@@ -94,6 +95,51 @@ def test_a_checkout_without_src_is_indexed_from_its_outermost_package_folder(tmp
     (repo / "robot_pkg" / "package.xml").write_text("<package><name>robot_pkg</name></package>")
     assert workspace_root(path) == (repo.resolve(), packages_module.MAX_SCAN_DEPTH)
     assert tool_z(path) == 0.5
+
+
+def _colcon_workspace(ws: Path) -> dict[str, Path]:
+    """A ROS 2 workspace after ``colcon build``: src/, and build/, install/, log/ (each with colcon's
+    COLCON_IGNORE); install/PKG/share/PKG holds a copy of each package (an isolated install)."""
+    package(ws / "src" / "arm_description", "arm_description", z=0.5)
+    robot = top(ws / "src" / "my_robot" / "urdf" / "robot.urdf.xacro", "arm_description")
+    (ws / "src" / "my_robot" / "package.xml").write_text("<package><name>my_robot</name></package>")
+    package(ws / "install" / "arm_description" / "share" / "arm_description", "arm_description", z=0.5)
+    installed = top(ws / "install" / "my_robot" / "share" / "my_robot" / "urdf" / "robot.urdf.xacro", "arm_description")
+    (installed.parents[1] / "package.xml").write_text("<package><name>my_robot</name></package>")
+    for folder in ("build", "install", "log"):
+        (ws / folder).mkdir(exist_ok=True)
+        (ws / folder / "COLCON_IGNORE").write_text("")
+    return {"source": robot, "installed": installed}
+
+
+@pytest.mark.parametrize("which", ["source", "installed"])
+def test_a_ros2_colcon_workspace_is_found_from_a_file_in_src_or_in_install(tmp_path, which):
+    files = _colcon_workspace(tmp_path / "ros2_ws")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the install space's copies are not a second arm_description
+        assert tool_z(files[which]) == 0.5
+    assert PackageResolver(near=files[which]).find("arm_description") == (tmp_path / "ros2_ws" / "src" / "arm_description").resolve()
+
+
+def test_a_ros2_merged_install_space_is_found_from_the_file_alone(tmp_path):
+    # colcon build --merge-install: install/share/PKG for every package; not sourced (no AMENT_PREFIX_PATH)
+    share = tmp_path / "ws" / "install" / "share"
+    package(share / "arm_description", "arm_description", z=0.7)
+    path = top(share / "my_robot" / "urdf" / "robot.urdf.xacro", "arm_description")
+    (share / "my_robot" / "package.xml").write_text("<package><name>my_robot</name></package>")
+    (tmp_path / "ws" / "install" / "COLCON_IGNORE").write_text("")
+    assert tool_z(path) == 0.7
+
+
+def test_a_ros2_isolated_install_space_needs_ament_prefix_path_and_says_so(tmp_path, monkeypatch):
+    # install/PKG/share/PKG with no src/ beside it: each package is its own prefix, as AMENT_PREFIX_PATH lists them
+    ws = tmp_path / "ws"
+    files = _colcon_workspace(ws)
+    shutil.rmtree(ws / "src")
+    with pytest.raises(PackageNotFoundError, match="package 'arm_description' not found; .*--package-dir arm_description=DIR"):
+        manipkit.load(files["installed"])
+    monkeypatch.setenv("AMENT_PREFIX_PATH", os.pathsep.join(str(ws / "install" / p) for p in ("my_robot", "arm_description")))
+    assert tool_z(files["installed"]) == 0.5
 
 
 def test_packages_nested_below_a_package_are_not_indexed_as_colcon_does(tmp_path):
