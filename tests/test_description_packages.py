@@ -232,6 +232,22 @@ def test_warnings_raised_during_xacro_are_issued_once_each_to_python(tmp_path):
             tool_z(path)
 
 
+def test_a_file_missing_in_the_package_found_names_that_folder_the_others_and_package_dir(tmp_path):
+    src = tmp_path / "ws" / "src"
+    first, second = package(src / "a_arm", "my_pkg"), package(src / "b_arm", "my_pkg")
+    (second / "urdf" / "extra.xacro").write_text((second / "urdf" / "arm.xacro").read_text())  # only in the one not used
+    path = top(tmp_path / "ws" / "robot.xacro", "my_pkg")
+    path.write_text(path.read_text().replace("/urdf/arm.xacro", "/urdf/extra.xacro"))
+    result = run("tf-between", "base_link", "base_link", "--robot", path)
+    assert result.returncode == 2
+    assert result.stderr.splitlines() == [  # one line: the duplicate warning is not printed before an error
+        (
+        f"tf-between: error: robot.xacro:1: xacro:include: file not found: {first.resolve() / 'urdf' / 'extra.xacro'} "
+        f"(package 'my_pkg' is {first.resolve()}; also found: {second.resolve()}; give the right folder with "
+        "--package-dir my_pkg=DIR)")]
+    assert run("tf-between", "base_link", "base_link", "--robot", path, "--package-dir", f"my_pkg={second}").returncode == 0
+
+
 def test_a_workspace_package_wins_over_example_robot_data(tmp_path):
     if example_robot_data_dir() is None or not (example_robot_data_dir() / "robots" / "ur_description").is_dir():
         pytest.skip("example-robot-data with ur_description is not installed")

@@ -129,6 +129,10 @@ class PackageResolver:
             self._found[package] = self._search(package)
         return self._found[package]
 
+    def found(self) -> dict[str, Path]:
+        """The packages this resolver has found so far (name -> folder), in the order they were asked for."""
+        return dict(self._found)
+
     def _index(self, root: Path, depth: int = MAX_SCAN_DEPTH) -> dict[str, list[Path]]:
         if root not in self._indexes:
             self._indexes[root] = package_index(root, max_depth=depth)

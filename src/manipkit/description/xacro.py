@@ -174,14 +174,14 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     stderr = io.StringIO()
     try:
         # xacro's own messages go to stderr, which is captured; Python warnings (a package found twice
-        # during $(find)) are recorded instead and issued once each after it (_reissue)
+        # during $(find)) are recorded instead and issued once each after a successful expansion (_reissue);
+        # an error is one line, and names the package folder it concerns itself
         with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing), \
                 contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
             warnings.simplefilter("always")
             document = xacro.process_file(str(path), mappings=dict(args))
-    except Exception as exc:  # xacro raises many kinds; all are description errors
-        _reissue(caught)
-        raise _xacro_error(exc, path, missing) from None
+    except Exception as exc:  # xacro raises many kinds; all are description errors (one line: no warnings)
+        raise _xacro_error(exc, path, missing, resolver) from None
     _reissue(caught)
     files = [path, *(Path(f) for f in xacro.all_includes)]
     _remember_files(path, files)
@@ -360,7 +360,7 @@ def _read_description(path: Path) -> str:
 
 # Over 80 lines: one branch per kind of xacro error message, most specific first; the order matters,
 # so the branches stay together.
-def _xacro_error(exc: BaseException, path: Path, missing: list) -> DescriptionError:
+def _xacro_error(exc: BaseException, path: Path, missing: list, resolver: PackageResolver) -> DescriptionError:
     """One-line error for a failed xacro expansion: ``FILE.xacro:LINE: what, and what would be valid``."""
     import xml.parsers.expat
 
@@ -413,7 +413,8 @@ def _xacro_error(exc: BaseException, path: Path, missing: list) -> DescriptionEr
     if match:
         missing_file = match.group(1)
         location = at(pattern=r"<xacro:include\b[^>]*" + re.escape(Path(missing_file).name))
-        return DescriptionError(f"{location}: xacro:include: file not found: {missing_file}")
+        return DescriptionError(f"{location}: xacro:include: file not found: {missing_file}"
+                                f"{_package_hint(missing_file, resolver)}")
     match = re.search(r"unknown macro name: (?:xacro:)?(\S+)", text)
     if match:
         name = match.group(1)
@@ -444,6 +445,19 @@ def _xacro_error(exc: BaseException, path: Path, missing: list) -> DescriptionEr
     quoted = re.findall(r"'([^']{2,})'", text)
     location = at(*quoted) if quoted else current.name
     return DescriptionError(f"{location}: xacro: {text}")
+
+
+def _package_hint(missing_file: str, resolver: PackageResolver) -> str:
+    """For a file missing under a package folder ``$(find)`` chose: which folder that was, and how to choose another."""
+    for package, folder in resolver.found().items():
+        if Path(missing_file).is_relative_to(folder):
+            others = [str(f) for f in resolver.places(package) if f != folder]
+            also = f"; also found: {', '.join(others)}" if others else ""
+            builtin = resolver.builtin().get(package)
+            which = "the built-in copy " if builtin is not None and Path(builtin).resolve() == folder else ""
+            return (f" (package '{package}' is {which}{folder}{also}; give the right folder with "
+                    f"--package-dir {package}=DIR)")
+    return ""
 
 
 def _arg_declaration_pattern(name: str) -> str:
