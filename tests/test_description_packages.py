@@ -383,7 +383,13 @@ def _yourdfpy_pose(path: Path, packages: dict, monkeypatch, q: dict, source: str
 def test_real_ur5e_in_a_catkin_workspace_loads_the_workspace_ur_description(monkeypatch):
     packages = {"ur_description": REALWORLD / "src" / "universal_robot" / "ur_description"}
     rng = np.random.default_rng(13)
-    robot = manipkit.load(UR5E)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")  # as a Python user has it: once, though $(find) and package:// both ask
+        robot = manipkit.load(UR5E)
+    assert [str(w.message) for w in caught if "found in" in str(w.message)] == (
+        [] if example_robot_data_dir() is None else [
+            f"package 'ur_description' found in 2 places: using {packages['ur_description']}; not "
+            f"{example_robot_data_dir() / 'robots' / 'ur_description'} (choose with --package-dir ur_description=DIR)"])
     for trial in range(3):
         values = {} if trial == 0 else {
             joint.name: rng.uniform(max(joint.lower, -np.pi), min(joint.upper, np.pi)) for joint in robot.joints
