@@ -143,10 +143,12 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     declared ones (xacro itself would ignore them silently). An argument
     declared without a default is required: given, it is used (xacro would
     refuse the declaration even then); not given, the error says so and how
-    to give it, as it does for an argument read before its declaration. Every xacro error names the xacro
-    file and line it comes from (``FILE.xacro:LINE: ...``): xacro reports
-    no lines, so the line is found by searching the xacro sources for the
-    offending expression, argument, include or macro.
+    to give it, as it does for an argument read before its declaration.
+    Every xacro error names the xacro file and line it comes from
+    (``FILE.xacro:LINE: ...``): xacro reports no lines, so the line is found
+    by searching the xacro sources for the offending expression, argument,
+    include or macro. Python warnings raised while xacro runs (a package
+    found in two places) are issued once each after a successful expansion.
 
     Descriptions are untrusted input, so for the duration of the call
     (:func:`_xacro_hooks`) xacro's evaluation is replaced by a safe one:
