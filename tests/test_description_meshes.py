@@ -144,3 +144,65 @@ def test_validation_warns_about_the_file_the_viewer_would_look_for(files):
     assert warning == (f"r.urdf:2: link 'base' mesh package://my_pkg/meshes/gone.stl: no such file {missing} "
                        "(kinematics do not need meshes; the viewer does)")
     assert f"resolves to {missing}, which does not exist" in mesh_error("package://my_pkg/meshes/gone.stl", files)
+
+
+# ---------------------------------------------------------------- relative and file:// meshes warn as package:// ones
+
+
+def _relative_robot(folder: Path) -> Path:
+    """``folder/arm.urdf``: a relative mesh that is there, a relative one and a ``file://`` one that are not."""
+    path = folder / "arm.urdf"
+    path.write_text(f"""<robot name="r">
+  <link name="base_link"><visual><geometry><mesh filename="meshes/hand.stl"/></geometry></visual></link>
+  <link name="link_0"><visual><geometry><mesh filename="meshes/link_0.stl"/></geometry></visual></link>
+  <link name="link_1"><visual><geometry><mesh filename="file://{folder}/gone/link_1.stl"/></geometry></visual></link>
+  <joint name="j0" type="fixed"><parent link="base_link"/><child link="link_0"/></joint>
+  <joint name="j1" type="fixed"><parent link="link_0"/><child link="link_1"/></joint>
+</robot>""")
+    return path
+
+
+def test_missing_relative_and_file_meshes_warn_beside_the_description(files, monkeypatch):
+    monkeypatch.chdir(files["elsewhere"])
+    path = _relative_robot(files["robot"])
+    checked = check_urdf(path.read_text(), "arm.urdf")
+    warnings = package_uri_warnings(checked.robot, PackageResolver(near=path), "arm.urdf")
+    assert warnings == [
+        f"arm.urdf:3: link 'link_0' mesh meshes/link_0.stl: no such file {files['robot'] / 'meshes' / 'link_0.stl'}, "
+        "nor in the current folder (kinematics do not need meshes; the viewer does)",
+        f"arm.urdf:4: link 'link_1' mesh file://{files['robot']}/gone/link_1.stl: no such file "
+        f"{files['robot'] / 'gone' / 'link_1.stl'} (kinematics do not need meshes; the viewer does)",
+    ]
+    for uri in ("meshes/link_0.stl", f"file://{files['robot']}/gone/link_1.stl"):  # the viewer agrees: not found
+        with pytest.raises(PackageNotFoundError, match="not found"):
+            mesh_path(uri, PackageResolver(near=path), relative_to=files["robot"], link="l")
+
+
+def test_a_relative_mesh_in_the_current_folder_is_not_missing(files, monkeypatch):
+    path = _relative_robot(files["robot"])
+    (files["elsewhere"] / "meshes").mkdir()
+    (files["elsewhere"] / "meshes" / "link_0.stl").write_bytes(b"solid l\nendsolid l\n")
+    monkeypatch.chdir(files["elsewhere"])
+    warnings = package_uri_warnings(check_urdf(path.read_text(), "arm.urdf").robot, PackageResolver(near=path), "arm.urdf")
+    assert [w.split(":")[1] for w in warnings] == ["4"]  # only the file:// one
+
+
+def test_relative_meshes_are_not_checked_without_a_description_file(files):
+    text = _relative_robot(files["robot"]).read_text()
+    warnings = package_uri_warnings(check_urdf(text, "<string>").robot, PackageResolver(), "<string>")
+    assert len(warnings) == 1 and "file://" in warnings[0]  # an absolute path is still checked
+
+
+def test_missing_relative_mesh_is_a_warning_of_the_robot_and_on_the_command_line(files):
+    import subprocess
+    import sys
+
+    import manipkit
+
+    path = _relative_robot(files["robot"])
+    robot = manipkit.load(path)
+    assert len(robot.mesh_warnings) == 2 and robot.mesh_warnings == robot.warnings
+    result = subprocess.run([str(Path(sys.executable).parent / "tf-between"), "base_link", "link_1", "--robot", str(path)],
+                            capture_output=True, text=True, timeout=60, cwd=files["elsewhere"])
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [f"warning: {w}" for w in robot.mesh_warnings]

@@ -3,6 +3,7 @@
 import io
 import json
 import os
+import shutil
 import subprocess
 import sys
 import warnings
@@ -96,6 +97,51 @@ def test_a_checkout_without_src_is_indexed_from_its_outermost_package_folder(tmp
     assert tool_z(path) == 0.5
 
 
+def _colcon_workspace(ws: Path) -> dict[str, Path]:
+    """A ROS 2 workspace after ``colcon build``: src/, and build/, install/, log/ (each with colcon's
+    COLCON_IGNORE); install/PKG/share/PKG holds a copy of each package (an isolated install)."""
+    package(ws / "src" / "arm_description", "arm_description", z=0.5)
+    robot = top(ws / "src" / "my_robot" / "urdf" / "robot.urdf.xacro", "arm_description")
+    (ws / "src" / "my_robot" / "package.xml").write_text("<package><name>my_robot</name></package>")
+    package(ws / "install" / "arm_description" / "share" / "arm_description", "arm_description", z=0.5)
+    installed = top(ws / "install" / "my_robot" / "share" / "my_robot" / "urdf" / "robot.urdf.xacro", "arm_description")
+    (installed.parents[1] / "package.xml").write_text("<package><name>my_robot</name></package>")
+    for folder in ("build", "install", "log"):
+        (ws / folder).mkdir(exist_ok=True)
+        (ws / folder / "COLCON_IGNORE").write_text("")
+    return {"source": robot, "installed": installed}
+
+
+@pytest.mark.parametrize("which", ["source", "installed"])
+def test_a_ros2_colcon_workspace_is_found_from_a_file_in_src_or_in_install(tmp_path, which):
+    files = _colcon_workspace(tmp_path / "ros2_ws")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the install space's copies are not a second arm_description
+        assert tool_z(files[which]) == 0.5
+    assert PackageResolver(near=files[which]).find("arm_description") == (tmp_path / "ros2_ws" / "src" / "arm_description").resolve()
+
+
+def test_a_ros2_merged_install_space_is_found_from_the_file_alone(tmp_path):
+    # colcon build --merge-install: install/share/PKG for every package; not sourced (no AMENT_PREFIX_PATH)
+    share = tmp_path / "ws" / "install" / "share"
+    package(share / "arm_description", "arm_description", z=0.7)
+    path = top(share / "my_robot" / "urdf" / "robot.urdf.xacro", "arm_description")
+    (share / "my_robot" / "package.xml").write_text("<package><name>my_robot</name></package>")
+    (tmp_path / "ws" / "install" / "COLCON_IGNORE").write_text("")
+    assert tool_z(path) == 0.7
+
+
+def test_a_ros2_isolated_install_space_needs_ament_prefix_path_and_says_so(tmp_path, monkeypatch):
+    # install/PKG/share/PKG with no src/ beside it: each package is its own prefix, as AMENT_PREFIX_PATH lists them
+    ws = tmp_path / "ws"
+    files = _colcon_workspace(ws)
+    shutil.rmtree(ws / "src")
+    with pytest.raises(PackageNotFoundError, match="package 'arm_description' not found; .*--package-dir arm_description=DIR"):
+        manipkit.load(files["installed"])
+    monkeypatch.setenv("AMENT_PREFIX_PATH", os.pathsep.join(str(ws / "install" / p) for p in ("my_robot", "arm_description")))
+    assert tool_z(files["installed"]) == 0.5
+
+
 def test_packages_nested_below_a_package_are_not_indexed_as_colcon_does(tmp_path):
     outer = package(tmp_path / "ws" / "src" / "outer", "outer_pkg")
     package(outer / "inner", "inner_pkg")
@@ -154,14 +200,52 @@ def test_the_duplicate_warning_is_one_line_on_the_command_line(tmp_path):
                      f"not {(src / 'b_arm').resolve()} (choose with --package-dir my_pkg=DIR)"]
 
 
-@pytest.mark.xfail(strict=True, reason="expand_xacro (description/xacro.py, not this change) sends stderr to a "
-                   "buffer while xacro runs, so a warning raised by $(find) is not shown by the CLI")
 def test_the_duplicate_warning_of_a_find_only_package_reaches_the_command_line(tmp_path):
+    # raised during $(find), while xacro runs with stderr captured: recorded and issued once after it
     src = tmp_path / "ws" / "src"
     package(src / "a_arm", "my_pkg", z=0.1)
     package(src / "b_arm", "my_pkg", z=0.2)
     result = run("tf-between", "base_link", "tool", "--robot", top(tmp_path / "ws" / "robot.xacro", "my_pkg"))
-    assert result.returncode == 0 and "warning: package 'my_pkg' found in 2 places" in result.stderr
+    assert result.returncode == 0, result.stderr
+    assert [line for line in result.stderr.splitlines() if line.startswith("warning:")] == [
+        f"warning: package 'my_pkg' found in 2 places: using {(src / 'a_arm').resolve()}; "
+        f"not {(src / 'b_arm').resolve()} (choose with --package-dir my_pkg=DIR)"]
+
+
+def test_warnings_raised_during_xacro_are_issued_once_each_to_python(tmp_path):
+    src = tmp_path / "ws" / "src"
+    package(src / "a_arm", "my_pkg", z=0.1)
+    package(src / "b_arm", "my_pkg", z=0.2)
+    path = top(tmp_path / "ws" / "robot.xacro", "my_pkg")
+    path.write_text(path.read_text().replace("<xacro:arm/>", "<xacro:include filename=\"$(find my_pkg)/urdf/empty.xacro\"/>"
+                                             "<xacro:arm/>"))
+    (src / "a_arm" / "urdf" / "empty.xacro").write_text(f"<robot {XACRO}/>")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")  # as a Python user has it: shown once per text
+        assert tool_z(path) == 0.1  # two $(find my_pkg) in one expansion
+        assert tool_z(path) == 0.1  # a second load says it again
+    found = [str(w.message) for w in caught if "found in 2 places" in str(w.message)]
+    assert len(found) == 2 and len(set(found)) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a filter of the caller applies to the re-issued warning
+        with pytest.raises(UserWarning, match="found in 2 places"):
+            tool_z(path)
+
+
+def test_a_file_missing_in_the_package_found_names_that_folder_the_others_and_package_dir(tmp_path):
+    src = tmp_path / "ws" / "src"
+    first, second = package(src / "a_arm", "my_pkg"), package(src / "b_arm", "my_pkg")
+    (second / "urdf" / "extra.xacro").write_text((second / "urdf" / "arm.xacro").read_text())  # only in the one not used
+    path = top(tmp_path / "ws" / "robot.xacro", "my_pkg")
+    path.write_text(path.read_text().replace("/urdf/arm.xacro", "/urdf/extra.xacro"))
+    result = run("tf-between", "base_link", "base_link", "--robot", path)
+    assert result.returncode == 2
+    assert result.stderr.splitlines() == [  # one line: the duplicate warning is not printed before an error
+        (
+        f"tf-between: error: robot.xacro:1: xacro:include: file not found: {first.resolve() / 'urdf' / 'extra.xacro'} "
+        f"(package 'my_pkg' is {first.resolve()}; also found: {second.resolve()}; give the right folder with "
+        "--package-dir my_pkg=DIR)")]
+    assert run("tf-between", "base_link", "base_link", "--robot", path, "--package-dir", f"my_pkg={second}").returncode == 0
 
 
 def test_a_workspace_package_wins_over_example_robot_data(tmp_path):
@@ -299,7 +383,13 @@ def _yourdfpy_pose(path: Path, packages: dict, monkeypatch, q: dict, source: str
 def test_real_ur5e_in_a_catkin_workspace_loads_the_workspace_ur_description(monkeypatch):
     packages = {"ur_description": REALWORLD / "src" / "universal_robot" / "ur_description"}
     rng = np.random.default_rng(13)
-    robot = manipkit.load(UR5E)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")  # as a Python user has it: once, though $(find) and package:// both ask
+        robot = manipkit.load(UR5E)
+    assert [str(w.message) for w in caught if "found in" in str(w.message)] == (
+        [] if example_robot_data_dir() is None else [
+            f"package 'ur_description' found in 2 places: using {packages['ur_description']}; not "
+            f"{example_robot_data_dir() / 'robots' / 'ur_description'} (choose with --package-dir ur_description=DIR)"])
     for trial in range(3):
         values = {} if trial == 0 else {
             joint.name: rng.uniform(max(joint.lower, -np.pi), min(joint.upper, np.pi)) for joint in robot.joints

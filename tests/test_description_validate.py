@@ -235,7 +235,8 @@ def _xacro(tmp_path, *lines, name="arm.urdf.xacro"):
     "lines, fragment",
     [
         (['<xacro:arg name="l1"/>', '<link name="$(arg l1)"/>'],
-         'arm.urdf.xacro:3: <xacro:arg name="l1"> has no default; xacro needs default="..." (--arg l1=VALUE then overrides it)'),
+         'arm.urdf.xacro:3: <xacro:arg name="l1"> has no default, so xacro argument \'l1\' is required; '
+         "give it with --arg l1:=VALUE"),
         (['<xacro:arg name="l1" default="1"/>', '<link name="a"/>', '<link name="$(arg l2)"/>'],
          'arm.urdf.xacro:5: $(arg l2): no such xacro argument; declare <xacro:arg name="l2" default="..."/> (declared: l1)'),
         (['<xacro:property name="width" value="2"/>', '<link name="${width + widht}"/>'],

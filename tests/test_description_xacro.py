@@ -381,13 +381,14 @@ def test_a_bad_value_from_an_argument_names_the_file_the_expansion_read():
 def test_xacros_own_functions_are_restored_after_an_expansion(tmp_path):
     import xacro
 
-    own = (xacro.safe_eval, xacro.eval_extension, xacro.parse, xacro.eval_text, xacro.eval_all)
+    own = (xacro.safe_eval, xacro.eval_extension, xacro.parse, xacro.eval_text, xacro.eval_all, xacro.check_attrs)
     manipkit.load("planar_3r")
     path = tmp_path / "bad.urdf.xacro"
     path.write_text(HEAD + '<link name="${().__class__}"/>\n</robot>\n')
     with pytest.raises(DescriptionError):
         manipkit.load(path)
-    assert (xacro.safe_eval, xacro.eval_extension, xacro.parse, xacro.eval_text, xacro.eval_all) == own
+    assert (xacro.safe_eval, xacro.eval_extension, xacro.parse, xacro.eval_text, xacro.eval_all,
+            xacro.check_attrs) == own
 
 
 def test_tokenize_takes_its_separators_as_characters():
@@ -417,3 +418,132 @@ def test_elements_nested_too_deeply_do_not_blame_a_macro(tmp_path):
     assert str(info.value) == ("deep.urdf.xacro: xacro recursion too deep (elements or properties nested more than "
                                "about a few hundred levels)")
     assert "?" not in str(info.value)
+
+
+# --------------------------------------------------------------------------
+# xacro arguments: required ones are named as such, with the --arg to add
+# --------------------------------------------------------------------------
+
+# As UR's ROS 2 ur.urdf.xacro: the robot's name is read on line 2, before the declaration on line 5.
+READ_BEFORE_DECLARED = ('<?xml version="1.0"?>\n<robot xmlns:xacro="http://wiki.ros.org/xacro" name="$(arg name)">\n'
+                        '  <!-- robot name parameter -->\n  <xacro:arg name="ur_type" default="ur5x"/>\n'
+                        '  <xacro:arg name="name"{default}/>\n  <link name="base_link"/>\n</robot>\n')
+
+
+def _one_line_error(path: Path, *args: str) -> str:
+    """The CLI's stderr for ``path``: exit 2, exactly one line, no traceback."""
+    result = _run("base_link", "base_link", "--robot", path, *args, cwd=path.parent)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr, result.stderr
+    return result.stderr
+
+
+def test_an_argument_read_before_its_declaration_without_default_is_named_required(tmp_path):
+    path = tmp_path / "ur.urdf.xacro"
+    path.write_text(READ_BEFORE_DECLARED.format(default=""))
+    expected = ("ur.urdf.xacro:2: xacro argument 'name' is required (declared without a default at ur.urdf.xacro:5); "
+                "give it with --arg name:=VALUE")
+    with pytest.raises(DescriptionError) as info:
+        manipkit.load(path)
+    assert str(info.value) == expected
+    assert "no such xacro argument" not in str(info.value)
+    assert _one_line_error(path) == f"tf-between: error: {expected}\n"
+    assert manipkit.load(path, name="my_ur").name == "my_ur"  # what the message says to do works, in both
+    assert _run("base_link", "base_link", "--robot", path, "--arg", "name:=my_ur", cwd=tmp_path).returncode == 0
+
+
+def test_an_argument_read_before_its_declaration_with_a_default_says_the_default_does_not_apply(tmp_path):
+    # xacro evaluates the <robot> element's attributes before the elements inside it: the default is not set yet
+    path = tmp_path / "ur.urdf.xacro"
+    path.write_text(READ_BEFORE_DECLARED.format(default=' default="ur"'))
+    expected = ("ur.urdf.xacro:2: xacro argument 'name' is read before its declaration at ur.urdf.xacro:5, so its "
+                "default 'ur' does not apply yet; give it with --arg name:=VALUE (or declare it before its first use)")
+    assert _one_line_error(path) == f"tf-between: error: {expected}\n"
+    assert manipkit.load(path, name="ur").name == "ur"
+
+
+def test_a_declaration_without_default_is_required_and_used_when_given(tmp_path):
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(HEAD + '<xacro:arg name="reach"/>\n<link name="base_link"/><link name="tool"/>\n'
+                    '<joint name="j" type="fixed"><parent link="base_link"/><child link="tool"/>'
+                    '<origin xyz="$(arg reach) 0 0"/></joint>\n</robot>\n')
+    assert _one_line_error(path) == ('tf-between: error: arm.urdf.xacro:3: <xacro:arg name="reach"> has no default, '
+                                     "so xacro argument 'reach' is required; give it with --arg reach:=VALUE\n")
+    assert manipkit.load(path, reach="0.25").transform("base_link", "tool")[0, 3] == 0.25
+    assert manipkit.load(path, reach="0.25").xacro_args == {"reach": "0.25"}
+
+
+def test_a_required_argument_declared_in_an_include_names_that_file(tmp_path):
+    (tmp_path / "args.xacro").write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro">\n\n'
+                                         '<xacro:arg name="prefix"/></robot>\n')
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(HEAD + '<link name="$(arg prefix)base_link"/>\n<xacro:include filename="args.xacro"/>\n</robot>\n')
+    assert _one_line_error(path).endswith("arm.urdf.xacro:3: xacro argument 'prefix' is required (declared without a "
+                                          "default at args.xacro:3); give it with --arg prefix:=VALUE\n")
+
+
+def test_an_argument_read_but_never_declared_can_be_given(tmp_path):
+    # UR's ROS 1 ur.xacro reads $(arg robot_model) and declares it nowhere: valid xacro, the caller gives it
+    path = tmp_path / "ur.xacro"
+    path.write_text(HEAD.replace('name="r"', 'name="$(arg robot_model)_robot"') +
+                    '<xacro:arg name="safety" default="false"/>\n<link name="base_link"/>\n</robot>\n')
+    message = _one_line_error(path)
+    assert message == ('tf-between: error: ur.xacro:2: $(arg robot_model): no such xacro argument; declare '
+                       '<xacro:arg name="robot_model" default="..."/> (declared: safety) or give it with '
+                       "--arg robot_model:=VALUE\n")
+    assert manipkit.load(path, robot_model="ur5e").name == "ur5e_robot"
+    with pytest.raises(DescriptionError, match=r"unknown xacro argument robot_modle; declared: safety \(default false\)"):
+        manipkit.load(path, robot_model="ur5e", robot_modle="x")  # a typo is still caught
+
+
+# --------------------------------------------------------------------------
+# Errors inside ${...}: file:line, the expression once, the reason
+# --------------------------------------------------------------------------
+
+# UR's ur_common.xacro: YAML files read into properties, evaluated when a later property reads them
+UR_COMMON = (HEAD + '<xacro:arg name="ur_type" default="ur5x"/>\n'
+             '<xacro:arg name="visual_params" default="$(find my_ur)/config/$(arg ur_type)/visual_parameters.yaml"/>\n'
+             '<xacro:macro name="read_model_data" params="visual_parameters_file">\n'
+             '  <xacro:property name="config_visual_parameters" value="${{xacro.load_yaml(visual_parameters_file)}}"/>\n'
+             "  <xacro:property name=\"sec_mesh_files\" value=\"${{config_visual_parameters['mesh_files']}}\" scope=\"parent\"/>\n"
+             '</xacro:macro>\n<xacro:read_model_data visual_parameters_file="$(arg visual_params)"/>\n'
+             "<link name=\"base_link\"/><link name=\"${{sec_mesh_files['base']}}\"/>\n</robot>\n")
+
+
+def _ur_package(tmp_path: Path) -> Path:
+    package = tmp_path / "ws" / "src" / "my_ur"
+    (package / "config" / "ur5e").mkdir(parents=True)
+    (package / "package.xml").write_text("<package><name>my_ur</name></package>")
+    (package / "config" / "ur5e" / "visual_parameters.yaml").write_text("mesh_files:\n  base: base_mesh\n")
+    (package / "urdf").mkdir()
+    path = package / "urdf" / "ur.urdf.xacro"
+    path.write_text(UR_COMMON.format())
+    return path
+
+
+def test_a_missing_yaml_file_read_by_a_lazy_property_names_the_line_and_the_file_once(tmp_path):
+    path = _ur_package(tmp_path)
+    missing = path.parents[1] / "config" / "ur5x" / "visual_parameters.yaml"
+    message = _one_line_error(path)
+    assert message == (f"tf-between: error: ur.urdf.xacro:6: xacro expression "
+                       f"${{xacro.load_yaml(visual_parameters_file)}}: YAML file {missing.resolve()}: no such file\n")
+    assert message.count("load_yaml") == 1 and "when evaluating" not in message
+    text = describe(resolve_robot(path), {"ur_type": "ur5e"}).text  # the argument that was missing
+    assert '<link name="base_mesh"/>' in text
+
+
+@pytest.mark.skipif(not (REALWORLD / "universal_robot").is_dir(), reason="the shared real-world workspace is not here")
+def test_real_ur_ros1_with_a_missing_parameters_file_gives_one_located_line():
+    urdf = REALWORLD / "universal_robot" / "ur_description" / "urdf"
+    config = urdf.parent / "config"
+    args = ["--arg", "robot_model:=ur5e"] + [f"--arg={name}_params:={config / 'ur5e' / file}" for name, file in (
+        ("joint_limit", "joint_limits.yaml"), ("kinematics", "default_kinematics.yaml"),
+        ("physical", "physical_parameters.yaml"))] + [f"--arg=visual_params:={config / 'ur5x' / 'visual_parameters.yaml'}"]
+    message = _one_line_error(urdf / "ur.xacro", *args)
+    assert message == ("tf-between: error: ur_common.xacro:35: xacro expression "
+                       "${xacro.load_yaml(visual_parameters_file)}: YAML file "
+                       f"{config / 'ur5x' / 'visual_parameters.yaml'}: no such file\n")
+    empty = _one_line_error(urdf / "ur.xacro", "--arg", "robot_model:=ur5e")  # the *_params left at their default ''
+    assert empty == ("tf-between: error: ur_common.xacro:32: xacro expression "
+                     "${xacro.load_yaml(joint_limits_parameters_file)}: xacro.load_yaml of an empty file name; give the "
+                     "YAML file (an argument holding its path left empty?)\n")

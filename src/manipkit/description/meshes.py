@@ -2,10 +2,11 @@
 
 The one mesh resolver of manipkit: the viewer needs the files
 (:func:`urdf_with_mesh_paths` gives it URDF text whose meshes are absolute
-paths), and validation warns about ``package://`` meshes that do not resolve
+paths), and validation warns about meshes that do not resolve
 (:func:`manipkit.description.validate.package_uri_warnings`). Both map a
 ``package://`` URI to a file with
-:meth:`~manipkit.description.packages.PackageResolver.resolve_uri`.
+:meth:`~manipkit.description.packages.PackageResolver.resolve_uri`, and any
+other path with :func:`mesh_search_paths`.
 
 Kinematics never need meshes, so nothing here runs when a robot is only
 loaded for transforms (docs/architecture.md).
@@ -23,7 +24,7 @@ from manipkit.errors import PackageNotFoundError
 if TYPE_CHECKING:
     from manipkit.description.packages import PackageResolver
 
-__all__ = ["mesh_path", "urdf_with_mesh_paths"]
+__all__ = ["mesh_path", "mesh_search_paths", "urdf_with_mesh_paths"]
 
 
 def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, link: str) -> Path:
@@ -78,12 +79,31 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
         return path
     if "://" in uri and not uri.startswith("file://"):
         raise PackageNotFoundError(f"{where}: only package://, file:// and file paths are supported")
-    path = Path(resolver.resolve_uri(uri)).expanduser()
-    searched = [path] if path.is_absolute() else [Path(relative_to) / path, Path.cwd() / path]
+    searched = mesh_search_paths(uri, resolver, relative_to=relative_to)
     for candidate in searched:
         if candidate.is_file():
             return candidate.resolve()
     raise PackageNotFoundError(f"{where} not found; looked at {', '.join(map(str, searched))}")
+
+
+def mesh_search_paths(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike) -> list[Path]:
+    """Where a mesh URI that is not ``package://`` is looked for, in order (the files may not exist).
+
+    ``file:///path`` and absolute paths name one file; a relative path is
+    looked for in ``relative_to`` (the description file's folder), then in
+    the current folder. :func:`mesh_path` takes the first that exists;
+    :func:`manipkit.description.validate.package_uri_warnings` warns when none does.
+
+    Examples
+    --------
+    >>> from manipkit.description.packages import PackageResolver
+    >>> mesh_search_paths("file:///meshes/a.stl", PackageResolver(), relative_to="/robot")
+    [PosixPath('/meshes/a.stl')]
+    >>> mesh_search_paths("meshes/a.stl", PackageResolver(), relative_to="/robot")[0]
+    PosixPath('/robot/meshes/a.stl')
+    """
+    path = Path(resolver.resolve_uri(uri)).expanduser()
+    return [path] if path.is_absolute() else [Path(relative_to) / path, Path.cwd() / path]
 
 
 def urdf_with_mesh_paths(

@@ -24,11 +24,16 @@ from manipkit.errors import InputFileError, PackageNotFoundError
 from manipkit.inputs import MAX_TABLE_BYTES, check_input_file
 
 __all__ = [
-    "IGNORE_MARKERS", "MAX_SCAN_DEPTH", "MAX_SCAN_FOLDERS", "PACKAGE_SCHEME", "PackageResolver",
+    "IGNORE_MARKERS", "MAX_SCAN_DEPTH", "MAX_SCAN_FOLDERS", "PACKAGE_SCHEME", "PackageResolver", "WARNING_REGISTRY",
     "package_index", "split_package_uri", "workspace_root",
 ]
 
 PACKAGE_SCHEME = "package://"
+
+#: The ``warnings`` registry of the package lookup and of xacro's expansion (which re-issues what it
+#: recorded into it): a warning shows once until the warning filters next change (one load), as
+#: Python's ``default`` action does; under ``always`` (``pytest.warns``) every one shows.
+WARNING_REGISTRY: dict = {}
 
 #: A folder scan for ``package.xml`` files stops (with a warning) after this many folders.
 MAX_SCAN_FOLDERS = 20_000
@@ -124,6 +129,10 @@ class PackageResolver:
             self._found[package] = self._search(package)
         return self._found[package]
 
+    def found(self) -> dict[str, Path]:
+        """The packages this resolver has found so far (name -> folder), in the order they were asked for."""
+        return dict(self._found)
+
     def _index(self, root: Path, depth: int = MAX_SCAN_DEPTH) -> dict[str, list[Path]]:
         if root not in self._indexes:
             self._indexes[root] = package_index(root, max_depth=depth)
@@ -164,11 +173,11 @@ class PackageResolver:
             raise PackageNotFoundError(f"package '{package}' not found; searched {self._searched_text()}; "
                                        f"give it with --package-dir {package}=DIR")
         if len(found) > 1:
-            # Once per resolver, but not once per process (warn_explicit without a registry): the first
-            # resolver of a load may warn while xacro runs with stderr captured, the next one must say it again.
+            # Once per resolver, and once per load: xacro's expansion re-issues the warnings it recorded
+            # into the same registry, so the resolver that reads the meshes next does not say it again.
             warnings.warn_explicit(f"package '{package}' found in {len(found)} places: using {found[0]}; not "
                                    f"{', '.join(map(str, found[1:]))} (choose with --package-dir {package}=DIR)",
-                                   UserWarning, __file__, 0, module=__name__, registry=None)
+                                   UserWarning, __file__, 0, module=__name__, registry=WARNING_REGISTRY)
         return found[0]
 
     def _searched_text(self) -> str:

@@ -18,8 +18,8 @@ Some problems do not make the kinematics wrong; they are returned as
 warnings instead (:attr:`CheckedURDF.warnings`): a non-unit joint axis (it is
 normalised in the returned text), a revolute or prismatic joint whose limits
 leave it no motion, an inertia tensor that is not positive semi-definite, and
-``package://`` mesh URIs that do not resolve (:func:`package_uri_warnings`;
-only the viewer needs the meshes).
+mesh files that do not exist (``package://``, ``file://`` or a path beside the
+description; :func:`package_uri_warnings`; only the viewer needs the meshes).
 """
 
 from __future__ import annotations
@@ -550,33 +550,45 @@ def _local(tag: str) -> str:
 
 
 def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=None, limit: int = 3) -> list[str]:
-    """Warnings for ``package://`` mesh and texture URIs that do not resolve to a file.
+    """Warnings for mesh and texture files that do not exist: ``package://``, ``file://`` and plain paths.
 
     Kinematics do not need meshes, so these are warnings (the viewer raises
     its own error for them, :func:`manipkit.description.meshes.mesh_path`).
-    A URI is resolved as the viewer resolves it, with
-    :meth:`~manipkit.description.packages.PackageResolver.resolve_uri`.
+    A URI is resolved as the viewer resolves it: ``package://`` with
+    :meth:`~manipkit.description.packages.PackageResolver.resolve_uri`, other
+    paths with :func:`~manipkit.description.meshes.mesh_search_paths`, a
+    relative path against the folder of ``resolver.near`` (the description
+    file; without one, relative paths are not checked). Other schemes
+    (``http://``) are left to the viewer.
 
     Parameters
     ----------
     root : lxml element
         The ``<robot>`` element from :func:`check_urdf`.
     resolver : manipkit.description.packages.PackageResolver
-        Answers ``package://PKG``.
+        Answers ``package://PKG``; its ``near`` is the description file.
     where, locate
         As for :func:`check_urdf`.
     limit : int
         At most this many missing files are named one by one (then a count).
     """
+    from manipkit.description.meshes import mesh_search_paths
+
     checker = _Checker(where, locate)
     uris: dict[str, tuple[object, object]] = {}
     for link in root.findall("link"):
         for element in link.iter("mesh", "texture"):
             uri = element.get("filename")
-            if uri and uri.startswith(PACKAGE_SCHEME) and uri not in uris:
+            if uri and uri not in uris and ("://" not in uri or uri.startswith((PACKAGE_SCHEME, "file://"))):
                 uris[uri] = (element, link)
     warnings, missing_packages, missing_files = [], {}, []
     for uri, (element, link) in uris.items():
+        if not uri.startswith(PACKAGE_SCHEME):
+            folder = os.path.dirname(os.path.abspath(resolver.near)) if resolver.near is not None else None
+            searched = mesh_search_paths(uri, resolver, relative_to=folder or ".")
+            if (folder is not None or searched[0].is_absolute()) and not any(p.is_file() for p in searched):
+                missing_files.append((element, link, uri, f"{searched[0]}{', nor in the current folder' * (len(searched) > 1)}"))
+            continue
         package, _ = split_package_uri(uri)
         if not package:
             missing_packages.setdefault("", [(element, link, uri, "empty package name (package:/// has three "
@@ -600,5 +612,5 @@ def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=
         warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}: no such file {path} "
                         "(kinematics do not need meshes; the viewer does)")
     if len(missing_files) > limit:
-        warnings.append(f"{where}: {len(missing_files) - limit} more package:// mesh file(s) not found")
+        warnings.append(f"{where}: {len(missing_files) - limit} more mesh file(s) not found")
     return warnings

@@ -20,10 +20,11 @@ import difflib
 import os
 import re
 import time
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
-from manipkit.description.packages import PackageResolver
+from manipkit.description.packages import WARNING_REGISTRY, PackageResolver
 from manipkit.description.sources import RobotSource
 from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
@@ -101,9 +102,14 @@ def xacro_arg_declarations(files) -> dict[str, str | None]:
 
     Read with lxml; a file that does not parse is skipped (xacro reports it).
     """
+    return {name: default for name, (_, default) in _arg_declaration_sites(files).items()}
+
+
+def _arg_declaration_sites(files) -> dict[str, tuple[str, str | None]]:
+    """``<xacro:arg>`` declarations in ``files``: name -> (``FILE:LINE``, default or None), first wins."""
     from lxml import etree
 
-    declared: dict[str, str | None] = {}
+    declared: dict[str, tuple[str, str | None]] = {}
     parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True)
     for file in files:
         try:
@@ -115,19 +121,34 @@ def xacro_arg_declarations(files) -> dict[str, str | None]:
             if element.tag == "xacro:arg" or (element.prefix == "xacro" and etree.QName(element).localname == "arg"):
                 name = element.get("name")
                 if name:
-                    declared.setdefault(name, element.get("default"))
+                    declared.setdefault(name, (f"{Path(file).name}:{element.sourceline}", element.get("default")))
     return declared
+
+
+def _arg_uses(files) -> set[str]:
+    """The argument names ``$(arg NAME)`` reads in ``files`` (outside comments)."""
+    used: set[str] = set()
+    for file in files:
+        text = _source_text(Path(file))
+        if text is not None:
+            used.update(re.findall(r"\$\(arg\s+([^\s()]+)\s*\)", _without_comments(text)))
+    return used
 
 
 def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) -> XacroExpansion:
     """Expand a xacro file to URDF text, with ``$(find)`` answered by ``resolver``.
 
     Unknown argument names (declared in none of the files the expansion
-    read) are an error listing the declared ones (xacro itself would ignore
-    them silently). Every xacro error names the xacro
-    file and line it comes from (``FILE.xacro:LINE: ...``): xacro reports
-    no lines, so the line is found by searching the xacro sources for the
-    offending expression, argument, include or macro.
+    read, and read by no ``$(arg NAME)`` there) are an error listing the
+    declared ones (xacro itself would ignore them silently). An argument
+    declared without a default is required: given, it is used (xacro would
+    refuse the declaration even then); not given, the error says so and how
+    to give it, as it does for an argument read before its declaration.
+    Every xacro error names the xacro file and line it comes from
+    (``FILE.xacro:LINE: ...``): xacro reports no lines, so the line is found
+    by searching the xacro sources for the offending expression, argument,
+    include or macro. Python warnings raised while xacro runs (a package
+    found in two places) are issued once each after a successful expansion.
 
     Descriptions are untrusted input, so for the duration of the call
     (:func:`_xacro_hooks`) xacro's evaluation is replaced by a safe one:
@@ -154,21 +175,37 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
     stderr = io.StringIO()
     try:
-        with _xacro_hooks(path, resolver, missing), contextlib.redirect_stderr(stderr), \
-                contextlib.redirect_stdout(stderr):
+        # xacro's own messages go to stderr, which is captured; Python warnings (a package found twice
+        # during $(find)) are recorded instead and issued once each after a successful expansion (_reissue);
+        # an error is one line, and names the package folder it concerns itself
+        with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing), \
+                contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
+            warnings.simplefilter("always")
             document = xacro.process_file(str(path), mappings=dict(args))
-    except Exception as exc:  # xacro raises many kinds; all are description errors
-        declared = xacro_arg_declarations([path, *xacro.all_includes])
-        raise _xacro_error(exc, path, missing, declared) from None
+    except Exception as exc:  # xacro raises many kinds; all are description errors (one line: no warnings)
+        raise _xacro_error(exc, path, missing, resolver) from None
+    _reissue(caught)
     files = [path, *(Path(f) for f in xacro.all_includes)]
     _remember_files(path, files)
-    # xacro ignores arguments nobody declared; here they are an error (a typo would pass silently)
+    # xacro ignores arguments nobody declared or reads; here they are an error (a typo would pass silently).
+    # `$(arg NAME)` without a declaration is valid xacro: the argument must then be given.
     declared = xacro_arg_declarations(files)
-    unknown = sorted(set(args) - set(declared))
+    unknown = sorted(set(args) - set(declared) - _arg_uses(files))
     if unknown:
         valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
         raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
     return XacroExpansion(document.toxml(), declared)
+
+
+def _reissue(caught: list) -> None:
+    """Issue the warnings recorded during an expansion again, once per text, into the package lookup's registry."""
+    seen = set()
+    for caught_warning in caught:
+        key = (str(caught_warning.message), caught_warning.category)
+        if key not in seen:
+            seen.add(key)
+            warnings.warn_explicit(caught_warning.message, caught_warning.category, caught_warning.filename,
+                                   caught_warning.lineno, registry=WARNING_REGISTRY)
 
 
 # Over 80 lines: one hook per xacro function replaced, each a few lines, patched and restored together.
@@ -187,7 +224,8 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
             missing.append((package, exc))  # xacro wraps exceptions; keep ours
             raise
 
-    originals = {name: getattr(xacro, name) for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all")}
+    originals = {name: getattr(xacro, name)
+                 for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all", "check_attrs")}
     patched = []  # (substitution_args module, its own _eval_find), once patched
     deadline = time.monotonic() + EXPANSION_SECONDS
     counts = {"elements": 0, "characters": 0}
@@ -238,9 +276,22 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
             raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
         return originals["eval_all"](node, macros, symbols)
 
+    def check_attrs(tag, required, optional):  # <xacro:arg name="x"/>: a required argument, used when given
+        if tag.tagName == "xacro:arg" and "default" in required and not tag.hasAttribute("default"):
+            name = tag.getAttribute("name")
+            given = xacro.substitution_args_context["arg"]
+            if name and name in given:
+                return originals["check_attrs"](tag, ["name"], []) + [given[name]]
+            if name:
+                location = _find_in_files([Path(f) for f in reversed(xacro.filestack or []) if f],
+                                          pattern=_arg_declaration_pattern(name))
+                raise DescriptionError(f'{location or path.name}: <xacro:arg name="{name}"> has no default, so xacro '
+                                       f"argument '{name}' is required; give it with --arg {name}:=VALUE")
+        return originals["check_attrs"](tag, required, optional)
+
     assert MAX_SIZE <= MAX_TEXT_CHARACTERS  # an expression's value always fits in one text
     hooks = {"eval_extension": eval_extension, "safe_eval": safe_eval, "parse": parse, "eval_text": eval_text,
-             "eval_all": eval_all}
+             "eval_all": eval_all, "check_attrs": check_attrs}
     for name, hook in hooks.items():
         setattr(xacro, name, hook)
     try:
@@ -311,7 +362,7 @@ def _read_description(path: Path) -> str:
 
 # Over 80 lines: one branch per kind of xacro error message, most specific first; the order matters,
 # so the branches stay together.
-def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) -> DescriptionError:
+def _xacro_error(exc: BaseException, path: Path, missing: list, resolver: PackageResolver) -> DescriptionError:
     """One-line error for a failed xacro expansion: ``FILE.xacro:LINE: what, and what would be valid``."""
     import xml.parsers.expat
 
@@ -357,23 +408,15 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
         reason = error_reason(evaluating[-1].exc)
         location = at("${" + expression + "}", expression)
         return DescriptionError(f"{location}: xacro expression ${{{' '.join(expression.split())}}}: {reason}")
-    if "missing attribute 'default'" in text and "xacro:arg" in text:
-        location = at(pattern=r"<xacro:arg\b(?![^>]*\bdefault\s*=)[^>]*>")
-        name = _attribute_on_line(files, location, "name") or "NAME"
-        return DescriptionError(f'{location}: <xacro:arg name="{name}"> has no default; xacro needs '
-                                f'default="..." (--arg {name}=VALUE then overrides it)')
     match = re.search(r"Undefined substitution argument (\S+)", text)
     if match:
-        name = match.group(1)
-        location = at(pattern=r"\$\(arg\s+" + re.escape(name) + r"\s*\)")
-        valid = ", ".join(declared) or "none"
-        return DescriptionError(f'{location}: $(arg {name}): no such xacro argument; declare '
-                                f'<xacro:arg name="{name}" default="..."/> (declared: {valid})')
+        return _undefined_arg_error(match.group(1), path, files, at)
     match = re.search(r"No such file or directory: (\S+)", text)
     if match:
         missing_file = match.group(1)
         location = at(pattern=r"<xacro:include\b[^>]*" + re.escape(Path(missing_file).name))
-        return DescriptionError(f"{location}: xacro:include: file not found: {missing_file}")
+        return DescriptionError(f"{location}: xacro:include: file not found: {missing_file}"
+                                f"{_package_hint(missing_file, resolver)}")
     match = re.search(r"unknown macro name: (?:xacro:)?(\S+)", text)
     if match:
         name = match.group(1)
@@ -404,6 +447,41 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, declared: dict) 
     quoted = re.findall(r"'([^']{2,})'", text)
     location = at(*quoted) if quoted else current.name
     return DescriptionError(f"{location}: xacro: {text}")
+
+
+def _package_hint(missing_file: str, resolver: PackageResolver) -> str:
+    """For a file missing under a package folder ``$(find)`` chose: which folder that was, and how to choose another."""
+    for package, folder in resolver.found().items():
+        if Path(missing_file).is_relative_to(folder):
+            others = [str(f) for f in resolver.places(package) if f != folder]
+            also = f"; also found: {', '.join(others)}" if others else ""
+            builtin = resolver.builtin().get(package)
+            which = "the built-in copy " if builtin is not None and Path(builtin).resolve() == folder else ""
+            return (f" (package '{package}' is {which}{folder}{also}; give the right folder with "
+                    f"--package-dir {package}=DIR)")
+    return ""
+
+
+def _arg_declaration_pattern(name: str) -> str:
+    return r"<xacro:arg\b[^>]*\bname\s*=\s*[\"']" + re.escape(name) + r"[\"']"
+
+
+def _undefined_arg_error(name: str, path: Path, files: list[Path], at) -> DescriptionError:
+    """``$(arg NAME)`` met before any value: required (declared later, or without a default) or undeclared."""
+    location = at(pattern=r"\$\(arg\s+" + re.escape(name) + r"\s*\)")
+    sites = _arg_declaration_sites(list(dict.fromkeys([*files, *_written_includes(path)])))
+    give = f"give it with --arg {name}:=VALUE"
+    if name in sites:
+        declared_at, default = sites[name]
+        if default is None:
+            return DescriptionError(f"{location}: xacro argument '{name}' is required (declared without a default "
+                                    f"at {declared_at}); {give}")
+        return DescriptionError(f"{location}: xacro argument '{name}' is read before its declaration at "
+                                f"{declared_at}, so its default '{default}' does not apply yet; {give} "
+                                "(or declare it before its first use)")
+    valid = ", ".join(sites) or "none"
+    return DescriptionError(f'{location}: $(arg {name}): no such xacro argument; declare <xacro:arg name="{name}" '
+                            f'default="..."/> (declared: {valid}) or {give}')
 
 
 def _exception_chain(exc: BaseException) -> list[BaseException]:

@@ -53,7 +53,7 @@ from manipkit.description.expressions import (
     refusal,
     value_size,
 )
-from manipkit.errors import DescriptionError
+from manipkit.errors import DescriptionError, InputFileError
 from manipkit.inputs import MAX_TABLE_BYTES, read_text
 
 __all__ = [
@@ -341,6 +341,9 @@ def load_yaml(filename) -> object:
     import xacro
     import yaml
 
+    if not str(filename).strip():  # an argument left at its default "" (UR's ur.xacro without its *_params)
+        raise InputFileError("xacro.load_yaml of an empty file name; give the YAML file (an argument holding "
+                             "its path left empty?)")
     filename = xacro.abs_filename_spec(str(filename))
     name = Path(filename).name
     started = time.monotonic()
