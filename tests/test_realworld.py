@@ -10,9 +10,9 @@ built here (each ``package.xml``'s ``<name>``), and yourdfpy (which follows
 mimic joints) composes the chain. Joint values are drawn inside yourdfpy's
 limits and given to manipkit by name.
 
-Mimic joints are being added to manipkit (kinematics/robot.py, the lead's
-branch): until then the comparisons that depend on a mimic joint are strict
-xfails, so they flip when mimic lands.
+Links moved by a mimic joint (the Franka and PR2 fingers) are compared on
+their own, as are the independent joints manipkit lists (yourdfpy's actuated
+joints).
 """
 
 from __future__ import annotations
@@ -48,7 +48,6 @@ ROBOTS = {
     "abb_irb2400": ("abb/abb_irb2400_support/urdf/irb2400.xacro", {}, ("base_link", "tool0")),
 }
 WITH_MIMIC = {"panda", "pr2"}  # Franka's second finger; PR2's gripper fingers and fingertips
-MIMIC_XFAIL = pytest.mark.xfail(strict=True, reason="mimic joints: lead's branch")
 CONFIGURATIONS = 5  # random in-limit configurations per robot, besides zero
 TOLERANCE = 1e-9
 
@@ -140,12 +139,8 @@ def loaded(packages):
 
 
 def manipkit_q(robot, configuration: dict[str, float]) -> np.ndarray:
-    """yourdfpy's actuated values by name, in ``robot.joint_names`` order.
-
-    Until manipkit follows mimic joints, it lists them as joints of their own: they get 0 here (manipkit's
-    default), so poses behind them differ from yourdfpy's (the strict xfails below).
-    """
-    return np.array([configuration.get(name, 0.0) for name in robot.joint_names])
+    """yourdfpy's actuated values by name, in ``robot.joint_names`` order (the same joints: checked by a test)."""
+    return np.array([configuration[name] for name in robot.joint_names])
 
 
 def _compare(robot, reference: Reference, links: list[str], seed: int) -> None:
@@ -153,7 +148,7 @@ def _compare(robot, reference: Reference, links: list[str], seed: int) -> None:
         q = manipkit_q(robot, configuration)
         for link in links:
             expected = reference.pose(configuration, reference.root, link)
-            actual = robot.transform(robot.root_link, link, q)
+            actual = robot.transform(robot.root_link, link, q, check_limits=False)
             np.testing.assert_allclose(actual, expected, atol=TOLERANCE, rtol=0,
                                        err_msg=f"{link} at configuration {index}: {configuration}")
 
@@ -174,7 +169,7 @@ def test_every_link_not_moved_by_a_mimic_joint_matches_yourdfpy(name, loaded):
     _compare(robot, reference, links, seed=13)
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=MIMIC_XFAIL) for n in ROBOTS if n in WITH_MIMIC])
+@pytest.mark.parametrize("name", [n for n in ROBOTS if n in WITH_MIMIC])
 def test_every_link_moved_by_a_mimic_joint_matches_yourdfpy(name, loaded):
     robot, reference = loaded(name)
     links = sorted(reference.behind_mimic)
@@ -182,7 +177,7 @@ def test_every_link_moved_by_a_mimic_joint_matches_yourdfpy(name, loaded):
     _compare(robot, reference, links, seed=14)
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=MIMIC_XFAIL) if n in WITH_MIMIC else n for n in ROBOTS])
+@pytest.mark.parametrize("name", list(ROBOTS))
 def test_the_joint_names_are_yourdfpys_actuated_joints(name, loaded):
     robot, reference = loaded(name)
     assert sorted(robot.joint_names) == sorted(reference.actuated)
@@ -223,7 +218,6 @@ def test_tf_between_with_the_file_path_only_matches_yourdfpy(name, loaded):
     np.testing.assert_allclose(T, expected, atol=TOLERANCE, rtol=0)
 
 
-@MIMIC_XFAIL
 def test_franka_right_finger_follows_the_left_one():
     # panda_finger_joint2 (hand -> right finger): origin (0, 0, 0.0584), axis (0, -1, 0), mimics finger_joint1
     # with multiplier 1, offset 0; so with finger_joint1 = 0.03 the right finger sits at (0, -0.03, 0.0584).
@@ -235,7 +229,6 @@ def test_franka_right_finger_follows_the_left_one():
     np.testing.assert_allclose(T, expected, atol=TOLERANCE, rtol=0)
 
 
-@MIMIC_XFAIL
 def test_pr2_gripper_fingertip_follows_the_finger_joint(loaded):
     # l_gripper_r_finger_tip_link hangs below l_gripper_r_finger_joint and l_gripper_r_finger_tip_joint,
     # both mimicking l_gripper_l_finger_joint: its pose in the palm changes with that one value.
