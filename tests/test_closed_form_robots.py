@@ -26,7 +26,7 @@ def arms():
 @pytest.mark.parametrize(
     "name, q, count",
     [
-        ("planar_2r", [0.3, 0.5], 2),
+        ("planar_2r", [0.3, 0.5], 1),  # a pose: only the elbow whose q1 + q2 is the target's angle
         ("planar_3r", [0.3, 0.5, -0.4], 2),
         ("scara", [0.3, 1.2, 0.1, -0.5], 2),
         ("stanford_arm", [0.4, 0.8, 0.6, 0.3, 1.0, -0.2], 4),

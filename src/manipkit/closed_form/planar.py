@@ -806,9 +806,9 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
         a, b = math.acos(min(max(c_hi, -1.0), 1.0)), math.acos(min(max(c_lo, -1.0), 1.0))
         half = -(-samples // 2)
         inside = a + (b - a) * (np.arange(half) + 0.5) / half
-        deltas = np.unique(np.concatenate([inside, -inside])) if b - a > 0.0 else np.array([a, -a])
-        arcs = (f"phi in psi +- [{quantity_text(a)}, {quantity_text(b)}] rad with psi = atan2(y, x) = "
-                f"{quantity_text(psi)}")
+        deltas = np.unique(np.concatenate([inside, -inside])) if b - a > 0.0 else np.unique([a, -a])
+        arcs = "every phi" if a == 0.0 and b == math.pi else (
+            f"phi in psi +- [{quantity_text(a)}, {quantity_text(b)}] rad with psi = atan2(y, x) = {quantity_text(psi)}")
     sampled = members(wrap_angle(psi + deltas))
     family = (f"the tool angle phi is free ({arcs}); for each, up to 2 solutions (elbow-down, elbow-up) of the "
               "wrist point (x - l3 cos phi, y - l3 sin phi), q3 = phi - q1 - q2; result.members(phis) gives them")

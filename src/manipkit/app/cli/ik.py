@@ -81,14 +81,21 @@ def _ik_target(args) -> np.ndarray:
 def _solve(args, robot: Robot, target: np.ndarray, mode: str):
     """(solutions, header): closed-form or numerical, as one result type with the same properties."""
     if args.analytic:
-        from manipkit.closed_form.robots import analytic_ik
+        from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 
         if args.frame != "ee_link" or args.base != "base_link":
             raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
-        result = analytic_ik(robot, target)
+        if mode == "position+axis":
+            raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
+        result = analytic_ik(robot, target, mode=mode)
         found = len(result.solutions)
-        count = f" (count: {result.count})" if result.count != found else ""
-        return result, f"closed form ({result.solver}): {found} solution(s){count}"
+        if result.infinite:
+            count = f"infinitely many solutions (free: {result.free_parameter}), {found} listed"
+        else:
+            count = f"{found} solution(s)"
+        solves = ANALYTIC_SOLVERS[robot.source.name].solves
+        return result, (f"closed form ({result.solver}): {count}\n"
+                        f"mode: {result.mode}; this arm's closed form solves {' and '.join(solves)}")
     from manipkit.kinematics.ik import ik
 
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
@@ -131,6 +138,10 @@ def run_ik(args) -> int:
             "target": target.tolist(),
             "solutions": [robot.as_dict(q) for _, q in answers],
             "labels": [label for label, _ in answers] if args.analytic else None,
+            "closed_form_mode": result.mode if args.analytic else None,
+            "count": None if not args.analytic else ("inf" if result.infinite else result.count),
+            "free_parameter": getattr(result, "free_parameter", "") or None,
+            "unmet": dict(getattr(result, "unmet", ())),
             "success": result.success,
             "residual_position": None if residuals[0] is None else float(residuals[0]),
             "residual_rotation": None if residuals[1] is None else float(residuals[1]),
