@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.closed_form import decoupled, planar
+from manipkit.closed_form import decoupled, planar, planar_modes
 from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.result import (
     PLANAR_POSE,
@@ -71,13 +71,13 @@ def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int) -> ClosedForm
     lengths = float(args["l1"]), float(args["l2"])
     if mode == "position":
         return planar.ik_2r(T[0, 3], T[1, 3], *lengths)
-    return planar.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths)
+    return planar_modes.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths)
 
 
 def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int) -> ClosedFormSolutions:
     lengths = tuple(float(args[k]) for k in ("l1", "l2", "l3"))
     if mode == "position":
-        return planar.ik_3r_position(T[0, 3], T[1, 3], *lengths, samples=samples)
+        return planar_modes.ik_3r_position(T[0, 3], T[1, 3], *lengths, samples=samples)
     return planar.ik_3r(T[0, 3], T[1, 3], _heading(T), *lengths)
 
 
