@@ -7,6 +7,7 @@ the robot's URDF), never against the solver's own numbers.
 """
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -103,3 +104,40 @@ def test_analytic_with_an_axis_is_a_usage_error():
     result = run("--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--rpy", 3.14159, 0, 0, "--axis", "z", "--analytic",
                  check_status=2)
     assert "leave out --axis" in result.stderr
+
+
+def test_finding_8_a_pose_pasted_from_tf_between_is_explained_and_tol_accepts_it():
+    # Issue 14, finding 8: the course arm's pose A, pasted from tf-between's 6-decimal text, failed with
+    # "the target may be unreachable" (5 joints cannot meet a rounded 6D pose exactly) and ik had no --tol.
+    from reference import POSE_A, course_arm_T_base_ee, matrix_from_rpy
+
+    joints = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+    text = subprocess.run([str(BIN / "tf-between"), "base_link", "ee_link", "--q",
+                           *(f"{n}={v}" for n, v in zip(joints, POSE_A))], capture_output=True, text=True).stdout
+    xyz = re.search(r"Translation \(m\): \[([^\]]*)\]", text).group(1).replace(",", " ").split()
+    rpy = re.search(r"RPY \(radian\) \[roll, pitch, yaw\]: \[([^\]]*)\]", text).group(1).replace(",", " ").split()
+    assert all(len(v.partition(".")[2]) == 6 for v in xyz + rpy)  # the printed precision this test is about
+    failed = run("--xyz", *xyz, "--rpy", *rpy, check_status=1)
+    assert "within what the target's printed precision can express (6 decimals" in failed.stdout
+    suggested = re.search(r"accept it with --tol (\S+)", failed.stdout).group(1)
+    assert float(suggested) <= 1e-5
+    out = run_json("--xyz", *xyz, "--rpy", *rpy, "--tol", suggested, check_status=0)
+    q = [out["solutions"][0][name] for name in joints]
+    T = course_arm_T_base_ee(q)  # the independent chain of tests/reference.py
+    T_target = np.eye(4)
+    T_target[:3, :3], T_target[:3, 3] = matrix_from_rpy(*map(float, rpy)), list(map(float, xyz))
+    assert np.linalg.norm(T[:3, 3] - T_target[:3, 3]) <= float(suggested)
+    assert np.abs(T[:3, :3] - T_target[:3, :3]).max() <= 2 * float(suggested)
+    assert np.abs(np.array(q) - POSE_A).max() < 1e-5  # the pose it was printed from
+
+
+def test_tol_is_checked():
+    result = run("--xyz", 0.1, 0, 0, "--tol", 0, check_status=2)
+    assert "--tol 0: give one or two positive numbers (position m, rotation rad)" in result.stderr
+    result = run("--xyz", 0.1, 0, 0, "--tol", 1, 2, 3, check_status=2)
+    assert "--tol 1 2 3" in result.stderr
+
+
+def test_a_far_target_gets_no_precision_note():
+    out = run_json("--xyz", 3.123456, 0, 0, "--restarts", 2, check_status=1)
+    assert not any("printed precision" in note for note in out["notes"])

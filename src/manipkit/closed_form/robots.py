@@ -53,13 +53,13 @@ class AnalyticSolver:
         A planar arm: it moves in the x-y plane of ``base_link``, its tool
         turns about z only.
     solve : callable
-        ``(T_base_link_ee_link, xacro arguments, mode, samples) -> ClosedFormSolutions``
+        ``(T_base_link_ee_link, xacro arguments, mode, samples, tol) -> ClosedFormSolutions``
         with ``mode`` ``"pose"`` or ``"position"``.
     """
 
     solves: tuple[str, ...]
     planar: bool
-    solve: Callable[[np.ndarray, dict, str, int], ClosedFormSolutions]
+    solve: Callable[[np.ndarray, dict, str, int, float], ClosedFormSolutions]
 
 
 def _heading(T: np.ndarray) -> float:
@@ -67,29 +67,30 @@ def _heading(T: np.ndarray) -> float:
     return math.atan2(T[1, 0], T[0, 0])
 
 
-def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int) -> ClosedFormSolutions:
+def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
     lengths = float(args["l1"]), float(args["l2"])
     if mode == "position":
         return planar.ik_2r(T[0, 3], T[1, 3], *lengths)
     return planar_modes.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths)
 
 
-def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int) -> ClosedFormSolutions:
+def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
     lengths = tuple(float(args[k]) for k in ("l1", "l2", "l3"))
     if mode == "position":
         return planar_modes.ik_3r_position(T[0, 3], T[1, 3], *lengths, samples=samples)
     return planar.ik_3r(T[0, 3], T[1, 3], _heading(T), *lengths)
 
 
-def _scara(T: np.ndarray, args: dict, mode: str, samples: int) -> ClosedFormSolutions:
+def _scara(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
     kwargs = {name: float(args[name]) for name in ("a1", "a2", "d1", "d4")}
-    result = decoupled.ik_scara(T, d3_limits=(0.0, float(args["d3_max"])), mode=mode, samples=samples, **kwargs)
+    result = decoupled.ik_scara(T, d3_limits=(0.0, float(args["d3_max"])), mode=mode, samples=samples, tol=tol, **kwargs)
     return replace(result, solver="decoupled.ik_scara")
 
 
-def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[[np.ndarray, dict, str, int], ClosedFormSolutions]:
-    def solve(T: np.ndarray, args: dict, mode: str, samples: int) -> ClosedFormSolutions:
+def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[..., ClosedFormSolutions]:
+    def solve(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
         kwargs = {name: float(args[name]) for name in names}
+        kwargs["tol"] = tol
         if limits is not None:
             kwargs["d3_limits"] = limits(args)
         return replace(getattr(decoupled, function)(T, **kwargs), solver=f"decoupled.{function}")
@@ -108,7 +109,7 @@ ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
 }
 
 
-def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol: float = 1e-9, samples: int = 4) -> ClosedFormSolutions:
+def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: int = 4) -> ClosedFormSolutions:
     """All closed-form IK solutions for ``T_base_link_ee_link = target`` on a bundled textbook arm, in ``mode``.
 
     The solver parameters (link lengths, offsets, prismatic limits) are the
@@ -143,9 +144,10 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol: float = 1e-9, 
     mode : {"pose", "position"}, keyword-only
         Match the whole pose, or the tool origin only (the target's rotation
         is then ignored and the rotation residuals are 0).
-    tol : float, keyword-only
-        Residual tolerance of the URDF check (m and rad), and how far off a
-        planar arm's plane a target may be.
+    tol : float or (float, float), keyword-only
+        Residual tolerance of the URDF check: one number for both, or
+        ``(position m, rotation rad)``; also how far off a planar arm's plane
+        (m) or out of it (rad) a target may be.
     samples : int, keyword-only
         For a family with a free parameter: how many of its values to sample.
 
@@ -189,8 +191,9 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol: float = 1e-9, 
             f"the closed form of {robot.source.name} solves {' and '.join(arm.solves)} only, not a position alone "
             "(a 6-joint arm leaves three degrees of freedom free); give an orientation, or use numerical IK for a position"
         )
+    tol = _tolerances(tol)
     T = check_transform(target, what="IK target")
-    result = arm.solve(T, robot.xacro_args, mode, samples)
+    result = arm.solve(T, robot.xacro_args, mode, samples, max(tol))
     if arm.planar:
         off_plane = _off_plane(robot, T, mode, tol)
         if off_plane:
@@ -210,13 +213,24 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol: float = 1e-9, 
     return replace(checked, mode=asked, family_function=family_function)
 
 
-def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: float) -> list[tuple[str, float, str]]:
+def _tolerances(tol) -> tuple[float, float]:
+    """(position m, rotation rad) from one positive number or a pair, else :class:`IKOptionError`."""
+    try:
+        values = np.atleast_1d(np.asarray(tol, dtype=float))
+    except (TypeError, ValueError):
+        values = np.zeros(0)
+    if values.shape not in ((1,), (2,)) or not np.all(np.isfinite(values)) or np.any(values <= 0.0):
+        raise IKOptionError(f"tol must be a positive number or (position m, rotation rad), got {tol!r:.60}")
+    return float(values[0]), float(values[-1])
+
+
+def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float]) -> list[tuple[str, float, str]]:
     """A planar arm's target components out of its plane: [(component, size, sentence)]."""
     q0 = np.zeros(len(robot.joint_names))
     z_plane = float(robot.transform("base_link", "ee_link", q0)[2, 3])
     problems = []
     dz = float(T[2, 3]) - z_plane
-    if abs(dz) > tol:
+    if abs(dz) > tol[0]:
         problems.append((
             "z", abs(dz),
             f"z: the target is at z = {quantity_text(float(T[2, 3]))} m, off the arm's plane z = {quantity_text(z_plane)} m "
@@ -224,7 +238,7 @@ def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: float) -> list[tuple
         ))
     if mode == "pose":
         tilt = math.atan2(math.hypot(T[0, 2], T[1, 2]), T[2, 2])
-        if tilt > tol:
+        if tilt > tol[1]:
             problems.append((
                 "tilt", tilt,
                 f"tilt: the target's z axis is {quantity_text(tilt)} rad ({quantity_text(math.degrees(tilt))} deg) "
@@ -233,7 +247,8 @@ def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: float) -> list[tuple
     return problems
 
 
-def _verified(robot: Robot, T: np.ndarray, result: ClosedFormSolutions, pose: bool, tol: float) -> ClosedFormSolutions:
+def _verified(robot: Robot, T: np.ndarray, result: ClosedFormSolutions, pose: bool,
+              tol: tuple[float, float]) -> ClosedFormSolutions:
     """``result`` with only the rows whose URDF forward kinematics reach T (in the asked mode), and those residuals."""
     n = len(robot.joint_names)
     rows = [i for i, q in enumerate(result.solutions) if q.size == n]
@@ -242,13 +257,13 @@ def _verified(robot: Robot, T: np.ndarray, result: ClosedFormSolutions, pose: bo
     position, rotation = (np.atleast_1d(e).astype(float) for e in pose_error(T, T_reached))
     if not pose:
         rotation = np.zeros_like(position)  # a position target: the tool's orientation is free
-    keep = (position <= tol) & (rotation <= tol)
+    keep = (position <= tol[0]) & (rotation <= tol[1])
     dropped = int(np.count_nonzero(~keep))
     reason = result.reason
     if dropped:
         worst = float(np.max(np.maximum(position, rotation)[~keep]))
         reason += (f"; {dropped} row(s) failed the check through the URDF (worst residual {quantity_text(worst)} > "
-                   f"tol {quantity_text(tol)}) and were dropped")
+                   f"tol {' m, '.join(quantity_text(t) for t in tol)} rad) and were dropped")
     kept = int(np.count_nonzero(keep))
     count = result.count if math.isinf(result.count) and kept else kept
     return replace(

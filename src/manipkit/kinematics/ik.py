@@ -68,6 +68,7 @@ MODES = ("pose", "position", "position+axis")
 AXES = ("x", "y", "z")
 DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solution
 TARGET_TOL = 1e-6  # how far a target may be from a rigid transform (check_transform's tol)
+NEAR_MISS = 1e-5  # m and rad: a failed best residual below this is called close in the failure message
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
@@ -618,6 +619,9 @@ class IKSolver:
                 f"target out of reach: it lies {distance:.4g} m from the origin of {joint}, "
                 f"the chain to {self.frame} reaches at most {self.reach:.4g} m; {residual}"
             )
+        if max(pos, rot) <= NEAR_MISS:
+            return (f"did not converge: {residual} after {attempts} start(s); that is close: a target rounded from "
+                    "printed output (or just out of reach) ends like this, and a larger tol accepts the answer")
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)"
 
 
