@@ -349,3 +349,40 @@ def test_a_2r_pose_with_an_elbow_at_the_angle_keeps_that_elbow_only():
     # q = (0, pi/2) with l1 = l2 = 1 puts the tool at (1, 1), heading pi/2; the other elbow, q = (pi/2, -pi/2), heads 0.
     result = planar_modes.ik_2r_pose(1.0, 1.0, math.pi / 2, 1.0, 1.0)
     assert result.labels == ("elbow-down",) and np.allclose(result.solutions, [[0.0, math.pi / 2]], atol=1e-12)
+
+
+# --------------------------------------------------------------------------
+# the HTML table Jupyter shows
+
+
+def html_rows(markup):
+    """(caption, header cells, body rows of cells, paragraphs) of the markup, parsed as XML (so it must be well formed)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(f"<div>{markup}</div>")
+    table = root.find("table")
+    rows = [[cell.text or "" for cell in row] for row in table.findall("tr")]
+    return table.find("caption").text, rows[0], rows[1:], [p.text for p in root.findall("p")]
+
+
+def test_html_repr_lists_every_solution_with_its_residuals(arms):
+    robot = arms["stanford_arm"]
+    T = robot.transform("base_link", "ee_link", [0.4, 0.8, 0.6, 0.3, 1.0, -0.2])
+    result = analytic_ik(robot, T)
+    caption, header, rows, notes = html_rows(result._repr_html_())
+    assert "decoupled.ik_stanford" in caption and "4 solution(s)" in caption and "success: True" in caption
+    assert header == ["#", "label", *robot.joint_names, "position (m)", "rotation (rad)", "success"]
+    assert [row[1] for row in rows] == list(result.labels)
+    for row, q, position in zip(rows, result.solutions, result.residual_position):
+        np.testing.assert_allclose([float(v) for v in row[2:8]], q, rtol=1e-5, atol=1e-6)  # 6 significant digits
+        assert float(row[8]) == pytest.approx(position, rel=1e-2, abs=1e-300) and row[10] == "True"
+    assert notes == [result.reason]
+
+
+def test_html_repr_of_no_solution_shows_the_reason_escaped():
+    result = planar_modes.ik_2r_pose(1.0, 0.5, 0.3, 1.0, 1.0)
+    caption, _, rows, notes = html_rows(result._repr_html_())
+    assert rows == [] and "success: False" in caption and notes == [result.reason] and "orientation" in notes[0]
+    odd = ClosedFormSolutions(np.zeros((1, 2)), ("<b>&",), 1, "a < b", np.zeros(1), np.zeros(1))
+    markup = odd._repr_html_()
+    assert "&lt;b&gt;&amp;" in markup and "<b>" not in markup and html_rows(markup)[3] == ["a < b"]

@@ -412,3 +412,25 @@ def test_a_near_miss_is_called_close_and_a_larger_tol_accepts_it(robots):
     assert accepted.success and np.abs(accepted.q - POSE_A).max() < 1e-5
     position, angle = pose_error(robot, "base_link", "ee_link", accepted.q, T)
     assert position <= 1e-6 and angle <= 1e-6
+
+
+def test_html_repr_shows_the_answer_or_the_best_failed_attempt(robots):
+    import xml.etree.ElementTree as ET
+
+    robot = robots["iiwa14"]
+    T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=3)[0])
+    far = np.eye(4)
+    far[0, 3] = 5.0  # 5 m away: beyond the iiwa's reach
+    for result, label, success in ((ik(robot, T), "solution", "True"),
+                                   (ik(robot, T, all=True, restarts=2), "solution 1", "True"),
+                                   (ik(robot, far, restarts=1), "best found (fails)", "False")):
+        root = ET.fromstring(f"<div>{result._repr_html_()}</div>")
+        rows = [[cell.text for cell in row] for row in root.find("table").findall("tr")]
+        assert rows[0] == ["label", *(f"q{i}" for i in range(1, 8)), "position (m)", "rotation (rad)", "success"]
+        assert rows[1][0] == label and rows[1][-1] == success and f"success: {success}" in root.find("table/caption").text
+        best = result if hasattr(result, "q") else result.best
+        np.testing.assert_allclose([float(v) for v in rows[1][1:8]], best.q, rtol=1e-5, atol=1e-6)
+        assert float(rows[1][8]) == pytest.approx(best.residual_position, rel=1e-2, abs=1e-300)
+        if success == "False":
+            assert root.find("p").text == best.reason
+

@@ -202,7 +202,8 @@ class ClosedFormSolutions:
 
 
 def solutions_html(result, head: str, joint_names=()) -> str:
-    """An HTML table of an IK result's rows: label, joint values, residuals (m, rad) and success.
+    """An HTML table of an IK result's rows: label, joint values, residuals (m, rad) and success (every row
+    returned has passed the forward-kinematics check; the caption says whether there is any).
 
     ``result`` is anything with the shared properties (docs/architecture.md,
     "IK results"); ``head`` is the caption; the reason follows the table.
@@ -211,13 +212,13 @@ def solutions_html(result, head: str, joint_names=()) -> str:
     names = tuple(getattr(result, "joint_names", ()) or joint_names)
     n = result.solutions.shape[1] if result.solutions.ndim == 2 else 0
     names = names if len(names) == n else tuple(f"q{i + 1}" for i in range(n))
-    cells = ["#", "label", *names, "position (m)", "rotation (rad)"]
+    cells = ["#", "label", *names, "position (m)", "rotation (rad)", "success"]
     lines = [f"<table><caption>{html.escape(head)}; success: {result.success}</caption>",
              "<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cells) + "</tr>"]
     rows = zip(result.labels, result.solutions, result.residual_position, result.residual_rotation)
     for index, (label, q, position, rotation) in enumerate(rows, start=1):
         values = [str(index), label, *(short_text(float(v)) for v in q),
-                  short_text(float(position), 3), short_text(float(rotation), 3)]
+                  short_text(float(position), 3), short_text(float(rotation), 3), "True"]  # every row passed FK
         lines.append("<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in values) + "</tr>")
     lines.append("</table>")
     if result.reason:
