@@ -47,10 +47,10 @@ def register(commands) -> None:
     add_robot_options(ik)
     ik.add_argument("--frame", default="ee_link", help="frame to place (default ee_link)")
     ik.add_argument("--base", default="base_link", help="frame the target is given in (default base_link)")
-    ik.add_argument("--xyz", type=_Number.parse, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
+    ik.add_argument("--xyz", type=_number, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
     orientation = ik.add_mutually_exclusive_group()
-    orientation.add_argument("--rpy", type=_Number.parse, nargs=3, metavar=("R", "P", "Y"), help="target orientation, URDF rpy (rad, or deg with --deg)")
-    orientation.add_argument("--quat", type=_Number.parse, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
+    orientation.add_argument("--rpy", type=_number, nargs=3, metavar=("R", "P", "Y"), help="target orientation, URDF rpy (rad, or deg with --deg)")
+    orientation.add_argument("--quat", type=_number, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
     ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
     ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
     ik.add_argument("--analytic", action="store_true", help="use the robot's closed-form solver (planar_2r/3r, scara, stanford_arm, elbow_arm)")
@@ -69,29 +69,38 @@ def register(commands) -> None:
 
 
 class _Number(float):
-    """A number from the command line that remembers how many decimals it was written with (``decimals``)."""
+    """A number from the command line that remembers how many decimals it was written with (``decimals``:
+    the digits after the point, None without a point or with an exponent)."""
 
     decimals: int | None
 
     @classmethod
     def parse(cls, text: str) -> _Number:
-        number = cls(float(text))  # ValueError: argparse reports "invalid parse value"
-        mantissa, _, exponent = text.strip().lower().partition("e")
-        try:
-            places = len(mantissa.partition(".")[2]) - (int(exponent) if exponent else 0)
-        except ValueError:
-            places = None
-        number.decimals = places if math.isfinite(number) else None
+        number = cls(float(text))  # ValueError: argparse reports "invalid float value"
+        digits = text.strip()
+        point = "." in digits and "e" not in digits.lower() and math.isfinite(number)
+        number.decimals = len(digits.partition(".")[2]) if point else None
         return number
 
 
+def _number(text: str) -> _Number:
+    return _Number.parse(text)
+
+
+_number.__name__ = "float"  # argparse names the type in its message: "invalid float value: 'x'", as before
+
+PRINTED_DECIMALS = 3  # values all written with this many decimals or more, the same for each, look like a printout
+
+
 def _rounding(values, scale: float = 1.0) -> tuple[float, int | None]:
-    """(largest change, fewest decimals): how far rounding to the written decimals can move each value, summed as a
-    vector norm (``scale`` converts the unit); (0, None) when a value's decimals are unknown or more than 15."""
-    decimals = [getattr(v, "decimals", None) for v in values]
-    if any(d is None or d > 15 for d in decimals):
+    """(largest change as a vector norm, decimals) that rounding to the written decimals can cause (``scale``
+    converts the unit), when the values look printed: each with a point, all with the same number of
+    decimals, at least ``PRINTED_DECIMALS``; else (0, None): numbers typed by hand are taken as exact."""
+    decimals = {getattr(v, "decimals", None) for v in values}
+    if len(decimals) != 1 or None in decimals or min(decimals) < PRINTED_DECIMALS:
         return 0.0, None
-    return scale * math.sqrt(sum((0.5 * 10.0 ** -d) ** 2 for d in decimals)), min(decimals)
+    places = decimals.pop()
+    return scale * math.sqrt(len(values)) * 0.5 * 10.0 ** -places, places
 
 
 def _precision_note(args, mode: str, position: float, rotation: float) -> str | None:
