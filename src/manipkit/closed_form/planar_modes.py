@@ -180,6 +180,9 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
     sampled = members(wrap_angle(psi + deltas))
     family = (f"the tool angle phi is free ({arcs}); for each, up to 2 solutions (elbow-down, elbow-up) of the "
               "wrist point (x - l3 cos phi, y - l3 sin phi), q3 = phi - q1 - q2; result.members(phis) gives them")
+    if not sampled.success:  # reachable by the bounds, yet no sampled member passed the FK check: say so, no family
+        return replace(sampled, reason=f"no solution: {where}: no sampled tool angle gave a solution that passed the "
+                       f"forward-kinematics check ({sampled.reason})", solver="planar.ik_3r_position")
     reason = f"infinitely many solutions: {where}, position only: {family}; {sampled.count} sampled"
     return replace(sampled, count=math.inf, reason=reason, free_parameter="phi", family=family,
                    family_function=members, solver="planar.ik_3r_position")

@@ -86,7 +86,9 @@ class ClosedFormSolutions:
         One joint vector per row (rad, wrapped to (-pi, pi]; m for a
         prismatic joint), in the solver's order, read-only. For a family
         (``count`` infinite) a row holds one representative (the free joint
-        at 0).
+        at 0), or, when the free parameter is not a joint (a position asked
+        of a planar 3R arm or a SCARA), the members at a few sampled values
+        of it (:meth:`members` gives any others).
     labels : tuple of str
         One per row: the branch, e.g. ``"elbow-down"`` or
         ``"front, elbow up, no flip"``.
