@@ -34,6 +34,7 @@ handle millions of targets without a Python loop. Only numpy is imported.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -44,8 +45,7 @@ from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, works
 from manipkit.closed_form.result import CHECK_TOL, PLANAR_POSE, PLANAR_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHRow, DHTable, dh_fk
 from manipkit.errors import PlanarArmError
-from manipkit.spatial.rotations import rot_z, wrap_angle
-from manipkit.spatial.transforms import pose_error
+from manipkit.spatial.rotations import rot_z, rotation_angle_between, wrap_angle
 
 __all__ = [
     "ClosedFormSolutions",
@@ -682,6 +682,12 @@ def planar_dh_table(lengths) -> DHTable:
     return DHTable(rows, "standard", f"planar_{len(rows)}r")
 
 
+@functools.lru_cache(maxsize=64)
+def _table(lengths: tuple[float, ...]) -> DHTable:
+    """:func:`planar_dh_table` of checked link lengths, kept for the next call with the same arm."""
+    return planar_dh_table(lengths)
+
+
 def _planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
     """T_base_tool of a planar target: at (x, y, 0), turned by phi about z (identity without phi)."""
     T = np.eye(4)
@@ -694,9 +700,11 @@ def _planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
 def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected: int = 0) -> ClosedFormSolutions:
     """The rows whose DH forward kinematics reproduce ``target`` (position, and rotation when ``pose``)."""
     rows = read_only(rows, (len(lengths),))
-    T_reached = dh_fk(planar_dh_table(lengths), rows).reshape(-1, 4, 4)
-    position, rotation = (np.atleast_1d(e).astype(float) for e in pose_error(target, T_reached))
-    if not pose:
+    T_reached = dh_fk(_table(tuple(lengths)), rows).reshape(-1, 4, 4)
+    position = np.linalg.norm(T_reached[:, :3, 3] - target[:3, 3], axis=-1)
+    if pose:  # the tables' rotations are exact products of Rz: no need to project them first
+        rotation = np.atleast_1d(rotation_angle_between(target[:3, :3], T_reached[:, :3, :3], check=False))
+    else:
         rotation = np.zeros_like(position)
     limit = max(CHECK_TOL, tol)
     keep = (position <= limit) & (rotation <= limit)
