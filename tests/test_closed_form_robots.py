@@ -26,7 +26,7 @@ def arms():
 @pytest.mark.parametrize(
     "name, q, count",
     [
-        ("planar_2r", [0.3, 0.5], 2),
+        ("planar_2r", [0.3, 0.5], 1),  # a pose: only the elbow whose q1 + q2 is the target's angle
         ("planar_3r", [0.3, 0.5, -0.4], 2),
         ("scara", [0.3, 1.2, 0.1, -0.5], 2),
         ("stanford_arm", [0.4, 0.8, 0.6, 0.3, 1.0, -0.2], 4),
@@ -84,3 +84,29 @@ def test_closed_form_and_numerical_answers_print_alike(arms):
         assert result.success and result.count >= k > 0 and isinstance(result.reason, str)
         assert result.solutions.shape == (k, 6) and result.residuals.shape == (k, 2)
         assert result.residual_position.shape == result.residual_rotation.shape == (k,)
+
+
+def test_tol_takes_position_and_rotation_apart(arms):
+    robot = arms["planar_2r"]
+    T = robot.transform("base_link", "ee_link", [0.3, 0.5])
+    T[2, 3] = 1e-7  # just off the plane z = 0
+    strict = analytic_ik(robot, T, mode="position")
+    assert not strict.success and strict.unmet == (("z", pytest.approx(1e-7, abs=1e-15)),)
+    loose = analytic_ik(robot, T, mode="position", tol=(1e-6, 1e-9))
+    assert loose.success and loose.count == 2 and np.all(loose.residual_position <= 1e-6)
+    for row in loose.solutions:  # through the URDF: only the height is off
+        assert np.linalg.norm(robot.transform("base_link", "ee_link", row)[:3, 3] - T[:3, 3]) == pytest.approx(1e-7, abs=1e-12)
+    with pytest.raises(IKOptionError, match="tol must be a positive number"):
+        analytic_ik(robot, T, tol=(1e-6, 0.0))
+
+
+def test_members_through_the_robot_are_checked_by_its_urdf(arms):
+    robot = arms["planar_3r"]
+    T = robot.transform("base_link", "ee_link", [0.3, 0.5, -0.4])
+    result = analytic_ik(robot, T, mode="position")
+    assert result.count == math.inf and result.free_parameter == "phi" and result.joint_names == robot.joint_names
+    members = result.members([0.2, 0.3 + 0.5 - 0.4])  # the second is the angle of the q the target came from
+    assert members.mode == "planar position (x, y)" and members.count == len(members.labels) >= 2
+    for row in members.solutions:
+        assert np.linalg.norm(robot.transform("base_link", "ee_link", row)[:3, 3] - T[:3, 3]) <= 1e-9
+    assert min(np.abs(np.angle(np.exp(1j * (members.solutions - [0.3, 0.5, -0.4])))).max(axis=1)) < 1e-9

@@ -394,3 +394,43 @@ def test_target_slightly_off_rigid_within_the_tolerance_is_accepted(robots):
     T[:3, :3] *= 1.0 + 4e-6
     with pytest.raises(InvalidTransformError, match="IK target: rotation column 0 \\(x axis\\) has norm"):
         ik(robot, T)
+
+
+def test_a_near_miss_is_called_close_and_a_larger_tol_accepts_it(robots):
+    # Issue 14, finding 8: the course arm's pose A as tf-between prints it (6 decimals). Five joints cannot meet a
+    # rounded 6D pose exactly; the failure says it is close (not "may be unreachable"), and tol 1e-6 accepts it.
+    from reference import POSE_A, matrix_from_rpy
+
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_rpy(-2.416032, 0.329921, -0.272644)
+    T[:3, 3] = [-0.007121, 0.070759, 0.017976]
+    robot = robots["course_arm"]
+    failed = ik(robot, T, restarts=5)
+    assert not failed.success and "that is close" in failed.reason and "may be unreachable" not in failed.reason
+    assert max(failed.residual_position, failed.residual_rotation) < 1e-6
+    accepted = ik(robot, T, tol=1e-6, restarts=5)
+    assert accepted.success and np.abs(accepted.q - POSE_A).max() < 1e-5
+    position, angle = pose_error(robot, "base_link", "ee_link", accepted.q, T)
+    assert position <= 1e-6 and angle <= 1e-6
+
+
+def test_html_repr_shows_the_answer_or_the_best_failed_attempt(robots):
+    import xml.etree.ElementTree as ET
+
+    robot = robots["iiwa14"]
+    T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=3)[0])
+    far = np.eye(4)
+    far[0, 3] = 5.0  # 5 m away: beyond the iiwa's reach
+    for result, label, success in ((ik(robot, T), "solution", "True"),
+                                   (ik(robot, T, all=True, restarts=2), "solution 1", "True"),
+                                   (ik(robot, far, restarts=1), "best found (fails)", "False")):
+        root = ET.fromstring(f"<div>{result._repr_html_()}</div>")
+        rows = [[cell.text for cell in row] for row in root.find("table").findall("tr")]
+        assert rows[0] == ["label", *(f"q{i}" for i in range(1, 8)), "position (m)", "rotation (rad)", "success"]
+        assert rows[1][0] == label and rows[1][-1] == success and f"success: {success}" in root.find("table/caption").text
+        best = result if hasattr(result, "q") else result.best
+        np.testing.assert_allclose([float(v) for v in rows[1][1:8]], best.q, rtol=1e-5, atol=1e-6)
+        assert float(rows[1][8]) == pytest.approx(best.residual_position, rel=1e-2, abs=1e-300)
+        if success == "False":
+            assert root.find("p").text == best.reason
+

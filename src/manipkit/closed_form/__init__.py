@@ -4,6 +4,6 @@ Pure functions on numbers and DH tables (numpy only); no robot file is
 needed. Joint angles are wrapped to (-pi, pi] (docs/architecture.md).
 """
 
-from manipkit.closed_form import decoupled, planar, planar_workspace, result
+from manipkit.closed_form import decoupled, planar, planar_modes, planar_workspace, result
 
-__all__ = ["decoupled", "planar", "planar_workspace", "result"]
+__all__ = ["decoupled", "planar", "planar_modes", "planar_workspace", "result"]

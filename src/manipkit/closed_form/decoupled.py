@@ -59,6 +59,15 @@ singularity (z6 parallel to z3, theta5 = 0 or pi) only ``theta4 + theta6``
 theta4 = 0, and ``theta4 = t`` with ``theta6 = theta6_row - t`` (theta5 = 0)
 or ``theta6 = theta6_row + t`` (theta5 = pi) gives the same pose for every t.
 
+Modes (:mod:`manipkit.closed_form.result`): the Stanford and elbow arms solve
+a spatial pose only (``mode="pose"``). The SCARA solves a spatial pose with
+its tool vertical (``mode="pose"``: x, y, z and the tool's heading; a tilted
+tool is named with its tilt in ``unmet``) and a spatial position
+(``mode="position"``): then the tool roll theta4 is free, a few values are
+sampled and ``result.members(theta4_values)`` gives any others. Every
+result names, when there is no solution, each component it cannot meet and
+by how much (``unmet``).
+
 Only numpy is imported (with manipkit's numpy-only rotations, planar and dh
 modules).
 """
@@ -66,7 +75,7 @@ modules).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -84,7 +93,7 @@ from manipkit.closed_form.arm_tables import (
 )
 from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.planar import ik_2r
-from manipkit.closed_form.result import ClosedFormSolutions, read_only
+from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
 from manipkit.spatial.euler import euler_zyz_from_matrix
@@ -149,15 +158,29 @@ def _pose(T) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return T, T[:3, :3], T[:3, 3].copy()
 
 
-def _prismatic(d3: float, limits: tuple[float, float], margin: float, low: str, high: str) -> tuple[float, str | None]:
-    """d3 clamped into its limits (when within ``margin`` of them), or the reason it is out of reach."""
+_Problem = tuple[str, float, str]  # (component of the target, by how much it is missed (m or rad), the sentence)
+
+
+def _prismatic(d3: float, limits: tuple[float, float], margin: float, low: str, high: str,
+               component: str = "d3") -> tuple[float, _Problem | None]:
+    """d3 clamped into its limits (when within ``margin`` of them), or the problem: (component, size, reason)."""
     lower, upper = limits
     d3_text = quantity_text(d3)
     if d3 < lower - margin:
-        return d3, f"d3 = {d3_text} m is below its lower limit {quantity_text(lower)} m by {quantity_text(lower - d3)} m ({low})"
+        gap = lower - d3
+        return d3, (component, gap, f"d3 = {d3_text} m is below its lower limit {quantity_text(lower)} m by {quantity_text(gap)} m ({low})")
     if d3 > upper + margin:
-        return d3, f"d3 = {d3_text} m is above its upper limit {quantity_text(upper)} m by {quantity_text(d3 - upper)} m ({high})"
+        gap = d3 - upper
+        return d3, (component, gap, f"d3 = {d3_text} m is above its upper limit {quantity_text(upper)} m by {quantity_text(gap)} m ({high})")
     return min(max(d3, lower), upper), None
+
+
+def _unmet(problems: list[_Problem]) -> tuple[tuple[str, float], ...]:
+    """Each component once, with the smallest amount it is missed by (over the branches that tried it)."""
+    sizes: dict[str, float] = {}
+    for component, size, _ in problems:
+        sizes[component] = min(size, sizes.get(component, math.inf))
+    return tuple(sizes.items())
 
 
 def _wrist(R_0_3: np.ndarray, R: np.ndarray, singular_tol: float) -> list[tuple[tuple[float, float, float], str, bool]]:
@@ -181,21 +204,24 @@ def _wrist(R_0_3: np.ndarray, R: np.ndarray, singular_tol: float) -> list[tuple[
     return [(tuple(map(float, up)), NO_FLIP, False), (tuple(map(float, down)), FLIP, False)]
 
 
-def _result(table: DHTable, T: np.ndarray, candidates: list[_Candidate], *, problems: list[str], notes: list[str],
-            tol: float, joint_names: tuple[str, ...], variables: tuple[str, ...]) -> ClosedFormSolutions:
-    """Check every candidate by the table's FK (residuals by :func:`manipkit.spatial.transforms.pose_error`),
-    keep those within tol, say why."""
+def _result(table: DHTable, T: np.ndarray, candidates: list[_Candidate], *, problems: list[_Problem], notes: list[str],
+            tol: float, joint_names: tuple[str, ...], variables: tuple[str, ...],
+            mode: str = SPATIAL_POSE) -> ClosedFormSolutions:
+    """Check every candidate by the table's FK (residuals by :func:`manipkit.spatial.transforms.pose_error`;
+    in mode ``SPATIAL_POSITION`` the position only), keep those within tol, say why."""
     n = table.n
     if not candidates:
-        reasons = list(dict.fromkeys(problems)) or ["no candidate solution"]
+        reasons = list(dict.fromkeys(text for _, _, text in problems)) or ["no candidate solution"]
         nothing = read_only((), (n,))
         return ClosedFormSolutions(nothing, (), 0, "no solution: " + "; ".join(reasons), read_only(()), read_only(()),
-                                   joint_names=joint_names)
+                                   joint_names=joint_names, mode=mode, unmet=_unmet(problems))
 
     Q = np.array([c.q for c in candidates], dtype=float)
     revolute = np.array([row.is_revolute for row in table.rows])
     Q[:, revolute] = wrap_angle(Q[:, revolute])
     position_error, rotation_error = (np.atleast_1d(e) for e in pose_error(T, dh_fk(table, Q)))
+    if mode == SPATIAL_POSITION:
+        rotation_error = np.zeros_like(position_error)
     keep = (position_error <= tol) & (rotation_error <= tol)
     rejected = int(np.count_nonzero(~keep))
     kept = [c for c, k in zip(candidates, keep) if k]
@@ -219,7 +245,7 @@ def _result(table: DHTable, T: np.ndarray, candidates: list[_Candidate], *, prob
         read_only(Q[keep], (n,)), tuple(c.label for c in kept), math.inf if free else k, head + ": " + "; ".join(lines),
         read_only(position_error[keep]), read_only(rotation_error[keep]),
         free_parameter=", ".join(variables[j] for j in free), joint_names=joint_names, family=family,
-        free_joints=free, rejected=rejected,
+        free_joints=free, rejected=rejected, mode=mode, unmet=() if k else _unmet(problems),
     )
 
 
@@ -278,7 +304,7 @@ _SCARA_LABELS = {planar_ik.ELBOW_DOWN: RIGHTY, planar_ik.ELBOW_UP: LEFTY, planar
 
 
 def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
-             d3_limits: tuple[float, float] = (0.0, 0.3), tol: float = 1e-9,
+             d3_limits: tuple[float, float] = (0.0, 0.3), mode: str = "pose", samples: int = 4, tol: float = 1e-9,
              singular_tol: float = 1e-10) -> ClosedFormSolutions:
     """Every joint vector ``(theta1, theta2, d3, theta4)`` putting the SCARA's tool at pose T.
 
@@ -288,9 +314,16 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
         Target ``T_base_tool`` (base_link to ee_link of the bundled ``scara``).
     a1, a2, d1, d4, d3_limits : keyword-only
         The arm, as in :func:`scara_dh_table` (defaults: the bundled robot).
+    mode : {"pose", "position"}, keyword-only
+        ``"pose"``: position and orientation (the tool must point straight
+        down; its heading is met by theta4). ``"position"``: the tool origin
+        only (the rotation of T is ignored); the tool roll theta4 is then free.
+    samples : int, keyword-only
+        ``mode="position"``: how many values of theta4 to sample
+        (``2 pi k / samples`` wrapped, k = 0 .. samples - 1).
     tol : float, keyword-only
         Every returned row reproduces T within ``tol`` in position (m) and
-        rotation (rad); also how far the tool's z axis may be from straight down.
+        rotation (rad, mode ``"pose"``); also how far the tool's z axis may be from straight down.
     singular_tol : float, keyword-only
         Distances (m) within which the quill axis counts as on a boundary
         circle (one solution) and d3 as at a limit.
@@ -303,8 +336,14 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
         - 2 generically: ``"righty"`` (theta2 > 0) then ``"lefty"`` (theta2 < 0);
         - 1 when the quill axis is on a boundary circle ``r = a1 + a2``
           (``"straight"``) or ``r = |a1 - a2|`` (``"folded"``);
-        - 0 (with the reason) when the tool's z axis is not straight down,
-          the quill axis is outside that annulus, or d3 is outside its limits;
+        - 0 (with the reason, and ``unmet`` naming ``"tool z axis tilt"`` (rad),
+          ``"position (r)"`` or ``"z"`` (m) with the amount) when the tool's z
+          axis is not straight down (mode ``"pose"``), the quill axis is
+          outside that annulus, or d3 is outside its limits;
+        - mode ``"position"``: a family (``count`` infinite,
+          ``free_parameter = "theta4"``, ``mode = SPATIAL_POSITION``), one row
+          per elbow and sampled theta4, labelled ``"righty, theta4 = 0"``;
+          ``result.members(theta4_values)`` gives the rows at other values;
         - a family when ``a1 = a2`` and the quill axis is joint 1's axis:
           theta1 free (row: theta1 = 0), theta2 = pi, theta4 = theta4_row + theta1.
 
@@ -331,36 +370,63 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     array([[ 0.3     ,  1.2     ,  0.1     , -0.5     ],
            [ 1.272935, -1.2     ,  0.1     , -1.927065]])
     """
-    # Over 80 lines: the docstring (cases, labels and the derivation) is half of it; the code is one pass,
-    # inverse position then inverse orientation.
     table = scara_dh_table(a1=a1, a2=a2, d1=d1, d4=d4, d3_limits=d3_limits)
-    a1, a2, d1, d4 = table.rows[0].a, table.rows[1].a, table.rows[0].d, table.rows[3].d
-    limits = table.rows[2].qlim
     tol, singular_tol = _tolerances(tol, singular_tol)
     T, R, p = _pose(T)
+    if mode == "pose":
+        return _scara(table, T, R, p, None, tol, singular_tol)
+    if mode != "position":
+        raise ClosedFormIKError(f"mode '{mode}': the SCARA's closed form solves 'pose' or 'position'")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise ClosedFormIKError(f"samples = {samples!r} must be a whole number >= 1")
 
+    def members(values) -> ClosedFormSolutions:
+        return _scara(table, T, R, p, values, tol, singular_tol)
+
+    sampled = members(wrap_angle(2.0 * math.pi * np.arange(samples) / samples))
+    if not sampled.success:
+        return sampled
+    family = ("position only: the tool roll theta4 is free (it turns the tool about its vertical axis and moves "
+              "nothing else); the rows sample theta4, result.members(theta4_values) gives any other")
+    if sampled.family:
+        family += "; " + sampled.family
+    free = ", ".join(dict.fromkeys(["theta4", *filter(None, sampled.free_parameter.split(", "))]))
+    return replace(sampled, count=math.inf, free_parameter=free, family=family, family_function=members,
+                   reason=sampled.reason.replace(" solutions:", " sampled solutions:", 1) + "; " + family)
+
+
+def _scara(table: DHTable, T: np.ndarray, R: np.ndarray, p: np.ndarray, theta4_values, tol: float,
+           singular_tol: float) -> ClosedFormSolutions:
+    """The SCARA rows for pose T (``theta4_values`` None), or for its position at each theta4 in ``theta4_values``."""
+    a1, a2, d1, d4 = table.rows[0].a, table.rows[1].a, table.rows[0].d, table.rows[3].d
+    limits = table.rows[2].qlim
+    position_only = theta4_values is not None
     problems, notes, candidates = [], [], []
     tilt = math.atan2(math.hypot(R[0, 2], R[1, 2]), -R[2, 2])
-    if tilt > tol:
-        problems.append(
+    if not position_only and tilt > tol:
+        problems.append((
+            "tool z axis tilt", tilt,
             f"the tool's z axis is tilted {quantity_text(tilt)} rad ({quantity_text(math.degrees(tilt))} deg) from straight down; "
-            "a SCARA's tool axis is always vertical, pointing down (T[:3, 2] = (0, 0, -1))"
-        )
-    d3, out = _prismatic(d1 - d4 - p[2], limits, singular_tol,
-                         f"the target is too high: z = {quantity_text(p[2])} m", f"the target is too low: z = {quantity_text(p[2])} m")
+            "a SCARA's tool axis is always vertical, pointing down (T[:3, 2] = (0, 0, -1)); ask for the position only "
+            "to leave the orientation free",
+        ))
+    d3, out = _prismatic(d1 - d4 - p[2], limits, singular_tol, f"the target is too high: z = {quantity_text(p[2])} m",
+                         f"the target is too low: z = {quantity_text(p[2])} m", component="z")
     if out:
         problems.append(out)
     planar = ik_2r(p[0], p[1], a1, a2, tol=singular_tol)
     r = math.hypot(p[0], p[1])
     if planar.count == 0:
-        problems.append(
+        problems.append((
+            "position (r)", planar.outside_by,
             f"the quill axis at (x, y) = ({quantity_text(p[0])}, {quantity_text(p[1])}) is r = {quantity_text(r)} m from joint 1's axis, "
             f"{planar.side} for the annulus |a1 - a2| = {quantity_text(abs(a1 - a2))} <= r <= a1 + a2 = {quantity_text(a1 + a2)} m, "
-            f"outside by {quantity_text(planar.outside_by)} m"
-        )
+            f"outside by {quantity_text(planar.outside_by)} m",
+        ))
+    mode = SPATIAL_POSITION if position_only else SPATIAL_POSE
     if problems:
         return _result(table, T, [], problems=problems, notes=[], tol=tol, joint_names=SCARA_JOINTS,
-                       variables=SCARA_VARIABLES)
+                       variables=SCARA_VARIABLES, mode=mode)
 
     where = {
         planar_ik.ELBOW_DOWN: f"inside the annulus |a1 - a2| = {quantity_text(abs(a1 - a2))} < r < a1 + a2 = {quantity_text(a1 + a2)} m",
@@ -370,17 +436,21 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     }[planar.labels[0]]
     notes.append(f"quill axis at r = {quantity_text(r)} m from joint 1's axis, {where}; d3 = {quantity_text(d3)} m")
     alpha = math.atan2(R[1, 0], R[0, 0])
-    for (theta1, theta2), label in zip(planar.solutions, planar.labels):
-        free, family = (), ()
-        if label == planar_ik.Q1_FREE:
-            free = (0,)
-            family = (
-                "theta1 free (a1 = a2 and the quill on joint 1's axis, arm folded with theta2 = pi): the row holds "
-                "theta1 = 0, and theta1 = t with theta4 = theta4_row + t reaches the same pose for every t",
-            )
-        candidates.append(_Candidate((theta1, theta2, d3, theta1 + theta2 - alpha), _SCARA_LABELS[label], free, family))
+    rolls = [None] if not position_only else [float(v) for v in np.atleast_1d(np.asarray(theta4_values, dtype=float))]
+    for roll in rolls:
+        for (theta1, theta2), label in zip(planar.solutions, planar.labels):
+            free, family = (), ()
+            if label == planar_ik.Q1_FREE:
+                free = (0,)
+                family = (
+                    "theta1 free (a1 = a2 and the quill on joint 1's axis, arm folded with theta2 = pi): the row holds "
+                    "theta1 = 0, and theta1 = t with theta4 = theta4_row + t reaches the same pose for every t",
+                )
+            theta4 = theta1 + theta2 - alpha if roll is None else roll
+            name = _SCARA_LABELS[label] + ("" if roll is None else f", theta4 = {quantity_text(float(wrap_angle(roll)))}")
+            candidates.append(_Candidate((theta1, theta2, d3, theta4), name, free, family))
     return _result(table, T, candidates, problems=problems, notes=notes, tol=tol, joint_names=SCARA_JOINTS,
-                   variables=SCARA_VARIABLES)
+                   variables=SCARA_VARIABLES, mode=mode)
 
 
 # --------------------------------------------------------------------------
@@ -470,10 +540,11 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
             "R_3^6 = (Rz(t) Ry(theta2))^T R",
         )))
     elif r < abs(d2) - singular_tol:
-        problems.append(
+        problems.append((
+            "wrist centre", abs(d2) - r,
             f"the {centre} is r = {quantity_text(r)} m from joint 1's axis, inside the cylinder r < |d2| = {quantity_text(abs(d2))} m "
-            f"that the offset boom cannot enter, by {quantity_text(abs(d2) - r)} m"
-        )
+            f"that the offset boom cannot enter, by {quantity_text(abs(d2) - r)} m",
+        ))
     elif r <= abs(d2) + singular_tol:
         shoulders.append((math.atan2(-d2 * xc, d2 * yc), 0.0, VERTICAL, (), ()))
         notes.append(f"{centre} on the cylinder r = |d2| = {quantity_text(abs(d2))} m: one shoulder solution, boom vertical")
@@ -603,11 +674,12 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
     for theta1, u, shoulder, back, free, family in shoulders:
         planar = ik_2r(u, s, a2, a3, tol=singular_tol)
         if planar.count == 0:
-            problems.append(
+            problems.append((
+                "wrist centre", planar.outside_by,
                 f"the {centre} is {quantity_text(distance)} m from the shoulder (0, 0, {quantity_text(d1)}), {planar.side} for "
                 f"the shell |a2 - a3| = {quantity_text(abs(a2 - a3))} <= distance <= a2 + a3 = {quantity_text(a2 + a3)} m, "
-                f"outside by {quantity_text(planar.outside_by)} m"
-            )
+                f"outside by {quantity_text(planar.outside_by)} m",
+            ))
             continue
         arms = sorted(
             ((row, _elbow_label(label, back)) for row, label in zip(planar.solutions, planar.labels)),

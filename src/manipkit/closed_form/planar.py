@@ -19,22 +19,33 @@ Conventions (docs/architecture.md, "Conventions"), restated where they matter:
   first. On the workspace boundary the two meet: ``q2 = 0`` ("straight",
   outer circle) or ``q2 = pi`` ("folded", inner circle).
 
+Modes (:mod:`manipkit.closed_form.result`): :func:`ik_2r` solves a planar
+position (x, y), :func:`ik_3r` a planar pose (x, y, phi); the other modes of
+these arms (a 2R pose, a 3R position: the family in phi) are in
+:mod:`manipkit.closed_form.planar_modes`. Every returned row is
+put through the forward kinematics of the arm's DH table
+(:func:`planar_dh_table`, :func:`manipkit.dh.dh_fk`: an independent path from
+the IK algebra) and kept only when it reproduces the target in the asked
+mode within ``max(CHECK_TOL, tol)``; those are the residuals reported.
+
 Every function is pure and works on numpy arrays; the ``*_batch`` solvers
 handle millions of targets without a Python loop. Only numpy is imported.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from manipkit.closed_form.checks import as_float, finite_array, link_length, quantity_text, tolerance
 from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, workspace_3r  # documented here too
-from manipkit.closed_form.result import ClosedFormSolutions, read_only
+from manipkit.closed_form.result import CHECK_TOL, PLANAR_POSE, PLANAR_POSITION, ClosedFormSolutions, read_only
+from manipkit.dh.table import DHRow, DHTable, dh_fk
 from manipkit.errors import PlanarArmError
-from manipkit.spatial.rotations import wrap_angle
+from manipkit.spatial.rotations import rot_z, rotation_angle_between, wrap_angle
 
 __all__ = [
     "ClosedFormSolutions",
@@ -53,6 +64,7 @@ __all__ = [
     "ik_2r_batch",
     "ik_3r",
     "ik_3r_batch",
+    "planar_dh_table",
     "se2_3r",
     "workspace_2r",
     "workspace_3r",
@@ -550,9 +562,8 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
     labels = _labels(case)
     rows = read_only(solutions[: len(labels)], (2,))
     reason, side = _describe_2r(case, float(np.hypot(x, y)), l1, l2, "target")
-    x_fk, y_fk = fk_2r(rows[:, 0], rows[:, 1], l1, l2)
-    position = np.hypot(x_fk - x, y_fk - y)
-    return _planar_result(rows, case, reason, position, np.zeros(len(labels)), outside, side)
+    return _planar_result(rows, case, reason, (l1, l2), _planar_target(x, y), outside, side,
+                          mode=PLANAR_POSITION, tol=tol, solver="planar.ik_2r")
 
 
 # --------------------------------------------------------------------------
@@ -645,14 +656,75 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> ClosedFormSolutions:
     reason, side = _describe_2r(case, float(np.hypot(wx, wy)), l1, l2, point)
     if case == _FREE:
         reason += ", and q3 = phi - q1 - pi"
-    x_fk, y_fk, phi_fk = fk_3r(rows[:, 0], rows[:, 1], rows[:, 2], l1, l2, l3)
-    rotation = np.abs(wrap_angle(phi_fk - phi))
-    return _planar_result(rows, case, reason, np.hypot(x_fk - x, y_fk - y), rotation, outside, side)
+    return _planar_result(rows, case, reason, (l1, l2, l3), _planar_target(x, y, phi), outside, side,
+                          mode=PLANAR_POSE, tol=tol, solver="planar.ik_3r")
 
 
-def _planar_result(rows, case: int, reason: str, position, rotation, outside, side) -> ClosedFormSolutions:
-    free = case == _FREE
-    return ClosedFormSolutions(
-        rows, _labels(case), math.inf if free else len(rows), reason, read_only(position), read_only(rotation),
-        free_parameter="q1" if free else "", free_joints=(0,) if free else (), outside_by=float(outside), side=side,
+# --------------------------------------------------------------------------
+# the check by forward kinematics
+
+
+def planar_dh_table(lengths) -> DHTable:
+    """Standard DH table of a planar serial arm: row i is ``(a, alpha, d, theta) = (l_i, 0, 0, 0)``.
+
+    Every joint turns about +z; the tool frame is at the end of the last link,
+    its x axis along it (the module conventions, and the bundled
+    ``planar_2r`` / ``planar_3r``). :func:`manipkit.dh.dh_fk` of it is the
+    independent forward kinematics every planar answer is checked with.
+
+    Examples
+    --------
+    >>> dh_fk(planar_dh_table([1.0, 0.5]), [np.pi / 2, -np.pi / 2])[:3, 3].round(12) + 0.0
+    array([0.5, 1. , 0. ])
+    """
+    rows = tuple(DHRow(link_length(length, f"l{i + 1}"), 0.0, 0.0, 0.0, name=f"joint{i + 1}")
+                 for i, length in enumerate(np.atleast_1d(as_float(lengths, "lengths"))))
+    return DHTable(rows, "standard", f"planar_{len(rows)}r")
+
+
+@functools.lru_cache(maxsize=64)
+def _table(lengths: tuple[float, ...]) -> DHTable:
+    """:func:`planar_dh_table` of checked link lengths, kept for the next call with the same arm."""
+    return planar_dh_table(lengths)
+
+
+def _planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
+    """T_base_tool of a planar target: at (x, y, 0), turned by phi about z (identity without phi)."""
+    T = np.eye(4)
+    T[0, 3], T[1, 3] = x, y
+    if phi is not None:
+        T[:3, :3] = rot_z(float(phi))
+    return T
+
+
+def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected: int = 0) -> ClosedFormSolutions:
+    """The rows whose DH forward kinematics reproduce ``target`` (position, and rotation when ``pose``)."""
+    rows = read_only(rows, (len(lengths),))
+    T_reached = dh_fk(_table(tuple(lengths)), rows).reshape(-1, 4, 4)
+    position = np.linalg.norm(T_reached[:, :3, 3] - target[:3, 3], axis=-1)
+    if pose:  # the tables' rotations are exact products of Rz: no need to project them first
+        rotation = np.atleast_1d(rotation_angle_between(target[:3, :3], T_reached[:, :3, :3], check=False))
+    else:
+        rotation = np.zeros_like(position)
+    limit = max(CHECK_TOL, tol)
+    keep = (position <= limit) & (rotation <= limit)
+    dropped = rejected + int(np.count_nonzero(~keep))
+    kept = tuple(label for label, k in zip(labels, keep) if k)
+    reason = ""
+    if dropped:
+        reason = f"{dropped} candidate(s) failed the forward-kinematics check (residual > {quantity_text(limit)})"
+    return ClosedFormSolutions(read_only(rows[keep], (len(lengths),)), kept, len(kept), reason,
+                               read_only(position[keep]), read_only(rotation[keep]), rejected=dropped)
+
+
+def _planar_result(rows, case: int, reason: str, lengths, target, outside, side, *, mode: str, tol: float,
+                   solver: str) -> ClosedFormSolutions:
+    checked = _checked(rows, _labels(case), lengths, target, pose=mode == PLANAR_POSE, tol=tol)
+    free = case == _FREE and checked.success
+    if checked.rejected:
+        reason += "; " + checked.reason
+    unmet = (("position", float(outside)),) if outside > 0.0 else ()
+    return replace(
+        checked, count=math.inf if free else checked.count, reason=reason, free_parameter="q1" if free else "",
+        free_joints=(0,) if free else (), outside_by=float(outside), side=side, mode=mode, solver=solver, unmet=unmet,
     )

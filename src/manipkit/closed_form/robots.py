@@ -16,36 +16,81 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.closed_form import decoupled, planar
-from manipkit.closed_form.result import ClosedFormSolutions, read_only
+from manipkit.closed_form import decoupled, planar, planar_modes
+from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.result import (
+    PLANAR_POSE,
+    PLANAR_POSITION,
+    SPATIAL_POSE,
+    SPATIAL_POSITION,
+    ClosedFormSolutions,
+    read_only,
+)
 from manipkit.errors import IKOptionError
 from manipkit.spatial.transforms import check_transform, pose_error
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["ANALYTIC_SOLVERS", "analytic_ik"]
+__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik"]
 
 
-def _planar_2r(T: np.ndarray, args: dict) -> ClosedFormSolutions:
-    return replace(planar.ik_2r(T[0, 3], T[1, 3], float(args["l1"]), float(args["l2"])),
-                   solver="planar.ik_2r (position x, y)")
+@dataclass(frozen=True)
+class AnalyticSolver:
+    """A bundled robot's closed-form solver and what it solves.
+
+    Attributes
+    ----------
+    solves : tuple of str
+        The modes (:data:`manipkit.closed_form.result.MODES`) the solver
+        answers; a position mode whose result is a family says so here too.
+    planar : bool
+        A planar arm: it moves in the x-y plane of ``base_link``, its tool
+        turns about z only.
+    solve : callable
+        ``(T_base_link_ee_link, xacro arguments, mode, samples, tol) -> ClosedFormSolutions``
+        with ``mode`` ``"pose"`` or ``"position"``.
+    """
+
+    solves: tuple[str, ...]
+    planar: bool
+    solve: Callable[[np.ndarray, dict, str, int, float], ClosedFormSolutions]
 
 
-def _planar_3r(T: np.ndarray, args: dict) -> ClosedFormSolutions:
-    phi = math.atan2(T[1, 0], T[0, 0])
-    result = planar.ik_3r(T[0, 3], T[1, 3], phi, *(float(args[k]) for k in ("l1", "l2", "l3")))
-    return replace(result, solver="planar.ik_3r (x, y, phi)")
+def _heading(T: np.ndarray) -> float:
+    """The angle (rad) of the tool x axis about z: phi of a planar pose."""
+    return math.atan2(T[1, 0], T[0, 0])
 
 
-def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[[np.ndarray, dict], ClosedFormSolutions]:
-    def solve(T: np.ndarray, args: dict) -> ClosedFormSolutions:
+def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+    lengths = float(args["l1"]), float(args["l2"])
+    if mode == "position":
+        return planar.ik_2r(T[0, 3], T[1, 3], *lengths)
+    return planar_modes.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths)
+
+
+def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+    lengths = tuple(float(args[k]) for k in ("l1", "l2", "l3"))
+    if mode == "position":
+        return planar_modes.ik_3r_position(T[0, 3], T[1, 3], *lengths, samples=samples)
+    return planar.ik_3r(T[0, 3], T[1, 3], _heading(T), *lengths)
+
+
+def _scara(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+    kwargs = {name: float(args[name]) for name in ("a1", "a2", "d1", "d4")}
+    result = decoupled.ik_scara(T, d3_limits=(0.0, float(args["d3_max"])), mode=mode, samples=samples, tol=tol, **kwargs)
+    return replace(result, solver="decoupled.ik_scara")
+
+
+def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[..., ClosedFormSolutions]:
+    def solve(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
         kwargs = {name: float(args[name]) for name in names}
+        kwargs["tol"] = tol
         if limits is not None:
             kwargs["d3_limits"] = limits(args)
         return replace(getattr(decoupled, function)(T, **kwargs), solver=f"decoupled.{function}")
@@ -53,24 +98,41 @@ def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[[
     return solve
 
 
-#: Bundled robot name -> closed-form solver of ``(T_base_link_ee_link, xacro arguments)``.
-ANALYTIC_SOLVERS: dict[str, Callable[[np.ndarray, dict], ClosedFormSolutions]] = {
-    "planar_2r": _planar_2r,
-    "planar_3r": _planar_3r,
-    "scara": _decoupled("ik_scara", ("a1", "a2", "d1", "d4"), lambda a: (0.0, float(a["d3_max"]))),
-    "stanford_arm": _decoupled("ik_stanford", ("d1", "d2", "d6"), lambda a: (float(a["d3_min"]), float(a["d3_max"]))),
-    "elbow_arm": _decoupled("ik_elbow", ("d1", "a2", "a3", "d6")),
+#: Bundled robot name -> its closed-form solver and what it solves.
+ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
+    "planar_2r": AnalyticSolver((PLANAR_POSITION,), True, _planar_2r),
+    "planar_3r": AnalyticSolver((PLANAR_POSE, PLANAR_POSITION), True, _planar_3r),
+    "scara": AnalyticSolver((SPATIAL_POSE, SPATIAL_POSITION), False, _scara),
+    "stanford_arm": AnalyticSolver(
+        (SPATIAL_POSE,), False, _decoupled("ik_stanford", ("d1", "d2", "d6"), lambda a: (float(a["d3_min"]), float(a["d3_max"])))),
+    "elbow_arm": AnalyticSolver((SPATIAL_POSE,), False, _decoupled("ik_elbow", ("d1", "a2", "a3", "d6"))),
 }
 
 
-def analytic_ik(robot: Robot, target, *, tol: float = 1e-9) -> ClosedFormSolutions:
-    """All closed-form IK solutions for ``T_base_link_ee_link = target`` on a bundled textbook arm.
+def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: int = 4) -> ClosedFormSolutions:
+    """All closed-form IK solutions for ``T_base_link_ee_link = target`` on a bundled textbook arm, in ``mode``.
 
     The solver parameters (link lengths, offsets, prismatic limits) are the
     robot's xacro arguments, so ``load("stanford_arm", d2=0.2)`` is solved
     with d2 = 0.2. Each solution is checked again through the URDF model
-    (``robot.transform("base_link", "ee_link", q)``) and kept when both
-    residuals are within ``tol``; the residuals are those of the URDF.
+    (``robot.transform("base_link", "ee_link", q)``) in the asked mode and
+    kept when its residuals are within ``tol``; the residuals are those of
+    the URDF, never the solver's own.
+
+    What each arm solves (``ANALYTIC_SOLVERS[name].solves``):
+
+    - ``planar_2r``: a planar position (x, y). Asked for a pose, the tool
+      angle is checked too and, when no elbow has it, 0 solutions with
+      ``unmet`` ``("orientation", rad)``.
+    - ``planar_3r``: a planar pose (x, y, phi); asked for a position, the
+      family in phi (``free_parameter = "phi"``, a few sampled, all through
+      ``result.members(phis)``).
+    - planar arms: a target off the arm's plane (z) or, for a pose, turned
+      out of it (``"tilt"``: the angle between the target's z axis and the
+      base z axis) has 0 solutions, the component and its size in ``unmet``.
+    - ``scara``: a pose with the tool vertical, or a position: the family in
+      the tool roll theta4.
+    - ``stanford_arm``, ``elbow_arm``: a spatial pose only.
 
     Parameters
     ----------
@@ -78,22 +140,31 @@ def analytic_ik(robot: Robot, target, *, tol: float = 1e-9) -> ClosedFormSolutio
         ``planar_2r``, ``planar_3r``, ``scara``, ``stanford_arm`` or ``elbow_arm``.
     target : array_like, shape (4, 4)
         ``T_base_link_ee_link`` (metres); checked by
-        :func:`manipkit.spatial.transforms.check_transform`. ``planar_2r``
-        uses its position only (its rotation residual is 0).
-    tol : float, keyword-only
-        Residual tolerance of the URDF check (m and rad).
+        :func:`manipkit.spatial.transforms.check_transform`.
+    mode : {"pose", "position"}, keyword-only
+        Match the whole pose, or the tool origin only (the target's rotation
+        is then ignored and the rotation residuals are 0).
+    tol : float or (float, float), keyword-only
+        Residual tolerance of the URDF check: one number for both, or
+        ``(position m, rotation rad)``; also how far off a planar arm's plane
+        (m) or out of it (rad) a target may be.
+    samples : int, keyword-only
+        For a family with a free parameter: how many of its values to sample.
 
     Returns
     -------
     ClosedFormSolutions
-        ``solver`` names the function used; ``solutions`` are joint vectors
-        in ``robot.joint_names`` order; ``count``, ``reason``, ``labels``
-        and the family fields are the solver's.
+        ``solver`` names the function used; ``mode`` what was asked (one of
+        :data:`manipkit.closed_form.result.MODES`); ``solutions`` are joint
+        vectors in ``robot.joint_names`` order; ``count``, ``reason``,
+        ``labels``, ``unmet`` and the family fields are the solver's.
 
     Raises
     ------
     IKOptionError
-        If the robot has no closed-form solver here (the message lists those that do).
+        If the robot has no closed-form solver here (the message lists those
+        that do), the mode is unknown, or the arm does not solve it (Stanford
+        and elbow arms: position only).
     InvalidTransformError
         ``target`` is not a 4x4 homogeneous transform.
 
@@ -101,26 +172,100 @@ def analytic_ik(robot: Robot, target, *, tol: float = 1e-9) -> ClosedFormSolutio
     --------
     >>> import manipkit
     >>> robot = manipkit.load("planar_2r")
-    >>> result = analytic_ik(robot, robot.transform("base_link", "ee_link", [0.3, 0.5]))
-    >>> result.solver, result.count, result.labels
-    ('planar.ik_2r (position x, y)', 2, ('elbow-down', 'elbow-up'))
+    >>> result = analytic_ik(robot, robot.transform("base_link", "ee_link", [0.3, 0.5]), mode="position")
+    >>> result.solver, result.mode, result.count, result.labels
+    ('planar.ik_2r', 'planar position (x, y)', 2, ('elbow-down', 'elbow-up'))
     """
-    solve = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
-    if solve is None:
+    arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
+    if arm is None:
         raise IKOptionError(
             f"no closed-form solver for robot '{robot.name}'; closed forms exist for "
             f"{', '.join(ANALYTIC_SOLVERS)} (use numerical IK otherwise)"
         )
+    if mode not in ("pose", "position"):
+        raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
+    asked = ((PLANAR_POSE if mode == "pose" else PLANAR_POSITION) if arm.planar
+             else (SPATIAL_POSE if mode == "pose" else SPATIAL_POSITION))
+    if mode == "position" and not arm.planar and SPATIAL_POSITION not in arm.solves:
+        raise IKOptionError(
+            f"the closed form of {robot.source.name} solves {' and '.join(arm.solves)} only, not a position alone "
+            "(a 6-joint arm leaves three degrees of freedom free); give an orientation, or use numerical IK for a position"
+        )
+    tol = _tolerances(tol)
     T = check_transform(target, what="IK target")
-    result = solve(T, robot.xacro_args)
+    result = arm.solve(T, robot.xacro_args, mode, samples, max(tol))
+    if arm.planar:
+        off_plane = _off_plane(robot, T, mode, tol)
+        if off_plane:
+            texts = [text for _, _, text in off_plane]
+            in_plane = result.reason.removeprefix("no solution: ")
+            return ClosedFormSolutions(
+                read_only((), (len(robot.joint_names),)), (), 0,
+                "no solution: " + "; ".join(texts) + f"; within the plane: {in_plane}", read_only(()), read_only(()),
+                solver=result.solver, joint_names=robot.joint_names, mode=asked,
+                unmet=tuple((c, size) for c, size, _ in off_plane) + result.unmet,
+            )
+    checked = _verified(robot, T, result, mode == "pose", tol)
+    family_function = None
+    if result.family_function is not None:
+        def family_function(values, _solve=result.family_function):
+            return replace(_verified(robot, T, _solve(values), mode == "pose", tol), mode=asked)
+    return replace(checked, mode=asked, family_function=family_function)
+
+
+def _tolerances(tol) -> tuple[float, float]:
+    """(position m, rotation rad) from one positive number or a pair, else :class:`IKOptionError`."""
+    try:
+        values = np.atleast_1d(np.asarray(tol, dtype=float))
+    except (TypeError, ValueError):
+        values = np.zeros(0)
+    if values.shape not in ((1,), (2,)) or not np.all(np.isfinite(values)) or np.any(values <= 0.0):
+        raise IKOptionError(f"tol must be a positive number or (position m, rotation rad), got {tol!r:.60}")
+    return float(values[0]), float(values[-1])
+
+
+def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float]) -> list[tuple[str, float, str]]:
+    """A planar arm's target components out of its plane: [(component, size, sentence)]."""
+    q0 = np.zeros(len(robot.joint_names))
+    z_plane = float(robot.transform("base_link", "ee_link", q0)[2, 3])
+    problems = []
+    dz = float(T[2, 3]) - z_plane
+    if abs(dz) > tol[0]:
+        problems.append((
+            "z", abs(dz),
+            f"z: the target is at z = {quantity_text(float(T[2, 3]))} m, off the arm's plane z = {quantity_text(z_plane)} m "
+            f"by {quantity_text(abs(dz))} m (a planar arm moves in the x-y plane of base_link)",
+        ))
+    if mode == "pose":
+        tilt = math.atan2(math.hypot(T[0, 2], T[1, 2]), T[2, 2])
+        if tilt > tol[1]:
+            problems.append((
+                "tilt", tilt,
+                f"tilt: the target's z axis is {quantity_text(tilt)} rad ({quantity_text(math.degrees(tilt))} deg) "
+                "from the plane's normal (base z); a planar arm's tool turns about z only",
+            ))
+    return problems
+
+
+def _verified(robot: Robot, T: np.ndarray, result: ClosedFormSolutions, pose: bool,
+              tol: tuple[float, float]) -> ClosedFormSolutions:
+    """``result`` with only the rows whose URDF forward kinematics reach T (in the asked mode), and those residuals."""
     n = len(robot.joint_names)
     rows = [i for i, q in enumerate(result.solutions) if q.size == n]
     Q = np.array([result.solutions[i] for i in rows], dtype=float).reshape(-1, n)
     T_reached = np.array([robot.transform("base_link", "ee_link", q, check_limits=False) for q in Q]).reshape(-1, 4, 4)
-    position, rotation = (np.atleast_1d(e) for e in pose_error(T, T_reached))
-    if robot.source.name == "planar_2r":
+    position, rotation = (np.atleast_1d(e).astype(float) for e in pose_error(T, T_reached))
+    if not pose:
         rotation = np.zeros_like(position)  # a position target: the tool's orientation is free
-    keep = (position <= tol) & (rotation <= tol)
+    keep = (position <= tol[0]) & (rotation <= tol[1])
+    dropped = int(np.count_nonzero(~keep))
+    reason = result.reason
+    if dropped:
+        worst = float(np.max(np.maximum(position, rotation)[~keep]))
+        reason += (f"; {dropped} row(s) failed the check through the URDF (worst residual {quantity_text(worst)} > "
+                   f"tol {' m, '.join(quantity_text(t) for t in tol)} rad) and were dropped")
+    kept = int(np.count_nonzero(keep))
+    count = result.count if math.isinf(result.count) and kept else kept
     return replace(
         result,
         solutions=read_only(Q[keep], (n,)),
@@ -128,4 +273,7 @@ def analytic_ik(robot: Robot, target, *, tol: float = 1e-9) -> ClosedFormSolutio
         residual_position=read_only(position[keep]),
         residual_rotation=read_only(rotation[keep]),
         joint_names=robot.joint_names,
+        count=count,
+        reason=reason,
+        rejected=result.rejected + dropped,
     )

@@ -45,6 +45,7 @@ fresh installation compiles the kernel (a few seconds, cached on disk after).
 
 from __future__ import annotations
 
+import html
 import math
 import numbers
 import weakref
@@ -58,6 +59,7 @@ from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, Jo
 from manipkit.kinematics.ik_kernel import MODE_CODES, error_and_jacobian, lm_attempt, pack_chain
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform
+from manipkit.text import short_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -68,6 +70,7 @@ MODES = ("pose", "position", "position+axis")
 AXES = ("x", "y", "z")
 DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solution
 TARGET_TOL = 1e-6  # how far a target may be from a rigid transform (check_transform's tol)
+NEAR_MISS = 1e-5  # m and rad: a failed best residual below this is called close in the failure message
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
@@ -114,6 +117,12 @@ class IKResult:
         closed-form answers alike (same properties, see :class:`IKSolutions`).
         """
         return IKSolutions((self,) if self.success else (), self, self.iterations, self.restarts + 1)
+
+    def _repr_html_(self) -> str:
+        """A one-row HTML table for Jupyter: joint values, residuals (m, rad), success, and the reason on failure."""
+        label = "solution" if self.success else "best found (fails)"
+        head = f"numerical IK: {self.iterations} iterations"
+        return _results_html(head, [(label, self)], self.success, self.reason or "")
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,6 +208,28 @@ class IKSolutions:
     def residuals(self) -> np.ndarray:
         """(k, 2): position (m) and rotation (rad) residual of each answer."""
         return np.column_stack([self.residual_position, self.residual_rotation]).reshape(-1, 2)
+
+    def _repr_html_(self) -> str:
+        """An HTML table for Jupyter: one row per solution (or the best failed attempt), residuals, success."""
+        rows = [(f"solution {i}", r) for i, r in enumerate(self.results, start=1)] or [("best found (fails)", self.best)]
+        head = f"numerical IK: {len(self.results)} solution(s) from {self.attempts} start(s)"
+        return _results_html(head, rows, self.success, self.reason)
+
+
+def _results_html(head: str, rows, success: bool, reason: str) -> str:  # success: in the caption
+    """HTML table of (label, IKResult) rows: joint values, position (m) and rotation (rad) residuals; escaped."""
+    n = rows[0][1].q.size
+    cells = ["label", *(f"q{i + 1}" for i in range(n)), "position (m)", "rotation (rad)", "success"]
+    lines = [f"<table><caption>{html.escape(head)}; success: {success}</caption>",
+             "<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cells) + "</tr>"]
+    for label, result in rows:
+        values = [label, *(short_text(float(v)) for v in result.q), short_text(result.residual_position, 3),
+                  short_text(result.residual_rotation, 3), str(result.success)]
+        lines.append("<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in values) + "</tr>")
+    lines.append("</table>")
+    if reason:
+        lines.append(f"<p>{html.escape(reason)}</p>")
+    return "\n".join(lines)
 
 
 def ik(
@@ -636,6 +667,9 @@ class IKSolver:
                 f"target out of reach: it lies {distance:.4g} m from the origin of {joint}, "
                 f"the chain to {self.frame} reaches at most {self.reach:.4g} m; {residual}"
             )
+        if max(pos, rot) <= NEAR_MISS:
+            return (f"did not converge: {residual} after {attempts} start(s); that is close: a target rounded from "
+                    "printed output (or just out of reach) ends like this, and a larger tol accepts the answer")
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)"
 
 

@@ -5,6 +5,13 @@ convention, R = Rz(yaw) Ry(pitch) Rx(roll)) or ``--quat`` (x, y, z, w) by
 :mod:`manipkit.spatial.transforms`; the solvers are
 :func:`manipkit.kinematics.ik.ik` and :func:`manipkit.closed_form.robots.analytic_ik`
 (docs/architecture.md). Exit status 1 when no solution reaches the target.
+
+``--tol`` sets the residual tolerance (one number for m and rad, or two:
+position m, rotation rad). The target's numbers remember how many decimals
+they were written with: when a numerical search fails with a best residual no
+larger than what rounding to those decimals can cause (a pose pasted from
+``tf-between``'s 6-decimal output), the message says so and suggests a
+``--tol`` that accepts the answer.
 """
 
 from __future__ import annotations
@@ -40,10 +47,10 @@ def register(commands) -> None:
     add_robot_options(ik)
     ik.add_argument("--frame", default="ee_link", help="frame to place (default ee_link)")
     ik.add_argument("--base", default="base_link", help="frame the target is given in (default base_link)")
-    ik.add_argument("--xyz", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
+    ik.add_argument("--xyz", type=_number, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
     orientation = ik.add_mutually_exclusive_group()
-    orientation.add_argument("--rpy", type=float, nargs=3, metavar=("R", "P", "Y"), help="target orientation, URDF rpy (rad, or deg with --deg)")
-    orientation.add_argument("--quat", type=float, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
+    orientation.add_argument("--rpy", type=_number, nargs=3, metavar=("R", "P", "Y"), help="target orientation, URDF rpy (rad, or deg with --deg)")
+    orientation.add_argument("--quat", type=_number, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
     ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
     ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
     ik.add_argument("--analytic", action="store_true", help="use the robot's closed-form solver (planar_2r/3r, scara, stanford_arm, elbow_arm)")
@@ -51,11 +58,86 @@ def register(commands) -> None:
     ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
     ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
+    ik.add_argument("--tol", type=float, nargs="+", default=None, metavar="TOL",
+                    help="residual tolerance: one number (m and rad) or two (position m, rotation rad); "
+                         "default 1e-10 numerical, 1e-9 closed form")
     ik.add_argument("--restarts", type=int, default=50, metavar="N", help="random restarts (default 50)")
     ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
     ik.add_argument("--precision", type=int, default=6, metavar="N")
     ik.add_argument("--format", choices=("text", "json"), default="text")
     ik.set_defaults(run=run_ik)
+
+
+class _Number(float):
+    """A number from the command line that remembers how many decimals it was written with (``decimals``:
+    the digits after the point, None without a point or with an exponent)."""
+
+    decimals: int | None
+
+    @classmethod
+    def parse(cls, text: str) -> _Number:
+        number = cls(float(text))  # ValueError: argparse reports "invalid float value"
+        digits = text.strip()
+        point = "." in digits and "e" not in digits.lower() and math.isfinite(number)
+        number.decimals = len(digits.partition(".")[2]) if point else None
+        return number
+
+
+def _number(text: str) -> _Number:
+    return _Number.parse(text)
+
+
+_number.__name__ = "float"  # argparse names the type in its message: "invalid float value: 'x'", as before
+
+PRINTED_DECIMALS = 3  # values all written with this many decimals or more, the same for each, look like a printout
+
+
+def _rounding(values, scale: float = 1.0) -> tuple[float, int | None]:
+    """(largest change as a vector norm, decimals) that rounding to the written decimals can cause (``scale``
+    converts the unit), when the values look printed: each with a point, all with the same number of
+    decimals, at least ``PRINTED_DECIMALS``; else (0, None): numbers typed by hand are taken as exact."""
+    decimals = {getattr(v, "decimals", None) for v in values}
+    if len(decimals) != 1 or None in decimals or min(decimals) < PRINTED_DECIMALS:
+        return 0.0, None
+    places = decimals.pop()
+    return scale * math.sqrt(len(values)) * 0.5 * 10.0 ** -places, places
+
+
+def _precision_note(args, mode: str, position: float, rotation: float) -> str | None:
+    """The note for a failed numerical search whose best residual rounding of the target's printed digits explains."""
+    position_bound, places = _rounding(args.xyz)
+    if places is None:
+        return None
+    rotation_bound = 0.0
+    if mode != "position" and args.rpy is not None:
+        change, rpy_places = _rounding(args.rpy, math.pi / 180.0 if args.deg else 1.0)
+        rotation_bound = math.sqrt(3.0) * change  # |dR| <= |d roll| + |d pitch| + |d yaw| <= sqrt(3) |d rpy|
+    elif mode != "position" and args.quat is not None:
+        change, rpy_places = _rounding(args.quat)
+        rotation_bound = 2.0 * change / math.sqrt(sum(v * v for v in args.quat))  # angle <= 2 |dq| for a unit q
+    else:
+        rpy_places = places
+    if rpy_places is None:
+        return None
+    # The target is within (position_bound, rotation_bound) of the pose it was printed from; the least-squares
+    # best answer is no farther than that pose's configuration, so a residual inside the bound is rounding.
+    if math.hypot(position, rotation) > math.hypot(position_bound, rotation_bound):
+        return None
+    suggest = 10.0 ** math.ceil(math.log10(max(position, rotation, 1e-15) * 1.01))
+    rotation_text = f" and {short_text(rotation_bound, 2)} rad" if rotation_bound else ""
+    return (f"the best residual ({short_text(position, 3)} m, {short_text(rotation, 3)} rad) is within what the target's "
+            f"printed precision can express ({min(places, rpy_places)} decimals: up to {short_text(position_bound, 2)} m"
+            f"{rotation_text}); it is likely a rounded copy of a reachable pose: accept it with --tol {short_text(suggest)}")
+
+
+def _tolerance(args) -> float | tuple[float, float] | None:
+    """--tol as the solvers take it: None (their default), one number, or (position m, rotation rad)."""
+    if args.tol is None:
+        return None
+    if len(args.tol) > 2 or not all(math.isfinite(t) and t > 0.0 for t in args.tol):
+        raise UsageError(f"--tol {' '.join(short_text(t) for t in args.tol)}: give one or two positive numbers "
+                         "(position m, rotation rad)")
+    return args.tol[0] if len(args.tol) == 1 else (args.tol[0], args.tol[1])
 
 
 def _ik_target(args) -> np.ndarray:
@@ -81,19 +163,28 @@ def _ik_target(args) -> np.ndarray:
 def _solve(args, robot: Robot, target: np.ndarray, mode: str):
     """(solutions, header): closed-form or numerical, as one result type with the same properties."""
     if args.analytic:
-        from manipkit.closed_form.robots import analytic_ik
+        from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 
         if args.frame != "ee_link" or args.base != "base_link":
             raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
-        result = analytic_ik(robot, target)
+        if mode == "position+axis":
+            raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
+        tol = _tolerance(args)
+        result = analytic_ik(robot, target, mode=mode, **({} if tol is None else {"tol": tol}))
         found = len(result.solutions)
-        count = f" (count: {result.count})" if result.count != found else ""
-        return result, f"closed form ({result.solver}): {found} solution(s){count}"
+        if result.infinite:
+            count = f"infinitely many solutions (free: {result.free_parameter}), {found} listed"
+        else:
+            count = f"{found} solution(s)"
+        solves = ANALYTIC_SOLVERS[robot.source.name].solves
+        return result, (f"closed form ({result.solver}): {count}\n"
+                        f"mode: {result.mode}; this arm's closed form solves {' and '.join(solves)}")
     from manipkit.kinematics.ik import ik
 
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
+    tol = _tolerance(args)
     found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
-               q0=q0, all=args.all, restarts=args.restarts, seed=args.seed)
+               q0=q0, all=args.all, restarts=args.restarts, seed=args.seed, **({} if tol is None else {"tol": tol}))
     result = found if args.all else found.as_solutions()
     outcome = "success" if result.success else "FAILED"
     return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.best.iterations} iterations"
@@ -124,6 +215,10 @@ def run_ik(args) -> int:
     else:
         residuals = (None, None)
     notes = [result.reason] if result.reason else []
+    if not result.success and best is not None:
+        note = _precision_note(args, mode, best.residual_position, best.residual_rotation)
+        if note:
+            notes.append(note)
     if args.format == "json":
         print_json({
             "robot": robot.name,
@@ -131,6 +226,10 @@ def run_ik(args) -> int:
             "target": target.tolist(),
             "solutions": [robot.as_dict(q) for _, q in answers],
             "labels": [label for label, _ in answers] if args.analytic else None,
+            "closed_form_mode": result.mode if args.analytic else None,
+            "count": None if not args.analytic else ("inf" if result.infinite else result.count),
+            "free_parameter": getattr(result, "free_parameter", "") or None,
+            "unmet": dict(getattr(result, "unmet", ())),
             "success": result.success,
             "residual_position": None if residuals[0] is None else float(residuals[0]),
             "residual_rotation": None if residuals[1] is None else float(residuals[1]),
