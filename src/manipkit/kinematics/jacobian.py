@@ -70,7 +70,10 @@ from manipkit.kinematics.chain import ChainStep, compile_kernel
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["GIMBAL_TOL", "JacobianProgram", "REFERENCES", "REPRESENTATIONS", "jacobian", "jacobians", "rpy_rate_matrix"]
+__all__ = [
+    "GIMBAL_TOL", "JacobianProgram", "REFERENCES", "REPRESENTATIONS", "jacobian", "jacobians", "mass_matrix",
+    "rpy_rate_matrix",
+]
 
 REFERENCES = ("base", "local")
 REPRESENTATIONS = ("geometric", "rpy")
@@ -448,3 +451,26 @@ def jacobian(robot: Robot, q=None, frame: str = "ee_link", base: str = "base_lin
                               f"got shape {q.shape}; use jacobians for many")
     return jacobians(robot, q[None], frame, base, reference=reference, representation=representation,
                      gimbal_tol=gimbal_tol)[0]
+
+
+def mass_matrix(robot: Robot, q=None) -> np.ndarray:
+    """The joint-space inertia matrix ``M(q)`` (n, n) in ``robot.joint_names`` order (kg, kg m, kg m^2).
+
+    Pinocchio's composite rigid body algorithm (``crba``) on the inertias of
+    the description; used by Asada's index
+    (:func:`manipkit.analysis.manipulability.manipulability`, ``method="asada"``).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> M = mass_matrix(manipkit.load("iiwa14"))
+    >>> bool(np.allclose(M, M.T)) and bool(np.all(np.linalg.eigvalsh(M) > 0))
+    True
+    """
+    import pinocchio as pin
+
+    data = robot.model.createData()
+    M = np.array(pin.crba(robot.model, data, robot.pinocchio_configuration(q)))
+    M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
+    columns = [robot.model.joints[robot.model.getJointId(name)].idx_v for name in robot.joint_names]
+    return M[np.ix_(columns, columns)]
