@@ -57,7 +57,7 @@ from manipkit.kinematics.chain import compile_kernel
 
 __all__ = [
     "AXES", "METHODS", "Ellipsoid", "MixedUnitsWarning", "condition_number", "force_ellipsoid", "manipulability",
-    "plot_ellipsoid", "select_rows", "singular_values", "velocity_ellipsoid",
+    "mixes_units", "plot_ellipsoid", "select_rows", "singular_values", "velocity_ellipsoid",
 ]
 
 AXES = {"all": (0, 1, 2, 3, 4, 5), "trans": (0, 1, 2), "rot": (3, 4, 5)}
@@ -101,6 +101,18 @@ def _rows(axes) -> tuple[int, ...]:
     return rows
 
 
+def mixes_units(axes) -> bool:
+    """Whether the rows ``axes`` hold both linear and angular rows (then a characteristic length is needed).
+
+    Examples
+    --------
+    >>> mixes_units("all"), mixes_units("trans"), mixes_units([0, 1, 5])
+    (True, False, True)
+    """
+    rows = _rows(axes)
+    return any(r < 3 for r in rows) and any(r >= 3 for r in rows)
+
+
 def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int = 2) -> np.ndarray:
     """The rows ``axes`` of ``J`` (..., m, n), angular rows times ``length`` when linear ones are selected too.
 
@@ -130,8 +142,7 @@ def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int =
         if not (math.isfinite(length) and length > 0):
             raise ManipkitError(f"length={length} must be a positive finite number of metres (a characteristic length)")
     selected = J[..., list(rows), :]
-    mixed = any(r < 3 for r in rows) and any(r >= 3 for r in rows)
-    if mixed:
+    if mixes_units(rows):
         if length is None:
             warnings.warn(
                 "linear (m/s) and angular (rad/s) rows are combined without a characteristic length, so the "
