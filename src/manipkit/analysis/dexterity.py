@@ -26,7 +26,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.manipulability import MixedUnitsWarning, manipulability, mixes_units, select_rows
+from manipkit.analysis.manipulability import (
+    MixedUnitsWarning,
+    manipulability,
+    mixes_units,
+    select_rows,
+    singular_values,
+)
 from manipkit.errors import ManipkitError
 from manipkit.kinematics.jacobian import jacobians
 from manipkit.text import short_text
@@ -34,7 +40,7 @@ from manipkit.text import short_text
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["CHUNK", "ConditioningIndex", "global_conditioning_index", "uniform_joint_samples"]
+__all__ = ["CHUNK", "ConditioningIndex", "generic_rank", "global_conditioning_index", "rank", "uniform_joint_samples"]
 
 CHUNK = 50_000  # configurations per batch (about 20 MB of Jacobians for a 7-joint arm)
 
@@ -175,3 +181,36 @@ def _progress(progress, samples: int):
     task = bar.add_task("gci", total=samples)
     bar.start()
     return bar, lambda done: bar.update(task, completed=done)
+
+
+def rank(J, axes="all", length: float | None = None, *, tol: float = 1e-9) -> np.ndarray | int:
+    """Number of singular values of the selected rows above ``tol`` (same units as the rows, after ``length``).
+
+    Examples
+    --------
+    >>> J = np.zeros((6, 2)); J[1] = [2.0, 1.0]; J[5] = [1.0, 1.0]  # planar 2R stretched out along x
+    >>> rank(J, "trans"), rank(J, "all", 1.0)
+    (1, 2)
+    """
+    result = np.sum(singular_values(J, axes, length) > tol, axis=-1)
+    return int(result) if np.ndim(result) == 0 else result
+
+
+def generic_rank(robot: Robot, frame: str = "ee_link", base: str = "base_link", axes="all",
+                 length: float | None = None, *, samples: int = 32, seed: int = 0, tol: float = 1e-9) -> int:
+    """The rank of the Jacobian's rows ``axes`` at a generic configuration: the largest over random samples.
+
+    A configuration is singular for these rows when its rank is below this
+    one. The generic rank is not always ``min(rows, joints)``: a planar 3R has
+    ``"trans"`` rank 2 (vz is always 0), a planar 2R has ``"all"`` rank 2 even
+    stretched out (it can still turn), while its ``"trans"`` rank drops there.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("planar_3r")
+    >>> generic_rank(robot, axes="trans"), generic_rank(robot, axes="all", length=1.0)
+    (2, 3)
+    """
+    Q = uniform_joint_samples(robot, np.random.default_rng(seed), samples)
+    return int(np.max(rank(jacobians(robot, Q, frame, base), axes, length, tol=tol), initial=0))
