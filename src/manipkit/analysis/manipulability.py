@@ -141,7 +141,8 @@ def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int =
             raise ManipkitError(f"length={length!r:.40} must be a number of metres") from None
         if not (math.isfinite(length) and length > 0):
             raise ManipkitError(f"length={length} must be a positive finite number of metres (a characteristic length)")
-    selected = J[..., list(rows), :]
+    contiguous = rows == tuple(range(rows[0], rows[0] + len(rows)))
+    selected = J[..., rows[0] : rows[0] + len(rows), :] if contiguous else J[..., list(rows), :]  # a view when it can
     if mixes_units(rows):
         if length is None:
             warnings.warn(
@@ -150,6 +151,7 @@ def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int =
                 "or select axes='trans' or 'rot'", MixedUnitsWarning, stacklevel=stacklevel + 1)
         elif length != 1.0:
             angular = [k for k, r in enumerate(rows) if r >= 3]
+            selected = selected.copy() if contiguous else selected
             selected[..., angular, :] *= length
     return selected
 
@@ -158,14 +160,17 @@ def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int =
 # Indices
 
 
-def _products_of_singular_values(A, out):
-    """out[k] = product of the singular values of A[k] (r x c, r >= c): |prod diag(R)| of a Householder QR."""
-    rows, cols = A.shape[1], A.shape[2]
+def _products_of_singular_values(A, transpose, out):
+    """out[k] = product of the singular values of A[k]: |prod diag(R)| of a Householder QR of A[k] (or of A[k]^T).
+
+    The QR is of the tall one (rows >= columns): ``A[k]`` itself, or ``A[k]^T`` when ``transpose``.
+    """
+    rows, cols = (A.shape[2], A.shape[1]) if transpose else (A.shape[1], A.shape[2])
     work = np.empty((rows, cols))
     for k in range(A.shape[0]):
         for i in range(rows):
             for j in range(cols):
-                work[i, j] = A[k, i, j]
+                work[i, j] = A[k, j, i] if transpose else A[k, i, j]
         product = 1.0
         for j in range(cols):
             norm2 = 0.0
@@ -199,10 +204,9 @@ def _yoshikawa(Js: np.ndarray) -> np.ndarray:
         _compiled = compile_kernel(_products_of_singular_values)
     lead = Js.shape[:-2]
     m, n = Js.shape[-2:]
-    flat = Js.reshape(-1, m, n)
-    tall = np.ascontiguousarray(flat if m >= n else np.swapaxes(flat, -1, -2))
-    out = np.empty(tall.shape[0])
-    _compiled(tall, out)
+    flat = np.ascontiguousarray(Js).reshape(-1, m, n)
+    out = np.empty(flat.shape[0])
+    _compiled(flat, m < n, out)
     return out.reshape(lead)
 
 
