@@ -70,3 +70,14 @@ def test_progress_bar_runs(iiwa14):
 def test_bad_arguments(planar_2r, kwargs, message):
     with pytest.raises(ManipkitError, match=message):
         global_conditioning_index(planar_2r, **{"samples": 10, **kwargs})
+
+
+def test_fast_inverse_condition_equals_the_svd_one(iiwa14, planar_2r):
+    from manipkit.analysis.dexterity import _inverse_condition
+    from manipkit.analysis.manipulability import manipulability, select_rows
+    from manipkit.kinematics.jacobian import jacobians
+
+    for robot, axes in ((iiwa14, "all"), (iiwa14, "trans"), (planar_2r, "trans"), (planar_2r, [0, 1])):
+        J = jacobians(robot, robot.sample_q(500, seed=8))
+        np.testing.assert_allclose(_inverse_condition(select_rows(J, axes, 0.5)),
+                                   manipulability(J, "invcondition", axes, 0.5), rtol=0, atol=1e-7)

@@ -28,7 +28,6 @@ import numpy as np
 
 from manipkit.analysis.manipulability import (
     MixedUnitsWarning,
-    manipulability,
     mixes_units,
     select_rows,
     singular_values,
@@ -151,7 +150,7 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
             J = jacobians(robot, uniform_joint_samples(robot, rng, m), frame_name, base_name)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", MixedUnitsWarning)
-                inverse = manipulability(J, "invcondition", axes, length)
+                inverse = _inverse_condition(select_rows(J, axes, length))
             total += float(np.sum(inverse))
             total_sq += float(np.sum(inverse * inverse))
             done += m
@@ -165,6 +164,23 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     half = NormalDist().inv_cdf(0.5 + confidence / 2) * std / math.sqrt(samples)
     return ConditioningIndex(mean, mean - half, mean + half, std, int(samples), float(confidence), frame_name,
                              base_name, axes if isinstance(axes, str) else tuple(int(a) for a in axes), length)
+
+
+def _inverse_condition(Js: np.ndarray) -> np.ndarray:
+    """``sigma_min / sigma_max`` from the eigenvalues of the Gram matrix (``J J^T`` or ``J^T J``, the smaller).
+
+    Twice as fast as numpy's SVD here; the eigenvalue ``sigma_min^2`` carries an
+    absolute error of about ``1e-16 sigma_max^2``, so the ratio is off by at most
+    about 1e-8, far inside the interval of any Monte Carlo estimate
+    (:func:`manipkit.analysis.manipulability.manipulability` with
+    ``"invcondition"`` uses the SVD and is exact to rounding).
+    """
+    Jt = np.swapaxes(Js, -1, -2)
+    gram = Js @ Jt if Js.shape[-2] <= Js.shape[-1] else Jt @ Js
+    eigenvalues = np.linalg.eigvalsh(gram)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.sqrt(np.maximum(eigenvalues[..., 0], 0.0) / eigenvalues[..., -1])
+    return np.where(eigenvalues[..., -1] > 0.0, ratio, 0.0)
 
 
 def _progress(progress, samples: int):
