@@ -206,7 +206,7 @@ def run_dexterity(args) -> int:
         rows = args.axes if length is None else f"{args.axes}, angular rows times length {short_text(length)} m"
         print(f"robot: {robot.name} ({robot.source.path})")
         print(f"Jacobian of {gci.frame} relative to {gci.base}, rows {rows}")
-        print(f"{gci} (seed {args.seed})")
-        print(f"inverse condition number over the samples: mean {short_text(gci.mean, 4)}, "
-              f"standard deviation {short_text(gci.std, 4)}")
+        print(gci)
+        print(f"inverse condition number 1/kappa over the samples: mean {short_text(gci.mean, 4)}, "
+              f"standard deviation {short_text(gci.std, 4)}; seed {args.seed}")
     return EXIT_OK
