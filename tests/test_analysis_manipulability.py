@@ -104,14 +104,16 @@ shapes = st.tuples(st.integers(1, 6), st.integers(1, 8))
 @st.composite
 def jacobian_matrices(draw):
     n = draw(st.integers(1, 8))
-    return draw(arrays(np.float64, (6, n), elements=st.floats(-3, 3, allow_subnormal=False)))
+    # 0 or |entry| in [1e-6, 3]: entries near 1e-300 make 1 / sigma overflow, which says nothing about the code
+    entries = st.one_of(st.just(0.0), st.floats(1e-6, 3.0), st.floats(-3.0, -1e-6))
+    return draw(arrays(np.float64, (6, n), elements=entries))
 
 
 row_sets = st.sampled_from(["all", "trans", "rot", [0, 1], [0, 1, 5], [2], [3, 4, 5, 0]])
 
 
 @given(jacobian_matrices(), row_sets)
-@settings(max_examples=200)
+@settings(max_examples=200, deadline=None)  # the first call loads the compiled kernel
 def test_yoshikawa_is_the_product_of_numpys_singular_values(J, axes):
     Js = select_rows(J, axes, 1.0)
     s = np.linalg.svd(Js, compute_uv=False)
@@ -123,7 +125,7 @@ def test_yoshikawa_is_the_product_of_numpys_singular_values(J, axes):
 
 
 @given(jacobian_matrices(), row_sets, st.tuples(*[st.floats(-3, 3)] * 3))
-@settings(max_examples=100)
+@settings(max_examples=100, deadline=None)  # the first call loads the compiled kernel
 def test_indices_do_not_depend_on_the_base_orientation(J, axes, rpy):
     # Turning the base turns v and w alike: J -> diag(R, R) J leaves every singular value unchanged.
     R = matrix_from_rpy(rpy)
@@ -135,7 +137,7 @@ def test_indices_do_not_depend_on_the_base_orientation(J, axes, rpy):
 
 
 @given(jacobian_matrices(), row_sets)
-@settings(max_examples=100)
+@settings(max_examples=100, deadline=None)  # the first call loads the compiled kernel
 def test_condition_number_and_inverse_condition(J, axes):
     s = singular_values(J, axes, 2.0)
     assert np.all(np.diff(s) <= 0)
@@ -150,7 +152,7 @@ def test_condition_number_and_inverse_condition(J, axes):
 
 
 @given(jacobian_matrices(), st.sampled_from(["trans", "rot"]))
-@settings(max_examples=100)
+@settings(max_examples=100, deadline=None)  # the first call loads the compiled kernel
 def test_ellipsoid_axes_and_radii_rebuild_j_jt(J, axes):
     ellipsoid = velocity_ellipsoid(J, axes)
     U, r = ellipsoid

@@ -362,7 +362,7 @@ def force_ellipsoid(J, axes="trans", length: float | None = None) -> Ellipsoid:
     array([0.25, 0.5 ,  inf])
     """
     U, radii = _ellipsoid_svd(J, axes, length)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # a radius of 1e-310 has no finite reciprocal: inf
         return Ellipsoid(U, np.where(radii > 0.0, 1.0 / np.where(radii > 0.0, radii, 1.0), np.inf))
 
 
