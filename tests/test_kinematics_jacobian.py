@@ -275,3 +275,8 @@ def test_bad_options_and_frames(planar_2r):
         jacobian(planar_2r, [0, 0], reference="local", representation="rpy")
     with pytest.raises(UnknownFrameError):
         jacobian(planar_2r, [0, 0], "nowhere")
+
+
+def test_frame_equal_to_base_and_empty_batches(iiwa14):
+    assert np.all(jacobian(iiwa14, iiwa14.sample_q(1, seed=1)[0], "iiwa_link_4", "iiwa_link_4") == 0.0)
+    assert jacobians(iiwa14, np.zeros((0, 7))).shape == (0, 6, 7)
