@@ -105,6 +105,11 @@ class RoboticsToolbox:
     def fk_batch(self, Q: np.ndarray) -> np.ndarray:
         return np.array(self.fk_batch_call(Q).A)
 
+    def jacobian_manipulability(self, q: np.ndarray) -> tuple[np.ndarray, float]:
+        """``jacob0`` on the prepared ETS (C++) and ``manipulability(J=J)`` (Yoshikawa, all rows), as a user calls them."""
+        J = self.ets.jacob0(q)
+        return J, float(self.robot.manipulability(J=J, end=self.end, method="yoshikawa", axes="all"))
+
     def ik_LM(self, T: np.ndarray, q0: np.ndarray, *, tol: float) -> np.ndarray:
         return self.ets.ik_LM(T, q0=q0, tol=tol).q
 

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-WORKLOADS = ("fk", "ik", "planar", "cold", "viewer")
+WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci")
 ROBOTS = ("iiwa14", "panda")
 
 FULL = {
@@ -30,6 +30,8 @@ FULL = {
     "planar": dict(n_targets=1_000_000, repeats=7, n_scalar=2000),
     "cold": dict(runs=15),
     "viewer": dict(moves=60),
+    "jacobian": dict(n_batch=100_000, repeats=7, loop_subset=5000, rtb_subset=2000),
+    "gci": dict(samples=1_000_000, repeats=1),
 }
 QUICK = {
     "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
@@ -37,6 +39,8 @@ QUICK = {
     "planar": dict(n_targets=2000, repeats=1, n_scalar=20),
     "cold": dict(runs=1),
     "viewer": dict(moves=3),
+    "jacobian": dict(n_batch=300, repeats=2, loop_subset=50, rtb_subset=20),
+    "gci": dict(samples=2000, repeats=1),
 }
 GROUP_LABELS = {
     "fk_single": "FK, one configuration",
@@ -45,6 +49,8 @@ GROUP_LABELS = {
     "planar": "closed-form planar IK",
     "cold_start": "cold start",
     "viewer": "viewer round trip",
+    "jacobian": "Jacobian + Yoshikawa, batch",
+    "gci": "global conditioning index",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move"}
 
@@ -151,6 +157,7 @@ def goals(rows: list[dict]) -> list[dict]:
             rate = 1.0 / r["median_s"]
             goal(f"closed-form {arm} IK: >= 10 million targets per second", f"{rate / 1e6:.1f} M/s", rate >= 1e7,
                  f"{rate / 1e7:.1f}x the goal" if rate >= 1e7 else f"missed by {1e7 / rate:.1f}x")
+    _velocity_goals(rows, goal)
     cold = _find(rows, "cold_start", "-", "manipkit tf-between")
     bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
     if cold and cold["median_s"]:
@@ -159,6 +166,30 @@ def goals(rows: list[dict]) -> list[dict]:
         goal("tf-between cold start: median <= 0.25 s", f"{s:.3f} s", s <= 0.25,
              (f"{0.25 - s:.3f} s to spare" if s <= 0.25 else f"missed by {s - 0.25:.3f} s ({s / 0.25:.2f}x)") + floor)
     return out
+
+
+def _velocity_goals(rows: list[dict], goal) -> None:
+    """Issue 16: batched Jacobian + Yoshikawa on iiwa14 (<= 1 us, >= 10x Pinocchio loop, >= 20x RTB), GCI < 10 s."""
+    ours = _find(rows, "jacobian", "iiwa14", "manipkit jacobians + manipulability")
+    if ours and ours["median_s"]:
+        us = ours["median_s"] * 1e6
+        goal("Jacobian + Yoshikawa, iiwa14 batch: <= 1 us per configuration", f"{us:.3f} us", us <= 1.0,
+             f"{1.0 / us:.1f}x under the bound" if us <= 1.0 else f"missed by {us:.1f}x")
+        for start, need, label in (("Pinocchio", 10, "a Python loop over Pinocchio computeFrameJacobian + numpy SVD"),
+                                   ("Robotics Toolbox", 20, "Robotics Toolbox jacob0 + manipulability")):
+            peer = _find(rows, "jacobian", "iiwa14", start)
+            text = f"Jacobian + Yoshikawa, iiwa14: >= {need}x faster than {label}"
+            if peer and peer.get("ratio"):
+                goal(text, f"{peer['ratio']:.1f}x", peer["ratio"] >= need,
+                     f"{peer['ratio'] / need:.1f}x the goal" if peer["ratio"] >= need
+                     else f"missed by {need / peer['ratio']:.1f}x")
+            else:
+                goal(text, None, None, peer["note"] if peer else "not measured")
+    gci = _find(rows, "gci", "iiwa14", "manipkit global_conditioning_index")
+    if gci and gci["median_s"] and gci["n"] >= 1_000_000:
+        s = gci["median_s"]
+        goal("GCI of iiwa14 from 10^6 samples: < 10 s", f"{s:.2f} s", s < 10.0,
+             f"{10.0 / s:.1f}x under the bound" if s < 10.0 else f"missed by {s / 10.0:.1f}x")
 
 
 def fmt_time(seconds: float | None, unit: str) -> str:
@@ -321,6 +352,11 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         steps.append(("cold start", lambda: w.cold_start_workload(**sizes["cold"])))
     if "viewer" in only:
         steps.append(("viewer round trip", lambda: w.viewer_workload(**sizes["viewer"])))
+    for robot in robots:
+        if "jacobian" in only:
+            steps.append((f"Jacobian {robot}", lambda robot=robot: w.jacobian_workload(robot, **sizes["jacobian"])))
+    if "gci" in only:
+        steps.append(("GCI iiwa14", lambda: w.gci_workload("iiwa14", **sizes["gci"])))
     for label, step in steps:
         t = time.perf_counter()
         log(f"[bench] {label} ...")

@@ -1,4 +1,4 @@
-"""The five workloads of `make bench`, each returning result rows after checking every answer.
+"""The workloads of `make bench`, each returning result rows after checking every answer.
 
 A row is a dict (see :func:`row`): workload, robot, tool, median and p95 time
 (seconds, per the row's ``unit``), the sample count, the check that was made
@@ -526,3 +526,110 @@ def _browser_round_trip(url: str, robot, moves: int, joint: str) -> list[dict]:
     return [row("viewer", "course_arm", name, np.asarray(timings) / 1000.0 if ok else None, unit="move", n=moves,
                 ours=True, status="ok" if ok else "wrong", check=f"readout = robot.transform (max error {err:.1e})",
                 note="the page's own timer: first input event to readout shown")]
+
+
+# --------------------------------------------------------------------------
+# 6. velocity kinematics: batched Jacobian + Yoshikawa's index, and the global conditioning index
+
+
+def jacobian_workload(robot_name: str = "iiwa14", *, n_batch: int = 100_000, repeats: int = 5, loop_subset: int = 5000,
+                      rtb_subset: int = 2000, seed: int = 13, peer_list=("rtb",)) -> list[dict]:
+    """Jacobian of ee_link (base axes) and Yoshikawa's index (all six rows, as they are) for ``n_batch`` configurations.
+
+    manipkit: ``jacobians(robot, Q)`` then ``manipulability(J, length=1.0)`` (one batched call each).
+    Against: a Python loop over Pinocchio's ``computeFrameJacobian`` (LOCAL_WORLD_ALIGNED) + numpy's SVD
+    (the product of the singular values), and Robotics Toolbox's ``jacob0`` + ``manipulability`` per row. Every
+    answer is checked first: J to ``KERNEL_TOL`` against Pinocchio, the index to 1e-10 relative to the SVD
+    product and 1e-10 absolute to RTB's (its ``sqrt(det(J J^T))`` loses half the digits of a small index).
+    """
+    import pinocchio as pin
+
+    import manipkit
+    from manipkit.analysis.manipulability import manipulability
+    from manipkit.kinematics.jacobian import jacobians
+
+    robot = manipkit.load(robot_name)
+    ee = robot.frame("ee_link")
+    Q = robot.sample_q(n_batch, seed=seed)
+    model, data, fid = robot.model, robot.model.createData(), robot.frame_id(ee)
+    configs = [robot.pinocchio_configuration(q) for q in Q[:loop_subset]]
+
+    def pin_one(config):
+        J = pin.computeFrameJacobian(model, data, config, fid, pin.LOCAL_WORLD_ALIGNED)
+        return J, float(np.prod(np.linalg.svd(J, compute_uv=False)))
+
+    reference = [pin_one(c) for c in configs]
+    J_pin = np.array([J for J, _ in reference])
+    w_pin = np.array([w for _, w in reference])
+
+    def ours():
+        return manipulability(jacobians(robot, Q, ee), length=1.0)
+
+    J_ours = jacobians(robot, Q, ee)
+    w_ours = ours()
+    err_J = max_error(J_ours[:loop_subset], J_pin)
+    err_w = float(np.max(np.abs(w_ours[:loop_subset] - w_pin) / np.maximum(np.abs(w_pin), 1e-300)))
+    ok = err_J <= KERNEL_TOL and err_w <= 1e-10
+    check = (f"max |J - Pinocchio| = {err_J:.1e} (<= {KERNEL_TOL:g}), max relative |w - prod(svd)| = {err_w:.1e} "
+             f"(<= 1e-10) over {loop_subset}")
+    rows = [row("jacobian", robot_name, "manipkit jacobians + manipulability (Yoshikawa)",
+                per_item(ours, n_batch, repeats=repeats) if ok else None, unit="config", n=n_batch, ours=True,
+                status="ok" if ok else "wrong", check=check)]
+    rows.append(row("jacobian", robot_name, "manipkit jacobians alone",
+                    per_item(lambda: jacobians(robot, Q, ee), n_batch, repeats=repeats) if ok else None, unit="config",
+                    n=n_batch, status="ok" if ok else "wrong", check="as above"))
+    rows.append(row("jacobian", robot_name, "Pinocchio computeFrameJacobian + numpy SVD, Python loop",
+                    per_item(lambda: [pin_one(c) for c in configs], loop_subset, repeats=max(1, repeats // 2)),
+                    unit="config", n=loop_subset, check="the reference", note=f"a loop over {loop_subset} rows"))
+    with tempfile.TemporaryDirectory() as folder:
+        urdf_path = peer_adapters.write_urdf(robot, Path(folder))
+        for key, (adapter, reason) in _peer_rows(robot_name, urdf_path, robot, peer_list).items():
+            name = peer_adapters.PEERS[key].name
+            if adapter is None:
+                rows.append(row("jacobian", robot_name, f"{name} jacob0 + manipulability", unit="config",
+                                status="missing", note=reason))
+                continue
+            cols = peer_adapters.chain_columns(robot)
+            subset = Q[:rtb_subset]
+            answers = [adapter.jacobian_manipulability(q[cols]) for q in subset]
+            J_rtb = np.zeros((len(subset), 6, len(robot.joint_names)))
+            J_rtb[:, :, cols] = np.array([J for J, _ in answers])
+            w_rtb = np.array([w for _, w in answers])
+            err_J = max_error(J_rtb, J_ours[:rtb_subset])
+            # absolute: RTB takes sqrt(det(J J^T)), which keeps only about half the digits of a small index
+            err_w = max_error(w_rtb, w_ours[:rtb_subset])
+            ok = err_J <= FK_TOL and err_w <= 1e-10
+            rows.append(row("jacobian", robot_name, f"{name} jacob0 + manipulability, Python loop",
+                            per_item(lambda: [adapter.jacobian_manipulability(q[cols]) for q in subset], rtb_subset,
+                                     repeats=1) if ok else None,
+                            unit="config", n=rtb_subset, status="ok" if ok else "wrong",
+                            check=f"max |J - manipkit| = {err_J:.1e} (<= {FK_TOL:g}), max |w - manipkit| = "
+                                  f"{err_w:.1e} (<= 1e-10) over {rtb_subset}",
+                            version=f"{peer_adapters.PEER_PACKAGES[key]} {adapter.version}",
+                            note=f"a loop over {rtb_subset} rows"))
+    return rows
+
+
+def gci_workload(robot_name: str = "iiwa14", *, samples: int = 1_000_000, repeats: int = 1) -> list[dict]:
+    """Global conditioning index from ``samples`` configurations (all rows, length 1 m), whole run timed.
+
+    Checked: the 95% interval is narrow and holds the estimate from a second, independent seed within
+    twice its half-width plus the other's (the two estimates agree as Monte Carlo says they should).
+    """
+    import manipkit
+    from manipkit.analysis.dexterity import global_conditioning_index
+
+    robot = manipkit.load(robot_name)
+    global_conditioning_index(robot, 1000, length=1.0)  # compiles the kernels
+    results = []
+
+    def once():
+        results.append(global_conditioning_index(robot, samples, length=1.0, seed=len(results)))
+
+    times = per_item(once, 1, repeats=repeats)
+    a, b = results[0], results[-1] if len(results) > 1 else global_conditioning_index(robot, samples, length=1.0, seed=99)
+    half = (a.high - a.low) / 2 + (b.high - b.low) / 2
+    ok = abs(a.mean - b.mean) <= 2 * half
+    return [row("gci", robot_name, f"manipkit global_conditioning_index ({samples} samples)", times if ok else None,
+                unit="run", n=samples, ours=True, status="ok" if ok else "wrong",
+                check=f"GCI {a.mean:.4f} (95% CI {a.low:.4f} to {a.high:.4f}); another seed: {b.mean:.4f}")]

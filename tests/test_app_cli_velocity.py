@@ -1,0 +1,128 @@
+"""``manipkit jacobian`` and ``manipkit dexterity`` as a user runs them: real subprocesses of the entry point."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+BIN = Path(sys.executable).parent
+
+
+def run(*args, status=0):
+    result = subprocess.run([str(BIN / "manipkit"), *map(str, args)], capture_output=True, text=True, timeout=120)
+    assert result.returncode == status, result.stdout[-2000:] + result.stderr
+    assert "Traceback" not in result.stdout + result.stderr
+    return result
+
+
+def jacobian_json(*args):
+    return json.loads(run("jacobian", *args, "--format", "json").stdout)
+
+
+def test_json_has_the_contract_keys_and_pinocchios_numbers(iiwa14):
+    q = iiwa14.sample_q(1, seed=2)[0]
+    report = jacobian_json("--robot", "iiwa14", "--q", *q)
+    assert {"jacobian", "joints", "reference", "manipulability", "length", "manipulability_translation",
+            "condition_number", "singular_values", "singular", "singular_family"} <= set(report)
+    assert report["joints"] == list(iiwa14.joint_names) and report["reference"] == "base"
+    config = iiwa14.pinocchio_configuration(q)
+    data = iiwa14.model.createData()
+    expected = pin.computeFrameJacobian(iiwa14.model, data, config, iiwa14.frame_id("ee_link"), pin.LOCAL_WORLD_ALIGNED)
+    J = np.array(report["jacobian"])
+    np.testing.assert_allclose(J, expected, rtol=0, atol=1e-12)
+    s = np.linalg.svd(J, compute_uv=False)  # length 1 m: the rows as they are
+    assert report["length"] == 1.0
+    np.testing.assert_allclose(report["singular_values"], s, rtol=1e-12)
+    np.testing.assert_allclose(report["manipulability"], np.prod(s), rtol=1e-12)
+    np.testing.assert_allclose(report["manipulability_translation"],
+                               np.sqrt(np.linalg.det(J[:3] @ J[:3].T)), rtol=1e-10)
+    np.testing.assert_allclose(report["condition_number"], s[0] / s[-1], rtol=1e-12)
+    assert report["singular"] is False and report["singular_family"] is None
+
+
+def test_local_reference_and_length(iiwa14):
+    q = iiwa14.sample_q(1, seed=3)[0]
+    report = jacobian_json("--robot", "iiwa14", "--q", *q, "--reference", "local", "--length", "0.5")
+    config = iiwa14.pinocchio_configuration(q)
+    expected = pin.computeFrameJacobian(iiwa14.model, iiwa14.model.createData(), config, iiwa14.frame_id("ee_link"),
+                                        pin.LOCAL)
+    np.testing.assert_allclose(report["jacobian"], expected, rtol=0, atol=1e-12)
+    scaled = np.vstack([expected[:3], 0.5 * expected[3:]])
+    np.testing.assert_allclose(report["manipulability"], np.prod(np.linalg.svd(scaled, compute_uv=False)), rtol=1e-10)
+
+
+def test_planar_2r_text_by_hand():
+    # l1 = l2 = 1 at q = (0, 90 deg): p = (c1 + c12, s1 + s12); dp/dq1 = (-s1 - s12, c1 + c12) = (-1, 1),
+    # dp/dq2 = (-s12, c12) = (-1, 0); translation manipulability l1 l2 |sin q2| = 1.
+    out = run("jacobian", "--robot", "planar_2r", "--q", "0", "90", "--deg").stdout
+    lines = out.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.split() == ["joint1", "joint2"])
+    rows = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in lines[header + 1 : header + 7]}
+    assert list(rows) == ["vx", "vy", "vz", "wx", "wy", "wz"]
+    assert rows["vx"] == [-1.0, -1.0] and rows["vy"] == [1.0, 0.0] and rows["wz"] == [1.0, 1.0]
+    assert "manipulability (Yoshikawa, translation rows): 1\n" in out
+    assert "LOCAL_WORLD_ALIGNED" in out and "singular: no" in out
+
+
+@pytest.mark.parametrize(("robot", "q", "singular"), [
+    ("planar_2r", ["0.3", "0"], True),  # elbow straight: the translation rows lose rank
+    ("planar_2r", ["0.3", "1"], False),
+    ("scara", ["0.3", "0", "0.1", "0"], True),  # q2 = 0: a1 a2 sin q2 = 0
+    ("iiwa14", [], True),  # all zeros: the arm stands straight up, axes 1, 3, 5, 7 aligned
+])
+def test_singular_configurations_are_flagged(robot, q, singular):
+    report = jacobian_json("--robot", robot, *(["--q", *q] if q else []))
+    assert report["singular"] is singular
+    if singular:
+        assert report["rank"] < report["generic_rank"] or report["rank_translation"] < report["generic_rank_translation"]
+
+
+def test_non_root_base_and_frame_alias(iiwa14):
+    q = iiwa14.sample_q(1, seed=4)[0]
+    report = jacobian_json("--robot", "iiwa14", "--q", *q, "--frame", "iiwa_link_6", "--base", "iiwa_link_2")
+    J = np.array(report["jacobian"])
+    assert np.all(J[:, :2] == 0.0)  # joints 1 and 2 are above the base
+    h = 1e-6  # central difference of the position of link 6 in link 2 along joint 4
+    step = np.zeros(7)
+    step[3] = h
+    dp = (iiwa14.transform("iiwa_link_2", "iiwa_link_6", q + step)[:3, 3]
+          - iiwa14.transform("iiwa_link_2", "iiwa_link_6", q - step)[:3, 3]) / (2 * h)
+    np.testing.assert_allclose(J[:3, 3], dp, atol=1e-7)
+
+
+def test_dexterity_text_and_json():
+    out = run("dexterity", "--robot", "planar_2r", "--samples", "4000", "--axes", "vx,vy").stdout
+    assert "GCI = " in out and "95% confidence interval" in out and "4000 samples" in out
+    report = json.loads(run("dexterity", "--robot", "planar_2r", "--samples", "4000", "--axes", "vx,vy", "--format",
+                            "json", "--seed", "3").stdout)
+    low, high = report["interval"]
+    assert low < report["gci"] < high and report["samples"] == 4000 and report["length"] is None
+    again = json.loads(run("dexterity", "--robot", "planar_2r", "--samples", "4000", "--axes", "vx,vy", "--format",
+                           "json", "--seed", "3").stdout)
+    assert again["gci"] == report["gci"]  # seeded
+
+
+def test_dexterity_progress_goes_to_stderr_only():
+    result = run("dexterity", "--robot", "iiwa14", "--samples", "3000", "--progress", "yes", "--format", "json")
+    json.loads(result.stdout)  # stdout is the answer alone
+
+
+@pytest.mark.parametrize(("args", "fragment"), [
+    (["jacobian", "--robot", "planar_2r", "--frame", "nowhere"], "has no frame 'nowhere'"),
+    (["jacobian", "--robot", "planar_2r", "--q", "1", "2", "3"], "got 3 values but planar_2r has 2 joints"),
+    (["jacobian", "--robot", "planar_2r", "--reference", "world"], "invalid choice: 'world'"),
+    (["jacobian", "--robot", "planar_2r", "--length", "-1"], "--length -1: give a positive characteristic length"),
+    (["jacobian", "--robot", "planar_2r", "--singular-tol", "nan"], "--singular-tol nan"),
+    (["jacobian", "--robot", "planar_2r", "--q", "joint2=9"], "did you mean degrees? add --deg"),
+    (["dexterity", "--robot", "planar_2r", "--samples", "1"], "--samples 1: give at least 2"),
+    (["dexterity", "--robot", "planar_2r", "--axes", "vx,vq"], "--axes vx,vq: give all, trans, rot"),
+    (["dexterity", "--robot", "planar_2r", "--confidence", "95"], "--confidence 95: give a level between 0 and 1"),
+])
+def test_bad_input_is_one_line_and_exit_2(args, fragment):
+    result = run(*args, status=2)
+    assert result.stderr.count("\n") == 1 and "error" in result.stderr, result.stderr
+    assert fragment in result.stderr, result.stderr
