@@ -554,8 +554,10 @@ def jacobian_workload(robot_name: str = "iiwa14", *, n_batch: int = 100_000, rep
     model, data, fid = robot.model, robot.model.createData(), robot.frame_id(ee)
     configs = [robot.pinocchio_configuration(q) for q in Q[:loop_subset]]
 
+    S = robot.velocity_map()  # Pinocchio's columns (every URDF joint) onto joint_names (mimic joints folded)
+
     def pin_one(config):
-        J = pin.computeFrameJacobian(model, data, config, fid, pin.LOCAL_WORLD_ALIGNED)
+        J = pin.computeFrameJacobian(model, data, config, fid, pin.LOCAL_WORLD_ALIGNED) @ S
         return J, float(np.prod(np.linalg.svd(J, compute_uv=False)))
 
     reference = [pin_one(c) for c in configs]

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 import manipkit
 from manipkit.errors import JointValueError, ManipkitError, UnknownFrameError
-from manipkit.kinematics.jacobian import JacobianProgram, jacobian, jacobians, rpy_rate_matrix
+from manipkit.kinematics.jacobian import JacobianProgram, jacobian, jacobians, mass_matrix, rpy_rate_matrix
 from manipkit.spatial.rotations import matrix_from_rpy, rpy_from_matrix
 
 ROBOTS = ["planar_2r", "planar_3r", "course_arm", "scara", "stanford_arm", "elbow_arm", "iiwa14",
@@ -18,12 +18,17 @@ ROBOTS = ["planar_2r", "planar_3r", "course_arm", "scara", "stanford_arm", "elbo
 
 
 def pinocchio_jacobian(robot, q, frame, reference):
-    """Pinocchio's frame Jacobian (``reference`` a pin.ReferenceFrame) of ``frame`` at ``q``."""
+    """Pinocchio's frame Jacobian (``reference`` a pin.ReferenceFrame) of ``frame`` at ``q``, in joint_names columns.
+
+    Pinocchio's model has every URDF joint; a mimic joint's column (the Panda's second finger) is added to its
+    leader's with the multiplier (``v = S qdot``; the mimic test below checks the fold against ``mimic=True``).
+    """
     config = robot.pinocchio_configuration(q)
     data = robot.model.createData()
     pin.computeJointJacobians(robot.model, data, config)
     pin.framesForwardKinematics(robot.model, data, config)
-    return pin.getFrameJacobian(robot.model, data, robot.frame_id(frame), reference)
+    J = pin.getFrameJacobian(robot.model, data, robot.frame_id(frame), reference)
+    return J @ robot.velocity_map()
 
 
 def skew_vee(W):
@@ -101,7 +106,8 @@ def relative_jacobian_from_pinocchio(robot, q, frame, base, reference):
     pin.framesForwardKinematics(robot.model, data, config)
     J_f = pin.getFrameJacobian(robot.model, data, robot.frame_id(frame), pin.WORLD)
     J_b = pin.getFrameJacobian(robot.model, data, robot.frame_id(base), pin.WORLD)
-    V = data.oMf[robot.frame_id(base)].inverse().toActionMatrix() @ (J_f - J_b)
+    S = robot.velocity_map()  # mimic columns onto their leaders (see pinocchio_jacobian)
+    V = data.oMf[robot.frame_id(base)].inverse().toActionMatrix() @ (J_f - J_b) @ S
     T_base_frame = robot.transform(base, frame, q)
     p, R = T_base_frame[:3, 3], T_base_frame[:3, :3]
     v = V[:3] + np.cross(V[3:].T, p).T
@@ -237,7 +243,6 @@ def test_mimic_steps_add_scale_times_their_column_to_the_leader():
         np.testing.assert_allclose(J_local[k], expected_local, rtol=0, atol=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason="mimic: lead's branch")
 def test_mimic_robot_jacobian_equals_pinocchio_with_mimic():
     robot = manipkit.Robot.from_urdf(MIMIC_URDF)
     q = np.array([0.3, 0.2])
@@ -280,3 +285,21 @@ def test_bad_options_and_frames(planar_2r):
 def test_frame_equal_to_base_and_empty_batches(iiwa14):
     assert np.all(jacobian(iiwa14, iiwa14.sample_q(1, seed=1)[0], "iiwa_link_4", "iiwa_link_4") == 0.0)
     assert jacobians(iiwa14, np.zeros((0, 7))).shape == (0, 6, 7)
+
+
+def test_robot_jacobian_methods_take_a_dict_and_equal_the_functions(iiwa14):
+    q = iiwa14.sample_q(1, seed=9)[0]
+    by_name = dict(zip(iiwa14.joint_names, q))
+    np.testing.assert_array_equal(iiwa14.jacobian(by_name), jacobian(iiwa14, q))
+    np.testing.assert_array_equal(iiwa14.jacobians(q[None], reference="local")[0],
+                                  jacobian(iiwa14, q, reference="local"))
+
+
+def test_mass_matrix_folds_mimic_joints_like_pinocchio_with_mimic():
+    # Pinocchio's own mimic support (mimic=True) folds the inertia onto the independent joints: M = S^T M_full S
+    robot = manipkit.Robot.from_urdf(MIMIC_URDF)
+    model = pin.buildModelFromXML(MIMIC_URDF, mimic=True)
+    q = np.array([0.3, 0.2])
+    expected = pin.crba(model, model.createData(), q)
+    expected = np.triu(expected) + np.triu(expected, 1).T
+    np.testing.assert_allclose(mass_matrix(robot, q), expected, rtol=0, atol=1e-12)

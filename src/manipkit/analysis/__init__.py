@@ -1,3 +1,3 @@
-"""Analysis built on kinematics and closed forms: planar workspaces (later manipulability and maps)."""
+"""Analysis built on kinematics and closed forms: planar workspaces, manipulability and ellipsoids, dexterity (GCI)."""
 
-__all__ = ["workspace"]
+__all__ = ["dexterity", "manipulability", "workspace"]

@@ -457,7 +457,8 @@ def mass_matrix(robot: Robot, q=None) -> np.ndarray:
     """The joint-space inertia matrix ``M(q)`` (n, n) in ``robot.joint_names`` order (kg, kg m, kg m^2).
 
     Pinocchio's composite rigid body algorithm (``crba``) on the inertias of
-    the description; used by Asada's index
+    the description, folded onto the independent joints (a mimic joint
+    moves with its leader); used by Asada's index
     (:func:`manipkit.analysis.manipulability.manipulability`, ``method="asada"``).
 
     Examples
@@ -472,5 +473,5 @@ def mass_matrix(robot: Robot, q=None) -> np.ndarray:
     data = robot.model.createData()
     M = np.array(pin.crba(robot.model, data, robot.pinocchio_configuration(q)))
     M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
-    columns = [robot.model.joints[robot.model.getJointId(name)].idx_v for name in robot.joint_names]
-    return M[np.ix_(columns, columns)]
+    S = robot.velocity_map()  # mimic joints move with their leaders: M_q = S^T M S
+    return S.T @ M @ S

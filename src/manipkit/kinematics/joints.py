@@ -142,6 +142,24 @@ class JointLayout:
     _circle: tuple[np.ndarray, ...] = field(default=(), repr=False)
     _multi: list[tuple[str, int, int]] = field(default_factory=list, repr=False)
 
+    def velocity_map(self, model: pin.Model) -> np.ndarray:
+        """``S`` (model.nv, n): Pinocchio's velocity ``v = S qdot`` for joint rates ``qdot`` (``q``'s order).
+
+        A mimic joint's velocity is its multiplier times its leader's rate.
+        Floating and planar joints have no such map (Pinocchio's velocity of
+        a free flyer is a twist in its own frame, not the rates of x, y, z,
+        roll, pitch, yaw): :class:`DescriptionError` for them.
+        """
+        S = np.zeros((model.nv, len(self.joints)))
+        for joint_id, motions in self.columns.items():
+            if len(motions) != 1:
+                name = model.names[joint_id]
+                raise DescriptionError(f"joint '{name}' is floating or planar: its Pinocchio velocity is not a rate "
+                                       "of its coordinates; this quantity needs revolute and prismatic joints")
+            column, scale, _, _, _ = motions[0]
+            S[model.joints[joint_id].idx_v, column] += scale
+        return S
+
     def configuration(self, q: np.ndarray) -> np.ndarray:
         """Pinocchio's configuration vector (size ``model.nq``) for a checked joint vector ``q``."""
         config = self.neutral.copy()

@@ -424,6 +424,16 @@ class Robot:
             raise JointValueError("joint values must be finite numbers")
         return q
 
+    def velocity_map(self) -> np.ndarray:
+        """``S`` (model.nv, n): Pinocchio's velocity vector ``v = S qdot`` for joint rates in :attr:`joint_names` order.
+
+        A mimic joint moves at its multiplier times its leader's rate, so a
+        Pinocchio Jacobian ``J_pin`` (one column per URDF joint) becomes
+        manipkit's as ``J_pin @ S``. Floating and planar joints have no such
+        map (:class:`DescriptionError`).
+        """
+        return self._layout.velocity_map(self.model)
+
     def pinocchio_configuration(self, q) -> np.ndarray:
         """Pinocchio's configuration vector (size ``model.nq``) for a joint vector."""
         q = self._check_q(q)
@@ -461,6 +471,27 @@ class Robot:
         T_root_source = self.data.oMf[source_id]
         T_root_target = self.data.oMf[target_id]
         return (T_root_source.actInv(T_root_target)).homogeneous.copy()
+
+    def jacobian(self, q=None, frame: str = "ee_link", base: str = "base_link", *, reference: str = "base",
+                 representation: str = "geometric") -> np.ndarray:
+        """The frame Jacobian (6, n): :func:`manipkit.kinematics.jacobian.jacobian` (rows vx vy vz wx wy wz).
+
+        ``reference="base"``: expressed in the base frame's axes (Pinocchio
+        LOCAL_WORLD_ALIGNED when the base is the root, RTB ``jacob0``);
+        ``"local"``: in the frame's own axes (Pinocchio LOCAL, RTB ``jacobe``).
+        Columns follow :attr:`joint_names` (a mimic joint adds to its leader's).
+        """
+        from manipkit.kinematics.jacobian import jacobian
+
+        q = None if q is None else self._check_q(q)
+        return jacobian(self, q, frame, base, reference=reference, representation=representation)
+
+    def jacobians(self, Q, frame: str = "ee_link", base: str = "base_link", *, reference: str = "base",
+                  representation: str = "geometric") -> np.ndarray:
+        """Frame Jacobians (N, 6, n) for many joint vectors: :func:`manipkit.kinematics.jacobian.jacobians` (compiled)."""
+        from manipkit.kinematics.jacobian import jacobians
+
+        return jacobians(self, Q, frame, base, reference=reference, representation=representation)
 
     def visual_model(self) -> pin.GeometryModel:
         """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.

@@ -61,6 +61,8 @@ def register(commands) -> None:
     ik.add_argument("--tol", type=float, nargs="+", default=None, metavar="TOL",
                     help="residual tolerance: one number (m and rad) or two (position m, rotation rad); "
                          "default 1e-10 numerical, 1e-9 closed form")
+    ik.add_argument("--free", action="extend", nargs="+", default=[], metavar="JOINT",
+                    help="floating or planar joints to solve for too (by default they stay at --seed-q or the identity)")
     ik.add_argument("--restarts", type=int, default=50, metavar="N", help="random restarts (default 50)")
     ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
     ik.add_argument("--precision", type=int, default=6, metavar="N")
@@ -184,7 +186,8 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str):
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
     tol = _tolerance(args)
     found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
-               q0=q0, all=args.all, restarts=args.restarts, seed=args.seed, **({} if tol is None else {"tol": tol}))
+               q0=q0, all=args.all, restarts=args.restarts, seed=args.seed, free=tuple(args.free),
+               **({} if tol is None else {"tol": tol}))
     result = found if args.all else found.as_solutions()
     outcome = "success" if result.success else "FAILED"
     return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.best.iterations} iterations"
