@@ -34,7 +34,7 @@ from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
-from manipkit.text import number_text
+from manipkit.text import short_text
 
 __all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Mimic", "Robot", "load"]
 
@@ -350,8 +350,8 @@ class Robot:
             if name in self.mimic_joints:
                 mimic = self.mimic_joints[name]
                 raise JointValueError(
-                    f"joint '{name}' mimics '{mimic.leader}' ({number_text(mimic.multiplier)} x {mimic.leader} + "
-                    f"{number_text(mimic.offset)}); give a value to '{mimic.leader}' instead"
+                    f"joint '{name}' mimics '{mimic.leader}' ({short_text(mimic.multiplier)} x {mimic.leader} + "
+                    f"{short_text(mimic.offset)}); give a value to '{mimic.leader}' instead"
                 )
             close = difflib.get_close_matches(str(name), self.joint_names, n=1, cutoff=0.5)
             hint = f"did you mean {close[0]}? " if close else ""

@@ -147,7 +147,7 @@ def _pose_lines(robot: Robot, report: dict, precision: int) -> list[str]:
 
     lines = [f"robot: {robot.name} ({robot.source.path})"]
     lines.append(f"joints (rad/m): {q_text(report['q'], precision) or 'none'}")
-    for alias in (report["source"], report["target"]):
+    for alias in dict.fromkeys((report["source"], report["target"])):  # once when both are the same alias
         resolved = robot.frame(alias)
         if resolved != alias:
             note = f" ({robot.ee_reason})" if alias == "ee_link" else " (the root link)"
