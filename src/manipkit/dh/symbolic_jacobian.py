@@ -29,6 +29,7 @@ SymPy is imported inside the functions.
 from __future__ import annotations
 
 import re
+from itertools import combinations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -227,7 +228,9 @@ def jacobian_determinant(J, rows: Sequence[int] | None = None, *, simplify: bool
     -------
     sympy expression
         Zero exactly where the selected rows lose rank: its factors are the
-        singular conditions. For a square block it keeps its sign.
+        singular conditions. For a square block it keeps its sign; otherwise
+        ``det(J J^T)`` is written as the sum of the squares of the maximal
+        minors (Cauchy-Binet), each factored, so it is zero exactly where all of them are.
 
     Raises
     ------
@@ -246,9 +249,12 @@ def jacobian_determinant(J, rows: Sequence[int] | None = None, *, simplify: bool
     if picked.rows > picked.cols:
         raise DHDerivationError(f"{picked.rows} rows for {picked.cols} joints: the rows always lose rank; "
                                 f"choose at most {picked.cols} rows")
-    square = picked.rows == picked.cols
-    value = _block_det(picked if square else picked * picked.T, simplify)
-    return value if square else sympy.sqrt(value)
+    if picked.rows == picked.cols:
+        return _block_det(picked, simplify)
+    # Cauchy-Binet: det(J J^T) is the sum of the squares of the maximal minors (each simplifies well)
+    minors = (_block_det(picked.extract(list(range(picked.rows)), list(cols)), simplify)
+              for cols in combinations(range(picked.cols), picked.rows))
+    return sympy.sqrt(sympy.Add(*(m**2 for m in minors)))
 
 
 def _block_det(M, simplify: bool):
