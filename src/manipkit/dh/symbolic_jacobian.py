@@ -29,8 +29,8 @@ SymPy is imported inside the functions.
 from __future__ import annotations
 
 import re
-from itertools import combinations
 from collections.abc import Mapping, Sequence
+from itertools import combinations
 
 import numpy as np
 
@@ -259,7 +259,6 @@ def jacobian_determinant(J, rows: Sequence[int] | None = None, *, simplify: bool
 
 def _block_det(M, simplify: bool):
     """``det M``, split as ``det(M[:k, :k]) det(M[k:, k:])`` where ``M[:k, k:]`` is zero, each part simplified."""
-    import sympy
 
     for k in range(1, M.rows):
         if M[:k, k:].is_zero_matrix:
