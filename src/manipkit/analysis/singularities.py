@@ -254,8 +254,8 @@ def _stanford_arm(robot: Robot):
         ),
         (
             "wrist centre at the shoulder",
-            f"the boom is fully in ({j[2]} = 0): {j[1]} turns the wrist centre in place"
-            + ("" if lower <= 0 else f"; outside the joint limits ({j[2]} >= {short_text(lower)} m)"),
+            f"the boom is fully in ({j[2]} = 0, its lower limit is {short_text(lower)} m): {j[1]} turns the wrist "
+            "centre in place",
             f"{j[2]} = 0 m", ALL_ROWS, "m", (d3_distance, d3_fix),
         ),
     ]
@@ -284,10 +284,10 @@ def _elbow_arm(robot: Robot):
         ),
         (
             "wrist centre on joint 1's axis",
-            f"the wrist centre is on {j[0]}'s axis: {j[0]} only turns it in place, so it cannot move "
-            "perpendicular to the arm's plane",
-            f"{short_text(a2)} cos({j[1]}) + {short_text(a3)} cos({j[1]} + {j[2]}) = 0 m (horizontal distance of "
-            "the wrist centre from the axis)", ALL_ROWS, "m", (shoulder_distance, shoulder_fix),
+            f"the wrist centre is on {j[0]}'s axis (the left side of the condition is its horizontal distance "
+            f"from the axis): {j[0]} only turns it in place, so it cannot move perpendicular to the arm's plane",
+            f"{short_text(a2)} cos({j[1]}) + {short_text(a3)} cos({j[1]} + {j[2]}) = 0 m", ALL_ROWS, "m",
+            (shoulder_distance, shoulder_fix),
         ),
     ]
 
