@@ -123,7 +123,7 @@ def test_elbow_arm_shoulder_family_follows_xacro_lengths(load_robot):
 # robots without known families
 
 
-@pytest.mark.parametrize("robot_name", ["course_arm", "panda"])
+@pytest.mark.parametrize("robot_name", ["mobile_manipulator", "panda"])
 def test_other_robots_have_no_known_families(load_robot, robot_name):
     robot = load_robot(robot_name)
     assert singular_families(robot) == []

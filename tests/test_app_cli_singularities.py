@@ -62,11 +62,11 @@ def test_json_holds_every_family_of_the_library(capsys, robot):
 
 
 def test_a_robot_without_known_families_is_told_so_with_the_numeric_check(capsys):
-    status, out, _ = run(capsys, "--robot", "course_arm")
+    status, out, _ = run(capsys, "--robot", "panda")
     assert status == 0
-    assert out.startswith("no singular families are known for robot course_arm (they are for planar_2r, ")
-    assert "manipkit jacobian --robot course_arm --q ..." in out
-    status, out, _ = run(capsys, "--robot", "course_arm", "--format", "json")
+    assert out.startswith("no singular families are known for robot panda (they are for planar_2r, ")
+    assert "manipkit jacobian --robot panda --q ..." in out
+    status, out, _ = run(capsys, "--robot", "panda", "--format", "json")
     data = json.loads(out)
     assert data["families"] == [] and "manipkit jacobian" in data["note"]
 

@@ -54,6 +54,19 @@ Derivations (lengths as in robots/dh/*.yaml; ``s2 = sin q2``, ``c23 = cos(q2 + q
   value on the slice ``q2 = 0`` found only these families; the list is not
   proven complete.
 
+- **course arm** (yaw, two pitches, forearm roll, pitch; 5 joints, so
+  singular means rank below 5): at the wrist centre W (on the roll axis, on
+  the last pitch axis) ``J = [[A, 0], [B, C]]`` with ``C`` of rank 2, so J
+  loses rank exactly when W's velocity block ``A`` (joints 1-3) has a null
+  vector whose turn lies in the span of the last two axes. Families: the
+  forearm in line with the upper arm (``q3 = 0, pi``) with the last pitch
+  parallel to the others (``q4 = 0, pi``); and W in the vertical plane
+  through joint 1's axis across the arm with one forearm roll angle, which
+  the model's small offsets (the 0.28 mm sideways shift of the arm's plane,
+  1.9e-7 m between the first two axes) move, so it is computed from the
+  model (``_course_arm`` spells out the steps). Elbow straight alone, or W
+  over joint 1's axis alone, is not singular for this 5-joint arm.
+
 Robots are recognised by their URDF name (``robot.name``) and structure (the
 number of joints and which are prismatic), so a URDF of the same arm loaded
 from a file gets the same families; lengths that enter a condition (the
@@ -111,7 +124,8 @@ class SingularFamily:
         The Jacobian rows (0..5 = vx, vy, vz, wx, wy, wz) that lose rank
         there: the rows the arm can move.
     unit : str
-        Unit of :meth:`distance`: ``"rad"`` or ``"m"``.
+        Unit of :meth:`distance`: ``"rad"``, ``"m"``, or ``"m and rad"``
+        (the larger of a distance and an angle).
     reachable : bool
         Whether members exist inside the joint limits (the Stanford arm's
         ``d3 = 0`` lies outside its stroke).
@@ -325,6 +339,88 @@ def _iiwa14(robot: Robot):
     ]
 
 
+def _joint_axes(robot: Robot, q) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(unit axis, point on it) of every joint at ``q``, in base_link's axes (the child link's frame is the joint's)."""
+    axes = []
+    for joint in robot.joints:
+        T = robot.transform("base_link", joint.child, q)
+        axes.append((T[:3, :3] @ joint.axis, T[:3, 3]))
+    return axes
+
+
+def _course_shoulder(robot: Robot, q) -> tuple[float, float]:
+    """(r, q5 solution) of the course arm at ``q``: r (m) the wrist centre's distance from joint 1's axis in
+    the arm's plane; the top-wrist angle (rad) that makes the configuration singular when r = 0."""
+    (w1, p1), (w2, p2), (w3, p3), (w4, _), (_, W) = _joint_axes(robot, q)
+    r = float((W - p1) @ np.cross(w2, w1))
+    columns = [np.cross(w, W - p) for w, p in ((w1, p1), (w2, p2), (w3, p3))]
+    x = np.linalg.lstsq(np.column_stack(columns[1:]), -columns[0], rcond=None)[0]
+    b = w1 + x[0] * w2 + x[1] * w3  # the turn left when joints 2 and 3 cancel joint 1's motion of the wrist centre
+    w5_0 = _joint_axes(robot, np.r_[q[:3], 0.0, q[4]])[4][0]
+    return r, math.atan2(b @ np.cross(w4, w5_0), b @ w5_0)
+
+
+def _course_arm(robot: Robot):
+    # yaw (1), pitch (2, 3) on parallel axes, forearm roll (4), pitch (5) through the wrist centre W on the roll
+    # axis. At W joints 4 and 5 move nothing, so J = [[A, 0], [B, C]] with C = [w4 w5] of rank 2 (w4 is
+    # perpendicular to w5): J (6 x 5) loses rank exactly when A (W's velocity from joints 1-3) has a null
+    # vector x whose turn B x lies in span(w4, w5).
+    # - Forearm in line (q3 = 0 or pi; the DH offsets of 90 deg cancel, so exactly): x = (0, l3, -(l2 + l3))
+    #   turns about the pitch axis h, which lies in span(w4, w5) exactly when w5 = +-h: q4 = 0 or pi.
+    # - W in the vertical plane through joint 1's axis across the arm (r = (W - p1) . (w2 x w1) = 0): then
+    #   joint 1 moves W only within the arm's plane (by the 0.28 mm offset of that plane), joints 2 and 3
+    #   cancel it, and what is left, b = w1 + x2 w2 + x3 w3, must lie in span(w4, w5): one value of q4 (and that
+    #   plus pi), q4 = atan2(b . (w4 x w5_0), b . w5_0). Without the offsets any q4 with w4 x w5 horizontal
+    #   would do; the bundled arm's 1.9e-7 m and 0.28 mm offsets move the family, so it is computed
+    #   from the model. Members: q2 solves r = 0 (r is a cos q2 + b sin q2 + c), then q4 as above.
+    j = robot.joint_names
+
+    def straight_distance(q):
+        return np.max([_angle_off(q[..., 2], _STRAIGHT), _angle_off(q[..., 3], _STRAIGHT)], axis=0)
+
+    def straight_fix(Q, rng):
+        for index in (2, 3):
+            Q[:, index] = rng.choice(np.asarray(_STRAIGHT), size=len(Q))
+
+    def shoulder_distance(q):
+        flat = np.reshape(q, (-1, q.shape[-1]))
+        out = np.empty(len(flat))
+        for i, row in enumerate(flat):
+            r, q4 = _course_shoulder(robot, row)
+            out[i] = max(abs(r), float(_angle_off(row[3], (q4, q4 + math.pi))))
+        return out.reshape(q.shape[:-1])
+
+    def shoulder_fix(Q, rng):
+        for row in Q:
+            (w1, p1), (w2, p2) = _joint_axes(robot, row)[:2]
+            k = np.cross(w2, w1)
+            v = _joint_axes(robot, np.r_[row[0], 0.0, row[2:]])[4][1] - p2
+            a = v @ k - (w2 @ v) * (w2 @ k)
+            b = np.cross(w2, v) @ k
+            c = (p2 - p1) @ k + (w2 @ v) * (w2 @ k)
+            row[1] = math.atan2(b, a) + rng.choice((-1.0, 1.0)) * math.acos(max(-1.0, min(1.0, -c / math.hypot(a, b))))
+            row[3] = _course_shoulder(robot, row)[1] + rng.choice((0.0, math.pi))
+        Q[:, [1, 3]] = np.remainder(Q[:, [1, 3]] + math.pi, 2 * math.pi) - math.pi
+
+    return [
+        (
+            "forearm in line, wrist pitch parallel",
+            f"the forearm continues the upper arm and {j[4]} turns about the same direction as {j[1]} and {j[2]}: "
+            f"{j[1]} and {j[2]} together only turn the tool about that direction, which {j[4]} does already",
+            f"{j[2]} = {_deg_text(_STRAIGHT)} and {j[3]} = {_deg_text(_STRAIGHT)}", ALL_ROWS, "rad",
+            (straight_distance, straight_fix),
+        ),
+        (
+            "wrist centre over joint 1's axis",
+            f"the wrist centre is in the vertical plane through {j[0]}'s axis across the arm, and the forearm roll "
+            f"puts {j[4]}'s axis where it adds nothing new: {j[0]}'s motion can be cancelled by {j[1]} and {j[2]}, "
+            "and the turn that is left is one the wrist makes too",
+            f"r = 0 m (the wrist centre's distance from {j[0]}'s axis in the arm's plane) and {j[3]} = the value "
+            "computed from the model, or that plus 180 deg", ALL_ROWS, "m and rad", (shoulder_distance, shoulder_fix),
+        ),
+    ]
+
+
 # name -> (builder, number of joints, indices of the prismatic joints)
 _KNOWN: dict[str, tuple[Callable, int, tuple[int, ...]]] = {
     "planar_2r": (_planar_2r, 2, ()),
@@ -333,6 +429,7 @@ _KNOWN: dict[str, tuple[Callable, int, tuple[int, ...]]] = {
     "stanford_arm": (_stanford_arm, 6, (2,)),
     "elbow_arm": (_elbow_arm, 6, ()),
     "iiwa14": (_iiwa14, 7, ()),
+    "course_arm": (_course_arm, 5, ()),
 }
 KNOWN_ROBOTS = tuple(_KNOWN)
 """Robot names whose singular families are known (matched with their structure, see the module docstring)."""
