@@ -402,6 +402,8 @@ def _course_arm(robot: Robot):
             row[3] = _course_shoulder(robot, row)[1] + rng.choice((0.0, math.pi))
         Q[:, [1, 3]] = np.remainder(Q[:, [1, 3]] + math.pi, 2 * math.pi) - math.pi
 
+    (_, p1), (w2, _) = _joint_axes(robot, robot.q())[:2]
+    sideways = abs(float((_joint_axes(robot, robot.q())[4][1] - p1) @ w2))  # the arm's plane from joint 1's axis
     return [
         (
             "forearm in line, wrist pitch parallel",
@@ -412,11 +414,13 @@ def _course_arm(robot: Robot):
         ),
         (
             "wrist centre over joint 1's axis",
-            f"the wrist centre is in the vertical plane through {j[0]}'s axis across the arm, and the forearm roll "
-            f"puts {j[4]}'s axis where it adds nothing new: {j[0]}'s motion can be cancelled by {j[1]} and {j[2]}, "
-            "and the turn that is left is one the wrist makes too",
-            f"r = 0 m (the wrist centre's distance from {j[0]}'s axis in the arm's plane) and {j[3]} = the value "
-            "computed from the model, or that plus 180 deg", ALL_ROWS, "m and rad", (shoulder_distance, shoulder_fix),
+            f"the wrist centre is in the vertical plane through {j[0]}'s axis across the arm, so {j[1]} and {j[2]} "
+            f"can cancel {j[0]}'s motion of it, and the forearm roll has put {j[0]}'s axis in the plane of {j[3]}'s "
+            f"and {j[4]}'s axes, so the wrist makes the turn that is left too",
+            f"r = 0 m (the wrist centre's distance from {j[0]}'s axis in the arm's plane) and {j[3]} puts {j[0]}'s "
+            f"axis in the plane of {j[3]}'s and {j[4]}'s axes (corrected for the arm's plane lying "
+            f"{short_text(sideways, 3)} m off that axis; computed from the model)",
+            ALL_ROWS, "m and rad", (shoulder_distance, shoulder_fix),
         ),
     ]
 
