@@ -13,6 +13,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import sympy
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from manipkit.analysis.singularities import (
     KNOWN_ROBOTS,
@@ -213,3 +215,21 @@ def test_null_space_motion_names_a_joint_that_does_not_move_the_frame():
     J = np.zeros((6, 2))
     J[0, 0] = 1.0
     assert "b does not move the frame" in null_space_motion(J, ["a", "b"])
+
+
+# --------------------------------------------------------------------------
+# properties
+
+
+@settings(max_examples=40, deadline=None)
+@given(case=st.sampled_from(FAMILY_CASES), seed=st.integers(0, 2**32 - 1), turns=st.integers(-3, 3))
+def test_members_are_at_distance_zero_and_full_turns_change_nothing(load_robot, case, seed, turns):
+    # a member is at distance 0; adding whole turns to the revolute joints gives the same configuration, so
+    # the same distance (prismatic joints stay)
+    robot = load_robot(case[0])
+    family = family_named(robot, case[1])
+    q = family.sample(np.random.default_rng(seed), 1)[0]
+    assert family.distance(q) < 1e-9
+    turned = q + np.array([2 * math.pi * turns if j.is_angular else 0.0 for j in robot.joints])
+    assert family.distance(turned) == pytest.approx(family.distance(q), abs=1e-9)
+    assert family.distance(np.stack([q, turned])).shape == (2,)
