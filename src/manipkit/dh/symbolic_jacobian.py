@@ -153,7 +153,9 @@ def dh_jacobian_symbolic(
         arm times wrist, which SymPy finds far faster.
     simplify : bool, keyword-only
         Fold angle sums (SymPy's ``TR10i``) after each product, then
-        ``trigsimp`` every entry (default True; a second or two for six joints).
+        ``trigsimp`` every entry (default True: about 2 s for the six-joint
+        Stanford and elbow arms, 40 s for the seven-joint iiwa14; False: the
+        plain products, 0.05 s, equal as functions).
     max_rows : int, keyword-only
         Refuse longer tables (default ``MAX_SYMBOLIC_ROWS``).
 
