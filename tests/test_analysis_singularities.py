@@ -233,3 +233,17 @@ def test_members_are_at_distance_zero_and_full_turns_change_nothing(load_robot, 
     turned = q + np.array([2 * math.pi * turns if j.is_angular else 0.0 for j in robot.joints])
     assert family.distance(turned) == pytest.approx(family.distance(q), abs=1e-9)
     assert family.distance(np.stack([q, turned])).shape == (2,)
+
+
+def test_a_jacobian_whose_columns_do_not_match_the_names_is_refused():
+    from manipkit.errors import JointValueError
+
+    with pytest.raises(JointValueError, match=r"J has shape \(6, 3\); give a finite \(rows, 2\) Jacobian"):
+        null_space_motion(np.zeros((6, 3)), ["a", "b"])
+
+
+def test_a_joint_vector_of_the_wrong_length_is_refused(planar_2r):
+    from manipkit.errors import JointValueError
+
+    with pytest.raises(JointValueError, match=r"give 2 finite joint values \(joint1, joint2\)"):
+        singular_family_at(planar_2r, [0.0, 0.0, 0.0])

@@ -84,6 +84,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.errors import JointValueError
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
@@ -489,6 +490,9 @@ def _reachable(fix, lower, upper, tries: int = 16) -> bool:
 def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFamily | None:
     """The first of :func:`singular_families` whose distance from ``q`` is at most ``tol``, else None.
 
+    ``q`` is one joint vector in ``robot.joint_names`` order (rad, m); ``tol`` is in each family's
+    :attr:`~SingularFamily.unit`. A vector of the wrong length or with a NaN raises JointValueError.
+
     Examples
     --------
     >>> import manipkit
@@ -496,6 +500,9 @@ def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFami
     'elbow straight'
     """
     q = np.asarray(q, dtype=float)
+    if q.shape != (len(robot.joint_names),) or not np.all(np.isfinite(q)):
+        raise JointValueError(f"q has shape {q.shape}; give {len(robot.joint_names)} finite joint values "
+                              f"({', '.join(robot.joint_names)})")
     for family in singular_families(robot):
         if family.member(q, tol):
             return family
@@ -522,6 +529,11 @@ def null_space_motion(J, joint_names: Sequence[str], tol: float = NULL_SPACE_TOL
     row_names : sequence of str, optional
         Names of the rows (default vx .. wz for six rows, else r1, r2, ...).
 
+    Raises
+    ------
+    JointValueError
+        ``J`` is not a finite 2-D array with one column per joint name.
+
     Returns
     -------
     str
@@ -539,6 +551,9 @@ def null_space_motion(J, joint_names: Sequence[str], tol: float = NULL_SPACE_TOL
     the frame cannot move along (vx, vy) = (1, 0); joint1 and joint2 moving as (-0.447, 0.894) leave the frame still
     """
     J = np.asarray(J, dtype=float)
+    if J.ndim != 2 or J.shape[1] != len(joint_names) or not np.all(np.isfinite(J)):
+        raise JointValueError(f"J has shape {J.shape}; give a finite (rows, {len(joint_names)}) Jacobian, one column "
+                              "per joint name")
     m, n = J.shape
     names = list(row_names) if row_names is not None else (list(_ROW_NAMES) if m == 6 else [f"r{i + 1}" for i in range(m)])
     U, s, Vt = np.linalg.svd(J)
