@@ -28,8 +28,13 @@ Methods (docs/architecture.md, "Reachability maps"):
 Every voxel-bin records how it was reached: :data:`HOW_SAMPLE`,
 :data:`HOW_IK` or :data:`HOW_NONE` (``ReachMap.reach``).
 
-Blocks are tasks: each block of samples (or IK targets) has its own seed
-(``seed``, block number), so the map is bit-identical whatever runs them.
+Blocks are tasks: each block of samples (or IK targets) has its own seed,
+so the map is bit-identical whatever runs them. Block ``b`` of the FK stage
+holds samples ``b * block_samples ..`` and draws them as
+``numpy.random.default_rng([seed, 0, b]).random((n, m))`` scaled into the
+limits of the ``m`` chain joints (joint order, the other joints at their
+defaults); IK block ``b`` (``IK_BLOCK`` targets in key order) uses
+``ik_many(..., seed=seed + 1 + b)``.
 Without ``workers`` or ``scheduler`` the blocks run here, one after the
 other; ``workers=N`` starts a ``distributed.LocalCluster`` of N
 single-threaded worker processes, ``scheduler="tcp://host:port"`` uses a
