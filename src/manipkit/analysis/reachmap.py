@@ -73,7 +73,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "METHODS", "ReachMap", "ReachMapError", "build",
-    "chain_axes", "load", "parse_orientations",
+    "chain_axes", "load", "parse_orientations", "plot_reachmap", "writable_map_path",
 ]
 
 HOW_NONE, HOW_SAMPLE, HOW_IK = 0, 1, 2
@@ -213,12 +213,7 @@ class ReachMap:
         """Write the map to the Zarr folder ``path`` (replacing a map there; never another folder); returns it."""
         import zarr
 
-        path = Path(path)
-        parent = path.parent if str(path.parent) else Path(".")
-        if not parent.is_dir():
-            raise OutputError(f"cannot write {path}: no such folder {parent}")
-        if path.exists() and not _is_map(path):
-            raise OutputError(f"cannot write {path}: it exists and is not a reachability map; give a new name")
+        path = writable_map_path(path)
         try:
             root = zarr.open_group(str(path), mode="w")
             chunk = tuple(min(s, 16) for s in self.shape) + (self.reach.shape[3],)
@@ -239,6 +234,23 @@ class ReachMap:
             "orientations": self.orientations.attrs(), "joint_names": list(self.joint_names),
             "settings": json.loads(json.dumps(self.settings)),
         }
+
+
+def writable_map_path(path) -> Path:
+    """``path`` if a map can be written there: its folder exists, and it is new or holds a map (replaced).
+
+    Raises
+    ------
+    OutputError
+        ``cannot write PATH: no such folder ...`` or ``...: it exists and is not a reachability map``.
+    """
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"cannot write {path}: no such folder {parent}")
+    if path.exists() and not _is_map(path):
+        raise OutputError(f"cannot write {path}: it exists and is not a reachability map; give a new name")
+    return path
 
 
 def _is_map(path: Path) -> bool:
@@ -647,3 +659,48 @@ def _hybrid(job: _Job, runner: _Runner, reach: np.ndarray, voxel_q: np.ndarray) 
     order = np.argsort(order_keys)
     reach[order_keys] = HOW_IK
     return order_keys[order], np.concatenate(found_q)[order]
+
+
+# --------------------------------------------------------------------------
+# Pictures
+
+
+def plot_reachmap(reach_map: ReachMap, path) -> None:
+    """The index (0..1) to ``path`` (matplotlib): the plane of a planar map; two slices through the grid centre otherwise.
+
+    Spatial slices: horizontal (x-y of ``base``) and vertical (x-z), each
+    through the voxel layer that holds the grid's centre.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from manipkit.outputs import writing
+
+    index, v = reach_map.index, reach_map.voxel
+    nx, ny, nz = reach_map.shape
+    o = reach_map.origin
+    if reach_map.orientations.kind == "planar":
+        slices = [(index[:, :, 0], "u (m)", "v (m)", (0.0, 0.0), "the arm's plane")]
+    else:
+        slices = [
+            (index[:, :, nz // 2], "x (m)", "y (m)", (o[0], o[1]), f"z = {short_text(o[2] + nz // 2 * v, 4)} m"),
+            (index[:, ny // 2, :], "x (m)", "z (m)", (o[0], o[2]), f"y = {short_text(o[1] + ny // 2 * v, 4)} m"),
+        ]
+    fig, axes = plt.subplots(1, len(slices), figsize=(5.2 * len(slices) + 1.0, 4.8), squeeze=False)
+    for ax, (image, xlabel, ylabel, (a0, b0), where) in zip(axes[0], slices):
+        if reach_map.orientations.kind == "planar":  # plane coordinates measured from the grid centre
+            a0, b0 = -(nx // 2) * v, -(ny // 2) * v
+        extent = (a0 - v / 2, a0 + (image.shape[0] - 0.5) * v, b0 - v / 2, b0 + (image.shape[1] - 0.5) * v)
+        shown = ax.imshow(image.T, origin="lower", extent=extent, cmap="viridis", vmin=0.0, vmax=1.0,
+                          interpolation="nearest", aspect="equal")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.set_title(where)
+    fig.colorbar(shown, ax=list(axes[0]), label="reachability index (1: dexterous)")
+    fig.suptitle(f"{reach_map.robot}: {reach_map.frame} in {reach_map.base}, {short_text(v)} m voxels, "
+                 f"{reach_map.orientations.size} orientation bins")
+    with writing(path) as target:
+        fig.savefig(target, dpi=110, bbox_inches="tight")
+    plt.close(fig)
