@@ -627,8 +627,8 @@ def _hybrid(job: _Job, runner: _Runner, reach: np.ndarray, voxel_q: np.ndarray) 
     """
     B = job.orientations.size
     marked = reach.reshape(*job.shape, B) > HOW_NONE
-    voxel_ids = np.arange(int(np.prod(job.shape))).reshape(job.shape)
-    seed_voxel = np.full(marked.shape, -1, dtype=np.int64)
+    voxel_ids = np.arange(int(np.prod(job.shape)), dtype=np.int32).reshape(job.shape)
+    seed_voxel = np.full(marked.shape, -1, dtype=np.int32)  # voxel ids: a grid holds far fewer than 2**31
     for axis in range(3):
         if job.shape[axis] < 2:
             continue
