@@ -158,6 +158,17 @@ def test_one_worker_process_or_two_give_the_same_map(planar_3r, map_3r):
     np.testing.assert_array_equal(local.ik_q, map_3r.ik_q)
 
 
+def test_an_existing_scheduler_gives_the_same_map(planar_3r):
+    from distributed import LocalCluster
+
+    here = build(planar_3r, voxel=VOXEL, orientations=8, samples=SAMPLES, block_samples=4096)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        there = build(planar_3r, voxel=VOXEL, orientations=8, samples=SAMPLES, block_samples=4096,
+                      scheduler=cluster.scheduler_address)
+    np.testing.assert_array_equal(there.reach, here.reach)
+    np.testing.assert_array_equal(there.voxel_q, here.voxel_q)
+
+
 def test_save_and_load_round_trip(map_3r, tmp_path):
     path = map_3r.save(tmp_path / "m.zarr")
     again = load(path)
