@@ -18,7 +18,12 @@ import numpy as np
 import pytest
 
 from manipkit.analysis import reachmap
-from manipkit.analysis.orientations import fibonacci_directions, planar_orientations, spatial_orientations
+from manipkit.analysis.orientations import (
+    fibonacci_directions,
+    nearest_direction,
+    planar_orientations,
+    spatial_orientations,
+)
 from manipkit.analysis.reachmap import HOW_IK, HOW_NONE, HOW_SAMPLE, ReachMapError, build, load
 from manipkit.closed_form.planar_workspace import workspace_2r, workspace_3r
 from manipkit.errors import InputFileError, OutputError
@@ -209,6 +214,13 @@ def test_fibonacci_directions_cover_the_sphere_evenly():
     # 200 equal caps of area 4 pi / 200: neighbours about sqrt(4 pi / 200) = 0.25 rad apart
     assert 0.15 < nearest.min() and nearest.max() < 0.3
     assert np.abs(d.mean(axis=0)).max() < 0.01
+
+
+def test_nearest_direction_is_the_largest_dot_product():
+    rng = np.random.default_rng(4)
+    directions, v = fibonacci_directions(200), rng.normal(size=(5000, 3))
+    np.testing.assert_array_equal(nearest_direction(v, directions), np.argmax(v @ directions.T, axis=1))
+    assert nearest_direction(v.reshape(50, 100, 3), directions).shape == (50, 100)
 
 
 def test_spatial_bins_contain_their_centres_and_ignore_roll_when_asked():

@@ -27,7 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["OrientationSet", "fibonacci_directions", "perpendicular", "planar_orientations", "spatial_orientations"]
+__all__ = [
+    "OrientationSet", "fibonacci_directions", "nearest_direction", "perpendicular", "planar_orientations",
+    "spatial_orientations",
+]
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad, about 137.5 degrees
 
@@ -59,6 +62,42 @@ def perpendicular(d) -> np.ndarray:
     e = np.where(np.abs(d[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
     c = np.cross(d, e)
     return c / np.linalg.norm(c, axis=-1, keepdims=True)
+
+
+def _nearest_rows(V, D, out):
+    """``out[i] = argmax_j V[i] . D[j]`` (the first on a tie), without the (N, M) matrix of dot products."""
+    for i in range(V.shape[0]):
+        v0, v1, v2 = V[i, 0], V[i, 1], V[i, 2]
+        best, best_j = -np.inf, 0
+        for j in range(D.shape[0]):
+            dot = v0 * D[j, 0] + v1 * D[j, 1] + v2 * D[j, 2]
+            if dot > best:
+                best, best_j = dot, j
+        out[i] = best_j
+
+
+_NEAREST = None
+
+
+def nearest_direction(v, directions) -> np.ndarray:
+    """(...,) index of the direction (rows of ``directions``, (M, 3)) with the largest dot product with each ``v`` (..., 3).
+
+    Compiled (numba, :func:`manipkit.kinematics.chain.compile_kernel`): the
+    same answer as ``argmax(v @ directions.T)`` without its (N, M) matrix.
+
+    >>> int(nearest_direction(np.array([0.1, 0.0, 1.0]), np.eye(3)))
+    2
+    """
+    global _NEAREST
+    if _NEAREST is None:
+        from manipkit.kinematics.chain import compile_kernel
+
+        _NEAREST = compile_kernel(_nearest_rows)
+    v = np.asarray(v, dtype=float)
+    flat = np.ascontiguousarray(v.reshape(-1, 3))
+    out = np.empty(flat.shape[0], dtype=np.int64)
+    _NEAREST(flat, np.ascontiguousarray(directions, dtype=float), out)
+    return out.reshape(v.shape[:-1])
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,7 +151,7 @@ class OrientationSet:
             phi = np.arctan2(w @ np.cross(a, u), w @ u)
             return np.mod(np.rint(phi * (self.n_rolls / (2.0 * math.pi))), self.n_rolls).astype(np.int64)
         z = R[..., :, 2]
-        direction = np.argmax(z @ self.directions.T, axis=-1)
+        direction = nearest_direction(z, self.directions)
         if self.n_rolls == 1:
             return direction.astype(np.int64)
         d, r = self.directions[direction], self.references[direction]

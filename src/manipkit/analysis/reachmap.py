@@ -55,6 +55,7 @@ Maps are stored in Zarr (a folder): arrays ``reach`` (chunked), ``voxel_q``,
 from __future__ import annotations
 
 import json
+import logging
 import math
 import numbers
 import sys
@@ -445,7 +446,7 @@ class _Runner:
 
             if self.workers is not None:
                 self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True,
-                                            dashboard_address=None)
+                                            dashboard_address=None, silence_logs=logging.ERROR)
                 self.client = Client(self.cluster)
             else:
                 try:
