@@ -152,6 +152,11 @@ def test_query_and_index_at_outside_and_across_the_plane(map_3r):
     assert map_3r.index_at([4.0, 0.0, 0.0]) == 1.0
     assert map_3r.index_at([4.0, 0.0, 1.0]) == 0.0  # off the arm's plane
     assert map_3r.index_at(np.zeros((2, 5, 3))).shape == (2, 5)
+    flat = np.eye(4)
+    flat[0, 3] = 4.0
+    tilted = flat.copy()
+    tilted[:3, :3] = rot_y(0.6)  # the tool's z axis leaves the arm's axis: no planar configuration gives it
+    assert map_3r.query(flat) is True and map_3r.query(tilted) is False
 
 
 def test_one_worker_process_or_two_give_the_same_map(planar_3r, map_3r):

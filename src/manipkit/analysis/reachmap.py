@@ -186,10 +186,17 @@ class ReachMap:
         return float(value) if value.ndim == 0 else value
 
     def query(self, T) -> np.ndarray | bool:
-        """Whether each pose ``T`` (..., 4, 4), ``T_base_frame``, falls in a reached voxel-bin."""
+        """Whether each pose ``T`` (..., 4, 4), ``T_base_frame``, falls in a reached voxel-bin.
+
+        For a planar map the pose must also keep the frame's axis along the
+        arm's axis ``a`` to within half a bin (``pi / bins``): a tilted tool is never reached.
+        """
         T = np.asarray(T, dtype=float)
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
+        if self.orientations.kind == "planar":
+            cos_tilt = (T[..., :3, :3] @ self.orientations.tool_axis) @ self.orientations.axis
+            inside = inside & (cos_tilt >= math.cos(math.pi / self.orientations.size))
         value = inside & (self.reach[ijk[..., 0], ijk[..., 1], ijk[..., 2], bins] > HOW_NONE)
         return bool(value) if value.ndim == 0 else value
 
