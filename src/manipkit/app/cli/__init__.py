@@ -49,11 +49,12 @@ def tf_between_main(argv=None) -> int:
 
 
 def _main_parser() -> argparse.ArgumentParser:
-    from manipkit.app.cli import dh, ik, robots, singularities, tf, tree, velocity, view, workspace
+    from manipkit.app.cli import dh, ik, reachmap, robots, singularities, tf, tree, velocity, view, workspace
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    for group in (tf, robots, tree, dh, ik, velocity, singularities, workspace, view):  # the order of `manipkit --help`
+    groups = (tf, robots, tree, dh, ik, velocity, singularities, workspace, reachmap, view)  # the order of `manipkit --help`
+    for group in groups:
         group.register(commands)
     return parser
 

@@ -1,0 +1,238 @@
+"""Inverse reachability: where to put a mobile base so the arm reaches the most target poses.
+
+Frames (docs/architecture.md, "Reachability maps"):
+
+- ``F``: the floor (world) frame the targets are given in, z up.
+- ``P``: the robot's floor frame (its root, ``base_footprint`` for a mobile
+  base), placed on the floor at ``(x, y, yaw)``:
+  ``T_F_P = [Rz(yaw), (x, y, 0)]``.
+- ``B``: the map's base frame, carried by the robot: ``T_P_B = mount``
+  (``robot.transform(P, B)`` with the arm at rest; identity when the map
+  was built from the floor frame itself).
+
+A target ``T_F_target`` is reachable from a placement when the map says so
+for ``T_B_target = mount^-1 T_F_P^-1 T_F_target``
+(:meth:`manipkit.analysis.reachmap.ReachMap.query`). The score of a
+placement is the number of targets reachable from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.analysis.reachmap import ReachMapError
+from manipkit.text import short_text
+
+if TYPE_CHECKING:
+    from manipkit.analysis.reachmap import ReachMap
+
+__all__ = ["BasePlacement", "base_placement", "placement_transforms", "plot_base_placement", "reach_radius", "read_targets"]
+
+MAX_POSES = 50_000_000  # placements x targets a search may test
+
+
+@dataclass(frozen=True, eq=False)
+class BasePlacement:
+    """Scores of base placements (see the module docstring for the frames).
+
+    Attributes
+    ----------
+    xs, ys : ndarray
+        Floor positions (m) of the robot's floor frame tried, along x and y of ``F``.
+    yaws : ndarray
+        Headings (rad) tried, about z of ``F``.
+    scores : ndarray of int, shape (len(xs), len(ys), len(yaws))
+        Targets reachable from each placement.
+    targets : ndarray, shape (K, 4, 4)
+        ``T_F_target``.
+    """
+
+    xs: np.ndarray
+    ys: np.ndarray
+    yaws: np.ndarray
+    scores: np.ndarray
+    targets: np.ndarray
+
+    @property
+    def best(self) -> tuple[float, float, float, int]:
+        """(x m, y m, yaw rad, score) of the best placement (the first in x, y, yaw order on a tie)."""
+        i, j, k = np.unravel_index(int(np.argmax(self.scores)), self.scores.shape)
+        return float(self.xs[i]), float(self.ys[j]), float(self.yaws[k]), int(self.scores[i, j, k])
+
+    def summary(self) -> str:
+        """One line: the best placement and how many targets it reaches."""
+        x, y, yaw, score = self.best
+        return (f"best base placement x {short_text(x, 4)} m, y {short_text(y, 4)} m, yaw "
+                f"{short_text(math.degrees(yaw), 4)} deg: reaches {score} of {len(self.targets)} targets "
+                f"({len(self.xs)}x{len(self.ys)}x{len(self.yaws)} placements tried)")
+
+
+def placement_transforms(x, y, yaw) -> np.ndarray:
+    """``T_F_P`` (..., 4, 4) for floor positions ``x``, ``y`` (m) and headings ``yaw`` (rad), broadcast together.
+
+    >>> placement_transforms(1.0, 2.0, 0.0)[:3, 3]
+    array([1., 2., 0.])
+    """
+    x, y, yaw = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, yaw)))
+    T = np.zeros(x.shape + (4, 4))
+    c, s = np.cos(yaw), np.sin(yaw)
+    T[..., 0, 0], T[..., 0, 1], T[..., 1, 0], T[..., 1, 1] = c, -s, s, c
+    T[..., 2, 2] = T[..., 3, 3] = 1.0
+    T[..., 0, 3], T[..., 1, 3] = x, y
+    return T
+
+
+def reach_radius(reach_map: ReachMap) -> float:
+    """Largest horizontal distance (m, in the map's base frame) from its base origin to a reachable voxel's far edge."""
+    centres = reach_map.centers()[reach_map.reachable]
+    if centres.size == 0:
+        return 0.0
+    return float(np.hypot(centres[:, 0], centres[:, 1]).max()) + reach_map.voxel
+
+
+def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, step: float | None = None,
+                   mount=None) -> BasePlacement:
+    """Score floor placements ``(x, y, yaw)`` by the targets the arm reaches from each.
+
+    Parameters
+    ----------
+    reach_map : ReachMap
+        Map of the arm in its base frame ``B``.
+    targets : array_like, shape (K, 4, 4)
+        Target poses ``T_F_target`` of the map's frame, in the floor frame.
+    xs, ys : array_like, optional
+        Positions to try (m). Default: the targets' range widened by the
+        map's horizontal reach, every ``step``.
+    yaws : int or array_like
+        Headings to try (rad), or how many evenly spaced in [-pi, pi).
+    step : float, optional
+        Grid step of the default ``xs``, ``ys`` (default: the map's voxel).
+    mount : array_like, shape (4, 4), optional
+        ``T_P_B``, the map base in the robot's floor frame (default identity).
+
+    Returns
+    -------
+    BasePlacement
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> from manipkit.analysis.reachmap import build
+    >>> arm = build(manipkit.load("planar_2r"), voxel=0.1, orientations=1, samples=20000)
+    >>> targets = np.tile(np.eye(4), (2, 1, 1)); targets[1, 0, 3] = 3.0
+    >>> found = base_placement(arm, targets, xs=[0.0, 1.5], ys=[0.0], yaws=[0.0])
+    >>> found.scores[:, 0, 0].tolist()
+    [1, 2]
+    """
+    T = np.asarray(targets, dtype=float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or len(T) == 0 or not np.all(np.isfinite(T)):
+        raise ReachMapError(f"targets must be one or more 4x4 poses T_floor_target, shape (K, 4, 4); got shape {T.shape}")
+    mount = np.eye(4) if mount is None else np.asarray(mount, dtype=float)
+    step = float(step or reach_map.voxel)
+    if xs is None or ys is None:
+        radius = reach_radius(reach_map) + float(np.hypot(*mount[:2, 3]))
+        low, high = T[:, :2, 3].min(axis=0) - radius, T[:, :2, 3].max(axis=0) + radius
+        xs = np.arange(low[0], high[0] + step / 2, step) if xs is None else xs
+        ys = np.arange(low[1], high[1] + step / 2, step) if ys is None else ys
+    if isinstance(yaws, int | np.integer):
+        yaws = -math.pi + 2.0 * math.pi * np.arange(int(yaws)) / int(yaws)
+    xs, ys, yaws = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (xs, ys, yaws))
+    poses = len(xs) * len(ys) * len(yaws) * len(T)
+    if poses > MAX_POSES:
+        raise ReachMapError(f"{len(xs)}x{len(ys)}x{len(yaws)} placements times {len(T)} targets is {poses} poses, "
+                            f"more than {MAX_POSES}: use a coarser step or fewer headings")
+    mount_inv = np.linalg.inv(mount)
+    scores = np.zeros((len(xs), len(ys), len(yaws)), dtype=np.int64)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    for k, yaw in enumerate(yaws):  # one heading at a time bounds the memory
+        T_F_P = placement_transforms(X, Y, yaw)
+        R_t = np.swapaxes(T_F_P[..., :3, :3], -1, -2)
+        T_P_F = T_F_P.copy()
+        T_P_F[..., :3, :3] = R_t
+        T_P_F[..., :3, 3] = -np.einsum("...ij,...j->...i", R_t, T_F_P[..., :3, 3])
+        T_B_target = mount_inv @ T_P_F[..., None, :, :] @ T  # (nx, ny, K, 4, 4)
+        scores[:, :, k] = reach_map.query(T_B_target).sum(axis=-1)
+    return BasePlacement(xs, ys, yaws, scores, T)
+
+
+def read_targets(path) -> np.ndarray:
+    """Target poses ``T_F_target`` (K, 4, 4) from a text file, read safely (:mod:`manipkit.inputs`).
+
+    One pose per line as ``x y z roll pitch yaw`` (m, rad; ``R = Rz(yaw)
+    Ry(pitch) Rx(roll)`` as in URDF) or 16 numbers (a 4x4 row by row), or a
+    4x4 as four lines of 4 numbers. Numbers are separated by spaces or
+    commas; blank lines and lines starting with ``#`` are skipped.
+
+    Raises
+    ------
+    InputFileError
+        Not a readable text file, a line that is none of these forms, or no pose.
+    InvalidTransformError
+        A 4x4 that is not a rigid transform (the line named).
+    """
+    from manipkit.errors import InputFileError
+    from manipkit.inputs import MAX_TABLE_BYTES, read_text
+    from manipkit.spatial.transforms import check_transform, transform_from_xyz_rpy
+
+    poses, rows, first_row_line = [], [], 0
+    for number, line in enumerate(read_text(path, what="targets file", max_bytes=MAX_TABLE_BYTES).splitlines(), 1):
+        text = line.split("#", 1)[0].replace(",", " ").split()
+        if not text:
+            continue
+        try:
+            values = [float(v) for v in text]
+        except ValueError:
+            raise InputFileError(f"{path} line {number}: '{line.strip()[:60]}' is not numbers; give x y z roll pitch "
+                                 "yaw, 16 numbers of a 4x4, or four lines of 4") from None
+        if not all(math.isfinite(v) for v in values) or len(values) not in (4, 6, 16) or (rows and len(values) != 4):
+            raise InputFileError(f"{path} line {number}: {len(values)} numbers; give 6 (x y z roll pitch yaw), 16 (a 4x4 "
+                                 "row by row) or 4 (one row of a 4x4, four lines in a row), all finite")
+        if len(values) == 6:
+            poses.append(transform_from_xyz_rpy(values[:3], values[3:]))
+        elif len(values) == 16:
+            poses.append(check_transform(np.reshape(values, (4, 4)), what=f"{path} line {number}"))
+        else:
+            first_row_line = first_row_line or number
+            rows.append(values)
+            if len(rows) == 4:
+                poses.append(check_transform(np.array(rows), what=f"{path} lines {first_row_line}-{number}"))
+                rows, first_row_line = [], 0
+    if rows:
+        raise InputFileError(f"{path}: the 4x4 from line {first_row_line} has {len(rows)} rows; give 4")
+    if not poses:
+        raise InputFileError(f"{path}: no target pose in it; give lines of x y z roll pitch yaw or 4x4 matrices")
+    return np.array(poses)
+
+
+def plot_base_placement(result: BasePlacement, path, *, title: str | None = None) -> None:
+    """Heat map of the best score over headings at each floor position, the targets and the best placement, to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from manipkit.outputs import writing
+
+    best_over_yaw = result.scores.max(axis=2)
+    x, y, yaw, score = result.best
+    fig, ax = plt.subplots(figsize=(6.4, 5.2))
+    step_x = result.xs[1] - result.xs[0] if len(result.xs) > 1 else 1.0
+    step_y = result.ys[1] - result.ys[0] if len(result.ys) > 1 else 1.0
+    extent = (result.xs[0] - step_x / 2, result.xs[-1] + step_x / 2, result.ys[0] - step_y / 2, result.ys[-1] + step_y / 2)
+    image = ax.imshow(best_over_yaw.T, origin="lower", extent=extent, cmap="viridis", vmin=0, vmax=len(result.targets),
+                      interpolation="nearest", aspect="equal")
+    fig.colorbar(image, ax=ax, label="targets reached (best heading)")
+    ax.scatter(result.targets[:, 0, 3], result.targets[:, 1, 3], marker="x", color="tab:red", label="targets")
+    ax.arrow(x, y, 0.15 * math.cos(yaw), 0.15 * math.sin(yaw), width=0.01, color="white", length_includes_head=True)
+    ax.plot([x], [y], "o", color="white", label=f"best: {score} of {len(result.targets)}")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title or "base placement: targets reached from each floor position")
+    ax.legend(loc="upper right", fontsize="small")
+    with writing(path) as target:
+        fig.savefig(target, dpi=110, bbox_inches="tight")
+    plt.close(fig)

@@ -1,0 +1,129 @@
+"""``manipkit reachmap`` (a reachability map of any arm, saved as Zarr) and ``manipkit base-placement``.
+
+The map and the placement search come from :mod:`manipkit.analysis.reachmap`
+and :mod:`manipkit.analysis.placement` (docs/architecture.md, "Reachability maps").
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json
+from manipkit.outputs import writable_path
+from manipkit.text import short_text
+
+__all__ = ["register", "run_base_placement", "run_reachmap"]
+
+
+def _add_map_options(parser, *, voxel: float, orientations: str | None, samples: int) -> None:
+    parser.add_argument("--frame", default="ee_link", help="tool frame (default ee_link)")
+    parser.add_argument("--voxel", type=float, default=voxel, metavar="M", help=f"voxel edge in metres (default {voxel})")
+    parser.add_argument("--orientations", default=orientations, metavar="N|DIRxROLL",
+                        help="approach directions (x rolls) of a spatial arm, turns of a planar one "
+                        f"(default {orientations or '200, or 36 for a planar arm'})")
+    parser.add_argument("--method", choices=("fk", "hybrid"), default="fk",
+                        help="fk: random samples only; hybrid: then IK on the unmarked cells next to marked ones")
+    parser.add_argument("--samples", type=int, default=samples, metavar="N", help=f"random configurations (default {samples})")
+    parser.add_argument("--seed", type=int, default=0, help="seed of every block (same seed, same map)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes")
+    where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="use a running Dask scheduler (tcp://host:8786)")
+
+
+def register(commands) -> None:
+    """Add ``manipkit reachmap`` and ``manipkit base-placement`` to the subparsers ``commands``."""
+    reach = commands.add_parser("reachmap", help="reachability map of an arm (voxels x orientations), saved as Zarr")
+    add_robot_options(reach)
+    reach.add_argument("--base", default="base_link", help="frame the map is in (default base_link)")
+    _add_map_options(reach, voxel=0.05, orientations=None, samples=1_000_000)
+    reach.add_argument("-o", "--output", type=Path, required=True, metavar="MAP", help="Zarr folder to write")
+    reach.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw slices of the index")
+    reach.add_argument("--format", choices=("text", "json"), default="text")
+    reach.set_defaults(run=run_reachmap)
+
+    place = commands.add_parser("base-placement", help="floor positions (x, y, yaw) of a mobile base scored by targets reached")
+    add_robot_options(place)
+    place.add_argument("--targets", type=Path, required=True, metavar="FILE",
+                       help="target poses in the floor frame: lines of x y z roll pitch yaw, or 4x4 matrices")
+    place.add_argument("--map", type=Path, default=None, metavar="MAP", help="a map from 'manipkit reachmap' (default: build one)")
+    place.add_argument("--floor-frame", default=None, metavar="FRAME",
+                       help="the robot frame placed on the floor (default: the root link)")
+    _add_map_options(place, voxel=0.05, orientations="50", samples=500_000)
+    place.add_argument("--step", type=float, default=None, metavar="M", help="grid step of the floor positions (default: the voxel)")
+    place.add_argument("--yaws", type=int, default=16, metavar="N", help="headings tried (default 16)")
+    place.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw the heat map")
+    place.add_argument("--format", choices=("text", "json"), default="text")
+    place.set_defaults(run=run_base_placement)
+
+
+def _build(robot, args, base: str):
+    from manipkit.analysis.reachmap import build
+
+    return build(robot, args.frame, base, voxel=args.voxel, orientations=args.orientations, method=args.method,
+                 samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed)
+
+
+def run_reachmap(args) -> int:
+    """Build the map, save it to ``-o``, print its summary (text or JSON); draw slices to ``--plot``."""
+    from manipkit.analysis.reachmap import parse_orientations, plot_reachmap, writable_map_path
+
+    writable_map_path(args.output)  # before any work; no folder is created but the map's own
+    if args.plot is not None:
+        writable_path(args.plot)
+    if args.orientations is not None:
+        parse_orientations(args.orientations)
+    robot = load_robot(args)
+    reach_map = _build(robot, args, args.base)
+    reach_map.save(args.output)
+    if args.plot is not None:
+        plot_reachmap(reach_map, args.plot)
+    if args.format == "json":
+        print_json({
+            "robot": reach_map.robot, "frame": reach_map.frame, "base": reach_map.base, "method": reach_map.method,
+            "voxel": reach_map.voxel, "shape": list(reach_map.shape), "origin": reach_map.origin.tolist(),
+            "orientations": reach_map.orientations.size, "reachable_voxels": int(reach_map.reachable.sum()),
+            "dexterous_voxels": int(reach_map.dexterous.sum()), "map": str(args.output),
+            **({"plot": str(args.plot)} if args.plot is not None else {}),
+        })
+    else:
+        print(reach_map.summary())
+        print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot is not None else ""))
+    return EXIT_OK
+
+
+def run_base_placement(args) -> int:
+    """Score floor placements by the targets reached; print the best (text or JSON); draw the heat map."""
+    from manipkit.analysis.placement import base_placement, plot_base_placement, read_targets
+    from manipkit.analysis.reachmap import load
+
+    if args.plot is not None:
+        writable_path(args.plot)
+    if args.yaws < 1:
+        raise UsageError(f"--yaws {args.yaws}: give at least 1 heading")
+    if args.step is not None and not (math.isfinite(args.step) and args.step > 0.0):
+        raise UsageError(f"--step {args.step}: give a positive number of metres")
+    targets = read_targets(args.targets)
+    robot = load_robot(args)
+    floor = robot.frame(args.floor_frame) if args.floor_frame is not None else robot.root_link
+    if args.map is not None:
+        reach_map = load(args.map)
+        if reach_map.robot != robot.name:
+            raise UsageError(f"--map {args.map} is a map of '{reach_map.robot}', not of '{robot.name}'; give its --robot")
+    else:
+        reach_map = _build(robot, args, floor)
+    mount = robot.transform(floor, reach_map.base)
+    result = base_placement(reach_map, targets, yaws=args.yaws, step=args.step, mount=mount)
+    if args.plot is not None:
+        plot_base_placement(result, args.plot, title=f"{robot.name}: targets reached from each floor position")
+    x, y, yaw, score = result.best
+    if args.format == "json":
+        print_json({"robot": robot.name, "floor_frame": floor, "x": x, "y": y, "yaw": yaw, "reached": score,
+                    "targets": len(targets), **({"plot": str(args.plot)} if args.plot is not None else {})})
+    else:
+        print(f"robot {robot.name}: {floor} placed on the floor, map of {reach_map.frame} in {reach_map.base} "
+              f"({short_text(reach_map.voxel)} m voxels, {reach_map.orientations.size} orientation bins)")
+        print(result.summary())
+        if args.plot is not None:
+            print(f"wrote {args.plot}")
+    return EXIT_OK

@@ -1,0 +1,110 @@
+"""manipkit.analysis.placement: inverse reachability, checked on cases solved by hand and by construction.
+
+Independent sources: the planar 2R (1, 1) reaches exactly the disc r <= 2
+about its base (``closed_form.planar_workspace.workspace_2r``), so the
+placements from which it reaches two given points are worked out by hand;
+for the mobile manipulator the targets are made by FK from a known
+placement, which must then reach (nearly) all of them.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from manipkit.analysis.placement import base_placement, placement_transforms, plot_base_placement, read_targets
+from manipkit.analysis.reachmap import ReachMapError, build
+from manipkit.closed_form.planar_workspace import workspace_2r
+from manipkit.errors import InputFileError, InvalidTransformError
+from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+
+@pytest.fixture(scope="module")
+def map_2r(planar_2r):
+    return build(planar_2r, voxel=0.1, orientations=1, samples=40000)
+
+
+def test_two_points_for_a_2r_on_a_planar_base_by_hand(map_2r):
+    # Targets A = (0, 0) and B = (3, 0) on the floor. The 2R (1, 1) reaches r <= 2 about its base, so both are
+    # reached from p when |p| <= 2 and |p - B| <= 2: the lens between x = 1 and x = 2 on the x axis. Headings
+    # do not matter (one orientation bin, the disc is round). Points kept 0.15 m (1.5 voxels) from the circles.
+    assert workspace_2r(1.0, 1.0).reachable == (0.0, 2.0)
+    targets = np.tile(np.eye(4), (2, 1, 1))
+    targets[1, 0, 3] = 3.0
+    xs = np.array([-1.0, 0.5, 1.5, 2.5, 4.0, 6.0])
+    found = base_placement(map_2r, targets, xs=xs, ys=[0.0, 1.2], yaws=4)
+    # by hand at y = 0: |p| and |p - B| for each x -> (-1: 1, 5) (0.5: 0.5, 2.5) (1.5: 1.5, 1.5) (2.5: 2.5, 0.5)
+    # (4: 4, 1) (6: 6, 3); at y = 1.2 only x = 1.5 has both within 2 (1.92 and 1.92, too close to 2: skipped)
+    assert found.scores[:, 0, :].tolist() == [[1] * 4, [1] * 4, [2] * 4, [1] * 4, [1] * 4, [0] * 4]
+    assert found.scores[[0, 5], 1, :].tolist() == [[1] * 4, [0] * 4]  # (-1, 1.2): |p| = 1.56; (6, 1.2): both > 2
+    x, y, _, score = found.best
+    assert (x, y, score) == (1.5, 0.0, 2)
+
+
+def test_a_target_above_the_plane_is_never_reached(map_2r):
+    targets = np.tile(np.eye(4), (1, 1, 1))
+    targets[0, 2, 3] = 0.5
+    assert base_placement(map_2r, targets, xs=[0.5], ys=[0.0], yaws=2).scores.max() == 0
+
+
+def test_mount_moves_the_map_base_on_the_robot(map_2r):
+    # The arm base 1 m ahead of the floor frame (mount x = 1): from the floor frame at the origin facing +x it
+    # reaches (2.5, 0) (1.5 from the arm base); facing -x the arm base is at (-1, 0), 3.5 away: not reached.
+    targets = np.eye(4)[None].copy()
+    targets[0, 0, 3] = 2.5
+    mount = np.eye(4)
+    mount[0, 3] = 1.0
+    found = base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0, math.pi], mount=mount)
+    assert found.scores[0, 0].tolist() == [1, 0]
+
+
+def test_mobile_manipulator_reaches_targets_made_from_a_known_placement(load_robot, tmp_path):
+    robot = load_robot("mobile_manipulator")
+    reach_map = build(robot, base="base_footprint", voxel=0.08, orientations=8, samples=150000)
+    T_F_P = placement_transforms(2.0, 1.0, math.pi / 2)
+    targets = T_F_P @ robot.fk(robot.sample_q(10, seed=4), "ee_link", "base_footprint")
+    found = base_placement(reach_map, targets, xs=np.arange(0.0, 4.01, 0.25), ys=np.arange(-1.0, 3.01, 0.25), yaws=4)
+    i, j = list(found.xs).index(2.0), list(found.ys).index(1.0)
+    k = int(np.argmin(abs(found.yaws - math.pi / 2)))
+    assert found.scores[i, j, k] >= 9  # the map holds nearly every FK pose (boundary bins may be unsampled)
+    assert found.best[3] >= found.scores[i, j, k]
+    assert found.scores[0, 0].max() == 0  # (0, -1) is 2.2 m from every target; the arm reaches under 1 m
+    plot_base_placement(found, tmp_path / "placement.png")
+    assert (tmp_path / "placement.png").stat().st_size > 10_000
+
+
+def test_too_many_placements_and_bad_targets_are_errors(map_2r):
+    with pytest.raises(ReachMapError, match="coarser step"):
+        base_placement(map_2r, np.tile(np.eye(4), (100, 1, 1)), xs=np.arange(1000.0), ys=np.arange(1000.0), yaws=1)
+    with pytest.raises(ReachMapError, match=r"shape \(K, 4, 4\)"):
+        base_placement(map_2r, np.eye(4))
+
+
+def test_read_targets_takes_xyz_rpy_and_matrices(tmp_path):
+    T = transform_from_xyz_rpy([1.0, 2.0, 0.5], [0.1, -0.2, 0.3])
+    rows = "\n".join(" ".join(repr(float(v)) for v in row) for row in T)
+    flat = ", ".join(repr(float(v)) for v in T.ravel())
+    path = tmp_path / "targets.txt"
+    path.write_text(f"# poses\n1 2 0.5 0.1 -0.2 0.3\n\n{rows}\n{flat}  # one line\n")
+    got = read_targets(path)
+    assert got.shape == (3, 4, 4)
+    for pose in got:
+        np.testing.assert_allclose(pose, T, atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("text", "error", "message"),
+    [
+        ("1 2 3\n", InputFileError, "line 1: 3 numbers"),
+        ("1 2 three 4 5 6\n", InputFileError, "line 1: '1 2 three 4 5 6' is not numbers"),
+        ("1 0 0 0\n0 1 0 0\n", InputFileError, "has 2 rows"),
+        ("# nothing\n", InputFileError, "no target pose"),
+        ("1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 0\n", InvalidTransformError, "lines 1-4: last row"),
+        ("1 2 3 nan 0 0\n", InputFileError, "all finite"),
+    ],
+)
+def test_read_targets_names_the_bad_line(tmp_path, text, error, message):
+    path = tmp_path / "t.txt"
+    path.write_text(text)
+    with pytest.raises(error, match=message):
+        read_targets(path)

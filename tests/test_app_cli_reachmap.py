@@ -1,0 +1,108 @@
+"""``manipkit reachmap`` and ``manipkit base-placement`` as a user runs them (real subprocesses).
+
+Independent sources: the planar 3R (4, 2, 1) map's reachable voxels against
+r in [1, 7] (closed form, ``workspace_3r``); base placement against targets
+made by FK from a known placement of the mobile manipulator.
+"""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from manipkit.analysis.placement import placement_transforms
+from manipkit.analysis.reachmap import load
+from manipkit.closed_form.planar_workspace import workspace_3r
+
+BIN = Path(sys.executable).parent
+
+
+def run(*args, status=None):
+    result = subprocess.run([str(BIN / "manipkit"), *map(str, args)], capture_output=True, text=True, timeout=120)
+    if status is not None:
+        assert result.returncode == status, result.stderr + result.stdout
+    return result
+
+
+@pytest.fixture(scope="module")
+def map_3r(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("maps")
+    out = run("reachmap", "--robot", "planar_3r", "--voxel", "0.5", "--orientations", "8", "--samples", "20000",
+              "--method", "hybrid", "-o", folder / "p3r.zarr", "--plot", folder / "p3r.png", "--format", "json", status=0)
+    return folder, json.loads(out.stdout)
+
+
+def test_reachmap_writes_a_map_whose_reachable_voxels_are_the_annulus(map_3r):
+    folder, summary = map_3r
+    assert summary["robot"] == "planar_3r" and summary["shape"] == [31, 31, 1] and summary["orientations"] == 8
+    reach_map = load(folder / "p3r.zarr")
+    assert int(reach_map.reachable.sum()) == summary["reachable_voxels"]
+    r_min, r_max = workspace_3r(4.0, 2.0, 1.0).reachable
+    radius = np.linalg.norm(reach_map.centers()[..., :2], axis=-1)
+    half_diagonal = 0.5 * math.sqrt(2) / 2
+    assert reach_map.reachable[(radius > r_min + half_diagonal) & (radius < r_max - half_diagonal)].all()
+    assert not reach_map.reachable[(radius < r_min - half_diagonal) | (radius > r_max + half_diagonal)].any()
+    assert (folder / "p3r.png").stat().st_size > 10_000
+
+
+def test_reachmap_text_summary(tmp_path):
+    out = run("reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
+              "-o", tmp_path / "m.zarr", status=0).stdout
+    assert out.startswith("reachability map of planar_2r: ee_link in base_link, method fk\n")
+    assert "grid 19x19x1 voxels of 0.25 m" in out and out.rstrip().endswith(f"wrote {tmp_path / 'm.zarr'}")
+
+
+def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robot, tmp_path):
+    robot = load_robot("mobile_manipulator")
+    T = placement_transforms(2.0, 1.0, math.pi / 2) @ robot.fk(robot.sample_q(6, seed=3), "ee_link", "base_footprint")
+    lines = ["# x y z then a 4x4"]
+    from manipkit.spatial.rotations import rpy_from_matrix
+
+    for pose in T[:5]:
+        lines.append(" ".join(repr(float(v)) for v in [*pose[:3, 3], *rpy_from_matrix(pose[:3, :3])]))
+    lines += [" ".join(repr(float(v)) for v in row) for row in T[5]]
+    (tmp_path / "targets.txt").write_text("\n".join(lines) + "\n")
+    run("reachmap", "--robot", "mobile_manipulator", "--base", "base_footprint", "--voxel", "0.1", "--orientations", "6",
+        "--samples", "100000", "-o", tmp_path / "mm.zarr", status=0)
+    out = json.loads(run("base-placement", "--robot", "mobile_manipulator", "--targets", tmp_path / "targets.txt",
+                         "--map", tmp_path / "mm.zarr", "--yaws", "4", "--plot", tmp_path / "bp.png", "--format", "json",
+                         status=0).stdout)
+    assert out["targets"] == 6 and out["reached"] >= 5
+    # the best placement reaches as many as the true one: it lies within the arm's reach (< 1 m) of every target
+    assert np.hypot(T[:, 0, 3] - out["x"], T[:, 1, 3] - out["y"]).max() < 1.0
+    assert (tmp_path / "bp.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("args", "expect"),
+    [
+        (["reachmap", "--robot", "planar_3r", "--voxel", "0", "-o", "{tmp}/m.zarr"], "voxel 0.0: give the voxel edge"),
+        (["reachmap", "--robot", "planar_3r", "--orientations", "3x", "-o", "{tmp}/m.zarr"], "orientations '3x'"),
+        (["reachmap", "--robot", "planar_3r", "--orientations", "8x2", "-o", "{tmp}/m.zarr", "--samples", "10"],
+         "the arm is planar"),
+        (["reachmap", "--robot", "planar_3r", "--method", "ik", "-o", "{tmp}/m.zarr"], "invalid choice: 'ik'"),
+        (["reachmap", "--robot", "planar_3r", "-o", "{tmp}/missing/m.zarr"], "no such folder"),
+        (["reachmap", "--robot", "planar_3r", "-o", "{tmp}"], "it exists and is not a reachability map"),
+        (["reachmap", "--robot", "planar_3r", "--workers", "0", "-o", "{tmp}/m.zarr"], "workers 0"),
+        (["reachmap", "--robot", "planar_3r", "--workers", "2", "--scheduler", "tcp://h:1", "-o", "{tmp}/m.zarr"],
+         "not allowed with argument --workers"),
+        (["reachmap", "--robot", "planar_3r", "--frame", "nope", "-o", "{tmp}/m.zarr"], "nope"),
+        (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/none.txt"], "no such file"),
+        (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/bad.txt"], "bad.txt line 2: 2 numbers"),
+        (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/good.txt", "--map", "{tmp}"],
+         "not a manipkit reachability map"),
+        (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/good.txt", "--yaws", "0"], "--yaws 0"),
+    ],
+)
+def test_bad_input_is_one_line_and_status_2(tmp_path, args, expect):
+    (tmp_path / "bad.txt").write_text("1 2 3 0 0 0\n1 2\n")
+    (tmp_path / "good.txt").write_text("1 2 0 0 0 0\n")
+    result = run(*(a.replace("{tmp}", str(tmp_path)) for a in args))
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and expect in lines[0], result.stderr
+    assert "Traceback" not in result.stderr + result.stdout

@@ -1,0 +1,172 @@
+"""manipkit.kinematics.ik_many: batched IK, every answer checked by Pinocchio.
+
+Independent sources: reachable targets come from FK of random in-limit
+configurations (a solution exists); every answer is re-measured with
+``Robot.transform`` (Pinocchio, not the batched kernel ik_many itself uses)
+and ``spatial.rotations.rotation_angle_between``. Unreachable targets are
+beyond the reach sphere (the arm's link lengths summed).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
+from manipkit.kinematics.ik_many import ik_many, rotation_angles, target_seeds
+from manipkit.spatial.rotations import rot_x, rot_z, rotation_angle_between
+
+
+def pinocchio_residuals(robot, base, frame, Q, T):
+    """(position m, rotation rad) per row, measured by Pinocchio's transform."""
+    out = []
+    for q, target in zip(Q, T):
+        reached = robot.transform(base, frame, q)
+        out.append((np.linalg.norm(reached[:3, 3] - target[:3, 3]), rotation_angle_between(reached[:3, :3], target[:3, :3])))
+    return np.array(out).reshape(-1, 2)
+
+
+def test_reachable_targets_are_solved_and_pinocchio_agrees(iiwa14):
+    Q_true = iiwa14.sample_q(200, seed=4)
+    T = iiwa14.fk(Q_true, "ee_link", "base_link")
+    batch = ik_many(iiwa14, T)
+    assert batch.success.all()
+    measured = pinocchio_residuals(iiwa14, "base_link", "ee_link", batch.q, T)
+    assert measured.max() < 1e-9
+    np.testing.assert_allclose(batch.residuals, measured, atol=1e-12)
+    assert all(iiwa14.outside_limits(q) == [] for q in batch.q)
+
+
+def test_unreachable_targets_fail_with_their_fk_residuals(iiwa14):
+    # iiwa14: the links from joint 1 to the flange add up to about 1.3 m; 3 m away is out of reach
+    T = iiwa14.fk(iiwa14.sample_q(5, seed=1), "ee_link", "base_link")
+    T[:, 0, 3] += 3.0
+    batch = ik_many(iiwa14, T, restarts=2)
+    assert not batch.success.any()
+    assert (batch.residual_position > 1.0).all()
+    np.testing.assert_allclose(batch.residuals, pinocchio_residuals(iiwa14, "base_link", "ee_link", batch.q, T), atol=1e-12)
+    assert (batch.attempts == 3).all()
+
+
+def test_a_target_gets_the_same_answer_in_a_larger_batch(iiwa14):
+    T = iiwa14.fk(iiwa14.sample_q(20, seed=8), "ee_link", "base_link")
+    small, large = ik_many(iiwa14, T[:7], seed=5), ik_many(iiwa14, T, seed=5)
+    np.testing.assert_array_equal(small.q, large.q[:7])
+    assert not np.array_equal(ik_many(iiwa14, T[:7], seed=6).q, small.q)
+
+
+def test_seed_per_target_is_the_same_in_any_batch():
+    np.testing.assert_array_equal(target_seeds(9, 5, first=10), target_seeds(9, 20)[10:15])
+    assert len(set(target_seeds(9, 1000).tolist())) == 1000
+
+
+def test_start_at_the_answer_takes_one_attempt_and_no_iteration(course_arm):
+    Q_true = course_arm.sample_q(30, seed=3)
+    T = course_arm.fk(Q_true, "ee_link", "base_link")
+    batch = ik_many(course_arm, T, Q_true)
+    assert batch.success.all() and (batch.attempts == 1).all() and (batch.iterations == 0).all()
+    np.testing.assert_allclose(batch.q, Q_true, atol=1e-12)
+
+
+def test_one_start_vector_serves_every_target(course_arm):
+    T = course_arm.fk(course_arm.sample_q(10, seed=6), "ee_link", "base_link")
+    batch = ik_many(course_arm, T, course_arm.q())
+    assert batch.success.all()
+    assert pinocchio_residuals(course_arm, "base_link", "ee_link", batch.q, T).max() < 1e-9
+
+
+def test_time_budget_stops_the_restarts(iiwa14):
+    T = np.tile(np.eye(4), (3, 1, 1))
+    T[:, 0, 3] = 5.0  # out of reach: every restart fails, only the budget ends the search
+    batch = ik_many(iiwa14, T, restarts=10**7, time_budget=0.002)
+    assert (batch.attempts >= 1).all() and (batch.attempts < 10**7).all()
+    assert not batch.success.any()
+
+
+def test_off_chain_joints_keep_their_start_and_a_base_below_the_root(load_robot):
+    robot = load_robot("mobile_manipulator")
+    # arm_base is below arm_base_joint: T_arm_base_ee depends on the four joints after it only
+    Q_true = robot.sample_q(20, seed=2)
+    T = robot.fk(Q_true, "ee_link", "arm_base")
+    Q0 = robot.sample_q(20, seed=3)
+    batch = ik_many(robot, T, Q0, base="arm_base")
+    assert batch.success.all()
+    assert pinocchio_residuals(robot, "arm_base", "ee_link", batch.q, T).max() < 1e-9
+    off_chain = [robot.joint_names.index(n) for n in ("arm_base_joint", "left_wheel_joint", "right_wheel_joint")]
+    np.testing.assert_array_equal(batch.q[:, off_chain], Q0[:, off_chain])
+
+
+def test_position_mode_takes_points_and_ignores_rotation(iiwa14):
+    points = iiwa14.fk(iiwa14.sample_q(10, seed=5), "ee_link", "base_link")[:, :3, 3]
+    batch = ik_many(iiwa14, points, mode="position")
+    assert batch.success.all() and (batch.residual_rotation == 0.0).all()
+    reached = np.array([iiwa14.transform("base_link", "ee_link", q)[:3, 3] for q in batch.q])
+    assert np.abs(reached - points).max() < 1e-9
+
+
+def test_position_axis_mode_matches_the_axis(course_arm):
+    T = course_arm.fk(course_arm.sample_q(10, seed=7), "ee_link", "base_link")
+    T[:, :3, :3] = T[:, :3, :3] @ rot_z(0.7)  # spin about z: the pointing axis stays, the pose changes
+    batch = ik_many(course_arm, T, mode="position+axis", axis="z")
+    assert batch.success.all()
+    for q, target in zip(batch.q, T):
+        reached = course_arm.transform("base_link", "ee_link", q)
+        assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 1e-9
+        assert math.atan2(np.linalg.norm(np.cross(reached[:3, 2], target[:3, 2])), reached[:3, 2] @ target[:3, 2]) < 1e-9
+
+
+def test_no_targets_is_an_empty_answer(iiwa14):
+    batch = ik_many(iiwa14, np.zeros((0, 4, 4)))
+    assert batch.q.shape == (0, 7) and len(batch) == 0
+
+
+def test_rotation_angles_match_the_scalar_helper():
+    R_a, R_b = rot_x(0.3) @ rot_z(2.0), rot_z(-1.1)
+    assert rotation_angles(R_a, R_b) == pytest.approx(rotation_angle_between(R_a, R_b), abs=1e-14)
+    assert rotation_angles(rot_x(1e-12), np.eye(3)) == pytest.approx(1e-12, rel=1e-6)  # accurate near 0
+    assert rotation_angles(rot_x(math.pi), np.eye(3)) == pytest.approx(math.pi)
+
+
+@pytest.mark.parametrize(
+    ("T", "message"),
+    [
+        (np.eye(4), "shape"),
+        (np.zeros((2, 4, 4)), "IK target 0: last row"),
+        (np.stack([np.eye(4), np.diag([1.0, 1.0, -1.0, 1.0])]), "IK target 1"),
+        (np.stack([np.eye(4), np.full((4, 4), np.nan)]), "IK target 1: entries must be finite"),
+    ],
+)
+def test_bad_targets_name_the_first_bad_one(iiwa14, T, message):
+    with pytest.raises(InvalidTransformError, match=message):
+        ik_many(iiwa14, T)
+
+
+def test_bad_start_and_options_are_user_errors(iiwa14):
+    T = np.tile(np.eye(4), (2, 1, 1))
+    with pytest.raises(JointValueError, match="per target"):
+        ik_many(iiwa14, T, np.zeros((3, 7)))
+    with pytest.raises(JointValueError, match="finite"):
+        ik_many(iiwa14, T, np.full(7, np.inf))
+    with pytest.raises(IKOptionError, match="time_budget"):
+        ik_many(iiwa14, T, time_budget=-1.0)
+    with pytest.raises(IKOptionError, match="restarts"):
+        ik_many(iiwa14, T, restarts=-1)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3), st.floats(-math.pi, math.pi))
+def test_success_always_means_fk_within_tolerance(planar_3r_robot, xy_yaw, yaw):
+    # Any point and angle in the plane, reachable or not: success must be confirmed by Pinocchio.
+    T = np.eye(4)
+    T[:3, :3] = rot_z(yaw)
+    T[:2, 3] = np.array(xy_yaw[:2]) * 4.0
+    batch = ik_many(planar_3r_robot, T[None], restarts=3, tol=1e-9)
+    measured = pinocchio_residuals(planar_3r_robot, "base_link", "ee_link", batch.q, T[None])[0]
+    assert batch.success[0] == bool(measured.max() <= 1e-9)
+
+
+@pytest.fixture(scope="module")
+def planar_3r_robot(load_robot):
+    return load_robot("planar_3r")
