@@ -126,3 +126,16 @@ def test_bad_input_is_one_line_and_exit_2(args, fragment):
     result = run(*args, status=2)
     assert result.stderr.count("\n") == 1 and "error" in result.stderr, result.stderr
     assert fragment in result.stderr, result.stderr
+
+
+def test_a_singular_configuration_names_its_family_and_the_lost_motion():
+    # Stanford arm with the wrist straight (joint5 = 0): joints 4 and 6 turn about one axis (hand derivation in
+    # manipkit.analysis.singularities); the boom is kept off joint 1's axis (joint2 = 0.7) and out (joint3 = 0.5)
+    out = json.loads(run("jacobian", "--robot", "stanford_arm", "--q", "joint2=0.7", "joint3=0.5", "joint5=0",
+                         "--format", "json").stdout)
+    assert out["singular"] is True
+    assert out["singular_family"] == "wrist: joint5 = 0 or 180 deg"
+    assert "joint4 and joint6 turn about the same axis" in out["null_space"]
+    regular = json.loads(run("jacobian", "--robot", "stanford_arm", "--q", "joint2=0.7", "joint3=0.5", "joint5=0.4",
+                             "--format", "json").stdout)
+    assert regular["singular"] is False and regular["singular_family"] is None and regular["null_space"] is None

@@ -40,6 +40,9 @@ _LAZY = {
     "velocity_ellipsoid": "manipkit.analysis.manipulability",
     "force_ellipsoid": "manipkit.analysis.manipulability",
     "global_conditioning_index": "manipkit.analysis.dexterity",
+    "singular_families": "manipkit.analysis.singularities",
+    "singular_family_at": "manipkit.analysis.singularities",
+    "ik_many": "manipkit.kinematics.ik_many",
     "matrix_from_rpy": "manipkit.spatial.rotations",
     "rpy_from_matrix": "manipkit.spatial.rotations",
     "matrix_from_quaternion": "manipkit.spatial.rotations",
@@ -53,17 +56,21 @@ _LAZY = {
     "invert_transform": "manipkit.spatial.transforms",
     "transform_from_xyz_rpy": "manipkit.spatial.transforms",
 }
-__all__ = ["ManipkitError", *_LAZY]
+#: Modules offered at the top (``manipkit.reachmap.build(robot)``, ``manipkit.reachmap.load(path)``).
+_LAZY_MODULES = {"reachmap": "manipkit.analysis.reachmap"}
+__all__ = ["ManipkitError", *_LAZY, *_LAZY_MODULES]
 
 
 def __getattr__(name: str):
     if name in _LAZY:
         return getattr(importlib.import_module(_LAZY[name]), name)
+    if name in _LAZY_MODULES:
+        return importlib.import_module(_LAZY_MODULES[name])
     raise AttributeError(f"module 'manipkit' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | set(_LAZY_MODULES))
 
 
 # --------------------------------------------------------------------------

@@ -96,6 +96,10 @@ class IKOptionError(ManipkitError, ValueError):
     """An IK option that is not valid (mode, axis, tolerance, budget)."""
 
 
+class ReachMapError(ManipkitError, ValueError):
+    """A reachability-map option that is not valid (voxel, orientations, method, samples, workers), or a map file."""
+
+
 class JointLimitError(JointValueError):
     """A joint value outside its joint's limits (from :meth:`manipkit.kinematics.robot.Robot.check_limits`).
 

@@ -1,3 +1,9 @@
-"""Analysis built on kinematics and closed forms: planar workspaces, manipulability and ellipsoids, dexterity (GCI)."""
+"""Analysis built on kinematics and closed forms.
 
-__all__ = ["dexterity", "manipulability", "workspace"]
+Planar workspaces (``workspace``), manipulability indices and ellipsoids
+(``manipulability``), the global conditioning index (``dexterity``), the
+singular families of the textbook arms (``singularities``), reachability maps
+(``reachmap``, ``orientations``) and base placement (``placement``).
+"""
+
+__all__ = ["dexterity", "manipulability", "orientations", "placement", "reachmap", "singularities", "workspace"]

@@ -66,7 +66,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
-from manipkit.errors import InputFileError, ManipkitError, OutputError
+from manipkit.errors import InputFileError, ManipkitError, OutputError, ReachMapError
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
@@ -85,10 +85,6 @@ DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-
 IK_BLOCK = 2048  # IK targets per block
 MAX_GRID_BYTES = 2 * 1024**3  # voxel-bins (one byte each) a map may hold
 PARALLEL_TOL = 1e-9  # joint axes closer than this (|a x b|) count as parallel
-
-
-class ReachMapError(ManipkitError, ValueError):
-    """A reachability-map option that is not valid (voxel, orientations, method, samples, workers)."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -269,7 +269,8 @@ def ik_many(
         T_root = robot.fk(Q_full, solver.base) @ T_base
     Q_fixed = np.zeros((n_targets, solver._q_fixed.shape[0]))
     if solver._fixed_steps.size:
-        Q_fixed[:, solver._fixed_steps] = Q_full[:, solver._fixed_user]
+        # joints not solved for (above the base, mimics of them, fixed floating coordinates): scale * q + offset
+        Q_fixed[:, solver._fixed_steps] = solver._fixed_scale * Q_full[:, solver._fixed_user] + solver._fixed_offset
     X = np.empty((n_targets, chain.size))
     iterations = np.zeros(n_targets, dtype=np.int64)
     attempts = np.zeros(n_targets, dtype=np.int64)

@@ -102,11 +102,15 @@ def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: 
     from manipkit.analysis.manipulability import condition_number, manipulability, singular_values
     from manipkit.kinematics.jacobian import jacobian
 
+    from manipkit.analysis.singularities import null_space_motion, singular_family_at
+
+    import numpy as np
+
     J = jacobian(robot, q, frame, base, reference=reference)
     s = singular_values(J, "all", length)
     ranks = {axes: rank(J, axes, length, tol=singular_tol) for axes in ("all", "trans")}
     generic = {axes: generic_rank(robot, frame, base, axes, length, tol=singular_tol) for axes in ("all", "trans")}
-    return {
+    report = {
         "robot": robot.name,
         "frame": frame,
         "base": base,
@@ -126,7 +130,20 @@ def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: 
         "generic_rank_translation": generic["trans"],
         "singular": any(ranks[axes] < generic[axes] for axes in ranks),
         "singular_family": None,
+        "null_space": None,
     }
+    # The families are those of the arm's ee_link in its base_link (analysis.singularities).
+    if robot.frame(frame) == robot.frame("ee_link") and robot.frame(base) == robot.frame("base_link"):
+        family = singular_family_at(robot, q)
+        report["singular_family"] = None if family is None else f"{family.name}: {family.condition}"
+    if report["singular"]:  # in words, for the rows that lost rank: the translation rows, else all (scaled)
+        if ranks["trans"] < generic["trans"]:
+            rows, names = J[:3], ROW_NAMES[:3]
+        else:
+            rows, names = np.vstack([J[:3], length * J[3:]]), ROW_NAMES
+        report["null_space"] = null_space_motion(rows, robot.joint_names, tol=max(singular_tol, 1e-12),
+                                                 row_names=names)
+    return report
 
 
 def run_jacobian(args) -> int:
@@ -174,8 +191,11 @@ def _jacobian_lines(robot, report: dict, precision: int, singular_tol: float) ->
         f"rank: {report['rank']} of {report['generic_rank']} (all rows), {report['rank_translation']} of "
         f"{report['generic_rank_translation']} (translation rows), singular values below {short_text(singular_tol)} "
         "not counted",
-        f"singular: {'yes' if report['singular'] else 'no'}",
+        f"singular: {'yes' if report['singular'] else 'no'}"
+        + (f" (family: {report['singular_family']})" if report["singular_family"] else ""),
     ]
+    if report["null_space"]:
+        lines.append(f"  {report['null_space']}")
     return lines
 
 
