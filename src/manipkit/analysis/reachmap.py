@@ -66,7 +66,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
-from manipkit.errors import InputFileError, ManipkitError, OutputError, ReachMapError
+from manipkit.errors import InputFileError, OutputError, ReachMapError
 from manipkit.text import short_text
 
 if TYPE_CHECKING:

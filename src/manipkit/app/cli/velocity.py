@@ -98,13 +98,12 @@ def _finite_or_none(value: float):
 
 def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: float, singular_tol: float) -> dict:
     """The answer of ``manipkit jacobian`` as a JSON-ready dict (keys of the command-line contract)."""
+    import numpy as np
+
     from manipkit.analysis.dexterity import generic_rank, rank
     from manipkit.analysis.manipulability import condition_number, manipulability, singular_values
-    from manipkit.kinematics.jacobian import jacobian
-
     from manipkit.analysis.singularities import null_space_motion, singular_family_at
-
-    import numpy as np
+    from manipkit.kinematics.jacobian import jacobian
 
     J = jacobian(robot, q, frame, base, reference=reference)
     s = singular_values(J, "all", length)
