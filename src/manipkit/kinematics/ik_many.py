@@ -266,7 +266,7 @@ def ik_many(
     if solver._base_is_root:
         T_root = T_base
     else:
-        T_root = robot.fk(Q_full, solver.base) @ T_base
+        T_root = robot.fk(Q_full, solver.base, base=robot.root_link) @ T_base
     Q_fixed = np.zeros((n_targets, solver._q_fixed.shape[0]))
     if solver._fixed_steps.size:
         # joints not solved for (above the base, mimics of them, fixed floating coordinates): scale * q + offset
