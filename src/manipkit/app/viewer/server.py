@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
-from manipkit.app.viewer.state import DEFAULT_FRAMES, Overlay, ViewerState
+from manipkit.app.viewer.state import DEFAULT_FRAMES, NO_OVERLAY, Overlay, ViewerState
 from manipkit.errors import JointValueError, ManipkitError
 from manipkit.outputs import writable_path, write_text
 
@@ -267,7 +267,7 @@ def page_html(initial: dict) -> str:
 
 
 def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, port: int = DEFAULT_PORT,
-              host: str = "127.0.0.1", overlay: Overlay = Overlay()) -> ViewerServer:
+              host: str = "127.0.0.1", overlay: Overlay = NO_OVERLAY) -> ViewerServer:
     """Start a view: control page on ``port``, meshcat on its own ports (7000 upwards).
 
     ``overlay``: the manipulability ellipsoid's start settings (:class:`Overlay`; default off).
@@ -298,7 +298,7 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
 
 
 def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
-                 overlay: Overlay = Overlay()) -> Path:
+                 overlay: Overlay = NO_OVERLAY) -> Path:
     """Write a standalone HTML snapshot of the pose (robot, triads at A and B, the ellipsoid if shown); returns the path.
 
     The file is meshcat's static export: it opens in a browser without a server.

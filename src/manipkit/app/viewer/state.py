@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.analysis.dexterity import generic_rank, rank
 from manipkit.analysis.manipulability import condition_number, force_ellipsoid, manipulability, velocity_ellipsoid
 from manipkit.app.pose import pose_report, pose_text
 from manipkit.errors import ManipkitError
@@ -43,7 +44,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
-    "DEFAULT_FRAMES", "ELLIPSOID_AXES", "ELLIPSOID_KINDS", "ELLIPSOID_PATH", "FREE_RANGE", "TRIAD_PATHS",
+    "DEFAULT_FRAMES", "ELLIPSOID_AXES", "ELLIPSOID_KINDS", "ELLIPSOID_PATH", "FREE_RANGE", "NO_OVERLAY", "TRIAD_PATHS",
     "VISUALS_ROOT", "Overlay", "SliderSpec", "ViewerState", "ellipsoid_text",
 ]
 
@@ -66,6 +67,8 @@ _SCALES = {
     ("force", "rot"): (0.3, 1, "N m", "m per N m"),
 }
 _ROWS = {"trans": "translation", "rot": "rotation"}
+#: Singular values of the ellipsoid's rows below this do not count to their rank (as ``manipkit jacobian``'s default).
+SINGULAR_TOL = 1e-9
 #: Radii drawn are held in [RADIUS_FLOOR * size, size] (m): a flat ellipsoid stays drawable, an unbounded one fits.
 RADIUS_FLOOR = 1e-3
 
@@ -85,6 +88,10 @@ class Overlay:
             raise ManipkitError(f"ellipsoid kind {self.kind!r:.40}: give velocity or force")
         if self.axes not in ELLIPSOID_AXES:
             raise ManipkitError(f"ellipsoid axes {self.axes!r:.40}: give trans (translation rows) or rot (rotation rows)")
+
+
+#: The overlay off (the default of a view).
+NO_OVERLAY = Overlay()
 
 
 def _round_125(value: float) -> float:
@@ -139,7 +146,7 @@ class ViewerState:
     'ee_link'
     """
 
-    def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, overlay: Overlay = Overlay()):
+    def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, overlay: Overlay = NO_OVERLAY):
         self.robot = robot
         self._frames = self._checked_frames(frames)
         self._continuous = np.array([joint.is_angular and not math.isfinite(joint.upper - joint.lower)
@@ -151,6 +158,7 @@ class ViewerState:
         if not isinstance(overlay, Overlay):
             raise ManipkitError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
         self._overlay = overlay
+        self._generic_ranks: dict[tuple[str, str, str], int] = {}
         lower, upper = self.bounds()
         #: Size of the robot (m): the diagonal of :meth:`bounds` at the start pose, at least 0.2 m.
         self.size = max(float(np.linalg.norm(upper - lower)), 0.2)
@@ -336,6 +344,10 @@ class ViewerState:
         J = self.robot.jacobian(self._q, frame=b, base=a, reference="base")
         shape = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
         kappa = float(condition_number(J, axes))
+        generic = self._generic_ranks.get((a, b, axes))
+        if generic is None:  # the rank of these rows at a generic configuration (random samples, once per choice)
+            generic = self._generic_ranks[(a, b, axes)] = generic_rank(self.robot, b, a, axes, tol=SINGULAR_TOL)
+        rows_rank = rank(J, axes, tol=SINGULAR_TOL)
         scale = self.ellipsoid_scale()
         with np.errstate(over="ignore"):
             wanted = scale * shape.radii
@@ -358,6 +370,9 @@ class ViewerState:
             "axes": axes,
             "manipulability_translation": float(manipulability(J, "yoshikawa", "trans")),
             "condition_number": kappa if math.isfinite(kappa) else None,
+            "rank": rows_rank,
+            "generic_rank": generic,
+            "singular": rows_rank < generic,
             "radii": [float(r) if math.isfinite(r) else None for r in shape.radii],
             "unit": unit,
             "principal_axes": shape.axes.tolist(),
@@ -375,7 +390,10 @@ class ViewerState:
         Keys: ``frame`` (B), ``base`` (A), ``reference`` ("base"), ``kind``,
         ``axes``; ``manipulability_translation`` (Yoshikawa's index of the
         translation rows, :func:`manipulability`); ``condition_number`` (of the
-        ``axes`` rows, None for infinite: singular); ``radii`` (largest first
+        ``axes`` rows, None for infinite); ``rank`` of the ``axes`` rows
+        (singular values above ``SINGULAR_TOL``), ``generic_rank`` (theirs at
+        a generic configuration, :func:`generic_rank`) and ``singular`` (rank
+        below it); ``radii`` (largest first
         for velocity, None for an infinite force radius) in ``unit`` per unit
         joint rate (velocity) or joint effort (force); ``principal_axes`` (3x3,
         columns, in A's axes); ``center`` (B's origin, m, root frame);
@@ -402,7 +420,9 @@ def ellipsoid_text(report: dict) -> str:
     lines = [
         f"Jacobian of {report['frame']} relative to {report['base']}, in {report['base']}'s axes",
         f"Yoshikawa index (translation rows): {short_text(report['manipulability_translation'], 6, zero=1e-15)}",
-        f"condition number ({rows} rows): " + ("inf (singular)" if kappa is None else short_text(kappa, 6)),
+        f"condition number ({rows} rows): " + ("inf" if kappa is None else short_text(kappa, 6)),
+        f"rank ({rows} rows): {report['rank']} of {report['generic_rank']} at a generic configuration"
+        + (": singular" if report["singular"] else ""),
         f"{report['kind']} ellipsoid ({rows}), radii ({report['unit']} {per}): {radii}",
         f"drawn at {report['frame']}'s origin, radii x {short_text(report['scale'])} {report['scale_unit']}, "
         f"at most {short_text(report['cap'], 3)} m",
