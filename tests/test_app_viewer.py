@@ -434,6 +434,7 @@ def test_ellipsoid_at_a_singularity_reads_inf_and_caps_the_force_ellipsoid(plana
 def test_ellipsoid_scale_is_stated_and_rounded_to_1_2_5(planar_2r):
     state = ViewerState(planar_2r, overlay=Overlay(True))  # straight along x at q = 0: size = 2 m
     assert state.size == 2.0
+    assert ViewerState(planar_2r, q=[0.0, 2.5]).size == 2.0  # the size is the default pose's, whatever the start pose
     # velocity/trans 0.5; velocity/rot 0.2 * 2 = 0.4 -> 0.5 m per rad/s; force/trans 0.1 * 4 = 0.4 -> 0.5 m per N;
     # force/rot 0.3 * 2 = 0.6 -> 0.5 m per N m
     scales = {}

@@ -159,8 +159,10 @@ class ViewerState:
             raise ManipkitError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
         self._overlay = overlay
         self._generic_ranks: dict[tuple[str, str, str], int] = {}
-        lower, upper = self.bounds()
-        #: Size of the robot (m): the diagonal of :meth:`bounds` at the start pose, at least 0.2 m.
+        lower, upper = self._box(self._in_range(robot.q()))
+        #: Size of the robot (m), for the ellipsoid's display scale and cap: the diagonal of the box around
+        #: every frame origin at the default pose (every joint at 0 or the nearest value inside its limits),
+        #: at least 0.2 m. It does not depend on the start pose, so two views of a robot draw alike.
         self.size = max(float(np.linalg.norm(upper - lower)), 0.2)
 
     # Joint values -------------------------------------------------------
@@ -285,8 +287,11 @@ class ViewerState:
 
         Used to aim the camera and size the triads.
         """
+        return self._box(self._q)
+
+    def _box(self, q) -> tuple[np.ndarray, np.ndarray]:
         root = self.robot.root_link
-        origins = np.array([self.robot.transform(root, f, self._q, check_limits=False)[:3, 3] for f in self.robot.frame_names])
+        origins = np.array([self.robot.transform(root, f, q, check_limits=False)[:3, 3] for f in self.robot.frame_names])
         return origins.min(axis=0), origins.max(axis=0)
 
     def snapshot(self) -> dict:
