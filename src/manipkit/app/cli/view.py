@@ -2,7 +2,9 @@
 
 Serves the control page of :mod:`manipkit.app.viewer` until Ctrl-C (or
 SIGTERM), or writes a standalone HTML snapshot with ``--static``
-(docs/architecture.md, "app"). The viewer (meshcat, Pinocchio's visualizer)
+(docs/architecture.md, "app"). ``--ellipsoid [velocity|force]`` starts with
+the manipulability ellipsoid of B relative to A shown (``--ellipsoid-axes
+trans|rot``); the page's checkbox toggles it. The viewer (meshcat, Pinocchio's visualizer)
 is imported only when this command runs.
 """
 

@@ -44,8 +44,8 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
-    "DEFAULT_FRAMES", "ELLIPSOID_AXES", "ELLIPSOID_KINDS", "ELLIPSOID_PATH", "FREE_RANGE", "NO_OVERLAY", "TRIAD_PATHS",
-    "VISUALS_ROOT", "Overlay", "SliderSpec", "ViewerState", "ellipsoid_text",
+    "DEFAULT_FRAMES", "ELLIPSOID_AXES", "ELLIPSOID_KINDS", "ELLIPSOID_PATH", "FREE_RANGE", "NO_OVERLAY", "RADIUS_FLOOR",
+    "SINGULAR_TOL", "TRIAD_PATHS", "VISUALS_ROOT", "Overlay", "SliderSpec", "ViewerState", "ellipsoid_text",
 ]
 
 DEFAULT_FRAMES = ("base_link", "ee_link")
@@ -159,6 +159,7 @@ class ViewerState:
             raise ManipkitError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
         self._overlay = overlay
         self._generic_ranks: dict[tuple[str, str, str], int] = {}
+        self._ellipsoid_cache: tuple | None = None  # (q, frames, overlay) -> (report, placement) last computed
         lower, upper = self._box(self._in_range(robot.q()))
         #: Size of the robot (m), for the ellipsoid's display scale and cap: the diagonal of the box around
         #: every frame origin at the default pose (every joint at 0 or the nearest value inside its limits),
@@ -337,7 +338,7 @@ class ViewerState:
 
     def _ellipsoid(self) -> tuple[dict, np.ndarray]:
         key = (self._q.tobytes(), self._frames, self._overlay)
-        cached = getattr(self, "_ellipsoid_cache", None)
+        cached = self._ellipsoid_cache
         if cached is None or cached[0] != key:  # the readout and the scene ask for the same pose in turn
             self._ellipsoid_cache = (key, self._compute_ellipsoid())
         report, T = self._ellipsoid_cache[1]
@@ -398,9 +399,9 @@ class ViewerState:
         ``axes`` rows, None for infinite); ``rank`` of the ``axes`` rows
         (singular values above ``SINGULAR_TOL``), ``generic_rank`` (theirs at
         a generic configuration, :func:`generic_rank`) and ``singular`` (rank
-        below it); ``radii`` (largest first
-        for velocity, None for an infinite force radius) in ``unit`` per unit
-        joint rate (velocity) or joint effort (force); ``principal_axes`` (3x3,
+        below it); ``radii`` (largest first for velocity, None for an infinite
+        force radius) in ``unit`` per unit joint rate (velocity) or joint
+        effort (force); ``principal_axes`` (3x3,
         columns, in A's axes); ``center`` (B's origin, m, root frame);
         ``scale`` (display scale, ``scale_unit``); ``cap`` (m) and ``capped``
         (a radius times the scale is above the cap and is drawn at the cap).
