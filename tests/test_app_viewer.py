@@ -4,6 +4,9 @@ Independent sources: the readout and the scene placements against the
 course arm's joint table composed by hand (tests/reference.py) and hand
 values, the readout also against the ``tf-between`` command run as a
 subprocess; the static export decoded back from meshcat's msgpack commands.
+The manipulability overlay against ``velocity_ellipsoid``/``force_ellipsoid``
+of ``robot.jacobian`` computed here, the planar 2R's singular values derived
+by hand, and velocities from central differences of ``robot.transform``.
 The browser half is in test_viewer_browser.py.
 """
 
@@ -36,10 +39,13 @@ from reference import (
 )
 
 import manipkit
+from manipkit.analysis.manipulability import force_ellipsoid, velocity_ellipsoid
 from manipkit.app.pose import pose_text
 from manipkit.app.viewer import (
+    ELLIPSOID_PATH,
     TRIAD_PATHS,
     VISUALS_ROOT,
+    Overlay,
     ViewerServer,
     ViewerState,
     open_view,
@@ -307,6 +313,183 @@ def test_bounds_are_the_box_around_the_frame_origins(robots):
 
 
 # ----------------------------------------------------------------------
+# ViewerState: the manipulability overlay
+# ----------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def planar_2r():
+    return manipkit.load("planar_2r")
+
+
+def ellipsoid_matrix(T):
+    """E = M M^T of a placement T = [M p]: the ellipsoid drawn is {p + x : x^T E^-1 x <= 1} (sign-free)."""
+    return T[:3, :3] @ T[:3, :3].T
+
+
+@pytest.mark.parametrize("kind, axes", [("velocity", "trans"), ("velocity", "rot"), ("force", "trans"), ("force", "rot")])
+def test_ellipsoid_readout_is_that_of_the_jacobian_of_b_relative_to_a(robots, kind, axes):
+    robot = robots["iiwa14"]
+    q = random_q(robot, 7)
+    state = ViewerState(robot, frames=("iiwa_link_2", "ee_link"), q=q, overlay=Overlay(True, kind, axes))
+    report = state.ellipsoid()
+    J = robot.jacobian(q, frame="ee_link", base="iiwa_link_2", reference="base")
+    expected = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
+    assert (report["frame"], report["base"], report["kind"], report["axes"]) == ("ee_link", "iiwa_link_2", kind, axes)
+    assert np.abs(np.array(report["radii"]) - expected.radii).max() < 1e-12
+    # principal axes up to the sign of each column
+    dots = np.abs(np.sum(np.array(report["principal_axes"]) * expected.axes, axis=0))
+    assert np.abs(dots - 1.0).max() < 1e-9
+    s = np.linalg.svd(J[:3], compute_uv=False)
+    assert report["manipulability_translation"] == pytest.approx(np.prod(s), rel=1e-12)
+    rows = slice(0, 3) if axes == "trans" else slice(3, 6)
+    s_rows = np.linalg.svd(J[rows], compute_uv=False)
+    assert report["condition_number"] == pytest.approx(s_rows[0] / s_rows[-1], rel=1e-9)
+
+
+def test_ellipsoid_sits_at_b_with_a_s_axes_turned_into_the_root(robots):
+    """Placement: centre at B's origin (robot.transform); shape scale^2 R_root_A U diag(r^2) U^T R_root_A^T."""
+    robot = robots["iiwa14"]
+    q = random_q(robot, 3)
+    state = ViewerState(robot, frames=("iiwa_link_2", "ee_link"), q=q, overlay=Overlay(True))
+    T = state.ellipsoid_placement()
+    assert np.abs(T[:3, 3] - robot.transform("base_link", "ee_link", q)[:3, 3]).max() < 1e-12
+    assert np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]) and np.linalg.det(T[:3, :3]) > 0
+    report = state.ellipsoid()
+    assert not report["capped"]
+    R_root_a = robot.transform("base_link", "iiwa_link_2", q)[:3, :3]
+    U = np.array(report["principal_axes"])
+    drawn = report["scale"] * np.array(report["radii"])
+    expected = R_root_a @ U @ np.diag(drawn**2) @ U.T @ R_root_a.T
+    assert np.abs(ellipsoid_matrix(T) - expected).max() < 1e-12
+    assert state.scene_placements()[ELLIPSOID_PATH].tolist() == T.tolist()
+
+
+def test_velocity_ellipsoid_holds_the_velocities_of_unit_joint_rates(robots):
+    """Independent of the Jacobian code: B's velocity in A's axes by central differences of robot.transform(A, B).
+
+    Every unit joint rate moves B at a velocity v with scale R_root_A v inside the drawn ellipsoid, and
+    the fastest direction (the top right singular vector) lands on its surface.
+    """
+    robot = robots["course_arm"]
+    q = random_q(robot, 11)
+    state = ViewerState(robot, frames=("bicep", "ee_link"), q=q, overlay=Overlay(True))
+    T, report = state.ellipsoid_placement(), state.ellipsoid()
+    E_inv = np.linalg.inv(ellipsoid_matrix(T))
+    R_root_a = robot.transform("base_link", "bicep", q)[:3, :3]
+
+    def velocity(qdot, h=1e-6):  # d/dt p_bicep_ee, in bicep's axes
+        plus = robot.transform("bicep", "ee_link", q + h * qdot, check_limits=False)[:3, 3]
+        minus = robot.transform("bicep", "ee_link", q - h * qdot, check_limits=False)[:3, 3]
+        return (plus - minus) / (2 * h)
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        qdot = rng.normal(size=len(q))
+        x = report["scale"] * R_root_a @ velocity(qdot / np.linalg.norm(qdot))
+        assert x @ E_inv @ x <= 1 + 1e-6
+    J_v = np.array([velocity(e) for e in np.eye(len(q))]).T  # (3, n) by differences
+    top = np.linalg.svd(J_v)[2][0]
+    x = report["scale"] * R_root_a @ velocity(top)
+    assert x @ E_inv @ x == pytest.approx(1.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("q2", [0.4, 1.3, 2.5])
+def test_planar_2r_ellipsoid_by_hand(planar_2r, q2):
+    """l1 = l2 = 1, q1 = 0: J_v = [[-s2, -s2], [1 + c2, c2]]; sigma1 sigma2 = |s2|, sigma1^2 + sigma2^2 = 3 + 2 c2."""
+    state = ViewerState(planar_2r, q=[0.0, q2], overlay=Overlay(True))
+    report = state.ellipsoid()
+    total, product = 3 + 2 * math.cos(q2), abs(math.sin(q2))
+    root = math.sqrt(total**2 - 4 * product**2)
+    by_hand = [math.sqrt((total + root) / 2), math.sqrt((total - root) / 2), 0.0]
+    assert np.abs(np.array(report["radii"]) - by_hand).max() < 1e-12
+    assert report["manipulability_translation"] == pytest.approx(product, rel=1e-12)
+    assert report["condition_number"] == pytest.approx(by_hand[0] / by_hand[1], rel=1e-12)
+    assert (report["rank"], report["generic_rank"], report["singular"]) == (2, 2, False)
+    # the radius 0 (no motion along z) is drawn as a thin disc: 1e-3 of the robot's size, never 0
+    T = state.ellipsoid_placement()
+    assert np.linalg.norm(T[:3, 2]) == pytest.approx(1e-3 * state.size, rel=1e-12)
+    assert abs(T[2, 0]) < 1e-12 and abs(T[2, 1]) < 1e-12  # the disc lies in the plane of the arm
+
+
+def test_ellipsoid_at_a_singularity_reads_inf_and_caps_the_force_ellipsoid(planar_2r):
+    state = ViewerState(planar_2r, q=[0.3, 0.0], overlay=Overlay(True))  # arm straight: singular
+    report = state.ellipsoid()
+    # sigma_2 is 0 up to rounding: the condition number is huge (or inf), the rank of the translation rows 1, not 2
+    assert report["manipulability_translation"] < 1e-15
+    assert report["condition_number"] is None or report["condition_number"] > 1e12
+    assert (report["rank"], report["generic_rank"], report["singular"]) == (1, 2, True)
+    assert "rank (translation rows): 1 of 2 at a generic configuration: singular" in state.snapshot()["ellipsoid_text"]
+    state.set_overlay(kind="force")
+    report = state.ellipsoid()
+    assert report["radii"][2] is None and (report["radii"][1] is None or report["radii"][1] > 1e12)
+    assert report["capped"]  # 1/sigma_2: a force along the arm takes (next to) no torque
+    radii_drawn = np.linalg.norm(state.ellipsoid_placement()[:3, :3], axis=0)
+    assert np.allclose(sorted(radii_drawn)[1:], [state.size, state.size], rtol=1e-12)
+    text = state.snapshot()["ellipsoid_text"]
+    assert "capped: radii above" in text and ", inf" in text
+    json.dumps(state.snapshot(), allow_nan=False)  # the page's JSON.parse takes no Infinity
+
+
+def test_ellipsoid_scale_is_stated_and_rounded_to_1_2_5(planar_2r):
+    state = ViewerState(planar_2r, overlay=Overlay(True))  # straight along x at q = 0: size = 2 m
+    assert state.size == 2.0
+    assert ViewerState(planar_2r, q=[0.0, 2.5]).size == 2.0  # the size is the default pose's, whatever the start pose
+    # velocity/trans 0.5; velocity/rot 0.2 * 2 = 0.4 -> 0.5 m per rad/s; force/trans 0.1 * 4 = 0.4 -> 0.5 m per N;
+    # force/rot 0.3 * 2 = 0.6 -> 0.5 m per N m
+    scales = {}
+    for kind in ("velocity", "force"):
+        for axes in ("trans", "rot"):
+            state.set_overlay(kind=kind, axes=axes)
+            scales[kind, axes] = (state.ellipsoid_scale(), state.ellipsoid()["scale_unit"])
+    assert scales == {("velocity", "trans"): (0.5, "m per m/s"), ("velocity", "rot"): (0.5, "m per rad/s"),
+                      ("force", "trans"): (0.5, "m per N"), ("force", "rot"): (0.5, "m per N m")}
+    state.set_overlay(kind="velocity", axes="trans")
+    assert "radii x 0.5 m per m/s, at most 2 m" in state.snapshot()["ellipsoid_text"]
+
+
+def test_overlay_off_draws_and_computes_nothing(robots):
+    state = ViewerState(robots["course_arm"])
+    assert state.overlay == Overlay(False, "velocity", "trans")
+    assert ELLIPSOID_PATH not in state.scene_placements()
+    assert state.scene_visibility() == {ELLIPSOID_PATH: False}
+    snapshot = state.snapshot()
+    assert snapshot["ellipsoid"] is None and snapshot["ellipsoid_text"] == ""
+    assert snapshot["overlay"] == {"shown": False, "kind": "velocity", "axes": "trans"}
+    state.set_overlay(shown=True)
+    assert ELLIPSOID_PATH in state.scene_placements() and state.scene_visibility() == {ELLIPSOID_PATH: True}
+
+
+def test_ellipsoid_follows_the_joints_and_the_frames(robots):
+    robot = robots["course_arm"]
+    state = ViewerState(robot, overlay=Overlay(True))
+    before = state.ellipsoid()
+    state.set_joint("elbow_joint", 1.0)
+    moved = state.ellipsoid()
+    assert moved["manipulability_translation"] != before["manipulability_translation"]
+    J = robot.jacobian(state.q, frame="ee_link", base="base_link")
+    assert np.abs(np.array(moved["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
+    state.set_frames("bicep", "top_wrist")
+    report = state.ellipsoid()
+    J = robot.jacobian(state.q, frame="top_wrist", base="bicep")
+    assert (report["frame"], report["base"]) == ("top_wrist", "bicep")
+    assert np.abs(np.array(report["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
+    assert np.abs(state.ellipsoid_placement()[:3, 3] - robot.transform("base_link", "top_wrist", state.q)[:3, 3]).max() < 1e-12
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"kind": "speed"}, "ellipsoid kind 'speed': give velocity or force"),
+    ({"axes": "all"}, "ellipsoid axes 'all': give trans .* or rot"),
+    ({"shown": "yes"}, "ellipsoid shown: expected true or false"),
+])
+def test_bad_overlay_settings_name_the_choices_and_change_nothing(robots, change, message):
+    state = ViewerState(robots["course_arm"], overlay=Overlay(True, "force", "rot"))
+    with pytest.raises(ManipkitError, match=message):
+        state.set_overlay(**change)
+    assert state.overlay == Overlay(True, "force", "rot")
+
+
+# ----------------------------------------------------------------------
 # Visual geometry and package:// meshes
 # ----------------------------------------------------------------------
 
@@ -469,6 +652,31 @@ def test_update_with_a_bad_joint_answers_400_and_the_unchanged_state(view):
     assert status == 400
 
 
+def test_update_toggles_the_ellipsoid_in_the_scene_and_the_answer(view, robots):
+    robot = robots["course_arm"]
+    status, payload = request(view, "POST", "/api/update",
+                              {"reset": True, "frames": ["base_link", "ee_link"], "q": {"elbow_joint": 0.9},
+                               "overlay": {"shown": True}})
+    answer = json.loads(payload)
+    assert status == 200 and answer["overlay"] == {"shown": True, "kind": "velocity", "axes": "trans"}
+    q = robot.q(elbow_joint=0.9)
+    J = robot.jacobian(q, frame="ee_link", base="base_link")
+    assert np.abs(np.array(answer["ellipsoid"]["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
+    assert "Yoshikawa index (translation rows)" in answer["ellipsoid_text"]
+    assert view.wait_for_scene()
+    expected = ViewerState(robot, q=q, overlay=Overlay(True)).ellipsoid_placement()
+    assert np.abs(view.scene.drawn[ELLIPSOID_PATH] - expected).max() < 1e-12
+    assert view.scene.visible[ELLIPSOID_PATH] is True
+
+    status, payload = request(view, "POST", "/api/update", {"overlay": {"kind": "nope"}})
+    assert status == 400 and "give velocity or force" in json.loads(payload)["error"]
+    status, payload = request(view, "POST", "/api/update", {"overlay": {"colour": "red"}})
+    assert status == 400 and "overlay: expected {shown, kind, axes}" in json.loads(payload)["error"]
+    status, payload = request(view, "POST", "/api/update", {"overlay": {"shown": False}})
+    assert status == 200 and json.loads(payload)["ellipsoid"] is None
+    assert view.wait_for_scene() and view.scene.visible[ELLIPSOID_PATH] is False
+
+
 def test_close_stops_the_meshcat_server_and_frees_the_port(robots):
     server = open_view(robots["course_arm"], port=0)
     port, process = server.port, server.scene._proc
@@ -512,6 +720,43 @@ def test_static_html_holds_the_scene_at_the_pose(robots, tmp_path):
         assert f"/meshcat/{VISUALS_ROOT}/{geometry.name}" in objects
 
 
+def test_static_html_with_the_ellipsoid_shows_it_at_its_placement(robots, tmp_path):
+    robot = robots["course_arm"]
+    q = robot.q(shoulder_joint=0.6, elbow_joint=0.8)
+    overlay = Overlay(True, "force", "trans")
+    html = write_static(robot, tmp_path / "e.html", q=q, overlay=overlay).read_text()
+    commands = meshcat_commands(html)
+    path = f"/meshcat/{ELLIPSOID_PATH}"
+    assert any(c["type"] == "set_object" and c["path"] == path for c in commands)
+    visible = [c["value"] for c in commands if c["type"] == "set_property" and c["path"] == path]
+    assert visible == [False, True]  # created hidden, then shown
+    transforms = [np.array(c["matrix"]).reshape(4, 4).T for c in commands if c["type"] == "set_transform" and c["path"] == path]
+    expected = ViewerState(robot, q=q, overlay=overlay).ellipsoid_placement()
+    assert len(transforms) == 1 and np.abs(transforms[0] - expected).max() < 1e-12
+
+
+def test_cli_static_with_the_force_ellipsoid_of_the_rotation_rows(tmp_path, robots):
+    out = tmp_path / "force.html"
+    result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(out), "--q", "elbow_joint=0.7",
+                             "--ellipsoid", "force", "--ellipsoid-axes", "rot"], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert "and the force ellipsoid at ee_link;" in result.stdout
+    commands = meshcat_commands(out.read_text())
+    path = f"/meshcat/{ELLIPSOID_PATH}"
+    assert [c["value"] for c in commands if c["type"] == "set_property" and c["path"] == path] == [False, True]
+    robot = robots["course_arm"]
+    expected = ViewerState(robot, q=robot.q(elbow_joint=0.7), overlay=Overlay(True, "force", "rot")).ellipsoid_placement()
+    drawn = [np.array(c["matrix"]).reshape(4, 4).T for c in commands if c["type"] == "set_transform" and c["path"] == path]
+    assert np.abs(drawn[0] - expected).max() < 1e-12
+
+
+def test_cli_rejects_an_unknown_ellipsoid_kind(tmp_path):
+    result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(tmp_path / "x.html"), "--ellipsoid", "speed"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert "--ellipsoid: invalid choice: 'speed' (choose from 'velocity', 'force')" in result.stderr
+
+
 def test_cli_static_prints_the_path(tmp_path):
     out = tmp_path / "snap.html"
     result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(out), "--q", "shoulder_joint=0.3"],
@@ -551,6 +796,22 @@ def test_notebook_sliders_drive_the_state_the_scene_and_the_readout(notebook, ro
     notebook.reset_button.click()
     assert notebook.sliders["elbow_joint"].value == 0.0 and list(notebook.state.q) == [0.0] * 5
     assert notebook.scene.url in notebook.scene_widget.value
+
+
+def test_notebook_ellipsoid_checkbox_draws_the_ellipsoid_and_its_readout(notebook, robots):
+    robot = robots["course_arm"]
+    assert notebook.ellipsoid.value is False and notebook.ellipsoid_readout.value == ""
+    notebook.ellipsoid.value = True
+    assert notebook.scene.visible[ELLIPSOID_PATH] is True
+    assert "Yoshikawa index (translation rows)" in notebook.ellipsoid_readout.value
+    notebook.ellipsoid_axes.value = "rot"
+    notebook.sliders["elbow_joint"].value = 0.5
+    q = robot.q(elbow_joint=0.5)
+    expected = ViewerState(robot, q=q, overlay=Overlay(True, "velocity", "rot")).ellipsoid_placement()
+    assert np.abs(notebook.scene.drawn[ELLIPSOID_PATH] - expected).max() < 1e-12
+    assert "condition number (rotation rows)" in notebook.ellipsoid_readout.value
+    notebook.ellipsoid.value = False
+    assert notebook.scene.visible[ELLIPSOID_PATH] is False and notebook.ellipsoid_readout.value == ""
 
 
 def test_notebook_view_without_ipywidgets_says_how_to_install_it(robots, monkeypatch):

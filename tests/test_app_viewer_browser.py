@@ -7,7 +7,8 @@ against `tf-between ... --format json`, run as a second subprocess.
 
 Screenshots go to tests/artifacts/ (git-ignored): viewer_control.png (the
 control page), viewer_scene.png (the meshcat scene after a slider move),
-static_<robot>.png (the --static export); viewer_round_trip.json holds the
+static_<robot>.png (the --static export), viewer_ellipsoid.png (the manipulability
+ellipsoid overlay); viewer_round_trip.json holds the
 measured slider-to-readout round trips.
 """
 
@@ -24,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from manipkit.text import short_text
 
 CHROMIUM = Path("/usr/bin/chromium")
 BIN = Path(sys.executable).parent
@@ -291,6 +294,49 @@ def test_a_slider_move_moves_the_robot_in_the_scene(page):
     moved = (np.abs(image(ARTIFACTS / "viewer_scene.png") - image(before)).max(axis=-1) > 30).mean()
     assert moved > 0.002, f"the scene barely changed after the slider move ({moved:.2%} of the pixels)"
     before.unlink()
+
+
+def test_ellipsoid_checkbox_draws_it_at_b_and_a_slider_moves_it(page):
+    """Toggle the overlay: meshcat shows the ellipsoid at ViewerState's placement, the readout shows Yoshikawa's
+    index of robot.jacobian; a slider move changes both; toggling off hides it."""
+    import manipkit
+    from manipkit.analysis.manipulability import manipulability
+    from manipkit.app.viewer import Overlay, ViewerState
+
+    robot = manipkit.load("course_arm")
+    frame = scene_frame(page)
+    assert page.is_checked("input#ellipsoid") is False and page.text_content("pre#ellipsoid-readout") == ""
+
+    def shown_and_drawn(q: dict):
+        """Wait until the page's index and meshcat's node agree with the state at q; returns the index shown."""
+        vector = robot.q(q)
+        index = manipulability(robot.jacobian(vector, frame="ee_link", base="base_link"), axes="trans")
+        page.wait_for_function(
+            "text => document.querySelector('pre#ellipsoid-readout').textContent.includes(text)",
+            arg=f"Yoshikawa index (translation rows): {short_text(index, 6, zero=1e-15)}", timeout=10_000)
+        expected = ViewerState(robot, q=vector, overlay=Overlay(True)).ellipsoid_placement()
+        frame.wait_for_function(
+            """expected => {
+                const node = viewer.scene_tree.find(['meshcat', 'manipkit', 'ellipsoid']);
+                const sphere = node.children['<object>'];
+                if (!sphere || !sphere.object.isMesh || !node.object.visible) return false;
+                node.object.updateMatrix();
+                return expected.every((v, i) => Math.abs(v - node.object.matrix.elements[i]) < 1e-6);
+            }""", arg=expected.T.ravel().tolist(), timeout=10_000)  # column-major
+        return index
+
+    page.check("input#ellipsoid")
+    first = shown_and_drawn(readout(page)["q"])
+    assert "condition number (translation rows)" in page.text_content("pre#ellipsoid-readout")
+    shown = after_change(page, lambda: move_slider(page, "elbow_joint", 1.1))
+    second = shown_and_drawn(shown["q"])
+    assert abs(second - first) > 1e-6, "the elbow move left the index unchanged"
+    frame.wait_for_timeout(300)
+    page.locator("iframe#scene").screenshot(path=ARTIFACTS / "viewer_ellipsoid.png")
+    page.uncheck("input#ellipsoid")
+    frame.wait_for_function("() => !viewer.scene_tree.find(['meshcat', 'manipkit', 'ellipsoid']).object.visible",
+                            timeout=10_000)
+    page.wait_for_function("() => document.querySelector('pre#ellipsoid-readout').textContent === ''")
 
 
 def test_number_entry_sets_the_joint(page):

@@ -2,7 +2,9 @@
 
 Serves the control page of :mod:`manipkit.app.viewer` until Ctrl-C (or
 SIGTERM), or writes a standalone HTML snapshot with ``--static``
-(docs/architecture.md, "app"). The viewer (meshcat, Pinocchio's visualizer)
+(docs/architecture.md, "app"). ``--ellipsoid [velocity|force]`` starts with
+the manipulability ellipsoid of B relative to A shown (``--ellipsoid-axes
+trans|rot``); the page's checkbox toggles it. The viewer (meshcat, Pinocchio's visualizer)
 is imported only when this command runs.
 """
 
@@ -26,6 +28,11 @@ def register(commands) -> None:
     add_joint_options(view)
     view.add_argument("--frames", nargs=2, default=["base_link", "ee_link"], metavar=("A", "B"),
                       help="frames of the readout T_A_B and of the two triads (default base_link ee_link)")
+    view.add_argument("--ellipsoid", nargs="?", const="velocity", choices=("velocity", "force"), default=None,
+                      metavar="KIND", help="start with the manipulability ellipsoid of B relative to A shown: velocity "
+                                           "(the default KIND) or force; the page's checkbox toggles it")
+    view.add_argument("--ellipsoid-axes", choices=("trans", "rot"), default="trans",
+                      help="rows of the ellipsoid: trans (linear velocity or force, default) or rot (angular)")
     view.add_argument("--port", type=int, default=8700, metavar="P", help="port of the control page (default 8700, 0 = any free port)")
     view.add_argument("--no-browser", action="store_true", help="print the URLs but do not open a browser")
     view.add_argument("--static", type=Path, default=None, metavar="FILE.html",
@@ -46,11 +53,13 @@ def run_view(args) -> int:
     robot = load_robot(args, mesh_warnings=False)
     q = joint_vector(robot, args)
     frames = tuple(args.frames)
+    overlay = viewer.Overlay(args.ellipsoid is not None, args.ellipsoid or "velocity", args.ellipsoid_axes)
     if args.static is not None:
-        path = viewer.write_static(robot, args.static, frames=frames, q=q)
+        path = viewer.write_static(robot, args.static, frames=frames, q=q, overlay=overlay)
         size = path.stat().st_size / 1e6
-        print(f"wrote {path} ({number_text(size, 1)} MB): {robot.name} with triads at {frames[0]} and {frames[1]}; "
-              "open it in a browser, no server needed")
+        shown = f" and the {overlay.kind} ellipsoid at {frames[1]}" if overlay.shown else ""
+        print(f"wrote {path} ({number_text(size, 1)} MB): {robot.name} with triads at {frames[0]} and {frames[1]}"
+              f"{shown}; open it in a browser, no server needed")
         return EXIT_OK
 
     def stop(signum, frame):  # `kill` (SIGTERM) stops as cleanly as Ctrl-C
@@ -59,7 +68,7 @@ def run_view(args) -> int:
     previous = signal.signal(signal.SIGTERM, stop)
     view = None
     try:
-        view = viewer.open_view(robot, frames=frames, q=q, port=args.port)
+        view = viewer.open_view(robot, frames=frames, q=q, port=args.port, overlay=overlay)
         for warning in view.scene.warnings:
             warn(warning)
         print(f"control page: {view.url}", flush=True)

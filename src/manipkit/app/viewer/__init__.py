@@ -2,9 +2,10 @@
 
 Four layers, each usable on its own (docs/architecture.md, "app"):
 
-- :mod:`.state`: :class:`ViewerState` holds the joint values and the frames
-  A, B and answers the slider specs, the readout (the JSON of ``tf-between A
-  B --format json``) and the scene placements. No meshcat, no browser.
+- :mod:`.state`: :class:`ViewerState` holds the joint values, the frames
+  A, B and the manipulability overlay (:class:`Overlay`) and answers the
+  slider specs, the readout (the JSON of ``tf-between A B --format json``),
+  the ellipsoid readout and the scene placements. No meshcat, no browser.
 - :mod:`.scene`: :func:`visual_model` (the robot's visual geometry) and
   :class:`MeshcatScene`, a thin adapter that starts a meshcat server and
   draws the placements it is given, with a triad at A and at B.
@@ -24,9 +25,18 @@ from __future__ import annotations
 from manipkit.app.viewer.notebook import NotebookView, notebook_view
 from manipkit.app.viewer.scene import TRIAD_DOTS, MeshcatScene, visual_model
 from manipkit.app.viewer.server import DEFAULT_PORT, ViewerServer, open_view, write_static
-from manipkit.app.viewer.state import DEFAULT_FRAMES, TRIAD_PATHS, VISUALS_ROOT, SliderSpec, ViewerState
+from manipkit.app.viewer.state import (
+    DEFAULT_FRAMES,
+    ELLIPSOID_PATH,
+    TRIAD_PATHS,
+    VISUALS_ROOT,
+    Overlay,
+    SliderSpec,
+    ViewerState,
+)
 
 __all__ = [
-    "DEFAULT_FRAMES", "DEFAULT_PORT", "TRIAD_DOTS", "TRIAD_PATHS", "VISUALS_ROOT", "SliderSpec", "ViewerState",
+    "DEFAULT_FRAMES", "DEFAULT_PORT", "ELLIPSOID_PATH", "TRIAD_DOTS", "TRIAD_PATHS", "VISUALS_ROOT", "Overlay",
+    "SliderSpec", "ViewerState",
     "MeshcatScene", "ViewerServer", "visual_model", "open_view", "write_static", "notebook_view", "NotebookView",
 ]

@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
-from manipkit.app.viewer.state import DEFAULT_FRAMES, ViewerState
+from manipkit.app.viewer.state import DEFAULT_FRAMES, Overlay, ViewerState
 from manipkit.errors import ManipkitError
 
 if TYPE_CHECKING:
@@ -23,8 +23,10 @@ class NotebookView:
 
     Build it with :func:`notebook_view`; display it as the last expression of
     a cell. ``sliders`` (joint name -> FloatSlider), ``frame_a``/``frame_b``
-    (Dropdown), ``reset_button``, ``readout`` (HTML) and ``widget`` are the
-    ipywidgets; ``state`` and ``scene`` are the shared layers.
+    (Dropdown), ``reset_button``, ``readout`` (HTML), the manipulability
+    overlay's ``ellipsoid`` (Checkbox), ``ellipsoid_kind`` and
+    ``ellipsoid_axes`` (Dropdown) and ``ellipsoid_readout`` (HTML), and
+    ``widget`` are the ipywidgets; ``state`` and ``scene`` are the shared layers.
     """
 
     def __init__(self, state: ViewerState, scene: MeshcatScene, visual, *, height: int = 420):
@@ -44,6 +46,12 @@ class NotebookView:
         self.frame_a = w.Dropdown(options=choices, value=state.frames[0], description="A")
         self.frame_b = w.Dropdown(options=choices, value=state.frames[1], description="B")
         self.reset_button = w.Button(description="reset")
+        overlay = state.overlay
+        self.ellipsoid = w.Checkbox(value=overlay.shown, description="manipulability ellipsoid", indent=False)
+        self.ellipsoid_kind = w.Dropdown(options=["velocity", "force"], value=overlay.kind, layout=w.Layout(width="auto"))
+        self.ellipsoid_axes = w.Dropdown(options=[("translation", "trans"), ("rotation", "rot")], value=overlay.axes,
+                                         layout=w.Layout(width="auto"))
+        self.ellipsoid_readout = w.HTML()
         self.readout = w.HTML()
         self.error = w.HTML()
         self.scene_widget = w.HTML(
@@ -55,8 +63,11 @@ class NotebookView:
         self.frame_a.observe(lambda change: self._on_frames(), names="value")
         self.frame_b.observe(lambda change: self._on_frames(), names="value")
         self.reset_button.on_click(lambda button: self._on_reset())
+        for widget in (self.ellipsoid, self.ellipsoid_kind, self.ellipsoid_axes):
+            widget.observe(lambda change: self._on_overlay(), names="value")
         controls = w.VBox([*self.sliders.values(), w.HBox([self.frame_a, self.frame_b]), self.reset_button,
-                           self.error, self.readout], layout=w.Layout(width="40%"))
+                           w.HBox([self.ellipsoid, self.ellipsoid_kind, self.ellipsoid_axes]), self.error,
+                           self.readout, self.ellipsoid_readout], layout=w.Layout(width="40%"))
         self.widget = w.HBox([controls, self.scene_widget])
         self._refresh()
 
@@ -76,6 +87,12 @@ class NotebookView:
                 return
             self._refresh()
 
+    def _on_overlay(self) -> None:
+        if not self._syncing:
+            self.state.set_overlay(shown=self.ellipsoid.value, kind=self.ellipsoid_kind.value,
+                                   axes=self.ellipsoid_axes.value)
+            self._refresh()
+
     def _on_reset(self) -> None:
         self.state.reset()
         self._refresh()
@@ -84,7 +101,7 @@ class NotebookView:
         """Draw the scene and show the readout; put the sliders where the state says."""
         import html
 
-        self.scene.draw(self.state.scene_placements(self.visual))
+        self.scene.draw(self.state.scene_placements(self.visual), self.state.scene_visibility())
         self._syncing = True
         try:
             for spec in self.state.sliders():
@@ -94,6 +111,8 @@ class NotebookView:
         snapshot = self.state.snapshot()
         self.error.value = ""
         self.readout.value = f"<pre>{html.escape(snapshot['readout_text'])}</pre>"
+        text = snapshot["ellipsoid_text"]
+        self.ellipsoid_readout.value = f"<pre>{html.escape(text)}</pre>" if text else ""
 
     def close(self) -> None:
         """Stop the meshcat server."""
@@ -105,8 +124,12 @@ class NotebookView:
         display(self.widget)
 
 
-def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None) -> NotebookView:
+def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, *,
+                  ellipsoid: bool | str = False, ellipsoid_axes: str = "trans") -> NotebookView:
     """The viewer inline in Jupyter: meshcat scene plus ipywidgets sliders and a live T_A_B readout.
+
+    ``ellipsoid``: start with the manipulability ellipsoid shown (``True`` or
+    ``"velocity"``, or ``"force"``); ``ellipsoid_axes``: ``"trans"`` or ``"rot"``.
 
     Raises
     ------
@@ -117,7 +140,8 @@ def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None
         import ipywidgets  # noqa: F401
     except ImportError:
         raise ManipkitError("the notebook viewer needs ipywidgets: pip install ipywidgets") from None
-    state = ViewerState(robot, frames=frames, q=q)
+    overlay = Overlay(bool(ellipsoid), ellipsoid if isinstance(ellipsoid, str) else "velocity", ellipsoid_axes)
+    state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     visual = visual_model(robot)
     scene = MeshcatScene(visual, robot.model, bounds=state.bounds())
     try:

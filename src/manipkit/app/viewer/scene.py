@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.app.viewer.state import TRIAD_PATHS, VISUALS_ROOT
+from manipkit.app.viewer.state import ELLIPSOID_PATH, TRIAD_PATHS, VISUALS_ROOT
 from manipkit.errors import ManipkitError
 
 if TYPE_CHECKING:
@@ -49,13 +49,17 @@ _AXES = (  # triad axis -> (colour, T_frame_cylinder for a unit cylinder along y
     ("z", 0x377EB8, np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0.5], [0, 0, 0, 1]])),
 )
 TRIAD_DOTS = (0x222222, 0xE040E0)  # origin dot of A (near black) and B (magenta)
+ELLIPSOID_COLOUR = 0xE040E0  # B's colour, translucent
 
 
 class MeshcatScene:
-    """The meshcat side of a view: a meshcat server, the robot's visuals and two triads.
+    """The meshcat side of a view: a meshcat server, the robot's visuals, two triads and the ellipsoid.
 
     It computes nothing: :meth:`draw` sends the placements it is given
-    (scene path -> 4x4 in the robot's root frame), skipping unchanged ones.
+    (scene path -> 4x4 in the robot's root frame) and the visibilities
+    (path -> bool), skipping unchanged ones. The manipulability ellipsoid is a
+    translucent unit sphere at ``ELLIPSOID_PATH``, hidden until shown; its
+    placement scales it (:meth:`ViewerState.ellipsoid_placement`).
 
     Parameters
     ----------
@@ -99,6 +103,9 @@ class MeshcatScene:
                     placement[:3, 3] *= length
                     node[axis].set_transform(placement)
                 node["origin"].set_object(mg.Sphere(0.09 * length), mg.MeshLambertMaterial(color=dot))
+            self.viewer[ELLIPSOID_PATH].set_object(
+                mg.Sphere(1.0), mg.MeshLambertMaterial(color=ELLIPSOID_COLOUR, opacity=0.35, transparent=True))
+            self.viewer[ELLIPSOID_PATH].set_property("visible", False)
             # meshcat's camera orbits the origin: shift the robot, the grid and the axes so that the
             # robot's centre sits there (the scene keeps its own geometry: the shift is one transform).
             shift = np.eye(4)
@@ -113,9 +120,13 @@ class MeshcatScene:
             self.close()
             raise
         self._sent: dict[str, np.ndarray] = {}
+        self._visible: dict[str, bool] = {ELLIPSOID_PATH: False}
 
-    def draw(self, placements: dict[str, np.ndarray]) -> None:
-        """Place scene nodes (path -> 4x4); nodes whose placement did not change are not re-sent."""
+    def draw(self, placements: dict[str, np.ndarray], visible: dict[str, bool] | None = None) -> None:
+        """Place scene nodes (path -> 4x4) and show or hide them (path -> bool); unchanged ones are not re-sent.
+
+        A node is placed before it is shown, so it never appears at an old pose.
+        """
         if self._closed or self._proc.poll() is not None:
             raise ManipkitError("the meshcat server has stopped; restart the viewer")
         for path, T in placements.items():
@@ -123,6 +134,15 @@ class MeshcatScene:
             if previous is None or not np.array_equal(previous, T):
                 self.viewer[path].set_transform(T)
                 self._sent[path] = np.array(T, copy=True)
+        for path, shown in (visible or {}).items():
+            if self._visible.get(path) != bool(shown):
+                self.viewer[path].set_property("visible", bool(shown))
+                self._visible[path] = bool(shown)
+
+    @property
+    def visible(self) -> dict[str, bool]:
+        """The visibilities last sent to meshcat (scene path -> shown)."""
+        return dict(self._visible)
 
     @property
     def drawn(self) -> dict[str, np.ndarray]:

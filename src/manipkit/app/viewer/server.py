@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
-from manipkit.app.viewer.state import DEFAULT_FRAMES, ViewerState
+from manipkit.app.viewer.state import DEFAULT_FRAMES, NO_OVERLAY, Overlay, ViewerState
 from manipkit.errors import JointValueError, ManipkitError
 from manipkit.outputs import writable_path, write_text
 
@@ -95,9 +95,12 @@ class ViewerServer:
     """The control page's HTTP server, wired to a :class:`ViewerState` and a :class:`MeshcatScene`.
 
     Routes: ``GET /`` (the page), ``GET /api/state`` (sliders, frames, readout),
-    ``POST /api/update`` with ``{"reset": true, "q": {name: value}, "frames": [A, B]}``
-    (any subset, applied in that order) -> the new q, frames and readout. A
-    user error answers 400 with ``{"error": message}`` and the unchanged state.
+    ``POST /api/update`` with ``{"reset": true, "q": {name: value}, "frames": [A, B],
+    "overlay": {"shown": bool, "kind": "velocity"|"force", "axes": "trans"|"rot"}}``
+    (any subset, applied in that order) -> the new q, frames, readout and
+    ellipsoid readout (:meth:`ViewerState.snapshot`). A user error answers 400
+    with ``{"error": message}`` and the state as it is (a change that failed
+    its checks is not applied).
 
     The port is bound when the server is created (so a busy port fails before
     anything else starts); :meth:`start` serves it from a thread.
@@ -132,12 +135,12 @@ class ViewerServer:
     def attach(self, state: ViewerState, scene: MeshcatScene, visual) -> ViewerServer:
         """Connect the state and the scene, and draw the start pose."""
         self.state, self.scene, self.visual = state, scene, visual
-        scene.draw(state.scene_placements(visual))
+        scene.draw(state.scene_placements(visual), state.scene_visibility())
         return self
 
-    def _draw_later(self, placements: dict) -> None:
+    def _draw_later(self, placements, visible: dict | None = None) -> None:
         with self._scene_wake:
-            self._scene_todo = placements  # a newer pose replaces one not drawn yet
+            self._scene_todo = (placements, visible)  # a newer pose replaces one not drawn yet
             self._scene_wake.notify()
 
     def _draw_loop(self) -> None:
@@ -145,12 +148,12 @@ class ViewerServer:
             with self._scene_wake:
                 while self._scene_todo is None:
                     self._scene_wake.wait()
-                placements, self._scene_todo = self._scene_todo, None
+                (placements, visible), self._scene_todo = self._scene_todo, None
                 if placements is _STOP:
                     return
                 self._scene_busy = True
             try:
-                self.scene.draw(placements)
+                self.scene.draw(placements, visible)
             except ManipkitError as exc:
                 self._scene_error = str(exc)
             finally:
@@ -236,7 +239,12 @@ class ViewerServer:
                     if not isinstance(frames, list) or len(frames) != 2:
                         raise ManipkitError(f"frames: expected [A, B], got {frames!r}")
                     state.set_frames(*frames)
-                self._draw_later(state.scene_placements(self.visual))
+                overlay = body.get("overlay")
+                if overlay is not None:
+                    if not isinstance(overlay, dict) or not set(overlay) <= {"shown", "kind", "axes"}:
+                        raise ManipkitError(f"overlay: expected {{shown, kind, axes}} (any of them), got {overlay!r:.80}")
+                    state.set_overlay(**overlay)
+                self._draw_later(state.scene_placements(self.visual), state.scene_visibility())
             except ManipkitError as exc:
                 return 400, {"error": str(exc), **state.snapshot()}
             return 200, state.snapshot()
@@ -259,8 +267,10 @@ def page_html(initial: dict) -> str:
 
 
 def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, port: int = DEFAULT_PORT,
-              host: str = "127.0.0.1") -> ViewerServer:
+              host: str = "127.0.0.1", overlay: Overlay = NO_OVERLAY) -> ViewerServer:
     """Start a view: control page on ``port``, meshcat on its own ports (7000 upwards).
+
+    ``overlay``: the manipulability ellipsoid's start settings (:class:`Overlay`; default off).
 
     Returns the running :class:`ViewerServer` (``.url``: control page,
     ``.scene_url``: meshcat, ``.scene.warnings``: geometry not shown,
@@ -272,7 +282,7 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
         Unknown frames or joint values, then ``port P is in use; ...`` (both
         before anything starts), meshes not found.
     """
-    state = ViewerState(robot, frames=frames, q=q)
+    state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     server = ViewerServer(port, host=host)
     scene = None
     try:
@@ -287,8 +297,9 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
         raise
 
 
-def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None) -> Path:
-    """Write a standalone HTML snapshot of the pose (robot and triads at A and B); returns the path.
+def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
+                 overlay: Overlay = NO_OVERLAY) -> Path:
+    """Write a standalone HTML snapshot of the pose (robot, triads at A and B, the ellipsoid if shown); returns the path.
 
     The file is meshcat's static export: it opens in a browser without a server.
     Names reach it only inside meshcat's base64-encoded drawing commands, never as markup.
@@ -299,9 +310,9 @@ def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES
         ``cannot write PATH: reason`` (checked before meshcat starts; no folder is created).
     """
     path = writable_path(path)
-    state = ViewerState(robot, frames=frames, q=q)
+    state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     visual = visual_model(robot)
     with MeshcatScene(visual, robot.model, bounds=state.bounds()) as scene:
-        scene.draw(state.scene_placements(visual))
+        scene.draw(state.scene_placements(visual), state.scene_visibility())
         html = scene.static_html()
     return write_text(path, html)

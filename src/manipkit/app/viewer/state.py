@@ -9,12 +9,23 @@ from :func:`manipkit.app.pose.pose_report`, and its text, from
 Pinocchio's ``updateGeometryPlacements``). No meshcat, no browser:
 unit-testable as is.
 
+The manipulability overlay (:class:`Overlay`, off unless asked for) adds the
+velocity or force ellipsoid of B relative to A, translation or rotation rows,
+from :meth:`Robot.jacobian` (``frame=B, base=A, reference="base"``) and
+:mod:`manipkit.analysis.manipulability`, and a readout of Yoshikawa's index
+(translation rows) and the condition number. The ellipsoid sits at B's
+origin; its principal axes (A's axes) are turned into the root frame with
+``T_root_A``; its radii are multiplied by a display scale (:meth:`ViewerState.ellipsoid_scale`)
+and held between ``1e-3 * size`` and ``size`` (a force ellipsoid near a
+singularity grows without bound; a velocity ellipsoid flattens).
+
 Conventions (docs/architecture.md): metres and radians; ``T_a_b`` is the pose
 of frame b expressed in frame a; the scene's world frame is the robot's root link.
 """
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 from dataclasses import dataclass
@@ -22,14 +33,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.analysis.dexterity import generic_rank, rank
+from manipkit.analysis.manipulability import condition_number, force_ellipsoid, manipulability, velocity_ellipsoid
 from manipkit.app.pose import pose_report, pose_text
 from manipkit.errors import ManipkitError
 from manipkit.spatial.rotations import wrap_angle
+from manipkit.text import short_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["DEFAULT_FRAMES", "FREE_RANGE", "TRIAD_PATHS", "VISUALS_ROOT", "SliderSpec", "ViewerState"]
+__all__ = [
+    "DEFAULT_FRAMES", "ELLIPSOID_AXES", "ELLIPSOID_KINDS", "ELLIPSOID_PATH", "FREE_RANGE", "NO_OVERLAY", "RADIUS_FLOOR",
+    "SINGULAR_TOL", "TRIAD_PATHS", "VISUALS_ROOT", "Overlay", "SliderSpec", "ViewerState", "ellipsoid_text",
+]
 
 DEFAULT_FRAMES = ("base_link", "ee_link")
 #: meshcat paths: Pinocchio's MeshcatVisualizer puts visuals under VISUALS_ROOT/<geometry name>.
@@ -37,6 +54,52 @@ VISUALS_ROOT = "pinocchio/visuals"
 TRIAD_PATHS = ("manipkit/frame_a", "manipkit/frame_b")
 #: Slider span (m) of a floating or planar joint's x, y, z, which have no limits.
 FREE_RANGE = 2.0
+#: meshcat path of the manipulability ellipsoid (a unit sphere placed with axes times radii).
+ELLIPSOID_PATH = "manipkit/ellipsoid"
+ELLIPSOID_KINDS = ("velocity", "force")
+ELLIPSOID_AXES = ("trans", "rot")
+#: (kind, axes) -> (c, p, unit of the radii, unit of the scale): display scale c * size**p, rounded to 1, 2 or 5
+#: times a power of ten, so that a typical arm's ellipsoid is about a third of its size.
+_SCALES = {
+    ("velocity", "trans"): (0.5, 0, "m/s", "m per m/s"),
+    ("velocity", "rot"): (0.2, 1, "rad/s", "m per rad/s"),
+    ("force", "trans"): (0.1, 2, "N", "m per N"),
+    ("force", "rot"): (0.3, 1, "N m", "m per N m"),
+}
+_ROWS = {"trans": "translation", "rot": "rotation"}
+#: Singular values of the ellipsoid's rows below this do not count to their rank (as ``manipkit jacobian``'s default).
+SINGULAR_TOL = 1e-9
+#: Radii drawn are held in [RADIUS_FLOOR * size, size] (m): a flat ellipsoid stays drawable, an unbounded one fits.
+RADIUS_FLOOR = 1e-3
+
+
+@dataclass(frozen=True)
+class Overlay:
+    """The manipulability overlay's settings: shown or not, ``kind`` velocity or force, ``axes`` trans or rot."""
+
+    shown: bool = False
+    kind: str = "velocity"
+    axes: str = "trans"
+
+    def __post_init__(self):
+        if not isinstance(self.shown, bool):
+            raise ManipkitError(f"ellipsoid shown: expected true or false, got {self.shown!r:.40}")
+        if self.kind not in ELLIPSOID_KINDS:
+            raise ManipkitError(f"ellipsoid kind {self.kind!r:.40}: give velocity or force")
+        if self.axes not in ELLIPSOID_AXES:
+            raise ManipkitError(f"ellipsoid axes {self.axes!r:.40}: give trans (translation rows) or rot (rotation rows)")
+
+
+#: The overlay off (the default of a view).
+NO_OVERLAY = Overlay()
+
+
+def _round_125(value: float) -> float:
+    """``value`` rounded to the nearest of 1, 2, 5 times a power of ten (on a log scale)."""
+    exponent = math.floor(math.log10(value))
+    mantissa = value / 10.0**exponent
+    best = min((1.0, 2.0, 5.0, 10.0), key=lambda m: abs(math.log(mantissa / m)))
+    return float(f"{best * 10.0**exponent:.12g}")
 
 
 @dataclass(frozen=True)
@@ -70,6 +133,8 @@ class ViewerState:
         Start pose (radians, metres); default every joint at 0 or the nearest
         value inside its limits. Clamped into the limits like a slider would
         (continuous joints: wrapped to (-pi, pi]).
+    overlay : Overlay, optional, keyword-only
+        The manipulability ellipsoid's settings (default: not shown).
 
     Examples
     --------
@@ -81,7 +146,7 @@ class ViewerState:
     'ee_link'
     """
 
-    def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None):
+    def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, overlay: Overlay = NO_OVERLAY):
         self.robot = robot
         self._frames = self._checked_frames(frames)
         self._continuous = np.array([joint.is_angular and not math.isfinite(joint.upper - joint.lower)
@@ -90,6 +155,16 @@ class ViewerState:
         robot.as_dict(start)  # checks the shape and that the values are finite numbers
         self._q = self._in_range(start)
         self._start = self._q.copy()
+        if not isinstance(overlay, Overlay):
+            raise ManipkitError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
+        self._overlay = overlay
+        self._generic_ranks: dict[tuple[str, str, str], int] = {}
+        self._ellipsoid_cache: tuple | None = None  # (q, frames, overlay) -> (report, placement) last computed
+        lower, upper = self._box(self._in_range(robot.q()))
+        #: Size of the robot (m), for the ellipsoid's display scale and cap: the diagonal of the box around
+        #: every frame origin at the default pose (every joint at 0 or the nearest value inside its limits),
+        #: at least 0.2 m. It does not depend on the start pose, so two views of a robot draw alike.
+        self.size = max(float(np.linalg.norm(upper - lower)), 0.2)
 
     # Joint values -------------------------------------------------------
 
@@ -201,9 +276,11 @@ class ViewerState:
         }
 
     def scene_placements(self, visual_model=None) -> dict[str, np.ndarray]:
-        """Everything the scene draws: the visuals (if a model is given) and the triads at A and B."""
+        """Everything the scene draws: the visuals (if a model is given), the triads at A and B, the ellipsoid if shown."""
         placements = {} if visual_model is None else self.geometry_placements(visual_model)
         placements.update(self.frame_placements())
+        if self._overlay.shown:
+            placements[ELLIPSOID_PATH] = self.ellipsoid_placement()
         return placements
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -211,17 +288,153 @@ class ViewerState:
 
         Used to aim the camera and size the triads.
         """
+        return self._box(self._q)
+
+    def _box(self, q) -> tuple[np.ndarray, np.ndarray]:
         root = self.robot.root_link
-        origins = np.array([self.robot.transform(root, f, self._q, check_limits=False)[:3, 3] for f in self.robot.frame_names])
+        origins = np.array([self.robot.transform(root, f, q, check_limits=False)[:3, 3] for f in self.robot.frame_names])
         return origins.min(axis=0), origins.max(axis=0)
 
     def snapshot(self) -> dict:
-        """What the control page shows after a change: q, frames, the readout and its two renderings."""
+        """What the control page shows after a change: q, frames, the readout and its two renderings, the overlay.
+
+        ``overlay`` holds the settings; ``ellipsoid`` is :meth:`ellipsoid` (None
+        when the overlay is off) and ``ellipsoid_text`` its text ("" when off).
+        """
         report = self.readout()
+        ellipsoid = self.ellipsoid() if self._overlay.shown else None
         return {
             "q": report["q"],
             "frames": list(self._frames),
             "readout": report,
             "readout_json": json.dumps(report, indent=2),
             "readout_text": pose_text(report),
+            "overlay": {"shown": self._overlay.shown, "kind": self._overlay.kind, "axes": self._overlay.axes},
+            "ellipsoid": ellipsoid,
+            "ellipsoid_text": "" if ellipsoid is None else ellipsoid_text(ellipsoid),
         }
+
+    # Manipulability overlay ----------------------------------------------
+
+    @property
+    def overlay(self) -> Overlay:
+        """The manipulability overlay's settings."""
+        return self._overlay
+
+    def set_overlay(self, *, shown: bool | None = None, kind: str | None = None, axes: str | None = None) -> Overlay:
+        """Change the overlay's settings (those given); returns the new :class:`Overlay`.
+
+        Raises :class:`ManipkitError` naming the valid choices (nothing is changed then).
+        """
+        current = self._overlay
+        self._overlay = Overlay(current.shown if shown is None else shown, current.kind if kind is None else kind,
+                                current.axes if axes is None else axes)
+        return self._overlay
+
+    def ellipsoid_scale(self) -> float:
+        """Display scale of the radii (m per unit of the radii, :data:`_SCALES`): ``c * size**p`` rounded to 1-2-5."""
+        c, p, _, _ = _SCALES[(self._overlay.kind, self._overlay.axes)]
+        return _round_125(c * self.size**p)
+
+    def _ellipsoid(self) -> tuple[dict, np.ndarray]:
+        key = (self._q.tobytes(), self._frames, self._overlay)
+        cached = self._ellipsoid_cache
+        if cached is None or cached[0] != key:  # the readout and the scene ask for the same pose in turn
+            self._ellipsoid_cache = (key, self._compute_ellipsoid())
+        report, T = self._ellipsoid_cache[1]
+        return copy.deepcopy(report), T.copy()
+
+    def _compute_ellipsoid(self) -> tuple[dict, np.ndarray]:
+        a, b = self._frames
+        kind, axes = self._overlay.kind, self._overlay.axes
+        J = self.robot.jacobian(self._q, frame=b, base=a, reference="base")
+        shape = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
+        kappa = float(condition_number(J, axes))
+        generic = self._generic_ranks.get((a, b, axes))
+        if generic is None:  # the rank of these rows at a generic configuration (random samples, once per choice)
+            generic = self._generic_ranks[(a, b, axes)] = generic_rank(self.robot, b, a, axes, tol=SINGULAR_TOL)
+        rows_rank = rank(J, axes, tol=SINGULAR_TOL)
+        scale = self.ellipsoid_scale()
+        with np.errstate(over="ignore"):
+            wanted = scale * shape.radii
+        drawn = np.clip(wanted, RADIUS_FLOOR * self.size, self.size)
+        root = self.robot.root_link
+        T_root_a = self.robot.transform(root, a, self._q, check_limits=False)
+        T_root_b = self.robot.transform(root, b, self._q, check_limits=False)
+        R_root_axes = T_root_a[:3, :3] @ shape.axes  # principal axes (columns) from A's axes into the root's
+        if np.linalg.det(R_root_axes) < 0:  # a reflection: the opposite last axis is the same ellipsoid
+            R_root_axes[:, -1] *= -1.0
+        T_root_ellipsoid = np.eye(4)
+        T_root_ellipsoid[:3, :3] = R_root_axes * drawn  # R @ diag(drawn): a unit sphere -> the ellipsoid
+        T_root_ellipsoid[:3, 3] = T_root_b[:3, 3]
+        _, _, unit, scale_unit = _SCALES[(kind, axes)]
+        report = {
+            "frame": b,
+            "base": a,
+            "reference": "base",
+            "kind": kind,
+            "axes": axes,
+            "manipulability_translation": float(manipulability(J, "yoshikawa", "trans")),
+            "condition_number": kappa if math.isfinite(kappa) else None,
+            "rank": rows_rank,
+            "generic_rank": generic,
+            "singular": rows_rank < generic,
+            "radii": [float(r) if math.isfinite(r) else None for r in shape.radii],
+            "unit": unit,
+            "principal_axes": shape.axes.tolist(),
+            "center": T_root_b[:3, 3].tolist(),
+            "scale": scale,
+            "scale_unit": scale_unit,
+            "cap": self.size,
+            "capped": bool(np.any(wanted > self.size)),
+        }
+        return report, T_root_ellipsoid
+
+    def ellipsoid(self) -> dict:
+        """The overlay's readout, JSON-ready (whether shown or not).
+
+        Keys: ``frame`` (B), ``base`` (A), ``reference`` ("base"), ``kind``,
+        ``axes``; ``manipulability_translation`` (Yoshikawa's index of the
+        translation rows, :func:`manipulability`); ``condition_number`` (of the
+        ``axes`` rows, None for infinite); ``rank`` of the ``axes`` rows
+        (singular values above ``SINGULAR_TOL``), ``generic_rank`` (theirs at
+        a generic configuration, :func:`generic_rank`) and ``singular`` (rank
+        below it); ``radii`` (largest first for velocity, None for an infinite
+        force radius) in ``unit`` per unit joint rate (velocity) or joint
+        effort (force); ``principal_axes`` (3x3,
+        columns, in A's axes); ``center`` (B's origin, m, root frame);
+        ``scale`` (display scale, ``scale_unit``); ``cap`` (m) and ``capped``
+        (a radius times the scale is above the cap and is drawn at the cap).
+        """
+        return self._ellipsoid()[0]
+
+    def ellipsoid_placement(self) -> np.ndarray:
+        """T_root_ellipsoid (4x4): a unit sphere -> the ellipsoid drawn (columns = root-frame principal axes times drawn radii)."""
+        return self._ellipsoid()[1]
+
+    def scene_visibility(self) -> dict[str, bool]:
+        """Scene path -> shown, for the nodes that can be hidden (the ellipsoid)."""
+        return {ELLIPSOID_PATH: self._overlay.shown}
+
+
+def ellipsoid_text(report: dict) -> str:
+    """The overlay's readout (:meth:`ViewerState.ellipsoid`) as lines for people."""
+    rows = _ROWS[report["axes"]]
+    kappa = report["condition_number"]
+    radii = ", ".join("inf" if r is None else short_text(r, 4, zero=1e-12) for r in report["radii"])
+    per = "per unit joint rate" if report["kind"] == "velocity" else "per unit joint torque or force"
+    lines = [
+        f"Jacobian of {report['frame']} relative to {report['base']}, in {report['base']}'s axes",
+        f"Yoshikawa index (translation rows): {short_text(report['manipulability_translation'], 6, zero=1e-15)}",
+        f"condition number ({rows} rows): " + ("inf" if kappa is None else short_text(kappa, 6)),
+        f"rank ({rows} rows): {report['rank']} of {report['generic_rank']} at a generic configuration"
+        + (": singular" if report["singular"] else ""),
+        f"{report['kind']} ellipsoid ({rows}), radii ({report['unit']} {per}): {radii}",
+        f"drawn at {report['frame']}'s origin, radii x {short_text(report['scale'])} {report['scale_unit']}, "
+        f"at most {short_text(report['cap'], 3)} m",
+    ]
+    if report["capped"]:
+        cap = short_text(report["cap"], 3)
+        lines.append(f"capped: radii above {cap} m as drawn are drawn at {cap} m (near a singularity, a force "
+                     "ellipsoid grows without bound)")
+    return "\n".join(lines)
