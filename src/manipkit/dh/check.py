@@ -58,6 +58,7 @@ import numpy as np
 
 from manipkit.dh.from_urdf import dh_from_urdf_chain
 from manipkit.dh.table import DHTable, dh_fk, dh_link_transform
+from manipkit.dh.text import NOISE
 from manipkit.errors import ManipkitError
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
 from manipkit.spatial.transforms import invert_transform, pose_error
@@ -573,8 +574,8 @@ def dh_link_matrices(table: DHTable, k: int, q) -> np.ndarray:
 
 def _entry_text(entry: str, value: float) -> str:
     if entry in _ANGLES:
-        return f"{short_text(math.degrees(float(wrap_angle(value))), 6, zero=1e-7)} deg"
-    return f"{short_text(value, 6, zero=1e-9)} m"
+        return f"{short_text(math.degrees(float(wrap_angle(value))), 6, zero=math.degrees(NOISE))} deg"
+    return f"{short_text(value, 6, zero=NOISE)} m"
 
 
 def _entry_changes(table: DHTable, other: DHTable) -> list[str]:
@@ -717,8 +718,8 @@ def _tool_line(X) -> str:
 
 
 def _pose_text(T) -> str:
-    rpy = np.degrees(rpy_from_matrix(T[:3, :3], check=False))
-    return f"xyz {_vector_message(T[:3, 3])} m, rpy {_vector_message(rpy, 6, zero=1e-7)} deg"
+    rpy = np.degrees(rpy_from_matrix(T[:3, :3], check=False, gimbal_tol=NOISE))  # at gimbal lock roll is 0
+    return f"xyz {_vector_message(T[:3, 3])} m, rpy {_vector_message(rpy, 6, zero=math.degrees(NOISE))} deg"
 
 
 def _vector_message(values, digits: int = 6, *, zero: float = 1e-9) -> str:

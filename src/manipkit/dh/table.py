@@ -209,7 +209,8 @@ class DHTable:
         """Number of joints."""
         return len(self.rows)
 
-    def placement_xyz_rpy(self, which: str, *, check: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    def placement_xyz_rpy(self, which: str, *, check: bool = True,
+                          gimbal_tol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
         """Translation (m) and roll-pitch-yaw (rad) of ``base`` or ``tool``.
 
         ``R = Rz(yaw) Ry(pitch) Rx(roll)``. The table's ``base_rpy`` /
@@ -224,6 +225,11 @@ class DHTable:
             Default: a bottom row other than ``[0, 0, 0, 1]`` or a block that is
             not a rotation raises :class:`~manipkit.errors.DHTableError`.
             ``False`` (for printing): the block's angles are read as they are.
+        gimbal_tol : float, keyword-only
+            Computed angles: where ``cos(pitch) <= gimbal_tol`` the rotation
+            counts as gimbal-locked and roll is 0 (``rpy_from_matrix``). The
+            printout uses 1e-9, so a pitch of 90 deg up to rounding noise
+            reads ``[0, 90, yaw]`` instead of noise-chosen roll and yaw.
 
         Examples
         --------
@@ -238,7 +244,7 @@ class DHTable:
         if rpy_hint is not None and np.array_equal(matrix_from_rpy(np.array(rpy_hint)), T[:3, :3]):
             return T[:3, 3], np.array(rpy_hint)
         try:
-            rpy = rpy_from_matrix(T[:3, :3], check=check)
+            rpy = rpy_from_matrix(T[:3, :3], check=check, gimbal_tol=gimbal_tol)
         except InvalidRotationError as exc:
             raise DHTableError(f"DH table {which}: {exc}") from None
         return T[:3, 3], rpy

@@ -1,7 +1,8 @@
 """A DH table as a boxed text table: :func:`format_dh_table`, also ``str(table)``.
 
 Angles print in degrees and lengths in metres, six significant digits
-(:func:`manipkit.text.short_text`); the conventions are those of
+(:func:`manipkit.text.short_text`), float noise (below ``NOISE`` of the
+value's scale) as 0; the conventions are those of
 :mod:`manipkit.dh.table` (docs/architecture.md).
 """
 
@@ -14,7 +15,12 @@ import numpy as np
 from manipkit.dh.table import DHRow, DHTable
 from manipkit.text import short_text
 
-__all__ = ["format_dh_table"]
+__all__ = ["NOISE", "format_dh_table"]
+
+#: Printed numbers within this of zero, relative to their scale (1 rad for angles, the table's largest
+#: length for lengths), are rounding noise of a derivation and print as 0; so is a pitch this close to
+#: +-90 deg (gimbal lock, roll then 0).
+NOISE = 1e-9
 
 _BOX = {"top": "┌┬┐", "mid": "├┼┤", "bottom": "└┴┘"}
 _HEADERS = {
@@ -56,7 +62,8 @@ def format_dh_table(table: DHTable) -> str:
     └───┴──────────┴────┴────┴────┴──────────┘
     """
     header = list(_HEADERS[table.convention])
-    body = [_row_cells(row, j, table.convention) for j, row in enumerate(table.rows, start=1)]
+    length = _length_text(table)
+    body = [_row_cells(row, j, table.convention, length) for j, row in enumerate(table.rows, start=1)]
     # the joint variable's column and names read left-aligned, numbers right-aligned
     left = {0, header.index("θⱼ")}
     if any(row.name for row in table.rows):
@@ -69,21 +76,33 @@ def format_dh_table(table: DHTable) -> str:
     lines = [f"{table.name}: {title}" if table.name else title, *_boxed(header, body, left)]
     for what in ("base", "tool"):
         if not np.array_equal(getattr(table, what), np.eye(4)):
-            xyz, rpy = table.placement_xyz_rpy(what, check=False)
+            xyz, rpy = table.placement_xyz_rpy(what, check=False, gimbal_tol=NOISE)
+            locked = abs(abs(rpy[1]) - math.pi / 2) <= NOISE
             lines.append(
-                f"{what}: xyz = [{', '.join(short_text(v) for v in xyz)}] m, "
-                f"rpy = [{', '.join(_degrees_text(v) for v in rpy)}] (R = Rz(yaw) Ry(pitch) Rx(roll))"
+                f"{what}: xyz = [{', '.join(length(v) for v in xyz)}] m, "
+                f"rpy = [{', '.join(_degrees_text(v) for v in rpy)}] (R = Rz(yaw) Ry(pitch) Rx(roll)"
+                + ("; gimbal lock: only yaw " + ("-" if rpy[1] > 0 else "+") + " roll is defined, roll set to 0)"
+                   if locked else ")")
             )
     return "\n".join(lines)
 
 
-def _row_cells(row: DHRow, j: int, convention: str) -> list[str]:
+def _length_text(table: DHTable):
+    """``short_text`` for the table's lengths, with |x| below ``NOISE`` times its largest length printed as 0."""
+    lengths = [abs(v) for row in table.rows for v in (row.a, row.d)]
+    lengths += [float(np.abs(T[:3, 3]).max()) for T in (table.base, table.tool)]
+    finite = [v for v in lengths if math.isfinite(v)]
+    zero = NOISE * max(finite, default=0.0)
+    return lambda value: short_text(value, zero=zero)
+
+
+def _row_cells(row: DHRow, j: int, convention: str, length=short_text) -> list[str]:
     """The cells of row ``j`` (1-based) in the column order of ``_HEADERS[convention]``."""
     variable = f"q{j}"
     if row.is_revolute:
-        theta, d = _with_variable(variable, short_text(math.degrees(row.theta)), "°"), short_text(row.d)
+        theta, d = _with_variable(variable, _degrees_number(row.theta), "°"), length(row.d)
     else:
-        theta, d = _degrees_text(row.theta), _with_variable(variable, short_text(row.d), "")
+        theta, d = _degrees_text(row.theta), _with_variable(variable, length(row.d), "")
     if row.qlim is None:
         limits = "-"
     elif row.is_revolute:
@@ -91,12 +110,17 @@ def _row_cells(row: DHRow, j: int, convention: str) -> list[str]:
     else:
         limits = f"[{short_text(row.qlim[0])}, {short_text(row.qlim[1])}] m"
     if convention == "standard":
-        return [str(j), theta, d, short_text(row.a), _degrees_text(row.alpha), limits]
-    return [str(j), short_text(row.a), _degrees_text(row.alpha), theta, d, limits]
+        return [str(j), theta, d, length(row.a), _degrees_text(row.alpha), limits]
+    return [str(j), length(row.a), _degrees_text(row.alpha), theta, d, limits]
+
+
+def _degrees_number(radians: float) -> str:
+    """Degrees, six digits; an angle within ``NOISE`` rad of 0 prints as 0."""
+    return short_text(math.degrees(radians), zero=math.degrees(NOISE))
 
 
 def _degrees_text(radians: float) -> str:
-    return short_text(math.degrees(radians)) + "°"
+    return _degrees_number(radians) + "°"
 
 
 def _with_variable(variable: str, offset_text: str, unit: str) -> str:
