@@ -85,3 +85,29 @@ def test_a_tool_at_gimbal_lock_prints_roll_0_and_says_so(load_robot):
     printed = matrix_from_rpy([0.0, -math.pi / 2, -math.pi / 2])
     assert abs(printed - table.tool[:3, :3]).max() < 1e-9
     assert abs(matrix_from_rpy([math.pi / 2, -math.pi / 2, math.pi]) - printed).max() < 1e-12
+
+
+# --------------------------------------------------------------------------
+# Jupyter views (issue 14, finding 9: a DHTable showed as a raw dataclass dump)
+
+
+def test_repr_is_one_readable_line():
+    table = load_dh(DH_DIR / "iiwa14.yaml")
+    assert repr(table) == "DHTable('iiwa14', modified DH, 7 joints RRRRRRR, with tool; print() it for the table)"
+
+
+def test_html_view_has_one_row_per_joint_with_the_printout_cells_escaped():
+    table = DHTable([DHRow(1, 0, 0, 0, name="j<1>"), DHRow(0.5, math.pi / 2, 0.2, math.pi / 2)], "standard", "arm & co")
+    html = table._repr_html_()
+    assert "arm &amp; co: standard DH, 2 joints (RR)" in html and "j&lt;1&gt;" in html and "<j<1>" not in html
+    assert html.count("<tr>") == 3  # the header and two joints
+    assert "<td style=\"text-align: right\">q2 + 90°</td>" in html and "<td style=\"text-align: right\">90°</td>" in html
+
+
+def test_latex_view_is_math_with_joint_variables_and_escaped_names():
+    table = DHTable([DHRow(1, 0, 0, 0, name="shoulder_pan"), DHRow(0.5, math.pi / 2, 0.2, -math.pi / 2)], "standard", "a_b")
+    latex = table._repr_latex_()
+    assert latex.startswith("$$\n\\begin{array}{rrrrrrr}") and latex.endswith("\\end{array}\n$$")
+    assert "\\text{a\\_b: standard DH, 2 joints (RR)}" in latex
+    assert "j & \\text{joint} & \\theta_j & d_j & a_j & \\alpha_j & q\\ \\text{limits} \\\\ \\hline" in latex
+    assert "2 & \\text{-} & q_{2} - 90^\\circ & 0.2 & 0.5 & 90^\\circ & - \\\\" in latex

@@ -204,6 +204,24 @@ class DHTable:
 
         return format_dh_table(self)
 
+    def __repr__(self) -> str:
+        kinds = "".join("R" if row.is_revolute else "P" for row in self.rows)
+        placed = [what for what in ("base", "tool") if not np.array_equal(getattr(self, what), np.eye(4))]
+        return (f"DHTable({self.name!r}, {self.convention} DH, {self.n} joints {kinds}"
+                + "".join(f", with {what}" for what in placed) + "; print() it for the table)")
+
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the table as HTML (:func:`manipkit.dh.text.html_dh_table`)."""
+        from manipkit.dh.text import html_dh_table
+
+        return html_dh_table(self)
+
+    def _repr_latex_(self) -> str:
+        """LaTeX math of the table (:func:`manipkit.dh.text.latex_dh_table`), for Jupyter and nbconvert."""
+        from manipkit.dh.text import latex_dh_table
+
+        return latex_dh_table(self)
+
     @property
     def n(self) -> int:
         """Number of joints."""

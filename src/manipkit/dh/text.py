@@ -9,13 +9,14 @@ value's scale) as 0; the conventions are those of
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
 from manipkit.dh.table import DHRow, DHTable
 from manipkit.text import short_text
 
-__all__ = ["NOISE", "format_dh_table"]
+__all__ = ["NOISE", "format_dh_table", "html_dh_table", "latex_dh_table"]
 
 #: Printed numbers within this of zero, relative to their scale (1 rad for angles, the table's largest
 #: length for lengths), are rounding noise of a derivation and print as 0; so is a pitch this close to
@@ -61,29 +62,92 @@ def format_dh_table(table: DHTable) -> str:
     │ 2 │ q2 + 90° │  0 │  1 │ 0° │        - │
     └───┴──────────┴────┴────┴────┴──────────┘
     """
+    title, header, body, placements = _table_cells(table)
+    # the joint variable's column and names read left-aligned, numbers right-aligned
+    left = {0, header.index("θⱼ")}
+    if "joint" in header:
+        left = {0, 1} | {k for k in left if k > 0}
+    return "\n".join([title, *_boxed(header, body, left), *placements])
+
+
+def _table_cells(table: DHTable) -> tuple[str, list[str], list[list[str]], list[str]]:
+    """(title, header, body cells, base/tool lines) of the printout, shared by text, HTML and LaTeX."""
     header = list(_HEADERS[table.convention])
     length = _length_text(table)
     body = [_row_cells(row, j, table.convention, length) for j, row in enumerate(table.rows, start=1)]
-    # the joint variable's column and names read left-aligned, numbers right-aligned
-    left = {0, header.index("θⱼ")}
     if any(row.name for row in table.rows):
         header.insert(1, "joint")
         for cells, row in zip(body, table.rows):
             cells.insert(1, row.name or "-")
-        left = {0, 1} | {k + 1 for k in left if k > 0}
     kinds = "".join("R" if row.is_revolute else "P" for row in table.rows)
     title = f"{table.convention} DH, {table.n} joint{'s' if table.n != 1 else ''} ({kinds})"
-    lines = [f"{table.name}: {title}" if table.name else title, *_boxed(header, body, left)]
+    title = f"{table.name}: {title}" if table.name else title
+    placements = []
     for what in ("base", "tool"):
         if not np.array_equal(getattr(table, what), np.eye(4)):
             xyz, rpy = table.placement_xyz_rpy(what, check=False, gimbal_tol=NOISE)
             locked = abs(abs(rpy[1]) - math.pi / 2) <= NOISE
-            lines.append(
+            placements.append(
                 f"{what}: xyz = [{', '.join(length(v) for v in xyz)}] m, "
                 f"rpy = [{', '.join(_degrees_text(v) for v in rpy)}] (R = Rz(yaw) Ry(pitch) Rx(roll)"
                 + ("; gimbal lock: only yaw " + ("-" if rpy[1] > 0 else "+") + " roll is defined, roll set to 0)"
                    if locked else ")")
             )
+    return title, header, body, placements
+
+
+def html_dh_table(table: DHTable) -> str:
+    """The table as HTML (``DHTable._repr_html_``, what Jupyter shows): a caption and one row per joint.
+
+    The same cells as :func:`format_dh_table`; every text is HTML-escaped.
+
+    >>> print(html_dh_table(DHTable([DHRow(1, 0, 0, 0)], "standard", "a<b")).splitlines()[1])
+    <caption style="text-align: left">a&lt;b: standard DH, 1 joint (R)</caption>
+    """
+    from html import escape
+
+    title, header, body, placements = _table_cells(table)
+    lines = ['<table class="manipkit-dh">', f'<caption style="text-align: left">{escape(title)}</caption>',
+             "<tr>" + "".join(f"<th>{escape(h)}</th>" for h in header) + "</tr>"]
+    lines += ["<tr>" + "".join(f'<td style="text-align: right">{escape(c)}</td>' for c in cells) + "</tr>" for cells in body]
+    lines.append("</table>")
+    lines += [f"<div>{escape(p)}</div>" for p in placements]
+    return "\n".join(lines)
+
+
+_LATEX_SPECIAL = {c: "\\" + c for c in "#$%&_{}"} | {"~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
+                                                     "\\": r"\textbackslash{}"}
+_LATEX_HEADERS = {
+    "j": "j", "joint": r"\text{joint}", "θⱼ": r"\theta_j", "dⱼ": "d_j", "aⱼ": "a_j", "αⱼ": r"\alpha_j",
+    "aⱼ₋₁": "a_{j-1}", "αⱼ₋₁": r"\alpha_{j-1}", "q limits": r"q\ \text{limits}",
+}
+
+
+def latex_dh_table(table: DHTable) -> str:
+    r"""The table as LaTeX math (``DHTable._repr_latex_``): ``$$\begin{array}...\end{array}$$``.
+
+    Joint variables read ``q_{2} + 90^\circ``; names are set as escaped ``\text{}``.
+
+    >>> print(latex_dh_table(DHTable([DHRow(1, 0, 0, 0)], "standard")).splitlines()[2])
+    j & \theta_j & d_j & a_j & \alpha_j & q\ \text{limits} \\ \hline
+    """
+    title, header, body, placements = _table_cells(table)
+
+    def text(value: str) -> str:
+        return r"\text{" + "".join(_LATEX_SPECIAL.get(c, c) for c in value) + "}"
+
+    def cell(value: str, column: str) -> str:
+        if column == "joint":
+            return text(value)
+        value = re.sub(r"q(\d+)", r"q_{\1}", value).replace("°", r"^\circ")
+        return value.replace(" m", r"\ \text{m}")
+
+    span = r"\multicolumn{" + str(len(header)) + "}{l}"
+    lines = ["$$", r"\begin{array}{" + "r" * len(header) + "} " + span + "{" + text(title) + r"} \\",
+             " & ".join(_LATEX_HEADERS[h] for h in header) + r" \\ \hline"]
+    lines += [" & ".join(cell(c, h) for c, h in zip(cells, header)) + r" \\" for cells in body]
+    lines += [span + "{" + text(p) + r"} \\" for p in placements]
+    lines += [r"\end{array}", "$$"]
     return "\n".join(lines)
 
 
