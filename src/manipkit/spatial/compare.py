@@ -44,8 +44,8 @@ __all__ = ["ComparisonResult", "compare_transform", "read_matrix"]
 # reading
 
 
-def read_matrix(path: str | os.PathLike) -> np.ndarray:
-    """Read a 4x4 homogeneous transform from a file.
+def read_matrix(path: str | os.PathLike, *, rotation: bool = False) -> np.ndarray:
+    """Read a 4x4 homogeneous transform (or, with ``rotation=True``, also a 3x3 rotation) from a file.
 
     Parameters
     ----------
@@ -63,9 +63,13 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
           Mathematica (``{{1, 0, 0, 0.1}, ...}``) are read, also after an
           assignment such as ``T = ``. ``#`` and ``%`` start comments.
 
+    rotation : bool, keyword-only
+        Accept a 3x3 matrix too (a rotation: ``tf --compare`` then compares
+        rotations only, ``manipkit rot matrix FILE`` reads one).
+
     Returns
     -------
-    T : ndarray, shape (4, 4)
+    T : ndarray, shape (4, 4), or (3, 3) with ``rotation=True``
         The matrix as written. It is not validated as a transform; see
         :func:`~manipkit.spatial.transforms.transform_violations`.
 
@@ -99,7 +103,7 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
     suffix = os.path.splitext(name)[1].lower()
     try:
         if suffix in (".npy", ".npz"):
-            return _finite(_read_npy(name), name)
+            return _finite(_read_npy(name, rotation), name)
         with open(name, "rb") as stream:
             text = stream.read(MAX_MATRIX_BYTES + 1).decode("utf-8").removeprefix("\ufeff")
     except OSError as exc:
@@ -110,7 +114,7 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
         rows = _rows_from_json(text, name)
     else:
         rows = _rows_from_text(text, name)
-    return _finite(_check_shape(_matrix_from_rows(rows, name), name), name)
+    return _finite(_check_shape(_matrix_from_rows(rows, name), name, rotation), name)
 
 
 def _finite(matrix: np.ndarray, name: str) -> np.ndarray:
@@ -123,8 +127,8 @@ def _finite(matrix: np.ndarray, name: str) -> np.ndarray:
     return matrix
 
 
-def _read_npy(name: str) -> np.ndarray:
-    """The 4x4 array of a ``.npy`` file, memory-mapped first: a header claiming a huge shape allocates nothing."""
+def _read_npy(name: str, rotation: bool = False) -> np.ndarray:
+    """The 4x4 (or 3x3 rotation) array of a ``.npy`` file, memory-mapped first: a header claiming a huge shape allocates nothing."""
     try:
         array = np.load(name, mmap_mode="r", allow_pickle=False)
     except (ValueError, EOFError, OSError) as exc:
@@ -135,7 +139,7 @@ def _read_npy(name: str) -> np.ndarray:
         raise InvalidTransformError(f"{name}: holds several arrays, expected one 4x4 array")
     if not (np.issubdtype(array.dtype, np.number) or array.dtype == bool) or np.iscomplexobj(array):
         raise InvalidTransformError(f"{name}: holds {array.dtype} values, expected real numbers")
-    return np.array(_check_shape(array, name), dtype=float)  # a copy: the file is not kept open
+    return np.array(_check_shape(array, name, rotation), dtype=float)  # a copy: the file is not kept open
 
 
 def _rows_from_json(text: str, name: str) -> list[list]:
@@ -208,17 +212,18 @@ def _matrix_from_rows(rows: list[list[float]], name: str) -> np.ndarray:
     return np.array(rows, dtype=float)
 
 
-def _check_shape(array: np.ndarray, name: str) -> np.ndarray:
-    if array.shape == (4, 4):
+def _check_shape(array: np.ndarray, name: str, rotation: bool = False) -> np.ndarray:
+    if array.shape == (4, 4) or (rotation and array.shape == (3, 3)):
         return array
+    expected = "a 4x4 transform or a 3x3 rotation" if rotation else "a 4x4 transform"
     if array.shape == (3, 4):
         raise InvalidTransformError(f"{name}: has 3 rows of 4 numbers, expected 4x4 (add the last row 0 0 0 1)")
     if array.ndim == 2:
         rows, columns = array.shape
         raise InvalidTransformError(
-            f"{name}: has {rows} rows of {columns} numbers (a {rows}x{columns} matrix), expected a 4x4 transform"
+            f"{name}: has {rows} rows of {columns} numbers (a {rows}x{columns} matrix), expected {expected}"
         )
-    raise InvalidTransformError(f"{name}: holds an array of shape {array.shape}, expected a 4x4 transform")
+    raise InvalidTransformError(f"{name}: holds an array of shape {array.shape}, expected {expected}")
 
 
 # --------------------------------------------------------------------------

@@ -49,11 +49,11 @@ def tf_between_main(argv=None) -> int:
 
 
 def _main_parser() -> argparse.ArgumentParser:
-    from manipkit.app.cli import dh, ik, robots, tf, tree, view, workspace
+    from manipkit.app.cli import dh, ik, robots, rot, tf, tree, view, workspace
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    for group in (tf, robots, tree, dh, ik, workspace, view):  # the order of `manipkit --help`
+    for group in (tf, robots, tree, dh, ik, workspace, view, rot):  # the order of `manipkit --help`
         group.register(commands)
     return parser
 
