@@ -395,8 +395,9 @@ class _Fit:
         out = []
 
         def add(text, B, X):
-            candidate = DHTable(variant.rows, variant.convention, variant.name,
-                                base=B @ variant.base, tool=variant.tool @ X)
+            base = variant.base if np.array_equal(B, np.eye(4)) else _snapped(_snapped(B) @ variant.base)
+            tool = variant.tool if np.array_equal(X, np.eye(4)) else _snapped(variant.tool @ _snapped(X))
+            candidate = DHTable(variant.rows, variant.convention, variant.name, base=base, tool=tool)
             out.append((prefix + text, candidate, self.residual(candidate)))
 
         X = invert_transform(M_d) @ self.M_u  # T_urdf(q) = T_dh(q) X
@@ -428,6 +429,7 @@ class _Fit:
                 value = self._fit_entry(i, entry)
                 if value is None:
                     continue
+                value = _snapped_entry(entry, value)
                 current = getattr(row, entry)
                 change = math.remainder(value - current, 2 * math.pi) if entry in _ANGLES else value - current
                 if abs(change) < 1e-12:
@@ -483,6 +485,21 @@ class _Fit:
         return out
 
 
+def _snapped(T: np.ndarray) -> np.ndarray:
+    """``T`` with entries within 1e-12 of 0 or +-1 made exact (fitting noise), so a written table reads clean."""
+    T = np.where(np.abs(T) < 1e-12, 0.0, T)
+    return np.where(np.abs(np.abs(T) - 1.0) < 1e-12, np.sign(T), T)
+
+
+def _snapped_entry(entry: str, value: float) -> float:
+    """A fitted entry with its noise removed: angles within 1e-12 rad of a multiple of 15 deg made that
+    multiple, lengths rounded to 1e-12 m (the candidate is checked on the samples afterwards)."""
+    if entry in _ANGLES:
+        k = round(value / (math.pi / 12))
+        return k * math.pi / 12 if abs(value - k * math.pi / 12) < 1e-12 else value
+    return round(value, 12)
+
+
 def _precise_screws(fk, n: int, q0) -> np.ndarray:
     """:func:`screws` with Richardson extrapolation of two steps (error about 1e-12 instead of 1e-10)."""
     return (4.0 * screws(fk, n, q0, step=5e-4) - screws(fk, n, q0, step=1e-3)) / 3.0
@@ -513,7 +530,7 @@ def reverse_joint(table: DHTable, j: int) -> DHTable:
         rows[k] = replace(rows[k], alpha=float(wrap_angle(rows[k].alpha + math.pi)))
 
     row = rows[j]
-    rows[j] = replace(row, theta=-row.theta if row.theta else 0.0, d=-row.d if row.d else 0.0,
+    rows[j] = replace(row, theta=float(wrap_angle(-row.theta)) if row.theta else 0.0, d=-row.d if row.d else 0.0,
                       alpha=float(wrap_angle(row.alpha + math.pi)))
     if table.convention == "standard":
         if j > 0:
