@@ -18,7 +18,8 @@ import pytest
 
 from manipkit.description.sources import bundled_robots, example_robot_data_arms
 from manipkit.dh import DHTable, dh_fk, dh_from_urdf_chain, transform_from_xyz_rpy
-from manipkit.dh.check import check_dh, reverse_joint
+from manipkit.dh.check import check_dh
+from manipkit.dh.entries import reverse_joint
 from manipkit.spatial.rotations import matrix_from_axis_angle
 
 SAMPLES = 150  # configurations per check: enough to tell a 1e-3 change from agreement
@@ -154,3 +155,42 @@ def test_two_wrong_entries_are_listed_against_the_derived_table(tables):
     assert "no constant base or tool transform, single table entry" in text
     assert "differs in 2 place(s)" in text
     assert "row 2: a = 0.43 m, the URDF implies 0.425 m" in text and "row 3: a = 0.4 m, the URDF implies 0.39225 m" in text
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda", "iiwa14", "kinova", "xarm7"])
+def test_a_wrong_length_is_named_also_when_the_base_is_turned(tables, name):
+    # The issue's published-table case: one length wrong AND the table's base turned against the URDF's.
+    # The longest middle length is changed (the first row's d and the last row's lengths are the base's and
+    # the tool's to take up); the base is turned about a general axis.
+    robot, table = tables(name, "standard")
+    middle = [(abs(getattr(r, e)), i, e) for i, r in enumerate(table.rows[1:-1], start=1) for e in ("a", "d")]
+    _, row, entry = max(middle)
+    rows = list(table.rows)
+    rows[row] = dataclasses.replace(rows[row], **{entry: getattr(rows[row], entry) + 0.005})
+    B = _rotation([1, 2, -1], 2.0)
+    text = _diagnose(robot, DHTable(tuple(rows), "standard", base=B @ table.base, tool=table.tool))
+    assert f"row {row + 1}: {entry} = " in text and "with a constant base transform" in text, text
+
+
+def test_issue_finding_6_published_ur5_table_with_a_wrong_length(tmp_path, load_robot):
+    # The published UR5 standard table (alpha_1 = +90 deg, a_2 = -0.425 m, a_3 = -0.39225 m), against the URDF
+    # from base_link: Rz(180 deg) apart (finding 5); with a_2 mistyped as -0.43 (finding 6) the diagnosis
+    # names both.
+    from manipkit.dh import dh_from_yaml
+
+    table = dh_from_yaml("\n".join([
+        "convention: standard", "angles: rad", "joints:",
+        "  - {a: 0, alpha: pi/2, d: 0.089159, theta: 0}",
+        "  - {a: -0.43, alpha: 0, d: 0, theta: 0}",
+        "  - {a: -0.39225, alpha: 0, d: 0, theta: 0}",
+        "  - {a: 0, alpha: pi/2, d: 0.10915, theta: 0}",
+        "  - {a: 0, alpha: -pi/2, d: 0.09465, theta: 0}",
+        "  - {a: 0, alpha: 0, d: 0.0823, theta: 0}",
+    ]))
+    robot = load_robot("ur5")
+    result = check_dh(table, robot, tip="tool0", samples=SAMPLES)
+    assert result.diagnosis[1].startswith(
+        "row 2: a = -0.43 m, the URDF implies -0.425 m, with a constant base transform xyz [0 0 0] m, "
+        "rpy [0 0 180] deg (before row 1): reconciles them fully"
+    ), result.diagnosis
+    assert check_dh(result.candidate, robot, tip="tool0").passed

@@ -16,14 +16,16 @@ modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``
   (:func:`save_urdf` writes it).
 - :mod:`~manipkit.dh.from_urdf`: :func:`dh_from_urdf_chain`, the table of a robot's chain.
 - :mod:`~manipkit.dh.check`: :func:`check_dh`, agreement with a robot and a diagnosis
-  (with a corrected table); :func:`reverse_joint`.
+  (with a corrected table).
+- :mod:`~manipkit.dh.entries`: rows as elementary transforms; :func:`reverse_joint`.
 
 The numeric and symbolic core needs numpy (and SymPy) only; :func:`check_dh`
 and :func:`dh_from_urdf_chain` take a loaded :class:`manipkit.Robot`. SymPy
 and PyYAML are imported inside the functions that need them.
 """
 
-from manipkit.dh.check import DHCheck, check_dh, reverse_joint
+from manipkit.dh.check import DHCheck, check_dh
+from manipkit.dh.entries import reverse_joint
 from manipkit.dh.files import bundled_tables, dh_from_yaml, load_dh, save_dh, yaml_from_dh
 from manipkit.dh.from_urdf import dh_from_urdf_chain
 from manipkit.dh.symbolic import dh_fk_symbolic, dh_length_symbols, dh_symbols, format_symbolic, shorthand

@@ -20,8 +20,10 @@ that agrees):
    ``v`` or in ``(cos v, sin v)``), named as "row 2: a = 0.43 m, the URDF
    implies 0.425 m"; every entry that alone explains the difference is
    named (theta of row 1 and a base turn about z can be the same thing), so
-   a flipped alpha is that alpha, not a reversed joint;
-3. **one joint turning the other way** (:func:`reverse_joint`), with a base
+   a flipped alpha is that alpha, not a reversed joint; then one length
+   (a or d) together with a base and tool transform (a published table
+   whose base is turned against the URDF's and one length mistyped);
+3. **one joint turning the other way** (:func:`~manipkit.dh.entries.reverse_joint`), with a base
    and tool refitted if need be;
 4. otherwise, the chains are compared as products of exponentials. At the
    zero configuration each joint i is a screw axis ``S_i = (w_i, v_i)`` in the
@@ -56,8 +58,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.dh.entries import _ANGLES, _ENTRIES, _GENERATORS, _row_factors, dh_link_matrices, reverse_joint
 from manipkit.dh.from_urdf import dh_from_urdf_chain
-from manipkit.dh.table import DHTable, dh_fk, dh_link_transform
+from manipkit.dh.table import DHTable, dh_fk
 from manipkit.dh.text import NOISE
 from manipkit.errors import ManipkitError
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
@@ -67,7 +70,7 @@ from manipkit.text import short_text, vector_text
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["RECONCILE_TOL", "SCREW_TOL", "DHCheck", "check_dh", "dh_link_matrices", "reverse_joint", "screws"]
+__all__ = ["RECONCILE_TOL", "SCREW_TOL", "DHCheck", "check_dh", "screws"]
 
 SCREW_TOL = 1e-6  # screws equal within this (axis direction and moment)
 RECONCILE_TOL = 1e-8  # a correction "reconciles fully" when it leaves less than this (m, rad)
@@ -281,6 +284,8 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive
     verdicts = [_compare_screws(S_u[i], S_d[i]) for i in range(n)]
     signs = np.array([-1.0 if v == "reversed" else 1.0 for v in verdicts])
     reversed_joints = [i for i, v in enumerate(verdicts) if v == "reversed"]
+    if not full:  # stage 2b: one length and a base or tool transform
+        full = [c for c in fit.length_entries_with_base_and_tool() if c[2] <= limit]
     if not full:
         full = fit.reversed_joints(joints, limit)  # stage 3
         if full and len(reversed_joints) > 1:  # several joints reversed as the table stands, if that explains it too
@@ -366,8 +371,6 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
     return out
 
 
-_ENTRIES = ("a", "alpha", "d", "theta")
-_ANGLES = ("alpha", "theta")
 _FIT_SAMPLES = 32  # configurations an entry's value is fitted on (then checked on all samples)
 
 
@@ -443,10 +446,10 @@ class _Fit:
                 ))
         return out
 
-    def _fit_entry(self, i: int, entry: str) -> float | None:
+    def _around(self, i: int, entry: str):
+        """(L, G, R) over the fitting samples: FK of the table is ``L E(v) R`` with ``E = exp(v G)`` the entry's."""
         table = self.table
         Q = self.Q[:_FIT_SAMPLES]
-        T_u = self.T_u[:_FIT_SAMPLES]
         links = [dh_link_matrices(table, k, Q[:, k]) for k in range(table.n)]
         L = np.broadcast_to(table.base, (len(Q), 4, 4))
         for A in links[:i]:
@@ -460,7 +463,11 @@ class _Fit:
             L = L @ F
         for _, F in reversed(factors[k + 1:]):
             R = F @ R
-        G = _GENERATORS[entry]
+        return L, _GENERATORS[entry], R
+
+    def _fit_entry(self, i: int, entry: str) -> float | None:
+        L, G, R = self._around(i, entry)
+        T_u = self.T_u[:_FIT_SAMPLES]
         if entry in _ANGLES:  # E = I + sin(v) K + (1 - cos(v)) K^2
             Y = (T_u - L @ (np.eye(4) + G @ G) @ R)[:, :3].ravel()
             A = np.stack([(L @ G @ R)[:, :3].ravel(), -(L @ G @ G @ R)[:, :3].ravel()], axis=1)
@@ -470,6 +477,60 @@ class _Fit:
         A = (L @ G @ R)[:, :3].ravel()
         norm = float(A @ A)
         return float(A @ Y / norm) if norm > 1e-18 else None
+
+    def length_entries_with_base_and_tool(self) -> list:
+        """``(text, corrected table, residual)`` for each length (a or d) whose right value, with a constant base
+        and tool transform, makes the table agree.
+
+        A length changes no joint axis direction, so the base rotation ``R_B``
+        comes from the axes (:func:`_align_axes`) and the tool rotation from
+        the home poses; what is left, ``p_urdf(q) = R_B (R_LR(q) t_X + p_LR(q)
+        + v c(q)) + t_B``, is linear in the tool shift ``t_X``, the value ``v``
+        and the base shift ``t_B``: least squares over the samples. A length
+        that a base or tool shift could stand in for (d of row 1, say) is not
+        named.
+        """
+        table, n = self.table, self.table.n
+        M_d = dh_fk(table, np.zeros(n))
+        S_d = np.vstack([_precise_screws(partial(dh_fk, table), n, q) for q in self.configurations])
+        B = _align_axes(self.S_u, S_d, self.M_u[:3, 3], M_d[:3, 3])
+        if B is None:
+            return []
+        R_B = B[:3, :3]
+        R_X = (R_B @ M_d[:3, :3]).T @ self.M_u[:3, :3]
+        p_u = self.T_u[:_FIT_SAMPLES, :3, 3]
+        out = []
+        for i, row in enumerate(table.rows):
+            for entry in ("a", "d"):
+                L, G, R = self._around(i, entry)
+                LR, c = L @ R, (L @ G @ R)[:, :3, 3]
+                m = len(LR)
+                A = np.concatenate([R_B @ LR[:, :3, :3], (c @ R_B.T)[:, :, None], np.broadcast_to(np.eye(3), (m, 3, 3))],
+                                   axis=2).reshape(3 * m, 7)
+                y = (p_u - LR[:, :3, 3] @ R_B.T).reshape(3 * m)
+                rank = np.linalg.matrix_rank(A, tol=1e-9)
+                if rank < 7 or np.linalg.matrix_rank(np.delete(A, 3, axis=1), tol=1e-9) < 6:
+                    continue  # v is not told apart from a base or tool shift
+                x = np.linalg.lstsq(A, y, rcond=None)[0]
+                value = _snapped_entry(entry, float(x[3]))
+                if abs(value - getattr(row, entry)) < 1e-12:
+                    continue
+                rows = list(table.rows)
+                rows[i] = replace(row, **{entry: value})
+                variant = replace(table, rows=tuple(rows))
+                base, tool = np.eye(4), np.eye(4)
+                base[:3, :3], base[:3, 3] = R_B, x[4:]
+                tool[:3, :3], tool[:3, 3] = R_X, x[:3]
+                base, tool = _snapped(base), _snapped(tool)
+                candidate = replace(variant, base=_snapped(base @ table.base), tool=_snapped(table.tool @ tool))
+                placed = [text for text, T in ((f"a constant base transform {_pose_text(base)} (before row 1)", base),
+                                               (_tool_line(tool), tool)) if np.abs(T - np.eye(4)).max() >= RECONCILE_TOL]
+                out.append((
+                    f"row {i + 1}: {entry} = {_entry_text(entry, getattr(row, entry))}, the URDF implies "
+                    f"{_entry_text(entry, value)}" + "".join(f", with {text}" for text in placed),
+                    candidate, self.residual(candidate),
+                ))
+        return out
 
     def reversed_joints(self, joints, limit: float) -> list:
         """``(text, corrected table, residual)`` for each joint that, turned the other way (with a base and
@@ -503,90 +564,6 @@ def _snapped_entry(entry: str, value: float) -> float:
 def _precise_screws(fk, n: int, q0) -> np.ndarray:
     """:func:`screws` with Richardson extrapolation of two steps (error about 1e-12 instead of 1e-10)."""
     return (4.0 * screws(fk, n, q0, step=5e-4) - screws(fk, n, q0, step=1e-3)) / 3.0
-
-
-def reverse_joint(table: DHTable, j: int) -> DHTable:
-    """The table with joint ``j`` (0-based) turning the other way: ``T'(q) = T(q with q_j negated)``.
-
-    Its DH z axis is turned half a turn about x. Standard DH (joint j about
-    ``z_{j-1}``): ``A_j(-q) = Rx(pi) Rz(q - theta) Tz(-d) Tx(a) Rx(alpha + pi)``,
-    so alpha of row j-1 (or the base, for joint 1) gains 180 deg, and row j
-    has theta and d negated and alpha + 180 deg. Modified DH (joint j about
-    ``z_j``): ``A_j(-q) = Rx(alpha + pi) Tx(a) Rz(q - theta) Tz(-d) Rx(pi)``:
-    row j has alpha + 180 deg, theta and d negated, and the next row's alpha
-    (or the tool) gains 180 deg. Applying it twice gives the table back.
-
-    >>> from manipkit.dh.table import DHRow
-    >>> t = DHTable([DHRow(1, 0, 0, 0), DHRow(1, 0, 0.5, 0.3)], "standard")
-    >>> q = np.array([0.2, 0.7])
-    >>> bool(np.allclose(dh_fk(reverse_joint(t, 1), q), dh_fk(t, [0.2, -0.7])))
-    True
-    """
-    rows = list(table.rows)
-    base, tool = table.base, table.tool
-    half = np.diag([1.0, -1.0, -1.0, 1.0])  # Rx(pi)
-
-    def turn_alpha(k):
-        rows[k] = replace(rows[k], alpha=float(wrap_angle(rows[k].alpha + math.pi)))
-
-    row = rows[j]
-    rows[j] = replace(row, theta=float(wrap_angle(-row.theta)) if row.theta else 0.0, d=-row.d if row.d else 0.0,
-                      alpha=float(wrap_angle(row.alpha + math.pi)))
-    if table.convention == "standard":
-        if j > 0:
-            turn_alpha(j - 1)
-        else:
-            base = base @ half
-    elif j + 1 < len(rows):
-        turn_alpha(j + 1)
-    else:
-        tool = half @ tool
-    return DHTable(tuple(rows), table.convention, table.name, base=base, tool=tool)
-
-
-def _row_factors(row, q, convention: str) -> list:
-    """The elementary transforms of one row at joint values ``q`` (m,), named by entry; "q" for the motion."""
-    m = len(q)
-    value = {entry: np.full(m, getattr(row, entry)) for entry in _ENTRIES}
-    motion = ("q", _elementary("theta" if row.is_revolute else "d", q))
-    own = {entry: (entry, _elementary(entry, value[entry])) for entry in _ENTRIES}
-    moving = "theta" if row.is_revolute else "d"
-    if convention == "standard":
-        order = ["theta", "d", "a", "alpha"]
-    else:
-        order = ["alpha", "a", "theta", "d"]
-    factors = []
-    for entry in order:
-        if entry == moving:
-            factors.append(motion)
-        factors.append(own[entry])
-    return factors
-
-
-_GENERATORS = {name: np.zeros((4, 4)) for name in _ENTRIES}
-_GENERATORS["a"][0, 3] = 1.0
-_GENERATORS["d"][2, 3] = 1.0
-_GENERATORS["alpha"][2, 1], _GENERATORS["alpha"][1, 2] = 1.0, -1.0
-_GENERATORS["theta"][1, 0], _GENERATORS["theta"][0, 1] = 1.0, -1.0
-
-
-def _elementary(entry: str, values) -> np.ndarray:
-    """Tx(a), Rx(alpha), Tz(d) or Rz(theta) for each value, shape (m, 4, 4)."""
-    values = np.asarray(values, dtype=float)
-    G = _GENERATORS[entry]
-    if entry in _ANGLES:
-        s, c = np.sin(values)[:, None, None], np.cos(values)[:, None, None]
-        return np.eye(4) + s * G + (1.0 - c) * (G @ G)
-    return np.eye(4) + values[:, None, None] * G
-
-
-def dh_link_matrices(table: DHTable, k: int, q) -> np.ndarray:
-    """``A_k(q)`` of row ``k`` (0-based) for each joint value in ``q`` (m,), shape (m, 4, 4)."""
-    row = table.rows[k]
-    q = np.asarray(q, dtype=float)
-    theta = row.theta + q if row.is_revolute else np.full_like(q, row.theta)
-    d = np.full_like(q, row.d) if row.is_revolute else row.d + q
-    return dh_link_transform(row.a, row.alpha, d, theta, convention=table.convention)
 
 
 def _entry_text(entry: str, value: float) -> str:
