@@ -205,3 +205,28 @@ def test_a_long_q_file_streams_in_bounded_memory(output_format, rows, tmp_path):
             assert [float(v) for v in lines[index].split(",")[:3]] == pytest.approx(course_arm_T_base_ee(q)[:3, 3], abs=2e-6)
         else:
             assert np.abs(np.array(json.loads(lines[index])["matrix"]) - course_arm_T_base_ee(q)).max() < 1e-12
+
+
+# --------------------------------------------------------------------------
+# --compare with a 3x3 rotation (issue 14): rotations only, said so
+
+
+def test_compare_with_a_3x3_rotation_compares_rotations_only(tmp_path):
+    from manipkit.spatial.rotations import rot_z
+
+    # course_arm at q = 0: T_base_ee is Rz(1.5708) (the URDF's rounded 90 deg), so its rotation block is
+    # Rz(1.5708) exactly; the hand rotation written to 12 decimals agrees at 1e-9.
+    hand = tmp_path / "R.txt"
+    hand.write_text("\n".join(" ".join(f"{v:.12f}" for v in row) for row in rot_z(1.5708)) + "\n")
+    result = run("base_link", "ee_link", "--compare", hand, "--tol", "1e-9")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "a 3x3 rotation: comparing rotations only (the translation is not checked)" in result.stdout
+    assert "the rotation AGREES with the model" in result.stdout
+    data = json.loads(run("base_link", "ee_link", "--compare", hand, "--tol", "1e-9", "--format", "json").stdout)
+    assert data["compare"]["rotation_only"] is True and data["compare"]["position_error"] is None
+    assert data["compare"]["agrees"] is True
+    exact = tmp_path / "exact.txt"  # Rz(90 deg) exactly: 2.1e-4 deg off the model's 1.5708 rad
+    exact.write_text("0 -1 0\n1 0 0\n0 0 1\n")
+    result = run("base_link", "ee_link", "--compare", exact)
+    assert result.returncode == 1 and "the rotation DOES NOT AGREE with the model" in result.stdout
+    assert "rotation error: 0.000210459 deg" in result.stdout

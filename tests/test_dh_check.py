@@ -39,7 +39,7 @@ def test_right_table_passes(planar_3r):
     assert result.joints == ("joint1", "joint2", "joint3")
 
 
-def test_wrong_link_length_names_the_first_joint_that_disagrees(planar_3r):
+def test_wrong_link_length_is_named_with_the_value_the_urdf_implies(planar_3r):
     # a_2 = 2.5 instead of 2: the third axis sits at x = 4 + 2.5 = 6.5 instead of 6 at q = 0.
     rows = [PLANAR_3R[0], DHRow(2.5, 0.0, 0.0, 0.0), PLANAR_3R[2]]
     result = check_dh(DHTable(rows, "standard"), planar_3r)
@@ -47,15 +47,24 @@ def test_wrong_link_length_names_the_first_joint_that_disagrees(planar_3r):
     # Stretched out the error is exactly 0.5 m; the samples come close to it.
     assert 0.45 < result.max_position_error <= 0.5 + 1e-12
     text = "\n".join(result.diagnosis)
-    assert "the chains stop agreeing at joint 3 (joint3)" in text and "distance 0.5 m" in text
-    assert "no constant base or tool transform, joint zero offset or joint direction change reconciles them" in text
+    assert "row 2: a = 2.5 m, the URDF implies 2 m: reconciles them fully" in text
+    assert result.candidate.rows[1].a == pytest.approx(2.0, abs=1e-12)
 
 
-def test_joint_zero_offset_is_found(planar_3r):
-    # theta_2 = +0.5 rad in the table: the URDF's q2 = 0 is the table's q2 = -0.5, an offset of -28.6479 deg.
+def test_two_wrong_link_lengths_locate_the_first_joint_that_disagrees(planar_3r):
+    # a_1 = 4.5 and a_2 = 2.5: no single entry explains it; joint 2's axis is 0.5 m off, at x = 4.5 instead of 4.
+    rows = [DHRow(4.5, 0.0, 0.0, 0.0), DHRow(2.5, 0.0, 0.0, 0.0), PLANAR_3R[2]]
+    text = "\n".join(check_dh(DHTable(rows, "standard"), planar_3r).diagnosis)
+    assert "the chains stop agreeing at joint 2 (joint2)" in text and "distance 0.5 m" in text
+    assert "no constant base or tool transform, single table entry" in text
+    assert "row 1: a = 4.5 m, the URDF implies 4 m" in text and "row 2: a = 2.5 m, the URDF implies 2 m" in text
+
+
+def test_wrong_joint_zero_offset_is_named(planar_3r):
+    # theta_2 = +0.5 rad = 28.6479 deg in the table, 0 in the URDF.
     rows = [PLANAR_3R[0], DHRow(2.0, 0.0, 0.0, 0.5), PLANAR_3R[2]]
     text = "\n".join(check_dh(DHTable(rows, "standard"), planar_3r).diagnosis)
-    assert "joint zero offsets (joint 2 by -28.6479 deg added to theta) and no tool transform: reconciles them fully" in text
+    assert "row 2: theta = 28.6479 deg, the URDF implies 0 deg: reconciles them fully" in text
 
 
 def test_constant_base_offset_is_found(planar_3r):
@@ -81,8 +90,8 @@ def test_base_and_tool_transform_of_an_arm_with_parallel_axes_are_found(robot_na
     table = DHTable(right.rows, "standard", base=base @ right.base, tool=right.tool @ tool)
     text = "\n".join(check_dh(table, manipkit.load(robot_name)).diagnosis)
     assert (
-        "a base transform xyz [-0.16999 -0.14527 -0.3] m, rpy [0 0 -22.92] deg and a tool transform "
-        "xyz [-0.0418564 0.0338827 0] m, rpy [0 0 -17.19] deg: reconciles them fully"
+        "a base transform xyz [-0.16999 -0.14527 -0.3] m, rpy [0 0 -22.9183] deg and a tool transform "
+        "xyz [-0.0418564 0.0338827 0] m, rpy [0 0 -17.1887] deg: reconciles them fully"
     ) in text
 
 
@@ -97,14 +106,23 @@ def test_revolute_joint_against_a_prismatic_row_says_which_turns(planar_3r):
     assert "the chains stop agreeing at joint 3 (joint3): the URDF joint slides, the table's row turns" in text
 
 
-def test_reversed_joint_is_found(planar_3r):
-    # alpha_0 = 180 deg flips the z axis of every later frame: with a = 4 along x, joints 2 and 3 then turn
-    # about -z; a row with alpha = 180 on the LAST row only changes the tool frame, so flip joint 3 alone
-    # by putting alpha_2 = 180 deg and compensating nothing else.
+def test_a_flipped_alpha_is_named_as_that_entry(planar_3r):
+    # alpha_2 = 180 deg flips the z axis of frame 2, so joint 3 turns about -z: one entry explains it
+    # (before, this was reported as "joint 3 reversed and a tool transform").
     rows = [PLANAR_3R[0], DHRow(2.0, math.pi, 0.0, 0.0), PLANAR_3R[2]]
     text = "\n".join(check_dh(DHTable(rows, "standard"), planar_3r).diagnosis)
-    assert "joint 3 (joint3) turns the other way" in text
-    assert "with joint(s) 3 reversed, a constant tool transform" in text and "reconciles them fully" in text
+    assert "row 2: alpha = 180 deg, the URDF implies 0 deg: reconciles them fully" in text
+    assert "turns the other way" not in text
+
+
+def test_reversed_joint_is_found(planar_3r):
+    # Joint 3 reversed in standard DH: alpha_2 and alpha_3 both 180 deg (reverse_joint's rule; theta = d = 0).
+    rows = [PLANAR_3R[0], DHRow(2.0, math.pi, 0.0, 0.0), DHRow(1.0, math.pi, 0.0, 0.0)]
+    result = check_dh(DHTable(rows, "standard"), planar_3r)
+    text = "\n".join(result.diagnosis)
+    assert "joint 3 (joint3) turns the other way: reversing it in the table (row 2: alpha 180 deg -> 0 deg; " \
+        "row 3: alpha 180 deg -> 0 deg): reconciles them fully" in text
+    assert check_dh(result.candidate, planar_3r).passed
 
 
 def test_wrong_row_count_is_reported(planar_3r):
@@ -114,17 +132,18 @@ def test_wrong_row_count_is_reported(planar_3r):
     assert "write it as `tool:` instead of a row" in result.diagnosis[1]
 
 
-def test_seed_iiwa_table_fails_with_reversed_joints_2_and_6_and_a_half_turn_tool(iiwa14):
+def test_seed_iiwa_table_fails_with_a_reversed_joint_and_a_base_half_turn(iiwa14):
     # Hand check at q = 0: the seed's 0T8 has rotation diag(-1, -1, 1) (seed eq. 4.4) while the URDF's
     # flange is upright (identity), a half turn about z; its pi offsets and +90 deg twists make the z axes
-    # of frames 2 and 6 point along -y where the URDF's joints 2 and 6 turn about +y.
+    # of frames 2 and 6 point along -y where the URDF's joints 2 and 6 turn about +y, while joint 4's
+    # points along +y. Turning the whole table by Rz(180 deg) at the base flips y: then only joint 4 is
+    # reversed, the simplest explanation (one joint and the base, rather than two joints and the tool).
     result = check_dh(seed_iiwa_table(), iiwa14)
     assert not result.passed and result.max_rotation_error > 3.0
     text = "\n".join(result.diagnosis)
-    assert "joint 2 (iiwa_joint_2) turns the other way" in text
-    assert "joint 6 (iiwa_joint_6) turns the other way" in text
-    assert "joint 4 (iiwa_joint_4) turns" not in text
-    assert "with joint(s) 2, 6 reversed, a constant tool transform xyz [0 0 0] m, rpy [0 0 180] deg" in text
+    assert "joint 4 (iiwa_joint_4) turns the other way" in text
+    assert "with a constant base transform xyz [0 0 0] m, rpy [0 0 180] deg (before row 1): reconciles them fully" in text
+    assert check_dh(result.candidate, iiwa14).passed
 
 
 def test_screws_of_a_planar_arm_match_the_hand_values(planar_3r):
@@ -171,3 +190,26 @@ def test_bundled_table_against_its_urdf(name):
         assert result.max_position_error <= 1e-9 and result.max_rotation_error <= 1e-9
     else:
         assert result.max_position_error > 1.0  # the seed's table misses by metres (see test_dh.py)
+
+
+def test_cli_fix_writes_a_corrected_table_that_passes(tmp_path):
+    # issue 14 finding 5, from the shell: the ur5 table derived from the URDF, turned by Rz(180 deg) at the base
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from manipkit.dh import dh_from_urdf_chain, save_dh
+
+    bin_dir = Path(sys.executable).parent
+    table = dh_from_urdf_chain(manipkit.load("ur5"), convention="standard")
+    turned = DHTable(table.rows, "standard", "ur5 turned", base=transform_from_xyz_rpy([0, 0, 0], [0, 0, math.pi]) @ table.base,
+                     tool=table.tool)
+    save_dh(turned, tmp_path / "turned.yaml")
+    fixed = tmp_path / "fixed.yaml"
+    run = subprocess.run([str(bin_dir / "manipkit"), "dh", "check", str(tmp_path / "turned.yaml"), "--robot", "ur5",
+                          "--fix", str(fixed)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1, run.stderr
+    assert "- a constant base transform xyz [0 0 0] m, rpy [0 0 180] deg (before row 1): reconciles them fully" in run.stdout
+    assert f"wrote the corrected table to {fixed} (it passes)" in run.stdout
+    assert not any(line.startswith("base:") for line in fixed.read_text().splitlines())  # the turned table's base Rz(180 deg), undone: the identity again
+    assert check_dh(load_dh(fixed), manipkit.load("ur5")).passed

@@ -380,3 +380,51 @@ def test_saving_into_a_missing_folder_creates_nothing(tmp_path):
 def test_saving_onto_a_folder_is_refused(tmp_path):
     with pytest.raises(OutputError, match="it is a folder"):
         save_dh(DHTable([DHRow(1, 0, 0, 0)]), tmp_path)
+
+
+# --------------------------------------------------------------------------
+# API parity with the CLI (issue 14, finding 9)
+
+
+def test_load_dh_takes_a_bundled_table_name_like_the_cli():
+    from manipkit.description.sources import bundled_dh_tables
+
+    for name, path in bundled_dh_tables().items():
+        assert load_dh(name) == load_dh(path)
+
+
+def test_load_dh_of_an_unknown_name_lists_the_bundled_tables():
+    with pytest.raises(DHTableError, match=r"iiwa15: no such DH table file; did you mean iiwa14.*bundled tables: "):
+        load_dh("iiwa15")
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ("pi/2", math.pi / 2), ("-pi/4", -math.pi / 4), ("3*pi/4", 3 * math.pi / 4), ("2pi/3", 2 * math.pi / 3),
+    ("(pi + 0.5)/2", (math.pi + 0.5) / 2), (" -pi ", -math.pi), ("π/6", math.pi / 6),
+])
+def test_angles_in_radians_may_be_pi_expressions(text, expected):
+    table = dh_from_yaml(
+        f"convention: standard\nangles: rad\nbase: {{rpy: [0, '{text}', 0]}}\n"
+        f"joints:\n  - {{a: 1, alpha: '{text}', d: 0, theta: {text}, qlim: ['-{text}', 4]}}\n"
+    )
+    row = table.rows[0]
+    assert row.alpha == pytest.approx(expected, abs=1e-15) and row.theta == pytest.approx(expected, abs=1e-15)
+    assert row.qlim[0] == pytest.approx(-expected, abs=1e-15)
+    assert table.base_rpy[1] == pytest.approx(expected, abs=1e-15)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("pi/", "not a number or pi expression"),
+    ("pi**2", "not a number or pi expression"),
+    ("__import__('os')", "not a number"),
+    ("pi/0", "not a number or pi expression"),
+    ("pi" + "+pi" * 40, "not a number or pi expression"),  # too long
+])
+def test_bad_pi_expressions_are_refused_without_eval(text, message):
+    with pytest.raises(DHTableError, match=message):
+        dh_from_yaml(f'convention: standard\nangles: rad\njoints:\n  - {{a: 1, alpha: "{text}", d: 0, theta: 0}}\n')
+
+
+def test_pi_expressions_in_a_degree_file_say_to_use_radians():
+    with pytest.raises(DHTableError, match=r"row 1: field 'alpha' is 'pi/2', a pi expression, but the file's angles are degrees"):
+        dh_from_yaml("convention: standard\nangles: deg\njoints:\n  - {a: 1, alpha: pi/2, d: 0, theta: 0}\n")

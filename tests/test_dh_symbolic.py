@@ -206,3 +206,25 @@ def test_latex_title_stays_inside_its_comment():
 def test_joint_symbols_must_be_names(names):
     with pytest.raises(DHDerivationError, match="is not a name; use letters, digits and _"):
         dh_symbols(2, [sympy.Symbol(name) for name in names])
+
+
+def test_symbols_true_writes_lengths_as_symbols_that_substitute_back():
+    # Issue 14: symbolic FK wrote link lengths as fractions (21/50); symbols=True gives L1..Ln and d1..dn.
+    from manipkit.dh.symbolic import dh_length_symbols
+
+    planar = load_dh("planar_2r")
+    T = dh_fk_symbolic(planar, symbols=True)
+    L1, L2, q1, q2 = sympy.symbols("L1 L2 q1 q2", real=True)
+    # hand derivation for a planar 2R arm: x = L1 c1 + L2 c12, y = L1 s1 + L2 s12
+    assert sympy.simplify(T[0, 3] - (L1 * sympy.cos(q1) + L2 * sympy.cos(q1 + q2))) == 0
+    assert sympy.simplify(T[1, 3] - (L1 * sympy.sin(q1) + L2 * sympy.sin(q1 + q2))) == 0
+    # every bundled table: the symbolic matrix with the values substituted is the numeric FK
+    for name in ("iiwa14", "course_arm_modified", "scara"):
+        table = load_dh(name)
+        T = dh_fk_symbolic(table, symbols=True)
+        fractions = {sympy.Rational(repr(v)) for v in dh_length_symbols(table).values()}  # 0.36 -> 9/25
+        assert not fractions & T.atoms(sympy.Rational), name
+        q = np.linspace(0.1, 0.7, table.n)
+        joints = dh_symbols(table.n)
+        numeric = np.array(T.subs(dh_length_symbols(table)).subs(dict(zip(joints, q))).evalf(), dtype=float)
+        assert np.abs(numeric - dh_fk(table, q)).max() < 1e-12

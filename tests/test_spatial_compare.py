@@ -355,9 +355,10 @@ def test_compare_rejects_an_invalid_model():
         compare_transform(np.diag([1.0, 1.0, -1.0, 1.0]), np.eye(4))
 
 
-def test_compare_rejects_a_non_4x4_hand_matrix():
-    with pytest.raises(InvalidTransformError, match=r"T_hand must have shape \(\.\.\., 4, 4\), got \(3, 3\)"):
-        compare_transform(T_MODEL, np.eye(3))
+def test_compare_rejects_a_hand_matrix_neither_4x4_nor_3x3():
+    # (a 3x3 is a rotation, compared with the rotation block: see the tests at the end)
+    with pytest.raises(InvalidTransformError, match=r"T_hand must have shape \(\.\.\., 4, 4\), got \(3, 4\)"):
+        compare_transform(T_MODEL, np.eye(3, 4))
 
 
 def test_comparison_result_is_frozen():
@@ -432,3 +433,54 @@ def test_read_matrix_skips_a_byte_order_mark(tmp_path):
     path = tmp_path / "hand.csv"
     path.write_bytes(b"\xef\xbb\xbf1,0,0,0.5\n0,1,0,0\n0,0,1,0\n0,0,0,1\n")
     assert read_matrix(path)[0].tolist() == [1, 0, 0, 0.5]
+
+
+# --------------------------------------------------------------------------
+# a 3x3 rotation compared with the model's rotation block (issue 14)
+
+
+def model_pose():
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = rot_z(0.5) @ rot_x(0.2), [0.3, -0.1, 0.8]
+    return T
+
+
+def test_a_3x3_rotation_is_compared_with_the_rotation_only():
+    T = model_pose()
+    result = compare_transform(T, T[:3, :3].copy())
+    assert result.rotation_only and result.agrees and math.isnan(result.position_error)
+    assert result.explain()[0].startswith("a 3x3 rotation: compared with the model's rotation only (the translation is "
+                                          "not checked); agrees with it")
+
+
+def test_a_3x3_rotation_that_differs_says_by_how_much_and_about_which_axis():
+    T = model_pose()
+    hand = T[:3, :3] @ rot_z(math.radians(2.0))  # 2 deg more about the model frame's z axis
+    result = compare_transform(T, hand)
+    assert not result.agrees and result.rotation_error_deg == pytest.approx(2.0, abs=1e-9)
+    text = "\n".join(result.explain())
+    assert "R_hand = R_model @ rotation of 2 deg about the model frame's +z axis" in text
+
+
+def test_a_transposed_3x3_rotation_is_named():
+    T = model_pose()
+    text = "\n".join(compare_transform(T, T[:3, :3].T.copy()).explain())
+    assert "the hand rotation is the transpose of the model's (the inverse rotation" in text
+
+
+def test_a_3x3_that_is_not_a_rotation_is_named():
+    T = model_pose()
+    result = compare_transform(T, np.diag([1.0, 1.0, -1.0]))
+    assert not result.agrees and result.violations and "det" in " ".join(result.violations)
+
+
+def test_read_matrix_takes_a_3x3_only_when_asked(tmp_path):
+    path = tmp_path / "R.txt"
+    path.write_text("0 -1 0\n1 0 0\n0 0 1\n")
+    assert read_matrix(path, rotation=True).shape == (3, 3)
+    with pytest.raises(InvalidTransformError, match="expected a 4x4 transform"):
+        read_matrix(path)
+    flat = tmp_path / "two.txt"
+    flat.write_text("1 0\n0 1\n")
+    with pytest.raises(InvalidTransformError, match="expected a 4x4 transform or a 3x3 rotation"):
+        read_matrix(flat, rotation=True)

@@ -754,3 +754,33 @@ def test_euler_functions_at_their_release_0_1_path_warn_and_are_the_same_functio
         assert rotations.euler_zyz_from_matrix is euler.euler_zyz_from_matrix
     with pytest.raises(AttributeError):
         _ = rotations.no_such_function
+
+
+# --------------------------------------------------------------------------
+# both forms of the rotation helpers (issue 14, finding 9)
+
+
+def test_rotation_helpers_take_the_angles_as_one_array_or_as_arguments():
+    from manipkit.spatial.euler import matrix_from_euler_zyx, matrix_from_euler_zyz
+    from manipkit.spatial.rotations import matrix_from_quaternion, matrix_from_rpy, rot_x, rot_y, rot_z
+
+    yaw, pitch, roll = 0.3, -0.2, 1.1
+    # independent: the product of elementary rotations, R = Rz(yaw) Ry(pitch) Rx(roll)
+    expected = rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)
+    assert np.abs(matrix_from_euler_zyx(yaw, pitch, roll) - expected).max() < 1e-15
+    assert np.abs(matrix_from_euler_zyx([yaw, pitch, roll]) - expected).max() < 1e-15
+    assert np.abs(matrix_from_rpy(roll, pitch, yaw) - expected).max() < 1e-15
+    assert np.abs(matrix_from_euler_zyz(0.4, 0.5, 0.6) - rot_z(0.4) @ rot_y(0.5) @ rot_z(0.6)).max() < 1e-15
+    s = np.sin(0.25)  # a turn of 0.5 rad about z: (0, 0, sin 0.25, cos 0.25)
+    assert np.abs(matrix_from_quaternion(0.0, 0.0, s, np.cos(0.25)) - rot_z(0.5)).max() < 1e-15
+    # the parts broadcast: three yaws with one pitch and roll
+    stack = matrix_from_euler_zyx(np.array([0.1, 0.2, 0.3]), 0.0, 0.0)
+    assert stack.shape == (3, 3, 3) and np.abs(stack[2] - rot_z(0.3)).max() < 1e-15
+
+
+def test_rotation_helper_with_some_parts_missing_says_which():
+    from manipkit.errors import InvalidRotationError
+    from manipkit.spatial.euler import matrix_from_euler_zyx
+
+    with pytest.raises(InvalidRotationError, match="roll missing"):
+        matrix_from_euler_zyx(0.1, 0.2)

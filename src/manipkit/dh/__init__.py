@@ -8,13 +8,16 @@ modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``
   :func:`dh_link_transform`, :func:`dh_fk` (the numeric core).
 - :mod:`~manipkit.dh.files`: :func:`load_dh`, :func:`save_dh`,
   :func:`dh_from_yaml`, :func:`yaml_from_dh` (the table file format).
-- :mod:`~manipkit.dh.text`: :func:`format_dh_table`, the boxed printout (``str(table)``).
+- :mod:`~manipkit.dh.text`: :func:`format_dh_table`, the boxed printout (``str(table)``);
+  :func:`html_dh_table`, :func:`latex_dh_table` (Jupyter's views).
 - :mod:`~manipkit.dh.symbolic`: :func:`dh_symbols`, :func:`dh_fk_symbolic`,
   :func:`shorthand`, :func:`format_symbolic` (forward kinematics in SymPy).
 - :mod:`~manipkit.dh.to_urdf`: :func:`urdf_from_dh`, a URDF whose chain equals the table's
   (:func:`save_urdf` writes it).
 - :mod:`~manipkit.dh.from_urdf`: :func:`dh_from_urdf_chain`, the table of a robot's chain.
-- :mod:`~manipkit.dh.check`: :func:`check_dh`, agreement with a robot and a diagnosis.
+- :mod:`~manipkit.dh.check`: :func:`check_dh`, agreement with a robot and a diagnosis
+  (with a corrected table).
+- :mod:`~manipkit.dh.entries`: rows as elementary transforms; :func:`reverse_joint`.
 
 The numeric and symbolic core needs numpy (and SymPy) only; :func:`check_dh`
 and :func:`dh_from_urdf_chain` take a loaded :class:`manipkit.Robot`. SymPy
@@ -22,11 +25,12 @@ and PyYAML are imported inside the functions that need them.
 """
 
 from manipkit.dh.check import DHCheck, check_dh
-from manipkit.dh.files import dh_from_yaml, load_dh, save_dh, yaml_from_dh
+from manipkit.dh.entries import reverse_joint
+from manipkit.dh.files import bundled_tables, dh_from_yaml, load_dh, save_dh, yaml_from_dh
 from manipkit.dh.from_urdf import dh_from_urdf_chain
-from manipkit.dh.symbolic import dh_fk_symbolic, dh_symbols, format_symbolic, shorthand
+from manipkit.dh.symbolic import dh_fk_symbolic, dh_length_symbols, dh_symbols, format_symbolic, shorthand
 from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, DHRow, DHTable, dh_fk, dh_link_transform
-from manipkit.dh.text import format_dh_table
+from manipkit.dh.text import format_dh_table, html_dh_table, latex_dh_table
 from manipkit.dh.to_urdf import save_urdf, urdf_from_dh
 
 # re-exported for compatibility: manipkit 0.1 offered it as manipkit.dh.transform_from_xyz_rpy
@@ -38,16 +42,21 @@ __all__ = [
     "DHCheck",
     "DHRow",
     "DHTable",
+    "bundled_tables",
     "check_dh",
     "dh_fk",
     "dh_fk_symbolic",
     "dh_from_urdf_chain",
     "dh_from_yaml",
+    "dh_length_symbols",
     "dh_link_transform",
     "dh_symbols",
     "format_dh_table",
     "format_symbolic",
+    "html_dh_table",
+    "latex_dh_table",
     "load_dh",
+    "reverse_joint",
     "save_dh",
     "save_urdf",
     "shorthand",

@@ -5,24 +5,38 @@ base frame to a tip frame; the same joint values go to both. Agreement is
 measured on sampled configurations inside the joint limits: the largest
 position error (m) and rotation error (rad) of ``T_base_tip``.
 
-The diagnosis compares the two chains as products of exponentials. At the
-zero configuration each joint i is a screw axis ``S_i = (w_i, v_i)`` in the
-base frame (w the unit axis, v = -w x p for a point p on it; ``(0, v)`` for
-a prismatic joint), and ``T(q) = exp([S_1] q_1) ... exp([S_n] q_n) M``.
-Two chains agree for all q exactly when their screws and their home poses
-``M`` are equal. So:
+The diagnosis looks for the simplest explanation first, each candidate
+checked on the samples (``DHCheck.candidate`` is the first corrected table
+that agrees):
 
-- a joint whose screw is the negative of the URDF's turns the other way;
-- the first joint whose screw differs otherwise is where the chains stop
-  agreeing (reported with the angle between the axes and their distance);
-- when every screw agrees (up to sign), a constant tool transform
-  ``X = M_dh^-1 M_urdf`` reconciles them;
-- a constant base transform ``B`` with ``Ad(B) S_dh = S_urdf`` moves every
-  axis at once (a shift along axes that are all parallel commutes with the
-  chain: it is put in ``B``, not in the tool transform); joint zero offsets
-  ``o`` move the axes after joint i about axis i. Each candidate correction
-  is checked on the samples, and the report says whether it reconciles the
-  two fully.
+1. **constant base and tool transforms**, any rotation: a tool ``X = M_dh^-1
+   M_urdf`` alone, a base ``B = M_urdf M_dh^-1`` alone, then both, with ``B``
+   fitted (Kabsch) so that ``Ad(B) S_dh = S_urdf`` for the screws at q = 0
+   and at two sampled configurations (a shift along axes that are all
+   parallel commutes with the chain: it is put in ``B``);
+2. **one table entry**: for every row and parameter (a, alpha, d, theta)
+   the value that makes the table agree, in closed form (FK is ``L E(v) R``
+   with ``E`` the entry's ``Tx``, ``Rx``, ``Tz`` or ``Rz``: least squares in
+   ``v`` or in ``(cos v, sin v)``), named as "row 2: a = 0.43 m, the URDF
+   implies 0.425 m"; every entry that alone explains the difference is
+   named (theta of row 1 and a base turn about z can be the same thing), so
+   a flipped alpha is that alpha, not a reversed joint; then one length
+   (a or d) together with a base and tool transform (a published table
+   whose base is turned against the URDF's and one length mistyped);
+3. **one joint turning the other way** (:func:`~manipkit.dh.entries.reverse_joint`), with a base
+   and tool refitted if need be;
+4. otherwise, the chains are compared as products of exponentials. At the
+   zero configuration each joint i is a screw axis ``S_i = (w_i, v_i)`` in the
+   base frame (w the unit axis, v = -w x p for a point p on it; ``(0, v)`` for
+   a prismatic joint), and ``T(q) = exp([S_1] q_1) ... exp([S_n] q_n) M``. Two
+   chains agree for all q exactly when their screws and home poses ``M``
+   are equal: a joint whose screw is the negative of the URDF's turns the
+   other way, the first joint whose screw differs otherwise is where the
+   chains stop agreeing (with the angle between the axes and their
+   distance), and joint zero offsets are tried. When the rows match the
+   URDF chain in kind, the table :func:`~manipkit.dh.from_urdf.dh_from_urdf_chain`
+   derives in the same convention names every entry that differs (and is
+   the candidate).
 
 The screws are taken numerically (central differences of the FK, error
 about 1e-10), the same way for both sources, so no DH convention is assumed.
@@ -37,15 +51,19 @@ module does not import :mod:`manipkit.kinematics`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from itertools import pairwise
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.dh.entries import _ANGLES, _ENTRIES, _GENERATORS, _row_factors, dh_link_matrices, reverse_joint
+from manipkit.dh.from_urdf import dh_from_urdf_chain
 from manipkit.dh.table import DHTable, dh_fk
-from manipkit.spatial.rotations import rpy_from_matrix
+from manipkit.dh.text import NOISE
+from manipkit.errors import ManipkitError
+from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
 from manipkit.spatial.transforms import invert_transform, pose_error
 from manipkit.text import short_text, vector_text
 
@@ -77,6 +95,9 @@ class DHCheck:
         URDF joints the rows map to.
     samples, tol : int, float
         How the check was run.
+    candidate : DHTable or None
+        When the table does not agree: a corrected table that does (the
+        first full reconciliation the diagnosis names), else None.
     """
 
     max_position_error: float
@@ -86,6 +107,7 @@ class DHCheck:
     joints: tuple[str, ...]
     samples: int
     tol: float
+    candidate: DHTable | None = None
 
 
 def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str = "ee_link",
@@ -126,8 +148,17 @@ def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str 
     position_errors, rotation_errors = pose_error(urdf_fk(Q), dh_fk(table, Q))
     max_position, max_rotation = float(position_errors.max()), float(rotation_errors.max())
     passed = max_position <= tol and max_rotation <= tol
-    diagnosis = () if passed else tuple(_diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation))
-    return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol)
+    diagnosis, candidate = (), None
+    if not passed:
+        def derive():
+            try:
+                return dh_from_urdf_chain(robot, base, tip, convention=table.convention)
+            except ManipkitError:
+                return None
+
+        lines, candidate = _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive)
+        diagnosis = tuple(lines)
+    return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol, candidate)
 
 
 def _urdf_fk(robot: Robot, base: str, tip: str, index: list[int]):
@@ -226,7 +257,16 @@ def _line_distance(w1, p1, w2, p2) -> float:
     return float(abs((p2 - p1) @ normal) / np.linalg.norm(normal))
 
 
-def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> list[str]:
+def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive) -> tuple[list[str], DHTable | None]:
+    """The diagnosis lines and the first corrected table that agrees (None when none was found).
+
+    In stages, simplest explanation first: (1) constant base and tool
+    transforms (any rotation), (2) one table entry (row, parameter), (3) one
+    joint turning the other way (with base and tool refitted); only when none
+    of these reconciles the two chains, the screw comparison below locates
+    where they stop agreeing, and the table derived from the URDF in the
+    same convention (``derive()``) names the entries that differ.
+    """
     n = len(joints)
     dh = partial(dh_fk, table)
     lines = [(
@@ -234,11 +274,31 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> lis
         f"{short_text(max_rotation, 4)} rad ({short_text(math.degrees(max_rotation), 4)} deg) over {len(Q)} samples"
     )]
     if n == 0:
-        return lines + [_tool_line(_home_difference(urdf_fk, dh, np.zeros(0)))]
+        return lines + [_tool_line(_home_difference(urdf_fk, dh, np.zeros(0)))], None
+    limit = max(tol, RECONCILE_TOL)
+    fit = _Fit(table, urdf_fk, Q)
+
+    full = [c for c in fit.base_and_tool(table, "") if c[2] <= limit][:1]  # stage 1: the simplest one
+    full += [c for c in fit.single_entries() if c[2] <= limit]  # stage 2: every entry that alone explains it
     S_u, S_d = screws(urdf_fk, n), screws(dh, n)
     verdicts = [_compare_screws(S_u[i], S_d[i]) for i in range(n)]
     signs = np.array([-1.0 if v == "reversed" else 1.0 for v in verdicts])
     reversed_joints = [i for i, v in enumerate(verdicts) if v == "reversed"]
+    if not full:  # stage 2b: one length and a base or tool transform
+        full = [c for c in fit.length_entries_with_base_and_tool() if c[2] <= limit]
+    if not full:
+        full = fit.reversed_joints(joints, limit)  # stage 3
+        if full and len(reversed_joints) > 1:  # several joints reversed as the table stands, if that explains it too
+            turned = " and ".join(f"joint {i + 1} ({joints[i]}) turns the other way" for i in reversed_joints)
+            full += [(f"{turned}: {text}", None, residual)
+                     for text, residual in _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol)
+                     if residual <= limit][:1]
+    if full:
+        (text, candidate, residual), *others = full
+        lines.append(f"{text}: reconciles them fully (remaining error {short_text(residual, 2)})")
+        lines += [f"or equally {other}: reconciles them fully" for other, _, _ in others]
+        return lines, candidate
+
     differing = [i for i, v in enumerate(verdicts) if v not in ("same", "reversed")]
     for i in reversed_joints:
         lines.append(
@@ -255,15 +315,22 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation) -> lis
                      (" (some reversed)" if reversed_joints else ""))
 
     candidates = _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol)
-    full = [c for c in candidates if c[1] <= max(tol, RECONCILE_TOL)]
+    full = [c for c in candidates if c[1] <= limit]
     if full:
         lines.append(f"{full[0][0]}: reconciles them fully (remaining error {short_text(full[0][1], 2)})")
     else:
         best = min(candidates, key=lambda c: c[1], default=None)
         if best is not None and best[1] < 0.5 * max(max_position, max_rotation):
             lines.append(f"{best[0]}: reduces the error to {short_text(best[1], 3)} but does not reconcile them fully")
-        lines.append("no constant base or tool transform, joint zero offset or joint direction change reconciles them")
-    return lines
+        lines.append("no constant base or tool transform, single table entry, joint zero offset or joint direction "
+                     "change reconciles them")
+    derived = derive()
+    differences = _entry_differences(table, derived) if derived is not None else []
+    if not differences:
+        return lines, None
+    # the derived table, with the table's own names, limits and name: it agrees by construction
+    rows = tuple(replace(new, qlim=row.qlim, name=row.name) for row, new in zip(table.rows, derived.rows))
+    return lines + differences, DHTable(rows, table.convention, table.name, base=derived.base, tool=derived.tool)
 
 
 def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
@@ -302,6 +369,247 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
         out.append((f"{flip_text}joint zero offsets ({described} added to theta) and {_tool_line(X)}",
                     _residual(urdf_fk, lambda q: dh(q * signs + offsets) @ X, Q)))
     return out
+
+
+_FIT_SAMPLES = 32  # configurations an entry's value is fitted on (then checked on all samples)
+
+
+class _Fit:
+    """Corrections of a table fitted to the URDF's poses ``T_u`` at the samples ``Q`` (each checked on all of them)."""
+
+    def __init__(self, table: DHTable, urdf_fk, Q):
+        self.table, self.urdf_fk, self.Q = table, urdf_fk, Q
+        self.T_u = urdf_fk(Q)
+        n = table.n
+        self.M_u = urdf_fk(np.zeros(n))
+        # screws at q = 0 and at two sampled configurations: axes in general position fix any base rotation
+        self.configurations = [np.zeros(n), *Q[:2]]
+        self.S_u = np.vstack([_precise_screws(urdf_fk, n, q) for q in self.configurations])
+
+    def residual(self, candidate: DHTable) -> float:
+        """Largest position (m) or rotation (rad) error of ``candidate`` against the URDF over the samples."""
+        position, rotation = pose_error(self.T_u, dh_fk(candidate, self.Q))
+        return float(max(position.max(), rotation.max()))
+
+    def base_and_tool(self, variant: DHTable, prefix: str) -> list:
+        """``(text, corrected table, residual)`` for a new tool, a new base, then both (any rotations)."""
+        n = variant.n
+        M_d = dh_fk(variant, np.zeros(n))
+        out = []
+
+        def add(text, B, X):
+            base = variant.base if np.array_equal(B, np.eye(4)) else _snapped(_snapped(B) @ variant.base)
+            tool = variant.tool if np.array_equal(X, np.eye(4)) else _snapped(variant.tool @ _snapped(X))
+            candidate = DHTable(variant.rows, variant.convention, variant.name, base=base, tool=tool)
+            out.append((prefix + text, candidate, self.residual(candidate)))
+
+        X = invert_transform(M_d) @ self.M_u  # T_urdf(q) = T_dh(q) X
+        B = self.M_u @ invert_transform(M_d)  # T_urdf(q) = B T_dh(q)
+        if np.abs(X - np.eye(4)).max() < RECONCILE_TOL:  # the home poses agree: the table as it is
+            add("", np.eye(4), np.eye(4))
+        else:
+            add(_tool_line(X), np.eye(4), X)
+            add(f"a constant base transform {_pose_text(B)} (before row 1)", B, np.eye(4))
+        S_d = np.vstack([_precise_screws(partial(dh_fk, variant), n, q) for q in self.configurations])
+        B = _align_axes(self.S_u, S_d, self.M_u[:3, 3], M_d[:3, 3])  # Ad(B) S_dh = S_urdf, then X at the tip
+        if B is not None:
+            X = invert_transform(B @ M_d) @ self.M_u
+            add(f"a base transform {_pose_text(B)} and a tool transform {_pose_text(X)}", B, X)
+        return out
+
+    def single_entries(self) -> list:
+        """``(text, corrected table, residual)`` for each entry whose right value alone makes the table agree.
+
+        The value is fitted in closed form: FK is ``L E(v) R`` with ``E`` the
+        entry's elementary transform (``Tx(a)``, ``Rx(alpha)``, ``Tz(d)``,
+        ``Rz(theta)``), affine in ``v`` (lengths) or in ``(cos v, sin v)``
+        (angles), so least squares over the samples gives ``v``.
+        """
+        out = []
+        table = self.table
+        for i, row in enumerate(table.rows):
+            for entry in _ENTRIES:
+                value = self._fit_entry(i, entry)
+                if value is None:
+                    continue
+                value = _snapped_entry(entry, value)
+                current = getattr(row, entry)
+                change = math.remainder(value - current, 2 * math.pi) if entry in _ANGLES else value - current
+                if abs(change) < 1e-12:
+                    continue
+                rows = list(table.rows)
+                rows[i] = replace(row, **{entry: value})
+                candidate = replace(table, rows=tuple(rows))
+                out.append((
+                    f"row {i + 1}: {entry} = {_entry_text(entry, current)}, the URDF implies {_entry_text(entry, value)}",
+                    candidate, self.residual(candidate),
+                ))
+        return out
+
+    def _around(self, i: int, entry: str):
+        """(L, G, R) over the fitting samples: FK of the table is ``L E(v) R`` with ``E = exp(v G)`` the entry's."""
+        table = self.table
+        Q = self.Q[:_FIT_SAMPLES]
+        links = [dh_link_matrices(table, k, Q[:, k]) for k in range(table.n)]
+        L = np.broadcast_to(table.base, (len(Q), 4, 4))
+        for A in links[:i]:
+            L = L @ A
+        R = np.broadcast_to(table.tool, (len(Q), 4, 4))
+        for A in reversed(links[i + 1:]):
+            R = A @ R
+        factors = _row_factors(table.rows[i], Q[:, i], table.convention)
+        k = [name for name, _ in factors].index(entry)
+        for _, F in factors[:k]:
+            L = L @ F
+        for _, F in reversed(factors[k + 1:]):
+            R = F @ R
+        return L, _GENERATORS[entry], R
+
+    def _fit_entry(self, i: int, entry: str) -> float | None:
+        L, G, R = self._around(i, entry)
+        T_u = self.T_u[:_FIT_SAMPLES]
+        if entry in _ANGLES:  # E = I + sin(v) K + (1 - cos(v)) K^2
+            Y = (T_u - L @ (np.eye(4) + G @ G) @ R)[:, :3].ravel()
+            A = np.stack([(L @ G @ R)[:, :3].ravel(), -(L @ G @ G @ R)[:, :3].ravel()], axis=1)
+            (s, c), *_ = np.linalg.lstsq(A, Y, rcond=None)
+            return float(math.atan2(s, c)) if math.hypot(s, c) > 0.5 else None
+        Y = (T_u - L @ R)[:, :3].ravel()  # E = I + v G
+        A = (L @ G @ R)[:, :3].ravel()
+        norm = float(A @ A)
+        return float(A @ Y / norm) if norm > 1e-18 else None
+
+    def length_entries_with_base_and_tool(self) -> list:
+        """``(text, corrected table, residual)`` for each length (a or d) whose right value, with a constant base
+        and tool transform, makes the table agree.
+
+        A length changes no joint axis direction, so the base rotation ``R_B``
+        comes from the axes (:func:`_align_axes`) and the tool rotation from
+        the home poses; what is left, ``p_urdf(q) = R_B (R_LR(q) t_X + p_LR(q)
+        + v c(q)) + t_B``, is linear in the tool shift ``t_X``, the value ``v``
+        and the base shift ``t_B``: least squares over the samples. A length
+        that a base or tool shift could stand in for (d of row 1, say) is not
+        named.
+        """
+        table, n = self.table, self.table.n
+        M_d = dh_fk(table, np.zeros(n))
+        S_d = np.vstack([_precise_screws(partial(dh_fk, table), n, q) for q in self.configurations])
+        B = _align_axes(self.S_u, S_d, self.M_u[:3, 3], M_d[:3, 3])
+        if B is None:
+            return []
+        R_B = B[:3, :3]
+        R_X = (R_B @ M_d[:3, :3]).T @ self.M_u[:3, :3]
+        p_u = self.T_u[:_FIT_SAMPLES, :3, 3]
+        out = []
+        for i, row in enumerate(table.rows):
+            for entry in ("a", "d"):
+                L, G, R = self._around(i, entry)
+                LR, c = L @ R, (L @ G @ R)[:, :3, 3]
+                m = len(LR)
+                A = np.concatenate([R_B @ LR[:, :3, :3], (c @ R_B.T)[:, :, None], np.broadcast_to(np.eye(3), (m, 3, 3))],
+                                   axis=2).reshape(3 * m, 7)
+                y = (p_u - LR[:, :3, 3] @ R_B.T).reshape(3 * m)
+                rank = np.linalg.matrix_rank(A, tol=1e-9)
+                if rank < 7 or np.linalg.matrix_rank(np.delete(A, 3, axis=1), tol=1e-9) < 6:
+                    continue  # v is not told apart from a base or tool shift
+                x = np.linalg.lstsq(A, y, rcond=None)[0]
+                value = _snapped_entry(entry, float(x[3]))
+                if abs(value - getattr(row, entry)) < 1e-12:
+                    continue
+                rows = list(table.rows)
+                rows[i] = replace(row, **{entry: value})
+                variant = replace(table, rows=tuple(rows))
+                base, tool = np.eye(4), np.eye(4)
+                base[:3, :3], base[:3, 3] = R_B, x[4:]
+                tool[:3, :3], tool[:3, 3] = R_X, x[:3]
+                base, tool = _snapped(base), _snapped(tool)
+                candidate = replace(variant, base=_snapped(base @ table.base), tool=_snapped(table.tool @ tool))
+                placed = [text for text, T in ((f"a constant base transform {_pose_text(base)} (before row 1)", base),
+                                               (_tool_line(tool), tool)) if np.abs(T - np.eye(4)).max() >= RECONCILE_TOL]
+                out.append((
+                    f"row {i + 1}: {entry} = {_entry_text(entry, getattr(row, entry))}, the URDF implies "
+                    f"{_entry_text(entry, value)}" + "".join(f", with {text}" for text in placed),
+                    candidate, self.residual(candidate),
+                ))
+        return out
+
+    def reversed_joints(self, joints, limit: float) -> list:
+        """``(text, corrected table, residual)`` for each joint that, turned the other way (with a base and
+        tool transform refitted if need be), makes the table agree."""
+        out = []
+        for j in range(self.table.n):
+            variant = reverse_joint(self.table, j)
+            changes = "; ".join(_entry_changes(self.table, variant))
+            prefix = f"joint {j + 1} ({joints[j]}) turns the other way: reversing it in the table ({changes})"
+            fits = [(text.removesuffix(", with "), candidate, residual)
+                    for text, candidate, residual in self.base_and_tool(variant, prefix + ", with ")]
+            out += [fit for fit in fits if fit[2] <= limit][:1]
+        return out
+
+
+def _snapped(T: np.ndarray) -> np.ndarray:
+    """``T`` with entries within 1e-12 of 0 or +-1 made exact (fitting noise), so a written table reads clean."""
+    T = np.where(np.abs(T) < 1e-12, 0.0, T)
+    return np.where(np.abs(np.abs(T) - 1.0) < 1e-12, np.sign(T), T)
+
+
+def _snapped_entry(entry: str, value: float) -> float:
+    """A fitted entry with its noise removed: angles within 1e-12 rad of a multiple of 15 deg made that
+    multiple, lengths rounded to 1e-12 m (the candidate is checked on the samples afterwards)."""
+    if entry in _ANGLES:
+        k = round(value / (math.pi / 12))
+        return k * math.pi / 12 if abs(value - k * math.pi / 12) < 1e-12 else value
+    return round(value, 12)
+
+
+def _precise_screws(fk, n: int, q0) -> np.ndarray:
+    """:func:`screws` with Richardson extrapolation of two steps (error about 1e-12 instead of 1e-10)."""
+    return (4.0 * screws(fk, n, q0, step=5e-4) - screws(fk, n, q0, step=1e-3)) / 3.0
+
+
+def _entry_text(entry: str, value: float) -> str:
+    if entry in _ANGLES:
+        return f"{short_text(math.degrees(float(wrap_angle(value))), 6, zero=math.degrees(NOISE))} deg"
+    return f"{short_text(value, 6, zero=NOISE)} m"
+
+
+def _entry_changes(table: DHTable, other: DHTable) -> list[str]:
+    """``row 2: alpha 0 deg -> 180 deg``, one per entry that differs; base and tool when they differ."""
+    out = []
+    for i, (row, new) in enumerate(zip(table.rows, other.rows)):
+        for entry in _ENTRIES:
+            old_value, new_value = getattr(row, entry), getattr(new, entry)
+            gap = math.remainder(new_value - old_value, 2 * math.pi) if entry in _ANGLES else new_value - old_value
+            if abs(gap) > 1e-9:
+                out.append(f"row {i + 1}: {entry} {_entry_text(entry, old_value)} -> {_entry_text(entry, new_value)}")
+    for what in ("base", "tool"):
+        if np.abs(getattr(table, what) - getattr(other, what)).max() > 1e-9:
+            out.append(f"{what} {_pose_text(getattr(other, what))}")
+    return out
+
+
+def _entry_differences(table: DHTable, derived: DHTable) -> list[str]:
+    """Every entry in which ``table`` differs from the one derived from the URDF, when their rows match in kind."""
+    if [r.type for r in table.rows] != [r.type for r in derived.rows]:
+        return []
+    out = []
+    for i, (row, new) in enumerate(zip(table.rows, derived.rows)):
+        for entry in _ENTRIES:
+            mine, urdf = getattr(row, entry), getattr(new, entry)
+            gap = math.remainder(urdf - mine, 2 * math.pi) if entry in _ANGLES else urdf - mine
+            if abs(gap) > 1e-9:
+                out.append(f"row {i + 1}: {entry} = {_entry_text(entry, mine)}, the URDF implies {_entry_text(entry, urdf)}")
+    for what in ("base", "tool"):
+        if np.abs(getattr(table, what) - getattr(derived, what)).max() > 1e-9:
+            out.append(f"{what} {_pose_text(getattr(table, what))}, the URDF implies {_pose_text(getattr(derived, what))}")
+    if not out:
+        return []
+    shown = out[:12] + ([f"... and {len(out) - 12} more"] if len(out) > 12 else [])
+    return [
+        f"the {derived.convention} DH table derived from the URDF (as `manipkit dh from-urdf` derives it) differs in "
+        f"{len(out)} place(s); DH frames are not unique, so an entry can also differ where a frame was chosen "
+        "differently:",
+        *shown,
+    ]
 
 
 def _home_difference(urdf_fk, dh, q_dh):
@@ -404,11 +712,11 @@ def _tool_line(X) -> str:
 
 
 def _pose_text(T) -> str:
-    rpy = np.degrees(rpy_from_matrix(T[:3, :3], check=False))
-    return f"xyz {_vector_message(T[:3, 3])} m, rpy {_vector_message(rpy, 4)} deg"
+    rpy = np.degrees(rpy_from_matrix(T[:3, :3], check=False, gimbal_tol=NOISE))  # at gimbal lock roll is 0
+    return f"xyz {_vector_message(T[:3, 3])} m, rpy {_vector_message(rpy, 6, zero=math.degrees(NOISE))} deg"
 
 
-def _vector_message(values, digits: int = 6) -> str:
-    """:func:`manipkit.text.vector_text` with ``digits`` significant digits; entries within 1e-9 of zero
-    (finite-difference noise) print as 0."""
-    return vector_text(values, lambda v: short_text(v, digits, zero=1e-9))
+def _vector_message(values, digits: int = 6, *, zero: float = 1e-9) -> str:
+    """:func:`manipkit.text.vector_text` with ``digits`` significant digits; entries within ``zero`` of zero
+    (finite-difference noise: 1e-9 m, 1e-7 deg) print as 0."""
+    return vector_text(values, lambda v: short_text(v, digits, zero=zero))

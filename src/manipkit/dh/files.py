@@ -34,7 +34,11 @@ from manipkit.outputs import write_text
 from manipkit.spatial.transforms import transform_from_xyz_rpy
 from manipkit.text import short_text
 
-__all__ = ["ANGLE_UNITS", "MAX_YAML_DEPTH", "MAX_YAML_NODES", "dh_from_yaml", "load_dh", "save_dh", "yaml_from_dh"]
+__all__ = [
+    "ANGLE_UNITS", "MAX_YAML_DEPTH", "MAX_YAML_NODES", "bundled_tables", "dh_from_yaml", "load_dh", "pi_expression_value",
+    "save_dh",
+    "yaml_from_dh",
+]
 
 ANGLE_UNITS = ("rad", "deg")
 #: Values (scalars, lists, mappings) a DH table file may hold: about 20 a row, for ``MAX_DH_ROWS`` rows.
@@ -49,8 +53,26 @@ _ROW_OPTIONAL = ("type", "qlim", "name")
 _PLACEMENT_FIELDS = ("xyz", "rpy")
 
 
+def bundled_tables() -> dict[str, Path]:
+    """Bundled DH table names -> their files (``robots/dh/NAME.yaml``; ``manipkit/data/robots/dh`` in a wheel).
+
+    The same folder :func:`manipkit.description.sources.bundled_dh_tables`
+    lists; found here from this package's location, since dh sits below
+    description in the layers (docs/architecture.md).
+    """
+    package = Path(__file__).resolve().parents[1]  # src/manipkit (or site-packages/manipkit)
+    for folder in (package.parents[1] / "robots" / "dh", package / "data" / "robots" / "dh"):
+        if folder.is_dir():
+            return {p.stem: p for p in sorted(folder.glob("*.yaml"))}
+    return {}
+
+
 def load_dh(path: str | os.PathLike) -> DHTable:
-    """Read a DH table file (YAML, docs/architecture.md "DH table files").
+    """Read a DH table file (YAML, docs/architecture.md "DH table files"), or a bundled table by name.
+
+    ``path`` may be a bundled table's name (``"iiwa14"``, ``"iiwa14_seed004"``;
+    :func:`bundled_tables`), as ``manipkit dh show NAME`` takes it: a name
+    is looked up first, then a file.
 
     The format::
 
@@ -104,12 +126,18 @@ def load_dh(path: str | os.PathLike) -> DHTable:
     >>> table.convention, table.n
     ('standard', 2)
     """
+    bundled = bundled_tables()
+    if isinstance(path, str) and path in bundled:
+        path = bundled[path]
     path = Path(path)
     try:
         text = read_text(path, what="DH table file", max_bytes=MAX_TABLE_BYTES)
     except InputFileError as exc:
         if not path.exists() and not path.is_symlink():
-            raise DHTableError(f"{path}: no such DH table file") from None
+            close = difflib.get_close_matches(str(path), list(bundled), n=3, cutoff=0.5)
+            hint = f"did you mean {', '.join(close)}? " if close else ""
+            raise DHTableError(f"{path}: no such DH table file; {hint}bundled tables: "
+                               f"{', '.join(bundled) or 'none'}, or a path to a .yaml file") from None
         raise DHTableError(str(exc)) from None
     name = path.name[: -len(".yaml")] if path.name.endswith(".yaml") else path.stem
     return dh_from_yaml(text, source=str(path), default_name=name)
@@ -317,10 +345,108 @@ def _number(value, source: str, what: str, unit: str) -> float:
     return number
 
 
+_PI_TOKEN = re.compile(r"\s*(?:(\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)|(pi|π)|([-+*/()]))")
+_LONGEST_EXPRESSION = 60  # characters of a pi expression: "-3*pi/4", "(pi/2 + 0.1)"
+
+
+def pi_expression_value(text: str) -> float | None:
+    """The value of an angle written with pi (``pi/2``, ``-pi/4``, ``3*pi/4``, ``2pi/3``, ``(pi + 0.1)/2``), or None.
+
+    A small parser, not ``eval``: numbers, ``pi`` (or ``π``), ``+ - * /``,
+    parentheses and a number written before ``pi`` (``2pi``), at most
+    ``_LONGEST_EXPRESSION`` characters. None when ``text`` is not such an
+    expression (or has no pi: a plain number is read as one elsewhere).
+
+    >>> pi_expression_value("-pi/4"), pi_expression_value("2*pi/3") == 2 * math.pi / 3, pi_expression_value("pie")
+    (-0.7853981633974483, True, None)
+    """
+    text = text.strip()
+    if len(text) > _LONGEST_EXPRESSION or not ("pi" in text or "π" in text):
+        return None
+    tokens, position = [], 0
+    while position < len(text):
+        match = _PI_TOKEN.match(text, position)
+        if match is None or match.end() == position:
+            return None
+        number, pi, operator = match.groups()
+        tokens.append(float(number) if number else math.pi if pi else operator)
+        position = match.end()
+    tokens.append(None)  # the end
+    at = 0
+
+    def peek():
+        return tokens[at]
+
+    def take():
+        nonlocal at
+        at += 1
+        return tokens[at - 1]
+
+    def factor(depth=0):
+        if depth > 20:
+            raise ValueError
+        token = take()
+        if token in ("+", "-"):
+            value = factor(depth + 1)
+            return value if token == "+" else -value
+        if token == "(":
+            value = expression(depth + 1)
+            if take() != ")":
+                raise ValueError
+        elif isinstance(token, float):
+            value = token
+        else:
+            raise ValueError
+        if isinstance(peek(), float) and peek() == math.pi:  # 2pi
+            take()
+            value *= math.pi
+        return value
+
+    def term(depth):
+        value = factor(depth)
+        while peek() in ("*", "/"):
+            operator, right = take(), factor(depth)
+            value = value * right if operator == "*" else value / right
+        return value
+
+    def expression(depth=0):
+        value = term(depth)
+        while peek() in ("+", "-"):
+            operator, right = take(), term(depth)
+            value = value + right if operator == "+" else value - right
+        return value
+
+    try:
+        value = expression()
+    except (ValueError, ZeroDivisionError, OverflowError):
+        return None
+    return value if peek() is None and math.isfinite(value) else None
+
+
+def _angle(value, source: str, what: str, angles: str, to_rad) -> float:
+    """An angle in radians: a number in the file's unit, or (``angles: rad``) a pi expression such as ``pi/2``."""
+    if isinstance(value, str) and not isinstance(value, _HugeInteger) and ("pi" in value or "π" in value):
+        if angles == "deg":
+            raise DHTableError(f"{source}: {what} is {_short(value)}, a pi expression, but the file's angles are "
+                               "degrees; write degrees (90), or set angles: rad")
+        number = pi_expression_value(value)
+        if number is None:
+            raise DHTableError(f"{source}: {what} is {_short(value)}, not a number or pi expression; give radians "
+                               "as a number or with pi (pi/2, -pi/4, 3*pi/4)")
+        return number
+    return to_rad(_number(value, source, what, _angle_unit(angles)))
+
+
 def _numbers(value, count: int, source: str, what: str, unit: str) -> list[float]:
     if not isinstance(value, list) or len(value) != count:
         raise DHTableError(f"{source}: {what} must be a list of {count} numbers in {unit}; got {_kind(value)}")
     return [_number(v, source, f"{what} entry {i}", unit) for i, v in enumerate(value, start=1)]
+
+
+def _angles(value, count: int, source: str, what: str, angles: str, to_rad) -> list[float]:
+    if not isinstance(value, list) or len(value) != count:
+        raise DHTableError(f"{source}: {what} must be a list of {count} numbers in {_angle_unit(angles)}; got {_kind(value)}")
+    return [_angle(v, source, f"{what} entry {i}", angles, to_rad) for i, v in enumerate(value, start=1)]
 
 
 def _angle_unit(angles: str) -> str:
@@ -332,20 +458,21 @@ def _row_from_yaml(item, index: int, source: str, angles: str, to_rad) -> DHRow:
     if not isinstance(item, dict):
         raise DHTableError(f"{source}: {where} must be a mapping {{a, alpha, d, theta}}; got {_kind(item)}")
     _check_keys(item, _ROW_FIELDS + _ROW_OPTIONAL, _ROW_FIELDS, source, where)
-    angle_unit = _angle_unit(angles)
     a = _number(item["a"], source, f"{where}: field 'a'", "metres")
     d = _number(item["d"], source, f"{where}: field 'd'", "metres")
-    alpha = to_rad(_number(item["alpha"], source, f"{where}: field 'alpha'", angle_unit))
-    theta = to_rad(_number(item["theta"], source, f"{where}: field 'theta'", angle_unit))
+    alpha = _angle(item["alpha"], source, f"{where}: field 'alpha'", angles, to_rad)
+    theta = _angle(item["theta"], source, f"{where}: field 'theta'", angles, to_rad)
     kind = _choice(item.get("type", "revolute"), JOINT_TYPES, source, f"{where}: field 'type'")
     qlim = None
     if item.get("qlim") is not None:
-        unit = angle_unit if kind == "revolute" else "metres"
-        lower, upper = _numbers(item["qlim"], 2, source, f"{where}: field 'qlim'", unit)
-        if not lower < upper:
-            raise DHTableError(f"{source}: {where}: field 'qlim' is [{short_text(lower)}, {short_text(upper)}]; the lower limit must be below the upper")
         if kind == "revolute":
-            lower, upper = to_rad(lower), to_rad(upper)
+            lower, upper = _angles(item["qlim"], 2, source, f"{where}: field 'qlim'", angles, to_rad)
+        else:
+            lower, upper = _numbers(item["qlim"], 2, source, f"{where}: field 'qlim'", "metres")
+        if not lower < upper:
+            shown = (math.degrees if angles == "deg" and kind == "revolute" else float)
+            raise DHTableError(f"{source}: {where}: field 'qlim' is [{short_text(shown(lower))}, {short_text(shown(upper))}]; "
+                               "the lower limit must be below the upper")
         qlim = (lower, upper)
     name = item.get("name", "")
     name = check_dh_name("" if name is None else _text_of(name), f"{source}: {where}: field 'name'")
@@ -359,7 +486,7 @@ def _placement_from_yaml(value, what: str, source: str, angles: str, to_rad):
     if not value:
         return np.eye(4), None
     xyz = _numbers(value.get("xyz", [0, 0, 0]), 3, source, f"{what}: field 'xyz'", "metres")
-    rpy = [to_rad(v) for v in _numbers(value.get("rpy", [0, 0, 0]), 3, source, f"{what}: field 'rpy'", _angle_unit(angles))]
+    rpy = _angles(value.get("rpy", [0, 0, 0]), 3, source, f"{what}: field 'rpy'", angles, to_rad)
     return transform_from_xyz_rpy(xyz, rpy), tuple(rpy)
 
 

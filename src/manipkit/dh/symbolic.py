@@ -27,7 +27,8 @@ from manipkit.dh.table import DHTable
 from manipkit.errors import DHDerivationError
 
 __all__ = [
-    "EXACT_ANGLE_TOL", "MAX_SYMBOLIC_OPS", "MAX_SYMBOLIC_ROWS", "dh_fk_symbolic", "dh_symbols", "format_symbolic",
+    "EXACT_ANGLE_TOL", "MAX_SYMBOLIC_OPS", "MAX_SYMBOLIC_ROWS", "dh_fk_symbolic", "dh_length_symbols", "dh_symbols",
+    "format_symbolic",
     "shorthand",
 ]
 
@@ -167,9 +168,12 @@ def dh_fk_symbolic(
         ``"trigsimp"``: in addition ``sympy.trigsimp`` on every entry of
         the result (slow: about 20 s for the 7-joint iiwa).
         ``False``: the plain product.
-    symbols : str or sequence, keyword-only, optional
+    symbols : str, sequence or True, keyword-only, optional
         Joint symbols, see :func:`dh_symbols`; default ``q1 ... qn`` (real).
         A revolute row's symbol is added to ``theta``, a prismatic row's to ``d``.
+        ``True``: the default joint symbols, and the table's non-zero lengths
+        as symbols too (``L1``, ``d1``, ...; see :func:`dh_length_symbols`)
+        instead of exact numbers such as ``21/50``.
     exact_tol : float, keyword-only
         Relative tolerance within which an angle counts as a multiple of
         ``pi/12`` (default ``EXACT_ANGLE_TOL`` = 1e-12), see Notes.
@@ -217,12 +221,20 @@ def dh_fk_symbolic(
     if count > max_rows:
         raise DHDerivationError(f"DH table '{table.name}': {count} rows, above the limit of {max_rows} rows for "
                                 f"symbolic forward kinematics; {_NUMERIC_HINT}")
-    q = dh_symbols(table.n, symbols)
+    length_symbols = dh_length_symbols(table) if symbols is True else {}
+    named = {str(symbol): symbol for symbol in length_symbols}
+    q = dh_symbols(table.n, None if symbols is True else symbols)
+
+    def length(row_index: int, entry: str, value: float):
+        name = _length_name(table, row_index, entry)
+        return named[name] if name in named else _exact_length(value)
+
     T = sympy.eye(4) if np.array_equal(table.base, np.eye(4)) else _symbolic_placement(table, "base", exact_tol)
     for i, (row, qi) in enumerate(zip(table.rows[:count], q), start=1):
         theta = _exact_angle(row.theta, exact_tol) + (qi if row.is_revolute else 0)
-        d = _exact_length(row.d) + (0 if row.is_revolute else qi)
-        T = T * _symbolic_link(_exact_length(row.a), _exact_angle(row.alpha, exact_tol), d, theta, table.convention)
+        d = length(i, "d", row.d) + (0 if row.is_revolute else qi)
+        a = length(i, "a", row.a)
+        T = T * _symbolic_link(a, _exact_angle(row.alpha, exact_tol), d, theta, table.convention)
         _check_size(T, max_ops, table, f"row {i} of {table.n}")
         if simplify:
             T = T.applyfunc(TR10i)
@@ -234,6 +246,39 @@ def dh_fk_symbolic(
     if simplify == "trigsimp":
         T = T.applyfunc(sympy.trigsimp)
     return T
+
+
+def _length_name(table: DHTable, row: int, entry: str) -> str:
+    """``L{i}`` for the a of row ``row`` (1-based; ``a_{i-1}`` in modified DH, so ``L{i-1}``), ``d{i}`` for its d."""
+    if entry == "d":
+        return f"d{row}"
+    return f"L{row if table.convention == 'standard' else row - 1}"
+
+
+def dh_length_symbols(table: DHTable) -> dict:
+    """The table's non-zero lengths as SymPy symbols, with their values (m): ``{L1: 0.42, d1: 0.36, ...}``.
+
+    ``L{i}`` stands for ``a_i`` (standard DH: row i; modified DH: row i
+    holds ``a_{i-1}``, so ``L{i-1}``), ``d{i}`` for ``d_i`` (for a prismatic
+    row, its offset). Zero lengths get no symbol. These are the symbols
+    ``dh_fk_symbolic(table, symbols=True)`` writes; substitute the values back
+    with ``T.subs(dh_length_symbols(table))``.
+
+    Examples
+    --------
+    >>> from manipkit.dh.table import DHRow
+    >>> dh_length_symbols(DHTable([DHRow(0.42, 0, 0.36, 0), DHRow(0.4, 0, 0, 0)], "standard"))
+    {L1: 0.42, d1: 0.36, L2: 0.4}
+    """
+    import sympy
+
+    values = {}
+    for i, row in enumerate(table.rows, start=1):
+        for entry in ("a", "d"):
+            value = getattr(row, entry)
+            if value != 0:
+                values[sympy.Symbol(_length_name(table, i, entry), real=True)] = value
+    return values
 
 
 def _check_size(T, max_ops: int, table: DHTable, where: str) -> None:

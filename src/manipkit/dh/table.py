@@ -204,12 +204,31 @@ class DHTable:
 
         return format_dh_table(self)
 
+    def __repr__(self) -> str:
+        kinds = "".join("R" if row.is_revolute else "P" for row in self.rows)
+        placed = [what for what in ("base", "tool") if not np.array_equal(getattr(self, what), np.eye(4))]
+        return (f"DHTable({self.name!r}, {self.convention} DH, {self.n} joints {kinds}"
+                + "".join(f", with {what}" for what in placed) + "; print() it for the table)")
+
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the table as HTML (:func:`manipkit.dh.text.html_dh_table`)."""
+        from manipkit.dh.text import html_dh_table
+
+        return html_dh_table(self)
+
+    def _repr_latex_(self) -> str:
+        """LaTeX math of the table (:func:`manipkit.dh.text.latex_dh_table`), for Jupyter and nbconvert."""
+        from manipkit.dh.text import latex_dh_table
+
+        return latex_dh_table(self)
+
     @property
     def n(self) -> int:
         """Number of joints."""
         return len(self.rows)
 
-    def placement_xyz_rpy(self, which: str, *, check: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    def placement_xyz_rpy(self, which: str, *, check: bool = True,
+                          gimbal_tol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
         """Translation (m) and roll-pitch-yaw (rad) of ``base`` or ``tool``.
 
         ``R = Rz(yaw) Ry(pitch) Rx(roll)``. The table's ``base_rpy`` /
@@ -224,6 +243,11 @@ class DHTable:
             Default: a bottom row other than ``[0, 0, 0, 1]`` or a block that is
             not a rotation raises :class:`~manipkit.errors.DHTableError`.
             ``False`` (for printing): the block's angles are read as they are.
+        gimbal_tol : float, keyword-only
+            Computed angles: where ``cos(pitch) <= gimbal_tol`` the rotation
+            counts as gimbal-locked and roll is 0 (``rpy_from_matrix``). The
+            printout uses 1e-9, so a pitch of 90 deg up to rounding noise
+            reads ``[0, 90, yaw]`` instead of noise-chosen roll and yaw.
 
         Examples
         --------
@@ -238,7 +262,7 @@ class DHTable:
         if rpy_hint is not None and np.array_equal(matrix_from_rpy(np.array(rpy_hint)), T[:3, :3]):
             return T[:3, 3], np.array(rpy_hint)
         try:
-            rpy = rpy_from_matrix(T[:3, :3], check=check)
+            rpy = rpy_from_matrix(T[:3, :3], check=check, gimbal_tol=gimbal_tol)
         except InvalidRotationError as exc:
             raise DHTableError(f"DH table {which}: {exc}") from None
         return T[:3, 3], rpy

@@ -19,6 +19,7 @@ Only numpy is imported, so this module loads fast.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ import numpy as np
 
 from manipkit.errors import InputFileError, InvalidTransformError
 from manipkit.inputs import MAX_MATRIX_BYTES, check_input_file
-from manipkit.spatial.rotations import AXIS_NAMES, axis_angle_from_matrix
+from manipkit.spatial.rotations import AXIS_NAMES, axis_angle_from_matrix, rotation_violations
 from manipkit.spatial.transforms import (
     as_transforms,
     invert_transform,
@@ -44,8 +45,8 @@ __all__ = ["ComparisonResult", "compare_transform", "read_matrix"]
 # reading
 
 
-def read_matrix(path: str | os.PathLike) -> np.ndarray:
-    """Read a 4x4 homogeneous transform from a file.
+def read_matrix(path: str | os.PathLike, *, rotation: bool = False) -> np.ndarray:
+    """Read a 4x4 homogeneous transform (or, with ``rotation=True``, also a 3x3 rotation) from a file.
 
     Parameters
     ----------
@@ -63,9 +64,13 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
           Mathematica (``{{1, 0, 0, 0.1}, ...}``) are read, also after an
           assignment such as ``T = ``. ``#`` and ``%`` start comments.
 
+    rotation : bool, keyword-only
+        Accept a 3x3 matrix too (a rotation: ``tf --compare`` then compares
+        rotations only, ``manipkit rot matrix FILE`` reads one).
+
     Returns
     -------
-    T : ndarray, shape (4, 4)
+    T : ndarray, shape (4, 4), or (3, 3) with ``rotation=True``
         The matrix as written. It is not validated as a transform; see
         :func:`~manipkit.spatial.transforms.transform_violations`.
 
@@ -99,7 +104,7 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
     suffix = os.path.splitext(name)[1].lower()
     try:
         if suffix in (".npy", ".npz"):
-            return _finite(_read_npy(name), name)
+            return _finite(_read_npy(name, rotation), name)
         with open(name, "rb") as stream:
             text = stream.read(MAX_MATRIX_BYTES + 1).decode("utf-8").removeprefix("\ufeff")
     except OSError as exc:
@@ -110,7 +115,7 @@ def read_matrix(path: str | os.PathLike) -> np.ndarray:
         rows = _rows_from_json(text, name)
     else:
         rows = _rows_from_text(text, name)
-    return _finite(_check_shape(_matrix_from_rows(rows, name), name), name)
+    return _finite(_check_shape(_matrix_from_rows(rows, name), name, rotation), name)
 
 
 def _finite(matrix: np.ndarray, name: str) -> np.ndarray:
@@ -123,8 +128,8 @@ def _finite(matrix: np.ndarray, name: str) -> np.ndarray:
     return matrix
 
 
-def _read_npy(name: str) -> np.ndarray:
-    """The 4x4 array of a ``.npy`` file, memory-mapped first: a header claiming a huge shape allocates nothing."""
+def _read_npy(name: str, rotation: bool = False) -> np.ndarray:
+    """The 4x4 (or 3x3 rotation) array of a ``.npy`` file, memory-mapped first: a header claiming a huge shape allocates nothing."""
     try:
         array = np.load(name, mmap_mode="r", allow_pickle=False)
     except (ValueError, EOFError, OSError) as exc:
@@ -135,7 +140,7 @@ def _read_npy(name: str) -> np.ndarray:
         raise InvalidTransformError(f"{name}: holds several arrays, expected one 4x4 array")
     if not (np.issubdtype(array.dtype, np.number) or array.dtype == bool) or np.iscomplexobj(array):
         raise InvalidTransformError(f"{name}: holds {array.dtype} values, expected real numbers")
-    return np.array(_check_shape(array, name), dtype=float)  # a copy: the file is not kept open
+    return np.array(_check_shape(array, name, rotation), dtype=float)  # a copy: the file is not kept open
 
 
 def _rows_from_json(text: str, name: str) -> list[list]:
@@ -208,17 +213,18 @@ def _matrix_from_rows(rows: list[list[float]], name: str) -> np.ndarray:
     return np.array(rows, dtype=float)
 
 
-def _check_shape(array: np.ndarray, name: str) -> np.ndarray:
-    if array.shape == (4, 4):
+def _check_shape(array: np.ndarray, name: str, rotation: bool = False) -> np.ndarray:
+    if array.shape == (4, 4) or (rotation and array.shape == (3, 3)):
         return array
+    expected = "a 4x4 transform or a 3x3 rotation" if rotation else "a 4x4 transform"
     if array.shape == (3, 4):
         raise InvalidTransformError(f"{name}: has 3 rows of 4 numbers, expected 4x4 (add the last row 0 0 0 1)")
     if array.ndim == 2:
         rows, columns = array.shape
         raise InvalidTransformError(
-            f"{name}: has {rows} rows of {columns} numbers (a {rows}x{columns} matrix), expected a 4x4 transform"
+            f"{name}: has {rows} rows of {columns} numbers (a {rows}x{columns} matrix), expected {expected}"
         )
-    raise InvalidTransformError(f"{name}: holds an array of shape {array.shape}, expected a 4x4 transform")
+    raise InvalidTransformError(f"{name}: holds an array of shape {array.shape}, expected {expected}")
 
 
 # --------------------------------------------------------------------------
@@ -249,6 +255,10 @@ class ComparisonResult:
     hint_tol : float
         Looser tolerance used by :meth:`explain` to recognise typical
         mistakes in hand values rounded to a few decimals.
+    rotation_only : bool
+        The hand matrix was a 3x3 rotation: only the rotations were compared
+        (``position_error`` is NaN; ``T_hand`` holds the hand rotation with
+        the model's translation).
     """
 
     violations: tuple[str, ...]
@@ -259,6 +269,7 @@ class ComparisonResult:
     T_hand: np.ndarray = field(repr=False)
     tol: float = 1e-6
     hint_tol: float = 1e-3
+    rotation_only: bool = False
 
     def explain(self, *, summary: bool = True) -> list[str]:
         """Human-readable lines: the verdict, what is invalid, and the likely mistake.
@@ -282,6 +293,8 @@ class ComparisonResult:
             and a hint when the differences are rounding-sized.
         """
         lines = []
+        if self.rotation_only:
+            return self._explain_rotation(summary)
         if summary and self.agrees:
             lines.append(
                 f"agrees with the model within tol {short_text(self.tol)}: "
@@ -318,6 +331,33 @@ class ComparisonResult:
         return lines
 
 
+    def _explain_rotation(self, summary: bool) -> list[str]:
+        R, R_hand = self.T_model[:3, :3], self.T_hand[:3, :3]
+        lines = []
+        if summary:
+            verdict = "agrees with" if self.agrees else "does not agree with"
+            lines.append(f"a 3x3 rotation: compared with the model's rotation only (the translation is not checked); "
+                         f"{verdict} it within tol {short_text(self.tol)}: rotation error "
+                         f"{short_text(self.rotation_error_deg, 4)} deg")
+            lines += [f"hand matrix is not a rotation: {v}" for v in self.violations]
+        if self.agrees:
+            return lines
+        if not np.all(np.isfinite(R_hand)):
+            return lines + ["cannot diagnose further: the hand matrix has entries that are not finite"]
+        if np.abs(R_hand - R.T).max() <= max(self.tol, self.hint_tol) and np.abs(R_hand - R).max() > self.hint_tol:
+            lines.append("the hand rotation is the transpose of the model's (the inverse rotation: R_b_a instead of R_a_b)")
+        else:
+            lines.append("the rotation differs: " + _rotation_difference(R, R_hand))
+        difference = np.abs(R_hand - R)
+        i, j = np.unravel_index(np.argmax(difference), difference.shape)
+        lines.append(f"largest entry difference at R[{i}, {j}]: model {near_text(R[i, j], R_hand[i, j])}, "
+                     f"hand {near_text(R_hand[i, j], R[i, j])}")
+        if np.radians(self.rotation_error_deg) <= self.hint_tol and not rotation_violations(R_hand, tol=self.hint_tol):
+            lines.append(f"the difference is small; if your hand values are rounded, a tolerance of "
+                         f"{short_text(self.hint_tol)} would accept them")
+        return lines
+
+
 def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1e-3) -> ComparisonResult:
     """Compare a hand-derived transform with the model's.
 
@@ -325,8 +365,10 @@ def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1
     ----------
     T_model : array_like, shape (4, 4)
         The model's transform ``T_a_b`` (pose of frame b in frame a, metres).
-    T_hand : array_like, shape (4, 4)
-        The hand-derived transform meant to be the same ``T_a_b``.
+    T_hand : array_like, shape (4, 4) or (3, 3)
+        The hand-derived transform meant to be the same ``T_a_b``; or a 3x3
+        rotation meant to be its rotation block ``R_a_b``: then rotations
+        only are compared (``rotation_only``), and the result says so.
     tol : float, keyword-only
         Agreement tolerance: metres for the translation, radians for the
         rotation, and the tolerance of :func:`~manipkit.spatial.transforms.transform_violations`.
@@ -353,6 +395,8 @@ def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1
     'the hand matrix is the inverse of the model: the opposite direction (T_b_a, the pose of a in b, instead of T_a_b)'
     """
     T_model = as_transforms(T_model, "T_model")
+    if np.shape(T_hand) == (3, 3) and T_model.shape == (4, 4):
+        return _compare_rotation(T_model, np.asarray(T_hand, dtype=float), tol, hint_tol)
     T_hand = as_transforms(T_hand, "T_hand")
     if T_model.shape != (4, 4) or T_hand.shape != (4, 4):
         raise InvalidTransformError(
@@ -373,6 +417,28 @@ def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1
         T_hand=T_hand.copy(),
         tol=tol,
         hint_tol=hint_tol,
+    )
+
+
+def _compare_rotation(T_model: np.ndarray, R_hand: np.ndarray, tol: float, hint_tol: float) -> ComparisonResult:
+    """A 3x3 hand rotation against the model's rotation block: rotations only, the translation not compared."""
+    model_problems = transform_violations(T_model, tol=tol)
+    if model_problems:
+        raise InvalidTransformError(f"T_model is not a homogeneous transform: {'; '.join(model_problems)}")
+    violations = tuple(rotation_violations(R_hand, tol=tol))
+    T_hand = np.eye(4)
+    T_hand[:3, :3], T_hand[:3, 3] = R_hand, T_model[:3, 3]  # the model's translation: only rotations differ
+    _, rotation_error = (float(e) for e in pose_error(T_model, T_hand))
+    return ComparisonResult(
+        violations=violations,
+        position_error=math.nan,
+        rotation_error_deg=float(np.degrees(rotation_error)),
+        agrees=bool(not violations and rotation_error <= tol),
+        T_model=T_model.copy(),
+        T_hand=T_hand,
+        tol=tol,
+        hint_tol=hint_tol,
+        rotation_only=True,
     )
 
 

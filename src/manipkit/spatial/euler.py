@@ -17,7 +17,7 @@ import numpy as np
 
 from manipkit.spatial.rotations import (
     _as_matrices,
-    _as_vectors,
+    _vectors_or_parts,
     check_rotation,
     matrix_from_rpy,
     rpy_from_matrix,
@@ -32,8 +32,8 @@ __all__ = [
 ]
 
 
-def matrix_from_euler_zyx(ypr) -> np.ndarray:
-    """Rotation matrix from Euler ZYX angles ``(yaw, pitch, roll)``.
+def matrix_from_euler_zyx(ypr, pitch=None, roll=None) -> np.ndarray:
+    """Rotation matrix from Euler ZYX angles: ``matrix_from_euler_zyx([yaw, pitch, roll])`` or ``(yaw, pitch, roll)``.
 
     Parameters
     ----------
@@ -43,6 +43,9 @@ def matrix_from_euler_zyx(ypr) -> np.ndarray:
         the new y, then about the newest x. This is the same rotation as
         roll-pitch-yaw (URDF ``rpy``) with the triple reversed, so
         ``matrix_from_euler_zyx([a, b, c]) == matrix_from_rpy([c, b, a])``.
+        Or the yaw alone, when ``pitch`` and ``roll`` are given.
+    pitch, roll : array_like, optional
+        The other two angles as separate arguments (broadcast together).
 
     Returns
     -------
@@ -60,7 +63,7 @@ def matrix_from_euler_zyx(ypr) -> np.ndarray:
            [1., 0., 0.],
            [0., 1., 0.]])
     """
-    ypr = _as_vectors(ypr, 3, "ypr")
+    ypr = _vectors_or_parts(ypr, {"pitch": pitch, "roll": roll}, "ypr")
     return matrix_from_rpy(ypr[..., ::-1])
 
 
@@ -120,8 +123,8 @@ def euler_zyx_from_matrix(R, *, gimbal_tol: float = 1e-12, check: bool = True, t
     return rpy_from_matrix(R, gimbal_tol=gimbal_tol, check=check, tol=tol)[..., ::-1]
 
 
-def matrix_from_euler_zyz(angles) -> np.ndarray:
-    """Rotation matrix from Euler ZYZ angles ``(phi, theta, psi)`` (Spong).
+def matrix_from_euler_zyz(angles, theta=None, psi=None) -> np.ndarray:
+    """Rotation matrix from Euler ZYZ angles (Spong): ``matrix_from_euler_zyz([phi, theta, psi])`` or ``(phi, theta, psi)``.
 
     Parameters
     ----------
@@ -129,7 +132,9 @@ def matrix_from_euler_zyz(angles) -> np.ndarray:
         ``(phi, theta, psi)`` in radians with
         ``R = Rz(phi) @ Ry(theta) @ Rz(psi)``: rotate about z, then about the
         new y, then about the newest z. The orientation of a spherical wrist
-        whose three axes are z, y, z.
+        whose three axes are z, y, z. Or phi alone, when ``theta`` and ``psi`` are given.
+    theta, psi : array_like, optional
+        The other two angles as separate arguments (broadcast together).
 
     Returns
     -------
@@ -147,7 +152,7 @@ def matrix_from_euler_zyz(angles) -> np.ndarray:
            [ 0.,  1.,  0.],
            [-1.,  0.,  0.]])
     """
-    angles = _as_vectors(angles, 3, "angles")
+    angles = _vectors_or_parts(angles, {"theta": theta, "psi": psi}, "angles")
     cf, ct, cp = np.cos(angles[..., 0]), np.cos(angles[..., 1]), np.cos(angles[..., 2])
     sf, st, sp = np.sin(angles[..., 0]), np.sin(angles[..., 1]), np.sin(angles[..., 2])
     R = np.empty(angles.shape[:-1] + (3, 3))

@@ -66,6 +66,26 @@ def _as_vectors(value, length: int, what: str) -> np.ndarray:
     return array
 
 
+def _vectors_or_parts(first, rest: dict, what: str) -> np.ndarray:
+    """One (..., k) array from either form a rotation helper takes: the array itself (``rest`` all None),
+    or its k parts as separate arguments (broadcast against each other and stacked)."""
+    given = [name for name, value in rest.items() if value is not None]
+    if not given:
+        return _as_vectors(first, len(rest) + 1, what)
+    if len(given) != len(rest):
+        missing = [name for name, value in rest.items() if value is None]
+        raise InvalidRotationError(
+            f"{what}: give one array of {len(rest) + 1} values or all {len(rest) + 1} values as arguments; "
+            f"{', '.join(missing)} missing"
+        )
+    parts = [_as_float_array(v, what) for v in (first, *rest.values())]
+    try:
+        parts = np.broadcast_arrays(*parts)
+    except ValueError:
+        raise InvalidRotationError(f"{what}: the parts have shapes {[p.shape for p in parts]}, which do not broadcast") from None
+    return np.stack(parts, axis=-1)
+
+
 def _as_matrices(value, what: str = "R") -> np.ndarray:
     array = _as_float_array(value, what)
     if array.ndim < 2 or array.shape[-2:] != (3, 3):
@@ -203,8 +223,8 @@ def rot_z(angle) -> np.ndarray:
 # roll-pitch-yaw
 
 
-def matrix_from_rpy(rpy) -> np.ndarray:
-    """Rotation matrix from roll-pitch-yaw angles.
+def matrix_from_rpy(rpy, pitch=None, yaw=None) -> np.ndarray:
+    """Rotation matrix from roll-pitch-yaw angles: ``matrix_from_rpy([r, p, y])`` or ``matrix_from_rpy(r, p, y)``.
 
     Parameters
     ----------
@@ -212,7 +232,9 @@ def matrix_from_rpy(rpy) -> np.ndarray:
         ``(roll, pitch, yaw)`` in radians, ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)``
         as in URDF (equal to Euler ZYX with angles ``(yaw, pitch, roll)``):
         roll about the fixed x axis first, then pitch about fixed y, then
-        yaw about fixed z.
+        yaw about fixed z. Or the roll alone, when ``pitch`` and ``yaw`` are given.
+    pitch, yaw : array_like, optional
+        The other two angles as separate arguments (broadcast together).
 
     Returns
     -------
@@ -224,8 +246,10 @@ def matrix_from_rpy(rpy) -> np.ndarray:
     array([[0., 0., 1.],
            [1., 0., 0.],
            [0., 1., 0.]])
+    >>> bool(np.array_equal(matrix_from_rpy(0.1, 0.2, 0.3), matrix_from_rpy([0.1, 0.2, 0.3])))
+    True
     """
-    rpy = _as_vectors(rpy, 3, "rpy")
+    rpy = _vectors_or_parts(rpy, {"pitch": pitch, "yaw": yaw}, "rpy")
     cr, cp, cy = np.cos(rpy[..., 0]), np.cos(rpy[..., 1]), np.cos(rpy[..., 2])
     sr, sp, sy = np.sin(rpy[..., 0]), np.sin(rpy[..., 1]), np.sin(rpy[..., 2])
     R = np.empty(rpy.shape[:-1] + (3, 3))
@@ -299,15 +323,18 @@ def rpy_from_matrix(R, *, gimbal_tol: float = 1e-12, check: bool = True, tol: fl
 # quaternions
 
 
-def matrix_from_quaternion(q) -> np.ndarray:
-    """Rotation matrix of a quaternion.
+def matrix_from_quaternion(q, y=None, z=None, w=None) -> np.ndarray:
+    """Rotation matrix of a quaternion: ``matrix_from_quaternion([x, y, z, w])`` or ``(x, y, z, w)`` as four arguments.
 
     Parameters
     ----------
     q : array_like, shape (..., 4)
         Quaternion in ``(x, y, z, w)`` order (ROS). It is normalised first,
         so a rounded unit quaternion such as ``(0, 0, 0.7071, 0.7071)`` is
-        accepted; ``q`` and ``-q`` give the same matrix.
+        accepted; ``q`` and ``-q`` give the same matrix. Or its x alone,
+        when ``y``, ``z`` and ``w`` are given.
+    y, z, w : array_like, optional
+        The other three components as separate arguments (broadcast together).
 
     Returns
     -------
@@ -326,7 +353,7 @@ def matrix_from_quaternion(q) -> np.ndarray:
            [ 1.,  0.,  0.],
            [ 0.,  0.,  1.]])
     """
-    q = _as_vectors(q, 4, "quaternion")
+    q = _vectors_or_parts(q, {"y": y, "z": z, "w": w}, "quaternion")
     unit, norm = _unit(q)
     bad = ~np.isfinite(norm) | (norm == 0.0)
     if np.any(bad):

@@ -49,11 +49,11 @@ def tf_between_main(argv=None) -> int:
 
 
 def _main_parser() -> argparse.ArgumentParser:
-    from manipkit.app.cli import dh, ik, reachmap, robots, singularities, tf, tree, velocity, view, workspace
+    from manipkit.app.cli import dh, ik, reachmap, robots, rot, singularities, tf, tree, velocity, view, workspace
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    groups = (tf, robots, tree, dh, ik, velocity, singularities, workspace, reachmap, view)  # the order of `manipkit --help`
+    groups = (tf, robots, tree, dh, ik, velocity, singularities, workspace, reachmap, view, rot)  # `manipkit --help` order
     for group in groups:
         group.register(commands)
     return parser

@@ -42,6 +42,8 @@ def register(commands) -> None:
     check.add_argument("--samples", type=int, default=1000, metavar="N", help="configurations within the limits (default 1000, fixed seed)")
     check.add_argument("--tol", type=float, default=1e-9, help="pass tolerance, m and rad (default 1e-9)")
     check.add_argument("--format", choices=("text", "json"), default="text")
+    check.add_argument("--fix", type=Path, default=None, metavar="FILE.yaml",
+                       help="when the diagnosis finds a corrected table that passes, write it here")
     check.set_defaults(run=run_dh_check)
     to_urdf = dh_commands.add_parser("to-urdf", help="write a URDF for a DH table")
     to_urdf.add_argument("table", metavar="TABLE", help="a bundled table name or a .yaml file")
@@ -77,6 +79,8 @@ def run_dh_check(args) -> int:
     from manipkit.description.sources import resolve_dh_table
     from manipkit.dh.check import check_dh
 
+    if args.fix is not None:
+        writable_path(args.fix)  # before the robot is loaded
     path = resolve_dh_table(args.table)
     table = dh.load_dh(path)
     robot = load_robot(args)
@@ -84,6 +88,12 @@ def run_dh_check(args) -> int:
         raise UsageError(f"--samples {args.samples}: give at least 1")
     check_tolerance(args.tol)
     result = check_dh(table, robot, base=args.base, tip=args.tip, samples=args.samples, tol=args.tol)
+    fixed = None
+    if args.fix is not None and result.candidate is not None:
+        header = (f"{path.name} corrected by `manipkit dh check` against {robot.name} {args.base} -> {args.tip}: "
+                  + "; ".join(result.diagnosis[1:2]))
+        write_text(args.fix, dh.yaml_from_dh(result.candidate, header=header))
+        fixed = str(args.fix)
     if args.format == "json":
         print_json({
             "table": str(path),
@@ -97,6 +107,8 @@ def run_dh_check(args) -> int:
             "max_rotation_error": None if result.max_rotation_error != result.max_rotation_error else result.max_rotation_error,
             "pass": result.passed,
             "diagnosis": list(result.diagnosis),
+            "corrected_table": None if result.candidate is None else dh.yaml_from_dh(result.candidate),
+            "fix_written": fixed,
         })
     else:
         print(f"{table.convention} DH table {path.name} vs {robot.name} URDF chain {args.base} -> {args.tip}"
@@ -107,6 +119,12 @@ def run_dh_check(args) -> int:
         print(f"PASS (within {short_text(result.tol)})" if result.passed else f"FAIL (tolerance {short_text(result.tol)})")
         for line in result.diagnosis[1 if result.samples else 0 :]:  # the first repeats the errors above
             print(f"- {line}")
+        if fixed is not None:
+            print(f"wrote the corrected table to {fixed} (it passes)")
+        elif result.candidate is not None:
+            print("(--fix FILE.yaml writes the corrected table)")
+        elif args.fix is not None and not result.passed:
+            print(f"no corrected table found; {args.fix} not written")
     return EXIT_OK if result.passed else EXIT_MISMATCH
 
 

@@ -71,7 +71,9 @@ def _configure(parser: argparse.ArgumentParser) -> None:
                         help="output format; with --q-file: text or csv (one pose a row), jsonl (JSON Lines: one pose "
                              "a line) or json (one document); all stream, but only csv and jsonl can be read as "
                              "they arrive (csv and jsonl only with --q-file)")
-    parser.add_argument("--compare", type=Path, metavar="FILE", help="hand-derived 4x4 (text rows, CSV, JSON or .npy) to check against the model")
+    parser.add_argument("--compare", type=Path, metavar="FILE",
+                        help="hand-derived 4x4 (text rows, CSV, JSON or .npy) to check against the model; "
+                             "a 3x3 rotation compares the rotations only")
     parser.add_argument("--tol", type=float, default=1e-6, help="agreement tolerance for --compare (m and rad, default 1e-6)")
 
 
@@ -117,7 +119,7 @@ def run_tf(args) -> int:
     if args.compare is not None:
         from manipkit.spatial.compare import compare_transform, read_matrix
 
-        comparison = compare_transform(T, read_matrix(args.compare), tol=args.tol)
+        comparison = compare_transform(T, read_matrix(args.compare, rotation=True), tol=args.tol)
         status = EXIT_OK if comparison.agrees else EXIT_MISMATCH
     from manipkit.app.pose import pose_report
 
@@ -126,8 +128,9 @@ def run_tf(args) -> int:
         if comparison is not None:
             report["compare"] = {
                 "file": str(args.compare),
+                "rotation_only": comparison.rotation_only,  # a 3x3 rotation: the translation is not compared
                 "violations": list(comparison.violations),
-                "position_error": comparison.position_error,
+                "position_error": None if comparison.rotation_only else comparison.position_error,
                 "rotation_error_deg": comparison.rotation_error_deg,
                 "agrees": comparison.agrees,
                 "explanation": comparison.explain(),
@@ -158,6 +161,17 @@ def _pose_lines(robot: Robot, report: dict, precision: int) -> list[str]:
 
 def _compare_lines(result, path: Path, tol: float) -> list[str]:
     lines = [f"compare with {path} (tolerance {short_text(tol)}):"]
+    if result.rotation_only:
+        lines.append("  a 3x3 rotation: comparing rotations only (the translation is not checked)")
+        if result.violations:
+            lines.append("  not a valid rotation:")
+            lines += [f"  - {v}" for v in result.violations]
+        else:
+            lines.append("  valid rotation (3x3, orthonormal with det +1)")
+        lines.append(f"  rotation error: {short_text(result.rotation_error_deg)} deg")
+        lines += [f"  {line}" for line in result.explain(summary=False)]
+        lines.append("  the rotation AGREES with the model" if result.agrees else "  the rotation DOES NOT AGREE with the model")
+        return lines
     if result.violations:
         lines.append("  not a valid homogeneous transform:")
         lines += [f"  - {v}" for v in result.violations]
