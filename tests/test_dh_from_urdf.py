@@ -569,3 +569,15 @@ def test_dh_to_urdf_to_dh_keeps_the_kinematics(rows, convention, back, seed):
     derived = dh_from_urdf_chain(robot, "base_link", "ee_link", convention=back)
     Q = np.random.default_rng(seed).uniform(-0.5, 0.5, size=(20, len(rows)))
     assert np.abs(dh_fk(derived, Q) - dh_fk(table, Q)).max() < 1e-9
+
+
+def test_a_chain_with_a_mimic_joint_has_no_dh_table_and_says_why():
+    # j2 follows j1 (2 q1 + 0.1): two joint motions, one independent value; a DH row has its own value
+    limit = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+    robot = Robot.from_urdf(f"""<robot name="m"><link name="link0"/><link name="link1"/><link name="tool"/>
+<joint name="j1" type="revolute"><parent link="link0"/><child link="link1"/><axis xyz="0 0 1"/>{limit}</joint>
+<joint name="j2" type="revolute"><parent link="link1"/><child link="tool"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>{limit}
+<mimic joint="j1" multiplier="2" offset="0.1"/></joint></robot>""")
+    with pytest.raises(DHDerivationError, match="joint 'j2' between 'link0' and 'tool' mimics 'j1'"):
+        dh_from_urdf_chain(robot, "link0", "tool")
+    assert dh_from_urdf_chain(robot, "link0", "link1").convention == "standard"  # above the mimic joint: fine

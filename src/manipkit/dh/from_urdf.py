@@ -303,7 +303,24 @@ def _movable_joints(robot: Robot, base: str, tip: str) -> list:
             f"joints); a DH table needs at least one, and T_{base_name}_{tip_name} is constant: "
             "use robot.transform instead"
         )
+    mimics = _mimics_on_path(robot, base_name, tip_name)
+    if mimics:
+        m = mimics[0]
+        raise DHDerivationError(
+            f"robot '{robot.name}': joint '{m.name}' between '{base_name}' and '{tip_name}' mimics '{m.leader}'; "
+            "a DH table has one independent joint value per row, so a chain with a mimic joint has no DH table "
+            "(choose a base and tip with no mimic joint between them)"
+        )
     return [robot.joints[robot.joint_names.index(name)] for name in names]
+
+
+def _mimics_on_path(robot: Robot, base: str, tip: str) -> list:
+    """The mimic joints (``robot.mimic_joints`` entries) between ``base`` and ``tip`` (tip below base)."""
+    model = robot.model
+    base_joint = model.frames[robot.frame_id(base)].parentJoint
+    support = list(model.supports[model.frames[robot.frame_id(tip)].parentJoint])
+    on_path = {model.names[j] for j in support[support.index(base_joint) + 1 :]}
+    return [m for m in robot.mimic_joints.values() if m.name in on_path]
 
 
 def _joint_lines(robot: Robot, base: str, joints: list) -> tuple[list[np.ndarray], list[np.ndarray]]:
