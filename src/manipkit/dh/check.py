@@ -572,35 +572,36 @@ def _entry_text(entry: str, value: float) -> str:
     return f"{short_text(value, 6, zero=NOISE)} m"
 
 
-def _entry_changes(table: DHTable, other: DHTable) -> list[str]:
-    """``row 2: alpha 0 deg -> 180 deg``, one per entry that differs; base and tool when they differ."""
-    out = []
+def _differing_entries(table: DHTable, other: DHTable):
+    """(row number, entry, table's value, other's value) for every entry that differs (angles modulo 2 pi)."""
     for i, (row, new) in enumerate(zip(table.rows, other.rows)):
         for entry in _ENTRIES:
-            old_value, new_value = getattr(row, entry), getattr(new, entry)
-            gap = math.remainder(new_value - old_value, 2 * math.pi) if entry in _ANGLES else new_value - old_value
+            mine, theirs = getattr(row, entry), getattr(new, entry)
+            gap = math.remainder(theirs - mine, 2 * math.pi) if entry in _ANGLES else theirs - mine
             if abs(gap) > 1e-9:
-                out.append(f"row {i + 1}: {entry} {_entry_text(entry, old_value)} -> {_entry_text(entry, new_value)}")
-    for what in ("base", "tool"):
-        if np.abs(getattr(table, what) - getattr(other, what)).max() > 1e-9:
-            out.append(f"{what} {_pose_text(getattr(other, what))}")
-    return out
+                yield i + 1, entry, mine, theirs
+
+
+def _differing_ends(table: DHTable, other: DHTable) -> list[str]:
+    """``base`` and/or ``tool`` when they differ between the two tables."""
+    return [what for what in ("base", "tool") if np.abs(getattr(table, what) - getattr(other, what)).max() > 1e-9]
+
+
+def _entry_changes(table: DHTable, other: DHTable) -> list[str]:
+    """``row 2: alpha 0 deg -> 180 deg``, one per entry that differs; base and tool when they differ."""
+    out = [f"row {row}: {entry} {_entry_text(entry, old)} -> {_entry_text(entry, new)}"
+           for row, entry, old, new in _differing_entries(table, other)]
+    return out + [f"{what} {_pose_text(getattr(other, what))}" for what in _differing_ends(table, other)]
 
 
 def _entry_differences(table: DHTable, derived: DHTable) -> list[str]:
     """Every entry in which ``table`` differs from the one derived from the URDF, when their rows match in kind."""
     if [r.type for r in table.rows] != [r.type for r in derived.rows]:
         return []
-    out = []
-    for i, (row, new) in enumerate(zip(table.rows, derived.rows)):
-        for entry in _ENTRIES:
-            mine, urdf = getattr(row, entry), getattr(new, entry)
-            gap = math.remainder(urdf - mine, 2 * math.pi) if entry in _ANGLES else urdf - mine
-            if abs(gap) > 1e-9:
-                out.append(f"row {i + 1}: {entry} = {_entry_text(entry, mine)}, the URDF implies {_entry_text(entry, urdf)}")
-    for what in ("base", "tool"):
-        if np.abs(getattr(table, what) - getattr(derived, what)).max() > 1e-9:
-            out.append(f"{what} {_pose_text(getattr(table, what))}, the URDF implies {_pose_text(getattr(derived, what))}")
+    out = [f"row {row}: {entry} = {_entry_text(entry, mine)}, the URDF implies {_entry_text(entry, urdf)}"
+           for row, entry, mine, urdf in _differing_entries(table, derived)]
+    out += [f"{what} {_pose_text(getattr(table, what))}, the URDF implies {_pose_text(getattr(derived, what))}"
+            for what in _differing_ends(table, derived)]
     if not out:
         return []
     shown = out[:12] + ([f"... and {len(out) - 12} more"] if len(out) > 12 else [])

@@ -64,7 +64,7 @@ from manipkit.text import short_text
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["AXES", "DISTINCT_TOL", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "MODES", "ik", "ik_solver"]
+__all__ = ["AXES", "DISTINCT_TOL", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "MODES", "check_budget", "ik", "ik_solver"]
 
 MODES = ("pose", "position", "position+axis")
 AXES = ("x", "y", "z")
@@ -495,11 +495,7 @@ class IKSolver:
     ) -> IKResult | IKSolutions:
         """Solve for one target; parameters and results as in :func:`ik`."""
         tol_position, tol_rotation = _tolerances(tol)
-        for name, value, least in (("max_iters", max_iters, 1), ("restarts", restarts, 0)):
-            if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < least:
-                raise IKOptionError(f"{name} must be a whole number >= {least}, got {value!r}")
-        if not (isinstance(damping, numbers.Real) and math.isfinite(damping) and damping > 0.0):
-            raise IKOptionError(f"damping must be a positive number, got {damping}")
+        check_budget(max_iters, restarts, damping)
         q_full = self._start_vector(q0)
         T_base_target = self._target_matrix(target)
 
@@ -671,6 +667,15 @@ class IKSolver:
             return (f"did not converge: {residual} after {attempts} start(s); that is close: a target rounded from "
                     "printed output (or just out of reach) ends like this, and a larger tol accepts the answer")
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)"
+
+
+def check_budget(max_iters, restarts, damping) -> None:
+    """:class:`IKOptionError` unless ``max_iters`` >= 1 and ``restarts`` >= 0 are whole numbers and ``damping`` > 0."""
+    for name, value, least in (("max_iters", max_iters, 1), ("restarts", restarts, 0)):
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < least:
+            raise IKOptionError(f"{name} must be a whole number >= {least}, got {value!r}")
+    if not (isinstance(damping, numbers.Real) and math.isfinite(damping) and damping > 0.0):
+        raise IKOptionError(f"damping must be a positive number, got {damping}")
 
 
 def _tolerances(tol) -> tuple[float, float]:

@@ -39,7 +39,7 @@ from numba import objmode  # this module is only imported to run its kernel (kin
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
 from manipkit.kinematics.chain import compile_kernel
-from manipkit.kinematics.ik import _tolerances, ik_solver
+from manipkit.kinematics.ik import _tolerances, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import lm_attempt
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import transform_violations
@@ -250,11 +250,7 @@ def ik_many(
     # Over 80 lines: the docstring (every option and the conventions) is most of it.
     solver = ik_solver(robot, frame=frame, base=base, mode=mode, axis=axis)
     tol_position, tol_rotation = _tolerances(tol)
-    for name, value, least in (("max_iters", max_iters, 1), ("restarts", restarts, 0)):
-        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < least:
-            raise IKOptionError(f"{name} must be a whole number >= {least}, got {value!r}")
-    if not (isinstance(damping, numbers.Real) and math.isfinite(damping) and damping > 0.0):
-        raise IKOptionError(f"damping must be a positive number, got {damping}")
+    check_budget(max_iters, restarts, damping)
     if time_budget is not None and not (isinstance(time_budget, numbers.Real) and time_budget > 0.0):
         raise IKOptionError(f"time_budget must be a positive number of seconds or None, got {time_budget!r}")
     T_base = _targets(T, mode)

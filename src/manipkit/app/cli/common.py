@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
+    "is_number",
     "EXIT_INTERNAL",
     "EXIT_MISMATCH",
     "EXIT_OK",
@@ -170,7 +171,7 @@ def add_joint_options(parser: argparse.ArgumentParser) -> None:
 def joint_vector(robot: Robot, args, *, option: str = "--q", items=None) -> np.ndarray:
     """Joint vector from --q NAME=VALUE ... or --q V1 V2 ... (all joints in order), limits checked."""
     items = args.q if items is None else items
-    if items and all(_is_number(item) for item in items):
+    if items and all(is_number(item) for item in items):
         if len(items) != len(robot.joint_names):
             raise UsageError(
                 f"{option} got {len(items)} value{'s' if len(items) != 1 else ''} but {robot.name} has "
@@ -263,7 +264,8 @@ def _joint_value_text(value: float, unit: str, degrees: bool) -> str:
     return f"{short_text(math.degrees(value))} deg" if degrees and unit == "rad" else f"{short_text(value)} {unit}"
 
 
-def _is_number(text: str) -> bool:
+def is_number(text: str) -> bool:
+    """Whether ``text`` reads as a float (``1``, ``-0.5``, ``1e-3``, ``nan``)."""
     try:
         float(text)
     except ValueError:

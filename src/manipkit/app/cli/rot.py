@@ -11,7 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
-from manipkit.app.cli.common import EXIT_OK, UsageError, check_precision, print_json
+from manipkit.app.cli.common import EXIT_OK, UsageError, check_precision, is_number, print_json
 
 __all__ = ["register", "run_rot"]
 
@@ -123,7 +123,7 @@ def _values(args):
     """The numbers of VALUES (pi expressions in radians), or the 3x3 matrix of a file for ``matrix FILE``."""
     from manipkit.dh.files import pi_expression_value
 
-    if args.form == "matrix" and len(args.values) == 1 and not _is_number(args.values[0]):
+    if args.form == "matrix" and len(args.values) == 1 and not is_number(args.values[0]):
         from manipkit.spatial.compare import read_matrix
 
         return read_matrix(Path(args.values[0]), rotation=True)
@@ -133,7 +133,7 @@ def _values(args):
     numbers = []
     for k, text in enumerate(args.values):
         is_angle = k in _ANGLE_VALUES.get(args.form, ())
-        if _is_number(text):
+        if is_number(text):
             value = float(text)
             numbers.append(math.radians(value) if is_angle and args.deg else value)
             continue
@@ -149,12 +149,6 @@ def _values(args):
     return numbers
 
 
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _form_lines(form: str, value, unit: str, precision: int) -> list[str]:
