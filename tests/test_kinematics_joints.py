@@ -280,3 +280,26 @@ def test_transform_takes_a_dict_and_checks_limits_by_default(iiwa14):
     with pytest.raises(Exception, match="above its upper limit"):
         course_arm.transform("base_link", "ee_link", {name: joint.upper + 1})
     course_arm.transform("base_link", "ee_link", {name: joint.upper + 1}, check_limits=False)
+
+
+def test_robot_html_lists_every_joint_and_the_mimic_joints(mimic_robot):
+    import xml.etree.ElementTree as ET
+
+    html = mimic_robot._repr_html_()
+    table = ET.fromstring(html[html.index("<table>"):].replace("&rarr;", "->").replace("&times;", "x")
+                          .replace("&deg;", " deg"))
+    cells = [[td.text or "" for td in tr] for tr in table.iter("tr")][1:]
+    assert [row[0] for row in cells] == ["j1", "slide", "j2", "slide_mimic", "j3"]
+    assert cells[0][4:] == ["-114.592 deg", "114.592 deg"]  # limits of +-2 rad in degrees
+    assert cells[2][2] == "mimics j1: 2 x j1 + 0.1"
+
+
+def test_the_package_root_lists_its_api_without_importing_pinocchio():
+    import subprocess
+    import sys
+
+    code = ("import manipkit, sys; names = dir(manipkit); "
+            "assert {'load', 'Robot', 'ik', 'load_dh', 'check_dh', 'matrix_from_euler_zyx', 'manipulability', "
+            "'reachmap'} <= set(names), names; print('pinocchio' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

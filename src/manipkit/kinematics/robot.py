@@ -169,6 +169,33 @@ class Robot:
             f"ee_link {self.ee_frame!r}, from {self.source.path})"
         )
 
+    def _repr_html_(self) -> str:
+        """Jupyter: the robot's frames and a table of its joints (type, axis, limits; mimic joints after)."""
+        from html import escape
+
+        def limit(joint: Joint, value: float) -> str:
+            if not math.isfinite(value):
+                return "-"
+            return f"{short_text(math.degrees(value))}&deg;" if joint.is_angular else f"{short_text(value)} m"
+
+        rows = "".join(
+            f"<tr><td>{escape(j.name)}</td><td>{escape(j.type)}</td><td>{' '.join(short_text(a) for a in j.axis)}</td>"
+            f"<td>{escape(j.parent)} &rarr; {escape(j.child)}</td><td>{limit(j, j.lower)}</td><td>{limit(j, j.upper)}</td></tr>"
+            for j in self.joints
+        )
+        rows += "".join(
+            f"<tr><td>{escape(m.name)}</td><td>{escape(m.type)}</td><td colspan=\"4\">mimics {escape(m.leader)}: "
+            f"{short_text(m.multiplier)} &times; {escape(m.leader)} + {short_text(m.offset)}</td></tr>"
+            for m in self.mimic_joints.values()
+        )
+        return (
+            f"<p><b>{escape(self.name)}</b> from <code>{escape(str(self.source.path))}</code>: "
+            f"{len(self.joints)} joints, {len(self.frame_names)} frames; base_link = <code>{escape(self.base_link)}</code>, "
+            f"ee_link = <code>{escape(self.ee_frame)}</code></p>"
+            "<table><thead><tr><th>joint</th><th>type</th><th>axis</th><th>parent &rarr; child</th><th>lower</th>"
+            f"<th>upper</th></tr></thead><tbody>{rows}</tbody></table>"
+        )
+
     # ------------------------------------------------------------------
     # Frames
     # ------------------------------------------------------------------
