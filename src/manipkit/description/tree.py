@@ -659,7 +659,9 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
         ax.text(x, y, _shown(link), **text, weight="bold", zorder=3)
 
     with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "manipkit"}), writing(path) as target:
-        fig.savefig(target, format=fmt, dpi=dpi, metadata=_deterministic_metadata(fmt))
+        # PNG: zlib level 1 (PR2's 8000 x 3000 picture: 0.2 s less than the default 6, a slightly larger file)
+        extra = {"pil_kwargs": {"compress_level": 1}} if fmt == "png" else {}
+        fig.savefig(target, format=fmt, dpi=dpi, metadata=_deterministic_metadata(fmt), **extra)
     return path
 
 
