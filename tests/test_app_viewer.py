@@ -908,3 +908,18 @@ def test_notebook_error_line_escapes_the_names_in_its_message(notebook, monkeypa
     notebook.frame_a.value = "bicep"  # the picker's change reaches set_frames, which refuses
     assert notebook.error.value == ("<span style='color:#b00'>no frame &#x27;&lt;/span&gt;&lt;img src=x "
                                     "onerror=alert(1)&gt;&#x27; &amp; more</span>")
+
+
+def test_a_mimic_joint_has_no_slider_and_its_link_moves_with_the_leader(panda):
+    # Panda's second finger mimics the first (multiplier 1): one slider, both fingers open by the same distance
+    state = ViewerState(panda, frames=("panda_hand", "panda_rightfinger"))
+    names = [spec.name for spec in state.sliders()]
+    assert "panda_finger_joint1" in names and "panda_finger_joint2" not in names
+    state.set_joint("panda_finger_joint1", 0.03)
+    # the right finger slides along -y of the hand (URDF axis 0 -1 0 of panda_finger_joint2) by the leader's value
+    assert state.readout()["translation"][1] == pytest.approx(-0.03, abs=1e-12)
+    visuals = panda.visual_model()
+    placements = state.geometry_placements(visuals)
+    right = [T for path, T in placements.items() if "rightfinger" in path]
+    expected = panda.transform(panda.root_link, "panda_rightfinger", state.q)
+    assert right and np.allclose(right[0][:3, 3], expected[:3, 3], atol=1e-9)
