@@ -3,6 +3,11 @@
     python -m benchmarks.reachmap_workload            # iiwa14 at 0.1 m, 200 directions (a few minutes)
     python -m benchmarks.reachmap_workload --quick    # small sizes (seconds)
 
+`make bench` (:mod:`benchmarks.run`, workload ``reachmap``) runs it as this
+command in a child process, with its own sizes (``--sizes``): Dask's worker
+processes start by importing the parent's main module, which must not run the
+whole benchmark again (this module's is guarded; ``python -m benchmarks`` is not).
+
 Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
 
 - ``reachmap_fk``: ``reachmap.build(method="fk")`` in this process (one
@@ -20,7 +25,7 @@ Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
   restarts (``ik_many``, 20 restarts): FK poses of random configurations
   (all reachable) and random poses in the grid's box (uniform position, a
   uniform random rotation). Agreement = map and label agree; false positive =
-  the map says reachable and IK finds no solution.
+  the map says reachable and IK finds no solution. Timed: ``ReachMap.query`` per pose.
 """
 
 from __future__ import annotations
@@ -82,6 +87,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
     rows.append(row("reachmap_hybrid", robot_name, "manipkit reachmap.build(method='hybrid'), 1 core", [seconds_h],
                     unit="map", n=1, ours=True, certified=certified + by_ik, by_ik=by_ik,
                     per_core_second=(certified + by_ik) / seconds_h, ik_answers_in_their_bins=query_ok,
+                    status="ok" if query_ok else "wrong",
                     check="IK cells: FK of the stored answer falls in its voxel-bin",
                     note="IK on unmarked voxel-bins next to marked ones, seeded from the neighbour's sample"))
 
@@ -96,6 +102,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
     rows.append(row("ik_many", robot_name, "manipkit ik_many (one compiled call), 1 core", [seconds_ik / ik_targets],
                     unit="solve", n=ik_targets, ours=True, success=float(batch.success.mean()),
                     solves_per_second=ik_targets / seconds_ik, pinocchio_max_position_residual_500=float(worst.max()),
+                    status="ok" if float(worst[batch.success[:500]].max(initial=0.0)) <= IK_ACCEPT else "wrong",
                     check=f"success by FK residuals <= {IK_ACCEPT:g}; 500 answers re-measured by Pinocchio",
                     note="random first starts, up to 20 restarts, tol 1e-10"))
 
@@ -110,8 +117,11 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
     labels = ik_many(robot, poses, restarts=20, tol=1e-9).success
     labels[:labelled] = True  # FK poses are reachable by construction (IK confirms nearly all)
     for name, reach_map in (("fk", fk_map), ("hybrid", hybrid)):
+        start = time.perf_counter()
         says = reach_map.query(poses)
-        rows.append(row("reachmap_agreement", robot_name, f"map ({name}) vs IK labels", unit="pose", n=len(poses),
+        seconds_query = time.perf_counter() - start
+        rows.append(row("reachmap_agreement", robot_name, f"map ({name}) vs IK labels: ReachMap.query",
+                        [seconds_query / len(poses)], unit="pose", n=len(poses),
                         ours=True, agreement=float((says == labels).mean()),
                         false_positive=float((says & ~labels).mean()), false_negative=float((~says & labels).mean()),
                         fk_poses_in_map=float(says[:labelled].mean()),
@@ -124,8 +134,9 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
         start = time.perf_counter()
         distributed_map = reachmap.build(robot, **settings, samples=dask_samples, workers=workers)
         wall = time.perf_counter() - start
+        identical = bool(np.array_equal(distributed_map.reach, one.reach))
         rows.append(row("reachmap_dask", robot_name, f"LocalCluster, {workers} worker process(es)", [wall], unit="map",
-                        n=1, ours=True, identical_to_in_process=bool(np.array_equal(distributed_map.reach, one.reach)),
+                        n=1, ours=True, identical_to_in_process=identical, status="ok" if identical else "wrong",
                         samples=dask_samples, check="map identical to the in-process build",
                         note="wall time including the cluster's start (a few seconds)"))
     return rows
@@ -135,9 +146,17 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--robot", default="iiwa14")
+    parser.add_argument("--sizes", default=None, help="the sizes as a JSON object (keys of FULL), instead of FULL or QUICK")
     parser.add_argument("--out", default=None, help="write the rows as JSON here")
     args = parser.parse_args(argv)
-    rows = reachmap_workload(args.robot, **(QUICK if args.quick else FULL))
+    sizes = dict(QUICK if args.quick else FULL)
+    if args.sizes:
+        extra = json.loads(args.sizes)
+        unknown = set(extra) - set(FULL)
+        if unknown:
+            parser.error(f"unknown size(s) {', '.join(sorted(unknown))}; choose from {', '.join(FULL)}")
+        sizes.update(extra)
+    rows = reachmap_workload(args.robot, **sizes)
     for r in rows:
         shown = {k: v for k, v in r.items() if k not in ("ours", "p95_s", "status") and v not in (None, "")}
         print(json.dumps(shown))
