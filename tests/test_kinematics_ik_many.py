@@ -170,3 +170,13 @@ def test_success_always_means_fk_within_tolerance(planar_3r_robot, xy_yaw, yaw):
 @pytest.fixture(scope="module")
 def planar_3r_robot(load_robot):
     return load_robot("planar_3r")
+
+
+def test_a_base_link_offset_from_the_root_is_taken_into_account(load_robot):
+    # mobile_manipulator's base_link sits 0.05 m above its root base_footprint: targets are T_base_link_ee
+    robot = load_robot("mobile_manipulator")
+    Q_true = robot.sample_q(20, seed=5)
+    T = robot.fk(Q_true, "ee_link", "base_link")
+    batch = ik_many(robot, T, base="base_link")
+    assert batch.success.all()
+    assert pinocchio_residuals(robot, "base_link", "ee_link", batch.q, T).max() < 1e-9
