@@ -141,6 +141,7 @@ class JointLayout:
     _plain: tuple[np.ndarray, ...] = field(default=(), repr=False)
     _circle: tuple[np.ndarray, ...] = field(default=(), repr=False)
     _multi: list[tuple[str, int, int]] = field(default_factory=list, repr=False)
+    _plain_is_copy: bool = field(default=False, repr=False)
 
     def velocity_map(self, model: pin.Model) -> np.ndarray:
         """``S`` (model.nv, n): Pinocchio's velocity ``v = S qdot`` for joint rates ``qdot`` (``q``'s order).
@@ -164,7 +165,9 @@ class JointLayout:
         """Pinocchio's configuration vector (size ``model.nq``) for a checked joint vector ``q``."""
         config = self.neutral.copy()
         idx, col, scale, offset = self._plain
-        if idx.size:
+        if self._plain_is_copy:  # no mimic among them: the values as they are
+            config[idx] = q[col]
+        elif idx.size:
             config[idx] = scale * q[col] + offset
         idx, col, scale, offset = self._circle
         if idx.size:  # continuous joints: (cos, sin)
@@ -377,6 +380,8 @@ def _index_configuration(layout: JointLayout, model: pin.Model) -> None:
         return rows[:, 0].astype(np.intp), rows[:, 1].astype(np.intp), rows[:, 2].copy(), rows[:, 3].copy()
 
     layout._plain, layout._circle = arrays(plain), arrays(circle)
+    _, _, scale, offset = layout._plain
+    layout._plain_is_copy = bool(np.all(scale == 1.0) and np.all(offset == 0.0))
 
 
 def root_link(robot_xml) -> str:

@@ -133,6 +133,9 @@ class Robot:
         #: named ``base_link`` if there is one, else the root link.
         self.base_link = "base_link" if "base_link" in self._frame_ids else self.root_link
         self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
+        # Limits widened by LIMIT_TOLERANCE, for the quick check of check_limits
+        self._lower_ok = np.array([j.lower for j in self.joints], dtype=float) - LIMIT_TOLERANCE
+        self._upper_ok = np.array([j.upper for j in self.joints], dtype=float) + LIMIT_TOLERANCE
         self._chains: dict[tuple, list[ChainStep]] = {}  # (frame id, base id or None) -> steps
         self._fk_kernels: dict[tuple, ChainFK] = {}  # (frame id, base id or None) -> batched FK, built on first use
 
@@ -423,10 +426,10 @@ class Robot:
         ...
         manipkit.errors.JointLimitError: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)
         """
-        violations = self.limit_violations(q)
-        if violations:
-            raise violations[0]
-        return self._check_q(q)
+        q = self._check_q(q)
+        if ((q < self._lower_ok) | (q > self._upper_ok)).any():  # the common case, all inside, in two comparisons
+            raise self.limit_violations(q)[0]
+        return q
 
     def clamp(self, q) -> np.ndarray:
         """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
@@ -440,14 +443,17 @@ class Robot:
 
     def _check_q(self, q) -> np.ndarray:
         """A joint vector from anything :meth:`q` takes (None: the default), checked for length and finiteness."""
-        if isinstance(q, Mapping):
-            return self.q(q)
-        q = self.q() if q is None else _real_array(q)
+        if type(q) is not np.ndarray:
+            if isinstance(q, Mapping):
+                return self.q(q)
+            q = self.q() if q is None else _real_array(q)
+        elif q.dtype != np.float64:
+            q = _real_array(q)
         if q.shape != (len(self.joints),):
             raise JointValueError(
                 f"robot '{self.name}' needs {len(self.joints)} joint values ({', '.join(self.joint_names)}), got shape {q.shape}"
             )
-        if not np.all(np.isfinite(q)):
+        if not np.isfinite(q).all():
             raise JointValueError("joint values must be finite numbers")
         return q
 
@@ -494,7 +500,7 @@ class Robot:
         """
         source_id, target_id = self.frame_id(source), self.frame_id(target)
         q = self.check_limits(q) if check_limits else self._check_q(q)
-        pin.framesForwardKinematics(self.model, self.data, self.pinocchio_configuration(q))
+        pin.framesForwardKinematics(self.model, self.data, self._layout.configuration(q))
         T_root_source = self.data.oMf[source_id]
         T_root_target = self.data.oMf[target_id]
         return (T_root_source.actInv(T_root_target)).homogeneous.copy()
@@ -730,6 +736,8 @@ def _real_array(values) -> np.ndarray:
 
     numpy would drop an imaginary part with a warning; a joint value is a real number (rad or m).
     """
+    if type(values) is np.ndarray and values.dtype == np.float64:  # the common case: nothing to convert
+        return values
     try:
         array = np.asarray(values)
         if array.dtype.kind == "c" or (
