@@ -166,6 +166,8 @@ def test_one_worker_process_or_two_give_the_same_map(planar_3r, map_3r):
     np.testing.assert_array_equal(local.voxel_q, map_3r.voxel_q)
     np.testing.assert_array_equal(local.ik_keys, map_3r.ik_keys)
     np.testing.assert_array_equal(local.ik_q, map_3r.ik_q)
+    assert local.manipulability.tobytes() == map_3r.manipulability.tobytes()
+    assert local.manipulability_mean.tobytes() == map_3r.manipulability_mean.tobytes()
 
 
 def test_an_existing_scheduler_gives_the_same_map(planar_3r):
@@ -182,7 +184,7 @@ def test_an_existing_scheduler_gives_the_same_map(planar_3r):
 def test_save_and_load_round_trip(map_3r, tmp_path):
     path = map_3r.save(tmp_path / "m.zarr")
     again = load(path)
-    for name in ("reach", "origin", "axes", "voxel_q", "ik_keys", "ik_q"):
+    for name in ("reach", "origin", "axes", "voxel_q", "ik_keys", "ik_q", "manipulability", "manipulability_mean"):
         np.testing.assert_array_equal(getattr(again, name), getattr(map_3r, name))
     assert (again.robot, again.frame, again.base, again.method, again.voxel) == ("planar_3r", "ee_link", "base_link", "hybrid", VOXEL)
     assert again.settings == map_3r.settings and again.summary() == map_3r.summary()

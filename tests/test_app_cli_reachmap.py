@@ -32,7 +32,8 @@ def run(*args, status=None):
 def map_3r(tmp_path_factory):
     folder = tmp_path_factory.mktemp("maps")
     out = run("reachmap", "--robot", "planar_3r", "--voxel", "0.5", "--orientations", "8", "--samples", "20000",
-              "--method", "hybrid", "-o", folder / "p3r.zarr", "--plot", folder / "p3r.png", "--format", "json", status=0)
+              "--method", "hybrid", "-o", folder / "p3r.zarr", "--plot", folder / "p3r.png", "--format", "json",
+              "--plot-manipulability", folder / "w.png", "--view-html", folder / "p3r.html", status=0)
     return folder, json.loads(out.stdout)
 
 
@@ -49,11 +50,32 @@ def test_reachmap_writes_a_map_whose_reachable_voxels_are_the_annulus(map_3r):
     assert (folder / "p3r.png").stat().st_size > 10_000
 
 
+def test_reachmap_reports_the_best_manipulability_and_draws_it(map_3r):
+    folder, summary = map_3r
+    reach_map = load(folder / "p3r.zarr")
+    best = np.nanmax(reach_map.manipulability)
+    assert summary["best_manipulability"] == best
+    ijk = np.unravel_index(np.nanargmax(reach_map.manipulability), reach_map.shape)
+    assert summary["best_manipulability_at"] == reach_map.centers()[ijk].tolist()
+    assert (folder / "w.png").stat().st_size > 10_000 and summary["plot_manipulability"] == str(folder / "w.png")
+    html = (folder / "p3r.html").read_text()
+    assert html.count("data:application/octet-binary;base64,") > 10 and summary["view_html"] == str(folder / "p3r.html")
+
+
+def test_reachmap_without_manipulability(tmp_path):
+    out = run("reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
+              "-o", tmp_path / "m.zarr", "--no-manipulability", status=0).stdout
+    assert "manipulability" not in out and load(tmp_path / "m.zarr").manipulability is None
+
+
 def test_reachmap_text_summary(tmp_path):
     out = run("reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
               "-o", tmp_path / "m.zarr", status=0).stdout
     assert out.startswith("reachability map of planar_2r: ee_link in base_link, method fk\n")
     assert "grid 19x19x1 voxels of 0.25 m" in out and out.rstrip().endswith(f"wrote {tmp_path / 'm.zarr'}")
+    # planar 2R (1, 1): the index |sin q2| peaks at 1 (elbow square, r = sqrt 2); 5000 samples come within 1e-3
+    line = next(x for x in out.splitlines() if x.startswith("manipulability (Yoshikawa, the plane's translation rows)"))
+    assert float(line.split("best ")[1].split(" ")[0]) > 0.999
 
 
 def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robot, tmp_path):
@@ -91,6 +113,10 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
         (["reachmap", "--robot", "planar_3r", "--workers", "2", "--scheduler", "tcp://h:1", "-o", "{tmp}/m.zarr"],
          "not allowed with argument --workers"),
         (["reachmap", "--robot", "planar_3r", "--frame", "nope", "-o", "{tmp}/m.zarr"], "nope"),
+        (["reachmap", "--robot", "planar_3r", "-o", "{tmp}/m.zarr", "--no-manipulability", "--plot-manipulability",
+          "{tmp}/w.png"], "--plot-manipulability needs the overlay"),
+        (["reachmap", "--robot", "planar_3r", "-o", "{tmp}/m.zarr", "--view-html", "{tmp}/missing/v.html"],
+         "cannot write"),
         (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/none.txt"], "no such file"),
         (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/bad.txt"], "bad.txt line 2: 2 numbers"),
         (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/good.txt", "--map", "{tmp}"],

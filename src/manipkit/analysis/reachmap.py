@@ -28,6 +28,15 @@ Methods (docs/architecture.md, "Reachability maps"):
 Every voxel-bin records how it was reached: :data:`HOW_SAMPLE`,
 :data:`HOW_IK` or :data:`HOW_NONE` (``ReachMap.reach``).
 
+**Manipulability overlay** (``manipulability=True``, the default): every
+configuration that reaches a voxel (each FK sample, each hybrid IK answer)
+gets Yoshikawa's index ``w`` of the translation rows of its Jacobian
+(:func:`manipkit.analysis.manipulability.manipulability`, batched Jacobians
+:meth:`Robot.jacobians`), the linear rows taken along the grid axes: rows
+``x y z`` of ``base`` for a spatial arm (``w`` in m^3 per rad^3 for revolute
+joints), the rows ``u v`` of the arm's plane for a planar one (m^2). Per voxel
+the map keeps the best (largest) ``w`` and the mean; NaN where nothing reached.
+
 Blocks are tasks: each block of samples (or IK targets) has its own seed,
 so the map is bit-identical whatever runs them. Block ``b`` of the FK stage
 holds samples ``b * block_samples ..`` and draws them as
@@ -38,8 +47,11 @@ defaults); IK block ``b`` (``IK_BLOCK`` targets in key order) uses
 Without ``workers`` or ``scheduler`` the blocks run here, one after the
 other; ``workers=N`` starts a ``distributed.LocalCluster`` of N
 single-threaded worker processes, ``scheduler="tcp://host:port"`` uses a
-running Dask cluster. Results are merged by OR per voxel-bin and, for the
-stored configuration of a voxel, the lowest block's first sample.
+running Dask cluster. Results are merged in block order (a block that finishes early waits
+for the ones before it): OR per voxel-bin, the first sample of a voxel as its
+stored configuration, the largest ``w`` as the best and the sums and counts
+of ``w`` for the mean, then the IK answers in key order; so the floating-point
+sums, too, are the same however the blocks ran.
 
 Grid: voxel ``(i, j, k)`` has its centre at ``origin + axes @ ((i, j, k) *
 voxel)`` in ``base`` (metres); ``axes`` is the identity for a spatial arm,
@@ -49,13 +61,13 @@ reach bound of :class:`manipkit.kinematics.ik.IKSolver` around the first
 chain joint.
 
 Maps are stored in Zarr (a folder): arrays ``reach`` (chunked), ``voxel_q``,
-``ik_keys``, ``ik_q`` and the settings as attributes (:meth:`ReachMap.save`, :func:`load`).
+``ik_keys``, ``ik_q``, ``manipulability`` and ``manipulability_mean`` (when
+built) and the settings as attributes (:meth:`ReachMap.save`, :func:`load`).
 """
 
 from __future__ import annotations
 
 import json
-import logging
 import math
 import numbers
 import sys
@@ -65,6 +77,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.analysis.blocks import BlockRunner, in_block_order
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
 from manipkit.errors import InputFileError, OutputError, ReachMapError
 from manipkit.text import short_text
@@ -73,12 +86,14 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
-    "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "METHODS", "ReachMap", "ReachMapError", "build",
-    "chain_axes", "load", "parse_orientations", "plot_reachmap", "writable_map_path",
+    "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "METHODS", "ReachMap", "ReachMapError",
+    "build", "chain_axes", "load", "parse_orientations", "plot_reachmap", "translation_manipulability",
+    "writable_map_path",
 ]
 
 HOW_NONE, HOW_SAMPLE, HOW_IK = 0, 1, 2
 METHODS = ("fk", "hybrid")
+LAYERS = ("index", "manipulability")  # what a picture of a map shows
 FORMAT = "manipkit-reachmap-1"
 DEFAULT_SAMPLES = 1_000_000
 DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-joint arm
@@ -115,6 +130,12 @@ class ReachMap:
         with the bin's representative orientation).
     settings : dict
         samples, seed, block sizes, IK tolerance and budget.
+    manipulability : ndarray, shape (nx, ny, nz), or None
+        Per voxel the best (largest) Yoshikawa index of the translation rows
+        over the configurations that reached it (NaN where none did); None
+        when the map was built with ``manipulability=False``.
+    manipulability_mean : ndarray, shape (nx, ny, nz), or None
+        The mean over those configurations.
     """
 
     reach: np.ndarray
@@ -131,6 +152,8 @@ class ReachMap:
     ik_keys: np.ndarray
     ik_q: np.ndarray
     settings: dict = field(default_factory=dict)
+    manipulability: np.ndarray | None = None
+    manipulability_mean: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -211,7 +234,26 @@ class ReachMap:
             f"dexterous (index = 1): {dexterous} voxels, {short_text(dexterous * cell, 4)} {unit}",
             f"voxel-bins reached: {int((reach == HOW_SAMPLE).sum())} by samples, {int((reach == HOW_IK).sum())} by IK "
             f"({self.settings.get('samples', 0)} samples, seed {self.settings.get('seed', 0)})",
+            *([self.manipulability_text()] if self.manipulability is not None else []),
         ])
+
+    def best_manipulability(self) -> tuple[float, np.ndarray] | None:
+        """(the largest per-voxel best index, the centre (3,) m in ``base`` of its voxel), or None (none built or reached)."""
+        if self.manipulability is None or not np.isfinite(self.manipulability).any():
+            return None
+        flat = int(np.nanargmax(self.manipulability))
+        return float(self.manipulability.reshape(-1)[flat]), self.centers().reshape(-1, 3)[flat]
+
+    def manipulability_text(self) -> str:
+        """One line: the best Yoshikawa index of the map, where, and the mean over the reachable voxels."""
+        best = self.best_manipulability()
+        rows = "the plane's translation rows" if self.orientations.kind == "planar" else "translation rows"
+        if best is None:
+            return f"manipulability (Yoshikawa, {rows}): no voxel reached"
+        w, where = best
+        return (f"manipulability (Yoshikawa, {rows}): best {short_text(w, 4)} at "
+                f"({', '.join(short_text(v, 4) for v in where)}) m; mean over the reachable voxels "
+                f"{short_text(float(np.nanmean(self.manipulability_mean)), 4)}")
 
     def save(self, path) -> Path:
         """Write the map to the Zarr folder ``path`` (replacing a map there; never another folder); returns it."""
@@ -225,6 +267,9 @@ class ReachMap:
             root.create_array("voxel_q", data=self.voxel_q, chunks=chunk[:3] + (self.voxel_q.shape[3],))
             root.create_array("ik_keys", data=self.ik_keys.astype(np.int64), chunks=(max(1, min(len(self.ik_keys), 65536)),))
             root.create_array("ik_q", data=self.ik_q, chunks=(max(1, min(len(self.ik_keys), 65536)), self.ik_q.shape[1]))
+            if self.manipulability is not None:
+                root.create_array("manipulability", data=self.manipulability, chunks=chunk[:3])
+                root.create_array("manipulability_mean", data=self.manipulability_mean, chunks=chunk[:3])
             root.attrs.update(self.attrs())
         except OSError as exc:
             raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
@@ -282,11 +327,14 @@ def load(path) -> ReachMap:
         raise InputFileError(f"{path}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
     root = zarr.open_group(str(path), mode="r")
     a = dict(root.attrs)
+    built = "manipulability" in root
     return ReachMap(
         np.asarray(root["reach"][...], dtype=np.uint8), np.array(a["origin"], dtype=float),
         np.array(a["axes"], dtype=float), float(a["voxel"]), OrientationSet.from_attrs(a["orientations"]),
         a["method"], a["robot"], a["frame"], a["base"], tuple(a["joint_names"]), np.asarray(root["voxel_q"][...]),
         np.asarray(root["ik_keys"][...], dtype=np.int64), np.asarray(root["ik_q"][...]), dict(a["settings"]),
+        np.asarray(root["manipulability"][...]) if built else None,
+        np.asarray(root["manipulability_mean"][...]) if built else None,
     )
 
 
@@ -404,6 +452,7 @@ class _Job:
     ik_tol: float
     ik_restarts: int
     ik_time_budget: float
+    manipulability: bool
 
     def cells(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(flat voxel index, inside) of points ``xyz`` (N, 3) in ``base``."""
@@ -413,18 +462,44 @@ class _Job:
         return flat, inside
 
 
-def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-    """Block ``block`` of FK samples: (block, reached voxel-bin keys, voxels, first configuration in each voxel)."""
+def translation_manipulability(robot: Robot, Q: np.ndarray, frame: str, base: str, axes: np.ndarray, *,
+                               planar: bool) -> np.ndarray:
+    """Yoshikawa's index (N,) of the translation rows of the Jacobians at ``Q`` (N, n), rows along the grid ``axes``.
+
+    The linear rows of :meth:`Robot.jacobians` (``frame`` in ``base``) are
+    expressed along the columns of ``axes`` (3, 3); a spatial map (identity
+    axes) takes all three, a planar one the first two (``u v``, its plane).
+    """
+    from manipkit.analysis.manipulability import manipulability
+
+    J = robot.jacobians(Q, frame, base)
+    J[:, :3] = np.einsum("ji,njk->nik", axes, J[:, :3])  # axes.T @ J_v for each configuration
+    return manipulability(J, "yoshikawa", axes=[0, 1] if planar else "trans")
+
+
+def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, tuple | None]:
+    """Block ``block`` of FK samples: (block, reached voxel-bin keys, voxels, first configuration in each voxel, stats).
+
+    ``stats``: per voxel (best, sum, count) of the manipulability index of the
+    block's samples in it, or None when the map is built without it.
+    """
     rng = np.random.default_rng([job.seed, 0, block])
     n = min(job.block_samples, job.samples - block * job.block_samples)
     Q = np.tile(job.q_default, (n, 1))
     Q[:, job.chain] = job.low + rng.random((n, job.chain.size)) * (job.high - job.low)
     T = job.robot.fk(Q, job.frame, job.base)
     cells, inside = job.cells(T[:, :3, 3])
-    bins = job.orientations.bin_of(T[inside, :3, :3])
-    keys = np.unique(cells[inside] * job.orientations.size + bins)
-    voxels, first = np.unique(cells[inside], return_index=True)
-    return block, keys, voxels, Q[inside][first]
+    cells, Q = cells[inside], Q[inside]
+    keys = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]))
+    order = np.argsort(cells, kind="stable")  # a voxel's samples together, each run in sample order
+    starts = np.flatnonzero(np.diff(cells[order], prepend=-1)) if cells.size else np.zeros(0, dtype=np.intp)
+    voxels, first = cells[order][starts], order[starts]
+    stats = None
+    if job.manipulability and cells.size:
+        w = translation_manipulability(job.robot, Q, job.frame, job.base, job.axes,
+                                       planar=job.orientations.kind == "planar")[order]
+        stats = (np.maximum.reduceat(w, starts), np.add.reduceat(w, starts), np.diff(starts, append=w.size))
+    return block, keys, voxels, Q[first], stats
 
 
 def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
@@ -434,56 +509,6 @@ def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[
     batch = ik_many(job.robot, T, Q_seed, frame=job.frame, base=job.base, mode=job.ik_mode, tol=job.ik_tol,
                     restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block)
     return block, batch.success, batch.q
-
-
-class _Runner:
-    """Runs blocks here, on a new LocalCluster (``workers``) or on a running cluster (``scheduler``)."""
-
-    def __init__(self, workers: int | None, scheduler: str | None, progress: bool):
-        self.workers, self.scheduler, self.progress = workers, scheduler, progress
-        self.client = self.cluster = None
-
-    def __enter__(self):
-        if self.workers is not None or self.scheduler is not None:
-            from distributed import Client, LocalCluster
-
-            if self.workers is not None:
-                self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.ERROR)
-                self.client = Client(self.cluster)
-            else:
-                try:
-                    self.client = Client(self.scheduler, timeout=10)
-                except (OSError, TimeoutError, ValueError) as exc:
-                    raise ReachMapError(f"cannot reach the Dask scheduler '{self.scheduler}': {exc}") from None
-        return self
-
-    def __exit__(self, *exc):
-        if self.client is not None:
-            self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
-
-    def run(self, fn, job: _Job, argument_lists: list[tuple], desc: str):
-        """Yield ``fn(job, *arguments)`` for each tuple of ``argument_lists``, in any order, with a progress bar."""
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(argument_lists), desc=desc, unit="block", file=sys.stderr, disable=not self.progress,
-                   leave=False)
-        with bar:
-            if self.client is None:
-                for arguments in argument_lists:
-                    yield fn(job, *arguments)
-                    bar.update()
-                return
-            from distributed import as_completed
-
-            job_future = self.client.scatter(job, broadcast=True, hash=False)
-            futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in argument_lists]
-            for future in as_completed(futures):
-                yield future.result()
-                future.release()
-                bar.update()
 
 
 # --------------------------------------------------------------------------
@@ -507,6 +532,7 @@ def build(
     ik_tol: float = 1e-9,
     ik_restarts: int = 2,
     ik_time_budget: float = 0.02,
+    manipulability: bool = True,
 ) -> ReachMap:
     """Build the reachability map of ``frame`` in ``base`` (see the module docstring).
 
@@ -537,6 +563,9 @@ def build(
     ik_tol, ik_restarts, ik_time_budget : keyword-only
         Hybrid IK: FK residual tolerance (m and rad), random restarts after
         the seeded start, seconds per target.
+    manipulability : bool, keyword-only
+        Also keep, per voxel, the best and the mean Yoshikawa index of the
+        configurations that reached it (``False`` skips the Jacobians).
 
     Returns
     -------
@@ -600,31 +629,44 @@ def build(
     high = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in joints])
     job = _Job(robot, frame, base, chain, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
-               float(ik_tol), int(ik_restarts), float(ik_time_budget))
+               float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability))
     if progress is None:
         progress = sys.stderr.isatty()
     n_voxels = int(np.prod(shape))
     reach = np.zeros(n_voxels * bins.size, dtype=np.uint8)
     voxel_q = np.full((n_voxels, len(robot.joint_names)), np.nan)
-    voxel_block = np.full(n_voxels, np.iinfo(np.int64).max)
+    seen = np.zeros(n_voxels, dtype=bool)
+    best, total, count = np.full(n_voxels, np.nan), np.zeros(n_voxels), np.zeros(n_voxels, dtype=np.int64)
     ik_keys, ik_q = np.zeros(0, dtype=np.int64), np.zeros((0, len(robot.joint_names)))
-    with _Runner(workers, scheduler, bool(progress)) as runner:
+    with BlockRunner(workers, scheduler, bool(progress)) as runner:
         n_blocks = -(-int(samples) // int(block_samples))
-        for block, keys, voxels, Q in runner.run(sample_block, job, [(b,) for b in range(n_blocks)], "FK samples"):
+        blocks = runner.run(sample_block, job, [(b,) for b in range(n_blocks)], "FK samples")
+        for _, keys, voxels, Q, stats in in_block_order(blocks):
             reach[keys] = HOW_SAMPLE
-            better = block < voxel_block[voxels]
-            voxel_q[voxels[better]] = Q[better]
-            voxel_block[voxels[better]] = block
+            new = ~seen[voxels]
+            voxel_q[voxels[new]], seen[voxels] = Q[new], True
+            if stats is not None:
+                best[voxels] = np.fmax(best[voxels], stats[0])
+                total[voxels] += stats[1]
+                count[voxels] += stats[2]
         if method == "hybrid":
             ik_keys, ik_q = _hybrid(job, runner, reach, voxel_q)
+    if manipulability and ik_keys.size:  # the IK answers too, in key order
+        w = translation_manipulability(robot, ik_q, frame, base, axes, planar=planar is not None)
+        voxels = ik_keys // bins.size
+        np.fmax.at(best, voxels, w)
+        np.add.at(total, voxels, w)
+        np.add.at(count, voxels, 1)
     settings = {"samples": int(samples), "seed": int(seed), "block_samples": int(block_samples), "ik_tol": float(ik_tol),
                 "ik_restarts": int(ik_restarts), "ik_time_budget": float(ik_time_budget), "ik_mode": job.ik_mode,
-                "planar": planar is not None}
+                "planar": planar is not None, "manipulability": bool(manipulability)}
+    mean = np.divide(total, count, out=np.full(n_voxels, np.nan), where=count > 0)
     return ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
-                    tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings)
+                    tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
+                    best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None)
 
 
-def _hybrid(job: _Job, runner: _Runner, reach: np.ndarray, voxel_q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _hybrid(job: _Job, runner: BlockRunner, reach: np.ndarray, voxel_q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """IK on every unmarked voxel-bin with a face neighbour marked in the same bin; marks HOW_IK in ``reach``.
 
     Returns (keys, configurations) of the voxel-bins IK reached, sorted by key.
@@ -669,12 +711,23 @@ def _hybrid(job: _Job, runner: _Runner, reach: np.ndarray, voxel_q: np.ndarray) 
 # Pictures
 
 
-def plot_reachmap(reach_map: ReachMap, path) -> None:
-    """The index (0..1) to ``path`` (matplotlib): the plane of a planar map; two slices through the grid centre otherwise.
+def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
+    """A layer of the map to ``path`` (matplotlib): the plane of a planar map; two slices through the grid centre otherwise.
 
-    Spatial slices: horizontal (x-y of ``base``) and vertical (x-z), each
-    through the voxel layer that holds the grid's centre.
+    ``layer``: ``"index"`` (0..1) or ``"manipulability"`` (the best
+    Yoshikawa index per voxel, blank where nothing reached). Spatial slices:
+    horizontal (x-y of ``base``) and vertical (x-z), each through the voxel
+    layer that holds the grid's centre.
+
+    Raises
+    ------
+    ReachMapError
+        An unknown layer, or ``"manipulability"`` of a map built without it.
     """
+    if layer not in LAYERS:
+        raise ReachMapError(f"unknown layer '{layer}'; layers: {', '.join(LAYERS)}")
+    if layer == "manipulability" and reach_map.manipulability is None:
+        raise ReachMapError("this map was built without manipulability (manipulability=False, --no-manipulability)")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -682,7 +735,9 @@ def plot_reachmap(reach_map: ReachMap, path) -> None:
 
     from manipkit.outputs import writing
 
-    index, v = reach_map.index, reach_map.voxel
+    v = reach_map.voxel
+    index = reach_map.index if layer == "index" else np.ma.masked_invalid(reach_map.manipulability)
+    top = 1.0 if layer == "index" else max(float(index.max()) if index.count() else 1.0, 1e-12)
     nx, ny, nz = reach_map.shape
     o = reach_map.origin
     if reach_map.orientations.kind == "planar":
@@ -697,12 +752,13 @@ def plot_reachmap(reach_map: ReachMap, path) -> None:
         if reach_map.orientations.kind == "planar":  # plane coordinates measured from the grid centre
             a0, b0 = -(nx // 2) * v, -(ny // 2) * v
         extent = (a0 - v / 2, a0 + (image.shape[0] - 0.5) * v, b0 - v / 2, b0 + (image.shape[1] - 0.5) * v)
-        shown = ax.imshow(image.T, origin="lower", extent=extent, cmap="viridis", vmin=0.0, vmax=1.0,
+        shown = ax.imshow(image.T, origin="lower", extent=extent, cmap="viridis", vmin=0.0, vmax=top,
                           interpolation="nearest", aspect="equal")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         ax.set_title(where)
-    fig.colorbar(shown, ax=list(axes[0]), label="reachability index (1: dexterous)")
+    fig.colorbar(shown, ax=list(axes[0]), label="reachability index (1: dexterous)" if layer == "index" else
+                 "best Yoshikawa index, translation rows")
     fig.suptitle(f"{reach_map.robot}: {reach_map.frame} in {reach_map.base}, {short_text(v)} m voxels, "
                  f"{reach_map.orientations.size} orientation bins")
     with writing(path) as target:

@@ -39,6 +39,13 @@ def register(commands) -> None:
     _add_map_options(reach, voxel=0.05, orientations=None, samples=1_000_000)
     reach.add_argument("-o", "--output", type=Path, required=True, metavar="MAP", help="Zarr folder to write")
     reach.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw slices of the index")
+    reach.add_argument("--plot-manipulability", type=Path, default=None, metavar="FILE.png",
+                       help="draw the same slices of the best Yoshikawa index per voxel")
+    reach.add_argument("--no-manipulability", action="store_true",
+                       help="skip the manipulability overlay (no Jacobians: about half the FK-stage time)")
+    reach.add_argument("--view", action="store_true", help="show the map in meshcat (Ctrl-C stops)")
+    reach.add_argument("--view-html", type=Path, default=None, metavar="FILE.html",
+                       help="write the meshcat view as a standalone HTML file")
     reach.add_argument("--format", choices=("text", "json"), default="text")
     reach.set_defaults(run=run_reachmap)
 
@@ -57,39 +64,66 @@ def register(commands) -> None:
     place.set_defaults(run=run_base_placement)
 
 
-def _build(robot, args, base: str):
+def _build(robot, args, base: str, *, manipulability: bool = False):
     from manipkit.analysis.reachmap import build
 
     return build(robot, args.frame, base, voxel=args.voxel, orientations=args.orientations, method=args.method,
-                 samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed)
+                 samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
+                 manipulability=manipulability)
 
 
 def run_reachmap(args) -> int:
-    """Build the map, save it to ``-o``, print its summary (text or JSON); draw slices to ``--plot``."""
+    """Build the map, save it to ``-o``, print its summary (text or JSON); draw slices; show it in meshcat."""
     from manipkit.analysis.reachmap import parse_orientations, plot_reachmap, writable_map_path
 
     writable_map_path(args.output)  # before any work; no folder is created but the map's own
-    if args.plot is not None:
-        writable_path(args.plot)
+    pictures = [p for p in (args.plot, args.plot_manipulability, args.view_html) if p is not None]
+    for path in pictures:
+        writable_path(path)
+    if args.no_manipulability and args.plot_manipulability is not None:
+        raise UsageError("--plot-manipulability needs the overlay: drop --no-manipulability")
     if args.orientations is not None:
         parse_orientations(args.orientations)
-    robot = load_robot(args)
-    reach_map = _build(robot, args, args.base)
+    robot = load_robot(args, mesh_warnings=False) if args.view or args.view_html else load_robot(args)
+    reach_map = _build(robot, args, args.base, manipulability=not args.no_manipulability)
     reach_map.save(args.output)
     if args.plot is not None:
         plot_reachmap(reach_map, args.plot)
+    if args.plot_manipulability is not None:
+        plot_reachmap(reach_map, args.plot_manipulability, layer="manipulability")
+    if args.view_html is not None:
+        from manipkit.app.viewer.reachmap_scene import write_reachmap_html
+
+        write_reachmap_html(reach_map, args.view_html, robot=robot)
+    best = reach_map.best_manipulability()
     if args.format == "json":
         print_json({
             "robot": reach_map.robot, "frame": reach_map.frame, "base": reach_map.base, "method": reach_map.method,
             "voxel": reach_map.voxel, "shape": list(reach_map.shape), "origin": reach_map.origin.tolist(),
             "orientations": reach_map.orientations.size, "reachable_voxels": int(reach_map.reachable.sum()),
             "dexterous_voxels": int(reach_map.dexterous.sum()), "map": str(args.output),
-            **({"plot": str(args.plot)} if args.plot is not None else {}),
+            **({"best_manipulability": best[0], "best_manipulability_at": best[1].tolist()} if best else {}),
+            **{name: str(path) for name, path in (("plot", args.plot), ("plot_manipulability", args.plot_manipulability),
+                                                  ("view_html", args.view_html)) if path is not None},
         })
     else:
         print(reach_map.summary())
-        print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot is not None else ""))
+        print(f"wrote {', '.join(str(p) for p in [args.output, *pictures])}")
+    if args.view:
+        _serve_view(reach_map, robot)
     return EXIT_OK
+
+
+def _serve_view(reach_map, robot) -> None:
+    """Show the map in its own meshcat server until Ctrl-C (or SIGTERM)."""
+    from manipkit.app.viewer.reachmap_scene import reachmap_scene, serve_until_stopped
+
+    scene = reachmap_scene(reach_map, robot)
+    print(f"meshcat scene: {scene.url}", flush=True)
+    print("reachable voxels coloured by index (the manipulability layer is in meshcat's controls); Ctrl-C stops",
+          flush=True)
+    serve_until_stopped(scene)
+    print("viewer stopped", flush=True)
 
 
 def run_base_placement(args) -> int:
