@@ -643,7 +643,10 @@ class Robot:
         -------
         steps : list of ChainStep
             Base (or root) first; joint steps name their column of the joint
-            vector (``joint_names`` order) in ``index``. Built once per
+            vector (``joint_names`` order) in ``index``. A mimic joint's step
+            reads its leader's column with its ``scale`` and ``offset``; a
+            floating or planar joint is one step per coordinate (its placement
+            on the first). Built once per
             (frame, base) and shared: the arrays are read-only.
 
         Raises
