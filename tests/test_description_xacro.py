@@ -216,6 +216,11 @@ REFUSED = [
     ("list(python.range(10**12))", "range(1000000000000,) has 1000000000000 items"),
     ("[1 for i in python.range(10**6)]", "comprehensions ran more than 10000 steps"),
     ("python.sum([[1]], [])", "python.sum adds numbers only"),
+    # lazy builtins consumed in C: 40 ranges of 4M zipped would be gigabytes before any size check
+    ("python.list(python.zip(" + ",".join(["python.range(4000000)"] * 40) + "))",
+     "python.zip(...) makes more than 4194304 characters and items"),
+    ("python.list(python.map(python.str, python.range(4000000)))", "python.map(...) makes more than"),
+    ("math.sumprod([2], [2])", "name 'sumprod' is not defined"),
     ("-(" * 120 + "1" + ")" * 120, "nested more than 100 levels deep"),
 ]
 

@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 import yourdfpy
 
-from manipkit.errors import DescriptionError, IKOptionError, JointValueError
+from manipkit.errors import ChainError, DescriptionError, IKOptionError, JointValueError
 from manipkit.kinematics.ik import ik
 from manipkit.kinematics.robot import Robot
 
@@ -303,3 +303,36 @@ def test_the_package_root_lists_its_api_without_importing_pinocchio():
             "'reachmap'} <= set(names), names; print('pinocchio' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+def test_ik_refuses_a_base_that_a_solved_leader_moves():
+    # j1 (above link a) is the leader of j2 (below it): solving for j1 from base 'a' would move the base itself
+    urdf = _urdf(
+        f"""<joint name="j1" type="revolute"><parent link="base_link"/><child link="a"/><axis xyz="0 0 1"/>{LIMIT}</joint>
+<joint name="j2" type="revolute"><parent link="a"/><child link="b"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}
+  <mimic joint="j1"/></joint>
+<joint name="j3" type="revolute"><parent link="b"/><child link="tip"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}</joint>""",
+        "base_link a b tip",
+    )
+    robot = Robot.from_urdf(urdf)
+    T = robot.transform("a", "tip", [0.3, 0.2])
+    with pytest.raises(ChainError, match="joint 'j1' moves 'a' \\(it lies above it\\)"):
+        ik(robot, T, frame="tip", base="a", mode="position")
+    # from base_link (above j1) it solves; hand: j2's origin at angle q1, the tip's at 2 q1 (j3 only turns the tip)
+    target = robot.transform("base_link", "tip", [0.3, 0.2])
+    np.testing.assert_allclose(target[:3, 3], [math.cos(0.3) + math.cos(0.6), math.sin(0.3) + math.sin(0.6), 0],
+                               atol=1e-12)
+    result = ik(robot, target, frame="tip", mode="position", restarts=20)
+    assert result.success
+    np.testing.assert_allclose(robot.transform("base_link", "tip", result.q)[:3, 3], target[:3, 3], atol=1e-9)
+
+
+def test_a_mimic_chain_whose_multipliers_overflow_is_refused():
+    urdf = _urdf(
+        f"""<joint name="j1" type="revolute"><parent link="base_link"/><child link="a"/><axis xyz="0 0 1"/>{LIMIT}</joint>
+<joint name="j2" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>{LIMIT}<mimic joint="j1" multiplier="1e200"/></joint>
+<joint name="j3" type="revolute"><parent link="b"/><child link="c"/><axis xyz="0 0 1"/>{LIMIT}<mimic joint="j2" multiplier="1e200"/></joint>""",
+        "base_link a b c",
+    )
+    with pytest.raises(DescriptionError, match="composes to multiplier inf"):
+        Robot.from_urdf(urdf)

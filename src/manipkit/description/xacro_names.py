@@ -51,6 +51,7 @@ from manipkit.description.expressions import (
     evaluate,
     extend_deadline,
     refusal,
+    remaining_time,
     value_size,
 )
 from manipkit.errors import DescriptionError, InputFileError
@@ -141,6 +142,52 @@ def _tokenize(s, sep=",; ", skip_empty=True):
 
 
 _MATH_BOUNDED = {"factorial": _factorial, "comb": _comb, "perm": _perm, "prod": _prod, "lcm": _lcm}
+#: The math functions and constants an expression may use (named, not every name of ``math``: a later Python's
+#: ``math.sumprod`` would multiply integers without a bound).
+_MATH_NAMES = (
+    "acos", "acosh", "asin", "asinh", "atan", "atan2", "atanh", "cbrt", "ceil", "comb", "copysign", "cos", "cosh",
+    "degrees", "dist", "e", "erf", "erfc", "exp", "exp2", "expm1", "fabs", "factorial", "floor", "fmod", "frexp",
+    "fsum", "gamma", "gcd", "hypot", "inf", "isclose", "isfinite", "isinf", "isnan", "isqrt", "lcm", "ldexp",
+    "lgamma", "log", "log10", "log1p", "log2", "modf", "nan", "nextafter", "perm", "pi", "pow", "prod", "radians",
+    "remainder", "sin", "sinh", "sqrt", "tan", "tanh", "tau", "trunc", "ulp",
+)
+
+
+class _BoundedIterator:
+    """The items of a lazy builtin (``map``, ``zip``, ``filter``, ``enumerate``, ``reversed``), counted.
+
+    ``python.list(python.zip(python.range(N), ...))`` would otherwise build its whole result in C before any
+    size check: the items are refused once their sizes add up to more than :data:`MAX_SIZE`, and the time
+    budget is checked at every item.
+    """
+
+    __slots__ = ("_items", "_size", "_name")
+
+    def __init__(self, items, name: str):
+        self._items, self._size, self._name = items, 0, name
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        item = next(self._items)
+        self._size += value_size(item)
+        if self._size > MAX_SIZE:
+            raise refusal(f"python.{self._name}(...) makes more than {MAX_SIZE} characters and items (the limit)")
+        if remaining_time() < 0.0:
+            raise refusal(f"python.{self._name}(...) ran past the time budget")
+        return item
+
+
+def _bounded_lazy(function):
+    def bounded(*args, **kwargs):
+        return _BoundedIterator(function(*args, **kwargs), function.__name__)
+
+    bounded.__name__ = function.__name__
+    return bounded
+
+
+_MAP, _ZIP, _FILTER, _ENUMERATE, _REVERSED = (_bounded_lazy(f) for f in (map, zip, filter, enumerate, reversed))
 
 
 # --------------------------------------------------------------------------
@@ -154,14 +201,14 @@ def xacro_globals() -> dict[str, object]:
     import xacro
 
     python = Namespace({
-        "list": list, "dict": dict, "map": map, "len": len, "str": str, "float": float, "int": int, "bool": bool,
+        "list": list, "dict": dict, "map": _MAP, "len": len, "str": str, "float": float, "int": int, "bool": bool,
         "True": True, "False": False, "min": min, "max": max, "round": _round, "abs": abs, "all": all, "any": any,
-        "complex": complex, "divmod": divmod, "enumerate": enumerate, "filter": filter, "frozenset": frozenset,
+        "complex": complex, "divmod": divmod, "enumerate": _ENUMERATE, "filter": _FILTER, "frozenset": frozenset,
         "hash": hash, "isinstance": isinstance, "issubclass": issubclass, "ord": ord, "repr": repr,
-        "reversed": reversed, "slice": slice, "set": set, "sum": _sum, "tuple": tuple, "zip": zip,
+        "reversed": _REVERSED, "slice": slice, "set": set, "sum": _sum, "tuple": tuple, "zip": _ZIP,
         "sorted": sorted, "range": _range,
     })
-    math_names = Namespace({k: _MATH_BOUNDED.get(k, v) for k, v in vars(math).items() if not k.startswith("_")})
+    math_names = Namespace({k: _MATH_BOUNDED.get(k, getattr(math, k)) for k in _MATH_NAMES if hasattr(math, k)})
     own = xacro._global_symbols["xacro"]  # xacro's NameSpace: read its entries without lazy evaluation
     xacro_names = Namespace({k: dict.__getitem__(own, k) for k in
                              ("arg", "message", "warning", "error", "print_location", "fatal")})

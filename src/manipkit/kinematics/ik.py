@@ -454,6 +454,17 @@ class IKSolver:
         # The compiled iteration's view of the chain, root to frame (manipkit.kinematics.ik_kernel).
         steps = robot.chain(self.frame)
         self._geometry, self._kinds = pack_chain(steps, self._chain_user)
+        # A solved joint must not also move the base: the target is placed in the root once per solve.
+        joint_steps = [k for k, step in enumerate(steps) if step.index >= 0]
+        n_below = sum(1 for step in robot.chain(self.frame, self.base) if step.index >= 0)
+        moves_base = [k for k in joint_steps[: len(joint_steps) - n_below] if self._kinds[k, 1] >= 0]
+        if moves_base:
+            name = robot.joint_names[steps[moves_base[0]].index]
+            raise ChainError(
+                f"robot '{robot.name}': joint '{name}' moves '{self.base}' (it lies above it) and, through a mimic "
+                f"joint, the chain from '{self.base}' to '{self.frame}'; IK from this base cannot solve for it: "
+                f"choose a base above '{name}'"
+            )
         # Reach bound: the frame origin stays within this distance of the first solved joint's origin.
         solved = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] >= 0]
         reach = sum(float(np.linalg.norm(step.translation)) for step in steps[solved[0] + 1 :])
@@ -462,7 +473,7 @@ class IKSolver:
                 joint = robot.joints[steps[k].index]
                 reach += abs(steps[k].scale) * max(abs(joint.lower), abs(joint.upper)) + abs(steps[k].offset)
         self.reach = reach
-        self._first_joint = model.getJointId(joints[0].joint)
+        self._first_joint = model.getJointId(robot.joints[steps[solved[0]].index].joint)
         not_solved = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
         self._fixed_steps = np.array(not_solved, dtype=np.intp)  # joints above the base, fixed coordinates
         self._fixed_user = np.array([steps[k].index for k in not_solved], dtype=np.intp)

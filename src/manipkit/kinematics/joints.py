@@ -251,6 +251,10 @@ def _resolve_mimics(tags, types: dict[str, str], where: str) -> dict[str, tuple[
             seen.append(leader)
             next_leader, m, o = tags[leader]
             multiplier, offset, leader = multiplier * m, multiplier * o + offset, next_leader
+        if not (math.isfinite(multiplier) and math.isfinite(offset)):
+            chain = " -> ".join(seen + [leader])
+            raise DescriptionError(f"{where}: the mimic chain {chain} composes to multiplier {multiplier:g}, offset "
+                                   f"{offset:g}; give multipliers and offsets whose products stay finite")
         kind = types.get(leader)
         if kind is None:
             raise DescriptionError(f"{where}: joint '{name}' mimics '{tags[name][0]}', which is not a joint of this robot")

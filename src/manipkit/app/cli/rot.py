@@ -11,7 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
-from manipkit.app.cli.common import EXIT_OK, UsageError, check_precision, is_number, print_json
+from manipkit.app.cli.common import EXIT_OK, UsageError, check_angles, check_precision, is_number, print_json
 
 __all__ = ["register", "run_rot"]
 
@@ -146,6 +146,8 @@ def _values(args):
         numbers.append(pi_value)
     if not all(math.isfinite(v) for v in numbers):
         raise UsageError(f"{args.form}: the values must be finite numbers")
+    angles = [numbers[k] for k in _ANGLE_VALUES.get(args.form, ())]
+    check_angles(args.form, angles, degrees=False)  # 1e300 rad names no rotation (sin and cos are noise there)
     return numbers
 
 
