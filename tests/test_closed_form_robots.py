@@ -14,7 +14,7 @@ import pytest
 import manipkit
 from manipkit.closed_form.result import ClosedFormSolutions
 from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
-from manipkit.errors import IKOptionError, InvalidTransformError
+from manipkit.errors import IKOptionError, InvalidTransformError, ManipkitError
 from manipkit.kinematics.ik import ik
 
 
@@ -110,3 +110,25 @@ def test_members_through_the_robot_are_checked_by_its_urdf(arms):
     for row in members.solutions:
         assert np.linalg.norm(robot.transform("base_link", "ee_link", row)[:3, 3] - T[:3, 3]) <= 1e-9
     assert min(np.abs(np.angle(np.exp(1j * (members.solutions - [0.3, 0.5, -0.4])))).max(axis=1)) < 1e-9
+
+
+def test_a_planar_2r_pose_takes_the_users_tolerance(load_robot):
+    # the tool angle is off by 1e-6 rad: outside the default 1e-9, inside 1e-3 (confirmed by FK of the answer)
+    from manipkit.spatial.rotations import rot_z
+
+    robot = load_robot("planar_2r")
+    T = robot.transform("base_link", "ee_link", [0.3, 0.4])
+    T[:3, :3] = T[:3, :3] @ rot_z(1e-6)
+    assert analytic_ik(robot, T, mode="pose").count == 0
+    loose = analytic_ik(robot, T, mode="pose", tol=1e-3)
+    assert loose.count == 1
+    np.testing.assert_allclose(robot.transform("base_link", "ee_link", loose.solutions[0])[:3, 3], T[:3, 3], atol=1e-9)
+
+
+@pytest.mark.parametrize("values", [["x"], [[1.0, 2.0], [3.0, 4.0]], [float("nan")]])
+def test_scara_family_members_refuse_bad_values_in_one_line(load_robot, values):
+    robot = load_robot("scara")
+    family = analytic_ik(robot, robot.transform("base_link", "ee_link", robot.sample_q(1, seed=1)[0]), mode="position")
+    with pytest.raises(ManipkitError) as info:
+        family.members(values)
+    assert "theta4 values" in str(info.value) and "\n" not in str(info.value)

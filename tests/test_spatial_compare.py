@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from manipkit.errors import InvalidTransformError
+from manipkit.errors import InvalidRotationError, InvalidTransformError
 from manipkit.spatial.compare import ComparisonResult, compare_transform, read_matrix
 from manipkit.spatial.rotations import matrix_from_rpy, rot_x, rot_y, rot_z
 
@@ -484,3 +484,10 @@ def test_read_matrix_takes_a_3x3_only_when_asked(tmp_path):
     flat.write_text("1 0\n0 1\n")
     with pytest.raises(InvalidTransformError, match="expected a 4x4 transform or a 3x3 rotation"):
         read_matrix(flat, rotation=True)
+
+
+@pytest.mark.parametrize("T_hand", [[[1, 0, 0], [0, 1], [0, 0, 1]], [["a", "b", "c"]] * 3])
+def test_a_ragged_or_non_numeric_hand_matrix_is_one_line(T_hand):
+    with pytest.raises((InvalidTransformError, InvalidRotationError)) as info:
+        compare_transform(np.eye(4), T_hand)
+    assert "T_hand" in str(info.value) and "\n" not in str(info.value)

@@ -91,7 +91,7 @@ from manipkit.closed_form.arm_tables import (
     scara_dh_table,
     stanford_dh_table,
 )
-from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.checks import finite_array, quantity_text
 from manipkit.closed_form.planar import ik_2r
 from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHTable, dh_fk
@@ -381,7 +381,10 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
         raise ClosedFormIKError(f"samples = {samples!r} must be a whole number >= 1")
 
     def members(values) -> ClosedFormSolutions:
-        return _scara(table, T, R, p, values, tol, singular_tol)
+        rolls = np.atleast_1d(finite_array(values, "theta4 values"))
+        if rolls.ndim != 1:
+            raise ClosedFormIKError(f"theta4 values must be a sequence of angles, got shape {rolls.shape}")
+        return _scara(table, T, R, p, rolls, tol, singular_tol)
 
     sampled = members(wrap_angle(2.0 * math.pi * np.arange(samples) / samples))
     if not sampled.success:

@@ -71,7 +71,7 @@ def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -
     lengths = float(args["l1"]), float(args["l2"])
     if mode == "position":
         return planar.ik_2r(T[0, 3], T[1, 3], *lengths)
-    return planar_modes.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths)
+    return planar_modes.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths, tol=tol)
 
 
 def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
@@ -227,7 +227,7 @@ def _tolerances(tol) -> tuple[float, float]:
 def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float]) -> list[tuple[str, float, str]]:
     """A planar arm's target components out of its plane: [(component, size, sentence)]."""
     q0 = np.zeros(len(robot.joint_names))
-    z_plane = float(robot.transform("base_link", "ee_link", q0)[2, 3])
+    z_plane = float(robot.transform("base_link", "ee_link", q0, check_limits=False)[2, 3])  # any q: the plane
     problems = []
     dz = float(T[2, 3]) - z_plane
     if abs(dz) > tol[0]:

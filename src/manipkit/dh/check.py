@@ -275,7 +275,7 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive
     )]
     if n == 0:
         return lines + [_tool_line(_home_difference(urdf_fk, dh, np.zeros(0)))], None
-    limit = max(tol, RECONCILE_TOL)
+    limit = tol  # a candidate must pass the check it is offered for (DHCheck.candidate)
     fit = _Fit(table, urdf_fk, Q)
 
     full = [c for c in fit.base_and_tool(table, "") if c[2] <= limit][:1]  # stage 1: the simplest one
