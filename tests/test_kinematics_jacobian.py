@@ -303,3 +303,22 @@ def test_mass_matrix_folds_mimic_joints_like_pinocchio_with_mimic():
     expected = pin.crba(model, model.createData(), q)
     expected = np.triu(expected) + np.triu(expected, 1).T
     np.testing.assert_allclose(mass_matrix(robot, q), expected, rtol=0, atol=1e-12)
+
+
+def test_jacobian_columns_leave_out_joints_off_the_chain(load_robot):
+    # the mobile manipulator carries the course arm (same joint names) on a 2-wheel base: the arm's indices must
+    # not see the wheels' zero columns (with them, 7 columns and 6 rows would give a zero singular value)
+    from manipkit.analysis.dexterity import global_conditioning_index
+    from manipkit.analysis.manipulability import manipulability
+    from manipkit.kinematics.jacobian import jacobian_columns
+
+    arm, mobile = load_robot("course_arm"), load_robot("mobile_manipulator")
+    assert [mobile.joint_names[i] for i in jacobian_columns(mobile)] == list(arm.joint_names)
+    q = arm.sample_q(1, seed=3)[0]
+    q_mobile = mobile.q(dict(zip(arm.joint_names, q)))
+    J = mobile.jacobian(q_mobile)[:, jacobian_columns(mobile)]
+    assert manipulability(J, axes="all", length=0.3) == pytest.approx(manipulability(arm.jacobian(q), axes="all",
+                                                                                     length=0.3), rel=1e-12)
+    on_base = global_conditioning_index(mobile, 4000, length=0.3, seed=1)
+    alone = global_conditioning_index(arm, 4000, length=0.3, seed=1)
+    assert on_base.mean > 0 and abs(on_base.mean - alone.mean) < (on_base.high - on_base.low) + (alone.high - alone.low)

@@ -33,7 +33,7 @@ from manipkit.analysis.manipulability import (
     singular_values,
 )
 from manipkit.errors import ManipkitError
-from manipkit.kinematics.jacobian import jacobians
+from manipkit.kinematics.jacobian import jacobian_columns, jacobians
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
@@ -144,10 +144,11 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     total = total_sq = 0.0
     done = 0
     bar, update = _progress(progress, samples)
+    columns = jacobian_columns(robot, frame_name, base_name)  # joints off the chain (wheels, fingers): zero columns
     try:
         while done < samples:
             m = min(chunk, samples - done)
-            J = jacobians(robot, uniform_joint_samples(robot, rng, m), frame_name, base_name)
+            J = jacobians(robot, uniform_joint_samples(robot, rng, m), frame_name, base_name)[..., columns]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", MixedUnitsWarning)
                 inverse = _inverse_condition(select_rows(J, axes, length))

@@ -471,8 +471,9 @@ def translation_manipulability(robot: Robot, Q: np.ndarray, frame: str, base: st
     axes) takes all three, a planar one the first two (``u v``, its plane).
     """
     from manipkit.analysis.manipulability import manipulability
+    from manipkit.kinematics.jacobian import jacobian_columns
 
-    J = robot.jacobians(Q, frame, base)
+    J = robot.jacobians(Q, frame, base)[..., jacobian_columns(robot, frame, base)]  # the chain's columns only
     J[:, :3] = np.einsum("ji,njk->nik", axes, J[:, :3])  # axes.T @ J_v for each configuration
     return manipulability(J, "yoshikawa", axes=[0, 1] if planar else "trans")
 

@@ -71,7 +71,8 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
-    "GIMBAL_TOL", "JacobianProgram", "REFERENCES", "REPRESENTATIONS", "jacobian", "jacobians", "mass_matrix",
+    "GIMBAL_TOL", "JacobianProgram", "REFERENCES", "REPRESENTATIONS", "jacobian", "jacobian_columns", "jacobians",
+    "mass_matrix",
     "rpy_rate_matrix",
 ]
 
@@ -451,6 +452,28 @@ def jacobian(robot: Robot, q=None, frame: str = "ee_link", base: str = "base_lin
                               f"got shape {q.shape}; use jacobians for many")
     return jacobians(robot, q[None], frame, base, reference=reference, representation=representation,
                      gimbal_tol=gimbal_tol)[0]
+
+
+def jacobian_columns(robot: Robot, frame: str = "ee_link", base: str = "base_link") -> np.ndarray:
+    """The columns of the Jacobian of ``frame`` relative to ``base`` that the chain can make nonzero.
+
+    The joints between the two frames (those moving one frame and not the
+    other), in :attr:`joint_names` order. The other columns are zero at every
+    configuration (a wheel, a finger, a joint above both frames): indices that
+    count singular values (Yoshikawa's, the condition number) take these
+    columns only, else a 5-joint arm on a 2-wheel base would read as
+    singular everywhere.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("mobile_manipulator")
+    >>> [robot.joint_names[i] for i in jacobian_columns(robot)]  # the arm's joints, not the wheels
+    ['arm_base_joint', 'shoulder_joint', 'bottom_wrist_joint', 'elbow_joint', 'top_wrist_joint']
+    """
+    moving_frame = {step.index for step in robot.chain(frame) if step.index >= 0}
+    moving_base = {step.index for step in robot.chain(base) if step.index >= 0}
+    return np.array(sorted(moving_frame ^ moving_base), dtype=np.intp)
 
 
 def mass_matrix(robot: Robot, q=None) -> np.ndarray:

@@ -103,9 +103,10 @@ def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: 
     from manipkit.analysis.dexterity import generic_rank, rank
     from manipkit.analysis.manipulability import condition_number, manipulability, singular_values
     from manipkit.analysis.singularities import null_space_motion, singular_family_at
-    from manipkit.kinematics.jacobian import jacobian
+    from manipkit.kinematics.jacobian import jacobian, jacobian_columns
 
-    J = jacobian(robot, q, frame, base, reference=reference)
+    J_all = jacobian(robot, q, frame, base, reference=reference)
+    J = J_all[:, jacobian_columns(robot, frame, base)]  # the indices count the chain's joints only (not wheels)
     s = singular_values(J, "all", length)
     ranks = {axes: rank(J, axes, length, tol=singular_tol) for axes in ("all", "trans")}
     generic = {axes: generic_rank(robot, frame, base, axes, length, tol=singular_tol) for axes in ("all", "trans")}
@@ -117,7 +118,7 @@ def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: 
         "reference": reference,
         "rows": list(ROW_NAMES),
         "joints": list(robot.joint_names),
-        "jacobian": J.tolist(),
+        "jacobian": J_all.tolist(),
         "length": length,
         "manipulability": manipulability(J, "yoshikawa", "all", length),
         "manipulability_translation": manipulability(J, "yoshikawa", "trans"),

@@ -37,6 +37,7 @@ from manipkit.analysis.dexterity import generic_rank, rank
 from manipkit.analysis.manipulability import condition_number, force_ellipsoid, manipulability, velocity_ellipsoid
 from manipkit.app.pose import pose_report, pose_text
 from manipkit.errors import ManipkitError
+from manipkit.kinematics.jacobian import jacobian_columns
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.text import short_text
 
@@ -348,6 +349,7 @@ class ViewerState:
         a, b = self._frames
         kind, axes = self._overlay.kind, self._overlay.axes
         J = self.robot.jacobian(self._q, frame=b, base=a, reference="base")
+        J = J[:, jacobian_columns(self.robot, b, a)]  # the chain's joints only: others are zero columns
         shape = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
         kappa = float(condition_number(J, axes))
         generic = self._generic_ranks.get((a, b, axes))
