@@ -278,3 +278,31 @@ def test_parse_orientations():
     with pytest.raises(ReachMapError, match="DIRxROLL"):
         reachmap.parse_orientations("0")
 
+
+
+def test_a_tampered_map_is_refused_in_one_line_without_waiting(map_3r, tmp_path):
+    import json
+    import os
+
+    path = tmp_path / "m.zarr"
+    map_3r.save(path)
+    meta_path = path / "zarr.json"
+    meta = json.loads(meta_path.read_text())
+    del meta["attributes"]["origin"]  # an attribute missing
+    meta_path.write_text(json.dumps(meta))
+    with pytest.raises(InputFileError, match="not a valid reachability map"):
+        load(path)
+    meta["attributes"]["origin"] = [0, 0, 0]
+    meta["attributes"]["orientations"]["n_rolls"] = 400  # more bins than the stored array has
+    meta_path.write_text(json.dumps(meta))
+    with pytest.raises(InputFileError, match="array shapes that disagree with the attributes"):
+        load(path)
+    map_3r.save(path)
+    os.mkfifo(path / "fifo")  # zarr would wait forever reading a FIFO
+    with pytest.raises(InputFileError, match="not a regular file"):
+        load(path)
+
+
+def test_a_grid_too_large_for_memory_is_refused_before_anything_is_allocated(planar_2r):
+    with pytest.raises(ReachMapError, match="more than 2147483648"):
+        build(planar_2r, voxel=1e-9, orientations=1, samples=10)

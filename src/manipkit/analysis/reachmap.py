@@ -70,6 +70,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
+import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,6 +81,7 @@ import numpy as np
 from manipkit.analysis.blocks import BlockRunner, in_block_order
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
 from manipkit.errors import InputFileError, OutputError, ReachMapError
+from manipkit.inputs import MAX_TABLE_BYTES, read_text
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
@@ -98,7 +100,8 @@ FORMAT = "manipkit-reachmap-1"
 DEFAULT_SAMPLES = 1_000_000
 DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-joint arm
 IK_BLOCK = 2048  # IK targets per block
-MAX_GRID_BYTES = 2 * 1024**3  # voxel-bins (one byte each) a map may hold
+MAX_GRID_BYTES = 2 * 1024**3  # bytes a map's arrays may take (a byte per voxel-bin, a configuration per voxel)
+MAX_MAP_FILES = 1_000_000  # files a map folder may hold (its chunks)
 PARALLEL_TOL = 1e-9  # joint axes closer than this (|a x b|) count as parallel
 
 
@@ -304,10 +307,30 @@ def writable_map_path(path) -> Path:
 
 def _is_map(path: Path) -> bool:
     try:
-        meta = json.loads((path / "zarr.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        meta = json.loads(read_text(path / "zarr.json", what="reachability map metadata", max_bytes=MAX_TABLE_BYTES))
+        return meta["attributes"]["format"] == FORMAT
+    except (InputFileError, ValueError, KeyError, TypeError):  # missing, a FIFO, too large, not JSON, not a map's
         return False
-    return meta.get("attributes", {}).get("format") == FORMAT
+
+
+def _check_map_folder(path: Path) -> None:
+    """Every entry of a map folder is a folder or a regular file (a FIFO or device would make zarr wait)."""
+    count = 0
+    for folder, _, files in os.walk(path):
+        for name in files:
+            count += 1
+            if count > MAX_MAP_FILES:
+                raise InputFileError(f"{path}: more than {MAX_MAP_FILES} files: not a map manipkit wrote")
+            full = Path(folder) / name
+            if not full.is_file():
+                raise InputFileError(f"{full}: not a regular file; a reachability map holds folders and files only")
+            if name == "zarr.json" and full.stat().st_size > MAX_TABLE_BYTES:
+                raise InputFileError(f"{full}: {full.stat().st_size} bytes of metadata, above {MAX_TABLE_BYTES}")
+
+
+def _map_bytes(n_voxels: int, n_bins: int, n_joints: int) -> int:
+    """Memory (bytes) of a map's arrays: a byte per voxel-bin; per voxel a configuration and three statistics."""
+    return n_voxels * n_bins + n_voxels * (8 * n_joints + 8 * 3 + 1)
 
 
 def load(path) -> ReachMap:
@@ -325,17 +348,26 @@ def load(path) -> ReachMap:
         raise InputFileError(f"{path}: no such reachability map (a folder written by 'manipkit reachmap -o')")
     if not _is_map(path):
         raise InputFileError(f"{path}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
-    root = zarr.open_group(str(path), mode="r")
-    a = dict(root.attrs)
-    built = "manipulability" in root
-    return ReachMap(
-        np.asarray(root["reach"][...], dtype=np.uint8), np.array(a["origin"], dtype=float),
-        np.array(a["axes"], dtype=float), float(a["voxel"]), OrientationSet.from_attrs(a["orientations"]),
-        a["method"], a["robot"], a["frame"], a["base"], tuple(a["joint_names"]), np.asarray(root["voxel_q"][...]),
-        np.asarray(root["ik_keys"][...], dtype=np.int64), np.asarray(root["ik_q"][...]), dict(a["settings"]),
-        np.asarray(root["manipulability"][...]) if built else None,
-        np.asarray(root["manipulability_mean"][...]) if built else None,
-    )
+    _check_map_folder(path)
+    try:
+        root = zarr.open_group(str(path), mode="r")
+        a = dict(root.attrs)
+        shape, n_joints = tuple(root["reach"].shape), len(a["joint_names"])
+        o = a["orientations"]
+        n_bins = int(o["n_rolls"]) * (1 if o["kind"] == "planar" else int(o["n_directions"]))
+        if len(shape) != 4 or shape[3] != n_bins or tuple(root["voxel_q"].shape) != shape[:3] + (n_joints,):
+            raise ValueError("array shapes that disagree with the attributes")
+        if _map_bytes(math.prod(shape[:3]), n_bins, n_joints) + 8 * math.prod(root["ik_q"].shape) > MAX_GRID_BYTES:
+            raise ValueError(f"arrays larger than {MAX_GRID_BYTES} bytes")
+        return ReachMap(
+            np.asarray(root["reach"][...], dtype=np.uint8), np.array(a["origin"], dtype=float),
+            np.array(a["axes"], dtype=float), float(a["voxel"]), OrientationSet.from_attrs(a["orientations"]),
+            a["method"], a["robot"], a["frame"], a["base"], tuple(a["joint_names"]), np.asarray(root["voxel_q"][...]),
+            np.asarray(root["ik_keys"][...], dtype=np.int64), np.asarray(root["ik_q"][...]), dict(a["settings"]),
+            *(np.asarray(root[k][...]) if "manipulability" in root else None for k in ("manipulability", "manipulability_mean")),
+        )
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise InputFileError(f"{path}: not a valid reachability map ({' '.join(str(exc).split())[:120]})") from None
 
 
 # --------------------------------------------------------------------------
@@ -619,10 +651,10 @@ def build(
         axes = np.eye(3)
         shape = (2 * M + 1,) * 3
         origin = centre - M * voxel
-    size = int(np.prod(shape)) * bins.size
+    size = _map_bytes(math.prod(shape), bins.size, len(robot.joint_names))  # Python integers: no overflow
     if size > MAX_GRID_BYTES:
         raise ReachMapError(f"a {'x'.join(map(str, shape))} grid of {short_text(voxel)} m voxels times {bins.size} "
-                            f"orientation bins is {size} voxel-bins, more than {MAX_GRID_BYTES}: use a coarser voxel "
+                            f"orientation bins needs {size} bytes, more than {MAX_GRID_BYTES}: use a coarser voxel "
                             "or fewer orientations")
     chain = np.array([robot.joint_names.index(name) for name in solver.chain], dtype=np.intp)
     joints = [robot.joints[c] for c in chain]
@@ -633,7 +665,7 @@ def build(
                float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability))
     if progress is None:
         progress = sys.stderr.isatty()
-    n_voxels = int(np.prod(shape))
+    n_voxels = math.prod(shape)
     reach = np.zeros(n_voxels * bins.size, dtype=np.uint8)
     voxel_q = np.full((n_voxels, len(robot.joint_names)), np.nan)
     seen = np.zeros(n_voxels, dtype=bool)
