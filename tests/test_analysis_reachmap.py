@@ -306,3 +306,15 @@ def test_a_tampered_map_is_refused_in_one_line_without_waiting(map_3r, tmp_path)
 def test_a_grid_too_large_for_memory_is_refused_before_anything_is_allocated(planar_2r):
     with pytest.raises(ReachMapError, match="more than 2147483648"):
         build(planar_2r, voxel=1e-9, orientations=1, samples=10)
+
+
+def test_a_planar_map_with_one_bin_still_refuses_a_tilted_tool(planar_2r):
+    # one orientation bin spans every heading, but a planar 2R's tool z stays along the base z: a pose tilted
+    # out of the plane (by 90 deg, or flipped) is never reachable, whatever the bin width
+    reach_map = build(planar_2r, voxel=0.1, orientations=1, samples=20000, method="fk", progress=False)
+    T = np.eye(4)
+    T[:3, 3] = [1.0, 0.0, 0.0]
+    assert reach_map.query(T)
+    for R in (rot_y(math.pi / 2), rot_y(math.pi)):
+        T[:3, :3] = R
+        assert not reach_map.query(T)

@@ -210,16 +210,14 @@ def read_targets(path) -> np.ndarray:
 
 def plot_base_placement(result: BasePlacement, path, *, title: str | None = None) -> None:
     """Heat map of the best score over headings at each floor position, the targets and the best placement, to ``path``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # not pyplot: the caller's backend (a notebook's) stays as it is
 
     from manipkit.outputs import writing
 
     best_over_yaw = result.scores.max(axis=2)
     x, y, yaw, score = result.best
-    fig, ax = plt.subplots(figsize=(6.4, 5.2))
+    fig = Figure(figsize=(6.4, 5.2))
+    ax = fig.subplots()
     step_x = result.xs[1] - result.xs[0] if len(result.xs) > 1 else 1.0
     step_y = result.ys[1] - result.ys[0] if len(result.ys) > 1 else 1.0
     extent = (result.xs[0] - step_x / 2, result.xs[-1] + step_x / 2, result.ys[0] - step_y / 2, result.ys[-1] + step_y / 2)
@@ -235,4 +233,3 @@ def plot_base_placement(result: BasePlacement, path, *, title: str | None = None
     ax.legend(loc="upper right", fontsize="small")
     with writing(path) as target:
         fig.savefig(target, dpi=110, bbox_inches="tight")
-    plt.close(fig)

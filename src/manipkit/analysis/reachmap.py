@@ -102,6 +102,7 @@ DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-
 IK_BLOCK = 2048  # IK targets per block
 MAX_GRID_BYTES = 2 * 1024**3  # bytes a map's arrays may take (a byte per voxel-bin, a configuration per voxel)
 MAX_MAP_FILES = 1_000_000  # files a map folder may hold (its chunks)
+PLANAR_TILT_TOL = 1e-3  # rad: how far a pose queried in a planar map may tilt out of the arm's plane
 PARALLEL_TOL = 1e-9  # joint axes closer than this (|a x b|) count as parallel
 
 
@@ -211,14 +212,14 @@ class ReachMap:
         """Whether each pose ``T`` (..., 4, 4), ``T_base_frame``, falls in a reached voxel-bin.
 
         For a planar map the pose must also keep the frame's axis along the
-        arm's axis ``a`` to within half a bin (``pi / bins``): a tilted tool is never reached.
+        arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
         """
         T = np.asarray(T, dtype=float)
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
         if self.orientations.kind == "planar":
             cos_tilt = (T[..., :3, :3] @ self.orientations.tool_axis) @ self.orientations.axis
-            inside = inside & (cos_tilt >= math.cos(math.pi / self.orientations.size))
+            inside = inside & (cos_tilt >= math.cos(min(math.pi / self.orientations.size, PLANAR_TILT_TOL)))
         value = inside & (self.reach[ijk[..., 0], ijk[..., 1], ijk[..., 2], bins] > HOW_NONE)
         return bool(value) if value.ndim == 0 else value
 
@@ -761,10 +762,7 @@ def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
         raise ReachMapError(f"unknown layer '{layer}'; layers: {', '.join(LAYERS)}")
     if layer == "manipulability" and reach_map.manipulability is None:
         raise ReachMapError("this map was built without manipulability (manipulability=False, --no-manipulability)")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # not pyplot: the caller's backend (a notebook's) stays as it is
 
     from manipkit.outputs import writing
 
@@ -780,7 +778,8 @@ def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
             (index[:, :, nz // 2], "x (m)", "y (m)", (o[0], o[1]), f"z = {short_text(o[2] + nz // 2 * v, 4)} m"),
             (index[:, ny // 2, :], "x (m)", "z (m)", (o[0], o[2]), f"y = {short_text(o[1] + ny // 2 * v, 4)} m"),
         ]
-    fig, axes = plt.subplots(1, len(slices), figsize=(5.2 * len(slices) + 1.0, 4.8), squeeze=False)
+    fig = Figure(figsize=(5.2 * len(slices) + 1.0, 4.8))
+    axes = fig.subplots(1, len(slices), squeeze=False)
     for ax, (image, xlabel, ylabel, (a0, b0), where) in zip(axes[0], slices):
         if reach_map.orientations.kind == "planar":  # plane coordinates measured from the grid centre
             a0, b0 = -(nx // 2) * v, -(ny // 2) * v
@@ -796,4 +795,3 @@ def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
                  f"{reach_map.orientations.size} orientation bins")
     with writing(path) as target:
         fig.savefig(target, dpi=110, bbox_inches="tight")
-    plt.close(fig)
