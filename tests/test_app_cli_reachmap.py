@@ -132,3 +132,13 @@ def test_bad_input_is_one_line_and_status_2(tmp_path, args, expect):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and expect in lines[0], result.stderr
     assert "Traceback" not in result.stderr + result.stdout
+
+
+def test_base_placement_with_a_map_refuses_settings_the_map_already_fixed(map_3r, tmp_path):
+    targets = tmp_path / "targets.txt"
+    targets.write_text("4 2 0 0 0 0\n")
+    out = run("base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--voxel", "0.1", status=2)
+    assert "--voxel sets how a map is built" in out.stderr and out.stderr.count("\n") == 1
+    out = run("base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--frame", "link2",
+              status=2)
+    assert "is a map of 'ee_link', not of 'link2'" in out.stderr

@@ -31,6 +31,11 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
     where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="use a running Dask scheduler (tcp://host:8786)")
 
 
+_PLACEMENT_MAP = {"voxel": 0.05, "orientations": "50", "samples": 500_000}  # the map base-placement builds
+#: Settings of a map being built: with --map, the map's own apply and these must be left at their defaults.
+_BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "workers": None, "scheduler": None}
+
+
 def register(commands) -> None:
     """Add ``manipkit reachmap`` and ``manipkit base-placement`` to the subparsers ``commands``."""
     reach = commands.add_parser("reachmap", help="reachability map of an arm (voxels x orientations), saved as Zarr")
@@ -56,7 +61,7 @@ def register(commands) -> None:
     place.add_argument("--map", type=Path, default=None, metavar="MAP", help="a map from 'manipkit reachmap' (default: build one)")
     place.add_argument("--floor-frame", default=None, metavar="FRAME",
                        help="the robot frame placed on the floor (default: the root link)")
-    _add_map_options(place, voxel=0.05, orientations="50", samples=500_000)
+    _add_map_options(place, **_PLACEMENT_MAP)
     place.add_argument("--step", type=float, default=None, metavar="M", help="grid step of the floor positions (default: the voxel)")
     place.add_argument("--yaws", type=int, default=16, metavar="N", help="headings tried (default 16)")
     place.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw the heat map")
@@ -144,6 +149,13 @@ def run_base_placement(args) -> int:
         reach_map = load(args.map)
         if reach_map.robot != robot.name:
             raise UsageError(f"--map {args.map} is a map of '{reach_map.robot}', not of '{robot.name}'; give its --robot")
+        if robot.frame(args.frame) != reach_map.frame:
+            raise UsageError(f"--map {args.map} is a map of '{reach_map.frame}', not of '{robot.frame(args.frame)}'; "
+                             f"give --frame {reach_map.frame} or build a map of that frame")
+        given = [name for name, default in _BUILD_DEFAULTS.items() if getattr(args, name) != default]
+        if given:
+            raise UsageError(f"--{given[0]} sets how a map is built; with --map {args.map} the map's own settings "
+                             "apply: leave it out")
     else:
         reach_map = _build(robot, args, floor)
     mount = robot.transform(floor, reach_map.base)
