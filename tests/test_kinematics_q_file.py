@@ -236,3 +236,20 @@ def test_a_device_is_refused_before_reading(course_arm):
 
     with pytest.raises(InputFileError, match="joint-value file /dev/null is a character device, not a regular file"):
         read_q_file(course_arm, "/dev/null")
+
+
+def test_a_wide_row_is_refused_as_it_is_read_not_a_batch_later(course_arm, tmp_path):
+    # 100 rows of 21,000 values: the first such row is the error (before, a whole batch was held as strings)
+    header = ",".join(course_arm.joint_names)
+    path = tmp_path / "wide.csv"
+    path.write_text(header + "\n" + ("0," * 21000 + "0\n") * 100)
+    with pytest.raises(JointValueError, match="wide.csv: line 2 has 21001 values, the header has 5"):
+        read_q_file(course_arm, path)
+
+
+def test_a_quoted_value_running_over_many_lines_is_bounded(course_arm, tmp_path):
+    # an unclosed quote makes csv gather every following line into one record: refused after MAX_LINE_CHARS
+    path = tmp_path / "quoted.csv"
+    path.write_text(",".join(course_arm.joint_names) + '\n"' + ("x" * 1000 + "\n") * 500)
+    with pytest.raises(JointValueError, match="quoted.csv: line 67 ends a row \\(a quote left open\\?\\) that is longer than 65536"):
+        read_q_file(course_arm, path)

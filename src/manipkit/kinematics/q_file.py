@@ -33,7 +33,7 @@ import math
 import os
 import stat
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -149,10 +149,10 @@ def iter_q_file(robot: Robot, path, *, degrees: bool = False, limits: str = "ign
         raise JointValueError(f"limits={limits!r}: choose one of {', '.join(_LIMIT_POLICIES)}")
     clamped: list = [0]  # count, then the first three "line N joint" labels
     with _open_q_file(path, what) as handle:
-        rows = _data_rows(_bounded_lines(handle, path), path)
+        rows = _data_rows(_BoundedLines(handle, path), path)
         first = next(rows, None)
         header = _checked_header(robot, path, first[1]) if first is not None else None
-        batches = _batches(rows, max(1, int(batch_rows)))
+        batches = _batches(_same_width(rows, header, path), max(1, int(batch_rows)))
         batch = next(batches, None)
         if batch is None:
             raise JointValueError(f"{path}: needs a header of joint names and at least one row")
@@ -224,25 +224,39 @@ def _open_q_file(path, what: str):
         yield handle
 
 
-def _bounded_lines(handle, path) -> Iterator[str]:
-    """The lines of ``handle``, each read at most :data:`MAX_LINE_CHARS` at a time (a longer one is an error)."""
-    number = 0
-    while True:
-        line = handle.readline(MAX_LINE_CHARS + 1)
+class _BoundedLines:
+    """The lines of a file for :mod:`csv`, each read at most :data:`MAX_LINE_CHARS` at a time.
+
+    A longer line is an error, and so is a record longer than that over
+    several lines (a quoted field left open): ``since_record`` counts the
+    characters read since the last record, which :func:`_data_rows` resets.
+    """
+
+    def __init__(self, handle, path):
+        self.handle, self.path, self.number, self.since_record = handle, path, 0, 0
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> str:
+        line = self.handle.readline(MAX_LINE_CHARS + 1)
         if not line:
-            return
-        number += 1
-        if len(line) > MAX_LINE_CHARS:
-            raise JointValueError(f"{path}: line {number} is longer than {MAX_LINE_CHARS} characters; "
+            raise StopIteration
+        self.number += 1
+        self.since_record += len(line)
+        if self.since_record > MAX_LINE_CHARS:
+            what = "is" if len(line) > MAX_LINE_CHARS else "ends a row (a quote left open?) that is"
+            raise JointValueError(f"{self.path}: line {self.number} {what} longer than {MAX_LINE_CHARS} characters; "
                                   "expected CSV rows of joint values")
-        yield line
+        return line
 
 
-def _data_rows(lines: Iterable[str], path) -> Iterator[tuple[int, list[str]]]:
+def _data_rows(lines: _BoundedLines, path) -> Iterator[tuple[int, list[str]]]:
     """(line number, cells) of each row that is neither blank nor a comment."""
     reader = csv.reader(lines)
     try:
         for row in reader:
+            lines.since_record = 0
             if row and any(cell.strip() for cell in row) and not row[0].lstrip().startswith("#"):
                 yield reader.line_num, row
     except OSError as exc:
@@ -251,6 +265,14 @@ def _data_rows(lines: Iterable[str], path) -> Iterator[tuple[int, list[str]]]:
         raise JointValueError(f"{path}: not a text file; expected CSV with a header of joint names") from None
     except csv.Error as exc:
         raise JointValueError(f"{path}: not valid CSV ({exc})") from None
+
+
+def _same_width(rows: Iterator, header: list[str] | None, path) -> Iterator[tuple[int, list[str]]]:
+    """The rows, each checked to have one value per header name as it is read (not a batch later)."""
+    for number, row in rows:
+        if len(row) != len(header):
+            raise JointValueError(f"{path}: line {number} has {len(row)} values, the header has {len(header)}")
+        yield number, row
 
 
 def _batches(rows: Iterator, size: int) -> Iterator[list]:
