@@ -213,3 +213,16 @@ def test_more_rows_than_joints_is_refused_with_the_count():
 def test_a_point_that_is_no_frame_is_refused():
     with pytest.raises(DHDerivationError, match="0 .. 2"):
         dh_jacobian_symbolic(DHTable([DHRow(1, 0, 0, 0), DHRow(1, 0, 0, 0)]), point=3)
+
+
+def test_a_table_whose_symbolic_jacobian_would_explode_is_refused_in_bounded_time():
+    # nine rows twisted by 30 deg: each row about triples the expressions; dh_fk_symbolic stops at
+    # MAX_SYMBOLIC_OPS, and the Jacobian (built from the same products) must stop there too, not run for minutes
+    import math
+
+    from manipkit.dh.table import DHRow, DHTable
+    from manipkit.errors import DHDerivationError
+
+    rows = tuple(DHRow(a=0.1, alpha=math.radians(30), d=0.1, theta=0.0) for _ in range(9))
+    with pytest.raises(DHDerivationError, match="operations at row"):
+        dh_jacobian_symbolic(DHTable(rows, "standard", "skew"), simplify=False)

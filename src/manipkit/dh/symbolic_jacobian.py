@@ -34,7 +34,15 @@ from itertools import combinations
 
 import numpy as np
 
-from manipkit.dh.symbolic import MAX_SYMBOLIC_ROWS, dh_fk_symbolic, dh_symbols, format_symbolic, shorthand
+from manipkit.dh.symbolic import (
+    MAX_SYMBOLIC_OPS,
+    MAX_SYMBOLIC_ROWS,
+    _check_size,
+    dh_fk_symbolic,
+    dh_symbols,
+    format_symbolic,
+    shorthand,
+)
 from manipkit.dh.table import DHRow, DHTable
 from manipkit.errors import DHDerivationError
 
@@ -193,7 +201,9 @@ def dh_jacobian_symbolic(
 
     frames = [_placement(table, "base", simplify)]  # F_0 = base, F_i = base A_1 ... A_i
     for i in range(table.n):
-        frames.append(fold(frames[-1] * _row_matrix(table, i, q[i], chosen, simplify)))
+        product = frames[-1] * _row_matrix(table, i, q[i], chosen, simplify)
+        _check_size(product, MAX_SYMBOLIC_OPS, table, f"row {i + 1}")  # as dh_fk_symbolic: stop before it explodes
+        frames.append(fold(product))
     if point is None:
         p = fold(frames[-1] * _placement(table, "tool", simplify))[:3, 3]
     elif isinstance(point, int | np.integer) and 0 <= point <= table.n:
