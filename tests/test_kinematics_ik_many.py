@@ -180,3 +180,15 @@ def test_a_base_link_offset_from_the_root_is_taken_into_account(load_robot):
     batch = ik_many(robot, T, base="base_link")
     assert batch.success.all()
     assert pinocchio_residuals(robot, "base_link", "ee_link", batch.q, T).max() < 1e-9
+
+
+def test_targets_are_checked_as_ik_checks_them(iiwa14):
+    # the same check_transform as ik: a column off by 7e-7 is accepted (within 1e-6), one off by 1 % is named
+    T = iiwa14.transform("base_link", "ee_link", iiwa14.sample_q(1, seed=2)[0])
+    nearly = T.copy()
+    nearly[:3, 0] *= 1 + 0.7e-6
+    ik_many(iiwa14, np.stack([T, nearly]), restarts=0)
+    bad = T.copy()
+    bad[:3, 0] *= 1.01
+    with pytest.raises(InvalidTransformError, match="IK target 1: rotation column 0 \\(x axis\\) has norm 1.01"):
+        ik_many(iiwa14, np.stack([T, bad]))
