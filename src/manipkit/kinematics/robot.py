@@ -411,9 +411,9 @@ class Robot:
     def check_limits(self, q) -> np.ndarray:
         """``q`` itself when every value is inside its joint's limits, else :class:`JointLimitError`.
 
-        The rest of the API is permissive (:meth:`q`, :meth:`transform` and
-        :meth:`fk` take values outside the limits and compute the pose the
-        joints would have); call this for a strict check. The error names the
+        :meth:`transform` makes this check by default (``check_limits=False``
+        skips it); :meth:`q` and :meth:`fk` take values outside the limits and
+        compute the pose the joints would have. The error names the
         first joint outside its limits, its value and the limits:
         ``joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits
         [-2.0944, 2.0944] rad)``.
