@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
-from manipkit.kinematics.ik_many import ik_many, rotation_angles, target_seeds
-from manipkit.spatial.rotations import rot_x, rot_z, rotation_angle_between
+from manipkit.kinematics.ik_many import ik_many, target_seeds
+from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
 
 def pinocchio_residuals(robot, base, frame, Q, T):
@@ -120,13 +120,6 @@ def test_position_axis_mode_matches_the_axis(course_arm):
 def test_no_targets_is_an_empty_answer(iiwa14):
     batch = ik_many(iiwa14, np.zeros((0, 4, 4)))
     assert batch.q.shape == (0, 7) and len(batch) == 0
-
-
-def test_rotation_angles_match_the_scalar_helper():
-    R_a, R_b = rot_x(0.3) @ rot_z(2.0), rot_z(-1.1)
-    assert rotation_angles(R_a, R_b) == pytest.approx(rotation_angle_between(R_a, R_b), abs=1e-14)
-    assert rotation_angles(rot_x(1e-12), np.eye(3)) == pytest.approx(1e-12, rel=1e-6)  # accurate near 0
-    assert rotation_angles(rot_x(math.pi), np.eye(3)) == pytest.approx(math.pi)
 
 
 @pytest.mark.parametrize(

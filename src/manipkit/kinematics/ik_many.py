@@ -41,13 +41,13 @@ from manipkit.errors import IKOptionError, InvalidTransformError, JointValueErro
 from manipkit.kinematics.chain import compile_kernel
 from manipkit.kinematics.ik import TARGET_TOL, _tolerances, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import lm_attempt
-from manipkit.spatial.rotations import wrap_angle
+from manipkit.spatial.rotations import rotation_angle_between, wrap_angle
 from manipkit.spatial.transforms import check_transform
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["IKBatch", "ik_many", "rotation_angles", "target_seeds"]
+__all__ = ["IKBatch", "ik_many", "target_seeds"]
 
 RIGID_TOL = TARGET_TOL  # how far a target may be from a rigid transform (as for ik)
 
@@ -166,20 +166,6 @@ def target_seeds(seed: int, n: int, *, first: int = 0) -> np.ndarray:
     return (mixed & np.uint64(0xFFFFFFFF)).astype(np.uint32)
 
 
-def rotation_angles(R_a, R_b) -> np.ndarray:
-    """(...,) angle (rad, in [0, pi]) of ``R_a R_b^T`` for stacks of rotations, accurate near 0 and pi.
-
-    ``theta = atan2(|vee(E - E^T)| / 2, (trace E - 1) / 2)`` with ``E = R_a R_b^T``.
-
-    >>> float(rotation_angles(np.eye(3), np.eye(3)))
-    0.0
-    """
-    E = np.asarray(R_a) @ np.swapaxes(np.asarray(R_b), -1, -2)
-    s = 0.5 * np.sqrt((E[..., 2, 1] - E[..., 1, 2]) ** 2 + (E[..., 0, 2] - E[..., 2, 0]) ** 2 + (E[..., 1, 0] - E[..., 0, 1]) ** 2)
-    c = 0.5 * (E[..., 0, 0] + E[..., 1, 1] + E[..., 2, 2] - 1.0)
-    return np.arctan2(s, c)
-
-
 def ik_many(
     robot: Robot,
     T,
@@ -294,7 +280,7 @@ def _fk_residuals(robot: Robot, solver, Q, T_base) -> tuple[np.ndarray, np.ndarr
     if solver.mode == "position":
         return pos, np.zeros_like(pos)
     if solver.mode == "pose":
-        return pos, rotation_angles(T_base[:, :3, :3], T_reached[:, :3, :3])
+        return pos, rotation_angle_between(T_base[:, :3, :3], T_reached[:, :3, :3], check=False)
     a, t = T_reached[:, :3, solver._axis_index], T_base[:, :3, solver._axis_index]
     return pos, np.arctan2(np.linalg.norm(np.cross(a, t), axis=1), np.einsum("ij,ij->i", a, t))
 

@@ -56,7 +56,6 @@ array([[-1., -1.],
 
 from __future__ import annotations
 
-import math
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -65,7 +64,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.errors import ChainError, JointValueError, ManipkitError
-from manipkit.kinematics.chain import ChainStep, compile_kernel
+from manipkit.kinematics.chain import ChainStep, _snap, _z_to_axis, compile_kernel  # the batched FK's preparation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -82,26 +81,10 @@ REPRESENTATIONS = ("geometric", "rpy")
 GIMBAL_TOL = 1e-9
 BLOCK = 8192  # rows per numpy tan call
 _REVOLUTE, _PRISMATIC = 0, 1
-_SNAP_TOL = 1e-14
 
 
 # --------------------------------------------------------------------------
 # Preparing a chain: every joint about / along its local z axis
-
-
-def _z_to_axis(axis) -> np.ndarray:
-    """A rotation ``A`` with ``A e_z = axis`` (a signed permutation when the axis is a coordinate axis)."""
-    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    k = int(np.argmax(np.abs(axis)))
-    if np.delete(np.abs(axis), k).max() < _SNAP_TOL:
-        z = np.zeros(3)
-        z[k] = math.copysign(1.0, axis[k])
-        x = np.zeros(3)
-        x[(k + 1) % 3] = 1.0
-        return np.column_stack((x, np.cross(z, x), z))
-    x = np.cross(np.eye(3)[int(np.argmin(np.abs(axis)))], axis)
-    x /= np.linalg.norm(x)
-    return np.column_stack((x, np.cross(axis, x), axis))
 
 
 @dataclass(frozen=True)
@@ -146,9 +129,7 @@ class JacobianProgram:
             C, t, A_prev_T = np.eye(3), np.zeros(3), A.T
         rotations.append(A_prev_T @ C)
         translations.append(A_prev_T @ t)
-        R = np.array(rotations).reshape(-1, 3, 3)
-        for value in (0.0, 1.0, -1.0):  # a URDF rpy of 1.5707963 leaves 6e-17 where 0 is meant
-            R[np.abs(R - value) < _SNAP_TOL] = value
+        R = _snap(np.array(rotations).reshape(-1, 3, 3))  # a URDF rpy of 1.5707963 leaves 6e-17 where 0 is meant
         kinds_a = np.array(kinds, dtype=np.int64)
         rows = np.zeros(len(kinds), dtype=np.int64)
         rows[kinds_a == _REVOLUTE] = np.arange(int(np.sum(kinds_a == _REVOLUTE)))
