@@ -8,6 +8,7 @@ conditions. The hand derivations are in the module's docstring.
 """
 
 import math
+import zlib
 
 import numpy as np
 import pinocchio as pin
@@ -60,7 +61,7 @@ def family_named(robot, name) -> SingularFamily:
 def test_random_members_are_singular(load_robot, robot_name, family_name):
     robot = load_robot(robot_name)
     family = family_named(robot, family_name)
-    rng = np.random.default_rng(abs(hash(family_name)) % 1000)
+    rng = np.random.default_rng(zlib.crc32(family_name.encode()))  # the same seed in every run
     for q in family.sample(rng, 25):
         assert family.member(q, 1e-12)
         assert smallest_singular_value(robot, q, family.rows) < SINGULAR, (q, family.condition)
