@@ -139,3 +139,11 @@ def test_a_singular_configuration_names_its_family_and_the_lost_motion():
     regular = json.loads(run("jacobian", "--robot", "stanford_arm", "--q", "joint2=0.7", "joint3=0.5", "joint5=0.4",
                              "--format", "json").stdout)
     assert regular["singular"] is False and regular["singular_family"] is None and regular["null_space"] is None
+
+
+def test_a_singular_arm_on_a_wheeled_base_names_the_arm_joints_only():
+    # mobile_manipulator at q = 0: its course arm stands straight up and loses rank (translation rank 2 of 3); the wheels'
+    # columns are zero and must not enter the indices or the words
+    out = json.loads(run("jacobian", "--robot", "mobile_manipulator", "--length", "0.3", "--format", "json").stdout)
+    assert out["singular"] is True and len(out["jacobian"][0]) == 7
+    assert "wheel" not in out["null_space"]

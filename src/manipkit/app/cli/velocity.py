@@ -106,7 +106,8 @@ def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: 
     from manipkit.kinematics.jacobian import jacobian, jacobian_columns
 
     J_all = jacobian(robot, q, frame, base, reference=reference)
-    J = J_all[:, jacobian_columns(robot, frame, base)]  # the indices count the chain's joints only (not wheels)
+    columns = jacobian_columns(robot, frame, base)
+    J = J_all[:, columns]  # the indices count the chain's joints only (not wheels)
     s = singular_values(J, "all", length)
     ranks = {axes: rank(J, axes, length, tol=singular_tol) for axes in ("all", "trans")}
     generic = {axes: generic_rank(robot, frame, base, axes, length, tol=singular_tol) for axes in ("all", "trans")}
@@ -141,7 +142,7 @@ def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: 
             rows, names = J[:3], ROW_NAMES[:3]
         else:
             rows, names = np.vstack([J[:3], length * J[3:]]), ROW_NAMES
-        report["null_space"] = null_space_motion(rows, robot.joint_names, tol=max(singular_tol, 1e-12),
+        report["null_space"] = null_space_motion(rows, [robot.joint_names[c] for c in columns], tol=max(singular_tol, 1e-12),
                                                  row_names=names)
     return report
 
