@@ -123,7 +123,7 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
     import pinocchio as pin
 
     import manipkit
-    from manipkit.kinematics.chain import chain_fk_for
+    from manipkit.kinematics.fk_kernel import chain_fk_for
 
     robot = manipkit.load(robot_name)
     root, ee = robot.root_link, robot.frame("ee_link")
@@ -152,7 +152,7 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
                     if fk_ok else None, unit="config", n=n_batch, ours=True, status="ok" if fk_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_fk:.1e} over {n_batch} (<= {KERNEL_TOL:g})"))
     out = np.empty_like(T_kernel)
-    rows.append(row("fk_batch", robot_name, "manipkit.kinematics.chain.ChainFK (kernel alone)",
+    rows.append(row("fk_batch", robot_name, "manipkit.kinematics.fk_kernel.ChainFK (kernel alone)",
                     per_item(lambda: kernel.transforms(Q, out=out), n_batch, repeats=repeats) if kernel_ok else None,
                     unit="config", n=n_batch, status="ok" if kernel_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_kernel:.1e} over {n_batch} (<= {KERNEL_TOL:g})",

@@ -120,7 +120,7 @@ def stop(proc, sig=signal.SIGTERM):
     if proc.poll() is None:
         proc.send_signal(sig)
         try:
-            proc.wait(timeout=15)
+            proc.wait(timeout=45)
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()

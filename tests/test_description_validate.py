@@ -150,7 +150,7 @@ def test_non_unit_axis_is_normalised_with_a_warning(tmp_path, kind):
     path = tmp_path / "long_axis.urdf"
     path.write_text(urdf(*LINKS, joint(kind=kind, axis="0 0 2", limit=None if kind == "continuous" else LIMIT)))
     robot = manipkit.load(path)
-    assert robot.warnings == ["long_axis.urdf:4: joint 'j1' axis '0 0 2' (length 2) normalised to '0 0 1'"]
+    assert robot.warnings == ("long_axis.urdf:4: joint 'j1' axis '0 0 2' (length 2) normalised to '0 0 1'",)
     assert 'xyz="0.0 0.0 1.0"' in robot.urdf  # every reader of robot.urdf (tree, viewer) sees a unit axis
     # Hand value: 0.5 about (or along) z moves the child by 0.5 rad (or 0.5 m), not by twice that.
     T = robot.transform("base", "arm", [0.5])
@@ -207,7 +207,7 @@ def test_package_mesh_file_missing_inside_a_found_package(tmp_path):
 
 def test_bundled_and_example_robot_data_arms_load_without_warnings():
     for name in ("course_arm", "iiwa14", "mobile_manipulator", "panda", "ur5"):
-        assert manipkit.load(name).warnings == [], name
+        assert manipkit.load(name).warnings == (), name
 
 
 def test_cpp_parser_complaints_are_captured_not_printed(capfd):

@@ -1290,7 +1290,7 @@ FOUND = [
         "<axis/> means the default 1 0 0; the model gets a zero axis (Joint.axis NaN, T_a_b(q) = cos(q) I)"),
     _found("nearly_aligned_axis", _two_links(
         '<joint name="j1" type="continuous"><parent link="a"/><child link="b"/><axis xyz="1 0 1e-7"/></joint>'),
-        "the batched FK (chain._z_to_axis) took a unit axis as a coordinate axis when its largest entry was within "
+        "the batched FK (fk_kernel.z_to_axis) took a unit axis as a coordinate axis when its largest entry was within "
         "1e-14 of 1, i.e. for every other entry below ~1.4e-7; Robot.fk differed from Robot.transform by 1.4e-7 rad"),
     _found("unterminated_comment", '<robot name="r"><link name="a"/><!--\x80 s',
         "libxml2's message carries the offending source after a newline ('Comment not terminated \\n<!--'): "

@@ -1,4 +1,4 @@
-"""The compiled kernels' disk cache never ends a run (manipkit.kinematics.chain.compile_kernel).
+"""The compiled kernels' disk cache never ends a run (manipkit.kinematics.fk_kernel.compile_kernel).
 
 Each test runs the real commands as subprocesses in an environment where
 numba's cache cannot be used as it stands: a read-only install with a

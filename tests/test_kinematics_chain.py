@@ -1,166 +1,178 @@
-"""manipkit.kinematics.chain: the compiled batched FK equals Pinocchio's forward kinematics to 1e-12.
+"""manipkit.kinematics.chain: the Chain between two frames, checked against Pinocchio, finite differences and hand values."""
 
-The second source is Pinocchio itself (``robot.transform``, i.e.
-``framesForwardKinematics``), one configuration at a time; the chains cover
-the bundled and example-robot-data arms and random URDF chains with every
-joint type, coordinate and oblique axes, axes pointing backwards, and
-``rpy`` placements that the kernel folds into joint offsets (turns about the
-joint axis, +-90 deg twists) or must keep as general rotations.
-"""
+from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
-import manipkit
-from manipkit.kinematics.chain import ChainFK, chain_fk, chain_fk_for
-from manipkit.kinematics.robot import Robot
-
-TOL = 1e-12
+from manipkit.errors import ChainError, JointLimitError, JointValueError
+from manipkit.kinematics.chain import Chain
 
 
-def pinocchio_poses(robot, frame, Q):
-    return np.array([robot.transform(robot.root_link, frame, q, check_limits=False) for q in Q])
+def test_the_same_call_returns_the_same_immutable_chain(load_robot):
+    robot = load_robot("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    assert isinstance(chain, Chain)
+    assert robot.chain("base_link", "ee_link") is chain
+    assert robot.chain(robot.base_link, robot.ee_frame) is chain  # aliases resolve to the same key
+    with pytest.raises(AttributeError, match="immutable"):
+        chain.tip = "iiwa_link_3"
+    with pytest.raises(AttributeError, match="immutable"):
+        chain.new_field = 1
+    with pytest.raises(ValueError):
+        chain.lower[0] = 0.0  # read-only arrays
+    with pytest.raises(AttributeError, match="immutable"):
+        robot.name = "other"
 
 
-@pytest.mark.parametrize("name", ["iiwa14", "panda", "course_arm", "ur5", "scara", "stanford_arm", "planar_3r",
-                                  "kinova", "xarm7", "mobile_manipulator"])
-def test_ee_poses_equal_pinocchio(name):
-    robot = manipkit.load(name)
-    Q = robot.sample_q(300, seed=1)
-    T = chain_fk_for(robot, "ee_link").transforms(Q)
-    assert np.abs(T - pinocchio_poses(robot, "ee_link", Q)).max() < TOL
+def test_joint_names_are_the_joints_between_the_frames(load_robot):
+    robot = load_robot("mobile_manipulator")
+    # The arm from its own base: the wheels and arm_base_joint (above arm_base) are not on the chain.
+    chain = robot.chain("arm_base", "ee_link")
+    assert chain.joint_names == ("shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+    assert [robot.joint_names[c] for c in chain.columns] == list(chain.joint_names)
+    whole = robot.chain("base_link", "ee_link")
+    assert whole.joint_names[0] == "arm_base_joint" and "left_wheel_joint" not in whole.joint_names
+    assert robot.chain("ee_link", "ee_link").joint_names == ()
 
 
-def test_every_frame_of_the_course_arm_equals_pinocchio():
-    robot = manipkit.load("course_arm")
-    Q = robot.sample_q(50, seed=2)
-    for frame in robot.frame_names:
-        T = chain_fk_for(robot, frame).transforms(Q)
-        assert np.abs(T - pinocchio_poses(robot, frame, Q)).max() < TOL, frame
+def test_a_base_below_the_tip_is_refused_with_the_swap(load_robot):
+    with pytest.raises(ChainError, match="swap them"):
+        load_robot("iiwa14").chain("iiwa_link_5", "iiwa_link_2")
 
 
-def test_angles_far_outside_minus_pi_to_pi_and_at_pi():
-    robot = manipkit.load("iiwa14")
-    Q = np.vstack([np.full(7, math.pi), np.full(7, -math.pi), np.full(7, 1000.0), np.zeros(7),
-                   np.random.default_rng(3).uniform(-50, 50, (100, 7))])
-    T = chain_fk_for(robot, "ee_link").transforms(Q)
-    assert np.abs(T - pinocchio_poses(robot, "ee_link", Q)).max() < 1e-11  # 1000 rad: Pinocchio's own sin/cos differ
+@pytest.mark.parametrize("name, base, tip", [
+    ("iiwa14", "base_link", "ee_link"),
+    ("mobile_manipulator", "arm_base", "ee_link"),
+    ("panda", "panda_link0", "panda_hand"),
+    ("course_arm", "bicep", "ee_link"),
+])
+def test_fk_equals_pinocchio(load_robot, name, base, tip):
+    robot = load_robot(name)
+    chain = robot.chain(base, tip)
+    Q = chain.sample(20, seed=3)
+    T = chain.fk(Q)
+    for q, T_k in zip(Q, T):
+        expected = robot.transform(base, tip, chain.full(q), check_limits=False)  # Pinocchio
+        assert np.abs(T_k - expected).max() < 1e-12
+    # One vector gives one pose; whole-robot rows give the same poses.
+    assert np.abs(chain.fk(Q[0]) - T[0]).max() == 0.0
+    whole = np.array([chain.full(q) for q in Q])
+    assert np.abs(chain.fk(whole) - T).max() == 0.0
 
 
-def test_block_boundaries_do_not_change_the_answer():
-    robot = manipkit.load("panda")
-    Q = robot.sample_q(1001, seed=4)
-    n = len(robot.joint_names)
-    whole = ChainFK(robot.chain("ee_link"), n).transforms(Q)
-    blocked = ChainFK(robot.chain("ee_link"), n, block=64).transforms(Q)
-    assert np.array_equal(whole, blocked)
-    assert np.abs(whole - pinocchio_poses(robot, "ee_link", Q)).max() < TOL
+@pytest.mark.parametrize("name, base, tip", [("iiwa14", "base_link", "ee_link"), ("scara", "base_link", "ee_link")])
+def test_jacobian_is_the_derivative_of_fk(load_robot, name, base, tip):
+    """Columns against central differences of the FK: v = dp/dq, w from dR R^T (skew part)."""
+    chain = load_robot(name).chain(base, tip)
+    q = chain.sample(1, seed=5)[0]
+    J = chain.jacobian(q)
+    h = 1e-6
+    for k in range(chain.n):
+        dq = np.zeros(chain.n)
+        dq[k] = h
+        T_plus, T_minus = chain.fk(q + dq), chain.fk(q - dq)
+        v = (T_plus[:3, 3] - T_minus[:3, 3]) / (2 * h)
+        W = (T_plus[:3, :3] - T_minus[:3, :3]) / (2 * h) @ chain.fk(q)[:3, :3].T
+        w = np.array([W[2, 1], W[0, 2], W[1, 0]])
+        assert np.abs(J[:3, k] - v).max() < 1e-7 and np.abs(J[3:, k] - w).max() < 1e-7
 
 
-def test_out_is_filled_and_returned():
-    robot = manipkit.load("iiwa14")
-    Q = robot.sample_q(10, seed=5)
-    out = np.full((10, 4, 4), np.nan)
-    fk = chain_fk_for(robot, "ee_link")
-    assert fk.transforms(Q, out=out) is out
-    assert np.array_equal(out, fk.transforms(Q))
-    assert np.array_equal(out[:, 3], np.tile([0.0, 0.0, 0.0, 1.0], (10, 1)))
+def test_jacobian_has_only_the_chains_columns(load_robot):
+    robot = load_robot("mobile_manipulator")
+    chain = robot.chain("base_link", "ee_link")
+    q = chain.sample(1, seed=2)[0]
+    J = chain.jacobian(q)
+    assert J.shape == (6, 5)  # the arm's five joints; no wheel columns
+    J_robot = robot.jacobian(chain.full(q), "ee_link", "base_link")  # the whole-robot Jacobian, one column per joint
+    assert np.abs(J - J_robot[:, chain.columns]).max() < 1e-12
+    J_local = chain.jacobian(q, reference="local")
+    R = chain.fk(q)[:3, :3]
+    assert np.abs(J_local[:3] - R.T @ J[:3]).max() < 1e-12 and np.abs(J_local[3:] - R.T @ J[3:]).max() < 1e-12
 
 
-def test_rotations_translations_match_transforms():
-    robot = manipkit.load("iiwa14")
-    Q = robot.sample_q(10, seed=6)
-    R, p = chain_fk(robot.chain("ee_link"), Q)
-    T = chain_fk_for(robot, "ee_link").transforms(Q)
-    assert np.array_equal(R, T[:, :3, :3]) and np.array_equal(p, T[:, :3, 3])
+def test_axes_of_the_2r_by_hand(load_robot):
+    """planar_2r (l1 = l2 = 1): both axes are z; joint 1 at the origin, joint 2 at (cos q1, sin q1, 0)."""
+    chain = load_robot("planar_2r").chain("base_link", "ee_link")
+    axes = chain.axes([0.3, -1.1])
+    assert np.abs(axes.direction - [[0, 0, 1], [0, 0, 1]]).max() < 1e-15
+    assert np.abs(axes.point - [[0, 0, 0], [math.cos(0.3), math.sin(0.3), 0]]).max() < 1e-15
+    assert axes.joint.tolist() == [0, 1] and not axes.prismatic.any()
 
 
-def test_zero_rows_and_the_root_frame():
-    robot = manipkit.load("iiwa14")
-    assert chain_fk_for(robot, "ee_link").transforms(np.zeros((0, 7))).shape == (0, 4, 4)
-    T = chain_fk_for(robot, robot.root_link).transforms(robot.sample_q(3))
-    assert np.array_equal(T, np.broadcast_to(np.eye(4), (3, 4, 4)))
+@pytest.mark.parametrize("name", ["iiwa14", "scara", "stanford_arm"])
+def test_axes_agree_with_the_jacobian(load_robot, name):
+    """A revolute column is (a x (p - o), a), a prismatic one (a, 0), with p the tip's origin."""
+    chain = load_robot(name).chain("base_link", "ee_link")
+    q = chain.sample(1, seed=7)[0]
+    axes, J, p = chain.axes(q), chain.jacobian(q), chain.fk(q)[:3, 3]
+    for k, (a, o, prismatic) in enumerate(zip(axes.direction, axes.point, axes.prismatic)):
+        column = np.concatenate([a, np.zeros(3)]) if prismatic else np.concatenate([np.cross(a, p - o), a])
+        assert np.abs(J[:, axes.joint[k]] - column).max() < 1e-12
 
 
-def test_wrong_shape_says_what_is_expected():
-    robot = manipkit.load("iiwa14")
-    with pytest.raises(ValueError, match=r"Q must have shape \(N, 7\), got \(3, 6\)"):
-        chain_fk_for(robot, "ee_link").transforms(np.zeros((3, 6)))
+def test_q_takes_every_form_and_says_what_is_valid(load_robot):
+    robot = load_robot("mobile_manipulator")
+    chain = robot.chain("arm_base", "ee_link")
+    expected = np.array([math.pi / 2, 0.0, 0.0, 0.0])
+    assert np.array_equal(chain.q(shoulder_joint=90, degrees=True), expected)
+    assert np.array_equal(chain.q({"shoulder_joint": math.pi / 2}), expected)
+    assert np.array_equal(chain.q([90, 0, 0, 0], degrees=True), expected)
+    assert np.array_equal(chain.q(robot.q(shoulder_joint=math.pi / 2)), expected)  # a whole-robot vector
+    with pytest.raises(JointValueError, match=r"needs 4 joint values .*or 7 for the whole robot; got shape \(3,\)"):
+        chain.q([0, 0, 0])
+    with pytest.raises(JointValueError, match="finite"):
+        chain.q([0, math.nan, 0, 0])
+    with pytest.raises(JointValueError, match="no joint 'shoulder'"):
+        chain.q(shoulder=1.0)
 
 
-def test_aligned_chains_compile_to_few_operations():
-    # iiwa14: every placement is a signed permutation and every axis is z: about 20 ufunc calls per joint
-    robot = manipkit.load("iiwa14")
-    assert chain_fk_for(robot, "ee_link").n_ops < 20 * 7
+def test_sample_is_inside_the_limits_and_reproducible(load_robot):
+    chain = load_robot("iiwa14").chain("base_link", "ee_link")
+    Q = chain.sample(1000, seed=4)
+    assert Q.shape == (1000, 7)
+    assert chain.within_limits(Q).all()
+    assert np.array_equal(Q, chain.sample(1000, seed=4)) and not np.array_equal(Q, chain.sample(1000, seed=5))
 
 
-def test_a_tool_turned_about_the_last_axis_costs_nothing():
-    # panda_hand is turned -45 deg about joint 7's axis from panda_link8: folded into joint 7's angle
-    panda = manipkit.load("panda")
-    assert chain_fk_for(panda, "panda_hand").n_ops == chain_fk_for(panda, "panda_link8").n_ops
+def test_check_limits_names_the_joint(load_robot):
+    chain = load_robot("iiwa14").chain("base_link", "ee_link")
+    with pytest.raises(JointLimitError, match="iiwa_joint_2"):
+        chain.check_limits(chain.q(iiwa_joint_2=2.5))
+    assert np.array_equal(chain.clamp(chain.q(iiwa_joint_2=2.5))[1], chain.upper[1])
 
 
-# --------------------------------------------------------------------------
-# Random chains
+def test_old_chain_forms_warn_and_return_the_steps(load_robot):
+    robot = load_robot("iiwa14")
+    with pytest.warns(DeprecationWarning, match="robot.chain\\(base, tip\\)"):
+        steps = robot.chain("ee_link")
+    assert steps == list(robot.chain(robot.root_link, "ee_link").steps)
+    with pytest.warns(DeprecationWarning):
+        assert robot.chain(frame="ee_link", base="iiwa_link_2") == list(robot.chain("iiwa_link_2", "ee_link").steps)
 
 
-AXES = [(0, 0, 1), (0, 0, -1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0.6, 0.8, 0.0), (0.267261, 0.534522, 0.801784)]
-QUARTER = math.pi / 2
-ANGLES = st.one_of(st.sampled_from([0.0, QUARTER, -QUARTER, math.pi, 0.7]), st.floats(-3.0, 3.0))
+def test_two_threads_get_right_answers_at_once(load_robot):
+    """transform (Pinocchio Data per thread) and chain.fk (scratch memory per thread) from two threads at once."""
+    robot = load_robot("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    Q = chain.sample(400, seed=9)
+    expected = [robot.transform("base_link", "ee_link", q) for q in Q]
+    errors = []
 
+    def work(offset):
+        for _ in range(5):
+            for k in range(offset, len(Q), 2):
+                if np.abs(robot.transform("base_link", "ee_link", Q[k]) - expected[k]).max() > 1e-12:
+                    errors.append(("transform", k))
+            if np.abs(chain.fk(Q[offset::2]) - np.array(expected[offset::2])).max() > 1e-12:
+                errors.append(("fk", offset))
 
-def chain_urdf(joints) -> str:
-    links = "".join(f'<link name="l{i}"/>' for i in range(len(joints) + 2))
-    parts = []
-    for i, (kind, axis, xyz, rpy) in enumerate(joints):
-        limit = '<limit lower="-2" upper="2" effort="1" velocity="1"/>' if kind in ("revolute", "prismatic") else ""
-        parts.append(
-            f'<joint name="j{i}" type="{kind}"><parent link="l{i}"/><child link="l{i + 1}"/>'
-            f'<origin xyz="{" ".join(map(repr, xyz))}" rpy="{" ".join(map(repr, rpy))}"/>'
-            f'<axis xyz="{" ".join(map(repr, axis))}"/>{limit}</joint>'
-        )
-    n = len(joints)
-    parts.append(f'<joint name="tool" type="fixed"><parent link="l{n}"/><child link="l{n + 1}"/>'
-                 f'<origin xyz="0.01 0.02 0.1" rpy="0 0 {-math.pi / 4!r}"/></joint>')
-    return f'<robot name="random">{links}{"".join(parts)}</robot>'
-
-
-joint_strategy = st.tuples(
-    st.sampled_from(["revolute", "continuous", "prismatic", "fixed"]),
-    st.sampled_from(AXES),
-    st.tuples(*[st.sampled_from([0.0, 0.1, -0.25, 0.333]) for _ in range(3)]),
-    st.tuples(ANGLES, ANGLES, ANGLES),
-)
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.lists(joint_strategy, min_size=1, max_size=7))
-def test_random_chains_equal_pinocchio(joints):
-    robot = Robot.from_urdf(chain_urdf(joints))
-    Q = robot.sample_q(40, seed=7)
-    tip = f"l{len(joints) + 1}"
-    T = chain_fk_for(robot, tip).transforms(Q)
-    assert np.abs(T - pinocchio_poses(robot, tip, Q)).max() < TOL
-
-
-def test_importing_the_module_does_not_import_numba():
-    # numba (0.15-0.4 s) is imported when a ChainFK first runs, so that e.g. tf-between does not pay for it
-    import subprocess
-    import sys
-
-    code = "import sys, manipkit.kinematics.chain, manipkit.kinematics.robot; print('numba' in sys.modules)"
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
-
-
-def test_bad_block_and_out_are_manipkit_errors():
-    from manipkit.errors import ChainError, JointValueError
-
-    robot = manipkit.load("iiwa14")
-    with pytest.raises(ChainError, match="block must be at least 1"):
-        ChainFK(robot.chain("ee_link"), 7, block=0)
-    with pytest.raises(JointValueError, match=r"out must be a C-contiguous float64 array of shape \(2, 4, 4\)"):
-        chain_fk_for(robot, "ee_link").transforms(np.zeros((2, 7)), out=np.empty((3, 4, 4)))
+    threads = [threading.Thread(target=work, args=(k,)) for k in (0, 1)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []

@@ -17,7 +17,7 @@ import pinocchio as pin
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_kinematics_chain import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
+from test_kinematics_fk_kernel import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 import manipkit
 from manipkit.kinematics.ik import ik, ik_solver
@@ -55,7 +55,7 @@ def robots(load_robot):
 
 def kernel_pose_jacobian(robot, frame, base, q):
     """(T_root_frame 4x4, J 6 x n) from the kernel, for the chain base -> frame at the full joint vector q."""
-    steps = robot.chain(frame)
+    steps = robot.chain(robot.root_link, frame).steps
     chain = robot.chain_joints(base, frame)
     columns = [robot.joint_names.index(name) for name in chain]
     geometry, kinds = pack_chain(steps, columns)

@@ -230,7 +230,7 @@ def pinocchio_mimic_jacobians(q):
 def test_mimic_steps_add_scale_times_their_column_to_the_leader():
     # The chain as the lead's mimic support will give it: j2 reads column 0 with scale 2 and offset 0.1.
     robot = manipkit.Robot.from_urdf(MIMIC_URDF)
-    steps = robot.chain("tip")
+    steps = list(robot.chain(robot.root_link, "tip").steps)
     steps[1] = dataclasses.replace(steps[1], index=0, scale=2.0, offset=0.1)
     steps[2] = dataclasses.replace(steps[2], index=1)
     program = JacobianProgram.from_steps(steps, 2)

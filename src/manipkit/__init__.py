@@ -84,7 +84,7 @@ MOVED_MODULES = {
     "manipkit.validate": "manipkit.description.validate",
     "manipkit.tree": "manipkit.description.tree",
     "manipkit.model": "manipkit.kinematics.robot",
-    "manipkit.chain": "manipkit.kinematics.chain",
+    "manipkit.chain": "manipkit.kinematics.fk_kernel",
     "manipkit.ik_kernel": "manipkit.kinematics.ik_kernel",
     "manipkit.dh_check": "manipkit.dh.check",
     "manipkit.dh_from_urdf": "manipkit.dh.from_urdf",

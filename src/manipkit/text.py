@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 
-__all__ = ["near_text", "number_text", "short_text", "trimmed_text", "vector_text"]
+__all__ = ["near_text", "number_text", "repr_text", "short_text", "trimmed_text", "vector_text"]
 
 
 def _no_negative_zero(text: str) -> str:
@@ -92,3 +92,9 @@ def vector_text(values: Iterable[float], number: Callable[[float], str] = short_
     ('[0 0.5 -1e-20]', '[0.10 0.20]')
     """
     return "[" + " ".join(number(float(v)) for v in values) + "]"
+
+
+def repr_text(value, limit: int = 60) -> str:
+    """``repr(value)`` on one line, cut to ``limit`` characters (for a value quoted in a message)."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -53,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from manipkit.errors import ManipkitError
-from manipkit.kinematics.chain import compile_kernel
+from manipkit.kinematics.fk_kernel import compile_kernel
 
 __all__ = [
     "AXES", "METHODS", "Ellipsoid", "MixedUnitsWarning", "condition_number", "force_ellipsoid", "manipulability",

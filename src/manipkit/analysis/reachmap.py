@@ -89,7 +89,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "METHODS", "ReachMap", "ReachMapError",
-    "build", "chain_axes", "load", "parse_orientations", "plot_reachmap", "translation_manipulability",
+    "build", "load", "parse_orientations", "plot_reachmap", "translation_manipulability",
     "writable_map_path",
 ]
 
@@ -392,36 +392,6 @@ def parse_orientations(text: str) -> int | tuple[int, int]:
     return values[0] if len(values) == 1 else (values[0], values[1])
 
 
-def chain_axes(robot: Robot, frame: str, base: str) -> tuple[np.ndarray, np.ndarray, list[bool], np.ndarray]:
-    """Joint axes and origins of the chain ``base -> frame`` at the default configuration, in ``base``.
-
-    Returns (axes (m, 3), origins (m, 3), prismatic flags, T_base_frame (4, 4)). A joint's value is
-    ``step.scale * q[step.index] + step.offset`` (mimic joints).
-    """
-    q = robot.q()
-    T = np.eye(4)
-    axes, origins, prismatic = [], [], []
-    for step in robot.chain(frame, base):
-        X = np.eye(4)
-        X[:3, :3], X[:3, 3] = step.rotation, step.translation
-        T = T @ X
-        if step.index < 0:
-            continue
-        a = np.asarray(step.axis, dtype=float)
-        axes.append(T[:3, :3] @ a)
-        origins.append(T[:3, 3].copy())
-        prismatic.append(bool(step.prismatic))
-        value = getattr(step, "scale", 1.0) * q[step.index] + getattr(step, "offset", 0.0)
-        M = np.eye(4)
-        if step.prismatic:
-            M[:3, 3] = value * a
-        else:
-            K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-            M[:3, :3] = np.eye(3) + math.sin(value) * K + (1.0 - math.cos(value)) * K @ K
-        T = T @ M
-    return np.array(axes).reshape(-1, 3), np.array(origins).reshape(-1, 3), prismatic, T
-
-
 def _planar_axis(axes: np.ndarray, prismatic: list[bool]) -> np.ndarray | None:
     """The common axis when every revolute axis is parallel to it and every prismatic one perpendicular, else None."""
     revolute = [a for a, p in zip(axes, prismatic) if not p]
@@ -626,7 +596,10 @@ def build(
     voxel = float(voxel)
     solver = ik_solver(robot, frame=frame, base=base)
     frame, base = solver.frame, solver.base
-    axes_k, origins_k, prismatic, T_tip = chain_axes(robot, frame, base)
+    chain = robot.chain(base, frame)
+    joint_axes = chain.axes()
+    axes_k, origins_k, prismatic = joint_axes.direction, joint_axes.point, joint_axes.prismatic.tolist()
+    T_tip = chain.fk(chain.q())
     planar = _planar_axis(axes_k, prismatic)
     spec = orientations if orientations is not None else (36 if planar is not None else 200)
     spec = parse_orientations(spec) if isinstance(spec, str) else spec

@@ -179,6 +179,9 @@ def parse_expression(expression: str) -> ast.Expression:
 # --------------------------------------------------------------------------
 
 
+_WORD = 2**63  # an int below this in size counts as one item (1 + bit_length // 64)
+
+
 def value_size(value: object, limit: int = MAX_SIZE) -> int:
     """Characters plus items of ``value``, counted through nesting (shared parts each time), stopping past ``limit``."""
     total, stack = 0, [value]
@@ -192,7 +195,10 @@ def value_size(value: object, limit: int = MAX_SIZE) -> int:
             stack.extend(item.values())
         elif isinstance(item, (list, tuple, set, frozenset)):
             total += 1
-            stack.extend(item)
+            if all(type(x) is float or (type(x) is int and -_WORD < x < _WORD) for x in item):
+                total += len(item)  # flat numbers count one each: a zip of ranges is millions of these
+            else:
+                stack.extend(item)
         elif isinstance(item, range):
             total += len(item)
         elif isinstance(item, int) and not isinstance(item, bool):

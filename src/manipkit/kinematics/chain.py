@@ -1,661 +1,406 @@
-"""Batched forward kinematics of one serial chain, run by one compiled loop over configurations.
+"""The joints between a base frame and a tip frame: one immutable object every solver and analysis takes.
 
-Conventions (docs/architecture.md), restated:
+``robot.chain(base, tip)`` returns a :class:`Chain` (built once per frame pair
+and cached on the robot). Conventions (docs/architecture.md), restated:
 
-- ``Q`` has one row per configuration and one column per movable joint of the
-  robot, in ``robot.joint_names`` order (radians, metres); only the chain's
-  columns are read.
-- The result is ``T_root_frame``, shape (N, 4, 4): the pose of the chain's
-  tip frame in the frame the chain starts from (the root link, or a base
-  frame above the tip: :meth:`manipkit.kinematics.robot.Robot.chain`), for
-  each row of ``Q``.
-- A chain is a list of :class:`ChainStep`: constant placements and the
-  joints between them, from the base (or root) down to the frame.
+- Frames come in the order of ``tf-between SOURCE TARGET``: the base first,
+  then the tip. ``chain.fk(Q)`` is ``T_base_tip``, the pose of the tip
+  expressed in the base (4x4, metres), as ``robot.transform(base, tip, q)``.
+- A *chain vector* has one value per entry of :attr:`Chain.joint_names`
+  (rad for revolute and continuous joints, m for prismatic ones): the
+  independent joints that move the tip relative to the base, base to tip (a
+  mimic joint on the way contributes its leader; a floating or planar joint
+  its coordinates, ``base_joint.x`` ...). Every method that takes joint
+  values also takes a whole-robot vector (``robot.joint_names`` order) or
+  names, and reads the chain's entries from it (:meth:`Chain.q`).
+- Jacobian rows are ``vx vy vz wx wy wz`` (the velocity of the tip's origin,
+  then its angular velocity); columns follow :attr:`Chain.joint_names`.
+  ``reference="base"``: the base's axes (RTB ``jacob0``); ``"local"``: the
+  tip's axes (RTB ``jacobe``).
 
-How it is fast (:class:`ChainFK`): a chain is a product of constant
-placements ``X_k = [C_k, t_k]`` and joint motions,
-``T = X_0 J_0(q_0) X_1 J_1(q_1) ... X_m``. It is prepared once:
-
-1. every joint axis ``a`` is turned into the local z axis, ``J(a, q) = A Jz(q)
-   A^T`` with ``A`` a rotation taking z to ``a`` (a signed permutation when
-   ``a`` lies on a coordinate axis), and ``A``, ``A^T`` are folded into the
-   neighbouring constants;
-2. each constant rotation is split as ``Rz(alpha) S Rz(gamma)`` where that
-   makes ``S`` a signed permutation, and ``alpha``/``gamma`` become angle
-   offsets of the neighbouring revolute joints (a URDF ``rpy`` yaw, a tool
-   frame turned about the last axis, a DH twist of +-90 deg cost nothing);
-3. the rotation ``R`` of the running product is kept as three stored columns
-   with labels: column ``j`` of ``R`` is ``sign[j] * stored[col[j]]``. A
-   signed permutation ``S`` only relabels (``R S`` costs nothing at run
-   time); a general rotation mixes the stored columns once (27 multiplications)
-   and resets the labels. A sign between the two columns a joint turns is
-   folded into the joint's angle, a sign on a translation into the constant.
-
-What is left per configuration is, for each joint, ``R <- R Rz(q)`` on two
-stored columns (12 multiplications) or ``p += q z`` (3), and ``p += R t``
-for the nonzero entries of each ``t`` (3 each): about 115 multiplications for
-a 7-joint arm. :func:`_poses` runs them compiled with numba, one step at a
-time over a chunk of 256 configurations held as structure of arrays in the L1
-cache, so that each step's loop over configurations is vectorised (SIMD);
-the last loop writes the (N, 4, 4) output.
-
-``cos q`` and ``sin q`` of every revolute joint come from one ``tan(q / 2)``
-per angle (``c = 2 / (1 + t^2) - 1``, ``s = t * 2 / (1 + t^2)``; numpy's
-float64 ``tan`` is vectorised with SIMD where ``sin`` and ``cos`` are not),
-accurate to a few units in the last place for any angle; ``tan`` runs in
-numpy on blocks of rows, the rest in the compiled loop. numba is imported
-and the loop compiled (or loaded from numba's cache) when a :class:`ChainFK`
-first runs, not when this module is imported.
-
-The compiled kernels (this loop and those of :mod:`manipkit.kinematics.ik_kernel`)
-are made by :func:`compile_kernel`: numba's on-disk cache when it works, else
-compiled in memory with one :class:`KernelCacheWarning` (a read-only install
-with a read-only home, a full disk); a cache file that cannot be read (a
-truncated file) is recompiled and written again.
-
-The answer equals Pinocchio's ``framesForwardKinematics`` to about 1e-15
-(tested to 1e-12): placement entries within 1e-14 of 0 or +-1 are taken as
-exactly that (a URDF ``rpy`` of 1.5707963 leaves 6e-17 where 0 is meant).
+Nothing in a chain changes after it is built: its arrays are read-only and
+its compiled programs keep their scratch memory per thread, so one chain may
+be used by several threads at once.
 
 Examples
 --------
->>> import numpy as np
 >>> import manipkit
 >>> robot = manipkit.load("planar_2r")
->>> fk = chain_fk_for(robot, "ee_link")
->>> T = fk.transforms(np.array([[0.0, np.pi / 2]]))
->>> np.round(T[0, :2, 3], 12)
-array([1., 1.])
+>>> chain = robot.chain("base_link", "ee_link")
+>>> chain.joint_names
+('joint1', 'joint2')
+>>> chain.fk([0.0, 0.0])[:3, 3]
+array([2., 0., 0.])
+>>> chain is robot.chain("base_link", "ee_link")
+True
 """
 
 from __future__ import annotations
 
 import math
-import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.errors import ChainError, JointValueError
+from manipkit.errors import JointLimitError, JointValueError, ManipkitError
+from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
+from manipkit.spatial.rotations import matrix_from_axis_angle
+from manipkit.text import repr_text
 
 if TYPE_CHECKING:
+    from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["ChainFK", "ChainStep", "KernelCacheWarning", "chain_fk", "chain_fk_for", "compile_kernel"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "joint_array"]
 
-SNAP_TOL = 1e-14  # placement entries this close to 0 or +-1 are taken as exactly that
-SPLIT_TOL = SNAP_TOL  # a rotation is split about z only if the rest is a signed permutation to this
-DEFAULT_BLOCK = 8192  # rows per numpy tan call (the angles of a block stay in L2 cache)
-CHUNK = 256  # configurations per pass of the compiled loop (R and p of a chunk, 24 KiB, stay in L1 cache)
-_REVOLUTE, _PRISMATIC = 0, 1
+#: A joint value this far outside its limit still counts as inside (printed values round-trip).
+LIMIT_TOLERANCE = 1e-12
+REFERENCES = ("base", "local")
 
 
-# --------------------------------------------------------------------------
-# The chain: constant placements and the joints between them
+@dataclass(frozen=True, eq=False)
+class JointAxes:
+    """Every joint axis of a chain at one configuration, in the base frame's axes (read-only arrays).
 
-
-@dataclass(frozen=True)
-class ChainStep:
-    """One factor of a chain's pose product ``T_base_frame = S_0 S_1 ... S_m``.
-
-    A step is the constant placement ``[rotation, translation]`` (the
-    translation applied first, in the previous joint's frame, metres),
-    followed, for a joint step, by the joint's motion: a turn of ``q``
-    radians about ``axis`` (revolute) or a shift of ``q`` metres along it
-    (prismatic), ``q`` being column ``index`` of the robot's joint vector
-    (``robot.joint_names`` order). A fixed step (``index == -1``, ``axis``
-    None) is a placement only: the frame's own placement closes every chain,
-    and a base frame's inverse placement opens a chain that starts below
-    the root (:meth:`manipkit.kinematics.robot.Robot.chain`).
+    One row per joint *step* of the chain, base to tip (a mimic joint on the
+    way has its own row; ``joint`` says which chain entry drives it).
 
     Attributes
     ----------
-    rotation : ndarray, shape (3, 3)
-        Constant rotation of the step's frame in the previous joint's frame.
-    translation : ndarray, shape (3,)
-        Constant translation (m), in the previous joint's frame.
-    index : int
-        Column of the joint after the placement, or -1 for a fixed step.
-    prismatic : bool
-        The joint slides (m) instead of turning (rad).
-    axis : ndarray, shape (3,), or None
-        Unit joint axis in the joint's own frame (None for a fixed step).
-    scale, offset : float
-        The joint's value is ``scale * q[index] + offset`` (rad or m): 1 and
-        0 for an independent joint; a URDF ``<mimic>`` joint reads its
-        leader's column with the mimic's ``multiplier`` and ``offset``.
+    joint : ndarray of int, shape (m,)
+        The entry of :attr:`Chain.joint_names` that moves the step.
+    direction : ndarray, shape (m, 3)
+        The unit axis (turned about for a revolute joint, slid along for a
+        prismatic one), in the base frame.
+    point : ndarray, shape (m, 3)
+        A point on the axis (m), in the base frame: the joint frame's origin.
+    prismatic : ndarray of bool, shape (m,)
+    scale : ndarray, shape (m,)
+        The step moves by ``scale`` times its chain entry (1, or a mimic's multiplier).
     """
 
-    rotation: np.ndarray
-    translation: np.ndarray
-    index: int
-    prismatic: bool
-    axis: np.ndarray | None
-    scale: float = 1.0
-    offset: float = 0.0
+    joint: np.ndarray
+    direction: np.ndarray
+    point: np.ndarray
+    prismatic: np.ndarray
+    scale: np.ndarray
 
 
-# --------------------------------------------------------------------------
-# Constant geometry: axes to z, rotations split about z
+class Chain:
+    """The independent joints that move ``tip`` relative to ``base``, with their limits and compiled kinematics.
 
+    Build it with :meth:`manipkit.kinematics.robot.Robot.chain` (``robot.chain(base, tip)``);
+    the same call returns the same object. Immutable: assigning an attribute
+    raises ``AttributeError``.
 
-def _snap(M: np.ndarray) -> np.ndarray:
-    M = np.array(M, dtype=float)
-    for value in (0.0, 1.0, -1.0):
-        M[np.abs(M - value) < SNAP_TOL] = value
-    return M
-
-
-def _rot_z(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _is_signed_permutation(M: np.ndarray, tol: float = SPLIT_TOL) -> bool:
-    near = np.minimum(np.abs(M), np.abs(np.abs(M) - 1.0))
-    return bool(np.all(near < tol)) and bool(np.all(np.sum(np.abs(M) > 0.5, axis=0) == 1))
-
-
-def _z_to_axis(axis: np.ndarray) -> np.ndarray:
-    """A rotation A with A @ e_z = axis: a signed permutation when the axis is a coordinate axis."""
-    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    k = int(np.argmax(np.abs(axis)))
-    # Snap only when the other two entries are themselves below SNAP_TOL: |axis[k]| can round
-    # to 1 while they are as large as 1e-7, which would turn the joint about the wrong axis.
-    if np.delete(np.abs(axis), k).max() < SNAP_TOL:
-        sign = math.copysign(1.0, axis[k])
-        z = np.zeros(3)
-        z[k] = sign
-        x = np.zeros(3)
-        x[(k + 1) % 3] = 1.0
-        return np.column_stack((x, np.cross(z, x), z))
-    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
-    x = np.cross(helper, axis)
-    x /= np.linalg.norm(x)
-    return np.column_stack((x, np.cross(axis, x), axis))
-
-
-def _split_about_z(C: np.ndarray, *, left: bool, right: bool) -> tuple[float, np.ndarray, float]:
-    """(alpha, S, gamma) with C = Rz(alpha) S Rz(gamma), S a signed permutation when possible.
-
-    ``left`` / ``right`` say whether a revolute z joint stands there to take
-    ``alpha`` / ``gamma`` as an angle offset; a side that cannot take one gets 0.
-    """
-    if _is_signed_permutation(C) or not (left or right):
-        return 0.0, C, 0.0
-    candidates = []
-    if abs(abs(C[2, 2]) - 1.0) < SPLIT_TOL:  # a turn about z, possibly after a half turn about x
-        if right:
-            candidates.append((0.0, math.atan2(-C[0, 1], C[0, 0])))
-        if left:
-            candidates.append((math.atan2(C[1, 0], C[0, 0]), 0.0))
-    elif abs(C[2, 2]) < SPLIT_TOL and left and right:  # Rz(alpha) Ry(+-90 deg) Rz(gamma)
-        candidates.append((math.atan2(C[1, 2], C[0, 2]), math.atan2(C[2, 1], -C[2, 0])))
-    for alpha, gamma in candidates:
-        S = _rot_z(-alpha) @ C @ _rot_z(-gamma)
-        if _is_signed_permutation(S):
-            return alpha, np.round(S), gamma
-    return 0.0, C, 0.0
-
-
-@dataclass
-class _Segment:
-    """One constant placement X = [C, t] and the joint after it (``joint`` None for the tip)."""
-
-    C: np.ndarray
-    t: np.ndarray
-    joint: int | None = None  # column of Q
-    prismatic: bool = False
-    offset: float = 0.0  # added to the joint value (rad or m): a mimic's offset, a rotation about z folded into it
-    multiplier: float = 1.0  # the joint value is multiplier * Q[:, joint] + offset (a mimic joint's multiplier)
-
-
-def _segments(steps) -> list[_Segment]:
-    """Constant placements with every joint moving along/about its local z axis, offsets folded in."""
-    segments: list[_Segment] = []
-    C, t = np.eye(3), np.zeros(3)  # the constant product since the last joint
-    A_prev_T = np.eye(3)  # A^T of the last joint, folded into what follows it
-    for step in steps:
-        rotation = np.asarray(step.rotation, dtype=float)
-        translation = np.asarray(step.translation, dtype=float)
-        t = t + C @ translation
-        C = C @ rotation
-        if step.index < 0:
-            continue
-        A = _z_to_axis(step.axis)
-        segments.append(_Segment(A_prev_T @ C @ A, A_prev_T @ t, int(step.index), bool(step.prismatic),
-                                 float(step.offset), float(step.scale)))
-        C, t, A_prev_T = np.eye(3), np.zeros(3), A.T
-    segments.append(_Segment(A_prev_T @ C, A_prev_T @ t))
-    for k, seg in enumerate(segments):
-        left = k > 0 and not segments[k - 1].prismatic
-        right = seg.joint is not None and not seg.prismatic
-        alpha, S, gamma = _split_about_z(_snap(seg.C), left=left, right=right)
-        if alpha:
-            segments[k - 1].offset += alpha
-        seg.offset += gamma
-        seg.C = _snap(S)
-        seg.t = _snap(_rot_z(-alpha) @ seg.t)
-    return segments
-
-
-# --------------------------------------------------------------------------
-# The kernel's tables: stored columns of R, relabelled by signed permutations
-
-
-@dataclass
-class _Program:
-    """What :func:`_poses` runs, for a chain of n joints (see the module docstring, step 3).
-
-    ``R0`` (3, 3) and ``p0`` (3,) are ``X_0`` (``R0[c]`` is stored column ``c``);
-    joint ``k`` is ``joints[k] = (kind, a, b, row)``: a revolute joint turns
-    stored columns ``a`` (x) and ``b`` (y) by angle row ``row``, a prismatic
-    joint moves ``p`` along stored column ``a`` by value row ``row``; then
-    ``X_{k+1}``: ``p += sum_c shifts[k, c] * stored[c]``, and if ``mixed[k]``,
-    ``stored[c] <- sum_d mixes[k, d, c] * stored[d]``. At the end, column
-    ``j`` of ``R`` is ``out_signs[j] * stored[out_cols[j]]``. Each joint value
-    is multiplied by ``scales[k]`` (+-1) before use.
+    Attributes
+    ----------
+    robot : Robot
+    base, tip : str
+        Link names (aliases resolved: ``base_link``, ``ee_link``).
+    joint_names : tuple of str
+        The chain's entries, base to tip (a mimic joint's leader where the
+        first joint it drives sits on the way; usually the robot's joint order).
+    joints : tuple of Joint
+        Their descriptions (type, axis, limits).
+    columns : ndarray of int, shape (n,)
+        Where each entry sits in a whole-robot vector (``robot.joint_names``).
+    lower, upper : ndarray, shape (n,)
+        Joint limits (rad or m; infinite for a continuous joint).
+    steps : tuple of ChainStep
+        ``T_base_tip = S_0 S_1 ... S_m``; a joint step's ``index`` is its
+        column of the *robot's* joint vector, as in
+        :class:`manipkit.kinematics.fk_kernel.ChainStep`.
     """
 
-    R0: np.ndarray
-    p0: np.ndarray
-    joints: np.ndarray  # (n, 4) int
-    scales: np.ndarray  # (n,)
-    shifts: np.ndarray  # (n, 3)
-    mixes: np.ndarray  # (n, 3, 3)
-    mixed: np.ndarray  # (n,) bool
-    out_cols: np.ndarray  # (3,) int
-    out_signs: np.ndarray  # (3,)
+    __slots__ = ("robot", "base", "tip", "joint_names", "joints", "columns", "lower", "upper", "steps",
+                 "_fk", "_jacobian", "_angular", "_continuous", "_local_steps")
 
-
-def _program(segments: list[_Segment]) -> _Program:
-    """The tables of :class:`_Program` for ``segments`` (from :func:`_segments`): signed permutations become labels."""
-    n = len(segments) - 1
-    joints = np.zeros((n, 4), dtype=np.int64)
-    scales, shifts = np.ones(n), np.zeros((n, 3))
-    mixes, mixed = np.zeros((n, 3, 3)), np.zeros(n, dtype=bool)
-    col, sign = [0, 1, 2], [1.0, 1.0, 1.0]  # column j of R is sign[j] * stored[col[j]]
-    n_rev = n_pri = 0
-    for k, (seg, nxt) in enumerate(zip(segments[:-1], segments[1:])):
-        if seg.prismatic:  # p += q R e_z = (sign[2] q) stored[col[2]]
-            joints[k] = (_PRISMATIC, col[2], -1, n_pri)
-            scales[k], n_pri = sign[2], n_pri + 1
-        else:  # x' = x c + y s, y' = y c - x s; on the stored columns the same with s -> sign[0] sign[1] s
-            joints[k] = (_REVOLUTE, col[0], col[1], n_rev)
-            scales[k], n_rev = sign[0] * sign[1], n_rev + 1
-        for j in range(3):  # p += R t
-            shifts[k, col[j]] += sign[j] * nxt.t[j]
-        if _is_signed_permutation(nxt.C):  # R S: column j of R S is S[i, j] * column i of R, i = perm[j]
-            perm = np.argmax(np.abs(nxt.C), axis=0)
-            sign = [float(np.sign(nxt.C[perm[j], j])) * sign[perm[j]] for j in range(3)]
-            col = [col[perm[j]] for j in range(3)]
-        else:  # R C: stored[c] <- sum over j of sign[j] C[j, c] stored[col[j]]
-            for j in range(3):
-                mixes[k, col[j]] = sign[j] * nxt.C[j]
-            mixed[k] = True
-            col, sign = [0, 1, 2], [1.0, 1.0, 1.0]
-    return _Program(np.ascontiguousarray(segments[0].C.T), segments[0].t.copy(), joints, scales, shifts,
-                    mixes, mixed, np.array(col, dtype=np.int64), np.array(sign))
-
-
-def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out_signs, T):
-    """Write T[n] = X_0 J_0 X_1 ... X_m for every configuration n (compiled by numba, see :func:`_kernel`).
-
-    ``tan_half[r, n]`` is ``tan(q / 2)`` of revolute joint row ``r`` (offset
-    and sign folded in), ``values[r, n]`` the value of prismatic joint row
-    ``r`` (sign folded in); the other arguments are those of :class:`_Program`.
-    Configurations are taken ``CHUNK`` at a time; every loop over ``j`` (the
-    configurations of a chunk) reads and writes rows of ``R`` and ``p``, so it
-    is vectorised.
-    """
-    R = np.empty((3, 3, CHUNK))  # R[c, i, j]: entry i of stored column c, configuration j
-    p = np.empty((3, CHUNK))
-    for start in range(0, T.shape[0], CHUNK):
-        m = min(CHUNK, T.shape[0] - start)
-        for i in range(3):
-            p[i, :m] = p0[i]
-            for c in range(3):
-                R[c, i, :m] = R0[c, i]
-        for k in range(joints.shape[0]):
-            kind, a, b, row = joints[k, 0], joints[k, 1], joints[k, 2], joints[k, 3]
-            if kind == _REVOLUTE:  # R <- R Rz(q) on stored columns a (x) and b (y)
-                t = tan_half[row, start : start + m]
-                X, Y = R[a], R[b]
-                for j in range(m):
-                    w = 2.0 / (1.0 + t[j] * t[j])
-                    cos, sin = w - 1.0, t[j] * w
-                    for i in range(3):
-                        x, y = X[i, j], Y[i, j]
-                        X[i, j] = x * cos + y * sin
-                        Y[i, j] = y * cos - x * sin
-            else:  # p <- p + q z
-                v = values[row, start : start + m]
-                Z = R[a]
-                for j in range(m):
-                    for i in range(3):
-                        p[i, j] += Z[i, j] * v[j]
-            for c in range(3):  # p <- p + R t
-                d = shifts[k, c]
-                if d != 0.0:
-                    S = R[c]
-                    for j in range(m):
-                        for i in range(3):
-                            p[i, j] += S[i, j] * d
-            if mixed[k]:  # R <- R C, C not a signed permutation
-                M = mixes[k]
-                for j in range(m):
-                    for i in range(3):
-                        r0, r1, r2 = R[0, i, j], R[1, i, j], R[2, i, j]
-                        for c in range(3):
-                            R[c, i, j] = r0 * M[0, c] + r1 * M[1, c] + r2 * M[2, c]
-        for j in range(m):
-            n = start + j
-            for i in range(3):
-                for c in range(3):
-                    T[n, i, c] = out_signs[c] * R[out_cols[c], i, j]
-                T[n, i, 3] = p[i, j]
-                T[n, 3, i] = 0.0
-            T[n, 3, 3] = 1.0
-
-
-_compiled = None
-
-
-def _kernel():
-    """:func:`_poses` compiled with numba (imported here: ``import manipkit.kinematics.chain`` does not pay for it)."""
-    global _compiled
-    if _compiled is None:
-        # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would
-        # keep LLVM from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
-        _compiled = compile_kernel(_poses, error_model="numpy")
-    return _compiled
-
-
-# --------------------------------------------------------------------------
-# Compiling the kernels: numba's disk cache where it works, else in memory
-
-
-class KernelCacheWarning(UserWarning):
-    """numba's on-disk cache of the compiled kernels could not be used; they were compiled in memory."""
-
-
-_cache_warned = False
-
-
-def _warn_cache(message: str) -> None:
-    """One :class:`KernelCacheWarning` per process (every kernel meets the same folder)."""
-    global _cache_warned
-    if not _cache_warned:
-        _cache_warned = True
-        warnings.warn(" ".join(message.split()), KernelCacheWarning, stacklevel=2)
-
-
-def _reason(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    text = text if len(text) <= 200 else text[:200] + "..."
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-class _ForgivingCache:
-    """numba's ``FunctionCache`` for one kernel, made on first use, whose failures fall back to memory.
-
-    numba raises when no cache folder is writable ("no locator available"),
-    when a file cannot be saved (a full disk) and when a cache file does not
-    unpickle (a truncated file); each of these would end the run. Here: no
-    usable folder or a failed save -> the kernel stays compiled in memory
-    (one warning); an unreadable entry -> the index is rewritten empty
-    (``flush``) and the kernel recompiled, so the next save replaces the bad
-    file. Implements the interface numba's dispatcher calls on ``_cache``.
-    """
-
-    def __init__(self, py_func):
-        self._py_func = py_func
-        self._disk = None  # numba.core.caching.FunctionCache, made on the first load
-        self._usable = True
-
-    def _cache(self):
-        if self._disk is None and self._usable:
-            from numba.core.caching import FunctionCache
-
-            try:
-                self._disk = FunctionCache(self._py_func)
-            except (RuntimeError, OSError) as exc:  # no writable folder for the cache: numba's RuntimeError
-                self._give_up(exc)
-        return self._disk
-
-    def _give_up(self, exc: BaseException) -> None:
-        self._usable, self._disk = False, None
-        _warn_cache(
-            f"the compiled kernels cannot use numba's disk cache ({_reason(exc)}); they are compiled in memory "
-            "for this run (a few seconds each run); set NUMBA_CACHE_DIR to a writable folder to cache them"
+    def __init__(self, robot: Robot, base: str, tip: str, steps: tuple[ChainStep, ...]):
+        columns = list(dict.fromkeys(step.index for step in steps if step.index >= 0))  # base to tip, each once
+        position = {column: k for k, column in enumerate(columns)}
+        # The same steps, reading the chain vector: the compiled programs run on chain vectors.
+        local_steps = tuple(
+            step if step.index < 0 else ChainStep(step.rotation, step.translation, position[step.index], step.prismatic,
+                                                  step.axis, step.scale, step.offset)
+            for step in steps
         )
+        set_ = object.__setattr__
+        set_(self, "robot", robot)
+        set_(self, "base", base)
+        set_(self, "tip", tip)
+        set_(self, "steps", tuple(steps))
+        set_(self, "columns", _read_only(np.array(columns, dtype=np.intp)))
+        set_(self, "joints", tuple(robot.joints[c] for c in columns))
+        set_(self, "joint_names", tuple(j.name for j in self.joints))
+        set_(self, "lower", _read_only(np.array([j.lower for j in self.joints], dtype=float)))
+        set_(self, "upper", _read_only(np.array([j.upper for j in self.joints], dtype=float)))
+        set_(self, "_angular", _read_only(np.array([j.is_angular for j in self.joints], dtype=bool)))
+        set_(self, "_continuous", _read_only(np.array([j.type == "continuous" for j in self.joints], dtype=bool)))
+        set_(self, "_local_steps", local_steps)
+        set_(self, "_fk", ChainFK(local_steps, len(columns)))
+        set_(self, "_jacobian", None)  # JacobianProgram, prepared on first use (imports the Jacobian module)
 
-    @property
-    def cache_path(self):
-        return self._disk.cache_path if self._disk is not None else None
+    def __setattr__(self, name, value):
+        raise AttributeError(f"a Chain is immutable: cannot set '{name}' (build another with robot.chain(base, tip))")
 
-    def load_overload(self, sig, target_context):
-        cache = self._cache()
-        if cache is None:
-            return None
-        try:
-            return cache.load_overload(sig, target_context)
-        except Exception as exc:  # any failure to read a cache entry (UnpicklingError, EOFError, ...): recompile
-            _warn_cache(f"numba's disk cache of the compiled kernel {self._py_func.__name__} could not be read "
-                        f"({_reason(exc)}); it is compiled again and the cache rewritten")
-            try:
-                cache.flush()  # an empty index: the recompiled kernel is saved as a fresh entry
-            except OSError as flush_exc:
-                self._give_up(flush_exc)
-            return None
+    def __delattr__(self, name):
+        raise AttributeError(f"a Chain is immutable: cannot delete '{name}'")
 
-    def save_overload(self, sig, data):
-        cache = self._cache()
-        if cache is None:
-            return
-        try:
-            cache.save_overload(sig, data)
-        except Exception as exc:  # a full disk, a folder made read-only, a corrupt index: keep it in memory
-            self._give_up(exc)
-
-    def enable(self):
-        self._usable = True
-
-    def disable(self):
-        self._usable, self._disk = False, None
-
-    def flush(self):
-        cache = self._cache()
-        if cache is not None:
-            try:
-                cache.flush()
-            except OSError as exc:
-                self._give_up(exc)
-
-
-def compile_kernel(py_func, **options):
-    """``py_func`` compiled by numba (``njit(**options)``), cached on disk where that works.
-
-    Like ``njit(cache=True, **options)(py_func)``, except that the disk cache
-    never ends a run: when no cache folder is writable (a read-only install
-    and home, ``NUMBA_CACHE_DIR`` unset), a file cannot be written (a full
-    disk) or read (a truncated file), the kernel is compiled in memory and
-    one :class:`KernelCacheWarning` says so; an unreadable entry is replaced
-    by the recompiled kernel. Compilation itself happens on the first call.
-
-    Parameters
-    ----------
-    py_func : function
-        A function numba can compile in nopython mode.
-    **options
-        Passed to ``numba.njit`` (``error_model="numpy"``, ...); not ``cache``.
-
-    Returns
-    -------
-    numba dispatcher
-    """
-    from numba import njit
-
-    dispatcher = njit(**options)(py_func)
-    # numba offers no option for a cache that falls back; its dispatcher calls load_overload/save_overload
-    # on `_cache` (what `enable_caching` sets), so ours goes there
-    dispatcher._cache = _ForgivingCache(py_func)
-    return dispatcher
-
-
-# --------------------------------------------------------------------------
-# The prepared kernel
-
-
-class ChainFK:
-    """Batched FK of one chain (root to a frame), prepared once, then run on any number of rows.
-
-    Parameters
-    ----------
-    steps : sequence of ChainStep
-        The chain from the root (or a base frame) down to the frame, as
-        :meth:`manipkit.kinematics.robot.Robot.chain` returns it; see also
-        :func:`chain_fk_for`.
-    n_joints : int
-        Columns of ``Q`` (all of the robot's movable joints).
-    block : int, keyword-only
-        Rows per numpy ``tan`` call (cache-sized; the answer does not depend on it).
-
-    Attributes
-    ----------
-    n_ops : int
-        Multiplications per configuration in the compiled loop, besides ``cos`` and ``sin``.
-
-    Examples
-    --------
-    >>> import manipkit
-    >>> robot = manipkit.load("iiwa14")
-    >>> fk = chain_fk_for(robot, "ee_link")
-    >>> Q = robot.sample_q(1000, seed=0)
-    >>> T_base_ee = fk.transforms(Q)
-    >>> T_base_ee.shape
-    (1000, 4, 4)
-    >>> bool(np.allclose(T_base_ee[7], robot.transform("base_link", "ee_link", Q[7]), atol=1e-12))
-    True
-    """
-
-    def __init__(self, steps: Sequence[ChainStep], n_joints: int, *, block: int = DEFAULT_BLOCK):
-        if block < 1:
-            raise ChainError(f"block must be at least 1 row, got {block}")
-        self.n_joints = int(n_joints)
-        self.block = int(block)
-        segments = _segments(steps)
-        program = self._program = _program(segments)
-        joints = segments[:-1]
-        revolute = np.array([not s.prismatic for s in joints], dtype=bool)
-        self.n_revolute, self.n_prismatic = int(revolute.sum()), int((~revolute).sum())
-        self._rev_cols = np.array([s.joint for s in joints if not s.prismatic], dtype=np.intp)
-        self._pri_cols = np.array([s.joint for s in joints if s.prismatic], dtype=np.intp)
-        self._rev_slice = _as_slice(self._rev_cols)
-        self._pri_slice = _as_slice(self._pri_cols)
-        # tan(half) with half = scale * (multiplier q + offset) / 2; prismatic values the same without the half
-        multipliers = np.array([s.multiplier for s in joints])
-        offsets = np.array([s.offset for s in joints])
-        self._half_scales = 0.5 * program.scales[revolute] * multipliers[revolute]
-        self._half_offsets = 0.5 * offsets[revolute] * program.scales[revolute]
-        self._has_offsets = bool(np.any(self._half_offsets != 0.0))
-        self._pri_scales = program.scales[~revolute] * multipliers[~revolute]
-        self._pri_offsets = offsets[~revolute] * program.scales[~revolute]
-        self._has_pri_offsets = bool(np.any(self._pri_offsets != 0.0))
-        # R Rz(q): 12, p += q z: 3, each nonzero entry of a t: 3, a general R C: 27, the signs of the output: 9
-        self.n_ops = (12 * self.n_revolute + 3 * self.n_prismatic + 3 * int(np.count_nonzero(program.shifts))
-                      + 27 * int(program.mixed.sum()) + 9)
-        self._buffers: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    def __reduce__(self):
+        return (_chain_of, (self.robot, self.base, self.tip))
 
     def __repr__(self) -> str:
-        return (
-            f"ChainFK({self.n_revolute} revolute, {self.n_prismatic} prismatic joints; "
-            f"{self.n_ops} multiplications per configuration)"
-        )
+        return (f"Chain({self.robot.name!r}, base={self.base!r}, tip={self.tip!r}, {len(self.joint_names)} joints: "
+                f"{', '.join(self.joint_names) or 'none'})")
 
-    def _run_block(self, kernel, Q_block: np.ndarray, T_block: np.ndarray) -> None:
-        size = Q_block.shape[0]
-        buffers = self._buffers.get(size)
-        if buffers is None:
-            buffers = self._buffers[size] = (np.empty((self.n_revolute, size)), np.empty((self.n_prismatic, size)))
-        tan_half, values = buffers
-        if self.n_revolute:
-            np.multiply(_columns(Q_block, self._rev_slice, self._rev_cols).T, self._half_scales[:, None], out=tan_half)
-            if self._has_offsets:
-                tan_half += self._half_offsets[:, None]
-            np.tan(tan_half, out=tan_half)
-        if self.n_prismatic:
-            np.multiply(_columns(Q_block, self._pri_slice, self._pri_cols).T, self._pri_scales[:, None], out=values)
-            if self._has_pri_offsets:
-                values += self._pri_offsets[:, None]
-        P = self._program
-        kernel(tan_half, values, P.R0, P.p0, P.joints, P.shifts, P.mixes, P.mixed, P.out_cols, P.out_signs, T_block)
+    def __len__(self) -> int:
+        return len(self.joint_names)
 
-    def transforms(self, Q, out: np.ndarray | None = None) -> np.ndarray:
-        """T_root_frame for every row of ``Q``.
+    @property
+    def n(self) -> int:
+        """Number of entries of a chain vector."""
+        return len(self.joint_names)
+
+    # ------------------------------------------------------------------
+    # Joint vectors
+
+    def q(self, values=None, /, *, degrees: bool = False, **joint_values) -> np.ndarray:
+        """One chain vector (n,) from joint values, checked (the one validator every chain method uses).
 
         Parameters
         ----------
-        Q : array_like, shape (N, n_joints)
-            Joint vectors (radians, metres); finite values are the caller's job.
-        out : ndarray, shape (N, 4, 4), optional
-            Written in place and returned (C-contiguous float64).
+        values : sequence, dict or None
+            ``n`` values in :attr:`joint_names` order; or a whole-robot vector
+            (``len(robot.joint_names)`` values), of which the chain's entries
+            are taken; or joint name -> value (any of the robot's joints, as
+            :meth:`manipkit.kinematics.robot.Robot.q` takes them; those off
+            the chain do not matter). None: every joint at its default (0, or
+            the nearest value inside its limits).
+        degrees : bool, keyword-only
+            Angular values are in degrees (prismatic ones stay in metres).
+        **joint_values
+            Values by name, as in the dict form.
 
-        Returns
-        -------
-        T : ndarray, shape (N, 4, 4)
+        Raises
+        ------
+        JointValueError
+            A value that is not a finite real number, an unknown or mimic
+            joint (named, with the valid ones), or a sequence whose length is
+            neither the chain's nor the robot's.
+
+        Examples
+        --------
+        >>> import manipkit
+        >>> chain = manipkit.load("mobile_manipulator").chain("arm_base", "ee_link")
+        >>> float(chain.q(shoulder_joint=90, degrees=True)[0])
+        1.5707963267948966
         """
-        Q = np.asarray(Q, dtype=float)
-        if Q.ndim != 2 or Q.shape[1] != self.n_joints:
-            raise JointValueError(f"Q must have shape (N, {self.n_joints}), got {Q.shape}")
-        n = Q.shape[0]
-        if out is None:
-            out = np.empty((n, 4, 4))
-        elif out.shape != (n, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
-            raise JointValueError(f"out must be a C-contiguous float64 array of shape ({n}, 4, 4), one pose per row of Q")
-        kernel = _kernel()
-        block = self.block
-        full = n - n % block
-        for start in range(0, full, block):
-            self._run_block(kernel, Q[start : start + block], out[start : start + block])
-        if full < n:
-            self._run_block(kernel, Q[full:], out[full:])
-            self._buffers.pop(n - full, None)  # do not keep buffers for odd sizes
-        return out
+        robot = self.robot
+        if values is None or isinstance(values, Mapping) or joint_values:
+            return robot.q(values, degrees=degrees, **joint_values)[self.columns]
+        if isinstance(values, (str, bytes)):
+            raise JointValueError(f"joint values are numbers in joint order or a dict by name, not the text {values!r}")
+        q = joint_array(values)
+        if q.ndim == 1 and q.shape[0] == len(robot.joint_names) and q.shape[0] != self.n:
+            q = robot.q(q, degrees=degrees)[self.columns]
+        elif q.shape != (self.n,):
+            raise JointValueError(self._length_message(q.shape))
+        elif degrees:
+            q = np.where(self._angular, np.radians(q), q)
+        if not np.isfinite(q).all():
+            raise JointValueError("joint values must be finite numbers")
+        return np.array(q, dtype=float)
 
-    def rotations_translations(self, Q) -> tuple[np.ndarray, np.ndarray]:
-        """(R (N, 3, 3), p (N, 3)) of T_root_frame, as views into one (N, 4, 4) array."""
-        T = self.transforms(Q)
-        return T[:, :3, :3], T[:, :3, 3]
+    def rows(self, Q) -> np.ndarray:
+        """Many chain vectors (..., n) from ``Q`` (..., n) or whole-robot rows (..., len(robot.joint_names)), checked."""
+        Q = joint_array(Q)
+        n_robot = len(self.robot.joint_names)
+        if Q.ndim >= 1 and Q.shape[-1] == n_robot and n_robot != self.n:
+            Q = Q[..., self.columns]
+        elif Q.ndim == 0 or Q.shape[-1] != self.n:
+            raise JointValueError(self._length_message(Q.shape, per_row=True))
+        if not np.all(np.isfinite(Q)):
+            raise JointValueError("joint values must be finite numbers")
+        return Q
+
+    def _length_message(self, shape, *, per_row: bool = False) -> str:
+        robot = self.robot
+        each = " per configuration" if per_row else ""
+        whole = "" if len(robot.joint_names) == self.n else f", or {len(robot.joint_names)} for the whole robot"
+        return (f"the chain {self.base} -> {self.tip} of robot '{robot.name}' needs {self.n} joint values{each} "
+                f"({', '.join(self.joint_names) or 'none'}){whole}; got shape {tuple(shape)}")
+
+    def full(self, q, q_rest=None) -> np.ndarray:
+        """A whole-robot vector: the chain's entries from ``q``, the others from ``q_rest`` (default: the robot's defaults)."""
+        whole = self.robot.q() if q_rest is None else self.robot.q(q_rest).copy()
+        whole[self.columns] = self.q(q)
+        return whole
+
+    def sample(self, n: int, *, seed=0) -> np.ndarray:
+        """``n`` chain vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]), shape (n, len(chain)).
+
+        Reproducible: the same ``seed`` (an int or a sequence of ints, as
+        ``numpy.random.default_rng`` takes) gives the same rows.
+        """
+        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 0:
+            raise ManipkitError(f"the number of samples must be a whole number >= 0, got {n!r}")
+        low = np.where(np.isfinite(self.lower), self.lower, -math.pi)
+        high = np.where(np.isfinite(self.upper), self.upper, math.pi)
+        u = np.random.default_rng(seed).random(size=(int(n), self.n))
+        return low * (1.0 - u) + high * u  # not low + (high - low) u: high - low may overflow
+
+    def outside_limits(self, Q) -> np.ndarray:
+        """Boolean (..., n): which entries of chain vectors ``Q`` lie outside their limits (by more than 1e-12)."""
+        Q = self.rows(Q)
+        return (Q < self.lower - LIMIT_TOLERANCE) | (Q > self.upper + LIMIT_TOLERANCE)
+
+    def within_limits(self, Q) -> np.ndarray:
+        """Boolean (...,): every entry of each chain vector inside its limits (continuous joints always are)."""
+        return ~self.outside_limits(Q).any(axis=-1)
+
+    def check_limits(self, q) -> np.ndarray:
+        """The chain vector of ``q`` when inside the limits, else :class:`JointLimitError` naming the first joint outside."""
+        q = self.q(q)
+        outside = self.outside_limits(q)
+        if outside.any():
+            k = int(np.flatnonzero(outside)[0])
+            j = self.joints[k]
+            raise JointLimitError(j.name, float(q[k]), j.lower, j.upper, "rad" if j.is_angular else "m")
+        return q
+
+    def clamp(self, Q) -> np.ndarray:
+        """Chain vectors moved to the nearest values inside the limits (a copy)."""
+        return np.minimum(np.maximum(self.rows(Q), self.lower), self.upper)
+
+    def as_dict(self, q) -> dict[str, float]:
+        """Joint name -> value for one chain vector."""
+        return dict(zip(self.joint_names, (float(v) for v in self.q(q))))
+
+    # ------------------------------------------------------------------
+    # Kinematics
+
+    def fk(self, Q) -> np.ndarray:
+        """``T_base_tip`` for one chain vector (4, 4) or many (..., 4, 4), compiled (equal to Pinocchio to ~1e-15).
+
+        Examples
+        --------
+        >>> import manipkit
+        >>> chain = manipkit.load("planar_2r").chain("base_link", "ee_link")
+        >>> bool(np.allclose(chain.fk([0.0, np.pi / 2])[:2, 3], [1.0, 1.0]))
+        True
+        """
+        Q = self.rows(Q)
+        lead = Q.shape[:-1]
+        flat = np.ascontiguousarray(Q.reshape(-1, self.n))
+        return self._fk.transforms(flat).reshape(*lead, 4, 4)
+
+    def jacobians(self, Q, *, reference: str = "base") -> np.ndarray:
+        """Geometric Jacobians (..., 6, n) of the tip relative to the base (rows vx vy vz wx wy wz; compiled)."""
+        if reference not in REFERENCES:
+            raise ManipkitError(f"reference={reference!r} is not one of 'base', 'local'")
+        Q = self.rows(Q)
+        lead = Q.shape[:-1]
+        J, _, _ = self._program().run(np.ascontiguousarray(Q.reshape(-1, self.n)), local=reference == "local")
+        return J.reshape(*lead, 6, self.n)
+
+    def jacobian(self, q=None, *, reference: str = "base") -> np.ndarray:
+        """The geometric Jacobian (6, n) at one configuration (``q`` as :meth:`q` takes it; None: the defaults).
+
+        Columns follow :attr:`joint_names` only (a wheel or a finger off the
+        chain has no column), so ranks and singular values are the chain's.
+
+        Examples
+        --------
+        >>> import manipkit
+        >>> chain = manipkit.load("planar_2r").chain("base_link", "ee_link")
+        >>> np.round(chain.jacobian([0.0, np.pi / 2])[[0, 1, 5]], 12) + 0.0
+        array([[-1., -1.],
+               [ 1.,  0.],
+               [ 1.,  1.]])
+        """
+        return self.jacobians(self.q(q)[None], reference=reference)[0]
+
+    def _program(self) -> JacobianProgram:
+        program = self._jacobian
+        if program is None:
+            from manipkit.kinematics.jacobian import JacobianProgram
+
+            program = JacobianProgram.from_steps(self._local_steps, self.n)
+            object.__setattr__(self, "_jacobian", program)  # a cache of derived data: the chain's meaning is unchanged
+        return program
+
+    def axes(self, q=None) -> JointAxes:
+        """Every joint's axis and a point on it, in the base frame, at ``q`` (default: the robot's defaults).
+
+        What analytic IK, singularity tests and reach maps need: the axes at
+        the zero configuration give the arm's geometry (which axes meet, which
+        are parallel).
+
+        Examples
+        --------
+        >>> import manipkit
+        >>> axes = manipkit.load("planar_2r").chain("base_link", "ee_link").axes()
+        >>> axes.direction.round(12) + 0.0, axes.point.round(12) + 0.0
+        (array([[0., 0., 1.],
+               [0., 0., 1.]]), array([[0., 0., 0.],
+               [1., 0., 0.]]))
+        """
+        q = self.q(q)
+        R, p = np.eye(3), np.zeros(3)
+        joint, direction, point, prismatic, scale = [], [], [], [], []
+        for step in self._local_steps:
+            p = p + R @ step.translation
+            R = R @ step.rotation
+            if step.index < 0:
+                continue
+            axis = R @ step.axis
+            joint.append(step.index)
+            direction.append(axis)
+            point.append(p.copy())
+            prismatic.append(step.prismatic)
+            scale.append(step.scale)
+            value = step.scale * q[step.index] + step.offset
+            if step.prismatic:
+                p = p + value * axis
+            else:
+                R = R @ matrix_from_axis_angle(step.axis, value)
+        return JointAxes(
+            _read_only(np.array(joint, dtype=np.intp)), _read_only(np.array(direction).reshape(-1, 3)),
+            _read_only(np.array(point).reshape(-1, 3)), _read_only(np.array(prismatic, dtype=bool)),
+            _read_only(np.array(scale, dtype=float)),
+        )
 
 
-def _as_slice(columns: np.ndarray):
-    """A slice equal to the index array, when it is a contiguous ascending run (no copy to gather)."""
-    if columns.size and np.array_equal(columns, np.arange(columns[0], columns[0] + columns.size)):
-        return slice(int(columns[0]), int(columns[0]) + columns.size)
-    return None
+def _chain_of(robot: Robot, base: str, tip: str) -> Chain:
+    """Unpickling: the robot's own chain object."""
+    return robot.chain(base, tip)
 
 
-def _columns(Q_block: np.ndarray, as_slice, columns: np.ndarray) -> np.ndarray:
-    return Q_block[:, as_slice] if as_slice is not None else Q_block[:, columns]
+def joint_array(values) -> np.ndarray:
+    """``values`` as a float array; complex or non-numeric entries raise :class:`JointValueError` (one line).
 
-
-# --------------------------------------------------------------------------
-# Convenience
-
-
-def chain_fk(steps: Sequence[ChainStep], Q, *, n_joints: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(R (N, 3, 3), p (N, 3)) of the chain ``steps`` for every row of ``Q`` (prepares a :class:`ChainFK`)."""
-    Q = np.asarray(Q, dtype=float)
-    return ChainFK(steps, Q.shape[1] if n_joints is None else n_joints).rotations_translations(Q)
-
-
-def chain_fk_for(robot: Robot, frame: str) -> ChainFK:
-    """The prepared :class:`ChainFK` from ``robot``'s root link to ``frame`` (rows of Q in ``robot.joint_names`` order).
-
-    The one :meth:`manipkit.kinematics.robot.Robot.fk` uses (built once per
-    robot and frame): :meth:`manipkit.kinematics.robot.Robot.chain_fk`.
+    numpy would drop an imaginary part with a warning; a joint value is a real number (rad or m).
     """
-    return robot.chain_fk(frame)
+    if type(values) is np.ndarray and values.dtype == np.float64:  # the common case: nothing to convert
+        return values
+    try:
+        array = np.asarray(values)
+        if array.dtype.kind == "c" or (
+            array.dtype.kind == "O" and any(isinstance(v, (complex, np.complexfloating)) for v in array.flat)
+        ):
+            raise JointValueError(f"joint values must be real numbers (rad or m); got complex values {repr_text(values)}")
+        return array.astype(float, copy=False)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, JointValueError):
+            raise
+        raise JointValueError(f"joint values must be real numbers (rad or m), a vector or equal rows of them; "
+                              f"got {repr_text(values)}") from None
+
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array

@@ -452,11 +452,11 @@ class IKSolver:
         self._default_q = robot.q()
 
         # The compiled iteration's view of the chain, root to frame (manipkit.kinematics.ik_kernel).
-        steps = robot.chain(self.frame)
+        steps = robot.chain(robot.root_link, self.frame).steps
         self._geometry, self._kinds = pack_chain(steps, self._chain_user)
         # A solved joint must not also move the base: the target is placed in the root once per solve.
         joint_steps = [k for k, step in enumerate(steps) if step.index >= 0]
-        n_below = sum(1 for step in robot.chain(self.frame, self.base) if step.index >= 0)
+        n_below = sum(1 for step in robot.chain(self.base, self.frame).steps if step.index >= 0)
         moves_base = [k for k in joint_steps[: len(joint_steps) - n_below] if self._kinds[k, 1] >= 0]
         if moves_base:
             name = robot.joint_names[steps[moves_base[0]].index]

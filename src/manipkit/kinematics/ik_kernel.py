@@ -29,7 +29,7 @@ Conventions:
 
 Each piece (``chain_pose_jacobian``, ``log3``, ``solve_linear``) is a plain
 function, tested on its own against Pinocchio and numpy. Each is compiled by
-:func:`manipkit.kinematics.chain.compile_kernel` on first use: cached on disk
+:func:`manipkit.kinematics.fk_kernel.compile_kernel` on first use: cached on disk
 by numba where that works, else compiled in memory with one warning.
 """
 
@@ -40,7 +40,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from manipkit.kinematics.chain import ChainStep, compile_kernel
+from manipkit.kinematics.fk_kernel import ChainStep, compile_kernel
 
 __all__ = [
     "MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempt", "log3", "pack_chain", "solve_linear",
@@ -55,7 +55,7 @@ _TWO_PI = 2.0 * math.pi
 def pack_chain(steps: Sequence[ChainStep], chain_user_columns) -> tuple[np.ndarray, np.ndarray]:
     """(geometry (S+1, 17) float, kinds (S+1, 2) int) of root-to-tip ``steps`` for the kernel.
 
-    ``steps`` are :class:`manipkit.kinematics.chain.ChainStep` (the last one, index -1,
+    ``steps`` are :class:`manipkit.kinematics.fk_kernel.ChainStep` (the last one, index -1,
     is the tip); ``chain_user_columns[j]`` is the position in the robot's
     joint vector of the ``j``-th solved joint. A row is the step's rotation
     (9, row-major), translation (3), axis (3), then the ``scale`` and

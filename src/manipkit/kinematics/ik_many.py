@@ -38,7 +38,7 @@ import numpy as np
 from numba import objmode  # this module is only imported to run its kernel (kinematics/__init__ does not import it)
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
-from manipkit.kinematics.chain import compile_kernel
+from manipkit.kinematics.fk_kernel import compile_kernel
 from manipkit.kinematics.ik import TARGET_TOL, _tolerances, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import lm_attempt
 from manipkit.spatial.rotations import rotation_angle_between, wrap_angle

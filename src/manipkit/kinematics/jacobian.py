@@ -18,7 +18,7 @@ Conventions (docs/architecture.md), restated:
 
   (Pinocchio's ``WORLD`` Jacobian is neither: its linear rows are the
   velocity of the point at the world origin moving with the frame.)
-- A mimic joint (a :class:`~manipkit.kinematics.chain.ChainStep` whose value
+- A mimic joint (a :class:`~manipkit.kinematics.fk_kernel.ChainStep` whose value
   is ``scale * q[index] + offset``) adds ``scale`` times its own column to
   its leader's column; several steps may share a column.
 - ``representation="rpy"`` (with ``reference="base"``) gives the analytic
@@ -35,7 +35,7 @@ configuration, ``T <- T X_k`` and ``T <- T Jz(q_k)`` record each joint's
 origin ``o_k`` and axis ``z_k``, and column ``k`` is ``(z_k x (p - o_k), z_k)``
 for a revolute joint, ``(z_k, 0)`` for a prismatic one. ``cos`` and ``sin``
 come from one vectorised ``tan(q / 2)`` per angle, as in
-:mod:`manipkit.kinematics.chain`. A base on another branch of the tree (not
+:mod:`manipkit.kinematics.fk_kernel`. A base on another branch of the tree (not
 above the frame) combines the two chains from the root:
 ``v = v_f - v_b - w_b x (p_f - p_b)``, ``w = w_f - w_b``, then turned into the
 base's axes.
@@ -64,7 +64,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.errors import ChainError, JointValueError, ManipkitError
-from manipkit.kinematics.chain import ChainStep, _snap, _z_to_axis, compile_kernel  # the batched FK's preparation
+from manipkit.kinematics.fk_kernel import (  # the batched FK's preparation
+    ChainStep,
+    compile_kernel,
+    snap_placement,
+    z_to_axis,
+)
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -119,7 +124,7 @@ class JacobianProgram:
             C = C @ np.asarray(step.rotation, dtype=float)
             if step.index < 0:
                 continue
-            A = _z_to_axis(step.axis)
+            A = z_to_axis(step.axis)
             rotations.append(A_prev_T @ C @ A)
             translations.append(A_prev_T @ t)
             kinds.append(_PRISMATIC if step.prismatic else _REVOLUTE)
@@ -129,7 +134,7 @@ class JacobianProgram:
             C, t, A_prev_T = np.eye(3), np.zeros(3), A.T
         rotations.append(A_prev_T @ C)
         translations.append(A_prev_T @ t)
-        R = _snap(np.array(rotations).reshape(-1, 3, 3))  # a URDF rpy of 1.5707963 leaves 6e-17 where 0 is meant
+        R = snap_placement(np.array(rotations).reshape(-1, 3, 3))  # a URDF rpy of 1.5707963 leaves 6e-17 where 0 is meant
         kinds_a = np.array(kinds, dtype=np.int64)
         rows = np.zeros(len(kinds), dtype=np.int64)
         rows[kinds_a == _REVOLUTE] = np.arange(int(np.sum(kinds_a == _REVOLUTE)))
@@ -256,7 +261,7 @@ def _program(robot: Robot, frame: str, base: str | None) -> JacobianProgram:
     cache = _programs.setdefault(robot, {})
     key = (frame, base)
     if key not in cache:
-        cache[key] = JacobianProgram.from_steps(robot.chain(frame, base), len(robot.joint_names))
+        cache[key] = JacobianProgram.from_steps(robot.chain(base or robot.root_link, frame).steps, len(robot.joint_names))
     return cache[key]
 
 
@@ -452,8 +457,8 @@ def jacobian_columns(robot: Robot, frame: str = "ee_link", base: str = "base_lin
     >>> [robot.joint_names[i] for i in jacobian_columns(robot)]  # the arm's joints, not the wheels
     ['arm_base_joint', 'shoulder_joint', 'bottom_wrist_joint', 'elbow_joint', 'top_wrist_joint']
     """
-    moving_frame = {step.index for step in robot.chain(frame) if step.index >= 0}
-    moving_base = {step.index for step in robot.chain(base) if step.index >= 0}
+    moving_frame = set(robot.chain(robot.root_link, frame).columns.tolist())
+    moving_base = set(robot.chain(robot.root_link, base).columns.tolist())
     return np.array(sorted(moving_frame ^ moving_base), dtype=np.intp)
 
 

@@ -21,8 +21,11 @@ from __future__ import annotations
 import difflib
 import math
 import os
+import threading
+import warnings as python_warnings
 from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 import pinocchio as pin
@@ -32,16 +35,15 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.validate import check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
-from manipkit.kinematics.chain import ChainFK, ChainStep
+from manipkit.kinematics.chain import LIMIT_TOLERANCE, Chain, joint_array
+from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
-from manipkit.text import short_text
+from manipkit.text import repr_text, short_text
 
 __all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Mimic", "Robot", "load"]
 
 BASE_ALIASES = ("base_link", "world")
 EE_ALIAS = "ee_link"
-#: A joint value this far outside its limit still counts as inside (printed values round-trip).
-LIMIT_TOLERANCE = 1e-12
 #: More movable joints than this are refused: Pinocchio's Data holds nv x nv x nv tensors
 #: (about 0.6 GB at 200, 1.8 GB at 300, 64 GB at 1000); arms and humanoids have tens.
 MAX_DEGREES_OF_FREEDOM = 200
@@ -68,22 +70,26 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     """
     source = resolve_robot(robot)
     text, declared = describe(source, xacro_args, package_dirs)
-    loaded = Robot.from_urdf(text, source=source, package_dirs=package_dirs)
+    used = {}
     if source.is_xacro:
         defaults = {k: v for k, v in declared.items() if v is not None}
-        loaded.xacro_args = {**defaults, **{k: str(v) for k, v in xacro_args.items()}}
-    return loaded
+        used = {**defaults, **{k: str(v) for k, v in xacro_args.items()}}
+    return Robot.from_urdf(text, source=source, package_dirs=package_dirs, xacro_args=used)
 
 
 class Robot:
-    """A robot model (immutable) with a Pinocchio data workspace.
+    """A robot model, immutable: the Pinocchio model, its joints and frames, and the chains between frames.
 
-    Build it with :func:`load`. ``model`` and ``data`` are Pinocchio's; the
-    rest of the API works with joint names, frame names and plain joint
-    vectors (one value per movable joint, radians or metres).
+    Build it with :func:`load`. ``model`` is Pinocchio's; :attr:`data` is a
+    Pinocchio workspace of the calling thread's own (each thread gets one), so
+    two threads may call :meth:`transform`, :meth:`fk`, :meth:`jacobian` and
+    IK on one robot at once. The rest of the API works with joint names, frame
+    names and plain joint vectors (one value per movable joint, radians or
+    metres). Assigning an attribute after construction raises ``AttributeError``.
     """
 
-    def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None, warnings=()):
+    def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None, warnings=(),
+                 *, xacro_args=None, mesh_warnings=()):
         self.model = model
         if model.nv > MAX_DEGREES_OF_FREEDOM:  # checked before Pinocchio allocates its workspace
             raise DescriptionError(
@@ -91,8 +97,9 @@ class Robot:
                 f"(Pinocchio's workspace grows with the cube of the count: about "
                 f"{64 * model.nv ** 3 / 1e9:.2g} GB here)"
             )
+        self._workspace = threading.local()  # one Pinocchio Data per thread (see data)
         try:
-            self.data = model.createData()
+            self._workspace.data = model.createData()
         except MemoryError:
             raise DescriptionError(
                 f"{source.path.name}: {model.nv} degrees of freedom: Pinocchio's workspace for this model does not "
@@ -102,14 +109,15 @@ class Robot:
         self.source = source
         self.name = robot_xml.get("name") or source.name
         self.package_dirs = dict(package_dirs or {})
-        self.xacro_args: dict[str, str] = {}  # effective xacro arguments (defaults and given), set by load()
+        #: The xacro arguments the description was expanded with (declared defaults and the given ones).
+        self.xacro_args: Mapping[str, str] = MappingProxyType(dict(xacro_args or {}))
         #: Problems found while loading that do not change the kinematics (a normalised axis, a joint
         #: that cannot move, an unresolved package:// mesh, ...), one line each; the CLI prints them
         #: as ``warning: ...`` on stderr.
-        self.warnings: list[str] = list(warnings)
+        self.warnings: tuple[str, ...] = tuple(warnings)
         #: The subset of :attr:`warnings` about ``package://`` meshes that do not resolve (the viewer's
         #: own error covers them).
-        self.mesh_warnings: list[str] = []
+        self.mesh_warnings: tuple[str, ...] = tuple(mesh_warnings)
         self._layout = joint_layout(model, robot_xml, source.path.name)
         self.joints: tuple[Joint, ...] = self._layout.joints
         self.joint_names = tuple(j.name for j in self.joints)
@@ -136,11 +144,43 @@ class Robot:
         # Limits widened by LIMIT_TOLERANCE, for the quick check of check_limits
         self._lower_ok = np.array([j.lower for j in self.joints], dtype=float) - LIMIT_TOLERANCE
         self._upper_ok = np.array([j.upper for j in self.joints], dtype=float) + LIMIT_TOLERANCE
+        # Caches of derived, never-changing data (a race builds one twice, harmlessly):
         self._chains: dict[tuple, list[ChainStep]] = {}  # (frame id, base id or None) -> steps
         self._fk_kernels: dict[tuple, ChainFK] = {}  # (frame id, base id or None) -> batched FK, built on first use
+        self._chain_objects: dict[tuple[str, str], Chain] = {}  # (base link, tip link) -> Chain
+        self._frozen = True
+
+    def __setattr__(self, name, value):
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"a Robot is immutable: cannot set '{name}' (load another robot instead)")
+        object.__setattr__(self, name, value)
+
+    def __getstate__(self) -> dict:
+        """For pickling (Dask workers): the model and what was derived from it, without the caches and workspaces."""
+        state = dict(self.__dict__)
+        for name in ("_workspace", "_chains", "_fk_kernels", "_chain_objects"):
+            state.pop(name)
+        state["xacro_args"] = dict(self.xacro_args)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        state["xacro_args"] = MappingProxyType(state["xacro_args"])
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+        for name in ("_chains", "_fk_kernels", "_chain_objects"):
+            object.__setattr__(self, name, {})
+        object.__setattr__(self, "_workspace", threading.local())
+
+    @property
+    def data(self) -> pin.Data:
+        """A Pinocchio ``Data`` workspace for ``model``, the calling thread's own (made on the thread's first use)."""
+        data = getattr(self._workspace, "data", None)
+        if data is None:
+            data = self._workspace.data = self.model.createData()
+        return data
 
     @classmethod
-    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None) -> Robot:
+    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None, xacro_args=None) -> Robot:
         """Build a robot from URDF text, checked first by :func:`manipkit.description.validate.check_urdf`.
 
         Invalid descriptions raise :class:`DescriptionError` naming the file,
@@ -162,9 +202,8 @@ class Robot:
             reason = "; ".join(messages) or "no reason given"
             raise DescriptionError(f"{where}: Pinocchio cannot build a model: {reason}")
         warnings += mesh_warnings + [f"{where}: URDF parser: {m}" for m in messages]
-        robot = cls(model, checked.text, source, checked.robot, package_dirs, warnings)
-        robot.mesh_warnings = list(mesh_warnings)
-        return robot
+        return cls(model, checked.text, source, checked.robot, package_dirs, warnings, xacro_args=xacro_args,
+                   mesh_warnings=mesh_warnings)
 
     def __repr__(self) -> str:
         return (
@@ -213,7 +252,7 @@ class Robot:
         """
         if not isinstance(name, str):
             raise UnknownFrameError(f"robot '{self.name}': a frame is named by a string such as 'base_link' or "
-                                    f"'ee_link', not {type(name).__name__} {_short_repr(name)}")
+                                    f"'ee_link', not {type(name).__name__} {repr_text(name)}")
         if name in self._frame_ids:
             return name
         if name in BASE_ALIASES:
@@ -233,41 +272,12 @@ class Robot:
         return self._frame_ids[self.frame(name)]
 
     def chain_joints(self, base: str, tip: str) -> tuple[str, ...]:
-        """The entries of ``q`` that move ``tip`` relative to ``base``, base first.
+        """``robot.chain(base, tip).joint_names``: the entries of ``q`` that move ``tip`` relative to ``base``, base first.
 
-        These are the movable joints on the path from ``base`` down to
-        ``tip``; a mimic joint on the path contributes its leader (once), a
-        floating or planar joint its coordinates (``base_joint.x``, ...).
-
-        ``base`` may hang off the path by fixed joints only (ur5's ``base``
-        beside ``base_link``): every movable joint between the two frames
-        then points from base to tip. Equal frames, or frames with only fixed
-        joints between them, give ``()``.
-
-        Raises
-        ------
-        ChainError
-            If ``tip`` is not below ``base`` (the message says whether to swap
-            them or that they are on different branches).
+        Raises :class:`ChainError` if ``tip`` is not below ``base`` (saying
+        whether to swap them or that they are on different branches).
         """
-        base_name, tip_name = self.frame(base), self.frame(tip)
-        base_joint = self.model.frames[self.frame_id(base_name)].parentJoint
-        tip_joint = self.model.frames[self.frame_id(tip_name)].parentJoint
-        tip_support = list(self.model.supports[tip_joint])
-        if base_joint not in tip_support:
-            if tip_joint in self.model.supports[base_joint]:
-                hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
-            else:
-                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.base_link}'"
-            raise ChainError(
-                f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
-                f"(a movable joint lies on the way up from '{base_name}'); {hint}"
-            )
-        names: dict[str, None] = {}  # ordered set
-        for joint_id in tip_support[tip_support.index(base_joint) + 1 :]:
-            for column, *_ in self._layout.columns[joint_id]:
-                names[self.joint_names[column]] = None
-        return tuple(names)
+        return self.chain(base, tip).joint_names
 
     def sample_q(self, n: int, *, seed: int = 0) -> np.ndarray:
         """``n`` joint vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]).
@@ -374,7 +384,7 @@ class Robot:
             numbers = np.atleast_1d(np.asarray(value, dtype=object)).ravel() if not isinstance(value, str) else [value]
             if len(numbers) != len(indices):
                 raise JointValueError(f"joint '{name}' is {self.joints[indices[0]].type}: give {len(indices)} values "
-                                      f"({coordinates}), got {_short_repr(value)}")
+                                      f"({coordinates}), got {repr_text(value)}")
             return [(i, _joint_number(self.joints[i].name, v)) for i, v in zip(indices, numbers)]
         if name not in self._joint_index:
             if name in self.mimic_joints:
@@ -436,7 +446,7 @@ class Robot:
 
         Works on one joint vector (n,) or many (..., n).
         """
-        Q = np.array(_real_array(q))
+        Q = np.array(joint_array(q))
         lower = np.array([j.lower for j in self.joints], dtype=float)
         upper = np.array([j.upper for j in self.joints], dtype=float)
         return np.minimum(np.maximum(Q, lower), upper)
@@ -446,9 +456,9 @@ class Robot:
         if type(q) is not np.ndarray:
             if isinstance(q, Mapping):
                 return self.q(q)
-            q = self.q() if q is None else _real_array(q)
+            q = self.q() if q is None else joint_array(q)
         elif q.dtype != np.float64:
-            q = _real_array(q)
+            q = joint_array(q)
         if q.shape != (len(self.joints),):
             raise JointValueError(
                 f"robot '{self.name}' needs {len(self.joints)} joint values ({', '.join(self.joint_names)}), got shape {q.shape}"
@@ -585,13 +595,13 @@ class Robot:
 
         Notes
         -----
-        Computed by :class:`manipkit.kinematics.chain.ChainFK` kernels (equal to
+        Computed by :class:`manipkit.kinematics.fk_kernel.ChainFK` kernels (equal to
         Pinocchio to about 1e-15). When ``base`` is above ``frame`` in the
         link tree (the arm base of a mobile manipulator, an intermediate link
         of the same chain), one kernel runs over the joints between them;
         otherwise T_base_frame = T_root_base^-1 T_root_frame from two kernels.
         """
-        Q = _real_array(Q)
+        Q = joint_array(Q)
         if Q.shape[-1:] != (len(self.joints),):
             raise JointValueError(
                 f"robot '{self.name}' needs {len(self.joints)} joint values per row ({', '.join(self.joint_names)}), "
@@ -615,58 +625,61 @@ class Robot:
         T[:, :3, :3] = R_base_t @ T[:, :3, :3]
         return T.reshape(*lead, 4, 4)
 
-    def chain(self, frame: str, base: str | None = None) -> list[ChainStep]:
-        """The steps of ``T_base_frame``: constant placements and the joints between them.
+    def chain(self, base=None, tip=None, *, frame=None) -> Chain | list[ChainStep]:
+        """The :class:`~manipkit.kinematics.chain.Chain` of the joints that move ``tip`` relative to ``base``.
 
-        ``T_base_frame = S_0 S_1 ... S_m`` (see :class:`manipkit.kinematics.chain.ChainStep`):
-        each joint step is the joint's constant placement in its parent
-        joint's frame followed by its motion, and the last step is the
-        frame's constant placement in its parent joint's frame (a fixed
-        step, ``index`` -1). Pinocchio keeps the robot this way, so the
-        product is exactly its ``T_root_frame``:
-        ``M_1 J_1(q_1) ... M_k J_k(q_k) X_frame`` over the joints supporting
-        the frame.
+        Built once per (base, tip) and shared: the same call returns the same
+        immutable object. Frames in the order of ``tf-between SOURCE TARGET``
+        (base first); aliases ``base_link`` and ``ee_link`` allowed.
+
+        ``base`` may hang off the path by fixed joints only (ur5's ``base``
+        beside ``base_link``); equal frames, or frames with only fixed joints
+        between them, give a chain with no joints.
 
         Parameters
         ----------
-        frame : str
-            The tip frame (aliases ``ee_link``, ``base_link`` allowed).
-        base : str, optional
-            The frame the product is expressed in; default (or the root link):
-            the root, ``T_root_frame``. Otherwise it must be above ``frame``
-            (an ancestor, or hanging off its path by fixed joints only); the
-            chain then starts with a fixed step ``X_base^-1 = [R^T, -R^T p]``
-            (the base's placement in its parent joint, inverted) and holds
-            only the joints below the base's parent joint.
-
-        Returns
-        -------
-        steps : list of ChainStep
-            Base (or root) first; joint steps name their column of the joint
-            vector (``joint_names`` order) in ``index``. A mimic joint's step
-            reads its leader's column with its ``scale`` and ``offset``; a
-            floating or planar joint is one step per coordinate (its placement
-            on the first). Built once per
-            (frame, base) and shared: the arrays are read-only.
+        base, tip : str
+            Link names. ``frame=`` (the tip's old keyword) works for one
+            release with a ``DeprecationWarning``; so does the old one-argument
+            form ``chain(frame)`` (the chain from the root link); both return
+            the chain's ``steps`` as a list, as they did.
 
         Raises
         ------
         UnknownFrameError
             A frame the robot does not have.
         ChainError
-            ``base`` is not above ``frame``.
+            ``tip`` is not below ``base`` (the message says to swap them, or
+            that they are on different branches).
 
         Examples
         --------
         >>> robot = load("planar_2r")
-        >>> [step.index for step in robot.chain("ee_link")]
+        >>> robot.chain("base_link", "ee_link").joint_names
+        ('joint1', 'joint2')
+        >>> [step.index for step in robot.chain("base_link", "ee_link").steps]
         [0, 1, -1]
         """
-        frame_id, base_id = self._chain_ids(frame, base)
-        return list(self._chain_by_id(frame_id, base_id))
+        if frame is not None or tip is None:
+            if frame is None and base is None:
+                raise ChainError("robot.chain(base, tip) takes two frames, base first: robot.chain('base_link', 'ee_link')")
+            python_warnings.warn(
+                "robot.chain(frame, base=None) is now robot.chain(base, tip), base first as in tf-between; "
+                "the old form goes in the next release", DeprecationWarning, stacklevel=2,
+            )
+            tip = frame if frame is not None else base
+            base = self.root_link if frame is None or base is None else base
+            return list(self.chain(base, tip).steps)  # the old return value: the steps
+        key = (self.frame(base), self.frame(tip))
+        chain = self._chain_objects.get(key)
+        if chain is None:
+            frame_id, base_id = self._chain_ids(key[1], key[0])
+            chain = Chain(self, key[0], key[1], tuple(self._chain_by_id(frame_id, base_id)))
+            chain = self._chain_objects.setdefault(key, chain)
+        return chain
 
     def chain_fk(self, frame: str, base: str | None = None) -> ChainFK:
-        """The prepared batched FK (:class:`manipkit.kinematics.chain.ChainFK`) of :meth:`chain` (built once).
+        """The prepared batched FK (:class:`manipkit.kinematics.fk_kernel.ChainFK`) of :meth:`chain` (built once).
 
         ``chain_fk(frame, base).transforms(Q)`` is ``T_base_frame`` (N, 4, 4)
         for every row of ``Q`` (N, len(joint_names)); :meth:`fk` uses it,
@@ -687,9 +700,25 @@ class Robot:
             return frame_id, None
         base_id = self.frame_id(base)
         if not self._is_above(base_id, frame_id):
-            self.chain_joints(base, frame)  # raises ChainError saying why (swap them, different branches)
+            self._refuse_chain(base, frame)
             raise ChainError(f"robot '{self.name}': '{self.frame(base)}' is not above '{self.frame(frame)}'")
         return frame_id, base_id
+
+    def _refuse_chain(self, base: str, tip: str) -> None:
+        """:class:`ChainError` saying why ``tip`` is not below ``base`` (swap them, or different branches)."""
+        base_name, tip_name = self.frame(base), self.frame(tip)
+        base_joint = self.model.frames[self.frame_id(base_name)].parentJoint
+        tip_joint = self.model.frames[self.frame_id(tip_name)].parentJoint
+        tip_support = list(self.model.supports[tip_joint])
+        if base_joint not in tip_support:
+            if tip_joint in self.model.supports[base_joint]:
+                hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
+            else:
+                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.base_link}'"
+            raise ChainError(
+                f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
+                f"(a movable joint lies on the way up from '{base_name}'); {hint}"
+            )
 
     def _is_above(self, base_id: int, frame_id: int) -> bool:
         """Whether T_base_frame depends only on joints between the two frames (see :meth:`chain`).
@@ -734,27 +763,6 @@ class Robot:
         return kernel
 
 
-def _real_array(values) -> np.ndarray:
-    """``values`` as a float array; complex or non-numeric entries raise :class:`JointValueError` (one line).
-
-    numpy would drop an imaginary part with a warning; a joint value is a real number (rad or m).
-    """
-    if type(values) is np.ndarray and values.dtype == np.float64:  # the common case: nothing to convert
-        return values
-    try:
-        array = np.asarray(values)
-        if array.dtype.kind == "c" or (
-            array.dtype.kind == "O" and any(isinstance(v, (complex, np.complexfloating)) for v in array.flat)
-        ):
-            raise JointValueError(f"joint values must be real numbers (rad or m); got complex values {_short_repr(values)}")
-        return array.astype(float, copy=False)
-    except (TypeError, ValueError) as exc:
-        if isinstance(exc, JointValueError):
-            raise
-        raise JointValueError(f"joint values must be real numbers (rad or m), a vector or equal rows of them; "
-                              f"got {_short_repr(values)}") from None
-
-
 def _joint_number(name: str, value) -> float:
     """``value`` as a finite real number, or :class:`JointValueError` naming the joint."""
     try:
@@ -766,12 +774,6 @@ def _joint_number(name: str, value) -> float:
     if not math.isfinite(number):
         raise JointValueError(f"joint '{name}': value {value} is not finite; give a finite number")
     return number
-
-
-def _short_repr(value, limit: int = 60) -> str:
-    """``repr(value)`` on one line, cut to ``limit`` characters."""
-    text = " ".join(repr(value).split())
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _read_only(array) -> np.ndarray:

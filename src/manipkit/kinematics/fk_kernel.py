@@ -1,0 +1,688 @@
+"""Batched forward kinematics of one serial chain, run by one compiled loop over configurations.
+
+Conventions (docs/architecture.md), restated:
+
+- ``Q`` has one row per configuration and one column per movable joint of the
+  robot, in ``robot.joint_names`` order (radians, metres); only the chain's
+  columns are read.
+- The result is ``T_root_frame``, shape (N, 4, 4): the pose of the chain's
+  tip frame in the frame the chain starts from (the root link, or a base
+  frame above the tip: :meth:`manipkit.kinematics.robot.Robot.chain`), for
+  each row of ``Q``.
+- A chain is a list of :class:`ChainStep`: constant placements and the
+  joints between them, from the base (or root) down to the frame.
+
+How it is fast (:class:`ChainFK`): a chain is a product of constant
+placements ``X_k = [C_k, t_k]`` and joint motions,
+``T = X_0 J_0(q_0) X_1 J_1(q_1) ... X_m``. It is prepared once:
+
+1. every joint axis ``a`` is turned into the local z axis, ``J(a, q) = A Jz(q)
+   A^T`` with ``A`` a rotation taking z to ``a`` (a signed permutation when
+   ``a`` lies on a coordinate axis), and ``A``, ``A^T`` are folded into the
+   neighbouring constants;
+2. each constant rotation is split as ``Rz(alpha) S Rz(gamma)`` where that
+   makes ``S`` a signed permutation, and ``alpha``/``gamma`` become angle
+   offsets of the neighbouring revolute joints (a URDF ``rpy`` yaw, a tool
+   frame turned about the last axis, a DH twist of +-90 deg cost nothing);
+3. the rotation ``R`` of the running product is kept as three stored columns
+   with labels: column ``j`` of ``R`` is ``sign[j] * stored[col[j]]``. A
+   signed permutation ``S`` only relabels (``R S`` costs nothing at run
+   time); a general rotation mixes the stored columns once (27 multiplications)
+   and resets the labels. A sign between the two columns a joint turns is
+   folded into the joint's angle, a sign on a translation into the constant.
+
+What is left per configuration is, for each joint, ``R <- R Rz(q)`` on two
+stored columns (12 multiplications) or ``p += q z`` (3), and ``p += R t``
+for the nonzero entries of each ``t`` (3 each): about 115 multiplications for
+a 7-joint arm. :func:`_poses` runs them compiled with numba, one step at a
+time over a chunk of 256 configurations held as structure of arrays in the L1
+cache, so that each step's loop over configurations is vectorised (SIMD);
+the last loop writes the (N, 4, 4) output.
+
+``cos q`` and ``sin q`` of every revolute joint come from one ``tan(q / 2)``
+per angle (``c = 2 / (1 + t^2) - 1``, ``s = t * 2 / (1 + t^2)``; numpy's
+float64 ``tan`` is vectorised with SIMD where ``sin`` and ``cos`` are not),
+accurate to a few units in the last place for any angle; ``tan`` runs in
+numpy on blocks of rows, the rest in the compiled loop. numba is imported
+and the loop compiled (or loaded from numba's cache) when a :class:`ChainFK`
+first runs, not when this module is imported.
+
+The compiled kernels (this loop and those of :mod:`manipkit.kinematics.ik_kernel`)
+are made by :func:`compile_kernel`: numba's on-disk cache when it works, else
+compiled in memory with one :class:`KernelCacheWarning` (a read-only install
+with a read-only home, a full disk); a cache file that cannot be read (a
+truncated file) is recompiled and written again.
+
+The answer equals Pinocchio's ``framesForwardKinematics`` to about 1e-15
+(tested to 1e-12): placement entries within 1e-14 of 0 or +-1 are taken as
+exactly that (a URDF ``rpy`` of 1.5707963 leaves 6e-17 where 0 is meant).
+
+Examples
+--------
+>>> import numpy as np
+>>> import manipkit
+>>> robot = manipkit.load("planar_2r")
+>>> fk = chain_fk_for(robot, "ee_link")
+>>> T = fk.transforms(np.array([[0.0, np.pi / 2]]))
+>>> np.round(T[0, :2, 3], 12)
+array([1., 1.])
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.errors import ChainError, JointValueError
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = [
+    "ChainFK", "ChainStep", "KernelCacheWarning", "chain_fk", "chain_fk_for", "compile_kernel", "snap_placement", "z_to_axis",
+]
+
+SNAP_TOL = 1e-14  # placement entries this close to 0 or +-1 are taken as exactly that
+SPLIT_TOL = SNAP_TOL  # a rotation is split about z only if the rest is a signed permutation to this
+DEFAULT_BLOCK = 8192  # rows per numpy tan call (the angles of a block stay in L2 cache)
+CHUNK = 256  # configurations per pass of the compiled loop (R and p of a chunk, 24 KiB, stay in L1 cache)
+_REVOLUTE, _PRISMATIC = 0, 1
+
+
+# --------------------------------------------------------------------------
+# The chain: constant placements and the joints between them
+
+
+@dataclass(frozen=True)
+class ChainStep:
+    """One factor of a chain's pose product ``T_base_frame = S_0 S_1 ... S_m``.
+
+    A step is the constant placement ``[rotation, translation]`` (the
+    translation applied first, in the previous joint's frame, metres),
+    followed, for a joint step, by the joint's motion: a turn of ``q``
+    radians about ``axis`` (revolute) or a shift of ``q`` metres along it
+    (prismatic), ``q`` being column ``index`` of the robot's joint vector
+    (``robot.joint_names`` order). A fixed step (``index == -1``, ``axis``
+    None) is a placement only: the frame's own placement closes every chain,
+    and a base frame's inverse placement opens a chain that starts below
+    the root (:meth:`manipkit.kinematics.robot.Robot.chain`).
+
+    Attributes
+    ----------
+    rotation : ndarray, shape (3, 3)
+        Constant rotation of the step's frame in the previous joint's frame.
+    translation : ndarray, shape (3,)
+        Constant translation (m), in the previous joint's frame.
+    index : int
+        Column of the joint after the placement, or -1 for a fixed step.
+    prismatic : bool
+        The joint slides (m) instead of turning (rad).
+    axis : ndarray, shape (3,), or None
+        Unit joint axis in the joint's own frame (None for a fixed step).
+    scale, offset : float
+        The joint's value is ``scale * q[index] + offset`` (rad or m): 1 and
+        0 for an independent joint; a URDF ``<mimic>`` joint reads its
+        leader's column with the mimic's ``multiplier`` and ``offset``.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    index: int
+    prismatic: bool
+    axis: np.ndarray | None
+    scale: float = 1.0
+    offset: float = 0.0
+
+
+# --------------------------------------------------------------------------
+# Constant geometry: axes to z, rotations split about z
+
+
+def snap_placement(M: np.ndarray) -> np.ndarray:
+    """A copy of ``M`` with entries within :data:`SNAP_TOL` of 0 or +-1 set to exactly that.
+
+    A URDF ``rpy`` of 1.5707963 leaves 6e-17 where 0 is meant; snapped, a
+    rotation about a coordinate axis is recognised as a signed permutation.
+    """
+    M = np.array(M, dtype=float)
+    for value in (0.0, 1.0, -1.0):
+        M[np.abs(M - value) < SNAP_TOL] = value
+    return M
+
+
+def _rot_z(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _is_signed_permutation(M: np.ndarray, tol: float = SPLIT_TOL) -> bool:
+    near = np.minimum(np.abs(M), np.abs(np.abs(M) - 1.0))
+    return bool(np.all(near < tol)) and bool(np.all(np.sum(np.abs(M) > 0.5, axis=0) == 1))
+
+
+def z_to_axis(axis: np.ndarray) -> np.ndarray:
+    """A rotation A with A @ e_z = axis: a signed permutation when the axis is a coordinate axis."""
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    k = int(np.argmax(np.abs(axis)))
+    # Snap only when the other two entries are themselves below SNAP_TOL: |axis[k]| can round
+    # to 1 while they are as large as 1e-7, which would turn the joint about the wrong axis.
+    if np.delete(np.abs(axis), k).max() < SNAP_TOL:
+        sign = math.copysign(1.0, axis[k])
+        z = np.zeros(3)
+        z[k] = sign
+        x = np.zeros(3)
+        x[(k + 1) % 3] = 1.0
+        return np.column_stack((x, np.cross(z, x), z))
+    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    x = np.cross(helper, axis)
+    x /= np.linalg.norm(x)
+    return np.column_stack((x, np.cross(axis, x), axis))
+
+
+def _split_about_z(C: np.ndarray, *, left: bool, right: bool) -> tuple[float, np.ndarray, float]:
+    """(alpha, S, gamma) with C = Rz(alpha) S Rz(gamma), S a signed permutation when possible.
+
+    ``left`` / ``right`` say whether a revolute z joint stands there to take
+    ``alpha`` / ``gamma`` as an angle offset; a side that cannot take one gets 0.
+    """
+    if _is_signed_permutation(C) or not (left or right):
+        return 0.0, C, 0.0
+    candidates = []
+    if abs(abs(C[2, 2]) - 1.0) < SPLIT_TOL:  # a turn about z, possibly after a half turn about x
+        if right:
+            candidates.append((0.0, math.atan2(-C[0, 1], C[0, 0])))
+        if left:
+            candidates.append((math.atan2(C[1, 0], C[0, 0]), 0.0))
+    elif abs(C[2, 2]) < SPLIT_TOL and left and right:  # Rz(alpha) Ry(+-90 deg) Rz(gamma)
+        candidates.append((math.atan2(C[1, 2], C[0, 2]), math.atan2(C[2, 1], -C[2, 0])))
+    for alpha, gamma in candidates:
+        S = _rot_z(-alpha) @ C @ _rot_z(-gamma)
+        if _is_signed_permutation(S):
+            return alpha, np.round(S), gamma
+    return 0.0, C, 0.0
+
+
+@dataclass
+class _Segment:
+    """One constant placement X = [C, t] and the joint after it (``joint`` None for the tip)."""
+
+    C: np.ndarray
+    t: np.ndarray
+    joint: int | None = None  # column of Q
+    prismatic: bool = False
+    offset: float = 0.0  # added to the joint value (rad or m): a mimic's offset, a rotation about z folded into it
+    multiplier: float = 1.0  # the joint value is multiplier * Q[:, joint] + offset (a mimic joint's multiplier)
+
+
+def _segments(steps) -> list[_Segment]:
+    """Constant placements with every joint moving along/about its local z axis, offsets folded in."""
+    segments: list[_Segment] = []
+    C, t = np.eye(3), np.zeros(3)  # the constant product since the last joint
+    A_prev_T = np.eye(3)  # A^T of the last joint, folded into what follows it
+    for step in steps:
+        rotation = np.asarray(step.rotation, dtype=float)
+        translation = np.asarray(step.translation, dtype=float)
+        t = t + C @ translation
+        C = C @ rotation
+        if step.index < 0:
+            continue
+        A = z_to_axis(step.axis)
+        segments.append(_Segment(A_prev_T @ C @ A, A_prev_T @ t, int(step.index), bool(step.prismatic),
+                                 float(step.offset), float(step.scale)))
+        C, t, A_prev_T = np.eye(3), np.zeros(3), A.T
+    segments.append(_Segment(A_prev_T @ C, A_prev_T @ t))
+    for k, seg in enumerate(segments):
+        left = k > 0 and not segments[k - 1].prismatic
+        right = seg.joint is not None and not seg.prismatic
+        alpha, S, gamma = _split_about_z(snap_placement(seg.C), left=left, right=right)
+        if alpha:
+            segments[k - 1].offset += alpha
+        seg.offset += gamma
+        seg.C = snap_placement(S)
+        seg.t = snap_placement(_rot_z(-alpha) @ seg.t)
+    return segments
+
+
+# --------------------------------------------------------------------------
+# The kernel's tables: stored columns of R, relabelled by signed permutations
+
+
+@dataclass
+class _Program:
+    """What :func:`_poses` runs, for a chain of n joints (see the module docstring, step 3).
+
+    ``R0`` (3, 3) and ``p0`` (3,) are ``X_0`` (``R0[c]`` is stored column ``c``);
+    joint ``k`` is ``joints[k] = (kind, a, b, row)``: a revolute joint turns
+    stored columns ``a`` (x) and ``b`` (y) by angle row ``row``, a prismatic
+    joint moves ``p`` along stored column ``a`` by value row ``row``; then
+    ``X_{k+1}``: ``p += sum_c shifts[k, c] * stored[c]``, and if ``mixed[k]``,
+    ``stored[c] <- sum_d mixes[k, d, c] * stored[d]``. At the end, column
+    ``j`` of ``R`` is ``out_signs[j] * stored[out_cols[j]]``. Each joint value
+    is multiplied by ``scales[k]`` (+-1) before use.
+    """
+
+    R0: np.ndarray
+    p0: np.ndarray
+    joints: np.ndarray  # (n, 4) int
+    scales: np.ndarray  # (n,)
+    shifts: np.ndarray  # (n, 3)
+    mixes: np.ndarray  # (n, 3, 3)
+    mixed: np.ndarray  # (n,) bool
+    out_cols: np.ndarray  # (3,) int
+    out_signs: np.ndarray  # (3,)
+
+
+def _program(segments: list[_Segment]) -> _Program:
+    """The tables of :class:`_Program` for ``segments`` (from :func:`_segments`): signed permutations become labels."""
+    n = len(segments) - 1
+    joints = np.zeros((n, 4), dtype=np.int64)
+    scales, shifts = np.ones(n), np.zeros((n, 3))
+    mixes, mixed = np.zeros((n, 3, 3)), np.zeros(n, dtype=bool)
+    col, sign = [0, 1, 2], [1.0, 1.0, 1.0]  # column j of R is sign[j] * stored[col[j]]
+    n_rev = n_pri = 0
+    for k, (seg, nxt) in enumerate(zip(segments[:-1], segments[1:])):
+        if seg.prismatic:  # p += q R e_z = (sign[2] q) stored[col[2]]
+            joints[k] = (_PRISMATIC, col[2], -1, n_pri)
+            scales[k], n_pri = sign[2], n_pri + 1
+        else:  # x' = x c + y s, y' = y c - x s; on the stored columns the same with s -> sign[0] sign[1] s
+            joints[k] = (_REVOLUTE, col[0], col[1], n_rev)
+            scales[k], n_rev = sign[0] * sign[1], n_rev + 1
+        for j in range(3):  # p += R t
+            shifts[k, col[j]] += sign[j] * nxt.t[j]
+        if _is_signed_permutation(nxt.C):  # R S: column j of R S is S[i, j] * column i of R, i = perm[j]
+            perm = np.argmax(np.abs(nxt.C), axis=0)
+            sign = [float(np.sign(nxt.C[perm[j], j])) * sign[perm[j]] for j in range(3)]
+            col = [col[perm[j]] for j in range(3)]
+        else:  # R C: stored[c] <- sum over j of sign[j] C[j, c] stored[col[j]]
+            for j in range(3):
+                mixes[k, col[j]] = sign[j] * nxt.C[j]
+            mixed[k] = True
+            col, sign = [0, 1, 2], [1.0, 1.0, 1.0]
+    return _Program(np.ascontiguousarray(segments[0].C.T), segments[0].t.copy(), joints, scales, shifts,
+                    mixes, mixed, np.array(col, dtype=np.int64), np.array(sign))
+
+
+def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out_signs, T):
+    """Write T[n] = X_0 J_0 X_1 ... X_m for every configuration n (compiled by numba, see :func:`_kernel`).
+
+    ``tan_half[r, n]`` is ``tan(q / 2)`` of revolute joint row ``r`` (offset
+    and sign folded in), ``values[r, n]`` the value of prismatic joint row
+    ``r`` (sign folded in); the other arguments are those of :class:`_Program`.
+    Configurations are taken ``CHUNK`` at a time; every loop over ``j`` (the
+    configurations of a chunk) reads and writes rows of ``R`` and ``p``, so it
+    is vectorised.
+    """
+    R = np.empty((3, 3, CHUNK))  # R[c, i, j]: entry i of stored column c, configuration j
+    p = np.empty((3, CHUNK))
+    for start in range(0, T.shape[0], CHUNK):
+        m = min(CHUNK, T.shape[0] - start)
+        for i in range(3):
+            p[i, :m] = p0[i]
+            for c in range(3):
+                R[c, i, :m] = R0[c, i]
+        for k in range(joints.shape[0]):
+            kind, a, b, row = joints[k, 0], joints[k, 1], joints[k, 2], joints[k, 3]
+            if kind == _REVOLUTE:  # R <- R Rz(q) on stored columns a (x) and b (y)
+                t = tan_half[row, start : start + m]
+                X, Y = R[a], R[b]
+                for j in range(m):
+                    w = 2.0 / (1.0 + t[j] * t[j])
+                    cos, sin = w - 1.0, t[j] * w
+                    for i in range(3):
+                        x, y = X[i, j], Y[i, j]
+                        X[i, j] = x * cos + y * sin
+                        Y[i, j] = y * cos - x * sin
+            else:  # p <- p + q z
+                v = values[row, start : start + m]
+                Z = R[a]
+                for j in range(m):
+                    for i in range(3):
+                        p[i, j] += Z[i, j] * v[j]
+            for c in range(3):  # p <- p + R t
+                d = shifts[k, c]
+                if d != 0.0:
+                    S = R[c]
+                    for j in range(m):
+                        for i in range(3):
+                            p[i, j] += S[i, j] * d
+            if mixed[k]:  # R <- R C, C not a signed permutation
+                M = mixes[k]
+                for j in range(m):
+                    for i in range(3):
+                        r0, r1, r2 = R[0, i, j], R[1, i, j], R[2, i, j]
+                        for c in range(3):
+                            R[c, i, j] = r0 * M[0, c] + r1 * M[1, c] + r2 * M[2, c]
+        for j in range(m):
+            n = start + j
+            for i in range(3):
+                for c in range(3):
+                    T[n, i, c] = out_signs[c] * R[out_cols[c], i, j]
+                T[n, i, 3] = p[i, j]
+                T[n, 3, i] = 0.0
+            T[n, 3, 3] = 1.0
+
+
+_compiled = None
+
+
+def _kernel():
+    """:func:`_poses` compiled with numba (imported here: ``import manipkit.kinematics.fk_kernel`` does not pay for it)."""
+    global _compiled
+    if _compiled is None:
+        # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would
+        # keep LLVM from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
+        _compiled = compile_kernel(_poses, error_model="numpy")
+    return _compiled
+
+
+# --------------------------------------------------------------------------
+# Compiling the kernels: numba's disk cache where it works, else in memory
+
+
+class KernelCacheWarning(UserWarning):
+    """numba's on-disk cache of the compiled kernels could not be used; they were compiled in memory."""
+
+
+_cache_warned = False
+
+
+def _warn_cache(message: str) -> None:
+    """One :class:`KernelCacheWarning` per process (every kernel meets the same folder)."""
+    global _cache_warned
+    if not _cache_warned:
+        _cache_warned = True
+        warnings.warn(" ".join(message.split()), KernelCacheWarning, stacklevel=2)
+
+
+def _reason(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    text = text if len(text) <= 200 else text[:200] + "..."
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+class _ForgivingCache:
+    """numba's ``FunctionCache`` for one kernel, made on first use, whose failures fall back to memory.
+
+    numba raises when no cache folder is writable ("no locator available"),
+    when a file cannot be saved (a full disk) and when a cache file does not
+    unpickle (a truncated file); each of these would end the run. Here: no
+    usable folder or a failed save -> the kernel stays compiled in memory
+    (one warning); an unreadable entry -> the index is rewritten empty
+    (``flush``) and the kernel recompiled, so the next save replaces the bad
+    file. Implements the interface numba's dispatcher calls on ``_cache``.
+    """
+
+    def __init__(self, py_func):
+        self._py_func = py_func
+        self._disk = None  # numba.core.caching.FunctionCache, made on the first load
+        self._usable = True
+
+    def _cache(self):
+        if self._disk is None and self._usable:
+            from numba.core.caching import FunctionCache
+
+            try:
+                self._disk = FunctionCache(self._py_func)
+            except (RuntimeError, OSError) as exc:  # no writable folder for the cache: numba's RuntimeError
+                self._give_up(exc)
+        return self._disk
+
+    def _give_up(self, exc: BaseException) -> None:
+        self._usable, self._disk = False, None
+        _warn_cache(
+            f"the compiled kernels cannot use numba's disk cache ({_reason(exc)}); they are compiled in memory "
+            "for this run (a few seconds each run); set NUMBA_CACHE_DIR to a writable folder to cache them"
+        )
+
+    @property
+    def cache_path(self):
+        return self._disk.cache_path if self._disk is not None else None
+
+    def load_overload(self, sig, target_context):
+        cache = self._cache()
+        if cache is None:
+            return None
+        try:
+            return cache.load_overload(sig, target_context)
+        except Exception as exc:  # any failure to read a cache entry (UnpicklingError, EOFError, ...): recompile
+            _warn_cache(f"numba's disk cache of the compiled kernel {self._py_func.__name__} could not be read "
+                        f"({_reason(exc)}); it is compiled again and the cache rewritten")
+            try:
+                cache.flush()  # an empty index: the recompiled kernel is saved as a fresh entry
+            except OSError as flush_exc:
+                self._give_up(flush_exc)
+            return None
+
+    def save_overload(self, sig, data):
+        cache = self._cache()
+        if cache is None:
+            return
+        try:
+            cache.save_overload(sig, data)
+        except Exception as exc:  # a full disk, a folder made read-only, a corrupt index: keep it in memory
+            self._give_up(exc)
+
+    def enable(self):
+        self._usable = True
+
+    def disable(self):
+        self._usable, self._disk = False, None
+
+    def flush(self):
+        cache = self._cache()
+        if cache is not None:
+            try:
+                cache.flush()
+            except OSError as exc:
+                self._give_up(exc)
+
+
+def compile_kernel(py_func, **options):
+    """``py_func`` compiled by numba (``njit(**options)``), cached on disk where that works.
+
+    Like ``njit(cache=True, **options)(py_func)``, except that the disk cache
+    never ends a run: when no cache folder is writable (a read-only install
+    and home, ``NUMBA_CACHE_DIR`` unset), a file cannot be written (a full
+    disk) or read (a truncated file), the kernel is compiled in memory and
+    one :class:`KernelCacheWarning` says so; an unreadable entry is replaced
+    by the recompiled kernel. Compilation itself happens on the first call.
+
+    Parameters
+    ----------
+    py_func : function
+        A function numba can compile in nopython mode.
+    **options
+        Passed to ``numba.njit`` (``error_model="numpy"``, ...); not ``cache``.
+
+    Returns
+    -------
+    numba dispatcher
+    """
+    from numba import njit
+
+    dispatcher = njit(**options)(py_func)
+    # numba offers no option for a cache that falls back; its dispatcher calls load_overload/save_overload
+    # on `_cache` (what `enable_caching` sets), so ours goes there
+    dispatcher._cache = _ForgivingCache(py_func)
+    return dispatcher
+
+
+# --------------------------------------------------------------------------
+# The prepared kernel
+
+
+class ChainFK:
+    """Batched FK of one chain (root to a frame), prepared once, then run on any number of rows.
+
+    Parameters
+    ----------
+    steps : sequence of ChainStep
+        The chain from the root (or a base frame) down to the frame, as
+        :meth:`manipkit.kinematics.robot.Robot.chain` returns it; see also
+        :func:`chain_fk_for`.
+    n_joints : int
+        Columns of ``Q`` (all of the robot's movable joints).
+    block : int, keyword-only
+        Rows per numpy ``tan`` call (cache-sized; the answer does not depend on it).
+
+    Attributes
+    ----------
+    n_ops : int
+        Multiplications per configuration in the compiled loop, besides ``cos`` and ``sin``.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("iiwa14")
+    >>> fk = chain_fk_for(robot, "ee_link")
+    >>> Q = robot.sample_q(1000, seed=0)
+    >>> T_base_ee = fk.transforms(Q)
+    >>> T_base_ee.shape
+    (1000, 4, 4)
+    >>> bool(np.allclose(T_base_ee[7], robot.transform("base_link", "ee_link", Q[7]), atol=1e-12))
+    True
+    """
+
+    def __init__(self, steps: Sequence[ChainStep], n_joints: int, *, block: int = DEFAULT_BLOCK):
+        if block < 1:
+            raise ChainError(f"block must be at least 1 row, got {block}")
+        self.n_joints = int(n_joints)
+        self.block = int(block)
+        segments = _segments(steps)
+        program = self._program = _program(segments)
+        joints = segments[:-1]
+        revolute = np.array([not s.prismatic for s in joints], dtype=bool)
+        self.n_revolute, self.n_prismatic = int(revolute.sum()), int((~revolute).sum())
+        self._rev_cols = np.array([s.joint for s in joints if not s.prismatic], dtype=np.intp)
+        self._pri_cols = np.array([s.joint for s in joints if s.prismatic], dtype=np.intp)
+        self._rev_slice = _as_slice(self._rev_cols)
+        self._pri_slice = _as_slice(self._pri_cols)
+        # tan(half) with half = scale * (multiplier q + offset) / 2; prismatic values the same without the half
+        multipliers = np.array([s.multiplier for s in joints])
+        offsets = np.array([s.offset for s in joints])
+        self._half_scales = 0.5 * program.scales[revolute] * multipliers[revolute]
+        self._half_offsets = 0.5 * offsets[revolute] * program.scales[revolute]
+        self._has_offsets = bool(np.any(self._half_offsets != 0.0))
+        self._pri_scales = program.scales[~revolute] * multipliers[~revolute]
+        self._pri_offsets = offsets[~revolute] * program.scales[~revolute]
+        self._has_pri_offsets = bool(np.any(self._pri_offsets != 0.0))
+        # R Rz(q): 12, p += q z: 3, each nonzero entry of a t: 3, a general R C: 27, the signs of the output: 9
+        self.n_ops = (12 * self.n_revolute + 3 * self.n_prismatic + 3 * int(np.count_nonzero(program.shifts))
+                      + 27 * int(program.mixed.sum()) + 9)
+        # Scratch arrays per block size, per thread: a ChainFK is shared (robot.chain caches it), so two
+        # threads running it at once must not write the same buffers.
+        self._workspace = threading.local()
+
+    def __repr__(self) -> str:
+        return (
+            f"ChainFK({self.n_revolute} revolute, {self.n_prismatic} prismatic joints; "
+            f"{self.n_ops} multiplications per configuration)"
+        )
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        del state["_workspace"]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._workspace = threading.local()
+
+    def _buffers(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """This thread's scratch arrays, by block size."""
+        cache = getattr(self._workspace, "buffers", None)
+        if cache is None:
+            cache = self._workspace.buffers = {}
+        return cache
+
+    def _run_block(self, kernel, Q_block: np.ndarray, T_block: np.ndarray) -> None:
+        size = Q_block.shape[0]
+        cache = self._buffers()
+        buffers = cache.get(size)
+        if buffers is None:
+            buffers = cache[size] = (np.empty((self.n_revolute, size)), np.empty((self.n_prismatic, size)))
+        tan_half, values = buffers
+        if self.n_revolute:
+            np.multiply(_columns(Q_block, self._rev_slice, self._rev_cols).T, self._half_scales[:, None], out=tan_half)
+            if self._has_offsets:
+                tan_half += self._half_offsets[:, None]
+            np.tan(tan_half, out=tan_half)
+        if self.n_prismatic:
+            np.multiply(_columns(Q_block, self._pri_slice, self._pri_cols).T, self._pri_scales[:, None], out=values)
+            if self._has_pri_offsets:
+                values += self._pri_offsets[:, None]
+        P = self._program
+        kernel(tan_half, values, P.R0, P.p0, P.joints, P.shifts, P.mixes, P.mixed, P.out_cols, P.out_signs, T_block)
+
+    def transforms(self, Q, out: np.ndarray | None = None) -> np.ndarray:
+        """T_root_frame for every row of ``Q``.
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, n_joints)
+            Joint vectors (radians, metres); finite values are the caller's job.
+        out : ndarray, shape (N, 4, 4), optional
+            Written in place and returned (C-contiguous float64).
+
+        Returns
+        -------
+        T : ndarray, shape (N, 4, 4)
+        """
+        Q = np.asarray(Q, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.n_joints:
+            raise JointValueError(f"Q must have shape (N, {self.n_joints}), got {Q.shape}")
+        n = Q.shape[0]
+        if out is None:
+            out = np.empty((n, 4, 4))
+        elif out.shape != (n, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
+            raise JointValueError(f"out must be a C-contiguous float64 array of shape ({n}, 4, 4), one pose per row of Q")
+        kernel = _kernel()
+        block = self.block
+        full = n - n % block
+        for start in range(0, full, block):
+            self._run_block(kernel, Q[start : start + block], out[start : start + block])
+        if full < n:
+            self._run_block(kernel, Q[full:], out[full:])
+            self._buffers().pop(n - full, None)  # do not keep buffers for odd sizes
+        return out
+
+    def rotations_translations(self, Q) -> tuple[np.ndarray, np.ndarray]:
+        """(R (N, 3, 3), p (N, 3)) of T_root_frame, as views into one (N, 4, 4) array."""
+        T = self.transforms(Q)
+        return T[:, :3, :3], T[:, :3, 3]
+
+
+def _as_slice(columns: np.ndarray):
+    """A slice equal to the index array, when it is a contiguous ascending run (no copy to gather)."""
+    if columns.size and np.array_equal(columns, np.arange(columns[0], columns[0] + columns.size)):
+        return slice(int(columns[0]), int(columns[0]) + columns.size)
+    return None
+
+
+def _columns(Q_block: np.ndarray, as_slice, columns: np.ndarray) -> np.ndarray:
+    return Q_block[:, as_slice] if as_slice is not None else Q_block[:, columns]
+
+
+# --------------------------------------------------------------------------
+# Convenience
+
+
+def chain_fk(steps: Sequence[ChainStep], Q, *, n_joints: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(R (N, 3, 3), p (N, 3)) of the chain ``steps`` for every row of ``Q`` (prepares a :class:`ChainFK`)."""
+    Q = np.asarray(Q, dtype=float)
+    return ChainFK(steps, Q.shape[1] if n_joints is None else n_joints).rotations_translations(Q)
+
+
+def chain_fk_for(robot: Robot, frame: str) -> ChainFK:
+    """The prepared :class:`ChainFK` from ``robot``'s root link to ``frame`` (rows of Q in ``robot.joint_names`` order).
+
+    The one :meth:`manipkit.kinematics.robot.Robot.fk` uses (built once per
+    robot and frame): :meth:`manipkit.kinematics.robot.Robot.chain_fk`.
+    """
+    return robot.chain_fk(frame)
