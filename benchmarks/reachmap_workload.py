@@ -82,7 +82,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
     hybrid = reachmap.build(robot, **settings, samples=samples, method="hybrid")
     seconds_h = time.perf_counter() - start
     by_ik = int((hybrid.reach == reachmap.HOW_IK).sum())
-    T = robot.fk(hybrid.ik_q, hybrid.frame, hybrid.base)
+    T = robot.fk(hybrid.ik_q, base=hybrid.base, tip=hybrid.frame)
     query_ok = bool(hybrid.query(T).all()) if len(T) else True
     rows.append(row("reachmap_hybrid", robot_name, "manipkit reachmap.build(method='hybrid'), 1 core", [seconds_h],
                     unit="map", n=1, ours=True, certified=certified + by_ik, by_ik=by_ik,
@@ -92,7 +92,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
                     note="IK on unmarked voxel-bins next to marked ones, seeded from the neighbour's sample"))
 
     Q_true = robot.sample_q(ik_targets, seed=21)
-    targets = robot.fk(Q_true, "ee_link", "base_link")
+    targets = robot.fk(Q_true, base="base_link", tip="ee_link")
     ik_many(robot, targets[:10])
     start = time.perf_counter()
     batch = ik_many(robot, targets)
@@ -107,7 +107,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
                     note="random first starts, up to 20 restarts, tol 1e-10"))
 
     rng = np.random.default_rng(5)
-    fk_poses = robot.fk(robot.sample_q(labelled, seed=99), "ee_link", "base_link")
+    fk_poses = robot.fk(robot.sample_q(labelled, seed=99), base="base_link", tip="ee_link")
     box_low = fk_map.origin
     box_high = fk_map.origin + (np.array(fk_map.shape) - 1) * fk_map.voxel
     random_poses = np.tile(np.eye(4), (labelled, 1, 1))

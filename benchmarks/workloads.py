@@ -143,12 +143,12 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
     T_pin = np.array([pin_pose(c) for c in configs])
 
     # ours, batched: Robot.fk and the kernel alone, checked against Pinocchio
-    T_ours = robot.fk(Q, ee)
+    T_ours = robot.fk(Q, tip=ee)
     kernel = chain_fk_for(robot, ee)
     T_kernel = kernel.transforms(Q)
     err_fk, err_kernel = max_error(T_ours, T_pin), max_error(T_kernel, T_pin)
     fk_ok, kernel_ok = err_fk <= KERNEL_TOL, err_kernel <= KERNEL_TOL
-    rows.append(row("fk_batch", robot_name, "manipkit Robot.fk(Q, frame)", per_item(lambda: robot.fk(Q, ee), n_batch, repeats=repeats)
+    rows.append(row("fk_batch", robot_name, "manipkit Robot.fk(Q, tip=frame)", per_item(lambda: robot.fk(Q, tip=ee), n_batch, repeats=repeats)
                     if fk_ok else None, unit="config", n=n_batch, ours=True, status="ok" if fk_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_fk:.1e} over {n_batch} (<= {KERNEL_TOL:g})"))
     out = np.empty_like(T_kernel)
@@ -565,9 +565,9 @@ def jacobian_workload(robot_name: str = "iiwa14", *, n_batch: int = 100_000, rep
     w_pin = np.array([w for _, w in reference])
 
     def ours():
-        return manipulability(jacobians(robot, Q, ee), length=1.0)
+        return manipulability(jacobians(robot, Q, tip=ee), length=1.0)
 
-    J_ours = jacobians(robot, Q, ee)
+    J_ours = jacobians(robot, Q, tip=ee)
     w_ours = ours()
     err_J = max_error(J_ours[:loop_subset], J_pin)
     err_w = float(np.max(np.abs(w_ours[:loop_subset] - w_pin) / np.maximum(np.abs(w_pin), 1e-300)))
@@ -578,7 +578,7 @@ def jacobian_workload(robot_name: str = "iiwa14", *, n_batch: int = 100_000, rep
                 per_item(ours, n_batch, repeats=repeats) if ok else None, unit="config", n=n_batch, ours=True,
                 status="ok" if ok else "wrong", check=check)]
     rows.append(row("jacobian", robot_name, "manipkit jacobians alone",
-                    per_item(lambda: jacobians(robot, Q, ee), n_batch, repeats=repeats) if ok else None, unit="config",
+                    per_item(lambda: jacobians(robot, Q, tip=ee), n_batch, repeats=repeats) if ok else None, unit="config",
                     n=n_batch, status="ok" if ok else "wrong", check="as above"))
     rows.append(row("jacobian", robot_name, "Pinocchio computeFrameJacobian + numpy SVD, Python loop",
                     per_item(lambda: [pin_one(c) for c in configs], loop_subset, repeats=max(1, repeats // 2)),

@@ -141,7 +141,7 @@ def test_spatial_hybrid_map_ik_cells_and_samples_check_by_fk(iiwa14):
 
 
 def test_unseen_fk_poses_are_in_the_map(map_3r, planar_3r):
-    T = planar_3r.fk(planar_3r.sample_q(2000, seed=77), "ee_link", "base_link")
+    T = planar_3r.fk(planar_3r.sample_q(2000, seed=77), base="base_link", tip="ee_link")
     assert map_3r.query(T).mean() >= 0.95
 
 

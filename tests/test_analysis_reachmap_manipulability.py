@@ -86,7 +86,7 @@ def test_spatial_map_matches_pinocchio_placements_and_svd_of_each_sample(iiwa14)
         for q in Q:
             T = iiwa14.transform("base_link", "ee_link", q)  # Pinocchio
             ijk = tuple(np.rint((T[:3, 3] - m.origin) / 0.3).astype(int))
-            w = svd_index(iiwa14.jacobian(q, "ee_link", "base_link")[:3])
+            w = svd_index(iiwa14.jacobian(q, base="base_link", tip="ee_link")[:3])
             best[ijk] = max(best.get(ijk, -1.0), w)
             total[ijk] = total.get(ijk, 0.0) + w
             count[ijk] = count.get(ijk, 0) + 1
@@ -108,7 +108,7 @@ def test_ik_answers_count_in_the_planar_3r_overlay_with_the_plane_rows(planar_3r
     u, v = m.axes[:, 0], m.axes[:, 1]
     by_voxel = {}
     for key, q in zip(m.ik_keys, m.ik_q):
-        J = planar_3r.jacobian(q, "ee_link", "base_link")[:3]
+        J = planar_3r.jacobian(q, base="base_link", tip="ee_link")[:3]
         by_voxel.setdefault(int(key) // m.orientations.size, []).append(svd_index(np.stack([u @ J, v @ J])))
     ik_only = np.flatnonzero((m.how == HOW_IK).reshape(-1))
     assert ik_only.size > 0

@@ -62,7 +62,7 @@ def test_mobile_manipulator_reaches_targets_made_from_a_known_placement(load_rob
     robot = load_robot("mobile_manipulator")
     reach_map = build(robot, base="base_footprint", voxel=0.08, orientations=8, samples=150000)
     T_F_P = placement_transforms(2.0, 1.0, math.pi / 2)
-    targets = T_F_P @ robot.fk(robot.sample_q(10, seed=4), "ee_link", "base_footprint")
+    targets = T_F_P @ robot.fk(robot.sample_q(10, seed=4), base="base_footprint", tip="ee_link")
     found = base_placement(reach_map, targets, xs=np.arange(0.0, 4.01, 0.25), ys=np.arange(-1.0, 3.01, 0.25), yaws=4)
     i, j = list(found.xs).index(2.0), list(found.ys).index(1.0)
     k = int(np.argmin(abs(found.yaws - math.pi / 2)))

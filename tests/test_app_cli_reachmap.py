@@ -80,7 +80,7 @@ def test_reachmap_text_summary(tmp_path):
 
 def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robot, tmp_path):
     robot = load_robot("mobile_manipulator")
-    T = placement_transforms(2.0, 1.0, math.pi / 2) @ robot.fk(robot.sample_q(6, seed=3), "ee_link", "base_footprint")
+    T = placement_transforms(2.0, 1.0, math.pi / 2) @ robot.fk(robot.sample_q(6, seed=3), base="base_footprint", tip="ee_link")
     lines = ["# x y z then a 4x4"]
     from manipkit.spatial.rotations import rpy_from_matrix
 

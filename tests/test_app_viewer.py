@@ -333,7 +333,7 @@ def test_ellipsoid_readout_is_that_of_the_jacobian_of_b_relative_to_a(robots, ki
     q = random_q(robot, 7)
     state = ViewerState(robot, frames=("iiwa_link_2", "ee_link"), q=q, overlay=Overlay(True, kind, axes))
     report = state.ellipsoid()
-    J = robot.jacobian(q, frame="ee_link", base="iiwa_link_2", reference="base")
+    J = robot.jacobian(q, tip="ee_link", base="iiwa_link_2", reference="base")
     expected = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
     assert (report["frame"], report["base"], report["kind"], report["axes"]) == ("ee_link", "iiwa_link_2", kind, axes)
     assert np.abs(np.array(report["radii"]) - expected.radii).max() < 1e-12
@@ -467,11 +467,11 @@ def test_ellipsoid_follows_the_joints_and_the_frames(robots):
     state.set_joint("elbow_joint", 1.0)
     moved = state.ellipsoid()
     assert moved["manipulability_translation"] != before["manipulability_translation"]
-    J = robot.jacobian(state.q, frame="ee_link", base="base_link")
+    J = robot.jacobian(state.q, tip="ee_link", base="base_link")
     assert np.abs(np.array(moved["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
     state.set_frames("bicep", "top_wrist")
     report = state.ellipsoid()
-    J = robot.jacobian(state.q, frame="top_wrist", base="bicep")
+    J = robot.jacobian(state.q, tip="top_wrist", base="bicep")
     assert (report["frame"], report["base"]) == ("top_wrist", "bicep")
     assert np.abs(np.array(report["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
     assert np.abs(state.ellipsoid_placement()[:3, 3] - robot.transform("base_link", "top_wrist", state.q)[:3, 3]).max() < 1e-12
@@ -660,7 +660,7 @@ def test_update_toggles_the_ellipsoid_in_the_scene_and_the_answer(view, robots):
     answer = json.loads(payload)
     assert status == 200 and answer["overlay"] == {"shown": True, "kind": "velocity", "axes": "trans"}
     q = robot.q(elbow_joint=0.9)
-    J = robot.jacobian(q, frame="ee_link", base="base_link")
+    J = robot.jacobian(q, tip="ee_link", base="base_link")
     assert np.abs(np.array(answer["ellipsoid"]["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
     assert "Yoshikawa index (translation rows)" in answer["ellipsoid_text"]
     assert view.wait_for_scene()

@@ -310,7 +310,7 @@ def test_ellipsoid_checkbox_draws_it_at_b_and_a_slider_moves_it(page):
     def shown_and_drawn(q: dict):
         """Wait until the page's index and meshcat's node agree with the state at q; returns the index shown."""
         vector = robot.q(q)
-        index = manipulability(robot.jacobian(vector, frame="ee_link", base="base_link"), axes="trans")
+        index = manipulability(robot.jacobian(vector, tip="ee_link", base="base_link"), axes="trans")
         page.wait_for_function(
             "text => document.querySelector('pre#ellipsoid-readout').textContent.includes(text)",
             arg=f"Yoshikawa index (translation rows): {short_text(index, 6, zero=1e-15)}", timeout=10_000)

@@ -83,7 +83,7 @@ def test_installed_peers_agree_with_manipkit(quick_run):
 
 def test_table_chart_and_goals_are_written(quick_run):
     result, results, out = quick_run
-    assert "x ours" in result.stdout and "manipkit Robot.fk(Q, frame)" in result.stdout
+    assert "x ours" in result.stdout and "manipkit Robot.fk(Q, tip=frame)" in result.stdout
     assert (out / "results.png").stat().st_size > 10_000
     assert [g["goal"] for g in results["goals"]][:3] == [
         "batched FK, iiwa14: <= 0.2 us per configuration",
@@ -167,7 +167,7 @@ def _row(workload, robot, tool, median, ours=False, **extra):
 
 def test_goals_say_met_or_by_how_much_missed():
     rows = [
-        _row("fk_batch", "iiwa14", "manipkit Robot.fk(Q, frame)", 0.1e-6, ours=True),
+        _row("fk_batch", "iiwa14", "manipkit Robot.fk(Q, tip=frame)", 0.1e-6, ours=True),
         _row("fk_batch", "iiwa14", "Robotics Toolbox fkine(Q), batched", 2e-6),
         _row("fk_batch", "iiwa14", "Pinocchio, Python loop", 0.3e-6),
         _row("ik", "iiwa14", "manipkit ik", 300e-6, ours=True, success=0.999),

@@ -161,7 +161,7 @@ def test_course_arm_batched_fk_matches_reference_table(course_arm):
     rng = np.random.default_rng(7)
     Q_table = rng.uniform(-math.pi, math.pi, size=(20, 5))
     Q = np.array([course_arm.q(**dict(zip(COURSE_ARM_JOINT_NAMES, row))) for row in Q_table])
-    poses = course_arm.fk(Q, "ee_link")
+    poses = course_arm.fk(Q, tip="ee_link")
     assert poses.shape == (20, 4, 4)
     for T, row in zip(poses, Q_table):
         assert_transform_close(T, compose_chain(COURSE_ARM_JOINTS, row) @ T_TOP_WRIST_EE_LINK)
@@ -193,8 +193,8 @@ def test_iiwa14_matches_reference_table_at_random_configurations(iiwa14):
     assert list(iiwa14.joint_names) == IIWA_JOINT_NAMES
     rng = np.random.default_rng(14)
     Q = random_angles(rng, IIWA_LIMITS, 50)
-    link_7 = iiwa14.fk(Q, "iiwa_link_7")
-    ee = iiwa14.fk(Q, "ee_link")
+    link_7 = iiwa14.fk(Q, tip="iiwa_link_7")
+    ee = iiwa14.fk(Q, tip="ee_link")
     for q, T_link_7, T_ee in zip(Q, link_7, ee):
         # base_link -> iiwa_link_0 is the identity
         T_expected = compose_chain(IIWA_JOINTS, q)
@@ -248,7 +248,7 @@ def test_planar_tool_pose_matches_closed_form(name, args, lengths):
     assert list(robot.joint_names) == [f"joint{i}" for i in range(1, n + 1)]
     rng = np.random.default_rng(n)
     Q = random_angles(rng, [math.pi] * n, 20)
-    for q, T in zip(Q, robot.fk(Q, "ee_link")):
+    for q, T in zip(Q, robot.fk(Q, tip="ee_link")):
         assert_transform_close(T, planar_tool_pose(lengths, q))
 
 
@@ -289,14 +289,14 @@ def test_mobile_manipulator_fk_is_in_base_footprint_frame(mobile):
     rng = np.random.default_rng(4)
     pairs = [random_mobile_q(mobile, rng) for _ in range(10)]
     Q = np.array([q for q, _ in pairs])
-    for T, (_, arm_angles) in zip(mobile.fk(Q, "ee_link", base="base_footprint"), pairs):
+    for T, (_, arm_angles) in zip(mobile.fk(Q, base="base_footprint", tip="ee_link"), pairs):
         expected = (
             T_BASE_FOOTPRINT_BASE_LINK
             @ compose_chain(MOBILE_ARM_JOINTS, arm_angles)
             @ T_TOP_WRIST_EE_LINK
         )
         assert_transform_close(T, expected)
-    for T in mobile.fk(Q, "lidar_link", base="base_footprint"):
+    for T in mobile.fk(Q, base="base_footprint", tip="lidar_link"):
         assert_transform_close(T, T_BASE_FOOTPRINT_BASE_LINK @ T_BASE_LINK_LIDAR_LINK)
 
 

@@ -59,7 +59,7 @@ def elbow(load_robot):
 
 def urdf_pose(robot, q):
     """T_base_link_ee_link by the URDF model (Pinocchio's joint placements)."""
-    return robot.fk(np.asarray(q, dtype=float), "ee_link", base="base_link")
+    return robot.fk(np.asarray(q, dtype=float), base="base_link", tip="ee_link")
 
 
 def assert_all_reach(robot, result, T):
@@ -221,7 +221,7 @@ def test_scara_righty_has_the_elbow_right_of_the_line_to_the_quill(scara):
     T = urdf_pose(scara, [0.2, 1.0, 0.1, 0.0])
     result = ik_scara(T)
     for q, label in zip(result.solutions, result.labels):
-        elbow = scara.fk(q, "link2", base="base_link")[:2, 3]
+        elbow = scara.fk(q, base="base_link", tip="link2")[:2, 3]
         cross_z = T[0, 3] * elbow[1] - T[1, 3] * elbow[0]  # > 0: elbow left of base -> quill, seen from above
         assert (cross_z < 0) == (label == "righty")
 
@@ -428,8 +428,8 @@ def test_elbow_up_means_the_elbow_above_the_shoulder_wrist_line(elbow):
     result = ik_elbow(T)
     shoulder = np.array([0.0, 0.0, 0.4])
     for q, label in zip(result.solutions, result.labels):
-        elbow_point = elbow.fk(q, "link3", base="base_link")[:3, 3]  # joint 3 sits at link3's origin
-        centre = elbow.fk(q, "link4", base="base_link")[:3, 3]  # the wrist centre
+        elbow_point = elbow.fk(q, base="base_link", tip="link3")[:3, 3]  # joint 3 sits at link3's origin
+        centre = elbow.fk(q, base="base_link", tip="link4")[:3, 3]  # the wrist centre
         u, v = centre - shoulder, elbow_point - shoulder
         above = (v - (v @ u) / (u @ u) * u)[2] > 0
         assert above == ("elbow up" in label), label

@@ -85,7 +85,7 @@ def test_fk_2r_hand_values():
 @pytest.mark.parametrize("link_lengths", LENGTHS_2R)
 def test_fk_2r_matches_pinocchio_model(link_lengths):
     Q = random_q(200, 2)
-    T = robot(*link_lengths).fk(Q, "ee_link")
+    T = robot(*link_lengths).fk(Q, tip="ee_link")
     x, y = fk_2r(Q[:, 0], Q[:, 1], *link_lengths)
     assert np.max(np.abs(np.stack([x, y], -1) - T[:, :2, 3])) <= 1e-12
     assert np.max(np.abs(T[:, 2, 3])) == 0.0  # the arm stays in the x-y plane
@@ -107,7 +107,7 @@ def test_fk_2r_matches_pinocchio_frame_placement():
 @pytest.mark.parametrize("link_lengths", LENGTHS_3R)
 def test_fk_3r_matches_pinocchio_model(link_lengths):
     Q = random_q(200, 3)
-    T = robot(*link_lengths).fk(Q, "ee_link")
+    T = robot(*link_lengths).fk(Q, tip="ee_link")
     pose = np.stack(fk_3r(Q[:, 0], Q[:, 1], Q[:, 2], *link_lengths), axis=-1)
     expected = planar_pose(T)
     assert np.max(np.abs(pose[:, :2] - expected[:, :2])) <= 1e-12
@@ -117,7 +117,7 @@ def test_fk_3r_matches_pinocchio_model(link_lengths):
 @pytest.mark.parametrize("link_lengths", LENGTHS_3R)
 def test_se2_3r_is_pinocchio_pose_restricted_to_the_plane(link_lengths):
     Q = random_q(50, 3, seed=2)
-    T = robot(*link_lengths).fk(Q, "ee_link")
+    T = robot(*link_lengths).fk(Q, tip="ee_link")
     se2 = se2_3r(Q[:, 0], Q[:, 1], Q[:, 2], *link_lengths)
     assert se2.shape == (50, 3, 3)
     assert np.max(np.abs(se2[:, :2, :2] - T[:, :2, :2])) <= 1e-12
@@ -185,7 +185,7 @@ def test_ik_2r_then_pinocchio_fk_returns_the_target(link_lengths):
     for target in targets:
         result = ik_2r(*target, *link_lengths)
         assert result.count == 2
-        reached = arm.fk(result.solutions, "ee_link")[:, :2, 3]
+        reached = arm.fk(result.solutions, tip="ee_link")[:, :2, 3]
         assert np.max(np.abs(reached - target)) <= 1e-9
         (q1_down, q2_down), (q1_up, q2_up) = result.solutions
         assert q2_down > 0.0 > q2_up  # distinct: opposite elbows
@@ -386,7 +386,7 @@ def test_ik_3r_then_pinocchio_fk_returns_the_target_pose(link_lengths):
     for pose in poses:
         result = ik_3r(*pose, *link_lengths)
         assert result.count == 2
-        reached = planar_pose(arm.fk(result.solutions, "ee_link"))
+        reached = planar_pose(arm.fk(result.solutions, tip="ee_link"))
         assert np.max(np.abs(reached[:, :2] - pose[:2])) <= 1e-9
         assert np.max(np.abs(wrapped(reached[:, 2] - pose[2]))) <= 1e-9
         assert result.solutions[0, 1] > 0.0 > result.solutions[1, 1]

@@ -363,7 +363,7 @@ def test_huge_axis_is_normalised_without_overflow():
 
 def test_robot_without_movable_joints_has_batched_fk():
     robot = Robot.from_urdf(urdf(*LINKS, joint(kind="fixed", origin="1 0 0", limit=None)))
-    T = robot.fk(np.zeros((3, 0)), "arm")
+    T = robot.fk(np.zeros((3, 0)), tip="arm")
     assert T.shape == (3, 4, 4) and np.all(T[:, :3, 3] == [1, 0, 0])
 
 

@@ -65,7 +65,7 @@ def random_q(robot, rng, n=200, *, wide=False):
 
 def worst_fk_error(robot, table, base, tip, Q):
     columns = [robot.joint_names.index(name) for name in robot.chain_joints(base, tip)]
-    return np.abs(dh_fk(table, Q[:, columns]) - robot.fk(Q, tip, base=base)).max()
+    return np.abs(dh_fk(table, Q[:, columns]) - robot.fk(Q, base=base, tip=tip)).max()
 
 
 def chain_urdf(name, joints, tool_xyz="0 0 0", tool_rpy="0 0 0"):

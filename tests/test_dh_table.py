@@ -131,7 +131,7 @@ def test_seed_table_disagrees_with_the_urdf_by_metres_and_180_degrees():
     robot = manipkit.load("iiwa14")
     table = seed_table()
     Q = samples_within_limits(robot, 1000, seed=2024)
-    T_urdf, T_seed = robot.fk(Q, "ee_link"), dh_fk(table, Q)
+    T_urdf, T_seed = robot.fk(Q, tip="ee_link"), dh_fk(table, Q)
     position = np.linalg.norm(T_urdf[:, :3, 3] - T_seed[:, :3, 3], axis=1)
     rotation = rotation_angle_deg(T_urdf[:, :3, :3], T_seed[:, :3, :3])
     # Over these 1000 samples the flange positions differ by 0.86 m in the median and by up to
@@ -140,15 +140,15 @@ def test_seed_table_disagrees_with_the_urdf_by_metres_and_180_degrees():
     # At q = 0 both stand straight up with the flange at z = L1 + L2 + L3 + L4 = 1.306 m, but the
     # seed's flange is turned by 180 deg about z: 0T8 = diag(-1, -1, 1) (seed eq. 4.4), the URDF's is I.
     q0 = np.zeros(7)
-    assert np.linalg.norm(robot.fk(q0, "ee_link")[:3, 3] - dh_fk(table, q0)[:3, 3]) < 1e-12
-    assert rotation_angle_deg(robot.fk(q0, "ee_link")[:3, :3], dh_fk(table, q0)[:3, :3]) == pytest.approx(180.0)
+    assert np.linalg.norm(robot.fk(q0, tip="ee_link")[:3, 3] - dh_fk(table, q0)[:3, 3]) < 1e-12
+    assert rotation_angle_deg(robot.fk(q0, tip="ee_link")[:3, :3], dh_fk(table, q0)[:3, :3]) == pytest.approx(180.0)
     # At q2 = 0.5 rad (others 0) the URDF arm leans towards +x, the seed's towards -x (joint 2
     # reversed): the flange is at x = +-(L2 + L3 + L4) sin 0.5 = +-0.946 * 0.479426 = +-0.453537 m,
     # so the positions differ by 2 * 0.453537 = 0.907074 m.
     q = np.array([0, 0.5, 0, 0, 0, 0, 0.0])
-    assert robot.fk(q, "ee_link")[0, 3] == pytest.approx(0.946 * math.sin(0.5), abs=1e-12)
+    assert robot.fk(q, tip="ee_link")[0, 3] == pytest.approx(0.946 * math.sin(0.5), abs=1e-12)
     assert dh_fk(table, q)[0, 3] == pytest.approx(-0.946 * math.sin(0.5), abs=1e-12)
-    assert np.linalg.norm(robot.fk(q, "ee_link")[:3, 3] - dh_fk(table, q)[:3, 3]) == pytest.approx(0.907074, abs=1e-6)
+    assert np.linalg.norm(robot.fk(q, tip="ee_link")[:3, 3] - dh_fk(table, q)[:3, 3]) == pytest.approx(0.907074, abs=1e-6)
 
 
 def test_seed_table_is_the_urdf_with_joints_2_and_6_reversed_and_the_flange_turned_180_degrees():
@@ -156,7 +156,7 @@ def test_seed_table_is_the_urdf_with_joints_2_and_6_reversed_and_the_flange_turn
     robot = manipkit.load("iiwa14")
     Q = samples_within_limits(robot, 1000, seed=5)
     signs = np.array([1, -1, 1, 1, 1, -1, 1.0])
-    assert np.abs(dh_fk(seed_table(), Q) - robot.fk(Q * signs, "ee_link") @ rot_z(math.pi)).max() < 1e-9
+    assert np.abs(dh_fk(seed_table(), Q) - robot.fk(Q * signs, tip="ee_link") @ rot_z(math.pi)).max() < 1e-9
 
 
 def test_corrected_iiwa_table_differs_from_the_seed_only_in_the_documented_entries():
@@ -182,7 +182,7 @@ def test_corrected_iiwa_dh_frames_have_the_urdf_joint_axes():
     table = load_dh(DH_DIR / "iiwa14.yaml")
     Q = samples_within_limits(robot, 50, seed=3)
     for i in range(1, 8):
-        z_urdf = robot.fk(Q, f"iiwa_link_{i}")[:, :3, 2]
+        z_urdf = robot.fk(Q, tip=f"iiwa_link_{i}")[:, :3, 2]
         z_dh = dh_fk(table, Q, upto=i)[:, :3, 2]
         assert np.abs(z_urdf - z_dh).max() < 1e-12, i
 

@@ -40,7 +40,7 @@ def test_urdf_chain_equals_dh_fk_in_pinocchio_at_200_configurations(convention):
     robot = Robot.from_urdf(urdf_from_dh(table))
     assert robot.joint_names == tuple(f"joint_{i}" for i in range(1, 6))
     Q = random_q(table, rng, 200)
-    assert np.abs(robot.fk(Q, "ee_link") - dh_fk(table, Q)).max() < 1e-12
+    assert np.abs(robot.fk(Q, tip="ee_link") - dh_fk(table, Q)).max() < 1e-12
 
 
 @pytest.mark.parametrize("convention", ["standard", "modified"])
@@ -58,7 +58,7 @@ def test_modified_urdf_links_are_the_dh_frames():
     robot = Robot.from_urdf(urdf_from_dh(table))
     Q = random_q(table, rng, 50)
     for i in range(table.n + 1):
-        assert np.abs(robot.fk(Q, f"link_{i}") - dh_fk(table, Q, upto=i)).max() < 1e-12, i
+        assert np.abs(robot.fk(Q, tip=f"link_{i}") - dh_fk(table, Q, upto=i)).max() < 1e-12, i
 
 
 def test_standard_urdf_link_i_is_dh_frame_i_before_its_common_normal():
@@ -68,9 +68,9 @@ def test_standard_urdf_link_i_is_dh_frame_i_before_its_common_normal():
     table = random_table(rng, "standard")
     robot = Robot.from_urdf(urdf_from_dh(table))
     Q = random_q(table, rng, 50)
-    assert np.abs(robot.fk(Q, "link_0") - dh_fk(table, Q, upto=0)).max() < 1e-12
+    assert np.abs(robot.fk(Q, tip="link_0") - dh_fk(table, Q, upto=0)).max() < 1e-12
     for i, row in enumerate(table.rows, start=1):
-        T_frame_i = robot.fk(Q, f"link_{i}") @ trans_x(row.a) @ rot_x(row.alpha)
+        T_frame_i = robot.fk(Q, tip=f"link_{i}") @ trans_x(row.a) @ rot_x(row.alpha)
         assert np.abs(T_frame_i - dh_fk(table, Q, upto=i)).max() < 1e-12, i
 
 
@@ -79,7 +79,7 @@ def test_urdf_from_the_iiwa_table_agrees_with_the_bundled_iiwa():
     exported, bundled = Robot.from_urdf(urdf_from_dh(table)), manipkit.load("iiwa14")
     assert exported.joint_names == bundled.joint_names  # the rows' names
     Q = samples_within_limits(bundled, 200, seed=9)
-    assert np.abs(exported.fk(Q, "ee_link") - bundled.fk(Q, "ee_link")).max() < 1e-12
+    assert np.abs(exported.fk(Q, tip="ee_link") - bundled.fk(Q, tip="ee_link")).max() < 1e-12
 
 
 def test_urdf_joint_limits_are_the_rows_or_the_defaults():
@@ -136,7 +136,7 @@ def test_names_with_markup_do_not_change_the_urdf_structure():
     robot = Robot.from_urdf(text)  # Pinocchio sees the same chain: the table's FK
     assert robot.joint_names == (INJECTION, "<&>\"'")
     Q = np.array([[0.3, 0.1], [-1.0, 0.35]])
-    assert np.abs(robot.fk(Q, "ee_link") - dh_fk(table, Q)).max() < 1e-12
+    assert np.abs(robot.fk(Q, tip="ee_link") - dh_fk(table, Q)).max() < 1e-12
 
 
 def test_dh_to_urdf_command_writes_the_table_s_structure_only(tmp_path):

@@ -451,7 +451,7 @@ def _check_robot(robot: Robot, seed: int, text: str) -> None:
     snap = 2e-8 * len(spec.joints)
 
     Q = np.vstack([robot.q(), _joint_values(robot, np.random.default_rng(seed), 3)])
-    batched = {frame: robot.fk(Q, frame, base=robot.root_link) for frame in robot.frame_names}
+    batched = {frame: robot.fk(Q, base=robot.root_link, tip=frame) for frame in robot.frame_names}
     for q_index, q in enumerate(Q):
         values = {name: float(value) for name, value in zip(robot.joint_names, q)}
         urdf.update_cfg(values)

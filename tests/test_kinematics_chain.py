@@ -87,7 +87,7 @@ def test_jacobian_has_only_the_chains_columns(load_robot):
     q = chain.sample(1, seed=2)[0]
     J = chain.jacobian(q)
     assert J.shape == (6, 5)  # the arm's five joints; no wheel columns
-    J_robot = robot.jacobian(chain.full(q), "ee_link", "base_link")  # the whole-robot Jacobian, one column per joint
+    J_robot = robot.jacobian(chain.full(q), base="base_link", tip="ee_link")  # the whole-robot Jacobian, one column per joint
     assert np.abs(J - J_robot[:, chain.columns]).max() < 1e-12
     J_local = chain.jacobian(q, reference="local")
     R = chain.fk(q)[:3, :3]

@@ -43,7 +43,7 @@ def within_limits(robot, q):
 def solve_random_reachable(robot, n, *, seed):
     """Targets from FK of random q, solved from random starts; returns results and targets."""
     frame = robot.ee_frame
-    targets = robot.fk(robot.sample_q(n, seed=seed), frame)
+    targets = robot.fk(robot.sample_q(n, seed=seed), tip=frame)
     starts = robot.sample_q(n, seed=seed + 1)
     results = [ik(robot, T, frame=frame, q0=q0, seed=i) for i, (T, q0) in enumerate(zip(targets, starts))]
     return results, targets, starts
@@ -93,7 +93,7 @@ def test_success_is_never_claimed_above_the_tolerance(robots):
     # Tiny budgets leave many attempts unfinished: success must follow the measured residuals.
     robot = robots["iiwa14"]
     wanted = robot.sample_q(200, seed=400)
-    targets = robot.fk(wanted, "ee_link")
+    targets = robot.fk(wanted, tip="ee_link")
     starts = wanted + np.random.default_rng(401).normal(scale=0.1, size=wanted.shape)
     tol = (1e-6, 1e-5)
     outcomes = []
@@ -109,7 +109,7 @@ def test_success_is_never_claimed_above_the_tolerance(robots):
 
 def test_same_seed_gives_the_same_answer(robots):
     robot = robots["panda"]
-    T = robot.fk(robot.sample_q(1, seed=500)[0], robot.ee_frame)
+    T = robot.fk(robot.sample_q(1, seed=500)[0], tip=robot.ee_frame)
     first = ik(robot, T, frame=robot.ee_frame, seed=7)
     again = ik(robot, T, frame=robot.ee_frame, seed=7)
     other = ik(robot, T, frame=robot.ee_frame, seed=8)
@@ -150,7 +150,7 @@ def test_error_derivative_equals_minus_the_jacobian(robots, name, mode):
 
 def test_position_mode_solves_course_arm_positions(robots):
     robot = robots["course_arm"]
-    targets = robot.fk(robot.sample_q(100, seed=700), "ee_link")
+    targets = robot.fk(robot.sample_q(100, seed=700), tip="ee_link")
     for i, T in enumerate(targets):
         # Only the translation counts: give the target a rotation no configuration has.
         scrambled = T.copy()
@@ -162,7 +162,7 @@ def test_position_mode_solves_course_arm_positions(robots):
 
 def test_position_mode_accepts_a_translation_vector(robots):
     robot = robots["course_arm"]
-    T = robot.fk(robot.sample_q(1, seed=701)[0], "ee_link")
+    T = robot.fk(robot.sample_q(1, seed=701)[0], tip="ee_link")
     result = ik(robot, T[:3, 3], mode="position")
     assert result.success
     assert np.linalg.norm(robot.transform("base_link", "ee_link", result.q)[:3, 3] - T[:3, 3]) < 1e-9
@@ -170,7 +170,7 @@ def test_position_mode_accepts_a_translation_vector(robots):
 
 def test_position_and_axis_mode_solves_course_arm_pointing_targets(robots):
     robot = robots["course_arm"]
-    targets = robot.fk(robot.sample_q(100, seed=800), "ee_link")
+    targets = robot.fk(robot.sample_q(100, seed=800), tip="ee_link")
     for i, T in enumerate(targets):
         result = ik(robot, T, mode="position+axis", axis="z", seed=i)
         assert result.success
@@ -182,7 +182,7 @@ def test_position_and_axis_mode_solves_course_arm_pointing_targets(robots):
 
 def test_position_and_axis_mode_uses_the_named_axis(robots):
     robot = robots["course_arm"]
-    T = robot.fk(robot.sample_q(1, seed=801)[0], "ee_link")
+    T = robot.fk(robot.sample_q(1, seed=801)[0], tip="ee_link")
     result = ik(robot, T, mode="position+axis", axis="x")
     assert result.success
     T_reached = robot.transform("base_link", "ee_link", result.q)
@@ -191,7 +191,7 @@ def test_position_and_axis_mode_uses_the_named_axis(robots):
 
 def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_the_best_residual(robots):
     robot = robots["course_arm"]
-    T_reachable = robot.fk(robot.sample_q(1, seed=5)[0], "ee_link")
+    T_reachable = robot.fk(robot.sample_q(1, seed=5)[0], tip="ee_link")
     T_turned = T_reachable.copy()
     T_turned[:3, :3] = T_reachable[:3, :3] @ rot_x(math.pi / 2)
 
@@ -199,11 +199,11 @@ def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_
     # the wrist point W (top_wrist origin) = p_ee - 0.13522 z_ee and depends on q1..q3 only;
     # the tool's y axis is perpendicular to the z axis of top_wrist at q5 = 0 (= the elbow's z).
     Q = robot.sample_q(50, seed=900)
-    T_ee, T_wrist = robot.fk(Q, "ee_link"), robot.fk(Q, "top_wrist")
+    T_ee, T_wrist = robot.fk(Q, tip="ee_link"), robot.fk(Q, tip="top_wrist")
     assert np.abs(T_wrist[:, :3, 3] - (T_ee[:, :3, 3] - 0.13522 * T_ee[:, :3, 2])).max() < 1e-12
     Q_wrist_zero = Q.copy()
     Q_wrist_zero[:, 3:] = 0.0
-    T_wrist_zero = robot.fk(Q_wrist_zero, "top_wrist")
+    T_wrist_zero = robot.fk(Q_wrist_zero, tip="top_wrist")
     assert np.abs(T_wrist_zero[:, :3, 3] - T_wrist[:, :3, 3]).max() < 1e-12
     assert np.abs(np.einsum("ni,ni->n", T_ee[:, :3, 1], T_wrist_zero[:, :3, 2])).max() < 1e-12
     # So a pose (p, R) is reachable only if some (q1, q2, q3) puts W at p - 0.13522 z and has
@@ -216,7 +216,7 @@ def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_
     grid = -math.pi + (np.arange(n) + 0.5) * d
     Q_grid = np.zeros((n**3, 5))
     Q_grid[:, :3] = np.stack(np.meshgrid(grid, grid, grid, indexing="ij"), axis=-1).reshape(-1, 3)
-    T_grid = robot.fk(Q_grid, "top_wrist")
+    T_grid = robot.fk(Q_grid, tip="top_wrist")
 
     def worst_case_perpendicularity(T):
         W = T[:3, 3] - 0.13522 * T[:3, 2]
@@ -233,7 +233,7 @@ def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_
     assert result.residual_position == pytest.approx(position, abs=1e-12)
     assert result.residual_rotation == pytest.approx(angle, abs=1e-12)
     # The best found is at least as good as 20000 random configurations (same measure as the solver's).
-    T_samples = robot.fk(robot.sample_q(20000, seed=901), "ee_link")
+    T_samples = robot.fk(robot.sample_q(20000, seed=901), tip="ee_link")
     sampled = np.hypot(
         np.linalg.norm(T_samples[:, :3, 3] - T_turned[:3, 3], axis=1),
         rotation_angle_between(T_samples[:, :3, :3], T_turned[:3, :3]),
@@ -263,7 +263,7 @@ def test_target_outside_the_reach_sphere_fails_with_its_distance_to_the_boundary
 def test_continuous_joints_are_wrapped_into_minus_pi_pi(robots):
     robot = robots["course_arm"]
     assert all(j.type == "continuous" for j in robot.joints)
-    targets = robot.fk(robot.sample_q(30, seed=1000), "ee_link")
+    targets = robot.fk(robot.sample_q(30, seed=1000), tip="ee_link")
     for i, T in enumerate(targets):
         q0 = np.full(5, 10.0) + i  # far outside (-pi, pi]
         result = ik(robot, T, q0=q0, mode="position+axis", seed=i)
@@ -273,7 +273,7 @@ def test_continuous_joints_are_wrapped_into_minus_pi_pi(robots):
 
 def test_all_returns_distinct_solutions_each_valid(robots):
     robot = robots["course_arm"]
-    T = robot.fk(robot.sample_q(1, seed=5)[0], "ee_link")
+    T = robot.fk(robot.sample_q(1, seed=5)[0], tip="ee_link")
     solutions = ik(robot, T, mode="position+axis", all=True, restarts=60)
     assert isinstance(solutions, IKSolutions)
     assert len(solutions) >= 2  # a 5R arm pointing at a point has several postures

@@ -30,7 +30,7 @@ def pinocchio_residuals(robot, base, frame, Q, T):
 
 def test_reachable_targets_are_solved_and_pinocchio_agrees(iiwa14):
     Q_true = iiwa14.sample_q(200, seed=4)
-    T = iiwa14.fk(Q_true, "ee_link", "base_link")
+    T = iiwa14.fk(Q_true, base="base_link", tip="ee_link")
     batch = ik_many(iiwa14, T)
     assert batch.success.all()
     measured = pinocchio_residuals(iiwa14, "base_link", "ee_link", batch.q, T)
@@ -41,7 +41,7 @@ def test_reachable_targets_are_solved_and_pinocchio_agrees(iiwa14):
 
 def test_unreachable_targets_fail_with_their_fk_residuals(iiwa14):
     # iiwa14: the links from joint 1 to the flange add up to about 1.3 m; 3 m away is out of reach
-    T = iiwa14.fk(iiwa14.sample_q(5, seed=1), "ee_link", "base_link")
+    T = iiwa14.fk(iiwa14.sample_q(5, seed=1), base="base_link", tip="ee_link")
     T[:, 0, 3] += 3.0
     batch = ik_many(iiwa14, T, restarts=2)
     assert not batch.success.any()
@@ -51,7 +51,7 @@ def test_unreachable_targets_fail_with_their_fk_residuals(iiwa14):
 
 
 def test_a_target_gets_the_same_answer_in_a_larger_batch(iiwa14):
-    T = iiwa14.fk(iiwa14.sample_q(20, seed=8), "ee_link", "base_link")
+    T = iiwa14.fk(iiwa14.sample_q(20, seed=8), base="base_link", tip="ee_link")
     small, large = ik_many(iiwa14, T[:7], seed=5), ik_many(iiwa14, T, seed=5)
     np.testing.assert_array_equal(small.q, large.q[:7])
     assert not np.array_equal(ik_many(iiwa14, T[:7], seed=6).q, small.q)
@@ -64,14 +64,14 @@ def test_seed_per_target_is_the_same_in_any_batch():
 
 def test_start_at_the_answer_takes_one_attempt_and_no_iteration(course_arm):
     Q_true = course_arm.sample_q(30, seed=3)
-    T = course_arm.fk(Q_true, "ee_link", "base_link")
+    T = course_arm.fk(Q_true, base="base_link", tip="ee_link")
     batch = ik_many(course_arm, T, Q_true)
     assert batch.success.all() and (batch.attempts == 1).all() and (batch.iterations == 0).all()
     np.testing.assert_allclose(batch.q, Q_true, atol=1e-12)
 
 
 def test_one_start_vector_serves_every_target(course_arm):
-    T = course_arm.fk(course_arm.sample_q(10, seed=6), "ee_link", "base_link")
+    T = course_arm.fk(course_arm.sample_q(10, seed=6), base="base_link", tip="ee_link")
     batch = ik_many(course_arm, T, course_arm.q())
     assert batch.success.all()
     assert pinocchio_residuals(course_arm, "base_link", "ee_link", batch.q, T).max() < 1e-9
@@ -89,7 +89,7 @@ def test_off_chain_joints_keep_their_start_and_a_base_below_the_root(load_robot)
     robot = load_robot("mobile_manipulator")
     # arm_base is below arm_base_joint: T_arm_base_ee depends on the four joints after it only
     Q_true = robot.sample_q(20, seed=2)
-    T = robot.fk(Q_true, "ee_link", "arm_base")
+    T = robot.fk(Q_true, base="arm_base", tip="ee_link")
     Q0 = robot.sample_q(20, seed=3)
     batch = ik_many(robot, T, Q0, base="arm_base")
     assert batch.success.all()
@@ -99,7 +99,7 @@ def test_off_chain_joints_keep_their_start_and_a_base_below_the_root(load_robot)
 
 
 def test_position_mode_takes_points_and_ignores_rotation(iiwa14):
-    points = iiwa14.fk(iiwa14.sample_q(10, seed=5), "ee_link", "base_link")[:, :3, 3]
+    points = iiwa14.fk(iiwa14.sample_q(10, seed=5), base="base_link", tip="ee_link")[:, :3, 3]
     batch = ik_many(iiwa14, points, mode="position")
     assert batch.success.all() and (batch.residual_rotation == 0.0).all()
     reached = np.array([iiwa14.transform("base_link", "ee_link", q)[:3, 3] for q in batch.q])
@@ -107,7 +107,7 @@ def test_position_mode_takes_points_and_ignores_rotation(iiwa14):
 
 
 def test_position_axis_mode_matches_the_axis(course_arm):
-    T = course_arm.fk(course_arm.sample_q(10, seed=7), "ee_link", "base_link")
+    T = course_arm.fk(course_arm.sample_q(10, seed=7), base="base_link", tip="ee_link")
     T[:, :3, :3] = T[:, :3, :3] @ rot_z(0.7)  # spin about z: the pointing axis stays, the pose changes
     batch = ik_many(course_arm, T, mode="position+axis", axis="z")
     assert batch.success.all()
@@ -169,7 +169,7 @@ def test_a_base_link_offset_from_the_root_is_taken_into_account(load_robot):
     # mobile_manipulator's base_link sits 0.05 m above its root base_footprint: targets are T_base_link_ee
     robot = load_robot("mobile_manipulator")
     Q_true = robot.sample_q(20, seed=5)
-    T = robot.fk(Q_true, "ee_link", "base_link")
+    T = robot.fk(Q_true, base="base_link", tip="ee_link")
     batch = ik_many(robot, T, base="base_link")
     assert batch.success.all()
     assert pinocchio_residuals(robot, "base_link", "ee_link", batch.q, T).max() < 1e-9

@@ -56,8 +56,8 @@ def central_difference_jacobian(robot, q, frame, base, reference="base", h=1e-6)
 def test_equals_pinocchio_local_world_aligned_and_local(load_robot, name):
     robot = load_robot(name)
     Q = robot.sample_q(25, seed=3)
-    J_base = jacobians(robot, Q, "ee_link", robot.root_link)
-    J_local = jacobians(robot, Q, "ee_link", robot.root_link, reference="local")
+    J_base = jacobians(robot, Q, base=robot.root_link, tip="ee_link")
+    J_local = jacobians(robot, Q, base=robot.root_link, tip="ee_link", reference="local")
     for k, q in enumerate(Q):
         np.testing.assert_allclose(J_base[k], pinocchio_jacobian(robot, q, "ee_link", pin.LOCAL_WORLD_ALIGNED),
                                    rtol=0, atol=1e-12)
@@ -128,7 +128,7 @@ def relative_jacobian_from_pinocchio(robot, q, frame, base, reference):
 def test_non_root_base(load_robot, name, frame, base, reference):
     robot = load_robot(name)
     Q = robot.sample_q(6, seed=7)
-    J = jacobians(robot, Q, frame, base, reference=reference)
+    J = jacobians(robot, Q, base=base, tip=frame, reference=reference)
     for k, q in enumerate(Q):
         np.testing.assert_allclose(J[k], relative_jacobian_from_pinocchio(robot, q, frame, base, reference),
                                    rtol=0, atol=1e-12)
@@ -137,7 +137,7 @@ def test_non_root_base(load_robot, name, frame, base, reference):
 
 
 def test_joints_above_the_base_have_zero_columns(iiwa14):
-    J = jacobian(iiwa14, iiwa14.sample_q(1, seed=8)[0], "ee_link", "iiwa_link_3")
+    J = jacobian(iiwa14, iiwa14.sample_q(1, seed=8)[0], base="iiwa_link_3", tip="ee_link")
     assert np.all(J[:, :3] == 0.0)
     assert np.all(np.linalg.norm(J[:, 3:], axis=0) > 0.0)
 
@@ -195,10 +195,10 @@ TILT_URDF = """<robot name="tilt">
 def test_rpy_representation_names_the_gimbal_lock():
     robot = manipkit.Robot.from_urdf(TILT_URDF)
     with pytest.raises(ManipkitError, match=r"pitch = \+-90 deg"):
-        jacobian(robot, [np.pi / 2], "tip", representation="rpy")
+        jacobian(robot, [np.pi / 2], tip="tip", representation="rpy")
     with pytest.raises(ManipkitError, match=r"configuration 1"):
-        jacobians(robot, [[0.1], [-np.pi / 2]], "tip", representation="rpy")
-    np.testing.assert_allclose(jacobian(robot, [0.3], "tip", representation="rpy")[3:, 0], [0, 1, 0], atol=1e-15)
+        jacobians(robot, [[0.1], [-np.pi / 2]], tip="tip", representation="rpy")
+    np.testing.assert_allclose(jacobian(robot, [0.3], tip="tip", representation="rpy")[3:, 0], [0, 1, 0], atol=1e-15)
 
 
 # ---------------------------------------------------------------------------
@@ -247,8 +247,8 @@ def test_mimic_robot_jacobian_equals_pinocchio_with_mimic():
     robot = manipkit.Robot.from_urdf(MIMIC_URDF)
     q = np.array([0.3, 0.2])
     expected_base, expected_local = pinocchio_mimic_jacobians(q)
-    np.testing.assert_allclose(jacobian(robot, q, "tip"), expected_base, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(jacobian(robot, q, "tip", reference="local"), expected_local, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(jacobian(robot, q, tip="tip"), expected_base, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(jacobian(robot, q, tip="tip", reference="local"), expected_local, rtol=0, atol=1e-12)
 
 
 # ---------------------------------------------------------------------------
@@ -279,11 +279,11 @@ def test_bad_options_and_frames(planar_2r):
     with pytest.raises(ManipkitError, match="reference='base'"):
         jacobian(planar_2r, [0, 0], reference="local", representation="rpy")
     with pytest.raises(UnknownFrameError):
-        jacobian(planar_2r, [0, 0], "nowhere")
+        jacobian(planar_2r, [0, 0], tip="nowhere")
 
 
 def test_frame_equal_to_base_and_empty_batches(iiwa14):
-    assert np.all(jacobian(iiwa14, iiwa14.sample_q(1, seed=1)[0], "iiwa_link_4", "iiwa_link_4") == 0.0)
+    assert np.all(jacobian(iiwa14, iiwa14.sample_q(1, seed=1)[0], base="iiwa_link_4", tip="iiwa_link_4") == 0.0)
     assert jacobians(iiwa14, np.zeros((0, 7))).shape == (0, 6, 7)
 
 

@@ -86,7 +86,7 @@ def test_mimic_joints_have_no_entry_in_q(mimic_robot):
 def test_mimic_fk_matches_the_chain_composed_by_hand(mimic_robot, q1, s):
     expected = mimic_by_hand(q1, s)
     np.testing.assert_allclose(mimic_robot.transform("base_link", "tip", [q1, s]), expected, atol=1e-12)
-    np.testing.assert_allclose(mimic_robot.fk(np.array([q1, s]), "tip"), expected, atol=1e-12)
+    np.testing.assert_allclose(mimic_robot.fk(np.array([q1, s]), tip="tip"), expected, atol=1e-12)
 
 
 def test_mimic_fk_matches_yourdfpy_for_one_level_mimics():
@@ -106,11 +106,11 @@ def test_mimic_fk_matches_yourdfpy_for_one_level_mimics():
 
 def test_batched_kernel_equals_the_single_path_with_mimics(mimic_robot):
     Q = mimic_robot.sample_q(200, seed=4)
-    T = mimic_robot.fk(Q, "tip")
+    T = mimic_robot.fk(Q, tip="tip")
     for k in range(0, 200, 37):
         np.testing.assert_allclose(T[k], mimic_robot.transform("base_link", "tip", Q[k]), atol=1e-12)
     # from an intermediate link above the tip: one chain starting below the root
-    T_c_tip = mimic_robot.fk(Q, "tip", base="c")
+    T_c_tip = mimic_robot.fk(Q, base="c", tip="tip")
     np.testing.assert_allclose(T_c_tip[5], mimic_robot.transform("c", "tip", Q[5]), atol=1e-12)
 
 
@@ -146,7 +146,7 @@ def test_mimic_of_a_continuous_leader(tmp_path):
     T = robot.transform("base_link", "tip", [q])
     np.testing.assert_allclose(T[:3, 3], [math.cos(q) + 1, math.sin(q), 0], atol=1e-12)
     np.testing.assert_allclose(T[:3, :3], np.eye(3), atol=1e-12)
-    np.testing.assert_allclose(robot.fk(np.array([q]), "tip"), T, atol=1e-12)
+    np.testing.assert_allclose(robot.fk(np.array([q]), tip="tip"), T, atol=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -215,11 +215,11 @@ def test_floating_base_fk_matches_the_chain_composed_by_hand(mobile):
     T_world_base = _trans(0, 0, 0.1) @ _rot([0, 0, 1], 0.2) @ _trans(*pose[:3]) @ _rpy(*pose[3:])
     T_world_tip = T_world_base @ _trans(0, 0, 0.5) @ _rot([0, 1, 0], 0.7) @ _trans(0, 0, 0.7)
     np.testing.assert_allclose(mobile.transform("world", "tip", q), T_world_tip, atol=1e-12)
-    np.testing.assert_allclose(mobile.fk(q, "tip", base="world"), T_world_tip, atol=1e-12)
+    np.testing.assert_allclose(mobile.fk(q, base="world", tip="tip"), T_world_tip, atol=1e-12)
     # planar: origin, then Trans(x, y, 0) Rz(yaw), then arm2
     T_world_b = _trans(1, 0, 0) @ _trans(0.5, -1.0, 0) @ _rot([0, 0, 1], 2.0) @ _trans(0.2, 0, 0) @ _rot([0, 0, 1], -0.4)
     np.testing.assert_allclose(mobile.transform("world", "b", q), T_world_b, atol=1e-12)
-    np.testing.assert_allclose(mobile.fk(q, "b", base="world"), T_world_b, atol=1e-12)
+    np.testing.assert_allclose(mobile.fk(q, base="world", tip="b"), T_world_b, atol=1e-12)
     # frames on the same side of the floating joint do not see it
     np.testing.assert_allclose(mobile.transform("base_link", "tip", q), mobile.transform("base_link", "tip", mobile.q(j1=0.7)),
                                atol=1e-15)
@@ -227,7 +227,7 @@ def test_floating_base_fk_matches_the_chain_composed_by_hand(mobile):
 
 def test_batched_floating_fk_equals_the_single_path(mobile):
     Q = np.random.default_rng(5).uniform(-1.5, 1.5, size=(50, len(mobile.joint_names)))
-    T = mobile.fk(Q, "tip", base="world")
+    T = mobile.fk(Q, base="world", tip="tip")
     for k in (0, 17, 49):
         np.testing.assert_allclose(T[k], mobile.transform("world", "tip", Q[k], check_limits=False), atol=1e-12)
 

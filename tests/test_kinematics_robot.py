@@ -70,7 +70,7 @@ def test_batched_fk_equals_pinocchio_per_configuration(loaded, name):
     robot = loaded[name]
     Q = random_q(robot, np.random.default_rng(3), 50)
     source, target = robot.frame_names[1], robot.ee_frame
-    T_batch = robot.fk(Q, target, base=source)
+    T_batch = robot.fk(Q, base=source, tip=target)
     T_loop = np.array([robot.transform(source, target, q, check_limits=False) for q in Q])
     assert T_batch.shape == (50, 4, 4)
     assert np.abs(T_batch - T_loop).max() < 1e-12
@@ -86,7 +86,7 @@ def test_fk_from_a_link_above_the_frame_runs_one_chain_equal_to_pinocchio(loaded
     frame_id, base_id = robot.frame_id("ee_link"), robot.frame_id(base)
     assert robot._is_above(base_id, frame_id)
     Q = np.vstack([robot.sample_q(300, seed=21), np.random.default_rng(22).uniform(-20, 20, (20, len(robot.joints)))])
-    T = robot.fk(Q, "ee_link", base=base)
+    T = robot.fk(Q, base=base, tip="ee_link")
     assert (frame_id, base_id) in robot._fk_kernels  # the kernel of the chain base -> ee_link ran
     # tan(q/2) vs Pinocchio's sin/cos at |q| up to 20 rad: a few ulps of 20, well inside 1e-12
     assert np.abs(T - pinocchio_poses(robot, base, "ee_link", Q)).max() < 1e-12
@@ -101,7 +101,7 @@ def test_fk_between_every_pair_of_frames_equals_pinocchio(loaded, name):
     for base in robot.frame_names:
         for frame in robot.frame_names:
             paths.add(robot._is_above(robot.frame_id(base), robot.frame_id(frame)))
-            T = robot.fk(Q, frame, base=base)
+            T = robot.fk(Q, base=base, tip=frame)
             assert np.abs(T - pinocchio_poses(robot, base, frame, Q)).max() < 1e-12, (base, frame)
     assert paths == {True, False}
 
@@ -109,14 +109,14 @@ def test_fk_between_every_pair_of_frames_equals_pinocchio(loaded, name):
 def test_fk_keeps_leading_dimensions(loaded):
     robot = loaded["iiwa14"]
     Q = random_q(robot, np.random.default_rng(1), 12).reshape(3, 4, 7)
-    T = robot.fk(Q, "ee_link")
+    T = robot.fk(Q, tip="ee_link")
     assert T.shape == (3, 4, 4, 4)
     assert np.allclose(T[2, 1], robot.transform("base_link", "ee_link", Q[2, 1], check_limits=False), atol=1e-12)
 
 
 def test_fk_rejects_wrong_width(loaded):
     with pytest.raises(JointValueError, match="needs 7 joint values per row"):
-        loaded["iiwa14"].fk(np.zeros((4, 6)), "ee_link")
+        loaded["iiwa14"].fk(np.zeros((4, 6)), tip="ee_link")
 
 
 def test_q_by_name_in_joint_order_with_missing_joints_zero(loaded):
@@ -263,8 +263,8 @@ def test_chain_fk_is_the_kernel_fk_runs(loaded):
     robot = loaded["iiwa14"]
     Q = robot.sample_q(5, seed=32)
     assert robot.chain_fk("ee_link") is robot.chain_fk("ee_link", "base_link")
-    assert np.array_equal(robot.chain_fk("ee_link").transforms(Q), robot.fk(Q, "ee_link"))
-    assert np.array_equal(robot.chain_fk("ee_link", "iiwa_link_3").transforms(Q), robot.fk(Q, "ee_link", "iiwa_link_3"))
+    assert np.array_equal(robot.chain_fk("ee_link").transforms(Q), robot.fk(Q, tip="ee_link"))
+    assert np.array_equal(robot.chain_fk("ee_link", "iiwa_link_3").transforms(Q), robot.fk(Q, base="iiwa_link_3", tip="ee_link"))
 
 
 # ---------------------------------------------------------------- issue 15: API faults and long chains
@@ -289,9 +289,9 @@ def test_complex_joint_values_are_refused_not_truncated(planar_2r, value):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # numpy's ComplexWarning would be the old behaviour
         with pytest.raises(JointValueError, match="joint values must be real numbers \\(rad or m\\); got complex values"):
-            planar_2r.fk(np.array([[value, 0]]), "ee_link")
+            planar_2r.fk(np.array([[value, 0]]), tip="ee_link")
         with pytest.raises(JointValueError, match="joint values must be real numbers"):
-            planar_2r.fk(np.array([[value, 0]], dtype=object), "ee_link")
+            planar_2r.fk(np.array([[value, 0]], dtype=object), tip="ee_link")
         with pytest.raises(JointValueError, match="joint values must be real numbers"):
             planar_2r.transform("base_link", "ee_link", [value, 0])
         with pytest.raises(JointValueError, match="is not a number"):
@@ -301,7 +301,7 @@ def test_complex_joint_values_are_refused_not_truncated(planar_2r, value):
 @pytest.mark.parametrize("q", ["abc", [["a", 0]], [[1, 2], [3]]])
 def test_joint_values_that_are_not_numbers_are_one_line_errors(planar_2r, q):
     with pytest.raises(JointValueError, match="joint values must be real numbers \\(rad or m\\), a vector or equal rows"):
-        planar_2r.fk(q, "ee_link")
+        planar_2r.fk(q, tip="ee_link")
 
 
 @pytest.mark.parametrize("frame", [None, 3, ["base_link"]])

@@ -115,7 +115,7 @@ def test_planar_2r_urdf_fk_equals_the_closed_form_at_every_scale(s):
     l1, l2 = (L * s for L in L2R)
     Q = np.random.default_rng(1).uniform(-math.pi, math.pi, size=(100, 2))
     x, y = fk_2r(Q[:, 0], Q[:, 1], l1, l2)
-    T_batched = robot.fk(Q, "ee_link")
+    T_batched = robot.fk(Q, tip="ee_link")
     T_pinocchio = np.array([robot.transform("base_link", "ee_link", q) for q in Q])
     for T in (T_batched, T_pinocchio):
         error = np.max(np.abs(T[:, :3, 3] - np.stack([x, y, np.zeros_like(x)], axis=-1)))
@@ -129,7 +129,7 @@ def test_planar_3r_urdf_fk_equals_the_closed_form_at_every_scale(s):
     robot = planar_3r(s)
     Q = np.random.default_rng(2).uniform(-math.pi, math.pi, size=(100, 3))
     x, y, phi = fk_3r(Q[:, 0], Q[:, 1], Q[:, 2], *(L * s for L in L3R))
-    T = robot.fk(Q, "ee_link")
+    T = robot.fk(Q, tip="ee_link")
     assert np.max(np.abs(T[:, 0, 3] - x)) <= REL * s and np.max(np.abs(T[:, 1, 3] - y)) <= REL * s
     assert np.max(np.abs(T[:, 2, 3])) <= REL * s
     assert np.max(np.abs(wrapped(np.arctan2(T[:, 1, 0], T[:, 0, 0]) - phi))) <= ROT
@@ -142,10 +142,10 @@ def test_stanford_and_elbow_urdfs_equal_their_dh_tables_at_every_scale(s):
     table = stanford_dh_table(**stanford_args(s))
     Q = rng.uniform(-math.pi, math.pi, size=(50, 6))
     Q[:, 2] = rng.uniform(STANFORD["d3_min"], STANFORD["d3_max"], size=50) * s
-    assert np.abs(stanford.fk(Q, "ee_link")[:, :3, 3] - dh_fk(table, Q)[:, :3, 3]).max() <= REL * s
+    assert np.abs(stanford.fk(Q, tip="ee_link")[:, :3, 3] - dh_fk(table, Q)[:, :3, 3]).max() <= REL * s
     elbow = scaled_robot("elbow_arm", s, **ELBOW)
     Q = rng.uniform(-math.pi, math.pi, size=(50, 6))
-    assert np.abs(elbow.fk(Q, "ee_link")[:, :3, 3] - dh_fk(elbow_dh_table(**elbow_args(s)), Q)[:, :3, 3]).max() <= REL * s
+    assert np.abs(elbow.fk(Q, tip="ee_link")[:, :3, 3] - dh_fk(elbow_dh_table(**elbow_args(s)), Q)[:, :3, 3]).max() <= REL * s
 
 
 # ==========================================================================

@@ -144,11 +144,11 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     total = total_sq = 0.0
     done = 0
     bar, update = _progress(progress, samples)
-    columns = jacobian_columns(robot, frame_name, base_name)  # joints off the chain (wheels, fingers): zero columns
+    columns = jacobian_columns(robot, base=base_name, tip=frame_name)  # joints off the chain (wheels, fingers): zero
     try:
         while done < samples:
             m = min(chunk, samples - done)
-            J = jacobians(robot, uniform_joint_samples(robot, rng, m), frame_name, base_name)[..., columns]
+            J = jacobians(robot, uniform_joint_samples(robot, rng, m), base=base_name, tip=frame_name)[..., columns]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", MixedUnitsWarning)
                 inverse = _inverse_condition(select_rows(J, axes, length))
@@ -230,4 +230,4 @@ def generic_rank(robot: Robot, frame: str = "ee_link", base: str = "base_link", 
     (2, 3)
     """
     Q = uniform_joint_samples(robot, np.random.default_rng(seed), samples)
-    return int(np.max(rank(jacobians(robot, Q, frame, base), axes, length, tol=tol), initial=0))
+    return int(np.max(rank(jacobians(robot, Q, base=base, tip=frame), axes, length, tol=tol), initial=0))

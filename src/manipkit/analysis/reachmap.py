@@ -474,9 +474,8 @@ def translation_manipulability(robot: Robot, Q: np.ndarray, frame: str, base: st
     axes) takes all three, a planar one the first two (``u v``, its plane).
     """
     from manipkit.analysis.manipulability import manipulability
-    from manipkit.kinematics.jacobian import jacobian_columns
 
-    J = robot.jacobians(Q, frame, base)[..., jacobian_columns(robot, frame, base)]  # the chain's columns only
+    J = robot.chain(base, frame).jacobians(Q)  # the chain's columns only (whole-robot rows of Q are read by the chain)
     J[:, :3] = np.einsum("ji,njk->nik", axes, J[:, :3])  # axes.T @ J_v for each configuration
     return manipulability(J, "yoshikawa", axes=[0, 1] if planar else "trans")
 
@@ -491,7 +490,7 @@ def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np
     n = min(job.block_samples, job.samples - block * job.block_samples)
     Q = np.tile(job.q_default, (n, 1))
     Q[:, job.chain] = job.low + rng.random((n, job.chain.size)) * (job.high - job.low)
-    T = job.robot.fk(Q, job.frame, job.base)
+    T = job.robot.fk(Q, base=job.base, tip=job.frame)
     cells, inside = job.cells(T[:, :3, 3])
     cells, Q = cells[inside], Q[inside]
     keys = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]))

@@ -169,7 +169,7 @@ def _urdf_fk(robot: Robot, base: str, tip: str, index: list[int]):
         q_chain = np.asarray(q_chain, dtype=float)
         Q = np.broadcast_to(q_rest, q_chain.shape[:-1] + q_rest.shape).copy()
         Q[..., index] = q_chain
-        return robot.fk(Q, tip, base=base)
+        return robot.fk(Q, base=base, tip=tip)
 
     return fk
 

@@ -38,6 +38,7 @@ True
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -53,7 +54,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "frame_arguments", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -372,6 +373,30 @@ class Chain:
             _read_only(np.array(point).reshape(-1, 3)), _read_only(np.array(prismatic, dtype=bool)),
             _read_only(np.array(scale, dtype=float)),
         )
+
+
+def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base, default_tip) -> tuple:
+    """(base, tip) from a call's frame arguments: the one naming rule of the public API.
+
+    New code names the frames ``base=`` and ``tip=``. For one release the
+    old forms still work, with a ``DeprecationWarning`` whose message starts
+    ``manipkit API:``: the keyword ``frame=`` (the tip), and the old
+    positional order ``(frame, base)`` passed as ``legacy`` (kept in its old
+    meaning, never swapped).
+    """
+    if legacy or frame is not None:
+        if len(legacy) > 2 or (legacy and (frame is not None or tip is not None)) or (len(legacy) == 2 and base is not None):
+            raise TypeError(f"{what}: give the frames as base=... and tip=..., got {len(legacy)} positional frame(s)")
+        warnings.warn(
+            f"manipkit API: {what}(..., frame, base) is now {what}(..., base=..., tip=...) (base first, as "
+            "tf-between SOURCE TARGET); the old form goes in the next release", DeprecationWarning, stacklevel=3,
+        )
+        if frame is not None and tip is not None:
+            raise TypeError(f"{what}: give the tip once (tip=), not also frame=")
+        tip = frame if frame is not None else legacy[0]
+        if len(legacy) == 2:
+            base = legacy[1]
+    return (default_base if base is None else base), (default_tip if tip is None else tip)
 
 
 def _chain_of(robot: Robot, base: str, tip: str) -> Chain:

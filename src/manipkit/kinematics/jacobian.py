@@ -57,13 +57,14 @@ array([[-1., -1.],
 from __future__ import annotations
 
 import weakref
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from manipkit.errors import ChainError, JointValueError, ManipkitError
+from manipkit.kinematics.chain import frame_arguments
 from manipkit.kinematics.fk_kernel import (  # the batched FK's preparation
     ChainStep,
     compile_kernel,
@@ -334,19 +335,20 @@ def rpy_rate_matrix(R, *, gimbal_tol: float = GIMBAL_TOL) -> np.ndarray:
     return E_inv / cp[..., None, None]
 
 
-def jacobians(robot: Robot, Q, frame: str = "ee_link", base: str = "base_link", *, reference: str = "base",
-              representation: str = "geometric", gimbal_tol: float = GIMBAL_TOL) -> np.ndarray:
-    """Jacobians of ``frame`` relative to ``base`` for many configurations at once (compiled).
+def jacobians(robot: Robot, Q, *legacy, base: str | None = None, tip: str | None = None, reference: str = "base",
+              representation: str = "geometric", gimbal_tol: float = GIMBAL_TOL, frame: str | None = None) -> np.ndarray:
+    """Jacobians of ``tip`` relative to ``base`` for many configurations at once (compiled).
 
     Parameters
     ----------
     robot : Robot
     Q : array_like, shape (..., n)
         Joint vectors in ``robot.joint_names`` order (rad, m).
-    frame, base : str
-        Frame names (aliases ``ee_link``, ``base_link``). ``base`` may be any
-        frame: above ``frame`` (one chain) or on another branch (two chains
-        from the root, combined).
+    base, tip : str, keyword-only
+        Frame names (aliases ``base_link``, ``ee_link``, the defaults). ``base``
+        may be any frame: above ``tip`` (one chain) or on another branch (two
+        chains from the root, combined). The old ``frame=`` and positional
+        ``(Q, frame, base)`` work for one release with a ``DeprecationWarning``.
     reference : {"base", "local"}, keyword-only
         Axes of both halves: the base frame's (Pinocchio ``LOCAL_WORLD_ALIGNED``
         when the base is the root, RTB ``jacob0``) or the frame's own
@@ -374,6 +376,7 @@ def jacobians(robot: Robot, Q, frame: str = "ee_link", base: str = "base_link", 
     if representation == "rpy" and reference != "base":
         raise ManipkitError("representation='rpy' gives rates of the frame's roll, pitch, yaw in the base: "
                             "use it with reference='base'")
+    base, frame = frame_arguments("jacobians", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
     Q = _joint_rows(robot, Q)
     lead = Q.shape[:-1]
     n = len(robot.joint_names)
@@ -404,9 +407,9 @@ def jacobians(robot: Robot, Q, frame: str = "ee_link", base: str = "base_link", 
     return J.reshape(*lead, 6, n)
 
 
-def jacobian(robot: Robot, q=None, frame: str = "ee_link", base: str = "base_link", *, reference: str = "base",
-             representation: str = "geometric", gimbal_tol: float = GIMBAL_TOL) -> np.ndarray:
-    """The Jacobian (6, n) of ``frame`` relative to ``base`` at one configuration ``q``.
+def jacobian(robot: Robot, q=None, *legacy, base: str | None = None, tip: str | None = None, reference: str = "base",
+             representation: str = "geometric", gimbal_tol: float = GIMBAL_TOL, frame: str | None = None) -> np.ndarray:
+    """The Jacobian (6, n) of ``tip`` relative to ``base`` at one configuration ``q``.
 
     ``q`` is a joint vector in ``robot.joint_names`` order (rad, m), or None
     for every joint at 0 (as :meth:`manipkit.kinematics.robot.Robot.transform`).
@@ -431,16 +434,18 @@ def jacobian(robot: Robot, q=None, frame: str = "ee_link", base: str = "base_lin
     >>> J.shape
     (6, 7)
     """
-    q = robot.q() if q is None else q
+    base, tip = frame_arguments("jacobian", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
+    q = robot.q(q) if q is None or isinstance(q, Mapping) else q  # a dict by joint name, as Robot.jacobian takes
     q = _joint_rows(robot, q)
     if q.ndim != 1:
         raise JointValueError(f"robot '{robot.name}' needs one joint vector of {len(robot.joint_names)} values, "
                               f"got shape {q.shape}; use jacobians for many")
-    return jacobians(robot, q[None], frame, base, reference=reference, representation=representation,
+    return jacobians(robot, q[None], base=base, tip=tip, reference=reference, representation=representation,
                      gimbal_tol=gimbal_tol)[0]
 
 
-def jacobian_columns(robot: Robot, frame: str = "ee_link", base: str = "base_link") -> np.ndarray:
+def jacobian_columns(robot: Robot, *legacy, base: str | None = None, tip: str | None = None,
+                     frame: str | None = None) -> np.ndarray:
     """The columns of the Jacobian of ``frame`` relative to ``base`` that the chain can make nonzero.
 
     The joints between the two frames (those moving one frame and not the
@@ -457,6 +462,8 @@ def jacobian_columns(robot: Robot, frame: str = "ee_link", base: str = "base_lin
     >>> [robot.joint_names[i] for i in jacobian_columns(robot)]  # the arm's joints, not the wheels
     ['arm_base_joint', 'shoulder_joint', 'bottom_wrist_joint', 'elbow_joint', 'top_wrist_joint']
     """
+    base, frame = frame_arguments("jacobian_columns", legacy, base, tip, frame, default_base="base_link",
+                                  default_tip="ee_link")
     moving_frame = set(robot.chain(robot.root_link, frame).columns.tolist())
     moving_base = set(robot.chain(robot.root_link, base).columns.tolist())
     return np.array(sorted(moving_frame ^ moving_base), dtype=np.intp)

@@ -35,7 +35,7 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.validate import check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
-from manipkit.kinematics.chain import LIMIT_TOLERANCE, Chain, joint_array
+from manipkit.kinematics.chain import LIMIT_TOLERANCE, Chain, frame_arguments, joint_array
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.text import repr_text, short_text
@@ -486,16 +486,19 @@ class Robot:
     # Kinematics
     # ------------------------------------------------------------------
 
-    def transform(self, source: str, target: str, q=None, *, check_limits: bool = True) -> np.ndarray:
-        """T_source_target: the pose of ``target`` expressed in ``source``.
+    def transform(self, base: str | None = None, tip: str | None = None, q=None, *, check_limits: bool = True,
+                  source: str | None = None, target: str | None = None) -> np.ndarray:
+        """T_base_tip: the pose of ``tip`` expressed in ``base``.
 
         Computed by Pinocchio's forward kinematics. Same direction as
-        ``tf2_echo source target``.
+        ``tf2_echo base tip`` and ``tf-between BASE TIP``.
 
         Parameters
         ----------
-        source, target : str
-            Frame names (or the aliases ``base_link``, ``ee_link``).
+        base, tip : str
+            Frame names (or the aliases ``base_link``, ``ee_link``); any two
+            frames, on one branch or not. ``source=`` and ``target=`` (their
+            old names) work for one release with a ``DeprecationWarning``.
         q : array_like or dict, optional
             Anything :meth:`q` takes: values in joint order, or by name
             (joints not given at their default); default: every joint at 0.
@@ -508,33 +511,47 @@ class Robot:
         -------
         T : ndarray, shape (4, 4)
         """
-        source_id, target_id = self.frame_id(source), self.frame_id(target)
+        if source is not None or target is not None:
+            python_warnings.warn("manipkit API: transform(source=, target=) is now transform(base, tip)",
+                                 DeprecationWarning, stacklevel=2)
+            base, tip = (base if source is None else source), (tip if target is None else target)
+        source_id, target_id = self.frame_id(base), self.frame_id(tip)
         q = self.check_limits(q) if check_limits else self._check_q(q)
-        pin.framesForwardKinematics(self.model, self.data, self._layout.configuration(q))
-        T_root_source = self.data.oMf[source_id]
-        T_root_target = self.data.oMf[target_id]
+        data = self.data
+        pin.framesForwardKinematics(self.model, data, self._layout.configuration(q))
+        T_root_source = data.oMf[source_id]
+        T_root_target = data.oMf[target_id]
         return (T_root_source.actInv(T_root_target)).homogeneous.copy()
 
-    def jacobian(self, q=None, frame: str = "ee_link", base: str = "base_link", *, reference: str = "base",
-                 representation: str = "geometric") -> np.ndarray:
+    def jacobian(self, q=None, *legacy, base: str | None = None, tip: str | None = None, reference: str = "base",
+                 representation: str = "geometric", frame: str | None = None) -> np.ndarray:
         """The frame Jacobian (6, n): :func:`manipkit.kinematics.jacobian.jacobian` (rows vx vy vz wx wy wz).
 
         ``reference="base"``: expressed in the base frame's axes (Pinocchio
         LOCAL_WORLD_ALIGNED when the base is the root, RTB ``jacob0``);
         ``"local"``: in the frame's own axes (Pinocchio LOCAL, RTB ``jacobe``).
-        Columns follow :attr:`joint_names` (a mimic joint adds to its leader's).
+        Columns follow :attr:`joint_names` (a mimic joint adds to its leader's);
+        ``robot.chain(base, tip).jacobian(q)`` has the chain's columns only.
+        Frames by keyword, ``base="base_link"``, ``tip="ee_link"`` by default
+        (the old ``frame=`` and positional ``(q, frame, base)`` work for one
+        release with a ``DeprecationWarning``).
         """
         from manipkit.kinematics.jacobian import jacobian
 
+        base, tip = frame_arguments("jacobian", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
         q = None if q is None else self._check_q(q)
-        return jacobian(self, q, frame, base, reference=reference, representation=representation)
+        return jacobian(self, q, base=base, tip=tip, reference=reference, representation=representation)
 
-    def jacobians(self, Q, frame: str = "ee_link", base: str = "base_link", *, reference: str = "base",
-                  representation: str = "geometric") -> np.ndarray:
-        """Frame Jacobians (N, 6, n) for many joint vectors: :func:`manipkit.kinematics.jacobian.jacobians` (compiled)."""
+    def jacobians(self, Q, *legacy, base: str | None = None, tip: str | None = None, reference: str = "base",
+                  representation: str = "geometric", frame: str | None = None) -> np.ndarray:
+        """Frame Jacobians (N, 6, n) for many joint vectors: :func:`manipkit.kinematics.jacobian.jacobians` (compiled).
+
+        Frames as :meth:`jacobian`.
+        """
         from manipkit.kinematics.jacobian import jacobians
 
-        return jacobians(self, Q, frame, base, reference=reference, representation=representation)
+        base, tip = frame_arguments("jacobians", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
+        return jacobians(self, Q, base=base, tip=tip, reference=reference, representation=representation)
 
     def visual_model(self) -> pin.GeometryModel:
         """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.
@@ -576,22 +593,22 @@ class Robot:
         pin.updateGeometryPlacements(self.model, data, geometry_model, geometry_data, self.pinocchio_configuration(q))
         return [placement.homogeneous.copy() for placement in geometry_data.oMg]
 
-    def fk(self, Q, frame: str, base: str | None = None) -> np.ndarray:
-        """Poses of ``frame`` for many joint vectors at once (vectorised, no Python loop over Q).
+    def fk(self, Q, *legacy, base: str | None = None, tip: str | None = None, frame: str | None = None) -> np.ndarray:
+        """Poses of ``tip`` in ``base`` for many joint vectors at once (vectorised, no Python loop over Q).
 
         Parameters
         ----------
         Q : array_like, shape (..., n)
             Joint vectors in :attr:`joint_names` order.
-        frame : str
-            Target frame.
-        base : str, optional
-            Frame the poses are expressed in (default: ``base_link``, i.e.
-            :attr:`base_link`, as everywhere else).
+        base, tip : str, keyword-only
+            The frame the poses are expressed in (default ``base_link``, i.e.
+            :attr:`base_link`, as everywhere else) and the frame posed
+            (default ``ee_link``). The old ``fk(Q, frame, base)`` and
+            ``frame=`` work for one release with a ``DeprecationWarning``.
 
         Returns
         -------
-        T_base_frame : ndarray, shape (..., 4, 4)
+        T_base_tip : ndarray, shape (..., 4, 4)
 
         Notes
         -----
@@ -601,6 +618,7 @@ class Robot:
         of the same chain), one kernel runs over the joints between them;
         otherwise T_base_frame = T_root_base^-1 T_root_frame from two kernels.
         """
+        base, frame = frame_arguments("fk", legacy, base, tip, frame, default_base=self.base_link, default_tip=EE_ALIAS)
         Q = joint_array(Q)
         if Q.shape[-1:] != (len(self.joints),):
             raise JointValueError(
@@ -612,7 +630,6 @@ class Robot:
         lead = Q.shape[:-1]
         flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
         frame_id = self.frame_id(frame)
-        base = self.base_link if base is None else base
         base_id = None if self.frame(base) == self.root_link else self.frame_id(base)
         if base_id is None or self._is_above(base_id, frame_id):
             # One kernel over the chain from the base down to the frame.

@@ -202,7 +202,7 @@ def _run_batch(robot: Robot, args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         for index, Q in enumerate(_q_file_batches(robot, args)):
-            T = robot.fk(Q, args.target, base=args.source)
+            T = robot.fk(Q, base=args.source, tip=args.target)
             sys.stdout.write((begin if index == 0 else separator) + pose_rows(Q, T))
         sys.stdout.write(end)
         sys.stdout.flush()
