@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.dh.entries import _ANGLES, _ENTRIES, _GENERATORS, _row_factors, dh_link_matrices, reverse_joint
+from manipkit.dh.entries import ANGLE_ENTRIES, ENTRIES, GENERATORS, dh_link_matrices, reverse_joint, row_factors
 from manipkit.dh.from_urdf import dh_from_urdf_chain
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.dh.text import NOISE
@@ -428,13 +428,13 @@ class _Fit:
         out = []
         table = self.table
         for i, row in enumerate(table.rows):
-            for entry in _ENTRIES:
+            for entry in ENTRIES:
                 value = self._fit_entry(i, entry)
                 if value is None:
                     continue
                 value = _snapped_entry(entry, value)
                 current = getattr(row, entry)
-                change = math.remainder(value - current, 2 * math.pi) if entry in _ANGLES else value - current
+                change = math.remainder(value - current, 2 * math.pi) if entry in ANGLE_ENTRIES else value - current
                 if abs(change) < 1e-12:
                     continue
                 rows = list(table.rows)
@@ -457,18 +457,18 @@ class _Fit:
         R = np.broadcast_to(table.tool, (len(Q), 4, 4))
         for A in reversed(links[i + 1:]):
             R = A @ R
-        factors = _row_factors(table.rows[i], Q[:, i], table.convention)
+        factors = row_factors(table.rows[i], Q[:, i], table.convention)
         k = [name for name, _ in factors].index(entry)
         for _, F in factors[:k]:
             L = L @ F
         for _, F in reversed(factors[k + 1:]):
             R = F @ R
-        return L, _GENERATORS[entry], R
+        return L, GENERATORS[entry], R
 
     def _fit_entry(self, i: int, entry: str) -> float | None:
         L, G, R = self._around(i, entry)
         T_u = self.T_u[:_FIT_SAMPLES]
-        if entry in _ANGLES:  # E = I + sin(v) K + (1 - cos(v)) K^2
+        if entry in ANGLE_ENTRIES:  # E = I + sin(v) K + (1 - cos(v)) K^2
             Y = (T_u - L @ (np.eye(4) + G @ G) @ R)[:, :3].ravel()
             A = np.stack([(L @ G @ R)[:, :3].ravel(), -(L @ G @ G @ R)[:, :3].ravel()], axis=1)
             (s, c), *_ = np.linalg.lstsq(A, Y, rcond=None)
@@ -555,7 +555,7 @@ def _snapped(T: np.ndarray) -> np.ndarray:
 def _snapped_entry(entry: str, value: float) -> float:
     """A fitted entry with its noise removed: angles within 1e-12 rad of a multiple of 15 deg made that
     multiple, lengths rounded to 1e-12 m (the candidate is checked on the samples afterwards)."""
-    if entry in _ANGLES:
+    if entry in ANGLE_ENTRIES:
         k = round(value / (math.pi / 12))
         return k * math.pi / 12 if abs(value - k * math.pi / 12) < 1e-12 else value
     return round(value, 12)
@@ -567,7 +567,7 @@ def _precise_screws(fk, n: int, q0) -> np.ndarray:
 
 
 def _entry_text(entry: str, value: float) -> str:
-    if entry in _ANGLES:
+    if entry in ANGLE_ENTRIES:
         return f"{short_text(math.degrees(float(wrap_angle(value))), 6, zero=math.degrees(NOISE))} deg"
     return f"{short_text(value, 6, zero=NOISE)} m"
 
@@ -575,9 +575,9 @@ def _entry_text(entry: str, value: float) -> str:
 def _differing_entries(table: DHTable, other: DHTable):
     """(row number, entry, table's value, other's value) for every entry that differs (angles modulo 2 pi)."""
     for i, (row, new) in enumerate(zip(table.rows, other.rows)):
-        for entry in _ENTRIES:
+        for entry in ENTRIES:
             mine, theirs = getattr(row, entry), getattr(new, entry)
-            gap = math.remainder(theirs - mine, 2 * math.pi) if entry in _ANGLES else theirs - mine
+            gap = math.remainder(theirs - mine, 2 * math.pi) if entry in ANGLE_ENTRIES else theirs - mine
             if abs(gap) > 1e-9:
                 yield i + 1, entry, mine, theirs
 

@@ -8,7 +8,7 @@ motion next to its own entry (docs/architecture.md):
 - modified DH: ``Rx(alpha) Tx(a) Rz(q) Rz(theta) Tz(d)``.
 
 Each entry's transform is ``exp(v G)`` with ``G`` its generator
-(``_GENERATORS``), so FK is affine in a length and in ``(cos v, sin v)`` of
+(``GENERATORS``), so FK is affine in a length and in ``(cos v, sin v)`` of
 an angle: :mod:`manipkit.dh.check` fits single entries in closed form with
 these. :func:`reverse_joint` turns one joint the other way. Metres and radians.
 """
@@ -23,10 +23,12 @@ import numpy as np
 from manipkit.dh.table import DHTable, dh_link_transform
 from manipkit.spatial.rotations import wrap_angle
 
-__all__ = ["dh_link_matrices", "reverse_joint"]
+__all__ = [
+    "ANGLE_ENTRIES", "dh_link_matrices", "ENTRIES", "GENERATORS", "reverse_joint", "row_factors",
+]
 
-_ENTRIES = ("a", "alpha", "d", "theta")
-_ANGLES = ("alpha", "theta")
+ENTRIES = ("a", "alpha", "d", "theta")
+ANGLE_ENTRIES = ("alpha", "theta")
 
 
 def reverse_joint(table: DHTable, j: int) -> DHTable:
@@ -68,12 +70,12 @@ def reverse_joint(table: DHTable, j: int) -> DHTable:
     return DHTable(tuple(rows), table.convention, table.name, base=base, tool=tool)
 
 
-def _row_factors(row, q, convention: str) -> list:
+def row_factors(row, q, convention: str) -> list:
     """The elementary transforms of one row at joint values ``q`` (m,), named by entry; "q" for the motion."""
     m = len(q)
-    value = {entry: np.full(m, getattr(row, entry)) for entry in _ENTRIES}
+    value = {entry: np.full(m, getattr(row, entry)) for entry in ENTRIES}
     motion = ("q", _elementary("theta" if row.is_revolute else "d", q))
-    own = {entry: (entry, _elementary(entry, value[entry])) for entry in _ENTRIES}
+    own = {entry: (entry, _elementary(entry, value[entry])) for entry in ENTRIES}
     moving = "theta" if row.is_revolute else "d"
     if convention == "standard":
         order = ["theta", "d", "a", "alpha"]
@@ -87,18 +89,18 @@ def _row_factors(row, q, convention: str) -> list:
     return factors
 
 
-_GENERATORS = {name: np.zeros((4, 4)) for name in _ENTRIES}
-_GENERATORS["a"][0, 3] = 1.0
-_GENERATORS["d"][2, 3] = 1.0
-_GENERATORS["alpha"][2, 1], _GENERATORS["alpha"][1, 2] = 1.0, -1.0
-_GENERATORS["theta"][1, 0], _GENERATORS["theta"][0, 1] = 1.0, -1.0
+GENERATORS = {name: np.zeros((4, 4)) for name in ENTRIES}
+GENERATORS["a"][0, 3] = 1.0
+GENERATORS["d"][2, 3] = 1.0
+GENERATORS["alpha"][2, 1], GENERATORS["alpha"][1, 2] = 1.0, -1.0
+GENERATORS["theta"][1, 0], GENERATORS["theta"][0, 1] = 1.0, -1.0
 
 
 def _elementary(entry: str, values) -> np.ndarray:
     """Tx(a), Rx(alpha), Tz(d) or Rz(theta) for each value, shape (m, 4, 4)."""
     values = np.asarray(values, dtype=float)
-    G = _GENERATORS[entry]
-    if entry in _ANGLES:
+    G = GENERATORS[entry]
+    if entry in ANGLE_ENTRIES:
         s, c = np.sin(values)[:, None, None], np.cos(values)[:, None, None]
         return np.eye(4) + s * G + (1.0 - c) * (G @ G)
     return np.eye(4) + values[:, None, None] * G

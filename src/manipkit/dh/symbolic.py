@@ -27,9 +27,8 @@ from manipkit.dh.table import DHTable
 from manipkit.errors import DHDerivationError
 
 __all__ = [
-    "EXACT_ANGLE_TOL", "MAX_SYMBOLIC_OPS", "MAX_SYMBOLIC_ROWS", "dh_fk_symbolic", "dh_length_symbols", "dh_symbols",
-    "format_symbolic",
-    "shorthand",
+    "check_symbolic_size", "dh_fk_symbolic", "dh_length_symbols", "dh_symbols", "EXACT_ANGLE_TOL",
+    "format_symbolic", "MAX_SYMBOLIC_OPS", "MAX_SYMBOLIC_ROWS", "shorthand",
 ]
 
 EXACT_ANGLE_TOL = 1e-12
@@ -235,12 +234,12 @@ def dh_fk_symbolic(
         d = length(i, "d", row.d) + (0 if row.is_revolute else qi)
         a = length(i, "a", row.a)
         T = T * _symbolic_link(a, _exact_angle(row.alpha, exact_tol), d, theta, table.convention)
-        _check_size(T, max_ops, table, f"row {i} of {table.n}")
+        check_symbolic_size(T, max_ops, table, f"row {i} of {table.n}")
         if simplify:
             T = T.applyfunc(TR10i)
     if upto is None and not np.array_equal(table.tool, np.eye(4)):
         T = T * _symbolic_placement(table, "tool", exact_tol)
-        _check_size(T, max_ops, table, "the tool")
+        check_symbolic_size(T, max_ops, table, "the tool")
         if simplify:
             T = T.applyfunc(TR10i)
     if simplify == "trigsimp":
@@ -281,7 +280,7 @@ def dh_length_symbols(table: DHTable) -> dict:
     return values
 
 
-def _check_size(T, max_ops: int, table: DHTable, where: str) -> None:
+def check_symbolic_size(T, max_ops: int, table: DHTable, where: str) -> None:
     """DHDerivationError when the matrix ``T`` holds more than ``max_ops`` operations (before simplifying)."""
     import sympy
 

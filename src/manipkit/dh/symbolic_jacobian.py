@@ -37,7 +37,7 @@ import numpy as np
 from manipkit.dh.symbolic import (
     MAX_SYMBOLIC_OPS,
     MAX_SYMBOLIC_ROWS,
-    _check_size,
+    check_symbolic_size,
     dh_fk_symbolic,
     dh_symbols,
     format_symbolic,
@@ -202,7 +202,7 @@ def dh_jacobian_symbolic(
     frames = [_placement(table, "base", simplify)]  # F_0 = base, F_i = base A_1 ... A_i
     for i in range(table.n):
         product = frames[-1] * _row_matrix(table, i, q[i], chosen, simplify)
-        _check_size(product, MAX_SYMBOLIC_OPS, table, f"row {i + 1}")  # as dh_fk_symbolic: stop before it explodes
+        check_symbolic_size(product, MAX_SYMBOLIC_OPS, table, f"row {i + 1}")  # as dh_fk_symbolic: stop before it explodes
         frames.append(fold(product))
     if point is None:
         p = fold(frames[-1] * _placement(table, "tool", simplify))[:3, 3]

@@ -696,17 +696,10 @@ class Robot:
         return chain
 
     def chain_fk(self, frame: str, base: str | None = None) -> ChainFK:
-        """The prepared batched FK (:class:`manipkit.kinematics.fk_kernel.ChainFK`) of :meth:`chain` (built once).
+        """The batched FK behind :meth:`fk` (built once): ``chain_fk(frame, base).transforms(Q)`` is T_base_frame (N, 4, 4).
 
-        ``chain_fk(frame, base).transforms(Q)`` is ``T_base_frame`` (N, 4, 4)
-        for every row of ``Q`` (N, len(joint_names)); :meth:`fk` uses it,
-        and also handles a base that is not above the frame.
-
-        Examples
-        --------
-        >>> robot = load("planar_2r")
-        >>> robot.chain_fk("ee_link").transforms([[0.0, 0.0]])[0, :3, 3]
-        array([2., 0., 0.])
+        Rows of ``Q`` are whole-robot vectors; ``robot.chain(base, tip).fk``
+        takes chain vectors (or whole-robot ones) and is what new code uses.
         """
         return self._chain_fk_by_id(*self._chain_ids(frame, base))
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from manipkit.errors import InputFileError, InvalidTransformError
 from manipkit.inputs import MAX_MATRIX_BYTES, check_input_file
-from manipkit.spatial.rotations import AXIS_NAMES, _as_float_array, axis_angle_from_matrix, rotation_violations
+from manipkit.spatial.rotations import AXIS_NAMES, as_float_array, axis_angle_from_matrix, rotation_violations
 from manipkit.spatial.transforms import (
     as_transforms,
     invert_transform,
@@ -395,7 +395,7 @@ def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1
     'the hand matrix is the inverse of the model: the opposite direction (T_b_a, the pose of a in b, instead of T_a_b)'
     """
     T_model = as_transforms(T_model, "T_model")
-    T_hand = _as_float_array(T_hand, "T_hand")  # a ragged or non-numeric matrix: one line, before its shape is read
+    T_hand = as_float_array(T_hand, "T_hand")  # a ragged or non-numeric matrix: one line, before its shape is read
     if T_hand.shape == (3, 3) and T_model.shape == (4, 4):
         return _compare_rotation(T_model, T_hand, tol, hint_tol)
     T_hand = as_transforms(T_hand, "T_hand")

@@ -16,11 +16,11 @@ from __future__ import annotations
 import numpy as np
 
 from manipkit.spatial.rotations import (
-    _as_matrices,
-    _vectors_or_parts,
+    as_rotation_matrices,
     check_rotation,
     matrix_from_rpy,
     rpy_from_matrix,
+    vectors_or_parts,
     wrap_angle,
 )
 
@@ -63,7 +63,7 @@ def matrix_from_euler_zyx(ypr, pitch=None, roll=None) -> np.ndarray:
            [1., 0., 0.],
            [0., 1., 0.]])
     """
-    ypr = _vectors_or_parts(ypr, {"pitch": pitch, "roll": roll}, "ypr")
+    ypr = vectors_or_parts(ypr, {"pitch": pitch, "roll": roll}, "ypr")
     return matrix_from_rpy(ypr[..., ::-1])
 
 
@@ -152,7 +152,7 @@ def matrix_from_euler_zyz(angles, theta=None, psi=None) -> np.ndarray:
            [ 0.,  1.,  0.],
            [-1.,  0.,  0.]])
     """
-    angles = _vectors_or_parts(angles, {"theta": theta, "psi": psi}, "angles")
+    angles = vectors_or_parts(angles, {"theta": theta, "psi": psi}, "angles")
     cf, ct, cp = np.cos(angles[..., 0]), np.cos(angles[..., 1]), np.cos(angles[..., 2])
     sf, st, sp = np.sin(angles[..., 0]), np.sin(angles[..., 1]), np.sin(angles[..., 2])
     R = np.empty(angles.shape[:-1] + (3, 3))
@@ -240,7 +240,7 @@ def euler_zyz_from_matrix(
     >>> euler_zyz_from_matrix(rot_z(0.4) @ rot_z(0.5)).round(12)  # theta = 0: phi + psi
     array([0.9, 0. , 0. ])
     """
-    R = check_rotation(R, tol=tol) if check else _as_matrices(R)
+    R = check_rotation(R, tol=tol) if check else as_rotation_matrices(R)
     sin_theta = np.hypot(R[..., 2, 0], R[..., 2, 1])
     singular = sin_theta <= gimbal_tol
     theta = np.arctan2(sin_theta, R[..., 2, 2])

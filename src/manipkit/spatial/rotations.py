@@ -29,19 +29,9 @@ from manipkit.errors import InvalidRotationError
 from manipkit.text import near_text
 
 __all__ = [
-    "axis_angle_from_matrix",
-    "check_rotation",
-    "matrix_from_axis_angle",
-    "matrix_from_quaternion",
-    "matrix_from_rpy",
-    "quaternion_from_matrix",
-    "rot_x",
-    "rot_y",
-    "rot_z",
-    "rotation_angle_between",
-    "rotation_violations",
-    "rpy_from_matrix",
-    "wrap_angle",
+    "as_float_array", "as_rotation_matrices", "axis_angle_from_matrix", "check_rotation", "matrix_from_axis_angle",
+    "matrix_from_quaternion", "matrix_from_rpy", "quaternion_from_matrix", "rot_x", "rot_y", "rot_z",
+    "rotation_angle_between", "rotation_violations", "rpy_from_matrix", "vectors_or_parts", "wrap_angle",
 ]
 
 AXIS_NAMES = ("x", "y", "z")
@@ -51,7 +41,8 @@ AXIS_NAMES = ("x", "y", "z")
 # input handling
 
 
-def _as_float_array(value, what: str) -> np.ndarray:
+def as_float_array(value, what: str) -> np.ndarray:
+    """``value`` as a float array, or :class:`InvalidRotationError` in one line naming ``what`` (ragged or not numbers)."""
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -60,13 +51,13 @@ def _as_float_array(value, what: str) -> np.ndarray:
 
 
 def _as_vectors(value, length: int, what: str) -> np.ndarray:
-    array = _as_float_array(value, what)
+    array = as_float_array(value, what)
     if array.ndim == 0 or array.shape[-1] != length:
         raise InvalidRotationError(f"{what} must have shape (..., {length}), got {array.shape}")
     return array
 
 
-def _vectors_or_parts(first, rest: dict, what: str) -> np.ndarray:
+def vectors_or_parts(first, rest: dict, what: str) -> np.ndarray:
     """One (..., k) array from either form a rotation helper takes: the array itself (``rest`` all None),
     or its k parts as separate arguments (broadcast against each other and stacked)."""
     given = [name for name, value in rest.items() if value is not None]
@@ -78,7 +69,7 @@ def _vectors_or_parts(first, rest: dict, what: str) -> np.ndarray:
             f"{what}: give one array of {len(rest) + 1} values or all {len(rest) + 1} values as arguments; "
             f"{', '.join(missing)} missing"
         )
-    parts = [_as_float_array(v, what) for v in (first, *rest.values())]
+    parts = [as_float_array(v, what) for v in (first, *rest.values())]
     try:
         parts = np.broadcast_arrays(*parts)
     except ValueError:
@@ -86,8 +77,9 @@ def _vectors_or_parts(first, rest: dict, what: str) -> np.ndarray:
     return np.stack(parts, axis=-1)
 
 
-def _as_matrices(value, what: str = "R") -> np.ndarray:
-    array = _as_float_array(value, what)
+def as_rotation_matrices(value, what: str = "R") -> np.ndarray:
+    """``value`` as a float array of shape (..., 3, 3) (not checked for orthonormality), else a one-line error."""
+    array = as_float_array(value, what)
     if array.ndim < 2 or array.shape[-2:] != (3, 3):
         raise InvalidRotationError(f"{what} must have shape (..., 3, 3), got {array.shape}")
     return array
@@ -144,7 +136,7 @@ def wrap_angle(angle):
 
 
 def _elementary(angle, axis: int) -> np.ndarray:
-    angle = _as_float_array(angle, "angle")
+    angle = as_float_array(angle, "angle")
     c, s = np.cos(angle), np.sin(angle)
     R = np.zeros(angle.shape + (3, 3))
     i, j = (axis + 1) % 3, (axis + 2) % 3  # cyclic, so R[i, j] = -sin for x, y and z
@@ -249,7 +241,7 @@ def matrix_from_rpy(rpy, pitch=None, yaw=None) -> np.ndarray:
     >>> bool(np.array_equal(matrix_from_rpy(0.1, 0.2, 0.3), matrix_from_rpy([0.1, 0.2, 0.3])))
     True
     """
-    rpy = _vectors_or_parts(rpy, {"pitch": pitch, "yaw": yaw}, "rpy")
+    rpy = vectors_or_parts(rpy, {"pitch": pitch, "yaw": yaw}, "rpy")
     cr, cp, cy = np.cos(rpy[..., 0]), np.cos(rpy[..., 1]), np.cos(rpy[..., 2])
     sr, sp, sy = np.sin(rpy[..., 0]), np.sin(rpy[..., 1]), np.sin(rpy[..., 2])
     R = np.empty(rpy.shape[:-1] + (3, 3))
@@ -308,7 +300,7 @@ def rpy_from_matrix(R, *, gimbal_tol: float = 1e-12, check: bool = True, tol: fl
     >>> rpy_from_matrix(rot_y(np.pi / 2) @ rot_x(0.4)).round(12) + 0.0  # locked
     array([ 0.        ,  1.57079633, -0.4       ])
     """
-    R = check_rotation(R, tol=tol) if check else _as_matrices(R)
+    R = check_rotation(R, tol=tol) if check else as_rotation_matrices(R)
     cos_pitch = np.hypot(R[..., 2, 1], R[..., 2, 2])
     locked = cos_pitch <= gimbal_tol
     roll = np.where(locked, 0.0, np.arctan2(R[..., 2, 1], R[..., 2, 2]))
@@ -353,7 +345,7 @@ def matrix_from_quaternion(q, y=None, z=None, w=None) -> np.ndarray:
            [ 1.,  0.,  0.],
            [ 0.,  0.,  1.]])
     """
-    q = _vectors_or_parts(q, {"y": y, "z": z, "w": w}, "quaternion")
+    q = vectors_or_parts(q, {"y": y, "z": z, "w": w}, "quaternion")
     unit, norm = _unit(q)
     bad = ~np.isfinite(norm) | (norm == 0.0)
     if np.any(bad):
@@ -411,7 +403,7 @@ def quaternion_from_matrix(R, *, check: bool = True, tol: float = 1e-6) -> np.nd
     >>> quaternion_from_matrix(rot_z(np.pi / 2)).round(6)  # (0, 0, sin 45, cos 45)
     array([0.      , 0.      , 0.707107, 0.707107])
     """
-    R = check_rotation(R, tol=tol) if check else _as_matrices(R)
+    R = check_rotation(R, tol=tol) if check else as_rotation_matrices(R)
     r = {(i, j): R[..., i, j] for i in range(3) for j in range(3)}
     trace = r[0, 0] + r[1, 1] + r[2, 2]
     # K[a, b] = 4 q_a q_b with index order (x, y, z, w)
@@ -478,7 +470,7 @@ def matrix_from_axis_angle(axis, angle) -> np.ndarray:
            [ 0.,  0.,  1.]])
     """
     axis = _as_vectors(axis, 3, "axis")
-    angle = _as_float_array(angle, "angle")
+    angle = as_float_array(angle, "angle")
     a, norm = _unit(axis)
     bad = ~np.isfinite(norm) | (norm == 0.0)
     if np.any(bad):
@@ -584,7 +576,7 @@ def rotation_angle_between(R_a, R_b, *, check: bool = True, tol: float = 1e-6):
     if check:
         R_a, R_b = check_rotation(R_a, tol=tol, what="R_a"), check_rotation(R_b, tol=tol, what="R_b")
     else:
-        R_a, R_b = _as_matrices(R_a, "R_a"), _as_matrices(R_b, "R_b")
+        R_a, R_b = as_rotation_matrices(R_a, "R_a"), as_rotation_matrices(R_b, "R_b")
     M = np.swapaxes(R_a, -1, -2) @ R_b
     skew = np.stack([M[..., 2, 1] - M[..., 1, 2], M[..., 0, 2] - M[..., 2, 0], M[..., 1, 0] - M[..., 0, 1]], axis=-1)
     sin_angle = 0.5 * np.linalg.norm(skew, axis=-1)
@@ -684,7 +676,7 @@ def check_rotation(R, *, tol: float = 1e-6, what: str = "R") -> np.ndarray:
     ...
     manipkit.errors.InvalidRotationError: R is not a rotation matrix: det(R) = -1, expected +1 (is this a reflection?)
     """
-    R = _as_matrices(R, what)
+    R = as_rotation_matrices(R, what)
     with np.errstate(invalid="ignore", over="ignore"):
         finite = np.all(np.isfinite(R), axis=(-2, -1))
         clean = np.where(finite[..., None, None], R, 0.0)
