@@ -133,8 +133,9 @@ def _serve_view(reach_map, robot) -> None:
 
 def run_base_placement(args) -> int:
     """Score floor placements by the targets reached; print the best (text or JSON); draw the heat map."""
-    from manipkit.analysis.placement import base_placement, plot_base_placement, read_targets
+    from manipkit.analysis.placement import base_placement, plot_base_placement
     from manipkit.analysis.reachmap import load
+    from manipkit.inputs.poses import read_targets
 
     if args.plot is not None:
         writable_path(args.plot)

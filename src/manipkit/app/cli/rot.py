@@ -124,7 +124,7 @@ def _values(args):
     from manipkit.dh.files import pi_expression_value
 
     if args.form == "matrix" and len(args.values) == 1 and not is_number(args.values[0]):
-        from manipkit.spatial.compare import read_matrix
+        from manipkit.inputs.matrices import read_matrix
 
         return read_matrix(Path(args.values[0]), rotation=True)
     expected = 9 if args.form == "matrix" else 4 if args.form in ("axis-angle", "quaternion") else 3

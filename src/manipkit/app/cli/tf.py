@@ -117,7 +117,8 @@ def run_tf(args) -> int:
     T = robot.transform(source, target, q)
     status, comparison = EXIT_OK, None
     if args.compare is not None:
-        from manipkit.spatial.compare import compare_transform, read_matrix
+        from manipkit.inputs.matrices import read_matrix
+        from manipkit.spatial.compare import compare_transform
 
         comparison = compare_transform(T, read_matrix(args.compare, rotation=True), tol=args.tol)
         status = EXIT_OK if comparison.agrees else EXIT_MISMATCH

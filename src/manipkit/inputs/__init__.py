@@ -1,0 +1,33 @@
+"""Reading files a user names, safely: regular files only, bounded in size, one-line errors.
+
+- :mod:`manipkit.inputs.files`: :func:`check_input_file` and :func:`read_text`,
+  which every file read on a user's behalf goes through (descriptions, xacro
+  includes, DH tables, ``--q-file`` tables, YAML loaded from xacro), and the
+  size limits.
+- :mod:`manipkit.inputs.matrices`: :func:`read_matrix`, a hand-written 4x4
+  (or 3x3) in the formats people paste.
+- :mod:`manipkit.inputs.poses`: :func:`read_targets`, target poses for base placement.
+
+The input layer sits on :mod:`manipkit.spatial` (a pose read from a file is
+checked as a transform) and below every layer that reads files
+(docs/architecture.md, "Layers"). The names below load their module on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_MODULE_OF = {
+    **dict.fromkeys(("MAX_DESCRIPTION_BYTES", "MAX_MATRIX_BYTES", "MAX_TABLE_BYTES", "check_input_file", "read_text"),
+                    "manipkit.inputs.files"),
+    "read_matrix": "manipkit.inputs.matrices",
+    "read_targets": "manipkit.inputs.poses",
+}
+
+__all__ = sorted(_MODULE_OF)
+
+
+def __getattr__(name: str):
+    if name in _MODULE_OF:
+        return getattr(importlib.import_module(_MODULE_OF[name]), name)
+    raise AttributeError(f"module 'manipkit.inputs' has no attribute {name!r}")
