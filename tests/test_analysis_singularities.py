@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from manipkit.analysis.singularities import (
     KNOWN_ROBOTS,
     SingularFamily,
+    families_at,
     null_space_motion,
     singular_families,
     singular_family_at,
@@ -179,6 +180,26 @@ def test_planar_3r_position_family_is_where_sqrt_det_j_jt_vanishes(planar_3r):
 
 
 # --------------------------------------------------------------------------
+# every family that holds
+
+
+def test_families_at_names_every_family_that_holds(load_robot, iiwa14):
+    # Stanford arm at its default q = (0, 0, 0.1, 0, 0, 0): joint5 = 0 (wrist) and joint2 = 0 (boom along
+    # joint 1's axis) at once; iiwa14 at q = 0: joint4 = 0 (elbow straight) and joint2 = joint6 = 0
+    stanford = load_robot("stanford_arm")
+    assert [f.name for f in families_at(stanford, stanford.q())] == ["wrist", "boom along joint 1's axis"]
+    assert singular_family_at(stanford, stanford.q()).name == "wrist"  # the first of them
+    assert [f.name for f in families_at(iiwa14, iiwa14.q())] == ["elbow straight", "shoulder and wrist axes aligned"]
+    assert families_at(iiwa14, iiwa14.sample_q(1, seed=1)[0]) == []
+
+
+def test_families_at_takes_joint_values_by_name(load_robot):
+    stanford = load_robot("stanford_arm")
+    assert [f.name for f in families_at(stanford, {"joint2": 0.4, "joint3": 0.5})] == ["wrist"]
+    assert singular_family_at(stanford, {"joint2": 0.4, "joint3": 0.5, "joint5": 0.3}) is None
+
+
+# --------------------------------------------------------------------------
 # the null-space motion in words
 
 
@@ -248,3 +269,5 @@ def test_a_joint_vector_of_the_wrong_length_is_refused(planar_2r):
 
     with pytest.raises(JointValueError, match=r"give 2 finite joint values \(joint1, joint2\)"):
         singular_family_at(planar_2r, [0.0, 0.0, 0.0])
+    with pytest.raises(JointValueError, match="robot 'planar_2r' has no joint 'joint3'"):
+        families_at(planar_2r, {"joint3": 0.0})

@@ -6,9 +6,10 @@ the arm can move: a planar 2R moves (vx, vy), a planar 3R (vx, vy, wz), a
 SCARA (vx, vy, vz, wz), the spatial arms all six. :func:`singular_families`
 lists, for the bundled textbook arms, the families of singular configurations
 derived by hand (below), each with a distance over q that is zero on the
-family and a sampler of random members; :func:`singular_family_at` names the
-family a configuration is in; :func:`null_space_motion` says in words what a
-rank-deficient Jacobian cannot do and which joint motion does nothing.
+family and a sampler of random members; :func:`families_at` names every
+family a configuration is in (:func:`singular_family_at` the first);
+:func:`null_space_motion` says in words what a rank-deficient Jacobian cannot
+do and which joint motion does nothing.
 
 Derivations (lengths as in robots/dh/*.yaml; ``s2 = sin q2``, ``c23 = cos(q2 + q3)``):
 
@@ -78,7 +79,7 @@ numeric check (the smallest singular value of the Jacobian).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -96,6 +97,7 @@ __all__ = [
     "KNOWN_ROBOTS",
     "NULL_SPACE_TOL",
     "SingularFamily",
+    "families_at",
     "null_space_motion",
     "singular_families",
     "singular_family_at",
@@ -103,7 +105,7 @@ __all__ = [
 
 ALL_ROWS = (0, 1, 2, 3, 4, 5)
 FAMILY_TOL = 1e-6
-"""Default distance (rad or m) within which :func:`singular_family_at` counts a configuration as in a family."""
+"""Default distance (rad or m) within which :func:`families_at` counts a configuration as in a family."""
 NULL_SPACE_TOL = 1e-6
 """Default singular value below which :func:`null_space_motion` counts a direction as lost."""
 _ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
@@ -487,11 +489,32 @@ def _reachable(fix, lower, upper, tries: int = 16) -> bool:
     return bool(np.any(np.all((Q >= lower - 1e-12) & (Q <= upper + 1e-12), axis=1)))
 
 
-def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFamily | None:
-    """The first of :func:`singular_families` whose distance from ``q`` is at most ``tol``, else None.
+def families_at(robot: Robot, q, tol: float = FAMILY_TOL) -> list[SingularFamily]:
+    """Every one of :func:`singular_families` whose distance from ``q`` is at most ``tol``, in their order.
 
-    ``q`` is one joint vector in ``robot.joint_names`` order (rad, m); ``tol`` is in each family's
-    :attr:`~SingularFamily.unit`. A vector of the wrong length or with a NaN raises JointValueError.
+    ``q`` is one joint vector in ``robot.joint_names`` order (rad, m) or joint
+    name -> value (as :meth:`Robot.q` takes it); ``tol`` is in each family's
+    :attr:`~SingularFamily.unit`. A vector of the wrong length or with a NaN
+    raises JointValueError.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> stanford = manipkit.load("stanford_arm")  # at q = 0: the wrist straight and the boom upright
+    >>> [f.name for f in families_at(stanford, {"joint3": 0.5})]
+    ['wrist', "boom along joint 1's axis"]
+    """
+    if isinstance(q, Mapping):
+        q = robot.q(q)
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(robot.joint_names),) or not np.all(np.isfinite(q)):
+        raise JointValueError(f"q has shape {q.shape}; give {len(robot.joint_names)} finite joint values "
+                              f"({', '.join(robot.joint_names)})")
+    return [family for family in singular_families(robot) if family.member(q, tol)]
+
+
+def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFamily | None:
+    """The first of :func:`families_at` (``q`` and ``tol`` as there), else None.
 
     Examples
     --------
@@ -499,14 +522,8 @@ def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFami
     >>> singular_family_at(manipkit.load("planar_2r"), [0.3, 0.0]).name
     'elbow straight'
     """
-    q = np.asarray(q, dtype=float)
-    if q.shape != (len(robot.joint_names),) or not np.all(np.isfinite(q)):
-        raise JointValueError(f"q has shape {q.shape}; give {len(robot.joint_names)} finite joint values "
-                              f"({', '.join(robot.joint_names)})")
-    for family in singular_families(robot):
-        if family.member(q, tol):
-            return family
-    return None
+    families = families_at(robot, q, tol)
+    return families[0] if families else None
 
 
 # --------------------------------------------------------------------------
