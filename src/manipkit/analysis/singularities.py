@@ -1,4 +1,4 @@
-"""Singular configurations: the known families of the textbook arms, and the null-space motion in words.
+"""Singular configurations: the known families of the textbook arms.
 
 A configuration is singular when the geometric Jacobian (6 x n, rows vx, vy,
 vz, wx, wy, wz, docs/architecture.md "Conventions") loses rank among the rows
@@ -7,9 +7,9 @@ SCARA (vx, vy, vz, wz), the spatial arms all six. :func:`singular_families`
 lists, for the bundled textbook arms, the families of singular configurations
 derived by hand (below), each with a distance over q that is zero on the
 family and a sampler of random members; :func:`families_at` names every
-family a configuration is in (:func:`singular_family_at` the first);
-:func:`null_space_motion` says in words what a rank-deficient Jacobian cannot
-do and which joint motion does nothing.
+family a configuration is in (:func:`singular_family_at` the first).
+:func:`manipkit.analysis.jacobian_report.jacobian_report` decides whether a
+configuration is singular and says what is lost there.
 
 Derivations (lengths as in robots/dh/*.yaml; ``s2 = sin q2``, ``c23 = cos(q2 + q3)``):
 
@@ -95,10 +95,8 @@ __all__ = [
     "ALL_ROWS",
     "FAMILY_TOL",
     "KNOWN_ROBOTS",
-    "NULL_SPACE_TOL",
     "SingularFamily",
     "families_at",
-    "null_space_motion",
     "singular_families",
     "singular_family_at",
 ]
@@ -106,9 +104,6 @@ __all__ = [
 ALL_ROWS = (0, 1, 2, 3, 4, 5)
 FAMILY_TOL = 1e-6
 """Default distance (rad or m) within which :func:`families_at` counts a configuration as in a family."""
-NULL_SPACE_TOL = 1e-6
-"""Default singular value below which :func:`null_space_motion` counts a direction as lost."""
-_ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 
 
 @dataclass(frozen=True)
@@ -524,95 +519,3 @@ def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFami
     """
     families = families_at(robot, q, tol)
     return families[0] if families else None
-
-
-# --------------------------------------------------------------------------
-# the null-space motion in words
-
-
-def null_space_motion(J, joint_names: Sequence[str], tol: float = NULL_SPACE_TOL, *,
-                      row_names: Sequence[str] | None = None) -> str:
-    """What a Jacobian cannot do, and which joint motion does nothing, in words.
-
-    Parameters
-    ----------
-    J : array_like, shape (m, n)
-        A Jacobian (rows vx, vy, vz, wx, wy, wz when m = 6; select the
-        rows a planar arm moves and name them in ``row_names``).
-    joint_names : sequence of str
-        One per column.
-    tol : float
-        Singular values at most ``tol`` count as zero (absolute: m/s or rad/s per unit joint rate).
-    row_names : sequence of str, optional
-        Names of the rows (default vx .. wz for six rows, else r1, r2, ...).
-
-    Raises
-    ------
-    JointValueError
-        ``J`` is not a finite 2-D array with one column per joint name.
-
-    Returns
-    -------
-    str
-        ``"full rank: ..."`` when no direction is lost; otherwise one
-        sentence per finding: joints whose columns are equal or opposite
-        ("joints 4 and 6 turn about the same axis"), joints that do not move
-        the frame, the lost task directions ("the frame cannot move along
-        (0, 0, 1)"), and the joint motions that leave the frame still,
-        named by the joints with large weights.
-
-    Examples
-    --------
-    >>> J = np.array([[0., 0.], [2., 1.], [0, 0], [0, 0], [0, 0], [1., 1.]])  # planar 2R, q2 = 0
-    >>> print(null_space_motion(J[[0, 1]], ["joint1", "joint2"], row_names=["vx", "vy"]))
-    the frame cannot move along (vx, vy) = (1, 0); joint1 and joint2 moving as (-0.447, 0.894) leave the frame still
-    """
-    J = np.asarray(J, dtype=float)
-    if J.ndim != 2 or J.shape[1] != len(joint_names) or not np.all(np.isfinite(J)):
-        raise JointValueError(f"J has shape {J.shape}; give a finite (rows, {len(joint_names)}) Jacobian, one column "
-                              "per joint name")
-    m, n = J.shape
-    names = list(row_names) if row_names is not None else (list(_ROW_NAMES) if m == 6 else [f"r{i + 1}" for i in range(m)])
-    U, s, Vt = np.linalg.svd(J)
-    rank = int(np.sum(s > tol))
-    if rank == min(m, n):
-        return f"full rank: the smallest singular value is {short_text(s[-1], 3)} (above {short_text(tol)})"
-    found = []
-    for a in range(n):
-        if np.linalg.norm(J[:, a]) <= tol:
-            found.append(f"{joint_names[a]} does not move the frame")
-    for a in range(n):
-        for b in range(a + 1, n):
-            ca, cb = J[:, a], J[:, b]
-            if min(np.linalg.norm(ca), np.linalg.norm(cb)) <= tol:
-                continue
-            if min(np.linalg.norm(ca - cb), np.linalg.norm(ca + cb)) <= tol:
-                how = "turn about the same axis" if m == 6 and np.linalg.norm(ca[3:]) > tol else "move the frame the same way"
-                found.append(f"{joint_names[a]} and {joint_names[b]} {how}")
-    for k in range(rank, m):
-        found.append(_lost_direction(U[:, k], names))
-    for k in range(rank, n):
-        found.append(_still_motion(Vt[k], joint_names))
-    return "; ".join(found)
-
-
-def _vector_text(v) -> str:
-    return "(" + ", ".join(short_text(float(x) + 0.0, 3) for x in v) + ")"
-
-
-def _lost_direction(u, names) -> str:
-    u = u * (1 if u[np.argmax(np.abs(u))] > 0 else -1)
-    u = np.where(np.abs(u) < 1e-12, 0.0, u)
-    if len(names) == 6 and np.linalg.norm(u[3:]) < 1e-9:
-        return f"the frame cannot move along {_vector_text(u[:3])}"
-    if len(names) == 6 and np.linalg.norm(u[:3]) < 1e-9:
-        return f"the frame cannot turn about {_vector_text(u[3:])}"
-    shown = [i for i in range(len(u)) if abs(u[i]) > 1e-9] if len(names) == 6 else list(range(len(u)))
-    return f"the frame cannot move along ({', '.join(names[i] for i in shown)}) = {_vector_text(u[shown])}"
-
-
-def _still_motion(v, joint_names) -> str:
-    v = v * (1 if v[np.argmax(np.abs(v))] > 0 else -1)
-    large = [i for i in range(len(v)) if abs(v[i]) >= 0.1 * np.abs(v).max()]
-    who = ", ".join(joint_names[i] for i in large[:-1]) + (" and " if len(large) > 1 else "") + joint_names[large[-1]]
-    return f"{who} moving as {_vector_text(v[large])} leave the frame still"
