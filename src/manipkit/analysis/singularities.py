@@ -78,6 +78,7 @@ numeric check (the smallest singular value of the Jacobian).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -463,17 +464,26 @@ def singular_families(robot: Robot) -> list[SingularFamily]:
     >>> [f.condition for f in singular_families(manipkit.load("planar_2r"))]
     ['joint2 = 0 or 180 deg']
     """
+    return list(_families_of(robot))
+
+
+@functools.lru_cache(maxsize=16)
+def _families_of(robot: Robot) -> tuple[SingularFamily, ...]:
+    """The families of one (immutable) robot, built once: the course arm's take about 13 ms to build, and the
+    viewer's overlay asks for them at every change of a slider."""
     known = _KNOWN.get(robot.name)
     if known is None or not _matches(robot, known[1], known[2]):
-        return []
+        return ()
     lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in robot.joints])
     upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in robot.joints])
+    lower.setflags(write=False)  # shared by every caller
+    upper.setflags(write=False)
     families = []
     for name, description, condition, rows, unit, (distance, fix) in known[0](robot):
         reachable = _reachable(fix, lower, upper)
         families.append(SingularFamily(name, description, condition, tuple(rows), unit, reachable, distance, fix,
                                        lower, upper))
-    return families
+    return tuple(families)
 
 
 def _reachable(fix, lower, upper, tries: int = 16) -> bool:
