@@ -255,6 +255,12 @@ def test_joint_values_by_name(iiwa14):
     assert by_name.q[1] == 0.5 and by_name.singular  # the elbow straight
 
 
+def test_a_chain_without_joints_has_rank_0_and_is_not_singular(planar_2r):
+    report = jacobian_report(planar_2r.chain("ee_link", "ee_link"), [])
+    assert report.jacobian.shape == (6, 0) and report.rank == report.generic_rank == 0
+    assert not report.singular and report.movable_rows == () and report.motions == ()
+
+
 @pytest.mark.parametrize(("options", "message"), [
     ({"length": 0.0}, "length=0.0: give a positive characteristic length"),
     ({"tol": -1.0}, "tol=-1.0: give a tolerance >= 0"),

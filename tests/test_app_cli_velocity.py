@@ -213,6 +213,12 @@ def test_stanford_default_names_the_wrist_and_the_boom():
                         "joint2 = 0 or 180 deg)")
 
 
+def test_a_frame_relative_to_itself_moves_with_no_joint():
+    report = jacobian_json("--robot", "planar_2r", "--base", "ee_link", "--frame", "ee_link")
+    assert report["jacobian"] == [[0.0, 0.0]] * 6 and report["chain_joints"] == []
+    assert report["rank"] == report["generic_rank"] == 0 and report["singular"] is False
+
+
 def test_a_base_below_the_frame_is_one_line_saying_to_swap_them():
     result = run("jacobian", "--robot", "planar_2r", "--base", "ee_link", "--frame", "base_link", status=2)
     assert result.stderr.count("\n") == 1 and "swap them (base='base_link', tip='ee_link')" in result.stderr

@@ -246,7 +246,9 @@ def jacobian_report(chain: Chain, q=None, *, reference: str = "base", length: fl
     if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol >= 0):
         raise ManipkitError(f"tol={tol!r:.40}: give a tolerance >= 0")
     q = chain.q(q)
-    J = chain.jacobian(q, reference=reference)
+    if reference not in ("base", "local"):
+        raise ManipkitError(f"reference={reference!r:.40} is not one of 'base', 'local'")
+    J = chain.jacobian(q, reference=reference) if chain.n else np.zeros((6, 0))  # no joints: nothing moves the tip
     generic, movable = _generic(chain, reference, float(length), float(tol))
     scaled = _scaled(J, length)
     ranks = {name: _rank(scaled[list(rows)], tol) for name, rows in ROW_GROUPS.items()}

@@ -181,7 +181,7 @@ def _jacobian_lines(robot, answer: dict, report, precision: int) -> list[str]:
         f"{short_text(answer['manipulability'])}",
         f"manipulability (Yoshikawa, translation rows): {short_text(answer['manipulability_translation'])}",
         f"condition number (all rows, length {length} m): {'inf' if kappa is None else short_text(kappa)}",
-        f"singular values: {' '.join(short_text(v) for v in answer['singular_values'])}",
+        f"singular values: {' '.join(short_text(v) for v in answer['singular_values']) or 'none'}",
     ]
     return lines + singularity_lines(report)
 
