@@ -485,7 +485,7 @@ def test_ellipsoid_follows_the_joints_and_the_frames(robots):
     assert np.abs(state.ellipsoid_placement()[:3, 3] - robot.transform("base_link", "top_wrist", state.q)[:3, 3]).max() < 1e-12
 
 
-def test_frames_that_are_no_chain_say_so_and_draw_no_ellipsoid(robots):
+def test_frames_that_are_no_chain_or_fixed_together_say_so_and_draw_no_ellipsoid(robots):
     # A below B (ee_link above bicep is the wrong way round): there is no chain A -> B, so no Jacobian report;
     # the readout says which order would do, the scene hides the ellipsoid, the snapshot stays JSON
     state = ViewerState(robots["course_arm"], frames=("ee_link", "bicep"), overlay=Overlay(True))
@@ -496,6 +496,10 @@ def test_frames_that_are_no_chain_say_so_and_draw_no_ellipsoid(robots):
     snapshot = state.snapshot()
     assert snapshot["ellipsoid_text"].startswith("no Jacobian of bicep relative to ee_link: ")
     json.dumps(snapshot, allow_nan=False)
+    state.set_frames("ee_link", "ee_link")  # a chain without joints: nothing moves, nothing to draw
+    assert state.ellipsoid()["error"] == "no joint moves ee_link relative to ee_link"
+    assert state.scene_visibility() == {ELLIPSOID_PATH: False}
+    json.dumps(state.snapshot(), allow_nan=False)
     state.set_frames("bicep", "ee_link")
     assert "error" not in state.ellipsoid() and state.scene_visibility() == {ELLIPSOID_PATH: True}
 

@@ -354,6 +354,8 @@ class ViewerState:
             chain = self.robot.chain(a, b)
         except ChainError as exc:  # A is not above B: no chain, no Jacobian report (the readout says why)
             return {**settings, "error": str(exc)}, None
+        if chain.n == 0:  # B fixed to A: there is no ellipsoid to draw
+            return {**settings, "error": f"no joint moves {b} relative to {a}"}, None
         report = jacobian_report(chain, self._q[chain.columns], reference="base", tol=SINGULAR_TOL)
         J = report.jacobian  # the chain's joints only
         shape = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
@@ -394,8 +396,8 @@ class ViewerState:
 
         Keys: ``frame`` (B), ``base`` (A), ``reference`` ("base"), ``kind``,
         ``axes``. When A is not above B in the link tree there is no chain
-        between them: ``error`` says so (and which order would do), and
-        nothing is drawn. Otherwise: ``manipulability_translation``
+        between them, and when no joint moves B relative to A nothing moves:
+        ``error`` says so (and which order would do), and nothing is drawn. Otherwise: ``manipulability_translation``
         (Yoshikawa's index of the translation rows); ``condition_number`` (of
         the ``axes`` rows, None for infinite); the ranks, ``singular``, the
         singular families and what is lost, exactly as ``manipkit jacobian
