@@ -1,10 +1,12 @@
-"""manipkit.analysis.singularities: the known singular families, and the null-space motion in words.
+"""manipkit.analysis.singularities: the known singular families.
 
 Independent sources: Pinocchio's ``computeFrameJacobian`` (LOCAL_WORLD_ALIGNED;
 the bundled robots' base_link is the root, so its axes are the base's) for
 the smallest singular value, and the symbolic determinants of the bundled DH
 tables (``manipkit.dh.symbolic_jacobian``), whose factors must be the families'
-conditions. The hand derivations are in the module's docstring.
+conditions. The hand derivations are in the module's docstring. What is
+lost at a singular configuration (the null motions, the lost directions, the
+joints on one axis) is tested in tests/test_analysis_jacobian_report.py.
 """
 
 import math
@@ -20,7 +22,7 @@ from hypothesis import strategies as st
 from manipkit.analysis.singularities import (
     KNOWN_ROBOTS,
     SingularFamily,
-    null_space_motion,
+    families_at,
     singular_families,
     singular_family_at,
 )
@@ -179,43 +181,23 @@ def test_planar_3r_position_family_is_where_sqrt_det_j_jt_vanishes(planar_3r):
 
 
 # --------------------------------------------------------------------------
-# the null-space motion in words
+# every family that holds
 
 
-def test_null_space_motion_names_the_wrist_joints_on_one_axis(load_robot):
-    robot = load_robot("stanford_arm")
-    text = null_space_motion(pinocchio_jacobian(robot, robot.q(joint2=0.4, joint3=0.5, joint5=0.0)), robot.joint_names)
-    assert "joint4 and joint6 turn about the same axis" in text
-    # equal columns: turning joint 4 forward and joint 6 back by as much leaves the tool still
-    assert "joint4 and joint6 moving as (0.707, -0.707) leave the frame still" in text
+def test_families_at_names_every_family_that_holds(load_robot, iiwa14):
+    # Stanford arm at its default q = (0, 0, 0.1, 0, 0, 0): joint5 = 0 (wrist) and joint2 = 0 (boom along
+    # joint 1's axis) at once; iiwa14 at q = 0: joint4 = 0 (elbow straight) and joint2 = joint6 = 0
+    stanford = load_robot("stanford_arm")
+    assert [f.name for f in families_at(stanford, stanford.q())] == ["wrist", "boom along joint 1's axis"]
+    assert singular_family_at(stanford, stanford.q()).name == "wrist"  # the first of them
+    assert [f.name for f in families_at(iiwa14, iiwa14.q())] == ["elbow straight", "shoulder and wrist axes aligned"]
+    assert families_at(iiwa14, iiwa14.sample_q(1, seed=1)[0]) == []
 
 
-def test_null_space_motion_of_the_straight_2r_is_along_the_arm(planar_2r):
-    # q = (0.5, 0): both columns of J_v are perpendicular to the arm direction (c1, s1), so that is lost;
-    # J_v = [[-2 s1, -s1], [2 c1, c1]]: joint rates (1, -2)/sqrt(5) leave the tip still
-    J = pinocchio_jacobian(planar_2r, [0.5, 0.0])[[0, 1]]
-    text = null_space_motion(J, planar_2r.joint_names, row_names=["vx", "vy"])
-    c, s = math.cos(0.5), math.sin(0.5)
-    assert text == (f"the frame cannot move along (vx, vy) = ({c:.3f}, {s:.3f}); "
-                    "joint1 and joint2 moving as (-0.447, 0.894) leave the frame still")
-
-
-def test_null_space_motion_of_the_iiwa_with_two_aligned_pairs(iiwa14):
-    q = iiwa14.q(iiwa_joint_2=0.0, iiwa_joint_4=0.8, iiwa_joint_6=0.0, iiwa_joint_3=0.3)
-    text = null_space_motion(pinocchio_jacobian(iiwa14, q), iiwa14.joint_names)
-    assert "iiwa_joint_1 and iiwa_joint_3 turn about the same axis" in text
-    assert "iiwa_joint_5 and iiwa_joint_7 turn about the same axis" in text
-
-
-def test_null_space_motion_of_a_full_rank_jacobian_says_so(iiwa14):
-    text = null_space_motion(pinocchio_jacobian(iiwa14, iiwa14.sample_q(1, seed=1)[0]), iiwa14.joint_names)
-    assert text.startswith("full rank: the smallest singular value is ")
-
-
-def test_null_space_motion_names_a_joint_that_does_not_move_the_frame():
-    J = np.zeros((6, 2))
-    J[0, 0] = 1.0
-    assert "b does not move the frame" in null_space_motion(J, ["a", "b"])
+def test_families_at_takes_joint_values_by_name(load_robot):
+    stanford = load_robot("stanford_arm")
+    assert [f.name for f in families_at(stanford, {"joint2": 0.4, "joint3": 0.5})] == ["wrist"]
+    assert singular_family_at(stanford, {"joint2": 0.4, "joint3": 0.5, "joint5": 0.3}) is None
 
 
 # --------------------------------------------------------------------------
@@ -236,15 +218,10 @@ def test_members_are_at_distance_zero_and_full_turns_change_nothing(load_robot, 
     assert family.distance(np.stack([q, turned])).shape == (2,)
 
 
-def test_a_jacobian_whose_columns_do_not_match_the_names_is_refused():
-    from manipkit.errors import JointValueError
-
-    with pytest.raises(JointValueError, match=r"J has shape \(6, 3\); give a finite \(rows, 2\) Jacobian"):
-        null_space_motion(np.zeros((6, 3)), ["a", "b"])
-
-
 def test_a_joint_vector_of_the_wrong_length_is_refused(planar_2r):
     from manipkit.errors import JointValueError
 
     with pytest.raises(JointValueError, match=r"give 2 finite joint values \(joint1, joint2\)"):
         singular_family_at(planar_2r, [0.0, 0.0, 0.0])
+    with pytest.raises(JointValueError, match="robot 'planar_2r' has no joint 'joint3'"):
+        families_at(planar_2r, {"joint3": 0.0})

@@ -26,8 +26,9 @@ def jacobian_json(*args):
 def test_json_has_the_contract_keys_and_pinocchios_numbers(iiwa14):
     q = iiwa14.sample_q(1, seed=2)[0]
     report = jacobian_json("--robot", "iiwa14", "--q", *q)
-    assert {"jacobian", "joints", "reference", "manipulability", "length", "manipulability_translation",
-            "condition_number", "singular_values", "singular", "singular_family"} <= set(report)
+    assert {"jacobian", "joints", "chain_joints", "reference", "manipulability", "length", "manipulability_translation",
+            "condition_number", "singular_values", "singular", "singular_families", "lost_directions",
+            "lost_motions", "same_axis", "movable_rows"} <= set(report)
     assert report["joints"] == list(iiwa14.joint_names) and report["reference"] == "base"
     config = iiwa14.pinocchio_configuration(q)
     data = iiwa14.model.createData()
@@ -41,7 +42,7 @@ def test_json_has_the_contract_keys_and_pinocchios_numbers(iiwa14):
     np.testing.assert_allclose(report["manipulability_translation"],
                                np.sqrt(np.linalg.det(J[:3] @ J[:3].T)), rtol=1e-10)
     np.testing.assert_allclose(report["condition_number"], s[0] / s[-1], rtol=1e-12)
-    assert report["singular"] is False and report["singular_family"] is None
+    assert report["singular"] is False and report["singular_families"] == [] and report["lost_motions"] == []
 
 
 def test_local_reference_and_length(iiwa14):
@@ -66,6 +67,7 @@ def test_planar_2r_text_by_hand():
     assert rows["vx"] == [-1.0, -1.0] and rows["vy"] == [1.0, 0.0] and rows["wz"] == [1.0, 1.0]
     assert "manipulability (Yoshikawa, translation rows): 1\n" in out
     assert "LOCAL_WORLD_ALIGNED" in out and "singular: no" in out
+    assert "rank: 2 of 2 (all rows), 2 of 2 (translation rows), 1 of 1 (rotation rows)" in out
 
 
 @pytest.mark.parametrize(("robot", "q", "singular"), [
@@ -79,6 +81,9 @@ def test_singular_configurations_are_flagged(robot, q, singular):
     assert report["singular"] is singular
     if singular:
         assert report["rank"] < report["generic_rank"] or report["rank_translation"] < report["generic_rank_translation"]
+        assert report["singular_families"] and report["lost_motions"]
+    else:
+        assert report["singular_families"] == [] and report["lost_motions"] == [] and report["lost_directions"] == []
 
 
 def test_non_root_base_and_frame_alias(iiwa14):
@@ -130,20 +135,90 @@ def test_bad_input_is_one_line_and_exit_2(args, fragment):
 
 def test_a_singular_configuration_names_its_family_and_the_lost_motion():
     # Stanford arm with the wrist straight (joint5 = 0): joints 4 and 6 turn about one axis (hand derivation in
-    # manipkit.analysis.singularities); the boom is kept off joint 1's axis (joint2 = 0.7) and out (joint3 = 0.5)
+    # manipkit.analysis.singularities); the boom is kept off joint 1's axis (joint2 = 0.7) and out (joint3 = 0.5).
+    # Equal columns: turning joint 4 forward and joint 6 back by as much, (1, -1)/sqrt2, leaves the tool still.
     out = json.loads(run("jacobian", "--robot", "stanford_arm", "--q", "joint2=0.7", "joint3=0.5", "joint5=0",
                          "--format", "json").stdout)
     assert out["singular"] is True
-    assert out["singular_family"] == "wrist: joint5 = 0 or 180 deg"
-    assert "joint4 and joint6 turn about the same axis" in out["null_space"]
+    assert out["singular_families"] == [{"name": "wrist", "condition": "joint5 = 0 or 180 deg"}]
+    assert out["same_axis"] == [["joint4", "joint6"]]
+    [motion] = out["lost_motions"]
+    assert motion["still"] == "frame"
+    rates = {name: rate for name, rate in motion["joint_rates"].items() if rate}
+    assert rates == {"joint4": pytest.approx(0.5**0.5, abs=1e-12), "joint6": pytest.approx(-(0.5**0.5), abs=1e-12)}
     regular = json.loads(run("jacobian", "--robot", "stanford_arm", "--q", "joint2=0.7", "joint3=0.5", "joint5=0.4",
                              "--format", "json").stdout)
-    assert regular["singular"] is False and regular["singular_family"] is None and regular["null_space"] is None
+    assert regular["singular"] is False and regular["singular_families"] == [] and regular["lost_motions"] == []
 
 
 def test_a_singular_arm_on_a_wheeled_base_names_the_arm_joints_only():
     # mobile_manipulator at q = 0: its course arm stands straight up and loses rank (translation rank 2 of 3); the wheels'
     # columns are zero and must not enter the indices or the words
     out = json.loads(run("jacobian", "--robot", "mobile_manipulator", "--length", "0.3", "--format", "json").stdout)
-    assert out["singular"] is True and len(out["jacobian"][0]) == 7
-    assert "wheel" not in out["null_space"]
+    assert out["singular"] is True and len(out["jacobian"][0]) == 7 and len(out["chain_joints"]) == 5
+    assert (out["rank_translation"], out["generic_rank_translation"]) == (2, 3)
+    assert not any("wheel" in joint for joint in out["chain_joints"])
+    assert all(set(motion["joint_rates"]) == set(out["chain_joints"]) for motion in out["lost_motions"])
+    text = run("jacobian", "--robot", "mobile_manipulator", "--length", "0.3").stdout
+    assert "wheel" not in text.split("singular: yes")[1]
+
+
+def singular_lines(out: str) -> list[str]:
+    """The lines from ``singular:`` on."""
+    lines = out.splitlines()
+    return lines[next(i for i, line in enumerate(lines) if line.startswith("singular:")):]
+
+
+def test_iiwa14_upright_says_what_each_motion_keeps_still():
+    # q = 0 (hand derivation in tests/test_analysis_jacobian_report.py): joints 1, 3, 5, 7 turn about the z axis
+    # through the flange origin, so each alone keeps the origin still and spins the flange at 1 rad/s; pairs of
+    # them turning opposite ways leave the whole flange still. Both families that hold are named.
+    lines = singular_lines(run("jacobian", "--robot", "iiwa14").stdout)
+    assert lines[0] == ("singular: yes (families: elbow straight: iiwa_joint_4 = 0 or 180 deg; shoulder and wrist axes "
+                        "aligned: iiwa_joint_2 = 0 or 180 deg and iiwa_joint_6 = 0 or 180 deg)")
+    assert lines[1:5] == [
+        "  iiwa_joint_1, iiwa_joint_3, iiwa_joint_5 and iiwa_joint_7 turn about the same axis",
+        "  the origin cannot move along (0, 1, 0)",
+        "  the origin cannot move along (0, 0, 1)",
+        "  the frame cannot turn about (1, 0, 0)",
+    ]
+    assert "  iiwa_joint_1 and iiwa_joint_7 moving as (0.707, -0.707) leave the frame still" in lines
+    assert "  iiwa_joint_1 alone keeps the origin still and turns the frame at 1 rad/s about (0, 0, 1)" in lines
+    assert not any("iiwa_joint_7 alone" in line or "does not move" in line for line in lines)
+
+
+def test_scara_tool_roll_keeps_the_origin_still():
+    # joint4 turns about -z through the tool origin: alone it keeps the origin still and turns the tool
+    lines = singular_lines(run("jacobian", "--robot", "scara", "--q", "0.3", "0", "0.1", "0").stdout)
+    assert "  joint4 alone keeps the origin still and turns the frame at 1 rad/s about (0, 0, -1)" in lines
+    assert not any("does not move" in line for line in lines)
+
+
+def test_planar_2r_straight_turns_the_tool_and_never_loses_z():
+    # q = (0.3, 0): (-1, 2)/sqrt5 keeps the origin still and turns the tool at 1/sqrt5 = 0.447 rad/s; the origin
+    # cannot move along the arm, (cos 0.3, sin 0.3, 0); vz is 0 at every configuration of a planar arm
+    out = run("jacobian", "--robot", "planar_2r", "--q", "0.3", "0").stdout
+    assert "rows the arm moves: vx, vy, wz (vz, wx, wy are 0 at every configuration, so never lost)" in out
+    assert singular_lines(out) == [
+        "singular: yes (family: elbow straight: joint2 = 0 or 180 deg)",
+        "  the origin cannot move along (0.955, 0.296, 0)",
+        "  joint1 and joint2 moving as (-0.447, 0.894) keep the origin still and turn the frame at 0.447 rad/s "
+        "about (0, 0, 1)",
+    ]
+
+
+def test_stanford_default_names_the_wrist_and_the_boom():
+    lines = singular_lines(run("jacobian", "--robot", "stanford_arm").stdout)
+    assert lines[0] == ("singular: yes (families: wrist: joint5 = 0 or 180 deg; boom along joint 1's axis: "
+                        "joint2 = 0 or 180 deg)")
+
+
+def test_a_frame_relative_to_itself_moves_with_no_joint():
+    report = jacobian_json("--robot", "planar_2r", "--base", "ee_link", "--frame", "ee_link")
+    assert report["jacobian"] == [[0.0, 0.0]] * 6 and report["chain_joints"] == []
+    assert report["rank"] == report["generic_rank"] == 0 and report["singular"] is False
+
+
+def test_a_base_below_the_frame_is_one_line_saying_to_swap_them():
+    result = run("jacobian", "--robot", "planar_2r", "--base", "ee_link", "--frame", "base_link", status=2)
+    assert result.stderr.count("\n") == 1 and "swap them (base='base_link', tip='ee_link')" in result.stderr

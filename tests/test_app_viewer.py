@@ -6,7 +6,8 @@ values, the readout also against the ``tf-between`` command run as a
 subprocess; the static export decoded back from meshcat's msgpack commands.
 The manipulability overlay against ``velocity_ellipsoid``/``force_ellipsoid``
 of ``robot.jacobian`` computed here, the planar 2R's singular values derived
-by hand, and velocities from central differences of ``robot.transform``.
+by hand, and velocities from central differences of ``robot.transform``; its
+singularity lines are ``manipkit jacobian``'s (tests/test_app_jacobian_text.py).
 The browser half is in test_viewer_browser.py.
 """
 
@@ -405,7 +406,8 @@ def test_planar_2r_ellipsoid_by_hand(planar_2r, q2):
     assert np.abs(np.array(report["radii"]) - by_hand).max() < 1e-12
     assert report["manipulability_translation"] == pytest.approx(product, rel=1e-12)
     assert report["condition_number"] == pytest.approx(by_hand[0] / by_hand[1], rel=1e-12)
-    assert (report["rank"], report["generic_rank"], report["singular"]) == (2, 2, False)
+    assert (report["rank_translation"], report["generic_rank_translation"], report["singular"]) == (2, 2, False)
+    assert (report["rank"], report["generic_rank"]) == (2, 2)
     # the radius 0 (no motion along z) is drawn as a thin disc: 1e-3 of the robot's size, never 0
     T = state.ellipsoid_placement()
     assert np.linalg.norm(T[:3, 2]) == pytest.approx(1e-3 * state.size, rel=1e-12)
@@ -418,8 +420,14 @@ def test_ellipsoid_at_a_singularity_reads_inf_and_caps_the_force_ellipsoid(plana
     # sigma_2 is 0 up to rounding: the condition number is huge (or inf), the rank of the translation rows 1, not 2
     assert report["manipulability_translation"] < 1e-15
     assert report["condition_number"] is None or report["condition_number"] > 1e12
-    assert (report["rank"], report["generic_rank"], report["singular"]) == (1, 2, True)
-    assert "rank (translation rows): 1 of 2 at a generic configuration: singular" in state.snapshot()["ellipsoid_text"]
+    assert (report["rank_translation"], report["generic_rank_translation"], report["singular"]) == (1, 2, True)
+    assert (report["rank"], report["generic_rank"]) == (2, 2)  # all rows: it can still turn
+    text = state.snapshot()["ellipsoid_text"]
+    assert "rank: 2 of 2 (all rows), 1 of 2 (translation rows), 1 of 1 (rotation rows)" in text
+    assert "singular: yes (family: elbow straight: joint2 = 0 or 180 deg)" in text
+    state.set_overlay(axes="rot")  # the rows drawn do not change the decision: the rotation rows keep rank 1 of 1
+    assert state.ellipsoid()["singular"] is True
+    state.set_overlay(axes="trans")
     state.set_overlay(kind="force")
     report = state.ellipsoid()
     assert report["radii"][2] is None and (report["radii"][1] is None or report["radii"][1] > 1e12)
@@ -475,6 +483,25 @@ def test_ellipsoid_follows_the_joints_and_the_frames(robots):
     assert (report["frame"], report["base"]) == ("top_wrist", "bicep")
     assert np.abs(np.array(report["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
     assert np.abs(state.ellipsoid_placement()[:3, 3] - robot.transform("base_link", "top_wrist", state.q)[:3, 3]).max() < 1e-12
+
+
+def test_frames_that_are_no_chain_or_fixed_together_say_so_and_draw_no_ellipsoid(robots):
+    # A below B (ee_link above bicep is the wrong way round): there is no chain A -> B, so no Jacobian report;
+    # the readout says which order would do, the scene hides the ellipsoid, the snapshot stays JSON
+    state = ViewerState(robots["course_arm"], frames=("ee_link", "bicep"), overlay=Overlay(True))
+    report = state.ellipsoid()
+    assert "swap them (base='bicep', tip='ee_link')" in report["error"]
+    assert state.ellipsoid_placement() is None
+    assert ELLIPSOID_PATH not in state.scene_placements() and state.scene_visibility() == {ELLIPSOID_PATH: False}
+    snapshot = state.snapshot()
+    assert snapshot["ellipsoid_text"].startswith("no Jacobian of bicep relative to ee_link: ")
+    json.dumps(snapshot, allow_nan=False)
+    state.set_frames("ee_link", "ee_link")  # a chain without joints: nothing moves, nothing to draw
+    assert state.ellipsoid()["error"] == "no joint moves ee_link relative to ee_link"
+    assert state.scene_visibility() == {ELLIPSOID_PATH: False}
+    json.dumps(state.snapshot(), allow_nan=False)
+    state.set_frames("bicep", "ee_link")
+    assert "error" not in state.ellipsoid() and state.scene_visibility() == {ELLIPSOID_PATH: True}
 
 
 @pytest.mark.parametrize("change, message", [

@@ -1,4 +1,4 @@
-"""Singular configurations: the known families of the textbook arms, and the null-space motion in words.
+"""Singular configurations: the known families of the textbook arms.
 
 A configuration is singular when the geometric Jacobian (6 x n, rows vx, vy,
 vz, wx, wy, wz, docs/architecture.md "Conventions") loses rank among the rows
@@ -6,9 +6,10 @@ the arm can move: a planar 2R moves (vx, vy), a planar 3R (vx, vy, wz), a
 SCARA (vx, vy, vz, wz), the spatial arms all six. :func:`singular_families`
 lists, for the bundled textbook arms, the families of singular configurations
 derived by hand (below), each with a distance over q that is zero on the
-family and a sampler of random members; :func:`singular_family_at` names the
-family a configuration is in; :func:`null_space_motion` says in words what a
-rank-deficient Jacobian cannot do and which joint motion does nothing.
+family and a sampler of random members; :func:`families_at` names every
+family a configuration is in (:func:`singular_family_at` the first).
+:func:`manipkit.analysis.jacobian_report.jacobian_report` decides whether a
+configuration is singular and says what is lost there.
 
 Derivations (lengths as in robots/dh/*.yaml; ``s2 = sin q2``, ``c23 = cos(q2 + q3)``):
 
@@ -77,8 +78,9 @@ numeric check (the smallest singular value of the Jacobian).
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -94,19 +96,15 @@ __all__ = [
     "ALL_ROWS",
     "FAMILY_TOL",
     "KNOWN_ROBOTS",
-    "NULL_SPACE_TOL",
     "SingularFamily",
-    "null_space_motion",
+    "families_at",
     "singular_families",
     "singular_family_at",
 ]
 
 ALL_ROWS = (0, 1, 2, 3, 4, 5)
 FAMILY_TOL = 1e-6
-"""Default distance (rad or m) within which :func:`singular_family_at` counts a configuration as in a family."""
-NULL_SPACE_TOL = 1e-6
-"""Default singular value below which :func:`null_space_motion` counts a direction as lost."""
-_ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
+"""Default distance (rad or m) within which :func:`families_at` counts a configuration as in a family."""
 
 
 @dataclass(frozen=True)
@@ -466,17 +464,26 @@ def singular_families(robot: Robot) -> list[SingularFamily]:
     >>> [f.condition for f in singular_families(manipkit.load("planar_2r"))]
     ['joint2 = 0 or 180 deg']
     """
+    return list(_families_of(robot))
+
+
+@functools.lru_cache(maxsize=16)
+def _families_of(robot: Robot) -> tuple[SingularFamily, ...]:
+    """The families of one (immutable) robot, built once: the course arm's take about 13 ms to build, and the
+    viewer's overlay asks for them at every change of a slider."""
     known = _KNOWN.get(robot.name)
     if known is None or not _matches(robot, known[1], known[2]):
-        return []
+        return ()
     lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in robot.joints])
     upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in robot.joints])
+    lower.setflags(write=False)  # shared by every caller
+    upper.setflags(write=False)
     families = []
     for name, description, condition, rows, unit, (distance, fix) in known[0](robot):
         reachable = _reachable(fix, lower, upper)
         families.append(SingularFamily(name, description, condition, tuple(rows), unit, reachable, distance, fix,
                                        lower, upper))
-    return families
+    return tuple(families)
 
 
 def _reachable(fix, lower, upper, tries: int = 16) -> bool:
@@ -487,11 +494,32 @@ def _reachable(fix, lower, upper, tries: int = 16) -> bool:
     return bool(np.any(np.all((Q >= lower - 1e-12) & (Q <= upper + 1e-12), axis=1)))
 
 
-def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFamily | None:
-    """The first of :func:`singular_families` whose distance from ``q`` is at most ``tol``, else None.
+def families_at(robot: Robot, q, tol: float = FAMILY_TOL) -> list[SingularFamily]:
+    """Every one of :func:`singular_families` whose distance from ``q`` is at most ``tol``, in their order.
 
-    ``q`` is one joint vector in ``robot.joint_names`` order (rad, m); ``tol`` is in each family's
-    :attr:`~SingularFamily.unit`. A vector of the wrong length or with a NaN raises JointValueError.
+    ``q`` is one joint vector in ``robot.joint_names`` order (rad, m) or joint
+    name -> value (as :meth:`Robot.q` takes it); ``tol`` is in each family's
+    :attr:`~SingularFamily.unit`. A vector of the wrong length or with a NaN
+    raises JointValueError.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> stanford = manipkit.load("stanford_arm")  # at q = 0: the wrist straight and the boom upright
+    >>> [f.name for f in families_at(stanford, {"joint3": 0.5})]
+    ['wrist', "boom along joint 1's axis"]
+    """
+    if isinstance(q, Mapping):
+        q = robot.q(q)
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(robot.joint_names),) or not np.all(np.isfinite(q)):
+        raise JointValueError(f"q has shape {q.shape}; give {len(robot.joint_names)} finite joint values "
+                              f"({', '.join(robot.joint_names)})")
+    return [family for family in singular_families(robot) if family.member(q, tol)]
+
+
+def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFamily | None:
+    """The first of :func:`families_at` (``q`` and ``tol`` as there), else None.
 
     Examples
     --------
@@ -499,103 +527,5 @@ def singular_family_at(robot: Robot, q, tol: float = FAMILY_TOL) -> SingularFami
     >>> singular_family_at(manipkit.load("planar_2r"), [0.3, 0.0]).name
     'elbow straight'
     """
-    q = np.asarray(q, dtype=float)
-    if q.shape != (len(robot.joint_names),) or not np.all(np.isfinite(q)):
-        raise JointValueError(f"q has shape {q.shape}; give {len(robot.joint_names)} finite joint values "
-                              f"({', '.join(robot.joint_names)})")
-    for family in singular_families(robot):
-        if family.member(q, tol):
-            return family
-    return None
-
-
-# --------------------------------------------------------------------------
-# the null-space motion in words
-
-
-def null_space_motion(J, joint_names: Sequence[str], tol: float = NULL_SPACE_TOL, *,
-                      row_names: Sequence[str] | None = None) -> str:
-    """What a Jacobian cannot do, and which joint motion does nothing, in words.
-
-    Parameters
-    ----------
-    J : array_like, shape (m, n)
-        A Jacobian (rows vx, vy, vz, wx, wy, wz when m = 6; select the
-        rows a planar arm moves and name them in ``row_names``).
-    joint_names : sequence of str
-        One per column.
-    tol : float
-        Singular values at most ``tol`` count as zero (absolute: m/s or rad/s per unit joint rate).
-    row_names : sequence of str, optional
-        Names of the rows (default vx .. wz for six rows, else r1, r2, ...).
-
-    Raises
-    ------
-    JointValueError
-        ``J`` is not a finite 2-D array with one column per joint name.
-
-    Returns
-    -------
-    str
-        ``"full rank: ..."`` when no direction is lost; otherwise one
-        sentence per finding: joints whose columns are equal or opposite
-        ("joints 4 and 6 turn about the same axis"), joints that do not move
-        the frame, the lost task directions ("the frame cannot move along
-        (0, 0, 1)"), and the joint motions that leave the frame still,
-        named by the joints with large weights.
-
-    Examples
-    --------
-    >>> J = np.array([[0., 0.], [2., 1.], [0, 0], [0, 0], [0, 0], [1., 1.]])  # planar 2R, q2 = 0
-    >>> print(null_space_motion(J[[0, 1]], ["joint1", "joint2"], row_names=["vx", "vy"]))
-    the frame cannot move along (vx, vy) = (1, 0); joint1 and joint2 moving as (-0.447, 0.894) leave the frame still
-    """
-    J = np.asarray(J, dtype=float)
-    if J.ndim != 2 or J.shape[1] != len(joint_names) or not np.all(np.isfinite(J)):
-        raise JointValueError(f"J has shape {J.shape}; give a finite (rows, {len(joint_names)}) Jacobian, one column "
-                              "per joint name")
-    m, n = J.shape
-    names = list(row_names) if row_names is not None else (list(_ROW_NAMES) if m == 6 else [f"r{i + 1}" for i in range(m)])
-    U, s, Vt = np.linalg.svd(J)
-    rank = int(np.sum(s > tol))
-    if rank == min(m, n):
-        return f"full rank: the smallest singular value is {short_text(s[-1], 3)} (above {short_text(tol)})"
-    found = []
-    for a in range(n):
-        if np.linalg.norm(J[:, a]) <= tol:
-            found.append(f"{joint_names[a]} does not move the frame")
-    for a in range(n):
-        for b in range(a + 1, n):
-            ca, cb = J[:, a], J[:, b]
-            if min(np.linalg.norm(ca), np.linalg.norm(cb)) <= tol:
-                continue
-            if min(np.linalg.norm(ca - cb), np.linalg.norm(ca + cb)) <= tol:
-                how = "turn about the same axis" if m == 6 and np.linalg.norm(ca[3:]) > tol else "move the frame the same way"
-                found.append(f"{joint_names[a]} and {joint_names[b]} {how}")
-    for k in range(rank, m):
-        found.append(_lost_direction(U[:, k], names))
-    for k in range(rank, n):
-        found.append(_still_motion(Vt[k], joint_names))
-    return "; ".join(found)
-
-
-def _vector_text(v) -> str:
-    return "(" + ", ".join(short_text(float(x) + 0.0, 3) for x in v) + ")"
-
-
-def _lost_direction(u, names) -> str:
-    u = u * (1 if u[np.argmax(np.abs(u))] > 0 else -1)
-    u = np.where(np.abs(u) < 1e-12, 0.0, u)
-    if len(names) == 6 and np.linalg.norm(u[3:]) < 1e-9:
-        return f"the frame cannot move along {_vector_text(u[:3])}"
-    if len(names) == 6 and np.linalg.norm(u[:3]) < 1e-9:
-        return f"the frame cannot turn about {_vector_text(u[3:])}"
-    shown = [i for i in range(len(u)) if abs(u[i]) > 1e-9] if len(names) == 6 else list(range(len(u)))
-    return f"the frame cannot move along ({', '.join(names[i] for i in shown)}) = {_vector_text(u[shown])}"
-
-
-def _still_motion(v, joint_names) -> str:
-    v = v * (1 if v[np.argmax(np.abs(v))] > 0 else -1)
-    large = [i for i in range(len(v)) if abs(v[i]) >= 0.1 * np.abs(v).max()]
-    who = ", ".join(joint_names[i] for i in large[:-1]) + (" and " if len(large) > 1 else "") + joint_names[large[-1]]
-    return f"{who} moving as {_vector_text(v[large])} leave the frame still"
+    families = families_at(robot, q, tol)
+    return families[0] if families else None

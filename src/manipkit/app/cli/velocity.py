@@ -1,8 +1,9 @@
 """``manipkit jacobian`` (the Jacobian at one configuration, with its indices) and ``manipkit dexterity`` (GCI).
 
-The numbers come from :mod:`manipkit.kinematics.jacobian`,
-:mod:`manipkit.analysis.manipulability` and :mod:`manipkit.analysis.dexterity`
-(docs/architecture.md): rows ``vx vy vz wx wy wz`` (linear velocity of the
+The numbers come from :func:`manipkit.analysis.jacobian_report.jacobian_report`
+(the chain's Jacobian, its indices, ranks, whether it is singular, the
+families that hold and what is lost, worded by :mod:`manipkit.app.jacobian_text`)
+and :mod:`manipkit.analysis.dexterity` (docs/architecture.md): rows ``vx vy vz wx wy wz`` (linear velocity of the
 frame's origin, m/s, then angular velocity, rad/s), columns by joint name.
 Indices that combine linear and angular rows multiply the angular ones by a
 characteristic length (``--length``, 1 m unless given; always printed).
@@ -26,7 +27,7 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import number_text, short_text
 
-__all__ = ["jacobian_report", "parse_axes", "register", "run_dexterity", "run_jacobian"]
+__all__ = ["jacobian_json", "parse_axes", "register", "run_dexterity", "run_jacobian"]
 
 ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 REFERENCE_NAMES = {
@@ -96,108 +97,93 @@ def _finite_or_none(value: float):
     return float(value) if math.isfinite(value) else None
 
 
-def jacobian_report(robot, q, *, frame: str, base: str, reference: str, length: float, singular_tol: float) -> dict:
-    """The answer of ``manipkit jacobian`` as a JSON-ready dict (keys of the command-line contract)."""
+def jacobian_json(robot, q, report) -> dict:
+    """The answer of ``manipkit jacobian`` as a JSON-ready dict (keys of the command-line contract).
+
+    ``report`` is :func:`manipkit.analysis.jacobian_report.jacobian_report` of
+    ``robot.chain(base, frame)`` at ``q`` (a whole-robot vector). The matrix
+    has one column per robot joint (``joints``; those off the chain are 0),
+    the indices, ranks and what is lost count the chain's joints only
+    (``chain_joints``); the singularity keys are
+    :func:`manipkit.app.jacobian_text.singularity_data`.
+    """
     import numpy as np
 
-    from manipkit.analysis.dexterity import generic_rank, rank
-    from manipkit.analysis.manipulability import condition_number, manipulability, singular_values
-    from manipkit.analysis.singularities import null_space_motion, singular_family_at
-    from manipkit.kinematics.jacobian import jacobian, jacobian_columns
+    from manipkit.app.jacobian_text import singularity_data
 
-    J_all = jacobian(robot, q, frame, base, reference=reference)
-    columns = jacobian_columns(robot, frame, base)
-    J = J_all[:, columns]  # the indices count the chain's joints only (not wheels)
-    s = singular_values(J, "all", length)
-    ranks = {axes: rank(J, axes, length, tol=singular_tol) for axes in ("all", "trans")}
-    generic = {axes: generic_rank(robot, frame, base, axes, length, tol=singular_tol) for axes in ("all", "trans")}
-    report = {
+    chain = report.chain
+    J_robot = np.zeros((6, len(robot.joint_names)))
+    J_robot[:, chain.columns] = report.jacobian  # joints that do not move the frame relative to the base: 0
+    return {
         "robot": robot.name,
-        "frame": frame,
-        "base": base,
+        "frame": chain.tip,
+        "base": chain.base,
         "q": robot.as_dict(q),
-        "reference": reference,
+        "reference": report.reference,
         "rows": list(ROW_NAMES),
         "joints": list(robot.joint_names),
-        "jacobian": J_all.tolist(),
-        "length": length,
-        "manipulability": manipulability(J, "yoshikawa", "all", length),
-        "manipulability_translation": manipulability(J, "yoshikawa", "trans"),
-        "condition_number": _finite_or_none(float(condition_number(J, "all", length))),
-        "singular_values": s.tolist(),
-        "rank": ranks["all"],
-        "generic_rank": generic["all"],
-        "rank_translation": ranks["trans"],
-        "generic_rank_translation": generic["trans"],
-        "singular": any(ranks[axes] < generic[axes] for axes in ranks),
-        "singular_family": None,
-        "null_space": None,
+        "chain_joints": list(chain.joint_names),
+        "jacobian": J_robot.tolist(),
+        "length": report.length,
+        "manipulability": report.manipulability,
+        "manipulability_translation": report.manipulability_translation,
+        "condition_number": _finite_or_none(report.condition_number),
+        "singular_values": report.singular_values.tolist(),
+        **singularity_data(report),
     }
-    # The families are those of the arm's ee_link in its base_link (analysis.singularities).
-    if robot.frame(frame) == robot.frame("ee_link") and robot.frame(base) == robot.frame("base_link"):
-        family = singular_family_at(robot, q)
-        report["singular_family"] = None if family is None else f"{family.name}: {family.condition}"
-    if report["singular"]:  # in words, for the rows that lost rank: the translation rows, else all (scaled)
-        if ranks["trans"] < generic["trans"]:
-            rows, names = J[:3], ROW_NAMES[:3]
-        else:
-            rows, names = np.vstack([J[:3], length * J[3:]]), ROW_NAMES
-        report["null_space"] = null_space_motion(rows, [robot.joint_names[c] for c in columns], tol=max(singular_tol, 1e-12),
-                                                 row_names=names)
-    return report
 
 
 def run_jacobian(args) -> int:
-    """Print the Jacobian as a labelled matrix (text) or the JSON of :func:`jacobian_report`."""
+    """Print the Jacobian as a labelled matrix (text) or the JSON of :func:`jacobian_json`."""
+    from manipkit.analysis.jacobian_report import jacobian_report
+
     check_precision(args.precision)
     _check_length(args.length)
     if not (math.isfinite(args.singular_tol) and args.singular_tol >= 0):
         raise UsageError(f"--singular-tol {short_text(args.singular_tol)}: give a tolerance >= 0")
     robot = load_robot(args)
-    robot.frame(args.frame), robot.frame(args.base)  # unknown frames fail before the joint values are read
+    # unknown frames, or a base that is not above the frame (ChainError: swap them), fail before the joint values are read
+    chain = robot.chain(args.base, args.frame)
     q = joint_vector(robot, args)
-    report = jacobian_report(robot, q, frame=args.frame, base=args.base, reference=args.reference,
-                             length=args.length, singular_tol=args.singular_tol)
+    report = jacobian_report(chain, q[chain.columns], reference=args.reference, length=args.length,
+                             tol=args.singular_tol)
+    answer = jacobian_json(robot, q, report)
+    answer["frame"], answer["base"] = args.frame, args.base  # as given (aliases such as ee_link kept)
     if args.format == "json":
-        print_json(report)
+        print_json(answer)
     else:
-        print("\n".join(_jacobian_lines(robot, report, args.precision, args.singular_tol)))
+        print("\n".join(_jacobian_lines(robot, answer, report, args.precision)))
     return EXIT_OK
 
 
-def _jacobian_lines(robot, report: dict, precision: int, singular_tol: float) -> list[str]:
-    frame, base = report["frame"], report["base"]
+def _jacobian_lines(robot, answer: dict, report, precision: int) -> list[str]:
+    from manipkit.app.jacobian_text import singularity_lines
+
+    frame, base = answer["frame"], answer["base"]
     names = [frame if robot.frame(frame) == frame else f"{frame} ({robot.frame(frame)})",
              base if robot.frame(base) == base else f"{base} ({robot.frame(base)})"]
     lines = [
         f"robot: {robot.name} ({robot.source.path})",
-        f"joints (rad/m): {q_text(report['q'], precision) or 'none'}",
-        f"Jacobian of {names[0]} relative to {names[1]}, in {REFERENCE_NAMES[report['reference']]}",
+        f"joints (rad/m): {q_text(answer['q'], precision) or 'none'}",
+        f"Jacobian of {names[0]} relative to {names[1]}, in {REFERENCE_NAMES[answer['reference']]}",
         "rows: velocity of the frame's origin (m/s), angular velocity (rad/s), per unit joint rate (rad/s or m/s)",
     ]
-    cells = [[number_text(value, precision) for value in row] for row in report["jacobian"]]
-    joints = report["joints"]
+    cells = [[number_text(value, precision) for value in row] for row in answer["jacobian"]]
+    joints = answer["joints"]
     widths = [max([len(name)] + [len(row[j]) for row in cells]) for j, name in enumerate(joints)]
     lines.append("    " + "  ".join(name.rjust(width) for name, width in zip(joints, widths)))
     for label, row in zip(ROW_NAMES, cells):
         lines.append(f"{label:<4}" + "  ".join(cell.rjust(width) for cell, width in zip(row, widths)))
-    length = short_text(report["length"])
-    kappa = report["condition_number"]
+    length = short_text(answer["length"])
+    kappa = answer["condition_number"]
     lines += [
         f"manipulability (Yoshikawa, all rows, angular rows times length {length} m): "
-        f"{short_text(report['manipulability'])}",
-        f"manipulability (Yoshikawa, translation rows): {short_text(report['manipulability_translation'])}",
+        f"{short_text(answer['manipulability'])}",
+        f"manipulability (Yoshikawa, translation rows): {short_text(answer['manipulability_translation'])}",
         f"condition number (all rows, length {length} m): {'inf' if kappa is None else short_text(kappa)}",
-        f"singular values: {' '.join(short_text(v) for v in report['singular_values'])}",
-        f"rank: {report['rank']} of {report['generic_rank']} (all rows), {report['rank_translation']} of "
-        f"{report['generic_rank_translation']} (translation rows), singular values below {short_text(singular_tol)} "
-        "not counted",
-        f"singular: {'yes' if report['singular'] else 'no'}"
-        + (f" (family: {report['singular_family']})" if report["singular_family"] else ""),
+        f"singular values: {' '.join(short_text(v) for v in answer['singular_values']) or 'none'}",
     ]
-    if report["null_space"]:
-        lines.append(f"  {report['null_space']}")
-    return lines
+    return lines + singularity_lines(report)
 
 
 def run_dexterity(args) -> int:

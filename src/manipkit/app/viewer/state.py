@@ -11,9 +11,13 @@ unit-testable as is.
 
 The manipulability overlay (:class:`Overlay`, off unless asked for) adds the
 velocity or force ellipsoid of B relative to A, translation or rotation rows,
-from :meth:`Robot.jacobian` (``frame=B, base=A, reference="base"``) and
-:mod:`manipkit.analysis.manipulability`, and a readout of Yoshikawa's index
-(translation rows) and the condition number. The ellipsoid sits at B's
+from the Jacobian report of the chain A -> B
+(:func:`manipkit.analysis.jacobian_report.jacobian_report`, ``reference="base"``,
+the defaults of ``manipkit jacobian``) and :mod:`manipkit.analysis.manipulability`,
+and a readout of Yoshikawa's index (translation rows), the condition number
+and the report's ranks, singular families and lost motions in the words of
+``manipkit jacobian`` (:mod:`manipkit.app.jacobian_text`). When A is not
+above B there is no chain: the readout says so and no ellipsoid is drawn. The ellipsoid sits at B's
 origin; its principal axes (A's axes) are turned into the root frame with
 ``T_root_A``; its radii are multiplied by a display scale (:meth:`ViewerState.ellipsoid_scale`)
 and held between ``1e-3 * size`` and ``size`` (a force ellipsoid near a
@@ -33,11 +37,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.dexterity import generic_rank, rank
-from manipkit.analysis.manipulability import condition_number, force_ellipsoid, manipulability, velocity_ellipsoid
+from manipkit.analysis.jacobian_report import SINGULAR_TOL, jacobian_report
+from manipkit.analysis.manipulability import condition_number, force_ellipsoid, velocity_ellipsoid
+from manipkit.app.jacobian_text import singularity_data, singularity_lines
 from manipkit.app.pose import pose_report, pose_text
-from manipkit.errors import ManipkitError
-from manipkit.kinematics.jacobian import jacobian_columns
+from manipkit.errors import ChainError, ManipkitError
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.text import short_text
 
@@ -68,8 +72,6 @@ _SCALES = {
     ("force", "rot"): (0.3, 1, "N m", "m per N m"),
 }
 _ROWS = {"trans": "translation", "rot": "rotation"}
-#: Singular values of the ellipsoid's rows below this do not count to their rank (as ``manipkit jacobian``'s default).
-SINGULAR_TOL = 1e-9
 #: Radii drawn are held in [RADIUS_FLOOR * size, size] (m): a flat ellipsoid stays drawable, an unbounded one fits.
 RADIUS_FLOOR = 1e-3
 
@@ -159,7 +161,6 @@ class ViewerState:
         if not isinstance(overlay, Overlay):
             raise ManipkitError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
         self._overlay = overlay
-        self._generic_ranks: dict[tuple[str, str, str], int] = {}
         self._ellipsoid_cache: tuple | None = None  # (q, frames, overlay) -> (report, placement) last computed
         lower, upper = self._box(self._in_range(robot.q()))
         #: Size of the robot (m), for the ellipsoid's display scale and cap: the diagonal of the box around
@@ -280,7 +281,7 @@ class ViewerState:
         """Everything the scene draws: the visuals (if a model is given), the triads at A and B, the ellipsoid if shown."""
         placements = {} if visual_model is None else self.geometry_placements(visual_model)
         placements.update(self.frame_placements())
-        if self._overlay.shown:
+        if self._overlay.shown and self.ellipsoid_placement() is not None:
             placements[ELLIPSOID_PATH] = self.ellipsoid_placement()
         return placements
 
@@ -337,25 +338,28 @@ class ViewerState:
         c, p, _, _ = _SCALES[(self._overlay.kind, self._overlay.axes)]
         return _round_125(c * self.size**p)
 
-    def _ellipsoid(self) -> tuple[dict, np.ndarray]:
+    def _ellipsoid(self) -> tuple[dict, np.ndarray | None]:
         key = (self._q.tobytes(), self._frames, self._overlay)
         cached = self._ellipsoid_cache
         if cached is None or cached[0] != key:  # the readout and the scene ask for the same pose in turn
             self._ellipsoid_cache = (key, self._compute_ellipsoid())
         report, T = self._ellipsoid_cache[1]
-        return copy.deepcopy(report), T.copy()
+        return copy.deepcopy(report), None if T is None else T.copy()
 
-    def _compute_ellipsoid(self) -> tuple[dict, np.ndarray]:
+    def _compute_ellipsoid(self) -> tuple[dict, np.ndarray | None]:
         a, b = self._frames
         kind, axes = self._overlay.kind, self._overlay.axes
-        J = self.robot.jacobian(self._q, frame=b, base=a, reference="base")
-        J = J[:, jacobian_columns(self.robot, b, a)]  # the chain's joints only: others are zero columns
+        settings = {"frame": b, "base": a, "reference": "base", "kind": kind, "axes": axes}
+        try:
+            chain = self.robot.chain(a, b)
+        except ChainError as exc:  # A is not above B: no chain, no Jacobian report (the readout says why)
+            return {**settings, "error": str(exc)}, None
+        if chain.n == 0:  # B fixed to A: there is no ellipsoid to draw
+            return {**settings, "error": f"no joint moves {b} relative to {a}"}, None
+        report = jacobian_report(chain, self._q[chain.columns], reference="base", tol=SINGULAR_TOL)
+        J = report.jacobian  # the chain's joints only
         shape = (velocity_ellipsoid if kind == "velocity" else force_ellipsoid)(J, axes)
         kappa = float(condition_number(J, axes))
-        generic = self._generic_ranks.get((a, b, axes))
-        if generic is None:  # the rank of these rows at a generic configuration (random samples, once per choice)
-            generic = self._generic_ranks[(a, b, axes)] = generic_rank(self.robot, b, a, axes, tol=SINGULAR_TOL)
-        rows_rank = rank(J, axes, tol=SINGULAR_TOL)
         scale = self.ellipsoid_scale()
         with np.errstate(over="ignore"):
             wanted = scale * shape.radii
@@ -370,17 +374,12 @@ class ViewerState:
         T_root_ellipsoid[:3, :3] = R_root_axes * drawn  # R @ diag(drawn): a unit sphere -> the ellipsoid
         T_root_ellipsoid[:3, 3] = T_root_b[:3, 3]
         _, _, unit, scale_unit = _SCALES[(kind, axes)]
-        report = {
-            "frame": b,
-            "base": a,
-            "reference": "base",
-            "kind": kind,
-            "axes": axes,
-            "manipulability_translation": float(manipulability(J, "yoshikawa", "trans")),
+        answer = {
+            **settings,
+            "manipulability_translation": report.manipulability_translation,
             "condition_number": kappa if math.isfinite(kappa) else None,
-            "rank": rows_rank,
-            "generic_rank": generic,
-            "singular": rows_rank < generic,
+            **singularity_data(report),
+            "singularity_lines": singularity_lines(report),
             "radii": [float(r) if math.isfinite(r) else None for r in shape.radii],
             "unit": unit,
             "principal_axes": shape.axes.tolist(),
@@ -390,37 +389,48 @@ class ViewerState:
             "cap": self.size,
             "capped": bool(np.any(wanted > self.size)),
         }
-        return report, T_root_ellipsoid
+        return answer, T_root_ellipsoid
 
     def ellipsoid(self) -> dict:
         """The overlay's readout, JSON-ready (whether shown or not).
 
         Keys: ``frame`` (B), ``base`` (A), ``reference`` ("base"), ``kind``,
-        ``axes``; ``manipulability_translation`` (Yoshikawa's index of the
-        translation rows, :func:`manipulability`); ``condition_number`` (of the
-        ``axes`` rows, None for infinite); ``rank`` of the ``axes`` rows
-        (singular values above ``SINGULAR_TOL``), ``generic_rank`` (theirs at
-        a generic configuration, :func:`generic_rank`) and ``singular`` (rank
-        below it); ``radii`` (largest first for velocity, None for an infinite
+        ``axes``. When A is not above B in the link tree there is no chain
+        between them, and when no joint moves B relative to A nothing moves:
+        ``error`` says so (and which order would do), and nothing is drawn. Otherwise: ``manipulability_translation``
+        (Yoshikawa's index of the translation rows); ``condition_number`` (of
+        the ``axes`` rows, None for infinite); the ranks, ``singular``, the
+        singular families and what is lost, exactly as ``manipkit jacobian
+        --base A --frame B`` gives them (:func:`manipkit.app.jacobian_text.singularity_data`
+        of :func:`manipkit.analysis.jacobian_report.jacobian_report`, singular
+        values above ``SINGULAR_TOL`` counted) and ``singularity_lines``, its
+        text; ``radii`` (largest first for velocity, None for an infinite
         force radius) in ``unit`` per unit joint rate (velocity) or joint
-        effort (force); ``principal_axes`` (3x3,
-        columns, in A's axes); ``center`` (B's origin, m, root frame);
-        ``scale`` (display scale, ``scale_unit``); ``cap`` (m) and ``capped``
-        (a radius times the scale is above the cap and is drawn at the cap).
+        effort (force); ``principal_axes`` (3x3, columns, in A's axes);
+        ``center`` (B's origin, m, root frame); ``scale`` (display scale,
+        ``scale_unit``); ``cap`` (m) and ``capped`` (a radius times the scale
+        is above the cap and is drawn at the cap).
         """
         return self._ellipsoid()[0]
 
-    def ellipsoid_placement(self) -> np.ndarray:
-        """T_root_ellipsoid (4x4): a unit sphere -> the ellipsoid drawn (columns = root-frame principal axes times drawn radii)."""
+    def ellipsoid_placement(self) -> np.ndarray | None:
+        """T_root_ellipsoid (4x4): a unit sphere -> the ellipsoid drawn (columns = root-frame principal axes times
+        drawn radii); None when A is not above B (no chain, nothing drawn)."""
         return self._ellipsoid()[1]
 
     def scene_visibility(self) -> dict[str, bool]:
-        """Scene path -> shown, for the nodes that can be hidden (the ellipsoid)."""
-        return {ELLIPSOID_PATH: self._overlay.shown}
+        """Scene path -> shown, for the nodes that can be hidden (the ellipsoid; hidden when A is not above B)."""
+        return {ELLIPSOID_PATH: self._overlay.shown and self.ellipsoid_placement() is not None}
 
 
 def ellipsoid_text(report: dict) -> str:
-    """The overlay's readout (:meth:`ViewerState.ellipsoid`) as lines for people."""
+    """The overlay's readout (:meth:`ViewerState.ellipsoid`) as lines for people.
+
+    The ranks, ``singular: yes/no`` and what is lost are the lines
+    ``manipkit jacobian`` prints (:func:`manipkit.app.jacobian_text.singularity_lines`).
+    """
+    if "error" in report:
+        return f"no Jacobian of {report['frame']} relative to {report['base']}: {report['error']}"
     rows = _ROWS[report["axes"]]
     kappa = report["condition_number"]
     radii = ", ".join("inf" if r is None else short_text(r, 4, zero=1e-12) for r in report["radii"])
@@ -429,8 +439,7 @@ def ellipsoid_text(report: dict) -> str:
         f"Jacobian of {report['frame']} relative to {report['base']}, in {report['base']}'s axes",
         f"Yoshikawa index (translation rows): {short_text(report['manipulability_translation'], 6, zero=1e-15)}",
         f"condition number ({rows} rows): " + ("inf" if kappa is None else short_text(kappa, 6)),
-        f"rank ({rows} rows): {report['rank']} of {report['generic_rank']} at a generic configuration"
-        + (": singular" if report["singular"] else ""),
+        *report["singularity_lines"],
         f"{report['kind']} ellipsoid ({rows}), radii ({report['unit']} {per}): {radii}",
         f"drawn at {report['frame']}'s origin, radii x {short_text(report['scale'])} {report['scale_unit']}, "
         f"at most {short_text(report['cap'], 3)} m",
