@@ -36,7 +36,11 @@ def test_joint_names_are_the_joints_between_the_frames(load_robot):
     assert [robot.joint_names[c] for c in chain.columns] == list(chain.joint_names)
     whole = robot.chain("base_link", "ee_link")
     assert whole.joint_names[0] == "arm_base_joint" and "left_wheel_joint" not in whole.joint_names
-    assert robot.chain("ee_link", "ee_link").joint_names == ()
+    still = robot.chain("ee_link", "ee_link")
+    assert still.joint_names == ()
+    # no joints: the pose is the identity and the Jacobian has no columns, for one row or many
+    assert np.array_equal(still.fk([]), np.eye(4)) and still.jacobian([]).shape == (6, 0)
+    assert still.jacobians(np.zeros((3, 0))).shape == (3, 6, 0) and still.fk(np.zeros((3, 0))).shape == (3, 4, 4)
 
 
 def test_a_base_below_the_tip_is_refused_with_the_swap(load_robot):

@@ -295,7 +295,7 @@ class Chain:
         """
         Q = self.rows(Q)
         lead = Q.shape[:-1]
-        flat = np.ascontiguousarray(Q.reshape(-1, self.n))
+        flat = np.ascontiguousarray(Q.reshape(math.prod(lead), self.n))  # not -1: a chain may have no joints
         return self._fk.transforms(flat).reshape(*lead, 4, 4)
 
     def jacobians(self, Q, *, reference: str = "base") -> np.ndarray:
@@ -304,7 +304,7 @@ class Chain:
             raise ManipkitError(f"reference={reference!r} is not one of 'base', 'local'")
         Q = self.rows(Q)
         lead = Q.shape[:-1]
-        J, _, _ = self._program().run(np.ascontiguousarray(Q.reshape(-1, self.n)), local=reference == "local")
+        J, _, _ = self._program().run(np.ascontiguousarray(Q.reshape(math.prod(lead), self.n)), local=reference == "local")
         return J.reshape(*lead, 6, self.n)
 
     def jacobian(self, q=None, *, reference: str = "base") -> np.ndarray:
