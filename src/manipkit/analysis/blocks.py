@@ -11,7 +11,6 @@ gives the same bits however the blocks ran.
 from __future__ import annotations
 
 import logging
-import sys
 
 from manipkit.errors import ReachMapError
 
@@ -21,7 +20,7 @@ __all__ = ["BlockRunner", "in_block_order"]
 class BlockRunner:
     """Runs blocks here, on a new LocalCluster (``workers``) or on a running cluster (``scheduler``)."""
 
-    def __init__(self, workers: int | None, scheduler: str | None, progress: bool):
+    def __init__(self, workers: int | None, scheduler: str | None, progress=None):
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self.client = self.cluster = None
 
@@ -47,25 +46,27 @@ class BlockRunner:
             self.cluster.close()
 
     def run(self, fn, job, argument_lists: list[tuple], desc: str):
-        """Yield ``fn(job, *arguments)`` for each tuple of ``argument_lists``, in any order, with a progress bar."""
-        from tqdm import tqdm
+        """Yield ``fn(job, *arguments)`` for each tuple of ``argument_lists``, in any order.
 
-        bar = tqdm(total=len(argument_lists), desc=desc, unit="block", file=sys.stderr, disable=not self.progress,
-                   leave=False)
-        with bar:
-            if self.client is None:
-                for arguments in argument_lists:
-                    yield fn(job, *arguments)
-                    bar.update()
-                return
-            from distributed import as_completed
+        After each block, ``progress(desc, done, total)`` (blocks) when a
+        progress callable was given (:mod:`manipkit.app.progress` draws it).
+        """
+        total = len(argument_lists)
+        report = self.progress or (lambda stage, done, total: None)
+        report(desc, 0, total)
+        if self.client is None:
+            for done, arguments in enumerate(argument_lists, start=1):
+                yield fn(job, *arguments)
+                report(desc, done, total)
+            return
+        from distributed import as_completed
 
-            job_future = self.client.scatter(job, broadcast=True, hash=False)
-            futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in argument_lists]
-            for future in as_completed(futures):
-                yield future.result()
-                future.release()
-                bar.update()
+        job_future = self.client.scatter(job, broadcast=True, hash=False)
+        futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in argument_lists]
+        for done, future in enumerate(as_completed(futures), start=1):
+            yield future.result()
+            future.release()
+            report(desc, done, total)
 
 
 def in_block_order(results):

@@ -90,7 +90,7 @@ def uniform_joint_samples(robot: Robot, rng: np.random.Generator, n: int) -> np.
 
 def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str = "ee_link", base: str = "base_link", *,
                               axes="all", length: float | None = None, seed: int = 0, chunk: int = CHUNK,
-                              confidence: float = 0.95, progress: bool | Callable[[int, int], None] = False,
+                              confidence: float = 0.95, progress: Callable[[str, int, int], None] | None = None,
                               ) -> ConditioningIndex:
     """Mean inverse condition number of the Jacobian over the joint space, with a confidence interval.
 
@@ -112,9 +112,10 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
         Configurations per batch.
     confidence : float, keyword-only
         Level of the interval, in (0, 1).
-    progress : bool or callable, keyword-only
-        True: a rich progress bar on stderr; a callable: called as
-        ``progress(done, samples)`` after each chunk.
+    progress : callable, keyword-only, optional
+        Called as ``progress("sampling the joint space", done, samples)``
+        after each chunk (the command line draws it with
+        :func:`manipkit.app.progress.progress_bar`).
 
     Returns
     -------
@@ -143,22 +144,21 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     rng = np.random.default_rng(seed)
     total = total_sq = 0.0
     done = 0
-    bar, update = _progress(progress, samples)
+    if progress and not callable(progress):
+        raise ManipkitError(f"progress={progress!r:.40} must be a callable progress(stage, done, total) or None; "
+                            "the command line draws the bar (manipkit dexterity --progress yes)")
     columns = jacobian_columns(robot, base=base_name, tip=frame_name)  # joints off the chain (wheels, fingers): zero
-    try:
-        while done < samples:
-            m = min(chunk, samples - done)
-            J = jacobians(robot, uniform_joint_samples(robot, rng, m), base=base_name, tip=frame_name)[..., columns]
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", MixedUnitsWarning)
-                inverse = _inverse_condition(select_rows(J, axes, length))
-            total += float(np.sum(inverse))
-            total_sq += float(np.sum(inverse * inverse))
-            done += m
-            update(done)
-    finally:
-        if bar is not None:
-            bar.stop()
+    while done < samples:
+        m = min(chunk, samples - done)
+        J = jacobians(robot, uniform_joint_samples(robot, rng, m), base=base_name, tip=frame_name)[..., columns]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", MixedUnitsWarning)
+            inverse = _inverse_condition(select_rows(J, axes, length))
+        total += float(np.sum(inverse))
+        total_sq += float(np.sum(inverse * inverse))
+        done += m
+        if progress:
+            progress("sampling the joint space", done, samples)
     mean = total / samples
     variance = max(total_sq - samples * mean * mean, 0.0) / (samples - 1)
     std = math.sqrt(variance)
@@ -182,22 +182,6 @@ def _inverse_condition(Js: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.sqrt(np.maximum(eigenvalues[..., 0], 0.0) / eigenvalues[..., -1])
     return np.where(eigenvalues[..., -1] > 0.0, ratio, 0.0)
-
-
-def _progress(progress, samples: int):
-    """(a started rich Progress or None, update(done))."""
-    if callable(progress):
-        return None, lambda done: progress(done, samples)
-    if not progress:
-        return None, lambda done: None
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    bar = Progress(TextColumn("sampling the joint space"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                   console=Console(stderr=True), transient=True)
-    task = bar.add_task("gci", total=samples)
-    bar.start()
-    return bar, lambda done: bar.update(task, completed=done)
 
 
 def rank(J, axes="all", length: float | None = None, *, tol: float = 1e-9) -> np.ndarray | int:

@@ -71,7 +71,6 @@ import json
 import math
 import numbers
 import os
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -530,7 +529,7 @@ def build(
     workers: int | None = None,
     scheduler: str | None = None,
     seed: int = 0,
-    progress: bool | None = None,
+    progress=None,
     block_samples: int = DEFAULT_BLOCK,
     ik_tol: float = 1e-9,
     ik_restarts: int = 2,
@@ -559,8 +558,9 @@ def build(
         Address of a running Dask scheduler (``tcp://host:8786``).
     seed : int, keyword-only
         Seeds every block (same seed, same map, however it is run).
-    progress : bool, keyword-only, optional
-        Show a progress bar on stderr (default: when stderr is a terminal).
+    progress : callable, keyword-only, optional
+        ``progress(stage, done, total)`` after each block of work (the
+        command line draws it with :func:`manipkit.app.progress.progress_bar`).
     block_samples : int, keyword-only
         Samples per task.
     ik_tol, ik_restarts, ik_time_budget : keyword-only
@@ -636,15 +636,13 @@ def build(
     job = _Job(robot, frame, base, chain, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
                float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability))
-    if progress is None:
-        progress = sys.stderr.isatty()
     n_voxels = math.prod(shape)
     reach = np.zeros(n_voxels * bins.size, dtype=np.uint8)
     voxel_q = np.full((n_voxels, len(robot.joint_names)), np.nan)
     seen = np.zeros(n_voxels, dtype=bool)
     best, total, count = np.full(n_voxels, np.nan), np.zeros(n_voxels), np.zeros(n_voxels, dtype=np.int64)
     ik_keys, ik_q = np.zeros(0, dtype=np.int64), np.zeros((0, len(robot.joint_names)))
-    with BlockRunner(workers, scheduler, bool(progress)) as runner:
+    with BlockRunner(workers, scheduler, progress) as runner:
         n_blocks = -(-int(samples) // int(block_samples))
         blocks = runner.run(sample_block, job, [(b,) for b in range(n_blocks)], "FK samples")
         for _, keys, voxels, Q, stats in in_block_order(blocks):

@@ -71,10 +71,12 @@ def register(commands) -> None:
 
 def _build(robot, args, base: str, *, manipulability: bool = False):
     from manipkit.analysis.reachmap import build
+    from manipkit.app.progress import progress_bar
 
-    return build(robot, args.frame, base, voxel=args.voxel, orientations=args.orientations, method=args.method,
-                 samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
-                 manipulability=manipulability)
+    with progress_bar() as progress:
+        return build(robot, args.frame, base, voxel=args.voxel, orientations=args.orientations, method=args.method,
+                     samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
+                     manipulability=manipulability, progress=progress)
 
 
 def run_reachmap(args) -> int:

@@ -12,7 +12,6 @@ characteristic length (``--length``, 1 m unless given; always printed).
 from __future__ import annotations
 
 import math
-import sys
 
 from manipkit.app.cli.common import (
     EXIT_OK,
@@ -199,10 +198,12 @@ def run_dexterity(args) -> int:
     axes = parse_axes(args.axes)
     robot = load_robot(args)
     robot.frame(args.frame), robot.frame(args.base)
-    progress = sys.stderr.isatty() if args.progress == "auto" else args.progress == "yes"
+    from manipkit.app.progress import progress_bar
+
     length = args.length if mixes_units(axes) else None
-    gci = global_conditioning_index(robot, args.samples, args.frame, args.base, axes=axes, length=length,
-                                    seed=args.seed, confidence=args.confidence, progress=progress)
+    with progress_bar(None if args.progress == "auto" else args.progress == "yes") as progress:
+        gci = global_conditioning_index(robot, args.samples, args.frame, args.base, axes=axes, length=length,
+                                        seed=args.seed, confidence=args.confidence, progress=progress)
     if args.format == "json":
         print_json({
             "robot": robot.name, "frame": gci.frame, "base": gci.base, "axes": args.axes, "length": gci.length,
