@@ -110,3 +110,12 @@ def test_a_crossing_is_caught():
     )
     modules = [module for module, _, _ in runtime_imports(tree)]
     assert "manipkit.kinematics.robot" in modules and "manipkit.app.cli" not in modules
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
+def test_user_errors_raise_a_subclass_not_the_base(path):
+    """Every user error is a ManipkitError subclass that says what kind it is (errors.py); none raises the base."""
+    found = [node.lineno for node in ast.walk(ast.parse(path.read_text()))
+             if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call)
+             and isinstance(node.exc.func, ast.Name) and node.exc.func.id == "ManipkitError"]
+    assert not found, f"raise ManipkitError(...) at lines {found}: raise the subclass for its kind (errors.py)"

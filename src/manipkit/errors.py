@@ -20,11 +20,14 @@ __all__ = [
     "JointLimitError",
     "JointValueError",
     "ManipkitError",
+    "OptionError",
     "OutputError",
     "PackageNotFoundError",
     "PlanarArmError",
+    "SingularityError",
     "UnknownFrameError",
     "UnknownRobotError",
+    "ViewerError",
 ]
 
 
@@ -98,6 +101,21 @@ class IKOptionError(ManipkitError, ValueError):
 
 class ReachMapError(ManipkitError, ValueError):
     """A reachability-map option that is not valid (voxel, orientations, method, samples, workers), or a map file."""
+
+
+class OptionError(ManipkitError, ValueError):
+    """An argument a function does not take: a name not in its list (``reference``, ``axes``, ``method``), a
+    number out of its range (samples, length, tolerance, confidence), or an array of the wrong shape."""
+
+
+class SingularityError(ManipkitError, ValueError):
+    """A quantity that does not exist at this configuration: roll-pitch-yaw rates at gimbal lock, an
+    infinite ellipsoid radius at a singularity, a singular inertia matrix."""
+
+
+class ViewerError(ManipkitError, RuntimeError):
+    """The viewer cannot start or serve: a port in use or out of range, the meshcat server stopped or never
+    started, a missing optional package (ipywidgets)."""
 
 
 class JointLimitError(JointValueError):

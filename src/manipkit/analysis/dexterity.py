@@ -32,7 +32,7 @@ from manipkit.analysis.manipulability import (
     select_rows,
     singular_values,
 )
-from manipkit.errors import ManipkitError
+from manipkit.errors import OptionError
 from manipkit.kinematics.jacobian import jacobian_columns, jacobians
 from manipkit.text import short_text
 
@@ -129,11 +129,11 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     True
     """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
-        raise ManipkitError(f"samples={samples!r:.40} must be a whole number of configurations, at least 2")
+        raise OptionError(f"samples={samples!r:.40} must be a whole number of configurations, at least 2")
     if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
-        raise ManipkitError(f"chunk={chunk!r:.40} must be a whole number of configurations, at least 1")
+        raise OptionError(f"chunk={chunk!r:.40} must be a whole number of configurations, at least 1")
     if not (0.0 < confidence < 1.0):
-        raise ManipkitError(f"confidence={confidence!r:.40} must be between 0 and 1 (0.95 for 95%)")
+        raise OptionError(f"confidence={confidence!r:.40} must be between 0 and 1 (0.95 for 95%)")
     if mixes_units(axes):
         select_rows(np.zeros((6, 1)), axes, length, stacklevel=2)  # the one warning, or the check of length
         if length is None:
@@ -145,7 +145,7 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     total = total_sq = 0.0
     done = 0
     if progress and not callable(progress):
-        raise ManipkitError(f"progress={progress!r:.40} must be a callable progress(stage, done, total) or None; "
+        raise OptionError(f"progress={progress!r:.40} must be a callable progress(stage, done, total) or None; "
                             "the command line draws the bar (manipkit dexterity --progress yes)")
     columns = jacobian_columns(robot, base=base_name, tip=frame_name)  # joints off the chain (wheels, fingers): zero
     while done < samples:

@@ -62,7 +62,7 @@ import numpy as np
 
 from manipkit.analysis.manipulability import condition_number, manipulability
 from manipkit.analysis.singularities import FAMILY_TOL, SingularFamily, families_at
-from manipkit.errors import ManipkitError
+from manipkit.errors import OptionError
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -242,12 +242,12 @@ def jacobian_report(chain: Chain, q=None, *, reference: str = "base", length: fl
     (True, 3, 4)
     """
     if not (isinstance(length, (int, float)) and math.isfinite(length) and length > 0):
-        raise ManipkitError(f"length={length!r:.40}: give a positive characteristic length in metres")
+        raise OptionError(f"length={length!r:.40}: give a positive characteristic length in metres")
     if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol >= 0):
-        raise ManipkitError(f"tol={tol!r:.40}: give a tolerance >= 0")
+        raise OptionError(f"tol={tol!r:.40}: give a tolerance >= 0")
     q = chain.q(q)
     if reference not in ("base", "local"):
-        raise ManipkitError(f"reference={reference!r:.40} is not one of 'base', 'local'")
+        raise OptionError(f"reference={reference!r:.40} is not one of 'base', 'local'")
     J = chain.jacobian(q, reference=reference) if chain.n else np.zeros((6, 0))  # no joints: nothing moves the tip
     generic, movable = _generic(chain, reference, float(length), float(tol))
     scaled = _scaled(J, length)

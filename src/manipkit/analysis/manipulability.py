@@ -52,7 +52,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from manipkit.errors import ManipkitError
+from manipkit.errors import OptionError, SingularityError
 from manipkit.kinematics.fk_kernel import compile_kernel
 
 __all__ = [
@@ -77,27 +77,27 @@ def _as_jacobians(J) -> np.ndarray:
     try:
         J = np.asarray(J, dtype=float)
     except (TypeError, ValueError):
-        raise ManipkitError("J must be a Jacobian of numbers, shape (6, n) or (..., 6, n)") from None
+        raise OptionError("J must be a Jacobian of numbers, shape (6, n) or (..., 6, n)") from None
     if J.ndim < 2 or J.shape[-2] != 6:
-        raise ManipkitError(f"J must have shape (6, n) or (..., 6, n) (rows vx vy vz wx wy wz), got {J.shape}")
+        raise OptionError(f"J must have shape (6, n) or (..., 6, n) (rows vx vy vz wx wy wz), got {J.shape}")
     if not np.all(np.isfinite(J)):
-        raise ManipkitError("J must hold finite numbers")
+        raise OptionError("J must hold finite numbers")
     return J
 
 
 def _rows(axes) -> tuple[int, ...]:
     if isinstance(axes, str):
         if axes not in AXES:
-            raise ManipkitError(f"axes={axes!r} is not one of 'all', 'trans', 'rot' or a list of rows 0-5")
+            raise OptionError(f"axes={axes!r} is not one of 'all', 'trans', 'rot' or a list of rows 0-5")
         return AXES[axes]
     try:
         rows = tuple(int(r) for r in axes)
         if any(r != float(a) for r, a in zip(rows, axes)):
             raise ValueError
     except (TypeError, ValueError):
-        raise ManipkitError(f"axes={axes!r:.60}: give 'all', 'trans', 'rot' or a list of row numbers 0-5") from None
+        raise OptionError(f"axes={axes!r:.60}: give 'all', 'trans', 'rot' or a list of row numbers 0-5") from None
     if not rows or any(r < 0 or r > 5 for r in rows) or len(set(rows)) != len(rows):
-        raise ManipkitError(f"axes={list(axes)}: give distinct row numbers 0-5 (vx vy vz wx wy wz), at least one")
+        raise OptionError(f"axes={list(axes)}: give distinct row numbers 0-5 (vx vy vz wx wy wz), at least one")
     return rows
 
 
@@ -138,9 +138,9 @@ def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int =
         try:
             length = float(length)
         except (TypeError, ValueError):
-            raise ManipkitError(f"length={length!r:.40} must be a number of metres") from None
+            raise OptionError(f"length={length!r:.40} must be a number of metres") from None
         if not (math.isfinite(length) and length > 0):
-            raise ManipkitError(f"length={length} must be a positive finite number of metres (a characteristic length)")
+            raise OptionError(f"length={length} must be a positive finite number of metres (a characteristic length)")
     contiguous = rows == tuple(range(rows[0], rows[0] + len(rows)))
     selected = J[..., rows[0] : rows[0] + len(rows), :] if contiguous else J[..., list(rows), :]  # a view when it can
     if mixes_units(rows):
@@ -270,7 +270,7 @@ def manipulability(J, method: str = "yoshikawa", axes="all", length: float | Non
     1.0
     """
     if method not in METHODS:
-        raise ManipkitError(f"method={method!r} is not one of {', '.join(repr(m) for m in METHODS)}")
+        raise OptionError(f"method={method!r} is not one of {', '.join(repr(m) for m in METHODS)}")
     Js = select_rows(J, axes, length, stacklevel=2)
     if method == "yoshikawa":
         result = _yoshikawa(Js)
@@ -290,15 +290,15 @@ def _asada(Js: np.ndarray, inertia) -> np.ndarray:
     """``lambda_min / lambda_max`` of ``(J_s M^-1 J_s^T)^-1``, equal to that of ``J_s M^-1 J_s^T``."""
     n = Js.shape[-1]
     if inertia is None:
-        raise ManipkitError("method='asada' needs the joint-space inertia matrix: inertia=M (n x n), "
+        raise OptionError("method='asada' needs the joint-space inertia matrix: inertia=M (n x n), "
                             "from manipkit.kinematics.jacobian.mass_matrix(robot, q)")
     M = np.asarray(inertia, dtype=float)
     if M.shape[-2:] != (n, n):
-        raise ManipkitError(f"inertia must have shape ({n}, {n}) or (..., {n}, {n}) for J with {n} columns, got {M.shape}")
+        raise OptionError(f"inertia must have shape ({n}, {n}) or (..., {n}, {n}) for J with {n} columns, got {M.shape}")
     try:
         M_inv_Jt = np.linalg.solve(M, np.swapaxes(Js, -1, -2))
     except np.linalg.LinAlgError:
-        raise ManipkitError("inertia is singular: a joint-space inertia matrix is symmetric positive definite") from None
+        raise SingularityError("inertia is singular: a joint-space inertia matrix is symmetric positive definite") from None
     Lambda_inv = Js @ M_inv_Jt
     eig = np.linalg.eigvalsh((Lambda_inv + np.swapaxes(Lambda_inv, -1, -2)) / 2)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -392,20 +392,20 @@ def plot_ellipsoid(ax, ellipsoid: Ellipsoid, center=(0.0, 0.0, 0.0), *, scale: f
 
     Raises
     ------
-    ManipkitError
+    OptionError, SingularityError
         Several ellipsoids, m not 2 or 3, or an infinite radius (a force
         ellipsoid at a singularity, which has no drawing).
     """
     axes_matrix, radii = np.asarray(ellipsoid.axes, dtype=float), np.asarray(ellipsoid.radii, dtype=float) * scale
     if radii.ndim != 1 or radii.shape[0] not in (2, 3) or axes_matrix.shape != (radii.shape[0],) * 2:
-        raise ManipkitError(f"plot_ellipsoid draws one ellipsoid of 2 or 3 rows, got radii of shape {radii.shape}")
+        raise OptionError(f"plot_ellipsoid draws one ellipsoid of 2 or 3 rows, got radii of shape {radii.shape}")
     if not np.all(np.isfinite(radii)):
-        raise ManipkitError("this ellipsoid has an infinite radius (a force ellipsoid at a singularity): "
+        raise SingularityError("this ellipsoid has an infinite radius (a force ellipsoid at a singularity): "
                             "it cannot be drawn; draw the velocity ellipsoid instead")
     center = np.asarray(center, dtype=float)
     if getattr(ax, "name", "") == "3d":
         if radii.shape[0] != 3:
-            raise ManipkitError("3D axes draw an ellipsoid of 3 rows (axes='trans' or 'rot')")
+            raise OptionError("3D axes draw an ellipsoid of 3 rows (axes='trans' or 'rot')")
         u, v = np.meshgrid(np.linspace(0, 2 * np.pi, resolution), np.linspace(0, np.pi, resolution // 2 + 1))
         sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)])  # (3, rows, cols)
         points = np.einsum("ij,j,jkl->ikl", axes_matrix, radii, sphere) + center[:3, None, None]

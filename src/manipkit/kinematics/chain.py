@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.errors import JointLimitError, JointValueError, ManipkitError
+from manipkit.errors import JointLimitError, JointValueError, OptionError
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.spatial.rotations import matrix_from_axis_angle
 from manipkit.text import repr_text
@@ -247,7 +247,7 @@ class Chain:
         ``numpy.random.default_rng`` takes) gives the same rows.
         """
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 0:
-            raise ManipkitError(f"the number of samples must be a whole number >= 0, got {n!r}")
+            raise OptionError(f"the number of samples must be a whole number >= 0, got {n!r}")
         low = np.where(np.isfinite(self.lower), self.lower, -math.pi)
         high = np.where(np.isfinite(self.upper), self.upper, math.pi)
         u = np.random.default_rng(seed).random(size=(int(n), self.n))
@@ -301,7 +301,7 @@ class Chain:
     def jacobians(self, Q, *, reference: str = "base") -> np.ndarray:
         """Geometric Jacobians (..., 6, n) of the tip relative to the base (rows vx vy vz wx wy wz; compiled)."""
         if reference not in REFERENCES:
-            raise ManipkitError(f"reference={reference!r} is not one of 'base', 'local'")
+            raise OptionError(f"reference={reference!r} is not one of 'base', 'local'")
         Q = self.rows(Q)
         lead = Q.shape[:-1]
         J, _, _ = self._program().run(np.ascontiguousarray(Q.reshape(math.prod(lead), self.n)), local=reference == "local")

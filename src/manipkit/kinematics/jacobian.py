@@ -63,7 +63,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.errors import ChainError, JointValueError, ManipkitError
+from manipkit.errors import ChainError, JointValueError, OptionError, SingularityError
 from manipkit.kinematics.chain import frame_arguments
 from manipkit.kinematics.fk_kernel import (  # the batched FK's preparation
     ChainStep,
@@ -268,7 +268,7 @@ def _program(robot: Robot, frame: str, base: str | None) -> JacobianProgram:
 
 def _check_option(name: str, value, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
-        raise ManipkitError(f"{name}={value!r} is not one of {', '.join(repr(a) for a in allowed)}")
+        raise OptionError(f"{name}={value!r} is not one of {', '.join(repr(a) for a in allowed)}")
 
 
 def _joint_rows(robot: Robot, Q) -> np.ndarray:
@@ -303,7 +303,7 @@ def rpy_rate_matrix(R, *, gimbal_tol: float = GIMBAL_TOL) -> np.ndarray:
 
     Raises
     ------
-    ManipkitError
+    SingularityError
         At gimbal lock, ``cos(pitch) <= gimbal_tol`` (pitch = +-90 deg), where
         roll and yaw turn about the same axis and no rates exist.
 
@@ -320,7 +320,7 @@ def rpy_rate_matrix(R, *, gimbal_tol: float = GIMBAL_TOL) -> np.ndarray:
     locked = cp <= gimbal_tol
     if np.any(locked):
         where = "" if R.ndim == 2 else f" (configuration {int(np.flatnonzero(locked.ravel())[0])})"
-        raise ManipkitError(
+        raise SingularityError(
             f"the roll-pitch-yaw rates do not exist at pitch = +-90 deg (gimbal lock: cos(pitch) = "
             f"{float(cp.ravel()[np.flatnonzero(locked.ravel())[0]]):.3g}){where}, where roll and yaw turn about "
             "the same axis; use representation='geometric' (angular velocity) there"
@@ -368,13 +368,13 @@ def jacobians(robot: Robot, Q, *legacy, base: str | None = None, tip: str | None
     ------
     JointValueError, UnknownFrameError
         Bad joint values, a frame the robot does not have.
-    ManipkitError
+    OptionError, SingularityError
         An unknown option, or gimbal lock with ``representation="rpy"``.
     """
     _check_option("reference", reference, REFERENCES)
     _check_option("representation", representation, REPRESENTATIONS)
     if representation == "rpy" and reference != "base":
-        raise ManipkitError("representation='rpy' gives rates of the frame's roll, pitch, yaw in the base: "
+        raise OptionError("representation='rpy' gives rates of the frame's roll, pitch, yaw in the base: "
                             "use it with reference='base'")
     base, frame = frame_arguments("jacobians", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
     Q = _joint_rows(robot, Q)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
 from manipkit.app.viewer.state import DEFAULT_FRAMES, Overlay, ViewerState
-from manipkit.errors import ManipkitError
+from manipkit.errors import ManipkitError, ViewerError
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -139,7 +139,7 @@ def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None
     try:
         import ipywidgets  # noqa: F401
     except ImportError:
-        raise ManipkitError("the notebook viewer needs ipywidgets: pip install ipywidgets") from None
+        raise ViewerError("the notebook viewer needs ipywidgets: pip install ipywidgets") from None
     overlay = Overlay(bool(ellipsoid), ellipsoid if isinstance(ellipsoid, str) else "velocity", ellipsoid_axes)
     state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     visual = visual_model(robot)

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.app.viewer.state import ELLIPSOID_PATH, TRIAD_PATHS, VISUALS_ROOT
-from manipkit.errors import ManipkitError
+from manipkit.errors import ViewerError
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -128,7 +128,7 @@ class MeshcatScene:
         A node is placed before it is shown, so it never appears at an old pose.
         """
         if self._closed or self._proc.poll() is not None:
-            raise ManipkitError("the meshcat server has stopped; restart the viewer")
+            raise ViewerError("the meshcat server has stopped; restart the viewer")
         for path, T in placements.items():
             previous = self._sent.get(path)
             if previous is None or not np.array_equal(previous, T):
@@ -197,13 +197,13 @@ def _start_meshcat_server(timeout: float = 30.0):
         while len(urls) < 2:
             line = lines.get(timeout=timeout)
             if line is None:
-                raise ManipkitError(f"the meshcat server exited at start-up (status {proc.wait()})")
+                raise ViewerError(f"the meshcat server exited at start-up (status {proc.wait()})")
             key, _, value = line.strip().partition("=")
             if key in ("zmq_url", "web_url"):
                 urls[key] = value
     except queue.Empty:
         proc.kill()
-        raise ManipkitError(f"the meshcat server did not start within {timeout:g} s") from None
+        raise ViewerError(f"the meshcat server did not start within {timeout:g} s") from None
     except BaseException:
         proc.kill()
         raise

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
 from manipkit.app.viewer.state import DEFAULT_FRAMES, NO_OVERLAY, Overlay, ViewerState
-from manipkit.errors import JointValueError, ManipkitError
+from manipkit.errors import JointValueError, ManipkitError, OptionError, ViewerError
 from manipkit.outputs import writable_path, write_text
 
 if TYPE_CHECKING:
@@ -108,15 +108,15 @@ class ViewerServer:
 
     def __init__(self, port: int = DEFAULT_PORT, *, host: str = "127.0.0.1"):
         if not 0 <= int(port) <= 65535:
-            raise ManipkitError(f"port {port}: give a port from 1 to 65535 (0 = any free port)")
+            raise ViewerError(f"port {port}: give a port from 1 to 65535 (0 = any free port)")
         try:
             self._httpd = _HTTPServer((host, int(port)), _Handler)
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
-                raise ManipkitError(
+                raise ViewerError(
                     f"port {port} is in use; choose another with --port P (or stop the program using it)"
                 ) from None
-            raise ManipkitError(f"cannot serve on {host}:{port}: {exc.strerror or exc}") from None
+            raise ViewerError(f"cannot serve on {host}:{port}: {exc.strerror or exc}") from None
         self._httpd.app = self
         self.host, self.port = host, self._httpd.server_address[1]
         self.url = f"http://{host}:{self.port}/"
@@ -237,12 +237,12 @@ class ViewerServer:
                 state.set_joints(values)
                 if frames is not None:
                     if not isinstance(frames, list) or len(frames) != 2:
-                        raise ManipkitError(f"frames: expected [A, B], got {frames!r}")
+                        raise OptionError(f"frames: expected [A, B], got {frames!r}")
                     state.set_frames(*frames)
                 overlay = body.get("overlay")
                 if overlay is not None:
                     if not isinstance(overlay, dict) or not set(overlay) <= {"shown", "kind", "axes"}:
-                        raise ManipkitError(f"overlay: expected {{shown, kind, axes}} (any of them), got {overlay!r:.80}")
+                        raise OptionError(f"overlay: expected {{shown, kind, axes}} (any of them), got {overlay!r:.80}")
                     state.set_overlay(**overlay)
                 self._draw_later(state.scene_placements(self.visual), state.scene_visibility())
             except ManipkitError as exc:

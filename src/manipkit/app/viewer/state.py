@@ -41,7 +41,7 @@ from manipkit.analysis.jacobian_report import SINGULAR_TOL, jacobian_report
 from manipkit.analysis.manipulability import condition_number, force_ellipsoid, velocity_ellipsoid
 from manipkit.app.jacobian_text import singularity_data, singularity_lines
 from manipkit.app.pose import pose_report, pose_text
-from manipkit.errors import ChainError, ManipkitError
+from manipkit.errors import ChainError, OptionError
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.text import short_text
 
@@ -86,11 +86,11 @@ class Overlay:
 
     def __post_init__(self):
         if not isinstance(self.shown, bool):
-            raise ManipkitError(f"ellipsoid shown: expected true or false, got {self.shown!r:.40}")
+            raise OptionError(f"ellipsoid shown: expected true or false, got {self.shown!r:.40}")
         if self.kind not in ELLIPSOID_KINDS:
-            raise ManipkitError(f"ellipsoid kind {self.kind!r:.40}: give velocity or force")
+            raise OptionError(f"ellipsoid kind {self.kind!r:.40}: give velocity or force")
         if self.axes not in ELLIPSOID_AXES:
-            raise ManipkitError(f"ellipsoid axes {self.axes!r:.40}: give trans (translation rows) or rot (rotation rows)")
+            raise OptionError(f"ellipsoid axes {self.axes!r:.40}: give trans (translation rows) or rot (rotation rows)")
 
 
 #: The overlay off (the default of a view).
@@ -159,7 +159,7 @@ class ViewerState:
         self._q = self._in_range(start)
         self._start = self._q.copy()
         if not isinstance(overlay, Overlay):
-            raise ManipkitError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
+            raise OptionError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
         self._overlay = overlay
         self._ellipsoid_cache: tuple | None = None  # (q, frames, overlay) -> (report, placement) last computed
         lower, upper = self._box(self._in_range(robot.q()))
@@ -247,7 +247,7 @@ class ViewerState:
     def _checked_frames(self, frames) -> tuple[str, str]:
         frames = tuple(frames)
         if len(frames) != 2 or not all(isinstance(f, str) for f in frames):
-            raise ManipkitError(f"frames: give two frame names A and B, got {frames!r}")
+            raise OptionError(f"frames: give two frame names A and B, got {frames!r}")
         for name in frames:
             self.robot.frame(name)  # UnknownFrameError names the closest frames
         return frames
