@@ -103,15 +103,10 @@ class _Tree:
 # Over 80 lines: one pass over the description collecting every problem (duplicates, undeclared links,
 # second parents, roots, cycles); the steps share their tables, and splitting them would pass all of them around.
 def _analyse(urdf) -> _Tree:
+    """The link tree of a parsed description with everything that is not a tree named (warnings)."""
     robot = getattr(urdf, "robot", urdf)
     warnings: list[str] = []
-
-    links: list[str] = []
-    for link in robot.links:
-        if link.name in links:
-            warnings.append(f"link '{link.name}' is declared more than once")
-        else:
-            links.append(link.name)
+    links = _declared_links(robot, warnings)
     declared = set(links)
     joints = tuple(robot.joints)
 
@@ -126,29 +121,56 @@ def _analyse(urdf) -> _Tree:
         children.setdefault(joint.parent, []).append(joint)
         parents_of.setdefault(joint.child, []).append(joint.name)
     links += undeclared
-
-    counts = Counter(j.name for j in joints)
-    for name, n in counts.items():
-        if n > 1:
-            warnings.append(f"joint '{name}' is declared {n} times")
-    for joint in joints:
-        if joint.parent == joint.child:
-            warnings.append(f"joint '{joint.name}' connects link '{joint.parent}' to itself")
-    for link, names in parents_of.items():
-        if len(names) > 1:
-            warnings.append(
-                f"link '{link}' is the child of {len(names)} joints ({', '.join(names)}); "
-                "a tree allows one"
-            )
+    warnings += _joint_warnings(joints, parents_of)
 
     roots = tuple(link for link in links if link not in parents_of)
     if not links:
         warnings.append("the description declares no links")
     elif len(roots) > 1:
         warnings.append(f"{len(roots)} root links ({', '.join(roots)}); a URDF tree has exactly one root")
+    tree_joints, lost, detached = _spanning_forest(links, roots, children)
+    if lost:
+        warnings.append(f"links no root link reaches (a joint cycle?): {', '.join(lost)}")
 
-    # Spanning forest: depth-first from each root in file order; a joint
-    # whose child is already reached closes a cycle or is a second parent.
+    return _Tree(
+        name=robot.name,
+        links=tuple(links),
+        undeclared=frozenset(undeclared),
+        joints=joints,
+        children={k: tuple(v) for k, v in children.items()},
+        roots=roots,
+        detached=tuple(detached),
+        tree_joints=frozenset(tree_joints),
+        warnings=tuple(warnings),
+    )
+
+
+def _declared_links(robot, warnings: list[str]) -> list[str]:
+    """Link names in file order, each once (a repeated declaration is a warning)."""
+    links: list[str] = []
+    for link in robot.links:
+        if link.name in links:
+            warnings.append(f"link '{link.name}' is declared more than once")
+        else:
+            links.append(link.name)
+    return links
+
+
+def _joint_warnings(joints, parents_of: dict[str, list[str]]) -> list[str]:
+    """Repeated joint names, joints from a link to itself, links with several parent joints."""
+    warnings = [f"joint '{name}' is declared {n} times" for name, n in Counter(j.name for j in joints).items() if n > 1]
+    warnings += [f"joint '{j.name}' connects link '{j.parent}' to itself" for j in joints if j.parent == j.child]
+    warnings += [f"link '{link}' is the child of {len(names)} joints ({', '.join(names)}); a tree allows one"
+                 for link, names in parents_of.items() if len(names) > 1]
+    return warnings
+
+
+def _spanning_forest(links, roots, children) -> tuple[set[int], list[str], list[str]]:
+    """(ids of the tree joints, links no root reaches, the links the walk restarted from for them).
+
+    Depth-first from each root in file order; a joint whose child is already
+    reached closes a cycle or is a second parent.
+    """
     reached: set[str] = set()
     tree_joints: set[int] = set()
 
@@ -172,20 +194,7 @@ def _analyse(urdf) -> _Tree:
         if link not in reached:
             detached.append(link)
             walk(link)
-    if lost:
-        warnings.append(f"links no root link reaches (a joint cycle?): {', '.join(lost)}")
-
-    return _Tree(
-        name=robot.name,
-        links=tuple(links),
-        undeclared=frozenset(undeclared),
-        joints=joints,
-        children={k: tuple(v) for k, v in children.items()},
-        roots=roots,
-        detached=tuple(detached),
-        tree_joints=frozenset(tree_joints),
-        warnings=tuple(warnings),
-    )
+    return tree_joints, lost, detached
 
 
 # --------------------------------------------------------------------------
@@ -564,7 +573,6 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
 
     tree = _analyse(urdf)
     widths = _widths(tree)
@@ -596,19 +604,35 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     text = dict(fontsize=_FONT_PT, family="monospace", color=_TEXT_COLOUR, ha="center", va="center",
                 parse_math=False)
 
-    def box(cx, cy, w, h, face, edge, **kw):
-        ax.add_patch(
-            FancyBboxPatch(
-                (cx - w / 2, cy - h / 2), w, h, boxstyle="round,pad=0,rounding_size=3",
-                facecolor=face, edgecolor=edge, linewidth=0.8, **kw,
-            )
-        )
-
     for i, line in enumerate(header):
         colour, weight = (_TEXT_COLOUR, "bold") if i == 0 else ("#b00020", "normal")
         ax.text(x0 + _MARGIN, top - (i + 0.5) * _LINE_H, _shown(line), **{**text, "ha": "left", "color": colour},
                 weight=weight)
 
+    _draw_joints(ax, position, parent_joint, text)
+    _draw_extra_joints(ax, tree, position, widths, text)
+    for link, (x, y) in position.items():
+        edge = "#b00020" if link in tree.undeclared else _LINK_EDGE
+        _box(ax, x, y, _text_width(link), _LINK_H, _LINK_FACE, edge, zorder=2)
+        ax.text(x, y, _shown(link), **text, weight="bold", zorder=3)
+
+    with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "manipkit"}), writing(path) as target:
+        # PNG: zlib level 1 (PR2's 8000 x 3000 picture: 0.2 s less than the default 6, a slightly larger file)
+        extra = {"pil_kwargs": {"compress_level": 1}} if fmt == "png" else {}
+        fig.savefig(target, format=fmt, dpi=dpi, metadata=_deterministic_metadata(fmt), **extra)
+    return path
+
+
+def _box(ax, cx, cy, w, h, face, edge, **kw) -> None:
+    """A rounded box of w x h points centred at (cx, cy)."""
+    from matplotlib.patches import FancyBboxPatch
+
+    ax.add_patch(FancyBboxPatch((cx - w / 2, cy - h / 2), w, h, boxstyle="round,pad=0,rounding_size=3",
+                                facecolor=face, edgecolor=edge, linewidth=0.8, **kw))
+
+
+def _draw_joints(ax, position, parent_joint, text) -> None:
+    """Each tree joint: the edge from its parent link, and its box of lines just above its child link."""
     line_kw = dict(color="#555555", linewidth=0.8, solid_capstyle="butt", zorder=1)
     for link, (x, y) in position.items():
         joint = parent_joint.get(link)
@@ -622,13 +646,18 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
         ax.plot([x, x], [label_bottom, y + _LINK_H / 2], **line_kw)
         lines = _joint_lines(joint)
         w = max(_text_width(line) for line in lines)
-        box(x, label_top - _LABEL_H / 2, w, _LABEL_H, _JOINT_FACE.get(joint.type, "white"), "#777777", zorder=2)
+        _box(ax, x, label_top - _LABEL_H / 2, w, _LABEL_H, _JOINT_FACE.get(joint.type, "white"), "#777777", zorder=2)
         for i, line in enumerate(lines):
             ax.text(x, label_top - _PAD_Y - (i + 0.5) * _LINE_H, _shown(line), **text,
                     weight="bold" if i == 0 else "normal", zorder=3)
 
+
+def _draw_extra_joints(ax, tree, position, widths, text) -> None:
+    """Joints outside the spanning forest (second parents, cycles): dashed red arcs with their names."""
+    from matplotlib.patches import FancyArrowPatch
+
     warn = {**text, "color": "#b00020"}
-    for joint in tree.joints:  # joints outside the spanning forest: dashed arcs
+    for joint in tree.joints:
         if id(joint) in tree.tree_joints:
             continue
         (px, py), (cx, cy) = position[joint.parent], position[joint.child]
@@ -652,17 +681,6 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
         lx, ly = (px + cx) / 2 + sign * bulge * nx, (py + cy) / 2 + sign * bulge * ny
         ax.text(lx, ly, _shown(name), **{**warn, "ha": "left" if sign * nx >= 0 else "right"}, zorder=3,
                 bbox=dict(facecolor="white", edgecolor="none", pad=1))
-
-    for link, (x, y) in position.items():
-        edge = "#b00020" if link in tree.undeclared else _LINK_EDGE
-        box(x, y, _text_width(link), _LINK_H, _LINK_FACE, edge, zorder=2)
-        ax.text(x, y, _shown(link), **text, weight="bold", zorder=3)
-
-    with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "manipkit"}), writing(path) as target:
-        # PNG: zlib level 1 (PR2's 8000 x 3000 picture: 0.2 s less than the default 6, a slightly larger file)
-        extra = {"pil_kwargs": {"compress_level": 1}} if fmt == "png" else {}
-        fig.savefig(target, format=fmt, dpi=dpi, metadata=_deterministic_metadata(fmt), **extra)
-    return path
 
 
 def _deterministic_metadata(fmt: str) -> dict:

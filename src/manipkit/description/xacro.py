@@ -212,6 +212,7 @@ def _reissue(caught: list) -> None:
 @contextlib.contextmanager
 def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
     """Replace xacro's evaluation, file opening and unbounded loops for one expansion (restored after)."""
+    # Over 80 lines: the six hooks share one expansion's state (deadline, counts, missing packages) as closures.
     import xacro
 
     from manipkit.description.expressions import MAX_SIZE
@@ -364,6 +365,7 @@ def _read_description(path: Path) -> str:
 # so the branches stay together.
 def _xacro_error(exc: BaseException, path: Path, missing: list, resolver: PackageResolver) -> DescriptionError:
     """One-line error for a failed xacro expansion: ``FILE.xacro:LINE: what, and what would be valid``."""
+    # Over 80 lines: one case per kind of xacro failure, in the order they are recognised; each is a few lines.
     import xml.parsers.expat
 
     import xacro

@@ -211,6 +211,7 @@ def dh_fk_symbolic(
     >>> T[0, 3]
     cos(q1) + cos(q1 + q2)
     """
+    # Over 80 lines: the docstring (conventions, bounds, examples) is most of it.
     import sympy
     from sympy.simplify.fu import TR10i
 

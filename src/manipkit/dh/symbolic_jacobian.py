@@ -187,6 +187,7 @@ def dh_jacobian_symbolic(
     [-l1*sin(q1) - l2*sin(q1 + q2), -l2*sin(q1 + q2)],
     [ l1*cos(q1) + l2*cos(q1 + q2),  l2*cos(q1 + q2)]])
     """
+    # Over 80 lines: the docstring (conventions, bounds, examples) is most of it.
     import sympy
     from sympy.simplify.fu import TR10i
 

