@@ -25,14 +25,20 @@ def _no_negative_zero(text: str) -> str:
     return text
 
 
-def number_text(value: float, precision: int = 6) -> str:
+def number_text(value: float, precision: int = 6, *, zero: float = 0.0) -> str:
     """``value`` with ``precision`` decimals, without the sign of a value that rounds to zero.
+
+    A value with ``|value| <= zero`` is rounding noise and prints as zero
+    (docs/architecture.md, "Printed noise": 1e-9 of the number's scale).
 
     Examples
     --------
-    >>> number_text(-1e-9), number_text(0.5, 3)
-    ('0.000000', '0.500')
+    >>> number_text(-1e-9), number_text(0.5, 3), number_text(1.2e-16, 17, zero=1e-9)
+    ('0.000000', '0.500', '0.00000000000000000')
     """
+    value = float(value)
+    if abs(value) <= zero:
+        value = 0.0
     return _no_negative_zero(f"{value:.{precision}f}")
 
 

@@ -13,13 +13,19 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.spatial.forms import SINGULAR_TOL, rotation_forms
 from manipkit.spatial.rotations import quaternion_from_matrix, rpy_from_matrix
 from manipkit.text import number_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["pose_fields", "pose_report", "pose_text"]
+__all__ = ["NOISE", "pose_fields", "pose_report", "pose_text"]
+
+#: Printed noise (docs/architecture.md): a number within this much of its scale (1 for rotations and
+#: quaternions, the largest of 1 m and the translation's size for lengths) prints as 0; the rpy within it
+#: of gimbal lock takes roll = 0, as ``manipkit rot`` does.
+NOISE = SINGULAR_TOL
 
 
 def pose_fields(T) -> dict[str, np.ndarray]:
@@ -42,7 +48,7 @@ def pose_fields(T) -> dict[str, np.ndarray]:
     """
     T = np.asarray(T, dtype=float)
     R = T[..., :3, :3]
-    rpy = rpy_from_matrix(R)
+    rpy = rpy_from_matrix(R, gimbal_tol=NOISE)  # at gimbal lock roll = 0, as manipkit rot (spatial.forms)
     return {
         "translation": T[..., :3, 3].copy(),
         "quaternion_xyzw": quaternion_from_matrix(R),
@@ -129,19 +135,25 @@ def pose_text(report: dict, *, precision: int = 6) -> str:
         0.0   0.0   0.0   1.0
     """
 
-    def vector(values) -> str:
-        return "[" + ", ".join(number_text(v, precision) for v in values) + "]"
+    length = NOISE * max(1.0, float(np.max(np.abs(report["translation"]))))  # the noise of a length, m
+
+    def vector(values, zero=NOISE) -> str:
+        return "[" + ", ".join(number_text(v, precision, zero=zero) for v in values) + "]"
 
     source, target = report["source"], report["target"]
     width = precision + 4
+    matrix = np.asarray(report["matrix"], dtype=float)
+    gimbal = rotation_forms(matrix[:3, :3]).notes.get("rpy")
     lines = [
         f"pose of {target} expressed in {source} (T_{source}_{target}, as tf2_echo {source} {target}):",
-        f"- Translation (m): {vector(report['translation'])}",
+        f"- Translation (m): {vector(report['translation'], length)}",
         f"- Rotation: in Quaternion (x, y, z, w): {vector(report['quaternion_xyzw'])}",
         f"- Rotation: in RPY (radian) [roll, pitch, yaw]: {vector(report['rpy'])}",
-        f"- Rotation: in RPY (degree) [roll, pitch, yaw]: {vector(np.degrees(report['rpy']))}",
+        f"- Rotation: in RPY (degree) [roll, pitch, yaw]: {vector(np.degrees(report['rpy']), np.degrees(NOISE))}",
         "  (RPY as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes x, y, z)",
+        *([f"  ({gimbal})"] if gimbal else []),
         "- Matrix:",
     ]
-    lines += ["  " + " ".join(number_text(v, precision).rjust(width) for v in row) for row in report["matrix"]]
+    lines += ["  " + " ".join(number_text(v, precision, zero=length if c == 3 else NOISE).rjust(width)
+                              for c, v in enumerate(row)) for row in matrix]
     return "\n".join(lines)
