@@ -154,18 +154,25 @@ def _values(args):
 
 
 def _form_lines(form: str, value, unit: str, precision: int) -> list[str]:
+    """The lines of one form; rounding noise (1e-9 of 1, or of 1 rad in the unit printed) prints as 0."""
+    import math
+
+    from manipkit.spatial.forms import SINGULAR_TOL
     from manipkit.text import number_text, vector_text
 
-    def vector(values) -> str:
-        return vector_text(values, lambda v: number_text(v, precision))
+    angle_zero = math.degrees(SINGULAR_TOL) if unit == "deg" else SINGULAR_TOL
+
+    def number(v, zero=SINGULAR_TOL) -> str:
+        return number_text(v, precision, zero=zero)
+
+    def vector(values, zero=SINGULAR_TOL) -> str:
+        return vector_text(values, lambda v: number(v, zero))
 
     if form == "matrix":
-        width = max(len(number_text(v, precision)) for row in value for v in row)
-        return ["rotation matrix:"] + [
-            "  [" + " ".join(number_text(v, precision).rjust(width) for v in row) + "]" for row in value
-        ]
+        width = max(len(number(v)) for row in value for v in row)
+        return ["rotation matrix:"] + ["  [" + " ".join(number(v).rjust(width) for v in row) + "]" for row in value]
     if form == "axis-angle":
-        return [f"axis-angle: axis {vector(value['axis'])}, angle {number_text(value['angle'], precision)} {unit}"]
+        return [f"axis-angle: axis {vector(value['axis'])}, angle {number(value['angle'], angle_zero)} {unit}"]
     if form == "quaternion":
         return [f"{_LABELS[form]}: {vector(value)}"]
-    return [f"{_LABELS[form]}: {vector(value)} {unit}"]
+    return [f"{_LABELS[form]}: {vector(value, angle_zero)} {unit}"]
