@@ -180,3 +180,15 @@ def test_two_threads_get_right_answers_at_once(load_robot):
     for t in threads:
         t.join()
     assert errors == []
+
+
+def test_every_function_taking_one_q_takes_it_by_name(load_robot):
+    """docs/architecture.md: a dict by joint name (others at their defaults) works wherever one q does."""
+    robot = load_robot("planar_2r")
+    chain = robot.chain("base_link", "ee_link")
+    by_name, q = {"joint2": 0.3}, np.array([0.0, 0.3])
+    assert np.array_equal(chain.fk(by_name), chain.fk(q))
+    assert np.array_equal(chain.jacobian(by_name), chain.jacobian(q))
+    assert np.array_equal(chain.axes(by_name).point, chain.axes(q).point)
+    assert np.array_equal(robot.clamp(by_name), q) and np.array_equal(robot.jacobian(by_name), robot.jacobian(q))
+    assert np.array_equal(robot.transform("base_link", "ee_link", by_name), robot.transform("base_link", "ee_link", q))

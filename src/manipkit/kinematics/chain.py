@@ -216,7 +216,12 @@ class Chain:
         return np.array(q, dtype=float)
 
     def rows(self, Q) -> np.ndarray:
-        """Many chain vectors (..., n) from ``Q`` (..., n) or whole-robot rows (..., len(robot.joint_names)), checked."""
+        """Many chain vectors (..., n) from ``Q`` (..., n) or whole-robot rows (..., len(robot.joint_names)), checked.
+
+        One configuration by name (a dict) is taken too, as :meth:`q` takes it.
+        """
+        if isinstance(Q, Mapping):
+            return self.q(Q)
         Q = joint_array(Q)
         n_robot = len(self.robot.joint_names)
         if Q.ndim >= 1 and Q.shape[-1] == n_robot and n_robot != self.n:

@@ -444,9 +444,9 @@ class Robot:
     def clamp(self, q) -> np.ndarray:
         """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
 
-        Works on one joint vector (n,) or many (..., n).
+        Works on one joint vector (n,) or many (..., n), or joint values by name (a dict, as :meth:`q`).
         """
-        Q = np.array(joint_array(q))
+        Q = np.array(self.q(q) if isinstance(q, Mapping) else joint_array(q))
         lower = np.array([j.lower for j in self.joints], dtype=float)
         upper = np.array([j.upper for j in self.joints], dtype=float)
         return np.minimum(np.maximum(Q, lower), upper)
