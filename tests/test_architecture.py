@@ -12,9 +12,10 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "manipkit"
 
 # layer -> the manipkit layers it may import at run time (docs/architecture.md, "Layers")
-BOTTOM = {"errors", "text", "outputs"}  # modules beside errors.py that every layer may use
+BOTTOM = {"errors", "exports", "text", "outputs"}  # modules beside errors.py that every layer may use
 ALLOWED = {
     "errors": set(),
+    "exports": set(),
     "text": set(),
     "outputs": {"errors"},
     "spatial": BOTTOM,
@@ -119,3 +120,19 @@ def test_user_errors_raise_a_subclass_not_the_base(path):
              if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call)
              and isinstance(node.exc.func, ast.Name) and node.exc.func.id == "ManipkitError"]
     assert not found, f"raise ManipkitError(...) at lines {found}: raise the subclass for its kind (errors.py)"
+
+
+MODULES = sorted({".".join(["manipkit", *p.relative_to(PACKAGE).with_suffix("").parts]).removesuffix(".__init__")
+                  for p in PACKAGE.rglob("*.py") if p.name != "__main__.py"})
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_all_is_declared_and_true(name):
+    """Every module and package says what it exports, and every name it lists is there (packages load lazily)."""
+    import importlib
+
+    module = importlib.import_module(name)
+    assert isinstance(getattr(module, "__all__", None), (list, tuple)), f"{name} declares no __all__"
+    missing = [n for n in module.__all__ if not hasattr(module, n)]
+    assert not missing, f"{name}.__all__ lists {missing}, which it does not have"
+

@@ -8,4 +8,22 @@ the families that hold, what is lost), reachability maps
 (``reachmap``, ``orientations``) and base placement (``placement``).
 """
 
-__all__ = ["dexterity", "jacobian_report", "manipulability", "orientations", "placement", "reachmap", "singularities", "workspace"]
+from __future__ import annotations
+
+from manipkit.exports import homes_of, lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of(
+        "manipkit.analysis.dexterity",
+        "ConditioningIndex", "generic_rank", "global_conditioning_index", "rank",
+    ),
+    **homes_of("manipkit.analysis.jacobian_report", "JacobianReport", "jacobian_report"),
+    **homes_of(
+        "manipkit.analysis.manipulability",
+        "force_ellipsoid", "manipulability", "singular_values", "velocity_ellipsoid",
+    ),
+    **homes_of("manipkit.analysis.singularities", "families_at", "singular_families"),
+    **homes_of("manipkit.analysis.reachmap", "ReachMap", "build"),
+    **homes_of("manipkit.analysis.placement", "BasePlacement", "base_placement"),
+    **homes_of("manipkit.analysis.workspace", "planar_workspace"),
+})

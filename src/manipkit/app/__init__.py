@@ -4,4 +4,9 @@ The app presents; every number it shows comes from the layers below
 (docs/architecture.md).
 """
 
-__all__: list[str] = []
+from __future__ import annotations
+
+from manipkit.exports import lazy_exports
+
+# The app exports no names: its entry points are manipkit.app.cli (main, tf_between_main) and manipkit.app.viewer.
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {})

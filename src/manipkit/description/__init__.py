@@ -15,33 +15,21 @@ xacro, yourdfpy and matplotlib load only when needed (docs/architecture.md).
 
 from __future__ import annotations
 
-import importlib
+from manipkit.exports import homes_of, lazy_exports
 
-_MODULE_OF = {
-    **dict.fromkeys(
-        ("DEFAULT_ROBOT", "EXAMPLE_ROBOT_DATA_ARMS", "RobotSource", "bundled_dh_tables", "bundled_dir",
-         "bundled_robots", "example_robot_data_arms", "example_robot_data_dir", "example_robot_data_urdfs",
-         "resolve_dh_table", "resolve_robot"),
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of(
         "manipkit.description.sources",
+        "DEFAULT_ROBOT", "EXAMPLE_ROBOT_DATA_ARMS", "RobotSource", "bundled_dh_tables", "bundled_dir",
+        "bundled_robots", "example_robot_data_arms", "example_robot_data_dir", "example_robot_data_urdfs",
+        "resolve_dh_table", "resolve_robot",
     ),
-    **dict.fromkeys(("PACKAGE_SCHEME", "PackageResolver", "split_package_uri"), "manipkit.description.packages"),
-    **dict.fromkeys(
-        ("XacroExpansion", "describe", "expand_xacro", "urdf_text", "xacro_arg_declarations", "xacro_locator"),
+    **homes_of("manipkit.description.packages", "PACKAGE_SCHEME", "PackageResolver", "split_package_uri"),
+    **homes_of(
         "manipkit.description.xacro",
+        "XacroExpansion", "describe", "expand_xacro", "urdf_text", "xacro_arg_declarations", "xacro_locator",
     ),
-    **dict.fromkeys(("CheckedURDF", "check_urdf", "package_uri_warnings"), "manipkit.description.validate"),
-    **dict.fromkeys(("mesh_path", "urdf_with_mesh_paths"), "manipkit.description.meshes"),
-    **dict.fromkeys(("parse_structure", "tree_dot", "tree_text", "write_tree_image"), "manipkit.description.tree"),
-}
-
-__all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str):
-    if name in _MODULE_OF:
-        return getattr(importlib.import_module(_MODULE_OF[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    **homes_of("manipkit.description.validate", "CheckedURDF", "check_urdf", "package_uri_warnings"),
+    **homes_of("manipkit.description.meshes", "mesh_path", "urdf_with_mesh_paths"),
+    **homes_of("manipkit.description.tree", "parse_structure", "tree_dot", "tree_text", "write_tree_image"),
+})

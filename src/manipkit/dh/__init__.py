@@ -24,43 +24,23 @@ and :func:`dh_from_urdf_chain` take a loaded :class:`manipkit.Robot`. SymPy
 and PyYAML are imported inside the functions that need them.
 """
 
-from manipkit.dh.check import DHCheck, check_dh
-from manipkit.dh.entries import reverse_joint
-from manipkit.dh.files import bundled_tables, dh_from_yaml, load_dh, save_dh, yaml_from_dh
-from manipkit.dh.from_urdf import dh_from_urdf_chain
-from manipkit.dh.symbolic import dh_fk_symbolic, dh_length_symbols, dh_symbols, format_symbolic, shorthand
-from manipkit.dh.table import CONVENTIONS, JOINT_TYPES, DHRow, DHTable, dh_fk, dh_link_transform
-from manipkit.dh.text import format_dh_table, html_dh_table, latex_dh_table
-from manipkit.dh.to_urdf import save_urdf, urdf_from_dh
+from __future__ import annotations
 
-# re-exported for compatibility: manipkit 0.1 offered it as manipkit.dh.transform_from_xyz_rpy
-from manipkit.spatial.transforms import transform_from_xyz_rpy
+from manipkit.exports import homes_of, lazy_exports
 
-__all__ = [
-    "CONVENTIONS",
-    "JOINT_TYPES",
-    "DHCheck",
-    "DHRow",
-    "DHTable",
-    "bundled_tables",
-    "check_dh",
-    "dh_fk",
-    "dh_fk_symbolic",
-    "dh_from_urdf_chain",
-    "dh_from_yaml",
-    "dh_length_symbols",
-    "dh_link_transform",
-    "dh_symbols",
-    "format_dh_table",
-    "format_symbolic",
-    "html_dh_table",
-    "latex_dh_table",
-    "load_dh",
-    "reverse_joint",
-    "save_dh",
-    "save_urdf",
-    "shorthand",
-    "transform_from_xyz_rpy",
-    "urdf_from_dh",
-    "yaml_from_dh",
-]
+# transform_from_xyz_rpy: manipkit 0.1 offered it as manipkit.dh.transform_from_xyz_rpy (it is spatial's)
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of("manipkit.dh.table", "CONVENTIONS", "JOINT_TYPES", "DHRow", "DHTable", "dh_fk", "dh_link_transform"),
+    **homes_of("manipkit.dh.check", "DHCheck", "check_dh"),
+    **homes_of("manipkit.dh.files", "bundled_tables", "dh_from_yaml", "load_dh", "save_dh", "yaml_from_dh"),
+    **homes_of(
+        "manipkit.dh.symbolic",
+        "dh_fk_symbolic", "dh_length_symbols", "dh_symbols", "format_symbolic", "shorthand",
+    ),
+    **homes_of("manipkit.dh.from_urdf", "dh_from_urdf_chain"),
+    **homes_of("manipkit.dh.text", "format_dh_table", "html_dh_table", "latex_dh_table"),
+    **homes_of("manipkit.dh.entries", "reverse_joint"),
+    **homes_of("manipkit.dh.to_urdf", "save_urdf", "urdf_from_dh"),
+    **homes_of("manipkit.spatial.transforms", "transform_from_xyz_rpy"),
+})

@@ -15,19 +15,13 @@ checked as a transform) and below every layer that reads files
 
 from __future__ import annotations
 
-import importlib
+from manipkit.exports import homes_of, lazy_exports
 
-_MODULE_OF = {
-    **dict.fromkeys(("MAX_DESCRIPTION_BYTES", "MAX_MATRIX_BYTES", "MAX_TABLE_BYTES", "check_input_file", "read_text"),
-                    "manipkit.inputs.files"),
-    "read_matrix": "manipkit.inputs.matrices",
-    "read_targets": "manipkit.inputs.poses",
-}
-
-__all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str):
-    if name in _MODULE_OF:
-        return getattr(importlib.import_module(_MODULE_OF[name]), name)
-    raise AttributeError(f"module 'manipkit.inputs' has no attribute {name!r}")
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of(
+        "manipkit.inputs.files",
+        "MAX_DESCRIPTION_BYTES", "MAX_MATRIX_BYTES", "MAX_TABLE_BYTES", "check_input_file", "read_text",
+    ),
+    **homes_of("manipkit.inputs.matrices", "read_matrix"),
+    **homes_of("manipkit.inputs.poses", "read_targets"),
+})

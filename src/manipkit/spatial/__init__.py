@@ -12,15 +12,29 @@ expressed in frame a (4x4 homogeneous); quaternions are (x, y, z, w); rpy is
 - :mod:`manipkit.spatial.compare`: a hand-derived transform against the model's, with a diagnosis.
 """
 
-from manipkit.spatial.compare import *  # noqa: F401,F403
-from manipkit.spatial.compare import __all__ as _compare_all
-from manipkit.spatial.euler import *  # noqa: F401,F403
-from manipkit.spatial.euler import __all__ as _euler_all
-from manipkit.spatial.forms import *  # noqa: F401,F403
-from manipkit.spatial.forms import __all__ as _forms_all
-from manipkit.spatial.rotations import *  # noqa: F401,F403
-from manipkit.spatial.rotations import __all__ as _rotations_all
-from manipkit.spatial.transforms import *  # noqa: F401,F403
-from manipkit.spatial.transforms import __all__ as _transforms_all
+from __future__ import annotations
 
-__all__ = [*_rotations_all, *_euler_all, *_forms_all, *_transforms_all, *_compare_all]
+from manipkit.exports import homes_of, lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of(
+        "manipkit.spatial.rotations",
+        "axis_angle_from_matrix", "check_rotation", "matrix_from_axis_angle", "matrix_from_quaternion",
+        "matrix_from_rpy", "quaternion_from_matrix", "rot_x", "rot_y", "rot_z", "rotation_angle_between",
+        "rotation_violations", "rpy_from_matrix", "wrap_angle",
+    ),
+    **homes_of(
+        "manipkit.spatial.euler",
+        "euler_zyx_from_matrix", "euler_zyz_from_matrix", "matrix_from_euler_zyx", "matrix_from_euler_zyz",
+    ),
+    **homes_of(
+        "manipkit.spatial.forms",
+        "FORMS", "SINGULAR_TOL", "RotationForms", "rotation_forms", "rotation_from_form",
+    ),
+    **homes_of(
+        "manipkit.spatial.transforms", "EXACT_ROTATION_TOL",
+        "as_transforms", "check_transform", "invert_transform", "nearest_rotation", "pose_error",
+        "projected_rotation", "transform_from_xyz_quaternion", "transform_from_xyz_rpy", "transform_violations",
+    ),
+    **homes_of("manipkit.spatial.compare", "ComparisonResult", "compare_transform"),
+})

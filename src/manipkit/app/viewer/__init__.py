@@ -22,21 +22,14 @@ functions that need them, so importing this package stays cheap.
 
 from __future__ import annotations
 
-from manipkit.app.viewer.notebook import NotebookView, notebook_view
-from manipkit.app.viewer.scene import TRIAD_DOTS, MeshcatScene, visual_model
-from manipkit.app.viewer.server import DEFAULT_PORT, ViewerServer, open_view, write_static
-from manipkit.app.viewer.state import (
-    DEFAULT_FRAMES,
-    ELLIPSOID_PATH,
-    TRIAD_PATHS,
-    VISUALS_ROOT,
-    Overlay,
-    SliderSpec,
-    ViewerState,
-)
+from manipkit.exports import homes_of, lazy_exports
 
-__all__ = [
-    "DEFAULT_FRAMES", "DEFAULT_PORT", "ELLIPSOID_PATH", "TRIAD_DOTS", "TRIAD_PATHS", "VISUALS_ROOT", "Overlay",
-    "SliderSpec", "ViewerState",
-    "MeshcatScene", "ViewerServer", "visual_model", "open_view", "write_static", "notebook_view", "NotebookView",
-]
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of(
+        "manipkit.app.viewer.state",
+        "DEFAULT_FRAMES", "ELLIPSOID_PATH", "TRIAD_PATHS", "VISUALS_ROOT", "Overlay", "SliderSpec", "ViewerState",
+    ),
+    **homes_of("manipkit.app.viewer.scene", "TRIAD_DOTS", "MeshcatScene", "visual_model"),
+    **homes_of("manipkit.app.viewer.server", "DEFAULT_PORT", "ViewerServer", "open_view", "write_static"),
+    **homes_of("manipkit.app.viewer.notebook", "NotebookView", "notebook_view"),
+})
