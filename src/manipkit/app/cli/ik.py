@@ -217,7 +217,8 @@ def run_ik(args) -> int:
         residuals = (best.residual_position, best.residual_rotation)
     else:
         residuals = (None, None)
-    notes = [result.reason] if result.reason else []
+    note = getattr(result, "note", None) or result.reason  # closed form: its account; numerical: why not
+    notes = [note] if note else []
     if not result.success and best is not None:
         note = _precision_note(args, mode, best.residual_position, best.residual_rotation)
         if note:
