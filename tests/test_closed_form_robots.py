@@ -79,7 +79,7 @@ def test_closed_form_and_numerical_answers_print_alike(arms):
     # The properties a presenter reads exist on both result types, with the same shapes.
     robot = arms["elbow_arm"]
     T = robot.transform("base_link", "ee_link", [0.5, 0.4, -1.0, 0.3, 0.9, 0.2])
-    for result in (analytic_ik(robot, T), ik(robot, T, all=True, restarts=3), ik(robot, T).as_solutions()):
+    for result in (analytic_ik(robot, T), ik(robot, T, all=True, restarts=3), ik(robot, T)):
         k = len(result.labels)
         assert result.success and result.count >= k > 0 and isinstance(result.reason, str)
         assert result.solutions.shape == (k, 6) and result.residuals.shape == (k, 2)

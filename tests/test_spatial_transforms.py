@@ -355,6 +355,26 @@ def test_pose_residuals_of_one_pair_equal_those_of_a_stack(angles, xyz, mode, ax
         assert single == pose_residuals(T_b, T_a)  # symmetric, exactly
 
 
+@pytest.mark.parametrize("project", [True, False])
+@pytest.mark.parametrize("bad", [np.inf, -np.inf, np.nan])
+def test_pose_error_of_one_pair_is_nan_for_a_non_finite_rotation_entry(project, bad):
+    for i, j in ((0, 0), (1, 2), (2, 1)):
+        T = transform(rot_z(0.3), [0.1, 0.2, 0.3])
+        T[i, j] = bad
+        assert math.isnan(pose_error(np.eye(4), T, project=project)[1])
+        assert math.isnan(pose_error(T, np.eye(4), project=project)[1])
+
+
+def test_pose_error_without_projection_takes_the_blocks_as_they_are():
+    # 2 * Rz(0.3): projected, 0.3 rad from I; as it is, M = 2 Rz(0.3): atan2(|v|, (tr M - 1) / 2) with
+    # |v| = 2 sin 0.3 and tr M = 2 (1 + 2 cos 0.3), i.e. atan2(2 sin 0.3, 0.5 + 2 cos 0.3)
+    T = transform(2.0 * rot_z(0.3), [0.0, 0.0, 0.0])
+    assert pose_error(np.eye(4), T)[1] == pytest.approx(0.3, abs=1e-12)
+    expected = math.atan2(2.0 * math.sin(0.3), 0.5 + 2.0 * math.cos(0.3))
+    assert pose_error(np.eye(4), T, project=False)[1] == pytest.approx(expected, abs=1e-15)
+    assert pose_error(np.eye(4)[None], T[None], project=False)[1][0] == pytest.approx(expected, abs=1e-15)
+
+
 def test_pose_residuals_broadcast_a_target_over_reached_poses():
     stack = np.stack([transform(rot_z(a), [0.0, 0.0, a]) for a in (0.1, 0.2, 0.3)])
     position, rotation = pose_residuals(np.eye(4), stack, mode="position+axis", axis="x")

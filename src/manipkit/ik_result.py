@@ -59,7 +59,7 @@ MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE, SPATIAL_P
 def read_only(array, shape_tail: tuple[int, ...] = ()) -> np.ndarray:
     """A float copy of ``array`` that cannot be written to (an empty input gets shape ``(0, *shape_tail)``)."""
     copy = np.array(array, dtype=float)
-    if copy.size == 0:
+    if copy.size == 0 and shape_tail:
         copy = copy.reshape((0,) + tuple(shape_tail))
     copy.setflags(write=False)
     return copy
@@ -97,7 +97,7 @@ def tolerances(tol, *, error: type[Exception] = IKOptionError, what: str = "tol"
     return float(values[0]), float(values[-1])
 
 
-@dataclass(frozen=True, eq=False, repr=False)
+@dataclass(frozen=True, eq=False, repr=False, init=False)
 class IKResult:
     """Every IK answer for one target, from any solver (numerical or closed form).
 
@@ -206,6 +206,16 @@ class IKResult:
     closest: np.ndarray | None = None
     closest_residuals: np.ndarray | None = None
     family_function: Callable[..., IKResult] | None = field(default=None, repr=False)
+
+    def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
+                 joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
+                 side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None):
+        # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
+        # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
+        fields = dict(locals())
+        del fields["self"]
+        self.__dict__.update(fields)
+        self.__post_init__()
 
     def __post_init__(self):
         for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals"):
