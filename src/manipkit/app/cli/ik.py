@@ -31,6 +31,7 @@ from manipkit.app.cli.common import (
     print_json,
     q_text,
 )
+from manipkit.errors import ManipkitError
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
@@ -133,14 +134,18 @@ def _precision_note(args, mode: str, position: float, rotation: float) -> str | 
             f"{rotation_text}); it is likely a rounded copy of a reachable pose: accept it with --tol {short_text(suggest)}")
 
 
-def _tolerance(args) -> float | tuple[float, float] | None:
-    """--tol as the solvers take it: None (their default), one number, or (position m, rotation rad)."""
+def _tolerance(args) -> tuple[float, float] | None:
+    """--tol as (position m, rotation rad), read by the one tolerance parser (:func:`manipkit.ik_result.tolerances`),
+    or None for the solvers' default."""
+    from manipkit.ik_result import tolerances
+
     if args.tol is None:
         return None
-    if len(args.tol) > 2 or not all(math.isfinite(t) and t > 0.0 for t in args.tol):
+    try:
+        return tolerances(tuple(args.tol))
+    except ManipkitError:
         raise UsageError(f"--tol {' '.join(short_text(t) for t in args.tol)}: give one or two positive numbers "
-                         "(position m, rotation rad)")
-    return args.tol[0] if len(args.tol) == 1 else (args.tol[0], args.tol[1])
+                         "(position m, rotation rad)") from None
 
 
 def _ik_target(args) -> np.ndarray:
