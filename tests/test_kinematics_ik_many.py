@@ -197,7 +197,7 @@ def test_the_old_positional_start_and_frame_keyword_still_work_with_a_warning(co
     Q_true = course_arm.sample_q(5, seed=9)
     T = course_arm.fk(Q_true, base="base_link", tip="ee_link")
     with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
-        old = ik_many(course_arm, T, Q_true)  # the start as the third positional argument, as before 0.2
+        old = ik_many(course_arm, T, Q_true)  # the start as the third positional argument, as in 0.1
     assert np.array_equal(old.q, ik_many(course_arm, T, q0=Q_true).q) and (old.attempts == 1).all()
     with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
         framed = ik_many(course_arm, T, frame="ee_link", q0=Q_true)

@@ -171,7 +171,7 @@ class IKResult:
     ``infinite``, ``singular``.
 
     ``IKSolutions`` (numerical, ``all=True``) and ``ClosedFormSolutions`` (the
-    closed forms) were separate types before 0.2; they remain names of this
+    closed forms) were separate types in 0.1; they remain names of this
     class for one release, so imports and ``isinstance`` checks keep working
     (a result is no longer a sequence of single answers: use ``solutions``).
 
@@ -371,7 +371,7 @@ class IKBatch:
         ``ik_many``: Levenberg-Marquardt iterations and starts per target;
         None for a closed form.
 
-    ``PlanarIKBatch`` (the planar batches' type before 0.2) remains a name of
+    ``PlanarIKBatch`` (the planar batches' type in 0.1) remains a name of
     this class for one release, and ``counts`` of ``count`` (with a
     DeprecationWarning).
     """

@@ -227,7 +227,7 @@ def chain_points(q, lengths) -> np.ndarray:
 # inverse kinematics: many targets at once
 
 
-#: The planar batches' result type before 0.2: now :class:`manipkit.ik_result.IKBatch` (goes in the next release).
+#: The planar batches' result type in 0.1: now :class:`manipkit.ik_result.IKBatch` (goes in the next release).
 PlanarIKBatch = IKBatch
 
 

@@ -19,8 +19,8 @@ orientation for a 2R arm, a height off a planar arm's plane, a tilted SCARA
 tool, a point out of reach) gives 0 solutions and is named, with its size,
 in ``unmet``.
 
-``ClosedFormSolutions`` is the closed forms' name of the result type before
-0.2; it remains an alias of :class:`~manipkit.ik_result.IKResult` for one release.
+``ClosedFormSolutions`` is the closed forms' name of the result type in
+0.1; it remains an alias of :class:`~manipkit.ik_result.IKResult` for one release.
 """
 
 from __future__ import annotations
@@ -53,5 +53,5 @@ MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE)
 #: Residual (m and rad) within which a row's forward kinematics must reproduce the target to be returned.
 CHECK_TOL = 1e-9
 
-#: The closed forms' name of :class:`~manipkit.ik_result.IKResult` before 0.2 (goes in the next release).
+#: The closed forms' name of :class:`~manipkit.ik_result.IKResult` in 0.1 (goes in the next release).
 ClosedFormSolutions = IKResult

@@ -88,7 +88,7 @@ SOLVER_NAME = "kinematics.ik"
 RESULT_MODES = {"pose": SPATIAL_POSE, "position": SPATIAL_POSITION, "position+axis": SPATIAL_POINTING}
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
-#: The name of the ``all=True`` answer before 0.2: now the one :class:`~manipkit.ik_result.IKResult`
+#: The name of the ``all=True`` answer in 0.1: now the one :class:`~manipkit.ik_result.IKResult`
 #: (goes in the next release).
 IKSolutions = IKResult
 

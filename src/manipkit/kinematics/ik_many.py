@@ -168,7 +168,7 @@ def ik_many(
         ``robot.joint_names`` order, clamped into the limits; also the values
         of the joints off the chain. Default: a random first start, off-chain
         joints at their defaults. (Given as the third positional argument, as
-        before 0.2, it still works for one release, with a DeprecationWarning.)
+        in 0.1, it still works for one release, with a DeprecationWarning.)
     mode, axis : str, keyword-only
         As in :func:`manipkit.kinematics.ik.ik`.
     tol : float or (float, float), keyword-only
@@ -217,7 +217,7 @@ def ik_many(
     (True, True)
     """
     # Over 80 lines: the docstring (every option and the conventions) is most of it.
-    if base is not None and not isinstance(base, str):  # ik_many(robot, T, q0) as before 0.2
+    if base is not None and not isinstance(base, str):  # ik_many(robot, T, q0) as in 0.1
         warnings.warn("manipkit API: ik_many(robot, T, q0) is now ik_many(robot, T, base, tip, q0=q0); the start as "
                       "the third positional argument goes in the next release", DeprecationWarning, stacklevel=2)
         if q0 is not None:
