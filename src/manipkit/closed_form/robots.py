@@ -178,6 +178,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     >>> result.solver, result.mode, result.count, result.labels
     ('planar.ik_2r', 'planar position (x, y)', 2, ('elbow-down', 'elbow-up'))
     """
+    # Over 80 lines: the docstring (what each arm solves, every option) is most of it.
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
     if arm is None:
         raise IKOptionError(

@@ -310,7 +310,6 @@ class IKSolver:
 
     def __init__(self, robot: Robot, base: str | None = None, tip: str | None = None, *, mode: str = "pose",
                  axis: str = "z", free: tuple[str, ...] = (), frame: str | None = None):
-        # Over 80 lines: one pass over the chain, each derived array next to the reason it is needed.
         base, tip = frame_arguments("IKSolver", (), base, tip, frame, default_base="base_link", default_tip="ee_link")
         if mode not in MODES:
             raise IKOptionError(f"unknown IK mode '{mode}'; modes: {', '.join(MODES)}")
