@@ -132,3 +132,12 @@ def test_scara_family_members_refuse_bad_values_in_one_line(load_robot, values):
     with pytest.raises(ManipkitError) as info:
         family.members(values)
     assert "theta4 values" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_analytic_ik_takes_its_frames_base_first_and_refuses_others(arms):
+    robot = arms["planar_2r"]
+    T = robot.transform("base_link", "ee_link", [0.3, 0.5])
+    named = analytic_ik(robot, T, "base_link", "ee_link", mode="position")
+    assert np.array_equal(named.solutions, analytic_ik(robot, T, mode="position").solutions) and named.success
+    with pytest.raises(IKOptionError, match="solves base_link -> ee_link, not base_link -> link1"):
+        analytic_ik(robot, T, "base_link", "link1")
