@@ -693,7 +693,9 @@ def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected:
     """The rows whose DH forward kinematics reproduce ``target`` (position, and rotation when ``pose``)."""
     rows = read_only(rows, (len(lengths),))
     T_reached = dh_fk(_table(tuple(lengths)), rows).reshape(-1, 4, 4)
-    position, rotation = (np.atleast_1d(e) for e in pose_residuals(target, T_reached, mode="pose" if pose else "position"))
+    # the target and the tables' rotations are exact products of Rz: no need to project them first
+    residuals = pose_residuals(target, T_reached, mode="pose" if pose else "position", project=False)
+    position, rotation = (np.atleast_1d(e) for e in residuals)
     limit = max(CHECK_TOL, tol)
     keep = (position <= limit) & (rotation <= limit)
     dropped = rejected + int(np.count_nonzero(~keep))
@@ -748,6 +750,6 @@ def _slot_residuals(Q: np.ndarray, targets: np.ndarray, lengths: tuple[float, ..
             T_target[..., :3, :3] = rot_z(wanted[:, 2])[:, None]
         with np.errstate(invalid="ignore"):
             position[block], rotation[block] = pose_residuals(T_target, dh_fk(table, flat_Q[block]),
-                                                              mode="pose" if pose else "position")
+                                                              mode="pose" if pose else "position", project=False)
     rotation[np.isnan(position)] = np.nan
     return position.reshape(Q.shape[:-1]), rotation.reshape(Q.shape[:-1])
