@@ -491,7 +491,7 @@ def ik_2r_batch(xy, l1, l2, *, tol: float = 1e-12) -> IKBatch:
                   tol=tol, solver="planar.ik_2r_batch")
 
 
-def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
+def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> IKResult:
     """Every joint solution ``(q1, q2)`` putting a planar 2R tool at ``(x, y)``.
 
     Parameters
@@ -508,11 +508,12 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         ``solutions`` (k, 2), rows ``(q1, q2)`` in radians wrapped to
         (-pi, pi], elbow-down (q2 > 0) first; ``labels``, ``count``,
-        ``reason``, for unreachable targets ``outside_by`` and ``side``, and
-        per row the distance (m) of ``fk_2r`` of the row from the target in
+        ``note`` (why that many), ``reason`` (``""`` unless there is none),
+        for unreachable targets ``outside_by`` and ``side``, and per row the
+        distance (m) of the DH table's FK (:func:`planar_dh_table`) from the target in
         ``residual_position`` (``residual_rotation`` is 0: a 2R target has
         no orientation).
 
@@ -596,7 +597,7 @@ def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> IKBatch:
                   mode=PLANAR_POSE, tol=tol, solver="planar.ik_3r_batch")
 
 
-def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> ClosedFormSolutions:
+def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> IKResult:
     """Every joint solution ``(q1, q2, q3)`` putting a planar 3R tool at pose ``(x, y, phi)``.
 
     Parameters
@@ -613,11 +614,11 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> ClosedFormSolutions:
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         ``solutions`` (k, 3), rows ``(q1, q2, q3)`` in radians wrapped to
         (-pi, pi], elbow-down (q2 > 0) first, and the same ``labels``,
-        ``count``, ``reason``, ``outside_by``, ``side`` as :func:`ik_2r` for
-        the wrist point; residuals of ``fk_3r`` of each row (m, and the
+        ``count``, ``note``, ``reason``, ``outside_by``, ``side`` as :func:`ik_2r` for
+        the wrist point; residuals of the DH table's FK of each row (m, and the
         tool angle error in rad). With infinitely many solutions (wrist at the base,
         ``l1 = l2``) ``q1`` is free, ``q2 = pi`` and ``q3 = phi - q1 - pi``.
 
