@@ -410,6 +410,9 @@ class IKBatch:
         raise AttributeError(f"an IKBatch is immutable: cannot delete '{name}'")
 
     def __len__(self) -> int:
+        """The number of targets along the first axis (a batch of one unshaped target has no length, as in numpy)."""
+        if np.ndim(self.count) == 0:
+            raise TypeError("len() of an IKBatch of one unshaped target")
         return int(np.shape(self.count)[0])
 
     def __repr__(self) -> str:
