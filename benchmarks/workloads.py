@@ -323,14 +323,14 @@ def planar_workload(*, n_targets: int = 1_000_000, repeats: int = 5, n_scalar: i
         sol = result.solutions  # (N, 2, 2), NaN where absent
         x, y = planar.fk_2r(sol[..., 0], sol[..., 1], l1, l2)
         err = np.maximum(np.abs(x - targets[:, None, 0]), np.abs(y - targets[:, None, 1]))
-        return float(np.nanmax(err)), float(np.mean(result.counts >= 1))
+        return float(np.nanmax(err)), float(np.mean(result.count >= 1))
 
     def check_3r(result, targets):
         sol = result.solutions  # (N, 2, 3)
         x, y, phi = planar.fk_3r(sol[..., 0], sol[..., 1], sol[..., 2], l1, l2, l3)
         err = np.maximum(np.maximum(np.abs(x - targets[:, None, 0]), np.abs(y - targets[:, None, 1])),
                          angle_error(phi, targets[:, None, 2]))
-        return float(np.nanmax(err)), float(np.mean(result.counts >= 1))
+        return float(np.nanmax(err)), float(np.mean(result.count >= 1))
 
     for name, solve, scalar, targets, checker in (
         ("2R", lambda: planar.ik_2r_batch(xy, l1, l2), lambda i: planar.ik_2r(xy[i, 0], xy[i, 1], l1, l2), xy, check_2r),

@@ -18,14 +18,15 @@ ALLOWED = {
     "exports": set(),
     "text": set(),
     "outputs": {"errors"},
+    "ik_result": {"errors", "text"},  # the one IK result type, below the two layers that solve IK
     "spatial": BOTTOM,
     "inputs": BOTTOM | {"spatial"},  # reading files: a pose read is checked as a transform
     "description": BOTTOM | {"inputs", "spatial"},
-    "kinematics": BOTTOM | {"inputs", "spatial", "description"},
+    "kinematics": BOTTOM | {"inputs", "spatial", "description", "ik_result"},
     "dh": BOTTOM | {"inputs", "spatial"},
-    "closed_form": BOTTOM | {"inputs", "spatial", "dh"},
-    "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form"},
-    "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "analysis"},
+    "closed_form": BOTTOM | {"inputs", "spatial", "dh", "ik_result"},
+    "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik_result"},
+    "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "analysis", "ik_result"},
 }
 MAX_MODULE_LINES = 800
 SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p.name != "__init__.py" or p.parent != PACKAGE)

@@ -23,7 +23,9 @@ from hypothesis import strategies as st
 import manipkit
 from manipkit.closed_form.planar import (
     ClosedFormSolutions,
+    IKBatch,
     PlanarArmError,
+    PlanarIKBatch,
     chain_points,
     fk_2r,
     fk_3r,
@@ -279,7 +281,7 @@ def test_ik_2r_at_base_with_equal_links_is_infinite_with_q1_free():
     assert result.count == math.inf and result.infinite
     assert result.free_joint == 0
     assert result.labels == ("q1 free",)
-    assert "q2 = pi" in result.reason and "q1 takes any value" in result.reason
+    assert result.reason == "" and "q2 = pi" in result.note and "q1 takes any value" in result.note
     # every member of the family (any q1, q2 = pi) reaches the base
     q1 = np.linspace(-PI, PI, 9)
     x, y = fk_2r(q1, result.solutions[0, 1], 0.8, 0.8)
@@ -321,26 +323,43 @@ def test_ik_2r_batch_equals_scalar_on_every_case():
         [[1.0, 0.5], [-0.3, -1.2], [1.6, 0.0], [0.0, -0.4], [-2.0, 1.0], [0.1, 0.1], [0.0, 0.0], [-1.0, -1e-3]]
     )
     batch = ik_2r_batch(targets, l1, l2)
-    for target, solutions, count, outside in zip(targets, batch.solutions, batch.counts, batch.outside_by):
+    assert np.array_equal(batch.success, batch.count > 0) and batch.mode == ik_2r(1.0, 0.5, l1, l2).mode
+    for i, (target, solutions, count, outside) in enumerate(zip(targets, batch.solutions, batch.count, batch.outside_by)):
         result = ik_2r(*target, l1, l2)
-        assert count == result.count and outside == result.outside_by
-        assert np.array_equal(solutions[: len(result.labels)], result.solutions)
-        assert np.all(np.isnan(solutions[len(result.labels):]))
+        k = len(result.labels)
+        assert count == result.count and outside == result.outside_by and batch.success[i] == result.success
+        assert np.array_equal(solutions[:k], result.solutions)
+        assert np.all(np.isnan(solutions[k:]))
+        # the same FK residuals per slot as the scalar solver's per row; NaN in an empty slot
+        np.testing.assert_allclose(batch.residuals[i, :k], result.residuals, atol=1e-15)
+        assert np.all(np.isnan(batch.residuals[i, k:]))
     equal = ik_2r_batch([[0.0, 0.0]], 0.8, 0.8)
-    assert equal.counts.tolist() == [math.inf]
+    assert equal.count.tolist() == [math.inf]
     assert np.array_equal(equal.solutions[0, 0], ik_2r(0.0, 0.0, 0.8, 0.8).solutions[0])
 
 
 def test_ik_2r_batch_keeps_leading_dimensions():
     xy = np.random.default_rng(5).uniform(-2.0, 2.0, (40, 250, 2))
     batch = ik_2r_batch(xy, 1.2, 0.8)
-    assert batch.solutions.shape == (40, 250, 2, 2) and batch.counts.shape == (40, 250)
+    assert batch.solutions.shape == (40, 250, 2, 2) and batch.count.shape == (40, 250)
     # FK of every present solution returns its target
     x, y = fk_2r(batch.solutions[..., 0], batch.solutions[..., 1], 1.2, 0.8)
     present = ~np.isnan(x)
-    assert np.array_equal(present.sum(axis=-1), batch.counts.astype(int))
+    assert np.array_equal(present.sum(axis=-1), batch.count.astype(int))
     miss = np.hypot(x - xy[..., None, 0], y - xy[..., None, 1])
     assert np.max(miss[present]) <= 1e-9
+    # the batch's own residuals (the DH table's FK) against the formulas written out here
+    assert batch.residual_position.shape == (40, 250, 2) and batch.q_residuals.shape == (40, 250, 2)
+    np.testing.assert_allclose(batch.residual_position[present], miss[present], atol=1e-12)
+    assert np.all(np.isnan(batch.residual_position[~present])) and np.all(batch.residual_rotation[present] == 0.0)
+    assert np.array_equal(batch.success, batch.count > 0)
+
+
+def test_the_old_counts_name_still_answers_with_a_warning():
+    batch = ik_2r_batch([[1.0, 1.0], [3.0, 0.0]], 1.0, 1.0)
+    with pytest.warns(DeprecationWarning, match="counts is now count"):
+        assert batch.counts.tolist() == [2.0, 0.0]
+    assert PlanarIKBatch is IKBatch
 
 
 @pytest.mark.parametrize(
@@ -410,7 +429,7 @@ def test_ik_3r_wrist_at_base_with_equal_links_is_infinite():
     phi = 0.3
     result = ik_3r(0.5 * math.cos(phi), 0.5 * math.sin(phi), phi, 1.0, 1.0, 0.5)
     assert result.infinite and result.free_joint == 0
-    assert "q3 = phi - q1 - pi" in result.reason
+    assert "q3 = phi - q1 - pi" in result.note
     q1 = np.linspace(-3.0, 3.0, 7)
     x, y, phi_reached = fk_3r(q1, PI, phi - q1 - PI, 1.0, 1.0, 0.5)
     assert np.max(np.abs(x - 0.5 * math.cos(phi))) < 1e-15 and np.max(np.abs(y - 0.5 * math.sin(phi))) < 1e-15
@@ -422,12 +441,16 @@ def test_ik_3r_batch_equals_scalar():
     poses = np.column_stack([rng.uniform(-8, 8, 60), rng.uniform(-8, 8, 60), rng.uniform(-PI, PI, 60)])
     poses[0] = [7.0, 0.0, 0.0]  # on the boundary
     batch = ik_3r_batch(poses, 4.0, 2.0, 1.0)
-    assert set(batch.counts.tolist()) == {0.0, 1.0, 2.0}
-    for pose, solutions, count in zip(poses, batch.solutions, batch.counts):
+    assert set(batch.count.tolist()) == {0.0, 1.0, 2.0}
+    for i, (pose, solutions, count) in enumerate(zip(poses, batch.solutions, batch.count)):
         result = ik_3r(*pose, 4.0, 2.0, 1.0)
-        assert count == result.count
-        assert np.array_equal(solutions[: len(result.labels)], result.solutions)
-        assert np.all(np.isnan(solutions[len(result.labels):]))
+        k = len(result.labels)
+        assert count == result.count and batch.success[i] == result.success
+        assert np.array_equal(solutions[:k], result.solutions)
+        assert np.all(np.isnan(solutions[k:]))
+        np.testing.assert_allclose(batch.residuals[i, :k], result.residuals, atol=1e-15)  # position and tool angle
+        if k:
+            np.testing.assert_array_equal(batch.q[i], result.q)
 
 
 # ---------------------------------------------------------------- workspaces
@@ -472,7 +495,7 @@ def test_workspace_3r_dexterous_radii_agree_with_ik_over_all_orientations(link_l
     phis = np.linspace(-PI, PI, 721)
     r, phi = np.meshgrid(radii, phis, indexing="ij")
     poses = np.stack([r, np.zeros_like(r), phi], axis=-1)  # joint 1 makes the direction irrelevant
-    all_orientations = np.all(ik_3r_batch(poses, *link_lengths, tol=1e-9).counts > 0, axis=1)
+    all_orientations = np.all(ik_3r_batch(poses, *link_lengths, tol=1e-9).count > 0, axis=1)
     predicted = np.zeros(radii.shape, dtype=bool)
     for low, high in ws.dexterous:
         predicted |= (radii >= low - 1e-9) & (radii <= high + 1e-9)
@@ -487,7 +510,7 @@ def test_workspace_3r_reachable_radii_agree_with_ik(link_lengths):
     phis = np.linspace(-PI, PI, 721)
     r, phi = np.meshgrid(radii, phis, indexing="ij")
     poses = np.stack([r, np.zeros_like(r), phi], axis=-1)
-    some_orientation = np.any(ik_3r_batch(poses, *link_lengths).counts > 0, axis=1)
+    some_orientation = np.any(ik_3r_batch(poses, *link_lengths).count > 0, axis=1)
     low, high = ws.reachable
     # the grid of orientations only touches the boundary circles approximately, so compare inside
     margin = 0.02
@@ -593,7 +616,7 @@ def angle_gap(a, b):
 
 def assert_matches_textbook(batch, reference, r, l1, l2, fk_miss):
     solutions, counts, outside = reference
-    assert np.array_equal(batch.counts, counts)
+    assert np.array_equal(batch.count, counts)
     assert np.array_equal(np.isnan(batch.solutions), np.isnan(solutions))
     assert np.max(np.abs(batch.outside_by - outside)) <= 1e-12
     gap = np.max(angle_gap(batch.solutions, solutions), axis=(1, 2))
@@ -620,8 +643,8 @@ def test_ik_2r_batch_matches_textbook_reference_on_every_case(link_lengths, tol)
     batch = ik_2r_batch(xy, l1, l2, tol=tol)
     reference = textbook_ik_2r(xy[:, 0], xy[:, 1], l1, l2, tol=tol)
     # every case is represented
-    assert {0.0, 1.0, 2.0} <= set(batch.counts.tolist())
-    assert (math.inf in batch.counts) == (l1 == l2)
+    assert {0.0, 1.0, 2.0} <= set(batch.count.tolist())
+    assert (math.inf in batch.count) == (l1 == l2)
 
     def fk_miss(solutions):
         x, y = fk_2r(solutions[..., 0], solutions[..., 1], l1, l2)
@@ -631,7 +654,7 @@ def test_ik_2r_batch_matches_textbook_reference_on_every_case(link_lengths, tol)
     # the scalar solver shares the batch code: identical rows, on a sample of every kind
     for i in np.random.default_rng(12).choice(len(xy), 300, replace=False):
         result = ik_2r(*xy[i], l1, l2, tol=tol)
-        assert result.count == batch.counts[i] and result.outside_by == batch.outside_by[i]
+        assert result.count == batch.count[i] and result.outside_by == batch.outside_by[i]
         assert np.array_equal(result.solutions, batch.solutions[i, : len(result.labels)])
 
 
@@ -652,7 +675,7 @@ def test_ik_3r_batch_matches_textbook_reference_on_every_case(link_lengths):
     solutions_2r, counts, outside = textbook_ik_2r(wx, wy, l1, l2)
     q3 = phi[:, None] - solutions_2r[..., 0] - solutions_2r[..., 1]
     reference = (np.concatenate([solutions_2r, q3[..., None]], axis=-1), counts, outside)
-    assert {0.0, 1.0, 2.0} <= set(batch.counts.tolist())
+    assert {0.0, 1.0, 2.0} <= set(batch.count.tolist())
 
     def fk_miss(solutions):
         x, y, phi_reached = fk_3r(solutions[..., 0], solutions[..., 1], solutions[..., 2], l1, l2, l3)
@@ -663,7 +686,7 @@ def test_ik_3r_batch_matches_textbook_reference_on_every_case(link_lengths):
     assert_matches_textbook(batch, reference, np.hypot(wx, wy), l1, l2, fk_miss)
     for i in np.random.default_rng(15).choice(len(poses), 300, replace=False):
         result = ik_3r(*poses[i], l1, l2, l3)
-        assert result.count == batch.counts[i] and result.outside_by == batch.outside_by[i]
+        assert result.count == batch.count[i] and result.outside_by == batch.outside_by[i]
         assert np.array_equal(result.solutions, batch.solutions[i, : len(result.labels)])
 
 
@@ -674,7 +697,7 @@ def test_ik_batch_large_input_in_blocks_equals_small_pieces():
     whole = ik_3r_batch(poses, 4.0, 2.0, 1.0)
     pieces = [ik_3r_batch(poses[i : i + 777], 4.0, 2.0, 1.0) for i in range(0, len(poses), 777)]
     assert np.array_equal(whole.solutions, np.concatenate([p.solutions for p in pieces]), equal_nan=True)
-    assert np.array_equal(whole.counts, np.concatenate([p.counts for p in pieces]))
+    assert np.array_equal(whole.count, np.concatenate([p.count for p in pieces]))
     assert np.array_equal(whole.outside_by, np.concatenate([p.outside_by for p in pieces]))
 
 

@@ -376,7 +376,7 @@ def test_html_repr_lists_every_solution_with_its_residuals(arms):
     for row, q, position in zip(rows, result.solutions, result.residual_position):
         np.testing.assert_allclose([float(v) for v in row[2:8]], q, rtol=1e-5, atol=1e-6)  # 6 significant digits
         assert float(row[8]) == pytest.approx(position, rel=1e-2, abs=1e-300) and row[10] == "True"
-    assert notes == [result.reason]
+    assert notes == [result.note] and result.reason == ""
 
 
 def test_html_repr_of_no_solution_shows_the_reason_escaped():

@@ -79,7 +79,7 @@ def test_closed_form_and_numerical_answers_print_alike(arms):
     # The properties a presenter reads exist on both result types, with the same shapes.
     robot = arms["elbow_arm"]
     T = robot.transform("base_link", "ee_link", [0.5, 0.4, -1.0, 0.3, 0.9, 0.2])
-    for result in (analytic_ik(robot, T), ik(robot, T, all=True, restarts=3), ik(robot, T).as_solutions()):
+    for result in (analytic_ik(robot, T), ik(robot, T, all=True, restarts=3), ik(robot, T)):
         k = len(result.labels)
         assert result.success and result.count >= k > 0 and isinstance(result.reason, str)
         assert result.solutions.shape == (k, 6) and result.residuals.shape == (k, 2)
@@ -132,3 +132,12 @@ def test_scara_family_members_refuse_bad_values_in_one_line(load_robot, values):
     with pytest.raises(ManipkitError) as info:
         family.members(values)
     assert "theta4 values" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_analytic_ik_takes_its_frames_base_first_and_refuses_others(arms):
+    robot = arms["planar_2r"]
+    T = robot.transform("base_link", "ee_link", [0.3, 0.5])
+    named = analytic_ik(robot, T, "base_link", "ee_link", mode="position")
+    assert np.array_equal(named.solutions, analytic_ik(robot, T, mode="position").solutions) and named.success
+    with pytest.raises(IKOptionError, match="solves base_link -> ee_link, not base_link -> link1"):
+        analytic_ik(robot, T, "base_link", "link1")

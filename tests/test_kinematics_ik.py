@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from manipkit.errors import InvalidTransformError, JointValueError
-from manipkit.kinematics.ik import IKOptionError, IKSolutions, ik, ik_solver
+from manipkit.ik_result import IKResult
+from manipkit.kinematics.ik import IKOptionError, ik, ik_solver
 from manipkit.spatial.rotations import rot_x, rotation_angle_between
 
 
@@ -45,7 +46,7 @@ def solve_random_reachable(robot, n, *, seed):
     frame = robot.ee_frame
     targets = robot.fk(robot.sample_q(n, seed=seed), tip=frame)
     starts = robot.sample_q(n, seed=seed + 1)
-    results = [ik(robot, T, frame=frame, q0=q0, seed=i) for i, (T, q0) in enumerate(zip(targets, starts))]
+    results = [ik(robot, T, tip=frame, q0=q0, seed=i) for i, (T, q0) in enumerate(zip(targets, starts))]
     return results, targets, starts
 
 
@@ -85,8 +86,9 @@ def test_reported_residuals_are_those_of_the_returned_q(robots):
     results, targets, _ = solve_random_reachable(robot, 20, seed=300)
     for result, T in zip(results, targets):
         position, angle = pose_error(robot, robot.root_link, "ee_link", result.q, T)
-        assert result.residual_position == pytest.approx(position, abs=1e-12)
-        assert result.residual_rotation == pytest.approx(angle, abs=1e-12)
+        assert result.q_residuals == pytest.approx([position, angle], abs=1e-12)
+        if result.success:  # the answer is the first (only) solution, with the same residuals
+            assert np.array_equal(result.solutions, [result.q]) and np.array_equal(result.residuals, [result.q_residuals])
 
 
 def test_success_is_never_claimed_above_the_tolerance(robots):
@@ -102,7 +104,7 @@ def test_success_is_never_claimed_above_the_tolerance(robots):
         position, angle = pose_error(robot, robot.root_link, "ee_link", result.q, T)
         within = position <= tol[0] + 1e-15 and angle <= tol[1] + 1e-15
         assert result.success == within
-        assert (result.reason is None) == result.success
+        assert (result.reason == "") == result.success
         outcomes.append(result.success)
     assert 0 < sum(outcomes) < len(outcomes)  # both cases really occurred
 
@@ -110,9 +112,9 @@ def test_success_is_never_claimed_above_the_tolerance(robots):
 def test_same_seed_gives_the_same_answer(robots):
     robot = robots["panda"]
     T = robot.fk(robot.sample_q(1, seed=500)[0], tip=robot.ee_frame)
-    first = ik(robot, T, frame=robot.ee_frame, seed=7)
-    again = ik(robot, T, frame=robot.ee_frame, seed=7)
-    other = ik(robot, T, frame=robot.ee_frame, seed=8)
+    first = ik(robot, T, tip=robot.ee_frame, seed=7)
+    again = ik(robot, T, tip=robot.ee_frame, seed=7)
+    other = ik(robot, T, tip=robot.ee_frame, seed=8)
     assert np.array_equal(first.q, again.q) and first.iterations == again.iterations
     assert not np.array_equal(first.q, other.q)
 
@@ -128,19 +130,19 @@ def test_error_derivative_equals_minus_the_jacobian(robots, name, mode):
     # At the target (error 0) the error's derivative is exactly -J for the matching Jacobian;
     # a LOCAL Jacobian against this LOCAL_WORLD_ALIGNED error would miss by O(1).
     robot = robots[name]
-    solver = ik_solver(robot, frame=robot.ee_frame, mode=mode)
+    solver = ik_solver(robot, tip=robot.ee_frame, mode=mode)
     for q in robot.sample_q(5, seed=600):
         T = robot.transform(robot.root_link, robot.ee_frame, q)
-        solver.solve(T, q0=q, max_iters=1, restarts=0)  # sets the target
-        x = q[solver._chain_user]
-        e0, J, _, _ = solver._evaluate(x)
+        goal = solver.goal(T, q)  # the per-call state of a solve
+        x = q[solver.columns]
+        e0, J, _, _ = solver._evaluate(goal, x)
         assert np.abs(e0).max() < 1e-12
         h = 1e-6
         numeric = np.empty_like(J)
         for k in range(x.size):
             dx = np.zeros(x.size)
             dx[k] = h
-            numeric[:, k] = -(solver._evaluate(x + dx)[0] - solver._evaluate(x - dx)[0]) / (2 * h)
+            numeric[:, k] = -(solver._evaluate(goal, x + dx)[0] - solver._evaluate(goal, x - dx)[0]) / (2 * h)
         assert np.abs(numeric - J).max() < 1e-7
 
 
@@ -156,7 +158,7 @@ def test_position_mode_solves_course_arm_positions(robots):
         scrambled = T.copy()
         scrambled[:3, :3] = T[:3, :3] @ rot_x(math.pi / 2)
         result = ik(robot, scrambled, mode="position", seed=i)
-        assert result.success and result.residual_rotation == 0.0
+        assert result.success and result.q_residuals[1] == 0.0
         assert np.linalg.norm(robot.transform("base_link", "ee_link", result.q)[:3, 3] - T[:3, 3]) < 1e-9
 
 
@@ -177,7 +179,7 @@ def test_position_and_axis_mode_solves_course_arm_pointing_targets(robots):
         T_reached = robot.transform("base_link", "ee_link", result.q)
         assert np.linalg.norm(T_reached[:3, 3] - T[:3, 3]) < 1e-9
         assert axis_angle_between(T_reached[:3, 2], T[:3, 2]) < 1e-9
-        assert result.residual_rotation == pytest.approx(axis_angle_between(T_reached[:3, 2], T[:3, 2]), abs=1e-12)
+        assert result.q_residuals[1] == pytest.approx(axis_angle_between(T_reached[:3, 2], T[:3, 2]), abs=1e-12)
 
 
 def test_position_and_axis_mode_uses_the_named_axis(robots):
@@ -229,9 +231,9 @@ def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_
     result = ik(robot, T_turned, restarts=20)
     assert not result.success
     assert result.reason.startswith("did not converge: best residual")
+    assert result.solutions.shape == (0, 5) and np.array_equal(result.q, result.closest) and result.unmet == ()
     position, angle = pose_error(robot, "base_link", "ee_link", result.q, T_turned)
-    assert result.residual_position == pytest.approx(position, abs=1e-12)
-    assert result.residual_rotation == pytest.approx(angle, abs=1e-12)
+    assert result.q_residuals == pytest.approx([position, angle], abs=1e-12)
     # The best found is at least as good as 20000 random configurations (same measure as the solver's).
     T_samples = robot.fk(robot.sample_q(20000, seed=901), tip="ee_link")
     sampled = np.hypot(
@@ -252,8 +254,11 @@ def test_target_outside_the_reach_sphere_fails_with_its_distance_to_the_boundary
         result = ik(robot, T, mode=mode, restarts=5)
         assert not result.success
         assert result.reason.startswith("target out of reach")
-        assert result.residual_position == pytest.approx(0.3, abs=1e-6)
+        assert result.q_residuals[0] == pytest.approx(0.3, abs=1e-6)
         assert within_limits(robot, result.q)
+        # out of the reach bound (joint 2's origin to the flange), so provably unmet, by at least 0.3 m less slack
+        assert result.unmet[0][0] == "position" and 0.0 < result.unmet[0][1] <= 0.3 + 1e-9
+        assert result.outside_by == result.unmet[0][1] and result.side == "too far"
 
 
 # ----------------------------------------------------------------------
@@ -274,29 +279,31 @@ def test_continuous_joints_are_wrapped_into_minus_pi_pi(robots):
 def test_all_returns_distinct_solutions_each_valid(robots):
     robot = robots["course_arm"]
     T = robot.fk(robot.sample_q(1, seed=5)[0], tip="ee_link")
-    solutions = ik(robot, T, mode="position+axis", all=True, restarts=60)
-    assert isinstance(solutions, IKSolutions)
-    assert len(solutions) >= 2  # a 5R arm pointing at a point has several postures
-    for result in solutions:
-        assert result.success
-        T_reached = robot.transform("base_link", "ee_link", result.q)
+    found = ik(robot, T, mode="position+axis", all=True, restarts=60)
+    assert isinstance(found, IKResult) and found.success
+    assert found.count == len(found.solutions) >= 2  # a 5R arm pointing at a point has several postures
+    for q, position, rotation in zip(found.solutions, found.residual_position, found.residual_rotation):
+        T_reached = robot.transform("base_link", "ee_link", q)
         assert np.linalg.norm(T_reached[:3, 3] - T[:3, 3]) < 1e-9
         assert axis_angle_between(T_reached[:3, 2], T[:3, 2]) < 1e-9
-    for a in range(len(solutions)):
+        assert rotation == pytest.approx(axis_angle_between(T_reached[:3, 2], T[:3, 2]), abs=1e-12)
+        assert position == pytest.approx(np.linalg.norm(T_reached[:3, 3] - T[:3, 3]), abs=1e-12)
+    for a in range(found.count):
         for b in range(a):
-            wrapped = np.angle(np.exp(1j * (solutions[a].q - solutions[b].q)))
+            wrapped = np.angle(np.exp(1j * (found.solutions[a] - found.solutions[b])))
             assert np.abs(wrapped).max() > 1e-6
     single = ik(robot, T, mode="position+axis", restarts=60)
-    assert np.array_equal(solutions.best.q, single.q) and solutions[0] is solutions.best
+    assert np.array_equal(found.q, single.q) and np.array_equal(found.solutions[0], found.q)
 
 
 def test_all_without_any_solution_keeps_the_best_failure(robots):
     robot = robots["iiwa14"]
     T = np.eye(4)
     T[0, 3] = 3.0
-    solutions = ik(robot, T, all=True, restarts=3)
-    assert len(solutions) == 0 and solutions.attempts == 4
-    assert not solutions.best.success and solutions.best.reason.startswith("target out of reach")
+    found = ik(robot, T, all=True, restarts=3)
+    assert found.count == 0 and found.solutions.shape == (0, 7) and found.attempts == 4
+    assert not found.success and found.reason.startswith("target out of reach") and found.closest is not None
+    assert np.array_equal(found.q, found.closest)
 
 
 def test_base_other_than_root_varies_only_the_chain_joints(robots):
@@ -306,7 +313,7 @@ def test_base_other_than_root_varies_only_the_chain_joints(robots):
     starts = robot.sample_q(20, seed=1101)
     for q_wanted, q0 in zip(wanted, starts):
         T_link2_ee = robot.transform("iiwa_link_2", "ee_link", q_wanted)
-        result = ik(robot, T_link2_ee, base="iiwa_link_2", frame="ee_link", q0=q0)
+        result = ik(robot, T_link2_ee, "iiwa_link_2", "ee_link", q0=q0)
         assert result.success
         assert np.array_equal(result.q[:2], q0[:2])  # joints 1 and 2 are above the base: untouched
         position, angle = pose_error(robot, "iiwa_link_2", "ee_link", result.q, T_link2_ee)
@@ -318,7 +325,7 @@ def test_q0_is_the_first_start(robots):
     q = robot.sample_q(1, seed=1200)[0]
     T = robot.transform("base_link", "ee_link", q)
     result = ik(robot, T, q0=q)
-    assert result.success and result.iterations == 0 and result.restarts == 0
+    assert result.success and result.iterations == 0 and result.attempts == 1
     assert np.array_equal(result.q, q)
 
 
@@ -358,32 +365,89 @@ def test_non_positive_tolerance_is_rejected(robots):
 
 
 # --------------------------------------------------------------------------
-# The properties IKSolutions shares with the closed-form ClosedFormSolutions
+# The one result type: numerical answers have the fields of every IK answer
 
 
-def test_solutions_share_the_closed_form_properties(robots):
+def test_all_solutions_are_one_result_with_the_shared_fields(robots):
     robot = robots["iiwa14"]
     T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=41)[0])
     found = ik(robot, T, all=True, restarts=5)
-    assert found.success and found.count == len(found) > 0 and found.reason == ""
-    assert found.labels == ("",) * found.count
+    assert found.success and found.count == found.solutions.shape[0] > 0 and found.reason == ""
+    assert found.labels == ("",) * found.count and found.joint_names == robot.joint_names
     assert found.solutions.shape == (found.count, 7) and not found.solutions.flags.writeable
-    assert np.array_equal(found.solutions[0], found[0].q)
+    assert np.array_equal(found.solutions[0], found.q)
     assert found.residuals.shape == (found.count, 2) and np.all(found.residuals <= 1e-10)
-    assert np.array_equal(found.residual_position, [r.residual_position for r in found])
+    assert found.mode == "spatial pose (x, y, z, R)" and found.solver == "kinematics.ik" and found.attempts == 6
+    for q, residuals in zip(found.solutions, found.residuals):  # each row's residuals are those of its FK
+        assert residuals == pytest.approx(pose_error(robot, robot.root_link, "ee_link", q, T), abs=1e-12)
 
 
-def test_a_single_answer_becomes_a_solution_set(robots):
+def test_a_single_answer_and_a_miss_are_results_like_any_other(robots):
     robot = robots["iiwa14"]
     T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=42)[0])
-    single = ik(robot, T).as_solutions()
-    assert single.count == 1 and single.success and single.best.success
+    single = ik(robot, T)
+    assert single.count == 1 and single.success and single.labels == ("",) and single.closest is None
     far = np.eye(4)
     far[0, 3] = 5.0
-    missed = ik(robot, far, restarts=2).as_solutions()
+    missed = ik(robot, far, restarts=2)
     assert missed.count == 0 and not missed.success and missed.solutions.shape == (0, 7)
     assert missed.reason.startswith("target out of reach") and missed.residuals.shape == (0, 2)
-    assert missed.attempts == 3
+    assert missed.attempts == 3 and missed.note == missed.reason
+    assert missed.q_residuals == pytest.approx(pose_error(robot, robot.root_link, "ee_link", missed.q, far), abs=1e-12)
+
+
+def test_the_old_frame_keyword_still_names_the_tip_with_a_warning(robots):
+    robot = robots["iiwa14"]
+    q = robot.sample_q(1, seed=44)[0]
+    T = robot.transform("iiwa_link_2", "iiwa_link_6", q)
+    with pytest.warns(DeprecationWarning, match="manipkit API: ik"):
+        old = ik(robot, T, base="iiwa_link_2", frame="iiwa_link_6", q0=q)
+    new = ik(robot, T, "iiwa_link_2", "iiwa_link_6", q0=q)
+    assert old.success and np.array_equal(old.q, new.q)
+    with pytest.warns(DeprecationWarning):
+        assert ik_solver(robot, frame="iiwa_link_6") is ik_solver(robot, "base_link", "iiwa_link_6")
+    with pytest.warns(DeprecationWarning), pytest.raises(TypeError, match="give the tip once"):
+        ik(robot, T, tip="iiwa_link_5", frame="iiwa_link_6")
+
+
+def test_two_threads_solving_on_one_robot_get_their_own_answers(robots):
+    # Both threads share the robot and its cached solver; each must get the answer to its own target, every time.
+    import sys
+    import threading
+
+    robot = robots["iiwa14"]
+    Q_true = robot.sample_q(2 * 60, seed=45)
+    Q_start = robot.sample_q(2 * 60, seed=46)
+    targets = robot.fk(Q_true, tip="ee_link")
+    answers: dict[int, object] = {}
+    errors = []
+    barrier = threading.Barrier(2)
+
+    def work(offset):
+        try:
+            barrier.wait()
+            for i in range(offset, len(targets), 2):
+                answers[i] = ik(robot, targets[i], q0=Q_start[i], seed=i)
+        except Exception as error:  # a failure in a thread is reported by the test, not lost
+            errors.append(error)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in (0, 1)]
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # switch threads as often as the interpreter can: interleave inside every solve
+    try:
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert errors == [] and len(answers) == len(targets)
+    for i, result in answers.items():
+        position, angle = pose_error(robot, robot.root_link, "ee_link", result.q, targets[i])
+        assert result.q_residuals == pytest.approx([position, angle], abs=1e-12)
+        assert result.success and position < 1e-9 and angle < 1e-9
+        alone = ik(robot, targets[i], q0=Q_start[i], seed=i)  # the same call, on its own
+        assert np.array_equal(alone.q, result.q) and alone.iterations == result.iterations
 
 
 def test_target_slightly_off_rigid_within_the_tolerance_is_accepted(robots):
@@ -407,30 +471,30 @@ def test_a_near_miss_is_called_close_and_a_larger_tol_accepts_it(robots):
     robot = robots["course_arm"]
     failed = ik(robot, T, restarts=5)
     assert not failed.success and "that is close" in failed.reason and "may be unreachable" not in failed.reason
-    assert max(failed.residual_position, failed.residual_rotation) < 1e-6
+    assert failed.q_residuals.max() < 1e-6
     accepted = ik(robot, T, tol=1e-6, restarts=5)
     assert accepted.success and np.abs(accepted.q - POSE_A).max() < 1e-5
     position, angle = pose_error(robot, "base_link", "ee_link", accepted.q, T)
     assert position <= 1e-6 and angle <= 1e-6
 
 
-def test_html_repr_shows_the_answer_or_the_best_failed_attempt(robots):
+def test_html_repr_shows_the_answer_or_the_closest_failed_attempt(robots):
     import xml.etree.ElementTree as ET
 
     robot = robots["iiwa14"]
     T = robot.transform("base_link", "ee_link", robot.sample_q(1, seed=3)[0])
     far = np.eye(4)
     far[0, 3] = 5.0  # 5 m away: beyond the iiwa's reach
-    for result, label, success in ((ik(robot, T), "solution", "True"),
-                                   (ik(robot, T, all=True, restarts=2), "solution 1", "True"),
-                                   (ik(robot, far, restarts=1), "best found (fails)", "False")):
+    for result, index, label, success in ((ik(robot, T), "1", "", "True"),
+                                          (ik(robot, T, all=True, restarts=2), "1", "", "True"),
+                                          (ik(robot, far, restarts=1), "-", "closest found (fails)", "False")):
         root = ET.fromstring(f"<div>{result._repr_html_()}</div>")
-        rows = [[cell.text for cell in row] for row in root.find("table").findall("tr")]
-        assert rows[0] == ["label", *(f"q{i}" for i in range(1, 8)), "position (m)", "rotation (rad)", "success"]
-        assert rows[1][0] == label and rows[1][-1] == success and f"success: {success}" in root.find("table/caption").text
-        best = result if hasattr(result, "q") else result.best
-        np.testing.assert_allclose([float(v) for v in rows[1][1:8]], best.q, rtol=1e-5, atol=1e-6)
-        assert float(rows[1][8]) == pytest.approx(best.residual_position, rel=1e-2, abs=1e-300)
+        rows = [[cell.text or "" for cell in row] for row in root.find("table").findall("tr")]
+        assert rows[0] == ["#", "label", *robot.joint_names, "position (m)", "rotation (rad)", "success"]
+        assert rows[1][:2] == [index, label] and rows[1][-1] == success
+        assert f"success: {success}" in root.find("table/caption").text
+        assert "numerical IK (kinematics.ik)" in root.find("table/caption").text
+        np.testing.assert_allclose([float(v) for v in rows[1][2:9]], result.q, rtol=1e-5, atol=1e-6)
+        assert float(rows[1][9]) == pytest.approx(result.q_residuals[0], rel=1e-2, abs=1e-300)
         if success == "False":
-            assert root.find("p").text == best.reason
-
+            assert root.find("p").text == result.reason

@@ -179,12 +179,12 @@ def test_ik_from_a_base_below_a_moving_joint(robots):
     # The mobile manipulator's arm from 'bicep' (below arm_base_joint and shoulder_joint) to ee_link:
     # the two joints above the base keep their q0 values, and the target is T_bicep_ee.
     robot = robots["mobile_manipulator"]
-    solver = ik_solver(robot, frame="ee_link", base="bicep", mode="position")
-    assert solver.chain == ("bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
+    solver = ik_solver(robot, "bicep", "ee_link", mode="position")
+    assert solver.joint_names == ("bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
     for i, q_true in enumerate(robot.sample_q(20, seed=21)):
         T = robot.transform("bicep", "ee_link", q_true)
         q0 = robot.sample_q(1, seed=100 + i)[0]  # a different arm_base_joint and shoulder_joint
-        result = ik(robot, T, frame="ee_link", base="bicep", mode="position", q0=q0, seed=i)
+        result = ik(robot, T, "bicep", "ee_link", mode="position", q0=q0, seed=i)
         assert result.success
         above = [robot.joint_names.index("arm_base_joint"), robot.joint_names.index("shoulder_joint")]
         assert np.array_equal(result.q[above], q0[above])
@@ -223,7 +223,7 @@ def test_random_chains_ik_from_a_nearby_start(joints, mode):
     for i, q_true in enumerate(robot.sample_q(4, seed=9)):
         T = robot.transform(robot.root_link, tip, q_true)
         q0 = q_true + 1e-3 * np.random.default_rng(i).standard_normal(q_true.size)
-        result = ik(robot, T, frame=tip, base=robot.root_link, mode=mode, q0=q0, restarts=0)
+        result = ik(robot, T, robot.root_link, tip, mode=mode, q0=q0, restarts=0)
         assert robot.outside_limits(result.q) == []
         _, J, _ = kernel_pose_jacobian(robot, tip, robot.root_link, q_true)
         sigma = np.linalg.svd(J[:rows], compute_uv=False)

@@ -35,7 +35,11 @@ def test_reachable_targets_are_solved_and_pinocchio_agrees(iiwa14):
     assert batch.success.all()
     measured = pinocchio_residuals(iiwa14, "base_link", "ee_link", batch.q, T)
     assert measured.max() < 1e-9
-    np.testing.assert_allclose(batch.residuals, measured, atol=1e-12)
+    np.testing.assert_allclose(batch.q_residuals, measured, atol=1e-12)
+    # every target solved: its one slot holds the answer, with the same residuals
+    assert batch.solutions.shape == (200, 1, 7) and np.array_equal(batch.solutions[:, 0], batch.q)
+    np.testing.assert_allclose(batch.residuals[:, 0], measured, atol=1e-12)
+    assert (batch.count == 1.0).all() and batch.labels == ("",) and batch.mode == "spatial pose (x, y, z, R)"
     assert all(iiwa14.outside_limits(q) == [] for q in batch.q)
 
 
@@ -45,8 +49,10 @@ def test_unreachable_targets_fail_with_their_fk_residuals(iiwa14):
     T[:, 0, 3] += 3.0
     batch = ik_many(iiwa14, T, restarts=2)
     assert not batch.success.any()
-    assert (batch.residual_position > 1.0).all()
-    np.testing.assert_allclose(batch.residuals, pinocchio_residuals(iiwa14, "base_link", "ee_link", batch.q, T), atol=1e-12)
+    assert (batch.q_residuals[:, 0] > 1.0).all()
+    np.testing.assert_allclose(batch.q_residuals, pinocchio_residuals(iiwa14, "base_link", "ee_link", batch.q, T), atol=1e-12)
+    # no solution: the slot is empty (NaN), q is the closest configuration found
+    assert np.isnan(batch.solutions).all() and np.isnan(batch.residuals).all() and (batch.count == 0.0).all()
     assert (batch.attempts == 3).all()
 
 
@@ -65,14 +71,14 @@ def test_seed_per_target_is_the_same_in_any_batch():
 def test_start_at_the_answer_takes_one_attempt_and_no_iteration(course_arm):
     Q_true = course_arm.sample_q(30, seed=3)
     T = course_arm.fk(Q_true, base="base_link", tip="ee_link")
-    batch = ik_many(course_arm, T, Q_true)
+    batch = ik_many(course_arm, T, q0=Q_true)
     assert batch.success.all() and (batch.attempts == 1).all() and (batch.iterations == 0).all()
     np.testing.assert_allclose(batch.q, Q_true, atol=1e-12)
 
 
 def test_one_start_vector_serves_every_target(course_arm):
     T = course_arm.fk(course_arm.sample_q(10, seed=6), base="base_link", tip="ee_link")
-    batch = ik_many(course_arm, T, course_arm.q())
+    batch = ik_many(course_arm, T, q0=course_arm.q())
     assert batch.success.all()
     assert pinocchio_residuals(course_arm, "base_link", "ee_link", batch.q, T).max() < 1e-9
 
@@ -91,7 +97,7 @@ def test_off_chain_joints_keep_their_start_and_a_base_below_the_root(load_robot)
     Q_true = robot.sample_q(20, seed=2)
     T = robot.fk(Q_true, base="arm_base", tip="ee_link")
     Q0 = robot.sample_q(20, seed=3)
-    batch = ik_many(robot, T, Q0, base="arm_base")
+    batch = ik_many(robot, T, "arm_base", "ee_link", q0=Q0)
     assert batch.success.all()
     assert pinocchio_residuals(robot, "arm_base", "ee_link", batch.q, T).max() < 1e-9
     off_chain = [robot.joint_names.index(n) for n in ("arm_base_joint", "left_wheel_joint", "right_wheel_joint")]
@@ -101,7 +107,7 @@ def test_off_chain_joints_keep_their_start_and_a_base_below_the_root(load_robot)
 def test_position_mode_takes_points_and_ignores_rotation(iiwa14):
     points = iiwa14.fk(iiwa14.sample_q(10, seed=5), base="base_link", tip="ee_link")[:, :3, 3]
     batch = ik_many(iiwa14, points, mode="position")
-    assert batch.success.all() and (batch.residual_rotation == 0.0).all()
+    assert batch.success.all() and (batch.residual_rotation == 0.0).all() and (batch.q_residuals[:, 1] == 0.0).all()
     reached = np.array([iiwa14.transform("base_link", "ee_link", q)[:3, 3] for q in batch.q])
     assert np.abs(reached - points).max() < 1e-9
 
@@ -139,9 +145,9 @@ def test_bad_targets_name_the_first_bad_one(iiwa14, T, message):
 def test_bad_start_and_options_are_user_errors(iiwa14):
     T = np.tile(np.eye(4), (2, 1, 1))
     with pytest.raises(JointValueError, match="per target"):
-        ik_many(iiwa14, T, np.zeros((3, 7)))
+        ik_many(iiwa14, T, q0=np.zeros((3, 7)))
     with pytest.raises(JointValueError, match="finite"):
-        ik_many(iiwa14, T, np.full(7, np.inf))
+        ik_many(iiwa14, T, q0=np.full(7, np.inf))
     with pytest.raises(IKOptionError, match="time_budget"):
         ik_many(iiwa14, T, time_budget=-1.0)
     with pytest.raises(IKOptionError, match="restarts"):
@@ -170,7 +176,7 @@ def test_a_base_link_offset_from_the_root_is_taken_into_account(load_robot):
     robot = load_robot("mobile_manipulator")
     Q_true = robot.sample_q(20, seed=5)
     T = robot.fk(Q_true, base="base_link", tip="ee_link")
-    batch = ik_many(robot, T, base="base_link")
+    batch = ik_many(robot, T, base="base_link", tip="ee_link")
     assert batch.success.all()
     assert pinocchio_residuals(robot, "base_link", "ee_link", batch.q, T).max() < 1e-9
 
@@ -185,3 +191,14 @@ def test_targets_are_checked_as_ik_checks_them(iiwa14):
     bad[:3, 0] *= 1.01
     with pytest.raises(InvalidTransformError, match="IK target 1: rotation column 0 \\(x axis\\) has norm 1.01"):
         ik_many(iiwa14, np.stack([T, bad]))
+
+
+def test_the_old_positional_start_and_frame_keyword_still_work_with_a_warning(course_arm):
+    Q_true = course_arm.sample_q(5, seed=9)
+    T = course_arm.fk(Q_true, base="base_link", tip="ee_link")
+    with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
+        old = ik_many(course_arm, T, Q_true)  # the start as the third positional argument, as in 0.1
+    assert np.array_equal(old.q, ik_many(course_arm, T, q0=Q_true).q) and (old.attempts == 1).all()
+    with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
+        framed = ik_many(course_arm, T, frame="ee_link", q0=Q_true)
+    assert np.array_equal(framed.q, old.q)

@@ -127,7 +127,7 @@ def test_mimic_chain_contributes_its_leader_once(mimic_robot):
 def test_ik_solves_through_mimic_joints_confirmed_by_fk(mimic_robot):
     q_true = np.array([0.3, 0.4])
     T = mimic_robot.transform("base_link", "tip", q_true)
-    result = ik(mimic_robot, T, frame="tip", mode="position", q0=[0.0, 0.0], restarts=20)
+    result = ik(mimic_robot, T, tip="tip", mode="position", q0=[0.0, 0.0], restarts=20)
     assert result.success
     np.testing.assert_allclose(mimic_robot.transform("base_link", "tip", result.q)[:3, 3], T[:3, 3], atol=1e-9)
 
@@ -242,13 +242,13 @@ def test_floating_values_by_coordinate_and_errors(mobile):
 def test_ik_leaves_the_floating_base_alone_unless_freed(mobile):
     q_true = mobile.q(base_joint=[0.2, 0.1, 0.0, 0.0, 0.0, 0.3], j1=0.5)
     target = mobile.transform("world", "tip", q_true)
-    fixed = ik(mobile, target, frame="tip", base="world", mode="position", restarts=5)
+    fixed = ik(mobile, target, "world", "tip", mode="position", restarts=5)
     assert not fixed.success  # only j1 moves: the base stays at the identity
-    freed = ik(mobile, target, frame="tip", base="world", mode="pose", free=["base_joint"], restarts=20)
+    freed = ik(mobile, target, "world", "tip", mode="pose", free=["base_joint"], restarts=20)
     assert freed.success
     np.testing.assert_allclose(mobile.transform("world", "tip", freed.q, check_limits=False), target, atol=1e-9)
     with pytest.raises(IKOptionError, match="'j1' is not one"):
-        ik(mobile, target, frame="tip", base="world", free=["j1"])
+        ik(mobile, target, "world", "tip", free=["j1"])
 
 
 def test_a_planar_joint_with_another_axis_is_refused():
@@ -317,12 +317,12 @@ def test_ik_refuses_a_base_that_a_solved_leader_moves():
     robot = Robot.from_urdf(urdf)
     T = robot.transform("a", "tip", [0.3, 0.2])
     with pytest.raises(ChainError, match="joint 'j1' moves 'a' \\(it lies above it\\)"):
-        ik(robot, T, frame="tip", base="a", mode="position")
+        ik(robot, T, "a", "tip", mode="position")
     # from base_link (above j1) it solves; hand: j2's origin at angle q1, the tip's at 2 q1 (j3 only turns the tip)
     target = robot.transform("base_link", "tip", [0.3, 0.2])
     np.testing.assert_allclose(target[:3, 3], [math.cos(0.3) + math.cos(0.6), math.sin(0.3) + math.sin(0.6), 0],
                                atol=1e-12)
-    result = ik(robot, target, frame="tip", mode="position", restarts=20)
+    result = ik(robot, target, tip="tip", mode="position", restarts=20)
     assert result.success
     np.testing.assert_allclose(robot.transform("base_link", "tip", result.q)[:3, 3], target[:3, 3], atol=1e-9)
 

@@ -15,12 +15,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from manipkit.errors import InvalidTransformError, ManipkitError
+from manipkit.errors import IKOptionError, InvalidTransformError, ManipkitError
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z
 from manipkit.spatial.transforms import (
     check_transform,
     invert_transform,
     pose_error,
+    pose_residuals,
     transform_from_xyz_quaternion,
     transform_from_xyz_rpy,
     transform_violations,
@@ -326,6 +327,67 @@ def test_pose_error_is_symmetric_and_zero_for_equal_poses():
 def test_pose_error_rejects_a_non_4x4_argument():
     with pytest.raises(InvalidTransformError, match=r"T must have shape \(\.\.\., 4, 4\), got \(3, 3\)"):
         pose_error(np.eye(4), np.eye(3))
+
+
+# ---------------------------------------------------------------- pose_residuals (every IK solver's measure)
+
+
+def test_pose_residuals_by_mode_hand_values():
+    # T = [Rx(0.5), (0, 0.3, 0.4)] against I: the origin is 0.5 m away (3-4-5) in every mode; pose: Rx(0.5) is
+    # 0.5 rad from I; position: 0; position+axis x: Rx leaves the x axis where it was (0); axis z: z turns by 0.5
+    T = transform(rot_x(0.5), [0.0, 0.3, 0.4])
+    assert pose_residuals(np.eye(4), T) == pytest.approx((0.5, 0.5), abs=1e-15)
+    assert pose_residuals(np.eye(4), T, mode="position") == (pytest.approx(0.5, abs=1e-15), 0.0)
+    assert pose_residuals(np.eye(4), T, mode="position+axis", axis="x") == pytest.approx((0.5, 0.0), abs=1e-15)
+    assert pose_residuals(np.eye(4), T, mode="position+axis", axis="z") == pytest.approx((0.5, 0.5), abs=1e-15)
+
+
+@SETTINGS
+@given(st.lists(st.floats(-np.pi, np.pi), min_size=6, max_size=6), st.lists(st.floats(-2.0, 2.0), min_size=6, max_size=6),
+       st.sampled_from(["pose", "position", "position+axis"]), st.sampled_from(["x", "y", "z"]))
+def test_pose_residuals_of_one_pair_equal_those_of_a_stack(angles, xyz, mode, axis):
+    # one (4, 4) pair takes a plain-float path: it must give the vectorised numbers (and the pose mode pose_error's)
+    T_a, T_b = transform_from_xyz_rpy(xyz[:3], angles[:3]), transform_from_xyz_rpy(xyz[3:], angles[3:])
+    single = pose_residuals(T_a, T_b, mode=mode, axis=axis)
+    stacked = pose_residuals(T_a[None], T_b[None], mode=mode, axis=axis)
+    assert single[0] == pytest.approx(stacked[0][0], abs=1e-15) and single[1] == pytest.approx(stacked[1][0], abs=1e-14)
+    if mode == "pose":
+        assert single == pose_residuals(T_b, T_a)  # symmetric, exactly
+
+
+@pytest.mark.parametrize("project", [True, False])
+@pytest.mark.parametrize("bad", [np.inf, -np.inf, np.nan])
+def test_pose_error_of_one_pair_is_nan_for_a_non_finite_rotation_entry(project, bad):
+    for i, j in ((0, 0), (1, 2), (2, 1)):
+        T = transform(rot_z(0.3), [0.1, 0.2, 0.3])
+        T[i, j] = bad
+        assert math.isnan(pose_error(np.eye(4), T, project=project)[1])
+        assert math.isnan(pose_error(T, np.eye(4), project=project)[1])
+
+
+def test_pose_error_without_projection_takes_the_blocks_as_they_are():
+    # 2 * Rz(0.3): projected, 0.3 rad from I; as it is, M = 2 Rz(0.3): atan2(|v|, (tr M - 1) / 2) with
+    # |v| = 2 sin 0.3 and tr M = 2 (1 + 2 cos 0.3), i.e. atan2(2 sin 0.3, 0.5 + 2 cos 0.3)
+    T = transform(2.0 * rot_z(0.3), [0.0, 0.0, 0.0])
+    assert pose_error(np.eye(4), T)[1] == pytest.approx(0.3, abs=1e-12)
+    expected = math.atan2(2.0 * math.sin(0.3), 0.5 + 2.0 * math.cos(0.3))
+    assert pose_error(np.eye(4), T, project=False)[1] == pytest.approx(expected, abs=1e-15)
+    assert pose_error(np.eye(4)[None], T[None], project=False)[1][0] == pytest.approx(expected, abs=1e-15)
+
+
+def test_pose_residuals_broadcast_a_target_over_reached_poses():
+    stack = np.stack([transform(rot_z(a), [0.0, 0.0, a]) for a in (0.1, 0.2, 0.3)])
+    position, rotation = pose_residuals(np.eye(4), stack, mode="position+axis", axis="x")
+    assert position.shape == rotation.shape == (3,)
+    np.testing.assert_allclose(position, [0.1, 0.2, 0.3], atol=1e-15)
+    np.testing.assert_allclose(rotation, [0.1, 0.2, 0.3], atol=1e-15)  # Rz turns the x axis by its angle
+
+
+def test_pose_residuals_refuse_an_unknown_mode_or_axis():
+    with pytest.raises(IKOptionError, match="unknown IK mode 'orientation'; modes: pose, position, position\\+axis"):
+        pose_residuals(np.eye(4), np.eye(4), mode="orientation")
+    with pytest.raises(IKOptionError, match="axes: x, y, z"):
+        pose_residuals(np.eye(4), np.eye(4), mode="position+axis", axis="w")
 
 
 @settings(max_examples=300)

@@ -508,7 +508,7 @@ def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[
     """Block ``block`` of IK targets: (block, success mask, configurations), by :func:`ik_many` seeded per block."""
     from manipkit.kinematics.ik_many import ik_many
 
-    batch = ik_many(job.robot, T, Q_seed, frame=job.frame, base=job.base, mode=job.ik_mode, tol=job.ik_tol,
+    batch = ik_many(job.robot, T, job.base, job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
                     restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block)
     return block, batch.success, batch.q
 
@@ -593,8 +593,8 @@ def build(
 
     _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples)
     voxel = float(voxel)
-    solver = ik_solver(robot, frame=frame, base=base)
-    frame, base = solver.frame, solver.base
+    solver = ik_solver(robot, base, frame)
+    frame, base = solver.tip, solver.base
     chain = robot.chain(base, frame)
     joint_axes = chain.axes()
     axes_k, origins_k, prismatic = joint_axes.direction, joint_axes.point, joint_axes.prismatic.tolist()
@@ -629,7 +629,7 @@ def build(
         raise ReachMapError(f"a {'x'.join(map(str, shape))} grid of {short_text(voxel)} m voxels times {bins.size} "
                             f"orientation bins needs {size} bytes, more than {MAX_GRID_BYTES}: use a coarser voxel "
                             "or fewer orientations")
-    chain = np.array([robot.joint_names.index(name) for name in solver.chain], dtype=np.intp)
+    chain = np.array([robot.joint_names.index(name) for name in solver.joint_names], dtype=np.intp)
     joints = [robot.joints[c] for c in chain]
     low = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in joints])
     high = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in joints])

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from manipkit.errors import PlanarArmError
+from manipkit.ik_result import tolerances
 from manipkit.text import short_text
 
 __all__ = ["NOISE", "as_float", "finite_array", "link_length", "quantity_text", "tolerance"]
@@ -65,8 +66,6 @@ def finite_array(value, what: str, *, shape_tail: tuple[int, ...] = (), scalar: 
 
 
 def tolerance(tol) -> float:
-    """A tolerance: a number >= 0."""
-    tol = float(tol)
-    if not tol >= 0.0:
-        raise PlanarArmError(f"tol = {tol} must be a number >= 0")
-    return tol
+    """A boundary tolerance (m): one number >= 0, by manipkit's one tolerance parser
+    (:func:`manipkit.ik_result.tolerances`), else :class:`PlanarArmError`."""
+    return tolerances(tol, error=PlanarArmError, pair=False, zero=True)[0]

@@ -18,7 +18,7 @@ Conventions (docs/architecture.md, "Conventions"), restated where they matter:
   kinematics (:func:`manipkit.dh.dh_fk`) and reproduces ``T`` within ``tol``
   in position (m) and in rotation angle (rad). A candidate that does not is
   dropped and counted in ``rejected``; none is returned unchecked. The
-  answer is a :class:`manipkit.closed_form.result.ClosedFormSolutions`.
+  answer is a :class:`manipkit.ik_result.IKResult`, manipkit's one IK result type.
 
 Decoupling (Spong): the three axes of a spherical wrist meet at the wrist
 centre ``o_c = o - d6 R z`` (:func:`wrist_center`), which joints 4 to 6 do
@@ -96,9 +96,10 @@ from manipkit.closed_form.planar import ik_2r
 from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
+from manipkit.ik_result import IKResult, tolerances
 from manipkit.spatial.euler import euler_zyz_from_matrix
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, wrap_angle
-from manipkit.spatial.transforms import check_transform, pose_error
+from manipkit.spatial.transforms import check_transform, pose_residuals
 
 __all__ = [
     "ClosedFormIKError",
@@ -140,14 +141,15 @@ class _Candidate:
     family: tuple[str, ...] = ()
 
 
-def _tolerances(tol, singular_tol) -> tuple[float, float]:
-    tol, singular_tol = finite_number(tol, "tol"), finite_number(singular_tol, "singular_tol")
-    if tol <= 0.0:
-        raise ClosedFormIKError(f"tol = {tol} must be > 0 (m and rad)")
-    if not 0.0 <= singular_tol <= tol / 4.0:
+def _tolerances(tol, singular_tol) -> tuple[tuple[float, float], float]:
+    """((position m, rotation rad), singular_tol): ``tol`` by :func:`manipkit.ik_result.tolerances` (one number
+    or a pair), ``singular_tol`` in [0, min(tol) / 4]."""
+    tol = tolerances(tol, error=ClosedFormIKError)
+    singular_tol = finite_number(singular_tol, "singular_tol")
+    if not 0.0 <= singular_tol <= min(tol) / 4.0:
         raise ClosedFormIKError(
-            f"singular_tol = {singular_tol} must be in [0, tol / 4] = [0, {quantity_text(tol / 4.0)}], so that the "
-            "representative of a singular family still passes the forward-kinematics check"
+            f"singular_tol = {singular_tol} must be in [0, tol / 4] = [0, {quantity_text(min(tol) / 4.0)}], so that "
+            "the representative of a singular family still passes the forward-kinematics check"
         )
     return tol, singular_tol
 
@@ -205,30 +207,29 @@ def _wrist(R_0_3: np.ndarray, R: np.ndarray, singular_tol: float) -> list[tuple[
 
 
 def _result(table: DHTable, T: np.ndarray, candidates: list[_Candidate], *, problems: list[_Problem], notes: list[str],
-            tol: float, joint_names: tuple[str, ...], variables: tuple[str, ...],
-            mode: str = SPATIAL_POSE) -> ClosedFormSolutions:
-    """Check every candidate by the table's FK (residuals by :func:`manipkit.spatial.transforms.pose_error`;
-    in mode ``SPATIAL_POSITION`` the position only), keep those within tol, say why."""
+            tol: tuple[float, float], joint_names: tuple[str, ...], variables: tuple[str, ...],
+            mode: str = SPATIAL_POSE) -> IKResult:
+    """Check every candidate by the table's FK (residuals by :func:`manipkit.spatial.transforms.pose_residuals`;
+    in mode ``SPATIAL_POSITION`` the position only), keep those within tol (m, rad), say why."""
     n = table.n
     if not candidates:
         reasons = list(dict.fromkeys(text for _, _, text in problems)) or ["no candidate solution"]
         nothing = read_only((), (n,))
-        return ClosedFormSolutions(nothing, (), 0, "no solution: " + "; ".join(reasons), read_only(()), read_only(()),
-                                   joint_names=joint_names, mode=mode, unmet=_unmet(problems))
+        return IKResult(nothing, (), 0, "no solution: " + "; ".join(reasons), read_only(()), read_only(()),
+                        joint_names=joint_names, mode=mode, unmet=_unmet(problems))
 
     Q = np.array([c.q for c in candidates], dtype=float)
     revolute = np.array([row.is_revolute for row in table.rows])
     Q[:, revolute] = wrap_angle(Q[:, revolute])
-    position_error, rotation_error = (np.atleast_1d(e) for e in pose_error(T, dh_fk(table, Q)))
-    if mode == SPATIAL_POSITION:
-        rotation_error = np.zeros_like(position_error)
-    keep = (position_error <= tol) & (rotation_error <= tol)
+    measure = "position" if mode == SPATIAL_POSITION else "pose"
+    position_error, rotation_error = (np.atleast_1d(e) for e in pose_residuals(T, dh_fk(table, Q), mode=measure))
+    keep = (position_error <= tol[0]) & (rotation_error <= tol[1])
     rejected = int(np.count_nonzero(~keep))
     kept = [c for c, k in zip(candidates, keep) if k]
 
     free = tuple(sorted({j for c in kept for j in c.free}))
     families = list(dict.fromkeys(text for c in kept for text in c.family))
-    family = "; ".join(families) if families else None
+    family = "; ".join(families)
 
     lines = list(dict.fromkeys(notes))
     if family:
@@ -237,11 +238,11 @@ def _result(table: DHTable, T: np.ndarray, candidates: list[_Candidate], *, prob
         worst = float(np.max(np.maximum(position_error, rotation_error)[~keep]))
         lines.append(
             f"{rejected} candidate(s) failed the forward-kinematics check (worst residual {worst:.3g} > tol "
-            f"{tol:g}) and were dropped; is T a proper rigid transform?"
+            f"{tol[0]:g} m, {tol[1]:g} rad) and were dropped; is T a proper rigid transform?"
         )
     k = len(kept)
     head = f"{k} solution{'s' if k != 1 else ''}" if k else "no solution"
-    return ClosedFormSolutions(
+    return IKResult(
         read_only(Q[keep], (n,)), tuple(c.label for c in kept), math.inf if free else k, head + ": " + "; ".join(lines),
         read_only(position_error[keep]), read_only(rotation_error[keep]),
         free_parameter=", ".join(variables[j] for j in free), joint_names=joint_names, family=family,
@@ -304,8 +305,8 @@ _SCARA_LABELS = {planar_ik.ELBOW_DOWN: RIGHTY, planar_ik.ELBOW_UP: LEFTY, planar
 
 
 def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: float = 0.05,
-             d3_limits: tuple[float, float] = (0.0, 0.3), mode: str = "pose", samples: int = 4, tol: float = 1e-9,
-             singular_tol: float = 1e-10) -> ClosedFormSolutions:
+             d3_limits: tuple[float, float] = (0.0, 0.3), mode: str = "pose", samples: int = 4, tol=1e-9,
+             singular_tol: float = 1e-10) -> IKResult:
     """Every joint vector ``(theta1, theta2, d3, theta4)`` putting the SCARA's tool at pose T.
 
     Parameters
@@ -321,16 +322,18 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     samples : int, keyword-only
         ``mode="position"``: how many values of theta4 to sample
         (``2 pi k / samples`` wrapped, k = 0 .. samples - 1).
-    tol : float, keyword-only
+    tol : float or (float, float), keyword-only
         Every returned row reproduces T within ``tol`` in position (m) and
-        rotation (rad, mode ``"pose"``); also how far the tool's z axis may be from straight down.
+        rotation (rad, mode ``"pose"``): one number for both, or ``(position,
+        rotation)``; the rotation one is also how far the tool's z axis may
+        be from straight down.
     singular_tol : float, keyword-only
         Distances (m) within which the quill axis counts as on a boundary
         circle (one solution) and d3 as at a limit.
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         Rows ``(theta1, theta2, d3, theta4)``, rad and m, angles in (-pi, pi]:
 
         - 2 generically: ``"righty"`` (theta2 > 0) then ``"lefty"`` (theta2 < 0);
@@ -370,6 +373,7 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     array([[ 0.3     ,  1.2     ,  0.1     , -0.5     ],
            [ 1.272935, -1.2     ,  0.1     , -1.927065]])
     """
+    # Over 80 lines: the docstring (cases, labels and the derivation) is most of it.
     table = scara_dh_table(a1=a1, a2=a2, d1=d1, d4=d4, d3_limits=d3_limits)
     tol, singular_tol = _tolerances(tol, singular_tol)
     T, R, p = _pose(T)
@@ -380,7 +384,7 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise ClosedFormIKError(f"samples = {samples!r} must be a whole number >= 1")
 
-    def members(values) -> ClosedFormSolutions:
+    def members(values) -> IKResult:
         rolls = np.atleast_1d(finite_array(values, "theta4 values"))
         if rolls.ndim != 1:
             raise ClosedFormIKError(f"theta4 values must be a sequence of angles, got shape {rolls.shape}")
@@ -395,18 +399,18 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
         family += "; " + sampled.family
     free = ", ".join(dict.fromkeys(["theta4", *filter(None, sampled.free_parameter.split(", "))]))
     return replace(sampled, count=math.inf, free_parameter=free, family=family, family_function=members,
-                   reason=sampled.reason.replace(" solutions:", " sampled solutions:", 1) + "; " + family)
+                   note=sampled.note.replace(" solutions:", " sampled solutions:", 1) + "; " + family)
 
 
-def _scara(table: DHTable, T: np.ndarray, R: np.ndarray, p: np.ndarray, theta4_values, tol: float,
-           singular_tol: float) -> ClosedFormSolutions:
+def _scara(table: DHTable, T: np.ndarray, R: np.ndarray, p: np.ndarray, theta4_values, tol: tuple[float, float],
+           singular_tol: float) -> IKResult:
     """The SCARA rows for pose T (``theta4_values`` None), or for its position at each theta4 in ``theta4_values``."""
     a1, a2, d1, d4 = table.rows[0].a, table.rows[1].a, table.rows[0].d, table.rows[3].d
     limits = table.rows[2].qlim
     position_only = theta4_values is not None
     problems, notes, candidates = [], [], []
     tilt = math.atan2(math.hypot(R[0, 2], R[1, 2]), -R[2, 2])
-    if not position_only and tilt > tol:
+    if not position_only and tilt > tol[1]:
         problems.append((
             "tool z axis tilt", tilt,
             f"the tool's z axis is tilted {quantity_text(tilt)} rad ({quantity_text(math.degrees(tilt))} deg) from straight down; "
@@ -461,8 +465,8 @@ def _scara(table: DHTable, T: np.ndarray, R: np.ndarray, p: np.ndarray, theta4_v
 
 
 def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
-                d3_limits: tuple[float, float] = (0.1, 1.0), tol: float = 1e-9,
-                singular_tol: float = 1e-10) -> ClosedFormSolutions:
+                d3_limits: tuple[float, float] = (0.1, 1.0), tol=1e-9,
+                singular_tol: float = 1e-10) -> IKResult:
     """Every joint vector ``(theta1, theta2, d3, theta4, theta5, theta6)`` putting the Stanford arm's tool at T.
 
     Parameters
@@ -473,8 +477,9 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
     d1, d2, d6, d3_limits : keyword-only
         The arm, as in :func:`stanford_dh_table` (defaults: the bundled robot,
         d3 in 0.1 .. 1.0 m).
-    tol : float, keyword-only
-        Every returned row reproduces T within ``tol`` (m, rad).
+    tol : float or (float, float), keyword-only
+        Every returned row reproduces T within ``tol`` (m, rad): one number
+        for both, or ``(position, rotation)``.
     singular_tol : float, keyword-only
         Within it (m, or sin theta5) the wrist centre counts as on the
         cylinder ``r = |d2|`` (one shoulder solution), the wrist as singular,
@@ -482,7 +487,7 @@ def ik_stanford(T, *, d1: float = 0.0, d2: float = 0.154, d6: float = 0.263,
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         Rows in rad and m, angles in (-pi, pi]:
 
         - 4 generically: ``"front, no flip"``, ``"front, flip"``,
@@ -596,7 +601,7 @@ def _elbow_label(planar_label: str, back: bool) -> str:
 
 
 def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float = 0.1,
-             tol: float = 1e-9, singular_tol: float = 1e-10) -> ClosedFormSolutions:
+             tol=1e-9, singular_tol: float = 1e-10) -> IKResult:
     """Every joint vector ``(theta1, ..., theta6)`` putting the elbow arm's tool at T.
 
     Parameters
@@ -606,15 +611,16 @@ def ik_elbow(T, *, d1: float = 0.4, a2: float = 0.45, a3: float = 0.4, d6: float
         of the bundled ``elbow_arm``).
     d1, a2, a3, d6 : float, keyword-only
         The arm, as in :func:`elbow_dh_table` (defaults: the bundled robot).
-    tol : float, keyword-only
-        Every returned row reproduces T within ``tol`` (m, rad).
+    tol : float or (float, float), keyword-only
+        Every returned row reproduces T within ``tol`` (m, rad): one number
+        for both, or ``(position, rotation)``.
     singular_tol : float, keyword-only
         Within it (m, or sin theta5) the wrist centre counts as on joint 1's
         axis, on a boundary sphere about the shoulder, or the wrist as singular.
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         Rows in rad, wrapped to (-pi, pi]:
 
         - 8 generically, in the order front/back x elbow up/down x no flip/flip,

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -45,13 +45,17 @@ from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, works
 from manipkit.closed_form.result import CHECK_TOL, PLANAR_POSE, PLANAR_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHRow, DHTable, dh_fk
 from manipkit.errors import PlanarArmError
-from manipkit.spatial.rotations import rot_z, rotation_angle_between, wrap_angle
+from manipkit.ik_result import IKBatch, IKResult
+from manipkit.spatial.rotations import rot_z, wrap_angle
+from manipkit.spatial.transforms import pose_residuals
 
 __all__ = [
     "ClosedFormSolutions",
     "ELBOW_DOWN",
     "ELBOW_UP",
     "FOLDED",
+    "IKBatch",
+    "IKResult",
     "PlanarArmError",
     "PlanarIKBatch",
     "Q1_FREE",
@@ -223,28 +227,8 @@ def chain_points(q, lengths) -> np.ndarray:
 # inverse kinematics: many targets at once
 
 
-@dataclass(frozen=True, eq=False)
-class PlanarIKBatch:
-    """Planar IK solutions for many targets at once.
-
-    Attributes
-    ----------
-    solutions : ndarray, shape (..., 2, n)
-        Slot 0 is elbow-down (or the single boundary solution: straight or
-        folded), slot 1 elbow-up; absent solutions are NaN. For infinitely
-        many solutions slot 0 holds the representative with ``q1 = 0``.
-        Angles in radians, wrapped to (-pi, pi].
-    counts : ndarray of float, shape (...)
-        0.0, 1.0, 2.0 or ``inf`` per target (float so ``inf`` fits;
-        ``counts == 2`` selects the two-solution targets).
-    outside_by : ndarray, shape (...)
-        Distance (m) of the target (2R) or wrist point (3R) outside the
-        reachable annulus, 0.0 where reachable.
-    """
-
-    solutions: np.ndarray
-    counts: np.ndarray
-    outside_by: np.ndarray
+#: The planar batches' result type in 0.1: now :class:`manipkit.ik_result.IKBatch` (goes in the next release).
+PlanarIKBatch = IKBatch
 
 
 # --------------------------------------------------------------------------
@@ -466,7 +450,7 @@ def _labels(case: int) -> tuple[str, ...]:
 # inverse kinematics: 2R
 
 
-def ik_2r_batch(xy, l1, l2, *, tol: float = 1e-12) -> PlanarIKBatch:
+def ik_2r_batch(xy, l1, l2, *, tol: float = 1e-12) -> IKBatch:
     """Every IK solution of a planar 2R arm for many target positions at once.
 
     Parameters
@@ -482,27 +466,32 @@ def ik_2r_batch(xy, l1, l2, *, tol: float = 1e-12) -> PlanarIKBatch:
 
     Returns
     -------
-    PlanarIKBatch
+    IKBatch
         ``solutions`` (..., 2, 2) with rows ``(q1, q2)``: slot 0 elbow-down
         (or the boundary solution), slot 1 elbow-up, NaN where absent;
-        ``counts`` (...) in {0, 1, 2, inf}; ``outside_by`` (...).
+        ``count`` (...) in {0, 1, 2, inf}; ``outside_by`` (...); ``mode``
+        ``PLANAR_POSITION``. ``success`` and the residuals per slot come from
+        the DH table's forward kinematics of every slot, measured on first use.
 
     Examples
     --------
     >>> result = ik_2r_batch([[1.0, 1.0], [2.0, 0.0], [3.0, 0.0]], 1.0, 1.0)
-    >>> result.counts
-    array([2., 1., 0.])
+    >>> result.count, result.success
+    (array([2., 1., 0.]), array([ True,  True, False]))
     >>> result.solutions[0].round(6)  # elbow-down (q2 > 0), then elbow-up
     array([[ 0.      ,  1.570796],
            [ 1.570796, -1.570796]])
     """
     l1, l2 = link_length(l1, "l1"), link_length(l2, "l2")
+    given = xy
     xy = finite_array(xy, "xy", shape_tail=(2,))
-    solutions, _, counts, outside = _ik_core(xy[..., 0], xy[..., 1], l1, l2, tolerance(tol))
-    return PlanarIKBatch(solutions, counts, outside)
+    tol = tolerance(tol)
+    solutions, _, counts, outside = _ik_core(xy[..., 0], xy[..., 1], l1, l2, tol)
+    return _batch(solutions, counts, outside, (l1, l2), xy.copy() if xy is given else xy, mode=PLANAR_POSITION,
+                  tol=tol, solver="planar.ik_2r_batch")
 
 
-def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
+def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> IKResult:
     """Every joint solution ``(q1, q2)`` putting a planar 2R tool at ``(x, y)``.
 
     Parameters
@@ -519,11 +508,12 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         ``solutions`` (k, 2), rows ``(q1, q2)`` in radians wrapped to
         (-pi, pi], elbow-down (q2 > 0) first; ``labels``, ``count``,
-        ``reason``, for unreachable targets ``outside_by`` and ``side``, and
-        per row the distance (m) of ``fk_2r`` of the row from the target in
+        ``note`` (why that many), ``reason`` (``""`` unless there is none),
+        for unreachable targets ``outside_by`` and ``side``, and per row the
+        distance (m) of the DH table's FK (:func:`planar_dh_table`) from the target in
         ``residual_position`` (``residual_rotation`` is 0: a 2R target has
         no orientation).
 
@@ -570,7 +560,7 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
 # inverse kinematics: 3R
 
 
-def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKBatch:
+def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> IKBatch:
     """Every IK solution of a planar 3R arm for many tool poses at once.
 
     Parameters
@@ -584,27 +574,30 @@ def ik_3r_batch(poses, l1, l2, l3, *, tol: float = 1e-12) -> PlanarIKBatch:
 
     Returns
     -------
-    PlanarIKBatch
+    IKBatch
         ``solutions`` (..., 2, 3) with rows ``(q1, q2, q3)``: slot 0
         elbow-down (or the boundary solution), slot 1 elbow-up, NaN where
-        absent; ``counts`` (...) in {0, 1, 2, inf}; ``outside_by`` (...) of
-        the wrist point.
+        absent; ``count`` (...) in {0, 1, 2, inf}; ``outside_by`` (...) of
+        the wrist point; ``mode`` ``PLANAR_POSE``. ``success`` and the
+        residuals per slot (m, and the tool angle error in rad) come from the
+        DH table's forward kinematics, measured on first use.
 
     Examples
     --------
     >>> result = ik_3r_batch([[3.0, 2.0, np.pi], [9.0, 0.0, 0.0]], 4.0, 2.0, 1.0)
-    >>> result.counts
+    >>> result.count
     array([2., 0.])
     """
     l1, l2, l3 = link_length(l1, "l1"), link_length(l2, "l2"), link_length(l3, "l3")
+    given = poses
     poses = finite_array(poses, "poses", shape_tail=(3,))
-    solutions, _, counts, outside = _ik_core(
-        poses[..., 0], poses[..., 1], l1, l2, tolerance(tol), phi=poses[..., 2], l3=l3
-    )
-    return PlanarIKBatch(solutions, counts, outside)
+    tol = tolerance(tol)
+    solutions, _, counts, outside = _ik_core(poses[..., 0], poses[..., 1], l1, l2, tol, phi=poses[..., 2], l3=l3)
+    return _batch(solutions, counts, outside, (l1, l2, l3), poses.copy() if poses is given else poses,
+                  mode=PLANAR_POSE, tol=tol, solver="planar.ik_3r_batch")
 
 
-def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> ClosedFormSolutions:
+def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> IKResult:
     """Every joint solution ``(q1, q2, q3)`` putting a planar 3R tool at pose ``(x, y, phi)``.
 
     Parameters
@@ -621,11 +614,11 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> ClosedFormSolutions:
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         ``solutions`` (k, 3), rows ``(q1, q2, q3)`` in radians wrapped to
         (-pi, pi], elbow-down (q2 > 0) first, and the same ``labels``,
-        ``count``, ``reason``, ``outside_by``, ``side`` as :func:`ik_2r` for
-        the wrist point; residuals of ``fk_3r`` of each row (m, and the
+        ``count``, ``note``, ``reason``, ``outside_by``, ``side`` as :func:`ik_2r` for
+        the wrist point; residuals of the DH table's FK of each row (m, and the
         tool angle error in rad). With infinitely many solutions (wrist at the base,
         ``l1 = l2``) ``q1`` is free, ``q2 = pi`` and ``q3 = phi - q1 - pi``.
 
@@ -697,15 +690,13 @@ def _planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
     return T
 
 
-def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected: int = 0) -> ClosedFormSolutions:
+def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected: int = 0) -> IKResult:
     """The rows whose DH forward kinematics reproduce ``target`` (position, and rotation when ``pose``)."""
     rows = read_only(rows, (len(lengths),))
     T_reached = dh_fk(_table(tuple(lengths)), rows).reshape(-1, 4, 4)
-    position = np.linalg.norm(T_reached[:, :3, 3] - target[:3, 3], axis=-1)
-    if pose:  # the tables' rotations are exact products of Rz: no need to project them first
-        rotation = np.atleast_1d(rotation_angle_between(target[:3, :3], T_reached[:, :3, :3], check=False))
-    else:
-        rotation = np.zeros_like(position)
+    # the target and the tables' rotations are exact products of Rz: no need to project them first
+    residuals = pose_residuals(target, T_reached, mode="pose" if pose else "position", project=False)
+    position, rotation = (np.atleast_1d(e) for e in residuals)
     limit = max(CHECK_TOL, tol)
     keep = (position <= limit) & (rotation <= limit)
     dropped = rejected + int(np.count_nonzero(~keep))
@@ -713,18 +704,53 @@ def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected:
     reason = ""
     if dropped:
         reason = f"{dropped} candidate(s) failed the forward-kinematics check (residual > {quantity_text(limit)})"
-    return ClosedFormSolutions(read_only(rows[keep], (len(lengths),)), kept, len(kept), reason,
-                               read_only(position[keep]), read_only(rotation[keep]), rejected=dropped)
+    return IKResult(read_only(rows[keep], (len(lengths),)), kept, len(kept), reason,
+                    read_only(position[keep]), read_only(rotation[keep]), rejected=dropped)
 
 
 def _planar_result(rows, case: int, reason: str, lengths, target, outside, side, *, mode: str, tol: float,
-                   solver: str) -> ClosedFormSolutions:
+                   solver: str) -> IKResult:
     checked = _checked(rows, _labels(case), lengths, target, pose=mode == PLANAR_POSE, tol=tol)
     free = case == _FREE and checked.success
     if checked.rejected:
-        reason += "; " + checked.reason
+        reason += "; " + checked.note
     unmet = (("position", float(outside)),) if outside > 0.0 else ()
     return replace(
-        checked, count=math.inf if free else checked.count, reason=reason, free_parameter="q1" if free else "",
-        free_joints=(0,) if free else (), outside_by=float(outside), side=side, mode=mode, solver=solver, unmet=unmet,
+        checked, count=math.inf if free else checked.count, note=reason, free_parameter="q1" if free else "",
+        free_joints=(0,) if free else (), outside_by=float(outside), side=side or "", mode=mode, solver=solver,
+        unmet=unmet,
     )
+
+
+_RESIDUAL_BLOCK = 65536  # targets whose slots are put through FK at once (their (2, 4, 4) poses: 16 MB)
+
+
+def _batch(solutions, counts, outside, lengths, targets, *, mode: str, tol: float, solver: str) -> IKBatch:
+    """The planar batch answer; ``success`` and the residuals of every slot by the DH table's FK, on first use."""
+    def measure(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return _slot_residuals(Q, targets, tuple(lengths), pose=mode == PLANAR_POSE)
+
+    limit = max(CHECK_TOL, tol)
+    return IKBatch(solutions, counts, labels=(ELBOW_DOWN, ELBOW_UP), mode=mode, solver=solver, measure=measure,
+                   limit=(limit, limit), outside_by=outside)
+
+
+def _slot_residuals(Q: np.ndarray, targets: np.ndarray, lengths: tuple[float, ...], *, pose: bool):
+    """Residuals (..., 2) m and rad of every slot of ``Q`` (..., 2, n) against planar ``targets`` (..., 2 or 3),
+    by :func:`manipkit.dh.dh_fk` of the arm's table and :func:`manipkit.spatial.transforms.pose_residuals`;
+    NaN for an empty slot."""
+    table, n = _table(lengths), len(lengths)
+    flat_Q, flat_targets = Q.reshape(-1, 2, n), targets.reshape(-1, targets.shape[-1])
+    position, rotation = np.empty(flat_Q.shape[:2]), np.empty(flat_Q.shape[:2])
+    for start in range(0, flat_Q.shape[0], _RESIDUAL_BLOCK):
+        block = slice(start, start + _RESIDUAL_BLOCK)
+        wanted = flat_targets[block]
+        T_target = np.tile(np.eye(4), (wanted.shape[0], 1, 1, 1))
+        T_target[..., 0, 3], T_target[..., 1, 3] = wanted[:, 0, None], wanted[:, 1, None]
+        if pose:
+            T_target[..., :3, :3] = rot_z(wanted[:, 2])[:, None]
+        with np.errstate(invalid="ignore"):
+            position[block], rotation[block] = pose_residuals(T_target, dh_fk(table, flat_Q[block]),
+                                                              mode="pose" if pose else "position", project=False)
+    rotation[np.isnan(position)] = np.nan
+    return position.reshape(Q.shape[:-1]), rotation.reshape(Q.shape[:-1])

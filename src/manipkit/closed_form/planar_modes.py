@@ -25,14 +25,15 @@ import numpy as np
 
 from manipkit.closed_form.checks import finite_array, link_length, quantity_text, tolerance
 from manipkit.closed_form.planar import FOLDED, _checked, _planar_target, ik_2r, ik_3r
-from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, ClosedFormSolutions, read_only
+from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, read_only
 from manipkit.errors import PlanarArmError
+from manipkit.ik_result import IKResult
 from manipkit.spatial.rotations import wrap_angle
 
 __all__ = ["ik_2r_pose", "ik_3r_position"]
 
 
-def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
+def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> IKResult:
     """The planar 2R solutions that put the tool at ``(x, y)`` *with* tool angle ``phi``: usually none.
 
     A 2R arm has two joints for three pose components: its tool angle
@@ -52,7 +53,7 @@ def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         ``mode`` is ``PLANAR_POSE``. The rows of :func:`ik_2r` whose pose
         (by the DH table's FK) matches ``(x, y, phi)`` within
         ``max(CHECK_TOL, tol)``. When the position is reached but no row has
@@ -79,7 +80,7 @@ def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
     target = _planar_target(x, y, phi)
     result = _checked(rows, labels, (l1, l2), target, pose=True, tol=tol)
     if result.success:
-        return replace(result, reason=f"{result.count} solution(s): {position.reason}; the tool angle matches phi",
+        return replace(result, note=f"{result.count} solution(s): {position.note}; the tool angle matches phi",
                        mode=PLANAR_POSE, solver="planar.ik_2r_pose")
     headings = wrap_angle(rows[:, 0] + rows[:, 1])
     errors = np.abs(wrap_angle(headings - phi))
@@ -89,13 +90,13 @@ def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> ClosedFormSolutions:
         f"follows from its position, here {', '.join(quantity_text(float(h)) for h in headings)} rad "
         f"({', '.join(labels)}); off by {quantity_text(miss)} rad at the nearest (position-only IK reaches (x, y))"
     )
-    return ClosedFormSolutions(
+    return IKResult(
         read_only((), (2,)), (), 0, reason, read_only(()), read_only(()), mode=PLANAR_POSE,
         solver="planar.ik_2r_pose", unmet=(("orientation", miss),),
     )
 
 
-def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) -> ClosedFormSolutions:
+def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) -> IKResult:
     """Planar 3R solutions putting the tool at position ``(x, y)``, any tool angle: a family in ``phi``.
 
     Three joints for two position components leave one free: the tool angle
@@ -117,7 +118,7 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
         ``mode`` ``PLANAR_POSITION``; ``count`` infinite with
         ``free_parameter = "phi"`` and ``family`` the reachable angles in
         words; rows: the members at the sampled angles, labelled
@@ -143,6 +144,7 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
     array([[ 0.068399,  0.97339 ,  2.099804],
            [ 0.692614, -0.97339 , -2.860816]])
     """
+    # Over 80 lines: the docstring (the family's arcs, derived) is half of it; the code is one pass.
     l1, l2, l3 = link_length(l1, "l1"), link_length(l2, "l2"), link_length(l3, "l3")
     x, y = float(finite_array(x, "x", scalar=True)), float(finite_array(y, "y", scalar=True))
     tol = tolerance(tol)
@@ -152,7 +154,7 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
     outer, inner = l1 + l2, abs(l1 - l2)
     far, near = outer + l3, max(0.0, inner - l3, l3 - outer)
 
-    def members(values) -> ClosedFormSolutions:
+    def members(values) -> IKResult:
         return _members_3r(x, y, values, (l1, l2, l3), tol)
 
     where = f"target at r = {quantity_text(r)}"
@@ -161,7 +163,7 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
         side = "too far" if r > far else "too close"
         bound = f"l1 + l2 + l3 = {quantity_text(far)}" if r > far else f"the closest the arm folds, {quantity_text(near)}"
         reason = f"no solution: {where} {side} for any tool angle: {'beyond' if r > far else 'inside'} {bound}, outside by {quantity_text(gap)}"
-        return ClosedFormSolutions(
+        return IKResult(
             read_only((), (3,)), (), 0, reason, read_only(()), read_only(()), outside_by=gap, side=side,
             mode=PLANAR_POSITION, solver="planar.ik_3r_position", unmet=(("position", gap),),
         )
@@ -181,14 +183,14 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
     family = (f"the tool angle phi is free ({arcs}); for each, up to 2 solutions (elbow-down, elbow-up) of the "
               "wrist point (x - l3 cos phi, y - l3 sin phi), q3 = phi - q1 - q2; result.members(phis) gives them")
     if not sampled.success:  # reachable by the bounds, yet no sampled member passed the FK check: say so, no family
-        return replace(sampled, reason=f"no solution: {where}: no sampled tool angle gave a solution that passed the "
-                       f"forward-kinematics check ({sampled.reason})", solver="planar.ik_3r_position")
+        return replace(sampled, note=f"no solution: {where}: no sampled tool angle gave a solution that passed the "
+                       f"forward-kinematics check ({sampled.note})", solver="planar.ik_3r_position")
     reason = f"infinitely many solutions: {where}, position only: {family}; {sampled.count} sampled"
-    return replace(sampled, count=math.inf, reason=reason, free_parameter="phi", family=family,
+    return replace(sampled, count=math.inf, note=reason, free_parameter="phi", family=family,
                    family_function=members, solver="planar.ik_3r_position")
 
 
-def _members_3r(x: float, y: float, values, lengths, tol: float) -> ClosedFormSolutions:
+def _members_3r(x: float, y: float, values, lengths, tol: float) -> IKResult:
     """The planar 3R solutions at each tool angle in ``values``, checked for the position (x, y)."""
     phis = np.atleast_1d(finite_array(values, "phi values"))
     if phis.ndim != 1:
@@ -199,5 +201,5 @@ def _members_3r(x: float, y: float, values, lengths, tol: float) -> ClosedFormSo
         rows.extend(member.solutions)
         labels.extend(f"phi = {quantity_text(float(phi))}, {label}" for label in member.labels)
     result = _checked(read_only(rows, (3,)), tuple(labels), lengths, _planar_target(x, y), pose=False, tol=tol)
-    return replace(result, reason=f"{result.count} solution(s) at {phis.size} tool angle(s) phi", mode=PLANAR_POSITION,
+    return replace(result, note=f"{result.count} solution(s) at {phis.size} tool angle(s) phi", mode=PLANAR_POSITION,
                    solver="planar.ik_3r_position")

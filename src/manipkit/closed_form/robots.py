@@ -23,16 +23,10 @@ import numpy as np
 
 from manipkit.closed_form import decoupled, planar, planar_modes
 from manipkit.closed_form.checks import quantity_text
-from manipkit.closed_form.result import (
-    PLANAR_POSE,
-    PLANAR_POSITION,
-    SPATIAL_POSE,
-    SPATIAL_POSITION,
-    ClosedFormSolutions,
-    read_only,
-)
+from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.errors import IKOptionError
-from manipkit.spatial.transforms import check_transform, pose_error
+from manipkit.ik_result import IKResult, tolerances
+from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -53,13 +47,13 @@ class AnalyticSolver:
         A planar arm: it moves in the x-y plane of ``base_link``, its tool
         turns about z only.
     solve : callable
-        ``(T_base_link_ee_link, xacro arguments, mode, samples, tol) -> ClosedFormSolutions``
+        ``(T_base_link_ee_link, xacro arguments, mode, samples, tol) -> IKResult``
         with ``mode`` ``"pose"`` or ``"position"``.
     """
 
     solves: tuple[str, ...]
     planar: bool
-    solve: Callable[[np.ndarray, dict, str, int, float], ClosedFormSolutions]
+    solve: Callable[[np.ndarray, dict, str, int, float], IKResult]
 
 
 def _heading(T: np.ndarray) -> float:
@@ -67,28 +61,28 @@ def _heading(T: np.ndarray) -> float:
     return math.atan2(T[1, 0], T[0, 0])
 
 
-def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+def _planar_2r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> IKResult:
     lengths = float(args["l1"]), float(args["l2"])
     if mode == "position":
         return planar.ik_2r(T[0, 3], T[1, 3], *lengths)
     return planar_modes.ik_2r_pose(T[0, 3], T[1, 3], _heading(T), *lengths, tol=tol)
 
 
-def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> IKResult:
     lengths = tuple(float(args[k]) for k in ("l1", "l2", "l3"))
     if mode == "position":
         return planar_modes.ik_3r_position(T[0, 3], T[1, 3], *lengths, samples=samples)
     return planar.ik_3r(T[0, 3], T[1, 3], _heading(T), *lengths)
 
 
-def _scara(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+def _scara(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> IKResult:
     kwargs = {name: float(args[name]) for name in ("a1", "a2", "d1", "d4")}
     result = decoupled.ik_scara(T, d3_limits=(0.0, float(args["d3_max"])), mode=mode, samples=samples, tol=tol, **kwargs)
     return replace(result, solver="decoupled.ik_scara")
 
 
-def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[..., ClosedFormSolutions]:
-    def solve(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> ClosedFormSolutions:
+def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[..., IKResult]:
+    def solve(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> IKResult:
         kwargs = {name: float(args[name]) for name in names}
         kwargs["tol"] = tol
         if limits is not None:
@@ -109,7 +103,8 @@ ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
 }
 
 
-def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: int = 4) -> ClosedFormSolutions:
+def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose", tol=1e-9,
+                samples: int = 4) -> IKResult:
     """All closed-form IK solutions for ``T_base_link_ee_link = target`` on a bundled textbook arm, in ``mode``.
 
     The solver parameters (link lengths, offsets, prismatic limits) are the
@@ -141,6 +136,10 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: 
     target : array_like, shape (4, 4)
         ``T_base_link_ee_link`` (metres); checked by
         :func:`manipkit.spatial.transforms.check_transform`.
+    base, tip : str
+        The frames, base first as everywhere: the closed forms solve
+        ``base_link`` to ``ee_link`` (the defaults; their aliases and real
+        names are accepted too).
     mode : {"pose", "position"}, keyword-only
         Match the whole pose, or the tool origin only (the target's rotation
         is then ignored and the rotation residuals are 0).
@@ -153,18 +152,21 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: 
 
     Returns
     -------
-    ClosedFormSolutions
+    IKResult
+        manipkit's one IK result type (:class:`manipkit.ik_result.IKResult`):
         ``solver`` names the function used; ``mode`` what was asked (one of
         :data:`manipkit.closed_form.result.MODES`); ``solutions`` are joint
-        vectors in ``robot.joint_names`` order; ``count``, ``reason``,
-        ``labels``, ``unmet`` and the family fields are the solver's.
+        vectors in ``robot.joint_names`` order, with the residuals of the
+        URDF; ``count``, ``note``, ``reason``, ``labels``, ``unmet`` and the
+        family fields are the solver's.
 
     Raises
     ------
     IKOptionError
         If the robot has no closed-form solver here (the message lists those
-        that do), the mode is unknown, or the arm does not solve it (Stanford
-        and elbow arms: position only).
+        that do), the frames are not ``base_link`` and ``ee_link``, the mode is
+        unknown, or the arm does not solve it (Stanford and elbow arms: a
+        position alone).
     InvalidTransformError
         ``target`` is not a 4x4 homogeneous transform.
 
@@ -176,12 +178,16 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: 
     >>> result.solver, result.mode, result.count, result.labels
     ('planar.ik_2r', 'planar position (x, y)', 2, ('elbow-down', 'elbow-up'))
     """
+    # Over 80 lines: the docstring (what each arm solves, every option) is most of it.
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
     if arm is None:
         raise IKOptionError(
             f"no closed-form solver for robot '{robot.name}'; closed forms exist for "
             f"{', '.join(ANALYTIC_SOLVERS)} (use numerical IK otherwise)"
         )
+    if (robot.frame(base), robot.frame(tip)) != (robot.frame("base_link"), robot.frame("ee_link")):
+        raise IKOptionError(f"the closed form of {robot.source.name} solves base_link -> ee_link, not {base} -> {tip}; "
+                            "use numerical IK for other frames")
     if mode not in ("pose", "position"):
         raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
     asked = ((PLANAR_POSE if mode == "pose" else PLANAR_POSITION) if arm.planar
@@ -191,15 +197,15 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: 
             f"the closed form of {robot.source.name} solves {' and '.join(arm.solves)} only, not a position alone "
             "(a 6-joint arm leaves three degrees of freedom free); give an orientation, or use numerical IK for a position"
         )
-    tol = _tolerances(tol)
+    tol = tolerances(tol)
     T = check_transform(target, what="IK target")
     result = arm.solve(T, robot.xacro_args, mode, samples, max(tol))
     if arm.planar:
         off_plane = _off_plane(robot, T, mode, tol)
         if off_plane:
             texts = [text for _, _, text in off_plane]
-            in_plane = result.reason.removeprefix("no solution: ")
-            return ClosedFormSolutions(
+            in_plane = result.note.removeprefix("no solution: ")
+            return IKResult(
                 read_only((), (len(robot.joint_names),)), (), 0,
                 "no solution: " + "; ".join(texts) + f"; within the plane: {in_plane}", read_only(()), read_only(()),
                 solver=result.solver, joint_names=robot.joint_names, mode=asked,
@@ -211,17 +217,6 @@ def analytic_ik(robot: Robot, target, *, mode: str = "pose", tol=1e-9, samples: 
         def family_function(values, _solve=result.family_function):
             return replace(_verified(robot, T, _solve(values), mode == "pose", tol), mode=asked)
     return replace(checked, mode=asked, family_function=family_function)
-
-
-def _tolerances(tol) -> tuple[float, float]:
-    """(position m, rotation rad) from one positive number or a pair, else :class:`IKOptionError`."""
-    try:
-        values = np.atleast_1d(np.asarray(tol, dtype=float))
-    except (TypeError, ValueError):
-        values = np.zeros(0)
-    if values.shape not in ((1,), (2,)) or not np.all(np.isfinite(values)) or np.any(values <= 0.0):
-        raise IKOptionError(f"tol must be a positive number or (position m, rotation rad), got {tol!r:.60}")
-    return float(values[0]), float(values[-1])
 
 
 def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float]) -> list[tuple[str, float, str]]:
@@ -247,19 +242,17 @@ def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float])
     return problems
 
 
-def _verified(robot: Robot, T: np.ndarray, result: ClosedFormSolutions, pose: bool,
-              tol: tuple[float, float]) -> ClosedFormSolutions:
+def _verified(robot: Robot, T: np.ndarray, result: IKResult, pose: bool, tol: tuple[float, float]) -> IKResult:
     """``result`` with only the rows whose URDF forward kinematics reach T (in the asked mode), and those residuals."""
     n = len(robot.joint_names)
     rows = [i for i, q in enumerate(result.solutions) if q.size == n]
     Q = np.array([result.solutions[i] for i in rows], dtype=float).reshape(-1, n)
     T_reached = np.array([robot.transform("base_link", "ee_link", q, check_limits=False) for q in Q]).reshape(-1, 4, 4)
-    position, rotation = (np.atleast_1d(e).astype(float) for e in pose_error(T, T_reached))
-    if not pose:
-        rotation = np.zeros_like(position)  # a position target: the tool's orientation is free
+    residuals = pose_residuals(T, T_reached, mode="pose" if pose else "position")  # position: the orientation is free
+    position, rotation = (np.atleast_1d(e).astype(float) for e in residuals)
     keep = (position <= tol[0]) & (rotation <= tol[1])
     dropped = int(np.count_nonzero(~keep))
-    reason = result.reason
+    reason = result.note
     if dropped:
         worst = float(np.max(np.maximum(position, rotation)[~keep]))
         reason += (f"; {dropped} row(s) failed the check through the URDF (worst residual {quantity_text(worst)} > "
@@ -274,6 +267,6 @@ def _verified(robot: Robot, T: np.ndarray, result: ClosedFormSolutions, pose: bo
         residual_rotation=read_only(rotation[keep]),
         joint_names=robot.joint_names,
         count=count,
-        reason=reason,
+        note=reason,
         rejected=result.rejected + dropped,
     )

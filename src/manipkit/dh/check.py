@@ -64,7 +64,7 @@ from manipkit.dh.table import DHTable, dh_fk
 from manipkit.dh.text import NOISE
 from manipkit.errors import ManipkitError
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
-from manipkit.spatial.transforms import invert_transform, pose_error
+from manipkit.spatial.transforms import invert_transform, pose_residuals
 from manipkit.text import short_text, vector_text
 
 if TYPE_CHECKING:
@@ -145,7 +145,7 @@ def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str 
     index = [robot.joint_names.index(name) for name in joints]
     Q = robot.sample_q(samples, seed=seed)[:, index]
     urdf_fk = _urdf_fk(robot, base, tip, index)
-    position_errors, rotation_errors = pose_error(urdf_fk(Q), dh_fk(table, Q))
+    position_errors, rotation_errors = pose_residuals(urdf_fk(Q), dh_fk(table, Q))
     max_position, max_rotation = float(position_errors.max()), float(rotation_errors.max())
     passed = max_position <= tol and max_rotation <= tol
     diagnosis, candidate = (), None
@@ -388,7 +388,7 @@ class _Fit:
 
     def residual(self, candidate: DHTable) -> float:
         """Largest position (m) or rotation (rad) error of ``candidate`` against the URDF over the samples."""
-        position, rotation = pose_error(self.T_u, dh_fk(candidate, self.Q))
+        position, rotation = pose_residuals(self.T_u, dh_fk(candidate, self.Q))
         return float(max(position.max(), rotation.max()))
 
     def base_and_tool(self, variant: DHTable, prefix: str) -> list:
@@ -620,7 +620,7 @@ def _home_difference(urdf_fk, dh, q_dh):
 
 def _residual(urdf_fk, corrected, Q) -> float:
     """Largest position (m) or rotation (rad) error of ``corrected(Q)``, a batch of poses, over the samples."""
-    position, rotation = pose_error(urdf_fk(Q), corrected(Q))
+    position, rotation = pose_residuals(urdf_fk(Q), corrected(Q))
     return float(max(position.max(), rotation.max()))
 
 

@@ -8,8 +8,9 @@ restarts inside one numba function, so no Python runs between targets.
 
 Conventions (docs/architecture.md), as in :func:`manipkit.kinematics.ik.ik`:
 
-- ``T`` holds ``T_base_frame``: the wanted pose of ``frame`` in ``base``
-  (metres), the direction of ``robot.transform(base, frame, q)``.
+- Frames come base first: ``ik_many(robot, T, base, tip)``. ``T`` holds
+  ``T_base_tip``: the wanted pose of ``tip`` in ``base`` (metres), the
+  direction of ``robot.transform(base, tip, q)``.
 - Joint vectors have one value per movable joint in ``robot.joint_names``
   order; only the chain from ``base`` to ``frame`` is varied, the other
   joints keep their ``q0`` (or default) values. Continuous joints come back
@@ -22,8 +23,11 @@ Conventions (docs/architecture.md), as in :func:`manipkit.kinematics.ik.ik`:
   microseconds to a millisecond).
 - Residuals are measured at the answers by :meth:`Robot.fk
   <manipkit.kinematics.robot.Robot.fk>` (the batched FK kernel, equal to
-  Pinocchio to about 1e-15), never taken from the solver's word: position (m)
-  and, by mode, the rotation angle or the pointing-axis angle (rad).
+  Pinocchio to about 1e-15) and :func:`manipkit.spatial.transforms.pose_residuals`,
+  never taken from the solver's word: position (m) and, by mode, the rotation
+  angle or the pointing-axis angle (rad).
+- The answer is an :class:`manipkit.ik_result.IKBatch`: the fields of the one
+  IK result type with a leading target axis (one slot per target).
 """
 
 from __future__ import annotations
@@ -31,18 +35,20 @@ from __future__ import annotations
 import math
 import numbers
 import time
-from dataclasses import dataclass
+import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import objmode  # this module is only imported to run its kernel (kinematics/__init__ does not import it)
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
+from manipkit.ik_result import IKBatch, tolerances
+from manipkit.kinematics.chain import frame_arguments
 from manipkit.kinematics.fk_kernel import compile_kernel
-from manipkit.kinematics.ik import TARGET_TOL, _tolerances, check_budget, ik_solver
+from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import lm_attempt
-from manipkit.spatial.rotations import rotation_angle_between, wrap_angle
-from manipkit.spatial.transforms import check_transform
+from manipkit.spatial.rotations import wrap_angle
+from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -50,42 +56,6 @@ if TYPE_CHECKING:
 __all__ = ["IKBatch", "ik_many", "target_seeds"]
 
 RIGID_TOL = TARGET_TOL  # how far a target may be from a rigid transform (as for ik)
-
-
-@dataclass(frozen=True, eq=False)
-class IKBatch:
-    """Answers of :func:`ik_many`, one row per target.
-
-    Attributes
-    ----------
-    q : ndarray, shape (N, n)
-        Joint vectors in ``robot.joint_names`` order: the solution, or the
-        best configuration found when ``success`` is False.
-    success : ndarray of bool, shape (N,)
-        Both FK residuals within the tolerances.
-    residual_position : ndarray, shape (N,)
-        Distance (m) between the frame origin at ``q`` (by FK) and the target's.
-    residual_rotation : ndarray, shape (N,)
-        Angle (rad) between the reached and the wanted orientation (mode
-        ``"pose"``), or pointing axis (``"position+axis"``); 0 for ``"position"``.
-    iterations, attempts : ndarray of int, shape (N,)
-        Levenberg-Marquardt iterations and starts used per target.
-    """
-
-    q: np.ndarray
-    success: np.ndarray
-    residual_position: np.ndarray
-    residual_rotation: np.ndarray
-    iterations: np.ndarray
-    attempts: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.success.shape[0])
-
-    @property
-    def residuals(self) -> np.ndarray:
-        """(N, 2): position (m) and rotation (rad) residual per target."""
-        return np.column_stack([self.residual_position, self.residual_rotation])
 
 
 def _now() -> float:
@@ -169,10 +139,10 @@ def target_seeds(seed: int, n: int, *, first: int = 0) -> np.ndarray:
 def ik_many(
     robot: Robot,
     T,
-    q0=None,
+    base: str | None = None,
+    tip: str | None = None,
     *,
-    frame: str = "ee_link",
-    base: str = "base_link",
+    q0=None,
     mode: str = "pose",
     axis: str = "z",
     tol=1e-10,
@@ -181,6 +151,7 @@ def ik_many(
     time_budget: float | None = None,
     seed: int = 0,
     damping: float = 1e-1,
+    frame: str | None = None,
 ) -> IKBatch:
     """Solve ``N`` IK targets in one compiled call; success by FK of every answer.
 
@@ -188,13 +159,17 @@ def ik_many(
     ----------
     robot : manipkit.kinematics.robot.Robot
     T : array_like, shape (N, 4, 4)
-        Targets ``T_base_frame`` (metres). Mode ``"position"`` also takes (N, 3).
-    q0 : array_like, shape (n,) or (N, n), optional
+        Targets ``T_base_tip`` (metres). Mode ``"position"`` also takes (N, 3).
+    base, tip : str
+        Base and tip frames, base first (default ``base_link`` and
+        ``ee_link``), as in :func:`manipkit.kinematics.ik.ik`.
+    q0 : array_like, shape (n,) or (N, n), keyword-only, optional
         First start per target (one vector for all, or one row each), in
         ``robot.joint_names`` order, clamped into the limits; also the values
         of the joints off the chain. Default: a random first start, off-chain
-        joints at their defaults.
-    frame, base, mode, axis : str, keyword-only
+        joints at their defaults. (Given as the third positional argument, as
+        in 0.1, it still works for one release, with a DeprecationWarning.)
+    mode, axis : str, keyword-only
         As in :func:`manipkit.kinematics.ik.ik`.
     tol : float or (float, float), keyword-only
         Position (m) and rotation (rad) tolerance.
@@ -209,11 +184,19 @@ def ik_many(
         the same starts in any batch of the same seed).
     damping : float, keyword-only
         Initial Levenberg-Marquardt damping (see :class:`manipkit.kinematics.ik.IKSolver`).
+    frame : str, keyword-only
+        The old name of ``tip`` (one release, with a DeprecationWarning).
 
     Returns
     -------
     IKBatch
-        ``q`` (N, n), ``success`` (N,), FK residuals, iterations and attempts.
+        :class:`manipkit.ik_result.IKBatch` with one slot per target:
+        ``success`` (N,) by FK of every answer; ``q`` (N, n) the solution, or
+        the closest configuration found where there is none, and its
+        residuals ``q_residuals`` (N, 2); ``solutions`` (N, 1, n) and the
+        per-slot ``residual_position``, ``residual_rotation`` (N, 1), NaN
+        where there is no solution; ``count`` (N,) 1.0 or 0.0;
+        ``iterations`` and ``attempts`` (N,).
 
     Raises
     ------
@@ -228,61 +211,68 @@ def ik_many(
     --------
     >>> import manipkit
     >>> robot = manipkit.load("iiwa14")
-    >>> T = robot.fk(robot.sample_q(50, seed=2), "ee_link", "base_link")
-    >>> batch = ik_many(robot, T)
-    >>> bool(batch.success.all()), bool(np.allclose(robot.fk(batch.q, "ee_link", "base_link"), T, atol=1e-9))
+    >>> T = robot.fk(robot.sample_q(50, seed=2), base="base_link", tip="ee_link")
+    >>> batch = ik_many(robot, T, "base_link", "ee_link")
+    >>> bool(batch.success.all()), bool(np.allclose(robot.fk(batch.q, base="base_link", tip="ee_link"), T, atol=1e-9))
     (True, True)
     """
     # Over 80 lines: the docstring (every option and the conventions) is most of it.
-    solver = ik_solver(robot, frame=frame, base=base, mode=mode, axis=axis)
-    tol_position, tol_rotation = _tolerances(tol)
+    if base is not None and not isinstance(base, str):  # ik_many(robot, T, q0) as in 0.1
+        warnings.warn("manipkit API: ik_many(robot, T, q0) is now ik_many(robot, T, base, tip, q0=q0); the start as "
+                      "the third positional argument goes in the next release", DeprecationWarning, stacklevel=2)
+        if q0 is not None:
+            raise IKOptionError("ik_many: q0 given twice (as the third argument and as q0=)")
+        base, q0 = None, base
+    base, tip = frame_arguments("ik_many", (), base, tip, frame, default_base="base_link", default_tip="ee_link")
+    solver = ik_solver(robot, base, tip, mode=mode, axis=axis)
+    tol_position, tol_rotation = tolerances(tol)
     check_budget(max_iters, restarts, damping)
     if time_budget is not None and not (isinstance(time_budget, numbers.Real) and time_budget > 0.0):
         raise IKOptionError(f"time_budget must be a positive number of seconds or None, got {time_budget!r}")
     T_base = _targets(T, mode)
-    n_targets = T_base.shape[0]
-    Q_full = _start_rows(robot, solver, q0, n_targets)
-    chain = solver._chain_user
+    Q_full = _start_rows(robot, q0, T_base.shape[0])
+    X, iterations, attempts = _run(solver, T_base, Q_full, q0 is not None, (tol_position, tol_rotation),
+                                   (int(max_iters), int(restarts), float(time_budget or 0.0), float(damping)), seed)
+    Q_full[:, solver.columns] = X
+    pos, rot = (np.asarray(e, dtype=float) for e in
+                pose_residuals(T_base, robot.fk(Q_full, base=solver.base, tip=solver.tip), mode=mode, axis=axis,
+                               project=False))
+    success = (pos <= tol_position) & (rot <= tol_rotation)
+    solutions = np.where(success[:, None], Q_full, np.nan)[:, None, :]
+    return IKBatch(
+        solutions, success.astype(float), labels=("",), mode=RESULT_MODES[mode], solver="kinematics.ik_many",
+        joint_names=robot.joint_names, q=Q_full, success=success,
+        residual_position=np.where(success, pos, np.nan)[:, None], residual_rotation=np.where(success, rot, np.nan)[:, None],
+        q_residuals=np.column_stack([pos, rot]), iterations=iterations, attempts=attempts,
+    )
 
+
+def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, budget, seed: int):
+    """The compiled loop over every target: (X (N, n) solved joints, iterations (N,), attempts (N,))."""
+    robot = solver.robot
+    n_targets = T_base.shape[0]
     # Targets in the axes of the model root: T_root_target = T_root_base @ T_base_target.
-    if solver._base_is_root:
-        T_root = T_base
-    else:
-        T_root = robot.fk(Q_full, solver.base, base=robot.root_link) @ T_base
-    Q_fixed = np.zeros((n_targets, solver._q_fixed.shape[0]))
+    T_root = T_base if solver._base_is_root else robot.fk(Q_full, base=robot.root_link, tip=solver.base) @ T_base
+    Q_fixed = np.zeros((n_targets, solver._n_steps))
     if solver._fixed_steps.size:
         # joints not solved for (above the base, mimics of them, fixed floating coordinates): scale * q + offset
         Q_fixed[:, solver._fixed_steps] = solver._fixed_scale * Q_full[:, solver._fixed_user] + solver._fixed_offset
-    X = np.empty((n_targets, chain.size))
+    X = np.empty((n_targets, solver.columns.size))
     iterations = np.zeros(n_targets, dtype=np.int64)
     attempts = np.zeros(n_targets, dtype=np.int64)
+    max_iters, restarts, time_budget, damping = budget
     if n_targets:
         _kernel()(
-            np.ascontiguousarray(Q_full[:, chain]), q0 is not None, target_seeds(seed, n_targets), Q_fixed,
+            np.ascontiguousarray(Q_full[:, solver.columns]), has_start, target_seeds(seed, n_targets), Q_fixed,
             solver._geometry, solver._kinds, np.ascontiguousarray(T_root[:, :3, :3]),
             np.ascontiguousarray(T_root[:, :3, 3]), solver._mode_code, solver._axis_index, solver._lower,
-            solver._upper, solver._sample_low, solver._sample_high, solver._wrap, tol_position, tol_rotation,
-            int(max_iters), int(restarts), float(time_budget or 0.0), float(damping), solver.STALL_WINDOW,
-            solver.STALL_GAIN, solver.SHRINK_MIN, X, iterations, attempts,
+            solver._upper, solver._sample_low, solver._sample_high, solver._wrap, tol[0], tol[1],
+            max_iters, restarts, time_budget, damping, solver.STALL_WINDOW, solver.STALL_GAIN, solver.SHRINK_MIN,
+            X, iterations, attempts,
         )
     if solver._has_cs:
         X[:, solver._wrap] = wrap_angle(X[:, solver._wrap])
-    Q_full[:, chain] = X
-    pos, rot = _fk_residuals(robot, solver, Q_full, T_base)
-    success = (pos <= tol_position) & (rot <= tol_rotation)
-    return IKBatch(Q_full, success, pos, rot, iterations, attempts)
-
-
-def _fk_residuals(robot: Robot, solver, Q, T_base) -> tuple[np.ndarray, np.ndarray]:
-    """Position (m) and rotation (rad) residuals of ``Q`` against ``T_base`` by the batched FK (see :func:`ik_many`)."""
-    T_reached = robot.fk(Q, solver.frame, solver.base)
-    pos = np.linalg.norm(T_reached[:, :3, 3] - T_base[:, :3, 3], axis=1)
-    if solver.mode == "position":
-        return pos, np.zeros_like(pos)
-    if solver.mode == "pose":
-        return pos, rotation_angle_between(T_base[:, :3, :3], T_reached[:, :3, :3], check=False)
-    a, t = T_reached[:, :3, solver._axis_index], T_base[:, :3, solver._axis_index]
-    return pos, np.arctan2(np.linalg.norm(np.cross(a, t), axis=1), np.einsum("ij,ij->i", a, t))
+    return X, iterations, attempts
 
 
 def _targets(T, mode: str) -> np.ndarray:
@@ -290,13 +280,13 @@ def _targets(T, mode: str) -> np.ndarray:
     try:
         M = np.array(T, dtype=float)
     except (TypeError, ValueError):
-        raise InvalidTransformError("IK targets must be an array of 4x4 transforms T_base_frame, shape (N, 4, 4)") from None
+        raise InvalidTransformError("IK targets must be an array of 4x4 transforms T_base_tip, shape (N, 4, 4)") from None
     if mode == "position" and M.ndim == 2 and M.shape[1] == 3:
         positions, M = M, np.tile(np.eye(4), (M.shape[0], 1, 1))
         M[:, :3, 3] = positions
     if M.ndim != 3 or M.shape[1:] != (4, 4):
         shapes = "(N, 4, 4) or, for mode 'position', (N, 3)" if mode == "position" else "(N, 4, 4)"
-        raise InvalidTransformError(f"IK targets must be transforms T_base_frame of shape {shapes}, got shape {M.shape}")
+        raise InvalidTransformError(f"IK targets must be transforms T_base_tip of shape {shapes}, got shape {M.shape}")
     if not np.all(np.isfinite(M)):
         bad = int(np.flatnonzero(~np.isfinite(M).reshape(len(M), -1).all(axis=1))[0])
         raise InvalidTransformError(f"IK target {bad}: entries must be finite numbers")
@@ -310,7 +300,7 @@ def _targets(T, mode: str) -> np.ndarray:
     return M
 
 
-def _start_rows(robot: Robot, solver, q0, n_targets: int) -> np.ndarray:
+def _start_rows(robot: Robot, q0, n_targets: int) -> np.ndarray:
     """(N, n) full joint vectors: ``q0`` (one row for all, or one per target) clamped, else the defaults."""
     default = robot.q()
     if q0 is None:

@@ -8,14 +8,18 @@ in frame a, a 4x4 matrix ``[[R, t], [0, 0, 0, 1]]`` with ``t`` in metres;
 
 Every part of manipkit that takes a transform from a user validates it with
 :func:`check_transform` (one error class, :class:`InvalidTransformError`) and
-measures residuals with :func:`pose_error`.
+measures how far a reached pose is from a wanted one with :func:`pose_error`;
+every IK solver measures its answers with :func:`pose_residuals` (the same
+measure, by IK mode).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from manipkit.errors import InvalidTransformError
+from manipkit.errors import IKOptionError, InvalidTransformError
 from manipkit.spatial.rotations import (
     matrix_from_quaternion,
     matrix_from_rpy,
@@ -31,7 +35,9 @@ __all__ = [
     "invert_transform",
     "nearest_rotation",
     "pose_error",
+    "pose_residuals",
     "projected_rotation",
+    "RESIDUAL_MODES",
     "transform_from_xyz_quaternion",
     "transform_from_xyz_rpy",
     "transform_violations",
@@ -196,16 +202,18 @@ def _plainly_rigid(T: np.ndarray, tol: float) -> bool:
     Within ``tol`` = half the tolerance of :func:`transform_violations`, this
     implies that it finds nothing (column norms, dot products, det, last row).
     """
-    if not np.isfinite(T).all() or float(np.abs(T[3] - _LAST_ROW).max()) > tol:
+    rows = T.tolist()
+    (a, b, c, x), (d, e, f, y), (g, h, i, z), (r0, r1, r2, r3) = rows
+    if not math.isfinite(x + y + z + r0 + r1 + r2 + r3) or max(abs(r0), abs(r1), abs(r2), abs(r3 - 1.0)) > tol:
         return False
-    R = T[:3, :3]
-    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    return abs(det - 1.0) <= tol and float(np.abs(R.T @ R - _EYE3).max()) <= tol
+    if not abs(det - 1.0) <= tol:  # False for nan too: every entry of R is in a product of det
+        return False
+    gram = (a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0,
+            a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i)  # R^T R - I, upper triangle
+    return max(map(abs, gram)) <= tol
 
 
-_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-_EYE3 = np.eye(3)
 
 
 # --------------------------------------------------------------------------
@@ -237,7 +245,7 @@ def as_transforms(T, what: str) -> np.ndarray:
     return T
 
 
-def pose_error(T_ref, T):
+def pose_error(T_ref, T, *, project: bool = True):
     """Distance between two poses: translation in metres, rotation in radians.
 
     Parameters
@@ -245,6 +253,11 @@ def pose_error(T_ref, T):
     T_ref, T : array_like, shape (..., 4, 4)
         Homogeneous transforms ``[[R, t], [0, 0, 0, 1]]``, ``t`` in metres;
         leading dimensions broadcast. The last rows are ignored.
+    project : bool, keyword-only
+        Project a block that is not a rotation to its nearest rotation first
+        (default, see below). False takes the blocks as they are (the poses
+        of forward kinematics against a target already checked by
+        :func:`check_transform`): faster, the same numbers for rotations.
 
     Returns
     -------
@@ -266,9 +279,13 @@ def pose_error(T_ref, T):
     >>> tuple(round(float(e), 12) for e in pose_error(np.eye(4), T))
     (0.5, 0.5)
     """
+    if type(T_ref) is np.ndarray and type(T) is np.ndarray and T_ref.shape == T.shape == (4, 4):
+        single = _one_pose_error(T_ref, T, project)  # one pair: the same numbers in microseconds instead of ~50
+        if single is not None:
+            return single
     T_ref, T = as_transforms(T_ref, "T_ref"), as_transforms(T, "T")
     position = np.linalg.norm(T[..., :3, 3] - T_ref[..., :3, 3], axis=-1)
-    blocks = [projected_rotation(M[..., :3, :3]) for M in (T_ref, T)]
+    blocks = [projected_rotation(M[..., :3, :3]) if project else M[..., :3, :3] for M in (T_ref, T)]
     finite = np.all(np.isfinite(blocks[0]), axis=(-2, -1)) & np.all(np.isfinite(blocks[1]), axis=(-2, -1))
     with np.errstate(invalid="ignore"):
         rotation = np.where(finite, rotation_angle_between(*blocks, check=False), np.nan)
@@ -294,3 +311,124 @@ def projected_rotation(M: np.ndarray) -> np.ndarray:
     return np.where(finite[..., None, None], np.where(is_rotation[..., None, None], M, projected), np.nan)
 
 
+
+
+def _one_pose_error(T_ref: np.ndarray, T: np.ndarray, project: bool = True):
+    """:func:`pose_error` of one pair of float (4, 4) arrays with plain floats, or None when the vectorised path is
+    needed (an entry not finite, or with ``project`` a block that is not a rotation to :data:`EXACT_ROTATION_TOL`).
+
+    The same formulas: ``|t - t_ref|``, and ``atan2(|v|, (trace M - 1) / 2)`` of ``M = R_ref^T R`` (see
+    :func:`manipkit.spatial.rotations.rotation_angle_between`); symmetric in its arguments, bit for bit.
+    """
+    if T_ref.dtype != np.float64 or T.dtype != np.float64:
+        return None
+    a, b = T_ref.tolist(), T.tolist()
+    if project and not (_exact_rotation(a) and _exact_rotation(b)):  # False for a block with nan or inf too
+        return None
+    (a00, a01, a02, ax), (a10, a11, a12, ay), (a20, a21, a22, az), _ = a
+    (b00, b01, b02, bx), (b10, b11, b12, by), (b20, b21, b22, bz), _ = b
+    # entries of M = R_ref^T R: m_ij = sum_r a_ri b_rj
+    m01, m10 = a00 * b01 + a10 * b11 + a20 * b21, a01 * b00 + a11 * b10 + a21 * b20
+    m02, m20 = a00 * b02 + a10 * b12 + a20 * b22, a02 * b00 + a12 * b10 + a22 * b20
+    m12, m21 = a01 * b02 + a11 * b12 + a21 * b22, a02 * b01 + a12 * b11 + a22 * b21
+    trace = (a00 * b00 + a10 * b10 + a20 * b20) + (a01 * b01 + a11 * b11 + a21 * b21) + (a02 * b02 + a12 * b12 + a22 * b22)
+    if not math.isfinite(trace):  # every entry of both rotation blocks is in a product of the trace
+        return None
+    v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    return (np.float64(math.sqrt(dx * dx + dy * dy + dz * dz)),
+            np.float64(math.atan2(0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (trace - 1.0))))
+
+
+def _distance(a, b) -> np.float64:
+    """``|t_b - t_a|`` of two (4, 4) matrices given as nested lists."""
+    dx, dy, dz = b[0][3] - a[0][3], b[1][3] - a[1][3], b[2][3] - a[2][3]
+    return np.float64(math.sqrt(dx * dx + dy * dy + dz * dz))
+
+
+def _exact_rotation(rows) -> bool:
+    """The 3x3 block of a (4, 4) matrix given as nested lists is orthonormal to :data:`EXACT_ROTATION_TOL`, det > 0."""
+    (a, b, c), (d, e, f), (g, h, i) = rows[0][:3], rows[1][:3], rows[2][:3]
+    gram = (a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0,
+            a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i)
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return max(map(abs, gram)) <= EXACT_ROTATION_TOL and det > 0.0
+
+
+#: What an IK answer must match, and so how its residuals are measured (:func:`pose_residuals`).
+RESIDUAL_MODES = ("pose", "position", "position+axis")
+_AXES = ("x", "y", "z")
+
+
+def pose_residuals(T_target, T, *, mode: str = "pose", axis: str = "z", project: bool = True):
+    """How far reached poses are from their targets, as every IK solver reports it: (position m, rotation rad).
+
+    The one residual of manipkit's IK (numerical, batched and closed form):
+    each solver puts its answers through forward kinematics of the real chain
+    and measures them here.
+
+    Parameters
+    ----------
+    T_target, T : array_like, shape (..., 4, 4)
+        Wanted and reached poses ``T_base_tip`` (metres); leading dimensions broadcast.
+    mode : {"pose", "position", "position+axis"}, keyword-only
+        What must match. ``"pose"``: the rotation residual is the geodesic
+        angle between the rotation blocks (:func:`pose_error`: a block that
+        is not quite a rotation is projected to the nearest one first).
+        ``"position"``: the rotation residual is 0 (the orientation is free).
+        ``"position+axis"``: the angle between the reached and the wanted
+        direction of the frame's ``axis`` (the spin about it is free).
+    axis : {"x", "y", "z"}, keyword-only
+        The pointing axis of ``"position+axis"``.
+    project : bool, keyword-only
+        As in :func:`pose_error` (mode ``"pose"``): False takes the rotation
+        blocks as they are, for FK answers against a checked target.
+
+    Returns
+    -------
+    position : float or ndarray, shape (...)
+        ``|t - t_target|`` (m).
+    rotation : float or ndarray, shape (...)
+        The angle (rad) in [0, pi] that ``mode`` measures.
+
+    Raises
+    ------
+    IKOptionError
+        An unknown mode or axis.
+    InvalidTransformError
+        An argument that is not a stack of 4x4 matrices.
+
+    Examples
+    --------
+    >>> from manipkit.spatial.rotations import rot_x
+    >>> T = np.eye(4); T[:3, :3] = rot_x(0.5); T[:3, 3] = [0.0, 0.3, 0.4]
+    >>> tuple(round(float(e), 12) for e in pose_residuals(np.eye(4), T))
+    (0.5, 0.5)
+    >>> tuple(round(float(e), 12) for e in pose_residuals(np.eye(4), T, mode="position+axis", axis="x"))
+    (0.5, 0.0)
+    """
+    if mode == "pose":
+        return pose_error(T_target, T, project=project)
+    if mode not in RESIDUAL_MODES:
+        raise IKOptionError(f"unknown IK mode '{mode}'; modes: {', '.join(RESIDUAL_MODES)}")
+    if axis not in _AXES:
+        raise IKOptionError(f"unknown pointing axis '{axis}'; axes: x, y, z")
+    if type(T_target) is np.ndarray and type(T) is np.ndarray and T_target.shape == T.shape == (4, 4) \
+            and T_target.dtype == T.dtype == np.float64:  # one pair: plain floats, a few microseconds
+        a, b = T_target.tolist(), T.tolist()
+        if mode == "position":
+            return _distance(a, b), np.float64(0.0)
+        k = _AXES.index(axis)
+        u, w = (b[0][k], b[1][k], b[2][k]), (a[0][k], a[1][k], a[2][k])
+        c = (u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0])
+        dot = u[0] * w[0] + u[1] * w[1] + u[2] * w[2]
+        return _distance(a, b), np.float64(math.atan2(math.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), dot))
+    T_target, T = as_transforms(T_target, "T_target"), as_transforms(T, "T")
+    position = np.linalg.norm(T[..., :3, 3] - T_target[..., :3, 3], axis=-1)
+    if mode == "position":
+        return position[()], np.zeros_like(position)[()]
+    k = _AXES.index(axis)
+    reached, wanted = T[..., :3, k], T_target[..., :3, k]
+    cross = np.linalg.norm(np.cross(reached, wanted), axis=-1)
+    angle = np.arctan2(cross, np.sum(reached * wanted, axis=-1)) + np.zeros_like(position)  # broadcast to position's shape
+    return position[()], angle[()]

@@ -31,11 +31,13 @@ from manipkit.app.cli.common import (
     print_json,
     q_text,
 )
+from manipkit.errors import ManipkitError
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
     import numpy as np
 
+    from manipkit.ik_result import IKResult
     from manipkit.kinematics.robot import Robot
 
 __all__ = ["register", "run_ik"]
@@ -132,14 +134,18 @@ def _precision_note(args, mode: str, position: float, rotation: float) -> str | 
             f"{rotation_text}); it is likely a rounded copy of a reachable pose: accept it with --tol {short_text(suggest)}")
 
 
-def _tolerance(args) -> float | tuple[float, float] | None:
-    """--tol as the solvers take it: None (their default), one number, or (position m, rotation rad)."""
+def _tolerance(args) -> tuple[float, float] | None:
+    """--tol as (position m, rotation rad), read by the one tolerance parser (:func:`manipkit.ik_result.tolerances`),
+    or None for the solvers' default."""
+    from manipkit.ik_result import tolerances
+
     if args.tol is None:
         return None
-    if len(args.tol) > 2 or not all(math.isfinite(t) and t > 0.0 for t in args.tol):
+    try:
+        return tolerances(tuple(args.tol))
+    except ManipkitError:
         raise UsageError(f"--tol {' '.join(short_text(t) for t in args.tol)}: give one or two positive numbers "
-                         "(position m, rotation rad)")
-    return args.tol[0] if len(args.tol) == 1 else (args.tol[0], args.tol[1])
+                         "(position m, rotation rad)") from None
 
 
 def _ik_target(args) -> np.ndarray:
@@ -162,8 +168,10 @@ def _ik_target(args) -> np.ndarray:
     return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
 
 
-def _solve(args, robot: Robot, target: np.ndarray, mode: str):
-    """(solutions, header): closed-form or numerical, as one result type with the same properties."""
+def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
+    """(result, header): the closed form or numerical IK, as manipkit's one IK result type."""
+    tol = _tolerance(args)
+    options = {} if tol is None else {"tol": tol}
     if args.analytic:
         from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 
@@ -171,8 +179,7 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str):
             raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
         if mode == "position+axis":
             raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
-        tol = _tolerance(args)
-        result = analytic_ik(robot, target, mode=mode, **({} if tol is None else {"tol": tol}))
+        result = analytic_ik(robot, target, args.base, args.frame, mode=mode, **options)
         found = len(result.solutions)
         if result.infinite:
             count = f"infinitely many solutions (free: {result.free_parameter}), {found} listed"
@@ -184,22 +191,20 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str):
     from manipkit.kinematics.ik import ik
 
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
-    tol = _tolerance(args)
-    found = ik(robot, target, frame=args.frame, base=args.base, mode=mode, axis=args.axis or "z",
-               q0=q0, all=args.all, restarts=args.restarts, seed=args.seed, free=tuple(args.free),
-               **({} if tol is None else {"tol": tol}))
-    result = found if args.all else found.as_solutions()
+    result = ik(robot, target, args.base, args.frame, mode=mode, axis=args.axis or "z", q0=q0, all=args.all,
+                restarts=args.restarts, seed=args.seed, free=tuple(args.free), **options)
     outcome = "success" if result.success else "FAILED"
-    return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.best.iterations} iterations"
+    return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.iterations} iterations"
 
 
 def run_ik(args) -> int:
     """Solve, then print the solutions (text or JSON) with the residual and a tf-between line to check one.
 
-    Closed-form and numerical answers share their properties (``solutions``,
-    ``labels``, ``count``, ``reason``, ``success``, residuals measured by FK),
-    so they are printed alike; the residual line is the worst over the listed
-    solutions, or, when a numerical search found none, that of its best attempt.
+    Every solver answers with one type (:class:`manipkit.ik_result.IKResult`),
+    printed alike: the solutions with their labels, the residual line (the
+    worst over the listed solutions, or, when there is none, that of the
+    closest configuration a numerical search found, which is printed too),
+    and the solver's note.
     """
     check_precision(args.precision)
     if args.restarts < 0:
@@ -210,16 +215,10 @@ def run_ik(args) -> int:
     mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
     result, header = _solve(args, robot, target, mode)
     answers = list(zip(result.labels, result.solutions))
-    best = getattr(result, "best", None)  # a numerical search's closest attempt, shown when it found nothing
-    if result.success:
-        residuals = result.residuals.max(axis=0)
-    elif best is not None:
-        residuals = (best.residual_position, best.residual_rotation)
-    else:
-        residuals = (None, None)
-    notes = [result.reason] if result.reason else []
-    if not result.success and best is not None:
-        note = _precision_note(args, mode, best.residual_position, best.residual_rotation)
+    residuals = result.residuals.max(axis=0) if result.success else result.q_residuals  # None: nothing to measure
+    notes = [result.note] if result.note else []
+    if result.closest is not None:
+        note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
     if args.format == "json":
@@ -228,23 +227,23 @@ def run_ik(args) -> int:
             "mode": "analytic" if args.analytic else mode,
             "target": target.tolist(),
             "solutions": [robot.as_dict(q) for _, q in answers],
-            "labels": [label for label, _ in answers] if args.analytic else None,
+            "labels": [label for label, _ in answers],
             "closed_form_mode": result.mode if args.analytic else None,
-            "count": None if not args.analytic else ("inf" if result.infinite else result.count),
-            "free_parameter": getattr(result, "free_parameter", "") or None,
-            "unmet": dict(getattr(result, "unmet", ())),
+            "count": "inf" if result.infinite else result.count,
+            "free_parameter": result.free_parameter or None,
+            "unmet": dict(result.unmet),
             "success": result.success,
-            "residual_position": None if residuals[0] is None else float(residuals[0]),
-            "residual_rotation": None if residuals[1] is None else float(residuals[1]),
+            "residual_position": None if residuals is None else float(residuals[0]),
+            "residual_rotation": None if residuals is None else float(residuals[1]),
             "notes": notes,
         })
     else:
         print(header)
         for index, (label, q) in enumerate(answers, start=1):
             print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}")
-        if not result.success and best is not None:
-            print(f"best found (does not reach the target): {q_text(robot.as_dict(best.q), args.precision)}")
-        if residuals[0] is not None:
+        if result.closest is not None:
+            print(f"best found (does not reach the target): {q_text(robot.as_dict(result.closest), args.precision)}")
+        if residuals is not None:
             print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
         for note in notes:
             print(f"note: {note}")

@@ -1,0 +1,474 @@
+"""One answer type for every IK solver: :class:`IKResult` for one target, :class:`IKBatch` for many.
+
+Numerical IK (:func:`manipkit.kinematics.ik.ik`, with or without
+``all=True``), the closed forms (:mod:`manipkit.closed_form.planar`,
+:mod:`manipkit.closed_form.planar_modes`, :mod:`manipkit.closed_form.decoupled`
+and :func:`manipkit.closed_form.robots.analytic_ik`) all return an
+:class:`IKResult`; batched numerical IK (:func:`manipkit.kinematics.ik_many.ik_many`)
+and the planar batch solvers (``ik_2r_batch``, ``ik_3r_batch``) return an
+:class:`IKBatch`, with the same field names and leading target axes
+(docs/architecture.md, "IK results"). This module sits beside ``errors.py``
+and ``text.py``, below kinematics and closed_form, so both use it; it
+imports numpy, errors and text only. :func:`tolerances` is the one parser of
+residual tolerances.
+
+Conventions: metres and radians; solutions are joint vectors in
+``joint_names`` order (a robot's whole joint vector for numerical IK and
+``analytic_ik``; the solver's table order otherwise); residuals are measured
+by forward kinematics of each answer through the real chain
+(:func:`manipkit.spatial.transforms.pose_residuals`), never taken from the
+solver's algebra or iteration.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.text import short_text
+
+__all__ = [
+    "MODES",
+    "PLANAR_POSE",
+    "PLANAR_POSITION",
+    "SPATIAL_POINTING",
+    "SPATIAL_POSE",
+    "SPATIAL_POSITION",
+    "IKBatch",
+    "IKResult",
+    "read_only",
+    "tolerances",
+]
+
+PLANAR_POSITION = "planar position (x, y)"
+PLANAR_POSE = "planar pose (x, y, phi)"
+SPATIAL_POSITION = "spatial position (x, y, z)"
+SPATIAL_POSE = "spatial pose (x, y, z, R)"
+SPATIAL_POINTING = "spatial position and pointing axis (x, y, z, axis)"
+#: What a solver can be asked to meet: the ``mode`` of every result. The closed forms solve the first four;
+#: numerical IK solves the spatial ones (its ``mode="pose"``, ``"position"``, ``"position+axis"``).
+MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE, SPATIAL_POINTING)
+
+
+def read_only(array, shape_tail: tuple[int, ...] = ()) -> np.ndarray:
+    """A float copy of ``array`` that cannot be written to (an empty input gets shape ``(0, *shape_tail)``)."""
+    copy = np.array(array, dtype=float)
+    if copy.size == 0 and shape_tail:
+        copy = copy.reshape((0,) + tuple(shape_tail))
+    copy.setflags(write=False)
+    return copy
+
+
+def tolerances(tol, *, error: type[Exception] = IKOptionError, what: str = "tol", pair: bool = True,
+               zero: bool = False) -> tuple[float, float]:
+    """``(position m, rotation rad)`` from one number (both) or a pair, or ``error`` naming ``what``.
+
+    The one parser of tolerances in manipkit's IK. Each must be finite and
+    positive (``zero=True``: >= 0); ``pair=False`` takes one number only.
+
+    Examples
+    --------
+    >>> tolerances(1e-9), tolerances((1e-6, 1e-3))
+    ((1e-09, 1e-09), (1e-06, 0.001))
+    >>> tolerances(0.0)
+    Traceback (most recent call last):
+    ...
+    manipkit.errors.IKOptionError: tol must be a positive number or (position m, rotation rad), got 0.0
+    """
+    if type(tol) is float and tol > 0.0 and math.isfinite(tol):  # the common case, fast
+        return tol, tol
+    try:
+        values = np.atleast_1d(np.asarray(tol, dtype=float))
+    except (TypeError, ValueError):
+        values = np.zeros(0)
+    shapes = ((1,), (2,)) if pair else ((1,),)
+    bad = values.shape not in shapes or np.ndim(tol) > 1 or not np.all(np.isfinite(values))
+    if bad or np.any(values < 0.0) or (not zero and np.any(values == 0.0)):
+        least = "a number >= 0" if zero else "a positive number"
+        if pair:
+            raise error(f"{what} must be {least} or (position m, rotation rad), got {tol!r:.60}")
+        raise error(f"{what} = {tol!r:.60} must be {least}")
+    return float(values[0]), float(values[-1])
+
+
+@dataclass(frozen=True, eq=False, repr=False, init=False)
+class IKResult:
+    """Every IK answer for one target, from any solver (numerical or closed form).
+
+    Attributes
+    ----------
+    solutions : ndarray, shape (k, n)
+        The solutions, read-only, one joint vector per row (rad, continuous and
+        closed-form angles wrapped to (-pi, pi]; m for a prismatic joint), in
+        the solver's documented order: the closed forms list their branches
+        in a fixed order (planar: elbow-down first; decoupled: see
+        :mod:`manipkit.closed_form.decoupled`), numerical IK in the order
+        found (``all=True``: pairwise distinct, angles compared modulo 2 pi).
+        For a family (``count`` infinite) a row holds one representative (the
+        free joint at 0), or the members at a few sampled values of a free
+        parameter that is not a joint (:meth:`members` gives any others).
+    labels : tuple of str
+        One per row: the branch (``"elbow-down"``, ``"front, elbow up, no
+        flip"``, ``"phi = 0.5, elbow-down"``); ``""`` where a solver has no
+        name for it (numerical IK).
+    count : int or float
+        0, 1, 2, ... solutions, or ``math.inf`` for a one-parameter family
+        (``free_parameter`` names it). A numerical search counts what it
+        found (it proves neither that there are no others nor a continuum).
+    note : str
+        The solver's account in one line, with its numbers: how many
+        solutions and why (which case, which family), or why none.
+    residual_position, residual_rotation : ndarray, shape (k,)
+        Per row: the distance (m) between the reached and the wanted frame
+        origin, and the rotation residual (rad) of ``mode`` (the angle
+        between reached and wanted orientation for a pose, between the
+        pointing axes for a pointing target, 0 for a position), measured by
+        forward kinematics of the row through the real chain (the robot's
+        URDF, or the solver's DH table).
+    mode : str
+        What was asked, one of :data:`MODES`.
+    solver : str
+        The function that answered, e.g. ``"planar.ik_2r"``, ``"kinematics.ik"``.
+    joint_names : tuple of str
+        The joints the columns stand for (``()`` when the solver has no names for them).
+    free_parameter : str
+        With an infinite ``count``: the free joint(s) or parameter by their
+        textbook names (``"q1"``, ``"theta4"``, ``"phi"``); else ``""``.
+    family : str
+        The family in words (which joint is free and how the others follow), or ``""``.
+    free_joints : tuple of int
+        Columns (0-based) of the free joints.
+    unmet : tuple of (str, float)
+        With no solution: each component of the target the arm provably
+        cannot meet and by how much (m or rad), e.g. ``(("orientation", 1.14),)``,
+        ``(("z", 0.3),)``, ``(("position", 0.2),)``; ``()`` otherwise.
+    rejected : int
+        Candidates dropped because their forward kinematics missed the target.
+    outside_by : float
+        How far (m) the target (2R), wrist point (3R) or, for numerical IK,
+        the target beyond the chain's reach bound lies out of reach; 0.0 when
+        reachable or not known to be out of reach.
+    side : str
+        ``"too far"`` or ``"too close"`` when out of reach, else ``""``.
+    iterations, attempts : int
+        Numerical IK: Levenberg-Marquardt iterations and starts used (summed
+        over every attempt made); 0 for a closed form.
+    closest, closest_residuals : ndarray or None
+        Numerical IK with no solution: the configuration found closest to
+        the target, and its (position m, rotation rad) residuals; else None.
+    family_function : callable or None
+        For a family whose free parameter is not a joint: ``values -> IKResult``
+        (see :meth:`members`).
+
+    Properties: ``q`` (the first solution, or ``closest``), ``q_residuals``,
+    ``success``, ``reason`` (``""`` on success, else ``note``), ``residuals``,
+    ``infinite``, ``singular``.
+
+    ``IKSolutions`` (numerical, ``all=True``) and ``ClosedFormSolutions`` (the
+    closed forms) were separate types in 0.1; they remain names of this
+    class for one release, so imports and ``isinstance`` checks keep working
+    (a result is no longer a sequence of single answers: use ``solutions``).
+
+    Examples
+    --------
+    >>> from manipkit.closed_form.planar import ik_2r
+    >>> result = ik_2r(0.0, 1.5, 1.0, 1.0)
+    >>> result.success, result.count, result.labels, result.reason
+    (True, 2, ('elbow-down', 'elbow-up'), '')
+    >>> result.q.round(6)
+    array([0.848062, 1.445468])
+    """
+
+    solutions: np.ndarray
+    labels: tuple[str, ...]
+    count: int | float
+    note: str
+    residual_position: np.ndarray
+    residual_rotation: np.ndarray
+    mode: str = ""
+    solver: str = ""
+    joint_names: tuple[str, ...] = ()
+    free_parameter: str = ""
+    family: str = ""
+    free_joints: tuple[int, ...] = ()
+    unmet: tuple[tuple[str, float], ...] = ()
+    rejected: int = 0
+    outside_by: float = 0.0
+    side: str = ""
+    iterations: int = 0
+    attempts: int = 0
+    closest: np.ndarray | None = None
+    closest_residuals: np.ndarray | None = None
+    family_function: Callable[..., IKResult] | None = field(default=None, repr=False)
+
+    def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
+                 joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
+                 side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None):
+        # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
+        # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
+        fields = dict(locals())
+        del fields["self"]
+        self.__dict__.update(fields)
+        self.__post_init__()
+
+    def __post_init__(self):
+        for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals"):
+            value = getattr(self, name)
+            if value is not None and (not isinstance(value, np.ndarray) or value.flags.writeable):
+                object.__setattr__(self, name, read_only(value))  # arrays of a result are read-only copies
+        if self.solutions.ndim != 2:
+            raise ValueError(f"IKResult.solutions must have shape (k, n), got {self.solutions.shape}")
+
+    # ------------------------------------------------------------------
+
+    @property
+    def success(self) -> bool:
+        """At least one solution (every row has passed the forward-kinematics check)."""
+        return self.solutions.shape[0] > 0
+
+    @property
+    def reason(self) -> str:
+        """Why there is no solution (``note``), or ``""`` on success; never None."""
+        return "" if self.solutions.shape[0] else self.note
+
+    @property
+    def q(self) -> np.ndarray | None:
+        """The first solution (``solutions[0]``); with none, ``closest`` (numerical IK) or None (a closed form)."""
+        return self.solutions[0] if self.solutions.shape[0] else self.closest
+
+    @property
+    def q_residuals(self) -> np.ndarray | None:
+        """(2,): position (m) and rotation (rad) residual of :attr:`q` (None when ``q`` is None)."""
+        return self.residuals[0] if self.solutions.shape[0] else self.closest_residuals
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """(k, 2): position (m) and rotation (rad) residual of each row."""
+        return read_only(np.column_stack([self.residual_position, self.residual_rotation]), (2,))
+
+    @property
+    def infinite(self) -> bool:
+        """True for one-parameter families of solutions."""
+        return math.isinf(self.count)
+
+    @property
+    def singular(self) -> bool:
+        """True when a row stands for a family (a joint is free)."""
+        return bool(self.free_joints)
+
+    @property
+    def free_joint(self) -> int | None:
+        """The first free joint's column, or None."""
+        return self.free_joints[0] if self.free_joints else None
+
+    def members(self, values) -> IKResult:
+        """The members of the family at ``values`` of its free parameter (``free_parameter``).
+
+        Every returned row is checked by forward kinematics like the
+        solver's own rows. Raises :class:`manipkit.errors.ClosedFormIKError`
+        when this result is not a family with a parameter.
+        """
+        if self.family_function is None:
+            raise ClosedFormIKError(
+                "this result is not a family of solutions with a free parameter "
+                f"(count = {self.count}); members() applies to position-only answers of planar 3R and SCARA arms"
+            )
+        return self.family_function(values)
+
+    # ------------------------------------------------------------------
+
+    def __repr__(self) -> str:
+        parts = [f"solver={self.solver!r}", f"mode={self.mode!r}", f"count={self.count}", f"success={self.success}"]
+        q, residuals = self.q, self.q_residuals
+        if q is not None:
+            parts.append("q=[" + ", ".join(short_text(float(v)) for v in q) + "]")
+        if residuals is not None:
+            parts.append(f"residual=({short_text(float(residuals[0]), 3)} m, {short_text(float(residuals[1]), 3)} rad)")
+        if self.attempts:
+            parts.append(f"iterations={self.iterations}, attempts={self.attempts}")
+        if not self.success:
+            parts.append(f"reason={self.reason!r}")
+        return f"IKResult({', '.join(parts)})"
+
+    def _repr_html_(self) -> str:
+        """An HTML table for Jupyter: one row per solution (label, joint values, residuals in m and rad,
+        success), or the closest configuration a numerical search found; the caption says what answered and
+        whether there is any solution; the note follows the table. Text is escaped."""
+        count = "infinitely many" if self.infinite else str(self.count)
+        if self.attempts:
+            head = (f"numerical IK{' (' + self.solver + ')' if self.solver else ''}: {count} solution(s) from "
+                    f"{self.attempts} start(s), {self.iterations} iterations")
+        else:
+            head = f"closed form{' (' + self.solver + ')' if self.solver else ''}: {count} solution(s)"
+        if self.mode:
+            head += f", {self.mode}"
+        if self.free_parameter:
+            head += f", free: {self.free_parameter}"
+        n = self.solutions.shape[1]
+        names = self.joint_names if len(self.joint_names) == n else tuple(f"q{i + 1}" for i in range(n))
+        cells = ["#", "label", *names, "position (m)", "rotation (rad)", "success"]
+        lines = [f"<table><caption>{html.escape(head)}; success: {self.success}</caption>",
+                 "<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cells) + "</tr>"]
+        rows = [(str(i), label, q, r, "True") for i, (label, q, r) in
+                enumerate(zip(self.labels, self.solutions, self.residuals), start=1)]
+        if not rows and self.closest is not None:
+            rows = [("-", "closest found (fails)", self.closest, self.closest_residuals, "False")]
+        for index, label, q, (position, rotation), success in rows:
+            values = [index, label, *(short_text(float(v)) for v in q), short_text(float(position), 3),
+                      short_text(float(rotation), 3), success]
+            lines.append("<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in values) + "</tr>")
+        lines.append("</table>")
+        if self.note:
+            lines.append(f"<p>{html.escape(self.note)}</p>")
+        return "\n".join(lines)
+
+
+class IKBatch:
+    """IK answers for many targets at once: the fields of :class:`IKResult` with leading target axes ``(...)``.
+
+    From :func:`manipkit.kinematics.ik_many.ik_many` (targets ``(N,)``, one
+    slot: ``k = 1``) and the planar batch solvers
+    (:func:`manipkit.closed_form.planar.ik_2r_batch`, ``ik_3r_batch``:
+    targets of any shape ``(...)``, two slots). Immutable; arrays read-only.
+
+    Attributes
+    ----------
+    solutions : ndarray, shape (..., k, n)
+        Per target, ``k`` slots of joint vectors, NaN where absent. Planar:
+        slot 0 elbow-down (or the one boundary solution, straight or folded,
+        or for infinitely many the representative with q1 = 0), slot 1
+        elbow-up. ``ik_many``: slot 0 holds the solution where there is one.
+    labels : tuple of str, shape (k,)
+        The slots' names (``("elbow-down", "elbow-up")``; ``("",)`` for numerical IK).
+    count : ndarray of float, shape (...)
+        0.0, 1.0, 2.0 or ``inf`` per target (float so ``inf`` fits).
+    success : ndarray of bool, shape (...)
+        At least one slot whose forward kinematics reach the target within
+        the tolerance.
+    residual_position, residual_rotation : ndarray, shape (..., k)
+        Per slot, m and rad, by forward kinematics of the slot through the
+        real chain (NaN where the slot is empty). The closed-form batches
+        measure them, and ``success``, on first use: solving millions of
+        targets does not pay for it unless asked.
+    residuals : ndarray, shape (..., k, 2)
+    q : ndarray, shape (..., n)
+        Per target, the first solution; ``ik_many``: or, where there is none,
+        the configuration found closest to the target (NaN for a closed form).
+    q_residuals : ndarray, shape (..., 2)
+        The residuals of ``q``.
+    mode, solver, joint_names : str, str, tuple of str
+        As in :class:`IKResult`.
+    outside_by : ndarray, shape (...), or None
+        Planar: how far (m) the target (2R) or wrist point (3R) lies outside
+        the reachable annulus, 0.0 where reachable; None for ``ik_many``.
+    iterations, attempts : ndarray of int, shape (...), or None
+        ``ik_many``: Levenberg-Marquardt iterations and starts per target;
+        None for a closed form.
+
+    ``PlanarIKBatch`` (the planar batches' type in 0.1) remains a name of
+    this class for one release, and ``counts`` of ``count`` (with a
+    DeprecationWarning).
+    """
+
+    __slots__ = ("solutions", "labels", "count", "mode", "solver", "joint_names", "q", "outside_by", "iterations",
+                 "attempts", "_given", "_measure", "_limit", "_measured")
+
+    def __init__(self, solutions, count, *, labels: tuple[str, ...], mode: str, solver: str = "",
+                 joint_names: tuple[str, ...] = (), q=None, success=None, residual_position=None,
+                 residual_rotation=None, q_residuals=None, measure: Callable | None = None, limit=(0.0, 0.0),
+                 outside_by=None, iterations=None, attempts=None):
+        set_ = object.__setattr__
+        solutions = _frozen(solutions)
+        set_(self, "solutions", solutions)
+        set_(self, "labels", tuple(labels))
+        set_(self, "count", _frozen(count))
+        set_(self, "mode", mode)
+        set_(self, "solver", solver)
+        set_(self, "joint_names", tuple(joint_names))
+        set_(self, "q", _frozen(solutions[..., 0, :] if q is None else q))
+        set_(self, "outside_by", None if outside_by is None else _frozen(outside_by))
+        set_(self, "iterations", None if iterations is None else _frozen(iterations))
+        set_(self, "attempts", None if attempts is None else _frozen(attempts))
+        given = None
+        if measure is None:  # measured by the solver already
+            given = (_frozen(success), _frozen(residual_position), _frozen(residual_rotation), _frozen(q_residuals))
+        set_(self, "_given", given)
+        set_(self, "_measure", measure)
+        set_(self, "_limit", limit)
+        set_(self, "_measured", None)
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"an IKBatch is immutable: cannot set '{name}'")
+
+    def __delattr__(self, name):
+        raise AttributeError(f"an IKBatch is immutable: cannot delete '{name}'")
+
+    def __len__(self) -> int:
+        """The number of targets along the first axis (a batch of one unshaped target has no length, as in numpy)."""
+        if np.ndim(self.count) == 0:
+            raise TypeError("len() of an IKBatch of one unshaped target")
+        return int(np.shape(self.count)[0])
+
+    def __repr__(self) -> str:
+        shape = np.shape(self.count)
+        return (f"IKBatch(solver={self.solver!r}, mode={self.mode!r}, targets {shape}, "
+                f"{self.solutions.shape[-2]} slot(s) of {self.solutions.shape[-1]} joints)")
+
+    def _fields(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(success, residual_position, residual_rotation, q_residuals): given, or measured once by ``measure``."""
+        if self._given is not None:
+            return self._given
+        measured = self._measured
+        if measured is None:
+            position, rotation = self._measure(self.solutions)
+            within = (position <= self._limit[0]) & (rotation <= self._limit[1])  # NaN (no slot): False
+            q_residuals = np.stack([position[..., 0], rotation[..., 0]], axis=-1)
+            measured = (_frozen(within.any(axis=-1)), _frozen(position), _frozen(rotation), _frozen(q_residuals))
+            object.__setattr__(self, "_measured", measured)  # a cache of derived data; the answers are unchanged
+        return measured
+
+    @property
+    def success(self) -> np.ndarray:
+        """(...) bool: a slot reaches the target within the tolerance (forward kinematics)."""
+        return self._fields()[0]
+
+    @property
+    def residual_position(self) -> np.ndarray:
+        """(..., k) m per slot (NaN where empty), by forward kinematics."""
+        return self._fields()[1]
+
+    @property
+    def residual_rotation(self) -> np.ndarray:
+        """(..., k) rad per slot (NaN where empty), by forward kinematics; 0 in a position mode."""
+        return self._fields()[2]
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """(..., k, 2): position (m) and rotation (rad) residual per slot."""
+        return _frozen(np.stack([self.residual_position, self.residual_rotation], axis=-1))
+
+    @property
+    def q_residuals(self) -> np.ndarray:
+        """(..., 2): position (m) and rotation (rad) residual of ``q``."""
+        return self._fields()[3]
+
+    @property
+    def counts(self) -> np.ndarray:
+        """The old name of ``count`` (until the next release)."""
+        warnings.warn("IKBatch.counts is now count; counts goes in the next release", DeprecationWarning, stacklevel=2)
+        return self.count
+
+
+def _frozen(array) -> np.ndarray:
+    """``array`` as a read-only numpy array (a view when it is one already)."""
+    array = np.asarray(array)
+    if array.flags.writeable:
+        array = array.view()
+        array.setflags(write=False)
+    return array

@@ -1,0 +1,176 @@
+"""manipkit.ik_result: one IK result type for every solver, one batch type, one tolerance parser.
+
+Every solver, numerical or closed form, one target or all solutions, answers
+with the same class, and the batches share its field names. The numbers in
+those answers are checked in the tests of each solver (against Pinocchio,
+DH tables and hand formulas); here, that the answers are one type with one
+meaning: ``reason`` is ``""`` exactly on success, ``q`` is the first solution,
+the residuals are those of each row's forward kinematics, and the arrays
+cannot be written to.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.closed_form import decoupled, planar, planar_modes
+from manipkit.closed_form.result import ClosedFormSolutions
+from manipkit.closed_form.robots import analytic_ik
+from manipkit.errors import ClosedFormIKError, IKOptionError, PlanarArmError
+from manipkit.ik_result import MODES, IKBatch, IKResult, tolerances
+from manipkit.kinematics.ik import IKSolutions, ik
+from manipkit.kinematics.ik_many import ik_many
+
+BATCH_FIELDS = ("solutions", "labels", "count", "success", "residual_position", "residual_rotation", "residuals", "q",
+                "q_residuals", "mode", "solver", "joint_names", "outside_by", "iterations", "attempts")
+
+
+@pytest.fixture(scope="module")
+def elbow(load_robot):
+    return load_robot("elbow_arm")
+
+
+def every_kind_of_answer(robot):
+    """(name, answer) from each solver kind, for a target of the elbow arm (which every one of them can solve)."""
+    T = robot.transform("base_link", "ee_link", [0.5, 0.4, -1.0, 0.3, 0.9, 0.2])
+    return [
+        ("ik", ik(robot, T)),
+        ("ik(all=True)", ik(robot, T, all=True, restarts=3)),
+        ("analytic_ik", analytic_ik(robot, T)),
+        ("ik_elbow", decoupled.ik_elbow(T)),
+        ("ik_2r", planar.ik_2r(0.0, 1.5, 1.0, 1.0)),
+        ("ik_3r", planar.ik_3r(3.0, 2.0, math.pi, 4.0, 2.0, 1.0)),
+        ("ik_2r_pose", planar_modes.ik_2r_pose(1.0, 1.0, math.pi / 2, 1.0, 1.0)),
+        ("ik_3r_position", planar_modes.ik_3r_position(4.0, 2.0, 4.0, 2.0, 1.0)),
+    ]
+
+
+def test_every_solver_answers_with_the_one_class(elbow):
+    for name, answer in every_kind_of_answer(elbow):
+        assert type(answer) is IKResult, name
+    assert IKSolutions is IKResult and ClosedFormSolutions is IKResult  # the old names, for one release
+    assert manipkit.IKResult is IKResult and manipkit.IKBatch is IKBatch
+
+
+def test_every_answer_has_the_same_meaning(elbow):
+    for name, answer in every_kind_of_answer(elbow):
+        k = answer.solutions.shape[0]
+        assert answer.success and answer.reason == "" and answer.mode in MODES, name
+        assert len(answer.labels) == k and answer.residuals.shape == (k, 2), name
+        assert answer.count == k or (answer.infinite and answer.free_parameter), name
+        assert np.array_equal(answer.q, answer.solutions[0]) and np.array_equal(answer.q_residuals, answer.residuals[0])
+        assert np.all(answer.residuals <= 1e-9), name
+        for array in (answer.solutions, answer.residual_position, answer.residual_rotation):
+            assert not array.flags.writeable, name
+
+
+def test_no_solution_means_an_empty_result_with_a_reason(elbow):
+    closed = planar.ik_2r(3.0, 0.0, 1.0, 1.0)
+    far = np.eye(4)
+    far[0, 3] = 5.0
+    numerical = ik(elbow, far, restarts=1)
+    for answer in (closed, numerical):
+        assert not answer.success and answer.count == 0 and answer.solutions.shape[0] == 0
+        assert answer.reason == answer.note and answer.reason.startswith(("no solution", "target out of reach"))
+        assert answer.unmet and answer.unmet[0][0] == "position" and answer.outside_by > 0.0
+    # a closed form has no configuration to offer; a numerical search the closest it found, with its residuals
+    assert closed.q is None and closed.q_residuals is None and closed.closest is None
+    assert numerical.q is numerical.closest and numerical.q_residuals.shape == (2,)
+
+
+def test_a_result_cannot_be_changed():
+    answer = planar.ik_2r(0.0, 1.5, 1.0, 1.0)
+    with pytest.raises(AttributeError):
+        answer.count = 3
+    with pytest.raises(ValueError):
+        answer.solutions[0, 0] = 1.0
+    mutable = np.zeros((1, 2))
+    copied = IKResult(mutable, ("",), 1, "", np.zeros(1), np.zeros(1))
+    mutable[0, 0] = 7.0  # the result keeps its own read-only copy
+    assert copied.solutions[0, 0] == 0.0 and not copied.solutions.flags.writeable
+
+
+def test_members_of_a_result_that_is_no_family_is_an_error():
+    with pytest.raises(ClosedFormIKError, match="not a family"):
+        planar.ik_2r(1.0, 1.0, 1.0, 1.0).members([0.0])
+
+
+def test_repr_is_one_line_for_humans():
+    text = repr(planar.ik_2r(0.0, 1.5, 1.0, 1.0))
+    assert text.startswith("IKResult(solver='planar.ik_2r', mode='planar position (x, y)', count=2, success=True, "
+                           "q=[0.848062, 1.44547], residual=(") and text.endswith(" m, 0 rad))") and "\n" not in text
+    missed = repr(planar.ik_2r(3.0, 0.0, 1.0, 1.0))
+    assert "success=False" in missed and "reason='no solution: target too far" in missed and "q=" not in missed
+
+
+# --------------------------------------------------------------------------
+# batches: the same field names, with leading target axes
+
+
+def test_batch_results_share_the_field_names_of_the_one_result(load_robot):
+    robot = load_robot("course_arm")
+    T = robot.fk(robot.sample_q(3, seed=1), base="base_link", tip="ee_link")
+    batches = [ik_many(robot, T, mode="position+axis"), planar.ik_2r_batch([[1.0, 1.0], [3.0, 0.0]], 1.0, 1.0),
+               planar.ik_3r_batch([[3.0, 2.0, math.pi]], 4.0, 2.0, 1.0)]
+    for batch in batches:
+        assert type(batch) is IKBatch
+        for name in BATCH_FIELDS:
+            assert hasattr(IKResult, name) or name in IKResult.__dataclass_fields__, name
+            getattr(batch, name)  # every field answers
+        n_targets, k, n = batch.solutions.shape
+        assert batch.count.shape == batch.success.shape == (n_targets,) and batch.q.shape == (n_targets, n)
+        assert batch.residual_position.shape == batch.residual_rotation.shape == (n_targets, k)
+        assert batch.residuals.shape == (n_targets, k, 2) and batch.q_residuals.shape == (n_targets, 2)
+        assert len(batch.labels) == k and batch.mode in MODES and len(batch) == n_targets
+        with pytest.raises(AttributeError):
+            batch.count = None
+        with pytest.raises(ValueError):
+            batch.solutions[0, 0, 0] = 1.0
+
+
+def test_a_batch_row_says_what_the_single_solver_says():
+    targets = [[0.0, 1.5], [2.0, 0.0], [3.0, 0.0], [0.0, 0.0]]
+    batch = planar.ik_2r_batch(targets, 1.0, 1.0)
+    for i, target in enumerate(targets):
+        single = planar.ik_2r(*target, 1.0, 1.0)
+        k = single.solutions.shape[0]
+        assert batch.success[i] == single.success and batch.count[i] == single.count
+        assert np.array_equal(batch.solutions[i, :k], single.solutions)
+        np.testing.assert_allclose(batch.residuals[i, :k], single.residuals, atol=1e-15)
+        if single.success:
+            assert np.array_equal(batch.q[i], single.q)
+        else:
+            assert np.isnan(batch.q[i]).all() and np.isnan(batch.q_residuals[i]).all()
+
+
+# --------------------------------------------------------------------------
+# the one tolerance parser
+
+
+@pytest.mark.parametrize(("tol", "expected"), [(1e-9, (1e-9, 1e-9)), (2, (2.0, 2.0)), ((1e-6, 1e-3), (1e-6, 1e-3)),
+                                                (np.array([1e-6]), (1e-6, 1e-6)), ([1e-4, 1e-5], (1e-4, 1e-5))])
+def test_tolerances_take_one_number_or_a_pair(tol, expected):
+    assert tolerances(tol) == expected
+
+
+@pytest.mark.parametrize("tol", [0.0, -1.0, math.nan, math.inf, (1e-6, 0.0), (1, 2, 3), "tight", [[1e-6]], None])
+def test_tolerances_refuse_what_is_not_a_positive_number_or_pair(tol):
+    with pytest.raises(IKOptionError, match="tol must be a positive number or \\(position m, rotation rad\\)"):
+        tolerances(tol)
+
+
+def test_tolerances_take_the_callers_error_and_rules():
+    assert tolerances(0.0, error=PlanarArmError, pair=False, zero=True) == (0.0, 0.0)
+    with pytest.raises(PlanarArmError, match="tol = -1 must be a number >= 0"):
+        tolerances(-1, error=PlanarArmError, pair=False, zero=True)
+    with pytest.raises(PlanarArmError, match="must be a number >= 0"):
+        tolerances((1e-9, 1e-9), error=PlanarArmError, pair=False, zero=True)
+    for solve in (lambda: ik(manipkit.load("planar_2r"), np.eye(4), tol=0.0),
+                  lambda: analytic_ik(manipkit.load("planar_2r"), np.eye(4), tol=0.0),
+                  lambda: decoupled.ik_stanford(np.eye(4), tol=0.0)):
+        with pytest.raises((IKOptionError, ClosedFormIKError), match="tol must be a positive number"):
+            solve()
