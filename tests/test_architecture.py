@@ -37,8 +37,33 @@ def layer_of(path: Path) -> str:
     return parts[0].removesuffix(".py")
 
 
-def runtime_imports(tree: ast.Module):
-    """(module, names, line) of each import not under ``if TYPE_CHECKING:``."""
+def package_of(path: Path) -> list[str]:
+    """The dotted package a source file is in, as parts: ``manipkit/kinematics/robot.py`` -> manipkit, kinematics."""
+    parts = ["manipkit", *path.relative_to(PACKAGE).parts]
+    return parts[:-1]
+
+
+def lazy_homes() -> dict[str, str]:
+    """Name -> module for the names ``manipkit/__init__.py`` loads on first use (its ``_LAZY`` table), read from the source."""
+    tree = ast.parse((PACKAGE / "__init__.py").read_text())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets):
+            return ast.literal_eval(node.value)
+    return {}
+
+
+LAZY = lazy_homes()
+
+
+def runtime_imports(tree: ast.Module, path: Path | None = None):
+    """(module, names, line) of each import not under ``if TYPE_CHECKING:``.
+
+    Also seen: relative imports (resolved against ``path``'s package),
+    ``from manipkit import X`` (the module ``X`` comes from, by the package's
+    lazy table), and ``importlib.import_module("manipkit....")`` /
+    ``__import__`` with a string that starts with ``manipkit.`` (an f-string's
+    constant head is enough to know the subpackage).
+    """
     skip = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
@@ -46,11 +71,33 @@ def runtime_imports(tree: ast.Module):
     for node in ast.walk(tree):
         if id(node) in skip:
             continue
-        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            yield node.module, [alias.name for alias in node.names], node.lineno
+        if isinstance(node, ast.ImportFrom):
+            module = node.module or ""
+            if node.level:
+                base = package_of(path) if path is not None else ["manipkit"]
+                base = base[: len(base) - (node.level - 1)] if node.level > 1 else base
+                module = ".".join([*base, module] if module else base)
+            names = [alias.name for alias in node.names]
+            if module == "manipkit":
+                for name in names:
+                    home = LAZY.get(name, f"manipkit.{name}")
+                    yield home, [name], node.lineno
+                continue
+            yield module, names, node.lineno
         elif isinstance(node, ast.Import):
             for alias in node.names:
                 yield alias.name, [], node.lineno
+        elif isinstance(node, ast.Call) and node.args and _is_import_call(node.func):
+            head = node.args[0]
+            if isinstance(head, ast.JoinedStr) and head.values and isinstance(head.values[0], ast.Constant):
+                head = head.values[0]
+            if isinstance(head, ast.Constant) and isinstance(head.value, str) and head.value.startswith("manipkit."):
+                yield head.value.rstrip("."), [], node.lineno
+
+
+def _is_import_call(func: ast.expr) -> bool:
+    return (isinstance(func, ast.Attribute) and func.attr == "import_module") or (
+        isinstance(func, ast.Name) and func.id in ("import_module", "__import__"))
 
 
 def ids(paths):
@@ -61,7 +108,7 @@ def ids(paths):
 def test_imports_run_down_the_layers(path):
     layer = layer_of(path)
     crossings = []
-    for module, _, line in runtime_imports(ast.parse(path.read_text())):
+    for module, _, line in runtime_imports(ast.parse(path.read_text()), path):
         parts = module.split(".")
         if parts[0] != "manipkit" or len(parts) < 2:
             continue
@@ -72,14 +119,16 @@ def test_imports_run_down_the_layers(path):
 
 
 @pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
-def test_no_private_name_from_another_subpackage(path):
+def test_no_private_name_from_another_module(path):
     layer = layer_of(path)
     found = []
-    for module, names, line in runtime_imports(ast.parse(path.read_text())):
+    own_module = ".".join([*package_of(path), path.stem])
+    for module, names, line in runtime_imports(ast.parse(path.read_text()), path):
         parts = module.split(".")
-        if parts[0] != "manipkit" or len(parts) < 2 or parts[1] == layer:
+        if parts[0] != "manipkit" or len(parts) < 2 or module == own_module:
             continue
-        private = [n for n in names if n.startswith("_")] + [p for p in parts[1:] if p.startswith("_")]
+        private = [n for n in names if n.startswith("_") and not n.startswith("__")]
+        private += [p for p in parts[1:] if p.startswith("_") and not p.startswith("__")]
         if private:
             found.append(f"line {line}: {', '.join(private)} from {module}")
     assert not found, "; ".join(found)
@@ -137,3 +186,71 @@ def test_all_is_declared_and_true(name):
     missing = [n for n in module.__all__ if not hasattr(module, n)]
     assert not missing, f"{name}.__all__ lists {missing}, which it does not have"
 
+
+
+def test_packages_export_one_way():
+    """Every subpackage's __init__ builds its exports with manipkit.exports.lazy_exports (the one style)."""
+    other = []
+    for init in PACKAGE.rglob("__init__.py"):
+        if init.parent == PACKAGE or init.parent.name == "cli":  # the root (0.1 aliases) and the CLI's entry module
+            continue
+        if "lazy_exports(__name__" not in init.read_text():
+            other.append(str(init.relative_to(PACKAGE)))
+    assert not other, f"these packages export another way: {other}"
+
+
+#: Private names of other libraries that manipkit must reach, with why (the only ones allowed).
+FOREIGN_PRIVATE = {
+    ("description/xacro_names.py", "_global_symbols"): "xacro's expression namespace, replaced by the safe one",
+    ("description/xacro_names.py", "_eval_env"): "xacro's $(env), refused",
+    ("description/xacro_names.py", "_eval_optenv"): "xacro's $(optenv), refused",
+    ("description/xacro_names.py", "_eval_find"): "xacro's $(find), resolved without ROS",
+    ("description/xacro_names.py", "_eval_arg"): "xacro's $(arg), checked",
+    ("description/xacro_names.py", "_eval_dirname"): "xacro's $(dirname)",
+}
+
+
+def private_names_defined(tree: ast.Module) -> set[str]:
+    """The private attribute names a module defines: assigned as ``x._name``, ``def _name``, class attributes, slots."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store) and node.attr.startswith("_"):
+            names.add(node.attr)
+        elif isinstance(node, (ast.FunctionDef, ast.ClassDef)) and node.name.startswith("_"):
+            names.add(node.name)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store) and node.id.startswith("_"):
+            names.add(node.id)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith("_"):
+            names.add(node.value)  # __slots__ entries, object.__setattr__(self, "_x", ...)
+    return names
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
+def test_no_private_attribute_of_another_module(path):
+    """``obj._x`` only where this module defines ``_x`` (its own classes): another module's privates are not an API."""
+    tree = ast.parse(path.read_text())
+    own = private_names_defined(tree)
+    where = str(path.relative_to(PACKAGE))
+    found = sorted({
+        f"line {node.lineno}: {ast.unparse(node)}" for node in ast.walk(tree)
+        if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__")
+        and not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"))
+        and node.attr not in own and (where, node.attr) not in FOREIGN_PRIVATE
+    })
+    assert not found, "; ".join(found)
+
+
+def test_a_private_attribute_of_another_module_is_caught():
+    tree = ast.parse("def f(solver):\n    return solver._geometry\n")
+    assert "_geometry" not in private_names_defined(tree)
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
+def test_functions_stay_under_80_lines_or_say_why(path):
+    """A function over 80 lines carries a comment 'Over 80 lines: <why>' (docs/architecture.md)."""
+    lines = path.read_text().splitlines()
+    long = [f"{node.name} (line {node.lineno}, {node.end_lineno - node.lineno + 1} lines)"
+            for node in ast.walk(ast.parse("\n".join(lines)))
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 80
+            and not any("Over 80 lines:" in line for line in lines[node.lineno - 1:node.end_lineno])]
+    assert not long, f"functions over 80 lines without a reason: {', '.join(long)}"

@@ -24,13 +24,20 @@ __all__ = ["homes_of", "lazy_exports"]
 def lazy_exports(package: str, homes: dict[str, str]) -> tuple[list[str], Callable[[str], object], Callable[[], list]]:
     """(``__all__``, ``__getattr__``, ``__dir__``) for ``package`` from ``homes``: name -> the module that defines it.
 
-    A name whose home is ``package.name`` itself is that submodule.
+    A name whose home is ``package.name`` itself is that submodule; any
+    other submodule is reachable as an attribute as well (loaded then).
     """
     names = sorted(homes)
 
     def __getattr__(name: str):
         home = homes.get(name)
-        if home is None:
+        if home is None:  # a submodule is an attribute too, as after an eager import (``package.planar.ik_2r``)
+            if name.isidentifier() and not name.startswith("_"):
+                try:
+                    return importlib.import_module(f"{package}.{name}")
+                except ModuleNotFoundError as exc:
+                    if exc.name != f"{package}.{name}":
+                        raise
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         module = importlib.import_module(home)
         return module if home == f"{package}.{name}" else getattr(module, name)

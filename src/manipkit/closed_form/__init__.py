@@ -4,6 +4,15 @@ Pure functions on numbers and DH tables (numpy only); no robot file is
 needed. Joint angles are wrapped to (-pi, pi] (docs/architecture.md).
 """
 
-from manipkit.closed_form import decoupled, planar, planar_modes, planar_workspace, result
+from __future__ import annotations
 
-__all__ = ["decoupled", "planar", "planar_modes", "planar_workspace", "result"]
+from manipkit.exports import homes_of, lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of("manipkit.closed_form.planar", "fk_2r", "fk_3r", "ik_2r", "ik_2r_batch", "ik_3r", "ik_3r_batch",
+               "workspace_2r", "workspace_3r"),
+    **homes_of("manipkit.closed_form.planar_modes", "ik_2r_pose", "ik_3r_position"),
+    **homes_of("manipkit.closed_form.decoupled", "ik_elbow", "ik_scara", "ik_stanford", "wrist_center"),
+    **homes_of("manipkit.closed_form.robots", "ANALYTIC_SOLVERS", "analytic_ik"),
+    **homes_of("manipkit.ik_result", "IKResult", "IKBatch"),
+})

@@ -50,28 +50,10 @@ from manipkit.spatial.rotations import rot_z, wrap_angle
 from manipkit.spatial.transforms import pose_residuals
 
 __all__ = [
-    "ClosedFormSolutions",
-    "ELBOW_DOWN",
-    "ELBOW_UP",
-    "FOLDED",
-    "IKBatch",
-    "IKResult",
-    "PlanarArmError",
-    "PlanarIKBatch",
-    "Q1_FREE",
-    "STRAIGHT",
-    "Workspace",
-    "chain_points",
-    "fk_2r",
-    "fk_3r",
-    "ik_2r",
-    "ik_2r_batch",
-    "ik_3r",
-    "ik_3r_batch",
-    "planar_dh_table",
-    "se2_3r",
-    "workspace_2r",
-    "workspace_3r",
+    "chain_points", "checked_solutions", "ClosedFormSolutions", "ELBOW_DOWN", "ELBOW_UP", "fk_2r", "fk_3r",
+    "FOLDED", "ik_2r", "ik_2r_batch", "ik_3r", "ik_3r_batch", "IKBatch", "IKResult", "planar_dh_table",
+    "planar_target", "PlanarArmError", "PlanarIKBatch", "Q1_FREE", "se2_3r", "STRAIGHT", "Workspace",
+    "workspace_2r", "workspace_3r",
 ]
 
 ELBOW_DOWN = "elbow-down"  # q2 in (0, pi)
@@ -552,7 +534,7 @@ def ik_2r(x, y, l1, l2, *, tol: float = 1e-12) -> IKResult:
     labels = _labels(case)
     rows = read_only(solutions[: len(labels)], (2,))
     reason, side = _describe_2r(case, float(np.hypot(x, y)), l1, l2, "target")
-    return _planar_result(rows, case, reason, (l1, l2), _planar_target(x, y), outside, side,
+    return _planar_result(rows, case, reason, (l1, l2), planar_target(x, y), outside, side,
                           mode=PLANAR_POSITION, tol=tol, solver="planar.ik_2r")
 
 
@@ -649,7 +631,7 @@ def ik_3r(x, y, phi, l1, l2, l3, *, tol: float = 1e-12) -> IKResult:
     reason, side = _describe_2r(case, float(np.hypot(wx, wy)), l1, l2, point)
     if case == _FREE:
         reason += ", and q3 = phi - q1 - pi"
-    return _planar_result(rows, case, reason, (l1, l2, l3), _planar_target(x, y, phi), outside, side,
+    return _planar_result(rows, case, reason, (l1, l2, l3), planar_target(x, y, phi), outside, side,
                           mode=PLANAR_POSE, tol=tol, solver="planar.ik_3r")
 
 
@@ -681,7 +663,7 @@ def _table(lengths: tuple[float, ...]) -> DHTable:
     return planar_dh_table(lengths)
 
 
-def _planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
+def planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
     """T_base_tool of a planar target: at (x, y, 0), turned by phi about z (identity without phi)."""
     T = np.eye(4)
     T[0, 3], T[1, 3] = x, y
@@ -690,7 +672,7 @@ def _planar_target(x: float, y: float, phi: float | None = None) -> np.ndarray:
     return T
 
 
-def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected: int = 0) -> IKResult:
+def checked_solutions(rows, labels, lengths, target, *, pose: bool, tol: float, rejected: int = 0) -> IKResult:
     """The rows whose DH forward kinematics reproduce ``target`` (position, and rotation when ``pose``)."""
     rows = read_only(rows, (len(lengths),))
     T_reached = dh_fk(_table(tuple(lengths)), rows).reshape(-1, 4, 4)
@@ -710,7 +692,7 @@ def _checked(rows, labels, lengths, target, *, pose: bool, tol: float, rejected:
 
 def _planar_result(rows, case: int, reason: str, lengths, target, outside, side, *, mode: str, tol: float,
                    solver: str) -> IKResult:
-    checked = _checked(rows, _labels(case), lengths, target, pose=mode == PLANAR_POSE, tol=tol)
+    checked = checked_solutions(rows, _labels(case), lengths, target, pose=mode == PLANAR_POSE, tol=tol)
     free = case == _FREE and checked.success
     if checked.rejected:
         reason += "; " + checked.note

@@ -24,7 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from manipkit.closed_form.checks import finite_array, link_length, quantity_text, tolerance
-from manipkit.closed_form.planar import FOLDED, _checked, _planar_target, ik_2r, ik_3r
+from manipkit.closed_form.planar import FOLDED, checked_solutions, ik_2r, ik_3r, planar_target
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, read_only
 from manipkit.errors import PlanarArmError
 from manipkit.ik_result import IKResult
@@ -77,8 +77,8 @@ def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> IKResult:
     rows, labels = position.solutions, position.labels
     if position.infinite:  # at the base with l1 = l2: q2 = pi, and phi = q1 + pi fixes q1
         rows, labels = read_only([[float(wrap_angle(phi - math.pi)), math.pi]], (2,)), (FOLDED,)
-    target = _planar_target(x, y, phi)
-    result = _checked(rows, labels, (l1, l2), target, pose=True, tol=tol)
+    target = planar_target(x, y, phi)
+    result = checked_solutions(rows, labels, (l1, l2), target, pose=True, tol=tol)
     if result.success:
         return replace(result, note=f"{result.count} solution(s): {position.note}; the tool angle matches phi",
                        mode=PLANAR_POSE, solver="planar.ik_2r_pose")
@@ -200,6 +200,6 @@ def _members_3r(x: float, y: float, values, lengths, tol: float) -> IKResult:
         member = ik_3r(x, y, float(phi), *lengths, tol=tol)
         rows.extend(member.solutions)
         labels.extend(f"phi = {quantity_text(float(phi))}, {label}" for label in member.labels)
-    result = _checked(read_only(rows, (3,)), tuple(labels), lengths, _planar_target(x, y), pose=False, tol=tol)
+    result = checked_solutions(read_only(rows, (3,)), tuple(labels), lengths, planar_target(x, y), pose=False, tol=tol)
     return replace(result, note=f"{result.count} solution(s) at {phis.size} tool angle(s) phi", mode=PLANAR_POSITION,
                    solver="planar.ik_3r_position")

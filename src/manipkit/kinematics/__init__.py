@@ -7,15 +7,13 @@ so ``tf-between`` pays only for what it runs.
 
 from __future__ import annotations
 
-__all__ = ["Robot", "load", "ik", "ik_solver", "IKResult", "IKSolutions", "ik_many", "IKBatch"]
+from manipkit.exports import homes_of, lazy_exports
 
-_HOME = {"Robot": "robot", "load": "robot", "ik": "ik", "ik_solver": "ik", "IKResult": "ik", "IKSolutions": "ik",
-         "ik_many": "ik_many", "IKBatch": "ik_many"}
-
-
-def __getattr__(name: str):
-    if name in _HOME:
-        import importlib
-
-        return getattr(importlib.import_module(f"manipkit.kinematics.{_HOME[name]}"), name)
-    raise AttributeError(f"module 'manipkit.kinematics' has no attribute {name!r}")
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of("manipkit.kinematics.robot", "Robot", "load"),
+    **homes_of("manipkit.kinematics.chain", "Chain", "JointAxes"),
+    **homes_of("manipkit.kinematics.jacobian", "jacobian", "jacobians"),
+    **homes_of("manipkit.kinematics.ik", "ik", "ik_solver", "IKSolver", "IKSolutions"),
+    **homes_of("manipkit.kinematics.ik_many", "ik_many"),
+    **homes_of("manipkit.ik_result", "IKResult", "IKBatch"),
+})

@@ -54,7 +54,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "frame_arguments", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_steps", "frame_arguments", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -404,6 +404,46 @@ def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base,
     return (default_base if base is None else base), (default_tip if tip is None else tip)
 
 
+def chain_steps(model, columns: dict, frame_id: int, base_id: int | None) -> list[ChainStep]:
+    """The steps of ``T_base_frame`` in a Pinocchio model (``base_id`` None: from the root link).
+
+    Pinocchio keeps a robot as ``M_1 J_1(q_1) ... M_k J_k(q_k) X_frame`` over
+    the joints supporting a frame: each joint step is the joint's placement
+    in its parent joint's frame, then its motion; a floating or planar joint
+    is one step per coordinate (its placement on the first); the frame's own
+    placement closes the chain (a fixed step, ``index`` -1). From a base above
+    the root, the chain opens with the base's inverse placement
+    ``[R^T, -R^T p]`` and holds the joints below the base's parent joint.
+    ``columns`` maps a Pinocchio joint id to its ``(column, scale, offset,
+    kind, axis)`` motions (:class:`manipkit.kinematics.joints.JointLayout`).
+    """
+    frame = model.frames[frame_id]
+    support = list(model.supports[frame.parentJoint])  # joint ids, universe (0) first
+    if base_id is None:
+        below, steps = support[1:], []
+    else:
+        base = model.frames[base_id]
+        below = support[support.index(base.parentJoint) + 1 :]
+        R, p = base.placement.rotation, base.placement.translation
+        steps = [_fixed_step(R.T, -R.T @ p)]
+    for joint_id in below:
+        placement = model.jointPlacements[joint_id]
+        rotation, translation = _read_only_copy(placement.rotation), _read_only_copy(placement.translation)
+        for column, scale, offset, kind, axis in columns[joint_id]:
+            steps.append(ChainStep(rotation, translation, column, kind == "prismatic", axis, scale, offset))
+            rotation, translation = _IDENTITY, _ZERO
+    steps.append(_fixed_step(frame.placement.rotation, frame.placement.translation))
+    return steps
+
+
+def _read_only_copy(array) -> np.ndarray:
+    return _read_only(np.array(array, dtype=float))
+
+
+def _fixed_step(rotation, translation) -> ChainStep:
+    return ChainStep(_read_only_copy(rotation), _read_only_copy(translation), -1, False, None)
+
+
 def _chain_of(robot: Robot, base: str, tip: str) -> Chain:
     """Unpickling: the robot's own chain object."""
     return robot.chain(base, tip)
@@ -434,3 +474,6 @@ def joint_array(values) -> np.ndarray:
 def _read_only(array: np.ndarray) -> np.ndarray:
     array.setflags(write=False)
     return array
+
+
+_IDENTITY, _ZERO = _read_only(np.eye(3)), _read_only(np.zeros(3))

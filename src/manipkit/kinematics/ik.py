@@ -68,7 +68,16 @@ import pinocchio as pin
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik_result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKResult, tolerances
 from manipkit.kinematics.chain import frame_arguments
-from manipkit.kinematics.ik_kernel import MODE_CODES, error_and_jacobian, lm_attempt, pack_chain
+from manipkit.kinematics.ik_kernel import (
+    MODE_CODES,
+    SHRINK_MIN,
+    STALL_GAIN,
+    STALL_WINDOW,
+    IKProgram,
+    error_and_jacobian,
+    lm_attempt,
+    pack_chain,
+)
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
@@ -304,9 +313,6 @@ class IKSolver:
     a limit: a random restart is cheaper than crawling).
     """
 
-    STALL_WINDOW = 8
-    STALL_GAIN = 0.9
-    SHRINK_MIN = 0.1
 
     def __init__(self, robot: Robot, base: str | None = None, tip: str | None = None, *, mode: str = "pose",
                  axis: str = "z", free: tuple[str, ...] = (), frame: str | None = None):
@@ -320,7 +326,6 @@ class IKSolver:
         self.base = robot.frame(base)
         self.mode = mode
         self.axis = axis
-        self._axis_index = AXES.index(axis)
         free = set(free)
         unknown = sorted(free - {j.joint for j in robot.joints if j.coordinate is not None})
         if unknown:
@@ -338,26 +343,25 @@ class IKSolver:
             )
         self.columns = chain.columns[solved]
         joints = [j for j, s in zip(chain.joints, solved) if s]
-        self._lower, self._upper = chain.lower[solved], chain.upper[solved]
-        self._wrap = np.array([j.type == "continuous" for j in joints], dtype=bool)  # wrapped to (-pi, pi]
-        self._has_cs = bool(self._wrap.any())
+        lower, upper = chain.lower[solved], chain.upper[solved]
+        wrap = np.array([j.type == "continuous" for j in joints], dtype=bool)  # wrapped to (-pi, pi]
         self._angular = np.array([j.is_angular for j in joints], dtype=bool)
-        self._sample_low = np.where(np.isfinite(self._lower), self._lower, -math.pi)  # as Chain.sample draws
-        self._sample_high = np.where(np.isfinite(self._upper), self._upper, math.pi)
+        sample_low = np.where(np.isfinite(lower), lower, -math.pi)  # as Chain.sample draws
+        sample_high = np.where(np.isfinite(upper), upper, math.pi)
         self._n = len(self.joint_names)
         self._model = robot.model
         self._frame_id = robot.frame_id(self.tip)
-        self._configuration = robot._layout.configuration  # Pinocchio's vector of a checked joint vector
+        self._configuration = robot.joint_layout.configuration  # Pinocchio's vector of a checked joint vector
         self._robot_lower = np.array([j.lower for j in robot.joints], dtype=float)
         self._robot_upper = np.array([j.upper for j in robot.joints], dtype=float)
 
         # The compiled iteration's view of the chain, root to tip (manipkit.kinematics.ik_kernel).
         steps = robot.chain(robot.root_link, self.tip).steps
-        self._geometry, self._kinds = pack_chain(steps, self.columns)
+        geometry, kinds = pack_chain(steps, self.columns)
         # A solved joint must not also move the base: the target is placed in the root once per solve.
         joint_steps = [k for k, step in enumerate(steps) if step.index >= 0]
         n_below = sum(1 for step in chain.steps if step.index >= 0)
-        moves_base = [k for k in joint_steps[: len(joint_steps) - n_below] if self._kinds[k, 1] >= 0]
+        moves_base = [k for k in joint_steps[: len(joint_steps) - n_below] if kinds[k, 1] >= 0]
         if moves_base:
             name = robot.joint_names[steps[moves_base[0]].index]
             raise ChainError(
@@ -366,7 +370,7 @@ class IKSolver:
                 f"choose a base above '{name}'"
             )
         # Reach bound: the frame origin stays within this distance of the first solved joint's origin.
-        solved_steps = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] >= 0]
+        solved_steps = [k for k, step in enumerate(steps) if step.index >= 0 and kinds[k, 1] >= 0]
         reach = sum(float(np.linalg.norm(step.translation)) for step in steps[solved_steps[0] + 1 :])
         for k in solved_steps:
             if steps[k].prismatic:
@@ -374,14 +378,15 @@ class IKSolver:
                 reach += abs(steps[k].scale) * max(abs(joint.lower), abs(joint.upper)) + abs(steps[k].offset)
         self.reach = reach
         self._first_joint = robot.model.getJointId(robot.joints[steps[solved_steps[0]].index].joint)
-        not_solved = [k for k, step in enumerate(steps) if step.index >= 0 and self._kinds[k, 1] < 0]
-        self._fixed_steps = np.array(not_solved, dtype=np.intp)  # joints above the base, fixed coordinates
-        self._fixed_user = np.array([steps[k].index for k in not_solved], dtype=np.intp)
-        self._fixed_scale = np.array([steps[k].scale for k in not_solved], dtype=float)
-        self._fixed_offset = np.array([steps[k].offset for k in not_solved], dtype=float)
-        self._n_steps = len(steps)
-        self._mode_code = MODE_CODES[mode]
-        self._base_is_root = self.base == robot.root_link
+        not_solved = [k for k, step in enumerate(steps) if step.index >= 0 and kinds[k, 1] < 0]
+        self.program = IKProgram(
+            geometry, kinds, MODE_CODES[mode], AXES.index(axis), lower, upper, sample_low, sample_high, wrap,
+            fixed_steps=np.array(not_solved, dtype=np.intp),  # joints above the base, fixed coordinates
+            fixed_columns=np.array([steps[k].index for k in not_solved], dtype=np.intp),
+            fixed_scale=np.array([steps[k].scale for k in not_solved], dtype=float),
+            fixed_offset=np.array([steps[k].offset for k in not_solved], dtype=float),
+            n_steps=len(steps), base_is_root=self.base == robot.root_link,
+        )
 
     @property
     def frame(self) -> str:
@@ -432,13 +437,13 @@ class IKSolver:
         q_full = self._start_vector(q0)
         T_base_target = self._target_matrix(target)
         # Target in root axes: T_root_target = T_root_base @ T_base_target (off-chain joints at q_full).
-        if self._base_is_root:
+        if self.program.base_is_root:
             T_root_target = T_base_target
         else:
             T_root_target = self.robot.transform(self.robot.root_link, self.base, q_full, check_limits=False) @ T_base_target
-        q_fixed = np.zeros(self._n_steps)
-        if self._fixed_steps.size:
-            q_fixed[self._fixed_steps] = self._fixed_scale * q_full[self._fixed_user] + self._fixed_offset
+        q_fixed = np.zeros(self.program.n_steps)
+        if self.program.fixed_steps.size:
+            q_fixed[self.program.fixed_steps] = self.program.fixed_scale * q_full[self.program.fixed_columns] + self.program.fixed_offset
         return _Goal(T_root_target, np.ascontiguousarray(T_root_target[:3, 3]),
                      np.ascontiguousarray(T_root_target[:3, :3]), q_full, q_fixed)
 
@@ -474,12 +479,12 @@ class IKSolver:
         """
         x = np.empty(self._n)
         _, _, _, iterations = lm_attempt(
-            np.ascontiguousarray(x0, dtype=float), goal.q_fixed, self._geometry, self._kinds, goal.R_target,
-            goal.p_target, self._mode_code, self._axis_index, self._lower, self._upper, self._wrap, tol_position,
-            tol_rotation, max_iters, tau, self.STALL_WINDOW, self.STALL_GAIN, self.SHRINK_MIN, x,
+            np.ascontiguousarray(x0, dtype=float), goal.q_fixed, self.program.geometry, self.program.kinds, goal.R_target,
+            goal.p_target, self.program.mode_code, self.program.axis_index, self.program.lower, self.program.upper, self.program.wrap, tol_position,
+            tol_rotation, max_iters, tau, STALL_WINDOW, STALL_GAIN, SHRINK_MIN, x,
         )
-        if self._has_cs:
-            x[self._wrap] = wrap_angle(x[self._wrap])
+        if self.program.has_cs:
+            x[self.program.wrap] = wrap_angle(x[self.program.wrap])
         pos, rot = self._residuals(goal, x)
         cost = 0.5 * pos * pos + 0.5 * rot * rot
         return x, cost, pos, rot, iterations
@@ -489,8 +494,8 @@ class IKSolver:
         J, e = np.zeros((6, self._n)), np.zeros(6)
         R, p = np.empty((3, 3)), np.empty(3)
         pos, rot = error_and_jacobian(
-            np.asarray(x, dtype=float), goal.q_fixed, self._geometry, self._kinds, goal.R_target, goal.p_target,
-            self._mode_code, self._axis_index, R, p, J, e,
+            np.asarray(x, dtype=float), goal.q_fixed, self.program.geometry, self.program.kinds, goal.R_target, goal.p_target,
+            self.program.mode_code, self.program.axis_index, R, p, J, e,
         )
         rows = 3 if self.mode == "position" else 6
         return e[:rows], J[:rows], pos, rot
@@ -527,8 +532,8 @@ class IKSolver:
             raise JointValueError(f"q0: {error}") from None
         q = np.minimum(np.maximum(q, self._robot_lower), self._robot_upper)  # clamped into the limits
         x = q[self.columns]
-        if self._has_cs:
-            x[self._wrap] = wrap_angle(x[self._wrap])
+        if self.program.has_cs:
+            x[self.program.wrap] = wrap_angle(x[self.program.wrap])
         q[self.columns] = x
         return q
 

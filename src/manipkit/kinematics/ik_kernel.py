@@ -37,17 +37,59 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from manipkit.kinematics.fk_kernel import ChainStep, compile_kernel
 
 __all__ = [
-    "MODE_CODES", "chain_pose_jacobian", "error_and_jacobian", "lm_attempt", "log3", "pack_chain", "solve_linear",
-    "warm_up",
+    "IKProgram", "MODE_CODES", "SHRINK_MIN", "STALL_GAIN", "STALL_WINDOW", "chain_pose_jacobian", "error_and_jacobian",
+    "lm_attempt", "log3", "pack_chain", "solve_linear", "warm_up",
 ]
 
 MODE_CODES = {"pose": 0, "position": 1, "position+axis": 2}
+#: The stall rule of an attempt (IKSolver's docstring): stop when the cost fell by less than 1 - STALL_GAIN over
+#: the last STALL_WINDOW iterations; the damping shrinks by at most SHRINK_MIN per accepted step.
+STALL_WINDOW, STALL_GAIN, SHRINK_MIN = 8, 0.9, 0.1
+
+
+@dataclass(frozen=True, eq=False)
+class IKProgram:
+    """One chain and mode prepared for the compiled iteration (built by :class:`manipkit.kinematics.ik.IKSolver`).
+
+    ``geometry``, ``kinds``: :func:`pack_chain` of the chain from the root to
+    the tip; ``mode_code``, ``axis_index``: the mode and pointing axis;
+    ``lower``, ``upper`` (rad or m), ``sample_low``, ``sample_high`` (where
+    random starts are drawn: continuous joints in [-pi, pi]) and ``wrap``
+    (continuous joints, wrapped to (-pi, pi]) of the solved joints, in their
+    order; the steps not solved for (joints above the base, fixed floating
+    coordinates) read ``fixed_scale * q[fixed_columns] + fixed_offset`` at
+    ``fixed_steps`` of the ``n_steps``; ``base_is_root``: targets need no
+    change of axes. Read by :meth:`~manipkit.kinematics.ik.IKSolver.solve` and
+    :func:`manipkit.kinematics.ik_many.ik_many` alike.
+    """
+
+    geometry: np.ndarray
+    kinds: np.ndarray
+    mode_code: int
+    axis_index: int
+    lower: np.ndarray
+    upper: np.ndarray
+    sample_low: np.ndarray
+    sample_high: np.ndarray
+    wrap: np.ndarray
+    fixed_steps: np.ndarray
+    fixed_columns: np.ndarray
+    fixed_scale: np.ndarray
+    fixed_offset: np.ndarray
+    n_steps: int
+    base_is_root: bool
+
+    @property
+    def has_cs(self) -> bool:
+        """Some solved joint is continuous (its answers are wrapped)."""
+        return bool(self.wrap.any())
 _REVOLUTE, _PRISMATIC, _TIP = 0, 1, -1
 _TWO_PI = 2.0 * math.pi
 

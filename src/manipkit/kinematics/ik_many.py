@@ -46,7 +46,7 @@ from manipkit.ik_result import IKBatch, tolerances
 from manipkit.kinematics.chain import frame_arguments
 from manipkit.kinematics.fk_kernel import compile_kernel
 from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
-from manipkit.kinematics.ik_kernel import lm_attempt
+from manipkit.kinematics.ik_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
@@ -252,11 +252,11 @@ def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, b
     robot = solver.robot
     n_targets = T_base.shape[0]
     # Targets in the axes of the model root: T_root_target = T_root_base @ T_base_target.
-    T_root = T_base if solver._base_is_root else robot.fk(Q_full, base=robot.root_link, tip=solver.base) @ T_base
-    Q_fixed = np.zeros((n_targets, solver._n_steps))
-    if solver._fixed_steps.size:
+    T_root = T_base if solver.program.base_is_root else robot.fk(Q_full, base=robot.root_link, tip=solver.base) @ T_base
+    Q_fixed = np.zeros((n_targets, solver.program.n_steps))
+    if solver.program.fixed_steps.size:
         # joints not solved for (above the base, mimics of them, fixed floating coordinates): scale * q + offset
-        Q_fixed[:, solver._fixed_steps] = solver._fixed_scale * Q_full[:, solver._fixed_user] + solver._fixed_offset
+        Q_fixed[:, solver.program.fixed_steps] = solver.program.fixed_scale * Q_full[:, solver.program.fixed_columns] + solver.program.fixed_offset
     X = np.empty((n_targets, solver.columns.size))
     iterations = np.zeros(n_targets, dtype=np.int64)
     attempts = np.zeros(n_targets, dtype=np.int64)
@@ -264,14 +264,14 @@ def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, b
     if n_targets:
         _kernel()(
             np.ascontiguousarray(Q_full[:, solver.columns]), has_start, target_seeds(seed, n_targets), Q_fixed,
-            solver._geometry, solver._kinds, np.ascontiguousarray(T_root[:, :3, :3]),
-            np.ascontiguousarray(T_root[:, :3, 3]), solver._mode_code, solver._axis_index, solver._lower,
-            solver._upper, solver._sample_low, solver._sample_high, solver._wrap, tol[0], tol[1],
-            max_iters, restarts, time_budget, damping, solver.STALL_WINDOW, solver.STALL_GAIN, solver.SHRINK_MIN,
+            solver.program.geometry, solver.program.kinds, np.ascontiguousarray(T_root[:, :3, :3]),
+            np.ascontiguousarray(T_root[:, :3, 3]), solver.program.mode_code, solver.program.axis_index, solver.program.lower,
+            solver.program.upper, solver.program.sample_low, solver.program.sample_high, solver.program.wrap, tol[0], tol[1],
+            max_iters, restarts, time_budget, damping, STALL_WINDOW, STALL_GAIN, SHRINK_MIN,
             X, iterations, attempts,
         )
-    if solver._has_cs:
-        X[:, solver._wrap] = wrap_angle(X[:, solver._wrap])
+    if solver.program.has_cs:
+        X[:, solver.program.wrap] = wrap_angle(X[:, solver.program.wrap])
     return X, iterations, attempts
 
 

@@ -35,7 +35,7 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.validate import check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
-from manipkit.kinematics.chain import LIMIT_TOLERANCE, Chain, frame_arguments, joint_array
+from manipkit.kinematics.chain import LIMIT_TOLERANCE, Chain, chain_steps, frame_arguments, joint_array
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.text import repr_text, short_text
@@ -170,6 +170,11 @@ class Robot:
         for name in ("_chains", "_fk_kernels", "_chain_objects"):
             object.__setattr__(self, name, {})
         object.__setattr__(self, "_workspace", threading.local())
+
+    @property
+    def joint_layout(self):
+        """How the joint vector maps onto Pinocchio's model (:class:`manipkit.kinematics.joints.JointLayout`)."""
+        return self._layout
 
     @property
     def data(self) -> pin.Data:
@@ -744,23 +749,7 @@ class Robot:
         """:meth:`chain` by Pinocchio frame ids (``base_id`` None: the root link), cached."""
         key = (frame_id, base_id)
         if key not in self._chains:
-            frame = self.model.frames[frame_id]
-            support = list(self.model.supports[frame.parentJoint])  # joint ids, universe (0) first
-            if base_id is None:
-                below, steps = support[1:], []
-            else:
-                base = self.model.frames[base_id]
-                below = support[support.index(base.parentJoint) + 1 :]
-                R, p = base.placement.rotation, base.placement.translation
-                steps = [_fixed_step(R.T, -R.T @ p)]
-            for joint_id in below:
-                placement = self.model.jointPlacements[joint_id]
-                rotation, translation = _read_only(placement.rotation), _read_only(placement.translation)
-                for column, scale, offset, kind, axis in self._layout.columns[joint_id]:
-                    # a floating or planar joint: its placement, then one motion per coordinate
-                    steps.append(ChainStep(rotation, translation, column, kind == "prismatic", axis, scale, offset))
-                    rotation, translation = _IDENTITY, _ZERO
-            steps.append(_fixed_step(frame.placement.rotation, frame.placement.translation))
+            steps = chain_steps(self.model, self._layout.columns, frame_id, base_id)
             self._chains[key] = steps
         return self._chains[key]
 
@@ -784,16 +773,3 @@ def _joint_number(name: str, value) -> float:
     if not math.isfinite(number):
         raise JointValueError(f"joint '{name}': value {value} is not finite; give a finite number")
     return number
-
-
-def _read_only(array) -> np.ndarray:
-    copy = np.array(array, dtype=float)
-    copy.setflags(write=False)
-    return copy
-
-
-_IDENTITY, _ZERO = _read_only(np.eye(3)), _read_only(np.zeros(3))
-
-
-def _fixed_step(rotation, translation) -> ChainStep:
-    return ChainStep(_read_only(rotation), _read_only(translation), -1, False, None)
