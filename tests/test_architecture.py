@@ -120,7 +120,6 @@ def test_imports_run_down_the_layers(path):
 
 @pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
 def test_no_private_name_from_another_module(path):
-    layer = layer_of(path)
     found = []
     own_module = ".".join([*package_of(path), path.stem])
     for module, names, line in runtime_imports(ast.parse(path.read_text()), path):
