@@ -7,7 +7,8 @@ one known way: a base rotation about z, about x and about a general axis, a
 tool transform, a base and a tool at once, each single entry (a, d, alpha,
 theta) in turn, one reversed joint (``reverse_joint``, whose FK is checked
 here against the table's FK with that joint value negated). The diagnosis
-must name that change, and ``DHCheck.candidate`` must pass ``check_dh``.
+must name that change (its fields, and the sentences of
+manipkit.app.dh_text), and ``DHCheck.candidate`` must pass ``check_dh``.
 """
 
 import dataclasses
@@ -16,9 +17,11 @@ import math
 import numpy as np
 import pytest
 
+from manipkit.app.dh_text import diagnosis_lines
 from manipkit.description.sources import bundled_robots, example_robot_data_arms
 from manipkit.dh import DHTable, dh_fk, dh_from_urdf_chain, transform_from_xyz_rpy
 from manipkit.dh.check import check_dh
+from manipkit.dh.diagnosis import EntryChange
 from manipkit.dh.entries import reverse_joint
 from manipkit.spatial.rotations import matrix_from_axis_angle
 
@@ -50,11 +53,13 @@ def tables(load_robot):
 
 
 def _diagnose(robot, table):
+    """The diagnosis (data) and its sentences (text), once the corrected table is checked to pass."""
     result = check_dh(table, robot, samples=SAMPLES)
+    text = "\n".join(diagnosis_lines(result))
     assert not result.passed
-    assert result.candidate is not None, "\n".join(result.diagnosis)
+    assert result.candidate is not None, text
     assert check_dh(result.candidate, robot, samples=SAMPLES).passed
-    return "\n".join(result.diagnosis)
+    return result.diagnosis, text
 
 
 def _rotation(axis, angle):
@@ -69,7 +74,10 @@ def test_a_base_rotation_is_named(tables, name, convention):
     for axis in ([0, 0, 1], [1, 0, 0], [1, -2, 3]):
         B = _rotation(axis, 0.7)
         B[:3, 3] = [0.05, -0.1, 0.2] if axis == [1, -2, 3] else 0.0
-        text = _diagnose(robot, dataclasses.replace(table, base=B @ table.base))
+        diagnosis, text = _diagnose(robot, dataclasses.replace(table, base=B @ table.base))
+        fix = diagnosis.fixes[0]
+        assert fix.kind == "base and tool" and fix.tool is None, text
+        assert np.allclose(fix.base, np.linalg.inv(B), atol=1e-7), text  # table.base is the derived table's own
         assert "a constant base transform" in text.splitlines()[1], text
 
 
@@ -77,11 +85,15 @@ def test_a_base_rotation_is_named(tables, name, convention):
 def test_a_tool_transform_and_a_base_with_a_tool_are_named(tables, name, convention):
     robot, table = tables(name, convention)
     X = transform_from_xyz_rpy([0.01, -0.02, 0.03], [0.2, -0.3, 0.4])
-    text = _diagnose(robot, dataclasses.replace(table, tool=table.tool @ X))
+    diagnosis, text = _diagnose(robot, dataclasses.replace(table, tool=table.tool @ X))
+    fix = diagnosis.fixes[0]
+    assert fix.kind == "base and tool" and fix.base is None and np.allclose(fix.tool, np.linalg.inv(X), atol=1e-7), text
     assert "a constant tool transform" in text.splitlines()[1], text
     if table.n > 1:  # with one joint, a base and a tool are not told apart from one another
         B = transform_from_xyz_rpy([0.1, 0.0, -0.05], [0.3, 0.5, -0.6])
-        text = _diagnose(robot, dataclasses.replace(table, base=B @ table.base, tool=table.tool @ X))
+        diagnosis, text = _diagnose(robot, dataclasses.replace(table, base=B @ table.base, tool=table.tool @ X))
+        assert any(fix.kind == "base and tool" and fix.base is not None and fix.tool is not None
+                   for fix in diagnosis.fixes), text
         assert "a base transform" in text and "and a tool transform" in text, text
 
 
@@ -92,7 +104,9 @@ def test_a_wrong_entry_is_named_with_the_value_the_urdf_implies(tables, name, co
     row = (ROBOTS.index(name) + "adth".index(entry[0])) % table.n  # a different row for each entry and robot
     rows = list(table.rows)
     rows[row] = dataclasses.replace(rows[row], **{entry: getattr(rows[row], entry) + change})
-    text = _diagnose(robot, dataclasses.replace(table, rows=tuple(rows)))
+    diagnosis, text = _diagnose(robot, dataclasses.replace(table, rows=tuple(rows)))
+    named = [fix.entry for fix in diagnosis.fixes if fix.entry is not None] + list(diagnosis.differences)
+    assert any(getattr(change, "row", None) == row + 1 and change.entry == entry for change in named), text
     assert f"row {row + 1}: {entry} = " in text, text
 
 
@@ -106,7 +120,9 @@ def test_a_reversed_joint_is_named(tables, name, convention):
     flipped = Q.copy()
     flipped[:, j] *= -1
     assert np.abs(dh_fk(reversed_table, Q) - dh_fk(table, flipped)).max() < 1e-12
-    text = _diagnose(robot, reversed_table)
+    diagnosis, text = _diagnose(robot, reversed_table)
+    assert diagnosis.kind in ("reversed joint", "axes compared"), text
+    assert j + 1 in diagnosis.fixes[0].reversed or j + 1 in diagnosis.reversed_joints, text
     assert f"joint {j + 1} ({robot.chain_joints('base_link', 'ee_link')[j]}) turns the other way" in text, text
 
 
@@ -121,7 +137,9 @@ def test_reverse_joint_twice_gives_the_table_back(tables):
 def test_issue_finding_5_a_base_half_turn_is_not_a_reversed_joint(tables):
     # The published UR5 table differs from the URDF (checked from base_link) by Rz(180 deg) before row 1.
     robot, table = tables("ur5", "standard")
-    text = _diagnose(robot, dataclasses.replace(table, base=_rotation([0, 0, 1], math.pi) @ table.base))
+    diagnosis, text = _diagnose(robot, dataclasses.replace(table, base=_rotation([0, 0, 1], math.pi) @ table.base))
+    assert diagnosis.kind == "base and tool" and all(fix.reversed == () for fix in diagnosis.fixes)
+    assert np.allclose(diagnosis.fixes[0].base, np.diag([-1.0, -1.0, 1.0, 1.0]), atol=1e-12)
     assert "a constant base transform xyz [0 0 0] m, rpy [0 0 180] deg (before row 1): reconciles them fully" in text
     assert "turns the other way" not in text and "no constant base" not in text
 
@@ -130,7 +148,9 @@ def test_issue_finding_6_a_wrong_link_length_is_named(tables):
     robot, table = tables("ur5", "standard")
     rows = list(table.rows)
     rows[1] = dataclasses.replace(rows[1], a=0.43)  # the URDF's 0.425 m upper arm, mistyped
-    text = _diagnose(robot, dataclasses.replace(table, rows=tuple(rows)))
+    diagnosis, text = _diagnose(robot, dataclasses.replace(table, rows=tuple(rows)))
+    assert diagnosis.kind == "single entry"
+    assert diagnosis.fixes[0].entry == EntryChange(2, "a", 0.43, pytest.approx(0.425, abs=1e-12))
     assert "row 2: a = 0.43 m, the URDF implies 0.425 m: reconciles them fully" in text
 
 
@@ -139,7 +159,8 @@ def test_issue_finding_6_a_flipped_alpha_is_named_not_a_reversed_joint(tables):
     rows = list(table.rows)
     assert rows[3].alpha == pytest.approx(-math.pi / 2)
     rows[3] = dataclasses.replace(rows[3], alpha=math.pi / 2)
-    text = _diagnose(robot, dataclasses.replace(table, rows=tuple(rows)))
+    diagnosis, text = _diagnose(robot, dataclasses.replace(table, rows=tuple(rows)))
+    assert diagnosis.fixes[0].entry == EntryChange(4, "alpha", math.pi / 2, pytest.approx(-math.pi / 2, abs=1e-12))
     assert "row 4: alpha = 90 deg, the URDF implies -90 deg: reconciles them fully" in text
     assert "turns the other way" not in text
 
@@ -151,7 +172,11 @@ def test_two_wrong_entries_are_listed_against_the_derived_table(tables):
     rows[2] = dataclasses.replace(rows[2], a=0.4)
     result = check_dh(DHTable(rows, "standard", base=table.base, tool=table.tool), robot, samples=SAMPLES)
     assert check_dh(result.candidate, robot, samples=SAMPLES).passed  # the derived table
-    text = "\n".join(result.diagnosis)
+    diagnosis = result.diagnosis
+    assert diagnosis.kind == "axes compared" and diagnosis.fixes == () and diagnosis.first_difference == 3
+    assert diagnosis.differences == (EntryChange(2, "a", 0.43, pytest.approx(0.425, abs=1e-12)),
+                                     EntryChange(3, "a", 0.4, pytest.approx(0.39225, abs=1e-12)))
+    text = "\n".join(diagnosis_lines(result))
     assert "no constant base or tool transform, single table entry" in text
     assert "differs in 2 place(s)" in text
     assert "row 2: a = 0.43 m, the URDF implies 0.425 m" in text and "row 3: a = 0.4 m, the URDF implies 0.39225 m" in text
@@ -168,7 +193,12 @@ def test_a_wrong_length_is_named_also_when_the_base_is_turned(tables, name):
     rows = list(table.rows)
     rows[row] = dataclasses.replace(rows[row], **{entry: getattr(rows[row], entry) + 0.005})
     B = _rotation([1, 2, -1], 2.0)
-    text = _diagnose(robot, DHTable(tuple(rows), "standard", base=B @ table.base, tool=table.tool))
+    diagnosis, text = _diagnose(robot, DHTable(tuple(rows), "standard", base=B @ table.base, tool=table.tool))
+    fix = diagnosis.fixes[0]
+    assert diagnosis.kind == fix.kind == "length with base and tool", text
+    assert (fix.entry.row, fix.entry.entry) == (row + 1, entry)
+    assert fix.entry.urdf_value == pytest.approx(fix.entry.table_value - 0.005, abs=1e-9), text
+    assert np.allclose(fix.base[:3, :3], B[:3, :3].T, atol=1e-7), text
     assert f"row {row + 1}: {entry} = " in text and "with a constant base transform" in text, text
 
 
@@ -189,8 +219,14 @@ def test_issue_finding_6_published_ur5_table_with_a_wrong_length(tmp_path, load_
     ]))
     robot = load_robot("ur5")
     result = check_dh(table, robot, tip="tool0", samples=SAMPLES)
-    assert result.diagnosis[1].startswith(
+    fix = result.diagnosis.fixes[0]
+    assert fix.kind == "length with base and tool" and (result.base, result.tip) == ("base_link", "tool0")
+    assert fix.entry == EntryChange(2, "a", -0.43, pytest.approx(-0.425, abs=1e-12))
+    assert np.allclose(fix.base, np.diag([-1.0, -1.0, 1.0, 1.0]), atol=1e-9)
+    assert np.allclose(fix.tool, np.eye(4), atol=1e-8)  # within RECONCILE_TOL: no tool transform, none named
+    lines = diagnosis_lines(result)
+    assert lines[1].startswith(
         "row 2: a = -0.43 m, the URDF implies -0.425 m, with a constant base transform xyz [0 0 0] m, "
         "rpy [0 0 180] deg (before row 1): reconciles them fully"
-    ), result.diagnosis
+    ), lines
     assert check_dh(result.candidate, robot, tip="tool0").passed

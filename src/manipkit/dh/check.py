@@ -5,9 +5,10 @@ base frame to a tip frame; the same joint values go to both. Agreement is
 measured on sampled configurations inside the joint limits: the largest
 position error (m) and rotation error (rad) of ``T_base_tip``.
 
-The diagnosis looks for the simplest explanation first, each candidate
-checked on the samples (``DHCheck.candidate`` is the first corrected table
-that agrees):
+The diagnosis (``DHCheck.diagnosis``, a :class:`~manipkit.dh.diagnosis.DHDiagnosis`:
+data, no words; :mod:`manipkit.app.dh_text` words it) looks for the
+simplest explanation first, each candidate checked on the samples
+(``DHCheck.candidate`` is the first corrected table that agrees):
 
 1. **constant base and tool transforms**, any rotation: a tool ``X = M_dh^-1
    M_urdf`` alone, a base ``B = M_urdf M_dh^-1`` alone, then both, with ``B``
@@ -17,10 +18,11 @@ that agrees):
 2. **one table entry**: for every row and parameter (a, alpha, d, theta)
    the value that makes the table agree, in closed form (FK is ``L E(v) R``
    with ``E`` the entry's ``Tx``, ``Rx``, ``Tz`` or ``Rz``: least squares in
-   ``v`` or in ``(cos v, sin v)``), named as "row 2: a = 0.43 m, the URDF
-   implies 0.425 m"; every entry that alone explains the difference is
-   named (theta of row 1 and a base turn about z can be the same thing), so
-   a flipped alpha is that alpha, not a reversed joint; then one length
+   ``v`` or in ``(cos v, sin v)``), given with the value the URDF implies
+   (:class:`~manipkit.dh.diagnosis.EntryChange`); every entry that alone
+   explains the difference is listed (theta of row 1 and a base turn about z
+   can be the same thing), so a flipped alpha is that alpha, not a reversed
+   joint; then one length
    (a or d) together with a base and tool transform (a published table
    whose base is turned against the URDF's and one length mistyped);
 3. **one joint turning the other way** (:func:`~manipkit.dh.entries.reverse_joint`), with a base
@@ -42,7 +44,7 @@ The screws are taken numerically (central differences of the FK, error
 about 1e-10), the same way for both sources, so no DH convention is assumed.
 
 Conventions (docs/architecture.md): ``T_a_b`` is the pose of frame b in frame
-a; metres and radians, degrees only in the messages; rpy is ``R = Rz(yaw)
+a; metres and radians throughout (degrees only in the app's words); rpy is ``R = Rz(yaw)
 Ry(pitch) Rx(roll)``. The robot is used through its public methods only
 (``chain_joints``, ``joint_names``, ``sample_q``, ``q``, ``fk``), so this
 module does not import :mod:`manipkit.kinematics`.
@@ -58,14 +60,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.dh.diagnosis import AxisComparison, DHCorrection, DHDiagnosis, EndChange, EntryChange
 from manipkit.dh.entries import ANGLE_ENTRIES, ENTRIES, GENERATORS, dh_link_matrices, reverse_joint, row_factors
 from manipkit.dh.from_urdf import dh_from_urdf_chain
 from manipkit.dh.table import DHTable, dh_fk
-from manipkit.dh.text import NOISE
 from manipkit.errors import ManipkitError
-from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
 from manipkit.spatial.transforms import invert_transform, pose_residuals
-from manipkit.text import short_text, vector_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -73,7 +73,7 @@ if TYPE_CHECKING:
 __all__ = ["RECONCILE_TOL", "SCREW_TOL", "DHCheck", "check_dh", "screws"]
 
 SCREW_TOL = 1e-6  # screws equal within this (axis direction and moment)
-RECONCILE_TOL = 1e-8  # a correction "reconciles fully" when it leaves less than this (m, rad)
+RECONCILE_TOL = 1e-8  # home poses, and a base or tool transform and the identity, are equal within this (each entry)
 
 
 @dataclass(frozen=True)
@@ -89,25 +89,31 @@ class DHCheck:
         Largest rotation angle between the two orientations (rad).
     passed : bool
         Both errors within ``tol``.
-    diagnosis : tuple of str
-        Human-readable findings (empty when the table agrees).
+    diagnosis : DHDiagnosis
+        What the check found, as data (:mod:`manipkit.dh.diagnosis`; kind
+        ``"agrees"`` when the table passes); :mod:`manipkit.app.dh_text`
+        words it.
     joints : tuple of str
         URDF joints the rows map to.
     samples, tol : int, float
-        How the check was run.
+        How the check was run (``samples`` is 0 when the row count is wrong).
     candidate : DHTable or None
         When the table does not agree: a corrected table that does (the
         first full reconciliation the diagnosis names), else None.
+    base, tip : str
+        The URDF frames the table was checked between, as given.
     """
 
     max_position_error: float
     max_rotation_error: float
     passed: bool
-    diagnosis: tuple[str, ...]
+    diagnosis: DHDiagnosis
     joints: tuple[str, ...]
     samples: int
     tol: float
     candidate: DHTable | None = None
+    base: str = "base_link"
+    tip: str = "ee_link"
 
 
 def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str = "ee_link",
@@ -135,12 +141,9 @@ def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str 
     """
     joints = robot.chain_joints(base, tip)
     if table.n != len(joints):
-        note = (
-            f"the table has {table.n} rows but the URDF chain {base} -> {tip} has {len(joints)} movable joints"
-            f" ({', '.join(joints) or 'none'}); rows map in order to those joints"
-        )
-        extra = _count_hint(table, len(joints))
-        return DHCheck(math.nan, math.nan, False, (note,) + extra, joints, 0, tol)
+        extra_row = table.rows[-1] if table.n == len(joints) + 1 else None
+        diagnosis = DHDiagnosis("row count", rows=table.n, extra_row=extra_row)
+        return DHCheck(math.nan, math.nan, False, diagnosis, joints, 0, tol, base=base, tip=tip)
 
     index = [robot.joint_names.index(name) for name in joints]
     Q = robot.sample_q(samples, seed=seed)[:, index]
@@ -148,7 +151,7 @@ def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str 
     position_errors, rotation_errors = pose_residuals(urdf_fk(Q), dh_fk(table, Q))
     max_position, max_rotation = float(position_errors.max()), float(rotation_errors.max())
     passed = max_position <= tol and max_rotation <= tol
-    diagnosis, candidate = (), None
+    diagnosis, candidate = DHDiagnosis("agrees"), None
     if not passed:
         def derive():
             try:
@@ -156,9 +159,8 @@ def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str 
             except ManipkitError:
                 return None
 
-        lines, candidate = _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive)
-        diagnosis = tuple(lines)
-    return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol, candidate)
+        diagnosis, candidate = _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive)
+    return DHCheck(max_position, max_rotation, passed, diagnosis, joints, samples, tol, candidate, base, tip)
 
 
 def _urdf_fk(robot: Robot, base: str, tip: str, index: list[int]):
@@ -172,21 +174,6 @@ def _urdf_fk(robot: Robot, base: str, tip: str, index: list[int]):
         return robot.fk(Q, base=base, tip=tip)
 
     return fk
-
-
-def _count_hint(table: DHTable, n_joints: int) -> tuple[str, ...]:
-    if table.n == n_joints + 1:
-        last = table.rows[-1]
-        return (
-            (
-                f"the last row (a={short_text(last.a)}, alpha={short_text(math.degrees(last.alpha))} deg, "
-                f"d={short_text(last.d)}, theta={short_text(math.degrees(last.theta))} deg) has no joint to map to: "
-                "if it only places the tool, write it as `tool:` instead of a row"
-            ),
-        )
-    if table.n < n_joints:
-        return (f"{n_joints - table.n} joint(s) of the URDF chain have no row; check --base and --tip",)
-    return (f"{table.n - n_joints} row(s) too many; check --base and --tip",)
 
 
 # --------------------------------------------------------------------------
@@ -229,25 +216,18 @@ def _screw_line(S):
     return w, np.cross(w, v)  # v = -w x p = p x w, so w x v is the foot point of the origin
 
 
-def _compare_screws(S_urdf, S_dh):
-    """'same', 'reversed' or a description of how two joint axes differ."""
-    if np.abs(S_urdf - S_dh).max() < SCREW_TOL:
-        return "same"
-    if np.abs(S_urdf + S_dh).max() < SCREW_TOL:
-        return "reversed"
+def _compare_axes(joint: int, S_urdf, S_dh) -> AxisComparison:
+    """How joint ``joint``'s axis in the table (screw ``S_dh``) compares with the URDF's (``S_urdf``)."""
     (w_u, p_u), (w_d, p_d) = _screw_line(S_urdf), _screw_line(S_dh)
-    if (p_u is None) != (p_d is None):
-        urdf_moves, table_moves = ("slides", "turns") if p_u is None else ("turns", "slides")
-        return f"the URDF joint {urdf_moves}, the table's row {table_moves} (check the row's type)"
-    angle = short_text(math.degrees(math.atan2(np.linalg.norm(np.cross(w_u, w_d)), abs(float(w_u @ w_d)))), 3)
-    along_u, along_d = _vector_message(w_u), _vector_message(w_d)
-    if p_u is None:  # both slide
-        return f"its axis differs by {angle} deg (URDF {along_u}, table {along_d})"
-    distance = short_text(_line_distance(w_u, p_u, w_d, p_d), 4)
-    return (
-        f"its axis differs: URDF along {along_u} through {_vector_message(p_u)}, table along {along_d} "
-        f"through {_vector_message(p_d)} (angle {angle} deg, distance {distance} m)"
-    )
+    if np.abs(S_urdf - S_dh).max() < SCREW_TOL:
+        relation = "same"
+    elif np.abs(S_urdf + S_dh).max() < SCREW_TOL:
+        relation = "reversed"
+    else:
+        relation = "joint type" if (p_u is None) != (p_d is None) else "different"
+    angle = math.atan2(np.linalg.norm(np.cross(w_u, w_d)), abs(float(w_u @ w_d)))
+    distance = None if p_u is None or p_d is None else _line_distance(w_u, p_u, w_d, p_d)
+    return AxisComparison(joint, relation, w_u, w_d, p_u, p_d, angle, distance)
 
 
 def _line_distance(w1, p1, w2, p2) -> float:
@@ -257,117 +237,86 @@ def _line_distance(w1, p1, w2, p2) -> float:
     return float(abs((p2 - p1) @ normal) / np.linalg.norm(normal))
 
 
-def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive) -> tuple[list[str], DHTable | None]:
-    """The diagnosis lines and the first corrected table that agrees (None when none was found).
+def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive) -> tuple[DHDiagnosis, DHTable | None]:
+    """The diagnosis and the first corrected table that agrees (None when none was found).
 
     In stages, simplest explanation first: (1) constant base and tool
     transforms (any rotation), (2) one table entry (row, parameter), (3) one
     joint turning the other way (with base and tool refitted); only when none
     of these reconciles the two chains, the screw comparison below locates
     where they stop agreeing, and the table derived from the URDF in the
-    same convention (``derive()``) names the entries that differ.
+    same convention (``derive()``) gives the entries that differ.
     """
     n = len(joints)
     dh = partial(dh_fk, table)
-    lines = [(
-        f"does not agree: max position error {short_text(max_position, 4)} m, max rotation error "
-        f"{short_text(max_rotation, 4)} rad ({short_text(math.degrees(max_rotation), 4)} deg) over {len(Q)} samples"
-    )]
     if n == 0:
-        return lines + [_tool_line(_home_difference(urdf_fk, dh, np.zeros(0)))], None
+        return DHDiagnosis("no joints", tool=_home_difference(urdf_fk, dh, np.zeros(0))), None
     limit = tol  # a candidate must pass the check it is offered for (DHCheck.candidate)
     fit = _Fit(table, urdf_fk, Q)
 
-    full = [c for c in fit.base_and_tool(table, "") if c[2] <= limit][:1]  # stage 1: the simplest one
-    full += [c for c in fit.single_entries() if c[2] <= limit]  # stage 2: every entry that alone explains it
+    full = [c for c in fit.base_and_tool(table) if c.residual <= limit][:1]  # stage 1: the simplest one
+    full += [c for c in fit.single_entries() if c.residual <= limit]  # stage 2: every entry that alone explains it
     S_u, S_d = screws(urdf_fk, n), screws(dh, n)
-    verdicts = [_compare_screws(S_u[i], S_d[i]) for i in range(n)]
-    signs = np.array([-1.0 if v == "reversed" else 1.0 for v in verdicts])
-    reversed_joints = [i for i, v in enumerate(verdicts) if v == "reversed"]
+    axes = tuple(_compare_axes(i + 1, S_u[i], S_d[i]) for i in range(n))
+    signs = np.array([-1.0 if a.relation == "reversed" else 1.0 for a in axes])
     if not full:  # stage 2b: one length and a base or tool transform
-        full = [c for c in fit.length_entries_with_base_and_tool() if c[2] <= limit]
+        full = [c for c in fit.length_entries_with_base_and_tool() if c.residual <= limit]
     if not full:
-        full = fit.reversed_joints(joints, limit)  # stage 3
-        if full and len(reversed_joints) > 1:  # several joints reversed as the table stands, if that explains it too
-            turned = " and ".join(f"joint {i + 1} ({joints[i]}) turns the other way" for i in reversed_joints)
-            full += [(f"{turned}: {text}", None, residual)
-                     for text, residual in _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol)
-                     if residual <= limit][:1]
+        full = fit.reversed_joints(limit)  # stage 3
+        if full and np.count_nonzero(signs < 0) > 1:  # several joints reversed as the table stands, if that explains it too
+            full += [c for c in _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol) if c.residual <= limit][:1]
     if full:
-        (text, candidate, residual), *others = full
-        lines.append(f"{text}: reconciles them fully (remaining error {short_text(residual, 2)})")
-        lines += [f"or equally {other}: reconciles them fully" for other, _, _ in others]
-        return lines, candidate
-
-    differing = [i for i, v in enumerate(verdicts) if v not in ("same", "reversed")]
-    for i in reversed_joints:
-        lines.append(
-            f"joint {i + 1} ({joints[i]}) turns the other way: the table's z axis points opposite to the URDF axis "
-            f"{_vector_message(_screw_line(S_u[i])[0])} at q = 0"
-        )
-    if differing:
-        first = differing[0]
-        lines.append(f"the chains stop agreeing at joint {first + 1} ({joints[first]}): {verdicts[first]}")
-        if len(differing) > 1:
-            lines.append("axes also differ at joints " + ", ".join(f"{i + 1} ({joints[i]})" for i in differing[1:]))
-    else:
-        lines.append("every joint axis of the table lies on the URDF's axis at q = 0" +
-                     (" (some reversed)" if reversed_joints else ""))
+        return DHDiagnosis(full[0].kind, fixes=tuple(full), axes=axes), full[0].candidate
 
     candidates = _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol)
-    full = [c for c in candidates if c[1] <= limit]
-    if full:
-        lines.append(f"{full[0][0]}: reconciles them fully (remaining error {short_text(full[0][1], 2)})")
-    else:
-        best = min(candidates, key=lambda c: c[1], default=None)
-        if best is not None and best[1] < 0.5 * max(max_position, max_rotation):
-            lines.append(f"{best[0]}: reduces the error to {short_text(best[1], 3)} but does not reconcile them fully")
-        lines.append("no constant base or tool transform, single table entry, joint zero offset or joint direction "
-                     "change reconciles them")
+    fixes = [c for c in candidates if c.residual <= limit][:1]
+    best = min(candidates, key=lambda c: c.residual, default=None)
+    if fixes or best is None or best.residual >= 0.5 * max(max_position, max_rotation):
+        best = None
     derived = derive()
-    differences = _entry_differences(table, derived) if derived is not None else []
+    if derived is not None and [r.type for r in table.rows] != [r.type for r in derived.rows]:
+        derived = None  # rows that differ in kind: no entry-by-entry comparison
+    differences = () if derived is None else _differences(table, derived)
+    diagnosis = DHDiagnosis("axes compared", fixes=tuple(fixes), axes=axes, partial=best, derived=derived,
+                            differences=differences)
     if not differences:
-        return lines, None
+        return diagnosis, None
     # the derived table, with the table's own names, limits and name: it agrees by construction
     rows = tuple(replace(new, qlim=row.qlim, name=row.name) for row, new in zip(table.rows, derived.rows))
-    return lines + differences, DHTable(rows, table.convention, table.name, base=derived.base, tool=derived.tool)
+    return diagnosis, DHTable(rows, table.convention, table.name, base=derived.base, tool=derived.tool)
 
 
-def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol):
-    """Candidate corrections ``(description, remaining max error)``, simplest first."""
+def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol) -> list[DHCorrection]:
+    """Candidate corrections of the table as it stands, with the joints of ``signs`` -1 reversed (no corrected
+    table: described only), simplest first."""
     n = len(signs)
     dh = partial(dh_fk, table)
-    flips = [i + 1 for i in range(n) if signs[i] < 0]
-    flip_text = f"with joint(s) {', '.join(map(str, flips))} reversed, " if flips else ""
+    flips = tuple(i + 1 for i in range(n) if signs[i] < 0)
     M_u, M_d = urdf_fk(np.zeros(n)), dh(np.zeros(n))  # home poses
     out = []
 
     # Tool only: T_urdf(q) = T_dh(s q) X.
     X = invert_transform(M_d) @ M_u
-    out.append((f"{flip_text}{_tool_line(X)}", _residual(urdf_fk, lambda q: dh(q * signs) @ X, Q)))
+    out.append(DHCorrection("base and tool", _residual(urdf_fk, lambda q: dh(q * signs) @ X, Q), reversed=flips, tool=X))
 
     # Base only: T_urdf(q) = B T_dh(s q).
     B = M_u @ invert_transform(M_d)
-    out.append((f"{flip_text}a constant base transform {_pose_text(B)} (before row 1)",
-                 _residual(urdf_fk, lambda q: B @ dh(q * signs), Q)))
+    out.append(DHCorrection("base and tool", _residual(urdf_fk, lambda q: B @ dh(q * signs), Q), reversed=flips, base=B))
 
     # Base and tool: align the table's axes with the URDF's by one rigid motion.
     B = _align_axes(S_u, S_d * signs[:, None], M_u[:3, 3], M_d[:3, 3])
     if B is not None:
         X = invert_transform(B @ M_d) @ M_u
-        out.append((f"{flip_text}a base transform {_pose_text(B)} and a tool transform {_pose_text(X)}",
-                    _residual(urdf_fk, lambda q: B @ dh(q * signs) @ X, Q)))
+        out.append(DHCorrection("base and tool", _residual(urdf_fk, lambda q: B @ dh(q * signs) @ X, Q),
+                                reversed=flips, base=B, tool=X))
 
     # Joint zero offsets (and a tool transform for what is left at the tip).
     offsets = _fit_offsets(S_u, dh, signs, n)
     if offsets is not None and np.abs(offsets).max() > 1e-9:
         X = _home_difference(urdf_fk, dh, offsets)
-        described = ", ".join(
-            f"joint {i + 1} by {'+' if o > 0 else '-'}{short_text(math.degrees(abs(o)))} deg"
-            for i, o in enumerate(offsets) if abs(o) > 1e-9
-        )
-        out.append((f"{flip_text}joint zero offsets ({described} added to theta) and {_tool_line(X)}",
-                    _residual(urdf_fk, lambda q: dh(q * signs + offsets) @ X, Q)))
+        nonzero = [(i + 1, o) for i, o in enumerate(offsets) if abs(o) > 1e-9]
+        out.append(DHCorrection("joint offsets", _residual(urdf_fk, lambda q: dh(q * signs + offsets) @ X, Q),
+                                reversed=flips, tool=X, offsets=nonzero))
     return out
 
 
@@ -391,34 +340,35 @@ class _Fit:
         position, rotation = pose_residuals(self.T_u, dh_fk(candidate, self.Q))
         return float(max(position.max(), rotation.max()))
 
-    def base_and_tool(self, variant: DHTable, prefix: str) -> list:
-        """``(text, corrected table, residual)`` for a new tool, a new base, then both (any rotations)."""
+    def base_and_tool(self, variant: DHTable, *, kind: str = "base and tool", **fields) -> list[DHCorrection]:
+        """A new tool, a new base, then both (any rotations) for ``variant`` of the table (the table itself, or
+        one with a joint reversed: ``kind`` and ``fields`` say which)."""
         n = variant.n
         M_d = dh_fk(variant, np.zeros(n))
         out = []
 
-        def add(text, B, X):
-            base = variant.base if np.array_equal(B, np.eye(4)) else _snapped(_snapped(B) @ variant.base)
-            tool = variant.tool if np.array_equal(X, np.eye(4)) else _snapped(variant.tool @ _snapped(X))
+        def add(B, X):  # None: no such transform
+            identity = np.eye(4)
+            base = variant.base if B is None or np.array_equal(B, identity) else _snapped(_snapped(B) @ variant.base)
+            tool = variant.tool if X is None or np.array_equal(X, identity) else _snapped(variant.tool @ _snapped(X))
             candidate = DHTable(variant.rows, variant.convention, variant.name, base=base, tool=tool)
-            out.append((prefix + text, candidate, self.residual(candidate)))
+            out.append(DHCorrection(kind, self.residual(candidate), candidate, base=B, tool=X, **fields))
 
         X = invert_transform(M_d) @ self.M_u  # T_urdf(q) = T_dh(q) X
         B = self.M_u @ invert_transform(M_d)  # T_urdf(q) = B T_dh(q)
         if np.abs(X - np.eye(4)).max() < RECONCILE_TOL:  # the home poses agree: the table as it is
-            add("", np.eye(4), np.eye(4))
+            add(None, None)
         else:
-            add(_tool_line(X), np.eye(4), X)
-            add(f"a constant base transform {_pose_text(B)} (before row 1)", B, np.eye(4))
+            add(None, X)
+            add(B, None)
         S_d = np.vstack([_precise_screws(partial(dh_fk, variant), n, q) for q in self.configurations])
         B = _align_axes(self.S_u, S_d, self.M_u[:3, 3], M_d[:3, 3])  # Ad(B) S_dh = S_urdf, then X at the tip
         if B is not None:
-            X = invert_transform(B @ M_d) @ self.M_u
-            add(f"a base transform {_pose_text(B)} and a tool transform {_pose_text(X)}", B, X)
+            add(B, invert_transform(B @ M_d) @ self.M_u)
         return out
 
-    def single_entries(self) -> list:
-        """``(text, corrected table, residual)`` for each entry whose right value alone makes the table agree.
+    def single_entries(self) -> list[DHCorrection]:
+        """The correction of each entry whose right value alone makes the table agree.
 
         The value is fitted in closed form: FK is ``L E(v) R`` with ``E`` the
         entry's elementary transform (``Tx(a)``, ``Rx(alpha)``, ``Tz(d)``,
@@ -440,10 +390,8 @@ class _Fit:
                 rows = list(table.rows)
                 rows[i] = replace(row, **{entry: value})
                 candidate = replace(table, rows=tuple(rows))
-                out.append((
-                    f"row {i + 1}: {entry} = {_entry_text(entry, current)}, the URDF implies {_entry_text(entry, value)}",
-                    candidate, self.residual(candidate),
-                ))
+                out.append(DHCorrection("single entry", self.residual(candidate), candidate,
+                                        entry=EntryChange(i + 1, entry, current, value)))
         return out
 
     def _around(self, i: int, entry: str):
@@ -478,9 +426,9 @@ class _Fit:
         norm = float(A @ A)
         return float(A @ Y / norm) if norm > 1e-18 else None
 
-    def length_entries_with_base_and_tool(self) -> list:
-        """``(text, corrected table, residual)`` for each length (a or d) whose right value, with a constant base
-        and tool transform, makes the table agree.
+    def length_entries_with_base_and_tool(self) -> list[DHCorrection]:
+        """The correction of each length (a or d) whose right value, with a constant base and tool transform,
+        makes the table agree (``base`` and ``tool`` within ``RECONCILE_TOL`` of the identity are not needed).
 
         A length changes no joint axis direction, so the base rotation ``R_B``
         comes from the axes (:func:`_align_axes`) and the tool rotation from
@@ -523,26 +471,19 @@ class _Fit:
                 tool[:3, :3], tool[:3, 3] = R_X, x[:3]
                 base, tool = _snapped(base), _snapped(tool)
                 candidate = replace(variant, base=_snapped(base @ table.base), tool=_snapped(table.tool @ tool))
-                placed = [text for text, T in ((f"a constant base transform {_pose_text(base)} (before row 1)", base),
-                                               (_tool_line(tool), tool)) if np.abs(T - np.eye(4)).max() >= RECONCILE_TOL]
-                out.append((
-                    f"row {i + 1}: {entry} = {_entry_text(entry, getattr(row, entry))}, the URDF implies "
-                    f"{_entry_text(entry, value)}" + "".join(f", with {text}" for text in placed),
-                    candidate, self.residual(candidate),
-                ))
+                out.append(DHCorrection("length with base and tool", self.residual(candidate), candidate,
+                                        entry=EntryChange(i + 1, entry, getattr(row, entry), value), base=base, tool=tool))
         return out
 
-    def reversed_joints(self, joints, limit: float) -> list:
-        """``(text, corrected table, residual)`` for each joint that, turned the other way (with a base and
-        tool transform refitted if need be), makes the table agree."""
+    def reversed_joints(self, limit: float) -> list[DHCorrection]:
+        """The correction of each joint that, turned the other way (with a base and tool transform refitted
+        if need be), makes the table agree within ``limit``."""
         out = []
         for j in range(self.table.n):
             variant = reverse_joint(self.table, j)
-            changes = "; ".join(_entry_changes(self.table, variant))
-            prefix = f"joint {j + 1} ({joints[j]}) turns the other way: reversing it in the table ({changes})"
-            fits = [(text.removesuffix(", with "), candidate, residual)
-                    for text, candidate, residual in self.base_and_tool(variant, prefix + ", with ")]
-            out += [fit for fit in fits if fit[2] <= limit][:1]
+            fits = self.base_and_tool(variant, kind="reversed joint", reversed=(j + 1,),
+                                      changes=_differences(self.table, variant))
+            out += [fit for fit in fits if fit.residual <= limit][:1]
         return out
 
 
@@ -566,51 +507,19 @@ def _precise_screws(fk, n: int, q0) -> np.ndarray:
     return (4.0 * screws(fk, n, q0, step=5e-4) - screws(fk, n, q0, step=1e-3)) / 3.0
 
 
-def _entry_text(entry: str, value: float) -> str:
-    if entry in ANGLE_ENTRIES:
-        return f"{short_text(math.degrees(float(wrap_angle(value))), 6, zero=math.degrees(NOISE))} deg"
-    return f"{short_text(value, 6, zero=NOISE)} m"
-
-
-def _differing_entries(table: DHTable, other: DHTable):
-    """(row number, entry, table's value, other's value) for every entry that differs (angles modulo 2 pi)."""
+def _differences(table: DHTable, other: DHTable) -> tuple[EntryChange | EndChange, ...]:
+    """Every entry (angles modulo 2 pi), then the base and tool, in which ``other`` differs from ``table``."""
+    out = []
     for i, (row, new) in enumerate(zip(table.rows, other.rows)):
         for entry in ENTRIES:
             mine, theirs = getattr(row, entry), getattr(new, entry)
             gap = math.remainder(theirs - mine, 2 * math.pi) if entry in ANGLE_ENTRIES else theirs - mine
             if abs(gap) > 1e-9:
-                yield i + 1, entry, mine, theirs
-
-
-def _differing_ends(table: DHTable, other: DHTable) -> list[str]:
-    """``base`` and/or ``tool`` when they differ between the two tables."""
-    return [what for what in ("base", "tool") if np.abs(getattr(table, what) - getattr(other, what)).max() > 1e-9]
-
-
-def _entry_changes(table: DHTable, other: DHTable) -> list[str]:
-    """``row 2: alpha 0 deg -> 180 deg``, one per entry that differs; base and tool when they differ."""
-    out = [f"row {row}: {entry} {_entry_text(entry, old)} -> {_entry_text(entry, new)}"
-           for row, entry, old, new in _differing_entries(table, other)]
-    return out + [f"{what} {_pose_text(getattr(other, what))}" for what in _differing_ends(table, other)]
-
-
-def _entry_differences(table: DHTable, derived: DHTable) -> list[str]:
-    """Every entry in which ``table`` differs from the one derived from the URDF, when their rows match in kind."""
-    if [r.type for r in table.rows] != [r.type for r in derived.rows]:
-        return []
-    out = [f"row {row}: {entry} = {_entry_text(entry, mine)}, the URDF implies {_entry_text(entry, urdf)}"
-           for row, entry, mine, urdf in _differing_entries(table, derived)]
-    out += [f"{what} {_pose_text(getattr(table, what))}, the URDF implies {_pose_text(getattr(derived, what))}"
-            for what in _differing_ends(table, derived)]
-    if not out:
-        return []
-    shown = out[:12] + ([f"... and {len(out) - 12} more"] if len(out) > 12 else [])
-    return [
-        f"the {derived.convention} DH table derived from the URDF (as `manipkit dh from-urdf` derives it) differs in "
-        f"{len(out)} place(s); DH frames are not unique, so an entry can also differ where a frame was chosen "
-        "differently:",
-        *shown,
-    ]
+                out.append(EntryChange(i + 1, entry, mine, theirs))
+    for end in ("base", "tool"):
+        if np.abs(getattr(table, end) - getattr(other, end)).max() > 1e-9:
+            out.append(EndChange(end, getattr(table, end), getattr(other, end)))
+    return tuple(out)
 
 
 def _home_difference(urdf_fk, dh, q_dh):
@@ -704,20 +613,3 @@ def _fit_offsets(S_u, dh, signs, n, grid: int = 72):
             return None
         offsets[i] = math.remainder(best, 2 * math.pi)
     return offsets
-
-
-def _tool_line(X) -> str:
-    if np.abs(X - np.eye(4)).max() < RECONCILE_TOL:
-        return "no tool transform"
-    return f"a constant tool transform {_pose_text(X)} (after the last row)"
-
-
-def _pose_text(T) -> str:
-    rpy = np.degrees(rpy_from_matrix(T[:3, :3], check=False, gimbal_tol=NOISE))  # at gimbal lock roll is 0
-    return f"xyz {_vector_message(T[:3, 3])} m, rpy {_vector_message(rpy, 6, zero=math.degrees(NOISE))} deg"
-
-
-def _vector_message(values, digits: int = 6, *, zero: float = 1e-9) -> str:
-    """:func:`manipkit.text.vector_text` with ``digits`` significant digits; entries within ``zero`` of zero
-    (finite-difference noise: 1e-9 m, 1e-7 deg) print as 0."""
-    return vector_text(values, lambda v: short_text(v, digits, zero=zero))

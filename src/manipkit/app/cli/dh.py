@@ -1,8 +1,8 @@
 """``manipkit dh show | check | to-urdf | from-urdf``: DH tables printed, checked against a URDF, converted.
 
-The tables, their text and the check with its diagnosis come from
-:mod:`manipkit.dh`; DH conventions (standard, modified) are in
-docs/architecture.md.
+The tables, their text and the check with its diagnosis (as data) come from
+:mod:`manipkit.dh`; the diagnosis is worded by :mod:`manipkit.app.dh_text`.
+DH conventions (standard, modified) are in docs/architecture.md.
 """
 
 from __future__ import annotations
@@ -76,6 +76,7 @@ def run_dh_show(args) -> int:
 def run_dh_check(args) -> int:
     """Compare the table's FK with the robot's chain; exit 1 on a mismatch, with the diagnosis."""
     from manipkit import dh
+    from manipkit.app.dh_text import diagnosis_lines, fix_reason
     from manipkit.description.sources import resolve_dh_table
     from manipkit.dh.check import check_dh
 
@@ -91,7 +92,7 @@ def run_dh_check(args) -> int:
     fixed = None
     if args.fix is not None and result.candidate is not None:
         header = (f"{path.name} corrected by `manipkit dh check` against {robot.name} {args.base} -> {args.tip}: "
-                  + "; ".join(result.diagnosis[1:2]))
+                  + fix_reason(result))
         write_text(args.fix, dh.yaml_from_dh(result.candidate, header=header))
         fixed = str(args.fix)
     if args.format == "json":
@@ -106,7 +107,7 @@ def run_dh_check(args) -> int:
             "max_position_error": None if result.max_position_error != result.max_position_error else result.max_position_error,
             "max_rotation_error": None if result.max_rotation_error != result.max_rotation_error else result.max_rotation_error,
             "pass": result.passed,
-            "diagnosis": list(result.diagnosis),
+            "diagnosis": diagnosis_lines(result),
             "corrected_table": None if result.candidate is None else dh.yaml_from_dh(result.candidate),
             "fix_written": fixed,
         })
@@ -117,7 +118,7 @@ def run_dh_check(args) -> int:
             print(f"{result.samples} configurations inside the joint limits: max position error "
                   f"{short_text(result.max_position_error, 3)} m, max rotation error {short_text(result.max_rotation_error, 3)} rad")
         print(f"PASS (within {short_text(result.tol)})" if result.passed else f"FAIL (tolerance {short_text(result.tol)})")
-        for line in result.diagnosis[1 if result.samples else 0 :]:  # the first repeats the errors above
+        for line in diagnosis_lines(result, summary=False):  # the errors are above
             print(f"- {line}")
         if fixed is not None:
             print(f"wrote the corrected table to {fixed} (it passes)")
