@@ -17,6 +17,8 @@ modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``
 - :mod:`~manipkit.dh.from_urdf`: :func:`dh_from_urdf_chain`, the table of a robot's chain.
 - :mod:`~manipkit.dh.check`: :func:`check_dh`, agreement with a robot and a diagnosis
   (with a corrected table).
+- :mod:`~manipkit.dh.diagnosis`: :class:`DHDiagnosis` and its parts, the diagnosis as
+  data (worded by :mod:`manipkit.app.dh_text`).
 - :mod:`~manipkit.dh.entries`: rows as elementary transforms; :func:`reverse_joint`.
 
 The numeric and symbolic core needs numpy (and SymPy) only; :func:`check_dh`
@@ -33,6 +35,7 @@ from manipkit.exports import homes_of, lazy_exports
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.dh.table", "CONVENTIONS", "JOINT_TYPES", "DHRow", "DHTable", "dh_fk", "dh_link_transform"),
     **homes_of("manipkit.dh.check", "DHCheck", "check_dh"),
+    **homes_of("manipkit.dh.diagnosis", "DHDiagnosis"),
     **homes_of("manipkit.dh.files", "bundled_tables", "dh_from_yaml", "load_dh", "save_dh", "yaml_from_dh"),
     **homes_of(
         "manipkit.dh.symbolic",
