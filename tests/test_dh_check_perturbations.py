@@ -123,7 +123,8 @@ def test_a_reversed_joint_is_named(tables, name, convention):
     diagnosis, text = _diagnose(robot, reversed_table)
     assert diagnosis.kind in ("reversed joint", "axes compared"), text
     assert j + 1 in diagnosis.fixes[0].reversed or j + 1 in diagnosis.reversed_joints, text
-    assert f"joint {j + 1} ({robot.chain_joints('base_link', 'ee_link')[j]}) turns the other way" in text, text
+    moves = "slides" if reversed_table.rows[j].type == "prismatic" else "turns"
+    assert f"joint {j + 1} ({robot.chain_joints('base_link', 'ee_link')[j]}) {moves} the other way" in text, text
 
 
 def test_reverse_joint_twice_gives_the_table_back(tables):

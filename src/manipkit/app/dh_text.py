@@ -197,9 +197,14 @@ def _base_and_tool_text(fix: DHCorrection) -> str:
 
 
 def _offsets_text(fix: DHCorrection, diagnosis: DHDiagnosis) -> str:
-    """``joint zero offsets (joint 2 by -17.1887 deg added to theta) and ...``."""
-    described = ", ".join(f"joint {j} by {'+' if o > 0 else '-'}{short_text(math.degrees(abs(o)))} deg" for j, o in fix.offsets)
-    return f"joint zero offsets ({described} added to theta) and {_tool_text(fix.tool)}"
+    """``joint zero offsets (joint 2 by -17.1887 deg added to theta) and ...``: a sliding joint's in m, added to d."""
+    slides = [diagnosis.axes[j - 1].urdf_slides for j, _ in fix.offsets]
+    described = ", ".join(
+        f"joint {j} by {'+' if o > 0 else '-'}" + (f"{short_text(abs(o))} m" if slide else f"{short_text(math.degrees(abs(o)))} deg")
+        for (j, o), slide in zip(fix.offsets, slides)
+    )
+    entries = "d" if all(slides) else "theta or d" if any(slides) else "theta"
+    return f"joint zero offsets ({described} added to {entries}) and {_tool_text(fix.tool)}"
 
 
 def _axis_difference(axes) -> str:
@@ -222,8 +227,8 @@ def _joint(check: DHCheck, j: int) -> str:
 
 
 def _moves(diagnosis: DHDiagnosis, j: int) -> str:
-    """``turns``."""
-    return "turns"
+    """``turns``, or ``slides`` for a prismatic joint."""
+    return "slides" if diagnosis.axes[j - 1].urdf_slides else "turns"
 
 
 def _entry_fit_text(entry: EntryChange) -> str:
