@@ -5,6 +5,7 @@ Cases the check reaches are run for real; wordings no bundled robot reaches
 hand from the data types, with the numbers worked out in the comments.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -13,7 +14,7 @@ import pytest
 import manipkit
 from manipkit.app.dh_text import SHOWN_DIFFERENCES, diagnosis_lines, fix_reason
 from manipkit.description.sources import bundled_dh_tables
-from manipkit.dh import DHRow, DHTable, load_dh, reverse_joint
+from manipkit.dh import DHRow, DHTable, dh_fk, dh_from_urdf_chain, load_dh, reverse_joint
 from manipkit.dh.check import DHCheck, check_dh
 from manipkit.dh.diagnosis import AxisComparison, DHCorrection, DHDiagnosis, EndChange, EntryChange
 
@@ -82,12 +83,33 @@ def test_differences_beyond_the_shown_ones_are_counted():
                             differences=(*changes, EndChange("base", base, np.eye(4))))
     lines = diagnosis_lines(_check(diagnosis, tuple(f"j{k}" for k in range(1, 16))), summary=False)
     assert lines[0] == "every joint axis of the table lies on the URDF's axis at q = 0"
-    assert lines[1].startswith("no constant base or tool transform")
+    assert lines[1].startswith("none of the corrections tried reconciles them")
     assert lines[2].startswith("the modified DH table derived from the URDF (as `manipkit dh from-urdf` derives it) "
                                "differs in 16 place(s)")
     assert lines[3] == "row 1: a = 0.1 m, the URDF implies 0 m"
     assert len(lines) == 3 + SHOWN_DIFFERENCES + 1 and lines[-1] == "... and 4 more"
     assert "base xyz [0 0 0.2] m, rpy [0 0 0] deg, the URDF implies xyz [0 0 0] m, rpy [0 0 0] deg" not in lines
+
+
+def test_when_nothing_reconciles_the_words_claim_only_what_was_tried(load_robot):
+    # The Stanford arm's table with d_3 (the boom, prismatic) 0.1 m longer and theta_5 0.2 rad smaller: zero offsets
+    # (-0.1 m on joint 3, +0.2 rad on joint 5) reconcile it exactly (checked below), but the offsets are fitted joint
+    # by joint and the boom's offset moves no axis it is fitted on, so the search misses them. The sentence used to
+    # say "no ... joint zero offset ... reconciles them", which was untrue here.
+    robot = load_robot("stanford_arm")
+    table = dh_from_urdf_chain(robot, convention="standard")
+    rows = list(table.rows)
+    rows[2] = dataclasses.replace(rows[2], d=rows[2].d + 0.1)
+    rows[4] = dataclasses.replace(rows[4], theta=rows[4].theta - 0.2)
+    changed = DHTable(rows, "standard", base=table.base, tool=table.tool)
+    Q = np.random.default_rng(0).uniform(-1, 1, size=(20, 6))
+    assert np.abs(dh_fk(changed, Q + [0, 0, -0.1, 0, 0.2, 0]) - dh_fk(table, Q)).max() < 1e-12
+    result = check_dh(changed, robot, samples=200)
+    assert result.diagnosis.kind == "axes compared" and result.diagnosis.fixes == ()
+    assert ("none of the corrections tried reconciles them: a constant base or tool transform, a single table entry, "
+            "one length with a base and tool transform, one reversed joint (or those reversed at q = 0), joint zero "
+            "offsets fitted joint by joint") in diagnosis_lines(result)
+    assert [(c.row, c.entry) for c in result.diagnosis.differences] == [(3, "d"), (5, "theta")]
 
 
 def test_fix_reason_is_the_correction_behind_the_candidate(planar_3r):

@@ -81,7 +81,7 @@ def test_two_wrong_link_lengths_locate_the_first_joint_that_disagrees(planar_3r)
     assert result.candidate is not None and check_dh(result.candidate, planar_3r).passed
     text = _text(result)
     assert "the chains stop agreeing at joint 2 (joint2)" in text and "distance 0.5 m" in text
-    assert "no constant base or tool transform, single table entry" in text
+    assert "none of the corrections tried reconciles them: a constant base or tool transform, a single table entry" in text
     assert "row 1: a = 4.5 m, the URDF implies 4 m" in text and "row 2: a = 2.5 m, the URDF implies 2 m" in text
 
 

@@ -132,8 +132,9 @@ def _axes_lines(check: DHCheck) -> list[str]:
         if diagnosis.partial is not None:
             lines.append(f"{_correction_text(diagnosis.partial, check)}: reduces the error to "
                          f"{short_text(diagnosis.partial.residual, 3)} but does not reconcile them fully")
-        lines.append("no constant base or tool transform, single table entry, joint zero offset or joint direction "
-                     "change reconciles them")
+        lines.append("none of the corrections tried reconciles them: a constant base or tool transform, a single table "
+                     "entry, one length with a base and tool transform, one reversed joint (or those reversed at q = 0), "
+                     "joint zero offsets fitted joint by joint")
     return lines + _difference_lines(diagnosis)
 
 
