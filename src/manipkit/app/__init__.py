@@ -1,4 +1,4 @@
-"""What users touch: the command line (:mod:`manipkit.app.cli`), the browser viewer (:mod:`manipkit.app.viewer`), pose text (:mod:`manipkit.app.pose`) and the Jacobian report's words (:mod:`manipkit.app.jacobian_text`, shared by ``manipkit jacobian`` and the viewer).
+"""What users touch: the command line (:mod:`manipkit.app.cli`), the browser viewer (:mod:`manipkit.app.viewer`), pose text (:mod:`manipkit.app.pose`), the Jacobian report's words (:mod:`manipkit.app.jacobian_text`, shared by ``manipkit jacobian`` and the viewer) and the ``dh check`` diagnosis in words (:mod:`manipkit.app.dh_text`, for the CLI and the notebooks).
 
 The app presents; every number it shows comes from the layers below
 (docs/architecture.md).
