@@ -76,8 +76,9 @@ def diagnosis_lines(check: DHCheck, *, summary: bool = True) -> list[str]:
 
 
 def fix_reason(check: DHCheck) -> str:
-    """The first finding after the error summary: the correction behind ``check.candidate`` when a stage up to
-    one reversed joint found it, else where the axes stop agreeing ("" when the table agrees)."""
+    """The first finding after the error summary, which a ``--fix`` file's header repeats: the correction behind
+    ``check.candidate`` when a stage up to one reversed joint found it, else the first finding of the axes
+    comparison (a reversed joint, or where the axes stop agreeing); "" when the table agrees."""
     return next(iter(diagnosis_lines(check, summary=False)), "")
 
 
@@ -155,8 +156,7 @@ def _difference_lines(diagnosis: DHDiagnosis) -> list[str]:
 
 def _difference_text(change: EntryChange | EndChange) -> str:
     if isinstance(change, EntryChange):
-        return (f"row {change.row}: {change.entry} = {_entry_text(change.entry, change.table_value)}, the URDF implies "
-                f"{_entry_text(change.entry, change.urdf_value)}")
+        return _entry_fit_text(change)
     return f"{change.end} {_pose_text(change.table_value)}, the URDF implies {_pose_text(change.urdf_value)}"
 
 

@@ -98,8 +98,10 @@ class DHCheck:
     samples, tol : int, float
         How the check was run (``samples`` is 0 when the row count is wrong).
     candidate : DHTable or None
-        When the table does not agree: a corrected table that does (the
-        first full reconciliation the diagnosis names), else None.
+        When the table does not agree: a corrected table that does, else
+        None. Up to the reversed-joint stage it is ``diagnosis.fixes[0]``'s;
+        at ``"axes compared"`` it is ``diagnosis.derived`` with the table's
+        row names and limits, when entries differ.
     base, tip : str
         The URDF frames the table was checked between, as given.
     """
