@@ -114,7 +114,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
     random_poses[:, :3, :3] = _random_rotations(labelled, rng)
     random_poses[:, :3, 3] = box_low + rng.random((labelled, 3)) * (box_high - box_low)
     poses = np.concatenate([fk_poses, random_poses])
-    labels = ik_many(robot, poses, restarts=20, tol=1e-9).success
+    labels = ik_many(robot, poses, restarts=20, tol=1e-9).success.copy()  # results are read-only
     labels[:labelled] = True  # FK poses are reachable by construction (IK confirms nearly all)
     for name, reach_map in (("fk", fk_map), ("hybrid", hybrid)):
         start = time.perf_counter()
