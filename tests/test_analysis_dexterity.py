@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from manipkit.analysis.dexterity import global_conditioning_index, uniform_joint_samples
+from manipkit.analysis.dexterity import generic_rank, global_conditioning_index
 from manipkit.analysis.manipulability import MixedUnitsWarning
 from manipkit.errors import ManipkitError
 
@@ -38,7 +38,8 @@ def test_the_estimate_does_not_depend_on_the_chunk_size(iiwa14):
 
 
 def test_samples_are_uniform_inside_the_limits(iiwa14):
-    Q = uniform_joint_samples(iiwa14, np.random.default_rng(0), 20_000)
+    # the GCI draws its configurations from the chain (Chain.sample, here from a Generator as it does)
+    Q = iiwa14.chain("base_link", "ee_link").sample(20_000, seed=np.random.default_rng(0))
     lower = np.array([j.lower for j in iiwa14.joints])
     upper = np.array([j.upper for j in iiwa14.joints])
     assert np.all(Q >= lower) and np.all(Q <= upper)
@@ -83,3 +84,19 @@ def test_fast_inverse_condition_equals_the_svd_one(iiwa14, planar_2r):
         J = jacobians(robot, robot.sample_q(500, seed=8))
         np.testing.assert_allclose(_inverse_condition(select_rows(J, axes, 0.5)),
                                    manipulability(J, "invcondition", axes, 0.5), rtol=0, atol=1e-7)
+
+
+def test_a_chain_or_a_robot_with_its_frames_give_the_same_index(load_robot):
+    robot = load_robot("mobile_manipulator")
+    chain = robot.chain("arm_base", "ee_link")
+    by_chain = global_conditioning_index(chain, 3000, length=0.3, seed=2)
+    by_robot = global_conditioning_index(robot, 3000, base="arm_base", tip="ee_link", length=0.3, seed=2)
+    assert by_chain == by_robot and (by_chain.base, by_chain.frame) == ("arm_base", "ee_link")
+    with pytest.warns(DeprecationWarning, match="manipkit API"):  # the old positional frame, base
+        assert global_conditioning_index(robot, 3000, "ee_link", "arm_base", length=0.3, seed=2) == by_chain
+
+
+def test_generic_rank_of_the_planar_3r_by_hand(load_robot):
+    # planar 3R: vz = wx = wy = 0 always, so translation rows have rank 2 (vx, vy) and all rows rank 3 (vx, vy, wz)
+    chain = load_robot("planar_3r").chain("base_link", "ee_link")
+    assert generic_rank(chain, axes="trans") == 2 and generic_rank(chain, axes="all", length=1.0) == 3

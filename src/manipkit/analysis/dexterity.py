@@ -33,13 +33,14 @@ from manipkit.analysis.manipulability import (
     singular_values,
 )
 from manipkit.errors import OptionError
-from manipkit.kinematics.jacobian import jacobian_columns, jacobians
+from manipkit.kinematics.chain import chain_of
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["CHUNK", "ConditioningIndex", "generic_rank", "global_conditioning_index", "rank", "uniform_joint_samples"]
+__all__ = ["CHUNK", "ConditioningIndex", "generic_rank", "global_conditioning_index", "rank"]
 
 CHUNK = 50_000  # configurations per batch (about 20 MB of Jacobians for a 7-joint arm)
 
@@ -80,27 +81,21 @@ class ConditioningIndex:
                 f"{short_text(self.low, 4)} to {short_text(self.high, 4)}, {self.samples} samples)")
 
 
-def uniform_joint_samples(robot: Robot, rng: np.random.Generator, n: int) -> np.ndarray:
-    """``n`` joint vectors uniform inside the limits (continuous joints: [-pi, pi]), drawn from ``rng``."""
-    lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in robot.joints])
-    upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in robot.joints])
-    u = rng.random(size=(n, len(robot.joints)))
-    return lower * (1.0 - u) + upper * u
-
-
-def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str = "ee_link", base: str = "base_link", *,
-                              axes="all", length: float | None = None, seed: int = 0, chunk: int = CHUNK,
-                              confidence: float = 0.95, progress: Callable[[str, int, int], None] | None = None,
+def global_conditioning_index(chain: Chain | Robot, samples: int = 100_000, *legacy, base: str | None = None,
+                              tip: str | None = None, axes="all", length: float | None = None, seed: int = 0,
+                              chunk: int = CHUNK, confidence: float = 0.95,
+                              progress: Callable[[str, int, int], None] | None = None, frame: str | None = None,
                               ) -> ConditioningIndex:
     """Mean inverse condition number of the Jacobian over the joint space, with a confidence interval.
 
     Parameters
     ----------
-    robot : Robot
+    chain : Chain or Robot
+        The chain whose Jacobian is used (``robot.chain(base, tip)``), or a
+        robot with ``base=`` and ``tip=`` (defaults ``base_link``, ``ee_link``;
+        the old positional ``frame, base`` and ``frame=`` work one release).
     samples : int
-        Configurations drawn (at least 2).
-    frame, base : str
-        The Jacobian's frame and base (:func:`manipkit.kinematics.jacobian.jacobians`).
+        Configurations drawn uniformly inside the chain's limits (at least 2).
     axes : "all", "trans", "rot" or sequence of int, keyword-only
         Rows used (:func:`manipkit.analysis.manipulability.select_rows`).
     length : float, optional, keyword-only
@@ -140,17 +135,16 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
             length = 1.0
     else:
         length = None
-    frame_name, base_name = robot.frame(frame), robot.frame(base)
+    chain = chain_of(chain, "global_conditioning_index", legacy, base=base, tip=tip, frame=frame)
     rng = np.random.default_rng(seed)
     total = total_sq = 0.0
     done = 0
     if progress and not callable(progress):
         raise OptionError(f"progress={progress!r:.40} must be a callable progress(stage, done, total) or None; "
                             "the command line draws the bar (manipkit dexterity --progress yes)")
-    columns = jacobian_columns(robot, base=base_name, tip=frame_name)  # joints off the chain (wheels, fingers): zero
     while done < samples:
         m = min(chunk, samples - done)
-        J = jacobians(robot, uniform_joint_samples(robot, rng, m), base=base_name, tip=frame_name)[..., columns]
+        J = chain.jacobians(chain.sample(m, seed=rng))  # the chain's columns: no wheel or finger reads singular
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", MixedUnitsWarning)
             inverse = _inverse_condition(select_rows(J, axes, length))
@@ -163,8 +157,8 @@ def global_conditioning_index(robot: Robot, samples: int = 100_000, frame: str =
     variance = max(total_sq - samples * mean * mean, 0.0) / (samples - 1)
     std = math.sqrt(variance)
     half = NormalDist().inv_cdf(0.5 + confidence / 2) * std / math.sqrt(samples)
-    return ConditioningIndex(mean, mean - half, mean + half, std, int(samples), float(confidence), frame_name,
-                             base_name, axes if isinstance(axes, str) else tuple(int(a) for a in axes), length)
+    return ConditioningIndex(mean, mean - half, mean + half, std, int(samples), float(confidence), chain.tip,
+                             chain.base, axes if isinstance(axes, str) else tuple(int(a) for a in axes), length)
 
 
 def _inverse_condition(Js: np.ndarray) -> np.ndarray:
@@ -197,21 +191,26 @@ def rank(J, axes="all", length: float | None = None, *, tol: float = 1e-9) -> np
     return int(result) if np.ndim(result) == 0 else result
 
 
-def generic_rank(robot: Robot, frame: str = "ee_link", base: str = "base_link", axes="all",
-                 length: float | None = None, *, samples: int = 32, seed: int = 0, tol: float = 1e-9) -> int:
+def generic_rank(chain: Chain | Robot, *legacy, base: str | None = None, tip: str | None = None, axes="all",
+                 length: float | None = None, samples: int = 32, seed: int = 0, tol: float = 1e-9,
+                 frame: str | None = None) -> int:
     """The rank of the Jacobian's rows ``axes`` at a generic configuration: the largest over random samples.
 
-    A configuration is singular for these rows when its rank is below this
-    one. The generic rank is not always ``min(rows, joints)``: a planar 3R has
-    ``"trans"`` rank 2 (vz is always 0), a planar 2R has ``"all"`` rank 2 even
-    stretched out (it can still turn), while its ``"trans"`` rank drops there.
+    ``chain`` as in :func:`global_conditioning_index`. A configuration is
+    singular for these rows when its rank is below this one. The generic rank
+    is not always ``min(rows, joints)``: a planar 3R has ``"trans"`` rank 2
+    (vz is always 0), a planar 2R has ``"all"`` rank 2 even stretched out (it
+    can still turn), while its ``"trans"`` rank drops there.
+    (:func:`manipkit.analysis.jacobian_report.jacobian_report` gives the
+    generic ranks of all, translation and rotation rows at once.)
 
     Examples
     --------
     >>> import manipkit
-    >>> robot = manipkit.load("planar_3r")
-    >>> generic_rank(robot, axes="trans"), generic_rank(robot, axes="all", length=1.0)
+    >>> chain = manipkit.load("planar_3r").chain("base_link", "ee_link")
+    >>> generic_rank(chain, axes="trans"), generic_rank(chain, axes="all", length=1.0)
     (2, 3)
     """
-    Q = uniform_joint_samples(robot, np.random.default_rng(seed), samples)
-    return int(np.max(rank(jacobians(robot, Q, base=base, tip=frame), axes, length, tol=tol), initial=0))
+    chain = chain_of(chain, "generic_rank", legacy, base=base, tip=tip, frame=frame)
+    Q = chain.sample(samples, seed=seed)
+    return int(np.max(rank(chain.jacobians(Q), axes, length, tol=tol), initial=0))

@@ -84,6 +84,7 @@ from manipkit.inputs import MAX_TABLE_BYTES, read_text
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
@@ -518,10 +519,11 @@ def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[
 
 
 def build(
-    robot: Robot,
-    frame: str = "ee_link",
-    base: str = "base_link",
-    *,
+    chain: Chain | Robot,
+    *legacy,
+    base: str | None = None,
+    tip: str | None = None,
+    frame: str | None = None,
     voxel: float = 0.05,
     orientations: int | tuple[int, int] | str | None = None,
     method: str = "fk",
@@ -536,13 +538,15 @@ def build(
     ik_time_budget: float = 0.02,
     manipulability: bool = True,
 ) -> ReachMap:
-    """Build the reachability map of ``frame`` in ``base`` (see the module docstring).
+    """Build the reachability map of a chain's tip in its base (see the module docstring).
 
     Parameters
     ----------
-    robot : manipkit.kinematics.robot.Robot
-    frame, base : str
-        Tool and base frames (``T_base_frame``); the chain between them moves.
+    chain : Chain or Robot
+        The chain whose tip is mapped in its base (``robot.chain(base, tip)``),
+        or a robot with ``base=`` and ``tip=`` (defaults ``base_link``,
+        ``ee_link``; the old positional ``frame, base`` and ``frame=`` work
+        one release with a ``DeprecationWarning``).
     voxel : float, keyword-only
         Voxel edge (m).
     orientations : int, (int, int) or str, keyword-only
@@ -589,13 +593,14 @@ def build(
     ((19, 19, 1), 1.0, 0.0)
     """
     # Over 80 lines: the docstring is most of it; the rest reads best as the steps in order.
+    from manipkit.kinematics.chain import chain_of
     from manipkit.kinematics.ik import ik_solver
 
     _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples)
     voxel = float(voxel)
+    chain = chain_of(chain, "reachmap.build", legacy, base=base, tip=tip, frame=frame)
+    robot, frame, base = chain.robot, chain.tip, chain.base
     solver = ik_solver(robot, base, frame)
-    frame, base = solver.tip, solver.base
-    chain = robot.chain(base, frame)
     joint_axes = chain.axes()
     axes_k, origins_k, prismatic = joint_axes.direction, joint_axes.point, joint_axes.prismatic.tolist()
     T_tip = chain.fk(chain.q())

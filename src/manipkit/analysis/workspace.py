@@ -19,11 +19,13 @@ import numpy as np
 from manipkit.closed_form.planar import chain_points, fk_2r, fk_3r
 from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, workspace_3r
 from manipkit.errors import PlanarArmError
+from manipkit.kinematics.chain import chain_of
 from manipkit.outputs import writable_path, writing
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.text import number_text, short_text
 
 if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
     from manipkit.kinematics.robot import Robot
 
 __all__ = ["planar_link_lengths", "planar_workspace", "plot_planar_workspace", "sample_planar_workspace"]
@@ -285,37 +287,35 @@ def plot_planar_workspace(
     return path
 
 
-def planar_link_lengths(robot: Robot, *, base: str = "base_link", tip: str = "ee_link", tol: float = 1e-9) -> tuple[float, ...]:
-    """Link lengths of a loaded planar arm, read off its URDF chain at q = 0.
+def planar_link_lengths(chain: Chain | Robot, *legacy, base: str | None = None, tip: str | None = None,
+                        tol: float = 1e-9, frame: str | None = None) -> tuple[float, ...]:
+    """Link lengths of a loaded planar arm, read off its chain's joint axes at the default configuration.
 
-    The arm is planar when every joint on the chain is revolute about the
-    same axis direction as the first and all joint origins and the tip lie in
-    one plane perpendicular to it. The lengths are the distances between
-    consecutive joint axes and from the last axis to the tip.
+    ``chain`` is a :class:`~manipkit.kinematics.chain.Chain` or a robot with
+    ``base=`` and ``tip=`` (defaults ``base_link``, ``ee_link``). The arm is
+    planar when every joint is revolute about the same axis direction as the
+    first and all joint origins and the tip lie in one plane perpendicular to
+    it. The lengths are the distances between consecutive joint axes (their
+    origins, :meth:`Chain.axes`) and from the last axis to the tip.
 
     Raises
     ------
     PlanarArmError
         If the chain is not a planar 2R or 3R arm.
     """
-    joints = robot.chain_joints(base, tip)
-    if len(joints) not in (2, 3):
-        raise PlanarArmError(
-            f"robot '{robot.name}' has {len(joints)} joints from {base} to {tip}; the planar workspace needs a 2R or 3R arm"
-        )
-    by_name = {j.name: j for j in robot.joints}
-    points, axes = [], []
-    for name in joints:
-        joint = by_name[name]
-        T = robot.transform(base, joint.child)
-        if joint.type == "prismatic":
-            raise PlanarArmError(f"joint '{name}' is prismatic; the planar workspace needs revolute joints")
-        points.append(T[:3, 3])
-        axes.append(T[:3, :3] @ joint.axis)
-    points.append(robot.transform(base, tip)[:3, 3])
-    normal = axes[0]
-    if any(np.linalg.norm(np.cross(normal, axis)) > tol for axis in axes):
-        raise PlanarArmError(f"robot '{robot.name}': the joint axes are not parallel, so it is not a planar arm")
+    chain = chain_of(chain, "planar_link_lengths", legacy, base=base, tip=tip, frame=frame)
+    name = chain.robot.name
+    if chain.n not in (2, 3):
+        raise PlanarArmError(f"robot '{name}' has {chain.n} joints from {chain.base} to {chain.tip}; the planar "
+                             "workspace needs a 2R or 3R arm")
+    axes = chain.axes()
+    if axes.prismatic.any():
+        joint = chain.joint_names[int(axes.joint[np.flatnonzero(axes.prismatic)[0]])]
+        raise PlanarArmError(f"joint '{joint}' is prismatic; the planar workspace needs revolute joints")
+    points = [*axes.point, chain.fk(chain.q())[:3, 3]]
+    normal = axes.direction[0]
+    if any(np.linalg.norm(np.cross(normal, axis)) > tol for axis in axes.direction):
+        raise PlanarArmError(f"robot '{name}': the joint axes are not parallel, so it is not a planar arm")
     if any(abs((p - points[0]) @ normal) > tol for p in points):
-        raise PlanarArmError(f"robot '{robot.name}': the joints do not lie in one plane, so it is not a planar arm")
+        raise PlanarArmError(f"robot '{name}': the joints do not lie in one plane, so it is not a planar arm")
     return tuple(float(np.linalg.norm(b - a)) for a, b in zip(points[:-1], points[1:]))

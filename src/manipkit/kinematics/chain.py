@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.errors import JointLimitError, JointValueError, OptionError
+from manipkit.errors import ChainError, JointLimitError, JointValueError, OptionError
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.spatial.rotations import matrix_from_axis_angle
 from manipkit.text import repr_text
@@ -54,7 +54,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_steps", "frame_arguments", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_of", "chain_steps", "frame_arguments", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -380,7 +380,7 @@ class Chain:
         )
 
 
-def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base, default_tip) -> tuple:
+def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base, default_tip, stacklevel: int = 3) -> tuple:
     """(base, tip) from a call's frame arguments: the one naming rule of the public API.
 
     New code names the frames ``base=`` and ``tip=``. For one release the
@@ -394,7 +394,7 @@ def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base,
             raise TypeError(f"{what}: give the frames as base=... and tip=..., got {len(legacy)} positional frame(s)")
         warnings.warn(
             f"manipkit API: {what}(..., frame, base) is now {what}(..., base=..., tip=...) (base first, as "
-            "tf-between SOURCE TARGET); the old form goes in the next release", DeprecationWarning, stacklevel=3,
+            "tf-between SOURCE TARGET); the old form goes in the next release", DeprecationWarning, stacklevel=stacklevel,
         )
         if frame is not None and tip is not None:
             raise TypeError(f"{what}: give the tip once (tip=), not also frame=")
@@ -402,6 +402,23 @@ def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base,
         if len(legacy) == 2:
             base = legacy[1]
     return (default_base if base is None else base), (default_tip if tip is None else tip)
+
+
+def chain_of(subject, what: str, legacy: tuple = (), *, base=None, tip=None, frame=None) -> Chain:
+    """The :class:`Chain` a solver or an analysis works on: the one place a robot and two frames become a chain.
+
+    ``subject`` is a Chain (then no frames may be given: it has its own) or a
+    Robot, whose ``chain(base, tip)`` is taken with the frames named by the one
+    rule (:func:`frame_arguments`; defaults ``base_link`` and ``ee_link``).
+    """
+    if isinstance(subject, Chain):
+        if legacy or base is not None or tip is not None or frame is not None:
+            raise ChainError(f"{what}: a chain has its own frames ({subject.base} -> {subject.tip}); give base= and "
+                             "tip= only with a robot")
+        return subject
+    base, tip = frame_arguments(what, legacy, base, tip, frame, default_base="base_link", default_tip="ee_link",
+                                stacklevel=4)
+    return subject.chain(base, tip)
 
 
 def chain_steps(model, columns: dict, frame_id: int, base_id: int | None) -> list[ChainStep]:

@@ -74,7 +74,7 @@ def _build(robot, args, base: str, *, manipulability: bool = False):
     from manipkit.app.progress import progress_bar
 
     with progress_bar() as progress:
-        return build(robot, args.frame, base, voxel=args.voxel, orientations=args.orientations, method=args.method,
+        return build(robot.chain(base, args.frame), voxel=args.voxel, orientations=args.orientations, method=args.method,
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      manipulability=manipulability, progress=progress)
 

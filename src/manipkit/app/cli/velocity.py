@@ -202,7 +202,7 @@ def run_dexterity(args) -> int:
 
     length = args.length if mixes_units(axes) else None
     with progress_bar(None if args.progress == "auto" else args.progress == "yes") as progress:
-        gci = global_conditioning_index(robot, args.samples, args.frame, args.base, axes=axes, length=length,
+        gci = global_conditioning_index(robot.chain(args.base, args.frame), args.samples, axes=axes, length=length,
                                         seed=args.seed, confidence=args.confidence, progress=progress)
     if args.format == "json":
         print_json({
