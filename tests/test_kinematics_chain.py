@@ -192,3 +192,22 @@ def test_every_function_taking_one_q_takes_it_by_name(load_robot):
     assert np.array_equal(chain.axes(by_name).point, chain.axes(q).point)
     assert np.array_equal(robot.clamp(by_name), q) and np.array_equal(robot.jacobian(by_name), robot.jacobian(q))
     assert np.array_equal(robot.transform("base_link", "ee_link", by_name), robot.transform("base_link", "ee_link", q))
+
+
+def test_ik_takes_a_chain_for_its_robot_and_frames(load_robot):
+    import manipkit
+    from manipkit.errors import ChainError
+    from manipkit.kinematics.ik_many import ik_many
+
+    robot = load_robot("mobile_manipulator")
+    chain = robot.chain("arm_base", "ee_link")
+    q_true = chain.sample(3, seed=4)
+    T = chain.fk(q_true)
+    result = manipkit.ik(chain, T[0], seed=1)
+    assert result.success and np.abs(chain.fk(result.q) - T[0]).max() < 1e-9  # confirmed by FK of the answer
+    same = manipkit.ik(robot, T[0], "arm_base", "ee_link", seed=1)
+    assert np.array_equal(result.q, same.q)
+    batch = ik_many(chain, T, seed=1)
+    assert batch.success.all() and np.abs(chain.fk(batch.q) - T).max() < 1e-9
+    with pytest.raises(ChainError, match="has its own frames"):
+        manipkit.ik(chain, T[0], "base_link", "ee_link")

@@ -54,7 +54,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_of", "chain_steps", "frame_arguments", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_of", "chain_steps", "robot_and_frames", "frame_arguments", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -419,6 +419,20 @@ def chain_of(subject, what: str, legacy: tuple = (), *, base=None, tip=None, fra
     base, tip = frame_arguments(what, legacy, base, tip, frame, default_base="base_link", default_tip="ee_link",
                                 stacklevel=4)
     return subject.chain(base, tip)
+
+
+def robot_and_frames(subject, what: str, *, base=None, tip=None, frame=None) -> tuple:
+    """(robot, base, tip) for a function that takes a robot and two frames, or a :class:`Chain` instead.
+
+    A chain gives its robot and frames (none may be given besides); a robot
+    keeps the frames named by the one rule (:func:`frame_arguments`).
+    """
+    if isinstance(subject, Chain):
+        chain = chain_of(subject, what, base=base, tip=tip, frame=frame)
+        return chain.robot, chain.base, chain.tip
+    base, tip = frame_arguments(what, (), base, tip, frame, default_base="base_link", default_tip="ee_link",
+                                stacklevel=4)
+    return subject, base, tip
 
 
 def chain_steps(model, columns: dict, frame_id: int, base_id: int | None) -> list[ChainStep]:

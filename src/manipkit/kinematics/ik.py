@@ -67,7 +67,7 @@ import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik_result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKResult, tolerances
-from manipkit.kinematics.chain import frame_arguments
+from manipkit.kinematics.chain import frame_arguments, robot_and_frames
 from manipkit.kinematics.ik_kernel import (
     MODE_CODES,
     SHRINK_MIN,
@@ -206,7 +206,7 @@ def ik(
     True
     """
     # Over 80 lines: the docstring (every option and the conventions) is nearly all of it.
-    base, tip = frame_arguments("ik", (), base, tip, frame, default_base="base_link", default_tip="ee_link")
+    robot, base, tip = robot_and_frames(robot, "ik", base=base, tip=tip, frame=frame)
     solver = ik_solver(robot, base, tip, mode=mode, axis=axis, free=tuple(free))
     return solver.solve(
         target, q0=q0, tol=tol, max_iters=max_iters, restarts=restarts, seed=seed, all=all, damping=damping
@@ -221,9 +221,11 @@ def ik_solver(robot: Robot, base: str | None = None, tip: str | None = None, *, 
     """The prepared :class:`IKSolver` for a robot, frame pair (base first) and mode: built once, cached per robot.
 
     The cached solver holds nothing of any call, so it is shared by every
-    caller and thread. ``frame=`` is the old name of ``tip`` (one release).
+    caller and thread. ``robot`` may also be a :class:`~manipkit.kinematics.chain.Chain`
+    (its base and tip are then the frames). ``frame=`` is the old name of
+    ``tip`` (one release).
     """
-    base, tip = frame_arguments("ik_solver", (), base, tip, frame, default_base="base_link", default_tip="ee_link")
+    robot, base, tip = robot_and_frames(robot, "ik_solver", base=base, tip=tip, frame=frame)
     free = tuple(sorted(set(free)))
     key = (robot.frame(tip), robot.frame(base), mode, axis, free)
     per_robot = _SOLVERS.setdefault(robot, {})

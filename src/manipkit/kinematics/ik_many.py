@@ -43,7 +43,7 @@ from numba import objmode  # this module is only imported to run its kernel (kin
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik_result import IKBatch, tolerances
-from manipkit.kinematics.chain import frame_arguments
+from manipkit.kinematics.chain import robot_and_frames
 from manipkit.kinematics.fk_kernel import compile_kernel
 from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
@@ -223,7 +223,7 @@ def ik_many(
         if q0 is not None:
             raise IKOptionError("ik_many: q0 given twice (as the third argument and as q0=)")
         base, q0 = None, base
-    base, tip = frame_arguments("ik_many", (), base, tip, frame, default_base="base_link", default_tip="ee_link")
+    robot, base, tip = robot_and_frames(robot, "ik_many", base=base, tip=tip, frame=frame)
     solver = ik_solver(robot, base, tip, mode=mode, axis=axis)
     tol_position, tol_rotation = tolerances(tol)
     check_budget(max_iters, restarts, damping)
