@@ -315,6 +315,7 @@ def test_load_yaml_checks_the_file_before_reading_it(tmp_path):
 
 
 def _run(*args, cwd) -> subprocess.CompletedProcess:
+    """``tf-between ARGS`` in a subprocess with a timeout: opening a FIFO would block the process forever."""
     return subprocess.run([str(BIN / "tf-between"), *map(str, args)], capture_output=True, text=True, cwd=cwd,
                           timeout=60)
 
