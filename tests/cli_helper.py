@@ -3,9 +3,10 @@
 ``run_cli("manipkit", "tree", "--robot", "panda")`` calls the entry point's
 ``main(argv)`` (``[project.scripts]`` in pyproject.toml) and returns a
 :class:`CliResult` with the fields of :class:`subprocess.CompletedProcess`
-that the tests read: ``returncode``, ``stdout`` and ``stderr``. It costs a
-few milliseconds where a subprocess costs most of a second (the interpreter
-and the imports), and the command sees what it would see as a process:
+that the tests read: ``returncode``, ``stdout`` and ``stderr``. It costs what
+the command itself costs (tens of milliseconds for most), where a subprocess
+adds most of a second (the interpreter and the imports), and the command
+sees what it would see as a process:
 
 - stdout and stderr are files on descriptors 1 and 2 (what C code such as
   Pinocchio writes is captured too), encoded as a Python process encodes a
@@ -18,7 +19,9 @@ and the imports), and the command sees what it would see as a process:
   DeprecationWarning, a process does not), and logging has no root handler
   (pytest's capture handlers would swallow what a process prints);
 - ``SystemExit`` (argparse's ``--help`` and usage errors) becomes the exit
-  status, as the interpreter makes it.
+  status, as the interpreter makes it;
+- stdout and stderr are decoded strictly as UTF-8, as
+  ``subprocess.run(..., text=True)`` decodes them in a UTF-8 locale.
 
 Everything above is put back afterwards, whatever the command did: the
 streams and descriptors, ``sys.argv``, the working folder, the whole
@@ -115,8 +118,9 @@ def run_cli(command: str, *args, status: int | None = None, cwd: str | os.PathLi
             sys.stderr.flush()
         out_file.seek(0)
         err_file.seek(0)
-        stdout = out_file.read().decode("utf-8", errors="replace")
-        stderr = err_file.read().decode("utf-8", errors="replace")
+        # decoded strictly, as subprocess.run(text=True) does in a UTF-8 locale: bytes that are no UTF-8 are an error
+        stdout = out_file.read().decode("utf-8")
+        stderr = err_file.read().decode("utf-8")
         _repoint_handlers({id(sys.stdout): "stdout", id(sys.stderr): "stderr"})
     result = CliResult([command, *argv], returncode, stdout, stderr)
     if status is not None:
