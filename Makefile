@@ -35,8 +35,9 @@ $(DOT):
 	@if [ "$$(id -u)" = 0 ]; then sudo=; else sudo=sudo; fi; \
 	$$sudo apt-get update -qq && $$sudo apt-get install -y -qq graphviz
 
+# One worker process per core (pytest-xdist), each taking whole test files, so a module's fixtures run once.
 test: setup browser lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadfile
 
 # Style and import checks (ruff, configured in pyproject.toml); part of `make test`.
 lint: setup

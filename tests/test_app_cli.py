@@ -1,18 +1,15 @@
-"""The command line as a user runs it: real subprocesses of the installed entry points."""
+"""The command line as a user runs it: the entry points called with argv in this process (tests/cli_helper.py)."""
 
 import json
 import re
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 from reference import POSE_A, POSE_B, course_arm_T_base_ee, course_arm_T_base_top_wrist
 
 from manipkit.description.sources import bundled_robots
 
-BIN = Path(sys.executable).parent
 JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
 
 # The seed's hand answers (seed 000, "Using the sliders..." and question 4).
@@ -20,19 +17,12 @@ SEED_ZERO_POSE = [[1, 0, 0, 0.172], [1, 0, 0, 0], [1, 0, 0, 0], [1, 0, 0, 0]]
 SEED_POSE_A = [[-0.411, 0.897, -0.153, 0.2412], [0.910, 0.4, -0.05, 0.32], [-0.014, 0.16, 0.986, 0.11], [0, 0, 0, 1]]
 
 
-def run(command, *args, check_status=None):
-    result = subprocess.run([str(BIN / command), *map(str, args)], capture_output=True, text=True, timeout=120)
-    if check_status is not None:
-        assert result.returncode == check_status, result.stderr + result.stdout
-    return result
-
-
 def q_args(pose):
     return ["--q", *(f"{name}={value}" for name, value in zip(JOINTS, pose))]
 
 
 def tf_json(*args):
-    return json.loads(run("tf-between", *args, "--format", "json", check_status=0).stdout)
+    return json.loads(run_cli("tf-between", *args, "--format", "json", status=0).stdout)
 
 
 @pytest.mark.parametrize("pose", [(0, 0, 0, 0, 0), POSE_A, POSE_B], ids=["zero", "A", "B"])
@@ -62,7 +52,7 @@ def test_tf_between_json_has_the_contract_keys():
 
 
 def test_tf_between_text_reads_like_tf2_echo_with_direction_and_conventions():
-    out = run("tf-between", "base_link", "ee_link", check_status=0).stdout
+    out = run_cli("tf-between", "base_link", "ee_link", status=0).stdout
     assert "pose of ee_link expressed in base_link (T_base_link_ee_link, as tf2_echo base_link ee_link)" in out
     assert "Quaternion (x, y, z, w)" in out and "RPY (radian) [roll, pitch, yaw]" in out and "RPY (degree)" in out
     assert "R = Rz(yaw) Ry(pitch) Rx(roll)" in out
@@ -75,7 +65,7 @@ def test_tf_between_text_reads_like_tf2_echo_with_direction_and_conventions():
 
 
 def test_precision_sets_the_decimals():
-    out = run("tf-between", "base_link", "ee_link", "--precision", "3", check_status=0).stdout
+    out = run_cli("tf-between", "base_link", "ee_link", "--precision", "3", status=0).stdout
     assert "- Translation (m): [0.000, 0.000, 1.052]" in out
 
 
@@ -88,13 +78,13 @@ def test_degrees_and_positional_values_give_the_same_pose():
 
 
 def test_manipkit_tf_is_tf_between():
-    a = run("tf-between", "bicep", "top_wrist", *q_args(POSE_B), check_status=0).stdout
-    b = run("manipkit", "tf", "bicep", "top_wrist", *q_args(POSE_B), check_status=0).stdout
+    a = run_cli("tf-between", "bicep", "top_wrist", *q_args(POSE_B), status=0).stdout
+    b = run_cli("manipkit", "tf", "bicep", "top_wrist", *q_args(POSE_B), status=0).stdout
     assert a == b
 
 
 def test_alias_resolution_is_said(tmp_path):
-    out = run("tf-between", "base_link", "ee_link", "--robot", "panda", check_status=0).stdout
+    out = run_cli("tf-between", "base_link", "ee_link", "--robot", "panda", status=0).stdout
     assert "frame base_link = panda_link0 (the root link)" in out
     assert "frame ee_link = panda_hand_tcp (panda_hand_tcp, the end effector declared for panda)" in out
 
@@ -109,14 +99,14 @@ def test_compare_agrees_with_the_models_own_matrix(tmp_path):
     T = course_arm_T_base_ee(POSE_A)
     path = tmp_path / "hand.txt"
     path.write_text("\n".join(" ".join(repr(float(v)) for v in row) for row in T))
-    result = run("tf-between", "base_link", "ee_link", *q_args(POSE_A), "--compare", path, check_status=0)
+    result = run_cli("tf-between", "base_link", "ee_link", *q_args(POSE_A), "--compare", path, status=0)
     assert "valid homogeneous transform" in result.stdout and "AGREES with the model" in result.stdout
 
 
 def test_compare_shows_the_seeds_zero_pose_answer_invalid(tmp_path):
     path = tmp_path / "seed.json"
     path.write_text(json.dumps(SEED_ZERO_POSE))
-    result = run("tf-between", "base_link", "ee_link", "--compare", path, check_status=1)
+    result = run_cli("tf-between", "base_link", "ee_link", "--compare", path, status=1)
     assert "not a valid homogeneous transform" in result.stdout
     assert "last row is [1 0 0 0], expected [0 0 0 1]" in result.stdout
     assert "DOES NOT AGREE" in result.stdout
@@ -125,7 +115,7 @@ def test_compare_shows_the_seeds_zero_pose_answer_invalid(tmp_path):
 def test_compare_gives_the_seeds_pose_a_errors(tmp_path):
     path = tmp_path / "seed.csv"
     path.write_text("\n".join(",".join(map(str, row)) for row in SEED_POSE_A))
-    result = run("tf-between", "base_link", "top_wrist", *q_args(POSE_A), "--compare", path, "--format", "json", check_status=1)
+    result = run_cli("tf-between", "base_link", "top_wrist", *q_args(POSE_A), "--compare", path, "--format", "json", status=1)
     compare = json.loads(result.stdout)["compare"]
     T = course_arm_T_base_top_wrist(POSE_A)
     hand = np.array(SEED_POSE_A)
@@ -136,13 +126,13 @@ def test_compare_gives_the_seeds_pose_a_errors(tmp_path):
 def test_q_file_gives_one_pose_a_row(tmp_path):
     path = tmp_path / "poses.csv"
     path.write_text(",".join(JOINTS) + "\n" + "\n".join(",".join(map(str, p)) for p in (POSE_A, POSE_B, (0,) * 5)))
-    out = run("tf-between", "base_link", "ee_link", "--q-file", path, "--precision", "12", check_status=0).stdout
+    out = run_cli("tf-between", "base_link", "ee_link", "--q-file", path, "--precision", "12", status=0).stdout
     lines = [line for line in out.splitlines() if not line.startswith("#")]
     assert lines[0] == "x,y,z,qx,qy,qz,qw,roll,pitch,yaw"
     for line, pose in zip(lines[1:], (POSE_A, POSE_B, (0,) * 5)):
         xyz = [float(v) for v in line.split(",")[:3]]
         assert xyz == pytest.approx(course_arm_T_base_ee(pose)[:3, 3], abs=1e-11)
-    data = json.loads(run("tf-between", "base_link", "ee_link", "--q-file", path, "--format", "json", check_status=0).stdout)
+    data = json.loads(run_cli("tf-between", "base_link", "ee_link", "--q-file", path, "--format", "json", status=0).stdout)
     assert len(data["poses"]) == 3
     assert np.abs(np.array(data["poses"][1]["matrix"]) - course_arm_T_base_ee(POSE_B)).max() < 1e-12
 
@@ -166,7 +156,7 @@ def test_q_file_gives_one_pose_a_row(tmp_path):
     ],
 )
 def test_user_errors_exit_2_with_one_line_and_no_traceback(args, fragment):
-    result = run("tf-between", *args)
+    result = run_cli("tf-between", *args)
     assert result.returncode == 2, result.stdout + result.stderr
     assert result.stderr.count("\n") == 1 and fragment in result.stderr
     assert "Traceback" not in result.stderr + result.stdout
@@ -175,7 +165,7 @@ def test_user_errors_exit_2_with_one_line_and_no_traceback(args, fragment):
 def test_malformed_description_exits_2(tmp_path):
     path = tmp_path / "broken.urdf"
     path.write_text('<robot name="b"><link name="a"></robot>')
-    result = run("tf-between", "a", "a", "--robot", path, check_status=2)
+    result = run_cli("tf-between", "a", "a", "--robot", path, status=2)
     assert re.search(r"broken.urdf:1:\d+: malformed XML: Opening and ending tag mismatch", result.stderr)
     assert result.stderr.count("\n") == 1
 
@@ -183,12 +173,12 @@ def test_malformed_description_exits_2(tmp_path):
 def test_bad_q_file_cell_names_the_line(tmp_path):
     path = tmp_path / "poses.csv"
     path.write_text("elbow_joint\n0.1\nx\n")
-    result = run("tf-between", "base_link", "ee_link", "--q-file", path, check_status=2)
+    result = run_cli("tf-between", "base_link", "ee_link", "--q-file", path, status=2)
     assert "line 3: joint 'elbow_joint': value 'x' is not a number" in result.stderr
 
 
 def test_out_of_limit_value_is_an_error_naming_the_limit():
-    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5", check_status=2)
+    result = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5", status=2)
     assert result.stderr == (
         "tf-between: error: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 "
         "(limits [-2.0944, 2.0944] rad); use --clamp to clamp\n"
@@ -197,8 +187,8 @@ def test_out_of_limit_value_is_an_error_naming_the_limit():
 
 
 def test_clamp_clamps_with_a_warning_and_answers_at_the_limit():
-    clamped = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5",
-                  "--clamp", "--format", "json", check_status=0)
+    clamped = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=2.5",
+                  "--clamp", "--format", "json", status=0)
     assert clamped.stderr == "warning: joint 'iiwa_joint_2' = 2.5 rad clamped to its upper limit 2.0944 rad\n"
     at_limit = tf_json("base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=120", "--deg")
     assert np.abs(np.array(json.loads(clamped.stdout)["matrix"]) - np.array(at_limit["matrix"])).max() < 1e-12
@@ -206,30 +196,30 @@ def test_clamp_clamps_with_a_warning_and_answers_at_the_limit():
 
 
 def test_value_above_a_full_turn_without_deg_gets_a_degrees_hint():
-    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=90", check_status=2)
+    result = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=90", status=2)
     assert result.stderr.rstrip("\n").endswith("use --clamp to clamp (did you mean degrees? add --deg)")
     # With --deg the same number is inside the limits (90 deg < 120 deg).
-    run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=90", "--deg", check_status=0)
+    run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=90", "--deg", status=0)
 
 
 def test_limit_error_with_deg_speaks_degrees():
-    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=150", "--deg", check_status=2)
+    result = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_2=150", "--deg", status=2)
     assert "joint 'iiwa_joint_2' = 150 is above its upper limit 120 (limits [-120, 120] deg)" in result.stderr
-    below = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_7=-180", "--deg", check_status=2)
+    below = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q", "iiwa_joint_7=-180", "--deg", status=2)
     assert "joint 'iiwa_joint_7' = -180 is below its lower limit -175 (limits [-175, 175] deg)" in below.stderr
 
 
 def test_continuous_joint_above_a_full_turn_answers_with_a_degrees_warning():
-    result = run("tf-between", "base_link", "ee_link", "--q", "elbow_joint=90", check_status=0)
+    result = run_cli("tf-between", "base_link", "ee_link", "--q", "elbow_joint=90", status=0)
     assert result.stderr == "warning: joint 'elbow_joint' = 90 rad is more than a full turn; did you mean degrees? add --deg\n"
 
 
 def test_q_file_row_outside_the_limits_names_the_line(tmp_path):
     path = tmp_path / "poses.csv"
     path.write_text("iiwa_joint_2,iiwa_joint_4\n0.1,0.2\n# a comment line\n2.5,0\n")
-    result = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q-file", path, check_status=2)
+    result = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q-file", path, status=2)
     assert f"--q-file {path}: line 4: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944" in result.stderr
-    clamped = run("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q-file", path, "--clamp", check_status=0)
+    clamped = run_cli("tf-between", "base_link", "ee_link", "--robot", "iiwa14", "--q-file", path, "--clamp", status=0)
     assert clamped.stderr == f"warning: --q-file {path}: clamped 1 value(s) into the joint limits (line 4 iiwa_joint_2)\n"
 
 
@@ -237,7 +227,7 @@ def test_description_warnings_go_to_stderr_as_warning_lines(tmp_path):
     path = tmp_path / "long_axis.urdf"
     path.write_text('<robot name="t">\n<link name="a"/>\n<link name="b"/>\n<joint name="j" type="continuous">'
                     '<parent link="a"/><child link="b"/><axis xyz="0 0 3"/></joint>\n</robot>')
-    result = run("tf-between", "a", "b", "--robot", path, "--q", "j=0.5", "--format", "json", check_status=0)
+    result = run_cli("tf-between", "a", "b", "--robot", path, "--q", "j=0.5", "--format", "json", status=0)
     assert result.stderr == "warning: long_axis.urdf:4: joint 'j' axis '0 0 3' (length 3) normalised to '0 0 1'\n"
     T = np.array(json.loads(result.stdout)["matrix"])
     assert np.arctan2(T[1, 0], T[0, 0]) == pytest.approx(0.5, abs=1e-12)  # 0.5 rad about z, not 1.5
@@ -248,7 +238,7 @@ def test_unresolved_mesh_is_a_warning_for_kinematics(tmp_path):
     path.write_text('<robot name="t">\n<link name="a"/>\n<link name="b"><visual><geometry>'
                     '<mesh filename="package://no_such_pkg/b.stl"/></geometry></visual></link>\n'
                     '<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint>\n</robot>')
-    result = run("tf-between", "a", "b", "--robot", path, check_status=0)
+    result = run_cli("tf-between", "a", "b", "--robot", path, status=0)
     assert result.stderr.startswith("warning: meshy.urdf:3: link 'b' mesh package://no_such_pkg/b.stl: package 'no_such_pkg' not found")
     assert result.stderr.count("\n") == 1 and "- Translation (m): [0.000000, 0.000000, 0.000000]" in result.stdout
 
@@ -287,7 +277,7 @@ def test_tree_text_lists_every_link(name):
     import manipkit
     from manipkit.description.tree import parse_structure
 
-    out = run("manipkit", "tree", "--robot", name, check_status=0).stdout
+    out = run_cli("manipkit", "tree", "--robot", name, status=0).stdout
     links = [link.name for link in parse_structure(manipkit.load(name).urdf).robot.links]
     assert len(links) >= 3
     for link in links:
@@ -295,13 +285,13 @@ def test_tree_text_lists_every_link(name):
 
 
 def test_mobile_manipulator_tree_shows_the_lidar():
-    out = run("manipkit", "tree", "--robot", "mobile_manipulator", check_status=0).stdout
+    out = run_cli("manipkit", "tree", "--robot", "mobile_manipulator", status=0).stdout
     assert "lidar_joint (fixed) ── lidar_link" in out
 
 
 def test_tree_png_is_a_real_image(tmp_path):
     path = tmp_path / "tree.png"
-    run("manipkit", "tree", "--robot", "course_arm", "-o", path, check_status=0)
+    run_cli("manipkit", "tree", "--robot", "course_arm", "-o", path, status=0)
     data = path.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
@@ -310,84 +300,84 @@ def test_tree_png_is_a_real_image(tmp_path):
 
 def test_tree_dot_to_file(tmp_path):
     path = tmp_path / "tree.dot"
-    run("manipkit", "tree", "--robot", "iiwa14", "-o", path, check_status=0)
+    run_cli("manipkit", "tree", "--robot", "iiwa14", "-o", path, status=0)
     text = path.read_text()
     assert text.startswith("digraph") and "iiwa_joint_4" in text and "iiwa_link_0" in text
 
 
 def test_robots_lists_bundled_and_example_robot_data_with_dof():
-    out = run("manipkit", "robots", check_status=0).stdout
+    out = run_cli("manipkit", "robots", status=0).stdout
     assert re.search(r"iiwa14\s+│ bundled\s+│ 7\s+│ base_link\s+│ ee_link", out)
     # the hand's second finger mimics the first: 7 arm joints + 1 finger
     assert re.search(r"panda\s+│ example-robot-data │ 8\s+│ panda_link0 \(root\)\s+│ panda_hand_tcp", out)
 
 
 def test_frames_lists_joints_with_limits():
-    out = run("manipkit", "frames", "--robot", "iiwa14", check_status=0).stdout
+    out = run_cli("manipkit", "frames", "--robot", "iiwa14", status=0).stdout
     assert "iiwa_joint_7" in out and "3.05433" in out and "iiwa_link_6 -> iiwa_link_7" in out
 
 
 def test_dh_show_prints_the_boxed_table_and_symbolic_transform():
-    out = run("manipkit", "dh", "show", "planar_2r", "--symbolic", check_status=0).stdout
+    out = run_cli("manipkit", "dh", "show", "planar_2r", "--symbolic", status=0).stdout
     assert "standard DH" in out and "┌" in out
     # Hand value: 0T2 of a 2R arm with l1 = l2 = 1 has x = c_1 + c_12.
     assert "c₁ + c₁₂" in out and "s₁ + s₁₂" in out
 
 
 def test_dh_show_latex():
-    out = run("manipkit", "dh", "show", "iiwa14_seed004", "--latex", check_status=0).stdout
+    out = run_cli("manipkit", "dh", "show", "iiwa14_seed004", "--latex", status=0).stdout
     assert "\\begin{bmatrix}" in out or "\\left[" in out
 
 
 def test_dh_check_seed_table_fails_with_its_diagnosis():
-    result = run("manipkit", "dh", "check", "iiwa14_seed004", "--robot", "iiwa14", check_status=1)
+    result = run_cli("manipkit", "dh", "check", "iiwa14_seed004", "--robot", "iiwa14", status=1)
     assert "FAIL" in result.stdout
     assert "joint 2 (iiwa_joint_2) turns the other way" in result.stdout
     assert "with joint(s) 2, 6 reversed, a constant tool transform xyz [0 0 0] m, rpy [0 0 180] deg" in result.stdout
-    data = json.loads(run("manipkit", "dh", "check", "iiwa14_seed004", "--robot", "iiwa14", "--format", "json", check_status=1).stdout)
+    data = json.loads(run_cli("manipkit", "dh", "check", "iiwa14_seed004", "--robot", "iiwa14", "--format", "json", status=1).stdout)
     assert {"max_position_error", "max_rotation_error", "pass", "diagnosis"} <= set(data)
     assert data["pass"] is False and data["max_position_error"] > 1.0
 
 
 def test_dh_check_corrected_table_passes():
-    data = json.loads(run("manipkit", "dh", "check", "iiwa14", "--robot", "iiwa14", "--format", "json", check_status=0).stdout)
+    data = json.loads(run_cli("manipkit", "dh", "check", "iiwa14", "--robot", "iiwa14", "--format", "json", status=0).stdout)
     assert data["pass"] is True and data["max_position_error"] <= 1e-9 and data["diagnosis"] == []
 
 
 def test_dh_from_urdf_output_passes_dh_check(tmp_path):
     path = tmp_path / "ur5.yaml"
-    run("manipkit", "dh", "from-urdf", "--robot", "ur5", "--base", "base", "--tip", "tool0", "--convention", "modified", "-o", path, check_status=0)
-    run("manipkit", "dh", "check", path, "--robot", "ur5", "--base", "base", "--tip", "tool0", check_status=0)
+    run_cli("manipkit", "dh", "from-urdf", "--robot", "ur5", "--base", "base", "--tip", "tool0", "--convention", "modified", "-o", path, status=0)
+    run_cli("manipkit", "dh", "check", path, "--robot", "ur5", "--base", "base", "--tip", "tool0", status=0)
 
 
 def test_dh_to_urdf_loads_and_matches_the_table(tmp_path):
     # The URDF written for the planar 3R table is a robot whose ee_link sits at x = 4 + 2 + 1 = 7 at q = 0.
     path = tmp_path / "p3.urdf"
-    run("manipkit", "dh", "to-urdf", "planar_3r", "-o", path, check_status=0)
-    out = json.loads(run("tf-between", "base_link", "ee_link", "--robot", path, "--format", "json", check_status=0).stdout)
+    run_cli("manipkit", "dh", "to-urdf", "planar_3r", "-o", path, status=0)
+    out = json.loads(run_cli("tf-between", "base_link", "ee_link", "--robot", path, "--format", "json", status=0).stdout)
     assert out["translation"] == pytest.approx([7, 0, 0], abs=1e-12)
 
 
 def test_dh_check_unknown_table_exits_2():
-    result = run("manipkit", "dh", "check", "iiwa15", "--robot", "iiwa14", check_status=2)
+    result = run_cli("manipkit", "dh", "check", "iiwa15", "--robot", "iiwa14", status=2)
     assert "DH table not found: iiwa15; did you mean iiwa14" in result.stderr
 
 
 def test_dh_check_wrong_count_is_a_mismatch():
-    result = run("manipkit", "dh", "check", "planar_2r", "--robot", "planar_3r", check_status=1)
+    result = run_cli("manipkit", "dh", "check", "planar_2r", "--robot", "planar_3r", status=1)
     assert "the table has 2 rows but the URDF chain base_link -> ee_link has 3 movable joints" in result.stdout
 
 
 def test_workspace_json_and_plot(tmp_path):
     # Seed 004: lengths 4 2 1 reach 1 <= r <= 7 (|4 - 2 - 1| to 4 + 2 + 1) and every orientation for 3 <= r <= 5.
     path = tmp_path / "ws.png"
-    data = json.loads(run("manipkit", "workspace", "--robot", "planar_3r", "--plot", path, "--format", "json", check_status=0).stdout)
+    data = json.loads(run_cli("manipkit", "workspace", "--robot", "planar_3r", "--plot", path, "--format", "json", status=0).stdout)
     assert data["reachable"] == pytest.approx([1, 7]) and data["dexterous"] == pytest.approx([3, 5])
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_workspace_of_a_non_planar_robot_exits_2():
-    result = run("manipkit", "workspace", "--robot", "course_arm", check_status=2)
+    result = run_cli("manipkit", "workspace", "--robot", "course_arm", status=2)
     assert "needs a 2R or 3R arm" in result.stderr
 
 
@@ -395,8 +385,8 @@ def test_ik_solution_is_accepted_back_by_tf_between():
     # Target: the iiwa's flange pose at a known configuration; the answer, fed to tf-between, must reproduce it.
     q_known = ["iiwa_joint_1=0.3", "iiwa_joint_2=0.5", "iiwa_joint_4=-1.2", "iiwa_joint_6=0.7"]
     pose = tf_json("base_link", "ee_link", "--robot", "iiwa14", "--q", *q_known)
-    out = json.loads(run("manipkit", "ik", "--robot", "iiwa14", "--xyz", *pose["translation"], "--rpy", *pose["rpy"],
-                         "--format", "json", check_status=0).stdout)
+    out = json.loads(run_cli("manipkit", "ik", "--robot", "iiwa14", "--xyz", *pose["translation"], "--rpy", *pose["rpy"],
+                         "--format", "json", status=0).stdout)
     assert out["success"] is True and out["residual_position"] < 1e-9 and out["residual_rotation"] < 1e-9
     answer = [f"{k}={v!r}" for k, v in out["solutions"][0].items()]
     back = tf_json("base_link", "ee_link", "--robot", "iiwa14", "--q", *answer)
@@ -406,20 +396,20 @@ def test_ik_solution_is_accepted_back_by_tf_between():
 def test_ik_analytic_stanford_gives_four_labelled_solutions():
     q = ["joint1=0.4", "joint2=0.7", "joint3=0.5", "joint4=0.3", "joint5=1.1", "joint6=-0.4"]
     pose = tf_json("base_link", "ee_link", "--robot", "stanford_arm", "--q", *q)
-    result = run("manipkit", "ik", "--robot", "stanford_arm", "--analytic", "--xyz", *pose["translation"],
-                 "--rpy", *pose["rpy"], check_status=0)
+    result = run_cli("manipkit", "ik", "--robot", "stanford_arm", "--analytic", "--xyz", *pose["translation"],
+                 "--rpy", *pose["rpy"], status=0)
     assert "closed form (decoupled.ik_stanford): 4 solution(s)" in result.stdout
     assert "[front, no flip]" in result.stdout and "[back, flip]" in result.stdout
 
 
 def test_ik_analytic_without_a_closed_form_exits_2():
-    result = run("manipkit", "ik", "--robot", "iiwa14", "--analytic", "--xyz", "0.3", "0", "0.5", check_status=2)
+    result = run_cli("manipkit", "ik", "--robot", "iiwa14", "--analytic", "--xyz", "0.3", "0", "0.5", status=2)
     assert "no closed-form solver for robot 'iiwa14'" in result.stderr
 
 
 def test_ik_unreachable_reports_failure_with_residual():
-    out = json.loads(run("manipkit", "ik", "--robot", "iiwa14", "--xyz", "3", "0", "0", "--restarts", "3",
-                         "--format", "json", check_status=1).stdout)
+    out = json.loads(run_cli("manipkit", "ik", "--robot", "iiwa14", "--xyz", "3", "0", "0", "--restarts", "3",
+                         "--format", "json", status=1).stdout)
     assert out["success"] is False and out["solutions"] == []
     # The flange reaches at most 1.148 m from joint 1's origin at z = 0.1575, and (3, 0, 0) is 3.004 m from it.
     assert out["residual_position"] >= 3.004 - 1.148 - 1e-6
@@ -428,5 +418,5 @@ def test_ik_unreachable_reports_failure_with_residual():
 
 def test_ik_course_arm_position_only_when_no_orientation_given():
     pose = tf_json("base_link", "ee_link", *q_args(POSE_B))
-    out = json.loads(run("manipkit", "ik", "--xyz", *pose["translation"], "--format", "json", check_status=0).stdout)
+    out = json.loads(run_cli("manipkit", "ik", "--xyz", *pose["translation"], "--format", "json", status=0).stdout)
     assert out["mode"] == "position" and out["residual_position"] < 1e-9

@@ -1,4 +1,4 @@
-"""``manipkit ik`` as a user runs it: real subprocesses of the installed entry point.
+"""``manipkit ik`` as a user runs it: the entry point called with argv in this process (tests/cli_helper.py).
 
 Each of the findings of issue 14 about the command has a test here; every
 solution printed is checked against forward kinematics computed
@@ -8,26 +8,15 @@ the robot's URDF), never against the solver's own numbers.
 
 import json
 import re
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
+from cli_helper import run_cli
 
 import manipkit
 
-BIN = Path(sys.executable).parent
 
-
-def run(*args, check_status=None):
-    result = subprocess.run([str(BIN / "manipkit"), "ik", *map(str, args)], capture_output=True, text=True, timeout=120)
-    if check_status is not None:
-        assert result.returncode == check_status, result.stderr + result.stdout
-    return result
-
-
-def run_json(*args, check_status=None):
-    return json.loads(run(*args, "--format", "json", check_status=check_status).stdout)
+def run_json(*args, status=None):
+    return json.loads(run_cli("manipkit", "ik", *args, "--format", "json", status=status).stdout)
 
 
 def planar_fk(q, lengths):
@@ -38,7 +27,7 @@ def planar_fk(q, lengths):
 
 def test_finding_1_planar_2r_pose_whose_orientation_it_cannot_meet_has_no_solution():
     # Issue 14, finding 1: main printed success with "rotation 0 rad"; the elbows' tool angles are off.
-    result = run("--robot", "planar_2r", "--xyz", 1, 0.5, 0, "--rpy", 0, 0, 0.3, "--analytic", check_status=1)
+    result = run_cli("manipkit", "ik", "--robot", "planar_2r", "--xyz", 1, 0.5, 0, "--rpy", 0, 0, 0.3, "--analytic", status=1)
     assert "0 solution(s)" in result.stdout and "orientation" in result.stdout
     # By hand (l1 = l2 = 1): cos q2 = (r^2 - 2) / 2 with r^2 = 1.25; q1 = atan2(y, x) -+ atan2(sin q2, 1 + cos q2).
     q2 = np.arccos((1.25 - 2.0) / 2.0)
@@ -50,7 +39,7 @@ def test_finding_1_planar_2r_pose_whose_orientation_it_cannot_meet_has_no_soluti
         headings.append(phi)
     miss = min(abs(np.angle(np.exp(1j * (h - 0.3)))) for h in headings)
     assert miss > 0.8
-    out = run_json("--robot", "planar_2r", "--xyz", 1, 0.5, 0, "--rpy", 0, 0, 0.3, "--analytic", check_status=1)
+    out = run_json("--robot", "planar_2r", "--xyz", 1, 0.5, 0, "--rpy", 0, 0, 0.3, "--analytic", status=1)
     assert out["success"] is False and out["solutions"] == [] and out["count"] == 0
     assert abs(out["unmet"]["orientation"] - miss) < 1e-12
     assert out["closed_form_mode"] == "planar pose (x, y, phi)"
@@ -58,9 +47,9 @@ def test_finding_1_planar_2r_pose_whose_orientation_it_cannot_meet_has_no_soluti
 
 def test_finding_2_planar_3r_position_only_is_a_family_in_phi():
     # Issue 14, finding 2: main assumed phi = 0 and printed "2 solution(s)".
-    result = run("--robot", "planar_3r", "--xyz", 4, 2, 0, "--analytic", check_status=0)
+    result = run_cli("manipkit", "ik", "--robot", "planar_3r", "--xyz", 4, 2, 0, "--analytic", status=0)
     assert "infinitely many solutions (free: phi)" in result.stdout and "2 solution(s)" not in result.stdout
-    out = run_json("--robot", "planar_3r", "--xyz", 4, 2, 0, "--analytic", check_status=0)
+    out = run_json("--robot", "planar_3r", "--xyz", 4, 2, 0, "--analytic", status=0)
     assert out["count"] == "inf" and out["free_parameter"] == "phi" and out["closed_form_mode"] == "planar position (x, y)"
     phis = set()
     for solution in out["solutions"]:
@@ -72,9 +61,9 @@ def test_finding_2_planar_3r_position_only_is_a_family_in_phi():
 
 def test_finding_3_scara_position_only_in_closed_form_frees_the_tool_roll():
     # Issue 14, finding 3: main ignored --position-only and gave 0 solutions (tool "tilted 180 deg").
-    result = run("--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--position-only", "--analytic", check_status=0)
+    result = run_cli("manipkit", "ik", "--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--position-only", "--analytic", status=0)
     assert "infinitely many solutions (free: theta4)" in result.stdout and "tilted" not in result.stdout
-    out = run_json("--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--position-only", "--analytic", check_status=0)
+    out = run_json("--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--position-only", "--analytic", status=0)
     robot = manipkit.load("scara")
     rolls = set()
     for solution in out["solutions"]:
@@ -87,22 +76,22 @@ def test_finding_3_scara_position_only_in_closed_form_frees_the_tool_roll():
 
 def test_finding_4_planar_target_off_the_plane_names_z_and_by_how_much():
     # Issue 14, finding 4: main printed "0 solution(s) (count: 2)" and "2 solutions ... inside" without z.
-    result = run("--robot", "planar_2r", "--xyz", 1, 1, 0.3, "--analytic", check_status=1)
+    result = run_cli("manipkit", "ik", "--robot", "planar_2r", "--xyz", 1, 1, 0.3, "--analytic", status=1)
     assert "0 solution(s)" in result.stdout and "(count: 2)" not in result.stdout
     assert "z = 0.3 m, off the arm's plane z = 0 m by 0.3 m" in result.stdout
-    out = run_json("--robot", "planar_2r", "--xyz", 1, 1, 0.3, "--analytic", check_status=1)
+    out = run_json("--robot", "planar_2r", "--xyz", 1, 1, 0.3, "--analytic", status=1)
     z_plane = manipkit.load("planar_2r").transform("base_link", "ee_link", [0.4, -1.0])[2, 3]  # any q: the plane
     assert out["count"] == 0 and abs(out["unmet"]["z"] - (0.3 - z_plane)) < 1e-12
 
 
 def test_analytic_position_of_a_six_joint_arm_is_refused_with_the_way_out():
-    result = run("--robot", "elbow_arm", "--xyz", 0.5, 0.1, 0.3, "--analytic", check_status=2)
+    result = run_cli("manipkit", "ik", "--robot", "elbow_arm", "--xyz", 0.5, 0.1, 0.3, "--analytic", status=2)
     assert "solves spatial pose (x, y, z, R) only" in result.stderr and "numerical IK" in result.stderr
 
 
 def test_analytic_with_an_axis_is_a_usage_error():
-    result = run("--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--rpy", 3.14159, 0, 0, "--axis", "z", "--analytic",
-                 check_status=2)
+    result = run_cli("manipkit", "ik", "--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--rpy", 3.14159, 0, 0, "--axis", "z", "--analytic",
+                 status=2)
     assert "leave out --axis" in result.stderr
 
 
@@ -112,16 +101,15 @@ def test_finding_8_a_pose_pasted_from_tf_between_is_explained_and_tol_accepts_it
     from reference import POSE_A, course_arm_T_base_ee, matrix_from_rpy
 
     joints = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
-    text = subprocess.run([str(BIN / "tf-between"), "base_link", "ee_link", "--q",
-                           *(f"{n}={v}" for n, v in zip(joints, POSE_A))], capture_output=True, text=True).stdout
+    text = run_cli("tf-between", "base_link", "ee_link", "--q", *(f"{n}={v}" for n, v in zip(joints, POSE_A))).stdout
     xyz = re.search(r"Translation \(m\): \[([^\]]*)\]", text).group(1).replace(",", " ").split()
     rpy = re.search(r"RPY \(radian\) \[roll, pitch, yaw\]: \[([^\]]*)\]", text).group(1).replace(",", " ").split()
     assert all(len(v.partition(".")[2]) == 6 for v in xyz + rpy)  # the printed precision this test is about
-    failed = run("--xyz", *xyz, "--rpy", *rpy, check_status=1)
+    failed = run_cli("manipkit", "ik", "--xyz", *xyz, "--rpy", *rpy, status=1)
     assert "within what the target's printed precision can express (6 decimals" in failed.stdout
     suggested = re.search(r"accept it with --tol (\S+)", failed.stdout).group(1)
     assert float(suggested) <= 1e-5
-    out = run_json("--xyz", *xyz, "--rpy", *rpy, "--tol", suggested, check_status=0)
+    out = run_json("--xyz", *xyz, "--rpy", *rpy, "--tol", suggested, status=0)
     q = [out["solutions"][0][name] for name in joints]
     T = course_arm_T_base_ee(q)  # the independent chain of tests/reference.py
     T_target = np.eye(4)
@@ -132,12 +120,12 @@ def test_finding_8_a_pose_pasted_from_tf_between_is_explained_and_tol_accepts_it
 
 
 def test_tol_is_checked():
-    result = run("--xyz", 0.1, 0, 0, "--tol", 0, check_status=2)
+    result = run_cli("manipkit", "ik", "--xyz", 0.1, 0, 0, "--tol", 0, status=2)
     assert "--tol 0: give one or two positive numbers (position m, rotation rad)" in result.stderr
-    result = run("--xyz", 0.1, 0, 0, "--tol", 1, 2, 3, check_status=2)
+    result = run_cli("manipkit", "ik", "--xyz", 0.1, 0, 0, "--tol", 1, 2, 3, status=2)
     assert "--tol 1 2 3" in result.stderr
 
 
 def test_a_far_target_gets_no_precision_note():
-    out = run_json("--xyz", 3.123456, 0, 0, "--restarts", 2, check_status=1)
+    out = run_json("--xyz", 3.123456, 0, 0, "--restarts", 2, status=1)
     assert not any("printed precision" in note for note in out["notes"])

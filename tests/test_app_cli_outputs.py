@@ -1,6 +1,8 @@
 """Writing what a user asked for (issue 15): files, stdout, and values too large to print.
 
-Real subprocesses of the installed entry points. Every file a command writes
+The commands run in this process (tests/cli_helper.py), except where the
+test is about the process's own stdout (a full disk, a closed pipe): those
+run the installed entry points in a subprocess. Every file a command writes
 goes through manipkit.outputs: a missing folder, a folder as the file, a full
 disk (simulated by /dev/full, which fails every write with ENOSPC) end as one
 line ``cannot write PATH: reason`` with status 2, and no folder is ever
@@ -14,14 +16,16 @@ import sys
 from pathlib import Path
 
 import pytest
+from cli_helper import run_cli
 
 BIN = Path(sys.executable).parent
 HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names.urdf"
 
 
-def run(command, *args, stdout=subprocess.PIPE, cwd=None):
+def run_process(command, *args, stdout):
+    """``command ARGS`` in a subprocess whose stdout is ``stdout``: for the tests about the process's stdout."""
     return subprocess.run([str(BIN / command), *map(str, args)], stdout=stdout, stderr=subprocess.PIPE, text=True,
-                          timeout=180, cwd=cwd)
+                          timeout=180)
 
 
 def assert_one_line_error(result, command, message):
@@ -48,7 +52,7 @@ MISSING_FOLDER_COMMANDS = {
 @pytest.mark.parametrize("argv", MISSING_FOLDER_COMMANDS.values(), ids=MISSING_FOLDER_COMMANDS)
 def test_output_into_a_missing_folder_is_one_line_and_creates_no_folder(tmp_path, argv):
     out = tmp_path / "no_such_folder" / "x"
-    result = run("manipkit", *(a.format(out=out) for a in argv))
+    result = run_cli("manipkit", *(a.format(out=out) for a in argv))
     target = Path(argv[-1].format(out=out))
     assert_one_line_error(result, "manipkit", f"cannot write {target}: no such folder {target.parent}")
     assert list(tmp_path.iterdir()) == []
@@ -67,7 +71,7 @@ FOLDER_COMMANDS = {
 
 @pytest.mark.parametrize("argv", FOLDER_COMMANDS.values(), ids=FOLDER_COMMANDS)
 def test_output_onto_a_folder_is_one_line(tmp_path, argv):
-    result = run("manipkit", *argv, tmp_path)
+    result = run_cli("manipkit", *argv, tmp_path)
     assert_one_line_error(result, "manipkit", f"cannot write {tmp_path}: it is a folder; give a file name")
 
 
@@ -87,50 +91,50 @@ def test_output_onto_a_full_disk_is_one_line(tmp_path, argv):
     # A file name with the right suffix that is /dev/full: the open works, every write fails with ENOSPC.
     argv = [a.format(full=tmp_path / "full") for a in argv]
     Path(argv[-1]).symlink_to("/dev/full")
-    result = run("manipkit", *argv)
+    result = run_cli("manipkit", *argv)
     assert_one_line_error(result, "manipkit", f"cannot write {argv[-1]}: No space left on device")
 
 
 @pytest.mark.parametrize("fmt", ["text", "dot", "png", "svg"])
 def test_tree_onto_dev_full_is_one_line(fmt):
-    result = run("manipkit", "tree", "--format", fmt, "-o", "/dev/full")
+    result = run_cli("manipkit", "tree", "--format", fmt, "-o", "/dev/full")
     assert_one_line_error(result, "manipkit", "cannot write /dev/full: No space left on device")
 
 
 def test_workspace_plot_creates_no_folder(tmp_path):
     # issue 15: `workspace --robot planar_2r --plot /nonexistent/x.png` exited 0 and created /nonexistent/
-    result = run("manipkit", "workspace", "--robot", "planar_2r", "--plot", "made/by/nobody/x.png", cwd=tmp_path)
+    result = run_cli("manipkit", "workspace", "--robot", "planar_2r", "--plot", "made/by/nobody/x.png", cwd=tmp_path)
     assert_one_line_error(result, "manipkit", "cannot write made/by/nobody/x.png: no such folder made/by/nobody")
     assert not (tmp_path / "made").exists()
 
 
 def test_tree_output_without_a_suffix_asks_for_one(tmp_path):
     # issue 15: `tree -o outdir` said "tree format ''"
-    result = run("manipkit", "tree", "-o", "outdir", cwd=tmp_path)
+    result = run_cli("manipkit", "tree", "-o", "outdir", cwd=tmp_path)
     assert_one_line_error(result, "manipkit", "tree -o outdir: the file name has no suffix to choose a format from; "
                                               "name a .txt, .dot, .png or .svg file, or give --format")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_tree_output_of_an_unknown_suffix_names_the_known_ones(tmp_path):
-    result = run("manipkit", "tree", "-o", "tree.jpg", cwd=tmp_path)
+    result = run_cli("manipkit", "tree", "-o", "tree.jpg", cwd=tmp_path)
     assert_one_line_error(result, "manipkit", "tree -o tree.jpg: no tree format for '.jpg' files; "
                                               "name a .txt, .dot, .png or .svg file, or give --format")
 
 
 @pytest.mark.parametrize("suffix", ["txt", "dot", "png", "svg"])
 def test_tree_still_writes_each_format(tmp_path, suffix):
-    result = run("manipkit", "tree", "-o", f"tree.{suffix}", cwd=tmp_path)
+    result = run_cli("manipkit", "tree", "-o", f"tree.{suffix}", cwd=tmp_path)
     assert result.returncode == 0 and result.stderr == "", result.stderr
     assert result.stdout == f"wrote tree.{suffix}\n"
     assert (tmp_path / f"tree.{suffix}").stat().st_size > 100
 
 
 def test_dh_from_urdf_still_writes_a_table_that_loads_back(tmp_path):
-    result = run("manipkit", "dh", "from-urdf", "-o", "arm.yaml", cwd=tmp_path)
+    result = run_cli("manipkit", "dh", "from-urdf", "-o", "arm.yaml", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith("wrote arm.yaml\n")
-    check = run("manipkit", "dh", "check", tmp_path / "arm.yaml", "--samples", "20")
+    check = run_cli("manipkit", "dh", "check", tmp_path / "arm.yaml", "--samples", "20")
     assert check.returncode == 0 and "PASS" in check.stdout, check.stdout + check.stderr
 
 
@@ -150,24 +154,26 @@ STDOUT_COMMANDS = {
 
 @pytest.mark.parametrize("argv", STDOUT_COMMANDS.values(), ids=STDOUT_COMMANDS)
 def test_stdout_on_a_full_disk_is_one_line(argv):
-    with open("/dev/full", "w") as full:
-        result = run(*argv, stdout=full)
+    with open("/dev/full", "w") as full:  # a subprocess: the process's own stdout is a full disk
+        result = run_process(*argv, stdout=full)
     assert_one_line_error(result, argv[0], "cannot write stdout: No space left on device")
 
 
 @pytest.mark.parametrize("argv", STDOUT_COMMANDS.values(), ids=STDOUT_COMMANDS)
 def test_stdout_to_a_closed_pipe_ends_quietly(argv):
-    # the reader is gone before the first write, as after `| head -1` has read its line
+    # the reader is gone before the first write, as after `| head -1` has read its line (a subprocess: the
+    # process's own stdout is the closed pipe, and it must exit quietly)
     read_end, write_end = os.pipe()
     os.close(read_end)
     try:
-        result = run(*argv, stdout=write_end)
+        result = run_process(*argv, stdout=write_end)
     finally:
         os.close(write_end)
     assert (result.returncode, result.stderr) == (0, "")
 
 
 def test_stdout_to_head_ends_quietly():
+    # a subprocess in a shell pipeline: the process's stdout is closed while it writes
     # the Panda's tree (about 2 kB) is printed whole; `head -c 1` leaves after one byte
     result = subprocess.run(f"'{BIN / 'manipkit'}' tree --robot panda | head -c 1; exit ${{PIPESTATUS[0]}}",
                             shell=True, executable="/bin/bash", capture_output=True, text=True, timeout=180)
@@ -181,16 +187,16 @@ def test_stdout_to_head_ends_quietly():
 
 def test_a_continuous_joint_value_too_large_to_name_a_rotation_is_refused():
     # issue 15: `--deg --q j=1e308` printed a 300-digit joint value
-    result = run("tf-between", "base_link", "ee_link", "--deg", "--q", "arm_base_joint=1e308")
+    result = run_cli("tf-between", "base_link", "ee_link", "--deg", "--q", "arm_base_joint=1e308")
     assert_one_line_error(result, "tf-between", "joint 'arm_base_joint' = 1e+308 deg is too large to name a rotation; "
                                                 "give angles within +-5.72958e+07 deg (1e+06 rad)")
-    result = run("tf-between", "base_link", "ee_link", "--q", "arm_base_joint=-2e6")
+    result = run_cli("tf-between", "base_link", "ee_link", "--q", "arm_base_joint=-2e6")
     assert_one_line_error(result, "tf-between", "joint 'arm_base_joint' = -2e+06 rad is too large to name a rotation; "
                                                 "give angles within +-1e+06 rad")
 
 
 def test_a_continuous_joint_value_at_the_angle_limit_is_taken_with_the_full_turn_warning():
-    result = run("tf-between", "base_link", "ee_link", "--q", "arm_base_joint=1e6", "--format", "json")
+    result = run_cli("tf-between", "base_link", "ee_link", "--q", "arm_base_joint=1e6", "--format", "json")
     assert result.returncode == 0
     assert result.stderr == ("warning: joint 'arm_base_joint' = 1e+06 rad is more than a full turn; "
                              "did you mean degrees? add --deg\n")
@@ -198,16 +204,16 @@ def test_a_continuous_joint_value_at_the_angle_limit_is_taken_with_the_full_turn
 
 def test_ik_refuses_rpy_angles_too_large_to_name_a_rotation():
     # issue 15: `ik --rpy 1e300 0 0` was accepted (and searched for minutes)
-    result = run("manipkit", "ik", "--xyz", "0.3", "0", "0.3", "--rpy", "1e300", "0", "0")
+    result = run_cli("manipkit", "ik", "--xyz", "0.3", "0", "0.3", "--rpy", "1e300", "0", "0")
     assert_one_line_error(result, "manipkit", "--rpy 1e+300 0 0: 1e+300 rad is too large to name a rotation; "
                                               "give angles within +-1e+06 rad")
-    result = run("manipkit", "ik", "--xyz", "0.3", "0", "0.3", "--deg", "--rpy", "0", "6e7", "0")
+    result = run_cli("manipkit", "ik", "--xyz", "0.3", "0", "0.3", "--deg", "--rpy", "0", "6e7", "0")
     assert_one_line_error(result, "manipkit", "--rpy 0 6e+07 0: 6e+07 deg is too large to name a rotation; "
                                               "give angles within +-5.72958e+07 deg (1e+06 rad)")
 
 
 def test_ik_refuses_a_seed_too_large_to_name_a_rotation():
-    result = run("manipkit", "ik", "--xyz", "0.3", "0", "0.3", "--seed-q", "arm_base_joint=1e300")
+    result = run_cli("manipkit", "ik", "--xyz", "0.3", "0", "0.3", "--seed-q", "arm_base_joint=1e300")
     assert_one_line_error(result, "manipkit", "--seed-q: joint 'arm_base_joint' = 1e+300 rad is too large to name a "
                                               "rotation; give angles within +-1e+06 rad")
 
@@ -219,7 +225,7 @@ def test_ik_refuses_a_seed_too_large_to_name_a_rotation():
 
 def test_tree_of_hostile_names_writes_every_format(tmp_path):
     for suffix in ("txt", "dot", "png", "svg"):
-        result = run("manipkit", "tree", "--robot", HOSTILE, "-o", f"hostile.{suffix}", cwd=tmp_path)
+        result = run_cli("manipkit", "tree", "--robot", HOSTILE, "-o", f"hostile.{suffix}", cwd=tmp_path)
         assert (result.returncode, result.stderr) == (0, ""), result.stderr
 
 
@@ -230,7 +236,7 @@ def test_frames_prints_names_that_look_like_rich_markup_as_written(tmp_path):
                     '<joint name="[bold]j[/bold]" type="revolute"><parent link="base_link"/>'
                     '<child link="[/]x[red] :smile:"/><axis xyz="0 0 1"/>'
                     '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
-    result = run("manipkit", "frames", "--robot", path)
+    result = run_cli("manipkit", "frames", "--robot", path)
     assert (result.returncode, result.stderr) == (0, ""), result.stderr
     assert result.stdout.splitlines()[1] == "frames: base_link, [/]x[red] :smile:"
     assert "movable joints of r[/bold]" in result.stdout

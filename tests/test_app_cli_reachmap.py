@@ -1,4 +1,4 @@
-"""``manipkit reachmap`` and ``manipkit base-placement`` as a user runs them (real subprocesses).
+"""``manipkit reachmap`` and ``manipkit base-placement`` as a user runs them (in this process, tests/cli_helper.py).
 
 Independent sources: the planar 3R (4, 2, 1) map's reachable voxels against
 r in [1, 7] (closed form, ``workspace_3r``); base placement against targets
@@ -7,31 +7,20 @@ made by FK from a known placement of the mobile manipulator.
 
 import json
 import math
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 
 from manipkit.analysis.placement import placement_transforms
 from manipkit.analysis.reachmap import load
 from manipkit.closed_form.planar_workspace import workspace_3r
 
-BIN = Path(sys.executable).parent
-
-
-def run(*args, status=None):
-    result = subprocess.run([str(BIN / "manipkit"), *map(str, args)], capture_output=True, text=True, timeout=120)
-    if status is not None:
-        assert result.returncode == status, result.stderr + result.stdout
-    return result
-
 
 @pytest.fixture(scope="module")
 def map_3r(tmp_path_factory):
     folder = tmp_path_factory.mktemp("maps")
-    out = run("reachmap", "--robot", "planar_3r", "--voxel", "0.5", "--orientations", "8", "--samples", "20000",
+    out = run_cli("manipkit", "reachmap", "--robot", "planar_3r", "--voxel", "0.5", "--orientations", "8", "--samples", "20000",
               "--method", "hybrid", "-o", folder / "p3r.zarr", "--plot", folder / "p3r.png", "--format", "json",
               "--plot-manipulability", folder / "w.png", "--view-html", folder / "p3r.html", status=0)
     return folder, json.loads(out.stdout)
@@ -63,13 +52,13 @@ def test_reachmap_reports_the_best_manipulability_and_draws_it(map_3r):
 
 
 def test_reachmap_without_manipulability(tmp_path):
-    out = run("reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
+    out = run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
               "-o", tmp_path / "m.zarr", "--no-manipulability", status=0).stdout
     assert "manipulability" not in out and load(tmp_path / "m.zarr").manipulability is None
 
 
 def test_reachmap_text_summary(tmp_path):
-    out = run("reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
+    out = run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
               "-o", tmp_path / "m.zarr", status=0).stdout
     assert out.startswith("reachability map of planar_2r: ee_link in base_link, method fk\n")
     assert "grid 19x19x1 voxels of 0.25 m" in out and out.rstrip().endswith(f"wrote {tmp_path / 'm.zarr'}")
@@ -88,9 +77,9 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
         lines.append(" ".join(repr(float(v)) for v in [*pose[:3, 3], *rpy_from_matrix(pose[:3, :3])]))
     lines += [" ".join(repr(float(v)) for v in row) for row in T[5]]
     (tmp_path / "targets.txt").write_text("\n".join(lines) + "\n")
-    run("reachmap", "--robot", "mobile_manipulator", "--base", "base_footprint", "--voxel", "0.1", "--orientations", "6",
+    run_cli("manipkit", "reachmap", "--robot", "mobile_manipulator", "--base", "base_footprint", "--voxel", "0.1", "--orientations", "6",
         "--samples", "100000", "-o", tmp_path / "mm.zarr", status=0)
-    out = json.loads(run("base-placement", "--robot", "mobile_manipulator", "--targets", tmp_path / "targets.txt",
+    out = json.loads(run_cli("manipkit", "base-placement", "--robot", "mobile_manipulator", "--targets", tmp_path / "targets.txt",
                          "--map", tmp_path / "mm.zarr", "--yaws", "4", "--plot", tmp_path / "bp.png", "--format", "json",
                          status=0).stdout)
     assert out["targets"] == 6 and out["reached"] >= 5
@@ -127,7 +116,7 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
 def test_bad_input_is_one_line_and_status_2(tmp_path, args, expect):
     (tmp_path / "bad.txt").write_text("1 2 3 0 0 0\n1 2\n")
     (tmp_path / "good.txt").write_text("1 2 0 0 0 0\n")
-    result = run(*(a.replace("{tmp}", str(tmp_path)) for a in args))
+    result = run_cli("manipkit", *(a.replace("{tmp}", str(tmp_path)) for a in args))
     assert result.returncode == 2, result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and expect in lines[0], result.stderr
@@ -137,8 +126,8 @@ def test_bad_input_is_one_line_and_status_2(tmp_path, args, expect):
 def test_base_placement_with_a_map_refuses_settings_the_map_already_fixed(map_3r, tmp_path):
     targets = tmp_path / "targets.txt"
     targets.write_text("4 2 0 0 0 0\n")
-    out = run("base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--voxel", "0.1", status=2)
+    out = run_cli("manipkit", "base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--voxel", "0.1", status=2)
     assert "--voxel sets how a map is built" in out.stderr and out.stderr.count("\n") == 1
-    out = run("base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--frame", "link2",
+    out = run_cli("manipkit", "base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--frame", "link2",
               status=2)
     assert "is a map of 'ee_link', not of 'link2'" in out.stderr

@@ -1,30 +1,20 @@
-"""``manipkit rot``: one rotation in every form, text and JSON, singular cases named (real command runs).
+"""``manipkit rot``: one rotation in every form, text and JSON, singular cases named (commands run in process).
 
 Expected values come from the elementary rotations (Rz, Ry, Rx products), independent of the conversions.
 """
 
 import json
 import math
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z
 
-BIN = Path(sys.executable).parent
-
-
-def rot(*args, status=0):
-    result = subprocess.run([str(BIN / "manipkit"), "rot", *map(str, args)], capture_output=True, text=True, timeout=120)
-    assert result.returncode == status, result.stdout + result.stderr
-    return result
-
 
 def rot_json(*args):
-    return json.loads(rot(*args, "--format", "json").stdout)
+    return json.loads(run_cli("manipkit", "rot", *args, "--format", "json", status=0).stdout)
 
 
 def test_rpy_in_every_form_reproduces_the_matrix():
@@ -56,7 +46,7 @@ def test_each_input_form_gives_the_same_rotation():
 
 
 def test_text_output_names_each_form_and_its_convention():
-    out = rot("zyx", 30, 20, 10, "--deg").stdout
+    out = run_cli("manipkit", "rot", "zyx", 30, 20, 10, "--deg", status=0).stdout
     assert "rotation matrix:" in out
     assert "rpy (roll, pitch, yaw), R = Rz(yaw) Ry(pitch) Rx(roll): [10.000000 20.000000 30.000000] deg" in out
     assert "ZYX (yaw, pitch, roll), R = Rz(yaw) Ry(pitch) Rx(roll): [30.000000 20.000000 10.000000] deg" in out
@@ -65,7 +55,7 @@ def test_text_output_names_each_form_and_its_convention():
 
 def test_gimbal_lock_is_named_and_roll_is_0():
     # ZYX (yaw 30, pitch 90, roll -20) deg: at pitch +90 only yaw - roll = 50 deg is defined.
-    out = rot("zyx", 30, 90, -20, "--deg").stdout
+    out = run_cli("manipkit", "rot", "zyx", 30, 90, -20, "--deg", status=0).stdout
     assert "ZYX (yaw, pitch, roll), R = Rz(yaw) Ry(pitch) Rx(roll): [50.000000 90.000000 0.000000] deg" in out
     assert "note: gimbal lock (pitch = +90 deg): only yaw - roll is defined; roll set to 0" in out
     data = rot_json("zyx", 30, 90, -20, "--deg")
@@ -114,7 +104,7 @@ def test_a_matrix_file_is_read(tmp_path):
     (("axis-angle", 0, 0, 0, 1), "the axis is (0, 0, 0)"),
 ])
 def test_bad_input_is_one_line_with_exit_2(args, fragment):
-    result = rot(*args, status=2)
+    result = run_cli("manipkit", "rot", *args, status=2)
     assert result.stderr.count("\n") == 1 and fragment in result.stderr, result.stderr
     assert "Traceback" not in result.stderr
 

@@ -1,9 +1,11 @@
 """``tf-between`` (issue 15): inputs that are not regular files, deep chains, --compare limits, streamed --q-file.
 
-Every test runs the real command in a subprocess with a timeout, as a user
-would; inputs that cannot be committed (FIFOs, symlink loops, files above a
-size limit, generated chains) are made here in a temporary folder. The
-committed cases are in tests/bad_inputs/cases_inputs.yaml.
+Every test runs the command as a user would, in this process
+(tests/cli_helper.py), or in a subprocess with a timeout where the test is
+about the process (a read that would block forever, a crash, peak memory);
+inputs that cannot be committed (FIFOs, symlink loops, files above a size
+limit, generated chains) are made here in a temporary folder. The committed
+cases are in tests/bad_inputs/cases_inputs.yaml.
 """
 
 import json
@@ -14,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 from reference import POSE_A, POSE_B, course_arm_T_base_ee
 
 BIN = Path(sys.executable).parent
@@ -26,7 +29,8 @@ JSONL_ROWS = int(os.environ.get("MANIPKIT_Q_FILE_ROWS", 200_000))
 PEAK_MEMORY_LIMIT_KB = 500 * 1024
 
 
-def run(*args, timeout=120):
+def run_process(*args, timeout=120):
+    """``tf-between ARGS`` in a subprocess, for the tests about the process (each says why)."""
     return subprocess.run([str(BIN / "tf-between"), *map(str, args)], capture_output=True, text=True, timeout=timeout)
 
 
@@ -54,7 +58,8 @@ def chain_urdf(path: Path, links: int) -> Path:
 def test_a_fifo_is_refused_at_once_not_read(option, tmp_path):
     fifo = tmp_path / ("named_pipe.urdf" if option == "--robot" else "named_pipe.csv")
     os.mkfifo(fifo)
-    result = run("base_link", "ee_link", option, fifo, timeout=60)  # reading it would block forever
+    # a subprocess with a timeout: reading the FIFO would block forever
+    result = run_process("base_link", "ee_link", option, fifo, timeout=60)
     assert_one_line_error(result, f"{fifo} is a FIFO (named pipe), not a regular file; give a file")
 
 
@@ -62,12 +67,12 @@ def test_a_fifo_is_refused_at_once_not_read(option, tmp_path):
 def test_a_symlink_loop_is_named_as_such(option, tmp_path):
     loop = tmp_path / "loop.urdf"
     loop.symlink_to(loop.name)
-    result = run("base_link", "ee_link", option, loop, timeout=60)
+    result = run_cli("tf-between", "base_link", "ee_link", option, loop)
     assert_one_line_error(result, f"{loop} is a symlink loop (it points back to itself)")
 
 
 def test_an_empty_robot_name_is_not_a_folder():
-    result = run("base_link", "ee_link", "--robot", "")
+    result = run_cli("tf-between", "base_link", "ee_link", "--robot", "")
     assert_one_line_error(result, "the robot name is empty; give a bundled name")
     assert " is a folder" not in result.stderr
 
@@ -76,20 +81,20 @@ def test_a_robot_file_above_the_size_limit_is_refused_before_reading(tmp_path):
     huge = tmp_path / "huge.urdf"
     with open(huge, "wb") as stream:
         stream.truncate(65 * 1024 * 1024)  # sparse: 65 MB that take no disk space
-    assert_one_line_error(run("base_link", "ee_link", "--robot", huge), "is 65 MB, above the limit of 64 MB for a robot file")
+    assert_one_line_error(run_cli("tf-between", "base_link", "ee_link", "--robot", huge), "is 65 MB, above the limit of 64 MB for a robot file")
 
 
 def test_a_compare_file_above_the_size_limit_is_refused_before_reading(tmp_path):
     huge = tmp_path / "hand.txt"
     with open(huge, "wb") as stream:
         stream.truncate(100 * 1024 * 1024)
-    assert_one_line_error(run("base_link", "ee_link", "--compare", huge), "is 100 MB, above the limit of 1 MB for a matrix file")
+    assert_one_line_error(run_cli("tf-between", "base_link", "ee_link", "--compare", huge), "is 100 MB, above the limit of 1 MB for a matrix file")
 
 
 def test_a_nan_entry_in_a_compare_matrix_exits_2_with_one_line(tmp_path):
     hand = tmp_path / "hand.txt"
     hand.write_text("1 0 0 0\n0 1 0 NaN\n0 0 1 0\n0 0 0 1\n")
-    assert_one_line_error(run("base_link", "ee_link", "--compare", hand), "row 2, entry 4 is nan, not a finite number")
+    assert_one_line_error(run_cli("tf-between", "base_link", "ee_link", "--compare", hand), "row 2, entry 4 is nan, not a finite number")
 
 
 # ---------------------------------------------------------------- deep chains
@@ -97,17 +102,18 @@ def test_a_nan_entry_in_a_compare_matrix_exits_2_with_one_line(tmp_path):
 
 def test_a_chain_of_4000_fixed_joints_exits_2_with_one_line_not_a_crash(tmp_path):
     # Pinocchio's recursive parser crashes on it (exit 139, nothing printed): refused before Pinocchio sees it.
-    result = run("base_link", "ee_link", "--robot", chain_urdf(tmp_path / "deep.urdf", 4000), timeout=120)
+    # a subprocess: the test is about a crash
+    result = run_process("base_link", "ee_link", "--robot", chain_urdf(tmp_path / "deep.urdf", 4000), timeout=120)
     assert result.returncode != -11
     assert_one_line_error(result, "link 'l4000' is 4000 joints below root 'l0'; manipkit loads trees up to 2000 joints deep")
 
 
 def test_the_tip_of_a_1500_link_chain_is_ee_link(tmp_path):
-    result = run("base_link", "ee_link", "--robot", chain_urdf(tmp_path / "long.urdf", 1500), "--format", "json")
+    result = run_cli("tf-between", "base_link", "ee_link", "--robot", chain_urdf(tmp_path / "long.urdf", 1500), "--format", "json")
     assert result.returncode == 0, result.stderr
     # 1500 fixed joints of 1 mm each: the tip is 1.5 m above the root (l500 would be 0.5 m).
     assert json.loads(result.stdout)["translation"] == pytest.approx([0, 0, 1.5], abs=1e-9)
-    text = run("base_link", "ee_link", "--robot", tmp_path / "long.urdf").stdout
+    text = run_cli("tf-between", "base_link", "ee_link", "--robot", tmp_path / "long.urdf").stdout
     assert "frame ee_link = l1500 (l1500, the tip of the longest chain" in text
 
 
@@ -123,17 +129,17 @@ def test_a_byte_order_mark_before_the_header_is_skipped(tmp_path):
     plain = write_q_file(tmp_path / "plain.csv", [POSE_A])
     excel = tmp_path / "excel.csv"  # Excel's "CSV UTF-8" starts with EF BB BF
     excel.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
-    result = run("base_link", "ee_link", "--q-file", excel, "--format", "jsonl")
+    result = run_cli("tf-between", "base_link", "ee_link", "--q-file", excel, "--format", "jsonl")
     assert result.returncode == 0, result.stderr
     assert np.abs(np.array(json.loads(result.stdout)["matrix"]) - course_arm_T_base_ee(POSE_A)).max() < 1e-12
 
 
 def test_jsonl_gives_one_pose_a_line_as_the_json_document_gives_them(tmp_path):
     path = write_q_file(tmp_path / "q.csv", [POSE_A, POSE_B, (0,) * 5])
-    result = run("base_link", "ee_link", "--q-file", path, "--format", "jsonl")
+    result = run_cli("tf-between", "base_link", "ee_link", "--q-file", path, "--format", "jsonl")
     assert result.returncode == 0 and result.stderr == "", result.stderr
     lines = [json.loads(line) for line in result.stdout.splitlines()]
-    assert lines == json.loads(run("base_link", "ee_link", "--q-file", path, "--format", "json").stdout)["poses"]
+    assert lines == json.loads(run_cli("tf-between", "base_link", "ee_link", "--q-file", path, "--format", "json").stdout)["poses"]
     for line, pose in zip(lines, (POSE_A, POSE_B, (0,) * 5)):
         assert list(line) == ["q", "translation", "quaternion_xyzw", "rpy", "matrix"]
         assert line["q"] == dict(zip(JOINTS, map(float, pose)))
@@ -141,11 +147,11 @@ def test_jsonl_gives_one_pose_a_line_as_the_json_document_gives_them(tmp_path):
 
 
 def test_jsonl_needs_a_q_file():
-    assert_one_line_error(run("base_link", "ee_link", "--format", "jsonl"), "--format jsonl needs --q-file")
+    assert_one_line_error(run_cli("tf-between", "base_link", "ee_link", "--format", "jsonl"), "--format jsonl needs --q-file")
 
 
 def test_the_help_says_that_jsonl_streams():
-    help_text = " ".join(run("--help").stdout.split())
+    help_text = " ".join(run_cli("tf-between", "--help").stdout.split())
     assert "jsonl (JSON Lines: one pose a line)" in help_text and "only csv and jsonl can be read as they arrive" in help_text
 
 
@@ -154,7 +160,7 @@ def test_a_bad_row_after_the_first_batch_stops_the_output_there(tmp_path):
     path = write_q_file(tmp_path / "q.csv", rows)
     with open(path, "a") as stream:
         stream.write("0,0,0,x,0\n")  # line 10002: header + 10,000 rows before it
-    result = run("base_link", "ee_link", "--q-file", path)
+    result = run_cli("tf-between", "base_link", "ee_link", "--q-file", path)
     assert_one_line_error(result, f"--q-file {path}: line 10002: joint 'elbow_joint': value 'x' is not a number")
     written = [line for line in result.stdout.splitlines() if not line.startswith(("#", "x,"))]
     assert 0 < len(written) < 10_000  # the batches before the bad one were written as they were computed
@@ -164,7 +170,7 @@ def test_an_error_in_the_first_rows_writes_nothing(tmp_path):
     path = write_q_file(tmp_path / "q.csv", [POSE_A, POSE_B])
     with open(path, "a") as stream:
         stream.write("1,2\n")
-    result = run("base_link", "ee_link", "--q-file", path, "--format", "json")
+    result = run_cli("tf-between", "base_link", "ee_link", "--q-file", path, "--format", "json")
     assert_one_line_error(result, "line 4 has 2 values, the header has 5")
     assert result.stdout == ""
 
@@ -218,15 +224,15 @@ def test_compare_with_a_3x3_rotation_compares_rotations_only(tmp_path):
     # Rz(1.5708) exactly; the hand rotation written to 12 decimals agrees at 1e-9.
     hand = tmp_path / "R.txt"
     hand.write_text("\n".join(" ".join(f"{v:.12f}" for v in row) for row in rot_z(1.5708)) + "\n")
-    result = run("base_link", "ee_link", "--compare", hand, "--tol", "1e-9")
+    result = run_cli("tf-between", "base_link", "ee_link", "--compare", hand, "--tol", "1e-9")
     assert result.returncode == 0, result.stdout + result.stderr
     assert "a 3x3 rotation: comparing rotations only (the translation is not checked)" in result.stdout
     assert "the rotation AGREES with the model" in result.stdout
-    data = json.loads(run("base_link", "ee_link", "--compare", hand, "--tol", "1e-9", "--format", "json").stdout)
+    data = json.loads(run_cli("tf-between", "base_link", "ee_link", "--compare", hand, "--tol", "1e-9", "--format", "json").stdout)
     assert data["compare"]["rotation_only"] is True and data["compare"]["position_error"] is None
     assert data["compare"]["agrees"] is True
     exact = tmp_path / "exact.txt"  # Rz(90 deg) exactly: 2.1e-4 deg off the model's 1.5708 rad
     exact.write_text("0 -1 0\n1 0 0\n0 0 1\n")
-    result = run("base_link", "ee_link", "--compare", exact)
+    result = run_cli("tf-between", "base_link", "ee_link", "--compare", exact)
     assert result.returncode == 1 and "the rotation DOES NOT AGREE with the model" in result.stdout
     assert "rotation error: 0.000210459 deg" in result.stdout

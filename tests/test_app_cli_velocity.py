@@ -1,20 +1,16 @@
-"""``manipkit jacobian`` and ``manipkit dexterity`` as a user runs them: real subprocesses of the entry point."""
+"""``manipkit jacobian`` and ``manipkit dexterity`` as a user runs them: the entry point called in process."""
 
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
-
-BIN = Path(sys.executable).parent
+from cli_helper import run_cli
 
 
 def run(*args, status=0):
-    result = subprocess.run([str(BIN / "manipkit"), *map(str, args)], capture_output=True, text=True, timeout=120)
-    assert result.returncode == status, result.stdout[-2000:] + result.stderr
+    """``manipkit ARGS`` (tests/cli_helper.py) with this file's checks on every run: the status, no traceback."""
+    result = run_cli("manipkit", *args, status=status)
     assert "Traceback" not in result.stdout + result.stderr
     return result
 

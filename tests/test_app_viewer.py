@@ -2,8 +2,8 @@
 
 Independent sources: the readout and the scene placements against the
 course arm's joint table composed by hand (tests/reference.py) and hand
-values, the readout also against the ``tf-between`` command run as a
-subprocess; the static export decoded back from meshcat's msgpack commands.
+values, the readout also against the ``tf-between`` command (run in
+process, tests/cli_helper.py); the static export decoded back from meshcat's msgpack commands.
 The manipulability overlay against ``velocity_ellipsoid``/``force_ellipsoid``
 of ``robot.jacobian`` computed here, the planar 2R's singular values derived
 by hand, and velocities from central differences of ``robot.transform``; its
@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 from reference import (
     COURSE_ARM_JOINTS as COURSE_ARM_TABLE,
 )
@@ -55,7 +56,6 @@ from manipkit.app.viewer import (
 )
 from manipkit.errors import JointValueError, ManipkitError, PackageNotFoundError, UnknownFrameError
 
-BIN = Path(sys.executable).parent
 COURSE_ARM_JOINTS = ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")
 
 
@@ -70,10 +70,7 @@ def random_q(robot, seed=0):
 
 def tf_between(source, target, q: dict, *options, robot="course_arm") -> str:
     args = [f"{name}={value!r}" for name, value in q.items()]
-    result = subprocess.run([str(BIN / "tf-between"), source, target, "--robot", robot, "--q", *args, *options],
-                            capture_output=True, text=True, timeout=60)
-    assert result.returncode == 0, result.stderr
-    return result.stdout
+    return run_cli("tf-between", source, target, "--robot", robot, "--q", *args, *options, status=0).stdout
 
 
 def tf_between_json(source, target, q: dict, robot="course_arm") -> dict:
@@ -592,8 +589,7 @@ def test_package_and_relative_meshes_load(tmp_path, how):
 
 def test_view_with_an_unresolved_mesh_exits_2_with_one_line(tmp_path):
     path = one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl")
-    result = subprocess.run([str(BIN / "manipkit"), "view", "--robot", str(path), "--static", str(tmp_path / "x.html")],
-                            capture_output=True, text=True, timeout=60)
+    result = run_cli("manipkit", "view", "--robot", path, "--static", tmp_path / "x.html")
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "package://no_such_pkg/meshes/arm.stl" in result.stderr
     assert "Traceback" not in result.stderr and not (tmp_path / "x.html").exists()
@@ -614,8 +610,7 @@ def test_port_in_use_is_a_clear_error():
 def test_view_on_a_busy_port_exits_2_before_starting_meshcat():
     with listening_socket() as busy:
         port = busy.getsockname()[1]
-        result = subprocess.run([str(BIN / "manipkit"), "view", "--no-browser", "--port", str(port)],
-                                capture_output=True, text=True, timeout=60)
+        result = run_cli("manipkit", "view", "--no-browser", "--port", port)
     assert result.returncode == 2
     assert result.stderr == f"manipkit: error: port {port} is in use; choose another with --port P (or stop the program using it)\n"
     assert "meshcat" not in result.stdout
@@ -713,6 +708,7 @@ def test_close_stops_the_meshcat_server_and_frees_the_port(robots):
 
 
 def test_importing_the_cli_does_not_import_meshcat():
+    # a fresh interpreter (a subprocess): what the CLI's import loads is part of its cold start
     code = "import sys, manipkit.app.cli; print(sorted(m for m in ('meshcat', 'pinocchio.visualize', 'manipkit.app.viewer') if m in sys.modules))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert result.stdout.strip() == "[]"
@@ -764,8 +760,8 @@ def test_static_html_with_the_ellipsoid_shows_it_at_its_placement(robots, tmp_pa
 
 def test_cli_static_with_the_force_ellipsoid_of_the_rotation_rows(tmp_path, robots):
     out = tmp_path / "force.html"
-    result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(out), "--q", "elbow_joint=0.7",
-                             "--ellipsoid", "force", "--ellipsoid-axes", "rot"], capture_output=True, text=True, timeout=60)
+    result = run_cli("manipkit", "view", "--static", out, "--q", "elbow_joint=0.7", "--ellipsoid", "force",
+                     "--ellipsoid-axes", "rot")
     assert result.returncode == 0, result.stderr
     assert "and the force ellipsoid at ee_link;" in result.stdout
     commands = meshcat_commands(out.read_text())
@@ -778,16 +774,14 @@ def test_cli_static_with_the_force_ellipsoid_of_the_rotation_rows(tmp_path, robo
 
 
 def test_cli_rejects_an_unknown_ellipsoid_kind(tmp_path):
-    result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(tmp_path / "x.html"), "--ellipsoid", "speed"],
-                            capture_output=True, text=True, timeout=60)
+    result = run_cli("manipkit", "view", "--static", tmp_path / "x.html", "--ellipsoid", "speed")
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert "--ellipsoid: invalid choice: 'speed' (choose from 'velocity', 'force')" in result.stderr
 
 
 def test_cli_static_prints_the_path(tmp_path):
     out = tmp_path / "snap.html"
-    result = subprocess.run([str(BIN / "manipkit"), "view", "--static", str(out), "--q", "shoulder_joint=0.3"],
-                            capture_output=True, text=True, timeout=60)
+    result = run_cli("manipkit", "view", "--static", out, "--q", "shoulder_joint=0.3")
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith(f"wrote {out} (") and out.stat().st_size > 100_000
 
@@ -919,8 +913,7 @@ def test_static_export_of_hostile_names_keeps_them_in_meshcats_commands(tmp_path
 
 def test_cli_static_of_hostile_names(tmp_path):
     out = tmp_path / "hostile.html"
-    result = subprocess.run([str(BIN / "manipkit"), "view", "--robot", str(HOSTILE), "--static", str(out)],
-                            capture_output=True, text=True, timeout=60)
+    result = run_cli("manipkit", "view", "--robot", HOSTILE, "--static", out)
     assert result.returncode == 0 and result.stderr == "", result.stderr
     assert scripts_of(out.read_text()).tags.count("script") == 3
 

@@ -2,8 +2,9 @@
 
 Debian's /usr/bin/chromium is driven by Playwright (Python); nothing here
 downloads a browser. The viewer runs as the user runs it, a subprocess of the
-installed `manipkit` entry point, and every number the page shows is checked
-against `tf-between ... --format json`, run as a second subprocess.
+installed `manipkit` entry point (a server stopped by a signal), and every
+number the page shows is checked against `tf-between ... --format json`, run
+in process (tests/cli_helper.py).
 
 Screenshots go to tests/artifacts/ (git-ignored): viewer_control.png (the
 control page), viewer_scene.png (the meshcat scene after a slider move),
@@ -25,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 
 from manipkit.text import short_text
 
@@ -91,7 +93,10 @@ def free_port() -> int:
 
 
 def start_viewer(*args, timeout=60):
-    """Start `manipkit view --no-browser ...`; returns (process, control URL, meshcat URL)."""
+    """Start `manipkit view --no-browser ...`; returns (process, control URL, meshcat URL).
+
+    A subprocess: the viewer serves until a signal stops it, and the tests send SIGTERM and Ctrl-C.
+    """
     proc = subprocess.Popen([str(BIN / "manipkit"), "view", "--no-browser", *map(str, args)],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     lines = queue.Queue()
@@ -150,10 +155,7 @@ def page(browser, viewer):
 
 def tf_between(source, target, q: dict) -> dict:
     args = [f"{name}={value!r}" for name, value in q.items()]
-    result = subprocess.run([str(BIN / "tf-between"), source, target, "--q", *args, "--format", "json"],
-                            capture_output=True, text=True, timeout=60)
-    assert result.returncode == 0, result.stderr
-    return json.loads(result.stdout)
+    return json.loads(run_cli("tf-between", source, target, "--q", *args, "--format", "json", status=0).stdout)
 
 
 def readout(page) -> dict:
@@ -401,8 +403,7 @@ def test_ctrl_c_stops_both_servers_cleanly():
 @pytest.mark.parametrize("robot, q", [("course_arm", "shoulder_joint=0.6"), ("panda", "panda_joint4=-1.8")])
 def test_static_export_renders_the_robot_without_a_server(browser, tmp_path, robot, q):
     path = tmp_path / f"{robot}.html"
-    result = subprocess.run([str(BIN / "manipkit"), "view", "--robot", robot, "--q", q, "--static", str(path)],
-                            capture_output=True, text=True, timeout=120)
+    result = run_cli("manipkit", "view", "--robot", robot, "--q", q, "--static", path)
     assert result.returncode == 0, result.stderr
     assert str(path) in result.stdout
     page = browser.new_page()

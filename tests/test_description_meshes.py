@@ -194,15 +194,13 @@ def test_relative_meshes_are_not_checked_without_a_description_file(files):
 
 
 def test_missing_relative_mesh_is_a_warning_of_the_robot_and_on_the_command_line(files):
-    import subprocess
-    import sys
+    from cli_helper import run_cli
 
     import manipkit
 
     path = _relative_robot(files["robot"])
     robot = manipkit.load(path)
     assert len(robot.mesh_warnings) == 2 and robot.mesh_warnings == robot.warnings
-    result = subprocess.run([str(Path(sys.executable).parent / "tf-between"), "base_link", "link_1", "--robot", str(path)],
-                            capture_output=True, text=True, timeout=60, cwd=files["elsewhere"])
+    result = run_cli("tf-between", "base_link", "link_1", "--robot", path, cwd=files["elsewhere"])
     assert result.returncode == 0, result.stderr
     assert result.stderr.splitlines() == [f"warning: {w}" for w in robot.mesh_warnings]

@@ -4,8 +4,6 @@ import io
 import json
 import os
 import shutil
-import subprocess
-import sys
 import warnings
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
@@ -13,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yourdfpy
+from cli_helper import run_cli
 
 import manipkit
 from manipkit.description import packages as packages_module
@@ -20,7 +19,6 @@ from manipkit.description.packages import PackageResolver, package_index, worksp
 from manipkit.description.sources import example_robot_data_dir
 from manipkit.errors import PackageNotFoundError
 
-BIN = Path(sys.executable).parent
 # shared/ sits beside the repository (CI, /work/main) or beside the folder of worktrees
 REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" for base in Path(__file__).resolve().parents[2:4]
                   if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
@@ -58,12 +56,6 @@ def top(path: Path, package_name: str) -> Path:
 
 def tool_z(path: Path, **kwargs) -> float:
     return manipkit.load(path, **kwargs).transform("base_link", "tool")[2, 3]
-
-
-def run(command, *args, env_extra=None):
-    env = {k: v for k, v in os.environ.items() if k not in ("ROS_PACKAGE_PATH", "AMENT_PREFIX_PATH")}
-    return subprocess.run([str(BIN / command), *map(str, args)], capture_output=True, text=True, timeout=120,
-                          env={**env, **(env_extra or {})})
 
 
 # --------------------------------------------------------------------------
@@ -192,7 +184,7 @@ def test_the_duplicate_warning_is_one_line_on_the_command_line(tmp_path):
     package(src / "a_arm", "my_pkg", z=0.1)
     package(src / "b_arm", "my_pkg", z=0.2)
     path = _mesh_top(tmp_path / "ws" / "robot.xacro", "my_pkg")
-    result = run("tf-between", "base_link", "tool", "--robot", path, "--format", "json")
+    result = run_cli("tf-between", "base_link", "tool", "--robot", path, "--format", "json")
     assert result.returncode == 0, result.stderr
     assert json.loads(result.stdout)["translation"][2] == 0.1
     lines = [line for line in result.stderr.splitlines() if "found in" in line]
@@ -205,7 +197,7 @@ def test_the_duplicate_warning_of_a_find_only_package_reaches_the_command_line(t
     src = tmp_path / "ws" / "src"
     package(src / "a_arm", "my_pkg", z=0.1)
     package(src / "b_arm", "my_pkg", z=0.2)
-    result = run("tf-between", "base_link", "tool", "--robot", top(tmp_path / "ws" / "robot.xacro", "my_pkg"))
+    result = run_cli("tf-between", "base_link", "tool", "--robot", top(tmp_path / "ws" / "robot.xacro", "my_pkg"))
     assert result.returncode == 0, result.stderr
     assert [line for line in result.stderr.splitlines() if line.startswith("warning:")] == [
         f"warning: package 'my_pkg' found in 2 places: using {(src / 'a_arm').resolve()}; "
@@ -238,14 +230,14 @@ def test_a_file_missing_in_the_package_found_names_that_folder_the_others_and_pa
     (second / "urdf" / "extra.xacro").write_text((second / "urdf" / "arm.xacro").read_text())  # only in the one not used
     path = top(tmp_path / "ws" / "robot.xacro", "my_pkg")
     path.write_text(path.read_text().replace("/urdf/arm.xacro", "/urdf/extra.xacro"))
-    result = run("tf-between", "base_link", "base_link", "--robot", path)
+    result = run_cli("tf-between", "base_link", "base_link", "--robot", path)
     assert result.returncode == 2
     assert result.stderr.splitlines() == [  # one line: the duplicate warning is not printed before an error
         (
         f"tf-between: error: robot.xacro:1: xacro:include: file not found: {first.resolve() / 'urdf' / 'extra.xacro'} "
         f"(package 'my_pkg' is {first.resolve()}; also found: {second.resolve()}; give the right folder with "
         "--package-dir my_pkg=DIR)")]
-    assert run("tf-between", "base_link", "base_link", "--robot", path, "--package-dir", f"my_pkg={second}").returncode == 0
+    assert run_cli("tf-between", "base_link", "base_link", "--robot", path, "--package-dir", f"my_pkg={second}").returncode == 0
 
 
 def test_a_workspace_package_wins_over_example_robot_data(tmp_path):
@@ -347,8 +339,8 @@ def test_not_found_names_every_place_searched_and_package_dir(tmp_path, monkeypa
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ros"))
     monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "install"))
     path = top(tmp_path / "ws" / "src" / "robot" / "robot.xacro", "no_such_pkg")
-    result = run("tf-between", "base_link", "tool", "--robot", path,
-                 env_extra={"ROS_PACKAGE_PATH": str(tmp_path / "ros"), "AMENT_PREFIX_PATH": str(tmp_path / "install")})
+    result = run_cli("tf-between", "base_link", "tool", "--robot", path,
+                     env={"ROS_PACKAGE_PATH": str(tmp_path / "ros"), "AMENT_PREFIX_PATH": str(tmp_path / "install")})
     assert result.returncode == 2 and len(result.stderr.splitlines()) == 1, result.stderr
     line = result.stderr
     assert line.startswith("tf-between: error: ")
@@ -394,8 +386,8 @@ def test_real_ur5e_in_a_catkin_workspace_loads_the_workspace_ur_description(monk
         values = {} if trial == 0 else {
             joint.name: rng.uniform(max(joint.lower, -np.pi), min(joint.upper, np.pi)) for joint in robot.joints
         }
-        result = run("tf-between", "base_link", "tool0", "--robot", UR5E, "--format", "json", "--precision", "15",
-                     *(["--q", *(f"{k}={v!r}" for k, v in values.items())] if values else []))
+        result = run_cli("tf-between", "base_link", "tool0", "--robot", UR5E, "--format", "json", "--precision", "15",
+                         *(["--q", *(f"{k}={v!r}" for k, v in values.items())] if values else []))
         assert result.returncode == 0, result.stderr
         assert "found in 2 places: using " + str(packages["ur_description"]) in result.stderr or \
             example_robot_data_dir() is None
@@ -438,14 +430,14 @@ def test_load_takes_xacro_arguments_as_keywords(tmp_path):
 @pytest.mark.parametrize("style", [":=", "="])
 def test_arg_takes_ros_style_and_plain_pairs_in_every_command(tmp_path, command, style):
     path = _arg_robot(tmp_path)
-    result = run(*command, "--robot", path, "--arg", f"hand{style}true", "--arg", f"length{style}2")
+    result = run_cli(*command, "--robot", path, "--arg", f"hand{style}true", "--arg", f"length{style}2")
     assert result.returncode == 0, result.stderr
     if "json" in command:
         assert json.loads(result.stdout)["translation"] == [0, 0, 2.5]
     else:
         assert "hand" in result.stdout
-        assert "hand" not in run(*command, "--robot", path, "--arg", f"hand{style}false").stdout
-    refused = run(*command, "--robot", path, "--arg", f"colour{style}red")
+        assert "hand" not in run_cli(*command, "--robot", path, "--arg", f"hand{style}false").stdout
+    refused = run_cli(*command, "--robot", path, "--arg", f"colour{style}red")
     assert refused.returncode == 2 and "unknown xacro argument colour" in refused.stderr
 
 
@@ -458,8 +450,8 @@ def test_arg_values_may_hold_colons_and_equals_signs_and_malformed_ones_are_name
     with pytest.raises(ManipkitError, match="--arg ':=1': expected NAME:=VALUE or NAME=VALUE"):
         xacro_arg_pairs([":=1"])
     for bad in (":=1", "=1", "hand"):
-        result = run("tf-between", "base_link", "tool", "--robot", _arg_robot(tmp_path), "--arg", bad)
+        result = run_cli("tf-between", "base_link", "tool", "--robot", _arg_robot(tmp_path), "--arg", bad)
         assert result.returncode == 2
         assert result.stderr.strip() == f"tf-between: error: --arg '{bad}': expected NAME:=VALUE or NAME=VALUE"
-    twice = run("tf-between", "base_link", "tool", "--robot", _arg_robot(tmp_path), "--arg", "hand:=true", "--arg", "hand=false")
+    twice = run_cli("tf-between", "base_link", "tool", "--robot", _arg_robot(tmp_path), "--arg", "hand:=true", "--arg", "hand=false")
     assert twice.returncode == 2 and "hand given twice" in twice.stderr

@@ -274,20 +274,16 @@ def test_bundled_table_against_its_urdf(name):
 
 def test_cli_fix_writes_a_corrected_table_that_passes(tmp_path):
     # issue 14 finding 5, from the shell: the ur5 table derived from the URDF, turned by Rz(180 deg) at the base
-    import subprocess
-    import sys
-    from pathlib import Path
+    from cli_helper import run_cli
 
     from manipkit.dh import dh_from_urdf_chain, save_dh
 
-    bin_dir = Path(sys.executable).parent
     table = dh_from_urdf_chain(manipkit.load("ur5"), convention="standard")
     turned = DHTable(table.rows, "standard", "ur5 turned", base=transform_from_xyz_rpy([0, 0, 0], [0, 0, math.pi]) @ table.base,
                      tool=table.tool)
     save_dh(turned, tmp_path / "turned.yaml")
     fixed = tmp_path / "fixed.yaml"
-    run = subprocess.run([str(bin_dir / "manipkit"), "dh", "check", str(tmp_path / "turned.yaml"), "--robot", "ur5",
-                          "--fix", str(fixed)], capture_output=True, text=True, timeout=120)
+    run = run_cli("manipkit", "dh", "check", tmp_path / "turned.yaml", "--robot", "ur5", "--fix", fixed)
     assert run.returncode == 1, run.stderr
     assert "- a constant base transform xyz [0 0 0] m, rpy [0 0 180] deg (before row 1): reconciles them fully" in run.stdout
     assert f"wrote the corrected table to {fixed} (it passes)" in run.stdout

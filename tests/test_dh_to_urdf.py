@@ -140,16 +140,12 @@ def test_names_with_markup_do_not_change_the_urdf_structure():
 
 
 def test_dh_to_urdf_command_writes_the_table_s_structure_only(tmp_path):
-    import subprocess
-    import sys
-    from pathlib import Path
+    from cli_helper import run_cli
 
     from manipkit.dh import save_dh
 
     save_dh(injected_table(), tmp_path / "injected.yaml")
-    manipkit_bin = Path(sys.executable).parent / "manipkit"
-    result = subprocess.run([str(manipkit_bin), "dh", "to-urdf", str(tmp_path / "injected.yaml")],
-                            capture_output=True, text=True, timeout=120)
+    result = run_cli("manipkit", "dh", "to-urdf", tmp_path / "injected.yaml")
     assert result.returncode == 0, result.stderr
     name, links, joints, _ = structure(result.stdout)
     assert name == INJECTION and links == ["base_link", "link_0", "link_1", "link_2", "ee_link"]

@@ -20,8 +20,6 @@ from __future__ import annotations
 import io
 import json
 import re
-import subprocess
-import sys
 import warnings
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
@@ -29,10 +27,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yourdfpy
+from cli_helper import run_cli
 
 import manipkit
 
-BIN = Path(sys.executable).parent
 # shared/ sits beside the repository (CI, /work/main) or beside the folder of worktrees
 REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" for base in Path(__file__).resolve().parents[2:4]
                   if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
@@ -194,8 +192,7 @@ def test_the_workspace_holds_the_four_packages_and_their_dependencies(packages):
 
 
 def tf_between(source: str, target: str, path: Path, *args: str) -> np.ndarray:
-    result = subprocess.run([str(BIN / "tf-between"), source, target, "--robot", str(path), "--format", "json",
-                             "--precision", "15", *args], capture_output=True, text=True, timeout=120)
+    result = run_cli("tf-between", source, target, "--robot", path, "--format", "json", "--precision", "15", *args)
     assert result.returncode == 0, result.stderr
     assert all(line.startswith("warning: ") for line in result.stderr.splitlines()), result.stderr
     return np.array(json.loads(result.stdout)["matrix"])
