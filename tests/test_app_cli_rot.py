@@ -111,6 +111,6 @@ def test_bad_input_is_one_line_with_exit_2(args, fragment):
 
 def test_rounding_noise_prints_as_zero_at_any_precision():
     # Rz(pi/2): cos(pi/2) is 6.1e-17 in floating point, not a number anyone wrote; the noise rule prints it as 0
-    out = rot("rpy", "0", "0", "pi/2", "--to", "matrix", "--precision", "17").stdout
+    out = run_cli("manipkit", "rot", "rpy", "0", "0", "pi/2", "--to", "matrix", "--precision", "17", status=0).stdout
     assert "0.00000000000000006" not in out
     assert "[ 0.00000000000000000 -1.00000000000000000  0.00000000000000000]" in out

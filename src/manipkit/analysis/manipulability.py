@@ -53,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from manipkit.errors import OptionError, SingularityError
-from manipkit.kinematics.fk_kernel import compile_kernel
+from manipkit.kinematics.fk_kernel import lazy_kernel
 
 __all__ = [
     "AXES", "METHODS", "Ellipsoid", "MixedUnitsWarning", "condition_number", "force_ellipsoid", "manipulability",
@@ -195,18 +195,15 @@ def _products_of_singular_values(A, transpose, out):
         out[k] = product
 
 
-_compiled = None
+_kernel = lazy_kernel(_products_of_singular_values)
 
 
 def _yoshikawa(Js: np.ndarray) -> np.ndarray:
-    global _compiled
-    if _compiled is None:
-        _compiled = compile_kernel(_products_of_singular_values)
     lead = Js.shape[:-2]
     m, n = Js.shape[-2:]
     flat = np.ascontiguousarray(Js).reshape(-1, m, n)
     out = np.empty(flat.shape[0])
-    _compiled(flat, m < n, out)
+    _kernel()(flat, m < n, out)
     return out.reshape(lead)
 
 

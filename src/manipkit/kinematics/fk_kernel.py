@@ -85,7 +85,8 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
-    "ChainFK", "ChainStep", "KernelCacheWarning", "chain_fk", "chain_fk_for", "compile_kernel", "snap_placement", "z_to_axis",
+    "ChainFK", "ChainStep", "KernelCacheWarning", "chain_fk", "chain_fk_for", "compile_kernel", "lazy_kernel",
+    "snap_placement", "z_to_axis",
 ]
 
 SNAP_TOL = 1e-14  # placement entries this close to 0 or +-1 are taken as exactly that
@@ -368,17 +369,6 @@ def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out
             T[n, 3, 3] = 1.0
 
 
-_compiled = None
-
-
-def _kernel():
-    """:func:`_poses` compiled with numba (imported here: ``import manipkit.kinematics.fk_kernel`` does not pay for it)."""
-    global _compiled
-    if _compiled is None:
-        # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would
-        # keep LLVM from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
-        _compiled = compile_kernel(_poses, error_model="numpy")
-    return _compiled
 
 
 # --------------------------------------------------------------------------
@@ -483,6 +473,23 @@ class _ForgivingCache:
                 self._give_up(exc)
 
 
+def lazy_kernel(py_func, **options):
+    """A function returning ``compile_kernel(py_func, **options)``, made on its first call and kept.
+
+    So importing a module with a kernel does not import numba; the first use
+    does (``kernel()(arguments)``).
+    """
+    made = []
+
+    def kernel():
+        if not made:
+            made.append(compile_kernel(py_func, **options))
+        return made[0]
+
+    kernel.__doc__ = f":func:`{py_func.__name__}` compiled with numba on first use (:func:`compile_kernel`)."
+    return kernel
+
+
 def compile_kernel(py_func, **options):
     """``py_func`` compiled by numba (``njit(**options)``), cached on disk where that works.
 
@@ -511,6 +518,11 @@ def compile_kernel(py_func, **options):
     # on `_cache` (what `enable_caching` sets), so ours goes there
     dispatcher._cache = _ForgivingCache(py_func)
     return dispatcher
+
+
+# error_model="numpy": a float division by zero gives inf instead of raising; the check for it would keep LLVM
+# from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
+_kernel = lazy_kernel(_poses, error_model="numpy")
 
 
 # --------------------------------------------------------------------------

@@ -44,7 +44,7 @@ from numba import objmode  # this module is only imported to run its kernel (kin
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik_result import IKBatch, tolerances
 from manipkit.kinematics.chain import robot_and_frames
-from manipkit.kinematics.fk_kernel import compile_kernel
+from manipkit.kinematics.fk_kernel import lazy_kernel
 from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
 from manipkit.spatial.rotations import wrap_angle
@@ -112,14 +112,7 @@ def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_tar
         attempts_out[i] = used
 
 
-_KERNEL = None
-
-
-def _kernel():
-    global _KERNEL
-    if _KERNEL is None:
-        _KERNEL = compile_kernel(_solve_many)
-    return _KERNEL
+_kernel = lazy_kernel(_solve_many)
 
 
 def target_seeds(seed: int, n: int, *, first: int = 0) -> np.ndarray:

@@ -67,7 +67,7 @@ from manipkit.errors import ChainError, JointValueError, OptionError, Singularit
 from manipkit.kinematics.chain import frame_arguments
 from manipkit.kinematics.fk_kernel import (  # the batched FK's preparation
     ChainStep,
-    compile_kernel,
+    lazy_kernel,
     snap_placement,
     z_to_axis,
 )
@@ -241,15 +241,7 @@ def _jacobian_rows(tan_half, values, rotations, translations, identity, kinds, r
                 R_out[n, i, j] = R[i, j]
 
 
-_compiled = None
-
-
-def _kernel():
-    """:func:`_jacobian_rows` compiled (numba imported on first use)."""
-    global _compiled
-    if _compiled is None:
-        _compiled = compile_kernel(_jacobian_rows, error_model="numpy")
-    return _compiled
+_kernel = lazy_kernel(_jacobian_rows, error_model="numpy")
 
 
 # --------------------------------------------------------------------------
