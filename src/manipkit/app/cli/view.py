@@ -62,10 +62,14 @@ def run_view(args) -> int:
               f"{shown}; open it in a browser, no server needed")
         return EXIT_OK
 
-    def stop(signum, frame):  # `kill` (SIGTERM) stops as cleanly as Ctrl-C
-        raise KeyboardInterrupt
+    # Ctrl-C (SIGINT) and `kill` (SIGTERM) set an event the wait below watches: raising KeyboardInterrupt inside
+    # a thread join could leave the server's locks half taken, and the viewer then hung at exit under load
+    stopping = threading.Event()
 
-    previous = signal.signal(signal.SIGTERM, stop)
+    def stop(signum, frame):
+        stopping.set()
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     view = None
     try:
         view = viewer.open_view(robot, frames=frames, q=q, port=args.port, overlay=overlay)
@@ -79,11 +83,14 @@ def run_view(args) -> int:
                 print("no display found: open the control page in a browser yourself", flush=True)
             else:  # in a thread: a console browser must not hold up the server
                 threading.Thread(target=webbrowser.open, args=(view.url,), daemon=True).start()
-        view.wait()
-    except KeyboardInterrupt:
+        view.wait(stopping)
+        if stopping.is_set():
+            print("viewer stopped", flush=True)
+    except KeyboardInterrupt:  # a Ctrl-C before the handlers were set
         print("viewer stopped", flush=True)
     finally:
         if view is not None:
             view.close()
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return EXIT_OK

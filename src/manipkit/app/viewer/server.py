@@ -178,10 +178,11 @@ class ViewerServer:
         self._thread.start()
         return self
 
-    def wait(self) -> None:
-        """Block until :meth:`close` (Ctrl-C interrupts the wait)."""
-        while self._thread is not None and self._thread.is_alive():
-            self._thread.join(0.25)
+    def wait(self, stop: threading.Event | None = None) -> None:
+        """Block until :meth:`close`, or until ``stop`` is set (the command line sets it on Ctrl-C or SIGTERM)."""
+        stop = stop or threading.Event()
+        while self._thread is not None and self._thread.is_alive() and not stop.wait(0.25):
+            pass
 
     def close(self) -> None:
         """Stop the HTTP server and the meshcat server (idempotent)."""
