@@ -634,11 +634,8 @@ def build(
         raise ReachMapError(f"a {'x'.join(map(str, shape))} grid of {short_text(voxel)} m voxels times {bins.size} "
                             f"orientation bins needs {size} bytes, more than {MAX_GRID_BYTES}: use a coarser voxel "
                             "or fewer orientations")
-    chain = np.array([robot.joint_names.index(name) for name in solver.joint_names], dtype=np.intp)
-    joints = [robot.joints[c] for c in chain]
-    low = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in joints])
-    high = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in joints])
-    job = _Job(robot, frame, base, chain, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
+    low, high = solver.program.sample_low, solver.program.sample_high  # the solved joints' sampling box
+    job = _Job(robot, frame, base, solver.columns, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
                float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability))
     n_voxels = math.prod(shape)

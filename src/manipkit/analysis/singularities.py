@@ -87,6 +87,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.errors import JointValueError
+from manipkit.kinematics.chain import sampling_bounds
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
@@ -474,8 +475,7 @@ def _families_of(robot: Robot) -> tuple[SingularFamily, ...]:
     known = _KNOWN.get(robot.name)
     if known is None or not _matches(robot, known[1], known[2]):
         return ()
-    lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in robot.joints])
-    upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in robot.joints])
+    lower, upper = sampling_bounds([j.lower for j in robot.joints], [j.upper for j in robot.joints])
     lower.setflags(write=False)  # shared by every caller
     upper.setflags(write=False)
     families = []

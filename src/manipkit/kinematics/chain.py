@@ -54,7 +54,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_of", "chain_steps", "robot_and_frames", "frame_arguments", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_of", "chain_steps", "robot_and_frames", "sample_between", "sampling_bounds", "frame_arguments", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -253,10 +253,7 @@ class Chain:
         """
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 0:
             raise OptionError(f"the number of samples must be a whole number >= 0, got {n!r}")
-        low = np.where(np.isfinite(self.lower), self.lower, -math.pi)
-        high = np.where(np.isfinite(self.upper), self.upper, math.pi)
-        u = np.random.default_rng(seed).random(size=(int(n), self.n))
-        return low * (1.0 - u) + high * u  # not low + (high - low) u: high - low may overflow
+        return sample_between(*sampling_bounds(self.lower, self.upper), int(n), seed)
 
     def outside_limits(self, Q) -> np.ndarray:
         """Boolean (..., n): which entries of chain vectors ``Q`` lie outside their limits (by more than 1e-12)."""
@@ -402,6 +399,18 @@ def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base,
         if len(legacy) == 2:
             base = legacy[1]
     return (default_base if base is None else base), (default_tip if tip is None else tip)
+
+
+def sampling_bounds(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """Where joint values are drawn: the limits, and [-pi, pi] for a joint without them (continuous)."""
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    return np.where(np.isfinite(lower), lower, -math.pi), np.where(np.isfinite(upper), upper, math.pi)
+
+
+def sample_between(low, high, n: int, seed=0) -> np.ndarray:
+    """``n`` rows uniform in the box [low, high] (``seed``: an int, a sequence of ints or a numpy Generator)."""
+    u = np.random.default_rng(seed).random(size=(n, len(low)))
+    return low * (1.0 - u) + high * u  # not low + (high - low) u: high - low may overflow
 
 
 def chain_of(subject, what: str, legacy: tuple = (), *, base=None, tip=None, frame=None) -> Chain:

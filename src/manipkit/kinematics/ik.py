@@ -67,7 +67,7 @@ import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik_result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKResult, tolerances
-from manipkit.kinematics.chain import frame_arguments, robot_and_frames
+from manipkit.kinematics.chain import frame_arguments, robot_and_frames, sampling_bounds
 from manipkit.kinematics.ik_kernel import (
     MODE_CODES,
     SHRINK_MIN,
@@ -348,8 +348,7 @@ class IKSolver:
         lower, upper = chain.lower[solved], chain.upper[solved]
         wrap = np.array([j.type == "continuous" for j in joints], dtype=bool)  # wrapped to (-pi, pi]
         self._angular = np.array([j.is_angular for j in joints], dtype=bool)
-        sample_low = np.where(np.isfinite(lower), lower, -math.pi)  # as Chain.sample draws
-        sample_high = np.where(np.isfinite(upper), upper, math.pi)
+        sample_low, sample_high = sampling_bounds(lower, upper)  # as Chain.sample draws
         self._n = len(self.joint_names)
         self._model = robot.model
         self._frame_id = robot.frame_id(self.tip)

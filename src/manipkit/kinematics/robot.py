@@ -35,7 +35,15 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.validate import check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
-from manipkit.kinematics.chain import LIMIT_TOLERANCE, Chain, chain_steps, frame_arguments, joint_array
+from manipkit.kinematics.chain import (
+    LIMIT_TOLERANCE,
+    Chain,
+    chain_steps,
+    frame_arguments,
+    joint_array,
+    sample_between,
+    sampling_bounds,
+)
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.text import repr_text, short_text
@@ -291,10 +299,8 @@ class Robot:
         -------
         Q : ndarray, shape (n, len(joint_names))
         """
-        lower = np.array([j.lower if math.isfinite(j.lower) else -math.pi for j in self.joints])
-        upper = np.array([j.upper if math.isfinite(j.upper) else math.pi for j in self.joints])
-        u = np.random.default_rng(seed).random(size=(n, len(self.joints)))
-        return lower * (1.0 - u) + upper * u  # not lower + (upper - lower) u: upper - lower may overflow
+        bounds = sampling_bounds([j.lower for j in self.joints], [j.upper for j in self.joints])
+        return sample_between(*bounds, n, seed)
 
     def _choose_ee(self, declared: str | None) -> tuple[str, str]:
         if EE_ALIAS in self._frame_ids:
