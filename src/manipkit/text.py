@@ -9,14 +9,30 @@ and a message. None of them prints ``-0``.
 - :func:`trimmed_text`: fixed decimals with trailing zeros dropped (link trees).
 - :func:`near_text`: enough digits to show how a value differs from an expected one.
 - :func:`vector_text`: ``[a b c]`` with any of the above.
+
+And the one text sanitiser (docs/architecture.md, "Printed text"): every
+string that came from a file, an argument or the environment is printed
+through :func:`printable` (one line) or :func:`printable_lines` (line
+breaks kept), so no control, C1 or bidirectional-override character reaches
+the user's terminal raw.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterable
 
-__all__ = ["near_text", "number_text", "repr_text", "short_text", "trimmed_text", "vector_text"]
+__all__ = [
+    "near_text",
+    "number_text",
+    "printable",
+    "printable_lines",
+    "repr_text",
+    "short_text",
+    "trimmed_text",
+    "vector_text",
+]
 
 
 def _no_negative_zero(text: str) -> str:
@@ -102,5 +118,47 @@ def vector_text(values: Iterable[float], number: Callable[[float], str] = short_
 
 def repr_text(value, limit: int = 60) -> str:
     """``repr(value)`` on one line, cut to ``limit`` characters (for a value quoted in a message)."""
-    text = " ".join(repr(value).split())
+    text = " ".join(printable(repr(value)).split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+# What never reaches a terminal raw: C0 controls and DEL (escape sequences, bell, backspace, carriage
+# return, line breaks), C1 controls (U+0080-U+009F: CSI, OSC, ...), lone surrogates, the line and paragraph
+# separators, and the bidirectional controls that reorder what is shown (the "Trojan Source" set: ALM, LRM,
+# RLM, LRE/RLE/PDF/LRO/RLO, LRI/RLI/FSI/PDI).
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069\ud800-\udfff]")
+_UNPRINTABLE_IN_LINES = re.compile(
+    "[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069\ud800-\udfff]"
+)
+
+
+def _escaped(match: re.Match) -> str:
+    code = ord(match.group())
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def printable(text) -> str:
+    """``str(text)`` as one line of printable text: control, C1 and bidi characters as ``\\xNN``/``\\uNNNN``.
+
+    For any string from a file, an argument or the environment that is
+    printed (a link name, a file name, a message from a description). A line
+    break is escaped too, so a name cannot forge a line of the output.
+
+    Examples
+    --------
+    >>> printable("base\\n- Translation: [0 0 0]"), printable("\\x1b[2Jhi"), printable("a\\u202eb")
+    ('base\\\\x0a- Translation: [0 0 0]', '\\\\x1b[2Jhi', 'a\\\\u202eb')
+    """
+    return _UNPRINTABLE.sub(_escaped, str(text))
+
+
+def printable_lines(text) -> str:
+    """``str(text)`` with line breaks and tabs kept and every other unprintable character escaped.
+
+    The last guard on everything the command line writes to stdout (text
+    that is already lines: a table, a tree).
+
+    >>> printable_lines("a\\tb\\nc\\rd")
+    'a\\tb\\nc\\\\x0dd'
+    """
+    return _UNPRINTABLE_IN_LINES.sub(_escaped, str(text))

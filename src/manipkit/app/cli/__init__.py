@@ -34,6 +34,7 @@ from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser, 
 from manipkit.app.cli.tf import run_tf, tf_parser
 from manipkit.errors import ManipkitError
 from manipkit.outputs import cannot_write
+from manipkit.text import printable, printable_lines
 
 __all__ = ["main", "run_command", "tf_between_main"]
 
@@ -89,14 +90,14 @@ def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
         sys.stdout.flush()  # inside the try: a write that fails shows here, not at interpreter exit
         return status
     except ManipkitError as exc:
-        print(f"{parser.prog}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        print(f"{parser.prog}: error: {printable(' '.join(str(exc).split()))}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:  # a bug: short message, no traceback, exit 1
-        detail = " ".join(str(exc).split())[:300]
+        detail = printable(" ".join(str(exc).split())[:300])
         print(
             f"{parser.prog}: internal error ({type(exc).__name__}: {detail}); this is a bug in manipkit, "
             "please report it with the command line used",
@@ -111,14 +112,16 @@ def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
 class _GuardedStdout:
     """``sys.stdout`` while a command runs: a write or flush that fails (full disk, ``/dev/full``, EIO)
     raises :class:`~manipkit.errors.OutputError` ``cannot write stdout: REASON``; a closed pipe
-    stays a :class:`BrokenPipeError`. Everything else is the stream's own."""
+    stays a :class:`BrokenPipeError`. Every write passes the text sanitiser
+    (:func:`manipkit.text.printable_lines`): no escape sequence from a
+    description reaches the terminal. Everything else is the stream's own."""
 
     def __init__(self, stream):
         self._stream = stream
 
     def write(self, text: str) -> int:
         try:
-            return self._stream.write(text)
+            return self._stream.write(printable_lines(text))
         except BrokenPipeError:
             raise
         except OSError as exc:

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from manipkit.errors import JointLimitError, ManipkitError
-from manipkit.text import number_text, short_text
+from manipkit.text import number_text, printable, short_text
 
 if TYPE_CHECKING:
     import numpy as np
@@ -68,7 +68,7 @@ class UsageError(ManipkitError):
 
 def warn(message: str) -> None:
     """The warnings channel: one ``warning: ...`` line on stderr (stdout stays the answer)."""
-    print(f"warning: {' '.join(str(message).split())}", file=sys.stderr)
+    print(f"warning: {printable(' '.join(str(message).split()))}", file=sys.stderr)
 
 
 def print_json(value) -> None:
