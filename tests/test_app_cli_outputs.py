@@ -76,23 +76,78 @@ def test_output_onto_a_folder_is_one_line(tmp_path, argv):
 
 
 FULL_DISK_COMMANDS = {
-    "tree png": ("tree", "-o", "{full}.png"),
-    "tree svg": ("tree", "-o", "{full}.svg"),
-    "tree dot": ("tree", "-o", "{full}.dot"),
-    "dh from-urdf": ("dh", "from-urdf", "-o", "{full}.yaml"),
-    "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "{full}.urdf"),
-    "workspace --plot": ("workspace", "--robot", "planar_2r", "--plot", "{full}.png"),
-    "view --static": ("view", "--static", "{full}.html"),
+    "tree png": ("tree", "--format", "png", "-o", "/dev/full"),
+    "tree svg": ("tree", "--format", "svg", "-o", "/dev/full"),
+    "tree dot": ("tree", "--format", "dot", "-o", "/dev/full"),
+    "dh from-urdf": ("dh", "from-urdf", "-o", "/dev/full"),
+    "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "/dev/full"),
+    "view --static": ("view", "--static", "/dev/full"),
 }
 
 
 @pytest.mark.parametrize("argv", FULL_DISK_COMMANDS.values(), ids=FULL_DISK_COMMANDS)
-def test_output_onto_a_full_disk_is_one_line(tmp_path, argv):
-    # A file name with the right suffix that is /dev/full: the open works, every write fails with ENOSPC.
-    argv = [a.format(full=tmp_path / "full") for a in argv]
-    Path(argv[-1]).symlink_to("/dev/full")
+def test_output_onto_a_full_disk_is_one_line(argv):
+    # /dev/full: a device, written in place like /dev/stdout; every write fails with ENOSPC.
     result = run_cli("manipkit", *argv)
-    assert_one_line_error(result, "manipkit", f"cannot write {argv[-1]}: No space left on device")
+    assert_one_line_error(result, "manipkit", "cannot write /dev/full: No space left on device")
+
+
+LINKED_OUTPUT_COMMANDS = {
+    "tree png": ("tree", "-o", "{out}.png"),
+    "tree svg": ("tree", "-o", "{out}.svg"),
+    "tree dot": ("tree", "-o", "{out}.dot"),
+    "tree text": ("tree", "-o", "{out}.txt"),
+    "dh from-urdf": ("dh", "from-urdf", "-o", "{out}.yaml"),
+    "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "{out}.urdf"),
+    "workspace --plot": ("workspace", "--robot", "planar_2r", "--plot", "{out}.png"),
+    "view --static": ("view", "--static", "{out}.html"),
+}
+
+
+@pytest.mark.parametrize("dangling", [False, True], ids=["link to a file", "dangling link"])
+@pytest.mark.parametrize("argv", LINKED_OUTPUT_COMMANDS.values(), ids=LINKED_OUTPUT_COMMANDS)
+def test_a_symbolic_link_at_the_output_is_replaced_not_followed(tmp_path, argv, dangling):
+    # issue 26: outputs followed symlinks, dangling ones too, into other folders
+    here, elsewhere = tmp_path / "here", tmp_path / "elsewhere"
+    here.mkdir()
+    elsewhere.mkdir()
+    argv = [a.format(out=here / "out") for a in argv]
+    output = Path(argv[-1])
+    victim = elsewhere / ("missing" if dangling else "victim")
+    if not dangling:
+        victim.write_text("the user's file\n")
+    output.symlink_to(victim)
+    result = run_cli("manipkit", *argv)
+    assert result.returncode == 0, result.stderr
+    assert output.is_file() and not output.is_symlink() and output.stat().st_size > 0
+    assert [p.name for p in elsewhere.iterdir()] == ([] if dangling else ["victim"])
+    assert dangling or victim.read_text() == "the user's file\n"
+    assert [p.name for p in here.iterdir()] == [output.name]  # no temporary file left beside it
+
+
+def test_an_output_that_is_the_commands_input_is_refused_and_the_input_kept(tmp_path):
+    # issue 26: `tree --robot X.urdf -o X.urdf --format text`, `dh to-urdf T.yaml -o T.yaml` and
+    # `dh check T.yaml --fix T.yaml` destroyed their own input
+    robot = tmp_path / "arm.urdf"
+    robot.write_text(run_cli("manipkit", "dh", "to-urdf", "iiwa14_seed004").stdout)
+    table = tmp_path / "table.yaml"
+    assert run_cli("manipkit", "dh", "from-urdf", "--robot", robot, "-o", table).returncode == 0
+    link = tmp_path / "link.yaml"
+    link.symlink_to(table)
+    before = {path: path.read_bytes() for path in (robot, table)}
+    cases = [
+        (("tree", "--robot", robot, "-o", robot, "--format", "text"), robot, robot),
+        (("dh", "to-urdf", table, "-o", table), table, table),
+        (("dh", "to-urdf", table, "-o", link), link, table),
+        (("dh", "check", table, "--robot", robot, "--fix", table), table, table),
+        (("dh", "from-urdf", "--robot", robot, "-o", robot), robot, robot),
+    ]
+    for argv, output, source in cases:
+        result = run_cli("manipkit", *argv)
+        assert_one_line_error(
+            result, "manipkit",
+            f"cannot write {output}: it is the command's input {source}; give another output file name")
+    assert {path: path.read_bytes() for path in (robot, table)} == before
 
 
 @pytest.mark.parametrize("fmt", ["text", "dot", "png", "svg"])

@@ -81,7 +81,7 @@ def run_dh_check(args) -> int:
     from manipkit.dh.check import check_dh
 
     if args.fix is not None:
-        writable_path(args.fix)  # before the robot is loaded
+        writable_path(args.fix, inputs=(args.table, args.robot))  # before the robot is loaded
     path = resolve_dh_table(args.table)
     table = dh.load_dh(path)
     robot = load_robot(args)
@@ -135,7 +135,7 @@ def run_dh_to_urdf(args) -> int:
     from manipkit.description.sources import resolve_dh_table
 
     if args.output is not None:
-        writable_path(args.output)
+        writable_path(args.output, inputs=(args.table,))
     table = dh.load_dh(resolve_dh_table(args.table))
     if args.output is None:
         print(dh.urdf_from_dh(table))
@@ -154,7 +154,7 @@ def run_dh_from_urdf(args) -> int:
     from manipkit.dh.from_urdf import dh_from_urdf_chain
 
     if args.output is not None:
-        writable_path(args.output)  # before the robot is loaded
+        writable_path(args.output, inputs=(args.robot,))  # before the robot is loaded
     robot = load_robot(args)
     table = dh_from_urdf_chain(robot, args.base, args.tip, convention=args.convention)
     if args.output is not None:
