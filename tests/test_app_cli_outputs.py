@@ -296,3 +296,36 @@ def test_frames_prints_names_that_look_like_rich_markup_as_written(tmp_path):
     assert result.stdout.splitlines()[1] == "frames: base_link, [/]x[red] :smile:"
     assert "movable joints of r[/bold]" in result.stdout
     assert "│ [bold]j[/bold] │" in result.stdout and "base_link -> [/]x[red] :smile:" in result.stdout
+
+
+# ----------------------------------------------------------------------
+# issue 26: what reaches the terminal, and the process's own streams
+# ----------------------------------------------------------------------
+
+
+def test_escape_sequences_in_a_file_name_are_shown_escaped(tmp_path):
+    name = tmp_path / "\x1b[2J\x1b]0;owned\x07arm\u202e.urdf"
+    result = run_cli("manipkit", "frames", "--robot", name)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert "\x1b" not in result.stderr and "\u202e" not in result.stderr and "\x07" not in result.stderr
+    assert "\\x1b[2J\\x1b]0;owned\\x07arm\\u202e.urdf" in result.stderr
+
+
+def test_stdout_closed_at_start_is_one_line():
+    # `tf-between A B >&-`: Python starts with sys.stdout None; it printed an internal error and a traceback
+    result = subprocess.run(f"exec {BIN / 'tf-between'} base_link ee_link --robot planar_2r >&-", shell=True,
+                            capture_output=False, stderr=subprocess.PIPE, text=True, timeout=180)
+    assert result.returncode == 2
+    assert result.stderr == "tf-between: error: cannot write stdout: it is closed; give the command somewhere to write (> FILE)\n"
+
+
+def test_a_json_matrix_with_a_400_digit_integer_is_one_line(tmp_path):
+    path = tmp_path / "T.json"
+    path.write_text("[[1, 0, 0, 1" + "0" * 400 + "], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]")
+    result = run_cli("manipkit", "tf", "base_link", "ee_link", "--robot", "planar_2r", "--compare", path)
+    assert_one_line_error(result, "manipkit", f"{path}: row 1, entry 4 is inf, not a finite number; a transform has finite entries")
+
+
+def test_ik_restarts_beyond_the_budget_is_refused_before_loading():
+    result = run_cli("manipkit", "ik", "--robot", "planar_2r", "--xyz", "1", "1", "0", "--restarts", "1000000000")
+    assert_one_line_error(result, "manipkit", "--restarts 1000000000: give a whole number from 0 to 100000")

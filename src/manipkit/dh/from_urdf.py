@@ -275,14 +275,14 @@ def dh_from_urdf_chain(
     frames = standard if convention == "standard" else modified
     rows = []
     for i, joint in enumerate(joints):
-        a, alpha, d, theta = _row_parameters(invert_transform(frames[i]) @ frames[i + 1], convention)
+        a, alpha, d, theta = _row_parameters(invert_transform(frames[i], check=False) @ frames[i + 1], convention)
         limits = (joint.lower, joint.upper)
         qlim = limits if all(map(math.isfinite, limits)) else None
         rows.append(DHRow(a, alpha, d, theta, type="prismatic" if prismatic[i] else "revolute", qlim=qlim))
     table = DHTable(tuple(rows), convention=convention, name=robot.name, base=frames[0])
     # Tool from the table's own zero pose, so q = 0 is reproduced exactly.
     T_base_dhn = dh_fk(table, np.zeros(table.n), upto=table.n)
-    tool = invert_transform(T_base_dhn) @ T_base_tip
+    tool = invert_transform(T_base_dhn, check=False) @ T_base_tip
     tool[np.abs(tool) < _ZERO_SNAP] = 0.0
     return DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)
 

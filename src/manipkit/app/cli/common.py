@@ -68,14 +68,20 @@ class UsageError(ManipkitError):
 
 def warn(message: str) -> None:
     """The warnings channel: one ``warning: ...`` line on stderr (stdout stays the answer)."""
-    print(f"warning: {printable(' '.join(str(message).split()))}", file=sys.stderr)
+    if sys.stderr is not None:  # None: started with stderr closed; print(file=None) would write to stdout
+        print(f"warning: {printable(' '.join(str(message).split()))}", file=sys.stderr)
 
 
 def print_json(value) -> None:
-    """``value`` as indented JSON on stdout."""
+    """``value`` as indented JSON on stdout: always valid JSON (no ``NaN`` or ``Infinity``, which JSON has not).
+
+    A value that is not finite is a bug in the command that built ``value``
+    (every answer is finite, or ``null`` where the contract says so): it
+    ends as an internal error, never as invalid JSON.
+    """
     import json
 
-    print(json.dumps(value, indent=2))
+    print(json.dumps(value, indent=2, allow_nan=False))
 
 
 # ----------------------------------------------------------------------

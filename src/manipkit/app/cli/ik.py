@@ -206,9 +206,11 @@ def run_ik(args) -> int:
     closest configuration a numerical search found, which is printed too),
     and the solver's note.
     """
+    from manipkit.kinematics.ik import MAX_RESTARTS
+
     check_precision(args.precision)
-    if args.restarts < 0:
-        raise UsageError(f"--restarts {args.restarts}: give 0 or more")
+    if not 0 <= args.restarts <= MAX_RESTARTS:
+        raise UsageError(f"--restarts {args.restarts}: give a whole number from 0 to {MAX_RESTARTS}")
     robot = load_robot(args)
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
