@@ -236,6 +236,24 @@ def test_a_chunked_body_is_refused(view):
     assert answer[0] == 411 and "Content-Length" in error_of(*answer)
 
 
+def test_a_body_shorter_than_its_content_length_is_refused(view):
+    with socket.create_connection(("127.0.0.1", view.port), timeout=10) as connection:
+        connection.sendall(f"POST /api/update HTTP/1.1\r\nHost: 127.0.0.1:{view.port}\r\nContent-Type: application/json\r\n"
+                           f"{TOKEN_HEADER}: {view.token}\r\nContent-Length: 100\r\n\r\n{{}}".encode())
+        connection.shutdown(socket.SHUT_WR)  # the client is done: 2 of the 100 bytes came
+        head, _, body = connection.makefile("rb").read().partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 400 ") and "ended after 2 of its 100 bytes" in json.loads(body)["error"]
+
+
+def test_a_body_that_never_comes_is_refused_after_the_read_timeout(view, monkeypatch):
+    monkeypatch.setattr(view, "read_timeout", 0.5)
+    with socket.create_connection(("127.0.0.1", view.port), timeout=10) as connection:
+        connection.sendall(f"POST /api/update HTTP/1.1\r\nHost: 127.0.0.1:{view.port}\r\nContent-Type: application/json\r\n"
+                           f"{TOKEN_HEADER}: {view.token}\r\nContent-Length: 100\r\n\r\n{{}}".encode())
+        head, _, body = connection.makefile("rb").read().partition(b"\r\n\r\n")  # the client waits, sends no more
+    assert head.startswith(b"HTTP/1.1 408 ") and "did not arrive within 0.5 s" in json.loads(body)["error"]
+
+
 @pytest.mark.parametrize("depth", [MAX_JSON_DEPTH + 1, 30_000])
 def test_deep_json_is_refused_with_400_without_a_recursion_error(view, depth):
     body = "[" * depth + "]" * depth

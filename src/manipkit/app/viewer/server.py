@@ -76,8 +76,11 @@ class _Refused(Exception):
 class _Handler(BaseHTTPRequestHandler):
     protocol_version = "HTTP/1.1"  # keep-alive: one connection for a whole drag
     disable_nagle_algorithm = True
-    timeout = 60
     server: _HTTPServer
+
+    def setup(self):
+        self.timeout = self.server.app.read_timeout  # a silent connection (or a body that never comes) ends
+        super().setup()
 
     def do_GET(self):
         self._answer(self._get)
@@ -155,7 +158,10 @@ class _Handler(BaseHTTPRequestHandler):
         length = int(lengths[0])
         if length > MAX_BODY_BYTES:
             raise _Refused(413, f"a body of {length} bytes is more than this viewer reads ({MAX_BODY_BYTES})")
-        raw = self.rfile.read(length)
+        try:
+            raw = self.rfile.read(length)
+        except TimeoutError:
+            raise _Refused(408, f"the body's {length} bytes did not arrive within {self.server.app.read_timeout:g} s") from None
         if len(raw) != length:
             raise _Refused(400, f"the body ended after {len(raw)} of its {length} bytes")
         return _json_object(raw)
@@ -300,6 +306,8 @@ class ViewerServer:
         self.origins = frozenset(f"http://{h}" for h in self.hosts)
         #: The session's secret: written into the control page, required on writes and state reads.
         self.token = secrets.token_urlsafe(32)
+        #: Seconds a connection may stay silent (between requests, or within one) before it is closed.
+        self.read_timeout = 60.0
         self.state: ViewerState | None = None
         self.scene: MeshcatScene | None = None
         self.visual = None
