@@ -277,7 +277,7 @@ class ViewerServer:
     in the ``X-Manipkit-Token`` header, and ``/api/update`` an
     ``application/json`` body of at most ``MAX_BODY_BYTES`` with a
     Content-Length, nested at most ``MAX_JSON_DEPTH`` deep. Anything else is
-    refused (403, 404, 411, 413, 415 or 400) with ``{"error": message}``.
+    refused (403, 404, 408, 411, 413, 415 or 400) with ``{"error": message}``.
 
     The port is bound when the server is created (so a busy port fails before
     anything else starts); :meth:`start` serves it from a thread.
