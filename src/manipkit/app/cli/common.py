@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from manipkit.bounds import MAX_ANGLE  # the largest angle (rad) a command takes: one rule, manipkit.bounds
 from manipkit.errors import JointLimitError, ManipkitError
 from manipkit.text import number_text, printable, short_text
 
@@ -49,17 +50,21 @@ __all__ = [
 EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
 EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
 
-#: Largest angle magnitude (rad) a command takes. Beyond it the spacing of float64 numbers
-#: (1.2e-10 rad at 1e6) grows towards a full turn (at about 1e16), so the angle names no definite
-#: rotation, and printed with fixed decimals it would run to hundreds of digits.
-MAX_ANGLE = 1e6
 
 
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors (usage goes to --help, not to every mistake)."""
 
     def error(self, message: str):
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {printable(message)} (see {self.prog} --help)\n")
+
+    def parse_known_args(self, args=None, namespace=None):
+        """As argparse's, except that arguments left over are an error of this parser: of the command that
+        was given them (``manipkit view --view-html``: see ``manipkit view --help``, not ``manipkit --help``)."""
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
 
 
 class UsageError(ManipkitError):
