@@ -33,16 +33,20 @@ __all__ = [
     "Parser",
     "UsageError",
     "add_joint_options",
+    "alias_lines",
     "add_robot_options",
     "check_angles",
     "check_precision",
     "check_tolerance",
+    "command_line",
+    "exact_q_words",
     "joint_vector",
     "limit_checked",
     "limit_hint",
     "load_robot",
     "print_json",
     "q_text",
+    "robot_words",
     "warn",
     "xacro_arg_pairs",
 ]
@@ -128,6 +132,52 @@ def load_robot(args, *, mesh_warnings: bool = True) -> Robot:
         if mesh_warnings or message not in robot.mesh_warnings:
             warn(message)
     return robot
+
+
+def robot_words(args, robot: Robot) -> list[str]:
+    """The options that load ``robot`` again as the user loaded it: ``--robot``, every ``--arg`` and ``--package-dir``.
+
+    For the commands manipkit prints for the user to run (``ik``'s check line,
+    the "derived by" line of a DH file): without the xacro arguments and
+    package folders they would load another robot (issue 25: TIAGo with
+    ``--arg ft_sensor:=no-ft-sensor`` answered 2.3 cm away).
+    """
+    words = ["--robot", str(args.robot) if args.robot is not None else robot.source.name]
+    for item in args.arg:
+        words += ["--arg", item]
+    for item in args.package_dir:
+        words += ["--package-dir", item]
+    for item in getattr(args, "allow_read", None) or []:
+        words += ["--allow-read", str(item)]
+    return words
+
+
+def alias_lines(robot: Robot, *frames: str) -> list[str]:
+    """``frame ee_link = tool0, named like an arm tool frame (...)`` for each alias among ``frames``.
+
+    Every output that answers for ``ee_link`` or ``base_link`` names the link
+    it stands for and the rule that chose it (issue 25: ``ik`` printed "frame
+    ee_link" while that was a finger).
+    """
+    lines = []
+    for alias in dict.fromkeys(frames):  # once when both are the same alias
+        resolved = robot.frame(alias)
+        if resolved != alias:
+            reason = robot.ee_reason if alias == "ee_link" else f"{resolved}, the root link"
+            lines.append(f"frame {alias} = {reason}")
+    return lines
+
+
+def command_line(*words) -> str:
+    """``words`` as one shell command line a user can paste (each word quoted where the shell needs it)."""
+    import shlex
+
+    return shlex.join(str(word) for word in words)
+
+
+def exact_q_words(values: dict[str, float]) -> list[str]:
+    """``--q name=value ...`` with every value written exactly (the shortest text that reads back as the same float)."""
+    return ["--q", *(f"{name}={float(value)!r}" for name, value in values.items())]
 
 
 def xacro_arg_pairs(items: list[str]) -> dict[str, str]:

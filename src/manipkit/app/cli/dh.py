@@ -16,8 +16,10 @@ from manipkit.app.cli.common import (
     UsageError,
     add_robot_options,
     check_tolerance,
+    command_line,
     load_robot,
     print_json,
+    robot_words,
 )
 from manipkit.outputs import writable_path, write_text
 from manipkit.text import short_text
@@ -158,11 +160,12 @@ def run_dh_from_urdf(args) -> int:
     robot = load_robot(args)
     table = dh_from_urdf_chain(robot, args.base, args.tip, convention=args.convention)
     if args.output is not None:
+        derived_by = command_line("manipkit", "dh", "from-urdf", *robot_words(args, robot), "--base", args.base,
+                                  "--tip", args.tip, "--convention", args.convention)
         header = (
             f"{table.convention} DH table of {robot.name} from {robot.frame(args.base)} to {robot.frame(args.tip)}, "
             f"rows = joints {', '.join(robot.chain_joints(args.base, args.tip))};\n"
-            f"derived by `manipkit dh from-urdf --robot {args.robot or robot.source.name} --base {args.base} "
-            f"--tip {args.tip} --convention {args.convention}` (exact to the URDF's numbers)"
+            f"derived by `{derived_by}` (exact to the URDF's numbers)"
         )
         write_text(args.output, dh.yaml_from_dh(table, header=header))  # what dh.save_dh writes
         print(f"wrote {args.output}")

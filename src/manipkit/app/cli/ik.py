@@ -24,12 +24,16 @@ from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
     add_robot_options,
+    alias_lines,
     check_angles,
     check_precision,
+    command_line,
+    exact_q_words,
     joint_vector,
     load_robot,
     print_json,
     q_text,
+    robot_words,
 )
 from manipkit.errors import ManipkitError
 from manipkit.text import short_text
@@ -241,6 +245,8 @@ def run_ik(args) -> int:
         })
     else:
         print(header)
+        for line in alias_lines(robot, args.base, args.frame):
+            print(line)
         for index, (label, q) in enumerate(answers, start=1):
             print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}")
         if result.closest is not None:
@@ -250,6 +256,7 @@ def run_ik(args) -> int:
         for note in notes:
             print(f"note: {note}")
         if result.success:
-            print(f"check one with: tf-between {args.base} {args.frame} --robot {args.robot or robot.source.name} --q "
-                  + q_text(robot.as_dict(answers[0][1]), args.precision))
+            check = command_line("tf-between", args.base, args.frame, *robot_words(args, robot),
+                                 *exact_q_words(robot.as_dict(answers[0][1])))
+            print(f"check one with: {check}")
     return EXIT_OK if result.success else EXIT_MISMATCH
