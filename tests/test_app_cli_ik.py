@@ -177,3 +177,14 @@ def test_the_derived_by_line_of_a_dh_file_reproduces_the_table(tmp_path):
     again = run_cli(*shlex.split(recorded))
     assert again.returncode == 0, again.stderr
     assert again.stdout == result.stdout.split("\n", 1)[1]  # the same table (after the "wrote FILE" line)
+
+
+def test_a_pose_for_a_five_joint_arm_that_fails_says_why_and_what_to_ask_instead():
+    # issue 25: 6D IK on a 4- or 5-joint arm failed with no hint
+    pose = ["--xyz", "0.3", "0.2", "0.2", "--rpy", "0.3", "0.2", "0.1"]
+    result = run_cli("manipkit", "ik", "--robot", "course_arm", *pose)
+    assert result.returncode == 1
+    assert ("note: the chain base_link -> ee_link has 5 joints, fewer than the 6 a full pose needs, so most poses "
+            "are out of its reach: ask for the position only (--position-only) or the position and the tool's axis "
+            "(--axis z)") in result.stdout
+    assert run_cli("manipkit", "ik", "--robot", "course_arm", *pose, "--axis", "z").returncode in (0, 1)  # a valid command

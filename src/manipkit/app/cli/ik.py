@@ -227,6 +227,11 @@ def run_ik(args) -> int:
         note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
+        joints = robot.chain(args.base, args.frame).n
+        if mode == "pose" and joints < 6:
+            notes.append(f"the chain {args.base} -> {args.frame} has {joints} joint{'s' * (joints != 1)}, fewer than "
+                         "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
+                         "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
         print_json({
             "robot": robot.name,
