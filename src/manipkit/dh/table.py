@@ -320,7 +320,7 @@ def dh_link_transform(a, alpha, d, theta, *, convention: str) -> np.ndarray:
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
-def dh_fk(table: DHTable, q, *, upto: int | None = None) -> np.ndarray:
+def dh_fk(table: DHTable, q, *, upto: int | None = None, check: bool = True) -> np.ndarray:
     """T_base_tool of a DH table, vectorised over configurations.
 
     Parameters
@@ -331,6 +331,10 @@ def dh_fk(table: DHTable, q, *, upto: int | None = None) -> np.ndarray:
     upto : int, optional
         Stop after this many rows and leave out the tool: the pose of DH
         frame ``upto`` in the base (``upto=0`` gives ``table.base``).
+    check : bool, keyword-only
+        Refuse joint values that are not finite or beyond
+        :data:`manipkit.bounds.MAX_ANGLE` (default); False lets NaN rows
+        through as NaN poses (a batch of solver slots, some empty).
 
     Returns
     -------
@@ -348,7 +352,7 @@ def dh_fk(table: DHTable, q, *, upto: int | None = None) -> np.ndarray:
         raise JointValueError(f"DH table '{table.name}': q must be numbers, got {repr_text(q)}") from None
     if q.shape[-1:] != (table.n,):
         raise JointValueError(f"DH table '{table.name}' has {table.n} rows; q has shape {q.shape}")
-    if not (np.abs(q) <= MAX_ANGLE).all():  # False for NaN too
+    if check and not (np.abs(q) <= MAX_ANGLE).all():  # False for NaN too
         bad = np.argwhere(~(np.abs(q) <= MAX_ANGLE))[0]
         raise JointValueError(
             f"DH table '{table.name}': q[{', '.join(str(int(i)) for i in bad)}] = {q[tuple(bad)]}; joint values must "
