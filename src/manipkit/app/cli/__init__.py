@@ -51,7 +51,18 @@ def tf_between_main(argv=None) -> int:
 
 def _main_parser() -> argparse.ArgumentParser:
     from manipkit.app.cli import (
-        collisions, dh, ik, reachmap, robots, rot, singularities, tf, tree, velocity, view, workspace,
+        collisions,
+        dh,
+        ik,
+        reachmap,
+        robots,
+        rot,
+        singularities,
+        tf,
+        tree,
+        velocity,
+        view,
+        workspace,
     )
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")

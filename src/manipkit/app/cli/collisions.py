@@ -122,10 +122,13 @@ def run_acm(args) -> int:
     from manipkit.analysis.acm import REASONS, allowed_collision_matrix, srdf_text
     from manipkit.app.progress import progress_bar
     from manipkit.kinematics.collisions import collisions
-    from manipkit.outputs import write_text
+    from manipkit.outputs import writable_path, write_text
 
     if not 1 <= args.samples <= 10_000_000:
         raise UsageError(f"--samples {args.samples}: give a whole number from 1 to 10000000")
+    if args.seed < 0:
+        raise UsageError(f"--seed {args.seed}: give a whole number, 0 or more")
+    writable_path(args.output)  # a typo in -o is said at once, not after the sampling
     robot = load_robot(args, mesh_warnings=False)
     enabled = {"yes": True, "no": False, "auto": None}[args.progress]
     with progress_bar(enabled) as progress:
