@@ -107,3 +107,19 @@ def test_acm_of_a_robot_in_contact_at_its_default_pose_disables_those_pairs(tmp_
     assert "check: no enabled pair is in contact at the default pose" in result.stdout
     assert "Default" in out.read_text()
 
+
+
+def test_an_srdf_that_leaves_pairs_touching_at_the_default_pose_is_warned_about(tmp_path, panda):
+    # Franka's matrix without its 'Default' pair panda_hand - panda_link5: on hulls they touch at the default pose
+    shipped = (panda.source.path.parents[1] / "srdf" / "panda.srdf").read_text()
+    line = next(x for x in shipped.splitlines() if 'link1="panda_hand" link2="panda_link5"' in x
+                or 'link1="panda_link5" link2="panda_hand"' in x)
+    srdf = tmp_path / "edited.srdf"
+    srdf.write_text(shipped.replace(line, ""))
+    result = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", srdf, "--q", "panda_joint1=1", status=0)
+    assert result.stderr == (f"warning: {srdf} leaves 1 pair in contact at the default pose with hulls geometry "
+                             "(panda_link5 - panda_hand); was it made for other geometry? "
+                             "`manipkit acm --geometry hulls` makes one for it\n")
+    quiet = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", panda.source.path.parents[1] / "srdf" /
+                    "panda.srdf", status=0)
+    assert quiet.stderr == ""

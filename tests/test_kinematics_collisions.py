@@ -363,3 +363,27 @@ def test_bad_batch_shapes_are_refused(panda):
         collision_free(panda, np.zeros((2, 3)))
     with pytest.raises(CollisionError, match="workers 0: give a whole number of threads"):
         collision_free(panda, np.zeros((2, 8)), workers=0)
+
+
+FLOATING = """<?xml version="1.0"?>
+<robot name="floating">
+  <link name="world"/>
+  <link name="body"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="arm"><collision><origin xyz="0 0 0.2"/><geometry><box size="0.05 0.05 0.3"/></geometry></collision></link>
+  <joint name="free" type="floating"><parent link="world"/><child link="body"/></joint>
+  <joint name="hinge" type="continuous"><parent link="body"/><child link="arm"/><axis xyz="0 1 0"/></joint>
+</robot>
+"""
+
+
+@pytest.mark.parametrize("name", ["course_arm", "panda", "floating"])
+def test_batched_configurations_equal_one_at_a_time(load_robot, name):
+    # course_arm: continuous joints (cos, sin); panda: a mimic finger; floating: a free joint's quaternion
+    robot = Robot.from_urdf(FLOATING) if name == "floating" else load_robot(name)
+    Q = robot.sample_q(7, seed=2)
+    C = robot.joint_layout.configurations(Q)
+    assert C.shape == (robot.model.nq, 7) and C.flags.f_contiguous
+    for i, q in enumerate(Q):
+        assert C[:, i] == pytest.approx(robot.pinocchio_configuration(q), abs=1e-15)
+    hits = CollisionChecker(robot, floor=-0.5).in_collision(Q)
+    assert list(hits) == [CollisionChecker(robot, floor=-0.5).report(q).in_collision for q in Q]

@@ -55,6 +55,7 @@ __all__ = [
     "collision_geometry",
     "collisions",
     "read_srdf",
+    "srdf_check",
 ]
 
 #: The kinds of collision geometry: convex hulls of the meshes (the default) or the meshes themselves.
@@ -478,10 +479,7 @@ class CollisionChecker:
         if not self._pair_links or len(Q) == 0:
             return np.zeros(len(Q), dtype=bool)
         workers = _workers(workers)
-        layout = robot.joint_layout
-        configurations = np.empty((robot.model.nq, len(Q)), order="F")
-        for i, row in enumerate(Q):
-            configurations[:, i] = layout.configuration(row)
+        configurations = robot.joint_layout.configurations(Q)
         with self._pool_lock:  # one pool per thread count; a pool's workspaces are not shared between calls
             pool = self._pools.get(workers)
             if pool is None:
@@ -538,6 +536,16 @@ def collisions(robot: Robot, q=None, *, srdf=None, floor: float | None = None, w
     False
     """
     return _checker(robot, srdf, floor, world, geometry).report(q)
+
+
+def srdf_check(robot: Robot, srdf, *, geometry: str = "hulls") -> tuple[LinkPair, ...]:
+    """The pairs an SRDF leaves checked that are in contact at the robot's default configuration (``robot.q()``).
+
+    A matrix is made for one geometry (Franka's SRDF for the meshes leaves
+    pairs touching on primitive shapes); empty when the SRDF holds for
+    ``geometry``. ``manipkit collisions --srdf`` warns with these pairs.
+    """
+    return CollisionChecker(robot, geometry=geometry, srdf=srdf).report().pairs
 
 
 def collision_free(robot: Robot, Q, *, srdf=None, floor: float | None = None, world=None, geometry: str = "hulls",

@@ -19,6 +19,7 @@ from manipkit.app.cli.common import (
     joint_vector,
     load_robot,
     print_json,
+    warn,
 )
 from manipkit.text import number_text, printable, short_text
 
@@ -80,12 +81,19 @@ def parse_floor(text: str) -> float | None:
 
 def run_collisions(args) -> int:
     """Print whether the configuration is in collision, every pair in contact and the closest pair."""
-    from manipkit.kinematics.collisions import collisions
+    from manipkit.kinematics.collisions import collisions, srdf_check
 
     robot = load_robot(args, mesh_warnings=False)  # a missing collision mesh is the error; visual meshes are not used
     q = joint_vector(robot, args)
     floor = parse_floor(args.floor)
     report = collisions(robot, q, srdf=args.srdf, floor=floor, world=args.world, geometry=args.geometry)
+    if args.srdf is not None:  # a matrix is validated for this geometry, not trusted
+        touching = srdf_check(robot, args.srdf, geometry=args.geometry)
+        if touching:
+            pairs = ", ".join(f"{p.link1} - {p.link2}" for p in touching)
+            warn(f"{args.srdf} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact at the "
+                 f"default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
+                 f"`manipkit acm --geometry {args.geometry}` makes one for it")
     if args.format == "json":
         print_json({**report.as_dict(), "q": dict(zip(robot.joint_names, map(float, q)))})
         return EXIT_OK
