@@ -23,7 +23,7 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import number_text, printable, short_text
 
-__all__ = ["parse_floor", "register", "run_acm", "run_collisions"]
+__all__ = ["add_collision_options", "collision_checker", "parse_floor", "register", "run_acm", "run_collisions"]
 
 
 def register(commands) -> None:
@@ -32,13 +32,7 @@ def register(commands) -> None:
         "collisions", help="self-collision (and floor, world) check of one configuration: pairs in contact, closest pair")
     add_robot_options(parser)
     add_joint_options(parser)
-    _add_geometry_option(parser)
-    parser.add_argument("--srdf", default=None, metavar="FILE",
-                        help="SRDF whose <disable_collisions> pairs are not checked (adjacent links never are)")
-    parser.add_argument("--floor", default="none", metavar="Z|none",
-                        help="floor height z (m) in the base_link frame, or none (default: none)")
-    parser.add_argument("--world", default=None, metavar="FILE",
-                        help="YAML world file of obstacles (boxes, spheres, cylinders) in the base_link frame")
+    add_collision_options(parser)
     parser.add_argument("--precision", type=int, default=4, metavar="N", help="decimals printed (default 4)")
     parser.add_argument("--format", choices=("text", "json"), default="text")
     parser.set_defaults(run=run_collisions)
@@ -53,6 +47,37 @@ def register(commands) -> None:
     acm.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
                      help="progress bar on stderr (auto: when stderr is a terminal)")
     acm.set_defaults(run=run_acm)
+
+
+def add_collision_options(parser) -> None:
+    """``--geometry``, ``--srdf``, ``--floor`` and ``--world`` (read by :func:`collision_checker`)."""
+    _add_geometry_option(parser)
+    parser.add_argument("--srdf", default=None, metavar="FILE",
+                        help="SRDF whose <disable_collisions> pairs are not checked (adjacent links never are)")
+    parser.add_argument("--floor", default="none", metavar="Z|none",
+                        help="floor height z (m) in the base_link frame, or none (default: none)")
+    parser.add_argument("--world", default=None, metavar="FILE",
+                        help="YAML world file of obstacles (boxes, spheres, cylinders) in the base_link frame")
+
+
+def collision_checker(robot, args):
+    """The :class:`~manipkit.kinematics.collisions.CollisionChecker` of ``--geometry/--srdf/--floor/--world``.
+
+    An SRDF that leaves pairs touching at the default pose with this
+    geometry is warned about (a matrix is validated, not trusted).
+    """
+    from manipkit.kinematics.collisions import CollisionChecker, srdf_check
+    from manipkit.kinematics.world import read_world
+
+    if args.srdf is not None:
+        touching = srdf_check(robot, args.srdf, geometry=args.geometry)
+        if touching:
+            pairs = ", ".join(f"{p.link1} - {p.link2}" for p in touching)
+            warn(f"{args.srdf} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact at the "
+                 f"default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
+                 f"`manipkit acm --geometry {args.geometry}` makes one for it")
+    world = () if args.world is None else read_world(args.world)
+    return CollisionChecker(robot, geometry=args.geometry, srdf=args.srdf, floor=parse_floor(args.floor), world=world)
 
 
 def _add_geometry_option(parser) -> None:
@@ -81,19 +106,10 @@ def parse_floor(text: str) -> float | None:
 
 def run_collisions(args) -> int:
     """Print whether the configuration is in collision, every pair in contact and the closest pair."""
-    from manipkit.kinematics.collisions import collisions, srdf_check
-
     robot = load_robot(args, mesh_warnings=False)  # a missing collision mesh is the error; visual meshes are not used
     q = joint_vector(robot, args)
     floor = parse_floor(args.floor)
-    report = collisions(robot, q, srdf=args.srdf, floor=floor, world=args.world, geometry=args.geometry)
-    if args.srdf is not None:  # a matrix is validated for this geometry, not trusted
-        touching = srdf_check(robot, args.srdf, geometry=args.geometry)
-        if touching:
-            pairs = ", ".join(f"{p.link1} - {p.link2}" for p in touching)
-            warn(f"{args.srdf} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact at the "
-                 f"default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
-                 f"`manipkit acm --geometry {args.geometry}` makes one for it")
+    report = collision_checker(robot, args).report(q)
     if args.format == "json":
         print_json({**report.as_dict(), "q": dict(zip(robot.joint_names, map(float, q)))})
         return EXIT_OK
