@@ -1,4 +1,4 @@
-"""World files: a few obstacles (boxes, spheres, cylinders) fixed in the robot's ``base_link`` frame.
+"""World files: a few obstacles (boxes, spheres, cylinders) fixed in the robot's root link frame.
 
 A world file is YAML (metres and radians; ``rpy`` as in URDF,
 R = Rz(yaw) Ry(pitch) Rx(roll))::
@@ -6,7 +6,7 @@ R = Rz(yaw) Ry(pitch) Rx(roll))::
     obstacles:
       - name: table
         box: [1.0, 0.6, 0.04]      # size along x, y, z
-        xyz: [0.5, 0.0, -0.02]     # centre in base_link
+        xyz: [0.5, 0.0, -0.02]     # centre in the root link's frame
         rpy: [0, 0, 0]
       - name: ball
         sphere: 0.1                # radius
@@ -15,7 +15,7 @@ R = Rz(yaw) Ry(pitch) Rx(roll))::
         cylinder: [0.05, 1.0]      # radius, length (along the obstacle's z)
         xyz: [-0.4, 0, 0.5]
 
-:func:`read_world` turns it into ``(name, coal shape, T_base_obstacle)``
+:func:`read_world` turns it into ``(name, coal shape, T_root_obstacle)``
 triples for :class:`manipkit.kinematics.collisions.CollisionChecker`.
 """
 
@@ -42,7 +42,7 @@ _KEYS = {"name", "xyz", "rpy", *SHAPES}
 
 
 def read_world(path: str | os.PathLike) -> list[tuple[str, object, np.ndarray]]:
-    """The obstacles of a world file: ``(name, coal shape, T_base_obstacle)`` each (see the module docstring).
+    """The obstacles of a world file: ``(name, coal shape, T_root_obstacle)`` each (see the module docstring).
 
     Raises
     ------

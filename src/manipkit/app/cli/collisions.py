@@ -4,7 +4,7 @@ The checks are :func:`manipkit.kinematics.collisions.collisions` and the
 matrix :func:`manipkit.analysis.acm.allowed_collision_matrix`
 (docs/architecture.md, "Collisions"); this module parses and formats.
 Distances are in metres (negative: penetration depth), witness points in the
-``base_link`` frame.
+robot's root link frame.
 """
 
 from __future__ import annotations
@@ -55,9 +55,9 @@ def add_collision_options(parser) -> None:
     parser.add_argument("--srdf", default=None, metavar="FILE",
                         help="SRDF whose <disable_collisions> pairs are not checked (adjacent links never are)")
     parser.add_argument("--floor", default="none", metavar="Z|none",
-                        help="floor height z (m) in the base_link frame, or none (default: none)")
+                        help="floor height z (m) in the root link's frame, or none (default: none)")
     parser.add_argument("--world", default=None, metavar="FILE",
-                        help="YAML world file of obstacles (boxes, spheres, cylinders) in the base_link frame")
+                        help="YAML world file of obstacles (boxes, spheres, cylinders) in the root link's frame")
 
 
 def collision_checker(robot, args):
