@@ -239,7 +239,7 @@ def _collision_goals(rows: list[dict], goal) -> None:
     """Issue 23: batched checks >= 1.8x a loop on both cores; the Panda matrix from 10,000 samples in 60 s; a
     filtered iiwa14 map within 2x the unfiltered one."""
     loop = _find(rows, "collisions", "panda", "Python loop")
-    if loop and loop.get("ratio"):
+    if loop and loop.get("ratio") and loop["n"] >= 10_000:  # not on the quick run's few hundred
         goal("self-collision checks, Panda hulls: batched >= 1.8x a Python loop over computeCollisions",
              f"{loop['ratio']:.2f}x", loop["ratio"] >= 1.8, loop["check"])
     acm = _find(rows, "acm", "panda", "manipkit allowed_collision_matrix")
