@@ -441,3 +441,11 @@ def test_answers_do_not_depend_on_the_previous_configuration(iiwa14):
                       for q in Q])
     assert (checker.in_collision(Q) == fresh).all()
     assert (np.array([checker.report(q).in_collision for q in Q]) == fresh).all()
+
+
+def test_a_checker_is_immutable(two_spheres):
+    checker = CollisionChecker(two_spheres)
+    with pytest.raises(AttributeError, match="a CollisionChecker is immutable"):
+        checker.floor = 0.0
+    with pytest.raises(TypeError):
+        checker.disabled[("a", "b")] = "Never"

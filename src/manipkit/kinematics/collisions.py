@@ -35,6 +35,7 @@ import os
 import threading
 import weakref
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING
 
 import coal
@@ -416,6 +417,13 @@ class CollisionChecker:
         self._local = threading.local()
         self._pool_lock = threading.Lock()
         self._pools: dict[int, object] = {}
+        self.disabled = MappingProxyType(self.disabled)
+        self._frozen = True
+
+    def __setattr__(self, name, value):
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"a CollisionChecker is immutable: cannot set '{name}' (make another one)")
+        object.__setattr__(self, name, value)
 
     def _resting_on_floor(self) -> set[str]:
         """Links that stand on the floor: rigid with the root, or touching it (within :data:`RESTING`) at ``robot.q()``."""
