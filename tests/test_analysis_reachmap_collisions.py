@@ -82,3 +82,27 @@ def test_cli_reachmap_collisions_and_its_refusals(tmp_path):
     placement = run_cli("manipkit", "base-placement", "--robot", "planar_2r", "--targets", tmp_path / "none.txt",
                         "--map", tmp_path / "p.zarr", "--collisions", "self")
     assert placement.returncode == 2
+
+
+def test_checking_one_sample_per_voxel_bin_gives_the_same_map(iiwa14):
+    # Without the manipulability statistics a block checks only the first sample of each voxel-bin (then the next
+    # where it collides); with them every sample is checked. Reach and first configurations must be identical.
+    settings = CollisionSettings.parse(iiwa14, "self,floor", floor=0.0)
+    options = dict(voxel=0.15, orientations=8, samples=6000, block_samples=2000, collisions=settings)
+    lazy, full = build(iiwa14, **options, manipulability=False), build(iiwa14, **options, manipulability=True)
+    assert (lazy.reach == full.reach).all()
+    assert np.array_equal(lazy.voxel_q, full.voxel_q, equal_nan=True)
+
+
+def test_first_free_finds_each_groups_first_free_row(panda):
+    checker_settings = CollisionSettings.parse(panda, "self")
+    Q = panda.sample_q(400, seed=2)
+    groups = np.arange(400) % 7 - 1  # groups -1 (skipped) .. 5
+    first = checker_settings.first_free(panda, Q, groups)
+    free = ~CollisionChecker(panda).in_collision(Q)
+    expected = np.zeros(400, dtype=bool)
+    for g in range(6):
+        rows = np.flatnonzero((groups == g) & free)
+        if rows.size:
+            expected[rows[0]] = True
+    assert (first == expected).all()

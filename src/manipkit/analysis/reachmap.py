@@ -499,9 +499,15 @@ def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np
     n = min(job.block_samples, job.samples - block * job.block_samples)
     Q = np.tile(job.q_default, (n, 1))
     Q[:, job.chain] = job.low + rng.random((n, job.chain.size)) * (job.high - job.low)
-    if job.collisions is not None:  # samples in collision reach nothing
-        Q = Q[job.collisions.free(job.robot, Q)]
     T = job.robot.fk(Q, base=job.base, tip=job.frame)
+    if job.collisions is not None:  # samples in collision reach nothing
+        if job.manipulability:  # every sample counts in the statistics
+            free = job.collisions.free(job.robot, Q)
+        else:  # the map keeps one free sample per voxel-bin, the first: check samples until it is found
+            cells, inside = job.cells(T[:, :3, 3])
+            groups = np.where(inside, cells * job.orientations.size + job.orientations.bin_of(T[:, :3, :3]), -1)
+            free = job.collisions.first_free(job.robot, Q, groups)
+        Q, T = Q[free], T[free]
     cells, inside = job.cells(T[:, :3, 3])
     cells, Q = cells[inside], Q[inside]
     keys = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]))

@@ -585,6 +585,28 @@ class CollisionSettings:
         """(N,) bool: the rows of ``Q`` (whole-robot vectors) with no checked pair in contact."""
         return ~self.checker(robot).in_collision(Q)
 
+    def first_free(self, robot: Robot, Q, groups) -> np.ndarray:
+        """(N,) bool: for each group, its first row (in row order) not in collision; rows of group -1 are skipped.
+
+        Checks the first row of every group at once, then the next row of the
+        groups whose row collided, and so on: about one check per group
+        instead of one per row (a reach map needs one free sample per voxel-bin).
+        """
+        groups = np.asarray(groups)
+        order = np.lexsort((np.arange(len(groups)), groups))
+        order = order[groups[order] >= 0]
+        starts = np.flatnonzero(np.diff(groups[order], prepend=-2)) if order.size else np.zeros(0, dtype=np.intp)
+        ends = np.append(starts[1:], order.size)
+        position, active = starts.copy(), np.arange(starts.size)
+        first = np.zeros(len(groups), dtype=bool)
+        while active.size:
+            candidates = order[position[active]]
+            free = self.free(robot, np.asarray(Q)[candidates])
+            first[candidates[free]] = True
+            position[active] += 1
+            active = active[~free & (position[active] < ends[active])]
+        return first
+
     def as_dict(self) -> dict:
         """JSON-safe, for a map's metadata: what was checked, with which geometry and matrix."""
         checked = [name for name, on in (("self", self.self_collisions), ("floor", self.floor is not None)) if on]
