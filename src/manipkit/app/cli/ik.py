@@ -73,6 +73,14 @@ def register(commands) -> None:
     ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
     ik.add_argument("--precision", type=int, default=6, metavar="N")
     ik.add_argument("--format", choices=("text", "json"), default="text")
+    ik.add_argument("--collision-free", action="store_true",
+                    help="accept only answers not in collision (numerical: restart until one is found; "
+                         "--analytic: drop the solutions in collision)")
+    ik.add_argument("--collisions", action="store_true",
+                    help="mark each solution in collision or not, with its clearance (m)")
+    from manipkit.app.cli.collisions import add_collision_options
+
+    add_collision_options(ik)
     ik.set_defaults(run=run_ik)
 
 
@@ -173,7 +181,25 @@ def _ik_target(args) -> np.ndarray:
 
 
 def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
-    """(result, header): the closed form or numerical IK, as manipkit's one IK result type."""
+    """(result, header): the closed form or numerical IK, as manipkit's one IK result type (solutions marked in
+    collision or not when asked)."""
+    checker = None
+    if args.collision_free or args.collisions:
+        from manipkit.app.cli.collisions import collision_checker
+
+        checker = collision_checker(robot, args)
+    result, header = _solve_with(args, robot, target, mode, checker if args.collision_free else None)
+    if checker is not None and not (args.collision_free and not args.analytic):
+        from manipkit.kinematics.collisions import mark_collisions
+
+        marked = mark_collisions(result, checker, drop=args.collision_free)
+        if len(marked.solutions) < len(result.solutions):
+            header += f"\n{len(result.solutions) - len(marked.solutions)} of them in collision, dropped (--collision-free)"
+        result = marked
+    return result, header
+
+
+def _solve_with(args, robot: Robot, target: np.ndarray, mode: str, checker) -> tuple[IKResult, str]:
     tol = _tolerance(args)
     options = {} if tol is None else {"tol": tol}
     if args.analytic:
@@ -196,9 +222,20 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
 
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
     result = ik(robot, target, args.base, args.frame, mode=mode, axis=args.axis or "z", q0=q0, all=args.all,
-                restarts=args.restarts, seed=args.seed, free=tuple(args.free), **options)
+                restarts=args.restarts, seed=args.seed, free=tuple(args.free), collision_free=checker or False,
+                **options)
     outcome = "success" if result.success else "FAILED"
     return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.iterations} iterations"
+
+
+def _collision_text(result: IKResult, row: int) -> str:
+    """`` (collision-free, clearance 0.012 m)`` or `` (IN COLLISION, penetration 0.01 m)`` when collisions were asked."""
+    if result.clearance is None:
+        return ""
+    clearance = float(result.clearance[row])
+    if result.collides[row]:
+        return f" (IN COLLISION, penetration {short_text(-clearance, 3)} m)" if clearance < 0 else " (IN COLLISION)"
+    return f" (collision-free, clearance {short_text(clearance, 3)} m)"
 
 
 def run_ik(args) -> int:
@@ -247,15 +284,19 @@ def run_ik(args) -> int:
             "residual_position": None if residuals is None else float(residuals[0]),
             "residual_rotation": None if residuals is None else float(residuals[1]),
             "notes": notes,
+            **({"collides": list(result.collides), "clearance": [float(c) for c in result.clearance]}
+               if result.clearance is not None else {}),
         })
     else:
         print(header)
         for line in alias_lines(robot, args.base, args.frame):
             print(line)
         for index, (label, q) in enumerate(answers, start=1):
-            print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}")
+            print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}"
+                  + _collision_text(result, index - 1))
         if result.closest is not None:
-            print(f"best found (does not reach the target): {q_text(robot.as_dict(result.closest), args.precision)}")
+            what = "in collision" if args.collision_free and "in collision" in result.note else "does not reach the target"
+            print(f"best found ({what}): {q_text(robot.as_dict(result.closest), args.precision)}")
         if residuals is not None:
             print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
         for note in notes:
