@@ -275,16 +275,23 @@ def load_map(path) -> ReachMap:
     shown = printable(str(path))
     if not path.is_dir():
         raise InputFileError(f"{shown}: no such reachability map (a folder written by 'manipkit reachmap -o')")
-    if not _is_map(path):
+    invalid = f"{shown}: not a valid reachability map"
+    try:
+        meta = _read_json(path / "zarr.json")
+    except _Invalid as exc:
+        raise InputFileError(f"{invalid}: {exc}") from None
+    except InputFileError:
+        meta = None
+    if not isinstance(meta, dict) or not isinstance(meta.get("attributes"), dict) or \
+            meta["attributes"].get("format") != FORMAT:
         raise InputFileError(f"{shown}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
     try:
         _check_entries(path)
-        a = _checked_attributes(_read_json(path / "zarr.json"))
+        a = _checked_attributes(meta)
         arrays = _read_arrays(path, a)
         _check_contents(arrays)
     except _Invalid as exc:
-        raise InputFileError(f"{shown}: not a valid reachability map: {exc}; rebuild it with 'manipkit reachmap'") \
-            from None
+        raise InputFileError(f"{invalid}: {exc}; rebuild it with 'manipkit reachmap'") from None
     except OSError as exc:
         raise InputFileError(f"{shown}: cannot be read ({exc.strerror or exc})") from None
     return ReachMap(arrays["reach"], a["origin"], a["axes"], a["voxel"], a["orientations"], a["method"], a["robot"],
