@@ -421,8 +421,10 @@ def _read_arrays(path: Path, a: dict) -> dict:
     if len(shape) != 4 or shape[3] != n_bins or any(metas[n][0] != expected[n] for n in names) or K < 0:
         raise _Invalid(f"array shapes that disagree with the attributes (reach {shape}, {n_bins} orientation bins, "
                        f"{n_joints} joints)")
-    if a["orientations"].kind == "planar" and grid[2] != 1:
-        raise _Invalid(f"a planar map has one layer; this one has {grid[2]}")
+    if a["orientations"].kind == "planar" and (grid[2] != 1 or grid[0] != grid[1]):
+        raise _Invalid(f"a planar map has a square of voxels in one layer; this one has {'x'.join(map(str, grid))}")
+    if a["orientations"].kind == "spatial" and (len(set(grid)) != 1 or not np.array_equal(a["axes"], np.eye(3))):
+        raise _Invalid("a spatial map has identity axes and a cube of voxels")
     if min(grid) < 1 or map_bytes(math.prod(grid), n_bins, n_joints) + 16 * K * (n_joints + 1) > MAX_GRID_BYTES:
         raise _Invalid(f"a grid of {'x'.join(map(str, grid))} voxels: empty, or arrays larger than {MAX_GRID_BYTES} bytes")
     return {name: _read_array(path / name, name, *metas[name]) for name in names}
