@@ -350,3 +350,39 @@ def test_local_workers_leave_no_scratch_space_behind(planar_2r, tmp_path, monkey
     np.testing.assert_array_equal(there.reach, here.reach)
     left = [name for name in os.listdir(tmp_path) if not name.startswith("pymp-")]  # multiprocessing's, until exit
     assert left == []  # no dask-scratch-space/, no manipkit-dask-*
+
+
+FULL_DISK = '''
+import asyncio, errno, sys
+import zarr.storage
+import manipkit
+from manipkit.analysis.reachmap import build
+from manipkit.errors import OutputError
+
+original, calls = zarr.storage.LocalStore.set, [0]
+
+async def set_until_the_disk_is_full(self, key, value, **kw):  # the first chunks fit, the others do not
+    calls[0] += 1
+    if calls[0] > 3 and "/c/" in key:
+        await asyncio.sleep(0.01 * (calls[0] % 5))
+        raise OSError(errno.ENOSPC, "No space left on device")
+    return await original(self, key, value, **kw)
+
+zarr.storage.LocalStore.set = set_until_the_disk_is_full
+reach_map = build(manipkit.load("planar_2r"), voxel=0.05, orientations=2, samples=100)
+try:
+    reach_map.save(sys.argv[1])
+except OutputError as exc:
+    print(exc)
+'''
+
+
+def test_a_full_disk_while_writing_is_one_line_and_leaves_no_folder(tmp_path):
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-c", FULL_DISK, str(tmp_path / "m.zarr")], capture_output=True,
+                            text=True, timeout=120)
+    assert result.stdout.strip().endswith("m.zarr: No space left on device"), result.stdout + result.stderr
+    assert result.stderr == ""  # no "Task was destroyed but it is pending!" for each write zarr had running
+    assert os.listdir(tmp_path) == []

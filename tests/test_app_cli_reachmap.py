@@ -166,7 +166,7 @@ def test_ctrl_c_ends_a_build_with_one_line_and_status_130_and_leaves_nothing(tmp
 
 
 def test_output_paths_are_printed_through_the_sanitiser(tmp_path):
-    name = "m\x1b[2J.zarr"
+    name = "m\x1b[2J\nforged.zarr"
     out = run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500",
                   "-o", tmp_path / name, status=0)
-    assert "\x1b" not in out.stdout and "m\\x1b[2J.zarr" in out.stdout
+    assert "\x1b" not in out.stdout and "\nforged" not in out.stdout and "m\\x1b[2J\\x0aforged.zarr" in out.stdout

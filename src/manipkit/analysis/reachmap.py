@@ -62,7 +62,14 @@ chain joint.
 
 Maps are stored in Zarr (a folder): arrays ``reach`` (chunked), ``voxel_q``,
 ``ik_keys``, ``ik_q``, ``manipulability`` and ``manipulability_mean`` (when
-built) and the settings as attributes (:meth:`ReachMap.save`, :func:`load`).
+built) and the settings as attributes (:meth:`ReachMap.save`, :func:`load`),
+written into a temporary sibling and renamed into place, and read back
+validated as a whole (:mod:`manipkit.analysis.mapstore`).
+
+Every option is bounded before anything is allocated or started, with the
+bound in the message (:data:`MAX_SAMPLES`, :data:`MAX_BLOCK_SAMPLES`,
+:data:`MAX_SEED`, :data:`MIN_VOXEL`..:data:`MAX_VOXEL`, :data:`MAX_BINS`,
+:data:`MAX_IK_RESTARTS`, :func:`manipkit.analysis.blocks.max_workers`).
 """
 
 from __future__ import annotations
@@ -212,7 +219,8 @@ class ReachMap:
         """(indices (..., 3) int, inside (...,) bool) of the voxels holding points ``xyz`` (..., 3) in ``base``.
 
         A point is inside when it falls in the grid (for a planar map: in the
-        layer of the plane, within half a voxel of it).
+        layer of the plane, within half a voxel of it). Points that are not
+        numbers, hold NaN or infinity, or are not (..., 3) are a :class:`ReachMapError`.
         """
         local = (finite_array(xyz, "xyz", (3,), "points (..., 3) in metres") - self.origin) @ self.axes / self.voxel
         ijk = np.rint(local).astype(np.int64)
@@ -230,6 +238,7 @@ class ReachMap:
 
         For a planar map the pose must also keep the frame's axis along the
         arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
+        A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4) is a :class:`ReachMapError`.
         """
         T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
         ijk, inside = self.voxel_of(T[..., :3, 3])

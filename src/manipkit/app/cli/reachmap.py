@@ -27,7 +27,7 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
     parser.add_argument("--samples", type=int, default=samples, metavar="N", help=f"random configurations (default {samples})")
     parser.add_argument("--seed", type=int, default=0, help="seed of every block (same seed, same map)")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes")
+    where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes (at most 4 per core, 64)")
     where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="use a running Dask scheduler (tcp://host:8786)")
 
 
