@@ -386,3 +386,21 @@ def test_a_full_disk_while_writing_is_one_line_and_leaves_no_folder(tmp_path):
     assert result.stdout.strip().endswith("m.zarr: No space left on device"), result.stdout + result.stderr
     assert result.stderr == ""  # no "Task was destroyed but it is pending!" for each write zarr had running
     assert os.listdir(tmp_path) == []
+
+
+def test_far_positions_are_refused_or_simply_outside(tiny, tmp_path):
+    import warnings
+
+    path = tmp_path / "far.txt"
+    path.write_text("1 0 0 0 0 0\n1e300 0 0 0 0 0\n")
+    with pytest.raises(InputFileError, match="far.txt line 2: a position of 1e\\+300 m; give positions within 1e\\+06 m"):
+        read_targets(path)
+    far = np.eye(4)[None].copy()
+    far[0, 0, 3] = 1e300
+    with pytest.raises(ReachMapError, match="targets: a position of 1e\\+300 m"):
+        base_placement(tiny, far)
+    with pytest.raises(ReachMapError, match="xs: a position of 1e\\+07 m"):
+        base_placement(tiny, np.eye(4)[None], xs=[1e7], ys=[0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "invalid value encountered in cast"
+        assert tiny.index_at([1e300, -1e300, 0.0]) == 0.0 and tiny.query(far[0]) is False

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, ReachMapError, finite_array
-from manipkit.inputs.poses import MAX_TARGETS
+from manipkit.inputs.poses import MAX_POSITION, MAX_TARGETS
 from manipkit.text import repr_text, short_text
 
 if TYPE_CHECKING:
@@ -140,6 +140,11 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
     mount = np.eye(4) if mount is None else finite_array(mount, "mount", (4, 4), "the 4x4 T_P_B")
     if mount.shape != (4, 4):
         raise ReachMapError(f"mount has shape {mount.shape}; give one 4x4 transform T_P_B")
+    for name, values in (("targets", T[:, :3, 3]), ("mount", mount[:3, 3]), ("xs", xs), ("ys", ys)):
+        values = np.zeros(0) if values is None else finite_array(values, name, (), "positions in metres")
+        if values.size and np.abs(values).max() > MAX_POSITION:
+            raise ReachMapError(f"{name}: a position of {np.abs(values).max():g} m; give positions within "
+                                f"{MAX_POSITION:g} m")
     if step is not None and (isinstance(step, bool) or not isinstance(step, numbers.Real) or not math.isfinite(step)
                              or not MIN_VOXEL <= step <= MAX_VOXEL):
         raise ReachMapError(f"step {repr_text(step)}: give the grid step in metres, a number from {MIN_VOXEL:g} to "
@@ -206,7 +211,7 @@ def plot_base_placement(result: BasePlacement, path, *, title: str | None = None
     ax.plot([x], [y], "o", color="white", label=f"best: {score} of {len(result.targets)}")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(title or "base placement: targets reached from each floor position")
+    ax.set_title(title or "base placement: targets reached from each floor position", parse_math=False)
     ax.legend(loc="upper right", fontsize="small")
     with writing(path) as target:
         fig.savefig(target, dpi=110, bbox_inches="tight")

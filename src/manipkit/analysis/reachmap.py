@@ -223,9 +223,9 @@ class ReachMap:
         numbers, hold NaN or infinity, or are not (..., 3) are a :class:`ReachMapError`.
         """
         local = (finite_array(xyz, "xyz", (3,), "points (..., 3) in metres") - self.origin) @ self.axes / self.voxel
-        ijk = np.rint(local).astype(np.int64)
-        inside = np.all((ijk >= 0) & (ijk < np.array(self.shape)), axis=-1)
-        return np.where(inside[..., None], ijk, 0), inside
+        nearest = np.rint(local)  # decided in floats: a far point (1e300 m) never overflows the integer cast
+        inside = np.all((nearest >= 0) & (nearest < np.array(self.shape)), axis=-1)
+        return np.where(inside[..., None], nearest, 0).astype(np.int64), inside
 
     def index_at(self, xyz) -> np.ndarray | float:
         """Index (0..1) of the voxel holding each point ``xyz`` (..., 3) in ``base``; 0 outside the grid."""
@@ -756,6 +756,6 @@ def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
     fig.colorbar(shown, ax=list(axes[0]), label="reachability index (1: dexterous)" if layer == "index" else
                  "best Yoshikawa index, translation rows")
     fig.suptitle(f"{reach_map.robot}: {reach_map.frame} in {reach_map.base}, {short_text(v)} m voxels, "
-                 f"{reach_map.orientations.size} orientation bins")
+                 f"{reach_map.orientations.size} orientation bins", parse_math=False)  # a "$" in a name is text, not mathtext
     with writing(path) as target:
         fig.savefig(target, dpi=110, bbox_inches="tight")

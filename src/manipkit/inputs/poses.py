@@ -11,9 +11,12 @@ from manipkit.inputs.files import MAX_TABLE_BYTES, read_text
 from manipkit.spatial.transforms import check_transform, transform_from_xyz_rpy
 from manipkit.text import printable
 
-__all__ = ["MAX_TARGETS", "read_targets"]
+__all__ = ["MAX_POSITION", "MAX_TARGETS", "read_targets"]
 
 MAX_TARGETS = 100_000  # target poses a file (or a base-placement search) may hold
+#: Largest target coordinate (m), the longest length a description may hold (description.validate.MAX_LENGTH):
+#: beyond it a grid of floor positions around the targets loses its step to rounding.
+MAX_POSITION = 1e6
 
 
 def read_targets(path) -> np.ndarray:
@@ -59,6 +62,9 @@ def read_targets(path) -> np.ndarray:
             if len(rows) == 4:
                 poses.append(check_transform(np.array(rows), what=f"{name} lines {first_row_line}-{number}"))
                 rows, first_row_line = [], 0
+        if poses and not rows and np.abs(poses[-1][:3, 3]).max() > MAX_POSITION:
+            raise InputFileError(f"{name} line {number}: a position of {np.abs(poses[-1][:3, 3]).max():g} m; give "
+                                 f"positions within {MAX_POSITION:g} m")
     if rows:
         raise InputFileError(f"{name}: the 4x4 from line {first_row_line} has {len(rows)} rows; give 4")
     if not poses:
