@@ -431,21 +431,38 @@ def _read_arrays(path: Path, a: dict) -> dict:
 
 
 def zstd_content_size(data: bytes) -> int | None:
-    """The decompressed size a zstd frame declares in its header (RFC 8878, 3.1.1.1), or None (none declared).
+    """The decompressed size declared by ``data`` if it is exactly one zstd frame that declares it, else None.
 
-    >>> zstd_content_size(bytes.fromhex("28b52ffd2004"))  # single segment, a one-byte size: 4
+    The frame header (RFC 8878, 3.1.1.1) gives the size; the blocks are
+    walked to the frame's end (and its checksum), which must be the end of
+    ``data``: a second frame (whose size a decoder would add) or trailing
+    bytes give None.
+
+    >>> zstd_content_size(bytes.fromhex("28b52ffd2004" "210000" "00000000"))  # one raw block of 4 bytes
     4
+    >>> zstd_content_size(bytes.fromhex("28b52ffd2004" "210000" "00000000") * 2) is None  # two frames
+    True
     """
     if len(data) < 6 or data[:4] != ZSTD_MAGIC:
         return None
     descriptor = data[4]
-    single = (descriptor >> 5) & 1
+    single, checksum = (descriptor >> 5) & 1, (descriptor >> 2) & 1
     size_bytes = (1 if single else 0, 2, 4, 8)[descriptor >> 6]
     start = 5 + (0 if single else 1) + (0, 1, 2, 4)[descriptor & 3]
     if descriptor & 0x08 or size_bytes == 0 or len(data) < start + size_bytes:
         return None
-    value = int.from_bytes(data[start:start + size_bytes], "little")
-    return value + 256 if size_bytes == 2 else value
+    value = int.from_bytes(data[start:start + size_bytes], "little") + (256 if size_bytes == 2 else 0)
+    position, last = start + size_bytes, False
+    while not last:  # block headers: 3 bytes, little-endian: last flag, type, size
+        if len(data) < position + 3:
+            return None
+        header = int.from_bytes(data[position:position + 3], "little")
+        last, kind, size = header & 1, (header >> 1) & 3, header >> 3
+        if kind == 3:  # reserved
+            return None
+        position += 3 + (1 if kind == 1 else size)  # an RLE block stores one byte
+    position += 4 if checksum else 0
+    return value if position == len(data) else None
 
 
 def _read_array(folder: Path, name: str, shape: tuple[int, ...], chunk: tuple[int, ...]) -> np.ndarray:
@@ -465,13 +482,16 @@ def _read_array(folder: Path, name: str, shape: tuple[int, ...], chunk: tuple[in
             raise _Invalid(f"{where} is missing (a truncated or partial copy?)") from None
         with os.fdopen(fd, "rb") as handle:
             info = os.fstat(handle.fileno())
-            if not stat.S_ISREG(info.st_mode) or info.st_size > chunk_bytes + chunk_bytes // 64 + 1024:
-                raise _Invalid(f"{where} is not a regular file of at most its chunk's size")
+            if not stat.S_ISREG(info.st_mode):
+                raise _Invalid(f"{where} is not a regular file")
+            if info.st_size > chunk_bytes + chunk_bytes // 64 + 1024:
+                raise _Invalid(f"{where} is {info.st_size} bytes, more than its chunk of {chunk_bytes} bytes compresses to")
             data = handle.read()
         declared = zstd_content_size(data)
+        if declared is None:
+            raise _Invalid(f"{where} is not one zstd frame that declares its size (as manipkit writes)")
         if declared != chunk_bytes:
-            raise _Invalid(f"{where} declares {'no size' if declared is None else f'{declared} bytes'}; "
-                           f"its chunk holds {chunk_bytes}")
+            raise _Invalid(f"{where} declares {declared} bytes; its chunk holds {chunk_bytes}")
         try:
             raw = codec.decode(data)
         except (RuntimeError, ValueError, MemoryError) as exc:
