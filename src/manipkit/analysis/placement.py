@@ -122,6 +122,16 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
     -------
     BasePlacement
 
+    Raises
+    ------
+    ReachMapError
+        Targets, mount, positions or headings that are not finite numbers of
+        the right shape, positions beyond ``MAX_POSITION`` (m), more than
+        ``MAX_TARGETS`` targets or ``MAX_YAWS`` headings, a step outside the
+        voxel bounds, or more than ``MAX_POSES`` placement-target pairs: all
+        checked before any grid is allocated (the pairs are then tested
+        ``BATCH_POSES`` at a time).
+
     Examples
     --------
     >>> import manipkit
