@@ -298,14 +298,20 @@ def test_a_tampered_map_is_refused_in_one_line_without_waiting(map_3r, tmp_path)
     with pytest.raises(InputFileError, match="array shapes that disagree with the attributes"):
         load(path)
     map_3r.save(path)
-    os.mkfifo(path / "fifo")  # zarr would wait forever reading a FIFO
-    with pytest.raises(InputFileError, match="not a regular file"):
+    os.mkfifo(path / "fifo")  # a stray entry: a map holds its own files only
+    with pytest.raises(InputFileError, match="it holds fifo, which is not part of a reachability map"):
+        load(path)
+    os.remove(path / "fifo")
+    chunk = path / "reach" / "c" / "0" / "0" / "0" / "0"
+    chunk.unlink()
+    os.mkfifo(chunk)  # reading a FIFO would wait forever
+    with pytest.raises(InputFileError, match="reach/c/0/0/0/0 is not a regular file"):
         load(path)
 
 
 def test_a_grid_too_large_for_memory_is_refused_before_anything_is_allocated(planar_2r):
     with pytest.raises(ReachMapError, match="more than 2147483648"):
-        build(planar_2r, voxel=1e-9, orientations=1, samples=10)
+        build(planar_2r, voxel=1e-5, orientations=1, samples=10)
 
 
 def test_a_planar_map_with_one_bin_still_refuses_a_tilted_tool(planar_2r):

@@ -131,3 +131,42 @@ def test_base_placement_with_a_map_refuses_settings_the_map_already_fixed(map_3r
     out = run_cli("manipkit", "base-placement", "--robot", "planar_3r", "--targets", targets, "--map", map_3r[0] / "p3r.zarr", "--frame", "link2",
               status=2)
     assert "is a map of 'ee_link', not of 'link2'" in out.stderr
+
+
+def _interrupt(args, cwd, delay):
+    """Run ``manipkit ARGS`` as a user at a terminal does and press Ctrl-C (SIGINT to the group) after ``delay`` s."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    process = subprocess.Popen([sys.executable, "-m", "manipkit.app.cli", *args], cwd=cwd, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(delay)
+    os.killpg(process.pid, signal.SIGINT)
+    try:
+        out, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+    return process.returncode, out, err
+
+
+@pytest.mark.parametrize("where", [[], ["--workers", "1"]], ids=["here", "local-cluster"])
+def test_ctrl_c_ends_a_build_with_one_line_and_status_130_and_leaves_nothing(tmp_path, where):
+    import os
+
+    args = ["reachmap", "--robot", "iiwa14", "--samples", "2000000000", *where, "-o", "m.zarr"]
+    status, out, err = _interrupt(args, tmp_path, 6.0)
+    assert status == 130, err
+    assert err == "manipkit: interrupted\n", err  # no worker traceback, no Dask log line
+    assert os.listdir(tmp_path) == []  # no map folder, no hidden partial one: a re-run is not blocked
+
+
+def test_output_paths_are_printed_through_the_sanitiser(tmp_path):
+    name = "m\x1b[2J\nforged.zarr"
+    out = run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500",
+                  "-o", tmp_path / name, status=0)
+    assert "\x1b" not in out.stdout and "\nforged" not in out.stdout and "m\\x1b[2J\\x0aforged.zarr" in out.stdout

@@ -5,7 +5,7 @@ Planar workspaces (``workspace``), manipulability indices and ellipsoids
 singular families of the textbook arms (``singularities``), the Jacobian
 report of one configuration (``jacobian_report``: ranks, singular or not,
 the families that hold, what is lost), reachability maps
-(``reachmap``, ``orientations``), base placement (``placement``) and the
+(``reachmap``, ``orientations``, ``blocks``, ``mapstore``), base placement (``placement``) and the
 allowed-collision matrix (``acm``).
 """
 

@@ -6,44 +6,227 @@ running scheduler (``scheduler``); the job is sent to the workers once.
 Results come back in any order; :func:`in_block_order` puts them back in
 block order, so a merge that is not associative in floating point (a sum)
 gives the same bits however the blocks ran.
+
+Resources are bounded and cleaned up: at most :func:`max_workers` local
+workers (checked before anything starts); a scheduler must answer a
+handshake within ``SCHEDULER_TIMEOUT_S`` seconds in all (connect and reply);
+the local workers keep their scratch space in a temporary folder removed
+when the runner closes (none is left in ``$TMPDIR``); they are forked by a
+fork server started with SIGINT ignored, so they ignore Ctrl-C (SIGINT goes
+to the whole process group: the process that started them stops them);
+the runner records a Ctrl-C and raises it where it waits; and Dask's own
+log lines and warnings are silenced while the runner is open, so a Ctrl-C
+or a failure ends as one line, not a worker traceback each.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import numbers
+import os
+import shutil
+import signal
+import tempfile
+import threading
+import time
 
 from manipkit.errors import ReachMapError
+from manipkit.text import printable
 
-__all__ = ["BlockRunner", "in_block_order"]
+__all__ = ["SCHEDULER_TIMEOUT_S", "BlockRunner", "check_workers", "in_block_order", "max_workers", "probe_scheduler"]
+
+SCHEDULER_TIMEOUT_S = 10.0  # seconds a scheduler has to accept the connection and answer its first message
+WORKERS_PER_CORE = 4  # local worker processes per core, at most (each is single-threaded and CPU-bound)
+MAX_WORKERS = 64  # local worker processes, at most, whatever the machine
+POLL_S = 0.02  # seconds between looks at finished blocks (and at a recorded Ctrl-C)
+DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def max_workers() -> int:
+    """Most local worker processes a runner starts: ``WORKERS_PER_CORE`` per core, at most ``MAX_WORKERS``."""
+    return min(MAX_WORKERS, WORKERS_PER_CORE * (os.cpu_count() or 1))
+
+
+def check_workers(workers) -> None:
+    """``workers`` is None or a whole number in 1..:func:`max_workers`, else :class:`ReachMapError` with the bound."""
+    if workers is None:
+        return
+    top = max_workers()
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or not 1 <= workers <= top:
+        raise ReachMapError(f"workers {printable(repr(workers))}: give a whole number from 1 to {top} (worker processes, "
+                            f"at most {WORKERS_PER_CORE} per core and {MAX_WORKERS}), or none to run here")
+
+
+def probe_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
+    """Raise :class:`ReachMapError` unless a Dask scheduler at ``address`` answers within ``timeout`` seconds in all.
+
+    distributed's own ``Client(timeout=...)`` bounds the TCP connect only: a
+    server that accepts and never answers would keep it waiting forever. The
+    probe (connect, send ``identity``, read the reply) runs on its own event
+    loop in its own thread, so it also works where a loop is running (Jupyter).
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+    from concurrent.futures import TimeoutError as FutureTimeout
+
+    from distributed.comm import connect
+
+    async def handshake():
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            reply = await comm.read()
+        finally:
+            comm.abort()
+        if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+            raise ValueError("it answered, but not as a Dask scheduler")
+
+    def run():
+        return asyncio.run(asyncio.wait_for(handshake(), timeout))
+
+    where = f"cannot reach the Dask scheduler '{printable(address)}'"
+    pool = ThreadPoolExecutor(1)
+    try:
+        pool.submit(run).result(timeout + 5.0)
+    except (TimeoutError, FutureTimeout):
+        raise ReachMapError(f"{where}: no answer within {timeout:g} s; give the address of a running scheduler "
+                            "(tcp://host:8786)") from None
+    except (OSError, ValueError, TypeError) as exc:
+        raise ReachMapError(f"{where}: {printable(' '.join(str(exc).split())[:200])}") from None
+    finally:
+        pool.shutdown(wait=False)
+
+
+@contextlib.contextmanager
+def _quiet_dask():
+    """Dask's loggers off while the runner is open (a cancelled task or closed comm logs a traceback, even at
+    CRITICAL), and its warnings (a port in use) not shown: the runner's own errors say what went wrong."""
+    import warnings
+
+    import distributed  # noqa: F401 - its loggers exist once it is imported
+
+    names = [name for name in list(logging.root.manager.loggerDict) if name.split(".")[0] in DASK_LOGGERS]
+    loggers = [logging.getLogger(name) for name in [*DASK_LOGGERS, *names]]
+    disabled = [logger.disabled for logger in loggers]
+    for logger in loggers:
+        logger.disabled = True
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", module="distributed")
+            yield
+    finally:
+        for logger, was in zip(loggers, disabled):
+            logger.disabled = was
+
+
+def _forkserver_ignoring_sigint() -> None:
+    """Start multiprocessing's fork server with SIGINT ignored, so every worker it forks ignores Ctrl-C.
+
+    An ignored signal stays ignored through exec, and the fork server gives
+    its children the disposition it started with; the main process ignores
+    SIGINT only for the few milliseconds the server takes to start. A fork
+    server already running (started earlier in a notebook) is used as it is.
+    Only the main thread may change a signal's disposition; elsewhere the
+    server starts as it would.
+    """
+    from multiprocessing import forkserver
+
+    if threading.current_thread() is not threading.main_thread():
+        forkserver.ensure_running()
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class BlockRunner:
-    """Runs blocks here, on a new LocalCluster (``workers``) or on a running cluster (``scheduler``)."""
+    """Runs blocks here, on a new LocalCluster (``workers``) or on a running cluster (``scheduler``).
+
+    With a cluster, a Ctrl-C (SIGINT, on the main thread) is recorded by the
+    runner's own handler and raised as KeyboardInterrupt where the runner
+    waits (every ``POLL_S`` seconds), never inside Dask's callbacks (a
+    KeyboardInterrupt raised in one is swallowed, and the build would go on);
+    a second Ctrl-C raises at once.
+    """
 
     def __init__(self, workers: int | None, scheduler: str | None, progress=None):
+        check_workers(workers)
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
-        self.client = self.cluster = None
+        self.client = self.cluster = self.scratch = None
+        self.interrupted = threading.Event()
+        self.quiet = contextlib.ExitStack()
 
     def __enter__(self):
-        if self.workers is not None or self.scheduler is not None:
-            from distributed import Client, LocalCluster
-
-            if self.workers is not None:
-                self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.ERROR)
-                self.client = Client(self.cluster)
-            else:
-                try:
-                    self.client = Client(self.scheduler, timeout=10)
-                except (OSError, TimeoutError, ValueError) as exc:
-                    raise ReachMapError(f"cannot reach the Dask scheduler '{self.scheduler}': {exc}") from None
+        if self.workers is None and self.scheduler is None:
+            return self
+        self.quiet.enter_context(_quiet_dask())
+        self._record_sigint()
+        try:
+            self._start()
+            self.raise_if_interrupted()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
         return self
 
+    def _record_sigint(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+
+        def record(signum, frame):
+            if self.interrupted.is_set():
+                raise KeyboardInterrupt
+            self.interrupted.set()
+
+        previous = signal.signal(signal.SIGINT, record)
+        self.quiet.callback(signal.signal, signal.SIGINT, previous)
+
+    def raise_if_interrupted(self) -> None:
+        """KeyboardInterrupt if a Ctrl-C was recorded."""
+        if self.interrupted.is_set():
+            raise KeyboardInterrupt
+
+    def _start(self) -> None:
+        from distributed import Client, LocalCluster
+
+        if self.workers is None:
+            probe_scheduler(self.scheduler)
+            try:
+                self.client = Client(self.scheduler, timeout=SCHEDULER_TIMEOUT_S)
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise ReachMapError(f"cannot reach the Dask scheduler '{printable(self.scheduler)}': "
+                                    f"{printable(' '.join(str(exc).split())[:200])}") from None
+            return
+        try:
+            self.scratch = tempfile.mkdtemp(prefix="manipkit-dask-")
+        except OSError as exc:
+            raise ReachMapError(f"cannot make a scratch folder for the Dask workers in {printable(tempfile.gettempdir())}: "
+                                f"{exc.strerror or exc}; free some space or set TMPDIR") from None
+        import dask
+
+        _forkserver_ignoring_sigint()
+        self.quiet.enter_context(dask.config.set({"temporary-directory": self.scratch,  # the scheduler's and nannies'
+                                                  "distributed.worker.multiprocessing-method": "forkserver"}))
+        self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True,
+                                    dashboard_address=None, silence_logs=logging.CRITICAL, local_directory=self.scratch)
+        self.client = Client(self.cluster)
+
     def __exit__(self, *exc):
-        if self.client is not None:
-            self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        try:
+            with _quiet_dask():  # closing after a Ctrl-C cancels tasks: no log lines for those
+                if self.client is not None:
+                    self.client.close()
+                if self.cluster is not None:
+                    self.cluster.close()
+        finally:
+            self.client = self.cluster = None
+            if self.scratch is not None:
+                shutil.rmtree(self.scratch, ignore_errors=True)
+                self.scratch = None
+            self.quiet.close()
 
     def run(self, fn, job, argument_lists: list[tuple], desc: str):
         """Yield ``fn(job, *arguments)`` for each tuple of ``argument_lists``, in any order.
@@ -62,11 +245,20 @@ class BlockRunner:
         from distributed import as_completed
 
         job_future = self.client.scatter(job, broadcast=True, hash=False)
+        self.raise_if_interrupted()
         futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in argument_lists]
-        for done, future in enumerate(as_completed(futures), start=1):
-            yield future.result()
-            future.release()
-            report(desc, done, total)
+        finished, done = as_completed(futures), 0
+        del futures
+        while not finished.is_empty():
+            self.raise_if_interrupted()
+            ready = finished.next_batch(block=False)
+            if not ready:
+                time.sleep(POLL_S)
+            for future in ready:
+                yield future.result()
+                future.release()
+                done += 1
+                report(desc, done, total)
 
 
 def in_block_order(results):

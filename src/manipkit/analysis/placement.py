@@ -19,13 +19,15 @@ placement is the number of targets reachable from it.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.reachmap import ReachMapError
-from manipkit.text import short_text
+from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, ReachMapError, finite_array
+from manipkit.inputs.poses import MAX_POSITION, MAX_TARGETS
+from manipkit.text import repr_text, short_text
 
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap import ReachMap
@@ -33,6 +35,8 @@ if TYPE_CHECKING:
 __all__ = ["BasePlacement", "base_placement", "placement_transforms", "plot_base_placement", "reach_radius"]
 
 MAX_POSES = 50_000_000  # placements x targets a search may test
+MAX_YAWS = 3600  # headings a search tries (a tenth of a degree apart)
+BATCH_POSES = 1 << 17  # placement-target pairs tested at once (about 16 MB of poses)
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,6 +122,16 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
     -------
     BasePlacement
 
+    Raises
+    ------
+    ReachMapError
+        Targets, mount, positions or headings that are not finite numbers of
+        the right shape, positions beyond ``MAX_POSITION`` (m), more than
+        ``MAX_TARGETS`` targets or ``MAX_YAWS`` headings, a step outside the
+        voxel bounds, or more than ``MAX_POSES`` placement-target pairs: all
+        checked before any grid is allocated (the pairs are then tested
+        ``BATCH_POSES`` at a time).
+
     Examples
     --------
     >>> import manipkit
@@ -128,34 +142,61 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
     >>> found.scores[:, 0, 0].tolist()
     [1, 2]
     """
-    T = np.asarray(targets, dtype=float)
-    if T.ndim != 3 or T.shape[1:] != (4, 4) or len(T) == 0 or not np.all(np.isfinite(T)):
-        raise ReachMapError(f"targets must be one or more 4x4 poses T_floor_target, shape (K, 4, 4); got shape {T.shape}")
-    mount = np.eye(4) if mount is None else np.asarray(mount, dtype=float)
+    # Over 80 lines: the docstring is most of it; every count is checked before anything is allocated.
+    T = finite_array(targets, "targets", (4, 4), "one or more 4x4 poses T_floor_target, shape (K, 4, 4)")
+    if T.ndim != 3 or not 1 <= len(T) <= MAX_TARGETS:
+        raise ReachMapError(f"targets have shape {T.shape}; give 1 to {MAX_TARGETS} 4x4 poses T_floor_target, "
+                            "shape (K, 4, 4)")
+    mount = np.eye(4) if mount is None else finite_array(mount, "mount", (4, 4), "the 4x4 T_P_B")
+    if mount.shape != (4, 4):
+        raise ReachMapError(f"mount has shape {mount.shape}; give one 4x4 transform T_P_B")
+    for name, values in (("targets", T[:, :3, 3]), ("mount", mount[:3, 3]), ("xs", xs), ("ys", ys)):
+        values = np.zeros(0) if values is None else finite_array(values, name, (), "positions in metres")
+        if values.size and np.abs(values).max() > MAX_POSITION:
+            raise ReachMapError(f"{name}: a position of {np.abs(values).max():g} m; give positions within "
+                                f"{MAX_POSITION:g} m")
+    if step is not None and (isinstance(step, bool) or not isinstance(step, numbers.Real) or not math.isfinite(step)
+                             or not MIN_VOXEL <= step <= MAX_VOXEL):
+        raise ReachMapError(f"step {repr_text(step)}: give the grid step in metres, a number from {MIN_VOXEL:g} to "
+                            f"{MAX_VOXEL:g}")
     step = float(step or reach_map.voxel)
+    if isinstance(yaws, numbers.Integral) and not isinstance(yaws, bool):
+        if not 1 <= yaws <= MAX_YAWS:
+            raise ReachMapError(f"yaws {int(yaws)}: give from 1 to {MAX_YAWS} headings")
+        yaws = -math.pi + 2.0 * math.pi * np.arange(int(yaws)) / int(yaws)
+    lows, highs = [None, None], [None, None]
     if xs is None or ys is None:
         radius = reach_radius(reach_map) + float(np.hypot(*mount[:2, 3]))
-        low, high = T[:, :2, 3].min(axis=0) - radius, T[:, :2, 3].max(axis=0) + radius
-        xs = np.arange(low[0], high[0] + step / 2, step) if xs is None else xs
-        ys = np.arange(low[1], high[1] + step / 2, step) if ys is None else ys
-    if isinstance(yaws, int | np.integer):
-        yaws = -math.pi + 2.0 * math.pi * np.arange(int(yaws)) / int(yaws)
+        lows, highs = T[:, :2, 3].min(axis=0) - radius, T[:, :2, 3].max(axis=0) + radius
+    counts = []
+    for axis, given in enumerate((xs, ys, yaws)):
+        if given is None:  # a range every step: its length before it is made
+            counts.append(int((highs[axis] - lows[axis]) / step + 0.5) + 1)
+        else:
+            given = finite_array(given, "xyz"[axis] + "s" if axis < 2 else "yaws", (), "numbers")
+            if given.ndim > 1 or given.size == 0:
+                raise ReachMapError(f"{'xs ys yaws'.split()[axis]} have shape {given.shape}; give one or more numbers")
+            counts.append(given.size)
+    poses = math.prod(counts) * len(T)
+    if poses > MAX_POSES or max(counts[:2]) > MAX_POSES:
+        raise ReachMapError(f"{counts[0]}x{counts[1]}x{counts[2]} placements times {len(T)} targets is {poses} poses, "
+                            f"more than {MAX_POSES}: use a coarser step, fewer headings or fewer targets")
+    xs = np.arange(lows[0], highs[0] + step / 2, step)[:counts[0]] if xs is None else xs
+    ys = np.arange(lows[1], highs[1] + step / 2, step)[:counts[1]] if ys is None else ys
     xs, ys, yaws = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (xs, ys, yaws))
-    poses = len(xs) * len(ys) * len(yaws) * len(T)
-    if poses > MAX_POSES:
-        raise ReachMapError(f"{len(xs)}x{len(ys)}x{len(yaws)} placements times {len(T)} targets is {poses} poses, "
-                            f"more than {MAX_POSES}: use a coarser step or fewer headings")
     mount_inv = np.linalg.inv(mount)
     scores = np.zeros((len(xs), len(ys), len(yaws)), dtype=np.int64)
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
-    for k, yaw in enumerate(yaws):  # one heading at a time bounds the memory
-        T_F_P = placement_transforms(X, Y, yaw)
-        R_t = np.swapaxes(T_F_P[..., :3, :3], -1, -2)
-        T_P_F = T_F_P.copy()
-        T_P_F[..., :3, :3] = R_t
-        T_P_F[..., :3, 3] = -np.einsum("...ij,...j->...i", R_t, T_F_P[..., :3, 3])
-        T_B_target = mount_inv @ T_P_F[..., None, :, :] @ T  # (nx, ny, K, 4, 4)
-        scores[:, :, k] = reach_map.query(T_B_target).sum(axis=-1)
+    X, Y = (v.reshape(-1) for v in np.meshgrid(xs, ys, indexing="ij"))
+    batch = max(1, BATCH_POSES // len(T))  # placements per batch: a bounded (batch, K, 4, 4) at a time
+    for k, yaw in enumerate(yaws):
+        for start in range(0, X.size, batch):
+            T_F_P = placement_transforms(X[start:start + batch], Y[start:start + batch], yaw)
+            R_t = np.swapaxes(T_F_P[..., :3, :3], -1, -2)
+            T_P_F = T_F_P.copy()
+            T_P_F[..., :3, :3] = R_t
+            T_P_F[..., :3, 3] = -np.einsum("...ij,...j->...i", R_t, T_F_P[..., :3, 3])
+            T_B_target = mount_inv @ T_P_F[..., None, :, :] @ T  # (batch, K, 4, 4)
+            scores.reshape(-1, len(yaws))[start:start + batch, k] = reach_map.query(T_B_target).sum(axis=-1)
     return BasePlacement(xs, ys, yaws, scores, T)
 
 
@@ -180,7 +221,7 @@ def plot_base_placement(result: BasePlacement, path, *, title: str | None = None
     ax.plot([x], [y], "o", color="white", label=f"best: {score} of {len(result.targets)}")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(title or "base placement: targets reached from each floor position")
+    ax.set_title(title or "base placement: targets reached from each floor position", parse_math=False)
     ax.legend(loc="upper right", fontsize="small")
     with writing(path) as target:
         fig.savefig(target, dpi=110, bbox_inches="tight")

@@ -62,7 +62,14 @@ chain joint.
 
 Maps are stored in Zarr (a folder): arrays ``reach`` (chunked), ``voxel_q``,
 ``ik_keys``, ``ik_q``, ``manipulability`` and ``manipulability_mean`` (when
-built) and the settings as attributes (:meth:`ReachMap.save`, :func:`load`).
+built) and the settings as attributes (:meth:`ReachMap.save`, :func:`load`),
+written into a temporary sibling and renamed into place, and read back
+validated as a whole (:mod:`manipkit.analysis.mapstore`).
+
+Every option is bounded before anything is allocated or started, with the
+bound in the message (:data:`MAX_SAMPLES`, :data:`MAX_BLOCK_SAMPLES`,
+:data:`MAX_SEED`, :data:`MIN_VOXEL`..:data:`MAX_VOXEL`, :data:`MAX_BINS`,
+:data:`MAX_IK_RESTARTS`, :func:`manipkit.analysis.blocks.max_workers`).
 """
 
 from __future__ import annotations
@@ -70,18 +77,16 @@ from __future__ import annotations
 import json
 import math
 import numbers
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.blocks import BlockRunner, in_block_order
+from manipkit.analysis.blocks import BlockRunner, check_workers, in_block_order
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
-from manipkit.errors import InputFileError, OutputError, ReachMapError
-from manipkit.inputs import MAX_TABLE_BYTES, read_text
-from manipkit.text import short_text
+from manipkit.errors import ReachMapError
+from manipkit.text import printable, repr_text, short_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -91,7 +96,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "METHODS", "ReachMap", "ReachMapError",
     "build", "load", "parse_orientations", "plot_reachmap", "translation_manipulability",
-    "writable_map_path",
+    "finite_array", "map_bytes", "writable_map_path",
 ]
 
 HOW_NONE, HOW_SAMPLE, HOW_IK = 0, 1, 2
@@ -103,8 +108,27 @@ DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-
 IK_BLOCK = 2048  # IK targets per block
 MAX_GRID_BYTES = 2 * 1024**3  # bytes a map's arrays may take (a byte per voxel-bin, a configuration per voxel)
 MAX_MAP_FILES = 1_000_000  # files a map folder may hold (its chunks)
+MAX_SAMPLES = 10**10  # random configurations a build may draw (about 150,000 blocks of the default size)
+MAX_BLOCK_SAMPLES = 1 << 20  # samples per block: a block's configurations and poses stay near 200 MB
+MAX_SEED = 2**63 - 1  # seeds numpy's generators take (non-negative)
+MAX_IK_RESTARTS = 1000
+MAX_BINS = 100_000  # orientation bins (directions x rolls) a map may have
+MIN_VOXEL, MAX_VOXEL = 1e-6, 1e6  # m: a voxel edge (MAX_VOXEL is the longest length a description may hold)
 PLANAR_TILT_TOL = 1e-3  # rad: how far a pose queried in a planar map may tilt out of the arm's plane
 PARALLEL_TOL = 1e-9  # joint axes closer than this (|a x b|) count as parallel
+
+
+def finite_array(value, name: str, tail: tuple[int, ...], what: str) -> np.ndarray:
+    """``value`` as a float array of shape (..., *tail), every entry finite, else :class:`ReachMapError` naming ``name``."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ReachMapError(f"{name} {repr_text(value)}: give {what}, numbers") from None
+    if array.shape[array.ndim - len(tail):] != tail or array.ndim < len(tail):
+        raise ReachMapError(f"{name} has shape {array.shape}; give {what}")
+    if not np.isfinite(array).all():
+        raise ReachMapError(f"{name} holds NaN or infinite values; give {what}, finite numbers")
+    return array
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,12 +220,13 @@ class ReachMap:
         """(indices (..., 3) int, inside (...,) bool) of the voxels holding points ``xyz`` (..., 3) in ``base``.
 
         A point is inside when it falls in the grid (for a planar map: in the
-        layer of the plane, within half a voxel of it).
+        layer of the plane, within half a voxel of it). Points that are not
+        numbers, hold NaN or infinity, or are not (..., 3) are a :class:`ReachMapError`.
         """
-        local = (np.asarray(xyz, dtype=float) - self.origin) @ self.axes / self.voxel
-        ijk = np.rint(local).astype(np.int64)
-        inside = np.all((ijk >= 0) & (ijk < np.array(self.shape)), axis=-1)
-        return np.where(inside[..., None], ijk, 0), inside
+        local = (finite_array(xyz, "xyz", (3,), "points (..., 3) in metres") - self.origin) @ self.axes / self.voxel
+        nearest = np.rint(local)  # decided in floats: a far point (1e300 m) never overflows the integer cast
+        inside = np.all((nearest >= 0) & (nearest < np.array(self.shape)), axis=-1)
+        return np.where(inside[..., None], nearest, 0).astype(np.int64), inside
 
     def index_at(self, xyz) -> np.ndarray | float:
         """Index (0..1) of the voxel holding each point ``xyz`` (..., 3) in ``base``; 0 outside the grid."""
@@ -214,8 +239,9 @@ class ReachMap:
 
         For a planar map the pose must also keep the frame's axis along the
         arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
+        A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4) is a :class:`ReachMapError`.
         """
-        T = np.asarray(T, dtype=float)
+        T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
         if self.orientations.kind == "planar":
@@ -231,14 +257,15 @@ class ReachMap:
         unit = "m^2" if self.orientations.kind == "planar" else "m^3"
         reachable, dexterous = int(self.reachable.sum()), int(self.dexterous.sum())
         return "\n".join([
-            f"reachability map of {self.robot}: {self.frame} in {self.base}, method {self.method}",
+            f"reachability map of {printable(self.robot)}: {printable(self.frame)} in {printable(self.base)}, "
+            f"method {printable(self.method)}",
             f"grid {'x'.join(str(s) for s in self.shape)} voxels of {short_text(self.voxel)} m, "
             f"voxel (0, 0, 0) at ({', '.join(short_text(v) for v in self.origin)}) m; "
             f"orientations {self.orientations.label} ({self.orientations.size} bins, {self.orientations.kind})",
             f"reachable (index > 0): {reachable} voxels, {short_text(reachable * cell, 4)} {unit}; "
             f"dexterous (index = 1): {dexterous} voxels, {short_text(dexterous * cell, 4)} {unit}",
             f"voxel-bins reached: {int((reach == HOW_SAMPLE).sum())} by samples, {int((reach == HOW_IK).sum())} by IK "
-            f"({self.settings.get('samples', 0)} samples, seed {self.settings.get('seed', 0)})",
+            f"({printable(str(self.settings.get('samples', 0)))} samples, seed {printable(str(self.settings.get('seed', 0)))})",
             *([self.manipulability_text()] if self.manipulability is not None else []),
             *([_collisions_text(self.settings["collisions"])] if self.settings.get("collisions") else []),
         ])
@@ -262,24 +289,13 @@ class ReachMap:
                 f"{short_text(float(np.nanmean(self.manipulability_mean)), 4)}")
 
     def save(self, path) -> Path:
-        """Write the map to the Zarr folder ``path`` (replacing a map there; never another folder); returns it."""
-        import zarr
+        """Write the map to the Zarr folder ``path`` (replacing a map there; never another folder); returns it.
 
-        path = writable_map_path(path)
-        try:
-            root = zarr.open_group(str(path), mode="w")
-            chunk = tuple(min(s, 16) for s in self.shape) + (self.reach.shape[3],)
-            root.create_array("reach", data=self.reach, chunks=chunk)
-            root.create_array("voxel_q", data=self.voxel_q, chunks=chunk[:3] + (self.voxel_q.shape[3],))
-            root.create_array("ik_keys", data=self.ik_keys.astype(np.int64), chunks=(max(1, min(len(self.ik_keys), 65536)),))
-            root.create_array("ik_q", data=self.ik_q, chunks=(max(1, min(len(self.ik_keys), 65536)), self.ik_q.shape[1]))
-            if self.manipulability is not None:
-                root.create_array("manipulability", data=self.manipulability, chunks=chunk[:3])
-                root.create_array("manipulability_mean", data=self.manipulability_mean, chunks=chunk[:3])
-            root.attrs.update(self.attrs())
-        except OSError as exc:
-            raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
-        return path
+        Written beside ``path`` and renamed into place at the end (:func:`manipkit.analysis.mapstore.save_map`).
+        """
+        from manipkit.analysis.mapstore import save_map
+
+        return save_map(self, path)
 
     def attrs(self) -> dict:
         """The map's settings as JSON-ready values (the Zarr attributes)."""
@@ -298,85 +314,32 @@ def _collisions_text(c: dict) -> str:
 
 
 def writable_map_path(path) -> Path:
-    """``path`` if a map can be written there: its folder exists, and it is new or holds a map (replaced).
+    """``path`` if a map can be written there (:func:`manipkit.analysis.mapstore.writable_map_path`)."""
+    from manipkit.analysis.mapstore import writable_map_path as check
 
-    Raises
-    ------
-    OutputError
-        ``cannot write PATH: no such folder ...`` or ``...: it exists and is not a reachability map``.
-    """
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise OutputError(f"cannot write {path}: no such folder {parent}")
-    if path.exists() and not _is_map(path):
-        raise OutputError(f"cannot write {path}: it exists and is not a reachability map; give a new name")
-    return path
+    return check(path)
 
 
-def _is_map(path: Path) -> bool:
-    try:
-        meta = json.loads(read_text(path / "zarr.json", what="reachability map metadata", max_bytes=MAX_TABLE_BYTES))
-        return meta["attributes"]["format"] == FORMAT
-    except (InputFileError, ValueError, KeyError, TypeError):  # missing, a FIFO, too large, not JSON, not a map's
-        return False
-
-
-def _check_map_folder(path: Path) -> None:
-    """Every entry of a map folder is a folder or a regular file (a FIFO or device would make zarr wait)."""
-    count = 0
-    for folder, _, files in os.walk(path):
-        for name in files:
-            count += 1
-            if count > MAX_MAP_FILES:
-                raise InputFileError(f"{path}: more than {MAX_MAP_FILES} files: not a map manipkit wrote")
-            full = Path(folder) / name
-            if not full.is_file():
-                raise InputFileError(f"{full}: not a regular file; a reachability map holds folders and files only")
-            if name == "zarr.json" and full.stat().st_size > MAX_TABLE_BYTES:
-                raise InputFileError(f"{full}: {full.stat().st_size} bytes of metadata, above {MAX_TABLE_BYTES}")
-
-
-def _map_bytes(n_voxels: int, n_bins: int, n_joints: int) -> int:
+def map_bytes(n_voxels: int, n_bins: int, n_joints: int) -> int:
     """Memory (bytes) of a map's arrays: a byte per voxel-bin; per voxel a configuration and three statistics."""
     return n_voxels * n_bins + n_voxels * (8 * n_joints + 8 * 3 + 1)
 
 
 def load(path) -> ReachMap:
-    """The map stored in the Zarr folder ``path`` by :meth:`ReachMap.save`.
+    """The map stored in the Zarr folder ``path`` by :meth:`ReachMap.save`, validated as a whole.
+
+    Attributes, array shapes, axes, orientation kinds and the presence and
+    size of every chunk are checked before any array is decoded
+    (:func:`manipkit.analysis.mapstore.load_map`).
 
     Raises
     ------
     InputFileError
-        No such folder, or not a manipkit reachability map.
+        No such folder, not a manipkit reachability map, or a map that fails a check (named in the message).
     """
-    import zarr
+    from manipkit.analysis.mapstore import load_map
 
-    path = Path(path)
-    if not path.is_dir():
-        raise InputFileError(f"{path}: no such reachability map (a folder written by 'manipkit reachmap -o')")
-    if not _is_map(path):
-        raise InputFileError(f"{path}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
-    _check_map_folder(path)
-    try:
-        root = zarr.open_group(str(path), mode="r")
-        a = dict(root.attrs)
-        shape, n_joints = tuple(root["reach"].shape), len(a["joint_names"])
-        o = a["orientations"]
-        n_bins = int(o["n_rolls"]) * (1 if o["kind"] == "planar" else int(o["n_directions"]))
-        if len(shape) != 4 or shape[3] != n_bins or tuple(root["voxel_q"].shape) != shape[:3] + (n_joints,):
-            raise ValueError("array shapes that disagree with the attributes")
-        if _map_bytes(math.prod(shape[:3]), n_bins, n_joints) + 8 * math.prod(root["ik_q"].shape) > MAX_GRID_BYTES:
-            raise ValueError(f"arrays larger than {MAX_GRID_BYTES} bytes")
-        return ReachMap(
-            np.asarray(root["reach"][...], dtype=np.uint8), np.array(a["origin"], dtype=float),
-            np.array(a["axes"], dtype=float), float(a["voxel"]), OrientationSet.from_attrs(a["orientations"]),
-            a["method"], a["robot"], a["frame"], a["base"], tuple(a["joint_names"]), np.asarray(root["voxel_q"][...]),
-            np.asarray(root["ik_keys"][...], dtype=np.int64), np.asarray(root["ik_q"][...]), dict(a["settings"]),
-            *(np.asarray(root[k][...]) if "manipulability" in root else None for k in ("manipulability", "manipulability_mean")),
-        )
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise InputFileError(f"{path}: not a valid reachability map ({' '.join(str(exc).split())[:120]})") from None
+    return load_map(path)
 
 
 # --------------------------------------------------------------------------
@@ -389,14 +352,14 @@ def parse_orientations(text: str) -> int | tuple[int, int]:
     >>> parse_orientations("200"), parse_orientations("50x8")
     (200, (50, 8))
     """
-    parts = str(text).lower().split("x")
+    parts = str(text)[:40].lower().split("x")
     try:
         values = [int(p) for p in parts]
     except ValueError:
         values = []
-    if len(values) not in (1, 2) or min(values) < 1:
-        raise ReachMapError(f"orientations '{text}': give N (directions, or turns of a planar arm) or DIRxROLL, "
-                            "whole numbers >= 1 (200, 50x8)")
+    if len(values) not in (1, 2) or min(values) < 1 or math.prod(values) > MAX_BINS:
+        raise ReachMapError(f"orientations '{printable(str(text)[:40])}': give N (directions, or turns of a planar arm) "
+                            f"or DIRxROLL, whole numbers >= 1, at most {MAX_BINS} bins in all (200, 50x8)")
     return values[0] if len(values) == 1 else (values[0], values[1])
 
 
@@ -422,20 +385,48 @@ def _in_plane(normal: np.ndarray) -> np.ndarray:
     return perpendicular(normal)  # not reached: some axis is at least 55 degrees off any unit normal
 
 
-def _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples) -> None:
-    if isinstance(voxel, bool) or not isinstance(voxel, numbers.Real) or not (math.isfinite(voxel) and voxel > 0.0):
-        raise ReachMapError(f"voxel {voxel!r}: give the voxel edge in metres, a positive number (0.05)")
+def _whole(name: str, value, low: int, high: int, what: str) -> int:
+    """``value`` as an int if it is a whole number in ``low..high``, else :class:`ReachMapError` with the bounds."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
+        raise ReachMapError(f"{name} {repr_text(value)}: give a whole number from {low} to {high} ({what})")
+    return int(value)
+
+
+def _real(name: str, value, low: float, high: float, what: str) -> float:
+    """``value`` as a float if it is a real number in ``low..high`` (finite), else :class:`ReachMapError`."""
+    if (isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value)
+            or not low <= value <= high):
+        raise ReachMapError(f"{name} {repr_text(value)}: give {what}, a number from {low:g} to {high:g}")
+    return float(value)
+
+
+def _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples, seed=0, ik_tol=1e-9,
+                   ik_restarts=2, ik_time_budget=0.02) -> None:
+    """Every option of :func:`build` in its range, before anything is allocated or started (bounds in the message)."""
+    _real("voxel", voxel, MIN_VOXEL, MAX_VOXEL, "the voxel edge in metres (0.05)")
     if method not in METHODS:
-        raise ReachMapError(f"unknown method '{method}'; methods: {', '.join(METHODS)}")
-    for name, value in (("samples", samples), ("block_samples", block_samples)):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-            raise ReachMapError(f"{name} {value!r}: give a whole number >= 1")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1):
-        raise ReachMapError(f"workers {workers!r}: give a whole number >= 1 (worker processes), or none to run here")
+        raise ReachMapError(f"unknown method '{printable(str(method)[:40])}'; methods: {', '.join(METHODS)}")
+    _whole("samples", samples, 1, MAX_SAMPLES, "random configurations")
+    _whole("block_samples", block_samples, 1, MAX_BLOCK_SAMPLES, "samples per task")
+    _whole("seed", seed, 0, MAX_SEED, "the seed of every block")
+    _real("ik_tol", ik_tol, 1e-15, 1.0, "the IK residual tolerance (m and rad)")
+    _whole("ik_restarts", ik_restarts, 0, MAX_IK_RESTARTS, "random IK restarts per target")
+    _real("ik_time_budget", ik_time_budget, 1e-4, 60.0, "seconds of IK per target")
+    check_workers(workers)
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise ReachMapError(f"scheduler {repr_text(scheduler)}: give the address of a running Dask "
+                            "scheduler (tcp://host:8786)")
     if workers is not None and scheduler is not None:
         raise ReachMapError("give workers (a local cluster) or scheduler (an existing one), not both")
     if orientations is not None and not isinstance(orientations, int | tuple | list | str):
-        raise ReachMapError(f"orientations {orientations!r}: give N or (directions, rolls)")
+        raise ReachMapError(f"orientations {repr_text(orientations)}: give N or (directions, rolls)")
+    if isinstance(orientations, tuple | list):
+        if len(orientations) != 2:
+            raise ReachMapError(f"orientations {repr_text(orientations)}: give N or (directions, rolls)")
+        for value in orientations:
+            _whole("orientations", value, 1, MAX_BINS, "directions and rolls")
+    elif isinstance(orientations, int):
+        _whole("orientations", orientations, 1, MAX_BINS, "directions, or turns of a planar arm")
 
 
 # --------------------------------------------------------------------------
@@ -621,7 +612,8 @@ def build(
     from manipkit.kinematics.chain import chain_of
     from manipkit.kinematics.ik import ik_solver
 
-    _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples)
+    _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples, seed, ik_tol, ik_restarts,
+                   ik_time_budget)
     voxel = float(voxel)
     chain = chain_of(chain, "reachmap.build", legacy, base=base, tip=tip, frame=frame)
     robot, frame, base = chain.robot, chain.tip, chain.base
@@ -633,8 +625,8 @@ def build(
     spec = orientations if orientations is not None else (36 if planar is not None else 200)
     spec = parse_orientations(spec) if isinstance(spec, str) else spec
     n_dir, n_roll = (spec, 1) if isinstance(spec, int) else (int(spec[0]), int(spec[1]))
-    if min(n_dir, n_roll) < 1:
-        raise ReachMapError(f"orientations {spec!r}: give whole numbers >= 1")
+    if n_dir * n_roll > MAX_BINS:
+        raise ReachMapError(f"orientations {n_dir}x{n_roll}: {n_dir * n_roll} bins, more than {MAX_BINS}; give fewer")
     centre = origins_k[0]
     M = int(math.ceil(solver.reach / voxel)) + 1
     if planar is not None:
@@ -654,7 +646,7 @@ def build(
         axes = np.eye(3)
         shape = (2 * M + 1,) * 3
         origin = centre - M * voxel
-    size = _map_bytes(math.prod(shape), bins.size, len(robot.joint_names))  # Python integers: no overflow
+    size = map_bytes(math.prod(shape), bins.size, len(robot.joint_names))  # Python integers: no overflow
     if size > MAX_GRID_BYTES:
         raise ReachMapError(f"a {'x'.join(map(str, shape))} grid of {short_text(voxel)} m voxels times {bins.size} "
                             f"orientation bins needs {size} bytes, more than {MAX_GRID_BYTES}: use a coarser voxel "
@@ -790,6 +782,6 @@ def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
     fig.colorbar(shown, ax=list(axes[0]), label="reachability index (1: dexterous)" if layer == "index" else
                  "best Yoshikawa index, translation rows")
     fig.suptitle(f"{reach_map.robot}: {reach_map.frame} in {reach_map.base}, {short_text(v)} m voxels, "
-                 f"{reach_map.orientations.size} orientation bins")
+                 f"{reach_map.orientations.size} orientation bins", parse_math=False)  # a "$" in a name is text, not mathtext
     with writing(path) as target:
         fig.savefig(target, dpi=110, bbox_inches="tight")

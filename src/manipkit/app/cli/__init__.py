@@ -105,7 +105,8 @@ def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
     except ManipkitError as exc:
         _tell(f"{parser.prog}: error: {printable(' '.join(str(exc).split()))}")
         return EXIT_USAGE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's status for SIGINT
+        print(f"{parser.prog}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
         return EXIT_OK

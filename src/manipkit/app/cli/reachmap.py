@@ -11,7 +11,7 @@ from pathlib import Path
 
 from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json
 from manipkit.outputs import writable_path
-from manipkit.text import short_text
+from manipkit.text import printable, short_text
 
 __all__ = ["register", "run_base_placement", "run_reachmap"]
 
@@ -33,7 +33,7 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
     parser.add_argument("--srdf", default=None, metavar="FILE", help="with --collisions: pairs not checked")
     parser.add_argument("--geometry", default="hulls", metavar="hulls|meshes", help="with --collisions (default hulls)")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes")
+    where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes (at most 4 per core, 64)")
     where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="use a running Dask scheduler (tcp://host:8786)")
 
 
@@ -129,7 +129,7 @@ def run_reachmap(args) -> int:
         })
     else:
         print(reach_map.summary())
-        print(f"wrote {', '.join(str(p) for p in [args.output, *pictures])}")
+        print(f"wrote {', '.join(printable(str(p)) for p in [args.output, *pictures])}")
     if args.view:
         _serve_view(reach_map, robot)
     return EXIT_OK
@@ -149,26 +149,28 @@ def _serve_view(reach_map, robot) -> None:
 
 def run_base_placement(args) -> int:
     """Score floor placements by the targets reached; print the best (text or JSON); draw the heat map."""
-    from manipkit.analysis.placement import base_placement, plot_base_placement
-    from manipkit.analysis.reachmap import load
+    from manipkit.analysis.placement import MAX_YAWS, base_placement, plot_base_placement
+    from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, load
     from manipkit.inputs.poses import read_targets
 
     if args.plot is not None:
         writable_path(args.plot)
-    if args.yaws < 1:
-        raise UsageError(f"--yaws {args.yaws}: give at least 1 heading")
-    if args.step is not None and not (math.isfinite(args.step) and args.step > 0.0):
-        raise UsageError(f"--step {args.step}: give a positive number of metres")
+    if not 1 <= args.yaws <= MAX_YAWS:
+        raise UsageError(f"--yaws {args.yaws}: give from 1 to {MAX_YAWS} headings")
+    if args.step is not None and not (math.isfinite(args.step) and MIN_VOXEL <= args.step <= MAX_VOXEL):
+        raise UsageError(f"--step {args.step}: give the grid step in metres, from {MIN_VOXEL:g} to {MAX_VOXEL:g}")
     targets = read_targets(args.targets)
     robot = load_robot(args)
     floor = robot.frame(args.floor_frame) if args.floor_frame is not None else robot.root_link
     if args.map is not None:
         reach_map = load(args.map)
         if reach_map.robot != robot.name:
-            raise UsageError(f"--map {args.map} is a map of '{reach_map.robot}', not of '{robot.name}'; give its --robot")
+            raise UsageError(f"--map {args.map} is a map of '{printable(reach_map.robot)}', not of '{robot.name}'; "
+                             "give its --robot")
         if robot.frame(args.frame) != reach_map.frame:
-            raise UsageError(f"--map {args.map} is a map of '{reach_map.frame}', not of '{robot.frame(args.frame)}'; "
-                             f"give --frame {reach_map.frame} or build a map of that frame")
+            raise UsageError(f"--map {args.map} is a map of '{printable(reach_map.frame)}', not of "
+                             f"'{robot.frame(args.frame)}'; give --frame {printable(reach_map.frame)} or build a map "
+                             "of that frame")
         given = [name for name, default in _BUILD_DEFAULTS.items() if getattr(args, name) != default]
         if given:
             raise UsageError(f"--{given[0]} sets how a map is built; with --map {args.map} the map's own settings "
@@ -184,9 +186,10 @@ def run_base_placement(args) -> int:
         print_json({"robot": robot.name, "floor_frame": floor, "x": x, "y": y, "yaw": yaw, "reached": score,
                     "targets": len(targets), **({"plot": str(args.plot)} if args.plot is not None else {})})
     else:
-        print(f"robot {robot.name}: {floor} placed on the floor, map of {reach_map.frame} in {reach_map.base} "
+        print(f"robot {printable(robot.name)}: {printable(floor)} placed on the floor, map of "
+              f"{printable(reach_map.frame)} in {printable(reach_map.base)} "
               f"({short_text(reach_map.voxel)} m voxels, {reach_map.orientations.size} orientation bins)")
         print(result.summary())
         if args.plot is not None:
-            print(f"wrote {args.plot}")
+            print(f"wrote {printable(str(args.plot))}")
     return EXIT_OK
