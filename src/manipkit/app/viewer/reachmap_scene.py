@@ -118,12 +118,12 @@ def reachmap_scene(reach_map: ReachMap, robot: Robot, *, layer: str = "index", b
     voxel_bands(reach_map, layer, bands=1)  # the layer exists, before meshcat starts
     state = ViewerState(robot, frames=(reach_map.base, reach_map.frame))
     T_root_base = robot.transform(robot.root_link, reach_map.base, state.q, check_limits=False)
-    lower, upper = state.bounds()
+    visual = visual_model(robot)
+    lower, upper = state.bounds(visual)
     reached = reach_map.centers()[reach_map.reachable] @ T_root_base[:3, :3].T + T_root_base[:3, 3]
     if reached.size:
         lower, upper = np.minimum(lower, reached.min(axis=0)), np.maximum(upper, reached.max(axis=0))
-    visual = visual_model(robot)
-    scene = MeshcatScene(visual, robot.model, bounds=(lower, upper))
+    scene = MeshcatScene(visual, robot.model, bounds=(lower, upper), base=state.base_origin())
     try:
         scene.draw(state.scene_placements(visual), state.scene_visibility())
         _draw_map(scene.viewer, reach_map, T_root_base, shown=layer, bands=bands)
