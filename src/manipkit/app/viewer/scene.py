@@ -45,8 +45,13 @@ FRAME_FILL = 0.85
 
 
 def visual_model(robot: Robot):
-    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel`` (:meth:`Robot.visual_model`)."""
-    return robot.visual_model()
+    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel`` (:meth:`Robot.visual_model`).
+
+    Links whose mesh files are missing are drawn by their collision shapes or as
+    lines between joint origins, with one :class:`~manipkit.description.meshes.MissingMeshWarning`
+    (``Robot.visual_model(missing_meshes="draw")``): a view without meshes beats no view.
+    """
+    return robot.visual_model(missing_meshes="draw")
 
 
 # ----------------------------------------------------------------------
@@ -93,11 +98,11 @@ def _step_125(value: float) -> float:
     return min((m * power for m in (1.0, 2.0, 5.0, 10.0)), key=lambda step: abs(math.log(value / step)))
 
 
-def floor_lines(lower, upper, base) -> tuple[np.ndarray, np.ndarray, float, float]:
+def floor_lines(lower, upper, base, height: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The floor grid: line segments one cell long in the plane under the base, sized to the robot.
 
-    The floor is horizontal at the lower of the base's height and the box's
-    bottom, centred under ``base`` (root frame); it reaches as far from the
+    The floor is horizontal at ``height`` (default: the lower of the base's
+    height and the box's bottom), centred under ``base`` (root frame); it reaches as far from the
     base as the farthest corner of the box (rounded up to whole cells), in
     cells of 1, 2 or 5 times a power of ten, about a fifth of that reach.
     Segments one cell long (not lines across the grid) draw correctly even
@@ -120,7 +125,7 @@ def floor_lines(lower, upper, base) -> tuple[np.ndarray, np.ndarray, float, floa
     cells = int(math.ceil(reach / step - 1e-9))
     half = cells * step
     ticks = np.arange(-cells, cells + 1) * step
-    height = min(float(base[2]), float(lower[2]))
+    height = min(float(base[2]), float(lower[2])) if height is None else float(height)
     starts, ends, through = [], [], []
     for k, tick in enumerate(ticks):
         for a, b in zip(ticks[:-1], ticks[1:]):
@@ -170,9 +175,12 @@ class MeshcatScene:
         Where the robot stands (root frame, m; default the root's origin): the
         floor grid lies under it (:func:`floor_lines`), replacing meshcat's
         fixed 20 m grid at the root's height.
+    floor_height : float, keyword-only
+        The floor's height (root frame, m); default the lower of the base's and the box's bottom.
     """
 
-    def __init__(self, visual, model, *, bounds=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), base=(0.0, 0.0, 0.0)):
+    def __init__(self, visual, model, *, bounds=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), base=(0.0, 0.0, 0.0),
+                 floor_height: float | None = None):
         with warnings.catch_warnings():  # meshcat 0.3 imports a deprecated pyzmq module
             warnings.simplefilter("ignore", DeprecationWarning)
             import meshcat
@@ -208,7 +216,7 @@ class MeshcatScene:
             self.viewer[ELLIPSOID_PATH].set_property("visible", False)
             # The floor: meshcat's grid (20 m, at the root's height) replaced by one under the base, sized to
             # the robot; it stays meshcat's "Grid" node, so meshcat's controls still show and hide it.
-            points, colours, _, _ = floor_lines(lower, upper, base)
+            points, colours, _, _ = floor_lines(lower, upper, base, floor_height)
             self.viewer["/Grid"].set_object(mg.LineSegments(
                 mg.PointsGeometry(points.T.astype(np.float32), colours.T.astype(np.float32)),
                 mg.LineBasicMaterial(vertexColors=True)))
