@@ -125,7 +125,7 @@ class Robot:
         #: as ``warning: ...`` on stderr.
         self.warnings: tuple[str, ...] = tuple(warnings)
         #: The subset of :attr:`warnings` about ``package://`` meshes that do not resolve (the viewer's
-        #: own error covers them).
+        #: one missing-mesh warning covers them).
         self.mesh_warnings: tuple[str, ...] = tuple(mesh_warnings)
         self._layout = joint_layout(model, robot_xml, source.path.name)
         self.joints: tuple[Joint, ...] = self._layout.joints

@@ -475,7 +475,8 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
     ------
     ManipkitError
         Unknown frames or joint values, then ``port P is in use; ...`` (both
-        before anything starts), meshes not found.
+        before anything starts); Pinocchio cannot read a mesh file (a missing one is drawn another way, with
+        one ``MissingMeshWarning``).
     """
     state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     server = ViewerServer(port, host=host)
