@@ -8,7 +8,8 @@ in process (tests/cli_helper.py).
 
 Screenshots go to tests/artifacts/ (git-ignored): viewer_control.png (the
 control page), viewer_scene.png (the meshcat scene after a slider move),
-static_<robot>.png (the --static export), framing_<robot>_shown.png (the opening view), viewer_ellipsoid.png (the manipulability
+static_<robot>.png (the --static export), framing_<robot>_shown.png (the opening view), static_without_meshes.png (a description
+without its mesh files), viewer_ellipsoid.png (the manipulability
 ellipsoid overlay); viewer_round_trip.json holds the
 measured slider-to-readout round trips.
 """
@@ -476,6 +477,31 @@ def test_static_view_frames_the_whole_arm_from_above_with_the_floor_under_its_ba
     assert np.degrees(np.arcsin(offset[1] / np.linalg.norm(offset))) == pytest.approx(30.0, abs=1e-6)
     for shot in ("no_robot", "no_floor"):
         shots[shot].unlink()
+
+
+REALWORLD_ABB = next((base / "shared" / "realworld" / "ws_ros1" / "src" / "abb" for base in Path(__file__).resolve().parents[2:4]
+                      if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
+
+
+@pytest.mark.skipif(not REALWORLD_ABB.is_dir(), reason=f"the shared real-world descriptions are not here ({REALWORLD_ABB})")
+def test_static_view_of_a_description_without_its_meshes_draws_the_arm_as_lines(browser, tmp_path):
+    """Issue 25: ABB IRB 2400 copied without its meshes (mesh visuals and collisions only) shows as a line skeleton."""
+    import shutil
+
+    shutil.copytree(REALWORLD_ABB, tmp_path / "ws" / "src" / "abb", ignore=shutil.ignore_patterns("meshes"))
+    description = tmp_path / "ws" / "src" / "abb" / "abb_irb2400_support" / "urdf" / "irb2400.xacro"
+    path = tmp_path / "abb.html"
+    result = run_cli("manipkit", "view", "--robot", description, "--static", path, "--q", "joint_2=0.5", "joint_3=-0.3",
+                     status=0)
+    assert "drawn instead: 7 links as lines between joint origins" in result.stderr
+    page = browser.new_page()
+    try:
+        page.goto(path.as_uri())
+        frame = page.main_frame
+        wait_for_scene(frame, 7)
+        assert_robot_drawn(lambda shot: page.screenshot(path=shot), frame, "static_without_meshes")
+    finally:
+        page.close()
 
 
 # ----------------------------------------------------------------------
