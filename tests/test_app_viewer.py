@@ -1053,3 +1053,49 @@ def test_a_mimic_joint_has_no_slider_and_its_link_moves_with_the_leader(panda):
     right = [T for path, T in placements.items() if "rightfinger" in path]
     expected = panda.transform(panda.root_link, "panda_rightfinger", state.q)
     assert right and np.allclose(right[0][:3, 3], expected[:3, 3], atol=1e-9)
+
+
+# ----------------------------------------------------------------------
+# Framing: the floor and the camera (issue 25, item 9; the pictures are in test_app_viewer_browser.py)
+# ----------------------------------------------------------------------
+
+
+def test_the_floor_lies_under_the_base_reaches_the_farthest_corner_in_one_cell_segments():
+    from manipkit.app.viewer.scene import floor_lines
+
+    lower, upper, base = np.array([-0.2, -0.1, 0.0]), np.array([0.3, 0.1, 1.3]), np.array([0.05, 0.0, 0.0])
+    points, colours, step, half = floor_lines(lower, upper, base)
+    reach = np.linalg.norm([0.3 - 0.05, 0.1, 1.3])  # the farthest corner (0.3, +-0.1, 1.3) from the base, by hand
+    assert step == 0.2 and half == pytest.approx(1.4) and reach <= half < reach + step
+    assert np.all(points[:, 2] == 0.0)  # the base's height, the box's bottom
+    assert np.allclose(points[:, :2].min(axis=0), base[:2] - half) and np.allclose(points[:, :2].max(axis=0), base[:2] + half)
+    lengths = np.linalg.norm(points[1::2] - points[0::2], axis=1)
+    assert np.allclose(lengths, step)  # one cell each: nothing long enough to cross the camera's plane
+    assert len(points) == 2 * 2 * 15 * 14 and colours.shape == points.shape
+    # the box's bottom below the base lowers the floor; a given height wins
+    assert floor_lines(lower - [0, 0, 0.4], upper, base)[0][0, 2] == pytest.approx(-0.4)
+    assert floor_lines(lower, upper, base, 0.25)[0][0, 2] == 0.25
+
+
+def test_the_camera_sees_every_corner_of_the_robots_box_30_deg_from_above(robots):
+    from manipkit.app.viewer.scene import CAMERA_ELEVATION_DEG, FRAME_FILL, camera_distance
+
+    state = ViewerState(robots["panda"])
+    lower, upper = state.bounds(visual_model(robots["panda"]))
+    distance = camera_distance(lower, upper)
+    e, a = np.radians(CAMERA_ELEVATION_DEG), np.radians(45.0)
+    eye = (lower + upper) / 2 + distance * np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    forward = (lower + upper) / 2 - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    slopes = []
+    for corner in np.array(np.meshgrid(*zip(lower, upper))).reshape(3, -1).T:
+        v = corner - eye
+        depth = v @ forward
+        slopes.append(max(abs(v @ right), abs(v @ up)) / depth)
+    limit = FRAME_FILL * np.tan(np.radians(37.5))
+    assert max(slopes) == pytest.approx(limit, rel=1e-9)  # the tightest corner touches the margin, none beyond
+    # the box holds the meshes, not only the frame origins: panda_link0's mesh reaches behind the base
+    assert lower[0] < state.bounds()[0][0] - 0.05
