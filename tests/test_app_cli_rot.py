@@ -114,3 +114,48 @@ def test_rounding_noise_prints_as_zero_at_any_precision():
     out = run_cli("manipkit", "rot", "rpy", "0", "0", "pi/2", "--to", "matrix", "--precision", "17", status=0).stdout
     assert "0.00000000000000006" not in out
     assert "[ 0.00000000000000000 -1.00000000000000000  0.00000000000000000]" in out
+
+
+# ----------------------------------------------------------------------
+# Hand-rounded matrices: --tol and --nearest (issue 25, item 7)
+# ----------------------------------------------------------------------
+
+SEED_RY = ("-0.835", "0", "-0.549", "0", "1", "0", "0.549", "0", "-0.835")  # seeds/000, T_3's rotation, 3 decimals
+
+
+def test_a_hand_rounded_matrix_is_refused_with_the_two_ways_to_take_it():
+    result = run_cli("manipkit", "rot", "matrix", *SEED_RY, status=2)
+    assert "not a rotation matrix within tol 1e-06" in result.stderr
+    assert "--tol 0.002 accepts it, and --nearest uses the nearest rotation (SVD, 0.00097 away)" in result.stderr
+
+
+@pytest.mark.parametrize("option", [("--tol", "0.002"), ("--nearest",)])
+def test_tol_or_nearest_takes_it_and_prints_how_far_it_moved(option):
+    result = run_cli("manipkit", "rot", "matrix", *SEED_RY, *option, "--deg", status=0)
+    first, *rest = result.stdout.splitlines()
+    how = "--nearest" if option == ("--nearest",) else "within --tol 0.002"
+    assert first == (f"the given matrix is not exactly a rotation ({how}): the forms are of its nearest rotation "
+                     "(SVD), 0.000972 away (Frobenius norm; largest entry change 0.000574)")
+    # the nearest rotation of k Ry(phi) is Ry(phi), phi = atan2(-0.549, -0.835) = -146.676 deg (by hand: see
+    # test_spatial_forms); axis-angle gives it as 146.676 deg about -y
+    assert "axis-angle: axis [0.000000 -1.000000 0.000000], angle 146.675679 deg" in rest
+
+
+def test_nearest_in_json_gives_the_distance_and_the_rotation():
+    data = rot_json("matrix", *SEED_RY, "--nearest")
+    k = math.hypot(0.835, 0.549)
+    assert data["nearest"]["distance"] == pytest.approx(abs(1 - k) * math.sqrt(2), rel=1e-12)
+    assert np.abs(np.array(data["matrix"]) - rot_y(math.atan2(-0.549, -0.835))).max() < 1e-15
+    assert "nearest" not in rot_json("matrix", *map(str, rot_z(0.4).ravel()))  # a rotation is taken as it is
+
+
+@pytest.mark.parametrize(("args", "fragment"), [
+    (("matrix", "1", "0", "0", "0", "1", "0", "0", "0", "-1", "--nearest"), "det = -1: the nearest rotation needs"),
+    (("rpy", "0", "0", "1", "--nearest"), "--nearest applies to a matrix; rpy always gives a rotation"),
+    (("quaternion", "0", "0", "0", "1", "--tol", "0.1"), "--tol applies to a matrix"),
+    (("matrix", *SEED_RY, "--tol", "0"), "--tol 0: give a positive finite tolerance"),
+    (("matrix", *SEED_RY, "--tol", "x"), "--tol x: give a positive number"),
+])
+def test_tol_and_nearest_misuse_is_one_line(args, fragment):
+    result = run_cli("manipkit", "rot", *args, status=2)
+    assert fragment in result.stderr and len(result.stderr.splitlines()) == 1

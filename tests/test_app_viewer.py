@@ -562,7 +562,7 @@ def test_example_robot_data_meshes_resolve_to_files(robots):
 def test_unresolved_package_mesh_names_the_uri_and_the_places_searched(tmp_path):
     robot = manipkit.load(one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl"))
     with pytest.raises(PackageNotFoundError) as error:
-        visual_model(robot)
+        robot.visual_model()  # missing_meshes="error", the library's default (the viewer draws instead)
     message = str(error.value)
     assert "link 'arm': mesh package://no_such_pkg/meshes/arm.stl cannot be resolved" in message
     assert "package 'no_such_pkg' not found; searched" in message and str(tmp_path) in message
@@ -574,7 +574,7 @@ def test_mesh_missing_from_a_found_package_says_where_it_looked(tmp_path):
     robot = manipkit.load(one_mesh_urdf(tmp_path, "package://my_pkg/meshes/arm.stl"),
                           package_dirs={"my_pkg": tmp_path / "my_pkg"})
     with pytest.raises(PackageNotFoundError, match=r"resolves to .*my_pkg/meshes/arm.stl, which does not exist"):
-        visual_model(robot)
+        robot.visual_model()
 
 
 @pytest.mark.parametrize("how", ["package", "relative"])
@@ -588,12 +588,120 @@ def test_package_and_relative_meshes_load(tmp_path, how):
     assert [Path(g.meshPath) for g in visual.geometryObjects] == [mesh.resolve()]
 
 
-def test_view_with_an_unresolved_mesh_exits_2_with_one_line(tmp_path):
+def test_view_with_an_unresolved_mesh_draws_the_link_and_says_so_in_one_line(tmp_path):
     path = one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl")
-    result = run_cli("manipkit", "view", "--robot", path, "--static", tmp_path / "x.html")
-    assert result.returncode == 2
-    assert result.stderr.count("\n") == 1 and "package://no_such_pkg/meshes/arm.stl" in result.stderr
-    assert "Traceback" not in result.stderr and not (tmp_path / "x.html").exists()
+    result = run_cli("manipkit", "view", "--robot", path, "--static", tmp_path / "x.html", status=0)
+    assert result.stderr == ("warning: mesh_arm: 1 of 1 visual mesh files are missing (the first: link 'arm' mesh "
+                             "package://no_such_pkg/meshes/arm.stl: package 'no_such_pkg' not found; searched "
+                             + result.stderr.split("not found; searched ")[1])
+    assert result.stderr.count("\n") == 1 and "drawn instead: 1 link as lines between joint origins" in result.stderr
+    assert (tmp_path / "x.html").is_file()
+
+
+# ----------------------------------------------------------------------
+# Real descriptions without their meshes (issue 25, item 6)
+# ----------------------------------------------------------------------
+
+REALWORLD = next((base / "shared" / "realworld" for base in Path(__file__).resolve().parents[2:4]
+                  if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
+needs_realworld = pytest.mark.skipif(not REALWORLD.is_dir(), reason=f"the shared real-world descriptions are not here ({REALWORLD})")
+
+
+def copy_without_meshes(source: Path, workspace: Path) -> Path:
+    """``source`` (a repository folder) copied into ``workspace/src`` without any ``meshes`` folder; returns the copy."""
+    import shutil
+
+    target = workspace / "src" / source.name
+    shutil.copytree(source, target, ignore=shutil.ignore_patterns("meshes"))
+    assert not list(target.rglob("*.dae")) and not list(target.rglob("*.stl")) and not list(target.rglob("*.STL"))
+    return target
+
+
+@pytest.fixture(scope="module")
+def abb_without_meshes(tmp_path_factory):
+    """ABB IRB 2400 (ros-industrial/abb), whose links have mesh visuals and mesh collisions only."""
+    copy = copy_without_meshes(REALWORLD / "ws_ros1" / "src" / "abb", tmp_path_factory.mktemp("abb_ws"))
+    return copy / "abb_irb2400_support" / "urdf" / "irb2400.xacro"
+
+
+@pytest.fixture(scope="module")
+def sawyer_without_meshes(tmp_path_factory):
+    """Sawyer (RethinkRobotics/sawyer_robot), whose links have primitive collision shapes."""
+    copy = copy_without_meshes(REALWORLD / "ws_more" / "src" / "sawyer_robot", tmp_path_factory.mktemp("sawyer_ws"))
+    return copy / "sawyer_description" / "urdf" / "sawyer.urdf.xacro"
+
+
+@needs_realworld
+def test_links_without_meshes_or_primitive_collisions_are_drawn_as_lines_between_joint_origins(abb_without_meshes):
+    import warnings
+
+    from manipkit.description.meshes import MissingMeshWarning
+
+    robot = manipkit.load(abb_without_meshes)
+    with pytest.raises(PackageNotFoundError):
+        robot.visual_model()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        visual = visual_model(robot)
+    assert [w.category for w in caught] == [MissingMeshWarning]
+    assert str(caught[0].message).endswith("drawn instead: 7 links as lines between joint origins")
+    assert str(caught[0].message).startswith("abb_irb2400: 7 of 7 visual mesh files are missing (the first: link "
+                                             "'base_link' mesh package://abb_irb2400_support/meshes/irb2400/visual/")
+    # every line runs from a link's origin to a child joint's origin: its two ends (placement +- length/2 along
+    # its z axis) are the origins of the joint's parent and child links, by Robot.transform, at a bent pose
+    q = robot.q({name: 0.3 + 0.2 * k for k, name in enumerate(robot.joint_names)})
+    origins = {link: robot.transform(robot.root_link, link, q, check_limits=False)[:3, 3] for link in robot.frame_names}
+    placements = robot.geometry_placements(visual, q)
+    sticks = 0
+    for geometry, T in zip(visual.geometryObjects, placements):
+        if type(geometry.geometry).__name__ == "Cylinder":
+            half = geometry.geometry.halfLength * T[:3, 2]
+            ends = [T[:3, 3] - half, T[:3, 3] + half]
+            parent = robot.model.frames[geometry.parentFrame].name
+            assert np.linalg.norm(ends[0] - origins[parent]) < 1e-12, parent
+            assert min(np.linalg.norm(ends[1] - o) for o in origins.values()) < 1e-12, parent
+            sticks += 1
+    # one line per joint whose origin is away from its parent's (IRB 2400: joint_1 starts at the base's origin)
+    offsets = [j for j in robot.joints if np.linalg.norm(origins[j.child] - origins[j.parent]) > 0.04]
+    assert sticks >= len(offsets) >= 5
+
+
+@needs_realworld
+def test_links_with_primitive_collision_shapes_are_drawn_by_them(sawyer_without_meshes):
+    import warnings
+    import xml.etree.ElementTree as ET
+
+    robot = manipkit.load(sawyer_without_meshes)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        visual = visual_model(robot)
+    assert len(caught) == 1 and str(caught[0].message).endswith("drawn instead: 10 links by their collision shapes")
+    # independent: the description's own <collision> primitives of those links, kind by kind
+    root = ET.fromstring(robot.urdf)
+    meshless = {link.get("name") for link in root.iter("link") if link.find("visual/geometry/mesh") is not None}
+    expected = sorted((link.get("name"), c[0].tag) for link in root.iter("link") if link.get("name") in meshless
+                      for c in link.findall("collision/geometry"))
+    drawn = sorted((robot.model.frames[g.parentFrame].name, type(g.geometry).__name__.lower())
+                   for g in visual.geometryObjects if robot.model.frames[g.parentFrame].name in meshless)
+    assert drawn == expected and len(drawn) >= 10
+
+
+@needs_realworld
+def test_view_static_of_a_description_without_meshes_writes_the_view_with_one_warning(abb_without_meshes, tmp_path):
+    out = tmp_path / "abb.html"
+    result = run_cli("manipkit", "view", "--robot", abb_without_meshes, "--static", out, status=0)
+    assert result.stderr.count("\n") == 1 and "7 of 7 visual mesh files are missing" in result.stderr
+    assert out.is_file() and f"wrote {out}" in result.stdout
+
+
+@needs_realworld
+def test_reachmap_view_html_without_meshes_prints_its_summary_and_warns_once(abb_without_meshes, tmp_path):
+    result = run_cli("manipkit", "reachmap", "--robot", abb_without_meshes, "--samples", "2000", "--orientations", "8",
+                     "--voxel", "0.2", "-o", tmp_path / "map.zarr", "--view-html", tmp_path / "map.html", status=0)
+    assert result.stderr.count("visual mesh files are missing") == 1 and result.stderr.count("\n") == 1
+    assert result.stdout.startswith("reachability map of abb_irb2400: ")
+    assert f"wrote {tmp_path / 'map.zarr'}, {tmp_path / 'map.html'}" in result.stdout
+    assert (tmp_path / "map.html").is_file()
 
 
 # ----------------------------------------------------------------------
@@ -945,3 +1053,49 @@ def test_a_mimic_joint_has_no_slider_and_its_link_moves_with_the_leader(panda):
     right = [T for path, T in placements.items() if "rightfinger" in path]
     expected = panda.transform(panda.root_link, "panda_rightfinger", state.q)
     assert right and np.allclose(right[0][:3, 3], expected[:3, 3], atol=1e-9)
+
+
+# ----------------------------------------------------------------------
+# Framing: the floor and the camera (issue 25, item 9; the pictures are in test_app_viewer_browser.py)
+# ----------------------------------------------------------------------
+
+
+def test_the_floor_lies_under_the_base_reaches_the_farthest_corner_in_one_cell_segments():
+    from manipkit.app.viewer.scene import floor_lines
+
+    lower, upper, base = np.array([-0.2, -0.1, 0.0]), np.array([0.3, 0.1, 1.3]), np.array([0.05, 0.0, 0.0])
+    points, colours, step, half = floor_lines(lower, upper, base)
+    reach = np.linalg.norm([0.3 - 0.05, 0.1, 1.3])  # the farthest corner (0.3, +-0.1, 1.3) from the base, by hand
+    assert step == 0.2 and half == pytest.approx(1.4) and reach <= half < reach + step
+    assert np.all(points[:, 2] == 0.0)  # the base's height, the box's bottom
+    assert np.allclose(points[:, :2].min(axis=0), base[:2] - half) and np.allclose(points[:, :2].max(axis=0), base[:2] + half)
+    lengths = np.linalg.norm(points[1::2] - points[0::2], axis=1)
+    assert np.allclose(lengths, step)  # one cell each: nothing long enough to cross the camera's plane
+    assert len(points) == 2 * 2 * 15 * 14 and colours.shape == points.shape
+    # the box's bottom below the base lowers the floor; a given height wins
+    assert floor_lines(lower - [0, 0, 0.4], upper, base)[0][0, 2] == pytest.approx(-0.4)
+    assert floor_lines(lower, upper, base, 0.25)[0][0, 2] == 0.25
+
+
+def test_the_camera_sees_every_corner_of_the_robots_box_30_deg_from_above(robots):
+    from manipkit.app.viewer.scene import CAMERA_ELEVATION_DEG, FRAME_FILL, camera_distance
+
+    state = ViewerState(robots["panda"])
+    lower, upper = state.bounds(visual_model(robots["panda"]))
+    distance = camera_distance(lower, upper)
+    e, a = np.radians(CAMERA_ELEVATION_DEG), np.radians(45.0)
+    eye = (lower + upper) / 2 + distance * np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    forward = (lower + upper) / 2 - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    slopes = []
+    for corner in np.array(np.meshgrid(*zip(lower, upper))).reshape(3, -1).T:
+        v = corner - eye
+        depth = v @ forward
+        slopes.append(max(abs(v @ right), abs(v @ up)) / depth)
+    limit = FRAME_FILL * np.tan(np.radians(37.5))
+    assert max(slopes) == pytest.approx(limit, rel=1e-9)  # the tightest corner touches the margin, none beyond
+    # the box holds the meshes, not only the frame origins: panda_link0's mesh reaches behind the base
+    assert lower[0] < state.bounds()[0][0] - 0.05

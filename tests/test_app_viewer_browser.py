@@ -8,7 +8,8 @@ in process (tests/cli_helper.py).
 
 Screenshots go to tests/artifacts/ (git-ignored): viewer_control.png (the
 control page), viewer_scene.png (the meshcat scene after a slider move),
-static_<robot>.png (the --static export), viewer_ellipsoid.png (the manipulability
+static_<robot>.png (the --static export), framing_<robot>_shown.png (the opening view), static_without_meshes.png (a description
+without its mesh files), viewer_ellipsoid.png (the manipulability
 ellipsoid overlay); viewer_round_trip.json holds the
 measured slider-to-readout round trips.
 """
@@ -412,6 +413,93 @@ def test_static_export_renders_the_robot_without_a_server(browser, tmp_path, rob
         frame = page.main_frame
         wait_for_scene(frame, visual_count(robot))
         assert_robot_drawn(lambda shot: page.screenshot(path=shot), frame, f"static_{robot}")
+    finally:
+        page.close()
+
+
+def set_visible(frame, path: str, visible: bool):
+    frame.evaluate("([path, visible]) => viewer.handle_command({type: 'set_property', path, property: 'visible', "
+                   "value: visible})", [path, visible])
+    frame.wait_for_timeout(300)
+
+
+def changed_pixels(shown: np.ndarray, hidden: np.ndarray) -> np.ndarray:
+    """Where two screenshots differ (boolean image): what was hidden between them."""
+    return np.abs(shown - hidden).max(axis=-1) > 30
+
+
+@pytest.mark.parametrize("robot", ["iiwa14", "panda"])
+def test_static_view_frames_the_whole_arm_from_above_with_the_floor_under_its_base(browser, tmp_path, robot):
+    """Issue 25: the opening view shows the whole arm, looking down about 30 deg, the floor grid under its base.
+
+    Judged on the picture: the robot's pixels (shown minus hidden) lie inside the frame with a margin and fill a
+    good part of its height; the floor's pixels (grid shown minus hidden) lie under and around the base, both
+    sides of it and in front of it, and the floor recedes behind it (it starts above the base's row, below the
+    arm's top). The camera's angle is read from the page too.
+    """
+    path = tmp_path / f"{robot}.html"
+    run_cli("manipkit", "view", "--robot", robot, "--static", path, status=0)
+    page = browser.new_page()
+    try:
+        page.goto(path.as_uri())
+        frame = page.main_frame
+        wait_for_scene(frame, visual_count(robot))
+        shots = {name: ARTIFACTS / f"framing_{robot}_{name}.png" for name in ("shown", "no_robot", "no_floor")}
+        page.screenshot(path=shots["shown"])
+        set_visible(frame, "/meshcat", False)  # the robot and its triads
+        page.screenshot(path=shots["no_robot"])
+        set_visible(frame, "/meshcat", True)
+        set_visible(frame, "/Grid", False)
+        page.screenshot(path=shots["no_floor"])
+        camera = frame.evaluate("() => { const p = viewer.camera.position; "
+                                "return [p.x, p.y, p.z, ...viewer.controls.target.toArray()]; }")
+    finally:
+        page.close()
+    shown = image(shots["shown"])
+    height, width = shown.shape[:2]
+    robot_rows, robot_cols = np.nonzero(changed_pixels(shown, image(shots["no_robot"])))
+    floor_rows, floor_cols = np.nonzero(changed_pixels(shown, image(shots["no_floor"])))
+    assert robot_rows.size and floor_rows.size, "the robot or the floor is not drawn"
+    top, bottom, left, right = robot_rows.min(), robot_rows.max(), robot_cols.min(), robot_cols.max()
+    # the whole robot (triads included) inside the picture, 2 % clear of every edge, and not lost in it
+    assert top > 0.02 * height and bottom < 0.98 * height, (top, bottom, height)
+    assert left > 0.02 * width and right < 0.98 * width, (left, right, width)
+    assert bottom - top > 0.45 * height, f"the robot fills only {(bottom - top) / height:.0%} of the height"
+    # the floor under the base: floor pixels below the robot's lowest row, on both sides of it and in front
+    base_col = int(np.median(robot_cols[robot_rows > bottom - 0.02 * height]))
+    below = floor_rows > bottom
+    assert np.any(below & (floor_cols < base_col - 0.05 * width)) and np.any(below & (floor_cols > base_col + 0.05 * width))
+    assert np.any(below & (abs(floor_cols - base_col) < 0.05 * width)), "no floor in front of the base"
+    # and it recedes behind the base (seen from above), but not above the arm's top (seen from below or level)
+    assert top < floor_rows.min() < bottom - 0.1 * height, (top, floor_rows.min(), bottom)
+    # the camera looks down 30 deg at the robot's centre (three.js is y-up)
+    offset = np.subtract(camera[:3], camera[3:])
+    assert np.degrees(np.arcsin(offset[1] / np.linalg.norm(offset))) == pytest.approx(30.0, abs=1e-6)
+    for shot in ("no_robot", "no_floor"):
+        shots[shot].unlink()
+
+
+REALWORLD_ABB = next((base / "shared" / "realworld" / "ws_ros1" / "src" / "abb" for base in Path(__file__).resolve().parents[2:4]
+                      if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
+
+
+@pytest.mark.skipif(not REALWORLD_ABB.is_dir(), reason=f"the shared real-world descriptions are not here ({REALWORLD_ABB})")
+def test_static_view_of_a_description_without_its_meshes_draws_the_arm_as_lines(browser, tmp_path):
+    """Issue 25: ABB IRB 2400 copied without its meshes (mesh visuals and collisions only) shows as a line skeleton."""
+    import shutil
+
+    shutil.copytree(REALWORLD_ABB, tmp_path / "ws" / "src" / "abb", ignore=shutil.ignore_patterns("meshes"))
+    description = tmp_path / "ws" / "src" / "abb" / "abb_irb2400_support" / "urdf" / "irb2400.xacro"
+    path = tmp_path / "abb.html"
+    result = run_cli("manipkit", "view", "--robot", description, "--static", path, "--q", "joint_2=0.5", "joint_3=-0.3",
+                     status=0)
+    assert "drawn instead: 7 links as lines between joint origins" in result.stderr
+    page = browser.new_page()
+    try:
+        page.goto(path.as_uri())
+        frame = page.main_frame
+        wait_for_scene(frame, 7)
+        assert_robot_drawn(lambda shot: page.screenshot(path=shot), frame, "static_without_meshes")
     finally:
         page.close()
 

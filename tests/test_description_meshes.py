@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -204,3 +205,71 @@ def test_missing_relative_mesh_is_a_warning_of_the_robot_and_on_the_command_line
     result = run_cli("tf-between", "base_link", "link_1", "--robot", path, cwd=files["elsewhere"])
     assert result.returncode == 0, result.stderr
     assert result.stderr.splitlines() == [f"warning: {w}" for w in robot.mesh_warnings]
+
+
+# ---------------------------------------------------------------- missing meshes drawn another way (issue 25)
+
+
+def two_link_urdf(files) -> str:
+    """``arm`` has a found mesh and a missing one; ``hand`` only a missing one and a box collision; ``tip`` a missing one."""
+    return f"""<robot name="r">
+  <link name="arm">
+    <visual><geometry><mesh filename="package://my_pkg/meshes/arm.stl"/></geometry></visual>
+    <visual><geometry><mesh filename="package://my_pkg/meshes/gone.stl"/></geometry></visual>
+  </link>
+  <link name="hand">
+    <visual><geometry><mesh filename="{files['robot'] / 'meshes' / 'gone.stl'}"/></geometry></visual>
+    <collision><origin xyz="0 0 0.05"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+    <collision><geometry><mesh filename="package://my_pkg/meshes/gone.stl"/></geometry></collision>
+  </link>
+  <link name="tip"><visual><geometry><mesh filename="package://my_pkg/meshes/gone.stl"/></geometry></visual></link>
+  <joint name="j1" type="revolute"><parent link="arm"/><child link="hand"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="fixed"><parent link="hand"/><child link="tip"/><origin xyz="0.2 0 0"/></joint>
+</robot>"""
+
+
+def test_missing_meshes_are_left_out_and_their_links_drawn_by_collision_shapes_or_a_ball(files):
+    from manipkit.description.meshes import visual_urdf
+
+    with pytest.raises(PackageNotFoundError, match="gone.stl"):
+        visual_urdf(two_link_urdf(files), resolver_for(files), relative_to=files["robot"])
+    text, folders, missing = visual_urdf(two_link_urdf(files), resolver_for(files), relative_to=files["robot"],
+                                         missing="draw")
+    root = ET.fromstring(text)
+    visuals = {link.get("name"): [v.find("geometry")[0] for v in link.findall("visual")] for link in root.iter("link")}
+    # arm keeps its found mesh (as a file path) and drops the missing one; hand gets its box collision (with its
+    # origin); tip, a leaf with no collision, gets a ball at its origin
+    assert [(g.tag, g.get("filename")) for g in visuals["arm"]] == [("mesh", str(files["package"] / "meshes" / "arm.stl"))]
+    assert [g.tag for g in visuals["hand"]] == ["box"]
+    assert root.find("link[@name='hand']/visual/origin").get("xyz") == "0 0 0.05"
+    assert [g.tag for g in visuals["tip"]] == ["sphere"]
+    assert folders == [str(files["package"].parent)]
+    assert (len(missing.missing), missing.total, missing.by_collision, missing.by_lines) == (3, 4, ("hand",), ("tip",))
+    assert missing.message("r").startswith("r: 3 of 4 visual mesh files are missing (the first: link 'arm' mesh "
+                                           "package://my_pkg/meshes/gone.stl: resolves to ")
+    assert missing.message("r").endswith("drawn instead: 1 link by their collision shapes, 1 link as lines between "
+                                         "joint origins")
+
+
+def test_a_link_without_collision_shapes_gets_a_line_to_each_child_joint(files):
+    from manipkit.description.meshes import visual_urdf
+
+    urdf = two_link_urdf(files).replace('<collision><origin xyz="0 0 0.05"/><geometry><box size="0.1 0.1 0.1"/>'
+                                        '</geometry></collision>', "")
+    text, _, missing = visual_urdf(urdf, resolver_for(files), relative_to=files["robot"], missing="draw")
+    hand = ET.fromstring(text).find("link[@name='hand']")
+    stick = [v for v in hand.findall("visual") if v.find("geometry/cylinder") is not None]
+    assert len(stick) == 1 and missing.by_lines == ("hand", "tip")
+    # the line to j2 (0.2 m along x): a cylinder 0.2 m long centred at (0.1, 0, 0), its z axis turned onto x
+    assert float(stick[0].find("geometry/cylinder").get("length")) == pytest.approx(0.2, abs=1e-15)
+    assert [float(v) for v in stick[0].find("origin").get("xyz").split()] == pytest.approx([0.1, 0, 0], abs=1e-15)
+    assert [float(v) for v in stick[0].find("origin").get("rpy").split()] == pytest.approx([0, math.pi / 2, 0], abs=1e-15)
+
+
+def test_an_unknown_missing_mode_is_an_option_error(files):
+    from manipkit.description.meshes import visual_urdf
+    from manipkit.errors import OptionError
+
+    with pytest.raises(OptionError, match="missing='skip': give one of error, draw"):
+        visual_urdf(two_link_urdf(files), resolver_for(files), relative_to=files["robot"], missing="skip")

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -72,3 +73,69 @@ def test_the_identity_has_axis_z_and_angle_0():
 def test_bad_forms_are_refused_with_a_message(form, values, message):
     with pytest.raises(InvalidRotationError, match=message.replace("(", r"\(").replace(")", r"\)")):
         rotation_from_form(form, values)
+
+
+# ----------------------------------------------------------------------
+# Hand-rounded matrices: rotation_from_matrix (issue 25, item 7)
+# ----------------------------------------------------------------------
+
+# The seed's rotation about y, written to three decimals (seeds/000, its T_3): c = -0.835, s = -0.549
+SEED_RY = np.array([[-0.835, 0.0, -0.549], [0.0, 1.0, 0.0], [0.549, 0.0, -0.835]])
+
+
+def test_a_rounded_matrix_is_refused_with_the_tolerance_that_takes_it_and_the_distance_to_the_nearest():
+    from manipkit.spatial.forms import rotation_from_matrix
+
+    with pytest.raises(InvalidRotationError) as raised:
+        rotation_from_matrix(SEED_RY)
+    message = str(raised.value)
+    assert message.startswith("R is not a rotation matrix within tol 1e-06: ")
+    suggested = float(message.split("--tol ")[1].split()[0])
+    assert "--nearest uses the nearest rotation (SVD, 0.00097 away)" in message
+    # the tolerance named accepts the matrix, and is the smallest 1-2-5 step that does
+    assert rotation_from_matrix(SEED_RY, tol=suggested).projected
+    with pytest.raises(InvalidRotationError):
+        rotation_from_matrix(SEED_RY, tol=suggested / 2.5)
+
+
+def test_the_nearest_rotation_of_a_scaled_planar_rotation_is_the_normalised_one():
+    from manipkit.spatial.forms import rotation_from_matrix
+
+    taken = rotation_from_matrix(SEED_RY, nearest=True)
+    # by hand: SEED_RY = k Ry(phi) in the x-z block, k = hypot(0.835, 0.549); its nearest rotation is Ry(phi),
+    # phi = atan2(s, c) with Ry = [[c, 0, s], [0, 1, 0], [-s, 0, c]], and the distance is |1 - k| * sqrt(2)
+    k = math.hypot(0.835, 0.549)
+    assert np.abs(taken.matrix - rot_y(math.atan2(-0.549, -0.835))).max() < 1e-15
+    assert taken.distance == pytest.approx(abs(1 - k) * math.sqrt(2), rel=1e-12)
+    assert taken.largest_change == pytest.approx(abs(1 - k) * 0.835 / k, rel=1e-12)
+    assert taken.projected and np.array_equal(taken.given, SEED_RY)
+
+
+@given(angles, st.floats(-math.pi / 2, math.pi / 2), angles, st.integers(2, 4))
+def test_a_rotation_rounded_to_a_few_decimals_is_taken_back_to_within_the_rounding(yaw, pitch, roll, decimals):
+    from manipkit.spatial.forms import rotation_from_matrix
+
+    R = rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)
+    M = np.round(R, decimals)
+    taken = rotation_from_matrix(M, nearest=True)
+    # independent: the orthogonal factor of the polar decomposition (SciPy) is the nearest rotation
+    assert np.abs(taken.matrix - scipy.linalg.polar(M)[0]).max() < 1e-12
+    assert np.abs(taken.matrix - R).max() < 3 * 10.0**-decimals
+    assert taken.distance == pytest.approx(np.linalg.norm(taken.matrix - M), abs=1e-15)
+
+
+def test_an_exact_rotation_is_taken_as_given():
+    from manipkit.spatial.forms import rotation_from_matrix
+
+    R = rot_z(0.3) @ rot_x(1.1)
+    taken = rotation_from_matrix(R)
+    assert taken.matrix is taken.given and not taken.projected and taken.distance == 0.0
+
+
+def test_nearest_refuses_a_reflection_and_a_singular_matrix():
+    from manipkit.spatial.forms import rotation_from_matrix
+
+    with pytest.raises(InvalidRotationError, match="det = -1: the nearest rotation needs a matrix with a positive"):
+        rotation_from_matrix(np.diag([1.0, 1.0, -1.0]), nearest=True)
+    with pytest.raises(InvalidRotationError, match="det = 0"):
+        rotation_from_matrix(np.zeros((3, 3)), nearest=True)

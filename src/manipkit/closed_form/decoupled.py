@@ -27,7 +27,7 @@ and joints 4 to 6 from ``R_3^6 = (R_0^3)^T R`` (inverse orientation). With
 the wrist rows ``(0, -90, 0, theta4)``, ``(0, 90, 0, theta5)``,
 ``(0, 0, d6, theta6)``, ``R_3^6 = Rz(theta4) Ry(theta5) Rz(theta6)``: the
 wrist angles are the ZYZ Euler angles of ``R_3^6``, two sets for every
-rotation off the singular set (:func:`manipkit.spatial.rotations.euler_zyz_from_matrix`).
+rotation off the singular set (:func:`manipkit.spatial.euler.euler_zyz_from_matrix`).
 
 Labels (one per solution, parts joined by ``", "``; solutions come in the
 order listed):

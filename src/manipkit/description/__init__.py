@@ -4,7 +4,8 @@
 - :mod:`~manipkit.description.packages`: ROS packages without ROS (:class:`PackageResolver`).
 - :mod:`~manipkit.description.xacro`: description files to URDF text (:func:`describe`, :func:`urdf_text`).
 - :mod:`~manipkit.description.validate`: checks before a model is built (:func:`check_urdf`).
-- :mod:`~manipkit.description.meshes`: mesh URIs to files (:func:`mesh_path`).
+- :mod:`~manipkit.description.meshes`: mesh URIs to files (:func:`mesh_path`); links whose meshes are missing drawn
+  another way (:func:`visual_urdf`).
 - :mod:`~manipkit.description.tree`: the link tree as text, DOT and an image (:func:`tree_text`).
 
 Imports only :mod:`manipkit.spatial` and :mod:`manipkit.errors`; Pinocchio is
@@ -30,6 +31,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "XacroExpansion", "describe", "expand_xacro", "urdf_text", "xacro_arg_declarations", "xacro_locator",
     ),
     **homes_of("manipkit.description.validate", "CheckedURDF", "check_urdf", "package_uri_warnings"),
-    **homes_of("manipkit.description.meshes", "mesh_path", "urdf_with_mesh_paths"),
+    **homes_of("manipkit.description.meshes", "MissingMeshWarning", "MissingMeshes", "mesh_path", "urdf_with_mesh_paths",
+               "visual_urdf"),
     **homes_of("manipkit.description.tree", "parse_structure", "tree_dot", "tree_text", "write_tree_image"),
 })

@@ -8,15 +8,25 @@ paths), and validation warns about meshes that do not resolve
 :meth:`~manipkit.description.packages.PackageResolver.resolve_uri`, and any
 other path with :func:`mesh_search_paths`.
 
+When mesh files are absent (large files not pulled, a description copied
+without its meshes), :func:`visual_urdf` with ``missing="draw"`` still gives
+something to look at: a link whose meshes are all missing is drawn by its
+primitive collision shapes (box, cylinder, sphere) if it has any, else as a
+skeleton: a line (thin cylinder) from its origin to each child joint's origin
+and a ball at its origin. :class:`MissingMeshes` says what was missing and
+what is drawn instead, in one line (:meth:`MissingMeshes.message`).
+
 Kinematics never need meshes, so nothing here runs when a robot is only
 loaded for transforms (docs/architecture.md).
 """
 
 from __future__ import annotations
 
+import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import OptionError, PackageNotFoundError
@@ -24,7 +34,57 @@ from manipkit.errors import OptionError, PackageNotFoundError
 if TYPE_CHECKING:
     from manipkit.description.packages import PackageResolver
 
-__all__ = ["mesh_path", "mesh_search_paths", "urdf_with_mesh_paths"]
+__all__ = ["MISSING_MESHES", "SKELETON_COLOUR", "MissingMeshWarning", "MissingMeshes", "VisualURDF", "mesh_path",
+           "mesh_search_paths", "urdf_with_mesh_paths", "visual_urdf"]
+
+#: What :func:`visual_urdf` does with a mesh file it cannot find: raise, or draw the link another way.
+MISSING_MESHES = ("error", "draw")
+#: RGBA of what is drawn in place of missing meshes (a blue grey, unlike any real link's colour).
+SKELETON_COLOUR = (0.45, 0.55, 0.75, 1.0)
+_PRIMITIVES = ("box", "cylinder", "sphere")
+
+
+class MissingMeshWarning(UserWarning):
+    """Mesh files of a description are missing: the view draws their links another way (:class:`MissingMeshes`)."""
+
+
+@dataclass(frozen=True)
+class MissingMeshes:
+    """The visual meshes :func:`visual_urdf` could not find, and what it drew instead.
+
+    Attributes
+    ----------
+    missing : tuple of (link, uri, reason)
+        Each missing visual mesh, in file order.
+    total : int
+        Visual meshes in the description.
+    by_collision, by_lines : tuple of str
+        Links drawn by their primitive collision shapes, and links drawn as
+        lines between joint origins (a link with some of its meshes found keeps those, in neither).
+    """
+
+    missing: tuple[tuple[str, str, str], ...]
+    total: int
+    by_collision: tuple[str, ...]
+    by_lines: tuple[str, ...]
+
+    def message(self, robot: str) -> str:
+        """One line: how many meshes are missing (the first named, with why) and what is drawn instead."""
+        link, uri, reason = self.missing[0]
+        drawn = [f"{len(links)} link{'s' * (len(links) != 1)} {how}"
+                 for links, how in ((self.by_collision, "by their collision shapes"),
+                                    (self.by_lines, "as lines between joint origins")) if links]
+        instead = f"; drawn instead: {', '.join(drawn)}" if drawn else ""
+        return (f"{robot}: {len(self.missing)} of {self.total} visual mesh files are missing (the first: link "
+                f"'{link}' mesh {uri}: {reason}){instead}")
+
+
+class VisualURDF(NamedTuple):
+    """:func:`visual_urdf`'s answer."""
+
+    text: str  # URDF whose visual meshes are absolute paths (and substitutes where meshes are missing)
+    package_folders: list[str]  # what Pinocchio's package_dirs expects
+    missing: MissingMeshes | None  # None when every mesh was found
 
 
 def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, link: str) -> Path:
@@ -137,19 +197,138 @@ def urdf_with_mesh_paths(
     PackageNotFoundError
         As :func:`mesh_path`, for the first mesh that cannot be resolved.
     """
+    text, folders, _ = visual_urdf(urdf_text, resolver, relative_to=relative_to, element=element)
+    return text, folders
+
+
+def visual_urdf(urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike,
+                missing: str = "error", element: str = "visual") -> VisualURDF:
+    """:func:`urdf_with_mesh_paths`, and with ``missing="draw"`` links whose mesh files are absent drawn another way.
+
+    Parameters
+    ----------
+    urdf_text, resolver, relative_to, element
+        As for :func:`urdf_with_mesh_paths` (``missing="draw"`` is for visuals only).
+    missing : {"error", "draw"}, keyword-only
+        ``"error"``: the first mesh that cannot be found raises. ``"draw"``:
+        it is left out; a link left without visuals is drawn by its primitive
+        collision shapes (box, cylinder, sphere) when it has some, else as lines
+        (cylinders of radius about 1 % of the robot's joint offsets summed, 3 to
+        20 mm) from its origin to each child joint's origin with a ball at its
+        origin, in :data:`SKELETON_COLOUR`.
+
+    Returns
+    -------
+    VisualURDF
+        ``(text, package_folders, missing)``; ``missing`` is a
+        :class:`MissingMeshes` or None when every mesh was found.
+
+    Raises
+    ------
+    PackageNotFoundError
+        With ``missing="error"``, as :func:`mesh_path`.
+    """
     import xml.etree.ElementTree as ET
 
     if element not in ("visual", "collision"):
-        raise OptionError(f"element must be 'visual' or 'collision', not {element!r}")
+        raise OptionError(f"element must be 'visual' or 'collision', not {element!r:.40}")
+    if missing not in MISSING_MESHES or (missing == "draw" and element != "visual"):
+        raise OptionError(f"missing={missing!r:.40}: give one of {', '.join(MISSING_MESHES)} (draw: visuals only)")
     root = ET.fromstring(urdf_text)
-    meshes = [(link.get("name"), mesh) for link in root.iter("link") for mesh in link.findall(f"{element}/geometry/mesh")]
+    meshes = [(link, visual, mesh) for link in root.iter("link") for visual in link.findall(element)
+              for mesh in visual.findall("geometry/mesh")]
     if not meshes:
-        return urdf_text, []
+        return VisualURDF(urdf_text, [], None)
     folders: set[str] = set()
-    for link, mesh in meshes:
+    absent: list[tuple[str, str, str]] = []
+    emptied = []
+    for link, visual, mesh in meshes:
         uri = mesh.get("filename", "")
-        path = mesh_path(uri, resolver, relative_to=relative_to, link=link)
+        try:
+            path = mesh_path(uri, resolver, relative_to=relative_to, link=link.get("name"))
+        except PackageNotFoundError as exc:
+            if missing == "error":
+                raise
+            absent.append((link.get("name"), uri, _reason(str(exc), link.get("name"), uri)))
+            if visual in link:
+                link.remove(visual)
+                if link.find("visual") is None:
+                    emptied.append(link)
+            continue
         if uri.startswith(PACKAGE_SCHEME):
             folders.add(str(resolver.find(split_package_uri(uri)[0]).parent))
         mesh.set("filename", str(path))
-    return ET.tostring(root, encoding="unicode"), sorted(folders)
+    if not absent:
+        return VisualURDF(ET.tostring(root, encoding="unicode"), sorted(folders), None)
+    by_collision, by_lines = _draw_instead(root, emptied)
+    report = MissingMeshes(tuple(absent), len(meshes), tuple(by_collision), tuple(by_lines))
+    return VisualURDF(ET.tostring(root, encoding="unicode"), sorted(folders), report)
+
+
+def _reason(message: str, link: str, uri: str) -> str:
+    """:func:`mesh_path`'s message without its own "link 'L': mesh URI" prefix."""
+    for prefix in (f"link '{link}': mesh {uri} ", f"link '{link}': mesh {uri}: "):
+        if message.startswith(prefix):
+            return message[len(prefix):].removeprefix("cannot be resolved: ")
+    return message
+
+
+def _draw_instead(root, links) -> tuple[list[str], list[str]]:
+    """Give each link in ``links`` (no visuals left) visuals: its primitive collision shapes, else a skeleton."""
+    import copy
+    import xml.etree.ElementTree as ET
+
+    children: dict[str, list[tuple[float, float, float]]] = {}
+    offsets = []
+    for joint in root.findall("joint"):
+        parent, origin = joint.find("parent"), joint.find("origin")
+        xyz = _numbers(origin.get("xyz") if origin is not None else None)
+        offsets.append(math.hypot(*xyz))
+        if parent is not None:
+            children.setdefault(parent.get("link"), []).append(xyz)
+    radius = min(max(0.01 * sum(offsets), 0.003), 0.02)
+    colour = " ".join(f"{c:g}" for c in SKELETON_COLOUR)
+    by_collision, by_lines = [], []
+
+    def add(link, geometry, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0), origin=None):
+        visual = ET.SubElement(link, "visual")
+        if origin is not None:
+            visual.append(copy.deepcopy(origin))
+        else:
+            ET.SubElement(visual, "origin", xyz=" ".join(map(repr, xyz)), rpy=" ".join(map(repr, rpy)))
+        visual.append(geometry)
+        material = ET.SubElement(visual, "material", name="manipkit_missing_mesh")
+        ET.SubElement(material, "color", rgba=colour)
+
+    for link in links:
+        shapes = [(c.find("origin"), c.find("geometry")) for c in link.findall("collision")]
+        shapes = [(o, g) for o, g in shapes if g is not None and len(g) and g[0].tag in _PRIMITIVES]
+        if shapes:
+            for origin, geometry in shapes:
+                add(link, copy.deepcopy(geometry), origin=origin)
+            by_collision.append(link.get("name"))
+            continue
+        ball = ET.Element("geometry")
+        ET.SubElement(ball, "sphere", radius=repr(1.6 * radius))
+        add(link, ball)
+        for xyz in children.get(link.get("name"), []):
+            length = math.hypot(*xyz)
+            if length < 2 * radius:
+                continue
+            stick = ET.Element("geometry")
+            ET.SubElement(stick, "cylinder", radius=repr(radius), length=repr(length))
+            # a cylinder lies along z: turn z onto the offset (yaw about z, then pitch about y)
+            pitch = math.acos(max(-1.0, min(1.0, xyz[2] / length)))
+            yaw = math.atan2(xyz[1], xyz[0])
+            add(link, stick, xyz=tuple(v / 2 for v in xyz), rpy=(0.0, pitch, yaw))
+        by_lines.append(link.get("name"))
+    return by_collision, by_lines
+
+
+def _numbers(text: str | None) -> tuple[float, float, float]:
+    """A URDF ``xyz`` attribute as three floats (0 where absent; the description was validated)."""
+    try:
+        values = tuple(float(v) for v in (text or "").split())
+    except ValueError:
+        return (0.0, 0.0, 0.0)
+    return values if len(values) == 3 and all(math.isfinite(v) for v in values) else (0.0, 0.0, 0.0)

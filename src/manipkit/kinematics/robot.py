@@ -125,7 +125,7 @@ class Robot:
         #: as ``warning: ...`` on stderr.
         self.warnings: tuple[str, ...] = tuple(warnings)
         #: The subset of :attr:`warnings` about ``package://`` meshes that do not resolve (the viewer's
-        #: own error covers them).
+        #: one missing-mesh warning covers them).
         self.mesh_warnings: tuple[str, ...] = tuple(mesh_warnings)
         self._layout = joint_layout(model, robot_xml, source.path.name)
         self.joints: tuple[Joint, ...] = self._layout.joints
@@ -563,27 +563,37 @@ class Robot:
         base, tip = frame_arguments("jacobians", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
         return jacobians(self, Q, base=base, tip=tip, reference=reference, representation=representation)
 
-    def visual_model(self) -> pin.GeometryModel:
+    def visual_model(self, *, missing_meshes: str = "error") -> pin.GeometryModel:
         """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel``.
 
         Mesh files (``package://``, ``file://`` or relative paths) are resolved
-        by :func:`manipkit.description.meshes.urdf_with_mesh_paths` (``--package-dir``
+        by :func:`manipkit.description.meshes.visual_urdf` (``--package-dir``
         folders, the ROS workspace around the description, ``ROS_PACKAGE_PATH``,
         example-robot-data) before Pinocchio reads them.
+
+        ``missing_meshes="draw"`` (what the viewer asks for) draws a link whose
+        mesh files are absent by its primitive collision shapes, else as lines
+        between joint origins, and issues one :class:`~manipkit.description.meshes.MissingMeshWarning`
+        saying how many are missing and what is drawn instead.
 
         Raises
         ------
         PackageNotFoundError
-            A mesh whose package or file cannot be found; the message names
-            the URI, the link and the places searched.
+            With ``missing_meshes="error"`` (the default), a mesh whose package
+            or file cannot be found; the message names the URI, the link and the places searched.
         DescriptionError
             Pinocchio cannot read the resolved geometry.
         """
-        from manipkit.description.meshes import urdf_with_mesh_paths
+        import warnings
+
+        from manipkit.description.meshes import MissingMeshWarning, visual_urdf
 
         near = self.source.path if self.source.path.exists() else None
         resolver = PackageResolver(dict(self.package_dirs), near=near)
-        text, package_dirs = urdf_with_mesh_paths(self.urdf, resolver, relative_to=self.source.path.parent)
+        text, package_dirs, missing = visual_urdf(self.urdf, resolver, relative_to=self.source.path.parent,
+                                                  missing=missing_meshes)
+        if missing is not None:
+            warnings.warn(missing.message(self.name), MissingMeshWarning, stacklevel=2)
         try:
             return pin.buildGeomFromUrdfString(self.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
         except (ValueError, RuntimeError) as exc:

@@ -29,7 +29,8 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     ),
     **homes_of(
         "manipkit.spatial.forms",
-        "FORMS", "SINGULAR_TOL", "RotationForms", "rotation_forms", "rotation_from_form",
+        "FORMS", "ROUNDING_TOL", "SINGULAR_TOL", "NearestRotation", "RotationForms", "rotation_forms",
+        "rotation_from_form", "rotation_from_matrix",
     ),
     **homes_of(
         "manipkit.spatial.transforms", "EXACT_ROTATION_TOL",

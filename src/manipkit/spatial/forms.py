@@ -17,6 +17,11 @@ is not unique. Conventions (docs/architecture.md), restated:
 - Quaternion ``(x, y, z, w)`` (ROS order): ``q`` and ``-q`` are the same
   rotation; the one with ``w >= 0`` is given.
 - Radians throughout.
+
+A hand-written matrix is rarely exactly a rotation (entries rounded to three
+decimals are 1e-4 off): :func:`rotation_from_matrix` accepts it within a
+tolerance, or takes the nearest rotation (:func:`manipkit.spatial.transforms.nearest_rotation`,
+the SVD projection) and says how far that moved (a :class:`NearestRotation`).
 """
 
 from __future__ import annotations
@@ -35,16 +40,22 @@ from manipkit.spatial.rotations import (
     matrix_from_quaternion,
     matrix_from_rpy,
     quaternion_from_matrix,
+    rotation_violations,
     rpy_from_matrix,
 )
+from manipkit.spatial.transforms import nearest_rotation, projected_rotation
+from manipkit.text import short_text
 
-__all__ = ["FORMS", "SINGULAR_TOL", "RotationForms", "rotation_forms", "rotation_from_form"]
+__all__ = ["FORMS", "ROUNDING_TOL", "SINGULAR_TOL", "NearestRotation", "RotationForms", "rotation_forms",
+           "rotation_from_form", "rotation_from_matrix"]
 
 #: The forms a rotation is written in, and how many numbers each takes.
 FORMS = {"matrix": 9, "rpy": 3, "zyx": 3, "zyz": 3, "axis-angle": 4, "quaternion": 4}
 #: A rotation within this of a singular set (|cos pitch|, |sin theta|, the angle's distance from 0 or pi, rad)
 #: counts as on it, and the form's convention there is used.
 SINGULAR_TOL = 1e-9
+#: A matrix at most this far from a rotation may be a rotation with rounded entries: the refusal says how to take it.
+ROUNDING_TOL = 0.05
 
 
 @dataclass(frozen=True)
@@ -81,7 +92,107 @@ class RotationForms:
     notes: dict
 
 
-def rotation_from_form(form: str, values, *, tol: float = 1e-6) -> np.ndarray:
+@dataclass(frozen=True)
+class NearestRotation:
+    """A matrix read as a rotation: the rotation taken, the matrix given and how far apart they are.
+
+    Attributes
+    ----------
+    matrix : ndarray, shape (3, 3)
+        The rotation: the given matrix itself when it is one (to
+        :data:`~manipkit.spatial.transforms.EXACT_ROTATION_TOL`), else its
+        nearest rotation in the Frobenius norm (SVD;
+        :func:`~manipkit.spatial.transforms.projected_rotation`).
+    given : ndarray, shape (3, 3)
+        The matrix as given.
+    distance : float
+        ``||matrix - given||`` (Frobenius norm), 0 when the matrix is used as given.
+    largest_change : float
+        The largest change of one entry.
+    projected : bool
+        True when ``matrix`` is the nearest rotation, not the given matrix.
+    """
+
+    matrix: np.ndarray
+    given: np.ndarray
+    distance: float
+    largest_change: float
+    projected: bool
+
+
+def rotation_from_matrix(M, *, tol: float = 1e-6, nearest: bool = False) -> NearestRotation:
+    """The rotation a hand-written 3x3 matrix stands for: itself, or its nearest rotation, with how far it moved.
+
+    Parameters
+    ----------
+    M : array_like, shape (3, 3)
+        The matrix (row by row as written).
+    tol : float, keyword-only
+        Without ``nearest``, ``M`` must be a rotation within this (column
+        norms, column dot products, det; :func:`~manipkit.spatial.rotations.check_rotation`).
+        A matrix within it that is not exactly a rotation is replaced by its
+        nearest rotation, so every form printed describes one rotation.
+    nearest : bool, keyword-only
+        Take the nearest rotation of any matrix with a positive determinant,
+        however far (:func:`manipkit.spatial.transforms.nearest_rotation`).
+
+    Returns
+    -------
+    NearestRotation
+
+    Raises
+    ------
+    InvalidRotationError
+        Not a rotation within ``tol`` (for rounded entries the message gives
+        the tolerance that accepts them and the distance to the nearest
+        rotation); with ``nearest``, a determinant <= 0 (a reflection has no
+        nearest rotation worth the name).
+
+    Examples
+    --------
+    >>> M = [[0.707, -0.707, 0], [0.707, 0.707, 0], [0, 0, 1]]  # Rz(45 deg), three decimals
+    >>> taken = rotation_from_matrix(M, nearest=True)
+    >>> taken.projected, round(taken.largest_change, 6), bool(np.allclose(taken.matrix[0, 0], np.sqrt(0.5)))
+    (True, 0.000107, True)
+    """
+    given = np.asarray(M, dtype=float)
+    if given.shape != (3, 3):
+        raise InvalidRotationError(f"a rotation matrix is 3x3, got shape {given.shape}")
+    if not np.all(np.isfinite(given)):
+        raise InvalidRotationError(f"the matrix has entries that are not finite: {given.tolist()}")
+    if nearest:
+        det = float(np.linalg.det(given))
+        if not det > 0.0:
+            raise InvalidRotationError(f"det = {short_text(det, 4)}: the nearest rotation needs a matrix with a positive "
+                                       "determinant (a negative one is a reflection; check the signs)")
+    else:
+        problems = rotation_violations(given, tol=tol)
+        if problems:
+            raise InvalidRotationError(f"R is not a rotation matrix within tol {short_text(tol)}: {'; '.join(problems)}"
+                                       f"{_rounding_hint(given)}")
+    R = projected_rotation(given)
+    if R is given:
+        return NearestRotation(given, given, 0.0, 0.0, False)
+    return NearestRotation(R, given, float(np.linalg.norm(R - given)), float(np.abs(R - given).max()), True)
+
+
+def _rounding_hint(M: np.ndarray) -> str:
+    """For a matrix near a rotation (rounded entries): the tolerance that accepts it and the distance to the nearest one."""
+    if float(np.linalg.det(M)) <= 0.0:
+        return ""
+    gram = M.T @ M
+    off = max(float(np.abs(np.sqrt(np.diag(gram)) - 1.0).max()), float(np.abs(gram - np.diag(np.diag(gram))).max()),
+              abs(float(np.linalg.det(M)) - 1.0))
+    if off > ROUNDING_TOL:
+        return ""
+    power = 10.0 ** math.floor(math.log10(off))
+    accepts = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= off)  # 1, 2 or 5 times a power of ten
+    distance = float(np.linalg.norm(nearest_rotation(M) - M))
+    return (f"; if its entries are rounded, --tol {short_text(accepts)} accepts it, and --nearest uses the nearest "
+            f"rotation (SVD, {short_text(distance, 2)} away)")
+
+
+def rotation_from_form(form: str, values, *, tol: float = 1e-6, nearest: bool = False) -> np.ndarray:
     """The rotation matrix of ``values`` written in ``form`` (radians).
 
     Parameters
@@ -90,8 +201,9 @@ def rotation_from_form(form: str, values, *, tol: float = 1e-6) -> np.ndarray:
     values : array_like
         9 numbers (the matrix row by row) or a 3x3 array; 3 angles; axis (3) and angle;
         quaternion ``(x, y, z, w)`` (normalised first).
-    tol : float, keyword-only
-        A given matrix must be a rotation within this (:func:`~manipkit.spatial.rotations.check_rotation`).
+    tol, nearest : keyword-only
+        For a matrix, as :func:`rotation_from_matrix` (a matrix within ``tol``
+        of a rotation, or any with ``nearest``, gives its nearest rotation).
 
     Returns
     -------
@@ -120,7 +232,7 @@ def rotation_from_form(form: str, values, *, tol: float = 1e-6) -> np.ndarray:
     if not np.all(np.isfinite(array)):
         raise InvalidRotationError(f"{form}: the numbers must be finite, got {array.tolist()}")
     if form == "matrix":
-        return check_rotation(array.reshape(3, 3), tol=tol)
+        return rotation_from_matrix(array.reshape(3, 3), tol=tol, nearest=nearest).matrix
     if form == "rpy":
         return matrix_from_rpy(array)
     if form == "zyx":

@@ -118,7 +118,7 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
 def load_robot(args, *, mesh_warnings: bool = True) -> Robot:
     """The robot of --robot/--arg/--package-dir; its load warnings go to the warnings channel.
 
-    ``mesh_warnings=False`` leaves out unresolved ``package://`` meshes (the viewer makes them an error).
+    ``mesh_warnings=False`` leaves out unresolved ``package://`` meshes (the viewer says so in one warning).
     """
     import manipkit
 

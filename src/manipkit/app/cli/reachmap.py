@@ -106,6 +106,11 @@ def run_reachmap(args) -> int:
     if args.orientations is not None:
         parse_orientations(args.orientations)
     robot = load_robot(args, mesh_warnings=False) if args.view or args.view_html else load_robot(args)
+    visual = None
+    if args.view or args.view_html:  # the robot's geometry before the long build: missing meshes said (once) up front
+        from manipkit.app.viewer.scene import visual_model
+
+        visual = visual_model(robot)
     reach_map = _build(robot, args, args.base, manipulability=not args.no_manipulability)
     reach_map.save(args.output)
     if args.plot is not None:
@@ -115,7 +120,7 @@ def run_reachmap(args) -> int:
     if args.view_html is not None:
         from manipkit.app.viewer.reachmap_scene import write_reachmap_html
 
-        write_reachmap_html(reach_map, args.view_html, robot=robot)
+        write_reachmap_html(reach_map, args.view_html, robot=robot, visual=visual)
     best = reach_map.best_manipulability()
     if args.format == "json":
         print_json({
@@ -131,15 +136,15 @@ def run_reachmap(args) -> int:
         print(reach_map.summary())
         print(f"wrote {', '.join(printable(str(p)) for p in [args.output, *pictures])}")
     if args.view:
-        _serve_view(reach_map, robot)
+        _serve_view(reach_map, robot, visual)
     return EXIT_OK
 
 
-def _serve_view(reach_map, robot) -> None:
+def _serve_view(reach_map, robot, visual) -> None:
     """Show the map in its own meshcat server until Ctrl-C (or SIGTERM)."""
     from manipkit.app.viewer.reachmap_scene import reachmap_scene, serve_until_stopped
 
-    scene = reachmap_scene(reach_map, robot)
+    scene = reachmap_scene(reach_map, robot, visual=visual)
     print(f"meshcat scene: {scene.url}", flush=True)
     print("reachable voxels coloured by index (the manipulability layer is in meshcat's controls); Ctrl-C stops",
           flush=True)

@@ -2,7 +2,10 @@
 
 The conversions and the singular cases (gimbal lock, ZYZ at theta = 0 or
 180 deg, axis-angle at 0 or 180 deg, the quaternion's sign) come from
-:mod:`manipkit.spatial.forms`; conventions are in docs/architecture.md.
+:mod:`manipkit.spatial.forms`; conventions are in docs/architecture.md. A
+hand-rounded matrix is taken within ``--tol`` or by ``--nearest`` as its nearest
+rotation (:func:`manipkit.spatial.forms.rotation_from_matrix`), and the answer
+says how far that moved.
 """
 
 from __future__ import annotations
@@ -11,7 +14,15 @@ import argparse
 import math
 from pathlib import Path
 
-from manipkit.app.cli.common import EXIT_OK, UsageError, check_angles, check_precision, is_number, print_json
+from manipkit.app.cli.common import (
+    EXIT_OK,
+    UsageError,
+    check_angles,
+    check_precision,
+    check_tolerance,
+    is_number,
+    print_json,
+)
 
 __all__ = ["register", "run_rot"]
 
@@ -42,6 +53,11 @@ def register(commands) -> None:
     rot.add_argument("--to", action="append", choices=_FORMS, metavar="FORM",
                      help="print only this form (repeatable; default: all)")
     rot.add_argument("--precision", type=int, default=6, metavar="N", help="decimals printed (default 6)")
+    rot.add_argument("--tol", type=float, default=1e-6, metavar="TOL",
+                     help="matrix: how far from a rotation it may be (column norms, dot products, det; default 1e-6); "
+                          "one within it is taken as its nearest rotation, and the answer says how far that moved")
+    rot.add_argument("--nearest", action="store_true",
+                     help="matrix: take the nearest rotation (SVD) of any matrix with det > 0, and say how far it moved")
     rot.add_argument("--format", choices=("text", "json"), default="text")
     rot.set_defaults(run=run_rot)
 
@@ -50,12 +66,22 @@ def run_rot(args) -> int:
     """Read the rotation, print every form asked (text or JSON) with the singular cases named."""
     import numpy as np
 
-    from manipkit.spatial.forms import rotation_forms, rotation_from_form
+    from manipkit.spatial.forms import rotation_forms, rotation_from_form, rotation_from_matrix
 
     _split(args)
     check_precision(args.precision)
+    check_tolerance(args.tol)
+    if args.form != "matrix" and (args.nearest or args.tol != 1e-6):
+        raise UsageError(f"--{'nearest' if args.nearest else 'tol'} applies to a matrix; {args.form} always gives a rotation")
     values = _values(args)
-    R = rotation_from_form(args.form, values)
+    taken = None
+    if args.form == "matrix":
+        matrix = np.asarray(values, dtype=float)
+        taken = rotation_from_matrix(matrix.reshape(3, 3) if matrix.size == 9 else matrix, tol=args.tol,
+                                     nearest=args.nearest)
+        R = taken.matrix
+    else:
+        R = rotation_from_form(args.form, values)
     forms = rotation_forms(R)
     wanted = args.to or list(_FORMS)
     scale = math.degrees if args.deg else float
@@ -68,12 +94,14 @@ def run_rot(args) -> int:
         "axis-angle": {"axis": forms.axis.tolist(), "angle": scale(forms.angle)},
         "quaternion": forms.quaternion.tolist(),
     }
+    moved = taken is not None and taken.projected
     if args.format == "json":
+        nearest = {"nearest": {"distance": taken.distance, "largest_change": taken.largest_change}} if moved else {}
         print_json({"input": {"form": args.form, "values": [float(v) for v in np.atleast_1d(values).ravel()]},
-                    "angles": unit, **{form: data[form] for form in wanted},
+                    "angles": unit, **nearest, **{form: data[form] for form in wanted},
                     "notes": {form: note for form, note in forms.notes.items() if form in wanted}})
         return EXIT_OK
-    lines = []
+    lines = [_nearest_line(taken, args)] if moved else []
     for form in wanted:
         lines += _form_lines(form, data[form], unit, args.precision)
         if form in forms.notes:
@@ -82,7 +110,18 @@ def run_rot(args) -> int:
     return EXIT_OK
 
 
-_OPTIONS = {"--deg": None, "--to": _FORMS, "--precision": int, "--format": ("text", "json")}
+def _nearest_line(taken, args) -> str:
+    """What replacing the given matrix by its nearest rotation moved."""
+    from manipkit.text import short_text
+
+    how = "--nearest" if args.nearest else f"within --tol {short_text(args.tol)}"
+    return (f"the given matrix is not exactly a rotation ({how}): the forms are of its nearest rotation (SVD), "
+            f"{short_text(taken.distance, 3)} away (Frobenius norm; largest entry change "
+            f"{short_text(taken.largest_change, 3)})")
+
+
+_OPTIONS = {"--deg": "deg", "--nearest": "nearest", "--to": _FORMS, "--precision": int, "--tol": float,
+            "--format": ("text", "json")}
 
 
 def _split(args) -> None:
@@ -97,8 +136,8 @@ def _split(args) -> None:
             values.append(token)
             continue
         kind = _OPTIONS[name]
-        if kind is None:
-            args.deg = True
+        if isinstance(kind, str):  # a flag
+            setattr(args, kind, True)
             continue
         if not inline and not tokens:
             raise UsageError(f"{name} needs a value")
@@ -108,6 +147,11 @@ def _split(args) -> None:
                 args.precision = int(value)
             except ValueError:
                 raise UsageError(f"--precision {value[:40]}: give a whole number") from None
+        elif kind is float:
+            try:
+                args.tol = float(value)
+            except ValueError:
+                raise UsageError(f"--tol {value[:40]}: give a positive number") from None
         elif value not in kind:
             raise UsageError(f"{name} {value[:40]}: choose one of {', '.join(kind)}")
         elif name == "--to":

@@ -143,7 +143,7 @@ def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None
     overlay = Overlay(bool(ellipsoid), ellipsoid if isinstance(ellipsoid, str) else "velocity", ellipsoid_axes)
     state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     visual = visual_model(robot)
-    scene = MeshcatScene(visual, robot.model, bounds=state.bounds())
+    scene = MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin())
     try:
         return NotebookView(state, scene, visual)
     except BaseException:

@@ -102,11 +102,14 @@ def _draw_map(viewer, reach_map: ReachMap, T_root_base: np.ndarray, *, shown: st
     viewer[MAP_ROOT].set_transform(T_root_base)
 
 
-def reachmap_scene(reach_map: ReachMap, robot: Robot, *, layer: str = "index", bands: int = BANDS) -> MeshcatScene:
+def reachmap_scene(reach_map: ReachMap, robot: Robot, *, layer: str = "index", bands: int = BANDS,
+                   visual=None) -> MeshcatScene:
     """A :class:`MeshcatScene` (its own meshcat server) with the robot at its default pose and the map's voxels.
 
     Triads mark the map's ``base`` and ``frame``; ``layer`` is shown first
-    (the other one is in meshcat's controls, hidden). Close the scene when done.
+    (the other one is in meshcat's controls, hidden). ``visual``: the robot's
+    :func:`visual_model` when loaded already (its missing meshes said once), else loaded here.
+    Close the scene when done.
 
     Raises
     ------
@@ -118,12 +121,14 @@ def reachmap_scene(reach_map: ReachMap, robot: Robot, *, layer: str = "index", b
     voxel_bands(reach_map, layer, bands=1)  # the layer exists, before meshcat starts
     state = ViewerState(robot, frames=(reach_map.base, reach_map.frame))
     T_root_base = robot.transform(robot.root_link, reach_map.base, state.q, check_limits=False)
-    lower, upper = state.bounds()
+    visual = visual_model(robot) if visual is None else visual
+    lower, upper = state.bounds(visual)
+    base = state.base_origin()
+    floor_height = min(float(base[2]), float(lower[2]))  # under the robot; voxels below it show through the grid
     reached = reach_map.centers()[reach_map.reachable] @ T_root_base[:3, :3].T + T_root_base[:3, 3]
     if reached.size:
         lower, upper = np.minimum(lower, reached.min(axis=0)), np.maximum(upper, reached.max(axis=0))
-    visual = visual_model(robot)
-    scene = MeshcatScene(visual, robot.model, bounds=(lower, upper))
+    scene = MeshcatScene(visual, robot.model, bounds=(lower, upper), base=base, floor_height=floor_height)
     try:
         scene.draw(state.scene_placements(visual), state.scene_visibility())
         _draw_map(scene.viewer, reach_map, T_root_base, shown=layer, bands=bands)
@@ -133,7 +138,8 @@ def reachmap_scene(reach_map: ReachMap, robot: Robot, *, layer: str = "index", b
     return scene
 
 
-def write_reachmap_html(reach_map: ReachMap, path, *, robot: Robot, layer: str = "index", bands: int = BANDS) -> Path:
+def write_reachmap_html(reach_map: ReachMap, path, *, robot: Robot, layer: str = "index", bands: int = BANDS,
+                        visual=None) -> Path:
     """Write :func:`reachmap_scene` as meshcat's standalone HTML page (opens without a server); returns the path.
 
     Raises
@@ -142,7 +148,7 @@ def write_reachmap_html(reach_map: ReachMap, path, *, robot: Robot, layer: str =
         ``cannot write PATH: reason`` (checked before meshcat starts).
     """
     path = writable_path(path)
-    with reachmap_scene(reach_map, robot, layer=layer, bands=bands) as scene:
+    with reachmap_scene(reach_map, robot, layer=layer, bands=bands, visual=visual) as scene:
         html = scene.static_html()
     return write_text(path, html)
 

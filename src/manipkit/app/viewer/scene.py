@@ -16,6 +16,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import io
+import math
 import queue
 import subprocess
 import sys
@@ -31,12 +32,111 @@ from manipkit.errors import ViewerError
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["TRIAD_DOTS", "MeshcatScene", "visual_model"]
+__all__ = ["CAMERA_AZIMUTH_DEG", "CAMERA_ELEVATION_DEG", "CAMERA_FOV_DEG", "FRAME_FILL", "TRIAD_DOTS", "MeshcatScene",
+           "camera_distance", "floor_lines", "visual_model"]
+
+#: The opening view: from the direction between +x and +y (45 deg), looking down 30 deg at the robot's centre.
+CAMERA_AZIMUTH_DEG = 45.0
+CAMERA_ELEVATION_DEG = 30.0
+#: meshcat's camera: a perspective camera with this vertical field of view.
+CAMERA_FOV_DEG = 75.0
+#: The robot's box fills at most this fraction of the half field of view (in a square window; a wider one has room).
+FRAME_FILL = 0.85
 
 
 def visual_model(robot: Robot):
-    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel`` (:meth:`Robot.visual_model`)."""
-    return robot.visual_model()
+    """The robot's ``<visual>`` geometry as a Pinocchio ``GeometryModel`` (:meth:`Robot.visual_model`).
+
+    Links whose mesh files are missing are drawn by their collision shapes or as
+    lines between joint origins, with one :class:`~manipkit.description.meshes.MissingMeshWarning`
+    (``Robot.visual_model(missing_meshes="draw")``): a view without meshes beats no view.
+    """
+    return robot.visual_model(missing_meshes="draw")
+
+
+# ----------------------------------------------------------------------
+# Framing: the camera and the floor
+# ----------------------------------------------------------------------
+
+
+def _camera_axes(azimuth_deg: float, elevation_deg: float):
+    """Unit vectors (root frame): towards the camera from its target, the view's right, the view's up."""
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    back = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+    right = np.array([-math.sin(a), math.cos(a), 0.0])
+    return back, right, np.cross(back, right)
+
+
+def camera_distance(lower, upper, *, azimuth_deg: float = CAMERA_AZIMUTH_DEG,
+                    elevation_deg: float = CAMERA_ELEVATION_DEG, fov_deg: float = CAMERA_FOV_DEG,
+                    fill: float = FRAME_FILL) -> float:
+    """How far from the box's centre a camera looking at it must be for all 8 corners to be in the picture (m).
+
+    The camera looks at the centre of the box ``lower``..``upper`` from
+    ``azimuth_deg`` (from +x towards +y) and ``elevation_deg`` above the
+    horizontal; a corner at ``x`` right, ``y`` up and depth ``z`` is inside when
+    ``|x|, |y| <= fill * tan(fov / 2) * z`` (a square window: a wider one shows more).
+
+    Examples
+    --------
+    >>> d = camera_distance([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], elevation_deg=0.0, azimuth_deg=0.0, fill=1.0)
+    >>> round(d, 6) == round(0.5 + 0.5 / math.tan(math.radians(37.5)), 6)  # the near face's corners bound it
+    True
+    """
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    back, right, up = _camera_axes(azimuth_deg, elevation_deg)
+    half = (upper - lower) / 2
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)]) * half
+    slope = fill * math.tan(math.radians(fov_deg) / 2)
+    needed = corners @ back + np.maximum(np.abs(corners @ right), np.abs(corners @ up)) / slope
+    return max(float(needed.max()), 0.1)
+
+
+def _step_125(value: float) -> float:
+    """The nearest of 1, 2 or 5 times a power of ten to ``value`` (on a log scale)."""
+    power = 10.0 ** math.floor(math.log10(value))
+    return min((m * power for m in (1.0, 2.0, 5.0, 10.0)), key=lambda step: abs(math.log(value / step)))
+
+
+def floor_lines(lower, upper, base, height: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The floor grid: line segments one cell long in the plane under the base, sized to the robot.
+
+    The floor is horizontal at ``height`` (default: the lower of the base's
+    height and the box's bottom), centred under ``base`` (root frame); it reaches as far from the
+    base as the farthest corner of the box (rounded up to whole cells), in
+    cells of 1, 2 or 5 times a power of ten, about a fifth of that reach.
+    Segments one cell long (not lines across the grid) draw correctly even
+    where the grid passes behind the camera.
+
+    Returns
+    -------
+    points : ndarray, shape (2 N, 3)
+        Segment ends, pairwise (root frame, m).
+    colours : ndarray, shape (2 N, 3)
+        RGB in 0..1: the two lines through the base darker.
+    step, half : float
+        Cell size and half width (m).
+    """
+    lower, upper, base = (np.asarray(v, dtype=float) for v in (lower, upper, base))
+    corners = np.array([[x, y, z] for x in (lower[0], upper[0]) for y in (lower[1], upper[1])
+                        for z in (lower[2], upper[2])])
+    reach = max(float(np.linalg.norm(corners - base, axis=1).max()), 0.1)
+    step = _step_125(reach / 5)
+    cells = int(math.ceil(reach / step - 1e-9))
+    half = cells * step
+    ticks = np.arange(-cells, cells + 1) * step
+    height = min(float(base[2]), float(lower[2])) if height is None else float(height)
+    starts, ends, through = [], [], []
+    for k, tick in enumerate(ticks):
+        for a, b in zip(ticks[:-1], ticks[1:]):
+            starts += [(tick, a), (a, tick)]  # a segment along y at x = tick, one along x at y = tick
+            ends += [(tick, b), (b, tick)]
+            through += [k == cells] * 2
+    starts, ends = np.array(starts) + base[:2], np.array(ends) + base[:2]
+    points = np.empty((2 * len(starts), 3))
+    points[0::2, :2], points[1::2, :2], points[:, 2] = starts, ends, height
+    colours = np.where(np.repeat(through, 2)[:, None], 0.27, 0.55) * np.ones(3)
+    return points, colours, step, half
 
 
 # ----------------------------------------------------------------------
@@ -69,10 +169,18 @@ class MeshcatScene:
         ``robot.model`` (Pinocchio's visualizer wants it).
     bounds : (lower, upper), keyword-only
         Box around the robot (m, root frame; :meth:`ViewerState.bounds`): the
-        camera orbits its centre and the triads are sized from it.
+        camera orbits its centre and opens where the whole box is in the
+        picture (:func:`camera_distance`); the floor and the triads are sized from it.
+    base : (3,) array_like, keyword-only
+        Where the robot stands (root frame, m; default the root's origin): the
+        floor grid lies under it (:func:`floor_lines`), replacing meshcat's
+        fixed 20 m grid at the root's height.
+    floor_height : float, keyword-only
+        The floor's height (root frame, m); default the lower of the base's and the box's bottom.
     """
 
-    def __init__(self, visual, model, *, bounds=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))):
+    def __init__(self, visual, model, *, bounds=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), base=(0.0, 0.0, 0.0),
+                 floor_height: float | None = None):
         with warnings.catch_warnings():  # meshcat 0.3 imports a deprecated pyzmq module
             warnings.simplefilter("ignore", DeprecationWarning)
             import meshcat
@@ -106,16 +214,23 @@ class MeshcatScene:
             self.viewer[ELLIPSOID_PATH].set_object(
                 mg.Sphere(1.0), mg.MeshLambertMaterial(color=ELLIPSOID_COLOUR, opacity=0.35, transparent=True))
             self.viewer[ELLIPSOID_PATH].set_property("visible", False)
+            # The floor: meshcat's grid (20 m, at the root's height) replaced by one under the base, sized to
+            # the robot; it stays meshcat's "Grid" node, so meshcat's controls still show and hide it.
+            points, colours, _, _ = floor_lines(lower, upper, base, floor_height)
+            self.viewer["/Grid"].set_object(mg.LineSegments(
+                mg.PointsGeometry(points.T.astype(np.float32), colours.T.astype(np.float32)),
+                mg.LineBasicMaterial(vertexColors=True)))
             # meshcat's camera orbits the origin: shift the robot, the grid and the axes so that the
             # robot's centre sits there (the scene keeps its own geometry: the shift is one transform).
             shift = np.eye(4)
             shift[:3, 3] = -(lower + upper) / 2
             for root in ("/meshcat", "/Grid", "/Axes"):
                 self.viewer[root].set_transform(shift)
-            # The camera node is y-up: its position is (x, z, -y) in the robot's frame.
-            distance = 1.1 * size
-            self.viewer["/Cameras/default/rotated/<object>"].set_property(
-                "position", [1.0 * distance, 0.6 * distance, 0.8 * distance])
+            # The camera looks at the centre from a three-quarter view, down CAMERA_ELEVATION_DEG, far enough for
+            # the whole box. The camera node is y-up: its position is (x, z, -y) in the robot's frame.
+            back, _, _ = _camera_axes(CAMERA_AZIMUTH_DEG, CAMERA_ELEVATION_DEG)
+            x, y, z = camera_distance(lower - length, upper + length) * back  # the triads' arms in the picture too
+            self.viewer["/Cameras/default/rotated/<object>"].set_property("position", [x, z, -y])
         except BaseException:
             self.close()
             raise

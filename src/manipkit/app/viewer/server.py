@@ -475,14 +475,15 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
     ------
     ManipkitError
         Unknown frames or joint values, then ``port P is in use; ...`` (both
-        before anything starts), meshes not found.
+        before anything starts); Pinocchio cannot read a mesh file (a missing one is drawn another way, with
+        one ``MissingMeshWarning``).
     """
     state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     server = ViewerServer(port, host=host)
     scene = None
     try:
         visual = visual_model(robot)
-        scene = MeshcatScene(visual, robot.model, bounds=state.bounds())
+        scene = MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin())
         server.attach(state, scene, visual)
         return server.start()
     except BaseException:
@@ -507,7 +508,7 @@ def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES
     path = writable_path(path)
     state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
     visual = visual_model(robot)
-    with MeshcatScene(visual, robot.model, bounds=state.bounds()) as scene:
+    with MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin()) as scene:
         scene.draw(state.scene_placements(visual), state.scene_visibility())
         html = scene.static_html()
     return write_text(path, html)

@@ -285,12 +285,34 @@ class ViewerState:
             placements[ELLIPSOID_PATH] = self.ellipsoid_placement()
         return placements
 
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self, visual_model=None) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper corners (m, root frame) of the box around every frame origin at the current pose.
 
-        Used to aim the camera and size the triads.
+        With ``visual_model`` (from :func:`visual_model`) the box holds the
+        visual geometry too: each object's own bounding box (coal's local
+        AABB, mesh scale applied) placed where :meth:`geometry_placements` puts
+        it. Used to aim the camera, lay the floor and size the triads.
         """
-        return self._box(self._q)
+        lower, upper = self._box(self._q)
+        if visual_model is None:
+            return lower, upper
+        unit = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=float)
+        for geometry, T in zip(visual_model.geometryObjects, self.robot.geometry_placements(visual_model, self._q)):
+            T = T * np.append(geometry.meshScale, 1.0)  # as geometry_placements draws it
+            shape = geometry.geometry
+            if shape is None:
+                continue
+            shape.computeLocalAABB()
+            low, high = np.asarray(shape.aabb_local.min_, dtype=float), np.asarray(shape.aabb_local.max_, dtype=float)
+            if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+                continue  # a half-space or plane has no box
+            corners = (low + unit * (high - low)) @ T[:3, :3].T + T[:3, 3]
+            lower, upper = np.minimum(lower, corners.min(axis=0)), np.maximum(upper, corners.max(axis=0))
+        return lower, upper
+
+    def base_origin(self) -> np.ndarray:
+        """Where the robot stands: the origin of ``base_link`` (:attr:`Robot.base_link`) in the root frame (m), at the current pose."""
+        return self.robot.transform(self.robot.root_link, self.robot.base_link, self._q, check_limits=False)[:3, 3]
 
     def _box(self, q) -> tuple[np.ndarray, np.ndarray]:
         root = self.robot.root_link
