@@ -327,6 +327,20 @@ def _name(value, what: str) -> str:
     return value
 
 
+_COLLISION_KEYS = frozenset({"checked", "floor", "geometry", "srdf", "disabled_pairs"})  # CollisionSettings.as_dict
+
+
+def _setting(value) -> bool:
+    """A plain setting (number, name, flag or none), or the collision settings' table of them."""
+    if isinstance(value, dict):
+        return len(value) <= 16 and all(_setting(v) or _names(v) for v in value.values())
+    return isinstance(value, str | int | float | bool | None)
+
+
+def _names(value) -> bool:
+    return isinstance(value, list) and len(value) <= 16 and all(isinstance(v, str) for v in value)
+
+
 def _checked_attributes(meta) -> dict:
     """The root attributes as Python values, every one checked (types, finite, ranges, kinds, consistency)."""
     from manipkit.analysis.orientations import planar_orientations, spatial_orientations
@@ -371,8 +385,12 @@ def _checked_attributes(meta) -> dict:
             raise _Invalid("a planar map's axes must be (u, axis x u, axis) of its orientations")
         out["orientations"] = planar_orientations(n_roll, axis, u, tool_axis, tool_vector)
     settings = a.get("settings")
-    if not isinstance(settings, dict) or not all(isinstance(v, str | int | float | bool | None) for v in settings.values()):
+    if not isinstance(settings, dict) or not all(_setting(v) for v in settings.values()):
         raise _Invalid("settings must be a table of numbers, names and flags")
+    collisions = settings.get("collisions")
+    if collisions is not None and not (isinstance(collisions, dict) and set(collisions) <= _COLLISION_KEYS
+                                       and all(_setting(v) or _names(v) for v in collisions.values())):
+        raise _Invalid(f"settings.collisions must be a table of {', '.join(sorted(_COLLISION_KEYS))}")
     for key in ("samples", "seed"):
         if key in settings:
             _whole(settings[key], f"settings.{key}", 0, 2**63 - 1)
