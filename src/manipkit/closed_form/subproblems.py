@@ -172,8 +172,9 @@ def sp2(k1, p1, k2, p2, *, tol: float = TOL) -> Answer:
 
     ``t1`` rotates ``p1`` into the cone ``k2 . x = k2 . p2`` (:func:`sp4`),
     then ``t2`` takes ``p2`` onto it (:func:`sp1`). Up to two pairs; ``inf``
-    when ``t1`` is free (``p1`` on ``k1``, or ``k1`` along ``k2`` with the
-    cone met everywhere: the second angle then follows from the first);
+    when an angle is free (``p1`` on ``k1``, or ``k1`` along ``k2`` with the
+    cone met everywhere: ``t1`` free, ``t2`` follows; ``p2`` on ``k2`` and
+    met: ``t2`` free, held 0);
     ``miss`` is ``|R1 p1 - R2 p2|`` of the best pair (unequal lengths never
     meet).
 
@@ -192,5 +193,6 @@ def sp2(k1, p1, k2, p2, *, tol: float = TOL) -> Answer:
     exact = miss <= tol * np.maximum(1.0, np.linalg.norm(p1, axis=-1))[..., None]
     count = first.count
     count = np.where(np.isfinite(count) & (count > 0) & ~exact[..., 0], 0.0, count)
+    count = np.where((count > 0) & free[..., 0], np.inf, count)  # p2 on k2 (and met): t2 is free
     best = np.min(miss, axis=-1)
     return Answer(theta, count, np.where(count == 0.0, np.maximum(best, first.miss), 0.0))

@@ -1,0 +1,378 @@
+"""Every closed-form IK solution of a chain, from its own geometry: :func:`chain_ik` and :func:`chain_ik_many`.
+
+The chain (``robot.chain(base, tip)``, any base and tip frames: ``tool0``,
+``flange``, a TCP beyond the last joint, a base above the first joint) is
+classified by :func:`manipkit.closed_form.families.chain_family`; its axes
+at the reference configuration ``q0`` and its tip pose there, ``M``, make
+the product of exponentials ``T_base_tip(q) = E_1 ... E_6 M`` in which the
+base and tip offsets are folded exactly. :mod:`manipkit.closed_form.arms`
+gives every branch; each is then:
+
+- mapped to joint values ``q = q0 + angle / scale`` and, for a revolute
+  joint, to the alias ``q + 2 pi k`` inside the limits nearest 0 (a joint
+  whose range spans more than 2 pi has others: the note says so); a row
+  outside the limits is kept and marked (``within_limits`` False);
+- checked by the chain's compiled forward kinematics (``chain.fk``, not
+  the solver's algebra); a row that misses by more than ``check_tol`` (a
+  calibrated arm solved on its nearest ideal arm, or rounding) is refined by
+  Newton steps on the true chain, and ``refined`` says by how far (rad or
+  m, the joint-space step); rows that still miss are dropped and counted
+  in ``rejected``;
+- labelled ``"front|back, elbow up|down, no flip|wrist flip"`` (shoulder:
+  the wrist centre on the side of axis 1 where it is at ``q0``, or the
+  other; elbow: above or below the shoulder-wrist line, "above" along axis
+  1 turned to point up the base z; wrist: the angle of the middle wrist
+  joint from ``q0`` >= 0 or < 0).
+
+A singular target (the wrist's first and last axes aligned, the wrist
+centre on axis 1, axis 6 along the parallel axes of a UR arm) gives rows
+standing for a one-parameter family: ``count`` is infinite, ``free_joints``
+and ``free_parameter`` name the joint held at its ``q0`` value, and
+``family`` says which combination is determined.
+
+Given a chain object; never imports the kinematics layer (docs/architecture.md, "Layers").
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
+from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.families import (
+    FAMILY_TOL,
+    OPW,
+    SPHERICAL_12,
+    UR,
+    Family,
+    chain_family,
+    common_point,
+    reversed_geometry,
+)
+from manipkit.closed_form.subproblems import rotate
+from manipkit.errors import ClosedFormIKError
+from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
+from manipkit.spatial.rotations import axis_angle_from_matrix
+from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
+
+__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm"]
+
+#: Residual (m and rad) within which a row's forward kinematics must reach the target.
+CHECK_TOL = 1e-10
+TWO_PI = 2.0 * math.pi
+
+
+class IdealArm:
+    """The nearest ideal arm of a family: axes made exactly parallel or concurrent, in the solve direction.
+
+    ``h``, ``p`` (6, 3): directions and points; ``points``: the wrist centre
+    (and shoulder point) the solver needs; ``moved``: the largest change of
+    an axis (m for a point, rad for a direction) from the measured chain.
+    """
+
+    __slots__ = ("family", "h", "p", "points", "moved")
+
+    def __init__(self, family: Family):
+        geometry = reversed_geometry(family.geometry) if family.reversed else family.geometry
+        h, p = geometry.direction.copy(), geometry.point.copy()
+        moved = 0.0
+        points = {}
+        if family.kind in (OPW, SPHERICAL_12):
+            c, miss = common_point(h[3:6], p[3:6])
+            p[3:6] = c
+            points["wrist"] = c
+            moved = max(moved, miss)
+        if family.kind == OPW:
+            moved = max(moved, _align(h, (1, 2)))
+        if family.kind == UR:
+            moved = max(moved, _align(h, (1, 2, 3)))
+            c, miss = common_point(h[4:6], p[4:6])
+            p[4:6] = c
+            points["wrist"] = c
+            moved = max(moved, miss)
+        if family.kind == SPHERICAL_12:
+            s, miss = common_point(h[0:2], p[0:2])
+            p[0:2] = s
+            points["shoulder"] = s
+            moved = max(moved, miss)
+        self.family, self.h, self.p, self.points, self.moved = family, h, p, points, moved
+
+
+def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
+    """Make the axes ``indices`` of ``h`` exactly parallel (their signed mean); the largest angle turned (rad)."""
+    first = h[indices[0]]
+    signs = [1.0 if h[i] @ first >= 0 else -1.0 for i in indices]
+    mean = sum(s * h[i] for s, i in zip(signs, indices))
+    mean = mean / np.linalg.norm(mean)
+    turned = 0.0
+    for s, i in zip(signs, indices):
+        turned = max(turned, math.atan2(float(np.linalg.norm(np.cross(h[i], s * mean))), float(h[i] @ (s * mean))))
+        h[i] = s * mean
+    return turned
+
+
+def ideal_arm(family: Family) -> IdealArm:
+    """The nearest ideal arm of ``family`` (see :class:`IdealArm`); :class:`ClosedFormIKError` if it has no solver."""
+    if not family.solved:
+        raise ClosedFormIKError(family.note)
+    return IdealArm(family)
+
+
+def _branches(arm: IdealArm, T: np.ndarray) -> tuple[np.ndarray, Branches, np.ndarray]:
+    """(theta (N, 8, 6) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
+    family = arm.family
+    g = T @ invert_transform(family.geometry.M)
+    if family.reversed:
+        g = invert_transform(g)
+    branches = solve_6r(family.kind, arm.h, arm.p, g, arm.points)
+    theta = branches.theta[..., ::-1] if family.reversed else branches.theta
+    return theta, branches, g
+
+
+def _aliases(chain: Chain, Q: np.ndarray) -> np.ndarray:
+    """Each revolute entry moved by whole turns to the in-limit value nearest 0 (wrapped to (-pi, pi] if none / continuous)."""
+    Q = Q.copy()
+    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
+    wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
+    best = wrapped.copy()
+    found = (wrapped >= lower - 1e-12) & (wrapped <= upper + 1e-12)
+    for k in (1, -1, 2, -2):
+        candidate = wrapped + k * TWO_PI
+        inside = (candidate >= lower - 1e-12) & (candidate <= upper + 1e-12) & ~found
+        best = np.where(inside, candidate, best)
+        found |= inside
+    return best
+
+
+def _log(R: np.ndarray) -> np.ndarray:
+    axis, angle = axis_angle_from_matrix(R, check=False)
+    return np.asarray(axis) * float(angle)
+
+
+def _newton(chain: Chain, T: np.ndarray, q: np.ndarray, max_iters: int, tol: float) -> np.ndarray:
+    """``q`` moved by Newton steps on the chain's FK and Jacobian until the pose error is below ``tol``."""
+    for _ in range(max_iters):
+        reached = chain.fk(q)
+        error = np.concatenate([T[:3, 3] - reached[:3, 3], _log(T[:3, :3] @ reached[:3, :3].T)])
+        if np.max(np.abs(error)) <= tol:
+            break
+        q = q + np.linalg.lstsq(chain.jacobian(q), error, rcond=None)[0]
+    return q
+
+
+def _label(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> str:
+    """Shoulder, elbow and wrist of one branch (angles in the solve direction), as words."""
+    h, p = arm.h, arm.p
+    kind = arm.family.kind
+    c = arm.points["wrist"]
+    w = g[:3, :3] @ c + g[:3, 3]
+    s = arm.points.get("shoulder", p[1])
+    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
+    reference = reference - (reference @ h[1]) * h[1]
+    if np.linalg.norm(reference) < 1e-9:
+        reference = np.cross(h[0], h[1])
+    w1 = p[0] + rotate(h[0], -theta[0], w - p[0])
+    shoulder = "front" if (w1 - p[0]) @ reference >= 0.0 else "back"
+    up = h[0] if h[0][2] >= 0.0 else -h[0]
+    E1 = rotation_matrix(h[0], theta[0])
+    shoulder_point = p[0] + E1 @ (s - p[0])
+    elbow = p[0] + E1 @ (p[1] + rotate(h[1], theta[1], p[2] - p[1]) - p[0])
+    wrist = w
+    if kind == UR:  # the point on axis 4, moved
+        E3p4 = p[2] + rotate(h[2], theta[2], p[3] - p[2])
+        wrist = p[0] + E1 @ (p[1] + rotate(h[1], theta[1], E3p4 - p[1]) - p[0])
+    normal = E1 @ h[1]  # the arm's plane is normal to axis 2: compare within it
+    line = wrist - shoulder_point
+    line = line - (line @ normal) * normal
+    offset = elbow - shoulder_point
+    offset = offset - (offset @ normal) * normal
+    if line @ line > 0.0:
+        offset = offset - (offset @ line) / (line @ line) * line
+    elbow_word = "elbow up" if offset @ up >= 0.0 else "elbow down"
+    wrist_word = "no flip" if theta[4] >= 0.0 else "wrist flip"
+    return f"{shoulder}, {elbow_word}, {wrist_word}"
+
+
+def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
+    if free == 3:
+        return (f"wrist singular (axes 4 and 6 aligned): only {names[3]} and {names[5]} together are determined; "
+                f"the row holds {names[3]} at its reference value")
+    if free == 5:
+        return (f"wrist singular (axis 6 parallel to axes 2, 3, 4): {names[5]} with {names[1]}, {names[2]}, "
+                f"{names[3]} is not determined; the row holds {names[5]} at its reference value")
+    if free == 0:
+        return f"shoulder singular (the wrist centre on axis 1): {names[0]} is free; the row holds it at its reference value"
+    return f"{names[free]} is free at this target; the row holds it at its reference value"
+
+
+def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
+             max_iters: int = 20) -> IKResult:
+    """Every closed-form IK solution of ``chain`` for ``T_base_tip = target``, found from the chain's geometry.
+
+    Parameters
+    ----------
+    chain : manipkit.kinematics.chain.Chain
+        ``robot.chain(base, tip)``: the answer is for these frames exactly.
+    target : array_like, shape (4, 4)
+        ``T_base_tip`` (metres).
+    family : Family, keyword-only
+        A family found before (:func:`chain_family`); found here otherwise with ``tol``.
+    tol : float or (float, float), keyword-only
+        The family tolerance (m, rad), as :func:`chain_family` takes it.
+    check_tol : float or (float, float), keyword-only
+        Residual (m, rad) a row's FK must reach; rows missing by more are refined.
+    max_iters : int, keyword-only
+        Newton steps at most per refined row.
+
+    Returns
+    -------
+    IKResult
+        Rows are chain vectors in ``chain.joint_names`` order, with
+        ``labels``, ``within_limits`` and ``refined`` per row.
+
+    Raises
+    ------
+    ClosedFormIKError
+        The chain has no geometric closed form (the message gives the measured misses).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> chain = manipkit.load("ur5").chain("base_link", "tool0")
+    >>> result = chain_ik(chain, chain.fk([0.1, -1.2, 1.4, -0.3, 1.1, 0.5]))
+    >>> result.count, result.labels[0], bool(result.residual_position.max() < 1e-10)
+    (8, 'front, elbow up, no flip', True)
+    """
+    # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
+    family = chain_family(chain, tol=tol) if family is None else family
+    arm = ideal_arm(family)
+    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    T = check_transform(target, what="IK target")
+    theta, branches, g = _branches(arm, T[None])
+    geometry = family.geometry
+    names = tuple(chain.joint_names)
+    valid = branches.valid[0]
+    rows, labels, free_of, refined, rejected = [], [], [], [], 0
+    worst = 0.0
+    for slot in np.flatnonzero(valid):
+        q = geometry.q0 + theta[0, slot] / geometry.scale
+        q = _aliases(chain, q)
+        position, rotation = pose_residuals(T, chain.fk(q))
+        moved = 0.0
+        if position > check[0] or rotation > check[1]:
+            better = _newton(chain, T, q, max_iters, 0.1 * min(check))
+            moved = float(np.max(np.abs(better - q)))
+            q = _aliases(chain, better)
+            position, rotation = pose_residuals(T, chain.fk(q))
+        if position > check[0] or rotation > check[1]:
+            rejected += 1
+            worst = max(worst, float(position), float(rotation))
+            continue
+        free = int(branches.free[0, slot])
+        if family.reversed and free >= 0:
+            free = 5 - free
+        if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
+            continue
+        solve_theta = branches.theta[0, slot]
+        rows.append(q)
+        labels.append(_label(arm, g[0], solve_theta) + (" (read tip to base)" if family.reversed else ""))
+        free_of.append(free)
+        refined.append(moved)
+    order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first
+    rows, labels, free_of, refined = ([seq[i] for i in order] for seq in (rows, labels, free_of, refined))
+    n = len(names)
+    Q = np.array(rows, dtype=float).reshape(-1, n)
+    residuals = pose_residuals(T, chain.fk(Q)) if len(rows) else (np.zeros(0), np.zeros(0))
+    within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(rows) else np.zeros(0, dtype=bool)
+    free_joints = tuple(sorted({f for f in free_of if f >= 0}))
+    count: int | float = math.inf if free_joints else len(rows)
+    solver = f"closed_form.chain_ik ({family.kind})"
+    parts = [f"{len(rows)} {'row(s) (one-parameter families among them)' if free_joints else 'solution(s)'} "
+             f"of the {family.kind} closed form"]
+    if len(rows) and not within.all():
+        parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
+    if any(m > 0 for m in refined):
+        parts.append(f"refined by Newton on the true chain (ideal arm {quantity_text(arm.moved)} m/rad away, "
+                     f"largest step {quantity_text(max(refined))})")
+    wide = [names[k] for k in range(n) if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
+    if wide and len(rows):
+        parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if rejected:
+        parts.append(f"{rejected} branch(es) dropped: FK missed by {quantity_text(worst)} > check_tol after refinement")
+    unmet = ()
+    outside_by = 0.0
+    if not rows:
+        unmet, words = _unmet(branches, rejected)
+        outside_by = float(branches.miss["reach"][0])
+        parts = ["no solution: " + words] + parts[1:]
+    family_words = "; ".join(dict.fromkeys(_family_text(names, f, family.kind) for f in free_joints))
+    return IKResult(
+        read_only(Q, (n,)), tuple(labels), count, "; ".join(parts),
+        read_only(np.atleast_1d(residuals[0])), read_only(np.atleast_1d(residuals[1])),
+        mode=SPATIAL_POSE, solver=solver, joint_names=names,
+        free_parameter=", ".join(names[f] for f in free_joints), family=family_words, free_joints=free_joints,
+        unmet=unmet, rejected=rejected, outside_by=outside_by, within_limits=within,
+        refined=np.array(refined, dtype=float),
+    )
+
+
+def _label_order(label: str) -> tuple[bool, bool, bool]:
+    return ("back" in label, "elbow down" in label, "wrist flip" in label)
+
+
+def _same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> bool:
+    difference = np.pi - np.mod(np.pi - (a - b), TWO_PI)
+    return bool(np.all(np.abs(difference) <= tol))
+
+
+def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
+    """((component, size), ...) and words for a target with no branch."""
+    miss = {k: float(v[0]) for k, v in branches.miss.items()}
+    if miss["shoulder"] > 0.0:
+        return (("shoulder", miss["shoulder"]),), (
+            f"shoulder: the wrist centre cannot be turned into the arm's plane (misses by {quantity_text(miss['shoulder'])} m;"
+            " it lies closer to axis 1 than the arm's lateral offset)")
+    if miss["reach"] > 0.0:
+        return (("reach", miss["reach"]),), (
+            f"reach: the wrist centre is out of the elbow's reach by {quantity_text(miss['reach'])} m")
+    if miss["orientation"] > 0.0:
+        return (("orientation", miss["orientation"]),), "orientation: the wrist cannot turn the tool to the target"
+    return (), f"every branch missed the target by more than check_tol ({rejected} dropped)"
+
+
+def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL) -> IKBatch:
+    """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
+
+    Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
+    branch does not exist. Revolute entries are the in-limit aliases nearest
+    0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
+    carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
+    and ``success`` are measured by the chain's compiled FK on first use,
+    against ``check_tol``.
+    """
+    family = chain_family(chain, tol=tol) if family is None else family
+    arm = ideal_arm(family)
+    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    theta, branches, _ = _branches(arm, T)
+    geometry = family.geometry
+    Q = _aliases(chain, geometry.q0 + theta / geometry.scale)
+    Q = np.where(branches.valid[..., None], Q, np.nan)
+    count = branches.valid.sum(axis=-1).astype(float)
+    count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
+
+    def measure(solutions):
+        filled = np.where(np.isnan(solutions), 0.0, solutions)
+        position, rotation = pose_residuals(T[:, None], chain.fk(filled))
+        missing = np.isnan(solutions).any(axis=-1)
+        return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
+
+    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
+    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=f"closed_form.chain_ik_many ({family.kind})",
+                   joint_names=tuple(chain.joint_names), measure=measure, limit=check)
