@@ -53,7 +53,9 @@ __all__ = [
     "Geometry",
     "Relation",
     "chain_family",
+    "common_point",
     "reference_configuration",
+    "reversed_geometry",
 ]
 
 #: Default tolerance (m, rad) within which axes count as meeting or parallel.
