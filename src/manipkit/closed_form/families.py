@@ -181,7 +181,8 @@ def reference_configuration(lower, upper) -> np.ndarray:
     """``q0``: zero where zero is inside a joint's limits, else the middle of its limits."""
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     inside = (lower <= 0.0) & (upper >= 0.0)
-    middle = np.where(np.isfinite(lower) & np.isfinite(upper), 0.5 * (lower + upper), 0.0)
+    finite = np.isfinite(lower) & np.isfinite(upper)
+    middle = 0.5 * (np.where(finite, lower, 0.0) + np.where(finite, upper, 0.0))
     return np.where(inside, 0.0, middle)
 
 

@@ -33,7 +33,7 @@ from manipkit.spatial.transforms import check_transform, pose_residuals
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many"]
+__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many", "closed_form_solves"]
 
 
 @dataclass(frozen=True)
@@ -339,3 +339,31 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
         raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
     return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerances(tol))
+
+
+def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",
+                       family_tol=FAMILY_TOL) -> str:
+    """What :func:`analytic_ik` solves for these frames in ``mode`` (``""``: it does not; use numerical IK).
+
+    ``"named"`` for a bundled textbook arm between ``base_link`` and
+    ``ee_link`` whose solver answers ``mode``; the family's kind (e.g.
+    ``"three parallel, two intersecting"``) for a chain with a geometric
+    6R closed form and ``mode`` ``"pose"``.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> closed_form_solves(manipkit.load("ur5"), "base_link", "tool0"), closed_form_solves(manipkit.load("iiwa14"))
+    ('three parallel, two intersecting', '')
+    """
+    arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
+    if arm is not None and (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link")):
+        position_ok = arm.planar or SPATIAL_POSITION in arm.solves
+        return "named" if mode == "pose" or (mode == "position" and position_ok) else ""
+    if mode != "pose":
+        return ""
+    try:
+        family = chain_family(robot.chain(base, tip), tol=family_tol)
+    except ClosedFormIKError:
+        return ""
+    return family.kind if family.solved else ""

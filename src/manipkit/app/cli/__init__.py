@@ -14,7 +14,7 @@ and the limits, unless ``--clamp`` is given.
 
 One module per command group, each with ``register(commands)`` adding its
 subparser(s) and the ``run_*`` functions they call: :mod:`.tf`,
-:mod:`.robots` (robots, frames), :mod:`.tree`, :mod:`.dh`, :mod:`.ik`,
+:mod:`.robots` (robots, frames), :mod:`.tree`, :mod:`.dh`, :mod:`.ik`, :mod:`.family`,
 :mod:`.workspace`, :mod:`.view`; the options they share are in
 :mod:`.common`. How to add a command: docs/architecture.md.
 
@@ -50,11 +50,11 @@ def tf_between_main(argv=None) -> int:
 
 
 def _main_parser() -> argparse.ArgumentParser:
-    from manipkit.app.cli import dh, ik, reachmap, robots, rot, singularities, tf, tree, velocity, view, workspace
+    from manipkit.app.cli import dh, family, ik, reachmap, robots, rot, singularities, tf, tree, velocity, view, workspace
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    groups = (tf, robots, tree, dh, ik, velocity, singularities, workspace, reachmap, view, rot)  # `manipkit --help` order
+    groups = (tf, robots, tree, dh, ik, family, velocity, singularities, workspace, reachmap, view, rot)  # `manipkit --help` order
     for group in groups:
         group.register(commands)
     return parser
