@@ -50,7 +50,20 @@ def tf_between_main(argv=None) -> int:
 
 
 def _main_parser() -> argparse.ArgumentParser:
-    from manipkit.app.cli import dh, family, ik, reachmap, robots, rot, singularities, tf, tree, velocity, view, workspace
+    from manipkit.app.cli import (
+        dh,
+        family,
+        ik,
+        reachmap,
+        robots,
+        rot,
+        singularities,
+        tf,
+        tree,
+        velocity,
+        view,
+        workspace,
+    )
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
