@@ -216,3 +216,38 @@ def test_calibrated_ur5_is_solved_on_its_ideal_arm_refined_and_checked(tmp_path)
         assert result.refined.min() > 0.0 and "refined by Newton" in result.note
         for s in result.solutions:
             assert pose_gap(pinocchio_pose(robot, "base_link", "tool0", chain.full(s)), T) < 1e-10
+
+
+def six_r_urdf(name: str, joints: list[tuple[str, str]], tip: str) -> str:
+    """A 6R arm: (origin xyz, axis xyz) per joint, each child link following the last, and the tool frame."""
+    links = "".join(f'<link name="l{i}"/>' for i in range(7)) + '<link name="tool"/>'
+    body = "".join(
+        f'<joint name="j{i + 1}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
+        f'<origin xyz="{origin}"/><axis xyz="{axis}"/><limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>'
+        for i, (origin, axis) in enumerate(joints))
+    body += f'<joint name="tool_joint" type="fixed"><parent link="l6"/><child link="tool"/><origin xyz="{tip}" rpy="0.3 0.2 0.1"/></joint>'
+    return f'<?xml version="1.0"?><robot name="{name}">{links}{body}</robot>'
+
+
+SPHERICAL_SHOULDER = six_r_urdf("spherical_shoulder", [
+    ("0 0 0.3", "0 0 1"), ("0 0 0", "0 1 0"), ("0 0 0", "1 0 0"),  # axes 1, 2, 3 meet: a spherical group at the base
+    ("0.05 0 0.4", "0 1 0"), ("0 0 0.35", "0 1 0"), ("0.08 0 0.1", "0 0 1")], "0 0 0.1")  # 4 || 5
+INTERSECTING_SHOULDER = six_r_urdf("intersecting_shoulder", [
+    ("0 0 0.3", "0 0 1"), ("0 0 0", "0 1 0"),  # axes 1 and 2 meet
+    ("0 0.1 0.4", "1 0 0"),  # axis 3 crosses neither
+    ("0 0 0.3", "0 0 1"), ("0 0 0", "0 1 0"), ("0 0 0", "0 0 1")], "0 0.02 0.1")  # a spherical wrist
+
+
+def test_a_spherical_group_at_the_base_is_solved_on_the_chain_read_tip_to_base(tmp_path):
+    path = tmp_path / "spherical_shoulder.urdf"
+    path.write_text(SPHERICAL_SHOULDER)
+    family = check_every_branch(manipkit.load(str(path)), "l0", "tool", n=40)
+    assert family.kind == "spherical wrist, two parallel" and family.reversed
+    assert [r.axes for r in family.evidence] == [(1, 2, 3), (4, 5)]
+
+
+def test_a_spherical_wrist_with_meeting_shoulder_axes_is_solved(tmp_path):
+    path = tmp_path / "intersecting_shoulder.urdf"
+    path.write_text(INTERSECTING_SHOULDER)
+    family = check_every_branch(manipkit.load(str(path)), "l0", "tool", n=40)
+    assert family.kind == "spherical wrist, two intersecting" and not family.reversed
