@@ -87,13 +87,16 @@ def test_sp2_vector_on_the_first_axis_is_free():
 @settings(max_examples=200, deadline=None)
 @given(unit, vector, vector, angle)
 def test_sp4_round_trip(k, h, p, t):
+    """Every returned angle solves it; the generating angle is among them, to within what a tangency snaps
+    (the tolerance is on h . R p, so near a tangency an angle is good to sqrt(tol / r) only)."""
     d = float(h @ rotate(k, t, p))
     answer = sp4(h, k, p, d, tol=1e-9)
     assert answer.count >= 1
+    r = math.hypot(h @ (p - (k @ p) * k), h @ np.cross(k, p))
     if math.isfinite(answer.count):
-        assert any(same_angle(float(s), t, 1e-5) for s in answer.theta) or np.linalg.norm(np.cross(k, p)) < 1e-3
+        assert any(same_angle(float(s), t, 1e-3) for s in answer.theta) or r < 1e-2
         for s in answer.theta:
-            assert abs(h @ rotate(k, s, p) - d) < 1e-9 * max(1, np.linalg.norm(h) * np.linalg.norm(p))
+            assert abs(h @ rotate(k, s, p) - d) < 1e-8 * max(1, np.linalg.norm(h) * np.linalg.norm(p))
 
 
 @settings(max_examples=200, deadline=None)
@@ -102,8 +105,8 @@ def test_sp3_round_trip(k, p1, p2, t):
     delta = float(np.linalg.norm(rotate(k, t, p1) - p2))
     answer = sp3(k, p1, p2, delta, tol=1e-9)
     assert answer.count >= 1
-    for s in answer.theta[: int(min(answer.count, 2))]:
-        assert abs(np.linalg.norm(rotate(k, s, p1) - p2) - delta) < 1e-6
+    for s in answer.theta[: int(min(answer.count, 2))]:  # squared distances: what the tolerance bounds
+        assert abs(np.linalg.norm(rotate(k, s, p1) - p2) ** 2 - delta**2) < 1e-8
 
 
 @settings(max_examples=200, deadline=None)
@@ -114,11 +117,11 @@ def test_sp2_round_trip(k1, k2, p2, t1, t2):
     assert answer.count >= 1
     if math.isfinite(answer.count):
         pairs = answer.theta[: int(answer.count)]
-        for a, b in pairs:
-            assert np.linalg.norm(rotate(k1, a, p1) - rotate(k2, b, p2)) < 1e-6
-        recovered = any(same_angle(a, t1, 1e-5) and same_angle(b, t2, 1e-5) for a, b in pairs)
-        degenerate = np.linalg.norm(np.cross(k1, p1)) < 1e-3 or np.linalg.norm(np.cross(k2, p2)) < 1e-3 or \
-            abs(abs(k1 @ k2) - 1) < 1e-3
+        for a, b in pairs:  # near a tangency the angles are good to sqrt(tol): the vectors to about tol ** 0.5
+            assert np.linalg.norm(rotate(k1, a, p1) - rotate(k2, b, p2)) < 1e-4
+        recovered = any(same_angle(a, t1, 1e-3) and same_angle(b, t2, 1e-3) for a, b in pairs)
+        degenerate = np.linalg.norm(np.cross(k1, p1)) < 1e-2 or np.linalg.norm(np.cross(k2, p2)) < 1e-2 or \
+            abs(abs(k1 @ k2) - 1) < 1e-2
         assert recovered or degenerate
 
 

@@ -257,31 +257,29 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     theta, branches, g = _branches(arm, T[None])
     geometry = family.geometry
     names = tuple(chain.joint_names)
-    valid = branches.valid[0]
+    slots = np.flatnonzero(branches.valid[0])
+    candidates = _aliases(chain, geometry.q0 + theta[0, slots] / geometry.scale)  # (k, n), one batched FK below
+    position, rotation = pose_residuals(T, chain.fk(candidates)) if len(slots) else (np.zeros(0), np.zeros(0))
     rows, labels, free_of, refined, rejected = [], [], [], [], 0
     worst = 0.0
-    for slot in np.flatnonzero(valid):
-        q = geometry.q0 + theta[0, slot] / geometry.scale
-        q = _aliases(chain, q)
-        position, rotation = pose_residuals(T, chain.fk(q))
+    for q, slot, p_err, r_err in zip(candidates, slots, np.atleast_1d(position), np.atleast_1d(rotation)):
         moved = 0.0
-        if position > check[0] or rotation > check[1]:
-            better = _newton(chain, T, q, max_iters, 0.1 * min(check))
+        if p_err > check[0] or r_err > check[1]:
+            better = _newton(chain, T, q, max_iters, min(0.1 * min(check), 1e-12))
             moved = float(np.max(np.abs(better - q)))
             q = _aliases(chain, better)
-            position, rotation = pose_residuals(T, chain.fk(q))
-        if position > check[0] or rotation > check[1]:
+            p_err, r_err = pose_residuals(T, chain.fk(q))
+        if p_err > check[0] or r_err > check[1]:
             rejected += 1
-            worst = max(worst, float(position), float(rotation))
+            worst = max(worst, float(p_err), float(r_err))
             continue
         free = int(branches.free[0, slot])
         if family.reversed and free >= 0:
             free = 5 - free
         if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
             continue
-        solve_theta = branches.theta[0, slot]
         rows.append(q)
-        labels.append(_label(arm, g[0], solve_theta) + (" (read tip to base)" if family.reversed else ""))
+        labels.append(_label(arm, g[0], branches.theta[0, slot]) + (" (read tip to base)" if family.reversed else ""))
         free_of.append(free)
         refined.append(moved)
     order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first

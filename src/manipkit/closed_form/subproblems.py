@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Answer", "rotate", "sp1", "sp2", "sp3", "sp4"]
+__all__ = ["Answer", "cross", "rotate", "sp1", "sp2", "sp3", "sp4"]
 
 TOL = 1e-12
 
@@ -69,11 +69,24 @@ def rotate(k, theta, p) -> np.ndarray:
     k, p = np.asarray(k, dtype=float), np.asarray(p, dtype=float)
     theta = np.asarray(theta, dtype=float)[..., None]
     kp = np.sum(k * p, axis=-1, keepdims=True)
-    return np.cos(theta) * p + np.sin(theta) * np.cross(k, p) + (1.0 - np.cos(theta)) * kp * k
+    return np.cos(theta) * p + np.sin(theta) * cross(k, p) + (1.0 - np.cos(theta)) * kp * k
 
 
 def _dot(a, b) -> np.ndarray:
     return np.sum(a * b, axis=-1)
+
+
+def cross(a, b) -> np.ndarray:
+    """``a x b`` over leading axes (broadcast), without ``np.cross``'s axis shuffling (a few times faster on small arrays).
+
+    Examples
+    --------
+    >>> cross(np.array([1.0, 0, 0]), np.array([0.0, 1, 0]))
+    array([0., 0., 1.])
+    """
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def _wrap(theta) -> np.ndarray:
@@ -98,7 +111,7 @@ def sp1(k, p, q, *, tol: float = TOL) -> tuple[np.ndarray, np.ndarray, np.ndarra
     p_perp = p - _dot(k, p)[..., None] * k
     q_perp = q - _dot(k, q)[..., None] * k
     free = np.linalg.norm(p_perp, axis=-1) <= tol
-    theta = np.where(free, 0.0, np.arctan2(_dot(k, np.cross(p_perp, q_perp)), _dot(p_perp, q_perp)))
+    theta = np.where(free, 0.0, np.arctan2(_dot(k, cross(p_perp, q_perp)), _dot(p_perp, q_perp)))
     miss = np.linalg.norm(rotate(k, theta, p) - q, axis=-1)
     return theta, free, miss
 
@@ -123,7 +136,7 @@ def sp4(h, k, p, d, *, tol: float = TOL) -> Answer:
     d = np.asarray(d, dtype=float)
     kp = _dot(k, p)
     A = _dot(h, p - kp[..., None] * k)
-    B = _dot(h, np.cross(k, p))
+    B = _dot(h, cross(k, p))
     C = d - _dot(h, k) * kp
     r = np.hypot(A, B)
     phi = np.arctan2(B, A)
