@@ -142,12 +142,16 @@ def test_irb2400_at_q5_zero_names_the_wrist_family():
 
 
 def test_unreachable_target_names_the_reach_and_by_how_much():
+    """A target 1 m beyond the stretched arm: the point where axes 5 and 6 meet moves 1 m out; the wrist-1 point the
+    elbow must reach lies within |p4 - c| of it (whatever the wrist branch), so the miss is 1 m give or take that."""
     chain = manipkit.load("ur5").chain("base_link", "tool0")
+    axes = chain.axes(np.zeros(6))
+    wrist_to_c = float(np.linalg.norm(axes.point[3] - axes.point[5]))  # axis-4 point to the 5/6 meeting point
     T = chain.fk(np.zeros(6))  # fully stretched along the base x axis
-    T[0, 3] += 0.1 * np.sign(T[0, 3])
+    T[0, 3] += 1.0 * np.sign(T[0, 3])
     result = chain_ik(chain, T)
     assert not result.success and result.unmet[0][0] == "reach"
-    assert 0.05 < result.unmet[0][1] < 0.11
+    assert 1.0 - wrist_to_c - 0.01 < result.unmet[0][1] <= 1.0 + 1e-9
     assert result.reason.startswith("no solution: reach: the wrist centre is out of the elbow's reach by")
 
 
@@ -251,3 +255,15 @@ def test_a_spherical_wrist_with_meeting_shoulder_axes_is_solved(tmp_path):
     path.write_text(INTERSECTING_SHOULDER)
     family = check_every_branch(manipkit.load(str(path)), "l0", "tool", n=40)
     assert family.kind == "spherical wrist, two intersecting" and not family.reversed
+
+
+def test_a_target_just_off_the_ur5_wrist_singularity_is_kept_refined_and_lands():
+    """q5 = 1e-7: the tangency of q5 is met within the subproblem tolerance, so the generating shoulder's rows come out
+    as the q5 = 0 family's members, then Newton on the chain puts them on the target (before: those rows were lost)."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    q = np.array([0.2, 0.3, 0.1, 0.5, 1e-7, 0.3])
+    T = chain.fk(q)
+    result = chain_ik(chain, T)
+    assert len(result.solutions) == 6 and result.free_joints == (5,)
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+    assert result.refined.max() > 0.0

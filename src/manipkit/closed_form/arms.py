@@ -41,6 +41,8 @@ __all__ = ["Branches", "rotation_matrix", "solve_6r"]
 OPW = "spherical wrist, two parallel"
 UR = "three parallel, two intersecting"
 SPHERICAL_12 = "spherical wrist, two intersecting"
+#: Relative size of a subproblem miss under which a branch is kept as ``near`` (refined on the chain, not exact).
+NEAR = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +59,10 @@ class Branches:
     free : ndarray of int, shape (N, 8)
         The 0-based joint whose angle is free at this target (-1: none);
         the slot holds the member with that angle 0.
+    near : ndarray of bool, shape (N, 8)
+        Valid, or missing only by a near tangency or a small inconsistency
+        (below ``NEAR`` times the arm's size): a target just off a singular
+        or boundary configuration. Worth refining on the chain; not exact.
     miss : dict of str to ndarray (N,)
         Per failing stage, how far the nearest branch misses: ``"shoulder"``
         (m: the wrist centre's offset from axis 1 the arm cannot take),
@@ -69,6 +75,7 @@ class Branches:
     valid: np.ndarray
     free: np.ndarray
     miss: dict
+    near: np.ndarray
 
 
 def rotation_matrix(k, theta) -> np.ndarray:
@@ -108,6 +115,12 @@ def _count_valid(count: np.ndarray, slots: int = 2) -> np.ndarray:
     index = np.arange(slots)
     finite = np.where(np.isinf(count), 1.0, count)
     return index < finite[..., None]
+
+
+def _near_valid(answer, scale: float, slots: int = 2) -> np.ndarray:
+    """Like :func:`_count_valid`, with slot 0 also kept where the subproblem missed by less than ``NEAR * scale``."""
+    close = (answer.count == 0.0) & (answer.miss <= NEAR * scale)
+    return _count_valid(answer.count, slots) | (close[..., None] & (np.arange(slots) == 0))
 
 
 def _wrist(h, R_rem, tol) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -150,12 +163,14 @@ def _opw(h, p, c, g, tol) -> Branches:
     ok3 = _count_valid(third.count)[..., None]
     ok2 = (miss2 <= 1e-9 * scale)[..., None]
     valid = ok1 & ok3 & ok2 & wrist_ok
+    near = (_near_valid(first, scale)[:, :, None, None] & _near_valid(third, scale)[..., None]
+            & (miss2 <= NEAR * scale)[..., None] & wrist_ok) | valid
     free = np.full((N, *shape), -1)
     free = np.where(free4, 3, free)
     free = np.where(free2[..., None], 1, free)
     free = np.where(np.isinf(first.count)[:, None, None, None] & (np.arange(2) == 0)[None, :, None, None], 0, free)
     miss = _misses(N, first, third, wrist_ok, valid, ok1 & ok3 & ok2)
-    return Branches(theta.reshape(N, 8, 6), valid.reshape(N, 8), free.reshape(N, 8), miss)
+    return Branches(theta.reshape(N, 8, 6), valid.reshape(N, 8), free.reshape(N, 8), miss, near.reshape(N, 8))
 
 
 def _misses(N, first, third, wrist_ok, valid, arm_ok) -> dict:
@@ -181,7 +196,7 @@ def _ur(h, p, c, g, tol) -> Branches:
     source = rotate(h[4], -t5, h[1])  # (N, 2, 2, 3) = R5^T h2
     wanted = _mv(np.swapaxes(R1t_Rg, -1, -2), h[1])[:, :, None, :]  # R_g^T R1 h2
     minus6, free6, _ = sp1(h[5], source, wanted, tol=tol)
-    t6 = -minus6
+    t6 = np.where(free6, _ur_free_sixth(h, p, g, t1), -minus6)
     # the axis-4 point moved by g' = E1^-1 g E6^-1 E5^-1 = E2 E3 E4
     x = _move(h[5], p[5], -t6, _move(h[4], p[4], -t5, p[3]))  # (N, 2, 2, 3)
     y = _move(h[0], p[0], -t1[:, :, None], _mv(R_g[:, None, None], x) + g[:, None, None, :3, 3])
@@ -197,6 +212,8 @@ def _ur(h, p, c, g, tol) -> Branches:
     scale = max(1.0, float(np.max(np.abs(p))) + float(np.linalg.norm(c)))
     ok = (_count_valid(first.count)[:, :, None, None] & _count_valid(fifth.count)[..., None]
           & _count_valid(third.count) & (miss2 <= 1e-9 * scale))
+    near = (_near_valid(first, scale)[:, :, None, None] & _near_valid(fifth, scale)[..., None]
+            & _near_valid(third, scale) & (miss2 <= NEAR * scale)) | ok
     shape = (2, 2, 2)  # (t1, t5, t3) choices here; reordered to (shoulder, elbow, wrist) below
     theta = _stack(N, shape, t1[:, :, None, None], t2, t3, t4, t5[..., None], t6[..., None])
     free = np.full((N, *shape), -1)
@@ -204,14 +221,31 @@ def _ur(h, p, c, g, tol) -> Branches:
     free = np.where(free2, 1, free)
     free = np.where(np.isinf(first.count)[:, None, None, None] & (np.arange(2) == 0)[None, :, None, None], 0, free)
     order = (0, 2, 1)
-    theta, ok, free = (np.transpose(a, (0, *(1 + i for i in order), *range(4, a.ndim))) for a in (theta, ok, free))
+    theta, ok, free, near = (np.transpose(a, (0, *(1 + i for i in order), *range(4, a.ndim)))
+                             for a in (theta, ok, free, near))
     shoulder = np.where(first.count == 0.0, first.miss, 0.0)
     wrist_fail = (first.count != 0.0) & ~np.any(_count_valid(fifth.count).reshape(N, -1), axis=-1)
     reach_fail = ~wrist_fail & (first.count != 0.0) & ~np.any(ok.reshape(N, -1), axis=-1)
     miss = {"shoulder": shoulder,
             "reach": np.where(reach_fail, np.min(third.miss.reshape(N, -1), axis=-1), 0.0),
             "orientation": np.where(wrist_fail, np.min(fifth.miss.reshape(N, -1), axis=-1), 0.0)}
-    return Branches(theta.reshape(N, 8, 6), ok.reshape(N, 8), free.reshape(N, 8), miss)
+    return Branches(theta.reshape(N, 8, 6), ok.reshape(N, 8), free.reshape(N, 8), miss, near.reshape(N, 8))
+
+
+def _ur_free_sixth(h, p, g, t1) -> np.ndarray:
+    """A member of the family when axis 6 lies along axes 2, 3, 4 (t5 = 0, t6 free): the t6 (N, 2, 1) that puts the
+    axis-4 point at the middle of the elbow's reach, so the representative exists (t6 = 0 may be out of reach)."""
+    o3 = p[2] + ((p[3] - p[2]) @ h[2]) * h[2]  # centre and radius of the circle axis 4's point makes about axis 3
+    rho = np.linalg.norm(p[3] - o3)
+    middle = (o3 - p[1]) @ (o3 - p[1]) + rho * rho
+    a = _move(h[0], p[0], -t1, (_mv(g[:, :3, :3], p[5]) + g[:, :3, 3])[:, None, :]) - p[1]  # (N, 2, 3)
+    R1 = rotation_matrix(h[0], -t1)
+    b = _mv(R1 @ g[:, None, :3, :3], p[3] - p[5])  # y - p2 = a + R1^T R_g R(h6, -t6) (p4 - p6)
+    # |a + R R6^T b0|^2 = |a|^2 + |b0|^2 + 2 (R^T a) . R(h6, -t6) (p4 - p6): subproblem 4 in -t6
+    c = _mv(np.swapaxes(R1 @ g[:, None, :3, :3], -1, -2), a)
+    d = 0.5 * (middle - np.sum(a * a, axis=-1) - np.sum(b * b, axis=-1))
+    answer = sp4(c, h[5], p[3] - p[5], d)
+    return -answer.theta[..., :1]
 
 
 def _spherical_12(h, p, c, s, g, tol) -> Branches:
@@ -242,7 +276,7 @@ def _spherical_12(h, p, c, s, g, tol) -> Branches:
     miss = {"shoulder": np.where(~reach_fail & ~np.any(arm_ok.reshape(N, -1), axis=-1), np.max(pair.miss.reshape(N, -1), axis=-1), 0.0),
             "reach": np.where(reach_fail, np.min(third.miss, axis=-1), 0.0),
             "orientation": np.where(wrist_fail, 1.0, 0.0)}
-    return Branches(theta.reshape(N, 8, 6), valid.reshape(N, 8), free.reshape(N, 8), miss)
+    return Branches(theta.reshape(N, 8, 6), valid.reshape(N, 8), free.reshape(N, 8), miss, valid.reshape(N, 8))
 
 
 def solve_6r(kind: str, h: np.ndarray, p: np.ndarray, g: np.ndarray, points: dict, *, tol: float = 1e-12) -> Branches:

@@ -257,7 +257,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     theta, branches, g = _branches(arm, T[None])
     geometry = family.geometry
     names = tuple(chain.joint_names)
-    slots = np.flatnonzero(branches.valid[0])
+    slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
     candidates = _aliases(chain, geometry.q0 + theta[0, slots] / geometry.scale)  # (k, n), one batched FK below
     position, rotation = pose_residuals(T, chain.fk(candidates)) if len(slots) else (np.zeros(0), np.zeros(0))
     rows, labels, free_of, refined, rejected = [], [], [], [], 0
