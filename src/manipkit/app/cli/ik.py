@@ -194,7 +194,8 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
         solves = " and ".join(named.solves) if named else "spatial pose (x, y, z, R), every branch"
         if not args.analytic:
             count += " (--all: the closed form answers this chain)"
-        return result, (f"closed form ({result.solver}, frame {args.frame} in {args.base}): {count}\n"
+        frames = "" if named else f", frame {args.frame} in {args.base}"
+        return result, (f"closed form ({result.solver}{frames}): {count}\n"
                         f"mode: {result.mode}; this arm's closed form solves {solves}")
     from manipkit.kinematics.ik import ik
 
