@@ -267,3 +267,24 @@ def test_a_target_just_off_the_ur5_wrist_singularity_is_kept_refined_and_lands()
     assert len(result.solutions) == 6 and result.free_joints == (5,)
     assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
     assert result.refined.max() > 0.0
+
+
+@needs_realworld
+def test_irb2400_wrist_centre_on_axis_1_is_a_family_free_in_joint_1():
+    """By hand: with the wrist centre on axis 1 (and no lateral offset, b = 0), turning joint 1 keeps it there, so
+    joint 1 is free; for each of its values two elbows and two wrists remain: 4 rows, each a family, both shoulder
+    choices being members of the same families."""
+    from manipkit.closed_form.chain_ik import ideal_arm
+    from manipkit.spatial.rotations import matrix_from_rpy
+
+    chain = load_realworld(IRB2400).chain("base_link", "tool0")
+    family = chain_family(chain)
+    centre = ideal_arm(family).points["wrist"]
+    centre_in_tool = (np.linalg.inv(family.geometry.M) @ np.r_[centre, 1.0])[:3]
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_rpy([0.3, 2.5, 0.2])
+    T[:3, 3] = np.array([0.0, 0.0, 1.3]) - T[:3, :3] @ centre_in_tool  # wrist centre at (0, 0, 1.3): on axis 1
+    result = chain_ik(chain, T, family=family)
+    assert math.isinf(result.count) and result.free_joints == (0,) and len(result.solutions) == 4
+    assert "shoulder singular (the wrist centre on axis 1): joint_1 is free" in result.family
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
