@@ -50,3 +50,9 @@ def test_ik_analytic_json_gives_limits_and_refinement_per_branch_from_a_base_bel
     assert out["within_limits"] == chain.within_limits(
         np.array([[s[name] for name in chain.joint_names] for s in out["solutions"]])).tolist()
     assert out["residual_position"] < 1e-9 and out["refined"] == [0.0] * len(out["solutions"])
+
+
+def test_family_of_the_kinova_says_why_it_has_no_opw_parameters():
+    out = json.loads(run_cli("manipkit", "family", "--robot", "kinova", "--base", "base", "--format", "json",
+                             status=0).stdout)
+    assert out["opw"] is None and "the tool frame's z axis is not axis 6" in out["opw_note"]

@@ -288,3 +288,25 @@ def test_irb2400_wrist_centre_on_axis_1_is_a_family_free_in_joint_1():
     assert math.isinf(result.count) and result.free_joints == (0,) and len(result.solutions) == 4
     assert "shoulder singular (the wrist centre on axis 1): joint_1 is free" in result.family
     assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+
+
+@needs_realworld
+def test_irb2400_opw_parameters_are_those_ros_industrial_publishes_and_reproduce_its_fk():
+    """ROS-Industrial's opw_kinematics lists the IRB2400/10 as a1 0.100, a2 -0.135, b 0, c1 0.615, c2 0.705,
+    c3 0.755, c4 0.085, offsets [0, 0, -pi/2, 0, 0, 0], signs all +1."""
+    from manipkit.closed_form.opw import opw_fk, opw_parameters
+
+    chain = load_realworld(IRB2400).chain("base_link", "tool0")
+    p = opw_parameters(chain)
+    got = [p.a1, p.a2, p.b, p.c1, p.c2, p.c3, p.c4]
+    assert np.allclose(got, [0.1, -0.135, 0.0, 0.615, 0.705, 0.755, 0.085], atol=1e-9)
+    assert np.allclose(p.offsets, [0, 0, -np.pi / 2, 0, 0, 0], atol=1e-9) and p.sign_corrections == (1,) * 6
+    for q in chain.sample(10, seed=2):
+        assert np.abs(opw_fk(p, q) - chain.fk(q)).max() < 1e-9
+
+
+def test_opw_parameters_refuse_a_ur_arm_by_family():
+    from manipkit.closed_form.opw import opw_parameters
+
+    with pytest.raises(ClosedFormIKError, match="not a spherical wrist with axes 2 \\|\\| 3"):
+        opw_parameters(manipkit.load("ur5").chain("base_link", "tool0"))

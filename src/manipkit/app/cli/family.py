@@ -43,6 +43,14 @@ def run_family(args) -> int:
     robot = load_robot(args)
     chain = robot.chain(args.base, args.tip)
     family = chain_family(chain, tol=tol)
+    opw, opw_note = None, ""
+    if family.kind == "spherical wrist, two parallel":
+        from manipkit.closed_form.opw import opw_parameters
+
+        try:
+            opw = opw_parameters(chain, family=family)
+        except ManipkitError as exc:
+            opw_note = str(exc)
     if args.format == "json":
         print_json({
             "robot": robot.name, "base": chain.base, "tip": chain.tip, "joints": list(chain.joint_names),
@@ -50,10 +58,16 @@ def run_family(args) -> int:
             "evidence": [{"kind": r.kind, "axes": list(r.axes), "miss": r.miss, "angle": r.angle,
                           "point": list(r.point) or None} for r in family.evidence],
             "tol": list(family.tol), "deviation": family.deviation, "note": family.note,
+            "opw": None if opw is None else {
+                **{name: getattr(opw, name) for name in ("a1", "a2", "b", "c1", "c2", "c3", "c4")},
+                "offsets": list(opw.offsets), "sign_corrections": list(opw.sign_corrections), "fk_error": opw.fk_error},
+            "opw_note": opw_note or None,
         })
         return EXIT_OK
     print(f"chain {chain.base} -> {chain.tip}: {', '.join(chain.joint_names) or 'no joints'}")
     print(str(family))
+    if opw is not None or opw_note:
+        print(f"  {opw if opw is not None else opw_note}")
     if family.solved:
         print(f"closed form: manipkit ik --analytic --robot {args.robot or robot.name} --base {chain.base} "
               f"--frame {chain.tip} --xyz ... --rpy ... gives every branch"
