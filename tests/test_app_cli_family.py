@@ -56,3 +56,15 @@ def test_family_of_the_kinova_says_why_it_has_no_opw_parameters():
     out = json.loads(run_cli("manipkit", "family", "--robot", "kinova", "--base", "base", "--format", "json",
                              status=0).stdout)
     assert out["opw"] is None and "the tool frame's z axis is not axis 6" in out["opw_note"]
+
+
+def test_ik_analytic_with_a_locked_joint_solves_a_7r_arm():
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    q = np.array([0.3, 0.5, 0.4, -1.2, 0.3, 0.8, 0.2])
+    out = json.loads(run_cli("manipkit", "ik", "--robot", "iiwa14", *target_args(chain.fk(q)), "--analytic",
+                             "--lock", "iiwa_joint_3=0.4", "--format", "json", status=0).stdout)
+    assert out["count"] == len(out["solutions"]) >= 1
+    assert all(s["iiwa_joint_3"] == 0.4 for s in out["solutions"]) and out["residual_position"] < 1e-9
+    family = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=0.4", status=0)
+    assert "family: spherical wrist, two intersecting" in family.stdout and "--lock iiwa_joint_3=0.4" in family.stdout

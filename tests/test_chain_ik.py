@@ -310,3 +310,38 @@ def test_opw_parameters_refuse_a_ur_arm_by_family():
 
     with pytest.raises(ClosedFormIKError, match="not a spherical wrist with axes 2 \\|\\| 3"):
         opw_parameters(manipkit.load("ur5").chain("base_link", "tool0"))
+
+
+def test_iiwa14_with_joint_3_locked_is_a_spherical_wrist_arm_with_meeting_shoulder_axes():
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain, lock={"iiwa_joint_3": 0.4})
+    assert family.kind == "spherical wrist, two intersecting" and family.locked == (("iiwa_joint_3", 0.4),)
+    for q in chain.sample(30, seed=4):
+        q[2] = 0.4
+        T = chain.fk(q)
+        result = chain_ik(chain, T, family=family)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions)
+        assert np.all(result.solutions[:, 2] == 0.4)
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "base_link", "ee_link", chain.full(s)), T) < 1e-10
+
+
+def test_panda_with_joint_7_locked_is_solved_read_tip_to_base():
+    robot = manipkit.load("panda")
+    chain = robot.chain("panda_link0", "panda_link8")
+    family = chain_family(chain, lock={"panda_joint7": 0.3})
+    assert family.kind == "spherical wrist, two intersecting" and family.reversed
+    for q in chain.sample(30, seed=6):
+        q[6] = 0.3
+        T = chain.fk(q)
+        result = chain_ik(chain, T, family=family)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions)
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "panda_link0", "panda_link8", chain.full(s)), T) < 1e-10
+
+
+def test_locking_a_joint_the_chain_does_not_have_names_the_joints():
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    with pytest.raises(ClosedFormIKError, match="cannot lock 'elbow': it is not a joint of the chain base_link -> ee_link"):
+        chain_family(chain, lock={"elbow": 0.1})

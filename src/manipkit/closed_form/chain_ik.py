@@ -55,7 +55,7 @@ from manipkit.closed_form.families import (
 from manipkit.closed_form.subproblems import rotate
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
-from manipkit.spatial.rotations import axis_angle_from_matrix
+from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals
 
 if TYPE_CHECKING:
@@ -135,19 +135,21 @@ def _branches(arm: IdealArm, T: np.ndarray) -> tuple[np.ndarray, Branches, np.nd
     return theta, branches, g
 
 
-def _aliases(chain: Chain, Q: np.ndarray) -> np.ndarray:
-    """Each revolute entry moved by whole turns to the in-limit value nearest 0 (wrapped to (-pi, pi] if none / continuous)."""
-    Q = Q.copy()
-    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
-    wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
-    best = wrapped.copy()
+def _aliases(chain: Chain, Q: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The solved (revolute) ``columns`` of chain vectors moved by whole turns to the in-limit value nearest 0
+    (wrapped to (-pi, pi] when none is inside, or for a continuous joint); other entries (locked joints) as given."""
+    Q = np.array(Q, dtype=float)
+    lower, upper = np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
+    wrapped = wrap_angle(Q[..., columns])
+    best = np.array(wrapped, dtype=float)
     found = (wrapped >= lower - 1e-12) & (wrapped <= upper + 1e-12)
     for k in (1, -1, 2, -2):
         candidate = wrapped + k * TWO_PI
         inside = (candidate >= lower - 1e-12) & (candidate <= upper + 1e-12) & ~found
         best = np.where(inside, candidate, best)
         found |= inside
-    return best
+    Q[..., columns] = best
+    return Q
 
 
 def _log(R: np.ndarray) -> np.ndarray:
@@ -155,15 +157,24 @@ def _log(R: np.ndarray) -> np.ndarray:
     return np.asarray(axis) * float(angle)
 
 
-def _newton(chain: Chain, T: np.ndarray, q: np.ndarray, max_iters: int, tol: float) -> np.ndarray:
-    """``q`` moved by Newton steps on the chain's FK and Jacobian until the pose error is below ``tol``."""
+def _newton(chain: Chain, T: np.ndarray, q: np.ndarray, columns: np.ndarray, max_iters: int, tol: float) -> np.ndarray:
+    """``q`` moved by Newton steps on the chain's FK and Jacobian (the solved ``columns`` only: locked joints stay)
+    until the pose error is below ``tol``."""
+    q = q.copy()
     for _ in range(max_iters):
         reached = chain.fk(q)
         error = np.concatenate([T[:3, 3] - reached[:3, 3], _log(T[:3, :3] @ reached[:3, :3].T)])
         if np.max(np.abs(error)) <= tol:
             break
-        q = q + np.linalg.lstsq(chain.jacobian(q), error, rcond=None)[0]
+        q[columns] += np.linalg.lstsq(chain.jacobian(q)[:, columns], error, rcond=None)[0]
     return q
+
+
+def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
+    """Chain vectors (..., n) from solved angles (..., 6): ``q0`` with the solved columns moved by ``theta / scale``."""
+    Q = np.broadcast_to(geometry.q0, (*theta.shape[:-1], len(geometry.q0))).copy()
+    Q[..., geometry.columns] = geometry.q0[geometry.columns] + theta / geometry.scale
+    return Q
 
 
 def _label(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> str:
@@ -212,7 +223,7 @@ def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
 
 
 def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-             max_iters: int = 20) -> IKResult:
+             max_iters: int = 20, lock=None) -> IKResult:
     """Every closed-form IK solution of ``chain`` for ``T_base_tip = target``, found from the chain's geometry.
 
     Parameters
@@ -229,6 +240,9 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         Residual (m, rad) a row's FK must reach; rows missing by more are refined.
     max_iters : int, keyword-only
         Newton steps at most per refined row.
+    lock : dict of str to float, keyword-only
+        Joints held at a value (a 7R arm solved as the 6R arm of the others;
+        ``family`` found with the same ``lock``); rows keep those values.
 
     Returns
     -------
@@ -250,7 +264,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     (8, 'front, elbow up, no flip', True)
     """
     # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
-    family = chain_family(chain, tol=tol) if family is None else family
+    family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = check_transform(target, what="IK target")
@@ -258,16 +272,16 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     geometry = family.geometry
     names = tuple(chain.joint_names)
     slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
-    candidates = _aliases(chain, geometry.q0 + theta[0, slots] / geometry.scale)  # (k, n), one batched FK below
+    candidates = _aliases(chain, _joint_values(geometry, theta[0, slots]), geometry.columns)  # (k, n), one batched FK below
     position, rotation = pose_residuals(T, chain.fk(candidates)) if len(slots) else (np.zeros(0), np.zeros(0))
     rows, labels, free_of, refined, rejected = [], [], [], [], 0
     worst = 0.0
     for q, slot, p_err, r_err in zip(candidates, slots, np.atleast_1d(position), np.atleast_1d(rotation)):
         moved = 0.0
         if p_err > check[0] or r_err > check[1]:
-            better = _newton(chain, T, q, max_iters, min(0.1 * min(check), 1e-12))
+            better = _newton(chain, T, q, geometry.columns, max_iters, min(0.1 * min(check), 1e-12))
             moved = float(np.max(np.abs(better - q)))
-            q = _aliases(chain, better)
+            q = _aliases(chain, better, geometry.columns)
             p_err, r_err = pose_residuals(T, chain.fk(q))
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
@@ -276,6 +290,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         free = int(branches.free[0, slot])
         if family.reversed and free >= 0:
             free = 5 - free
+        free = int(geometry.columns[free]) if free >= 0 else -1  # a chain column (locked joints have none)
         if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
             continue
         rows.append(q)
@@ -298,9 +313,11 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     if any(m > 0 for m in refined):
         parts.append(f"refined by Newton on the true chain (ideal arm {quantity_text(arm.moved)} m/rad away, "
                      f"largest step {quantity_text(max(refined))})")
-    wide = [names[k] for k in range(n) if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
+    wide = [names[k] for k in geometry.columns if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
     if wide and len(rows):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if family.locked:
+        parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
     if rejected:
         parts.append(f"{rejected} branch(es) dropped: FK missed by {quantity_text(worst)} > check_tol after refinement")
     unmet = ()
@@ -309,7 +326,9 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         unmet, words = _unmet(branches, rejected)
         outside_by = float(branches.miss["reach"][0])
         parts = ["no solution: " + words] + parts[1:]
-    family_words = "; ".join(dict.fromkeys(_family_text(names, f, family.kind) for f in free_joints))
+    solved = [int(c) for c in geometry.columns]
+    solved_names = tuple(names[c] for c in solved)
+    family_words = "; ".join(dict.fromkeys(_family_text(solved_names, solved.index(f), family.kind) for f in free_joints))
     return IKResult(
         read_only(Q, (n,)), tuple(labels), count, "; ".join(parts),
         read_only(np.atleast_1d(residuals[0])), read_only(np.atleast_1d(residuals[1])),
@@ -344,7 +363,8 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
     return (), f"every branch missed the target by more than check_tol ({rejected} dropped)"
 
 
-def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL) -> IKBatch:
+def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
+                  lock=None) -> IKBatch:
     """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
 
     Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
@@ -354,13 +374,13 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     and ``success`` are measured by the chain's compiled FK on first use,
     against ``check_tol``.
     """
-    family = chain_family(chain, tol=tol) if family is None else family
+    family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     theta, branches, _ = _branches(arm, T)
     geometry = family.geometry
-    Q = _aliases(chain, geometry.q0 + theta / geometry.scale)
+    Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
     Q = np.where(branches.valid[..., None], Q, np.nan)
     count = branches.valid.sum(axis=-1).astype(float)
     count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)

@@ -34,7 +34,7 @@ the kinematics layer (docs/architecture.md, "Layers").
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -108,8 +108,10 @@ class Geometry:
     """A chain's joint axes at ``q0`` in the base frame, and its tip pose there: the product of exponentials.
 
     ``T_base_tip(q) = E_1 ... E_n M`` with ``E_i`` the rotation by
-    ``scale[i] * (q[i] - q0[i])`` about the line through ``point[i]`` along
-    ``direction[i]``, and ``M = T_base_tip(q0)``.
+    ``scale[i] * (q[c_i] - q0[c_i])`` about the line through ``point[i]`` along
+    ``direction[i]``, and ``M = T_base_tip(q0)``; ``c_i = columns[i]`` is the
+    joint's place in the chain vector (``q0`` is a whole chain vector: a
+    locked joint keeps its value there and has no axis here).
     """
 
     direction: np.ndarray
@@ -118,6 +120,7 @@ class Geometry:
     prismatic: np.ndarray
     q0: np.ndarray
     M: np.ndarray
+    columns: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,6 +145,8 @@ class Family:
         The axes at ``q0`` and ``M``, as measured.
     note : str
         One line: the family, or why none applies (with the nearest misses).
+    locked : tuple of (str, float)
+        Joints held at a value (``chain_family(..., lock=...)``); the family is that of the others.
 
     ``ideal`` is True when every relation holds to 1e-12 (no refinement
     needed); ``deviation`` is the largest miss (m) or angle (rad) of the
@@ -155,6 +160,7 @@ class Family:
     joint_names: tuple[str, ...]
     geometry: Geometry
     note: str
+    locked: tuple[tuple[str, float], ...] = ()
 
     @property
     def solved(self) -> bool:
@@ -186,15 +192,25 @@ def reference_configuration(lower, upper) -> np.ndarray:
     return np.where(inside, 0.0, middle)
 
 
-def _geometry(chain: Chain) -> Geometry:
+def _geometry(chain: Chain, lock: dict) -> Geometry:
     q0 = reference_configuration(chain.lower, chain.upper)
+    names = list(chain.joint_names)
+    for name, value in lock.items():
+        if name not in names:
+            raise ClosedFormIKError(f"cannot lock '{name}': it is not a joint of the chain {chain.base} -> {chain.tip} "
+                                    f"({', '.join(names)})")
+        if not math.isfinite(float(value)):
+            raise ClosedFormIKError(f"cannot lock '{name}' at {value}: give a finite value (rad or m)")
+        q0[names.index(name)] = float(value)
     axes = chain.axes(q0)
     if len(axes.joint) != len(set(axes.joint.tolist())):
         raise ClosedFormIKError(
             f"the chain {chain.base} -> {chain.tip} moves a joint in more than one place (a mimic joint); "
             "the geometric closed forms need one axis per joint")
-    return Geometry(np.array(axes.direction), np.array(axes.point), np.array(axes.scale), np.array(axes.prismatic),
-                    q0, np.array(chain.fk(q0)))
+    locked = {names.index(name) for name in lock}
+    keep = np.array([i for i, j in enumerate(axes.joint.tolist()) if j not in locked], dtype=np.intp)
+    return Geometry(np.array(axes.direction)[keep], np.array(axes.point)[keep], np.array(axes.scale)[keep],
+                    np.array(axes.prismatic)[keep], q0, np.array(chain.fk(q0)), np.array(axes.joint)[keep])
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
@@ -263,10 +279,10 @@ def reversed_geometry(geometry: Geometry) -> Geometry:
     reversed problem is solved for ``g' = g^-1`` (``g = T M^-1``) with ``M' = I``.
     """
     return Geometry(-geometry.direction[::-1].copy(), geometry.point[::-1].copy(), geometry.scale[::-1].copy(),
-                    geometry.prismatic[::-1].copy(), geometry.q0[::-1].copy(), np.eye(4))
+                    geometry.prismatic[::-1].copy(), geometry.q0, np.eye(4), geometry.columns[::-1].copy())
 
 
-def chain_family(chain: Chain, *, tol=FAMILY_TOL) -> Family:
+def chain_family(chain: Chain, *, tol=FAMILY_TOL, lock=None) -> Family:
     """The closed-form family of ``chain`` (``robot.chain(base, tip)``), found from its joint axes.
 
     Parameters
@@ -278,6 +294,10 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL) -> Family:
         both). The default, 1e-3, takes calibrated descriptions (axes off by
         1e-4) as their ideal arm; the solver then refines every branch on
         the true chain.
+    lock : dict of str to float, keyword-only
+        Joints held at a value (rad or m): a 7R arm with one joint locked is
+        classified (and solved) as the 6R arm of the others; axes are then
+        numbered among the unlocked joints.
 
     Returns
     -------
@@ -293,9 +313,19 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL) -> Family:
     ('three parallel, two intersecting', False, 'axes 2, 3, 4 parallel, angle 0 rad')
     """
     tol = tolerances(tol, error=ClosedFormIKError)
-    geometry = _geometry(chain)
-    n = len(geometry.q0)
-    names = tuple(chain.joint_names)
+    lock = dict(lock or {})
+    geometry = _geometry(chain, lock)
+    family = _classify(geometry, tol, tuple(chain.joint_names))
+    if not lock:
+        return family
+    held = tuple((name, float(value)) for name, value in lock.items())
+    words = ", ".join(f"{name} = {quantity_text(value)}" for name, value in held)
+    return replace(family, locked=held, note=f"{family.note} (with {words} locked; axes numbered among the others)")
+
+
+def _classify(geometry: Geometry, tol: tuple[float, float], names: tuple[str, ...]) -> Family:
+    """The family of the unlocked joints' geometry."""
+    n = len(geometry.columns)
     prismatic = geometry.prismatic
     if n >= 2 and not prismatic.any() and _holds(_parallel(geometry, tuple(range(n))), tol) and n <= 3:
         evidence = (_parallel(geometry, tuple(range(n))),)

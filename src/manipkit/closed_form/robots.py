@@ -106,7 +106,7 @@ ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
 
 
 def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose", tol=1e-9,
-                samples: int = 4, family_tol=FAMILY_TOL) -> IKResult:
+                samples: int = 4, family_tol=FAMILY_TOL, lock=None) -> IKResult:
     """All closed-form IK solutions for ``T_base_tip = target``: a bundled textbook arm's, or any chain's with a 6R family.
 
     Two paths. The bundled textbook arms (below) between ``base_link`` and
@@ -164,6 +164,9 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     family_tol : float or (float, float), keyword-only
         The geometric path's tolerance (m, rad) for axes that meet or are
         parallel (:func:`manipkit.closed_form.families.chain_family`).
+    lock : dict of str to float, keyword-only
+        The geometric path: joints held at a value, so a 7R arm is solved as
+        the 6R arm of the others (``{"iiwa_joint_3": 0.4}``); rows keep them.
 
     Returns
     -------
@@ -195,8 +198,8 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     # Over 80 lines: the docstring (what each arm solves, every option) is most of it.
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
     named_frames = (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link"))
-    if arm is None or not named_frames:
-        return _geometric(robot, target, base, tip, mode, tol, family_tol, named=arm is not None)
+    if arm is None or not named_frames or lock:
+        return _geometric(robot, target, base, tip, mode, tol, family_tol, named=arm is not None, lock=lock)
     if mode not in ("pose", "position"):
         raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
     asked = ((PLANAR_POSE if mode == "pose" else PLANAR_POSITION) if arm.planar
@@ -281,13 +284,13 @@ def _verified(robot: Robot, T: np.ndarray, result: IKResult, pose: bool, tol: tu
     )
 
 
-def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, named: bool):
+def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, named: bool, lock=None):
     """(chain, family) of a chain with a geometric closed form, else IKOptionError saying why."""
     if mode not in ("pose", "position"):
         raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
     chain = robot.chain(base, tip)
     try:
-        family = chain_family(chain, tol=family_tol)
+        family = chain_family(chain, tol=family_tol, lock=lock)
     except ClosedFormIKError as exc:
         raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}): {exc}") from None
     if not family.solved:
@@ -304,9 +307,10 @@ def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, n
     return chain, family
 
 
-def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family_tol, named: bool) -> IKResult:
+def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family_tol, named: bool,
+               lock=None) -> IKResult:
     """:func:`analytic_ik` by the chain's geometry, rows as whole-robot vectors."""
-    chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named)
+    chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named, lock)
     result = chain_ik(chain, target, family=family, check_tol=tolerances(tol))
     Q = np.array([chain.full(q) for q in result.solutions], dtype=float).reshape(-1, len(robot.joint_names))
     columns = tuple(int(c) for c in chain.columns)
@@ -315,14 +319,15 @@ def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family
 
 
 def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = "ee_link", *, tol=1e-9,
-                     family_tol=FAMILY_TOL) -> IKBatch:
+                     family_tol=FAMILY_TOL, lock=None) -> IKBatch:
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
 
     numpy-vectorised over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
     an :class:`~manipkit.ik_result.IKBatch` of 8 slots per target, NaN where
     a branch does not exist, joint vectors in ``robot.chain(base,
     tip).joint_names`` order; residuals and ``success`` are measured by the
-    chain's compiled FK on first use, against ``tol``. Raises
+    chain's compiled FK on first use, against ``tol``; ``lock`` as in
+    :func:`analytic_ik`. Raises
     :class:`IKOptionError` when the chain has no geometric closed form.
 
     Examples
@@ -334,7 +339,7 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     >>> batch.solutions.shape, bool(batch.success.all())
     ((3, 8, 6), True)
     """
-    chain, family = _geometric_chain(robot, base, tip, "pose", family_tol, named=False)
+    chain, family = _geometric_chain(robot, base, tip, "pose", family_tol, named=False, lock=lock)
     T = np.asarray(targets, dtype=float)
     if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
         raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
@@ -342,7 +347,7 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
 
 
 def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",
-                       family_tol=FAMILY_TOL) -> str:
+                       family_tol=FAMILY_TOL, lock=None) -> str:
     """What :func:`analytic_ik` solves for these frames in ``mode`` (``""``: it does not; use numerical IK).
 
     ``"named"`` for a bundled textbook arm between ``base_link`` and
@@ -357,13 +362,14 @@ def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_lin
     ('three parallel, two intersecting', '')
     """
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
-    if arm is not None and (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link")):
+    if arm is not None and not lock and \
+            (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link")):
         position_ok = arm.planar or SPATIAL_POSITION in arm.solves
         return "named" if mode == "pose" or (mode == "position" and position_ok) else ""
     if mode != "pose":
         return ""
     try:
-        family = chain_family(robot.chain(base, tip), tol=family_tol)
+        family = chain_family(robot.chain(base, tip), tol=family_tol, lock=lock)
     except ClosedFormIKError:
         return ""
     return family.kind if family.solved else ""

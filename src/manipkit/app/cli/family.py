@@ -9,7 +9,7 @@ solves the chains whose family has a closed form.
 
 from __future__ import annotations
 
-from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json
+from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, is_number, load_robot, print_json
 from manipkit.text import short_text
 
 __all__ = ["register", "run_family"]
@@ -25,6 +25,8 @@ def register(commands) -> None:
     parser.add_argument("--tol", type=float, nargs="+", default=None, metavar="TOL",
                         help="how far axes may miss a point (m) and be from parallel (rad): one number or two "
                              "(default 1e-3)")
+    parser.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
+                        help="hold these joints at a value (rad): the family of the others (a 7R arm as a 6R one)")
     parser.add_argument("--format", choices=("text", "json"), default="text")
     parser.set_defaults(run=run_family)
 
@@ -42,7 +44,13 @@ def run_family(args) -> int:
                          "(distance m, angle rad)") from None
     robot = load_robot(args)
     chain = robot.chain(args.base, args.tip)
-    family = chain_family(chain, tol=tol)
+    lock = {}
+    for item in args.lock:
+        name, sep, text = item.partition("=")
+        if not sep or not name or not is_number(text):
+            raise UsageError(f"--lock {item}: give JOINT=VALUE with a number (rad)")
+        lock[name] = float(text)
+    family = chain_family(chain, tol=tol, lock=lock)
     opw, opw_note = None, ""
     if family.kind == "spherical wrist, two parallel":
         from manipkit.closed_form.opw import opw_parameters
@@ -69,8 +77,9 @@ def run_family(args) -> int:
     if opw is not None or opw_note:
         print(f"  {opw if opw is not None else opw_note}")
     if family.solved:
+        locks = "".join(f" --lock {name}={value!r}" for name, value in lock.items())
         print(f"closed form: manipkit ik --analytic --robot {args.robot or robot.name} --base {chain.base} "
-              f"--frame {chain.tip} --xyz ... --rpy ... gives every branch"
+              f"--frame {chain.tip}{locks} --xyz ... --rpy ... gives every branch"
               + ("" if family.ideal else f" (solved on the ideal arm {short_text(family.deviation, 3)} away, "
                                           "then refined on this chain)"))
     return EXIT_OK

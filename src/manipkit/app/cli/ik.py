@@ -26,6 +26,7 @@ from manipkit.app.cli.common import (
     add_robot_options,
     check_angles,
     check_precision,
+    is_number,
     joint_vector,
     load_robot,
     print_json,
@@ -59,6 +60,9 @@ def register(commands) -> None:
                          "three parallel axes (found from its geometry: every branch, labelled)")
     ik.add_argument("--all", action="store_true", help="every solution: the closed form when the chain has one (a pose), else every distinct solution "
                          "numerical IK finds within the restart budget")
+    ik.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
+                    help="closed form: hold these joints at a value (rad, or deg with --deg) and solve the others "
+                         "(a 7R arm as a 6R one)")
     ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
     ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
@@ -170,20 +174,36 @@ def _ik_target(args) -> np.ndarray:
     return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
 
 
+def _locked(args, robot: Robot) -> dict[str, float]:
+    """--lock JOINT=VALUE pairs as {joint: value} (rad; degrees converted with --deg)."""
+    pairs = {}
+    for item in args.lock:
+        name, sep, text = item.partition("=")
+        if not sep or not name or not is_number(text) or not math.isfinite(float(text)):
+            raise UsageError(f"--lock {item}: give JOINT=VALUE with a finite number, e.g. --lock {robot.joint_names[-1]}=0.3")
+        pairs[name] = math.radians(float(text)) if args.deg else float(text)
+    return pairs
+
+
 def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
     """(result, header): the closed form or numerical IK, as manipkit's one IK result type."""
     tol = _tolerance(args)
     options = {} if tol is None else {"tol": tol}
+    lock = _locked(args, robot)
+    if lock and not (args.analytic or args.all):
+        raise UsageError("--lock holds joints for the closed form; add --analytic or --all")
     closed = args.analytic
     if args.all and not args.analytic and not args.free and not args.seed_q and mode == "pose":
         from manipkit.closed_form.robots import closed_form_solves
 
-        closed = bool(closed_form_solves(robot, args.base, args.frame, mode=mode))  # --all: every solution, exactly
+        closed = bool(closed_form_solves(robot, args.base, args.frame, mode=mode, lock=lock))  # --all: every solution, exactly
     if closed:
         from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 
         if mode == "position+axis":
             raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
+        if lock:
+            options["lock"] = lock
         result = analytic_ik(robot, target, args.base, args.frame, mode=mode, **options)
         found = len(result.solutions)
         if result.infinite:
