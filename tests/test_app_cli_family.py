@@ -20,7 +20,7 @@ def test_family_json_and_a_chain_without_one():
                              status=0).stdout)
     assert out["family"] == "spherical wrist, two parallel" and out["solved"]
     assert [e["axes"] for e in out["evidence"]] == [[4, 5, 6], [2, 3]]
-    none = run_cli("manipkit", "family", "--robot", "iiwa14", status=0)
+    none = run_cli("manipkit", "family", "--robot", "xarm7", status=0)
     assert "family: none" in none.stdout and "7 joint(s)" in none.stdout
 
 
@@ -68,3 +68,12 @@ def test_ik_analytic_with_a_locked_joint_solves_a_7r_arm():
     assert all(s["iiwa_joint_3"] == 0.4 for s in out["solutions"]) and out["residual_position"] < 1e-9
     family = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=0.4", status=0)
     assert "family: spherical wrist, two intersecting" in family.stdout and "--lock iiwa_joint_3=0.4" in family.stdout
+
+
+def test_ik_analytic_at_an_arm_angle_solves_the_iiwa14():
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    T = chain.fk([0.3, 0.5, 0.4, -1.2, 0.3, 0.8, 0.2])
+    result = run_cli("manipkit", "ik", "--robot", "iiwa14", *target_args(T), "--analytic", "--arm-angle", "0.5", status=0)
+    assert "closed form (closed_form.chain_ik (spherical shoulder, elbow, spherical wrist)" in result.stdout
+    assert "at arm angle psi = 0.5 rad" in result.stdout

@@ -345,3 +345,28 @@ def test_locking_a_joint_the_chain_does_not_have_names_the_joints():
     chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
     with pytest.raises(ClosedFormIKError, match="cannot lock 'elbow': it is not a joint of the chain base_link -> ee_link"):
         chain_family(chain, lock={"elbow": 0.1})
+
+
+def test_iiwa14_is_an_srs_arm_and_every_configuration_is_found_at_its_own_arm_angle():
+    from manipkit.closed_form.chain_ik import srs_arm_angle
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain)
+    assert family.kind == "spherical shoulder, elbow, spherical wrist"
+    assert [r.axes for r in family.evidence] == [(1, 2, 3), (5, 6, 7)]
+    for q in chain.sample(40, seed=8):
+        T = chain.fk(q)
+        psi = srs_arm_angle(chain, q, family=family)
+        result = chain_ik(chain, T, family=family, arm_angle=psi)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions)
+        assert len(set(result.labels)) == len(result.labels) <= 8
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "base_link", "ee_link", chain.full(s)), T) < 1e-10
+            assert abs(math.remainder(srs_arm_angle(chain, s, family=family) - psi, 2 * math.pi)) < 1e-8
+
+
+def test_an_srs_arm_without_an_arm_angle_says_what_to_give():
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    with pytest.raises(ClosedFormIKError, match="give arm_angle"):
+        chain_ik(chain, chain.fk(np.zeros(7)))

@@ -46,13 +46,15 @@ from manipkit.closed_form.families import (
     FAMILY_TOL,
     OPW,
     SPHERICAL_12,
+    SRS,
     UR,
     Family,
     chain_family,
     common_point,
     reversed_geometry,
 )
-from manipkit.closed_form.subproblems import rotate
+from manipkit.closed_form.srs import solve_srs
+from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
@@ -61,7 +63,7 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm"]
+__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
@@ -96,6 +98,12 @@ class IdealArm:
             p[4:6] = c
             points["wrist"] = c
             moved = max(moved, miss)
+        if family.kind == SRS:
+            s, miss_s = common_point(h[0:3], p[0:3])
+            c, miss_w = common_point(h[4:7], p[4:7])
+            p[0:3], p[4:7] = s, c
+            points["shoulder"], points["wrist"] = s, c
+            moved = max(moved, miss_s, miss_w)
         if family.kind == SPHERICAL_12:
             s, miss = common_point(h[0:2], p[0:2])
             p[0:2] = s
@@ -124,12 +132,18 @@ def ideal_arm(family: Family) -> IdealArm:
     return IdealArm(family)
 
 
-def _branches(arm: IdealArm, T: np.ndarray) -> tuple[np.ndarray, Branches, np.ndarray]:
-    """(theta (N, 8, 6) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
+def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None) -> tuple[np.ndarray, Branches, np.ndarray]:
+    """(theta (N, 8, n) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
     family = arm.family
     g = T @ invert_transform(family.geometry.M)
     if family.reversed:
         g = invert_transform(g)
+    if family.kind == SRS:
+        if arm_angle is None or len(g) != 1:
+            raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
+                                    "ik --arm-angle PSI), one target at a time, or lock a joint")
+        branches = solve_srs(arm.h, arm.p, g[0], arm.points, float(arm_angle))
+        return branches.theta, branches, g
     branches = solve_6r(family.kind, arm.h, arm.p, g, arm.points)
     theta = branches.theta[..., ::-1] if family.reversed else branches.theta
     return theta, branches, g
@@ -181,6 +195,9 @@ def _label(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> str:
     """Shoulder, elbow and wrist of one branch (angles in the solve direction), as words."""
     h, p = arm.h, arm.p
     kind = arm.family.kind
+    if kind == SRS:  # the arm angle is given: the elbow's sign, the shoulder's and the wrist's split name a branch
+        return (f"elbow {'+' if theta[3] >= 0 else '-'}, shoulder {'+' if theta[1] >= 0 else '-'}, "
+                f"{'no flip' if theta[5] >= 0 else 'wrist flip'}")
     c = arm.points["wrist"]
     w = g[:3, :3] @ c + g[:3, 3]
     s = arm.points.get("shoulder", p[1])
@@ -223,7 +240,7 @@ def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
 
 
 def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-             max_iters: int = 20, lock=None) -> IKResult:
+             max_iters: int = 20, lock=None, arm_angle=None) -> IKResult:
     """Every closed-form IK solution of ``chain`` for ``T_base_tip = target``, found from the chain's geometry.
 
     Parameters
@@ -243,6 +260,10 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     lock : dict of str to float, keyword-only
         Joints held at a value (a 7R arm solved as the 6R arm of the others;
         ``family`` found with the same ``lock``); rows keep those values.
+    arm_angle : float, keyword-only
+        A 7R SRS arm (:mod:`manipkit.closed_form.srs`): the angle (rad) of
+        the elbow's plane about the shoulder-wrist line from the plane with
+        joint 3 at its reference value.
 
     Returns
     -------
@@ -268,7 +289,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = check_transform(target, what="IK target")
-    theta, branches, g = _branches(arm, T[None])
+    theta, branches, g = _branches(arm, T[None], arm_angle)
     geometry = family.geometry
     names = tuple(chain.joint_names)
     slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
@@ -316,6 +337,8 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     wide = [names[k] for k in geometry.columns if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
     if wide and len(rows):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if family.kind == SRS:
+        parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
     if family.locked:
         parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
     if rejected:
@@ -394,3 +417,37 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
     return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=f"closed_form.chain_ik_many ({family.kind})",
                    joint_names=tuple(chain.joint_names), measure=measure, limit=check)
+
+
+def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:
+    """The arm angle (rad) of configuration ``q`` of a 7R SRS chain, as :func:`chain_ik`'s ``arm_angle`` takes it.
+
+    The rotation about the shoulder-wrist line that takes the reference
+    plane (joint 3 at its reference value) to the elbow's plane at ``q``;
+    ``chain_ik(chain, chain.fk(q), arm_angle=srs_arm_angle(chain, q))`` lists ``q``.
+    """
+    family = chain_family(chain) if family is None else family
+    if family.kind != SRS:
+        raise ClosedFormIKError(f"an arm angle belongs to a 7R SRS chain; this chain is '{family.kind}'")
+    arm = ideal_arm(family)
+    h, p = arm.h, arm.p
+    geometry = family.geometry
+    q = np.asarray(q, dtype=float)
+    theta = geometry.scale * (q[geometry.columns] - geometry.q0[geometry.columns])
+    T = np.asarray(chain.fk(q))
+    g = T @ invert_transform(geometry.M)
+    S, c = arm.points["shoulder"], arm.points["wrist"]
+    v = g[:3, :3] @ c + g[:3, 3] - S
+    v = v / np.linalg.norm(v)
+    u = p[3] + rotate(h[3], theta[3], c - p[3]) - S
+    t2, minus1 = sp2(h[1], u, h[0], v * np.linalg.norm(u)).theta[0]
+    R_ref = rotation_matrix(h[0], -minus1) @ rotation_matrix(h[1], t2)
+    R_shoulder = rotation_matrix(h[0], theta[0]) @ rotation_matrix(h[1], theta[1]) @ rotation_matrix(h[2], theta[2])
+    best = None
+    for D in (R_shoulder @ R_ref.T, R_shoulder @ rotation_matrix(h[2], np.pi) @ R_ref.T):
+        gap = float(np.linalg.norm(D @ v - v))
+        w = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]])
+        angle = math.atan2(0.5 * float(v @ w), 0.5 * (float(np.trace(D)) - 1.0))
+        if best is None or gap < best[0]:
+            best = (gap, angle)
+    return best[1]

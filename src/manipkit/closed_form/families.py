@@ -13,6 +13,9 @@ the middle of the limits when zero is outside them), as
   point and axes 1 and 2 meet (Stanford-like shoulders).
 - the same with the chain read tip to base (a spherical joint group at the
   base): ``reversed`` True.
+- ``"spherical shoulder, elbow, spherical wrist"`` (7R, SRS: the iiwa14):
+  axes 1, 2, 3 meet and axes 5, 6, 7 meet; solved at a given arm angle
+  (:mod:`manipkit.closed_form.srs`).
 - ``"planar"``: every axis parallel (revolute), ``"scara"``: parallel
   revolute axes and one prismatic joint along them. These are recognised
   (so the bundled textbook arms are found by geometry) but solved by the
@@ -63,11 +66,12 @@ FAMILY_TOL = (1e-3, 1e-3)
 OPW = "spherical wrist, two parallel"
 UR = "three parallel, two intersecting"
 SPHERICAL_12 = "spherical wrist, two intersecting"
+SRS = "spherical shoulder, elbow, spherical wrist"
 PLANAR = "planar"
 SCARA = "scara"
 NONE = "none"
 #: The families :mod:`manipkit.closed_form.chain_ik` solves from the geometry.
-SOLVED = (OPW, UR, SPHERICAL_12)
+SOLVED = (OPW, UR, SPHERICAL_12, SRS)
 
 
 @dataclass(frozen=True)
@@ -334,6 +338,11 @@ def _classify(geometry: Geometry, tol: tuple[float, float], names: tuple[str, ..
         evidence = (_parallel(geometry, tuple(range(n))),)
         return Family(SCARA, False, evidence, tol, names, geometry,
                       "SCARA: parallel revolute axes and one prismatic joint along them")
+    if n == 7 and not prismatic.any():
+        shoulder, wrist = _meet(geometry, (0, 1, 2)), _meet(geometry, (4, 5, 6))
+        if _holds(shoulder, tol) and _holds(wrist, tol):
+            return Family(SRS, False, (shoulder, wrist), tol, names, geometry,
+                          f"7R arm: {SRS} (solved at a given arm angle, or with one joint locked)")
     if n != 6 or prismatic.any():
         kinds = f"{n} joint(s)" + (f", {int(prismatic.sum())} prismatic" if prismatic.any() else "")
         return Family(NONE, False, (), tol, names, geometry,

@@ -24,7 +24,7 @@ import numpy as np
 from manipkit.closed_form import decoupled, planar, planar_modes
 from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
 from manipkit.closed_form.checks import quantity_text
-from manipkit.closed_form.families import FAMILY_TOL, chain_family
+from manipkit.closed_form.families import FAMILY_TOL, SRS, chain_family
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.ik_result import IKBatch, IKResult, tolerances
@@ -106,7 +106,7 @@ ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
 
 
 def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose", tol=1e-9,
-                samples: int = 4, family_tol=FAMILY_TOL, lock=None) -> IKResult:
+                samples: int = 4, family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> IKResult:
     """All closed-form IK solutions for ``T_base_tip = target``: a bundled textbook arm's, or any chain's with a 6R family.
 
     Two paths. The bundled textbook arms (below) between ``base_link`` and
@@ -167,6 +167,9 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     lock : dict of str to float, keyword-only
         The geometric path: joints held at a value, so a 7R arm is solved as
         the 6R arm of the others (``{"iiwa_joint_3": 0.4}``); rows keep them.
+    arm_angle : float, keyword-only
+        The geometric path on a 7R SRS arm (iiwa14): the arm angle (rad) to
+        solve at (:func:`manipkit.closed_form.chain_ik.srs_arm_angle`).
 
     Returns
     -------
@@ -198,8 +201,9 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     # Over 80 lines: the docstring (what each arm solves, every option) is most of it.
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
     named_frames = (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link"))
-    if arm is None or not named_frames or lock:
-        return _geometric(robot, target, base, tip, mode, tol, family_tol, named=arm is not None, lock=lock)
+    if arm is None or not named_frames or lock or arm_angle is not None:
+        return _geometric(robot, target, base, tip, mode, tol, family_tol, named=arm is not None, lock=lock,
+                          arm_angle=arm_angle)
     if mode not in ("pose", "position"):
         raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
     asked = ((PLANAR_POSE if mode == "pose" else PLANAR_POSITION) if arm.planar
@@ -207,7 +211,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     if mode == "position" and not arm.planar and SPATIAL_POSITION not in arm.solves:
         raise IKOptionError(
             f"the closed form of {robot.source.name} solves {' and '.join(arm.solves)} only, not a position alone "
-            "(a 6-joint arm leaves three degrees of freedom free); give an orientation, or use numerical IK for a position"
+            "(a position alone leaves the orientation's degrees of freedom free); give an orientation, or use numerical IK for a position"
         )
     tol = tolerances(tol)
     T = check_transform(target, what="IK target")
@@ -284,7 +288,8 @@ def _verified(robot: Robot, T: np.ndarray, result: IKResult, pose: bool, tol: tu
     )
 
 
-def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, named: bool, lock=None):
+def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, named: bool, lock=None,
+                     arm_angle=0.0):
     """(chain, family) of a chain with a geometric closed form, else IKOptionError saying why."""
     if mode not in ("pose", "position"):
         raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
@@ -300,18 +305,25 @@ def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, n
         raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}): {family.note}; "
                             f"the bundled textbook arms {', '.join(ANALYTIC_SOLVERS)} have named solvers; "
                             "use numerical IK otherwise")
+    if family.kind == SRS and arm_angle is None:
+        raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}) without an arm angle: "
+                            f"it is a 7R arm ({SRS}) with a family of solutions per target; give arm_angle (rad; "
+                            "ik --arm-angle PSI) or lock a joint (lock=, ik --lock JOINT=VALUE)")
     if mode == "position":
         raise IKOptionError(f"the closed form of {robot.name} ({family.kind}) solves spatial pose (x, y, z, R) only, "
-                            "not a position alone (a 6-joint arm leaves three degrees of freedom free); give an "
+                            "not a position alone (a position alone leaves the orientation's degrees of freedom free); give an "
                             "orientation, or use numerical IK for a position")
     return chain, family
 
 
 def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family_tol, named: bool,
-               lock=None) -> IKResult:
+               lock=None, arm_angle=None) -> IKResult:
     """:func:`analytic_ik` by the chain's geometry, rows as whole-robot vectors."""
-    chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named, lock)
-    result = chain_ik(chain, target, family=family, check_tol=tolerances(tol))
+    chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named, lock, arm_angle)
+    try:
+        result = chain_ik(chain, target, family=family, check_tol=tolerances(tol), arm_angle=arm_angle)
+    except ClosedFormIKError as exc:
+        raise IKOptionError(str(exc)) from None
     Q = np.array([chain.full(q) for q in result.solutions], dtype=float).reshape(-1, len(robot.joint_names))
     columns = tuple(int(c) for c in chain.columns)
     return replace(result, solutions=read_only(Q, (len(robot.joint_names),)), joint_names=robot.joint_names,
@@ -347,13 +359,13 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
 
 
 def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",
-                       family_tol=FAMILY_TOL, lock=None) -> str:
+                       family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> str:
     """What :func:`analytic_ik` solves for these frames in ``mode`` (``""``: it does not; use numerical IK).
 
     ``"named"`` for a bundled textbook arm between ``base_link`` and
     ``ee_link`` whose solver answers ``mode``; the family's kind (e.g.
     ``"three parallel, two intersecting"``) for a chain with a geometric
-    6R closed form and ``mode`` ``"pose"``.
+    closed form and ``mode`` ``"pose"`` (a 7R SRS arm: with ``arm_angle``).
 
     Examples
     --------
@@ -372,4 +384,6 @@ def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_lin
         family = chain_family(robot.chain(base, tip), tol=family_tol, lock=lock)
     except ClosedFormIKError:
         return ""
+    if family.kind == SRS and arm_angle is None:
+        return ""  # a 7R SRS arm needs its arm angle
     return family.kind if family.solved else ""

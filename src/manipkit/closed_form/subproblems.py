@@ -189,7 +189,9 @@ def sp2(k1, p1, k2, p2, *, tol: float = TOL) -> Answer:
     cone met everywhere: ``t1`` free, ``t2`` follows; ``p2`` on ``k2`` and
     met: ``t2`` free, held 0);
     ``miss`` is ``|R1 p1 - R2 p2|`` of the best pair (unequal lengths never
-    meet).
+    meet). A pair counts when that gap is within ``sqrt(tol)`` (relative):
+    near a tangency the angles are good to that much only; callers check
+    their answers by forward kinematics.
 
     Examples
     --------
@@ -203,7 +205,8 @@ def sp2(k1, p1, k2, p2, *, tol: float = TOL) -> Answer:
     target = rotate(k1[..., None, :], t1, p1[..., None, :])
     t2, free, miss = sp1(k2[..., None, :], p2[..., None, :], target, tol=tol)
     theta = np.stack([t1, t2], axis=-1)
-    exact = miss <= tol * np.maximum(1.0, np.linalg.norm(p1, axis=-1))[..., None]
+    # a tangency met within tol in the cone's equation leaves an angle good to sqrt(tol) only: accept that much
+    exact = miss <= np.sqrt(tol) * np.maximum(1.0, np.linalg.norm(p1, axis=-1))[..., None]
     count = first.count
     count = np.where(np.isfinite(count) & (count > 0) & ~exact[..., 0], 0.0, count)
     count = np.where((count > 0) & free[..., 0], np.inf, count)  # p2 on k2 (and met): t2 is free

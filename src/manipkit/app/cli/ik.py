@@ -63,6 +63,8 @@ def register(commands) -> None:
     ik.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
                     help="closed form: hold these joints at a value (rad, or deg with --deg) and solve the others "
                          "(a 7R arm as a 6R one)")
+    ik.add_argument("--arm-angle", type=float, default=None, metavar="PSI",
+                    help="closed form of a 7R SRS arm (iiwa14): the arm angle (rad, or deg with --deg)")
     ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
     ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
@@ -192,11 +194,18 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
     lock = _locked(args, robot)
     if lock and not (args.analytic or args.all):
         raise UsageError("--lock holds joints for the closed form; add --analytic or --all")
+    arm_angle = args.arm_angle
+    if arm_angle is not None:
+        if not math.isfinite(arm_angle):
+            raise UsageError(f"--arm-angle {arm_angle}: give a finite angle")
+        if not (args.analytic or args.all):
+            raise UsageError("--arm-angle is the closed form's (7R SRS arms); add --analytic or --all")
+        arm_angle = math.radians(arm_angle) if args.deg else arm_angle
     closed = args.analytic
     if args.all and not args.analytic and not args.free and not args.seed_q and mode == "pose":
         from manipkit.closed_form.robots import closed_form_solves
 
-        closed = bool(closed_form_solves(robot, args.base, args.frame, mode=mode, lock=lock))  # --all: every solution, exactly
+        closed = bool(closed_form_solves(robot, args.base, args.frame, mode=mode, lock=lock, arm_angle=arm_angle))  # --all: every solution, exactly
     if closed:
         from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 
@@ -204,6 +213,8 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
             raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
         if lock:
             options["lock"] = lock
+        if arm_angle is not None:
+            options["arm_angle"] = arm_angle
         result = analytic_ik(robot, target, args.base, args.frame, mode=mode, **options)
         found = len(result.solutions)
         if result.infinite:
