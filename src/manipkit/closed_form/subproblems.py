@@ -129,8 +129,8 @@ def sp4(h, k, p, d, *, tol: float = TOL) -> Answer:
     Examples
     --------
     >>> answer = sp4([1, 0, 0], [0, 0, 1], [1, 0, 0], 0.0)
-    >>> answer.theta.round(12) + 0.0, float(answer.count)
-    (array([ 1.570796326795, -1.570796326795]), 2.0)
+    >>> [round(float(t), 6) for t in answer.theta], float(answer.count)
+    ([1.570796, -1.570796], 2.0)
     """
     h, k, p = (np.asarray(v, dtype=float) for v in (h, k, p))
     d = np.asarray(d, dtype=float)
@@ -196,8 +196,8 @@ def sp2(k1, p1, k2, p2, *, tol: float = TOL) -> Answer:
     Examples
     --------
     >>> answer = sp2([0, 0, 1], [1, 0, 0], [1, 0, 0], [0, 0, 1])
-    >>> float(answer.count), answer.theta[0].round(12) + 0.0
-    (2.0, array([1.570796326795, 1.570796326795]))
+    >>> float(answer.count), [round(float(t), 6) for t in answer.theta[0]]
+    (2.0, [1.570796, -1.570796])
     """
     k1, p1, k2, p2 = (np.asarray(v, dtype=float) for v in (k1, p1, k2, p2))
     first = sp4(k2, k1, p1, _dot(k2, p2), tol=tol)
