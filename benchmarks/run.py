@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap")
+WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "analytic")
 ROBOTS = ("iiwa14", "panda")
 
 FULL = {
@@ -34,6 +34,7 @@ FULL = {
     "gci": dict(samples=1_000_000, repeats=1),
     "reachmap": dict(voxel=0.1, directions=200, samples=4_000_000, ik_targets=20_000, labelled=4000,
                      dask_samples=2_000_000),
+    "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
 }
 QUICK = {
     "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
@@ -44,6 +45,7 @@ QUICK = {
     "jacobian": dict(n_batch=300, repeats=2, loop_subset=50, rtb_subset=20),
     "gci": dict(samples=2000, repeats=1),
     "reachmap": dict(voxel=0.2, directions=20, samples=20_000, ik_targets=200, labelled=100, dask_samples=20_000),
+    "analytic": dict(n_single=10, n_batch=50, repeats=1),
 }
 GROUP_LABELS = {
     "fk_single": "FK, one configuration",
@@ -59,6 +61,7 @@ GROUP_LABELS = {
     "reachmap_agreement": "reachability map vs IK labels",
     "reachmap_dask": "reachability map on Dask",
     "ik_many": "batched IK (ik_many)",
+    "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
               "map": "map", "pose": "pose"}
@@ -417,6 +420,9 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         steps.append(("GCI iiwa14", lambda: w.gci_workload("iiwa14", **sizes["gci"])))
     if "reachmap" in only:
         steps.append(("reachability map iiwa14", lambda: reachmap_rows("iiwa14", sizes["reachmap"])))
+    if "analytic" in only:
+        for arm in ("ur5", "kinova"):  # a UR-type arm and a spherical-wrist arm
+            steps.append((f"closed-form IK {arm}", lambda arm=arm: w.analytic_workload(arm, **sizes["analytic"])))
     for label, step in steps:
         t = time.perf_counter()
         log(f"[bench] {label} ...")
