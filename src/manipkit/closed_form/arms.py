@@ -43,6 +43,7 @@ UR = "three parallel, two intersecting"
 SPHERICAL_12 = "spherical wrist, two intersecting"
 #: Relative size of a subproblem miss under which a branch is kept as ``near`` (refined on the chain, not exact).
 NEAR = 1e-6
+_EYE = np.eye(3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,7 +91,7 @@ def rotation_matrix(k, theta) -> np.ndarray:
     """
     theta = np.asarray(theta, dtype=float)[..., None, None]
     K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K)
+    return _EYE + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K)
 
 
 def _move(h, p, theta, x) -> np.ndarray:

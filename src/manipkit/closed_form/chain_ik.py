@@ -191,13 +191,13 @@ def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
     return Q
 
 
-def _label(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> str:
-    """Shoulder, elbow and wrist of one branch (angles in the solve direction), as words."""
+def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> list[str]:
+    """Shoulder, elbow and wrist of each branch (rows of angles (k, n) in the solve direction), as words."""
     h, p = arm.h, arm.p
     kind = arm.family.kind
     if kind == SRS:  # the arm angle is given: the elbow's sign, the shoulder's and the wrist's split name a branch
-        return (f"elbow {'+' if theta[3] >= 0 else '-'}, shoulder {'+' if theta[1] >= 0 else '-'}, "
-                f"{'no flip' if theta[5] >= 0 else 'wrist flip'}")
+        return [f"elbow {'+' if t[3] >= 0 else '-'}, shoulder {'+' if t[1] >= 0 else '-'}, "
+                f"{'no flip' if t[5] >= 0 else 'wrist flip'}" for t in theta]
     c = arm.points["wrist"]
     w = g[:3, :3] @ c + g[:3, 3]
     s = arm.points.get("shoulder", p[1])
@@ -205,26 +205,31 @@ def _label(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> str:
     reference = reference - (reference @ h[1]) * h[1]
     if np.linalg.norm(reference) < 1e-9:
         reference = np.cross(h[0], h[1])
-    w1 = p[0] + rotate(h[0], -theta[0], w - p[0])
-    shoulder = "front" if (w1 - p[0]) @ reference >= 0.0 else "back"
+    w1 = p[0] + rotate(h[0], -theta[:, 0], w - p[0])  # (k, 3)
+    front = (w1 - p[0]) @ reference >= 0.0
     up = h[0] if h[0][2] >= 0.0 else -h[0]
-    E1 = rotation_matrix(h[0], theta[0])
-    shoulder_point = p[0] + E1 @ (s - p[0])
-    elbow = p[0] + E1 @ (p[1] + rotate(h[1], theta[1], p[2] - p[1]) - p[0])
-    wrist = w
+    E1 = rotation_matrix(h[0], theta[:, 0])  # (k, 3, 3)
+
+    def turned(x):
+        return p[0] + np.einsum("kij,kj->ki", E1, np.broadcast_to(x - p[0], (len(theta), 3)))
+
+    shoulder_point = turned(s)
+    elbow = turned(p[1] + rotate(h[1], theta[:, 1], p[2] - p[1]))
+    wrist = np.broadcast_to(w, elbow.shape)
     if kind == UR:  # the point on axis 4, moved
-        E3p4 = p[2] + rotate(h[2], theta[2], p[3] - p[2])
-        wrist = p[0] + E1 @ (p[1] + rotate(h[1], theta[1], E3p4 - p[1]) - p[0])
+        E3p4 = p[2] + rotate(h[2], theta[:, 2], p[3] - p[2])
+        wrist = turned(p[1] + rotate(h[1], theta[:, 1], E3p4 - p[1]))
     normal = E1 @ h[1]  # the arm's plane is normal to axis 2: compare within it
-    line = wrist - shoulder_point
-    line = line - (line @ normal) * normal
-    offset = elbow - shoulder_point
-    offset = offset - (offset @ normal) * normal
-    if line @ line > 0.0:
-        offset = offset - (offset @ line) / (line @ line) * line
-    elbow_word = "elbow up" if offset @ up >= 0.0 else "elbow down"
-    wrist_word = "no flip" if theta[4] >= 0.0 else "wrist flip"
-    return f"{shoulder}, {elbow_word}, {wrist_word}"
+
+    def in_plane(x):
+        return x - np.sum(x * normal, axis=-1, keepdims=True) * normal
+
+    line, offset = in_plane(wrist - shoulder_point), in_plane(elbow - shoulder_point)
+    length = np.sum(line * line, axis=-1, keepdims=True)
+    offset = offset - np.where(length > 0.0, np.sum(offset * line, axis=-1, keepdims=True) / np.where(length > 0, length, 1.0), 0.0) * line
+    above = offset @ up >= 0.0
+    return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t[4] >= 0.0 else 'wrist flip'}"
+            for f, a, t in zip(front, above, theta)]
 
 
 def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
@@ -315,9 +320,12 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
             continue
         rows.append(q)
-        labels.append(_label(arm, g[0], branches.theta[0, slot]) + (" (read tip to base)" if family.reversed else ""))
+        labels.append(int(slot))  # named below, all rows at once
         free_of.append(free)
         refined.append(moved)
+    if labels:
+        words = _labels(arm, g[0], branches.theta[0, labels])
+        labels = [w + (" (read tip to base)" if family.reversed else "") for w in words]
     order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first
     rows, labels, free_of, refined = ([seq[i] for i in order] for seq in (rows, labels, free_of, refined))
     n = len(names)
