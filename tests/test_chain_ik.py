@@ -370,3 +370,14 @@ def test_an_srs_arm_without_an_arm_angle_says_what_to_give():
     chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
     with pytest.raises(ClosedFormIKError, match="give arm_angle"):
         chain_ik(chain, chain.fk(np.zeros(7)))
+
+
+def test_ur5_with_the_elbow_straight_has_seven_solutions():
+    """By hand: q3 = 0 puts the axis-4 point at the elbow's full reach for the generating shoulder and wrist
+    choice: its two elbows coincide (a tangency, 1 row). The other wrist choice moves that point inside the reach
+    (2 elbows), and the other shoulder gives 2 wrists x 2 elbows: 1 + 2 + 4 = 7."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    q = np.array([0.2, 0.3, 0.0, 0.5, 0.8, 0.3])
+    result = chain_ik(chain, chain.fk(q))
+    assert result.count == 7 and any(same_modulo_2pi(s, q) for s in result.solutions)
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
