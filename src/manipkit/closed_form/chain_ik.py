@@ -238,7 +238,7 @@ def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
                 f"the row holds {names[3]} at its reference value")
     if free == 5:
         return (f"wrist singular (axis 6 parallel to axes 2, 3, 4): {names[5]} with {names[1]}, {names[2]}, "
-                f"{names[3]} is not determined; the row holds {names[5]} at its reference value")
+                f"{names[3]} is not determined; the row holds the member with the elbow mid-reach")
     if free == 0:
         return f"shoulder singular (the wrist centre on axis 1): {names[0]} is free; the row holds it at its reference value"
     return f"{names[free]} is free at this target; the row holds it at its reference value"
