@@ -101,7 +101,7 @@ def _move(h, p, theta, x) -> np.ndarray:
 
 def _perpendicular(h: np.ndarray) -> np.ndarray:
     """A unit vector perpendicular to ``h``."""
-    other = np.eye(3)[int(np.argmin(np.abs(h)))]
+    other = _EYE[int(np.argmin(np.abs(h)))]
     v = np.cross(h, other)
     return v / np.linalg.norm(v)
 
@@ -197,7 +197,7 @@ def _ur(h, p, c, g, tol) -> Branches:
     source = rotate(h[4], -t5, h[1])  # (N, 2, 2, 3) = R5^T h2
     wanted = _mv(np.swapaxes(R1t_Rg, -1, -2), h[1])[:, :, None, :]  # R_g^T R1 h2
     minus6, free6, _ = sp1(h[5], source, wanted, tol=tol)
-    t6 = np.where(free6, _ur_free_sixth(h, p, g, t1), -minus6)
+    t6 = np.where(free6, _ur_free_sixth(h, p, g, t1), -minus6) if free6.any() else -minus6
     # the axis-4 point moved by g' = E1^-1 g E6^-1 E5^-1 = E2 E3 E4
     x = _move(h[5], p[5], -t6, _move(h[4], p[4], -t5, p[3]))  # (N, 2, 2, 3)
     y = _move(h[0], p[0], -t1[:, :, None], _mv(R_g[:, None, None], x) + g[:, None, None, :3, 3])
