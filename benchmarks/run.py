@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "analytic")
+WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "collisions", "analytic")
 ROBOTS = ("iiwa14", "panda")
 
 FULL = {
@@ -34,6 +34,7 @@ FULL = {
     "gci": dict(samples=1_000_000, repeats=1),
     "reachmap": dict(voxel=0.1, directions=200, samples=4_000_000, ik_targets=20_000, labelled=4000,
                      dask_samples=2_000_000),
+    "collisions": dict(checks=20_000, repeats=5, acm_samples=10_000, map_samples=1_000_000, voxel=0.1, directions=200),
     "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
 }
 QUICK = {
@@ -45,6 +46,7 @@ QUICK = {
     "jacobian": dict(n_batch=300, repeats=2, loop_subset=50, rtb_subset=20),
     "gci": dict(samples=2000, repeats=1),
     "reachmap": dict(voxel=0.2, directions=20, samples=20_000, ik_targets=200, labelled=100, dask_samples=20_000),
+    "collisions": dict(checks=300, repeats=1, acm_samples=100, map_samples=5000, voxel=0.2, directions=20),
     "analytic": dict(n_single=10, n_batch=50, repeats=1),
 }
 GROUP_LABELS = {
@@ -61,6 +63,9 @@ GROUP_LABELS = {
     "reachmap_agreement": "reachability map vs IK labels",
     "reachmap_dask": "reachability map on Dask",
     "ik_many": "batched IK (ik_many)",
+    "collisions": "self-collision checks, batch",
+    "acm": "allowed-collision matrix",
+    "reachmap_collisions": "reachability map, collision-free only",
     "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
@@ -171,6 +176,7 @@ def goals(rows: list[dict]) -> list[dict]:
                  f"{rate / 1e7:.1f}x the goal" if rate >= 1e7 else f"missed by {1e7 / rate:.1f}x")
     _velocity_goals(rows, goal)
     _reachmap_goals(rows, goal)
+    _collision_goals(rows, goal)
     cold = _find(rows, "cold_start", "-", "manipkit tf-between")
     bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
     if cold and cold["median_s"]:
@@ -230,6 +236,23 @@ def _reachmap_goals(rows: list[dict], goal) -> None:
         speedup = one["median_s"] / two["median_s"]
         goal("reachability map on Dask: 1 to 2 workers near 2x", f"{speedup:.2f}x", speedup >= 1.6,
              f"{two['samples']} samples; wall time includes the cluster's start")
+
+
+def _collision_goals(rows: list[dict], goal) -> None:
+    """Issue 23: batched checks >= 1.8x a loop on both cores; the Panda matrix from 10,000 samples in 60 s; a
+    filtered iiwa14 map within 2x the unfiltered one."""
+    loop = _find(rows, "collisions", "panda", "Python loop")
+    if loop and loop.get("ratio") and loop["n"] >= 10_000:  # not on the quick run's few hundred
+        goal("self-collision checks, Panda hulls: batched >= 1.8x a Python loop over computeCollisions",
+             f"{loop['ratio']:.2f}x", loop["ratio"] >= 1.8, loop["check"])
+    acm = _find(rows, "acm", "panda", "manipkit allowed_collision_matrix")
+    if acm and acm["median_s"] and acm["n"] >= 10_000:
+        goal("allowed-collision matrix, Panda, 10,000 samples: <= 60 s", f"{acm['median_s']:.1f} s",
+             acm["median_s"] <= 60.0, acm["check"])
+    filtered = _find(rows, "reachmap_collisions", "iiwa14", "manipkit reachmap.build, collisions")
+    if filtered and filtered["median_s"] and filtered["n"] >= 1_000_000:
+        goal("iiwa14 map at 0.1 m filtered for self and floor collisions: <= 2x the unfiltered time",
+             f"{filtered['slowdown']:.2f}x", filtered["slowdown"] <= 2.0, filtered["check"])
 
 
 def reachmap_rows(robot: str, sizes: dict) -> list[dict]:
@@ -420,6 +443,10 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         steps.append(("GCI iiwa14", lambda: w.gci_workload("iiwa14", **sizes["gci"])))
     if "reachmap" in only:
         steps.append(("reachability map iiwa14", lambda: reachmap_rows("iiwa14", sizes["reachmap"])))
+    if "collisions" in only:
+        from benchmarks.collisions_workload import collisions_workload
+
+        steps.append(("collisions", lambda: collisions_workload(**sizes["collisions"])))
     if "analytic" in only:
         for arm in ("ur5", "kinova"):  # a UR-type arm and a spherical-wrist arm
             steps.append((f"closed-form IK {arm}", lambda arm=arm: w.analytic_workload(arm, **sizes["analytic"])))

@@ -381,11 +381,11 @@ def test_the_same_file_included_twice_side_by_side_is_fine(tmp_path):
 def test_a_bad_value_from_an_argument_names_the_file_the_expansion_read():
     # planar_2r includes planar_link.xacro, whose planar_base_link macro writes base_link (line 53);
     # course_arm.urdf.xacro beside it also writes a base_link but is no part of planar_2r.
-    with pytest.raises(DescriptionError, match=r"^planar_link.xacro:53: link 'base_link' <inertial> <origin> "
+    with pytest.raises(DescriptionError, match=r"^planar_link.xacro:65: link 'base_link' <inertial> <origin> "
                                                r"xyz=\"0 0 nan\": 'nan' is not finite"):
         manipkit.load("planar_2r", l1="nan")
     locate = xacro_locator(bundled_robots()["planar_2r"])
-    assert locate("link", "base_link") == "planar_link.xacro:53"
+    assert locate("link", "base_link") == "planar_link.xacro:65"
 
 
 def test_xacros_own_functions_are_restored_after_an_expansion(tmp_path):

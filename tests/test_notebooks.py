@@ -10,7 +10,7 @@ from nbclient import NotebookClient
 NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
 
 
-def test_the_ten_notebooks_exist():
+def test_the_notebooks_exist():
     names = [p.name for p in NOTEBOOKS]
     assert names == [
         "01_planar_2r.ipynb",
@@ -23,6 +23,7 @@ def test_the_ten_notebooks_exist():
         "08_velocity_kinematics.ipynb",
         "09_reach_maps.ipynb",
         "10_closed_form_real_arms.ipynb",
+        "11_collisions.ipynb",
     ]
 
 

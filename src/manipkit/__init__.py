@@ -46,6 +46,8 @@ _LAZY = {
     "singular_families": "manipkit.analysis.singularities",
     "singular_family_at": "manipkit.analysis.singularities",
     "ik_many": "manipkit.kinematics.ik_many",
+    "collisions": "manipkit.kinematics.collisions",
+    "collision_free": "manipkit.kinematics.collisions",
     "matrix_from_rpy": "manipkit.spatial.rotations",
     "rpy_from_matrix": "manipkit.spatial.rotations",
     "matrix_from_quaternion": "manipkit.spatial.rotations",

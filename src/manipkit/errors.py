@@ -10,6 +10,7 @@ from __future__ import annotations
 __all__ = [
     "ChainError",
     "ClosedFormIKError",
+    "CollisionError",
     "DHDerivationError",
     "DHTableError",
     "DescriptionError",
@@ -85,6 +86,12 @@ class DHDerivationError(ManipkitError, ValueError):
 
 class ClosedFormIKError(ManipkitError, ValueError):
     """A pose or arm parameter a closed-form (decoupled) IK solver cannot take: names the value and what is valid."""
+
+
+class CollisionError(ManipkitError, ValueError):
+    """Collision checks that cannot be made or trusted: a robot without ``<collision>`` geometry or whose collision
+    meshes cannot be loaded, an SRDF that is malformed or names links the robot does not have, a malformed world
+    file, an unknown geometry kind."""
 
 
 class InputFileError(ManipkitError, ValueError):

@@ -174,6 +174,13 @@ class IKResult:
         the true chain moved the closed form's answer (0: exact as solved;
         a calibrated arm solved on its nearest ideal arm moves); None when
         the solver does not refine.
+    collides : tuple of bool
+        When collisions were asked for (``ik(..., collision_free=...)``,
+        :func:`manipkit.kinematics.collisions.mark_collisions`): per row, whether
+        the configuration is in collision; ``()`` when they were not.
+    clearance : ndarray, shape (k,), or None
+        With ``collides``: per row, the distance (m) of the closest checked
+        pair (negative: penetration depth; inf when no pair is checked).
 
     Properties: ``q`` (the first solution, or ``closest``), ``q_residuals``,
     ``success``, ``reason`` (``""`` on success, else ``note``), ``residuals``,
@@ -217,11 +224,13 @@ class IKResult:
     family_function: Callable[..., IKResult] | None = field(default=None, repr=False)
     within_limits: np.ndarray | None = None
     refined: np.ndarray | None = None
+    collides: tuple[bool, ...] = ()
+    clearance: np.ndarray | None = None
 
     def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
                  joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
                  side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None,
-                 within_limits=None, refined=None):
+                 within_limits=None, refined=None, collides=(), clearance=None):
         # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
         # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
         fields = dict(locals())
@@ -230,7 +239,8 @@ class IKResult:
         self.__post_init__()
 
     def __post_init__(self):
-        for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined"):
+        for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
+                     "clearance"):
             value = getattr(self, name)
             if value is not None and (not isinstance(value, np.ndarray) or value.flags.writeable):
                 object.__setattr__(self, name, read_only(value))  # arrays of a result are read-only copies

@@ -5,7 +5,8 @@ Planar workspaces (``workspace``), manipulability indices and ellipsoids
 singular families of the textbook arms (``singularities``), the Jacobian
 report of one configuration (``jacobian_report``: ranks, singular or not,
 the families that hold, what is lost), reachability maps
-(``reachmap``, ``orientations``) and base placement (``placement``).
+(``reachmap``, ``orientations``), base placement (``placement``) and the
+allowed-collision matrix (``acm``).
 """
 
 from __future__ import annotations
@@ -26,4 +27,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.analysis.reachmap", "ReachMap", "build"),
     **homes_of("manipkit.analysis.placement", "BasePlacement", "base_placement"),
     **homes_of("manipkit.analysis.workspace", "planar_workspace"),
+    **homes_of("manipkit.analysis.acm", "CollisionMatrix", "allowed_collision_matrix", "srdf_text"),
 })

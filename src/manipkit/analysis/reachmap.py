@@ -85,6 +85,7 @@ from manipkit.text import short_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
+    from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
@@ -239,6 +240,7 @@ class ReachMap:
             f"voxel-bins reached: {int((reach == HOW_SAMPLE).sum())} by samples, {int((reach == HOW_IK).sum())} by IK "
             f"({self.settings.get('samples', 0)} samples, seed {self.settings.get('seed', 0)})",
             *([self.manipulability_text()] if self.manipulability is not None else []),
+            *([_collisions_text(self.settings["collisions"])] if self.settings.get("collisions") else []),
         ])
 
     def best_manipulability(self) -> tuple[float, np.ndarray] | None:
@@ -287,6 +289,12 @@ class ReachMap:
             "orientations": self.orientations.attrs(), "joint_names": list(self.joint_names),
             "settings": json.loads(json.dumps(self.settings)),
         }
+
+
+def _collisions_text(c: dict) -> str:
+    floor = f", floor at z = {short_text(c['floor'])} m" if c.get("floor") is not None else ""
+    srdf = f", {c['disabled_pairs']} pairs disabled by {c['srdf']}" if c.get("srdf") else ""
+    return f"collision-free only: {' and '.join(c['checked'])} ({c['geometry']} geometry{floor}{srdf})"
 
 
 def writable_map_path(path) -> Path:
@@ -456,6 +464,7 @@ class _Job:
     ik_restarts: int
     ik_time_budget: float
     manipulability: bool
+    collisions: CollisionSettings | None = None  # count only configurations that pass this check
 
     def cells(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(flat voxel index, inside) of points ``xyz`` (N, 3) in ``base``."""
@@ -491,6 +500,14 @@ def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np
     Q = np.tile(job.q_default, (n, 1))
     Q[:, job.chain] = job.low + rng.random((n, job.chain.size)) * (job.high - job.low)
     T = job.robot.fk(Q, base=job.base, tip=job.frame)
+    if job.collisions is not None:  # samples in collision reach nothing
+        if job.manipulability:  # every sample counts in the statistics
+            free = job.collisions.free(job.robot, Q)
+        else:  # the map keeps one free sample per voxel-bin, the first: check samples until it is found
+            cells, inside = job.cells(T[:, :3, 3])
+            groups = np.where(inside, cells * job.orientations.size + job.orientations.bin_of(T[:, :3, :3]), -1)
+            free = job.collisions.first_free(job.robot, Q, groups)
+        Q, T = Q[free], T[free]
     cells, inside = job.cells(T[:, :3, 3])
     cells, Q = cells[inside], Q[inside]
     keys = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]))
@@ -511,7 +528,10 @@ def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[
 
     batch = ik_many(job.robot, T, job.base, job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
                     restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block)
-    return block, batch.success, batch.q
+    success = np.array(batch.success, dtype=bool)
+    if job.collisions is not None and success.any():  # an answer in collision reaches nothing
+        success[success] = job.collisions.free(job.robot, batch.q[success])
+    return block, success, batch.q
 
 
 # --------------------------------------------------------------------------
@@ -537,6 +557,7 @@ def build(
     ik_restarts: int = 2,
     ik_time_budget: float = 0.02,
     manipulability: bool = True,
+    collisions: CollisionSettings | None = None,
 ) -> ReachMap:
     """Build the reachability map of a chain's tip in its base (see the module docstring).
 
@@ -573,6 +594,10 @@ def build(
     manipulability : bool, keyword-only
         Also keep, per voxel, the best and the mean Yoshikawa index of the
         configurations that reached it (``False`` skips the Jacobians).
+    collisions : CollisionSettings, keyword-only, optional
+        Count only samples and IK answers that pass this check (self, floor;
+        :class:`manipkit.kinematics.collisions.CollisionSettings`); recorded
+        in ``settings["collisions"]``.
 
     Returns
     -------
@@ -637,7 +662,7 @@ def build(
     low, high = solver.program.sample_low, solver.program.sample_high  # the solved joints' sampling box
     job = _Job(robot, frame, base, solver.columns, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
-               float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability))
+               float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability), collisions)
     n_voxels = math.prod(shape)
     reach = np.zeros(n_voxels * bins.size, dtype=np.uint8)
     voxel_q = np.full((n_voxels, len(robot.joint_names)), np.nan)
@@ -665,7 +690,8 @@ def build(
         np.add.at(count, voxels, 1)
     settings = {"samples": int(samples), "seed": int(seed), "block_samples": int(block_samples), "ik_tol": float(ik_tol),
                 "ik_restarts": int(ik_restarts), "ik_time_budget": float(ik_time_budget), "ik_mode": job.ik_mode,
-                "planar": planar is not None, "manipulability": bool(manipulability)}
+                "planar": planar is not None, "manipulability": bool(manipulability),
+                "collisions": None if collisions is None else collisions.as_dict()}
     mean = np.divide(total, count, out=np.full(n_voxels, np.nan), where=count > 0)
     return ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
                     tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,

@@ -732,7 +732,7 @@ def _slot_residuals(Q: np.ndarray, targets: np.ndarray, lengths: tuple[float, ..
         if pose:
             T_target[..., :3, :3] = rot_z(wanted[:, 2])[:, None]
         with np.errstate(invalid="ignore"):
-            position[block], rotation[block] = pose_residuals(T_target, dh_fk(table, flat_Q[block]),
+            position[block], rotation[block] = pose_residuals(T_target, dh_fk(table, flat_Q[block], check=False),
                                                               mode="pose" if pose else "position", project=False)
     rotation[np.isnan(position)] = np.nan
     return position.reshape(Q.shape[:-1]), rotation.reshape(Q.shape[:-1])

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
-from manipkit.errors import PackageNotFoundError
+from manipkit.errors import OptionError, PackageNotFoundError
 
 if TYPE_CHECKING:
     from manipkit.description.packages import PackageResolver
@@ -107,9 +107,9 @@ def mesh_search_paths(uri: str, resolver: PackageResolver, *, relative_to: str |
 
 
 def urdf_with_mesh_paths(
-    urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike
+    urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, element: str = "visual"
 ) -> tuple[str, list[str]]:
-    """URDF text whose ``<visual>`` mesh filenames are absolute paths, and the package folders used.
+    """URDF text whose ``<visual>`` (or ``<collision>``) mesh filenames are absolute paths, and the package folders used.
 
     Parameters
     ----------
@@ -119,12 +119,15 @@ def urdf_with_mesh_paths(
         Answers ``package://PKG``.
     relative_to : str or path-like, keyword-only
         The folder of the description file (for relative mesh paths).
+    element : str, keyword-only
+        ``"visual"`` (the viewer) or ``"collision"`` (collision geometry,
+        :mod:`manipkit.kinematics.collisions`): whose meshes are resolved.
 
     Returns
     -------
     text : str
-        ``urdf_text`` with each visual mesh's ``filename`` replaced by
-        :func:`mesh_path` (``urdf_text`` itself when there are no visual meshes).
+        ``urdf_text`` with each ``element`` mesh's ``filename`` replaced by
+        :func:`mesh_path` (``urdf_text`` itself when there are no such meshes).
     package_folders : list of str
         Sorted: the parent folder of each package a ``package://`` mesh
         named (what Pinocchio's ``package_dirs`` expects).
@@ -136,8 +139,10 @@ def urdf_with_mesh_paths(
     """
     import xml.etree.ElementTree as ET
 
+    if element not in ("visual", "collision"):
+        raise OptionError(f"element must be 'visual' or 'collision', not {element!r}")
     root = ET.fromstring(urdf_text)
-    meshes = [(link.get("name"), mesh) for link in root.iter("link") for mesh in link.findall("visual/geometry/mesh")]
+    meshes = [(link.get("name"), mesh) for link in root.iter("link") for mesh in link.findall(f"{element}/geometry/mesh")]
     if not meshes:
         return urdf_text, []
     folders: set[str] = set()

@@ -1,5 +1,6 @@
 """Kinematics of a loaded robot: :class:`Robot` (Pinocchio), the joint vector (mimic, floating and planar joints),
-batched FK, Jacobians, numerical IK (one target, or many in one compiled call).
+batched FK, Jacobians, numerical IK (one target, or many in one compiled call), collision geometry and checks
+(Pinocchio + coal) against the robot itself, the floor and a world file.
 
 The modules load on first use (Pinocchio here, numba in the compiled kernels),
 so ``tf-between`` pays only for what it runs.
@@ -16,4 +17,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.kinematics.ik", "ik", "ik_solver", "IKSolver", "IKSolutions"),
     **homes_of("manipkit.kinematics.ik_many", "ik_many"),
     **homes_of("manipkit.ik_result", "IKResult", "IKBatch"),
+    **homes_of("manipkit.kinematics.collisions", "collisions", "collision_free", "collision_geometry",
+               "CollisionChecker", "CollisionReport"),
+    **homes_of("manipkit.kinematics.world", "read_world"),
 })

@@ -80,6 +80,7 @@ from manipkit.kinematics.ik_kernel import (
 )
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
+from manipkit.text import repr_text, short_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -119,6 +120,7 @@ def ik(
     damping: float = 1e-1,
     free=(),
     frame: str | None = None,
+    collision_free=False,
 ) -> IKResult:
     """Joint values that put ``tip`` at ``target`` (T_base_tip), by damped least squares.
 
@@ -167,6 +169,14 @@ def ik(
         by default they stay where ``q0`` puts them (the identity).
     frame : str, keyword-only
         The old name of ``tip`` (one release, with a DeprecationWarning).
+    collision_free : bool or CollisionChecker, keyword-only
+        Accept only answers that are not in collision (True: the robot
+        against itself, adjacent and rigidly joined links skipped; or a
+        :class:`~manipkit.kinematics.collisions.CollisionChecker` with an
+        SRDF, floor or world): an answer in collision does not count, and
+        the search restarts. The result then has ``collides`` and
+        ``clearance`` per solution; when every answer found collides,
+        ``reason`` names the pair of the first.
 
     Returns
     -------
@@ -208,8 +218,16 @@ def ik(
     # Over 80 lines: the docstring (every option and the conventions) is nearly all of it.
     robot, base, tip = robot_and_frames(robot, "ik", base=base, tip=tip, frame=frame)
     solver = ik_solver(robot, base, tip, mode=mode, axis=axis, free=tuple(free))
+    checker = None
+    if collision_free is True:
+        from manipkit.kinematics.collisions import CollisionChecker
+
+        checker = CollisionChecker(robot)
+    elif collision_free is not False and collision_free is not None:
+        checker = collision_free
     return solver.solve(
-        target, q0=q0, tol=tol, max_iters=max_iters, restarts=restarts, seed=seed, all=all, damping=damping
+        target, q0=q0, tol=tol, max_iters=max_iters, restarts=restarts, seed=seed, all=all, damping=damping,
+        collisions=checker,
     )
 
 
@@ -404,8 +422,8 @@ class IKSolver:
     # ------------------------------------------------------------------
 
     def solve(self, target, *, q0=None, tol=1e-10, max_iters: int = 100, restarts: int = 50, seed: int = 0,
-              all: bool = False, damping: float = 1e-1) -> IKResult:
-        """Solve for one target; parameters and result as in :func:`ik`."""
+              all: bool = False, damping: float = 1e-1, collisions=None) -> IKResult:
+        """Solve for one target; parameters and result as in :func:`ik` (``collisions``: a CollisionChecker or None)."""
         tol_position, tol_rotation = tolerances(tol)
         check_budget(max_iters, restarts, damping)
         goal = self.goal(target, q0)
@@ -413,6 +431,7 @@ class IKSolver:
         starts = None  # random starts, drawn on first need (a generator costs ~10 us)
         best = None  # (cost, x, pos, rot)
         found: list[tuple[np.ndarray, float, float]] = []
+        colliding, reports = [], []  # answers in collision (x, pos, rot, report); the reports of those found
         total = used = 0
         for attempt in range(attempts):
             if attempt == 0 and q0 is not None:
@@ -427,11 +446,37 @@ class IKSolver:
             if best is None or cost < best[0]:
                 best = (cost, x, pos, rot)
             if pos <= tol_position and rot <= tol_rotation:
-                if not any(self._same(x, other) for other, _, _ in found):
-                    found.append((x, pos, rot))
+                if any(self._same(x, other) for other, _, _ in found) or any(self._same(x, c[0]) for c in colliding):
+                    continue
+                if collisions is not None:
+                    report = collisions.report(self._full_q(goal.q_full, x))
+                    if report.in_collision:
+                        colliding.append((x, pos, rot, report))
+                        continue
+                    reports.append(report)
+                found.append((x, pos, rot))
                 if not all:
                     break
-        return self._result(goal, found, best, total, used)
+        result = self._result(goal, found, best, total, used)
+        if collisions is None:
+            return result
+        return self._with_collisions(goal, result, reports, colliding)
+
+    def _with_collisions(self, goal: _Goal, result: IKResult, reports, colliding) -> IKResult:
+        """``result`` with ``collides`` and ``clearance`` per solution; with none found but some in collision, the
+        first of those as ``closest`` and a reason naming its deepest pair."""
+        from dataclasses import replace
+
+        clearance = np.array([math.inf if r.min_distance is None else r.min_distance.distance for r in reports])
+        if result.success or not colliding:
+            return replace(result, collides=(False,) * len(reports), clearance=clearance)
+        x, pos, rot, report = colliding[0]
+        pair = report.pairs[0]
+        depth = f"penetration {short_text(-pair.distance, 3)} m" if pair.distance < 0 else "touching"
+        reason = (f"every answer found is in collision ({len(colliding)} distinct); the first: {pair.link1} - "
+                  f"{pair.link2} ({depth})")
+        return replace(result, note=reason, unmet=(), outside_by=0.0, side="", closest=self._full_q(goal.q_full, x),
+                       closest_residuals=np.array([pos, rot]), collides=(), clearance=None)
 
     def goal(self, target, q0=None) -> _Goal:
         """The per-call state of a solve for ``target`` from ``q0`` (checked as :func:`ik` checks them)."""
@@ -579,10 +624,17 @@ class IKSolver:
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)", 0.0
 
 
+#: Most random restarts and iterations per restart one call takes: at about 20 us an iteration, the
+#: largest budget runs for minutes, not days.
+MAX_RESTARTS = 100_000
+MAX_ITERS = 100_000
+
+
 def check_budget(max_iters, restarts, damping) -> None:
-    """:class:`IKOptionError` unless ``max_iters`` >= 1 and ``restarts`` >= 0 are whole numbers and ``damping`` > 0."""
-    for name, value, least in (("max_iters", max_iters, 1), ("restarts", restarts, 0)):
-        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < least:
-            raise IKOptionError(f"{name} must be a whole number >= {least}, got {value!r}")
+    """:class:`IKOptionError` unless ``max_iters`` (1 to :data:`MAX_ITERS`) and ``restarts`` (0 to
+    :data:`MAX_RESTARTS`) are whole numbers and ``damping`` > 0."""
+    for name, value, least, most in (("max_iters", max_iters, 1, MAX_ITERS), ("restarts", restarts, 0, MAX_RESTARTS)):
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or not least <= value <= most:
+            raise IKOptionError(f"{name} must be a whole number from {least} to {most}, got {repr_text(value)}")
     if not (isinstance(damping, numbers.Real) and math.isfinite(damping) and damping > 0.0):
         raise IKOptionError(f"damping must be a positive number, got {damping}")

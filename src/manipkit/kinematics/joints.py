@@ -185,6 +185,28 @@ class JointLayout:
         return config
 
 
+    def configurations(self, Q: np.ndarray) -> np.ndarray:
+        """Pinocchio's configuration vectors (model.nq, N), Fortran order, for checked joint vectors ``Q`` (N, n).
+
+        Column ``i`` equals ``configuration(Q[i])``; vectorised over the rows
+        (floating and planar joints go row by row).
+        """
+        Q = np.asarray(Q, dtype=float).reshape(-1, len(self.joints))
+        if self._multi:
+            return np.asfortranarray(np.stack([self.configuration(q) for q in Q], axis=1).reshape(len(self.neutral), -1))
+        config = np.empty((len(self.neutral), len(Q)), order="F")
+        config[:] = self.neutral[:, None]
+        idx, col, scale, offset = self._plain
+        if idx.size:
+            config[idx] = scale[:, None] * Q[:, col].T + offset[:, None]
+        idx, col, scale, offset = self._circle
+        if idx.size:
+            angles = scale[:, None] * Q[:, col].T + offset[:, None]
+            config[idx] = np.cos(angles)
+            config[idx + 1] = np.sin(angles)
+        return config
+
+
 def _quaternion_xyzw(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
     """Unit quaternion (x, y, z, w) of ``Rz(yaw) Ry(pitch) Rx(roll)``."""
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)

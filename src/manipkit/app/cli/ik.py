@@ -24,13 +24,17 @@ from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
     add_robot_options,
+    alias_lines,
     check_angles,
     check_precision,
+    command_line,
+    exact_q_words,
     is_number,
     joint_vector,
     load_robot,
     print_json,
     q_text,
+    robot_words,
 )
 from manipkit.errors import ManipkitError
 from manipkit.text import short_text
@@ -77,6 +81,14 @@ def register(commands) -> None:
     ik.add_argument("--seed", type=int, default=0, help="random seed for the restarts (default 0)")
     ik.add_argument("--precision", type=int, default=6, metavar="N")
     ik.add_argument("--format", choices=("text", "json"), default="text")
+    ik.add_argument("--collision-free", action="store_true",
+                    help="accept only answers not in collision (numerical: restart until one is found; "
+                         "--analytic: drop the solutions in collision)")
+    ik.add_argument("--collisions", action="store_true",
+                    help="mark each solution in collision or not, with its clearance (m)")
+    from manipkit.app.cli.collisions import add_collision_options
+
+    add_collision_options(ik)
     ik.set_defaults(run=run_ik)
 
 
@@ -188,7 +200,25 @@ def _locked(args, robot: Robot) -> dict[str, float]:
 
 
 def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
-    """(result, header): the closed form or numerical IK, as manipkit's one IK result type."""
+    """(result, header): the closed form or numerical IK, as manipkit's one IK result type (solutions marked in
+    collision or not when asked)."""
+    checker = None
+    if args.collision_free or args.collisions:
+        from manipkit.app.cli.collisions import collision_checker
+
+        checker = collision_checker(robot, args)
+    result, header = _solve_with(args, robot, target, mode, checker if args.collision_free else None)
+    if checker is not None and not (args.collision_free and result.attempts):  # numerical IK avoided them itself
+        from manipkit.kinematics.collisions import mark_collisions
+
+        marked = mark_collisions(result, checker, drop=args.collision_free)
+        if len(marked.solutions) < len(result.solutions):
+            header += f"\n{len(result.solutions) - len(marked.solutions)} of them in collision, dropped (--collision-free)"
+        result = marked
+    return result, header
+
+
+def _solve_with(args, robot: Robot, target: np.ndarray, mode: str, checker) -> tuple[IKResult, str]:
     tol = _tolerance(args)
     options = {} if tol is None else {"tol": tol}
     lock = _locked(args, robot)
@@ -232,9 +262,20 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
 
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
     result = ik(robot, target, args.base, args.frame, mode=mode, axis=args.axis or "z", q0=q0, all=args.all,
-                restarts=args.restarts, seed=args.seed, free=tuple(args.free), **options)
+                restarts=args.restarts, seed=args.seed, free=tuple(args.free), collision_free=checker or False,
+                **options)
     outcome = "success" if result.success else "FAILED"
     return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.iterations} iterations"
+
+
+def _collision_text(result: IKResult, row: int) -> str:
+    """`` (collision-free, clearance 0.012 m)`` or `` (IN COLLISION, penetration 0.01 m)`` when collisions were asked."""
+    if result.clearance is None:
+        return ""
+    clearance = float(result.clearance[row])
+    if result.collides[row]:
+        return f" (IN COLLISION, penetration {short_text(-clearance, 3)} m)" if clearance < 0 else " (IN COLLISION)"
+    return f" (collision-free, clearance {short_text(clearance, 3)} m)"
 
 
 def run_ik(args) -> int:
@@ -246,9 +287,11 @@ def run_ik(args) -> int:
     closest configuration a numerical search found, which is printed too),
     and the solver's note.
     """
+    from manipkit.kinematics.ik import MAX_RESTARTS
+
     check_precision(args.precision)
-    if args.restarts < 0:
-        raise UsageError(f"--restarts {args.restarts}: give 0 or more")
+    if not 0 <= args.restarts <= MAX_RESTARTS:
+        raise UsageError(f"--restarts {args.restarts}: give a whole number from 0 to {MAX_RESTARTS}")
     robot = load_robot(args)
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
@@ -262,6 +305,11 @@ def run_ik(args) -> int:
         note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
+        joints = robot.chain(args.base, args.frame).n
+        if mode == "pose" and joints < 6:
+            notes.append(f"the chain {args.base} -> {args.frame} has {joints} joint{'s' * (joints != 1)}, fewer than "
+                         "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
+                         "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
         print_json({
             "robot": robot.name,
@@ -279,20 +327,26 @@ def run_ik(args) -> int:
             "residual_position": None if residuals is None else float(residuals[0]),
             "residual_rotation": None if residuals is None else float(residuals[1]),
             "notes": notes,
+            **({"collides": list(result.collides), "clearance": [float(c) for c in result.clearance]}
+               if result.clearance is not None else {}),
         })
     else:
         print(header)
+        for line in alias_lines(robot, args.base, args.frame):
+            print(line)
         within = [True] * len(answers) if result.within_limits is None else result.within_limits.tolist()
         for index, ((label, q), inside) in enumerate(zip(answers, within), start=1):
             print(f"{index}. {('[' + label + '] ') if label else ''}{'' if inside else '(outside the joint limits) '}"
-                  f"{q_text(robot.as_dict(q), args.precision)}")
+                  f"{q_text(robot.as_dict(q), args.precision)}" + _collision_text(result, index - 1))
         if result.closest is not None:
-            print(f"best found (does not reach the target): {q_text(robot.as_dict(result.closest), args.precision)}")
+            what = "in collision" if args.collision_free and "in collision" in result.note else "does not reach the target"
+            print(f"best found ({what}): {q_text(robot.as_dict(result.closest), args.precision)}")
         if residuals is not None:
             print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
         for note in notes:
             print(f"note: {note}")
         if result.success:
-            print(f"check one with: tf-between {args.base} {args.frame} --robot {args.robot or robot.source.name} --q "
-                  + q_text(robot.as_dict(answers[0][1]), args.precision))
+            check = command_line("tf-between", args.base, args.frame, *robot_words(args, robot),
+                                 *exact_q_words(robot.as_dict(answers[0][1])))
+            print(f"check one with: {check}")
     return EXIT_OK if result.success else EXIT_MISMATCH

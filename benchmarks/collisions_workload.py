@@ -1,0 +1,103 @@
+"""Collision checks (issue 23): batched self-collision checks, the allowed-collision matrix, a filtered reach map.
+
+Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
+
+- ``collisions``: self-collision checks per configuration on the Panda (convex
+  hulls, Franka's SRDF): ``manipkit.collision_free`` (Pinocchio's
+  ``computeCollisionsInParallel`` on both cores) against a Python loop over
+  ``pinocchio.computeCollisions`` (stop at the first contact) on the same
+  geometry and pairs; the two answers must agree on every configuration.
+- ``acm``: the Panda's allowed-collision matrix from 10,000 samples, whole
+  run timed; checked equal to the SRDF example-robot-data ships.
+- ``reachmap_collisions``: the iiwa14 FK map at 0.1 m with and without
+  ``collisions=self,floor``; the filtered map must reach a subset of the plain one.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+import warnings
+
+import numpy as np
+
+from benchmarks.workloads import no_gc, row
+
+
+def _srdf_pairs(text: str) -> dict:
+    return {tuple(sorted(m[:2])): m[2] for m in re.findall(r'link1="([^"]+)" link2="([^"]+)" reason="([^"]+)"', text)}
+
+
+def collisions_workload(*, checks: int, repeats: int, acm_samples: int, map_samples: int, voxel: float,
+                        directions: int) -> list[dict]:
+    """Every row of the module docstring."""
+    import pinocchio as pin
+
+    import manipkit
+    from manipkit.analysis.acm import allowed_collision_matrix, srdf_text
+    from manipkit.analysis.reachmap import build
+    from manipkit.kinematics.collisions import CollisionChecker, CollisionSettings
+
+    rows = []
+    panda = manipkit.load("panda")
+    srdf = panda.source.path.parents[1] / "srdf" / "panda.srdf"
+    checker = CollisionChecker(panda, srdf=srdf)
+    Q = panda.sample_q(checks, seed=23)
+    configurations = panda.joint_layout.configurations(Q)
+    data = checker.model.createData()
+    with warnings.catch_warnings():  # as the checker's own: no cached guess (see kinematics.collisions)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for request in data.collisionRequests:
+            request.enable_cached_gjk_guess = False
+    model_data = panda.model.createData()
+
+    def loop():
+        return np.array([pin.computeCollisions(panda.model, model_data, checker.model, data, configurations[:, i], True)
+                         for i in range(configurations.shape[1])])
+
+    expected = loop()
+    batched = checker.in_collision(Q)
+    agree = bool((batched == expected).all())
+    times_batch, times_loop = [], []
+    with no_gc():
+        for _ in range(repeats):
+            t = time.perf_counter()
+            checker.in_collision(Q)
+            times_batch.append((time.perf_counter() - t) / checks)
+            t = time.perf_counter()
+            loop()
+            times_loop.append((time.perf_counter() - t) / checks)
+    status = "ok" if agree else "wrong"
+    check = f"{int(expected.sum())} of {checks} in collision; batched == loop on every configuration: {agree}"
+    rows.append(row("collisions", "panda", "manipkit collision_free (2 threads)", times_batch, unit="config", n=checks,
+                    ours=True, status=status, check=check, note="hulls, Franka's SRDF (20 pairs)"))
+    rows.append(row("collisions", "panda", "Python loop over pinocchio.computeCollisions", times_loop, unit="config",
+                    n=checks, status=status, check=check))
+
+    t = time.perf_counter()
+    matrix = allowed_collision_matrix(panda, samples=acm_samples, seed=0)
+    elapsed = time.perf_counter() - t
+    same = _srdf_pairs(srdf_text(matrix)) == _srdf_pairs(srdf.read_text())
+    rows.append(row("acm", "panda", "manipkit allowed_collision_matrix", [elapsed], unit="run", n=acm_samples, ours=True,
+                    check=f"{len(matrix.disabled)} pairs disabled; equal to example-robot-data's SRDF: {same}",
+                    note=", ".join(f"{v} {k}" for k, v in matrix.counts().items())))
+
+    iiwa = manipkit.load("iiwa14")
+    settings = CollisionSettings.parse(iiwa, "self,floor", floor=0.0)
+    options = dict(voxel=voxel, orientations=directions, samples=map_samples, manipulability=False)
+    build(iiwa, **{**options, "samples": 1000}, collisions=settings)  # warm: kernels compiled, checker built
+    t = time.perf_counter()
+    plain = build(iiwa, **options)
+    t_plain = time.perf_counter() - t
+    t = time.perf_counter()
+    filtered = build(iiwa, **options, collisions=settings)
+    t_filtered = time.perf_counter() - t
+    subset = bool((filtered.reach <= plain.reach).all())
+    check = (f"reachable voxels {int(filtered.reachable.sum())} of {int(plain.reachable.sum())}; "
+             f"filtered within the plain map: {subset}")
+    rows.append(row("reachmap_collisions", "iiwa14", "manipkit reachmap.build, collisions self,floor", [t_filtered],
+                    unit="map", n=map_samples, ours=True, status="ok" if subset else "wrong", check=check,
+                    slowdown=t_filtered / t_plain))
+    rows.append(row("reachmap_collisions", "iiwa14", "manipkit reachmap.build, no collisions", [t_plain], unit="map",
+                    n=map_samples, check=check))
+    return rows

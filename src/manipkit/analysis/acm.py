@@ -1,0 +1,162 @@
+"""The allowed-collision matrix: which link pairs a collision check may skip, by MoveIt's Setup Assistant's rules.
+
+Rules, applied in this order to every pair of links with collision geometry
+(the reasons are MoveIt's, so the SRDF reads back in MoveIt):
+
+- ``Adjacent``: joined by a joint (links without geometry passed through),
+  :func:`manipkit.kinematics.collisions.adjacent_links`;
+- ``Default``: in contact at the robot's default configuration (``robot.q()``);
+- ``Always``: in contact in at least ``always`` (95 %) of ``samples``
+  configurations drawn uniformly inside the joint limits (``robot.sample_q``);
+- ``Never``: in contact in none of them.
+
+Every other pair stays enabled (checked). After filtering,
+:func:`allowed_collision_matrix` checks that no enabled pair is in contact at
+the default configuration (:attr:`CollisionMatrix.default_contacts`, empty
+when it holds). The matrix belongs to the geometry it was sampled with
+(``hulls`` or ``meshes``); the SRDF says which.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.errors import OptionError
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["REASONS", "CollisionMatrix", "allowed_collision_matrix", "srdf_text"]
+
+#: The reasons a pair is disabled, in the order the rules run (MoveIt's names).
+REASONS = ("Adjacent", "Default", "Always", "Never")
+#: Most samples one matrix takes.
+MAX_SAMPLES = 10_000_000
+
+
+@dataclass(frozen=True)
+class CollisionMatrix:
+    """An allowed-collision matrix (:func:`allowed_collision_matrix`).
+
+    Attributes
+    ----------
+    robot : str
+    geometry : str
+        ``"hulls"`` or ``"meshes"``: the geometry the pairs were checked with.
+    samples, seed : int
+        How many random configurations were checked, from which seed.
+    always : float
+        The fraction of samples in contact from which a pair is ``Always``.
+    disabled : Mapping[(str, str), str]
+        Link pair (sorted names) -> reason (one of :data:`REASONS`).
+    enabled : tuple of (str, str)
+        The pairs left to check.
+    contacts : Mapping[(str, str), int]
+        In how many samples each pair sampled was in contact.
+    default_contacts : tuple of (str, str)
+        Enabled pairs in contact at the default configuration (the check after filtering: empty when it holds).
+    """
+
+    robot: str
+    geometry: str
+    samples: int
+    seed: int
+    always: float
+    disabled: Mapping
+    enabled: tuple
+    contacts: Mapping
+    default_contacts: tuple
+
+    def counts(self) -> dict[str, int]:
+        """How many pairs each reason disabled, in :data:`REASONS` order."""
+        return {reason: sum(1 for r in self.disabled.values() if r == reason) for reason in REASONS}
+
+
+def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int = 0, geometry: str = "hulls",
+                             always: float = 0.95,
+                             progress: Callable[[str, int, int], None] | None = None) -> CollisionMatrix:
+    """The allowed-collision matrix of ``robot`` by the Setup Assistant's rules (module docstring).
+
+    Parameters
+    ----------
+    robot : Robot
+    samples : int, keyword-only
+        Random configurations checked (default 10,000, as MoveIt's Setup Assistant).
+    seed : int, keyword-only
+        Seed of the samples (``robot.sample_q(samples, seed=seed)``): the same seed gives the same matrix.
+    geometry : str, keyword-only
+        ``"hulls"`` (default) or ``"meshes"``.
+    always : float, keyword-only
+        Fraction of samples in contact from which a pair is disabled as ``Always`` (default 0.95).
+    progress : callable, optional
+        ``progress(stage, done, total)``, called as samples are checked.
+
+    Raises
+    ------
+    OptionError
+        ``samples`` not a whole number from 1 to :data:`MAX_SAMPLES`, ``always`` not in (0, 1].
+    CollisionError
+        The robot has no collision geometry (or its meshes are missing).
+    """
+    from manipkit.kinematics.collisions import CollisionChecker, collision_geometry
+
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
+        raise OptionError(f"samples {samples}: give a whole number from 1 to {MAX_SAMPLES:,}")
+    if not (isinstance(always, (int, float)) and 0 < always <= 1):
+        raise OptionError(f"always {always}: give a fraction of samples in (0, 1], such as 0.95")
+    shapes = collision_geometry(robot, geometry)
+    names = shapes.link_names
+    everything = [tuple(sorted((a, b))) for i, a in enumerate(names) for b in names[i + 1:]]
+    disabled = {pair: "Adjacent" for pair in everything if pair in shapes.adjacent}
+    rest = [pair for pair in everything if pair not in disabled]
+    default_q = robot.q()
+    if rest:
+        for pair in CollisionChecker(robot, geometry=geometry, pairs=rest).pairs_in_contact(default_q):
+            disabled[pair] = "Default"
+    rest = [pair for pair in rest if pair not in disabled]
+    counts = dict.fromkeys(rest, 0)
+    if rest:
+        checker = CollisionChecker(robot, geometry=geometry, pairs=rest)
+        Q = robot.sample_q(int(samples), seed=seed)
+        step = max(1, len(Q) // 100)
+        for i, q in enumerate(Q):
+            for pair in checker.pairs_in_contact(q):
+                counts[pair] += 1
+            if progress is not None and ((i + 1) % step == 0 or i + 1 == len(Q)):
+                progress("sampling configurations", i + 1, len(Q))
+    for pair, count in counts.items():
+        if count >= always * samples:
+            disabled[pair] = "Always"
+        elif count == 0:
+            disabled[pair] = "Never"
+    enabled = tuple(pair for pair in everything if pair not in disabled)
+    default_contacts = ()
+    if enabled:
+        default_contacts = tuple(sorted(CollisionChecker(robot, geometry=geometry, pairs=enabled)
+                                        .pairs_in_contact(default_q)))
+    return CollisionMatrix(robot.name, geometry, int(samples), seed, float(always),
+                           MappingProxyType(dict(sorted(disabled.items()))), enabled,
+                           MappingProxyType(counts), default_contacts)
+
+
+def srdf_text(matrix: CollisionMatrix) -> str:
+    """The matrix as a MoveIt-compatible SRDF: ``<disable_collisions link1= link2= reason=/>`` per disabled pair."""
+    from xml.sax.saxutils import escape, quoteattr
+
+    percent = f"{100 * matrix.always:g}"
+    lines = [
+        '<?xml version="1.0" encoding="utf-8"?>',
+        f"<!-- Allowed-collision matrix of {escape(matrix.robot).replace('--', '- -')}, made by manipkit acm with "
+        f"{matrix.geometry} geometry: {matrix.samples} samples (seed {matrix.seed}); Always at >= {percent} % of "
+        "samples. Pairs not listed are checked. -->",
+        f"<robot name={quoteattr(matrix.robot)}>",
+    ]
+    for (a, b), reason in matrix.disabled.items():
+        lines.append(f"    <disable_collisions link1={quoteattr(a)} link2={quoteattr(b)} reason={quoteattr(reason)}/>")
+    lines.append("</robot>")
+    return "\n".join(lines) + "\n"

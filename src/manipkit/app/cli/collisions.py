@@ -1,0 +1,175 @@
+"""``manipkit collisions`` (is this configuration in collision?) and ``manipkit acm`` (the allowed-collision matrix).
+
+The checks are :func:`manipkit.kinematics.collisions.collisions` and the
+matrix :func:`manipkit.analysis.acm.allowed_collision_matrix`
+(docs/architecture.md, "Collisions"); this module parses and formats.
+Distances are in metres (negative: penetration depth), witness points in the
+robot's root link frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+from manipkit.app.cli.common import (
+    EXIT_OK,
+    UsageError,
+    add_joint_options,
+    add_robot_options,
+    joint_vector,
+    load_robot,
+    print_json,
+    warn,
+)
+from manipkit.text import number_text, printable, short_text
+
+__all__ = ["add_collision_options", "collision_checker", "parse_floor", "register", "run_acm", "run_collisions"]
+
+
+def register(commands) -> None:
+    """Add ``manipkit collisions`` and ``manipkit acm`` to the subparsers ``commands``."""
+    parser = commands.add_parser(
+        "collisions", help="self-collision (and floor, world) check of one configuration: pairs in contact, closest pair")
+    add_robot_options(parser)
+    add_joint_options(parser)
+    add_collision_options(parser)
+    parser.add_argument("--precision", type=int, default=4, metavar="N", help="decimals printed (default 4)")
+    parser.add_argument("--format", choices=("text", "json"), default="text")
+    parser.set_defaults(run=run_collisions)
+
+    acm = commands.add_parser("acm", help="allowed-collision matrix (MoveIt's rules) written as an SRDF")
+    add_robot_options(acm)
+    _add_geometry_option(acm)
+    acm.add_argument("-o", "--output", required=True, metavar="FILE", help="the SRDF to write")
+    acm.add_argument("--samples", type=int, default=10_000, metavar="N",
+                     help="random configurations checked (default 10000)")
+    acm.add_argument("--seed", type=int, default=0, help="seed of the samples (default 0)")
+    acm.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
+                     help="progress bar on stderr (auto: when stderr is a terminal)")
+    acm.set_defaults(run=run_acm)
+
+
+def add_collision_options(parser) -> None:
+    """``--geometry``, ``--srdf``, ``--floor`` and ``--world`` (read by :func:`collision_checker`)."""
+    _add_geometry_option(parser)
+    parser.add_argument("--srdf", default=None, metavar="FILE",
+                        help="SRDF whose <disable_collisions> pairs are not checked (adjacent links never are)")
+    parser.add_argument("--floor", default="none", metavar="Z|none",
+                        help="floor height z (m) in the root link's frame, or none (default: none)")
+    parser.add_argument("--world", default=None, metavar="FILE",
+                        help="YAML world file of obstacles (boxes, spheres, cylinders) in the root link's frame")
+
+
+def collision_checker(robot, args):
+    """The :class:`~manipkit.kinematics.collisions.CollisionChecker` of ``--geometry/--srdf/--floor/--world``.
+
+    An SRDF that leaves pairs touching at the default pose with this
+    geometry is warned about (a matrix is validated, not trusted).
+    """
+    from manipkit.kinematics.collisions import CollisionChecker, srdf_check
+    from manipkit.kinematics.world import read_world
+
+    if args.srdf is not None:
+        touching = srdf_check(robot, args.srdf, geometry=args.geometry)
+        if touching:
+            pairs = ", ".join(f"{p.link1} - {p.link2}" for p in touching)
+            warn(f"{args.srdf} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact at the "
+                 f"default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
+                 f"`manipkit acm --geometry {args.geometry}` makes one for it")
+    world = () if args.world is None else read_world(args.world)
+    return CollisionChecker(robot, geometry=args.geometry, srdf=args.srdf, floor=parse_floor(args.floor), world=world)
+
+
+def _add_geometry_option(parser) -> None:
+    parser.add_argument("--geometry", default="hulls", metavar="hulls|meshes",
+                        help="collision meshes as convex hulls (default, fast) or as meshes")
+
+
+def parse_floor(text: str) -> float | None:
+    """``--floor``: a height in metres, or ``none`` (no floor).
+
+    Examples
+    --------
+    >>> parse_floor("none") is None, parse_floor("-0.05")
+    (True, -0.05)
+    """
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise UsageError(f"--floor {printable(text)}: give a height in metres (such as 0 or -0.05), or none")
+    return value
+
+
+def run_collisions(args) -> int:
+    """Print whether the configuration is in collision, every pair in contact and the closest pair."""
+    robot = load_robot(args, mesh_warnings=False)  # a missing collision mesh is the error; visual meshes are not used
+    q = joint_vector(robot, args)
+    floor = parse_floor(args.floor)
+    report = collision_checker(robot, args).report(q)
+    if args.format == "json":
+        print_json({**report.as_dict(), "q": dict(zip(robot.joint_names, map(float, q)))})
+        return EXIT_OK
+    precision = args.precision
+    where = f"{report.checked} link pair{'s' if report.checked != 1 else ''} checked, {report.geometry} geometry"
+    where += "" if floor is None else f", floor at z = {short_text(floor)} m"
+    if report.in_collision:
+        print(f"robot {robot.name}: IN COLLISION ({len(report.pairs)} pair{'s' if len(report.pairs) != 1 else ''} "
+              f"in contact; {where})")
+        for pair in report.pairs:
+            print(f"  {pair.link1} - {pair.link2}: {_depth_text(pair.distance, precision)}")
+    else:
+        print(f"robot {robot.name}: collision-free ({where})")
+    closest = report.min_distance
+    if closest is not None:
+        print(f"closest pair: {closest.link1} - {closest.link2}, distance {number_text(closest.distance, precision)} m")
+        print(f"  witness points in {report.base} (m): {_point_text(closest.point1, precision)} on {closest.link1}, "
+              f"{_point_text(closest.point2, precision)} on {closest.link2}")
+    return EXIT_OK
+
+
+def _depth_text(distance: float, precision: int) -> str:
+    if distance < 0:
+        return f"penetration {number_text(-distance, precision)} m"
+    return "touching (no depth for meshes)"
+
+
+def _point_text(point, precision: int) -> str:
+    return "(" + ", ".join(number_text(v, precision) for v in point) + ")"
+
+
+def run_acm(args) -> int:
+    """Make the allowed-collision matrix, write it as an SRDF, check it at the default pose and say so."""
+    from manipkit.analysis.acm import REASONS, allowed_collision_matrix, srdf_text
+    from manipkit.app.progress import progress_bar
+    from manipkit.kinematics.collisions import collisions
+    from manipkit.outputs import writable_path, write_text
+
+    if not 1 <= args.samples <= 10_000_000:
+        raise UsageError(f"--samples {args.samples}: give a whole number from 1 to 10000000")
+    if args.seed < 0:
+        raise UsageError(f"--seed {args.seed}: give a whole number, 0 or more")
+    writable_path(args.output)  # a typo in -o is said at once, not after the sampling
+    robot = load_robot(args, mesh_warnings=False)
+    enabled = {"yes": True, "no": False, "auto": None}[args.progress]
+    with progress_bar(enabled) as progress:
+        matrix = allowed_collision_matrix(robot, samples=args.samples, seed=args.seed, geometry=args.geometry,
+                                          progress=progress)
+    write_text(args.output, srdf_text(matrix))
+    counts = matrix.counts()
+    total = len(matrix.disabled) + len(matrix.enabled)
+    print(f"robot {robot.name}: {total} link pairs, {matrix.samples} samples, {matrix.geometry} geometry; "
+          f"wrote {printable(str(args.output))}")
+    print("disabled: " + ", ".join(f"{counts[r]} {r}" for r in REASONS) + f"; enabled (checked): {len(matrix.enabled)}")
+    # The check reads the file back, as every other command would (--srdf), and checks the default pose.
+    report = collisions(robot, srdf=args.output, geometry=args.geometry)
+    if report.in_collision:
+        pairs = ", ".join(f"{p.link1} - {p.link2}" for p in report.pairs)
+        print(f"check FAILED: enabled pairs in contact at the default pose: {pairs}")
+        return 1
+    print(f"check: no enabled pair is in contact at the default pose ({report.checked} pairs checked with "
+          f"{printable(str(args.output))})")
+    return EXIT_OK
