@@ -381,3 +381,17 @@ def test_ur5_with_the_elbow_straight_has_seven_solutions():
     result = chain_ik(chain, chain.fk(q))
     assert result.count == 7 and any(same_modulo_2pi(s, q) for s in result.solutions)
     assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+
+
+def test_dropping_colliding_branches_keeps_the_per_row_fields_with_their_rows():
+    from manipkit.closed_form.robots import analytic_ik
+    from manipkit.kinematics.collisions import CollisionChecker, mark_collisions
+
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    result = analytic_ik(robot, chain.fk([0.3, -1.1, 1.2, -0.8, 1.0, 0.4]), "base_link", "tool0")
+    kept = mark_collisions(result, CollisionChecker(robot), drop=True)
+    assert 0 < len(kept.solutions) < len(result.solutions)  # one branch puts the arm through itself
+    assert len(kept.within_limits) == len(kept.refined) == len(kept.labels) == len(kept.solutions)
+    for label, q in zip(kept.labels, kept.solutions):
+        assert np.array_equal(q, result.solutions[result.labels.index(label)])
