@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "collisions")
+WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "collisions", "analytic")
 ROBOTS = ("iiwa14", "panda")
 
 FULL = {
@@ -35,6 +35,7 @@ FULL = {
     "reachmap": dict(voxel=0.1, directions=200, samples=4_000_000, ik_targets=20_000, labelled=4000,
                      dask_samples=2_000_000),
     "collisions": dict(checks=20_000, repeats=5, acm_samples=10_000, map_samples=1_000_000, voxel=0.1, directions=200),
+    "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
 }
 QUICK = {
     "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
@@ -46,6 +47,7 @@ QUICK = {
     "gci": dict(samples=2000, repeats=1),
     "reachmap": dict(voxel=0.2, directions=20, samples=20_000, ik_targets=200, labelled=100, dask_samples=20_000),
     "collisions": dict(checks=300, repeats=1, acm_samples=100, map_samples=5000, voxel=0.2, directions=20),
+    "analytic": dict(n_single=10, n_batch=50, repeats=1),
 }
 GROUP_LABELS = {
     "fk_single": "FK, one configuration",
@@ -64,6 +66,7 @@ GROUP_LABELS = {
     "collisions": "self-collision checks, batch",
     "acm": "allowed-collision matrix",
     "reachmap_collisions": "reachability map, collision-free only",
+    "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
               "map": "map", "pose": "pose"}
@@ -444,6 +447,9 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         from benchmarks.collisions_workload import collisions_workload
 
         steps.append(("collisions", lambda: collisions_workload(**sizes["collisions"])))
+    if "analytic" in only:
+        for arm in ("ur5", "kinova"):  # a UR-type arm and a spherical-wrist arm
+            steps.append((f"closed-form IK {arm}", lambda arm=arm: w.analytic_workload(arm, **sizes["analytic"])))
     for label, step in steps:
         t = time.perf_counter()
         log(f"[bench] {label} ...")

@@ -36,7 +36,8 @@ def test_quick_run_covers_every_workload(quick_run):
     _, results, _ = quick_run
     assert {r["workload"] for r in results["rows"]} == {"fk_single", "fk_batch", "ik", "planar", "cold_start", "viewer", "jacobian", "gci",
                                                           "reachmap_fk", "reachmap_hybrid", "ik_many", "reachmap_agreement",
-                                                          "reachmap_dask", "collisions", "acm", "reachmap_collisions"}
+                                                          "reachmap_dask", "collisions", "acm", "reachmap_collisions",
+                                                          "analytic"}
     assert {r["robot"] for r in results["rows"] if r["workload"] in ("fk_batch", "ik")} == {"iiwa14", "panda"}
 
 

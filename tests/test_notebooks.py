@@ -22,6 +22,7 @@ def test_the_notebooks_exist():
         "07_numerical_ik.ipynb",
         "08_velocity_kinematics.ipynb",
         "09_reach_maps.ipynb",
+        "10_closed_form_real_arms.ipynb",
         "11_collisions.ipynb",
     ]
 

@@ -36,6 +36,8 @@ _LAZY = {
     "load_dh": "manipkit.dh.files",
     "check_dh": "manipkit.dh.check",
     "analytic_ik": "manipkit.closed_form.robots",
+    "analytic_ik_many": "manipkit.closed_form.robots",
+    "chain_family": "manipkit.closed_form.families",
     "manipulability": "manipkit.analysis.manipulability",
     "singular_values": "manipkit.analysis.manipulability",
     "velocity_ellipsoid": "manipkit.analysis.manipulability",

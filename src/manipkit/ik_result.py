@@ -165,6 +165,15 @@ class IKResult:
     family_function : callable or None
         For a family whose free parameter is not a joint: ``values -> IKResult``
         (see :meth:`members`).
+    within_limits : ndarray of bool, shape (k,), or None
+        Per row: inside the joint limits (the closed forms of
+        :mod:`manipkit.closed_form.chain_ik` keep out-of-limit branches and
+        mark them here); None when the solver does not say.
+    refined : ndarray, shape (k,), or None
+        Per row: how far (largest joint change, rad or m) Newton steps on
+        the true chain moved the closed form's answer (0: exact as solved;
+        a calibrated arm solved on its nearest ideal arm moves); None when
+        the solver does not refine.
     collides : tuple of bool
         When collisions were asked for (``ik(..., collision_free=...)``,
         :func:`manipkit.kinematics.collisions.mark_collisions`): per row, whether
@@ -213,13 +222,15 @@ class IKResult:
     closest: np.ndarray | None = None
     closest_residuals: np.ndarray | None = None
     family_function: Callable[..., IKResult] | None = field(default=None, repr=False)
+    within_limits: np.ndarray | None = None
+    refined: np.ndarray | None = None
     collides: tuple[bool, ...] = ()
     clearance: np.ndarray | None = None
 
     def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
                  joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
                  side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None,
-                 collides=(), clearance=None):
+                 within_limits=None, refined=None, collides=(), clearance=None):
         # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
         # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
         fields = dict(locals())
@@ -228,10 +239,15 @@ class IKResult:
         self.__post_init__()
 
     def __post_init__(self):
-        for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "clearance"):
+        for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
+                     "clearance"):
             value = getattr(self, name)
             if value is not None and (not isinstance(value, np.ndarray) or value.flags.writeable):
                 object.__setattr__(self, name, read_only(value))  # arrays of a result are read-only copies
+        if self.within_limits is not None:
+            within = np.array(self.within_limits, dtype=bool).reshape(-1)
+            within.setflags(write=False)
+            object.__setattr__(self, "within_limits", within)
         if self.solutions.ndim != 2:
             raise ValueError(f"IKResult.solutions must have shape (k, n), got {self.solutions.shape}")
 

@@ -1,7 +1,8 @@
-"""Closed-form inverse kinematics: planar 2R/3R arms and decoupled arms (SCARA, Stanford, elbow).
+"""Closed-form inverse kinematics: planar 2R/3R arms, decoupled arms (SCARA, Stanford, elbow), and any 6R chain
+with a spherical wrist or three parallel axes, found from its geometry.
 
-Pure functions on numbers and DH tables (numpy only); no robot file is
-needed. Joint angles are wrapped to (-pi, pi] (docs/architecture.md).
+Pure functions on numbers and DH tables (numpy only); the geometric closed
+forms (families, chain_ik) are given a chain object and read its axes. Joint angles are wrapped to (-pi, pi] (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -13,6 +14,9 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
                "workspace_2r", "workspace_3r"),
     **homes_of("manipkit.closed_form.planar_modes", "ik_2r_pose", "ik_3r_position"),
     **homes_of("manipkit.closed_form.decoupled", "ik_elbow", "ik_scara", "ik_stanford", "wrist_center"),
-    **homes_of("manipkit.closed_form.robots", "ANALYTIC_SOLVERS", "analytic_ik"),
+    **homes_of("manipkit.closed_form.robots", "ANALYTIC_SOLVERS", "analytic_ik", "analytic_ik_many"),
+    **homes_of("manipkit.closed_form.families", "Family", "chain_family"),
+    **homes_of("manipkit.closed_form.chain_ik", "chain_ik", "chain_ik_many"),
+    **homes_of("manipkit.closed_form.subproblems", "sp1", "sp2", "sp3", "sp4"),
     **homes_of("manipkit.ik_result", "IKResult", "IKBatch"),
 })

@@ -22,16 +22,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form import decoupled, planar, planar_modes
+from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
 from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.families import FAMILY_TOL, SRS, chain_family
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
-from manipkit.errors import IKOptionError
-from manipkit.ik_result import IKResult, tolerances
+from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik_result import IKBatch, IKResult, tolerances
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik"]
+__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many", "closed_form_solves"]
 
 
 @dataclass(frozen=True)
@@ -104,8 +106,18 @@ ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
 
 
 def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose", tol=1e-9,
-                samples: int = 4) -> IKResult:
-    """All closed-form IK solutions for ``T_base_link_ee_link = target`` on a bundled textbook arm, in ``mode``.
+                samples: int = 4, family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> IKResult:
+    """All closed-form IK solutions for ``T_base_tip = target``: a bundled textbook arm's, or any chain's with a 6R family.
+
+    Two paths. The bundled textbook arms (below) between ``base_link`` and
+    ``ee_link`` are solved by their named solvers, as before. Any other
+    robot or frames are solved from the chain's own geometry
+    (:func:`manipkit.closed_form.chain_ik.chain_ik` on ``robot.chain(base,
+    tip)``: spherical-wrist and UR-type 6R arms, every branch labelled,
+    limit-aware, FK-checked; a pose only), with ``family_tol`` (m, rad) the
+    tolerance within which axes count as meeting or parallel.
+
+    The named path (a bundled textbook arm, ``base_link`` to ``ee_link``):
 
     The solver parameters (link lengths, offsets, prismatic limits) are the
     robot's xacro arguments, so ``load("stanford_arm", d2=0.2)`` is solved
@@ -149,6 +161,15 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
         (m) or out of it (rad) a target may be.
     samples : int, keyword-only
         For a family with a free parameter: how many of its values to sample.
+    family_tol : float or (float, float), keyword-only
+        The geometric path's tolerance (m, rad) for axes that meet or are
+        parallel (:func:`manipkit.closed_form.families.chain_family`).
+    lock : dict of str to float, keyword-only
+        The geometric path: joints held at a value, so a 7R arm is solved as
+        the 6R arm of the others (``{"iiwa_joint_3": 0.4}``); rows keep them.
+    arm_angle : float, keyword-only
+        The geometric path on a 7R SRS arm (iiwa14): the arm angle (rad) to
+        solve at (:func:`manipkit.closed_form.chain_ik.srs_arm_angle`).
 
     Returns
     -------
@@ -163,10 +184,9 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     Raises
     ------
     IKOptionError
-        If the robot has no closed-form solver here (the message lists those
-        that do), the frames are not ``base_link`` and ``ee_link``, the mode is
-        unknown, or the arm does not solve it (Stanford and elbow arms: a
-        position alone).
+        If the chain has no closed form (the message gives the family
+        evidence: the measured misses), the mode is unknown, or the arm does
+        not solve it (6R arms: a position alone).
     InvalidTransformError
         ``target`` is not a 4x4 homogeneous transform.
 
@@ -180,14 +200,10 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     """
     # Over 80 lines: the docstring (what each arm solves, every option) is most of it.
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
-    if arm is None:
-        raise IKOptionError(
-            f"no closed-form solver for robot '{robot.name}'; closed forms exist for "
-            f"{', '.join(ANALYTIC_SOLVERS)} (use numerical IK otherwise)"
-        )
-    if (robot.frame(base), robot.frame(tip)) != (robot.frame("base_link"), robot.frame("ee_link")):
-        raise IKOptionError(f"the closed form of {robot.source.name} solves base_link -> ee_link, not {base} -> {tip}; "
-                            "use numerical IK for other frames")
+    named_frames = (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link"))
+    if arm is None or not named_frames or lock or arm_angle is not None:
+        return _geometric(robot, target, base, tip, mode, tol, family_tol, named=arm is not None, lock=lock,
+                          arm_angle=arm_angle)
     if mode not in ("pose", "position"):
         raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
     asked = ((PLANAR_POSE if mode == "pose" else PLANAR_POSITION) if arm.planar
@@ -195,7 +211,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     if mode == "position" and not arm.planar and SPATIAL_POSITION not in arm.solves:
         raise IKOptionError(
             f"the closed form of {robot.source.name} solves {' and '.join(arm.solves)} only, not a position alone "
-            "(a 6-joint arm leaves three degrees of freedom free); give an orientation, or use numerical IK for a position"
+            "(a position alone leaves the orientation's degrees of freedom free); give an orientation, or use numerical IK for a position"
         )
     tol = tolerances(tol)
     T = check_transform(target, what="IK target")
@@ -270,3 +286,104 @@ def _verified(robot: Robot, T: np.ndarray, result: IKResult, pose: bool, tol: tu
         note=reason,
         rejected=result.rejected + dropped,
     )
+
+
+def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, named: bool, lock=None,
+                     arm_angle=0.0):
+    """(chain, family) of a chain with a geometric closed form, else IKOptionError saying why."""
+    if mode not in ("pose", "position"):
+        raise IKOptionError(f"unknown closed-form mode '{mode}'; modes: pose, position")
+    chain = robot.chain(base, tip)
+    try:
+        family = chain_family(chain, tol=family_tol, lock=lock)
+    except ClosedFormIKError as exc:
+        raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}): {exc}") from None
+    if not family.solved:
+        if named:
+            raise IKOptionError(f"the closed form of {robot.source.name} solves base_link -> ee_link, not {base} -> {tip}, "
+                                f"and that chain has none from its geometry ({family.note}); use numerical IK for other frames")
+        raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}): {family.note}; "
+                            f"the bundled textbook arms {', '.join(ANALYTIC_SOLVERS)} have named solvers; "
+                            "use numerical IK otherwise")
+    if family.kind == SRS and arm_angle is None:
+        raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}) without an arm angle: "
+                            f"it is a 7R arm ({SRS}) with a family of solutions per target; give arm_angle (rad; "
+                            "ik --arm-angle PSI) or lock a joint (lock=, ik --lock JOINT=VALUE)")
+    if mode == "position":
+        raise IKOptionError(f"the closed form of {robot.name} ({family.kind}) solves spatial pose (x, y, z, R) only, "
+                            "not a position alone (a position alone leaves the orientation's degrees of freedom free); give an "
+                            "orientation, or use numerical IK for a position")
+    return chain, family
+
+
+def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family_tol, named: bool,
+               lock=None, arm_angle=None) -> IKResult:
+    """:func:`analytic_ik` by the chain's geometry, rows as whole-robot vectors."""
+    chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named, lock, arm_angle)
+    try:
+        result = chain_ik(chain, target, family=family, check_tol=tolerances(tol), arm_angle=arm_angle)
+    except ClosedFormIKError as exc:
+        raise IKOptionError(str(exc)) from None
+    Q = np.array([chain.full(q) for q in result.solutions], dtype=float).reshape(-1, len(robot.joint_names))
+    columns = tuple(int(c) for c in chain.columns)
+    return replace(result, solutions=read_only(Q, (len(robot.joint_names),)), joint_names=robot.joint_names,
+                   free_joints=tuple(columns[j] for j in result.free_joints))
+
+
+def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = "ee_link", *, tol=1e-9,
+                     family_tol=FAMILY_TOL, lock=None) -> IKBatch:
+    """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
+
+    numpy-vectorised over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
+    an :class:`~manipkit.ik_result.IKBatch` of 8 slots per target, NaN where
+    a branch does not exist, joint vectors in ``robot.chain(base,
+    tip).joint_names`` order; residuals and ``success`` are measured by the
+    chain's compiled FK on first use, against ``tol``; ``lock`` as in
+    :func:`analytic_ik`. Raises
+    :class:`IKOptionError` when the chain has no geometric closed form.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("ur5")
+    >>> chain = robot.chain("base_link", "tool0")
+    >>> batch = analytic_ik_many(robot, chain.fk(chain.sample(3)), "base_link", "tool0")
+    >>> batch.solutions.shape, bool(batch.success.all())
+    ((3, 8, 6), True)
+    """
+    chain, family = _geometric_chain(robot, base, tip, "pose", family_tol, named=False, lock=lock)
+    T = np.asarray(targets, dtype=float)
+    if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
+        raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
+    return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerances(tol))
+
+
+def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",
+                       family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> str:
+    """What :func:`analytic_ik` solves for these frames in ``mode`` (``""``: it does not; use numerical IK).
+
+    ``"named"`` for a bundled textbook arm between ``base_link`` and
+    ``ee_link`` whose solver answers ``mode``; the family's kind (e.g.
+    ``"three parallel, two intersecting"``) for a chain with a geometric
+    closed form and ``mode`` ``"pose"`` (a 7R SRS arm: with ``arm_angle``).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> closed_form_solves(manipkit.load("ur5"), "base_link", "tool0"), closed_form_solves(manipkit.load("iiwa14"))
+    ('three parallel, two intersecting', '')
+    """
+    arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
+    if arm is not None and not lock and \
+            (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link")):
+        position_ok = arm.planar or SPATIAL_POSITION in arm.solves
+        return "named" if mode == "pose" or (mode == "position" and position_ok) else ""
+    if mode != "pose":
+        return ""
+    try:
+        family = chain_family(robot.chain(base, tip), tol=family_tol, lock=lock)
+    except ClosedFormIKError:
+        return ""
+    if family.kind == SRS and arm_angle is None:
+        return ""  # a 7R SRS arm needs its arm angle
+    return family.kind if family.solved else ""

@@ -702,7 +702,9 @@ def mark_collisions(result: IKResult, checker: CollisionChecker, *, drop: bool =
     count = result.count if np.isinf(result.count) and keep.any() else int(keep.sum())
     common = dict(solutions=rows, labels=labels, count=count, residual_position=result.residual_position[keep],
                   residual_rotation=result.residual_rotation[keep], collides=(False,) * len(rows),
-                  clearance=clearance[keep])
+                  clearance=clearance[keep],
+                  within_limits=None if result.within_limits is None else result.within_limits[keep],
+                  refined=None if result.refined is None else result.refined[keep])  # per-row fields follow the rows
     if keep.any():
         note = f"{result.note}; {int((~keep).sum())} in collision dropped" if result.note else ""
         return replace(result, note=note, **common)

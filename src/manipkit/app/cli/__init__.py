@@ -14,7 +14,7 @@ and the limits, unless ``--clamp`` is given.
 
 One module per command group, each with ``register(commands)`` adding its
 subparser(s) and the ``run_*`` functions they call: :mod:`.tf`,
-:mod:`.robots` (robots, frames), :mod:`.tree`, :mod:`.dh`, :mod:`.ik`,
+:mod:`.robots` (robots, frames), :mod:`.tree`, :mod:`.dh`, :mod:`.ik`, :mod:`.family`,
 :mod:`.workspace`, :mod:`.collisions` (collisions, acm), :mod:`.view`; the options they share are in
 :mod:`.common`. How to add a command: docs/architecture.md.
 
@@ -53,6 +53,7 @@ def _main_parser() -> argparse.ArgumentParser:
     from manipkit.app.cli import (
         collisions,
         dh,
+        family,
         ik,
         reachmap,
         robots,
@@ -67,7 +68,8 @@ def _main_parser() -> argparse.ArgumentParser:
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    groups = (tf, robots, tree, dh, ik, velocity, singularities, workspace, reachmap, collisions, view, rot)  # `manipkit --help` order
+    groups = (tf, robots, tree, dh, ik, family, velocity, singularities, workspace, reachmap, collisions, view,
+              rot)  # `manipkit --help` order
     for group in groups:
         group.register(commands)
     return parser

@@ -29,6 +29,7 @@ from manipkit.app.cli.common import (
     check_precision,
     command_line,
     exact_q_words,
+    is_number,
     joint_vector,
     load_robot,
     print_json,
@@ -59,8 +60,15 @@ def register(commands) -> None:
     orientation.add_argument("--quat", type=_number, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
     ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
     ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
-    ik.add_argument("--analytic", action="store_true", help="use the robot's closed-form solver (planar_2r/3r, scara, stanford_arm, elbow_arm)")
-    ik.add_argument("--all", action="store_true", help="numerical: return every distinct solution found within the restart budget")
+    ik.add_argument("--analytic", action="store_true", help="closed form: the bundled textbook arms' named solvers, or any 6R chain with a spherical wrist or "
+                         "three parallel axes (found from its geometry: every branch, labelled)")
+    ik.add_argument("--all", action="store_true", help="every solution: the closed form when the chain has one (a pose), else every distinct solution "
+                         "numerical IK finds within the restart budget")
+    ik.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
+                    help="closed form: hold these joints at a value (rad, or deg with --deg) and solve the others "
+                         "(a 7R arm as a 6R one)")
+    ik.add_argument("--arm-angle", type=float, default=None, metavar="PSI",
+                    help="closed form of a 7R SRS arm (iiwa14): the arm angle (rad, or deg with --deg)")
     ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
     ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
@@ -180,6 +188,17 @@ def _ik_target(args) -> np.ndarray:
     return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
 
 
+def _locked(args, robot: Robot) -> dict[str, float]:
+    """--lock JOINT=VALUE pairs as {joint: value} (rad; degrees converted with --deg)."""
+    pairs = {}
+    for item in args.lock:
+        name, sep, text = item.partition("=")
+        if not sep or not name or not is_number(text) or not math.isfinite(float(text)):
+            raise UsageError(f"--lock {item}: give JOINT=VALUE with a finite number, e.g. --lock {robot.joint_names[-1]}=0.3")
+        pairs[name] = math.radians(float(text)) if args.deg else float(text)
+    return pairs
+
+
 def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
     """(result, header): the closed form or numerical IK, as manipkit's one IK result type (solutions marked in
     collision or not when asked)."""
@@ -189,7 +208,7 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
 
         checker = collision_checker(robot, args)
     result, header = _solve_with(args, robot, target, mode, checker if args.collision_free else None)
-    if checker is not None and not (args.collision_free and not args.analytic):
+    if checker is not None and not (args.collision_free and result.attempts):  # numerical IK avoided them itself
         from manipkit.kinematics.collisions import mark_collisions
 
         marked = mark_collisions(result, checker, drop=args.collision_free)
@@ -202,22 +221,43 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
 def _solve_with(args, robot: Robot, target: np.ndarray, mode: str, checker) -> tuple[IKResult, str]:
     tol = _tolerance(args)
     options = {} if tol is None else {"tol": tol}
-    if args.analytic:
+    lock = _locked(args, robot)
+    if lock and not (args.analytic or args.all):
+        raise UsageError("--lock holds joints for the closed form; add --analytic or --all")
+    arm_angle = args.arm_angle
+    if arm_angle is not None:
+        if not math.isfinite(arm_angle):
+            raise UsageError(f"--arm-angle {arm_angle}: give a finite angle")
+        if not (args.analytic or args.all):
+            raise UsageError("--arm-angle is the closed form's (7R SRS arms); add --analytic or --all")
+        arm_angle = math.radians(arm_angle) if args.deg else arm_angle
+    closed = args.analytic
+    if args.all and not args.analytic and not args.free and not args.seed_q and mode == "pose":
+        from manipkit.closed_form.robots import closed_form_solves
+
+        closed = bool(closed_form_solves(robot, args.base, args.frame, mode=mode, lock=lock, arm_angle=arm_angle))  # --all: every solution, exactly
+    if closed:
         from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 
-        if args.frame != "ee_link" or args.base != "base_link":
-            raise UsageError("--analytic solves base_link -> ee_link; leave out --frame/--base")
         if mode == "position+axis":
             raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
+        if lock:
+            options["lock"] = lock
+        if arm_angle is not None:
+            options["arm_angle"] = arm_angle
         result = analytic_ik(robot, target, args.base, args.frame, mode=mode, **options)
         found = len(result.solutions)
         if result.infinite:
             count = f"infinitely many solutions (free: {result.free_parameter}), {found} listed"
         else:
             count = f"{found} solution(s)"
-        solves = ANALYTIC_SOLVERS[robot.source.name].solves
-        return result, (f"closed form ({result.solver}): {count}\n"
-                        f"mode: {result.mode}; this arm's closed form solves {' and '.join(solves)}")
+        named = ANALYTIC_SOLVERS.get(robot.source.name) if result.solver.split(" ")[0] != "closed_form.chain_ik" else None
+        solves = " and ".join(named.solves) if named else "spatial pose (x, y, z, R), every branch"
+        if not args.analytic:
+            count += " (--all: the closed form answers this chain)"
+        frames = "" if named else f", frame {args.frame} in {args.base}"
+        return result, (f"closed form ({result.solver}{frames}): {count}\n"
+                        f"mode: {result.mode}; this arm's closed form solves {solves}")
     from manipkit.kinematics.ik import ik
 
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
@@ -257,6 +297,7 @@ def run_ik(args) -> int:
     oriented = args.rpy is not None or args.quat is not None
     mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
     result, header = _solve(args, robot, target, mode)
+    closed = not result.attempts  # a closed form answered (numerical IK counts its starts)
     answers = list(zip(result.labels, result.solutions))
     residuals = result.residuals.max(axis=0) if result.success else result.q_residuals  # None: nothing to measure
     notes = [result.note] if result.note else []
@@ -272,11 +313,13 @@ def run_ik(args) -> int:
     if args.format == "json":
         print_json({
             "robot": robot.name,
-            "mode": "analytic" if args.analytic else mode,
+            "mode": "analytic" if closed else mode,
             "target": target.tolist(),
             "solutions": [robot.as_dict(q) for _, q in answers],
             "labels": [label for label, _ in answers],
-            "closed_form_mode": result.mode if args.analytic else None,
+            "closed_form_mode": result.mode if closed else None,
+            "within_limits": None if result.within_limits is None else result.within_limits.tolist(),
+            "refined": None if result.refined is None else result.refined.tolist(),
             "count": "inf" if result.infinite else result.count,
             "free_parameter": result.free_parameter or None,
             "unmet": dict(result.unmet),
@@ -291,9 +334,10 @@ def run_ik(args) -> int:
         print(header)
         for line in alias_lines(robot, args.base, args.frame):
             print(line)
-        for index, (label, q) in enumerate(answers, start=1):
-            print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}"
-                  + _collision_text(result, index - 1))
+        within = [True] * len(answers) if result.within_limits is None else result.within_limits.tolist()
+        for index, ((label, q), inside) in enumerate(zip(answers, within), start=1):
+            print(f"{index}. {('[' + label + '] ') if label else ''}{'' if inside else '(outside the joint limits) '}"
+                  f"{q_text(robot.as_dict(q), args.precision)}" + _collision_text(result, index - 1))
         if result.closest is not None:
             what = "in collision" if args.collision_free and "in collision" in result.note else "does not reach the target"
             print(f"best found ({what}): {q_text(robot.as_dict(result.closest), args.precision)}")

@@ -1,0 +1,85 @@
+"""``manipkit family``: which closed form a chain has, found from its joint axes, with the evidence.
+
+The family and its evidence come from
+:func:`manipkit.closed_form.families.chain_family` (docs/architecture.md,
+"closed_form"): which axes meet or are parallel, the measured miss distance
+and angle, the tolerance used. ``manipkit ik --analytic`` (or ``--all``)
+solves the chains whose family has a closed form.
+"""
+
+from __future__ import annotations
+
+from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, is_number, load_robot, print_json
+from manipkit.text import short_text
+
+__all__ = ["register", "run_family"]
+
+
+def register(commands) -> None:
+    """Add ``manipkit family`` to the subparsers ``commands``."""
+    parser = commands.add_parser("family", help="the closed-form family of a chain (spherical wrist, UR type, ...), "
+                                                "found from its joint axes, with the evidence")
+    add_robot_options(parser)
+    parser.add_argument("--base", default="base_link", help="base frame of the chain (default base_link)")
+    parser.add_argument("--tip", default="ee_link", help="tip frame of the chain (default ee_link)")
+    parser.add_argument("--tol", type=float, nargs="+", default=None, metavar="TOL",
+                        help="how far axes may miss a point (m) and be from parallel (rad): one number or two "
+                             "(default 1e-3)")
+    parser.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
+                        help="hold these joints at a value (rad): the family of the others (a 7R arm as a 6R one)")
+    parser.add_argument("--format", choices=("text", "json"), default="text")
+    parser.set_defaults(run=run_family)
+
+
+def run_family(args) -> int:
+    """Print the family, its evidence and whether ``ik --analytic`` solves it."""
+    from manipkit.closed_form.families import FAMILY_TOL, chain_family
+    from manipkit.errors import ManipkitError
+    from manipkit.ik_result import tolerances
+
+    try:
+        tol = FAMILY_TOL if args.tol is None else tolerances(tuple(args.tol))
+    except ManipkitError:
+        raise UsageError(f"--tol {' '.join(short_text(t) for t in args.tol)}: give one or two positive numbers "
+                         "(distance m, angle rad)") from None
+    robot = load_robot(args)
+    chain = robot.chain(args.base, args.tip)
+    lock = {}
+    for item in args.lock:
+        name, sep, text = item.partition("=")
+        if not sep or not name or not is_number(text):
+            raise UsageError(f"--lock {item}: give JOINT=VALUE with a number (rad)")
+        lock[name] = float(text)
+    family = chain_family(chain, tol=tol, lock=lock)
+    opw, opw_note = None, ""
+    if family.kind == "spherical wrist, two parallel":
+        from manipkit.closed_form.opw import opw_parameters
+
+        try:
+            opw = opw_parameters(chain, family=family)
+        except ManipkitError as exc:
+            opw_note = str(exc)
+    if args.format == "json":
+        print_json({
+            "robot": robot.name, "base": chain.base, "tip": chain.tip, "joints": list(chain.joint_names),
+            "family": family.kind, "reversed": family.reversed, "solved": family.solved,
+            "evidence": [{"kind": r.kind, "axes": list(r.axes), "miss": r.miss, "angle": r.angle,
+                          "point": list(r.point) or None} for r in family.evidence],
+            "tol": list(family.tol), "deviation": family.deviation, "note": family.note,
+            "opw": None if opw is None else {
+                **{name: getattr(opw, name) for name in ("a1", "a2", "b", "c1", "c2", "c3", "c4")},
+                "offsets": list(opw.offsets), "sign_corrections": list(opw.sign_corrections), "fk_error": opw.fk_error},
+            "opw_note": opw_note or None,
+        })
+        return EXIT_OK
+    print(f"chain {chain.base} -> {chain.tip}: {', '.join(chain.joint_names) or 'no joints'}")
+    print(str(family))
+    if opw is not None or opw_note:
+        print(f"  {opw if opw is not None else opw_note}")
+    if family.solved:
+        locks = "".join(f" --lock {name}={value!r}" for name, value in lock.items())
+        print(f"closed form: manipkit ik --analytic --robot {args.robot or robot.name} --base {chain.base} "
+              f"--frame {chain.tip}{locks} --xyz ... --rpy ... gives every branch"
+              + ("" if family.ideal else f" (solved on the ideal arm {short_text(family.deviation, 3)} away, "
+                                          "then refined on this chain)"))
+    return EXIT_OK

@@ -1,0 +1,461 @@
+"""Every closed-form IK solution of a chain, from its own geometry: :func:`chain_ik` and :func:`chain_ik_many`.
+
+The chain (``robot.chain(base, tip)``, any base and tip frames: ``tool0``,
+``flange``, a TCP beyond the last joint, a base above the first joint) is
+classified by :func:`manipkit.closed_form.families.chain_family`; its axes
+at the reference configuration ``q0`` and its tip pose there, ``M``, make
+the product of exponentials ``T_base_tip(q) = E_1 ... E_6 M`` in which the
+base and tip offsets are folded exactly. :mod:`manipkit.closed_form.arms`
+gives every branch; each is then:
+
+- mapped to joint values ``q = q0 + angle / scale`` and, for a revolute
+  joint, to the alias ``q + 2 pi k`` inside the limits nearest 0 (a joint
+  whose range spans more than 2 pi has others: the note says so); a row
+  outside the limits is kept and marked (``within_limits`` False);
+- checked by the chain's compiled forward kinematics (``chain.fk``, not
+  the solver's algebra); a row that misses by more than ``check_tol`` (a
+  calibrated arm solved on its nearest ideal arm, or rounding) is refined by
+  Newton steps on the true chain, and ``refined`` says by how far (rad or
+  m, the joint-space step); rows that still miss are dropped and counted
+  in ``rejected``;
+- labelled ``"front|back, elbow up|down, no flip|wrist flip"`` (shoulder:
+  the wrist centre on the side of axis 1 where it is at ``q0``, or the
+  other; elbow: above or below the shoulder-wrist line, "above" along axis
+  1 turned to point up the base z; wrist: the angle of the middle wrist
+  joint from ``q0`` >= 0 or < 0).
+
+A singular target (the wrist's first and last axes aligned, the wrist
+centre on axis 1, axis 6 along the parallel axes of a UR arm) gives rows
+standing for a one-parameter family: ``count`` is infinite, ``free_joints``
+and ``free_parameter`` name the joint held at its ``q0`` value, and
+``family`` says which combination is determined.
+
+Given a chain object; never imports the kinematics layer (docs/architecture.md, "Layers").
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
+from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.families import (
+    FAMILY_TOL,
+    OPW,
+    SPHERICAL_12,
+    SRS,
+    UR,
+    Family,
+    chain_family,
+    common_point,
+    reversed_geometry,
+)
+from manipkit.closed_form.srs import solve_srs
+from manipkit.closed_form.subproblems import rotate, sp2
+from manipkit.errors import ClosedFormIKError
+from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
+from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
+from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
+
+__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "srs_arm_angle"]
+
+#: Residual (m and rad) within which a row's forward kinematics must reach the target.
+CHECK_TOL = 1e-10
+TWO_PI = 2.0 * math.pi
+
+
+class IdealArm:
+    """The nearest ideal arm of a family: axes made exactly parallel or concurrent, in the solve direction.
+
+    ``h``, ``p`` (6, 3): directions and points; ``points``: the wrist centre
+    (and shoulder point) the solver needs; ``moved``: the largest change of
+    an axis (m for a point, rad for a direction) from the measured chain.
+    """
+
+    __slots__ = ("family", "h", "p", "points", "moved")
+
+    def __init__(self, family: Family):
+        geometry = reversed_geometry(family.geometry) if family.reversed else family.geometry
+        h, p = geometry.direction.copy(), geometry.point.copy()
+        moved = 0.0
+        points = {}
+        if family.kind in (OPW, SPHERICAL_12):
+            c, miss = common_point(h[3:6], p[3:6])
+            p[3:6] = c
+            points["wrist"] = c
+            moved = max(moved, miss)
+        if family.kind == OPW:
+            moved = max(moved, _align(h, (1, 2)))
+        if family.kind == UR:
+            moved = max(moved, _align(h, (1, 2, 3)))
+            c, miss = common_point(h[4:6], p[4:6])
+            p[4:6] = c
+            points["wrist"] = c
+            moved = max(moved, miss)
+        if family.kind == SRS:
+            s, miss_s = common_point(h[0:3], p[0:3])
+            c, miss_w = common_point(h[4:7], p[4:7])
+            p[0:3], p[4:7] = s, c
+            points["shoulder"], points["wrist"] = s, c
+            moved = max(moved, miss_s, miss_w)
+        if family.kind == SPHERICAL_12:
+            s, miss = common_point(h[0:2], p[0:2])
+            p[0:2] = s
+            points["shoulder"] = s
+            moved = max(moved, miss)
+        self.family, self.h, self.p, self.points, self.moved = family, h, p, points, moved
+
+
+def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
+    """Make the axes ``indices`` of ``h`` exactly parallel (their signed mean); the largest angle turned (rad)."""
+    first = h[indices[0]]
+    signs = [1.0 if h[i] @ first >= 0 else -1.0 for i in indices]
+    mean = sum(s * h[i] for s, i in zip(signs, indices))
+    mean = mean / np.linalg.norm(mean)
+    turned = 0.0
+    for s, i in zip(signs, indices):
+        turned = max(turned, math.atan2(float(np.linalg.norm(np.cross(h[i], s * mean))), float(h[i] @ (s * mean))))
+        h[i] = s * mean
+    return turned
+
+
+def ideal_arm(family: Family) -> IdealArm:
+    """The nearest ideal arm of ``family`` (see :class:`IdealArm`); :class:`ClosedFormIKError` if it has no solver."""
+    if not family.solved:
+        raise ClosedFormIKError(family.note)
+    return IdealArm(family)
+
+
+def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None) -> tuple[np.ndarray, Branches, np.ndarray]:
+    """(theta (N, 8, n) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
+    family = arm.family
+    g = T @ invert_transform(family.geometry.M)
+    if family.reversed:
+        g = invert_transform(g)
+    if family.kind == SRS:
+        if arm_angle is None or len(g) != 1:
+            raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
+                                    "ik --arm-angle PSI), one target at a time, or lock a joint")
+        branches = solve_srs(arm.h, arm.p, g[0], arm.points, float(arm_angle))
+        return branches.theta, branches, g
+    branches = solve_6r(family.kind, arm.h, arm.p, g, arm.points)
+    theta = branches.theta[..., ::-1] if family.reversed else branches.theta
+    return theta, branches, g
+
+
+def _aliases(chain: Chain, Q: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The solved (revolute) ``columns`` of chain vectors moved by whole turns to the in-limit value nearest 0
+    (wrapped to (-pi, pi] when none is inside, or for a continuous joint); other entries (locked joints) as given."""
+    Q = np.array(Q, dtype=float)
+    lower, upper = np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
+    wrapped = wrap_angle(Q[..., columns])
+    best = np.array(wrapped, dtype=float)
+    found = (wrapped >= lower - 1e-12) & (wrapped <= upper + 1e-12)
+    for k in (1, -1, 2, -2):
+        candidate = wrapped + k * TWO_PI
+        inside = (candidate >= lower - 1e-12) & (candidate <= upper + 1e-12) & ~found
+        best = np.where(inside, candidate, best)
+        found |= inside
+    Q[..., columns] = best
+    return Q
+
+
+def _log(R: np.ndarray) -> np.ndarray:
+    axis, angle = axis_angle_from_matrix(R, check=False)
+    return np.asarray(axis) * float(angle)
+
+
+def _newton(chain: Chain, T: np.ndarray, q: np.ndarray, columns: np.ndarray, max_iters: int, tol: float) -> np.ndarray:
+    """``q`` moved by Newton steps on the chain's FK and Jacobian (the solved ``columns`` only: locked joints stay)
+    until the pose error is below ``tol``."""
+    q = q.copy()
+    for _ in range(max_iters):
+        reached = chain.fk(q)
+        error = np.concatenate([T[:3, 3] - reached[:3, 3], _log(T[:3, :3] @ reached[:3, :3].T)])
+        if np.max(np.abs(error)) <= tol:
+            break
+        q[columns] += np.linalg.lstsq(chain.jacobian(q)[:, columns], error, rcond=None)[0]
+    return q
+
+
+def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
+    """Chain vectors (..., n) from solved angles (..., 6): ``q0`` with the solved columns moved by ``theta / scale``."""
+    Q = np.broadcast_to(geometry.q0, (*theta.shape[:-1], len(geometry.q0))).copy()
+    Q[..., geometry.columns] = geometry.q0[geometry.columns] + theta / geometry.scale
+    return Q
+
+
+def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> list[str]:
+    """Shoulder, elbow and wrist of each branch (rows of angles (k, n) in the solve direction), as words."""
+    h, p = arm.h, arm.p
+    kind = arm.family.kind
+    if kind == SRS:  # the arm angle is given: the elbow's sign, the shoulder's and the wrist's split name a branch
+        return [f"elbow {'+' if t[3] >= 0 else '-'}, shoulder {'+' if t[1] >= 0 else '-'}, "
+                f"{'no flip' if t[5] >= 0 else 'wrist flip'}" for t in theta]
+    c = arm.points["wrist"]
+    w = g[:3, :3] @ c + g[:3, 3]
+    s = arm.points.get("shoulder", p[1])
+    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
+    reference = reference - (reference @ h[1]) * h[1]
+    if np.linalg.norm(reference) < 1e-9:
+        reference = np.cross(h[0], h[1])
+    w1 = p[0] + rotate(h[0], -theta[:, 0], w - p[0])  # (k, 3)
+    front = (w1 - p[0]) @ reference >= 0.0
+    up = h[0] if h[0][2] >= 0.0 else -h[0]
+    E1 = rotation_matrix(h[0], theta[:, 0])  # (k, 3, 3)
+
+    def turned(x):
+        return p[0] + np.einsum("kij,kj->ki", E1, np.broadcast_to(x - p[0], (len(theta), 3)))
+
+    shoulder_point = turned(s)
+    elbow = turned(p[1] + rotate(h[1], theta[:, 1], p[2] - p[1]))
+    wrist = np.broadcast_to(w, elbow.shape)
+    if kind == UR:  # the point on axis 4, moved
+        E3p4 = p[2] + rotate(h[2], theta[:, 2], p[3] - p[2])
+        wrist = turned(p[1] + rotate(h[1], theta[:, 1], E3p4 - p[1]))
+    normal = E1 @ h[1]  # the arm's plane is normal to axis 2: compare within it
+
+    def in_plane(x):
+        return x - np.sum(x * normal, axis=-1, keepdims=True) * normal
+
+    line, offset = in_plane(wrist - shoulder_point), in_plane(elbow - shoulder_point)
+    length = np.sum(line * line, axis=-1, keepdims=True)
+    offset = offset - np.where(length > 0.0, np.sum(offset * line, axis=-1, keepdims=True) / np.where(length > 0, length, 1.0), 0.0) * line
+    above = offset @ up >= 0.0
+    return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t[4] >= 0.0 else 'wrist flip'}"
+            for f, a, t in zip(front, above, theta)]
+
+
+def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
+    if free == 3:
+        return (f"wrist singular (axes 4 and 6 aligned): only {names[3]} and {names[5]} together are determined; "
+                f"the row holds {names[3]} at its reference value")
+    if free == 5:
+        return (f"wrist singular (axis 6 parallel to axes 2, 3, 4): {names[5]} with {names[1]}, {names[2]}, "
+                f"{names[3]} is not determined; the row holds the member with the elbow mid-reach")
+    if free == 0:
+        return f"shoulder singular (the wrist centre on axis 1): {names[0]} is free; the row holds it at its reference value"
+    return f"{names[free]} is free at this target; the row holds it at its reference value"
+
+
+def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
+             max_iters: int = 20, lock=None, arm_angle=None) -> IKResult:
+    """Every closed-form IK solution of ``chain`` for ``T_base_tip = target``, found from the chain's geometry.
+
+    Parameters
+    ----------
+    chain : manipkit.kinematics.chain.Chain
+        ``robot.chain(base, tip)``: the answer is for these frames exactly.
+    target : array_like, shape (4, 4)
+        ``T_base_tip`` (metres).
+    family : Family, keyword-only
+        A family found before (:func:`chain_family`); found here otherwise with ``tol``.
+    tol : float or (float, float), keyword-only
+        The family tolerance (m, rad), as :func:`chain_family` takes it.
+    check_tol : float or (float, float), keyword-only
+        Residual (m, rad) a row's FK must reach; rows missing by more are refined.
+    max_iters : int, keyword-only
+        Newton steps at most per refined row.
+    lock : dict of str to float, keyword-only
+        Joints held at a value (a 7R arm solved as the 6R arm of the others;
+        ``family`` found with the same ``lock``); rows keep those values.
+    arm_angle : float, keyword-only
+        A 7R SRS arm (:mod:`manipkit.closed_form.srs`): the angle (rad) of
+        the elbow's plane about the shoulder-wrist line from the plane with
+        joint 3 at its reference value.
+
+    Returns
+    -------
+    IKResult
+        Rows are chain vectors in ``chain.joint_names`` order, with
+        ``labels``, ``within_limits`` and ``refined`` per row.
+
+    Raises
+    ------
+    ClosedFormIKError
+        The chain has no geometric closed form (the message gives the measured misses).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> chain = manipkit.load("ur5").chain("base_link", "tool0")
+    >>> result = chain_ik(chain, chain.fk([0.1, -1.2, 1.4, -0.3, 1.1, 0.5]))
+    >>> result.count, result.labels[0], bool(result.residual_position.max() < 1e-10)
+    (8, 'front, elbow up, no flip', True)
+    """
+    # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
+    family = chain_family(chain, tol=tol, lock=lock) if family is None else family
+    arm = ideal_arm(family)
+    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    T = check_transform(target, what="IK target")
+    theta, branches, g = _branches(arm, T[None], arm_angle)
+    geometry = family.geometry
+    names = tuple(chain.joint_names)
+    slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
+    candidates = _aliases(chain, _joint_values(geometry, theta[0, slots]), geometry.columns)  # (k, n), one batched FK below
+    position, rotation = pose_residuals(T, chain.fk(candidates)) if len(slots) else (np.zeros(0), np.zeros(0))
+    rows, labels, free_of, refined, rejected = [], [], [], [], 0
+    worst = 0.0
+    for q, slot, p_err, r_err in zip(candidates, slots, np.atleast_1d(position), np.atleast_1d(rotation)):
+        moved = 0.0
+        if p_err > check[0] or r_err > check[1]:
+            better = _newton(chain, T, q, geometry.columns, max_iters, min(0.1 * min(check), 1e-12))
+            moved = float(np.max(np.abs(better - q)))
+            q = _aliases(chain, better, geometry.columns)
+            p_err, r_err = pose_residuals(T, chain.fk(q))
+        if p_err > check[0] or r_err > check[1]:
+            rejected += 1
+            worst = max(worst, float(p_err), float(r_err))
+            continue
+        free = int(branches.free[0, slot])
+        if family.reversed and free >= 0:
+            free = 5 - free
+        free = int(geometry.columns[free]) if free >= 0 else -1  # a chain column (locked joints have none)
+        if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
+            continue
+        rows.append(q)
+        labels.append(int(slot))  # named below, all rows at once
+        free_of.append(free)
+        refined.append(moved)
+    if labels:
+        words = _labels(arm, g[0], branches.theta[0, labels])
+        labels = [w + (" (read tip to base)" if family.reversed else "") for w in words]
+    order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first
+    rows, labels, free_of, refined = ([seq[i] for i in order] for seq in (rows, labels, free_of, refined))
+    n = len(names)
+    Q = np.array(rows, dtype=float).reshape(-1, n)
+    residuals = pose_residuals(T, chain.fk(Q)) if len(rows) else (np.zeros(0), np.zeros(0))
+    within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(rows) else np.zeros(0, dtype=bool)
+    free_joints = tuple(sorted({f for f in free_of if f >= 0}))
+    count: int | float = math.inf if free_joints else len(rows)
+    solver = f"closed_form.chain_ik ({family.kind})"
+    parts = [f"{len(rows)} {'row(s) (one-parameter families among them)' if free_joints else 'solution(s)'} "
+             f"of the {family.kind} closed form"]
+    if len(rows) and not within.all():
+        parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
+    if any(m > 0 for m in refined):
+        parts.append(f"refined by Newton on the true chain (ideal arm {quantity_text(arm.moved)} m/rad away, "
+                     f"largest step {quantity_text(max(refined))})")
+    wide = [names[k] for k in geometry.columns if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
+    if wide and len(rows):
+        parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if family.kind == SRS:
+        parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
+    if family.locked:
+        parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
+    if rejected:
+        parts.append(f"{rejected} branch(es) dropped: FK missed by {quantity_text(worst)} > check_tol after refinement")
+    unmet = ()
+    outside_by = 0.0
+    if not rows:
+        unmet, words = _unmet(branches, rejected)
+        outside_by = float(branches.miss["reach"][0])
+        parts = ["no solution: " + words] + parts[1:]
+    solved = [int(c) for c in geometry.columns]
+    solved_names = tuple(names[c] for c in solved)
+    family_words = "; ".join(dict.fromkeys(_family_text(solved_names, solved.index(f), family.kind) for f in free_joints))
+    return IKResult(
+        read_only(Q, (n,)), tuple(labels), count, "; ".join(parts),
+        read_only(np.atleast_1d(residuals[0])), read_only(np.atleast_1d(residuals[1])),
+        mode=SPATIAL_POSE, solver=solver, joint_names=names,
+        free_parameter=", ".join(names[f] for f in free_joints), family=family_words, free_joints=free_joints,
+        unmet=unmet, rejected=rejected, outside_by=outside_by, within_limits=within,
+        refined=np.array(refined, dtype=float),
+    )
+
+
+def _label_order(label: str) -> tuple[bool, bool, bool]:
+    return ("back" in label, "elbow down" in label, "wrist flip" in label)
+
+
+def _same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> bool:
+    difference = np.pi - np.mod(np.pi - (a - b), TWO_PI)
+    return bool(np.all(np.abs(difference) <= tol))
+
+
+def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
+    """((component, size), ...) and words for a target with no branch."""
+    miss = {k: float(v[0]) for k, v in branches.miss.items()}
+    if miss["shoulder"] > 0.0:
+        return (("shoulder", miss["shoulder"]),), (
+            f"shoulder: the wrist centre cannot be turned into the arm's plane (misses by {quantity_text(miss['shoulder'])} m;"
+            " it lies closer to axis 1 than the arm's lateral offset)")
+    if miss["reach"] > 0.0:
+        return (("reach", miss["reach"]),), (
+            f"reach: the wrist centre is out of the elbow's reach by {quantity_text(miss['reach'])} m")
+    if miss["orientation"] > 0.0:
+        return (("orientation", miss["orientation"]),), "orientation: the wrist cannot turn the tool to the target"
+    return (), f"every branch missed the target by more than check_tol ({rejected} dropped)"
+
+
+def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
+                  lock=None) -> IKBatch:
+    """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
+
+    Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
+    branch does not exist. Revolute entries are the in-limit aliases nearest
+    0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
+    carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
+    and ``success`` are measured by the chain's compiled FK on first use,
+    against ``check_tol``.
+    """
+    family = chain_family(chain, tol=tol, lock=lock) if family is None else family
+    arm = ideal_arm(family)
+    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    theta, branches, _ = _branches(arm, T)
+    geometry = family.geometry
+    Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
+    Q = np.where(branches.valid[..., None], Q, np.nan)
+    count = branches.valid.sum(axis=-1).astype(float)
+    count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
+
+    def measure(solutions):
+        filled = np.where(np.isnan(solutions), 0.0, solutions)
+        position, rotation = pose_residuals(T[:, None], chain.fk(filled))
+        missing = np.isnan(solutions).any(axis=-1)
+        return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
+
+    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
+    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=f"closed_form.chain_ik_many ({family.kind})",
+                   joint_names=tuple(chain.joint_names), measure=measure, limit=check)
+
+
+def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:
+    """The arm angle (rad) of configuration ``q`` of a 7R SRS chain, as :func:`chain_ik`'s ``arm_angle`` takes it.
+
+    The rotation about the shoulder-wrist line that takes the reference
+    plane (joint 3 at its reference value) to the elbow's plane at ``q``;
+    ``chain_ik(chain, chain.fk(q), arm_angle=srs_arm_angle(chain, q))`` lists ``q``.
+    """
+    family = chain_family(chain) if family is None else family
+    if family.kind != SRS:
+        raise ClosedFormIKError(f"an arm angle belongs to a 7R SRS chain; this chain is '{family.kind}'")
+    arm = ideal_arm(family)
+    h, p = arm.h, arm.p
+    geometry = family.geometry
+    q = np.asarray(q, dtype=float)
+    theta = geometry.scale * (q[geometry.columns] - geometry.q0[geometry.columns])
+    T = np.asarray(chain.fk(q))
+    g = T @ invert_transform(geometry.M)
+    S, c = arm.points["shoulder"], arm.points["wrist"]
+    v = g[:3, :3] @ c + g[:3, 3] - S
+    v = v / np.linalg.norm(v)
+    u = p[3] + rotate(h[3], theta[3], c - p[3]) - S
+    t2, minus1 = sp2(h[1], u, h[0], v * np.linalg.norm(u)).theta[0]
+    R_ref = rotation_matrix(h[0], -minus1) @ rotation_matrix(h[1], t2)
+    R_shoulder = rotation_matrix(h[0], theta[0]) @ rotation_matrix(h[1], theta[1]) @ rotation_matrix(h[2], theta[2])
+    best = None
+    for D in (R_shoulder @ R_ref.T, R_shoulder @ rotation_matrix(h[2], np.pi) @ R_ref.T):
+        gap = float(np.linalg.norm(D @ v - v))
+        w = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]])
+        angle = math.atan2(0.5 * float(v @ w), 0.5 * (float(np.trace(D)) - 1.0))
+        if best is None or gap < best[0]:
+            best = (gap, angle)
+    return best[1]

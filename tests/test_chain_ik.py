@@ -1,0 +1,397 @@
+"""Closed-form IK from a chain's own geometry: families found, every branch checked by Pinocchio, limits,
+singular families, unreachable targets, calibrated descriptions and the user's frames."""
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import manipkit
+from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
+from manipkit.closed_form.families import chain_family
+from manipkit.errors import ClosedFormIKError
+
+REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" / "src" for base in Path(__file__).resolve().parents[2:4]
+                  if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
+needs_realworld = pytest.mark.skipif(not REALWORLD.is_dir(), reason="the shared real-world workspace is not here")
+UR5E = "universal_robot/ur_description/urdf/ur5e.xacro"
+IRB2400 = "abb/abb_irb2400_support/urdf/irb2400.xacro"
+SAMPLES = 60
+
+
+def load_realworld(relative: str):
+    """A description by its file path, as users load it (ur_description is also in example-robot-data: one warning)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return manipkit.load(str(REALWORLD / relative))
+
+
+def pinocchio_pose(robot, base: str, tip: str, q_full) -> np.ndarray:
+    """T_base_tip by Pinocchio itself (not manipkit's compiled FK)."""
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(q_full))
+    T_world_base = data.oMf[robot.frame_id(base)].homogeneous
+    T_world_tip = data.oMf[robot.frame_id(tip)].homogeneous
+    return np.linalg.inv(T_world_base) @ T_world_tip
+
+
+def pose_gap(A, B) -> float:
+    rotation = np.linalg.norm(A[:3, :3] - B[:3, :3])
+    return max(float(np.linalg.norm(A[:3, 3] - B[:3, 3])), float(rotation))
+
+
+def same_modulo_2pi(a, b, tol=1e-7) -> bool:
+    return bool(np.all(np.abs(np.pi - np.mod(np.pi - (np.asarray(a) - b), 2 * np.pi)) < tol))
+
+
+def check_every_branch(robot, base, tip, n=SAMPLES, seed=0):
+    """FK of random in-limit configurations: the generating one is among the answers, every answer lands (Pinocchio)."""
+    chain = robot.chain(base, tip)
+    family = chain_family(chain)
+    assert family.solved, family.note
+    for q in chain.sample(n, seed=seed):
+        T = chain.fk(q)
+        result = chain_ik(chain, T, family=family)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions), (q, result.note)
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, base, tip, chain.full(s)), T) < 1e-10
+        assert len(result.labels) == len(result.solutions) == len(result.within_limits)
+        assert result.within_limits.tolist() == chain.within_limits(result.solutions).tolist()
+    return family
+
+
+def test_ur5_is_found_as_three_parallel_and_every_branch_lands():
+    robot = manipkit.load("ur5")
+    family = check_every_branch(robot, "base_link", "tool0")
+    assert family.kind == "three parallel, two intersecting" and not family.reversed
+    assert [r.axes for r in family.evidence] == [(2, 3, 4), (5, 6)]
+
+
+def test_ur5_from_the_base_frame_above_the_first_joint_and_the_flange():
+    robot = manipkit.load("ur5")
+    check_every_branch(robot, "base", "tool0", n=20, seed=1)
+
+
+@needs_realworld
+def test_ur5e_description_by_file_path():
+    robot = load_realworld(UR5E)
+    family = check_every_branch(robot, "base_link", "tool0")
+    assert family.kind == "three parallel, two intersecting"
+
+
+@needs_realworld
+def test_abb_irb2400_is_a_spherical_wrist_arm_and_every_branch_lands():
+    robot = load_realworld(IRB2400)
+    family = check_every_branch(robot, "base_link", "tool0")
+    assert family.kind == "spherical wrist, two parallel"
+    assert [r.axes for r in family.evidence] == [(4, 5, 6), (2, 3)]
+
+
+def test_a_generic_pose_of_ur5_has_eight_distinct_labelled_branches():
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    result = chain_ik(chain, chain.fk([0.3, -1.1, 1.2, -0.8, 1.0, 0.4]))
+    assert result.count == 8 and len(set(result.labels)) == 8
+    assert result.labels[0] == "front, elbow up, no flip"
+    assert result.refined.max() == 0.0
+
+
+@needs_realworld
+def test_irb2400_keeps_out_of_limit_branches_marked():
+    chain = load_realworld(IRB2400).chain("base_link", "tool0")
+    q = np.array([0.2, 0.3, 0.1, 0.5, 0.8, 0.3])
+    result = chain_ik(chain, chain.fk(q))
+    assert result.count == 8
+    assert 0 < result.within_limits.sum() < 8  # the back-shoulder branches break the joint-2/3 limits
+    assert "outside the joint limits (marked, not dropped)" in result.note
+
+
+def test_ur5_at_q5_zero_gives_families_in_q6_on_its_own_shoulder_and_four_regular_rows_on_the_other():
+    """By hand: with q5 = 0, axis 6 is parallel to axes 2, 3, 4. On the generating shoulder branch the component of
+    the tool's axis 6 along the turned axis 2 is +-1 (a tangency: only q5 = 0), and four parallel joints leave
+    q6 free: 2 family rows (elbow up, down). On the other shoulder branch that component is cos(q1 - q1') with |.| < 1:
+    two q5 and two elbows each, 4 ordinary rows."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    q = np.array([0.3, -1.1, 1.2, -0.8, 0.0, 0.4])
+    result = chain_ik(chain, chain.fk(q))
+    assert math.isinf(result.count)
+    assert result.free_joints == (5,) and result.free_parameter == "wrist_3_joint"
+    assert "wrist singular" in result.family
+    assert len(result.solutions) == 6
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+
+
+@needs_realworld
+def test_irb2400_at_q5_zero_names_the_wrist_family():
+    """By hand: q5 = 0 aligns axes 4 and 6 for the generating arm branch only (the other arm branches turn the wrist
+    centre's frame differently), so exactly one row is a family, free in q4, with q4 + q6 fixed."""
+    chain = load_realworld(IRB2400).chain("base_link", "tool0")
+    q = np.array([0.2, 0.3, 0.1, 0.5, 0.0, 0.3])
+    result = chain_ik(chain, chain.fk(q))
+    assert math.isinf(result.count) and result.free_joints == (3,)
+    assert "only joint_4 and joint_6 together are determined" in result.family
+    family_rows = [s for s in result.solutions if abs(s[4]) < 1e-9]
+    assert len(family_rows) >= 1
+    # a member of the family: turn q4 by a and q6 by -a (axes 4 and 6 point the same way at q5 = 0)
+    member = family_rows[0].copy()
+    member[3] += 0.4
+    member[5] -= 0.4 * np.sign(chain.axes(member).direction[3] @ chain.axes(member).direction[5])
+    assert pose_gap(chain.fk(member), chain.fk(q)) < 1e-10
+
+
+def test_unreachable_target_names_the_reach_and_by_how_much():
+    """A target 1 m beyond the stretched arm: the point where axes 5 and 6 meet moves 1 m out; the wrist-1 point the
+    elbow must reach lies within |p4 - c| of it (whatever the wrist branch), so the miss is 1 m give or take that."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    axes = chain.axes(np.zeros(6))
+    wrist_to_c = float(np.linalg.norm(axes.point[3] - axes.point[5]))  # axis-4 point to the 5/6 meeting point
+    T = chain.fk(np.zeros(6))  # fully stretched along the base x axis
+    T[0, 3] += 1.0 * np.sign(T[0, 3])
+    result = chain_ik(chain, T)
+    assert not result.success and result.unmet[0][0] == "reach"
+    assert 1.0 - wrist_to_c - 0.01 < result.unmet[0][1] <= 1.0 + 1e-9
+    assert result.reason.startswith("no solution: reach: the wrist centre is out of the elbow's reach by")
+
+
+def test_a_chain_without_a_closed_form_says_what_misses():
+    chain = manipkit.load("panda").chain("panda_link0", "panda_link8")
+    family = chain_family(chain)
+    assert family.kind == "none" and "7 joint(s)" in family.note
+    with pytest.raises(ClosedFormIKError, match="no geometric closed form"):
+        chain_ik(chain, np.eye(4))
+
+
+def test_bundled_textbook_arms_are_recognised_by_geometry():
+    assert chain_family(manipkit.load("planar_2r").chain("base_link", "ee_link")).kind == "planar"
+    assert chain_family(manipkit.load("planar_3r").chain("base_link", "ee_link")).kind == "planar"
+    assert chain_family(manipkit.load("scara").chain("base_link", "ee_link")).kind == "scara"
+
+
+def test_batch_recovers_every_generating_configuration():
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    Q = chain.sample(200, seed=3)
+    batch = chain_ik_many(chain, chain.fk(Q))
+    assert batch.solutions.shape == (200, 8, 6)
+    for q, rows in zip(Q, batch.solutions):
+        assert any(same_modulo_2pi(s, q) for s in rows if not np.isnan(s).any())
+    found = ~np.isnan(batch.residual_position)
+    assert batch.residual_position[found].max() < 1e-10 and batch.residual_rotation[found].max() < 1e-10
+    assert batch.success.all()
+
+
+CALIBRATED_UR5 = """<?xml version="1.0"?>
+<robot name="ur5_calibrated">
+  <link name="base_link"/> <link name="shoulder_link"/> <link name="upper_arm_link"/> <link name="forearm_link"/>
+  <link name="wrist_1_link"/> <link name="wrist_2_link"/> <link name="wrist_3_link"/> <link name="tool0"/>
+  <joint name="shoulder_pan_joint" type="revolute"><parent link="base_link"/><child link="shoulder_link"/>
+    <origin xyz="0.0001 0 0.089159" rpy="0 0 0"/><axis xyz="0 0.0001 1"/><limit lower="-6.2832" upper="6.2832" effort="1" velocity="1"/></joint>
+  <joint name="shoulder_lift_joint" type="revolute"><parent link="shoulder_link"/><child link="upper_arm_link"/>
+    <origin xyz="0 0.13585 0" rpy="0 1.5708 0"/><axis xyz="0 1 0"/><limit lower="-6.2832" upper="6.2832" effort="1" velocity="1"/></joint>
+  <joint name="elbow_joint" type="revolute"><parent link="upper_arm_link"/><child link="forearm_link"/>
+    <origin xyz="0 -0.1197 0.425" rpy="0 0 0"/><axis xyz="0.0001 1 0"/><limit lower="-3.1416" upper="3.1416" effort="1" velocity="1"/></joint>
+  <joint name="wrist_1_joint" type="revolute"><parent link="forearm_link"/><child link="wrist_1_link"/>
+    <origin xyz="0 0 0.39225" rpy="0 1.5708 0"/><axis xyz="0 1 -0.0001"/><limit lower="-6.2832" upper="6.2832" effort="1" velocity="1"/></joint>
+  <joint name="wrist_2_joint" type="revolute"><parent link="wrist_1_link"/><child link="wrist_2_link"/>
+    <origin xyz="0.0001 0.093 0" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-6.2832" upper="6.2832" effort="1" velocity="1"/></joint>
+  <joint name="wrist_3_joint" type="revolute"><parent link="wrist_2_link"/><child link="wrist_3_link"/>
+    <origin xyz="0 0 0.09465" rpy="0 0 0"/><axis xyz="0.0001 1 0"/><limit lower="-6.2832" upper="6.2832" effort="1" velocity="1"/></joint>
+  <joint name="tool0_fixed_joint" type="fixed"><parent link="wrist_3_link"/><child link="tool0"/>
+    <origin xyz="0 0.0823 0" rpy="0 0 1.5708"/></joint>
+</robot>
+"""
+
+
+def test_calibrated_ur5_is_solved_on_its_ideal_arm_refined_and_checked(tmp_path):
+    path = tmp_path / "ur5_calibrated.urdf"
+    path.write_text(CALIBRATED_UR5)
+    robot = manipkit.load(str(path))
+    chain = robot.chain("base_link", "tool0")
+    family = chain_family(chain)
+    assert family.kind == "three parallel, two intersecting" and not family.ideal
+    assert 1e-5 < family.deviation < 1e-3
+    with pytest.raises(ClosedFormIKError, match="miss"):
+        chain_ik(chain, np.eye(4), tol=1e-6)  # beyond the tolerance: the message gives the measured miss
+    for q in chain.sample(20, seed=5):
+        T = chain.fk(q)
+        result = chain_ik(chain, T, family=family)
+        assert any(same_modulo_2pi(s, q, 1e-6) for s in result.solutions)
+        assert result.refined.min() > 0.0 and "refined by Newton" in result.note
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "base_link", "tool0", chain.full(s)), T) < 1e-10
+
+
+def six_r_urdf(name: str, joints: list[tuple[str, str]], tip: str) -> str:
+    """A 6R arm: (origin xyz, axis xyz) per joint, each child link following the last, and the tool frame."""
+    links = "".join(f'<link name="l{i}"/>' for i in range(7)) + '<link name="tool"/>'
+    body = "".join(
+        f'<joint name="j{i + 1}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
+        f'<origin xyz="{origin}"/><axis xyz="{axis}"/><limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>'
+        for i, (origin, axis) in enumerate(joints))
+    body += f'<joint name="tool_joint" type="fixed"><parent link="l6"/><child link="tool"/><origin xyz="{tip}" rpy="0.3 0.2 0.1"/></joint>'
+    return f'<?xml version="1.0"?><robot name="{name}">{links}{body}</robot>'
+
+
+SPHERICAL_SHOULDER = six_r_urdf("spherical_shoulder", [
+    ("0 0 0.3", "0 0 1"), ("0 0 0", "0 1 0"), ("0 0 0", "1 0 0"),  # axes 1, 2, 3 meet: a spherical group at the base
+    ("0.05 0 0.4", "0 1 0"), ("0 0 0.35", "0 1 0"), ("0.08 0 0.1", "0 0 1")], "0 0 0.1")  # 4 || 5
+INTERSECTING_SHOULDER = six_r_urdf("intersecting_shoulder", [
+    ("0 0 0.3", "0 0 1"), ("0 0 0", "0 1 0"),  # axes 1 and 2 meet
+    ("0 0.1 0.4", "1 0 0"),  # axis 3 crosses neither
+    ("0 0 0.3", "0 0 1"), ("0 0 0", "0 1 0"), ("0 0 0", "0 0 1")], "0 0.02 0.1")  # a spherical wrist
+
+
+def test_a_spherical_group_at_the_base_is_solved_on_the_chain_read_tip_to_base(tmp_path):
+    path = tmp_path / "spherical_shoulder.urdf"
+    path.write_text(SPHERICAL_SHOULDER)
+    family = check_every_branch(manipkit.load(str(path)), "l0", "tool", n=40)
+    assert family.kind == "spherical wrist, two parallel" and family.reversed
+    assert [r.axes for r in family.evidence] == [(1, 2, 3), (4, 5)]
+
+
+def test_a_spherical_wrist_with_meeting_shoulder_axes_is_solved(tmp_path):
+    path = tmp_path / "intersecting_shoulder.urdf"
+    path.write_text(INTERSECTING_SHOULDER)
+    family = check_every_branch(manipkit.load(str(path)), "l0", "tool", n=40)
+    assert family.kind == "spherical wrist, two intersecting" and not family.reversed
+
+
+def test_a_target_just_off_the_ur5_wrist_singularity_is_kept_refined_and_lands():
+    """q5 = 1e-7: the tangency of q5 is met within the subproblem tolerance, so the generating shoulder's rows come out
+    as the q5 = 0 family's members, then Newton on the chain puts them on the target (before: those rows were lost)."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    q = np.array([0.2, 0.3, 0.1, 0.5, 1e-7, 0.3])
+    T = chain.fk(q)
+    result = chain_ik(chain, T)
+    assert len(result.solutions) == 6 and result.free_joints == (5,)
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+    assert result.refined.max() > 0.0
+
+
+@needs_realworld
+def test_irb2400_wrist_centre_on_axis_1_is_a_family_free_in_joint_1():
+    """By hand: with the wrist centre on axis 1 (and no lateral offset, b = 0), turning joint 1 keeps it there, so
+    joint 1 is free; for each of its values two elbows and two wrists remain: 4 rows, each a family, both shoulder
+    choices being members of the same families."""
+    from manipkit.closed_form.chain_ik import ideal_arm
+    from manipkit.spatial.rotations import matrix_from_rpy
+
+    chain = load_realworld(IRB2400).chain("base_link", "tool0")
+    family = chain_family(chain)
+    centre = ideal_arm(family).points["wrist"]
+    centre_in_tool = (np.linalg.inv(family.geometry.M) @ np.r_[centre, 1.0])[:3]
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_rpy([0.3, 2.5, 0.2])
+    T[:3, 3] = np.array([0.0, 0.0, 1.3]) - T[:3, :3] @ centre_in_tool  # wrist centre at (0, 0, 1.3): on axis 1
+    result = chain_ik(chain, T, family=family)
+    assert math.isinf(result.count) and result.free_joints == (0,) and len(result.solutions) == 4
+    assert "shoulder singular (the wrist centre on axis 1): joint_1 is free" in result.family
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+
+
+@needs_realworld
+def test_irb2400_opw_parameters_are_those_ros_industrial_publishes_and_reproduce_its_fk():
+    """ROS-Industrial's opw_kinematics lists the IRB2400/10 as a1 0.100, a2 -0.135, b 0, c1 0.615, c2 0.705,
+    c3 0.755, c4 0.085, offsets [0, 0, -pi/2, 0, 0, 0], signs all +1."""
+    from manipkit.closed_form.opw import opw_fk, opw_parameters
+
+    chain = load_realworld(IRB2400).chain("base_link", "tool0")
+    p = opw_parameters(chain)
+    got = [p.a1, p.a2, p.b, p.c1, p.c2, p.c3, p.c4]
+    assert np.allclose(got, [0.1, -0.135, 0.0, 0.615, 0.705, 0.755, 0.085], atol=1e-9)
+    assert np.allclose(p.offsets, [0, 0, -np.pi / 2, 0, 0, 0], atol=1e-9) and p.sign_corrections == (1,) * 6
+    for q in chain.sample(10, seed=2):
+        assert np.abs(opw_fk(p, q) - chain.fk(q)).max() < 1e-9
+
+
+def test_opw_parameters_refuse_a_ur_arm_by_family():
+    from manipkit.closed_form.opw import opw_parameters
+
+    with pytest.raises(ClosedFormIKError, match="not a spherical wrist with axes 2 \\|\\| 3"):
+        opw_parameters(manipkit.load("ur5").chain("base_link", "tool0"))
+
+
+def test_iiwa14_with_joint_3_locked_is_a_spherical_wrist_arm_with_meeting_shoulder_axes():
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain, lock={"iiwa_joint_3": 0.4})
+    assert family.kind == "spherical wrist, two intersecting" and family.locked == (("iiwa_joint_3", 0.4),)
+    for q in chain.sample(30, seed=4):
+        q[2] = 0.4
+        T = chain.fk(q)
+        result = chain_ik(chain, T, family=family)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions)
+        assert np.all(result.solutions[:, 2] == 0.4)
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "base_link", "ee_link", chain.full(s)), T) < 1e-10
+
+
+def test_panda_with_joint_7_locked_is_solved_read_tip_to_base():
+    robot = manipkit.load("panda")
+    chain = robot.chain("panda_link0", "panda_link8")
+    family = chain_family(chain, lock={"panda_joint7": 0.3})
+    assert family.kind == "spherical wrist, two intersecting" and family.reversed
+    for q in chain.sample(30, seed=6):
+        q[6] = 0.3
+        T = chain.fk(q)
+        result = chain_ik(chain, T, family=family)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions)
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "panda_link0", "panda_link8", chain.full(s)), T) < 1e-10
+
+
+def test_locking_a_joint_the_chain_does_not_have_names_the_joints():
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    with pytest.raises(ClosedFormIKError, match="cannot lock 'elbow': it is not a joint of the chain base_link -> ee_link"):
+        chain_family(chain, lock={"elbow": 0.1})
+
+
+def test_iiwa14_is_an_srs_arm_and_every_configuration_is_found_at_its_own_arm_angle():
+    from manipkit.closed_form.chain_ik import srs_arm_angle
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain)
+    assert family.kind == "spherical shoulder, elbow, spherical wrist"
+    assert [r.axes for r in family.evidence] == [(1, 2, 3), (5, 6, 7)]
+    for q in chain.sample(40, seed=8):
+        T = chain.fk(q)
+        psi = srs_arm_angle(chain, q, family=family)
+        result = chain_ik(chain, T, family=family, arm_angle=psi)
+        assert any(same_modulo_2pi(s, q) for s in result.solutions)
+        assert len(set(result.labels)) == len(result.labels) <= 8
+        for s in result.solutions:
+            assert pose_gap(pinocchio_pose(robot, "base_link", "ee_link", chain.full(s)), T) < 1e-10
+            assert abs(math.remainder(srs_arm_angle(chain, s, family=family) - psi, 2 * math.pi)) < 1e-8
+
+
+def test_an_srs_arm_without_an_arm_angle_says_what_to_give():
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    with pytest.raises(ClosedFormIKError, match="give arm_angle"):
+        chain_ik(chain, chain.fk(np.zeros(7)))
+
+
+def test_ur5_with_the_elbow_straight_has_seven_solutions():
+    """By hand: q3 = 0 puts the axis-4 point at the elbow's full reach for the generating shoulder and wrist
+    choice: its two elbows coincide (a tangency, 1 row). The other wrist choice moves that point inside the reach
+    (2 elbows), and the other shoulder gives 2 wrists x 2 elbows: 1 + 2 + 4 = 7."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    q = np.array([0.2, 0.3, 0.0, 0.5, 0.8, 0.3])
+    result = chain_ik(chain, chain.fk(q))
+    assert result.count == 7 and any(same_modulo_2pi(s, q) for s in result.solutions)
+    assert result.residual_position.max() < 1e-10 and result.residual_rotation.max() < 1e-10
+
+
+def test_dropping_colliding_branches_keeps_the_per_row_fields_with_their_rows():
+    from manipkit.closed_form.robots import analytic_ik
+    from manipkit.kinematics.collisions import CollisionChecker, mark_collisions
+
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    result = analytic_ik(robot, chain.fk([0.3, -1.1, 1.2, -0.8, 1.0, 0.4]), "base_link", "tool0")
+    kept = mark_collisions(result, CollisionChecker(robot), drop=True)
+    assert 0 < len(kept.solutions) < len(result.solutions)  # one branch puts the arm through itself
+    assert len(kept.within_limits) == len(kept.refined) == len(kept.labels) == len(kept.solutions)
+    for label, q in zip(kept.labels, kept.solutions):
+        assert np.array_equal(q, result.solutions[result.labels.index(label)])
