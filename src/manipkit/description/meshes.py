@@ -22,12 +22,14 @@ from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import PackageNotFoundError
 
 if TYPE_CHECKING:
+    from manipkit.description.access import ReadPolicy
     from manipkit.description.packages import PackageResolver
 
 __all__ = ["mesh_path", "mesh_search_paths", "urdf_with_mesh_paths"]
 
 
-def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, link: str) -> Path:
+def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, link: str,
+              policy: ReadPolicy | None = None) -> Path:
     """The existing file a mesh URI names.
 
     Parameters
@@ -42,6 +44,8 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
         there, then in the current folder.
     link : str, keyword-only
         The link the mesh belongs to, named in messages.
+    policy : ReadPolicy, optional, keyword-only
+        What the description may read (:mod:`manipkit.description.access`); a mesh outside it is refused.
 
     Returns
     -------
@@ -54,6 +58,8 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
         The package is not found, the file is not in it, the file is not
         found, or the URI has another scheme (``http://`` ...); the message
         names the link, the URI and the places searched.
+    ReadNotAllowedError
+        The file is outside what the description may read (``policy``).
 
     Examples
     --------
@@ -76,11 +82,17 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
                 f"{where} resolves to {path}, which does not exist (package '{package}' is {resolver.find(package)}); "
                 f"give the right folder with --package-dir {package}=DIR"
             )
+        if policy is not None:
+            policy.check(path, where)
         return path
     if "://" in uri and not uri.startswith("file://"):
         raise PackageNotFoundError(f"{where}: only package://, file:// and file paths are supported")
     searched = mesh_search_paths(uri, resolver, relative_to=relative_to)
+    if policy is not None and not policy.allows(searched[0]):
+        policy.check(searched[0], where)  # raises, naming the path (whether it exists is not looked at)
     for candidate in searched:
+        if policy is not None and not policy.allows(candidate):
+            continue  # the current folder, outside what the description may read
         if candidate.is_file():
             return candidate.resolve()
     raise PackageNotFoundError(f"{where} not found; looked at {', '.join(map(str, searched))}")
@@ -107,7 +119,7 @@ def mesh_search_paths(uri: str, resolver: PackageResolver, *, relative_to: str |
 
 
 def urdf_with_mesh_paths(
-    urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike
+    urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, policy: ReadPolicy | None = None
 ) -> tuple[str, list[str]]:
     """URDF text whose ``<visual>`` mesh filenames are absolute paths, and the package folders used.
 
@@ -119,6 +131,8 @@ def urdf_with_mesh_paths(
         Answers ``package://PKG``.
     relative_to : str or path-like, keyword-only
         The folder of the description file (for relative mesh paths).
+    policy : ReadPolicy, optional, keyword-only
+        What the description may read; as for :func:`mesh_path`.
 
     Returns
     -------
@@ -143,7 +157,7 @@ def urdf_with_mesh_paths(
     folders: set[str] = set()
     for link, mesh in meshes:
         uri = mesh.get("filename", "")
-        path = mesh_path(uri, resolver, relative_to=relative_to, link=link)
+        path = mesh_path(uri, resolver, relative_to=relative_to, link=link, policy=policy)
         if uri.startswith(PACKAGE_SCHEME):
             folders.add(str(resolver.find(split_package_uri(uri)[0]).parent))
         mesh.set("filename", str(path))

@@ -17,7 +17,7 @@ differences:
   ``MAX_INT_BITS`` bits), ``xacro.tokenize`` (its separators are characters, not a
   regular expression);
 - ``load_yaml`` (:func:`load_yaml`) checks the file first (a regular file of
-  at most ``MAX_TABLE_BYTES``), reads YAML with PyYAML's safe loader (plain
+  at most ``MAX_YAML_BYTES``, inside what the description may read), reads YAML with PyYAML's safe loader (plain
   YAML and xacro's unit tags ``!degrees``, ``!radians``, ``!meters``,
   ``!millimeters``, ``!foot``, ``!inches``; no ``!!python`` tags), and
   refuses a document whose aliases expand past ``MAX_SIZE`` values and
@@ -36,28 +36,31 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 from collections.abc import Callable
 from pathlib import Path
 
+from manipkit.description.access import check_readable
 from manipkit.description.expressions import (
     ALLOWED_ATTRIBUTES,
     MAX_INT_BITS,
     MAX_SIZE,
+    MAX_VALUE_DEPTH,
     BoundMethod,
     Namespace,
     bounded_multiply,
+    check_time,
     checked_str_method,
     evaluate,
-    extend_deadline,
+    measure,
     refusal,
     remaining_time,
     value_size,
 )
 from manipkit.errors import DescriptionError, InputFileError
-from manipkit.inputs import MAX_TABLE_BYTES, read_text
+from manipkit.inputs import read_text
 
 __all__ = [
+    "MAX_YAML_BYTES",
     "allowed_call",
     "attribute",
     "eval_lookup",
@@ -68,6 +71,11 @@ __all__ = [
     "symbol_lookup",
     "xacro_globals",
 ]
+
+
+#: Largest YAML file ``xacro.load_yaml`` reads (real configuration files are a few kB; PyYAML reads about
+#: 1 MB a second here, and a read cannot be interrupted, so this keeps one read within the time budget).
+MAX_YAML_BYTES = 256 * 1024
 
 
 # --------------------------------------------------------------------------
@@ -359,8 +367,16 @@ def _yaml_loader():
     import xacro
     import yaml
 
-    class Loader(yaml.SafeLoader):
+    class Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # libyaml's parser: about 5 times faster
         pass
+
+    def bounded_int(loader, node):  # YAML 1.1 ints: 0x..., 0b..., and base 60 (1:2:3) built digit by digit
+        text = loader.construct_scalar(node)
+        if len(text) * 6 > MAX_INT_BITS:
+            raise refusal(f"a YAML integer of {len(text)} characters may have more than {MAX_INT_BITS} bits (the limit)")
+        return yaml.SafeLoader.construct_yaml_int(loader, node)
+
+    Loader.add_constructor("tag:yaml.org,2002:int", bounded_int)
 
     def unit_constructor(factor: float):
         def construct(loader, node):
@@ -380,7 +396,7 @@ def load_yaml(filename) -> object:
     Raises
     ------
     InputFileError
-        Not a regular file (a FIFO, a device, a folder), missing, or above ``MAX_TABLE_BYTES``.
+        Not a regular file (a FIFO, a device, a folder), missing, or above ``MAX_YAML_BYTES``.
     DescriptionError
         Not YAML, a tag other than plain YAML and xacro's units (``!!python/...``), or
         aliases that expand past ``MAX_SIZE`` values and characters.
@@ -393,10 +409,11 @@ def load_yaml(filename) -> object:
                              "its path left empty?)")
     filename = xacro.abs_filename_spec(str(filename))
     name = Path(filename).name
-    started = time.monotonic()
+    check_time()  # a comprehension of loads: each counts against the evaluation's and the expansion's budgets
+    check_readable(filename, "xacro.load_yaml")
     xacro.filestack.append(filename)
     try:
-        text = read_text(filename, what="YAML file", max_bytes=MAX_TABLE_BYTES)
+        text = read_text(filename, what="YAML file", max_bytes=MAX_YAML_BYTES)
         try:
             data = yaml.load(text, Loader=_yaml_loader())  # noqa: S506 - a SafeLoader subclass
         except yaml.MarkedYAMLError as exc:
@@ -413,9 +430,12 @@ def load_yaml(filename) -> object:
     finally:
         xacro.filestack.pop()
         xacro.all_includes.append(filename)
-        extend_deadline(time.monotonic() - started)  # reading a file is not evaluation: it is bounded by its size
-    size = value_size(data, MAX_SIZE)
+    size, depth, _ = measure(data, MAX_SIZE)
     if size > MAX_SIZE:
         raise DescriptionError(f"{name}: the YAML document expands (through its aliases) to more than {MAX_SIZE} "
                                "values and characters, the limit; write the values out or use fewer aliases")
+    if depth > MAX_VALUE_DEPTH:
+        raise DescriptionError(f"{name}: the YAML document is nested more than {MAX_VALUE_DEPTH} levels deep, "
+                               "the limit (real configuration files nest a few levels)")
+    check_time()
     return xacro.YamlListWrapper.wrap(data)

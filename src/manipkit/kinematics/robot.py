@@ -30,9 +30,10 @@ from types import MappingProxyType
 import numpy as np
 import pinocchio as pin
 
-from manipkit.description.packages import PackageResolver
+from manipkit.description.access import ReadPolicy, allowed_folders
+from manipkit.description.packages import PackageResolver, check_package_dirs
 from manipkit.description.sources import RobotSource, resolve_robot
-from manipkit.description.validate import check_urdf, package_uri_warnings
+from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import (
@@ -57,7 +58,8 @@ EE_ALIAS = "ee_link"
 MAX_DEGREES_OF_FREEDOM = 200
 
 
-def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> Robot:
+def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, allow_read=None,
+         **xacro_args) -> Robot:
     """Load a robot by bundled name, example-robot-data name or path.
 
     Parameters
@@ -67,8 +69,18 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
         ``path/to/robot.urdf.xacro``, ... (see :func:`manipkit.description.sources.resolve_robot`).
     package_dirs : dict, optional
         Package name -> folder, for ``$(find PKG)`` and ``package://PKG``.
+    allow_read : path-like or list of path-like, optional
+        Folders the description may read besides its own folder tree and its packages
+        (``--allow-read``; :mod:`manipkit.description.access`): xacro includes, YAML files, meshes.
     **xacro_args
         xacro arguments, e.g. ``load("planar_3r", l1=2)``.
+
+    Raises
+    ------
+    ManipkitError
+        A subclass naming the argument for a wrong type, a NUL byte or a missing
+        folder (``UnknownRobotError``, ``PackageNotFoundError``, ``DescriptionError``),
+        and every problem of the description itself.
 
     Examples
     --------
@@ -77,12 +89,14 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     (4, 4)
     """
     source = resolve_robot(robot)
-    text, declared = describe(source, xacro_args, package_dirs)
+    package_dirs = check_package_dirs(package_dirs)
+    allowed = allowed_folders(allow_read)
+    text, declared = describe(source, xacro_args, package_dirs, allow_read=allowed)
     used = {}
     if source.is_xacro:
         defaults = {k: v for k, v in declared.items() if v is not None}
         used = {**defaults, **{k: str(v) for k, v in xacro_args.items()}}
-    return Robot.from_urdf(text, source=source, package_dirs=package_dirs, xacro_args=used)
+    return Robot.from_urdf(text, source=source, package_dirs=package_dirs, xacro_args=used, allow_read=allowed)
 
 
 class Robot:
@@ -97,7 +111,7 @@ class Robot:
     """
 
     def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None, warnings=(),
-                 *, xacro_args=None, mesh_warnings=()):
+                 *, xacro_args=None, mesh_warnings=(), allow_read=()):
         self.model = model
         if model.nv > MAX_DEGREES_OF_FREEDOM:  # checked before Pinocchio allocates its workspace
             raise DescriptionError(
@@ -117,6 +131,8 @@ class Robot:
         self.source = source
         self.name = robot_xml.get("name") or source.name
         self.package_dirs = dict(package_dirs or {})
+        #: Folders the description may read besides its own tree and packages (``allow_read`` of :func:`load`).
+        self.allow_read: tuple[Path, ...] = tuple(allow_read)
         #: The xacro arguments the description was expanded with (declared defaults and the given ones).
         self.xacro_args: Mapping[str, str] = MappingProxyType(dict(xacro_args or {}))
         #: Problems found while loading that do not change the kinematics (a normalised axis, a joint
@@ -193,7 +209,8 @@ class Robot:
         return data
 
     @classmethod
-    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None, xacro_args=None) -> Robot:
+    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None, xacro_args=None,
+                  allow_read=()) -> Robot:
         """Build a robot from URDF text, checked first by :func:`manipkit.description.validate.check_urdf`.
 
         Invalid descriptions raise :class:`DescriptionError` naming the file,
@@ -209,14 +226,15 @@ class Robot:
         warnings = list(checked.warnings)
         near = source.path if source.path.is_file() else None
         resolver = PackageResolver({k: Path(v) for k, v in (package_dirs or {}).items()}, near=near)
-        mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate)
+        policy = ReadPolicy(near, resolver, tuple(allow_read)) if near is not None else None
+        mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate, policy=policy)
         model, messages = build_model(checked.text)
         if model is None:
             reason = "; ".join(messages) or "no reason given"
             raise DescriptionError(f"{where}: Pinocchio cannot build a model: {reason}")
-        warnings += mesh_warnings + [f"{where}: URDF parser: {m}" for m in messages]
+        warnings += mesh_warnings + cap_warnings([f"{where}: URDF parser: {m}" for m in messages], where)
         return cls(model, checked.text, source, checked.robot, package_dirs, warnings, xacro_args=xacro_args,
-                   mesh_warnings=mesh_warnings)
+                   mesh_warnings=mesh_warnings, allow_read=allow_read)
 
     def __repr__(self) -> str:
         return (
@@ -584,7 +602,9 @@ class Robot:
 
         near = self.source.path if self.source.path.exists() else None
         resolver = PackageResolver(dict(self.package_dirs), near=near)
-        text, package_dirs = urdf_with_mesh_paths(self.urdf, resolver, relative_to=self.source.path.parent)
+        policy = ReadPolicy(near, resolver, self.allow_read) if near is not None else None
+        text, package_dirs = urdf_with_mesh_paths(self.urdf, resolver, relative_to=self.source.path.parent,
+                                                  policy=policy)
         try:
             return pin.buildGeomFromUrdfString(self.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
         except (ValueError, RuntimeError) as exc:
