@@ -233,7 +233,8 @@ def _check_operand_bits(left, op: str, right) -> None:
     above :data:`MAX_INT_BITS` bits before dividing (every integer an expression makes is within it already)."""
     for value in (left, right):
         if _is_int(value) and value.bit_length() > MAX_INT_BITS:
-            raise _bits_refused(left, op, right, value.bit_length())
+            raise Refused(f"{_short(left)} {op} {_short(right)}: an operand of {value.bit_length()} bits, above the "
+                          f"limit of {MAX_INT_BITS} bits")
 
 
 def _modulo(left, right):
@@ -249,10 +250,11 @@ def _floor_divide(left, right):
     return left // right
 
 
-def _arguments_estimate(args, kwargs=None) -> int:
-    """The longest text one argument of a format could make (an upper bound, :func:`text_estimate`)."""
+def _arguments_estimate(args, kwargs=None, *, quoted: bool = False) -> int:
+    """The longest text one argument of a format could make (an upper bound, :func:`text_estimate`; its
+    ``repr`` with ``quoted``, for ``%r`` and ``!r``)."""
     values = list(args) + list((kwargs or {}).values())
-    return max((text_estimate(v) for v in values), default=0)
+    return max((text_estimate(v, quoted=quoted) for v in values), default=0)
 
 
 # %[(name)][flags][width][.precision][length]type
@@ -272,14 +274,16 @@ def _width(digits: str | None, what: str) -> int:
 def check_percent_format(fmt: str, arguments: object = ()) -> None:
     """Refuse a ``%`` format whose widths and precisions add up to more than :data:`MAX_SIZE` (or use ``*``),
     or whose text would (estimated before formatting: each field as long as the longest argument)."""
-    total, fields = 0, 0
+    total, fields, quoted = 0, 0, False
     for match in _PERCENT_FIELD.finditer(fmt):
         total += _width(match.group(1), "a % format") + _width(match.group(2), "a % format")
         fields += match.group(3) not in ("%", "")
+        quoted = quoted or match.group(3) in ("r", "a")
     if total > MAX_SIZE:
         raise Refused(f"the widths in a % format add up to {total}, above the limit of {MAX_SIZE}")
     values = arguments.values() if isinstance(arguments, dict) else arguments if isinstance(arguments, tuple) else (arguments,)
-    check_text_estimate(len(fmt) + total + fields * _arguments_estimate(values), "the % formatted string")
+    check_text_estimate(len(fmt) + total + fields * _arguments_estimate(values, quoted=quoted),
+                        "the % formatted string")
 
 
 def spec_width(spec: str) -> int:
@@ -291,21 +295,23 @@ def spec_width(spec: str) -> int:
 def check_format_string(fmt: str, args=(), kwargs=None) -> None:
     """Refuse a ``str.format`` template with attribute or index access in a field, nested specs, huge widths,
     or a text that would be too long (estimated before formatting: each field as long as the longest argument)."""
-    total, count = 0, 0
+    total, count, quoted = 0, 0, False
     try:
         fields = list(string.Formatter().parse(fmt))
     except ValueError as exc:
         raise Refused(f"format string: {exc}") from None
-    for _literal, field, spec, _conversion in fields:
+    for _literal, field, spec, conversion in fields:
         if field is None:
             continue
         if "." in field or "[" in field:
             raise Refused(f"format field '{{{field}}}' is not allowed; a field is empty, a position or a name")
         total += spec_width(spec or "")
         count += 1
+        quoted = quoted or conversion in ("r", "a")
     if total > MAX_SIZE:
         raise Refused(f"the widths in a format string add up to {total}, above the limit of {MAX_SIZE}")
-    check_text_estimate(len(fmt) + total + count * _arguments_estimate(args, kwargs), "the formatted string")
+    check_text_estimate(len(fmt) + total + count * _arguments_estimate(args, kwargs, quoted=quoted),
+                        "the formatted string")
 
 
 bounded_multiply = _multiply

@@ -134,11 +134,13 @@ _SYNTAX_NAMES = {
 }
 
 
-def expression_error(expression: str, reason: str, *, kind: str = "${") -> DescriptionError:
-    """``DescriptionError("xacro expression ${EXPR}: REASON")``, one line, with ``expression`` and ``reason`` attributes."""
+def expression_error(expression: str, reason: str, *, kind: str = "${",
+                     error_class: type[DescriptionError] = DescriptionError) -> DescriptionError:
+    """``DescriptionError("xacro expression ${EXPR}: REASON")`` (or ``error_class``), one line, with ``expression``
+    and ``reason`` attributes."""
     shown = printable(" ".join(str(expression).split()))  # text from a description: no terminal controls
     opening, closing = ("${", "}") if kind == "${" else ("$(eval ", ")")
-    error = DescriptionError(f"xacro expression {opening}{shown}{closing}: {printable(' '.join(str(reason).split()))}")
+    error = error_class(f"xacro expression {opening}{shown}{closing}: {printable(' '.join(str(reason).split()))}")
     error.expression, error.reason, error.kind = str(expression), " ".join(str(reason).split()), kind
     escaped = html.escape(str(expression), quote=False).replace('"', "&quot;")  # as written in an XML attribute
     error.needles = tuple(dict.fromkeys((f"{opening}{expression}{closing}", f"{opening}{escaped}{closing}",
@@ -496,7 +498,8 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         located = _located_error(exc)
         if located is not None:
             raise located from None  # from a property evaluated on the way: it names its own expression or text
-        raise expression_error(expression, error_reason(exc), kind=kind) from None
+        kept = type(exc) if isinstance(exc, DescriptionError) else DescriptionError  # ReadNotAllowedError stays one
+        raise expression_error(expression, error_reason(exc), kind=kind, error_class=kept) from None
     finally:
         if outermost:
             _deadline.clear()

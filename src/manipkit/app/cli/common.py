@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from manipkit.description.validate import MAX_MAGNITUDE
 from manipkit.errors import JointLimitError, ManipkitError
 from manipkit.text import number_text, printable, short_text
 
@@ -51,8 +52,10 @@ EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
 
 #: Largest angle magnitude (rad) a command takes. Beyond it the spacing of float64 numbers
 #: (1.2e-10 rad at 1e6) grows towards a full turn (at about 1e16), so the angle names no definite
-#: rotation, and printed with fixed decimals it would run to hundreds of digits.
-MAX_ANGLE = 1e6
+#: rotation, and printed with fixed decimals it would run to hundreds of digits. The same bound as
+#: every length, angle, limit and mimic factor in a description (one rule:
+#: :data:`manipkit.description.validate.MAX_MAGNITUDE`).
+MAX_ANGLE = MAX_MAGNITUDE
 
 
 class Parser(argparse.ArgumentParser):
