@@ -252,6 +252,11 @@ ALLOWED_ATTRIBUTES: dict[type, frozenset[str]] = {
 # The evaluator
 # --------------------------------------------------------------------------
 
+class _OutOfExpansionTime(Exception):
+    """Internal: the expansion around the evaluation is out of time (a plain DescriptionError: no one expression
+    is to blame)."""
+
+
 _deadline: list[float] = []  # the deadline of the outermost evaluation under way (nested ones share it)
 _outer: list[tuple[float, str]] = []  # (deadline, reason) of the expansion under way (expansion_deadline)
 
@@ -277,7 +282,7 @@ def _check_time() -> None:
     if _deadline and now > _deadline[0]:
         raise _Refused(f"evaluation took more than {TIME_BUDGET_S:g} s (the time budget)")
     if _outer and now > _outer[-1][0]:
-        raise _Refused(_outer[-1][1])
+        raise _OutOfExpansionTime(_outer[-1][1])
 
 
 def check_time() -> None:
@@ -488,6 +493,10 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         evaluator.expr = expression
         result = evaluator._eval(tree.body)
         return check_size(result, "the result")
+    except _OutOfExpansionTime as exc:
+        error = DescriptionError(str(exc))
+        error.out_of_time = True  # passed on as it is by the evaluations around this one
+        raise error from None
     except _Refused as exc:
         raise expression_error(expression, str(exc), kind=kind) from None
     except RecursionError:
@@ -495,6 +504,8 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
     except MemoryError:
         raise expression_error(expression, "out of memory", kind=kind) from None
     except Exception as exc:  # noqa: BLE001 - a refusal from a function, or an error of the evaluation itself
+        if getattr(exc, "out_of_time", False):
+            raise
         located = _located_error(exc)
         if located is not None:
             raise located from None  # from a property evaluated on the way: it names its own expression or text
