@@ -78,9 +78,7 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     Raises
     ------
     ManipkitError
-        A subclass naming the argument for a wrong type, a NUL byte or a missing
-        folder (``UnknownRobotError``, ``PackageNotFoundError``, ``DescriptionError``),
-        and every problem of the description itself.
+        A subclass naming the argument (wrong type, NUL byte, missing folder), or the description's problem.
 
     Examples
     --------
