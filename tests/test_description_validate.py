@@ -138,12 +138,6 @@ CASES = {
     "mimic_offset_beyond_any_robot": (urdf(*LINKS, '<link name="c"/>', joint(),
                                            joint(child="c", name="j2", extra='<mimic joint="j1" offset="1e308"/>')),
                                       "joint 'j2' <mimic> offset=\"1e308\": 1e308 is out of range"),
-    "mimic_outside_its_own_limits": (urdf(*LINKS, '<link name="c"/>', joint(), joint(
-        child="c", name="j2", limit='<limit lower="-1" upper="1" effort="1" velocity="1"/>',
-        extra='<mimic joint="j1" multiplier="2" offset="0.5"/>')),
-        "joint 'j2' mimics 'j1' (j2 = 2 * j1 + 0.5): over the leader's limits [-1, 1] it moves over "
-        "[-1.5, 2.5] rad, outside its own limits [-1, 1] rad; widen its <limit> to hold that range, or fix "
-        "the multiplier and offset"),
 }
 
 
@@ -452,11 +446,19 @@ def test_depth_is_measured_without_recursion_on_a_tree_of_4999_links():
         sys.setrecursionlimit(limit)
 
 
+def test_a_mimic_that_leaves_its_own_limits_is_named_in_a_warning():
+    follower = joint(child="c", name="j2", extra='<mimic joint="j1" multiplier="2" offset="0.5"/>')
+    warnings = check_urdf(urdf(*LINKS, '<link name="c"/>', joint(), follower), "t.urdf").warnings
+    assert warnings == ["t.urdf:6: joint 'j2' mimics 'j1' (j2 = 2 * j1 + 0.5): over the leader's limits [-1, 1] it "
+                        "moves over [-1.5, 2.5] rad, outside its own limits [-1, 1] rad (they are not applied: it "
+                        "follows its leader); widen its <limit> to hold that range, or fix the multiplier and offset"]
+
+
 def test_a_mimic_within_its_own_limits_loads_and_follows_its_leader():
     follower = joint(child="c", name="j2", limit='<limit lower="-1" upper="1" effort="1" velocity="1"/>',
                      extra='<mimic joint="j1" multiplier="-0.25" offset="0.2"/>')
     robot = Robot.from_urdf(urdf(*LINKS, '<link name="c"/>', joint(), follower))
-    assert robot.joint_names == ("j1",) and robot.mimic_joints["j2"].multiplier == -0.25
+    assert robot.joint_names == ("j1",) and robot.mimic_joints["j2"].multiplier == -0.25 and robot.warnings == ()
 
 
 def test_links_beyond_the_width_bound_are_refused_with_the_numbers_before_pinocchio():

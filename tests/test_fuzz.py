@@ -1055,7 +1055,7 @@ def compound(draw, children, forbidden: bool):
         two = draw(children)
         keywords = [ast.keyword("k", two[0])] if "{k}" in template else []
         call = ast.Call(ast.Attribute(ast.Constant(template), "format", ast.Load()), [one[0]], keywords)
-        return call, _worst(one, two)
+        return call, _worst(one, two) if keywords else one[1]
     if kind == "load_yaml":  # a file of the description's own, one that is missing, and ones outside it
         name = draw(st.sampled_from(["c.yaml", "missing.yaml", "/etc/passwd", "../outside.yaml", "/dev/zero"]))
         call = ast.Call(ast.Attribute(ast.Name("xacro", ast.Load()), "load_yaml", ast.Load()), [ast.Constant(name)], [])

@@ -531,9 +531,11 @@ class _Checker:
                       "give lower= and upper=" + (" or make it continuous" if kind == "revolute" else ""), joint)
 
     def check_mimics(self, joints: dict) -> None:
-        """A mimic joint whose leader and itself both have limits (revolute or prismatic) must stay within its
-        own limits over its leader's: ``multiplier * [lower, upper] + offset`` (a leader that is itself a mimic
-        stays within its own limits, so checking each step checks the chain)."""
+        """A warning for a mimic joint that leaves its own limits over its leader's (both revolute or prismatic):
+        ``multiplier * [lower, upper] + offset`` outside ``[lower, upper]`` of the follower. A mimic joint follows
+        its leader and its own limits are not applied, so this is a warning, not an error: real grippers (and
+        hand-written fixtures) often give a follower the leader's limits whatever the multiplier. Its size is
+        bounded (:data:`MAX_MAGNITUDE` for the multiplier, offset and limits), so the answer stays finite."""
         for name, joint in joints.items():
             mimic = joint.find("mimic")
             leader = joints.get(mimic.get("joint")) if mimic is not None else None
@@ -551,12 +553,12 @@ class _Checker:
             slack = 1e-9 + 1e-9 * max(abs(lower), abs(upper))
             if ends[0] < lower - slack or ends[1] > upper + slack:
                 unit = "m" if joint.get("type") == "prismatic" else "rad"
-                self.fail(mimic, f"joint '{name}' mimics '{leader.get('name')}' ({name} = {short_text(multiplier)} * "
+                self.warn(mimic, f"joint '{name}' mimics '{leader.get('name')}' ({name} = {short_text(multiplier)} * "
                           f"{leader.get('name')} + {short_text(offset)}): over the leader's limits "
                           f"[{short_text(lead_lower)}, {short_text(lead_upper)}] it moves over "
                           f"[{short_text(ends[0])}, {short_text(ends[1])}] {unit}, outside its own limits "
-                          f"[{short_text(lower)}, {short_text(upper)}] {unit}; widen its <limit> to hold that "
-                          "range, or fix the multiplier and offset", joint)
+                          f"[{short_text(lower)}, {short_text(upper)}] {unit} (they are not applied: it follows "
+                          "its leader); widen its <limit> to hold that range, or fix the multiplier and offset", joint)
 
     # -- the tree -------------------------------------------------------
 
