@@ -279,10 +279,10 @@ def expansion_deadline(deadline: float, reason: str):
 
 def _check_time() -> None:
     now = time.monotonic()
+    if _outer and now > _outer[-1][0]:  # the expansion's budget first: it is the one that ends everything
+        raise _OutOfExpansionTime(_outer[-1][1])
     if _deadline and now > _deadline[0]:
         raise _Refused(f"evaluation took more than {TIME_BUDGET_S:g} s (the time budget)")
-    if _outer and now > _outer[-1][0]:
-        raise _OutOfExpansionTime(_outer[-1][1])
 
 
 def check_time() -> None:
