@@ -148,7 +148,8 @@ def test_a_yaml_file_above_its_bound_is_refused_before_it_is_read(tmp_path):
 def test_yaml_nested_beyond_the_bound_and_huge_yaml_integers_are_refused(tmp_path):
     (tmp_path / "deep.yaml").write_text("x: " + "[" * 150 + "]" * 150 + "\n")
     path = _xacro_with(tmp_path, "", "${len(xacro.load_yaml('deep.yaml'))}")
-    with pytest.raises(DescriptionError, match=f"deep.yaml: the YAML document is nested more than {MAX_VALUE_DEPTH}"):
+    with pytest.raises(DescriptionError, match=f"deep.yaml: the YAML document expands \\(through its aliases\\) to "
+                       f"more than {MAX_VALUE_DEPTH} levels of nesting"):
         describe(resolve_robot(path))
     (tmp_path / "big.yaml").write_text("x: 0x" + "f" * 5000 + "\ny: " + ":".join(["59"] * 3000) + "\n")
     path = _xacro_with(tmp_path, "", "${len(xacro.load_yaml('big.yaml'))}")

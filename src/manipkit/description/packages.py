@@ -209,8 +209,9 @@ class PackageResolver:
 
 
 
-def check_package_dirs(package_dirs, *, what: str = "package_dirs") -> dict[str, Path]:
-    """``package_dirs`` (package name -> folder) checked: a mapping of non-empty names to existing folders.
+def check_package_dirs(package_dirs, *, what: str = "package_dirs", exist: bool = True) -> dict[str, Path]:
+    """``package_dirs`` (package name -> folder) checked: a mapping of non-empty names to existing folders
+    (``exist=False``: to folder paths, which may not exist yet).
 
     Raises
     ------
@@ -238,7 +239,7 @@ def check_package_dirs(package_dirs, *, what: str = "package_dirs") -> dict[str,
         if "\x00" in text or not text:
             raise PackageNotFoundError(f"{what}[{name!r}]: {repr_text(text)} is not a folder path")
         path = Path(text).expanduser()
-        if not path.is_dir():
+        if exist and not path.is_dir():
             raise PackageNotFoundError(f"{what}[{name!r}] (--package-dir {name}=DIR): {printable(text)}: no such folder")
         checked[name] = path
     return checked

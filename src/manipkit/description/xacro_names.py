@@ -435,7 +435,8 @@ def load_yaml(filename) -> object:
         raise DescriptionError(f"{name}: the YAML document expands (through its aliases) to more than {MAX_SIZE} "
                                "values and characters, the limit; write the values out or use fewer aliases")
     if depth > MAX_VALUE_DEPTH:
-        raise DescriptionError(f"{name}: the YAML document is nested more than {MAX_VALUE_DEPTH} levels deep, "
-                               "the limit (real configuration files nest a few levels)")
+        raise DescriptionError(f"{name}: the YAML document expands (through its aliases) to more than "
+                               f"{MAX_VALUE_DEPTH} levels of nesting, the limit (real configuration files nest a few "
+                               "levels)")
     check_time()
     return xacro.YamlListWrapper.wrap(data)

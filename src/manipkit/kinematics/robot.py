@@ -87,9 +87,10 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     (4, 4)
     """
     source = resolve_robot(robot)
-    package_dirs = check_package_dirs(package_dirs)
+    package_dirs = check_package_dirs(package_dirs, exist=False)  # a missing one the expansion uses: named there
     allowed = allowed_folders(allow_read)
     text, declared = describe(source, xacro_args, package_dirs, allow_read=allowed)
+    check_package_dirs(package_dirs)
     used = {}
     if source.is_xacro:
         defaults = {k: v for k, v in declared.items() if v is not None}
