@@ -21,6 +21,7 @@ import json
 import math
 import os
 import queue
+import re
 import shutil
 import signal
 import socket
@@ -465,9 +466,12 @@ def viewer_workload(*, moves: int = 60, joint: str = "bottom_wrist_joint") -> li
     rows = []
     proc, url = _start_viewer(_free_port())
     try:
+        with urllib.request.urlopen(url, timeout=30) as response:  # the session's token, as the page holds it
+            token = re.search(r'<meta name="manipkit-token" content="([^"]+)">', response.read().decode()).group(1)
+
         def post(body: dict) -> dict:
             request = urllib.request.Request(url + "api/update", data=json.dumps(body).encode(),
-                                             headers={"Content-Type": "application/json"})
+                                             headers={"Content-Type": "application/json", "X-Manipkit-Token": token})
             with urllib.request.urlopen(request, timeout=30) as response:
                 return json.loads(response.read())
 

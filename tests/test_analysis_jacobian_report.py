@@ -262,7 +262,8 @@ def test_a_chain_without_joints_has_rank_0_and_is_not_singular(planar_2r):
 
 
 @pytest.mark.parametrize(("options", "message"), [
-    ({"length": 0.0}, "length=0.0: give a positive characteristic length"),
+    ({"length": 0.0}, r"length 0: give a length in metres from 1e-09 to 1e\+06"),
+    ({"length": 1e308}, r"length 1e\+308: give a length in metres from 1e-09 to 1e\+06"),
     ({"tol": -1.0}, "tol=-1.0: give a tolerance >= 0"),
     ({"reference": "world"}, "reference='world' is not one of"),
 ])

@@ -229,7 +229,7 @@ def test_length_scales_the_angular_rows():
     ({"axes": "xyz"}, "axes='xyz'"),
     ({"axes": [0, 7]}, "row numbers 0-5"),
     ({"axes": [1, 1]}, "distinct"),
-    ({"axes": "trans", "length": -1.0}, "positive finite"),
+    ({"axes": "trans", "length": -1.0}, "length -1: give a length in metres from 1e-09"),
     ({"method": "asada", "axes": "trans"}, "needs the joint-space inertia"),
     ({"method": "asada", "axes": "trans", "inertia": np.eye(3)}, r"shape \(2, 2\)"),
 ])
@@ -271,3 +271,9 @@ def test_plot_ellipse_2d_and_3d(arm_2r, iiwa14):
         plot_ellipsoid(ax, force_ellipsoid(J))
     with pytest.raises(ManipkitError, match="one ellipsoid"):
         plot_ellipsoid(ax, Ellipsoid(np.zeros((2, 3, 3)), np.ones((2, 3))))
+
+
+def test_a_jacobian_without_columns_is_refused():
+    # issue 26: manipulability of a (6, 0) array raised numpy's reshape ValueError
+    with pytest.raises(ManipkitError, match=r"J has shape \(6, 0\): no columns"):
+        manipulability(np.zeros((6, 0)), axes="trans")

@@ -85,8 +85,8 @@ def test_manipkit_tf_is_tf_between():
 
 def test_alias_resolution_is_said(tmp_path):
     out = run_cli("tf-between", "base_link", "ee_link", "--robot", "panda", status=0).stdout
-    assert "frame base_link = panda_link0 (the root link)" in out
-    assert "frame ee_link = panda_hand_tcp (panda_hand_tcp, the end effector declared for panda)" in out
+    assert "frame base_link = panda_link0, the root link" in out
+    assert "frame ee_link = panda_hand_tcp, the end effector declared for panda" in out
 
 
 def test_xacro_args_on_the_command_line():
@@ -420,3 +420,14 @@ def test_ik_course_arm_position_only_when_no_orientation_given():
     pose = tf_json("base_link", "ee_link", *q_args(POSE_B))
     out = json.loads(run_cli("manipkit", "ik", "--xyz", *pose["translation"], "--format", "json", status=0).stdout)
     assert out["mode"] == "position" and out["residual_position"] < 1e-9
+
+
+@pytest.mark.parametrize(("argv", "prog"), [
+    (("view", "--view-html"), "manipkit view"),  # issue 25: pointed to `manipkit --help`
+    (("dh", "check", "T.yaml", "--bogus"), "manipkit dh check"),
+    (("--bogus", "robots"), "manipkit"),
+])
+def test_an_unknown_argument_points_to_the_help_of_the_command_given_it(argv, prog):
+    result = run_cli("manipkit", *argv)
+    assert result.returncode == 2
+    assert result.stderr == f"{prog}: error: unrecognized arguments: {argv[-1] if prog != 'manipkit' else '--bogus'} (see {prog} --help)\n"

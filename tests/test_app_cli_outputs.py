@@ -76,23 +76,78 @@ def test_output_onto_a_folder_is_one_line(tmp_path, argv):
 
 
 FULL_DISK_COMMANDS = {
-    "tree png": ("tree", "-o", "{full}.png"),
-    "tree svg": ("tree", "-o", "{full}.svg"),
-    "tree dot": ("tree", "-o", "{full}.dot"),
-    "dh from-urdf": ("dh", "from-urdf", "-o", "{full}.yaml"),
-    "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "{full}.urdf"),
-    "workspace --plot": ("workspace", "--robot", "planar_2r", "--plot", "{full}.png"),
-    "view --static": ("view", "--static", "{full}.html"),
+    "tree png": ("tree", "--format", "png", "-o", "/dev/full"),
+    "tree svg": ("tree", "--format", "svg", "-o", "/dev/full"),
+    "tree dot": ("tree", "--format", "dot", "-o", "/dev/full"),
+    "dh from-urdf": ("dh", "from-urdf", "-o", "/dev/full"),
+    "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "/dev/full"),
+    "view --static": ("view", "--static", "/dev/full"),
 }
 
 
 @pytest.mark.parametrize("argv", FULL_DISK_COMMANDS.values(), ids=FULL_DISK_COMMANDS)
-def test_output_onto_a_full_disk_is_one_line(tmp_path, argv):
-    # A file name with the right suffix that is /dev/full: the open works, every write fails with ENOSPC.
-    argv = [a.format(full=tmp_path / "full") for a in argv]
-    Path(argv[-1]).symlink_to("/dev/full")
+def test_output_onto_a_full_disk_is_one_line(argv):
+    # /dev/full: a device, written in place like /dev/stdout; every write fails with ENOSPC.
     result = run_cli("manipkit", *argv)
-    assert_one_line_error(result, "manipkit", f"cannot write {argv[-1]}: No space left on device")
+    assert_one_line_error(result, "manipkit", "cannot write /dev/full: No space left on device")
+
+
+LINKED_OUTPUT_COMMANDS = {
+    "tree png": ("tree", "-o", "{out}.png"),
+    "tree svg": ("tree", "-o", "{out}.svg"),
+    "tree dot": ("tree", "-o", "{out}.dot"),
+    "tree text": ("tree", "-o", "{out}.txt"),
+    "dh from-urdf": ("dh", "from-urdf", "-o", "{out}.yaml"),
+    "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "{out}.urdf"),
+    "workspace --plot": ("workspace", "--robot", "planar_2r", "--plot", "{out}.png"),
+    "view --static": ("view", "--static", "{out}.html"),
+}
+
+
+@pytest.mark.parametrize("dangling", [False, True], ids=["link to a file", "dangling link"])
+@pytest.mark.parametrize("argv", LINKED_OUTPUT_COMMANDS.values(), ids=LINKED_OUTPUT_COMMANDS)
+def test_a_symbolic_link_at_the_output_is_replaced_not_followed(tmp_path, argv, dangling):
+    # issue 26: outputs followed symlinks, dangling ones too, into other folders
+    here, elsewhere = tmp_path / "here", tmp_path / "elsewhere"
+    here.mkdir()
+    elsewhere.mkdir()
+    argv = [a.format(out=here / "out") for a in argv]
+    output = Path(argv[-1])
+    victim = elsewhere / ("missing" if dangling else "victim")
+    if not dangling:
+        victim.write_text("the user's file\n")
+    output.symlink_to(victim)
+    result = run_cli("manipkit", *argv)
+    assert result.returncode == 0, result.stderr
+    assert output.is_file() and not output.is_symlink() and output.stat().st_size > 0
+    assert [p.name for p in elsewhere.iterdir()] == ([] if dangling else ["victim"])
+    assert dangling or victim.read_text() == "the user's file\n"
+    assert [p.name for p in here.iterdir()] == [output.name]  # no temporary file left beside it
+
+
+def test_an_output_that_is_the_commands_input_is_refused_and_the_input_kept(tmp_path):
+    # issue 26: `tree --robot X.urdf -o X.urdf --format text`, `dh to-urdf T.yaml -o T.yaml` and
+    # `dh check T.yaml --fix T.yaml` destroyed their own input
+    robot = tmp_path / "arm.urdf"
+    robot.write_text(run_cli("manipkit", "dh", "to-urdf", "iiwa14_seed004").stdout)
+    table = tmp_path / "table.yaml"
+    assert run_cli("manipkit", "dh", "from-urdf", "--robot", robot, "-o", table).returncode == 0
+    link = tmp_path / "link.yaml"
+    link.symlink_to(table)
+    before = {path: path.read_bytes() for path in (robot, table)}
+    cases = [
+        (("tree", "--robot", robot, "-o", robot, "--format", "text"), robot, robot),
+        (("dh", "to-urdf", table, "-o", table), table, table),
+        (("dh", "to-urdf", table, "-o", link), link, table),
+        (("dh", "check", table, "--robot", robot, "--fix", table), table, table),
+        (("dh", "from-urdf", "--robot", robot, "-o", robot), robot, robot),
+    ]
+    for argv, output, source in cases:
+        result = run_cli("manipkit", *argv)
+        assert_one_line_error(
+            result, "manipkit",
+            f"cannot write {output}: it is the command's input {source}; give another output file name")
+    assert {path: path.read_bytes() for path in (robot, table)} == before
 
 
 @pytest.mark.parametrize("fmt", ["text", "dot", "png", "svg"])
@@ -131,10 +186,17 @@ def test_tree_still_writes_each_format(tmp_path, suffix):
 
 
 def test_dh_from_urdf_still_writes_a_table_that_loads_back(tmp_path):
-    result = run_cli("manipkit", "dh", "from-urdf", "-o", "arm.yaml", cwd=tmp_path)
+    # exact (--tol 0): passes dh check at its default 1e-9
+    result = run_cli("manipkit", "dh", "from-urdf", "--tol", "0", "-o", "arm.yaml", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith("wrote arm.yaml\n")
     check = run_cli("manipkit", "dh", "check", tmp_path / "arm.yaml", "--samples", "20")
+    assert check.returncode == 0 and "PASS" in check.stdout, check.stdout + check.stderr
+    # snapped (default): the course arm's URDF writes its right angles rounded (3.7e-6 rad off), so the snapped
+    # table passes at the agreement it printed, not at 1e-9
+    result = run_cli("manipkit", "dh", "from-urdf", "-o", "snapped.yaml", cwd=tmp_path)
+    assert "the table's FK agrees with the URDF within 2.7e-06 m and 3.7e-06 rad" in result.stdout
+    check = run_cli("manipkit", "dh", "check", tmp_path / "snapped.yaml", "--samples", "20", "--tol", "1e-5")
     assert check.returncode == 0 and "PASS" in check.stdout, check.stdout + check.stderr
 
 
@@ -241,3 +303,36 @@ def test_frames_prints_names_that_look_like_rich_markup_as_written(tmp_path):
     assert result.stdout.splitlines()[1] == "frames: base_link, [/]x[red] :smile:"
     assert "movable joints of r[/bold]" in result.stdout
     assert "│ [bold]j[/bold] │" in result.stdout and "base_link -> [/]x[red] :smile:" in result.stdout
+
+
+# ----------------------------------------------------------------------
+# issue 26: what reaches the terminal, and the process's own streams
+# ----------------------------------------------------------------------
+
+
+def test_escape_sequences_in_a_file_name_are_shown_escaped(tmp_path):
+    name = tmp_path / "\x1b[2J\x1b]0;owned\x07arm\u202e.urdf"
+    result = run_cli("manipkit", "frames", "--robot", name)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert "\x1b" not in result.stderr and "\u202e" not in result.stderr and "\x07" not in result.stderr
+    assert "\\x1b[2J\\x1b]0;owned\\x07arm\\u202e.urdf" in result.stderr
+
+
+def test_stdout_closed_at_start_is_one_line():
+    # `tf-between A B >&-`: Python starts with sys.stdout None; it printed an internal error and a traceback
+    result = subprocess.run(f"exec {BIN / 'tf-between'} base_link ee_link --robot planar_2r >&-", shell=True,
+                            capture_output=False, stderr=subprocess.PIPE, text=True, timeout=180)
+    assert result.returncode == 2
+    assert result.stderr == "tf-between: error: cannot write stdout: it is closed; give the command somewhere to write (> FILE)\n"
+
+
+def test_a_json_matrix_with_a_400_digit_integer_is_one_line(tmp_path):
+    path = tmp_path / "T.json"
+    path.write_text("[[1, 0, 0, 1" + "0" * 400 + "], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]")
+    result = run_cli("manipkit", "tf", "base_link", "ee_link", "--robot", "planar_2r", "--compare", path)
+    assert_one_line_error(result, "manipkit", f"{path}: row 1, entry 4 is inf, not a finite number; a transform has finite entries")
+
+
+def test_ik_restarts_beyond_the_budget_is_refused_before_loading():
+    result = run_cli("manipkit", "ik", "--robot", "planar_2r", "--xyz", "1", "1", "0", "--restarts", "1000000000")
+    assert_one_line_error(result, "manipkit", "--restarts 1000000000: give a whole number from 0 to 100000")

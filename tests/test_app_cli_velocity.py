@@ -116,7 +116,10 @@ def test_dexterity_progress_goes_to_stderr_only():
     (["jacobian", "--robot", "planar_2r", "--frame", "nowhere"], "has no frame 'nowhere'"),
     (["jacobian", "--robot", "planar_2r", "--q", "1", "2", "3"], "got 3 values but planar_2r has 2 joints"),
     (["jacobian", "--robot", "planar_2r", "--reference", "world"], "invalid choice: 'world'"),
-    (["jacobian", "--robot", "planar_2r", "--length", "-1"], "--length -1: give a positive characteristic length"),
+    (["jacobian", "--robot", "planar_2r", "--length", "-1"], "--length -1: give a length in metres from 1e-09 to 1e+06"),
+    # issue 26: --length 1e308 printed nan (the angular rows times 1e308 overflow)
+    (["jacobian", "--robot", "planar_2r", "--length", "1e308"], "--length 1e+308: give a length in metres from 1e-09"),
+    (["dexterity", "--robot", "planar_2r", "--length", "1e308"], "--length 1e+308: give a length in metres from 1e-09"),
     (["jacobian", "--robot", "planar_2r", "--singular-tol", "nan"], "--singular-tol nan"),
     (["jacobian", "--robot", "planar_2r", "--q", "joint2=9"], "did you mean degrees? add --deg"),
     (["dexterity", "--robot", "planar_2r", "--samples", "1"], "--samples 1: give at least 2"),

@@ -8,7 +8,8 @@ The manipulability overlay against ``velocity_ellipsoid``/``force_ellipsoid``
 of ``robot.jacobian`` computed here, the planar 2R's singular values derived
 by hand, and velocities from central differences of ``robot.transform``; its
 singularity lines are ``manipkit jacobian``'s (tests/test_app_jacobian_text.py).
-The browser half is in test_viewer_browser.py.
+The browser half is in test_app_viewer_browser.py; the HTTP server's refusals
+(Host, Origin, token, body size and depth) in test_app_viewer_http.py.
 """
 
 import base64
@@ -626,7 +627,7 @@ def view(robots):
 def request(server, method, path, body=None):
     connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=10)
     connection.request(method, path, body=None if body is None else json.dumps(body),
-                       headers={"Content-Type": "application/json"})
+                       headers={"Content-Type": "application/json", "X-Manipkit-Token": server.token})
     response = connection.getresponse()
     payload = response.read()
     connection.close()
@@ -849,7 +850,7 @@ def test_notebook_view_without_ipywidgets_says_how_to_install_it(robots, monkeyp
 
 HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names.urdf"
 HOSTILE_TEXTS = ["</script><script>alert(1)</script>", "<!--<script>", "</SCRIPT >", "a & b &amp; <b>c</b>",
-                 "'\"` \\ \u2028\u2029", "]]>", "<![CDATA[", "{{STATE_JSON}}"]
+                 "'\"` \\ \u2028\u2029", "]]>", "<![CDATA[", "{{STATE_JSON}}", "{{TOKEN}}"]
 
 
 class _Scripts(html.parser.HTMLParser):
@@ -887,12 +888,13 @@ def test_control_page_keeps_hostile_names_inside_its_json_block():
     initial = {"robot": HOSTILE_TEXTS[0], "frame_choices": HOSTILE_TEXTS, "frames": HOSTILE_TEXTS[:2],
                "sliders": [{"name": text, "type": "revolute", "unit": "rad", "lower": -1, "upper": 1, "value": 0}
                            for text in HOSTILE_TEXTS]}
-    page = page_html(initial)
+    page = page_html(initial, token="session-token")
     template = scripts_of(_page_template())
     parsed = scripts_of(page)
     assert parsed.tags == template.tags  # no element added or lost
     assert json.loads(parsed.scripts[0]) == initial  # JSON.parse gives every name back as written
     assert parsed.scripts[1] == template.scripts[1]  # the page's own script is untouched
+    assert page.count('<meta name="manipkit-token" content="session-token">') == 1  # a name "{{TOKEN}}" stays a name
     # No "<" at all inside the block: nothing in it can end it or open a comment (<!--), whatever the parser.
     block = page.split('<script id="manipkit-state" type="application/json">', 1)[1].split("</script>", 1)[0]
     assert "<" not in block and ">" not in block and "&" not in block

@@ -12,12 +12,13 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "manipkit"
 
 # layer -> the manipkit layers it may import at run time (docs/architecture.md, "Layers")
-BOTTOM = {"errors", "exports", "text", "outputs"}  # modules beside errors.py that every layer may use
+BOTTOM = {"errors", "exports", "text", "outputs", "bounds"}  # modules beside errors.py that every layer may use
 ALLOWED = {
     "errors": set(),
     "exports": set(),
     "text": set(),
-    "outputs": {"errors"},
+    "outputs": {"errors", "text"},
+    "bounds": {"errors", "text"},  # the bounds of every number and count
     "ik_result": {"errors", "text"},  # the one IK result type, below the two layers that solve IK
     "spatial": BOTTOM,
     "inputs": BOTTOM | {"spatial"},  # reading files: a pose read is checked as a transform

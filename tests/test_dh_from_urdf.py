@@ -12,11 +12,13 @@ import math
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import manipkit
 from manipkit.dh import DHRow, DHTable, dh_fk, urdf_from_dh
-from manipkit.dh.from_urdf import DHDerivationError, dh_from_urdf_chain
+from manipkit.dh.from_urdf import DHDerivationError, derive_dh, dh_from_urdf_chain
 from manipkit.errors import ChainError, ManipkitError, UnknownFrameError
 from manipkit.kinematics.robot import Robot
 from manipkit.spatial.rotations import matrix_from_rpy, rot_z
@@ -581,3 +583,72 @@ def test_a_chain_with_a_mimic_joint_has_no_dh_table_and_says_why():
     with pytest.raises(DHDerivationError, match="joint 'j2' between 'link0' and 'tool' mimics 'j1'"):
         dh_from_urdf_chain(robot, "link0", "tool")
     assert dh_from_urdf_chain(robot, "link0", "link1").convention == "standard"  # above the mimic joint: fine
+
+
+# ----------------------------------------------------------------------
+# issue 25: descriptions that write pi as 3.1415926 or pi/2 as 1.571 get a clean table, snapped and checked
+# ----------------------------------------------------------------------
+
+# A Motoman-GP25-like arm (its description's numbers): the tool frame turned by rpy (3.1415926, -1.570796, 0)
+GP_LIKE = chain_urdf("gp_like", [
+    ("revolute", "0 0 0.505", "0 0 0", "0 0 1"),
+    ("revolute", "0.15 0 0", "0 0 0", "0 1 0"),
+    ("revolute", "0 0 0.76", "0 0 0", "0 -1 0"),
+    ("revolute", "0 0 0.2", "0 0 0", "-1 0 0"),
+    ("revolute", "0.795 0 0", "0 0 0", "0 -1 0"),
+    ("revolute", "0.1 0 0", "0 0 0", "-1 0 0"),
+], tool_rpy="3.1415926 -1.570796 0")
+
+# A Doosan-like arm: each twist written as 1.571 (pi/2 + 2.04e-4)
+DOOSAN_LIKE = chain_urdf("doosan_like", [
+    ("revolute", "0 0 0.1525", "0 0 0", "0 0 1"),
+    ("revolute", "0 0.0345 0", "0 -1.571 -1.571", "0 0 1"),
+    ("revolute", "0.62 0 0", "0 0 1.571", "0 0 1"),
+    ("revolute", "0 -0.559 0", "1.571 0 0", "0 0 1"),
+    ("revolute", "0 0 0", "-1.571 0 0", "0 0 1"),
+    ("revolute", "0 -0.121 0", "1.571 0 0", "0 0 1"),
+])
+
+
+def is_quarter_turn(angle):
+    return abs(angle / (math.pi / 2) - round(angle / (math.pi / 2))) < 1e-12
+
+
+def test_the_exact_table_of_a_truncated_pi_has_an_arbitrary_offset_and_the_snapped_one_does_not(tmp_path):
+    path = tmp_path / "gp.urdf"
+    path.write_text(GP_LIKE)
+    robot = manipkit.load(path)
+    exact = dh_from_urdf_chain(robot, "link0", "tool")  # tip axis 3.3e-7 rad off the last joint's: a skew normal
+    assert not is_quarter_turn(exact.rows[5].theta)  # the -80.687 deg the issue reports
+    derived = derive_dh(robot, "link0", "tool")
+    assert all(is_quarter_turn(row.alpha) and is_quarter_turn(row.theta) for row in derived.table.rows)
+    # What moved, by hand: the tool's rotation Rx(3.1415926) Ry(-1.570796) against Rx(pi) Ry(-pi/2) differs by
+    # pi - 3.1415926 = 5.36e-8 rad about x and pi/2 - 1.570796 = 3.27e-7 rad about y: sqrt(5.36e-8^2 + 3.27e-7^2)
+    # = 3.31e-7 rad, and nothing else (every joint axis is written exactly).
+    assert [what for what, _ in derived.moved] == ["tool's axes"]
+    assert derived.moved[0][1] == pytest.approx(math.hypot(math.pi - 3.1415926, math.pi / 2 - 1.570796), rel=1e-3)
+    assert derived.rotation_error == pytest.approx(derived.moved[0][1], rel=1e-3)
+    assert derived.position_error < 1e-12  # the tool offset is 0: turning it moves no point
+
+
+def test_twists_written_as_1_571_snap_to_90_deg_and_the_table_passes_dh_check_at_the_tolerance(tmp_path):
+    path = tmp_path / "doosan.urdf"
+    path.write_text(DOOSAN_LIKE)
+    robot = manipkit.load(path)
+    exact = dh_from_urdf_chain(robot, "link0", "tool")
+    assert any(abs(math.degrees(abs(row.alpha)) - 90.0117) < 1e-3 for row in exact.rows)  # 90.0117 deg, as reported
+    derived = derive_dh(robot, "link0", "tool", snap=1e-3)
+    assert all(is_quarter_turn(row.alpha) and is_quarter_turn(row.theta) for row in derived.table.rows)
+    # j2's axis: Rz(-1.571) Ry(-1.571) e_z = (cos 1.571, sin 1.571 ..., cos 1.571) ~ (e, 1, -e) with
+    # e = cos(1.571) = -sin(1.571 - pi/2) ~ -2.04e-4: two perpendicular misses of e, so it is snapped by sqrt(2) |e|
+    e = math.sin(1.571 - math.pi / 2)
+    moved = dict(derived.moved)
+    assert moved["axis of j2"] == pytest.approx(math.hypot(e, e), rel=1e-6)
+    out = tmp_path / "doosan.yaml"
+    cli = run_cli("manipkit", "dh", "from-urdf", "--robot", path, "--base", "link0", "--tip", "tool", "-o", out)
+    assert cli.returncode == 0, cli.stderr
+    assert "snapped to multiples of 90 deg within 0.001 rad: axis of j2 by 0.0165 deg" in cli.stdout
+    check = run_cli("manipkit", "dh", "check", out, "--robot", path, "--base", "link0", "--tip", "tool", "--tol", "1e-3")
+    assert check.returncode == 0, check.stdout
+    strict = run_cli("manipkit", "dh", "check", out, "--robot", path, "--base", "link0", "--tip", "tool", "--tol", "1e-6")
+    assert strict.returncode == 1  # the snapped table is not the description: the check says so at 1e-6

@@ -218,3 +218,11 @@ def test_a_row_or_table_name_with_a_control_character_is_refused(name):
 def test_names_with_markup_characters_are_kept_as_text():
     name = 'a --> <link name="extra"/> \\input{x} %'
     assert DHTable([DHRow(1, 0, 0, 0, name=name)], "standard", name).rows[0].name == name
+
+
+# issue 26: dh_fk passed NaN through, and took joint values no rotation can be read from
+@pytest.mark.parametrize("value", [math.nan, math.inf, 1e7, 10**400])
+def test_dh_fk_refuses_joint_values_that_are_not_finite_or_too_large(value):
+    table = DHTable([DHRow(1.0, 0.0, 0.0, 0.0)], "standard", "one")
+    with pytest.raises(manipkit.ManipkitError, match="q"):
+        dh_fk(table, [value])

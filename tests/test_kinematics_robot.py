@@ -323,3 +323,26 @@ def test_the_tip_of_a_1500_link_chain_is_ee_link(tmp_path):
     robot = manipkit.load(path)
     assert robot.ee_frame == "l1500"
     assert robot.transform("base_link", "ee_link")[:3, 3] == pytest.approx([0, 0, 1.5], abs=1e-9)  # 1500 x 1 mm
+
+
+# issue 26: counts and batches are bounded before anything is allocated; a 400-digit value is one line
+@pytest.mark.parametrize("n", [-1, 10**12, 2.5, "3", True])
+def test_sample_q_refuses_counts_that_are_not_whole_numbers_in_range(n):
+    robot = manipkit.load("planar_2r")
+    with pytest.raises(manipkit.ManipkitError, match="give a whole number from 0 to 10000000"):
+        robot.sample_q(n)
+
+
+def test_fk_of_a_huge_broadcast_view_is_refused_before_allocating():
+    robot = manipkit.load("planar_2r")
+    Q = np.broadcast_to(np.zeros(2), (10**9, 2))  # costs nothing until computed on: 119 GiB of poses
+    with pytest.raises(JointValueError, match="1000000000 configurations in one call; give at most 10000000"):
+        robot.fk(Q)
+
+
+def test_a_joint_value_too_large_for_a_float_is_one_line():
+    robot = manipkit.load("planar_2r")
+    with pytest.raises(JointValueError, match="a float can hold"):
+        robot.transform("base_link", "ee_link", [10**400, 0])
+    with pytest.raises(JointValueError, match="a float can hold"):
+        robot.fk([10**400, 0])

@@ -784,3 +784,12 @@ def test_rotation_helper_with_some_parts_missing_says_which():
 
     with pytest.raises(InvalidRotationError, match="roll missing"):
         matrix_from_euler_zyx(0.1, 0.2)
+
+
+# issue 26: NaN and integers too large for a float went through the rotation helpers
+@pytest.mark.parametrize("angles", [(math.nan, 0.0, 0.0), (0.0, math.inf, 0.0), (10**400, 0.0, 0.0)])
+def test_rotation_helpers_refuse_angles_that_are_not_finite_floats(angles):
+    with pytest.raises(InvalidRotationError, match="rpy"):
+        matrix_from_rpy(*angles)
+    with pytest.raises(InvalidRotationError, match="rpy"):
+        matrix_from_rpy(list(angles))

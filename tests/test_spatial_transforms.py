@@ -405,3 +405,17 @@ def test_check_transform_accepts_exactly_what_transform_violations_finds_nothing
             check_transform(T, tol=1e-6)
     else:
         assert np.array_equal(check_transform(T, tol=1e-6), T)
+
+
+# issue 26: the API passed NaN through and inverted a scaling as if it were rigid
+def test_invert_transform_refuses_what_is_not_a_rigid_transform():
+    with pytest.raises(InvalidTransformError, match=r"^T is not a rigid transform: rotation column 0 \(x axis\) has norm 2"):
+        invert_transform(np.diag([2.0, 2.0, 2.0, 1.0]))
+    with pytest.raises(InvalidTransformError, match=r"^T is not a rigid transform: entry T\[0, 3\] is not finite"):
+        invert_transform(np.array([[1.0, 0, 0, np.nan], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+    stack = np.stack([np.eye(4), np.diag([1.0, 1.0, -1.0, 1.0])])
+    with pytest.raises(InvalidTransformError, match=r"^T\[1\] is not a rigid transform: det\(R\) = -1"):
+        invert_transform(stack)
+    # the rigid ones still invert: T^-1 T = I
+    T = transform_from_xyz_rpy([1.0, -2.0, 0.5], [0.3, -0.2, 1.1])
+    assert np.abs(invert_transform(T) @ T - np.eye(4)).max() < 1e-15

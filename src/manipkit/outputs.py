@@ -1,21 +1,34 @@
-"""Writing files a user asks for: one place that turns an OSError into one line.
+"""Writing files a user asks for: the one way a file is written.
 
 Every file manipkit writes (tree pictures and DOT, DH tables, URDF, plots,
-static viewer pages) goes through :func:`writable_path` or
-:func:`write_text`: a folder the user did not ask for is never created, and
-a missing folder, a path that is a folder, no permission or a full disk
-give :class:`~manipkit.errors.OutputError` ``cannot write PATH: reason``
-(docs/architecture.md, "Errors and messages").
+static viewer pages) goes through :func:`writing` or :func:`write_text`
+(and is checked early by :func:`writable_path`):
+
+- a folder the user did not ask for is never created;
+- the file is written to a temporary file in the target folder and renamed
+  over the target only when complete: a full disk or an error leaves the old
+  file (or nothing), never a truncated one;
+- a symbolic link at the output path is replaced by the file, not followed
+  into another folder (a device or a pipe the user names, ``/dev/stdout``,
+  is written in place);
+- an output that is one of the command's inputs (``inputs=``) is refused
+  before anything is written;
+- a missing folder, a path that is a folder, no permission or a full disk
+  give :class:`~manipkit.errors.OutputError` ``cannot write PATH: reason``
+  (docs/architecture.md, "Errors and messages").
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator
+import stat
+import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from manipkit.errors import OutputError
+from manipkit.text import printable
 
 __all__ = ["cannot_write", "writable_path", "write_text", "writing"]
 
@@ -23,14 +36,17 @@ __all__ = ["cannot_write", "writable_path", "write_text", "writing"]
 def cannot_write(path: str | os.PathLike, exc: OSError) -> OutputError:
     """``OutputError("cannot write PATH: reason")`` for an OSError met while writing ``path``."""
     reason = exc.strerror or str(exc)
-    return OutputError(f"cannot write {path}: {reason}")
+    return OutputError(f"cannot write {printable(path)}: {reason}")
 
 
-def writable_path(path: str | os.PathLike) -> Path:
-    """``path`` if a file can be written there: its folder exists and it is not itself a folder.
+def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | None] = ()) -> Path:
+    """``path`` if a file can be written there: its folder exists, it is not a folder, nor one of ``inputs``.
 
     Checked before expensive work (a plot, a tree image), so the user hears
-    about a typo at once. Nothing is created.
+    about a typo at once. Nothing is created. ``inputs`` are the files the
+    command reads (a robot description, a DH table): writing over one of
+    them would destroy the input, so it is refused (the same file by any
+    name: a symbolic or hard link counts).
 
     Raises
     ------
@@ -44,32 +60,93 @@ def writable_path(path: str | os.PathLike) -> Path:
     ...
     manipkit.errors.OutputError: cannot write /nonexistent/x.png: no such folder /nonexistent
     """
+    if "\0" in str(path):
+        raise OutputError(f"cannot write {printable(path)}: a file name cannot hold a NUL character")
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
-        raise OutputError(f"cannot write {path}: it is a folder; give a file name")
+        raise OutputError(f"cannot write {printable(path)}: it is a folder; give a file name")
     if not folder.is_dir():
-        raise OutputError(f"cannot write {path}: no such folder {folder}")
+        raise OutputError(f"cannot write {printable(path)}: no such folder {printable(folder)}")
+    for source in inputs:
+        if source is not None and _same_file(path, source):
+            raise OutputError(
+                f"cannot write {printable(path)}: it is the command's input {printable(source)}; "
+                "give another output file name"
+            )
     return path
 
 
-@contextlib.contextmanager
-def writing(path: str | os.PathLike) -> Iterator[Path]:
-    """Context for code that writes ``path`` itself (matplotlib's ``savefig``): OSError -> OutputError.
-
-    >>> import tempfile
-    >>> with writing(Path(tempfile.mkdtemp()) / "x.txt") as target:
-    ...     _ = target.write_text("ok")
-    """
-    path = writable_path(path)
+def _same_file(path: Path, other) -> bool:
     try:
-        yield path
+        return os.path.samefile(path, other)
+    except (OSError, ValueError, TypeError):  # either does not exist (yet), or is no path
+        return False
+
+
+@contextlib.contextmanager
+def writing(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | None] = ()) -> Iterator[Path]:
+    """Context for code that writes a file itself (matplotlib's ``savefig``): write the path it yields.
+
+    The yielded path is a temporary file in the target folder with the
+    target's suffix (so a writer that reads the format from the suffix
+    still works); it is renamed over ``path`` when the block ends without
+    error and removed otherwise. OSError -> OutputError.
+
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with writing(folder / "x.txt") as target:
+    ...     _ = target.write_text("ok")
+    >>> (folder / "x.txt").read_text(), [p.name for p in folder.iterdir()]
+    ('ok', ['x.txt'])
+    """
+    path = writable_path(path, inputs=inputs)
+    if _is_special(path):  # a device or pipe the user named (/dev/stdout, a FIFO): written in place
+        try:
+            yield path
+        except OSError as exc:
+            raise cannot_write(path, exc) from None
+        return
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        handle, name = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:64]}.", suffix=f".part{path.suffix[:16]}")
     except OSError as exc:
         raise cannot_write(path, exc) from None
+    os.close(handle)
+    temporary = Path(name)
+    try:
+        yield temporary
+        os.chmod(temporary, _new_file_mode())
+        os.replace(temporary, path)  # replaces a symbolic link at ``path``, never follows it
+    except OSError as exc:
+        raise cannot_write(path, exc) from None
+    finally:
+        with contextlib.suppress(OSError):
+            temporary.unlink()
 
 
-def write_text(path: str | os.PathLike, text: str, *, encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` (see :func:`writable_path`); OSError (full disk, permission) -> OutputError."""
-    with writing(path) as target:
-        target.write_text(text, encoding=encoding)
-    return target
+def _is_special(path: Path) -> bool:
+    """An existing output that is neither a regular file nor a symbolic link: a device, a FIFO, a socket."""
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError:
+        return False
+    return not (stat.S_ISREG(mode) or stat.S_ISLNK(mode))
+
+
+def _new_file_mode() -> int:
+    """The mode ``open()`` would give a new file: 0o666 less the process's umask (mkstemp gives 0o600)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def write_text(
+    path: str | os.PathLike, text: str, *, encoding: str = "utf-8", inputs: Iterable[str | os.PathLike | None] = ()
+) -> Path:
+    """Write ``text`` to ``path`` through :func:`writing`; OSError (full disk, permission) -> OutputError."""
+    with writing(path, inputs=inputs) as target:
+        with open(target, "w", encoding=encoding) as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+    return Path(path)

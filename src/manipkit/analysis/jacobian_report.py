@@ -62,6 +62,7 @@ import numpy as np
 
 from manipkit.analysis.manipulability import condition_number, manipulability
 from manipkit.analysis.singularities import FAMILY_TOL, SingularFamily, families_at
+from manipkit.bounds import length as bounded_length
 from manipkit.errors import OptionError
 
 if TYPE_CHECKING:
@@ -241,8 +242,7 @@ def jacobian_report(chain: Chain, q=None, *, reference: str = "base", length: fl
     >>> report.singular, report.rank, report.generic_rank
     (True, 3, 4)
     """
-    if not (isinstance(length, (int, float)) and math.isfinite(length) and length > 0):
-        raise OptionError(f"length={length!r:.40}: give a positive characteristic length in metres")
+    length = bounded_length(length, "length")
     if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol >= 0):
         raise OptionError(f"tol={tol!r:.40}: give a tolerance >= 0")
     q = chain.q(q)

@@ -52,6 +52,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from manipkit.bounds import length as bounded_length
 from manipkit.errors import OptionError, SingularityError
 from manipkit.kinematics.fk_kernel import lazy_kernel
 
@@ -76,10 +77,12 @@ class MixedUnitsWarning(UserWarning):
 def _as_jacobians(J) -> np.ndarray:
     try:
         J = np.asarray(J, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise OptionError("J must be a Jacobian of numbers, shape (6, n) or (..., 6, n)") from None
     if J.ndim < 2 or J.shape[-2] != 6:
         raise OptionError(f"J must have shape (6, n) or (..., 6, n) (rows vx vy vz wx wy wz), got {J.shape}")
+    if J.shape[-1] == 0:
+        raise OptionError(f"J has shape {J.shape}: no columns, so no joints to move the frame; give n >= 1")
     if not np.all(np.isfinite(J)):
         raise OptionError("J must hold finite numbers")
     return J
@@ -135,12 +138,7 @@ def select_rows(J, axes="all", length: float | None = None, *, stacklevel: int =
     J = _as_jacobians(J)
     rows = _rows(axes)
     if length is not None:
-        try:
-            length = float(length)
-        except (TypeError, ValueError):
-            raise OptionError(f"length={length!r:.40} must be a number of metres") from None
-        if not (math.isfinite(length) and length > 0):
-            raise OptionError(f"length={length} must be a positive finite number of metres (a characteristic length)")
+        length = bounded_length(length, "length")
     contiguous = rows == tuple(range(rows[0], rows[0] + len(rows)))
     selected = J[..., rows[0] : rows[0] + len(rows), :] if contiguous else J[..., list(rows), :]  # a view when it can
     if mixes_units(rows):

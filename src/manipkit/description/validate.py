@@ -32,6 +32,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from manipkit.bounds import MAX_ANGLE, MAX_LENGTH
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import DescriptionError, PackageNotFoundError
 from manipkit.text import UNPRINTABLE, printable, short_text
@@ -66,12 +67,11 @@ XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 #: Names Pinocchio gives its own root joint and frame; a link or joint of that name would be mixed up with them.
 RESERVED_NAMES = ("universe",)
 #: Largest magnitude of a length (m), an angle (rad), a mimic multiplier or offset and a mesh scale in a
-#: description, and of a joint value given on the command line (``manipkit.app.cli.common.MAX_ANGLE``): one
-#: rule. Real robots are metres and turns; two finite numbers near 1.7e308 would sum to infinity, and a
-#: prismatic limit of 1e308 made FK print ``[inf, nan, nan]``. Products of these stay far from overflow.
-MAX_MAGNITUDE = 1e6
-#: Largest length accepted in an origin, a limit or a shape (m): :data:`MAX_MAGNITUDE`.
-MAX_LENGTH = MAX_MAGNITUDE
+#: description: the bounds of :mod:`manipkit.bounds` (``MAX_LENGTH`` for lengths, ``MAX_ANGLE`` for angles,
+#: the larger of the two for a factor or an offset that may be either), the same a command takes. Real robots
+#: are metres and turns; two finite numbers near 1.7e308 would sum to infinity, and a prismatic limit of 1e308
+#: made FK print ``[inf, nan, nan]``. Products of these stay far from overflow.
+MAX_MAGNITUDE = max(MAX_LENGTH, MAX_ANGLE)
 
 #: Most links (and joints) in a description. Real robots have fewer than 300 (PR2: 88, TIAGo with its hand
 #: 89); Pinocchio's model build took minutes for 100,000 links on one root, and a tree image of 20,000 took
@@ -249,8 +249,8 @@ class _Checker:
         origin = parent.find("origin")
         if origin is None:
             return
-        self.numbers(origin, "xyz", 3, f"{what} <origin>", owner, unit="m", bound=MAX_MAGNITUDE)
-        self.numbers(origin, "rpy", 3, f"{what} <origin>", owner, unit="rad", bound=MAX_MAGNITUDE)
+        self.numbers(origin, "xyz", 3, f"{what} <origin>", owner, unit="m", bound=MAX_LENGTH)
+        self.numbers(origin, "rpy", 3, f"{what} <origin>", owner, unit="rad", bound=MAX_ANGLE)
 
     # -- the whole description --------------------------------------------
 
@@ -399,17 +399,17 @@ class _Checker:
         if tag == "box":
             if shape.get("size") is None:
                 self.fail(shape, f"{what} <box> has no size attribute; give size=\"X Y Z\" (m)", link)
-            self.numbers(shape, "size", 3, f"{what} <box>", link, unit="m", non_negative=True, bound=MAX_MAGNITUDE)
+            self.numbers(shape, "size", 3, f"{what} <box>", link, unit="m", non_negative=True, bound=MAX_LENGTH)
         elif tag in ("cylinder", "capsule"):
             for attribute in ("radius", "length"):
                 if shape.get(attribute) is None:
                     self.fail(shape, f"{what} <{tag}> has no {attribute} attribute; give radius and length (m)", link)
                 self.numbers(shape, attribute, 1, f"{what} <{tag}>", link, unit="m", non_negative=True,
-                             bound=MAX_MAGNITUDE)
+                             bound=MAX_LENGTH)
         elif tag == "sphere":
             if shape.get("radius") is None:
                 self.fail(shape, f"{what} <sphere> has no radius attribute; give radius=\"R\" (m)", link)
-            self.numbers(shape, "radius", 1, f"{what} <sphere>", link, unit="m", non_negative=True, bound=MAX_MAGNITUDE)
+            self.numbers(shape, "radius", 1, f"{what} <sphere>", link, unit="m", non_negative=True, bound=MAX_LENGTH)
         elif tag == "mesh":
             if not shape.get("filename"):
                 self.fail(shape, f"{what} <mesh> has no filename attribute; give filename=\"package://PKG/...\" "
@@ -516,7 +516,7 @@ class _Checker:
             moves = attribute in ("lower", "upper") and kind in ("revolute", "prismatic")  # others ignore lower/upper
             number = self.numbers(limit, attribute, 1, f"{what} <limit>", joint,
                                   unit=unit if attribute in ("lower", "upper") else "",
-                                  bound=MAX_MAGNITUDE if moves else None)
+                                  bound=(MAX_LENGTH if kind == "prismatic" else MAX_ANGLE) if moves else None)
             values[attribute] = number[0] if number is not None else 0.0
         lower, upper = values["lower"], values["upper"]
         if kind not in ("revolute", "prismatic"):

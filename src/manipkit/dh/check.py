@@ -200,7 +200,7 @@ def screws(fk, n: int, q0=None, *, step: float = 1e-5) -> np.ndarray:
         ``(0, direction)`` for prismatic ones; ``[S_i] = dT/dq_i T^-1``.
     """
     q0 = np.zeros(n) if q0 is None else np.asarray(q0, dtype=float)
-    T_inv = invert_transform(fk(q0))
+    T_inv = invert_transform(fk(q0), check=False)
     result = np.empty((n, 6))
     for i in range(n):
         e = np.zeros(n)
@@ -298,17 +298,17 @@ def _reconciliations(table, urdf_fk, S_u, S_d, signs, Q, tol) -> list[DHCorrecti
     out = []
 
     # Tool only: T_urdf(q) = T_dh(s q) X.
-    X = invert_transform(M_d) @ M_u
+    X = invert_transform(M_d, check=False) @ M_u
     out.append(DHCorrection("base and tool", _residual(urdf_fk, lambda q: dh(q * signs) @ X, Q), reversed=flips, tool=X))
 
     # Base only: T_urdf(q) = B T_dh(s q).
-    B = M_u @ invert_transform(M_d)
+    B = M_u @ invert_transform(M_d, check=False)
     out.append(DHCorrection("base and tool", _residual(urdf_fk, lambda q: B @ dh(q * signs), Q), reversed=flips, base=B))
 
     # Base and tool: align the table's axes with the URDF's by one rigid motion.
     B = _align_axes(S_u, S_d * signs[:, None], M_u[:3, 3], M_d[:3, 3])
     if B is not None:
-        X = invert_transform(B @ M_d) @ M_u
+        X = invert_transform(B @ M_d, check=False) @ M_u
         out.append(DHCorrection("base and tool", _residual(urdf_fk, lambda q: B @ dh(q * signs) @ X, Q),
                                 reversed=flips, base=B, tool=X))
 
@@ -356,8 +356,8 @@ class _Fit:
             candidate = DHTable(variant.rows, variant.convention, variant.name, base=base, tool=tool)
             out.append(DHCorrection(kind, self.residual(candidate), candidate, base=B, tool=X, **fields))
 
-        X = invert_transform(M_d) @ self.M_u  # T_urdf(q) = T_dh(q) X
-        B = self.M_u @ invert_transform(M_d)  # T_urdf(q) = B T_dh(q)
+        X = invert_transform(M_d, check=False) @ self.M_u  # T_urdf(q) = T_dh(q) X
+        B = self.M_u @ invert_transform(M_d, check=False)  # T_urdf(q) = B T_dh(q)
         if np.abs(X - np.eye(4)).max() < RECONCILE_TOL:  # the home poses agree: the table as it is
             add(None, None)
         else:
@@ -366,7 +366,7 @@ class _Fit:
         S_d = np.vstack([_precise_screws(partial(dh_fk, variant), n, q) for q in self.configurations])
         B = _align_axes(self.S_u, S_d, self.M_u[:3, 3], M_d[:3, 3])  # Ad(B) S_dh = S_urdf, then X at the tip
         if B is not None:
-            add(B, invert_transform(B @ M_d) @ self.M_u)
+            add(B, invert_transform(B @ M_d, check=False) @ self.M_u)
         return out
 
     def single_entries(self) -> list[DHCorrection]:
@@ -526,7 +526,7 @@ def _differences(table: DHTable, other: DHTable) -> tuple[EntryChange | EndChang
 
 def _home_difference(urdf_fk, dh, q_dh):
     n = len(q_dh)
-    return invert_transform(dh(np.asarray(q_dh))) @ urdf_fk(np.zeros(n))
+    return invert_transform(dh(np.asarray(q_dh)), check=False) @ urdf_fk(np.zeros(n))
 
 
 def _residual(urdf_fk, corrected, Q) -> float:

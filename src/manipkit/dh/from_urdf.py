@@ -71,6 +71,7 @@ Parameters smaller than 1e-12 in magnitude are written as exact zeros
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -78,13 +79,13 @@ import numpy as np
 from manipkit.dh.table import CONVENTIONS, DHRow, DHTable, dh_fk
 from manipkit.errors import DHDerivationError
 from manipkit.spatial.rotations import matrix_from_axis_angle
-from manipkit.spatial.transforms import invert_transform
+from manipkit.spatial.transforms import invert_transform, pose_error
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 # DHDerivationError is re-exported: manipkit 0.1 offered it here (manipkit.dh_from_urdf)
-__all__ = ["DHDerivationError", "dh_from_urdf_chain"]
+__all__ = ["MAX_SNAP", "DHDerivation", "DHDerivationError", "check_snap", "derive_dh", "dh_from_urdf_chain"]
 
 _ZERO_SNAP = 1e-12  # parameters below this are rounding noise and written as 0
 
@@ -213,6 +214,7 @@ def dh_from_urdf_chain(
     *,
     convention: str = "standard",
     tol: float = 1e-9,
+    snap: float = 0.0,
 ) -> DHTable:
     """DH table (with base and tool transforms) of the chain from ``base`` to ``tip``.
 
@@ -234,6 +236,12 @@ def dh_from_urdf_chain(
         alignments (cosines) below ``tol``. Near-parallel axes (angle
         between about 1e-9 and 1e-6 rad) are ill-conditioned in any DH
         table: their common normal lies far away.
+    snap : float, keyword-only
+        Angle (rad) within which the joint axes, the tip's z axis and the
+        table's angles are snapped to the base frame's axes and to multiples
+        of 90 deg (a description that writes pi as 3.1415926 or pi/2 as
+        1.571); 0 (default) snaps nothing and the table is exact.
+        :func:`derive_dh` snaps and says what moved, checked against the URDF.
 
     Returns
     -------
@@ -265,26 +273,147 @@ def dh_from_urdf_chain(
     >>> [(row.a, row.alpha, row.d, row.theta) for row in table.rows]
     [(4.0, 0.0, 0.0, 0.0), (2.0, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)]
     """
+    return _derivation(robot, base, tip, convention, tol, snap)[0]
+
+
+def _derivation(robot: Robot, base: str, tip: str, convention: str, tol: float, snap: float):
+    """(table, what snapping moved): the body of :func:`dh_from_urdf_chain`."""
     if convention not in CONVENTIONS:
         raise DHDerivationError(f"convention '{convention}': choose standard or modified")
+    moved: list[tuple[str, float]] = []
     joints = _movable_joints(robot, base, tip)
     points, directions = _joint_lines(robot, base, joints)
     T_base_tip = robot.transform(base, tip, np.zeros(len(robot.joints)), check_limits=False)
+    if snap > 0:
+        snapped = [_snapped_direction(v, snap) for v in directions]
+        moved += [(f"axis of {joint.name}", _angle(v, w)) for joint, v, w in zip(joints, directions, snapped)]
+        directions = snapped
+        T_base_tip = T_base_tip.copy()
+        R = _snapped_rotation(T_base_tip[:3, :3], snap)
+        moved.append((f"{robot.frame(tip)}'s axes", _rotation_angle(T_base_tip[:3, :3], R)))
+        T_base_tip[:3, :3] = R
     prismatic = [not joint.is_angular for joint in joints]
     standard, modified = _dh_frames(points, directions, prismatic, T_base_tip, tol)
     frames = standard if convention == "standard" else modified
     rows = []
     for i, joint in enumerate(joints):
-        a, alpha, d, theta = _row_parameters(invert_transform(frames[i]) @ frames[i + 1], convention)
+        a, alpha, d, theta = _row_parameters(invert_transform(frames[i], check=False) @ frames[i + 1], convention)
+        if snap > 0:
+            snapped_alpha, snapped_theta = _snapped_angle(alpha, snap), _snapped_angle(theta, snap)
+            moved += [(f"alpha_{i + 1}", abs(snapped_alpha - alpha)), (f"theta_{i + 1} offset", abs(snapped_theta - theta))]
+            alpha, theta = snapped_alpha, snapped_theta
         limits = (joint.lower, joint.upper)
         qlim = limits if all(map(math.isfinite, limits)) else None
         rows.append(DHRow(a, alpha, d, theta, type="prismatic" if prismatic[i] else "revolute", qlim=qlim))
     table = DHTable(tuple(rows), convention=convention, name=robot.name, base=frames[0])
     # Tool from the table's own zero pose, so q = 0 is reproduced exactly.
     T_base_dhn = dh_fk(table, np.zeros(table.n), upto=table.n)
-    tool = invert_transform(T_base_dhn) @ T_base_tip
+    tool = invert_transform(T_base_dhn, check=False) @ T_base_tip
+    if snap > 0:
+        R = _snapped_rotation(tool[:3, :3], snap)
+        moved.append(("tool rotation", _rotation_angle(tool[:3, :3], R)))
+        tool[:3, :3] = R
     tool[np.abs(tool) < _ZERO_SNAP] = 0.0
-    return DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)
+    table = DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)
+    return table, tuple((what, float(angle)) for what, angle in moved if angle > _ZERO_SNAP)
+
+
+#: Largest snapping tolerance (rad): 22.5 deg, half way between multiples of 45 deg.
+MAX_SNAP = math.pi / 8
+
+
+def check_snap(snap, what: str) -> float:
+    """``snap`` if it is a tolerance from 0 to :data:`MAX_SNAP` rad, else DHDerivationError naming ``what``."""
+    if not (isinstance(snap, (int, float)) and not isinstance(snap, bool) and 0 <= snap <= MAX_SNAP):
+        raise DHDerivationError(f"{what} {snap!r:.40}: give a snapping tolerance from 0 to {MAX_SNAP:.3f} rad (22.5 deg)")
+    return float(snap)
+
+
+@dataclass(frozen=True)
+class DHDerivation:
+    """A DH table derived from a URDF chain with its angles snapped, and how far it is from the URDF.
+
+    Attributes
+    ----------
+    table : DHTable
+    snap : float
+        The snapping tolerance (rad) used.
+    moved : tuple of (str, float)
+        What snapping moved and by how much (rad): joint axes, the tip's axes,
+        the rows' ``alpha`` and ``theta`` offsets, the tool rotation.
+    position_error, rotation_error : float
+        The largest distance (m) and rotation angle (rad) between the
+        table's FK and the URDF's at :attr:`samples` configurations drawn
+        inside the limits (and at q = 0).
+    samples : int
+    """
+
+    table: DHTable
+    snap: float
+    moved: tuple[tuple[str, float], ...]
+    position_error: float
+    rotation_error: float
+    samples: int
+
+
+def derive_dh(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, convention: str = "standard",
+              snap: float = 1e-3, samples: int = 200, seed: int = 0) -> DHDerivation:
+    """:func:`dh_from_urdf_chain` with snapping, what it moved, and the table checked against the URDF.
+
+    ``snap`` (rad, default 1e-3: 0.057 deg) is the tolerance within which axes
+    and angles are taken as multiples of 90 deg; ``snap=0`` derives the exact
+    table (the errors are then rounding noise). The check compares the
+    table's FK with the robot's at q = 0 and ``samples`` random
+    configurations inside the limits (``seed``), so the errors say what
+    snapping cost.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> derived = derive_dh(manipkit.load("planar_3r"), samples=10)
+    >>> derived.moved, derived.position_error < 1e-12
+    ((), True)
+    """
+    check_snap(snap, "snap")
+    table, moved = _derivation(robot, base, tip, convention, 1e-9, float(snap))
+    chain = robot.chain(base, tip)
+    Q = np.vstack([np.zeros((1, chain.n)), chain.sample(samples, seed=seed)])
+    position, rotation = pose_error(chain.fk(Q), dh_fk(table, Q))
+    return DHDerivation(table, float(snap), moved, float(np.max(position)), float(np.max(rotation)), int(samples))
+
+
+# --------------------------------------------------------------------------
+# snapping (descriptions that write pi as 3.1415926)
+
+
+def _snapped_direction(v: np.ndarray, tol: float) -> np.ndarray:
+    """``v`` with the components below ``sin(tol)`` made 0 (the nearest direction in a base-frame plane or axis)."""
+    snapped = np.where(np.abs(v) < math.sin(tol), 0.0, v)
+    return snapped / np.linalg.norm(snapped)
+
+
+def _snapped_rotation(R: np.ndarray, tol: float) -> np.ndarray:
+    """``R`` with every column snapped like a direction, then made a rotation again (nearest, by SVD)."""
+    columns = np.column_stack([_snapped_direction(R[:, k], tol) for k in range(3)])
+    U, _, Vt = np.linalg.svd(columns)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> float:
+    """The angle (rad) between two unit vectors (atan2: accurate for tiny angles)."""
+    return math.atan2(float(np.linalg.norm(np.cross(u, v))), float(u @ v))
+
+
+def _rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    return float(pose_error(np.eye(4), np.block([[R_a.T @ R_b, np.zeros((3, 1))], [np.zeros((1, 3)), 1.0]]))[1])
+
+
+def _snapped_angle(angle: float, tol: float) -> float:
+    """``angle`` moved to the nearest multiple of 90 deg when within ``tol`` (rad) of it, in (-pi, pi]."""
+    quarter = round(angle / (math.pi / 2))
+    if abs(angle - quarter * math.pi / 2) > tol:
+        return angle
+    return _clean_angle(math.remainder(quarter * math.pi / 2, 2 * math.pi))
 
 
 def _movable_joints(robot: Robot, base: str, tip: str) -> list:

@@ -29,8 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from manipkit.bounds import MAX_ANGLE
 from manipkit.errors import DHTableError, InvalidRotationError, JointValueError
 from manipkit.spatial.rotations import matrix_from_rpy, rpy_from_matrix
+from manipkit.text import repr_text, short_text
 
 __all__ = [
     "CONVENTIONS",
@@ -342,10 +344,16 @@ def dh_fk(table: DHTable, q, *, upto: int | None = None) -> np.ndarray:
     """
     try:
         q = np.asarray(q, dtype=float)
-    except (TypeError, ValueError):
-        raise JointValueError(f"DH table '{table.name}': q must be numbers, got {q!r:.60}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise JointValueError(f"DH table '{table.name}': q must be numbers, got {repr_text(q)}") from None
     if q.shape[-1:] != (table.n,):
         raise JointValueError(f"DH table '{table.name}' has {table.n} rows; q has shape {q.shape}")
+    if not (np.abs(q) <= MAX_ANGLE).all():  # False for NaN too
+        bad = np.argwhere(~(np.abs(q) <= MAX_ANGLE))[0]
+        raise JointValueError(
+            f"DH table '{table.name}': q[{', '.join(str(int(i)) for i in bad)}] = {q[tuple(bad)]}; joint values must "
+            f"be finite, at most {short_text(MAX_ANGLE)} (rad or m) in magnitude"
+        )
     count = table.n if upto is None else upto
     T = np.broadcast_to(table.base, q.shape[:-1] + (4, 4)).copy()
     for i, row in enumerate(table.rows[:count]):

@@ -122,7 +122,7 @@ def _read_npy(name: str, rotation: bool = False) -> np.ndarray:
 
 def _rows_from_json(text: str, name: str) -> list[list]:
     try:
-        data = json.loads(text)
+        data = json.loads(text, parse_int=float)  # a 400-digit integer is a float too large (inf), refused below
     except json.JSONDecodeError as exc:
         where = f"line {exc.lineno}, column {exc.colno}"
         raise InvalidTransformError(f"{name}: invalid JSON at {where}: {exc.msg}") from None

@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.bounds import MAX_COUNT, count
 from manipkit.errors import ChainError, JointLimitError, JointValueError, OptionError
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.spatial.rotations import matrix_from_axis_angle
@@ -251,9 +252,7 @@ class Chain:
         Reproducible: the same ``seed`` (an int or a sequence of ints, as
         ``numpy.random.default_rng`` takes) gives the same rows.
         """
-        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 0:
-            raise OptionError(f"the number of samples must be a whole number >= 0, got {n!r}")
-        return sample_between(*sampling_bounds(self.lower, self.upper), int(n), seed)
+        return sample_between(*sampling_bounds(self.lower, self.upper), n, seed)
 
     def outside_limits(self, Q) -> np.ndarray:
         """Boolean (..., n): which entries of chain vectors ``Q`` lie outside their limits (by more than 1e-12)."""
@@ -408,8 +407,18 @@ def sampling_bounds(lower, upper) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sample_between(low, high, n: int, seed=0) -> np.ndarray:
-    """``n`` rows uniform in the box [low, high] (``seed``: an int, a sequence of ints or a numpy Generator)."""
-    u = np.random.default_rng(seed).random(size=(n, len(low)))
+    """``n`` rows uniform in the box [low, high] (``seed``: an int, a sequence of ints or a numpy Generator).
+
+    ``n`` is a whole number from 0 to :data:`manipkit.bounds.MAX_COUNT`, checked before anything is
+    allocated (:class:`OptionError` naming it otherwise).
+    """
+    n = count(n, "the number of samples n", minimum=0)
+    try:
+        rng = np.random.default_rng(seed)
+    except (TypeError, ValueError) as exc:
+        raise OptionError(f"seed {repr_text(seed)}: give a whole number >= 0, a sequence of them or a numpy "
+                          f"Generator ({exc})") from None
+    u = rng.random(size=(n, len(low)))
     return low * (1.0 - u) + high * u  # not low + (high - low) u: high - low may overflow
 
 
@@ -492,23 +501,34 @@ def _chain_of(robot: Robot, base: str, tip: str) -> Chain:
 def joint_array(values) -> np.ndarray:
     """``values`` as a float array; complex or non-numeric entries raise :class:`JointValueError` (one line).
 
-    numpy would drop an imaginary part with a warning; a joint value is a real number (rad or m).
+    numpy would drop an imaginary part with a warning; a joint value is a real number (rad or m). At
+    most :data:`manipkit.bounds.MAX_COUNT` configurations are taken in one call, checked before any
+    result is allocated (a broadcast view of 1e9 rows costs nothing until it is computed on).
     """
     if type(values) is np.ndarray and values.dtype == np.float64:  # the common case: nothing to convert
-        return values
+        return _few_enough(values)
     try:
         array = np.asarray(values)
         if array.dtype.kind == "c" or (
             array.dtype.kind == "O" and any(isinstance(v, (complex, np.complexfloating)) for v in array.flat)
         ):
             raise JointValueError(f"joint values must be real numbers (rad or m); got complex values {repr_text(values)}")
-        return array.astype(float, copy=False)
+        return _few_enough(array.astype(float, copy=False))
+    except OverflowError:
+        raise JointValueError(f"joint values must be real numbers (rad or m) a float can hold; got {repr_text(values)}") from None
     except (TypeError, ValueError) as exc:
         if isinstance(exc, JointValueError):
             raise
         raise JointValueError(f"joint values must be real numbers (rad or m), a vector or equal rows of them; "
                               f"got {repr_text(values)}") from None
 
+
+def _few_enough(Q: np.ndarray) -> np.ndarray:
+    configurations = math.prod(Q.shape[:-1])
+    if configurations > MAX_COUNT:
+        raise JointValueError(f"{configurations} configurations in one call; give at most {MAX_COUNT} "
+                              "(split the batch)")
+    return Q
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:

@@ -80,6 +80,7 @@ from manipkit.kinematics.ik_kernel import (
 )
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
+from manipkit.text import repr_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -579,10 +580,17 @@ class IKSolver:
         return f"did not converge: {residual} after {attempts} start(s) (the target may be unreachable)", 0.0
 
 
+#: Most random restarts and iterations per restart one call takes: at about 20 us an iteration, the
+#: largest budget runs for minutes, not days.
+MAX_RESTARTS = 100_000
+MAX_ITERS = 100_000
+
+
 def check_budget(max_iters, restarts, damping) -> None:
-    """:class:`IKOptionError` unless ``max_iters`` >= 1 and ``restarts`` >= 0 are whole numbers and ``damping`` > 0."""
-    for name, value, least in (("max_iters", max_iters, 1), ("restarts", restarts, 0)):
-        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < least:
-            raise IKOptionError(f"{name} must be a whole number >= {least}, got {value!r}")
+    """:class:`IKOptionError` unless ``max_iters`` (1 to :data:`MAX_ITERS`) and ``restarts`` (0 to
+    :data:`MAX_RESTARTS`) are whole numbers and ``damping`` > 0."""
+    for name, value, least, most in (("max_iters", max_iters, 1, MAX_ITERS), ("restarts", restarts, 0, MAX_RESTARTS)):
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or not least <= value <= most:
+            raise IKOptionError(f"{name} must be a whole number from {least} to {most}, got {repr_text(value)}")
     if not (isinstance(damping, numbers.Real) and math.isfinite(damping) and damping > 0.0):
         raise IKOptionError(f"damping must be a positive number, got {damping}")

@@ -47,6 +47,7 @@ from manipkit.kinematics.chain import (
 )
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
+from manipkit.kinematics.tool_frame import choose_tool_frame
 from manipkit.text import repr_text, short_text
 
 __all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Mimic", "Robot", "load"]
@@ -320,23 +321,21 @@ class Robot:
         return sample_between(*bounds, n, seed)
 
     def _choose_ee(self, declared: str | None) -> tuple[str, str]:
-        if EE_ALIAS in self._frame_ids:
-            return EE_ALIAS, "the robot's ee_link"
-        if declared and declared in self._frame_ids:
-            return declared, f"{declared}, the end effector declared for {self.source.name}"
-        # Tip of the longest chain: most movable joints above it, then most frames above it. Counted in one
-        # pass, without a cap: Pinocchio adds a frame after its parent, so a parent's count is known first.
-        frames_above = [0] * len(self.model.frames)
-        for frame_id, frame in enumerate(self.model.frames):
-            parent = frame.parentFrame
-            frames_above[frame_id] = frames_above[parent] + 1 if 0 < parent < frame_id else 0
-
-        def depth(frame_id: int) -> tuple[int, int]:
-            return len(self.model.supports[self.model.frames[frame_id].parentJoint]), frames_above[frame_id]
-
-        tip = max((self._frame_ids[n] for n in self.frame_names), key=depth)
-        name = self.model.frames[tip].name
-        return name, f"{name}, the tip of the longest chain (no ee_link declared)"
+        """The link ``ee_link`` means and why (:mod:`manipkit.kinematics.tool_frame`), from the link tree."""
+        frames = self.model.frames
+        links = [i for i, f in enumerate(frames) if f.type == pin.FrameType.BODY and f.name != "universe"
+                 and self._frame_ids.get(f.name) == i]
+        index = {frame_id: k for k, frame_id in enumerate(links)}
+        parents, movable = [], []
+        for frame_id in links:
+            parent, moves = frames[frame_id].parentFrame, False
+            while parent > 0 and parent not in index:  # up through the joint frame(s) to the parent link
+                moves = moves or frames[parent].type == pin.FrameType.JOINT
+                parent = frames[parent].parentFrame
+            parents.append(index.get(parent, -1) if parent != frame_id else -1)
+            movable.append(moves)
+        names = [frames[i].name for i in links]
+        return choose_tool_frame(names, parents, movable, declared=declared, source=self.source.name)
 
     # ------------------------------------------------------------------
     # Joint vectors

@@ -205,7 +205,7 @@ def compare_transform(T_model, T_hand, *, tol: float = 1e-6, hint_tol: float = 1
     'the hand matrix is the inverse of the model: the opposite direction (T_b_a, the pose of a in b, instead of T_a_b)'
     """
     T_model = as_transforms(T_model, "T_model")
-    T_hand = as_float_array(T_hand, "T_hand")  # a ragged or non-numeric matrix: one line, before its shape is read
+    T_hand = as_float_array(T_hand, "T_hand", finite=False)  # a ragged or non-numeric matrix: one line, before its shape is read
     if T_hand.shape == (3, 3) and T_model.shape == (4, 4):
         return _compare_rotation(T_model, T_hand, tol, hint_tol)
     T_hand = as_transforms(T_hand, "T_hand")
@@ -264,7 +264,7 @@ def _diagnose(T_model: np.ndarray, T_hand: np.ndarray, tol: float) -> list[str]:
     R, t = T_model[:3, :3], T_model[:3, 3]
     R_hand, t_hand = T_hand[:3, :3], T_hand[:3, 3]
     last_row_ok = close(T_hand[3], [0.0, 0.0, 0.0, 1.0])
-    inverse = invert_transform(T_model)
+    inverse = invert_transform(T_model, check=False)
 
     # whole-matrix mistakes, most specific first
     if close(T_hand, inverse):

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from manipkit.errors import InvalidRotationError
-from manipkit.text import near_text
+from manipkit.text import near_text, repr_text
 
 __all__ = [
     "as_float_array", "as_rotation_matrices", "axis_angle_from_matrix", "check_rotation", "matrix_from_axis_angle",
@@ -41,12 +41,18 @@ AXIS_NAMES = ("x", "y", "z")
 # input handling
 
 
-def as_float_array(value, what: str) -> np.ndarray:
-    """``value`` as a float array, or :class:`InvalidRotationError` in one line naming ``what`` (ragged or not numbers)."""
+def as_float_array(value, what: str, *, finite: bool = True) -> np.ndarray:
+    """``value`` as a float array, or :class:`InvalidRotationError` in one line naming ``what``
+    (ragged, not numbers, too large for a float; with ``finite`` (default), NaN or infinite: for angles,
+    axes and vectors a rotation is built from; matrices checked later say what is wrong themselves)."""
     try:
         array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidRotationError(f"{what} must be numeric, got {value!r:.80}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidRotationError(f"{what} must be finite numbers, got {repr_text(value, 80)}") from None
+    if finite and not np.isfinite(array).all():
+        bad = np.argwhere(~np.isfinite(array))[0]
+        where = f"{what}[{', '.join(str(int(i)) for i in bad)}]" if array.ndim else what
+        raise InvalidRotationError(f"{where} is {array[tuple(bad)]}; give finite numbers")
     return array
 
 
@@ -79,7 +85,7 @@ def vectors_or_parts(first, rest: dict, what: str) -> np.ndarray:
 
 def as_rotation_matrices(value, what: str = "R") -> np.ndarray:
     """``value`` as a float array of shape (..., 3, 3) (not checked for orthonormality), else a one-line error."""
-    array = as_float_array(value, what)
+    array = as_float_array(value, what, finite=False)
     if array.ndim < 2 or array.shape[-2:] != (3, 3):
         raise InvalidRotationError(f"{what} must have shape (..., 3, 3), got {array.shape}")
     return array

@@ -93,12 +93,15 @@ def transform_from_xyz_quaternion(xyz, quaternion) -> np.ndarray:
     return T
 
 
-def invert_transform(T) -> np.ndarray:
+def invert_transform(T, *, check: bool = True, tol: float = 1e-6) -> np.ndarray:
     """``T_b_a`` from ``T_a_b``: ``[[R^T, -R^T t], [0, 0, 0, 1]]``, for shape (..., 4, 4).
 
     Uses the rigid structure (no general matrix inverse), so ``T`` must be a
-    homogeneous transform; check it first with :func:`check_transform` when it
-    comes from a user.
+    homogeneous transform: with ``check`` (default) every one is checked
+    (finite, last row ``[0 0 0 1]``, ``R^T R = I`` and ``det R = 1`` within
+    ``tol``) and :class:`InvalidTransformError` names the first that is not
+    (``diag(2, 2, 2, 1)`` is a scaling, whose inverse this is not).
+    ``check=False`` is for transforms made by forward kinematics.
 
     Examples
     --------
@@ -106,13 +109,30 @@ def invert_transform(T) -> np.ndarray:
     >>> np.allclose(invert_transform(T) @ T, np.eye(4))
     True
     """
-    T = np.asarray(T, dtype=float)
+    T = as_transforms(T, "T") if check else np.asarray(T, dtype=float)
+    if check:
+        _check_rigid(T, tol)
     R_t = np.swapaxes(T[..., :3, :3], -1, -2)
     inverse = np.zeros_like(T)
     inverse[..., :3, :3] = R_t
     inverse[..., :3, 3] = -(R_t @ T[..., :3, 3, None])[..., 0]
     inverse[..., 3, 3] = 1.0
     return inverse
+
+
+def _check_rigid(T: np.ndarray, tol: float) -> None:
+    """InvalidTransformError naming the first of the stack ``T`` (..., 4, 4) that is not a rigid transform."""
+    with np.errstate(all="ignore"):
+        R = T[..., :3, :3]
+        gram = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2), initial=0.0)
+        last = np.abs(T[..., 3, :] - [0.0, 0.0, 0.0, 1.0]).max(axis=-1, initial=0.0)
+        good = np.isfinite(T).all(axis=(-1, -2)) & (gram <= tol) & (last <= tol) & (np.linalg.det(R) > 0)
+    if not good.all():
+        index = tuple(int(i) for i in np.argwhere(~good)[0])
+        where = f"T[{', '.join(map(str, index))}]" if index else "T"
+        problems = transform_violations(T[index], tol=tol)
+        more = f" (and {len(problems) - 1} more problems)" if len(problems) > 1 else ""
+        raise InvalidTransformError(f"{where} is not a rigid transform: {problems[0]}{more}")
 
 
 # --------------------------------------------------------------------------

@@ -32,7 +32,7 @@ import warnings
 
 from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser, warn
 from manipkit.app.cli.tf import run_tf, tf_parser
-from manipkit.errors import ManipkitError
+from manipkit.errors import ManipkitError, OutputError
 from manipkit.outputs import cannot_write
 from manipkit.text import printable, printable_lines
 
@@ -71,7 +71,7 @@ def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
     (status 2), and a reader that went away (``| head -1``) ends the command
     quietly with status 0.
     """
-    stdout = sys.stdout
+    stdout = sys.stdout  # None when the process was started with stdout closed (``>&-``)
     sys.stdout = _GuardedStdout(stdout)
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
@@ -90,7 +90,7 @@ def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
         sys.stdout.flush()  # inside the try: a write that fails shows here, not at interpreter exit
         return status
     except ManipkitError as exc:
-        print(f"{parser.prog}: error: {printable(' '.join(str(exc).split()))}", file=sys.stderr)
+        _tell(f"{parser.prog}: error: {printable(' '.join(str(exc).split()))}")
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 130
@@ -98,15 +98,20 @@ def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
         return EXIT_OK
     except Exception as exc:  # a bug: short message, no traceback, exit 1
         detail = printable(" ".join(str(exc).split())[:300])
-        print(
+        _tell(
             f"{parser.prog}: internal error ({type(exc).__name__}: {detail}); this is a bug in manipkit, "
-            "please report it with the command line used",
-            file=sys.stderr,
+            "please report it with the command line used"
         )
         return EXIT_INTERNAL
     finally:
         sys.stdout = stdout
         _settle(stdout)
+
+
+def _tell(line: str) -> None:
+    """``line`` on stderr, if the process has one (it may have been started with stderr closed)."""
+    if sys.stderr is not None:
+        print(line, file=sys.stderr)
 
 
 class _GuardedStdout:
@@ -121,6 +126,8 @@ class _GuardedStdout:
         self._stream = stream
 
     def write(self, text: str) -> int:
+        if self._stream is None:
+            raise OutputError("cannot write stdout: it is closed; give the command somewhere to write (> FILE)")
         text = printable_lines(text)
         try:
             return self._stream.write(text)
@@ -133,6 +140,8 @@ class _GuardedStdout:
             raise cannot_write("stdout", exc) from None
 
     def flush(self) -> None:
+        if self._stream is None:
+            return
         try:
             self._stream.flush()
         except BrokenPipeError:
@@ -152,6 +161,8 @@ def _settle(stream) -> None:
     process's stdout at ``/dev/null`` lets it exit quietly (the Python
     docs' advice for SIGPIPE). Only the process's own stdout is redirected.
     """
+    if stream is None:
+        return
     try:
         stream.flush()
     except (OSError, ValueError):  # ValueError: already closed

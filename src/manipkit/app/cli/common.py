@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from manipkit.description.validate import MAX_MAGNITUDE
+from manipkit.bounds import MAX_ANGLE  # the largest angle (rad) a command takes: one rule, manipkit.bounds
 from manipkit.errors import JointLimitError, ManipkitError
 from manipkit.text import number_text, printable, short_text
 
@@ -33,16 +33,20 @@ __all__ = [
     "Parser",
     "UsageError",
     "add_joint_options",
+    "alias_lines",
     "add_robot_options",
     "check_angles",
     "check_precision",
     "check_tolerance",
+    "command_line",
+    "exact_q_words",
     "joint_vector",
     "limit_checked",
     "limit_hint",
     "load_robot",
     "print_json",
     "q_text",
+    "robot_words",
     "warn",
     "xacro_arg_pairs",
 ]
@@ -50,19 +54,21 @@ __all__ = [
 EXIT_OK, EXIT_MISMATCH, EXIT_USAGE = 0, 1, 2
 EXIT_INTERNAL = 1  # a bug (an exception that is not a ManipkitError)
 
-#: Largest angle magnitude (rad) a command takes. Beyond it the spacing of float64 numbers
-#: (1.2e-10 rad at 1e6) grows towards a full turn (at about 1e16), so the angle names no definite
-#: rotation, and printed with fixed decimals it would run to hundreds of digits. The same bound as
-#: every length, angle, limit and mimic factor in a description (one rule:
-#: :data:`manipkit.description.validate.MAX_MAGNITUDE`).
-MAX_ANGLE = MAX_MAGNITUDE
 
 
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors (usage goes to --help, not to every mistake)."""
 
     def error(self, message: str):
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {printable(message)} (see {self.prog} --help)\n")
+
+    def parse_known_args(self, args=None, namespace=None):
+        """As argparse's, except that arguments left over are an error of this parser: of the command that
+        was given them (``manipkit view --view-html``: see ``manipkit view --help``, not ``manipkit --help``)."""
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
 
 
 class UsageError(ManipkitError):
@@ -71,14 +77,20 @@ class UsageError(ManipkitError):
 
 def warn(message: str) -> None:
     """The warnings channel: one ``warning: ...`` line on stderr (stdout stays the answer)."""
-    print(f"warning: {printable(' '.join(str(message).split()))}", file=sys.stderr)
+    if sys.stderr is not None:  # None: started with stderr closed; print(file=None) would write to stdout
+        print(f"warning: {printable(' '.join(str(message).split()))}", file=sys.stderr)
 
 
 def print_json(value) -> None:
-    """``value`` as indented JSON on stdout."""
+    """``value`` as indented JSON on stdout: always valid JSON (no ``NaN`` or ``Infinity``, which JSON has not).
+
+    A value that is not finite is a bug in the command that built ``value``
+    (every answer is finite, or ``null`` where the contract says so): it
+    ends as an internal error, never as invalid JSON.
+    """
     import json
 
-    print(json.dumps(value, indent=2))
+    print(json.dumps(value, indent=2, allow_nan=False))
 
 
 # ----------------------------------------------------------------------
@@ -129,6 +141,52 @@ def load_robot(args, *, mesh_warnings: bool = True) -> Robot:
         if mesh_warnings or message not in robot.mesh_warnings:
             warn(message)
     return robot
+
+
+def robot_words(args, robot: Robot) -> list[str]:
+    """The options that load ``robot`` again as the user loaded it: ``--robot``, every ``--arg`` and ``--package-dir``.
+
+    For the commands manipkit prints for the user to run (``ik``'s check line,
+    the "derived by" line of a DH file): without the xacro arguments and
+    package folders they would load another robot (issue 25: TIAGo with
+    ``--arg ft_sensor:=no-ft-sensor`` answered 2.3 cm away).
+    """
+    words = ["--robot", str(args.robot) if args.robot is not None else robot.source.name]
+    for item in args.arg:
+        words += ["--arg", item]
+    for item in args.package_dir:
+        words += ["--package-dir", item]
+    for item in getattr(args, "allow_read", None) or []:
+        words += ["--allow-read", str(item)]
+    return words
+
+
+def alias_lines(robot: Robot, *frames: str) -> list[str]:
+    """``frame ee_link = tool0, named like an arm tool frame (...)`` for each alias among ``frames``.
+
+    Every output that answers for ``ee_link`` or ``base_link`` names the link
+    it stands for and the rule that chose it (issue 25: ``ik`` printed "frame
+    ee_link" while that was a finger).
+    """
+    lines = []
+    for alias in dict.fromkeys(frames):  # once when both are the same alias
+        resolved = robot.frame(alias)
+        if resolved != alias:
+            reason = robot.ee_reason if alias == "ee_link" else f"{resolved}, the root link"
+            lines.append(f"frame {alias} = {reason}")
+    return lines
+
+
+def command_line(*words) -> str:
+    """``words`` as one shell command line a user can paste (each word quoted where the shell needs it)."""
+    import shlex
+
+    return shlex.join(str(word) for word in words)
+
+
+def exact_q_words(values: dict[str, float]) -> list[str]:
+    """``--q name=value ...`` with every value written exactly (the shortest text that reads back as the same float)."""
+    return ["--q", *(f"{name}={float(value)!r}" for name, value in values.items())]
 
 
 def xacro_arg_pairs(items: list[str]) -> dict[str, str]:

@@ -7,6 +7,7 @@ DH conventions (standard, modified) are in docs/architecture.md.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from manipkit.app.cli.common import (
@@ -16,8 +17,10 @@ from manipkit.app.cli.common import (
     UsageError,
     add_robot_options,
     check_tolerance,
+    command_line,
     load_robot,
     print_json,
+    robot_words,
 )
 from manipkit.outputs import writable_path, write_text
 from manipkit.text import short_text
@@ -54,6 +57,9 @@ def register(commands) -> None:
     from_urdf.add_argument("--base", default="base_link", help="URDF frame of the table's base (default base_link)")
     from_urdf.add_argument("--tip", default="ee_link", help="URDF frame of the table's tool (default ee_link)")
     from_urdf.add_argument("--convention", choices=("standard", "modified"), default="standard")
+    from_urdf.add_argument("--tol", type=float, default=1e-3, metavar="RAD",
+                           help="snap joint axes and angles within RAD of multiples of 90 deg (a description that "
+                                "writes pi as 3.1415926); 0 derives the exact table (default 0.001)")
     from_urdf.add_argument("-o", "--output", type=Path, default=None, metavar="FILE.yaml", help="also save the table")
     from_urdf.set_defaults(run=run_dh_from_urdf)
 
@@ -81,7 +87,7 @@ def run_dh_check(args) -> int:
     from manipkit.dh.check import check_dh
 
     if args.fix is not None:
-        writable_path(args.fix)  # before the robot is loaded
+        writable_path(args.fix, inputs=(args.table, args.robot))  # before the robot is loaded
     path = resolve_dh_table(args.table)
     table = dh.load_dh(path)
     robot = load_robot(args)
@@ -135,7 +141,7 @@ def run_dh_to_urdf(args) -> int:
     from manipkit.description.sources import resolve_dh_table
 
     if args.output is not None:
-        writable_path(args.output)
+        writable_path(args.output, inputs=(args.table,))
     table = dh.load_dh(resolve_dh_table(args.table))
     if args.output is None:
         print(dh.urdf_from_dh(table))
@@ -146,25 +152,46 @@ def run_dh_to_urdf(args) -> int:
 
 
 def run_dh_from_urdf(args) -> int:
-    """Print the DH table of the chain base -> tip (and save it to ``-o`` with a header saying how it was made).
+    """Print the DH table of the chain base -> tip, snapped within ``--tol`` and checked against the URDF.
 
-    ``-o`` is checked before the robot is loaded and written through :mod:`manipkit.outputs`.
+    ``-o`` (checked before the robot is loaded, written through
+    :mod:`manipkit.outputs`) also saves it, with a header saying how it was
+    made: the command that makes it again and how far it is from the URDF.
     """
     from manipkit import dh
-    from manipkit.dh.from_urdf import dh_from_urdf_chain
+    from manipkit.dh.from_urdf import check_snap, derive_dh
 
     if args.output is not None:
-        writable_path(args.output)  # before the robot is loaded
+        writable_path(args.output, inputs=(args.robot,))  # before the robot is loaded
+    check_snap(args.tol, "--tol")
     robot = load_robot(args)
-    table = dh_from_urdf_chain(robot, args.base, args.tip, convention=args.convention)
+    derived = derive_dh(robot, args.base, args.tip, convention=args.convention, snap=args.tol)
+    table, summary = derived.table, snap_summary(derived)
     if args.output is not None:
+        derived_by = command_line("manipkit", "dh", "from-urdf", *robot_words(args, robot), "--base", args.base,
+                                  "--tip", args.tip, "--convention", args.convention, "--tol", repr(args.tol))
         header = (
             f"{table.convention} DH table of {robot.name} from {robot.frame(args.base)} to {robot.frame(args.tip)}, "
             f"rows = joints {', '.join(robot.chain_joints(args.base, args.tip))};\n"
-            f"derived by `manipkit dh from-urdf --robot {args.robot or robot.source.name} --base {args.base} "
-            f"--tip {args.tip} --convention {args.convention}` (exact to the URDF's numbers)"
+            f"derived by `{derived_by}`;\n{summary}"
         )
         write_text(args.output, dh.yaml_from_dh(table, header=header))  # what dh.save_dh writes
         print(f"wrote {args.output}")
     print(dh.format_dh_table(table))
+    print(summary)
     return EXIT_OK
+
+
+def snap_summary(derived) -> str:
+    """What ``dh from-urdf`` snapped and how far the table is from the URDF, in one sentence."""
+    if derived.snap == 0:
+        snapped = "exact (nothing snapped, --tol 0)"
+    elif not derived.moved:
+        snapped = (f"nothing snapped (no axis or angle lay within {short_text(derived.snap)} rad of a multiple of "
+                   "90 deg without being on it)")
+    else:
+        shown = ", ".join(f"{what} by {short_text(math.degrees(angle), 3)} deg" for what, angle in derived.moved[:6])
+        more = f" and {len(derived.moved) - 6} more" if len(derived.moved) > 6 else ""
+        snapped = f"snapped to multiples of 90 deg within {short_text(derived.snap)} rad: {shown}{more}"
+    return (f"{snapped}; the table's FK agrees with the URDF within {short_text(derived.position_error, 2)} m and "
+            f"{short_text(derived.rotation_error, 2)} rad at q = 0 and {derived.samples} random configurations")

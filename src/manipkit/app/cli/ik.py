@@ -24,12 +24,16 @@ from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
     add_robot_options,
+    alias_lines,
     check_angles,
     check_precision,
+    command_line,
+    exact_q_words,
     joint_vector,
     load_robot,
     print_json,
     q_text,
+    robot_words,
 )
 from manipkit.errors import ManipkitError
 from manipkit.text import short_text
@@ -206,9 +210,11 @@ def run_ik(args) -> int:
     closest configuration a numerical search found, which is printed too),
     and the solver's note.
     """
+    from manipkit.kinematics.ik import MAX_RESTARTS
+
     check_precision(args.precision)
-    if args.restarts < 0:
-        raise UsageError(f"--restarts {args.restarts}: give 0 or more")
+    if not 0 <= args.restarts <= MAX_RESTARTS:
+        raise UsageError(f"--restarts {args.restarts}: give a whole number from 0 to {MAX_RESTARTS}")
     robot = load_robot(args)
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
@@ -221,6 +227,11 @@ def run_ik(args) -> int:
         note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
+        joints = robot.chain(args.base, args.frame).n
+        if mode == "pose" and joints < 6:
+            notes.append(f"the chain {args.base} -> {args.frame} has {joints} joint{'s' * (joints != 1)}, fewer than "
+                         "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
+                         "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
         print_json({
             "robot": robot.name,
@@ -239,6 +250,8 @@ def run_ik(args) -> int:
         })
     else:
         print(header)
+        for line in alias_lines(robot, args.base, args.frame):
+            print(line)
         for index, (label, q) in enumerate(answers, start=1):
             print(f"{index}. {('[' + label + '] ') if label else ''}{q_text(robot.as_dict(q), args.precision)}")
         if result.closest is not None:
@@ -248,6 +261,7 @@ def run_ik(args) -> int:
         for note in notes:
             print(f"note: {note}")
         if result.success:
-            print(f"check one with: tf-between {args.base} {args.frame} --robot {args.robot or robot.source.name} --q "
-                  + q_text(robot.as_dict(answers[0][1]), args.precision))
+            check = command_line("tf-between", args.base, args.frame, *robot_words(args, robot),
+                                 *exact_q_words(robot.as_dict(answers[0][1])))
+            print(f"check one with: {check}")
     return EXIT_OK if result.success else EXIT_MISMATCH

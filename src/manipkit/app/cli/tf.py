@@ -24,6 +24,7 @@ from manipkit.app.cli.common import (
     UsageError,
     add_joint_options,
     add_robot_options,
+    alias_lines,
     check_precision,
     check_tolerance,
     joint_vector,
@@ -151,11 +152,7 @@ def _pose_lines(robot: Robot, report: dict, precision: int) -> list[str]:
 
     lines = [f"robot: {robot.name} ({robot.source.path})"]
     lines.append(f"joints (rad/m): {q_text(report['q'], precision) or 'none'}")
-    for alias in dict.fromkeys((report["source"], report["target"])):  # once when both are the same alias
-        resolved = robot.frame(alias)
-        if resolved != alias:
-            note = f" ({robot.ee_reason})" if alias == "ee_link" else " (the root link)"
-            lines.append(f"frame {alias} = {resolved}{note}")
+    lines += alias_lines(robot, report["source"], report["target"])
     lines.append(pose_text(report, precision=precision))
     return lines
 

@@ -33,7 +33,7 @@ def run_tree(args) -> int:
     from manipkit.description.tree import parse_structure
 
     if args.output is not None:
-        writable_path(args.output)
+        writable_path(args.output, inputs=(args.robot,))
     fmt = _tree_format(args.format, args.output)
     robot = load_robot(args)
     description = parse_structure(robot.urdf)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+from manipkit import bounds
 from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
@@ -76,8 +77,7 @@ def _add_length_option(parser) -> None:
 
 
 def _check_length(length: float) -> None:
-    if not (math.isfinite(length) and length > 0):
-        raise UsageError(f"--length {short_text(length)}: give a positive characteristic length in metres")
+    bounds.length(length, "--length", error=UsageError)
 
 
 def parse_axes(text: str):

@@ -49,7 +49,7 @@ def run_view(args) -> int:
     from manipkit.app import viewer
 
     if args.static is not None:
-        writable_path(args.static)  # before the robot is loaded and meshcat started
+        writable_path(args.static, inputs=(args.robot,))  # before the robot is loaded and meshcat started
     robot = load_robot(args, mesh_warnings=False)
     q = joint_vector(robot, args)
     frames = tuple(args.frames)

@@ -32,7 +32,7 @@ def run_workspace(args) -> int:
     if args.samples < 1:
         raise UsageError(f"--samples {args.samples}: give at least 1")
     if args.plot is not None:
-        writable_path(args.plot)  # before the robot is loaded; no folder is ever created
+        writable_path(args.plot, inputs=(args.robot,))  # before the robot is loaded; no folder is ever created
     robot = load_robot(args)
     lengths = planar_link_lengths(robot)
     workspace = planar_workspace(lengths)

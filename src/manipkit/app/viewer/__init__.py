@@ -10,7 +10,8 @@ Four layers, each usable on its own (docs/architecture.md, "app"):
   :class:`MeshcatScene`, a thin adapter that starts a meshcat server and
   draws the placements it is given, with a triad at A and at B.
 - :mod:`.server`: :class:`ViewerServer` serves the control page
-  (``page.html``) and wires it to a state and a scene; :func:`open_view`
+  (``page.html``) and wires it to a state and a scene, answering only that
+  page's own requests (its Host, its Origin, the session token); :func:`open_view`
   starts a view, :func:`write_static` writes a standalone HTML snapshot.
 - :mod:`.notebook`: :func:`notebook_view`, the same view in Jupyter with ipywidgets.
 

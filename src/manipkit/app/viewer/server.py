@@ -5,12 +5,21 @@ server updates the :class:`ViewerState`, answers with the readout and hands
 the new placements to one drawing thread for the :class:`MeshcatScene`.
 :func:`open_view` starts it all; :func:`write_static` saves meshcat's
 standalone page of one pose instead. Conventions: docs/architecture.md.
+
+The server serves its own page and nothing else (docs/architecture.md,
+"The viewer's HTTP server"): it answers only the ``Host`` it was started
+with, refuses requests from another origin, takes writes and state reads
+only with the session's token (embedded in the page) and a JSON body of at
+most ``MAX_BODY_BYTES`` nested at most ``MAX_JSON_DEPTH`` deep, and answers
+every refusal with a one-line JSON error, never a traceback.
 """
 
 from __future__ import annotations
 
 import errno
 import json
+import re
+import secrets
 import threading
 from dataclasses import asdict
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -25,9 +34,21 @@ from manipkit.outputs import writable_path, write_text
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["DEFAULT_PORT", "ViewerServer", "open_view", "page_html", "write_static"]
+__all__ = [
+    "DEFAULT_PORT", "MAX_BODY_BYTES", "MAX_JSON_DEPTH", "TOKEN_HEADER", "ViewerServer", "open_view", "page_html",
+    "write_static",
+]
 
 DEFAULT_PORT = 8700
+#: Largest request body (bytes) the server reads, checked from Content-Length before reading; the page sends < 1 kB.
+MAX_BODY_BYTES = 64 * 1024
+#: Deepest nesting of JSON arrays and objects in a request body (the page's own requests nest 2 deep).
+MAX_JSON_DEPTH = 20
+#: The header that carries the session's token (:attr:`ViewerServer.token`) on writes and state reads.
+TOKEN_HEADER = "X-Manipkit-Token"
+# Sent with every answer: the control page is never framed by another page, and nothing is sniffed.
+_SECURITY_HEADERS = (("X-Content-Type-Options", "nosniff"), ("X-Frame-Options", "DENY"),
+                     ("Content-Security-Policy", "frame-ancestors 'none'"))
 
 
 def _page_template() -> str:
@@ -40,52 +61,198 @@ class _HTTPServer(ThreadingHTTPServer):
     daemon_threads = True
     app: ViewerServer
 
+    def handle_error(self, request, client_address):
+        """A connection that broke while answering (the handler answers every request itself): nothing to print."""
+
+
+class _Refused(Exception):
+    """A request the server does not serve: its HTTP status and a one-line reason (answered as JSON)."""
+
+    def __init__(self, status: int, message: str):
+        super().__init__(message)
+        self.status = status
+
 
 class _Handler(BaseHTTPRequestHandler):
     protocol_version = "HTTP/1.1"  # keep-alive: one connection for a whole drag
     disable_nagle_algorithm = True
-    timeout = 60
     server: _HTTPServer
 
+    def setup(self):
+        self.timeout = self.server.app.read_timeout  # a silent connection (or a body that never comes) ends
+        super().setup()
+
     def do_GET(self):
-        path = self.path.split("?")[0]
-        if path in ("/", "/index.html"):
-            self._send(200, self.server.app.page().encode(), "text/html; charset=utf-8")
-        elif path == "/api/state":
-            self._send_json(200, self.server.app.initial())
-        elif path == "/favicon.ico":
-            self._send(204, b"", "image/x-icon")
-        else:
-            self._send_json(404, {"error": f"no page {path}; the control page is /"})
+        self._answer(self._get)
 
     def do_POST(self):
-        if self.path.split("?")[0] != "/api/update":
-            self._send_json(404, {"error": f"no endpoint {self.path}"})
-            return
+        self._answer(self._post)
+
+    def _answer(self, route) -> None:
+        """Check where the request comes from, route it, and answer; a refusal or a bug is one JSON line, never a traceback."""
         try:
-            length = int(self.headers.get("Content-Length") or 0)
-            body = json.loads(self.rfile.read(length) or b"{}")
-            if not isinstance(body, dict):
-                raise ValueError("expected a JSON object")
-        except ValueError as exc:
-            self._send_json(400, {"error": f"bad request body: {exc}"})
+            self._check_host_and_origin()
+            status, payload = route()
+        except _Refused as exc:  # the body may be unread: answer, then close the connection
+            self._send_json(exc.status, {"error": str(exc)}, close=True)
             return
-        status, answer = self.server.app.update(body)
-        self._send_json(status, answer)
+        except Exception as exc:  # a bug in the viewer: answer it, keep the user's terminal clean
+            self._send_json(500, {"error": f"internal error in the viewer ({type(exc).__name__}); this is a bug in "
+                                           "manipkit, please report it"}, close=True)
+            return
+        if isinstance(payload, bytes):
+            self._send(status, payload, "text/html; charset=utf-8")
+        else:
+            self._send_json(status, payload)
 
-    def _send_json(self, status: int, payload: dict):
-        self._send(status, json.dumps(payload).encode(), "application/json")
+    def _get(self) -> tuple[int, dict | bytes]:
+        path = self.path.split("?")[0]
+        if path in ("/", "/index.html"):
+            return 200, self.server.app.page().encode()
+        if path == "/api/state":
+            self._check_token()
+            return 200, self.server.app.initial()
+        if path == "/favicon.ico":
+            return 204, b""
+        raise _Refused(404, f"no page {_quoted(path)}; the control page is /")
 
-    def _send(self, status: int, body: bytes, content_type: str):
+    def _post(self) -> tuple[int, dict]:
+        path = self.path.split("?")[0]
+        if path != "/api/update":
+            raise _Refused(404, f"no endpoint {_quoted(path)}; the page posts to /api/update")
+        self._check_token()
+        return self.server.app.update(self._json_body())
+
+    def _check_host_and_origin(self) -> None:
+        """The Host the server was started with (no other name: DNS rebinding), and no Origin but its own."""
+        app = self.server.app
+        hosts = self.headers.get_all("Host") or []
+        if len(hosts) != 1 or hosts[0].strip().lower() not in app.hosts:
+            shown = _quoted(hosts[0]) if len(hosts) == 1 else f"{len(hosts)} Host headers"
+            raise _Refused(403, f"host {shown} is not this viewer's; open {app.url}")
+        origins = self.headers.get_all("Origin")
+        if origins is not None and (len(origins) != 1 or origins[0].strip().lower() not in app.origins):
+            raise _Refused(403, f"a request from origin {_quoted(', '.join(origins))} is refused; only the control "
+                                f"page {app.url} may use this viewer")
+
+    def _check_token(self) -> None:
+        given = (self.headers.get(TOKEN_HEADER) or "").strip().encode("latin-1", "replace")
+        if not given:
+            raise _Refused(403, f"no {TOKEN_HEADER} header; only the control page {self.server.app.url} may use this viewer")
+        if not secrets.compare_digest(given, self.server.app.token.encode()):
+            raise _Refused(403, f"wrong {TOKEN_HEADER}; reload the control page {self.server.app.url}")
+
+    def _json_body(self) -> dict:
+        """The request body as a JSON object: ``application/json``, a Content-Length checked before reading, bounded depth."""
+        content_type = self.headers.get_content_type()  # text/plain when missing or malformed
+        if content_type != "application/json":
+            raise _Refused(415, f"Content-Type {_quoted(content_type)}: send application/json")
+        if self.headers.get("Transfer-Encoding"):
+            raise _Refused(411, "a chunked body is not read: send the body with a Content-Length")
+        lengths = self.headers.get_all("Content-Length") or []
+        if not lengths:
+            raise _Refused(411, f"no Content-Length: give the body's size in bytes (at most {MAX_BODY_BYTES})")
+        if len(lengths) != 1 or not re.fullmatch(r"[0-9]{1,20}", lengths[0].strip()):
+            raise _Refused(400, f"Content-Length {_quoted(', '.join(lengths))}: give one number of bytes "
+                                f"from 0 to {MAX_BODY_BYTES}")
+        length = int(lengths[0])
+        if length > MAX_BODY_BYTES:
+            raise _Refused(413, f"a body of {length} bytes is more than this viewer reads ({MAX_BODY_BYTES})")
+        try:
+            raw = self.rfile.read(length)
+        except TimeoutError:
+            raise _Refused(408, f"the body's {length} bytes did not arrive within {self.server.app.read_timeout:g} s") from None
+        if len(raw) != length:
+            raise _Refused(400, f"the body ended after {len(raw)} of its {length} bytes")
+        return _json_object(raw)
+
+    def send_error(self, code, message=None, explain=None):
+        """The standard library's own refusals (a malformed request line, headers too long, an unknown method), as JSON."""
+        reason = message or self.responses.get(code, ("",))[0]
+        self._send_json(code, {"error": f"{code} {reason}"}, close=True)
+
+    def _send_json(self, status: int, payload: dict, *, close: bool = False):
+        self._send(status, json.dumps(payload).encode(), "application/json", close=close)
+
+    def _send(self, status: int, body: bytes, content_type: str, *, close: bool = False):
         self.send_response(status)
         self.send_header("Content-Type", content_type)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
+        for name, value in _SECURITY_HEADERS:
+            self.send_header(name, value)
+        if close:
+            self.send_header("Connection", "close")
+            self.close_connection = True
         self.end_headers()
-        self.wfile.write(body)
+        if getattr(self, "command", None) != "HEAD" and status >= 200 and status not in (204, 304):
+            self.wfile.write(body)
 
-    def log_message(self, format, *args):  # quiet: the terminal shows the URLs, not every request
+    def log_message(self, format, *args):  # quiet: the terminal shows the URLs, not every request (nor a bad one)
         pass
+
+
+def _quoted(text: str, limit: int = 80) -> str:
+    """``text`` quoted for a one-line message, cut at ``limit`` characters (JSON escapes the rest)."""
+    return repr(text[:limit] + ("..." if len(text) > limit else ""))
+
+
+def _json_object(raw: bytes, *, max_depth: int = MAX_JSON_DEPTH) -> dict:
+    """A request body parsed as one JSON object, its nesting checked (without recursion) before it is parsed.
+
+    Raises the viewer's refusal (HTTP 400) for a body that is not UTF-8, nests
+    deeper than ``max_depth``, is not JSON, holds NaN or Infinity, or is not an object.
+    """
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise _Refused(400, f"the body is not UTF-8 (byte {exc.start}): send a JSON object") from None
+    if _json_depth(text, max_depth) > max_depth:
+        raise _Refused(400, f"the body nests arrays and objects more than {max_depth} deep: send a JSON object "
+                            f"nested at most {max_depth} deep")
+
+    def no_constant(name):
+        raise ValueError(f"{name} is not a number JSON allows")
+
+    try:
+        body = json.loads(text, parse_constant=no_constant)
+    except ValueError as exc:  # JSONDecodeError, NaN/Infinity, an integer of more digits than Python converts
+        raise _Refused(400, f"the body is not JSON: {' '.join(str(exc).split())[:120]}") from None
+    if not isinstance(body, dict):
+        kind = {list: "array", str: "string", bool: "boolean", type(None): "null"}.get(type(body), "number")
+        raise _Refused(400, f"the body is a JSON {kind}: send a JSON object")
+    return body
+
+
+_JSON_STRUCTURE = re.compile(r'[\[\]{}"\\]')
+
+
+def _json_depth(text: str, limit: int) -> int:
+    """How deep arrays and objects nest in the JSON ``text`` (brackets inside strings skipped), stopping past ``limit``.
+
+    One pass over the structural characters, no recursion, so any depth is measured in linear time.
+    """
+    depth = deepest = 0
+    in_string, escaped_at = False, -1
+    for match in _JSON_STRUCTURE.finditer(text):
+        char, at = match.group(), match.start()
+        if in_string:
+            if at == escaped_at:  # the character after a backslash
+                continue
+            if char == "\\":
+                escaped_at = at + 1
+            elif char == '"':
+                in_string = False
+        elif char == '"':
+            in_string = True
+        elif char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+            if depth > limit:
+                break
+        elif char in "]}":
+            depth -= 1
+    return deepest
 
 
 _STOP: dict = {}  # tells the drawing thread to end
@@ -101,6 +268,16 @@ class ViewerServer:
     ellipsoid readout (:meth:`ViewerState.snapshot`). A user error answers 400
     with ``{"error": message}`` and the state as it is (a change that failed
     its checks is not applied).
+
+    Only the control page may use it: every request must name one of
+    :attr:`hosts` as its ``Host`` (the address given, 127.0.0.1, localhost or
+    [::1], with the port) and, if it has an ``Origin``, come from one of
+    :attr:`origins`; ``/api/update`` and ``/api/state`` need the session's
+    :attr:`token` (a fresh ``secrets.token_urlsafe``, written into the page)
+    in the ``X-Manipkit-Token`` header, and ``/api/update`` an
+    ``application/json`` body of at most ``MAX_BODY_BYTES`` with a
+    Content-Length, nested at most ``MAX_JSON_DEPTH`` deep. Anything else is
+    refused (403, 404, 408, 411, 413, 415 or 400) with ``{"error": message}``.
 
     The port is bound when the server is created (so a busy port fails before
     anything else starts); :meth:`start` serves it from a thread.
@@ -119,7 +296,18 @@ class ViewerServer:
             raise ViewerError(f"cannot serve on {host}:{port}: {exc.strerror or exc}") from None
         self._httpd.app = self
         self.host, self.port = host, self._httpd.server_address[1]
-        self.url = f"http://{host}:{self.port}/"
+        name = f"[{host}]" if ":" in host else host  # an IPv6 address, as a Host header writes it
+        self.url = f"http://{name}:{self.port}/"
+        #: The Host headers this server answers (lowercase); any other name is refused, so a page whose
+        #: name was rebound to 127.0.0.1 (DNS rebinding) cannot read or drive the view.
+        names = {name.lower(), "127.0.0.1", "localhost", "[::1]"}
+        self.hosts = frozenset({f"{n}:{self.port}" for n in names} | (names if self.port == 80 else set()))
+        #: The Origin headers this server accepts: its own page's, under any of :attr:`hosts`.
+        self.origins = frozenset(f"http://{h}" for h in self.hosts)
+        #: The session's secret: written into the control page, required on writes and state reads.
+        self.token = secrets.token_urlsafe(32)
+        #: Seconds a connection may stay silent (between requests, or within one) before it is closed.
+        self.read_timeout = 60.0
         self.state: ViewerState | None = None
         self.scene: MeshcatScene | None = None
         self.visual = None
@@ -215,8 +403,8 @@ class ViewerServer:
             }
 
     def page(self) -> str:
-        """The control page with the initial state (:func:`page_html`)."""
-        return page_html(self.initial())
+        """The control page with the initial state and the session's token (:func:`page_html`)."""
+        return page_html(self.initial(), token=self.token)
 
     def update(self, body: dict) -> tuple[int, dict]:
         """Apply a change from the page; (HTTP status, answer).
@@ -230,6 +418,9 @@ class ViewerServer:
         with self._lock:
             state = self.state
             try:
+                unknown = sorted(set(body) - {"reset", "q", "frames", "overlay"})
+                if unknown:
+                    raise OptionError(f"unknown key {unknown[0]!r:.80} in the update: give any of reset, q, frames, overlay")
                 values, frames = body.get("q") or {}, body.get("frames")
                 if not isinstance(values, dict):
                     raise JointValueError("q: expected {joint name: value}")
@@ -238,7 +429,7 @@ class ViewerServer:
                 state.set_joints(values)
                 if frames is not None:
                     if not isinstance(frames, list) or len(frames) != 2:
-                        raise OptionError(f"frames: expected [A, B], got {frames!r}")
+                        raise OptionError(f"frames: expected [A, B], got {frames!r:.80}")
                     state.set_frames(*frames)
                 overlay = body.get("overlay")
                 if overlay is not None:
@@ -251,8 +442,8 @@ class ViewerServer:
             return 200, state.snapshot()
 
 
-def page_html(initial: dict) -> str:
-    """The control page (``page.html``) with ``initial`` as its JSON state block.
+def page_html(initial: dict, *, token: str = "") -> str:
+    """The control page (``page.html``) with ``initial`` as its JSON state block and ``token`` in its meta tag.
 
     Robot, link and joint names are user text: the JSON goes into a
     ``<script type="application/json">`` block with ``<``, ``>`` and ``&``
@@ -264,7 +455,10 @@ def page_html(initial: dict) -> str:
     data = json.dumps(initial)
     for char, escape in (("&", "\\u0026"), ("<", "\\u003c"), (">", "\\u003e")):
         data = data.replace(char, escape)
-    return _page_template().replace("{{STATE_JSON}}", data)
+    if not re.fullmatch(r"[A-Za-z0-9_-]*", token):
+        raise ViewerError(f"token {token!r:.40}: give letters, digits, '-' and '_' only (secrets.token_urlsafe)")
+    fills = {"STATE_JSON": data, "TOKEN": token}  # one pass: a name that reads {{TOKEN}} stays a name
+    return re.sub(r"\{\{(STATE_JSON|TOKEN)\}\}", lambda match: fills[match.group(1)], _page_template())
 
 
 def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, port: int = DEFAULT_PORT,

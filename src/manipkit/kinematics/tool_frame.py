@@ -1,0 +1,124 @@
+"""Which link ``ee_link`` means on a robot that has no link of that name: the arm's tool frame.
+
+The rule, in order (the first that applies wins; :func:`choose_tool_frame`):
+
+1. a link named ``ee_link`` (the bundled textbook arms);
+2. the end effector the robot's source declares (example-robot-data's);
+3. a link named the way users name an arm's tool frame (:data:`TOOL_FRAME_NAMES`:
+   ``tool0``, ``flange``, ``*_tcp``, ``*_hand_tcp``, ``end_effector_link``,
+   ``*_ee_link``, ``link_eef``, ``*_tool_link``, ``*_tool_frame``,
+   ``*_grasping_frame``, ``*_gripper_tip``, ``*_hand``): of several, the one
+   farthest down the arm (most movable joints above it, then most links),
+   so a gripper's TCP wins over the flange it hangs from; a tie is broken
+   by the order of the list, then by name;
+4. the last link before the tree splits into fingers: going up from the tip
+   of the longest chain, the first link with two or more branches that hold
+   movable joints, each of at most :data:`FINGER_JOINTS` joints and shorter
+   than the arm above it (a gripper's palm, not a mobile base);
+5. the tip of the longest chain.
+
+A finger is never chosen by rule 3 or 4: on a real arm with a gripper the
+tip of the longest chain is a finger (``panda_leftfinger``,
+``l_gripper_finger_link``), which is the wrong answer to "where is my tool".
+Every output that uses the choice names the link and the rule
+(:attr:`Robot.ee_reason <manipkit.kinematics.robot.Robot>`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+
+__all__ = ["FINGER_JOINTS", "TOOL_FRAME_NAMES", "choose_tool_frame"]
+
+#: Link names of an arm's tool frame, as regular expressions on the name after its last ``/``
+#: (Interbotix writes ``wx250s/ee_gripper_link``), in the order that breaks a tie.
+TOOL_FRAME_NAMES = (
+    r"(.*_)?hand_tcp", r"(.*_)?tcp", r"(.*_)?grasping_frame", r"(.*_)?gripper_tip", r"(.*_)?tool_frame",
+    r"ee_gripper_link", r"tool0", r"(.*_)?tool_link", r"(.*_)?ee_link", r"end_effector_link", r"(.*_)?link_eef",
+    r"(.*_)?eef", r"(.*_)?flange", r"(.*_)?hand",
+)
+_PATTERNS = tuple(re.compile(pattern, re.IGNORECASE) for pattern in TOOL_FRAME_NAMES)
+_SHOWN = "tool0, flange, *_tcp, *_tool_link, link_eef, ..."
+
+#: Most movable joints a branch may hold and still count as a finger (a hand's finger has 3 or 4).
+FINGER_JOINTS = 4
+
+
+def choose_tool_frame(
+    names: Sequence[str], parents: Sequence[int], movable: Sequence[bool], *, declared: str | None = None,
+    source: str = "the description",
+) -> tuple[str, str]:
+    """(link name, the reason in words) of the link ``ee_link`` means, by the rule in the module docstring.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The links, in an order where a parent comes before its children.
+    parents : sequence of int
+        Index of each link's parent link in ``names`` (-1 for the root).
+    movable : sequence of bool
+        Whether the joint from the parent to each link moves (False for the root and fixed joints).
+    declared : str, optional
+        The end effector the robot's source declares.
+
+    Examples
+    --------
+    >>> names = ["base", "link1", "flange", "tool0", "palm", "left_finger", "right_finger"]
+    >>> choose_tool_frame(names, [-1, 0, 1, 2, 3, 4, 4], [False, True, True, False, False, True, True])
+    ('tool0', 'tool0, named like an arm tool frame (tool0, flange, *_tcp, *_tool_link, link_eef, ...)')
+    """
+    if "ee_link" in names:
+        return "ee_link", "the robot's ee_link"
+    if declared and declared in names:
+        return declared, f"{declared}, the end effector declared for {source}"
+    joints_above = [0] * len(names)
+    links_above = [0] * len(names)
+    for i, parent in enumerate(parents):
+        if parent >= 0:
+            joints_above[i] = joints_above[parent] + bool(movable[i])
+            links_above[i] = links_above[parent] + 1
+
+    def depth(i: int) -> tuple[int, int]:
+        return joints_above[i], links_above[i]
+
+    named = []
+    for i, name in enumerate(names):
+        rank = next((k for k, pattern in enumerate(_PATTERNS) if pattern.fullmatch(name.rsplit("/", 1)[-1])), None)
+        if rank is not None:
+            named.append((depth(i), -rank, _reverse(name), i))
+    if named:
+        i = max(named)[3]
+        others = [names[j] for *_, j in named if j != i and depth(j) == depth(i)]
+        tie = f"; also {', '.join(sorted(others)[:3])} at the same depth (--tip chooses)" if others else ""
+        return names[i], f"{names[i]}, named like an arm tool frame ({_SHOWN}){tie}"
+    tip = max(range(len(names)), key=depth)
+    palm = _finger_split(tip, parents, movable, joints_above)
+    if palm is not None:
+        return names[palm], f"{names[palm]}, the last link before the tree splits into fingers"
+    return names[tip], f"{names[tip]}, the tip of the longest chain (no tool frame named)"
+
+
+def _reverse(name: str) -> tuple[int, ...]:
+    """A key that sorts names in reverse order under ``max`` (so the first name alphabetically wins a tie)."""
+    return tuple(-ord(c) for c in name)
+
+
+def _finger_split(tip: int, parents: Sequence[int], movable: Sequence[bool], joints_above: Sequence[int]) -> int | None:
+    """The first link up from ``tip`` whose branches with movable joints are two or more, each a finger."""
+    n = len(parents)
+    deepest = list(joints_above)  # most movable joints above any link in each link's subtree
+    for i in range(n - 1, -1, -1):  # children come after their parents
+        if parents[i] >= 0:
+            deepest[parents[i]] = max(deepest[parents[i]], deepest[i])
+    children: list[list[int]] = [[] for _ in range(n)]
+    for i, parent in enumerate(parents):
+        if parent >= 0:
+            children[parent].append(i)
+    link = parents[tip]
+    while link >= 0:
+        branches = [deepest[c] - joints_above[link] for c in children[link] if deepest[c] > joints_above[link]]
+        if len(branches) >= 2:  # fingers: short branches at the end of a longer arm (not a base's wheels and arm)
+            return link if max(branches) <= min(FINGER_JOINTS, joints_above[link] - 1) else None
+        link = parents[link]
+    return None
