@@ -311,3 +311,14 @@ def test_a_tree_image_beyond_its_bound_is_refused_with_the_numbers_before_drawin
 
 def test_the_bounds_leave_room_for_real_values():
     assert MAX_INT_BITS >= 1000 and MAX_SIZE >= 1_000_000 and MAX_VALUE_DEPTH >= 20 and MAX_YAML_BYTES >= 64 * 1024
+
+
+def test_a_chain_of_lazy_iterators_through_properties_is_bounded_like_a_container():
+    table = _table({})
+    chain = evaluate_expression("python.zip([1])", table)
+    with pytest.raises(DescriptionError, match=f"python.zip\\(...\\) would be nested more than {MAX_VALUE_DEPTH} "
+                       "levels deep"):
+        for _ in range(MAX_VALUE_DEPTH):  # each wraps the one before, as a chain of properties would
+            dict.__setitem__(table, "p", chain)
+            chain = evaluate_expression("python.zip(p)", table)
+    assert evaluate_expression("python.list(python.map(python.abs, [-1, 2]))", table) == [1, 2]

@@ -93,6 +93,7 @@ def measure(value: object, limit: int = MAX_SIZE) -> tuple[int, int, int]:
             bits = max(bits, item.bit_length())
         else:
             total += 1
+            deepest = max(deepest, depth + getattr(item, "nesting", 0))  # a lazy python.map/zip/...: its own count
         if total > limit or deepest > MAX_VALUE_DEPTH:
             break
     return total, deepest, bits

@@ -169,10 +169,13 @@ class _BoundedIterator:
     budget is checked at every item.
     """
 
-    __slots__ = ("_items", "_size", "_name")
+    __slots__ = ("_items", "_size", "_name", "nesting")
 
-    def __init__(self, items, name: str):
+    def __init__(self, items, name: str, nesting: int = 1):
         self._items, self._size, self._name = items, 0, name
+        #: How deeply lazy objects and values are nested inside this one (a chain of ``python.zip(p)`` through
+        #: properties would be a chain of iterators, freed recursively): measured like a container's depth.
+        self.nesting = nesting
 
     def __iter__(self):
         return self
@@ -189,7 +192,11 @@ class _BoundedIterator:
 
 def _bounded_lazy(function):
     def bounded(*args, **kwargs):
-        return _BoundedIterator(function(*args, **kwargs), function.__name__)
+        nesting = 1 + max((measure(a)[1] for a in (*args, *kwargs.values())), default=0)
+        if nesting > MAX_VALUE_DEPTH:
+            raise refusal(f"python.{function.__name__}(...) would be nested more than {MAX_VALUE_DEPTH} levels deep "
+                          "(lazy values inside each other; the limit)")
+        return _BoundedIterator(function(*args, **kwargs), function.__name__, nesting)
 
     bounded.__name__ = function.__name__
     return bounded
