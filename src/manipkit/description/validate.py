@@ -17,9 +17,12 @@ would be valid.
 Some problems do not make the kinematics wrong; they are returned as
 warnings instead (:attr:`CheckedURDF.warnings`): a non-unit joint axis (it is
 normalised in the returned text), a revolute or prismatic joint whose limits
-leave it no motion, an inertia tensor that is not positive semi-definite, and
-mesh files that do not exist (``package://``, ``file://`` or a path beside the
-description; :func:`package_uri_warnings`; only the viewer needs the meshes).
+leave it no motion, an inertia tensor that is not positive semi-definite, a
+mimic joint that leaves its own limits over its leader's, and mesh files that
+do not exist or lie outside what the description may read (``package://``,
+``file://`` or a path beside the description; :func:`package_uri_warnings`;
+only the viewer needs the meshes). At most :data:`MAX_WARNINGS` are kept, then
+a count (:func:`cap_warnings`).
 """
 
 from __future__ import annotations
@@ -167,7 +170,11 @@ def check_urdf(
         URDF needs one (origins, axes, limits, dynamics, calibration, safety
         controller, mimic, mass, inertia, geometry sizes, colours); a
         negative mass or size; a ``<mimic>`` of a joint that does not exist or of itself (a warning);
-        a ``<visual>``/``<collision>`` without a known geometry.
+        a ``<visual>``/``<collision>`` without a known geometry; more than :data:`MAX_LINKS` links or
+        joints (counted first); a length, angle, limit, mimic multiplier or offset or mesh scale beyond
+        :data:`manipkit.bounds.MAX_LENGTH` / ``MAX_ANGLE`` (1e6); a link, joint or robot name holding a
+        control, C1, line-separator or bidirectional character (:data:`manipkit.text.UNPRINTABLE`).
+        A mimic joint that leaves its own limits over its leader's is a warning.
     """
     return _Checker(where, locate).run(text)
 
