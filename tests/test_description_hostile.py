@@ -202,6 +202,12 @@ def test_allow_read_lets_the_description_read_a_folder(outside):
     assert robot.allow_read == (outside / "secret",)
 
 
+def test_allow_read_given_as_one_string_is_one_folder_not_its_characters(outside):
+    path = _xacro_with(outside / "desc", "", "${xacro.load_yaml('/etc/passwd')}")
+    with pytest.raises(ReadNotAllowedError, match="/etc/passwd is outside"):
+        describe(resolve_robot(path), allow_read=str(outside / "secret"))  # tuple("/...") would allow "/"
+
+
 def test_an_include_outside_the_description_is_refused_and_a_package_is_allowed(outside):
     path = _xacro_with(outside / "desc", '<xacro:include filename="../secret/part.xacro"/>\n')
     with pytest.raises(ReadNotAllowedError, match=r"arm.urdf.xacro:3: xacro:include: .*secret/part.xacro is outside"):

@@ -77,14 +77,14 @@ class ReadPolicy:
         The top-level description file (always readable).
     resolver : PackageResolver, optional
         Its packages: the folders it has found (when asked) are readable, and its ``package_dirs``.
-    allow_read : tuple of Path
-        Folders the user allows (``--allow-read``).
+    allow_read : path-like or iterable of path-like
+        Folders the user allows (``--allow-read``), checked by :func:`allowed_folders`.
     """
 
     def __init__(self, description, resolver: PackageResolver | None = None, allow_read: tuple[Path, ...] = ()):
         self.description = Path(description)
         self.resolver = resolver
-        self.allow_read = tuple(allow_read)
+        self.allow_read = allowed_folders(allow_read)  # a folder or several; never a string taken apart
 
     def roots(self) -> list[Path]:
         """The readable folders, as given (symbolic links kept): own tree, packages, allowed folders."""

@@ -132,7 +132,7 @@ class Robot:
         self.name = robot_xml.get("name") or source.name
         self.package_dirs = dict(package_dirs or {})
         #: Folders the description may read besides its own tree and packages (``allow_read`` of :func:`load`).
-        self.allow_read: tuple[Path, ...] = tuple(allow_read)
+        self.allow_read: tuple[Path, ...] = allowed_folders(allow_read)
         #: The xacro arguments the description was expanded with (declared defaults and the given ones).
         self.xacro_args: Mapping[str, str] = MappingProxyType(dict(xacro_args or {}))
         #: Problems found while loading that do not change the kinematics (a normalised axis, a joint
@@ -226,7 +226,7 @@ class Robot:
         warnings = list(checked.warnings)
         near = source.path if source.path.is_file() else None
         resolver = PackageResolver({k: Path(v) for k, v in (package_dirs or {}).items()}, near=near)
-        policy = ReadPolicy(near, resolver, tuple(allow_read)) if near is not None else None
+        policy = ReadPolicy(near, resolver, allow_read) if near is not None else None
         mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate, policy=policy)
         model, messages = build_model(checked.text)
         if model is None:
