@@ -92,10 +92,9 @@ class ReadPolicy:
         real = Path(os.path.realpath(self.description))
         if real != Path(os.path.abspath(self.description)):
             roots.append(description_tree(real))
-        if self.resolver is not None:
+        if self.resolver is not None:  # the packages given, and those resolved for this description so far
             roots += [Path(p) for p in self.resolver.package_dirs.values()]
             roots += list(self.resolver.found().values())
-            roots += list(self.resolver.builtin().values())
         roots += list(self.allow_read)
         return roots
 
