@@ -15,13 +15,17 @@ differences:
   items), ``round`` of an integer to ``-n`` digits, ``sum`` (numbers only),
   ``math.factorial``/``comb``/``perm``/``prod``/``lcm`` (results of at most
   ``MAX_INT_BITS`` bits), ``xacro.tokenize`` (its separators are characters, not a
-  regular expression);
+  regular expression); the lazy ``map``, ``zip``, ``filter``, ``enumerate`` and
+  ``reversed`` count their items and their nesting (``MAX_VALUE_DEPTH``);
 - ``load_yaml`` (:func:`load_yaml`) checks the file first (a regular file of
-  at most ``MAX_YAML_BYTES``, inside what the description may read), reads YAML with PyYAML's safe loader (plain
-  YAML and xacro's unit tags ``!degrees``, ``!radians``, ``!meters``,
-  ``!millimeters``, ``!foot``, ``!inches``; no ``!!python`` tags), and
-  refuses a document whose aliases expand past ``MAX_SIZE`` values and
-  characters.
+  at most :data:`MAX_YAML_BYTES`, inside what the description may read:
+  :mod:`manipkit.description.access`), reads YAML with PyYAML's safe loader
+  (libyaml's parser when installed; plain YAML and xacro's unit tags
+  ``!degrees``, ``!radians``, ``!meters``, ``!millimeters``, ``!foot``,
+  ``!inches``; no ``!!python`` tags; integers of at most ``MAX_INT_BITS``
+  bits), refuses a document whose aliases expand past ``MAX_SIZE`` values and
+  characters or ``MAX_VALUE_DEPTH`` levels, and counts its time against the
+  expression's and the expansion's budgets.
 
 ``$(eval ...)`` has its own names (:func:`eval_lookup`), as in xacro:
 ``true false True False``, ``arg(NAME)``, ``dirname()``, ``env``,
