@@ -328,3 +328,11 @@ def test_a_chain_of_lazy_iterators_through_properties_is_bounded_like_a_containe
             dict.__setitem__(table, "p", chain)
             chain = evaluate_expression("python.zip(p)", table)
     assert evaluate_expression("python.list(python.map(python.abs, [-1, 2]))", table) == [1, 2]
+
+
+def test_a_message_from_a_description_reaches_python_without_terminal_controls(tmp_path):
+    path = _xacro_with(tmp_path, "", "${xacro.fatal('\\x1b[2J\\x1b]0;pwned\\x07\\u202egone')}")
+    with pytest.raises(DescriptionError) as info:
+        describe(resolve_robot(path))
+    message = str(info.value)
+    assert not any(c in message for c in "\x1b\x07\u202e") and "\\x1b[2J\\x1b]0;pwned\\x07\\u202egone" in message
