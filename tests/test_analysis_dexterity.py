@@ -68,7 +68,7 @@ def test_progress_that_is_not_a_callable_is_refused(iiwa14):
     ({"chunk": 0}, "chunk"),
     ({"confidence": 1.0}, "between 0 and 1"),
     ({"axes": "xyz"}, "axes='xyz'"),
-    ({"length": 0.0}, "positive finite"),
+    ({"length": 0.0}, "length 0: give a length in metres from 1e-09"),
 ])
 def test_bad_arguments(planar_2r, kwargs, message):
     with pytest.raises(ManipkitError, match=message):

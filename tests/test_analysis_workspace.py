@@ -8,6 +8,7 @@ the analytic reachable annulus is [|l1 - l2|, l1 + l2] for 2R and
 from __future__ import annotations
 
 import struct
+from pathlib import Path
 from xml.etree import ElementTree
 
 import numpy as np
@@ -112,13 +113,23 @@ def test_plot_planar_workspace_refuses_a_folder(tmp_path):
         plot_planar_workspace([1.0, 1.0], tmp_path, n_samples=10)
 
 
-def test_plot_planar_workspace_reports_a_full_disk(tmp_path):
-    # /dev/full accepts the open and fails every write with ENOSPC, as a full disk does
-    full = tmp_path / "full.png"
-    full.symlink_to("/dev/full")
+def test_plot_planar_workspace_reports_a_full_disk(tmp_path, monkeypatch):
+    # the disk fills while matplotlib writes: one line, the old plot kept, no partial file left beside it
+    import errno
+
+    import matplotlib.figure
+
+    def fill_the_disk(self, target, **kwargs):
+        Path(target).write_bytes(b"\x89PNG half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", fill_the_disk)
+    plot = tmp_path / "plot.png"
+    plot.write_bytes(b"old plot")
     with pytest.raises(OutputError) as caught:
-        plot_planar_workspace([1.0, 1.0], full, n_samples=10)
-    assert str(caught.value) == f"cannot write {full}: No space left on device"
+        plot_planar_workspace([1.0, 1.0], plot, n_samples=10)
+    assert str(caught.value) == f"cannot write {plot}: No space left on device"
+    assert plot.read_bytes() == b"old plot" and [p.name for p in tmp_path.iterdir()] == ["plot.png"]
 
 
 def test_plot_planar_workspace_rejects_an_unknown_format(tmp_path):

@@ -19,7 +19,8 @@ import pytest
 from cli_helper import run_cli
 
 BIN = Path(sys.executable).parent
-HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names.urdf"
+# names holding line breaks are refused at load (issue 26): the loadable copy of hostile_names.urdf
+HOSTILE = Path(__file__).parent / "bad_inputs" / "outputs" / "hostile_names_one_line.urdf"
 
 
 def run_process(command, *args, stdout):

@@ -110,10 +110,34 @@ CASES = {
     "axis_without_xyz": (urdf(*LINKS, joint().replace('<axis xyz="0 0 1"/>', "<axis/>")),
                          "t.urdf:4: joint 'j1' <axis> has no xyz attribute; give xyz=\"1 0 0\""),
     "origin_beyond_any_robot": (urdf(*LINKS, joint(origin="1.7e308 0 0")),
-                                "joint 'j1' <origin> xyz=\"1.7e308 0 0\": 1.7e308 m is no robot dimension; expected |value| <= 1e+06 m"),
+                                "joint 'j1' <origin> xyz=\"1.7e308 0 0\": 1.7e308 m is out of range for a robot; expected |value| <= 1e+06 m"),
     "commas_in_a_vector": (urdf(*LINKS, joint(origin="0,0,1")), "has 1 value; expected 3 finite numbers (m) separated by spaces, not commas"),
     "bad_colour": (urdf(LINKS[0], arm_link('<visual><geometry><box size="1 1 1"/></geometry><material name="m"><color rgba="1 0 0"/></material></visual>'), joint()),
                    "link 'arm' <visual> <material> <color> rgba=\"1 0 0\" has 3 values; expected 4 finite numbers"),
+    # issue 26: names that would forge or drive the output, and numbers beyond any robot (one bound: 1e6)
+    "link_name_with_a_line_break": (urdf(LINKS[0], '<link name="arm&#10;- Translation: [0 0 0]"/>',
+                                         joint(child="arm&#10;- Translation: [0 0 0]")),
+                                    "t.urdf:3: link name 'arm\\x0a- Translation: [0 0 0]': character 4 is U+000A, "
+                                    "a control, line-separator or bidirectional character; a name is one line"),
+    "joint_name_with_a_bidi_override": (urdf(*LINKS, joint(name="j\u202e1")),
+                                        "t.urdf:4: joint name 'j\\u202e1': character 2 is U+202E"),
+    "robot_name_with_a_c1_control": ('<robot name="t&#x9b;2J">\n<link name="a"/>\n</robot>',
+                                     "t.urdf:1: robot name 't\\x9b2J': character 2 is U+009B"),
+    "rpy_beyond_any_angle": (urdf(*LINKS, joint().replace('rpy="0 0 0"', 'rpy="0 0 5e299"')),
+                             "joint 'j1' <origin> rpy=\"0 0 5e299\": 5e299 rad is out of range for a robot; "
+                             "expected |value| <= 1e+06 rad"),
+    "revolute_limit_beyond_any_angle": (urdf(*LINKS, joint(limit='<limit lower="0" upper="5e299" effort="1" velocity="1"/>')),
+                                        "joint 'j1' <limit> upper=\"5e299\": 5e299 rad is out of range"),
+    "mesh_scale_beyond_any_robot": (urdf(LINKS[0], arm_link('<visual><geometry><mesh filename="a.stl" scale="1e300 1 1"/>'
+                                                            '</geometry></visual>'), joint()),
+                                    "link 'arm' <visual> <mesh> scale=\"1e300 1 1\": 1e300 is out of range"),
+    "mimic_multiplier_beyond_any_robot": (urdf(*LINKS, '<link name="c"/>', joint(),
+                                               joint(child="c", name="j2", extra='<mimic joint="j1" multiplier="1e308"/>')),
+                                          "joint 'j2' <mimic> multiplier=\"1e308\": 1e308 is out of range for a robot; "
+                                          "expected |value| <= 1e+06"),
+    "mimic_offset_beyond_any_robot": (urdf(*LINKS, '<link name="c"/>', joint(),
+                                           joint(child="c", name="j2", extra='<mimic joint="j1" offset="1e308"/>')),
+                                      "joint 'j2' <mimic> offset=\"1e308\": 1e308 is out of range"),
 }
 
 
@@ -367,11 +391,20 @@ def test_robot_without_movable_joints_has_batched_fk():
     assert T.shape == (3, 4, 4) and np.all(T[:, :3, 3] == [1, 0, 0])
 
 
-def test_sample_q_with_enormous_limits_stays_finite_and_inside():
+def test_prismatic_limits_of_1e308_are_refused_before_fk_turns_them_into_inf_and_nan():
     limit = '<limit lower="-1e308" upper="1e308" effort="1" velocity="1"/>'
+    with pytest.raises(DescriptionError, match=r"joint 'j1' <limit> lower=\"-1e308\": -1e308 m is out of range "
+                       r"for a robot; expected \|value\| <= 1e\+06 m"):
+        Robot.from_urdf(urdf(*LINKS, joint(kind="prismatic", limit=limit)))
+
+
+def test_sample_q_with_the_largest_limits_stays_finite_and_inside():
+    limit = '<limit lower="-1e6" upper="1e6" effort="1" velocity="1"/>'
     robot = Robot.from_urdf(urdf(*LINKS, joint(kind="prismatic", limit=limit)))
     Q = robot.sample_q(100)
-    assert np.all(np.isfinite(Q)) and np.all(np.abs(Q) <= 1e308)
+    assert np.all(np.isfinite(Q)) and np.all(np.abs(Q) <= 1e6)
+    T = robot.transform("base_link", "arm", [1e6])
+    assert np.all(np.isfinite(T))
 
 
 def test_mimic_of_itself_is_an_error():
@@ -401,13 +434,55 @@ def test_tree_deeper_than_the_limit_is_refused_before_pinocchio_sees_it():
                                  "to 2000 joints deep (Pinocchio's URDF parser recurses once per joint and crashes near 3,800)")
 
 
-def test_depth_is_measured_without_recursion_on_a_tree_of_10000_links():
+def test_depth_is_measured_without_recursion_on_a_tree_of_4999_links():
     import sys
 
     limit = sys.getrecursionlimit()
-    sys.setrecursionlimit(200)  # a recursive walk would fail here long before 10,000 levels
+    sys.setrecursionlimit(200)  # a recursive walk would fail here long before 4,999 levels
     try:
-        with pytest.raises(DescriptionError, match="link 'l10000' is 10000 joints below root 'l0'"):
-            check_urdf(fixed_chain(10_000), "deep.urdf")
+        with pytest.raises(DescriptionError, match="link 'l4999' is 4999 joints below root 'l0'"):
+            check_urdf(fixed_chain(4999), "deep.urdf")
     finally:
         sys.setrecursionlimit(limit)
+
+
+def test_a_mimic_that_leaves_its_own_limits_is_named_in_a_warning():
+    follower = joint(child="c", name="j2", extra='<mimic joint="j1" multiplier="2" offset="0.5"/>')
+    warnings = check_urdf(urdf(*LINKS, '<link name="c"/>', joint(), follower), "t.urdf").warnings
+    assert warnings == ["t.urdf:6: joint 'j2' mimics 'j1' (j2 = 2 * j1 + 0.5): over the leader's limits [-1, 1] it "
+                        "moves over [-1.5, 2.5] rad, outside its own limits [-1, 1] rad (they are not applied: it "
+                        "follows its leader); widen its <limit> to hold that range, or fix the multiplier and offset"]
+
+
+def test_a_mimic_within_its_own_limits_loads_and_follows_its_leader():
+    follower = joint(child="c", name="j2", limit='<limit lower="-1" upper="1" effort="1" velocity="1"/>',
+                     extra='<mimic joint="j1" multiplier="-0.25" offset="0.2"/>')
+    robot = Robot.from_urdf(urdf(*LINKS, '<link name="c"/>', joint(), follower))
+    assert robot.joint_names == ("j1",) and robot.mimic_joints["j2"].multiplier == -0.25 and robot.warnings == ()
+
+
+def test_links_beyond_the_width_bound_are_refused_with_the_numbers_before_pinocchio():
+    from manipkit.description.validate import MAX_LINKS
+
+    lines = ['<link name="l0"/>'] + [f'<link name="l{i}"/>{joint("fixed", "l0", f"l{i}", limit=None, name=f"j{i}")}'
+                                      for i in range(1, MAX_LINKS + 1)]
+    with pytest.raises(DescriptionError, match=f"robot 't' has {MAX_LINKS + 1} links; manipkit loads descriptions "
+                       f"of up to {MAX_LINKS} links and {MAX_LINKS} joints"):
+        Robot.from_urdf(urdf(*lines))
+    assert MAX_LINKS >= 10 * 89  # the largest real description in shared/realworld (TIAGo with its hand) has 89
+
+
+def test_a_flood_of_warnings_is_cut_to_a_count():
+    from manipkit.description.validate import MAX_WARNINGS
+
+    lines = ['<link name="l0"/>'] + [f'<link name="l{i}"/>{joint("revolute", "l0", f"l{i}", axis="0 0 2", name=f"j{i}")}'
+                                      for i in range(1, 51)]
+    warnings = check_urdf(urdf(*lines), "t.urdf").warnings
+    assert len(warnings) == MAX_WARNINGS + 1 and warnings[0].startswith("t.urdf:3: joint 'j1' axis '0 0 2'")
+    assert warnings[-1] == f"t.urdf: ... and {50 - MAX_WARNINGS} more warnings"
+
+
+def test_names_of_printable_unicode_load():
+    robot = Robot.from_urdf(urdf('<link name="Basis_ü"/>', '<link name="アーム/1"/>',
+                                 joint(parent="Basis_ü", child="アーム/1", name="Gelenk 1")))
+    assert robot.joint_names == ("Gelenk 1",)

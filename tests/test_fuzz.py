@@ -931,13 +931,16 @@ def _node(tree: ast.AST) -> ast.AST:
 
 @st.composite
 def clean_leaf(draw):
-    kind = draw(st.sampled_from(["int", "float", "str", "const", "property", "constant", "function"]))
+    kind = draw(st.sampled_from(["int", "float", "str", "const", "property", "constant", "function", "big"]))
     if kind == "int":
         return ast.Constant(draw(st.integers(-1000, 1000))), CLEAN
     if kind == "float":
         return ast.Constant(draw(st.sampled_from([0.5, -2.25, 1e-3, 3.0, 1e308, 0.1]))), CLEAN
     if kind == "str":
         return ast.Constant(draw(LETTERS)), CLEAN
+    if kind == "big":  # a long text or a deep value: what the estimates are for
+        return ast.parse(draw(st.sampled_from(["'x' * 100000", "'é' * 50000", "[[[[[[[[1]]]]]]]]",
+                                                "python.slice(python.slice(1))"])), mode="eval").body, CLEAN
     if kind == "const":
         return ast.Constant(draw(st.sampled_from([True, False, None]))), CLEAN
     if kind == "property":
@@ -969,7 +972,8 @@ def _worst(*parts) -> int:
 def compound(draw, children, forbidden: bool):
     """One node over ``children`` (a strategy of (node, class)); forbidden node types when ``forbidden``."""
     kinds = ["binop", "pow", "shift", "unary", "boolop", "compare", "ifexp", "call", "method", "subscript", "slice",
-             "list", "tuple", "set", "dict", "listcomp", "setcomp", "dictcomp", "genexp", "fstring", "keyword_call"]
+             "list", "tuple", "set", "dict", "listcomp", "setcomp", "dictcomp", "genexp", "fstring", "keyword_call",
+             "slice_object", "int_base", "percent", "format", "load_yaml"]
     if forbidden:
         kinds += ["lambda", "walrus", "matmul", "dunder_attribute", "unsafe_attribute", "format_field",
                   "store_attribute"]
@@ -1032,9 +1036,35 @@ def compound(draw, children, forbidden: bool):
             consumer = draw(st.sampled_from(["list", "sorted", "max", "min"]))
             return ast.Call(ast.Name(consumer, ast.Load()), [ast.GeneratorExp(elt, [loop])], []), one[1]
         return {"listcomp": ast.ListComp, "setcomp": ast.SetComp}[kind](elt, [loop]), one[1]
+    if kind == "slice_object":  # python.slice(...): nested slices are measured like containers (issue 26)
+        parts = [one] + draw(st.lists(children, max_size=2))
+        call = ast.Call(ast.Attribute(ast.Name("python", ast.Load()), "slice", ast.Load()), [p[0] for p in parts], [])
+        return call, _worst(*parts)
+    if kind == "int_base":  # int(text, base): bounded by the text's length before it is parsed
+        digits = ast.Constant(draw(st.text("0123456789abcdefxXoObB_ -", max_size=8)))
+        text = draw(st.sampled_from([digits, one[0], ast.BinOp(digits, ast.Mult(), ast.Constant(
+            draw(st.sampled_from([1, 3, 1000, 100_000]))))]))
+        base = ast.Constant(draw(st.sampled_from([0, 2, 8, 10, 16, 36])))
+        return ast.Call(ast.Name("int", ast.Load()), [text, base], []), one[1] if text is one[0] else CLEAN
+    if kind == "percent":  # '%' formatting of a string: widths and arguments estimated first
+        template = draw(st.sampled_from(["%s", "%r_%s", "%(k)s%(k)s", "%5.2f", "%d%%", "%-8s|", "%s" * 40,
+                                         "%99999999d", "%.3e"]))
+        return ast.BinOp(ast.Constant(template), ast.Mod(), one[0]), one[1]
+    if kind == "format":  # str.format: each field as long as its longest argument, estimated first
+        template = draw(st.sampled_from(["{}", "{0}{0}", "{!r}", "{:>5}", "{0:.3}", "{k}", "{0}" * 40, "{:>123456789}"]))
+        two = draw(children)
+        keywords = [ast.keyword("k", two[0])] if "{k}" in template else []
+        call = ast.Call(ast.Attribute(ast.Constant(template), "format", ast.Load()), [one[0]], keywords)
+        return call, _worst(one, two) if keywords else one[1]
+    if kind == "load_yaml":  # a file of the description's own, one that is missing, and ones outside it
+        name = draw(st.sampled_from(["c.yaml", "missing.yaml", "/etc/passwd", "../outside.yaml", "/dev/zero"]))
+        call = ast.Call(ast.Attribute(ast.Name("xacro", ast.Load()), "load_yaml", ast.Load()), [ast.Constant(name)], [])
+        if draw(st.booleans()):
+            return ast.BinOp(call, ast.Add(), one[0]), max(one[1], DYNAMIC)
+        return call, DYNAMIC
     if kind == "fstring":
-        conversion = draw(st.sampled_from([-1, 115, 114]))
-        spec = ast.JoinedStr([ast.Constant(draw(st.sampled_from([".2f", ">6", "", "^5"])))])
+        conversion = draw(st.sampled_from([-1, 115, 114, 97]))
+        spec = ast.JoinedStr([ast.Constant(draw(st.sampled_from([".2f", ">6", "", "^5", ">12345678", ".0e"])))])
         value = ast.FormattedValue(one[0], conversion, spec if draw(st.booleans()) else None)
         return ast.JoinedStr([ast.Constant(draw(LETTERS)), value]), one[1]
     if kind == "lambda":
@@ -1104,6 +1134,8 @@ def run_expression_case(data, scratch: Path, forbidden: bool) -> None:
     path = scratch / "expression.urdf.xacro"
     if not path.exists():
         path.write_text(EXPRESSION_DESCRIPTION)
+        (scratch / "c.yaml").write_text("k: 1\nl: [1, 2]\n")  # read by xacro.load_yaml('c.yaml')
+        (scratch.parent / "outside.yaml").write_text("secret: hunter2\n")  # outside the description's folder
     source = resolve_robot(path)
     outcome, detail = "value", None
     try:
@@ -1116,6 +1148,7 @@ def run_expression_case(data, scratch: Path, forbidden: bool) -> None:
     except Exception as exc:  # noqa: BLE001 - any other exception is a bug
         raise AssertionError(f"${{{text}}}: uncaught {type(exc).__name__}: {exc}") from exc
     assert not sentinel.exists(), f"${{{text}}} ran code: {sentinel} was created"
+    assert "root:" not in str(detail) and "hunter2" not in str(detail), f"${{{text}}} disclosed a file: {detail}"
     if outcome == "refused":
         assert detail.strip() and "\n" not in detail and "\r" not in detail, f"not one line: {detail!r}"
         assert "xacro expression ${" in detail, detail

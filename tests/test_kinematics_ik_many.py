@@ -86,8 +86,8 @@ def test_one_start_vector_serves_every_target(course_arm):
 def test_time_budget_stops_the_restarts(iiwa14):
     T = np.tile(np.eye(4), (3, 1, 1))
     T[:, 0, 3] = 5.0  # out of reach: every restart fails, only the budget ends the search
-    batch = ik_many(iiwa14, T, restarts=10**7, time_budget=0.002)
-    assert (batch.attempts >= 1).all() and (batch.attempts < 10**7).all()
+    batch = ik_many(iiwa14, T, restarts=10**5, time_budget=0.002)  # 1e5 restarts: seconds of work without the budget
+    assert (batch.attempts >= 1).all() and (batch.attempts < 10**5).all()
     assert not batch.success.any()
 
 

@@ -24,6 +24,7 @@ __all__ = [
     "OptionError",
     "OutputError",
     "PackageNotFoundError",
+    "ReadNotAllowedError",
     "PlanarArmError",
     "SingularityError",
     "UnknownFrameError",
@@ -46,6 +47,11 @@ class DescriptionError(ManipkitError, ValueError):
 
 class PackageNotFoundError(DescriptionError):
     """A ``package://`` URI or ``$(find PKG)`` that resolves to no folder."""
+
+
+class ReadNotAllowedError(DescriptionError):
+    """A file a description asks for (an include, a YAML file, a mesh) outside what it may read
+    (:mod:`manipkit.description.access`)."""
 
 
 class UnknownFrameError(ManipkitError, KeyError):

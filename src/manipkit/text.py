@@ -24,6 +24,7 @@ import re
 from collections.abc import Callable, Iterable
 
 __all__ = [
+    "UNPRINTABLE",
     "near_text",
     "number_text",
     "printable",
@@ -130,6 +131,12 @@ _UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2
 _UNPRINTABLE_IN_LINES = re.compile(
     "[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069\ud800-\udfff]"
 )
+
+
+#: The characters :func:`printable` escapes (C0 and C1 controls, DEL, lone surrogates, line and paragraph
+#: separators, bidirectional controls): ``UNPRINTABLE.search(name)`` finds the first one in a name, for
+#: refusing names that hold one (link, joint and robot names: :mod:`manipkit.description.validate`).
+UNPRINTABLE = _UNPRINTABLE
 
 
 def _escaped(match: re.Match) -> str:

@@ -2,6 +2,7 @@
 
 - :mod:`~manipkit.description.sources`: robot names and paths to description files (:func:`resolve_robot`).
 - :mod:`~manipkit.description.packages`: ROS packages without ROS (:class:`PackageResolver`).
+- :mod:`~manipkit.description.access`: what a description may read (:class:`ReadPolicy`, ``--allow-read``).
 - :mod:`~manipkit.description.xacro`: description files to URDF text (:func:`describe`, :func:`urdf_text`).
 - :mod:`~manipkit.description.validate`: checks before a model is built (:func:`check_urdf`).
 - :mod:`~manipkit.description.meshes`: mesh URIs to files (:func:`mesh_path`); links whose meshes are missing drawn
@@ -26,6 +27,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "resolve_dh_table", "resolve_robot",
     ),
     **homes_of("manipkit.description.packages", "PACKAGE_SCHEME", "PackageResolver", "split_package_uri"),
+    **homes_of("manipkit.description.access", "ReadPolicy"),
     **homes_of(
         "manipkit.description.xacro",
         "XacroExpansion", "describe", "expand_xacro", "urdf_text", "xacro_arg_declarations", "xacro_locator",

@@ -22,14 +22,18 @@ every depth of the tree, in branches that would not run too):
   name starting with ``_``;
 - no lambda, no ``:=``, no ``@``, no ``await``/``yield``, no statements.
 
-What an evaluation may cost: an integer result of ``**``, ``*`` or ``<<``
-has at most :data:`MAX_INT_BITS` bits (``9**9**9`` is refused before it is
-computed), a string or container built has at most :data:`MAX_SIZE`
-characters and items (counted through nesting), a comprehension at most
-:data:`MAX_ITERATIONS` steps, a format string's widths add up to at most
-:data:`MAX_SIZE`, an expression at most :data:`MAX_DEPTH` levels of
-nesting, and an evaluation (with the properties it evaluates on the way) at
-most :data:`TIME_BUDGET_S` seconds.
+What an evaluation may cost (:mod:`manipkit.description.expression_limits`,
+estimated before a value is built wherever it could be large): a string or
+container at most :data:`MAX_SIZE` characters and items (counted through
+nesting, slices included), nested at most :data:`MAX_VALUE_DEPTH` levels, an
+integer at most :data:`MAX_INT_BITS` bits (``9**9**9``, ``int('f' * 10**6, 16)``
+and a 10,000-digit hex literal are refused before they are computed), a
+``%``/``str.format``/f-string text at most :data:`MAX_SIZE` characters
+(estimated from its widths and arguments), a comprehension at most
+:data:`MAX_ITERATIONS` steps, an expression at most :data:`MAX_DEPTH` levels
+of nesting, and an evaluation (with the properties it evaluates and the YAML
+files it reads on the way) at most :data:`TIME_BUDGET_S` seconds, within the
+budget of the whole expansion (:func:`expansion_deadline`).
 
 Every refusal is a :class:`~manipkit.errors.DescriptionError` whose message
 is one line, ``xacro expression ${EXPR}: REASON``; the error carries
@@ -40,18 +44,35 @@ line (:mod:`manipkit.description.xacro`).
 from __future__ import annotations
 
 import ast
+import contextlib
 import html
 import math
 import operator
-import re
-import string
 import time
 from collections.abc import Callable
 
 import simpleeval
 
+from manipkit.description.expression_limits import (
+    MAX_INT_BITS,
+    MAX_SIZE,
+    MAX_VALUE_DEPTH,
+    OPERATORS,
+    bounded_multiply,
+    check_format_string,
+    check_percent_format,
+    check_size,
+    check_text_estimate,
+    checked_call,
+    checked_str_method,
+    measure,
+    spec_width,
+    text_estimate,
+    value_size,
+)
+from manipkit.description.expression_limits import Refused as _Refused
 from manipkit.errors import DescriptionError, ManipkitError
-from manipkit.inputs import MAX_TABLE_BYTES
+from manipkit.text import printable
 
 __all__ = [
     "ALLOWED_SYNTAX",
@@ -59,6 +80,7 @@ __all__ = [
     "MAX_INT_BITS",
     "MAX_ITERATIONS",
     "MAX_SIZE",
+    "MAX_VALUE_DEPTH",
     "TIME_BUDGET_S",
     "ALLOWED_ATTRIBUTES",
     "OPERATORS",
@@ -68,22 +90,21 @@ __all__ = [
     "check_format_string",
     "check_percent_format",
     "check_size",
+    "checked_call",
     "checked_str_method",
     "evaluate",
+    "measure",
     "error_reason",
     "expression_error",
-    "extend_deadline",
+    "check_time",
+    "expansion_deadline",
     "parse_expression",
     "refusal",
     "remaining_time",
+    "text_estimate",
     "value_size",
 ]
 
-#: Most bits of an integer made by ``**``, ``*`` or ``<<`` (about 3,000 digits).
-MAX_INT_BITS = 10_000
-#: Most characters and items of a string or container an expression builds (counted through nesting);
-#: as large as the largest YAML file ``xacro.load_yaml`` reads (``manipkit.inputs.MAX_TABLE_BYTES``).
-MAX_SIZE = MAX_TABLE_BYTES
 #: Most steps of all comprehensions in one expression (simpleeval's own limit).
 MAX_ITERATIONS = simpleeval.MAX_COMPREHENSION_LENGTH
 #: Deepest nesting of an expression's syntax tree.
@@ -113,20 +134,18 @@ _SYNTAX_NAMES = {
 }
 
 
-def expression_error(expression: str, reason: str, *, kind: str = "${") -> DescriptionError:
-    """``DescriptionError("xacro expression ${EXPR}: REASON")``, one line, with ``expression`` and ``reason`` attributes."""
-    shown = " ".join(str(expression).split())
+def expression_error(expression: str, reason: str, *, kind: str = "${",
+                     error_class: type[DescriptionError] = DescriptionError) -> DescriptionError:
+    """``DescriptionError("xacro expression ${EXPR}: REASON")`` (or ``error_class``), one line, with ``expression``
+    and ``reason`` attributes."""
+    shown = printable(" ".join(str(expression).split()))  # text from a description: no terminal controls
     opening, closing = ("${", "}") if kind == "${" else ("$(eval ", ")")
-    error = DescriptionError(f"xacro expression {opening}{shown}{closing}: {' '.join(str(reason).split())}")
+    error = error_class(f"xacro expression {opening}{shown}{closing}: {printable(' '.join(str(reason).split()))}")
     error.expression, error.reason, error.kind = str(expression), " ".join(str(reason).split()), kind
     escaped = html.escape(str(expression), quote=False).replace('"', "&quot;")  # as written in an XML attribute
     error.needles = tuple(dict.fromkeys((f"{opening}{expression}{closing}", f"{opening}{escaped}{closing}",
                                          f"{opening}{expression}", str(expression), escaped)))  # to find its line
     return error
-
-
-class _Refused(Exception):
-    """Internal: an expression is refused for ``reason`` (turned into :func:`expression_error`)."""
 
 
 def refusal(reason: str) -> Exception:
@@ -170,6 +189,9 @@ def parse_expression(expression: str) -> ast.Expression:
             raise _Refused(f"a comprehension assigns to names only, not to '{ast.unparse(node.target)}'")
         if kind is ast.Constant and isinstance(node.value, (str, bytes)) and len(node.value) > MAX_SIZE:
             raise _Refused(f"a literal of {len(node.value)} characters, above the limit of {MAX_SIZE}")
+        if kind is ast.Constant and type(node.value) is int and node.value.bit_length() > MAX_INT_BITS:
+            raise _Refused(f"an integer literal of {node.value.bit_length()} bits, above the limit of "
+                           f"{MAX_INT_BITS} bits")
         stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
     return tree
 
@@ -178,164 +200,6 @@ def parse_expression(expression: str) -> ast.Expression:
 # Sizes and bounded operators
 # --------------------------------------------------------------------------
 
-
-_WORD = 2**63  # an int below this in size counts as one item (1 + bit_length // 64)
-
-
-def value_size(value: object, limit: int = MAX_SIZE) -> int:
-    """Characters plus items of ``value``, counted through nesting (shared parts each time), stopping past ``limit``."""
-    total, stack = 0, [value]
-    while stack:
-        item = stack.pop()
-        if isinstance(item, (str, bytes, bytearray)):
-            total += len(item) or 1
-        elif isinstance(item, dict):
-            total += 1
-            stack.extend(item.keys())
-            stack.extend(item.values())
-        elif isinstance(item, (list, tuple, set, frozenset)):
-            total += 1
-            if all(type(x) is float or (type(x) is int and -_WORD < x < _WORD) for x in item):
-                total += len(item)  # flat numbers count one each: a zip of ranges is millions of these
-            else:
-                stack.extend(item)
-        elif isinstance(item, range):
-            total += len(item)
-        elif isinstance(item, int) and not isinstance(item, bool):
-            total += 1 + item.bit_length() // 64
-        else:
-            total += 1
-        if total > limit:
-            break
-    return total
-
-
-def check_size(value: object, what: str = "the value") -> object:
-    """``value`` if its :func:`value_size` is within :data:`MAX_SIZE`, else ``_Refused``."""
-    if isinstance(value, (str, bytes, list, tuple, dict, set, frozenset)) and value_size(value) > MAX_SIZE:
-        raise _Refused(f"{what} would have more than {MAX_SIZE} characters and items (the limit)")
-    return value
-
-
-def _is_int(value: object) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _bits_refused(left, op: str, right, bits: float) -> _Refused:
-    return _Refused(f"{_short(left)} {op} {_short(right)} would have about {bits:.3g} bits, "
-                    f"above the limit of {MAX_INT_BITS} bits")
-
-
-def _short(value: object) -> str:
-    text = repr(value) if not _is_int(value) or value.bit_length() < 64 else f"<{value.bit_length()}-bit integer>"
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _power(left, right):
-    if _is_int(left) and _is_int(right) and right > 0 and abs(left) > 1:
-        bits = right * left.bit_length()
-        if bits > MAX_INT_BITS:
-            raise _bits_refused(left, "**", right, bits)
-    return left ** right
-
-
-def _repeat_size(sequence, count) -> None:
-    if isinstance(sequence, (str, bytes, list, tuple)) and isinstance(count, int):
-        size = value_size(sequence) * max(int(count), 0)
-        if size > MAX_SIZE:
-            raise _Refused(f"repeating a {type(sequence).__name__} of size {value_size(sequence)} {count} times "
-                           f"would make {size} characters and items, above the limit of {MAX_SIZE}")
-
-
-def _multiply(left, right):
-    if _is_int(left) and _is_int(right):
-        bits = left.bit_length() + right.bit_length()
-        if bits > MAX_INT_BITS:
-            raise _bits_refused(left, "*", right, bits)
-    elif isinstance(right, (int, bool)):
-        _repeat_size(left, right)
-    elif isinstance(left, (int, bool)):
-        _repeat_size(right, left)
-    return left * right
-
-
-def _add(left, right):
-    if not isinstance(left, (int, float, complex)) and not isinstance(right, (int, float, complex)):
-        size = value_size(left) + value_size(right)
-        if size > MAX_SIZE:
-            raise _Refused(f"adding would make {size} characters and items, above the limit of {MAX_SIZE}")
-    return left + right
-
-
-def _shift_left(left, right):
-    if _is_int(left) and _is_int(right) and left and right > 0:
-        bits = left.bit_length() + right
-        if bits > MAX_INT_BITS:
-            raise _bits_refused(left, "<<", right, bits)
-    return left << right
-
-
-def _modulo(left, right):
-    if isinstance(left, (str, bytes)):
-        check_percent_format(left if isinstance(left, str) else left.decode("latin-1"))
-        return check_size(left % right, "the formatted string")
-    return left % right
-
-
-# %[(name)][flags][width][.precision][length]type
-_PERCENT_FIELD = re.compile(r"%(?:\([^)]*\))?[-#0 +]*(\*|\d+)?(?:\.(\*|\d*))?[hlL]?(.?)", re.S)
-
-
-def _width(digits: str | None, what: str) -> int:
-    if not digits:
-        return 0
-    if digits == "*":
-        raise _Refused(f"a '*' width or precision in {what} is not allowed; write the number")
-    if len(digits) > 7:
-        raise _Refused(f"a width or precision of {len(digits)} digits in {what}, above the limit of {MAX_SIZE}")
-    return int(digits)
-
-
-def check_percent_format(fmt: str) -> None:
-    """Refuse a ``%`` format whose widths and precisions add up to more than :data:`MAX_SIZE` (or use ``*``)."""
-    total = 0
-    for match in _PERCENT_FIELD.finditer(fmt):
-        total += _width(match.group(1), "a % format") + _width(match.group(2), "a % format")
-    if total > MAX_SIZE:
-        raise _Refused(f"the widths in a % format add up to {total}, above the limit of {MAX_SIZE}")
-
-
-def _spec_width(spec: str) -> int:
-    if "{" in spec:
-        raise _Refused("a nested {...} inside a format spec is not allowed")
-    return sum(_width(digits, "a format spec") for digits in re.findall(r"\d+", spec))
-
-
-def check_format_string(fmt: str) -> None:
-    """Refuse a ``str.format`` template with attribute or index access in a field, nested specs, or huge widths."""
-    total = 0
-    try:
-        fields = list(string.Formatter().parse(fmt))
-    except ValueError as exc:
-        raise _Refused(f"format string: {exc}") from None
-    for _literal, field, spec, _conversion in fields:
-        if field is None:
-            continue
-        if "." in field or "[" in field:
-            raise _Refused(f"format field '{{{field}}}' is not allowed; a field is empty, a position or a name")
-        total += _spec_width(spec or "")
-    if total > MAX_SIZE:
-        raise _Refused(f"the widths in a format string add up to {total}, above the limit of {MAX_SIZE}")
-
-
-bounded_multiply = _multiply
-
-#: simpleeval's operators, with ``+ * ** << %`` bounded (and ``>>`` plain).
-OPERATORS: dict[type, Callable] = {
-    **simpleeval.DEFAULT_OPERATORS,
-    ast.Add: _add, ast.Mult: _multiply, ast.Pow: _power, ast.LShift: _shift_left, ast.Mod: _modulo,
-    ast.RShift: operator.rshift,  # cannot grow (simpleeval bounds it like <<, with other messages than Python's)
-}
 
 
 # --------------------------------------------------------------------------
@@ -360,34 +224,6 @@ class BoundMethod:
 
     def __repr__(self) -> str:
         return f"<method {self.name}>"
-
-
-def checked_str_method(text: str, name: str) -> Callable:
-    """``text.name`` (an allowed string method), with its arguments checked first where the result could be huge."""
-    method = getattr(text, name)
-
-    def checked(*args, **kwargs):
-        if name in ("center", "ljust", "rjust", "zfill") and args and _is_int(args[0]) and args[0] > MAX_SIZE:
-            raise _Refused(f"str.{name}({args[0]}) would make a string above the limit of {MAX_SIZE} characters")
-        if name == "format":
-            check_format_string(text)
-            return check_size(method(*args, **kwargs), "the formatted string")
-        if name == "replace" and len(args) >= 2 and isinstance(args[1], str):
-            size = len(text) + (len(text) + 1) * len(args[1])
-            if size > MAX_SIZE:
-                raise _Refused(f"str.replace could make {size} characters, above the limit of {MAX_SIZE}")
-        if name == "join" and len(args) == 1 and not kwargs:
-            try:
-                items = list(args[0])
-            except TypeError:
-                raise TypeError("can only join an iterable") from None  # as str.join says it
-            check_size(items, "the joined items")
-            if len(text) * len(items) > MAX_SIZE:
-                raise _Refused(f"str.join would make more than {MAX_SIZE} characters (the limit)")
-            return method(items)
-        return method(*args, **kwargs)
-
-    return checked
 
 
 _STR_METHODS = frozenset((
@@ -416,23 +252,45 @@ ALLOWED_ATTRIBUTES: dict[type, frozenset[str]] = {
 # The evaluator
 # --------------------------------------------------------------------------
 
+class _OutOfExpansionTime(Exception):
+    """Internal: the expansion around the evaluation is out of time (a plain DescriptionError: no one expression
+    is to blame)."""
+
+
+# Budgets are CPU time of the expanding thread (time.thread_time), not wall time: a loaded machine (a test run
+# beside others, a laptop on battery) must not make a valid description fail; a description that computes
+# forever still uses CPU and is stopped.
 _deadline: list[float] = []  # the deadline of the outermost evaluation under way (nested ones share it)
+_outer: list[tuple[float, str]] = []  # (deadline, reason) of the expansion under way (expansion_deadline)
 
 
 def remaining_time() -> float:
     """Seconds left in the evaluation under way (``inf`` when none is)."""
-    return _deadline[0] - time.monotonic() if _deadline else math.inf
+    return _deadline[0] - time.thread_time() if _deadline else math.inf
 
 
-def extend_deadline(seconds: float) -> None:
-    """Give the evaluation under way ``seconds`` more (time spent reading a file, bounded by its size)."""
-    if _deadline:
-        _deadline[0] += seconds
+@contextlib.contextmanager
+def expansion_deadline(deadline: float, reason: str):
+    """Within this block no evaluation runs past ``deadline`` (``time.thread_time()``), refused with ``reason``:
+    the budget of a whole expansion, which every evaluation (and every YAML file read) counts against."""
+    _outer.append((deadline, reason))
+    try:
+        yield
+    finally:
+        _outer.pop()
 
 
 def _check_time() -> None:
-    if _deadline and time.monotonic() > _deadline[0]:
+    now = time.thread_time()
+    if _outer and now > _outer[-1][0]:  # the expansion's budget first: it is the one that ends everything
+        raise _OutOfExpansionTime(_outer[-1][1])
+    if _deadline and now > _deadline[0]:
         raise _Refused(f"evaluation took more than {TIME_BUDGET_S:g} s (the time budget)")
+
+
+def check_time() -> None:
+    """Refuse (``_Refused``) once the evaluation under way, or the expansion around it, is out of time."""
+    _check_time()
 
 
 class _Evaluator(simpleeval.EvalWithCompoundTypes):
@@ -568,17 +426,25 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
                 kwargs.update(self._eval(keyword.value))
             else:
                 kwargs[keyword.arg] = self._eval(keyword.value)
+        checked_call(function, args, kwargs)
         return check_size(function(*args, **kwargs), f"the result of {ast.unparse(node.func)}()")
 
     def _eval_joinedstr(self, node):
-        return check_size("".join(str(self._eval(value)) for value in node.values), "the f-string")
+        parts, size = [], 0
+        for value in node.values:
+            parts.append(str(self._eval(value)))
+            size += len(parts[-1])
+            if size > MAX_SIZE:
+                raise _Refused(f"the f-string would have more than {MAX_SIZE} characters (the limit)")
+        return "".join(parts)
 
     def _eval_formattedvalue(self, node):
         value = self._eval(node.value)
-        value = {115: str, 114: repr, 97: ascii}.get(node.conversion, lambda v: v)(value)
         spec = self._eval(node.format_spec) if node.format_spec is not None else ""
-        if _spec_width(spec) > MAX_SIZE:
-            raise _Refused(f"the width in the format spec '{spec}' is above the limit of {MAX_SIZE}")
+        width = spec_width(str(spec))
+        check_text_estimate(width + text_estimate(value, quoted=node.conversion in (114, 97)),
+                             f"the f-string field {{{ast.unparse(node.value)}}}")
+        value = {115: str, 114: repr, 97: ascii}.get(node.conversion, lambda v: v)(value)
         return format(value, spec)
 
 
@@ -623,13 +489,17 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
     """
     outermost = not _deadline
     if outermost:
-        _deadline.append(time.monotonic() + TIME_BUDGET_S)
+        _deadline.append(time.thread_time() + TIME_BUDGET_S)
     try:
         tree = parse_expression(expression)
         evaluator = _Evaluator(lookup, allowed_call, attribute, item)
         evaluator.expr = expression
         result = evaluator._eval(tree.body)
         return check_size(result, "the result")
+    except _OutOfExpansionTime as exc:
+        error = DescriptionError(str(exc))
+        error.out_of_time = True  # passed on as it is by the evaluations around this one
+        raise error from None
     except _Refused as exc:
         raise expression_error(expression, str(exc), kind=kind) from None
     except RecursionError:
@@ -637,10 +507,13 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
     except MemoryError:
         raise expression_error(expression, "out of memory", kind=kind) from None
     except Exception as exc:  # noqa: BLE001 - a refusal from a function, or an error of the evaluation itself
+        if getattr(exc, "out_of_time", False):
+            raise
         located = _located_error(exc)
         if located is not None:
             raise located from None  # from a property evaluated on the way: it names its own expression or text
-        raise expression_error(expression, error_reason(exc), kind=kind) from None
+        kept = type(exc) if isinstance(exc, DescriptionError) else DescriptionError  # ReadNotAllowedError stays one
+        raise expression_error(expression, error_reason(exc), kind=kind, error_class=kept) from None
     finally:
         if outermost:
             _deadline.clear()

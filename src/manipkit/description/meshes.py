@@ -32,6 +32,7 @@ from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import OptionError, PackageNotFoundError
 
 if TYPE_CHECKING:
+    from manipkit.description.access import ReadPolicy
     from manipkit.description.packages import PackageResolver
 
 __all__ = ["MISSING_MESHES", "SKELETON_COLOUR", "MissingMeshWarning", "MissingMeshes", "VisualURDF", "mesh_path",
@@ -87,7 +88,8 @@ class VisualURDF(NamedTuple):
     missing: MissingMeshes | None  # None when every mesh was found
 
 
-def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, link: str) -> Path:
+def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, link: str,
+              policy: ReadPolicy | None = None) -> Path:
     """The existing file a mesh URI names.
 
     Parameters
@@ -102,6 +104,8 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
         there, then in the current folder.
     link : str, keyword-only
         The link the mesh belongs to, named in messages.
+    policy : ReadPolicy, optional, keyword-only
+        What the description may read (:mod:`manipkit.description.access`); a mesh outside it is refused.
 
     Returns
     -------
@@ -114,6 +118,8 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
         The package is not found, the file is not in it, the file is not
         found, or the URI has another scheme (``http://`` ...); the message
         names the link, the URI and the places searched.
+    ReadNotAllowedError
+        The file is outside what the description may read (``policy``).
 
     Examples
     --------
@@ -136,11 +142,17 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
                 f"{where} resolves to {path}, which does not exist (package '{package}' is {resolver.find(package)}); "
                 f"give the right folder with --package-dir {package}=DIR"
             )
+        if policy is not None:
+            policy.check(path, where)
         return path
     if "://" in uri and not uri.startswith("file://"):
         raise PackageNotFoundError(f"{where}: only package://, file:// and file paths are supported")
     searched = mesh_search_paths(uri, resolver, relative_to=relative_to)
+    if policy is not None and not policy.allows(searched[0]):
+        policy.check(searched[0], where)  # raises, naming the path (whether it exists is not looked at)
     for candidate in searched:
+        if policy is not None and not policy.allows(candidate):
+            continue  # the current folder, outside what the description may read
         if candidate.is_file():
             return candidate.resolve()
     raise PackageNotFoundError(f"{where} not found; looked at {', '.join(map(str, searched))}")
@@ -167,7 +179,8 @@ def mesh_search_paths(uri: str, resolver: PackageResolver, *, relative_to: str |
 
 
 def urdf_with_mesh_paths(
-    urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, element: str = "visual"
+    urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike, element: str = "visual",
+    policy: ReadPolicy | None = None,
 ) -> tuple[str, list[str]]:
     """URDF text whose ``<visual>`` (or ``<collision>``) mesh filenames are absolute paths, and the package folders used.
 
@@ -182,6 +195,8 @@ def urdf_with_mesh_paths(
     element : str, keyword-only
         ``"visual"`` (the viewer) or ``"collision"`` (collision geometry,
         :mod:`manipkit.kinematics.collisions`): whose meshes are resolved.
+    policy : ReadPolicy, optional, keyword-only
+        What the description may read; as for :func:`mesh_path`.
 
     Returns
     -------
@@ -197,17 +212,17 @@ def urdf_with_mesh_paths(
     PackageNotFoundError
         As :func:`mesh_path`, for the first mesh that cannot be resolved.
     """
-    text, folders, _ = visual_urdf(urdf_text, resolver, relative_to=relative_to, element=element)
+    text, folders, _ = visual_urdf(urdf_text, resolver, relative_to=relative_to, element=element, policy=policy)
     return text, folders
 
 
 def visual_urdf(urdf_text: str, resolver: PackageResolver, *, relative_to: str | os.PathLike,
-                missing: str = "error", element: str = "visual") -> VisualURDF:
+                missing: str = "error", element: str = "visual", policy: ReadPolicy | None = None) -> VisualURDF:
     """:func:`urdf_with_mesh_paths`, and with ``missing="draw"`` links whose mesh files are absent drawn another way.
 
     Parameters
     ----------
-    urdf_text, resolver, relative_to, element
+    urdf_text, resolver, relative_to, element, policy
         As for :func:`urdf_with_mesh_paths` (``missing="draw"`` is for visuals only).
     missing : {"error", "draw"}, keyword-only
         ``"error"``: the first mesh that cannot be found raises. ``"draw"``:
@@ -245,7 +260,7 @@ def visual_urdf(urdf_text: str, resolver: PackageResolver, *, relative_to: str |
     for link, visual, mesh in meshes:
         uri = mesh.get("filename", "")
         try:
-            path = mesh_path(uri, resolver, relative_to=relative_to, link=link.get("name"))
+            path = mesh_path(uri, resolver, relative_to=relative_to, link=link.get("name"), policy=policy)
         except PackageNotFoundError as exc:
             if missing == "error":
                 raise

@@ -16,16 +16,18 @@ from __future__ import annotations
 import os
 import re
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from manipkit.description.sources import bundled_dir, example_robot_data_dir
 from manipkit.errors import InputFileError, PackageNotFoundError
 from manipkit.inputs import MAX_TABLE_BYTES, check_input_file
+from manipkit.text import UNPRINTABLE, printable, repr_text
 
 __all__ = [
     "IGNORE_MARKERS", "MAX_SCAN_DEPTH", "MAX_SCAN_FOLDERS", "PACKAGE_SCHEME", "PackageResolver", "WARNING_REGISTRY",
-    "package_index", "split_package_uri", "workspace_root",
+    "check_package_dirs", "package_index", "split_package_uri", "workspace_root",
 ]
 
 PACKAGE_SCHEME = "package://"
@@ -205,6 +207,42 @@ class PackageResolver:
             return uri[len("file://") :]
         return uri
 
+
+
+def check_package_dirs(package_dirs, *, what: str = "package_dirs", exist: bool = True) -> dict[str, Path]:
+    """``package_dirs`` (package name -> folder) checked: a mapping of non-empty names to existing folders
+    (``exist=False``: to folder paths, which may not exist yet).
+
+    Raises
+    ------
+    PackageNotFoundError
+        Not a mapping, a name that is not a non-empty string, a folder that is
+        not a path, holds a NUL byte, or does not exist; the message names ``what``.
+
+    >>> check_package_dirs(None)
+    {}
+    """
+    if package_dirs is None:
+        return {}
+    if not isinstance(package_dirs, Mapping):
+        raise PackageNotFoundError(f"{what}: expected a dict of package name -> folder, not "
+                                   f"{type(package_dirs).__name__} {repr_text(package_dirs)}")
+    checked: dict[str, Path] = {}
+    for name, folder in package_dirs.items():
+        if not isinstance(name, str) or not name.strip() or UNPRINTABLE.search(name):
+            raise PackageNotFoundError(f"{what}: a package name is a non-empty line of text, not "
+                                       f"{type(name).__name__} {repr_text(name)}")
+        if not isinstance(folder, (str, os.PathLike)) or not isinstance(os.fspath(folder), str):
+            raise PackageNotFoundError(f"{what}[{name!r}]: expected a folder path (str or pathlib.Path), not "
+                                       f"{type(folder).__name__} {repr_text(folder)}")
+        text = os.fspath(folder)
+        if "\x00" in text or not text:
+            raise PackageNotFoundError(f"{what}[{name!r}]: {repr_text(text)} is not a folder path")
+        path = Path(text).expanduser()
+        if exist and not path.is_dir():
+            raise PackageNotFoundError(f"{what}[{name!r}] (--package-dir {name}=DIR): {printable(text)}: no such folder")
+        checked[name] = path
+    return checked
 
 
 def _env_path(variable: str) -> list[Path]:

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from manipkit.errors import UnknownRobotError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, MAX_TABLE_BYTES, check_input_file
+from manipkit.text import repr_text
 
 __all__ = [
     "DEFAULT_ROBOT",
@@ -177,14 +178,21 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
     ------
     UnknownRobotError
         When nothing matches (the message lists the closest known names), the
-        name is empty, or the path is a folder or not a .urdf/.xacro file.
+        name is empty, or the path is a folder or not a .urdf/.xacro file; ``spec``
+        is not a str or path, or holds a NUL byte.
     InputFileError
         The path is a FIFO, device or socket, a symlink loop, not readable,
         or larger than :data:`manipkit.inputs.MAX_DESCRIPTION_BYTES`: refused
         before anything reads it.
     """
     spec = DEFAULT_ROBOT if spec is None else spec
+    if not isinstance(spec, (str, os.PathLike)) or not isinstance(os.fspath(spec), str):
+        raise UnknownRobotError(f"robot: expected a name or a path (str or pathlib.Path), not "
+                                f"{type(spec).__name__} {repr_text(spec)}")
     text = os.fspath(spec)
+    if "\x00" in text:
+        raise UnknownRobotError(f"robot: {repr_text(text)} holds a NUL byte (character {text.index(chr(0)) + 1}); "
+                                "no name or path does")
     bundled = bundled_robots()
     if not text.strip():
         raise UnknownRobotError(

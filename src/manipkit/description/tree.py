@@ -38,7 +38,7 @@ from manipkit.outputs import writable_path, writing
 from manipkit.spatial.rotations import rpy_from_matrix, wrap_angle
 from manipkit.text import trimmed_text
 
-__all__ = ["parse_structure", "tree_dot", "tree_text", "write_tree_image"]
+__all__ = ["MAX_IMAGE_LINKS", "parse_structure", "tree_dot", "tree_text", "write_tree_image"]
 
 #: Joint types that move along or about their axis.
 MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
@@ -274,13 +274,16 @@ def _summary(tree: _Tree) -> str:
 # --------------------------------------------------------------------------
 
 
-def tree_text(urdf) -> str:
+def tree_text(urdf, *, ascii_only: bool = False) -> str:
     """The link tree as text, in the spirit of ROS ``check_urdf``.
 
     Parameters
     ----------
     urdf : yourdfpy.URDF or yourdfpy.Robot
         The parsed description.
+    ascii_only : bool, keyword-only
+        Draw the branches with ``|--``, ``` `-- ``` and ``--`` instead of box-drawing
+        characters (a terminal whose encoding has none: ``LC_ALL=C``, ``PYTHONIOENCODING=ascii``).
 
     Returns
     -------
@@ -310,10 +313,11 @@ def tree_text(urdf) -> str:
                 continue
             joint = pending.pop(0)
             last = not pending
-            branch, more = ("└── ", "    ") if last else ("├── ", "│   ")
+            branch, more = (("`-- ", "    ") if last else ("|-- ", "|   ")) if ascii_only else \
+                (("└── ", "    ") if last else ("├── ", "│   "))
             seen = joint.child in shown
             lines.append(
-                f"{prefix}{branch}{joint.name} ({_joint_kind(joint)}) ── {joint.child}"
+                f"{prefix}{branch}{joint.name} ({_joint_kind(joint)}) {'--' if ascii_only else '──'} {joint.child}"
                 + (" (already shown)" if seen else "")
             )
             if not seen:
@@ -526,6 +530,9 @@ _JOINT_FACE = {
 _TEXT_COLOUR = "#1a1a1a"
 _MARGIN = 12.0
 _MAX_PIXELS = 30000  # per side; above it the PNG resolution is lowered
+#: Most links a tree image draws: beyond it the picture is unreadable, and drawing 20,000 took over a minute
+#: and 1.7 GB (the text and DOT trees have no such bound below ``validate.MAX_LINKS``).
+MAX_IMAGE_LINKS = 1000
 
 
 # Over 80 lines: one figure drawn top to bottom (header, edges and joint labels, extra joints, link boxes);
@@ -559,7 +566,8 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     Raises
     ------
     OutputError
-        If the format is neither PNG nor SVG, or the file cannot be written
+        If the format is neither PNG nor SVG, the tree has more than
+        :data:`MAX_IMAGE_LINKS` links (checked before drawing), or the file cannot be written
         (``cannot write PATH: reason``, checked before drawing: no folder is
         created; see :mod:`manipkit.outputs`).
     """
@@ -576,6 +584,9 @@ def write_tree_image(urdf, path, *, fmt: str | None = None) -> Path:
     from matplotlib.figure import Figure
 
     tree = _analyse(urdf)
+    if len(tree.links) > MAX_IMAGE_LINKS:
+        raise OutputError(f"cannot draw a tree image of {len(tree.links)} links ({path.name}); an image shows up "
+                          f"to {MAX_IMAGE_LINKS} links; write the tree as text or DOT (--format text or dot)")
     widths = _widths(tree)
     position = _layout_tree(tree, widths)
     parent_joint = _parent_joint(tree)

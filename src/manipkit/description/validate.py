@@ -17,9 +17,12 @@ would be valid.
 Some problems do not make the kinematics wrong; they are returned as
 warnings instead (:attr:`CheckedURDF.warnings`): a non-unit joint axis (it is
 normalised in the returned text), a revolute or prismatic joint whose limits
-leave it no motion, an inertia tensor that is not positive semi-definite, and
-mesh files that do not exist (``package://``, ``file://`` or a path beside the
-description; :func:`package_uri_warnings`; only the viewer needs the meshes).
+leave it no motion, an inertia tensor that is not positive semi-definite, a
+mimic joint that leaves its own limits over its leader's, and mesh files that
+do not exist or lie outside what the description may read (``package://``,
+``file://`` or a path beside the description; :func:`package_uri_warnings`;
+only the viewer needs the meshes). At most :data:`MAX_WARNINGS` are kept, then
+a count (:func:`cap_warnings`).
 """
 
 from __future__ import annotations
@@ -32,11 +35,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from manipkit.bounds import MAX_ANGLE, MAX_LENGTH
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import DescriptionError, PackageNotFoundError
-from manipkit.text import short_text
+from manipkit.text import UNPRINTABLE, printable, short_text
 
 if TYPE_CHECKING:
+    from manipkit.description.access import ReadPolicy
     from manipkit.description.packages import PackageResolver
 
 __all__ = [
@@ -44,10 +49,14 @@ __all__ = [
     "CheckedURDF",
     "JOINT_TYPES",
     "MAX_LENGTH",
+    "MAX_LINKS",
+    "MAX_MAGNITUDE",
     "MAX_TREE_DEPTH",
+    "MAX_WARNINGS",
     "RESERVED_NAMES",
     "SUPPORTED_JOINT_TYPES",
     "XACRO_NAMESPACE",
+    "cap_warnings",
     "check_urdf",
     "package_uri_warnings",
 ]
@@ -60,8 +69,20 @@ XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 
 #: Names Pinocchio gives its own root joint and frame; a link or joint of that name would be mixed up with them.
 RESERVED_NAMES = ("universe",)
-#: Largest length accepted in an origin (m): two finite offsets near 1.7e308 would sum to infinity.
-MAX_LENGTH = 1e6
+#: Largest magnitude of a length (m), an angle (rad), a mimic multiplier or offset and a mesh scale in a
+#: description: the bounds of :mod:`manipkit.bounds` (``MAX_LENGTH`` for lengths, ``MAX_ANGLE`` for angles,
+#: the larger of the two for a factor or an offset that may be either), the same a command takes. Real robots
+#: are metres and turns; two finite numbers near 1.7e308 would sum to infinity, and a prismatic limit of 1e308
+#: made FK print ``[inf, nan, nan]``. Products of these stay far from overflow.
+MAX_MAGNITUDE = max(MAX_LENGTH, MAX_ANGLE)
+
+#: Most links (and joints) in a description. Real robots have fewer than 300 (PR2: 88, TIAGo with its hand
+#: 89); Pinocchio's model build took minutes for 100,000 links on one root, and a tree image of 20,000 took
+#: over a minute and 1.7 GB. Checked right after the XML is parsed, before anything else looks at the links.
+MAX_LINKS = 5000
+
+#: Most warnings kept from one description; the rest are counted in one last line.
+MAX_WARNINGS = 20
 
 #: Most joints on the way from the root link to any link. Pinocchio's URDF parser walks the tree by
 #: recursion, one C++ call per joint: with the usual 8 MB stack it crashes (segmentation fault,
@@ -149,7 +170,11 @@ def check_urdf(
         URDF needs one (origins, axes, limits, dynamics, calibration, safety
         controller, mimic, mass, inertia, geometry sizes, colours); a
         negative mass or size; a ``<mimic>`` of a joint that does not exist or of itself (a warning);
-        a ``<visual>``/``<collision>`` without a known geometry.
+        a ``<visual>``/``<collision>`` without a known geometry; more than :data:`MAX_LINKS` links or
+        joints (counted first); a length, angle, limit, mimic multiplier or offset or mesh scale beyond
+        :data:`manipkit.bounds.MAX_LENGTH` / ``MAX_ANGLE`` (1e6); a link, joint or robot name holding a
+        control, C1, line-separator or bidirectional character (:data:`manipkit.text.UNPRINTABLE`).
+        A mimic joint that leaves its own limits over its leader's is a warning.
     """
     return _Checker(where, locate).run(text)
 
@@ -165,6 +190,7 @@ class _Checker:
         self.locate = locate
         self.expanded = locate is not None
         self.warnings: list[str] = []
+        self.dropped = 0  # warnings counted but not kept (see warn)
         self.normalised: list[tuple[object, str]] = []  # (<axis> element, new xyz)
 
     # -- messages -------------------------------------------------------
@@ -185,6 +211,9 @@ class _Checker:
         raise DescriptionError(f"{self.at(element, owner)}: {message}")
 
     def warn(self, element, message: str, owner=None) -> None:
+        if len(self.warnings) >= MAX_WARNINGS:  # a flood of distinct warnings: counted, not kept
+            self.dropped += 1
+            return
         self.warnings.append(f"{self.at(element, owner)}: {message}")
 
     # -- numbers --------------------------------------------------------
@@ -217,8 +246,9 @@ class _Checker:
             if non_negative and value < 0:
                 self.fail(element, f"{what} {shown}: {token} is negative; expected {expected} >= 0", owner)
             if bound is not None and abs(value) > bound:
-                self.fail(element, f"{what} {shown}: {token} {unit} is no robot dimension; expected |value| <= "
-                          f"{short_text(bound)} {unit} (is the unit right?)", owner)
+                unit_text = f" {unit}" if unit else ""
+                self.fail(element, f"{what} {shown}: {token}{unit_text} is out of range for a robot; expected "
+                          f"|value| <= {short_text(bound)}{unit_text} (is the unit right?)", owner)
             values.append(value)
         return values
 
@@ -227,12 +257,13 @@ class _Checker:
         if origin is None:
             return
         self.numbers(origin, "xyz", 3, f"{what} <origin>", owner, unit="m", bound=MAX_LENGTH)
-        self.numbers(origin, "rpy", 3, f"{what} <origin>", owner, unit="rad")
+        self.numbers(origin, "rpy", 3, f"{what} <origin>", owner, unit="rad", bound=MAX_ANGLE)
 
     # -- the whole description --------------------------------------------
 
     def run(self, text: str) -> CheckedURDF:
         root = self.parse(text)
+        self.check_width(root)
         links = self.named(root, "link")
         joints = self.named(root, "joint")
         if not links:
@@ -243,7 +274,17 @@ class _Checker:
         for name, joint in joints.items():
             self.check_joint(joint, name, links, joints, children)
         self.check_tree(root, links, joints, children)
-        return CheckedURDF(root, self.normalised_text(text, root), self.warnings)
+        self.check_mimics(joints)
+        return CheckedURDF(root, self.normalised_text(text, root),
+                           cap_warnings(self.warnings, self.where, dropped=self.dropped))
+
+    def check_width(self, root) -> None:
+        """At most :data:`MAX_LINKS` links and joints, counted before anything else looks at them."""
+        for tag in ("link", "joint"):
+            count = sum(1 for _ in root.iterchildren(tag))
+            if count > MAX_LINKS:
+                self.fail(root, f"robot '{root.get('name')}' has {count} {tag}s; manipkit loads descriptions of "
+                          f"up to {MAX_LINKS} links and {MAX_LINKS} joints (real robots have fewer than 300)")
 
     def parse(self, text: str):
         from lxml import etree
@@ -278,6 +319,7 @@ class _Checker:
                               "expansion: name it .urdf.xacro (or .xacro)")
         if not root.get("name"):
             self.fail(root, "<robot> has no name attribute; add name=\"...\" (URDF requires it)")
+        self.check_name(root, "robot", root.get("name"))
         dtd = root.getroottree().docinfo.internalDTD
         if dtd is not None and any(True for _ in dtd.iterentities()):
             line = text[: max(text.find("<!ENTITY"), 0)].count("\n") + 1
@@ -293,6 +335,7 @@ class _Checker:
             name = element.get("name")
             if not name:
                 self.fail(element, f"<{tag}> number {index} has no name attribute; every {tag} needs a unique name")
+            self.check_name(element, tag, name)
             if name in RESERVED_NAMES:
                 self.fail(element, f"{tag} '{name}': the name '{name}' is reserved by Pinocchio (its root joint and "
                           f"frame); rename the {tag}")
@@ -302,6 +345,15 @@ class _Checker:
                 self.fail(element, f"two <{tag}> elements are named '{name}'{first_at}; names must be unique")
             named[name] = element
         return named
+
+    def check_name(self, element, tag: str, name: str) -> None:
+        """A name is one line of printable text: it is printed in answers (``tf-between``, ``frames``), where a
+        line break would forge a line and an escape sequence would drive the terminal."""
+        bad = UNPRINTABLE.search(name)
+        if bad:
+            self.fail(element, f"{tag} name '{printable(name)}': character {bad.start() + 1} is "
+                      f"U+{ord(bad.group()):04X}, a control, line-separator or bidirectional character; a name is "
+                      "one line of printable text")
 
     # -- links ----------------------------------------------------------
 
@@ -354,21 +406,22 @@ class _Checker:
         if tag == "box":
             if shape.get("size") is None:
                 self.fail(shape, f"{what} <box> has no size attribute; give size=\"X Y Z\" (m)", link)
-            self.numbers(shape, "size", 3, f"{what} <box>", link, unit="m", non_negative=True)
+            self.numbers(shape, "size", 3, f"{what} <box>", link, unit="m", non_negative=True, bound=MAX_LENGTH)
         elif tag in ("cylinder", "capsule"):
             for attribute in ("radius", "length"):
                 if shape.get(attribute) is None:
                     self.fail(shape, f"{what} <{tag}> has no {attribute} attribute; give radius and length (m)", link)
-                self.numbers(shape, attribute, 1, f"{what} <{tag}>", link, unit="m", non_negative=True)
+                self.numbers(shape, attribute, 1, f"{what} <{tag}>", link, unit="m", non_negative=True,
+                             bound=MAX_LENGTH)
         elif tag == "sphere":
             if shape.get("radius") is None:
                 self.fail(shape, f"{what} <sphere> has no radius attribute; give radius=\"R\" (m)", link)
-            self.numbers(shape, "radius", 1, f"{what} <sphere>", link, unit="m", non_negative=True)
+            self.numbers(shape, "radius", 1, f"{what} <sphere>", link, unit="m", non_negative=True, bound=MAX_LENGTH)
         elif tag == "mesh":
             if not shape.get("filename"):
                 self.fail(shape, f"{what} <mesh> has no filename attribute; give filename=\"package://PKG/...\" "
                           "or a path", link)
-            self.numbers(shape, "scale", 3, f"{what} <mesh>", link)
+            self.numbers(shape, "scale", 3, f"{what} <mesh>", link, bound=MAX_MAGNITUDE)
         else:
             self.fail(shape, f"{what} <geometry> has <{_local(tag)}>; valid shapes: box, cylinder, sphere, mesh", link)
 
@@ -426,7 +479,8 @@ class _Checker:
             if element is None:
                 continue
             for attribute in attributes:
-                self.numbers(element, attribute, 1, f"{what} <{tag}>", joint)
+                self.numbers(element, attribute, 1, f"{what} <{tag}>", joint,
+                             bound=MAX_MAGNITUDE if tag == "mimic" else None)
         mimic = joint.find("mimic")
         if mimic is not None:
             target = mimic.get("joint")
@@ -466,8 +520,10 @@ class _Checker:
         unit = "m" if kind == "prismatic" else "rad"
         values = {}
         for attribute in ("lower", "upper", "effort", "velocity"):
+            moves = attribute in ("lower", "upper") and kind in ("revolute", "prismatic")  # others ignore lower/upper
             number = self.numbers(limit, attribute, 1, f"{what} <limit>", joint,
-                                  unit=unit if attribute in ("lower", "upper") else "")
+                                  unit=unit if attribute in ("lower", "upper") else "",
+                                  bound=(MAX_LENGTH if kind == "prismatic" else MAX_ANGLE) if moves else None)
             values[attribute] = number[0] if number is not None else 0.0
         lower, upper = values["lower"], values["upper"]
         if kind not in ("revolute", "prismatic"):
@@ -480,6 +536,36 @@ class _Checker:
             why = f" ({' and '.join(missing)} not given: URDF's default is 0)" if missing else ""
             self.warn(limit, f"{what} has limits [{short_text(lower)}, {short_text(upper)}] {unit}{why}: it cannot move; "
                       "give lower= and upper=" + (" or make it continuous" if kind == "revolute" else ""), joint)
+
+    def check_mimics(self, joints: dict) -> None:
+        """A warning for a mimic joint that leaves its own limits over its leader's (both revolute or prismatic):
+        ``multiplier * [lower, upper] + offset`` outside ``[lower, upper]`` of the follower. A mimic joint follows
+        its leader and its own limits are not applied, so this is a warning, not an error: real grippers (and
+        hand-written fixtures) often give a follower the leader's limits whatever the multiplier. Its size is
+        bounded (:data:`MAX_MAGNITUDE` for the multiplier, offset and limits), so the answer stays finite."""
+        for name, joint in joints.items():
+            mimic = joint.find("mimic")
+            leader = joints.get(mimic.get("joint")) if mimic is not None else None
+            if leader is None or joint.get("type") not in ("revolute", "prismatic"):
+                continue
+            if leader.get("type") not in ("revolute", "prismatic"):
+                continue
+            multiplier = float(mimic.get("multiplier", 1.0))
+            offset = float(mimic.get("offset", 0.0))
+            lead_lower, lead_upper = _limits(leader)
+            lower, upper = _limits(joint)
+            if lower == upper:
+                continue  # limits that leave it no motion: warned about already (check_limit)
+            ends = sorted((multiplier * lead_lower + offset, multiplier * lead_upper + offset))
+            slack = 1e-9 + 1e-9 * max(abs(lower), abs(upper))
+            if ends[0] < lower - slack or ends[1] > upper + slack:
+                unit = "m" if joint.get("type") == "prismatic" else "rad"
+                self.warn(mimic, f"joint '{name}' mimics '{leader.get('name')}' ({name} = {short_text(multiplier)} * "
+                          f"{leader.get('name')} + {short_text(offset)}): over the leader's limits "
+                          f"[{short_text(lead_lower)}, {short_text(lead_upper)}] it moves over "
+                          f"[{short_text(ends[0])}, {short_text(ends[1])}] {unit}, outside its own limits "
+                          f"[{short_text(lower)}, {short_text(upper)}] {unit} (they are not applied: it follows "
+                          "its leader); widen its <limit> to hold that range, or fix the multiplier and offset", joint)
 
     # -- the tree -------------------------------------------------------
 
@@ -527,6 +613,22 @@ class _Checker:
         return etree.tostring(root, encoding="unicode")
 
 
+def _limits(joint) -> tuple[float, float]:
+    """A checked revolute or prismatic joint's (lower, upper); URDF's default for a missing one is 0."""
+    limit = joint.find("limit")
+    return float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
+
+
+def cap_warnings(messages: list[str], where: str, *, dropped: int = 0) -> list[str]:
+    """``messages`` cut to :data:`MAX_WARNINGS`, with one last line ``WHERE: ... and N more warnings``
+    (``dropped`` counts warnings already left out)."""
+    messages = list(messages)
+    more = dropped + max(len(messages) - MAX_WARNINGS, 0)
+    if more:
+        messages = messages[:MAX_WARNINGS] + [f"{where}: ... and {more} more warnings"]
+    return messages
+
+
 def _cycle_through(link: str, children: dict) -> list[str]:
     """Links met going up from ``link`` by parent joints until one repeats (the cycle, closed)."""
     path, seen = [link], {link}
@@ -549,7 +651,8 @@ def _local(tag: str) -> str:
 # --------------------------------------------------------------------------
 
 
-def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=None, limit: int = 3) -> list[str]:
+def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=None, limit: int = 3,
+                         policy: ReadPolicy | None = None) -> list[str]:
     """Warnings for mesh and texture files that do not exist: ``package://``, ``file://`` and plain paths.
 
     Kinematics do not need meshes, so these are warnings (the viewer raises
@@ -571,6 +674,9 @@ def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=
         As for :func:`check_urdf`.
     limit : int
         At most this many missing files are named one by one (then a count).
+    policy : ReadPolicy, optional
+        What the description may read (:mod:`manipkit.description.access`): a mesh outside it is
+        reported as such (whether it exists is not looked at).
     """
     from manipkit.description.meshes import mesh_search_paths
 
@@ -586,8 +692,13 @@ def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=
         if not uri.startswith(PACKAGE_SCHEME):
             folder = os.path.dirname(os.path.abspath(resolver.near)) if resolver.near is not None else None
             searched = mesh_search_paths(uri, resolver, relative_to=folder or ".")
+            if policy is not None and not policy.allows(searched[0]):
+                missing_files.append((element, link, uri, f"{searched[0]} is outside what the description may "
+                                      "read (--allow-read DIR allows a folder); not looked at"))
+                continue
             if (folder is not None or searched[0].is_absolute()) and not any(p.is_file() for p in searched):
-                missing_files.append((element, link, uri, f"{searched[0]}{', nor in the current folder' * (len(searched) > 1)}"))
+                missing_files.append((element, link, uri, f"no such file {searched[0]}"
+                                      f"{', nor in the current folder' * (len(searched) > 1)}"))
             continue
         package, _ = split_package_uri(uri)
         if not package:
@@ -602,14 +713,17 @@ def package_uri_warnings(root, resolver: PackageResolver, where: str, *, locate=
         except PackageNotFoundError as exc:
             missing_packages[package] = [(element, link, uri, str(exc)), 1]
             continue
-        if not os.path.isfile(path):
-            missing_files.append((element, link, uri, path))
+        if policy is not None and not policy.allows(path):
+            missing_files.append((element, link, uri, f"{path} is outside what the description may read "
+                                  "(--allow-read DIR allows a folder); not looked at"))
+        elif not os.path.isfile(path):
+            missing_files.append((element, link, uri, f"no such file {path}"))
     for (element, link, uri, reason), count in missing_packages.values():
         more = f" and {count - 1} more mesh file(s) of it" if count > 1 else ""
         warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}{more}: {reason} "
                         "(kinematics do not need meshes; the viewer does)")
-    for element, link, uri, path in missing_files[:limit]:
-        warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}: no such file {path} "
+    for element, link, uri, reason in missing_files[:limit]:
+        warnings.append(f"{checker.at(element, link)}: link '{link.get('name')}' mesh {uri}: {reason} "
                         "(kinematics do not need meshes; the viewer does)")
     if len(missing_files) > limit:
         warnings.append(f"{where}: {len(missing_files) - limit} more mesh file(s) not found")

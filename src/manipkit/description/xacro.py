@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 from manipkit.description.packages import WARNING_REGISTRY, PackageResolver
 from manipkit.description.sources import RobotSource
-from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError
+from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError, ReadNotAllowedError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
 
 __all__ = [
@@ -63,6 +63,8 @@ def urdf_text(
     source: RobotSource,
     xacro_args: dict[str, object] | None = None,
     package_dirs: dict[str, Path] | None = None,
+    *,
+    allow_read: tuple[Path, ...] = (),
 ) -> str:
     """The URDF XML of a description, expanding xacro in-process.
 
@@ -75,14 +77,19 @@ def urdf_text(
         Given for a plain URDF, they are an error (they would be ignored silently).
     package_dirs : dict, optional
         Package name -> folder, for ``$(find PKG)``.
+    allow_read : tuple of Path, keyword-only
+        Folders the description may read besides its own tree and packages (``--allow-read``;
+        :mod:`manipkit.description.access`).
     """
-    return describe(source, xacro_args, package_dirs).text
+    return describe(source, xacro_args, package_dirs, allow_read=allow_read).text
 
 
 def describe(
     source: RobotSource,
     xacro_args: dict[str, object] | None = None,
     package_dirs: dict[str, Path] | None = None,
+    *,
+    allow_read: tuple[Path, ...] = (),
 ) -> XacroExpansion:
     """As :func:`urdf_text`, with the xacro arguments the files declare (empty for plain URDF)."""
     xacro_args = {k: str(v) for k, v in (xacro_args or {}).items()}
@@ -94,7 +101,7 @@ def describe(
             )
         return XacroExpansion(_read_description(source.path), {})
     resolver = PackageResolver(dict(package_dirs or {}), near=source.path)
-    return expand_xacro(source.path, xacro_args, resolver)
+    return expand_xacro(source.path, xacro_args, resolver, allow_read=allow_read)
 
 
 def xacro_arg_declarations(files) -> dict[str, str | None]:
@@ -135,7 +142,8 @@ def _arg_uses(files) -> set[str]:
     return used
 
 
-def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) -> XacroExpansion:
+def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver, *,
+                 allow_read: tuple[Path, ...] = ()) -> XacroExpansion:
     """Expand a xacro file to URDF text, with ``$(find)`` answered by ``resolver``.
 
     Unknown argument names (declared in none of the files the expansion
@@ -156,9 +164,15 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     :mod:`manipkit.description.expressions` (no code runs; bounded cost),
     ``xacro.load_yaml`` through :func:`manipkit.description.xacro_names.load_yaml`,
     every file is checked by :func:`manipkit.inputs.check_input_file` before xacro
-    opens it (a FIFO would block), a file that includes itself is refused, and the
-    expansion is bounded (:data:`MAX_XACRO_ELEMENTS`, :data:`MAX_TEXT_CHARACTERS`,
-    :data:`MAX_EXPANDED_CHARACTERS`, :data:`EXPANSION_SECONDS`).
+    opens it (a FIFO would block) and must be one the description may read
+    (:mod:`manipkit.description.access`: its own folder tree, its packages,
+    ``allow_read``), a file that includes itself is refused, the expansion is
+    bounded (:data:`MAX_XACRO_ELEMENTS`, :data:`MAX_TEXT_CHARACTERS`,
+    :data:`MAX_EXPANDED_CHARACTERS`, :data:`EXPANSION_SECONDS`, which every
+    evaluation and YAML file counts against), and what xacro prints
+    (``xacro.message``/``warning``) is dropped after :data:`MAX_XACRO_OUTPUT`
+    characters. Environment variables read by ``$(env)``/``$(optenv)`` are
+    named in a warning: their values become part of the description.
 
     ``$(find)`` is routed to ``resolver`` by patching
     ``xacro.substitution_args._eval_find``. xacro imports that module (and
@@ -166,25 +180,31 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
     applied at that moment too: a file without substitutions (the course arm)
     never pays for the import.
     """
-    import io
-
     import xacro
+
+    from manipkit.description.access import ReadPolicy, reading_under
 
     _read_description(path)
     missing: list[tuple[str, PackageNotFoundError]] = []
+    environment: list[str] = []
     xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
-    stderr = io.StringIO()
+    stderr = _BoundedOutput()
+    policy = ReadPolicy(path, resolver, allow_read)
     try:
         # xacro's own messages go to stderr, which is captured; Python warnings (a package found twice
         # during $(find)) are recorded instead and issued once each after a successful expansion (_reissue);
         # an error is one line, and names the package folder it concerns itself
-        with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing), \
-                contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
+        with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing, environment), \
+                reading_under(policy), contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
             warnings.simplefilter("always")
             document = xacro.process_file(str(path), mappings=dict(args))
     except Exception as exc:  # xacro raises many kinds; all are description errors (one line: no warnings)
         raise _xacro_error(exc, path, missing, resolver) from None
     _reissue(caught)
+    if environment:
+        names = ", ".join(dict.fromkeys(environment))
+        warnings.warn(f"{path.name}: reads environment variable(s) {names} ($(env)/$(optenv)); their values "
+                      "become part of the description (link names, paths)", UserWarning, stacklevel=2)
     files = [path, *(Path(f) for f in xacro.all_includes)]
     _remember_files(path, files)
     # xacro ignores arguments nobody declared or reads; here they are an error (a typo would pass silently).
@@ -195,6 +215,32 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver) ->
         valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
         raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
     return XacroExpansion(document.toxml(), declared)
+
+
+#: Most characters of what xacro prints during one expansion (``xacro.message``, ``xacro.warning``) that are
+#: kept; they are not shown (an error says what went wrong), so the rest is dropped.
+MAX_XACRO_OUTPUT = 64 * 1024
+
+
+class _BoundedOutput:
+    """A text stream that keeps the first :data:`MAX_XACRO_OUTPUT` characters written to it and drops the rest."""
+
+    def __init__(self):
+        self.parts: list[str] = []
+        self.size = 0
+
+    def write(self, text: str) -> int:
+        if self.size < MAX_XACRO_OUTPUT:
+            kept = str(text)[: MAX_XACRO_OUTPUT - self.size]
+            self.parts.append(kept)
+            self.size += len(kept)
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+    def getvalue(self) -> str:
+        return "".join(self.parts)
 
 
 def _reissue(caught: list) -> None:
@@ -210,12 +256,12 @@ def _reissue(caught: list) -> None:
 
 # Over 80 lines: one hook per xacro function replaced, each a few lines, patched and restored together.
 @contextlib.contextmanager
-def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
+def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environment: list):
     """Replace xacro's evaluation, file opening and unbounded loops for one expansion (restored after)."""
     # Over 80 lines: the six hooks share one expansion's state (deadline, counts, missing packages) as closures.
     import xacro
 
-    from manipkit.description.expressions import MAX_SIZE
+    from manipkit.description.expressions import MAX_SIZE, expansion_deadline
     from manipkit.description.xacro_names import evaluate_eval, evaluate_expression
 
     def find(package: str) -> str:
@@ -227,16 +273,26 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
 
     originals = {name: getattr(xacro, name)
                  for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all", "check_attrs")}
-    patched = []  # (substitution_args module, its own _eval_find), once patched
-    deadline = time.monotonic() + EXPANSION_SECONDS
+    patched = []  # (substitution_args module, its own _eval_find, _eval_env, _eval_optenv), once patched
+    deadline = time.thread_time() + EXPANSION_SECONDS
     counts = {"elements": 0, "characters": 0}
 
     def eval_extension(text: str):  # every $(...)
         if not patched:
             import xacro.substitution_args as substitution_args
 
-            patched.append((substitution_args, substitution_args._eval_find))
-            substitution_args._eval_find = find
+            own = (substitution_args._eval_find, substitution_args._eval_env, substitution_args._eval_optenv)
+            patched.append((substitution_args, own))
+
+            def env(name):
+                environment.append(str(name))
+                return own[1](name)
+
+            def optenv(name, default=""):
+                environment.append(str(name))
+                return own[2](name, default)
+
+            substitution_args._eval_find, substitution_args._eval_env, substitution_args._eval_optenv = find, env, optenv
         if text.startswith("$(eval ") and text.endswith(")"):  # as xacro.substitution_args.resolve_args
             return evaluate_eval(text[7:-1])
         return originals["eval_extension"](text)
@@ -273,7 +329,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
         if counts["elements"] > MAX_XACRO_ELEMENTS:
             raise DescriptionError(f"{path.name}: xacro expansion made more than {MAX_XACRO_ELEMENTS} elements, "
                                    "the limit (macros that call each other many times over?)")
-        if time.monotonic() > deadline:
+        if time.thread_time() > deadline:
             raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
         return originals["eval_all"](node, macros, symbols)
 
@@ -296,12 +352,14 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list):
     for name, hook in hooks.items():
         setattr(xacro, name, hook)
     try:
-        yield
+        with expansion_deadline(deadline, f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, "
+                                          "the limit"):
+            yield
     finally:
         for name, original in originals.items():
             setattr(xacro, name, original)
-        for substitution_args, original_find in patched:
-            substitution_args._eval_find = original_find
+        for substitution_args, own in patched:
+            substitution_args._eval_find, substitution_args._eval_env, substitution_args._eval_optenv = own
 
 
 def _clip(text: object, size: int = 60) -> str:
@@ -318,10 +376,15 @@ def _check_xacro_file(filename: str, including: list[str]) -> None:
         name = re.escape(Path(filename).name)
         where = (_find_in_files([includer], pattern=r"<xacro:include\b[^>]*" + name) or includer.name) + ": "
     if os.path.lexists(filename):  # a missing file: xacro's own error, located by _xacro_error
+        from manipkit.description.access import check_readable
+
         try:
+            check_readable(filename, "xacro:include")
             check_input_file(filename, what="xacro file", max_bytes=MAX_DESCRIPTION_BYTES)
         except InputFileError as exc:
             raise InputFileError(f"{where}xacro:include: {exc}" if where else str(exc)) from None
+        except ReadNotAllowedError as exc:
+            raise ReadNotAllowedError(f"{where}{exc}") from None
     opened = [os.path.realpath(f) for f in including]
     me = os.path.realpath(filename)
     if me in opened:

@@ -15,13 +15,17 @@ differences:
   items), ``round`` of an integer to ``-n`` digits, ``sum`` (numbers only),
   ``math.factorial``/``comb``/``perm``/``prod``/``lcm`` (results of at most
   ``MAX_INT_BITS`` bits), ``xacro.tokenize`` (its separators are characters, not a
-  regular expression);
+  regular expression); the lazy ``map``, ``zip``, ``filter``, ``enumerate`` and
+  ``reversed`` count their items and their nesting (``MAX_VALUE_DEPTH``);
 - ``load_yaml`` (:func:`load_yaml`) checks the file first (a regular file of
-  at most ``MAX_TABLE_BYTES``), reads YAML with PyYAML's safe loader (plain
-  YAML and xacro's unit tags ``!degrees``, ``!radians``, ``!meters``,
-  ``!millimeters``, ``!foot``, ``!inches``; no ``!!python`` tags), and
-  refuses a document whose aliases expand past ``MAX_SIZE`` values and
-  characters.
+  at most :data:`MAX_YAML_BYTES`, inside what the description may read:
+  :mod:`manipkit.description.access`), reads YAML with PyYAML's safe loader
+  (libyaml's parser when installed; plain YAML and xacro's unit tags
+  ``!degrees``, ``!radians``, ``!meters``, ``!millimeters``, ``!foot``,
+  ``!inches``; no ``!!python`` tags; integers of at most ``MAX_INT_BITS``
+  bits), refuses a document whose aliases expand past ``MAX_SIZE`` values and
+  characters or ``MAX_VALUE_DEPTH`` levels, and counts its time against the
+  expression's and the expansion's budgets.
 
 ``$(eval ...)`` has its own names (:func:`eval_lookup`), as in xacro:
 ``true false True False``, ``arg(NAME)``, ``dirname()``, ``env``,
@@ -36,28 +40,31 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 from collections.abc import Callable
 from pathlib import Path
 
+from manipkit.description.access import check_readable
 from manipkit.description.expressions import (
     ALLOWED_ATTRIBUTES,
     MAX_INT_BITS,
     MAX_SIZE,
+    MAX_VALUE_DEPTH,
     BoundMethod,
     Namespace,
     bounded_multiply,
+    check_time,
     checked_str_method,
     evaluate,
-    extend_deadline,
+    measure,
     refusal,
     remaining_time,
     value_size,
 )
 from manipkit.errors import DescriptionError, InputFileError
-from manipkit.inputs import MAX_TABLE_BYTES, read_text
+from manipkit.inputs import read_text
 
 __all__ = [
+    "MAX_YAML_BYTES",
     "allowed_call",
     "attribute",
     "eval_lookup",
@@ -68,6 +75,11 @@ __all__ = [
     "symbol_lookup",
     "xacro_globals",
 ]
+
+
+#: Largest YAML file ``xacro.load_yaml`` reads (real configuration files are a few kB; PyYAML reads about
+#: 1 MB a second here, and a read cannot be interrupted, so this keeps one read within the time budget).
+MAX_YAML_BYTES = 256 * 1024
 
 
 # --------------------------------------------------------------------------
@@ -161,10 +173,13 @@ class _BoundedIterator:
     budget is checked at every item.
     """
 
-    __slots__ = ("_items", "_size", "_name")
+    __slots__ = ("_items", "_size", "_name", "nesting")
 
-    def __init__(self, items, name: str):
+    def __init__(self, items, name: str, nesting: int = 1):
         self._items, self._size, self._name = items, 0, name
+        #: How deeply lazy objects and values are nested inside this one (a chain of ``python.zip(p)`` through
+        #: properties would be a chain of iterators, freed recursively): measured like a container's depth.
+        self.nesting = nesting
 
     def __iter__(self):
         return self
@@ -181,7 +196,11 @@ class _BoundedIterator:
 
 def _bounded_lazy(function):
     def bounded(*args, **kwargs):
-        return _BoundedIterator(function(*args, **kwargs), function.__name__)
+        nesting = 1 + max((measure(a)[1] for a in (*args, *kwargs.values())), default=0)
+        if nesting > MAX_VALUE_DEPTH:
+            raise refusal(f"python.{function.__name__}(...) would be nested more than {MAX_VALUE_DEPTH} levels deep "
+                          "(lazy values inside each other; the limit)")
+        return _BoundedIterator(function(*args, **kwargs), function.__name__, nesting)
 
     bounded.__name__ = function.__name__
     return bounded
@@ -359,8 +378,16 @@ def _yaml_loader():
     import xacro
     import yaml
 
-    class Loader(yaml.SafeLoader):
+    class Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # libyaml's parser: about 5 times faster
         pass
+
+    def bounded_int(loader, node):  # YAML 1.1 ints: 0x..., 0b..., and base 60 (1:2:3) built digit by digit
+        text = loader.construct_scalar(node)
+        if len(text) * 6 > MAX_INT_BITS:
+            raise refusal(f"a YAML integer of {len(text)} characters may have more than {MAX_INT_BITS} bits (the limit)")
+        return yaml.SafeLoader.construct_yaml_int(loader, node)
+
+    Loader.add_constructor("tag:yaml.org,2002:int", bounded_int)
 
     def unit_constructor(factor: float):
         def construct(loader, node):
@@ -380,7 +407,7 @@ def load_yaml(filename) -> object:
     Raises
     ------
     InputFileError
-        Not a regular file (a FIFO, a device, a folder), missing, or above ``MAX_TABLE_BYTES``.
+        Not a regular file (a FIFO, a device, a folder), missing, or above ``MAX_YAML_BYTES``.
     DescriptionError
         Not YAML, a tag other than plain YAML and xacro's units (``!!python/...``), or
         aliases that expand past ``MAX_SIZE`` values and characters.
@@ -393,10 +420,11 @@ def load_yaml(filename) -> object:
                              "its path left empty?)")
     filename = xacro.abs_filename_spec(str(filename))
     name = Path(filename).name
-    started = time.monotonic()
+    check_time()  # a comprehension of loads: each counts against the evaluation's and the expansion's budgets
+    check_readable(filename, "xacro.load_yaml")
     xacro.filestack.append(filename)
     try:
-        text = read_text(filename, what="YAML file", max_bytes=MAX_TABLE_BYTES)
+        text = read_text(filename, what="YAML file", max_bytes=MAX_YAML_BYTES)
         try:
             data = yaml.load(text, Loader=_yaml_loader())  # noqa: S506 - a SafeLoader subclass
         except yaml.MarkedYAMLError as exc:
@@ -413,9 +441,13 @@ def load_yaml(filename) -> object:
     finally:
         xacro.filestack.pop()
         xacro.all_includes.append(filename)
-        extend_deadline(time.monotonic() - started)  # reading a file is not evaluation: it is bounded by its size
-    size = value_size(data, MAX_SIZE)
+    size, depth, _ = measure(data, MAX_SIZE)
     if size > MAX_SIZE:
         raise DescriptionError(f"{name}: the YAML document expands (through its aliases) to more than {MAX_SIZE} "
                                "values and characters, the limit; write the values out or use fewer aliases")
+    if depth > MAX_VALUE_DEPTH:
+        raise DescriptionError(f"{name}: the YAML document expands (through its aliases) to more than "
+                               f"{MAX_VALUE_DEPTH} levels of nesting, the limit (real configuration files nest a few "
+                               "levels)")
+    check_time()
     return xacro.YamlListWrapper.wrap(data)

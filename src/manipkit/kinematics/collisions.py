@@ -162,6 +162,7 @@ def collision_geometry(robot: Robot, geometry: str = "hulls") -> CollisionGeomet
 def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
     import xml.etree.ElementTree as ET
 
+    from manipkit.description.access import ReadPolicy
     from manipkit.description.meshes import urdf_with_mesh_paths
     from manipkit.description.packages import PackageResolver
 
@@ -173,9 +174,10 @@ def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
         )
     near = robot.source.path if robot.source.path.exists() else None
     resolver = PackageResolver(dict(robot.package_dirs), near=near)
+    policy = ReadPolicy(near, resolver, robot.allow_read) if near is not None else None  # as the viewer reads meshes
     try:
         text, package_dirs = urdf_with_mesh_paths(robot.urdf, resolver, relative_to=robot.source.path.parent,
-                                                  element="collision")
+                                                  element="collision", policy=policy)
     except DescriptionError as exc:
         raise CollisionError(f"robot '{robot.name}': collision geometry unavailable: {exc}") from None
     try:

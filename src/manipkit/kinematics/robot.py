@@ -30,9 +30,10 @@ from types import MappingProxyType
 import numpy as np
 import pinocchio as pin
 
-from manipkit.description.packages import PackageResolver
+from manipkit.description.access import ReadPolicy, allowed_folders
+from manipkit.description.packages import PackageResolver, check_package_dirs
 from manipkit.description.sources import RobotSource, resolve_robot
-from manipkit.description.validate import check_urdf, package_uri_warnings
+from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import (
@@ -46,7 +47,7 @@ from manipkit.kinematics.chain import (
 )
 from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
-from manipkit.kinematics.tool_frame import choose_tool_frame
+from manipkit.kinematics.tool_frame import tool_frame_of
 from manipkit.text import repr_text, short_text
 
 __all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Mimic", "Robot", "load"]
@@ -58,7 +59,8 @@ EE_ALIAS = "ee_link"
 MAX_DEGREES_OF_FREEDOM = 200
 
 
-def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, **xacro_args) -> Robot:
+def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = None, allow_read=None,
+         **xacro_args) -> Robot:
     """Load a robot by bundled name, example-robot-data name or path.
 
     Parameters
@@ -68,8 +70,16 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
         ``path/to/robot.urdf.xacro``, ... (see :func:`manipkit.description.sources.resolve_robot`).
     package_dirs : dict, optional
         Package name -> folder, for ``$(find PKG)`` and ``package://PKG``.
+    allow_read : path-like or list of path-like, optional
+        Folders the description may read besides its own folder tree and its packages
+        (``--allow-read``; :mod:`manipkit.description.access`): xacro includes, YAML files, meshes.
     **xacro_args
         xacro arguments, e.g. ``load("planar_3r", l1=2)``.
+
+    Raises
+    ------
+    ManipkitError
+        A subclass naming the argument (wrong type, NUL byte, missing folder), or the description's problem.
 
     Examples
     --------
@@ -78,12 +88,15 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     (4, 4)
     """
     source = resolve_robot(robot)
-    text, declared = describe(source, xacro_args, package_dirs)
+    package_dirs = check_package_dirs(package_dirs, exist=False)  # a missing one the expansion uses: named there
+    allowed = allowed_folders(allow_read)
+    text, declared = describe(source, xacro_args, package_dirs, allow_read=allowed)
+    check_package_dirs(package_dirs)
     used = {}
     if source.is_xacro:
         defaults = {k: v for k, v in declared.items() if v is not None}
         used = {**defaults, **{k: str(v) for k, v in xacro_args.items()}}
-    return Robot.from_urdf(text, source=source, package_dirs=package_dirs, xacro_args=used)
+    return Robot.from_urdf(text, source=source, package_dirs=package_dirs, xacro_args=used, allow_read=allowed)
 
 
 class Robot:
@@ -98,7 +111,7 @@ class Robot:
     """
 
     def __init__(self, model: pin.Model, urdf: str, source: RobotSource, robot_xml, package_dirs=None, warnings=(),
-                 *, xacro_args=None, mesh_warnings=()):
+                 *, xacro_args=None, mesh_warnings=(), allow_read=()):
         self.model = model
         if model.nv > MAX_DEGREES_OF_FREEDOM:  # checked before Pinocchio allocates its workspace
             raise DescriptionError(
@@ -118,6 +131,8 @@ class Robot:
         self.source = source
         self.name = robot_xml.get("name") or source.name
         self.package_dirs = dict(package_dirs or {})
+        #: Folders the description may read besides its own tree and packages (``allow_read`` of :func:`load`).
+        self.allow_read: tuple[Path, ...] = allowed_folders(allow_read)
         #: The xacro arguments the description was expanded with (declared defaults and the given ones).
         self.xacro_args: Mapping[str, str] = MappingProxyType(dict(xacro_args or {}))
         #: Problems found while loading that do not change the kinematics (a normalised axis, a joint
@@ -149,7 +164,7 @@ class Robot:
         #: The link ``base_link`` means everywhere (CLI, :meth:`fk`'s default base, listings): the link
         #: named ``base_link`` if there is one, else the root link.
         self.base_link = "base_link" if "base_link" in self._frame_ids else self.root_link
-        self.ee_frame, self.ee_reason = self._choose_ee(source.ee_frame)
+        self.ee_frame, self.ee_reason = tool_frame_of(model, self._frame_ids, source.ee_frame, source.name)
         # Limits widened by LIMIT_TOLERANCE, for the quick check of check_limits
         self._lower_ok = np.array([j.lower for j in self.joints], dtype=float) - LIMIT_TOLERANCE
         self._upper_ok = np.array([j.upper for j in self.joints], dtype=float) + LIMIT_TOLERANCE
@@ -194,7 +209,8 @@ class Robot:
         return data
 
     @classmethod
-    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None, xacro_args=None) -> Robot:
+    def from_urdf(cls, text: str, *, source: RobotSource | None = None, package_dirs=None, xacro_args=None,
+                  allow_read=()) -> Robot:
         """Build a robot from URDF text, checked first by :func:`manipkit.description.validate.check_urdf`.
 
         Invalid descriptions raise :class:`DescriptionError` naming the file,
@@ -210,14 +226,15 @@ class Robot:
         warnings = list(checked.warnings)
         near = source.path if source.path.is_file() else None
         resolver = PackageResolver({k: Path(v) for k, v in (package_dirs or {}).items()}, near=near)
-        mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate)
+        policy = ReadPolicy(near, resolver, allow_read) if near is not None else None
+        mesh_warnings = package_uri_warnings(checked.robot, resolver, where, locate=locate, policy=policy)
         model, messages = build_model(checked.text)
         if model is None:
             reason = "; ".join(messages) or "no reason given"
             raise DescriptionError(f"{where}: Pinocchio cannot build a model: {reason}")
-        warnings += mesh_warnings + [f"{where}: URDF parser: {m}" for m in messages]
+        warnings += mesh_warnings + cap_warnings([f"{where}: URDF parser: {m}" for m in messages], where)
         return cls(model, checked.text, source, checked.robot, package_dirs, warnings, xacro_args=xacro_args,
-                   mesh_warnings=mesh_warnings)
+                   mesh_warnings=mesh_warnings, allow_read=allow_read)
 
     def __repr__(self) -> str:
         return (
@@ -302,23 +319,6 @@ class Robot:
         """
         bounds = sampling_bounds([j.lower for j in self.joints], [j.upper for j in self.joints])
         return sample_between(*bounds, n, seed)
-
-    def _choose_ee(self, declared: str | None) -> tuple[str, str]:
-        """The link ``ee_link`` means and why (:mod:`manipkit.kinematics.tool_frame`), from the link tree."""
-        frames = self.model.frames
-        links = [i for i, f in enumerate(frames) if f.type == pin.FrameType.BODY and f.name != "universe"
-                 and self._frame_ids.get(f.name) == i]
-        index = {frame_id: k for k, frame_id in enumerate(links)}
-        parents, movable = [], []
-        for frame_id in links:
-            parent, moves = frames[frame_id].parentFrame, False
-            while parent > 0 and parent not in index:  # up through the joint frame(s) to the parent link
-                moves = moves or frames[parent].type == pin.FrameType.JOINT
-                parent = frames[parent].parentFrame
-            parents.append(index.get(parent, -1) if parent != frame_id else -1)
-            movable.append(moves)
-        names = [frames[i].name for i in links]
-        return choose_tool_frame(names, parents, movable, declared=declared, source=self.source.name)
 
     # ------------------------------------------------------------------
     # Joint vectors
@@ -590,8 +590,9 @@ class Robot:
 
         near = self.source.path if self.source.path.exists() else None
         resolver = PackageResolver(dict(self.package_dirs), near=near)
+        policy = ReadPolicy(near, resolver, self.allow_read) if near is not None else None
         text, package_dirs, missing = visual_urdf(self.urdf, resolver, relative_to=self.source.path.parent,
-                                                  missing=missing_meshes)
+                                                  missing=missing_meshes, policy=policy)
         if missing is not None:
             warnings.warn(missing.message(self.name), MissingMeshWarning, stacklevel=2)
         try:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-__all__ = ["FINGER_JOINTS", "TOOL_FRAME_NAMES", "choose_tool_frame"]
+__all__ = ["FINGER_JOINTS", "TOOL_FRAME_NAMES", "choose_tool_frame", "tool_frame_of"]
 
 #: Link names of an arm's tool frame, as regular expressions on the name after its last ``/``
 #: (Interbotix writes ``wx250s/ee_gripper_link``), in the order that breaks a tie.
@@ -122,3 +122,22 @@ def _finger_split(tip: int, parents: Sequence[int], movable: Sequence[bool], joi
             return link if max(branches) <= min(FINGER_JOINTS, joints_above[link] - 1) else None
         link = parents[link]
     return None
+
+
+def tool_frame_of(model, frame_ids: dict[str, int], declared: str | None, source: str) -> tuple[str, str]:
+    """:func:`choose_tool_frame` on a Pinocchio model's link tree (``frame_ids``: link name -> its BODY frame)."""
+    import pinocchio as pin
+
+    frames = model.frames
+    links = [i for i, f in enumerate(frames) if f.type == pin.FrameType.BODY and f.name != "universe"
+             and frame_ids.get(f.name) == i]
+    index = {frame_id: k for k, frame_id in enumerate(links)}
+    parents, movable = [], []
+    for frame_id in links:
+        parent, moves = frames[frame_id].parentFrame, False
+        while parent > 0 and parent not in index:  # up through the joint frame(s) to the parent link
+            moves = moves or frames[parent].type == pin.FrameType.JOINT
+            parent = frames[parent].parentFrame
+        parents.append(index.get(parent, -1) if parent != frame_id else -1)
+        movable.append(moves)
+    return choose_tool_frame([frames[i].name for i in links], parents, movable, declared=declared, source=source)

@@ -135,7 +135,8 @@ class _GuardedStdout:
     raises :class:`~manipkit.errors.OutputError` ``cannot write stdout: REASON``; a closed pipe
     stays a :class:`BrokenPipeError`. Every write passes the text sanitiser
     (:func:`manipkit.text.printable_lines`): no escape sequence from a
-    description reaches the terminal. Everything else is the stream's own."""
+    description reaches the terminal; a character the stream's encoding cannot
+    write (``LC_ALL=C``) is written as ``\\uXXXX``. Everything else is the stream's own."""
 
     def __init__(self, stream):
         self._stream = stream
@@ -143,8 +144,12 @@ class _GuardedStdout:
     def write(self, text: str) -> int:
         if self._stream is None:
             raise OutputError("cannot write stdout: it is closed; give the command somewhere to write (> FILE)")
+        text = printable_lines(text)
         try:
-            return self._stream.write(printable_lines(text))
+            return self._stream.write(text)
+        except UnicodeEncodeError:  # a character the terminal's encoding lacks (LC_ALL=C): written as \uXXXX
+            encoding = getattr(self._stream, "encoding", None) or "ascii"
+            return self._stream.write(text.encode(encoding, "backslashreplace").decode(encoding))
         except BrokenPipeError:
             raise
         except OSError as exc:

@@ -99,7 +99,7 @@ def print_json(value) -> None:
 
 
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
-    """``--robot``, ``--arg`` and ``--package-dir`` (read by :func:`load_robot`)."""
+    """``--robot``, ``--arg``, ``--package-dir`` and ``--allow-read`` (read by :func:`load_robot`)."""
     parser.add_argument(
         "--robot", default=None, metavar="R",
         help="bundled name (course_arm, iiwa14, ...), example-robot-data name (panda, ur5, ...) "
@@ -112,6 +112,11 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--package-dir", action="append", default=[], metavar="NAME=DIR",
         help="folder of a ROS package, for $(find NAME) and package://NAME (repeatable)",
+    )
+    parser.add_argument(
+        "--allow-read", action="append", default=[], metavar="DIR",
+        help="let the description read files in DIR (xacro includes, YAML files, meshes); by default it reads "
+        "only its own folder tree, its packages and --package-dir folders (repeatable)",
     )
 
 
@@ -127,7 +132,11 @@ def load_robot(args, *, mesh_warnings: bool = True) -> Robot:
         if not folder:
             raise UsageError(f"--package-dir {name}=: give the folder of package {name}")
         package_dirs[name] = Path(folder)
-    robot = manipkit.load(args.robot, package_dirs=package_dirs, **xacro_arg_pairs(args.arg))
+    for folder in args.allow_read:
+        if not folder or not Path(folder).is_dir():
+            raise UsageError(f"--allow-read {printable(folder)}: no such folder")
+    robot = manipkit.load(args.robot, package_dirs=package_dirs, allow_read=list(args.allow_read),
+                          **xacro_arg_pairs(args.arg))
     for message in robot.warnings:
         if mesh_warnings or message not in robot.mesh_warnings:
             warn(message)

@@ -5,6 +5,7 @@ See docs/architecture.md ("app").
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot
@@ -40,13 +41,23 @@ def run_tree(args) -> int:
         path = tree.write_tree_image(description, args.output, fmt=fmt)
         print(f"wrote {path}")
         return EXIT_OK
-    text = tree.tree_text(description) if fmt == "text" else tree.tree_dot(description)
+    ascii_only = args.output is None and not _can_encode(sys.stdout, "├└│──")  # LC_ALL=C, PYTHONIOENCODING=ascii
+    text = tree.tree_text(description, ascii_only=ascii_only) if fmt == "text" else tree.tree_dot(description)
     if args.output is not None:
         write_text(args.output, text + ("" if text.endswith("\n") else "\n"))
         print(f"wrote {args.output}")
     else:
         print(text)
     return EXIT_OK
+
+
+def _can_encode(stream, text: str) -> bool:
+    """Whether ``stream``'s encoding can write ``text`` (the box-drawing characters of the text tree)."""
+    try:
+        text.encode(getattr(stream, "encoding", None) or "utf-8")
+    except (UnicodeEncodeError, LookupError):
+        return False
+    return True
 
 
 def _tree_format(fmt: str | None, output: Path | None) -> str:
