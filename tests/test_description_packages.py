@@ -243,7 +243,7 @@ def test_a_file_missing_in_the_package_found_names_that_folder_the_others_and_pa
 def test_a_workspace_package_wins_over_example_robot_data(tmp_path):
     if example_robot_data_dir() is None or not (example_robot_data_dir() / "robots" / "ur_description").is_dir():
         pytest.skip("example-robot-data with ur_description is not installed")
-    mine = package(tmp_path / "ws" / "src" / "ur_description", "ur_description", z=0.75)
+    package(tmp_path / "ws" / "src" / "ur_description", "ur_description", z=0.75)
     path = top(tmp_path / "ws" / "robot.xacro", "ur_description")
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # issue 25: the user's copy beating the built-in one is not a guess: no warning
