@@ -66,6 +66,7 @@ def run_view(args) -> int:
         path = viewer.write_static(robot, args.static, frames=frames, q=q, overlay=overlay, collisions=collisions)
         size = path.stat().st_size / 1e6
         shown = f" and the {overlay.kind} ellipsoid at {frames[1]}" if overlay.shown else ""
+        shown += ", links in contact red" if collisions is not None and collisions.settings is not None else ""
         print(f"wrote {path} ({number_text(size, 1)} MB): {robot.name} with triads at {frames[0]} and {frames[1]}"
               f"{shown}; open it in a browser, no server needed")
         if collisions is not None and collisions.settings is not None:
