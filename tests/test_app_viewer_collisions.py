@@ -251,3 +251,28 @@ def test_view_of_a_robot_without_collision_geometry_warns_once(tmp_path, bare):
     result = run_cli("manipkit", "view", "--robot", bare, "--static", out, "--collisions", "self", status=0)
     assert result.stderr == f"warning: {UNAVAILABLE}\n"
     assert "collision-free" not in result.stdout
+
+
+def test_notebook_view_tints_and_reads_out_collisions(course_arm):
+    pytest.importorskip("ipywidgets")
+    import html
+
+    from manipkit.app.viewer import notebook_view
+
+    view = notebook_view(course_arm, collisions="self")
+    try:
+        assert "collision-free" in view.collision_readout.value and not any(view.scene.tinted.values())
+        view.sliders["shoulder_joint"].value = 3.0
+        expected = run_cli("manipkit", "collisions", "--q", "shoulder_joint=3.0", status=0).stdout.rstrip("\n")
+        assert html.escape(expected) in view.collision_readout.value
+        assert {path for path, on in view.scene.tinted.items() if on} == {
+            f"{VISUALS_ROOT}/{name}_0" for name in ("base_link", "bicep", "bottom_wrist")}
+        view.sliders["shoulder_joint"].value = 0.5
+        assert "collision-free" in view.collision_readout.value and not any(view.scene.tinted.values())
+    finally:
+        view.close()
+    plain = notebook_view(course_arm)
+    try:
+        assert plain.collision_readout.value == "" and plain.scene.tinted == {}
+    finally:
+        plain.close()
