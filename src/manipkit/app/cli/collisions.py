@@ -24,7 +24,8 @@ from manipkit.app.cli.common import (
 from manipkit.app.collision_text import collision_lines
 from manipkit.text import printable
 
-__all__ = ["add_collision_options", "add_collision_set_options", "collision_checker", "collision_set", "parse_floor", "register", "run_acm", "run_collisions"]
+__all__ = ["add_collision_options", "add_collision_set_options", "collision_checker", "collision_set", "parse_floor",
+           "register", "run_acm", "run_collisions"]
 
 
 def register(commands) -> None:
