@@ -274,7 +274,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
     originals = {name: getattr(xacro, name)
                  for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all", "check_attrs")}
     patched = []  # (substitution_args module, its own _eval_find, _eval_env, _eval_optenv), once patched
-    deadline = time.thread_time() + EXPANSION_SECONDS
+    deadline = time.monotonic() + EXPANSION_SECONDS
     counts = {"elements": 0, "characters": 0}
 
     def eval_extension(text: str):  # every $(...)
@@ -329,7 +329,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
         if counts["elements"] > MAX_XACRO_ELEMENTS:
             raise DescriptionError(f"{path.name}: xacro expansion made more than {MAX_XACRO_ELEMENTS} elements, "
                                    "the limit (macros that call each other many times over?)")
-        if time.thread_time() > deadline:
+        if time.monotonic() > deadline:
             raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
         return originals["eval_all"](node, macros, symbols)
 
