@@ -36,6 +36,7 @@ Given a chain object; never imports the kinematics layer (docs/architecture.md, 
 from __future__ import annotations
 
 import math
+import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,7 +64,7 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "srs_arm_angle"]
+__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "solve_branches", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
@@ -78,7 +79,7 @@ class IdealArm:
     an axis (m for a point, rad for a direction) from the measured chain.
     """
 
-    __slots__ = ("family", "h", "p", "points", "moved")
+    __slots__ = ("family", "h", "p", "points", "moved", "M_inv", "scale", "__weakref__")
 
     def __init__(self, family: Family):
         geometry = reversed_geometry(family.geometry) if family.reversed else family.geometry
@@ -110,6 +111,9 @@ class IdealArm:
             points["shoulder"] = s
             moved = max(moved, miss)
         self.family, self.h, self.p, self.points, self.moved = family, h, p, points, moved
+        self.M_inv = invert_transform(family.geometry.M, check=False)  # g = T M^-1, once per arm
+        # the arm's size as arms.solve_6r takes it (m, at least 1)
+        self.scale = max(1.0, float(np.max(np.abs(p))) + float(np.linalg.norm(points.get("wrist", np.zeros(3)))))
 
 
 def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
@@ -126,25 +130,62 @@ def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
 
 
 def ideal_arm(family: Family) -> IdealArm:
-    """The nearest ideal arm of ``family`` (see :class:`IdealArm`); :class:`ClosedFormIKError` if it has no solver."""
+    """The nearest ideal arm of ``family`` (see :class:`IdealArm`), made once per family and kept;
+    :class:`ClosedFormIKError` if it has no solver."""
     if not family.solved:
         raise ClosedFormIKError(family.note)
-    return IdealArm(family)
+    arm = _ARMS.get(family)
+    if arm is None:
+        arm = _ARMS[family] = IdealArm(family)
+    return arm
 
 
-def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None) -> tuple[np.ndarray, Branches, np.ndarray]:
+#: Family -> its ideal arm (a Family is immutable; an arm is made once and read by every call after).
+_ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _solved_direction(arm: IdealArm, T: np.ndarray) -> np.ndarray:
+    """``g`` (N, 4, 4) of targets T (N, 4, 4) as the solver takes them: ``T M^-1``, inverted for a reversed family."""
+    g = T @ arm.M_inv
+    return invert_transform(g, check=False) if arm.family.reversed else g
+
+
+def solve_branches(arm: IdealArm, g: np.ndarray, *, compiled: bool = True) -> Branches:
+    """Every branch of ``arm`` for targets ``g`` (N, 4, 4): the compiled loop for the UR and OPW families
+    (:mod:`manipkit.closed_form.arms_kernel`), the numpy reference for its hand-backs and for the other families.
+
+    The two give the same branches (tested); ``compiled=False`` is the reference alone."""
+    kind = arm.family.kind
+    if not compiled or kind not in (UR, OPW):
+        return solve_6r(kind, arm.h, arm.p, g, arm.points)
+    from manipkit.closed_form.arms_kernel import solve_many
+
+    theta, valid, near, fallback = solve_many(kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+    N = len(g)
+    free = np.full((N, 8), -1)
+    miss = {"shoulder": np.zeros(N), "reach": np.zeros(N), "orientation": np.zeros(N)}
+    if fallback.any():
+        rows = np.flatnonzero(fallback)
+        reference = solve_6r(kind, arm.h, arm.p, g[rows], arm.points)
+        theta[rows], valid[rows], near[rows], free[rows] = (reference.theta, reference.valid, reference.near,
+                                                            reference.free)
+        for key, value in reference.miss.items():
+            miss[key][rows] = value
+    return Branches(theta, valid, free, miss, near)
+
+
+def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None, compiled: bool = True
+              ) -> tuple[np.ndarray, Branches, np.ndarray]:
     """(theta (N, 8, n) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
     family = arm.family
-    g = T @ invert_transform(family.geometry.M)
-    if family.reversed:
-        g = invert_transform(g)
+    g = _solved_direction(arm, T)
     if family.kind == SRS:
         if arm_angle is None or len(g) != 1:
             raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
                                     "ik --arm-angle PSI), one target at a time, or lock a joint")
         branches = solve_srs(arm.h, arm.p, g[0], arm.points, float(arm_angle))
         return branches.theta, branches, g
-    branches = solve_6r(family.kind, arm.h, arm.p, g, arm.points)
+    branches = solve_branches(arm, g, compiled=compiled)
     theta = branches.theta[..., ::-1] if family.reversed else branches.theta
     return theta, branches, g
 
@@ -245,7 +286,7 @@ def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
 
 
 def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-             max_iters: int = 20, lock=None, arm_angle=None) -> IKResult:
+             max_iters: int = 20, lock=None, arm_angle=None, compiled: bool = True) -> IKResult:
     """Every closed-form IK solution of ``chain`` for ``T_base_tip = target``, found from the chain's geometry.
 
     Parameters
@@ -269,6 +310,9 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         A 7R SRS arm (:mod:`manipkit.closed_form.srs`): the angle (rad) of
         the elbow's plane about the shoulder-wrist line from the plane with
         joint 3 at its reference value.
+    compiled : bool, keyword-only
+        Solve the UR and OPW families in the compiled loop (:func:`solve_branches`);
+        False: the numpy reference alone (the same branches; for tests).
 
     Returns
     -------
@@ -294,7 +338,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = check_transform(target, what="IK target")
-    theta, branches, g = _branches(arm, T[None], arm_angle)
+    theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
     geometry = family.geometry
     names = tuple(chain.joint_names)
     slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
@@ -395,7 +439,7 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
 
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-                  lock=None) -> IKBatch:
+                  lock=None, compiled: bool = True) -> IKBatch:
     """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
 
     Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
@@ -403,13 +447,13 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
     carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
     and ``success`` are measured by the chain's compiled FK on first use,
-    against ``check_tol``.
+    against ``check_tol``. ``compiled`` as in :func:`chain_ik`.
     """
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
-    theta, branches, _ = _branches(arm, T)
+    theta, branches, _ = _branches(arm, T, compiled=compiled)
     geometry = family.geometry
     Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
     Q = np.where(branches.valid[..., None], Q, np.nan)
