@@ -30,7 +30,7 @@ import numpy as np
 
 from manipkit.kernels import compile_kernel
 
-__all__ = ["KIND_CODES", "MARGIN", "solve_many"]
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "solve_many"]
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
@@ -370,3 +370,92 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
     _solve_all(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float), c,
                float(scale), g, theta, valid, near, fallback)
     return theta, valid, near, fallback
+
+
+@compile_kernel
+def _wrap_angle(a):
+    """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
+    if -math.pi < a <= math.pi:
+        return a + 0.0
+    w = math.pi - (math.pi - a) % TWO_PI
+    return w + TWO_PI if w <= -math.pi else w
+
+
+@compile_kernel
+def _rows(theta, valid, q0, columns, scale, lower, upper, out):
+    """out[n, k] = the chain vector of slot k (NaN where not valid); see chain_rows."""
+    for n in range(theta.shape[0]):
+        for k in range(theta.shape[1]):
+            if not valid[n, k]:
+                for j in range(out.shape[2]):
+                    out[n, k, j] = np.nan
+                continue
+            for j in range(out.shape[2]):
+                out[n, k, j] = q0[j]
+            for i in range(columns.shape[0]):
+                col = columns[i]
+                wrapped = _wrap_angle(q0[col] + theta[n, k, i] / scale[i])
+                best = wrapped
+                if not (lower[i] - 1e-12 <= wrapped <= upper[i] + 1e-12):
+                    for turn in (1.0, -1.0, 2.0, -2.0):
+                        candidate = wrapped + turn * TWO_PI
+                        if lower[i] - 1e-12 <= candidate <= upper[i] + 1e-12:
+                            best = candidate
+                            break
+                out[n, k, col] = best
+
+
+def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np.ndarray, scale: np.ndarray,
+               lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Chain vectors (N, k, n) of solved angles ``theta`` (N, k, m) (chain order): ``q0`` with column
+    ``columns[i]`` moved by ``theta[..., i] / scale[i]`` and taken, by whole turns, to the in-limit value nearest 0
+    (``lower``/``upper`` of the solved columns; wrapped to (-pi, pi] when none is inside); NaN rows where not
+    ``valid``. The same numbers as chain_ik's numpy ``_joint_values`` and ``_aliases`` (revolute joints only)."""
+    theta = np.ascontiguousarray(theta, dtype=float)
+    out = np.empty((*theta.shape[:2], len(q0)))
+    _rows(theta, np.ascontiguousarray(valid, dtype=np.bool_), np.ascontiguousarray(q0, dtype=float),
+          np.ascontiguousarray(columns, dtype=np.int64), np.ascontiguousarray(scale, dtype=float),
+          np.ascontiguousarray(lower, dtype=float), np.ascontiguousarray(upper, dtype=float), out)
+    return out
+
+
+@compile_kernel
+def _labels(kind, H, P, c, s, reference, up, g, theta, out):
+    """out[r] = (front, elbow above, no flip) of each row of theta (k, 6), as chain_ik's _labels computes them."""
+    h0, h1, h2 = _row(H, 0), _row(H, 1), _row(H, 2)
+    p0, p1, p2, p3 = _row(P, 0), _row(P, 1), _row(P, 2), _row(P, 3)
+    w = _add(_mv(g[:3, :3], c), (g[0, 3], g[1, 3], g[2, 3]))
+    for r in range(theta.shape[0]):
+        t1, t2, t3 = theta[r, 0], theta[r, 1], theta[r, 2]
+        c1, s1 = math.cos(t1), math.sin(t1)
+        w1 = _add(p0, _rotate(h0, c1, -s1, _sub(w, p0)))
+        out[r, 0] = _dot(_sub(w1, p0), reference) >= 0.0
+        c2, s2 = math.cos(t2), math.sin(t2)
+        shoulder = _move(h0, p0, c1, s1, s)
+        elbow = _move(h0, p0, c1, s1, _move(h1, p1, c2, s2, p2))
+        wrist = w
+        if kind == 0:
+            c3, s3 = math.cos(t3), math.sin(t3)
+            wrist = _move(h0, p0, c1, s1, _move(h1, p1, c2, s2, _move(h2, p2, c3, s3, p3)))
+        normal = _rotate(h0, c1, s1, h1)
+        line, offset = _sub(wrist, shoulder), _sub(elbow, shoulder)
+        a, b = _dot(line, normal), _dot(offset, normal)
+        line = (line[0] - a * normal[0], line[1] - a * normal[1], line[2] - a * normal[2])
+        offset = (offset[0] - b * normal[0], offset[1] - b * normal[1], offset[2] - b * normal[2])
+        length = _dot(line, line)
+        along = _dot(offset, line) / length if length > 0.0 else 0.0
+        offset = (offset[0] - along * line[0], offset[1] - along * line[1], offset[2] - along * line[2])
+        out[r, 1] = _dot(offset, up) >= 0.0
+        out[r, 2] = theta[r, 4] >= 0.0
+
+
+def branch_labels(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, shoulder: np.ndarray,
+                  reference: np.ndarray, up: np.ndarray, g: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """(k, 3) bool: front, elbow above the shoulder-wrist line, no wrist flip, of rows ``theta`` (k, 6) (solve
+    direction) for one target ``g`` (4, 4): chain_ik's labels, compiled (``reference``, ``up``: its axes)."""
+    out = np.zeros((len(theta), 3), dtype=np.bool_)
+    _labels(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float),
+            tuple(float(v) for v in wrist), tuple(float(v) for v in shoulder), tuple(float(v) for v in reference),
+            tuple(float(v) for v in up), np.ascontiguousarray(g, dtype=float), np.ascontiguousarray(theta, dtype=float),
+            out)
+    return out

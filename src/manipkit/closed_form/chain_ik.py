@@ -59,7 +59,7 @@ from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
-from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals
+from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -232,7 +232,18 @@ def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
     return Q
 
 
-def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> list[str]:
+def _label_axes(arm: IdealArm) -> tuple[np.ndarray, np.ndarray]:
+    """(reference, up) of the labels: "front" is the side of axis 1 along ``reference`` (the wrist centre's side at
+    q0, across axis 2), "above" is along ``up`` (axis 1 turned to point up the base z)."""
+    h, p, c = arm.h, arm.p, arm.points["wrist"]
+    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
+    reference = reference - (reference @ h[1]) * h[1]
+    if np.linalg.norm(reference) < 1e-9:
+        reference = np.cross(h[0], h[1])
+    return reference, (h[0] if h[0][2] >= 0.0 else -h[0])
+
+
+def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray, compiled: bool = False) -> list[str]:
     """Shoulder, elbow and wrist of each branch (rows of angles (k, n) in the solve direction), as words."""
     h, p = arm.h, arm.p
     kind = arm.family.kind
@@ -240,15 +251,17 @@ def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> list[str]:
         return [f"elbow {'+' if t[3] >= 0 else '-'}, shoulder {'+' if t[1] >= 0 else '-'}, "
                 f"{'no flip' if t[5] >= 0 else 'wrist flip'}" for t in theta]
     c = arm.points["wrist"]
-    w = g[:3, :3] @ c + g[:3, 3]
     s = arm.points.get("shoulder", p[1])
-    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
-    reference = reference - (reference @ h[1]) * h[1]
-    if np.linalg.norm(reference) < 1e-9:
-        reference = np.cross(h[0], h[1])
+    reference, up = _label_axes(arm)
+    if compiled and kind in (UR, OPW):
+        from manipkit.closed_form.arms_kernel import branch_labels
+
+        bits = branch_labels(kind, h, p, c, s, reference, up, g, theta).tolist()
+        return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t else 'wrist flip'}"
+                for f, a, t in bits]
+    w = g[:3, :3] @ c + g[:3, 3]
     w1 = p[0] + rotate(h[0], -theta[:, 0], w - p[0])  # (k, 3)
     front = (w1 - p[0]) @ reference >= 0.0
-    up = h[0] if h[0][2] >= 0.0 else -h[0]
     E1 = rotation_matrix(h[0], theta[:, 0])  # (k, 3, 3)
 
     def turned(x):
@@ -342,39 +355,49 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     geometry = family.geometry
     names = tuple(chain.joint_names)
     slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
-    candidates = _aliases(chain, _joint_values(geometry, theta[0, slots]), geometry.columns)  # (k, n), one batched FK below
-    position, rotation = pose_residuals(T, chain.fk(candidates)) if len(slots) else (np.zeros(0), np.zeros(0))
+    candidates = _candidates(chain, arm, theta[0], slots, compiled)  # (k, n), one batched FK below
+    T_check = _projected_target(T)
+    position, rotation = (pose_residuals(T_check, chain.fk(candidates), project=False) if len(slots)
+                          else (np.zeros(0), np.zeros(0)))
+    position, rotation = np.atleast_1d(position).tolist(), np.atleast_1d(rotation).tolist()
     rows, labels, free_of, refined, rejected = [], [], [], [], 0
+    residual_rows, kept = [], []
     worst = 0.0
-    for q, slot, p_err, r_err in zip(candidates, slots, np.atleast_1d(position), np.atleast_1d(rotation)):
+    free_slots = branches.free[0].tolist()
+    same = _pairwise_same(candidates)  # (k, k): equal modulo 2 pi (rows moved by Newton are compared again)
+    for index, (q, slot, p_err, r_err) in enumerate(zip(candidates, slots.tolist(), position, rotation)):
         moved = 0.0
         if p_err > check[0] or r_err > check[1]:
             better = _newton(chain, T, q, geometry.columns, max_iters, min(0.1 * min(check), 1e-12))
             moved = float(np.max(np.abs(better - q)))
             q = _aliases(chain, better, geometry.columns)
-            p_err, r_err = pose_residuals(T, chain.fk(q))
+            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
             worst = max(worst, float(p_err), float(r_err))
             continue
-        free = int(branches.free[0, slot])
+        free = free_slots[slot]
         if family.reversed and free >= 0:
             free = 5 - free
         free = int(geometry.columns[free]) if free >= 0 else -1  # a chain column (locked joints have none)
-        if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
+        if rows and (_repeats(q, rows, free, free_of) if moved or any(refined)
+                     else any(same[index][j] and free == f for j, f in zip(kept, free_of))):
             continue
         rows.append(q)
+        kept.append(index)
         labels.append(int(slot))  # named below, all rows at once
         free_of.append(free)
         refined.append(moved)
+        residual_rows.append((p_err, r_err))
     if labels:
-        words = _labels(arm, g[0], branches.theta[0, labels])
+        words = _labels(arm, g[0], branches.theta[0, labels], compiled)
         labels = [w + (" (read tip to base)" if family.reversed else "") for w in words]
     order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first
-    rows, labels, free_of, refined = ([seq[i] for i in order] for seq in (rows, labels, free_of, refined))
+    rows, labels, free_of, refined, residual_rows = ([seq[i] for i in order]
+                                                     for seq in (rows, labels, free_of, refined, residual_rows))
     n = len(names)
     Q = np.array(rows, dtype=float).reshape(-1, n)
-    residuals = pose_residuals(T, chain.fk(Q)) if len(rows) else (np.zeros(0), np.zeros(0))
+    residuals = np.array(residual_rows, dtype=float).reshape(-1, 2).T  # measured above, by FK of each row as kept
     within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(rows) else np.zeros(0, dtype=bool)
     free_joints = tuple(sorted({f for f in free_of if f >= 0}))
     count: int | float = math.inf if free_joints else len(rows)
@@ -386,7 +409,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     if any(m > 0 for m in refined):
         parts.append(f"refined by Newton on the true chain (ideal arm {quantity_text(arm.moved)} m/rad away, "
                      f"largest step {quantity_text(max(refined))})")
-    wide = [names[k] for k in geometry.columns if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
+    wide = _wide_joints(chain, geometry.columns)
     if wide and len(rows):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
     if family.kind == SRS:
@@ -414,6 +437,13 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     )
 
 
+def _wide_joints(chain: Chain, columns: np.ndarray) -> list[str]:
+    """The solved joints whose range spans more than 2 pi (each has a second alias inside its limits)."""
+    lower, upper = np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
+    wide = (upper - lower > TWO_PI + 1e-9) & np.isfinite(upper)
+    return [chain.joint_names[k] for k, w in zip(columns.tolist(), wide.tolist()) if w]
+
+
 def _label_order(label: str) -> tuple[bool, bool, bool]:
     return ("back" in label, "elbow down" in label, "wrist flip" in label)
 
@@ -421,6 +451,47 @@ def _label_order(label: str) -> tuple[bool, bool, bool]:
 def _same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> bool:
     difference = np.pi - np.mod(np.pi - (a - b), TWO_PI)
     return bool(np.all(np.abs(difference) <= tol))
+
+
+def _pairwise_same(rows: np.ndarray, tol: float = 1e-9) -> list:
+    """(k, k) nested lists: rows i and j equal modulo 2 pi (to ``tol``), as :func:`_same` of each pair."""
+    difference = np.pi - np.mod(np.pi - (rows[:, None, :] - rows[None, :, :]), TWO_PI)
+    return np.all(np.abs(difference) <= tol, axis=-1).tolist()
+
+
+def _repeats(q: np.ndarray, rows: list, free: int, free_of: list) -> bool:
+    """``q`` equals (modulo 2 pi, to 1e-9) a kept row with the same free joint."""
+    others = np.array([row for row, f in zip(rows, free_of) if f == free]).reshape(-1, len(q))
+    difference = np.pi - np.mod(np.pi - (others - q), TWO_PI)
+    return bool(np.any(np.all(np.abs(difference) <= 1e-9, axis=-1)))
+
+
+def _projected_target(T: np.ndarray) -> np.ndarray:
+    """``T`` (..., 4, 4) with its rotation block(s) projected to the nearest rotation where not one to 1e-12, as
+    :func:`~manipkit.spatial.transforms.pose_residuals` does by default: projected once here, the residuals of
+    every row are measured with ``project=False`` (FK poses are rotations)."""
+    T = np.array(T, dtype=float)
+    T[..., :3, :3] = projected_rotation(T[..., :3, :3])
+    return T
+
+
+def _candidates(chain: Chain, arm: IdealArm, theta: np.ndarray, slots: np.ndarray, compiled: bool) -> np.ndarray:
+    """Chain vectors (k, n) of the slots ``slots`` of ``theta`` (8, m) (chain order), in-limit aliases nearest 0."""
+    geometry = arm.family.geometry
+    if not compiled:
+        return _aliases(chain, _joint_values(geometry, theta[slots]), geometry.columns)
+    from manipkit.closed_form.arms_kernel import chain_rows
+
+    lower, upper = _limits(chain, arm)
+    rows = chain_rows(theta[None, slots], np.ones((1, len(slots)), dtype=bool), geometry.q0, geometry.columns,
+                      geometry.scale, lower, upper)
+    return rows[0]
+
+
+def _limits(chain: Chain, arm: IdealArm) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of the solved columns (chain order of ``columns``)."""
+    columns = arm.family.geometry.columns
+    return np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
 
 
 def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
@@ -455,15 +526,21 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     theta, branches, _ = _branches(arm, T, compiled=compiled)
     geometry = family.geometry
-    Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
-    Q = np.where(branches.valid[..., None], Q, np.nan)
+    if compiled:
+        from manipkit.closed_form.arms_kernel import chain_rows
+
+        Q = chain_rows(theta, branches.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
+    else:
+        Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
+        Q = np.where(branches.valid[..., None], Q, np.nan)
     count = branches.valid.sum(axis=-1).astype(float)
     count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
+    T_check = _projected_target(T)
 
     def measure(solutions):
-        filled = np.where(np.isnan(solutions), 0.0, solutions)
-        position, rotation = pose_residuals(T[:, None], chain.fk(filled))
         missing = np.isnan(solutions).any(axis=-1)
+        filled = np.where(missing[..., None], 0.0, solutions)
+        position, rotation = pose_residuals(T_check[:, None], chain.fk(filled), project=False)
         return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
 
     slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
