@@ -535,12 +535,11 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
         Q = np.where(branches.valid[..., None], Q, np.nan)
     count = branches.valid.sum(axis=-1).astype(float)
     count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
-    T_check = _projected_target(T)
 
     def measure(solutions):
         missing = np.isnan(solutions).any(axis=-1)
         filled = np.where(missing[..., None], 0.0, solutions)
-        position, rotation = pose_residuals(T_check[:, None], chain.fk(filled), project=False)
+        position, rotation = pose_residuals(_projected_target(T)[:, None], chain.fk(filled), project=False)
         return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
 
     slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))

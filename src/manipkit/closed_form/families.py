@@ -328,7 +328,10 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL, lock=None) -> Family:
     family = _chain_family(chain, tol, lock)
     if key is not None:
         if len(_FAMILIES) >= _MAX_CACHED:
-            _FAMILIES.pop(next(iter(_FAMILIES)))
+            try:
+                _FAMILIES.pop(next(iter(_FAMILIES)), None)
+            except (StopIteration, RuntimeError):  # another thread emptied or changed it meanwhile: nothing to drop
+                pass
         _FAMILIES[key] = (chain, family)  # the chain is held, so its id is not reused while the entry lives
     return family
 
