@@ -747,8 +747,8 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
 
     robot = _analytic_robot(robot_name)
     if robot is None:
-        return [row("analytic", robot_name, "manipkit chain_ik (one pose per call)", unit="pose", status="missing",
-                    note="the shared ROS workspace with this description is not here")]
+        return [row("analytic", robot_name, f"{robot_name} description", unit="pose", status="missing",
+                    note="the shared ROS workspace with this description is not here: not run")]
     base, tip = ANALYTIC_CHAINS[robot_name]
     chain = robot.chain(base, tip)
     family = chain_family(chain)
