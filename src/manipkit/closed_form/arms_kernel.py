@@ -30,7 +30,7 @@ import numpy as np
 
 from manipkit.kernels import compile_kernel
 
-__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "solve_many"]
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "solve_many", "warm_up"]
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
@@ -459,3 +459,26 @@ def branch_labels(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, sh
             tuple(float(v) for v in up), np.ascontiguousarray(g, dtype=float), np.ascontiguousarray(theta, dtype=float),
             out)
     return out
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's on-disk cache) every kernel here, with the argument types chain_ik passes.
+
+    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 15 s,
+    which the first closed-form solve of a new installation would otherwise pay.
+    """
+    z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
+    h = np.array([z, y, y, y, z, y])
+    p = np.array([[0.0, 0.0, 0.1], [0.0, 0.1, 0.1], [0.4, 0.1, 0.1], [0.8, 0.1, 0.1], [0.8, 0.2, 0.1], [0.8, 0.2, 0.0]])
+    g = np.eye(4)[None]
+    theta, valid, _, _ = solve_many("three parallel, two intersecting", h, p, p[5], 1.0, g)
+    chain_rows(theta, valid, np.zeros(6), np.arange(6), np.ones(6), np.full(6, -np.pi), np.full(6, np.pi))
+    branch_labels("three parallel, two intersecting", h, p, p[5], p[1], np.array([1.0, 0.0, 0.0]), h[0], g[0], theta[0])
+
+
+if __name__ == "__main__":
+    import time
+
+    start = time.perf_counter()
+    warm_up()
+    print(f"manipkit closed-form kernels ready ({time.perf_counter() - start:.1f} s; compiled once, then cached by numba)")

@@ -6,7 +6,9 @@ classified by :func:`manipkit.closed_form.families.chain_family`; its axes
 at the reference configuration ``q0`` and its tip pose there, ``M``, make
 the product of exponentials ``T_base_tip(q) = E_1 ... E_6 M`` in which the
 base and tip offsets are folded exactly. :mod:`manipkit.closed_form.arms`
-gives every branch; each is then:
+gives every branch (the UR and OPW families compiled by
+:mod:`manipkit.closed_form.arms_kernel`, targets near a decision threshold by
+the numpy reference; ``compiled=False``: the reference alone); each is then:
 
 - mapped to joint values ``q = q0 + angle / scale`` and, for a revolute
   joint, to the alias ``q + 2 pi k`` inside the limits nearest 0 (a joint
