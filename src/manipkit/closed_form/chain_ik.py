@@ -81,7 +81,7 @@ class IdealArm:
     an axis (m for a point, rad for a direction) from the measured chain.
     """
 
-    __slots__ = ("family", "h", "p", "points", "moved", "M_inv", "scale", "__weakref__")
+    __slots__ = ("family", "h", "p", "points", "moved", "M_inv", "scale", "label_axes", "__weakref__")
 
     def __init__(self, family: Family):
         geometry = reversed_geometry(family.geometry) if family.reversed else family.geometry
@@ -116,6 +116,7 @@ class IdealArm:
         self.M_inv = invert_transform(family.geometry.M, check=False)  # g = T M^-1, once per arm
         # the arm's size as arms.solve_6r takes it (m, at least 1)
         self.scale = max(1.0, float(np.max(np.abs(p))) + float(np.linalg.norm(points.get("wrist", np.zeros(3)))))
+        self.label_axes = _label_axes(h, p, points["wrist"]) if "wrist" in points else None
 
 
 def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
@@ -234,10 +235,10 @@ def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
     return Q
 
 
-def _label_axes(arm: IdealArm) -> tuple[np.ndarray, np.ndarray]:
-    """(reference, up) of the labels: "front" is the side of axis 1 along ``reference`` (the wrist centre's side at
-    q0, across axis 2), "above" is along ``up`` (axis 1 turned to point up the base z)."""
-    h, p, c = arm.h, arm.p, arm.points["wrist"]
+def _label_axes(h: np.ndarray, p: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(reference, up) of the labels of an arm (axes h, p; wrist centre c): "front" is the side of axis 1 along
+    ``reference`` (the wrist centre's side at q0, across axis 2), "above" is along ``up`` (axis 1 turned to point up
+    the base z)."""
     reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
     reference = reference - (reference @ h[1]) * h[1]
     if np.linalg.norm(reference) < 1e-9:
@@ -254,7 +255,7 @@ def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray, compiled: bool = Fa
                 f"{'no flip' if t[5] >= 0 else 'wrist flip'}" for t in theta]
     c = arm.points["wrist"]
     s = arm.points.get("shoulder", p[1])
-    reference, up = _label_axes(arm)
+    reference, up = arm.label_axes
     if compiled and kind in (UR, OPW):
         from manipkit.closed_form.arms_kernel import branch_labels
 
