@@ -416,8 +416,8 @@ def _free_port() -> int:
         return probe.getsockname()[1]
 
 
-def _start_viewer(port: int, timeout: float = 60.0):
-    proc = subprocess.Popen([str(BIN / "manipkit"), "view", "--no-browser", "--port", str(port)],
+def _start_viewer(port: int, *options: str, timeout: float = 60.0):
+    proc = subprocess.Popen([str(BIN / "manipkit"), "view", "--no-browser", "--port", str(port), *options],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     lines: queue.Queue = queue.Queue()
     threading.Thread(target=lambda: [lines.put(line) for line in proc.stdout], daemon=True).start()
@@ -453,43 +453,83 @@ CHROMIUM_ARGS = [
 
 
 def viewer_workload(*, moves: int = 60, joint: str = "bottom_wrist_joint") -> list[dict]:
-    """Slider to readout: HTTP only (the server's answer), and in headless Chromium (the page's own timer).
+    """Slider to readout: HTTP only (the server's answer), without and with ``--collisions self,floor``, and in
+    headless Chromium (the page's own timer).
 
-    Both move ``joint`` of the course arm ``moves`` times, one move at a time,
-    and check the last readout against ``robot.transform`` (1e-9).
+    Each moves ``joint`` of the course arm ``moves`` times, one move at a time,
+    and checks the last readout against ``robot.transform`` (1e-9); with
+    collisions, the last collision answer against ``manipkit.collisions`` (1e-9 m).
+    The two HTTP views run side by side and take turns, move by move, so that
+    their ratio is not the machine's load changing between them.
     """
-    import urllib.request
-
     import manipkit
 
     robot = manipkit.load("course_arm")
     rows = []
+    values = [round(0.02 * (i + 1), 6) for i in range(moves)]
     proc, url = _start_viewer(_free_port())
+    checked = None
     try:
-        with urllib.request.urlopen(url, timeout=30) as response:  # the session's token, as the page holds it
-            token = re.search(r'<meta name="manipkit-token" content="([^"]+)">', response.read().decode()).group(1)
-
-        def post(body: dict) -> dict:
-            request = urllib.request.Request(url + "api/update", data=json.dumps(body).encode(),
-                                             headers={"Content-Type": "application/json", "X-Manipkit-Token": token})
-            with urllib.request.urlopen(request, timeout=30) as response:
-                return json.loads(response.read())
-
-        values = [round(0.02 * (i + 1), 6) for i in range(moves)]
-        post({"q": {joint: 0.0}})
-        times = per_call(lambda v: post({"q": {joint: v}}), values, warmup=5)
-        answer = post({"q": {joint: values[-1]}})["readout"]  # tf-between's JSON keys
-        expected = robot.transform(answer["source"], answer["target"], robot.q(answer["q"]))
-        shown = np.array(answer["matrix"])
-        err = max_error(shown, expected)
+        checked, url_checked = _start_viewer(_free_port(), "--collisions", "self,floor")
+        post, post_checked = _viewer_poster(url), _viewer_poster(url_checked)
+        for send in (post, post_checked):
+            for v in values[:5]:  # warm-up
+                send({"q": {joint: v}})
+        times, times_checked = np.empty(moves), np.empty(moves)
+        clock = time.perf_counter
+        with no_gc():
+            for i, v in enumerate(values):
+                start = clock()
+                post({"q": {joint: v}})
+                times[i] = clock() - start
+                start = clock()
+                post_checked({"q": {joint: v}})
+                times_checked[i] = clock() - start
+        err = _readout_error(robot, post({"q": {joint: values[-1]}})["readout"])  # tf-between's JSON keys
         ok = err <= 1e-9
         rows.append(row("viewer", "course_arm", "manipkit view: POST /api/update (HTTP, no browser)", times if ok else None,
                         unit="move", n=moves, ours=True, status="ok" if ok else "wrong",
                         check=f"readout = robot.transform (max error {err:.1e})", note="keep-alive off: a new connection per move"))
+        answer = post_checked({"q": {joint: values[-1]}})
+        err = _readout_error(robot, answer["readout"])
+        report = manipkit.collisions(robot, robot.q(answer["readout"]["q"]), floor=0.0)
+        shown = answer["collisions"]
+        distance_err = abs(shown["min_distance"]["distance"] - report.min_distance.distance)
+        ok = err <= 1e-9 and shown["in_collision"] == report.in_collision and distance_err <= 1e-9
+        ratio = float(np.median(times_checked) / np.median(times))
+        rows.append(row("viewer", "course_arm", "manipkit view --collisions self,floor: POST /api/update (HTTP, no browser)",
+                        times_checked if ok else None, unit="move", n=moves, ours=True, status="ok" if ok else "wrong",
+                        check=f"readout = robot.transform (max error {err:.1e}); collisions = manipkit.collisions "
+                              f"(closest distance error {distance_err:.1e} m)",
+                        note=f"{ratio:.2f}x the move without collisions (medians; the two views take turns)"))
+        _stop(checked)
         rows += _browser_round_trip(url, robot, moves, joint)
     finally:
         _stop(proc)
+        if checked is not None:
+            _stop(checked)
     return rows
+
+
+def _viewer_poster(url: str):
+    """``post(body) -> answer`` for the viewer at ``url``, with the session's token as the page holds it."""
+    import urllib.request
+
+    with urllib.request.urlopen(url, timeout=30) as response:
+        token = re.search(r'<meta name="manipkit-token" content="([^"]+)">', response.read().decode()).group(1)
+
+    def post(body: dict) -> dict:
+        request = urllib.request.Request(url + "api/update", data=json.dumps(body).encode(),
+                                         headers={"Content-Type": "application/json", "X-Manipkit-Token": token})
+        with urllib.request.urlopen(request, timeout=30) as response:
+            return json.loads(response.read())
+
+    return post
+
+
+def _readout_error(robot, answer: dict) -> float:
+    expected = robot.transform(answer["source"], answer["target"], robot.q(answer["q"]))
+    return max_error(np.array(answer["matrix"]), expected)
 
 
 def _browser_round_trip(url: str, robot, moves: int, joint: str) -> list[dict]:

@@ -10,7 +10,9 @@ Screenshots go to tests/artifacts/ (git-ignored): viewer_control.png (the
 control page), viewer_scene.png (the meshcat scene after a slider move),
 static_<robot>.png (the --static export), framing_<robot>_shown.png (the opening view), static_without_meshes.png (a description
 without its mesh files), viewer_ellipsoid.png (the manipulability
-ellipsoid overlay); viewer_round_trip.json holds the
+ellipsoid overlay), viewer_collision_free.png and viewer_collision.png (the
+course arm before and after its shoulder folds into the base, links in
+contact red); viewer_round_trip.json holds the
 measured slider-to-readout round trips.
 """
 
@@ -502,6 +504,153 @@ def test_static_view_of_a_description_without_its_meshes_draws_the_arm_as_lines(
         assert_robot_drawn(lambda shot: page.screenshot(path=shot), frame, "static_without_meshes")
     finally:
         page.close()
+
+
+# ----------------------------------------------------------------------
+# Collisions while the sliders move (issue 23)
+# ----------------------------------------------------------------------
+
+# The course arm's shoulder turned to 3.0 rad folds the upper arm back into the base: found with the Python API
+# (manipkit.collisions over each joint from -pi to pi; the contact starts near 2.7 rad), checked below by coal alone.
+FOLDED, UNFOLDED = 3.0, 0.5
+
+
+def red_fraction(path: Path) -> float:
+    """Fraction of the picture in the collision colour, pure red lit by meshcat's lights: red above 120, green
+    and blue below a quarter of it. The course arm's own colours are not (orange: green 0.47 of red; greys)."""
+    pixels = image(path)
+    r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    return float(((r > 120) & (g < 0.25 * r) & (b < 0.25 * r)).mean())
+
+
+def coal_contact(robot, link_a: str, link_b: str, q) -> float:
+    """Signed distance (m) of the two links' collision shapes at q by Pinocchio and coal alone (negative: contact)."""
+    import coal
+    import pinocchio as pin
+
+    model = pin.buildGeomFromUrdfString(robot.model, robot.urdf, pin.GeometryType.COLLISION)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(q))
+    geom_data = model.createData()
+    pin.updateGeometryPlacements(robot.model, data, model, geom_data)
+    names = [robot.model.frames[o.parentFrame].name for o in model.geometryObjects]
+    a, b = names.index(link_a), names.index(link_b)
+    request, result = coal.DistanceRequest(), coal.DistanceResult()
+    coal.distance(model.geometryObjects[a].geometry, geom_data.oMg[a], model.geometryObjects[b].geometry,
+                  geom_data.oMg[b], request, result)
+    return float(result.min_distance)
+
+
+@pytest.fixture(scope="module")
+def collision_page(browser):
+    proc, url, _ = start_viewer("--port", free_port(), "--collisions", "self")
+    page = browser.new_page()
+    page.goto(url)
+    page.wait_for_function("document.querySelector('pre#collision-readout').textContent.length > 0")
+    yield page
+    page.close()
+    stop(proc)
+
+
+def visual_colour(frame, name: str) -> list:
+    return frame.evaluate("name => { const c = viewer.scene_tree.find(['meshcat', 'pinocchio', 'visuals', name])"
+                          ".children['<object>'].object.material.color; return [c.r, c.g, c.b]; }", name)
+
+
+def test_links_in_self_collision_turn_red_while_the_slider_moves_and_back_when_free(collision_page):
+    """Drive the shoulder into the base: the links in contact are drawn red (and only they: hiding them hides the
+    red), the readout names the pairs as `manipkit collisions` does; back out, the red is gone."""
+    import manipkit
+
+    robot = manipkit.load("course_arm")
+    page = collision_page
+    frame = scene_frame(page)
+    wait_for_scene(frame, visual_count("course_arm"))
+    # the triads' x axes (0xE41A1C), meshcat's axes at the root and the red sphere at ee_link (0.85, 0.1, 0.1)
+    # are red too: hidden here
+    set_visible(frame, "/meshcat/manipkit", False)
+    set_visible(frame, "/Axes", False)
+    set_visible(frame, "/meshcat/pinocchio/visuals/ee_link_0", False)
+    iframe = page.locator("iframe#scene")
+    free_text = page.text_content("pre#collision-readout")
+    assert free_text.startswith("robot course_arm: collision-free (10 link pairs checked, hulls geometry)")
+    iframe.screenshot(path=ARTIFACTS / "viewer_collision_free.png")
+    assert red_fraction(ARTIFACTS / "viewer_collision_free.png") < 1e-4
+
+    before = page.text_content("pre#collision-readout")
+    move_slider(page, "shoulder_joint", FOLDED)
+    page.wait_for_function("b => document.querySelector('pre#collision-readout').textContent !== b", arg=before,
+                           timeout=10_000)
+    text = page.text_content("pre#collision-readout")
+    expected = run_cli("manipkit", "collisions", "--q", f"shoulder_joint={FOLDED}", status=0).stdout
+    assert text == expected.rstrip("\n")
+    lines = text.splitlines()
+    assert lines[0].startswith("robot course_arm: IN COLLISION (2 pairs in contact; 10 link pairs checked")
+    pairs = [tuple(line.strip().split(":")[0].split(" - ")) for line in lines[1:3]]
+    assert sorted(pairs) == [("base_link", "bicep"), ("base_link", "bottom_wrist")]
+    q = robot.q({"shoulder_joint": FOLDED})
+    for a, b in pairs:  # in contact by coal alone: a penetration, as the readout says
+        depth = float(lines[1 + pairs.index((a, b))].split("penetration ")[1].split(" m")[0])
+        assert coal_contact(robot, a, b, q) == pytest.approx(-depth, abs=1e-4)
+    assert lines[3].startswith("closest pair: base_link - bicep, distance -0.06")
+    assert "colliding" in page.get_attribute("pre#collision-readout", "class")
+
+    for name in ("base_link_0", "bicep_0", "bottom_wrist_0"):
+        frame.wait_for_function("name => { const c = viewer.scene_tree.find(['meshcat', 'pinocchio', 'visuals', name])"
+                                ".children['<object>'].object.material.color; return c.r === 1 && c.g === 0 && c.b === 0; }",
+                                arg=name, timeout=10_000)
+    assert visual_colour(frame, "elbow_0") == pytest.approx([242 / 255, 114 / 255, 25 / 255], abs=0.01)  # orange
+    frame.wait_for_timeout(300)
+    iframe.screenshot(path=ARTIFACTS / "viewer_collision.png")
+    red = red_fraction(ARTIFACTS / "viewer_collision.png")
+    assert red > 0.001, f"only {red:.3%} of the scene is red with three links in contact"  # 10x the free bound
+    for name in ("base_link_0", "bicep_0", "bottom_wrist_0"):
+        set_visible(frame, f"/meshcat/pinocchio/visuals/{name}", False)
+    iframe.screenshot(path=ARTIFACTS / "viewer_collision_links_hidden.png")
+    assert red_fraction(ARTIFACTS / "viewer_collision_links_hidden.png") < 1e-4  # the red was those links
+    for name in ("base_link_0", "bicep_0", "bottom_wrist_0"):
+        set_visible(frame, f"/meshcat/pinocchio/visuals/{name}", True)
+    (ARTIFACTS / "viewer_collision_links_hidden.png").unlink()
+
+    before = page.text_content("pre#collision-readout")
+    move_slider(page, "shoulder_joint", UNFOLDED)
+    page.wait_for_function("b => document.querySelector('pre#collision-readout').textContent !== b", arg=before,
+                           timeout=10_000)
+    assert page.text_content("pre#collision-readout").startswith("robot course_arm: collision-free")
+    frame.wait_for_function("() => viewer.scene_tree.find(['meshcat', 'pinocchio', 'visuals', 'bicep_0'])"
+                            ".children['<object>'].object.material.color.r < 1", timeout=10_000)
+    # each visual has its URDF colour back (8 bits a channel, as Pinocchio's visualizer sets it)
+    assert visual_colour(frame, "base_link_0") == pytest.approx([25 / 255] * 3, abs=1e-6)
+    assert visual_colour(frame, "bicep_0") == pytest.approx([242 / 255, 114 / 255, 25 / 255], abs=1e-6)
+    assert visual_colour(frame, "bottom_wrist_0") == pytest.approx([191 / 255, 191 / 255, 198 / 255], abs=1e-6)
+    frame.wait_for_timeout(300)
+    iframe.screenshot(path=ARTIFACTS / "viewer_collision_free_again.png")
+    assert red_fraction(ARTIFACTS / "viewer_collision_free_again.png") < 1e-4
+    (ARTIFACTS / "viewer_collision_free_again.png").unlink()
+
+
+def test_a_robot_without_collision_geometry_gets_one_line_and_never_collision_free(browser, tmp_path):
+    urdf = tmp_path / "no_collisions.urdf"
+    urdf.write_text(
+        '<robot name="bare"><link name="base_link"><visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual>'
+        '</link><link name="ee_link"><visual><geometry><sphere radius="0.05"/></geometry></visual></link>'
+        '<joint name="j1" type="revolute"><parent link="base_link"/><child link="ee_link"/><origin xyz="0 0 0.3"/>'
+        '<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
+    proc, url, _ = start_viewer("--robot", urdf, "--port", free_port(), "--collisions", "self,floor")
+    page = browser.new_page()
+    line = ("collisions unavailable: robot 'bare' has no <collision> elements, so collisions cannot be checked for "
+            "it; add <collision> geometry (box, cylinder, sphere or mesh) to its links")
+    try:
+        page.goto(url)
+        page.wait_for_function("document.querySelector('pre#collision-readout').textContent.length > 0")
+        assert page.text_content("pre#collision-readout") == line
+        after_change(page, lambda: move_slider(page, "j1", 0.8))
+        assert page.text_content("pre#collision-readout") == line
+        assert "collision-free" not in page.text_content("body")
+    finally:
+        page.close()
+        stop(proc)
+    assert proc.stderr.read() == f"warning: {line}\n"  # said once
 
 
 # ----------------------------------------------------------------------

@@ -72,8 +72,8 @@ def test_missing_file_in_a_found_package_names_the_path_and_the_package_folder(f
     folder = files["package"].resolve()
     assert mesh_error("package://my_pkg/meshes/gone.stl", files) == (
         f"link 'arm': mesh package://my_pkg/meshes/gone.stl resolves to {folder / 'meshes' / 'gone.stl'}, which does "
-        f"not exist (package 'my_pkg' is {folder}); give the right folder with --package-dir my_pkg=DIR"
-    )
+        f"not exist (package 'my_pkg' was found, {folder}, but the file is not in it)"
+    )  # issue 25: one copy of the package, so no --package-dir to suggest: the file is simply missing
 
 
 def test_missing_package_says_where_it_looked(files):

@@ -1325,6 +1325,11 @@ FOUND = [
         '<joint name="j1" type="continuous"><parent link="a"/><child link="b"/><axis xyz="1 0 1e-7"/></joint>'),
         "the batched FK (fk_kernel.z_to_axis) took a unit axis as a coordinate axis when its largest entry was within "
         "1e-14 of 1, i.e. for every other entry below ~1.4e-7; Robot.fk differed from Robot.transform by 1.4e-7 rad"),
+    _found("axis_of_largest_floats", _two_links(
+        '<joint name="j1" type="continuous"><parent link="a"/><child link="b"/>'
+        '<axis xyz="1e300 1.7976931348623157e308 1.7976931348623157e308"/></joint>'),
+        "the axis' length is beyond the largest float (math.hypot gives inf): it was normalised to 0 0 0 and the "
+        "joint's axis was NaN; the components are divided by the largest first"),
     _found("unterminated_comment", '<robot name="r"><link name="a"/><!--\x80 s',
         "libxml2's message carries the offending source after a newline ('Comment not terminated \\n<!--'): "
         "the error was two lines"),

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
-from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
+from manipkit.description.packages import PACKAGE_SCHEME, missing_in_package_hint, split_package_uri
 from manipkit.errors import OptionError, PackageNotFoundError
 
 if TYPE_CHECKING:
@@ -138,10 +138,8 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
             raise PackageNotFoundError(f"{where} cannot be resolved: {exc}") from None
         if not path.is_file():
             package, _ = split_package_uri(uri)
-            raise PackageNotFoundError(
-                f"{where} resolves to {path}, which does not exist (package '{package}' is {resolver.find(package)}); "
-                f"give the right folder with --package-dir {package}=DIR"
-            )
+            raise PackageNotFoundError(f"{where} resolves to {path}, which does not exist"
+                                       + missing_in_package_hint(resolver, package, resolver.find(package)))
         if policy is not None:
             policy.check(path, where)
         return path

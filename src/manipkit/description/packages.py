@@ -27,7 +27,7 @@ from manipkit.text import UNPRINTABLE, printable, repr_text
 
 __all__ = [
     "IGNORE_MARKERS", "MAX_SCAN_DEPTH", "MAX_SCAN_FOLDERS", "PACKAGE_SCHEME", "PackageResolver", "WARNING_REGISTRY",
-    "check_package_dirs", "package_index", "split_package_uri", "workspace_root",
+    "check_package_dirs", "missing_in_package_hint", "package_index", "split_package_uri", "workspace_root",
 ]
 
 PACKAGE_SCHEME = "package://"
@@ -80,9 +80,13 @@ class PackageResolver:
        ``robots/``), ``example-robot-data`` (its share folder) and each
        robot folder of example-robot-data by its folder name.
 
-    A name found in more than one of places 2-4 (two packages with the same
-    ``<name>`` in a workspace, a workspace package that example-robot-data
-    also has, ...) gives one warning naming the place used and the others.
+    A name found in more than one of places 2-4 takes, first, the copy that
+    holds the description file the user named (the copy being edited), else
+    the first in the order. When the choice is a guess (two packages with the
+    same ``<name>`` in a workspace, neither holding the named file) one
+    warning names the place used and the others; a user's copy chosen over a
+    built-in one (example-robot-data also ships ``ur_description``) is not a
+    guess and says nothing.
     A package found once is not searched for again by the same resolver;
     folder indexes are kept per folder for the whole process and re-read
     only when a folder or ``package.xml`` in them changed. A scan stops after
@@ -160,7 +164,15 @@ class PackageResolver:
             folder = folder.resolve()
             if folder not in unique:
                 unique.append(folder)
-        return unique
+        holder = self._holder(unique)
+        return unique if holder is None else [holder] + [folder for folder in unique if folder != holder]
+
+    def _holder(self, folders: list[Path]) -> Path | None:
+        """The one of ``folders`` that holds the description file the user named (the copy being edited)."""
+        if self.near is None:
+            return None
+        named = Path(self.near).resolve()
+        return next((folder for folder in folders if named.is_relative_to(folder)), None)
 
     def _search(self, package: str) -> Path:
         if package in self.package_dirs:
@@ -174,7 +186,9 @@ class PackageResolver:
         if not found:
             raise PackageNotFoundError(f"package '{package}' not found; searched {self._searched_text()}; "
                                        f"give it with --package-dir {package}=DIR")
-        if len(found) > 1:
+        builtin = {Path(folder).resolve() for folder in self.builtin().values()}
+        ambiguous = [folder for folder in found[1:] if folder not in builtin]  # the user's copy beats a built-in one
+        if ambiguous and self._holder(found[:1]) is None:  # the copy holding the named file is the one meant
             # Once per resolver, and once per load: xacro's expansion re-issues the warnings it recorded
             # into the same registry, so the resolver that reads the meshes next does not say it again.
             warnings.warn_explicit(f"package '{package}' found in {len(found)} places: using {found[0]}; not "
@@ -396,3 +410,23 @@ def _package_xml_name(folder: Path) -> str | None:
         return None
     match = re.search(r"<name>\s*([^<\s]+)\s*</name>", text)
     return match.group(1) if match else None
+
+
+def missing_in_package_hint(resolver: PackageResolver, package: str, folder: Path) -> str:
+    """`` (package 'P' was found at FOLDER, but the file is not in it ...)`` for a file missing from a found package.
+
+    The package was found, so ``--package-dir`` is suggested only when other
+    copies exist to choose from (issue 25: it was suggested for a file that
+    is simply missing).
+    """
+    folder = Path(folder).resolve()
+    builtin = resolver.builtin().get(package)
+    which = "the built-in copy at " if builtin is not None and Path(builtin).resolve() == folder else ""
+    others = [str(place) for place in resolver.places(package) if place != folder]
+    if others:
+        choose = f"; other copies: {', '.join(others)} (choose one with --package-dir {package}=DIR)"
+    elif which:  # only manipkit's own copy was found: the user's may be outside the workspace
+        choose = f"; if your copy is elsewhere, give it with --package-dir {package}=DIR"
+    else:
+        choose = ""
+    return f" (package '{package}' was found, {which}{folder}, but the file is not in it{choose})"

@@ -501,16 +501,19 @@ class _Checker:
             self.fail(axis, f"{what} <axis> has no xyz attribute; give xyz=\"1 0 0\" (or another direction), "
                       "or leave <axis> out for the default x axis", joint)
         x, y, z = self.numbers(axis, "xyz", 3, f"{what} <axis>", joint)
-        norm = math.hypot(x, y, z)  # no overflow for huge components
+        scale = max(abs(x), abs(y), abs(z))  # divided out first: the length of (1e308, 1e308, 0) is not a float
+        norm = scale * math.hypot(x / scale, y / scale, z / scale) if scale > 0 else 0.0  # inf beyond 1.8e308
         if norm < 1e-9:
             self.fail(axis, f"{what} has axis '{axis.get('xyz')}'; an axis must be a non-zero vector "
                       "such as '0 0 1' (the direction the joint turns about or slides along)", joint)
         if abs(norm - 1.0) > 1e-12:
-            unit = " ".join(short_text(v / norm) for v in (x, y, z))
+            scaled = math.hypot(x / scale, y / scale, z / scale)
+            direction = [v / scale / scaled for v in (x, y, z)]
+            unit = " ".join(short_text(v) for v in direction)
             if abs(norm - 1.0) > AXIS_NORM_TOLERANCE:
-                self.warn(axis, f"{what} axis '{axis.get('xyz')}' (length {short_text(norm)}) normalised to '{unit}'",
-                          joint)
-            self.normalised.append((axis, " ".join(repr(v / norm) for v in (x, y, z))))
+                length = short_text(norm) if math.isfinite(norm) else "beyond 1.8e308"
+                self.warn(axis, f"{what} axis '{axis.get('xyz')}' (length {length}) normalised to '{unit}'", joint)
+            self.normalised.append((axis, " ".join(repr(v) for v in direction)))
 
     def check_limit(self, limit, kind: str, what: str, joint) -> None:
         for attribute in ("effort", "velocity"):

@@ -24,7 +24,7 @@ import warnings
 from pathlib import Path
 from typing import NamedTuple
 
-from manipkit.description.packages import WARNING_REGISTRY, PackageResolver
+from manipkit.description.packages import WARNING_REGISTRY, PackageResolver, missing_in_package_hint
 from manipkit.description.sources import RobotSource
 from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError, ReadNotAllowedError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
@@ -518,12 +518,7 @@ def _package_hint(missing_file: str, resolver: PackageResolver) -> str:
     """For a file missing under a package folder ``$(find)`` chose: which folder that was, and how to choose another."""
     for package, folder in resolver.found().items():
         if Path(missing_file).is_relative_to(folder):
-            others = [str(f) for f in resolver.places(package) if f != folder]
-            also = f"; also found: {', '.join(others)}" if others else ""
-            builtin = resolver.builtin().get(package)
-            which = "the built-in copy " if builtin is not None and Path(builtin).resolve() == folder else ""
-            return (f" (package '{package}' is {which}{folder}{also}; give the right folder with "
-                    f"--package-dir {package}=DIR)")
+            return missing_in_package_hint(resolver, package, folder)
     return ""
 
 

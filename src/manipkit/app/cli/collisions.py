@@ -21,9 +21,11 @@ from manipkit.app.cli.common import (
     print_json,
     warn,
 )
-from manipkit.text import number_text, printable, short_text
+from manipkit.app.collision_text import collision_lines
+from manipkit.text import printable
 
-__all__ = ["add_collision_options", "collision_checker", "parse_floor", "register", "run_acm", "run_collisions"]
+__all__ = ["add_collision_options", "add_collision_set_options", "collision_checker", "collision_set", "parse_floor",
+           "register", "run_acm", "run_collisions"]
 
 
 def register(commands) -> None:
@@ -58,6 +60,39 @@ def add_collision_options(parser) -> None:
                         help="floor height z (m) in the root link's frame, or none (default: none)")
     parser.add_argument("--world", default=None, metavar="FILE",
                         help="YAML world file of obstacles (boxes, spheres, cylinders) in the root link's frame")
+
+
+def add_collision_set_options(parser, *, what: str) -> None:
+    """``--collisions self,floor|self|floor|none``, ``--floor Z|none``, ``--srdf``, ``--geometry`` (read by
+    :func:`collision_set`); ``what`` says what the checks are for, in the help of ``--collisions``."""
+    parser.add_argument("--collisions", default="none", metavar="self,floor|self|floor|none",
+                        help=f"{what}: self-collision and/or the floor (default none)")
+    parser.add_argument("--floor", type=_floor_option, default=0.0, metavar="Z|none",
+                        help="with --collisions floor: floor height (m) in the root link's frame (default 0)")
+    parser.add_argument("--srdf", default=None, metavar="FILE",
+                        help="with --collisions: SRDF whose <disable_collisions> pairs are not checked")
+    _add_geometry_option(parser)
+
+
+def collision_set(args) -> dict:
+    """The options of :func:`add_collision_set_options` as the keyword arguments of
+    :meth:`~manipkit.kinematics.collisions.CollisionSettings.parse` (``what``, ``floor``, ``geometry``, ``srdf``).
+
+    ``--srdf`` without ``--collisions`` is a usage error (it would do nothing).
+    """
+    if args.collisions.strip().lower() == "none" and args.srdf is not None:
+        raise UsageError("--srdf applies with --collisions self, floor or self,floor")
+    return {"what": args.collisions, "floor": args.floor, "geometry": args.geometry, "srdf": args.srdf}
+
+
+def _floor_option(text: str) -> float | None:
+    """argparse type of ``--floor Z|none`` (:func:`parse_floor`, refused the argparse way)."""
+    import argparse
+
+    try:
+        return parse_floor(text)
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--floor ")) from None
 
 
 def collision_checker(robot, args):
@@ -113,32 +148,9 @@ def run_collisions(args) -> int:
     if args.format == "json":
         print_json({**report.as_dict(), "q": dict(zip(robot.joint_names, map(float, q)))})
         return EXIT_OK
-    precision = args.precision
-    where = f"{report.checked} link pair{'s' if report.checked != 1 else ''} checked, {report.geometry} geometry"
-    where += "" if floor is None else f", floor at z = {short_text(floor)} m"
-    if report.in_collision:
-        print(f"robot {robot.name}: IN COLLISION ({len(report.pairs)} pair{'s' if len(report.pairs) != 1 else ''} "
-              f"in contact; {where})")
-        for pair in report.pairs:
-            print(f"  {pair.link1} - {pair.link2}: {_depth_text(pair.distance, precision)}")
-    else:
-        print(f"robot {robot.name}: collision-free ({where})")
-    closest = report.min_distance
-    if closest is not None:
-        print(f"closest pair: {closest.link1} - {closest.link2}, distance {number_text(closest.distance, precision)} m")
-        print(f"  witness points in {report.base} (m): {_point_text(closest.point1, precision)} on {closest.link1}, "
-              f"{_point_text(closest.point2, precision)} on {closest.link2}")
+    for line in collision_lines(report, floor=floor, precision=args.precision):
+        print(line)
     return EXIT_OK
-
-
-def _depth_text(distance: float, precision: int) -> str:
-    if distance < 0:
-        return f"penetration {number_text(-distance, precision)} m"
-    return "touching (no depth for meshes)"
-
-
-def _point_text(point, precision: int) -> str:
-    return "(" + ", ".join(number_text(v, precision) for v in point) + ")"
 
 
 def run_acm(args) -> int:

@@ -16,6 +16,7 @@ from manipkit.app.cli.common import (
     Parser,
     UsageError,
     add_robot_options,
+    alias_lines,
     check_tolerance,
     command_line,
     load_robot,
@@ -177,6 +178,8 @@ def run_dh_from_urdf(args) -> int:
         )
         write_text(args.output, dh.yaml_from_dh(table, header=header))  # what dh.save_dh writes
         print(f"wrote {args.output}")
+    for line in alias_lines(robot, args.base, args.tip):
+        print(line)
     print(dh.format_dh_table(table))
     print(summary)
     return EXIT_OK

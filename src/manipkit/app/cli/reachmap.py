@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from manipkit.app.cli.collisions import add_collision_set_options, collision_set
 from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json
 from manipkit.outputs import writable_path
 from manipkit.text import printable, short_text
@@ -26,12 +27,7 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
                         help="fk: random samples only; hybrid: then IK on the unmarked cells next to marked ones")
     parser.add_argument("--samples", type=int, default=samples, metavar="N", help=f"random configurations (default {samples})")
     parser.add_argument("--seed", type=int, default=0, help="seed of every block (same seed, same map)")
-    parser.add_argument("--collisions", default="none", metavar="self,floor|self|floor|none",
-                        help="count only samples and IK answers free of self-collision and/or the floor (default none)")
-    parser.add_argument("--floor", type=float, default=0.0, metavar="Z",
-                        help="with --collisions floor: floor height (m) in the root link's frame (default 0)")
-    parser.add_argument("--srdf", default=None, metavar="FILE", help="with --collisions: pairs not checked")
-    parser.add_argument("--geometry", default="hulls", metavar="hulls|meshes", help="with --collisions (default hulls)")
+    add_collision_set_options(parser, what="count only samples and IK answers free of collisions")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes (at most 4 per core, 64)")
     where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="use a running Dask scheduler (tcp://host:8786)")
@@ -81,12 +77,7 @@ def _build(robot, args, base: str, *, manipulability: bool = False):
     from manipkit.app.progress import progress_bar
     from manipkit.kinematics.collisions import CollisionSettings
 
-    if not math.isfinite(args.floor):
-        raise UsageError(f"--floor {args.floor}: give a height in metres")
-    unused = [f"--{name}" for name in ("srdf",) if getattr(args, name) is not None]
-    if args.collisions == "none" and unused:
-        raise UsageError(f"{unused[0]} applies with --collisions self, floor or self,floor")
-    collisions = CollisionSettings.parse(robot, args.collisions, floor=args.floor, geometry=args.geometry, srdf=args.srdf)
+    collisions = CollisionSettings.parse(robot, **collision_set(args))
     with progress_bar() as progress:
         return build(robot.chain(base, args.frame), voxel=args.voxel, orientations=args.orientations, method=args.method,
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,

@@ -6,6 +6,9 @@ Four layers, each usable on its own (docs/architecture.md, "app"):
   A, B and the manipulability overlay (:class:`Overlay`) and answers the
   slider specs, the readout (the JSON of ``tf-between A B --format json``),
   the ellipsoid readout and the scene placements. No meshcat, no browser.
+- :mod:`.collision_state`: :func:`collision_view`, what a view checks for
+  collisions (self, the floor) or why it cannot; the state asks it for the
+  report at each pose, the scene tints the links in contact.
 - :mod:`.scene`: :func:`visual_model` (the robot's visual geometry) and
   :class:`MeshcatScene`, a thin adapter that starts a meshcat server and
   draws the placements it is given, with a triad at A and at B.
@@ -30,6 +33,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "manipkit.app.viewer.state",
         "DEFAULT_FRAMES", "ELLIPSOID_PATH", "TRIAD_PATHS", "VISUALS_ROOT", "Overlay", "SliderSpec", "ViewerState",
     ),
+    **homes_of("manipkit.app.viewer.collision_state", "CollisionView", "collision_view"),
     **homes_of("manipkit.app.viewer.scene", "TRIAD_DOTS", "MeshcatScene", "visual_model"),
     **homes_of("manipkit.app.viewer.server", "DEFAULT_PORT", "ViewerServer", "open_view", "write_static"),
     **homes_of("manipkit.app.viewer.notebook", "NotebookView", "notebook_view"),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from manipkit.app.viewer.collision_state import collision_view
 from manipkit.app.viewer.scene import MeshcatScene, visual_model
 from manipkit.app.viewer.state import DEFAULT_FRAMES, Overlay, ViewerState
 from manipkit.errors import ManipkitError, ViewerError
@@ -25,7 +26,8 @@ class NotebookView:
     a cell. ``sliders`` (joint name -> FloatSlider), ``frame_a``/``frame_b``
     (Dropdown), ``reset_button``, ``readout`` (HTML), the manipulability
     overlay's ``ellipsoid`` (Checkbox), ``ellipsoid_kind`` and
-    ``ellipsoid_axes`` (Dropdown) and ``ellipsoid_readout`` (HTML), and
+    ``ellipsoid_axes`` (Dropdown) and ``ellipsoid_readout`` (HTML), the
+    collisions' ``collision_readout`` (HTML; empty when nothing is checked), and
     ``widget`` are the ipywidgets; ``state`` and ``scene`` are the shared layers.
     """
 
@@ -52,6 +54,7 @@ class NotebookView:
         self.ellipsoid_axes = w.Dropdown(options=[("translation", "trans"), ("rotation", "rot")], value=overlay.axes,
                                          layout=w.Layout(width="auto"))
         self.ellipsoid_readout = w.HTML()
+        self.collision_readout = w.HTML()
         self.readout = w.HTML()
         self.error = w.HTML()
         self.scene_widget = w.HTML(
@@ -67,7 +70,7 @@ class NotebookView:
             widget.observe(lambda change: self._on_overlay(), names="value")
         controls = w.VBox([*self.sliders.values(), w.HBox([self.frame_a, self.frame_b]), self.reset_button,
                            w.HBox([self.ellipsoid, self.ellipsoid_kind, self.ellipsoid_axes]), self.error,
-                           self.readout, self.ellipsoid_readout], layout=w.Layout(width="40%"))
+                           self.collision_readout, self.readout, self.ellipsoid_readout], layout=w.Layout(width="40%"))
         self.widget = w.HBox([controls, self.scene_widget])
         self._refresh()
 
@@ -101,7 +104,8 @@ class NotebookView:
         """Draw the scene and show the readout; put the sliders where the state says."""
         import html
 
-        self.scene.draw(self.state.scene_placements(self.visual), self.state.scene_visibility())
+        self.scene.draw(self.state.scene_placements(self.visual), self.state.scene_visibility(),
+                        self.state.collision_tints(self.visual))
         self._syncing = True
         try:
             for spec in self.state.sliders():
@@ -113,6 +117,9 @@ class NotebookView:
         self.readout.value = f"<pre>{html.escape(snapshot['readout_text'])}</pre>"
         text = snapshot["ellipsoid_text"]
         self.ellipsoid_readout.value = f"<pre>{html.escape(text)}</pre>" if text else ""
+        text = snapshot["collisions_text"]
+        colour = "#a00" if snapshot["collisions"] and snapshot["collisions"].get("in_collision") else "inherit"
+        self.collision_readout.value = f"<pre style='color:{colour}'>{html.escape(text)}</pre>" if text else ""
 
     def close(self) -> None:
         """Stop the meshcat server."""
@@ -125,11 +132,16 @@ class NotebookView:
 
 
 def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, *,
-                  ellipsoid: bool | str = False, ellipsoid_axes: str = "trans") -> NotebookView:
+                  ellipsoid: bool | str = False, ellipsoid_axes: str = "trans", collisions: str = "none",
+                  floor: float | None = 0.0, srdf=None, geometry: str = "hulls") -> NotebookView:
     """The viewer inline in Jupyter: meshcat scene plus ipywidgets sliders and a live T_A_B readout.
 
     ``ellipsoid``: start with the manipulability ellipsoid shown (``True`` or
     ``"velocity"``, or ``"force"``); ``ellipsoid_axes``: ``"trans"`` or ``"rot"``.
+    ``collisions``: ``"self"``, ``"floor"``, ``"self,floor"`` or ``"none"`` (the
+    default), with ``floor`` (m, root frame), ``srdf`` and ``geometry`` as
+    :func:`~manipkit.app.viewer.collision_state.collision_view` takes them: links
+    in contact are drawn red and the readout names the pairs and the closest pair.
 
     Raises
     ------
@@ -141,9 +153,11 @@ def notebook_view(robot: Robot, frames: tuple[str, str] = DEFAULT_FRAMES, q=None
     except ImportError:
         raise ViewerError("the notebook viewer needs ipywidgets: pip install ipywidgets") from None
     overlay = Overlay(bool(ellipsoid), ellipsoid if isinstance(ellipsoid, str) else "velocity", ellipsoid_axes)
-    state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
+    checks = collision_view(robot, collisions, floor=floor, geometry=geometry, srdf=srdf)
+    state = ViewerState(robot, frames=frames, q=q, overlay=overlay, collisions=checks)
     visual = visual_model(robot)
-    scene = MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin())
+    scene = MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin(),
+                         floor_height=None if checks is None else checks.floor)
     try:
         return NotebookView(state, scene, visual)
     except BaseException:

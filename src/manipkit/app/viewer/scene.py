@@ -4,7 +4,8 @@
 resolved first) as a Pinocchio ``GeometryModel``; :class:`MeshcatScene`
 starts a meshcat server, loads that geometry through Pinocchio's
 ``MeshcatVisualizer`` and draws the placements :class:`ViewerState`
-computes, plus a triad at A and at B. It computes nothing itself.
+computes, plus a triad at A and at B, and tints the visuals of links in
+collision (:data:`COLLISION_COLOUR`) until they are free. It computes nothing itself.
 
 Conventions (docs/architecture.md): metres; placements are 4x4 ``T_root_node``
 in the robot's root link. meshcat and ``pinocchio.visualize`` are imported
@@ -32,7 +33,8 @@ from manipkit.errors import ViewerError
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["CAMERA_AZIMUTH_DEG", "CAMERA_ELEVATION_DEG", "CAMERA_FOV_DEG", "FRAME_FILL", "TRIAD_DOTS", "MeshcatScene",
+__all__ = ["CAMERA_AZIMUTH_DEG", "CAMERA_ELEVATION_DEG", "CAMERA_FOV_DEG", "COLLISION_COLOUR", "FRAME_FILL", "TRIAD_DOTS",
+           "MeshcatScene",
            "camera_distance", "floor_lines", "visual_model"]
 
 #: The opening view: from the direction between +x and +y (45 deg), looking down 30 deg at the robot's centre.
@@ -150,6 +152,8 @@ _AXES = (  # triad axis -> (colour, T_frame_cylinder for a unit cylinder along y
 )
 TRIAD_DOTS = (0x222222, 0xE040E0)  # origin dot of A (near black) and B (magenta)
 ELLIPSOID_COLOUR = 0xE040E0  # B's colour, translucent
+#: RGBA (0..1) of a visual whose link is in collision: opaque pure red (the triads' x axes are 0xE41A1C).
+COLLISION_COLOUR = (1.0, 0.0, 0.0, 1.0)
 
 
 class MeshcatScene:
@@ -157,7 +161,8 @@ class MeshcatScene:
 
     It computes nothing: :meth:`draw` sends the placements it is given
     (scene path -> 4x4 in the robot's root frame) and the visibilities
-    (path -> bool), skipping unchanged ones. The manipulability ellipsoid is a
+    (path -> bool) and tints (path -> in collision: drawn in :data:`COLLISION_COLOUR`,
+    or back in its own colours), skipping unchanged ones. The manipulability ellipsoid is a
     translucent unit sphere at ``ELLIPSOID_PATH``, hidden until shown; its
     placement scales it (:meth:`ViewerState.ellipsoid_placement`).
 
@@ -236,14 +241,22 @@ class MeshcatScene:
             raise
         self._sent: dict[str, np.ndarray] = {}
         self._visible: dict[str, bool] = {ELLIPSOID_PATH: False}
+        self._tinted: dict[str, bool] = {}
+        #: scene path -> the visual's GeometryObject, to give it its own colours back after a tint.
+        self._geometry = {f"{VISUALS_ROOT}/{geometry.name}": geometry for geometry in visual.geometryObjects}
 
-    def draw(self, placements: dict[str, np.ndarray], visible: dict[str, bool] | None = None) -> None:
-        """Place scene nodes (path -> 4x4) and show or hide them (path -> bool); unchanged ones are not re-sent.
+    def draw(self, placements: dict[str, np.ndarray], visible: dict[str, bool] | None = None,
+             tinted: dict[str, bool] | None = None) -> None:
+        """Place scene nodes (path -> 4x4), show or hide them (path -> bool) and tint visuals (path -> in collision);
+        unchanged ones are not re-sent.
 
         A node is placed before it is shown, so it never appears at an old pose.
         """
         if self._closed or self._proc.poll() is not None:
             raise ViewerError("the meshcat server has stopped; restart the viewer")
+        for path, tint in (tinted or {}).items():  # before placing: a visual loaded again is placed afresh
+            if self._tinted.get(path, False) != bool(tint):
+                self._tint(path, bool(tint))
         for path, T in placements.items():
             previous = self._sent.get(path)
             if previous is None or not np.array_equal(previous, T):
@@ -253,6 +266,33 @@ class MeshcatScene:
             if self._visible.get(path) != bool(shown):
                 self.viewer[path].set_property("visible", bool(shown))
                 self._visible[path] = bool(shown)
+
+    def _tint(self, path: str, tint: bool) -> None:
+        """Draw the visual at ``path`` in :data:`COLLISION_COLOUR`, or in its own colours again.
+
+        Its own colours: the URDF's colour, as Pinocchio's visualizer set it
+        (8 bits a channel, opaque unless the alpha says otherwise); a COLLADA
+        mesh drawn with the file's own materials is loaded again instead.
+        """
+        self._tinted[path] = tint
+        if tint:
+            self.viewer[path].set_property("color", list(COLLISION_COLOUR))
+            return
+        geometry = self._geometry[path]
+        mesh_path = str(getattr(geometry, "meshPath", "") or "")
+        if mesh_path.lower().endswith(".dae") and not geometry.overrideMaterial:
+            import pinocchio as pin
+
+            self.visualizer.loadViewerGeometryObject(geometry, pin.GeometryType.VISUAL)
+            self._sent.pop(path, None)  # the fresh object is placed by this draw's placements
+            return
+        r, g, b, a = (float(v) for v in geometry.meshColor)
+        self.viewer[path].set_property("color", [int(r * 255) / 255, int(g * 255) / 255, int(b * 255) / 255, a])
+
+    @property
+    def tinted(self) -> dict[str, bool]:
+        """The tints last sent to meshcat (scene path -> drawn in the collision colour)."""
+        return dict(self._tinted)
 
     @property
     def visible(self) -> dict[str, bool]:

@@ -32,6 +32,7 @@ from manipkit.errors import JointValueError, ManipkitError, OptionError, ViewerE
 from manipkit.outputs import writable_path, write_text
 
 if TYPE_CHECKING:
+    from manipkit.app.viewer.collision_state import CollisionView
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
@@ -264,8 +265,9 @@ class ViewerServer:
     Routes: ``GET /`` (the page), ``GET /api/state`` (sliders, frames, readout),
     ``POST /api/update`` with ``{"reset": true, "q": {name: value}, "frames": [A, B],
     "overlay": {"shown": bool, "kind": "velocity"|"force", "axes": "trans"|"rot"}}``
-    (any subset, applied in that order) -> the new q, frames, readout and
-    ellipsoid readout (:meth:`ViewerState.snapshot`). A user error answers 400
+    (any subset, applied in that order) -> the new q, frames, readout,
+    ellipsoid readout and collisions (:meth:`ViewerState.snapshot`); the links in
+    collision are tinted in the scene. A user error answers 400
     with ``{"error": message}`` and the state as it is (a change that failed
     its checks is not applied).
 
@@ -323,12 +325,12 @@ class ViewerServer:
     def attach(self, state: ViewerState, scene: MeshcatScene, visual) -> ViewerServer:
         """Connect the state and the scene, and draw the start pose."""
         self.state, self.scene, self.visual = state, scene, visual
-        scene.draw(state.scene_placements(visual), state.scene_visibility())
+        scene.draw(state.scene_placements(visual), state.scene_visibility(), state.collision_tints(visual))
         return self
 
-    def _draw_later(self, placements, visible: dict | None = None) -> None:
+    def _draw_later(self, placements, visible: dict | None = None, tinted: dict | None = None) -> None:
         with self._scene_wake:
-            self._scene_todo = (placements, visible)  # a newer pose replaces one not drawn yet
+            self._scene_todo = (placements, visible, tinted)  # a newer pose replaces one not drawn yet
             self._scene_wake.notify()
 
     def _draw_loop(self) -> None:
@@ -336,12 +338,12 @@ class ViewerServer:
             with self._scene_wake:
                 while self._scene_todo is None:
                     self._scene_wake.wait()
-                (placements, visible), self._scene_todo = self._scene_todo, None
+                (placements, visible, tinted), self._scene_todo = self._scene_todo, None
                 if placements is _STOP:
                     return
                 self._scene_busy = True
             try:
-                self.scene.draw(placements, visible)
+                self.scene.draw(placements, visible, tinted)
             except ManipkitError as exc:
                 self._scene_error = str(exc)
             finally:
@@ -436,7 +438,8 @@ class ViewerServer:
                     if not isinstance(overlay, dict) or not set(overlay) <= {"shown", "kind", "axes"}:
                         raise OptionError(f"overlay: expected {{shown, kind, axes}} (any of them), got {overlay!r:.80}")
                     state.set_overlay(**overlay)
-                self._draw_later(state.scene_placements(self.visual), state.scene_visibility())
+                self._draw_later(state.scene_placements(self.visual), state.scene_visibility(),
+                                 state.collision_tints(self.visual))
             except ManipkitError as exc:
                 return 400, {"error": str(exc), **state.snapshot()}
             return 200, state.snapshot()
@@ -462,10 +465,12 @@ def page_html(initial: dict, *, token: str = "") -> str:
 
 
 def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, port: int = DEFAULT_PORT,
-              host: str = "127.0.0.1", overlay: Overlay = NO_OVERLAY) -> ViewerServer:
+              host: str = "127.0.0.1", overlay: Overlay = NO_OVERLAY, collisions: CollisionView | None = None) -> ViewerServer:
     """Start a view: control page on ``port``, meshcat on its own ports (7000 upwards).
 
     ``overlay``: the manipulability ellipsoid's start settings (:class:`Overlay`; default off).
+    ``collisions``: what is checked at each pose (:func:`~manipkit.app.viewer.collision_state.collision_view`;
+    default nothing); with a floor checked, the floor grid is drawn at its height.
 
     Returns the running :class:`ViewerServer` (``.url``: control page,
     ``.scene_url``: meshcat, ``.scene.warnings``: geometry not shown,
@@ -478,12 +483,13 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
         before anything starts); Pinocchio cannot read a mesh file (a missing one is drawn another way, with
         one ``MissingMeshWarning``).
     """
-    state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
+    state = ViewerState(robot, frames=frames, q=q, overlay=overlay, collisions=collisions)
     server = ViewerServer(port, host=host)
     scene = None
     try:
         visual = visual_model(robot)
-        scene = MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin())
+        scene = MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin(),
+                             floor_height=None if collisions is None else collisions.floor)
         server.attach(state, scene, visual)
         return server.start()
     except BaseException:
@@ -494,8 +500,9 @@ def open_view(robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
 
 
 def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None,
-                 overlay: Overlay = NO_OVERLAY) -> Path:
-    """Write a standalone HTML snapshot of the pose (robot, triads at A and B, the ellipsoid if shown); returns the path.
+                 overlay: Overlay = NO_OVERLAY, collisions: CollisionView | None = None) -> Path:
+    """Write a standalone HTML snapshot of the pose (robot, triads at A and B, the ellipsoid if shown, the links in
+    collision tinted if ``collisions`` are checked); returns the path.
 
     The file is meshcat's static export: it opens in a browser without a server.
     Names reach it only inside meshcat's base64-encoded drawing commands, never as markup.
@@ -506,9 +513,10 @@ def write_static(robot: Robot, path, *, frames: tuple[str, str] = DEFAULT_FRAMES
         ``cannot write PATH: reason`` (checked before meshcat starts; no folder is created).
     """
     path = writable_path(path)
-    state = ViewerState(robot, frames=frames, q=q, overlay=overlay)
+    state = ViewerState(robot, frames=frames, q=q, overlay=overlay, collisions=collisions)
     visual = visual_model(robot)
-    with MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin()) as scene:
-        scene.draw(state.scene_placements(visual), state.scene_visibility())
+    with MeshcatScene(visual, robot.model, bounds=state.bounds(visual), base=state.base_origin(),
+                      floor_height=None if collisions is None else collisions.floor) as scene:
+        scene.draw(state.scene_placements(visual), state.scene_visibility(), state.collision_tints(visual))
         html = scene.static_html()
     return write_text(path, html)

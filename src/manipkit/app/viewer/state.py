@@ -23,6 +23,14 @@ origin; its principal axes (A's axes) are turned into the root frame with
 and held between ``1e-3 * size`` and ``size`` (a force ellipsoid near a
 singularity grows without bound; a velocity ellipsoid flattens).
 
+Collision checks (:class:`~manipkit.app.viewer.collision_state.CollisionView`,
+off unless asked for) add, at each pose, the report of
+:mod:`manipkit.kinematics.collisions` (computed once per pose, asked by the
+readout and the scene in turn): the pairs in contact and the closest pair in
+the words of ``manipkit collisions``, and which visuals to tint
+(:meth:`ViewerState.collision_tints`: those of the links in contact). A robot
+without collision geometry gets one line saying collisions are unavailable.
+
 Conventions (docs/architecture.md): metres and radians; ``T_a_b`` is the pose
 of frame b expressed in frame a; the scene's world frame is the robot's root link.
 """
@@ -46,6 +54,8 @@ from manipkit.spatial.rotations import wrap_angle
 from manipkit.text import short_text
 
 if TYPE_CHECKING:
+    from manipkit.app.viewer.collision_state import CollisionView
+    from manipkit.kinematics.collisions import CollisionReport
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
@@ -138,6 +148,9 @@ class ViewerState:
         (continuous joints: wrapped to (-pi, pi]).
     overlay : Overlay, optional, keyword-only
         The manipulability ellipsoid's settings (default: not shown).
+    collisions : CollisionView, optional, keyword-only
+        What is checked for collisions at each pose (:func:`~manipkit.app.viewer.collision_state.collision_view`);
+        default None: nothing is checked and the readout says nothing about collisions.
 
     Examples
     --------
@@ -149,7 +162,8 @@ class ViewerState:
     'ee_link'
     """
 
-    def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, overlay: Overlay = NO_OVERLAY):
+    def __init__(self, robot: Robot, *, frames: tuple[str, str] = DEFAULT_FRAMES, q=None, overlay: Overlay = NO_OVERLAY,
+                 collisions: CollisionView | None = None):
         self.robot = robot
         self._frames = self._checked_frames(frames)
         self._continuous = np.array([joint.is_angular and not math.isfinite(joint.upper - joint.lower)
@@ -162,6 +176,8 @@ class ViewerState:
             raise OptionError(f"overlay: expected an Overlay, got {type(overlay).__name__}")
         self._overlay = overlay
         self._ellipsoid_cache: tuple | None = None  # (q, frames, overlay) -> (report, placement) last computed
+        self._collisions = collisions
+        self._collision_cache: tuple | None = None  # (q bytes, report) last computed
         lower, upper = self._box(self._in_range(robot.q()))
         #: Size of the robot (m), for the ellipsoid's display scale and cap: the diagonal of the box around
         #: every frame origin at the default pose (every joint at 0 or the nearest value inside its limits),
@@ -320,10 +336,13 @@ class ViewerState:
         return origins.min(axis=0), origins.max(axis=0)
 
     def snapshot(self) -> dict:
-        """What the control page shows after a change: q, frames, the readout and its two renderings, the overlay.
+        """What the control page shows after a change: q, frames, the readout and its two renderings, the overlay,
+        the collisions.
 
         ``overlay`` holds the settings; ``ellipsoid`` is :meth:`ellipsoid` (None
         when the overlay is off) and ``ellipsoid_text`` its text ("" when off).
+        ``collisions`` is :meth:`CollisionView.as_dict` of :meth:`collision_report`
+        (None when nothing is checked) and ``collisions_text`` its lines ("" then).
         """
         report = self.readout()
         ellipsoid = self.ellipsoid() if self._overlay.shown else None
@@ -336,7 +355,49 @@ class ViewerState:
             "overlay": {"shown": self._overlay.shown, "kind": self._overlay.kind, "axes": self._overlay.axes},
             "ellipsoid": ellipsoid,
             "ellipsoid_text": "" if ellipsoid is None else ellipsoid_text(ellipsoid),
+            **self._collision_snapshot(),
         }
+
+    # Collisions -----------------------------------------------------------
+
+    @property
+    def collision_view(self) -> CollisionView | None:
+        """What is checked for collisions (None: nothing)."""
+        return self._collisions
+
+    def collision_report(self) -> CollisionReport | None:
+        """The collision report at the current pose (:meth:`CollisionView.report`); None when nothing is checked
+        or collisions are unavailable for this robot. Computed once per pose."""
+        if self._collisions is None:
+            return None
+        key = self._q.tobytes()
+        if self._collision_cache is None or self._collision_cache[0] != key:
+            self._collision_cache = (key, self._collisions.report(self.robot, self._q))
+        return self._collision_cache[1]
+
+    def collided_links(self) -> frozenset:
+        """The links in contact at the current pose (with each other or the floor); empty when nothing is checked."""
+        report = self.collision_report()
+        if report is None:
+            return frozenset()
+        return frozenset(name for pair in report.pairs for name in (pair.link1, pair.link2)) - {"floor"}
+
+    def collision_tints(self, visual_model) -> dict[str, bool]:
+        """Scene path -> tinted (drawn in the collision colour), for each visual: those of the links in contact.
+
+        Empty when nothing is checked, so the scene's colours are never touched then.
+        """
+        if self._collisions is None or self.collision_report() is None:
+            return {}
+        links, frames = self.collided_links(), self.robot.model.frames
+        return {f"{VISUALS_ROOT}/{geometry.name}": frames[geometry.parentFrame].name in links
+                for geometry in visual_model.geometryObjects}
+
+    def _collision_snapshot(self) -> dict:
+        if self._collisions is None:
+            return {"collisions": None, "collisions_text": ""}
+        report = self.collision_report()
+        return {"collisions": self._collisions.as_dict(report), "collisions_text": self._collisions.text(report)}
 
     # Manipulability overlay ----------------------------------------------
 
