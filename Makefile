@@ -18,6 +18,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	$(BIN)/python -m manipkit.kinematics.ik_kernel   # compile the IK kernel once (numba caches it on disk)
+	$(BIN)/python -m manipkit.closed_form.arms_kernel   # and the closed forms' kernels
 	touch $(STAMP)
 
 demo: setup

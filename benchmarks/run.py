@@ -177,6 +177,7 @@ def goals(rows: list[dict]) -> list[dict]:
     _velocity_goals(rows, goal)
     _reachmap_goals(rows, goal)
     _collision_goals(rows, goal)
+    _closed_form_goals(rows, goal)
     cold = _find(rows, "cold_start", "-", "manipkit tf-between")
     bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
     if cold and cold["median_s"]:
@@ -253,6 +254,39 @@ def _collision_goals(rows: list[dict], goal) -> None:
     if filtered and filtered["median_s"] and filtered["n"] >= 1_000_000:
         goal("iiwa14 map at 0.1 m filtered for self and floor collisions: <= 2x the unfiltered time",
              f"{filtered['slowdown']:.2f}x", filtered["slowdown"] <= 2.0, filtered["check"])
+
+
+def _closed_form_goals(rows: list[dict], goal) -> None:
+    """Issue 22: closed-form IK of UR5 and a spherical-wrist arm (IRB2400): every answer's FK within 1e-12, the
+    generating configuration among the answers for every pose of 10,000, batched >= 5x faster per pose than EAIK's
+    per-pose call, a single call at most 3x EAIK's; the iiwa14 at an arm angle under 20 us per pose."""
+    for arm in ("ur5", "irb2400"):
+        single = _find(rows, "analytic", arm, "manipkit chain_ik, one pose per call (compiled)")
+        batch = _find(rows, "analytic", arm, "manipkit chain_ik_many, batched (compiled)")
+        eaik = _find(rows, "analytic", arm, "EAIK IK, one pose per call")
+        ours = [r for r in (single, batch) if r and r.get("max_fk_error") is not None]
+        if ours:
+            worst = max(r["max_fk_error"] for r in ours)
+            goal(f"closed-form IK, {arm}: FK error <= 1e-12 on every returned solution", f"{worst:.1e}", worst <= 1e-12,
+                 "largest entry of T(q) - T_target over the single calls (Pinocchio) and the batch (chain FK)")
+        if batch and batch.get("recovered") is not None and batch["n"] >= 10_000:
+            goal(f"closed-form IK, {arm}: generating configuration recovered on 100% of 10,000 poses",
+                 f"{batch['recovered']:.2%}", batch["recovered"] == 1.0, f"{batch['n']} poses, batched")
+        if batch and batch["median_s"] and eaik and eaik["median_s"]:
+            ratio = eaik["median_s"] / batch["median_s"]
+            goal(f"closed-form IK, {arm}: batched >= 5x faster per pose than EAIK's per-pose call",
+                 f"{ratio:.2f}x ({batch['median_s'] * 1e6:.2f} us vs {eaik['median_s'] * 1e6:.2f} us)", ratio >= 5.0,
+                 f"{ratio / 5.0:.1f}x the goal" if ratio >= 5.0 else f"missed by {5.0 / ratio:.1f}x")
+        if single and single["median_s"] and eaik and eaik["median_s"]:
+            ratio = single["median_s"] / eaik["median_s"]
+            goal(f"closed-form IK, {arm}: a single call at most 3x EAIK's", f"{ratio:.1f}x EAIK "
+                 f"({single['median_s'] * 1e6:.1f} us vs {eaik['median_s'] * 1e6:.2f} us)", ratio <= 3.0,
+                 f"{3.0 / ratio:.1f}x under the bound" if ratio <= 3.0 else f"missed by {ratio / 3.0:.1f}x")
+    srs = _find(rows, "analytic", "iiwa14", "manipkit chain_ik at an arm angle")
+    if srs and srs["median_s"]:
+        us = srs["median_s"] * 1e6
+        goal("closed-form IK, iiwa14 at a given arm angle, all branches: < 20 us per pose", f"{us:.0f} us", us < 20.0,
+             f"{20.0 / us:.1f}x under the bound" if us < 20.0 else f"missed by {us / 20.0:.0f}x (not compiled)")
 
 
 def reachmap_rows(robot: str, sizes: dict) -> list[dict]:
@@ -448,8 +482,10 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
 
         steps.append(("collisions", lambda: collisions_workload(**sizes["collisions"])))
     if "analytic" in only:
-        for arm in ("ur5", "kinova"):  # a UR-type arm and a spherical-wrist arm
+        for arm in ("ur5", "irb2400", "kinova"):  # a UR-type arm and two spherical-wrist arms
             steps.append((f"closed-form IK {arm}", lambda arm=arm: w.analytic_workload(arm, **sizes["analytic"])))
+        steps.append(("closed-form IK iiwa14 at an arm angle",
+                      lambda: w.srs_workload(n_single=min(200, sizes["analytic"]["n_single"]))))
     for label, step in steps:
         t = time.perf_counter()
         log(f"[bench] {label} ...")

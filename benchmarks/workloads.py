@@ -685,33 +685,88 @@ def gci_workload(robot_name: str = "iiwa14", *, samples: int = 1_000_000, repeat
 # 8. closed-form IK of real 6R arms, from their geometry
 
 
-ANALYTIC_CHAINS = {"ur5": ("base_link", "tool0"), "kinova": ("base", "j2s6s200_end_effector")}
+ANALYTIC_CHAINS = {"ur5": ("base_link", "tool0"), "kinova": ("base", "j2s6s200_end_effector"),
+                   "irb2400": ("base_link", "tool0")}
+#: Descriptions the closed-form workload reads from a file (the shared ROS workspace), by name.
+ANALYTIC_FILES = {"irb2400": "abb/abb_irb2400_support/urdf/irb2400.xacro"}
+ANALYTIC_FK_GOAL = 1e-12  # issue 22: every returned solution's FK within this of its target (m, and rotation entries)
 
 
-def _eaik_rows(robot_name: str, urdf_path: Path, Q: np.ndarray, n_single: int) -> list[dict]:
-    """EAIK (PyPI ``eaik``) on the same URDF, when installed: its own end frame (the last joint's point), its
-    answers checked by its own forward kinematics; else one row saying it is missing."""
+def _realworld() -> Path | None:
+    for base in Path(__file__).resolve().parents[1:4]:
+        folder = base / "shared" / "realworld" / "ws_ros1" / "src"
+        if folder.is_dir():
+            return folder
+    return None
+
+
+def _analytic_robot(robot_name: str):
+    """The robot of the closed-form workload: a loadable name, or a description of the shared ROS workspace."""
+    import warnings
+
+    import manipkit
+
+    if robot_name not in ANALYTIC_FILES:
+        return manipkit.load(robot_name)
+    folder = _realworld()
+    if folder is None:
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return manipkit.load(str(folder / ANALYTIC_FILES[robot_name]))
+
+
+def _wrapped_gap(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    return np.abs(np.pi - np.mod(np.pi - (A - B), 2 * np.pi))
+
+
+def _eaik_rows(robot_name: str, urdf_path: Path, Q: np.ndarray, n_single: int, n_batch: int, repeats: int) -> list[dict]:
+    """EAIK (PyPI ``eaik``) on the same URDF, when installed: one pose per call (``IK``) and its batched call
+    (``IK_batched``), on the poses of its own FK of the same configurations (its end frame is the last joint's
+    point, not the URDF's tip); answers checked by its own FK; else one row saying it is missing."""
     try:
         from eaik.IK_URDF import UrdfRobot
     except ImportError:
         return [row("analytic", robot_name, "EAIK (eaik, one pose per call)", unit="pose", status="missing",
                     note="eaik is not installed (pip install eaik)")]
     try:
+        version = peer_adapters.version("eaik") or "?"
         bot = UrdfRobot(str(urdf_path))
-        poses = [np.asarray(bot.fwdKin(q)) for q in Q[:n_single]]
-        answers = [bot.IK(T) for T in poses]
-        errors = [max(float(np.max(np.abs(np.asarray(bot.fwdKin(q)) - T))) for q in np.atleast_2d(a.Q))
-                  for a, T in zip(answers, poses) if len(np.atleast_2d(a.Q))]
-        found = float(np.mean([any(np.allclose(np.pi - np.mod(np.pi - (s - q), 2 * np.pi), 0.0, atol=1e-6)
-                                   for s in np.atleast_2d(a.Q)) for a, q in zip(answers, Q)]))
-        per_pose = float(np.mean([len(np.atleast_2d(a.Q)) for a in answers]))
-        ok = max(errors, default=0.0) <= IK_ACCEPT
-        return [row("analytic", robot_name, "EAIK (eaik, one pose per call)",
-                    per_call(lambda T: bot.IK(T), poses) if ok else None, unit="pose", n=len(poses),
-                    status="ok" if ok else "wrong", solutions_per_pose=per_pose, recovered=found,
-                    check=f"its own FK of every answer: max error {max(errors, default=0.0):.1e}; generating "
-                          f"configuration among the answers: {found:.0%}",
-                    note="its end frame is the last joint's point, not the URDF's tip")]
+        poses = [np.asarray(bot.fwdKin(q)) for q in Q[:max(n_single, n_batch)]]
+
+        def exact(answer):
+            """EAIK's rows that are solutions (``is_LS`` marks its least-squares answers, which miss)."""
+            Q_all = np.atleast_2d(answer.Q)
+            return Q_all[~np.asarray(answer.is_LS, dtype=bool).reshape(-1)] if len(Q_all) else Q_all
+
+        def judged(answers, targets, configurations):
+            errors = [max((float(np.max(np.abs(np.asarray(bot.fwdKin(q)) - T))) for q in exact(a)), default=0.0)
+                      for a, T in zip(answers, targets)]
+            found = float(np.mean([any(_wrapped_gap(s, q).max() < 1e-6 for s in exact(a))
+                                   for a, q in zip(answers, configurations)]))
+            per_pose = float(np.mean([len(exact(a)) for a in answers]))
+            return max(errors, default=0.0), found, per_pose
+
+        worst, found, per_pose = judged([bot.IK(T) for T in poses[:n_single]], poses[:n_single], Q[:n_single])
+        ok = worst <= IK_ACCEPT
+        rows = [row("analytic", robot_name, f"EAIK IK, one pose per call (eaik {version})",
+                    per_call(lambda T: bot.IK(T), poses[:n_single]) if ok else None, unit="pose", n=n_single,
+                    status="ok" if ok else "wrong", solutions_per_pose=per_pose, recovered=found, max_fk_error=worst,
+                    check=f"its own FK of every answer: max error {worst:.1e}; generating configuration among the "
+                          f"answers: {found:.1%}",
+                    note="its end frame is the last joint's point, not the URDF's tip; rows marked is_LS (least "
+                         "squares, not solutions) left out; not limit-aware, no labels")]
+        batch = poses[:n_batch]
+        answers = bot.IK_batched(batch)
+        worst, found, per_pose = judged(answers, batch, Q[:n_batch])
+        ok = worst <= IK_ACCEPT
+        rows.append(row("analytic", robot_name, f"EAIK IK_batched (eaik {version})",
+                        per_item(lambda: bot.IK_batched(batch), n_batch, repeats=repeats) if ok else None, unit="pose",
+                        n=n_batch, status="ok" if ok else "wrong", solutions_per_pose=per_pose, recovered=found,
+                        max_fk_error=worst, check=f"its own FK of every answer: max error {worst:.1e}; generating "
+                                                  f"configuration among the answers: {found:.1%}",
+                        note="a list of poses in one call"))
+        return rows
     except Exception as exc:  # a peer that cannot read the file is reported, not timed
         return [row("analytic", robot_name, "EAIK (eaik, one pose per call)", unit="pose", status="missing",
                     note=f"eaik could not solve {urdf_path.name}: {type(exc).__name__}: {exc}")]
@@ -721,15 +776,19 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
                       seed: int = 13) -> list[dict]:
     """Every closed-form branch of a 6R arm found from its URDF: one pose per call and batched, against EAIK.
 
-    Targets are FK of random in-limit configurations; every returned solution is checked by Pinocchio's FK
-    (the batch by the chain's compiled FK, equal to Pinocchio to 1e-15) and the generating configuration must be
-    among the answers (modulo 2 pi) for every target.
+    Targets are FK of random in-limit configurations. Every returned solution of the single calls is put through
+    Pinocchio's FK (``robot.transform``), every slot of the batch through the chain's compiled FK (equal to
+    Pinocchio to 1e-15); the largest entry of ``T(q) - T_target`` is the row's FK error, and the generating
+    configuration must be among the answers (modulo 2 pi) for every target. The batched rows are timed with their
+    FK check (``success``, every slot measured).
     """
-    import manipkit
     from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
     from manipkit.closed_form.families import chain_family
 
-    robot = manipkit.load(robot_name)
+    robot = _analytic_robot(robot_name)
+    if robot is None:
+        return [row("analytic", robot_name, f"{robot_name} description", unit="pose", status="missing",
+                    note="the shared ROS workspace with this description is not here: not run")]
     base, tip = ANALYTIC_CHAINS[robot_name]
     chain = robot.chain(base, tip)
     family = chain_family(chain)
@@ -737,41 +796,82 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
     T = chain.fk(Q)
 
     def recovered(rows, q):
-        return any(np.allclose(np.pi - np.mod(np.pi - (s - q), 2 * np.pi), 0.0, atol=1e-6) for s in rows)
+        return any(_wrapped_gap(s, q).max() < 1e-6 for s in rows)
 
     def pinocchio_error(q_chain, T_target):
         """Largest entry of T_base_tip (Pinocchio, through robot.transform) minus the target."""
         return float(np.max(np.abs(robot.transform(base, tip, chain.full(q_chain), check_limits=False) - T_target)))
 
-    single = [chain_ik(chain, T[i], family=family) for i in range(n_single)]
-    worst = max((pinocchio_error(s, T[i]) for i, r in enumerate(single) for s in r.solutions), default=0.0)
-    found = float(np.mean([recovered(r.solutions, Q[i]) for i, r in enumerate(single)]))
-    per_pose = float(np.mean([len(r.solutions) for r in single]))
-    ok = worst <= IK_ACCEPT and found == 1.0
-    check = (f"Pinocchio FK of every answer: max error {worst:.1e} (<= {IK_ACCEPT:g}); generating configuration "
-             f"among the answers: {found:.0%}")
-    rows = [row("analytic", robot_name, "manipkit chain_ik (one pose per call)",
-                per_call(lambda i: chain_ik(chain, T[i], family=family), list(range(n_single))) if ok else None,
-                unit="pose", n=n_single, ours=True, status="ok" if ok else "wrong", check=check,
-                solutions_per_pose=per_pose, recovered=found,
-                note=f"{family.kind}: every branch, limits, labels, FK-checked")]
-    batch = chain_ik_many(chain, T[:n_batch], family=family)
-    solutions = batch.solutions
-    present = ~np.isnan(solutions).any(axis=-1)
-    diff = np.abs(np.pi - np.mod(np.pi - (solutions - Q[:n_batch, None, :]), 2 * np.pi))
-    found_batch = float(np.mean((np.nan_to_num(diff, nan=9.0).max(axis=-1) < 1e-6).any(axis=-1)))
-    worst_batch = float(np.nanmax(np.maximum(batch.residual_position, batch.residual_rotation)))
-    ok = worst_batch <= IK_ACCEPT and found_batch == 1.0
-    rows.append(row("analytic", robot_name, "manipkit chain_ik_many (numpy, batched)",
-                    per_item(lambda: chain_ik_many(chain, T[:n_batch], family=family), n_batch, repeats=repeats)
-                    if ok else None, unit="pose", n=n_batch, ours=True, status="ok" if ok else "wrong",
-                    solutions_per_pose=float(present.sum(axis=-1).mean()), recovered=found_batch,
-                    check=f"chain FK of every answer: max error {worst_batch:.1e}; generating configuration among the "
-                          f"answers: {found_batch:.0%}", note="8 slots per pose, not refined"))
+    rows = []
+    for compiled, label in ((True, "manipkit chain_ik, one pose per call (compiled)"),
+                            (False, "manipkit chain_ik, one pose per call (numpy reference)")):
+        n = n_single if compiled else max(1, n_single // 10)
+        single = [chain_ik(chain, T[i], family=family, compiled=compiled) for i in range(n)]
+        worst = max((pinocchio_error(s, T[i]) for i, r in enumerate(single) for s in r.solutions), default=0.0)
+        found = float(np.mean([recovered(r.solutions, Q[i]) for i, r in enumerate(single)]))
+        per_pose = float(np.mean([len(r.solutions) for r in single]))
+        ok = worst <= IK_ACCEPT and found == 1.0
+        rows.append(row("analytic", robot_name, label,
+                        per_call(lambda i: chain_ik(chain, T[i], family=family, compiled=compiled), list(range(n)))
+                        if ok else None, unit="pose", n=n, ours=compiled, status="ok" if ok else "wrong",
+                        solutions_per_pose=per_pose, recovered=found, max_fk_error=worst,
+                        check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating configuration among "
+                              f"the answers: {found:.1%}",
+                        note=f"{family.kind}: every branch, limit aliases, labels, FK-checked (IKResult)"))
+
+    def batched(compiled):
+        batch = chain_ik_many(chain, T[:n_batch], family=family, compiled=compiled)
+        _ = batch.success  # the FK check of every slot, measured on first use: timed with the call
+        return batch
+
+    for compiled, label in ((True, "manipkit chain_ik_many, batched (compiled)"),
+                            (False, "manipkit chain_ik_many, batched (numpy reference)")):
+        batch = batched(compiled)
+        solutions = batch.solutions
+        present = ~np.isnan(solutions).any(axis=-1)
+        found_batch = float(np.mean((np.nan_to_num(_wrapped_gap(solutions, Q[:n_batch, None, :]), nan=9.0)
+                                     .max(axis=-1) < 1e-6).any(axis=-1)))
+        filled = np.where(present[..., None], solutions, 0.0)
+        errors = np.abs(chain.fk(filled) - T[:n_batch, None]).max(axis=(-2, -1))
+        worst_batch = float(np.max(np.where(present, errors, 0.0)))
+        ok = worst_batch <= IK_ACCEPT and found_batch == 1.0 and bool(batch.success.all())
+        rows.append(row("analytic", robot_name, label,
+                        per_item(lambda: batched(compiled), n_batch, repeats=repeats) if ok else None,
+                        unit="pose", n=n_batch, ours=compiled, status="ok" if ok else "wrong",
+                        solutions_per_pose=float(present.sum(axis=-1).mean()), recovered=found_batch,
+                        max_fk_error=worst_batch,
+                        check=f"chain FK of every answer: max error {worst_batch:.1e}; generating configuration among "
+                              f"the answers: {found_batch:.1%}",
+                        note="8 slots per pose, limit aliases, timed with the FK check of every slot; not refined"))
     with tempfile.TemporaryDirectory() as folder:
         urdf_path = Path(folder) / f"{robot_name}.urdf"
         urdf_path.write_text(robot.urdf, encoding="utf-8")
-        rows += _eaik_rows(robot_name, urdf_path, Q, n_single)
-    rows.append(row("analytic", robot_name, "ik-geo (one pose per call)", unit="pose", status="missing",
-                    note="not compared: ik-geo's Python wrapper needs the family chosen by hand"))
+        rows += _eaik_rows(robot_name, urdf_path, Q, n_single, n_batch, repeats)
     return rows
+
+
+def srs_workload(*, n_single: int = 200, seed: int = 17) -> list[dict]:
+    """The iiwa14 (7R, spherical shoulder and wrist) at the arm angle of each generating configuration, all branches."""
+    import manipkit
+    from manipkit.closed_form.chain_ik import chain_ik, srs_arm_angle
+    from manipkit.closed_form.families import chain_family
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain)
+    Q = chain.sample(n_single, seed=seed)
+    T = chain.fk(Q)
+    psi = [srs_arm_angle(chain, q, family=family) for q in Q]
+    answers = [chain_ik(chain, T[i], family=family, arm_angle=psi[i]) for i in range(n_single)]
+    worst = max((float(np.max(np.abs(robot.transform("base_link", "ee_link", chain.full(s), check_limits=False) - T[i])))
+                 for i, r in enumerate(answers) for s in r.solutions), default=0.0)
+    found = float(np.mean([any(_wrapped_gap(s, Q[i]).max() < 1e-6 for s in r.solutions) for i, r in enumerate(answers)]))
+    ok = worst <= IK_ACCEPT and found == 1.0
+    return [row("analytic", "iiwa14", "manipkit chain_ik at an arm angle, one pose per call (numpy)",
+                per_call(lambda i: chain_ik(chain, T[i], family=family, arm_angle=psi[i]), list(range(n_single)),
+                         warmup=5) if ok else None,
+                unit="pose", n=n_single, ours=True, status="ok" if ok else "wrong",
+                solutions_per_pose=float(np.mean([len(r.solutions) for r in answers])), recovered=found,
+                max_fk_error=worst, check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating "
+                                          f"configuration among the answers: {found:.1%}",
+                note="the SRS solver is numpy, not compiled")]

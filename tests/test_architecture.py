@@ -12,10 +12,11 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "manipkit"
 
 # layer -> the manipkit layers it may import at run time (docs/architecture.md, "Layers")
-BOTTOM = {"errors", "exports", "text", "outputs", "bounds"}  # modules beside errors.py that every layer may use
+BOTTOM = {"errors", "exports", "text", "outputs", "bounds", "kernels"}  # modules beside errors.py that every layer may use
 ALLOWED = {
     "errors": set(),
     "exports": set(),
+    "kernels": set(),  # compiling numba kernels (standard library; numba inside functions)
     "text": set(),
     "outputs": {"errors", "text"},
     "bounds": {"errors", "text"},  # the bounds of every number and count

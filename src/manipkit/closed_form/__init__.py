@@ -1,8 +1,10 @@
 """Closed-form inverse kinematics: planar 2R/3R arms, decoupled arms (SCARA, Stanford, elbow), and any 6R chain
 with a spherical wrist or three parallel axes, found from its geometry.
 
-Pure functions on numbers and DH tables (numpy only); the geometric closed
-forms (families, chain_ik) are given a chain object and read its axes. Joint angles are wrapped to (-pi, pi] (docs/architecture.md).
+Pure functions on numbers and DH tables (numpy; the UR and OPW closed forms
+also compiled with numba in arms_kernel, imported when first solved); the
+geometric closed forms (families, chain_ik) are given a chain object and read
+its axes. Joint angles are wrapped to (-pi, pi] (docs/architecture.md).
 """
 
 from __future__ import annotations

@@ -6,7 +6,9 @@ classified by :func:`manipkit.closed_form.families.chain_family`; its axes
 at the reference configuration ``q0`` and its tip pose there, ``M``, make
 the product of exponentials ``T_base_tip(q) = E_1 ... E_6 M`` in which the
 base and tip offsets are folded exactly. :mod:`manipkit.closed_form.arms`
-gives every branch; each is then:
+gives every branch (the UR and OPW families compiled by
+:mod:`manipkit.closed_form.arms_kernel`, targets near a decision threshold by
+the numpy reference; ``compiled=False``: the reference alone); each is then:
 
 - mapped to joint values ``q = q0 + angle / scale`` and, for a revolute
   joint, to the alias ``q + 2 pi k`` inside the limits nearest 0 (a joint
@@ -36,6 +38,7 @@ Given a chain object; never imports the kinematics layer (docs/architecture.md, 
 from __future__ import annotations
 
 import math
+import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -58,12 +61,12 @@ from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
-from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals
+from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "srs_arm_angle"]
+__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "solve_branches", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
@@ -78,7 +81,7 @@ class IdealArm:
     an axis (m for a point, rad for a direction) from the measured chain.
     """
 
-    __slots__ = ("family", "h", "p", "points", "moved")
+    __slots__ = ("family", "h", "p", "points", "moved", "M_inv", "scale", "label_axes", "__weakref__")
 
     def __init__(self, family: Family):
         geometry = reversed_geometry(family.geometry) if family.reversed else family.geometry
@@ -110,6 +113,10 @@ class IdealArm:
             points["shoulder"] = s
             moved = max(moved, miss)
         self.family, self.h, self.p, self.points, self.moved = family, h, p, points, moved
+        self.M_inv = invert_transform(family.geometry.M, check=False)  # g = T M^-1, once per arm
+        # the arm's size as arms.solve_6r takes it (m, at least 1)
+        self.scale = max(1.0, float(np.max(np.abs(p))) + float(np.linalg.norm(points.get("wrist", np.zeros(3)))))
+        self.label_axes = _label_axes(h, p, points["wrist"]) if "wrist" in points else None
 
 
 def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
@@ -126,25 +133,62 @@ def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
 
 
 def ideal_arm(family: Family) -> IdealArm:
-    """The nearest ideal arm of ``family`` (see :class:`IdealArm`); :class:`ClosedFormIKError` if it has no solver."""
+    """The nearest ideal arm of ``family`` (see :class:`IdealArm`), made once per family and kept;
+    :class:`ClosedFormIKError` if it has no solver."""
     if not family.solved:
         raise ClosedFormIKError(family.note)
-    return IdealArm(family)
+    arm = _ARMS.get(family)
+    if arm is None:
+        arm = _ARMS[family] = IdealArm(family)
+    return arm
 
 
-def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None) -> tuple[np.ndarray, Branches, np.ndarray]:
+#: Family -> its ideal arm (a Family is immutable; an arm is made once and read by every call after).
+_ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _solved_direction(arm: IdealArm, T: np.ndarray) -> np.ndarray:
+    """``g`` (N, 4, 4) of targets T (N, 4, 4) as the solver takes them: ``T M^-1``, inverted for a reversed family."""
+    g = T @ arm.M_inv
+    return invert_transform(g, check=False) if arm.family.reversed else g
+
+
+def solve_branches(arm: IdealArm, g: np.ndarray, *, compiled: bool = True) -> Branches:
+    """Every branch of ``arm`` for targets ``g`` (N, 4, 4): the compiled loop for the UR and OPW families
+    (:mod:`manipkit.closed_form.arms_kernel`), the numpy reference for its hand-backs and for the other families.
+
+    The two give the same branches (tested); ``compiled=False`` is the reference alone."""
+    kind = arm.family.kind
+    if not compiled or kind not in (UR, OPW):
+        return solve_6r(kind, arm.h, arm.p, g, arm.points)
+    from manipkit.closed_form.arms_kernel import solve_many
+
+    theta, valid, near, fallback = solve_many(kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+    N = len(g)
+    free = np.full((N, 8), -1)
+    miss = {"shoulder": np.zeros(N), "reach": np.zeros(N), "orientation": np.zeros(N)}
+    if fallback.any():
+        rows = np.flatnonzero(fallback)
+        reference = solve_6r(kind, arm.h, arm.p, g[rows], arm.points)
+        theta[rows], valid[rows], near[rows], free[rows] = (reference.theta, reference.valid, reference.near,
+                                                            reference.free)
+        for key, value in reference.miss.items():
+            miss[key][rows] = value
+    return Branches(theta, valid, free, miss, near)
+
+
+def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None, compiled: bool = True
+              ) -> tuple[np.ndarray, Branches, np.ndarray]:
     """(theta (N, 8, n) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
     family = arm.family
-    g = T @ invert_transform(family.geometry.M)
-    if family.reversed:
-        g = invert_transform(g)
+    g = _solved_direction(arm, T)
     if family.kind == SRS:
         if arm_angle is None or len(g) != 1:
             raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
                                     "ik --arm-angle PSI), one target at a time, or lock a joint")
         branches = solve_srs(arm.h, arm.p, g[0], arm.points, float(arm_angle))
         return branches.theta, branches, g
-    branches = solve_6r(family.kind, arm.h, arm.p, g, arm.points)
+    branches = solve_branches(arm, g, compiled=compiled)
     theta = branches.theta[..., ::-1] if family.reversed else branches.theta
     return theta, branches, g
 
@@ -191,7 +235,18 @@ def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
     return Q
 
 
-def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> list[str]:
+def _label_axes(h: np.ndarray, p: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(reference, up) of the labels of an arm (axes h, p; wrist centre c): "front" is the side of axis 1 along
+    ``reference`` (the wrist centre's side at q0, across axis 2), "above" is along ``up`` (axis 1 turned to point up
+    the base z)."""
+    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
+    reference = reference - (reference @ h[1]) * h[1]
+    if np.linalg.norm(reference) < 1e-9:
+        reference = np.cross(h[0], h[1])
+    return reference, (h[0] if h[0][2] >= 0.0 else -h[0])
+
+
+def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray, compiled: bool = False) -> list[str]:
     """Shoulder, elbow and wrist of each branch (rows of angles (k, n) in the solve direction), as words."""
     h, p = arm.h, arm.p
     kind = arm.family.kind
@@ -199,15 +254,17 @@ def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray) -> list[str]:
         return [f"elbow {'+' if t[3] >= 0 else '-'}, shoulder {'+' if t[1] >= 0 else '-'}, "
                 f"{'no flip' if t[5] >= 0 else 'wrist flip'}" for t in theta]
     c = arm.points["wrist"]
-    w = g[:3, :3] @ c + g[:3, 3]
     s = arm.points.get("shoulder", p[1])
-    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
-    reference = reference - (reference @ h[1]) * h[1]
-    if np.linalg.norm(reference) < 1e-9:
-        reference = np.cross(h[0], h[1])
+    reference, up = arm.label_axes
+    if compiled and kind in (UR, OPW):
+        from manipkit.closed_form.arms_kernel import branch_labels
+
+        bits = branch_labels(kind, h, p, c, s, reference, up, g, theta).tolist()
+        return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t else 'wrist flip'}"
+                for f, a, t in bits]
+    w = g[:3, :3] @ c + g[:3, 3]
     w1 = p[0] + rotate(h[0], -theta[:, 0], w - p[0])  # (k, 3)
     front = (w1 - p[0]) @ reference >= 0.0
-    up = h[0] if h[0][2] >= 0.0 else -h[0]
     E1 = rotation_matrix(h[0], theta[:, 0])  # (k, 3, 3)
 
     def turned(x):
@@ -245,7 +302,7 @@ def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
 
 
 def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-             max_iters: int = 20, lock=None, arm_angle=None) -> IKResult:
+             max_iters: int = 20, lock=None, arm_angle=None, compiled: bool = True) -> IKResult:
     """Every closed-form IK solution of ``chain`` for ``T_base_tip = target``, found from the chain's geometry.
 
     Parameters
@@ -269,6 +326,9 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         A 7R SRS arm (:mod:`manipkit.closed_form.srs`): the angle (rad) of
         the elbow's plane about the shoulder-wrist line from the plane with
         joint 3 at its reference value.
+    compiled : bool, keyword-only
+        Solve the UR and OPW families in the compiled loop (:func:`solve_branches`);
+        False: the numpy reference alone (the same branches; for tests).
 
     Returns
     -------
@@ -294,43 +354,53 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = check_transform(target, what="IK target")
-    theta, branches, g = _branches(arm, T[None], arm_angle)
+    theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
     geometry = family.geometry
     names = tuple(chain.joint_names)
     slots = np.flatnonzero(branches.near[0])  # exact branches, and those just off a tangency: refined if they miss
-    candidates = _aliases(chain, _joint_values(geometry, theta[0, slots]), geometry.columns)  # (k, n), one batched FK below
-    position, rotation = pose_residuals(T, chain.fk(candidates)) if len(slots) else (np.zeros(0), np.zeros(0))
+    candidates = _candidates(chain, arm, theta[0], slots, compiled)  # (k, n), one batched FK below
+    T_check = _projected_target(T)
+    position, rotation = (pose_residuals(T_check, chain.fk(candidates), project=False) if len(slots)
+                          else (np.zeros(0), np.zeros(0)))
+    position, rotation = np.atleast_1d(position).tolist(), np.atleast_1d(rotation).tolist()
     rows, labels, free_of, refined, rejected = [], [], [], [], 0
+    residual_rows, kept = [], []
     worst = 0.0
-    for q, slot, p_err, r_err in zip(candidates, slots, np.atleast_1d(position), np.atleast_1d(rotation)):
+    free_slots = branches.free[0].tolist()
+    same = _pairwise_same(candidates)  # (k, k): equal modulo 2 pi (rows moved by Newton are compared again)
+    for index, (q, slot, p_err, r_err) in enumerate(zip(candidates, slots.tolist(), position, rotation)):
         moved = 0.0
         if p_err > check[0] or r_err > check[1]:
             better = _newton(chain, T, q, geometry.columns, max_iters, min(0.1 * min(check), 1e-12))
             moved = float(np.max(np.abs(better - q)))
             q = _aliases(chain, better, geometry.columns)
-            p_err, r_err = pose_residuals(T, chain.fk(q))
+            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
             worst = max(worst, float(p_err), float(r_err))
             continue
-        free = int(branches.free[0, slot])
+        free = free_slots[slot]
         if family.reversed and free >= 0:
             free = 5 - free
         free = int(geometry.columns[free]) if free >= 0 else -1  # a chain column (locked joints have none)
-        if any(_same(q, other) and free == f for other, f in zip(rows, free_of)):
+        if rows and (_repeats(q, rows, free, free_of) if moved or any(refined)
+                     else any(same[index][j] and free == f for j, f in zip(kept, free_of))):
             continue
         rows.append(q)
+        kept.append(index)
         labels.append(int(slot))  # named below, all rows at once
         free_of.append(free)
         refined.append(moved)
+        residual_rows.append((p_err, r_err))
     if labels:
-        words = _labels(arm, g[0], branches.theta[0, labels])
+        words = _labels(arm, g[0], branches.theta[0, labels], compiled)
         labels = [w + (" (read tip to base)" if family.reversed else "") for w in words]
     order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first
-    rows, labels, free_of, refined = ([seq[i] for i in order] for seq in (rows, labels, free_of, refined))
+    rows, labels, free_of, refined, residual_rows = ([seq[i] for i in order]
+                                                     for seq in (rows, labels, free_of, refined, residual_rows))
     n = len(names)
     Q = np.array(rows, dtype=float).reshape(-1, n)
-    residuals = pose_residuals(T, chain.fk(Q)) if len(rows) else (np.zeros(0), np.zeros(0))
+    residuals = np.array(residual_rows, dtype=float).reshape(-1, 2).T  # measured above, by FK of each row as kept
     within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(rows) else np.zeros(0, dtype=bool)
     free_joints = tuple(sorted({f for f in free_of if f >= 0}))
     count: int | float = math.inf if free_joints else len(rows)
@@ -342,7 +412,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     if any(m > 0 for m in refined):
         parts.append(f"refined by Newton on the true chain (ideal arm {quantity_text(arm.moved)} m/rad away, "
                      f"largest step {quantity_text(max(refined))})")
-    wide = [names[k] for k in geometry.columns if chain.upper[k] - chain.lower[k] > TWO_PI + 1e-9 and math.isfinite(chain.upper[k])]
+    wide = _wide_joints(chain, geometry.columns)
     if wide and len(rows):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
     if family.kind == SRS:
@@ -370,6 +440,13 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     )
 
 
+def _wide_joints(chain: Chain, columns: np.ndarray) -> list[str]:
+    """The solved joints whose range spans more than 2 pi (each has a second alias inside its limits)."""
+    lower, upper = np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
+    wide = (upper - lower > TWO_PI + 1e-9) & np.isfinite(upper)
+    return [chain.joint_names[k] for k, w in zip(columns.tolist(), wide.tolist()) if w]
+
+
 def _label_order(label: str) -> tuple[bool, bool, bool]:
     return ("back" in label, "elbow down" in label, "wrist flip" in label)
 
@@ -377,6 +454,47 @@ def _label_order(label: str) -> tuple[bool, bool, bool]:
 def _same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> bool:
     difference = np.pi - np.mod(np.pi - (a - b), TWO_PI)
     return bool(np.all(np.abs(difference) <= tol))
+
+
+def _pairwise_same(rows: np.ndarray, tol: float = 1e-9) -> list:
+    """(k, k) nested lists: rows i and j equal modulo 2 pi (to ``tol``), as :func:`_same` of each pair."""
+    difference = np.pi - np.mod(np.pi - (rows[:, None, :] - rows[None, :, :]), TWO_PI)
+    return np.all(np.abs(difference) <= tol, axis=-1).tolist()
+
+
+def _repeats(q: np.ndarray, rows: list, free: int, free_of: list) -> bool:
+    """``q`` equals (modulo 2 pi, to 1e-9) a kept row with the same free joint."""
+    others = np.array([row for row, f in zip(rows, free_of) if f == free]).reshape(-1, len(q))
+    difference = np.pi - np.mod(np.pi - (others - q), TWO_PI)
+    return bool(np.any(np.all(np.abs(difference) <= 1e-9, axis=-1)))
+
+
+def _projected_target(T: np.ndarray) -> np.ndarray:
+    """``T`` (..., 4, 4) with its rotation block(s) projected to the nearest rotation where not one to 1e-12, as
+    :func:`~manipkit.spatial.transforms.pose_residuals` does by default: projected once here, the residuals of
+    every row are measured with ``project=False`` (FK poses are rotations)."""
+    T = np.array(T, dtype=float)
+    T[..., :3, :3] = projected_rotation(T[..., :3, :3])
+    return T
+
+
+def _candidates(chain: Chain, arm: IdealArm, theta: np.ndarray, slots: np.ndarray, compiled: bool) -> np.ndarray:
+    """Chain vectors (k, n) of the slots ``slots`` of ``theta`` (8, m) (chain order), in-limit aliases nearest 0."""
+    geometry = arm.family.geometry
+    if not compiled:
+        return _aliases(chain, _joint_values(geometry, theta[slots]), geometry.columns)
+    from manipkit.closed_form.arms_kernel import chain_rows
+
+    lower, upper = _limits(chain, arm)
+    rows = chain_rows(theta[None, slots], np.ones((1, len(slots)), dtype=bool), geometry.q0, geometry.columns,
+                      geometry.scale, lower, upper)
+    return rows[0]
+
+
+def _limits(chain: Chain, arm: IdealArm) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of the solved columns (chain order of ``columns``)."""
+    columns = arm.family.geometry.columns
+    return np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
 
 
 def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
@@ -395,7 +513,7 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
 
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-                  lock=None) -> IKBatch:
+                  lock=None, compiled: bool = True) -> IKBatch:
     """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
 
     Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
@@ -403,23 +521,28 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
     carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
     and ``success`` are measured by the chain's compiled FK on first use,
-    against ``check_tol``.
+    against ``check_tol``. ``compiled`` as in :func:`chain_ik`.
     """
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
-    theta, branches, _ = _branches(arm, T)
+    theta, branches, _ = _branches(arm, T, compiled=compiled)
     geometry = family.geometry
-    Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
-    Q = np.where(branches.valid[..., None], Q, np.nan)
+    if compiled:
+        from manipkit.closed_form.arms_kernel import chain_rows
+
+        Q = chain_rows(theta, branches.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
+    else:
+        Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
+        Q = np.where(branches.valid[..., None], Q, np.nan)
     count = branches.valid.sum(axis=-1).astype(float)
     count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
 
     def measure(solutions):
-        filled = np.where(np.isnan(solutions), 0.0, solutions)
-        position, rotation = pose_residuals(T[:, None], chain.fk(filled))
         missing = np.isnan(solutions).any(axis=-1)
+        filled = np.where(missing[..., None], 0.0, solutions)
+        position, rotation = pose_residuals(_projected_target(T)[:, None], chain.fk(filled), project=False)
         return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
 
     slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))

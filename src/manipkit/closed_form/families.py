@@ -318,6 +318,31 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL, lock=None) -> Family:
     """
     tol = tolerances(tol, error=ClosedFormIKError)
     lock = dict(lock or {})
+    try:
+        key = (id(chain), tuple(float(t) for t in tol), tuple((name, float(value)) for name, value in lock.items()))
+    except (TypeError, ValueError):
+        key = None  # a value that is not a number: _geometry says what is wrong with it
+    cached = _FAMILIES.get(key) if key is not None else None
+    if cached is not None and cached[0] is chain:
+        return cached[1]
+    family = _chain_family(chain, tol, lock)
+    if key is not None:
+        if len(_FAMILIES) >= _MAX_CACHED:
+            try:
+                _FAMILIES.pop(next(iter(_FAMILIES)), None)
+            except (StopIteration, RuntimeError):  # another thread emptied or changed it meanwhile: nothing to drop
+                pass
+        _FAMILIES[key] = (chain, family)  # the chain is held, so its id is not reused while the entry lives
+    return family
+
+
+#: (id(chain), tol, lock) -> (chain, family): a chain is immutable, so its family is found once (oldest dropped first).
+_FAMILIES: dict = {}
+_MAX_CACHED = 64
+
+
+def _chain_family(chain: Chain, tol: tuple[float, float], lock: dict) -> Family:
+    """:func:`chain_family` without the cache."""
     geometry = _geometry(chain, lock)
     family = _classify(geometry, tol, tuple(chain.joint_names))
     if not lock:

@@ -324,7 +324,9 @@ def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family
         result = chain_ik(chain, target, family=family, check_tol=tolerances(tol), arm_angle=arm_angle)
     except ClosedFormIKError as exc:
         raise IKOptionError(str(exc)) from None
-    Q = np.array([chain.full(q) for q in result.solutions], dtype=float).reshape(-1, len(robot.joint_names))
+    # whole-robot rows: the robot's defaults with the chain's columns from each row (chain.full of each, at once)
+    Q = np.repeat(np.asarray(robot.q(), dtype=float)[None], len(result.solutions), axis=0)
+    Q[:, chain.columns] = result.solutions
     columns = tuple(int(c) for c in chain.columns)
     return replace(result, solutions=read_only(Q, (len(robot.joint_names),)), joint_names=robot.joint_names,
                    free_joints=tuple(columns[j] for j in result.free_joints))

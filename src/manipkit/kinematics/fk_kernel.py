@@ -72,7 +72,6 @@ from __future__ import annotations
 
 import math
 import threading
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -80,6 +79,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.errors import ChainError, JointValueError
+from manipkit.kernels import KernelCacheWarning, compile_kernel, lazy_kernel
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -371,153 +371,7 @@ def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out
 
 
 
-# --------------------------------------------------------------------------
-# Compiling the kernels: numba's disk cache where it works, else in memory
-
-
-class KernelCacheWarning(UserWarning):
-    """numba's on-disk cache of the compiled kernels could not be used; they were compiled in memory."""
-
-
-_cache_warned = False
-
-
-def _warn_cache(message: str) -> None:
-    """One :class:`KernelCacheWarning` per process (every kernel meets the same folder)."""
-    global _cache_warned
-    if not _cache_warned:
-        _cache_warned = True
-        warnings.warn(" ".join(message.split()), KernelCacheWarning, stacklevel=2)
-
-
-def _reason(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    text = text if len(text) <= 200 else text[:200] + "..."
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-class _ForgivingCache:
-    """numba's ``FunctionCache`` for one kernel, made on first use, whose failures fall back to memory.
-
-    numba raises when no cache folder is writable ("no locator available"),
-    when a file cannot be saved (a full disk) and when a cache file does not
-    unpickle (a truncated file); each of these would end the run. Here: no
-    usable folder or a failed save -> the kernel stays compiled in memory
-    (one warning); an unreadable entry -> the index is rewritten empty
-    (``flush``) and the kernel recompiled, so the next save replaces the bad
-    file. Implements the interface numba's dispatcher calls on ``_cache``.
-    """
-
-    def __init__(self, py_func):
-        self._py_func = py_func
-        self._disk = None  # numba.core.caching.FunctionCache, made on the first load
-        self._usable = True
-
-    def _cache(self):
-        if self._disk is None and self._usable:
-            from numba.core.caching import FunctionCache
-
-            try:
-                self._disk = FunctionCache(self._py_func)
-            except (RuntimeError, OSError) as exc:  # no writable folder for the cache: numba's RuntimeError
-                self._give_up(exc)
-        return self._disk
-
-    def _give_up(self, exc: BaseException) -> None:
-        self._usable, self._disk = False, None
-        _warn_cache(
-            f"the compiled kernels cannot use numba's disk cache ({_reason(exc)}); they are compiled in memory "
-            "for this run (a few seconds each run); set NUMBA_CACHE_DIR to a writable folder to cache them"
-        )
-
-    @property
-    def cache_path(self):
-        return self._disk.cache_path if self._disk is not None else None
-
-    def load_overload(self, sig, target_context):
-        cache = self._cache()
-        if cache is None:
-            return None
-        try:
-            return cache.load_overload(sig, target_context)
-        except Exception as exc:  # any failure to read a cache entry (UnpicklingError, EOFError, ...): recompile
-            _warn_cache(f"numba's disk cache of the compiled kernel {self._py_func.__name__} could not be read "
-                        f"({_reason(exc)}); it is compiled again and the cache rewritten")
-            try:
-                cache.flush()  # an empty index: the recompiled kernel is saved as a fresh entry
-            except OSError as flush_exc:
-                self._give_up(flush_exc)
-            return None
-
-    def save_overload(self, sig, data):
-        cache = self._cache()
-        if cache is None:
-            return
-        try:
-            cache.save_overload(sig, data)
-        except Exception as exc:  # a full disk, a folder made read-only, a corrupt index: keep it in memory
-            self._give_up(exc)
-
-    def enable(self):
-        self._usable = True
-
-    def disable(self):
-        self._usable, self._disk = False, None
-
-    def flush(self):
-        cache = self._cache()
-        if cache is not None:
-            try:
-                cache.flush()
-            except OSError as exc:
-                self._give_up(exc)
-
-
-def lazy_kernel(py_func, **options):
-    """A function returning ``compile_kernel(py_func, **options)``, made on its first call and kept.
-
-    So importing a module with a kernel does not import numba; the first use
-    does (``kernel()(arguments)``).
-    """
-    made = []
-
-    def kernel():
-        if not made:
-            made.append(compile_kernel(py_func, **options))
-        return made[0]
-
-    kernel.__doc__ = f":func:`{py_func.__name__}` compiled with numba on first use (:func:`compile_kernel`)."
-    return kernel
-
-
-def compile_kernel(py_func, **options):
-    """``py_func`` compiled by numba (``njit(**options)``), cached on disk where that works.
-
-    Like ``njit(cache=True, **options)(py_func)``, except that the disk cache
-    never ends a run: when no cache folder is writable (a read-only install
-    and home, ``NUMBA_CACHE_DIR`` unset), a file cannot be written (a full
-    disk) or read (a truncated file), the kernel is compiled in memory and
-    one :class:`KernelCacheWarning` says so; an unreadable entry is replaced
-    by the recompiled kernel. Compilation itself happens on the first call.
-
-    Parameters
-    ----------
-    py_func : function
-        A function numba can compile in nopython mode.
-    **options
-        Passed to ``numba.njit`` (``error_model="numpy"``, ...); not ``cache``.
-
-    Returns
-    -------
-    numba dispatcher
-    """
-    from numba import njit
-
-    dispatcher = njit(**options)(py_func)
-    # numba offers no option for a cache that falls back; its dispatcher calls load_overload/save_overload
-    # on `_cache` (what `enable_caching` sets), so ours goes there
-    dispatcher._cache = _ForgivingCache(py_func)
-    return dispatcher
+# Compiling the kernels: manipkit.kernels (compile_kernel, lazy_kernel), shared with closed_form
 
 
 # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would keep LLVM

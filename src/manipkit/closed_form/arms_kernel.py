@@ -1,0 +1,484 @@
+"""The 6R closed forms of :mod:`manipkit.closed_form.arms`, compiled with numba: one loop over targets.
+
+The same Paden-Kahan sequences as :func:`manipkit.closed_form.arms.solve_6r`
+(``"three parallel, two intersecting"``, the UR arms, and ``"spherical
+wrist, two parallel"``, the OPW arms), written on scalars and 3-tuples so a
+target costs a few hundred multiplications and no allocation, and every
+branch in the same slot (``4 shoulder + 2 elbow + wrist``) with the same
+``valid`` and ``near`` rules.
+
+The compiled loop solves the *generic* targets only. A target is handed
+back (``fallback`` True) when any decision of the reference path is close
+to its threshold there: a subproblem near a tangency or degenerate (a free
+angle: singular targets), a branch missing by a little (``near`` but not
+exact), or no branch at all (the reference measures how far it misses).
+Those targets are solved again by the numpy reference, so the answer is
+the reference's everywhere; the margins (``MARGIN`` times the arm's size,
+far above the two paths' rounding differences of about 1e-15) only decide
+which path answers, never what the answer is.
+
+Each function is compiled by :func:`manipkit.kernels.compile_kernel` (numba's
+disk cache where it works); importing this module imports numba, so the
+closed forms import it inside the functions that use it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.kernels import compile_kernel
+
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "solve_many", "warm_up"]
+
+#: Family kind -> the code the compiled loop takes.
+KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
+#: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
+MARGIN = 1e-8
+TOL = 1e-12  # the subproblems' zero, as the reference's (arms.solve_6r's tol)
+NEAR = 1e-6  # arms.NEAR
+TWO_PI = 2.0 * math.pi
+# Cephes' atan (Moshier, cephes/cmath/atan.c): P/Q on [0, 0.66] after the reduction, and pi/4's low bits
+_P0, _P1, _P2, _P3, _P4 = (-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792314704667340e1,
+                           -1.228866684490136173410e2, -6.485021904942025371773e1)
+_Q0, _Q1, _Q2, _Q3, _Q4 = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
+                           4.853903996359136964868e2, 1.945506571482613964425e2)
+_MOREBITS = 6.123233995736765886130e-17
+
+
+@compile_kernel
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@compile_kernel
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@compile_kernel
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@compile_kernel
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@compile_kernel
+def _norm(a):
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@compile_kernel
+def _wrap(x):
+    """x wrapped to (-pi, pi]."""
+    return math.pi - (math.pi - x) % TWO_PI
+
+
+@compile_kernel
+def _rotate(k, c, s, p):
+    """R(k, t) p (Rodrigues) with c = cos t, s = sin t, as subproblems.rotate."""
+    kp = _dot(k, p)
+    kx = _cross(k, p)
+    return (c * p[0] + s * kx[0] + (1.0 - c) * kp * k[0],
+            c * p[1] + s * kx[1] + (1.0 - c) * kp * k[1],
+            c * p[2] + s * kx[2] + (1.0 - c) * kp * k[2])
+
+
+@compile_kernel
+def _move(h, p, c, s, x):
+    """E(t) x: x turned by t (c = cos t, s = sin t) about the line through p along h."""
+    return _add(p, _rotate(h, c, s, _sub(x, p)))
+
+
+@compile_kernel
+def _mv(R, x):
+    """R x for a (3, 3) array R."""
+    return (R[0, 0] * x[0] + R[0, 1] * x[1] + R[0, 2] * x[2],
+            R[1, 0] * x[0] + R[1, 1] * x[1] + R[1, 2] * x[2],
+            R[2, 0] * x[0] + R[2, 1] * x[1] + R[2, 2] * x[2])
+
+
+@compile_kernel
+def _mtv(R, x):
+    """R^T x for a (3, 3) array R."""
+    return (R[0, 0] * x[0] + R[1, 0] * x[1] + R[2, 0] * x[2],
+            R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
+            R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
+
+
+@compile_kernel
+def _sp1(k, p, q):
+    """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q.
+
+    ``size`` = |p off the axis| (the angle is free, held 0, where it is within TOL); ``miss`` = |R(k, t) p - q|,
+    which for the best angle is ``hypot(|p_perp| - |q_perp|, k.p - k.q)`` (R turns p_perp onto q_perp's direction)."""
+    kp, kq = _dot(k, p), _dot(k, q)
+    pp = (p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2])
+    qp = (q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2])
+    size, size_q = _norm(pp), _norm(qp)
+    X, Y = _dot(pp, qp), _dot(k, _cross(pp, qp))
+    r = math.sqrt(X * X + Y * Y)
+    if size <= TOL or r == 0.0:
+        return 1.0, 0.0, size, _norm(_sub(p, q))
+    d_perp, d_axis = size - size_q, kp - kq
+    return X / r, Y / r, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
+
+
+@compile_kernel
+def _atan_unit(x):
+    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp)."""
+    y, extra = 0.0, 0.0
+    if x > 0.66:
+        y, extra = 0.25 * math.pi, 0.5 * _MOREBITS
+        x = (x - 1.0) / (x + 1.0)
+    z = x * x
+    num = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
+    den = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
+    return y + (x * (z * num / den) + x + extra)
+
+
+@compile_kernel
+def _atan2(y, x):
+    """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much)."""
+    ay, ax = abs(y), abs(x)
+    if ay == 0.0 and ax == 0.0:
+        return math.copysign(math.pi, y) if math.copysign(1.0, x) < 0.0 else math.copysign(0.0, y)
+    if ay <= ax:
+        a = _atan_unit(ay / ax)
+    else:
+        a = 0.5 * math.pi - _atan_unit(ax / ay)
+    if math.copysign(1.0, x) < 0.0:
+        a = math.pi - a
+    return math.copysign(a, y)
+
+
+@compile_kernel
+def _sp4(h, k, p, d):
+    """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
+    (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
+    ``unsure``: degenerate or tangent within ``MARGIN`` (the reference decides there)."""
+    kp = _dot(k, p)
+    A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
+    B = _dot(h, _cross(k, p))
+    C = d - _dot(h, k) * kp
+    r = math.hypot(A, B)
+    scale = max(1.0, r)
+    gap = abs(C) - r
+    unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
+    if r == 0.0:
+        return 1.0, 0.0, 1.0, 0.0, 0.0, abs(C), True
+    cphi, sphi = A / r, B / r
+    ci = min(1.0, max(-1.0, C / r))
+    si = math.sqrt(1.0 - ci * ci)
+    count = 0.0 if gap > TOL * scale else 2.0
+    miss = gap if count == 0.0 else 0.0
+    return cphi * ci - sphi * si, sphi * ci + cphi * si, cphi * ci + sphi * si, sphi * ci - cphi * si, count, miss, unsure
+
+
+@compile_kernel
+def _sp3(k, p1, p2, delta):
+    """Subproblem 3 (|R(k, t) p1 - p2| = delta) as subproblems.sp3: (ca, sa, cb, sb, count, miss, unsure)."""
+    d = 0.5 * (_dot(p1, p1) + _dot(p2, p2) - delta * delta)
+    ca, sa, cb, sb, count, miss, unsure = _sp4(p2, k, p1, d)
+    if count == 0.0:
+        ra = _norm(_sub(_rotate(k, ca, sa, p1), p2))
+        rb = _norm(_sub(_rotate(k, cb, sb, p1), p2))
+        miss = min(abs(ra - delta), abs(rb - delta))
+    return ca, sa, cb, sb, count, miss, unsure
+
+
+@compile_kernel
+def _perpendicular(h):
+    a = (abs(h[0]), abs(h[1]), abs(h[2]))
+    i = 0
+    if a[1] < a[i]:
+        i = 1
+    if a[2] < a[i]:
+        i = 2
+    e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+    v = _cross(h, e)
+    n = _norm(v)
+    return (v[0] / n, v[1] / n, v[2] / n)
+
+
+@compile_kernel
+def _row(H, i):
+    return (H[i, 0], H[i, 1], H[i, 2])
+
+
+@compile_kernel
+def _ur_target(H, P, c, scale, R, t, theta, valid, near):
+    """One target of the UR family into theta (8, 6), valid (8,), near (8,); True when the reference must decide."""
+    # Over 80 lines: the reference's four subproblem stages and their slot bookkeeping, in its order.
+    h0, h1, h2, h3, h4, h5 = _row(H, 0), _row(H, 1), _row(H, 2), _row(H, 3), _row(H, 4), _row(H, 5)
+    p0, p1, p2, p3, p4, p5 = _row(P, 0), _row(P, 1), _row(P, 2), _row(P, 3), _row(P, 4), _row(P, 5)
+    w = _add(_mv(R, c), t)
+    ca, sa, cb, sb, count1, miss1, unsure = _sp4(h1, h0, _sub(w, p0), _dot(h1, _sub(c, p0)))
+    if unsure or count1 == 0.0:
+        return True
+    v3 = _perpendicular(h3)
+    sign3 = 1.0 if _dot(h2, h1) > 0.0 else -1.0
+    sign4 = 1.0 if _dot(h3, h1) > 0.0 else -1.0
+    edge = 2.0 * NEAR * scale
+    any_valid = False
+    Rgh6 = _mv(R, h5)
+    for i in range(2):
+        c1, s1 = (ca, -sa) if i == 0 else (cb, -sb)  # t1 = -theta of subproblem 4
+        t1 = _atan2(s1, c1)
+        x5 = _rotate(h0, c1, -s1, Rgh6)  # R1^T R_g h6
+        wanted = _mtv(R, _rotate(h0, c1, s1, h1))  # R_g^T R1 h2
+        c5a, s5a, c5b, s5b, count5, miss5, unsure5 = _sp4(h1, h4, h5, _dot(x5, h1))
+        if unsure5 or (count5 == 0.0 and miss5 <= edge):
+            return True
+        for j in range(2):
+            c5, s5 = (c5a, s5a) if j == 0 else (c5b, s5b)
+            t5 = _atan2(s5, c5)
+            source = _rotate(h4, c5, -s5, h1)
+            c6, minus_s6, size6, _ = _sp1(h5, source, wanted)
+            if size6 <= MARGIN:
+                return True  # axis 6 along the parallel axes: t6 free (the reference picks the member)
+            s6 = -minus_s6
+            t6 = _atan2(s6, c6)
+            x = _move(h5, p5, c6, -s6, _move(h4, p4, c5, -s5, p3))
+            y = _move(h0, p0, c1, -s1, _add(_mv(R, x), t))
+            c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3(h2, _sub(p3, p2), _sub(p1, p2), _norm(_sub(y, p1)))
+            if unsure3 or (count3 == 0.0 and miss3 <= edge):
+                return True
+            # the angle about h2 of R1^T R_g R6^T R5^T (the turn of joints 2, 3, 4 together)
+            u0 = _rotate(h0, c1, -s1, _mv(R, _rotate(h5, c6, -s6, _rotate(h4, c5, -s5, v3))))
+            ct, st, _, _ = _sp1(h1, v3, u0)
+            total = _atan2(st, ct)
+            for k in range(2):
+                c3, s3 = (c3a, s3a) if k == 0 else (c3b, s3b)
+                elbow = _move(h2, p2, c3, s3, p3)
+                c2, s2, size2, miss2 = _sp1(h1, _sub(elbow, p1), _sub(y, p1))
+                if size2 <= MARGIN:
+                    return True
+                ok = count5 > 0.0 and count3 > 0.0
+                if ok and miss2 > 1e-11 * scale and miss2 <= edge:
+                    return True
+                ok = ok and miss2 <= 1e-9 * scale
+                # t4: axes 2, 3, 4 are parallel on the ideal arm (h3 = sign3 h2, h4 = sign4 h2), so
+                # R(h2, t2 + sign3 t3 + sign4 t4) = R1^T R_g R6^T R5^T, whose angle about h2 is total
+                t2, t3 = _atan2(s2, c2), _atan2(s3, c3)
+                t4 = _wrap(sign4 * (total - t2 - sign3 * t3))
+                slot = 4 * i + 2 * k + j
+                theta[slot, 0], theta[slot, 1], theta[slot, 2] = t1, t2, t3
+                theta[slot, 3], theta[slot, 4], theta[slot, 5] = t4, t5, t6
+                valid[slot] = ok
+                near[slot] = ok
+                any_valid = any_valid or ok
+    return not any_valid
+
+
+@compile_kernel
+def _opw_target(H, P, c, scale, R, t, theta, valid, near):
+    """One target of the OPW family (spherical wrist at c, axes 2 || 3); True when the reference must decide."""
+    # Over 80 lines: shoulder, elbow, arm and wrist stages of the reference, in its order.
+    h0, h1, h2, h3, h4, h5 = _row(H, 0), _row(H, 1), _row(H, 2), _row(H, 3), _row(H, 4), _row(H, 5)
+    p0, p1, p2 = _row(P, 0), _row(P, 1), _row(P, 2)
+    w = _add(_mv(R, c), t)
+    ca, sa, cb, sb, count1, miss1, unsure = _sp4(h1, h0, _sub(w, p0), _dot(h1, _sub(c, p0)))
+    if unsure or count1 == 0.0:
+        return True
+    v5 = _perpendicular(h5)
+    edge = 2.0 * NEAR * scale
+    any_valid = False
+    Rgh6, Rgv = _mv(R, h5), _mv(R, v5)
+    h45 = _dot(h4, h5)
+    for i in range(2):
+        c1, s1 = (ca, -sa) if i == 0 else (cb, -sb)
+        t1 = _atan2(s1, c1)
+        w1 = _move(h0, p0, c1, -s1, w)
+        x1, v1 = _rotate(h0, c1, -s1, Rgh6), _rotate(h0, c1, -s1, Rgv)
+        reach = _norm(_sub(w1, p1))
+        c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3(h2, _sub(c, p2), _sub(p1, p2), reach)
+        if unsure3 or (count3 == 0.0 and miss3 <= edge):
+            return True
+        for k in range(2):
+            c3, s3 = (c3a, s3a) if k == 0 else (c3b, s3b)
+            elbow = _move(h2, p2, c3, s3, c)
+            c2, s2, size2, miss2 = _sp1(h1, _sub(elbow, p1), _sub(w1, p1))
+            if size2 <= MARGIN:
+                return True
+            arm_ok = count3 > 0.0
+            if arm_ok and miss2 > 1e-11 * scale and miss2 <= edge:
+                return True
+            arm_ok = arm_ok and miss2 <= 1e-9 * scale
+            t2, t3 = _atan2(s2, c2), _atan2(s3, c3)
+            # R_rem = (R1 R2 R3)^T R_g: x = R_rem h6, and R_rem v
+            x = _rotate(h2, c3, -s3, _rotate(h1, c2, -s2, x1))
+            rv = _rotate(h2, c3, -s3, _rotate(h1, c2, -s2, v1))
+            # subproblem 2: R(h4, -t4) x = R(h5, t5) h6
+            c4a, s4a, c4b, s4b, count4, miss4, unsure4 = _sp4(h4, h3, x, h45)
+            if unsure4 or (count4 == 0.0 and miss4 <= edge):
+                return True
+            for j in range(2):
+                cm4, sm4 = (c4a, s4a) if j == 0 else (c4b, s4b)  # the angle -t4
+                target = _rotate(h3, cm4, sm4, x)
+                c5, s5, size5, miss5 = _sp1(h4, h5, target)
+                if size5 <= MARGIN:
+                    return True
+                if j == 0 and count4 > 0.0 and miss5 > 1e-10 and miss5 <= 2e-6:
+                    return True  # sp2's sqrt(tol) acceptance, near its edge
+                if j == 0 and count4 > 0.0 and miss5 > 1e-6:
+                    count4 = 0.0  # as sp2: the pair's first member decides
+                turned = _rotate(h4, c5, -s5, _rotate(h3, cm4, sm4, rv))
+                c6, s6, _, _ = _sp1(h5, v5, turned)
+                ok = arm_ok and count4 > 0.0
+                slot = 4 * i + 2 * k + j
+                theta[slot, 0], theta[slot, 1], theta[slot, 2] = t1, t2, t3
+                theta[slot, 3], theta[slot, 4], theta[slot, 5] = _atan2(-sm4, cm4), _atan2(s5, c5), _atan2(s6, c6)
+                valid[slot] = ok
+                near[slot] = ok
+                any_valid = any_valid or ok
+    return not any_valid
+
+
+@compile_kernel
+def _solve_all(kind, H, P, c, scale, G, theta, valid, near, fallback):
+    for n in range(G.shape[0]):
+        R = G[n, :3, :3]
+        t = (G[n, 0, 3], G[n, 1, 3], G[n, 2, 3])
+        if kind == 0:
+            fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        else:
+            fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+
+
+def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale: float, g: np.ndarray):
+    """(theta (N, 8, 6), valid (N, 8), near (N, 8), fallback (N,)) of targets ``g`` (N, 4, 4), compiled.
+
+    ``kind``: a key of :data:`KIND_CODES`; ``h``, ``p`` (6, 3) the ideal
+    arm's axes; ``wrist`` its wrist centre (OPW) or where axes 5 and 6 meet
+    (UR); ``scale`` the arm's size as the reference takes it. Rows with
+    ``fallback`` True hold nothing meaningful: solve them with
+    :func:`manipkit.closed_form.arms.solve_6r`. Elsewhere ``free`` is -1 for
+    every slot (no free angle) and the misses are 0 (a branch exists).
+    """
+    g = np.ascontiguousarray(g, dtype=float)
+    N = g.shape[0]
+    theta = np.zeros((N, 8, 6))
+    valid = np.zeros((N, 8), dtype=np.bool_)
+    near = np.zeros((N, 8), dtype=np.bool_)
+    fallback = np.zeros(N, dtype=np.bool_)
+    c = (float(wrist[0]), float(wrist[1]), float(wrist[2]))
+    _solve_all(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float), c,
+               float(scale), g, theta, valid, near, fallback)
+    return theta, valid, near, fallback
+
+
+@compile_kernel
+def _wrap_angle(a):
+    """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
+    if -math.pi < a <= math.pi:
+        return a + 0.0
+    w = math.pi - (math.pi - a) % TWO_PI
+    return w + TWO_PI if w <= -math.pi else w
+
+
+@compile_kernel
+def _rows(theta, valid, q0, columns, scale, lower, upper, out):
+    """out[n, k] = the chain vector of slot k (NaN where not valid); see chain_rows."""
+    for n in range(theta.shape[0]):
+        for k in range(theta.shape[1]):
+            if not valid[n, k]:
+                for j in range(out.shape[2]):
+                    out[n, k, j] = np.nan
+                continue
+            for j in range(out.shape[2]):
+                out[n, k, j] = q0[j]
+            for i in range(columns.shape[0]):
+                col = columns[i]
+                wrapped = _wrap_angle(q0[col] + theta[n, k, i] / scale[i])
+                best = wrapped
+                if not (lower[i] - 1e-12 <= wrapped <= upper[i] + 1e-12):
+                    for turn in (1.0, -1.0, 2.0, -2.0):
+                        candidate = wrapped + turn * TWO_PI
+                        if lower[i] - 1e-12 <= candidate <= upper[i] + 1e-12:
+                            best = candidate
+                            break
+                out[n, k, col] = best
+
+
+def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np.ndarray, scale: np.ndarray,
+               lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Chain vectors (N, k, n) of solved angles ``theta`` (N, k, m) (chain order): ``q0`` with column
+    ``columns[i]`` moved by ``theta[..., i] / scale[i]`` and taken, by whole turns, to the in-limit value nearest 0
+    (``lower``/``upper`` of the solved columns; wrapped to (-pi, pi] when none is inside); NaN rows where not
+    ``valid``. The same numbers as chain_ik's numpy ``_joint_values`` and ``_aliases`` (revolute joints only)."""
+    theta = np.ascontiguousarray(theta, dtype=float)
+    out = np.empty((*theta.shape[:2], len(q0)))
+    _rows(theta, np.ascontiguousarray(valid, dtype=np.bool_), np.ascontiguousarray(q0, dtype=float),
+          np.ascontiguousarray(columns, dtype=np.int64), np.ascontiguousarray(scale, dtype=float),
+          np.ascontiguousarray(lower, dtype=float), np.ascontiguousarray(upper, dtype=float), out)
+    return out
+
+
+@compile_kernel
+def _labels(kind, H, P, c, s, reference, up, g, theta, out):
+    """out[r] = (front, elbow above, no flip) of each row of theta (k, 6), as chain_ik's _labels computes them."""
+    h0, h1, h2 = _row(H, 0), _row(H, 1), _row(H, 2)
+    p0, p1, p2, p3 = _row(P, 0), _row(P, 1), _row(P, 2), _row(P, 3)
+    w = _add(_mv(g[:3, :3], c), (g[0, 3], g[1, 3], g[2, 3]))
+    for r in range(theta.shape[0]):
+        t1, t2, t3 = theta[r, 0], theta[r, 1], theta[r, 2]
+        c1, s1 = math.cos(t1), math.sin(t1)
+        w1 = _add(p0, _rotate(h0, c1, -s1, _sub(w, p0)))
+        out[r, 0] = _dot(_sub(w1, p0), reference) >= 0.0
+        c2, s2 = math.cos(t2), math.sin(t2)
+        shoulder = _move(h0, p0, c1, s1, s)
+        elbow = _move(h0, p0, c1, s1, _move(h1, p1, c2, s2, p2))
+        wrist = w
+        if kind == 0:
+            c3, s3 = math.cos(t3), math.sin(t3)
+            wrist = _move(h0, p0, c1, s1, _move(h1, p1, c2, s2, _move(h2, p2, c3, s3, p3)))
+        normal = _rotate(h0, c1, s1, h1)
+        line, offset = _sub(wrist, shoulder), _sub(elbow, shoulder)
+        a, b = _dot(line, normal), _dot(offset, normal)
+        line = (line[0] - a * normal[0], line[1] - a * normal[1], line[2] - a * normal[2])
+        offset = (offset[0] - b * normal[0], offset[1] - b * normal[1], offset[2] - b * normal[2])
+        length = _dot(line, line)
+        along = _dot(offset, line) / length if length > 0.0 else 0.0
+        offset = (offset[0] - along * line[0], offset[1] - along * line[1], offset[2] - along * line[2])
+        out[r, 1] = _dot(offset, up) >= 0.0
+        out[r, 2] = theta[r, 4] >= 0.0
+
+
+def branch_labels(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, shoulder: np.ndarray,
+                  reference: np.ndarray, up: np.ndarray, g: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """(k, 3) bool: front, elbow above the shoulder-wrist line, no wrist flip, of rows ``theta`` (k, 6) (solve
+    direction) for one target ``g`` (4, 4): chain_ik's labels, compiled (``reference``, ``up``: its axes)."""
+    out = np.zeros((len(theta), 3), dtype=np.bool_)
+    _labels(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float),
+            tuple(float(v) for v in wrist), tuple(float(v) for v in shoulder), tuple(float(v) for v in reference),
+            tuple(float(v) for v in up), np.ascontiguousarray(g, dtype=float), np.ascontiguousarray(theta, dtype=float),
+            out)
+    return out
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's on-disk cache) every kernel here, with the argument types chain_ik passes.
+
+    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 15 s,
+    which the first closed-form solve of a new installation would otherwise pay.
+    """
+    z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
+    h = np.array([z, y, y, y, z, y])
+    p = np.array([[0.0, 0.0, 0.1], [0.0, 0.1, 0.1], [0.4, 0.1, 0.1], [0.8, 0.1, 0.1], [0.8, 0.2, 0.1], [0.8, 0.2, 0.0]])
+    g = np.eye(4)[None]
+    theta, valid, _, _ = solve_many("three parallel, two intersecting", h, p, p[5], 1.0, g)
+    chain_rows(theta, valid, np.zeros(6), np.arange(6), np.ones(6), np.full(6, -np.pi), np.full(6, np.pi))
+    branch_labels("three parallel, two intersecting", h, p, p[5], p[1], np.array([1.0, 0.0, 0.0]), h[0], g[0], theta[0])
+
+
+if __name__ == "__main__":
+    import time
+
+    start = time.perf_counter()
+    warm_up()
+    print(f"manipkit closed-form kernels ready ({time.perf_counter() - start:.1f} s; compiled once, then cached by numba)")

@@ -1,0 +1,161 @@
+"""The compiled closed forms (closed_form.arms_kernel) give the numpy reference's answers (arms.solve_6r).
+
+Both paths solve the same Paden-Kahan sequences; the compiled one hands every
+target near a decision threshold back to the reference. So for random poses,
+singular poses (q5 = 0, the wrist centre on axis 1), poses just off a
+singularity and unreachable ones, ``chain_ik`` and ``chain_ik_many`` must
+return the same set of rows (modulo 2 pi), the same labels, the same count,
+free joints and misses with ``compiled=True`` as with ``compiled=False``; and
+every row must land on its target by Pinocchio's FK (an independent check of
+both). The robots: ur5 and kinova (example-robot-data), UR5e and ABB IRB2400
+(the shared ROS workspace, skipped without it).
+"""
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import manipkit
+from manipkit.closed_form.arms import solve_6r
+from manipkit.closed_form.arms_kernel import chain_rows, solve_many
+from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many, ideal_arm
+from manipkit.closed_form.families import chain_family
+
+REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" / "src" for base in Path(__file__).resolve().parents[2:4]
+                  if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
+CHAINS = {
+    "ur5": ("ur5", "base_link", "tool0"),
+    "kinova": ("kinova", "base", "j2s6s200_end_effector"),
+    "ur5e": ("universal_robot/ur_description/urdf/ur5e.xacro", "base_link", "tool0"),
+    "irb2400": ("abb/abb_irb2400_support/urdf/irb2400.xacro", "base_link", "tool0"),
+}
+
+
+def load(name: str):
+    source, base, tip = CHAINS[name]
+    if "/" in source:
+        if not REALWORLD.is_dir():
+            pytest.skip("the shared real-world workspace is not here")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # ur_description is also in example-robot-data: one warning
+            robot = manipkit.load(str(REALWORLD / source))
+    else:
+        robot = manipkit.load(source)
+    return robot, base, tip
+
+
+def pinocchio_pose(robot, base: str, tip: str, q_full) -> np.ndarray:
+    """T_base_tip by Pinocchio itself (not manipkit's compiled FK)."""
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(q_full))
+    return np.linalg.inv(data.oMf[robot.frame_id(base)].homogeneous) @ data.oMf[robot.frame_id(tip)].homogeneous
+
+
+def wrapped(a):
+    return np.pi - np.mod(np.pi - np.asarray(a), 2 * np.pi)
+
+
+def same_answer(fast, reference, tol=1e-8):
+    """Same rows modulo 2 pi (in the same order), labels, count, free joints, limits, misses."""
+    assert fast.labels == reference.labels
+    assert fast.count == reference.count and fast.free_joints == reference.free_joints
+    assert fast.solutions.shape == reference.solutions.shape
+    if len(fast.solutions):
+        assert np.abs(wrapped(fast.solutions - reference.solutions)).max() < tol
+    assert fast.within_limits.tolist() == reference.within_limits.tolist()
+    assert fast.unmet == reference.unmet and fast.success == reference.success
+    assert fast.reason == reference.reason
+
+
+@pytest.mark.parametrize("name", list(CHAINS))
+def test_compiled_single_calls_equal_the_reference_on_random_poses(name):
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    family = chain_family(chain)
+    for q in chain.sample(40, seed=3):
+        T = chain.fk(q)
+        fast = chain_ik(chain, T, family=family)
+        same_answer(fast, chain_ik(chain, T, family=family, compiled=False))
+        assert any(np.abs(wrapped(s - q)).max() < 1e-7 for s in fast.solutions)  # the generating configuration
+        for s in fast.solutions[:2]:  # Pinocchio, independent of the compiled FK the residuals come from
+            assert np.abs(pinocchio_pose(robot, base, tip, chain.full(s)) - T).max() < 1e-10
+
+
+@pytest.mark.parametrize("name", list(CHAINS))
+def test_compiled_batch_equals_the_reference_batch(name):
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    Q = chain.sample(500, seed=5)
+    T = chain.fk(Q)
+    fast, reference = chain_ik_many(chain, T), chain_ik_many(chain, T, compiled=False)
+    assert np.array_equal(np.isnan(fast.solutions), np.isnan(reference.solutions))
+    present = ~np.isnan(fast.solutions)
+    assert np.abs(wrapped(fast.solutions[present] - reference.solutions[present])).max() < 1e-8
+    assert np.array_equal(fast.count, reference.count)
+    assert bool(fast.success.all())  # every pose solved, every row within the check by the chain's FK
+    assert np.nanmax(np.maximum(fast.residual_position, fast.residual_rotation)) < 1e-10
+    found = np.nan_to_num(np.abs(wrapped(fast.solutions - Q[:, None])), nan=9.0).max(axis=-1) < 1e-7
+    assert found.any(axis=-1).all()
+
+
+def test_the_kernel_hands_back_singular_targets_and_agrees_elsewhere():
+    """solve_many itself: the rows it keeps equal solve_6r's slot by slot; a q5 = 0 target (a free q6 on one
+    shoulder: a threshold decision) is handed back."""
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    arm = ideal_arm(chain_family(chain))
+    Q = chain.sample(200, seed=9)
+    Q[0] = [0.3, -1.1, 1.2, -0.8, 0.0, 0.4]
+    g = chain.fk(Q) @ arm.M_inv
+    theta, valid, near, fallback = solve_many(arm.family.kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+    reference = solve_6r(arm.family.kind, arm.h, arm.p, g, arm.points)
+    assert fallback[0] and not fallback[1:].any()
+    kept = ~fallback
+    assert np.array_equal(valid[kept], reference.valid[kept]) and np.array_equal(near[kept], reference.near[kept])
+    both = valid & kept[:, None]
+    assert np.abs(wrapped(theta[both] - reference.theta[both])).max() < 1e-9
+
+
+@pytest.mark.parametrize("name", ["ur5", "irb2400"])
+def test_singular_targets_give_the_reference_families(name):
+    """q5 = 0 (axis 6 along 2, 3, 4 on a UR arm; axes 4 and 6 aligned on a spherical wrist): families, as the
+    reference names them; a target 1e-7 off that gives what the reference gives (the UR arm: family members refined
+    by Newton; the spherical wrist: 8 ordinary rows)."""
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    for q5 in (0.0, 1e-7):
+        q = np.array([0.2, 0.3, 0.1, 0.5, q5, 0.3])
+        T = chain.fk(q)
+        fast, reference = chain_ik(chain, T), chain_ik(chain, T, compiled=False)
+        same_answer(fast, reference)
+        assert fast.family == reference.family and np.array_equal(fast.refined > 0, reference.refined > 0)
+        assert math.isinf(fast.count) or q5 > 0.0
+
+
+@pytest.mark.parametrize("name", ["ur5", "kinova"])
+def test_unreachable_targets_give_the_reference_misses(name):
+    """1 m beyond the stretched arm: no row, the same unmet component and size."""
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    T = chain.fk(np.zeros(len(chain.joint_names)))
+    direction = T[:3, 3] / np.linalg.norm(T[:3, 3])
+    T[:3, 3] += direction
+    fast, reference = chain_ik(chain, T), chain_ik(chain, T, compiled=False)
+    same_answer(fast, reference)
+    assert not fast.success and fast.unmet == reference.unmet and fast.unmet[0][1] > 0.0
+    batch, batch_reference = chain_ik_many(chain, T[None]), chain_ik_many(chain, T[None], compiled=False)
+    assert np.isnan(batch.solutions).all() and np.isnan(batch_reference.solutions).all()
+
+
+def test_chain_rows_take_the_in_limit_alias_nearest_zero():
+    """By hand: a joint limited to [3, 6] rad solved at -3 rad: -3 + 2 pi = 3.283 is inside, so that is the row;
+    a continuous joint (infinite limits) at 4 rad is wrapped to 4 - 2 pi; an invalid slot is NaN."""
+    theta = np.array([[[-3.0, 4.0], [0.0, 0.0]]])
+    valid = np.array([[True, False]])
+    rows = chain_rows(theta, valid, np.zeros(2), np.array([0, 1]), np.ones(2), np.array([3.0, -np.inf]),
+                      np.array([6.0, np.inf]))
+    assert rows[0, 0].tolist() == pytest.approx([-3.0 + 2 * np.pi, 4.0 - 2 * np.pi], abs=1e-15)
+    assert np.isnan(rows[0, 1]).all()
