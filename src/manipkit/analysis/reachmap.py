@@ -17,13 +17,14 @@ Methods (docs/architecture.md, "Reachability maps"):
   configurations go through the batched FK kernel (:meth:`Robot.fk`) and
   mark the voxel-bins they land in. A mark is certain (a configuration
   lands there); an unmarked bin may still be reachable (not sampled).
-- ``"hybrid"``: then batched IK (:func:`manipkit.kinematics.ik_many.ik_many`)
-  on every unmarked voxel-bin next to a marked one (a face neighbour with
-  the same bin marked), aiming at the voxel's centre with the bin's
-  representative orientation (mode ``"position+axis"`` about z when rolls are
-  ignored, else ``"pose"``), seeded from that neighbour's stored sample
-  configuration. An answer counts only when its FK residuals are within
-  ``ik_tol``; its configuration is kept (``ik_keys``, ``ik_q``).
+- ``"hybrid"``: then IK fill passes (:mod:`manipkit.analysis.reachstages`:
+  every unreached voxel-bin in the reach shell next to a reached one, at the
+  voxel centre with the bin's representative orientation, mode
+  ``"position+axis"`` when rolls are ignored, else ``"pose"``, seeded from that
+  neighbour's certificate) until a pass adds nothing; answers within ``ik_tol``
+  whose FK lands in the voxel-bin are kept (``ik_keys``, ``ik_q``). Sampling
+  itself stops early once a block adds fewer than ``converge`` x the bins
+  before it; every reached bin keeps a certificate (``cert_keys``, ``cert_q``).
 
 Every voxel-bin records how it was reached: :data:`HOW_SAMPLE`,
 :data:`HOW_IK` or :data:`HOW_NONE` (``ReachMap.reach``).
@@ -290,13 +291,11 @@ class ReachMap:
     def resolution(self) -> str:
         """What a yes of :meth:`query` means, in words (the voxel, the orientation bin, roll or any roll)."""
         from manipkit.analysis.reachquery import resolution_text
-
         return resolution_text(self)
 
     def checks_text(self) -> list[str]:
         """Lines: how the sampling ended, the held-out completeness and the false-positive bound (when built)."""
         from manipkit.analysis.reachquery import checks_lines
-
         return checks_lines(self)
 
     def best_manipulability(self) -> tuple[float, np.ndarray] | None:
@@ -615,8 +614,9 @@ def build(
     block_samples : int, keyword-only
         Samples per task.
     ik_tol, ik_restarts, ik_time_budget : keyword-only
-        Hybrid IK: FK residual tolerance (m and rad), random restarts after
-        the seeded start, seconds per target.
+        Hybrid IK: FK residual tolerance (m and rad), random restarts after the seeded start, seconds per target.
+    converge, holdout, fp_checks : keyword-only
+        Stop share of new bins per block (0: every sample); held-out samples; bins checked by IK (reachstages).
     manipulability : bool, keyword-only
         Also keep, per voxel, the best and the mean Yoshikawa index of the
         configurations that reached it (``False`` skips the Jacobians).
