@@ -62,8 +62,8 @@ ROTATION_TRIES = 64  # draws of an orientation inside a bin before its centre is
 def wilson(hits: int, n: int, z: float = Z95) -> tuple[float, float]:
     """The Wilson score interval (low, high) of a proportion ``hits / n`` (``(0, 1)`` when ``n`` is 0).
 
-    >>> [round(v, 4) for v in wilson(95, 100)]
-    [0.8883, 0.9785]
+    >>> [round(v, 4) for v in wilson(95, 100)]  # p = 0.95, z = 1.96: centre 0.9333, half-width 0.0451
+    [0.8882, 0.9785]
     """
     if n <= 0:
         return 0.0, 1.0
