@@ -118,3 +118,16 @@ def test_mobile_placement_confirmed_count_equals_independent_ik(load_robot):
     assert int(chosen.confirmed.sum()) == int(np.sum(independent.success))
     assert chosen.confirmed.sum() >= 6  # the hidden placement reaches all 8 exactly; one 0.25 m grid point of it
     assert "IK confirms" in chosen.summary() and "the map estimates" in chosen.summary()
+
+
+def test_a_map_of_the_older_format_is_refused_with_rebuild(map_3r, tmp_path):
+    import json
+
+    from manipkit.errors import InputFileError
+
+    path = map_3r.save(tmp_path / "old.zarr")
+    meta = json.loads((path / "zarr.json").read_text())
+    meta["attributes"]["format"] = "manipkit-reachmap-1"
+    (path / "zarr.json").write_text(json.dumps(meta))
+    with pytest.raises(InputFileError, match="older format .* rebuild it"):
+        load(path)

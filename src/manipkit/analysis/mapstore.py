@@ -288,7 +288,11 @@ def load_map(path) -> ReachMap:
         meta = None
     if not isinstance(meta, dict) or not isinstance(meta.get("attributes"), dict) or \
             meta["attributes"].get("format") != FORMAT:
-        raise InputFileError(f"{shown}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
+        older = isinstance(meta, dict) and isinstance(meta.get("attributes"), dict) and \
+            str(meta["attributes"].get("format")).startswith("manipkit-reachmap-")
+        raise InputFileError(f"{shown}: a reachability map of an older format (no certificates); rebuild it with "
+                             f"'manipkit reachmap'" if older else
+                             f"{shown}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
     try:
         _check_entries(path)
         a = _checked_attributes(meta)
