@@ -255,6 +255,7 @@ def test_a_chunk_is_decompressed_only_when_its_frame_declares_its_exact_size(tin
     chunk = path / "reach" / "c" / "0" / "0" / "0" / "0"
     size = tiny.reach.size  # one chunk holds the whole small grid
     assert mapstore.zstd_content_size(chunk.read_bytes()) == size
+    original = chunk.read_bytes()
     chunk.write_bytes(Zstd().encode(bytes(size * 1000)))  # a bomb in miniature: 1000 times its chunk
     with pytest.raises(InputFileError, match=f"declares {size * 1000} bytes; its chunk holds {size}"):
         load(path)
@@ -265,7 +266,10 @@ def test_a_chunk_is_decompressed_only_when_its_frame_declares_its_exact_size(tin
     chunk.write_bytes(right + Zstd().encode(bytes(10_000_000)))  # a second frame, which a decoder would add
     with pytest.raises(InputFileError, match="is not one zstd frame that declares its size"):
         load(path)
-    chunk.write_bytes(right)
+    chunk.write_bytes(right)  # a well-formed chunk, but no voxel-bin reached: the certificates now name unreached ones
+    with pytest.raises(InputFileError, match="cert_keys are not exactly the reached voxel-bins"):
+        load(path)
+    chunk.write_bytes(original)
     assert load(path).reach.size == size
     chunk.write_bytes(Zstd().encode(np.full(size, 7, dtype=np.uint8).tobytes()))
     with pytest.raises(InputFileError, match="reach holds the code 7"):

@@ -82,7 +82,15 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
     out = json.loads(run_cli("manipkit", "base-placement", "--robot", "mobile_manipulator", "--targets", tmp_path / "targets.txt",
                          "--map", tmp_path / "mm.zarr", "--yaws", "4", "--plot", tmp_path / "bp.png", "--format", "json",
                          status=0).stdout)
-    assert out["targets"] == 6 and out["reached"] >= 5
+    assert out["targets"] == 6 and out["map_estimate"] >= 5 and "any roll" in out["map_estimate_means"]
+    # (the confirmed count may be far lower: the placement grid need not hold the hidden placement, and a full pose
+    # off it is often out of this arm's reach; test_analysis_reachmap_certified checks one on the grid)
+    # the printed confirmed count equals an independent IK count (random starts only, full pose) from the printed placement
+    from manipkit.kinematics.ik_many import ik_many
+
+    T_B = np.linalg.inv(placement_transforms(out["x"], out["y"], out["yaw"])) @ T
+    independent = ik_many(robot, T_B, "base_footprint", "ee_link", mode="pose", tol=1e-6, restarts=100, seed=5)
+    assert out["confirmed"] == int(np.sum(independent.success)) == sum(out["confirmed_targets"])
     # the best placement reaches as many as the true one: it lies within the arm's reach (< 1 m) of every target
     assert np.hypot(T[:, 0, 3] - out["x"], T[:, 1, 3] - out["y"]).max() < 1.0
     assert (tmp_path / "bp.png").stat().st_size > 10_000

@@ -272,9 +272,10 @@ class BlockRunner:
                 report(desc, done, total)
 
 
-def in_block_order(results):
-    """The block results of ``results`` (tuples starting with the block number, in any order) in block order."""
-    waiting, following = {}, 0
+def in_block_order(results, first: int = 0):
+    """The block results of ``results`` (tuples starting with the block number, ``first``, ``first + 1``, ..., in any
+    order) in block order."""
+    waiting, following = {}, first
     for result in results:
         waiting[result[0]] = result
         while following in waiting:

@@ -24,7 +24,8 @@ right-handed axes, orientation kind and bins, names); each array's metadata
 is the one manipkit writes, with the shape the attributes call for; every
 chunk is present, and its zstd frame declares the exact size of its chunk
 before it is decompressed (a crafted chunk cannot inflate beyond it). Then
-the contents: reach codes, IK keys, finite configurations. A map that fails
+the contents: reach codes, IK keys, certificate keys (exactly the reached
+voxel-bins, increasing), finite configurations. A map that fails
 any check is refused with :class:`~manipkit.errors.InputFileError` naming
 what is wrong.
 """
@@ -57,7 +58,7 @@ __all__ = ["MAP_ARRAYS", "MAX_JSON_DEPTH", "load_map", "save_map", "writable_map
 
 #: The arrays of a map and their data types; the last two only in a map built with the manipulability overlay.
 MAP_ARRAYS = {"reach": "uint8", "voxel_q": "float64", "ik_keys": "int64", "ik_q": "float64",
-              "manipulability": "float64", "manipulability_mean": "float64"}
+              "cert_keys": "int64", "cert_q": "float64", "manipulability": "float64", "manipulability_mean": "float64"}
 MAX_JSON_DEPTH = 32  # nesting of a map's metadata (manipkit writes 4)
 MAX_NAME_CHARS = 1000  # a robot, frame or joint name
 MAX_JOINTS = 1000
@@ -143,6 +144,9 @@ def _write_arrays(reach_map: ReachMap, folder: Path) -> None:
     root.create_array("voxel_q", data=reach_map.voxel_q, chunks=chunk[:3] + (reach_map.voxel_q.shape[3],), **options)
     root.create_array("ik_keys", data=reach_map.ik_keys.astype(np.int64), chunks=(ik_rows,), **options)
     root.create_array("ik_q", data=reach_map.ik_q, chunks=(ik_rows, reach_map.ik_q.shape[1]), **options)
+    cert_rows = max(1, min(len(reach_map.cert_keys), 65536))
+    root.create_array("cert_keys", data=reach_map.cert_keys.astype(np.int64), chunks=(cert_rows,), **options)
+    root.create_array("cert_q", data=reach_map.cert_q, chunks=(cert_rows, reach_map.cert_q.shape[1]), **options)
     if reach_map.manipulability is not None:
         root.create_array("manipulability", data=reach_map.manipulability, chunks=chunk[:3], **options)
         root.create_array("manipulability_mean", data=reach_map.manipulability_mean, chunks=chunk[:3], **options)
@@ -284,7 +288,11 @@ def load_map(path) -> ReachMap:
         meta = None
     if not isinstance(meta, dict) or not isinstance(meta.get("attributes"), dict) or \
             meta["attributes"].get("format") != FORMAT:
-        raise InputFileError(f"{shown}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
+        older = isinstance(meta, dict) and isinstance(meta.get("attributes"), dict) and \
+            str(meta["attributes"].get("format")).startswith("manipkit-reachmap-")
+        raise InputFileError(f"{shown}: a reachability map of an older format (no certificates); rebuild it with "
+                             f"'manipkit reachmap'" if older else
+                             f"{shown}: not a manipkit reachability map (no '{FORMAT}' zarr.json in it)")
     try:
         _check_entries(path)
         a = _checked_attributes(meta)
@@ -296,7 +304,8 @@ def load_map(path) -> ReachMap:
         raise InputFileError(f"{shown}: cannot be read ({exc.strerror or exc})") from None
     return ReachMap(arrays["reach"], a["origin"], a["axes"], a["voxel"], a["orientations"], a["method"], a["robot"],
                     a["frame"], a["base"], a["joint_names"], arrays["voxel_q"], arrays["ik_keys"], arrays["ik_q"],
-                    a["settings"], arrays.get("manipulability"), arrays.get("manipulability_mean"))
+                    a["settings"], arrays.get("manipulability"), arrays.get("manipulability_mean"), arrays["cert_keys"],
+                    arrays["cert_q"])
 
 
 def _real(value, what: str, low: float = -math.inf, high: float = math.inf) -> float:
@@ -427,23 +436,24 @@ def _read_arrays(path: Path, a: dict) -> dict:
 
     names = [name for name in MAP_ARRAYS if (path / name).exists()]
     overlay = [name for name in ("manipulability", "manipulability_mean") if name in names]
-    missing = [name for name in ("reach", "voxel_q", "ik_keys", "ik_q") if name not in names]
+    missing = [name for name in ("reach", "voxel_q", "ik_keys", "ik_q", "cert_keys", "cert_q") if name not in names]
     if missing or len(overlay) == 1:
         raise _Invalid(f"array {(missing or ['manipulability', 'manipulability_mean'])[0]} is missing")
     metas = {name: _array_meta(path, name) for name in names}
     shape, n_joints, n_bins = metas["reach"][0], len(a["joint_names"]), a["orientations"].size
     grid = shape[:3]
     K = metas["ik_keys"][0][0] if len(metas["ik_keys"][0]) == 1 else -1
+    C = metas["cert_keys"][0][0] if len(metas["cert_keys"][0]) == 1 else -1
     expected = {"reach": grid + (n_bins,), "voxel_q": grid + (n_joints,), "ik_keys": (K,), "ik_q": (K, n_joints),
-                "manipulability": grid, "manipulability_mean": grid}
-    if len(shape) != 4 or shape[3] != n_bins or any(metas[n][0] != expected[n] for n in names) or K < 0:
+                "cert_keys": (C,), "cert_q": (C, n_joints), "manipulability": grid, "manipulability_mean": grid}
+    if len(shape) != 4 or shape[3] != n_bins or any(metas[n][0] != expected[n] for n in names) or min(K, C) < 0:
         raise _Invalid(f"array shapes that disagree with the attributes (reach {shape}, {n_bins} orientation bins, "
                        f"{n_joints} joints)")
     if a["orientations"].kind == "planar" and (grid[2] != 1 or grid[0] != grid[1]):
         raise _Invalid(f"a planar map has a square of voxels in one layer; this one has {'x'.join(map(str, grid))}")
     if a["orientations"].kind == "spatial" and (len(set(grid)) != 1 or not np.array_equal(a["axes"], np.eye(3))):
         raise _Invalid("a spatial map has identity axes and a cube of voxels")
-    if min(grid) < 1 or map_bytes(math.prod(grid), n_bins, n_joints) + 16 * K * (n_joints + 1) > MAX_GRID_BYTES:
+    if min(grid) < 1 or map_bytes(math.prod(grid), n_bins, n_joints) + 16 * (K + C) * (n_joints + 1) > MAX_GRID_BYTES:
         raise _Invalid(f"a grid of {'x'.join(map(str, grid))} voxels: empty, or arrays larger than {MAX_GRID_BYTES} bytes")
     return {name: _read_array(path / name, name, *metas[name]) for name in names}
 
@@ -533,7 +543,13 @@ def _check_contents(arrays: dict) -> None:
         raise _Invalid("ik_keys are not increasing voxel-bin indices inside the grid")
     if keys.size != int((reach == HOW_IK).sum()) or (keys.size and np.any(reach.reshape(-1)[keys] != HOW_IK)):
         raise _Invalid("ik_keys disagree with the voxel-bins reach marks as reached by IK")
-    if np.isinf(arrays["voxel_q"]).any() or not np.isfinite(arrays["ik_q"]).all():
+    cert = arrays["cert_keys"]
+    if cert.size != int((reach > HOW_NONE).sum()) or (cert.size and (np.any(np.diff(cert) <= 0) or cert[0] < 0
+                                                                     or cert[-1] >= reach.size
+                                                                     or np.any(reach.reshape(-1)[cert] == HOW_NONE))):
+        raise _Invalid("cert_keys are not exactly the reached voxel-bins, increasing (one certificate each)")
+    if np.isinf(arrays["voxel_q"]).any() or not np.isfinite(arrays["ik_q"]).all() or \
+            not np.isfinite(arrays["cert_q"]).all():
         raise _Invalid("configurations that are not finite")
     for name in ("manipulability", "manipulability_mean"):
         values = arrays.get(name)

@@ -13,7 +13,12 @@ Frames (docs/architecture.md, "Reachability maps"):
 A target ``T_F_target`` is reachable from a placement when the map says so
 for ``T_B_target = mount^-1 T_F_P^-1 T_F_target``
 (:meth:`manipkit.analysis.reachmap.ReachMap.query`). The score of a
-placement is the number of targets reachable from it.
+placement is the number of targets reachable from it, at the map's
+resolution (its voxel and orientation bins, roll or any roll: an estimate).
+:func:`confirm_placement` then takes the best-scored placements and runs IK
+for every full target pose from each (seeded from the bin's certificate,
+confirmed by FK, collision-free when collisions are given): the placement
+chosen is the one with the most targets IK confirms.
 """
 
 from __future__ import annotations
@@ -32,7 +37,10 @@ from manipkit.text import repr_text, short_text
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap import ReachMap
 
-__all__ = ["BasePlacement", "base_placement", "placement_transforms", "plot_base_placement", "reach_radius"]
+__all__ = [
+    "BasePlacement", "ConfirmedPlacement", "base_placement", "confirm_placement", "placement_transforms",
+    "plot_base_placement", "reach_radius",
+]
 
 MAX_POSES = 50_000_000  # placements x targets a search may test
 MAX_YAWS = 3600  # headings a search tries (a tenth of a degree apart)
@@ -73,6 +81,74 @@ class BasePlacement:
         return (f"best base placement x {short_text(x, 4)} m, y {short_text(y, 4)} m, yaw "
                 f"{short_text(math.degrees(yaw), 4)} deg: reaches {score} of {len(self.targets)} targets "
                 f"({len(self.xs)}x{len(self.ys)}x{len(self.yaws)} placements tried)")
+
+
+@dataclass(frozen=True, eq=False)
+class ConfirmedPlacement:
+    """A placement whose targets IK confirmed (:func:`confirm_placement`).
+
+    Attributes
+    ----------
+    x, y, yaw : float
+        The placement (m, m, rad) of the robot's floor frame.
+    confirmed : ndarray of bool, shape (K,)
+        Per target: IK of the full pose from this placement reached it (FK residuals within ``tol``).
+    q : ndarray, shape (K, n)
+        IK's configurations (meaningful where ``confirmed``).
+    map_score : int
+        Targets the map counts from this placement (at its resolution).
+    resolution : str
+        What the map's count means (:func:`manipkit.analysis.reachquery.resolution_text`).
+    candidates : int
+        Placements IK was run from (the best-scored by the map).
+    """
+
+    x: float
+    y: float
+    yaw: float
+    confirmed: np.ndarray
+    q: np.ndarray
+    map_score: int
+    resolution: str
+    candidates: int
+
+    def summary(self) -> str:
+        """Two lines: the placement and the targets IK confirms; the map's estimate and what it means."""
+        n = len(self.confirmed)
+        return (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
+                f"{short_text(math.degrees(self.yaw), 4)} deg: IK confirms {int(self.confirmed.sum())} of {n} targets "
+                f"(full pose, by FK; best of the map's {self.candidates} best-scored placements)\n"
+                f"the map estimates {self.map_score} of {n} from there, counting a target when it lands in "
+                f"a reached voxel-bin: {self.resolution}")
+
+
+def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, mount=None, candidates: int = 5,
+                      collisions=None, tol: float = 1e-6, restarts: int = 20, seed: int = 0) -> ConfirmedPlacement:
+    """IK of every target's full pose from the ``candidates`` best-scored placements; the one IK confirms most.
+
+    ``robot`` is the robot the map is of; ``mount`` as in :func:`base_placement`;
+    ``collisions`` (:class:`manipkit.kinematics.collisions.CollisionSettings`)
+    counts only collision-free answers. Ties go to the higher map score, then
+    to the first in x, y, yaw order.
+    """
+    from manipkit.analysis.reachquery import query_answer, resolution_text
+
+    if isinstance(candidates, bool) or not isinstance(candidates, numbers.Integral) or not 1 <= candidates <= 1000:
+        raise ReachMapError(f"candidates {repr_text(candidates)}: give a whole number from 1 to 1000")
+    mount = np.eye(4) if mount is None else finite_array(mount, "mount", (4, 4), "the 4x4 T_P_B")
+    flat = result.scores.reshape(-1)
+    order = np.argsort(-flat, kind="stable")[:candidates]
+    best = None
+    for rank in order:
+        i, j, k = np.unravel_index(int(rank), result.scores.shape)
+        x, y, yaw = float(result.xs[i]), float(result.ys[j]), float(result.yaws[k])
+        T_B_target = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(x, y, yaw)) @ result.targets
+        answer = query_answer(reach_map, T_B_target, confirm=True, robot=robot, tol=tol, restarts=restarts, seed=seed,
+                              collisions=collisions)
+        if best is None or answer.confirmed.sum() > best.confirmed.sum():
+            best = ConfirmedPlacement(x, y, yaw, answer.confirmed, answer.q, int(flat[rank]),
+                                      resolution_text(reach_map), len(order))
+    return best
 
 
 def placement_transforms(x, y, yaw) -> np.ndarray:

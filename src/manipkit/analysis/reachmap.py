@@ -17,13 +17,14 @@ Methods (docs/architecture.md, "Reachability maps"):
   configurations go through the batched FK kernel (:meth:`Robot.fk`) and
   mark the voxel-bins they land in. A mark is certain (a configuration
   lands there); an unmarked bin may still be reachable (not sampled).
-- ``"hybrid"``: then batched IK (:func:`manipkit.kinematics.ik_many.ik_many`)
-  on every unmarked voxel-bin next to a marked one (a face neighbour with
-  the same bin marked), aiming at the voxel's centre with the bin's
-  representative orientation (mode ``"position+axis"`` about z when rolls are
-  ignored, else ``"pose"``), seeded from that neighbour's stored sample
-  configuration. An answer counts only when its FK residuals are within
-  ``ik_tol``; its configuration is kept (``ik_keys``, ``ik_q``).
+- ``"hybrid"``: then IK fill passes (:mod:`manipkit.analysis.reachstages`:
+  every unreached voxel-bin in the reach shell next to a reached one, at the
+  voxel centre with the bin's representative orientation, mode
+  ``"position+axis"`` when rolls are ignored, else ``"pose"``, seeded from that
+  neighbour's certificate) until a pass adds nothing; answers within ``ik_tol``
+  whose FK lands in the voxel-bin are kept (``ik_keys``, ``ik_q``). Sampling
+  itself stops early once a block adds fewer than ``converge`` x the bins
+  before it; every reached bin keeps a certificate (``cert_keys``, ``cert_q``).
 
 Every voxel-bin records how it was reached: :data:`HOW_SAMPLE`,
 :data:`HOW_IK` or :data:`HOW_NONE` (``ReachMap.reach``).
@@ -83,7 +84,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.blocks import BlockRunner, check_workers, in_block_order
+from manipkit.analysis import reachstages
+from manipkit.analysis.blocks import BlockRunner, check_workers
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
 from manipkit.errors import ReachMapError
 from manipkit.text import printable, repr_text, short_text
@@ -102,10 +104,13 @@ __all__ = [
 HOW_NONE, HOW_SAMPLE, HOW_IK = 0, 1, 2
 METHODS = ("fk", "hybrid")
 LAYERS = ("index", "manipulability")  # what a picture of a map shows
-FORMAT = "manipkit-reachmap-1"
+FORMAT = "manipkit-reachmap-2"  # 2: certificates (cert_keys, cert_q) and the build's checks in settings
 DEFAULT_SAMPLES = 1_000_000
 DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-joint arm
 IK_BLOCK = 2048  # IK targets per block
+DEFAULT_HOLDOUT = 20_000  # held-out FK samples behind the completeness estimate
+DEFAULT_FP_CHECKS = 200  # reached voxel-bins checked by IK for the false-positive bound
+MAX_FP_CHECKS = 1_000_000
 MAX_GRID_BYTES = 2 * 1024**3  # bytes a map's arrays may take (a byte per voxel-bin, a configuration per voxel)
 MAX_MAP_FILES = 1_000_000  # files a map folder may hold (its chunks)
 MAX_SAMPLES = 10**10  # random configurations a build may draw (about 150,000 blocks of the default size)
@@ -183,6 +188,8 @@ class ReachMap:
     settings: dict = field(default_factory=dict)
     manipulability: np.ndarray | None = None
     manipulability_mean: np.ndarray | None = None
+    cert_keys: np.ndarray | None = None
+    cert_q: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -234,13 +241,23 @@ class ReachMap:
         value = np.where(inside, self.index[ijk[..., 0], ijk[..., 1], ijk[..., 2]], 0.0)
         return float(value) if value.ndim == 0 else value
 
-    def query(self, T) -> np.ndarray | bool:
+    def query(self, T, *, confirm: bool = False, detail: bool = False, robot: Robot | None = None):
         """Whether each pose ``T`` (..., 4, 4), ``T_base_frame``, falls in a reached voxel-bin.
 
+        The answer is at the map's resolution (:meth:`resolution`: the voxel,
+        the approach-axis bin and the roll bin, or any roll). With ``detail``
+        or ``confirm`` the answer is a
+        :class:`manipkit.analysis.reachquery.QueryAnswer` (voxel, bins, the
+        bin's certificate; with ``confirm`` IK of the exact pose from that
+        certificate, confirmed by FK; ``robot`` the map's robot).
         For a planar map the pose must also keep the frame's axis along the
         arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
         A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4) is a :class:`ReachMapError`.
         """
+        if confirm or detail:
+            from manipkit.analysis.reachquery import query_answer
+
+            return query_answer(self, T, confirm=confirm, robot=robot)
         T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
@@ -266,9 +283,20 @@ class ReachMap:
             f"dexterous (index = 1): {dexterous} voxels, {short_text(dexterous * cell, 4)} {unit}",
             f"voxel-bins reached: {int((reach == HOW_SAMPLE).sum())} by samples, {int((reach == HOW_IK).sum())} by IK "
             f"({printable(str(self.settings.get('samples', 0)))} samples, seed {printable(str(self.settings.get('seed', 0)))})",
+            *self.checks_text(),
             *([self.manipulability_text()] if self.manipulability is not None else []),
             *([_collisions_text(self.settings["collisions"])] if self.settings.get("collisions") else []),
         ])
+
+    def resolution(self) -> str:
+        """What a yes of :meth:`query` means, in words (the voxel, the orientation bin, roll or any roll)."""
+        from manipkit.analysis.reachquery import resolution_text
+        return resolution_text(self)
+
+    def checks_text(self) -> list[str]:
+        """Lines: how the sampling ended, the held-out completeness and the false-positive bound (when built)."""
+        from manipkit.analysis.reachquery import checks_lines
+        return checks_lines(self)
 
     def best_manipulability(self) -> tuple[float, np.ndarray] | None:
         """(the largest per-voxel best index, the centre (3,) m in ``base`` of its voxel), or None (none built or reached)."""
@@ -456,6 +484,7 @@ class _Job:
     ik_time_budget: float
     manipulability: bool
     collisions: CollisionSettings | None = None  # count only configurations that pass this check
+    centre: np.ndarray | None = None  # the first joint's point, the centre of the reach shell
 
     def cells(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(flat voxel index, inside) of points ``xyz`` (N, 3) in ``base``."""
@@ -480,8 +509,9 @@ def translation_manipulability(robot: Robot, Q: np.ndarray, frame: str, base: st
     return manipulability(J, "yoshikawa", axes=[0, 1] if planar else "trans")
 
 
-def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, tuple | None]:
-    """Block ``block`` of FK samples: (block, reached voxel-bin keys, voxels, first configuration in each voxel, stats).
+def sample_block(job: _Job, block: int) -> tuple:
+    """Block ``block`` of FK samples: (block, reached voxel-bin keys, voxels, first configuration in each voxel, stats,
+    first configuration in each voxel-bin of ``keys``).
 
     ``stats``: per voxel (best, sum, count) of the manipulability index of the
     block's samples in it, or None when the map is built without it.
@@ -501,7 +531,8 @@ def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np
         Q, T = Q[free], T[free]
     cells, inside = job.cells(T[:, :3, 3])
     cells, Q = cells[inside], Q[inside]
-    keys = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]))
+    keys, first_of_key = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]),
+                                   return_index=True)  # each voxel-bin's first sample: its certificate
     order = np.argsort(cells, kind="stable")  # a voxel's samples together, each run in sample order
     starts = np.flatnonzero(np.diff(cells[order], prepend=-1)) if cells.size else np.zeros(0, dtype=np.intp)
     voxels, first = cells[order][starts], order[starts]
@@ -510,7 +541,7 @@ def sample_block(job: _Job, block: int) -> tuple[int, np.ndarray, np.ndarray, np
         w = translation_manipulability(job.robot, Q, job.frame, job.base, job.axes,
                                        planar=job.orientations.kind == "planar")[order]
         stats = (np.maximum.reduceat(w, starts), np.add.reduceat(w, starts), np.diff(starts, append=w.size))
-    return block, keys, voxels, Q[first], stats
+    return block, keys, voxels, Q[first], stats, Q[first_of_key]
 
 
 def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
@@ -545,10 +576,13 @@ def build(
     progress=None,
     block_samples: int = DEFAULT_BLOCK,
     ik_tol: float = 1e-9,
-    ik_restarts: int = 2,
+    ik_restarts: int = 8,
     ik_time_budget: float = 0.02,
     manipulability: bool = True,
     collisions: CollisionSettings | None = None,
+    converge: float = 0.0,
+    holdout: int = DEFAULT_HOLDOUT,
+    fp_checks: int = DEFAULT_FP_CHECKS,
 ) -> ReachMap:
     """Build the reachability map of a chain's tip in its base (see the module docstring).
 
@@ -580,8 +614,9 @@ def build(
     block_samples : int, keyword-only
         Samples per task.
     ik_tol, ik_restarts, ik_time_budget : keyword-only
-        Hybrid IK: FK residual tolerance (m and rad), random restarts after
-        the seeded start, seconds per target.
+        Hybrid IK: FK residual tolerance (m and rad), random restarts after the seeded start, seconds per target.
+    converge, holdout, fp_checks : keyword-only
+        Stop share of new bins per block (0: every sample); held-out samples; bins checked by IK (reachstages).
     manipulability : bool, keyword-only
         Also keep, per voxel, the best and the mean Yoshikawa index of the
         configurations that reached it (``False`` skips the Jacobians).
@@ -614,6 +649,9 @@ def build(
 
     _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples, seed, ik_tol, ik_restarts,
                    ik_time_budget)
+    _real("converge", converge, 0.0, 1.0, "the share of new voxel-bins below which sampling stops (0: every sample)")
+    _whole("holdout", holdout, 0, MAX_SAMPLES, "held-out FK samples for the completeness estimate")
+    _whole("fp_checks", fp_checks, 0, MAX_FP_CHECKS, "reached voxel-bins checked by IK for the false-positive bound")
     voxel = float(voxel)
     chain = chain_of(chain, "reachmap.build", legacy, base=base, tip=tip, frame=frame)
     robot, frame, base = chain.robot, chain.tip, chain.base
@@ -654,26 +692,40 @@ def build(
     low, high = solver.program.sample_low, solver.program.sample_high  # the solved joints' sampling box
     job = _Job(robot, frame, base, solver.columns, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
-               float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability), collisions)
+               float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability), collisions, centre)
     n_voxels = math.prod(shape)
     reach = np.zeros(n_voxels * bins.size, dtype=np.uint8)
     voxel_q = np.full((n_voxels, len(robot.joint_names)), np.nan)
     seen = np.zeros(n_voxels, dtype=bool)
     best, total, count = np.full(n_voxels, np.nan), np.zeros(n_voxels), np.zeros(n_voxels, dtype=np.int64)
     ik_keys, ik_q = np.zeros(0, dtype=np.int64), np.zeros((0, len(robot.joint_names)))
+    cert = {"keys": [np.zeros(0, dtype=np.int64)], "q": [np.zeros((0, len(robot.joint_names)))]}
+
+    def merge(result) -> int:  # one FK block, in block order: returns the voxel-bins it newly reached
+        _, keys, voxels, Q, stats, key_q = result
+        new_keys = reach[keys] == HOW_NONE
+        cert["keys"].append(keys[new_keys])
+        cert["q"].append(key_q[new_keys])
+        reach[keys] = HOW_SAMPLE
+        new = ~seen[voxels]
+        voxel_q[voxels[new]], seen[voxels] = Q[new], True
+        if stats is not None:
+            best[voxels] = np.fmax(best[voxels], stats[0])
+            total[voxels] += stats[1]
+            count[voxels] += stats[2]
+        return int(new_keys.sum())
+
     with BlockRunner(workers, scheduler, progress) as runner:
-        n_blocks = -(-int(samples) // int(block_samples))
-        blocks = runner.run(sample_block, job, [(b,) for b in range(n_blocks)], "FK samples")
-        for _, keys, voxels, Q, stats in in_block_order(blocks):
-            reach[keys] = HOW_SAMPLE
-            new = ~seen[voxels]
-            voxel_q[voxels[new]], seen[voxels] = Q[new], True
-            if stats is not None:
-                best[voxels] = np.fmax(best[voxels], stats[0])
-                total[voxels] += stats[1]
-                count[voxels] += stats[2]
+        used = reachstages.sample_until_converged(job, runner, reach, merge, float(converge))
+        cert_keys, cert_q = np.concatenate(cert["keys"]), np.concatenate(cert["q"])
+        order = np.argsort(cert_keys)
+        cert_keys, cert_q = cert_keys[order], cert_q[order]
+        passes = 0
         if method == "hybrid":
-            ik_keys, ik_q = _hybrid(job, runner, reach, voxel_q)
+            ik_keys, ik_q, cert_keys, cert_q, passes = reachstages.fill_passes(job, runner, reach, cert_keys, cert_q,
+                                                                    solver.reach + voxel, HOW_IK)
+    checks = {"completeness": reachstages.holdout_completeness(job, reach, int(holdout)),
+              "false_positive": reachstages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks))}
     if manipulability and ik_keys.size:  # the IK answers too, in key order
         w = translation_manipulability(robot, ik_q, frame, base, axes, planar=planar is not None)
         voxels = ik_keys // bins.size
@@ -683,52 +735,13 @@ def build(
     settings = {"samples": int(samples), "seed": int(seed), "block_samples": int(block_samples), "ik_tol": float(ik_tol),
                 "ik_restarts": int(ik_restarts), "ik_time_budget": float(ik_time_budget), "ik_mode": job.ik_mode,
                 "planar": planar is not None, "manipulability": bool(manipulability),
-                "collisions": None if collisions is None else collisions.as_dict()}
+                "collisions": None if collisions is None else collisions.as_dict(), "converge": float(converge),
+                **used, "fill_passes": passes, **checks}
     mean = np.divide(total, count, out=np.full(n_voxels, np.nan), where=count > 0)
     return ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
                     tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
-                    best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None)
-
-
-def _hybrid(job: _Job, runner: BlockRunner, reach: np.ndarray, voxel_q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """IK on every unmarked voxel-bin with a face neighbour marked in the same bin; marks HOW_IK in ``reach``.
-
-    Returns (keys, configurations) of the voxel-bins IK reached, sorted by key.
-    """
-    B = job.orientations.size
-    marked = reach.reshape(*job.shape, B) > HOW_NONE
-    voxel_ids = np.arange(int(np.prod(job.shape)), dtype=np.int32).reshape(job.shape)
-    seed_voxel = np.full(marked.shape, -1, dtype=np.int32)  # voxel ids: a grid holds far fewer than 2**31
-    for axis in range(3):
-        if job.shape[axis] < 2:
-            continue
-        for shift in (1, -1):  # the neighbour at -1 along the axis first, then +1
-            neighbour = np.roll(marked, shift, axis=axis)
-            neighbour_id = np.roll(voxel_ids, shift, axis=axis)
-            edge = [slice(None)] * 3
-            edge[axis] = 0 if shift == 1 else -1
-            neighbour[tuple(edge)] = False  # np.roll wraps around: no neighbour across the grid's edge
-            new = neighbour & ~marked & (seed_voxel < 0)
-            seed_voxel[new] = np.broadcast_to(neighbour_id[..., None], marked.shape)[new]
-    keys = np.flatnonzero(seed_voxel.reshape(-1) >= 0)
-    if keys.size == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros((0, voxel_q.shape[1]))
-    voxels, bins = np.divmod(keys, B)
-    ijk = np.stack(np.unravel_index(voxels, job.shape), axis=-1)
-    T = np.tile(np.eye(4), (keys.size, 1, 1))
-    T[:, :3, :3] = job.orientations.rotations()[bins]
-    T[:, :3, 3] = job.origin + (ijk * job.voxel) @ job.axes.T
-    Q_seed = voxel_q[seed_voxel.reshape(-1)[keys]]
-    blocks = [(b, T[s:s + IK_BLOCK], Q_seed[s:s + IK_BLOCK]) for b, s in enumerate(range(0, keys.size, IK_BLOCK))]
-    found_keys, found_q = [], []
-    for block, success, Q in runner.run(ik_block, job, blocks, "IK at the boundary"):
-        start = block * IK_BLOCK
-        found_keys.append(keys[start:start + len(success)][success])
-        found_q.append(Q[success])
-    order_keys = np.concatenate(found_keys)
-    order = np.argsort(order_keys)
-    reach[order_keys] = HOW_IK
-    return order_keys[order], np.concatenate(found_q)[order]
+                    best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None,
+                    cert_keys, cert_q)
 
 
 # --------------------------------------------------------------------------

@@ -28,6 +28,9 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
     parser.add_argument("--samples", type=int, default=samples, metavar="N", help=f"random configurations (default {samples})")
     parser.add_argument("--seed", type=int, default=0, help="seed of every block (same seed, same map)")
     add_collision_set_options(parser, what="count only samples and IK answers free of collisions")
+    parser.add_argument("--converge", type=float, default=0.001, metavar="F",
+                        help="stop sampling after a block adds fewer than F times the voxel-bins reached before it "
+                        "(--samples is the budget; 0 draws every sample; default 0.001)")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, default=None, metavar="N", help="start a local Dask cluster of N worker processes (at most 4 per core, 64)")
     where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="use a running Dask scheduler (tcp://host:8786)")
@@ -35,7 +38,7 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
 
 _PLACEMENT_MAP = {"voxel": 0.05, "orientations": "50", "samples": 500_000}  # the map base-placement builds
 #: Settings of a map being built: with --map, the map's own apply and these must be left at their defaults.
-_BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "workers": None, "scheduler": None, "collisions": "none",
+_BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "converge": 0.001, "workers": None, "scheduler": None, "collisions": "none",
                    "floor": 0.0, "srdf": None, "geometry": "hulls"}
 
 
@@ -81,7 +84,8 @@ def _build(robot, args, base: str, *, manipulability: bool = False):
     with progress_bar() as progress:
         return build(robot.chain(base, args.frame), voxel=args.voxel, orientations=args.orientations, method=args.method,
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
-                     manipulability=manipulability, progress=progress, collisions=collisions)
+                     manipulability=manipulability, progress=progress, collisions=collisions,
+                     converge=args.converge)
 
 
 def run_reachmap(args) -> int:
@@ -119,6 +123,8 @@ def run_reachmap(args) -> int:
             "voxel": reach_map.voxel, "shape": list(reach_map.shape), "origin": reach_map.origin.tolist(),
             "orientations": reach_map.orientations.size, "reachable_voxels": int(reach_map.reachable.sum()),
             "dexterous_voxels": int(reach_map.dexterous.sum()), "map": str(args.output),
+            "a_yes_means": reach_map.resolution(), **{key: reach_map.settings.get(key) for key in (
+                "samples_used", "converged", "fill_passes", "completeness", "false_positive")},
             **({"best_manipulability": best[0], "best_manipulability_at": best[1].tolist()} if best else {}),
             **{name: str(path) for name, path in (("plot", args.plot), ("plot_manipulability", args.plot_manipulability),
                                                   ("view_html", args.view_html)) if path is not None},
@@ -145,9 +151,10 @@ def _serve_view(reach_map, robot, visual) -> None:
 
 def run_base_placement(args) -> int:
     """Score floor placements by the targets reached; print the best (text or JSON); draw the heat map."""
-    from manipkit.analysis.placement import MAX_YAWS, base_placement, plot_base_placement
+    from manipkit.analysis.placement import MAX_YAWS, base_placement, confirm_placement, plot_base_placement
     from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, load
     from manipkit.inputs.poses import read_targets
+    from manipkit.kinematics.collisions import CollisionSettings
 
     if args.plot is not None:
         writable_path(args.plot)
@@ -176,16 +183,23 @@ def run_base_placement(args) -> int:
     mount = robot.transform(floor, reach_map.base)
     result = base_placement(reach_map, targets, yaws=args.yaws, step=args.step, mount=mount)
     if args.plot is not None:
-        plot_base_placement(result, args.plot, title=f"{robot.name}: targets reached from each floor position")
-    x, y, yaw, score = result.best
+        plot_base_placement(result, args.plot, title=f"{robot.name}: the map's count of targets from each floor position")
+    checked = (reach_map.settings.get("collisions") or {}).get("checked")
+    collisions = None if not checked else CollisionSettings.parse(
+        robot, ",".join(checked), floor=reach_map.settings["collisions"].get("floor") or 0.0,
+        geometry=reach_map.settings["collisions"].get("geometry", "hulls"), srdf=reach_map.settings["collisions"].get("srdf"))
+    chosen = confirm_placement(reach_map, result, robot, mount=mount, collisions=collisions)
     if args.format == "json":
-        print_json({"robot": robot.name, "floor_frame": floor, "x": x, "y": y, "yaw": yaw, "reached": score,
-                    "targets": len(targets), **({"plot": str(args.plot)} if args.plot is not None else {})})
+        print_json({"robot": robot.name, "floor_frame": floor, "x": chosen.x, "y": chosen.y, "yaw": chosen.yaw,
+                    "confirmed": int(chosen.confirmed.sum()), "confirmed_targets": chosen.confirmed.tolist(),
+                    "map_estimate": chosen.map_score, "map_estimate_means": chosen.resolution,
+                    "collision_free": collisions is not None, "targets": len(targets),
+                    **({"plot": str(args.plot)} if args.plot is not None else {})})
     else:
         print(f"robot {printable(robot.name)}: {printable(floor)} placed on the floor, map of "
               f"{printable(reach_map.frame)} in {printable(reach_map.base)} "
               f"({short_text(reach_map.voxel)} m voxels, {reach_map.orientations.size} orientation bins)")
-        print(result.summary())
+        print(chosen.summary() + (" (collision-free answers only)" if collisions is not None else ""))
         if args.plot is not None:
-            print(f"wrote {printable(str(args.plot))}")
+            print(f"wrote {printable(str(args.plot))} (the map's count, not IK's)")
     return EXIT_OK
