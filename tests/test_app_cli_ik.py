@@ -188,3 +188,25 @@ def test_a_pose_for_a_five_joint_arm_that_fails_says_why_and_what_to_ask_instead
             "are out of its reach: ask for the position only (--position-only) or the position and the tool's axis "
             "(--axis z)") in result.stdout
     assert run_cli("manipkit", "ik", "--robot", "course_arm", *pose, "--axis", "z").returncode in (0, 1)  # a valid command
+
+
+def test_the_check_line_uses_a_solution_inside_the_limits_and_reproduces_it():
+    # iiwa14 with joint 3 held at 0.2: 7 of the 8 branches leave the limits; tf-between refuses those, so the
+    # check line must name the one inside them (it named the first branch, which tf-between refused)
+    target = ["0.5", "0.1", "0.6"]
+    result = run_cli("manipkit", "ik", "--robot", "iiwa14", "--analytic", "--lock", "iiwa_joint_3=0.2",
+                     "--xyz", *target, "--rpy", "3.14", "0", "0")
+    assert result.returncode == 0, result.stderr
+    line = next(line for line in result.stdout.splitlines() if line.startswith("check one with: "))
+    check = run_cli(*shlex.split(line.removeprefix("check one with: ")), "--format", "json")
+    assert check.returncode == 0, check.stderr
+    assert json.loads(check.stdout)["translation"] == pytest.approx([0.5, 0.1, 0.6], abs=1e-9)
+
+
+def test_family_prints_an_ik_command_that_loads_the_same_robot_and_refuses_a_lock_of_nan():
+    result = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=0.2")
+    line = result.stdout.splitlines()[-1]
+    assert line.startswith("closed form: manipkit ik --analytic --robot iiwa14 --base base_link --frame ee_link "
+                           "--lock iiwa_joint_3=0.2 --xyz X Y Z")
+    refused = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=nan")
+    assert refused.returncode == 2 and "--lock iiwa_joint_3=nan: give JOINT=VALUE with a finite number" in refused.stderr

@@ -43,6 +43,7 @@ __all__ = [
     "joint_vector",
     "limit_checked",
     "limit_hint",
+    "lock_values",
     "load_robot",
     "print_json",
     "q_text",
@@ -175,6 +176,17 @@ def alias_lines(robot: Robot, *frames: str) -> list[str]:
             reason = robot.ee_reason if alias == "ee_link" else f"{resolved}, the root link"
             lines.append(f"frame {alias} = {reason}")
     return lines
+
+
+def lock_values(items: list[str], robot: Robot, *, degrees: bool = False) -> dict[str, float]:
+    """``--lock JOINT=VALUE`` items as {joint: value} (rad; degrees converted with ``degrees``), each value finite."""
+    pairs = {}
+    for name, text in _pairs(items, "--lock", expected="JOINT=VALUE").items():
+        if not is_number(text) or not math.isfinite(float(text)):
+            raise UsageError(f"--lock {name}={text}: give JOINT=VALUE with a finite number, e.g. "
+                             f"--lock {robot.joint_names[-1] if robot.joint_names else 'joint'}=0.3")
+        pairs[name] = math.radians(float(text)) if degrees else float(text)
+    return pairs
 
 
 def command_line(*words) -> str:

@@ -9,7 +9,16 @@ solves the chains whose family has a closed form.
 
 from __future__ import annotations
 
-from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, is_number, load_robot, print_json
+from manipkit.app.cli.common import (
+    EXIT_OK,
+    UsageError,
+    add_robot_options,
+    command_line,
+    load_robot,
+    lock_values,
+    print_json,
+    robot_words,
+)
 from manipkit.text import short_text
 
 __all__ = ["register", "run_family"]
@@ -44,12 +53,7 @@ def run_family(args) -> int:
                          "(distance m, angle rad)") from None
     robot = load_robot(args)
     chain = robot.chain(args.base, args.tip)
-    lock = {}
-    for item in args.lock:
-        name, sep, text = item.partition("=")
-        if not sep or not name or not is_number(text):
-            raise UsageError(f"--lock {item}: give JOINT=VALUE with a number (rad)")
-        lock[name] = float(text)
+    lock = lock_values(args.lock, robot)
     family = chain_family(chain, tol=tol, lock=lock)
     opw, opw_note = None, ""
     if family.kind == "spherical wrist, two parallel":
@@ -77,9 +81,9 @@ def run_family(args) -> int:
     if opw is not None or opw_note:
         print(f"  {opw if opw is not None else opw_note}")
     if family.solved:
-        locks = "".join(f" --lock {name}={value!r}" for name, value in lock.items())
-        print(f"closed form: manipkit ik --analytic --robot {args.robot or robot.name} --base {chain.base} "
-              f"--frame {chain.tip}{locks} --xyz ... --rpy ... gives every branch"
+        command = command_line("manipkit", "ik", "--analytic", *robot_words(args, robot), "--base", chain.base,
+                               "--frame", chain.tip, *(["--lock", *(f"{name}={value!r}" for name, value in lock.items())] if lock else []))
+        print(f"closed form: {command} --xyz X Y Z --rpy R P Y gives every branch"
               + ("" if family.ideal else f" (solved on the ideal arm {short_text(family.deviation, 3)} away, "
                                           "then refined on this chain)"))
     return EXIT_OK

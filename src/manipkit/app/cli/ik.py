@@ -29,9 +29,9 @@ from manipkit.app.cli.common import (
     check_precision,
     command_line,
     exact_q_words,
-    is_number,
     joint_vector,
     load_robot,
+    lock_values,
     print_json,
     q_text,
     robot_words,
@@ -188,17 +188,6 @@ def _ik_target(args) -> np.ndarray:
     return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
 
 
-def _locked(args, robot: Robot) -> dict[str, float]:
-    """--lock JOINT=VALUE pairs as {joint: value} (rad; degrees converted with --deg)."""
-    pairs = {}
-    for item in args.lock:
-        name, sep, text = item.partition("=")
-        if not sep or not name or not is_number(text) or not math.isfinite(float(text)):
-            raise UsageError(f"--lock {item}: give JOINT=VALUE with a finite number, e.g. --lock {robot.joint_names[-1]}=0.3")
-        pairs[name] = math.radians(float(text)) if args.deg else float(text)
-    return pairs
-
-
 def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
     """(result, header): the closed form or numerical IK, as manipkit's one IK result type (solutions marked in
     collision or not when asked)."""
@@ -221,7 +210,7 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult,
 def _solve_with(args, robot: Robot, target: np.ndarray, mode: str, checker) -> tuple[IKResult, str]:
     tol = _tolerance(args)
     options = {} if tol is None else {"tol": tol}
-    lock = _locked(args, robot)
+    lock = lock_values(args.lock, robot, degrees=args.deg)
     if lock and not (args.analytic or args.all):
         raise UsageError("--lock holds joints for the closed form; add --analytic or --all")
     arm_angle = args.arm_angle
@@ -346,7 +335,13 @@ def run_ik(args) -> int:
         for note in notes:
             print(f"note: {note}")
         if result.success:
-            check = command_line("tf-between", args.base, args.frame, *robot_words(args, robot),
-                                 *exact_q_words(robot.as_dict(answers[0][1])))
-            print(f"check one with: {check}")
+            inside = [q for (_, q), ok in zip(answers, result.within_limits if result.within_limits is not None
+                                                    else [True] * len(answers)) if ok]
+            if inside:  # tf-between refuses values outside the limits: the check uses one inside them
+                check = command_line("tf-between", args.base, args.frame, *robot_words(args, robot),
+                                     *exact_q_words(robot.as_dict(inside[0])))
+                print(f"check one with: {check}")
+            else:
+                print("no solution inside the joint limits, so none to check with tf-between (it refuses values "
+                      "outside them)")
     return EXIT_OK if result.success else EXIT_MISMATCH
