@@ -10,7 +10,7 @@ known and points to the numeric check of a configuration (``manipkit jacobian``)
 
 from __future__ import annotations
 
-from manipkit.app.cli.common import EXIT_OK, add_robot_options, load_robot, print_json
+from manipkit.app.cli.common import EXIT_OK, add_robot_options, command_line, load_robot, print_json, robot_words
 
 __all__ = ["register", "run_singularities"]
 
@@ -33,7 +33,7 @@ def run_singularities(args) -> int:
     families = singular_families(robot)
     hint = (
         f"no singular families are known for robot {robot.name} (they are for {', '.join(KNOWN_ROBOTS)}); "
-        f"check a configuration numerically: manipkit jacobian --robot {args.robot or robot.name} --q ... "
+        f"check a configuration numerically: {command_line('manipkit', 'jacobian', *robot_words(args, robot))} --q ... "
         "(it says when the Jacobian is singular)"
     )
     if args.format == "json":
