@@ -43,7 +43,7 @@ so the map is bit-identical whatever runs them. Block ``b`` of the FK stage
 holds samples ``b * block_samples ..`` and draws them as
 ``numpy.random.default_rng([seed, 0, b]).random((n, m))`` scaled into the
 limits of the ``m`` chain joints (joint order, the other joints at their
-defaults); IK block ``b`` (``IK_BLOCK`` targets in key order) uses
+defaults); IK block ``b`` (``reachjob.IK_BLOCK`` targets in key order) uses
 ``ik_many(..., seed=seed + 1 + b)``.
 Without ``workers`` or ``scheduler`` the blocks run here, one after the
 other; ``workers=N`` starts a ``distributed.LocalCluster`` of N
@@ -87,6 +87,7 @@ import numpy as np
 from manipkit.analysis import reachstages
 from manipkit.analysis.blocks import BlockRunner, check_workers
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
+from manipkit.analysis.reachjob import MapJob, translation_manipulability
 from manipkit.errors import ReachMapError
 from manipkit.text import printable, repr_text, short_text
 
@@ -97,7 +98,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "METHODS", "ReachMap", "ReachMapError",
-    "build", "load", "parse_orientations", "plot_reachmap", "translation_manipulability",
+    "build", "load", "parse_orientations",
     "finite_array", "map_bytes", "writable_map_path",
 ]
 
@@ -107,7 +108,6 @@ LAYERS = ("index", "manipulability")  # what a picture of a map shows
 FORMAT = "manipkit-reachmap-2"  # 2: certificates (cert_keys, cert_q) and the build's checks in settings
 DEFAULT_SAMPLES = 1_000_000
 DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-joint arm
-IK_BLOCK = 2048  # IK targets per block
 DEFAULT_HOLDOUT = 20_000  # held-out FK samples behind the completeness estimate
 DEFAULT_FP_CHECKS = 200  # reached voxel-bins checked by IK for the false-positive bound
 MAX_FP_CHECKS = 1_000_000
@@ -458,105 +458,6 @@ def _check_options(voxel, orientations, method, samples, workers, scheduler, blo
 
 
 # --------------------------------------------------------------------------
-# The job: everything a worker needs, pickled once per run
-
-
-@dataclass(frozen=True, eq=False)
-class _Job:
-    robot: Robot
-    frame: str
-    base: str
-    chain: np.ndarray  # columns of the chain joints in the joint vector
-    low: np.ndarray
-    high: np.ndarray
-    q_default: np.ndarray
-    origin: np.ndarray
-    axes: np.ndarray
-    voxel: float
-    shape: tuple[int, int, int]
-    orientations: OrientationSet
-    samples: int
-    block_samples: int
-    seed: int
-    ik_mode: str
-    ik_tol: float
-    ik_restarts: int
-    ik_time_budget: float
-    manipulability: bool
-    collisions: CollisionSettings | None = None  # count only configurations that pass this check
-    centre: np.ndarray | None = None  # the first joint's point, the centre of the reach shell
-
-    def cells(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(flat voxel index, inside) of points ``xyz`` (N, 3) in ``base``."""
-        ijk = np.rint((xyz - self.origin) @ self.axes / self.voxel).astype(np.int64)
-        inside = np.all((ijk >= 0) & (ijk < np.array(self.shape)), axis=1)
-        flat = np.ravel_multi_index(tuple(np.where(inside[:, None], ijk, 0).T), self.shape)
-        return flat, inside
-
-
-def translation_manipulability(robot: Robot, Q: np.ndarray, frame: str, base: str, axes: np.ndarray, *,
-                               planar: bool) -> np.ndarray:
-    """Yoshikawa's index (N,) of the translation rows of the Jacobians at ``Q`` (N, n), rows along the grid ``axes``.
-
-    The linear rows of :meth:`Robot.jacobians` (``frame`` in ``base``) are
-    expressed along the columns of ``axes`` (3, 3); a spatial map (identity
-    axes) takes all three, a planar one the first two (``u v``, its plane).
-    """
-    from manipkit.analysis.manipulability import manipulability
-
-    J = robot.chain(base, frame).jacobians(Q)  # the chain's columns only (whole-robot rows of Q are read by the chain)
-    J[:, :3] = np.einsum("ji,njk->nik", axes, J[:, :3])  # axes.T @ J_v for each configuration
-    return manipulability(J, "yoshikawa", axes=[0, 1] if planar else "trans")
-
-
-def sample_block(job: _Job, block: int) -> tuple:
-    """Block ``block`` of FK samples: (block, reached voxel-bin keys, voxels, first configuration in each voxel, stats,
-    first configuration in each voxel-bin of ``keys``).
-
-    ``stats``: per voxel (best, sum, count) of the manipulability index of the
-    block's samples in it, or None when the map is built without it.
-    """
-    rng = np.random.default_rng([job.seed, 0, block])
-    n = min(job.block_samples, job.samples - block * job.block_samples)
-    Q = np.tile(job.q_default, (n, 1))
-    Q[:, job.chain] = job.low + rng.random((n, job.chain.size)) * (job.high - job.low)
-    T = job.robot.fk(Q, base=job.base, tip=job.frame)
-    if job.collisions is not None:  # samples in collision reach nothing
-        if job.manipulability:  # every sample counts in the statistics
-            free = job.collisions.free(job.robot, Q)
-        else:  # the map keeps one free sample per voxel-bin, the first: check samples until it is found
-            cells, inside = job.cells(T[:, :3, 3])
-            groups = np.where(inside, cells * job.orientations.size + job.orientations.bin_of(T[:, :3, :3]), -1)
-            free = job.collisions.first_free(job.robot, Q, groups)
-        Q, T = Q[free], T[free]
-    cells, inside = job.cells(T[:, :3, 3])
-    cells, Q = cells[inside], Q[inside]
-    keys, first_of_key = np.unique(cells * job.orientations.size + job.orientations.bin_of(T[inside, :3, :3]),
-                                   return_index=True)  # each voxel-bin's first sample: its certificate
-    order = np.argsort(cells, kind="stable")  # a voxel's samples together, each run in sample order
-    starts = np.flatnonzero(np.diff(cells[order], prepend=-1)) if cells.size else np.zeros(0, dtype=np.intp)
-    voxels, first = cells[order][starts], order[starts]
-    stats = None
-    if job.manipulability and cells.size:
-        w = translation_manipulability(job.robot, Q, job.frame, job.base, job.axes,
-                                       planar=job.orientations.kind == "planar")[order]
-        stats = (np.maximum.reduceat(w, starts), np.add.reduceat(w, starts), np.diff(starts, append=w.size))
-    return block, keys, voxels, Q[first], stats, Q[first_of_key]
-
-
-def ik_block(job: _Job, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
-    """Block ``block`` of IK targets: (block, success mask, configurations), by :func:`ik_many` seeded per block."""
-    from manipkit.kinematics.ik_many import ik_many
-
-    batch = ik_many(job.robot, T, job.base, job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
-                    restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block)
-    success = np.array(batch.success, dtype=bool)
-    if job.collisions is not None and success.any():  # an answer in collision reaches nothing
-        success[success] = job.collisions.free(job.robot, batch.q[success])
-    return block, success, batch.q
-
-
-# --------------------------------------------------------------------------
 # Building
 
 
@@ -690,7 +591,7 @@ def build(
                             f"orientation bins needs {size} bytes, more than {MAX_GRID_BYTES}: use a coarser voxel "
                             "or fewer orientations")
     low, high = solver.program.sample_low, solver.program.sample_high  # the solved joints' sampling box
-    job = _Job(robot, frame, base, solver.columns, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
+    job = MapJob(robot, frame, base, solver.columns, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
                float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability), collisions, centre)
     n_voxels = math.prod(shape)
@@ -742,59 +643,3 @@ def build(
                     tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
                     best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None,
                     cert_keys, cert_q)
-
-
-# --------------------------------------------------------------------------
-# Pictures
-
-
-def plot_reachmap(reach_map: ReachMap, path, *, layer: str = "index") -> None:
-    """A layer of the map to ``path`` (matplotlib): the plane of a planar map; two slices through the grid centre otherwise.
-
-    ``layer``: ``"index"`` (0..1) or ``"manipulability"`` (the best
-    Yoshikawa index per voxel, blank where nothing reached). Spatial slices:
-    horizontal (x-y of ``base``) and vertical (x-z), each through the voxel
-    layer that holds the grid's centre.
-
-    Raises
-    ------
-    ReachMapError
-        An unknown layer, or ``"manipulability"`` of a map built without it.
-    """
-    if layer not in LAYERS:
-        raise ReachMapError(f"unknown layer '{layer}'; layers: {', '.join(LAYERS)}")
-    if layer == "manipulability" and reach_map.manipulability is None:
-        raise ReachMapError("this map was built without manipulability (manipulability=False, --no-manipulability)")
-    from matplotlib.figure import Figure  # not pyplot: the caller's backend (a notebook's) stays as it is
-
-    from manipkit.outputs import writing
-
-    v = reach_map.voxel
-    index = reach_map.index if layer == "index" else np.ma.masked_invalid(reach_map.manipulability)
-    top = 1.0 if layer == "index" else max(float(index.max()) if index.count() else 1.0, 1e-12)
-    nx, ny, nz = reach_map.shape
-    o = reach_map.origin
-    if reach_map.orientations.kind == "planar":
-        slices = [(index[:, :, 0], "u (m)", "v (m)", (0.0, 0.0), "the arm's plane")]
-    else:
-        slices = [
-            (index[:, :, nz // 2], "x (m)", "y (m)", (o[0], o[1]), f"z = {short_text(o[2] + nz // 2 * v, 4)} m"),
-            (index[:, ny // 2, :], "x (m)", "z (m)", (o[0], o[2]), f"y = {short_text(o[1] + ny // 2 * v, 4)} m"),
-        ]
-    fig = Figure(figsize=(5.2 * len(slices) + 1.0, 4.8))
-    axes = fig.subplots(1, len(slices), squeeze=False)
-    for ax, (image, xlabel, ylabel, (a0, b0), where) in zip(axes[0], slices):
-        if reach_map.orientations.kind == "planar":  # plane coordinates measured from the grid centre
-            a0, b0 = -(nx // 2) * v, -(ny // 2) * v
-        extent = (a0 - v / 2, a0 + (image.shape[0] - 0.5) * v, b0 - v / 2, b0 + (image.shape[1] - 0.5) * v)
-        shown = ax.imshow(image.T, origin="lower", extent=extent, cmap="viridis", vmin=0.0, vmax=top,
-                          interpolation="nearest", aspect="equal")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.set_title(where)
-    fig.colorbar(shown, ax=list(axes[0]), label="reachability index (1: dexterous)" if layer == "index" else
-                 "best Yoshikawa index, translation rows")
-    fig.suptitle(f"{reach_map.robot}: {reach_map.frame} in {reach_map.base}, {short_text(v)} m voxels, "
-                 f"{reach_map.orientations.size} orientation bins", parse_math=False)  # a "$" in a name is text, not mathtext
-    with writing(path) as target:
-        fig.savefig(target, dpi=110, bbox_inches="tight")

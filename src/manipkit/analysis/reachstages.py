@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.analysis.blocks import in_block_order
+from manipkit.analysis.reachjob import IK_BLOCK, ik_block, sample_block
 
 if TYPE_CHECKING:
     from manipkit.analysis.blocks import BlockRunner
@@ -96,7 +97,6 @@ def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, c
     returns how many voxel-bins it newly reached. Returns what was used:
     ``{"blocks", "samples_used", "converged"}``.
     """
-    from manipkit.analysis.reachmap import sample_block
 
     n_blocks = -(-job.samples // job.block_samples)
     reached, block, converged = 0, 0, False
@@ -142,7 +142,6 @@ def fill_passes(job, runner: BlockRunner, reach: np.ndarray, cert_keys: np.ndarr
 
     Returns (ik keys, ik configurations, all certificate keys, their configurations, passes), keys sorted.
     """
-    from manipkit.analysis.reachmap import IK_BLOCK, ik_block
 
     B = job.orientations.size
     centres = job.origin + (np.stack(np.unravel_index(np.arange(math.prod(job.shape)), job.shape), axis=-1)

@@ -90,7 +90,8 @@ def _build(robot, args, base: str, *, manipulability: bool = False):
 
 def run_reachmap(args) -> int:
     """Build the map, save it to ``-o``, print its summary (text or JSON); draw slices; show it in meshcat."""
-    from manipkit.analysis.reachmap import parse_orientations, plot_reachmap, writable_map_path
+    from manipkit.analysis.reachmap import parse_orientations, writable_map_path
+    from manipkit.analysis.reachplot import plot_reachmap
 
     writable_map_path(args.output)  # before any work; no folder is created but the map's own
     pictures = [p for p in (args.plot, args.plot_manipulability, args.view_html) if p is not None]
