@@ -38,13 +38,15 @@ def test_the_temporary_file_keeps_the_suffix_a_writer_reads_the_format_from(tmp_
     assert (tmp_path / "tree.svg").read_text() == "<svg/>"
 
 
-def test_a_new_file_gets_the_mode_open_would_give_it(tmp_path):
-    old = os.umask(0o027)
+@pytest.mark.parametrize(("mask", "mode"), [(0o027, 0o640), (0o002, 0o664), (0o077, 0o600)])
+def test_a_new_file_gets_the_mode_open_would_give_it(tmp_path, mask, mode):
+    old = os.umask(mask)
     try:
         write_text(tmp_path / "a.txt", "x")
+        assert os.umask(mask) == mask  # reading the mask left it as it was
     finally:
         os.umask(old)
-    assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == 0o640  # 0o666 less the umask, not mkstemp's 0o600
+    assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == mode  # 0o666 less the umask, not mkstemp's 0o600
 
 
 def test_a_hard_link_to_an_input_counts_as_the_input(tmp_path):
