@@ -3,6 +3,7 @@
     python -m benchmarks                 # the full run (minutes); updates benchmarks/README.md
     python -m benchmarks --quick --out /tmp/bench   # tiny sizes, as the tests run it
     python -m benchmarks --only fk,ik --robots iiwa14
+    python -m benchmarks --only analytic --merge   # re-run one workload, keep the others' rows (with their dates)
 
 The table gives, per workload and robot, each tool's median and 95th
 percentile time, and its ratio to manipkit's (peer median / ours: above 1,
@@ -67,6 +68,13 @@ GROUP_LABELS = {
     "acm": "allowed-collision matrix",
     "reachmap_collisions": "reachability map, collision-free only",
     "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
+}
+#: The workload (``--only`` name) that measures each group of rows.
+STEP_OF_GROUP = {
+    "fk_single": "fk", "fk_batch": "fk", "ik": "ik", "planar": "planar", "cold_start": "cold", "viewer": "viewer",
+    "jacobian": "jacobian", "gci": "gci", "reachmap_fk": "reachmap", "reachmap_hybrid": "reachmap",
+    "reachmap_agreement": "reachmap", "reachmap_dask": "reachmap", "ik_many": "reachmap", "collisions": "collisions",
+    "acm": "collisions", "reachmap_collisions": "collisions", "analytic": "analytic",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
               "map": "map", "pose": "pose"}
@@ -422,11 +430,19 @@ START, END = "<!-- bench:results -->", "<!-- /bench:results -->"
 
 def update_readme(path: Path, results: dict, chart_name: str) -> None:
     m = results["machine"]
+    runs = results.get("runs") or []
+    if len(runs) > 1:
+        when = "; ".join(f"{', '.join(run['workloads'])} on {run['date']} (load average {run['load_average_start']} "
+                         f"at the start, {run['load_average_end']} at the end)" for run in runs)
+        header = (f"Runs on {m['cpu']} ({m['cores']} cores), {m['uname']}, Python {m['python']}, each row from the "
+                  f"run that measured it: {when}. Other jobs shared the machine: ratios matter, not absolute times.")
+    else:
+        header = (f"Run of {results['date']} on {m['cpu']} ({m['cores']} cores), {m['uname']}, Python {m['python']}; "
+                  f"load average {m['load_average_start']} at the start and {m['load_average_end']} at the end "
+                  f"(other jobs shared the machine: ratios matter, not absolute times). Total {results['seconds']:.0f} s.")
     block = "\n".join([
         START,
-        f"Run of {results['date']} on {m['cpu']} ({m['cores']} cores), {m['uname']}, Python {m['python']}; "
-        f"load average {m['load_average_start']} at the start and {m['load_average_end']} at the end "
-        f"(other jobs shared the machine: ratios matter, not absolute times). Total {results['seconds']:.0f} s.",
+        header,
         "",
         "### Goals",
         "",
@@ -486,23 +502,51 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
             steps.append((f"closed-form IK {arm}", lambda arm=arm: w.analytic_workload(arm, **sizes["analytic"])))
         steps.append(("closed-form IK iiwa14 at an arm angle",
                       lambda: w.srs_workload(n_single=min(200, sizes["analytic"]["n_single"]))))
+    date = dt.datetime.now().astimezone().isoformat(timespec="seconds")
     for label, step in steps:
         t = time.perf_counter()
         log(f"[bench] {label} ...")
-        rows += step()
+        new = step()
+        for r in new:
+            r["step"], r["date"] = STEP_OF_GROUP.get(r["workload"], r["workload"]), date
+        rows += new
         log(f"[bench] {label}: {time.perf_counter() - t:.1f} s")
     add_ratios(rows)
     order = list(GROUP_LABELS)
     rows.sort(key=lambda r: order.index(r["workload"]) if r["workload"] in order else len(order))  # stable
     info["load_average_end"] = _load()
+    seconds = time.perf_counter() - started
     return {
-        "date": dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "date": date,
         "machine": info,
         "quick": quick,
-        "seconds": time.perf_counter() - started,
+        "seconds": seconds,
         "goals": goals(rows),
         "rows": rows,
+        "runs": [{"date": date, "workloads": list(only), "seconds": seconds, "load_average_start": info["load_average_start"],
+                  "load_average_end": info["load_average_end"]}],
     }
+
+
+def merge_results(old: dict, new: dict) -> dict:
+    """``new`` with the rows of ``old`` whose workloads it did not run (``--merge``), and the goals of them all.
+
+    A row keeps the date of the run that measured it; ``runs`` lists every
+    run whose rows remain (date, workloads, load averages), newest last.
+    """
+    rerun = {w for run in new["runs"] for w in run["workloads"]}
+    kept = []
+    for r in old.get("rows", []):
+        step = r.get("step") or STEP_OF_GROUP.get(r["workload"], r["workload"])
+        if step not in rerun:
+            kept.append({**r, "step": step, "date": r.get("date", old.get("date"))})
+    runs = old.get("runs") or [{"date": old.get("date"), "workloads": sorted({r["step"] for r in kept}),
+                                "seconds": old.get("seconds"), "load_average_start": old["machine"]["load_average_start"],
+                                "load_average_end": old["machine"]["load_average_end"]}]
+    runs = [run for run in runs if any(r["date"] == run["date"] for r in kept)] + new["runs"]
+    order = list(GROUP_LABELS)
+    rows = sorted(kept + new["rows"], key=lambda r: order.index(r["workload"]) if r["workload"] in order else len(order))
+    return {**new, "rows": rows, "goals": goals(rows), "runs": runs}
 
 
 def main(argv=None) -> int:
@@ -512,12 +556,19 @@ def main(argv=None) -> int:
     parser.add_argument("--robots", default=",".join(ROBOTS), help="robots for the FK and IK workloads")
     parser.add_argument("--out", type=Path, default=HERE, help="folder for results.json and results.png")
     parser.add_argument("--no-readme", action="store_true", help="do not update benchmarks/README.md")
+    parser.add_argument("--merge", action="store_true",
+                        help="keep the rows of the other workloads from the results.json in --out (each row keeps its date)")
     args = parser.parse_args(argv)
     only = tuple(x for x in args.only.split(",") if x)
     unknown = set(only) - set(WORKLOADS)
     if unknown:
         parser.error(f"unknown workload(s) {', '.join(sorted(unknown))}; choose from {', '.join(WORKLOADS)}")
     results = run(only, tuple(args.robots.split(",")), args.quick, log=lambda m: print(m, file=sys.stderr, flush=True))
+    previous = args.out / "results.json"
+    if args.merge and previous.exists():
+        old = json.loads(previous.read_text(encoding="utf-8"))
+        if old.get("quick") == results["quick"]:
+            results = merge_results(old, results)
     print(text_table(results["rows"]))
     print()
     for g in results["goals"]:

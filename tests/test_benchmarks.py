@@ -201,3 +201,31 @@ def test_readme_block_is_replaced_between_its_markers(tmp_path):
     text = readme.read_text()
     assert text.startswith("# title\n\nhand-written\n") and text.endswith("\n\nafter\n")
     assert "old" not in text and "50.0 ns/target" in text and text.count(run.START) == 1
+
+
+def test_every_row_group_names_the_workload_that_measures_it(quick_run):
+    _, results, _ = quick_run
+    assert {r["workload"] for r in results["rows"]} <= set(run.STEP_OF_GROUP)
+    assert set(run.STEP_OF_GROUP.values()) == set(run.WORKLOADS)
+    assert all(r["step"] == run.STEP_OF_GROUP[r["workload"]] and r["date"] == results["date"] for r in results["rows"])
+
+
+def _results(date, rows, workloads):
+    machine = {"load_average_start": [1.0, 1.0, 1.0], "load_average_end": [1.5, 1.0, 1.0]}
+    return {"date": date, "machine": machine, "quick": False, "seconds": 10.0, "goals": [], "rows": rows,
+            "runs": [{"date": date, "workloads": workloads, "seconds": 10.0, **machine}]}
+
+
+def test_merge_keeps_the_rows_of_workloads_not_rerun_with_their_dates():
+    fk_old = workloads.row("fk_batch", "iiwa14", "manipkit", [1e-6], unit="config", ours=True)
+    ik_old = workloads.row("ik", "iiwa14", "manipkit", [5e-5], unit="solve", ours=True)
+    old = {"date": "2026-01-01", "machine": {"load_average_start": [0.1], "load_average_end": [0.2]}, "quick": False,
+           "seconds": 5.0, "goals": [], "rows": [fk_old, ik_old]}  # an older file: no steps, dates or runs
+    ik_new = {**workloads.row("ik", "iiwa14", "manipkit", [4e-5], unit="solve", ours=True), "step": "ik",
+              "date": "2026-02-02"}
+    merged = run.merge_results(old, _results("2026-02-02", [ik_new], ["ik"]))
+    assert [(r["workload"], r["median_s"], r["date"]) for r in merged["rows"]] == [
+        ("fk_batch", 1e-6, "2026-01-01"), ("ik", 4e-5, "2026-02-02")]  # the old ik row is replaced, fk kept
+    assert [(r["date"], r["workloads"]) for r in merged["runs"]] == [("2026-01-01", ["fk"]), ("2026-02-02", ["ik"])]
+    again = run.merge_results(merged, _results("2026-03-03", [{**ik_new, "date": "2026-03-03"}], ["ik", "fk"]))
+    assert [r["date"] for r in again["runs"]] == ["2026-03-03"]  # a run none of whose rows remain is dropped
