@@ -20,6 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from manipkit.analysis import blockstore
 from manipkit.analysis.blockstore import BlockStoreWarning, ResumeNote, open_store
 from manipkit.analysis.reachjob import ik_block, sample_block
 from manipkit.analysis.reachmap import build
@@ -106,10 +107,12 @@ def test_a_killed_build_resumes_to_the_same_map(planar_3r, reference, tmp_path):
         f"build(manipkit.load('planar_3r').chain('base_link', 'ee_link'), **{SETTINGS!r}, resume_dir={str(keep)!r}, "
         "progress=progress)\n"
     )
+    keep.mkdir()
+    (keep / ".tmp-half-written").write_bytes(b"PK")  # what a kill during a write leaves: removed, not refused
     process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
                              env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
     assert process.returncode == -9, process.stderr
-    assert len(list(keep.glob("sample_block-*.npz"))) == 4
+    assert len(list(keep.glob("sample_block-*.npz"))) == 4 and not (keep / ".tmp-half-written").exists()
     files, notes, refused = resumed(planar_3r, keep, tmp_path / "m.zarr")
     assert files == reference and notes[0].startswith("resuming: 4 of 8 blocks") and not refused
 
@@ -188,3 +191,20 @@ def _same(a, b) -> bool:
     if isinstance(b, np.ndarray):
         return isinstance(a, np.ndarray) and a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
     return type(a) is type(b) and a == b if b is not None else a is None
+
+
+def test_a_store_that_cannot_be_written_is_dropped_with_one_warning(planar_3r, reference, tmp_path, monkeypatch):
+    import errno
+
+    def full_disk(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    keep = tmp_path / "blocks"
+    monkeypatch.setattr(blockstore.np, "savez", full_disk)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        reach_map = build(planar_3r.chain("base_link", "ee_link"), **SETTINGS, resume_dir=keep)
+    said = [str(w.message) for w in caught if issubclass(w.category, BlockStoreWarning)]
+    assert len(said) == 1 and said[0].startswith("cannot write ") and "No space left on device; the build goes on" in said[0]
+    assert files_of(reach_map.save(tmp_path / "m.zarr")) == reference
+    assert sorted(os.listdir(keep)) == ["blocks.json"]  # no half-written file left

@@ -312,9 +312,20 @@ class BlockRunner:
         return saved
 
     def _kept(self, fn, arguments: tuple, result):
-        """``result``, saved in the store first (when there is one)."""
+        """``result``, saved in the store first (when there is one); a store that cannot be written (a full disk)
+        is dropped with one warning, and the build goes on without it."""
         if self.store is not None:
-            self.store.save(fn, arguments, result)
+            import warnings
+
+            from manipkit.analysis.blockstore import BlockStoreWarning
+            from manipkit.errors import OutputError
+
+            try:
+                self.store.save(fn, arguments, result)
+            except OutputError as exc:
+                warnings.warn(f"{exc}; the build goes on without keeping its finished blocks", BlockStoreWarning,
+                              stacklevel=3)
+                self.store = None
         return result
 
 

@@ -208,7 +208,7 @@ def _check_store_folder(folder: Path) -> None:
         if not ours or not stat.S_ISREG(mode):
             raise OutputError(f"cannot keep finished blocks in {shown}: it holds {printable(name)}, which manipkit did "
                               "not save there; move it")
-    if os.listdir(folder) and _read_table(folder) is None:
+    if any(_BLOCK_FILE.fullmatch(name) for name in os.listdir(folder)) and _read_table(folder) is None:
         raise OutputError(f"cannot keep finished blocks in {shown}: its {TABLE} is missing or not manipkit's; move it")
 
 
