@@ -8,6 +8,7 @@ progress callback after a given block (the block is saved before the
 callback runs), or by SIGKILL of a process where a real kill is the point.
 """
 
+import io
 import os
 import subprocess
 import sys
@@ -208,3 +209,23 @@ def test_a_store_that_cannot_be_written_is_dropped_with_one_warning(planar_3r, r
     assert len(said) == 1 and said[0].startswith("cannot write ") and "No space left on device; the build goes on" in said[0]
     assert files_of(reach_map.save(tmp_path / "m.zarr")) == reference
     assert sorted(os.listdir(keep)) == ["blocks.json"]  # no half-written file left
+
+
+def test_a_file_that_declares_more_data_than_it_holds_is_refused_before_it_is_read(tmp_path):
+    import zipfile
+
+    store = open_store(tmp_path / "s", {"any": "settings"})
+    store.save(sample_block, (0,), (0, np.zeros(3)))
+    path = store.path_of(sample_block, (0,))
+    with zipfile.ZipFile(path) as archive:
+        members = {m.filename: archive.read(m) for m in archive.infolist()}
+    header = np.lib.format.header_data_from_array_1_0(np.zeros(3))
+    header["shape"] = (10**12,)  # 8 TB declared in a file of a few hundred bytes
+    forged = io.BytesIO()
+    np.lib.format.write_array_header_1_0(forged, header)
+    members["r.1.array.npy"] = forged.getvalue() + np.zeros(3).tobytes()
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    result, reason = store.load(sample_block, (0,))
+    assert result is None and reason == "cannot be read (r.1.array.npy declares more data than it holds)"

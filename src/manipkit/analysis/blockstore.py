@@ -49,6 +49,7 @@ __all__ = ["STORE_FORMAT", "BlockStore", "BlockStoreWarning", "ResumeNote", "arg
 STORE_FORMAT = "manipkit-blocks-1"
 TABLE = "blocks.json"
 MAX_TABLE_BYTES = 1 << 20
+MAX_MEMBERS = 256  # arrays in one block's file (a result's layout, flattened)
 _BLOCK_FILE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*-\d+-[0-9a-f]{24}\.npz")
 _TEMPORARY = re.compile(r"\.tmp-.*")
 
@@ -121,6 +122,27 @@ def _unpack(arrays: dict, path: str = "r"):
     raise ValueError(f"{path} is missing")
 
 
+def _check_members(path: Path) -> None:
+    """ValueError unless every member of the ``.npz`` at ``path`` is stored uncompressed (as :func:`numpy.savez`
+    writes) and its ``.npy`` header declares no more bytes than the member holds (no allocation beyond the file)."""
+    with zipfile.ZipFile(path) as archive:
+        members = archive.infolist()
+        if len(members) > MAX_MEMBERS:
+            raise ValueError(f"{len(members)} arrays, more than {MAX_MEMBERS}")
+        for member in members:
+            if member.compress_type != zipfile.ZIP_STORED or member.file_size > os.path.getsize(path):
+                raise ValueError(f"{member.filename} is not stored as numpy.savez stores it")
+            with archive.open(member) as stream:
+                version = np.lib.format.read_magic(stream)
+                if version not in ((1, 0), (2, 0)):
+                    raise ValueError(f"{member.filename}: .npy version {version}")
+                reader = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
+                    np.lib.format.read_array_header_2_0
+                shape, _, dtype = reader(stream)
+                if dtype.hasobject or int(np.prod(shape, dtype=object)) * dtype.itemsize > member.file_size:
+                    raise ValueError(f"{member.filename} declares more data than it holds")
+
+
 class BlockStore:
     """The saved blocks of one build (module docstring): :meth:`load` and :meth:`save` by function and arguments.
 
@@ -144,6 +166,7 @@ class BlockStore:
         try:
             if not stat.S_ISREG(os.lstat(path).st_mode):
                 return None, "not a regular file"
+            _check_members(path)
             with np.load(path, allow_pickle=False) as data:
                 arrays = {name: data[name] for name in data.files}
             if str(arrays.pop("fingerprint", "")) != self.fingerprint or \
@@ -152,7 +175,7 @@ class BlockStore:
             if not all(name == "r" or name.startswith("r.") for name in arrays):
                 return None, "holds arrays a block result does not have"
             result = _unpack(arrays)
-        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zipfile.LargeZipFile) as exc:
+        except (OSError, ValueError, EOFError, KeyError, MemoryError, zipfile.BadZipFile, zipfile.LargeZipFile) as exc:
             return None, f"cannot be read ({printable(' '.join(str(exc).split()))[:60]})"
         check = self.checks.get(fn.__name__)
         reason = check(result, arguments) if check is not None else None
