@@ -228,6 +228,26 @@ def test_show_view_needs_the_maps_robot(map_3r, tmp_path):
     assert not (tmp_path / "v.html").exists()
 
 
+def test_show_view_of_a_map_of_a_description_file_needs_that_file(tmp_path):
+    import shutil
+
+    from manipkit.description.sources import bundled_dir
+
+    for path in bundled_dir().glob("*.xacro"):
+        shutil.copy(path, tmp_path)
+    arm = tmp_path / "planar_2r.urdf.xacro"
+    arm.write_text(arm.read_text().replace('name="planar_2r"', 'name="my_arm"'))
+    run_cli("manipkit", "reachmap", "--robot", arm, "--voxel", "0.5", "--samples", "500", "-o", tmp_path / "m.zarr",
+            status=0)
+    out = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--format", "json", status=0)  # no robot needed
+    assert json.loads(out.stdout)["robot"] == "my_arm"
+    out = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--view-html", tmp_path / "v.html", status=2)
+    assert out.stderr.count("\n") == 1 and "the map's robot 'my_arm', which does not load by that name" in out.stderr
+    run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--view-html", tmp_path / "v.html", "--robot", arm,
+            status=0)
+    assert (tmp_path / "v.html").read_text().count("data:application/octet-binary;base64,") > 1
+
+
 def test_show_refuses_the_manipulability_plot_of_a_map_without_it(tmp_path):
     run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500", "--no-manipulability",
             "-o", tmp_path / "m.zarr", status=0)

@@ -228,11 +228,12 @@ def _map_robot(args, reach_map):
     args.arg, args.package_dir, args.allow_read = args.arg or [], args.package_dir or [], args.allow_read or []
     try:
         robot = load_robot(args, mesh_warnings=False)
-    except ManipkitError as exc:
+    except ManipkitError:
         if given:
             raise
-        raise UsageError(f"--view draws the map's robot '{printable(reach_map.robot)}', which does not load by that "
-                         f"name ({printable(str(exc))[:120]}); give its description with --robot FILE") from None
+        raise UsageError(f"the 3D view draws the map's robot '{printable(reach_map.robot)}', which does not load by "
+                         "that name (not a bundled or example-robot-data robot?); give its description with --robot "
+                         "FILE") from None
     if robot.name != reach_map.robot:
         raise UsageError(f"--robot {printable(str(args.robot))} is '{printable(robot.name)}'; the map is of "
                          f"'{printable(reach_map.robot)}': give its robot")
