@@ -7,6 +7,7 @@ made by FK from a known placement of the mobile manipulator.
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -114,6 +115,13 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
           "{tmp}/w.png"], "--plot-manipulability needs the overlay"),
         (["reachmap", "--robot", "planar_3r", "-o", "{tmp}/m.zarr", "--view-html", "{tmp}/missing/v.html"],
          "cannot write"),
+        (["reachmap", "--robot", "planar_3r"], "give -o MAP, the folder to write the map to"),
+        (["reachmap", "show", "{tmp}/none.zarr"], "none.zarr: no such reachability map"),
+        (["reachmap", "show", "{tmp}"], "not a manipkit reachability map"),
+        (["reachmap", "show"], "the following arguments are required: MAP"),
+        (["reachmap", "--voxel", "0.1", "show", "{tmp}/none.zarr"], "--voxel sets how a map is built"),
+        (["reachmap", "-o", "{tmp}/m.zarr", "show", "{tmp}/none.zarr"], "-o sets how a map is built"),
+        (["reachmap", "show", "{tmp}/none.zarr", "--plot", "{tmp}/missing/p.png"], "cannot write"),
         (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/none.txt"], "no such file"),
         (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/bad.txt"], "bad.txt line 2: 2 numbers"),
         (["base-placement", "--robot", "planar_3r", "--targets", "{tmp}/good.txt", "--map", "{tmp}"],
@@ -141,8 +149,9 @@ def test_base_placement_with_a_map_refuses_settings_the_map_already_fixed(map_3r
     assert "is a map of 'ee_link', not of 'link2'" in out.stderr
 
 
-def _interrupt(args, cwd, delay):
-    """Run ``manipkit ARGS`` as a user at a terminal does and press Ctrl-C (SIGINT to the group) after ``delay`` s."""
+def _interrupt(args, cwd, delay, until=None):
+    """Run ``manipkit ARGS`` as a user at a terminal does and press Ctrl-C (SIGINT to the group) after ``delay`` s
+    (and once ``until()`` is true, if given: at most 300 s)."""
     import os
     import signal
     import subprocess
@@ -153,6 +162,9 @@ def _interrupt(args, cwd, delay):
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(delay)
+    deadline = time.monotonic() + 300
+    while until is not None and not until() and time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.05)
     os.killpg(process.pid, signal.SIGINT)
     try:
         out, err = process.communicate(timeout=60)
@@ -163,14 +175,17 @@ def _interrupt(args, cwd, delay):
 
 
 @pytest.mark.parametrize("where", [[], ["--workers", "1"]], ids=["here", "local-cluster"])
-def test_ctrl_c_ends_a_build_with_one_line_and_status_130_and_leaves_nothing(tmp_path, where):
+def test_ctrl_c_ends_a_build_with_one_line_and_status_130_and_keeps_the_finished_blocks(tmp_path, where):
     import os
 
     args = ["reachmap", "--robot", "iiwa14", "--samples", "2000000000", *where, "-o", "m.zarr"]
-    status, out, err = _interrupt(args, tmp_path, 6.0)
+    status, out, err = _interrupt(args, tmp_path, 1.0, until=lambda: any((tmp_path / ".m.zarr.partial").glob("*.npz")))
     assert status == 130, err
-    assert err == "manipkit: interrupted\n", err  # no worker traceback, no Dask log line
-    assert os.listdir(tmp_path) == []  # no map folder, no hidden partial one: a re-run is not blocked
+    assert os.listdir(tmp_path) == [".m.zarr.partial"]  # no map folder; the finished blocks beside where it goes
+    kept = sorted(os.listdir(tmp_path / ".m.zarr.partial"))
+    assert kept[0] == "blocks.json" and len(kept) > 1 and all(name.startswith("sample_block-") for name in kept[1:])
+    assert err == f"{len(kept) - 1} finished block(s) kept in .m.zarr.partial: the same command resumes from them\n" \
+        "manipkit: interrupted\n", err  # no worker traceback, no Dask log line
 
 
 def test_output_paths_are_printed_through_the_sanitiser(tmp_path):
@@ -178,3 +193,112 @@ def test_output_paths_are_printed_through_the_sanitiser(tmp_path):
     out = run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500",
                   "-o", tmp_path / name, status=0)
     assert "\x1b" not in out.stdout and "\nforged" not in out.stdout and "m\\x1b[2J\\x0aforged.zarr" in out.stdout
+
+
+def test_show_prints_and_draws_what_the_build_did(map_3r, tmp_path):
+    folder, built = map_3r
+    out = run_cli("manipkit", "reachmap", "show", folder / "p3r.zarr", "--format", "json", "--plot", tmp_path / "p.png",
+                  "--plot-manipulability", tmp_path / "w.png", "--view-html", tmp_path / "v.html", status=0)
+    shown = json.loads(out.stdout)
+    assert shown == {**built, "plot": str(tmp_path / "p.png"), "plot_manipulability": str(tmp_path / "w.png"),
+                     "view_html": str(tmp_path / "v.html")}
+    assert shown["completeness"]["n"] > 0 and "voxel" in shown["a_yes_means"]  # the checks the build stored
+    # the same pictures: the PNG slices are byte for byte the build's (same map, same code path)
+    assert (tmp_path / "p.png").read_bytes() == (folder / "p3r.png").read_bytes()
+    assert (tmp_path / "w.png").read_bytes() == (folder / "w.png").read_bytes()
+    html = (tmp_path / "v.html").read_text()  # the view loads the map's robot by the name it stores
+    assert html.count("data:application/octet-binary;base64,") == (folder / "p3r.html").read_text().count(
+        "data:application/octet-binary;base64,")
+
+
+def test_show_text_is_the_build_summary(tmp_path):
+    options = ["--voxel", "0.25", "--orientations", "4", "--samples", "5000"]
+    built = run_cli("manipkit", "reachmap", "--robot", "planar_2r", *options, "-o", tmp_path / "m.zarr",
+                    "--collisions", "self", status=0).stdout
+    shown = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", status=0).stdout
+    assert built == shown + f"wrote {tmp_path / 'm.zarr'}\n"
+    assert "collision-free only: self" in shown and "a yes means: the position's 0.25 m voxel" in shown
+
+
+def test_show_view_needs_the_maps_robot(map_3r, tmp_path):
+    folder, _ = map_3r
+    out = run_cli("manipkit", "reachmap", "show", folder / "p3r.zarr", "--robot", "planar_2r", "--view-html",
+                  tmp_path / "v.html", status=2)
+    assert out.stderr.count("\n") == 1 and "the map is of 'planar_3r': give its robot" in out.stderr
+    assert not (tmp_path / "v.html").exists()
+
+
+def test_show_view_of_a_map_of_a_description_file_needs_that_file(tmp_path):
+    import shutil
+
+    from manipkit.description.sources import bundled_dir
+
+    for path in bundled_dir().glob("*.xacro"):
+        shutil.copy(path, tmp_path)
+    arm = tmp_path / "planar_2r.urdf.xacro"
+    arm.write_text(arm.read_text().replace('name="planar_2r"', 'name="my_arm"'))
+    run_cli("manipkit", "reachmap", "--robot", arm, "--voxel", "0.5", "--samples", "500", "-o", tmp_path / "m.zarr",
+            status=0)
+    out = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--format", "json", status=0)  # no robot needed
+    assert json.loads(out.stdout)["robot"] == "my_arm"
+    out = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--view-html", tmp_path / "v.html", status=2)
+    assert out.stderr.count("\n") == 1 and "the map's robot 'my_arm', which does not load by that name" in out.stderr
+    run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--view-html", tmp_path / "v.html", "--robot", arm,
+            status=0)
+    assert (tmp_path / "v.html").read_text().count("data:application/octet-binary;base64,") > 1
+
+
+def test_show_refuses_the_manipulability_plot_of_a_map_without_it(tmp_path):
+    run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500", "--no-manipulability",
+            "-o", tmp_path / "m.zarr", status=0)
+    out = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--plot-manipulability", tmp_path / "w.png",
+                  status=2)
+    assert out.stderr.count("\n") == 1 and "was built without the manipulability overlay" in out.stderr
+
+
+def test_help_documents_build_and_show():
+    out = run_cli("manipkit", "reachmap", "--help", status=0).stdout
+    assert "manipkit reachmap [--robot R]" in out and "-o MAP" in out and "manipkit reachmap show MAP" in out
+    assert ".MAP.partial" in out
+
+
+def test_ctrl_c_keeps_the_finished_blocks_and_the_same_command_resumes(tmp_path, monkeypatch):
+    import contextlib
+    import os
+
+    import manipkit.app.progress
+
+    command = ["manipkit", "reachmap", "--robot", "planar_3r", "--voxel", "0.5", "--orientations", "8", "--samples",
+               "40000", "--converge", "0", "--method", "hybrid", "--no-manipulability"]
+    run_cli(*command, "-o", tmp_path / "reference.zarr", status=0)
+    work = tmp_path / "work"
+    work.mkdir()
+
+    @contextlib.contextmanager
+    def ctrl_c_after_the_first_block(enabled=None):
+        def progress(stage, done, total):
+            if done == 1:
+                raise KeyboardInterrupt  # what the runner raises where it waits after a Ctrl-C
+        yield progress
+
+    with monkeypatch.context() as patch:
+        patch.setattr(manipkit.app.progress, "progress_bar", ctrl_c_after_the_first_block)
+        out = run_cli(*command, "-o", work / "m.zarr", status=130)
+    assert out.stderr == f"1 finished block(s) kept in {work / '.m.zarr.partial'}: the same command resumes from them\n" \
+        "manipkit: interrupted\n"
+    assert os.listdir(work) == [".m.zarr.partial"]
+    out = run_cli(*command, "-o", work / "m.zarr", status=0)
+    assert out.stderr == "resuming: 1 of 1 blocks of FK samples already done\n"
+    assert os.listdir(work) == ["m.zarr"]  # the blocks are removed once the map is saved
+    reference = {p.relative_to(tmp_path / "reference.zarr"): p.read_bytes()
+                 for p in sorted((tmp_path / "reference.zarr").rglob("*")) if p.is_file()}
+    assert reference == {p.relative_to(work / "m.zarr"): p.read_bytes() for p in sorted((work / "m.zarr").rglob("*"))
+                         if p.is_file()}
+
+
+def test_a_build_writes_nowhere_but_beside_its_output(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "maps").mkdir()
+    run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500", "-o",
+            "maps/m.zarr", status=0)
+    assert sorted(os.listdir(tmp_path)) == ["maps"] and os.listdir(tmp_path / "maps") == ["m.zarr"]

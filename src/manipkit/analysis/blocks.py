@@ -157,9 +157,9 @@ class BlockRunner:
     a second Ctrl-C raises at once.
     """
 
-    def __init__(self, workers: int | None, scheduler: str | None, progress=None):
+    def __init__(self, workers: int | None, scheduler: str | None, progress=None, store=None):
         check_workers(workers)
-        self.workers, self.scheduler, self.progress = workers, scheduler, progress
+        self.workers, self.scheduler, self.progress, self.store = workers, scheduler, progress, store
         self.client = self.cluster = self.scratch = None
         self.interrupted = threading.Event()
         self.quiet = contextlib.ExitStack()
@@ -244,21 +244,36 @@ class BlockRunner:
 
         After each block, ``progress(desc, done, total)`` (blocks) when a
         progress callable was given (:mod:`manipkit.app.progress` draws it).
+        With a ``store`` (:class:`manipkit.analysis.blockstore.BlockStore`),
+        blocks saved by an earlier run of the same build are read back instead
+        of computed (a :class:`~manipkit.analysis.blockstore.ResumeNote` says
+        how many), and each computed block is saved before it is yielded.
         """
         total = len(argument_lists)
         report = self.progress or (lambda stage, done, total: None)
+        saved = self._saved_blocks(fn, argument_lists, desc)
         report(desc, 0, total)
+        done = 0
+        for result in saved.values():
+            yield result
+            done += 1
+            report(desc, done, total)
+        missing = [arguments for i, arguments in enumerate(argument_lists) if i not in saved]
         if self.client is None:
-            for done, arguments in enumerate(argument_lists, start=1):
-                yield fn(job, *arguments)
+            for arguments in missing:
+                yield self._kept(fn, arguments, fn(job, *arguments))
+                done += 1
                 report(desc, done, total)
+            return
+        if not missing:
             return
         from distributed import as_completed
 
         job_future = self.client.scatter(job, broadcast=True, hash=False)
         self.raise_if_interrupted()
-        futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in argument_lists]
-        finished, done = as_completed(futures), 0
+        futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in missing]
+        arguments_of = {future.key: arguments for future, arguments in zip(futures, missing)}
+        finished = as_completed(futures)
         del futures
         while not finished.is_empty():
             self.raise_if_interrupted()
@@ -266,10 +281,52 @@ class BlockRunner:
             if not ready:
                 time.sleep(POLL_S)
             for future in ready:
-                yield future.result()
+                result = self._kept(fn, arguments_of.pop(future.key), future.result())
                 future.release()
+                yield result
                 done += 1
                 report(desc, done, total)
+
+    def _saved_blocks(self, fn, argument_lists: list[tuple], desc: str) -> dict:
+        """{index in ``argument_lists``: result} of the blocks the store holds, checked; notes and warnings said."""
+        if self.store is None:
+            return {}
+        import warnings
+
+        from manipkit.analysis.blockstore import BlockStoreWarning, ResumeNote
+
+        saved, refused = {}, []
+        for i, arguments in enumerate(argument_lists):
+            result, reason = self.store.load(fn, arguments)
+            if result is not None:
+                saved[i] = result
+            elif reason is not None:
+                refused.append((arguments[0], reason))
+        if refused:
+            block, reason = refused[0]
+            warnings.warn(f"{len(refused)} saved block(s) of {desc} in {printable(str(self.store.folder))} not used "
+                          f"(block {block}: {reason}); computing them again", BlockStoreWarning, stacklevel=3)
+        if saved:
+            warnings.warn(f"resuming: {len(saved)} of {len(argument_lists)} blocks of {desc} already done",
+                          ResumeNote, stacklevel=3)
+        return saved
+
+    def _kept(self, fn, arguments: tuple, result):
+        """``result``, saved in the store first (when there is one); a store that cannot be written (a full disk)
+        is dropped with one warning, and the build goes on without it."""
+        if self.store is not None:
+            import warnings
+
+            from manipkit.analysis.blockstore import BlockStoreWarning
+            from manipkit.errors import OutputError
+
+            try:
+                self.store.save(fn, arguments, result)
+            except OutputError as exc:
+                warnings.warn(f"{exc}; the build goes on without keeping its finished blocks", BlockStoreWarning,
+                              stacklevel=3)
+                self.store = None
+        return result
 
 
 def in_block_order(results, first: int = 0):

@@ -8,7 +8,7 @@ then ``zstd``). Every chunk is written, even one that holds only the fill
 value, so a missing chunk always means a damaged or truncated map.
 
 **Writing** (:func:`save_map`): the map is written into a new hidden
-sibling folder (``.NAME.partial-*``) and renamed to ``NAME`` at the end, so
+sibling folder (``.NAME.writing-*``) and renamed to ``NAME`` at the end, so
 a full disk, a failure or a Ctrl-C leaves no folder at ``NAME`` (the partial
 one is removed). An existing ``NAME`` is replaced only when it is a manipkit
 map holding nothing but a map's own files (:func:`writable_map_path`): it is
@@ -54,7 +54,8 @@ from manipkit.text import printable
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap import ReachMap
 
-__all__ = ["MAP_ARRAYS", "MAX_JSON_DEPTH", "load_map", "save_map", "writable_map_path", "zstd_content_size"]
+__all__ = ["MAP_ARRAYS", "MAX_JSON_DEPTH", "load_map", "resume_folder", "save_map", "writable_map_path",
+           "zstd_content_size"]
 
 #: The arrays of a map and their data types; the last two only in a map built with the manipulability overlay.
 MAP_ARRAYS = {"reach": "uint8", "voxel_q": "float64", "ik_keys": "int64", "ik_q": "float64",
@@ -107,6 +108,18 @@ def writable_map_path(path) -> Path:
     return path
 
 
+def resume_folder(path) -> Path:
+    """The hidden sibling ``.NAME.partial`` of the map folder ``path``: where a build of it keeps finished blocks.
+
+    (:mod:`manipkit.analysis.blockstore`; the command line removes it once the map is saved.)
+
+    >>> resume_folder("maps/iiwa.zarr").as_posix()
+    'maps/.iiwa.zarr.partial'
+    """
+    path = Path(path)
+    return path.with_name(f".{path.name}.partial")
+
+
 def save_map(reach_map: ReachMap, path) -> Path:
     """Write ``reach_map`` to the folder ``path`` (see the module docstring); returns ``path``.
 
@@ -118,7 +131,7 @@ def save_map(reach_map: ReachMap, path) -> Path:
     path = writable_map_path(path)
     parent = path.parent if str(path.parent) else Path(".")
     try:
-        partial = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=parent))
+        partial = Path(tempfile.mkdtemp(prefix=f".{path.name}.writing-", dir=parent))
     except OSError as exc:
         raise cannot_write(printable(str(path)), exc) from None
     try:

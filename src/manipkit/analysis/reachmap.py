@@ -484,6 +484,7 @@ def build(
     converge: float = 0.0,
     holdout: int = DEFAULT_HOLDOUT,
     fp_checks: int = DEFAULT_FP_CHECKS,
+    resume_dir: str | Path | None = None,
 ) -> ReachMap:
     """Build the reachability map of a chain's tip in its base (see the module docstring).
 
@@ -525,6 +526,16 @@ def build(
         Count only samples and IK answers that pass this check (self, floor;
         :class:`manipkit.kinematics.collisions.CollisionSettings`); recorded
         in ``settings["collisions"]``.
+    resume_dir : path, keyword-only, optional
+        Keep each finished block in this folder (made if new; its parent
+        must exist) and, when it holds blocks of a build with the same
+        settings, read those back instead of computing them: an interrupted
+        build resumes and gives the same map, bit for bit
+        (:mod:`manipkit.analysis.blockstore`, :mod:`manipkit.analysis.reachresume`).
+        Blocks of other settings there are removed (a warning says so). The
+        folder is kept after the build: remove it
+        (:func:`manipkit.analysis.blockstore.remove_store`) once the map is saved.
+        None (the default): nothing is saved.
 
     Returns
     -------
@@ -594,6 +605,13 @@ def build(
     job = MapJob(robot, frame, base, solver.columns, low, high, robot.q(), origin, axes, voxel, shape, bins, int(samples),
                int(block_samples), int(seed), "position+axis" if bins.kind == "spatial" and n_roll == 1 else "pose",
                float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability), collisions, centre)
+    store = None
+    if resume_dir is not None:
+        from manipkit.analysis.blockstore import open_store
+        from manipkit.analysis.reachresume import build_settings, result_checks
+
+        store = open_store(resume_dir, build_settings(job, method=method, orientations=(n_dir, n_roll), converge=float(
+            converge), holdout=int(holdout), fp_checks=int(fp_checks), map_format=FORMAT), result_checks(job))
     n_voxels = math.prod(shape)
     reach = np.zeros(n_voxels * bins.size, dtype=np.uint8)
     voxel_q = np.full((n_voxels, len(robot.joint_names)), np.nan)
@@ -616,7 +634,7 @@ def build(
             count[voxels] += stats[2]
         return int(new_keys.sum())
 
-    with BlockRunner(workers, scheduler, progress) as runner:
+    with BlockRunner(workers, scheduler, progress, store) as runner:
         used = reachstages.sample_until_converged(job, runner, reach, merge, float(converge))
         cert_keys, cert_q = np.concatenate(cert["keys"]), np.concatenate(cert["q"])
         order = np.argsort(cert_keys)

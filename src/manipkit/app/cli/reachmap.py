@@ -7,14 +7,16 @@ and :mod:`manipkit.analysis.placement` (docs/architecture.md, "Reachability maps
 from __future__ import annotations
 
 import math
+import sys
+import warnings
 from pathlib import Path
 
 from manipkit.app.cli.collisions import add_collision_set_options, collision_set
-from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json
+from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json, warn
 from manipkit.outputs import writable_path
 from manipkit.text import printable, short_text
 
-__all__ = ["register", "run_base_placement", "run_reachmap"]
+__all__ = ["present_map", "register", "run_base_placement", "run_reachmap", "run_reachmap_show"]
 
 
 def _add_map_options(parser, *, voxel: float, orientations: str | None, samples: int) -> None:
@@ -42,23 +44,63 @@ _BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "converge": 0.00
                    "floor": 0.0, "srdf": None, "geometry": "hulls"}
 
 
+#: The options only a build reads: given before ``show``, they would do nothing.
+_BUILD_ONLY = ("output", "base", "frame", "voxel", "orientations", "method", "samples", "seed", "collisions", "floor",
+               "srdf", "geometry", "converge", "workers", "scheduler", "no_manipulability")
+_USAGE = """manipkit reachmap [--robot R] [--base FRAME] [--frame FRAME] [BUILD OPTIONS] -o MAP [SHOW OPTIONS]
+       manipkit reachmap show MAP [SHOW OPTIONS] [--robot R]
+SHOW OPTIONS: [--plot FILE.png] [--plot-manipulability FILE.png] [--view] [--view-html FILE.html] [--format text|json]"""
+
+
+def _add_show_options(parser, **default) -> None:
+    """What is shown of a map, built or loaded: the summary (text or JSON), slices, the 3D view."""
+    parser.add_argument("--plot", type=Path, metavar="FILE.png", help="draw slices of the index", **default)
+    parser.add_argument("--plot-manipulability", type=Path, metavar="FILE.png",
+                        help="draw the same slices of the best Yoshikawa index per voxel", **default)
+    parser.add_argument("--view", action="store_true", help="show the map in meshcat (Ctrl-C stops)", **default)
+    parser.add_argument("--view-html", type=Path, metavar="FILE.html",
+                        help="write the meshcat view as a standalone HTML file", **default)
+    parser.add_argument("--format", choices=("text", "json"), help="text (default) or json", **default)
+
+
 def register(commands) -> None:
-    """Add ``manipkit reachmap`` and ``manipkit base-placement`` to the subparsers ``commands``."""
-    reach = commands.add_parser("reachmap", help="reachability map of an arm (voxels x orientations), saved as Zarr")
+    """Add ``manipkit reachmap`` (build, or ``show`` a saved map) and ``manipkit base-placement`` to ``commands``."""
+    import argparse
+
+    from manipkit.app.cli.common import Parser
+
+    reach = commands.add_parser(
+        "reachmap", help="reachability map of an arm (voxels x orientations), saved as Zarr; 'reachmap show MAP' shows one",
+        usage=_USAGE, description="Build a reachability map and save it to -o MAP (finished blocks are kept in "
+        ".MAP.partial beside it until the map is saved, so an interrupted build resumes with the same command), or "
+        "show a saved one with 'manipkit reachmap show MAP' (see 'manipkit reachmap show --help'). Both print the "
+        "same summary and draw the same pictures.")
     add_robot_options(reach)
     reach.add_argument("--base", default="base_link", help="frame the map is in (default base_link)")
     _add_map_options(reach, voxel=0.05, orientations=None, samples=1_000_000)
-    reach.add_argument("-o", "--output", type=Path, required=True, metavar="MAP", help="Zarr folder to write")
-    reach.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw slices of the index")
-    reach.add_argument("--plot-manipulability", type=Path, default=None, metavar="FILE.png",
-                       help="draw the same slices of the best Yoshikawa index per voxel")
+    reach.add_argument("-o", "--output", type=Path, default=None, metavar="MAP",
+                       help="Zarr folder to write (needed to build)")
     reach.add_argument("--no-manipulability", action="store_true",
                        help="skip the manipulability overlay (no Jacobians: about half the FK-stage time)")
-    reach.add_argument("--view", action="store_true", help="show the map in meshcat (Ctrl-C stops)")
-    reach.add_argument("--view-html", type=Path, default=None, metavar="FILE.html",
-                       help="write the meshcat view as a standalone HTML file")
-    reach.add_argument("--format", choices=("text", "json"), default="text")
-    reach.set_defaults(run=run_reachmap)
+    _add_show_options(reach, default=None)
+    reach.set_defaults(run=run_reachmap, format="text", view=False)
+    build_defaults = {name: reach.get_default(name) for name in _BUILD_ONLY}
+    shows = reach.add_subparsers(dest="reachmap_command", metavar="show", parser_class=Parser,
+                                 title="show a saved map instead of building one")
+    show = shows.add_parser("show", prog="manipkit reachmap show", help="print the summary of the map MAP, draw its slices, show its 3D view",
+                            argument_default=argparse.SUPPRESS,
+                            description="Load a map saved by 'manipkit reachmap -o MAP' (no robot needed) and print "
+                            "the summary its build printed; draw slices; show it in meshcat (--view and --view-html "
+                            "load the map's robot by its name for the meshes, or the one --robot gives).")
+    show.add_argument("map", type=Path, metavar="MAP", help="a map folder written by 'manipkit reachmap -o MAP'")
+    _add_show_options(show)
+    show.add_argument("--robot", metavar="R", help="the robot whose meshes --view and --view-html draw: a bundled or "
+                      "example-robot-data name or a .urdf/.xacro path (default: the robot name the map stores)")
+    show.add_argument("--arg", action="append", metavar="KEY:=VALUE", help="xacro argument of --robot (repeatable)")
+    show.add_argument("--package-dir", action="append", metavar="NAME=DIR", help="folder of a ROS package (repeatable)")
+    show.add_argument("--allow-read", action="append", metavar="DIR",
+                      help="let the description read files in DIR (repeatable)")
+    show.set_defaults(run=run_reachmap_show, build_defaults=build_defaults)
 
     place = commands.add_parser("base-placement", help="floor positions (x, y, yaw) of a mobile base scored by targets reached")
     add_robot_options(place)
@@ -75,40 +117,134 @@ def register(commands) -> None:
     place.set_defaults(run=run_base_placement)
 
 
-def _build(robot, args, base: str, *, manipulability: bool = False):
+def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=None):
     from manipkit.analysis.reachmap import build
     from manipkit.app.progress import progress_bar
     from manipkit.kinematics.collisions import CollisionSettings
 
     collisions = CollisionSettings.parse(robot, **collision_set(args))
-    with progress_bar() as progress:
+    with progress_bar() as progress, warnings.catch_warnings():
+        warnings.showwarning = _note_or_warning
         return build(robot.chain(base, args.frame), voxel=args.voxel, orientations=args.orientations, method=args.method,
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      manipulability=manipulability, progress=progress, collisions=collisions,
-                     converge=args.converge)
+                     converge=args.converge, resume_dir=resume_dir)
 
 
-def run_reachmap(args) -> int:
-    """Build the map, save it to ``-o``, print its summary (text or JSON); draw slices; show it in meshcat."""
-    from manipkit.analysis.reachmap import parse_orientations, writable_map_path
-    from manipkit.analysis.reachplot import plot_reachmap
+def _note_or_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A :class:`ResumeNote` as its own line on stderr (``resuming: ...``), any other warning as ``warning: ...``."""
+    from manipkit.analysis.blockstore import ResumeNote
 
-    writable_map_path(args.output)  # before any work; no folder is created but the map's own
+    if issubclass(category, ResumeNote):
+        print(printable(" ".join(str(message).split())), file=sys.stderr, flush=True)
+    else:
+        warn(str(message))
+
+
+def _checked_pictures(args) -> list[Path]:
+    """The picture files asked for, each writable (checked before any work)."""
     pictures = [p for p in (args.plot, args.plot_manipulability, args.view_html) if p is not None]
     for path in pictures:
         writable_path(path)
+    return pictures
+
+
+def _visual(robot, args):
+    """The robot's geometry for the 3D view when one is asked for (missing meshes said once, up front), else None."""
+    if not (args.view or args.view_html):
+        return None
+    from manipkit.app.viewer.scene import visual_model
+
+    return visual_model(robot)
+
+
+def run_reachmap(args) -> int:
+    """Build the map, save it to ``-o``, then present it as ``reachmap show`` does (:func:`present_map`).
+
+    Finished blocks are kept in ``.MAP.partial`` beside ``-o MAP``
+    (:func:`manipkit.analysis.mapstore.resume_folder`) until the map is
+    saved; an interrupted build leaves them, and the same command resumes.
+    """
+    from manipkit.analysis.blockstore import remove_store
+    from manipkit.analysis.mapstore import resume_folder
+    from manipkit.analysis.reachmap import parse_orientations, writable_map_path
+
+    if args.output is None:
+        raise UsageError("give -o MAP, the folder to write the map to (or 'manipkit reachmap show MAP' to show a saved "
+                         "map)")
+    writable_map_path(args.output)  # before any work; no folder is created but the map's own (and its blocks')
+    pictures = _checked_pictures(args)
     if args.no_manipulability and args.plot_manipulability is not None:
         raise UsageError("--plot-manipulability needs the overlay: drop --no-manipulability")
     if args.orientations is not None:
         parse_orientations(args.orientations)
     robot = load_robot(args, mesh_warnings=False) if args.view or args.view_html else load_robot(args)
-    visual = None
-    if args.view or args.view_html:  # the robot's geometry before the long build: missing meshes said (once) up front
-        from manipkit.app.viewer.scene import visual_model
-
-        visual = visual_model(robot)
-    reach_map = _build(robot, args, args.base, manipulability=not args.no_manipulability)
+    visual = _visual(robot, args)
+    blocks = resume_folder(args.output)
+    try:
+        reach_map = _build(robot, args, args.base, manipulability=not args.no_manipulability, resume_dir=blocks)
+    except KeyboardInterrupt:
+        kept = len(list(blocks.glob("*.npz"))) if blocks.is_dir() else 0
+        if kept:
+            print(f"{kept} finished block(s) kept in {printable(str(blocks))}: the same command resumes from them",
+                  file=sys.stderr, flush=True)
+        else:  # interrupted before a block finished: nothing to resume from
+            remove_store(blocks)
+        raise
     reach_map.save(args.output)
+    remove_store(blocks)
+    present_map(reach_map, args, robot=robot, visual=visual, map_path=args.output, written=[args.output, *pictures])
+    return EXIT_OK
+
+
+def run_reachmap_show(args) -> int:
+    """Load the map ``MAP`` (validated; no robot needed) and present it as its build did (:func:`present_map`)."""
+    from manipkit.analysis.reachmap import load
+
+    given = [name for name, default in args.build_defaults.items() if getattr(args, name) != default]
+    if given:
+        option = "-o" if given[0] == "output" else f"--{given[0].replace('_', '-')}"
+        raise UsageError(f"{option} sets how a map is built; 'reachmap show' shows a saved map as it was built: "
+                         "leave it out")
+    pictures = _checked_pictures(args)
+    reach_map = load(args.map)
+    if args.plot_manipulability is not None and reach_map.manipulability is None:
+        raise UsageError(f"--plot-manipulability: {printable(str(args.map))} was built without the manipulability "
+                         "overlay (--no-manipulability); drop --plot-manipulability")
+    robot = visual = None
+    if args.view or args.view_html:
+        robot = _map_robot(args, reach_map)
+        visual = _visual(robot, args)
+    present_map(reach_map, args, robot=robot, visual=visual, map_path=args.map, written=pictures)
+    return EXIT_OK
+
+
+def _map_robot(args, reach_map):
+    """The robot of ``--robot`` (default: the name the map stores), which must be the map's."""
+    from manipkit.errors import ManipkitError
+
+    given = args.robot is not None
+    args.robot = args.robot if given else reach_map.robot
+    args.arg, args.package_dir, args.allow_read = args.arg or [], args.package_dir or [], args.allow_read or []
+    try:
+        robot = load_robot(args, mesh_warnings=False)
+    except ManipkitError:
+        if given:
+            raise
+        raise UsageError(f"the 3D view draws the map's robot '{printable(reach_map.robot)}', which does not load by "
+                         "that name (not a bundled or example-robot-data robot?); give its description with --robot "
+                         "FILE") from None
+    if robot.name != reach_map.robot:
+        raise UsageError(f"--robot {printable(str(args.robot))} is '{printable(robot.name)}'; the map is of "
+                         f"'{printable(reach_map.robot)}': give its robot")
+    return robot
+
+
+def present_map(reach_map, args, *, robot, visual, map_path: Path, written: list[Path]) -> None:
+    """What ``reachmap`` prints and draws of a map, built or loaded: slices (``--plot``, ``--plot-manipulability``),
+    the HTML view, the summary (text or JSON, with the files ``written``), then the live view (``--view``)."""
+    from manipkit.analysis.reachplot import plot_reachmap
+
     if args.plot is not None:
         plot_reachmap(reach_map, args.plot)
     if args.plot_manipulability is not None:
@@ -123,19 +259,20 @@ def run_reachmap(args) -> int:
             "robot": reach_map.robot, "frame": reach_map.frame, "base": reach_map.base, "method": reach_map.method,
             "voxel": reach_map.voxel, "shape": list(reach_map.shape), "origin": reach_map.origin.tolist(),
             "orientations": reach_map.orientations.size, "reachable_voxels": int(reach_map.reachable.sum()),
-            "dexterous_voxels": int(reach_map.dexterous.sum()), "map": str(args.output),
+            "dexterous_voxels": int(reach_map.dexterous.sum()), "map": str(map_path),
             "a_yes_means": reach_map.resolution(), **{key: reach_map.settings.get(key) for key in (
                 "samples_used", "converged", "fill_passes", "completeness", "false_positive")},
+            "collisions": reach_map.settings.get("collisions"),
             **({"best_manipulability": best[0], "best_manipulability_at": best[1].tolist()} if best else {}),
             **{name: str(path) for name, path in (("plot", args.plot), ("plot_manipulability", args.plot_manipulability),
                                                   ("view_html", args.view_html)) if path is not None},
         })
     else:
         print(reach_map.summary())
-        print(f"wrote {', '.join(printable(str(p)) for p in [args.output, *pictures])}")
+        if written:
+            print(f"wrote {', '.join(printable(str(p)) for p in written)}")
     if args.view:
         _serve_view(reach_map, robot, visual)
-    return EXIT_OK
 
 
 def _serve_view(reach_map, robot, visual) -> None:
