@@ -28,9 +28,11 @@ import math
 
 import numpy as np
 
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation
 from manipkit.kernels import compile_kernel
 
-__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "solve_many", "warm_up"]
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "check_many", "solve_check_many", "solve_check_one",
+           "solve_many", "warm_up"]
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
@@ -373,36 +375,14 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
 
 
 @compile_kernel
-def _wrap_angle(a):
-    """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
-    if -math.pi < a <= math.pi:
-        return a + 0.0
-    w = math.pi - (math.pi - a) % TWO_PI
-    return w + TWO_PI if w <= -math.pi else w
-
-
-@compile_kernel
 def _rows(theta, valid, q0, columns, scale, lower, upper, out):
     """out[n, k] = the chain vector of slot k (NaN where not valid); see chain_rows."""
     for n in range(theta.shape[0]):
         for k in range(theta.shape[1]):
-            if not valid[n, k]:
-                for j in range(out.shape[2]):
-                    out[n, k, j] = np.nan
-                continue
-            for j in range(out.shape[2]):
-                out[n, k, j] = q0[j]
-            for i in range(columns.shape[0]):
-                col = columns[i]
-                wrapped = _wrap_angle(q0[col] + theta[n, k, i] / scale[i])
-                best = wrapped
-                if not (lower[i] - 1e-12 <= wrapped <= upper[i] + 1e-12):
-                    for turn in (1.0, -1.0, 2.0, -2.0):
-                        candidate = wrapped + turn * TWO_PI
-                        if lower[i] - 1e-12 <= candidate <= upper[i] + 1e-12:
-                            best = candidate
-                            break
-                out[n, k, col] = best
+            if valid[n, k]:
+                chain_row(theta[n, k], False, q0, columns, scale, lower, upper, out[n, k])
+            else:
+                out[n, k, :] = np.nan
 
 
 def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np.ndarray, scale: np.ndarray,
@@ -459,6 +439,152 @@ def branch_labels(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, sh
             tuple(float(v) for v in up), np.ascontiguousarray(g, dtype=float), np.ascontiguousarray(theta, dtype=float),
             out)
     return out
+
+
+@compile_kernel
+def _solved_target(T, M_inv, reverse, g):
+    """g = T M^-1 (inverted when ``reverse``: a family solved tip to base), as chain_ik's _solved_direction."""
+    for i in range(4):
+        for j in range(4):
+            g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
+    if reverse:
+        t0, t1, t2 = g[0, 3], g[1, 3], g[2, 3]
+        for i in range(3):
+            for j in range(i + 1, 3):
+                g[i, j], g[j, i] = g[j, i], g[i, j]
+        for i in range(3):
+            g[i, 3] = -(g[i, 0] * t0 + g[i, 1] * t1 + g[i, 2] * t2)
+        g[3, 0], g[3, 1], g[3, 2], g[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@compile_kernel
+def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
+                    chain_upper, floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals, within):
+    """One target: every branch solved (as _solve_all), then each valid one's chain row, FK on the true chain,
+    residual and limits (check_kernel); True when the reference must decide (nothing else is written then)."""
+    _solved_target(T, M_inv, reverse, g)
+    R = g[:3, :3]
+    t = (g[0, 3], g[1, 3], g[2, 3])
+    if kind == 0:
+        handed_back = _ur_target(H, P, c, scale, R, t, theta, valid, near)
+    else:
+        handed_back = _opw_target(H, P, c, scale, R, t, theta, valid, near)
+    if handed_back:
+        return True
+    for k in range(theta.shape[0]):
+        if valid[k]:
+            chain_row(theta[k], reverse, q0, columns, jscale, lower, upper, rows[k])
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, chain_lower,
+                                                                    chain_upper, scratch, T_fk)
+        else:
+            rows[k, :] = np.nan
+            residuals[k, 0], residuals[k, 1], within[k] = np.nan, np.nan, False
+    return False
+
+
+@compile_kernel
+def _solve_check_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
+                     chain_upper, floats, ints, theta, valid, near, fallback, project, rows, residuals, within):
+    g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
+    for n in range(T.shape[0]):
+        project[n] = not exact_rotation(T[n])
+        fallback[n] = _checked_target(kind, H, P, c, scale, M_inv, reverse, T[n], q0, columns, jscale, lower, upper,
+                                      chain_lower, chain_upper, floats, ints, g, scratch, T_fk, theta[n], valid[n],
+                                      near[n], rows[n], residuals[n], within[n])
+
+
+@compile_kernel
+def _check_all(theta, valid, reverse, T, q0, columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints,
+               rows, residuals, within):
+    scratch, T_fk = np.empty((4, 3)), np.empty((4, 4))
+    for n in range(T.shape[0]):
+        for k in range(theta.shape[1]):
+            if valid[n, k]:
+                chain_row(theta[n, k], reverse, q0, columns, jscale, lower, upper, rows[n, k])
+                residuals[n, k, 0], residuals[n, k, 1], within[n, k] = check_row(
+                    rows[n, k], T[n], floats, ints, chain_lower, chain_upper, scratch, T_fk)
+            else:
+                rows[n, k, :] = np.nan
+                residuals[n, k, 0], residuals[n, k, 1], within[n, k] = np.nan, np.nan, False
+
+
+@compile_kernel
+def _solve_check_one(kind, H, P, c, s, reference, up, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper,
+                     chain_lower, chain_upper, floats, ints, theta, valid, rows, residuals, within, bits, same):
+    """_checked_target for one target, with the label bits of every slot and ``same[k, j]``: rows k and j equal
+    modulo 2 pi to 1e-9 (chain_ik's _pairwise_same); returns (handed back, rotation block used as is)."""
+    g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
+    near = np.zeros(theta.shape[0], dtype=np.bool_)
+    exact = exact_rotation(T)
+    if _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
+                       chain_upper, floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals, within):
+        return True, exact
+    _labels(kind, H, P, c, s, reference, up, g, theta, bits)
+    for k in range(rows.shape[0]):
+        for j in range(rows.shape[0]):
+            equal = valid[k] and valid[j]
+            for i in range(rows.shape[1]):
+                if equal:
+                    d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
+                    equal = abs(d) <= 1e-9
+            same[k, j] = equal
+    return False, exact
+
+
+def solve_check_many(prepared: tuple, T: np.ndarray):
+    """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``), solved and checked on the true chain in one loop.
+
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (theta (N, 8, 6) in the solve
+    direction, valid (N, 8), near (N, 8), fallback (N,), project (N,), rows (N, 8, n) chain vectors with limit
+    aliases (NaN where not valid), residuals (N, 8, 2) m and rad by the chain's FK against ``T``, within (N, 8)).
+    Targets with ``fallback`` hold nothing else (the reference solves them); ``project``: a target whose rotation
+    block is not a rotation to 1e-12 (its residuals are to be measured again against the projected block).
+    """
+    kind, H, P, c, _, _, _, scale, M_inv, reverse, q0, columns, jscale, lower, upper, chain_lower, chain_upper, \
+        floats, ints = prepared
+    T = np.ascontiguousarray(T, dtype=float)
+    N, n = T.shape[0], q0.shape[0]
+    theta = np.zeros((N, 8, 6))
+    valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
+    fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
+    rows, residuals, within = np.empty((N, 8, n)), np.empty((N, 8, 2)), np.zeros((N, 8), dtype=np.bool_)
+    _solve_check_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
+                     chain_upper, floats, ints, theta, valid, near, fallback, project, rows, residuals, within)
+    return theta, valid, near, fallback, project, rows, residuals, within
+
+
+def check_many(prepared: tuple, theta: np.ndarray, valid: np.ndarray, T: np.ndarray):
+    """(rows (N, k, n), residuals (N, k, 2), within (N, k)) of solved angles ``theta`` (N, k, 6) (solve direction;
+    NaN rows where not ``valid``) against targets ``T`` (N, 4, 4): the check of :func:`solve_check_many` alone."""
+    _, _, _, _, _, _, _, _, _, reverse, q0, columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints = \
+        prepared
+    theta = np.ascontiguousarray(theta, dtype=float)
+    N, k, n = theta.shape[0], theta.shape[1], q0.shape[0]
+    rows, residuals, within = np.empty((N, k, n)), np.empty((N, k, 2)), np.zeros((N, k), dtype=np.bool_)
+    _check_all(theta, np.ascontiguousarray(valid, dtype=np.bool_), reverse, np.ascontiguousarray(T, dtype=float), q0,
+               columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints, rows, residuals, within)
+    return rows, residuals, within
+
+
+def solve_check_one(prepared: tuple, T: np.ndarray):
+    """One target ``T`` (4, 4) as :func:`solve_check_many`, with each slot's label bits (front, elbow above,
+    no flip: :func:`branch_labels`) and which rows are equal modulo 2 pi (to 1e-9).
+
+    Returns None when the reference must decide, or the target's rotation block is not a rotation to 1e-12;
+    else (theta (8, 6), valid (8,), rows (8, n), residuals (8, 2), within (8,), bits (8, 3), same (8, 8)).
+    """
+    kind, H, P, c, s, reference, up, scale, M_inv, reverse, q0, columns, jscale, lower, upper, chain_lower, \
+        chain_upper, floats, ints = prepared
+    n = q0.shape[0]
+    theta, valid = np.zeros((8, 6)), np.zeros(8, dtype=np.bool_)
+    rows, residuals, within = np.empty((8, n)), np.empty((8, 2)), np.zeros(8, dtype=np.bool_)
+    bits, same = np.zeros((8, 3), dtype=np.bool_), np.zeros((8, 8), dtype=np.bool_)
+    handed_back, exact = _solve_check_one(kind, H, P, c, s, reference, up, scale, M_inv, reverse, T, q0, columns,
+                                          jscale, lower, upper, chain_lower, chain_upper, floats, ints, theta, valid,
+                                          rows, residuals, within, bits, same)
+    if handed_back or not exact:
+        return None
+    return theta, valid, rows, residuals, within, bits, same
 
 
 def warm_up() -> None:

@@ -71,6 +71,7 @@ __all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "s
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
 TWO_PI = 2.0 * math.pi
+_CHECK_DEFAULT = (CHECK_TOL, CHECK_TOL)  # tolerances(CHECK_TOL), parsed once
 
 
 class IdealArm:
@@ -145,6 +146,44 @@ def ideal_arm(family: Family) -> IdealArm:
 
 #: Family -> its ideal arm (a Family is immutable; an arm is made once and read by every call after).
 _ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def compiled_arm(chain: Chain, arm: IdealArm) -> tuple:
+    """The constants the compiled solve-and-check loop takes for ``chain`` solved on ``arm`` (UR or OPW family):
+    the ideal arm, its label axes, the joint map and limits and the chain's FK program
+    (:func:`manipkit.kinematics.fk_kernel.row_tables`); made once per chain and family (both immutable) and kept."""
+    cached = _COMPILED.get(arm)
+    if cached is not None and cached[0] is chain:
+        return cached[1]
+    _COMPILED[arm] = (chain, _compiled_constants(chain, arm), _wide_joints(chain, arm.family.geometry.columns))
+    return _COMPILED[arm][1]
+
+
+def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
+    """The tuple :func:`compiled_arm` keeps."""
+    from manipkit.closed_form.arms_kernel import KIND_CODES
+    from manipkit.closed_form.check_kernel import row_tables
+
+    geometry = arm.family.geometry
+    columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
+    reference, up = arm.label_axes
+
+    def triple(v):
+        return tuple(float(x) for x in v)
+
+    lower, upper = (np.ascontiguousarray(np.asarray(v, dtype=float)) for v in (chain.lower, chain.upper))
+    floats, ints = row_tables(chain.steps, chain.columns)
+    prepared = (KIND_CODES[arm.family.kind], np.ascontiguousarray(arm.h), np.ascontiguousarray(arm.p),
+                triple(arm.points["wrist"]), triple(arm.points.get("shoulder", arm.p[1])), triple(reference), triple(up),
+                float(arm.scale), np.ascontiguousarray(arm.M_inv), bool(arm.family.reversed),
+                np.ascontiguousarray(geometry.q0, dtype=float), columns,
+                np.ascontiguousarray(geometry.scale, dtype=float), np.ascontiguousarray(lower[columns]),
+                np.ascontiguousarray(upper[columns]), lower, upper, floats, ints)
+    return prepared
+
+
+#: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi): once per chain.
+_COMPILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _solved_direction(arm: IdealArm, T: np.ndarray) -> np.ndarray:
@@ -352,8 +391,13 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
-    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    check = _CHECK_DEFAULT if check_tol is CHECK_TOL else tolerances(check_tol, error=ClosedFormIKError,
+                                                                        what="check_tol")
     T = check_transform(target, what="IK target")
+    if compiled and family.kind in (UR, OPW):
+        answer = _checked_one(chain, arm, T, check)
+        if answer is not None:
+            return answer
     theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
     geometry = family.geometry
     names = tuple(chain.joint_names)
@@ -438,6 +482,51 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
         unmet=unmet, rejected=rejected, outside_by=outside_by, within_limits=within,
         refined=np.array(refined, dtype=float),
     )
+
+
+def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float]) -> IKResult | None:
+    """:func:`chain_ik` of a generic target of the UR and OPW families, from one compiled call
+    (:func:`manipkit.closed_form.arms_kernel.solve_check_one`: every branch solved, aliased, put through the
+    chain's FK, measured, labelled): the same rows, order, labels, residuals and note as the general path.
+    None when that path must answer: the kernel hands the target back (near a threshold, a free angle, no
+    branch), the target's rotation block needs projecting, or a row misses ``check`` (refined by Newton there)."""
+    from manipkit.closed_form.arms_kernel import solve_check_one
+
+    prepared = compiled_arm(chain, arm)
+    solved = solve_check_one(prepared, T)
+    if solved is None:
+        return None
+    _, valid, rows, residuals, within, bits, same = solved
+    residual_list, same, bits = residuals.tolist(), same.tolist(), bits.tolist()
+    kept: list[int] = []
+    for k in np.flatnonzero(valid).tolist():
+        position, rotation = residual_list[k]
+        if not (position <= check[0] and rotation <= check[1]):
+            return None
+        if not any(same[k][j] for j in kept):  # a row equal modulo 2 pi to a kept one is the same solution
+            kept.append(k)
+    kept.sort(key=lambda k: (not bits[k][0], not bits[k][1], not bits[k][2]))  # front, elbow up, no flip first
+    suffix = " (read tip to base)" if arm.family.reversed else ""
+    labels = tuple(f"{'front' if bits[k][0] else 'back'}, {'elbow up' if bits[k][1] else 'elbow down'}, "
+                   f"{'no flip' if bits[k][2] else 'wrist flip'}{suffix}" for k in kept)
+    Q, within, measured = rows[kept], within[kept], residuals[kept].T.copy()
+    for array in (Q, within, measured):
+        array.setflags(write=False)
+    family = arm.family
+    parts = [f"{len(kept)} solution(s) of the {family.kind} closed form"]
+    outside = len(kept) - int(np.count_nonzero(within))
+    if outside:
+        parts.append(f"{outside} outside the joint limits (marked, not dropped)")
+    wide = _COMPILED[arm][2]
+    if wide:
+        parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if family.locked:
+        parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
+    refined = np.zeros(len(kept))
+    refined.setflags(write=False)
+    return IKResult(Q, labels, len(kept), "; ".join(parts), measured[0], measured[1], mode=SPATIAL_POSE,
+                    solver=f"closed_form.chain_ik ({family.kind})", joint_names=tuple(chain.joint_names),
+                    within_limits=within, refined=refined)
 
 
 def _wide_joints(chain: Chain, columns: np.ndarray) -> list[str]:
@@ -527,15 +616,14 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
+    solver = f"closed_form.chain_ik_many ({family.kind})"
+    if compiled and family.kind in (UR, OPW):
+        return _checked_many(chain, arm, T, check, slots, solver)
     theta, branches, _ = _branches(arm, T, compiled=compiled)
     geometry = family.geometry
-    if compiled:
-        from manipkit.closed_form.arms_kernel import chain_rows
-
-        Q = chain_rows(theta, branches.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
-    else:
-        Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
-        Q = np.where(branches.valid[..., None], Q, np.nan)
+    Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
+    Q = np.where(branches.valid[..., None], Q, np.nan)
     count = branches.valid.sum(axis=-1).astype(float)
     count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
 
@@ -545,9 +633,37 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
         position, rotation = pose_residuals(_projected_target(T)[:, None], chain.fk(filled), project=False)
         return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
 
-    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
-    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=f"closed_form.chain_ik_many ({family.kind})",
-                   joint_names=tuple(chain.joint_names), measure=measure, limit=check)
+    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
+                   measure=measure, limit=check)
+
+
+def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], slots: tuple[str, ...],
+                  solver: str) -> IKBatch:
+    """:func:`chain_ik_many` of the UR and OPW families: solved, aliased, put through the chain's FK and measured
+    (:func:`~manipkit.spatial.transforms.pose_residuals`' compiled twin) in one compiled loop
+    (:func:`manipkit.closed_form.arms_kernel.solve_check_many`); the targets it hands back are solved by the
+    numpy reference and checked by the same compiled check, and a target whose rotation block is not a rotation
+    to 1e-12 is measured against its projection, as :func:`chain_ik` does."""
+    from manipkit.closed_form.arms_kernel import check_many, solve_check_many
+
+    prepared = compiled_arm(chain, arm)
+    theta, valid, _, fallback, project, Q, residuals, _ = solve_check_many(prepared, T)
+    free_any = np.zeros(len(T), dtype=bool)
+    if fallback.any():
+        rows = np.flatnonzero(fallback)
+        reference = solve_6r(arm.family.kind, arm.h, arm.p, _solved_direction(arm, T[rows]), arm.points)
+        theta[rows], valid[rows] = reference.theta, reference.valid
+        free_any[rows] = (reference.free >= 0).any(axis=-1)
+        Q[rows], residuals[rows], _ = check_many(prepared, reference.theta, reference.valid, T[rows])
+    if project.any():
+        rows = np.flatnonzero(project)
+        Q[rows], residuals[rows], _ = check_many(prepared, theta[rows], valid[rows], _projected_target(T[rows]))
+    count = np.where(free_any, np.inf, valid.sum(axis=-1).astype(float))
+    position, rotation = residuals[..., 0], residuals[..., 1]
+    success = ((position <= check[0]) & (rotation <= check[1])).any(axis=-1)
+    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
+                   success=success, residual_position=position, residual_rotation=rotation,
+                   q_residuals=residuals[..., 0, :])
 
 
 def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:
