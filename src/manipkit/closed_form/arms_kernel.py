@@ -28,11 +28,11 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, pose_residual
 from manipkit.kernels import compile_kernel
 
-__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "check_many", "solve_check_many", "solve_check_one",
-           "solve_many", "warm_up"]
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many", "solve_check_one", "solve_many",
+           "solve_rows_many", "warm_up"]
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
@@ -483,29 +483,33 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale
 
 
 @compile_kernel
-def _solve_check_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
-                     chain_upper, floats, ints, theta, valid, near, fallback, project, rows, residuals, within):
-    g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
+def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, theta, valid, near,
+                    fallback, project, rows):
+    g = np.empty((4, 4))
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
-        fallback[n] = _checked_target(kind, H, P, c, scale, M_inv, reverse, T[n], q0, columns, jscale, lower, upper,
-                                      chain_lower, chain_upper, floats, ints, g, scratch, T_fk, theta[n], valid[n],
-                                      near[n], rows[n], residuals[n], within[n])
+        _solved_target(T[n], M_inv, reverse, g)
+        R = g[:3, :3]
+        t = (g[0, 3], g[1, 3], g[2, 3])
+        if kind == 0:
+            fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        else:
+            fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        for k in range(theta.shape[1]):
+            if valid[n, k] and not fallback[n]:
+                chain_row(theta[n, k], reverse, q0, columns, jscale, lower, upper, rows[n, k])
+            else:
+                rows[n, k, :] = np.nan
 
 
 @compile_kernel
-def _check_all(theta, valid, reverse, T, q0, columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints,
-               rows, residuals, within):
-    scratch, T_fk = np.empty((4, 3)), np.empty((4, 4))
-    for n in range(T.shape[0]):
-        for k in range(theta.shape[1]):
-            if valid[n, k]:
-                chain_row(theta[n, k], reverse, q0, columns, jscale, lower, upper, rows[n, k])
-                residuals[n, k, 0], residuals[n, k, 1], within[n, k] = check_row(
-                    rows[n, k], T[n], floats, ints, chain_lower, chain_upper, scratch, T_fk)
+def _measure_all(T, reached, rows, residuals):
+    for n in range(rows.shape[0]):
+        for k in range(rows.shape[1]):
+            if math.isnan(rows[n, k, 0]):
+                residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
             else:
-                rows[n, k, :] = np.nan
-                residuals[n, k, 0], residuals[n, k, 1], within[n, k] = np.nan, np.nan, False
+                residuals[n, k, 0], residuals[n, k, 1] = pose_residual(T[n], reached[n, k])
 
 
 @compile_kernel
@@ -531,39 +535,34 @@ def _solve_check_one(kind, H, P, c, s, reference, up, scale, M_inv, reverse, T, 
     return False, exact
 
 
-def solve_check_many(prepared: tuple, T: np.ndarray):
-    """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``), solved and checked on the true chain in one loop.
+def solve_rows_many(prepared: tuple, T: np.ndarray):
+    """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``) as chain vectors, in one compiled loop.
 
     ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (theta (N, 8, 6) in the solve
-    direction, valid (N, 8), near (N, 8), fallback (N,), project (N,), rows (N, 8, n) chain vectors with limit
-    aliases (NaN where not valid), residuals (N, 8, 2) m and rad by the chain's FK against ``T``, within (N, 8)).
-    Targets with ``fallback`` hold nothing else (the reference solves them); ``project``: a target whose rotation
-    block is not a rotation to 1e-12 (its residuals are to be measured again against the projected block).
+    direction, valid (N, 8), near (N, 8), fallback (N,), project (N,), rows (N, 8, n): chain vectors with the
+    in-limit aliases nearest 0, NaN where not valid). Targets with ``fallback`` have NaN rows (the reference
+    solves them); ``project``: a target whose rotation block is not a rotation to 1e-12 (measure against its
+    projection).
     """
-    kind, H, P, c, _, _, _, scale, M_inv, reverse, q0, columns, jscale, lower, upper, chain_lower, chain_upper, \
-        floats, ints = prepared
+    kind, H, P, c, _, _, _, scale, M_inv, reverse, q0, columns, jscale, lower, upper = prepared[:15]
     T = np.ascontiguousarray(T, dtype=float)
     N, n = T.shape[0], q0.shape[0]
     theta = np.zeros((N, 8, 6))
     valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
-    rows, residuals, within = np.empty((N, 8, n)), np.empty((N, 8, 2)), np.zeros((N, 8), dtype=np.bool_)
-    _solve_check_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
-                     chain_upper, floats, ints, theta, valid, near, fallback, project, rows, residuals, within)
-    return theta, valid, near, fallback, project, rows, residuals, within
+    rows = np.empty((N, 8, n))
+    _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, theta, valid, near,
+                    fallback, project, rows)
+    return theta, valid, near, fallback, project, rows
 
 
-def check_many(prepared: tuple, theta: np.ndarray, valid: np.ndarray, T: np.ndarray):
-    """(rows (N, k, n), residuals (N, k, 2), within (N, k)) of solved angles ``theta`` (N, k, 6) (solve direction;
-    NaN rows where not ``valid``) against targets ``T`` (N, 4, 4): the check of :func:`solve_check_many` alone."""
-    _, _, _, _, _, _, _, _, _, reverse, q0, columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints = \
-        prepared
-    theta = np.ascontiguousarray(theta, dtype=float)
-    N, k, n = theta.shape[0], theta.shape[1], q0.shape[0]
-    rows, residuals, within = np.empty((N, k, n)), np.empty((N, k, 2)), np.zeros((N, k), dtype=np.bool_)
-    _check_all(theta, np.ascontiguousarray(valid, dtype=np.bool_), reverse, np.ascontiguousarray(T, dtype=float), q0,
-               columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints, rows, residuals, within)
-    return rows, residuals, within
+def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(N, k, 2) residuals (m, rad) of reached poses ``reached`` (N, k, 4, 4) against targets ``T`` (N, 4, 4):
+    :func:`manipkit.closed_form.check_kernel.pose_residual` (``pose_residuals``' compiled twin); NaN where the row
+    ``rows`` (N, k, n) is NaN (no branch)."""
+    residuals = np.empty((*rows.shape[:2], 2))
+    _measure_all(np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(reached, dtype=float), rows, residuals)
+    return residuals
 
 
 def solve_check_one(prepared: tuple, T: np.ndarray):

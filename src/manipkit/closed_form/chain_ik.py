@@ -639,25 +639,30 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
 
 def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], slots: tuple[str, ...],
                   solver: str) -> IKBatch:
-    """:func:`chain_ik_many` of the UR and OPW families: solved, aliased, put through the chain's FK and measured
-    (:func:`~manipkit.spatial.transforms.pose_residuals`' compiled twin) in one compiled loop
-    (:func:`manipkit.closed_form.arms_kernel.solve_check_many`); the targets it hands back are solved by the
-    numpy reference and checked by the same compiled check, and a target whose rotation block is not a rotation
-    to 1e-12 is measured against its projection, as :func:`chain_ik` does."""
-    from manipkit.closed_form.arms_kernel import check_many, solve_check_many
+    """:func:`chain_ik_many` of the UR and OPW families: every branch solved and aliased in one compiled loop
+    (:func:`manipkit.closed_form.arms_kernel.solve_rows_many`; the targets it hands back by the numpy reference),
+    every row put through the chain's compiled FK (``chain.fk``) and measured by ``pose_residuals``' compiled twin
+    (:func:`manipkit.closed_form.arms_kernel.measure_many`), against the target's rotation projected where it is
+    not a rotation to 1e-12, as :func:`chain_ik` measures."""
+    from manipkit.closed_form.arms_kernel import chain_rows, measure_many, solve_rows_many
 
     prepared = compiled_arm(chain, arm)
-    theta, valid, _, fallback, project, Q, residuals, _ = solve_check_many(prepared, T)
+    _, valid, _, fallback, project, Q = solve_rows_many(prepared, T)
     free_any = np.zeros(len(T), dtype=bool)
     if fallback.any():
         rows = np.flatnonzero(fallback)
         reference = solve_6r(arm.family.kind, arm.h, arm.p, _solved_direction(arm, T[rows]), arm.points)
-        theta[rows], valid[rows] = reference.theta, reference.valid
+        theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
+        valid[rows] = reference.valid
         free_any[rows] = (reference.free >= 0).any(axis=-1)
-        Q[rows], residuals[rows], _ = check_many(prepared, reference.theta, reference.valid, T[rows])
+        Q[rows] = chain_rows(theta, reference.valid, *prepared[10:15])
+    T_check = T
     if project.any():
-        rows = np.flatnonzero(project)
-        Q[rows], residuals[rows], _ = check_many(prepared, theta[rows], valid[rows], _projected_target(T[rows]))
+        T_check = T.copy()
+        T_check[project] = _projected_target(T[project])
+    missing = np.isnan(Q[..., 0])
+    reached = chain.fk(np.where(missing[..., None], 0.0, Q))
+    residuals = measure_many(T_check, reached, Q)
     count = np.where(free_any, np.inf, valid.sum(axis=-1).astype(float))
     position, rotation = residuals[..., 0], residuals[..., 1]
     success = ((position <= check[0]) & (rotation <= check[1])).any(axis=-1)
