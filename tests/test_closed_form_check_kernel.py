@@ -115,3 +115,40 @@ def test_a_target_whose_rotation_is_projected_is_measured_against_its_projection
     assert np.abs(fast.residual_position - reference.residual_position)[~np.isnan(fast.residual_position)].max() < 1e-13
     assert np.abs(fast.residual_rotation - reference.residual_rotation)[~np.isnan(fast.residual_rotation)].max() < 1e-13
     same_fields(chain_ik(chain, T[0]), chain_ik(chain, T[0], compiled=False))
+
+
+def test_srs_at_an_arm_angle_equals_the_reference():
+    """iiwa14 (7R SRS) at the arm angle of each generating configuration: the compiled solve and check give the
+    numpy reference's answer field for field; the generating configuration is among the rows; every row lands on
+    its target by Pinocchio. Singular targets (elbow straight: q4 = 0; wrist axes aligned: q6 = 0) and an
+    unreachable one are handed back and answered as the reference answers them."""
+    from manipkit.closed_form.chain_ik import srs_arm_angle
+    from manipkit.closed_form.srs_kernel import solve_check_srs
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain)
+    Q = chain.sample(40, seed=21)
+    Q[0, 3], Q[1, 5] = 0.0, 0.0
+    data = robot.model.createData()
+    for index, q in enumerate(Q):
+        T = chain.fk(q)
+        psi = srs_arm_angle(chain, q, family=family)
+        fast = chain_ik(chain, T, family=family, arm_angle=psi)
+        same_fields(fast, chain_ik(chain, T, family=family, arm_angle=psi, compiled=False))
+        if index >= 2:  # a singular target's rows stand for families (the free joint held at its reference value)
+            assert any(np.abs(np.pi - np.mod(np.pi - (s - q), 2 * np.pi)).max() < 1e-7 for s in fast.solutions)
+        for s in fast.solutions:
+            pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(chain.full(s)))
+            assert np.abs(data.oMf[robot.frame_id("ee_link")].homogeneous - T).max() < 1e-10
+    from manipkit.closed_form.chain_ik import compiled_arm, ideal_arm
+
+    prepared = compiled_arm(chain, ideal_arm(family))
+    T = chain.fk(Q[0])
+    assert solve_check_srs(prepared, T, srs_arm_angle(chain, Q[0], family=family)) is None  # elbow straight
+    assert solve_check_srs(prepared, chain.fk(Q[2]), srs_arm_angle(chain, Q[2], family=family)) is not None
+    far = chain.fk(np.zeros(7))
+    far[:3, 3] *= 3.0
+    fast, reference = chain_ik(chain, far, family=family, arm_angle=0.3), chain_ik(chain, far, family=family,
+                                                                                   arm_angle=0.3, compiled=False)
+    assert not fast.success and fast.unmet == reference.unmet and fast.note == reference.note

@@ -28,7 +28,56 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, pose_residual
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, pose_residual, same_rows
+from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
+    MARGIN,
+    NEAR,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    add as _add,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    atan2 as _atan2,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    dot as _dot,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    move as _move,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    mtv as _mtv,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    mv as _mv,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    norm as _norm,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    perpendicular as _perpendicular,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    rotate as _rotate,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    row as _row,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp1 as _sp1,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp3 as _sp3,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp4 as _sp4,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sub as _sub,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    wrap as _wrap,
+)
 from manipkit.kernels import compile_kernel
 
 __all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many", "solve_check_one", "solve_many",
@@ -36,180 +85,7 @@ __all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many"
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
-#: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
-MARGIN = 1e-8
-TOL = 1e-12  # the subproblems' zero, as the reference's (arms.solve_6r's tol)
-NEAR = 1e-6  # arms.NEAR
 TWO_PI = 2.0 * math.pi
-# Cephes' atan (Moshier, cephes/cmath/atan.c): P/Q on [0, 0.66] after the reduction, and pi/4's low bits
-_P0, _P1, _P2, _P3, _P4 = (-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792314704667340e1,
-                           -1.228866684490136173410e2, -6.485021904942025371773e1)
-_Q0, _Q1, _Q2, _Q3, _Q4 = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
-                           4.853903996359136964868e2, 1.945506571482613964425e2)
-_MOREBITS = 6.123233995736765886130e-17
-
-
-@compile_kernel
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@compile_kernel
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@compile_kernel
-def _sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-@compile_kernel
-def _add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-@compile_kernel
-def _norm(a):
-    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-
-
-@compile_kernel
-def _wrap(x):
-    """x wrapped to (-pi, pi]."""
-    return math.pi - (math.pi - x) % TWO_PI
-
-
-@compile_kernel
-def _rotate(k, c, s, p):
-    """R(k, t) p (Rodrigues) with c = cos t, s = sin t, as subproblems.rotate."""
-    kp = _dot(k, p)
-    kx = _cross(k, p)
-    return (c * p[0] + s * kx[0] + (1.0 - c) * kp * k[0],
-            c * p[1] + s * kx[1] + (1.0 - c) * kp * k[1],
-            c * p[2] + s * kx[2] + (1.0 - c) * kp * k[2])
-
-
-@compile_kernel
-def _move(h, p, c, s, x):
-    """E(t) x: x turned by t (c = cos t, s = sin t) about the line through p along h."""
-    return _add(p, _rotate(h, c, s, _sub(x, p)))
-
-
-@compile_kernel
-def _mv(R, x):
-    """R x for a (3, 3) array R."""
-    return (R[0, 0] * x[0] + R[0, 1] * x[1] + R[0, 2] * x[2],
-            R[1, 0] * x[0] + R[1, 1] * x[1] + R[1, 2] * x[2],
-            R[2, 0] * x[0] + R[2, 1] * x[1] + R[2, 2] * x[2])
-
-
-@compile_kernel
-def _mtv(R, x):
-    """R^T x for a (3, 3) array R."""
-    return (R[0, 0] * x[0] + R[1, 0] * x[1] + R[2, 0] * x[2],
-            R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
-            R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
-
-
-@compile_kernel
-def _sp1(k, p, q):
-    """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q.
-
-    ``size`` = |p off the axis| (the angle is free, held 0, where it is within TOL); ``miss`` = |R(k, t) p - q|,
-    which for the best angle is ``hypot(|p_perp| - |q_perp|, k.p - k.q)`` (R turns p_perp onto q_perp's direction)."""
-    kp, kq = _dot(k, p), _dot(k, q)
-    pp = (p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2])
-    qp = (q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2])
-    size, size_q = _norm(pp), _norm(qp)
-    X, Y = _dot(pp, qp), _dot(k, _cross(pp, qp))
-    r = math.sqrt(X * X + Y * Y)
-    if size <= TOL or r == 0.0:
-        return 1.0, 0.0, size, _norm(_sub(p, q))
-    d_perp, d_axis = size - size_q, kp - kq
-    return X / r, Y / r, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
-
-
-@compile_kernel
-def _atan_unit(x):
-    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp)."""
-    y, extra = 0.0, 0.0
-    if x > 0.66:
-        y, extra = 0.25 * math.pi, 0.5 * _MOREBITS
-        x = (x - 1.0) / (x + 1.0)
-    z = x * x
-    num = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
-    den = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
-    return y + (x * (z * num / den) + x + extra)
-
-
-@compile_kernel
-def _atan2(y, x):
-    """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much)."""
-    ay, ax = abs(y), abs(x)
-    if ay == 0.0 and ax == 0.0:
-        return math.copysign(math.pi, y) if math.copysign(1.0, x) < 0.0 else math.copysign(0.0, y)
-    if ay <= ax:
-        a = _atan_unit(ay / ax)
-    else:
-        a = 0.5 * math.pi - _atan_unit(ax / ay)
-    if math.copysign(1.0, x) < 0.0:
-        a = math.pi - a
-    return math.copysign(a, y)
-
-
-@compile_kernel
-def _sp4(h, k, p, d):
-    """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
-    (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
-    ``unsure``: degenerate or tangent within ``MARGIN`` (the reference decides there)."""
-    kp = _dot(k, p)
-    A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
-    B = _dot(h, _cross(k, p))
-    C = d - _dot(h, k) * kp
-    r = math.hypot(A, B)
-    scale = max(1.0, r)
-    gap = abs(C) - r
-    unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
-    if r == 0.0:
-        return 1.0, 0.0, 1.0, 0.0, 0.0, abs(C), True
-    cphi, sphi = A / r, B / r
-    ci = min(1.0, max(-1.0, C / r))
-    si = math.sqrt(1.0 - ci * ci)
-    count = 0.0 if gap > TOL * scale else 2.0
-    miss = gap if count == 0.0 else 0.0
-    return cphi * ci - sphi * si, sphi * ci + cphi * si, cphi * ci + sphi * si, sphi * ci - cphi * si, count, miss, unsure
-
-
-@compile_kernel
-def _sp3(k, p1, p2, delta):
-    """Subproblem 3 (|R(k, t) p1 - p2| = delta) as subproblems.sp3: (ca, sa, cb, sb, count, miss, unsure)."""
-    d = 0.5 * (_dot(p1, p1) + _dot(p2, p2) - delta * delta)
-    ca, sa, cb, sb, count, miss, unsure = _sp4(p2, k, p1, d)
-    if count == 0.0:
-        ra = _norm(_sub(_rotate(k, ca, sa, p1), p2))
-        rb = _norm(_sub(_rotate(k, cb, sb, p1), p2))
-        miss = min(abs(ra - delta), abs(rb - delta))
-    return ca, sa, cb, sb, count, miss, unsure
-
-
-@compile_kernel
-def _perpendicular(h):
-    a = (abs(h[0]), abs(h[1]), abs(h[2]))
-    i = 0
-    if a[1] < a[i]:
-        i = 1
-    if a[2] < a[i]:
-        i = 2
-    e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
-    v = _cross(h, e)
-    n = _norm(v)
-    return (v[0] / n, v[1] / n, v[2] / n)
-
-
-@compile_kernel
-def _row(H, i):
-    return (H[i, 0], H[i, 1], H[i, 2])
 
 
 @compile_kernel
@@ -524,14 +400,7 @@ def _solve_check_one(kind, H, P, c, s, reference, up, scale, M_inv, reverse, T, 
                        chain_upper, floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals, within):
         return True, exact
     _labels(kind, H, P, c, s, reference, up, g, theta, bits)
-    for k in range(rows.shape[0]):
-        for j in range(rows.shape[0]):
-            equal = valid[k] and valid[j]
-            for i in range(rows.shape[1]):
-                if equal:
-                    d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
-                    equal = abs(d) <= 1e-9
-            same[k, j] = equal
+    same_rows(rows, valid, same)
     return False, exact
 
 
@@ -599,6 +468,21 @@ def warm_up() -> None:
     theta, valid, _, _ = solve_many("three parallel, two intersecting", h, p, p[5], 1.0, g)
     chain_rows(theta, valid, np.zeros(6), np.arange(6), np.ones(6), np.full(6, -np.pi), np.full(6, np.pi))
     branch_labels("three parallel, two intersecting", h, p, p[5], p[1], np.array([1.0, 0.0, 0.0]), h[0], g[0], theta[0])
+    # the solve-and-check loops, on a chain of seven joints about z (only the argument types matter here)
+    from manipkit.closed_form.check_kernel import row_tables
+    from manipkit.closed_form.srs_kernel import solve_check_srs
+    from manipkit.kinematics.fk_kernel import ChainStep
+
+    floats, ints = row_tables([ChainStep(np.eye(3), np.array([0.0, 0.0, 0.1]), k, False, np.array(z))
+                               for k in range(7)], np.arange(7))
+    h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
+    limits = np.full(7, np.pi)
+    prepared = (0, h7, p7, z, y, z, y, 1.0, np.eye(4), False, np.zeros(7), np.arange(7), np.ones(7), -limits, limits,
+                -limits, limits, floats, ints)
+    solve_check_one(prepared, np.eye(4))
+    rows = solve_rows_many(prepared, g)[-1]
+    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)
+    solve_check_srs(prepared, np.eye(4), 0.3)
 
 
 if __name__ == "__main__":

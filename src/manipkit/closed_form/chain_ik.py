@@ -173,7 +173,7 @@ def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
 
     lower, upper = (np.ascontiguousarray(np.asarray(v, dtype=float)) for v in (chain.lower, chain.upper))
     floats, ints = row_tables(chain.steps, chain.columns)
-    prepared = (KIND_CODES[arm.family.kind], np.ascontiguousarray(arm.h), np.ascontiguousarray(arm.p),
+    prepared = (KIND_CODES.get(arm.family.kind, -1), np.ascontiguousarray(arm.h), np.ascontiguousarray(arm.p),
                 triple(arm.points["wrist"]), triple(arm.points.get("shoulder", arm.p[1])), triple(reference), triple(up),
                 float(arm.scale), np.ascontiguousarray(arm.M_inv), bool(arm.family.reversed),
                 np.ascontiguousarray(geometry.q0, dtype=float), columns,
@@ -394,8 +394,9 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     check = _CHECK_DEFAULT if check_tol is CHECK_TOL else tolerances(check_tol, error=ClosedFormIKError,
                                                                         what="check_tol")
     T = check_transform(target, what="IK target")
-    if compiled and family.kind in (UR, OPW):
-        answer = _checked_one(chain, arm, T, check)
+    if compiled and family.kind in (UR, OPW) or (compiled and family.kind == SRS and arm_angle is not None
+                                                  and not family.reversed):
+        answer = _checked_one(chain, arm, T, check, arm_angle)
         if answer is not None:
             return answer
     theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
@@ -484,20 +485,32 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     )
 
 
-def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float]) -> IKResult | None:
+def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], arm_angle=None
+                 ) -> IKResult | None:
     """:func:`chain_ik` of a generic target of the UR and OPW families, from one compiled call
     (:func:`manipkit.closed_form.arms_kernel.solve_check_one`: every branch solved, aliased, put through the
     chain's FK, measured, labelled): the same rows, order, labels, residuals and note as the general path.
     None when that path must answer: the kernel hands the target back (near a threshold, a free angle, no
-    branch), the target's rotation block needs projecting, or a row misses ``check`` (refined by Newton there)."""
-    from manipkit.closed_form.arms_kernel import solve_check_one
-
+    branch), the target's rotation block needs projecting, or a row misses ``check`` (refined by Newton there).
+    A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
     prepared = compiled_arm(chain, arm)
-    solved = solve_check_one(prepared, T)
-    if solved is None:
-        return None
-    _, valid, rows, residuals, within, bits, same = solved
-    residual_list, same, bits = residuals.tolist(), same.tolist(), bits.tolist()
+    if arm.family.kind == SRS:
+        from manipkit.closed_form.srs_kernel import solve_check_srs
+
+        solved = solve_check_srs(prepared, T, float(arm_angle))
+        if solved is None:
+            return None
+        theta, valid, rows, residuals, within, same = solved
+        bits = [(True, True, t[5] >= 0.0) for t in theta.tolist()]  # SRS labels: the wrist's split orders them
+    else:
+        from manipkit.closed_form.arms_kernel import solve_check_one
+
+        solved = solve_check_one(prepared, T)
+        if solved is None:
+            return None
+        theta, valid, rows, residuals, within, bits, same = solved
+        bits = bits.tolist()
+    residual_list, same = residuals.tolist(), same.tolist()
     kept: list[int] = []
     for k in np.flatnonzero(valid).tolist():
         position, rotation = residual_list[k]
@@ -507,8 +520,11 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
             kept.append(k)
     kept.sort(key=lambda k: (not bits[k][0], not bits[k][1], not bits[k][2]))  # front, elbow up, no flip first
     suffix = " (read tip to base)" if arm.family.reversed else ""
-    labels = tuple(f"{'front' if bits[k][0] else 'back'}, {'elbow up' if bits[k][1] else 'elbow down'}, "
-                   f"{'no flip' if bits[k][2] else 'wrist flip'}{suffix}" for k in kept)
+    if arm.family.kind == SRS:
+        labels = tuple(_labels(arm, None, theta[kept]))
+    else:
+        labels = tuple(f"{'front' if bits[k][0] else 'back'}, {'elbow up' if bits[k][1] else 'elbow down'}, "
+                       f"{'no flip' if bits[k][2] else 'wrist flip'}{suffix}" for k in kept)
     Q, within, measured = rows[kept], within[kept], residuals[kept].T.copy()
     for array in (Q, within, measured):
         array.setflags(write=False)
@@ -520,6 +536,8 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
     wide = _COMPILED[arm][2]
     if wide:
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if family.kind == SRS:
+        parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
     if family.locked:
         parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
     refined = np.zeros(len(kept))

@@ -34,7 +34,8 @@ from manipkit.kernels import compile_kernel
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "pose_residual", "row_tables", "wrap_angle"]
+__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "pose_residual", "row_tables", "same_rows",
+           "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
@@ -130,3 +131,17 @@ def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
         if q[j] < chain_lower[j] - LIMIT_TOL or q[j] > chain_upper[j] + LIMIT_TOL:
             inside = False
     return position, rotation, inside
+
+
+@compile_kernel
+def same_rows(rows, valid, same):
+    """``same[k, j]``: rows ``k`` and ``j`` (both valid) equal modulo 2 pi to 1e-9 in every entry, as chain_ik's
+    ``_pairwise_same``."""
+    for k in range(rows.shape[0]):
+        for j in range(rows.shape[0]):
+            equal = valid[k] and valid[j]
+            for i in range(rows.shape[1]):
+                if equal:
+                    d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
+                    equal = abs(d) <= 1e-9
+            same[k, j] = equal
