@@ -334,10 +334,11 @@ def _solved_target(T, M_inv, reverse, g):
 
 
 @compile_kernel
-def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
-                    chain_upper, floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals, within):
+def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, scratch,
+                    T_fk, theta, valid, near, rows, residuals, within):
     """One target: every branch solved (as _solve_all), then each valid one's chain row, FK on the true chain,
-    residual and limits (check_kernel); True when the reference must decide (nothing else is written then)."""
+    residual and limits (check_kernel); True when the reference must decide (nothing else is written then).
+    ``solved`` (3, m): joint scales, lower and upper limits of the solved columns; ``limits`` (2, n): the chain's."""
     _solved_target(T, M_inv, reverse, g)
     R = g[:3, :3]
     t = (g[0, 3], g[1, 3], g[2, 3])
@@ -349,18 +350,15 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale
         return True
     for k in range(theta.shape[0]):
         if valid[k]:
-            chain_row(theta[k], reverse, q0, columns, jscale, lower, upper, rows[k])
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, chain_lower,
-                                                                    chain_upper, scratch, T_fk)
-        else:
-            rows[k, :] = np.nan
-            residuals[k, 0], residuals[k, 1], within[k] = np.nan, np.nan, False
+            chain_row(theta[k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[k])
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
+                                                                    scratch, T_fk)
     return False
 
 
 @compile_kernel
-def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, theta, valid, near,
-                    fallback, project, rows):
+def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, theta, valid, near, fallback,
+                    project, rows):
     g = np.empty((4, 4))
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
@@ -373,7 +371,7 @@ def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale
             fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
         for k in range(theta.shape[1]):
             if valid[n, k] and not fallback[n]:
-                chain_row(theta[n, k], reverse, q0, columns, jscale, lower, upper, rows[n, k])
+                chain_row(theta[n, k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[n, k])
             else:
                 rows[n, k, :] = np.nan
 
@@ -389,19 +387,22 @@ def _measure_all(T, reached, rows, residuals):
 
 
 @compile_kernel
-def _solve_check_one(kind, H, P, c, s, reference, up, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper,
-                     chain_lower, chain_upper, floats, ints, theta, valid, rows, residuals, within, bits, same):
-    """_checked_target for one target, with the label bits of every slot and ``same[k, j]``: rows k and j equal
-    modulo 2 pi to 1e-9 (chain_ik's _pairwise_same); returns (handed back, rotation block used as is)."""
+def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints, T):
+    """_checked_target for one target, with the label bits of every slot and which rows are equal modulo 2 pi;
+    returns (handed back, rotation block used as is, valid, rows, residuals, within, bits, same)."""
+    m, n = H.shape[0], q0.shape[0]
+    theta, valid, near = np.zeros((8, m)), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
+    rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
+    bits, same = np.zeros((8, 3), dtype=np.bool_), np.zeros((8, 8), dtype=np.bool_)
     g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
-    near = np.zeros(theta.shape[0], dtype=np.bool_)
     exact = exact_rotation(T)
-    if _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, chain_lower,
-                       chain_upper, floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals, within):
-        return True, exact
-    _labels(kind, H, P, c, s, reference, up, g, theta, bits)
-    same_rows(rows, valid, same)
-    return False, exact
+    c = _row(points, 0)
+    handed_back = _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits, floats, ints,
+                                  g, scratch, T_fk, theta, valid, near, rows, residuals, within)
+    if not handed_back:
+        _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
+        same_rows(rows, valid, same)
+    return handed_back, exact, valid, rows, residuals, within, bits, same
 
 
 def solve_rows_many(prepared: tuple, T: np.ndarray):
@@ -413,15 +414,15 @@ def solve_rows_many(prepared: tuple, T: np.ndarray):
     solves them); ``project``: a target whose rotation block is not a rotation to 1e-12 (measure against its
     projection).
     """
-    kind, H, P, c, _, _, _, scale, M_inv, reverse, q0, columns, jscale, lower, upper = prepared[:15]
+    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved = prepared[:10]
     T = np.ascontiguousarray(T, dtype=float)
     N, n = T.shape[0], q0.shape[0]
     theta = np.zeros((N, 8, 6))
     valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
     rows = np.empty((N, 8, n))
-    _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, jscale, lower, upper, theta, valid, near,
-                    fallback, project, rows)
+    _solve_rows_all(kind, H, P, (float(points[0, 0]), float(points[0, 1]), float(points[0, 2])), scale, M_inv,
+                    reverse, T, q0, columns, solved, theta, valid, near, fallback, project, rows)
     return theta, valid, near, fallback, project, rows
 
 
@@ -435,24 +436,15 @@ def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.nda
 
 
 def solve_check_one(prepared: tuple, T: np.ndarray):
-    """One target ``T`` (4, 4) as :func:`solve_check_many`, with each slot's label bits (front, elbow above,
-    no flip: :func:`branch_labels`) and which rows are equal modulo 2 pi (to 1e-9).
+    """One target ``T`` (4, 4) solved, each branch's chain row put through the chain's FK and measured (as
+    :func:`solve_rows_many` and :func:`measure_many`), with each slot's label bits (front, elbow above, no flip:
+    :func:`branch_labels`) and which rows are equal modulo 2 pi (to 1e-9), in one compiled call.
 
     Returns None when the reference must decide, or the target's rotation block is not a rotation to 1e-12;
-    else (theta (8, 6), valid (8,), rows (8, n), residuals (8, 2), within (8,), bits (8, 3), same (8, 8)).
+    else (valid (8,), rows (8, n), residuals (8, 2), within (8,), bits (8, 3), same (8, 8)).
     """
-    kind, H, P, c, s, reference, up, scale, M_inv, reverse, q0, columns, jscale, lower, upper, chain_lower, \
-        chain_upper, floats, ints = prepared
-    n = q0.shape[0]
-    theta, valid = np.zeros((8, 6)), np.zeros(8, dtype=np.bool_)
-    rows, residuals, within = np.empty((8, n)), np.empty((8, 2)), np.zeros(8, dtype=np.bool_)
-    bits, same = np.zeros((8, 3), dtype=np.bool_), np.zeros((8, 8), dtype=np.bool_)
-    handed_back, exact = _solve_check_one(kind, H, P, c, s, reference, up, scale, M_inv, reverse, T, q0, columns,
-                                          jscale, lower, upper, chain_lower, chain_upper, floats, ints, theta, valid,
-                                          rows, residuals, within, bits, same)
-    if handed_back or not exact:
-        return None
-    return theta, valid, rows, residuals, within, bits, same
+    handed_back, exact, *answer = _solve_check_one(*prepared, T)
+    return None if handed_back or not exact else answer
 
 
 def warm_up() -> None:
@@ -477,8 +469,8 @@ def warm_up() -> None:
                                for k in range(7)], np.arange(7))
     h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
     limits = np.full(7, np.pi)
-    prepared = (0, h7, p7, z, y, z, y, 1.0, np.eye(4), False, np.zeros(7), np.arange(7), np.ones(7), -limits, limits,
-                -limits, limits, floats, ints)
+    prepared = (0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
+                np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
     solve_check_one(prepared, np.eye(4))
     rows = solve_rows_many(prepared, g)[-1]
     measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)

@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
-from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.closed_form.families import (
     FAMILY_TOL,
     OPW,
@@ -71,7 +71,6 @@ __all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "s
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
 TWO_PI = 2.0 * math.pi
-_CHECK_DEFAULT = (CHECK_TOL, CHECK_TOL)  # tolerances(CHECK_TOL), parsed once
 
 
 class IdealArm:
@@ -166,19 +165,16 @@ def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
 
     geometry = arm.family.geometry
     columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
-    reference, up = arm.label_axes
-
-    def triple(v):
-        return tuple(float(x) for x in v)
-
-    lower, upper = (np.ascontiguousarray(np.asarray(v, dtype=float)) for v in (chain.lower, chain.upper))
+    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
     floats, ints = row_tables(chain.steps, chain.columns)
+    # (kind, axes h, points p, (wrist, shoulder, label reference, label up), size, M^-1, reversed, q0, solved
+    # columns, (their scales, lower, upper limits), (the chain's lower, upper limits), the chain's FK program)
     prepared = (KIND_CODES.get(arm.family.kind, -1), np.ascontiguousarray(arm.h), np.ascontiguousarray(arm.p),
-                triple(arm.points["wrist"]), triple(arm.points.get("shoulder", arm.p[1])), triple(reference), triple(up),
+                np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float),
                 float(arm.scale), np.ascontiguousarray(arm.M_inv), bool(arm.family.reversed),
                 np.ascontiguousarray(geometry.q0, dtype=float), columns,
-                np.ascontiguousarray(geometry.scale, dtype=float), np.ascontiguousarray(lower[columns]),
-                np.ascontiguousarray(upper[columns]), lower, upper, floats, ints)
+                np.array([geometry.scale, lower[columns], upper[columns]], dtype=float), np.array([lower, upper]),
+                floats, ints)
     return prepared
 
 
@@ -391,8 +387,7 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
-    check = _CHECK_DEFAULT if check_tol is CHECK_TOL else tolerances(check_tol, error=ClosedFormIKError,
-                                                                        what="check_tol")
+    check = tolerance_pair(check_tol, error=ClosedFormIKError, what="check_tol")
     T = check_transform(target, what="IK target")
     if compiled and family.kind in (UR, OPW) or (compiled and family.kind == SRS and arm_angle is not None
                                                   and not family.reversed):
@@ -502,17 +497,18 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
             return None
         theta, valid, rows, residuals, within, same = solved
         bits = [(True, True, t[5] >= 0.0) for t in theta.tolist()]  # SRS labels: the wrist's split orders them
+        same = same.tolist()
     else:
         from manipkit.closed_form.arms_kernel import solve_check_one
 
         solved = solve_check_one(prepared, T)
         if solved is None:
             return None
-        theta, valid, rows, residuals, within, bits, same = solved
-        bits = bits.tolist()
-    residual_list, same = residuals.tolist(), same.tolist()
+        valid, rows, residuals, within, bits, same = solved
+        bits, same = bits.tolist(), same.tolist()
+    residual_list = residuals.tolist()
     kept: list[int] = []
-    for k in np.flatnonzero(valid).tolist():
+    for k in [k for k, v in enumerate(valid.tolist()) if v]:
         position, rotation = residual_list[k]
         if not (position <= check[0] and rotation <= check[1]):
             return None
@@ -673,7 +669,7 @@ def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float
         theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
         valid[rows] = reference.valid
         free_any[rows] = (reference.free >= 0).any(axis=-1)
-        Q[rows] = chain_rows(theta, reference.valid, *prepared[10:15])
+        Q[rows] = chain_rows(theta, reference.valid, prepared[7], prepared[8], *prepared[9])
     T_check = T
     if project.any():
         T_check = T.copy()

@@ -18,6 +18,8 @@ everywhere. Importing this module imports numba.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, same_rows
@@ -123,25 +125,29 @@ def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
 
 
 @compile_kernel
-def _srs_check_one(H, P, S, c, pc, ps, M_inv, T, q0, columns, jscale, lower, upper, chain_lower, chain_upper,
-                   floats, ints, theta, valid, rows, residuals, within, same):
-    """One target: every branch at the arm angle, each branch's chain row, FK, residual and limits, and which rows
-    are equal modulo 2 pi; returns (handed back, rotation block used as is)."""
-    scratch, T_fk = np.empty((4, 3)), np.empty((4, 4))
+def _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T, pc, ps):
+    """One target: every branch at the arm angle (cos ``pc``, sin ``ps``), each branch's chain row, FK, residual
+    and limits, and which rows are equal modulo 2 pi; returns (handed back, rotation block used as is, theta,
+    valid, rows, residuals, within, same)."""
+    n = q0.shape[0]
+    theta, valid = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
+    rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
+    same = np.zeros((8, 8), dtype=np.bool_)
+    scratch, T_fk, g = np.empty((4, 3)), np.empty((4, 4)), np.empty((4, 4))
     exact = exact_rotation(T)
-    g = np.empty((4, 4))
     for i in range(4):  # g = T M^-1
         for j in range(4):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
-    if _srs_target(H, P, S, c, pc, ps, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
-        return True, exact
+    if _srs_target(H, P, row(points, 1), row(points, 0), pc, ps, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta,
+                   valid):
+        return True, exact, theta, valid, rows, residuals, within, same
     for k in range(theta.shape[0]):
         if valid[k]:
-            chain_row(theta[k], False, q0, columns, jscale, lower, upper, rows[k])
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, chain_lower,
-                                                                    chain_upper, scratch, T_fk)
+            chain_row(theta[k], False, q0, columns, solved[0], solved[1], solved[2], rows[k])
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
+                                                                    scratch, T_fk)
     same_rows(rows, valid, same)
-    return False, exact
+    return False, exact, theta, valid, rows, residuals, within, same
 
 
 def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float):
@@ -153,16 +159,7 @@ def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float):
     :func:`manipkit.closed_form.arms_kernel.solve_check_one` gives them (without label bits: an SRS branch is
     named by the signs of its angles).
     """
-    _, H, P, c, s, _, _, _, M_inv, _, q0, columns, jscale, lower, upper, chain_lower, chain_upper, floats, ints = \
-        prepared
-    n = q0.shape[0]
-    theta, valid = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
-    rows, residuals, within = np.empty((8, n)), np.empty((8, 2)), np.zeros(8, dtype=np.bool_)
-    same = np.zeros((8, 8), dtype=np.bool_)
-    handed_back, exact = _srs_check_one(H, P, s, c, float(np.cos(arm_angle)), float(np.sin(arm_angle)), M_inv,
-                                        np.ascontiguousarray(T, dtype=float), q0, columns, jscale, lower, upper,
-                                        chain_lower, chain_upper, floats, ints, theta, valid, rows, residuals,
-                                        within, same)
-    if handed_back or not exact:
-        return None
-    return theta, valid, rows, residuals, within, same
+    _, H, P, points, _, M_inv, _, q0, columns, solved, limits, floats, ints = prepared
+    handed_back, exact, *answer = _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T,
+                                                 math.cos(arm_angle), math.sin(arm_angle))
+    return None if handed_back or not exact else answer
