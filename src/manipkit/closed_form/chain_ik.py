@@ -32,7 +32,8 @@ standing for a one-parameter family: ``count`` is infinite, ``free_joints``
 and ``free_parameter`` name the joint held at its ``q0`` value, and
 ``family`` says which combination is determined.
 
-Given a chain object; never imports the kinematics layer (docs/architecture.md, "Layers").
+Given a chain object; never imports the kinematics layer (its compiled check reads the chain's FK program from
+``kinematics.fk_kernel``, the one module it may: docs/architecture.md, "Layers").
 """
 
 from __future__ import annotations
@@ -617,14 +618,17 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
                   lock=None, compiled: bool = True) -> IKBatch:
-    """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
+    """Every branch for many targets ``(N, 4, 4)`` at once (compiled): an :class:`IKBatch` of 8 slots.
 
     Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
     branch does not exist. Revolute entries are the in-limit aliases nearest
     0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
     carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
-    and ``success`` are measured by the chain's compiled FK on first use,
-    against ``check_tol``. ``compiled`` as in :func:`chain_ik`.
+    and ``success`` are measured by the chain's compiled FK against
+    ``check_tol``: in the call for the UR and OPW families (the solve, the
+    FK of every row and the residuals compiled: :func:`_checked_many`), on
+    first use for the others. ``compiled`` as in :func:`chain_ik` (False:
+    the numpy reference, measured on first use).
     """
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)

@@ -338,11 +338,11 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
                      family_tol=FAMILY_TOL, lock=None) -> IKBatch:
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
 
-    numpy-vectorised over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
+    compiled over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
     an :class:`~manipkit.ik_result.IKBatch` of 8 slots per target, NaN where
     a branch does not exist, joint vectors in ``robot.chain(base,
     tip).joint_names`` order; residuals and ``success`` are measured by the
-    chain's compiled FK on first use, against ``tol``; ``lock`` as in
+    chain's compiled FK, against ``tol``; ``lock`` as in
     :func:`analytic_ik`. Raises
     :class:`IKOptionError` when the chain has no geometric closed form.
 
