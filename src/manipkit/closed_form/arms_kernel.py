@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, pose_residual, same_rows
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows, pose_residual
 from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
     MARGIN,
     NEAR,
@@ -387,22 +387,25 @@ def _measure_all(T, reached, rows, residuals):
 
 
 @compile_kernel
-def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints, T):
-    """_checked_target for one target, with the label bits of every slot and which rows are equal modulo 2 pi;
-    returns (handed back, rotation block used as is, valid, rows, residuals, within, bits, same)."""
+def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints, T,
+                     position_tol, rotation_tol):
+    """_checked_target for one target, its rows kept, ordered and coded as chain_ik answers
+    (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2 elbow down + wrist flip``);
+    returns (answered, rows, residuals, within, codes): answered False when the general path must answer."""
     m, n = H.shape[0], q0.shape[0]
     theta, valid, near = np.zeros((8, m)), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
     rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
-    bits, same = np.zeros((8, 3), dtype=np.bool_), np.zeros((8, 8), dtype=np.bool_)
+    bits, codes = np.zeros((8, 3), dtype=np.bool_), np.zeros(8, dtype=np.int64)
     g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
-    exact = exact_rotation(T)
     c = _row(points, 0)
-    handed_back = _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits, floats, ints,
-                                  g, scratch, T_fk, theta, valid, near, rows, residuals, within)
-    if not handed_back:
-        _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
-        same_rows(rows, valid, same)
-    return handed_back, exact, valid, rows, residuals, within, bits, same
+    if not exact_rotation(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
+                                                floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
+                                                within):
+        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
+    _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
+    for k in range(8):
+        codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
+    return kept_rows(valid, rows, residuals, within, codes, codes, position_tol, rotation_tol)
 
 
 def solve_rows_many(prepared: tuple, T: np.ndarray):
@@ -435,16 +438,17 @@ def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.nda
     return residuals
 
 
-def solve_check_one(prepared: tuple, T: np.ndarray):
+def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
     """One target ``T`` (4, 4) solved, each branch's chain row put through the chain's FK and measured (as
-    :func:`solve_rows_many` and :func:`measure_many`), with each slot's label bits (front, elbow above, no flip:
-    :func:`branch_labels`) and which rows are equal modulo 2 pi (to 1e-9), in one compiled call.
+    :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
+    ``chain_ik`` keeps rows (repeats modulo 2 pi dropped, ordered front, elbow up, no flip first), in one call.
 
-    Returns None when the reference must decide, or the target's rotation block is not a rotation to 1e-12;
-    else (valid (8,), rows (8, n), residuals (8, 2), within (8,), bits (8, 3), same (8, 8)).
+    Returns None when the general path must answer (the reference must decide, the target's rotation block is
+    not a rotation to 1e-12, or a row misses ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within
+    (k,), codes (k,): ``4 back + 2 elbow down + wrist flip``).
     """
-    handed_back, exact, *answer = _solve_check_one(*prepared, T)
-    return None if handed_back or not exact else answer
+    answered, *answer = _solve_check_one(*prepared, T, tol[0], tol[1])
+    return answer if answered else None
 
 
 def warm_up() -> None:
@@ -471,10 +475,10 @@ def warm_up() -> None:
     limits = np.full(7, np.pi)
     prepared = (0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
                 np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
-    solve_check_one(prepared, np.eye(4))
+    solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
     rows = solve_rows_many(prepared, g)[-1]
     measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)
-    solve_check_srs(prepared, np.eye(4), 0.3)
+    solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
 
 
 if __name__ == "__main__":

@@ -485,49 +485,32 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
                  ) -> IKResult | None:
     """:func:`chain_ik` of a generic target of the UR and OPW families, from one compiled call
     (:func:`manipkit.closed_form.arms_kernel.solve_check_one`: every branch solved, aliased, put through the
-    chain's FK, measured, labelled): the same rows, order, labels, residuals and note as the general path.
+    chain's FK, measured, labelled, kept and ordered): the same rows, order, labels, residuals and note as the
+    general path.
     None when that path must answer: the kernel hands the target back (near a threshold, a free angle, no
     branch), the target's rotation block needs projecting, or a row misses ``check`` (refined by Newton there).
     A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
     prepared = compiled_arm(chain, arm)
-    if arm.family.kind == SRS:
+    family = arm.family
+    if family.kind == SRS:
         from manipkit.closed_form.srs_kernel import solve_check_srs
 
-        solved = solve_check_srs(prepared, T, float(arm_angle))
-        if solved is None:
-            return None
-        theta, valid, rows, residuals, within, same = solved
-        bits = [(True, True, t[5] >= 0.0) for t in theta.tolist()]  # SRS labels: the wrist's split orders them
-        same = same.tolist()
+        solved = solve_check_srs(prepared, T, float(arm_angle), check)
+        words = _SRS_WORDS
     else:
         from manipkit.closed_form.arms_kernel import solve_check_one
 
-        solved = solve_check_one(prepared, T)
-        if solved is None:
-            return None
-        valid, rows, residuals, within, bits, same = solved
-        bits, same = bits.tolist(), same.tolist()
-    residual_list = residuals.tolist()
-    kept: list[int] = []
-    for k in [k for k, v in enumerate(valid.tolist()) if v]:
-        position, rotation = residual_list[k]
-        if not (position <= check[0] and rotation <= check[1]):
-            return None
-        if not any(same[k][j] for j in kept):  # a row equal modulo 2 pi to a kept one is the same solution
-            kept.append(k)
-    kept.sort(key=lambda k: (not bits[k][0], not bits[k][1], not bits[k][2]))  # front, elbow up, no flip first
-    suffix = " (read tip to base)" if arm.family.reversed else ""
-    if arm.family.kind == SRS:
-        labels = tuple(_labels(arm, None, theta[kept]))
-    else:
-        labels = tuple(f"{'front' if bits[k][0] else 'back'}, {'elbow up' if bits[k][1] else 'elbow down'}, "
-                       f"{'no flip' if bits[k][2] else 'wrist flip'}{suffix}" for k in kept)
-    Q, within, measured = rows[kept], within[kept], residuals[kept].T.copy()
-    for array in (Q, within, measured):
+        solved = solve_check_one(prepared, T, check)
+        words = _REVERSED_WORDS if family.reversed else _WORDS
+    if solved is None:
+        return None
+    Q, measured, within, codes = solved
+    labels = tuple(words[code] for code in codes.tolist())
+    for array in (Q, measured, within):
         array.setflags(write=False)
-    family = arm.family
-    parts = [f"{len(kept)} solution(s) of the {family.kind} closed form"]
-    outside = len(kept) - int(np.count_nonzero(within))
+    count = len(labels)
+    parts = [f"{count} solution(s) of the {family.kind} closed form"]
+    outside = count - int(within.sum())
     if outside:
         parts.append(f"{outside} outside the joint limits (marked, not dropped)")
     wide = _COMPILED[arm][2]
@@ -537,11 +520,20 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
         parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
     if family.locked:
         parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
-    refined = np.zeros(len(kept))
+    refined = np.zeros(count)
     refined.setflags(write=False)
-    return IKResult(Q, labels, len(kept), "; ".join(parts), measured[0], measured[1], mode=SPATIAL_POSE,
+    return IKResult(Q, labels, count, "; ".join(parts), measured[0], measured[1], mode=SPATIAL_POSE,
                     solver=f"closed_form.chain_ik ({family.kind})", joint_names=tuple(chain.joint_names),
                     within_limits=within, refined=refined)
+
+
+#: The labels of the compiled paths by code (4 back + 2 elbow down + wrist flip; SRS: 4 elbow - + 2 shoulder - +
+#: wrist flip), the words of _labels.
+_WORDS = tuple(f"{'back' if c & 4 else 'front'}, {'elbow down' if c & 2 else 'elbow up'}, "
+               f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
+_REVERSED_WORDS = tuple(w + " (read tip to base)" for w in _WORDS)
+_SRS_WORDS = tuple(f"elbow {'-' if c & 4 else '+'}, shoulder {'-' if c & 2 else '+'}, "
+                   f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
 
 
 def _wide_joints(chain: Chain, columns: np.ndarray) -> list[str]:

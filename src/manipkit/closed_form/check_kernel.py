@@ -30,11 +30,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from manipkit.kernels import compile_kernel
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "pose_residual", "row_tables", "same_rows",
+__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "kept_rows", "pose_residual", "row_tables",
            "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
@@ -134,14 +136,45 @@ def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
 
 
 @compile_kernel
-def same_rows(rows, valid, same):
-    """``same[k, j]``: rows ``k`` and ``j`` (both valid) equal modulo 2 pi to 1e-9 in every entry, as chain_ik's
-    ``_pairwise_same``."""
+def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol):
+    """The answer of one target from its checked slots, as chain_ik keeps it: every valid row within the tolerances
+    (else not ok: the general path refines it), a row equal modulo 2 pi (to 1e-9) to one kept before it dropped, the
+    rest in the stable order of ``keys`` (the labels' order). Returns (ok, rows (k, n), residuals (2, k), within
+    (k,), codes (k,)); ok False (and nothing kept) when a row misses the tolerances."""
+    order = np.empty(rows.shape[0], dtype=np.int64)
+    count = 0
     for k in range(rows.shape[0]):
-        for j in range(rows.shape[0]):
-            equal = valid[k] and valid[j]
+        if not valid[k]:
+            continue
+        if not (residuals[k, 0] <= position_tol and residuals[k, 1] <= rotation_tol):
+            return (False, np.empty((0, rows.shape[1])), np.empty((2, 0)), np.empty(0, dtype=np.bool_),
+                    np.empty(0, dtype=np.int64))
+        repeated = False
+        for j in order[:count]:
+            equal = True
             for i in range(rows.shape[1]):
-                if equal:
-                    d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
-                    equal = abs(d) <= 1e-9
-            same[k, j] = equal
+                d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
+                if not abs(d) <= 1e-9:
+                    equal = False
+                    break
+            if equal:
+                repeated = True
+                break
+        if not repeated:
+            order[count] = k
+            count += 1
+    for a in range(1, count):  # insertion sort: stable, on at most 8 rows
+        k = order[a]
+        b = a
+        while b > 0 and keys[order[b - 1]] > keys[k]:
+            order[b] = order[b - 1]
+            b -= 1
+        order[b] = k
+    Q, measured = np.empty((count, rows.shape[1])), np.empty((2, count))
+    inside, named = np.empty(count, dtype=np.bool_), np.empty(count, dtype=np.int64)
+    for a in range(count):
+        k = order[a]
+        Q[a] = rows[k]
+        measured[0, a], measured[1, a] = residuals[k, 0], residuals[k, 1]
+        inside[a], named[a] = within[k], codes[k]
+    return True, Q, measured, inside, named

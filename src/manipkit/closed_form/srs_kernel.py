@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, same_rows
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows
 from manipkit.closed_form.subproblems_kernel import (
     MARGIN,
     add,
@@ -125,41 +125,42 @@ def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
 
 
 @compile_kernel
-def _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T, pc, ps):
+def _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T, pc, ps, position_tol,
+                   rotation_tol):
     """One target: every branch at the arm angle (cos ``pc``, sin ``ps``), each branch's chain row, FK, residual
-    and limits, and which rows are equal modulo 2 pi; returns (handed back, rotation block used as is, theta,
-    valid, rows, residuals, within, same)."""
+    and limits, kept as chain_ik keeps rows (:func:`manipkit.closed_form.check_kernel.kept_rows`; ordered by the
+    wrist's split, code ``4 (t4 < 0) + 2 (t2 < 0) + (t6 < 0)``); returns (answered, rows, residuals, within, codes)."""
     n = q0.shape[0]
     theta, valid = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
     rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
-    same = np.zeros((8, 8), dtype=np.bool_)
+    keys, codes = np.zeros(8, dtype=np.int64), np.zeros(8, dtype=np.int64)
     scratch, T_fk, g = np.empty((4, 3)), np.empty((4, 4)), np.empty((4, 4))
-    exact = exact_rotation(T)
     for i in range(4):  # g = T M^-1
         for j in range(4):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
-    if _srs_target(H, P, row(points, 1), row(points, 0), pc, ps, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta,
-                   valid):
-        return True, exact, theta, valid, rows, residuals, within, same
+    if not exact_rotation(T) or _srs_target(H, P, row(points, 1), row(points, 0), pc, ps, g[:3, :3],
+                                            (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
+        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
     for k in range(theta.shape[0]):
         if valid[k]:
             chain_row(theta[k], False, q0, columns, solved[0], solved[1], solved[2], rows[k])
             residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
                                                                     scratch, T_fk)
-    same_rows(rows, valid, same)
-    return False, exact, theta, valid, rows, residuals, within, same
+        keys[k] = 1 if theta[k, 5] < 0.0 else 0
+        codes[k] = 4 * (theta[k, 3] < 0.0) + 2 * (theta[k, 1] < 0.0) + keys[k]
+    return kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol)
 
 
-def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float):
-    """Every branch of an SRS arm for one target ``T`` (4, 4) at ``arm_angle`` (rad), checked on the true chain.
+def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float, tol: tuple[float, float]):
+    """Every branch of an SRS arm for one target ``T`` (4, 4) at ``arm_angle`` (rad), checked on the true chain and
+    kept as ``chain_ik`` keeps rows, in one compiled call.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns None when the reference must
-    decide or the target's rotation block is not a rotation to 1e-12; else (theta (8, 7) in the solve direction,
-    valid (8,), rows (8, n), residuals (8, 2), within (8,), same (8, 8)) as
-    :func:`manipkit.closed_form.arms_kernel.solve_check_one` gives them (without label bits: an SRS branch is
-    named by the signs of its angles).
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns None when the general path must
+    answer (the reference must decide, the target's rotation block is not a rotation to 1e-12, or a row misses
+    ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within (k,), codes (k,): ``4 elbow - + 2 shoulder - +
+    wrist flip``), as :func:`manipkit.closed_form.arms_kernel.solve_check_one` gives them.
     """
     _, H, P, points, _, M_inv, _, q0, columns, solved, limits, floats, ints = prepared
-    handed_back, exact, *answer = _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T,
-                                                 math.cos(arm_angle), math.sin(arm_angle))
-    return None if handed_back or not exact else answer
+    answered, *answer = _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T,
+                                       math.cos(arm_angle), math.sin(arm_angle), tol[0], tol[1])
+    return answer if answered else None
