@@ -492,15 +492,12 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
     A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
     prepared = compiled_arm(chain, arm)
     family = arm.family
+    kernels = _KERNELS or _load_kernels()
     if family.kind == SRS:
-        from manipkit.closed_form.srs_kernel import solve_check_srs
-
-        solved = solve_check_srs(prepared, T, float(arm_angle), check)
+        solved = kernels[1](prepared, T, float(arm_angle), check)
         words = _SRS_WORDS
     else:
-        from manipkit.closed_form.arms_kernel import solve_check_one
-
-        solved = solve_check_one(prepared, T, check)
+        solved = kernels[0](prepared, T, check)
         words = _REVERSED_WORDS if family.reversed else _WORDS
     if solved is None:
         return None
@@ -510,7 +507,7 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
         array.setflags(write=False)
     count = len(labels)
     parts = [f"{count} solution(s) of the {family.kind} closed form"]
-    outside = count - int(within.sum())
+    outside = within.tolist().count(False)
     if outside:
         parts.append(f"{outside} outside the joint limits (marked, not dropped)")
     wide = _COMPILED[arm][2]
@@ -520,11 +517,24 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
         parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
     if family.locked:
         parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
-    refined = np.zeros(count)
-    refined.setflags(write=False)
     return IKResult(Q, labels, count, "; ".join(parts), measured[0], measured[1], mode=SPATIAL_POSE,
-                    solver=f"closed_form.chain_ik ({family.kind})", joint_names=tuple(chain.joint_names),
-                    within_limits=within, refined=refined)
+                    solver=f"closed_form.chain_ik ({family.kind})", joint_names=chain.joint_names,
+                    within_limits=within, refined=_UNREFINED[count])
+
+
+#: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs), imported on the first compiled single call.
+_KERNELS: list = []
+#: refined of k rows none of which Newton moved: read-only zeros, k = 0..8.
+_UNREFINED = tuple(read_only(np.zeros(k)) for k in range(9))
+
+
+def _load_kernels() -> list:
+    """Import the compiled single-call kernels (numba) once; :data:`_KERNELS` then holds them."""
+    from manipkit.closed_form.arms_kernel import solve_check_one
+    from manipkit.closed_form.srs_kernel import solve_check_srs
+
+    _KERNELS[:] = [solve_check_one, solve_check_srs]
+    return _KERNELS
 
 
 #: The labels of the compiled paths by code (4 back + 2 elbow down + wrist flip; SRS: 4 elbow - + 2 shoulder - +

@@ -45,7 +45,13 @@ TWO_PI = 2.0 * math.pi
 pose_row = pose_row_kernel()
 
 
-@compile_kernel
+def inlined(py_func):
+    """compile_kernel with numba's inlining at its IR level: a small function called per branch from the loops
+    costs no call (its arrays are not passed as structures)."""
+    return compile_kernel(py_func, inline="always")
+
+
+@inlined
 def pose_residual(T_ref, T):
     """(position m, rotation rad) of the reached pose ``T`` against ``T_ref`` (both (4, 4)).
 
@@ -71,7 +77,7 @@ def pose_residual(T_ref, T):
             math.atan2(0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (trace - 1.0)))
 
 
-@compile_kernel
+@inlined
 def exact_rotation(T):
     """The rotation block of ``T`` (4, 4) is orthonormal to EXACT_ROTATION_TOL with det > 0 (False for nan):
     it is used as is, as :func:`manipkit.spatial.transforms.projected_rotation` decides."""
@@ -88,7 +94,7 @@ def exact_rotation(T):
     return det > 0.0
 
 
-@compile_kernel
+@inlined
 def wrap_angle(a):
     """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
     if -math.pi < a <= math.pi:
@@ -97,7 +103,7 @@ def wrap_angle(a):
     return w + TWO_PI if w <= -math.pi else w
 
 
-@compile_kernel
+@inlined
 def chain_row(theta, reverse, q0, columns, scale, lower, upper, out):
     """``out`` (n,) = the chain vector of solved angles ``theta`` (m,): ``q0`` with column ``columns[i]`` moved by
     ``theta[i] / scale[i]`` (``theta[m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken, by
@@ -120,7 +126,7 @@ def chain_row(theta, reverse, q0, columns, scale, lower, upper, out):
         out[col] = best
 
 
-@compile_kernel
+@inlined
 def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
     """(position m, rotation rad, within limits) of chain vector ``q`` against ``T_target``: the chain's FK
     (:func:`manipkit.kinematics.fk_kernel.pose_row`, tables ``floats``, ``ints``; ``scratch`` (4, 3), ``T``
