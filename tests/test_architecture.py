@@ -30,6 +30,9 @@ ALLOWED = {
     "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik_result"},
     "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "analysis", "ik_result"},
 }
+#: One module of a layer another layer may import beside ALLOWED (docs/architecture.md, "Layers"): the closed forms'
+#: compiled check runs the chain's own FK program, one row at a time (fk_kernel: numpy, errors, kernels only).
+NARROW = {("closed_form", "manipkit.kinematics.fk_kernel")}
 MAX_MODULE_LINES = 800
 SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p.name != "__init__.py" or p.parent != PACKAGE)
 
@@ -115,7 +118,7 @@ def test_imports_run_down_the_layers(path):
         if parts[0] != "manipkit" or len(parts) < 2:
             continue
         target = parts[1]
-        if target != layer and target not in ALLOWED[layer]:
+        if target != layer and target not in ALLOWED[layer] and (layer, module) not in NARROW:
             crossings.append(f"line {line}: {layer} imports {module}")
     assert not crossings, "; ".join(crossings)
 

@@ -28,186 +28,64 @@ import math
 
 import numpy as np
 
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows, pose_residual
+from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
+    MARGIN,
+    NEAR,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    add as _add,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    atan2 as _atan2,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    dot as _dot,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    move as _move,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    mtv as _mtv,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    mv as _mv,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    norm as _norm,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    perpendicular as _perpendicular,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    rotate as _rotate,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    row as _row,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp1 as _sp1,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp3 as _sp3,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp4 as _sp4,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sub as _sub,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    wrap as _wrap,
+)
 from manipkit.kernels import compile_kernel
 
-__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "solve_many", "warm_up"]
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many", "solve_check_one", "solve_many",
+           "solve_rows_many", "warm_up"]
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
-#: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
-MARGIN = 1e-8
-TOL = 1e-12  # the subproblems' zero, as the reference's (arms.solve_6r's tol)
-NEAR = 1e-6  # arms.NEAR
 TWO_PI = 2.0 * math.pi
-# Cephes' atan (Moshier, cephes/cmath/atan.c): P/Q on [0, 0.66] after the reduction, and pi/4's low bits
-_P0, _P1, _P2, _P3, _P4 = (-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792314704667340e1,
-                           -1.228866684490136173410e2, -6.485021904942025371773e1)
-_Q0, _Q1, _Q2, _Q3, _Q4 = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
-                           4.853903996359136964868e2, 1.945506571482613964425e2)
-_MOREBITS = 6.123233995736765886130e-17
-
-
-@compile_kernel
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@compile_kernel
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@compile_kernel
-def _sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-@compile_kernel
-def _add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-@compile_kernel
-def _norm(a):
-    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-
-
-@compile_kernel
-def _wrap(x):
-    """x wrapped to (-pi, pi]."""
-    return math.pi - (math.pi - x) % TWO_PI
-
-
-@compile_kernel
-def _rotate(k, c, s, p):
-    """R(k, t) p (Rodrigues) with c = cos t, s = sin t, as subproblems.rotate."""
-    kp = _dot(k, p)
-    kx = _cross(k, p)
-    return (c * p[0] + s * kx[0] + (1.0 - c) * kp * k[0],
-            c * p[1] + s * kx[1] + (1.0 - c) * kp * k[1],
-            c * p[2] + s * kx[2] + (1.0 - c) * kp * k[2])
-
-
-@compile_kernel
-def _move(h, p, c, s, x):
-    """E(t) x: x turned by t (c = cos t, s = sin t) about the line through p along h."""
-    return _add(p, _rotate(h, c, s, _sub(x, p)))
-
-
-@compile_kernel
-def _mv(R, x):
-    """R x for a (3, 3) array R."""
-    return (R[0, 0] * x[0] + R[0, 1] * x[1] + R[0, 2] * x[2],
-            R[1, 0] * x[0] + R[1, 1] * x[1] + R[1, 2] * x[2],
-            R[2, 0] * x[0] + R[2, 1] * x[1] + R[2, 2] * x[2])
-
-
-@compile_kernel
-def _mtv(R, x):
-    """R^T x for a (3, 3) array R."""
-    return (R[0, 0] * x[0] + R[1, 0] * x[1] + R[2, 0] * x[2],
-            R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
-            R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
-
-
-@compile_kernel
-def _sp1(k, p, q):
-    """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q.
-
-    ``size`` = |p off the axis| (the angle is free, held 0, where it is within TOL); ``miss`` = |R(k, t) p - q|,
-    which for the best angle is ``hypot(|p_perp| - |q_perp|, k.p - k.q)`` (R turns p_perp onto q_perp's direction)."""
-    kp, kq = _dot(k, p), _dot(k, q)
-    pp = (p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2])
-    qp = (q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2])
-    size, size_q = _norm(pp), _norm(qp)
-    X, Y = _dot(pp, qp), _dot(k, _cross(pp, qp))
-    r = math.sqrt(X * X + Y * Y)
-    if size <= TOL or r == 0.0:
-        return 1.0, 0.0, size, _norm(_sub(p, q))
-    d_perp, d_axis = size - size_q, kp - kq
-    return X / r, Y / r, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
-
-
-@compile_kernel
-def _atan_unit(x):
-    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp)."""
-    y, extra = 0.0, 0.0
-    if x > 0.66:
-        y, extra = 0.25 * math.pi, 0.5 * _MOREBITS
-        x = (x - 1.0) / (x + 1.0)
-    z = x * x
-    num = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
-    den = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
-    return y + (x * (z * num / den) + x + extra)
-
-
-@compile_kernel
-def _atan2(y, x):
-    """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much)."""
-    ay, ax = abs(y), abs(x)
-    if ay == 0.0 and ax == 0.0:
-        return math.copysign(math.pi, y) if math.copysign(1.0, x) < 0.0 else math.copysign(0.0, y)
-    if ay <= ax:
-        a = _atan_unit(ay / ax)
-    else:
-        a = 0.5 * math.pi - _atan_unit(ax / ay)
-    if math.copysign(1.0, x) < 0.0:
-        a = math.pi - a
-    return math.copysign(a, y)
-
-
-@compile_kernel
-def _sp4(h, k, p, d):
-    """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
-    (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
-    ``unsure``: degenerate or tangent within ``MARGIN`` (the reference decides there)."""
-    kp = _dot(k, p)
-    A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
-    B = _dot(h, _cross(k, p))
-    C = d - _dot(h, k) * kp
-    r = math.hypot(A, B)
-    scale = max(1.0, r)
-    gap = abs(C) - r
-    unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
-    if r == 0.0:
-        return 1.0, 0.0, 1.0, 0.0, 0.0, abs(C), True
-    cphi, sphi = A / r, B / r
-    ci = min(1.0, max(-1.0, C / r))
-    si = math.sqrt(1.0 - ci * ci)
-    count = 0.0 if gap > TOL * scale else 2.0
-    miss = gap if count == 0.0 else 0.0
-    return cphi * ci - sphi * si, sphi * ci + cphi * si, cphi * ci + sphi * si, sphi * ci - cphi * si, count, miss, unsure
-
-
-@compile_kernel
-def _sp3(k, p1, p2, delta):
-    """Subproblem 3 (|R(k, t) p1 - p2| = delta) as subproblems.sp3: (ca, sa, cb, sb, count, miss, unsure)."""
-    d = 0.5 * (_dot(p1, p1) + _dot(p2, p2) - delta * delta)
-    ca, sa, cb, sb, count, miss, unsure = _sp4(p2, k, p1, d)
-    if count == 0.0:
-        ra = _norm(_sub(_rotate(k, ca, sa, p1), p2))
-        rb = _norm(_sub(_rotate(k, cb, sb, p1), p2))
-        miss = min(abs(ra - delta), abs(rb - delta))
-    return ca, sa, cb, sb, count, miss, unsure
-
-
-@compile_kernel
-def _perpendicular(h):
-    a = (abs(h[0]), abs(h[1]), abs(h[2]))
-    i = 0
-    if a[1] < a[i]:
-        i = 1
-    if a[2] < a[i]:
-        i = 2
-    e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
-    v = _cross(h, e)
-    n = _norm(v)
-    return (v[0] / n, v[1] / n, v[2] / n)
-
-
-@compile_kernel
-def _row(H, i):
-    return (H[i, 0], H[i, 1], H[i, 2])
 
 
 @compile_kernel
@@ -373,36 +251,14 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
 
 
 @compile_kernel
-def _wrap_angle(a):
-    """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
-    if -math.pi < a <= math.pi:
-        return a + 0.0
-    w = math.pi - (math.pi - a) % TWO_PI
-    return w + TWO_PI if w <= -math.pi else w
-
-
-@compile_kernel
 def _rows(theta, valid, q0, columns, scale, lower, upper, out):
     """out[n, k] = the chain vector of slot k (NaN where not valid); see chain_rows."""
     for n in range(theta.shape[0]):
         for k in range(theta.shape[1]):
-            if not valid[n, k]:
-                for j in range(out.shape[2]):
-                    out[n, k, j] = np.nan
-                continue
-            for j in range(out.shape[2]):
-                out[n, k, j] = q0[j]
-            for i in range(columns.shape[0]):
-                col = columns[i]
-                wrapped = _wrap_angle(q0[col] + theta[n, k, i] / scale[i])
-                best = wrapped
-                if not (lower[i] - 1e-12 <= wrapped <= upper[i] + 1e-12):
-                    for turn in (1.0, -1.0, 2.0, -2.0):
-                        candidate = wrapped + turn * TWO_PI
-                        if lower[i] - 1e-12 <= candidate <= upper[i] + 1e-12:
-                            best = candidate
-                            break
-                out[n, k, col] = best
+            if valid[n, k]:
+                chain_row(theta[n, k], False, q0, columns, scale, lower, upper, out[n, k])
+            else:
+                out[n, k, :] = np.nan
 
 
 def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np.ndarray, scale: np.ndarray,
@@ -461,10 +317,144 @@ def branch_labels(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, sh
     return out
 
 
+@compile_kernel
+def _solved_target(T, M_inv, reverse, g):
+    """g = T M^-1 (inverted when ``reverse``: a family solved tip to base), as chain_ik's _solved_direction."""
+    for i in range(4):
+        for j in range(4):
+            g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
+    if reverse:
+        t0, t1, t2 = g[0, 3], g[1, 3], g[2, 3]
+        for i in range(3):
+            for j in range(i + 1, 3):
+                g[i, j], g[j, i] = g[j, i], g[i, j]
+        for i in range(3):
+            g[i, 3] = -(g[i, 0] * t0 + g[i, 1] * t1 + g[i, 2] * t2)
+        g[3, 0], g[3, 1], g[3, 2], g[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@compile_kernel
+def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, scratch,
+                    T_fk, theta, valid, near, rows, residuals, within):
+    """One target: every branch solved (as _solve_all), then each valid one's chain row, FK on the true chain,
+    residual and limits (check_kernel); True when the reference must decide (nothing else is written then).
+    ``solved`` (3, m): joint scales, lower and upper limits of the solved columns; ``limits`` (2, n): the chain's."""
+    _solved_target(T, M_inv, reverse, g)
+    R = g[:3, :3]
+    t = (g[0, 3], g[1, 3], g[2, 3])
+    if kind == 0:
+        handed_back = _ur_target(H, P, c, scale, R, t, theta, valid, near)
+    else:
+        handed_back = _opw_target(H, P, c, scale, R, t, theta, valid, near)
+    if handed_back:
+        return True
+    for k in range(theta.shape[0]):
+        if valid[k]:
+            chain_row(theta[k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[k])
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
+                                                                    scratch, T_fk)
+    return False
+
+
+@compile_kernel
+def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, theta, valid, near, fallback,
+                    project, rows):
+    g = np.empty((4, 4))
+    for n in range(T.shape[0]):
+        project[n] = not exact_rotation(T[n])
+        _solved_target(T[n], M_inv, reverse, g)
+        R = g[:3, :3]
+        t = (g[0, 3], g[1, 3], g[2, 3])
+        if kind == 0:
+            fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        else:
+            fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        for k in range(theta.shape[1]):
+            if valid[n, k] and not fallback[n]:
+                chain_row(theta[n, k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[n, k])
+            else:
+                rows[n, k, :] = np.nan
+
+
+@compile_kernel
+def _measure_all(T, reached, rows, residuals):
+    for n in range(rows.shape[0]):
+        for k in range(rows.shape[1]):
+            if math.isnan(rows[n, k, 0]):
+                residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
+            else:
+                residuals[n, k, 0], residuals[n, k, 1] = pose_residual(T[n], reached[n, k])
+
+
+@compile_kernel
+def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints, T,
+                     position_tol, rotation_tol):
+    """_checked_target for one target, its rows kept, ordered and coded as chain_ik answers
+    (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2 elbow down + wrist flip``);
+    returns (answered, rows, residuals, within, codes): answered False when the general path must answer."""
+    m, n = H.shape[0], q0.shape[0]
+    theta, valid, near = np.zeros((8, m)), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
+    rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
+    bits, codes = np.zeros((8, 3), dtype=np.bool_), np.zeros(8, dtype=np.int64)
+    g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
+    c = _row(points, 0)
+    if not exact_rotation(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
+                                                floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
+                                                within):
+        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
+    _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
+    for k in range(8):
+        codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
+    return kept_rows(valid, rows, residuals, within, codes, codes, position_tol, rotation_tol)
+
+
+def solve_rows_many(prepared: tuple, T: np.ndarray):
+    """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``) as chain vectors, in one compiled loop.
+
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (theta (N, 8, 6) in the solve
+    direction, valid (N, 8), near (N, 8), fallback (N,), project (N,), rows (N, 8, n): chain vectors with the
+    in-limit aliases nearest 0, NaN where not valid). Targets with ``fallback`` have NaN rows (the reference
+    solves them); ``project``: a target whose rotation block is not a rotation to 1e-12 (measure against its
+    projection).
+    """
+    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved = prepared[:10]
+    T = np.ascontiguousarray(T, dtype=float)
+    N, n = T.shape[0], q0.shape[0]
+    theta = np.zeros((N, 8, 6))
+    valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
+    fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
+    rows = np.empty((N, 8, n))
+    _solve_rows_all(kind, H, P, (float(points[0, 0]), float(points[0, 1]), float(points[0, 2])), scale, M_inv,
+                    reverse, T, q0, columns, solved, theta, valid, near, fallback, project, rows)
+    return theta, valid, near, fallback, project, rows
+
+
+def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(N, k, 2) residuals (m, rad) of reached poses ``reached`` (N, k, 4, 4) against targets ``T`` (N, 4, 4):
+    :func:`manipkit.closed_form.check_kernel.pose_residual` (``pose_residuals``' compiled twin); NaN where the row
+    ``rows`` (N, k, n) is NaN (no branch)."""
+    residuals = np.empty((*rows.shape[:2], 2))
+    _measure_all(np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(reached, dtype=float), rows, residuals)
+    return residuals
+
+
+def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
+    """One target ``T`` (4, 4) solved, each branch's chain row put through the chain's FK and measured (as
+    :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
+    ``chain_ik`` keeps rows (repeats modulo 2 pi dropped, ordered front, elbow up, no flip first), in one call.
+
+    Returns None when the general path must answer (the reference must decide, the target's rotation block is
+    not a rotation to 1e-12, or a row misses ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within
+    (k,), codes (k,): ``4 back + 2 elbow down + wrist flip``).
+    """
+    answered, *answer = _solve_check_one(*prepared, T, tol[0], tol[1])
+    return answer if answered else None
+
+
 def warm_up() -> None:
     """Compile (or load from numba's on-disk cache) every kernel here, with the argument types chain_ik passes.
 
-    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 15 s,
+    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 20 s,
     which the first closed-form solve of a new installation would otherwise pay.
     """
     z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
@@ -474,6 +464,21 @@ def warm_up() -> None:
     theta, valid, _, _ = solve_many("three parallel, two intersecting", h, p, p[5], 1.0, g)
     chain_rows(theta, valid, np.zeros(6), np.arange(6), np.ones(6), np.full(6, -np.pi), np.full(6, np.pi))
     branch_labels("three parallel, two intersecting", h, p, p[5], p[1], np.array([1.0, 0.0, 0.0]), h[0], g[0], theta[0])
+    # the solve-and-check loops, on a chain of seven joints about z (only the argument types matter here)
+    from manipkit.closed_form.check_kernel import row_tables
+    from manipkit.closed_form.srs_kernel import solve_check_srs
+    from manipkit.kinematics.fk_kernel import ChainStep
+
+    floats, ints = row_tables([ChainStep(np.eye(3), np.array([0.0, 0.0, 0.1]), k, False, np.array(z))
+                               for k in range(7)], np.arange(7))
+    h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
+    limits = np.full(7, np.pi)
+    prepared = (0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
+                np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
+    solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
+    rows = solve_rows_many(prepared, g)[-1]
+    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)
+    solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
 
 
 if __name__ == "__main__":

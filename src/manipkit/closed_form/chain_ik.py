@@ -32,7 +32,8 @@ standing for a one-parameter family: ``count`` is infinite, ``free_joints``
 and ``free_parameter`` name the joint held at its ``q0`` value, and
 ``family`` says which combination is determined.
 
-Given a chain object; never imports the kinematics layer (docs/architecture.md, "Layers").
+Given a chain object; never imports the kinematics layer (its compiled check reads the chain's FK program from
+``kinematics.fk_kernel``, the one module it may: docs/architecture.md, "Layers").
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
-from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.closed_form.families import (
     FAMILY_TOL,
     OPW,
@@ -145,6 +146,41 @@ def ideal_arm(family: Family) -> IdealArm:
 
 #: Family -> its ideal arm (a Family is immutable; an arm is made once and read by every call after).
 _ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def compiled_arm(chain: Chain, arm: IdealArm) -> tuple:
+    """The constants the compiled solve-and-check loop takes for ``chain`` solved on ``arm`` (UR or OPW family):
+    the ideal arm, its label axes, the joint map and limits and the chain's FK program
+    (:func:`manipkit.kinematics.fk_kernel.row_tables`); made once per chain and family (both immutable) and kept."""
+    cached = _COMPILED.get(arm)
+    if cached is not None and cached[0] is chain:
+        return cached[1]
+    _COMPILED[arm] = (chain, _compiled_constants(chain, arm), _wide_joints(chain, arm.family.geometry.columns))
+    return _COMPILED[arm][1]
+
+
+def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
+    """The tuple :func:`compiled_arm` keeps."""
+    from manipkit.closed_form.arms_kernel import KIND_CODES
+    from manipkit.closed_form.check_kernel import row_tables
+
+    geometry = arm.family.geometry
+    columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
+    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
+    floats, ints = row_tables(chain.steps, chain.columns)
+    # (kind, axes h, points p, (wrist, shoulder, label reference, label up), size, M^-1, reversed, q0, solved
+    # columns, (their scales, lower, upper limits), (the chain's lower, upper limits), the chain's FK program)
+    prepared = (KIND_CODES.get(arm.family.kind, -1), np.ascontiguousarray(arm.h), np.ascontiguousarray(arm.p),
+                np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float),
+                float(arm.scale), np.ascontiguousarray(arm.M_inv), bool(arm.family.reversed),
+                np.ascontiguousarray(geometry.q0, dtype=float), columns,
+                np.array([geometry.scale, lower[columns], upper[columns]], dtype=float), np.array([lower, upper]),
+                floats, ints)
+    return prepared
+
+
+#: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi): once per chain.
+_COMPILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _solved_direction(arm: IdealArm, T: np.ndarray) -> np.ndarray:
@@ -352,8 +388,13 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
-    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    check = tolerance_pair(check_tol, error=ClosedFormIKError, what="check_tol")
     T = check_transform(target, what="IK target")
+    if compiled and family.kind in (UR, OPW) or (compiled and family.kind == SRS and arm_angle is not None
+                                                  and not family.reversed):
+        answer = _checked_one(chain, arm, T, check, arm_angle)
+        if answer is not None:
+            return answer
     theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
     geometry = family.geometry
     names = tuple(chain.joint_names)
@@ -440,6 +481,71 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     )
 
 
+def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], arm_angle=None
+                 ) -> IKResult | None:
+    """:func:`chain_ik` of a generic target of the UR and OPW families, from one compiled call
+    (:func:`manipkit.closed_form.arms_kernel.solve_check_one`: every branch solved, aliased, put through the
+    chain's FK, measured, labelled, kept and ordered): the same rows, order, labels, residuals and note as the
+    general path.
+    None when that path must answer: the kernel hands the target back (near a threshold, a free angle, no
+    branch), the target's rotation block needs projecting, or a row misses ``check`` (refined by Newton there).
+    A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
+    prepared = compiled_arm(chain, arm)
+    family = arm.family
+    kernels = _KERNELS or _load_kernels()
+    if family.kind == SRS:
+        solved = kernels[1](prepared, T, float(arm_angle), check)
+        words = _SRS_WORDS
+    else:
+        solved = kernels[0](prepared, T, check)
+        words = _REVERSED_WORDS if family.reversed else _WORDS
+    if solved is None:
+        return None
+    Q, measured, within, codes = solved
+    labels = tuple(words[code] for code in codes.tolist())
+    for array in (Q, measured, within):
+        array.setflags(write=False)
+    count = len(labels)
+    parts = [f"{count} solution(s) of the {family.kind} closed form"]
+    outside = within.tolist().count(False)
+    if outside:
+        parts.append(f"{outside} outside the joint limits (marked, not dropped)")
+    wide = _COMPILED[arm][2]
+    if wide:
+        parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if family.kind == SRS:
+        parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
+    if family.locked:
+        parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
+    return IKResult(Q, labels, count, "; ".join(parts), measured[0], measured[1], mode=SPATIAL_POSE,
+                    solver=f"closed_form.chain_ik ({family.kind})", joint_names=chain.joint_names,
+                    within_limits=within, refined=_UNREFINED[count])
+
+
+#: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs), imported on the first compiled single call.
+_KERNELS: list = []
+#: refined of k rows none of which Newton moved: read-only zeros, k = 0..8.
+_UNREFINED = tuple(read_only(np.zeros(k)) for k in range(9))
+
+
+def _load_kernels() -> list:
+    """Import the compiled single-call kernels (numba) once; :data:`_KERNELS` then holds them."""
+    from manipkit.closed_form.arms_kernel import solve_check_one
+    from manipkit.closed_form.srs_kernel import solve_check_srs
+
+    _KERNELS[:] = [solve_check_one, solve_check_srs]
+    return _KERNELS
+
+
+#: The labels of the compiled paths by code (4 back + 2 elbow down + wrist flip; SRS: 4 elbow - + 2 shoulder - +
+#: wrist flip), the words of _labels.
+_WORDS = tuple(f"{'back' if c & 4 else 'front'}, {'elbow down' if c & 2 else 'elbow up'}, "
+               f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
+_REVERSED_WORDS = tuple(w + " (read tip to base)" for w in _WORDS)
+_SRS_WORDS = tuple(f"elbow {'-' if c & 4 else '+'}, shoulder {'-' if c & 2 else '+'}, "
+                   f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
+
+
 def _wide_joints(chain: Chain, columns: np.ndarray) -> list[str]:
     """The solved joints whose range spans more than 2 pi (each has a second alias inside its limits)."""
     lower, upper = np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
@@ -514,28 +620,30 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
                   lock=None, compiled: bool = True) -> IKBatch:
-    """Every branch for many targets ``(N, 4, 4)`` at once (numpy-vectorised): an :class:`IKBatch` of 8 slots.
+    """Every branch for many targets ``(N, 4, 4)`` at once (compiled): an :class:`IKBatch` of 8 slots.
 
     Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
     branch does not exist. Revolute entries are the in-limit aliases nearest
     0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
     carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
-    and ``success`` are measured by the chain's compiled FK on first use,
-    against ``check_tol``. ``compiled`` as in :func:`chain_ik`.
+    and ``success`` are measured by the chain's compiled FK against
+    ``check_tol``: in the call for the UR and OPW families (the solve, the
+    FK of every row and the residuals compiled: :func:`_checked_many`), on
+    first use for the others. ``compiled`` as in :func:`chain_ik` (False:
+    the numpy reference, measured on first use).
     """
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
+    solver = f"closed_form.chain_ik_many ({family.kind})"
+    if compiled and family.kind in (UR, OPW):
+        return _checked_many(chain, arm, T, check, slots, solver)
     theta, branches, _ = _branches(arm, T, compiled=compiled)
     geometry = family.geometry
-    if compiled:
-        from manipkit.closed_form.arms_kernel import chain_rows
-
-        Q = chain_rows(theta, branches.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
-    else:
-        Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
-        Q = np.where(branches.valid[..., None], Q, np.nan)
+    Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
+    Q = np.where(branches.valid[..., None], Q, np.nan)
     count = branches.valid.sum(axis=-1).astype(float)
     count = np.where((branches.free >= 0).any(axis=-1), np.inf, count)
 
@@ -545,9 +653,42 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
         position, rotation = pose_residuals(_projected_target(T)[:, None], chain.fk(filled), project=False)
         return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
 
-    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
-    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=f"closed_form.chain_ik_many ({family.kind})",
-                   joint_names=tuple(chain.joint_names), measure=measure, limit=check)
+    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
+                   measure=measure, limit=check)
+
+
+def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], slots: tuple[str, ...],
+                  solver: str) -> IKBatch:
+    """:func:`chain_ik_many` of the UR and OPW families: every branch solved and aliased in one compiled loop
+    (:func:`manipkit.closed_form.arms_kernel.solve_rows_many`; the targets it hands back by the numpy reference),
+    every row put through the chain's compiled FK (``chain.fk``) and measured by ``pose_residuals``' compiled twin
+    (:func:`manipkit.closed_form.arms_kernel.measure_many`), against the target's rotation projected where it is
+    not a rotation to 1e-12, as :func:`chain_ik` measures."""
+    from manipkit.closed_form.arms_kernel import chain_rows, measure_many, solve_rows_many
+
+    prepared = compiled_arm(chain, arm)
+    _, valid, _, fallback, project, Q = solve_rows_many(prepared, T)
+    free_any = np.zeros(len(T), dtype=bool)
+    if fallback.any():
+        rows = np.flatnonzero(fallback)
+        reference = solve_6r(arm.family.kind, arm.h, arm.p, _solved_direction(arm, T[rows]), arm.points)
+        theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
+        valid[rows] = reference.valid
+        free_any[rows] = (reference.free >= 0).any(axis=-1)
+        Q[rows] = chain_rows(theta, reference.valid, prepared[7], prepared[8], *prepared[9])
+    T_check = T
+    if project.any():
+        T_check = T.copy()
+        T_check[project] = _projected_target(T[project])
+    missing = np.isnan(Q[..., 0])
+    reached = chain.fk(np.where(missing[..., None], 0.0, Q))
+    residuals = measure_many(T_check, reached, Q)
+    count = np.where(free_any, np.inf, valid.sum(axis=-1).astype(float))
+    position, rotation = residuals[..., 0], residuals[..., 1]
+    success = ((position <= check[0]) & (rotation <= check[1])).any(axis=-1)
+    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
+                   success=success, residual_position=position, residual_rotation=rotation,
+                   q_residuals=residuals[..., 0, :])
 
 
 def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:

@@ -16,7 +16,7 @@ from manipkit.errors import PlanarArmError
 from manipkit.ik_result import tolerances
 from manipkit.text import short_text
 
-__all__ = ["NOISE", "as_float", "finite_array", "link_length", "quantity_text", "tolerance"]
+__all__ = ["NOISE", "as_float", "finite_array", "link_length", "quantity_text", "tolerance", "tolerance_pair"]
 
 NOISE = 1e-12  # lengths and angles below this print as 0 in messages (rounding noise)
 
@@ -69,3 +69,23 @@ def tolerance(tol) -> float:
     """A boundary tolerance (m): one number >= 0, by manipkit's one tolerance parser
     (:func:`manipkit.ik_result.tolerances`), else :class:`PlanarArmError`."""
     return tolerances(tol, error=PlanarArmError, pair=False, zero=True)[0]
+
+
+def tolerance_pair(tol, *, error: type[Exception] | None = None, what: str = "tol") -> tuple[float, float]:
+    """``(position m, rotation rad)`` by :func:`manipkit.ik_result.tolerances` (the one parser), remembered for
+    numbers and pairs of numbers already read: a closed-form call on a robot parses the same tolerance each time.
+
+    ``error``: the exception :func:`~manipkit.ik_result.tolerances` raises (its default when None).
+    """
+    plain = type(tol) in (float, int) or (type(tol) is tuple and all(type(t) in (float, int) for t in tol))
+    key = (tol, error, what)
+    found = _PARSED.get(key) if plain else None  # (bools, arrays, lists are parsed each time)
+    if found is None:
+        found = tolerances(tol, what=what) if error is None else tolerances(tol, error=error, what=what)
+        if plain and len(_PARSED) < 256:
+            _PARSED[key] = found
+    return found
+
+
+#: (tol, error, what) -> the parsed pair, for the numbers and tuples read so far (at most 256).
+_PARSED: dict = {}

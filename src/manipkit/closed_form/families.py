@@ -42,9 +42,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.errors import ClosedFormIKError
-from manipkit.ik_result import tolerances
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -316,7 +315,7 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL, lock=None) -> Family:
     >>> family.kind, family.reversed, [str(r) for r in family.evidence][0]
     ('three parallel, two intersecting', False, 'axes 2, 3, 4 parallel, angle 0 rad')
     """
-    tol = tolerances(tol, error=ClosedFormIKError)
+    tol = tolerance_pair(tol, error=ClosedFormIKError)
     lock = dict(lock or {})
     try:
         key = (id(chain), tuple(float(t) for t in tol), tuple((name, float(value)) for name, value in lock.items()))

@@ -23,7 +23,7 @@ import numpy as np
 
 from manipkit.closed_form import decoupled, planar, planar_modes
 from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
-from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.closed_form.families import FAMILY_TOL, SRS, chain_family
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.errors import ClosedFormIKError, IKOptionError
@@ -321,9 +321,11 @@ def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family
     """:func:`analytic_ik` by the chain's geometry, rows as whole-robot vectors."""
     chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named, lock, arm_angle)
     try:
-        result = chain_ik(chain, target, family=family, check_tol=tolerances(tol), arm_angle=arm_angle)
+        result = chain_ik(chain, target, family=family, check_tol=tolerance_pair(tol), arm_angle=arm_angle)
     except ClosedFormIKError as exc:
         raise IKOptionError(str(exc)) from None
+    if chain.joint_names == robot.joint_names:  # the chain's rows are whole-robot rows already
+        return result
     # whole-robot rows: the robot's defaults with the chain's columns from each row (chain.full of each, at once)
     Q = np.repeat(np.asarray(robot.q(), dtype=float)[None], len(result.solutions), axis=0)
     Q[:, chain.columns] = result.solutions
@@ -336,11 +338,11 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
                      family_tol=FAMILY_TOL, lock=None) -> IKBatch:
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
 
-    numpy-vectorised over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
+    compiled over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
     an :class:`~manipkit.ik_result.IKBatch` of 8 slots per target, NaN where
     a branch does not exist, joint vectors in ``robot.chain(base,
     tip).joint_names`` order; residuals and ``success`` are measured by the
-    chain's compiled FK on first use, against ``tol``; ``lock`` as in
+    chain's compiled FK, against ``tol``; ``lock`` as in
     :func:`analytic_ik`. Raises
     :class:`IKOptionError` when the chain has no geometric closed form.
 
@@ -357,7 +359,7 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     T = np.asarray(targets, dtype=float)
     if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
         raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
-    return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerances(tol))
+    return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerance_pair(tol))
 
 
 def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",

@@ -16,7 +16,9 @@ arms). For a target ``g = T M^-1`` the wrist centre ``W = g c`` is fixed, so:
    by subproblems 2 and 1;
 3. the wrist ``t5, t6, t7`` as for a 6R spherical wrist.
 
-Up to 8 branches per arm angle (elbow, shoulder, wrist). numpy only; one target.
+Up to 8 branches per arm angle (elbow, shoulder, wrist). numpy only; one target. The same sequence
+compiled, with the check of every branch, is :mod:`manipkit.closed_form.srs_kernel` (it hands targets near a
+threshold back here).
 """
 
 from __future__ import annotations

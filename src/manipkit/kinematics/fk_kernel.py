@@ -552,3 +552,97 @@ def chain_fk_for(robot: Robot, frame: str) -> ChainFK:
     robot and frame): :meth:`manipkit.kinematics.robot.Robot.chain_fk`.
     """
     return robot.chain_fk(frame)
+
+
+# --------------------------------------------------------------------------
+# One configuration at a time, from inside another compiled loop (the closed forms' check of every branch)
+
+
+def row_tables(steps: Sequence[ChainStep], columns: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The program of :class:`ChainFK` for ``steps`` packed as (floats, ints), for :func:`pose_row`.
+
+    ``steps`` index the robot's joint vector (as ``Chain.steps``); the rows
+    :func:`pose_row` takes are chain vectors, entry ``k`` being robot column
+    ``columns[k]`` (``Chain.columns``). The same preparation as
+    :class:`ChainFK` (axes turned to z, rotations split about z, signed
+    permutations as labels), laid out in two flat arrays so a compiled caller
+    passes the chain in two arguments. ``ints``: ``[m, n_rev, n_pri]``, then
+    ``joints`` (m, 4), ``mixed`` (m,), ``out_cols`` (3), the revolute then
+    prismatic entries of the chain vector; ``floats``: ``R0`` (9), ``p0``
+    (3), ``out_signs`` (3), ``shifts`` (m, 3), ``mixes`` (m, 3, 3), then the
+    revolute joints' half scales and half offsets, the prismatic joints'
+    scales and offsets (the joint value rules of :class:`ChainFK`).
+    """
+    position = {int(column): k for k, column in enumerate(columns)}
+    steps = tuple(step if step.index < 0 else ChainStep(step.rotation, step.translation, position[step.index],
+                                                        step.prismatic, step.axis, step.scale, step.offset)
+                  for step in steps)
+    fk = ChainFK(steps, len(position))
+    P = fk._program
+    m = P.joints.shape[0]
+    ints = np.concatenate([[m, fk.n_revolute, fk.n_prismatic], P.joints.reshape(-1), P.mixed.astype(np.int64),
+                           P.out_cols, fk._rev_cols, fk._pri_cols]).astype(np.int64)
+    floats = np.concatenate([P.R0.reshape(-1), P.p0, P.out_signs, P.shifts.reshape(-1), P.mixes.reshape(-1),
+                             fk._half_scales, fk._half_offsets, fk._pri_scales, fk._pri_offsets]).astype(float)
+    return floats, ints
+
+
+def pose_row(q, floats, ints, R, T):
+    """Write ``T`` (4, 4) = T_base_tip of one joint vector ``q`` (n,) by the tables of :func:`row_tables`.
+
+    The computation of :func:`_poses` for one configuration (``cos q`` and
+    ``sin q`` from ``tan(q / 2)``, as :class:`ChainFK` takes them; equal to
+    it to a few units in the last place); ``R`` is (4, 3) scratch (three
+    stored columns and the position). Compiled by :func:`pose_row_kernel`,
+    it is called from other compiled loops.
+    """
+    m, n_rev = ints[0], ints[1]  # joints, revolute joints
+    j0 = 3  # offsets of the tables in ints, then in floats
+    mix0 = j0 + 4 * m
+    oc = mix0 + m
+    rc = oc + 3
+    pc = rc + n_rev
+    s0 = 15
+    x0 = s0 + 3 * m
+    h0 = x0 + 9 * m
+    v0 = h0 + 2 * n_rev
+    for c in range(3):
+        for i in range(3):
+            R[c, i] = floats[3 * c + i]
+        R[3, c] = floats[9 + c]
+    for k in range(m):
+        kind, a, b, row = ints[j0 + 4 * k], ints[j0 + 4 * k + 1], ints[j0 + 4 * k + 2], ints[j0 + 4 * k + 3]
+        if kind == _REVOLUTE:
+            t = math.tan(q[ints[rc + row]] * floats[h0 + row] + floats[h0 + n_rev + row])
+            w = 2.0 / (1.0 + t * t)
+            cos, sin = w - 1.0, t * w
+            for i in range(3):
+                x, y = R[a, i], R[b, i]
+                R[a, i] = x * cos + y * sin
+                R[b, i] = y * cos - x * sin
+        else:
+            v = q[ints[pc + row]] * floats[v0 + row] + floats[v0 + ints[2] + row]
+            for i in range(3):
+                R[3, i] += R[a, i] * v
+        for c in range(3):
+            d = floats[s0 + 3 * k + c]
+            if d != 0.0:
+                for i in range(3):
+                    R[3, i] += R[c, i] * d
+        if ints[mix0 + k]:
+            for i in range(3):
+                r0, r1, r2 = R[0, i], R[1, i], R[2, i]
+                for c in range(3):
+                    base = x0 + 9 * k
+                    R[c, i] = r0 * floats[base + c] + r1 * floats[base + 3 + c] + r2 * floats[base + 6 + c]
+    for i in range(3):
+        for c in range(3):
+            T[i, c] = floats[12 + c] * R[ints[oc + c], i]
+        T[i, 3] = R[3, i]
+        T[3, i] = 0.0
+    T[3, 3] = 1.0
+
+
+pose_row_kernel = lazy_kernel(pose_row, error_model="numpy")
+
+__all__ += ["pose_row", "pose_row_kernel", "row_tables"]

@@ -1,0 +1,186 @@
+"""The check of a closed-form branch on the true chain, compiled: its joint row, its FK, its residual.
+
+What :func:`manipkit.closed_form.chain_ik.chain_ik` does to every branch
+in numpy (``_joint_values``, ``_aliases``, ``chain.fk``,
+:func:`manipkit.spatial.transforms.pose_residuals`, ``chain.within_limits``),
+as functions numba compiles into the closed forms' loop over targets
+(:mod:`manipkit.closed_form.arms_kernel`), so a target's eight branches are
+solved and checked without leaving machine code:
+
+- :func:`chain_row`: solved angles -> a chain vector, each revolute entry
+  moved by whole turns to its in-limit value nearest 0;
+- the chain's forward kinematics by
+  :func:`manipkit.kinematics.fk_kernel.pose_row` (the program of the chain's
+  own compiled FK, one row at a time: the true chain, not the solver's ideal
+  arm);
+- :func:`pose_residual`: the compiled twin of
+  ``pose_residuals(T_target, T, project=False)`` (one rule, one definition:
+  the same formulas, tested equal to it);
+- :func:`exact_rotation`: whether a target's rotation block is used as is
+  (the test of :func:`manipkit.spatial.transforms.projected_rotation`);
+  a target that is not is projected in numpy first.
+
+Importing this module imports numba. It reads the chain's FK program from
+:mod:`manipkit.kinematics.fk_kernel`, the one module of the kinematics layer
+the closed forms may import (numpy and the kernels only; docs/architecture.md,
+"Layers").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.kernels import compile_kernel
+from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
+from manipkit.spatial.transforms import EXACT_ROTATION_TOL
+
+__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "kept_rows", "pose_residual", "row_tables",
+           "wrap_angle"]
+
+#: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
+LIMIT_TOL = 1e-12
+TWO_PI = 2.0 * math.pi
+pose_row = pose_row_kernel()
+
+
+def inlined(py_func):
+    """compile_kernel with numba's inlining at its IR level: a small function called per branch from the loops
+    costs no call (its arrays are not passed as structures)."""
+    return compile_kernel(py_func, inline="always")
+
+
+@inlined
+def pose_residual(T_ref, T):
+    """(position m, rotation rad) of the reached pose ``T`` against ``T_ref`` (both (4, 4)).
+
+    The compiled twin of ``pose_residuals(T_ref, T, project=False)``
+    (:mod:`manipkit.spatial.transforms`): ``|t - t_ref|`` and
+    ``atan2(|v| / 2, (trace M - 1) / 2)`` of ``M = R_ref^T R``, ``v`` the
+    vector of its skew part, with the same operations in the same order.
+    """
+    a00, a01, a02 = T_ref[0, 0], T_ref[0, 1], T_ref[0, 2]
+    a10, a11, a12 = T_ref[1, 0], T_ref[1, 1], T_ref[1, 2]
+    a20, a21, a22 = T_ref[2, 0], T_ref[2, 1], T_ref[2, 2]
+    b00, b01, b02 = T[0, 0], T[0, 1], T[0, 2]
+    b10, b11, b12 = T[1, 0], T[1, 1], T[1, 2]
+    b20, b21, b22 = T[2, 0], T[2, 1], T[2, 2]
+    m01, m10 = a00 * b01 + a10 * b11 + a20 * b21, a01 * b00 + a11 * b10 + a21 * b20
+    m02, m20 = a00 * b02 + a10 * b12 + a20 * b22, a02 * b00 + a12 * b10 + a22 * b20
+    m12, m21 = a01 * b02 + a11 * b12 + a21 * b22, a02 * b01 + a12 * b11 + a22 * b21
+    trace = ((a00 * b00 + a10 * b10 + a20 * b20) + (a01 * b01 + a11 * b11 + a21 * b21)
+             + (a02 * b02 + a12 * b12 + a22 * b22))
+    v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
+    dx, dy, dz = T[0, 3] - T_ref[0, 3], T[1, 3] - T_ref[1, 3], T[2, 3] - T_ref[2, 3]
+    return (math.sqrt(dx * dx + dy * dy + dz * dz),
+            math.atan2(0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (trace - 1.0)))
+
+
+@inlined
+def exact_rotation(T):
+    """The rotation block of ``T`` (4, 4) is orthonormal to EXACT_ROTATION_TOL with det > 0 (False for nan):
+    it is used as is, as :func:`manipkit.spatial.transforms.projected_rotation` decides."""
+    worst = 0.0
+    for i in range(3):
+        for j in range(i, 3):
+            g = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j] - (1.0 if i == j else 0.0)
+            if not abs(g) <= worst:
+                worst = abs(g)
+            if not worst <= EXACT_ROTATION_TOL:  # nan too
+                return False
+    det = (T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1]) - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
+           + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0]))
+    return det > 0.0
+
+
+@inlined
+def wrap_angle(a):
+    """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
+    if -math.pi < a <= math.pi:
+        return a + 0.0
+    w = math.pi - (math.pi - a) % TWO_PI
+    return w + TWO_PI if w <= -math.pi else w
+
+
+@inlined
+def chain_row(theta, reverse, q0, columns, scale, lower, upper, out):
+    """``out`` (n,) = the chain vector of solved angles ``theta`` (m,): ``q0`` with column ``columns[i]`` moved by
+    ``theta[i] / scale[i]`` (``theta[m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken, by
+    whole turns, to the in-limit value nearest 0 (``lower``/``upper`` (m,) of the solved columns; wrapped to
+    (-pi, pi] when none is inside). chain_ik's ``_joint_values`` and ``_aliases`` (revolute joints)."""
+    m = columns.shape[0]
+    for j in range(out.shape[0]):
+        out[j] = q0[j]
+    for i in range(m):
+        col = columns[i]
+        angle = theta[m - 1 - i] if reverse else theta[i]
+        wrapped = wrap_angle(q0[col] + angle / scale[i])
+        best = wrapped
+        if not (lower[i] - LIMIT_TOL <= wrapped <= upper[i] + LIMIT_TOL):
+            for turn in (1.0, -1.0, 2.0, -2.0):
+                candidate = wrapped + turn * TWO_PI
+                if lower[i] - LIMIT_TOL <= candidate <= upper[i] + LIMIT_TOL:
+                    best = candidate
+                    break
+        out[col] = best
+
+
+@inlined
+def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
+    """(position m, rotation rad, within limits) of chain vector ``q`` against ``T_target``: the chain's FK
+    (:func:`manipkit.kinematics.fk_kernel.pose_row`, tables ``floats``, ``ints``; ``scratch`` (4, 3), ``T``
+    (4, 4) written), :func:`pose_residual`, and every entry inside ``chain_lower``/``chain_upper`` to LIMIT_TOL
+    (``Chain.within_limits``)."""
+    pose_row(q, floats, ints, scratch, T)
+    position, rotation = pose_residual(T_target, T)
+    inside = True
+    for j in range(q.shape[0]):
+        if q[j] < chain_lower[j] - LIMIT_TOL or q[j] > chain_upper[j] + LIMIT_TOL:
+            inside = False
+    return position, rotation, inside
+
+
+@compile_kernel
+def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol):
+    """The answer of one target from its checked slots, as chain_ik keeps it: every valid row within the tolerances
+    (else not ok: the general path refines it), a row equal modulo 2 pi (to 1e-9) to one kept before it dropped, the
+    rest in the stable order of ``keys`` (the labels' order). Returns (ok, rows (k, n), residuals (2, k), within
+    (k,), codes (k,)); ok False (and nothing kept) when a row misses the tolerances."""
+    order = np.empty(rows.shape[0], dtype=np.int64)
+    count = 0
+    for k in range(rows.shape[0]):
+        if not valid[k]:
+            continue
+        if not (residuals[k, 0] <= position_tol and residuals[k, 1] <= rotation_tol):
+            return (False, np.empty((0, rows.shape[1])), np.empty((2, 0)), np.empty(0, dtype=np.bool_),
+                    np.empty(0, dtype=np.int64))
+        repeated = False
+        for j in order[:count]:
+            equal = True
+            for i in range(rows.shape[1]):
+                d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
+                if not abs(d) <= 1e-9:
+                    equal = False
+                    break
+            if equal:
+                repeated = True
+                break
+        if not repeated:
+            order[count] = k
+            count += 1
+    for a in range(1, count):  # insertion sort: stable, on at most 8 rows
+        k = order[a]
+        b = a
+        while b > 0 and keys[order[b - 1]] > keys[k]:
+            order[b] = order[b - 1]
+            b -= 1
+        order[b] = k
+    Q, measured = np.empty((count, rows.shape[1])), np.empty((2, count))
+    inside, named = np.empty(count, dtype=np.bool_), np.empty(count, dtype=np.int64)
+    for a in range(count):
+        k = order[a]
+        Q[a] = rows[k]
+        measured[0, a], measured[1, a] = residuals[k, 0], residuals[k, 1]
+        inside[a], named[a] = within[k], codes[k]
+    return True, Q, measured, inside, named

@@ -1,0 +1,166 @@
+"""The 7R SRS closed form of :mod:`manipkit.closed_form.srs` at a given arm angle, compiled, with its check.
+
+The same sequence as :func:`manipkit.closed_form.srs.solve_srs` (elbow by
+subproblem 3, the reference shoulder by subproblem 2, the shoulder turned by
+the arm angle ``psi`` about the shoulder-wrist line and split into ``t1, t2,
+t3``, the wrist ``t5, t6, t7``), on scalars and 3-tuples
+(:mod:`manipkit.closed_form.subproblems_kernel`), every branch in the same
+slot (``4 elbow + 2 shoulder + wrist``); then each branch's chain row, FK on
+the true chain and residual (:mod:`manipkit.closed_form.check_kernel`), in
+one compiled call per target.
+
+Like the 6R loops it answers generic targets only: a target where a
+decision of the reference comes near its threshold (a tangency, a free
+angle, subproblem 2's acceptance of a pair, a missing branch) is handed back
+and solved by the numpy reference, so the answer is the reference's
+everywhere. Importing this module imports numba.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows
+from manipkit.closed_form.subproblems_kernel import (
+    MARGIN,
+    add,
+    atan2,
+    dot,
+    mv,
+    norm,
+    perpendicular,
+    rotate,
+    row,
+    sp1,
+    sp3,
+    sp4,
+    sub,
+)
+from manipkit.kernels import compile_kernel
+
+__all__ = ["solve_check_srs"]
+
+PAIR_MISS = 1e-10  # a subproblem-2 pair missing by more is left to the reference (it accepts up to sqrt(1e-12))
+
+
+@compile_kernel
+def _apply(C0, C1, C2, x):
+    """M x for the matrix with columns C0, C1, C2."""
+    return (C0[0] * x[0] + C1[0] * x[1] + C2[0] * x[2], C0[1] * x[0] + C1[1] * x[1] + C2[1] * x[2],
+            C0[2] * x[0] + C1[2] * x[1] + C2[2] * x[2])
+
+
+@compile_kernel
+def _shoulder(v, pc, ps, h0, c1, s1, h1, ca, sa, x):
+    """R(v, psi) R(h0, -b) R(h1, a) x: the reference shoulder turned by the arm angle (cos, sin given)."""
+    return rotate(v, pc, ps, rotate(h0, c1, s1, rotate(h1, ca, sa, x)))
+
+
+@compile_kernel
+def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
+    """One target (``R``, ``t`` of ``g``) at the arm angle (cos ``pc``, sin ``ps``) into theta (8, 7), valid (8,);
+    True when the reference must decide."""
+    # Over 80 lines: the reference's elbow, shoulder and wrist stages and their slots, in its order.
+    h0, h1, h2, h3, h4, h5, h6 = row(H, 0), row(H, 1), row(H, 2), row(H, 3), row(H, 4), row(H, 5), row(H, 6)
+    p3 = row(P, 3)
+    v = sub(add(mv(R, c), t), S)
+    length = norm(v)
+    if length <= MARGIN:
+        return True
+    vhat = (v[0] / length, v[1] / length, v[2] / length)
+    ca4, sa4, cb4, sb4, count4, _, unsure4 = sp3(h3, sub(c, p3), sub(S, p3), length)
+    if unsure4 or count4 == 0.0:
+        return True
+    v2, v6 = perpendicular(h2), perpendicular(h6)
+    e1, e2, e3 = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
+    for e in range(2):
+        c4, s4 = (ca4, sa4) if e == 0 else (cb4, sb4)
+        u = sub(add(p3, rotate(h3, c4, s4, sub(c, p3))), S)
+        # the reference shoulder: R(h1, a) u = R(h0, b) v (subproblem 2, its first pair)
+        ca, sa, _, _, count_r, _, unsure_r = sp4(h0, h1, u, dot(h0, v))
+        if unsure_r or count_r == 0.0:
+            return True
+        cb, sb, size_b, miss_b = sp1(h0, v, rotate(h1, ca, sa, u))
+        if size_b <= MARGIN or miss_b > PAIR_MISS * max(1.0, norm(u)):
+            return True
+        C0 = _shoulder(vhat, pc, ps, h0, cb, -sb, h1, ca, sa, e1)
+        C1 = _shoulder(vhat, pc, ps, h0, cb, -sb, h1, ca, sa, e2)
+        C2 = _shoulder(vhat, pc, ps, h0, cb, -sb, h1, ca, sa, e3)
+        # split: R(h0, m) x = R(h1, t2) h2 with x = R_shoulder h2, t1 = -m
+        x = _apply(C0, C1, C2, h2)
+        cma, sma, cmb, smb, count_s, _, unsure_s = sp4(h1, h0, x, dot(h1, h2))
+        if unsure_s or count_s == 0.0:
+            return True
+        turned_v2 = _apply(C0, C1, C2, v2)
+        # R_arm = R_shoulder R(h3, t4): its columns; R_rem y = R_arm^T R y
+        A0 = _apply(C0, C1, C2, rotate(h3, c4, s4, e1))
+        A1 = _apply(C0, C1, C2, rotate(h3, c4, s4, e2))
+        A2 = _apply(C0, C1, C2, rotate(h3, c4, s4, e3))
+        g6, gv = mv(R, h6), mv(R, v6)
+        x6 = (dot(A0, g6), dot(A1, g6), dot(A2, g6))
+        rv = (dot(A0, gv), dot(A1, gv), dot(A2, gv))
+        cwa, swa, cwb, swb, count_w, _, unsure_w = sp4(h5, h4, x6, dot(h5, h6))
+        if unsure_w or count_w == 0.0:
+            return True
+        for s in range(2):
+            cm, sm = (cma, sma) if s == 0 else (cmb, smb)
+            c2, s2, size2, miss2 = sp1(h1, h2, rotate(h0, cm, sm, x))
+            if size2 <= MARGIN or (s == 0 and miss2 > PAIR_MISS):
+                return True
+            c3, s3, _, _ = sp1(h2, v2, rotate(h1, c2, -s2, rotate(h0, cm, sm, turned_v2)))
+            for w in range(2):
+                cw, sw = (cwa, swa) if w == 0 else (cwb, swb)  # the angle -t5
+                c6, s6, size6, miss6 = sp1(h5, h6, rotate(h4, cw, sw, x6))
+                if size6 <= MARGIN or (w == 0 and miss6 > PAIR_MISS):
+                    return True
+                c7, s7, _, _ = sp1(h6, v6, rotate(h5, c6, -s6, rotate(h4, cw, sw, rv)))
+                slot = 4 * e + 2 * s + w
+                theta[slot, 0], theta[slot, 1], theta[slot, 2] = atan2(-sm, cm), atan2(s2, c2), atan2(s3, c3)
+                theta[slot, 3], theta[slot, 4] = atan2(s4, c4), atan2(-sw, cw)
+                theta[slot, 5], theta[slot, 6] = atan2(s6, c6), atan2(s7, c7)
+                valid[slot] = True
+    return False
+
+
+@compile_kernel
+def _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T, pc, ps, position_tol,
+                   rotation_tol):
+    """One target: every branch at the arm angle (cos ``pc``, sin ``ps``), each branch's chain row, FK, residual
+    and limits, kept as chain_ik keeps rows (:func:`manipkit.closed_form.check_kernel.kept_rows`; ordered by the
+    wrist's split, code ``4 (t4 < 0) + 2 (t2 < 0) + (t6 < 0)``); returns (answered, rows, residuals, within, codes)."""
+    n = q0.shape[0]
+    theta, valid = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
+    rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
+    keys, codes = np.zeros(8, dtype=np.int64), np.zeros(8, dtype=np.int64)
+    scratch, T_fk, g = np.empty((4, 3)), np.empty((4, 4)), np.empty((4, 4))
+    for i in range(4):  # g = T M^-1
+        for j in range(4):
+            g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
+    if not exact_rotation(T) or _srs_target(H, P, row(points, 1), row(points, 0), pc, ps, g[:3, :3],
+                                            (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
+        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
+    for k in range(theta.shape[0]):
+        if valid[k]:
+            chain_row(theta[k], False, q0, columns, solved[0], solved[1], solved[2], rows[k])
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
+                                                                    scratch, T_fk)
+        keys[k] = 1 if theta[k, 5] < 0.0 else 0
+        codes[k] = 4 * (theta[k, 3] < 0.0) + 2 * (theta[k, 1] < 0.0) + keys[k]
+    return kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol)
+
+
+def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float, tol: tuple[float, float]):
+    """Every branch of an SRS arm for one target ``T`` (4, 4) at ``arm_angle`` (rad), checked on the true chain and
+    kept as ``chain_ik`` keeps rows, in one compiled call.
+
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns None when the general path must
+    answer (the reference must decide, the target's rotation block is not a rotation to 1e-12, or a row misses
+    ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within (k,), codes (k,): ``4 elbow - + 2 shoulder - +
+    wrist flip``), as :func:`manipkit.closed_form.arms_kernel.solve_check_one` gives them.
+    """
+    _, H, P, points, _, M_inv, _, q0, columns, solved, limits, floats, ints = prepared
+    answered, *answer = _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T,
+                                       math.cos(arm_angle), math.sin(arm_angle), tol[0], tol[1])
+    return answer if answered else None

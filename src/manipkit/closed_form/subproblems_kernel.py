@@ -1,0 +1,201 @@
+"""The Paden-Kahan subproblems on scalars and 3-tuples, compiled with numba: the pieces of the closed forms' loops.
+
+The same subproblems as :mod:`manipkit.closed_form.subproblems` (which
+broadcasts over arrays of targets), written for one target at a time so a
+compiled loop (:mod:`manipkit.closed_form.arms_kernel`,
+:mod:`manipkit.closed_form.srs_kernel`) solves a target with no allocation:
+angles are carried as cosine and sine, one :func:`atan2` per output angle.
+Near a threshold (a tangency, a degenerate rotation) :func:`sp4` and
+:func:`sp3` say ``unsure``: the caller then hands the target back to the
+numpy reference, which decides. Importing this module imports numba.
+"""
+
+from __future__ import annotations
+
+import math
+
+from manipkit.kernels import compile_kernel
+
+__all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "cross", "dot", "move", "mtv", "mv", "norm", "perpendicular",
+           "rotate", "row", "sp1", "sp3", "sp4", "sub", "wrap"]
+
+#: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
+MARGIN = 1e-8
+TOL = 1e-12  # the subproblems' zero, as the reference's (arms.solve_6r's tol)
+NEAR = 1e-6  # arms.NEAR
+TWO_PI = 2.0 * math.pi
+# Cephes' atan (Moshier, cephes/cmath/atan.c): P/Q on [0, 0.66] after the reduction, and pi/4's low bits
+_P0, _P1, _P2, _P3, _P4 = (-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792314704667340e1,
+                           -1.228866684490136173410e2, -6.485021904942025371773e1)
+_Q0, _Q1, _Q2, _Q3, _Q4 = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
+                           4.853903996359136964868e2, 1.945506571482613964425e2)
+_MOREBITS = 6.123233995736765886130e-17
+
+
+@compile_kernel
+def dot(a, b):
+    """a . b of 3-tuples."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@compile_kernel
+def cross(a, b):
+    """a x b of 3-tuples."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@compile_kernel
+def sub(a, b):
+    """a - b of 3-tuples."""
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@compile_kernel
+def add(a, b):
+    """a + b of 3-tuples."""
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@compile_kernel
+def norm(a):
+    """|a| of a 3-tuple."""
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@compile_kernel
+def wrap(x):
+    """x wrapped to (-pi, pi]."""
+    return math.pi - (math.pi - x) % TWO_PI
+
+
+@compile_kernel
+def rotate(k, c, s, p):
+    """R(k, t) p (Rodrigues) with c = cos t, s = sin t, as subproblems.rotate."""
+    kp = dot(k, p)
+    kx = cross(k, p)
+    return (c * p[0] + s * kx[0] + (1.0 - c) * kp * k[0],
+            c * p[1] + s * kx[1] + (1.0 - c) * kp * k[1],
+            c * p[2] + s * kx[2] + (1.0 - c) * kp * k[2])
+
+
+@compile_kernel
+def move(h, p, c, s, x):
+    """E(t) x: x turned by t (c = cos t, s = sin t) about the line through p along h."""
+    return add(p, rotate(h, c, s, sub(x, p)))
+
+
+@compile_kernel
+def mv(R, x):
+    """R x for a (3, 3) array R."""
+    return (R[0, 0] * x[0] + R[0, 1] * x[1] + R[0, 2] * x[2],
+            R[1, 0] * x[0] + R[1, 1] * x[1] + R[1, 2] * x[2],
+            R[2, 0] * x[0] + R[2, 1] * x[1] + R[2, 2] * x[2])
+
+
+@compile_kernel
+def mtv(R, x):
+    """R^T x for a (3, 3) array R."""
+    return (R[0, 0] * x[0] + R[1, 0] * x[1] + R[2, 0] * x[2],
+            R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
+            R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
+
+
+@compile_kernel
+def sp1(k, p, q):
+    """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q.
+
+    ``size`` = |p off the axis| (the angle is free, held 0, where it is within TOL); ``miss`` = |R(k, t) p - q|,
+    which for the best angle is ``hypot(|p_perp| - |q_perp|, k.p - k.q)`` (R turns p_perp onto q_perp's direction)."""
+    kp, kq = dot(k, p), dot(k, q)
+    pp = (p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2])
+    qp = (q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2])
+    size, size_q = norm(pp), norm(qp)
+    X, Y = dot(pp, qp), dot(k, cross(pp, qp))
+    r = math.sqrt(X * X + Y * Y)
+    if size <= TOL or r == 0.0:
+        return 1.0, 0.0, size, norm(sub(p, q))
+    d_perp, d_axis = size - size_q, kp - kq
+    return X / r, Y / r, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
+
+
+@compile_kernel
+def _atan_unit(x):
+    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp)."""
+    y, extra = 0.0, 0.0
+    if x > 0.66:
+        y, extra = 0.25 * math.pi, 0.5 * _MOREBITS
+        x = (x - 1.0) / (x + 1.0)
+    z = x * x
+    num = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
+    den = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
+    return y + (x * (z * num / den) + x + extra)
+
+
+@compile_kernel
+def atan2(y, x):
+    """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much)."""
+    ay, ax = abs(y), abs(x)
+    if ay == 0.0 and ax == 0.0:
+        return math.copysign(math.pi, y) if math.copysign(1.0, x) < 0.0 else math.copysign(0.0, y)
+    if ay <= ax:
+        a = _atan_unit(ay / ax)
+    else:
+        a = 0.5 * math.pi - _atan_unit(ax / ay)
+    if math.copysign(1.0, x) < 0.0:
+        a = math.pi - a
+    return math.copysign(a, y)
+
+
+@compile_kernel
+def sp4(h, k, p, d):
+    """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
+    (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
+    ``unsure``: degenerate or tangent within ``MARGIN`` (the reference decides there)."""
+    kp = dot(k, p)
+    A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
+    B = dot(h, cross(k, p))
+    C = d - dot(h, k) * kp
+    r = math.hypot(A, B)
+    scale = max(1.0, r)
+    gap = abs(C) - r
+    unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
+    if r == 0.0:
+        return 1.0, 0.0, 1.0, 0.0, 0.0, abs(C), True
+    cphi, sphi = A / r, B / r
+    ci = min(1.0, max(-1.0, C / r))
+    si = math.sqrt(1.0 - ci * ci)
+    count = 0.0 if gap > TOL * scale else 2.0
+    miss = gap if count == 0.0 else 0.0
+    return cphi * ci - sphi * si, sphi * ci + cphi * si, cphi * ci + sphi * si, sphi * ci - cphi * si, count, miss, unsure
+
+
+@compile_kernel
+def sp3(k, p1, p2, delta):
+    """Subproblem 3 (|R(k, t) p1 - p2| = delta) as subproblems.sp3: (ca, sa, cb, sb, count, miss, unsure)."""
+    d = 0.5 * (dot(p1, p1) + dot(p2, p2) - delta * delta)
+    ca, sa, cb, sb, count, miss, unsure = sp4(p2, k, p1, d)
+    if count == 0.0:
+        ra = norm(sub(rotate(k, ca, sa, p1), p2))
+        rb = norm(sub(rotate(k, cb, sb, p1), p2))
+        miss = min(abs(ra - delta), abs(rb - delta))
+    return ca, sa, cb, sb, count, miss, unsure
+
+
+@compile_kernel
+def perpendicular(h):
+    a = (abs(h[0]), abs(h[1]), abs(h[2]))
+    i = 0
+    if a[1] < a[i]:
+        i = 1
+    if a[2] < a[i]:
+        i = 2
+    e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+    v = cross(h, e)
+    n = norm(v)
+    return (v[0] / n, v[1] / n, v[2] / n)
+
+
+@compile_kernel
+def row(H, i):
+    """Row i of a (m, 3) array as a 3-tuple."""
+    return (H[i, 0], H[i, 1], H[i, 2])

@@ -1,0 +1,26 @@
+"""closed_form.checks.tolerance_pair: the one tolerance parser (ik_result.tolerances), remembered per value."""
+
+import pytest
+
+from manipkit.closed_form.checks import tolerance_pair
+from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik_result import tolerances
+
+
+@pytest.mark.parametrize("tol", [1e-9, 1, (1e-6, 1e-3), [1e-6, 1e-3], (2, 3.0), True])
+def test_tolerance_pair_reads_as_tolerances_does_every_time(tol):
+    assert tolerance_pair(tol) == tolerances(tol)
+    assert tolerance_pair(tol) == tolerances(tol)  # the remembered answer is the same
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), (1e-6, 0.0), "x", (1e-6, float("inf"))])
+def test_tolerance_pair_refuses_what_tolerances_refuses_with_the_error_asked(bad):
+    for _ in range(2):  # never remembered
+        with pytest.raises(ClosedFormIKError) as caught:
+            tolerance_pair(bad, error=ClosedFormIKError, what="check_tol")
+        with pytest.raises(ClosedFormIKError) as expected:
+            tolerances(bad, error=ClosedFormIKError, what="check_tol")
+        assert str(caught.value) == str(expected.value)
+    with pytest.raises(IKOptionError):
+        tolerance_pair(bad)
+
