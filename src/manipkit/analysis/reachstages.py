@@ -62,7 +62,7 @@ __all__ = [
     "sample_until_converged", "wilson",
 ]
 
-ROUND_BLOCKS = 8  # FK blocks of a full round while sampling converges (fixed: the map does not depend on the workers)
+ROUND_BLOCKS = 16  # FK blocks of a full round (fixed: the map does not depend on the workers; 16 keep a cluster busy)
 HOLDOUT_STREAM, FP_STREAM = 2, 3  # the seed streams of the checks (the FK stage draws from stream 0)
 Z95 = 1.959963984540054  # the two-sided 95 % normal quantile
 MAX_FILL_PASSES = 1000
@@ -111,7 +111,7 @@ def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, c
     reached, block, converged = 0, 0, False
     ramp = job.collisions is not None and not job.manipulability  # small first rounds: fewer samples checked twice
     while block < n_blocks and not converged:
-        size = min(ROUND_BLOCKS, block + 1) if ramp else ROUND_BLOCKS  # 1, 2, 4, 8, 8 .. or 8, 8 ..
+        size = min(ROUND_BLOCKS, block + 1) if ramp else ROUND_BLOCKS  # 1, 2, 4, 8, 16, 16 .. or 16, 16 ..
         round_blocks = list(range(block, min(n_blocks, block + size)))
         label = "FK samples" if len(round_blocks) == n_blocks else f"FK samples, blocks {round_blocks[0] + 1}-" \
             f"{round_blocks[-1] + 1} of at most {n_blocks}"
