@@ -10,7 +10,11 @@ Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
 - ``acm``: the Panda's allowed-collision matrix from 10,000 samples, whole
   run timed; checked equal to the SRDF example-robot-data ships.
 - ``reachmap_collisions``: the iiwa14 FK map at 0.1 m with and without
-  ``collisions=self,floor``; the filtered map must reach a subset of the plain one.
+  ``collisions=self,floor``, each sampled until it converges as the command
+  line builds it (``--converge 0.001``, ``map_samples`` the budget; each
+  row says how many samples its map drew); the filtered map must reach a
+  subset of the plain one. Then both again at a fixed ``map_samples`` drawn
+  in full (``converge=0``), the same comparison at equal sample counts.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ def _srdf_pairs(text: str) -> dict:
 
 
 def collisions_workload(*, checks: int, repeats: int, acm_samples: int, map_samples: int, voxel: float,
-                        directions: int) -> list[dict]:
+                        directions: int, map_converge: float = 0.001, fixed_samples: int = 1_000_000) -> list[dict]:
     """Every row of the module docstring."""
     import pinocchio as pin
 
@@ -84,20 +88,23 @@ def collisions_workload(*, checks: int, repeats: int, acm_samples: int, map_samp
 
     iiwa = manipkit.load("iiwa14")
     settings = CollisionSettings.parse(iiwa, "self,floor", floor=0.0)
-    options = dict(voxel=voxel, orientations=directions, samples=map_samples, manipulability=False)
-    build(iiwa, **{**options, "samples": 1000}, collisions=settings)  # warm: kernels compiled, checker built
-    t = time.perf_counter()
-    plain = build(iiwa, **options)
-    t_plain = time.perf_counter() - t
-    t = time.perf_counter()
-    filtered = build(iiwa, **options, collisions=settings)
-    t_filtered = time.perf_counter() - t
-    subset = bool((filtered.reach <= plain.reach).all())
-    check = (f"reachable voxels {int(filtered.reachable.sum())} of {int(plain.reachable.sum())}; "
-             f"filtered within the plain map: {subset}")
-    rows.append(row("reachmap_collisions", "iiwa14", "manipkit reachmap.build, collisions self,floor", [t_filtered],
-                    unit="map", n=map_samples, ours=True, status="ok" if subset else "wrong", check=check,
-                    slowdown=t_filtered / t_plain))
-    rows.append(row("reachmap_collisions", "iiwa14", "manipkit reachmap.build, no collisions", [t_plain], unit="map",
-                    n=map_samples, check=check))
+    base = dict(voxel=voxel, orientations=directions, manipulability=False)
+    build(iiwa, **base, samples=1000, collisions=settings)  # warm: kernels compiled, checker built
+    for label, options in ((f"converged ({map_converge:g})", dict(samples=map_samples, converge=map_converge)),
+                           ("fixed samples", dict(samples=fixed_samples, converge=0.0))):
+        t = time.perf_counter()
+        plain = build(iiwa, **base, **options)
+        t_plain = time.perf_counter() - t
+        t = time.perf_counter()
+        filtered = build(iiwa, **base, **options, collisions=settings)
+        t_filtered = time.perf_counter() - t
+        subset = bool((filtered.reach <= plain.reach).all())
+        used = (plain.settings["samples_used"], filtered.settings["samples_used"])
+        check = (f"reachable voxels {int(filtered.reachable.sum())} of {int(plain.reachable.sum())}; "
+                 f"filtered within the plain map: {subset}; samples drawn {used[1]} (filtered) and {used[0]} (plain)")
+        rows.append(row("reachmap_collisions", "iiwa14", f"manipkit reachmap.build, collisions self,floor, {label}",
+                        [t_filtered], unit="map", n=options["samples"], ours=True, status="ok" if subset else "wrong",
+                        check=check, slowdown=t_filtered / t_plain, samples_used=used[1]))
+        rows.append(row("reachmap_collisions", "iiwa14", f"manipkit reachmap.build, no collisions, {label}", [t_plain],
+                        unit="map", n=options["samples"], check=check, samples_used=used[0]))
     return rows

@@ -1,6 +1,6 @@
-"""Reachability maps (issue 17): certified reachable poses per core-second, batched IK, agreement with IK labels.
+"""Reachability maps (issues 17 and 24): the issue's iiwa14 map, its agreement with IK labels, Dask, batched IK.
 
-    python -m benchmarks.reachmap_workload            # iiwa14 at 0.1 m, 200 directions (a few minutes)
+    python -m benchmarks.reachmap_workload            # the issue's sizes: iiwa14 at 5 cm, 200 directions (~10 min)
     python -m benchmarks.reachmap_workload --quick    # small sizes (seconds)
 
 `make bench` (:mod:`benchmarks.run`, workload ``reachmap``) runs it as this
@@ -8,24 +8,36 @@ command in a child process, with its own sizes (``--sizes``): Dask's worker
 processes start by importing the parent's main module, which must not run the
 whole benchmark again (this module's is guarded; ``python -m benchmarks`` is not).
 
-Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
+The map is issue 24's: ``voxel`` (5 cm), ``directions`` approach directions
+times the default rolls (one: any roll about the approach axis), method
+``fk`` sampled until a block adds fewer than ``converge`` times the
+voxel-bins before it (``samples`` the budget), built twice, on a
+LocalCluster of 1 and of 2 worker processes. Rows as in
+:mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
 
-- ``reachmap_fk``: ``reachmap.build(method="fk")`` in this process (one
-  core). "Certified" voxel-bins are those a sampled configuration lands in;
-  the rate is certified voxel-bins per core-second, beside reuleaux_moveit's
-  reported 3.8 reachable poses per core-second (issue 17).
-- ``reachmap_hybrid``: the same map with the IK pass at the boundary; the
-  IK-certified voxel-bins are checked again here with Pinocchio FK.
-- ``reachmap_dask``: the FK map on a LocalCluster of 1 and of 2 worker
-  processes (wall time with and without the cluster's start), the maps
-  checked identical to the in-process one.
+- ``reachmap_dask``: wall time of each build (the cluster's start included),
+  the two maps checked identical (reach codes, certificates, first
+  configurations: same seed, same map, any worker count).
+- ``reachmap_fk``: the 1-worker build as certified voxel-bins per
+  core-second, beside reuleaux_moveit's reported 3.8 reachable poses per
+  core-second (issue 17); every certificate's FK checked to land in its bin.
+- ``reachmap_hybrid``: a smaller map (``hybrid_voxel``, ``hybrid_directions``,
+  up to ``hybrid_samples`` samples, converge 0.001) with the IK fill passes,
+  in this process (one core): the voxel-bins IK added, the passes, the time;
+  every IK answer's FK checked to land in its voxel-bin. (The fill tries
+  every unreached voxel-bin next to a reached one: on the 5 cm map that is
+  over a million IK targets a pass.)
+- ``reachmap_agreement``: ``labelled`` FK poses of random configurations
+  (reachable by construction; seed 99, a stream the build never draws from)
+  and ``labelled`` random poses in the grid's box (uniform position, uniform
+  rotation) labelled by ``ik_many`` with 50 restarts in the mode the map
+  answers in (``position+axis`` for one roll: the map says "any roll"),
+  success by FK at 1e-9. Recall = reachable-labelled poses the map calls
+  reachable; false-positive rate = unreachable-labelled poses it calls
+  reachable (issue 24's wording); both also per set. IK failing does not
+  prove a pose unreachable, so a false positive may be a pose IK missed.
 - ``ik_many``: solves per second on iiwa14 (FK of random configurations,
   random first starts), success checked by Pinocchio at 1e-9.
-- ``reachmap_agreement``: poses the map never saw, labelled by IK with
-  restarts (``ik_many``, 20 restarts): FK poses of random configurations
-  (all reachable) and random poses in the grid's box (uniform position, a
-  uniform random rotation). Agreement = map and label agree; false positive =
-  the map says reachable and IK finds no solution. Timed: ``ReachMap.query`` per pose.
 """
 
 from __future__ import annotations
@@ -39,8 +51,11 @@ import numpy as np
 
 from benchmarks.workloads import IK_ACCEPT, row
 
-FULL = dict(voxel=0.1, directions=200, samples=4_000_000, ik_targets=20_000, labelled=4000, dask_samples=2_000_000)
-QUICK = dict(voxel=0.1, directions=50, samples=300_000, ik_targets=2000, labelled=600, dask_samples=300_000)
+FULL = dict(voxel=0.05, directions=200, samples=150_000_000, converge=1e-4, ik_targets=20_000, labelled=50_000,
+            hybrid_voxel=0.1, hybrid_directions=50, hybrid_samples=4_000_000)
+QUICK = dict(voxel=0.1, directions=50, samples=300_000, converge=1e-3, ik_targets=2000, labelled=600,
+             hybrid_voxel=0.2, hybrid_directions=20, hybrid_samples=100_000)
+LABEL_RESTARTS = 50
 
 
 def _random_rotations(n: int, rng) -> np.ndarray:
@@ -55,8 +70,9 @@ def _random_rotations(n: int, rng) -> np.ndarray:
     ], 1)
 
 
-def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: int, samples: int, ik_targets: int,
-                      labelled: int, dask_samples: int) -> list[dict]:
+def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: int, samples: int, converge: float,
+                      ik_targets: int, labelled: int, hybrid_voxel: float, hybrid_directions: int,
+                      hybrid_samples: int) -> list[dict]:
     """Every row of the module docstring, for ``robot_name``."""
     # Over 80 lines: one workload, its steps in order; each check sits beside the number it guards.
     import manipkit
@@ -65,31 +81,84 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
 
     robot = manipkit.load(robot_name)
     rows = []
-    settings = dict(voxel=voxel, orientations=directions, manipulability=False)  # the map alone (overlay: its own cost)
-    reachmap.build(robot, **settings, samples=1000)  # warm-up: numba kernels loaded
+    settings = dict(voxel=voxel, orientations=directions, manipulability=False, samples=samples, converge=converge)
+    reachmap.build(robot, voxel=voxel, orientations=directions, samples=1000)  # warm-up: numba kernels loaded
+
+    maps, walls = {}, {}
+    for workers in (1, 2):
+        start = time.perf_counter()
+        maps[workers] = reachmap.build(robot, **settings, workers=workers)
+        walls[workers] = time.perf_counter() - start
+    one, two = maps[1], maps[2]
+    identical = bool(np.array_equal(one.reach, two.reach) and np.array_equal(one.cert_keys, two.cert_keys)
+                     and np.array_equal(one.cert_q, two.cert_q) and np.array_equal(one.voxel_q, two.voxel_q, equal_nan=True))
+    used = one.settings["samples_used"]
+    what = (f"{voxel} m voxels, {one.orientations.label} orientation bins (directions x rolls), {used} samples "
+            f"drawn of {samples} (converge {converge:g})")
+    for workers in (1, 2):
+        rows.append(row("reachmap_dask", robot_name, f"LocalCluster, {workers} worker process(es)", [walls[workers]],
+                        unit="map", n=1, ours=True, identical_1_2=identical, status="ok" if identical else "wrong",
+                        samples=used, check="maps of 1 and 2 workers identical (reach, certificates, configurations)",
+                        note=f"{what}; wall time including the cluster's start"))
+    T_cert = robot.fk(one.cert_q, base=one.base, tip=one.frame)  # each certificate's voxel and bin, found again
+    ijk, inside = one.voxel_of(T_cert[:, :3, 3])
+    keys = np.ravel_multi_index(tuple(ijk.T), one.shape) * one.orientations.size + one.orientations.bin_of(T_cert[:, :3, :3])
+    lands = bool(inside.all() and np.array_equal(keys, one.cert_keys)
+                 and np.array_equal(np.sort(keys), np.flatnonzero(one.reach.reshape(-1))))
+    certified = int(keys.size)
+    completeness = one.settings["completeness"]
+    rows.append(row("reachmap_fk", robot_name, "manipkit reachmap.build(method='fk'), LocalCluster of 1 worker",
+                    [walls[1]], unit="map", n=1, ours=True, certified=certified, per_core_second=certified / walls[1],
+                    samples=used, voxels=int(one.reachable.sum()), status="ok" if lands else "wrong",
+                    held_out_completeness=completeness["rate"],
+                    check=f"one certificate per reached voxel-bin, its FK (Pinocchio-checked kernel) in that bin: {lands}",
+                    note=f"{what}; reuleaux_moveit reports 3.8 per core-second"))
 
     start = time.perf_counter()
-    fk_map = reachmap.build(robot, **settings, samples=samples)
-    seconds = time.perf_counter() - start
-    certified = int((fk_map.reach == reachmap.HOW_SAMPLE).sum())
-    rows.append(row("reachmap_fk", robot_name, "manipkit reachmap.build(method='fk'), 1 core", [seconds], unit="map",
-                    n=1, ours=True, certified=certified, per_core_second=certified / seconds,
-                    samples=samples, voxels=int(fk_map.reachable.sum()),
-                    check="certified = a sampled configuration lands in the voxel-bin (FK kernel = Pinocchio to 1e-12)",
-                    note=f"{voxel} m voxels, {directions} approach directions; reuleaux_moveit reports 3.8 per core-second"))
-
-    start = time.perf_counter()
-    hybrid = reachmap.build(robot, **settings, samples=samples, method="hybrid")
+    hybrid = reachmap.build(robot, voxel=hybrid_voxel, orientations=hybrid_directions, manipulability=False,
+                            samples=hybrid_samples, converge=1e-3, method="hybrid")
     seconds_h = time.perf_counter() - start
     by_ik = int((hybrid.reach == reachmap.HOW_IK).sum())
     T = robot.fk(hybrid.ik_q, base=hybrid.base, tip=hybrid.frame)
-    query_ok = bool(hybrid.query(T).all()) if len(T) else True
+    ijk, inside = hybrid.voxel_of(T[:, :3, 3])
+    ik_keys = np.ravel_multi_index(tuple(ijk.T), hybrid.shape) * hybrid.orientations.size \
+        + hybrid.orientations.bin_of(T[:, :3, :3])
+    lands = bool(inside.all() and np.array_equal(ik_keys, hybrid.ik_keys))
     rows.append(row("reachmap_hybrid", robot_name, "manipkit reachmap.build(method='hybrid'), 1 core", [seconds_h],
-                    unit="map", n=1, ours=True, certified=certified + by_ik, by_ik=by_ik,
-                    per_core_second=(certified + by_ik) / seconds_h, ik_answers_in_their_bins=query_ok,
-                    status="ok" if query_ok else "wrong",
-                    check="IK cells: FK of the stored answer falls in its voxel-bin",
-                    note="IK on unmarked voxel-bins next to marked ones, seeded from the neighbour's sample"))
+                    unit="map", n=1, ours=True, certified=int(hybrid.cert_keys.size), by_ik=by_ik,
+                    fill_passes=hybrid.settings["fill_passes"], samples=hybrid.settings["samples_used"],
+                    status="ok" if lands else "wrong", check=f"every IK answer's FK lands in its voxel-bin: {lands}",
+                    note=f"{hybrid_voxel} m voxels, {hybrid_directions} directions, converge 0.001; IK on unreached "
+                         "voxel-bins next to reached ones, seeded from the neighbour's certificate"))
+
+    rng = np.random.default_rng(5)
+    fk_poses = robot.fk(robot.sample_q(labelled, seed=99), base=one.base, tip=one.frame)
+    box_low = one.origin
+    box_high = one.origin + (np.array(one.shape) - 1) * one.voxel
+    random_poses = np.tile(np.eye(4), (labelled, 1, 1))
+    random_poses[:, :3, :3] = _random_rotations(labelled, rng)
+    random_poses[:, :3, 3] = box_low + rng.random((labelled, 3)) * (box_high - box_low)
+    mode = one.settings["ik_mode"]
+    start = time.perf_counter()
+    batch = ik_many(robot, random_poses, one.base, one.frame, mode=mode, restarts=LABEL_RESTARTS, tol=1e-9, seed=7)
+    seconds_label = time.perf_counter() - start
+    labels = np.concatenate([np.ones(labelled, dtype=bool), np.array(batch.success, dtype=bool)])
+    poses = np.concatenate([fk_poses, random_poses])
+    start = time.perf_counter()
+    says = one.query(poses)
+    seconds_query = time.perf_counter() - start
+    recall = float(says[labels].mean())
+    false_positive = float(says[~labels].mean()) if (~labels).any() else 0.0
+    rows.append(row("reachmap_agreement", robot_name, "map (fk, converged) vs IK labels: ReachMap.query",
+                    [seconds_query / len(poses)], unit="pose", n=len(poses), ours=True, recall=recall,
+                    false_positive=false_positive, agreement=float((says == labels).mean()),
+                    false_positive_share_of_all=float((says & ~labels).mean()),
+                    recall_fk_poses=float(says[:labelled].mean()),
+                    recall_random_reachable=float(says[labelled:][labels[labelled:]].mean()),
+                    random_poses_reachable=float(labels[labelled:].mean()), label_seconds=seconds_label,
+                    check=f"labels: ik_many mode {mode}, {LABEL_RESTARTS} restarts, tol 1e-9 (success by FK)",
+                    note=f"{labelled} FK poses of random configurations + {labelled} random poses in the grid box; "
+                         f"{what}; the map's own held-out completeness {completeness['rate']:.2%}"))
 
     Q_true = robot.sample_q(ik_targets, seed=21)
     targets = robot.fk(Q_true, base="base_link", tip="ee_link")
@@ -106,39 +175,6 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
                     check=f"success by FK residuals <= {IK_ACCEPT:g}; 500 answers re-measured by Pinocchio",
                     note="random first starts, up to 20 restarts, tol 1e-10"))
 
-    rng = np.random.default_rng(5)
-    fk_poses = robot.fk(robot.sample_q(labelled, seed=99), base="base_link", tip="ee_link")
-    box_low = fk_map.origin
-    box_high = fk_map.origin + (np.array(fk_map.shape) - 1) * fk_map.voxel
-    random_poses = np.tile(np.eye(4), (labelled, 1, 1))
-    random_poses[:, :3, :3] = _random_rotations(labelled, rng)
-    random_poses[:, :3, 3] = box_low + rng.random((labelled, 3)) * (box_high - box_low)
-    poses = np.concatenate([fk_poses, random_poses])
-    labels = ik_many(robot, poses, restarts=20, tol=1e-9).success.copy()  # results are read-only
-    labels[:labelled] = True  # FK poses are reachable by construction (IK confirms nearly all)
-    for name, reach_map in (("fk", fk_map), ("hybrid", hybrid)):
-        start = time.perf_counter()
-        says = reach_map.query(poses)
-        seconds_query = time.perf_counter() - start
-        rows.append(row("reachmap_agreement", robot_name, f"map ({name}) vs IK labels: ReachMap.query",
-                        [seconds_query / len(poses)], unit="pose", n=len(poses),
-                        ours=True, agreement=float((says == labels).mean()),
-                        false_positive=float((says & ~labels).mean()), false_negative=float((~says & labels).mean()),
-                        fk_poses_in_map=float(says[:labelled].mean()),
-                        random_poses_reachable=float(labels[labelled:].mean()),
-                        check="labels by ik_many (20 restarts), FK-confirmed",
-                        note=f"{labelled} FK poses of random configurations + {labelled} random poses in the grid box"))
-
-    one = reachmap.build(robot, **settings, samples=dask_samples)
-    for workers in (1, 2):
-        start = time.perf_counter()
-        distributed_map = reachmap.build(robot, **settings, samples=dask_samples, workers=workers)
-        wall = time.perf_counter() - start
-        identical = bool(np.array_equal(distributed_map.reach, one.reach))
-        rows.append(row("reachmap_dask", robot_name, f"LocalCluster, {workers} worker process(es)", [wall], unit="map",
-                        n=1, ours=True, identical_to_in_process=identical, status="ok" if identical else "wrong",
-                        samples=dask_samples, check="map identical to the in-process build",
-                        note="wall time including the cluster's start (a few seconds)"))
     return rows
 
 

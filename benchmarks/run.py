@@ -33,9 +33,10 @@ FULL = {
     "viewer": dict(moves=60),
     "jacobian": dict(n_batch=100_000, repeats=7, loop_subset=5000, rtb_subset=2000),
     "gci": dict(samples=1_000_000, repeats=1),
-    "reachmap": dict(voxel=0.1, directions=200, samples=4_000_000, ik_targets=20_000, labelled=4000,
-                     dask_samples=2_000_000),
-    "collisions": dict(checks=20_000, repeats=5, acm_samples=10_000, map_samples=1_000_000, voxel=0.1, directions=200),
+    "reachmap": dict(voxel=0.05, directions=200, samples=150_000_000, converge=1e-4, ik_targets=20_000,
+                     labelled=50_000, hybrid_voxel=0.1, hybrid_directions=50, hybrid_samples=4_000_000),
+    "collisions": dict(checks=20_000, repeats=5, acm_samples=10_000, map_samples=20_000_000, voxel=0.1, directions=200,
+                       fixed_samples=1_000_000),
     "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
 }
 QUICK = {
@@ -46,8 +47,10 @@ QUICK = {
     "viewer": dict(moves=3),
     "jacobian": dict(n_batch=300, repeats=2, loop_subset=50, rtb_subset=20),
     "gci": dict(samples=2000, repeats=1),
-    "reachmap": dict(voxel=0.2, directions=20, samples=20_000, ik_targets=200, labelled=100, dask_samples=20_000),
-    "collisions": dict(checks=300, repeats=1, acm_samples=100, map_samples=5000, voxel=0.2, directions=20),
+    "reachmap": dict(voxel=0.2, directions=20, samples=20_000, converge=1e-3, ik_targets=200, labelled=100,
+                     hybrid_voxel=0.3, hybrid_directions=8, hybrid_samples=20_000),
+    "collisions": dict(checks=300, repeats=1, acm_samples=100, map_samples=5000, voxel=0.2, directions=20,
+                       fixed_samples=5000),
     "analytic": dict(n_single=10, n_batch=50, repeats=1),
 }
 GROUP_LABELS = {
@@ -221,30 +224,39 @@ def _velocity_goals(rows: list[dict], goal) -> None:
 
 
 def _reachmap_goals(rows: list[dict], goal) -> None:
-    """Issue 17: certified poses per core-second against reuleaux_moveit's 3.8, IK agreement, ik_many rate, Dask."""
+    """Issues 17 and 24: certified poses per core-second against reuleaux_moveit's 3.8; the 5 cm map's build time,
+    recall and false positives against IK labels; ik_many's rate; Dask 1 -> 2 workers."""
     fk_map = _find(rows, "reachmap_fk", "iiwa14", "manipkit reachmap.build")
     if fk_map and fk_map["median_s"]:
         rate = fk_map["per_core_second"]
         goal("reachability map, iiwa14: 1000x reuleaux_moveit's 3.8 reachable poses per core-second",
              f"{rate:.0f} per core-second", rate >= 3800.0,
              f"{rate / 3.8:.0f}x reuleaux_moveit; {fk_map['note'].split(';')[0]}")
-    hybrid = _find(rows, "reachmap_agreement", "iiwa14", "map (hybrid)")
-    if hybrid and hybrid["median_s"] and hybrid["n"] >= 2000:  # not on the quick run's handful of poses
-        met = hybrid["agreement"] >= 0.98 and hybrid["false_positive"] <= 0.01
-        goal("reachability map, iiwa14: agreement with IK labels >= 98%, false positives <= 1%",
-             f"{hybrid['agreement']:.1%}, {hybrid['false_positive']:.1%}", met,
-             f"{hybrid['n']} labelled poses; the issue asks it of a 5 cm map and 100,000 poses")
+    agreement = _find(rows, "reachmap_agreement", "iiwa14", "map (fk, converged)")
+    one = _find(rows, "reachmap_dask", "iiwa14", "LocalCluster, 1 worker")
+    two = _find(rows, "reachmap_dask", "iiwa14", "LocalCluster, 2 worker")
+    if agreement and agreement["median_s"] and agreement["n"] >= 2000 and two and two["median_s"]:  # not on the quick run
+        # False positives as the issue counts them: its 89.5 % agreement and 15 % missed reachable poses on 800
+        # (452 reachable) leave 16 false positives, its "2.0 %": a share of all labelled poses.
+        fp = agreement["false_positive_share_of_all"]
+        met = agreement["recall"] >= 0.98 and fp <= 0.01 and two["median_s"] <= 600.0
+        goal("reachability map, iiwa14 at 5 cm, 200 directions: built in <= 10 min on 2 cores, recall >= 98%, false "
+             "positives <= 1% against IK-labelled poses it never saw",
+             f"{two['median_s']:.0f} s, recall {agreement['recall']:.2%}, false positives {fp:.2%}", met,
+             f"{agreement['n']} labelled poses (the issue asks 100,000); false positives = poses called reachable that "
+             f"IK labels unreachable, as a share of all labelled poses ({agreement['false_positive']:.2%} of the "
+             f"unreachable-labelled ones); recall on FK poses {agreement['recall_fk_poses']:.2%}, on reachable random "
+             f"poses {agreement['recall_random_reachable']:.2%}; {agreement['note'].split('; ')[1]}")
     many = _find(rows, "ik_many", "iiwa14", "manipkit ik_many")
     if many and many["median_s"]:
         rate = many["solves_per_second"]
         goal("batched IK, iiwa14: >= 50,000 solves per second on 2 cores", f"{rate:.0f}/s on 1 core", rate >= 25_000,
              f"success {many['success']:.1%}; measured on one core, so the bound is 25,000 per second")
-    one = _find(rows, "reachmap_dask", "iiwa14", "LocalCluster, 1 worker")
-    two = _find(rows, "reachmap_dask", "iiwa14", "LocalCluster, 2 worker")
-    if one and two and one["median_s"] and two["median_s"] and two["samples"] >= 1_000_000:  # not on a tiny map
+    if one and two and one["median_s"] and two["median_s"] and one["median_s"] >= 60.0:  # a map of a minute or more
         speedup = one["median_s"] / two["median_s"]
-        goal("reachability map on Dask: 1 to 2 workers near 2x", f"{speedup:.2f}x", speedup >= 1.6,
-             f"{two['samples']} samples; wall time includes the cluster's start")
+        goal("reachability map on Dask: 1 to 2 workers >= 1.7x on a map of a minute or more", f"{speedup:.2f}x",
+             speedup >= 1.7, f"{one['median_s']:.0f} s on 1 worker, {two['median_s']:.0f} s on 2; {two['samples']} samples; "
+                             "wall time includes the cluster's start")
 
 
 def _collision_goals(rows: list[dict], goal) -> None:
@@ -258,10 +270,12 @@ def _collision_goals(rows: list[dict], goal) -> None:
     if acm and acm["median_s"] and acm["n"] >= 10_000:
         goal("allowed-collision matrix, Panda, 10,000 samples: <= 60 s", f"{acm['median_s']:.1f} s",
              acm["median_s"] <= 60.0, acm["check"])
-    filtered = _find(rows, "reachmap_collisions", "iiwa14", "manipkit reachmap.build, collisions")
-    if filtered and filtered["median_s"] and filtered["n"] >= 1_000_000:
-        goal("iiwa14 map at 0.1 m filtered for self and floor collisions: <= 2x the unfiltered time",
-             f"{filtered['slowdown']:.2f}x", filtered["slowdown"] <= 2.0, filtered["check"])
+    for label, how in (("converged", "each sampled until it converges (--converge 0.001)"),
+                       ("fixed samples", "both drawing every sample")):
+        filtered = _find(rows, "reachmap_collisions", "iiwa14", f"manipkit reachmap.build, collisions self,floor, {label}")
+        if filtered and filtered["median_s"] and filtered["n"] >= 1_000_000:
+            goal(f"iiwa14 map at 0.1 m filtered for self and floor collisions: <= 2x the unfiltered time ({how})",
+                 f"{filtered['slowdown']:.2f}x", filtered["slowdown"] <= 2.0, filtered["check"])
 
 
 def _closed_form_goals(rows: list[dict], goal) -> None:

@@ -94,6 +94,25 @@ def test_fk_marks_are_the_documented_samples_binned_by_hand(planar_3r):
     np.testing.assert_allclose(m.origin, [-7.5, -7.5, 0.0], atol=1e-12)  # reach bound 7 m: 15 voxels each side
 
 
+def test_many_rounds_keep_every_bins_and_voxels_first_sample(planar_3r):
+    # 40 blocks of 250 run in three rounds (16, 16, 8); each block leaves out what earlier rounds reached. The
+    # map must still be every sample binned by hand, with each voxel's and each voxel-bin's first sample stored.
+    m = build(planar_3r, voxel=VOXEL, orientations=8, samples=10000, block_samples=250, seed=4, manipulability=False)
+    t = -math.pi + np.concatenate([np.random.default_rng([4, 0, b]).random((250, 3)) for b in range(40)]) * 2 * math.pi
+    a1, a12, a123 = t[:, 0], t[:, 0] + t[:, 1], t.sum(axis=1)
+    i = np.rint((4 * np.cos(a1) + 2 * np.cos(a12) + np.cos(a123) - m.origin[0]) / VOXEL).astype(int)
+    j = np.rint((4 * np.sin(a1) + 2 * np.sin(a12) + np.sin(a123) - m.origin[1]) / VOXEL).astype(int)
+    b = np.mod(np.rint(a123 / (2 * math.pi / 8)), 8).astype(int)
+    voxel = i * m.shape[1] + j  # one layer: k = 0
+    keys, first_of_key = np.unique(voxel * 8 + b, return_index=True)
+    voxels, first = np.unique(voxel, return_index=True)
+    assert np.array_equal(np.flatnonzero(m.reach.reshape(-1)), keys)
+    assert np.array_equal(m.cert_keys, keys)
+    np.testing.assert_array_equal(m.cert_q, t[first_of_key])
+    np.testing.assert_array_equal(m.voxel_q.reshape(-1, 3)[voxels], t[first])
+    assert m.settings["blocks"] == 40
+
+
 def test_every_stored_configuration_reaches_its_voxel_and_a_marked_bin(map_3r, planar_3r):
     idx = np.argwhere(map_3r.reachable)
     how = map_3r.how

@@ -85,13 +85,18 @@ def test_cli_reachmap_collisions_and_its_refusals(tmp_path):
 
 
 def test_checking_one_sample_per_voxel_bin_gives_the_same_map(iiwa14):
-    # Without the manipulability statistics a block checks only the first sample of each voxel-bin (then the next
-    # where it collides); with them every sample is checked. Reach and first configurations must be identical.
+    # Without the manipulability statistics a block checks only the first sample of each voxel-bin not reached in an
+    # earlier round (then the next where it collides); with them every sample is checked. 20 blocks of 1000 are five
+    # rounds, so later rounds skip bins. Reach, certificates and first configurations must be identical.
     settings = CollisionSettings.parse(iiwa14, "self,floor", floor=0.0)
-    options = dict(voxel=0.15, orientations=8, samples=6000, block_samples=2000, collisions=settings)
+    options = dict(voxel=0.15, orientations=8, samples=20_000, block_samples=1000, collisions=settings)
     lazy, full = build(iiwa14, **options, manipulability=False), build(iiwa14, **options, manipulability=True)
     assert (lazy.reach == full.reach).all()
     assert np.array_equal(lazy.voxel_q, full.voxel_q, equal_nan=True)
+    assert np.array_equal(lazy.cert_keys, full.cert_keys) and np.array_equal(lazy.cert_q, full.cert_q)
+    there = build(iiwa14, **options, manipulability=False, workers=2)  # the skipped bins do not depend on the workers
+    for name in ("reach", "voxel_q", "cert_keys", "cert_q"):
+        assert np.array_equal(getattr(lazy, name), getattr(there, name), equal_nan=True), name
 
 
 def test_first_free_finds_each_groups_first_free_row(panda):

@@ -79,12 +79,19 @@ def translation_manipulability(robot: Robot, Q: np.ndarray, frame: str, base: st
     return manipulability(J, "yoshikawa", axes=[0, 1] if planar else "trans")
 
 
-def sample_block(job: MapJob, block: int) -> tuple:
+def sample_block(job: MapJob, block: int, known: tuple[np.ndarray, np.ndarray] | None = None) -> tuple:
     """Block ``block`` of FK samples: (block, reached voxel-bin keys, voxels, first configuration in each voxel, stats,
     first configuration in each voxel-bin of ``keys``).
 
     ``stats``: per voxel (best, sum, count) of the manipulability index of the
     block's samples in it, or None when the map is built without it.
+    ``known``: (voxel-bins reached, voxels reached) before this block's round,
+    each bit-packed (``numpy.packbits``, flat keys and flat voxel indices).
+    Keys reached before are left out of ``keys`` and, without the
+    statistics, voxels reached before out of ``voxels`` (merging them would
+    change nothing: each already holds its first configuration); with
+    collisions checked and no statistics, samples landing in a bin reached
+    before are not checked at all.
     """
     rng = np.random.default_rng([job.seed, 0, block])
     n = min(job.block_samples, job.samples - block * job.block_samples)
@@ -97,6 +104,8 @@ def sample_block(job: MapJob, block: int) -> tuple:
         else:  # the map keeps one free sample per voxel-bin, the first: check samples until it is found
             cells, inside = job.cells(T[:, :3, 3])
             groups = np.where(inside, cells * job.orientations.size + job.orientations.bin_of(T[:, :3, :3]), -1)
+            if known is not None:  # bins reached in earlier rounds need no new sample
+                groups[(groups >= 0) & _bits(known[0], groups)] = -1
             free = job.collisions.first_free(job.robot, Q, groups)
         Q, T = Q[free], T[free]
     cells, inside = job.cells(T[:, :3, 3])
@@ -111,7 +120,18 @@ def sample_block(job: MapJob, block: int) -> tuple:
         w = translation_manipulability(job.robot, Q, job.frame, job.base, job.axes,
                                        planar=job.orientations.kind == "planar")[order]
         stats = (np.maximum.reduceat(w, starts), np.add.reduceat(w, starts), np.diff(starts, append=w.size))
+    if known is not None:
+        fresh = ~_bits(known[0], keys)
+        keys, first_of_key = keys[fresh], first_of_key[fresh]
+        if stats is None:
+            fresh = ~_bits(known[1], voxels)
+            voxels, first = voxels[fresh], first[fresh]
     return block, keys, voxels, Q[first], stats, Q[first_of_key]
+
+
+def _bits(packed: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """(N,) bool: bit ``index`` of the ``numpy.packbits`` array ``packed`` (big-endian bit order, its default)."""
+    return (packed[index >> 3] >> (7 - (index & 7)).astype(np.uint8) & 1).astype(bool)
 
 
 def ik_block(job: MapJob, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:

@@ -8,11 +8,20 @@
   into the same voxel-bin (:func:`certified`). ``cert_keys`` (sorted flat
   voxel-bin indices, exactly the reached ones) and ``cert_q`` hold them.
 - **Sampling until it converges** (:func:`sample_until_converged`): FK blocks
-  are run ``ROUND_BLOCKS`` at a time and merged in block order; the stage
-  stops after the first block ``b >= 1`` that adds fewer than ``converge``
-  times the voxel-bins reached before it, or when the ``samples`` budget is
-  spent. The decision depends on blocks ``0..b`` only, so the map is the same
-  whatever ran them (blocks of the last round after ``b`` are dropped).
+  are run in rounds of ``ROUND_BLOCKS`` blocks (with collisions checked and
+  no manipulability statistics: 1, 2, 4, then ``ROUND_BLOCKS``; a fixed
+  schedule either way) and merged in block order; the stage stops after the first block
+  ``b >= 1`` that adds fewer than ``converge`` times the voxel-bins reached
+  before it, or when the ``samples`` budget is spent. The decision depends on
+  blocks ``0..b`` only, so the map is the same whatever ran them (blocks of
+  the last round after ``b`` are dropped). Each block of a round is given
+  the voxel-bins and voxels reached before the round (bit-packed, sent to a
+  cluster's workers once per round) and leaves them out of its result, and,
+  with collisions checked and no manipulability statistics, checks no
+  sample landing in them (:func:`manipkit.analysis.reachjob.sample_block`):
+  a fixed snapshot, so the map is the same for any worker count (and the
+  same as merging everything), and the small first rounds keep the bins
+  checked twice few.
 - **IK fill** (:func:`fill_passes`): IK on every unreached voxel-bin whose
   voxel centre lies inside the reach shell (within ``reach + voxel`` of the
   first joint) and that has a face-neighbour voxel reached in the same bin,
@@ -53,7 +62,7 @@ __all__ = [
     "sample_until_converged", "wilson",
 ]
 
-ROUND_BLOCKS = 8  # FK blocks sent at once while sampling converges (fixed: the map does not depend on the workers)
+ROUND_BLOCKS = 16  # FK blocks of a full round (fixed: the map does not depend on the workers; 16 keep a cluster busy)
 HOLDOUT_STREAM, FP_STREAM = 2, 3  # the seed streams of the checks (the FK stage draws from stream 0)
 Z95 = 1.959963984540054  # the two-sided 95 % normal quantile
 MAX_FILL_PASSES = 1000
@@ -100,11 +109,15 @@ def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, c
 
     n_blocks = -(-job.samples // job.block_samples)
     reached, block, converged = 0, 0, False
+    ramp = job.collisions is not None and not job.manipulability  # small first rounds: fewer samples checked twice
     while block < n_blocks and not converged:
-        round_blocks = list(range(block, min(n_blocks, block + ROUND_BLOCKS)))
-        label = "FK samples" if n_blocks <= ROUND_BLOCKS else f"FK samples, blocks {round_blocks[0] + 1}-" \
+        size = min(ROUND_BLOCKS, block + 1) if ramp else ROUND_BLOCKS  # 1, 2, 4, 8, 16, 16 .. or 16, 16 ..
+        round_blocks = list(range(block, min(n_blocks, block + size)))
+        label = "FK samples" if len(round_blocks) == n_blocks else f"FK samples, blocks {round_blocks[0] + 1}-" \
             f"{round_blocks[-1] + 1} of at most {n_blocks}"
-        for result in in_block_order(runner.run(sample_block, job, [(b,) for b in round_blocks], label), block):
+        known = _known(runner, reach, job.orientations.size)
+        arguments = [(b, known) for b in round_blocks]
+        for result in in_block_order(runner.run(sample_block, job, arguments, label), block):
             if converged:
                 continue  # blocks after the stopping one are dropped (their results were computed anyway)
             added = merge(result)
@@ -113,6 +126,14 @@ def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, c
             block = result[0] + 1
     used = min(job.samples, block * job.block_samples)
     return {"blocks": block, "samples_used": int(used), "converged": bool(converged)}
+
+
+def _known(runner: BlockRunner, reach: np.ndarray, n_bins: int):
+    """The voxel-bins and voxels reached so far, bit-packed (:func:`manipkit.analysis.reachjob.sample_block`); on a
+    cluster sent to every worker once (a future) rather than with each block."""
+    reached = reach.reshape(-1, n_bins) > 0
+    known = (np.packbits(reached), np.packbits(reached.any(axis=1)))
+    return known if runner.client is None else runner.client.scatter(known, broadcast=True, hash=False)
 
 
 def _neighbour_seeds(job, marked: np.ndarray, tried: np.ndarray) -> np.ndarray:
