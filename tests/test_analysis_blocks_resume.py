@@ -25,10 +25,12 @@ from manipkit.analysis import blockstore
 from manipkit.analysis.blockstore import BlockStoreWarning, ResumeNote, open_store
 from manipkit.analysis.reachjob import ik_block, sample_block
 from manipkit.analysis.reachmap import build
+from manipkit.analysis.reachstages import ROUND_BLOCKS
 from manipkit.errors import OutputError
 
-# planar 3R (4, 2, 1): 20 FK blocks of 2000 samples in rounds of 8, stopping at a share of new bins, then IK fill
-SETTINGS = {"voxel": 0.5, "orientations": 8, "samples": 40_000, "block_samples": 2_000, "method": "hybrid",
+# planar 3R (4, 2, 1): at most 80 FK blocks of 1000 samples in rounds of ROUND_BLOCKS (16), stopping in the second
+# round at a share of new bins, then IK fill
+SETTINGS = {"voxel": 0.5, "orientations": 8, "samples": 80_000, "block_samples": 1_000, "method": "hybrid",
             "converge": 0.002, "holdout": 2_000, "fp_checks": 20}
 
 
@@ -53,7 +55,8 @@ def reference(planar_3r, tmp_path_factory):
     """The uninterrupted build, saved; and its settings."""
     folder = tmp_path_factory.mktemp("reference")
     reach_map = build(planar_3r.chain("base_link", "ee_link"), **SETTINGS)
-    assert reach_map.settings["converged"] and reach_map.settings["blocks"] < 20  # the stopping rule is exercised
+    assert reach_map.settings["converged"] and ROUND_BLOCKS < reach_map.settings["blocks"] < 2 * ROUND_BLOCKS  # stops
+    # in the second round: the stopping rule and a round after the first are exercised
     assert reach_map.settings["fill_passes"] >= 1 and reach_map.ik_keys.size > 0  # and the IK fill
     return files_of(reach_map.save(folder / "m.zarr"))
 
@@ -74,7 +77,7 @@ def interrupted(planar_3r, resume_dir, stage: str, blocks: int, **changes):
               progress=stop_after(stage, blocks))
 
 
-@pytest.mark.parametrize(("stage", "blocks"), [("FK samples", 3), ("FK samples, blocks 9-", 2), ("IK fill", 1)])
+@pytest.mark.parametrize(("stage", "blocks"), [("FK samples", 3), ("FK samples, blocks 17-", 2), ("IK fill", 1)])
 def test_an_interrupted_build_resumes_to_the_same_map_byte_for_byte(planar_3r, reference, tmp_path, stage, blocks):
     keep = tmp_path / ".m.zarr.partial"
     interrupted(planar_3r, keep, stage, blocks)
@@ -82,8 +85,8 @@ def test_an_interrupted_build_resumes_to_the_same_map_byte_for_byte(planar_3r, r
     assert saved and all(name.startswith(("sample_block-", "ik_block-")) for name in saved)
     files, notes, refused = resumed(planar_3r, keep, tmp_path / "m.zarr")
     assert files == reference and not refused
-    assert notes[0] == "resuming: 8 of 8 blocks of FK samples, blocks 1-8 of at most 20 already done" \
-        if stage != "FK samples" else notes == ["resuming: 3 of 8 blocks of FK samples, blocks 1-8 of at most 20 "
+    assert notes[0] == "resuming: 16 of 16 blocks of FK samples, blocks 1-16 of at most 80 already done" \
+        if stage != "FK samples" else notes == ["resuming: 3 of 16 blocks of FK samples, blocks 1-16 of at most 80 "
                                                 "already done"]
     if stage == "IK fill":
         assert notes[-1] == "resuming: 1 of 1 blocks of IK fill, pass 1 already done"
@@ -94,7 +97,7 @@ def test_a_resumed_build_on_a_local_cluster_gives_the_same_map(planar_3r, refere
     keep = tmp_path / "blocks"
     interrupted(planar_3r, keep, "FK samples", 5)
     files, notes, _ = resumed(planar_3r, keep, tmp_path / "m.zarr", workers=1)
-    assert files == reference and notes[0].startswith("resuming: 5 of 8 blocks")
+    assert files == reference and notes[0].startswith("resuming: 5 of 16 blocks")
 
 
 def test_a_killed_build_resumes_to_the_same_map(planar_3r, reference, tmp_path):
@@ -115,7 +118,7 @@ def test_a_killed_build_resumes_to_the_same_map(planar_3r, reference, tmp_path):
     assert process.returncode == -9, process.stderr
     assert len(list(keep.glob("sample_block-*.npz"))) == 4 and not (keep / ".tmp-half-written").exists()
     files, notes, refused = resumed(planar_3r, keep, tmp_path / "m.zarr")
-    assert files == reference and notes[0].startswith("resuming: 4 of 8 blocks") and not refused
+    assert files == reference and notes[0].startswith("resuming: 4 of 16 blocks") and not refused
 
 
 def test_a_tampered_or_foreign_block_is_computed_again(planar_3r, reference, tmp_path):
@@ -135,8 +138,8 @@ def test_a_tampered_or_foreign_block_is_computed_again(planar_3r, reference, tmp
     os.replace(files[4], keep / files[3].name)  # block 4's file under block 3's name: another block's result
     files, notes, refused = resumed(planar_3r, keep, tmp_path / "m.zarr")
     assert files == reference
-    assert notes[0].startswith("resuming: 1 of 8 blocks")  # block 5 only (block 4's file was moved away)
-    assert len(refused) == 1 and refused[0].startswith("4 saved block(s) of FK samples, blocks 1-8 of at most 20 in ")
+    assert notes[0].startswith("resuming: 1 of 16 blocks")  # block 5 only (block 4's file was moved away)
+    assert len(refused) == 1 and refused[0].startswith("4 saved block(s) of FK samples, blocks 1-16 of at most 80 in ")
     assert "(block 0: cannot be read" in refused[0] and refused[0].endswith("computing them again")
 
 

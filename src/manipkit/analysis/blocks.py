@@ -32,6 +32,8 @@ import tempfile
 import threading
 import time
 
+import numpy as np
+
 from manipkit.errors import ReachMapError
 from manipkit.text import printable
 
@@ -270,8 +272,10 @@ class BlockRunner:
         from distributed import as_completed
 
         job_future = self.client.scatter(job, broadcast=True, hash=False)
+        sent = self._shared_sent(missing)
         self.raise_if_interrupted()
-        futures = [self.client.submit(fn, job_future, *arguments, pure=False) for arguments in missing]
+        futures = [self.client.submit(fn, job_future, *(sent.get(id(a), a) for a in arguments), pure=False)
+                   for arguments in missing]
         arguments_of = {future.key: arguments for future, arguments in zip(futures, missing)}
         finished = as_completed(futures)
         del futures
@@ -286,6 +290,14 @@ class BlockRunner:
                 yield result
                 done += 1
                 report(desc, done, total)
+
+    def _shared_sent(self, argument_lists: list[tuple]) -> dict:
+        """{id: future} of the arguments every block shares (the same tuple or array object in every list, such as
+        a round's snapshot of what is reached): sent to every worker once, not with each block."""
+        first = argument_lists[0]
+        shared = [a for i, a in enumerate(first) if isinstance(a, tuple | np.ndarray)
+                  and all(len(args) > i and args[i] is a for args in argument_lists)]
+        return {id(a): self.client.scatter(a, broadcast=True, hash=False) for a in shared}
 
     def _saved_blocks(self, fn, argument_lists: list[tuple], desc: str) -> dict:
         """{index in ``argument_lists``: result} of the blocks the store holds, checked; notes and warnings said."""

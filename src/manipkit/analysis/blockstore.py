@@ -73,18 +73,31 @@ def fingerprint_of(settings: dict) -> str:
 
 
 def arguments_digest(arguments: tuple) -> str:
-    """SHA-256 (hex) of a block's arguments: whole numbers, floats, strings and arrays (dtype, shape and bytes)."""
+    """SHA-256 (hex) of a block's arguments: whole numbers, floats, strings, None, arrays (dtype, shape and bytes)
+    and tuples of these (each tuple's length and items in order).
+
+    >>> arguments_digest((1, (None, 2.5))) == arguments_digest((1, (None, 2.5))) != arguments_digest((1, None, 2.5))
+    True
+    """
     digest = hashlib.sha256()
-    for value in arguments:
+    _digest_into(digest, arguments)
+    return digest.hexdigest()
+
+
+def _digest_into(digest, values: tuple) -> None:
+    for value in values:
         if isinstance(value, np.ndarray):
             array = np.ascontiguousarray(value)
             digest.update(f"array {array.dtype.str} {array.shape}|".encode())
             digest.update(array.tobytes())
-        elif isinstance(value, bool | int | float | str | np.integer | np.floating):
+        elif value is None or isinstance(value, bool | int | float | str | np.integer | np.floating):
             digest.update(f"{type(value).__name__} {value!r}|".encode())
+        elif isinstance(value, tuple):
+            digest.update(f"tuple {len(value)}(".encode())
+            _digest_into(digest, value)
+            digest.update(b")|")
         else:
             raise TypeError(f"a block argument of type {type(value).__name__} has no digest")
-    return digest.hexdigest()
 
 
 def _pack(result, path: str, arrays: dict) -> None:

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["IK_BLOCK", "MapJob", "ik_block", "sample_block", "translation_manipulability"]
+__all__ = ["IK_BLOCK", "MapJob", "ik_block", "packed_bit", "sample_block", "translation_manipulability"]
 
 IK_BLOCK = 2048  # IK targets per block
 
@@ -105,7 +105,7 @@ def sample_block(job: MapJob, block: int, known: tuple[np.ndarray, np.ndarray] |
             cells, inside = job.cells(T[:, :3, 3])
             groups = np.where(inside, cells * job.orientations.size + job.orientations.bin_of(T[:, :3, :3]), -1)
             if known is not None:  # bins reached in earlier rounds need no new sample
-                groups[(groups >= 0) & _bits(known[0], groups)] = -1
+                groups[(groups >= 0) & packed_bit(known[0], groups)] = -1
             free = job.collisions.first_free(job.robot, Q, groups)
         Q, T = Q[free], T[free]
     cells, inside = job.cells(T[:, :3, 3])
@@ -121,15 +121,15 @@ def sample_block(job: MapJob, block: int, known: tuple[np.ndarray, np.ndarray] |
                                        planar=job.orientations.kind == "planar")[order]
         stats = (np.maximum.reduceat(w, starts), np.add.reduceat(w, starts), np.diff(starts, append=w.size))
     if known is not None:
-        fresh = ~_bits(known[0], keys)
+        fresh = ~packed_bit(known[0], keys)
         keys, first_of_key = keys[fresh], first_of_key[fresh]
         if stats is None:
-            fresh = ~_bits(known[1], voxels)
+            fresh = ~packed_bit(known[1], voxels)
             voxels, first = voxels[fresh], first[fresh]
     return block, keys, voxels, Q[first], stats, Q[first_of_key]
 
 
-def _bits(packed: np.ndarray, index: np.ndarray) -> np.ndarray:
+def packed_bit(packed: np.ndarray, index: np.ndarray) -> np.ndarray:
     """(N,) bool: bit ``index`` of the ``numpy.packbits`` array ``packed`` (big-endian bit order, its default)."""
     return (packed[index >> 3] >> (7 - (index & 7)).astype(np.uint8) & 1).astype(bool)
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from manipkit.analysis.reachjob import MapJob
+from manipkit.analysis.reachjob import MapJob, packed_bit
 
 __all__ = ["build_settings", "result_checks"]
 
@@ -76,9 +76,20 @@ def _check_sample(job: MapJob, result, arguments: tuple) -> str | None:
     n_voxels, bins, n_joints = math.prod(job.shape), job.orientations.size, len(job.q_default)
     if not (isinstance(keys, np.ndarray) and keys.dtype == np.int64 and _increasing_below(keys, n_voxels * bins)):
         return "its voxel-bin keys are not increasing keys inside the grid"
-    if not (isinstance(voxels, np.ndarray) and voxels.dtype == np.int64 and
-            np.array_equal(np.unique(keys // bins), voxels)):
-        return "its voxels are not the voxels of its keys"
+    if not (isinstance(voxels, np.ndarray) and voxels.dtype == np.int64 and _increasing_below(voxels, n_voxels)):
+        return "its voxels are not increasing voxel indices inside the grid"
+    known = arguments[1] if len(arguments) > 1 else None  # (bins, voxels) reached before the block's round, packed
+    if known is None:
+        if not np.array_equal(np.unique(keys // bins), voxels):
+            return "its voxels are not the voxels of its keys"
+    else:  # a voxel reached before is left out of voxels (without statistics), never one of a new key's otherwise
+        key_voxels = np.unique(keys // bins)
+        if not np.all(np.isin(key_voxels, voxels) | packed_bit(known[1], key_voxels)):
+            return "a voxel of its keys is missing from its voxels"
+        if packed_bit(known[0], keys).any():
+            return "its keys hold a voxel-bin reached before its round"
+        if stats is None and packed_bit(known[1], voxels).any():
+            return "its voxels hold one reached before its round"
     if not (_array(Q, float, (len(voxels), n_joints)) and _array(key_q, float, (len(keys), n_joints))
             and np.isfinite(Q).all() and np.isfinite(key_q).all()):
         return "its configurations are not finite (voxels or keys, joints) arrays"

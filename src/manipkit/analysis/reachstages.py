@@ -115,7 +115,7 @@ def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, c
         round_blocks = list(range(block, min(n_blocks, block + size)))
         label = "FK samples" if len(round_blocks) == n_blocks else f"FK samples, blocks {round_blocks[0] + 1}-" \
             f"{round_blocks[-1] + 1} of at most {n_blocks}"
-        known = _known(runner, reach, job.orientations.size)
+        known = _known(reach, job.orientations.size)  # one object shared by the round's blocks: sent to a cluster once
         arguments = [(b, known) for b in round_blocks]
         for result in in_block_order(runner.run(sample_block, job, arguments, label), block):
             if converged:
@@ -128,12 +128,10 @@ def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, c
     return {"blocks": block, "samples_used": int(used), "converged": bool(converged)}
 
 
-def _known(runner: BlockRunner, reach: np.ndarray, n_bins: int):
-    """The voxel-bins and voxels reached so far, bit-packed (:func:`manipkit.analysis.reachjob.sample_block`); on a
-    cluster sent to every worker once (a future) rather than with each block."""
+def _known(reach: np.ndarray, n_bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """The voxel-bins and voxels reached so far, bit-packed (:func:`manipkit.analysis.reachjob.sample_block`)."""
     reached = reach.reshape(-1, n_bins) > 0
-    known = (np.packbits(reached), np.packbits(reached.any(axis=1)))
-    return known if runner.client is None else runner.client.scatter(known, broadcast=True, hash=False)
+    return np.packbits(reached), np.packbits(reached.any(axis=1))
 
 
 def _neighbour_seeds(job, marked: np.ndarray, tried: np.ndarray) -> np.ndarray:
