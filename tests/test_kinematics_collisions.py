@@ -8,6 +8,7 @@ geometry model built and checked in the test with Pinocchio and coal alone.
 
 import math
 import threading
+import warnings
 from pathlib import Path
 
 import coal
@@ -19,6 +20,7 @@ import manipkit
 from manipkit.errors import CollisionError
 from manipkit.kinematics.collisions import (
     FLOOR,
+    MAX_THREADS,
     CollisionChecker,
     collision_free,
     collision_geometry,
@@ -296,6 +298,10 @@ def direct_contacts(robot, geometry: str, Q) -> list[set]:
             obj.geometry = obj.geometry.convex
     geom.addAllCollisionPairs()
     data, gdata = model.createData(), geom.createData()
+    with warnings.catch_warnings():  # every query afresh, as documented (Pinocchio caches coal's guess otherwise)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for request in gdata.collisionRequests:
+            request.enable_cached_gjk_guess = False
     link = [model.frames[obj.parentFrame].name for obj in geom.geometryObjects]
     answers = []
     for q in Q:
@@ -332,6 +338,19 @@ def test_batched_answers_equal_one_at_a_time_on_any_thread_count(panda):
     assert 0 < one_by_one.sum() < len(Q)
 
 
+def test_contact_counts_equal_a_direct_count_on_any_thread_count(panda):
+    # The per-pair counts of 500 samples, against Pinocchio + coal called here on every sample and every pair
+    Q = panda.sample_q(500, seed=11)
+    checker = CollisionChecker(panda)
+    direct = direct_contacts(panda, "hulls", Q)
+    expected = {pair: sum(pair in contacts for contacts in direct) for pair in checker.pairs}
+    for workers in (1, 2, 3):
+        counts = checker.contact_counts(Q, workers=workers)
+        assert counts == expected and list(counts) == list(checker.pairs)
+    assert sum(expected.values()) > 10 and sum(v == 0 for v in expected.values()) > 10  # both kinds of pair
+    assert checker.contact_counts(Q[:0]) == dict.fromkeys(checker.pairs, 0)
+
+
 def test_threads_may_share_a_checker(panda):
     checker = CollisionChecker(panda)
     Q = panda.sample_q(40, seed=9)
@@ -363,6 +382,8 @@ def test_bad_batch_shapes_are_refused(panda):
         collision_free(panda, np.zeros((2, 3)))
     with pytest.raises(CollisionError, match="workers 0: give a whole number of threads"):
         collision_free(panda, np.zeros((2, 8)), workers=0)
+    with pytest.raises(CollisionError, match=f"workers {MAX_THREADS + 1}: .* at most {MAX_THREADS}"):
+        collision_free(panda, np.zeros((2, 8)), workers=MAX_THREADS + 1)
 
 
 FLOATING = """<?xml version="1.0"?>
