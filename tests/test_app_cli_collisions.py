@@ -102,7 +102,7 @@ def test_acm_writes_the_same_matrix_on_any_number_of_workers(tmp_path):
     outputs = []
     for workers in ("1", "2"):
         out = tmp_path / f"panda_{workers}.srdf"
-        result = run_cli("manipkit", "acm", "--robot", "panda", "-o", out, "--samples", "1500", "--workers", workers,
+        result = run_cli("manipkit", "acm", "--robot", "panda", "-o", out, "--samples", "4000", "--workers", workers,
                          status=0)
         outputs.append((result.stdout.replace(str(out), "OUT"), out.read_bytes()))
     assert outputs[0] == outputs[1]

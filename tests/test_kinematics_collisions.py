@@ -21,6 +21,7 @@ from manipkit.errors import CollisionError
 from manipkit.kinematics.collisions import (
     FLOOR,
     MAX_THREADS,
+    MIN_ROWS_PER_THREAD,
     CollisionChecker,
     collision_free,
     collision_geometry,
@@ -330,17 +331,17 @@ def test_panda_collisions_agree_with_pinocchio_and_coal_called_directly(panda, g
 
 
 def test_batched_answers_equal_one_at_a_time_on_any_thread_count(panda):
-    Q = panda.sample_q(300, seed=5)
+    Q = panda.sample_q(3 * MIN_ROWS_PER_THREAD, seed=5)  # enough rows for 3 threads
     checker = CollisionChecker(panda, floor=0.0)
     one_by_one = np.array([checker.report(q).in_collision for q in Q])
-    for workers in (1, 2):
+    for workers in (1, 2, 3):
         assert (checker.in_collision(Q, workers=workers) == one_by_one).all()
     assert 0 < one_by_one.sum() < len(Q)
 
 
 def test_contact_counts_equal_a_direct_count_on_any_thread_count(panda):
-    # The per-pair counts of 500 samples, against Pinocchio + coal called here on every sample and every pair
-    Q = panda.sample_q(500, seed=11)
+    # The per-pair counts of 3000 samples (3 threads' worth), against Pinocchio + coal called here on every sample
+    Q = panda.sample_q(3 * MIN_ROWS_PER_THREAD, seed=11)
     checker = CollisionChecker(panda)
     direct = direct_contacts(panda, "hulls", Q)
     expected = {pair: sum(pair in contacts for contacts in direct) for pair in checker.pairs}

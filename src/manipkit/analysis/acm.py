@@ -42,9 +42,9 @@ __all__ = ["REASONS", "CollisionMatrix", "allowed_collision_matrix", "srdf_text"
 REASONS = ("Adjacent", "Default", "Always", "Never")
 #: Most samples one matrix takes.
 MAX_SAMPLES = 10_000_000
-#: Fewest samples checked per call of the threads, whose start and end cost a few ms on a busy machine (the
-#: progress is reported after each block).
-BLOCK = 1000
+#: Fewest samples checked per call of the threads (two threads' worth: see
+#: :data:`manipkit.kinematics.collisions.MIN_ROWS_PER_THREAD`); the progress is reported after each block.
+BLOCK = 2000
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,7 @@ def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int =
     if rest:
         checker = CollisionChecker(robot, geometry=geometry, pairs=rest)
         Q = robot.sample_q(int(samples), seed=seed)
-        block = max(BLOCK, -(-len(Q) // 20))  # progress every 5 % of a large run
+        block = max(BLOCK, -(-len(Q) // 20))  # progress every 5 % of a large run, every block of a small one
         for start in range(0, len(Q), block):
             for pair, count in checker.contact_counts(Q[start:start + block], workers=workers).items():
                 counts[pair] += count

@@ -64,6 +64,7 @@ __all__ = [
     "FLOOR",
     "GEOMETRIES",
     "MAX_THREADS",
+    "MIN_ROWS_PER_THREAD",
     "CollisionChecker",
     "CollisionGeometry",
     "CollisionReport",
@@ -88,6 +89,9 @@ RESTING = 1e-3
 MAX_SRDF_BYTES = 16 * 1024 * 1024
 #: Most threads of one batched check (each holds a copy of Pinocchio's workspaces).
 MAX_THREADS = 64
+#: Fewest configurations per thread of a batched check (about 10 ms of work): waking a second thread costs from
+#: 0.1 ms on an idle machine to a scheduler time slice (several ms) on a busy one, so smaller batches run on one.
+MIN_ROWS_PER_THREAD = 1000
 
 _CACHE_LOCK = threading.Lock()
 
@@ -354,14 +358,16 @@ class CollisionChecker:
         """For each row of ``Q`` (N, n), whether some checked pair is in contact: (N,) bool.
 
         Runs Pinocchio's ``computeCollisionsInParallel`` with a broad phase
-        (a dynamic AABB tree) on ``workers`` threads (default: every core; C++
-        threads, the GIL released), stopping at a configuration's first
-        contact; the answers equal :meth:`report`'s on any thread count (tested).
+        (a dynamic AABB tree) on at most ``workers`` threads (default: every
+        core; OpenMP threads in C++), one per :data:`MIN_ROWS_PER_THREAD`
+        configurations at most, stopping at a configuration's first contact;
+        the answers equal :meth:`report`'s on any thread count (tested).
         """
         configurations = self._configurations(Q)
+        workers = thread_count(workers)
         if not self._pair_links or configurations.shape[1] == 0:
             return np.zeros(configurations.shape[1], dtype=bool)
-        workers = thread_count(workers)
+        workers = max(1, min(workers, configurations.shape[1] // MIN_ROWS_PER_THREAD))
         with self._pool_lock:  # a pool's workspaces serve one call at a time
             hits = pin.computeCollisionsInParallel(workers, self._pool(workers), configurations, True, False)
         return np.asarray(hits, dtype=bool).reshape(configurations.shape[1])
