@@ -67,7 +67,7 @@ RIGID_TOL = TARGET_TOL  # how far a target may be from a rigid transform (as for
 #: Most threads ``ik_many`` uses by default (the cores it may run on, up to this).
 MAX_THREADS = 8
 #: Fewest targets per thread: a batch of fewer than twice this runs on the calling thread alone, so small batches
-#: (a reach map's IK fill, a few targets) pay no thread start (about 0.1 ms), and every thread gets work worth starting.
+#: pay no thread start (about 0.1 ms), and every thread gets work worth starting (64 targets: about 2 ms).
 MIN_TARGETS_PER_THREAD = 64
 #: Blocks handed to the threads per thread: enough that a thread whose targets are hard (many restarts) does not
 #: hold up the others, few enough that a block's call costs nothing beside its solves.
