@@ -235,12 +235,14 @@ def test_blocks_cover_every_target_once_and_small_batches_stay_on_one_thread():
 
 def test_threads_run_every_block_once_and_raise_a_block_error_in_the_caller():
     import threading
+    import time
 
     seen, names = [], set()
 
     def record(a, b):
         seen.append((a, b))
         names.add(threading.current_thread().name)
+        time.sleep(0.002)  # a block takes a while (and lets go of the GIL), as a solve does: both threads take blocks
 
     _on_threads(record, 7, 5007, 2)
     assert sorted(seen) == [(a + 7, b + 7) for a, b in _blocks(5000, 2)[1]] and len(names) == 2
