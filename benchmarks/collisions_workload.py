@@ -4,11 +4,18 @@ Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
 
 - ``collisions``: self-collision checks per configuration on the Panda (convex
   hulls, Franka's SRDF): ``manipkit.collision_free`` (Pinocchio's
-  ``computeCollisionsInParallel`` on both cores) against a Python loop over
-  ``pinocchio.computeCollisions`` (stop at the first contact) on the same
-  geometry and pairs; the two answers must agree on every configuration.
-- ``acm``: the Panda's allowed-collision matrix from 10,000 samples, whole
-  run timed; checked equal to the SRDF example-robot-data ships.
+  ``computeCollisionsInParallel`` with a broad phase, on 2 threads and on 1)
+  against a Python loop over ``pinocchio.computeCollisions`` (stop at the
+  first contact) on the same geometry and pairs, timed in turns; the answers
+  must agree on every configuration.
+- ``acm``: the Panda's allowed-collision matrix from 10,000 samples on 2
+  threads and on 1, whole runs timed; checked equal to the SRDF
+  example-robot-data ships, and the two equal.
+
+Pinocchio's Python calls hold the GIL (``computeCollisions`` and
+``computeCollisionsInParallel`` alike), so threads help only inside
+``computeCollisionsInParallel`` (OpenMP, statically split); each row gives
+the load average, since a busy machine takes the second core away.
 - ``reachmap_collisions``: the iiwa14 FK map at 0.1 m with and without
   ``collisions=self,floor``, each sampled until it converges as the command
   line builds it (``--converge 0.001``, ``map_samples`` the budget; each
@@ -19,6 +26,7 @@ Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
 
 from __future__ import annotations
 
+import os
 import re
 import time
 import warnings
@@ -60,31 +68,46 @@ def collisions_workload(*, checks: int, repeats: int, acm_samples: int, map_samp
                          for i in range(configurations.shape[1])])
 
     expected = loop()
-    batched = checker.in_collision(Q)
-    agree = bool((batched == expected).all())
-    times_batch, times_loop = [], []
+    agree = all(bool((checker.in_collision(Q, workers=k) == expected).all()) for k in (1, 2))
+    times = {"batch2": [], "batch1": [], "loop": []}
+    loads = []
     with no_gc():
         for _ in range(repeats):
-            t = time.perf_counter()
-            checker.in_collision(Q)
-            times_batch.append((time.perf_counter() - t) / checks)
-            t = time.perf_counter()
-            loop()
-            times_loop.append((time.perf_counter() - t) / checks)
+            for key, run in (("batch2", lambda: checker.in_collision(Q, workers=2)),
+                             ("batch1", lambda: checker.in_collision(Q, workers=1)), ("loop", loop)):
+                t = time.perf_counter()
+                run()
+                times[key].append((time.perf_counter() - t) / checks)
+            loads.append(os.getloadavg()[0])
     status = "ok" if agree else "wrong"
-    check = f"{int(expected.sum())} of {checks} in collision; batched == loop on every configuration: {agree}"
-    rows.append(row("collisions", "panda", "manipkit collision_free (2 threads)", times_batch, unit="config", n=checks,
-                    ours=True, status=status, check=check, note="hulls, Franka's SRDF (20 pairs)"))
-    rows.append(row("collisions", "panda", "Python loop over pinocchio.computeCollisions", times_loop, unit="config",
+    load = f"load average {np.median(loads):.2f} on {os.cpu_count()} cores"
+    check = f"{int(expected.sum())} of {checks} in collision; batched (1 and 2 threads) == loop on every configuration: {agree}"
+    speedup = float(np.median(times["batch1"]) / np.median(times["batch2"]))
+    rows.append(row("collisions", "panda", "manipkit collision_free (2 threads)", times["batch2"], unit="config", n=checks,
+                    ours=True, status=status, check=check, threads=2, speedup_vs_1_thread=speedup,
+                    load_average=float(np.median(loads)), note=f"hulls, Franka's SRDF (20 pairs); {load}"))
+    rows.append(row("collisions", "panda", "manipkit collision_free (1 thread)", times["batch1"], unit="config", n=checks,
+                    status=status, check=check, threads=1, note="the same call on one thread"))
+    rows.append(row("collisions", "panda", "Python loop over pinocchio.computeCollisions", times["loop"], unit="config",
                     n=checks, status=status, check=check))
 
-    t = time.perf_counter()
-    matrix = allowed_collision_matrix(panda, samples=acm_samples, seed=0)
-    elapsed = time.perf_counter() - t
-    same = _srdf_pairs(srdf_text(matrix)) == _srdf_pairs(srdf.read_text())
-    rows.append(row("acm", "panda", "manipkit allowed_collision_matrix", [elapsed], unit="run", n=acm_samples, ours=True,
-                    check=f"{len(matrix.disabled)} pairs disabled; equal to example-robot-data's SRDF: {same}",
-                    note=", ".join(f"{v} {k}" for k, v in matrix.counts().items())))
+    shipped = _srdf_pairs(srdf.read_text())
+    matrices, seconds = {}, {}
+    for workers in (2, 1):
+        t = time.perf_counter()
+        matrices[workers] = allowed_collision_matrix(panda, samples=acm_samples, seed=0, workers=workers)
+        seconds[workers] = time.perf_counter() - t
+    same_on_threads = matrices[1] == matrices[2]
+    for workers in (2, 1):
+        matrix = matrices[workers]
+        same = _srdf_pairs(srdf_text(matrix)) == shipped
+        rows.append(row("acm", "panda", f"manipkit allowed_collision_matrix, {workers} thread{'s' if workers > 1 else ''}",
+                        [seconds[workers]], unit="run", n=acm_samples, ours=workers == 2, threads=workers,
+                        status="ok" if same_on_threads else "wrong", load_average=os.getloadavg()[0],
+                        check=f"{len(matrix.disabled)} pairs disabled; equal to example-robot-data's SRDF: {same}; "
+                              f"the same on 1 and 2 threads: {same_on_threads}",
+                        note=", ".join(f"{v} {k}" for k, v in matrix.counts().items())
+                        + f"; load average {os.getloadavg()[0]:.2f}"))
 
     iiwa = manipkit.load("iiwa14")
     settings = CollisionSettings.parse(iiwa, "self,floor", floor=0.0)

@@ -6,7 +6,7 @@ import pytest
 
 import manipkit
 from manipkit.analysis.acm import allowed_collision_matrix, srdf_text
-from manipkit.errors import OptionError
+from manipkit.errors import CollisionError, OptionError
 from manipkit.kinematics.collisions import collisions, read_srdf
 from manipkit.kinematics.robot import Robot
 
@@ -83,6 +83,11 @@ def test_same_seed_same_matrix(rules):
     assert allowed_collision_matrix(rules, samples=50, seed=7) == allowed_collision_matrix(rules, samples=50, seed=7)
 
 
+def test_the_matrix_does_not_depend_on_the_thread_count(panda):
+    one, two = (allowed_collision_matrix(panda, samples=3000, seed=4, workers=k) for k in (1, 2))
+    assert one == two and sum(one.contacts.values()) > 0
+
+
 def test_progress_is_reported_to_the_end(rules):
     seen = []
     allowed_collision_matrix(rules, samples=300, progress=lambda stage, done, total: seen.append((stage, done, total)))
@@ -94,9 +99,10 @@ def test_progress_is_reported_to_the_end(rules):
     ({"samples": 0}, "samples 0: give a whole number"),
     ({"samples": 2.5}, "samples 2.5: give a whole number"),
     ({"always": 0}, "always 0: give a fraction"),
+    ({"workers": 0}, "workers 0: give a whole number of threads"),
 ])
 def test_bad_options_are_refused(rules, kwargs, fragment):
-    with pytest.raises(OptionError, match=fragment):
+    with pytest.raises((OptionError, CollisionError), match=fragment):
         allowed_collision_matrix(rules, **kwargs)
 
 

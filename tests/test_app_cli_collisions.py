@@ -98,6 +98,18 @@ def test_acm_writes_the_srdf_and_checks_it(tmp_path):
     run_cli("manipkit", "collisions", "--robot", "course_arm", "--srdf", out, status=0)
 
 
+def test_acm_writes_the_same_matrix_on_any_number_of_workers(tmp_path):
+    outputs = []
+    for workers in ("1", "2"):
+        out = tmp_path / f"panda_{workers}.srdf"
+        result = run_cli("manipkit", "acm", "--robot", "panda", "-o", out, "--samples", "4000", "--workers", workers,
+                         status=0)
+        outputs.append((result.stdout.replace(str(out), "OUT"), out.read_bytes()))
+    assert outputs[0] == outputs[1]
+    refused = run_cli("manipkit", "acm", "--robot", "panda", "-o", tmp_path / "x.srdf", "--workers", "0", status=2)
+    assert refused.stderr.count("\n") == 1 and "--workers 0: give a whole number of threads from 1 to 64" in refused.stderr
+
+
 def test_acm_of_a_robot_in_contact_at_its_default_pose_disables_those_pairs(tmp_path):
     # The Stanford arm's wrist parts meet at the wrist centre: those pairs are Default, and the check then holds.
     out = tmp_path / "stanford.srdf"

@@ -8,6 +8,7 @@ geometry model built and checked in the test with Pinocchio and coal alone.
 
 import math
 import threading
+import warnings
 from pathlib import Path
 
 import coal
@@ -19,6 +20,8 @@ import manipkit
 from manipkit.errors import CollisionError
 from manipkit.kinematics.collisions import (
     FLOOR,
+    MAX_THREADS,
+    MIN_ROWS_PER_THREAD,
     CollisionChecker,
     collision_free,
     collision_geometry,
@@ -296,6 +299,10 @@ def direct_contacts(robot, geometry: str, Q) -> list[set]:
             obj.geometry = obj.geometry.convex
     geom.addAllCollisionPairs()
     data, gdata = model.createData(), geom.createData()
+    with warnings.catch_warnings():  # every query afresh, as documented (Pinocchio caches coal's guess otherwise)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for request in gdata.collisionRequests:
+            request.enable_cached_gjk_guess = False
     link = [model.frames[obj.parentFrame].name for obj in geom.geometryObjects]
     answers = []
     for q in Q:
@@ -324,12 +331,25 @@ def test_panda_collisions_agree_with_pinocchio_and_coal_called_directly(panda, g
 
 
 def test_batched_answers_equal_one_at_a_time_on_any_thread_count(panda):
-    Q = panda.sample_q(300, seed=5)
+    Q = panda.sample_q(3 * MIN_ROWS_PER_THREAD, seed=5)  # enough rows for 3 threads
     checker = CollisionChecker(panda, floor=0.0)
     one_by_one = np.array([checker.report(q).in_collision for q in Q])
-    for workers in (1, 2):
+    for workers in (1, 2, 3):
         assert (checker.in_collision(Q, workers=workers) == one_by_one).all()
     assert 0 < one_by_one.sum() < len(Q)
+
+
+def test_contact_counts_equal_a_direct_count_on_any_thread_count(panda):
+    # The per-pair counts of 3000 samples (3 threads' worth), against Pinocchio + coal called here on every sample
+    Q = panda.sample_q(3 * MIN_ROWS_PER_THREAD, seed=11)
+    checker = CollisionChecker(panda)
+    direct = direct_contacts(panda, "hulls", Q)
+    expected = {pair: sum(pair in contacts for contacts in direct) for pair in checker.pairs}
+    for workers in (1, 2, 3):
+        counts = checker.contact_counts(Q, workers=workers)
+        assert counts == expected and list(counts) == list(checker.pairs)
+    assert sum(expected.values()) > 10 and sum(v == 0 for v in expected.values()) > 10  # both kinds of pair
+    assert checker.contact_counts(Q[:0]) == dict.fromkeys(checker.pairs, 0)
 
 
 def test_threads_may_share_a_checker(panda):
@@ -363,6 +383,8 @@ def test_bad_batch_shapes_are_refused(panda):
         collision_free(panda, np.zeros((2, 3)))
     with pytest.raises(CollisionError, match="workers 0: give a whole number of threads"):
         collision_free(panda, np.zeros((2, 8)), workers=0)
+    with pytest.raises(CollisionError, match=f"workers {MAX_THREADS + 1}: .* at most {MAX_THREADS}"):
+        collision_free(panda, np.zeros((2, 8)), workers=MAX_THREADS + 1)
 
 
 FLOATING = """<?xml version="1.0"?>

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
-from manipkit.kinematics.ik_many import ik_many, target_seeds
+from manipkit.kinematics.ik_many import MIN_TARGETS_PER_THREAD, _blocks, _on_threads, ik_many, target_seeds
 from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
 
@@ -202,3 +202,61 @@ def test_the_old_positional_start_and_frame_keyword_still_work_with_a_warning(co
     with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
         framed = ik_many(course_arm, T, frame="ee_link", q0=Q_true)
     assert np.array_equal(framed.q, old.q)
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 10**6), st.integers(2 * MIN_TARGETS_PER_THREAD, 400),
+       st.sampled_from([None, "near"]))
+def test_answers_are_the_same_bit_for_bit_on_any_number_of_threads(iiwa14, seed, target_seed, n, start):
+    # FK of random configurations (reachable) and a tenth of them moved 3 m away (unreachable: every restart runs)
+    Q_true = iiwa14.sample_q(n, seed=target_seed)
+    T = iiwa14.fk(Q_true, base="base_link", tip="ee_link")
+    T[::10, 0, 3] += 3.0
+    q0 = None if start is None else Q_true + 0.3  # clamped into the limits by ik_many
+    options = dict(q0=q0, seed=seed, restarts=3)
+    one, two, three = (ik_many(iiwa14, T, threads=k, **options) for k in (1, 2, 3))
+    for other in (two, three):
+        for field in ("q", "q_residuals", "iterations", "attempts", "success"):
+            np.testing.assert_array_equal(getattr(one, field), getattr(other, field), err_msg=field)
+    # and every success is one by Pinocchio's FK, not by the kernel's word
+    measured = pinocchio_residuals(iiwa14, "base_link", "ee_link", one.q[one.success], T[one.success])
+    assert one.success.mean() > 0.8 and not one.success[::10].any() and measured.max() < 1e-9
+
+
+def test_blocks_cover_every_target_once_and_small_batches_stay_on_one_thread():
+    for n, threads in [(0, 2), (1, 4), (2 * MIN_TARGETS_PER_THREAD - 1, 2), (2 * MIN_TARGETS_PER_THREAD, 2),
+                       (1000, 3), (20_000, 8)]:
+        used, blocks = _blocks(n, threads)
+        covered = np.concatenate([np.arange(a, b) for a, b in blocks]) if blocks else np.zeros(0)
+        assert np.array_equal(covered, np.arange(n)) and all(b > a for a, b in blocks if n)
+        assert used == max(1, min(threads, n // MIN_TARGETS_PER_THREAD))
+    assert _blocks(2 * MIN_TARGETS_PER_THREAD - 1, 8)[0] == 1  # no thread started for a small batch
+
+
+def test_threads_run_every_block_once_and_raise_a_block_error_in_the_caller():
+    import threading
+    import time
+
+    seen, names = [], set()
+
+    def record(a, b):
+        seen.append((a, b))
+        names.add(threading.current_thread().name)
+        time.sleep(0.002)  # a block takes a while (and lets go of the GIL), as a solve does: both threads take blocks
+
+    _on_threads(record, 7, 5007, 2)
+    assert sorted(seen) == [(a + 7, b + 7) for a, b in _blocks(5000, 2)[1]] and len(names) == 2
+
+    def fail(a, b):
+        if a > 0:
+            raise ValueError(f"block {a}")
+
+    with pytest.raises(ValueError, match="block"):
+        _on_threads(fail, 0, 5000, 2)
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1.5, True, "2"])
+def test_bad_thread_counts_are_refused(course_arm, threads):
+    T = course_arm.fk(course_arm.sample_q(2, seed=1), base="base_link", tip="ee_link")
+    with pytest.raises(IKOptionError, match="threads must be a whole number"):
+        ik_many(course_arm, T, threads=threads)

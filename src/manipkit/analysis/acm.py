@@ -10,7 +10,12 @@ Rules, applied in this order to every pair of links with collision geometry
   configurations drawn uniformly inside the joint limits (``robot.sample_q``);
 - ``Never``: in contact in none of them.
 
-Every other pair stays enabled (checked). After filtering,
+Every other pair stays enabled (checked). The samples are checked in blocks
+by :meth:`manipkit.kinematics.collisions.CollisionChecker.contact_counts`:
+Pinocchio's C++ threads (``workers``, default every core) find the samples
+with any contact, then those alone are checked pair by pair. Each query
+starts afresh, so the counts, and the matrix, do not depend on ``workers``.
+After filtering,
 :func:`allowed_collision_matrix` checks that no enabled pair is in contact at
 the default configuration (:attr:`CollisionMatrix.default_contacts`, empty
 when it holds). The matrix belongs to the geometry it was sampled with
@@ -37,6 +42,9 @@ __all__ = ["REASONS", "CollisionMatrix", "allowed_collision_matrix", "srdf_text"
 REASONS = ("Adjacent", "Default", "Always", "Never")
 #: Most samples one matrix takes.
 MAX_SAMPLES = 10_000_000
+#: Fewest samples checked per call of the threads (two threads' worth: see
+#: :data:`manipkit.kinematics.collisions.MIN_ROWS_PER_THREAD`); the progress is reported after each block.
+BLOCK = 2000
 
 
 @dataclass(frozen=True)
@@ -78,7 +86,7 @@ class CollisionMatrix:
 
 
 def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int = 0, geometry: str = "hulls",
-                             always: float = 0.95,
+                             always: float = 0.95, workers: int | None = None,
                              progress: Callable[[str, int, int], None] | None = None) -> CollisionMatrix:
     """The allowed-collision matrix of ``robot`` by the Setup Assistant's rules (module docstring).
 
@@ -93,6 +101,8 @@ def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int =
         ``"hulls"`` (default) or ``"meshes"``.
     always : float, keyword-only
         Fraction of samples in contact from which a pair is disabled as ``Always`` (default 0.95).
+    workers : int, keyword-only, optional
+        Threads checking the samples (default: every core); the matrix is the same for any number.
     progress : callable, optional
         ``progress(stage, done, total)``, called as samples are checked.
 
@@ -101,14 +111,17 @@ def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int =
     OptionError
         ``samples`` not a whole number from 1 to :data:`MAX_SAMPLES`, ``always`` not in (0, 1].
     CollisionError
-        The robot has no collision geometry (or its meshes are missing).
+        The robot has no collision geometry (or its meshes are missing); ``workers`` not a whole number from 1 to
+        :data:`manipkit.kinematics.collisions.MAX_THREADS`.
     """
-    from manipkit.kinematics.collisions import CollisionChecker, collision_geometry
+    from manipkit.kinematics.collision_geometry import collision_geometry
+    from manipkit.kinematics.collisions import CollisionChecker, thread_count
 
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
         raise OptionError(f"samples {samples}: give a whole number from 1 to {MAX_SAMPLES:,}")
     if not (isinstance(always, (int, float)) and 0 < always <= 1):
         raise OptionError(f"always {always}: give a fraction of samples in (0, 1], such as 0.95")
+    workers = thread_count(workers)
     shapes = collision_geometry(robot, geometry)
     names = shapes.link_names
     everything = [tuple(sorted((a, b))) for i, a in enumerate(names) for b in names[i + 1:]]
@@ -123,12 +136,12 @@ def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int =
     if rest:
         checker = CollisionChecker(robot, geometry=geometry, pairs=rest)
         Q = robot.sample_q(int(samples), seed=seed)
-        step = max(1, len(Q) // 100)
-        for i, q in enumerate(Q):
-            for pair in checker.pairs_in_contact(q):
-                counts[pair] += 1
-            if progress is not None and ((i + 1) % step == 0 or i + 1 == len(Q)):
-                progress("sampling configurations", i + 1, len(Q))
+        block = max(BLOCK, -(-len(Q) // 20))  # progress every 5 % of a large run, every block of a small one
+        for start in range(0, len(Q), block):
+            for pair, count in checker.contact_counts(Q[start:start + block], workers=workers).items():
+                counts[pair] += count
+            if progress is not None:
+                progress("sampling configurations", min(start + block, len(Q)), len(Q))
     for pair, count in counts.items():
         if count >= always * samples:
             disabled[pair] = "Always"

@@ -139,8 +139,24 @@ def ik_block(job: MapJob, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tupl
     from manipkit.kinematics.ik_many import ik_many
 
     batch = ik_many(job.robot, T, job.base, job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
-                    restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block)
+                    restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block,
+                    threads=1 if _in_dask_worker() else None)  # a cluster runs one block per core already
     success = np.array(batch.success, dtype=bool)
     if job.collisions is not None and success.any():  # an answer in collision reaches nothing
         success[success] = job.collisions.free(job.robot, batch.q[success])
     return block, success, batch.q
+
+
+def _in_dask_worker() -> bool:
+    """Whether this runs in a Dask worker (each is one process of the cluster, with a core of its own)."""
+    import sys
+
+    if "distributed" not in sys.modules:
+        return False
+    from distributed import get_worker
+
+    try:
+        get_worker()
+    except ValueError:
+        return False
+    return True

@@ -1,13 +1,10 @@
-"""Collision geometry and collision checks of a robot (Pinocchio + coal).
+"""Collision checks of a robot (Pinocchio + coal) against itself, the floor and a world, one or many at a time.
 
 Conventions (docs/architecture.md, "Collisions"):
 
-- The geometry is the description's ``<collision>`` elements, read by
-  Pinocchio's ``buildGeomFromUrdfString``; meshes are found by the one mesh
-  resolver (:func:`manipkit.description.meshes.urdf_with_mesh_paths`), as the
-  viewer finds its meshes. ``geometry="hulls"`` (the default) replaces every
-  mesh by its convex hull (coal's qhull); ``"meshes"`` keeps the triangles.
-  Boxes, cylinders, spheres and capsules stay what they are.
+- The geometry is the description's ``<collision>`` elements, convex hulls
+  of the meshes by default (:mod:`manipkit.kinematics.collision_geometry`,
+  whose names are importable from here too).
 - A robot without ``<collision>`` elements, or whose collision meshes are
   missing, has no collision checks: :class:`CollisionError` names what is
   missing. It is never reported collision-free.
@@ -26,6 +23,13 @@ Conventions (docs/architecture.md, "Collisions"):
   points, negative the penetration depth of a pair in contact (coal gives no
   depth between two meshes: such a pair reads 0). Witness points are given
   in the root frame.
+- Many configurations at once (:meth:`CollisionChecker.in_collision`,
+  :meth:`CollisionChecker.contact_counts`, :func:`collision_free`) run in
+  Pinocchio's ``computeCollisionsInParallel``: C++ threads without the GIL
+  (``workers``, default every core). Pinocchio's one-configuration calls
+  (``computeCollisions``) hold the GIL, so Python threads around them do
+  not run at once. Every query starts afresh, so the answers do not depend
+  on the number of threads.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ import difflib
 import os
 import threading
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import TYPE_CHECKING
 
@@ -42,7 +46,14 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from manipkit.errors import CollisionError, DescriptionError
+from manipkit.errors import CollisionError
+from manipkit.kinematics.collision_geometry import (  # the geometry's names stay importable from here, as before
+    GEOMETRIES,
+    CollisionGeometry,
+    adjacent_links,
+    collision_geometry,
+    link_pair,
+)
 from manipkit.text import printable, short_text
 
 if TYPE_CHECKING:
@@ -52,6 +63,8 @@ if TYPE_CHECKING:
 __all__ = [
     "FLOOR",
     "GEOMETRIES",
+    "MAX_THREADS",
+    "MIN_ROWS_PER_THREAD",
     "CollisionChecker",
     "CollisionGeometry",
     "CollisionReport",
@@ -64,10 +77,9 @@ __all__ = [
     "mark_collisions",
     "read_srdf",
     "srdf_check",
+    "thread_count",
 ]
 
-#: The kinds of collision geometry: convex hulls of the meshes (the default) or the meshes themselves.
-GEOMETRIES = ("hulls", "meshes")
 #: The name the floor goes by in pairs and messages.
 FLOOR = "floor"
 #: A link closer to the floor than this (m) at the default configuration stands on it (wheels) and is not checked
@@ -75,161 +87,13 @@ FLOOR = "floor"
 RESTING = 1e-3
 #: Largest SRDF file read (bytes).
 MAX_SRDF_BYTES = 16 * 1024 * 1024
+#: Most threads of one batched check (each holds a copy of Pinocchio's workspaces).
+MAX_THREADS = 64
+#: Fewest configurations per thread of a batched check (about 10 ms of work): waking a second thread costs from
+#: 0.1 ms on an idle machine to a scheduler time slice (several ms) on a busy one, so smaller batches run on one.
+MIN_ROWS_PER_THREAD = 1000
 
-_GEOMETRY_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Robot -> {geometry: CollisionGeometry}
 _CACHE_LOCK = threading.Lock()
-
-
-def _pair(a: str, b: str) -> tuple[str, str]:
-    """A link pair in one order (sorted), so (a, b) and (b, a) are one key."""
-    return (a, b) if a <= b else (b, a)
-
-
-# ----------------------------------------------------------------------
-# Geometry
-# ----------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class CollisionGeometry:
-    """A robot's collision geometry, built once per robot and kind (:func:`collision_geometry`); never modified.
-
-    Attributes
-    ----------
-    robot_name : str
-    geometry : str
-        ``"hulls"`` or ``"meshes"`` (:data:`GEOMETRIES`).
-    model : pinocchio.GeometryModel
-        The objects (no collision pairs); checkers copy it and add theirs.
-    links : tuple of str
-        The link of each object, in the model's order.
-    bodies : tuple of int
-        The Pinocchio joint that moves each object (0: none, rigid with the root).
-    adjacent : frozenset of (str, str)
-        Link pairs joined by a joint (links without geometry passed through), sorted names.
-    """
-
-    robot_name: str
-    geometry: str
-    model: pin.GeometryModel = field(repr=False)
-    links: tuple[str, ...]
-    bodies: tuple[int, ...]
-    adjacent: frozenset
-
-    @property
-    def link_names(self) -> tuple[str, ...]:
-        """The links that have collision geometry, in model order (each once)."""
-        return tuple(dict.fromkeys(self.links))
-
-    def rigid(self, a: str, b: str) -> bool:
-        """Whether no joint moves links ``a`` and ``b`` apart (their objects all hang on one Pinocchio joint)."""
-        joints = {body for link, body in zip(self.links, self.bodies) if link in (a, b)}
-        return len(joints) == 1
-
-    def candidate_pairs(self) -> tuple[tuple[str, str], ...]:
-        """Every link pair that can come into contact: not adjacent, not rigid, in model order."""
-        names = self.link_names
-        pairs = []
-        for i, a in enumerate(names):
-            for b in names[i + 1:]:
-                key = _pair(a, b)
-                if key not in self.adjacent and not self.rigid(a, b):
-                    pairs.append(key)
-        return tuple(pairs)
-
-
-def collision_geometry(robot: Robot, geometry: str = "hulls") -> CollisionGeometry:
-    """The robot's collision geometry of the kind ``geometry``, built on first use and cached per robot.
-
-    Raises
-    ------
-    CollisionError
-        ``geometry`` is not one of :data:`GEOMETRIES`; the robot has no
-        ``<collision>`` element; a collision mesh cannot be found or read
-        (the message names the link and the file).
-    """
-    if geometry not in GEOMETRIES:
-        raise CollisionError(f"geometry '{printable(str(geometry))}' is not known; give one of {', '.join(GEOMETRIES)}")
-    with _CACHE_LOCK:
-        cached = _GEOMETRY_CACHE.get(robot, {}).get(geometry)
-    if cached is not None:
-        return cached
-    built = _build_geometry(robot, geometry)
-    with _CACHE_LOCK:
-        return _GEOMETRY_CACHE.setdefault(robot, {}).setdefault(geometry, built)
-
-
-def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
-    import xml.etree.ElementTree as ET
-
-    from manipkit.description.access import ReadPolicy
-    from manipkit.description.meshes import urdf_with_mesh_paths
-    from manipkit.description.packages import PackageResolver
-
-    root = ET.fromstring(robot.urdf)
-    if not any(link.find("collision") is not None for link in root.iter("link")):
-        raise CollisionError(
-            f"robot '{robot.name}' has no <collision> elements, so collisions cannot be checked for it; "
-            "add <collision> geometry (box, cylinder, sphere or mesh) to its links"
-        )
-    near = robot.source.path if robot.source.path.exists() else None
-    resolver = PackageResolver(dict(robot.package_dirs), near=near)
-    policy = ReadPolicy(near, resolver, robot.allow_read) if near is not None else None  # as the viewer reads meshes
-    try:
-        text, package_dirs = urdf_with_mesh_paths(robot.urdf, resolver, relative_to=robot.source.path.parent,
-                                                  element="collision", policy=policy)
-    except DescriptionError as exc:
-        raise CollisionError(f"robot '{robot.name}': collision geometry unavailable: {exc}") from None
-    try:
-        model = pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.COLLISION, package_dirs=package_dirs)
-    except (ValueError, RuntimeError) as exc:
-        raise CollisionError(
-            f"robot '{robot.name}': Pinocchio cannot load the collision geometry: {' '.join(str(exc).split())}"
-        ) from None
-    links, bodies = [], []
-    for obj in model.geometryObjects:
-        links.append(robot.model.frames[obj.parentFrame].name)
-        bodies.append(int(obj.parentJoint))
-        if geometry == "hulls" and isinstance(obj.geometry, _BVH_TYPES):
-            obj.geometry = _hull(obj.geometry, robot.name, links[-1])
-    return CollisionGeometry(robot.name, geometry, model, tuple(links), tuple(bodies),
-                             adjacent_links(root, set(links)))
-
-
-_BVH_TYPES = tuple(getattr(coal, name) for name in ("BVHModelOBBRSS", "BVHModelOBB", "BVHModelAABB") if hasattr(coal, name))
-
-
-def _hull(mesh, robot_name: str, link: str):
-    """The convex hull of a coal BVH mesh (qhull), as a coal ``Convex``."""
-    try:
-        mesh.buildConvexHull(True, "Qt")
-    except (ValueError, RuntimeError) as exc:
-        raise CollisionError(f"robot '{robot_name}': link '{link}': the convex hull of its collision mesh cannot be "
-                             f"built ({' '.join(str(exc).split())}); use geometry 'meshes'") from None
-    return mesh.convex
-
-
-def adjacent_links(robot_xml, with_geometry: set[str]) -> frozenset:
-    """Link pairs joined by a joint, as MoveIt's Setup Assistant counts them ("Adjacent").
-
-    A link with collision geometry is adjacent to its nearest ancestor with
-    geometry (links without geometry between them are passed through), and
-    so to the nearest descendants with geometry. Pairs are sorted names.
-    """
-    parent_of = {}
-    for joint in robot_xml.iter("joint"):
-        parent, child = joint.find("parent"), joint.find("child")
-        if parent is not None and child is not None:
-            parent_of[child.get("link")] = parent.get("link")
-    pairs = set()
-    for link in with_geometry:
-        up, seen = parent_of.get(link), {link}
-        while up is not None and up not in with_geometry and up not in seen:
-            seen.add(up)
-            up = parent_of.get(up)
-        if up is not None and up in with_geometry:
-            pairs.add(_pair(link, up))
-    return frozenset(pairs)
 
 
 # ----------------------------------------------------------------------
@@ -276,7 +140,7 @@ def read_srdf(path: str | os.PathLike, robot: Robot) -> dict[tuple[str, str], st
                     f"{where}: <disable_collisions> number {number} names link '{printable(name)}', which robot "
                     f"'{robot.name}' does not have; {hint}(is this SRDF for another robot?)"
                 )
-        disabled[_pair(*names)] = element.get("reason") or "User"
+        disabled[link_pair(*names)] = element.get("reason") or "User"
     return disabled
 
 
@@ -406,19 +270,19 @@ class CollisionChecker:
                        if not (name == FLOOR and link in resting)]
         else:
             wanted = [tuple(p) for p in pairs]
-        wanted_keys = {_pair(*p) for p in wanted}
-        self.pairs: tuple[tuple[str, str], ...] = tuple(dict.fromkeys(_pair(*p) for p in wanted))
+        wanted_keys = {link_pair(*p) for p in wanted}
+        self.pairs: tuple[tuple[str, str], ...] = tuple(dict.fromkeys(link_pair(*p) for p in wanted))
         self._pair_links: list[tuple[str, str]] = []
         for i in range(len(links)):
             for j in range(i + 1, len(links)):
-                if links[i] != links[j] and _pair(links[i], links[j]) in wanted_keys:
+                if links[i] != links[j] and link_pair(links[i], links[j]) in wanted_keys:
                     model.addCollisionPair(pin.CollisionPair(i, j))
                     self._pair_links.append((links[i], links[j]))
         self._links = tuple(links)
         self.model = model
         self._local = threading.local()
         self._pool_lock = threading.Lock()
-        self._pools: dict[int, object] = {}
+        self._pools: dict[int, object] = {}  # threads -> Pinocchio's pool of workspaces
         self.disabled = MappingProxyType(self.disabled)
         self._frozen = True
 
@@ -488,16 +352,43 @@ class CollisionChecker:
         data = self._data
         pin.computeCollisions(self.robot.model, self.robot.data, self.model, data,
                               self.robot.pinocchio_configuration(q), False)
-        return frozenset(_pair(*self._pair_links[k]) for k, result in enumerate(data.collisionResults) if result.isCollision())
+        return frozenset(link_pair(*self._pair_links[k]) for k, result in enumerate(data.collisionResults) if result.isCollision())
 
     def in_collision(self, Q, *, workers: int | None = None) -> np.ndarray:
         """For each row of ``Q`` (N, n), whether some checked pair is in contact: (N,) bool.
 
         Runs Pinocchio's ``computeCollisionsInParallel`` with a broad phase
-        (a dynamic AABB tree) on ``workers`` threads (default: every core),
-        stopping at a configuration's first contact; the answers equal
-        :meth:`report`'s (tested).
+        (a dynamic AABB tree) on at most ``workers`` threads (default: every
+        core; OpenMP threads in C++), one per :data:`MIN_ROWS_PER_THREAD`
+        configurations at most, stopping at a configuration's first contact;
+        the answers equal :meth:`report`'s on any thread count (tested).
         """
+        configurations = self._configurations(Q)
+        workers = thread_count(workers)
+        if not self._pair_links or configurations.shape[1] == 0:
+            return np.zeros(configurations.shape[1], dtype=bool)
+        workers = max(1, min(workers, configurations.shape[1] // MIN_ROWS_PER_THREAD))
+        with self._pool_lock:  # a pool's workspaces serve one call at a time
+            hits = pin.computeCollisionsInParallel(workers, self._pool(workers), configurations, True, False)
+        return np.asarray(hits, dtype=bool).reshape(configurations.shape[1])
+
+    def contact_counts(self, Q, *, workers: int | None = None) -> dict[tuple[str, str], int]:
+        """In how many rows of ``Q`` (N, n) each checked link pair is in contact: {pair: count}, in :attr:`pairs` order.
+
+        :meth:`in_collision` (Pinocchio's C++ threads, ``workers``) finds the
+        rows with any contact, usually a minority; only those are then checked
+        pair by pair (:meth:`pairs_in_contact`, on the calling thread). Equal to
+        counting :meth:`pairs_in_contact` on every row (tested), on any thread count.
+        """
+        counts = dict.fromkeys(self.pairs, 0)
+        Q = np.asarray(Q, dtype=float)
+        for q in Q.reshape(-1, Q.shape[-1])[self.in_collision(Q, workers=workers)] if Q.size else ():
+            for pair in self.pairs_in_contact(q):
+                counts[pair] += 1
+        return counts
+
+    def _configurations(self, Q) -> np.ndarray:
+        """Pinocchio configurations (nq, N) of the whole-robot rows of ``Q``, checked (one :class:`CollisionError`)."""
         from manipkit.kinematics.chain import joint_array
 
         robot = self.robot
@@ -509,19 +400,21 @@ class CollisionChecker:
                                  f"(N, {len(robot.joint_names)}); got shape {Q.shape}")
         if not np.all(np.isfinite(Q)):
             raise CollisionError("joint values must be finite numbers")
-        if not self._pair_links or len(Q) == 0:
-            return np.zeros(len(Q), dtype=bool)
-        workers = _workers(workers)
-        configurations = robot.joint_layout.configurations(Q)
-        with self._pool_lock:  # one pool per thread count; a pool's workspaces are not shared between calls
-            pool = self._pools.get(workers)
-            if pool is None:  # a dynamic AABB tree prunes far pairs first: 2-3x fewer narrow-phase queries
-                pool = pin.BroadPhaseManagerPool_DynamicAABBTreeCollisionManager(robot.model, self.model, workers)
-                for data in pool.getGeometryDatas():
-                    _without_cached_guesses(data)
-                self._pools[workers] = pool
-            hits = pin.computeCollisionsInParallel(workers, pool, configurations, True, False)
-        return np.asarray(hits, dtype=bool).reshape(len(Q))
+        return robot.joint_layout.configurations(Q)
+
+    def _pool(self, workers: int):
+        """Pinocchio's per-thread workspaces for ``workers`` threads, made once (the caller holds ``_pool_lock``).
+
+        A dynamic AABB tree prunes far pairs first (2-3x fewer narrow-phase
+        queries); cached GJK guesses are off.
+        """
+        pool = self._pools.get(workers)
+        if pool is None:
+            pool = pin.BroadPhaseManagerPool_DynamicAABBTreeCollisionManager(self.robot.model, self.model, workers)
+            for data in pool.getGeometryDatas():
+                _without_cached_guesses(data)
+            self._pools[workers] = pool
+        return pool
 
     def __repr__(self) -> str:
         return (f"CollisionChecker({self.robot.name!r}, {self.geometry.geometry}, {len(self.pairs)} link pairs, "
@@ -637,11 +530,16 @@ def _without_cached_guesses(data: pin.GeometryData) -> pin.GeometryData:
     return data
 
 
-def _workers(workers: int | None) -> int:
+def thread_count(workers: int | None) -> int:
+    """``workers`` checked: a whole number of threads from 1 to :data:`MAX_THREADS`; None: every core.
+
+    Raises :class:`CollisionError` naming the bound (each thread holds a copy of the robot's workspaces).
+    """
     if workers is None:
-        return max(1, os.cpu_count() or 1)
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise CollisionError(f"workers {workers}: give a whole number of threads, at least 1")
+        return max(1, min(MAX_THREADS, os.cpu_count() or 1))
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or not 1 <= workers <= MAX_THREADS:
+        raise CollisionError(f"workers {printable(repr(workers))}: give a whole number of threads, at least 1 "
+                             f"and at most {MAX_THREADS}")
     return int(workers)
 
 

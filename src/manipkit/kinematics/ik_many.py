@@ -4,7 +4,11 @@
 Levenberg-Marquardt attempt of :mod:`manipkit.kinematics.ik_kernel`
 (:func:`~manipkit.kinematics.ik_kernel.lm_attempt`, the algorithm documented in
 :class:`manipkit.kinematics.ik.IKSolver`), looping over targets and their
-restarts inside one numba function, so no Python runs between targets.
+restarts inside one numba function, so no Python runs between targets. The
+function runs without the GIL, so a large batch is cut into contiguous blocks
+of targets solved on a few threads at once (``threads``, default every core):
+each target draws its starts from its own seed and uses nothing of another
+target, so the answers are the same bit for bit on any number of threads.
 
 Conventions (docs/architecture.md), as in :func:`manipkit.kinematics.ik.ik`:
 
@@ -19,8 +23,10 @@ Conventions (docs/architecture.md), as in :func:`manipkit.kinematics.ik.ik`:
   uniformly inside the limits from a stream seeded per target (target ``i``
   of seed ``s`` draws the same starts whatever the batch around it).
 - A time budget per target: no new restart begins once the target has used
-  ``time_budget`` seconds (an attempt already running finishes: a few
-  microseconds to a millisecond).
+  ``time_budget`` seconds of wall time (an attempt already running finishes:
+  a few microseconds to a millisecond). With a budget, how many restarts a
+  target gets depends on the machine's speed, so the answers are only as
+  reproducible as the clock; without one (the default) they are exact.
 - Residuals are measured at the answers by :meth:`Robot.fk
   <manipkit.kinematics.robot.Robot.fk>` (the batched FK kernel, equal to
   Pinocchio to about 1e-15) and :func:`manipkit.spatial.transforms.pose_residuals`,
@@ -34,6 +40,8 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
+import threading
 import time
 import warnings
 from typing import TYPE_CHECKING
@@ -56,6 +64,14 @@ if TYPE_CHECKING:
 __all__ = ["IKBatch", "ik_many", "target_seeds"]
 
 RIGID_TOL = TARGET_TOL  # how far a target may be from a rigid transform (as for ik)
+#: Most threads ``ik_many`` uses by default (the cores it may run on, up to this).
+MAX_THREADS = 8
+#: Fewest targets per thread: a batch of fewer than twice this runs on the calling thread alone, so small batches
+#: pay no thread start (about 0.1 ms), and every thread gets work worth starting (64 targets: about 2 ms).
+MIN_TARGETS_PER_THREAD = 64
+#: Blocks handed to the threads per thread: enough that a thread whose targets are hard (many restarts) does not
+#: hold up the others, few enough that a block's call costs nothing beside its solves.
+BLOCKS_PER_THREAD = 8
 
 
 def _now() -> float:
@@ -71,18 +87,28 @@ def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_tar
     at the first attempt within tolerance (as the kernel measures it; FK
     decides success afterwards), after ``restarts`` restarts, or once
     ``budget`` seconds (> 0) have passed since its first attempt began.
+    Compiled with ``nogil=True``: only the clock (read when there is a
+    budget, through ``objmode``) takes the GIL. numba's random state is the
+    thread's own, seeded here per target, so a target's starts do not
+    depend on the thread that solves it.
     """
     n_targets, n = X0.shape
     x = np.empty(n)
     start = np.empty(n)
+    t0 = 0.0
     for i in range(n_targets):
-        with objmode(t0="float64"):
-            t0 = _now()
         best = math.inf
         total = 0
         used = 0
         seeded = False
         for attempt in range(restarts + 1):
+            if budget > 0.0:  # one clock read per attempt, in one place (numba compiles each objmode block apart)
+                with objmode(now="float64"):
+                    now = _now()
+                if attempt == 0:
+                    t0 = now
+                elif now - t0 >= budget:
+                    break  # no new restart once the budget is spent
             if attempt == 0 and has_start:
                 for j in range(n):
                     start[j] = X0[i, j]
@@ -103,16 +129,36 @@ def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_tar
                     X_out[i, j] = x[j]
             if pos <= tol_position and rot <= tol_rotation:
                 break
-            if budget > 0.0:
-                with objmode(t1="float64"):
-                    t1 = _now()
-                if t1 - t0 >= budget:
-                    break
         iterations_out[i] = total
         attempts_out[i] = used
 
 
-_kernel = lazy_kernel(_solve_many)
+_kernel = lazy_kernel(_solve_many, nogil=True)
+_compiled: set[bool] = set()  # the paths compiled in this process: with the clock (a budget), without
+_compile_lock = threading.Lock()
+
+
+def _compile_here(solve_block, with_clock: bool) -> int:
+    """Compile (or load) the kernel on the calling thread before a helper thread calls it: how many targets it solved.
+
+    numba warns, when it compiles the ``objmode`` clock of a ``nogil``
+    kernel (at the clock's first run in a process), that object-mode code is
+    not parallel: true of the clock read alone, which takes the GIL for about
+    a microsecond per restart, and only when there is a time budget. That
+    warning is silenced here, on that compilation only: an empty block
+    compiles the kernel; with a budget, target 0 is solved here to compile
+    the clock (the block runs at a target's first attempt, before its clock
+    starts: the compilation does not eat into its budget).
+    """
+    with _compile_lock:
+        if with_clock in _compiled:
+            return 0
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="Code running in object mode won't allow parallel execution")
+            done = 1 if with_clock else 0
+            solve_block(0, done)
+        _compiled.add(with_clock)
+        return done
 
 
 def target_seeds(seed: int, n: int, *, first: int = 0) -> np.ndarray:
@@ -144,6 +190,7 @@ def ik_many(
     time_budget: float | None = None,
     seed: int = 0,
     damping: float = 1e-1,
+    threads: int | None = None,
     frame: str | None = None,
 ) -> IKBatch:
     """Solve ``N`` IK targets in one compiled call; success by FK of every answer.
@@ -177,6 +224,11 @@ def ik_many(
         the same starts in any batch of the same seed).
     damping : float, keyword-only
         Initial Levenberg-Marquardt damping (see :class:`manipkit.kinematics.ik.IKSolver`).
+    threads : int, keyword-only, optional
+        Most threads solving at once (default: the cores this process may
+        run on, at most :data:`MAX_THREADS`). Fewer are used when the batch
+        is small (:data:`MIN_TARGETS_PER_THREAD` targets per thread at
+        least); the answers do not depend on it.
     frame : str, keyword-only
         The old name of ``tip`` (one release, with a DeprecationWarning).
 
@@ -198,7 +250,7 @@ def ik_many(
     JointValueError
         ``q0`` of the wrong shape or not finite.
     IKOptionError
-        Unknown mode or axis; a non-positive tolerance, budget or damping.
+        Unknown mode or axis; a non-positive tolerance, budget or damping; ``threads`` not a whole number >= 1.
 
     Examples
     --------
@@ -222,10 +274,12 @@ def ik_many(
     check_budget(max_iters, restarts, damping)
     if time_budget is not None and not (isinstance(time_budget, numbers.Real) and time_budget > 0.0):
         raise IKOptionError(f"time_budget must be a positive number of seconds or None, got {time_budget!r}")
+    threads = _max_threads(threads)
     T_base = _targets(T, mode)
     Q_full = _start_rows(robot, q0, T_base.shape[0])
     X, iterations, attempts = _run(solver, T_base, Q_full, q0 is not None, (tol_position, tol_rotation),
-                                   (int(max_iters), int(restarts), float(time_budget or 0.0), float(damping)), seed)
+                                   (int(max_iters), int(restarts), float(time_budget or 0.0), float(damping)), seed,
+                                   threads)
     Q_full[:, solver.columns] = X
     pos, rot = (np.asarray(e, dtype=float) for e in
                 pose_residuals(T_base, robot.fk(Q_full, base=solver.base, tip=solver.tip), mode=mode, axis=axis,
@@ -240,8 +294,76 @@ def ik_many(
     )
 
 
-def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, budget, seed: int):
-    """The compiled loop over every target: (X (N, n) solved joints, iterations (N,), attempts (N,))."""
+def _max_threads(threads) -> int:
+    """``threads`` checked (a whole number >= 1), or the default: the usable cores, at most :data:`MAX_THREADS`."""
+    if threads is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        return max(1, min(MAX_THREADS, cores))
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise IKOptionError(f"threads must be a whole number of threads, at least 1, or None; got {threads!r}")
+    return int(threads)
+
+
+def _blocks(n_targets: int, threads: int) -> tuple[int, list[tuple[int, int]]]:
+    """(threads used, contiguous target blocks [start, stop)) for a batch of ``n_targets`` on at most ``threads``.
+
+    >>> _blocks(100, 2)
+    (1, [(0, 100)])
+    >>> used, blocks = _blocks(200, 2)
+    >>> used, len(blocks), blocks[:2], blocks[-1]
+    (2, 16, [(0, 13), (13, 26)], (195, 200))
+    """
+    used = max(1, min(threads, n_targets // MIN_TARGETS_PER_THREAD))
+    if used == 1:
+        return 1, [(0, n_targets)]
+    size = max(1, -(-n_targets // (used * BLOCKS_PER_THREAD)))
+    return used, [(a, min(a + size, n_targets)) for a in range(0, n_targets, size)]
+
+
+def _on_threads(solve_block, first: int, n_targets: int, threads: int) -> None:
+    """``solve_block(start, stop)`` over contiguous blocks covering ``first .. n_targets``, on up to ``threads`` threads.
+
+    The calling thread works too; the others take the next block as they
+    finish one. An error (or a Ctrl-C in the calling thread) stops the hand-out;
+    blocks already running finish, then the error is raised here.
+    """
+    used, blocks = _blocks(n_targets - first, threads)
+    blocks = [(first + a, first + b) for a, b in blocks]
+    if used == 1:
+        for a, b in blocks:
+            solve_block(a, b)
+        return
+    lock, stop = threading.Lock(), threading.Event()
+    queue = iter(blocks)
+    errors: list[BaseException] = []
+
+    def work():
+        while not stop.is_set():
+            with lock:
+                block = next(queue, None)
+            if block is None:
+                return
+            try:
+                solve_block(*block)
+            except BaseException as exc:  # raised again in the calling thread
+                errors.append(exc)
+                stop.set()
+
+    helpers = [threading.Thread(target=work, name=f"manipkit-ik_many-{k}", daemon=True) for k in range(used - 1)]
+    for helper in helpers:
+        helper.start()
+    try:
+        work()
+    finally:  # also on a Ctrl-C or an error here: no new block starts, the running ones finish
+        stop.set()
+        for helper in helpers:
+            helper.join()
+    if errors:
+        raise errors[0]
+
+
+def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, budget, seed: int, threads: int = 1):
+    """The compiled loop over every target, on up to ``threads`` threads: (X (N, n), iterations (N,), attempts (N,))."""
     robot = solver.robot
     n_targets = T_base.shape[0]
     # Targets in the axes of the model root: T_root_target = T_root_base @ T_base_target.
@@ -254,15 +376,19 @@ def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, b
     iterations = np.zeros(n_targets, dtype=np.int64)
     attempts = np.zeros(n_targets, dtype=np.int64)
     max_iters, restarts, time_budget, damping = budget
+    X0, seeds = np.ascontiguousarray(Q_full[:, solver.columns]), target_seeds(seed, n_targets)
+    R_root, p_root = np.ascontiguousarray(T_root[:, :3, :3]), np.ascontiguousarray(T_root[:, :3, 3])
+    program, kernel = solver.program, _kernel()
+
+    def solve_block(a: int, b: int) -> None:  # row slices of C-contiguous arrays: views, written in place
+        kernel(X0[a:b], has_start, seeds[a:b], Q_fixed[a:b], program.geometry, program.kinds, R_root[a:b], p_root[a:b],
+               program.mode_code, program.axis_index, program.lower, program.upper, program.sample_low,
+               program.sample_high, program.wrap, tol[0], tol[1], max_iters, restarts, time_budget, damping,
+               STALL_WINDOW, STALL_GAIN, SHRINK_MIN, X[a:b], iterations[a:b], attempts[a:b])
+
     if n_targets:
-        _kernel()(
-            np.ascontiguousarray(Q_full[:, solver.columns]), has_start, target_seeds(seed, n_targets), Q_fixed,
-            solver.program.geometry, solver.program.kinds, np.ascontiguousarray(T_root[:, :3, :3]),
-            np.ascontiguousarray(T_root[:, :3, 3]), solver.program.mode_code, solver.program.axis_index, solver.program.lower,
-            solver.program.upper, solver.program.sample_low, solver.program.sample_high, solver.program.wrap, tol[0], tol[1],
-            max_iters, restarts, time_budget, damping, STALL_WINDOW, STALL_GAIN, SHRINK_MIN,
-            X, iterations, attempts,
-        )
+        done = _compile_here(solve_block, time_budget > 0.0)
+        _on_threads(solve_block, done, n_targets, threads)
     if solver.program.has_cs:
         X[:, solver.program.wrap] = wrap_angle(X[:, solver.program.wrap])
     return X, iterations, attempts

@@ -46,6 +46,8 @@ def register(commands) -> None:
     acm.add_argument("--samples", type=int, default=10_000, metavar="N",
                      help="random configurations checked (default 10000)")
     acm.add_argument("--seed", type=int, default=0, help="seed of the samples (default 0)")
+    acm.add_argument("--workers", type=int, default=None, metavar="N",
+                     help="threads checking the samples (default: every core); the matrix is the same for any N")
     acm.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
                      help="progress bar on stderr (auto: when stderr is a terminal)")
     acm.set_defaults(run=run_acm)
@@ -157,19 +159,21 @@ def run_acm(args) -> int:
     """Make the allowed-collision matrix, write it as an SRDF, check it at the default pose and say so."""
     from manipkit.analysis.acm import REASONS, allowed_collision_matrix, srdf_text
     from manipkit.app.progress import progress_bar
-    from manipkit.kinematics.collisions import collisions
+    from manipkit.kinematics.collisions import MAX_THREADS, collisions
     from manipkit.outputs import writable_path, write_text
 
     if not 1 <= args.samples <= 10_000_000:
         raise UsageError(f"--samples {args.samples}: give a whole number from 1 to 10000000")
     if args.seed < 0:
         raise UsageError(f"--seed {args.seed}: give a whole number, 0 or more")
+    if args.workers is not None and not 1 <= args.workers <= MAX_THREADS:
+        raise UsageError(f"--workers {args.workers}: give a whole number of threads from 1 to {MAX_THREADS}")
     writable_path(args.output)  # a typo in -o is said at once, not after the sampling
     robot = load_robot(args, mesh_warnings=False)
     enabled = {"yes": True, "no": False, "auto": None}[args.progress]
     with progress_bar(enabled) as progress:
         matrix = allowed_collision_matrix(robot, samples=args.samples, seed=args.seed, geometry=args.geometry,
-                                          progress=progress)
+                                          workers=args.workers, progress=progress)
     write_text(args.output, srdf_text(matrix))
     counts = matrix.counts()
     total = len(matrix.disabled) + len(matrix.enabled)

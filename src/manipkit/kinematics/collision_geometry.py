@@ -1,0 +1,193 @@
+"""Collision geometry of a robot: its ``<collision>`` elements as a Pinocchio ``GeometryModel`` (coal shapes).
+
+Conventions (docs/architecture.md, "Collisions"); the checks on this
+geometry are :mod:`manipkit.kinematics.collisions`:
+
+- The geometry is the description's ``<collision>`` elements, read by
+  Pinocchio's ``buildGeomFromUrdfString``; meshes are found by the one mesh
+  resolver (:func:`manipkit.description.meshes.urdf_with_mesh_paths`), as the
+  viewer finds its meshes. ``geometry="hulls"`` (the default) replaces every
+  mesh by its convex hull (coal's qhull); ``"meshes"`` keeps the triangles.
+  Boxes, cylinders, spheres and capsules stay what they are.
+- A robot without ``<collision>`` elements, or whose collision meshes are
+  missing, has no collision geometry: :class:`~manipkit.errors.CollisionError`
+  names what is missing.
+- Pairs are pairs of links, names sorted (:func:`link_pair`); adjacent links
+  are those joined by a joint, links without geometry passed through, as
+  MoveIt's Setup Assistant counts them (:func:`adjacent_links`).
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import coal
+import pinocchio as pin
+
+from manipkit.errors import CollisionError, DescriptionError
+from manipkit.text import printable
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["GEOMETRIES", "CollisionGeometry", "adjacent_links", "collision_geometry", "link_pair"]
+
+#: The kinds of collision geometry: convex hulls of the meshes (the default) or the meshes themselves.
+GEOMETRIES = ("hulls", "meshes")
+
+_GEOMETRY_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Robot -> {geometry: CollisionGeometry}
+_CACHE_LOCK = threading.Lock()
+
+
+def link_pair(a: str, b: str) -> tuple[str, str]:
+    """A link pair in one order (sorted), so (a, b) and (b, a) are one key.
+
+    >>> link_pair("panda_link5", "panda_hand")
+    ('panda_hand', 'panda_link5')
+    """
+    return (a, b) if a <= b else (b, a)
+
+
+@dataclass(frozen=True, eq=False)
+class CollisionGeometry:
+    """A robot's collision geometry, built once per robot and kind (:func:`collision_geometry`); never modified.
+
+    Attributes
+    ----------
+    robot_name : str
+    geometry : str
+        ``"hulls"`` or ``"meshes"`` (:data:`GEOMETRIES`).
+    model : pinocchio.GeometryModel
+        The objects (no collision pairs); checkers copy it and add theirs.
+    links : tuple of str
+        The link of each object, in the model's order.
+    bodies : tuple of int
+        The Pinocchio joint that moves each object (0: none, rigid with the root).
+    adjacent : frozenset of (str, str)
+        Link pairs joined by a joint (links without geometry passed through), sorted names.
+    """
+
+    robot_name: str
+    geometry: str
+    model: pin.GeometryModel = field(repr=False)
+    links: tuple[str, ...]
+    bodies: tuple[int, ...]
+    adjacent: frozenset
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        """The links that have collision geometry, in model order (each once)."""
+        return tuple(dict.fromkeys(self.links))
+
+    def rigid(self, a: str, b: str) -> bool:
+        """Whether no joint moves links ``a`` and ``b`` apart (their objects all hang on one Pinocchio joint)."""
+        joints = {body for link, body in zip(self.links, self.bodies) if link in (a, b)}
+        return len(joints) == 1
+
+    def candidate_pairs(self) -> tuple[tuple[str, str], ...]:
+        """Every link pair that can come into contact: not adjacent, not rigid, in model order."""
+        names = self.link_names
+        pairs = []
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                key = link_pair(a, b)
+                if key not in self.adjacent and not self.rigid(a, b):
+                    pairs.append(key)
+        return tuple(pairs)
+
+
+def collision_geometry(robot: Robot, geometry: str = "hulls") -> CollisionGeometry:
+    """The robot's collision geometry of the kind ``geometry``, built on first use and cached per robot.
+
+    Raises
+    ------
+    CollisionError
+        ``geometry`` is not one of :data:`GEOMETRIES`; the robot has no
+        ``<collision>`` element; a collision mesh cannot be found or read
+        (the message names the link and the file).
+    """
+    if geometry not in GEOMETRIES:
+        raise CollisionError(f"geometry '{printable(str(geometry))}' is not known; give one of {', '.join(GEOMETRIES)}")
+    with _CACHE_LOCK:
+        cached = _GEOMETRY_CACHE.get(robot, {}).get(geometry)
+    if cached is not None:
+        return cached
+    built = _build_geometry(robot, geometry)
+    with _CACHE_LOCK:
+        return _GEOMETRY_CACHE.setdefault(robot, {}).setdefault(geometry, built)
+
+
+def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
+    import xml.etree.ElementTree as ET
+
+    from manipkit.description.access import ReadPolicy
+    from manipkit.description.meshes import urdf_with_mesh_paths
+    from manipkit.description.packages import PackageResolver
+
+    root = ET.fromstring(robot.urdf)
+    if not any(link.find("collision") is not None for link in root.iter("link")):
+        raise CollisionError(
+            f"robot '{robot.name}' has no <collision> elements, so collisions cannot be checked for it; "
+            "add <collision> geometry (box, cylinder, sphere or mesh) to its links"
+        )
+    near = robot.source.path if robot.source.path.exists() else None
+    resolver = PackageResolver(dict(robot.package_dirs), near=near)
+    policy = ReadPolicy(near, resolver, robot.allow_read) if near is not None else None  # as the viewer reads meshes
+    try:
+        text, package_dirs = urdf_with_mesh_paths(robot.urdf, resolver, relative_to=robot.source.path.parent,
+                                                  element="collision", policy=policy)
+    except DescriptionError as exc:
+        raise CollisionError(f"robot '{robot.name}': collision geometry unavailable: {exc}") from None
+    try:
+        model = pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.COLLISION, package_dirs=package_dirs)
+    except (ValueError, RuntimeError) as exc:
+        raise CollisionError(
+            f"robot '{robot.name}': Pinocchio cannot load the collision geometry: {' '.join(str(exc).split())}"
+        ) from None
+    links, bodies = [], []
+    for obj in model.geometryObjects:
+        links.append(robot.model.frames[obj.parentFrame].name)
+        bodies.append(int(obj.parentJoint))
+        if geometry == "hulls" and isinstance(obj.geometry, _BVH_TYPES):
+            obj.geometry = _hull(obj.geometry, robot.name, links[-1])
+    return CollisionGeometry(robot.name, geometry, model, tuple(links), tuple(bodies),
+                             adjacent_links(root, set(links)))
+
+
+_BVH_TYPES = tuple(getattr(coal, name) for name in ("BVHModelOBBRSS", "BVHModelOBB", "BVHModelAABB") if hasattr(coal, name))
+
+
+def _hull(mesh, robot_name: str, link: str):
+    """The convex hull of a coal BVH mesh (qhull), as a coal ``Convex``."""
+    try:
+        mesh.buildConvexHull(True, "Qt")
+    except (ValueError, RuntimeError) as exc:
+        raise CollisionError(f"robot '{robot_name}': link '{link}': the convex hull of its collision mesh cannot be "
+                             f"built ({' '.join(str(exc).split())}); use geometry 'meshes'") from None
+    return mesh.convex
+
+
+def adjacent_links(robot_xml, with_geometry: set[str]) -> frozenset:
+    """Link pairs joined by a joint, as MoveIt's Setup Assistant counts them ("Adjacent").
+
+    A link with collision geometry is adjacent to its nearest ancestor with
+    geometry (links without geometry between them are passed through), and
+    so to the nearest descendants with geometry. Pairs are sorted names.
+    """
+    parent_of = {}
+    for joint in robot_xml.iter("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        if parent is not None and child is not None:
+            parent_of[child.get("link")] = parent.get("link")
+    pairs = set()
+    for link in with_geometry:
+        up, seen = parent_of.get(link), {link}
+        while up is not None and up not in with_geometry and up not in seen:
+            seen.add(up)
+            up = parent_of.get(up)
+        if up is not None and up in with_geometry:
+            pairs.add(link_pair(link, up))
+    return frozenset(pairs)
