@@ -117,6 +117,30 @@ def test_a_target_whose_rotation_is_projected_is_measured_against_its_projection
     same_fields(chain_ik(chain, T[0]), chain_ik(chain, T[0], compiled=False))
 
 
+def test_a_target_the_kernel_does_not_take_as_is_is_checked_by_check_transform():
+    """The single call takes only targets check_transform accepts as is (plain_target): a list, a transposed
+    (Fortran-ordered) copy, a last row 1e-9 off [0 0 0 1] go the general path with the same answer; a matrix that is
+    no transform is refused as before."""
+    from manipkit.closed_form.check_kernel import plain_target
+    from manipkit.errors import InvalidTransformError
+    from manipkit.spatial.transforms import check_transform
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    T = chain.fk(chain.sample(1, seed=5)[0])
+    fast = chain_ik(chain, T)
+    assert plain_target(T) and check_transform(T) is not None
+    same_fields(chain_ik(chain, T.tolist()), fast)
+    same_fields(chain_ik(chain, np.asfortranarray(T)), fast)
+    off = T.copy()
+    off[3, 3] += 1e-9
+    assert not plain_target(off)
+    same_fields(chain_ik(chain, off), chain_ik(chain, off, compiled=False))
+    for bad in (np.zeros((4, 4)), np.full((4, 4), np.nan)):
+        assert not plain_target(bad)
+        with pytest.raises(InvalidTransformError):
+            chain_ik(chain, bad)
+
+
 def test_srs_at_an_arm_angle_equals_the_reference():
     """iiwa14 (7R SRS) at the arm angle of each generating configuration: the compiled solve and check give the
     numpy reference's answer field for field; the generating configuration is among the rows; every row lands on

@@ -28,7 +28,16 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows, pose_residual
+from manipkit.closed_form.check_kernel import (
+    arm_constants,
+    chain_row,
+    check_row,
+    exact_rotation,
+    kept_rows,
+    pack_arm,
+    plain_target,
+    pose_residual,
+)
 from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
     MARGIN,
     NEAR,
@@ -357,8 +366,9 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
 
 
 @compile_kernel
-def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, theta, valid, near, fallback,
-                    project, rows):
+def _solve_rows_all(arm_reals, arm_ints, T, theta, valid, near, fallback, project, rows):
+    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
+    c = _row(points, 0)
     g = np.empty((4, 4))
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
@@ -387,21 +397,21 @@ def _measure_all(T, reached, rows, residuals):
 
 
 @compile_kernel
-def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints, T,
-                     position_tol, rotation_tol):
-    """_checked_target for one target, its rows kept, ordered and coded as chain_ik answers
-    (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2 elbow down + wrist flip``);
-    returns (answered, rows, residuals, within, codes): answered False when the general path must answer."""
+def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
+    """_checked_target for one target (the chain's constants packed by check_kernel.pack_arm), its rows kept,
+    ordered and coded as chain_ik answers (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2
+    elbow down + wrist flip``); no rows when the general path must answer."""
+    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints = arm_constants(arm_reals, arm_ints)
     m, n = H.shape[0], q0.shape[0]
     theta, valid, near = np.zeros((8, m)), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
     rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
     bits, codes = np.zeros((8, 3), dtype=np.bool_), np.zeros(8, dtype=np.int64)
     g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
     c = _row(points, 0)
-    if not exact_rotation(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
-                                                floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
-                                                within):
-        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
+    if not plain_target(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
+                                              floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
+                                              within):
+        return np.empty((0, n + 4))
     _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
     for k in range(8):
         codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
@@ -417,15 +427,14 @@ def solve_rows_many(prepared: tuple, T: np.ndarray):
     solves them); ``project``: a target whose rotation block is not a rotation to 1e-12 (measure against its
     projection).
     """
-    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved = prepared[:10]
+    arm_reals, arm_ints = prepared
     T = np.ascontiguousarray(T, dtype=float)
-    N, n = T.shape[0], q0.shape[0]
+    N, n = T.shape[0], int(arm_ints[3])
     theta = np.zeros((N, 8, 6))
     valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
     rows = np.empty((N, 8, n))
-    _solve_rows_all(kind, H, P, (float(points[0, 0]), float(points[0, 1]), float(points[0, 2])), scale, M_inv,
-                    reverse, T, q0, columns, solved, theta, valid, near, fallback, project, rows)
+    _solve_rows_all(arm_reals, arm_ints, T, theta, valid, near, fallback, project, rows)
     return theta, valid, near, fallback, project, rows
 
 
@@ -439,16 +448,19 @@ def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.nda
 
 
 def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
-    """One target ``T`` (4, 4) solved, each branch's chain row put through the chain's FK and measured (as
-    :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
+    """One target ``T`` (4, 4, float, C-contiguous) solved, each branch's chain row put through the chain's FK and
+    measured (as :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
     ``chain_ik`` keeps rows (repeats modulo 2 pi dropped, ordered front, elbow up, no flip first), in one call.
 
-    Returns None when the general path must answer (the reference must decide, the target's rotation block is
-    not a rotation to 1e-12, or a row misses ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within
-    (k,), codes (k,): ``4 back + 2 elbow down + wrist flip``).
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``: :func:`~manipkit.closed_form.check_kernel.
+    pack_arm`'s two arrays). Returns one array (k, n + 4) as
+    :func:`~manipkit.closed_form.check_kernel.kept_rows` gives it (chain vector, position and rotation residual,
+    within limits, code ``4 back + 2 elbow down + wrist flip``), or None when the general path must answer (the
+    reference must decide, ``T`` is not a transform check_transform takes as is with a rotation block exact to
+    1e-12, or a row misses ``tol`` (m, rad)).
     """
-    answered, *answer = _solve_check_one(*prepared, T, tol[0], tol[1])
-    return answer if answered else None
+    answer = _solve_check_one(prepared[0], prepared[1], T, tol[0], tol[1])
+    return answer if len(answer) else None
 
 
 def warm_up() -> None:
@@ -473,8 +485,8 @@ def warm_up() -> None:
                                for k in range(7)], np.arange(7))
     h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
     limits = np.full(7, np.pi)
-    prepared = (0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
-                np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
+    prepared = pack_arm(0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
+                        np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
     solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
     rows = solve_rows_many(prepared, g)[-1]
     measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)

@@ -36,8 +36,8 @@ from manipkit.kernels import compile_kernel
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "kept_rows", "pose_residual", "row_tables",
-           "wrap_angle"]
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "exact_rotation", "kept_rows", "pack_arm",
+           "plain_target", "pose_residual", "row_tables", "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
@@ -145,20 +145,24 @@ def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
 def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol):
     """The answer of one target from its checked slots, as chain_ik keeps it: every valid row within the tolerances
     (else not ok: the general path refines it), a row equal modulo 2 pi (to 1e-9) to one kept before it dropped, the
-    rest in the stable order of ``keys`` (the labels' order). Returns (ok, rows (k, n), residuals (2, k), within
-    (k,), codes (k,)); ok False (and nothing kept) when a row misses the tolerances."""
+    rest in the stable order of ``keys`` (the labels' order).
+
+    Returns one array (k, n + 4), a row per kept branch: its chain vector (n), position and rotation residual (m,
+    rad), within limits (1.0 or 0.0) and code (see :func:`answer_columns`); no rows (0, n + 4) when a row misses the
+    tolerances (the general path answers). One array, because numba returns each array object at a cost of about
+    half a microsecond."""
+    n = rows.shape[1]
     order = np.empty(rows.shape[0], dtype=np.int64)
     count = 0
     for k in range(rows.shape[0]):
         if not valid[k]:
             continue
         if not (residuals[k, 0] <= position_tol and residuals[k, 1] <= rotation_tol):
-            return (False, np.empty((0, rows.shape[1])), np.empty((2, 0)), np.empty(0, dtype=np.bool_),
-                    np.empty(0, dtype=np.int64))
+            return np.empty((0, n + 4))
         repeated = False
         for j in order[:count]:
             equal = True
-            for i in range(rows.shape[1]):
+            for i in range(n):
                 d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
                 if not abs(d) <= 1e-9:
                     equal = False
@@ -176,11 +180,66 @@ def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotatio
             order[b] = order[b - 1]
             b -= 1
         order[b] = k
-    Q, measured = np.empty((count, rows.shape[1])), np.empty((2, count))
-    inside, named = np.empty(count, dtype=np.bool_), np.empty(count, dtype=np.int64)
+    out = np.empty((count, n + 4))
     for a in range(count):
         k = order[a]
-        Q[a] = rows[k]
-        measured[0, a], measured[1, a] = residuals[k, 0], residuals[k, 1]
-        inside[a], named[a] = within[k], codes[k]
-    return True, Q, measured, inside, named
+        out[a, :n] = rows[k]
+        out[a, n], out[a, n + 1] = residuals[k, 0], residuals[k, 1]
+        out[a, n + 2], out[a, n + 3] = (1.0 if within[k] else 0.0), codes[k]
+    return out
+
+
+def pack_arm(kind: int, h: np.ndarray, p: np.ndarray, points: np.ndarray, scale: float, M_inv: np.ndarray,
+             reverse: bool, q0: np.ndarray, columns: np.ndarray, solved: np.ndarray, limits: np.ndarray,
+             floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A chain's constants for the compiled closed forms as two flat arrays (``arm_reals`` float, ``arm_ints``
+    int), the layout :func:`arm_constants` reads: numba checks the type of every argument of a call (about 0.1 us
+    each), so a single call passes the chain in two.
+
+    ``kind``: the family's code; ``h``, ``p`` (m, 3): the ideal arm's axes; ``points`` (4, 3): wrist, shoulder,
+    label reference and label up; ``scale``: the arm's size; ``M_inv`` (4, 4); ``reverse``: solved tip to base;
+    ``q0`` (n,): the reference configuration; ``columns`` (m,): the solved chain columns; ``solved`` (3, m): their
+    scales, lower and upper limits; ``limits`` (2, n): the chain's; ``floats``, ``ints``: the chain's FK program
+    (:func:`row_tables`). ``arm_ints = [kind, reverse, m, n, columns..., ints...]``, ``arm_reals = [scale, h, p,
+    points, M_inv, q0, solved, limits, floats...]`` (each row-major).
+    """
+    m, n = len(h), len(q0)
+    arm_reals = np.concatenate([[float(scale)], np.ravel(h), np.ravel(p), np.ravel(points), np.ravel(M_inv), q0,
+                                np.ravel(solved), np.ravel(limits), floats]).astype(float)
+    arm_ints = np.concatenate([[kind, int(bool(reverse)), m, n], columns, ints]).astype(np.int64)
+    if points.shape != (4, 3) or M_inv.shape != (4, 4) or solved.shape != (3, m) or limits.shape != (2, n):
+        raise ValueError("pack_arm: points (4, 3), M_inv (4, 4), solved (3, m) and limits (2, n) expected")
+    return arm_reals, arm_ints
+
+
+@inlined
+def arm_constants(arm_reals, arm_ints):
+    """The views of :func:`pack_arm`'s arrays: (kind, H, P, points, scale, M_inv, reverse, q0, columns, solved,
+    limits, floats, ints), no copy."""
+    m, n = arm_ints[2], arm_ints[3]
+    o = 1
+    H = arm_reals[o:o + 3 * m].reshape((m, 3))
+    o += 3 * m
+    P = arm_reals[o:o + 3 * m].reshape((m, 3))
+    o += 3 * m
+    points = arm_reals[o:o + 12].reshape((4, 3))
+    M_inv = arm_reals[o + 12:o + 28].reshape((4, 4))
+    o += 28
+    q0 = arm_reals[o:o + n]
+    solved = arm_reals[o + n:o + n + 3 * m].reshape((3, m))
+    o += n + 3 * m
+    limits = arm_reals[o:o + 2 * n].reshape((2, n))
+    return (arm_ints[0], H, P, points, arm_reals[0], M_inv, arm_ints[1] != 0, q0, arm_ints[4:4 + m], solved, limits,
+            arm_reals[o + 2 * n:], arm_ints[4 + m:])
+
+
+@inlined
+def plain_target(T):
+    """``T`` (4, 4) is a rigid transform that :func:`manipkit.spatial.transforms.check_transform` accepts as is:
+    last row exactly ``[0 0 0 1]``, a finite translation and a rotation block exact to EXACT_ROTATION_TOL
+    (:func:`exact_rotation`; far inside check_transform's 1e-6). Anything else is checked by check_transform."""
+    if not (T[3, 0] == 0.0 and T[3, 1] == 0.0 and T[3, 2] == 0.0 and T[3, 3] == 1.0):
+        return False
+    if not (math.isfinite(T[0, 3]) and math.isfinite(T[1, 3]) and math.isfinite(T[2, 3])):
+        return False
+    return exact_rotation(T)
