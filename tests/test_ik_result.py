@@ -120,7 +120,7 @@ def test_a_result_of_checked_rows_equals_the_constructors_and_cannot_be_changed(
         fast.solutions[0, 0] = 1.0
     with pytest.raises(ValueError, match="read-only"):
         IKResult.of_checked_rows(np.zeros((3, 3)), *args[1:], mode=MODES[3], solver="s", joint_names=())
-    with pytest.raises(ValueError, match="bool"):
+    with pytest.raises(ValueError, match="within_limits of bool"):
         IKResult.of_checked_rows(*args[:5], refined, refined, mode=MODES[3], solver="s", joint_names=())
 
 

@@ -246,15 +246,15 @@ class IKResult:
         result as the constructor's (tested equal), without its copies (a compiled solver's single call).
 
         ``solutions`` (k, n) float; ``residual_position``, ``residual_rotation``, ``refined`` (k,) float;
-        ``within_limits`` (k,) bool; each a read-only ndarray of k rows (ValueError otherwise: use the constructor,
-        which copies what is writable).
+        ``within_limits`` (k,) bool; each a read-only ndarray (ValueError otherwise: use the constructor, which
+        copies what is writable), of ``k`` rows (the caller's promise; ``solutions`` is checked).
         """
-        k = len(labels)
         for array in (solutions, residual_position, residual_rotation, within_limits, refined):
-            if type(array) is not np.ndarray or array.flags.writeable or len(array) != k:
-                raise ValueError("IKResult.of_checked_rows takes read-only arrays of k = len(labels) rows; use IKResult(...)")
-        if solutions.ndim != 2 or within_limits.dtype != np.bool_:
-            raise ValueError(f"IKResult.of_checked_rows: solutions (k, n) and within_limits of bool expected, got "
+            if type(array) is not np.ndarray or array.flags.writeable:
+                raise ValueError("IKResult.of_checked_rows takes read-only arrays; use IKResult(...)")
+        k = len(labels)
+        if solutions.ndim != 2 or within_limits.dtype != np.bool_ or len(solutions) != k:
+            raise ValueError(f"IKResult.of_checked_rows: solutions ({k}, n) and within_limits of bool expected, got "
                              f"{solutions.shape} and {within_limits.dtype}")
         self = object.__new__(cls)
         self.__dict__.update(_DEFAULTS, solutions=solutions, labels=labels, count=k, note=note,

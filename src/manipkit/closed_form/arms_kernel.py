@@ -260,14 +260,15 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
 
 
 @compile_kernel
-def _rows(theta, valid, q0, columns, scale, lower, upper, out):
+def _rows(theta, valid, q0, columns, solved, out):
     """out[n, k] = the chain vector of slot k (NaN where not valid); see chain_rows."""
     for n in range(theta.shape[0]):
+        theta_n, out_n = theta[n], out[n]
         for k in range(theta.shape[1]):
             if valid[n, k]:
-                chain_row(theta[n, k], False, q0, columns, scale, lower, upper, out[n, k])
+                chain_row(theta_n, k, False, q0, columns, solved, out_n)
             else:
-                out[n, k, :] = np.nan
+                out_n[k, :] = np.nan
 
 
 def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np.ndarray, scale: np.ndarray,
@@ -279,8 +280,7 @@ def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np
     theta = np.ascontiguousarray(theta, dtype=float)
     out = np.empty((*theta.shape[:2], len(q0)))
     _rows(theta, np.ascontiguousarray(valid, dtype=np.bool_), np.ascontiguousarray(q0, dtype=float),
-          np.ascontiguousarray(columns, dtype=np.int64), np.ascontiguousarray(scale, dtype=float),
-          np.ascontiguousarray(lower, dtype=float), np.ascontiguousarray(upper, dtype=float), out)
+          np.ascontiguousarray(columns, dtype=np.int64), np.array([scale, lower, upper], dtype=float), out)
     return out
 
 
@@ -359,9 +359,8 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
         return True
     for k in range(theta.shape[0]):
         if valid[k]:
-            chain_row(theta[k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[k])
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
-                                                                    scratch, T_fk)
+            chain_row(theta, k, reverse, q0, columns, solved, rows)
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows, k, T, floats, ints, limits, scratch, T_fk)
     return False
 
 
@@ -379,11 +378,12 @@ def _solve_rows_all(arm_reals, arm_ints, T, theta, valid, near, fallback, projec
             fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
         else:
             fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        theta_n, rows_n = theta[n], rows[n]
         for k in range(theta.shape[1]):
             if valid[n, k] and not fallback[n]:
-                chain_row(theta[n, k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[n, k])
+                chain_row(theta_n, k, reverse, q0, columns, solved, rows_n)
             else:
-                rows[n, k, :] = np.nan
+                rows_n[k, :] = np.nan
 
 
 @compile_kernel
@@ -411,7 +411,7 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
     if not plain_target(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
                                               floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
                                               within):
-        return np.empty((0, n + 4))
+        return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
     for k in range(8):
         codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
@@ -453,14 +453,15 @@ def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
     ``chain_ik`` keeps rows (repeats modulo 2 pi dropped, ordered front, elbow up, no flip first), in one call.
 
     ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``: :func:`~manipkit.closed_form.check_kernel.
-    pack_arm`'s two arrays). Returns one array (k, n + 4) as
-    :func:`~manipkit.closed_form.check_kernel.kept_rows` gives it (chain vector, position and rotation residual,
-    within limits, code ``4 back + 2 elbow down + wrist flip``), or None when the general path must answer (the
+    pack_arm`'s two arrays). Returns (block (k, n + 2), within (k,), codes) as
+    :func:`~manipkit.closed_form.check_kernel.kept_rows` gives them (chain vectors and their position and rotation
+    residuals, within limits, the rows' codes ``4 back + 2 elbow down + wrist flip`` as one number:
+    :func:`~manipkit.closed_form.check_kernel.codes_of`), or None when the general path must answer (the
     reference must decide, ``T`` is not a transform check_transform takes as is with a rotation block exact to
     1e-12, or a row misses ``tol`` (m, rad)).
     """
     answer = _solve_check_one(prepared[0], prepared[1], T, tol[0], tol[1])
-    return answer if len(answer) else None
+    return answer if len(answer[0]) else None
 
 
 def warm_up() -> None:

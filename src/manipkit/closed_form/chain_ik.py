@@ -160,7 +160,7 @@ def _compiled_entry(chain: Chain, arm: IdealArm) -> tuple:
     cached = _COMPILED.get(arm)
     if cached is None or cached[0] is not chain:
         cached = _COMPILED[arm] = (chain, _compiled_constants(chain, arm),
-                                   _wide_joints(chain, arm.family.geometry.columns), {})
+                                   _wide_joints(chain, arm.family.geometry.columns), {}, {})
     return cached
 
 
@@ -181,7 +181,7 @@ def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
 
 
 #: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi, the notes of its
-#: single calls by (count, outside the limits)): once per chain.
+#: single calls by (count, outside the limits), their labels by the kernel's number of the codes): once per chain.
 _COMPILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -496,28 +496,31 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
     (:func:`~manipkit.closed_form.check_kernel.plain_target`: the general path checks it, projects it or refuses
     it), or a row misses ``check`` (refined by Newton there). ``T``: a C-contiguous float (4, 4) array.
     A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
-    _, prepared, wide, notes = _compiled_entry(chain, arm)
+    _, prepared, wide, notes, words = _compiled_entry(chain, arm)
     family = arm.family
     kernels = _KERNELS or _load_kernels()
     if family.kind == SRS:
         solved = kernels[1](prepared, T, float(arm_angle), check)
-        words = _SRS_WORDS
     else:
         solved = kernels[0](prepared, T, check)
-        words = _REVERSED_WORDS if family.reversed else _WORDS
     if solved is None:
         return None
-    solved.setflags(write=False)  # its columns below are read-only views
-    n = len(chain.joint_names)
-    count = len(solved)
-    within = solved[:, n + 2] == 1.0
+    block, within, named = solved
+    block.setflags(write=False)  # its columns below are read-only views
     within.setflags(write=False)
-    labels = tuple(words[int(code)] for code in solved[:, n + 3].tolist())
+    n = block.shape[1] - 2
+    count = len(within)
+    labels = words.get(named)
+    if labels is None:  # a new order of branches on this arm: worded once (at most 8 distinct codes, 0..7 each)
+        table = _SRS_WORDS if family.kind == SRS else _REVERSED_WORDS if family.reversed else _WORDS
+        labels = tuple(table[code] for code in kernels[2](named))
+        if len(words) < 4096:
+            words[named] = labels
     outside = within.tolist().count(False)
     head, tail = notes.get((count, outside)) or notes.setdefault((count, outside), _note_parts(arm, wide, count, outside))
     if family.kind == SRS:
         head += f"; at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)"
-    return IKResult.of_checked_rows(solved[:, :n], labels, head + tail, solved[:, n], solved[:, n + 1], within,
+    return IKResult.of_checked_rows(block[:, :n], labels, head + tail, block[:, n], block[:, n + 1], within,
                                     _UNREFINED[count], mode=SPATIAL_POSE, solver=_SOLVER_NAMES[family.kind],
                                     joint_names=chain.joint_names)
 
@@ -539,7 +542,8 @@ def _note_parts(arm: IdealArm, wide: list[str], count: int, outside: int) -> tup
 _SOLVER_NAMES = {kind: f"closed_form.chain_ik ({kind})" for kind in (UR, OPW, SRS)}
 
 
-#: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs), imported on the first compiled single call.
+#: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs, check_kernel.codes_of), imported on the first
+#: compiled single call.
 _KERNELS: list = []
 #: refined of k rows none of which Newton moved: read-only zeros, k = 0..8.
 _UNREFINED = tuple(read_only(np.zeros(k)) for k in range(9))
@@ -548,9 +552,10 @@ _UNREFINED = tuple(read_only(np.zeros(k)) for k in range(9))
 def _load_kernels() -> list:
     """Import the compiled single-call kernels (numba) once; :data:`_KERNELS` then holds them."""
     from manipkit.closed_form.arms_kernel import solve_check_one
+    from manipkit.closed_form.check_kernel import codes_of
     from manipkit.closed_form.srs_kernel import solve_check_srs
 
-    _KERNELS[:] = [solve_check_one, solve_check_srs]
+    _KERNELS[:] = [solve_check_one, solve_check_srs, codes_of]
     return _KERNELS
 
 

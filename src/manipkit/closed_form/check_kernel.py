@@ -36,7 +36,7 @@ from manipkit.kernels import compile_kernel
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "exact_rotation", "kept_rows", "pack_arm",
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "kept_rows", "pack_arm",
            "plain_target", "pose_residual", "row_tables", "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
@@ -104,39 +104,41 @@ def wrap_angle(a):
 
 
 @inlined
-def chain_row(theta, reverse, q0, columns, scale, lower, upper, out):
-    """``out`` (n,) = the chain vector of solved angles ``theta`` (m,): ``q0`` with column ``columns[i]`` moved by
-    ``theta[i] / scale[i]`` (``theta[m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken, by
-    whole turns, to the in-limit value nearest 0 (``lower``/``upper`` (m,) of the solved columns; wrapped to
-    (-pi, pi] when none is inside). chain_ik's ``_joint_values`` and ``_aliases`` (revolute joints)."""
+def chain_row(theta, k, reverse, q0, columns, solved, out):
+    """``out[k]`` (n,) = the chain vector of solved angles ``theta[k]`` (m,): ``q0`` with column ``columns[i]`` moved
+    by ``theta[k, i] / scale[i]`` (``theta[k, m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken,
+    by whole turns, to the in-limit value nearest 0 (``solved`` (3, m): the solved columns' scales, lower and upper
+    limits; wrapped to (-pi, pi] when none is inside). chain_ik's ``_joint_values`` and ``_aliases`` (revolute
+    joints). Rows by index, not as views: a view costs the loop two atomic reference counts."""
     m = columns.shape[0]
-    for j in range(out.shape[0]):
-        out[j] = q0[j]
+    for j in range(out.shape[1]):
+        out[k, j] = q0[j]
     for i in range(m):
         col = columns[i]
-        angle = theta[m - 1 - i] if reverse else theta[i]
-        wrapped = wrap_angle(q0[col] + angle / scale[i])
+        angle = theta[k, m - 1 - i] if reverse else theta[k, i]
+        wrapped = wrap_angle(q0[col] + angle / solved[0, i])
         best = wrapped
-        if not (lower[i] - LIMIT_TOL <= wrapped <= upper[i] + LIMIT_TOL):
+        lower, upper = solved[1, i] - LIMIT_TOL, solved[2, i] + LIMIT_TOL
+        if not (lower <= wrapped <= upper):
             for turn in (1.0, -1.0, 2.0, -2.0):
                 candidate = wrapped + turn * TWO_PI
-                if lower[i] - LIMIT_TOL <= candidate <= upper[i] + LIMIT_TOL:
+                if lower <= candidate <= upper:
                     best = candidate
                     break
-        out[col] = best
+        out[k, col] = best
 
 
 @inlined
-def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
-    """(position m, rotation rad, within limits) of chain vector ``q`` against ``T_target``: the chain's FK
+def check_row(rows, k, T_target, floats, ints, limits, scratch, T):
+    """(position m, rotation rad, within limits) of chain vector ``rows[k]`` against ``T_target``: the chain's FK
     (:func:`manipkit.kinematics.fk_kernel.pose_row`, tables ``floats``, ``ints``; ``scratch`` (4, 3), ``T``
-    (4, 4) written), :func:`pose_residual`, and every entry inside ``chain_lower``/``chain_upper`` to LIMIT_TOL
-    (``Chain.within_limits``)."""
-    pose_row(q, floats, ints, scratch, T)
+    (4, 4) written), :func:`pose_residual`, and every entry inside the chain's limits ``limits`` (2, n) to
+    LIMIT_TOL (``Chain.within_limits``)."""
+    pose_row(rows[k], floats, ints, scratch, T)
     position, rotation = pose_residual(T_target, T)
     inside = True
-    for j in range(q.shape[0]):
-        if q[j] < chain_lower[j] - LIMIT_TOL or q[j] > chain_upper[j] + LIMIT_TOL:
+    for j in range(rows.shape[1]):
+        if rows[k, j] < limits[0, j] - LIMIT_TOL or rows[k, j] > limits[1, j] + LIMIT_TOL:
             inside = False
     return position, rotation, inside
 
@@ -147,10 +149,11 @@ def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotatio
     (else not ok: the general path refines it), a row equal modulo 2 pi (to 1e-9) to one kept before it dropped, the
     rest in the stable order of ``keys`` (the labels' order).
 
-    Returns one array (k, n + 4), a row per kept branch: its chain vector (n), position and rotation residual (m,
-    rad), within limits (1.0 or 0.0) and code (see :func:`answer_columns`); no rows (0, n + 4) when a row misses the
-    tolerances (the general path answers). One array, because numba returns each array object at a cost of about
-    half a microsecond."""
+    Returns (block (k, n + 2): per kept branch its chain vector (n) and position and rotation residual (m, rad);
+    within (k,) bool: inside the joint limits; codes: the kept rows' ``codes`` (each 0..7) as one number,
+    ``sum((codes[a] + 1) 9**a)`` (:func:`codes_of`)); no rows (0, n + 2) when a row misses the tolerances (the
+    general path answers). Few arrays, because numba returns each array object at a cost of about half a
+    microsecond."""
     n = rows.shape[1]
     order = np.empty(rows.shape[0], dtype=np.int64)
     count = 0
@@ -158,12 +161,19 @@ def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotatio
         if not valid[k]:
             continue
         if not (residuals[k, 0] <= position_tol and residuals[k, 1] <= rotation_tol):
-            return np.empty((0, n + 4))
+            return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
         repeated = False
-        for j in order[:count]:
+        for a in range(count):
+            j = order[a]
             equal = True
             for i in range(n):
-                d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
+                d = rows[k, i] - rows[j, i]
+                if abs(d) <= 1e-9:
+                    continue
+                if abs(d - TWO_PI * round(d / TWO_PI)) > 1e-6:  # far from every whole turn: no remainder needed
+                    equal = False
+                    break
+                d = math.pi - (math.pi - d) % TWO_PI
                 if not abs(d) <= 1e-9:
                     equal = False
                     break
@@ -180,13 +190,25 @@ def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotatio
             order[b] = order[b - 1]
             b -= 1
         order[b] = k
-    out = np.empty((count, n + 4))
+    block, inside = np.empty((count, n + 2)), np.empty(count, dtype=np.bool_)
+    named, digit = 0, 1
     for a in range(count):
         k = order[a]
-        out[a, :n] = rows[k]
-        out[a, n], out[a, n + 1] = residuals[k, 0], residuals[k, 1]
-        out[a, n + 2], out[a, n + 3] = (1.0 if within[k] else 0.0), codes[k]
-    return out
+        block[a, :n] = rows[k]
+        block[a, n], block[a, n + 1] = residuals[k, 0], residuals[k, 1]
+        inside[a] = within[k]
+        named += (codes[k] + 1) * digit
+        digit *= 9
+    return block, inside, named
+
+
+def codes_of(named: int) -> tuple[int, ...]:
+    """The codes (each 0..7, in row order) of :func:`kept_rows`' one number ``sum((codes[a] + 1) 9**a)``."""
+    codes = []
+    while named:
+        named, digit = divmod(named, 9)
+        codes.append(digit - 1)
+    return tuple(codes)
 
 
 def pack_arm(kind: int, h: np.ndarray, p: np.ndarray, points: np.ndarray, scale: float, M_inv: np.ndarray,

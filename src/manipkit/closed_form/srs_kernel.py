@@ -141,12 +141,11 @@ def _srs_check_one(arm_reals, arm_ints, T, psi, position_tol, rotation_tol):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
     if not plain_target(T) or _srs_target(H, P, row(points, 1), row(points, 0), math.cos(psi), math.sin(psi),
                                           g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
-        return np.empty((0, n + 4))
+        return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     for k in range(theta.shape[0]):
         if valid[k]:
-            chain_row(theta[k], False, q0, columns, solved[0], solved[1], solved[2], rows[k])
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
-                                                                    scratch, T_fk)
+            chain_row(theta, k, False, q0, columns, solved, rows)
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows, k, T, floats, ints, limits, scratch, T_fk)
         keys[k] = 1 if theta[k, 5] < 0.0 else 0
         codes[k] = 4 * (theta[k, 3] < 0.0) + 2 * (theta[k, 1] < 0.0) + keys[k]
     return kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol)
@@ -158,8 +157,8 @@ def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float, tol: tuple
 
     ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns None when the general path must
     answer (the reference must decide, ``T`` is not a transform with a rotation block exact to 1e-12, or a row
-    misses ``tol`` (m, rad)); else one array (k, n + 4), as :func:`manipkit.closed_form.arms_kernel.solve_check_one`
-    gives it (codes ``4 elbow - + 2 shoulder - + wrist flip``).
+    misses ``tol`` (m, rad)); else (block, within, codes) as :func:`manipkit.closed_form.arms_kernel.solve_check_one`
+    gives them (codes ``4 elbow - + 2 shoulder - + wrist flip``).
     """
     answer = _srs_check_one(prepared[0], prepared[1], T, float(arm_angle), tol[0], tol[1])
-    return answer if len(answer) else None
+    return answer if len(answer[0]) else None
