@@ -41,6 +41,7 @@ from manipkit.closed_form.check_kernel import (
 from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
     MARGIN,
     NEAR,
+    compile_kernel,
 )
 from manipkit.closed_form.subproblems_kernel import (
     add as _add,
@@ -87,7 +88,6 @@ from manipkit.closed_form.subproblems_kernel import (
 from manipkit.closed_form.subproblems_kernel import (
     wrap as _wrap,
 )
-from manipkit.kernels import compile_kernel
 
 __all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many", "solve_check_one", "solve_many",
            "solve_rows_many", "warm_up"]

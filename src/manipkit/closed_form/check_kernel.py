@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from manipkit.kernels import compile_kernel
+from manipkit.closed_form.subproblems_kernel import compile_kernel
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 

@@ -27,6 +27,7 @@ from manipkit.closed_form.subproblems_kernel import (
     MARGIN,
     add,
     atan2,
+    compile_kernel,
     dot,
     mv,
     norm,
@@ -38,7 +39,6 @@ from manipkit.closed_form.subproblems_kernel import (
     sp4,
     sub,
 )
-from manipkit.kernels import compile_kernel
 
 __all__ = ["solve_check_srs"]
 
