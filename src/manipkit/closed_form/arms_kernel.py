@@ -365,35 +365,41 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
 
 
 @compile_kernel
-def _solve_rows_all(arm_reals, arm_ints, T, theta, valid, near, fallback, project, rows):
+def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows):
     kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
     c = _row(points, 0)
     g = np.empty((4, 4))
+    theta, near = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_)  # one target's, reused: no (N, 8, m) array
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
         _solved_target(T[n], M_inv, reverse, g)
         R = g[:3, :3]
         t = (g[0, 3], g[1, 3], g[2, 3])
+        valid_n, rows_n = valid[n], rows[n]
         if kind == 0:
-            fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+            fallback[n] = _ur_target(H, P, c, scale, R, t, theta, valid_n, near)
         else:
-            fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
-        theta_n, rows_n = theta[n], rows[n]
-        for k in range(theta.shape[1]):
-            if valid[n, k] and not fallback[n]:
-                chain_row(theta_n, k, reverse, q0, columns, solved, rows_n)
+            fallback[n] = _opw_target(H, P, c, scale, R, t, theta, valid_n, near)
+        for k in range(theta.shape[0]):
+            if valid_n[k] and not fallback[n]:
+                chain_row(theta, k, reverse, q0, columns, solved, rows_n)
             else:
-                rows_n[k, :] = np.nan
+                for j in range(rows_n.shape[1]):
+                    rows_n[k, j] = np.nan
 
 
 @compile_kernel
-def _measure_all(T, reached, rows, residuals):
+def _measure_all(T, reached, rows, position_tol, rotation_tol, residuals, success):
     for n in range(rows.shape[0]):
+        success[n] = False
         for k in range(rows.shape[1]):
             if math.isnan(rows[n, k, 0]):
                 residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
             else:
-                residuals[n, k, 0], residuals[n, k, 1] = pose_residual(T[n], reached[n, k])
+                position, rotation = pose_residual(T[n], reached[n, k])
+                residuals[n, k, 0], residuals[n, k, 1] = position, rotation
+                if position <= position_tol and rotation <= rotation_tol:
+                    success[n] = True
 
 
 @compile_kernel
@@ -421,30 +427,31 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
 def solve_rows_many(prepared: tuple, T: np.ndarray):
     """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``) as chain vectors, in one compiled loop.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (theta (N, 8, 6) in the solve
-    direction, valid (N, 8), near (N, 8), fallback (N,), project (N,), rows (N, 8, n): chain vectors with the
-    in-limit aliases nearest 0, NaN where not valid). Targets with ``fallback`` have NaN rows (the reference
-    solves them); ``project``: a target whose rotation block is not a rotation to 1e-12 (measure against its
-    projection).
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (valid (N, 8), fallback (N,),
+    project (N,), rows (N, 8, n): chain vectors with the in-limit aliases nearest 0, NaN where not valid). Targets
+    with ``fallback`` have NaN rows (the reference solves them); ``project``: a target whose rotation block is not
+    a rotation to 1e-12 (measure against its projection).
     """
     arm_reals, arm_ints = prepared
     T = np.ascontiguousarray(T, dtype=float)
     N, n = T.shape[0], int(arm_ints[3])
-    theta = np.zeros((N, 8, 6))
-    valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
+    valid = np.zeros((N, 8), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
     rows = np.empty((N, 8, n))
-    _solve_rows_all(arm_reals, arm_ints, T, theta, valid, near, fallback, project, rows)
-    return theta, valid, near, fallback, project, rows
+    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows)
+    return valid, fallback, project, rows
 
 
-def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """(N, k, 2) residuals (m, rad) of reached poses ``reached`` (N, k, 4, 4) against targets ``T`` (N, 4, 4):
-    :func:`manipkit.closed_form.check_kernel.pose_residual` (``pose_residuals``' compiled twin); NaN where the row
-    ``rows`` (N, k, n) is NaN (no branch)."""
-    residuals = np.empty((*rows.shape[:2], 2))
-    _measure_all(np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(reached, dtype=float), rows, residuals)
-    return residuals
+def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray, tol: tuple[float, float]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(residuals (N, k, 2), success (N,)): the residuals (m, rad) of reached poses ``reached`` (N, k, 4, 4) against
+    targets ``T`` (N, 4, 4) by :func:`manipkit.closed_form.check_kernel.pose_residual` (``pose_residuals``'
+    compiled twin), NaN where the row ``rows`` (N, k, n) is NaN (no branch); success: some row within ``tol``
+    (m, rad)."""
+    residuals, success = np.empty((*rows.shape[:2], 2)), np.empty(rows.shape[0], dtype=np.bool_)
+    _measure_all(np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(reached, dtype=float), rows,
+                 float(tol[0]), float(tol[1]), residuals, success)
+    return residuals, success
 
 
 def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
@@ -490,7 +497,7 @@ def warm_up() -> None:
                         np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
     solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
     rows = solve_rows_many(prepared, g)[-1]
-    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)
+    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows, (1e-10, 1e-10))
     solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
 
 

@@ -689,7 +689,7 @@ def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float
     from manipkit.closed_form.arms_kernel import chain_rows, measure_many, solve_rows_many
 
     prepared = compiled_arm(chain, arm)
-    _, valid, _, fallback, project, Q = solve_rows_many(prepared, T)
+    valid, fallback, project, Q = solve_rows_many(prepared, T)
     free_any = np.zeros(len(T), dtype=bool)
     if fallback.any():
         rows = np.flatnonzero(fallback)
@@ -705,10 +705,9 @@ def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float
         T_check[project] = _projected_target(T[project])
     missing = np.isnan(Q[..., 0])
     reached = chain.fk(np.where(missing[..., None], 0.0, Q))
-    residuals = measure_many(T_check, reached, Q)
+    residuals, success = measure_many(T_check, reached, Q, check)
     count = np.where(free_any, np.inf, valid.sum(axis=-1).astype(float))
     position, rotation = residuals[..., 0], residuals[..., 1]
-    success = ((position <= check[0]) & (rotation <= check[1])).any(axis=-1)
     return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
                    success=success, residual_position=position, residual_rotation=rotation,
                    q_residuals=residuals[..., 0, :])

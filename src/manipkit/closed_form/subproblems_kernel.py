@@ -73,7 +73,9 @@ def norm(a):
 
 @compile_kernel
 def wrap(x):
-    """x wrapped to (-pi, pi]."""
+    """x wrapped to (-pi, pi]: x itself when inside (no remainder to take: it costs a call into numba's fmod)."""
+    if -math.pi < x <= math.pi:
+        return x
     return math.pi - (math.pi - x) % TWO_PI
 
 
