@@ -75,6 +75,35 @@ def test_pose_row_equals_the_chain_fk_and_pinocchio(name, base, tip):
         assert np.abs(T - expected).max() < 1e-12
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(-2, 2), st.sampled_from([0.0, 1e-12, 5e-10, 2e-9, 1e-7, 0.3])), min_size=3,
+                max_size=3), st.booleans())
+def test_kept_rows_drop_repeats_modulo_two_pi_as_chain_ik_does(offsets, miss_tolerance):
+    """kept_rows against the rule written here (chain_ik's: rows equal when every entry's difference, wrapped to
+    (-pi, pi], is within 1e-9): a row 2 pi k + e from the first is dropped exactly when it is a repeat; rows come
+    out in the stable order of their keys; codes_of reads back the kept rows' codes; a row missing the tolerances
+    answers nothing (the general path refines it)."""
+    from manipkit.closed_form.check_kernel import codes_of, kept_rows
+
+    base = np.array([0.4, -1.2, 2.5])
+    second = base + np.array([2 * np.pi * k + e for k, e in offsets])
+    rows = np.array([base, second, base + 1.0])
+    residuals = np.zeros((3, 2))
+    if miss_tolerance:
+        residuals[2, 0] = 1e-6
+    valid, within = np.ones(3, dtype=bool), np.array([True, False, True])
+    keys = codes = np.array([5, 2, 5])
+    block, inside, named = kept_rows(valid, rows, residuals, within, keys, codes, 1e-10, 1e-10)
+    if miss_tolerance:
+        assert len(block) == 0 and len(inside) == 0
+        return
+    difference = np.pi - np.mod(np.pi - (second - base), 2 * np.pi)
+    repeat = bool(np.all(np.abs(difference) <= 1e-9))
+    expected = [1, 0, 2] if not repeat else [0, 2]  # stable by key: code 2 first
+    assert block[:, :3].tolist() == rows[expected].tolist() and inside.tolist() == within[expected].tolist()
+    assert codes_of(named) == tuple(codes[expected].tolist())
+
+
 def same_fields(fast, reference):
     assert fast.labels == reference.labels and fast.note == reference.note and fast.count == reference.count
     assert fast.solutions.shape == reference.solutions.shape
