@@ -75,6 +75,35 @@ def test_pose_row_equals_the_chain_fk_and_pinocchio(name, base, tip):
         assert np.abs(T - expected).max() < 1e-12
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(-2, 2), st.sampled_from([0.0, 1e-12, 5e-10, 2e-9, 1e-7, 0.3])), min_size=3,
+                max_size=3), st.booleans())
+def test_kept_rows_drop_repeats_modulo_two_pi_as_chain_ik_does(offsets, miss_tolerance):
+    """kept_rows against the rule written here (chain_ik's: rows equal when every entry's difference, wrapped to
+    (-pi, pi], is within 1e-9): a row 2 pi k + e from the first is dropped exactly when it is a repeat; rows come
+    out in the stable order of their keys; codes_of reads back the kept rows' codes; a row missing the tolerances
+    answers nothing (the general path refines it)."""
+    from manipkit.closed_form.check_kernel import codes_of, kept_rows
+
+    base = np.array([0.4, -1.2, 2.5])
+    second = base + np.array([2 * np.pi * k + e for k, e in offsets])
+    rows = np.array([base, second, base + 1.0])
+    residuals = np.zeros((3, 2))
+    if miss_tolerance:
+        residuals[2, 0] = 1e-6
+    valid, within = np.ones(3, dtype=bool), np.array([True, False, True])
+    keys = codes = np.array([5, 2, 5])
+    block, inside, named = kept_rows(valid, rows, residuals, within, keys, codes, 1e-10, 1e-10)
+    if miss_tolerance:
+        assert len(block) == 0 and len(inside) == 0
+        return
+    difference = np.pi - np.mod(np.pi - (second - base), 2 * np.pi)
+    repeat = bool(np.all(np.abs(difference) <= 1e-9))
+    expected = [1, 0, 2] if not repeat else [0, 2]  # stable by key: code 2 first
+    assert block[:, :3].tolist() == rows[expected].tolist() and inside.tolist() == within[expected].tolist()
+    assert codes_of(named) == tuple(codes[expected].tolist())
+
+
 def same_fields(fast, reference):
     assert fast.labels == reference.labels and fast.note == reference.note and fast.count == reference.count
     assert fast.solutions.shape == reference.solutions.shape
@@ -115,6 +144,30 @@ def test_a_target_whose_rotation_is_projected_is_measured_against_its_projection
     assert np.abs(fast.residual_position - reference.residual_position)[~np.isnan(fast.residual_position)].max() < 1e-13
     assert np.abs(fast.residual_rotation - reference.residual_rotation)[~np.isnan(fast.residual_rotation)].max() < 1e-13
     same_fields(chain_ik(chain, T[0]), chain_ik(chain, T[0], compiled=False))
+
+
+def test_a_target_the_kernel_does_not_take_as_is_is_checked_by_check_transform():
+    """The single call takes only targets check_transform accepts as is (plain_target): a list, a transposed
+    (Fortran-ordered) copy, a last row 1e-9 off [0 0 0 1] go the general path with the same answer; a matrix that is
+    no transform is refused as before."""
+    from manipkit.closed_form.check_kernel import plain_target
+    from manipkit.errors import InvalidTransformError
+    from manipkit.spatial.transforms import check_transform
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    T = chain.fk(chain.sample(1, seed=5)[0])
+    fast = chain_ik(chain, T)
+    assert plain_target(T) and check_transform(T) is not None
+    same_fields(chain_ik(chain, T.tolist()), fast)
+    same_fields(chain_ik(chain, np.asfortranarray(T)), fast)
+    off = T.copy()
+    off[3, 3] += 1e-9
+    assert not plain_target(off)
+    same_fields(chain_ik(chain, off), chain_ik(chain, off, compiled=False))
+    for bad in (np.zeros((4, 4)), np.full((4, 4), np.nan)):
+        assert not plain_target(bad)
+        with pytest.raises(InvalidTransformError):
+            chain_ik(chain, bad)
 
 
 def test_srs_at_an_arm_angle_equals_the_reference():

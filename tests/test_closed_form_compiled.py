@@ -97,6 +97,9 @@ def test_compiled_batch_equals_the_reference_batch(name):
     assert np.abs(wrapped(fast.solutions[present] - reference.solutions[present])).max() < 1e-8
     assert np.array_equal(fast.count, reference.count)
     assert bool(fast.success.all())  # every pose solved, every row within the check by the chain's FK
+    assert np.array_equal(fast.success, reference.success)  # the compiled loop's decision, numpy's on first use
+    assert np.nanmax(np.abs(fast.residual_position - reference.residual_position)) < 1e-13
+    assert np.nanmax(np.abs(fast.residual_rotation - reference.residual_rotation)) < 1e-13
     assert np.nanmax(np.maximum(fast.residual_position, fast.residual_rotation)) < 1e-10
     found = np.nan_to_num(np.abs(wrapped(fast.solutions - Q[:, None])), nan=9.0).max(axis=-1) < 1e-7
     assert found.any(axis=-1).all()
@@ -148,6 +151,7 @@ def test_unreachable_targets_give_the_reference_misses(name):
     assert not fast.success and fast.unmet == reference.unmet and fast.unmet[0][1] > 0.0
     batch, batch_reference = chain_ik_many(chain, T[None]), chain_ik_many(chain, T[None], compiled=False)
     assert np.isnan(batch.solutions).all() and np.isnan(batch_reference.solutions).all()
+    assert not batch.success[0] and not batch_reference.success[0]
 
 
 def test_chain_rows_take_the_in_limit_alias_nearest_zero():

@@ -94,6 +94,36 @@ def test_a_result_cannot_be_changed():
     assert copied.solutions[0, 0] == 0.0 and not copied.solutions.flags.writeable
 
 
+def test_a_result_of_checked_rows_equals_the_constructors_and_cannot_be_changed():
+    """IKResult.of_checked_rows (the compiled single calls' constructor, no copies) gives the result the
+    constructor gives from the same arrays, field for field, every array read-only; writable arrays are refused."""
+    block = np.arange(24, dtype=float).reshape(3, 8)  # a kernel's answer: rows, residuals, within, code
+    block.setflags(write=False)
+    within = block[:, 3] > 10.0
+    within.setflags(write=False)
+    refined = np.zeros(3)
+    refined.setflags(write=False)
+    args = (block[:, :3], ("a", "b", "c"), "note", block[:, 4], block[:, 5], within, refined)
+    fast = IKResult.of_checked_rows(*args, mode=MODES[3], solver="s", joint_names=("j1", "j2", "j3"))
+    normal = IKResult(args[0], args[1], 3, args[2], args[3], args[4], mode=MODES[3], solver="s",
+                      joint_names=("j1", "j2", "j3"), within_limits=within, refined=refined)
+    for name in IKResult.__dataclass_fields__:
+        a, b = getattr(fast, name), getattr(normal, name)
+        if isinstance(a, np.ndarray):
+            assert isinstance(b, np.ndarray) and a.dtype == b.dtype and np.array_equal(a, b) and not a.flags.writeable
+        else:
+            assert a == b, name
+    assert fast.success and fast.q_residuals.tolist() == normal.q_residuals.tolist() and repr(fast) == repr(normal)
+    with pytest.raises(AttributeError):
+        fast.count = 2
+    with pytest.raises(ValueError):
+        fast.solutions[0, 0] = 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        IKResult.of_checked_rows(np.zeros((3, 3)), *args[1:], mode=MODES[3], solver="s", joint_names=())
+    with pytest.raises(ValueError, match="within_limits of bool"):
+        IKResult.of_checked_rows(*args[:5], refined, refined, mode=MODES[3], solver="s", joint_names=())
+
+
 def test_members_of_a_result_that_is_no_family_is_an_error():
     with pytest.raises(ClosedFormIKError, match="not a family"):
         planar.ik_2r(1.0, 1.0, 1.0, 1.0).members([0.0])

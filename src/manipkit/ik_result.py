@@ -238,6 +238,30 @@ class IKResult:
         self.__dict__.update(fields)
         self.__post_init__()
 
+    @classmethod
+    def of_checked_rows(cls, solutions: np.ndarray, labels: tuple[str, ...], note: str, residual_position: np.ndarray,
+                        residual_rotation: np.ndarray, within_limits: np.ndarray, refined: np.ndarray, *, mode: str,
+                        solver: str, joint_names: tuple[str, ...]) -> IKResult:
+        """The result of ``count = len(labels)`` checked rows, from arrays that are read-only already: the same
+        result as the constructor's (tested equal), without its copies (a compiled solver's single call).
+
+        ``solutions`` (k, n) float; ``residual_position``, ``residual_rotation``, ``refined`` (k,) float;
+        ``within_limits`` (k,) bool; each a read-only ndarray (ValueError otherwise: use the constructor, which
+        copies what is writable), of ``k`` rows (the caller's promise; ``solutions`` is checked).
+        """
+        for array in (solutions, residual_position, residual_rotation, within_limits, refined):
+            if type(array) is not np.ndarray or array.flags.writeable:
+                raise ValueError("IKResult.of_checked_rows takes read-only arrays; use IKResult(...)")
+        k = len(labels)
+        if solutions.ndim != 2 or within_limits.dtype != np.bool_ or len(solutions) != k:
+            raise ValueError(f"IKResult.of_checked_rows: solutions ({k}, n) and within_limits of bool expected, got "
+                             f"{solutions.shape} and {within_limits.dtype}")
+        self = object.__new__(cls)
+        self.__dict__.update(_DEFAULTS, solutions=solutions, labels=labels, count=k, note=note,
+                             residual_position=residual_position, residual_rotation=residual_rotation, mode=mode,
+                             solver=solver, joint_names=joint_names, within_limits=within_limits, refined=refined)
+        return self
+
     def __post_init__(self):
         for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
                      "clearance"):
@@ -353,6 +377,10 @@ class IKResult:
         if self.note:
             lines.append(f"<p>{html.escape(self.note)}</p>")
         return "\n".join(lines)
+
+
+#: Every field of IKResult at its default (of_checked_rows starts from these).
+_DEFAULTS = {name: f.default for name, f in IKResult.__dataclass_fields__.items()}
 
 
 class IKBatch:

@@ -28,10 +28,20 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows, pose_residual
+from manipkit.closed_form.check_kernel import (
+    arm_constants,
+    chain_row,
+    check_row,
+    exact_rotation,
+    kept_rows,
+    pack_arm,
+    plain_target,
+    pose_residual,
+)
 from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
     MARGIN,
     NEAR,
+    compile_kernel,
 )
 from manipkit.closed_form.subproblems_kernel import (
     add as _add,
@@ -78,7 +88,6 @@ from manipkit.closed_form.subproblems_kernel import (
 from manipkit.closed_form.subproblems_kernel import (
     wrap as _wrap,
 )
-from manipkit.kernels import compile_kernel
 
 __all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many", "solve_check_one", "solve_many",
            "solve_rows_many", "warm_up"]
@@ -251,14 +260,15 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
 
 
 @compile_kernel
-def _rows(theta, valid, q0, columns, scale, lower, upper, out):
+def _rows(theta, valid, q0, columns, solved, out):
     """out[n, k] = the chain vector of slot k (NaN where not valid); see chain_rows."""
     for n in range(theta.shape[0]):
+        theta_n, out_n = theta[n], out[n]
         for k in range(theta.shape[1]):
             if valid[n, k]:
-                chain_row(theta[n, k], False, q0, columns, scale, lower, upper, out[n, k])
+                chain_row(theta_n, k, False, q0, columns, solved, out_n)
             else:
-                out[n, k, :] = np.nan
+                out_n[k, :] = np.nan
 
 
 def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np.ndarray, scale: np.ndarray,
@@ -270,8 +280,7 @@ def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np
     theta = np.ascontiguousarray(theta, dtype=float)
     out = np.empty((*theta.shape[:2], len(q0)))
     _rows(theta, np.ascontiguousarray(valid, dtype=np.bool_), np.ascontiguousarray(q0, dtype=float),
-          np.ascontiguousarray(columns, dtype=np.int64), np.ascontiguousarray(scale, dtype=float),
-          np.ascontiguousarray(lower, dtype=float), np.ascontiguousarray(upper, dtype=float), out)
+          np.ascontiguousarray(columns, dtype=np.int64), np.array([scale, lower, upper], dtype=float), out)
     return out
 
 
@@ -350,58 +359,65 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
         return True
     for k in range(theta.shape[0]):
         if valid[k]:
-            chain_row(theta[k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[k])
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
-                                                                    scratch, T_fk)
+            chain_row(theta, k, reverse, q0, columns, solved, rows)
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows, k, T, floats, ints, limits, scratch, T_fk)
     return False
 
 
 @compile_kernel
-def _solve_rows_all(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, theta, valid, near, fallback,
-                    project, rows):
+def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows):
+    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
+    c = _row(points, 0)
     g = np.empty((4, 4))
+    theta, near = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_)  # one target's, reused: no (N, 8, m) array
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
         _solved_target(T[n], M_inv, reverse, g)
         R = g[:3, :3]
         t = (g[0, 3], g[1, 3], g[2, 3])
+        valid_n, rows_n = valid[n], rows[n]
         if kind == 0:
-            fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+            fallback[n] = _ur_target(H, P, c, scale, R, t, theta, valid_n, near)
         else:
-            fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
-        for k in range(theta.shape[1]):
-            if valid[n, k] and not fallback[n]:
-                chain_row(theta[n, k], reverse, q0, columns, solved[0], solved[1], solved[2], rows[n, k])
+            fallback[n] = _opw_target(H, P, c, scale, R, t, theta, valid_n, near)
+        for k in range(theta.shape[0]):
+            if valid_n[k] and not fallback[n]:
+                chain_row(theta, k, reverse, q0, columns, solved, rows_n)
             else:
-                rows[n, k, :] = np.nan
+                for j in range(rows_n.shape[1]):
+                    rows_n[k, j] = np.nan
 
 
 @compile_kernel
-def _measure_all(T, reached, rows, residuals):
+def _measure_all(T, reached, rows, position_tol, rotation_tol, residuals, success):
     for n in range(rows.shape[0]):
+        success[n] = False
         for k in range(rows.shape[1]):
             if math.isnan(rows[n, k, 0]):
                 residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
             else:
-                residuals[n, k, 0], residuals[n, k, 1] = pose_residual(T[n], reached[n, k])
+                position, rotation = pose_residual(T[n], reached[n, k])
+                residuals[n, k, 0], residuals[n, k, 1] = position, rotation
+                if position <= position_tol and rotation <= rotation_tol:
+                    success[n] = True
 
 
 @compile_kernel
-def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints, T,
-                     position_tol, rotation_tol):
-    """_checked_target for one target, its rows kept, ordered and coded as chain_ik answers
-    (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2 elbow down + wrist flip``);
-    returns (answered, rows, residuals, within, codes): answered False when the general path must answer."""
+def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
+    """_checked_target for one target (the chain's constants packed by check_kernel.pack_arm), its rows kept,
+    ordered and coded as chain_ik answers (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2
+    elbow down + wrist flip``); no rows when the general path must answer."""
+    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints = arm_constants(arm_reals, arm_ints)
     m, n = H.shape[0], q0.shape[0]
     theta, valid, near = np.zeros((8, m)), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
     rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
     bits, codes = np.zeros((8, 3), dtype=np.bool_), np.zeros(8, dtype=np.int64)
     g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
     c = _row(points, 0)
-    if not exact_rotation(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
-                                                floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
-                                                within):
-        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
+    if not plain_target(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
+                                              floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
+                                              within):
+        return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
     for k in range(8):
         codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
@@ -411,44 +427,48 @@ def _solve_check_one(kind, H, P, points, scale, M_inv, reverse, q0, columns, sol
 def solve_rows_many(prepared: tuple, T: np.ndarray):
     """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``) as chain vectors, in one compiled loop.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (theta (N, 8, 6) in the solve
-    direction, valid (N, 8), near (N, 8), fallback (N,), project (N,), rows (N, 8, n): chain vectors with the
-    in-limit aliases nearest 0, NaN where not valid). Targets with ``fallback`` have NaN rows (the reference
-    solves them); ``project``: a target whose rotation block is not a rotation to 1e-12 (measure against its
-    projection).
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (valid (N, 8), fallback (N,),
+    project (N,), rows (N, 8, n): chain vectors with the in-limit aliases nearest 0, NaN where not valid). Targets
+    with ``fallback`` have NaN rows (the reference solves them); ``project``: a target whose rotation block is not
+    a rotation to 1e-12 (measure against its projection).
     """
-    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved = prepared[:10]
+    arm_reals, arm_ints = prepared
     T = np.ascontiguousarray(T, dtype=float)
-    N, n = T.shape[0], q0.shape[0]
-    theta = np.zeros((N, 8, 6))
-    valid, near = np.zeros((N, 8), dtype=np.bool_), np.zeros((N, 8), dtype=np.bool_)
+    N, n = T.shape[0], int(arm_ints[3])
+    valid = np.zeros((N, 8), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
     rows = np.empty((N, 8, n))
-    _solve_rows_all(kind, H, P, (float(points[0, 0]), float(points[0, 1]), float(points[0, 2])), scale, M_inv,
-                    reverse, T, q0, columns, solved, theta, valid, near, fallback, project, rows)
-    return theta, valid, near, fallback, project, rows
+    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows)
+    return valid, fallback, project, rows
 
 
-def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """(N, k, 2) residuals (m, rad) of reached poses ``reached`` (N, k, 4, 4) against targets ``T`` (N, 4, 4):
-    :func:`manipkit.closed_form.check_kernel.pose_residual` (``pose_residuals``' compiled twin); NaN where the row
-    ``rows`` (N, k, n) is NaN (no branch)."""
-    residuals = np.empty((*rows.shape[:2], 2))
-    _measure_all(np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(reached, dtype=float), rows, residuals)
-    return residuals
+def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray, tol: tuple[float, float]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(residuals (N, k, 2), success (N,)): the residuals (m, rad) of reached poses ``reached`` (N, k, 4, 4) against
+    targets ``T`` (N, 4, 4) by :func:`manipkit.closed_form.check_kernel.pose_residual` (``pose_residuals``'
+    compiled twin), NaN where the row ``rows`` (N, k, n) is NaN (no branch); success: some row within ``tol``
+    (m, rad)."""
+    residuals, success = np.empty((*rows.shape[:2], 2)), np.empty(rows.shape[0], dtype=np.bool_)
+    _measure_all(np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(reached, dtype=float), rows,
+                 float(tol[0]), float(tol[1]), residuals, success)
+    return residuals, success
 
 
 def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
-    """One target ``T`` (4, 4) solved, each branch's chain row put through the chain's FK and measured (as
-    :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
+    """One target ``T`` (4, 4, float, C-contiguous) solved, each branch's chain row put through the chain's FK and
+    measured (as :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
     ``chain_ik`` keeps rows (repeats modulo 2 pi dropped, ordered front, elbow up, no flip first), in one call.
 
-    Returns None when the general path must answer (the reference must decide, the target's rotation block is
-    not a rotation to 1e-12, or a row misses ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within
-    (k,), codes (k,): ``4 back + 2 elbow down + wrist flip``).
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``: :func:`~manipkit.closed_form.check_kernel.
+    pack_arm`'s two arrays). Returns (block (k, n + 2), within (k,), codes) as
+    :func:`~manipkit.closed_form.check_kernel.kept_rows` gives them (chain vectors and their position and rotation
+    residuals, within limits, the rows' codes ``4 back + 2 elbow down + wrist flip`` as one number:
+    :func:`~manipkit.closed_form.check_kernel.codes_of`), or None when the general path must answer (the
+    reference must decide, ``T`` is not a transform check_transform takes as is with a rotation block exact to
+    1e-12, or a row misses ``tol`` (m, rad)).
     """
-    answered, *answer = _solve_check_one(*prepared, T, tol[0], tol[1])
-    return answer if answered else None
+    answer = _solve_check_one(prepared[0], prepared[1], T, tol[0], tol[1])
+    return answer if len(answer[0]) else None
 
 
 def warm_up() -> None:
@@ -473,11 +493,11 @@ def warm_up() -> None:
                                for k in range(7)], np.arange(7))
     h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
     limits = np.full(7, np.pi)
-    prepared = (0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
-                np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
+    prepared = pack_arm(0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
+                        np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
     solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
     rows = solve_rows_many(prepared, g)[-1]
-    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows)
+    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows, (1e-10, 1e-10))
     solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
 
 

@@ -152,34 +152,36 @@ def compiled_arm(chain: Chain, arm: IdealArm) -> tuple:
     """The constants the compiled solve-and-check loop takes for ``chain`` solved on ``arm`` (UR or OPW family):
     the ideal arm, its label axes, the joint map and limits and the chain's FK program
     (:func:`manipkit.kinematics.fk_kernel.row_tables`); made once per chain and family (both immutable) and kept."""
+    return _compiled_entry(chain, arm)[1]
+
+
+def _compiled_entry(chain: Chain, arm: IdealArm) -> tuple:
+    """The entry of :data:`_COMPILED` for ``chain`` and ``arm``, made on first use."""
     cached = _COMPILED.get(arm)
-    if cached is not None and cached[0] is chain:
-        return cached[1]
-    _COMPILED[arm] = (chain, _compiled_constants(chain, arm), _wide_joints(chain, arm.family.geometry.columns))
-    return _COMPILED[arm][1]
+    if cached is None or cached[0] is not chain:
+        cached = _COMPILED[arm] = (chain, _compiled_constants(chain, arm),
+                                   _wide_joints(chain, arm.family.geometry.columns), {}, {})
+    return cached
 
 
 def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
-    """The tuple :func:`compiled_arm` keeps."""
+    """The two arrays :func:`compiled_arm` keeps (:func:`manipkit.closed_form.check_kernel.pack_arm`)."""
     from manipkit.closed_form.arms_kernel import KIND_CODES
-    from manipkit.closed_form.check_kernel import row_tables
+    from manipkit.closed_form.check_kernel import pack_arm, row_tables
 
     geometry = arm.family.geometry
     columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
     lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
     floats, ints = row_tables(chain.steps, chain.columns)
-    # (kind, axes h, points p, (wrist, shoulder, label reference, label up), size, M^-1, reversed, q0, solved
-    # columns, (their scales, lower, upper limits), (the chain's lower, upper limits), the chain's FK program)
-    prepared = (KIND_CODES.get(arm.family.kind, -1), np.ascontiguousarray(arm.h), np.ascontiguousarray(arm.p),
-                np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float),
-                float(arm.scale), np.ascontiguousarray(arm.M_inv), bool(arm.family.reversed),
-                np.ascontiguousarray(geometry.q0, dtype=float), columns,
-                np.array([geometry.scale, lower[columns], upper[columns]], dtype=float), np.array([lower, upper]),
-                floats, ints)
-    return prepared
+    return pack_arm(KIND_CODES.get(arm.family.kind, -1), arm.h, arm.p,
+                    np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float),
+                    float(arm.scale), arm.M_inv, bool(arm.family.reversed), np.asarray(geometry.q0, dtype=float),
+                    columns, np.array([geometry.scale, lower[columns], upper[columns]], dtype=float),
+                    np.array([lower, upper]), floats, ints)
 
 
-#: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi): once per chain.
+#: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi, the notes of its
+#: single calls by (count, outside the limits), their labels by the kernel's number of the codes): once per chain.
 _COMPILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -389,12 +391,14 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
     check = tolerance_pair(check_tol, error=ClosedFormIKError, what="check_tol")
-    T = check_transform(target, what="IK target")
-    if compiled and family.kind in (UR, OPW) or (compiled and family.kind == SRS and arm_angle is not None
-                                                  and not family.reversed):
-        answer = _checked_one(chain, arm, T, check, arm_angle)
+    if (compiled and (family.kind in (UR, OPW) or family.kind == SRS and arm_angle is not None and not family.reversed)
+            and type(target) is np.ndarray and target.shape == (4, 4) and target.dtype == np.float64
+            and target.flags.c_contiguous):
+        # the kernel takes a target check_transform accepts as is (plain_target), else hands it back to be checked
+        answer = _checked_one(chain, arm, target, check, arm_angle)
         if answer is not None:
             return answer
+    T = check_transform(target, what="IK target")
     theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
     geometry = family.geometry
     names = tuple(chain.joint_names)
@@ -488,41 +492,58 @@ def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float,
     chain's FK, measured, labelled, kept and ordered): the same rows, order, labels, residuals and note as the
     general path.
     None when that path must answer: the kernel hands the target back (near a threshold, a free angle, no
-    branch), the target's rotation block needs projecting, or a row misses ``check`` (refined by Newton there).
+    branch), the target is not one check_transform accepts as is with a rotation block exact to 1e-12
+    (:func:`~manipkit.closed_form.check_kernel.plain_target`: the general path checks it, projects it or refuses
+    it), or a row misses ``check`` (refined by Newton there). ``T``: a C-contiguous float (4, 4) array.
     A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
-    prepared = compiled_arm(chain, arm)
+    _, prepared, wide, notes, words = _compiled_entry(chain, arm)
     family = arm.family
     kernels = _KERNELS or _load_kernels()
     if family.kind == SRS:
         solved = kernels[1](prepared, T, float(arm_angle), check)
-        words = _SRS_WORDS
     else:
         solved = kernels[0](prepared, T, check)
-        words = _REVERSED_WORDS if family.reversed else _WORDS
     if solved is None:
         return None
-    Q, measured, within, codes = solved
-    labels = tuple(words[code] for code in codes.tolist())
-    for array in (Q, measured, within):
-        array.setflags(write=False)
-    count = len(labels)
-    parts = [f"{count} solution(s) of the {family.kind} closed form"]
+    block, within, named = solved
+    block.setflags(write=False)  # its columns below are read-only views
+    within.setflags(write=False)
+    n = block.shape[1] - 2
+    count = len(within)
+    labels = words.get(named)
+    if labels is None:  # a new order of branches on this arm: worded once (at most 8 distinct codes, 0..7 each)
+        table = _SRS_WORDS if family.kind == SRS else _REVERSED_WORDS if family.reversed else _WORDS
+        labels = tuple(table[code] for code in kernels[2](named))
+        if len(words) < 4096:
+            words[named] = labels
     outside = within.tolist().count(False)
+    head, tail = notes.get((count, outside)) or notes.setdefault((count, outside), _note_parts(arm, wide, count, outside))
+    if family.kind == SRS:
+        head += f"; at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)"
+    return IKResult.of_checked_rows(block[:, :n], labels, head + tail, block[:, n], block[:, n + 1], within,
+                                    _UNREFINED[count], mode=SPATIAL_POSE, solver=_SOLVER_NAMES[family.kind],
+                                    joint_names=chain.joint_names)
+
+
+def _note_parts(arm: IdealArm, wide: list[str], count: int, outside: int) -> tuple[str, str]:
+    """The note of a compiled single call with ``count`` rows, ``outside`` of them outside the limits, in two parts
+    (the arm angle of an SRS arm goes between them), as the general path words it; kept per arm by count."""
+    family = arm.family
+    parts = [f"{count} solution(s) of the {family.kind} closed form"]
     if outside:
         parts.append(f"{outside} outside the joint limits (marked, not dropped)")
-    wide = _COMPILED[arm][2]
     if wide:
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
-    if family.kind == SRS:
-        parts.append(f"at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)")
-    if family.locked:
-        parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
-    return IKResult(Q, labels, count, "; ".join(parts), measured[0], measured[1], mode=SPATIAL_POSE,
-                    solver=f"closed_form.chain_ik ({family.kind})", joint_names=chain.joint_names,
-                    within_limits=within, refined=_UNREFINED[count])
+    locked = ("; with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked"
+              if family.locked else "")
+    return "; ".join(parts), locked
 
 
-#: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs), imported on the first compiled single call.
+_SOLVER_NAMES = {kind: f"closed_form.chain_ik ({kind})" for kind in (UR, OPW, SRS)}
+
+
+#: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs, check_kernel.codes_of), imported on the first
+#: compiled single call.
 _KERNELS: list = []
 #: refined of k rows none of which Newton moved: read-only zeros, k = 0..8.
 _UNREFINED = tuple(read_only(np.zeros(k)) for k in range(9))
@@ -531,9 +552,10 @@ _UNREFINED = tuple(read_only(np.zeros(k)) for k in range(9))
 def _load_kernels() -> list:
     """Import the compiled single-call kernels (numba) once; :data:`_KERNELS` then holds them."""
     from manipkit.closed_form.arms_kernel import solve_check_one
+    from manipkit.closed_form.check_kernel import codes_of
     from manipkit.closed_form.srs_kernel import solve_check_srs
 
-    _KERNELS[:] = [solve_check_one, solve_check_srs]
+    _KERNELS[:] = [solve_check_one, solve_check_srs, codes_of]
     return _KERNELS
 
 
@@ -667,7 +689,7 @@ def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float
     from manipkit.closed_form.arms_kernel import chain_rows, measure_many, solve_rows_many
 
     prepared = compiled_arm(chain, arm)
-    _, valid, _, fallback, project, Q = solve_rows_many(prepared, T)
+    valid, fallback, project, Q = solve_rows_many(prepared, T)
     free_any = np.zeros(len(T), dtype=bool)
     if fallback.any():
         rows = np.flatnonzero(fallback)
@@ -675,17 +697,17 @@ def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float
         theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
         valid[rows] = reference.valid
         free_any[rows] = (reference.free >= 0).any(axis=-1)
-        Q[rows] = chain_rows(theta, reference.valid, prepared[7], prepared[8], *prepared[9])
+        geometry = arm.family.geometry
+        Q[rows] = chain_rows(theta, reference.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
     T_check = T
     if project.any():
         T_check = T.copy()
         T_check[project] = _projected_target(T[project])
     missing = np.isnan(Q[..., 0])
     reached = chain.fk(np.where(missing[..., None], 0.0, Q))
-    residuals = measure_many(T_check, reached, Q)
+    residuals, success = measure_many(T_check, reached, Q, check)
     count = np.where(free_any, np.inf, valid.sum(axis=-1).astype(float))
     position, rotation = residuals[..., 0], residuals[..., 1]
-    success = ((position <= check[0]) & (rotation <= check[1])).any(axis=-1)
     return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
                    success=success, residual_position=position, residual_rotation=rotation,
                    q_residuals=residuals[..., 0, :])

@@ -32,12 +32,12 @@ import math
 
 import numpy as np
 
-from manipkit.kernels import compile_kernel
+from manipkit.closed_form.subproblems_kernel import compile_kernel
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "chain_row", "check_row", "exact_rotation", "kept_rows", "pose_residual", "row_tables",
-           "wrap_angle"]
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "kept_rows", "pack_arm",
+           "plain_target", "pose_residual", "row_tables", "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
@@ -104,39 +104,41 @@ def wrap_angle(a):
 
 
 @inlined
-def chain_row(theta, reverse, q0, columns, scale, lower, upper, out):
-    """``out`` (n,) = the chain vector of solved angles ``theta`` (m,): ``q0`` with column ``columns[i]`` moved by
-    ``theta[i] / scale[i]`` (``theta[m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken, by
-    whole turns, to the in-limit value nearest 0 (``lower``/``upper`` (m,) of the solved columns; wrapped to
-    (-pi, pi] when none is inside). chain_ik's ``_joint_values`` and ``_aliases`` (revolute joints)."""
+def chain_row(theta, k, reverse, q0, columns, solved, out):
+    """``out[k]`` (n,) = the chain vector of solved angles ``theta[k]`` (m,): ``q0`` with column ``columns[i]`` moved
+    by ``theta[k, i] / scale[i]`` (``theta[k, m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken,
+    by whole turns, to the in-limit value nearest 0 (``solved`` (3, m): the solved columns' scales, lower and upper
+    limits; wrapped to (-pi, pi] when none is inside). chain_ik's ``_joint_values`` and ``_aliases`` (revolute
+    joints). Rows by index, not as views: a view costs the loop two atomic reference counts."""
     m = columns.shape[0]
-    for j in range(out.shape[0]):
-        out[j] = q0[j]
+    for j in range(out.shape[1]):
+        out[k, j] = q0[j]
     for i in range(m):
         col = columns[i]
-        angle = theta[m - 1 - i] if reverse else theta[i]
-        wrapped = wrap_angle(q0[col] + angle / scale[i])
+        angle = theta[k, m - 1 - i] if reverse else theta[k, i]
+        wrapped = wrap_angle(q0[col] + angle / solved[0, i])
         best = wrapped
-        if not (lower[i] - LIMIT_TOL <= wrapped <= upper[i] + LIMIT_TOL):
+        lower, upper = solved[1, i] - LIMIT_TOL, solved[2, i] + LIMIT_TOL
+        if not (lower <= wrapped <= upper):
             for turn in (1.0, -1.0, 2.0, -2.0):
                 candidate = wrapped + turn * TWO_PI
-                if lower[i] - LIMIT_TOL <= candidate <= upper[i] + LIMIT_TOL:
+                if lower <= candidate <= upper:
                     best = candidate
                     break
-        out[col] = best
+        out[k, col] = best
 
 
 @inlined
-def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
-    """(position m, rotation rad, within limits) of chain vector ``q`` against ``T_target``: the chain's FK
+def check_row(rows, k, T_target, floats, ints, limits, scratch, T):
+    """(position m, rotation rad, within limits) of chain vector ``rows[k]`` against ``T_target``: the chain's FK
     (:func:`manipkit.kinematics.fk_kernel.pose_row`, tables ``floats``, ``ints``; ``scratch`` (4, 3), ``T``
-    (4, 4) written), :func:`pose_residual`, and every entry inside ``chain_lower``/``chain_upper`` to LIMIT_TOL
-    (``Chain.within_limits``)."""
-    pose_row(q, floats, ints, scratch, T)
+    (4, 4) written), :func:`pose_residual`, and every entry inside the chain's limits ``limits`` (2, n) to
+    LIMIT_TOL (``Chain.within_limits``)."""
+    pose_row(rows[k], floats, ints, scratch, T)
     position, rotation = pose_residual(T_target, T)
     inside = True
-    for j in range(q.shape[0]):
-        if q[j] < chain_lower[j] - LIMIT_TOL or q[j] > chain_upper[j] + LIMIT_TOL:
+    for j in range(rows.shape[1]):
+        if rows[k, j] < limits[0, j] - LIMIT_TOL or rows[k, j] > limits[1, j] + LIMIT_TOL:
             inside = False
     return position, rotation, inside
 
@@ -145,21 +147,33 @@ def check_row(q, T_target, floats, ints, chain_lower, chain_upper, scratch, T):
 def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol):
     """The answer of one target from its checked slots, as chain_ik keeps it: every valid row within the tolerances
     (else not ok: the general path refines it), a row equal modulo 2 pi (to 1e-9) to one kept before it dropped, the
-    rest in the stable order of ``keys`` (the labels' order). Returns (ok, rows (k, n), residuals (2, k), within
-    (k,), codes (k,)); ok False (and nothing kept) when a row misses the tolerances."""
+    rest in the stable order of ``keys`` (the labels' order).
+
+    Returns (block (k, n + 2): per kept branch its chain vector (n) and position and rotation residual (m, rad);
+    within (k,) bool: inside the joint limits; codes: the kept rows' ``codes`` (each 0..7) as one number,
+    ``sum((codes[a] + 1) 9**a)`` (:func:`codes_of`)); no rows (0, n + 2) when a row misses the tolerances (the
+    general path answers). Few arrays, because numba returns each array object at a cost of about half a
+    microsecond."""
+    n = rows.shape[1]
     order = np.empty(rows.shape[0], dtype=np.int64)
     count = 0
     for k in range(rows.shape[0]):
         if not valid[k]:
             continue
         if not (residuals[k, 0] <= position_tol and residuals[k, 1] <= rotation_tol):
-            return (False, np.empty((0, rows.shape[1])), np.empty((2, 0)), np.empty(0, dtype=np.bool_),
-                    np.empty(0, dtype=np.int64))
+            return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
         repeated = False
-        for j in order[:count]:
+        for a in range(count):
+            j = order[a]
             equal = True
-            for i in range(rows.shape[1]):
-                d = math.pi - (math.pi - (rows[k, i] - rows[j, i])) % TWO_PI
+            for i in range(n):
+                d = rows[k, i] - rows[j, i]
+                if abs(d) <= 1e-9:
+                    continue
+                if abs(d - TWO_PI * round(d / TWO_PI)) > 1e-6:  # far from every whole turn: no remainder needed
+                    equal = False
+                    break
+                d = math.pi - (math.pi - d) % TWO_PI
                 if not abs(d) <= 1e-9:
                     equal = False
                     break
@@ -176,11 +190,78 @@ def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotatio
             order[b] = order[b - 1]
             b -= 1
         order[b] = k
-    Q, measured = np.empty((count, rows.shape[1])), np.empty((2, count))
-    inside, named = np.empty(count, dtype=np.bool_), np.empty(count, dtype=np.int64)
+    block, inside = np.empty((count, n + 2)), np.empty(count, dtype=np.bool_)
+    named, digit = 0, 1
     for a in range(count):
         k = order[a]
-        Q[a] = rows[k]
-        measured[0, a], measured[1, a] = residuals[k, 0], residuals[k, 1]
-        inside[a], named[a] = within[k], codes[k]
-    return True, Q, measured, inside, named
+        block[a, :n] = rows[k]
+        block[a, n], block[a, n + 1] = residuals[k, 0], residuals[k, 1]
+        inside[a] = within[k]
+        named += (codes[k] + 1) * digit
+        digit *= 9
+    return block, inside, named
+
+
+def codes_of(named: int) -> tuple[int, ...]:
+    """The codes (each 0..7, in row order) of :func:`kept_rows`' one number ``sum((codes[a] + 1) 9**a)``."""
+    codes = []
+    while named:
+        named, digit = divmod(named, 9)
+        codes.append(digit - 1)
+    return tuple(codes)
+
+
+def pack_arm(kind: int, h: np.ndarray, p: np.ndarray, points: np.ndarray, scale: float, M_inv: np.ndarray,
+             reverse: bool, q0: np.ndarray, columns: np.ndarray, solved: np.ndarray, limits: np.ndarray,
+             floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A chain's constants for the compiled closed forms as two flat arrays (``arm_reals`` float, ``arm_ints``
+    int), the layout :func:`arm_constants` reads: numba checks the type of every argument of a call (about 0.1 us
+    each), so a single call passes the chain in two.
+
+    ``kind``: the family's code; ``h``, ``p`` (m, 3): the ideal arm's axes; ``points`` (4, 3): wrist, shoulder,
+    label reference and label up; ``scale``: the arm's size; ``M_inv`` (4, 4); ``reverse``: solved tip to base;
+    ``q0`` (n,): the reference configuration; ``columns`` (m,): the solved chain columns; ``solved`` (3, m): their
+    scales, lower and upper limits; ``limits`` (2, n): the chain's; ``floats``, ``ints``: the chain's FK program
+    (:func:`row_tables`). ``arm_ints = [kind, reverse, m, n, columns..., ints...]``, ``arm_reals = [scale, h, p,
+    points, M_inv, q0, solved, limits, floats...]`` (each row-major).
+    """
+    m, n = len(h), len(q0)
+    arm_reals = np.concatenate([[float(scale)], np.ravel(h), np.ravel(p), np.ravel(points), np.ravel(M_inv), q0,
+                                np.ravel(solved), np.ravel(limits), floats]).astype(float)
+    arm_ints = np.concatenate([[kind, int(bool(reverse)), m, n], columns, ints]).astype(np.int64)
+    if points.shape != (4, 3) or M_inv.shape != (4, 4) or solved.shape != (3, m) or limits.shape != (2, n):
+        raise ValueError("pack_arm: points (4, 3), M_inv (4, 4), solved (3, m) and limits (2, n) expected")
+    return arm_reals, arm_ints
+
+
+@inlined
+def arm_constants(arm_reals, arm_ints):
+    """The views of :func:`pack_arm`'s arrays: (kind, H, P, points, scale, M_inv, reverse, q0, columns, solved,
+    limits, floats, ints), no copy."""
+    m, n = arm_ints[2], arm_ints[3]
+    o = 1
+    H = arm_reals[o:o + 3 * m].reshape((m, 3))
+    o += 3 * m
+    P = arm_reals[o:o + 3 * m].reshape((m, 3))
+    o += 3 * m
+    points = arm_reals[o:o + 12].reshape((4, 3))
+    M_inv = arm_reals[o + 12:o + 28].reshape((4, 4))
+    o += 28
+    q0 = arm_reals[o:o + n]
+    solved = arm_reals[o + n:o + n + 3 * m].reshape((3, m))
+    o += n + 3 * m
+    limits = arm_reals[o:o + 2 * n].reshape((2, n))
+    return (arm_ints[0], H, P, points, arm_reals[0], M_inv, arm_ints[1] != 0, q0, arm_ints[4:4 + m], solved, limits,
+            arm_reals[o + 2 * n:], arm_ints[4 + m:])
+
+
+@inlined
+def plain_target(T):
+    """``T`` (4, 4) is a rigid transform that :func:`manipkit.spatial.transforms.check_transform` accepts as is:
+    last row exactly ``[0 0 0 1]``, a finite translation and a rotation block exact to EXACT_ROTATION_TOL
+    (:func:`exact_rotation`; far inside check_transform's 1e-6). Anything else is checked by check_transform."""
+    if not (T[3, 0] == 0.0 and T[3, 1] == 0.0 and T[3, 2] == 0.0 and T[3, 3] == 1.0):
+        return False
+    if not (math.isfinite(T[0, 3]) and math.isfinite(T[1, 3]) and math.isfinite(T[2, 3])):
+        return False
+    return exact_rotation(T)

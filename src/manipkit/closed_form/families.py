@@ -315,10 +315,10 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL, lock=None) -> Family:
     >>> family.kind, family.reversed, [str(r) for r in family.evidence][0]
     ('three parallel, two intersecting', False, 'axes 2, 3, 4 parallel, angle 0 rad')
     """
-    tol = tolerance_pair(tol, error=ClosedFormIKError)
+    tol = tolerance_pair(tol, error=ClosedFormIKError)  # two floats
     lock = dict(lock or {})
     try:
-        key = (id(chain), tuple(float(t) for t in tol), tuple((name, float(value)) for name, value in lock.items()))
+        key = (id(chain), tol, tuple((name, float(value)) for name, value in lock.items()) if lock else ())
     except (TypeError, ValueError):
         key = None  # a value that is not a number: _geometry says what is wrong with it
     cached = _FAMILIES.get(key) if key is not None else None

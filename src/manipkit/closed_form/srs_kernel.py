@@ -22,11 +22,12 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import chain_row, check_row, exact_rotation, kept_rows
+from manipkit.closed_form.check_kernel import arm_constants, chain_row, check_row, kept_rows, plain_target
 from manipkit.closed_form.subproblems_kernel import (
     MARGIN,
     add,
     atan2,
+    compile_kernel,
     dot,
     mv,
     norm,
@@ -38,7 +39,6 @@ from manipkit.closed_form.subproblems_kernel import (
     sp4,
     sub,
 )
-from manipkit.kernels import compile_kernel
 
 __all__ = ["solve_check_srs"]
 
@@ -125,11 +125,12 @@ def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
 
 
 @compile_kernel
-def _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T, pc, ps, position_tol,
-                   rotation_tol):
-    """One target: every branch at the arm angle (cos ``pc``, sin ``ps``), each branch's chain row, FK, residual
-    and limits, kept as chain_ik keeps rows (:func:`manipkit.closed_form.check_kernel.kept_rows`; ordered by the
-    wrist's split, code ``4 (t4 < 0) + 2 (t2 < 0) + (t6 < 0)``); returns (answered, rows, residuals, within, codes)."""
+def _srs_check_one(arm_reals, arm_ints, T, psi, position_tol, rotation_tol):
+    """One target: every branch at the arm angle ``psi``, each branch's chain row, FK, residual and limits, kept as
+    chain_ik keeps rows (:func:`manipkit.closed_form.check_kernel.kept_rows`; ordered by the wrist's split, code
+    ``4 (t4 < 0) + 2 (t2 < 0) + (t6 < 0)``); no rows when the general path must answer. ``arm_reals``,
+    ``arm_ints``: the chain's constants (:func:`manipkit.closed_form.check_kernel.pack_arm`)."""
+    _, H, P, points, _, M_inv, _, q0, columns, solved, limits, floats, ints = arm_constants(arm_reals, arm_ints)
     n = q0.shape[0]
     theta, valid = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
     rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
@@ -138,29 +139,26 @@ def _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, int
     for i in range(4):  # g = T M^-1
         for j in range(4):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
-    if not exact_rotation(T) or _srs_target(H, P, row(points, 1), row(points, 0), pc, ps, g[:3, :3],
-                                            (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
-        return False, np.empty((0, n)), np.empty((2, 0)), np.empty(0, dtype=np.bool_), np.empty(0, dtype=np.int64)
+    if not plain_target(T) or _srs_target(H, P, row(points, 1), row(points, 0), math.cos(psi), math.sin(psi),
+                                          g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
+        return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     for k in range(theta.shape[0]):
         if valid[k]:
-            chain_row(theta[k], False, q0, columns, solved[0], solved[1], solved[2], rows[k])
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows[k], T, floats, ints, limits[0], limits[1],
-                                                                    scratch, T_fk)
+            chain_row(theta, k, False, q0, columns, solved, rows)
+            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows, k, T, floats, ints, limits, scratch, T_fk)
         keys[k] = 1 if theta[k, 5] < 0.0 else 0
         codes[k] = 4 * (theta[k, 3] < 0.0) + 2 * (theta[k, 1] < 0.0) + keys[k]
     return kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol)
 
 
 def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float, tol: tuple[float, float]):
-    """Every branch of an SRS arm for one target ``T`` (4, 4) at ``arm_angle`` (rad), checked on the true chain and
-    kept as ``chain_ik`` keeps rows, in one compiled call.
+    """Every branch of an SRS arm for one target ``T`` (4, 4, float, C-contiguous) at ``arm_angle`` (rad), checked
+    on the true chain and kept as ``chain_ik`` keeps rows, in one compiled call.
 
     ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns None when the general path must
-    answer (the reference must decide, the target's rotation block is not a rotation to 1e-12, or a row misses
-    ``tol`` (m, rad)); else (rows (k, n), residuals (2, k), within (k,), codes (k,): ``4 elbow - + 2 shoulder - +
-    wrist flip``), as :func:`manipkit.closed_form.arms_kernel.solve_check_one` gives them.
+    answer (the reference must decide, ``T`` is not a transform with a rotation block exact to 1e-12, or a row
+    misses ``tol`` (m, rad)); else (block, within, codes) as :func:`manipkit.closed_form.arms_kernel.solve_check_one`
+    gives them (codes ``4 elbow - + 2 shoulder - + wrist flip``).
     """
-    _, H, P, points, _, M_inv, _, q0, columns, solved, limits, floats, ints = prepared
-    answered, *answer = _srs_check_one(H, P, points, M_inv, q0, columns, solved, limits, floats, ints, T,
-                                       math.cos(arm_angle), math.sin(arm_angle), tol[0], tol[1])
-    return answer if answered else None
+    answer = _srs_check_one(prepared[0], prepared[1], T, float(arm_angle), tol[0], tol[1])
+    return answer if len(answer[0]) else None

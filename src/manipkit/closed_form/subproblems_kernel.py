@@ -14,9 +14,18 @@ from __future__ import annotations
 
 import math
 
-from manipkit.kernels import compile_kernel
+from manipkit.kernels import compile_kernel as _compile
 
-__all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "cross", "dot", "move", "mtv", "mv", "norm", "perpendicular",
+
+def compile_kernel(py_func, **options):
+    """:func:`manipkit.kernels.compile_kernel` with numpy's error model, for every kernel of the closed forms: a
+    division by zero gives inf or nan (as in numpy) instead of raising ZeroDivisionError, so no division carries a
+    check (a third of the cost of the chain rows' loop). No division here can be by zero (each is guarded, or by a
+    joint's nonzero scale); one that were would give nan, which fails every check and leaves the target to the
+    reference path."""
+    return _compile(py_func, error_model="numpy", **options)
+
+__all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "move", "mtv", "mv", "norm", "perpendicular",
            "rotate", "row", "sp1", "sp3", "sp4", "sub", "wrap"]
 
 #: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
@@ -64,7 +73,9 @@ def norm(a):
 
 @compile_kernel
 def wrap(x):
-    """x wrapped to (-pi, pi]."""
+    """x wrapped to (-pi, pi]: x itself when inside (no remainder to take: it costs a call into numba's fmod)."""
+    if -math.pi < x <= math.pi:
+        return x
     return math.pi - (math.pi - x) % TWO_PI
 
 
