@@ -1,4 +1,4 @@
-"""README.md's command-line tour prints what the commands print today.
+"""README.md's command-line tour prints what the commands print today, and its layout names every module.
 
 Every ``$ tf-between ...`` or ``$ manipkit ...`` line of an indented block in
 README.md, followed by the output the README shows for it, is run here (in
@@ -129,3 +129,16 @@ def test_commands_on_the_readers_own_files_and_the_viewer_are_not_run():
     assert not runnable("manipkit tree --robot course_arm", [])
     assert runnable("manipkit tree --robot course_arm", ["robot name is: course_arm"])
     assert re.match(r"README\.md:\d+", f"README.md:{STEPS[0][0]}")
+
+
+def test_the_layout_names_every_module():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    layout = text[text.index("## Layout"):]
+    layout = layout[:layout.index("\n## ", 1)] if "\n## " in layout[1:] else layout
+    words = set(re.findall(r"[A-Za-z_]+", layout))
+    package = ROOT / "src" / "manipkit"
+    modules = [p for p in package.glob("*.py") if p.stem != "__init__"]
+    for folder in ("spatial", "inputs", "description", "kinematics", "dh", "closed_form", "analysis", "app"):
+        modules += [p for p in (package / folder).glob("*.py") if p.stem not in ("__init__", "__main__")]
+    missing = sorted(str(p.relative_to(package)) for p in modules if p.stem not in words)
+    assert not missing, f"README.md's layout does not name: {', '.join(missing)}"
