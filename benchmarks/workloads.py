@@ -367,7 +367,9 @@ def cold_start_workload(*, runs: int = 15) -> list[dict]:
     """``tf-between base_link ee_link`` as a fresh process, against bare imports; interleaved runs, median."""
     import manipkit
 
-    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHONPROFILE")}
+    # Bytecode as an installed package has it: the warm-up run writes the .pyc files (a shell that sets
+    # PYTHONDONTWRITEBYTECODE would otherwise have every run compile the modules changed since the last write).
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHONPROFILE") and k != "PYTHONDONTWRITEBYTECODE"}
     tf_between = str(BIN / "tf-between")
     commands = {
         "manipkit tf-between base_link ee_link": [tf_between, "base_link", "ee_link"],

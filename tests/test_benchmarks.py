@@ -227,5 +227,9 @@ def test_merge_keeps_the_rows_of_workloads_not_rerun_with_their_dates():
     assert [(r["workload"], r["median_s"], r["date"]) for r in merged["rows"]] == [
         ("fk_batch", 1e-6, "2026-01-01"), ("ik", 4e-5, "2026-02-02")]  # the old ik row is replaced, fk kept
     assert [(r["date"], r["workloads"]) for r in merged["runs"]] == [("2026-01-01", ["fk"]), ("2026-02-02", ["ik"])]
+    fk_new = {**fk_old, "step": "fk", "date": "2026-03-03"}
+    partly = run.merge_results(_results("2026-02-02", [{**fk_old, "step": "fk", "date": "2026-02-02"}, ik_new],
+                                        ["fk", "ik"]), _results("2026-03-03", [fk_new], ["fk"]))
+    assert [(r["date"], r["workloads"]) for r in partly["runs"]] == [("2026-02-02", ["ik"]), ("2026-03-03", ["fk"])]
     again = run.merge_results(merged, _results("2026-03-03", [{**ik_new, "date": "2026-03-03"}], ["ik", "fk"]))
     assert [r["date"] for r in again["runs"]] == ["2026-03-03"]  # a run none of whose rows remain is dropped
