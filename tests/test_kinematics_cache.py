@@ -204,3 +204,39 @@ def test_analytic_ik_in_a_read_only_install_needs_no_kernel(read_only_install):
     for solution in json.loads(result.stdout)["solutions"]:  # unit links: (1, 1) is reached by both elbows
         q = np.array([solution[name] for name in robot.joint_names])
         np.testing.assert_allclose(robot.transform("base_link", "ee_link", q)[:2, 3], [1.0, 1.0], atol=1e-12)
+
+
+def test_a_kernel_is_compiled_again_when_a_kernel_it_calls_changes(tmp_path):
+    # numba keys a cached kernel by its own file; ik_many's loop calls ik_kernel's iteration, so a change to
+    # ik_kernel.py alone must not leave the old iteration running from the cache (kernels.sources_digest).
+    # Processes are the point: the cache is what one run leaves for the next.
+    shutil.copytree(REPO / "src", tmp_path / "src", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO / "robots", tmp_path / "robots")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "NUMBA_DEBUG_CACHE": "1",
+           "PYTHONPATH": str(tmp_path / "src")}
+    script = ("import manipkit\nrobot = manipkit.load('iiwa14')\n"
+              "batch = manipkit.ik_many(robot, robot.fk(robot.sample_q(50, seed=1)))\nprint(batch.success.all())\n")
+
+    def solve_many_saved() -> bool:
+        result = subprocess.run([sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True,
+                                timeout=600)
+        assert result.returncode == 0 and result.stdout.strip().endswith("True"), result.stderr[-2000:]
+        return any("data saved" in line and "ik_many._solve_many" in line for line in result.stdout.splitlines())
+
+    assert solve_many_saved()  # compiled and saved
+    assert not solve_many_saved()  # read back
+    with open(tmp_path / "src" / "manipkit" / "kinematics" / "ik_kernel.py", "a", encoding="utf-8") as kernel:
+        kernel.write("\n# changed\n")
+    assert solve_many_saved()  # ik_many.py did not change, yet its loop is compiled again
+
+
+def test_the_sources_digest_changes_with_any_module(tmp_path):
+    from manipkit.kernels import sources_digest
+
+    (tmp_path / "a.py").write_text("x = 1\n")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "b.py").write_text("y = 2\n")
+    first = sources_digest(tmp_path)
+    assert sources_digest(tmp_path) == first
+    (tmp_path / "sub" / "b.py").write_text("y = 3\n")
+    assert sources_digest(tmp_path) != first

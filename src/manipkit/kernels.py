@@ -5,16 +5,22 @@ Every compiled function of manipkit (the batched FK and IK of
 is made here, so it sits below both layers: numba's on-disk cache when it
 works, else compiled in memory with one :class:`KernelCacheWarning` (a
 read-only install with a read-only home, a full disk); a cache file that
-cannot be read (a truncated file) is recompiled and written again. numba is
+cannot be read (a truncated file) is recompiled and written again; the cache
+key holds a digest of the package's source (:func:`sources_digest`), so a
+kernel is compiled again when a kernel it calls changes. numba is
 imported on the first compile, never when this module is imported.
 Standard library only (numba inside the functions).
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import os
 import warnings
+from pathlib import Path
 
-__all__ = ["KernelCacheWarning", "compile_kernel", "lazy_kernel"]
+__all__ = ["KernelCacheWarning", "compile_kernel", "lazy_kernel", "sources_digest"]
 
 
 
@@ -39,6 +45,41 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
+def sources_digest(root: str | os.PathLike) -> str:
+    """SHA-256 (hex) of every ``.py`` file under ``root`` (relative path and bytes, in sorted order).
+
+    numba keys a cached kernel by its own function's bytecode and its file's
+    time stamp, not by the kernels it calls in other modules: after a change
+    to ``ik_kernel.py`` alone, ``ik_many``'s cached loop would go on running
+    the old iteration. manipkit's kernels are keyed by this digest of the
+    whole package too (:class:`_ForgivingCache`), so any change to its source
+    compiles them again.
+    """
+    digest = hashlib.sha256()
+    base = Path(root)
+    for path in sorted(base.rglob("*.py")):
+        digest.update(str(path.relative_to(base)).encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+@functools.cache
+def _package_digest() -> str:
+    return sources_digest(Path(__file__).resolve().parent)
+
+
+@functools.cache
+def _source_keyed_cache():
+    """numba's ``FunctionCache`` with the package's :func:`sources_digest` in every index key."""
+    from numba.core.caching import FunctionCache
+
+    class SourceKeyedCache(FunctionCache):
+        def _index_key(self, sig, codegen):
+            return (*super()._index_key(sig, codegen), _package_digest())
+
+    return SourceKeyedCache
+
+
 class _ForgivingCache:
     """numba's ``FunctionCache`` for one kernel, made on first use, whose failures fall back to memory.
 
@@ -58,10 +99,8 @@ class _ForgivingCache:
 
     def _cache(self):
         if self._disk is None and self._usable:
-            from numba.core.caching import FunctionCache
-
             try:
-                self._disk = FunctionCache(self._py_func)
+                self._disk = _source_keyed_cache()(self._py_func)
             except (RuntimeError, OSError) as exc:  # no writable folder for the cache: numba's RuntimeError
                 self._give_up(exc)
         return self._disk
