@@ -129,14 +129,22 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
     with ``M`` Rodrigues' rotation ``I + sin q [a]x + (1 - cos q) [a]x^2`` or
     the translation ``q a``. Columns are filled once the tip is known.
     """
+    _chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J, np.empty((geometry.shape[0], 6)))
+
+
+@compile_kernel
+def _chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J, frames):
+    """:func:`chain_pose_jacobian` with its work array passed in (the loop of :func:`lm_attempt` allocates nothing).
+
+    ``frames`` (S+1, 6) receives each joint's origin (columns 0-2) and world
+    axis (columns 3-5). ``R`` is multiplied in place row by row: row ``i`` of
+    ``R X`` needs row ``i`` of ``R`` only.
+    """
     n_steps = geometry.shape[0]
-    origins = np.empty((n_steps, 3))
-    axes = np.empty((n_steps, 3))
     for i in range(3):
         for j in range(3):
             R[i, j] = 1.0 if i == j else 0.0
         p[i] = 0.0
-    tmp = np.empty((3, 3))
     for k in range(n_steps):
         g = geometry[k]
         # T <- T X_k
@@ -144,9 +152,9 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
             p[i] += R[i, 0] * g[9] + R[i, 1] * g[10] + R[i, 2] * g[11]
         for i in range(3):
             r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
-            for j in range(3):
-                tmp[i, j] = r0 * g[j] + r1 * g[3 + j] + r2 * g[6 + j]
-        R[:, :] = tmp
+            R[i, 0] = r0 * g[0] + r1 * g[3] + r2 * g[6]
+            R[i, 1] = r0 * g[1] + r1 * g[4] + r2 * g[7]
+            R[i, 2] = r0 * g[2] + r1 * g[5] + r2 * g[8]
         kind = kinds[k, 0]
         if kind == _TIP:
             continue
@@ -154,11 +162,11 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
         q = g[15] * x[column] + g[16] if column >= 0 else q_fixed[k]
         a0, a1, a2 = g[12], g[13], g[14]
         for i in range(3):
-            origins[k, i] = p[i]
-            axes[k, i] = R[i, 0] * a0 + R[i, 1] * a1 + R[i, 2] * a2
+            frames[k, i] = p[i]
+            frames[k, 3 + i] = R[i, 0] * a0 + R[i, 1] * a1 + R[i, 2] * a2
         if kind == _PRISMATIC:
             for i in range(3):
-                p[i] += axes[k, i] * q
+                p[i] += frames[k, 3 + i] * q
             continue
         s, c = math.sin(q), math.cos(q)
         v = 1.0 - c
@@ -168,10 +176,9 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
         m20, m21, m22 = v * a2 * a0 - s * a1, v * a2 * a1 + s * a0, c + v * a2 * a2
         for i in range(3):
             r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
-            tmp[i, 0] = r0 * m00 + r1 * m10 + r2 * m20
-            tmp[i, 1] = r0 * m01 + r1 * m11 + r2 * m21
-            tmp[i, 2] = r0 * m02 + r1 * m12 + r2 * m22
-        R[:, :] = tmp
+            R[i, 0] = r0 * m00 + r1 * m10 + r2 * m20
+            R[i, 1] = r0 * m01 + r1 * m11 + r2 * m21
+            R[i, 2] = r0 * m02 + r1 * m12 + r2 * m22
     for j in range(J.shape[1]):
         for i in range(6):
             J[i, j] = 0.0
@@ -180,13 +187,13 @@ def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
         if kinds[k, 0] == _TIP or column < 0:
             continue
         scale = geometry[k, 15]
-        z0, z1, z2 = axes[k, 0] * scale, axes[k, 1] * scale, axes[k, 2] * scale
+        z0, z1, z2 = frames[k, 3] * scale, frames[k, 4] * scale, frames[k, 5] * scale
         if kinds[k, 0] == _PRISMATIC:
             J[0, column] += z0
             J[1, column] += z1
             J[2, column] += z2
         else:
-            d0, d1, d2 = p[0] - origins[k, 0], p[1] - origins[k, 1], p[2] - origins[k, 2]
+            d0, d1, d2 = p[0] - frames[k, 0], p[1] - frames[k, 1], p[2] - frames[k, 2]
             J[0, column] += z1 * d2 - z2 * d1
             J[1, column] += z2 * d0 - z0 * d2
             J[2, column] += z0 * d1 - z1 * d0
@@ -205,32 +212,40 @@ def log3(R, w):
     from the symmetric part ``(R + R^T) / 2 = cos I + (1 - cos) u u^T``
     (largest diagonal entry first), its sign from ``v``.
     """
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    v0 = 0.5 * (R[2, 1] - R[1, 2])
-    v1 = 0.5 * (R[0, 2] - R[2, 0])
-    v2 = 0.5 * (R[1, 0] - R[0, 1])
+    theta, w[0], w[1], w[2] = _log3(R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+    return theta
+
+
+@compile_kernel
+def _log3(r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """:func:`log3` of the matrix given by its entries ``r_ij``: (theta, w0, w1, w2), no array allocated."""
+    c = 0.5 * (r00 + r11 + r22 - 1.0)
+    v0 = 0.5 * (r21 - r12)
+    v1 = 0.5 * (r02 - r20)
+    v2 = 0.5 * (r10 - r01)
     s = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
     theta = math.atan2(s, c)
     if c > -0.9:  # theta below about 154 degrees: v is well conditioned
         k = theta / s if s > 1e-8 else 1.0 + s * s / 6.0  # theta / sin(theta) ~ 1 + theta^2 / 6
-        w[0], w[1], w[2] = k * v0, k * v1, k * v2
-        return theta
+        return theta, k * v0, k * v1, k * v2
     one_minus_c = 1.0 - c
-    i = 0
-    if R[1, 1] > R[i, i]:
-        i = 1
-    if R[2, 2] > R[i, i]:
-        i = 2
-    u = np.empty(3)
-    u[i] = math.sqrt(max((R[i, i] - c) / one_minus_c, 0.0))
-    for j in range(3):
-        if j != i:
-            u[j] = 0.5 * (R[i, j] + R[j, i]) / (one_minus_c * u[i])
-    norm = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-    if u[0] * v0 + u[1] * v1 + u[2] * v2 < 0.0:
+    # the axis u from the column of (R + R^T) / 2 with the largest diagonal entry r_ii
+    if r11 > r00 and r11 >= r22:
+        u1 = math.sqrt(max((r11 - c) / one_minus_c, 0.0))
+        u0 = 0.5 * (r10 + r01) / (one_minus_c * u1)
+        u2 = 0.5 * (r12 + r21) / (one_minus_c * u1)
+    elif r22 > r00 and r22 > r11:
+        u2 = math.sqrt(max((r22 - c) / one_minus_c, 0.0))
+        u0 = 0.5 * (r20 + r02) / (one_minus_c * u2)
+        u1 = 0.5 * (r21 + r12) / (one_minus_c * u2)
+    else:
+        u0 = math.sqrt(max((r00 - c) / one_minus_c, 0.0))
+        u1 = 0.5 * (r01 + r10) / (one_minus_c * u0)
+        u2 = 0.5 * (r02 + r20) / (one_minus_c * u0)
+    norm = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    if u0 * v0 + u1 * v1 + u2 * v2 < 0.0:
         norm = -norm
-    w[0], w[1], w[2] = theta * u[0] / norm, theta * u[1] / norm, theta * u[2] / norm
-    return theta
+    return theta, theta * u0 / norm, theta * u1 / norm, theta * u2 / norm
 
 
 @compile_kernel
@@ -286,20 +301,30 @@ def error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, ax
     Mode 2 position+axis: rotation error ``angle * unit(a x t)`` (``a``, ``t``
     the frame's and the target's pointing axes) and rows ``(I - a a^T) J_w``.
     """
-    chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J)
+    return _error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, R, p, J, e,
+                               np.empty((geometry.shape[0], 6)))
+
+
+@compile_kernel
+def _error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, R, p, J, e, frames):
+    """:func:`error_and_jacobian` with the work array of :func:`_chain_pose_jacobian` passed in."""
+    _chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J, frames)
     d0, d1, d2 = p_target[0] - p[0], p_target[1] - p[1], p_target[2] - p[2]
     e[0], e[1], e[2] = d0, d1, d2
     pos = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if mode == 1:
         return pos, 0.0
-    if mode == 0:
-        E = np.empty((3, 3))  # R_t R^T
-        for i in range(3):
-            for j in range(3):
-                E[i, j] = R_target[i, 0] * R[j, 0] + R_target[i, 1] * R[j, 1] + R_target[i, 2] * R[j, 2]
-        w = np.empty(3)
-        rot = log3(E, w)
-        e[3], e[4], e[5] = w[0], w[1], w[2]
+    if mode == 0:  # log3 of E = R_t R^T, E_ij = R_t[i] . R[j]
+        t00, t01, t02 = R_target[0, 0], R_target[0, 1], R_target[0, 2]
+        t10, t11, t12 = R_target[1, 0], R_target[1, 1], R_target[1, 2]
+        t20, t21, t22 = R_target[2, 0], R_target[2, 1], R_target[2, 2]
+        rot, e[3], e[4], e[5] = _log3(
+            t00 * R[0, 0] + t01 * R[0, 1] + t02 * R[0, 2], t00 * R[1, 0] + t01 * R[1, 1] + t02 * R[1, 2],
+            t00 * R[2, 0] + t01 * R[2, 1] + t02 * R[2, 2], t10 * R[0, 0] + t11 * R[0, 1] + t12 * R[0, 2],
+            t10 * R[1, 0] + t11 * R[1, 1] + t12 * R[1, 2], t10 * R[2, 0] + t11 * R[2, 1] + t12 * R[2, 2],
+            t20 * R[0, 0] + t21 * R[0, 1] + t22 * R[0, 2], t20 * R[1, 0] + t21 * R[1, 1] + t22 * R[1, 2],
+            t20 * R[2, 0] + t21 * R[2, 1] + t22 * R[2, 2],
+        )
         return pos, rot
     a0, a1, a2 = R[0, axis_index], R[1, axis_index], R[2, axis_index]
     t0, t1, t2 = R_target[0, axis_index], R_target[1, axis_index], R_target[2, axis_index]
@@ -348,25 +373,39 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
     # against that description whole.
     n = x0.shape[0]
     rows = 3 if mode == 1 else 6
-    R = np.empty((3, 3))
-    p = np.empty(3)
-    J = np.zeros((6, n))
-    J_new = np.zeros((6, n))
-    e = np.zeros(6)
-    e_new = np.zeros(6)
-    A = np.empty((n, n))
-    M = np.empty((n, n))
-    M_work = np.empty((n, n))  # solve_linear overwrites its matrix
-    g = np.empty(n)
-    h = np.empty(n)
-    x = np.empty(n)
-    x_new = np.empty(n)
-    step = np.empty(n)
-    history = np.empty(max_iters + 1)
+    n_steps = geometry.shape[0]
+    # Every work array is a view of one buffer: one allocation per attempt, none per iteration.
+    work = np.zeros(12 + 2 * 6 * n + 2 * 6 + 3 * n * n + 5 * n + max_iters + 1 + 6 * n_steps)
+    R = work[0:9].reshape((3, 3))
+    p = work[9:12]
+    at = 12
+    J = work[at:at + 6 * n].reshape((6, n))
+    at += 6 * n
+    J_new = work[at:at + 6 * n].reshape((6, n))
+    at += 6 * n
+    e = work[at:at + 6]
+    e_new = work[at + 6:at + 12]
+    at += 12
+    A = work[at:at + n * n].reshape((n, n))
+    at += n * n
+    M = work[at:at + n * n].reshape((n, n))
+    at += n * n
+    M_work = work[at:at + n * n].reshape((n, n))  # solve_linear overwrites its matrix
+    at += n * n
+    g = work[at:at + n]
+    h = work[at + n:at + 2 * n]
+    x = work[at + 2 * n:at + 3 * n]
+    x_new = work[at + 3 * n:at + 4 * n]
+    step = work[at + 4 * n:at + 5 * n]
+    at += 5 * n
+    history = work[at:at + max_iters + 1]
+    at += max_iters + 1
+    frames = work[at:at + 6 * n_steps].reshape((n_steps, 6))
     for j in range(n):
         v = min(max(x0[j], lower[j]), upper[j])
         x[j] = _wrap(v) if wrap[j] else v
-    pos, rot = error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, R, p, J, e)
+    pos, rot = _error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, R, p, J, e,
+                                   frames)
     cost = 0.0
     for i in range(rows):
         cost += e[i] * e[i]
@@ -435,7 +474,8 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
             if wrap[j]:
                 x_new[j] = _wrap(x_new[j])
         iterations += 1
-        pos_new, rot_new = error_and_jacobian(x_new, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, R, p, J_new, e_new)
+        pos_new, rot_new = _error_and_jacobian(x_new, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index,
+                                               R, p, J_new, e_new, frames)
         cost_new = 0.0
         for i in range(rows):
             cost_new += e_new[i] * e_new[i]
