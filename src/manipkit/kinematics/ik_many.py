@@ -90,10 +90,10 @@ def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_tar
     Compiled with ``nogil=True``: only the clock (read when there is a
     budget, through ``objmode``) takes the GIL. numba's random state is the
     thread's own, seeded here per target, so a target's starts do not
-    depend on the thread that solves it. numba's disk cache keys this kernel
-    on this file alone, though ``lm_attempt`` is compiled into it: after a
-    change to :mod:`~manipkit.kinematics.ik_kernel`, change this file too (or
-    clear its ``__pycache__``), else the old iteration keeps running.
+    depend on the thread that solves it. ``lm_attempt`` is compiled into
+    it: its disk cache is keyed by the whole package's source
+    (:func:`manipkit.kernels.sources_digest`), so a change to
+    :mod:`~manipkit.kinematics.ik_kernel` compiles it again.
     """
     n_targets, n = X0.shape
     x = np.empty(n)
