@@ -248,6 +248,27 @@ def test_show_view_of_a_map_of_a_description_file_needs_that_file(tmp_path):
     assert (tmp_path / "v.html").read_text().count("data:application/octet-binary;base64,") > 1
 
 
+def test_show_never_reads_a_description_path_the_map_names(tmp_path):
+    # A map from anywhere names its robot; a name that is a path is not loaded for the view (nothing is read).
+    import shutil
+
+    from manipkit.description.sources import bundled_dir
+
+    for path in bundled_dir().glob("*.xacro"):
+        shutil.copy(path, tmp_path)
+    arm = tmp_path / "planar_2r.urdf.xacro"
+    run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500", "-o",
+            tmp_path / "m.zarr", status=0)
+    attrs = tmp_path / "m.zarr" / "zarr.json"
+    text = attrs.read_text()
+    assert text.count('"planar_2r"') == 1
+    attrs.write_text(text.replace('"planar_2r"', json.dumps(str(arm))))  # the stored name is now a file's path
+    out = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", "--view-html", tmp_path / "v.html",
+                  cwd=tmp_path, status=2)
+    assert out.stderr.count("\n") == 1 and "which does not load by that name" in out.stderr
+    assert not (tmp_path / "v.html").exists()
+
+
 def test_show_refuses_the_manipulability_plot_of_a_map_without_it(tmp_path):
     run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500", "--no-manipulability",
             "-o", tmp_path / "m.zarr", status=0)
