@@ -223,14 +223,14 @@ def _map_robot(args, reach_map):
     """The robot of ``--robot`` (default: the name the map stores, taken only as a bundled or example-robot-data
     name: a map is a file from anywhere, and the file path it might name is never read), which must be the map's."""
     from manipkit.description.sources import resolve_robot
-    from manipkit.errors import ManipkitError
+    from manipkit.errors import ManipkitError, UnknownRobotError
 
     given = args.robot is not None
     args.robot = args.robot if given else reach_map.robot
     args.arg, args.package_dir, args.allow_read = args.arg or [], args.package_dir or [], args.allow_read or []
     try:
         if not given and resolve_robot(reach_map.robot).origin == "file":
-            raise ManipkitError("a path, not a name")
+            raise UnknownRobotError("the map's robot name is a path, not a name")
         robot = load_robot(args, mesh_warnings=False)
     except ManipkitError:
         if given:
