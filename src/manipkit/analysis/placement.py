@@ -12,9 +12,11 @@ Frames (docs/architecture.md, "Reachability maps"):
 
 A target ``T_F_target`` is reachable from a placement when the map says so
 for ``T_B_target = mount^-1 T_F_P^-1 T_F_target``
-(:meth:`manipkit.analysis.reachmap.ReachMap.query`). The score of a
-placement is the number of targets reachable from it, at the map's
-resolution (its voxel and orientation bins, roll or any roll: an estimate).
+(:meth:`manipkit.analysis.reachmap.ReachMap.query` with ``threshold``: the
+target's voxel-bin was reached and its support is at least ``threshold``;
+0 counts every target in a reached voxel-bin). The score of a placement is
+the number of targets the map says yes to from it, at the map's resolution
+(its voxel and orientation bins, roll or any roll: an estimate).
 :func:`confirm_placement` then takes the best-scored placements and runs IK
 for every full target pose from each (seeded from the bin's certificate,
 confirmed by FK, collision-free when collisions are given): the placement
@@ -31,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, ReachMapError, finite_array
+from manipkit.analysis.reachquery import DEFAULT_THRESHOLD, check_threshold
 from manipkit.inputs.poses import MAX_POSITION, MAX_TARGETS
 from manipkit.text import repr_text, short_text
 
@@ -58,9 +61,11 @@ class BasePlacement:
     yaws : ndarray
         Headings (rad) tried, about z of ``F``.
     scores : ndarray of int, shape (len(xs), len(ys), len(yaws))
-        Targets reachable from each placement.
+        Targets the map says yes to from each placement (``threshold``).
     targets : ndarray, shape (K, 4, 4)
         ``T_F_target``.
+    threshold : float
+        The least support a counted target had (:meth:`ReachMap.query`; 0: every target in a reached voxel-bin).
     """
 
     xs: np.ndarray
@@ -68,6 +73,7 @@ class BasePlacement:
     yaws: np.ndarray
     scores: np.ndarray
     targets: np.ndarray
+    threshold: float = DEFAULT_THRESHOLD
 
     @property
     def best(self) -> tuple[float, float, float, int]:
@@ -76,10 +82,10 @@ class BasePlacement:
         return float(self.xs[i]), float(self.ys[j]), float(self.yaws[k]), int(self.scores[i, j, k])
 
     def summary(self) -> str:
-        """One line: the best placement and how many targets it reaches."""
+        """One line: the best placement and how many targets the map says it reaches."""
         x, y, yaw, score = self.best
         return (f"best base placement x {short_text(x, 4)} m, y {short_text(y, 4)} m, yaw "
-                f"{short_text(math.degrees(yaw), 4)} deg: reaches {score} of {len(self.targets)} targets "
+                f"{short_text(math.degrees(yaw), 4)} deg: the map says yes to {score} of {len(self.targets)} targets "
                 f"({len(self.xs)}x{len(self.ys)}x{len(self.yaws)} placements tried)")
 
 
@@ -96,9 +102,9 @@ class ConfirmedPlacement:
     q : ndarray, shape (K, n)
         IK's configurations (meaningful where ``confirmed``).
     map_score : int
-        Targets the map counts from this placement (at its resolution).
+        Targets the map says yes to from this placement (at its resolution, with the search's threshold).
     resolution : str
-        What the map's count means (:func:`manipkit.analysis.reachquery.resolution_text`).
+        What the map's yes means (:func:`manipkit.analysis.reachquery.resolution_text`).
     candidates : int
         Placements IK was run from (the best-scored by the map).
     """
@@ -118,8 +124,8 @@ class ConfirmedPlacement:
         return (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
                 f"{short_text(math.degrees(self.yaw), 4)} deg: IK confirms {int(self.confirmed.sum())} of {n} targets "
                 f"(full pose, by FK; best of the map's {self.candidates} best-scored placements)\n"
-                f"the map estimates {self.map_score} of {n} from there, counting a target when it lands in "
-                f"a reached voxel-bin: {self.resolution}")
+                f"the map estimates {self.map_score} of {n} from there, counting a target when its yes means: "
+                f"{self.resolution}")
 
 
 def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, mount=None, candidates: int = 5,
@@ -147,7 +153,7 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
                               collisions=collisions)
         if best is None or answer.confirmed.sum() > best.confirmed.sum():
             best = ConfirmedPlacement(x, y, yaw, answer.confirmed, answer.q, int(flat[rank]),
-                                      resolution_text(reach_map), len(order))
+                                      resolution_text(reach_map, threshold=result.threshold), len(order))
     return best
 
 
@@ -175,7 +181,7 @@ def reach_radius(reach_map: ReachMap) -> float:
 
 
 def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, step: float | None = None,
-                   mount=None) -> BasePlacement:
+                   mount=None, threshold: float = DEFAULT_THRESHOLD) -> BasePlacement:
     """Score floor placements ``(x, y, yaw)`` by the targets the arm reaches from each.
 
     Parameters
@@ -193,6 +199,10 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
         Grid step of the default ``xs``, ``ys`` (default: the map's voxel).
     mount : array_like, shape (4, 4), optional
         ``T_P_B``, the map base in the robot's floor frame (default identity).
+    threshold : float
+        A target counts when the map says yes to it with this threshold
+        (:meth:`ReachMap.query`: its voxel-bin reached and its support at
+        least ``threshold``; 0: every target in a reached voxel-bin).
 
     Returns
     -------
@@ -204,7 +214,7 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
         Targets, mount, positions or headings that are not finite numbers of
         the right shape, positions beyond ``MAX_POSITION`` (m), more than
         ``MAX_TARGETS`` targets or ``MAX_YAWS`` headings, a step outside the
-        voxel bounds, or more than ``MAX_POSES`` placement-target pairs: all
+        voxel bounds, a threshold outside [0, 1], or more than ``MAX_POSES`` placement-target pairs: all
         checked before any grid is allocated (the pairs are then tested
         ``BATCH_POSES`` at a time).
 
@@ -224,6 +234,7 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
         raise ReachMapError(f"targets have shape {T.shape}; give 1 to {MAX_TARGETS} 4x4 poses T_floor_target, "
                             "shape (K, 4, 4)")
     mount = np.eye(4) if mount is None else finite_array(mount, "mount", (4, 4), "the 4x4 T_P_B")
+    threshold = check_threshold(threshold)
     if mount.shape != (4, 4):
         raise ReachMapError(f"mount has shape {mount.shape}; give one 4x4 transform T_P_B")
     for name, values in (("targets", T[:, :3, 3]), ("mount", mount[:3, 3]), ("xs", xs), ("ys", ys)):
@@ -272,8 +283,9 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
             T_P_F[..., :3, :3] = R_t
             T_P_F[..., :3, 3] = -np.einsum("...ij,...j->...i", R_t, T_F_P[..., :3, 3])
             T_B_target = mount_inv @ T_P_F[..., None, :, :] @ T  # (batch, K, 4, 4)
-            scores.reshape(-1, len(yaws))[start:start + batch, k] = reach_map.query(T_B_target).sum(axis=-1)
-    return BasePlacement(xs, ys, yaws, scores, T)
+            scores.reshape(-1, len(yaws))[start:start + batch, k] = reach_map.query(T_B_target, threshold=threshold).sum(
+                axis=-1)
+    return BasePlacement(xs, ys, yaws, scores, T, threshold)
 
 
 def plot_base_placement(result: BasePlacement, path, *, title: str | None = None) -> None:

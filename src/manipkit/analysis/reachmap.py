@@ -88,6 +88,7 @@ from manipkit.analysis import reachstages
 from manipkit.analysis.blocks import BlockRunner, check_workers
 from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
 from manipkit.analysis.reachjob import MapJob, translation_manipulability
+from manipkit.analysis.reachquery import DEFAULT_THRESHOLD
 from manipkit.errors import ReachMapError
 from manipkit.text import printable, repr_text, short_text
 
@@ -241,23 +242,33 @@ class ReachMap:
         value = np.where(inside, self.index[ijk[..., 0], ijk[..., 1], ijk[..., 2]], 0.0)
         return float(value) if value.ndim == 0 else value
 
-    def query(self, T, *, confirm: bool = False, detail: bool = False, robot: Robot | None = None):
-        """Whether each pose ``T`` (..., 4, 4), ``T_base_frame``, falls in a reached voxel-bin.
+    def query(self, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD, confirm: bool = False,
+              detail: bool = False, robot: Robot | None = None):
+        """Whether the map says each pose ``T`` (..., 4, 4), ``T_base_frame``, is reachable.
 
-        The answer is at the map's resolution (:meth:`resolution`: the voxel,
-        the approach-axis bin and the roll bin, or any roll). With ``detail``
-        or ``confirm`` the answer is a
-        :class:`manipkit.analysis.reachquery.QueryAnswer` (voxel, bins, the
-        bin's certificate; with ``confirm`` IK of the exact pose from that
-        certificate, confirmed by FK; ``robot`` the map's robot).
+        A yes means: the pose's voxel-bin was reached (:meth:`resolution`: the
+        voxel, the approach-axis bin and the roll bin, or any roll) **and** its
+        support is at least ``threshold``: the trilinear blend of the reached
+        flags of the same orientation bin at the 8 voxel centres around the
+        position (bilinear over 4 on a planar map) is at least ``threshold``
+        (:func:`manipkit.analysis.reachquery.support_score`; a reached
+        voxel-bin counts whenever any part of it is reached, which near the
+        edge of the reach says yes to poses no configuration reaches).
+        ``interpolate=False`` (or ``threshold=0``) answers for the voxel-bin
+        alone, the certified answer. With ``detail`` or ``confirm`` the answer
+        is a :class:`manipkit.analysis.reachquery.QueryAnswer` (both answers,
+        the score, voxel, bins, the bin's certificate; with ``confirm`` IK of
+        the exact pose from that certificate, confirmed by FK; ``robot`` the map's robot).
         For a planar map the pose must also keep the frame's axis along the
         arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
-        A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4) is a :class:`ReachMapError`.
+        A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4), or a ``threshold``
+        outside [0, 1], is a :class:`ReachMapError`.
         """
-        if confirm or detail:
-            from manipkit.analysis.reachquery import query_answer
+        from manipkit.analysis.reachquery import check_threshold, query_answer, support_score
 
-            return query_answer(self, T, confirm=confirm, robot=robot)
+        if confirm or detail:
+            return query_answer(self, T, interpolate=interpolate, threshold=threshold, confirm=confirm, robot=robot)
+        threshold = check_threshold(threshold)
         T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
@@ -265,6 +276,8 @@ class ReachMap:
             cos_tilt = (T[..., :3, :3] @ self.orientations.tool_axis) @ self.orientations.axis
             inside = inside & (cos_tilt >= math.cos(min(math.pi / self.orientations.size, PLANAR_TILT_TOL)))
         value = inside & (self.reach[ijk[..., 0], ijk[..., 1], ijk[..., 2], bins] > HOW_NONE)
+        if interpolate and threshold > 0.0:
+            value = value & (support_score(self, T[..., :3, 3], bins) >= threshold)
         return bool(value) if value.ndim == 0 else value
 
     def summary(self) -> str:

@@ -1,11 +1,24 @@
 """What a reachability map answers for a pose, and the exact answer by IK from the bin's certificate.
 
-(docs/architecture.md, "Reachability maps".) A map answers at its
+(docs/architecture.md, "Reachability maps".) A map is certain at its
 resolution: whether the **voxel** holding the position and the **orientation
-bin** holding the rotation were reached (:meth:`ReachMap.query`). The bin is
-the approach-axis direction plus the roll about it, or the direction alone
-with **any roll** when the map was built with one roll; a planar map's bin is
-a turn about its axis. :func:`query_answer` says which, per pose, and with
+bin** holding the rotation were reached (``bin_reached``; a configuration
+whose FK lands in that voxel-bin is stored). The bin is the approach-axis
+direction plus the roll about it, or the direction alone with **any roll**
+when the map was built with one roll; a planar map's bin is a turn about its
+axis.
+
+A voxel-bin counts as reached when any part of it is, so near the edge of
+the reach a pose in a reached voxel-bin is often not reachable. The map's
+yes (:meth:`ReachMap.query`, ``reachable`` here) therefore also asks for
+**support** around the position: the ``score`` (0..1) is the trilinear blend
+of the reached flags of the same orientation bin at the 8 voxel centres
+around the position (bilinear over 4 for a planar map, whose grid is one
+layer; centres outside the grid count as unreached), so it is 1 deep inside
+the reached set, 0 far from it, and falls across its edge. A yes means
+``bin_reached and score >= threshold`` (default :data:`DEFAULT_THRESHOLD`);
+``threshold=0`` or ``interpolate=False`` is the plain voxel-bin answer.
+:func:`query_answer` says which bins, per pose, and with
 ``confirm=True`` runs IK for the **exact** pose (mode ``"pose"``) from the
 certificate of the pose's voxel-bin (a configuration whose FK lands in it),
 then random restarts; ``confirmed`` is True only where FK of the answer
@@ -15,20 +28,28 @@ given). IK failing does not prove a pose unreachable.
 
 from __future__ import annotations
 
+import itertools
 import math
+import numbers
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.text import printable, short_text
+from manipkit.errors import ReachMapError
+from manipkit.text import printable, repr_text, short_text
 
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap import ReachMap
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["QueryAnswer", "checks_lines", "query_answer", "resolution_text"]
+__all__ = ["DEFAULT_THRESHOLD", "QueryAnswer", "checks_lines", "check_threshold", "query_answer", "resolution_text",
+           "support_score"]
+
+#: The least support (``score``) a yes needs besides a reached voxel-bin; chosen on the iiwa14 5 cm map of
+#: benchmarks/reachmap_workload.py (false positives and recall at several thresholds in docs/architecture.md).
+DEFAULT_THRESHOLD = 0.65
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,7 +59,13 @@ class QueryAnswer:
     Attributes
     ----------
     reachable : ndarray of bool, shape (...)
-        The map's answer: the voxel-bin holding the pose was reached.
+        The map's answer: ``bin_reached`` and ``score >= threshold``.
+    bin_reached : ndarray of bool, shape (...)
+        The certified answer: the voxel-bin holding the pose was reached.
+    score : ndarray of float, shape (...)
+        The support around the position in the pose's orientation bin, 0..1 (:func:`support_score`).
+    threshold : float
+        The least ``score`` a yes needed (0: the plain voxel-bin answer).
     voxel : ndarray of int, shape (..., 3)
         Grid index of the voxel holding the position (0 outside the grid).
     inside : ndarray of bool, shape (...)
@@ -58,6 +85,9 @@ class QueryAnswer:
     """
 
     reachable: np.ndarray
+    bin_reached: np.ndarray
+    score: np.ndarray
+    threshold: float
     voxel: np.ndarray
     inside: np.ndarray
     direction: np.ndarray
@@ -68,8 +98,8 @@ class QueryAnswer:
     q: np.ndarray | None = None
 
 
-def resolution_text(reach_map: ReachMap) -> str:
-    """One line: what a yes of the map means (voxel edge, orientation bins, roll or any roll)."""
+def bin_text(reach_map: ReachMap) -> str:
+    """The voxel-bin a pose falls in, in words (voxel edge, orientation bins, roll or any roll)."""
     o = reach_map.orientations
     voxel = f"the position's {short_text(reach_map.voxel)} m voxel"
     if o.kind == "planar":
@@ -81,20 +111,75 @@ def resolution_text(reach_map: ReachMap) -> str:
     return f"{voxel}, {direction} and the roll about it to {short_text(360.0 / o.n_rolls, 4)} deg bins"
 
 
-def query_answer(reach_map: ReachMap, T, *, confirm: bool = False, robot: Robot | None = None, tol: float = 1e-6,
-                 restarts: int = 20, seed: int = 0, collisions: CollisionSettings | None = None) -> QueryAnswer:
+def resolution_text(reach_map: ReachMap, *, threshold: float = DEFAULT_THRESHOLD) -> str:
+    """What a yes of the map means, in words: the voxel-bin reached and, for ``threshold > 0``, the support asked for."""
+    reached = f"the pose's voxel-bin was reached ({bin_text(reach_map)})"
+    if check_threshold(threshold) == 0.0:
+        return reached
+    corners = "4 voxel centres around the position (bilinear" if reach_map.orientations.kind == "planar" else (
+        "8 voxel centres around the position (trilinear")
+    return (f"{reached} and its support is at least {short_text(threshold, 3)}: the reached share of the same "
+            f"orientation bin at the {corners}, by distance); query(T, interpolate=False) answers for the "
+            "voxel-bin alone")
+
+
+def check_threshold(threshold) -> float:
+    """``threshold`` as a float if it is a real number in [0, 1], else :class:`ReachMapError`."""
+    if (isinstance(threshold, bool) or not isinstance(threshold, numbers.Real) or not math.isfinite(threshold)
+            or not 0.0 <= threshold <= 1.0):
+        raise ReachMapError(f"threshold {repr_text(threshold)}: give the least support a yes needs, a number from 0 "
+                            "to 1 (0: the plain voxel-bin answer)")
+    return float(threshold)
+
+
+def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
+    """(...,) support of each position ``xyz`` (..., 3, in ``base``, m) in its orientation bin ``bins`` (...,), 0..1.
+
+    The trilinear blend of the reached flags (1 reached, 0 not) at the 8
+    voxel centres around the position in bin ``bins`` (bilinear over 4 on a
+    planar map's one layer, where a point must lie within half a voxel of
+    the plane); centres outside the grid count as 0. At a voxel centre it is
+    that voxel-bin's flag; it is 1 where all 8 are reached, 0 where none is.
+    """
+    local = (np.asarray(xyz, dtype=float) - reach_map.origin) @ reach_map.axes / reach_map.voxel
+    shape = np.array(reach_map.shape)
+    flat = shape == 1  # a planar map's one layer: no neighbours across the plane
+    low = np.where(flat, np.rint(local), np.floor(local))  # in floats: a far point never overflows the integer cast
+    frac = np.where(flat, 0.0, local - low)
+    reached = reach_map.reach
+    score = np.zeros(local.shape[:-1])
+    for corner in itertools.product((0, 1), repeat=3):
+        step = np.array(corner)
+        if (step.astype(bool) & flat).any():
+            continue
+        ijk = low + step
+        weight = np.prod(np.where(step == 1, frac, 1.0 - frac), axis=-1)
+        inside = np.all((ijk >= 0) & (ijk < shape), axis=-1)
+        i, j, k = np.moveaxis(np.where(inside[..., None], ijk, 0).astype(np.int64), -1, 0)
+        score += np.where(inside & (reached[i, j, k, bins] > 0), weight, 0.0)
+    return np.clip(score, 0.0, 1.0)
+
+
+def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD,
+                 confirm: bool = False, robot: Robot | None = None, tol: float = 1e-6, restarts: int = 20,
+                 seed: int = 0, collisions: CollisionSettings | None = None) -> QueryAnswer:
     """The map's answer for poses ``T`` (..., 4, 4) ``T_base_frame`` and, with ``confirm``, IK's for the exact poses.
 
+    ``reachable`` is ``bin_reached and score >= threshold`` (the module
+    docstring); ``interpolate=False`` makes it ``bin_reached`` (threshold 0).
     ``robot``: the robot the map is of (default: loaded by the map's robot
     name, which works for bundled and example-robot-data robots). ``tol``:
     position (m) and rotation (rad) residual of a confirmed answer.
     """
-    from manipkit.analysis.reachmap import HOW_NONE, ReachMapError, finite_array
+    from manipkit.analysis.reachmap import HOW_NONE, finite_array
 
+    threshold = check_threshold(threshold) if interpolate else 0.0
     T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
-    reachable = np.asarray(reach_map.query(T))
+    bin_reached = np.asarray(reach_map.query(T, interpolate=False))
     ijk, inside = reach_map.voxel_of(T[..., :3, 3])
     bins = np.asarray(reach_map.orientations.bin_of(T[..., :3, :3]))
+    score = support_score(reach_map, T[..., :3, 3], bins)
+    reachable = bin_reached & (score >= threshold)
     o = reach_map.orientations
     direction, roll = (bins, None) if o.kind == "planar" or o.n_rolls == 1 else np.divmod(bins, o.n_rolls)
     n = len(reach_map.joint_names)
@@ -102,10 +187,11 @@ def query_answer(reach_map: ReachMap, T, *, confirm: bool = False, robot: Robot 
     certificate = np.full(T.shape[:-2] + (n,), np.nan)
     if reach_map.cert_keys is not None and reach_map.cert_keys.size:
         rows = np.clip(np.searchsorted(reach_map.cert_keys, keys), 0, reach_map.cert_keys.size - 1)
-        found = reachable & (reach_map.cert_keys[rows] == keys) & (reach_map.reach.reshape(-1)[keys] > HOW_NONE)
+        found = bin_reached & (reach_map.cert_keys[rows] == keys) & (reach_map.reach.reshape(-1)[keys] > HOW_NONE)
         certificate[found] = reach_map.cert_q[rows[found]]
-    answer = dict(reachable=reachable, voxel=ijk, inside=inside, direction=direction, roll=roll,
-                  resolution=resolution_text(reach_map), certificate=certificate)
+    answer = dict(reachable=reachable, bin_reached=bin_reached, score=score, threshold=threshold, voxel=ijk,
+                  inside=inside, direction=direction, roll=roll,
+                  resolution=resolution_text(reach_map, threshold=threshold), certificate=certificate)
     if not confirm:
         return QueryAnswer(**answer)
     if robot is None:
