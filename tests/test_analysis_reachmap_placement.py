@@ -12,8 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from manipkit.analysis.placement import base_placement, placement_transforms, plot_base_placement
+from manipkit.analysis.placement import base_placement, confirm_placement, placement_transforms, plot_base_placement
 from manipkit.analysis.reachmap import ReachMapError, build
+from manipkit.analysis.reachquery import DEFAULT_THRESHOLD
 from manipkit.closed_form.planar_workspace import workspace_2r
 
 
@@ -78,3 +79,28 @@ def test_too_many_placements_and_bad_targets_are_errors(map_2r):
         base_placement(map_2r, np.eye(4))
 
 
+
+
+def test_the_map_estimate_counts_targets_by_the_query_rule_and_says_so(map_2r, planar_2r):
+    # 400 targets in the ring 1.8 <= r <= 2.2 about the floor origin, the arm base there (one placement): the 2R
+    # (1, 1) reaches exactly r <= 2 (closed form), so a target counted beyond 2 is a false positive. The count with
+    # the default threshold is the sum of query(T) (voxel-bin reached and support >= 0.65); threshold 0 is the sum of
+    # the plain voxel-bin answers; the first never counts more, and counts fewer targets beyond the reach.
+    rng = np.random.default_rng(3)
+    r, a = 1.8 + 0.4 * rng.random(400), rng.uniform(-math.pi, math.pi, 400)
+    targets = np.tile(np.eye(4), (400, 1, 1))
+    targets[:, 0, 3], targets[:, 1, 3] = r * np.cos(a), r * np.sin(a)
+    found = base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0])
+    plain = base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0], threshold=0.0)
+    yes, bin_yes = map_2r.query(targets), map_2r.query(targets, interpolate=False)
+    assert found.threshold == DEFAULT_THRESHOLD and plain.threshold == 0.0
+    assert int(found.scores[0, 0, 0]) == int(yes.sum()) and int(plain.scores[0, 0, 0]) == int(bin_yes.sum())
+    beyond = r > 2.0
+    assert (yes & beyond).sum() < (bin_yes & beyond).sum() and not (yes & ~bin_yes).any()
+    assert yes[r < 1.9].all()  # 0.1 m (a voxel) inside the reach: the support there is 1
+    chosen = confirm_placement(map_2r, found, planar_2r, candidates=1, restarts=2)
+    assert chosen.map_score == int(yes.sum())
+    text = chosen.summary()
+    assert "the map estimates" in text and "its support is at least 0.65" in text and "voxel-bin was reached" in text
+    with pytest.raises(ReachMapError, match="threshold -0.1: give the least support"):
+        base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0], threshold=-0.1)

@@ -217,7 +217,19 @@ def test_show_text_is_the_build_summary(tmp_path):
                     "--collisions", "self", status=0).stdout
     shown = run_cli("manipkit", "reachmap", "show", tmp_path / "m.zarr", status=0).stdout
     assert built == shown + f"wrote {tmp_path / 'm.zarr'}\n"
-    assert "collision-free only: self" in shown and "a yes means: the position's 0.25 m voxel" in shown
+    assert "collision-free only: self" in shown and "its support is at least 0.65" in shown
+    assert "a yes means: the pose's voxel-bin was reached (the position's 0.25 m voxel" in shown
+
+
+def test_base_placement_text_says_what_the_map_estimate_counts(tmp_path):
+    (tmp_path / "t.txt").write_text("1.5 0 0 0 0 0\n0.5 0.5 0 0 0 0\n")
+    run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.1", "--orientations", "1", "--samples", "20000",
+            "-o", tmp_path / "m.zarr", status=0)
+    out = run_cli("manipkit", "base-placement", "--robot", "planar_2r", "--targets", tmp_path / "t.txt", "--map",
+                  tmp_path / "m.zarr", "--yaws", "2", status=0).stdout
+    estimate = next(line for line in out.splitlines() if line.startswith("the map estimates "))
+    assert "counting the targets it says yes to; a yes means: the pose's voxel-bin was reached (the position's 0.1 m " \
+           "voxel" in estimate and "its support is at least 0.65" in estimate and "interpolate=False" in estimate
 
 
 def test_show_view_needs_the_maps_robot(map_3r, tmp_path):

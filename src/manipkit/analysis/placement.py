@@ -124,8 +124,8 @@ class ConfirmedPlacement:
         return (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
                 f"{short_text(math.degrees(self.yaw), 4)} deg: IK confirms {int(self.confirmed.sum())} of {n} targets "
                 f"(full pose, by FK; best of the map's {self.candidates} best-scored placements)\n"
-                f"the map estimates {self.map_score} of {n} from there, counting a target when its yes means: "
-                f"{self.resolution}")
+                f"the map estimates {self.map_score} of {n} from there, counting the targets it says yes to; a yes "
+                f"means: {self.resolution}")
 
 
 def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, mount=None, candidates: int = 5,

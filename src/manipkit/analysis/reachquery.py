@@ -116,11 +116,10 @@ def resolution_text(reach_map: ReachMap, *, threshold: float = DEFAULT_THRESHOLD
     reached = f"the pose's voxel-bin was reached ({bin_text(reach_map)})"
     if check_threshold(threshold) == 0.0:
         return reached
-    corners = "4 voxel centres around the position (bilinear" if reach_map.orientations.kind == "planar" else (
-        "8 voxel centres around the position (trilinear")
-    return (f"{reached} and its support is at least {short_text(threshold, 3)}: the reached share of the same "
-            f"orientation bin at the {corners}, by distance); query(T, interpolate=False) answers for the "
-            "voxel-bin alone")
+    corners = "4 voxel centres around the position, blended bilinearly" if reach_map.orientations.kind == "planar" \
+        else "8 voxel centres around the position, blended trilinearly"
+    return (f"{reached} and its support is at least {short_text(threshold, 3)} (the reached flags of the same "
+            f"orientation bin at the {corners} by distance); query(T, interpolate=False) answers for the voxel-bin alone")
 
 
 def check_threshold(threshold) -> float:
