@@ -34,8 +34,12 @@ LocalCluster of 1 and of 2 worker processes. Rows as in
   answers in (``position+axis`` for one roll: the map says "any roll"),
   success by FK at 1e-9. Recall = reachable-labelled poses the map calls
   reachable; false-positive rate = unreachable-labelled poses it calls
-  reachable (issue 24's wording); both also per set. IK failing does not
-  prove a pose unreachable, so a false positive may be a pose IK missed.
+  reachable (issue 24's wording), also as a share of all labelled poses;
+  both also per set. Two rows: the map's yes (``query``: voxel-bin reached
+  and support at least the default threshold; its row also tabulates
+  ``AGREEMENT_THRESHOLDS``) and the plain voxel-bin answer
+  (``interpolate=False``). IK failing does not prove a pose unreachable,
+  so a false positive may be a pose IK missed.
 - ``ik_many``: solves per second on iiwa14 (FK of random configurations,
   random first starts) on 2 threads and on 1, timed in turns in one run
   (with the load average, since the machine may be shared); success checked
@@ -58,6 +62,7 @@ FULL = dict(voxel=0.05, directions=200, samples=150_000_000, converge=1e-4, ik_t
 QUICK = dict(voxel=0.1, directions=50, samples=300_000, converge=1e-3, ik_targets=2000, labelled=600,
              hybrid_voxel=0.2, hybrid_directions=20, hybrid_samples=100_000)
 LABEL_RESTARTS = 50
+AGREEMENT_THRESHOLDS = (0.5, 0.6, 0.65, 0.7, 0.75, 0.8)  # the support thresholds tabulated
 
 
 def _random_rotations(n: int, rng) -> np.ndarray:
@@ -107,6 +112,54 @@ def ik_many_rows(robot, robot_name: str, ik_targets: int, *, repeats: int = 3) -
     return rows
 
 
+def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> list[dict]:
+    """The ``reachmap_agreement`` rows of the map ``one``: its yes (``query``) first, then the plain voxel-bin answer."""
+    from manipkit.analysis.reachquery import DEFAULT_THRESHOLD, query_answer
+    from manipkit.kinematics.ik_many import ik_many
+
+    rng = np.random.default_rng(5)
+    fk_poses = robot.fk(robot.sample_q(labelled, seed=99), base=one.base, tip=one.frame)
+    box_low = one.origin
+    box_high = one.origin + (np.array(one.shape) - 1) * one.voxel
+    random_poses = np.tile(np.eye(4), (labelled, 1, 1))
+    random_poses[:, :3, :3] = _random_rotations(labelled, rng)
+    random_poses[:, :3, 3] = box_low + rng.random((labelled, 3)) * (box_high - box_low)
+    mode = one.settings["ik_mode"]
+    start = time.perf_counter()
+    batch = ik_many(robot, random_poses, one.base, one.frame, mode=mode, restarts=LABEL_RESTARTS, tol=1e-9, seed=7)
+    seconds_label = time.perf_counter() - start
+    labels = np.concatenate([np.ones(labelled, dtype=bool), np.array(batch.success, dtype=bool)])
+    poses = np.concatenate([fk_poses, random_poses])
+    answer = query_answer(one, poses)  # both answers and the score, to tabulate thresholds on the same poses
+    completeness = one.settings["completeness"]
+    sweep = {f"{t:g}": {"false_positive_share_of_all": float((answer.bin_reached & (answer.score >= t) & ~labels).mean()),
+                        "recall": float((answer.bin_reached & (answer.score >= t))[labels].mean())}
+             for t in AGREEMENT_THRESHOLDS}
+    rows = []
+    for interpolate, how in ((True, f"ReachMap.query (voxel-bin reached and support >= {DEFAULT_THRESHOLD:g})"),
+                             (False, "ReachMap.query(interpolate=False) (voxel-bin reached)")):
+        start = time.perf_counter()
+        says = one.query(poses, interpolate=interpolate)
+        seconds_query = time.perf_counter() - start
+        same = bool(np.array_equal(says, answer.reachable if interpolate else answer.bin_reached))
+        recall = float(says[labels].mean())
+        false_positive = float(says[~labels].mean()) if (~labels).any() else 0.0
+        rows.append(row("reachmap_agreement", robot_name, f"map (fk, converged) vs IK labels: {how}",
+                        [seconds_query / len(poses)], unit="pose", n=len(poses), ours=True, recall=recall,
+                        false_positive=false_positive, agreement=float((says == labels).mean()),
+                        false_positive_share_of_all=float((says & ~labels).mean()),
+                        recall_fk_poses=float(says[:labelled].mean()),
+                        recall_random_reachable=float(says[labelled:][labels[labelled:]].mean()),
+                        random_poses_reachable=float(labels[labelled:].mean()), label_seconds=seconds_label,
+                        threshold=DEFAULT_THRESHOLD if interpolate else 0.0, status="ok" if same else "wrong",
+                        **({"thresholds": sweep} if interpolate else {}),
+                        check=f"labels: ik_many mode {mode}, {LABEL_RESTARTS} restarts, tol 1e-9 (success by FK); "
+                              f"query equals query_answer's {'reachable' if interpolate else 'bin_reached'}: {same}",
+                        note=f"{labelled} FK poses of random configurations + {labelled} random poses in the grid box; "
+                             f"{what}; the map's own held-out completeness {completeness['rate']:.2%}"))
+    return rows
+
+
 def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: int, samples: int, converge: float,
                       ik_targets: int, labelled: int, hybrid_voxel: float, hybrid_directions: int,
                       hybrid_samples: int) -> list[dict]:
@@ -114,7 +167,6 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
     # Over 80 lines: one workload, its steps in order; each check sits beside the number it guards.
     import manipkit
     from manipkit.analysis import reachmap
-    from manipkit.kinematics.ik_many import ik_many
 
     robot = manipkit.load(robot_name)
     rows = []
@@ -168,35 +220,7 @@ def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: i
                     note=f"{hybrid_voxel} m voxels, {hybrid_directions} directions, converge 0.001; IK on unreached "
                          "voxel-bins next to reached ones, seeded from the neighbour's certificate"))
 
-    rng = np.random.default_rng(5)
-    fk_poses = robot.fk(robot.sample_q(labelled, seed=99), base=one.base, tip=one.frame)
-    box_low = one.origin
-    box_high = one.origin + (np.array(one.shape) - 1) * one.voxel
-    random_poses = np.tile(np.eye(4), (labelled, 1, 1))
-    random_poses[:, :3, :3] = _random_rotations(labelled, rng)
-    random_poses[:, :3, 3] = box_low + rng.random((labelled, 3)) * (box_high - box_low)
-    mode = one.settings["ik_mode"]
-    start = time.perf_counter()
-    batch = ik_many(robot, random_poses, one.base, one.frame, mode=mode, restarts=LABEL_RESTARTS, tol=1e-9, seed=7)
-    seconds_label = time.perf_counter() - start
-    labels = np.concatenate([np.ones(labelled, dtype=bool), np.array(batch.success, dtype=bool)])
-    poses = np.concatenate([fk_poses, random_poses])
-    start = time.perf_counter()
-    says = one.query(poses)
-    seconds_query = time.perf_counter() - start
-    recall = float(says[labels].mean())
-    false_positive = float(says[~labels].mean()) if (~labels).any() else 0.0
-    rows.append(row("reachmap_agreement", robot_name, "map (fk, converged) vs IK labels: ReachMap.query",
-                    [seconds_query / len(poses)], unit="pose", n=len(poses), ours=True, recall=recall,
-                    false_positive=false_positive, agreement=float((says == labels).mean()),
-                    false_positive_share_of_all=float((says & ~labels).mean()),
-                    recall_fk_poses=float(says[:labelled].mean()),
-                    recall_random_reachable=float(says[labelled:][labels[labelled:]].mean()),
-                    random_poses_reachable=float(labels[labelled:].mean()), label_seconds=seconds_label,
-                    check=f"labels: ik_many mode {mode}, {LABEL_RESTARTS} restarts, tol 1e-9 (success by FK)",
-                    note=f"{labelled} FK poses of random configurations + {labelled} random poses in the grid box; "
-                         f"{what}; the map's own held-out completeness {completeness['rate']:.2%}"))
-
+    rows += agreement_rows(robot, robot_name, one, labelled, what)
     rows += ik_many_rows(robot, robot_name, ik_targets)
     return rows
 

@@ -303,7 +303,7 @@ def plot_base_placement(result: BasePlacement, path, *, title: str | None = None
     extent = (result.xs[0] - step_x / 2, result.xs[-1] + step_x / 2, result.ys[0] - step_y / 2, result.ys[-1] + step_y / 2)
     image = ax.imshow(best_over_yaw.T, origin="lower", extent=extent, cmap="viridis", vmin=0, vmax=len(result.targets),
                       interpolation="nearest", aspect="equal")
-    fig.colorbar(image, ax=ax, label="targets reached (best heading)")
+    fig.colorbar(image, ax=ax, label="targets the map says yes to (best heading)")
     ax.scatter(result.targets[:, 0, 3], result.targets[:, 1, 3], marker="x", color="tab:red", label="targets")
     ax.arrow(x, y, 0.15 * math.cos(yaw), 0.15 * math.sin(yaw), width=0.01, color="white", length_includes_head=True)
     ax.plot([x], [y], "o", color="white", label=f"best: {score} of {len(result.targets)}")
