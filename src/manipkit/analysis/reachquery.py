@@ -140,22 +140,27 @@ def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
     the plane); centres outside the grid count as 0. At a voxel centre it is
     that voxel-bin's flag; it is 1 where all 8 are reached, 0 where none is.
     """
+    shape = reach_map.shape
     local = (np.asarray(xyz, dtype=float) - reach_map.origin) @ reach_map.axes / reach_map.voxel
-    shape = np.array(reach_map.shape)
-    flat = shape == 1  # a planar map's one layer: no neighbours across the plane
-    low = np.where(flat, np.rint(local), np.floor(local))  # in floats: a far point never overflows the integer cast
-    frac = np.where(flat, 0.0, local - low)
-    reached = reach_map.reach
-    score = np.zeros(local.shape[:-1])
-    for corner in itertools.product((0, 1), repeat=3):
-        step = np.array(corner)
-        if (step.astype(bool) & flat).any():
+    local = np.clip(local, -2.0, np.array(shape) + 1.0)  # a point farther out has every corner outside already
+    flat_reach = reach_map.reach.reshape(-1)
+    strides = (shape[1] * shape[2] * reach_map.orientations.size, shape[2] * reach_map.orientations.size,
+               reach_map.orientations.size)
+    # per axis, the two layers around the point (one on a planar map's single layer): flat offset, weight, inside
+    layers = []
+    for axis, n in enumerate(shape):
+        u = local[..., axis]
+        if n == 1:  # a planar map's one layer: no neighbours across the plane
+            layers.append([(0, np.ones_like(u), np.rint(u) == 0)])
             continue
-        ijk = low + step
-        weight = np.prod(np.where(step == 1, frac, 1.0 - frac), axis=-1)
-        inside = np.all((ijk >= 0) & (ijk < shape), axis=-1)
-        i, j, k = np.moveaxis(np.where(inside[..., None], ijk, 0).astype(np.int64), -1, 0)
-        score += np.where(inside & (reached[i, j, k, bins] > 0), weight, 0.0)
+        low = np.floor(u)
+        frac = u - low
+        layers.append([(np.clip(low + step, 0, n - 1).astype(np.int64) * strides[axis], weight,
+                        (low + step >= 0) & (low + step < n)) for step, weight in ((0, 1.0 - frac), (1, frac))])
+    score = np.zeros(local.shape[:-1])
+    for (ox, wx, ix), (oy, wy, iy), (oz, wz, iz) in itertools.product(*layers):
+        reached = flat_reach[ox + oy + oz + bins] > 0
+        score += np.where(ix & iy & iz & reached, wx * wy * wz, 0.0)
     return np.clip(score, 0.0, 1.0)
 
 
