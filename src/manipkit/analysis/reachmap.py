@@ -248,7 +248,8 @@ class ReachMap:
 
         A yes means: the pose's voxel-bin was reached (:meth:`resolution`: the
         voxel, the approach-axis bin and the roll bin, or any roll) **and** its
-        support is at least ``threshold``: the trilinear blend of the reached
+        support is at least ``threshold`` (default
+        :data:`manipkit.analysis.reachquery.DEFAULT_THRESHOLD`, 0.65): the trilinear blend of the reached
         flags of the same orientation bin at the 8 voxel centres around the
         position (bilinear over 4 on a planar map) is at least ``threshold``
         (:func:`manipkit.analysis.reachquery.support_score`; a reached

@@ -44,8 +44,8 @@ if TYPE_CHECKING:
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["DEFAULT_THRESHOLD", "QueryAnswer", "checks_lines", "check_threshold", "query_answer", "resolution_text",
-           "support_score"]
+__all__ = ["DEFAULT_THRESHOLD", "QueryAnswer", "bin_text", "checks_lines", "check_threshold", "query_answer",
+           "resolution_text", "support_score"]
 
 #: The least support (``score``) a yes needs besides a reached voxel-bin; chosen on the iiwa14 5 cm map of
 #: benchmarks/reachmap_workload.py (false positives and recall at several thresholds in docs/architecture.md).
