@@ -6,8 +6,10 @@ its non-empty slots alone are put through the chain's compiled FK
 (``chain.fk``: :class:`manipkit.kinematics.fk_kernel.ChainFK`, whose loop
 runs without the GIL too) and measured by
 :func:`manipkit.closed_form.arms_kernel.measure_at` (``pose_residuals``'
-compiled twin). Up to ``threads`` threads take blocks at once (the calling
-thread works too). Every number of a target is computed from that target
+compiled twin). Up to ``threads`` threads of a pool take blocks at once
+while the calling thread waits; a batch of at most one block
+(:data:`BLOCK`) or under :data:`MIN_TARGETS_PER_THREAD` targets per thread
+runs on the calling thread alone. Every number of a target is computed from that target
 alone, by the same operations whatever block or thread it falls in, so the
 answers are the same bit for bit on any number of threads (tested). Targets
 the compiled loop hands back are solved afterwards by the numpy reference
