@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import manipkit
 from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
@@ -395,3 +397,124 @@ def test_dropping_colliding_branches_keeps_the_per_row_fields_with_their_rows():
     assert len(kept.within_limits) == len(kept.refined) == len(kept.labels) == len(kept.solutions)
     for label, q in zip(kept.labels, kept.solutions):
         assert np.array_equal(q, result.solutions[result.labels.index(label)])
+
+
+# --------------------------------------------------------------------------
+# chain_ik_many on threads (issue 22's batched speed): the same answers, bit for bit, on any number of threads
+
+
+def previous_batch(chain, T, check=(1e-10, 1e-10)):
+    """The batched check as it was before it ran in blocks on threads (one solve, chain.fk of every slot with the
+    empty ones filled by 0, measure_many): (solutions, count, success, residuals) to compare bit for bit."""
+    from manipkit.closed_form.arms_kernel import measure_many, solve_rows_many
+    from manipkit.closed_form.chain_ik import _projected_target, _reference_rows, compiled_arm, ideal_arm
+
+    arm = ideal_arm(chain_family(chain))
+    valid, fallback, project, Q = solve_rows_many(compiled_arm(chain, arm), T)
+    free_any = np.zeros(len(T), dtype=bool)
+    if fallback.any():  # the numpy reference's rows (unchanged by the blocks and threads)
+        rows = np.flatnonzero(fallback)
+        valid[rows], free_any[rows], Q[rows] = _reference_rows(chain, arm, T[rows])
+    T_check = T.copy()
+    T_check[project] = _projected_target(T[project])
+    missing = np.isnan(Q[..., 0])
+    residuals, success = measure_many(T_check, chain.fk(np.where(missing[..., None], 0.0, Q)), Q, check)
+    return Q, np.where(free_any, np.inf, valid.sum(axis=-1).astype(float)), success, residuals
+
+
+def batch_targets(chain, seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(Q, T): FK of ``n`` random in-limit configurations, then one target whose rotation block is 1e-9 off a
+    rotation (projected before it is measured; its rows miss by about that) and one with q5 = 0 (UR5, IRB2400:
+    the wrist singularity, handed to the numpy reference, a family)."""
+    Q = chain.sample(n + 2, seed=seed)
+    Q[-1, 4] = 0.0
+    T = chain.fk(Q)
+    T[-2, :3, :3] *= 1.0 + 1e-9
+    return Q, T
+
+
+def assert_same_for_any_thread_count(robot, base, tip, seed, n, monkeypatch, *, q5_singular=True):
+    from manipkit.closed_form import chain_batch
+
+    monkeypatch.setattr(chain_batch, "BLOCK", 3)  # many blocks and threads even for a small batch
+    monkeypatch.setattr(chain_batch, "MIN_TARGETS_PER_THREAD", 1)
+    chain = robot.chain(base, tip)
+    Q, T = batch_targets(chain, seed, n)
+    before = previous_batch(chain, T)
+    for threads in (1, 2, 3):
+        batch = chain_ik_many(chain, T, threads=threads)
+        now = (batch.solutions, batch.count, batch.success, batch.residuals)
+        for a, b in zip(now, before):
+            assert np.array_equal(a, b, equal_nan=True), threads
+    present = ~np.isnan(batch.solutions[..., 0])
+    assert np.isinf(batch.count[-1]) == q5_singular and batch.success[:-2].all()
+    for i, (q, rows) in enumerate(zip(Q[:n], batch.solutions[:n])):
+        assert any(same_modulo_2pi(s, q) for s in rows[present[i]])
+    assert not np.isnan(batch.residual_position[n][present[n]]).any()  # the target off a rotation: measured, not solved
+    for i, k in zip(*np.nonzero(present)):  # every returned slot of a rigid target, by Pinocchio itself
+        if i != n:
+            assert pose_gap(pinocchio_pose(robot, base, tip, chain.full(batch.solutions[i, k])), T[i]) < 1e-10
+
+
+_BATCH_SETTINGS = dict(max_examples=12, deadline=None)
+
+
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 9))
+@settings(**_BATCH_SETTINGS, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_ur5_batch_is_the_same_bit_for_bit_on_any_number_of_threads(seed, n, monkeypatch):
+    assert_same_for_any_thread_count(manipkit.load("ur5"), "base_link", "tool0", seed, n, monkeypatch)
+
+
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 9))
+@settings(**_BATCH_SETTINGS, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_kinova_batch_is_the_same_bit_for_bit_on_any_number_of_threads(seed, n, monkeypatch):
+    assert_same_for_any_thread_count(manipkit.load("kinova"), "base", "j2s6s200_end_effector", seed, n, monkeypatch,
+                                     q5_singular=False)  # its wrist aligns elsewhere: q5 = 0 is a regular target
+
+
+@needs_realworld
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 9))
+@settings(**_BATCH_SETTINGS, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_irb2400_batch_is_the_same_bit_for_bit_on_any_number_of_threads(seed, n, monkeypatch):
+    assert_same_for_any_thread_count(load_realworld(IRB2400), "base_link", "tool0", seed, n, monkeypatch)
+
+
+def test_a_batch_big_enough_for_both_threads_by_default_gives_the_one_thread_answer():
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    _, T = batch_targets(chain, 5, 2000)
+    one, default = chain_ik_many(chain, T, threads=1), chain_ik_many(chain, T)
+    for field in ("solutions", "count", "success", "residuals"):
+        assert np.array_equal(getattr(one, field), getattr(default, field), equal_nan=True), field
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1.5, True, "2"])
+def test_threads_must_be_a_whole_number_of_at_least_one(threads):
+    from manipkit.errors import IKOptionError
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    with pytest.raises(IKOptionError, match="threads must be a whole number"):
+        chain_ik_many(chain, np.eye(4)[None], threads=threads)
+
+
+def test_an_error_in_a_block_is_raised_in_the_calling_thread_after_the_running_blocks_finish(monkeypatch):
+    import threading
+    import time
+
+    from manipkit.closed_form import chain_batch
+
+    monkeypatch.setattr(chain_batch, "BLOCK", 2)
+    monkeypatch.setattr(chain_batch, "MIN_TARGETS_PER_THREAD", 1)
+    lock, started, finished = threading.Lock(), [], []
+
+    def work(a, b):
+        with lock:
+            started.append(a)
+        if a == 4:
+            raise ValueError("block 4")
+        time.sleep(0.002)
+        with lock:
+            finished.append(a)
+
+    with pytest.raises(ValueError, match="block 4"):
+        chain_batch._run_blocks(work, 40, 2)
+    assert 4 in started and sorted(finished) == sorted(set(started) - {4})  # nothing still running

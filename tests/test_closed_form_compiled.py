@@ -163,3 +163,34 @@ def test_chain_rows_take_the_in_limit_alias_nearest_zero():
                       np.array([6.0, np.inf]))
     assert rows[0, 0].tolist() == pytest.approx([-3.0 + 2 * np.pi, 4.0 - 2 * np.pi], abs=1e-15)
     assert np.isnan(rows[0, 1]).all()
+
+
+def test_solve_rows_into_packs_the_non_empty_rows_in_order_and_measure_at_equals_measure_many():
+    from manipkit.closed_form.arms_kernel import measure_at, measure_many, solve_rows_into, solve_rows_many
+    from manipkit.closed_form.chain_ik import compiled_arm
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    prepared = compiled_arm(chain, ideal_arm(chain_family(chain)))
+    Q = chain.sample(300, seed=21)
+    Q[::7, 4] = 0.0  # wrist singular: handed back (NaN rows, not packed)
+    T = chain.fk(Q)
+    T[::11, :3, 3] += 5.0  # out of reach: no branch
+    N, n = len(T), 6
+    valid, fallback, project = np.zeros((N, 8), dtype=bool), np.zeros(N, dtype=bool), np.zeros(N, dtype=bool)
+    rows, packed, index = np.empty((N, 8, n)), np.full((8 * N, n), -7.0), np.full(8 * N, -1, dtype=np.int64)
+    M = solve_rows_into(prepared, T, valid, fallback, project, rows, packed, index)
+    expected = solve_rows_many(prepared, T)
+    for got, want in zip((valid, fallback, project, rows), expected):
+        assert np.array_equal(got, want, equal_nan=True)
+    present = ~np.isnan(rows[..., 0])
+    assert fallback.any() and (~present).any() and M == present.sum()
+    assert np.array_equal(index[:M], np.flatnonzero(present.reshape(-1)))
+    assert np.array_equal(packed[:M], rows[present])
+    reached = chain.fk(packed[:M])
+    residuals, success = np.empty((N, 8, 2)), np.empty(N, dtype=bool)
+    measure_at(T, reached, index[:M], (1e-10, 1e-10), residuals, success)
+    all_reached = np.broadcast_to(np.eye(4), (N, 8, 4, 4)).copy()
+    all_reached[present] = reached
+    want_residuals, want_success = measure_many(T, all_reached, rows, (1e-10, 1e-10))
+    assert np.array_equal(residuals, want_residuals, equal_nan=True) and np.array_equal(success, want_success)
+    assert np.isnan(residuals[~present]).all() and (residuals[present] < 1e-10).all()

@@ -89,8 +89,8 @@ from manipkit.closed_form.subproblems_kernel import (
     wrap as _wrap,
 )
 
-__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_many", "solve_check_one", "solve_many",
-           "solve_rows_many", "warm_up"]
+__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_at", "measure_many", "solve_check_one",
+           "solve_many", "solve_rows_into", "solve_rows_many", "warm_up"]
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
@@ -364,12 +364,14 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
     return False
 
 
-@compile_kernel
-def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows):
+def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, packed, index):
+    """Every target of ``T``: its rows (NaN where no branch, or handed back), and the rows that are not NaN also
+    packed in order into ``packed`` (M, n) with their slot ``index`` (M,) (``8 target + slot``); returns M."""
     kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
     c = _row(points, 0)
     g = np.empty((4, 4))
     theta, near = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_)  # one target's, reused: no (N, 8, m) array
+    count = 0
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
         _solved_target(T[n], M_inv, reverse, g)
@@ -383,9 +385,39 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows):
         for k in range(theta.shape[0]):
             if valid_n[k] and not fallback[n]:
                 chain_row(theta, k, reverse, q0, columns, solved, rows_n)
+                if not math.isnan(rows_n[k, 0]):  # as the check reads a row: present unless its first entry is NaN
+                    for j in range(rows_n.shape[1]):
+                        packed[count, j] = rows_n[k, j]
+                    index[count] = theta.shape[0] * n + k
+                    count += 1
             else:
                 for j in range(rows_n.shape[1]):
                     rows_n[k, j] = np.nan
+    return count
+
+
+# nogil: chain_ik_many runs it on blocks of targets from several threads at once (each block its own rows)
+_solve_rows_all = compile_kernel(_solve_rows_all, nogil=True)
+
+
+def _measure_at(T, reached, index, position_tol, rotation_tol, residuals, success):
+    """residuals[n, k] = the residual (m, rad) of reached[i] against T[n] for slot ``index[i] = slots n + k``, NaN
+    in the other slots; success[n]: some slot of target n within both tolerances."""
+    slots = residuals.shape[1]
+    for n in range(residuals.shape[0]):
+        for k in range(slots):
+            residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
+    for i in range(index.shape[0]):
+        n, k = index[i] // slots, index[i] % slots
+        residuals[n, k, 0], residuals[n, k, 1] = pose_residual(T[n], reached[i])
+    for n in range(residuals.shape[0]):
+        success[n] = False
+        for k in range(slots):
+            if residuals[n, k, 0] <= position_tol and residuals[n, k, 1] <= rotation_tol:  # NaN: False
+                success[n] = True
+
+
+_measure_at = compile_kernel(_measure_at, nogil=True)
 
 
 @compile_kernel
@@ -438,8 +470,27 @@ def solve_rows_many(prepared: tuple, T: np.ndarray):
     valid = np.zeros((N, 8), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
     rows = np.empty((N, 8, n))
-    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows)
+    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, np.empty((8 * N, n)),
+                    np.empty(8 * N, dtype=np.int64))
     return valid, fallback, project, rows
+
+
+def solve_rows_into(prepared: tuple, T: np.ndarray, valid: np.ndarray, fallback: np.ndarray, project: np.ndarray,
+                    rows: np.ndarray, packed: np.ndarray, index: np.ndarray) -> int:
+    """:func:`solve_rows_many` written into the given arrays (C-contiguous: valid (N, 8) bool, fallback and project
+    (N,) bool, rows (N, 8, n) float), without the GIL: each thread of a batch passes its own block of targets.
+    The rows that are not NaN are also copied, in order, into ``packed`` (at least (8 N, n)), with their slot
+    ``8 target + k`` in ``index`` (int64): returns how many, M (``packed[:M]`` is what the check puts through FK)."""
+    return _solve_rows_all(prepared[0], prepared[1], T, valid, fallback, project, rows, packed, index)
+
+
+def measure_at(T: np.ndarray, reached: np.ndarray, index: np.ndarray, tol: tuple[float, float], residuals: np.ndarray,
+               success: np.ndarray) -> None:
+    """``residuals`` (N, k, 2, written): the residuals (m, rad) of the reached pose ``reached[i]`` (M, 4, 4) against
+    target ``T[n]`` (N, 4, 4) in slot ``index[i] = k n + slot`` (M,), by
+    :func:`~manipkit.closed_form.check_kernel.pose_residual` (as :func:`measure_many`), NaN in every other slot;
+    ``success`` (N,, written): some slot within ``tol`` (m, rad). Without the GIL."""
+    _measure_at(T, reached, index, float(tol[0]), float(tol[1]), residuals, success)
 
 
 def measure_many(T: np.ndarray, reached: np.ndarray, rows: np.ndarray, tol: tuple[float, float]
@@ -498,6 +549,8 @@ def warm_up() -> None:
     solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
     rows = solve_rows_many(prepared, g)[-1]
     measure_many(g, np.repeat(g[:, None], 8, axis=1), rows, (1e-10, 1e-10))
+    measure_at(g, np.repeat(g, 8, axis=0), np.arange(8, dtype=np.int64), (1e-10, 1e-10), np.empty((1, 8, 2)),
+               np.empty(1, dtype=np.bool_))
     solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
 
 

@@ -641,7 +641,7 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
 
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-                  lock=None, compiled: bool = True) -> IKBatch:
+                  lock=None, compiled: bool = True, threads: int | None = None) -> IKBatch:
     """Every branch for many targets ``(N, 4, 4)`` at once (compiled): an :class:`IKBatch` of 8 slots.
 
     Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
@@ -650,9 +650,13 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
     and ``success`` are measured by the chain's compiled FK against
     ``check_tol``: in the call for the UR and OPW families (the solve, the
-    FK of every row and the residuals compiled: :func:`_checked_many`), on
-    first use for the others. ``compiled`` as in :func:`chain_ik` (False:
-    the numpy reference, measured on first use).
+    FK of every non-empty slot and the residuals compiled, in blocks of
+    targets on up to ``threads`` threads:
+    :func:`manipkit.closed_form.chain_batch.checked_many`), on first use
+    for the others. ``compiled`` as in :func:`chain_ik` (False: the numpy
+    reference, measured on first use). ``threads``: most threads at once
+    (default: the cores this process may run on, up to 8, as ``ik_many``);
+    the answers are the same bit for bit for any number.
     """
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
     arm = ideal_arm(family)
@@ -661,7 +665,14 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
     solver = f"closed_form.chain_ik_many ({family.kind})"
     if compiled and family.kind in (UR, OPW):
-        return _checked_many(chain, arm, T, check, slots, solver)
+        from manipkit.closed_form.chain_batch import checked_many, thread_count
+
+        Q, count, success, residuals = checked_many(chain, compiled_arm(chain, arm), T, check, thread_count(threads),
+                                                    reference=lambda g: _reference_rows(chain, arm, g),
+                                                    projected=_projected_target)
+        return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
+                       success=success, residual_position=residuals[..., 0], residual_rotation=residuals[..., 1],
+                       q_residuals=residuals[..., 0, :])
     theta, branches, _ = _branches(arm, T, compiled=compiled)
     geometry = family.geometry
     Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
@@ -679,38 +690,16 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
                    measure=measure, limit=check)
 
 
-def _checked_many(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], slots: tuple[str, ...],
-                  solver: str) -> IKBatch:
-    """:func:`chain_ik_many` of the UR and OPW families: every branch solved and aliased in one compiled loop
-    (:func:`manipkit.closed_form.arms_kernel.solve_rows_many`; the targets it hands back by the numpy reference),
-    every row put through the chain's compiled FK (``chain.fk``) and measured by ``pose_residuals``' compiled twin
-    (:func:`manipkit.closed_form.arms_kernel.measure_many`), against the target's rotation projected where it is
-    not a rotation to 1e-12, as :func:`chain_ik` measures."""
-    from manipkit.closed_form.arms_kernel import chain_rows, measure_many, solve_rows_many
+def _reference_rows(chain: Chain, arm: IdealArm, T: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(valid (K, 8), free (K,): some slot has a free angle, rows (K, 8, n)) of targets ``T`` (K, 4, 4) by the numpy
+    reference, for the targets :func:`chain_ik_many`'s compiled loop hands back (rows as its compiled rows)."""
+    from manipkit.closed_form.arms_kernel import chain_rows
 
-    prepared = compiled_arm(chain, arm)
-    valid, fallback, project, Q = solve_rows_many(prepared, T)
-    free_any = np.zeros(len(T), dtype=bool)
-    if fallback.any():
-        rows = np.flatnonzero(fallback)
-        reference = solve_6r(arm.family.kind, arm.h, arm.p, _solved_direction(arm, T[rows]), arm.points)
-        theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
-        valid[rows] = reference.valid
-        free_any[rows] = (reference.free >= 0).any(axis=-1)
-        geometry = arm.family.geometry
-        Q[rows] = chain_rows(theta, reference.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
-    T_check = T
-    if project.any():
-        T_check = T.copy()
-        T_check[project] = _projected_target(T[project])
-    missing = np.isnan(Q[..., 0])
-    reached = chain.fk(np.where(missing[..., None], 0.0, Q))
-    residuals, success = measure_many(T_check, reached, Q, check)
-    count = np.where(free_any, np.inf, valid.sum(axis=-1).astype(float))
-    position, rotation = residuals[..., 0], residuals[..., 1]
-    return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
-                   success=success, residual_position=position, residual_rotation=rotation,
-                   q_residuals=residuals[..., 0, :])
+    reference = solve_6r(arm.family.kind, arm.h, arm.p, _solved_direction(arm, T), arm.points)
+    theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
+    geometry = arm.family.geometry
+    rows = chain_rows(theta, reference.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
+    return reference.valid, (reference.free >= 0).any(axis=-1), rows
 
 
 def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:

@@ -376,7 +376,8 @@ def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out
 
 # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would keep LLVM
 # from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
-_kernel = lazy_kernel(_poses, error_model="numpy")
+# nogil: the loop touches no Python object, so threads (the closed forms' batched check) may run it at once
+_kernel = lazy_kernel(_poses, error_model="numpy", nogil=True)
 
 
 # --------------------------------------------------------------------------

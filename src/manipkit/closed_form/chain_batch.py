@@ -1,0 +1,122 @@
+"""The compiled batch of :func:`manipkit.closed_form.chain_ik.chain_ik_many` (UR and OPW families), on threads.
+
+Targets are cut into contiguous blocks; each block is solved and aliased by
+:func:`manipkit.closed_form.arms_kernel.solve_rows_into` (compiled, no GIL),
+its non-empty slots alone are put through the chain's compiled FK
+(``chain.fk``: :class:`manipkit.kinematics.fk_kernel.ChainFK`, whose loop
+runs without the GIL too) and measured by
+:func:`manipkit.closed_form.arms_kernel.measure_at` (``pose_residuals``'
+compiled twin). Up to ``threads`` threads of a pool take blocks at once
+while the calling thread waits; a batch of at most one block
+(:data:`BLOCK`) or under :data:`MIN_TARGETS_PER_THREAD` targets per thread
+runs on the calling thread alone. Every number of a target is computed from that target
+alone, by the same operations whatever block or thread it falls in, so the
+answers are the same bit for bit on any number of threads (tested). Targets
+the compiled loop hands back are solved afterwards by the numpy reference
+(:func:`manipkit.closed_form.arms.solve_6r`, through ``chain_ik``) and
+checked the same way.
+"""
+
+from __future__ import annotations
+
+import numbers
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.errors import IKOptionError
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
+
+__all__ = ["BLOCK", "MAX_THREADS", "MIN_TARGETS_PER_THREAD", "checked_many", "thread_count"]
+
+#: Most threads a batch uses by default (the cores this process may run on, up to this), as ``ik_many``.
+MAX_THREADS = 8
+#: Fewest targets per thread: a smaller batch runs on the calling thread alone (a thread's start, about 0.1 ms,
+#: is worth about 100 targets).
+MIN_TARGETS_PER_THREAD = 256
+#: Targets per block: one block's rows and reached poses (about 0.5 MB) stay in the L2 cache.
+BLOCK = 512
+
+
+def thread_count(threads) -> int:
+    """``threads`` checked (a whole number >= 1), or for None the cores this process may run on, up to
+    :data:`MAX_THREADS` (as ``ik_many`` counts them)."""
+    if threads is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        return max(1, min(MAX_THREADS, cores))
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise IKOptionError(f"threads must be a whole number of threads, at least 1, or None; got {threads!r}")
+    return int(threads)
+
+
+def _run_blocks(work, n_targets: int, threads: int) -> None:
+    """``work(start, stop)`` on the blocks of :data:`BLOCK` targets covering ``0 .. n_targets``, on up to
+    ``threads`` threads. An error cancels the blocks not started; those running finish, then it is raised here."""
+    blocks = [(a, min(a + BLOCK, n_targets)) for a in range(0, n_targets, BLOCK)]
+    used = max(1, min(threads, n_targets // MIN_TARGETS_PER_THREAD, len(blocks)))
+    if used == 1:
+        for a, b in blocks:
+            work(a, b)
+        return
+    with ThreadPoolExecutor(max_workers=used, thread_name_prefix="manipkit-chain_ik_many") as pool:
+        futures = [pool.submit(work, a, b) for a, b in blocks]
+        try:
+            for future in futures:
+                future.result()
+        except BaseException:  # also a Ctrl-C while waiting: nothing new starts
+            for future in futures:
+                future.cancel()
+            raise
+
+
+def _check(chain: Chain, T: np.ndarray, project: np.ndarray, packed: np.ndarray, index: np.ndarray,
+           check: tuple[float, float], residuals: np.ndarray, success: np.ndarray, projected) -> None:
+    """``residuals`` ((B, 8, 2), written) of the rows ``packed`` (M, n) in slots ``index`` (M,) (``8 n + k``)
+    against targets ``T`` (B, 4, 4) (their rotations projected where ``project``), NaN in the empty slots, and
+    ``success`` (B,): the chain's compiled FK of those rows alone, then the compiled residual. ``projected``:
+    targets (K, 4, 4) -> the same with their rotation blocks projected to rotations."""
+    from manipkit.closed_form.arms_kernel import measure_at
+
+    if project.any():
+        T = T.copy()
+        T[project] = projected(T[project])
+    reached = chain.fk(packed) if len(packed) else np.empty((0, 4, 4))
+    measure_at(T, reached, index, check, residuals, success)
+
+
+def checked_many(chain: Chain, prepared: tuple, T: np.ndarray, check: tuple[float, float], threads: int, *,
+                 reference, projected) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``chain_ik_many`` of the UR and OPW families: every branch of targets ``T`` (N, 4, 4) solved, aliased, put
+    through the chain's FK and measured against ``check`` (m, rad), in blocks on up to ``threads`` threads.
+
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``); ``reference``: targets (K, 4, 4) ->
+    (valid (K, 8), free (K,): a free angle, rows (K, 8, n)) by the numpy reference, for the targets the compiled
+    loop hands back; ``projected`` as :func:`_check` takes it. Returns (rows (N, 8, n), count (N,), success (N,),
+    residuals (N, 8, 2)).
+    """
+    from manipkit.closed_form.arms_kernel import solve_rows_into
+
+    T = np.ascontiguousarray(T, dtype=float)
+    N, n = T.shape[0], int(prepared[1][3])
+    valid, fallback, project = np.zeros((N, 8), dtype=bool), np.zeros(N, dtype=bool), np.zeros(N, dtype=bool)
+    Q, residuals, success = np.empty((N, 8, n)), np.empty((N, 8, 2)), np.empty(N, dtype=bool)
+
+    def work(a: int, b: int) -> None:  # row slices of C-contiguous arrays: views, written in place
+        packed, index = np.empty((8 * (b - a), n)), np.empty(8 * (b - a), dtype=np.int64)
+        M = solve_rows_into(prepared, T[a:b], valid[a:b], fallback[a:b], project[a:b], Q[a:b], packed, index)
+        _check(chain, T[a:b], project[a:b], packed[:M], index[:M], check, residuals[a:b], success[a:b], projected)
+
+    _run_blocks(work, N, threads)
+    free_any = np.zeros(N, dtype=bool)
+    if fallback.any():  # the targets handed back: the numpy reference, then the same check
+        rows = np.flatnonzero(fallback)
+        valid[rows], free_any[rows], Q[rows] = reference(T[rows])
+        checked, reached = np.empty((len(rows), 8, 2)), np.empty(len(rows), dtype=bool)
+        index = np.flatnonzero(~np.isnan(Q[rows, :, 0]).reshape(-1))
+        _check(chain, T[rows], project[rows], Q[rows].reshape(-1, n)[index], index, check, checked, reached, projected)
+        residuals[rows], success[rows] = checked, reached
+    return Q, np.where(free_any, np.inf, valid.sum(axis=-1).astype(float)), success, residuals
