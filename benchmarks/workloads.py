@@ -836,7 +836,7 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
                                               f"configuration among the answers: {found:.1%}",
                     note="chain_ik behind the robot, frames and family lookup (each found once per chain)"))
 
-    from manipkit.closed_form.chain_batch import thread_count
+    from manipkit.kinematics.fk_kernel import thread_count
 
     def batched(compiled, threads):
         batch = chain_ik_many(chain, T[:n_batch], family=family, compiled=compiled, threads=threads)

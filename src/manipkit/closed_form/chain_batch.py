@@ -19,38 +19,21 @@ checked the same way.
 
 from __future__ import annotations
 
-import numbers
-import os
 from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.errors import IKOptionError
-
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["BLOCK", "MAX_THREADS", "MIN_TARGETS_PER_THREAD", "checked_many", "thread_count"]
+__all__ = ["BLOCK", "MIN_TARGETS_PER_THREAD", "checked_many"]
 
-#: Most threads a batch uses by default (the cores this process may run on, up to this), as ``ik_many``.
-MAX_THREADS = 8
 #: Fewest targets per thread: a smaller batch runs on the calling thread alone (a thread's start, about 0.1 ms,
 #: is worth about 100 targets).
 MIN_TARGETS_PER_THREAD = 256
 #: Targets per block: one block's rows and reached poses (about 0.5 MB) stay in the L2 cache.
 BLOCK = 512
-
-
-def thread_count(threads) -> int:
-    """``threads`` checked (a whole number >= 1), or for None the cores this process may run on, up to
-    :data:`MAX_THREADS` (as ``ik_many`` counts them)."""
-    if threads is None:
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        return max(1, min(MAX_THREADS, cores))
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
-        raise IKOptionError(f"threads must be a whole number of threads, at least 1, or None; got {threads!r}")
-    return int(threads)
 
 
 def _run_blocks(work, n_targets: int, threads: int) -> None:

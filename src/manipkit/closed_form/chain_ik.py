@@ -665,7 +665,8 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
     solver = f"closed_form.chain_ik_many ({family.kind})"
     if compiled and family.kind in (UR, OPW):
-        from manipkit.closed_form.chain_batch import checked_many, thread_count
+        from manipkit.closed_form.chain_batch import checked_many
+        from manipkit.kinematics.fk_kernel import thread_count
 
         Q, count, success, residuals = checked_many(chain, compiled_arm(chain, arm), T, check, thread_count(threads),
                                                     reference=lambda g: _reference_rows(chain, arm, g),

@@ -78,7 +78,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.errors import ChainError, JointValueError
+from manipkit.errors import ChainError, IKOptionError, JointValueError
 from manipkit.kernels import KernelCacheWarning, compile_kernel, lazy_kernel
 
 if TYPE_CHECKING:
@@ -86,14 +86,34 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ChainFK", "ChainStep", "KernelCacheWarning", "chain_fk", "chain_fk_for", "compile_kernel", "lazy_kernel",
-    "snap_placement", "z_to_axis",
+    "snap_placement", "thread_count", "z_to_axis",
 ]
+
+#: Most threads a compiled batch (``ik_many``, ``chain_ik_many``) uses by default: the cores it may run on, up to this.
+MAX_THREADS = 8
 
 SNAP_TOL = 1e-14  # placement entries this close to 0 or +-1 are taken as exactly that
 SPLIT_TOL = SNAP_TOL  # a rotation is split about z only if the rest is a signed permutation to this
 DEFAULT_BLOCK = 8192  # rows per numpy tan call (the angles of a block stay in L2 cache)
 CHUNK = 256  # configurations per pass of the compiled loop (R and p of a chunk, 24 KiB, stay in L1 cache)
 _REVOLUTE, _PRISMATIC = 0, 1
+
+
+def thread_count(threads) -> int:
+    """Threads a compiled batch (``ik_many``, ``chain_ik_many``) runs on: ``threads`` checked (a whole number
+    >= 1), or for None the cores this process may run on (its CPU affinity), at most :data:`MAX_THREADS`.
+
+    Raises :class:`manipkit.errors.IKOptionError` for anything else (the batches are IK's).
+    """
+    import numbers
+    import os
+
+    if threads is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        return max(1, min(MAX_THREADS, cores))
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise IKOptionError(f"threads must be a whole number of threads, at least 1, or None; got {threads!r}")
+    return int(threads)
 
 
 # --------------------------------------------------------------------------

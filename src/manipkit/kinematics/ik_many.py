@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import os
 import threading
 import time
 import warnings
@@ -52,7 +51,7 @@ from numba import objmode  # this module is only imported to run its kernel (kin
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik_result import IKBatch, tolerances
 from manipkit.kinematics.chain import robot_and_frames
-from manipkit.kinematics.fk_kernel import lazy_kernel
+from manipkit.kinematics.fk_kernel import lazy_kernel, thread_count
 from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
 from manipkit.spatial.rotations import wrap_angle
@@ -64,8 +63,6 @@ if TYPE_CHECKING:
 __all__ = ["IKBatch", "ik_many", "target_seeds"]
 
 RIGID_TOL = TARGET_TOL  # how far a target may be from a rigid transform (as for ik)
-#: Most threads ``ik_many`` uses by default (the cores it may run on, up to this).
-MAX_THREADS = 8
 #: Fewest targets per thread: a batch of fewer than twice this runs on the calling thread alone, so small batches
 #: pay no thread start (about 0.1 ms), and every thread gets work worth starting (64 targets: about 2 ms).
 MIN_TARGETS_PER_THREAD = 64
@@ -229,7 +226,7 @@ def ik_many(
         Initial Levenberg-Marquardt damping (see :class:`manipkit.kinematics.ik.IKSolver`).
     threads : int, keyword-only, optional
         Most threads solving at once (default: the cores this process may
-        run on, at most :data:`MAX_THREADS`). Fewer are used when the batch
+        run on, at most :data:`manipkit.kinematics.fk_kernel.MAX_THREADS`). Fewer are used when the batch
         is small (:data:`MIN_TARGETS_PER_THREAD` targets per thread at
         least); the answers do not depend on it.
     frame : str, keyword-only
@@ -277,7 +274,7 @@ def ik_many(
     check_budget(max_iters, restarts, damping)
     if time_budget is not None and not (isinstance(time_budget, numbers.Real) and time_budget > 0.0):
         raise IKOptionError(f"time_budget must be a positive number of seconds or None, got {time_budget!r}")
-    threads = _max_threads(threads)
+    threads = thread_count(threads)
     T_base = _targets(T, mode)
     Q_full = _start_rows(robot, q0, T_base.shape[0])
     X, iterations, attempts = _run(solver, T_base, Q_full, q0 is not None, (tol_position, tol_rotation),
@@ -295,16 +292,6 @@ def ik_many(
         residual_position=np.where(success, pos, np.nan)[:, None], residual_rotation=np.where(success, rot, np.nan)[:, None],
         q_residuals=np.column_stack([pos, rot]), iterations=iterations, attempts=attempts,
     )
-
-
-def _max_threads(threads) -> int:
-    """``threads`` checked (a whole number >= 1), or the default: the usable cores, at most :data:`MAX_THREADS`."""
-    if threads is None:
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        return max(1, min(MAX_THREADS, cores))
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
-        raise IKOptionError(f"threads must be a whole number of threads, at least 1, or None; got {threads!r}")
-    return int(threads)
 
 
 def _blocks(n_targets: int, threads: int) -> tuple[int, list[tuple[int, int]]]:
