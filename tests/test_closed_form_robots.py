@@ -192,3 +192,21 @@ def test_a_chain_below_the_first_joint_answers_in_whole_robot_rows():
             for row in result.solutions:
                 assert np.abs(robot.transform("iiwa_link_1", "ee_link", row, check_limits=False) - T).max() < 1e-10
     assert result.free_joints and math.isinf(result.count)  # the singular target: a family in whole-robot columns
+
+
+def test_threads_sharing_a_robot_get_the_answers_of_one_thread():
+    """The plans and solvers analytic_ik keeps are shared by threads (a robot may be): four threads solving the same
+    targets at once give, target by target, the answer one thread gives."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    T = chain.fk(chain.sample(40, seed=8))
+    alone = [analytic_ik(robot, t, "base_link", "tool0") for t in T]
+    with ThreadPoolExecutor(4) as pool:
+        shared = list(pool.map(lambda t: analytic_ik(robot, t, "base_link", "tool0", tol=(1e-9, 1e-9)), list(T) * 4))
+    for i, answer in enumerate(shared):
+        expected = alone[i % len(T)]
+        assert answer.labels == expected.labels and answer.note == expected.note
+        assert np.array_equal(answer.solutions, expected.solutions)
+        assert np.array_equal(answer.residual_rotation, expected.residual_rotation)
