@@ -115,7 +115,11 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     (:func:`manipkit.closed_form.chain_ik.chain_ik` on ``robot.chain(base,
     tip)``: spherical-wrist and UR-type 6R arms, every branch labelled,
     limit-aware, FK-checked; a pose only), with ``family_tol`` (m, rad) the
-    tolerance within which axes count as meeting or parallel.
+    tolerance within which axes count as meeting or parallel. What this path
+    finds for a robot, frames and options (the chain, its family and solver,
+    the parsed ``tol``) is kept for the next call with the same ones (without
+    ``lock``; the 64 latest): every call still checks its target and solves
+    and checks every branch.
 
     The named path (a bundled textbook arm, ``base_link`` to ``ee_link``):
 
