@@ -267,3 +267,18 @@ def test_with_rows_refuses_writable_other_counts_or_shapes(rows):
         rows.setflags(write=False)
     with pytest.raises(ValueError, match="read-only float array of 3 rows"):
         checked_rows_result().with_rows(rows, ("j0", "j1", "j2", "j3"), ())
+
+
+@pytest.mark.parametrize("writable", range(5))
+def test_of_checked_rows_refuses_each_writable_array(writable):
+    """Each of the five arrays is checked: any one of them writable (or not an ndarray) is refused."""
+    arrays = [np.zeros((2, 3)), np.zeros(2), np.zeros(2), np.ones(2, dtype=bool), np.zeros(2)]
+    for k, array in enumerate(arrays):
+        array.setflags(write=k == writable)
+    solutions, position, rotation, within, refined = arrays
+    with pytest.raises(ValueError, match="read-only"):
+        IKResult.of_checked_rows(solutions, ("a", "b"), "", position, rotation, within, refined, mode=MODES[3],
+                                 solver="s", joint_names=())
+    arrays[writable] = arrays[writable].tolist()  # not an ndarray
+    with pytest.raises(ValueError, match="read-only"):
+        IKResult.of_checked_rows(arrays[0], ("a", "b"), "", *arrays[1:], mode=MODES[3], solver="s", joint_names=())

@@ -249,9 +249,12 @@ class IKResult:
         ``within_limits`` (k,) bool; each a read-only ndarray (ValueError otherwise: use the constructor, which
         copies what is writable), of ``k`` rows (the caller's promise; ``solutions`` is checked).
         """
-        for array in (solutions, residual_position, residual_rotation, within_limits, refined):
-            if type(array) is not np.ndarray or array.flags.writeable:
-                raise ValueError("IKResult.of_checked_rows takes read-only arrays; use IKResult(...)")
+        ndarray = np.ndarray  # one expression, no loop: this runs in every compiled single call
+        if (type(solutions) is not ndarray or type(residual_position) is not ndarray
+                or type(residual_rotation) is not ndarray or type(within_limits) is not ndarray
+                or type(refined) is not ndarray or solutions.flags.writeable or residual_position.flags.writeable
+                or residual_rotation.flags.writeable or within_limits.flags.writeable or refined.flags.writeable):
+            raise ValueError("IKResult.of_checked_rows takes read-only arrays; use IKResult(...)")
         k = len(labels)
         if solutions.ndim != 2 or within_limits.dtype != np.bool_ or len(solutions) != k:
             raise ValueError(f"IKResult.of_checked_rows: solutions ({k}, n) and within_limits of bool expected, got "
