@@ -834,7 +834,8 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
                     solutions_per_pose=float(np.mean([len(r.solutions) for r in answers])), recovered=found,
                     max_fk_error=worst, check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating "
                                               f"configuration among the answers: {found:.1%}",
-                    note="chain_ik behind the robot, frames and family lookup (each found once per chain)"))
+                    note="chain_ik behind the robot, frames and family lookup (kept per robot, frames and options "
+                         "after the first call: the target is checked and solved on every call)"))
 
     from manipkit.kinematics.fk_kernel import thread_count
 

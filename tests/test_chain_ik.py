@@ -518,3 +518,59 @@ def test_an_error_in_a_block_is_raised_in_the_calling_thread_after_the_running_b
     with pytest.raises(ValueError, match="block 4"):
         chain_batch._run_blocks(work, 40, 2)
     assert 4 in started and sorted(finished) == sorted(set(started) - {4})  # nothing still running
+
+def same_answer(a, b) -> bool:
+    """Every field of two IK results equal (arrays: same dtype, shape and values, both read-only)."""
+    import dataclasses
+
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            if not (isinstance(y, np.ndarray) and x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True)
+                    and not x.flags.writeable and not y.flags.writeable):
+                return False
+        elif x != y:
+            return False
+    return True
+
+
+def test_single_solver_is_made_once_per_chain_and_family_and_answers_as_chain_ik():
+    from manipkit.closed_form.chain_ik import single_solver
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    family = chain_family(chain)
+    solver = single_solver(chain, family)
+    assert single_solver(chain, family) is solver
+    assert single_solver(chain, chain_family(chain, tol=(2e-3, 2e-3))) is not solver  # another family object
+    stretched = chain.fk(np.zeros(6))
+    stretched[0, 3] += np.sign(stretched[0, 3])  # 1 m beyond reach
+    targets = [chain.fk([0.3, -1.1, 1.2, -0.8, 1.0, 0.4]),  # generic: the compiled call
+               chain.fk([0.3, -1.1, 1.2, -0.8, 0.0, 0.4]),  # wrist singular: the general path's family rows
+               stretched]  # unreachable: reach named
+    for T in targets:
+        answer = solver.solve(T, (1e-10, 1e-10))
+        assert same_answer(answer, chain_ik(chain, T, family=family))
+        assert same_answer(answer, chain_ik(chain, T))  # the family found again: the same answer
+        for T_other in (np.asfortranarray(T), T.tolist()):  # not the compiled call's layout: the general path
+            other = chain_ik(chain, T_other, family=family)
+            assert other.labels == answer.labels and other.note == answer.note and other.count == answer.count
+            assert np.allclose(other.solutions, answer.solutions, atol=1e-12, rtol=0.0)
+    assert math.isinf(solver.solve(targets[1], (1e-10, 1e-10)).count)
+    assert solver.solve(targets[2], (1e-10, 1e-10)).unmet[0][0] == "reach"
+
+
+def test_compiled_single_calls_word_their_notes_as_the_general_path_with_and_without_rows_outside_the_limits():
+    """Kinova's limited joints put some branches outside the limits: the compiled call's note (kept per pattern of
+    within_limits) says as many as the numpy reference's, which words each note itself."""
+    chain = manipkit.load("kinova").chain("base", "j2s6s200_end_effector")
+    family = chain_family(chain)
+    outside_seen = set()
+    for q in chain.sample(40, seed=21):
+        T = chain.fk(q)
+        fast, reference = chain_ik(chain, T, family=family), chain_ik(chain, T, family=family, compiled=False)
+        assert fast.note == reference.note and fast.labels == reference.labels
+        assert np.array_equal(fast.within_limits, reference.within_limits)
+        outside = int((~fast.within_limits).sum())
+        assert (f"{outside} outside the joint limits" in fast.note) == (outside > 0)
+        outside_seen.add(outside)
+    assert 0 in outside_seen and len(outside_seen) > 1  # both kinds of note were made and read back

@@ -141,3 +141,72 @@ def test_analytic_ik_takes_its_frames_base_first_and_refuses_others(arms):
     assert np.array_equal(named.solutions, analytic_ik(robot, T, mode="position").solutions) and named.success
     with pytest.raises(IKOptionError, match="solves base_link -> ee_link, not base_link -> link1"):
         analytic_ik(robot, T, "base_link", "link1")
+
+
+def test_a_repeated_call_is_answered_for_its_own_arguments():
+    """analytic_ik keeps what it found for a robot, frames and options (the chain, its family, the parsed tol): each
+    call is answered for its own arguments, the same as the first call with them."""
+    from manipkit.closed_form.chain_ik import chain_ik
+
+    robot = manipkit.load("ur5")
+    q = [0.3, -1.1, 1.2, -0.8, 1.0, 0.4]
+    T = robot.chain("base_link", "tool0").fk(q)
+    first = analytic_ik(robot, T, "base_link", "tool0")
+    tight = analytic_ik(robot, T, "base_link", "tool0", tol=1e-300)  # no FK lands that close: every row dropped
+    wrist = analytic_ik(robot, T, "base_link", "wrist_3_link")  # tool0's target asked of wrist_3_link: other rows
+    again = analytic_ik(robot, T, "base_link", "tool0")
+    assert first.count == 8 and tight.count == 0 and "dropped" in tight.note and wrist.success
+    for a, b in ((first, again), (first, chain_ik(robot.chain("base_link", "tool0"), T))):
+        assert a.labels == b.labels and a.note == b.note and np.array_equal(a.solutions, b.solutions)
+        assert np.array_equal(a.residual_position, b.residual_position) and np.array_equal(a.within_limits, b.within_limits)
+    for row in wrist.solutions:  # the other tip's rows put the other tip on the target (Pinocchio, through the URDF)
+        assert np.abs(robot.transform("base_link", "wrist_3_link", row, check_limits=False) - T).max() < 1e-10
+        assert np.abs(robot.transform("base_link", "tool0", row, check_limits=False) - T).max() > 1e-3
+    with pytest.raises(InvalidTransformError, match="IK target: det\\(R\\) = -1"):  # checked on every call
+        analytic_ik(robot, np.diag([1.0, 1.0, -1.0, 1.0]), "base_link", "tool0")
+    with pytest.raises(ManipkitError, match="frame"):
+        analytic_ik(robot, T, "base_link", "tool_zero")
+    listed = analytic_ik(robot, T.tolist(), "base_link", "tool0")  # a list: checked, then solved the same
+    assert listed.labels == first.labels and np.allclose(listed.solutions, first.solutions, atol=1e-12, rtol=0.0)
+
+
+def test_a_chain_below_the_first_joint_answers_in_whole_robot_rows():
+    """iiwa14 from iiwa_link_1 to ee_link: six of its seven joints (a spherical wrist and two intersecting axes).
+    Rows are whole-robot vectors: joint 1 at its default, the chain's columns from chain_ik; at q6 = 0 (axes 5 and
+    7 aligned) the free joint is named by its whole-robot column."""
+    from manipkit.closed_form.chain_ik import chain_ik
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("iiwa_link_1", "ee_link")
+    assert len(chain.joint_names) == 6 and chain.columns.tolist() == [1, 2, 3, 4, 5, 6]
+    for q in ([0.4, -0.3, 1.1, 0.5, 0.7, 0.2], [0.4, -0.3, 1.1, 0.5, 0.0, 0.2]):
+        T = chain.fk(q)
+        for _ in range(2):  # the first call and the kept plan's
+            result = analytic_ik(robot, T, "iiwa_link_1", "ee_link")
+            on_chain = chain_ik(chain, T)
+            assert result.joint_names == robot.joint_names and result.solutions.shape == (len(on_chain.solutions), 7)
+            assert np.array_equal(result.solutions[:, 1:], on_chain.solutions)
+            assert np.all(result.solutions[:, 0] == robot.q()[0]) and not result.solutions.flags.writeable
+            assert result.free_joints == tuple(int(chain.columns[f]) for f in on_chain.free_joints)
+            assert result.labels == on_chain.labels and result.note == on_chain.note
+            for row in result.solutions:
+                assert np.abs(robot.transform("iiwa_link_1", "ee_link", row, check_limits=False) - T).max() < 1e-10
+    assert result.free_joints and math.isinf(result.count)  # the singular target: a family in whole-robot columns
+
+
+def test_threads_sharing_a_robot_get_the_answers_of_one_thread():
+    """The plans and solvers analytic_ik keeps are shared by threads (a robot may be): four threads solving the same
+    targets at once give, target by target, the answer one thread gives."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    T = chain.fk(chain.sample(40, seed=8))
+    alone = [analytic_ik(robot, t, "base_link", "tool0") for t in T]
+    with ThreadPoolExecutor(4) as pool:
+        shared = list(pool.map(lambda t: analytic_ik(robot, t, "base_link", "tool0", tol=(1e-9, 1e-9)), list(T) * 4))
+    for i, answer in enumerate(shared):
+        expected = alone[i % len(T)]
+        assert answer.labels == expected.labels and answer.note == expected.note
+        assert np.array_equal(answer.solutions, expected.solutions)
+        assert np.array_equal(answer.residual_rotation, expected.residual_rotation)

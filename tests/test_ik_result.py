@@ -204,3 +204,81 @@ def test_tolerances_take_the_callers_error_and_rules():
                   lambda: decoupled.ik_stanford(np.eye(4), tol=0.0)):
         with pytest.raises((IKOptionError, ClosedFormIKError), match="tol must be a positive number"):
             solve()
+
+
+# --------------------------------------------------------------------------
+# the fast constructors of the compiled single calls
+
+
+def checked_rows_result():
+    """A result of IKResult.of_checked_rows (3 rows of 3 joints), as a compiled single call makes it."""
+    block = np.arange(24, dtype=float).reshape(3, 8)
+    block.setflags(write=False)
+    within = block[:, 3] > 10.0
+    within.setflags(write=False)
+    refined = np.zeros(3)
+    refined.setflags(write=False)
+    return IKResult.of_checked_rows(block[:, :3], ("a", "b", "c"), "note", block[:, 4], block[:, 5], within, refined,
+                                    mode=MODES[3], solver="s", joint_names=("j1", "j2", "j3"))
+
+
+def test_a_result_of_checked_rows_has_every_other_field_at_its_default_through_copies_and_pickles():
+    """of_checked_rows writes only the fields it is given; the others read as the dataclass's defaults, also after
+    dataclasses.replace, copy.copy and a pickle round trip."""
+    import copy
+    import dataclasses
+    import pickle
+
+    fast = checked_rows_result()
+    given = {"solutions", "labels", "count", "note", "residual_position", "residual_rotation", "mode", "solver",
+             "joint_names", "within_limits", "refined"}
+    for answer in (fast, dataclasses.replace(fast), copy.copy(fast), pickle.loads(pickle.dumps(fast))):
+        for f in dataclasses.fields(IKResult):
+            value = getattr(answer, f.name)
+            if f.name in given:
+                expected = getattr(fast, f.name)
+                assert (np.array_equal(value, expected) if isinstance(value, np.ndarray) else value == expected), f.name
+            else:
+                assert value == f.default or (value is None and f.default is None), f.name
+        assert answer.count == 3 and answer.free_joints == () and answer.unmet == () and answer.family_function is None
+    moved = dataclasses.replace(fast, note="other")
+    assert moved.note == "other" and fast.note == "note" and moved.labels == fast.labels
+
+
+def test_with_rows_changes_the_rows_names_and_free_joints_only():
+    fast = checked_rows_result()
+    rows = np.hstack([np.full((3, 1), 0.5), fast.solutions])  # a whole-robot joint before the chain's
+    rows.setflags(write=False)
+    whole = fast.with_rows(rows, ("j0", "j1", "j2", "j3"), (2,))
+    assert whole.solutions is rows and whole.joint_names == ("j0", "j1", "j2", "j3") and whole.free_joints == (2,)
+    assert whole.labels == fast.labels and whole.note == fast.note and whole.count == fast.count
+    for name in ("residual_position", "residual_rotation", "within_limits", "refined"):
+        assert np.array_equal(getattr(whole, name), getattr(fast, name)) and not getattr(whole, name).flags.writeable
+    assert fast.solutions.shape == (3, 3) and fast.joint_names == ("j1", "j2", "j3") and fast.free_joints == ()
+    assert whole.q.tolist() == [0.5, 0.0, 1.0, 2.0] and whole.q_residuals.tolist() == [4.0, 5.0]
+
+
+@pytest.mark.parametrize("rows", [np.zeros((3, 4)), np.zeros((2, 4)), np.zeros(4), [[0.0] * 4] * 3,
+                                  np.zeros((3, 4), dtype=np.float32)])
+def test_with_rows_refuses_writable_other_counts_or_shapes(rows):
+    if isinstance(rows, np.ndarray) and rows.shape != (3, 4):
+        rows.setflags(write=False)
+    elif isinstance(rows, np.ndarray) and rows.dtype == np.float32:
+        rows.setflags(write=False)
+    with pytest.raises(ValueError, match="read-only float array of 3 rows"):
+        checked_rows_result().with_rows(rows, ("j0", "j1", "j2", "j3"), ())
+
+
+@pytest.mark.parametrize("writable", range(5))
+def test_of_checked_rows_refuses_each_writable_array(writable):
+    """Each of the five arrays is checked: any one of them writable (or not an ndarray) is refused."""
+    arrays = [np.zeros((2, 3)), np.zeros(2), np.zeros(2), np.ones(2, dtype=bool), np.zeros(2)]
+    for k, array in enumerate(arrays):
+        array.setflags(write=k == writable)
+    solutions, position, rotation, within, refined = arrays
+    with pytest.raises(ValueError, match="read-only"):
+        IKResult.of_checked_rows(solutions, ("a", "b"), "", position, rotation, within, refined, mode=MODES[3],
+                                 solver="s", joint_names=())
+    arrays[writable] = arrays[writable].tolist()  # not an ndarray
+    with pytest.raises(ValueError, match="read-only"):
+        IKResult.of_checked_rows(arrays[0], ("a", "b"), "", *arrays[1:], mode=MODES[3], solver="s", joint_names=())

@@ -249,18 +249,46 @@ class IKResult:
         ``within_limits`` (k,) bool; each a read-only ndarray (ValueError otherwise: use the constructor, which
         copies what is writable), of ``k`` rows (the caller's promise; ``solutions`` is checked).
         """
-        for array in (solutions, residual_position, residual_rotation, within_limits, refined):
-            if type(array) is not np.ndarray or array.flags.writeable:
-                raise ValueError("IKResult.of_checked_rows takes read-only arrays; use IKResult(...)")
+        ndarray = np.ndarray  # one expression, no loop: this runs in every compiled single call
+        if (type(solutions) is not ndarray or type(residual_position) is not ndarray
+                or type(residual_rotation) is not ndarray or type(within_limits) is not ndarray
+                or type(refined) is not ndarray or solutions.flags.writeable or residual_position.flags.writeable
+                or residual_rotation.flags.writeable or within_limits.flags.writeable or refined.flags.writeable):
+            raise ValueError("IKResult.of_checked_rows takes read-only arrays; use IKResult(...)")
         k = len(labels)
         if solutions.ndim != 2 or within_limits.dtype != np.bool_ or len(solutions) != k:
             raise ValueError(f"IKResult.of_checked_rows: solutions ({k}, n) and within_limits of bool expected, got "
                              f"{solutions.shape} and {within_limits.dtype}")
         self = object.__new__(cls)
-        self.__dict__.update(_DEFAULTS, solutions=solutions, labels=labels, count=k, note=note,
-                             residual_position=residual_position, residual_rotation=residual_rotation, mode=mode,
-                             solver=solver, joint_names=joint_names, within_limits=within_limits, refined=refined)
+        # the other fields keep their defaults: a dataclass holds each field's default as a class attribute
+        self.__dict__.update(solutions=solutions, labels=labels, count=k, note=note, residual_position=residual_position,
+                             residual_rotation=residual_rotation, mode=mode, solver=solver, joint_names=joint_names,
+                             within_limits=within_limits, refined=refined)
         return self
+
+    def with_rows(self, solutions: np.ndarray, joint_names: tuple[str, ...], free_joints: tuple[int, ...]) -> IKResult:
+        """This answer with its rows in another joint order (a chain's rows as whole-robot vectors, by
+        ``analytic_ik``): ``solutions`` (k, n) a read-only float array of the same k rows, ``joint_names`` and
+        ``free_joints`` (columns) in its order; every other field as it is (shared, not copied: all read-only).
+
+        Examples
+        --------
+        >>> from manipkit.closed_form.planar import ik_2r
+        >>> chain_rows = ik_2r(0.0, 1.5, 1.0, 1.0)
+        >>> rows = np.hstack([chain_rows.solutions, np.zeros((2, 1))])
+        >>> rows.setflags(write=False)
+        >>> whole = chain_rows.with_rows(rows, ("q1", "q2", "gripper"), ())
+        >>> whole.solutions.shape, whole.labels == chain_rows.labels, whole.joint_names
+        ((2, 3), True, ('q1', 'q2', 'gripper'))
+        """
+        if (type(solutions) is not np.ndarray or solutions.flags.writeable or solutions.ndim != 2
+                or len(solutions) != len(self.solutions) or solutions.dtype != np.float64):
+            raise ValueError(f"IKResult.with_rows takes a read-only float array of {len(self.solutions)} rows, got "
+                             f"{type(solutions).__name__} {np.shape(solutions)}")
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__, solutions=solutions, joint_names=tuple(joint_names),
+                              free_joints=tuple(free_joints))
+        return other
 
     def __post_init__(self):
         for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
@@ -378,9 +406,6 @@ class IKResult:
             lines.append(f"<p>{html.escape(self.note)}</p>")
         return "\n".join(lines)
 
-
-#: Every field of IKResult at its default (of_checked_rows starts from these).
-_DEFAULTS = {name: f.default for name, f in IKResult.__dataclass_fields__.items()}
 
 
 class IKBatch:

@@ -67,7 +67,8 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "IdealArm", "chain_ik", "chain_ik_many", "ideal_arm", "solve_branches", "srs_arm_angle"]
+__all__ = ["CHECK_TOL", "IdealArm", "SingleSolver", "chain_ik", "chain_ik_many", "ideal_arm", "single_solver",
+           "solve_branches", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
@@ -181,7 +182,7 @@ def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
 
 
 #: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi, the notes of its
-#: single calls by (count, outside the limits), their labels by the kernel's number of the codes): once per chain.
+#: single calls by their rows' within_limits (bytes), their labels by the kernel's number of the codes): once per chain.
 _COMPILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -387,17 +388,17 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     >>> result.count, result.labels[0], bool(result.residual_position.max() < 1e-10)
     (8, 'front, elbow up, no flip', True)
     """
-    # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
     family = chain_family(chain, tol=tol, lock=lock) if family is None else family
-    arm = ideal_arm(family)
+    solver = single_solver(chain, family)
     check = tolerance_pair(check_tol, error=ClosedFormIKError, what="check_tol")
-    if (compiled and (family.kind in (UR, OPW) or family.kind == SRS and arm_angle is not None and not family.reversed)
-            and type(target) is np.ndarray and target.shape == (4, 4) and target.dtype == np.float64
-            and target.flags.c_contiguous):
-        # the kernel takes a target check_transform accepts as is (plain_target), else hands it back to be checked
-        answer = _checked_one(chain, arm, target, check, arm_angle)
-        if answer is not None:
-            return answer
+    return solver.solve(target, check, arm_angle, max_iters=max_iters, compiled=compiled)
+
+
+def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], max_iters: int, arm_angle,
+             compiled: bool) -> IKResult:
+    """:func:`chain_ik` by the general path (any family, any target; the compiled single call hands targets here)."""
+    # Over 80 lines: the parts of one honest answer (check, refine, limits, labels, families, misses) in order.
+    family = arm.family
     T = check_transform(target, what="IK target")
     theta, branches, g = _branches(arm, T[None], arm_angle, compiled)
     geometry = family.geometry
@@ -485,49 +486,99 @@ def chain_ik(chain: Chain, target, *, family: Family | None = None, tol=FAMILY_T
     )
 
 
-def _checked_one(chain: Chain, arm: IdealArm, T: np.ndarray, check: tuple[float, float], arm_angle=None
-                 ) -> IKResult | None:
-    """:func:`chain_ik` of a generic target of the UR and OPW families, from one compiled call
-    (:func:`manipkit.closed_form.arms_kernel.solve_check_one`: every branch solved, aliased, put through the
-    chain's FK, measured, labelled, kept and ordered): the same rows, order, labels, residuals and note as the
-    general path.
-    None when that path must answer: the kernel hands the target back (near a threshold, a free angle, no
-    branch), the target is not one check_transform accepts as is with a rotation block exact to 1e-12
-    (:func:`~manipkit.closed_form.check_kernel.plain_target`: the general path checks it, projects it or refuses
-    it), or a row misses ``check`` (refined by Newton there). ``T``: a C-contiguous float (4, 4) array.
-    A 7R SRS arm at ``arm_angle``: :func:`manipkit.closed_form.srs_kernel.solve_check_srs`, labelled by its signs."""
-    _, prepared, wide, notes, words = _compiled_entry(chain, arm)
-    family = arm.family
-    kernels = _KERNELS or _load_kernels()
-    if family.kind == SRS:
-        solved = kernels[1](prepared, T, float(arm_angle), check)
-    else:
-        solved = kernels[0](prepared, T, check)
-    if solved is None:
-        return None
-    block, within, named = solved
-    block.setflags(write=False)  # its columns below are read-only views
-    within.setflags(write=False)
-    n = block.shape[1] - 2
-    count = len(within)
-    labels = words.get(named)
-    if labels is None:  # a new order of branches on this arm: worded once (at most 8 distinct codes, 0..7 each)
-        table = _SRS_WORDS if family.kind == SRS else _REVERSED_WORDS if family.reversed else _WORDS
-        labels = tuple(table[code] for code in kernels[2](named))
-        if len(words) < 4096:
-            words[named] = labels
-    outside = within.tolist().count(False)
-    head, tail = notes.get((count, outside)) or notes.setdefault((count, outside), _note_parts(arm, wide, count, outside))
-    if family.kind == SRS:
-        head += f"; at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)"
-    return IKResult.of_checked_rows(block[:, :n], labels, head + tail, block[:, n], block[:, n + 1], within,
-                                    _UNREFINED[count], mode=SPATIAL_POSE, solver=_SOLVER_NAMES[family.kind],
-                                    joint_names=chain.joint_names)
+
+
+class SingleSolver:
+    """:func:`chain_ik` on one chain and family, one target per call, with what every call reads looked up once: the
+    ideal arm, the compiled loop's constants and the words of its notes and labels (:func:`single_solver`).
+
+    ``solve(target, check, arm_angle)``, ``check`` a parsed (m, rad) pair, is ``chain_ik(chain, target,
+    family=family, check_tol=check, arm_angle=arm_angle)``: the same answer, from the same code.
+    """
+
+    __slots__ = ("chain", "family", "arm", "compiled_kinds", "entry")
+
+    def __init__(self, chain: Chain, family: Family):
+        self.chain, self.family, self.arm = chain, family, ideal_arm(family)  # ClosedFormIKError: no solver
+        kind = family.kind
+        # whether the compiled single call may answer, without and with an arm angle
+        self.compiled_kinds = (kind in (UR, OPW), kind in (UR, OPW) or (kind == SRS and not family.reversed))
+        self.entry = None  # (constants, wide joints, notes, labels) of the compiled call, on its first use
+
+    def solve(self, target, check: tuple[float, float], arm_angle=None, *, max_iters: int = 20,
+              compiled: bool = True) -> IKResult:
+        """Every closed-form solution for ``T_base_tip = target``, as :func:`chain_ik` gives it."""
+        if (compiled and self.compiled_kinds[arm_angle is not None] and type(target) is np.ndarray
+                and target.shape == (4, 4) and target.dtype == np.float64 and target.flags.c_contiguous):
+            # the kernel takes a target check_transform accepts as is (plain_target), else hands it back to be checked
+            answer = self._checked_one(target, check, arm_angle)
+            if answer is not None:
+                return answer
+        return _general(self.chain, self.arm, target, check, max_iters, arm_angle, compiled)
+
+    def _checked_one(self, T: np.ndarray, check: tuple[float, float], arm_angle) -> IKResult | None:
+        """A generic target of the UR and OPW families (or of a 7R SRS arm at ``arm_angle``) from one compiled call
+        (:func:`manipkit.closed_form.arms_kernel.solve_check_one`, :func:`manipkit.closed_form.srs_kernel.
+        solve_check_srs`: every branch solved, aliased, put through the chain's FK, measured, labelled, kept and
+        ordered): the same rows, order, labels, residuals and note as the general path. None when that path must
+        answer: the kernel hands the target back (near a threshold, a free angle, no branch, a target that is not
+        one check_transform accepts as is with a rotation block exact to 1e-12: ``plain_target``), or a row misses
+        ``check`` (refined by Newton there). ``T``: a C-contiguous float (4, 4) array."""
+        if self.entry is None:
+            self.entry = _compiled_entry(self.chain, self.arm)[1:]
+        prepared, wide, notes, words = self.entry
+        family = self.family
+        kernels = _KERNELS or _load_kernels()
+        srs = family.kind == SRS
+        solved = kernels[1](prepared, T, float(arm_angle), check) if srs else kernels[0](prepared, T, check)
+        if solved is None:
+            return None
+        block, within, named = solved
+        block.setflags(write=False)  # its columns below are read-only views
+        within.setflags(write=False)
+        count = len(within)
+        labels = words.get(named)
+        if labels is None:  # a new order of branches on this arm: worded once (at most 8 distinct codes, 0..7 each)
+            table = _SRS_WORDS if srs else _REVERSED_WORDS if family.reversed else _WORDS
+            labels = tuple(table[code] for code in kernels[2](named))
+            if len(words) < 4096:
+                words[named] = labels
+        key = within.tobytes()  # the note depends on the count of rows and of those outside the limits
+        parts = notes.get(key)
+        if parts is None:
+            parts = notes[key] = _note_parts(self.arm, wide, count, within.tolist().count(False))
+        head, tail = parts
+        if srs:
+            head += f"; at arm angle psi = {quantity_text(float(arm_angle))} rad (each psi has its own solutions)"
+        n = block.shape[1] - 2
+        return IKResult.of_checked_rows(block[:, :n], labels, head + tail, block[:, n], block[:, n + 1], within,
+                                        _UNREFINED[count], mode=SPATIAL_POSE, solver=_SOLVER_NAMES[family.kind],
+                                        joint_names=self.chain.joint_names)
+
+
+def single_solver(chain: Chain, family: Family) -> SingleSolver:
+    """The :class:`SingleSolver` of ``chain`` and ``family`` (both immutable), made on first use and kept (the 64
+    made last); :class:`ClosedFormIKError` if the family has no solver."""
+    key = (id(chain), id(family))
+    solver = _SOLVERS.get(key)
+    if solver is None or solver.chain is not chain or solver.family is not family:
+        solver = SingleSolver(chain, family)
+        if len(_SOLVERS) >= 64:
+            try:
+                _SOLVERS.pop(next(iter(_SOLVERS)), None)
+            except (StopIteration, RuntimeError):  # another thread emptied or changed it meanwhile: nothing to drop
+                pass
+        _SOLVERS[key] = solver  # holds the chain and family, so their ids are not reused while the entry lives
+    return solver
+
+
+#: (id(chain), id(family)) -> its SingleSolver (oldest dropped first).
+_SOLVERS: dict = {}
 
 
 def _note_parts(arm: IdealArm, wide: list[str], count: int, outside: int) -> tuple[str, str]:
     """The note of a compiled single call with ``count`` rows, ``outside`` of them outside the limits, in two parts
-    (the arm angle of an SRS arm goes between them), as the general path words it; kept per arm by count."""
+    (the arm angle of an SRS arm goes between them), as the general path words it; kept per arm."""
     family = arm.family
     parts = [f"{count} solution(s) of the {family.kind} closed form"]
     if outside:

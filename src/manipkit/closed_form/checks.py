@@ -77,6 +77,8 @@ def tolerance_pair(tol, *, error: type[Exception] | None = None, what: str = "to
 
     ``error``: the exception :func:`~manipkit.ik_result.tolerances` raises (its default when None).
     """
+    if type(tol) is float and 0.0 < tol < math.inf:  # one positive number, as most calls give it: no parsing
+        return tol, tol
     plain = type(tol) in (float, int) or (type(tol) is tuple and all(type(t) in (float, int) for t in tol))
     key = (tol, error, what)
     found = _PARSED.get(key) if plain else None  # (bools, arrays, lists are parsed each time)

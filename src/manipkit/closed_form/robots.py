@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form import decoupled, planar, planar_modes
-from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
+from manipkit.closed_form.chain_ik import chain_ik_many, single_solver
 from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.closed_form.families import FAMILY_TOL, SRS, chain_family
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
@@ -115,7 +115,11 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     (:func:`manipkit.closed_form.chain_ik.chain_ik` on ``robot.chain(base,
     tip)``: spherical-wrist and UR-type 6R arms, every branch labelled,
     limit-aware, FK-checked; a pose only), with ``family_tol`` (m, rad) the
-    tolerance within which axes count as meeting or parallel.
+    tolerance within which axes count as meeting or parallel. What this path
+    finds for a robot, frames and options (the chain, its family and solver,
+    the parsed ``tol``) is kept for the next call with the same ones (without
+    ``lock``; the 64 latest): every call still checks its target and solves
+    and checks every branch.
 
     The named path (a bundled textbook arm, ``base_link`` to ``ee_link``):
 
@@ -199,6 +203,13 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     ('planar.ik_2r', 'planar position (x, y)', 2, ('elbow-down', 'elbow-up'))
     """
     # Over 80 lines: the docstring (what each arm solves, every option) is most of it.
+    if lock is None:  # a chain solved before with these arguments: its plan (below) answers at once
+        try:
+            plan = _PLANS.get((id(robot), base, tip, mode, tol, family_tol, arm_angle is None))
+        except TypeError:  # an argument that cannot be a key (a list): checked on the way below
+            plan = None
+        if plan is not None and plan[0] is robot:
+            return _planned(plan, target, arm_angle)
     arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
     named_frames = (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link"))
     if arm is None or not named_frames or lock or arm_angle is not None:
@@ -318,20 +329,50 @@ def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, n
 
 def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family_tol, named: bool,
                lock=None, arm_angle=None) -> IKResult:
-    """:func:`analytic_ik` by the chain's geometry, rows as whole-robot vectors."""
+    """:func:`analytic_ik` by the chain's geometry, rows as whole-robot vectors; its plan kept for the next call
+    with the same arguments (:data:`_PLANS`)."""
     chain, family = _geometric_chain(robot, base, tip, mode, family_tol, named, lock, arm_angle)
+    check = tolerance_pair(tol)
     try:
-        result = chain_ik(chain, target, family=family, check_tol=tolerance_pair(tol), arm_angle=arm_angle)
+        solver = single_solver(chain, family)
     except ClosedFormIKError as exc:
         raise IKOptionError(str(exc)) from None
-    if chain.joint_names == robot.joint_names:  # the chain's rows are whole-robot rows already
+    whole = None
+    if chain.joint_names != robot.joint_names:  # rows to whole-robot rows: the robot's defaults, the chain's columns
+        whole = (read_only(np.asarray(robot.q(), dtype=float)), tuple(int(c) for c in chain.columns), robot.joint_names)
+    plan = (robot, solver, check, whole)
+    if lock is None:
+        try:
+            key = (id(robot), base, tip, mode, tol, family_tol, arm_angle is None)
+            if len(_PLANS) >= 64:
+                _PLANS.pop(next(iter(_PLANS)), None)
+            _PLANS[key] = plan  # holds the robot, so its id is not reused while the entry lives
+        except (TypeError, StopIteration, RuntimeError):  # not a key; another thread changed the table meanwhile
+            pass
+    return _planned(plan, target, arm_angle)
+
+
+def _planned(plan: tuple, target, arm_angle) -> IKResult:
+    """The answer of a plan ``(robot, chain's SingleSolver, check (m, rad), whole-robot rows or None)`` for ``target``:
+    :func:`manipkit.closed_form.chain_ik.chain_ik` on the chain, rows as whole-robot vectors."""
+    _, solver, check, whole = plan
+    try:
+        result = solver.solve(target, check, arm_angle)
+    except ClosedFormIKError as exc:
+        raise IKOptionError(str(exc)) from None
+    if whole is None:  # the chain's rows are whole-robot rows already
         return result
-    # whole-robot rows: the robot's defaults with the chain's columns from each row (chain.full of each, at once)
-    Q = np.repeat(np.asarray(robot.q(), dtype=float)[None], len(result.solutions), axis=0)
-    Q[:, chain.columns] = result.solutions
-    columns = tuple(int(c) for c in chain.columns)
-    return replace(result, solutions=read_only(Q, (len(robot.joint_names),)), joint_names=robot.joint_names,
-                   free_joints=tuple(columns[j] for j in result.free_joints))
+    defaults, columns, names = whole
+    Q = np.repeat(defaults[None], len(result.solutions), axis=0)
+    Q[:, columns] = result.solutions
+    Q.setflags(write=False)
+    return result.with_rows(Q, names, tuple(columns[j] for j in result.free_joints))
+
+
+#: (id(robot), base, tip, mode, tol, family_tol, arm_angle is None) -> the plan of analytic_ik's geometric path for
+#: those arguments (lock None): the robot, the chain's SingleSolver, the parsed tol and the whole-robot row map; the
+#: robot, its chain and family are immutable, so they are found once (the 64 made last are kept).
+_PLANS: dict = {}
 
 
 def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = "ee_link", *, tol=1e-9,
