@@ -574,3 +574,18 @@ def test_compiled_single_calls_word_their_notes_as_the_general_path_with_and_wit
         assert (f"{outside} outside the joint limits" in fast.note) == (outside > 0)
         outside_seen.add(outside)
     assert 0 in outside_seen and len(outside_seen) > 1  # both kinds of note were made and read back
+
+
+def test_a_dropped_branch_says_by_how_much_it_missed_in_numbers_that_exceed_the_tolerance():
+    """check_tol of 1e-300 m and rad: no double-precision FK meets it, so branches are dropped; the sentence must
+    give each miss as a number beyond the tolerance it names (it once printed 'missed by 0 > check_tol')."""
+    import re
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    T = chain.fk(np.array([0.3, -1.1, 1.4, -0.5, 0.9, 0.2]))
+    result = chain_ik(chain, T, check_tol=1e-300)
+    match = re.search(r"FK missed by up to (\S+) m and (\S+) rad, beyond check_tol \((\S+) m, (\S+) rad\)", result.note)
+    assert match, result.note
+    p, r, tol_p, tol_r = (float(x) for x in match.groups())
+    assert (tol_p, tol_r) == (1e-300, 1e-300)
+    assert max(p, r) > 1e-300 and max(p, r) < 1e-12

@@ -411,7 +411,7 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     position, rotation = np.atleast_1d(position).tolist(), np.atleast_1d(rotation).tolist()
     rows, labels, free_of, refined, rejected = [], [], [], [], 0
     residual_rows, kept = [], []
-    worst = 0.0
+    worst = [0.0, 0.0]  # the largest position (m) and rotation (rad) miss of a dropped branch
     free_slots = branches.free[0].tolist()
     same = _pairwise_same(candidates)  # (k, k): equal modulo 2 pi (rows moved by Newton are compared again)
     for index, (q, slot, p_err, r_err) in enumerate(zip(candidates, slots.tolist(), position, rotation)):
@@ -423,7 +423,7 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
             p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
-            worst = max(worst, float(p_err), float(r_err))
+            worst = [max(worst[0], float(p_err)), max(worst[1], float(r_err))]
             continue
         free = free_slots[slot]
         if family.reversed and free >= 0:
@@ -466,7 +466,8 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     if family.locked:
         parts.append("with " + ", ".join(f"{k} = {quantity_text(v)}" for k, v in family.locked) + " locked")
     if rejected:
-        parts.append(f"{rejected} branch(es) dropped: FK missed by {quantity_text(worst)} > check_tol after refinement")
+        parts.append(f"{rejected} branch(es) dropped: after refinement FK missed by up to {worst[0]:.3g} m and "
+                     f"{worst[1]:.3g} rad, beyond check_tol ({check[0]:.3g} m, {check[1]:.3g} rad)")
     unmet = ()
     outside_by = 0.0
     if not rows:
