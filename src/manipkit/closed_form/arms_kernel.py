@@ -62,9 +62,6 @@ from manipkit.closed_form.subproblems_kernel import (
     mv as _mv,
 )
 from manipkit.closed_form.subproblems_kernel import (
-    norm as _norm,
-)
-from manipkit.closed_form.subproblems_kernel import (
     perpendicular as _perpendicular,
 )
 from manipkit.closed_form.subproblems_kernel import (
@@ -77,7 +74,10 @@ from manipkit.closed_form.subproblems_kernel import (
     sp1 as _sp1,
 )
 from manipkit.closed_form.subproblems_kernel import (
-    sp3 as _sp3,
+    sp1_angle as _sp1_angle,
+)
+from manipkit.closed_form.subproblems_kernel import (
+    sp3_squared as _sp3_squared,
 )
 from manipkit.closed_form.subproblems_kernel import (
     sp4 as _sp4,
@@ -132,17 +132,17 @@ def _ur_target(H, P, c, scale, R, t, theta, valid, near):
             t6 = _atan2(s6, c6)
             x = _move(h5, p5, c6, -s6, _move(h4, p4, c5, -s5, p3))
             y = _move(h0, p0, c1, -s1, _add(_mv(R, x), t))
-            c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3(h2, _sub(p3, p2), _sub(p1, p2), _norm(_sub(y, p1)))
+            y1 = _sub(y, p1)
+            c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3_squared(h2, _sub(p3, p2), _sub(p1, p2), _dot(y1, y1))
             if unsure3 or (count3 == 0.0 and miss3 <= edge):
                 return True
             # the angle about h2 of R1^T R_g R6^T R5^T (the turn of joints 2, 3, 4 together)
             u0 = _rotate(h0, c1, -s1, _mv(R, _rotate(h5, c6, -s6, _rotate(h4, c5, -s5, v3))))
-            ct, st, _, _ = _sp1(h1, v3, u0)
-            total = _atan2(st, ct)
+            total, _, _ = _sp1_angle(h1, v3, u0)
             for k in range(2):
                 c3, s3 = (c3a, s3a) if k == 0 else (c3b, s3b)
                 elbow = _move(h2, p2, c3, s3, p3)
-                c2, s2, size2, miss2 = _sp1(h1, _sub(elbow, p1), _sub(y, p1))
+                t2, size2, miss2 = _sp1_angle(h1, _sub(elbow, p1), y1)
                 if size2 <= MARGIN:
                     return True
                 ok = count5 > 0.0 and count3 > 0.0
@@ -151,7 +151,7 @@ def _ur_target(H, P, c, scale, R, t, theta, valid, near):
                 ok = ok and miss2 <= 1e-9 * scale
                 # t4: axes 2, 3, 4 are parallel on the ideal arm (h3 = sign3 h2, h4 = sign4 h2), so
                 # R(h2, t2 + sign3 t3 + sign4 t4) = R1^T R_g R6^T R5^T, whose angle about h2 is total
-                t2, t3 = _atan2(s2, c2), _atan2(s3, c3)
+                t3 = _atan2(s3, c3)
                 t4 = _wrap(sign4 * (total - t2 - sign3 * t3))
                 slot = 4 * i + 2 * k + j
                 theta[slot, 0], theta[slot, 1], theta[slot, 2] = t1, t2, t3
@@ -182,8 +182,8 @@ def _opw_target(H, P, c, scale, R, t, theta, valid, near):
         t1 = _atan2(s1, c1)
         w1 = _move(h0, p0, c1, -s1, w)
         x1, v1 = _rotate(h0, c1, -s1, Rgh6), _rotate(h0, c1, -s1, Rgv)
-        reach = _norm(_sub(w1, p1))
-        c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3(h2, _sub(c, p2), _sub(p1, p2), reach)
+        reach = _sub(w1, p1)
+        c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3_squared(h2, _sub(c, p2), _sub(p1, p2), _dot(reach, reach))
         if unsure3 or (count3 == 0.0 and miss3 <= edge):
             return True
         for k in range(2):
@@ -215,11 +215,11 @@ def _opw_target(H, P, c, scale, R, t, theta, valid, near):
                 if j == 0 and count4 > 0.0 and miss5 > 1e-6:
                     count4 = 0.0  # as sp2: the pair's first member decides
                 turned = _rotate(h4, c5, -s5, _rotate(h3, cm4, sm4, rv))
-                c6, s6, _, _ = _sp1(h5, v5, turned)
+                t6, _, _ = _sp1_angle(h5, v5, turned)
                 ok = arm_ok and count4 > 0.0
                 slot = 4 * i + 2 * k + j
                 theta[slot, 0], theta[slot, 1], theta[slot, 2] = t1, t2, t3
-                theta[slot, 3], theta[slot, 4], theta[slot, 5] = _atan2(-sm4, cm4), _atan2(s5, c5), _atan2(s6, c6)
+                theta[slot, 3], theta[slot, 4], theta[slot, 5] = _atan2(-sm4, cm4), _atan2(s5, c5), t6
                 valid[slot] = ok
                 near[slot] = ok
                 any_valid = any_valid or ok

@@ -26,7 +26,7 @@ def compile_kernel(py_func, **options):
     return _compile(py_func, error_model="numpy", **options)
 
 __all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "move", "mtv", "mv", "norm", "perpendicular",
-           "rotate", "row", "sp1", "sp3", "sp4", "sub", "wrap"]
+           "rotate", "row", "sp1", "sp1_angle", "sp3", "sp3_squared", "sp4", "sub", "wrap"]
 
 #: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
 MARGIN = 1e-8
@@ -112,48 +112,70 @@ def mtv(R, x):
 
 
 @compile_kernel
-def sp1(k, p, q):
-    """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q.
-
-    ``size`` = |p off the axis| (the angle is free, held 0, where it is within TOL); ``miss`` = |R(k, t) p - q|,
-    which for the best angle is ``hypot(|p_perp| - |q_perp|, k.p - k.q)`` (R turns p_perp onto q_perp's direction)."""
+def _sp1_parts(k, p, q):
+    """(X, Y, size, miss) of subproblem 1: cos and sin of the angle times X's and Y's norm r, |p off the axis|,
+    and |R(k, t) p - q| at the best angle (``hypot(|p_perp| - |q_perp|, k.p - k.q)``: R turns p_perp onto q_perp's
+    direction). Where the angle is held 0 (size within TOL, or r = 0) miss is ``|p - q|``."""
     kp, kq = dot(k, p), dot(k, q)
     pp = (p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2])
     qp = (q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2])
     size, size_q = norm(pp), norm(qp)
     X, Y = dot(pp, qp), dot(k, cross(pp, qp))
-    r = math.sqrt(X * X + Y * Y)
-    if size <= TOL or r == 0.0:
-        return 1.0, 0.0, size, norm(sub(p, q))
+    if size <= TOL or (X == 0.0 and Y == 0.0):
+        return 0.0, 0.0, size, norm(sub(p, q))
     d_perp, d_axis = size - size_q, kp - kq
-    return X / r, Y / r, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
+    return X, Y, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
+
+
+@compile_kernel
+def sp1(k, p, q):
+    """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q (see _sp1_parts);
+    the angle is free, held 0, where size is within TOL."""
+    X, Y, size, miss = _sp1_parts(k, p, q)
+    r = math.sqrt(X * X + Y * Y)
+    if r == 0.0:
+        return 1.0, 0.0, size, miss
+    return X / r, Y / r, size, miss
+
+
+@compile_kernel
+def sp1_angle(k, p, q):
+    """:func:`sp1` as (t, size, miss): the angle itself, atan2 of the unnormalised sine and cosine (no square root
+    and no division for a caller that needs only the angle; t = 0 where sp1 holds it 0)."""
+    X, Y, size, miss = _sp1_parts(k, p, q)
+    if X == 0.0 and Y == 0.0:
+        return 0.0, size, miss
+    return atan2(Y, X), size, miss
 
 
 @compile_kernel
 def _atan_unit(x):
-    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp)."""
-    y, extra = 0.0, 0.0
-    if x > 0.66:
-        y, extra = 0.25 * math.pi, 0.5 * _MOREBITS
-        x = (x - 1.0) / (x + 1.0)
+    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp).
+
+    Without a branch: ``big`` (0 or 1) selects the reduction by arithmetic that is exact for 0 and 1
+    (``(x - 0) / (0 x + 1)`` is x), so the result is Cephes' bit for bit and no misprediction is paid."""
+    big = 1.0 if x > 0.66 else 0.0
+    x = (x - big) / (big * x + 1.0)
     z = x * x
     num = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
     den = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
-    return y + (x * (z * num / den) + x + extra)
+    return big * (0.25 * math.pi) + (x * (z * num / den) + x + big * (0.5 * _MOREBITS))
 
 
 @compile_kernel
 def atan2(y, x):
-    """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much)."""
+    """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much).
+
+    The octant is applied by exact arithmetic on 0/1 flags (``s pi/2 + (1 - 2 s) a``), not by branches: the
+    angles of random targets fall in any octant, and a mispredicted branch costs as much as the polynomial."""
     ay, ax = abs(y), abs(x)
     if ay == 0.0 and ax == 0.0:
         return math.copysign(math.pi, y) if math.copysign(1.0, x) < 0.0 else math.copysign(0.0, y)
-    if ay <= ax:
-        a = _atan_unit(ay / ax)
-    else:
-        a = 0.5 * math.pi - _atan_unit(ax / ay)
-    if math.copysign(1.0, x) < 0.0:
-        a = math.pi - a
+    swap = 1.0 if ay > ax else 0.0
+    a = _atan_unit(min(ay, ax) / max(ay, ax))
+    a = swap * (0.5 * math.pi) + (1.0 - 2.0 * swap) * a
+    back = 1.0 if math.copysign(1.0, x) < 0.0 else 0.0
+    a = back * math.pi + (1.0 - 2.0 * back) * a
     return math.copysign(a, y)
 
 
@@ -166,7 +188,7 @@ def sp4(h, k, p, d):
     A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
     B = dot(h, cross(k, p))
     C = d - dot(h, k) * kp
-    r = math.hypot(A, B)
+    r = math.sqrt(A * A + B * B)  # not math.hypot: a call into libm; A, B are lengths near 1, no overflow
     scale = max(1.0, r)
     gap = abs(C) - r
     unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
@@ -183,9 +205,16 @@ def sp4(h, k, p, d):
 @compile_kernel
 def sp3(k, p1, p2, delta):
     """Subproblem 3 (|R(k, t) p1 - p2| = delta) as subproblems.sp3: (ca, sa, cb, sb, count, miss, unsure)."""
-    d = 0.5 * (dot(p1, p1) + dot(p2, p2) - delta * delta)
+    return sp3_squared(k, p1, p2, delta * delta)
+
+
+@compile_kernel
+def sp3_squared(k, p1, p2, delta2):
+    """:func:`sp3` given delta squared (``delta2``; a caller with a squared distance takes no square root)."""
+    d = 0.5 * (dot(p1, p1) + dot(p2, p2) - delta2)
     ca, sa, cb, sb, count, miss, unsure = sp4(p2, k, p1, d)
     if count == 0.0:
+        delta = math.sqrt(delta2)
         ra = norm(sub(rotate(k, ca, sa, p1), p2))
         rb = norm(sub(rotate(k, cb, sb, p1), p2))
         miss = min(abs(ra - delta), abs(rb - delta))
