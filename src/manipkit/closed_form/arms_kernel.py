@@ -349,7 +349,7 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
     residual and limits (check_kernel); True when the reference must decide (nothing else is written then).
     ``solved`` (3, m): joint scales, lower and upper limits of the solved columns; ``limits`` (2, n): the chain's."""
     _solved_target(T, M_inv, reverse, g)
-    R = g[:3, :3]
+    R = g
     t = (g[0, 3], g[1, 3], g[2, 3])
     if kind == 0:
         handed_back = _ur_target(H, P, c, scale, R, t, theta, valid, near)
@@ -370,20 +370,22 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
     kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
     c = _row(points, 0)
     g = np.empty((4, 4))
-    theta, near = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_)  # one target's, reused: no (N, 8, m) array
+    # one target's angles and flags, reused: no (N, 8, m) array, and no view of valid made (and counted) per target
+    theta, near, valid_k = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
     count = 0
     for n in range(T.shape[0]):
         project[n] = not exact_rotation(T[n])
         _solved_target(T[n], M_inv, reverse, g)
-        R = g[:3, :3]
         t = (g[0, 3], g[1, 3], g[2, 3])
-        valid_n, rows_n = valid[n], rows[n]
+        rows_n = rows[n]
+        valid_k[:] = False  # a target handed back leaves the slots it did not reach False, as before
         if kind == 0:
-            fallback[n] = _ur_target(H, P, c, scale, R, t, theta, valid_n, near)
+            fallback[n] = _ur_target(H, P, c, scale, g, t, theta, valid_k, near)
         else:
-            fallback[n] = _opw_target(H, P, c, scale, R, t, theta, valid_n, near)
+            fallback[n] = _opw_target(H, P, c, scale, g, t, theta, valid_k, near)
         for k in range(theta.shape[0]):
-            if valid_n[k] and not fallback[n]:
+            valid[n, k] = valid_k[k]
+            if valid_k[k] and not fallback[n]:
                 chain_row(theta, k, reverse, q0, columns, solved, rows_n)
                 if not math.isnan(rows_n[k, 0]):  # as the check reads a row: present unless its first entry is NaN
                     for j in range(rows_n.shape[1]):

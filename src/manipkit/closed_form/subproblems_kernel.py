@@ -25,6 +25,12 @@ def compile_kernel(py_func, **options):
     reference path."""
     return _compile(py_func, error_model="numpy", **options)
 
+def _inlined(py_func):
+    """:func:`compile_kernel` with ``inline="always"``: numba puts the body into each caller (LLVM leaves these calls
+    in place otherwise, each with numba's call convention: a returned status and the tuple through memory)."""
+    return compile_kernel(py_func, inline="always")
+
+
 __all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "move", "mtv", "mv", "norm", "perpendicular",
            "rotate", "row", "sp1", "sp1_angle", "sp3", "sp3_squared", "sp4", "sub", "wrap"]
 
@@ -111,7 +117,7 @@ def mtv(R, x):
             R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
 
 
-@compile_kernel
+@_inlined
 def _sp1_parts(k, p, q):
     """(X, Y, size, miss) of subproblem 1: cos and sin of the angle times X's and Y's norm r, |p off the axis|,
     and |R(k, t) p - q| at the best angle (``hypot(|p_perp| - |q_perp|, k.p - k.q)``: R turns p_perp onto q_perp's
@@ -127,7 +133,7 @@ def _sp1_parts(k, p, q):
     return X, Y, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
 
 
-@compile_kernel
+@_inlined
 def sp1(k, p, q):
     """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q (see _sp1_parts);
     the angle is free, held 0, where size is within TOL."""
@@ -138,7 +144,7 @@ def sp1(k, p, q):
     return X / r, Y / r, size, miss
 
 
-@compile_kernel
+@_inlined
 def sp1_angle(k, p, q):
     """:func:`sp1` as (t, size, miss): the angle itself, atan2 of the unnormalised sine and cosine (no square root
     and no division for a caller that needs only the angle; t = 0 where sp1 holds it 0)."""
@@ -148,21 +154,22 @@ def sp1_angle(k, p, q):
     return atan2(Y, X), size, miss
 
 
-@compile_kernel
-def _atan_unit(x):
-    """atan(x) for 0 <= x <= 1 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp).
+@_inlined
+def _atan_ratio(n, d):
+    """atan(n / d) for 0 <= n <= d, d > 0 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp).
 
-    Without a branch: ``big`` (0 or 1) selects the reduction by arithmetic that is exact for 0 and 1
-    (``(x - 0) / (0 x + 1)`` is x), so the result is Cephes' bit for bit and no misprediction is paid."""
-    big = 1.0 if x > 0.66 else 0.0
-    x = (x - big) / (big * x + 1.0)
+    Without a branch and with one division for the argument: ``big`` (0 or 1) selects the reduction
+    ``(n - d) / (n + d)`` (atan(x) = pi/4 + atan((x - 1) / (x + 1)), n - d exact there) by arithmetic that gives
+    n / d itself for 0, so no misprediction is paid (random targets' angles fall either side)."""
+    big = 1.0 if n > 0.66 * d else 0.0
+    x = (n - big * d) / (big * n + d)
     z = x * x
     num = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
     den = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
     return big * (0.25 * math.pi) + (x * (z * num / den) + x + big * (0.5 * _MOREBITS))
 
 
-@compile_kernel
+@_inlined
 def atan2(y, x):
     """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much).
 
@@ -172,14 +179,14 @@ def atan2(y, x):
     if ay == 0.0 and ax == 0.0:
         return math.copysign(math.pi, y) if math.copysign(1.0, x) < 0.0 else math.copysign(0.0, y)
     swap = 1.0 if ay > ax else 0.0
-    a = _atan_unit(min(ay, ax) / max(ay, ax))
+    a = _atan_ratio(min(ay, ax), max(ay, ax))
     a = swap * (0.5 * math.pi) + (1.0 - 2.0 * swap) * a
     back = 1.0 if math.copysign(1.0, x) < 0.0 else 0.0
     a = back * math.pi + (1.0 - 2.0 * back) * a
     return math.copysign(a, y)
 
 
-@compile_kernel
+@_inlined
 def sp4(h, k, p, d):
     """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
     (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
@@ -208,7 +215,7 @@ def sp3(k, p1, p2, delta):
     return sp3_squared(k, p1, p2, delta * delta)
 
 
-@compile_kernel
+@_inlined
 def sp3_squared(k, p1, p2, delta2):
     """:func:`sp3` given delta squared (``delta2``; a caller with a squared distance takes no square root)."""
     d = 0.5 * (dot(p1, p1) + dot(p2, p2) - delta2)
