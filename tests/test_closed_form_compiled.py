@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import manipkit
 from manipkit.closed_form.arms import solve_6r
@@ -194,3 +196,52 @@ def test_solve_rows_into_packs_the_non_empty_rows_in_order_and_measure_at_equals
     want_residuals, want_success = measure_many(T, all_reached, rows, (1e-10, 1e-10))
     assert np.array_equal(residuals, want_residuals, equal_nan=True) and np.array_equal(success, want_success)
     assert np.isnan(residuals[~present]).all() and (residuals[present] < 1e-10).all()
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, allow_subnormal=True)
+
+
+@settings(max_examples=400, deadline=None)
+@given(finite, finite)
+def test_the_compiled_atan2_is_math_atan2_to_two_ulp(y, x):
+    """The branch-free atan2 of the loops (octant by arithmetic on 0/1 flags, one division for the argument) against
+    the C library's, including the sign of a zero result."""
+    from manipkit.closed_form.subproblems_kernel import atan2
+
+    got, want = atan2(y, x), math.atan2(y, x)
+    assert abs(got - want) <= 2.0 * math.ulp(want)
+    assert math.copysign(1.0, got) == math.copysign(1.0, want)
+
+
+@pytest.mark.parametrize(("y", "x"), [(0.0, 1.0), (-0.0, 1.0), (0.0, -1.0), (-0.0, -1.0), (0.0, 0.0), (-0.0, -0.0),
+                                      (1.0, 0.0), (-1.0, -0.0), (1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0),
+                                      (0.66, 1.0), (1.0, 0.66), (-0.66, -1.0), (5e-324, 1.0), (1.0, 5e-324)])
+def test_the_compiled_atan2_on_axes_diagonals_and_the_reduction_edge(y, x):
+    from manipkit.closed_form.subproblems_kernel import atan2
+
+    got, want = atan2(y, x), math.atan2(y, x)
+    assert abs(got - want) <= 2.0 * math.ulp(want) and math.copysign(1.0, got) == math.copysign(1.0, want)
+
+
+vectors = st.lists(st.floats(min_value=-2.0, max_value=2.0, allow_nan=False), min_size=3, max_size=3).map(tuple)
+
+
+@settings(max_examples=200, deadline=None)
+@given(vectors, vectors, vectors, st.floats(min_value=0.0, max_value=3.0))
+def test_sp1_angle_and_sp3_squared_answer_as_sp1_and_sp3(k, p, q, delta):
+    """The loops' shortcuts (an angle straight from the unnormalised sine and cosine; subproblem 3 given delta
+    squared) against the subproblems they stand for, and sp1's angle against the rotation it must produce."""
+    from manipkit.closed_form.subproblems_kernel import rotate, sp1, sp1_angle, sp3, sp3_squared
+
+    size_k = math.sqrt(sum(v * v for v in k))
+    assume(size_k > 0.1)
+    k = tuple(v / size_k for v in k)
+    c, s, size, miss = sp1(k, p, q)
+    t, size_a, miss_a = sp1_angle(k, p, q)
+    assert size_a == size and miss_a == miss
+    assert abs(math.cos(t) - c) < 1e-14 and abs(math.sin(t) - s) < 1e-14
+    if size > 1e-3:  # the angle turns p as close to q as it can come: |R p - q| is the miss
+        turned = rotate(k, math.cos(t), math.sin(t), p)
+        assert abs(math.dist(turned, q) - miss) < 1e-12
+    a, b = sp3(k, p, q, delta), sp3_squared(k, p, q, delta * delta)
+    assert a[4:] == b[4:] and np.allclose(a[:4], b[:4], rtol=0.0, atol=0.0)

@@ -127,7 +127,7 @@ def _sp1_parts(k, p, q):
     qp = (q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2])
     size, size_q = norm(pp), norm(qp)
     X, Y = dot(pp, qp), dot(k, cross(pp, qp))
-    if size <= TOL or (X == 0.0 and Y == 0.0):
+    if size <= TOL or X * X + Y * Y == 0.0:  # r = 0 as sp1 takes it (also when the squares underflow)
         return 0.0, 0.0, size, norm(sub(p, q))
     d_perp, d_axis = size - size_q, kp - kq
     return X, Y, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
@@ -149,7 +149,7 @@ def sp1_angle(k, p, q):
     """:func:`sp1` as (t, size, miss): the angle itself, atan2 of the unnormalised sine and cosine (no square root
     and no division for a caller that needs only the angle; t = 0 where sp1 holds it 0)."""
     X, Y, size, miss = _sp1_parts(k, p, q)
-    if X == 0.0 and Y == 0.0:
+    if X * X + Y * Y == 0.0:
         return 0.0, size, miss
     return atan2(Y, X), size, miss
 
@@ -161,6 +161,9 @@ def _atan_ratio(n, d):
     Without a branch and with one division for the argument: ``big`` (0 or 1) selects the reduction
     ``(n - d) / (n + d)`` (atan(x) = pi/4 + atan((x - 1) / (x + 1)), n - d exact there) by arithmetic that gives
     n / d itself for 0, so no misprediction is paid (random targets' angles fall either side)."""
+    if d < 1e-290 or d > 1e290:  # far from 1 (never in the loops): scaled by an exact power of 2, so 0.66 d and
+        scale = 2.0 ** 600 if d < 1.0 else 2.0 ** -600  # n + d neither round as subnormals nor overflow
+        n, d = n * scale, d * scale
     big = 1.0 if n > 0.66 * d else 0.0
     x = (n - big * d) / (big * n + d)
     z = x * x
