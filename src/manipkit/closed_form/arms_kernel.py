@@ -527,7 +527,7 @@ def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
 def warm_up() -> None:
     """Compile (or load from numba's on-disk cache) every kernel here, with the argument types chain_ik passes.
 
-    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 20 s,
+    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 45 s,
     which the first closed-form solve of a new installation would otherwise pay.
     """
     z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
