@@ -15,9 +15,13 @@ voxel-bins before it (``samples`` the budget), built twice, on a
 LocalCluster of 1 and of 2 worker processes. Rows as in
 :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`):
 
-- ``reachmap_dask``: wall time of each build (the cluster's start included),
-  the two maps checked identical (reach codes, certificates, first
-  configurations: same seed, same map, any worker count).
+- ``reachmap_dask``: the build on 1 and on 2 workers, ``dask_repeats``
+  times each in turns (1, 2, 1, 2 ..; medians, with the load average): the
+  time from the first progress report (the cluster up, the first blocks
+  handed out) to the map, the cluster's start apart (``cluster_start_s``),
+  and 2 workers' speed-up over 1; every map checked identical (reach codes,
+  certificates, first configurations, settings: same seed, same map, any
+  worker count). ``--only-dask`` runs these rows alone.
 - ``reachmap_fk``: the 1-worker build as certified voxel-bins per
   core-second, beside reuleaux_moveit's reported 3.8 reachable poses per
   core-second (issue 17); every certificate's FK checked to land in its bin.
@@ -57,10 +61,10 @@ import numpy as np
 
 from benchmarks.workloads import IK_ACCEPT, row
 
-FULL = dict(voxel=0.05, directions=200, samples=150_000_000, converge=1e-4, ik_targets=20_000, labelled=50_000,
-            hybrid_voxel=0.1, hybrid_directions=50, hybrid_samples=4_000_000)
+FULL = dict(voxel=0.05, directions=200, samples=150_000_000, converge=3e-5, ik_targets=20_000, labelled=50_000,
+            hybrid_voxel=0.1, hybrid_directions=50, hybrid_samples=4_000_000, dask_repeats=2)
 QUICK = dict(voxel=0.1, directions=50, samples=300_000, converge=1e-3, ik_targets=2000, labelled=600,
-             hybrid_voxel=0.2, hybrid_directions=20, hybrid_samples=100_000)
+             hybrid_voxel=0.2, hybrid_directions=20, hybrid_samples=100_000, dask_repeats=1)
 LABEL_RESTARTS = 50
 AGREEMENT_THRESHOLDS = (0.5, 0.6, 0.65, 0.7, 0.75, 0.8)  # the support thresholds tabulated
 
@@ -160,35 +164,69 @@ def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> lis
     return rows
 
 
+def dask_rows(robot, robot_name: str, settings: dict, *, repeats: int) -> tuple[dict, list[dict]]:
+    """The ``reachmap_dask`` rows: ``repeats`` builds on 1 and on 2 workers, in turns (1, 2, 1, 2 ..); ({workers: the
+    last map}, rows). A build's time runs from its first progress report (the cluster up, the first blocks handed out)
+    to the map; the cluster's start (from the call to that report) is given apart."""
+    from manipkit.analysis import reachmap
+
+    maps, builds, starts, loads, identical = {}, {1: [], 2: []}, {1: [], 2: []}, [], True
+    for _ in range(repeats):
+        for workers in (1, 2):
+            first = []
+            start = time.perf_counter()
+            built = reachmap.build(robot, **settings, workers=workers,
+                                   progress=lambda *_: first.append(time.perf_counter()) if not first else None)
+            end = time.perf_counter()
+            starts[workers].append(first[0] - start)
+            builds[workers].append(end - first[0])
+            loads.append(os.getloadavg()[0])
+            if maps:  # every map equal to the first: same seed, same map, any worker count
+                reference = next(iter(maps.values()))
+                identical &= bool(np.array_equal(reference.reach, built.reach)
+                                  and np.array_equal(reference.cert_keys, built.cert_keys)
+                                  and np.array_equal(reference.cert_q, built.cert_q)
+                                  and np.array_equal(reference.voxel_q, built.voxel_q, equal_nan=True)
+                                  and reference.settings == built.settings)
+            maps[workers] = built
+    used = maps[1].settings["samples_used"]
+    ratio = float(np.median(builds[1]) / np.median(builds[2]))
+    load = float(np.median(loads))
+    rows = []
+    for workers in (1, 2):
+        rows.append(row("reachmap_dask", robot_name, f"LocalCluster, {workers} worker process(es)", builds[workers],
+                        unit="map", n=1, ours=True, identical_1_2=identical, status="ok" if identical else "wrong",
+                        samples=used, cluster_start_s=float(np.median(starts[workers])),
+                        speedup_2_vs_1_worker=ratio, load_average=load, cores=os.cpu_count(),
+                        check=f"all {2 * repeats} maps (1 and 2 workers) identical (reach, certificates, "
+                              "configurations, settings)",
+                        note=f"{settings['voxel']} m voxels, {maps[1].orientations.label} orientation bins, {used} "
+                             f"samples (converge {settings['converge']:g}); median of {repeats} build(s) per worker "
+                             f"count, 1 and 2 in turns; time from the first progress report to the map, the "
+                             f"cluster's start ({np.median(starts[workers]):.1f} s) apart; 2 workers "
+                             f"{ratio:.2f}x 1 worker; load average {load:.2f} on {os.cpu_count()} cores"))
+    return maps, rows
+
+
 def reachmap_workload(robot_name: str = "iiwa14", *, voxel: float, directions: int, samples: int, converge: float,
                       ik_targets: int, labelled: int, hybrid_voxel: float, hybrid_directions: int,
-                      hybrid_samples: int) -> list[dict]:
-    """Every row of the module docstring, for ``robot_name``."""
+                      hybrid_samples: int, dask_repeats: int = 1, only_dask: bool = False) -> list[dict]:
+    """Every row of the module docstring, for ``robot_name`` (only the ``reachmap_dask`` rows with ``only_dask``)."""
     # Over 80 lines: one workload, its steps in order; each check sits beside the number it guards.
     import manipkit
     from manipkit.analysis import reachmap
 
     robot = manipkit.load(robot_name)
-    rows = []
     settings = dict(voxel=voxel, orientations=directions, manipulability=False, samples=samples, converge=converge)
     reachmap.build(robot, voxel=voxel, orientations=directions, samples=1000)  # warm-up: numba kernels loaded
 
-    maps, walls = {}, {}
-    for workers in (1, 2):
-        start = time.perf_counter()
-        maps[workers] = reachmap.build(robot, **settings, workers=workers)
-        walls[workers] = time.perf_counter() - start
-    one, two = maps[1], maps[2]
-    identical = bool(np.array_equal(one.reach, two.reach) and np.array_equal(one.cert_keys, two.cert_keys)
-                     and np.array_equal(one.cert_q, two.cert_q) and np.array_equal(one.voxel_q, two.voxel_q, equal_nan=True))
+    maps, rows = dask_rows(robot, robot_name, settings, repeats=dask_repeats)
+    one, walls = maps[1], {1: rows[0]["median_s"]}
     used = one.settings["samples_used"]
     what = (f"{voxel} m voxels, {one.orientations.label} orientation bins (directions x rolls), {used} samples "
             f"drawn of {samples} (converge {converge:g})")
-    for workers in (1, 2):
-        rows.append(row("reachmap_dask", robot_name, f"LocalCluster, {workers} worker process(es)", [walls[workers]],
-                        unit="map", n=1, ours=True, identical_1_2=identical, status="ok" if identical else "wrong",
-                        samples=used, check="maps of 1 and 2 workers identical (reach, certificates, configurations)",
-                        note=f"{what}; wall time including the cluster's start"))
+    if only_dask:
+        return rows
     T_cert = robot.fk(one.cert_q, base=one.base, tip=one.frame)  # each certificate's voxel and bin, found again
     ijk, inside = one.voxel_of(T_cert[:, :3, 3])
     keys = np.ravel_multi_index(tuple(ijk.T), one.shape) * one.orientations.size + one.orientations.bin_of(T_cert[:, :3, :3])
@@ -231,6 +269,7 @@ def main(argv=None) -> int:
     parser.add_argument("--robot", default="iiwa14")
     parser.add_argument("--sizes", default=None, help="the sizes as a JSON object (keys of FULL), instead of FULL or QUICK")
     parser.add_argument("--out", default=None, help="write the rows as JSON here")
+    parser.add_argument("--only-dask", action="store_true", help="only the reachmap_dask rows (1 and 2 workers)")
     args = parser.parse_args(argv)
     sizes = dict(QUICK if args.quick else FULL)
     if args.sizes:
@@ -239,7 +278,7 @@ def main(argv=None) -> int:
         if unknown:
             parser.error(f"unknown size(s) {', '.join(sorted(unknown))}; choose from {', '.join(FULL)}")
         sizes.update(extra)
-    rows = reachmap_workload(args.robot, **sizes)
+    rows = reachmap_workload(args.robot, **sizes, only_dask=args.only_dask)
     for r in rows:
         shown = {k: v for k, v in r.items() if k not in ("ours", "p95_s", "status") and v not in (None, "")}
         print(json.dumps(shown))

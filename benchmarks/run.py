@@ -33,7 +33,7 @@ FULL = {
     "viewer": dict(moves=60),
     "jacobian": dict(n_batch=100_000, repeats=7, loop_subset=5000, rtb_subset=2000),
     "gci": dict(samples=1_000_000, repeats=1),
-    "reachmap": dict(voxel=0.05, directions=200, samples=150_000_000, converge=1e-4, ik_targets=20_000,
+    "reachmap": dict(voxel=0.05, directions=200, samples=150_000_000, converge=3e-5, ik_targets=20_000,
                      labelled=50_000, hybrid_voxel=0.1, hybrid_directions=50, hybrid_samples=4_000_000),
     "collisions": dict(checks=20_000, repeats=5, acm_samples=10_000, map_samples=20_000_000, voxel=0.1, directions=200,
                        fixed_samples=1_000_000),

@@ -37,13 +37,25 @@ import numpy as np
 from manipkit.errors import ReachMapError
 from manipkit.text import printable
 
-__all__ = ["SCHEDULER_TIMEOUT_S", "BlockRunner", "check_workers", "in_block_order", "max_workers", "probe_scheduler"]
+__all__ = ["SCHEDULER_TIMEOUT_S", "Batch", "BlockRunner", "check_workers", "in_block_order", "max_workers", "probe_scheduler",
+           "run_blocks"]
 
 SCHEDULER_TIMEOUT_S = 10.0  # seconds a scheduler has to accept the connection and answer its first message
 WORKERS_PER_CORE = 4  # local worker processes per core, at most (each is single-threaded and CPU-bound)
 MAX_WORKERS = 64  # local worker processes, at most, whatever the machine
 POLL_S = 0.02  # seconds between looks at finished blocks (and at a recorded Ctrl-C)
 DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+# A local cluster has no dashboard: its monitors (the workers' sampling profiler every 10 ms, each server's
+# event-loop tick every 20 ms, the system monitor, the nannies' memory checks every 100 ms) cost this process and
+# each worker about 5 % of a core while they wait; measured, these settings cut that about fourfold.
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+                        "distributed.admin.system-monitor.interval": "2s",
+                        "distributed.worker.memory.monitor-interval": "1s"}
+# A call's blocks go to a cluster a few to a task (a task costs the scheduler and client, in this process, about
+# 4 ms): at least TASKS_PER_CORE tasks per worker thread, so the work is still shared out evenly, and at most
+# BLOCKS_PER_TASK blocks in one.
+TASKS_PER_CORE = 2
+BLOCKS_PER_TASK = 8
 
 
 #: Seconds a close of the Dask client and cluster may take after a Ctrl-C before the workers are ended.
@@ -162,7 +174,8 @@ class BlockRunner:
     def __init__(self, workers: int | None, scheduler: str | None, progress=None, store=None):
         check_workers(workers)
         self.workers, self.scheduler, self.progress, self.store = workers, scheduler, progress, store
-        self.client = self.cluster = self.scratch = None
+        self.client = self.cluster = self.scratch = self.sent_job = None
+        self.cores = 1  # worker threads of the cluster
         self.interrupted = threading.Event()
         self.quiet = contextlib.ExitStack()
 
@@ -206,6 +219,7 @@ class BlockRunner:
             except (OSError, TimeoutError, ValueError) as exc:
                 raise ReachMapError(f"cannot reach the Dask scheduler '{printable(self.scheduler)}': "
                                     f"{printable(' '.join(str(exc).split())[:200])}") from None
+            self.cores = max(1, sum(self.client.nthreads().values()))
             return
         try:
             self.scratch = tempfile.mkdtemp(prefix="manipkit-dask-")
@@ -216,10 +230,12 @@ class BlockRunner:
 
         _forkserver_ignoring_sigint()
         self.quiet.enter_context(dask.config.set({"temporary-directory": self.scratch,  # the scheduler's and nannies'
-                                                  "distributed.worker.multiprocessing-method": "forkserver"}))
+                                                  "distributed.worker.multiprocessing-method": "forkserver",
+                                                  **LOCAL_CLUSTER_CONFIG}))
         self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True,
                                     dashboard_address=None, silence_logs=logging.CRITICAL, local_directory=self.scratch)
         self.client = Client(self.cluster)
+        self.cores = int(self.workers)
 
     def __exit__(self, *exc):
         # After a Ctrl-C the user waits: workers busy in compiled code (a numba compile, a long block) do not
@@ -235,61 +251,48 @@ class BlockRunner:
                             if not hurry:
                                 raise
         finally:
-            self.client = self.cluster = None
+            self.client = self.cluster = self.sent_job = None
             if self.scratch is not None:
                 shutil.rmtree(self.scratch, ignore_errors=True)
                 self.scratch = None
             self.quiet.close()
 
     def run(self, fn, job, argument_lists: list[tuple], desc: str):
-        """Yield ``fn(job, *arguments)`` for each tuple of ``argument_lists``, in any order.
+        """Yield ``fn(job, *arguments)`` for each tuple of ``argument_lists``, in any order (:meth:`submit`, then
+        :meth:`Batch.results`)."""
+        return self.submit(fn, job, argument_lists, desc).results()
 
-        After each block, ``progress(desc, done, total)`` (blocks) when a
-        progress callable was given (:mod:`manipkit.app.progress` draws it).
+    def submit(self, fn, job, argument_lists: list[tuple], desc: str) -> Batch:
+        """Hand the blocks ``fn(job, *arguments)`` of ``argument_lists`` to the runner; their results come from
+        :meth:`Batch.results`.
+
+        On a cluster the blocks start at once (submit the next batch before
+        the results of this one are merged and the workers never wait for the
+        merge); here, each runs when :meth:`Batch.results` asks for it.
         With a ``store`` (:class:`manipkit.analysis.blockstore.BlockStore`),
         blocks saved by an earlier run of the same build are read back instead
         of computed (a :class:`~manipkit.analysis.blockstore.ResumeNote` says
         how many), and each computed block is saved before it is yielded.
         """
-        total = len(argument_lists)
-        report = self.progress or (lambda stage, done, total: None)
         saved = self._saved_blocks(fn, argument_lists, desc)
-        report(desc, 0, total)
-        done = 0
-        for result in saved.values():
-            yield result
-            done += 1
-            report(desc, done, total)
         missing = [arguments for i, arguments in enumerate(argument_lists) if i not in saved]
-        if self.client is None:
-            for arguments in missing:
-                yield self._kept(fn, arguments, fn(job, *arguments))
-                done += 1
-                report(desc, done, total)
-            return
-        if not missing:
-            return
-        from distributed import as_completed
-
-        job_future = self.client.scatter(job, broadcast=True, hash=False)
-        sent = self._shared_sent(missing)
-        self.raise_if_interrupted()
-        futures = [self.client.submit(fn, job_future, *(sent.get(id(a), a) for a in arguments), pure=False)
-                   for arguments in missing]
-        arguments_of = {future.key: arguments for future, arguments in zip(futures, missing)}
-        finished = as_completed(futures)
-        del futures
-        while not finished.is_empty():
+        groups, futures = [], []
+        if self.client is not None and missing:
             self.raise_if_interrupted()
-            ready = finished.next_batch(block=False)
-            if not ready:
-                time.sleep(POLL_S)
-            for future in ready:
-                result = self._kept(fn, arguments_of.pop(future.key), future.result())
-                future.release()
-                yield result
-                done += 1
-                report(desc, done, total)
+            job_future = self._sent_job(job)
+            sent = self._shared_sent(missing)
+            per_task = min(BLOCKS_PER_TASK, max(1, len(missing) // (TASKS_PER_CORE * self.cores)))
+            groups = [missing[i:i + per_task] for i in range(0, len(missing), per_task)]
+            futures = [self.client.submit(run_blocks, fn, job_future,
+                                          [tuple(sent.get(id(a), a) for a in arguments) for arguments in group],
+                                          pure=False) for group in groups]
+        return Batch(self, fn, job, len(argument_lists), desc, list(saved.values()), missing, zip(futures, groups))
+
+    def _sent_job(self, job):
+        """The future of ``job`` on the cluster: sent to every worker once per runner (again for another job)."""
+        if self.sent_job is None or self.sent_job[0] is not job:
+            self.sent_job = (job, self.client.scatter(job, broadcast=True, hash=False))
+        return self.sent_job[1]
 
     def _shared_sent(self, argument_lists: list[tuple]) -> dict:
         """{id: future} of the arguments every block shares (the same tuple or array object in every list, such as
@@ -339,6 +342,64 @@ class BlockRunner:
                               stacklevel=3)
                 self.store = None
         return result
+
+
+class Batch:
+    """Blocks handed to a :class:`BlockRunner` (:meth:`BlockRunner.submit`): read back from its store, running on
+    its cluster, or waiting to run here when :meth:`results` asks for them."""
+
+    def __init__(self, runner: BlockRunner, fn, job, total: int, desc: str, saved: list, missing: list[tuple],
+                 tasks):
+        self.runner, self.fn, self.job, self.total, self.desc = runner, fn, job, total, desc
+        self.saved, self.missing = saved, missing
+        self.pending = {future.key: (future, group) for future, group in tasks}  # a cluster's tasks: their blocks
+
+    def results(self):
+        """Yield each block's result, in any order; ``progress(desc, done, total)`` (blocks) after each."""
+        runner = self.runner
+        report = runner.progress or (lambda stage, done, total: None)
+        report(self.desc, 0, self.total)
+        done = 0
+        for result in self.saved:
+            yield result
+            done += 1
+            report(self.desc, done, self.total)
+        if runner.client is None:
+            for arguments in self.missing:
+                yield runner._kept(self.fn, arguments, self.fn(self.job, *arguments))
+                done += 1
+                report(self.desc, done, self.total)
+            return
+        if not self.pending:
+            return
+        from distributed import as_completed
+
+        finished = as_completed([future for future, _ in self.pending.values()], with_results=True)
+        while not finished.is_empty():  # results are fetched in the background as their blocks finish
+            runner.raise_if_interrupted()
+            ready = finished.next_batch(block=False)
+            if not ready:
+                time.sleep(POLL_S)
+            for future, results in ready:
+                _, group = self.pending.pop(future.key)
+                future.release()
+                for arguments, result in zip(group, results, strict=True):
+                    yield runner._kept(self.fn, arguments, result)
+                    done += 1
+                    report(self.desc, done, self.total)
+
+    def cancel(self) -> None:
+        """Drop the blocks not yielded yet (on a cluster their tasks are cancelled; here they never run)."""
+        self.missing = []
+        futures = [future for future, _ in self.pending.values()]
+        self.pending = {}
+        if futures and self.runner.client is not None:
+            self.runner.client.cancel(futures)
+
+
+def run_blocks(fn, job, argument_lists: list[tuple]) -> list:
+    """``[fn(job, *arguments) for arguments in argument_lists]``: one task of a cluster, a few blocks in a row."""
+    return [fn(job, *arguments) for arguments in argument_lists]
 
 
 def in_block_order(results, first: int = 0):

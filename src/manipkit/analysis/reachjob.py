@@ -85,7 +85,7 @@ def sample_block(job: MapJob, block: int, known: tuple[np.ndarray, np.ndarray] |
 
     ``stats``: per voxel (best, sum, count) of the manipulability index of the
     block's samples in it, or None when the map is built without it.
-    ``known``: (voxel-bins reached, voxels reached) before this block's round,
+    ``known``: the round's snapshot (:mod:`manipkit.analysis.reachstages`): (voxel-bins reached, voxels reached),
     each bit-packed (``numpy.packbits``, flat keys and flat voxel indices).
     Keys reached before are left out of ``keys`` and, without the
     statistics, voxels reached before out of ``voxels`` (merging them would
@@ -104,7 +104,7 @@ def sample_block(job: MapJob, block: int, known: tuple[np.ndarray, np.ndarray] |
         else:  # the map keeps one free sample per voxel-bin, the first: check samples until it is found
             cells, inside = job.cells(T[:, :3, 3])
             groups = np.where(inside, cells * job.orientations.size + job.orientations.bin_of(T[:, :3, :3]), -1)
-            if known is not None:  # bins reached in earlier rounds need no new sample
+            if known is not None:  # bins in the snapshot need no new sample
                 groups[(groups >= 0) & packed_bit(known[0], groups)] = -1
             free = job.collisions.first_free(job.robot, Q, groups)
         Q, T = Q[free], T[free]

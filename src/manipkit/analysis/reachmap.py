@@ -38,8 +38,8 @@ gets Yoshikawa's index ``w`` of the translation rows of its Jacobian
 joints), the rows ``u v`` of the arm's plane for a planar one (m^2). Per voxel
 the map keeps the best (largest) ``w`` and the mean; NaN where nothing reached.
 
-Blocks are tasks: each block of samples (or IK targets) has its own seed,
-so the map is bit-identical whatever runs them. Block ``b`` of the FK stage
+Each block of samples (or IK targets) has its own seed, so the map is
+bit-identical whatever runs them (a cluster's task runs a few blocks in a row). Block ``b`` of the FK stage
 holds samples ``b * block_samples ..`` and draws them as
 ``numpy.random.default_rng([seed, 0, b]).random((n, m))`` scaled into the
 limits of the ``m`` chain joints (joint order, the other joints at their
@@ -649,7 +649,7 @@ def build(
         return int(new_keys.sum())
 
     with BlockRunner(workers, scheduler, progress, store) as runner:
-        used = reachstages.sample_until_converged(job, runner, reach, merge, float(converge))
+        used = reachstages.sample_until_converged(job, runner, merge, float(converge))
         cert_keys, cert_q = np.concatenate(cert["keys"]), np.concatenate(cert["q"])
         order = np.argsort(cert_keys)
         cert_keys, cert_q = cert_keys[order], cert_q[order]

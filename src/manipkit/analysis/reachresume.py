@@ -78,7 +78,7 @@ def _check_sample(job: MapJob, result, arguments: tuple) -> str | None:
         return "its voxel-bin keys are not increasing keys inside the grid"
     if not (isinstance(voxels, np.ndarray) and voxels.dtype == np.int64 and _increasing_below(voxels, n_voxels)):
         return "its voxels are not increasing voxel indices inside the grid"
-    known = arguments[1] if len(arguments) > 1 else None  # (bins, voxels) reached before the block's round, packed
+    known = arguments[1] if len(arguments) > 1 else None  # the round's snapshot: (bins, voxels) reached, packed
     if known is None:
         if not np.array_equal(np.unique(keys // bins), voxels):
             return "its voxels are not the voxels of its keys"
@@ -87,9 +87,9 @@ def _check_sample(job: MapJob, result, arguments: tuple) -> str | None:
         if not np.all(np.isin(key_voxels, voxels) | packed_bit(known[1], key_voxels)):
             return "a voxel of its keys is missing from its voxels"
         if packed_bit(known[0], keys).any():
-            return "its keys hold a voxel-bin reached before its round"
+            return "its keys hold a voxel-bin of its round's snapshot"
         if stats is None and packed_bit(known[1], voxels).any():
-            return "its voxels hold one reached before its round"
+            return "its voxels hold one of its round's snapshot"
     if not (_array(Q, float, (len(voxels), n_joints)) and _array(key_q, float, (len(keys), n_joints))
             and np.isfinite(Q).all() and np.isfinite(key_q).all()):
         return "its configurations are not finite (voxels or keys, joints) arrays"

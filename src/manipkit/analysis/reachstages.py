@@ -13,15 +13,19 @@
   schedule either way) and merged in block order; the stage stops after the first block
   ``b >= 1`` that adds fewer than ``converge`` times the voxel-bins reached
   before it, or when the ``samples`` budget is spent. The decision depends on
-  blocks ``0..b`` only, so the map is the same whatever ran them (blocks of
-  the last round after ``b`` are dropped). Each block of a round is given
-  the voxel-bins and voxels reached before the round (bit-packed, sent to a
-  cluster's workers once per round) and leaves them out of its result, and,
-  with collisions checked and no manipulability statistics, checks no
-  sample landing in them (:func:`manipkit.analysis.reachjob.sample_block`):
-  a fixed snapshot, so the map is the same for any worker count (and the
-  same as merging everything), and the small first rounds keep the bins
-  checked twice few.
+  blocks ``0..b`` only, so the map is the same whatever ran them (blocks
+  after ``b`` are dropped). Two rounds are in flight: round ``k + 2`` is
+  handed out as soon as round ``k`` is merged, so a cluster's workers run
+  round ``k + 1`` while the driver merges. Each block of round ``k`` is
+  given the voxel-bins and voxels reached before round ``k - 1`` (none for
+  rounds 0 and 1; bit-packed, :class:`KnownBins`, sent to a cluster's
+  workers once per round) and leaves them out of its result, and, with
+  collisions checked and no manipulability statistics, checks no sample
+  landing in them (:func:`manipkit.analysis.reachjob.sample_block`): a
+  snapshot fixed by the round's number, so the map is the same for any
+  worker count (and the same as merging everything), a resumed build asks
+  for the same blocks, and the small first rounds keep the bins checked
+  twice few.
 - **IK fill** (:func:`fill_passes`): IK on every unreached voxel-bin whose
   voxel centre lies inside the reach shell (within ``reach + voxel`` of the
   first joint) and that has a face-neighbour voxel reached in the same bin,
@@ -47,6 +51,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -58,7 +63,7 @@ if TYPE_CHECKING:
     from manipkit.analysis.blocks import BlockRunner
 
 __all__ = [
-    "HOLDOUT_STREAM", "ROUND_BLOCKS", "certified", "false_positive_bound", "fill_passes", "holdout_completeness",
+    "HOLDOUT_STREAM", "ROUND_BLOCKS", "KnownBins", "certified", "false_positive_bound", "fill_passes", "holdout_completeness",
     "sample_until_converged", "wilson",
 ]
 
@@ -99,39 +104,88 @@ def certified(job, keys: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return keys_of(job, job.robot.fk(Q, base=job.base, tip=job.frame)) == keys
 
 
-def sample_until_converged(job, runner: BlockRunner, reach: np.ndarray, merge, converge: float) -> dict:
+def sample_until_converged(job, runner: BlockRunner, merge, converge: float) -> dict:
     """Run FK blocks in rounds until one adds fewer than ``converge`` x the bins before it (module docstring).
 
     ``merge(result)`` folds one block's result into the caller's arrays and
     returns how many voxel-bins it newly reached. Returns what was used:
     ``{"blocks", "samples_used", "converged"}``.
-    """
 
+    Two rounds are in flight: round ``k + 2`` is handed to the runner as soon
+    as round ``k`` is merged, with the voxel-bins known then (before round
+    ``k + 1``) as its snapshot, so a cluster's workers go on with round
+    ``k + 1`` while the driver merges; rounds 0 and 1 have no snapshot.
+    """
     n_blocks = -(-job.samples // job.block_samples)
-    reached, block, converged = 0, 0, False
     ramp = job.collisions is not None and not job.manipulability  # small first rounds: fewer samples checked twice
-    while block < n_blocks and not converged:
-        size = min(ROUND_BLOCKS, block + 1) if ramp else ROUND_BLOCKS  # 1, 2, 4, 8, 16, 16 .. or 16, 16 ..
-        round_blocks = list(range(block, min(n_blocks, block + size)))
-        label = "FK samples" if len(round_blocks) == n_blocks else f"FK samples, blocks {round_blocks[0] + 1}-" \
-            f"{round_blocks[-1] + 1} of at most {n_blocks}"
-        known = _known(reach, job.orientations.size)  # one object shared by the round's blocks: sent to a cluster once
-        arguments = [(b, known) for b in round_blocks]
-        for result in in_block_order(runner.run(sample_block, job, arguments, label), block):
-            if converged:
-                continue  # blocks after the stopping one are dropped (their results were computed anyway)
+    rounds = _rounds(n_blocks, ramp)
+    known = KnownBins(math.prod(job.shape), job.orientations.size)
+    in_flight = deque()
+
+    def submit(snapshot) -> None:
+        span = next(rounds, None)
+        if span is None:
+            return
+        first, stop = span
+        label = "FK samples" if stop - first == n_blocks else f"FK samples, blocks {first + 1}-{stop} of at most " \
+            f"{n_blocks}"
+        arguments = [(b, snapshot) for b in range(first, stop)]  # one snapshot object: sent to a cluster once
+        in_flight.append((first, runner.submit(sample_block, job, arguments, label)))
+
+    submit(None)
+    submit(None)
+    reached, block, converged = 0, 0, False
+    while in_flight and not converged:
+        first, batch = in_flight.popleft()
+        for result in in_block_order(batch.results(), first):
             added = merge(result)
+            known.add(result[1], result[2])
             converged = result[0] >= 1 and converge > 0 and added < converge * reached
             reached += added
             block = result[0] + 1
+            if converged:
+                break  # blocks after the stopping one are dropped (their results may be computed anyway)
+        if converged:
+            batch.cancel()
+        else:
+            submit(known.snapshot())
+    for _, batch in in_flight:
+        batch.cancel()
     used = min(job.samples, block * job.block_samples)
     return {"blocks": block, "samples_used": int(used), "converged": bool(converged)}
 
 
-def _known(reach: np.ndarray, n_bins: int) -> tuple[np.ndarray, np.ndarray]:
-    """The voxel-bins and voxels reached so far, bit-packed (:func:`manipkit.analysis.reachjob.sample_block`)."""
-    reached = reach.reshape(-1, n_bins) > 0
-    return np.packbits(reached), np.packbits(reached.any(axis=1))
+def _rounds(n_blocks: int, ramp: bool):
+    """(first, stop) block numbers of each round in order: ``ROUND_BLOCKS`` blocks, or 1, 2, 4 .. up to it (``ramp``)."""
+    first = 0
+    while first < n_blocks:
+        size = min(ROUND_BLOCKS, first + 1) if ramp else ROUND_BLOCKS  # 1, 2, 4, 8, 16, 16 .. or 16, 16 ..
+        yield first, min(n_blocks, first + size)
+        first += size
+
+
+class KnownBins:
+    """The voxel-bins and voxels reached so far, bit-packed as ``numpy.packbits`` packs them (big-endian bits, the
+    last byte padded with zeros), kept up to date block by block (:func:`manipkit.analysis.reachjob.sample_block`).
+
+    >>> known = KnownBins(2, 4)  # 2 voxels x 4 bins
+    >>> known.add(np.array([1, 6]), np.array([0, 1]))
+    >>> [a.tolist() for a in known.snapshot()]  # bits 1 and 6 of 8; voxels 0 and 1
+    [[66], [192]]
+    """
+
+    def __init__(self, n_voxels: int, n_bins: int):
+        self.bins = np.zeros(-(-n_voxels * n_bins // 8), dtype=np.uint8)
+        self.voxels = np.zeros(-(-n_voxels // 8), dtype=np.uint8)
+
+    def add(self, keys: np.ndarray, voxels: np.ndarray) -> None:
+        """Mark voxel-bins ``keys`` and voxels ``voxels`` (flat indices) reached."""
+        for packed, index in ((self.bins, keys), (self.voxels, voxels)):
+            np.bitwise_or.at(packed, index >> 3, (128 >> (index & 7)).astype(np.uint8))
+
+    def snapshot(self) -> tuple[np.ndarray, np.ndarray]:
+        """(bins, voxels): copies of what is known now (the next round's blocks are given this)."""
+        return self.bins.copy(), self.voxels.copy()
 
 
 def _neighbour_seeds(job, marked: np.ndarray, tried: np.ndarray) -> np.ndarray:
