@@ -657,8 +657,6 @@ def build(
         if method == "hybrid":
             ik_keys, ik_q, cert_keys, cert_q, passes = reachstages.fill_passes(job, runner, reach, cert_keys, cert_q,
                                                                     solver.reach + voxel, HOW_IK)
-    checks = {"completeness": reachstages.holdout_completeness(job, reach, int(holdout)),
-              "false_positive": reachstages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks))}
     if manipulability and ik_keys.size:  # the IK answers too, in key order
         w = translation_manipulability(robot, ik_q, frame, base, axes, planar=planar is not None)
         voxels = ik_keys // bins.size
@@ -669,9 +667,15 @@ def build(
                 "ik_restarts": int(ik_restarts), "ik_time_budget": float(ik_time_budget), "ik_mode": job.ik_mode,
                 "planar": planar is not None, "manipulability": bool(manipulability),
                 "collisions": None if collisions is None else collisions.as_dict(), "converge": float(converge),
-                **used, "fill_passes": passes, **checks}
+                **used, "fill_passes": passes}
     mean = np.divide(total, count, out=np.full(n_voxels, np.nan), where=count > 0)
-    return ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
-                    tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
-                    best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None,
-                    cert_keys, cert_q)
+    built = ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
+                     tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
+                     best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None,
+                     cert_keys, cert_q)
+    # the map's own checks measure its yes (query: voxel-bin reached and support >= DEFAULT_THRESHOLD)
+    settings.update(completeness=reachstages.holdout_completeness(job, reach, int(holdout), built.query),
+                    false_positive=reachstages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks),
+                                                                    built.query),
+                    checked_threshold=DEFAULT_THRESHOLD)
+    return built

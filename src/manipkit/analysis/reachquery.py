@@ -223,17 +223,24 @@ def checks_lines(reach_map: ReachMap) -> list[str]:
     s, lines = reach_map.settings, []
     if "samples_used" in s:
         lines.append(f"sampling {'converged' if s.get('converged') else 'used its whole budget'}: "
-                     f"{s['samples_used']} samples in {s['blocks']} blocks (stop below {short_text(s['converge'])} "
-                     f"new voxel-bins per block); IK fill passes: {s.get('fill_passes', 0)}")
+                     f"{s['samples_used']} samples in {s['blocks']} blocks (it stops after a block that adds fewer "
+                     f"than {short_text(s['converge'])} x the voxel-bins reached before it); IK fill passes: "
+                     f"{s.get('fill_passes', 0)}")
+    t = s.get("checked_threshold")  # maps built before the support rule measured the voxel-bins alone
     c = s.get("completeness")
     if isinstance(c, dict) and c.get("n"):
-        lines.append(f"completeness: a held-out sample of {c['n']} reachable poses (FK of joint samples the build "
-                     f"never drew) lands in reached voxel-bins {short_text(100 * c['rate'], 4)} % (95 % interval "
+        measured = "lands in reached voxel-bins" if t is None else f"the map says yes to (support >= {short_text(t)})"
+        lines.append(f"completeness: of a held-out sample of {c['n']} reachable poses (FK of joint samples the "
+                     f"build never drew), {measured} {short_text(100 * c['rate'], 4)} % (95 % interval "
                      f"{short_text(100 * c['low'], 4)}-{short_text(100 * c['high'], 4)} %)")
     f = s.get("false_positive")
     if isinstance(f, dict) and f.get("n"):
-        lines.append(f"false positives: IK ({printable(str(f['mode']))}) failed on {f['failed']} of {f['n']} poses "
-                     f"drawn inside reached voxel-bins: at most {short_text(100 * f['high'], 3)} % (95 % bound; "
-                     "an IK failure need not be unreachable)")
+        if t is None or "drawn" not in f:
+            said = f"IK ({printable(str(f['mode']))}) failed on {f['failed']} of {f['n']} poses drawn inside reached voxel-bins"
+        else:
+            said = (f"of {f['drawn']} poses drawn inside reached voxel-bins the map says yes to {f['n']}, and IK "
+                    f"({printable(str(f['mode']))}) failed on {f['failed']} of those")
+        lines.append(f"false positives: {said}: at most {short_text(100 * f['high'], 3)} % (95 % bound; an IK "
+                     "failure need not be unreachable)")
     lines.append(f"a yes means: {resolution_text(reach_map)}")
     return lines

@@ -36,15 +36,19 @@
 - **Held-out completeness** (:func:`holdout_completeness`): ``holdout``
   further FK samples from a stream the build never drew from
   (``default_rng([seed, 2, b])``, collision-free ones only when collisions
-  are checked): the fraction landing in reached voxel-bins estimates the
-  share of reachable poses (weighted as uniform joint samples weight them)
-  the map calls reachable, with a 95 % Wilson interval.
+  are checked): the fraction the map says yes to (``says_yes``: the map's
+  :meth:`~manipkit.analysis.reachmap.ReachMap.query`, its voxel-bin reached
+  and its support at least the threshold; without it, the fraction landing
+  in reached voxel-bins) estimates the share of reachable poses (weighted as
+  uniform joint samples weight them) the map calls reachable, with a 95 %
+  Wilson interval.
 - **False-positive bound** (:func:`false_positive_bound`): ``fp_checks``
   reached voxel-bins drawn at random (``default_rng([seed, 3])``), one pose
-  drawn inside each (uniform in the voxel, an orientation inside the bin),
-  IK for that exact pose in the map's IK mode from the bin's certificate; the
-  share IK fails on, with its 95 % Wilson upper bound, bounds how often a pose
-  in a reached bin is not reachable (IK failing does not prove a pose
+  drawn inside each (uniform in the voxel, an orientation inside the bin);
+  of those the map says yes to (``says_yes``; without it, all), IK for the
+  exact pose in the map's IK mode from the bin's certificate; the share IK
+  fails on, with its 95 % Wilson upper bound, bounds how often a yes of the
+  map near its reached bins is wrong (IK failing does not prove a pose
   unreachable, so this is an upper bound).
 """
 
@@ -262,15 +266,20 @@ def _merged(keys_a, q_a, keys_b, q_b):
     return keys[order], np.concatenate([q_a, q_b])[order]
 
 
-def holdout_completeness(job, reach: np.ndarray, n: int) -> dict:
-    """Share of ``n`` held-out FK samples that land in reached voxel-bins, with its 95 % Wilson interval."""
+def holdout_completeness(job, reach: np.ndarray, n: int, says_yes=None) -> dict:
+    """Share of ``n`` held-out FK samples the map says yes to, with its 95 % Wilson interval (module docstring).
+
+    ``says_yes``: poses (N, 4, 4) -> bool (N,), the map's answer; None: the
+    sample's voxel-bin was reached.
+    """
     rng = np.random.default_rng([job.seed, HOLDOUT_STREAM])
     Q = np.tile(job.q_default, (n, 1))
     Q[:, job.chain] = job.low + rng.random((n, job.chain.size)) * (job.high - job.low)
     if job.collisions is not None and n:
         Q = Q[job.collisions.free(job.robot, Q)]
-    keys = keys_of(job, job.robot.fk(Q, base=job.base, tip=job.frame)) if len(Q) else np.zeros(0, dtype=np.int64)
-    hits = int((reach[keys[keys >= 0]] > 0).sum())
+    T = job.robot.fk(Q, base=job.base, tip=job.frame) if len(Q) else np.zeros((0, 4, 4))
+    keys = keys_of(job, T) if len(Q) else np.zeros(0, dtype=np.int64)
+    hits = int((reach[keys[keys >= 0]] > 0).sum()) if says_yes is None else int(np.count_nonzero(says_yes(T)))
     low, high = wilson(hits, len(keys))
     return {"n": int(len(keys)), "hits": hits, "rate": hits / len(keys) if len(keys) else 0.0, "low": low, "high": high}
 
@@ -305,16 +314,27 @@ def poses_in_bins(job, keys: np.ndarray, rng: np.random.Generator) -> np.ndarray
     return T
 
 
-def false_positive_bound(job, cert_keys: np.ndarray, cert_q: np.ndarray, n: int) -> dict:
-    """IK on one pose inside each of ``n`` random reached voxel-bins (module docstring): failures and their bound."""
+def false_positive_bound(job, cert_keys: np.ndarray, cert_q: np.ndarray, n: int, says_yes=None) -> dict:
+    """IK on one pose inside each of ``n`` random reached voxel-bins that the map says yes to (module docstring).
+
+    ``says_yes``: poses (N, 4, 4) -> bool (N,), the map's answer (None: every
+    drawn pose is checked). Returns ``{"drawn", "n"`` (poses IK checked),
+    ``"failed", "rate", "high", "mode"}``.
+    """
     from manipkit.kinematics.ik_many import ik_many
 
     rng = np.random.default_rng([job.seed, FP_STREAM])
     n = min(n, len(cert_keys))
     if n == 0:
-        return {"n": 0, "failed": 0, "rate": 0.0, "high": 1.0, "mode": job.ik_mode}
+        return {"drawn": 0, "n": 0, "failed": 0, "rate": 0.0, "high": 1.0, "mode": job.ik_mode}
     rows = np.sort(rng.choice(len(cert_keys), size=n, replace=False))
     T = poses_in_bins(job, cert_keys[rows], rng)
+    drawn = n
+    if says_yes is not None:
+        yes = np.asarray(says_yes(T), dtype=bool)
+        rows, T, n = rows[yes], T[yes], int(yes.sum())
+        if n == 0:
+            return {"drawn": drawn, "n": 0, "failed": 0, "rate": 0.0, "high": 1.0, "mode": job.ik_mode}
     batch = ik_many(job.robot, T, job.base, job.frame, q0=cert_q[rows], mode=job.ik_mode, tol=1e-6,
                     restarts=max(job.ik_restarts, 10), time_budget=max(job.ik_time_budget, 0.05),
                     seed=job.seed + FP_STREAM)
@@ -322,4 +342,5 @@ def false_positive_bound(job, cert_keys: np.ndarray, cert_q: np.ndarray, n: int)
     if job.collisions is not None and success.any():
         success[success] = job.collisions.free(job.robot, batch.q[success])
     failed = int((~success).sum())
-    return {"n": int(n), "failed": failed, "rate": failed / n, "high": wilson(failed, n)[1], "mode": job.ik_mode}
+    return {"drawn": int(drawn), "n": int(n), "failed": failed, "rate": failed / n, "high": wilson(failed, n)[1],
+            "mode": job.ik_mode}
