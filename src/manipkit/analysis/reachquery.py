@@ -238,8 +238,9 @@ def checks_lines(reach_map: ReachMap) -> list[str]:
         if t is None or "drawn" not in f:
             said = f"IK ({printable(str(f['mode']))}) failed on {f['failed']} of {f['n']} poses drawn inside reached voxel-bins"
         else:
-            said = (f"of {f['drawn']} poses drawn inside reached voxel-bins the map says yes to {f['n']}, and IK "
-                    f"({printable(str(f['mode']))}) failed on {f['failed']} of those")
+            said = (f"of {f['drawn']} poses drawn one in each of {f['drawn']} random reached voxel-bins (every bin "
+                    f"weighted alike, those at the boundary as much as those inside) the map says yes to {f['n']}, "
+                    f"and IK ({printable(str(f['mode']))}) failed on {f['failed']} of those")
         lines.append(f"false positives: {said}: at most {short_text(100 * f['high'], 3)} % (95 % bound; an IK "
                      "failure need not be unreachable)")
     lines.append(f"a yes means: {resolution_text(reach_map)}")
