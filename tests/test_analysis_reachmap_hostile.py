@@ -209,6 +209,17 @@ def test_every_chunk_is_written_even_an_empty_one(planar_2r, tmp_path):
         ({"joint_names": "j1"}, "joint_names must be a list"),
         ({"settings": {"samples": -5}}, "settings.samples is -5"),
         ({"settings": {"note": [1, 2]}}, "settings must be a table"),
+        # what the summary prints (it once stopped on these with an internal error)
+        ({"settings": {"checked_threshold": "abc"}}, "settings.checked_threshold is 'abc'; it must be a finite number"),
+        ({"settings": {"converge": 2.0}}, "settings.converge is 2.0"),
+        ({"settings": {"samples_used": 3}}, "settings.samples_used needs settings.blocks"),
+        ({"settings": {"samples_used": 3, "blocks": "x"}}, "settings.blocks is 'x'"),
+        ({"settings": {"completeness": {"n": 5, "rate": "abc", "low": 0, "high": 1}}},
+         "settings.completeness.rate is 'abc'"),
+        ({"settings": {"completeness": {"n": 5}}}, "settings.completeness lacks rate, low, high"),
+        ({"settings": {"false_positive": {"n": 1, "failed": 1, "rate": 1.0, "high": 1.0, "mode": ""}}},
+         "settings.false_positive.mode is ''"),
+        ({"settings": {"false_positive": 7}}, "settings.false_positive must be a table"),
     ],
 )
 def test_crafted_attributes_are_refused_by_name(tiny, tmp_path, changes, message):

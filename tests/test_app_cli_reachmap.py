@@ -303,7 +303,8 @@ def test_ctrl_c_keeps_the_finished_blocks_and_the_same_command_resumes(tmp_path,
 
     command = ["manipkit", "reachmap", "--robot", "planar_3r", "--voxel", "0.5", "--orientations", "8", "--samples",
                "40000", "--converge", "0", "--method", "hybrid", "--no-manipulability"]
-    run_cli(*command, "-o", tmp_path / "reference.zarr", status=0)
+    first = run_cli(*command, "-o", tmp_path / "reference.zarr", status=0)
+    assert "40000 samples in 1 blocks (converge 0: every sample of the budget drawn)" in first.stdout
     work = tmp_path / "work"
     work.mkdir()
 

@@ -363,6 +363,46 @@ def _names(value) -> bool:
     return isinstance(value, list) and len(value) <= 16 and all(isinstance(v, str) for v in value)
 
 
+#: The build's record that the summary prints (reachquery.checks_lines): whole numbers, shares and the checks' tables.
+_WHOLE_SETTINGS = ("samples", "seed", "samples_used", "blocks", "fill_passes")
+_SHARE_SETTINGS = ("converge", "checked_threshold")
+_CHECKS = {"completeness": (("n", "hits"), ("rate", "low", "high")),
+           "false_positive": (("drawn", "n", "failed"), ("rate", "high"))}
+_OPTIONAL_CHECK_KEYS = ("hits", "drawn")  # maps of earlier builds lack them
+
+
+def _checked_build_record(settings: dict) -> None:
+    """The settings the summary reads, checked where present: whole numbers, shares in [0, 1], the checks' tables
+    (whole counts, shares, the IK mode a name); ``samples_used`` comes with ``blocks``."""
+    for key in _WHOLE_SETTINGS:
+        if key in settings:
+            _whole(settings[key], f"settings.{key}", 0, 2**63 - 1)
+    for key in _SHARE_SETTINGS:
+        if key in settings:
+            _real(settings[key], f"settings.{key}", 0.0, 1.0)
+    if "samples_used" in settings and "blocks" not in settings:
+        raise _Invalid("settings.samples_used needs settings.blocks")
+    for key, (wholes, shares) in _CHECKS.items():
+        table = settings.get(key)
+        if table is None:
+            continue
+        if not isinstance(table, dict):
+            raise _Invalid(f"settings.{key} must be a table")
+        needed = [name for name in (*wholes, *shares) if name not in _OPTIONAL_CHECK_KEYS]
+        needed += ["mode"] if key == "false_positive" else []
+        missing = [name for name in needed if name not in table]
+        if missing:
+            raise _Invalid(f"settings.{key} lacks {', '.join(missing)}")
+        for name in wholes:
+            if name in table:
+                _whole(table[name], f"settings.{key}.{name}", 0, 2**63 - 1)
+        for name in shares:
+            if name in table:
+                _real(table[name], f"settings.{key}.{name}", 0.0, 1.0)
+        if "mode" in table:
+            _name(table["mode"], f"settings.{key}.mode")
+
+
 def _checked_attributes(meta) -> dict:
     """The root attributes as Python values, every one checked (types, finite, ranges, kinds, consistency)."""
     from manipkit.analysis.orientations import planar_orientations, spatial_orientations
@@ -413,9 +453,7 @@ def _checked_attributes(meta) -> dict:
     if collisions is not None and not (isinstance(collisions, dict) and set(collisions) <= _COLLISION_KEYS
                                        and all(_setting(v) or _names(v) for v in collisions.values())):
         raise _Invalid(f"settings.collisions must be a table of {', '.join(sorted(_COLLISION_KEYS))}")
-    for key in ("samples", "seed"):
-        if key in settings:
-            _whole(settings[key], f"settings.{key}", 0, 2**63 - 1)
+    _checked_build_record(settings)
     out["settings"] = dict(settings)
     return out
 

@@ -222,9 +222,11 @@ def checks_lines(reach_map: ReachMap) -> list[str]:
     """Lines: how the sampling ended, the held-out completeness and the false-positive bound (when built)."""
     s, lines = reach_map.settings, []
     if "samples_used" in s:
+        converge = s.get("converge", 0.0)
+        stopping = "converge 0: every sample of the budget drawn" if not converge else (
+            f"it stops after a block that adds fewer than {short_text(converge)} x the voxel-bins reached before it")
         lines.append(f"sampling {'converged' if s.get('converged') else 'used its whole budget'}: "
-                     f"{s['samples_used']} samples in {s['blocks']} blocks (it stops after a block that adds fewer "
-                     f"than {short_text(s['converge'])} x the voxel-bins reached before it); IK fill passes: "
+                     f"{s['samples_used']} samples in {s['blocks']} blocks ({stopping}); IK fill passes: "
                      f"{s.get('fill_passes', 0)}")
     t = s.get("checked_threshold")  # maps built before the support rule measured the voxel-bins alone
     c = s.get("completeness")
