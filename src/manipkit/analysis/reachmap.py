@@ -78,7 +78,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -669,13 +669,13 @@ def build(
                 "collisions": None if collisions is None else collisions.as_dict(), "converge": float(converge),
                 **used, "fill_passes": passes}
     mean = np.divide(total, count, out=np.full(n_voxels, np.nan), where=count > 0)
-    built = ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
-                     tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
-                     best.reshape(shape) if manipulability else None, mean.reshape(shape) if manipulability else None,
-                     cert_keys, cert_q)
+    unchecked = ReachMap(reach.reshape(*shape, bins.size), origin, axes, voxel, bins, method, robot.name, frame, base,
+                         tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
+                         best.reshape(shape) if manipulability else None,
+                         mean.reshape(shape) if manipulability else None, cert_keys, cert_q)
     # the map's own checks measure its yes (query: voxel-bin reached and support >= DEFAULT_THRESHOLD)
-    settings.update(completeness=reachstages.holdout_completeness(job, reach, int(holdout), built.query),
-                    false_positive=reachstages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks),
-                                                                    built.query),
-                    checked_threshold=DEFAULT_THRESHOLD)
-    return built
+    checks = {"completeness": reachstages.holdout_completeness(job, reach, int(holdout), unchecked.query),
+              "false_positive": reachstages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks),
+                                                                 unchecked.query),
+              "checked_threshold": DEFAULT_THRESHOLD}
+    return replace(unchecked, settings={**settings, **checks})
