@@ -228,16 +228,18 @@ vectors = st.lists(st.floats(min_value=-2.0, max_value=2.0, allow_nan=False), mi
 
 @settings(max_examples=200, deadline=None)
 @given(vectors, vectors, vectors, st.floats(min_value=0.0, max_value=3.0))
-def test_sp1_angle_and_sp3_squared_answer_as_sp1_and_sp3(k, p, q, delta):
-    """The loops' shortcuts (an angle straight from the unnormalised sine and cosine; subproblem 3 given delta
-    squared) against the subproblems they stand for, and sp1's angle against the rotation it must produce."""
-    from manipkit.closed_form.subproblems_kernel import rotate, sp1, sp1_angle, sp3, sp3_squared
+def test_sp1_pair_and_sp3_squared_answer_as_sp1_and_sp3(k, p, q, delta):
+    """The lanes' shortcuts (an angle left as its unnormalised sine and cosine, its atan2 taken later; subproblem 3
+    given delta squared) against the subproblems they stand for, and sp1's angle against the rotation it must
+    produce."""
+    from manipkit.closed_form.subproblems_kernel import atan2, rotate, sp1, sp1_pair, sp3, sp3_squared
 
     size_k = math.sqrt(sum(v * v for v in k))
     assume(size_k > 0.1)
     k = tuple(v / size_k for v in k)
     c, s, size, miss = sp1(k, p, q)
-    t, size_a, miss_a = sp1_angle(k, p, q)
+    y, x, size_a, miss_a = sp1_pair(k, p, q)
+    t = atan2(y, x)
     assert size_a == size and miss_a == miss
     assert abs(math.cos(t) - c) < 1e-14 and abs(math.sin(t) - s) < 1e-14
     if size > 1e-3:  # the angle turns p as close to q as it can come: |R p - q| is the miss
@@ -245,3 +247,49 @@ def test_sp1_angle_and_sp3_squared_answer_as_sp1_and_sp3(k, p, q, delta):
         assert abs(math.dist(turned, q) - miss) < 1e-12
     a, b = sp3(k, p, q, delta), sp3_squared(k, p, q, delta * delta)
     assert a[4:] == b[4:] and np.allclose(a[:4], b[:4], rtol=0.0, atol=0.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(st.floats(allow_nan=True), st.sampled_from([0.0, -0.0, 5e-324, -5e-324, math.inf, -math.inf, -1.0])))
+def test_the_compiled_sqrt_is_math_sqrt_bit_for_bit(x):
+    """subproblems_kernel.sqrt (LLVM's instruction, so the lanes stay on vector registers) is the same correctly
+    rounded IEEE square root as math.sqrt: equal bits for every float, nan below zero (math raises there)."""
+    from manipkit.closed_form.subproblems_kernel import sqrt
+
+    got = sqrt(x)
+    if x < 0.0 or math.isnan(x):
+        assert math.isnan(got)
+    else:
+        assert np.float64(got).tobytes() == np.float64(math.sqrt(x)).tobytes()
+
+
+@pytest.mark.parametrize("name", ["ur5", "kinova", "irb2400"])
+def test_chunks_of_lanes_give_the_one_target_answers_bit_for_bit(name):
+    """The batch solves targets in chunks of 64 lanes (on vector registers; the last chunk padded), the single
+    and general paths one target at a time (solve_many): the same code, so the same angles and flags bit for
+    bit, on a count of targets that is no multiple of 64, with random, singular, straight-elbow and unreachable
+    targets among them. Rows compared through chain_rows, the batch's own aliasing."""
+    from manipkit.closed_form.arms_kernel import solve_rows_many
+    from manipkit.closed_form.chain_ik import compiled_arm
+
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    arm = ideal_arm(chain_family(chain))
+    Q = chain.sample(64 * 5 + 37, seed=11)
+    Q[:40, 4] = 0.0  # the wrist singular
+    Q[40:80, 2] = 1e-9  # the elbow straight
+    T = chain.fk(Q)
+    T[80:120, :3, 3] *= 3.0  # out of reach
+    valid, fallback, _, rows = solve_rows_many(compiled_arm(chain, arm), T)
+    assert not arm.family.reversed  # these arms are solved base to tip: the solver takes T M^-1
+    M = arm.M_inv  # summed in the kernel's order (T @ M rounds differently)
+    g = ((T[:, :, 0, None] * M[0] + T[:, :, 1, None] * M[1]) + T[:, :, 2, None] * M[2]) + T[:, :, 3, None] * M[3]
+    theta, valid_one, _, fallback_one = solve_many(arm.family.kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+    assert np.array_equal(fallback, fallback_one) and 0 < fallback.sum() < len(T)
+    keep = ~fallback
+    assert np.array_equal(valid[keep], valid_one[keep])
+    theta = theta[..., ::-1] if arm.family.reversed else theta
+    geometry = arm.family.geometry
+    lower, upper = (np.asarray(limit, dtype=float)[geometry.columns] for limit in (chain.lower, chain.upper))
+    want = chain_rows(theta[keep], valid_one[keep], geometry.q0, geometry.columns, geometry.scale, lower, upper)
+    assert np.array_equal(rows[keep].view(np.int64), want.view(np.int64))

@@ -1,13 +1,16 @@
-"""The 6R closed forms of :mod:`manipkit.closed_form.arms`, compiled with numba: one loop over targets.
+"""The 6R closed forms of :mod:`manipkit.closed_form.arms`, compiled with numba: the loops over targets.
 
-The same Paden-Kahan sequences as :func:`manipkit.closed_form.arms.solve_6r`
-(``"three parallel, two intersecting"``, the UR arms, and ``"spherical
-wrist, two parallel"``, the OPW arms), written on scalars and 3-tuples so a
-target costs a few hundred multiplications and no allocation, and every
-branch in the same slot (``4 shoulder + 2 elbow + wrist``) with the same
-``valid`` and ``near`` rules.
+The families' Paden-Kahan sequences (``"three parallel, two intersecting"``,
+the UR arms, and ``"spherical wrist, two parallel"``, the OPW arms) are
+written once, as straight-line code, in
+:mod:`manipkit.closed_form.arms_lanes`; this module runs them on chunks of
+targets (vector registers) or on one target, takes their atan2 in one
+vectorised pass, and turns every branch into its chain row (limit aliases),
+its label and its check, with every branch in the same slot as the
+reference (``4 shoulder + 2 elbow + wrist``) and the same ``valid`` and
+``near`` rules.
 
-The compiled loop solves the *generic* targets only. A target is handed
+The compiled loops solve the *generic* targets only. A target is handed
 back (``fallback`` True) when any decision of the reference path is close
 to its threshold there: a subproblem near a tangency or degenerate (a free
 angle: singular targets), a branch missing by a little (``near`` but not
@@ -28,6 +31,7 @@ import math
 
 import numpy as np
 
+from manipkit.closed_form.arms_lanes import ENTRIES, LANES, arm_tuple, opw_chunk, opw_one, ur_chunk, ur_one
 from manipkit.closed_form.check_kernel import (
     arm_constants,
     chain_row,
@@ -37,57 +41,18 @@ from manipkit.closed_form.check_kernel import (
     pack_arm,
     plain_target,
     pose_residual,
+    pose_residual_parts,
 )
-from manipkit.closed_form.subproblems_kernel import (  # the subproblems, under the names the loops use
-    MARGIN,
-    NEAR,
-    compile_kernel,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    add as _add,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    atan2 as _atan2,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    dot as _dot,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    move as _move,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    mtv as _mtv,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    mv as _mv,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    perpendicular as _perpendicular,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    rotate as _rotate,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    row as _row,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    sp1 as _sp1,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    sp1_angle as _sp1_angle,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    sp3_squared as _sp3_squared,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    sp4 as _sp4,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    sub as _sub,
-)
-from manipkit.closed_form.subproblems_kernel import (
-    wrap as _wrap,
-)
+from manipkit.closed_form.subproblems_kernel import MARGIN, compile_kernel, inlined_kernel
+from manipkit.closed_form.subproblems_kernel import add as _add
+from manipkit.closed_form.subproblems_kernel import atan2 as _atan2
+from manipkit.closed_form.subproblems_kernel import dot as _dot
+from manipkit.closed_form.subproblems_kernel import move as _move
+from manipkit.closed_form.subproblems_kernel import mv as _mv
+from manipkit.closed_form.subproblems_kernel import rotate as _rotate
+from manipkit.closed_form.subproblems_kernel import row as _row
+from manipkit.closed_form.subproblems_kernel import sub as _sub
+from manipkit.closed_form.subproblems_kernel import wrap as _wrap
 
 __all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_at", "measure_many", "solve_check_one",
            "solve_many", "solve_rows_into", "solve_rows_many", "warm_up"]
@@ -97,144 +62,57 @@ KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two paral
 TWO_PI = 2.0 * math.pi
 
 
-@compile_kernel
-def _ur_target(H, P, c, scale, R, t, theta, valid, near):
-    """One target of the UR family into theta (8, 6), valid (8,), near (8,); True when the reference must decide."""
-    # Over 80 lines: the reference's four subproblem stages and their slot bookkeeping, in its order.
-    h0, h1, h2, h3, h4, h5 = _row(H, 0), _row(H, 1), _row(H, 2), _row(H, 3), _row(H, 4), _row(H, 5)
-    p0, p1, p2, p3, p4, p5 = _row(P, 0), _row(P, 1), _row(P, 2), _row(P, 3), _row(P, 4), _row(P, 5)
-    w = _add(_mv(R, c), t)
-    ca, sa, cb, sb, count1, miss1, unsure = _sp4(h1, h0, _sub(w, p0), _dot(h1, _sub(c, p0)))
-    if unsure or count1 == 0.0:
-        return True
-    v3 = _perpendicular(h3)
-    sign3 = 1.0 if _dot(h2, h1) > 0.0 else -1.0
-    sign4 = 1.0 if _dot(h3, h1) > 0.0 else -1.0
-    edge = 2.0 * NEAR * scale
-    any_valid = False
-    Rgh6 = _mv(R, h5)
-    for i in range(2):
-        c1, s1 = (ca, -sa) if i == 0 else (cb, -sb)  # t1 = -theta of subproblem 4
-        t1 = _atan2(s1, c1)
-        x5 = _rotate(h0, c1, -s1, Rgh6)  # R1^T R_g h6
-        wanted = _mtv(R, _rotate(h0, c1, s1, h1))  # R_g^T R1 h2
-        c5a, s5a, c5b, s5b, count5, miss5, unsure5 = _sp4(h1, h4, h5, _dot(x5, h1))
-        if unsure5 or (count5 == 0.0 and miss5 <= edge):
-            return True
-        for j in range(2):
-            c5, s5 = (c5a, s5a) if j == 0 else (c5b, s5b)
-            t5 = _atan2(s5, c5)
-            source = _rotate(h4, c5, -s5, h1)
-            c6, minus_s6, size6, _ = _sp1(h5, source, wanted)
-            if size6 <= MARGIN:
-                return True  # axis 6 along the parallel axes: t6 free (the reference picks the member)
-            s6 = -minus_s6
-            t6 = _atan2(s6, c6)
-            x = _move(h5, p5, c6, -s6, _move(h4, p4, c5, -s5, p3))
-            y = _move(h0, p0, c1, -s1, _add(_mv(R, x), t))
-            y1 = _sub(y, p1)
-            c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3_squared(h2, _sub(p3, p2), _sub(p1, p2), _dot(y1, y1))
-            if unsure3 or (count3 == 0.0 and miss3 <= edge):
-                return True
-            # the angle about h2 of R1^T R_g R6^T R5^T (the turn of joints 2, 3, 4 together)
-            u0 = _rotate(h0, c1, -s1, _mv(R, _rotate(h5, c6, -s6, _rotate(h4, c5, -s5, v3))))
-            total, _, _ = _sp1_angle(h1, v3, u0)
-            for k in range(2):
-                c3, s3 = (c3a, s3a) if k == 0 else (c3b, s3b)
-                elbow = _move(h2, p2, c3, s3, p3)
-                t2, size2, miss2 = _sp1_angle(h1, _sub(elbow, p1), y1)
-                if size2 <= MARGIN:
-                    return True
-                ok = count5 > 0.0 and count3 > 0.0
-                if ok and miss2 > 1e-11 * scale and miss2 <= edge:
-                    return True
-                ok = ok and miss2 <= 1e-9 * scale
-                # t4: axes 2, 3, 4 are parallel on the ideal arm (h3 = sign3 h2, h4 = sign4 h2), so
-                # R(h2, t2 + sign3 t3 + sign4 t4) = R1^T R_g R6^T R5^T, whose angle about h2 is total
-                t3 = _atan2(s3, c3)
-                t4 = _wrap(sign4 * (total - t2 - sign3 * t3))
-                slot = 4 * i + 2 * k + j
-                theta[slot, 0], theta[slot, 1], theta[slot, 2] = t1, t2, t3
-                theta[slot, 3], theta[slot, 4], theta[slot, 5] = t4, t5, t6
-                valid[slot] = ok
-                near[slot] = ok
-                any_valid = any_valid or ok
-    return not any_valid
+@inlined_kernel
+def _lane_angles(out, L):
+    """The angles of ``L`` lanes in place (see :mod:`manipkit.closed_form.arms_lanes`): ``out[i] = atan2(out[i],
+    out[48 L + i])`` for the 48 L sine-like entries.
+
+    The lanes write each angle as the two arguments of its atan2 and the atan2 are taken here, in one flat loop
+    with no dependency between its entries: the compiler runs it on vector registers, four at a time (about 3 ns
+    an atan2, where one by one inside the solve each was a chain of two divisions, 12-25 ns). The same operations
+    on the same numbers: the angles are the same bit for bit."""
+    for i in range(48 * L):
+        out[i] = _atan2(out[i], out[48 * L + i])
 
 
-@compile_kernel
-def _opw_target(H, P, c, scale, R, t, theta, valid, near):
-    """One target of the OPW family (spherical wrist at c, axes 2 || 3); True when the reference must decide."""
-    # Over 80 lines: shoulder, elbow, arm and wrist stages of the reference, in its order.
-    h0, h1, h2, h3, h4, h5 = _row(H, 0), _row(H, 1), _row(H, 2), _row(H, 3), _row(H, 4), _row(H, 5)
-    p0, p1, p2 = _row(P, 0), _row(P, 1), _row(P, 2)
-    w = _add(_mv(R, c), t)
-    ca, sa, cb, sb, count1, miss1, unsure = _sp4(h1, h0, _sub(w, p0), _dot(h1, _sub(c, p0)))
-    if unsure or count1 == 0.0:
-        return True
-    v5 = _perpendicular(h5)
-    edge = 2.0 * NEAR * scale
-    any_valid = False
-    Rgh6, Rgv = _mv(R, h5), _mv(R, v5)
-    h45 = _dot(h4, h5)
-    for i in range(2):
-        c1, s1 = (ca, -sa) if i == 0 else (cb, -sb)
-        t1 = _atan2(s1, c1)
-        w1 = _move(h0, p0, c1, -s1, w)
-        x1, v1 = _rotate(h0, c1, -s1, Rgh6), _rotate(h0, c1, -s1, Rgv)
-        reach = _sub(w1, p1)
-        c3a, s3a, c3b, s3b, count3, miss3, unsure3 = _sp3_squared(h2, _sub(c, p2), _sub(p1, p2), _dot(reach, reach))
-        if unsure3 or (count3 == 0.0 and miss3 <= edge):
-            return True
-        for k in range(2):
-            c3, s3 = (c3a, s3a) if k == 0 else (c3b, s3b)
-            elbow = _move(h2, p2, c3, s3, c)
-            c2, s2, size2, miss2 = _sp1(h1, _sub(elbow, p1), _sub(w1, p1))
-            if size2 <= MARGIN:
-                return True
-            arm_ok = count3 > 0.0
-            if arm_ok and miss2 > 1e-11 * scale and miss2 <= edge:
-                return True
-            arm_ok = arm_ok and miss2 <= 1e-9 * scale
-            t2, t3 = _atan2(s2, c2), _atan2(s3, c3)
-            # R_rem = (R1 R2 R3)^T R_g: x = R_rem h6, and R_rem v
-            x = _rotate(h2, c3, -s3, _rotate(h1, c2, -s2, x1))
-            rv = _rotate(h2, c3, -s3, _rotate(h1, c2, -s2, v1))
-            # subproblem 2: R(h4, -t4) x = R(h5, t5) h6
-            c4a, s4a, c4b, s4b, count4, miss4, unsure4 = _sp4(h4, h3, x, h45)
-            if unsure4 or (count4 == 0.0 and miss4 <= edge):
-                return True
-            for j in range(2):
-                cm4, sm4 = (c4a, s4a) if j == 0 else (c4b, s4b)  # the angle -t4
-                target = _rotate(h3, cm4, sm4, x)
-                c5, s5, size5, miss5 = _sp1(h4, h5, target)
-                if size5 <= MARGIN:
-                    return True
-                if j == 0 and count4 > 0.0 and miss5 > 1e-10 and miss5 <= 2e-6:
-                    return True  # sp2's sqrt(tol) acceptance, near its edge
-                if j == 0 and count4 > 0.0 and miss5 > 1e-6:
-                    count4 = 0.0  # as sp2: the pair's first member decides
-                turned = _rotate(h4, c5, -s5, _rotate(h3, cm4, sm4, rv))
-                t6, _, _ = _sp1_angle(h5, v5, turned)
-                ok = arm_ok and count4 > 0.0
-                slot = 4 * i + 2 * k + j
-                theta[slot, 0], theta[slot, 1], theta[slot, 2] = t1, t2, t3
-                theta[slot, 3], theta[slot, 4], theta[slot, 5] = _atan2(-sm4, cm4), _atan2(s5, c5), t6
-                valid[slot] = ok
-                near[slot] = ok
-                any_valid = any_valid or ok
-    return not any_valid
+@inlined_kernel
+def _lane_answer(kind, H, out, n, L, theta, valid, near):
+    """Lane ``n`` of ``L`` (its angles taken by :func:`_lane_angles`) into theta (8, 6), valid (8,), near (8,);
+    returns whether the reference must decide. UR: axes 2, 3, 4 are parallel on the ideal arm (h3 = sign3 h2,
+    h4 = sign4 h2), so R(h2, t2 + sign3 t3 + sign4 t4) = R1^T R_g R6^T R5^T, whose angle about h2 (column 3, the
+    turn) gives t4 = sign4 (turn - t2 - sign3 t3), wrapped."""
+    for slot in range(8):
+        for j in range(6):
+            theta[slot, j] = out[(6 * slot + j) * L + n]
+        valid[slot] = out[(96 + slot) * L + n] != 0.0
+        near[slot] = valid[slot]
+    if kind == 0:
+        sign3 = 1.0 if H[2, 0] * H[1, 0] + H[2, 1] * H[1, 1] + H[2, 2] * H[1, 2] > 0.0 else -1.0
+        sign4 = 1.0 if H[3, 0] * H[1, 0] + H[3, 1] * H[1, 1] + H[3, 2] * H[1, 2] > 0.0 else -1.0
+        for slot in range(8):
+            theta[slot, 3] = _wrap(sign4 * (theta[slot, 3] - theta[slot, 1] - sign3 * theta[slot, 2]))
+    return out[104 * L + n] != 0.0
+
+
+@inlined_kernel
+def _target(kind, K, H, g, out, theta, valid, near):
+    """One target ``g`` (4, 4, in the solve frame) of either family, solved as one lane (``out`` (ENTRIES,):
+    scratch) into theta (8, 6), valid (8,), near (8,); True when the reference must decide."""
+    R = (g[0, 0], g[0, 1], g[0, 2], g[1, 0], g[1, 1], g[1, 2], g[2, 0], g[2, 1], g[2, 2])
+    t = (g[0, 3], g[1, 3], g[2, 3])
+    if kind == 0:
+        ur_one(K, R, t, out)
+    else:
+        opw_one(K, R, t, out)
+    _lane_angles(out, 1)
+    return _lane_answer(kind, H, out, 0, 1, theta, valid, near)
 
 
 @compile_kernel
 def _solve_all(kind, H, P, c, scale, G, theta, valid, near, fallback):
+    K, out = arm_tuple(H, P, c, scale), np.empty(ENTRIES)
     for n in range(G.shape[0]):
-        R = G[n, :3, :3]
-        t = (G[n, 0, 3], G[n, 1, 3], G[n, 2, 3])
-        if kind == 0:
-            fallback[n] = _ur_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
-        else:
-            fallback[n] = _opw_target(H, P, c, scale, R, t, theta[n], valid[n], near[n])
+        fallback[n] = _target(kind, K, H, G[n], out, theta[n], valid[n], near[n])
 
 
 def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale: float, g: np.ndarray):
@@ -343,19 +221,13 @@ def _solved_target(T, M_inv, reverse, g):
 
 
 @compile_kernel
-def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, scratch,
-                    T_fk, theta, valid, near, rows, residuals, within):
+def _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, scratch, T_fk, out,
+                    theta, valid, near, rows, residuals, within):
     """One target: every branch solved (as _solve_all), then each valid one's chain row, FK on the true chain,
     residual and limits (check_kernel); True when the reference must decide (nothing else is written then).
     ``solved`` (3, m): joint scales, lower and upper limits of the solved columns; ``limits`` (2, n): the chain's."""
     _solved_target(T, M_inv, reverse, g)
-    R = g
-    t = (g[0, 3], g[1, 3], g[2, 3])
-    if kind == 0:
-        handed_back = _ur_target(H, P, c, scale, R, t, theta, valid, near)
-    else:
-        handed_back = _opw_target(H, P, c, scale, R, t, theta, valid, near)
-    if handed_back:
+    if _target(kind, K, H, g, out, theta, valid, near):
         return True
     for k in range(theta.shape[0]):
         if valid[k]:
@@ -366,35 +238,47 @@ def _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved
 
 def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, packed, index):
     """Every target of ``T``: its rows (NaN where no branch, or handed back), and the rows that are not NaN also
-    packed in order into ``packed`` (M, n) with their slot ``index`` (M,) (``8 target + slot``); returns M."""
+    packed in order into ``packed`` (M, n) with their slot ``index`` (M,) (``8 target + slot``); returns M.
+
+    Targets go through the lanes in chunks of LANES (:func:`manipkit.closed_form.arms_lanes.ur_chunk`, ``opw_chunk``:
+    on vector registers), a short last chunk padded with copies of its last target (their answers not read)."""
     kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
-    c = _row(points, 0)
+    K = arm_tuple(H, P, _row(points, 0), scale)
     g = np.empty((4, 4))
+    chunk, out = np.empty(12 * LANES), np.empty(ENTRIES * LANES)
     # one target's angles and flags, reused: no (N, 8, m) array, and no view of valid made (and counted) per target
     theta, near, valid_k = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
     count = 0
-    for n in range(T.shape[0]):
-        project[n] = not exact_rotation(T[n])
-        _solved_target(T[n], M_inv, reverse, g)
-        t = (g[0, 3], g[1, 3], g[2, 3])
-        rows_n = rows[n]
-        valid_k[:] = False  # a target handed back leaves the slots it did not reach False, as before
+    for start in range(0, T.shape[0], LANES):
+        used = min(LANES, T.shape[0] - start)
+        for lane in range(LANES):
+            n = start + min(lane, used - 1)
+            _solved_target(T[n], M_inv, reverse, g)
+            for i in range(3):
+                for j in range(4):
+                    chunk[(4 * i + j) * LANES + lane] = g[i, j]
         if kind == 0:
-            fallback[n] = _ur_target(H, P, c, scale, g, t, theta, valid_k, near)
+            ur_chunk(K, chunk, out)
         else:
-            fallback[n] = _opw_target(H, P, c, scale, g, t, theta, valid_k, near)
-        for k in range(theta.shape[0]):
-            valid[n, k] = valid_k[k]
-            if valid_k[k] and not fallback[n]:
-                chain_row(theta, k, reverse, q0, columns, solved, rows_n)
-                if not math.isnan(rows_n[k, 0]):  # as the check reads a row: present unless its first entry is NaN
+            opw_chunk(K, chunk, out)
+        _lane_angles(out, LANES)
+        for lane in range(used):
+            n = start + lane
+            project[n] = not exact_rotation(T[n])
+            fallback[n] = _lane_answer(kind, H, out, lane, LANES, theta, valid_k, near)
+            rows_n = rows[n]
+            for k in range(theta.shape[0]):
+                valid[n, k] = valid_k[k]
+                if valid_k[k] and not fallback[n]:
+                    chain_row(theta, k, reverse, q0, columns, solved, rows_n)
+                    if not math.isnan(rows_n[k, 0]):  # as the check reads a row: present unless its first entry is NaN
+                        for j in range(rows_n.shape[1]):
+                            packed[count, j] = rows_n[k, j]
+                        index[count] = theta.shape[0] * n + k
+                        count += 1
+                else:
                     for j in range(rows_n.shape[1]):
-                        packed[count, j] = rows_n[k, j]
-                    index[count] = theta.shape[0] * n + k
-                    count += 1
-            else:
-                for j in range(rows_n.shape[1]):
-                    rows_n[k, j] = np.nan
+                        rows_n[k, j] = np.nan
     return count
 
 
@@ -404,14 +288,22 @@ _solve_rows_all = compile_kernel(_solve_rows_all, nogil=True)
 
 def _measure_at(T, reached, index, position_tol, rotation_tol, residuals, success):
     """residuals[n, k] = the residual (m, rad) of reached[i] against T[n] for slot ``index[i] = slots n + k``, NaN
-    in the other slots; success[n]: some slot of target n within both tolerances."""
+    in the other slots; success[n]: some slot of target n within both tolerances. The rotations' atan2 are taken
+    in one flat loop (vectorised: see _lane_angles), as pose_residual takes them one by one."""
     slots = residuals.shape[1]
     for n in range(residuals.shape[0]):
         for k in range(slots):
             residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
-    for i in range(index.shape[0]):
+    M = index.shape[0]
+    parts = np.empty((3, M))
+    for i in range(M):
+        n = index[i] // slots
+        parts[0, i], parts[1, i], parts[2, i] = pose_residual_parts(T[n], reached[i])
+    for i in range(M):
+        parts[1, i] = _atan2(parts[1, i], parts[2, i])
+    for i in range(M):
         n, k = index[i] // slots, index[i] % slots
-        residuals[n, k, 0], residuals[n, k, 1] = pose_residual(T[n], reached[i])
+        residuals[n, k, 0], residuals[n, k, 1] = parts[0, i], parts[1, i]
     for n in range(residuals.shape[0]):
         success[n] = False
         for k in range(slots):
@@ -448,9 +340,10 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
     bits, codes = np.zeros((8, 3), dtype=np.bool_), np.zeros(8, dtype=np.int64)
     g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
     c = _row(points, 0)
-    if not plain_target(T) or _checked_target(kind, H, P, c, scale, M_inv, reverse, T, q0, columns, solved, limits,
-                                              floats, ints, g, scratch, T_fk, theta, valid, near, rows, residuals,
-                                              within):
+    K = arm_tuple(H, P, c, scale)
+    if not plain_target(T) or _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats,
+                                              ints, g, scratch, T_fk, np.empty(ENTRIES), theta, valid, near, rows,
+                                              residuals, within):
         return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
     for k in range(8):
@@ -527,7 +420,7 @@ def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
 def warm_up() -> None:
     """Compile (or load from numba's on-disk cache) every kernel here, with the argument types chain_ik passes.
 
-    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 45 s,
+    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 3 minutes,
     which the first closed-form solve of a new installation would otherwise pay.
     """
     z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)

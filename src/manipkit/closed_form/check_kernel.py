@@ -32,12 +32,12 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.subproblems_kernel import compile_kernel
+from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlined_kernel, sqrt
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
 __all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "kept_rows", "pack_arm",
-           "plain_target", "pose_residual", "row_tables", "wrap_angle"]
+           "plain_target", "pose_residual", "pose_residual_parts", "row_tables", "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
@@ -45,21 +45,11 @@ TWO_PI = 2.0 * math.pi
 pose_row = pose_row_kernel()
 
 
-def inlined(py_func):
-    """compile_kernel with numba's inlining at its IR level: a small function called per branch from the loops
-    costs no call (its arrays are not passed as structures)."""
-    return compile_kernel(py_func, inline="always")
-
-
-@inlined
-def pose_residual(T_ref, T):
-    """(position m, rotation rad) of the reached pose ``T`` against ``T_ref`` (both (4, 4)).
-
-    The compiled twin of ``pose_residuals(T_ref, T, project=False)``
-    (:mod:`manipkit.spatial.transforms`): ``|t - t_ref|`` and
-    ``atan2(|v| / 2, (trace M - 1) / 2)`` of ``M = R_ref^T R``, ``v`` the
-    vector of its skew part, with the same operations in the same order.
-    """
+@inlined_kernel
+def pose_residual_parts(T_ref, T):
+    """(position m, y, x) of the reached pose ``T`` against ``T_ref`` (both (4, 4)): the rotation residual is
+    ``atan2(y, x)`` (:func:`pose_residual`), left to the caller so a loop over many poses takes its atan2 in one
+    vectorised pass (:mod:`manipkit.closed_form.arms_kernel`'s ``_measure_at``)."""
     a00, a01, a02 = T_ref[0, 0], T_ref[0, 1], T_ref[0, 2]
     a10, a11, a12 = T_ref[1, 0], T_ref[1, 1], T_ref[1, 2]
     a20, a21, a22 = T_ref[2, 0], T_ref[2, 1], T_ref[2, 2]
@@ -73,11 +63,25 @@ def pose_residual(T_ref, T):
              + (a02 * b02 + a12 * b12 + a22 * b22))
     v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
     dx, dy, dz = T[0, 3] - T_ref[0, 3], T[1, 3] - T_ref[1, 3], T[2, 3] - T_ref[2, 3]
-    return (math.sqrt(dx * dx + dy * dy + dz * dz),
-            math.atan2(0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (trace - 1.0)))
+    return sqrt(dx * dx + dy * dy + dz * dz), 0.5 * sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (trace - 1.0)
 
 
-@inlined
+@inlined_kernel
+def pose_residual(T_ref, T):
+    """(position m, rotation rad) of the reached pose ``T`` against ``T_ref`` (both (4, 4)).
+
+    The compiled twin of ``pose_residuals(T_ref, T, project=False)``
+    (:mod:`manipkit.spatial.transforms`): ``|t - t_ref|`` and
+    ``atan2(|v| / 2, (trace M - 1) / 2)`` of ``M = R_ref^T R``, ``v`` the
+    vector of its skew part, with the same operations in the same order,
+    except the atan2: :func:`manipkit.closed_form.subproblems_kernel.atan2`
+    (within 2 units in the last place of numpy's, under 1e-15 rad).
+    """
+    position, y, x = pose_residual_parts(T_ref, T)
+    return position, atan2(y, x)
+
+
+@inlined_kernel
 def exact_rotation(T):
     """The rotation block of ``T`` (4, 4) is orthonormal to EXACT_ROTATION_TOL with det > 0 (False for nan):
     it is used as is, as :func:`manipkit.spatial.transforms.projected_rotation` decides."""
@@ -94,7 +98,7 @@ def exact_rotation(T):
     return det > 0.0
 
 
-@inlined
+@inlined_kernel
 def wrap_angle(a):
     """As manipkit.spatial.rotations.wrap_angle: (-pi, pi], angles inside unchanged."""
     if -math.pi < a <= math.pi:
@@ -103,7 +107,7 @@ def wrap_angle(a):
     return w + TWO_PI if w <= -math.pi else w
 
 
-@inlined
+@inlined_kernel
 def chain_row(theta, k, reverse, q0, columns, solved, out):
     """``out[k]`` (n,) = the chain vector of solved angles ``theta[k]`` (m,): ``q0`` with column ``columns[i]`` moved
     by ``theta[k, i] / scale[i]`` (``theta[k, m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken,
@@ -128,7 +132,7 @@ def chain_row(theta, k, reverse, q0, columns, solved, out):
         out[k, col] = best
 
 
-@inlined
+@inlined_kernel
 def check_row(rows, k, T_target, floats, ints, limits, scratch, T):
     """(position m, rotation rad, within limits) of chain vector ``rows[k]`` against ``T_target``: the chain's FK
     (:func:`manipkit.kinematics.fk_kernel.pose_row`, tables ``floats``, ``ints``; ``scratch`` (4, 3), ``T``
@@ -234,7 +238,7 @@ def pack_arm(kind: int, h: np.ndarray, p: np.ndarray, points: np.ndarray, scale:
     return arm_reals, arm_ints
 
 
-@inlined
+@inlined_kernel
 def arm_constants(arm_reals, arm_ints):
     """The views of :func:`pack_arm`'s arrays: (kind, H, P, points, scale, M_inv, reverse, q0, columns, solved,
     limits, floats, ints), no copy."""
@@ -255,7 +259,7 @@ def arm_constants(arm_reals, arm_ints):
             arm_reals[o + 2 * n:], arm_ints[4 + m:])
 
 
-@inlined
+@inlined_kernel
 def plain_target(T):
     """``T`` (4, 4) is a rigid transform that :func:`manipkit.spatial.transforms.check_transform` accepts as is:
     last row exactly ``[0 0 0 1]``, a finite translation and a rotation block exact to EXACT_ROTATION_TOL

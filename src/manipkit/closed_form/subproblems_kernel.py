@@ -25,14 +25,35 @@ def compile_kernel(py_func, **options):
     reference path."""
     return _compile(py_func, error_model="numpy", **options)
 
-def _inlined(py_func):
+def _sqrt_intrinsic():
+    """The IEEE square root as LLVM's ``llvm.sqrt.f64`` instruction, for :func:`sqrt`."""
+    from llvmlite import ir
+    from numba import types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def llvm_sqrt(typingctx, x):
+        def codegen(context, builder, signature, args):
+            function = builder.module.declare_intrinsic("llvm.sqrt", [ir.DoubleType()])
+            return builder.call(function, [args[0]])
+
+        return types.float64(types.float64), codegen
+
+    return llvm_sqrt
+
+
+_llvm_sqrt = _sqrt_intrinsic()
+
+
+def inlined_kernel(py_func):
     """:func:`compile_kernel` with ``inline="always"``: numba puts the body into each caller (LLVM leaves these calls
     in place otherwise, each with numba's call convention: a returned status and the tuple through memory)."""
     return compile_kernel(py_func, inline="always")
 
 
-__all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "move", "mtv", "mv", "norm", "perpendicular",
-           "rotate", "row", "sp1", "sp1_angle", "sp3", "sp3_squared", "sp4", "sub", "wrap"]
+
+__all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "inlined_kernel", "move", "mtv", "mv", "norm", "perpendicular",
+           "rotate", "row", "sp1", "sp1_pair", "sqrt", "sp3", "sp3_squared", "sp4", "sub", "wrap"]
 
 #: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
 MARGIN = 1e-8
@@ -71,10 +92,19 @@ def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
+@inlined_kernel
+def sqrt(x):
+    """The square root of float ``x``: the same correctly rounded IEEE operation as ``math.sqrt`` (nan below 0),
+    as an instruction. numba lowers ``math.sqrt`` to a call into libm, which LLVM turns into the instruction only
+    where it proves ``x >= 0`` (libm may set errno); one call left in a loop keeps it off the vector registers
+    (:mod:`manipkit.closed_form.arms_lanes`)."""
+    return _llvm_sqrt(x)
+
+
 @compile_kernel
 def norm(a):
     """|a| of a 3-tuple."""
-    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
 @compile_kernel
@@ -117,7 +147,7 @@ def mtv(R, x):
             R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
 
 
-@_inlined
+@inlined_kernel
 def _sp1_parts(k, p, q):
     """(X, Y, size, miss) of subproblem 1: cos and sin of the angle times X's and Y's norm r, |p off the axis|,
     and |R(k, t) p - q| at the best angle (``hypot(|p_perp| - |q_perp|, k.p - k.q)``: R turns p_perp onto q_perp's
@@ -130,31 +160,31 @@ def _sp1_parts(k, p, q):
     if size <= TOL or X * X + Y * Y == 0.0:  # r = 0 as sp1 takes it (also when the squares underflow)
         return 0.0, 0.0, size, norm(sub(p, q))
     d_perp, d_axis = size - size_q, kp - kq
-    return X, Y, size, math.sqrt(d_perp * d_perp + d_axis * d_axis)
+    return X, Y, size, sqrt(d_perp * d_perp + d_axis * d_axis)
 
 
-@_inlined
+@inlined_kernel
 def sp1(k, p, q):
     """Subproblem 1 as subproblems.sp1: (c, s, size, miss) of the angle t with R(k, t) p = q (see _sp1_parts);
     the angle is free, held 0, where size is within TOL."""
     X, Y, size, miss = _sp1_parts(k, p, q)
-    r = math.sqrt(X * X + Y * Y)
+    r = sqrt(X * X + Y * Y)
     if r == 0.0:
         return 1.0, 0.0, size, miss
     return X / r, Y / r, size, miss
 
 
-@_inlined
-def sp1_angle(k, p, q):
-    """:func:`sp1` as (t, size, miss): the angle itself, atan2 of the unnormalised sine and cosine (no square root
-    and no division for a caller that needs only the angle; t = 0 where sp1 holds it 0)."""
+@inlined_kernel
+def sp1_pair(k, p, q):
+    """:func:`sp1` as (Y, X, size, miss): the unnormalised sine and cosine of its angle, ``atan2(Y, X)``, for a
+    caller that takes the atan2 later (no square root, no division; (0, 1) where sp1 holds the angle 0)."""
     X, Y, size, miss = _sp1_parts(k, p, q)
     if X * X + Y * Y == 0.0:
-        return 0.0, size, miss
-    return atan2(Y, X), size, miss
+        return 0.0, 1.0, size, miss
+    return Y, X, size, miss
 
 
-@_inlined
+@inlined_kernel
 def _atan_ratio(n, d):
     """atan(n / d) for 0 <= n <= d, d > 0 (Cephes' atan: reduction at 0.66, a rational of degree 4/5; within 2 ulp).
 
@@ -172,7 +202,7 @@ def _atan_ratio(n, d):
     return big * (0.25 * math.pi) + (x * (z * num / den) + x + big * (0.5 * _MOREBITS))
 
 
-@_inlined
+@inlined_kernel
 def atan2(y, x):
     """atan2(y, x) in [-pi, pi] as math.atan2 to 2 ulp (numba's call into libm costs about twice as much).
 
@@ -189,7 +219,7 @@ def atan2(y, x):
     return math.copysign(a, y)
 
 
-@_inlined
+@inlined_kernel
 def sp4(h, k, p, d):
     """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
     (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
@@ -198,7 +228,7 @@ def sp4(h, k, p, d):
     A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
     B = dot(h, cross(k, p))
     C = d - dot(h, k) * kp
-    r = math.sqrt(A * A + B * B)  # not math.hypot: a call into libm; A, B are lengths near 1, no overflow
+    r = sqrt(A * A + B * B)  # not math.hypot (a call into libm): A, B are lengths near 1, no overflow
     scale = max(1.0, r)
     gap = abs(C) - r
     unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
@@ -206,7 +236,7 @@ def sp4(h, k, p, d):
         return 1.0, 0.0, 1.0, 0.0, 0.0, abs(C), True
     cphi, sphi = A / r, B / r
     ci = min(1.0, max(-1.0, C / r))
-    si = math.sqrt(1.0 - ci * ci)
+    si = sqrt(1.0 - ci * ci)
     count = 0.0 if gap > TOL * scale else 2.0
     miss = gap if count == 0.0 else 0.0
     return cphi * ci - sphi * si, sphi * ci + cphi * si, cphi * ci + sphi * si, sphi * ci - cphi * si, count, miss, unsure
@@ -218,13 +248,13 @@ def sp3(k, p1, p2, delta):
     return sp3_squared(k, p1, p2, delta * delta)
 
 
-@_inlined
+@inlined_kernel
 def sp3_squared(k, p1, p2, delta2):
     """:func:`sp3` given delta squared (``delta2``; a caller with a squared distance takes no square root)."""
     d = 0.5 * (dot(p1, p1) + dot(p2, p2) - delta2)
     ca, sa, cb, sb, count, miss, unsure = sp4(p2, k, p1, d)
     if count == 0.0:
-        delta = math.sqrt(delta2)
+        delta = sqrt(delta2)
         ra = norm(sub(rotate(k, ca, sa, p1), p2))
         rb = norm(sub(rotate(k, cb, sb, p1), p2))
         miss = min(abs(ra - delta), abs(rb - delta))
