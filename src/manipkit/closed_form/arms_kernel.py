@@ -16,9 +16,11 @@ to its threshold there: a subproblem near a tangency or degenerate (a free
 angle: singular targets), a branch missing by a little (``near`` but not
 exact), or no branch at all (the reference measures how far it misses).
 Those targets are solved again by the numpy reference, so the answer is
-the reference's everywhere; the margins (``MARGIN`` times the arm's size,
-far above the two paths' rounding differences of about 1e-15) only decide
-which path answers, never what the answer is.
+the reference's everywhere, to rounding; the margins (``MARGIN`` times the
+arm's size, and ``TANGENT`` for a tangency: both far above the two paths'
+rounding differences of about 1e-16 of the size) decide which path answers.
+Between ``TANGENT`` and ``MARGIN`` from tangent the two near-equal angles of
+a tangency agree to about 1e-11 rad (their sensitivity there).
 
 Each function is compiled by :func:`manipkit.kernels.compile_kernel` (numba's
 disk cache where it works); importing this module imports numba, so the

@@ -52,11 +52,17 @@ def inlined_kernel(py_func):
 
 
 
-__all__ = ["MARGIN", "NEAR", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "inlined_kernel", "move", "mtv", "mv", "norm", "perpendicular",
+__all__ = ["MARGIN", "NEAR", "TANGENT", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "inlined_kernel", "move", "mtv", "mv", "norm", "perpendicular",
            "rotate", "row", "sp1", "sp1_pair", "sqrt", "sp3", "sp3_squared", "sp4", "sub", "wrap"]
 
 #: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
 MARGIN = 1e-8
+#: How close to tangent (relative to the arm's size) a subproblem 3 or 4 may come before the reference decides.
+#: Smaller than MARGIN: the two paths' roundings differ by about 1e-16 of the size there, and between 1e-10 and
+#: 1e-8 from tangent their two near-equal angles still agree to about 1e-11 rad (the angle's sensitivity,
+#: 1e-16 / sqrt(2 1e-10)); at 1e-8, arms' near-singular targets (the elbow within 3e-4 rad of straight, the wrist
+#: centre within 1e-8 m of the shoulder's cylinder) went to the reference's per-call cost of about 2 ms.
+TANGENT = 1e-10
 TOL = 1e-12  # the subproblems' zero, as the reference's (arms.solve_6r's tol)
 NEAR = 1e-6  # arms.NEAR
 TWO_PI = 2.0 * math.pi
@@ -223,7 +229,7 @@ def atan2(y, x):
 def sp4(h, k, p, d):
     """Subproblem 4 (h . R(k, t) p = d) as subproblems.sp4 away from its thresholds:
     (ca, sa, cb, sb, count, miss, unsure) with angles ``phi + spread`` and ``phi - spread``;
-    ``unsure``: degenerate or tangent within ``MARGIN`` (the reference decides there)."""
+    ``unsure``: degenerate within ``MARGIN`` or tangent within ``TANGENT`` (the reference decides there)."""
     kp = dot(k, p)
     A = h[0] * (p[0] - kp * k[0]) + h[1] * (p[1] - kp * k[1]) + h[2] * (p[2] - kp * k[2])
     B = dot(h, cross(k, p))
@@ -231,7 +237,7 @@ def sp4(h, k, p, d):
     r = sqrt(A * A + B * B)  # not math.hypot (a call into libm): A, B are lengths near 1, no overflow
     scale = max(1.0, r)
     gap = abs(C) - r
-    unsure = r <= MARGIN * scale or abs(gap) <= MARGIN * scale
+    unsure = r <= MARGIN * scale or abs(gap) <= TANGENT * scale
     if r == 0.0:
         return 1.0, 0.0, 1.0, 0.0, 0.0, abs(C), True
     cphi, sphi = A / r, B / r
