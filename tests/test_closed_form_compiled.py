@@ -293,3 +293,43 @@ def test_chunks_of_lanes_give_the_one_target_answers_bit_for_bit(name):
     lower, upper = (np.asarray(limit, dtype=float)[geometry.columns] for limit in (chain.lower, chain.upper))
     want = chain_rows(theta[keep], valid_one[keep], geometry.q0, geometry.columns, geometry.scale, lower, upper)
     assert np.array_equal(rows[keep].view(np.int64), want.view(np.int64))
+
+
+@pytest.mark.parametrize("name", ["ur5", "irb2400"])
+def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
+    """The batch makes most rows in flat loops over the lanes (selects) and the rest with check_kernel.chain_row
+    (a lane whose value q0 + angle / scale leaves (-pi, pi]): on an arm packed with a reference configuration of
+    0.3 rad on a solved joint and a scale of -1 on another, both kinds of lane occur, and every row equals
+    chain_rows' (the one-target aliasing) bit for bit."""
+    from manipkit.closed_form.arms_kernel import KIND_CODES, solve_rows_many
+    from manipkit.closed_form.check_kernel import pack_arm, row_tables
+
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    arm = ideal_arm(chain_family(chain))
+    geometry = arm.family.geometry
+    columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
+    q0 = np.asarray(geometry.q0, dtype=float).copy()
+    q0[columns[1]] = 0.3
+    scale = np.asarray(geometry.scale, dtype=float).copy()
+    scale[2] = -scale[2]
+    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
+    floats, ints = row_tables(chain.steps, chain.columns)
+    points = np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float)
+    prepared = pack_arm(KIND_CODES[arm.family.kind], arm.h, arm.p, points, float(arm.scale), arm.M_inv,
+                        bool(arm.family.reversed), q0, columns, np.array([scale, lower[columns], upper[columns]]),
+                        np.array([lower, upper]), floats, ints)
+    Q = chain.sample(64 * 3 + 5, seed=12)
+    T = chain.fk(Q)
+    valid, fallback, _, rows = solve_rows_many(prepared, T)
+    M = arm.M_inv  # the targets as the kernel takes them (summed in its order)
+    g = ((T[:, :, 0, None] * M[0] + T[:, :, 1, None] * M[1]) + T[:, :, 2, None] * M[2]) + T[:, :, 3, None] * M[3]
+    theta, valid_one, _, _ = solve_many(arm.family.kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+    keep = ~fallback
+    want = chain_rows(theta[keep], valid_one[keep], q0, columns, scale, lower[columns], upper[columns])
+    got = rows[keep]
+    raw = q0[columns] + theta[keep] / scale  # before wrapping (these arms are solved base to tip)
+    outside = ((raw <= -np.pi) | (raw > np.pi)).any(axis=-1) & valid_one[keep]
+    assert outside.any(axis=-1).any() and not outside.any(axis=-1).all()  # both kinds of lane
+    assert np.isnan(got).any() and not np.isnan(got).all()
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))

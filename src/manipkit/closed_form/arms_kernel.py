@@ -35,6 +35,7 @@ import numpy as np
 
 from manipkit.closed_form.arms_lanes import ENTRIES, LANES, arm_tuple, opw_chunk, opw_one, ur_chunk, ur_one
 from manipkit.closed_form.check_kernel import (
+    LIMIT_TOL,
     arm_constants,
     chain_row,
     check_row,
@@ -78,22 +79,81 @@ def _lane_angles(out, L):
 
 
 @inlined_kernel
+def _lane_flags(out, n, L, valid):
+    """valid (8,) of lane ``n`` of ``L``; returns whether the reference must decide."""
+    for slot in range(8):
+        valid[slot] = out[(96 + slot) * L + n] != 0.0
+    return out[104 * L + n] != 0.0
+
+
+@inlined_kernel
+def _alias(value, lower, upper):
+    """``check_kernel.chain_row``'s choice for a value inside (-pi, pi], by selects: the value (``+ 0.0``, as
+    ``wrap_angle``) if inside ``[lower, upper]``, else the first inside of ``+2 pi, -2 pi, +4 pi, -4 pi``, else
+    the value."""
+    w = value + 0.0
+    c1, c2, c3, c4 = w + TWO_PI, w - TWO_PI, w + 2.0 * TWO_PI, w - 2.0 * TWO_PI
+    best = c4 if (lower <= c4) & (c4 <= upper) else w
+    best = c3 if (lower <= c3) & (c3 <= upper) else best
+    best = c2 if (lower <= c2) & (c2 <= upper) else best
+    best = c1 if (lower <= c1) & (c1 <= upper) else best
+    return w if (lower <= w) & (w <= upper) else best
+
+
+@inlined_kernel
+def _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd):
+    """The solved columns' joint values of every branch of the LANES lanes of ``out`` (angles taken), as
+    ``check_kernel.chain_row`` gives them, in flat loops over the lanes (vectorised: selects, no branch):
+    ``values[(slot m + i) LANES + lane]`` for solved column ``i`` of ``m``. Where ``q0 + angle / scale`` lies in
+    (-pi, pi] (atan2's range: always, on an arm whose reference configuration is 0 and whose scales are 1) it is
+    wrapped and aliased as chain_row does (:func:`_alias`; UR's joint 4 from the turn of joints 2-4 as
+    _lane_answer takes it, inside (-pi, pi]); a lane with a valid branch whose value is not gets ``odd`` > 0, and
+    chain_row makes its rows itself. The same numbers as chain_row, bit for bit (tested)."""
+    m = columns.shape[0]
+    sign3 = 1.0 if H[2, 0] * H[1, 0] + H[2, 1] * H[1, 1] + H[2, 2] * H[1, 2] > 0.0 else -1.0
+    sign4 = 1.0 if H[3, 0] * H[1, 0] + H[3, 1] * H[1, 1] + H[3, 2] * H[1, 2] > 0.0 else -1.0
+    for lane in range(LANES):
+        odd[lane] = 0.0
+    for slot in range(8):
+        ok = (96 + slot) * LANES
+        for i in range(m):
+            e = m - 1 - i if reverse else i  # the angle of solved column i, in solve order
+            start, dst = (6 * slot + e) * LANES, (slot * m + i) * LANES
+            base, scale = q0[columns[i]], solved[0, i]
+            lower, upper = solved[1, i] - LIMIT_TOL, solved[2, i] + LIMIT_TOL
+            if kind == 0 and e == 3:  # UR: t4 = sign4 (turn - t2 - sign3 t3)
+                t2, t3 = (6 * slot + 1) * LANES, (6 * slot + 2) * LANES
+                for lane in range(LANES):
+                    x = sign4 * (out[start + lane] - out[t2 + lane] - sign3 * out[t3 + lane])
+                    value = base + x / scale
+                    inside = (x > -math.pi) & (x <= math.pi) & (value > -math.pi) & (value <= math.pi)
+                    odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if inside else 1.0))
+                    values[dst + lane] = _alias(value, lower, upper)
+            else:
+                for lane in range(LANES):
+                    value = base + out[start + lane] / scale
+                    inside = (value > -math.pi) & (value <= math.pi)
+                    odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if inside else 1.0))
+                    values[dst + lane] = _alias(value, lower, upper)
+
+
+@inlined_kernel
 def _lane_answer(kind, H, out, n, L, theta, valid, near):
     """Lane ``n`` of ``L`` (its angles taken by :func:`_lane_angles`) into theta (8, 6), valid (8,), near (8,);
     returns whether the reference must decide. UR: axes 2, 3, 4 are parallel on the ideal arm (h3 = sign3 h2,
     h4 = sign4 h2), so R(h2, t2 + sign3 t3 + sign4 t4) = R1^T R_g R6^T R5^T, whose angle about h2 (column 3, the
     turn) gives t4 = sign4 (turn - t2 - sign3 t3), wrapped."""
+    handed_back = _lane_flags(out, n, L, valid)
     for slot in range(8):
         for j in range(6):
             theta[slot, j] = out[(6 * slot + j) * L + n]
-        valid[slot] = out[(96 + slot) * L + n] != 0.0
         near[slot] = valid[slot]
     if kind == 0:
         sign3 = 1.0 if H[2, 0] * H[1, 0] + H[2, 1] * H[1, 1] + H[2, 2] * H[1, 2] > 0.0 else -1.0
         sign4 = 1.0 if H[3, 0] * H[1, 0] + H[3, 1] * H[1, 1] + H[3, 2] * H[1, 2] > 0.0 else -1.0
         for slot in range(8):
             theta[slot, 3] = _wrap(sign4 * (theta[slot, 3] - theta[slot, 1] - sign3 * theta[slot, 2]))
-    return out[104 * L + n] != 0.0
+    return handed_back
 
 
 @inlined_kernel
@@ -248,6 +308,8 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
     K = arm_tuple(H, P, _row(points, 0), scale)
     g = np.empty((4, 4))
     chunk, out = np.empty(12 * LANES), np.empty(ENTRIES * LANES)
+    m, n_columns = columns.shape[0], q0.shape[0]
+    values, odd = np.empty(8 * m * LANES), np.empty(LANES)
     # one target's angles and flags, reused: no (N, 8, m) array, and no view of valid made (and counted) per target
     theta, near, valid_k = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
     count = 0
@@ -264,15 +326,26 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
         else:
             opw_chunk(K, chunk, out)
         _lane_angles(out, LANES)
+        _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd)
         for lane in range(used):
             n = start + lane
             project[n] = not exact_rotation(T[n])
-            fallback[n] = _lane_answer(kind, H, out, lane, LANES, theta, valid_k, near)
+            plain = odd[lane] == 0.0  # its rows from values; else (and theta) by chain_row
+            if plain:
+                fallback[n] = _lane_flags(out, lane, LANES, valid_k)
+            else:
+                fallback[n] = _lane_answer(kind, H, out, lane, LANES, theta, valid_k, near)
             rows_n = rows[n]
             for k in range(theta.shape[0]):
                 valid[n, k] = valid_k[k]
                 if valid_k[k] and not fallback[n]:
-                    chain_row(theta, k, reverse, q0, columns, solved, rows_n)
+                    if plain:
+                        for j in range(n_columns):
+                            rows_n[k, j] = q0[j]
+                        for i in range(m):
+                            rows_n[k, columns[i]] = values[(k * m + i) * LANES + lane]
+                    else:
+                        chain_row(theta, k, reverse, q0, columns, solved, rows_n)
                     if not math.isnan(rows_n[k, 0]):  # as the check reads a row: present unless its first entry is NaN
                         for j in range(rows_n.shape[1]):
                             packed[count, j] = rows_n[k, j]
