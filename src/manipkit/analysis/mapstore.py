@@ -371,15 +371,20 @@ _CHECKS = {"completeness": (("n", "hits"), ("rate", "low", "high")),
 _OPTIONAL_CHECK_KEYS = ("hits", "drawn")  # maps of earlier builds lack them
 
 
+def _checked_fields(table: dict, wholes, shares, where: str) -> None:
+    """The entries of ``table`` named in ``wholes`` (whole numbers) and ``shares`` (in [0, 1]), where present."""
+    for name in wholes:
+        if name in table:
+            _whole(table[name], f"{where}.{name}", 0, 2**63 - 1)
+    for name in shares:
+        if name in table:
+            _real(table[name], f"{where}.{name}", 0.0, 1.0)
+
+
 def _checked_build_record(settings: dict) -> None:
     """The settings the summary reads, checked where present: whole numbers, shares in [0, 1], the checks' tables
     (whole counts, shares, the IK mode a name); ``samples_used`` comes with ``blocks``."""
-    for key in _WHOLE_SETTINGS:
-        if key in settings:
-            _whole(settings[key], f"settings.{key}", 0, 2**63 - 1)
-    for key in _SHARE_SETTINGS:
-        if key in settings:
-            _real(settings[key], f"settings.{key}", 0.0, 1.0)
+    _checked_fields(settings, _WHOLE_SETTINGS, _SHARE_SETTINGS, "settings")
     if "samples_used" in settings and "blocks" not in settings:
         raise _Invalid("settings.samples_used needs settings.blocks")
     for key, (wholes, shares) in _CHECKS.items():
@@ -393,12 +398,7 @@ def _checked_build_record(settings: dict) -> None:
         missing = [name for name in needed if name not in table]
         if missing:
             raise _Invalid(f"settings.{key} lacks {', '.join(missing)}")
-        for name in wholes:
-            if name in table:
-                _whole(table[name], f"settings.{key}.{name}", 0, 2**63 - 1)
-        for name in shares:
-            if name in table:
-                _real(table[name], f"settings.{key}.{name}", 0.0, 1.0)
+        _checked_fields(table, wholes, shares, f"settings.{key}")
         if "mode" in table:
             _name(table["mode"], f"settings.{key}.mode")
 

@@ -40,6 +40,7 @@ from manipkit.closed_form.check_kernel import (
     chain_row,
     check_row,
     exact_rotation,
+    in_limit_alias,
     kept_rows,
     pack_arm,
     plain_target,
@@ -62,7 +63,6 @@ __all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_at", 
 
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
-TWO_PI = 2.0 * math.pi
 
 
 @inlined_kernel
@@ -87,17 +87,11 @@ def _lane_flags(out, n, L, valid):
 
 
 @inlined_kernel
-def _alias(value, lower, upper):
-    """``check_kernel.chain_row``'s choice for a value inside (-pi, pi], by selects: the value (``+ 0.0``, as
-    ``wrap_angle``) if inside ``[lower, upper]``, else the first inside of ``+2 pi, -2 pi, +4 pi, -4 pi``, else
-    the value."""
-    w = value + 0.0
-    c1, c2, c3, c4 = w + TWO_PI, w - TWO_PI, w + 2.0 * TWO_PI, w - 2.0 * TWO_PI
-    best = c4 if (lower <= c4) & (c4 <= upper) else w
-    best = c3 if (lower <= c3) & (c3 <= upper) else best
-    best = c2 if (lower <= c2) & (c2 <= upper) else best
-    best = c1 if (lower <= c1) & (c1 <= upper) else best
-    return w if (lower <= w) & (w <= upper) else best
+def _ur_signs(H):
+    """(sign3, sign4): h3 = sign3 h2 and h4 = sign4 h2 on the ideal UR arm (its three parallel axes)."""
+    sign3 = 1.0 if H[2, 0] * H[1, 0] + H[2, 1] * H[1, 1] + H[2, 2] * H[1, 2] > 0.0 else -1.0
+    sign4 = 1.0 if H[3, 0] * H[1, 0] + H[3, 1] * H[1, 1] + H[3, 2] * H[1, 2] > 0.0 else -1.0
+    return sign3, sign4
 
 
 @inlined_kernel
@@ -106,12 +100,11 @@ def _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd):
     ``check_kernel.chain_row`` gives them, in flat loops over the lanes (vectorised: selects, no branch):
     ``values[(slot m + i) LANES + lane]`` for solved column ``i`` of ``m``. Where ``q0 + angle / scale`` lies in
     (-pi, pi] (atan2's range: always, on an arm whose reference configuration is 0 and whose scales are 1) it is
-    wrapped and aliased as chain_row does (:func:`_alias`; UR's joint 4 from the turn of joints 2-4 as
-    _lane_answer takes it, inside (-pi, pi]); a lane with a valid branch whose value is not gets ``odd`` > 0, and
+    wrapped (``+ 0.0``, as wrap_angle) and aliased as chain_row does (``check_kernel.in_limit_alias``; UR's joint 4
+    from the turn of joints 2-4 as _lane_answer takes it, inside (-pi, pi]); a lane with a valid branch whose value is not gets ``odd`` > 0, and
     chain_row makes its rows itself. The same numbers as chain_row, bit for bit (tested)."""
     m = columns.shape[0]
-    sign3 = 1.0 if H[2, 0] * H[1, 0] + H[2, 1] * H[1, 1] + H[2, 2] * H[1, 2] > 0.0 else -1.0
-    sign4 = 1.0 if H[3, 0] * H[1, 0] + H[3, 1] * H[1, 1] + H[3, 2] * H[1, 2] > 0.0 else -1.0
+    sign3, sign4 = _ur_signs(H)
     for lane in range(LANES):
         odd[lane] = 0.0
     for slot in range(8):
@@ -128,13 +121,13 @@ def _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd):
                     value = base + x / scale
                     inside = (x > -math.pi) & (x <= math.pi) & (value > -math.pi) & (value <= math.pi)
                     odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if inside else 1.0))
-                    values[dst + lane] = _alias(value, lower, upper)
+                    values[dst + lane] = in_limit_alias(value + 0.0, lower, upper)
             else:
                 for lane in range(LANES):
                     value = base + out[start + lane] / scale
                     inside = (value > -math.pi) & (value <= math.pi)
                     odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if inside else 1.0))
-                    values[dst + lane] = _alias(value, lower, upper)
+                    values[dst + lane] = in_limit_alias(value + 0.0, lower, upper)
 
 
 @inlined_kernel
@@ -149,8 +142,7 @@ def _lane_answer(kind, H, out, n, L, theta, valid, near):
             theta[slot, j] = out[(6 * slot + j) * L + n]
         near[slot] = valid[slot]
     if kind == 0:
-        sign3 = 1.0 if H[2, 0] * H[1, 0] + H[2, 1] * H[1, 1] + H[2, 2] * H[1, 2] > 0.0 else -1.0
-        sign4 = 1.0 if H[3, 0] * H[1, 0] + H[3, 1] * H[1, 1] + H[3, 2] * H[1, 2] > 0.0 else -1.0
+        sign3, sign4 = _ur_signs(H)
         for slot in range(8):
             theta[slot, 3] = _wrap(sign4 * (theta[slot, 3] - theta[slot, 1] - sign3 * theta[slot, 2]))
     return handed_back

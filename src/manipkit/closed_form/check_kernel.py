@@ -36,7 +36,7 @@ from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlin
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "kept_rows", "pack_arm",
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",
            "plain_target", "pose_residual", "pose_residual_parts", "row_tables", "wrap_angle"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
@@ -108,6 +108,20 @@ def wrap_angle(a):
 
 
 @inlined_kernel
+def in_limit_alias(w, lower, upper):
+    """The alias of wrapped angle ``w`` (in (-pi, pi], not -0.0) that chain_ik keeps: ``w`` itself if inside
+    ``[lower, upper]``, else the first inside of ``w + 2 pi``, ``w - 2 pi``, ``w + 4 pi``, ``w - 4 pi``, else ``w``.
+    Chosen by selects, with no branch, so a loop over many angles runs on vector registers (arms_kernel's
+    ``_lane_rows``)."""
+    c1, c2, c3, c4 = w + TWO_PI, w - TWO_PI, w + 2.0 * TWO_PI, w - 2.0 * TWO_PI
+    best = c4 if (lower <= c4) & (c4 <= upper) else w
+    best = c3 if (lower <= c3) & (c3 <= upper) else best
+    best = c2 if (lower <= c2) & (c2 <= upper) else best
+    best = c1 if (lower <= c1) & (c1 <= upper) else best
+    return w if (lower <= w) & (w <= upper) else best
+
+
+@inlined_kernel
 def chain_row(theta, k, reverse, q0, columns, solved, out):
     """``out[k]`` (n,) = the chain vector of solved angles ``theta[k]`` (m,): ``q0`` with column ``columns[i]`` moved
     by ``theta[k, i] / scale[i]`` (``theta[k, m - 1 - i]`` when ``reverse``: a family solved tip to base) and taken,
@@ -120,16 +134,8 @@ def chain_row(theta, k, reverse, q0, columns, solved, out):
     for i in range(m):
         col = columns[i]
         angle = theta[k, m - 1 - i] if reverse else theta[k, i]
-        wrapped = wrap_angle(q0[col] + angle / solved[0, i])
-        best = wrapped
-        lower, upper = solved[1, i] - LIMIT_TOL, solved[2, i] + LIMIT_TOL
-        if not (lower <= wrapped <= upper):
-            for turn in (1.0, -1.0, 2.0, -2.0):
-                candidate = wrapped + turn * TWO_PI
-                if lower <= candidate <= upper:
-                    best = candidate
-                    break
-        out[k, col] = best
+        out[k, col] = in_limit_alias(wrap_angle(q0[col] + angle / solved[0, i]), solved[1, i] - LIMIT_TOL,
+                                     solved[2, i] + LIMIT_TOL)
 
 
 @inlined_kernel
