@@ -333,3 +333,42 @@ def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
     assert outside.any(axis=-1).any() and not outside.any(axis=-1).all()  # both kinds of lane
     assert np.isnan(got).any() and not np.isnan(got).all()
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
+
+
+@pytest.mark.parametrize("name", ["ur5", "kinova", "irb2400"])
+def test_branches_share_the_angles_the_tables_say_they_share(name):
+    """The angle step takes the atan2 of the distinct angles only (arms_lanes.UR_ANGLES, OPW_ANGLES) and copies the
+    rest (UR_COPIES, OPW_COPIES). That is exact only if a copied entry's two atan2 arguments equal its source's bit
+    for bit, in every lane: checked on the lanes' own output for random, singular and unreachable targets; the
+    tables cover the 48 entries once each (30 + 18 for UR, 34 + 14 for OPW: 2 shoulder choices x 15 and 17
+    distinct angles, derived in arms_lanes)."""
+    from manipkit.closed_form import arms_lanes
+
+    robot, base, tip = load(name)
+    chain = robot.chain(base, tip)
+    arm = ideal_arm(chain_family(chain))
+    ur = arm.family.kind == "three parallel, two intersecting"
+    angles, copies = ((arms_lanes.UR_ANGLES, arms_lanes.UR_COPIES) if ur
+                      else (arms_lanes.OPW_ANGLES, arms_lanes.OPW_COPIES))
+    assert (len(angles), len(copies)) == ((30, 18) if ur else (34, 14))
+    assert sorted([*angles, *(e for e, _ in copies)]) == list(range(48))
+    assert all(s in angles for _, s in copies)
+    L = arms_lanes.LANES
+    Q = chain.sample(L, seed=5)
+    Q[:8, 4] = 0.0  # the wrist singular
+    T = chain.fk(Q)
+    T[8:16, :3, 3] *= 3.0  # out of reach
+    g = T @ arm.M_inv
+    G = np.ascontiguousarray(g[:, :3, :].reshape(L, 12).T).reshape(-1)  # entry i of the top rows at G[i L + n]
+    K = arms_lanes.arm_tuple(arm.h, arm.p, tuple(float(v) for v in arm.points["wrist"]), float(arm.scale))
+    out = np.empty(arms_lanes.ENTRIES * L)
+    (arms_lanes.ur_chunk if ur else arms_lanes.opw_chunk)(K, G, out)
+    entries = out.reshape(arms_lanes.ENTRIES, L).view(np.int64)
+    for e, s in copies:
+        assert np.array_equal(entries[e], entries[s]) and np.array_equal(entries[48 + e], entries[48 + s]), (e, s)
+    # and no sharing is missed: two distinct entries of one joint differ in some lane of the random targets
+    random_lanes = entries[:, 16:]
+    for a in angles:
+        for b in angles:
+            if a < b and a % 6 == b % 6:
+                assert not np.array_equal(random_lanes[a], random_lanes[b]), (a, b)

@@ -33,7 +33,19 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.arms_lanes import ENTRIES, LANES, arm_tuple, opw_chunk, opw_one, ur_chunk, ur_one
+from manipkit.closed_form.arms_lanes import (
+    ENTRIES,
+    LANES,
+    OPW_ANGLES,
+    OPW_COPIES,
+    UR_ANGLES,
+    UR_COPIES,
+    arm_tuple,
+    opw_chunk,
+    opw_one,
+    ur_chunk,
+    ur_one,
+)
 from manipkit.closed_form.check_kernel import (
     LIMIT_TOL,
     arm_constants,
@@ -58,24 +70,42 @@ from manipkit.closed_form.subproblems_kernel import row as _row
 from manipkit.closed_form.subproblems_kernel import sub as _sub
 from manipkit.closed_form.subproblems_kernel import wrap as _wrap
 
-__all__ = ["KIND_CODES", "MARGIN", "branch_labels", "chain_rows", "measure_at", "measure_many", "solve_check_one",
+__all__ = ["KIND_CODES", "MARGIN", "SLOTS", "branch_labels", "chain_rows", "measure_at", "measure_many", "solve_check_one",
            "solve_many", "solve_rows_into", "solve_rows_many", "warm_up"]
 
+#: Branch slots per target (``4 shoulder + 2 elbow + wrist``).
+SLOTS = 8
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
 
 
 @inlined_kernel
-def _lane_angles(out, L):
+def _angles_of(out, L, entries, copies):
+    """``out[e L + i] = atan2(out[e L + i], out[(48 + e) L + i])`` for the entries ``e`` of ``entries`` and every
+    lane ``i`` of ``L``, then each ``(e, s)`` of ``copies``: ``out[e L + i] = out[s L + i]``."""
+    for e in entries:
+        for i in range(L):
+            out[e * L + i] = _atan2(out[e * L + i], out[(48 + e) * L + i])
+    for e, s in copies:
+        for i in range(L):
+            out[e * L + i] = out[s * L + i]
+
+
+@inlined_kernel
+def _lane_angles(kind, out, L):
     """The angles of ``L`` lanes in place (see :mod:`manipkit.closed_form.arms_lanes`): ``out[i] = atan2(out[i],
     out[48 L + i])`` for the 48 L sine-like entries.
 
-    The lanes write each angle as the two arguments of its atan2 and the atan2 are taken here, in one flat loop
-    with no dependency between its entries: the compiler runs it on vector registers, four at a time (about 3 ns
-    an atan2, where one by one inside the solve each was a chain of two divisions, 12-25 ns). The same operations
-    on the same numbers: the angles are the same bit for bit."""
-    for i in range(48 * L):
-        out[i] = _atan2(out[i], out[48 * L + i])
+    The lanes write each angle as the two arguments of its atan2 and the atan2 are taken here, in flat loops over
+    the lanes with no dependency between their entries: the compiler runs them on vector registers, four at a time
+    (about 3 ns an atan2, where one by one inside the solve each was a chain of two divisions, 12-25 ns). Branches
+    share some angles by construction (``arms_lanes.UR_ANGLES``, ``OPW_ANGLES``): their atan2 is taken once (30 of
+    48 for UR, 34 for OPW) and copied. The same operations on the same numbers: the angles are the same bit for
+    bit."""
+    if kind == 0:
+        _angles_of(out, L, UR_ANGLES, UR_COPIES)
+    else:
+        _angles_of(out, L, OPW_ANGLES, OPW_COPIES)
 
 
 @inlined_kernel
@@ -158,7 +188,7 @@ def _target(kind, K, H, g, out, theta, valid, near):
         ur_one(K, R, t, out)
     else:
         opw_one(K, R, t, out)
-    _lane_angles(out, 1)
+    _lane_angles(kind, out, 1)
     return _lane_answer(kind, H, out, 0, 1, theta, valid, near)
 
 
@@ -317,7 +347,7 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
             ur_chunk(K, chunk, out)
         else:
             opw_chunk(K, chunk, out)
-        _lane_angles(out, LANES)
+        _lane_angles(kind, out, LANES)
         _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd)
         for lane in range(used):
             n = start + lane
@@ -327,25 +357,24 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
                 fallback[n] = _lane_flags(out, lane, LANES, valid_k)
             else:
                 fallback[n] = _lane_answer(kind, H, out, lane, LANES, theta, valid_k, near)
-            rows_n = rows[n]
-            for k in range(theta.shape[0]):
+            for k in range(SLOTS):  # rows[n, k, j] indexed whole: a view rows[n] per target costs two atomic counts
                 valid[n, k] = valid_k[k]
                 if valid_k[k] and not fallback[n]:
                     if plain:
                         for j in range(n_columns):
-                            rows_n[k, j] = q0[j]
+                            rows[n, k, j] = q0[j]
                         for i in range(m):
-                            rows_n[k, columns[i]] = values[(k * m + i) * LANES + lane]
+                            rows[n, k, columns[i]] = values[(k * m + i) * LANES + lane]
                     else:
-                        chain_row(theta, k, reverse, q0, columns, solved, rows_n)
-                    if not math.isnan(rows_n[k, 0]):  # as the check reads a row: present unless its first entry is NaN
-                        for j in range(rows_n.shape[1]):
-                            packed[count, j] = rows_n[k, j]
-                        index[count] = theta.shape[0] * n + k
+                        chain_row(theta, k, reverse, q0, columns, solved, rows[n])
+                    if not math.isnan(rows[n, k, 0]):  # as the check reads a row: present unless its first entry is NaN
+                        for j in range(n_columns):
+                            packed[count, j] = rows[n, k, j]
+                        index[count] = SLOTS * n + k
                         count += 1
                 else:
-                    for j in range(rows_n.shape[1]):
-                        rows_n[k, j] = np.nan
+                    for j in range(n_columns):
+                        rows[n, k, j] = np.nan
     return count
 
 
@@ -354,26 +383,25 @@ _solve_rows_all = compile_kernel(_solve_rows_all, nogil=True)
 
 
 def _measure_at(T, reached, index, position_tol, rotation_tol, residuals, success):
-    """residuals[n, k] = the residual (m, rad) of reached[i] against T[n] for slot ``index[i] = slots n + k``, NaN
+    """residuals[n, k] = the residual (m, rad) of reached[i] against T[n] for slot ``index[i] = SLOTS n + k``, NaN
     in the other slots; success[n]: some slot of target n within both tolerances. The rotations' atan2 are taken
     in one flat loop (vectorised: see _lane_angles), as pose_residual takes them one by one."""
-    slots = residuals.shape[1]
     for n in range(residuals.shape[0]):
-        for k in range(slots):
+        for k in range(SLOTS):
             residuals[n, k, 0], residuals[n, k, 1] = np.nan, np.nan
     M = index.shape[0]
     parts = np.empty((3, M))
-    for i in range(M):
-        n = index[i] // slots
+    for i in range(M):  # SLOTS a compile-time constant: a shift, not a division
+        n = index[i] // SLOTS
         parts[0, i], parts[1, i], parts[2, i] = pose_residual_parts(T[n], reached[i])
     for i in range(M):
         parts[1, i] = _atan2(parts[1, i], parts[2, i])
     for i in range(M):
-        n, k = index[i] // slots, index[i] % slots
+        n, k = index[i] // SLOTS, index[i] % SLOTS
         residuals[n, k, 0], residuals[n, k, 1] = parts[0, i], parts[1, i]
     for n in range(residuals.shape[0]):
         success[n] = False
-        for k in range(slots):
+        for k in range(SLOTS):
             if residuals[n, k, 0] <= position_tol and residuals[n, k, 1] <= rotation_tol:  # NaN: False
                 success[n] = True
 
@@ -448,10 +476,12 @@ def solve_rows_into(prepared: tuple, T: np.ndarray, valid: np.ndarray, fallback:
 
 def measure_at(T: np.ndarray, reached: np.ndarray, index: np.ndarray, tol: tuple[float, float], residuals: np.ndarray,
                success: np.ndarray) -> None:
-    """``residuals`` (N, k, 2, written): the residuals (m, rad) of the reached pose ``reached[i]`` (M, 4, 4) against
-    target ``T[n]`` (N, 4, 4) in slot ``index[i] = k n + slot`` (M,), by
+    """``residuals`` (N, 8, 2, written): the residuals (m, rad) of the reached pose ``reached[i]`` (M, 4, 4) against
+    target ``T[n]`` (N, 4, 4) in slot ``index[i] = 8 n + slot`` (M,) (:data:`SLOTS`), by
     :func:`~manipkit.closed_form.check_kernel.pose_residual` (as :func:`measure_many`), NaN in every other slot;
     ``success`` (N,, written): some slot within ``tol`` (m, rad). Without the GIL."""
+    if residuals.shape[1:] != (SLOTS, 2):
+        raise ValueError(f"residuals must have shape (N, {SLOTS}, 2), got {residuals.shape}")
     _measure_at(T, reached, index, float(tol[0]), float(tol[1]), residuals, success)
 
 

@@ -45,12 +45,28 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["ENTRIES", "LANES", "arm_tuple", "opw_chunk", "opw_lane", "opw_one", "put_lane", "ur_chunk", "ur_lane", "ur_one"]
+__all__ = ["ENTRIES", "LANES", "OPW_ANGLES", "OPW_COPIES", "UR_ANGLES", "UR_COPIES", "arm_tuple", "opw_chunk", "opw_lane", "opw_one", "put_lane", "ur_chunk", "ur_lane", "ur_one"]
 
 #: Targets per chunk of :func:`ur_chunk` and :func:`opw_chunk` (a chunk's numbers, 105 x 64 x 8 bytes, stay in L1/L2).
 LANES = 64
 #: Numbers a lane writes per target (see the module's text).
 ENTRIES = 105
+
+
+def _shared_angles(clear):
+    """(entries whose atan2 is taken, (entry, equal entry) pairs): angle ``j`` of branch ``slot`` is angle ``j`` of
+    branch ``slot & ~clear[j]`` (the slot bits it does not depend on cleared), the same two atan2 arguments by
+    construction."""
+    source = [(6 * slot + j, 6 * (slot & ~clear[j]) + j) for slot in range(8) for j in range(6)]
+    return tuple(e for e, s in source if e == s), tuple((e, s) for e, s in source if e != s)
+
+
+#: The UR lanes' distinct angles (30 of 48) and the copies: t1 per shoulder (slot bit 4), t4's turn, t5 and t6 per
+#: shoulder and wrist choice (the elbow, bit 2, does not change them).
+UR_ANGLES, UR_COPIES = _shared_angles((3, 0, 0, 2, 2, 2))
+#: The OPW lanes' distinct angles (34 of 48) and the copies: t1 per shoulder, t2 and t3 per shoulder and elbow choice
+#: (the wrist, bit 1, does not change them).
+OPW_ANGLES, OPW_COPIES = _shared_angles((3, 1, 1, 0, 0, 0))
 
 
 @inlined_kernel
