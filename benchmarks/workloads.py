@@ -30,6 +30,7 @@ import sys
 import tempfile
 import threading
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +101,42 @@ def per_item(fn, n_items: int, *, repeats: int) -> np.ndarray:
             fn()
             times[i] = (time.perf_counter() - start) / n_items
     return times
+
+
+def in_turns(timers: dict, rounds: int) -> dict:
+    """Seconds per item of each timer, taken in turns: ``rounds`` rounds, each calling every timer once in order.
+
+    ``timers`` maps a key to ``once(round)``, which runs that round's share of the work and returns its seconds per
+    item (an array: one per call, or one for a whole batch). Every timer is called once before the first round
+    (warm-up). A change in the machine's load (other jobs on a shared host) then falls on every row of a comparison
+    alike, instead of on whichever row happened to run during it. Garbage collection is off while timing.
+    """
+    for once in timers.values():
+        once(0)
+    taken: dict = {key: [] for key in timers}
+    with no_gc():
+        for r in range(rounds):
+            for key, once in timers.items():
+                taken[key].append(np.atleast_1d(np.asarray(once(r), dtype=float)))
+    return {key: np.concatenate(parts) for key, parts in taken.items()}
+
+
+def calls_timed(fn, inputs) -> np.ndarray:
+    """Seconds of each ``fn(x)`` for x in ``inputs`` (no warm-up, garbage collection as the caller left it)."""
+    times = np.empty(len(inputs))
+    clock = time.perf_counter
+    for i, x in enumerate(inputs):
+        start = clock()
+        fn(x)
+        times[i] = clock() - start
+    return times
+
+
+def batch_timed(fn, n_items: int) -> float:
+    """Seconds per item of one ``fn()`` that handles ``n_items`` (no warm-up)."""
+    start = time.perf_counter()
+    fn()
+    return (time.perf_counter() - start) / n_items
 
 
 def max_error(A, B) -> float:
@@ -722,15 +759,19 @@ def _wrapped_gap(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return np.abs(np.pi - np.mod(np.pi - (A - B), 2 * np.pi))
 
 
-def _eaik_rows(robot_name: str, urdf_path: Path, Q: np.ndarray, n_single: int, n_batch: int, repeats: int) -> list[dict]:
+def _eaik_rows(robot_name: str, urdf_path: Path, Q: np.ndarray, n_single: int, n_batch: int, rounds: int,
+               timers: dict) -> list:
     """EAIK (PyPI ``eaik``) on the same URDF, when installed: one pose per call (``IK``) and its batched call
     (``IK_batched``), on the poses of its own FK of the same configurations (its end frame is the last joint's
-    point, not the URDF's tip); answers checked by its own FK; else one row saying it is missing."""
+    point, not the URDF's tip); answers checked by its own FK; else one row saying it is missing.
+
+    Returns pending rows, ``(timer key or None, times -> row)``; the timers go into ``timers`` (run in turns with
+    manipkit's by :func:`analytic_workload`)."""
     try:
         from eaik.IK_URDF import UrdfRobot
     except ImportError:
-        return [row("analytic", robot_name, "EAIK (eaik, one pose per call)", unit="pose", status="missing",
-                    note="eaik is not installed (pip install eaik)")]
+        return [(None, partial(row, "analytic", robot_name, "EAIK (eaik, one pose per call)", unit="pose",
+                               status="missing", note="eaik is not installed (pip install eaik)"))]
     try:
         version = peer_adapters.version("eaik") or "?"
         bot = UrdfRobot(str(urdf_path))
@@ -749,29 +790,37 @@ def _eaik_rows(robot_name: str, urdf_path: Path, Q: np.ndarray, n_single: int, n
             per_pose = float(np.mean([len(exact(a)) for a in answers]))
             return max(errors, default=0.0), found, per_pose
 
+        pending = []
         worst, found, per_pose = judged([bot.IK(T) for T in poses[:n_single]], poses[:n_single], Q[:n_single])
         ok = worst <= IK_ACCEPT
-        rows = [row("analytic", robot_name, f"EAIK IK, one pose per call (eaik {version})",
-                    per_call(lambda T: bot.IK(T), poses[:n_single]) if ok else None, unit="pose", n=n_single,
-                    status="ok" if ok else "wrong", solutions_per_pose=per_pose, recovered=found, max_fk_error=worst,
-                    check=f"its own FK of every answer: max error {worst:.1e}; generating configuration among the "
-                          f"answers: {found:.1%}",
-                    note="its end frame is the last joint's point, not the URDF's tip; rows marked is_LS (least "
-                         "squares, not solutions) left out; not limit-aware, no labels")]
+        if ok:
+            single = poses[:n_single]
+            timers["eaik single"] = lambda r: calls_timed(bot.IK, single[r::rounds])
+        pending.append(("eaik single" if ok else None, partial(
+            row, "analytic", robot_name, f"EAIK IK, one pose per call (eaik {version})", unit="pose",
+            n=n_single, status="ok" if ok else "wrong", solutions_per_pose=per_pose, recovered=found,
+            max_fk_error=worst,
+            check=f"its own FK of every answer: max error {worst:.1e}; generating configuration among the answers: "
+                  f"{found:.1%}",
+            note="its end frame is the last joint's point, not the URDF's tip; rows marked is_LS (least squares, "
+                 "not solutions) left out; not limit-aware, no labels")))
         batch = poses[:n_batch]
-        answers = bot.IK_batched(batch)
-        worst, found, per_pose = judged(answers, batch, Q[:n_batch])
-        ok = worst <= IK_ACCEPT
-        rows.append(row("analytic", robot_name, f"EAIK IK_batched (eaik {version})",
-                        per_item(lambda: bot.IK_batched(batch), n_batch, repeats=repeats) if ok else None, unit="pose",
-                        n=n_batch, status="ok" if ok else "wrong", solutions_per_pose=per_pose, recovered=found,
-                        max_fk_error=worst, check=f"its own FK of every answer: max error {worst:.1e}; generating "
-                                                  f"configuration among the answers: {found:.1%}",
-                        note="a list of poses in one call"))
-        return rows
+        worst_b, found_b, per_pose_b = judged(bot.IK_batched(batch), batch, Q[:n_batch])
+        ok_b = worst_b <= IK_ACCEPT
+        if ok_b:
+            timers["eaik batched"] = lambda r: batch_timed(lambda: bot.IK_batched(batch), n_batch)
+        pending.append(("eaik batched" if ok_b else None, partial(
+            row, "analytic", robot_name, f"EAIK IK_batched (eaik {version})", unit="pose", n=n_batch,
+            status="ok" if ok_b else "wrong", solutions_per_pose=per_pose_b, recovered=found_b,
+            max_fk_error=worst_b,
+            check=f"its own FK of every answer: max error {worst_b:.1e}; generating configuration among the "
+                  f"answers: {found_b:.1%}",
+            note="a list of poses in one call")))
+        return pending
     except Exception as exc:  # a peer that cannot read the file is reported, not timed
-        return [row("analytic", robot_name, "EAIK (eaik, one pose per call)", unit="pose", status="missing",
-                    note=f"eaik could not solve {urdf_path.name}: {type(exc).__name__}: {exc}")]
+        return [(None, partial(row, "analytic", robot_name, "EAIK (eaik, one pose per call)", unit="pose",
+                               status="missing",
+                               note=f"eaik could not solve {urdf_path.name}: {type(exc).__name__}: {exc}"))]
 
 
 def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch: int = 10_000, repeats: int = 5,
@@ -783,6 +832,10 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
     Pinocchio to 1e-15); the largest entry of ``T(q) - T_target`` is the row's FK error, and the generating
     configuration must be among the answers (modulo 2 pi) for every target. The batched rows are timed with their
     FK check (``success``, every slot measured).
+
+    Every answer is checked first; then all rows, EAIK's too, are timed in turns (:func:`in_turns`): ``repeats``
+    rounds, each timing a share of the single calls (every ``repeats``-th pose) and one whole batch of every row,
+    so the ratios to EAIK do not depend on which row ran while another job loaded the machine.
     """
     from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
     from manipkit.closed_form.families import chain_family
@@ -796,6 +849,9 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
     family = chain_family(chain)
     Q = chain.sample(max(n_single, n_batch), seed=seed)
     T = chain.fk(Q)
+    rounds = max(1, repeats)
+    timers: dict = {}  # key -> once(round): that round's seconds per item
+    pending: list = []  # (timer key or None: not timed, times -> row)
 
     def recovered(rows, q):
         return any(_wrapped_gap(s, q).max() < 1e-6 for s in rows)
@@ -804,7 +860,16 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
         """Largest entry of T_base_tip (Pinocchio, through robot.transform) minus the target."""
         return float(np.max(np.abs(robot.transform(base, tip, chain.full(q_chain), check_limits=False) - T_target)))
 
-    rows = []
+    def single_calls(key, fn, n, ok, make):
+        """A timer of ``fn(T_i)`` on every ``rounds``-th of the first ``n`` targets per round, and its pending row."""
+        targets = list(T[:n])
+        if ok:
+            timers[key] = lambda r: calls_timed(fn, targets[r::rounds])
+        pending.append((key if ok else None, make))
+
+    def batch_timer(run):
+        return lambda r: batch_timed(run, n_batch)
+
     for compiled, label in ((True, "manipkit chain_ik, one pose per call (compiled)"),
                             (False, "manipkit chain_ik, one pose per call (numpy reference)")):
         n = n_single if compiled else max(1, n_single // 10)
@@ -813,29 +878,29 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
         found = float(np.mean([recovered(r.solutions, Q[i]) for i, r in enumerate(single)]))
         per_pose = float(np.mean([len(r.solutions) for r in single]))
         ok = worst <= IK_ACCEPT and found == 1.0
-        rows.append(row("analytic", robot_name, label,
-                        per_call(lambda i: chain_ik(chain, T[i], family=family, compiled=compiled), list(range(n)))
-                        if ok else None, unit="pose", n=n, ours=compiled, status="ok" if ok else "wrong",
-                        solutions_per_pose=per_pose, recovered=found, max_fk_error=worst,
-                        check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating configuration among "
-                              f"the answers: {found:.1%}",
-                        note=f"{family.kind}: every branch, limit aliases, labels, FK-checked (IKResult)"))
+        single_calls(label, partial(chain_ik, chain, family=family, compiled=compiled), n, ok, partial(
+            row, "analytic", robot_name, label, unit="pose", n=n, ours=compiled, status="ok" if ok else "wrong",
+            solutions_per_pose=per_pose, recovered=found, max_fk_error=worst,
+            check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating configuration among the "
+                  f"answers: {found:.1%}",
+            note=f"{family.kind}: every branch, limit aliases, labels, FK-checked (IKResult)"))
 
     from manipkit.closed_form.robots import analytic_ik
 
     answers = [analytic_ik(robot, T[i], base, tip) for i in range(n_single)]  # whole-robot rows
-    worst = max((float(np.max(np.abs(robot.transform(base, tip, s, check_limits=False) - T[i])))
-                 for i, r in enumerate(answers) for s in r.solutions), default=0.0)
-    found = float(np.mean([recovered(chain.rows(r.solutions), Q[i]) for i, r in enumerate(answers)]))
-    ok = worst <= IK_ACCEPT and found == 1.0
-    rows.append(row("analytic", robot_name, "manipkit analytic_ik, one pose per call (the public call)",
-                    per_call(lambda i: analytic_ik(robot, T[i], base, tip), list(range(n_single))) if ok else None,
-                    unit="pose", n=n_single, ours=True, status="ok" if ok else "wrong",
-                    solutions_per_pose=float(np.mean([len(r.solutions) for r in answers])), recovered=found,
-                    max_fk_error=worst, check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating "
-                                              f"configuration among the answers: {found:.1%}",
-                    note="chain_ik behind the robot, frames and family lookup (kept per robot, frames and options "
-                         "after the first call: the target is checked and solved on every call)"))
+    worst_a = max((float(np.max(np.abs(robot.transform(base, tip, s, check_limits=False) - T[i])))
+                   for i, r in enumerate(answers) for s in r.solutions), default=0.0)
+    found_a = float(np.mean([recovered(chain.rows(r.solutions), Q[i]) for i, r in enumerate(answers)]))
+    per_pose_a = float(np.mean([len(r.solutions) for r in answers]))
+    ok_a = worst_a <= IK_ACCEPT and found_a == 1.0
+    single_calls("analytic_ik", lambda target: analytic_ik(robot, target, base, tip), n_single, ok_a, partial(
+        row, "analytic", robot_name, "manipkit analytic_ik, one pose per call (the public call)", unit="pose",
+        n=n_single, ours=True, status="ok" if ok_a else "wrong", solutions_per_pose=per_pose_a, recovered=found_a,
+        max_fk_error=worst_a,
+        check=f"Pinocchio FK of every answer: max error {worst_a:.1e}; generating configuration among the answers: "
+              f"{found_a:.1%}",
+        note="chain_ik behind the robot, frames and family lookup (kept per robot, frames and options after the "
+             "first call: the target is checked and solved on every call)"))
 
     from manipkit.kinematics.fk_kernel import thread_count
 
@@ -860,21 +925,23 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
         errors = np.abs(chain.fk(filled) - T[:n_batch, None]).max(axis=(-2, -1))
         worst_batch = float(np.max(np.where(present, errors, 0.0)))
         ok = worst_batch <= IK_ACCEPT and found_batch == 1.0 and bool(batch.success.all())
-        rows.append(row("analytic", robot_name, label,
-                        per_item(lambda: batched(compiled, threads), n_batch, repeats=repeats) if ok else None,
-                        unit="pose", n=n_batch, ours=compiled, status="ok" if ok else "wrong",
-                        solutions_per_pose=float(present.sum(axis=-1).mean()), recovered=found_batch,
-                        max_fk_error=worst_batch, threads=threads if compiled else None,
-                        check=f"chain FK of every answer: max error {worst_batch:.1e}; generating configuration among "
-                              f"the answers: {found_batch:.1%}",
-                        note="8 slots per pose, limit aliases, timed with the FK check of every slot; not refined"
-                             + (f"; targets in blocks on up to {threads} thread(s), the same answers bit for bit"
-                                if compiled else "")))
+        if ok:
+            timers[label] = batch_timer(partial(batched, compiled, threads))
+        pending.append((label if ok else None, partial(
+            row, "analytic", robot_name, label, unit="pose", n=n_batch, ours=compiled,
+            status="ok" if ok else "wrong", solutions_per_pose=float(present.sum(axis=-1).mean()),
+            recovered=found_batch, max_fk_error=worst_batch, threads=threads if compiled else None,
+            check=f"chain FK of every answer: max error {worst_batch:.1e}; generating configuration among the "
+                  f"answers: {found_batch:.1%}",
+            note="8 slots per pose, limit aliases, timed with the FK check of every slot; not refined"
+                 + (f"; targets in blocks on up to {threads} thread(s), the same answers bit for bit"
+                    if compiled else ""))))
     with tempfile.TemporaryDirectory() as folder:
         urdf_path = Path(folder) / f"{robot_name}.urdf"
         urdf_path.write_text(robot.urdf, encoding="utf-8")
-        rows += _eaik_rows(robot_name, urdf_path, Q, n_single, n_batch, repeats)
-    return rows
+        pending += _eaik_rows(robot_name, urdf_path, Q, n_single, n_batch, rounds, timers)
+        times = in_turns(timers, rounds)  # EAIK's robot reads its file when made: time inside the folder's life
+    return [make(times.get(key)) for key, make in pending]
 
 
 def srs_workload(*, n_single: int = 200, seed: int = 17) -> list[dict]:
