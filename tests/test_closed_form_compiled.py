@@ -249,6 +249,28 @@ def test_sp1_pair_and_sp3_squared_answer_as_sp1_and_sp3(k, p, q, delta):
     assert a[4:] == b[4:] and np.allclose(a[:4], b[:4], rtol=0.0, atol=0.0)
 
 
+edges = [k * math.pi for k in range(-5, 6)] + [k * 2.0 * math.pi for k in (-2, -1, 1, 2)]
+near_edges = st.sampled_from(edges).flatmap(
+    lambda e: st.sampled_from([e, math.nextafter(e, math.inf), math.nextafter(e, -math.inf), e + 1e-16, e - 1e-16]))
+
+
+@settings(max_examples=600, deadline=None)
+@given(st.one_of(st.floats(min_value=-12.0, max_value=12.0), near_edges, st.floats(allow_nan=True)))
+def test_the_wraps_by_selects_equal_the_wraps_bit_for_bit(x):
+    """subproblems_kernel.wrap_by_selects and check_kernel.wrap_angle_by_selects (no branch, no fmod: the lanes'
+    rows on vector registers) give wrap's and wrap_angle's bits wherever they say exact, and say exact for every
+    x in (-3 pi, 3 pi] (pi - x in [-2 pi, 4 pi)), where the remainder is one exact subtraction or the same
+    addition numba's % makes (derivation in wrap_by_selects)."""
+    from manipkit.closed_form.check_kernel import wrap_angle, wrap_angle_by_selects
+    from manipkit.closed_form.subproblems_kernel import wrap, wrap_by_selects
+
+    for plain, selected in ((wrap, wrap_by_selects), (wrap_angle, wrap_angle_by_selects)):
+        got, exact = selected(x)
+        assert exact == (-2.0 * math.pi <= math.pi - x < 4.0 * math.pi)
+        if exact:
+            assert np.float64(got).tobytes() == np.float64(plain(x)).tobytes(), (plain.__name__, x)
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.one_of(st.floats(allow_nan=True), st.sampled_from([0.0, -0.0, 5e-324, -5e-324, math.inf, -math.inf, -1.0])))
 def test_the_compiled_sqrt_is_math_sqrt_bit_for_bit(x):
@@ -297,10 +319,11 @@ def test_chunks_of_lanes_give_the_one_target_answers_bit_for_bit(name):
 
 @pytest.mark.parametrize("name", ["ur5", "irb2400"])
 def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
-    """The batch makes most rows in flat loops over the lanes (selects) and the rest with check_kernel.chain_row
-    (a lane whose value q0 + angle / scale leaves (-pi, pi]): on an arm packed with a reference configuration of
-    0.3 rad on a solved joint and a scale of -1 on another, both kinds of lane occur, and every row equals
-    chain_rows' (the one-target aliasing) bit for bit."""
+    """The batch makes most rows in flat loops over the lanes (selects, wraps included) and the rest with
+    check_kernel.chain_row (a lane whose value q0 + angle / scale is too far from 0 for the wrap by selects): on an
+    arm packed with a reference configuration of 0.3 rad on a solved joint, a scale of -1 on another and of 0.2 on
+    a third (values up to 5 pi), values inside (-pi, pi], wrapped by selects and left to chain_row all occur, and
+    every row equals chain_rows' (the one-target aliasing) bit for bit."""
     from manipkit.closed_form.arms_kernel import KIND_CODES, solve_rows_many
     from manipkit.closed_form.check_kernel import pack_arm, row_tables
 
@@ -313,6 +336,7 @@ def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
     q0[columns[1]] = 0.3
     scale = np.asarray(geometry.scale, dtype=float).copy()
     scale[2] = -scale[2]
+    scale[4] = 0.2 * scale[4]
     lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
     floats, ints = row_tables(chain.steps, chain.columns)
     points = np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float)
@@ -330,7 +354,8 @@ def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
     got = rows[keep]
     raw = q0[columns] + theta[keep] / scale  # before wrapping (these arms are solved base to tip)
     outside = ((raw <= -np.pi) | (raw > np.pi)).any(axis=-1) & valid_one[keep]
-    assert outside.any(axis=-1).any() and not outside.any(axis=-1).all()  # both kinds of lane
+    far = ((np.pi - raw < -2 * np.pi) | (np.pi - raw >= 4 * np.pi)).any(axis=-1) & valid_one[keep]
+    assert (outside & ~far).any() and far.any() and not outside.any(axis=-1).all()  # every kind of lane
     assert np.isnan(got).any() and not np.isnan(got).all()
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
 

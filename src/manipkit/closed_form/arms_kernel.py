@@ -58,6 +58,7 @@ from manipkit.closed_form.check_kernel import (
     plain_target,
     pose_residual,
     pose_residual_parts,
+    wrap_angle_by_selects,
 )
 from manipkit.closed_form.subproblems_kernel import MARGIN, compile_kernel, inlined_kernel
 from manipkit.closed_form.subproblems_kernel import add as _add
@@ -69,6 +70,7 @@ from manipkit.closed_form.subproblems_kernel import rotate as _rotate
 from manipkit.closed_form.subproblems_kernel import row as _row
 from manipkit.closed_form.subproblems_kernel import sub as _sub
 from manipkit.closed_form.subproblems_kernel import wrap as _wrap
+from manipkit.closed_form.subproblems_kernel import wrap_by_selects as _wrap_by_selects
 
 __all__ = ["KIND_CODES", "MARGIN", "SLOTS", "branch_labels", "chain_rows", "measure_at", "measure_many", "solve_check_one",
            "solve_many", "solve_rows_into", "solve_rows_many", "warm_up"]
@@ -128,11 +130,12 @@ def _ur_signs(H):
 def _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd):
     """The solved columns' joint values of every branch of the LANES lanes of ``out`` (angles taken), as
     ``check_kernel.chain_row`` gives them, in flat loops over the lanes (vectorised: selects, no branch):
-    ``values[(slot m + i) LANES + lane]`` for solved column ``i`` of ``m``. Where ``q0 + angle / scale`` lies in
-    (-pi, pi] (atan2's range: always, on an arm whose reference configuration is 0 and whose scales are 1) it is
-    wrapped (``+ 0.0``, as wrap_angle) and aliased as chain_row does (``check_kernel.in_limit_alias``; UR's joint 4
-    from the turn of joints 2-4 as _lane_answer takes it, inside (-pi, pi]); a lane with a valid branch whose value is not gets ``odd`` > 0, and
-    chain_row makes its rows itself. The same numbers as chain_row, bit for bit (tested)."""
+    ``values[(slot m + i) LANES + lane]`` for solved column ``i`` of ``m``. ``q0 + angle / scale`` is wrapped
+    (``check_kernel.wrap_angle_by_selects``; UR's joint 4 from the turn of joints 2-4, wrapped first by
+    ``subproblems_kernel.wrap_by_selects``, as _lane_answer takes it) and aliased as chain_row does
+    (``check_kernel.in_limit_alias``). A lane with a valid branch whose wrap those cannot take exactly (a value
+    more than about 3 pi from 0: never for a reference configuration within pi of 0 and scales of at least 1) gets
+    ``odd`` > 0, and chain_row makes its rows itself. The same numbers as chain_row, bit for bit (tested)."""
     m = columns.shape[0]
     sign3, sign4 = _ur_signs(H)
     for lane in range(LANES):
@@ -144,20 +147,18 @@ def _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd):
             start, dst = (6 * slot + e) * LANES, (slot * m + i) * LANES
             base, scale = q0[columns[i]], solved[0, i]
             lower, upper = solved[1, i] - LIMIT_TOL, solved[2, i] + LIMIT_TOL
-            if kind == 0 and e == 3:  # UR: t4 = sign4 (turn - t2 - sign3 t3)
+            if kind == 0 and e == 3:  # UR: t4 = sign4 (turn - t2 - sign3 t3), wrapped
                 t2, t3 = (6 * slot + 1) * LANES, (6 * slot + 2) * LANES
                 for lane in range(LANES):
-                    x = sign4 * (out[start + lane] - out[t2 + lane] - sign3 * out[t3 + lane])
-                    value = base + x / scale
-                    inside = (x > -math.pi) & (x <= math.pi) & (value > -math.pi) & (value <= math.pi)
-                    odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if inside else 1.0))
-                    values[dst + lane] = in_limit_alias(value + 0.0, lower, upper)
+                    x, exact_x = _wrap_by_selects(sign4 * (out[start + lane] - out[t2 + lane] - sign3 * out[t3 + lane]))
+                    value, exact = wrap_angle_by_selects(base + x / scale)
+                    odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if exact & exact_x else 1.0))
+                    values[dst + lane] = in_limit_alias(value, lower, upper)
             else:
                 for lane in range(LANES):
-                    value = base + out[start + lane] / scale
-                    inside = (value > -math.pi) & (value <= math.pi)
-                    odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if inside else 1.0))
-                    values[dst + lane] = in_limit_alias(value + 0.0, lower, upper)
+                    value, exact = wrap_angle_by_selects(base + out[start + lane] / scale)
+                    odd[lane] = max(odd[lane], out[ok + lane] * (0.0 if exact else 1.0))
+                    values[dst + lane] = in_limit_alias(value, lower, upper)
 
 
 @inlined_kernel

@@ -32,12 +32,12 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlined_kernel, sqrt
+from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlined_kernel, sqrt, wrap_by_selects
 from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
 __all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",
-           "plain_target", "pose_residual", "pose_residual_parts", "row_tables", "wrap_angle"]
+           "plain_target", "pose_residual", "pose_residual_parts", "row_tables", "wrap_angle", "wrap_angle_by_selects"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
@@ -105,6 +105,16 @@ def wrap_angle(a):
         return a + 0.0
     w = math.pi - (math.pi - a) % TWO_PI
     return w + TWO_PI if w <= -math.pi else w
+
+
+@inlined_kernel
+def wrap_angle_by_selects(a):
+    """(:func:`wrap_angle` of ``a``, exact): the same number bit for bit by selects, no branch
+    (:func:`manipkit.closed_form.subproblems_kernel.wrap_by_selects`; ``exact`` False where ``pi - a`` leaves
+    [-2 pi, 4 pi))."""
+    w, exact = wrap_by_selects(a)
+    inside = (a > -math.pi) & (a <= math.pi)
+    return a + 0.0 if inside else (w + TWO_PI if w <= -math.pi else w), exact
 
 
 @inlined_kernel

@@ -53,7 +53,7 @@ def inlined_kernel(py_func):
 
 
 __all__ = ["MARGIN", "NEAR", "TANGENT", "TOL", "add", "atan2", "compile_kernel", "cross", "dot", "inlined_kernel", "move", "mtv", "mv", "norm", "perpendicular",
-           "rotate", "row", "sp1", "sp1_pair", "sqrt", "sp3", "sp3_squared", "sp4", "sub", "wrap"]
+           "rotate", "row", "sp1", "sp1_pair", "sqrt", "sp3", "sp3_squared", "sp4", "sub", "wrap", "wrap_by_selects"]
 
 #: How close (relative to the arm's size) a decision may come to its threshold before the reference path decides.
 MARGIN = 1e-8
@@ -119,6 +119,20 @@ def wrap(x):
     if -math.pi < x <= math.pi:
         return x
     return math.pi - (math.pi - x) % TWO_PI
+
+
+@inlined_kernel
+def wrap_by_selects(x):
+    """(:func:`wrap` of ``x``, exact): the same number bit for bit, chosen by selects with no branch and no call
+    into fmod (so a loop over many angles runs on vector registers), where ``pi - x`` lies in [-2 pi, 4 pi)
+    (``exact`` False elsewhere, and for nan). There the remainder ``(pi - x) % 2 pi`` of numba (CPython's rule:
+    ``fmod``, then ``+ 2 pi`` when its sign is not the divisor's, ``+0.0`` for a zero) is ``r - 2 pi`` for ``r``
+    in [2 pi, 4 pi) (exact, by Sterbenz's lemma, as fmod is), ``r`` in [0, 2 pi), ``r + 2 pi`` (the same addition)
+    for ``r`` in [-2 pi, 0); ``r - 2 pi`` would not be exact below ``-2 pi``, so that range is not taken."""
+    r = math.pi - x
+    m = r - TWO_PI if r >= TWO_PI else (r + TWO_PI if r < 0.0 else r)
+    inside = (x > -math.pi) & (x <= math.pi)
+    return x if inside else math.pi - m, (r >= -TWO_PI) & (r < 2.0 * TWO_PI)
 
 
 @compile_kernel
