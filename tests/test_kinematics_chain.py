@@ -66,6 +66,10 @@ def test_fk_equals_pinocchio(load_robot, name, base, tip):
     assert np.abs(chain.fk(Q[0]) - T[0]).max() == 0.0
     whole = np.array([chain.full(q) for q in Q])
     assert np.abs(chain.fk(whole) - T).max() == 0.0
+    # the compiled FK without the checks (for rows a compiled caller made): the same poses, into a given array
+    out = np.empty((len(Q), 4, 4))
+    assert chain.compiled_fk.transforms(np.ascontiguousarray(Q), out=out) is out
+    assert np.array_equal(out, T)
 
 
 @pytest.mark.parametrize("name, base, tip", [("iiwa14", "base_link", "ee_link"), ("scara", "base_link", "ee_link")])

@@ -3,7 +3,7 @@
 Targets are cut into contiguous blocks; each block is solved and aliased by
 :func:`manipkit.closed_form.arms_kernel.solve_rows_into` (compiled, no GIL),
 its non-empty slots alone are put through the chain's compiled FK
-(``chain.fk``: :class:`manipkit.kinematics.fk_kernel.ChainFK`, whose loop
+(``chain.compiled_fk``: :class:`manipkit.kinematics.fk_kernel.ChainFK`, whose loop
 runs without the GIL too) and measured by
 :func:`manipkit.closed_form.arms_kernel.measure_at` (``pose_residuals``'
 compiled twin). Up to ``threads`` threads of a pool take blocks at once
@@ -68,7 +68,7 @@ def _check(chain: Chain, T: np.ndarray, project: np.ndarray, packed: np.ndarray,
     if project.any():
         T = T.copy()
         T[project] = projected(T[project])
-    reached = chain.fk(packed) if len(packed) else np.empty((0, 4, 4))
+    reached = chain.compiled_fk.transforms(packed) if len(packed) else np.empty((0, 4, 4))  # rows it made: finite
     measure_at(T, reached, index, check, residuals, success)
 
 

@@ -166,6 +166,13 @@ class Chain:
         """Number of entries of a chain vector."""
         return len(self.joint_names)
 
+    @property
+    def compiled_fk(self) -> ChainFK:
+        """The chain's prepared batched FK on chain vectors (what :meth:`fk` runs): ``compiled_fk.transforms(Q,
+        out=...)`` is :meth:`fk` without its checks, for rows (N, n), finite and C-contiguous, that a compiled
+        caller made itself (the closed forms' batch puts its answers through it)."""
+        return self._fk
+
     # ------------------------------------------------------------------
     # Joint vectors
 
