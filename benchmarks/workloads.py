@@ -9,7 +9,8 @@ putting them through Pinocchio's forward kinematics instead.
 
 Timings: ``time.perf_counter`` around each call (single calls) or around a
 whole batch (batched calls), garbage collection off while timing, after a
-warm-up. Everything runs in this one process on the same seeded inputs,
+warm-up; the closed-form workload takes all its rows' timings in turns
+(:func:`in_turns`), so its ratios to EAIK see the same load. Everything runs in this one process on the same seeded inputs,
 except the cold-start and viewer workloads, which time separate processes.
 """
 

@@ -14,6 +14,7 @@ file NAME appears in its folder (a description that tries to run a command,
 for example ``touch NAME``). Each case is checked as its own test.
 """
 
+import errno
 import os
 import subprocess
 import sys
@@ -49,7 +50,12 @@ def _run_case_in_subprocess(case, folder: Path) -> subprocess.CompletedProcess:
     # bash sets the limit and becomes the command (exec): no preexec_fn, which is unsafe while other threads run
     limited = ["/bin/bash", "-c", f'ulimit -v {MEMORY_LIMIT // 1024} && exec "$@"', "bash", str(BIN / command), *args]
     try:
-        result = subprocess.run(limited, capture_output=True, text=True, cwd=folder, timeout=case.get("timeout", 120))
+        try:
+            result = subprocess.run(limited, capture_output=True, text=True, cwd=folder, timeout=case.get("timeout", 120))
+        except OSError as exc:  # the OS could not start bash at all (seen once: EFAULT from exec under load): once more
+            if exc.errno != errno.EFAULT:
+                raise
+            result = subprocess.run(limited, capture_output=True, text=True, cwd=folder, timeout=case.get("timeout", 120))
     except subprocess.TimeoutExpired as exc:
         result = subprocess.CompletedProcess(exc.cmd, "timeout", "", f"timed out after {exc.timeout} s")
     result.folder = folder
