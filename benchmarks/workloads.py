@@ -78,30 +78,37 @@ def no_gc():
             gc.enable()
 
 
+def calls_timed(fn, inputs) -> np.ndarray:
+    """Seconds of each ``fn(x)`` for x in ``inputs`` (no warm-up, garbage collection as the caller left it)."""
+    times = np.empty(len(inputs))
+    clock = time.perf_counter
+    for i, x in enumerate(inputs):
+        start = clock()
+        fn(x)
+        times[i] = clock() - start
+    return times
+
+
+def batch_timed(fn, n_items: int) -> float:
+    """Seconds per item of one ``fn()`` that handles ``n_items`` (no warm-up)."""
+    start = time.perf_counter()
+    fn()
+    return (time.perf_counter() - start) / n_items
+
+
 def per_call(fn, inputs, *, warmup: int = 20) -> np.ndarray:
     """Seconds of each ``fn(x)`` for x in ``inputs`` (after ``warmup`` untimed calls)."""
     for x in inputs[:warmup]:
         fn(x)
-    times = np.empty(len(inputs))
-    clock = time.perf_counter
     with no_gc():
-        for i, x in enumerate(inputs):
-            start = clock()
-            fn(x)
-            times[i] = clock() - start
-    return times
+        return calls_timed(fn, inputs)
 
 
 def per_item(fn, n_items: int, *, repeats: int) -> np.ndarray:
     """Seconds per item of ``fn()`` (which handles ``n_items``), one value per repeat, after a warm-up call."""
     fn()
-    times = np.empty(repeats)
     with no_gc():
-        for i in range(repeats):
-            start = time.perf_counter()
-            fn()
-            times[i] = (time.perf_counter() - start) / n_items
-    return times
+        return np.array([batch_timed(fn, n_items) for _ in range(repeats)])
 
 
 def in_turns(timers: dict, rounds: int) -> dict:
@@ -120,24 +127,6 @@ def in_turns(timers: dict, rounds: int) -> dict:
             for key, once in timers.items():
                 taken[key].append(np.atleast_1d(np.asarray(once(r), dtype=float)))
     return {key: np.concatenate(parts) for key, parts in taken.items()}
-
-
-def calls_timed(fn, inputs) -> np.ndarray:
-    """Seconds of each ``fn(x)`` for x in ``inputs`` (no warm-up, garbage collection as the caller left it)."""
-    times = np.empty(len(inputs))
-    clock = time.perf_counter
-    for i, x in enumerate(inputs):
-        start = clock()
-        fn(x)
-        times[i] = clock() - start
-    return times
-
-
-def batch_timed(fn, n_items: int) -> float:
-    """Seconds per item of one ``fn()`` that handles ``n_items`` (no warm-up)."""
-    start = time.perf_counter()
-    fn()
-    return (time.perf_counter() - start) / n_items
 
 
 def max_error(A, B) -> float:

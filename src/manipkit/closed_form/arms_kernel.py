@@ -113,7 +113,7 @@ def _lane_angles(kind, out, L):
 @inlined_kernel
 def _lane_flags(out, n, L, valid):
     """valid (8,) of lane ``n`` of ``L``; returns whether the reference must decide."""
-    for slot in range(8):
+    for slot in range(SLOTS):
         valid[slot] = out[(96 + slot) * L + n] != 0.0
     return out[104 * L + n] != 0.0
 
@@ -140,7 +140,7 @@ def _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd):
     sign3, sign4 = _ur_signs(H)
     for lane in range(LANES):
         odd[lane] = 0.0
-    for slot in range(8):
+    for slot in range(SLOTS):
         ok = (96 + slot) * LANES
         for i in range(m):
             e = m - 1 - i if reverse else i  # the angle of solved column i, in solve order
@@ -168,13 +168,13 @@ def _lane_answer(kind, H, out, n, L, theta, valid, near):
     h4 = sign4 h2), so R(h2, t2 + sign3 t3 + sign4 t4) = R1^T R_g R6^T R5^T, whose angle about h2 (column 3, the
     turn) gives t4 = sign4 (turn - t2 - sign3 t3), wrapped."""
     handed_back = _lane_flags(out, n, L, valid)
-    for slot in range(8):
+    for slot in range(SLOTS):
         for j in range(6):
             theta[slot, j] = out[(6 * slot + j) * L + n]
         near[slot] = valid[slot]
     if kind == 0:
         sign3, sign4 = _ur_signs(H)
-        for slot in range(8):
+        for slot in range(SLOTS):
             theta[slot, 3] = _wrap(sign4 * (theta[slot, 3] - theta[slot, 1] - sign3 * theta[slot, 2]))
     return handed_back
 
@@ -212,9 +212,9 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
     """
     g = np.ascontiguousarray(g, dtype=float)
     N = g.shape[0]
-    theta = np.zeros((N, 8, 6))
-    valid = np.zeros((N, 8), dtype=np.bool_)
-    near = np.zeros((N, 8), dtype=np.bool_)
+    theta = np.zeros((N, SLOTS, 6))
+    valid = np.zeros((N, SLOTS), dtype=np.bool_)
+    near = np.zeros((N, SLOTS), dtype=np.bool_)
     fallback = np.zeros(N, dtype=np.bool_)
     c = (float(wrist[0]), float(wrist[1]), float(wrist[2]))
     _solve_all(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float), c,
@@ -332,9 +332,9 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
     g = np.empty((4, 4))
     chunk, out = np.empty(12 * LANES), np.empty(ENTRIES * LANES)
     m, n_columns = columns.shape[0], q0.shape[0]
-    values, odd = np.empty(8 * m * LANES), np.empty(LANES)
+    values, odd = np.empty(SLOTS * m * LANES), np.empty(LANES)
     # one target's angles and flags, reused: no (N, 8, m) array, and no view of valid made (and counted) per target
-    theta, near, valid_k = np.zeros((8, H.shape[0])), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
+    theta, near, valid_k = np.zeros((SLOTS, H.shape[0])), np.zeros(SLOTS, dtype=np.bool_), np.zeros(SLOTS, dtype=np.bool_)
     count = 0
     for start in range(0, T.shape[0], LANES):
         used = min(LANES, T.shape[0] - start)
@@ -431,9 +431,9 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
     elbow down + wrist flip``); no rows when the general path must answer."""
     kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints = arm_constants(arm_reals, arm_ints)
     m, n = H.shape[0], q0.shape[0]
-    theta, valid, near = np.zeros((8, m)), np.zeros(8, dtype=np.bool_), np.zeros(8, dtype=np.bool_)
-    rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
-    bits, codes = np.zeros((8, 3), dtype=np.bool_), np.zeros(8, dtype=np.int64)
+    theta, valid, near = np.zeros((SLOTS, m)), np.zeros(SLOTS, dtype=np.bool_), np.zeros(SLOTS, dtype=np.bool_)
+    rows, residuals, within = np.full((SLOTS, n), np.nan), np.full((SLOTS, 2), np.nan), np.zeros(SLOTS, dtype=np.bool_)
+    bits, codes = np.zeros((SLOTS, 3), dtype=np.bool_), np.zeros(SLOTS, dtype=np.int64)
     g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
     c = _row(points, 0)
     K = arm_tuple(H, P, c, scale)
@@ -442,7 +442,7 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
                                               residuals, within):
         return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
-    for k in range(8):
+    for k in range(SLOTS):
         codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
     return kept_rows(valid, rows, residuals, within, codes, codes, position_tol, rotation_tol)
 
@@ -458,11 +458,11 @@ def solve_rows_many(prepared: tuple, T: np.ndarray):
     arm_reals, arm_ints = prepared
     T = np.ascontiguousarray(T, dtype=float)
     N, n = T.shape[0], int(arm_ints[3])
-    valid = np.zeros((N, 8), dtype=np.bool_)
+    valid = np.zeros((N, SLOTS), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
-    rows = np.empty((N, 8, n))
-    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, np.empty((8 * N, n)),
-                    np.empty(8 * N, dtype=np.int64))
+    rows = np.empty((N, SLOTS, n))
+    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, np.empty((SLOTS * N, n)),
+                    np.empty(SLOTS * N, dtype=np.int64))
     return valid, fallback, project, rows
 
 
@@ -541,8 +541,9 @@ def warm_up() -> None:
                         np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
     solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
     rows = solve_rows_many(prepared, g)[-1]
-    measure_many(g, np.repeat(g[:, None], 8, axis=1), rows, (1e-10, 1e-10))
-    measure_at(g, np.repeat(g, 8, axis=0), np.arange(8, dtype=np.int64), (1e-10, 1e-10), np.empty((1, 8, 2)),
+    measure_many(g, np.repeat(g[:, None], SLOTS, axis=1), rows, (1e-10, 1e-10))
+    measure_at(g, np.repeat(g, SLOTS, axis=0), np.arange(SLOTS, dtype=np.int64), (1e-10, 1e-10),
+               np.empty((1, SLOTS, 2)),
                np.empty(1, dtype=np.bool_))
     solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
 

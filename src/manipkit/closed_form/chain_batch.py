@@ -68,7 +68,7 @@ def _check(chain: Chain, T: np.ndarray, project: np.ndarray, packed: np.ndarray,
     if project.any():
         T = T.copy()
         T[project] = projected(T[project])
-    reached = chain.compiled_fk.transforms(packed) if len(packed) else np.empty((0, 4, 4))  # rows it made: finite
+    reached = chain.compiled_fk.transforms(packed) if len(packed) else np.empty((0, 4, 4))  # rows the solvers made
     measure_at(T, reached, index, check, residuals, success)
 
 
