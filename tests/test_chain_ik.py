@@ -414,7 +414,7 @@ def previous_batch(chain, T, check=(1e-10, 1e-10)):
     free_any = np.zeros(len(T), dtype=bool)
     if fallback.any():  # the numpy reference's rows (unchanged by the blocks and threads)
         rows = np.flatnonzero(fallback)
-        valid[rows], free_any[rows], Q[rows] = _reference_rows(chain, arm, T[rows])
+        valid[rows], free_any[rows], Q[rows] = _reference_rows(chain, arm, T[rows], None)
     T_check = T.copy()
     T_check[project] = _projected_target(T[project])
     missing = np.isnan(Q[..., 0])
@@ -478,6 +478,83 @@ def test_kinova_batch_is_the_same_bit_for_bit_on_any_number_of_threads(seed, n, 
 def test_irb2400_batch_is_the_same_bit_for_bit_on_any_number_of_threads(seed, n, monkeypatch):
     assert_same_for_any_thread_count(load_realworld(IRB2400), "base_link", "tool0", seed, n, monkeypatch)
 
+
+
+def srs_batch_targets(chain, seed: int, n: int):
+    """(Q, T, psi): FK of ``n`` random in-limit iiwa14 configurations, each target at its own arm angle, then one
+    with the elbow straight (q4 = 0: the shoulder-wrist distance at its largest, handed to the numpy reference) and
+    one with the wrist's axes 5 and 7 aligned (q6 = 0: a family in t5)."""
+    from manipkit.closed_form.chain_ik import srs_arm_angle
+
+    Q = chain.sample(n + 2, seed=seed)
+    Q[-2, 3], Q[-1, 5] = 0.0, 0.0
+    psi = np.array([srs_arm_angle(chain, q) for q in Q])
+    return Q, chain.fk(Q), psi
+
+
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 9))
+@settings(**_BATCH_SETTINGS, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_iiwa14_batch_at_arm_angles_gives_the_single_calls_rows_bit_for_bit_on_any_number_of_threads(seed, n,
+                                                                                                      monkeypatch):
+    """chain_ik_many of a 7R SRS arm, each target at its own arm angle: the same arrays on 1, 2 and 3 threads; every
+    slot's row is one of chain_ik's rows for that target bit for bit (or a repeat modulo 2 pi it dropped); the
+    generating configuration is among them; every slot lands by Pinocchio; the wrist-aligned target is a family
+    (count inf), as chain_ik says."""
+    from manipkit.closed_form import chain_batch
+
+    monkeypatch.setattr(chain_batch, "BLOCK", 3)
+    monkeypatch.setattr(chain_batch, "MIN_TARGETS_PER_THREAD", 1)
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    Q, T, psi = srs_batch_targets(chain, seed, n)
+    batches = [chain_ik_many(chain, T, arm_angle=psi, threads=threads) for threads in (1, 2, 3)]
+    for batch in batches[1:]:
+        for field in ("solutions", "count", "success", "residuals"):
+            assert np.array_equal(getattr(batch, field), getattr(batches[0], field), equal_nan=True), field
+    batch = batches[0]
+    assert batch.solutions.shape == (n + 2, 8, 7) and batch.labels[1] == "elbow a, shoulder a, wrist b"
+    assert batch.success.all() and np.isinf(batch.count[-1]) and np.isfinite(batch.count[:-1]).all()
+    for i, (q, rows) in enumerate(zip(Q, batch.solutions)):
+        single = chain_ik(chain, T[i], arm_angle=psi[i])
+        present = rows[~np.isnan(rows[:, 0])]
+        assert len(present) == batch.count[i] or np.isinf(batch.count[i])
+        if np.isfinite(batch.count[i]) and q[3] != 0.0:
+            # not the family (its rows stand for q with t5 = 0: only q5 + q7 is determined), nor the straight elbow
+            # (its elbow plane is not defined: srs_arm_angle's psi and psi + pi reach the same elbow; q is at one)
+            assert any(same_modulo_2pi(s, q) for s in present)
+        assert np.isinf(single.count) == np.isinf(batch.count[i])
+        for s in present:
+            assert any(np.array_equal(s, r) for r in single.solutions) or any(same_modulo_2pi(s, r) for r in single.solutions)
+            assert pose_gap(pinocchio_pose(robot, "base_link", "ee_link", chain.full(s)), T[i]) < 1e-10
+
+
+def test_iiwa14_batch_by_the_numpy_reference_gives_the_compiled_rows_to_rounding():
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    _, T, psi = srs_batch_targets(chain, 21, 30)
+    compiled, reference = chain_ik_many(chain, T, arm_angle=psi), chain_ik_many(chain, T, arm_angle=psi, compiled=False)
+    assert np.array_equal(np.isnan(compiled.solutions), np.isnan(reference.solutions))
+    assert np.nanmax(np.abs(compiled.solutions - reference.solutions)) < 1e-9
+    assert np.array_equal(compiled.count, reference.count) and reference.success.all()
+
+
+def test_an_srs_batch_takes_one_arm_angle_or_one_per_target_and_says_what_is_wrong():
+    from manipkit.errors import IKOptionError
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    _, T, _ = srs_batch_targets(chain, 4, 3)
+    one, each = chain_ik_many(chain, T, arm_angle=0.4), chain_ik_many(chain, T, arm_angle=np.full(len(T), 0.4))
+    assert np.array_equal(one.solutions, each.solutions, equal_nan=True)
+    for value, words in ((None, "give arm_angle"), ([0.1, 0.2], r"one number \(rad\) or 5 of them"),
+                         (np.nan, "must be finite"), ("left", "must be a number"), (np.zeros((5, 1)), "shape")):
+        with pytest.raises(ClosedFormIKError, match=words):
+            chain_ik_many(chain, T, arm_angle=value)
+    with pytest.raises(IKOptionError, match=r"5 of them"):
+        manipkit.analytic_ik_many(robot, T, arm_angle=[0.1, 0.2])
+    with pytest.raises(IKOptionError, match="without an arm angle"):
+        manipkit.analytic_ik_many(robot, T)
+    with pytest.raises(ClosedFormIKError, match="must be a number"):  # the single call refuses it the same way
+        chain_ik(chain, T[0], arm_angle="left")
 
 def test_a_batch_big_enough_for_both_threads_by_default_gives_the_one_thread_answer():
     chain = manipkit.load("ur5").chain("base_link", "tool0")

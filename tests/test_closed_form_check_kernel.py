@@ -3,8 +3,9 @@
 - ``pose_residual`` is the compiled twin of ``spatial.transforms.pose_residuals(..., project=False)``: equal (to
   the 2 ulp of its atan2) on random poses (hypothesis), rotations or not;
 - ``exact_rotation`` decides as ``projected_rotation`` does (a block used as is, or projected);
-- ``pose_row`` (kinematics.fk_kernel, the chain's FK program one row at a time) equals ``chain.fk``, and so
-  Pinocchio, on arms with revolute, prismatic and continuous joints;
+- ``pose_rows`` (kinematics.fk_kernel, the chain's FK program one row at a time) equals ``chain.fk``, and so
+  Pinocchio, on arms with revolute, prismatic and continuous joints; rows that share their first joints' values
+  (a target's branches) give each row's pose alone, bit for bit;
 - the single-call path (``solve_check_one``) gives the general path's answer field for field: rows, order,
   labels, residuals, limits, note; on random, elbow-straight and limit-aliased targets.
 """
@@ -17,7 +18,7 @@ from hypothesis import strategies as st
 
 import manipkit
 from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
-from manipkit.closed_form.check_kernel import exact_rotation, pose_residual, pose_row, row_tables
+from manipkit.closed_form.check_kernel import exact_rotation, pose_residual, pose_rows, row_tables
 from manipkit.closed_form.families import chain_family
 from manipkit.spatial.rotations import matrix_from_axis_angle
 from manipkit.spatial.transforms import pose_residuals, projected_rotation
@@ -61,18 +62,44 @@ def test_exact_rotation_decides_as_projected_rotation(axis, angle, off, reflect)
 @pytest.mark.parametrize("name, base, tip", [("ur5", "base_link", "tool0"), ("iiwa14", "base_link", "ee_link"),
                                               ("stanford_arm", "base_link", "ee_link"),
                                               ("mobile_manipulator", "arm_base", "ee_link")])
-def test_pose_row_equals_the_chain_fk_and_pinocchio(name, base, tip):
+def test_pose_rows_equal_the_chain_fk_and_pinocchio(name, base, tip):
     robot = manipkit.load(name)
     chain = robot.chain(base, tip)
     floats, ints = row_tables(chain.steps, chain.columns)
-    scratch, T = np.empty((4, 3)), np.empty((4, 4))
+    Q = chain.sample(50, seed=4)
+    states, reached = np.empty((ints[0] + 1, 4, 3)), np.full((50, 4, 4), 7.0)
+    present = np.arange(50) % 5 != 3  # rows not present are not written
+    pose_rows(Q, present, floats, ints, states, reached)
+    assert (reached[~present] == 7.0).all()
     data = robot.model.createData()
-    for q in chain.sample(50, seed=4):
-        pose_row(q, floats, ints, scratch, T)
+    for q, T in zip(Q[present], reached[present]):
         assert np.abs(T - chain.fk(q)).max() < 1e-14
         pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(chain.full(q)))
         expected = np.linalg.inv(data.oMf[robot.frame_id(base)].homogeneous) @ data.oMf[robot.frame_id(tip)].homogeneous
         assert np.abs(T - expected).max() < 1e-12
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from([("ur5", "base_link", "tool0"), ("iiwa14", "base_link", "ee_link"),
+                        ("mobile_manipulator", "arm_base", "ee_link")]),
+       st.integers(0, 2**32 - 1), st.lists(st.tuples(st.integers(0, 3), st.integers(0, 7)), min_size=1, max_size=8))
+def test_pose_rows_sharing_first_joints_give_each_rows_pose_alone_bit_for_bit(arm, seed, recipe):
+    """Rows made of a few random vectors, each row taking its first ``j`` entries from one (a target's branches
+    share their shoulder), some with 0.0 where another has -0.0: the poses of all rows in one call equal, bit for
+    bit, those of each row put through alone."""
+    name, base, tip = arm
+    chain = manipkit.load(name).chain(base, tip)
+    floats, ints = row_tables(chain.steps, chain.columns)
+    sources = chain.sample(4, seed=seed)
+    sources[3, : chain.n // 2] = 0.0
+    Q = np.array([np.concatenate([sources[a, :j], sources[(a + 1) % 4, j:]]) for a, j in recipe])
+    Q[1::2][Q[1::2] == 0.0] = -0.0
+    states = np.empty((ints[0] + 1, 4, 3))
+    together, alone = np.empty((len(Q), 4, 4)), np.empty((len(Q), 4, 4))
+    pose_rows(Q, np.ones(len(Q), dtype=bool), floats, ints, states, together)
+    for r in range(len(Q)):
+        pose_rows(Q[r:r + 1], np.ones(1, dtype=bool), floats, ints, states, alone[r:r + 1])
+    assert np.array_equal(together.view(np.int64), alone.view(np.int64))
 
 
 @settings(max_examples=200, deadline=None)

@@ -50,11 +50,12 @@ from manipkit.closed_form.check_kernel import (
     LIMIT_TOL,
     arm_constants,
     chain_row,
-    check_row,
+    check_rows,
     exact_rotation,
     in_limit_alias,
     kept_rows,
     pack_arm,
+    packed_row,
     plain_target,
     pose_residual,
     pose_residual_parts,
@@ -306,7 +307,7 @@ def _solved_target(T, M_inv, reverse, g):
 
 
 @compile_kernel
-def _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, scratch, T_fk, out,
+def _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, states, reached, out,
                     theta, valid, near, rows, residuals, within):
     """One target: every branch solved (as _solve_all), then each valid one's chain row, FK on the true chain,
     residual and limits (check_kernel); True when the reference must decide (nothing else is written then).
@@ -317,7 +318,7 @@ def _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, 
     for k in range(theta.shape[0]):
         if valid[k]:
             chain_row(theta, k, reverse, q0, columns, solved, rows)
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows, k, T, floats, ints, limits, scratch, T_fk)
+    check_rows(rows, valid, T, floats, ints, limits, states, reached, residuals, within)
     return False
 
 
@@ -360,22 +361,15 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
                 fallback[n] = _lane_answer(kind, H, out, lane, LANES, theta, valid_k, near)
             for k in range(SLOTS):  # rows[n, k, j] indexed whole: a view rows[n] per target costs two atomic counts
                 valid[n, k] = valid_k[k]
-                if valid_k[k] and not fallback[n]:
-                    if plain:
-                        for j in range(n_columns):
-                            rows[n, k, j] = q0[j]
-                        for i in range(m):
-                            rows[n, k, columns[i]] = values[(k * m + i) * LANES + lane]
-                    else:
-                        chain_row(theta, k, reverse, q0, columns, solved, rows[n])
-                    if not math.isnan(rows[n, k, 0]):  # as the check reads a row: present unless its first entry is NaN
-                        for j in range(n_columns):
-                            packed[count, j] = rows[n, k, j]
-                        index[count] = SLOTS * n + k
-                        count += 1
-                else:
+                made = valid_k[k] and not fallback[n]
+                if made and plain:
                     for j in range(n_columns):
-                        rows[n, k, j] = np.nan
+                        rows[n, k, j] = q0[j]
+                    for i in range(m):
+                        rows[n, k, columns[i]] = values[(k * m + i) * LANES + lane]
+                elif made:
+                    chain_row(theta, k, reverse, q0, columns, solved, rows[n])
+                count = packed_row(rows, n, k, made, packed, index, count)
     return count
 
 
@@ -434,11 +428,11 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
     theta, valid, near = np.zeros((SLOTS, m)), np.zeros(SLOTS, dtype=np.bool_), np.zeros(SLOTS, dtype=np.bool_)
     rows, residuals, within = np.full((SLOTS, n), np.nan), np.full((SLOTS, 2), np.nan), np.zeros(SLOTS, dtype=np.bool_)
     bits, codes = np.zeros((SLOTS, 3), dtype=np.bool_), np.zeros(SLOTS, dtype=np.int64)
-    g, scratch, T_fk = np.empty((4, 4)), np.empty((4, 3)), np.empty((4, 4))
+    g, states, reached = np.empty((4, 4)), np.empty((ints[0] + 1, 4, 3)), np.empty((SLOTS, 4, 4))
     c = _row(points, 0)
     K = arm_tuple(H, P, c, scale)
     if not plain_target(T) or _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats,
-                                              ints, g, scratch, T_fk, np.empty(ENTRIES), theta, valid, near, rows,
+                                              ints, g, states, reached, np.empty(ENTRIES), theta, valid, near, rows,
                                               residuals, within):
         return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)

@@ -1,7 +1,9 @@
-"""The compiled batch of :func:`manipkit.closed_form.chain_ik.chain_ik_many` (UR and OPW families), on threads.
+"""The compiled batch of :func:`manipkit.closed_form.chain_ik.chain_ik_many` (UR, OPW and SRS families), on threads.
 
 Targets are cut into contiguous blocks; each block is solved and aliased by
-:func:`manipkit.closed_form.arms_kernel.solve_rows_into` (compiled, no GIL),
+:func:`manipkit.closed_form.arms_kernel.solve_rows_into` (a 7R SRS arm, each
+target at its own arm angle:
+:func:`manipkit.closed_form.srs_kernel.solve_srs_rows_into`; compiled, no GIL),
 its non-empty slots alone are put through the chain's compiled FK
 (``chain.compiled_fk``: :class:`manipkit.kinematics.fk_kernel.ChainFK`, whose loop
 runs without the GIL too) and measured by
@@ -13,7 +15,8 @@ runs on the calling thread alone. Every number of a target is computed from that
 alone, by the same operations whatever block or thread it falls in, so the
 answers are the same bit for bit on any number of threads (tested). Targets
 the compiled loop hands back are solved afterwards by the numpy reference
-(:func:`manipkit.closed_form.arms.solve_6r`, through ``chain_ik``) and
+(:func:`manipkit.closed_form.arms.solve_6r`,
+:func:`manipkit.closed_form.srs.solve_srs_many`, through ``chain_ik``) and
 checked the same way.
 """
 
@@ -73,32 +76,42 @@ def _check(chain: Chain, T: np.ndarray, project: np.ndarray, packed: np.ndarray,
 
 
 def checked_many(chain: Chain, prepared: tuple, T: np.ndarray, check: tuple[float, float], threads: int, *,
-                 reference, projected) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``chain_ik_many`` of the UR and OPW families: every branch of targets ``T`` (N, 4, 4) solved, aliased, put
-    through the chain's FK and measured against ``check`` (m, rad), in blocks on up to ``threads`` threads.
+                 reference, projected, arm_angles: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``chain_ik_many`` of the UR, OPW and SRS families: every branch of targets ``T`` (N, 4, 4) solved, aliased,
+    put through the chain's FK and measured against ``check`` (m, rad), in blocks on up to ``threads`` threads.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``); ``reference``: targets (K, 4, 4) ->
-    (valid (K, 8), free (K,): a free angle, rows (K, 8, n)) by the numpy reference, for the targets the compiled
-    loop hands back; ``projected`` as :func:`_check` takes it. Returns (rows (N, 8, n), count (N,), success (N,),
-    residuals (N, 8, 2)).
+    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``); ``arm_angles`` (N,, rad): a 7R SRS
+    arm's, one per target (None for the 6R families); ``reference``: indices (K,) of targets -> (valid (K, 8),
+    free (K,): a free angle, rows (K, 8, n)) by the numpy reference, for the targets the compiled loop hands back;
+    ``projected`` as :func:`_check` takes it. Returns (rows (N, 8, n), count (N,), success (N,), residuals
+    (N, 8, 2)).
     """
-    from manipkit.closed_form.arms_kernel import solve_rows_into
-
     T = np.ascontiguousarray(T, dtype=float)
+    if arm_angles is None:
+        from manipkit.closed_form.arms_kernel import solve_rows_into
+
+        def solve(a: int, b: int, *outputs) -> int:
+            return solve_rows_into(prepared, T[a:b], *outputs)
+    else:
+        from manipkit.closed_form.srs_kernel import solve_srs_rows_into
+
+        def solve(a: int, b: int, *outputs) -> int:
+            return solve_srs_rows_into(prepared, T[a:b], arm_angles[a:b], *outputs)
     N, n = T.shape[0], int(prepared[1][3])
     valid, fallback, project = np.zeros((N, 8), dtype=bool), np.zeros(N, dtype=bool), np.zeros(N, dtype=bool)
     Q, residuals, success = np.empty((N, 8, n)), np.empty((N, 8, 2)), np.empty(N, dtype=bool)
 
     def work(a: int, b: int) -> None:  # row slices of C-contiguous arrays: views, written in place
         packed, index = np.empty((8 * (b - a), n)), np.empty(8 * (b - a), dtype=np.int64)
-        M = solve_rows_into(prepared, T[a:b], valid[a:b], fallback[a:b], project[a:b], Q[a:b], packed, index)
+        M = solve(a, b, valid[a:b], fallback[a:b], project[a:b], Q[a:b], packed, index)
         _check(chain, T[a:b], project[a:b], packed[:M], index[:M], check, residuals[a:b], success[a:b], projected)
 
     _run_blocks(work, N, threads)
     free_any = np.zeros(N, dtype=bool)
     if fallback.any():  # the targets handed back: the numpy reference, then the same check
         rows = np.flatnonzero(fallback)
-        valid[rows], free_any[rows], Q[rows] = reference(T[rows])
+        valid[rows], free_any[rows], Q[rows] = reference(rows)
         checked, reached = np.empty((len(rows), 8, 2)), np.empty(len(rows), dtype=bool)
         index = np.flatnonzero(~np.isnan(Q[rows, :, 0]).reshape(-1))
         _check(chain, T[rows], project[rows], Q[rows].reshape(-1, n)[index], index, check, checked, reached, projected)

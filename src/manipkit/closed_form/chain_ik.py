@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
-from manipkit.closed_form.checks import quantity_text, tolerance_pair
+from manipkit.closed_form.checks import arm_angles, quantity_text, tolerance_pair
 from manipkit.closed_form.families import (
     FAMILY_TOL,
     OPW,
@@ -57,7 +57,7 @@ from manipkit.closed_form.families import (
     common_point,
     reversed_geometry,
 )
-from manipkit.closed_form.srs import solve_srs
+from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
@@ -221,11 +221,8 @@ def _branches(arm: IdealArm, T: np.ndarray, arm_angle=None, compiled: bool = Tru
     """(theta (N, 8, n) in chain order, branches as solved, g as solved) for targets T (N, 4, 4)."""
     family = arm.family
     g = _solved_direction(arm, T)
-    if family.kind == SRS:
-        if arm_angle is None or len(g) != 1:
-            raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
-                                    "ik --arm-angle PSI), one target at a time, or lock a joint")
-        branches = solve_srs(arm.h, arm.p, g[0], arm.points, float(arm_angle))
+    if family.kind == SRS:  # arm_angle: one (rad) or one per target
+        branches = solve_srs_many(arm.h, arm.p, g, arm.points, arm_angles(arm_angle, len(g)))
         return branches.theta, branches, g
     branches = solve_branches(arm, g, compiled=compiled)
     theta = branches.theta[..., ::-1] if family.reversed else branches.theta
@@ -487,8 +484,6 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     )
 
 
-
-
 class SingleSolver:
     """:func:`chain_ik` on one chain and family, one target per call, with what every call reads looked up once: the
     ideal arm, the compiled loop's constants and the words of its notes and labels (:func:`single_solver`).
@@ -531,7 +526,9 @@ class SingleSolver:
         family = self.family
         kernels = _KERNELS or _load_kernels()
         srs = family.kind == SRS
-        solved = kernels[1](prepared, T, float(arm_angle), check) if srs else kernels[0](prepared, T, check)
+        if srs and type(arm_angle) is not float:  # a number of another type, or not one number: ClosedFormIKError
+            arm_angle = float(arm_angles(arm_angle, 1)[0])
+        solved = kernels[1](prepared, T, arm_angle, check) if srs else kernels[0](prepared, T, check)
         if solved is None:
             return None
         block, within, named = solved
@@ -693,15 +690,16 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
 
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
-                  lock=None, compiled: bool = True, threads: int | None = None) -> IKBatch:
+                  lock=None, arm_angle=None, compiled: bool = True, threads: int | None = None) -> IKBatch:
     """Every branch for many targets ``(N, 4, 4)`` at once (compiled): an :class:`IKBatch` of 8 slots.
 
-    Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice; NaN where a
+    Slot ``4 a + 2 b + c``: shoulder, elbow, wrist choice (a 7R SRS arm: elbow, shoulder, wrist, at ``arm_angle``,
+    one angle in rad or one per target); NaN where a
     branch does not exist. Revolute entries are the in-limit aliases nearest
     0 (as :func:`chain_ik`); rows are not refined (a calibrated arm's rows
     carry the ideal arm's error: use :func:`chain_ik` for them). Residuals
     and ``success`` are measured by the chain's compiled FK against
-    ``check_tol``: in the call for the UR and OPW families (the solve, the
+    ``check_tol``: in the call for the UR, OPW and SRS families (the solve, the
     FK of every non-empty slot and the residuals compiled, in blocks of
     targets on up to ``threads`` threads:
     :func:`manipkit.closed_form.chain_batch.checked_many`), on first use
@@ -714,19 +712,23 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     arm = ideal_arm(family)
     check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
-    slots = tuple(f"{s}, elbow {e}, {w}" for s in ("shoulder a", "shoulder b") for e in ("a", "b") for w in ("wrist a", "wrist b"))
+    srs = family.kind == SRS
+    psi = arm_angles(arm_angle, len(T)) if srs else None  # ClosedFormIKError: none given, or not one per target
+    words = (("elbow", "shoulder", "wrist") if srs else ("shoulder", "elbow", "wrist"))
+    slots = tuple(f"{words[0]} {a}, {words[1]} {b}, {words[2]} {c}" for a in "ab" for b in "ab" for c in "ab")
     solver = f"closed_form.chain_ik_many ({family.kind})"
-    if compiled and family.kind in (UR, OPW):
+    if compiled and (family.kind in (UR, OPW) or (srs and not family.reversed)):
         from manipkit.closed_form.chain_batch import checked_many
         from manipkit.kinematics.fk_kernel import thread_count
 
-        Q, count, success, residuals = checked_many(chain, compiled_arm(chain, arm), T, check, thread_count(threads),
-                                                    reference=lambda g: _reference_rows(chain, arm, g),
-                                                    projected=_projected_target)
+        Q, count, success, residuals = checked_many(
+            chain, compiled_arm(chain, arm), T, check, thread_count(threads), arm_angles=psi,
+            reference=lambda rows: _reference_rows(chain, arm, T[rows], None if psi is None else psi[rows]),
+            projected=_projected_target)
         return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
                        success=success, residual_position=residuals[..., 0], residual_rotation=residuals[..., 1],
                        q_residuals=residuals[..., 0, :])
-    theta, branches, _ = _branches(arm, T, compiled=compiled)
+    theta, branches, _ = _branches(arm, T, psi, compiled=compiled)
     geometry = family.geometry
     Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
     Q = np.where(branches.valid[..., None], Q, np.nan)
@@ -743,13 +745,14 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
                    measure=measure, limit=check)
 
 
-def _reference_rows(chain: Chain, arm: IdealArm, T: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(valid (K, 8), free (K,): some slot has a free angle, rows (K, 8, n)) of targets ``T`` (K, 4, 4) by the numpy
-    reference, for the targets :func:`chain_ik_many`'s compiled loop hands back (rows as its compiled rows)."""
+def _reference_rows(chain: Chain, arm: IdealArm, T: np.ndarray, psi: np.ndarray | None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(valid (K, 8), free (K,): some slot has a free angle, rows (K, 8, n)) of targets ``T`` (K, 4, 4) (a 7R SRS
+    arm's at arm angles ``psi`` (K,)) by the numpy reference, for the targets :func:`chain_ik_many`'s compiled loop
+    hands back (rows as its compiled rows)."""
     from manipkit.closed_form.arms_kernel import chain_rows
 
-    reference = solve_6r(arm.family.kind, arm.h, arm.p, _solved_direction(arm, T), arm.points)
-    theta = reference.theta[..., ::-1] if arm.family.reversed else reference.theta
+    theta, reference, _ = _branches(arm, T, psi, compiled=False)
     geometry = arm.family.geometry
     rows = chain_rows(theta, reference.valid, geometry.q0, geometry.columns, geometry.scale, *_limits(chain, arm))
     return reference.valid, (reference.free >= 0).any(axis=-1), rows

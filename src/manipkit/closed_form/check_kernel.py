@@ -10,9 +10,9 @@ solved and checked without leaving machine code:
 - :func:`chain_row`: solved angles -> a chain vector, each revolute entry
   moved by whole turns to its in-limit value nearest 0;
 - the chain's forward kinematics by
-  :func:`manipkit.kinematics.fk_kernel.pose_row` (the program of the chain's
-  own compiled FK, one row at a time: the true chain, not the solver's ideal
-  arm);
+  :func:`manipkit.kinematics.fk_kernel.pose_rows` (the program of the chain's
+  own compiled FK, one row at a time, a target's branches sharing their
+  first joints' part: the true chain, not the solver's ideal arm);
 - :func:`pose_residual`: the compiled twin of
   ``pose_residuals(T_target, T, project=False)`` (one rule, one definition:
   the same formulas, tested equal to it);
@@ -33,16 +33,16 @@ import math
 import numpy as np
 
 from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlined_kernel, sqrt, wrap_by_selects
-from manipkit.kinematics.fk_kernel import pose_row_kernel, row_tables
+from manipkit.kinematics.fk_kernel import pose_rows_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_row", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",
-           "plain_target", "pose_residual", "pose_residual_parts", "row_tables", "wrap_angle", "wrap_angle_by_selects"]
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",
+           "packed_row", "plain_target", "pose_residual", "pose_residual_parts", "pose_rows", "row_tables", "wrap_angle", "wrap_angle_by_selects"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
 TWO_PI = 2.0 * math.pi
-pose_row = pose_row_kernel()
+pose_rows = pose_rows_kernel()
 
 
 @inlined_kernel
@@ -149,18 +149,39 @@ def chain_row(theta, k, reverse, q0, columns, solved, out):
 
 
 @inlined_kernel
-def check_row(rows, k, T_target, floats, ints, limits, scratch, T):
-    """(position m, rotation rad, within limits) of chain vector ``rows[k]`` against ``T_target``: the chain's FK
-    (:func:`manipkit.kinematics.fk_kernel.pose_row`, tables ``floats``, ``ints``; ``scratch`` (4, 3), ``T``
-    (4, 4) written), :func:`pose_residual`, and every entry inside the chain's limits ``limits`` (2, n) to
-    LIMIT_TOL (``Chain.within_limits``)."""
-    pose_row(rows[k], floats, ints, scratch, T)
-    position, rotation = pose_residual(T_target, T)
-    inside = True
-    for j in range(rows.shape[1]):
-        if rows[k, j] < limits[0, j] - LIMIT_TOL or rows[k, j] > limits[1, j] + LIMIT_TOL:
-            inside = False
-    return position, rotation, inside
+def packed_row(rows, t, k, solved, packed, index, count):
+    """Slot ``k`` of target ``t`` in a batch's rows (N, slots, n) once its row is made: when ``solved`` and present
+    (its first entry is not NaN: as the batch's check reads a row), copied into ``packed[count]`` with its slot
+    ``slots t + k`` in ``index[count]``; when not ``solved``, set to NaN. Returns the count of packed rows after
+    it."""
+    if not solved:
+        for j in range(rows.shape[2]):
+            rows[t, k, j] = np.nan
+        return count
+    if math.isnan(rows[t, k, 0]):
+        return count
+    for j in range(rows.shape[2]):
+        packed[count, j] = rows[t, k, j]
+    index[count] = rows.shape[1] * t + k
+    return count + 1
+
+
+@inlined_kernel
+def check_rows(rows, valid, T_target, floats, ints, limits, states, reached, residuals, within):
+    """``residuals[k]`` (position m, rotation rad) and ``within[k]`` (every entry inside the chain's limits
+    ``limits`` (2, n) to LIMIT_TOL: ``Chain.within_limits``) of every chain vector ``rows[k]`` with ``valid[k]``
+    against ``T_target``, by the chain's FK (:func:`manipkit.kinematics.fk_kernel.pose_rows`, tables ``floats``,
+    ``ints``, ``states`` (m + 1, 4, 3) scratch; ``reached`` (k, 4, 4) written: branches sharing their first joints
+    share that part of the FK) and :func:`pose_residual`."""
+    pose_rows(rows, valid, floats, ints, states, reached)
+    for k in range(rows.shape[0]):
+        if valid[k]:
+            residuals[k, 0], residuals[k, 1] = pose_residual(T_target, reached[k])
+            inside = True
+            for j in range(rows.shape[1]):
+                if rows[k, j] < limits[0, j] - LIMIT_TOL or rows[k, j] > limits[1, j] + LIMIT_TOL:
+                    inside = False
+            within[k] = inside
 
 
 @compile_kernel

@@ -12,11 +12,11 @@ import math
 
 import numpy as np
 
-from manipkit.errors import PlanarArmError
+from manipkit.errors import ClosedFormIKError, PlanarArmError
 from manipkit.ik_result import tolerances
 from manipkit.text import short_text
 
-__all__ = ["NOISE", "as_float", "finite_array", "link_length", "quantity_text", "tolerance", "tolerance_pair"]
+__all__ = ["NOISE", "arm_angles", "as_float", "finite_array", "link_length", "quantity_text", "tolerance", "tolerance_pair"]
 
 NOISE = 1e-12  # lengths and angles below this print as 0 in messages (rounding noise)
 
@@ -30,6 +30,30 @@ def quantity_text(value: float) -> str:
     ('0.35', '0')
     """
     return short_text(value, zero=NOISE)
+
+
+def arm_angles(value, count: int) -> np.ndarray:
+    """A 7R SRS arm's angle (rad) for each of ``count`` targets, (count,) float and C-contiguous: one finite
+    number for all, or ``count`` of them; :class:`ClosedFormIKError` naming what is wrong otherwise.
+
+    Examples
+    --------
+    >>> arm_angles(0.5, 3), arm_angles([0.1, -0.2], 2)
+    (array([0.5, 0.5, 0.5]), array([ 0.1, -0.2]))
+    """
+    if value is None:
+        raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
+                                "ik --arm-angle PSI; one, or one per target), or lock a joint")
+    try:
+        angles = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ClosedFormIKError(f"arm_angle must be a number (rad) or one per target, got {value!r:.60}") from None
+    if angles.ndim > 1 or (angles.ndim == 1 and len(angles) != count):
+        raise ClosedFormIKError(f"arm_angle must be one number (rad) or {count} of them (one per target), got "
+                                f"shape {angles.shape}")
+    if not np.all(np.isfinite(angles)):
+        raise ClosedFormIKError(f"arm_angle must be finite (rad), got {value!r:.60}")
+    return np.ascontiguousarray(np.broadcast_to(angles, (count,)))
 
 
 def as_float(value, what: str) -> np.ndarray:

@@ -376,7 +376,7 @@ _PLANS: dict = {}
 
 
 def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = "ee_link", *, tol=1e-9,
-                     family_tol=FAMILY_TOL, lock=None) -> IKBatch:
+                     family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> IKBatch:
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
 
     compiled over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
@@ -384,8 +384,10 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     a branch does not exist, joint vectors in ``robot.chain(base,
     tip).joint_names`` order; residuals and ``success`` are measured by the
     chain's compiled FK, against ``tol``; ``lock`` as in
-    :func:`analytic_ik`. Raises
-    :class:`IKOptionError` when the chain has no geometric closed form.
+    :func:`analytic_ik`; ``arm_angle`` (rad) for a 7R SRS arm: one for every
+    target or one per target (slots ``4 elbow + 2 shoulder + wrist``).
+    Raises :class:`IKOptionError` when the chain has no geometric closed
+    form, or an arm angle is missing or not valid.
 
     Examples
     --------
@@ -396,11 +398,14 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     >>> batch.solutions.shape, bool(batch.success.all())
     ((3, 8, 6), True)
     """
-    chain, family = _geometric_chain(robot, base, tip, "pose", family_tol, named=False, lock=lock)
+    chain, family = _geometric_chain(robot, base, tip, "pose", family_tol, named=False, lock=lock, arm_angle=arm_angle)
     T = np.asarray(targets, dtype=float)
     if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
         raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
-    return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerance_pair(tol))
+    try:
+        return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerance_pair(tol), arm_angle=arm_angle)
+    except ClosedFormIKError as exc:  # an arm angle that is not one number or one per target
+        raise IKOptionError(str(exc)) from None
 
 
 def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",

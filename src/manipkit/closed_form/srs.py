@@ -16,9 +16,10 @@ arms). For a target ``g = T M^-1`` the wrist centre ``W = g c`` is fixed, so:
    by subproblems 2 and 1;
 3. the wrist ``t5, t6, t7`` as for a 6R spherical wrist.
 
-Up to 8 branches per arm angle (elbow, shoulder, wrist). numpy only; one target. The same sequence
-compiled, with the check of every branch, is :mod:`manipkit.closed_form.srs_kernel` (it hands targets near a
-threshold back here).
+Up to 8 branches per arm angle (elbow, shoulder, wrist). numpy only; one target (:func:`solve_srs`) or
+one after another, each at its own arm angle (:func:`solve_srs_many`). The same sequence compiled, with the
+check of every branch, is :mod:`manipkit.closed_form.srs_kernel` (it hands targets near a threshold back
+here).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from manipkit.closed_form.arms import Branches, rotation_matrix
 from manipkit.closed_form.subproblems import rotate, sp1, sp2, sp3
 
-__all__ = ["solve_srs"]
+__all__ = ["solve_srs", "solve_srs_many"]
 
 
 def _split_shoulder(h, R) -> list[tuple[float, float, float]]:
@@ -96,3 +97,16 @@ def solve_srs(h: np.ndarray, p: np.ndarray, g: np.ndarray, points: dict, arm_ang
                 valid[0, slot] = True
                 free[0, slot] = 4 if singular else -1
     return Branches(theta, valid, free, miss, valid.copy())
+
+
+def solve_srs_many(h: np.ndarray, p: np.ndarray, g: np.ndarray, points: dict, arm_angles: np.ndarray) -> Branches:
+    """:func:`solve_srs` of every target ``g[i]`` (N, 4, 4) at its arm angle ``arm_angles[i]`` (N,, rad), stacked
+    into one :class:`manipkit.closed_form.arms.Branches` of N targets."""
+    parts = [solve_srs(h, p, target, points, float(angle)) for target, angle in zip(g, arm_angles, strict=True)]
+    if not parts:
+        return Branches(np.zeros((0, 8, 7)), np.zeros((0, 8), dtype=bool), np.full((0, 8), -1),
+                        {key: np.zeros(0) for key in ("shoulder", "reach", "orientation")}, np.zeros((0, 8), dtype=bool))
+    return Branches(np.concatenate([b.theta for b in parts]), np.concatenate([b.valid for b in parts]),
+                    np.concatenate([b.free for b in parts]),
+                    {key: np.concatenate([b.miss[key] for b in parts]) for key in parts[0].miss},
+                    np.concatenate([b.near for b in parts]))

@@ -7,7 +7,10 @@ t3``, the wrist ``t5, t6, t7``), on scalars and 3-tuples
 (:mod:`manipkit.closed_form.subproblems_kernel`), every branch in the same
 slot (``4 elbow + 2 shoulder + wrist``); then each branch's chain row, FK on
 the true chain and residual (:mod:`manipkit.closed_form.check_kernel`), in
-one compiled call per target.
+one compiled call per target (:func:`solve_check_srs`). Many targets, each at
+its own arm angle, are solved into rows as the 6R batch takes them
+(:func:`solve_srs_rows_into`: ``chain_ik_many``, checked by the chain's FK
+afterwards, :mod:`manipkit.closed_form.chain_batch`).
 
 Like the 6R loops it answers generic targets only: a target where a
 decision of the reference comes near its threshold (a tangency, a free
@@ -22,7 +25,15 @@ import math
 
 import numpy as np
 
-from manipkit.closed_form.check_kernel import arm_constants, chain_row, check_row, kept_rows, plain_target
+from manipkit.closed_form.check_kernel import (
+    arm_constants,
+    chain_row,
+    check_rows,
+    exact_rotation,
+    kept_rows,
+    packed_row,
+    plain_target,
+)
 from manipkit.closed_form.subproblems_kernel import (
     MARGIN,
     add,
@@ -40,7 +51,7 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["solve_check_srs"]
+__all__ = ["solve_check_srs", "solve_srs_rows_into"]
 
 PAIR_MISS = 1e-10  # a subproblem-2 pair missing by more is left to the reference (it accepts up to sqrt(1e-12))
 
@@ -135,7 +146,7 @@ def _srs_check_one(arm_reals, arm_ints, T, psi, position_tol, rotation_tol):
     theta, valid = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
     rows, residuals, within = np.full((8, n), np.nan), np.full((8, 2), np.nan), np.zeros(8, dtype=np.bool_)
     keys, codes = np.zeros(8, dtype=np.int64), np.zeros(8, dtype=np.int64)
-    scratch, T_fk, g = np.empty((4, 3)), np.empty((4, 4)), np.empty((4, 4))
+    states, reached, g = np.empty((ints[0] + 1, 4, 3)), np.empty((8, 4, 4)), np.empty((4, 4))
     for i in range(4):  # g = T M^-1
         for j in range(4):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
@@ -145,9 +156,9 @@ def _srs_check_one(arm_reals, arm_ints, T, psi, position_tol, rotation_tol):
     for k in range(theta.shape[0]):
         if valid[k]:
             chain_row(theta, k, False, q0, columns, solved, rows)
-            residuals[k, 0], residuals[k, 1], within[k] = check_row(rows, k, T, floats, ints, limits, scratch, T_fk)
         keys[k] = 1 if theta[k, 5] < 0.0 else 0
         codes[k] = 4 * (theta[k, 3] < 0.0) + 2 * (theta[k, 1] < 0.0) + keys[k]
+    check_rows(rows, valid, T, floats, ints, limits, states, reached, residuals, within)
     return kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotation_tol)
 
 
@@ -162,3 +173,50 @@ def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float, tol: tuple
     """
     answer = _srs_check_one(prepared[0], prepared[1], T, float(arm_angle), tol[0], tol[1])
     return answer if len(answer[0]) else None
+
+
+def _srs_rows_all(arm_reals, arm_ints, T, arm_angles, valid, fallback, project, rows, packed, index):
+    """Every target ``T[t]`` at its arm angle ``arm_angles[t]``: valid (N, 8), fallback and project (N,), rows
+    (N, 8, n) and the packed rows as :func:`solve_srs_rows_into` writes them; returns how many rows were packed."""
+    _, H, P, points, _, M_inv, _, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
+    theta, valid_k = np.zeros((8, 7)), np.zeros(8, dtype=np.bool_)
+    g = np.empty((4, 4))
+    S, c = row(points, 1), row(points, 0)
+    count = 0
+    for t in range(T.shape[0]):
+        for i in range(3):  # g = T M^-1 (its last row is not read)
+            for j in range(4):
+                g[i, j] = (T[t, i, 0] * M_inv[0, j] + T[t, i, 1] * M_inv[1, j] + T[t, i, 2] * M_inv[2, j]
+                           + T[t, i, 3] * M_inv[3, j])
+        for k in range(8):
+            valid_k[k] = False
+        project[t] = not exact_rotation(T[t])
+        angle = arm_angles[t]
+        fallback[t] = _srs_target(H, P, S, c, math.cos(angle), math.sin(angle), g[:3, :3],
+                                  (g[0, 3], g[1, 3], g[2, 3]), theta, valid_k)
+        for k in range(8):
+            valid[t, k] = valid_k[k]
+            made = valid_k[k] and not fallback[t]
+            if made:
+                chain_row(theta, k, False, q0, columns, solved, rows[t])
+            count = packed_row(rows, t, k, made, packed, index, count)
+    return count
+
+
+# nogil: chain_ik_many runs it on blocks of targets from several threads at once (each block its own rows)
+_srs_rows_all = compile_kernel(_srs_rows_all, nogil=True)
+
+
+def solve_srs_rows_into(prepared: tuple, T: np.ndarray, arm_angles: np.ndarray, valid: np.ndarray,
+                        fallback: np.ndarray, project: np.ndarray, rows: np.ndarray, packed: np.ndarray,
+                        index: np.ndarray) -> int:
+    """Every branch of an SRS arm for targets ``T`` (N, 4, 4), target ``t`` at ``arm_angles[t]`` (rad), as chain
+    vectors written into the given arrays, without the GIL: the contract of
+    :func:`manipkit.closed_form.arms_kernel.solve_rows_into` (valid (N, 8) bool: slot ``4 elbow + 2 shoulder +
+    wrist`` solved; fallback (N,): handed back to the numpy reference, its rows NaN; project (N,): a rotation
+    block not exact to 1e-12, measured against its projection; rows (N, 8, n): the in-limit aliases nearest 0, NaN
+    where not valid; the rows that are not NaN copied in order into ``packed`` with their slot ``8 t + k`` in
+    ``index``; returns how many). ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``), the
+    family solved base to tip. The same rows bit for bit as :func:`solve_check_srs` checks for one target.
+    """
+    return _srs_rows_all(prepared[0], prepared[1], T, arm_angles, valid, fallback, project, rows, packed, index)

@@ -580,10 +580,10 @@ def chain_fk_for(robot: Robot, frame: str) -> ChainFK:
 
 
 def row_tables(steps: Sequence[ChainStep], columns: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-    """The program of :class:`ChainFK` for ``steps`` packed as (floats, ints), for :func:`pose_row`.
+    """The program of :class:`ChainFK` for ``steps`` packed as (floats, ints), for :func:`pose_rows`.
 
     ``steps`` index the robot's joint vector (as ``Chain.steps``); the rows
-    :func:`pose_row` takes are chain vectors, entry ``k`` being robot column
+    :func:`pose_rows` takes are chain vectors, entry ``k`` being robot column
     ``columns[k]`` (``Chain.columns``). The same preparation as
     :class:`ChainFK` (axes turned to z, rotations split about z, signed
     permutations as labels), laid out in two flat arrays so a compiled caller
@@ -608,14 +608,22 @@ def row_tables(steps: Sequence[ChainStep], columns: Sequence[int]) -> tuple[np.n
     return floats, ints
 
 
-def pose_row(q, floats, ints, R, T):
-    """Write ``T`` (4, 4) = T_base_tip of one joint vector ``q`` (n,) by the tables of :func:`row_tables`.
+def pose_rows(Q, present, floats, ints, states, out):
+    """Write ``out[r]`` (4, 4) = T_base_tip of every joint vector ``Q[r]`` (K, n) with ``present[r]``, by the tables
+    of :func:`row_tables`; other entries of ``out`` are not written.
 
-    The computation of :func:`_poses` for one configuration (``cos q`` and
-    ``sin q`` from ``tan(q / 2)``, as :class:`ChainFK` takes them; equal to
-    it to a few units in the last place); ``R`` is (4, 3) scratch (three
-    stored columns and the position). Compiled by :func:`pose_row_kernel`,
-    it is called from other compiled loops.
+    The computation of :func:`_poses` for one configuration at a time
+    (``cos q`` and ``sin q`` from ``tan(q / 2)``, as :class:`ChainFK` takes
+    them; equal to it to a few units in the last place). ``states`` is
+    (m + 1, 4, 3) scratch, ``m`` the program's joints: ``states[k]`` holds
+    the three stored columns and the position before joint step ``k``. A
+    row starts again from the previous present row's state at its first
+    step whose joint value differs (bit for bit; the first present row from
+    the base): a step's state depends only on the state before it and its
+    joint value, so the poses are those of each row alone, bit for bit
+    (tested), and branches of one target that share their first joints
+    (a closed form's shoulder) pay for them once. Compiled by
+    :func:`pose_rows_kernel`, it is called from other compiled loops.
     """
     m, n_rev = ints[0], ints[1]  # joints, revolute joints
     j0 = 3  # offsets of the tables in ints, then in floats
@@ -629,41 +637,58 @@ def pose_row(q, floats, ints, R, T):
     v0 = h0 + 2 * n_rev
     for c in range(3):
         for i in range(3):
-            R[c, i] = floats[3 * c + i]
-        R[3, c] = floats[9 + c]
-    for k in range(m):
-        kind, a, b, row = ints[j0 + 4 * k], ints[j0 + 4 * k + 1], ints[j0 + 4 * k + 2], ints[j0 + 4 * k + 3]
-        if kind == _REVOLUTE:
-            t = math.tan(q[ints[rc + row]] * floats[h0 + row] + floats[h0 + n_rev + row])
-            w = 2.0 / (1.0 + t * t)
-            cos, sin = w - 1.0, t * w
-            for i in range(3):
-                x, y = R[a, i], R[b, i]
-                R[a, i] = x * cos + y * sin
-                R[b, i] = y * cos - x * sin
-        else:
-            v = q[ints[pc + row]] * floats[v0 + row] + floats[v0 + ints[2] + row]
-            for i in range(3):
-                R[3, i] += R[a, i] * v
-        for c in range(3):
-            d = floats[s0 + 3 * k + c]
-            if d != 0.0:
+            states[0, c, i] = floats[3 * c + i]
+        states[0, 3, c] = floats[9 + c]
+    previous = -1
+    for r in range(Q.shape[0]):
+        if not present[r]:
+            continue
+        first = 0  # the first step whose joint value differs from the previous row's (same bits: -0.0 is not 0.0)
+        while previous >= 0 and first < m:
+            entry = ints[j0 + 4 * first + 3]
+            column = ints[rc + entry] if ints[j0 + 4 * first] == _REVOLUTE else ints[pc + entry]
+            a, b = Q[r, column], Q[previous, column]
+            if not (a == b and math.copysign(1.0, a) == math.copysign(1.0, b)):
+                break
+            first += 1
+        for k in range(first, m):  # states[k + 1] = step k of states[k] (indexed whole: a view costs two atomic counts)
+            e = k + 1
+            for c in range(4):
                 for i in range(3):
-                    R[3, i] += R[c, i] * d
-        if ints[mix0 + k]:
-            for i in range(3):
-                r0, r1, r2 = R[0, i], R[1, i], R[2, i]
-                for c in range(3):
-                    base = x0 + 9 * k
-                    R[c, i] = r0 * floats[base + c] + r1 * floats[base + 3 + c] + r2 * floats[base + 6 + c]
-    for i in range(3):
-        for c in range(3):
-            T[i, c] = floats[12 + c] * R[ints[oc + c], i]
-        T[i, 3] = R[3, i]
-        T[3, i] = 0.0
-    T[3, 3] = 1.0
+                    states[e, c, i] = states[k, c, i]
+            kind, a, b, row = ints[j0 + 4 * k], ints[j0 + 4 * k + 1], ints[j0 + 4 * k + 2], ints[j0 + 4 * k + 3]
+            if kind == _REVOLUTE:
+                t = math.tan(Q[r, ints[rc + row]] * floats[h0 + row] + floats[h0 + n_rev + row])
+                w = 2.0 / (1.0 + t * t)
+                cos, sin = w - 1.0, t * w
+                for i in range(3):
+                    x, y = states[e, a, i], states[e, b, i]
+                    states[e, a, i] = x * cos + y * sin
+                    states[e, b, i] = y * cos - x * sin
+            else:
+                v = Q[r, ints[pc + row]] * floats[v0 + row] + floats[v0 + ints[2] + row]
+                for i in range(3):
+                    states[e, 3, i] += states[e, a, i] * v
+            for c in range(3):
+                d = floats[s0 + 3 * k + c]
+                if d != 0.0:
+                    for i in range(3):
+                        states[e, 3, i] += states[e, c, i] * d
+            if ints[mix0 + k]:
+                base = x0 + 9 * k
+                for i in range(3):
+                    r0, r1, r2 = states[e, 0, i], states[e, 1, i], states[e, 2, i]
+                    for c in range(3):
+                        states[e, c, i] = r0 * floats[base + c] + r1 * floats[base + 3 + c] + r2 * floats[base + 6 + c]
+        for i in range(3):
+            for c in range(3):
+                out[r, i, c] = floats[12 + c] * states[m, ints[oc + c], i]
+            out[r, i, 3] = states[m, 3, i]
+            out[r, 3, i] = 0.0
+        out[r, 3, 3] = 1.0
+        previous = r
 
 
-pose_row_kernel = lazy_kernel(pose_row, error_model="numpy")
+pose_rows_kernel = lazy_kernel(pose_rows, error_model="numpy")
 
-__all__ += ["pose_row", "pose_row_kernel", "row_tables"]
+__all__ += ["pose_rows", "pose_rows_kernel", "row_tables"]
