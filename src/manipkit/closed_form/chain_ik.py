@@ -783,10 +783,13 @@ def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:
     R_ref = rotation_matrix(h[0], -minus1) @ rotation_matrix(h[1], t2)
     R_shoulder = rotation_matrix(h[0], theta[0]) @ rotation_matrix(h[1], theta[1]) @ rotation_matrix(h[2], theta[2])
     best = None
+    # R_ref u = |u| v and R_shoulder u = |u| v at q, so the first turn fixes v; the second (joint 3 turned by pi)
+    # does so only with the elbow straight (u along axis 3), where it must not win by rounding: its psi lists q's
+    # twin with t3 + pi, not q
     for D in (R_shoulder @ R_ref.T, R_shoulder @ rotation_matrix(h[2], np.pi) @ R_ref.T):
         gap = float(np.linalg.norm(D @ v - v))
         w = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]])
         angle = math.atan2(0.5 * float(v @ w), 0.5 * (float(np.trace(D)) - 1.0))
-        if best is None or gap < best[0]:
+        if best is None or gap < best[0] - 1e-9:
             best = (gap, angle)
     return best[1]
