@@ -558,7 +558,9 @@ def test_an_srs_batch_takes_one_arm_angle_or_one_per_target_and_says_what_is_wro
     one, each = chain_ik_many(chain, T, arm_angle=0.4), chain_ik_many(chain, T, arm_angle=np.full(len(T), 0.4))
     assert np.array_equal(one.solutions, each.solutions, equal_nan=True)
     for value, words in ((None, "give arm_angle"), ([0.1, 0.2], r"one number \(rad\) or 5 of them"),
-                         (np.nan, "must be finite"), ("left", "must be a number"), (np.zeros((5, 1)), "shape")):
+                         (np.nan, "must be finite"), ("left", "must be a number"), ("0.5", "must be a number"),
+                         (True, "must be a number"), (1j, "must be a number"), ([[0.1], [0.2, 0.3]], "must be a number"),
+                         (np.zeros((5, 1)), "shape")):
         with pytest.raises(ClosedFormIKError, match=words):
             chain_ik_many(chain, T, arm_angle=value)
     with pytest.raises(IKOptionError, match=r"5 of them"):

@@ -45,9 +45,12 @@ def arm_angles(value, count: int) -> np.ndarray:
         raise ClosedFormIKError("a 7R SRS arm has a family of solutions for each target: give arm_angle (rad; "
                                 "ik --arm-angle PSI; one, or one per target), or lock a joint")
     try:
-        angles = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ClosedFormIKError(f"arm_angle must be a number (rad) or one per target, got {value!r:.60}") from None
+        given = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nesting
+        given = np.asarray(None)
+    if given.dtype.kind not in "iuf":  # not text, bool, complex or objects: a number is asked for
+        raise ClosedFormIKError(f"arm_angle must be a number (rad) or one per target, got {value!r:.60}")
+    angles = given.astype(float)
     if angles.ndim > 1 or (angles.ndim == 1 and len(angles) != count):
         raise ClosedFormIKError(f"arm_angle must be one number (rad) or {count} of them (one per target), got "
                                 f"shape {angles.shape}")
