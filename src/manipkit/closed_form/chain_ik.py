@@ -526,7 +526,7 @@ class SingleSolver:
         family = self.family
         kernels = _KERNELS or _load_kernels()
         srs = family.kind == SRS
-        if srs and type(arm_angle) is not float:  # a number of another type, or not one number: ClosedFormIKError
+        if srs and not isinstance(arm_angle, float):  # (numpy float64 is one) an int, or not a number: checked
             arm_angle = float(arm_angles(arm_angle, 1)[0])
         solved = kernels[1](prepared, T, arm_angle, check) if srs else kernels[0](prepared, T, check)
         if solved is None:
