@@ -813,6 +813,55 @@ def _eaik_rows(robot_name: str, urdf_path: Path, Q: np.ndarray, n_single: int, n
                                note=f"eaik could not solve {urdf_path.name}: {type(exc).__name__}: {exc}"))]
 
 
+#: ik-geo's constructor for each of manipkit's 6R families it has (the family is chosen by hand there).
+IKGEO_FAMILIES = {"three parallel, two intersecting": "three_parallel_two_intersecting",
+                  "spherical wrist, two parallel": "spherical_two_parallel"}
+
+
+def _ikgeo_rows(robot_name: str, chain, family, Q: np.ndarray, T: np.ndarray, n_single: int, rounds: int,
+                timers: dict) -> list:
+    """ik-geo (PyPI ``ik-geo``, IK-Geo's Rust solvers), when installed: one pose per call (``get_ik``), its family
+    chosen as a user must choose it by hand (here from manipkit's ``chain_family``), on manipkit's ideal arm's axes
+    and points (H, P in IK-Geo's product of exponentials, the tip's rotation at the reference configuration taken
+    out of the target); its Python call reads R transposed, so R.T is passed. Its rows (least-squares ones left out)
+    are mapped to chain vectors and checked by the chain's FK on the URDF's own base and tip. Returns pending rows
+    as :func:`_eaik_rows`."""
+    label = "ik-geo get_ik, one pose per call"
+    try:
+        import ik_geo
+    except ImportError:
+        return [(None, partial(row, "analytic", robot_name, f"{label} (ik-geo)", unit="pose", status="missing",
+                               note="ik-geo is not installed (pip install ik-geo)"))]
+    from manipkit.closed_form.chain_ik import ideal_arm
+
+    maker = IKGEO_FAMILIES.get(family.kind)
+    if maker is None or family.reversed:
+        return [(None, partial(row, "analytic", robot_name, f"{label} (ik-geo)", unit="pose", status="missing",
+                               note=f"ik-geo has no solver for the family '{family.kind}' as this chain reads it"))]
+    version = peer_adapters.version("ik-geo") or "?"
+    arm, geometry = ideal_arm(family), family.geometry
+    M = geometry.M
+    bot = getattr(ik_geo.Robot, maker)(arm.h, np.vstack([arm.p[0], np.diff(arm.p, axis=0), M[:3, 3] - arm.p[5]]))
+    inputs = [(np.ascontiguousarray((target[:3, :3] @ M[:3, :3].T).T), np.ascontiguousarray(target[:3, 3]))
+              for target in T[:n_single]]
+    answers = [bot.get_ik(R, t) for R, t in inputs]
+    rows = [[geometry.q0 + np.asarray(q) / geometry.scale for q, least_squares in a if not least_squares]
+            for a in answers]
+    worst = max((float(np.max(np.abs(chain.fk(q) - T[i]))) for i, r in enumerate(rows) for q in r), default=0.0)
+    found = float(np.mean([any(_wrapped_gap(q, Q[i]).max() < 1e-6 for q in r) for i, r in enumerate(rows)]))
+    ok = worst <= IK_ACCEPT
+    if ok:
+        timers["ik-geo single"] = lambda r: calls_timed(lambda x: bot.get_ik(*x), inputs[r::rounds])
+    return [("ik-geo single" if ok else None, partial(
+        row, "analytic", robot_name, f"{label} (ik-geo {version})", unit="pose", n=n_single,
+        status="ok" if ok else "wrong", solutions_per_pose=float(np.mean([len(r) for r in rows])), recovered=found,
+        max_fk_error=worst,
+        check=f"the chain's FK of every answer: max error {worst:.1e}; generating configuration among the answers: "
+              f"{found:.1%}",
+        note=f"family chosen by hand ({maker}) on manipkit's ideal arm; rows marked least squares left out; not "
+             "limit-aware, no labels"))]
+
+
 def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch: int = 10_000, repeats: int = 5,
                       seed: int = 13) -> list[dict]:
     """Every closed-form branch of a 6R arm found from its URDF: one pose per call and batched, against EAIK.
@@ -930,6 +979,7 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
         urdf_path = Path(folder) / f"{robot_name}.urdf"
         urdf_path.write_text(robot.urdf, encoding="utf-8")
         pending += _eaik_rows(robot_name, urdf_path, Q, n_single, n_batch, rounds, timers)
+        pending += _ikgeo_rows(robot_name, chain, family, Q, T, n_single, rounds, timers)
         times = in_turns(timers, rounds)  # EAIK's robot reads its file when made: time inside the folder's life
     return [make(times.get(key)) for key, make in pending]
 
