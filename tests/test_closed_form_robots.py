@@ -210,3 +210,29 @@ def test_threads_sharing_a_robot_get_the_answers_of_one_thread():
         assert answer.labels == expected.labels and answer.note == expected.note
         assert np.array_equal(answer.solutions, expected.solutions)
         assert np.array_equal(answer.residual_rotation, expected.residual_rotation)
+
+
+def test_analytic_ik_many_gives_chain_ik_many_for_the_named_frames_and_the_iiwa14_at_its_arm_angles():
+    """analytic_ik_many is chain_ik_many on robot.chain(base, tip): the same arrays for ur5 (base_link -> tool0) and
+    for the iiwa14 with one arm angle per pose; every present slot lands by Pinocchio (robot.transform)."""
+    from manipkit.closed_form.chain_ik import chain_ik_many, srs_arm_angle
+
+    for name, tip in (("ur5", "tool0"), ("iiwa14", "ee_link")):
+        robot = manipkit.load(name)
+        chain = robot.chain("base_link", tip)
+        Q = chain.sample(12, seed=2)
+        T = chain.fk(Q)
+        psi = np.array([srs_arm_angle(chain, q) for q in Q]) if name == "iiwa14" else None
+        batch = manipkit.analytic_ik_many(robot, T, "base_link", tip, arm_angle=psi)
+        expected = chain_ik_many(chain, T, arm_angle=psi)
+        assert np.array_equal(batch.solutions, expected.solutions, equal_nan=True) and batch.success.all()
+        for i, k in zip(*np.nonzero(~np.isnan(batch.solutions[..., 0]))):
+            reached = robot.transform("base_link", tip, chain.full(batch.solutions[i, k]), check_limits=False)
+            assert np.abs(reached - T[i]).max() < 1e-10
+
+
+def test_analytic_ik_many_refuses_targets_that_are_not_finite_transforms():
+    robot = manipkit.load("ur5")
+    for targets in (np.full((2, 4, 4), np.nan), np.eye(3)[None], np.zeros(4)):
+        with pytest.raises(IKOptionError, match="targets must be finite 4x4 transforms"):
+            manipkit.analytic_ik_many(robot, targets, "base_link", "tool0")
