@@ -845,9 +845,20 @@ def _ikgeo_rows(robot_name: str, chain, family, Q: np.ndarray, T: np.ndarray, n_
     inputs = [(np.ascontiguousarray((target[:3, :3] @ M[:3, :3].T).T), np.ascontiguousarray(target[:3, 3]))
               for target in T[:n_single]]
     answers = [bot.get_ik(R, t) for R, t in inputs]
-    rows = [[geometry.q0 + np.asarray(q) / geometry.scale for q, least_squares in a if not least_squares]
-            for a in answers]
-    worst = max((float(np.max(np.abs(chain.fk(q) - T[i]))) for i, r in enumerate(rows) for q in r), default=0.0)
+
+    def chain_vector(theta):
+        """ik-geo's angles about the reference axes -> the chain vector (``q0 + angle / scale`` on the solved
+        columns, as manipkit maps its own)."""
+        q = np.array(geometry.q0, dtype=float)
+        q[geometry.columns] += np.asarray(theta, dtype=float) / geometry.scale
+        return q
+
+    rows = [[chain_vector(theta) for theta, least_squares in a if not least_squares] for a in answers]
+
+    def miss(q, target):  # a row that is not finite misses by infinity (the row is then "wrong", not timed)
+        return float(np.max(np.abs(chain.fk(q) - target))) if np.all(np.isfinite(q)) else math.inf
+
+    worst = max((miss(q, T[i]) for i, r in enumerate(rows) for q in r), default=0.0)
     found = float(np.mean([any(_wrapped_gap(q, Q[i]).max() < 1e-6 for q in r) for i, r in enumerate(rows)]))
     ok = worst <= IK_ACCEPT
     if ok:

@@ -616,6 +616,16 @@ def test_an_srs_batch_takes_one_arm_angle_or_one_per_target_and_says_what_is_wro
         manipkit.analytic_ik_many(robot, T)
     with pytest.raises(ClosedFormIKError, match="must be a number"):  # the single call refuses it the same way
         chain_ik(chain, T[0], arm_angle="left")
+    from manipkit.closed_form.chain_ik import srs_arm_angle
+
+    q = chain.sample(1, seed=1)[0]
+    q[5] = 0.0  # the wrist's axes 5 and 7 aligned: handed to the general path, which words the angle in its note
+    psi = srs_arm_angle(chain, q)
+    expected = chain_ik(chain, chain.fk(q), arm_angle=psi)
+    assert np.isinf(expected.count)
+    for angle in ([psi], np.array([psi]), np.float64(psi)):  # one number however given (a list used to raise TypeError)
+        answer = chain_ik(chain, chain.fk(q), arm_angle=angle)
+        assert np.array_equal(answer.solutions, expected.solutions) and answer.note == expected.note
 
 def test_a_batch_big_enough_for_both_threads_by_default_gives_the_one_thread_answer():
     chain = manipkit.load("ur5").chain("base_link", "tool0")

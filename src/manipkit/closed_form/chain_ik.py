@@ -504,6 +504,8 @@ class SingleSolver:
     def solve(self, target, check: tuple[float, float], arm_angle=None, *, max_iters: int = 20,
               compiled: bool = True) -> IKResult:
         """Every closed-form solution for ``T_base_tip = target``, as :func:`chain_ik` gives it."""
+        if arm_angle is not None and not isinstance(arm_angle, float):  # (numpy float64 is one) both paths take a float
+            arm_angle = float(arm_angles(arm_angle, 1)[0])  # ClosedFormIKError: not one number
         if (compiled and self.compiled_kinds[arm_angle is not None] and type(target) is np.ndarray
                 and target.shape == (4, 4) and target.dtype == np.float64 and target.flags.c_contiguous):
             # the kernel takes a target check_transform accepts as is (plain_target), else hands it back to be checked
@@ -526,8 +528,6 @@ class SingleSolver:
         family = self.family
         kernels = _KERNELS or _load_kernels()
         srs = family.kind == SRS
-        if srs and not isinstance(arm_angle, float):  # (numpy float64 is one) an int, or not a number: checked
-            arm_angle = float(arm_angles(arm_angle, 1)[0])
         solved = kernels[1](prepared, T, arm_angle, check) if srs else kernels[0](prepared, T, check)
         if solved is None:
             return None
