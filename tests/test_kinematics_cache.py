@@ -230,13 +230,21 @@ def test_a_kernel_is_compiled_again_when_a_kernel_it_calls_changes(tmp_path):
     assert solve_many_saved()  # ik_many.py did not change, yet its loop is compiled again
 
 
-def test_the_sources_digest_changes_with_any_module(tmp_path):
-    from manipkit.kernels import sources_digest
+def test_the_sources_digest_covers_kernel_modules_and_their_imports_only(tmp_path):
+    from manipkit.kernels import kernel_sources, sources_digest
 
-    (tmp_path / "a.py").write_text("x = 1\n")
-    (tmp_path / "sub").mkdir()
-    (tmp_path / "sub" / "b.py").write_text("y = 2\n")
-    first = sources_digest(tmp_path)
-    assert sources_digest(tmp_path) == first
-    (tmp_path / "sub" / "b.py").write_text("y = 3\n")
-    assert sources_digest(tmp_path) != first
+    root = tmp_path / "manipkit"
+    (root / "sub").mkdir(parents=True)
+    (root / "consts.py").write_text("N = 8\n")
+    (root / "sub" / "k.py").write_text("from manipkit.consts import N\nf = compile_kernel(g)\n")
+    (root / "cli.py").write_text("print('help')\n")
+    assert kernel_sources(root) == [root / "consts.py", root / "sub" / "k.py"]
+    first = sources_digest(root)
+    assert sources_digest(root) == first
+    (root / "cli.py").write_text("print('other help')\n")  # not compiled, imported by no kernel: same key
+    assert sources_digest(root) == first
+    (root / "consts.py").write_text("N = 9\n")  # a constant a kernel reads at compile time: a new key
+    assert sources_digest(root) != first
+    second = sources_digest(root)
+    (root / "sub" / "k.py").write_text("from manipkit.consts import N\nf = compile_kernel(h)\n")
+    assert sources_digest(root) != second

@@ -20,8 +20,7 @@ import os
 import warnings
 from pathlib import Path
 
-__all__ = ["KernelCacheWarning", "compile_kernel", "lazy_kernel", "sources_digest"]
-
+__all__ = ["KERNEL_MARKERS", "KernelCacheWarning", "compile_kernel", "kernel_sources", "lazy_kernel", "sources_digest"]
 
 
 class KernelCacheWarning(UserWarning):
@@ -45,19 +44,51 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
+#: What marks a module as holding compiled code: it makes kernels with this module's functions.
+KERNEL_MARKERS = (b"compile_kernel(", b"lazy_kernel(", b"@inlined_kernel")
+
+
+def _imported_files(path: Path, root: Path) -> set[Path]:
+    """The files under ``root`` that ``path`` imports from its own package (``from manipkit.x.y import ...``)."""
+    import ast
+
+    package = root.name
+    found = set()
+    for node in ast.walk(ast.parse(path.read_bytes())):
+        names = [node.module] if isinstance(node, ast.ImportFrom) and node.module and not node.level else (
+            [alias.name for alias in node.names] if isinstance(node, ast.Import) else [])
+        for name in names:
+            parts = name.split(".")
+            if parts[0] != package:
+                continue
+            for candidate in (root.joinpath(*parts[1:]).with_suffix(".py"), root.joinpath(*parts[1:], "__init__.py")):
+                if candidate.is_file():
+                    found.add(candidate)
+    return found
+
+
+def kernel_sources(root: str | os.PathLike) -> list[Path]:
+    """The modules under ``root`` with compiled code (they call :func:`compile_kernel` or :func:`lazy_kernel`),
+    and the package modules each of them imports (constants read at compile time), sorted."""
+    base = Path(root)
+    kernels = {path for path in base.rglob("*.py") if any(m in path.read_bytes() for m in KERNEL_MARKERS)}
+    return sorted(kernels.union(*(_imported_files(path, base) for path in kernels)))
+
+
 def sources_digest(root: str | os.PathLike) -> str:
-    """SHA-256 (hex) of every ``.py`` file under ``root`` (relative path and bytes, in sorted order).
+    """SHA-256 (hex) of the kernel modules under ``root`` (:func:`kernel_sources`: relative path and bytes, sorted).
 
     numba keys a cached kernel by its own function's bytecode and its file's
     time stamp, not by the kernels it calls in other modules: after a change
     to ``ik_kernel.py`` alone, ``ik_many``'s cached loop would go on running
-    the old iteration. manipkit's kernels are keyed by this digest of the
-    whole package too (:class:`_ForgivingCache`), so any change to its source
-    compiles them again.
+    the old iteration. manipkit's kernels are keyed by this digest of every
+    module with compiled code, and of what those modules import (constants
+    are frozen into a compiled kernel), so such a change compiles them again;
+    a change anywhere else (a docstring of the CLI) does not.
     """
     digest = hashlib.sha256()
     base = Path(root)
-    for path in sorted(base.rglob("*.py")):
+    for path in kernel_sources(base):
         digest.update(str(path.relative_to(base)).encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()
