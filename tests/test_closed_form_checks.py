@@ -4,7 +4,7 @@ import pytest
 
 from manipkit.closed_form.checks import tolerance_pair
 from manipkit.errors import ClosedFormIKError, IKOptionError
-from manipkit.ik_result import tolerances
+from manipkit.ik.result import tolerances
 
 
 @pytest.mark.parametrize("tol", [1e-9, 1, (1e-6, 1e-3), [1e-6, 1e-3], (2, 3.0), True])

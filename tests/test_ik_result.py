@@ -1,4 +1,4 @@
-"""manipkit.ik_result: one IK result type for every solver, one batch type, one tolerance parser.
+"""manipkit.ik.result: one IK result type for every solver, one batch type, one tolerance parser.
 
 Every solver, numerical or closed form, one target or all solutions, answers
 with the same class, and the batches share its field names. The numbers in
@@ -21,7 +21,7 @@ from manipkit.closed_form import decoupled, planar, planar_modes
 from manipkit.closed_form.result import ClosedFormSolutions
 from manipkit.closed_form.robots import analytic_ik
 from manipkit.errors import ClosedFormIKError, IKOptionError, PlanarArmError
-from manipkit.ik_result import MODES, IKBatch, IKResult, tolerances
+from manipkit.ik.result import MODES, IKBatch, IKResult, tolerances
 from manipkit.kinematics.ik import IKSolutions, ik
 from manipkit.kinematics.ik_many import ik_many
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from manipkit.errors import InvalidTransformError, JointValueError
-from manipkit.ik_result import IKResult
+from manipkit.ik.result import IKResult
 from manipkit.kinematics.ik import IKOptionError, ik, ik_solver
 from manipkit.spatial.rotations import rot_x, rotation_angle_between
 

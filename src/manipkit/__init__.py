@@ -26,10 +26,9 @@ from manipkit.errors import ManipkitError
 _LAZY = {
     "load": "manipkit.kinematics.robot",
     "Robot": "manipkit.kinematics.robot",
-    "ik": "manipkit.kinematics.ik",
     "ik_solver": "manipkit.kinematics.ik",
-    "IKResult": "manipkit.ik_result",
-    "IKBatch": "manipkit.ik_result",
+    "IKResult": "manipkit.ik.result",
+    "IKBatch": "manipkit.ik.result",
     "IKSolutions": "manipkit.kinematics.ik",
     "DHTable": "manipkit.dh.table",
     "dh_fk": "manipkit.dh.table",
@@ -61,8 +60,9 @@ _LAZY = {
     "invert_transform": "manipkit.spatial.transforms",
     "transform_from_xyz_rpy": "manipkit.spatial.transforms",
 }
-#: Modules offered at the top (``manipkit.reachmap.build(robot)``, ``manipkit.reachmap.load(path)``).
-_LAZY_MODULES = {"reachmap": "manipkit.analysis.reachmap"}
+#: Modules offered at the top (``manipkit.reachmap.build(robot)``, ``manipkit.reachmap.load(path)``; ``manipkit.ik``,
+#: the IK package, is callable: ``manipkit.ik(robot, T)`` is its dispatcher).
+_LAZY_MODULES = {"reachmap": "manipkit.analysis.reachmap", "ik": "manipkit.ik"}
 __all__ = ["ManipkitError", *_LAZY, *_LAZY_MODULES]
 
 

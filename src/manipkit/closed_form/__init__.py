@@ -20,5 +20,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.closed_form.families", "Family", "chain_family"),
     **homes_of("manipkit.closed_form.chain_ik", "chain_ik", "chain_ik_many"),
     **homes_of("manipkit.closed_form.subproblems", "sp1", "sp2", "sp3", "sp4"),
-    **homes_of("manipkit.ik_result", "IKResult", "IKBatch"),
+    **homes_of("manipkit.ik.result", "IKResult", "IKBatch"),
 })

@@ -60,7 +60,7 @@ from manipkit.closed_form.families import (
 from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
-from manipkit.ik_result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
+from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 

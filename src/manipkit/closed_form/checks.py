@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from manipkit.errors import ClosedFormIKError, PlanarArmError
-from manipkit.ik_result import tolerances
+from manipkit.ik.result import tolerances
 from manipkit.text import short_text
 
 __all__ = ["NOISE", "arm_angles", "as_float", "finite_array", "link_length", "quantity_text", "tolerance", "tolerance_pair"]
@@ -94,15 +94,15 @@ def finite_array(value, what: str, *, shape_tail: tuple[int, ...] = (), scalar: 
 
 def tolerance(tol) -> float:
     """A boundary tolerance (m): one number >= 0, by manipkit's one tolerance parser
-    (:func:`manipkit.ik_result.tolerances`), else :class:`PlanarArmError`."""
+    (:func:`manipkit.ik.result.tolerances`), else :class:`PlanarArmError`."""
     return tolerances(tol, error=PlanarArmError, pair=False, zero=True)[0]
 
 
 def tolerance_pair(tol, *, error: type[Exception] | None = None, what: str = "tol") -> tuple[float, float]:
-    """``(position m, rotation rad)`` by :func:`manipkit.ik_result.tolerances` (the one parser), remembered for
+    """``(position m, rotation rad)`` by :func:`manipkit.ik.result.tolerances` (the one parser), remembered for
     numbers and pairs of numbers already read: a closed-form call on a robot parses the same tolerance each time.
 
-    ``error``: the exception :func:`~manipkit.ik_result.tolerances` raises (its default when None).
+    ``error``: the exception :func:`~manipkit.ik.result.tolerances` raises (its default when None).
     """
     if type(tol) is float and 0.0 < tol < math.inf:  # one positive number, as most calls give it: no parsing
         return tol, tol

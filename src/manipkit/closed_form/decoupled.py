@@ -18,7 +18,7 @@ Conventions (docs/architecture.md, "Conventions"), restated where they matter:
   kinematics (:func:`manipkit.dh.dh_fk`) and reproduces ``T`` within ``tol``
   in position (m) and in rotation angle (rad). A candidate that does not is
   dropped and counted in ``rejected``; none is returned unchecked. The
-  answer is a :class:`manipkit.ik_result.IKResult`, manipkit's one IK result type.
+  answer is a :class:`manipkit.ik.result.IKResult`, manipkit's one IK result type.
 
 Decoupling (Spong): the three axes of a spherical wrist meet at the wrist
 centre ``o_c = o - d6 R z`` (:func:`wrist_center`), which joints 4 to 6 do
@@ -96,7 +96,7 @@ from manipkit.closed_form.planar import ik_2r
 from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
-from manipkit.ik_result import IKResult, tolerances
+from manipkit.ik.result import IKResult, tolerances
 from manipkit.spatial.euler import euler_zyz_from_matrix
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
@@ -142,7 +142,7 @@ class _Candidate:
 
 
 def _tolerances(tol, singular_tol) -> tuple[tuple[float, float], float]:
-    """((position m, rotation rad), singular_tol): ``tol`` by :func:`manipkit.ik_result.tolerances` (one number
+    """((position m, rotation rad), singular_tol): ``tol`` by :func:`manipkit.ik.result.tolerances` (one number
     or a pair), ``singular_tol`` in [0, min(tol) / 4]."""
     tol = tolerances(tol, error=ClosedFormIKError)
     singular_tol = finite_number(singular_tol, "singular_tol")

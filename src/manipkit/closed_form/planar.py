@@ -45,7 +45,7 @@ from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, works
 from manipkit.closed_form.result import CHECK_TOL, PLANAR_POSE, PLANAR_POSITION, ClosedFormSolutions, read_only
 from manipkit.dh.table import DHRow, DHTable, dh_fk
 from manipkit.errors import PlanarArmError
-from manipkit.ik_result import IKBatch, IKResult
+from manipkit.ik.result import IKBatch, IKResult
 from manipkit.spatial.rotations import rot_z, wrap_angle
 from manipkit.spatial.transforms import pose_residuals
 
@@ -209,7 +209,7 @@ def chain_points(q, lengths) -> np.ndarray:
 # inverse kinematics: many targets at once
 
 
-#: The planar batches' result type in 0.1: now :class:`manipkit.ik_result.IKBatch` (goes in the next release).
+#: The planar batches' result type in 0.1: now :class:`manipkit.ik.result.IKBatch` (goes in the next release).
 PlanarIKBatch = IKBatch
 
 

@@ -27,7 +27,7 @@ from manipkit.closed_form.checks import finite_array, link_length, quantity_text
 from manipkit.closed_form.planar import FOLDED, checked_solutions, ik_2r, ik_3r, planar_target
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, read_only
 from manipkit.errors import PlanarArmError
-from manipkit.ik_result import IKResult
+from manipkit.ik.result import IKResult
 from manipkit.spatial.rotations import wrap_angle
 
 __all__ = ["ik_2r_pose", "ik_3r_position"]

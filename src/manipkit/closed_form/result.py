@@ -3,9 +3,9 @@
 Planar 2R/3R (:mod:`manipkit.closed_form.planar`, :mod:`manipkit.closed_form.planar_modes`),
 decoupled arms (:mod:`manipkit.closed_form.decoupled`) and the bundled-robot
 binding (:func:`manipkit.closed_form.robots.analytic_ik`) all return
-:class:`manipkit.ik_result.IKResult`, the type numerical IK returns too
+:class:`manipkit.ik.result.IKResult`, the type numerical IK returns too
 (docs/architecture.md, "IK results"); the planar batch solvers return
-:class:`manipkit.ik_result.IKBatch`, as ``ik_many`` does.
+:class:`manipkit.ik.result.IKBatch`, as ``ik_many`` does.
 
 What a solver solves, and what was asked, is one of four modes
 (:data:`MODES`): ``PLANAR_POSITION`` (x, y), ``PLANAR_POSE`` (x, y, phi),
@@ -20,12 +20,12 @@ tool, a point out of reach) gives 0 solutions and is named, with its size,
 in ``unmet``.
 
 ``ClosedFormSolutions`` is the closed forms' name of the result type in
-0.1; it remains an alias of :class:`~manipkit.ik_result.IKResult` for one release.
+0.1; it remains an alias of :class:`~manipkit.ik.result.IKResult` for one release.
 """
 
 from __future__ import annotations
 
-from manipkit.ik_result import (
+from manipkit.ik.result import (
     PLANAR_POSE,
     PLANAR_POSITION,
     SPATIAL_POSE,
@@ -53,5 +53,5 @@ MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE)
 #: Residual (m and rad) within which a row's forward kinematics must reproduce the target to be returned.
 CHECK_TOL = 1e-9
 
-#: The closed forms' name of :class:`~manipkit.ik_result.IKResult` in 0.1 (goes in the next release).
+#: The closed forms' name of :class:`~manipkit.ik.result.IKResult` in 0.1 (goes in the next release).
 ClosedFormSolutions = IKResult

@@ -27,7 +27,7 @@ from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.closed_form.families import FAMILY_TOL, SRS, chain_family
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.errors import ClosedFormIKError, IKOptionError
-from manipkit.ik_result import IKBatch, IKResult, tolerances
+from manipkit.ik.result import IKBatch, IKResult, tolerances
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
@@ -178,7 +178,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     Returns
     -------
     IKResult
-        manipkit's one IK result type (:class:`manipkit.ik_result.IKResult`):
+        manipkit's one IK result type (:class:`manipkit.ik.result.IKResult`):
         ``solver`` names the function used; ``mode`` what was asked (one of
         :data:`manipkit.closed_form.result.MODES`); ``solutions`` are joint
         vectors in ``robot.joint_names`` order, with the residuals of the
@@ -380,7 +380,7 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
 
     compiled over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
-    an :class:`~manipkit.ik_result.IKBatch` of 8 slots per target, NaN where
+    an :class:`~manipkit.ik.result.IKBatch` of 8 slots per target, NaN where
     a branch does not exist, joint vectors in ``robot.chain(base,
     tip).joint_names`` order; residuals and ``success`` are measured by the
     chain's compiled FK, against ``tol``; ``lock`` as in

@@ -57,7 +57,7 @@ from manipkit.kinematics.collision_geometry import (  # the geometry's names sta
 from manipkit.text import printable, short_text
 
 if TYPE_CHECKING:
-    from manipkit.ik_result import IKResult
+    from manipkit.ik.result import IKResult
     from manipkit.kinematics.robot import Robot
 
 __all__ = [

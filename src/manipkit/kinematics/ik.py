@@ -16,7 +16,7 @@ Conventions (docs/architecture.md), restated:
 - Answers respect the joint limits; continuous joints are wrapped to
   (-pi, pi].
 - The answer is manipkit's one IK result type,
-  :class:`manipkit.ik_result.IKResult`: residuals are measured at each
+  :class:`manipkit.ik.result.IKResult`: residuals are measured at each
   returned configuration by Pinocchio's forward kinematics with
   :func:`manipkit.spatial.transforms.pose_residuals`: ``residual_position``
   is the distance (m) between the reached and the wanted frame origin,
@@ -66,7 +66,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
-from manipkit.ik_result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKResult, tolerances
+from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKResult, tolerances
 from manipkit.kinematics.chain import frame_arguments, robot_and_frames, sampling_bounds
 from manipkit.kinematics.ik_kernel import (
     MODE_CODES,
@@ -94,11 +94,11 @@ DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solut
 TARGET_TOL = 1e-6  # how far a target may be from a rigid transform (check_transform's tol)
 NEAR_MISS = 1e-5  # m and rad: a failed best residual below this is called close in the failure message
 SOLVER_NAME = "kinematics.ik"
-#: The result's ``mode`` (:data:`manipkit.ik_result.MODES`) for each numerical mode.
+#: The result's ``mode`` (:data:`manipkit.ik.result.MODES`) for each numerical mode.
 RESULT_MODES = {"pose": SPATIAL_POSE, "position": SPATIAL_POSITION, "position+axis": SPATIAL_POINTING}
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
-#: The name of the ``all=True`` answer in 0.1: now the one :class:`~manipkit.ik_result.IKResult`
+#: The name of the ``all=True`` answer in 0.1: now the one :class:`~manipkit.ik.result.IKResult`
 #: (goes in the next release).
 IKSolutions = IKResult
 
@@ -181,7 +181,7 @@ def ik(
     Returns
     -------
     IKResult
-        manipkit's one IK result type (:class:`manipkit.ik_result.IKResult`).
+        manipkit's one IK result type (:class:`manipkit.ik.result.IKResult`).
         ``success`` is True only when both residuals, measured by Pinocchio
         at the answer, are within ``tol``; then ``q`` is the answer and
         ``solutions`` holds it (``all=True``: every distinct one found), with

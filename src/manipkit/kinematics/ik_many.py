@@ -32,7 +32,7 @@ Conventions (docs/architecture.md), as in :func:`manipkit.kinematics.ik.ik`:
   Pinocchio to about 1e-15) and :func:`manipkit.spatial.transforms.pose_residuals`,
   never taken from the solver's word: position (m) and, by mode, the rotation
   angle or the pointing-axis angle (rad).
-- The answer is an :class:`manipkit.ik_result.IKBatch`: the fields of the one
+- The answer is an :class:`manipkit.ik.result.IKBatch`: the fields of the one
   IK result type with a leading target axis (one slot per target).
 """
 
@@ -49,7 +49,7 @@ import numpy as np
 from numba import objmode  # this module is only imported to run its kernel (kinematics/__init__ does not import it)
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
-from manipkit.ik_result import IKBatch, tolerances
+from manipkit.ik.result import IKBatch, tolerances
 from manipkit.kinematics.chain import robot_and_frames
 from manipkit.kinematics.fk_kernel import lazy_kernel, thread_count
 from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
@@ -235,7 +235,7 @@ def ik_many(
     Returns
     -------
     IKBatch
-        :class:`manipkit.ik_result.IKBatch` with one slot per target:
+        :class:`manipkit.ik.result.IKBatch` with one slot per target:
         ``success`` (N,) by FK of every answer; ``q`` (N, n) the solution, or
         the closest configuration found where there is none, and its
         residuals ``q_residuals`` (N, 2); ``solutions`` (N, 1, n) and the

@@ -44,7 +44,7 @@ def run_family(args) -> int:
     """Print the family, its evidence and whether ``ik --analytic`` solves it."""
     from manipkit.closed_form.families import FAMILY_TOL, chain_family
     from manipkit.errors import ManipkitError
-    from manipkit.ik_result import tolerances
+    from manipkit.ik.result import tolerances
 
     try:
         tol = FAMILY_TOL if args.tol is None else tolerances(tuple(args.tol))

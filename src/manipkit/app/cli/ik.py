@@ -42,7 +42,7 @@ from manipkit.text import short_text
 if TYPE_CHECKING:
     import numpy as np
 
-    from manipkit.ik_result import IKResult
+    from manipkit.ik.result import IKResult
     from manipkit.kinematics.robot import Robot
 
 __all__ = ["register", "run_ik"]
@@ -155,9 +155,9 @@ def _precision_note(args, mode: str, position: float, rotation: float) -> str | 
 
 
 def _tolerance(args) -> tuple[float, float] | None:
-    """--tol as (position m, rotation rad), read by the one tolerance parser (:func:`manipkit.ik_result.tolerances`),
+    """--tol as (position m, rotation rad), read by the one tolerance parser (:func:`manipkit.ik.result.tolerances`),
     or None for the solvers' default."""
-    from manipkit.ik_result import tolerances
+    from manipkit.ik.result import tolerances
 
     if args.tol is None:
         return None
@@ -270,7 +270,7 @@ def _collision_text(result: IKResult, row: int) -> str:
 def run_ik(args) -> int:
     """Solve, then print the solutions (text or JSON) with the residual and a tf-between line to check one.
 
-    Every solver answers with one type (:class:`manipkit.ik_result.IKResult`),
+    Every solver answers with one type (:class:`manipkit.ik.result.IKResult`),
     printed alike: the solutions with their labels, the residual line (the
     worst over the listed solutions, or, when there is none, that of the
     closest configuration a numerical search found, which is printed too),
