@@ -832,7 +832,7 @@ def _ikgeo_rows(robot_name: str, chain, family, Q: np.ndarray, T: np.ndarray, n_
     except ImportError:
         return [(None, partial(row, "analytic", robot_name, f"{label} (ik-geo)", unit="pose", status="missing",
                                note="ik-geo is not installed (pip install ik-geo)"))]
-    from manipkit.closed_form.chain_ik import ideal_arm
+    from manipkit.ik.chain_ik import ideal_arm
 
     maker = IKGEO_FAMILIES.get(family.kind)
     if maker is None or family.reversed:
@@ -887,8 +887,8 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
     rounds, each timing a share of the single calls (every ``repeats``-th pose) and one whole batch of every row,
     so the ratios to EAIK do not depend on which row ran while another job loaded the machine.
     """
-    from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
-    from manipkit.closed_form.families import chain_family
+    from manipkit.ik.chain_ik import chain_ik, chain_ik_many
+    from manipkit.ik.families import chain_family
 
     robot = _analytic_robot(robot_name)
     if robot is None:
@@ -935,7 +935,7 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
                   f"answers: {found:.1%}",
             note=f"{family.kind}: every branch, limit aliases, labels, FK-checked (IKResult)"))
 
-    from manipkit.closed_form.robots import analytic_ik
+    from manipkit.ik.textbook import analytic_ik
 
     answers = [analytic_ik(robot, T[i], base, tip) for i in range(n_single)]  # whole-robot rows
     worst_a = max((float(np.max(np.abs(robot.transform(base, tip, s, check_limits=False) - T[i])))
@@ -1000,8 +1000,8 @@ def srs_workload(*, n_single: int = 200, n_batch: int = 10_000, repeats: int = 5
     one pose per call (every answer through Pinocchio's FK) and batched (every slot through the chain's compiled
     FK), each answer checked first, then the rows timed in turns (:func:`in_turns`, ``repeats`` rounds)."""
     import manipkit
-    from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many, srs_arm_angle
-    from manipkit.closed_form.families import chain_family
+    from manipkit.ik.chain_ik import chain_ik, chain_ik_many, srs_arm_angle
+    from manipkit.ik.families import chain_family
     from manipkit.kinematics.fk_kernel import thread_count
 
     robot = manipkit.load("iiwa14")

@@ -396,9 +396,9 @@ def test_ik_solution_is_accepted_back_by_tf_between():
 def test_ik_analytic_stanford_gives_four_labelled_solutions():
     q = ["joint1=0.4", "joint2=0.7", "joint3=0.5", "joint4=0.3", "joint5=1.1", "joint6=-0.4"]
     pose = tf_json("base_link", "ee_link", "--robot", "stanford_arm", "--q", *q)
-    result = run_cli("manipkit", "ik", "--robot", "stanford_arm", "--analytic", "--xyz", *pose["translation"],
+    result = run_cli("manipkit", "ik", "--robot", "stanford_arm", "--analytic", "--all", "--xyz", *pose["translation"],
                  "--rpy", *pose["rpy"], status=0)
-    assert "closed form (decoupled.ik_stanford): 4 solution(s)" in result.stdout
+    assert "closed form (textbook stanford_arm, frame ee_link in base_link): 4 solution(s)" in result.stdout
     assert "[front, no flip]" in result.stdout and "[back, flip]" in result.stdout
 
 

@@ -12,7 +12,7 @@ def test_family_prints_the_kind_and_the_evidence():
     result = run_cli("manipkit", "family", "--robot", "ur5", "--tip", "tool0", status=0)
     assert "family: three parallel, two intersecting" in result.stdout
     assert "axes 2, 3, 4 parallel, angle 0 rad" in result.stdout and "axes 5, 6 meet at" in result.stdout
-    assert "manipkit ik --analytic --robot ur5 --base base_link --frame tool0" in result.stdout
+    assert "manipkit ik --analytic --robot ur5 --base base_link --tip tool0" in result.stdout
 
 
 def test_family_json_and_a_chain_without_one():
@@ -34,8 +34,8 @@ def test_ik_all_uses_the_closed_form_and_lists_every_branch():
     chain = manipkit.load("ur5").chain("base_link", "tool0")
     T = chain.fk([0.3, -1.1, 1.2, -0.8, 1.0, 0.4])
     result = run_cli("manipkit", "ik", "--robot", "ur5", "--frame", "tool0", *target_args(T), "--all", status=0)
-    assert "closed form (closed_form.chain_ik (three parallel, two intersecting)" in result.stdout
-    assert "8 solution(s) (--all: the closed form answers this chain)" in result.stdout
+    assert "closed form (three parallel, two intersecting, frame tool0 in base_link): 8 solution(s)" in result.stdout
+    assert "8 solution(s)" in result.stdout
     assert "1. [front, elbow up, no flip]" in result.stdout and "8. [back, elbow down, wrist flip]" in result.stdout
 
 
@@ -46,7 +46,7 @@ def test_ik_analytic_json_gives_limits_and_refinement_per_branch_from_a_base_bel
     T = chain.fk(q)
     out = json.loads(run_cli("manipkit", "ik", "--robot", "kinova", "--base", "base", "--frame",
                              "j2s6s200_end_effector", *target_args(T), "--analytic", "--format", "json", status=0).stdout)
-    assert out["mode"] == "analytic" and out["count"] == len(out["solutions"]) == len(out["within_limits"])
+    assert out["method"] == "closed_form" and out["count"] == len(out["solutions"]) == len(out["within_limits"])
     assert out["within_limits"] == chain.within_limits(
         np.array([[s[name] for name in chain.joint_names] for s in out["solutions"]])).tolist()
     assert out["residual_position"] < 1e-9 and out["refined"] == [0.0] * len(out["solutions"])
@@ -75,5 +75,5 @@ def test_ik_analytic_at_an_arm_angle_solves_the_iiwa14():
     chain = robot.chain("base_link", "ee_link")
     T = chain.fk([0.3, 0.5, 0.4, -1.2, 0.3, 0.8, 0.2])
     result = run_cli("manipkit", "ik", "--robot", "iiwa14", *target_args(T), "--analytic", "--arm-angle", "0.5", status=0)
-    assert "closed form (closed_form.chain_ik (spherical shoulder, elbow, spherical wrist)" in result.stdout
+    assert "closed form (spherical shoulder, elbow, spherical wrist, frame ee_link in base_link)" in result.stdout
     assert "at arm angle psi = 0.5 rad" in result.stdout

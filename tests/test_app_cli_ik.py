@@ -95,7 +95,7 @@ def test_analytic_position_of_a_six_joint_arm_is_refused_with_the_way_out():
 def test_analytic_with_an_axis_is_a_usage_error():
     result = run_cli("manipkit", "ik", "--robot", "scara", "--xyz", 0.4, 0.3, 0.25, "--rpy", 3.14159, 0, 0, "--axis", "z", "--analytic",
                  status=2)
-    assert "leave out --axis" in result.stderr
+    assert "leave out the axis" in result.stderr
 
 
 def test_finding_8_a_pose_pasted_from_tf_between_is_explained_and_tol_accepts_it():
@@ -206,7 +206,7 @@ def test_the_check_line_uses_a_solution_inside_the_limits_and_reproduces_it():
 def test_family_prints_an_ik_command_that_loads_the_same_robot_and_refuses_a_lock_of_nan():
     result = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=0.2")
     line = result.stdout.splitlines()[-1]
-    assert line.startswith("closed form: manipkit ik --analytic --robot iiwa14 --base base_link --frame ee_link "
+    assert line.startswith("closed form: manipkit ik --analytic --robot iiwa14 --base base_link --tip ee_link "
                            "--lock iiwa_joint_3=0.2 --xyz X Y Z")
     refused = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=nan")
     assert refused.returncode == 2 and "--lock iiwa_joint_3=nan: give JOINT=VALUE with a finite number" in refused.stderr

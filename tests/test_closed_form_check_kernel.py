@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
 from manipkit.closed_form.check_kernel import exact_rotation, pose_residual, pose_rows, row_tables
-from manipkit.closed_form.families import chain_family
+from manipkit.ik.chain_ik import chain_ik, chain_ik_many
+from manipkit.ik.families import chain_family
 from manipkit.spatial.rotations import matrix_from_axis_angle
 from manipkit.spatial.transforms import pose_residuals, projected_rotation
 
@@ -202,8 +202,8 @@ def test_srs_at_an_arm_angle_equals_the_reference():
     numpy reference's answer field for field; the generating configuration is among the rows; every row lands on
     its target by Pinocchio. Singular targets (elbow straight: q4 = 0; wrist axes aligned: q6 = 0) and an
     unreachable one are handed back and answered as the reference answers them."""
-    from manipkit.closed_form.chain_ik import srs_arm_angle
     from manipkit.closed_form.srs_kernel import solve_check_srs
+    from manipkit.ik.chain_ik import srs_arm_angle
 
     robot = manipkit.load("iiwa14")
     chain = robot.chain("base_link", "ee_link")
@@ -221,7 +221,7 @@ def test_srs_at_an_arm_angle_equals_the_reference():
         for s in fast.solutions:
             pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(chain.full(s)))
             assert np.abs(data.oMf[robot.frame_id("ee_link")].homogeneous - T).max() < 1e-10
-    from manipkit.closed_form.chain_ik import compiled_arm, ideal_arm
+    from manipkit.ik.chain_ik import compiled_arm, ideal_arm
 
     prepared = compiled_arm(chain, ideal_arm(family))
     T = chain.fk(Q[0])

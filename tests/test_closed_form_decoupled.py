@@ -19,7 +19,6 @@ from hypothesis import strategies as st
 
 import manipkit
 from manipkit.closed_form.decoupled import (
-    ClosedFormSolutions,
     elbow_dh_table,
     ik_elbow,
     ik_scara,
@@ -32,6 +31,7 @@ from manipkit.description.sources import bundled_dh_tables
 from manipkit.dh import dh_fk, load_dh
 from manipkit.dh.check import check_dh
 from manipkit.errors import ClosedFormIKError, InvalidTransformError, ManipkitError
+from manipkit.ik.result import IKResult
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, rotation_angle_between
 
 TOL = 1e-9
@@ -496,7 +496,7 @@ def test_candidates_failing_the_fk_check_are_dropped_and_counted():
 
 def test_result_is_read_only_data():
     result = ik_elbow(dh_fk(elbow_dh_table(), [0.5, 0.4, -1.0, 0.3, 0.9, 0.2]))
-    assert isinstance(result, ClosedFormSolutions)
+    assert isinstance(result, IKResult)
     with pytest.raises(ValueError):
         result.solutions[0, 0] = 1.0
 

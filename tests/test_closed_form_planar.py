@@ -22,10 +22,7 @@ from hypothesis import strategies as st
 
 import manipkit
 from manipkit.closed_form.planar import (
-    ClosedFormSolutions,
-    IKBatch,
     PlanarArmError,
-    PlanarIKBatch,
     chain_points,
     fk_2r,
     fk_3r,
@@ -38,6 +35,7 @@ from manipkit.closed_form.planar import (
     workspace_3r,
 )
 from manipkit.errors import ManipkitError
+from manipkit.ik.result import IKResult
 
 PI = math.pi
 SETTINGS = settings(deadline=None, max_examples=60)
@@ -309,7 +307,7 @@ def test_ik_2r_angles_are_wrapped_to_minus_pi_pi(l1, l2, x, y):
 
 def test_ik_2r_result_is_read_only():
     result = ik_2r(1.0, 1.0, 1.0, 1.0)
-    assert isinstance(result, ClosedFormSolutions)
+    assert isinstance(result, IKResult)
     with pytest.raises(ValueError):
         result.solutions[0, 0] = 1.0
     with pytest.raises(AttributeError):
@@ -353,13 +351,6 @@ def test_ik_2r_batch_keeps_leading_dimensions():
     np.testing.assert_allclose(batch.residual_position[present], miss[present], atol=1e-12)
     assert np.all(np.isnan(batch.residual_position[~present])) and np.all(batch.residual_rotation[present] == 0.0)
     assert np.array_equal(batch.success, batch.count > 0)
-
-
-def test_the_old_counts_name_still_answers_with_a_warning():
-    batch = ik_2r_batch([[1.0, 1.0], [3.0, 0.0]], 1.0, 1.0)
-    with pytest.warns(DeprecationWarning, match="counts is now count"):
-        assert batch.counts.tolist() == [2.0, 0.0]
-    assert PlanarIKBatch is IKBatch
 
 
 @pytest.mark.parametrize(

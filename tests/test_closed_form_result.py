@@ -31,10 +31,10 @@ from manipkit.closed_form.result import (
     PLANAR_POSITION,
     SPATIAL_POSE,
     SPATIAL_POSITION,
-    ClosedFormSolutions,
 )
-from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik.result import IKResult
+from manipkit.ik.textbook import ANALYTIC_SOLVERS, analytic_ik
 
 TOL = 1e-9
 SETTINGS = settings(deadline=None, max_examples=80)
@@ -77,7 +77,7 @@ def planar_point(kind, l1, l2, theta, fraction):
     return r * math.cos(theta), r * math.sin(theta)
 
 
-def assert_unmet_when_empty(result: ClosedFormSolutions):
+def assert_unmet_when_empty(result: IKResult):
     assert result.success == (len(result.labels) > 0) == (result.solutions.shape[0] > 0)
     if result.success:
         assert result.unmet == ()
@@ -383,6 +383,6 @@ def test_html_repr_of_no_solution_shows_the_reason_escaped():
     result = planar_modes.ik_2r_pose(1.0, 0.5, 0.3, 1.0, 1.0)
     caption, _, rows, notes = html_rows(result._repr_html_())
     assert rows == [] and "success: False" in caption and notes == [result.reason] and "orientation" in notes[0]
-    odd = ClosedFormSolutions(np.zeros((1, 2)), ("<b>&",), 1, "a < b", np.zeros(1), np.zeros(1))
+    odd = IKResult(np.zeros((1, 2)), ("<b>&",), 1, "a < b", np.zeros(1), np.zeros(1))
     markup = odd._repr_html_()
     assert "&lt;b&gt;&amp;" in markup and "<b>" not in markup and html_rows(markup)[3] == ["a < b"]

@@ -209,9 +209,9 @@ def test_ik_takes_a_chain_for_its_robot_and_frames(load_robot):
     T = chain.fk(q_true)
     result = manipkit.ik(chain, T[0], seed=1)
     assert result.success and np.abs(chain.fk(result.q) - T[0]).max() < 1e-9  # confirmed by FK of the answer
-    same = manipkit.ik(robot, T[0], "arm_base", "ee_link", seed=1)
+    same = manipkit.ik(robot, T[0], base="arm_base", tip="ee_link", seed=1)
     assert np.array_equal(result.q, same.q)
     batch = ik_many(chain, T, seed=1)
     assert batch.success.all() and np.abs(chain.fk(batch.q) - T).max() < 1e-9
     with pytest.raises(ChainError, match="has its own frames"):
-        manipkit.ik(chain, T[0], "base_link", "ee_link")
+        manipkit.ik(chain, T[0], base="base_link", tip="ee_link")

@@ -231,9 +231,9 @@ def test_course_arm_cannot_reach_its_tool_turned_90_deg_about_its_x_and_reports_
     result = ik(robot, T_turned, restarts=20)
     assert not result.success
     assert result.reason.startswith("did not converge: best residual")
-    assert result.solutions.shape == (0, 5) and np.array_equal(result.q, result.closest) and result.unmet == ()
-    position, angle = pose_error(robot, "base_link", "ee_link", result.q, T_turned)
-    assert result.q_residuals == pytest.approx([position, angle], abs=1e-12)
+    assert result.solutions.shape == (0, 5) and result.q is None and result.closest is not None and result.unmet == ()
+    position, angle = pose_error(robot, "base_link", "ee_link", result.closest, T_turned)
+    assert result.closest_residuals == pytest.approx([position, angle], abs=1e-12)
     # The best found is at least as good as 20000 random configurations (same measure as the solver's).
     T_samples = robot.fk(robot.sample_q(20000, seed=901), tip="ee_link")
     sampled = np.hypot(
@@ -254,8 +254,8 @@ def test_target_outside_the_reach_sphere_fails_with_its_distance_to_the_boundary
         result = ik(robot, T, mode=mode, restarts=5)
         assert not result.success
         assert result.reason.startswith("target out of reach")
-        assert result.q_residuals[0] == pytest.approx(0.3, abs=1e-6)
-        assert within_limits(robot, result.q)
+        assert result.closest_residuals[0] == pytest.approx(0.3, abs=1e-6)
+        assert within_limits(robot, result.closest)
         # out of the reach bound (joint 2's origin to the flange), so provably unmet, by at least 0.3 m less slack
         assert result.unmet[0][0] == "position" and 0.0 < result.unmet[0][1] <= 0.3 + 1e-9
         assert result.outside_by == result.unmet[0][1] and result.side == "too far"
@@ -303,7 +303,7 @@ def test_all_without_any_solution_keeps_the_best_failure(robots):
     found = ik(robot, T, all=True, restarts=3)
     assert found.count == 0 and found.solutions.shape == (0, 7) and found.attempts == 4
     assert not found.success and found.reason.startswith("target out of reach") and found.closest is not None
-    assert np.array_equal(found.q, found.closest)
+    assert found.q is None and found.q_residuals is None  # q is a solution or nothing, for every method
 
 
 def test_base_other_than_root_varies_only_the_chain_joints(robots):
@@ -393,7 +393,8 @@ def test_a_single_answer_and_a_miss_are_results_like_any_other(robots):
     assert missed.count == 0 and not missed.success and missed.solutions.shape == (0, 7)
     assert missed.reason.startswith("target out of reach") and missed.residuals.shape == (0, 2)
     assert missed.attempts == 3 and missed.note == missed.reason
-    assert missed.q_residuals == pytest.approx(pose_error(robot, robot.root_link, "ee_link", missed.q, far), abs=1e-12)
+    assert missed.closest_residuals == pytest.approx(pose_error(robot, robot.root_link, "ee_link", missed.closest, far),
+                                                      abs=1e-12)
 
 
 def test_the_old_frame_keyword_still_names_the_tip_with_a_warning(robots):
@@ -471,7 +472,7 @@ def test_a_near_miss_is_called_close_and_a_larger_tol_accepts_it(robots):
     robot = robots["course_arm"]
     failed = ik(robot, T, restarts=5)
     assert not failed.success and "that is close" in failed.reason and "may be unreachable" not in failed.reason
-    assert failed.q_residuals.max() < 1e-6
+    assert failed.closest_residuals.max() < 1e-6
     accepted = ik(robot, T, tol=1e-6, restarts=5)
     assert accepted.success and np.abs(accepted.q - POSE_A).max() < 1e-5
     position, angle = pose_error(robot, "base_link", "ee_link", accepted.q, T)
@@ -494,7 +495,9 @@ def test_html_repr_shows_the_answer_or_the_closest_failed_attempt(robots):
         assert rows[1][:2] == [index, label] and rows[1][-1] == success
         assert f"success: {success}" in root.find("table/caption").text
         assert "numerical IK (kinematics.ik)" in root.find("table/caption").text
-        np.testing.assert_allclose([float(v) for v in rows[1][2:9]], result.q, rtol=1e-5, atol=1e-6)
-        assert float(rows[1][9]) == pytest.approx(result.q_residuals[0], rel=1e-2, abs=1e-300)
+        shown = result.q if result.success else result.closest  # a failure shows the closest configuration
+        residuals = result.q_residuals if result.success else result.closest_residuals
+        np.testing.assert_allclose([float(v) for v in rows[1][2:9]], shown, rtol=1e-5, atol=1e-6)
+        assert float(rows[1][9]) == pytest.approx(residuals[0], rel=1e-2, abs=1e-300)
         if success == "False":
             assert root.find("p").text == result.reason

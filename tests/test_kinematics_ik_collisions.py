@@ -15,8 +15,9 @@ import pytest
 from cli_helper import run_cli
 
 import manipkit
-from manipkit.closed_form.robots import analytic_ik
-from manipkit.kinematics.collisions import CollisionChecker, mark_collisions
+from manipkit.ik.collision_marks import mark_collisions
+from manipkit.ik.textbook import analytic_ik
+from manipkit.kinematics.collisions import CollisionChecker
 from manipkit.kinematics.ik import ik
 from manipkit.kinematics.robot import Robot
 

@@ -325,7 +325,7 @@ def test_numerical_ik_just_outside_the_reach_fails_with_the_distance(s):
     assert result.reason.startswith("target out of reach")
     # The best the arm can do is stretch toward the target: residual = gap. (With only a few restarts,
     # below s = 1 m a start can stall against the joint-1 limit far from it; the default 50 find it.)
-    assert gap * (1.0 - 1e-9) <= result.q_residuals[0] <= gap * (1.0 + 1e-3)
+    assert gap * (1.0 - 1e-9) <= result.closest_residuals[0] <= gap * (1.0 + 1e-3)
     # beyond the reach bound (l1 + l2 from joint 1's origin) by the gap: unmet, provably
     assert result.unmet == (("position", pytest.approx(gap, rel=1e-6)),) and result.outside_by == result.unmet[0][1]
 

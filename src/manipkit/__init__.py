@@ -5,9 +5,11 @@
 >>> T_base_ee = robot.transform("base_link", "ee_link", robot.q(shoulder_joint=-1.34))
 
 The layers (docs/architecture.md), each importing only those below it:
-:mod:`manipkit.spatial`, :mod:`manipkit.description`,
-:mod:`manipkit.kinematics`, :mod:`manipkit.dh`, :mod:`manipkit.closed_form`,
-:mod:`manipkit.analysis`, :mod:`manipkit.app`.
+:mod:`manipkit.kernels`, :mod:`manipkit.spatial`, :mod:`manipkit.description`,
+:mod:`manipkit.kinematics`, :mod:`manipkit.closed_form`, :mod:`manipkit.dh`,
+:mod:`manipkit.ik`, :mod:`manipkit.analysis`, :mod:`manipkit.app`.
+``manipkit.ik(robot, T_base_tip)`` is the one IK dispatcher (closed form where
+the chain has one, numerical otherwise; :mod:`manipkit.ik`).
 
 Heavy modules (Pinocchio, numba) load on first use, so the command line starts fast.
 """
@@ -15,8 +17,6 @@ Heavy modules (Pinocchio, numba) load on first use, so the command line starts f
 from __future__ import annotations
 
 import importlib
-import sys
-import warnings
 
 __version__ = "0.1.0"
 from manipkit.errors import ManipkitError
@@ -26,17 +26,14 @@ from manipkit.errors import ManipkitError
 _LAZY = {
     "load": "manipkit.kinematics.robot",
     "Robot": "manipkit.kinematics.robot",
-    "ik_solver": "manipkit.kinematics.ik",
     "IKResult": "manipkit.ik.result",
     "IKBatch": "manipkit.ik.result",
-    "IKSolutions": "manipkit.kinematics.ik",
     "DHTable": "manipkit.dh.table",
     "dh_fk": "manipkit.dh.table",
     "load_dh": "manipkit.dh.files",
     "check_dh": "manipkit.dh.check",
-    "analytic_ik": "manipkit.closed_form.robots",
-    "analytic_ik_many": "manipkit.closed_form.robots",
-    "chain_family": "manipkit.closed_form.families",
+    "chain_family": "manipkit.ik.families",
+    "IKFailure": "manipkit.ik.result",
     "manipulability": "manipkit.analysis.manipulability",
     "singular_values": "manipkit.analysis.manipulability",
     "velocity_ellipsoid": "manipkit.analysis.manipulability",
@@ -44,7 +41,7 @@ _LAZY = {
     "global_conditioning_index": "manipkit.analysis.dexterity",
     "singular_families": "manipkit.analysis.singularities",
     "singular_family_at": "manipkit.analysis.singularities",
-    "ik_many": "manipkit.kinematics.ik_many",
+    "ik_many": "manipkit.ik.dispatch",
     "collisions": "manipkit.kinematics.collisions",
     "collision_free": "manipkit.kinematics.collisions",
     "matrix_from_rpy": "manipkit.spatial.rotations",
@@ -76,53 +73,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY) | set(_LAZY_MODULES))
-
-
-# --------------------------------------------------------------------------
-# Module paths of release 0.1 (before the subpackages): they keep working for
-# one release, with a DeprecationWarning naming the new path.
-
-MOVED_MODULES = {
-    "manipkit.rotations": "manipkit.spatial.rotations",
-    "manipkit.compare": "manipkit.spatial.compare",
-    "manipkit.robots": "manipkit.description.sources",
-    "manipkit.validate": "manipkit.description.validate",
-    "manipkit.tree": "manipkit.description.tree",
-    "manipkit.model": "manipkit.kinematics.robot",
-    "manipkit.chain": "manipkit.kinematics.fk_kernel",
-    "manipkit.ik_kernel": "manipkit.kinematics.ik_kernel",
-    "manipkit.dh_check": "manipkit.dh.check",
-    "manipkit.dh_from_urdf": "manipkit.dh.from_urdf",
-    "manipkit.planar": "manipkit.closed_form.planar",
-    "manipkit.decoupled": "manipkit.closed_form.decoupled",
-    "manipkit.workspace": "manipkit.analysis.workspace",
-    "manipkit.cli": "manipkit.app.cli",
-    "manipkit.viewer": "manipkit.app.viewer",
-    "manipkit.pose": "manipkit.app.pose",
-}
-
-
-class _MovedModuleFinder:
-    """Answers ``import manipkit.<old name>`` with the module at its new path (a meta path finder and loader).
-
-    Not derived from ``importlib.abc`` on purpose: importing it costs about 10 ms at every CLI start.
-    """
-
-    def find_spec(self, fullname, path=None, target=None):
-        if fullname in MOVED_MODULES:
-            from importlib.machinery import ModuleSpec
-
-            return ModuleSpec(fullname, self)
-        return None
-
-    def create_module(self, spec):
-        return None  # a placeholder, replaced in sys.modules by the real module below
-
-    def exec_module(self, module):
-        new = MOVED_MODULES[module.__name__]
-        warnings.warn(f"{module.__name__} moved to {new}; the old path goes in manipkit 0.3", DeprecationWarning, stacklevel=2)
-        sys.modules[module.__name__] = importlib.import_module(new)
-
-
-if not any(isinstance(finder, _MovedModuleFinder) for finder in sys.meta_path):
-    sys.meta_path.append(_MovedModuleFinder())

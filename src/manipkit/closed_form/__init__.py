@@ -16,9 +16,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
                "workspace_2r", "workspace_3r"),
     **homes_of("manipkit.closed_form.planar_modes", "ik_2r_pose", "ik_3r_position"),
     **homes_of("manipkit.closed_form.decoupled", "ik_elbow", "ik_scara", "ik_stanford", "wrist_center"),
-    **homes_of("manipkit.closed_form.robots", "ANALYTIC_SOLVERS", "analytic_ik", "analytic_ik_many"),
-    **homes_of("manipkit.closed_form.families", "Family", "chain_family"),
-    **homes_of("manipkit.closed_form.chain_ik", "chain_ik", "chain_ik_many"),
     **homes_of("manipkit.closed_form.subproblems", "sp1", "sp2", "sp3", "sp4"),
-    **homes_of("manipkit.ik.result", "IKResult", "IKBatch"),
 })

@@ -1,6 +1,6 @@
 """The check of a closed-form branch on the true chain, compiled: its joint row, its FK, its residual.
 
-What :func:`manipkit.closed_form.chain_ik.chain_ik` does to every branch
+What :func:`manipkit.ik.chain_ik.chain_ik` does to every branch
 in numpy (``_joint_values``, ``_aliases``, ``chain.fk``,
 :func:`manipkit.spatial.transforms.pose_residuals`, ``chain.within_limits``),
 as functions numba compiles into the closed forms' loop over targets

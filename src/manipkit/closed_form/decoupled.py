@@ -93,7 +93,7 @@ from manipkit.closed_form.arm_tables import (
 )
 from manipkit.closed_form.checks import finite_array, quantity_text
 from manipkit.closed_form.planar import ik_2r
-from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, ClosedFormSolutions, read_only
+from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik.result import IKResult, tolerances
@@ -103,7 +103,6 @@ from manipkit.spatial.transforms import check_transform, pose_residuals
 
 __all__ = [
     "ClosedFormIKError",
-    "ClosedFormSolutions",
     "elbow_dh_table",
     "ik_elbow",
     "ik_scara",

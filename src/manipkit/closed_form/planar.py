@@ -42,7 +42,7 @@ import numpy as np
 
 from manipkit.closed_form.checks import as_float, finite_array, link_length, quantity_text, tolerance
 from manipkit.closed_form.planar_workspace import Workspace, workspace_2r, workspace_3r  # documented here too
-from manipkit.closed_form.result import CHECK_TOL, PLANAR_POSE, PLANAR_POSITION, ClosedFormSolutions, read_only
+from manipkit.closed_form.result import CHECK_TOL, PLANAR_POSE, PLANAR_POSITION, read_only
 from manipkit.dh.table import DHRow, DHTable, dh_fk
 from manipkit.errors import PlanarArmError
 from manipkit.ik.result import IKBatch, IKResult
@@ -50,9 +50,9 @@ from manipkit.spatial.rotations import rot_z, wrap_angle
 from manipkit.spatial.transforms import pose_residuals
 
 __all__ = [
-    "chain_points", "checked_solutions", "ClosedFormSolutions", "ELBOW_DOWN", "ELBOW_UP", "fk_2r", "fk_3r",
+    "chain_points", "checked_solutions", "ELBOW_DOWN", "ELBOW_UP", "fk_2r", "fk_3r",
     "FOLDED", "ik_2r", "ik_2r_batch", "ik_3r", "ik_3r_batch", "IKBatch", "IKResult", "planar_dh_table",
-    "planar_target", "PlanarArmError", "PlanarIKBatch", "Q1_FREE", "se2_3r", "STRAIGHT", "Workspace",
+    "planar_target", "PlanarArmError", "Q1_FREE", "se2_3r", "STRAIGHT", "Workspace",
     "workspace_2r", "workspace_3r",
 ]
 
@@ -209,8 +209,6 @@ def chain_points(q, lengths) -> np.ndarray:
 # inverse kinematics: many targets at once
 
 
-#: The planar batches' result type in 0.1: now :class:`manipkit.ik.result.IKBatch` (goes in the next release).
-PlanarIKBatch = IKBatch
 
 
 # --------------------------------------------------------------------------

@@ -2,7 +2,7 @@
 
 Planar 2R/3R (:mod:`manipkit.closed_form.planar`, :mod:`manipkit.closed_form.planar_modes`),
 decoupled arms (:mod:`manipkit.closed_form.decoupled`) and the bundled-robot
-binding (:func:`manipkit.closed_form.robots.analytic_ik`) all return
+binding (:func:`manipkit.ik.textbook.analytic_ik`) all return
 :class:`manipkit.ik.result.IKResult`, the type numerical IK returns too
 (docs/architecture.md, "IK results"); the planar batch solvers return
 :class:`manipkit.ik.result.IKBatch`, as ``ik_many`` does.
@@ -18,9 +18,6 @@ solver's algebra. A component of the target the arm cannot meet (the
 orientation for a 2R arm, a height off a planar arm's plane, a tilted SCARA
 tool, a point out of reach) gives 0 solutions and is named, with its size,
 in ``unmet``.
-
-``ClosedFormSolutions`` is the closed forms' name of the result type in
-0.1; it remains an alias of :class:`~manipkit.ik.result.IKResult` for one release.
 """
 
 from __future__ import annotations
@@ -42,7 +39,6 @@ __all__ = [
     "PLANAR_POSITION",
     "SPATIAL_POSE",
     "SPATIAL_POSITION",
-    "ClosedFormSolutions",
     "IKBatch",
     "IKResult",
     "read_only",
@@ -52,6 +48,3 @@ __all__ = [
 MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE)
 #: Residual (m and rad) within which a row's forward kinematics must reproduce the target to be returned.
 CHECK_TOL = 1e-9
-
-#: The closed forms' name of :class:`~manipkit.ik.result.IKResult` in 0.1 (goes in the next release).
-ClosedFormSolutions = IKResult

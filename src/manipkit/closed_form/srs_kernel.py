@@ -10,7 +10,7 @@ the true chain and residual (:mod:`manipkit.closed_form.check_kernel`), in
 one compiled call per target (:func:`solve_check_srs`). Many targets, each at
 its own arm angle, are solved into rows as the 6R batch takes them
 (:func:`solve_srs_rows_into`: ``chain_ik_many``, checked by the chain's FK
-afterwards, :mod:`manipkit.closed_form.chain_batch`).
+afterwards, :mod:`manipkit.ik.chain_batch`).
 
 Like the 6R loops it answers generic targets only: a target where a
 decision of the reference comes near its threshold (a tangency, a free

@@ -1,12 +1,276 @@
-"""The one IK dispatcher: :func:`ik` for one target (in transit: numerical IK until the closed forms join it)."""
+"""The one IK dispatcher: :func:`ik` for one target, :func:`ik_many` for a stack of targets.
+
+``manipkit.ik(robot_or_chain, T_base_tip, base=..., tip=..., method="auto", all=False)``
+answers every IK question of manipkit, in Python and on the command line
+(``manipkit ik`` calls it and only formats the answer), so a notebook and a
+terminal give the same solutions for the same question.
+
+Conventions (docs/architecture.md): frames base first; ``T_base_tip`` is the
+wanted pose of ``tip`` in ``base`` (4x4, metres); joint vectors in
+``robot.joint_names`` order (radians or metres), the joints off the chain at
+their values in ``q0`` (or their defaults); residuals measured by forward
+kinematics of each answer through the real chain; ``tol`` is always that
+residual tolerance (metres and radians), ``family_tol`` the tolerance within
+which axes count as parallel or meeting.
+
+Which solver answers (``method="auto"``): the closed form wherever the chain
+has one for the question (a bundled textbook arm, or a 6R/7R family found in
+its geometry: :func:`manipkit.ik.textbook.closed_form_solves`), else numerical
+IK; the result's ``method`` says which ran, ``arm_family`` the family.
+``method="closed_form"`` refuses a chain without one (the message gives the
+geometric evidence); ``method="numerical"`` always searches. Options a
+solver cannot honour are refused in one line (:class:`manipkit.errors.IKOptionError`),
+never dropped: ``lock`` and ``arm_angle`` only by the closed forms, ``axis``
+(mode ``"position+axis"``) and ``free`` only by numerical IK.
+"""
 
 from __future__ import annotations
 
-__all__ = ["ik"]
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.errors import ChainError, IKOptionError
+from manipkit.ik.families import FAMILY_TOL
+from manipkit.ik.result import IKBatch, IKResult
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.collisions import CollisionChecker
+
+__all__ = ["METHODS", "ik", "ik_many", "robot_and_frames"]
+
+#: The ``method`` a caller may ask for; a result's ``method`` is one of the last two.
+METHODS = ("auto", "closed_form", "numerical")
+#: The ``mode`` vocabulary of the dispatcher (what must match); the results say it in words
+#: (:data:`manipkit.ik.result.MODES`).
+ASKED_MODES = ("pose", "position", "position+axis")
 
 
-def ik(robot, target, *args, **kwargs):
-    """Joint values that put the tip at ``target`` (T_base_tip); see :func:`manipkit.kinematics.ik.ik`."""
+def robot_and_frames(subject, base: str | None, tip: str | None) -> tuple:
+    """(robot, base, tip) of a Robot and its frame names (defaults ``base_link``, ``ee_link``), or of a Chain
+    (which has its own frames: giving ``base``/``tip`` too is refused)."""
+    from manipkit.kinematics.chain import Chain
+
+    if isinstance(subject, Chain):
+        if base is not None or tip is not None:
+            raise ChainError(f"a chain has its own frames ({subject.base} -> {subject.tip}); give base= and tip= "
+                                "only with a robot")
+        return subject.robot, subject.base, subject.tip
+    return subject, "base_link" if base is None else base, "ee_link" if tip is None else tip
+
+
+def _check_choice(name: str, value, choices: tuple[str, ...]) -> None:
+    if not isinstance(value, str) or value not in choices:
+        raise IKOptionError(f"{name} must be one of {', '.join(choices)}, got {value!r:.60}")
+
+
+def _closed_form_applies(robot, base: str, tip: str, *, method: str, mode: str, family_tol, lock, arm_angle,
+                         free) -> bool:
+    """Whether the closed form answers (``method`` "auto": where the chain has one), or IKOptionError for an option
+    the chosen solver cannot honour."""
+    from manipkit.ik.textbook import closed_form_refusal, closed_form_solves
+
+    held = [name for name, given in (("lock", bool(lock)), ("arm_angle", arm_angle is not None)) if given]
+    if method == "numerical":
+        if held:
+            raise IKOptionError(f"{held[0]}= is honoured by the closed forms only; numerical IK does not hold joints "
+                                "or an arm angle: leave it out, or use method='closed_form'")
+        return False
+    if mode == "position+axis" or free:
+        what = ("a pointing target (an axis to match, mode 'position+axis'): leave out the axis" if mode == "position+axis"
+                else "free floating joints (free=): leave them out")
+        if method == "closed_form":
+            raise IKOptionError(f"the closed forms do not solve {what}, or use numerical IK")
+        if held:
+            raise IKOptionError(f"{held[0]}= is honoured by the closed forms only, and they do not solve {what}")
+        return False
+    if closed_form_solves(robot, base, tip, mode=mode, family_tol=family_tol, lock=lock, arm_angle=arm_angle):
+        return True
+    if method == "closed_form" or held:  # the closed form was asked for, by name or by its options: say why not
+        raise IKOptionError(closed_form_refusal(robot, base, tip, mode=mode, family_tol=family_tol, lock=lock,
+                                                arm_angle=arm_angle))
+    return False
+
+
+def _checker(robot, given) -> CollisionChecker | None:
+    """The collision checker of ``collisions=``/``collision_free=``: True -> the robot against itself."""
+    if given is None or given is False:
+        return None
+    if given is True:
+        from manipkit.kinematics.collisions import CollisionChecker
+
+        return CollisionChecker(robot)
+    return given
+
+
+def _chain_distance(result: IKResult, columns, angular, q0: np.ndarray) -> np.ndarray:
+    """Per row, the largest joint distance to ``q0`` over the chain's columns (angles modulo 2 pi)."""
+    d = result.solutions[:, columns] - q0[columns]
+    d = np.where(angular, np.abs(math.pi - np.mod(math.pi - d, 2.0 * math.pi)), np.abs(d))
+    return d.max(axis=1) if d.size else np.zeros(len(result.solutions))
+
+
+def _one(result: IKResult, robot, base: str, tip: str, q0) -> IKResult:
+    """The one answer of ``all=False`` from every closed-form branch: the branch inside the joint limits nearest
+    ``q0`` (largest joint distance, angles modulo 2 pi), else the first inside the limits in the solver's order;
+    a branch outside the limits only when no branch is inside."""
+    k = len(result.solutions)
+    if k <= 1 or result.infinite:  # a family's rows are samples of its free parameter: all of them are the answer
+        return result
+    within = np.ones(k, dtype=bool) if result.within_limits is None else np.asarray(result.within_limits)
+    candidates = np.flatnonzero(within) if within.any() else np.arange(k)
+    if q0 is not None and len(candidates) > 1:
+        chain = robot.chain(base, tip)
+        angular = np.array([j.is_angular for j in chain.joints], dtype=bool)
+        distance = _chain_distance(result, chain.columns, angular, robot.q(q0))
+        best = int(candidates[np.argmin(distance[candidates])])
+    else:
+        best = int(candidates[0])
+    return result.take([best])
+
+
+def ik(subject, target, *, base: str | None = None, tip: str | None = None, method: str = "auto", all: bool = False,
+       mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
+       restarts: int = 50, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, free=(), collisions=None,
+       collision_free=False) -> IKResult:
+    """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, else a
+    numerical search; one result type either way.
+
+    Parameters
+    ----------
+    subject : manipkit.kinematics.robot.Robot or manipkit.kinematics.chain.Chain
+        The robot (with ``base`` and ``tip``), or a chain (its own frames).
+    target : array_like, shape (4, 4)
+        ``T_base_tip``: the wanted pose of ``tip`` in ``base`` (metres). Mode
+        ``"position"`` uses its translation only.
+    base, tip : str, keyword-only
+        Base and tip frames, base first (defaults ``base_link`` and ``ee_link``).
+    method : {"auto", "closed_form", "numerical"}, keyword-only
+        ``"auto"``: the closed form wherever the chain has one for ``mode``.
+    all : bool, keyword-only
+        Every solution: every closed-form branch in the solver's documented
+        order (shoulder, elbow, wrist; 2*pi aliases of wide joints where the
+        limits allow), or every distinct solution numerical restarts find
+        (which proves nothing about those it did not find). ``False``: one
+        solution, the in-limit branch nearest ``q0`` (the first in order
+        without ``q0``), or the first numerical solution found.
+    mode : {"pose", "position", "position+axis"}, keyword-only
+        What must match: the 6D pose, the origin, or the origin and the
+        direction of the tip's ``axis`` (numerical IK only).
+    tol : float or (float, float), keyword-only
+        Residual tolerance of every returned solution (m, rad): one number
+        for both, or ``(position, rotation)``.
+    family_tol : float or (float, float), keyword-only
+        Tolerance (m, rad) within which the chain's axes count as parallel or
+        meeting when its closed-form family is found.
+    lock : dict of str to float, keyword-only
+        Closed forms: joints held at a value (a 7R arm solved as the 6R arm
+        of the others); refused where no closed form can hold them.
+    arm_angle : float or array_like, keyword-only
+        Closed forms of 7R SRS arms (iiwa14): the arm angle (rad).
+    q0 : array_like or dict, keyword-only
+        Start and the off-chain joints' values (numerical IK); for
+        ``all=False`` with a closed form, the configuration the chosen
+        branch is nearest to.
+    restarts, seed, max_iters, damping, free : keyword-only
+        Numerical IK's budget and floating joints
+        (:func:`manipkit.kinematics.ik.ik`).
+    collisions : bool or CollisionChecker, keyword-only
+        Mark each solution ``collides`` (with ``clearance``): True checks the
+        robot against itself; a checker brings its SRDF, floor and world.
+    collision_free : bool or CollisionChecker, keyword-only
+        Keep only solutions not in collision (numerical IK searches on past
+        them); with none left, ``failure.kind == "collision"`` names the pairs.
+
+    Returns
+    -------
+    IKResult
+        ``method`` says which solver ran, ``arm_family`` the closed-form
+        family, ``failure`` why there is no solution (kind and numbers).
+
+    Raises
+    ------
+    IKOptionError
+        An unknown method or mode, or an option the chosen solver cannot honour.
+    UnknownFrameError, ChainError, InvalidTransformError
+        Frames the robot does not have; a target that is not a transform.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> ur5 = manipkit.load("ur5")
+    >>> T = ur5.transform("base_link", "tool0", [0.1, -1.0, 1.2, -0.3, 1.0, 0.5])
+    >>> every = manipkit.ik(ur5, T, tip="tool0", all=True)
+    >>> every.method, every.arm_family, len(every.solutions)
+    ('closed_form', 'three parallel, two intersecting', 8)
+    >>> manipkit.ik(ur5, T, tip="tool0", method="numerical").method
+    'numerical'
+    """
+    # Over 80 lines: the docstring (every option, the choice of solver) is most of it.
+    robot, base, tip = robot_and_frames(subject, base, tip)
+    _check_choice("method", method, METHODS)
+    _check_choice("mode", mode, ASKED_MODES)
+    closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
+                                  arm_angle=arm_angle, free=free)
+    avoid = _checker(robot, collision_free)
+    mark = avoid if avoid is not None else _checker(robot, collisions)
+    if closed:
+        from manipkit.ik.textbook import analytic_ik
+
+        result = analytic_ik(robot, target, base, tip, mode=mode, tol=tol, family_tol=family_tol, lock=lock,
+                             arm_angle=arm_angle)
+        if mark is not None:
+            from manipkit.ik.collision_marks import mark_collisions
+
+            result = mark_collisions(result, mark, drop=avoid is not None)
+        return result if all else _one(result, robot, base, tip, q0)
     from manipkit.kinematics.ik import ik as numerical_ik
 
-    return numerical_ik(robot, target, *args, **kwargs)
+    result = numerical_ik(robot, target, base, tip, mode=mode, axis=axis, q0=q0, tol=tol, max_iters=max_iters,
+                          restarts=restarts, seed=seed, all=all, damping=damping, free=tuple(free),
+                          collision_free=avoid if avoid is not None else False)
+    if avoid is None and mark is not None:
+        from manipkit.ik.collision_marks import mark_collisions
+
+        result = mark_collisions(result, mark)
+    return result
+
+
+def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None, method: str = "auto",
+            mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
+            restarts: int = 0, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, time_budget=None,
+            threads=None) -> IKBatch:
+    """:func:`ik` for a stack of targets ``(N, 4, 4)`` in one compiled call: an :class:`IKBatch`.
+
+    The closed form (``method`` "auto" where the chain has one for a pose)
+    gives every branch per target: 8 slots, NaN where a branch does not
+    exist (:func:`manipkit.ik.chain_ik.chain_ik_many`; ``arm_angle`` one or
+    one per target for a 7R SRS arm). Numerical IK gives one slot per target
+    (:func:`manipkit.kinematics.ik_many.ik_many`; ``q0`` one start for all or
+    one per target, ``restarts`` per target). ``method``, ``failure_kinds``
+    and :meth:`IKBatch.reason` say, per target, which ran and why one failed.
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> ur5 = manipkit.load("ur5")
+    >>> chain = ur5.chain("base_link", "tool0")
+    >>> batch = manipkit.ik_many(chain, chain.fk(chain.sample(3, seed=1)))
+    >>> batch.method, batch.solutions.shape, bool(batch.success.all())
+    ('closed_form', (3, 8, 6), True)
+    """
+    robot, base, tip = robot_and_frames(subject, base, tip)
+    _check_choice("method", method, METHODS)
+    _check_choice("mode", mode, ASKED_MODES)
+    closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
+                                  arm_angle=arm_angle, free=())
+    if closed:
+        from manipkit.ik.textbook import analytic_ik_many
+
+        return analytic_ik_many(robot, targets, base, tip, tol=tol, family_tol=family_tol, lock=lock,
+                                arm_angle=arm_angle)
+    from manipkit.kinematics.ik_many import ik_many as numerical_many
+
+    return numerical_many(robot, targets, base, tip, q0=q0, mode=mode, axis=axis, tol=tol, max_iters=max_iters,
+                          restarts=restarts, seed=seed, damping=damping, time_budget=time_budget, threads=threads)

@@ -3,7 +3,7 @@
 Numerical IK (:func:`manipkit.kinematics.ik.ik`, with or without
 ``all=True``), the closed forms (:mod:`manipkit.closed_form.planar`,
 :mod:`manipkit.closed_form.planar_modes`, :mod:`manipkit.closed_form.decoupled`
-and :func:`manipkit.closed_form.robots.analytic_ik`) all return an
+and :func:`manipkit.ik.textbook.analytic_ik`) all return an
 :class:`IKResult`; batched numerical IK (:func:`manipkit.kinematics.ik_many.ik_many`)
 and the planar batch solvers (``ik_2r_batch``, ``ik_3r_batch``) return an
 :class:`IKBatch`, with the same field names and leading target axes
@@ -24,9 +24,8 @@ from __future__ import annotations
 
 import html
 import math
-import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -34,6 +33,8 @@ from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.text import short_text
 
 __all__ = [
+    "FAILURE_KINDS",
+    "METHODS",
     "MODES",
     "PLANAR_POSE",
     "PLANAR_POSITION",
@@ -41,7 +42,9 @@ __all__ = [
     "SPATIAL_POSE",
     "SPATIAL_POSITION",
     "IKBatch",
+    "IKFailure",
     "IKResult",
+    "failure_of",
     "read_only",
     "tolerances",
 ]
@@ -54,6 +57,8 @@ SPATIAL_POINTING = "spatial position and pointing axis (x, y, z, axis)"
 #: What a solver can be asked to meet: the ``mode`` of every result. The closed forms solve the first four;
 #: numerical IK solves the spatial ones (its ``mode="pose"``, ``"position"``, ``"position+axis"``).
 MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE, SPATIAL_POINTING)
+#: How an answer was found (:attr:`IKResult.method`): every branch in closed form, or a numerical search.
+METHODS = ("closed_form", "numerical")
 
 
 def read_only(array, shape_tail: tuple[int, ...] = ()) -> np.ndarray:
@@ -95,6 +100,74 @@ def tolerances(tol, *, error: type[Exception] = IKOptionError, what: str = "tol"
             raise error(f"{what} must be {least} or (position m, rotation rad), got {tol!r:.60}")
         raise error(f"{what} = {tol!r:.60} must be {least}")
     return float(values[0]), float(values[-1])
+
+
+#: How an IK answer can fail (:attr:`IKFailure.kind`): the target lies beyond what the chain can reach (or a
+#: component it cannot meet: ``unmet``); every solution found breaks a joint limit; every solution found is in
+#: collision; the best configuration found misses the target by more than ``tol`` (numerical IK that did not
+#: converge, or closed-form rows that failed the forward-kinematics check); the target is reached only at a
+#: singular configuration the solver does not list.
+FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "tolerance", "singular")
+#: The kinds a result's own fields show (:func:`failure_of`); the others only the solver knows and records.
+DERIVED_KINDS = ("unreachable", "tolerance")
+
+
+@dataclass(frozen=True)
+class IKFailure:
+    """Why an IK answer has no solution, as data: what failed, the joints or link pairs concerned, the numbers.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`FAILURE_KINDS`.
+    message : str
+        The same in one sentence with its numbers (what :attr:`IKResult.reason` prints).
+    joints : tuple of str
+        The joints concerned (``joint_limits``: those outside their limits), else ``()``.
+    pairs : tuple of (str, str)
+        ``collision``: the link pairs in contact (the deepest of the first solution first), else ``()``.
+    values : tuple of (str, float)
+        Named numbers, metres and radians: ``("outside_by", 0.3)``, ``("position", 1e-3)`` (a best residual),
+        ``("distance", -0.01)`` (a pair's signed distance), the ``unmet`` components.
+
+    Examples
+    --------
+    >>> from manipkit.closed_form.planar import ik_2r
+    >>> failure = ik_2r(3.0, 0.0, 1.0, 1.0).failure
+    >>> failure.kind, dict(failure.values)["outside_by"]
+    ('unreachable', 1.0)
+    """
+
+    kind: str
+    message: str
+    joints: tuple[str, ...] = ()
+    pairs: tuple[tuple[str, str], ...] = ()
+    values: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self):
+        if self.kind not in FAILURE_KINDS:
+            raise ValueError(f"IKFailure.kind must be one of {', '.join(FAILURE_KINDS)}, got {self.kind!r}")
+
+
+def failure_of(result: IKResult) -> IKFailure | None:
+    """The failure a result's own fields show (None with a solution): ``unmet`` or ``outside_by`` -> unreachable;
+    a closest configuration or rows rejected by the FK check -> tolerance; else unreachable (no branch exists).
+
+    Solvers that know more (collisions, joint limits) give :class:`IKFailure` themselves.
+    """
+    if result.solutions.shape[0]:
+        return None
+    values = tuple((name, float(size)) for name, size in result.unmet)
+    if result.outside_by > 0.0:
+        values += (("outside_by", float(result.outside_by)),)
+    if result.unmet or result.outside_by > 0.0:
+        return IKFailure("unreachable", result.note, values=values)
+    if result.closest_residuals is not None:
+        position, rotation = (float(v) for v in result.closest_residuals)
+        return IKFailure("tolerance", result.note, values=(("position", position), ("rotation", rotation)))
+    if result.rejected:
+        return IKFailure("tolerance", result.note, values=(("rejected", float(result.rejected)),))
+    return IKFailure("unreachable", result.note)
 
 
 @dataclass(frozen=True, eq=False, repr=False, init=False)
@@ -167,7 +240,7 @@ class IKResult:
         (see :meth:`members`).
     within_limits : ndarray of bool, shape (k,), or None
         Per row: inside the joint limits (the closed forms of
-        :mod:`manipkit.closed_form.chain_ik` keep out-of-limit branches and
+        :mod:`manipkit.ik.chain_ik` keep out-of-limit branches and
         mark them here); None when the solver does not say.
     refined : ndarray, shape (k,), or None
         Per row: how far (largest joint change, rad or m) Newton steps on
@@ -176,20 +249,26 @@ class IKResult:
         the solver does not refine.
     collides : tuple of bool
         When collisions were asked for (``ik(..., collision_free=...)``,
-        :func:`manipkit.kinematics.collisions.mark_collisions`): per row, whether
+        :func:`manipkit.ik.collision_marks.mark_collisions`): per row, whether
         the configuration is in collision; ``()`` when they were not.
     clearance : ndarray, shape (k,), or None
         With ``collides``: per row, the distance (m) of the closest checked
         pair (negative: penetration depth; inf when no pair is checked).
 
-    Properties: ``q`` (the first solution, or ``closest``), ``q_residuals``,
-    ``success``, ``reason`` (``""`` on success, else ``note``), ``residuals``,
-    ``infinite``, ``singular``.
+    method : str
+        ``"closed_form"`` (every branch from the geometry or a textbook
+        solver) or ``"numerical"`` (a search from starts): :data:`METHODS`.
+    arm_family : str
+        With a closed form from the chain's geometry: the family of the arm
+        (``"three parallel, two intersecting"``, ``"spherical wrist"``, the
+        SRS class), else ``""``.
+    failure : IKFailure or None
+        None with a solution; else why there is none, as data (kind, joints
+        or pairs concerned, numbers), from which :attr:`reason` is worded.
 
-    ``IKSolutions`` (numerical, ``all=True``) and ``ClosedFormSolutions`` (the
-    closed forms) were separate types in 0.1; they remain names of this
-    class for one release, so imports and ``isinstance`` checks keep working
-    (a result is no longer a sequence of single answers: use ``solutions``).
+    Properties: ``q`` (the first solution, or None: the same for every
+    method), ``q_residuals``, ``success``, ``reason`` (``""`` on success,
+    else ``failure.message``), ``residuals``, ``infinite``, ``singular``.
 
     Examples
     --------
@@ -226,11 +305,15 @@ class IKResult:
     refined: np.ndarray | None = None
     collides: tuple[bool, ...] = ()
     clearance: np.ndarray | None = None
+    method: str = "closed_form"
+    arm_family: str = ""
+    failure: IKFailure | None = None
 
     def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
                  joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
                  side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None,
-                 within_limits=None, refined=None, collides=(), clearance=None):
+                 within_limits=None, refined=None, collides=(), clearance=None, method="closed_form", arm_family="",
+                 failure=None):
         # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
         # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
         fields = dict(locals())
@@ -241,7 +324,7 @@ class IKResult:
     @classmethod
     def of_checked_rows(cls, solutions: np.ndarray, labels: tuple[str, ...], note: str, residual_position: np.ndarray,
                         residual_rotation: np.ndarray, within_limits: np.ndarray, refined: np.ndarray, *, mode: str,
-                        solver: str, joint_names: tuple[str, ...]) -> IKResult:
+                        solver: str, joint_names: tuple[str, ...], arm_family: str = "") -> IKResult:
         """The result of ``count = len(labels)`` checked rows, from arrays that are read-only already: the same
         result as the constructor's (tested equal), without its copies (a compiled solver's single call).
 
@@ -263,7 +346,9 @@ class IKResult:
         # the other fields keep their defaults: a dataclass holds each field's default as a class attribute
         self.__dict__.update(solutions=solutions, labels=labels, count=k, note=note, residual_position=residual_position,
                              residual_rotation=residual_rotation, mode=mode, solver=solver, joint_names=joint_names,
-                             within_limits=within_limits, refined=refined)
+                             within_limits=within_limits, refined=refined, arm_family=arm_family)
+        if not k:
+            self.__dict__["failure"] = failure_of(self)
         return self
 
     def with_rows(self, solutions: np.ndarray, joint_names: tuple[str, ...], free_joints: tuple[int, ...]) -> IKResult:
@@ -290,6 +375,31 @@ class IKResult:
                               free_joints=tuple(free_joints))
         return other
 
+    def take(self, rows) -> IKResult:
+        """This answer with only ``rows`` (indices or a boolean mask) of its solutions, every per-row field
+        (labels, residuals, within_limits, refined, collides, clearance) following them; ``count`` becomes the
+        number kept (a family keeps ``inf`` while a row is left).
+
+        Examples
+        --------
+        >>> from manipkit.closed_form.planar import ik_2r
+        >>> both = ik_2r(0.0, 1.5, 1.0, 1.0)
+        >>> up = both.take([1])
+        >>> up.labels, up.count, bool((up.q == both.solutions[1]).all())
+        (('elbow-up',), 1, True)
+        """
+        index = np.arange(len(self.solutions))[np.asarray(rows) if np.size(rows) else np.zeros(0, dtype=np.intp)]
+        per_row = dict(
+            solutions=self.solutions[index], labels=tuple(self.labels[i] for i in index),
+            residual_position=self.residual_position[index], residual_rotation=self.residual_rotation[index],
+            within_limits=None if self.within_limits is None else self.within_limits[index],
+            refined=None if self.refined is None else self.refined[index],
+            collides=tuple(self.collides[i] for i in index) if self.collides else (),
+            clearance=None if self.clearance is None else self.clearance[index],
+        )
+        count = self.count if math.isinf(self.count) and len(index) else len(index)
+        return replace(self, count=count, **per_row)
+
     def __post_init__(self):
         for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
                      "clearance"):
@@ -302,6 +412,14 @@ class IKResult:
             object.__setattr__(self, "within_limits", within)
         if self.solutions.ndim != 2:
             raise ValueError(f"IKResult.solutions must have shape (k, n), got {self.solutions.shape}")
+        if self.method not in METHODS:
+            raise ValueError(f"IKResult.method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        if self.solutions.shape[0]:
+            object.__setattr__(self, "failure", None)
+        elif self.failure is None or self.failure.kind in DERIVED_KINDS:  # what the fields show, kept in step with them
+            object.__setattr__(self, "failure", failure_of(self))
+        elif self.failure.message != self.note:
+            object.__setattr__(self, "failure", replace(self.failure, message=self.note))
 
     # ------------------------------------------------------------------
 
@@ -312,18 +430,19 @@ class IKResult:
 
     @property
     def reason(self) -> str:
-        """Why there is no solution (``note``), or ``""`` on success; never None."""
-        return "" if self.solutions.shape[0] else self.note
+        """Why there is no solution (``failure.message``), or ``""`` on success; never None."""
+        return "" if self.failure is None else self.failure.message
 
     @property
     def q(self) -> np.ndarray | None:
-        """The first solution (``solutions[0]``); with none, ``closest`` (numerical IK) or None (a closed form)."""
-        return self.solutions[0] if self.solutions.shape[0] else self.closest
+        """The first solution (``solutions[0]``), or None when there is none, whatever the method (a failed
+        numerical search keeps the configuration it found closest in :attr:`closest`)."""
+        return self.solutions[0] if self.solutions.shape[0] else None
 
     @property
     def q_residuals(self) -> np.ndarray | None:
         """(2,): position (m) and rotation (rad) residual of :attr:`q` (None when ``q`` is None)."""
-        return self.residuals[0] if self.solutions.shape[0] else self.closest_residuals
+        return self.residuals[0] if self.solutions.shape[0] else None
 
     @property
     def residuals(self) -> np.ndarray:
@@ -363,9 +482,11 @@ class IKResult:
 
     def __repr__(self) -> str:
         parts = [f"solver={self.solver!r}", f"mode={self.mode!r}", f"count={self.count}", f"success={self.success}"]
-        q, residuals = self.q, self.q_residuals
+        parts.insert(0, f"method={self.method!r}")
+        q, residuals, name = (self.q, self.q_residuals, "q") if self.success else (self.closest, self.closest_residuals,
+                                                                                    "closest")
         if q is not None:
-            parts.append("q=[" + ", ".join(short_text(float(v)) for v in q) + "]")
+            parts.append(f"{name}=[" + ", ".join(short_text(float(v)) for v in q) + "]")
         if residuals is not None:
             parts.append(f"residual=({short_text(float(residuals[0]), 3)} m, {short_text(float(residuals[1]), 3)} rad)")
         if self.attempts:
@@ -449,20 +570,26 @@ class IKBatch:
     iterations, attempts : ndarray of int, shape (...), or None
         ``ik_many``: Levenberg-Marquardt iterations and starts per target;
         None for a closed form.
-
-    ``PlanarIKBatch`` (the planar batches' type in 0.1) remains a name of
-    this class for one release, and ``counts`` of ``count`` (with a
-    DeprecationWarning).
+    method : str
+        ``"closed_form"`` or ``"numerical"``, as in :class:`IKResult`.
+    failure_kinds : ndarray of str, shape (...)
+        Per target, ``""`` where it succeeded, else the kind of failure
+        (:data:`FAILURE_KINDS`); :meth:`failure` and :meth:`reason` give one
+        target's record and sentence.
     """
 
     __slots__ = ("solutions", "labels", "count", "mode", "solver", "joint_names", "q", "outside_by", "iterations",
-                 "attempts", "_given", "_measure", "_limit", "_measured")
+                 "attempts", "method", "_given", "_measure", "_limit", "_measured", "_kinds")
 
     def __init__(self, solutions, count, *, labels: tuple[str, ...], mode: str, solver: str = "",
                  joint_names: tuple[str, ...] = (), q=None, success=None, residual_position=None,
                  residual_rotation=None, q_residuals=None, measure: Callable | None = None, limit=(0.0, 0.0),
-                 outside_by=None, iterations=None, attempts=None):
+                 outside_by=None, iterations=None, attempts=None, method: str = "closed_form", failure_kinds=None):
+        if method not in METHODS:
+            raise ValueError(f"IKBatch.method must be one of {', '.join(METHODS)}, got {method!r}")
         set_ = object.__setattr__
+        set_(self, "method", method)
+        set_(self, "_kinds", None if failure_kinds is None else _frozen(np.asarray(failure_kinds, dtype=str)))
         solutions = _frozen(solutions)
         set_(self, "solutions", solutions)
         set_(self, "labels", tuple(labels))
@@ -538,10 +665,48 @@ class IKBatch:
         return self._fields()[3]
 
     @property
-    def counts(self) -> np.ndarray:
-        """The old name of ``count`` (until the next release)."""
-        warnings.warn("IKBatch.counts is now count; counts goes in the next release", DeprecationWarning, stacklevel=2)
-        return self.count
+    def failure_kinds(self) -> np.ndarray:
+        """(...) str: ``""`` where a target succeeded, else its failure kind (:data:`FAILURE_KINDS`).
+
+        Given by the solver where it knows (numerical IK: beyond the reach bound or not converged); else from the
+        slots: a target with no branch at all is ``unreachable`` (or ``outside_by`` > 0), one whose branches all
+        failed the forward-kinematics check is ``tolerance``.
+        """
+        success = self.success
+        if self._kinds is not None:
+            return _frozen(np.where(success, "", self._kinds))
+        some_slot = np.isfinite(self.solutions).all(axis=-1).any(axis=-1)
+        outside = np.zeros(success.shape, dtype=bool) if self.outside_by is None else self.outside_by > 0.0
+        kinds = np.where(success, "", np.where(outside | ~some_slot, "unreachable", "tolerance"))
+        return _frozen(kinds.astype(str))
+
+    def failure(self, index) -> IKFailure | None:
+        """Target ``index``'s failure record (None where it succeeded), with its numbers (m, rad)."""
+        kind = str(self.failure_kinds[index])
+        if not kind:
+            return None
+        values = []
+        if self.outside_by is not None and float(self.outside_by[index]) > 0.0:
+            values.append(("outside_by", float(self.outside_by[index])))
+        position, rotation = (float(v) for v in self.q_residuals[index])
+        if math.isfinite(position):
+            values += [("position", position), ("rotation", rotation)]
+        if kind == "unreachable":
+            message = "no branch reaches the target" + (f": outside by {short_text(values[0][1], 4)} m"
+                                                        if values and values[0][0] == "outside_by" else "")
+            if self.method == "numerical":
+                message = "target out of reach of the chain"
+        elif math.isfinite(position):
+            message = (f"best residual {short_text(position, 3)} m, {short_text(rotation, 3)} rad, above the "
+                       f"tolerance {short_text(self._limit[0], 3)} m, {short_text(self._limit[1], 3)} rad")
+        else:
+            message = "no slot reaches the target within the tolerance"
+        return IKFailure(kind, message, values=tuple(values))
+
+    def reason(self, index) -> str:
+        """Why target ``index`` has no solution, in one sentence with its numbers; ``""`` where it succeeded."""
+        failure = self.failure(index)
+        return "" if failure is None else failure.message
 
 
 def _frozen(array) -> np.ndarray:

@@ -57,7 +57,6 @@ from manipkit.kinematics.collision_geometry import (  # the geometry's names sta
 from manipkit.text import printable, short_text
 
 if TYPE_CHECKING:
-    from manipkit.ik.result import IKResult
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
@@ -74,7 +73,6 @@ __all__ = [
     "collision_free",
     "collision_geometry",
     "collisions",
-    "mark_collisions",
     "read_srdf",
     "srdf_check",
     "thread_count",
@@ -579,40 +577,6 @@ def collisions(robot: Robot, q=None, *, srdf=None, floor: float | None = None, w
     False
     """
     return _checker(robot, srdf, floor, world, geometry).report(q)
-
-
-def mark_collisions(result: IKResult, checker: CollisionChecker, *, drop: bool = False) -> IKResult:
-    """An IK result with ``collides`` and ``clearance`` per solution; ``drop=True`` keeps the collision-free ones only.
-
-    ``result.solutions`` are whole-robot joint vectors (:func:`manipkit.kinematics.ik.ik`,
-    :func:`manipkit.closed_form.robots.analytic_ik`). With ``drop`` and every
-    solution in collision, there is none left: ``reason`` names the deepest
-    pair of the first, and ``closest`` is that configuration.
-    """
-    from dataclasses import replace
-
-    reports = [checker.report(q) for q in result.solutions]
-    collides = tuple(r.in_collision for r in reports)
-    clearance = np.array([np.inf if r.min_distance is None else r.min_distance.distance for r in reports])
-    if not drop or not any(collides):
-        return replace(result, collides=collides, clearance=clearance)
-    keep = np.array([not c for c in collides], dtype=bool)
-    rows = result.solutions[keep]
-    labels = tuple(label for label, k in zip(result.labels, keep) if k)
-    count = result.count if np.isinf(result.count) and keep.any() else int(keep.sum())
-    common = dict(solutions=rows, labels=labels, count=count, residual_position=result.residual_position[keep],
-                  residual_rotation=result.residual_rotation[keep], collides=(False,) * len(rows),
-                  clearance=clearance[keep],
-                  within_limits=None if result.within_limits is None else result.within_limits[keep],
-                  refined=None if result.refined is None else result.refined[keep])  # per-row fields follow the rows
-    if keep.any():
-        note = f"{result.note}; {int((~keep).sum())} in collision dropped" if result.note else ""
-        return replace(result, note=note, **common)
-    first = reports[0].pairs[0]
-    depth = f"penetration {short_text(-first.distance, 3)} m" if first.distance < 0 else "touching"
-    reason = (f"every solution is in collision ({len(reports)}); the first: {first.link1} - {first.link2} ({depth})")
-    return replace(result, note=reason, closest=result.solutions[0],
-                   closest_residuals=np.array([result.residual_position[0], result.residual_rotation[0]]), **common)
 
 
 def srdf_check(robot: Robot, srdf, *, geometry: str = "hulls") -> tuple[LinkPair, ...]:

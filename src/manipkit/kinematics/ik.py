@@ -66,7 +66,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
-from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKResult, tolerances
+from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKFailure, IKResult, tolerances
 from manipkit.kinematics.chain import frame_arguments, robot_and_frames, sampling_bounds
 from manipkit.kinematics.ik_kernel import (
     MODE_CODES,
@@ -475,8 +475,10 @@ class IKSolver:
         depth = f"penetration {short_text(-pair.distance, 3)} m" if pair.distance < 0 else "touching"
         reason = (f"every answer found is in collision ({len(colliding)} distinct); the first: {pair.link1} - "
                   f"{pair.link2} ({depth})")
+        failure = IKFailure("collision", reason, pairs=tuple((p.link1, p.link2) for p in report.pairs),
+                            values=(("distance", float(pair.distance)),))
         return replace(result, note=reason, unmet=(), outside_by=0.0, side="", closest=self._full_q(goal.q_full, x),
-                       closest_residuals=np.array([pos, rot]), collides=(), clearance=None)
+                       closest_residuals=np.array([pos, rot]), collides=(), clearance=None, failure=failure)
 
     def goal(self, target, q0=None) -> _Goal:
         """The per-call state of a solve for ``target`` from ``q0`` (checked as :func:`ik` checks them)."""
@@ -497,7 +499,7 @@ class IKSolver:
         """The :class:`IKResult` of a solve: the distinct answers found, else the closest attempt and why it fails."""
         robot = self.robot
         common = dict(mode=RESULT_MODES[self.mode], solver=SOLVER_NAME, joint_names=robot.joint_names,
-                      iterations=iterations, attempts=attempts)
+                      iterations=iterations, attempts=attempts, method="numerical")
         if found:
             Q = np.array([self._full_q(goal.q_full, x) for x, _, _ in found])
             position, rotation = np.array([pos for _, pos, _ in found]), np.array([rot for _, _, rot in found])

@@ -291,6 +291,7 @@ def ik_many(
         joint_names=robot.joint_names, q=Q_full, success=success,
         residual_position=np.where(success, pos, np.nan)[:, None], residual_rotation=np.where(success, rot, np.nan)[:, None],
         q_residuals=np.column_stack([pos, rot]), iterations=iterations, attempts=attempts,
+        limit=(tol_position, tol_rotation), method="numerical", failure_kinds=np.full(success.shape, "tolerance"),
     )
 
 

@@ -1,7 +1,7 @@
 """``manipkit family``: which closed form a chain has, found from its joint axes, with the evidence.
 
 The family and its evidence come from
-:func:`manipkit.closed_form.families.chain_family` (docs/architecture.md,
+:func:`manipkit.ik.families.chain_family` (docs/architecture.md,
 "closed_form"): which axes meet or are parallel, the measured miss distance
 and angle, the tolerance used. ``manipkit ik --analytic`` (or ``--all``)
 solves the chains whose family has a closed form.
@@ -42,8 +42,8 @@ def register(commands) -> None:
 
 def run_family(args) -> int:
     """Print the family, its evidence and whether ``ik --analytic`` solves it."""
-    from manipkit.closed_form.families import FAMILY_TOL, chain_family
     from manipkit.errors import ManipkitError
+    from manipkit.ik.families import FAMILY_TOL, chain_family
     from manipkit.ik.result import tolerances
 
     try:
@@ -57,7 +57,7 @@ def run_family(args) -> int:
     family = chain_family(chain, tol=tol, lock=lock)
     opw, opw_note = None, ""
     if family.kind == "spherical wrist, two parallel":
-        from manipkit.closed_form.opw import opw_parameters
+        from manipkit.ik.opw import opw_parameters
 
         try:
             opw = opw_parameters(chain, family=family)
@@ -82,7 +82,7 @@ def run_family(args) -> int:
         print(f"  {opw if opw is not None else opw_note}")
     if family.solved:
         command = command_line("manipkit", "ik", "--analytic", *robot_words(args, robot), "--base", chain.base,
-                               "--frame", chain.tip, *(["--lock", *(f"{name}={value!r}" for name, value in lock.items())] if lock else []))
+                               "--tip", chain.tip, *(["--lock", *(f"{name}={value!r}" for name, value in lock.items())] if lock else []))
         print(f"closed form: {command} --xyz X Y Z --rpy R P Y gives every branch"
               + ("" if family.ideal else f" (solved on the ideal arm {short_text(family.deviation, 3)} away, "
                                           "then refined on this chain)"))

@@ -3,7 +3,7 @@
 The target T_base_frame is built from ``--xyz`` (m) and ``--rpy`` (URDF
 convention, R = Rz(yaw) Ry(pitch) Rx(roll)) or ``--quat`` (x, y, z, w) by
 :mod:`manipkit.spatial.transforms`; the solvers are
-:func:`manipkit.kinematics.ik.ik` and :func:`manipkit.closed_form.robots.analytic_ik`
+:func:`manipkit.kinematics.ik.ik` and :func:`manipkit.ik.textbook.analytic_ik`
 (docs/architecture.md). Exit status 1 when no solution reaches the target.
 
 ``--tol`` sets the residual tolerance (one number for m and rad, or two:
@@ -52,7 +52,7 @@ def register(commands) -> None:
     """Add ``manipkit ik`` to the subparsers ``commands``."""
     ik = commands.add_parser("ik", help="joint values that put a frame at a target pose (numerical or closed form)")
     add_robot_options(ik)
-    ik.add_argument("--frame", default="ee_link", help="frame to place (default ee_link)")
+    ik.add_argument("--tip", "--frame", dest="tip", default="ee_link", help="frame to place, the chain's tip (default ee_link)")
     ik.add_argument("--base", default="base_link", help="frame the target is given in (default base_link)")
     ik.add_argument("--xyz", type=_number, nargs=3, required=True, metavar=("X", "Y", "Z"), help="target position (m)")
     orientation = ik.add_mutually_exclusive_group()
@@ -60,9 +60,11 @@ def register(commands) -> None:
     orientation.add_argument("--quat", type=_number, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
     ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
     ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
-    ik.add_argument("--analytic", action="store_true", help="closed form: the bundled textbook arms' named solvers, or any 6R chain with a spherical wrist or "
-                         "three parallel axes (found from its geometry: every branch, labelled)")
-    ik.add_argument("--all", action="store_true", help="every solution: the closed form when the chain has one (a pose), else every distinct solution "
+    ik.add_argument("--method", choices=("auto", "closed_form", "numerical"), default="auto",
+                    help="auto (default): the closed form wherever the chain has one, else numerical IK")
+    ik.add_argument("--analytic", action="store_true", help="the same as --method closed_form: the bundled textbook arms' named "
+                         "solvers, or any 6R chain with a spherical wrist or three parallel axes (found from its geometry)")
+    ik.add_argument("--all", action="store_true", help="every solution: every closed-form branch, or every distinct solution "
                          "numerical IK finds within the restart budget")
     ik.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
                     help="closed form: hold these joints at a value (rad, or deg with --deg) and solve the others "
@@ -73,8 +75,7 @@ def register(commands) -> None:
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
     ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
     ik.add_argument("--tol", type=float, nargs="+", default=None, metavar="TOL",
-                    help="residual tolerance: one number (m and rad) or two (position m, rotation rad); "
-                         "default 1e-10 numerical, 1e-9 closed form")
+                    help="residual tolerance: one number (m and rad) or two (position m, rotation rad); default 1e-9")
     ik.add_argument("--free", action="extend", nargs="+", default=[], metavar="JOINT",
                     help="floating or planar joints to solve for too (by default they stay at --seed-q or the identity)")
     ik.add_argument("--restarts", type=int, default=50, metavar="N", help="random restarts (default 50)")
@@ -188,73 +189,52 @@ def _ik_target(args) -> np.ndarray:
     return transform_from_xyz_quaternion(args.xyz, quaternion)  # InvalidRotationError for a zero quaternion
 
 
-def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> tuple[IKResult, str]:
-    """(result, header): the closed form or numerical IK, as manipkit's one IK result type (solutions marked in
-    collision or not when asked)."""
+def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> IKResult:
+    """The one IK dispatcher (:func:`manipkit.ik.dispatch.ik`) on the command's options: the same answer as
+    ``manipkit.ik(robot, T, ...)`` with the same arguments."""
+    from manipkit.ik.dispatch import ik
+
     checker = None
     if args.collision_free or args.collisions:
         from manipkit.app.cli.collisions import collision_checker
 
         checker = collision_checker(robot, args)
-    result, header = _solve_with(args, robot, target, mode, checker if args.collision_free else None)
-    if checker is not None and not (args.collision_free and result.attempts):  # numerical IK avoided them itself
-        from manipkit.kinematics.collisions import mark_collisions
-
-        marked = mark_collisions(result, checker, drop=args.collision_free)
-        if len(marked.solutions) < len(result.solutions):
-            header += f"\n{len(result.solutions) - len(marked.solutions)} of them in collision, dropped (--collision-free)"
-        result = marked
-    return result, header
-
-
-def _solve_with(args, robot: Robot, target: np.ndarray, mode: str, checker) -> tuple[IKResult, str]:
     tol = _tolerance(args)
-    options = {} if tol is None else {"tol": tol}
-    lock = lock_values(args.lock, robot, degrees=args.deg)
-    if lock and not (args.analytic or args.all):
-        raise UsageError("--lock holds joints for the closed form; add --analytic or --all")
     arm_angle = args.arm_angle
     if arm_angle is not None:
         if not math.isfinite(arm_angle):
             raise UsageError(f"--arm-angle {arm_angle}: give a finite angle")
-        if not (args.analytic or args.all):
-            raise UsageError("--arm-angle is the closed form's (7R SRS arms); add --analytic or --all")
         arm_angle = math.radians(arm_angle) if args.deg else arm_angle
-    closed = args.analytic
-    if args.all and not args.analytic and not args.free and not args.seed_q and mode == "pose":
-        from manipkit.closed_form.robots import closed_form_solves
-
-        closed = bool(closed_form_solves(robot, args.base, args.frame, mode=mode, lock=lock, arm_angle=arm_angle))  # --all: every solution, exactly
-    if closed:
-        from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
-
-        if mode == "position+axis":
-            raise UsageError("--analytic solves a pose or a position; leave out --axis (numerical IK takes it)")
-        if lock:
-            options["lock"] = lock
-        if arm_angle is not None:
-            options["arm_angle"] = arm_angle
-        result = analytic_ik(robot, target, args.base, args.frame, mode=mode, **options)
-        found = len(result.solutions)
-        if result.infinite:
-            count = f"infinitely many solutions (free: {result.free_parameter}), {found} listed"
-        else:
-            count = f"{found} solution(s)"
-        named = ANALYTIC_SOLVERS.get(robot.source.name) if result.solver.split(" ")[0] != "closed_form.chain_ik" else None
-        solves = " and ".join(named.solves) if named else "spatial pose (x, y, z, R), every branch"
-        if not args.analytic:
-            count += " (--all: the closed form answers this chain)"
-        frames = "" if named else f", frame {args.frame} in {args.base}"
-        return result, (f"closed form ({result.solver}{frames}): {count}\n"
-                        f"mode: {result.mode}; this arm's closed form solves {solves}")
-    from manipkit.kinematics.ik import ik
-
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
-    result = ik(robot, target, args.base, args.frame, mode=mode, axis=args.axis or "z", q0=q0, all=args.all,
-                restarts=args.restarts, seed=args.seed, free=tuple(args.free), collision_free=checker or False,
-                **options)
+    return ik(robot, target, base=args.base, tip=args.tip, method="closed_form" if args.analytic else args.method,
+              all=args.all, mode=mode, axis=args.axis or "z", q0=q0, lock=lock_values(args.lock, robot, degrees=args.deg) or None,
+              arm_angle=arm_angle, restarts=args.restarts, seed=args.seed, free=tuple(args.free),
+              collisions=checker if args.collisions and not args.collision_free else None,
+              collision_free=checker if args.collision_free else False, **({} if tol is None else {"tol": tol}))
+
+
+def _header(args, result: IKResult) -> str:
+    """The first line: which solver answered (the result's ``method`` and ``arm_family``), how many solutions."""
+    frames = f"frame {args.tip} in {args.base}"
+    if result.method == "closed_form":
+        found = len(result.solutions)
+        count = (f"infinitely many solutions (free: {result.free_parameter}), {found} listed" if result.infinite
+                 else f"{found} solution(s)")
+        if not args.all and found == 1:
+            chosen = "the branch nearest --seed-q" if args.seed_q else "the first branch"
+            count += f" ({chosen} inside the joint limits; --all lists every branch)"
+        return f"closed form ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
     outcome = "success" if result.success else "FAILED"
-    return result, f"numerical IK ({mode}, frame {args.frame} in {args.base}): {outcome}; {result.iterations} iterations"
+    return (f"numerical IK ({result.mode}, {frames}): {outcome}; {len(result.solutions)} solution(s), "
+            f"{result.iterations} iterations from {result.attempts} start(s)")
+
+
+def _failure_json(result: IKResult) -> dict | None:
+    failure = result.failure
+    if failure is None:
+        return None
+    return {"kind": failure.kind, "message": failure.message, "joints": list(failure.joints),
+            "pairs": [list(pair) for pair in failure.pairs], "values": dict(failure.values)}
 
 
 def _collision_text(result: IKResult, row: int) -> str:
@@ -285,63 +265,72 @@ def run_ik(args) -> int:
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
     mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
-    result, header = _solve(args, robot, target, mode)
-    closed = not result.attempts  # a closed form answered (numerical IK counts its starts)
-    answers = list(zip(result.labels, result.solutions))
-    residuals = result.residuals.max(axis=0) if result.success else result.q_residuals  # None: nothing to measure
+    result = _solve(args, robot, target, mode)
+    residuals = result.residuals.max(axis=0) if result.success else result.closest_residuals  # None: nothing to measure
     notes = [result.note] if result.note else []
     if result.closest is not None:
         note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
-        joints = robot.chain(args.base, args.frame).n
+        joints = robot.chain(args.base, args.tip).n
         if mode == "pose" and joints < 6:
-            notes.append(f"the chain {args.base} -> {args.frame} has {joints} joint{'s' * (joints != 1)}, fewer than "
+            notes.append(f"the chain {args.base} -> {args.tip} has {joints} joint{'s' * (joints != 1)}, fewer than "
                          "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
                          "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
-        print_json({
-            "robot": robot.name,
-            "mode": "analytic" if closed else mode,
-            "target": target.tolist(),
-            "solutions": [robot.as_dict(q) for _, q in answers],
-            "labels": [label for label, _ in answers],
-            "closed_form_mode": result.mode if closed else None,
-            "within_limits": None if result.within_limits is None else result.within_limits.tolist(),
-            "refined": None if result.refined is None else result.refined.tolist(),
-            "count": "inf" if result.infinite else result.count,
-            "free_parameter": result.free_parameter or None,
-            "unmet": dict(result.unmet),
-            "success": result.success,
-            "residual_position": None if residuals is None else float(residuals[0]),
-            "residual_rotation": None if residuals is None else float(residuals[1]),
-            "notes": notes,
-            **({"collides": list(result.collides), "clearance": [float(c) for c in result.clearance]}
-               if result.clearance is not None else {}),
-        })
+        print_json(_json_answer(robot, target, mode, result, residuals, notes))
     else:
-        print(header)
-        for line in alias_lines(robot, args.base, args.frame):
-            print(line)
-        within = [True] * len(answers) if result.within_limits is None else result.within_limits.tolist()
-        for index, ((label, q), inside) in enumerate(zip(answers, within), start=1):
-            print(f"{index}. {('[' + label + '] ') if label else ''}{'' if inside else '(outside the joint limits) '}"
-                  f"{q_text(robot.as_dict(q), args.precision)}" + _collision_text(result, index - 1))
-        if result.closest is not None:
-            what = "in collision" if args.collision_free and "in collision" in result.note else "does not reach the target"
-            print(f"best found ({what}): {q_text(robot.as_dict(result.closest), args.precision)}")
-        if residuals is not None:
-            print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
-        for note in notes:
-            print(f"note: {note}")
-        if result.success:
-            inside = [q for (_, q), ok in zip(answers, result.within_limits if result.within_limits is not None
-                                                    else [True] * len(answers)) if ok]
-            if inside:  # tf-between refuses values outside the limits: the check uses one inside them
-                check = command_line("tf-between", args.base, args.frame, *robot_words(args, robot),
-                                     *exact_q_words(robot.as_dict(inside[0])))
-                print(f"check one with: {check}")
-            else:
-                print("no solution inside the joint limits, so none to check with tf-between (it refuses values "
-                      "outside them)")
+        _print_answer(args, robot, result, residuals, notes)
     return EXIT_OK if result.success else EXIT_MISMATCH
+
+
+def _json_answer(robot: Robot, target, mode: str, result: IKResult, residuals, notes: list[str]) -> dict:
+    return {
+        "robot": robot.name,
+        "method": result.method,
+        "arm_family": result.arm_family or None,
+        "mode": mode,
+        "target": target.tolist(),
+        "solutions": [robot.as_dict(q) for q in result.solutions],
+        "labels": list(result.labels),
+        "closed_form_mode": result.mode if result.method == "closed_form" else None,
+        "within_limits": None if result.within_limits is None else result.within_limits.tolist(),
+        "refined": None if result.refined is None else result.refined.tolist(),
+        "count": "inf" if result.infinite else result.count,
+        "free_parameter": result.free_parameter or None,
+        "unmet": dict(result.unmet),
+        "success": result.success,
+        "failure": _failure_json(result),
+        "residual_position": None if residuals is None else float(residuals[0]),
+        "residual_rotation": None if residuals is None else float(residuals[1]),
+        "notes": notes,
+        **({"collides": list(result.collides), "clearance": [float(c) for c in result.clearance]}
+           if result.clearance is not None else {}),
+    }
+
+
+def _print_answer(args, robot: Robot, result: IKResult, residuals, notes: list[str]) -> None:
+    print(_header(args, result))
+    for line in alias_lines(robot, args.base, args.tip):
+        print(line)
+    within = [True] * len(result.solutions) if result.within_limits is None else result.within_limits.tolist()
+    for index, (label, q, inside) in enumerate(zip(result.labels, result.solutions, within), start=1):
+        print(f"{index}. {('[' + label + '] ') if label else ''}{'' if inside else '(outside the joint limits) '}"
+              f"{q_text(robot.as_dict(q), args.precision)}" + _collision_text(result, index - 1))
+    if result.closest is not None:
+        collided = result.failure is not None and result.failure.kind == "collision"
+        what = "in collision" if collided else "does not reach the target"
+        print(f"best found ({what}): {q_text(robot.as_dict(result.closest), args.precision)}")
+    if residuals is not None:
+        print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
+    for note in notes:
+        print(f"note: {note}")
+    if result.success:
+        inside = [q for q, ok in zip(result.solutions, within) if ok]
+        if inside:  # tf-between refuses values outside the limits: the check uses one inside them
+            check = command_line("tf-between", args.base, args.tip, *robot_words(args, robot),
+                                 *exact_q_words(robot.as_dict(inside[0])))
+            print(f"check one with: {check}")
+        else:
+            print("no solution inside the joint limits, so none to check with tf-between (it refuses values "
+                  "outside them)")

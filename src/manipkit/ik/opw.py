@@ -13,7 +13,7 @@ serial manipulators with an ortho-parallel basis and a spherical wrist",
 
 In the OPW zero pose the arm points straight up along the base z axis and
 the tool's z axis is axis 6. The parameters are read from the chain's axes
-at ``q0`` (:mod:`manipkit.closed_form.families`) and then checked: the OPW
+at ``q0`` (:mod:`manipkit.ik.families`) and then checked: the OPW
 forward kinematics (:func:`opw_fk`) must reproduce the chain's compiled FK
 at random configurations; ``fk_error`` is the largest difference found.
 A chain whose base or tip frame is not OPW's (axis 1 off the base z axis,
@@ -31,10 +31,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form.arms import rotation_matrix
-from manipkit.closed_form.chain_ik import ideal_arm
 from manipkit.closed_form.checks import quantity_text
-from manipkit.closed_form.families import OPW, Family, chain_family
 from manipkit.errors import ClosedFormIKError
+from manipkit.ik.chain_ik import ideal_arm
+from manipkit.ik.families import OPW, Family, chain_family
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain

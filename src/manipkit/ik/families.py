@@ -19,7 +19,7 @@ the middle of the limits when zero is outside them), as
 - ``"planar"``: every axis parallel (revolute), ``"scara"``: parallel
   revolute axes and one prismatic joint along them. These are recognised
   (so the bundled textbook arms are found by geometry) but solved by the
-  named solvers of :mod:`manipkit.closed_form.robots`.
+  named solvers of :mod:`manipkit.ik.textbook`.
 
 Two axes *meet* when the distance between their lines is within the
 distance tolerance; they are *parallel* when the angle between them is
@@ -69,7 +69,7 @@ SRS = "spherical shoulder, elbow, spherical wrist"
 PLANAR = "planar"
 SCARA = "scara"
 NONE = "none"
-#: The families :mod:`manipkit.closed_form.chain_ik` solves from the geometry.
+#: The families :mod:`manipkit.ik.chain_ik` solves from the geometry.
 SOLVED = (OPW, UR, SPHERICAL_12, SRS)
 
 

@@ -1,4 +1,4 @@
-"""The compiled batch of :func:`manipkit.closed_form.chain_ik.chain_ik_many` (UR, OPW and SRS families), on threads.
+"""The compiled batch of :func:`manipkit.ik.chain_ik.chain_ik_many` (UR, OPW and SRS families), on threads.
 
 Targets are cut into contiguous blocks; each block is solved and aliased by
 :func:`manipkit.closed_form.arms_kernel.solve_rows_into` (a 7R SRS arm, each

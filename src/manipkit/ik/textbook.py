@@ -22,18 +22,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.closed_form import decoupled, planar, planar_modes
-from manipkit.closed_form.chain_ik import chain_ik_many, single_solver
 from manipkit.closed_form.checks import quantity_text, tolerance_pair
-from manipkit.closed_form.families import FAMILY_TOL, SRS, chain_family
 from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik.chain_ik import chain_ik_many, single_solver
+from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
 from manipkit.ik.result import IKBatch, IKResult, tolerances
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many", "closed_form_solves"]
+__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many", "closed_form_refusal",
+           "closed_form_solves", "named_family"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,11 @@ def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[.
     return solve
 
 
+def named_family(name: str) -> str:
+    """The ``arm_family`` of a bundled textbook arm's closed form: ``"textbook planar_2r"``."""
+    return f"textbook {name}"
+
+
 #: Bundled robot name -> its closed-form solver and what it solves.
 ANALYTIC_SOLVERS: dict[str, AnalyticSolver] = {
     "planar_2r": AnalyticSolver((PLANAR_POSITION,), True, _planar_2r),
@@ -112,7 +118,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     Two paths. The bundled textbook arms (below) between ``base_link`` and
     ``ee_link`` are solved by their named solvers, as before. Any other
     robot or frames are solved from the chain's own geometry
-    (:func:`manipkit.closed_form.chain_ik.chain_ik` on ``robot.chain(base,
+    (:func:`manipkit.ik.chain_ik.chain_ik` on ``robot.chain(base,
     tip)``: spherical-wrist and UR-type 6R arms, every branch labelled,
     limit-aware, FK-checked; a pose only), with ``family_tol`` (m, rad) the
     tolerance within which axes count as meeting or parallel. What this path
@@ -167,13 +173,13 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
         For a family with a free parameter: how many of its values to sample.
     family_tol : float or (float, float), keyword-only
         The geometric path's tolerance (m, rad) for axes that meet or are
-        parallel (:func:`manipkit.closed_form.families.chain_family`).
+        parallel (:func:`manipkit.ik.families.chain_family`).
     lock : dict of str to float, keyword-only
         The geometric path: joints held at a value, so a 7R arm is solved as
         the 6R arm of the others (``{"iiwa_joint_3": 0.4}``); rows keep them.
     arm_angle : float, keyword-only
         The geometric path on a 7R SRS arm (iiwa14): the arm angle (rad) to
-        solve at (:func:`manipkit.closed_form.chain_ik.srs_arm_angle`).
+        solve at (:func:`manipkit.ik.chain_ik.srs_arm_angle`).
 
     Returns
     -------
@@ -220,10 +226,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     asked = ((PLANAR_POSE if mode == "pose" else PLANAR_POSITION) if arm.planar
              else (SPATIAL_POSE if mode == "pose" else SPATIAL_POSITION))
     if mode == "position" and not arm.planar and SPATIAL_POSITION not in arm.solves:
-        raise IKOptionError(
-            f"the closed form of {robot.source.name} solves {' and '.join(arm.solves)} only, not a position alone "
-            "(a position alone leaves the orientation's degrees of freedom free); give an orientation, or use numerical IK for a position"
-        )
+        raise IKOptionError(_position_refusal(robot.source.name, arm))
     tol = tolerances(tol)
     T = check_transform(target, what="IK target")
     result = arm.solve(T, robot.xacro_args, mode, samples, max(tol))
@@ -237,13 +240,14 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
                 "no solution: " + "; ".join(texts) + f"; within the plane: {in_plane}", read_only(()), read_only(()),
                 solver=result.solver, joint_names=robot.joint_names, mode=asked,
                 unmet=tuple((c, size) for c, size, _ in off_plane) + result.unmet,
+                arm_family=named_family(robot.source.name),
             )
     checked = _verified(robot, T, result, mode == "pose", tol)
     family_function = None
     if result.family_function is not None:
         def family_function(values, _solve=result.family_function):
             return replace(_verified(robot, T, _solve(values), mode == "pose", tol), mode=asked)
-    return replace(checked, mode=asked, family_function=family_function)
+    return replace(checked, mode=asked, family_function=family_function, arm_family=named_family(robot.source.name))
 
 
 def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float]) -> list[tuple[str, float, str]]:
@@ -354,7 +358,7 @@ def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family
 
 def _planned(plan: tuple, target, arm_angle) -> IKResult:
     """The answer of a plan ``(robot, chain's SingleSolver, check (m, rad), whole-robot rows or None)`` for ``target``:
-    :func:`manipkit.closed_form.chain_ik.chain_ik` on the chain, rows as whole-robot vectors."""
+    :func:`manipkit.ik.chain_ik.chain_ik` on the chain, rows as whole-robot vectors."""
     _, solver, check, whole = plan
     try:
         result = solver.solve(target, check, arm_angle)
@@ -379,7 +383,7 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
                      family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> IKBatch:
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
 
-    compiled over the targets (:func:`manipkit.closed_form.chain_ik.chain_ik_many`):
+    compiled over the targets (:func:`manipkit.ik.chain_ik.chain_ik_many`):
     an :class:`~manipkit.ik.result.IKBatch` of 8 slots per target, NaN where
     a branch does not exist, joint vectors in ``robot.chain(base,
     tip).joint_names`` order; residuals and ``success`` are measured by the
@@ -406,6 +410,29 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
         return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerance_pair(tol), arm_angle=arm_angle)
     except ClosedFormIKError as exc:  # an arm angle that is not one number or one per target
         raise IKOptionError(str(exc)) from None
+
+
+def _position_refusal(name: str, arm: AnalyticSolver) -> str:
+    return (f"the closed form of {name} solves {' and '.join(arm.solves)} only, not a position alone (a position "
+            "alone leaves the orientation's degrees of freedom free); give an orientation, or use numerical IK for a "
+            "position")
+
+
+def closed_form_refusal(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",
+                        family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> str:
+    """Why :func:`analytic_ik` does not answer these frames in ``mode`` (one line with the geometric evidence), or
+    ``""`` when it does."""
+    if closed_form_solves(robot, base, tip, mode=mode, family_tol=family_tol, lock=lock, arm_angle=arm_angle):
+        return ""
+    arm = ANALYTIC_SOLVERS.get(robot.source.name) if robot.source.origin == "bundled" else None
+    if arm is not None and not lock and mode == "position" and \
+            (robot.frame(base), robot.frame(tip)) == (robot.frame("base_link"), robot.frame("ee_link")):
+        return _position_refusal(robot.source.name, arm)
+    try:
+        _geometric_chain(robot, base, tip, mode, family_tol, named=arm is not None, lock=lock, arm_angle=arm_angle)
+    except IKOptionError as exc:
+        return str(exc)
+    return f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}) in mode {mode}"
 
 
 def closed_form_solves(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, mode: str = "pose",

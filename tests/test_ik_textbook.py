@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.closed_form.result import ClosedFormSolutions
-from manipkit.closed_form.robots import ANALYTIC_SOLVERS, analytic_ik
 from manipkit.errors import IKOptionError, InvalidTransformError, ManipkitError
+from manipkit.ik.result import IKResult
+from manipkit.ik.textbook import ANALYTIC_SOLVERS, analytic_ik, analytic_ik_many
 from manipkit.kinematics.ik import ik
 
 
@@ -37,7 +37,7 @@ def test_every_solution_reaches_the_target_through_the_urdf(arms, name, q, count
     robot = arms[name]
     T = robot.transform("base_link", "ee_link", q)
     result = analytic_ik(robot, T)
-    assert isinstance(result, ClosedFormSolutions) and result.success
+    assert isinstance(result, IKResult) and result.success
     assert result.count == count == len(result.labels) and result.solutions.shape == (count, len(q))
     assert result.joint_names == robot.joint_names and result.solver.split(".")[0] in ("planar", "decoupled")
     for row, position, rotation in zip(result.solutions, result.residual_position, result.residual_rotation):
@@ -146,7 +146,7 @@ def test_analytic_ik_takes_its_frames_base_first_and_refuses_others(arms):
 def test_a_repeated_call_is_answered_for_its_own_arguments():
     """analytic_ik keeps what it found for a robot, frames and options (the chain, its family, the parsed tol): each
     call is answered for its own arguments, the same as the first call with them."""
-    from manipkit.closed_form.chain_ik import chain_ik
+    from manipkit.ik.chain_ik import chain_ik
 
     robot = manipkit.load("ur5")
     q = [0.3, -1.1, 1.2, -0.8, 1.0, 0.4]
@@ -174,7 +174,7 @@ def test_a_chain_below_the_first_joint_answers_in_whole_robot_rows():
     """iiwa14 from iiwa_link_1 to ee_link: six of its seven joints (a spherical wrist and two intersecting axes).
     Rows are whole-robot vectors: joint 1 at its default, the chain's columns from chain_ik; at q6 = 0 (axes 5 and
     7 aligned) the free joint is named by its whole-robot column."""
-    from manipkit.closed_form.chain_ik import chain_ik
+    from manipkit.ik.chain_ik import chain_ik
 
     robot = manipkit.load("iiwa14")
     chain = robot.chain("iiwa_link_1", "ee_link")
@@ -215,7 +215,7 @@ def test_threads_sharing_a_robot_get_the_answers_of_one_thread():
 def test_analytic_ik_many_gives_chain_ik_many_for_the_named_frames_and_the_iiwa14_at_its_arm_angles():
     """analytic_ik_many is chain_ik_many on robot.chain(base, tip): the same arrays for ur5 (base_link -> tool0) and
     for the iiwa14 with one arm angle per pose; every present slot lands by Pinocchio (robot.transform)."""
-    from manipkit.closed_form.chain_ik import chain_ik_many, srs_arm_angle
+    from manipkit.ik.chain_ik import chain_ik_many, srs_arm_angle
 
     for name, tip in (("ur5", "tool0"), ("iiwa14", "ee_link")):
         robot = manipkit.load(name)
@@ -223,7 +223,7 @@ def test_analytic_ik_many_gives_chain_ik_many_for_the_named_frames_and_the_iiwa1
         Q = chain.sample(12, seed=2)
         T = chain.fk(Q)
         psi = np.array([srs_arm_angle(chain, q) for q in Q]) if name == "iiwa14" else None
-        batch = manipkit.analytic_ik_many(robot, T, "base_link", tip, arm_angle=psi)
+        batch = analytic_ik_many(robot, T, "base_link", tip, arm_angle=psi)
         expected = chain_ik_many(chain, T, arm_angle=psi)
         assert np.array_equal(batch.solutions, expected.solutions, equal_nan=True) and batch.success.all()
         for i, k in zip(*np.nonzero(~np.isnan(batch.solutions[..., 0]))):
@@ -235,4 +235,4 @@ def test_analytic_ik_many_refuses_targets_that_are_not_finite_transforms():
     robot = manipkit.load("ur5")
     for targets in (np.full((2, 4, 4), np.nan), np.eye(3)[None], np.zeros(4)):
         with pytest.raises(IKOptionError, match="targets must be finite 4x4 transforms"):
-            manipkit.analytic_ik_many(robot, targets, "base_link", "tool0")
+            analytic_ik_many(robot, targets, "base_link", "tool0")

@@ -12,9 +12,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.closed_form.chain_ik import chain_ik, chain_ik_many
-from manipkit.closed_form.families import chain_family
 from manipkit.errors import ClosedFormIKError
+from manipkit.ik.chain_ik import chain_ik, chain_ik_many
+from manipkit.ik.families import chain_family
+from manipkit.ik.textbook import analytic_ik_many
 
 REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" / "src" for base in Path(__file__).resolve().parents[2:4]
                   if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
@@ -276,7 +277,7 @@ def test_irb2400_wrist_centre_on_axis_1_is_a_family_free_in_joint_1():
     """By hand: with the wrist centre on axis 1 (and no lateral offset, b = 0), turning joint 1 keeps it there, so
     joint 1 is free; for each of its values two elbows and two wrists remain: 4 rows, each a family, both shoulder
     choices being members of the same families."""
-    from manipkit.closed_form.chain_ik import ideal_arm
+    from manipkit.ik.chain_ik import ideal_arm
     from manipkit.spatial.rotations import matrix_from_rpy
 
     chain = load_realworld(IRB2400).chain("base_link", "tool0")
@@ -296,7 +297,7 @@ def test_irb2400_wrist_centre_on_axis_1_is_a_family_free_in_joint_1():
 def test_irb2400_opw_parameters_are_those_ros_industrial_publishes_and_reproduce_its_fk():
     """ROS-Industrial's opw_kinematics lists the IRB2400/10 as a1 0.100, a2 -0.135, b 0, c1 0.615, c2 0.705,
     c3 0.755, c4 0.085, offsets [0, 0, -pi/2, 0, 0, 0], signs all +1."""
-    from manipkit.closed_form.opw import opw_fk, opw_parameters
+    from manipkit.ik.opw import opw_fk, opw_parameters
 
     chain = load_realworld(IRB2400).chain("base_link", "tool0")
     p = opw_parameters(chain)
@@ -308,7 +309,7 @@ def test_irb2400_opw_parameters_are_those_ros_industrial_publishes_and_reproduce
 
 
 def test_opw_parameters_refuse_a_ur_arm_by_family():
-    from manipkit.closed_form.opw import opw_parameters
+    from manipkit.ik.opw import opw_parameters
 
     with pytest.raises(ClosedFormIKError, match="not a spherical wrist with axes 2 \\|\\| 3"):
         opw_parameters(manipkit.load("ur5").chain("base_link", "tool0"))
@@ -365,7 +366,7 @@ def test_the_arms_of_the_second_workspace_land_every_branch_by_pinocchio(relativ
     file path as their users load them: every branch of 25 random in-limit configurations' poses lands by
     Pinocchio to 1e-10 and the generating configuration is among them; the batch's slots land too, except the
     xArm's, which are not refined and whose residuals say how far they miss (Pinocchio's miss, to 1e-12)."""
-    from manipkit.closed_form.chain_ik import ideal_arm
+    from manipkit.ik.chain_ik import ideal_arm
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -397,7 +398,7 @@ def test_locking_a_joint_the_chain_does_not_have_names_the_joints():
 
 
 def test_iiwa14_is_an_srs_arm_and_every_configuration_is_found_at_its_own_arm_angle():
-    from manipkit.closed_form.chain_ik import srs_arm_angle
+    from manipkit.ik.chain_ik import srs_arm_angle
 
     robot = manipkit.load("iiwa14")
     chain = robot.chain("base_link", "ee_link")
@@ -419,7 +420,7 @@ def test_an_iiwa14_configuration_with_the_elbow_straight_is_found_at_its_own_arm
     """With q4 = 0 the elbow lies on the shoulder-wrist line, so its plane is not defined; srs_arm_angle still gives
     the angle whose solutions list q (turning joint 3 by pi would give another angle, whose rows are q's twin with
     t3 + pi and the wrist turned: found by a test of the batch, seed 0)."""
-    from manipkit.closed_form.chain_ik import srs_arm_angle
+    from manipkit.ik.chain_ik import srs_arm_angle
 
     chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
     Q = chain.sample(30, seed=0)
@@ -447,8 +448,9 @@ def test_ur5_with_the_elbow_straight_has_seven_solutions():
 
 
 def test_dropping_colliding_branches_keeps_the_per_row_fields_with_their_rows():
-    from manipkit.closed_form.robots import analytic_ik
-    from manipkit.kinematics.collisions import CollisionChecker, mark_collisions
+    from manipkit.ik.collision_marks import mark_collisions
+    from manipkit.ik.textbook import analytic_ik
+    from manipkit.kinematics.collisions import CollisionChecker
 
     robot = manipkit.load("ur5")
     chain = robot.chain("base_link", "tool0")
@@ -468,7 +470,7 @@ def previous_batch(chain, T, check=(1e-10, 1e-10)):
     """The batched check as it was before it ran in blocks on threads (one solve, chain.fk of every slot with the
     empty ones filled by 0, measure_many): (solutions, count, success, residuals) to compare bit for bit."""
     from manipkit.closed_form.arms_kernel import measure_many, solve_rows_many
-    from manipkit.closed_form.chain_ik import _projected_target, _reference_rows, compiled_arm, ideal_arm
+    from manipkit.ik.chain_ik import _projected_target, _reference_rows, compiled_arm, ideal_arm
 
     arm = ideal_arm(chain_family(chain))
     valid, fallback, project, Q = solve_rows_many(compiled_arm(chain, arm), T)
@@ -495,7 +497,7 @@ def batch_targets(chain, seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def assert_same_for_any_thread_count(robot, base, tip, seed, n, monkeypatch, *, q5_singular=True):
-    from manipkit.closed_form import chain_batch
+    from manipkit.ik import chain_batch
 
     monkeypatch.setattr(chain_batch, "BLOCK", 3)  # many blocks and threads even for a small batch
     monkeypatch.setattr(chain_batch, "MIN_TARGETS_PER_THREAD", 1)
@@ -545,7 +547,7 @@ def srs_batch_targets(chain, seed: int, n: int):
     """(Q, T, psi): FK of ``n`` random in-limit iiwa14 configurations, each target at its own arm angle, then one
     with the elbow straight (q4 = 0: the shoulder-wrist distance at its largest, handed to the numpy reference) and
     one with the wrist's axes 5 and 7 aligned (q6 = 0: a family in t5)."""
-    from manipkit.closed_form.chain_ik import srs_arm_angle
+    from manipkit.ik.chain_ik import srs_arm_angle
 
     Q = chain.sample(n + 2, seed=seed)
     Q[-2, 3], Q[-1, 5] = 0.0, 0.0
@@ -561,7 +563,7 @@ def test_iiwa14_batch_at_arm_angles_gives_the_single_calls_rows_bit_for_bit_on_a
     slot's row is one of chain_ik's rows for that target bit for bit (or a repeat modulo 2 pi it dropped); the
     generating configuration is among them; every slot lands by Pinocchio; the wrist-aligned target is a family
     (count inf), as chain_ik says."""
-    from manipkit.closed_form import chain_batch
+    from manipkit.ik import chain_batch
 
     monkeypatch.setattr(chain_batch, "BLOCK", 3)
     monkeypatch.setattr(chain_batch, "MIN_TARGETS_PER_THREAD", 1)
@@ -611,12 +613,12 @@ def test_an_srs_batch_takes_one_arm_angle_or_one_per_target_and_says_what_is_wro
         with pytest.raises(ClosedFormIKError, match=words):
             chain_ik_many(chain, T, arm_angle=value)
     with pytest.raises(IKOptionError, match=r"5 of them"):
-        manipkit.analytic_ik_many(robot, T, arm_angle=[0.1, 0.2])
+        analytic_ik_many(robot, T, arm_angle=[0.1, 0.2])
     with pytest.raises(IKOptionError, match="without an arm angle"):
-        manipkit.analytic_ik_many(robot, T)
+        analytic_ik_many(robot, T)
     with pytest.raises(ClosedFormIKError, match="must be a number"):  # the single call refuses it the same way
         chain_ik(chain, T[0], arm_angle="left")
-    from manipkit.closed_form.chain_ik import srs_arm_angle
+    from manipkit.ik.chain_ik import srs_arm_angle
 
     q = chain.sample(1, seed=1)[0]
     q[5] = 0.0  # the wrist's axes 5 and 7 aligned: handed to the general path, which words the angle in its note
@@ -648,7 +650,7 @@ def test_an_error_in_a_block_is_raised_in_the_calling_thread_after_the_running_b
     import threading
     import time
 
-    from manipkit.closed_form import chain_batch
+    from manipkit.ik import chain_batch
 
     monkeypatch.setattr(chain_batch, "BLOCK", 2)
     monkeypatch.setattr(chain_batch, "MIN_TARGETS_PER_THREAD", 1)
@@ -683,7 +685,7 @@ def same_answer(a, b) -> bool:
 
 
 def test_single_solver_is_made_once_per_chain_and_family_and_answers_as_chain_ik():
-    from manipkit.closed_form.chain_ik import single_solver
+    from manipkit.ik.chain_ik import single_solver
 
     chain = manipkit.load("ur5").chain("base_link", "tool0")
     family = chain_family(chain)

@@ -2,7 +2,7 @@
 
 The chain (``robot.chain(base, tip)``, any base and tip frames: ``tool0``,
 ``flange``, a TCP beyond the last joint, a base above the first joint) is
-classified by :func:`manipkit.closed_form.families.chain_family`; its axes
+classified by :func:`manipkit.ik.families.chain_family`; its axes
 at the reference configuration ``q0`` and its tip pose there, ``M``, make
 the product of exponentials ``T_base_tip(q) = E_1 ... E_6 M`` in which the
 base and tip offsets are folded exactly. :mod:`manipkit.closed_form.arms`
@@ -46,7 +46,10 @@ import numpy as np
 
 from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
 from manipkit.closed_form.checks import arm_angles, quantity_text, tolerance_pair
-from manipkit.closed_form.families import (
+from manipkit.closed_form.srs import solve_srs_many
+from manipkit.closed_form.subproblems import rotate, sp2
+from manipkit.errors import ClosedFormIKError
+from manipkit.ik.families import (
     FAMILY_TOL,
     OPW,
     SPHERICAL_12,
@@ -57,9 +60,6 @@ from manipkit.closed_form.families import (
     common_point,
     reversed_geometry,
 )
-from manipkit.closed_form.srs import solve_srs_many
-from manipkit.closed_form.subproblems import rotate, sp2
-from manipkit.errors import ClosedFormIKError
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
@@ -447,7 +447,7 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(rows) else np.zeros(0, dtype=bool)
     free_joints = tuple(sorted({f for f in free_of if f >= 0}))
     count: int | float = math.inf if free_joints else len(rows)
-    solver = f"closed_form.chain_ik ({family.kind})"
+    solver = f"ik.chain_ik ({family.kind})"
     parts = [f"{len(rows)} {'row(s) (one-parameter families among them)' if free_joints else 'solution(s)'} "
              f"of the {family.kind} closed form"]
     if len(rows) and not within.all():
@@ -480,7 +480,7 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
         mode=SPATIAL_POSE, solver=solver, joint_names=names,
         free_parameter=", ".join(names[f] for f in free_joints), family=family_words, free_joints=free_joints,
         unmet=unmet, rejected=rejected, outside_by=outside_by, within_limits=within,
-        refined=np.array(refined, dtype=float),
+        refined=np.array(refined, dtype=float), arm_family=family.kind,
     )
 
 
@@ -551,7 +551,7 @@ class SingleSolver:
         n = block.shape[1] - 2
         return IKResult.of_checked_rows(block[:, :n], labels, head + tail, block[:, n], block[:, n + 1], within,
                                         _UNREFINED[count], mode=SPATIAL_POSE, solver=_SOLVER_NAMES[family.kind],
-                                        joint_names=self.chain.joint_names)
+                                        joint_names=self.chain.joint_names, arm_family=family.kind)
 
 
 def single_solver(chain: Chain, family: Family) -> SingleSolver:
@@ -588,7 +588,7 @@ def _note_parts(arm: IdealArm, wide: list[str], count: int, outside: int) -> tup
     return "; ".join(parts), locked
 
 
-_SOLVER_NAMES = {kind: f"closed_form.chain_ik ({kind})" for kind in (UR, OPW, SRS)}
+_SOLVER_NAMES = {kind: f"ik.chain_ik ({kind})" for kind in (UR, OPW, SRS)}
 
 
 #: (arms_kernel.solve_check_one, srs_kernel.solve_check_srs, check_kernel.codes_of), imported on the first
@@ -702,7 +702,7 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     ``check_tol``: in the call for the UR, OPW and SRS families (the solve, the
     FK of every non-empty slot and the residuals compiled, in blocks of
     targets on up to ``threads`` threads:
-    :func:`manipkit.closed_form.chain_batch.checked_many`), on first use
+    :func:`manipkit.ik.chain_batch.checked_many`), on first use
     for the others. ``compiled`` as in :func:`chain_ik` (False: the numpy
     reference, measured on first use). ``threads``: most threads at once
     (default: the cores this process may run on, up to 8, as ``ik_many``);
@@ -716,9 +716,9 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     psi = arm_angles(arm_angle, len(T)) if srs else None  # ClosedFormIKError: none given, or not one per target
     words = (("elbow", "shoulder", "wrist") if srs else ("shoulder", "elbow", "wrist"))
     slots = tuple(f"{words[0]} {a}, {words[1]} {b}, {words[2]} {c}" for a in "ab" for b in "ab" for c in "ab")
-    solver = f"closed_form.chain_ik_many ({family.kind})"
+    solver = f"ik.chain_ik_many ({family.kind})"
     if compiled and (family.kind in (UR, OPW) or (srs and not family.reversed)):
-        from manipkit.closed_form.chain_batch import checked_many
+        from manipkit.ik.chain_batch import checked_many
         from manipkit.kinematics.fk_kernel import thread_count
 
         Q, count, success, residuals = checked_many(
@@ -727,7 +727,7 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
             projected=_projected_target)
         return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
                        success=success, residual_position=residuals[..., 0], residual_rotation=residuals[..., 1],
-                       q_residuals=residuals[..., 0, :])
+                       q_residuals=residuals[..., 0, :], limit=check)
     theta, branches, _ = _branches(arm, T, psi, compiled=compiled)
     geometry = family.geometry
     Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
