@@ -34,8 +34,10 @@ from manipkit.exports import homes_of, lazy_exports
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of(
         "manipkit.analysis.reachmap.constants",
-        "DEFAULT_SAMPLES", "DEFAULT_THRESHOLD", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "MAX_VOXEL",
-        "METHODS", "MIN_VOXEL", "finite_array", "map_bytes",
+        "DEFAULT_BLOCK", "DEFAULT_FP_CHECKS", "DEFAULT_HOLDOUT", "DEFAULT_SAMPLES", "DEFAULT_THRESHOLD", "FORMAT",
+        "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "MAX_BINS", "MAX_BLOCK_SAMPLES", "MAX_FP_CHECKS", "MAX_GRID_BYTES",
+        "MAX_IK_RESTARTS", "MAX_MAP_FILES", "MAX_SAMPLES", "MAX_SEED", "MAX_VOXEL", "METHODS", "MIN_VOXEL",
+        "PARALLEL_TOL", "PLANAR_TILT_TOL", "check_threshold", "finite_array", "map_bytes",
     ),
     **homes_of("manipkit.analysis.reachmap.map", "ReachMap", "load"),
     **homes_of("manipkit.analysis.reachmap.builder", "build", "parse_orientations"),
