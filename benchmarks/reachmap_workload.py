@@ -118,7 +118,8 @@ def ik_many_rows(robot, robot_name: str, ik_targets: int, *, repeats: int = 3) -
 
 def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> list[dict]:
     """The ``reachmap_agreement`` rows of the map ``one``: its yes (``query``) first, then the plain voxel-bin answer."""
-    from manipkit.analysis.reachquery import DEFAULT_THRESHOLD, query_answer
+    from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD
+    from manipkit.analysis.reachmap.query import query_answer
     from manipkit.kinematics.ik_many import ik_many
 
     rng = np.random.default_rng(5)

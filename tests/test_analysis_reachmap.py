@@ -18,13 +18,13 @@ import numpy as np
 import pytest
 
 from manipkit.analysis import reachmap
-from manipkit.analysis.orientations import (
+from manipkit.analysis.reachmap import HOW_IK, HOW_NONE, HOW_SAMPLE, ReachMapError, build, load
+from manipkit.analysis.reachmap.orientations import (
     fibonacci_directions,
     nearest_direction,
     planar_orientations,
     spatial_orientations,
 )
-from manipkit.analysis.reachmap import HOW_IK, HOW_NONE, HOW_SAMPLE, ReachMapError, build, load
 from manipkit.closed_form.planar_workspace import workspace_2r, workspace_3r
 from manipkit.errors import InputFileError, OutputError
 from manipkit.spatial.rotations import rot_y, rot_z

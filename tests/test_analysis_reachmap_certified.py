@@ -20,11 +20,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from manipkit.analysis.orientations import spatial_orientations
-from manipkit.analysis.placement import base_placement, confirm_placement, placement_transforms
 from manipkit.analysis.reachmap import HOW_NONE, ReachMap, ReachMapError, build, load
-from manipkit.analysis.reachquery import DEFAULT_THRESHOLD, support_score
-from manipkit.analysis.reachstages import wilson
+from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD
+from manipkit.analysis.reachmap.orientations import spatial_orientations
+from manipkit.analysis.reachmap.placement import base_placement, confirm_placement, placement_transforms
+from manipkit.analysis.reachmap.query import support_score
+from manipkit.analysis.reachmap.stages import wilson
 from manipkit.closed_form.planar import ik_3r, ik_3r_batch
 from manipkit.kinematics.ik_many import ik_many
 

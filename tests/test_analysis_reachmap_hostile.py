@@ -18,10 +18,9 @@ import time
 import numpy as np
 import pytest
 
-from manipkit.analysis import mapstore
-from manipkit.analysis.blocks import BlockRunner, max_workers, probe_scheduler
-from manipkit.analysis.placement import base_placement
-from manipkit.analysis.reachmap import ReachMapError, build, load
+from manipkit.analysis.reachmap import ReachMapError, build, load, store
+from manipkit.analysis.reachmap.blocks import BlockRunner, max_workers, probe_scheduler
+from manipkit.analysis.reachmap.placement import base_placement
 from manipkit.errors import InputFileError, OutputError
 from manipkit.inputs.poses import MAX_TARGETS, read_targets
 
@@ -111,7 +110,7 @@ def test_base_placement_checks_counts_before_allocating(tiny):
 
 
 def test_base_placement_in_batches_gives_the_scores_of_one_pass(tiny, monkeypatch):
-    from manipkit.analysis import placement
+    from manipkit.analysis.reachmap import placement
 
     targets = np.tile(np.eye(4), (5, 1, 1))
     targets[:, 0, 3] = np.linspace(-2.0, 2.0, 5)
@@ -169,13 +168,13 @@ def test_a_failed_or_interrupted_write_leaves_no_folder_and_keeps_the_old_map(ti
         (folder / "zarr.json").write_text("{}")
         raise failure
 
-    monkeypatch.setattr(mapstore, "_write_arrays", write_then_fail)
+    monkeypatch.setattr(store, "_write_arrays", write_then_fail)
     with pytest.raises(OutputError if isinstance(failure, OSError) else KeyboardInterrupt):
         tiny.save(tmp_path / "new.zarr")
     assert os.listdir(tmp_path) == []  # nothing that blocks a re-run, no hidden partial folder
     monkeypatch.undo()
     path = saved(tiny, tmp_path)
-    monkeypatch.setattr(mapstore, "_write_arrays", write_then_fail)
+    monkeypatch.setattr(store, "_write_arrays", write_then_fail)
     with pytest.raises(OutputError if isinstance(failure, OSError) else KeyboardInterrupt):
         tiny.save(path)
     assert sorted(os.listdir(tmp_path)) == ["m.zarr"]
@@ -265,7 +264,7 @@ def test_a_chunk_is_decompressed_only_when_its_frame_declares_its_exact_size(tin
     path = saved(tiny, tmp_path)
     chunk = path / "reach" / "c" / "0" / "0" / "0" / "0"
     size = tiny.reach.size  # one chunk holds the whole small grid
-    assert mapstore.zstd_content_size(chunk.read_bytes()) == size
+    assert store.zstd_content_size(chunk.read_bytes()) == size
     original = chunk.read_bytes()
     chunk.write_bytes(Zstd().encode(bytes(size * 1000)))  # a bomb in miniature: 1000 times its chunk
     with pytest.raises(InputFileError, match=f"declares {size * 1000} bytes; its chunk holds {size}"):
@@ -312,7 +311,7 @@ def test_deeply_nested_metadata_is_refused_before_it_is_parsed(tiny, tmp_path):
     (path / "zarr.json").write_text(text)
     with pytest.raises(InputFileError, match="nested 50002 levels deep, more than 32"):
         load(path)
-    assert mapstore.writable_map_path(tmp_path / "new.zarr")  # and a new name is still fine
+    assert store.writable_map_path(tmp_path / "new.zarr")  # and a new name is still fine
 
 
 def test_control_characters_in_a_map_never_reach_the_summary_raw(tiny, tmp_path):

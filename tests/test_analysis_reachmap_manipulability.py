@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from manipkit.analysis.reachmap import HOW_IK, ReachMapError, build, load
-from manipkit.analysis.reachplot import plot_reachmap
+from manipkit.analysis.reachmap.plot import plot_reachmap
 from manipkit.text import short_text
 
 

@@ -1,4 +1,4 @@
-"""manipkit.analysis.placement: inverse reachability, checked on cases solved by hand and by construction.
+"""manipkit.analysis.reachmap.placement: inverse reachability, checked on cases solved by hand and by construction.
 
 Independent sources: the planar 2R (1, 1) reaches exactly the disc r <= 2
 about its base (``closed_form.planar_workspace.workspace_2r``), so the
@@ -12,9 +12,14 @@ import math
 import numpy as np
 import pytest
 
-from manipkit.analysis.placement import base_placement, confirm_placement, placement_transforms, plot_base_placement
 from manipkit.analysis.reachmap import ReachMapError, build
-from manipkit.analysis.reachquery import DEFAULT_THRESHOLD
+from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD
+from manipkit.analysis.reachmap.placement import (
+    base_placement,
+    confirm_placement,
+    placement_transforms,
+    plot_base_placement,
+)
 from manipkit.closed_form.planar_workspace import workspace_2r
 
 

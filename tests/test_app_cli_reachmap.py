@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from cli_helper import run_cli
 
-from manipkit.analysis.placement import placement_transforms
 from manipkit.analysis.reachmap import load
+from manipkit.analysis.reachmap.placement import placement_transforms
 from manipkit.closed_form.planar_workspace import workspace_3r
 
 

@@ -51,12 +51,12 @@ def package_of(path: Path) -> list[str]:
 
 
 def lazy_homes() -> dict[str, str]:
-    """Name -> module for the names ``manipkit/__init__.py`` loads on first use (its ``_LAZY`` table), read from the source."""
+    """Name -> module for the names ``manipkit/__init__.py`` loads on first use (its ``_LAZY`` and ``_LAZY_MODULES``
+    tables), read from the source."""
     tree = ast.parse((PACKAGE / "__init__.py").read_text())
-    for node in tree.body:
-        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets):
-            return ast.literal_eval(node.value)
-    return {}
+    tables = [ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
+              and any(isinstance(t, ast.Name) and t.id in ("_LAZY", "_LAZY_MODULES") for t in node.targets)]
+    return {name: home for table in tables for name, home in table.items()}
 
 
 LAZY = lazy_homes()
@@ -260,3 +260,158 @@ def test_functions_stay_under_80_lines_or_say_why(path):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 80
             and not any("Over 80 lines:" in line for line in lines[node.lineno - 1:node.end_lineno])]
     assert not long, f"functions over 80 lines without a reason: {', '.join(long)}"
+
+
+# --------------------------------------------------------------------------
+# No import circles: no two modules import each other, directly or through others
+
+#: Import circles whose modules others are changing: each entry is the modules of one circle; a circle among them
+#: (or among a part of them) passes. Delete an entry when its work lands (test_every_circle_in_transit_is_still_there).
+KNOWN_CYCLES_IN_TRANSIT: set[frozenset[str]] = {
+    frozenset({"manipkit.kinematics.chain", "manipkit.kinematics.jacobian"}),  # issue 35, being removed
+}
+
+
+def module_name(path: Path, root: Path = PACKAGE) -> str:
+    """``src/manipkit/analysis/reachmap/map.py`` -> ``manipkit.analysis.reachmap.map`` (a package by its name)."""
+    return ".".join(["manipkit", *path.relative_to(root).with_suffix("").parts]).removesuffix(".__init__")
+
+
+def lazy_table(init: Path) -> dict[str, str]:
+    """Name -> home module of a package's lazy table (``homes_of(...)`` rows and ``"name": "module"`` entries)."""
+    if init.parent == PACKAGE:
+        return LAZY
+    homes = {}
+    for node in ast.walk(ast.parse(init.read_text())):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "homes_of":
+            module, *names = (arg.value for arg in node.args)
+            homes.update(dict.fromkeys(names, module))
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "lazy_exports":
+            for table in node.args[1:]:
+                if isinstance(table, ast.Dict):
+                    homes.update({k.value: v.value for k, v in zip(table.keys, table.values)
+                                  if isinstance(k, ast.Constant) and isinstance(v, ast.Constant)})
+    return homes
+
+
+def import_graph(root: Path = PACKAGE) -> dict[str, set[str]]:
+    """Module -> the manipkit modules it imports at run time (in functions too; not under ``if TYPE_CHECKING:``).
+
+    ``from PACKAGE import name`` is an import of the submodule ``name`` if
+    there is one, else of the module the package's lazy table names for it
+    (a lazy table is not an import: it loads on first use), else of the package.
+    """
+    paths = {module_name(p, root): p for p in root.rglob("*.py")}
+    packages = {module_name(p, root) for p in paths.values() if p.name == "__init__.py"}
+    tables = {name: lazy_table(paths[name]) for name in packages}
+
+    def home(module: str, name: str | None) -> str | None:
+        if module in packages and name is not None:
+            if f"{module}.{name}" in paths:
+                return f"{module}.{name}"
+            if name in tables[module]:
+                return home(tables[module][name], None)
+        return module if module in paths else None
+
+    graph = {}
+    for name, path in paths.items():
+        targets = set()
+        for module, names, _ in runtime_imports(ast.parse(path.read_text()), path):
+            if module == "manipkit" or module.startswith("manipkit."):
+                targets.update(home(module, n) for n in names or [None])
+        graph[name] = targets - {None, name}
+    return graph
+
+
+def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of ``graph`` with more than one node (Tarjan's algorithm, iterative)."""
+    index, low, on_stack, stack, found, counter = {}, {}, set(), [], [], [0]
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, edges = work[-1]
+            for nxt in edges:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = counter[0]
+                    counter[0] += 1
+                    stack.append(nxt)
+                    on_stack.add(nxt)
+                    work.append((nxt, iter(sorted(graph.get(nxt, ())))))
+                    break
+                if nxt in on_stack:
+                    low[node] = min(low[node], index[nxt])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.append(member)
+                        if member == node:
+                            break
+                    if len(component) > 1:
+                        found.append(sorted(component))
+    return found
+
+
+def circle_text(graph: dict[str, set[str]], component: list[str]) -> str:
+    """One circle through the component's first module, as a chain: ``a -> b -> c -> a`` (the shortest, by BFS)."""
+    start, members = component[0], set(component)
+    previous, queue = {start: None}, [start]
+    for node in queue:
+        for nxt in sorted(graph[node] & members):
+            if nxt == start:
+                chain = [node]
+                while previous[chain[-1]] is not None:
+                    chain.append(previous[chain[-1]])
+                return " -> ".join([*reversed(chain), start])
+            if nxt not in previous:
+                previous[nxt] = node
+                queue.append(nxt)
+    return " <-> ".join(component)  # not reached: a component of two or more nodes has a circle through each
+
+
+def test_no_two_modules_import_each_other():
+    """No module imports itself through others: a circle is reported as the chain of modules around it."""
+    graph = import_graph()
+    circles = [c for c in strongly_connected(graph) if not any(set(c) <= known for known in KNOWN_CYCLES_IN_TRANSIT)]
+    assert not circles, "import circles: " + "; ".join(circle_text(graph, c) for c in circles)
+
+
+def test_every_circle_in_transit_is_still_there():
+    """An entry of KNOWN_CYCLES_IN_TRANSIT whose circle is gone is deleted, so it cannot hide a new one."""
+    components = strongly_connected(import_graph())
+    gone = [sorted(known) for known in KNOWN_CYCLES_IN_TRANSIT if not any(set(c) <= known for c in components)]
+    assert not gone, f"these circles are gone: delete them from KNOWN_CYCLES_IN_TRANSIT: {gone}"
+
+
+def test_a_circle_is_caught_and_read_as_a_chain(tmp_path):
+    """The checker itself, on a package written here: a -> b -> c -> a, through an import inside a function, a plain
+    import and ``from PACKAGE import name`` read through the package's lazy table; a TYPE_CHECKING import is no edge."""
+    root = tmp_path / "manipkit"
+    (root / "pkg").mkdir(parents=True)
+    files = {
+        "__init__.py": "",
+        "a.py": "def f():\n    from manipkit.b import g\n",
+        "b.py": "import manipkit.c\n",
+        "c.py": "from manipkit.pkg import name\n",
+        "d.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from manipkit.a import f\nimport manipkit.b\n",
+        "pkg/__init__.py": 'from manipkit.exports import homes_of, lazy_exports\n'
+                           '__all__, __getattr__, __dir__ = lazy_exports(__name__, {**homes_of("manipkit.a", "name")})\n',
+    }
+    for name, text in files.items():
+        (root / name).write_text(text)
+    graph = import_graph(root)
+    assert graph["manipkit.d"] == {"manipkit.b"} and graph["manipkit.c"] == {"manipkit.a"}
+    components = strongly_connected(graph)
+    assert components == [["manipkit.a", "manipkit.b", "manipkit.c"]]
+    assert circle_text(graph, components[0]) == "manipkit.a -> manipkit.b -> manipkit.c -> manipkit.a"

@@ -182,16 +182,6 @@ def test_the_description_package_exports_its_api_without_importing_heavy_modules
     assert result.stdout.split("\n")[:2] == ["[]", "True True True"]
 
 
-def test_names_moved_out_of_sources_still_import_from_it_with_a_warning():
-    import manipkit.description.sources as sources
-    from manipkit.description.packages import PackageResolver as moved
-
-    with pytest.warns(DeprecationWarning, match="moved to manipkit.description.packages.PackageResolver"):
-        assert sources.PackageResolver is moved
-    with pytest.raises(AttributeError):
-        _ = sources.no_such_name
-
-
 # ---------------------------------------------------------------- issue 15: files that are not regular files
 
 

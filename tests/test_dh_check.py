@@ -14,9 +14,10 @@ import pytest
 import manipkit
 from manipkit.app.dh_text import diagnosis_lines
 from manipkit.description.sources import bundled_dh_tables
-from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, transform_from_xyz_rpy
+from manipkit.dh import DHRow, DHTable, dh_fk, load_dh
 from manipkit.dh.check import check_dh, screws
 from manipkit.dh.diagnosis import EntryChange
+from manipkit.spatial.transforms import transform_from_xyz_rpy
 
 # planar_3r with its default lengths 4 2 1: standard DH rows (a, alpha, d, theta) = (l_i, 0, 0, 0),
 # since every joint turns about z and each link runs along its x axis.

@@ -19,11 +19,12 @@ import pytest
 
 from manipkit.app.dh_text import diagnosis_lines
 from manipkit.description.sources import bundled_robots, example_robot_data_arms
-from manipkit.dh import DHTable, dh_fk, dh_from_urdf_chain, transform_from_xyz_rpy
+from manipkit.dh import DHTable, dh_fk, dh_from_urdf_chain
 from manipkit.dh.check import check_dh
 from manipkit.dh.diagnosis import EntryChange
 from manipkit.dh.entries import reverse_joint
 from manipkit.spatial.rotations import matrix_from_axis_angle
+from manipkit.spatial.transforms import transform_from_xyz_rpy
 
 SAMPLES = 150  # configurations per check: enough to tell a 1e-3 change from agreement
 

@@ -9,9 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_dh_table import BUNDLED_TABLES, DH_DIR
 
-from manipkit.dh import DHRow, DHTable, dh_from_yaml, load_dh, save_dh, transform_from_xyz_rpy, yaml_from_dh
+from manipkit.dh import DHRow, DHTable, dh_from_yaml, load_dh, save_dh, yaml_from_dh
 from manipkit.errors import DHTableError, ManipkitError, OutputError
 from manipkit.inputs import MAX_TABLE_BYTES
+from manipkit.spatial.transforms import transform_from_xyz_rpy
 
 # --------------------------------------------------------------------------
 # helpers

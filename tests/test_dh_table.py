@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.dh import DHRow, DHTable, dh_fk, load_dh, transform_from_xyz_rpy
+from manipkit.dh import DHRow, DHTable, dh_fk, load_dh
 from manipkit.errors import DHTableError
+from manipkit.spatial.transforms import transform_from_xyz_rpy
 
 DH_DIR = Path(__file__).resolve().parents[1] / "robots" / "dh"
 BUNDLED_TABLES = sorted(p.name for p in DH_DIR.glob("*.yaml"))

@@ -746,16 +746,6 @@ def test_euler_zyz_other_branch_found_by_hypothesis_stays_in_range():
     assert np.abs(matrix_from_euler_zyz([phi, theta, psi]) - R).max() < 1e-12
 
 
-def test_euler_functions_at_their_release_0_1_path_warn_and_are_the_same_functions():
-    import manipkit.spatial.euler as euler
-    import manipkit.spatial.rotations as rotations
-
-    with pytest.warns(DeprecationWarning, match="moved to manipkit.spatial.euler.euler_zyz_from_matrix"):
-        assert rotations.euler_zyz_from_matrix is euler.euler_zyz_from_matrix
-    with pytest.raises(AttributeError):
-        _ = rotations.no_such_function
-
-
 # --------------------------------------------------------------------------
 # both forms of the rotation helpers (issue 14, finding 9)
 

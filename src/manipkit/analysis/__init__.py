@@ -4,9 +4,8 @@ Planar workspaces (``workspace``), manipulability indices and ellipsoids
 (``manipulability``), the global conditioning index (``dexterity``), the
 singular families of the textbook arms (``singularities``), the Jacobian
 report of one configuration (``jacobian_report``: ranks, singular or not,
-the families that hold, what is lost), reachability maps
-(``reachmap``, ``orientations``, ``blocks``, ``mapstore``), base placement (``placement``) and the
-allowed-collision matrix (``acm``).
+the families that hold, what is lost), reachability maps and
+base placement (the ``reachmap`` package) and the allowed-collision matrix (``acm``).
 """
 
 from __future__ import annotations
@@ -24,8 +23,9 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "force_ellipsoid", "manipulability", "singular_values", "velocity_ellipsoid",
     ),
     **homes_of("manipkit.analysis.singularities", "families_at", "singular_families"),
-    **homes_of("manipkit.analysis.reachmap", "ReachMap", "build"),
-    **homes_of("manipkit.analysis.placement", "BasePlacement", "base_placement"),
+    **homes_of("manipkit.analysis.reachmap.map", "ReachMap"),
+    **homes_of("manipkit.analysis.reachmap.builder", "build"),
+    **homes_of("manipkit.analysis.reachmap.placement", "BasePlacement", "base_placement"),
     **homes_of("manipkit.analysis.workspace", "planar_workspace"),
     **homes_of("manipkit.analysis.acm", "CollisionMatrix", "allowed_collision_matrix", "srdf_text"),
 })

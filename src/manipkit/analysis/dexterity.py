@@ -81,19 +81,17 @@ class ConditioningIndex:
                 f"{short_text(self.low, 4)} to {short_text(self.high, 4)}, {self.samples} samples)")
 
 
-def global_conditioning_index(chain: Chain | Robot, samples: int = 100_000, *legacy, base: str | None = None,
+def global_conditioning_index(chain: Chain | Robot, samples: int = 100_000, *, base: str | None = None,
                               tip: str | None = None, axes="all", length: float | None = None, seed: int = 0,
                               chunk: int = CHUNK, confidence: float = 0.95,
-                              progress: Callable[[str, int, int], None] | None = None, frame: str | None = None,
-                              ) -> ConditioningIndex:
+                              progress: Callable[[str, int, int], None] | None = None) -> ConditioningIndex:
     """Mean inverse condition number of the Jacobian over the joint space, with a confidence interval.
 
     Parameters
     ----------
     chain : Chain or Robot
         The chain whose Jacobian is used (``robot.chain(base, tip)``), or a
-        robot with ``base=`` and ``tip=`` (defaults ``base_link``, ``ee_link``;
-        the old positional ``frame, base`` and ``frame=`` work one release).
+        robot with ``base=`` and ``tip=`` (defaults ``base_link``, ``ee_link``).
     samples : int
         Configurations drawn uniformly inside the chain's limits (at least 2).
     axes : "all", "trans", "rot" or sequence of int, keyword-only
@@ -135,7 +133,7 @@ def global_conditioning_index(chain: Chain | Robot, samples: int = 100_000, *leg
             length = 1.0
     else:
         length = None
-    chain = chain_of(chain, "global_conditioning_index", legacy, base=base, tip=tip, frame=frame)
+    chain = chain_of(chain, "global_conditioning_index", base=base, tip=tip)
     rng = np.random.default_rng(seed)
     total = total_sq = 0.0
     done = 0
@@ -191,9 +189,8 @@ def rank(J, axes="all", length: float | None = None, *, tol: float = 1e-9) -> np
     return int(result) if np.ndim(result) == 0 else result
 
 
-def generic_rank(chain: Chain | Robot, *legacy, base: str | None = None, tip: str | None = None, axes="all",
-                 length: float | None = None, samples: int = 32, seed: int = 0, tol: float = 1e-9,
-                 frame: str | None = None) -> int:
+def generic_rank(chain: Chain | Robot, *, base: str | None = None, tip: str | None = None, axes="all",
+                 length: float | None = None, samples: int = 32, seed: int = 0, tol: float = 1e-9) -> int:
     """The rank of the Jacobian's rows ``axes`` at a generic configuration: the largest over random samples.
 
     ``chain`` as in :func:`global_conditioning_index`. A configuration is
@@ -211,6 +208,6 @@ def generic_rank(chain: Chain | Robot, *legacy, base: str | None = None, tip: st
     >>> generic_rank(chain, axes="trans"), generic_rank(chain, axes="all", length=1.0)
     (2, 3)
     """
-    chain = chain_of(chain, "generic_rank", legacy, base=base, tip=tip, frame=frame)
+    chain = chain_of(chain, "generic_rank", base=base, tip=tip)
     Q = chain.sample(samples, seed=seed)
     return int(np.max(rank(chain.jacobians(Q), axes, length, tol=tol), initial=0))

@@ -287,8 +287,8 @@ def plot_planar_workspace(
     return path
 
 
-def planar_link_lengths(chain: Chain | Robot, *legacy, base: str | None = None, tip: str | None = None,
-                        tol: float = 1e-9, frame: str | None = None) -> tuple[float, ...]:
+def planar_link_lengths(chain: Chain | Robot, *, base: str | None = None, tip: str | None = None,
+                        tol: float = 1e-9) -> tuple[float, ...]:
     """Link lengths of a loaded planar arm, read off its chain's joint axes at the default configuration.
 
     ``chain`` is a :class:`~manipkit.kinematics.chain.Chain` or a robot with
@@ -303,7 +303,7 @@ def planar_link_lengths(chain: Chain | Robot, *legacy, base: str | None = None, 
     PlanarArmError
         If the chain is not a planar 2R or 3R arm.
     """
-    chain = chain_of(chain, "planar_link_lengths", legacy, base=base, tip=tip, frame=frame)
+    chain = chain_of(chain, "planar_link_lengths", base=base, tip=tip)
     name = chain.robot.name
     if chain.n not in (2, 3):
         raise PlanarArmError(f"robot '{name}' has {chain.n} joints from {chain.base} to {chain.tip}; the planar "

@@ -277,30 +277,3 @@ def _file_mode(path: Path, *, what: str, strict: bool) -> int | None:
             check_input_file(path, what=what)  # raises, naming the reason
         return None
 
-
-# --------------------------------------------------------------------------
-# Names that moved to other modules of manipkit.description (release 0.1
-# imported them from here, as manipkit.robots): they keep working for one
-# release, with a DeprecationWarning naming the new place.
-
-_MOVED = {
-    "PackageResolver": "manipkit.description.packages",
-    "XacroExpansion": "manipkit.description.xacro",
-    "describe": "manipkit.description.xacro",
-    "expand_xacro": "manipkit.description.xacro",
-    "urdf_text": "manipkit.description.xacro",
-    "xacro_arg_declarations": "manipkit.description.xacro",
-    "xacro_locator": "manipkit.description.xacro",
-    "parse_structure": "manipkit.description.tree",
-}
-
-
-def __getattr__(name: str):
-    if name in _MOVED:
-        import importlib
-        import warnings
-
-        warnings.warn(f"{__name__}.{name} moved to {_MOVED[name]}.{name}; the old path goes in manipkit 0.3",
-                      DeprecationWarning, stacklevel=2)
-        return getattr(importlib.import_module(_MOVED[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -30,8 +30,6 @@ from __future__ import annotations
 
 from manipkit.exports import homes_of, lazy_exports
 
-# transform_from_xyz_rpy: manipkit 0.1 offered it as manipkit.dh.transform_from_xyz_rpy (it is spatial's)
-
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.dh.table", "CONVENTIONS", "JOINT_TYPES", "DHRow", "DHTable", "dh_fk", "dh_link_transform"),
     **homes_of("manipkit.dh.check", "DHCheck", "check_dh"),
@@ -45,5 +43,4 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.dh.text", "format_dh_table", "html_dh_table", "latex_dh_table"),
     **homes_of("manipkit.dh.entries", "reverse_joint"),
     **homes_of("manipkit.dh.to_urdf", "save_urdf", "urdf_from_dh"),
-    **homes_of("manipkit.spatial.transforms", "transform_from_xyz_rpy"),
 })

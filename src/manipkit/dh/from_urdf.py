@@ -78,8 +78,8 @@ import numpy as np
 
 from manipkit.dh.table import CONVENTIONS, DHRow, DHTable, dh_fk
 from manipkit.errors import DHDerivationError
-from manipkit.spatial.rotations import matrix_from_axis_angle
-from manipkit.spatial.transforms import invert_transform, pose_error
+from manipkit.spatial.rotations import matrix_from_axis_angle, rotation_angle_between
+from manipkit.spatial.transforms import invert_transform, nearest_rotation, pose_error
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
@@ -290,7 +290,7 @@ def _derivation(robot: Robot, base: str, tip: str, convention: str, tol: float, 
         directions = snapped
         T_base_tip = T_base_tip.copy()
         R = _snapped_rotation(T_base_tip[:3, :3], snap)
-        moved.append((f"{robot.frame(tip)}'s axes", _rotation_angle(T_base_tip[:3, :3], R)))
+        moved.append((f"{robot.frame(tip)}'s axes", rotation_angle_between(T_base_tip[:3, :3], R, check=False)))
         T_base_tip[:3, :3] = R
     prismatic = [not joint.is_angular for joint in joints]
     standard, modified = _dh_frames(points, directions, prismatic, T_base_tip, tol)
@@ -311,7 +311,7 @@ def _derivation(robot: Robot, base: str, tip: str, convention: str, tol: float, 
     tool = invert_transform(T_base_dhn, check=False) @ T_base_tip
     if snap > 0:
         R = _snapped_rotation(tool[:3, :3], snap)
-        moved.append(("tool rotation", _rotation_angle(tool[:3, :3], R)))
+        moved.append(("tool rotation", rotation_angle_between(tool[:3, :3], R, check=False)))
         tool[:3, :3] = R
     tool[np.abs(tool) < _ZERO_SNAP] = 0.0
     table = DHTable(table.rows, convention=convention, name=robot.name, base=frames[0], tool=tool)
@@ -394,9 +394,7 @@ def _snapped_direction(v: np.ndarray, tol: float) -> np.ndarray:
 
 def _snapped_rotation(R: np.ndarray, tol: float) -> np.ndarray:
     """``R`` with every column snapped like a direction, then made a rotation again (nearest, by SVD)."""
-    columns = np.column_stack([_snapped_direction(R[:, k], tol) for k in range(3)])
-    U, _, Vt = np.linalg.svd(columns)
-    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+    return nearest_rotation(np.column_stack([_snapped_direction(R[:, k], tol) for k in range(3)]))
 
 
 def _angle(u: np.ndarray, v: np.ndarray) -> float:
@@ -404,8 +402,6 @@ def _angle(u: np.ndarray, v: np.ndarray) -> float:
     return math.atan2(float(np.linalg.norm(np.cross(u, v))), float(u @ v))
 
 
-def _rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> float:
-    return float(pose_error(np.eye(4), np.block([[R_a.T @ R_b, np.zeros((3, 1))], [np.zeros((1, 3)), 1.0]]))[1])
 
 
 def _snapped_angle(angle: float, tol: float) -> float:

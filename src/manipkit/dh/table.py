@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from manipkit.bounds import MAX_ANGLE
+from manipkit.dh.text import format_dh_table, html_dh_table, latex_dh_table
 from manipkit.errors import DHTableError, InvalidRotationError, JointValueError
 from manipkit.spatial.rotations import matrix_from_rpy, rpy_from_matrix
 from manipkit.text import repr_text, short_text
@@ -201,9 +202,6 @@ class DHTable:
     __hash__ = None
 
     def __str__(self) -> str:
-        # imported here: the printout module builds on this one
-        from manipkit.dh.text import format_dh_table
-
         return format_dh_table(self)
 
     def __repr__(self) -> str:
@@ -214,14 +212,10 @@ class DHTable:
 
     def _repr_html_(self) -> str:
         """Jupyter's view: the table as HTML (:func:`manipkit.dh.text.html_dh_table`)."""
-        from manipkit.dh.text import html_dh_table
-
         return html_dh_table(self)
 
     def _repr_latex_(self) -> str:
         """LaTeX math of the table (:func:`manipkit.dh.text.latex_dh_table`), for Jupyter and nbconvert."""
-        from manipkit.dh.text import latex_dh_table
-
         return latex_dh_table(self)
 
     @property

@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.dh.table import DHRow, DHTable
 from manipkit.text import short_text
+
+if TYPE_CHECKING:  # the table's types name the arguments only: dh.table imports this module to print itself
+    from manipkit.dh.table import DHRow, DHTable
 
 __all__ = ["NOISE", "format_dh_table", "html_dh_table", "latex_dh_table"]
 
@@ -53,6 +56,7 @@ def format_dh_table(table: DHTable) -> str:
 
     Examples
     --------
+    >>> from manipkit.dh.table import DHRow, DHTable
     >>> print(format_dh_table(DHTable([DHRow(1, 0, 0, 0), DHRow(1, 0, 0, np.pi / 2)], "standard", "planar_2r")))
     planar_2r: standard DH, 2 joints (RR)
     ┌───┬──────────┬────┬────┬────┬──────────┐
@@ -101,6 +105,7 @@ def html_dh_table(table: DHTable) -> str:
 
     The same cells as :func:`format_dh_table`; every text is HTML-escaped.
 
+    >>> from manipkit.dh.table import DHRow, DHTable
     >>> print(html_dh_table(DHTable([DHRow(1, 0, 0, 0)], "standard", "a<b")).splitlines()[1])
     <caption style="text-align: left">a&lt;b: standard DH, 1 joint (R)</caption>
     """
@@ -128,6 +133,7 @@ def latex_dh_table(table: DHTable) -> str:
 
     Joint variables read ``q_{2} + 90^\circ``; names are set as escaped ``\text{}``.
 
+    >>> from manipkit.dh.table import DHRow, DHTable
     >>> print(latex_dh_table(DHTable([DHRow(1, 0, 0, 0)], "standard")).splitlines()[2])
     j & \theta_j & d_j & a_j & \alpha_j & q\ \text{limits} \\ \hline
     """

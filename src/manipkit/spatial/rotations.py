@@ -701,20 +701,3 @@ def check_rotation(R, *, tol: float = 1e-6, what: str = "R") -> np.ndarray:
     more = f" (and {len(failing) - 1} more matrices fail)" if len(failing) > 1 else ""
     raise InvalidRotationError(f"{name} is not a rotation matrix: {'; '.join(problems)}{more}")
 
-
-# --------------------------------------------------------------------------
-# names that moved to manipkit.spatial.euler (release 0.1 imported them from here)
-
-_MOVED_TO_EULER = ("euler_zyx_from_matrix", "euler_zyz_from_matrix", "matrix_from_euler_zyx", "matrix_from_euler_zyz")
-
-
-def __getattr__(name: str):
-    if name in _MOVED_TO_EULER:
-        import warnings
-
-        from manipkit.spatial import euler
-
-        warnings.warn(f"{__name__}.{name} moved to manipkit.spatial.euler.{name}; the old path goes in manipkit 0.3",
-                      DeprecationWarning, stacklevel=2)
-        return getattr(euler, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

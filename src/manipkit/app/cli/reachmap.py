@@ -1,7 +1,7 @@
 """``manipkit reachmap`` (a reachability map of any arm, saved as Zarr) and ``manipkit base-placement``.
 
 The map and the placement search come from :mod:`manipkit.analysis.reachmap`
-and :mod:`manipkit.analysis.placement` (docs/architecture.md, "Reachability maps").
+and :mod:`manipkit.analysis.reachmap.placement` (docs/architecture.md, "Reachability maps").
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def register(commands) -> None:
 
 
 def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=None):
-    from manipkit.analysis.reachmap import build
+    from manipkit.analysis.reachmap.builder import build
     from manipkit.app.progress import progress_bar
     from manipkit.kinematics.collisions import CollisionSettings
 
@@ -134,7 +134,7 @@ def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=N
 
 def _note_or_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """A :class:`ResumeNote` as its own line on stderr (``resuming: ...``), any other warning as ``warning: ...``."""
-    from manipkit.analysis.blockstore import ResumeNote
+    from manipkit.analysis.reachmap.blockstore import ResumeNote
 
     if issubclass(category, ResumeNote):
         print(printable(" ".join(str(message).split())), file=sys.stderr, flush=True)
@@ -163,12 +163,12 @@ def run_reachmap(args) -> int:
     """Build the map, save it to ``-o``, then present it as ``reachmap show`` does (:func:`present_map`).
 
     Finished blocks are kept in ``.MAP.partial`` beside ``-o MAP``
-    (:func:`manipkit.analysis.mapstore.resume_folder`) until the map is
+    (:func:`manipkit.analysis.reachmap.store.resume_folder`) until the map is
     saved; an interrupted build leaves them, and the same command resumes.
     """
-    from manipkit.analysis.blockstore import remove_store
-    from manipkit.analysis.mapstore import resume_folder
-    from manipkit.analysis.reachmap import parse_orientations, writable_map_path
+    from manipkit.analysis.reachmap.blockstore import remove_store
+    from manipkit.analysis.reachmap.builder import parse_orientations
+    from manipkit.analysis.reachmap.store import resume_folder, writable_map_path
 
     if args.output is None:
         raise UsageError("give -o MAP, the folder to write the map to (or 'manipkit reachmap show MAP' to show a saved "
@@ -200,7 +200,7 @@ def run_reachmap(args) -> int:
 
 def run_reachmap_show(args) -> int:
     """Load the map ``MAP`` (validated; no robot needed) and present it as its build did (:func:`present_map`)."""
-    from manipkit.analysis.reachmap import load
+    from manipkit.analysis.reachmap.map import load
 
     given = [name for name, default in args.build_defaults.items() if getattr(args, name) != default]
     if given:
@@ -248,7 +248,7 @@ def _map_robot(args, reach_map):
 def present_map(reach_map, args, *, robot, visual, map_path: Path, written: list[Path]) -> None:
     """What ``reachmap`` prints and draws of a map, built or loaded: slices (``--plot``, ``--plot-manipulability``),
     the HTML view, the summary (text or JSON, with the files ``written``), then the live view (``--view``)."""
-    from manipkit.analysis.reachplot import plot_reachmap
+    from manipkit.analysis.reachmap.plot import plot_reachmap
 
     if args.plot is not None:
         plot_reachmap(reach_map, args.plot)
@@ -294,8 +294,9 @@ def _serve_view(reach_map, robot, visual) -> None:
 
 def run_base_placement(args) -> int:
     """Score floor placements by the targets reached; print the best (text or JSON); draw the heat map."""
-    from manipkit.analysis.placement import MAX_YAWS, base_placement, confirm_placement, plot_base_placement
-    from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, load
+    from manipkit.analysis.reachmap.constants import MAX_VOXEL, MIN_VOXEL
+    from manipkit.analysis.reachmap.map import load
+    from manipkit.analysis.reachmap.placement import MAX_YAWS, base_placement, confirm_placement, plot_base_placement
     from manipkit.inputs.poses import read_targets
     from manipkit.kinematics.collisions import CollisionSettings
 

@@ -1,6 +1,6 @@
 """A reachability map in meshcat: its reachable voxels as coloured points beside the robot at its default pose.
 
-The positions and values come from the map (:class:`manipkit.analysis.reachmap.ReachMap`);
+The positions and values come from the map (:class:`manipkit.analysis.reachmap.map.ReachMap`);
 this module computes no kinematics of its own (the robot's pose is drawn
 by :class:`ViewerState`, the map is placed at ``T_root_base`` from
 :meth:`Robot.transform`). Conventions (docs/architecture.md): metres, the
@@ -33,7 +33,7 @@ from manipkit.text import short_text
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from manipkit.analysis.reachmap import ReachMap
+    from manipkit.analysis.reachmap.map import ReachMap
     from manipkit.kinematics.robot import Robot
 
 __all__ = ["BANDS", "MAP_ROOT", "VoxelBand", "reachmap_scene", "serve_until_stopped", "voxel_bands",

@@ -186,8 +186,8 @@ class MeshcatScene:
 
     def __init__(self, visual, model, *, bounds=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), base=(0.0, 0.0, 0.0),
                  floor_height: float | None = None):
-        with warnings.catch_warnings():  # meshcat 0.3 imports a deprecated pyzmq module
-            warnings.simplefilter("ignore", DeprecationWarning)
+        with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's zmq.eventloop.ioloop, which warns it is deprecated
+            warnings.filterwarnings("ignore", message=r"zmq\.eventloop\.ioloop is deprecated")
             import meshcat
             import meshcat.geometry as mg
             from pinocchio.visualize import MeshcatVisualizer

@@ -21,11 +21,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from manipkit.analysis import blockstore
-from manipkit.analysis.blockstore import BlockStoreWarning, ResumeNote, open_store
-from manipkit.analysis.reachjob import ik_block, sample_block
-from manipkit.analysis.reachmap import build
-from manipkit.analysis.reachstages import ROUND_BLOCKS
+from manipkit.analysis.reachmap import blockstore, build
+from manipkit.analysis.reachmap.blockstore import BlockStoreWarning, ResumeNote, open_store
+from manipkit.analysis.reachmap.jobs import ik_block, sample_block
+from manipkit.analysis.reachmap.stages import ROUND_BLOCKS
 from manipkit.errors import OutputError
 
 # planar 3R (4, 2, 1): at most 80 FK blocks of 1000 samples in rounds of ROUND_BLOCKS (16), stopping in the second

@@ -10,10 +10,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from manipkit.analysis import reachmap
-from manipkit.analysis.blocks import BlockRunner, run_blocks
-from manipkit.analysis.reachjob import sample_block
-from manipkit.analysis.reachstages import ROUND_BLOCKS, KnownBins
+from manipkit.analysis.reachmap import builder
+from manipkit.analysis.reachmap.blocks import BlockRunner, run_blocks
+from manipkit.analysis.reachmap.jobs import sample_block
+from manipkit.analysis.reachmap.stages import ROUND_BLOCKS, KnownBins
 
 # planar 3R (4, 2, 1) at 0.25 m, 16 turns: blocks of 1000 samples, stopping inside a round after the third (checked
 # below), so rounds with a snapshot, the pipeline and the stop inside a round all happen
@@ -50,9 +50,9 @@ class RecordingRunner(BlockRunner):
 
 
 def test_each_round_is_given_the_bins_known_before_the_round_ahead_of_it(planar_3r, monkeypatch):
-    monkeypatch.setattr(reachmap, "BlockRunner", RecordingRunner)
+    monkeypatch.setattr(builder, "BlockRunner", RecordingRunner)
     RecordingRunner.handed = []
-    reach_map = reachmap.build(planar_3r.chain("base_link", "ee_link"), **SETTINGS)
+    reach_map = builder.build(planar_3r.chain("base_link", "ee_link"), **SETTINGS)
     blocks = reach_map.settings["blocks"]
     assert reach_map.settings["converged"] and blocks > 3 * ROUND_BLOCKS and blocks % ROUND_BLOCKS != 0
     job = RecordingRunner.handed[0][0]
@@ -76,12 +76,12 @@ def test_each_round_is_given_the_bins_known_before_the_round_ahead_of_it(planar_
 
 def test_the_map_is_the_same_here_and_on_one_two_and_three_workers(planar_3r, tmp_path):
     chain = planar_3r.chain("base_link", "ee_link")
-    here = reachmap.build(chain, **SETTINGS)
+    here = builder.build(chain, **SETTINGS)
     files = {path.relative_to(tmp_path / "here"): path.read_bytes()
              for path in sorted(here.save(tmp_path / "here").rglob("*")) if path.is_file()}
     assert here.settings["blocks"] > 3 * ROUND_BLOCKS
     for workers in (1, 2, 3):
-        there = reachmap.build(chain, **SETTINGS, workers=workers).save(tmp_path / f"w{workers}")
+        there = builder.build(chain, **SETTINGS, workers=workers).save(tmp_path / f"w{workers}")
         assert {path.relative_to(there): path.read_bytes() for path in sorted(there.rglob("*")) if path.is_file()} \
             == files, f"{workers} worker(s)"
 

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from manipkit.analysis.reachmap import LAYERS, ReachMap, ReachMapError
+from manipkit.analysis.reachmap.constants import LAYERS
+from manipkit.errors import ReachMapError
 from manipkit.text import short_text
+
+if TYPE_CHECKING:
+    from manipkit.analysis.reachmap.map import ReachMap
 
 __all__ = ["plot_reachmap"]
 

@@ -32,13 +32,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.reachmap import MAX_VOXEL, MIN_VOXEL, ReachMapError, finite_array
-from manipkit.analysis.reachquery import DEFAULT_THRESHOLD, check_threshold
+from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD, MAX_VOXEL, MIN_VOXEL, check_threshold, finite_array
+from manipkit.errors import ReachMapError
 from manipkit.inputs.poses import MAX_POSITION, MAX_TARGETS
 from manipkit.text import repr_text, short_text
 
 if TYPE_CHECKING:
-    from manipkit.analysis.reachmap import ReachMap
+    from manipkit.analysis.reachmap.map import ReachMap
 
 __all__ = [
     "BasePlacement", "ConfirmedPlacement", "base_placement", "confirm_placement", "placement_transforms",
@@ -104,7 +104,7 @@ class ConfirmedPlacement:
     map_score : int
         Targets the map says yes to from this placement (at its resolution, with the search's threshold).
     resolution : str
-        What the map's yes means (:func:`manipkit.analysis.reachquery.resolution_text`).
+        What the map's yes means (:func:`manipkit.analysis.reachmap.query.resolution_text`).
     candidates : int
         Placements IK was run from (the best-scored by the map).
     """
@@ -137,7 +137,7 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
     counts only collision-free answers. Ties go to the higher map score, then
     to the first in x, y, yaw order.
     """
-    from manipkit.analysis.reachquery import query_answer, resolution_text
+    from manipkit.analysis.reachmap.query import query_answer, resolution_text
 
     if isinstance(candidates, bool) or not isinstance(candidates, numbers.Integral) or not 1 <= candidates <= 1000:
         raise ReachMapError(f"candidates {repr_text(candidates)}: give a whole number from 1 to 1000")

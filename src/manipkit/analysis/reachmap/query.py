@@ -30,26 +30,22 @@ from __future__ import annotations
 
 import itertools
 import math
-import numbers
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD, HOW_NONE, check_threshold, finite_array
 from manipkit.errors import ReachMapError
-from manipkit.text import printable, repr_text, short_text
+from manipkit.text import printable, short_text
 
 if TYPE_CHECKING:
-    from manipkit.analysis.reachmap import ReachMap
+    from manipkit.analysis.reachmap.map import ReachMap
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["DEFAULT_THRESHOLD", "QueryAnswer", "bin_text", "checks_lines", "check_threshold", "query_answer",
-           "resolution_text", "support_score"]
+__all__ = ["QueryAnswer", "bin_text", "checks_lines", "query_answer", "resolution_text", "support_score"]
 
-#: The least support (``score``) a yes needs besides a reached voxel-bin; chosen on the iiwa14 5 cm map of
-#: benchmarks/reachmap_workload.py (false positives and recall at several thresholds in docs/architecture.md).
-DEFAULT_THRESHOLD = 0.65
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,15 +118,6 @@ def resolution_text(reach_map: ReachMap, *, threshold: float = DEFAULT_THRESHOLD
             f"orientation bin at the {corners} by distance); query(T, interpolate=False) answers for the voxel-bin alone")
 
 
-def check_threshold(threshold) -> float:
-    """``threshold`` as a float if it is a real number in [0, 1], else :class:`ReachMapError`."""
-    if (isinstance(threshold, bool) or not isinstance(threshold, numbers.Real) or not math.isfinite(threshold)
-            or not 0.0 <= threshold <= 1.0):
-        raise ReachMapError(f"threshold {repr_text(threshold)}: give the least support a yes needs, a number from 0 "
-                            "to 1 (0: the plain voxel-bin answer)")
-    return float(threshold)
-
-
 def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
     """(...,) support of each position ``xyz`` (..., 3, in ``base``, m) in its orientation bin ``bins`` (...,), 0..1.
 
@@ -175,8 +162,6 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
     name, which works for bundled and example-robot-data robots). ``tol``:
     position (m) and rotation (rad) residual of a confirmed answer.
     """
-    from manipkit.analysis.reachmap import HOW_NONE, finite_array
-
     threshold = check_threshold(threshold) if interpolate else 0.0
     T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
     bin_reached = np.asarray(reach_map.query(T, interpolate=False))
@@ -210,8 +195,8 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
 
     flat_T, flat_seed = T.reshape(-1, 4, 4), certificate.reshape(-1, n)
     q0 = np.where(np.isnan(flat_seed), robot.q(), flat_seed)
-    batch = ik_many(robot, flat_T, reach_map.base, reach_map.frame, q0=q0, mode="pose", tol=tol, restarts=restarts,
-                    seed=seed)
+    batch = ik_many(robot, flat_T, base=reach_map.base, tip=reach_map.frame, q0=q0, mode="pose", tol=tol,
+                    restarts=restarts, seed=seed)
     confirmed = np.array(batch.success, dtype=bool)
     if collisions is not None and confirmed.any():
         confirmed[confirmed] = collisions.free(robot, batch.q[confirmed])

@@ -1,7 +1,7 @@
 """Reachability maps of any arm: which voxels the tool reaches, in how many orientations, certified by IK.
 
 A map is a voxel grid over the arm's reach, in ``base``, times a set of
-orientation bins (:mod:`manipkit.analysis.orientations`). A voxel-bin is
+orientation bins (:mod:`manipkit.analysis.reachmap.orientations`). A voxel-bin is
 **reached** when some configuration inside the joint limits puts ``frame``
 inside the voxel with an orientation in the bin. The **index** of a voxel
 is the fraction of its bins reached (0..1): the **reachable workspace** is
@@ -17,7 +17,7 @@ Methods (docs/architecture.md, "Reachability maps"):
   configurations go through the batched FK kernel (:meth:`Robot.fk`) and
   mark the voxel-bins they land in. A mark is certain (a configuration
   lands there); an unmarked bin may still be reachable (not sampled).
-- ``"hybrid"``: then IK fill passes (:mod:`manipkit.analysis.reachstages`:
+- ``"hybrid"``: then IK fill passes (:mod:`manipkit.analysis.reachmap.stages`:
   every unreached voxel-bin in the reach shell next to a reached one, at the
   voxel centre with the bin's representative orientation, mode
   ``"position+axis"`` when rolls are ignored, else ``"pose"``, seeded from that
@@ -43,7 +43,7 @@ bit-identical whatever runs them (a cluster's task runs a few blocks in a row). 
 holds samples ``b * block_samples ..`` and draws them as
 ``numpy.random.default_rng([seed, 0, b]).random((n, m))`` scaled into the
 limits of the ``m`` chain joints (joint order, the other joints at their
-defaults); IK block ``b`` (``reachjob.IK_BLOCK`` targets in key order) uses
+defaults); IK block ``b`` (``jobs.IK_BLOCK`` targets in key order) uses
 ``ik_many(..., seed=seed + 1 + b)``.
 Without ``workers`` or ``scheduler`` the blocks run here, one after the
 other; ``workers=N`` starts a ``distributed.LocalCluster`` of N
@@ -63,32 +63,54 @@ chain joint.
 
 Maps are stored in Zarr (a folder): arrays ``reach`` (chunked), ``voxel_q``,
 ``ik_keys``, ``ik_q``, ``manipulability`` and ``manipulability_mean`` (when
-built) and the settings as attributes (:meth:`ReachMap.save`, :func:`load`),
+built) and the settings as attributes (:meth:`ReachMap.save`, :func:`manipkit.analysis.reachmap.map.load`),
 written into a temporary sibling and renamed into place, and read back
-validated as a whole (:mod:`manipkit.analysis.mapstore`).
+validated as a whole (:mod:`manipkit.analysis.reachmap.store`).
 
 Every option is bounded before anything is allocated or started, with the
 bound in the message (:data:`MAX_SAMPLES`, :data:`MAX_BLOCK_SAMPLES`,
 :data:`MAX_SEED`, :data:`MIN_VOXEL`..:data:`MAX_VOXEL`, :data:`MAX_BINS`,
-:data:`MAX_IK_RESTARTS`, :func:`manipkit.analysis.blocks.max_workers`).
+:data:`MAX_IK_RESTARTS`, :func:`manipkit.analysis.reachmap.blocks.max_workers`).
 """
 
 from __future__ import annotations
 
-import json
 import math
 import numbers
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis import reachstages
-from manipkit.analysis.blocks import BlockRunner, check_workers
-from manipkit.analysis.orientations import OrientationSet, perpendicular, planar_orientations, spatial_orientations
-from manipkit.analysis.reachjob import MapJob, translation_manipulability
-from manipkit.analysis.reachquery import DEFAULT_THRESHOLD
+from manipkit.analysis.reachmap import stages
+from manipkit.analysis.reachmap.blocks import BlockRunner, check_workers
+from manipkit.analysis.reachmap.constants import (
+    DEFAULT_BLOCK,
+    DEFAULT_FP_CHECKS,
+    DEFAULT_HOLDOUT,
+    DEFAULT_SAMPLES,
+    DEFAULT_THRESHOLD,
+    FORMAT,
+    HOW_IK,
+    HOW_NONE,
+    HOW_SAMPLE,
+    MAX_BINS,
+    MAX_BLOCK_SAMPLES,
+    MAX_FP_CHECKS,
+    MAX_GRID_BYTES,
+    MAX_IK_RESTARTS,
+    MAX_SAMPLES,
+    MAX_SEED,
+    MAX_VOXEL,
+    METHODS,
+    MIN_VOXEL,
+    PARALLEL_TOL,
+    map_bytes,
+)
+from manipkit.analysis.reachmap.jobs import MapJob, translation_manipulability
+from manipkit.analysis.reachmap.map import ReachMap
+from manipkit.analysis.reachmap.orientations import perpendicular, planar_orientations, spatial_orientations
 from manipkit.errors import ReachMapError
 from manipkit.text import printable, repr_text, short_text
 
@@ -97,291 +119,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = [
-    "DEFAULT_SAMPLES", "FORMAT", "HOW_IK", "HOW_NONE", "HOW_SAMPLE", "LAYERS", "METHODS", "ReachMap", "ReachMapError",
-    "build", "load", "parse_orientations",
-    "finite_array", "map_bytes", "writable_map_path",
-]
-
-HOW_NONE, HOW_SAMPLE, HOW_IK = 0, 1, 2
-METHODS = ("fk", "hybrid")
-LAYERS = ("index", "manipulability")  # what a picture of a map shows
-FORMAT = "manipkit-reachmap-2"  # 2: certificates (cert_keys, cert_q) and the build's checks in settings
-DEFAULT_SAMPLES = 1_000_000
-DEFAULT_BLOCK = 1 << 16  # samples per block (a task): about 5 ms of FK for a 7-joint arm
-DEFAULT_HOLDOUT = 20_000  # held-out FK samples behind the completeness estimate
-DEFAULT_FP_CHECKS = 200  # reached voxel-bins checked by IK for the false-positive bound
-MAX_FP_CHECKS = 1_000_000
-MAX_GRID_BYTES = 2 * 1024**3  # bytes a map's arrays may take (a byte per voxel-bin, a configuration per voxel)
-MAX_MAP_FILES = 1_000_000  # files a map folder may hold (its chunks)
-MAX_SAMPLES = 10**10  # random configurations a build may draw (about 150,000 blocks of the default size)
-MAX_BLOCK_SAMPLES = 1 << 20  # samples per block: a block's configurations and poses stay near 200 MB
-MAX_SEED = 2**63 - 1  # seeds numpy's generators take (non-negative)
-MAX_IK_RESTARTS = 1000
-MAX_BINS = 100_000  # orientation bins (directions x rolls) a map may have
-MIN_VOXEL, MAX_VOXEL = 1e-6, 1e6  # m: a voxel edge (MAX_VOXEL is the longest length a description may hold)
-PLANAR_TILT_TOL = 1e-3  # rad: how far a pose queried in a planar map may tilt out of the arm's plane
-PARALLEL_TOL = 1e-9  # joint axes closer than this (|a x b|) count as parallel
-
-
-def finite_array(value, name: str, tail: tuple[int, ...], what: str) -> np.ndarray:
-    """``value`` as a float array of shape (..., *tail), every entry finite, else :class:`ReachMapError` naming ``name``."""
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise ReachMapError(f"{name} {repr_text(value)}: give {what}, numbers") from None
-    if array.shape[array.ndim - len(tail):] != tail or array.ndim < len(tail):
-        raise ReachMapError(f"{name} has shape {array.shape}; give {what}")
-    if not np.isfinite(array).all():
-        raise ReachMapError(f"{name} holds NaN or infinite values; give {what}, finite numbers")
-    return array
-
-
-@dataclass(frozen=True, eq=False)
-class ReachMap:
-    """A reachability map (see the module docstring for the grid and the methods).
-
-    Attributes
-    ----------
-    reach : ndarray of uint8, shape (nx, ny, nz, bins)
-        How each voxel-bin was reached: HOW_NONE, HOW_SAMPLE or HOW_IK.
-    origin : ndarray, shape (3,)
-        Centre of voxel (0, 0, 0), metres, in ``base``.
-    axes : ndarray, shape (3, 3)
-        Grid axes (columns) in ``base``: identity (spatial) or ``(u, v, a)`` (planar).
-    voxel : float
-        Edge length (m).
-    orientations : OrientationSet
-    method : {"fk", "hybrid"}
-    robot, frame, base : str
-        Robot name and the frames the map is for (``T_base_frame``).
-    joint_names : tuple of str
-    voxel_q : ndarray, shape (nx, ny, nz, n)
-        Per voxel, a sampled configuration that reaches it (NaN where no sample did).
-    ik_keys : ndarray of int, shape (K,)
-        Flat voxel-bin indices (into ``reach.reshape(-1)``) reached by IK only.
-    ik_q : ndarray, shape (K, n)
-        The IK answer for each of them (FK puts ``frame`` at the voxel centre
-        with the bin's representative orientation).
-    settings : dict
-        samples, seed, block sizes, IK tolerance and budget.
-    manipulability : ndarray, shape (nx, ny, nz), or None
-        Per voxel the best (largest) Yoshikawa index of the translation rows
-        over the configurations that reached it (NaN where none did); None
-        when the map was built with ``manipulability=False``.
-    manipulability_mean : ndarray, shape (nx, ny, nz), or None
-        The mean over those configurations.
-    """
-
-    reach: np.ndarray
-    origin: np.ndarray
-    axes: np.ndarray
-    voxel: float
-    orientations: OrientationSet
-    method: str
-    robot: str
-    frame: str
-    base: str
-    joint_names: tuple[str, ...]
-    voxel_q: np.ndarray
-    ik_keys: np.ndarray
-    ik_q: np.ndarray
-    settings: dict = field(default_factory=dict)
-    manipulability: np.ndarray | None = None
-    manipulability_mean: np.ndarray | None = None
-    cert_keys: np.ndarray | None = None
-    cert_q: np.ndarray | None = None
-
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        """Grid shape (nx, ny, nz)."""
-        return tuple(int(s) for s in self.reach.shape[:3])
-
-    @property
-    def index(self) -> np.ndarray:
-        """(nx, ny, nz) fraction of orientation bins reached per voxel, 0..1."""
-        return (self.reach > HOW_NONE).mean(axis=-1)
-
-    @property
-    def how(self) -> np.ndarray:
-        """(nx, ny, nz) per voxel: HOW_SAMPLE if a sample reached it, else HOW_IK if IK did, else HOW_NONE."""
-        sampled = (self.reach == HOW_SAMPLE).any(axis=-1)
-        by_ik = (self.reach == HOW_IK).any(axis=-1)
-        return np.where(sampled, HOW_SAMPLE, np.where(by_ik, HOW_IK, HOW_NONE)).astype(np.uint8)
-
-    @property
-    def reachable(self) -> np.ndarray:
-        """(nx, ny, nz) bool: the reachable workspace, ``index > 0``."""
-        return (self.reach > HOW_NONE).any(axis=-1)
-
-    @property
-    def dexterous(self) -> np.ndarray:
-        """(nx, ny, nz) bool: the dexterous workspace, ``index == 1`` (every bin reached)."""
-        return (self.reach > HOW_NONE).all(axis=-1)
-
-    def centers(self) -> np.ndarray:
-        """(nx, ny, nz, 3) voxel centres (m) in ``base``."""
-        grid = np.stack(np.meshgrid(*(np.arange(s) for s in self.shape), indexing="ij"), axis=-1) * self.voxel
-        return self.origin + grid @ self.axes.T
-
-    def voxel_of(self, xyz) -> tuple[np.ndarray, np.ndarray]:
-        """(indices (..., 3) int, inside (...,) bool) of the voxels holding points ``xyz`` (..., 3) in ``base``.
-
-        A point is inside when it falls in the grid (for a planar map: in the
-        layer of the plane, within half a voxel of it). Points that are not
-        numbers, hold NaN or infinity, or are not (..., 3) are a :class:`ReachMapError`.
-        """
-        local = (finite_array(xyz, "xyz", (3,), "points (..., 3) in metres") - self.origin) @ self.axes / self.voxel
-        nearest = np.rint(local)  # decided in floats: a far point (1e300 m) never overflows the integer cast
-        inside = np.all((nearest >= 0) & (nearest < np.array(self.shape)), axis=-1)
-        return np.where(inside[..., None], nearest, 0).astype(np.int64), inside
-
-    def index_at(self, xyz) -> np.ndarray | float:
-        """Index (0..1) of the voxel holding each point ``xyz`` (..., 3) in ``base``; 0 outside the grid."""
-        ijk, inside = self.voxel_of(xyz)
-        value = np.where(inside, self.index[ijk[..., 0], ijk[..., 1], ijk[..., 2]], 0.0)
-        return float(value) if value.ndim == 0 else value
-
-    def query(self, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD, confirm: bool = False,
-              detail: bool = False, robot: Robot | None = None):
-        """Whether the map says each pose ``T`` (..., 4, 4), ``T_base_frame``, is reachable.
-
-        A yes means: the pose's voxel-bin was reached (:meth:`resolution`: the
-        voxel, the approach-axis bin and the roll bin, or any roll) **and** its
-        support is at least ``threshold`` (default
-        :data:`manipkit.analysis.reachquery.DEFAULT_THRESHOLD`, 0.65): the trilinear blend of the reached
-        flags of the same orientation bin at the 8 voxel centres around the
-        position (bilinear over 4 on a planar map) is at least ``threshold``
-        (:func:`manipkit.analysis.reachquery.support_score`; a reached
-        voxel-bin counts whenever any part of it is reached, which near the
-        edge of the reach says yes to poses no configuration reaches).
-        ``interpolate=False`` (or ``threshold=0``) answers for the voxel-bin
-        alone, the certified answer. With ``detail`` or ``confirm`` the answer
-        is a :class:`manipkit.analysis.reachquery.QueryAnswer` (both answers,
-        the score, voxel, bins, the bin's certificate; with ``confirm`` IK of
-        the exact pose from that certificate, confirmed by FK; ``robot`` the map's robot).
-        For a planar map the pose must also keep the frame's axis along the
-        arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
-        A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4), or a ``threshold``
-        outside [0, 1], is a :class:`ReachMapError`.
-        """
-        from manipkit.analysis.reachquery import check_threshold, query_answer, support_score
-
-        if confirm or detail:
-            return query_answer(self, T, interpolate=interpolate, threshold=threshold, confirm=confirm, robot=robot)
-        threshold = check_threshold(threshold)
-        T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
-        ijk, inside = self.voxel_of(T[..., :3, 3])
-        bins = self.orientations.bin_of(T[..., :3, :3])
-        if self.orientations.kind == "planar":
-            cos_tilt = (T[..., :3, :3] @ self.orientations.tool_axis) @ self.orientations.axis
-            inside = inside & (cos_tilt >= math.cos(min(math.pi / self.orientations.size, PLANAR_TILT_TOL)))
-        value = inside & (self.reach[ijk[..., 0], ijk[..., 1], ijk[..., 2], bins] > HOW_NONE)
-        if interpolate and threshold > 0.0:
-            value = value & (support_score(self, T[..., :3, 3], bins) >= threshold)
-        return bool(value) if value.ndim == 0 else value
-
-    def summary(self) -> str:
-        """A few lines for humans: what the map is of, its grid and its workspaces."""
-        reach = self.reach
-        cell = self.voxel**2 if self.orientations.kind == "planar" else self.voxel**3
-        unit = "m^2" if self.orientations.kind == "planar" else "m^3"
-        reachable, dexterous = int(self.reachable.sum()), int(self.dexterous.sum())
-        return "\n".join([
-            f"reachability map of {printable(self.robot)}: {printable(self.frame)} in {printable(self.base)}, "
-            f"method {printable(self.method)}",
-            f"grid {'x'.join(str(s) for s in self.shape)} voxels of {short_text(self.voxel)} m, "
-            f"voxel (0, 0, 0) at ({', '.join(short_text(v) for v in self.origin)}) m; "
-            f"orientations {self.orientations.label} ({self.orientations.size} bins, {self.orientations.kind})",
-            f"reachable (index > 0): {reachable} voxels, {short_text(reachable * cell, 4)} {unit}; "
-            f"dexterous (index = 1): {dexterous} voxels, {short_text(dexterous * cell, 4)} {unit}",
-            f"voxel-bins reached: {int((reach == HOW_SAMPLE).sum())} by samples, {int((reach == HOW_IK).sum())} by IK "
-            f"({printable(str(self.settings.get('samples', 0)))} samples, seed {printable(str(self.settings.get('seed', 0)))})",
-            *self.checks_text(),
-            *([self.manipulability_text()] if self.manipulability is not None else []),
-            *([_collisions_text(self.settings["collisions"])] if self.settings.get("collisions") else []),
-        ])
-
-    def resolution(self) -> str:
-        """What a yes of :meth:`query` means, in words (the voxel, the orientation bin, roll or any roll)."""
-        from manipkit.analysis.reachquery import resolution_text
-        return resolution_text(self)
-
-    def checks_text(self) -> list[str]:
-        """Lines: how the sampling ended, the held-out completeness and the false-positive bound (when built)."""
-        from manipkit.analysis.reachquery import checks_lines
-        return checks_lines(self)
-
-    def best_manipulability(self) -> tuple[float, np.ndarray] | None:
-        """(the largest per-voxel best index, the centre (3,) m in ``base`` of its voxel), or None (none built or reached)."""
-        if self.manipulability is None or not np.isfinite(self.manipulability).any():
-            return None
-        flat = int(np.nanargmax(self.manipulability))
-        return float(self.manipulability.reshape(-1)[flat]), self.centers().reshape(-1, 3)[flat]
-
-    def manipulability_text(self) -> str:
-        """One line: the best Yoshikawa index of the map, where, and the mean over the reachable voxels."""
-        best = self.best_manipulability()
-        rows = "the plane's translation rows" if self.orientations.kind == "planar" else "translation rows"
-        if best is None:
-            return f"manipulability (Yoshikawa, {rows}): no voxel reached"
-        w, where = best
-        return (f"manipulability (Yoshikawa, {rows}): best {short_text(w, 4)} at "
-                f"({', '.join(short_text(v, 4) for v in where)}) m; mean over the reachable voxels "
-                f"{short_text(float(np.nanmean(self.manipulability_mean)), 4)}")
-
-    def save(self, path) -> Path:
-        """Write the map to the Zarr folder ``path`` (replacing a map there; never another folder); returns it.
-
-        Written beside ``path`` and renamed into place at the end (:func:`manipkit.analysis.mapstore.save_map`).
-        """
-        from manipkit.analysis.mapstore import save_map
-
-        return save_map(self, path)
-
-    def attrs(self) -> dict:
-        """The map's settings as JSON-ready values (the Zarr attributes)."""
-        return {
-            "format": FORMAT, "robot": self.robot, "frame": self.frame, "base": self.base, "voxel": self.voxel,
-            "origin": self.origin.tolist(), "axes": self.axes.tolist(), "method": self.method,
-            "orientations": self.orientations.attrs(), "joint_names": list(self.joint_names),
-            "settings": json.loads(json.dumps(self.settings)),
-        }
-
-
-def _collisions_text(c: dict) -> str:
-    floor = f", floor at z = {short_text(c['floor'])} m" if c.get("floor") is not None else ""
-    srdf = f", {c['disabled_pairs']} pairs disabled by {c['srdf']}" if c.get("srdf") else ""
-    return f"collision-free only: {' and '.join(c['checked'])} ({c['geometry']} geometry{floor}{srdf})"
-
-
-def writable_map_path(path) -> Path:
-    """``path`` if a map can be written there (:func:`manipkit.analysis.mapstore.writable_map_path`)."""
-    from manipkit.analysis.mapstore import writable_map_path as check
-
-    return check(path)
-
-
-def map_bytes(n_voxels: int, n_bins: int, n_joints: int) -> int:
-    """Memory (bytes) of a map's arrays: a byte per voxel-bin; per voxel a configuration and three statistics."""
-    return n_voxels * n_bins + n_voxels * (8 * n_joints + 8 * 3 + 1)
-
-
-def load(path) -> ReachMap:
-    """The map stored in the Zarr folder ``path`` by :meth:`ReachMap.save`, validated as a whole.
-
-    Attributes, array shapes, axes, orientation kinds and the presence and
-    size of every chunk are checked before any array is decoded
-    (:func:`manipkit.analysis.mapstore.load_map`).
-
-    Raises
-    ------
-    InputFileError
-        No such folder, not a manipkit reachability map, or a map that fails a check (named in the message).
-    """
-    from manipkit.analysis.mapstore import load_map
-
-    return load_map(path)
+__all__ = ["build", "parse_orientations"]
 
 
 # --------------------------------------------------------------------------
@@ -477,10 +215,9 @@ def _check_options(voxel, orientations, method, samples, workers, scheduler, blo
 
 def build(
     chain: Chain | Robot,
-    *legacy,
+    *,
     base: str | None = None,
     tip: str | None = None,
-    frame: str | None = None,
     voxel: float = 0.05,
     orientations: int | tuple[int, int] | str | None = None,
     method: str = "fk",
@@ -507,8 +244,7 @@ def build(
     chain : Chain or Robot
         The chain whose tip is mapped in its base (``robot.chain(base, tip)``),
         or a robot with ``base=`` and ``tip=`` (defaults ``base_link``,
-        ``ee_link``; the old positional ``frame, base`` and ``frame=`` work
-        one release with a ``DeprecationWarning``).
+        ``ee_link``).
     voxel : float, keyword-only
         Voxel edge (m).
     orientations : int, (int, int) or str, keyword-only
@@ -532,7 +268,7 @@ def build(
     ik_tol, ik_restarts, ik_time_budget : keyword-only
         Hybrid IK: FK residual tolerance (m and rad), random restarts after the seeded start, seconds per target.
     converge, holdout, fp_checks : keyword-only
-        Stop share of new bins per block (0: every sample); held-out samples; bins checked by IK (reachstages).
+        Stop share of new bins per block (0: every sample); held-out samples; bins checked by IK (:mod:`~manipkit.analysis.reachmap.stages`).
     manipulability : bool, keyword-only
         Also keep, per voxel, the best and the mean Yoshikawa index of the
         configurations that reached it (``False`` skips the Jacobians).
@@ -545,10 +281,10 @@ def build(
         must exist) and, when it holds blocks of a build with the same
         settings, read those back instead of computing them: an interrupted
         build resumes and gives the same map, bit for bit
-        (:mod:`manipkit.analysis.blockstore`, :mod:`manipkit.analysis.reachresume`).
+        (:mod:`manipkit.analysis.reachmap.blockstore`, :mod:`manipkit.analysis.reachmap.resume`).
         Blocks of other settings there are removed (a warning says so). The
         folder is kept after the build: remove it
-        (:func:`manipkit.analysis.blockstore.remove_store`) once the map is saved.
+        (:func:`manipkit.analysis.reachmap.blockstore.remove_store`) once the map is saved.
         None (the default): nothing is saved.
 
     Returns
@@ -579,9 +315,9 @@ def build(
     _whole("holdout", holdout, 0, MAX_SAMPLES, "held-out FK samples for the completeness estimate")
     _whole("fp_checks", fp_checks, 0, MAX_FP_CHECKS, "reached voxel-bins checked by IK for the false-positive bound")
     voxel = float(voxel)
-    chain = chain_of(chain, "reachmap.build", legacy, base=base, tip=tip, frame=frame)
+    chain = chain_of(chain, "reachmap.build", base=base, tip=tip)
     robot, frame, base = chain.robot, chain.tip, chain.base
-    solver = ik_solver(robot, base, frame)
+    solver = ik_solver(robot, base=base, tip=frame)
     joint_axes = chain.axes()
     axes_k, origins_k, prismatic = joint_axes.direction, joint_axes.point, joint_axes.prismatic.tolist()
     T_tip = chain.fk(chain.q())
@@ -621,8 +357,8 @@ def build(
                float(ik_tol), int(ik_restarts), float(ik_time_budget), bool(manipulability), collisions, centre)
     store = None
     if resume_dir is not None:
-        from manipkit.analysis.blockstore import open_store
-        from manipkit.analysis.reachresume import build_settings, result_checks
+        from manipkit.analysis.reachmap.blockstore import open_store
+        from manipkit.analysis.reachmap.resume import build_settings, result_checks
 
         store = open_store(resume_dir, build_settings(job, method=method, orientations=(n_dir, n_roll), converge=float(
             converge), holdout=int(holdout), fp_checks=int(fp_checks), map_format=FORMAT), result_checks(job))
@@ -649,13 +385,13 @@ def build(
         return int(new_keys.sum())
 
     with BlockRunner(workers, scheduler, progress, store) as runner:
-        used = reachstages.sample_until_converged(job, runner, merge, float(converge))
+        used = stages.sample_until_converged(job, runner, merge, float(converge))
         cert_keys, cert_q = np.concatenate(cert["keys"]), np.concatenate(cert["q"])
         order = np.argsort(cert_keys)
         cert_keys, cert_q = cert_keys[order], cert_q[order]
         passes = 0
         if method == "hybrid":
-            ik_keys, ik_q, cert_keys, cert_q, passes = reachstages.fill_passes(job, runner, reach, cert_keys, cert_q,
+            ik_keys, ik_q, cert_keys, cert_q, passes = stages.fill_passes(job, runner, reach, cert_keys, cert_q,
                                                                     solver.reach + voxel, HOW_IK)
     if manipulability and ik_keys.size:  # the IK answers too, in key order
         w = translation_manipulability(robot, ik_q, frame, base, axes, planar=planar is not None)
@@ -674,8 +410,8 @@ def build(
                          best.reshape(shape) if manipulability else None,
                          mean.reshape(shape) if manipulability else None, cert_keys, cert_q)
     # the map's own checks measure its yes (query: voxel-bin reached and support >= DEFAULT_THRESHOLD)
-    checks = {"completeness": reachstages.holdout_completeness(job, reach, int(holdout), unchecked.query),
-              "false_positive": reachstages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks),
+    checks = {"completeness": stages.holdout_completeness(job, reach, int(holdout), unchecked.query),
+              "false_positive": stages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks),
                                                                  unchecked.query),
               "checked_threshold": DEFAULT_THRESHOLD}
     return replace(unchecked, settings={**settings, **checks})

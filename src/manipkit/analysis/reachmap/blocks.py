@@ -269,9 +269,9 @@ class BlockRunner:
         On a cluster the blocks start at once (submit the next batch before
         the results of this one are merged and the workers never wait for the
         merge); here, each runs when :meth:`Batch.results` asks for it.
-        With a ``store`` (:class:`manipkit.analysis.blockstore.BlockStore`),
+        With a ``store`` (:class:`manipkit.analysis.reachmap.blockstore.BlockStore`),
         blocks saved by an earlier run of the same build are read back instead
-        of computed (a :class:`~manipkit.analysis.blockstore.ResumeNote` says
+        of computed (a :class:`~manipkit.analysis.reachmap.blockstore.ResumeNote` says
         how many), and each computed block is saved before it is yielded.
         """
         saved = self._saved_blocks(fn, argument_lists, desc)
@@ -308,7 +308,7 @@ class BlockRunner:
             return {}
         import warnings
 
-        from manipkit.analysis.blockstore import BlockStoreWarning, ResumeNote
+        from manipkit.analysis.reachmap.blockstore import BlockStoreWarning, ResumeNote
 
         saved, refused = {}, []
         for i, arguments in enumerate(argument_lists):
@@ -332,7 +332,7 @@ class BlockRunner:
         if self.store is not None:
             import warnings
 
-            from manipkit.analysis.blockstore import BlockStoreWarning
+            from manipkit.analysis.reachmap.blockstore import BlockStoreWarning
             from manipkit.errors import OutputError
 
             try:

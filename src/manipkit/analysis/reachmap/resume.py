@@ -2,12 +2,12 @@
 
 (docs/architecture.md, "Reachability maps".) :func:`manipkit.analysis.reachmap.build`
 with ``resume_dir`` keeps its finished blocks in a
-:class:`manipkit.analysis.blockstore.BlockStore` under the fingerprint of
+:class:`manipkit.analysis.reachmap.blockstore.BlockStore` under the fingerprint of
 :func:`build_settings` (the robot's description text, base, frame, every
 build setting, the map format, manipkit's version and the source of the
 modules that compute a block), and reads a saved block back only if
-:func:`result_checks` accepts it: the layout of :func:`~manipkit.analysis.reachjob.sample_block`'s
-or :func:`~manipkit.analysis.reachjob.ik_block`'s result, dtypes, shapes,
+:func:`result_checks` accepts it: the layout of :func:`~manipkit.analysis.reachmap.jobs.sample_block`'s
+or :func:`~manipkit.analysis.reachmap.jobs.ik_block`'s result, dtypes, shapes,
 keys inside the grid, finite configurations, and every stored configuration
 landing (by FK) in the voxel-bin or voxel it is stored for.
 """
@@ -21,17 +21,17 @@ from pathlib import Path
 
 import numpy as np
 
-from manipkit.analysis.reachjob import MapJob, packed_bit
+from manipkit.analysis.reachmap.jobs import MapJob, packed_bit
 
 __all__ = ["build_settings", "result_checks"]
 
 
 def _code_digest() -> str:
     """SHA-256 of the source of the modules that compute a block (a changed computation is a new build)."""
-    from manipkit.analysis import orientations, reachjob, reachstages
+    from manipkit.analysis.reachmap import jobs, orientations, stages
 
     digest = hashlib.sha256()
-    for module in (reachjob, reachstages, orientations):
+    for module in (jobs, stages, orientations):
         digest.update(Path(module.__file__).read_bytes())
     return digest.hexdigest()
 
@@ -68,7 +68,7 @@ def _increasing_below(values: np.ndarray, top: int) -> bool:
 
 def _check_sample(job: MapJob, result, arguments: tuple) -> str | None:
     """sample_block's (block, keys, voxels, Q, stats, key_q) for block ``arguments[0]`` of ``job``."""
-    from manipkit.analysis.reachstages import certified, keys_of
+    from manipkit.analysis.reachmap.stages import certified, keys_of
 
     if not isinstance(result, tuple) or len(result) != 6 or result[0] != arguments[0]:
         return "not the result of this FK block"

@@ -21,7 +21,7 @@
   rounds 0 and 1; bit-packed, :class:`KnownBins`, sent to a cluster's
   workers once per round) and leaves them out of its result, and, with
   collisions checked and no manipulability statistics, checks no sample
-  landing in them (:func:`manipkit.analysis.reachjob.sample_block`): a
+  landing in them (:func:`manipkit.analysis.reachmap.jobs.sample_block`): a
   snapshot fixed by the round's number, so the map is the same for any
   worker count (and the same as merging everything), a resumed build asks
   for the same blocks, and the small first rounds keep the bins checked
@@ -60,11 +60,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.blocks import in_block_order
-from manipkit.analysis.reachjob import IK_BLOCK, ik_block, sample_block
+from manipkit.analysis.reachmap.blocks import in_block_order
+from manipkit.analysis.reachmap.jobs import IK_BLOCK, ik_block, sample_block
 
 if TYPE_CHECKING:
-    from manipkit.analysis.blocks import BlockRunner
+    from manipkit.analysis.reachmap.blocks import BlockRunner
 
 __all__ = [
     "HOLDOUT_STREAM", "ROUND_BLOCKS", "KnownBins", "certified", "false_positive_bound", "fill_passes", "holdout_completeness",
@@ -170,7 +170,7 @@ def _rounds(n_blocks: int, ramp: bool):
 
 class KnownBins:
     """The voxel-bins and voxels reached so far, bit-packed as ``numpy.packbits`` packs them (big-endian bits, the
-    last byte padded with zeros), kept up to date block by block (:func:`manipkit.analysis.reachjob.sample_block`).
+    last byte padded with zeros), kept up to date block by block (:func:`manipkit.analysis.reachmap.jobs.sample_block`).
 
     >>> known = KnownBins(2, 4)  # 2 voxels x 4 bins
     >>> known.add(np.array([1, 6]), np.array([0, 1]))
@@ -335,7 +335,7 @@ def false_positive_bound(job, cert_keys: np.ndarray, cert_q: np.ndarray, n: int,
         rows, T, n = rows[yes], T[yes], int(yes.sum())
         if n == 0:
             return {"drawn": drawn, "n": 0, "failed": 0, "rate": 0.0, "high": 1.0, "mode": job.ik_mode}
-    batch = ik_many(job.robot, T, job.base, job.frame, q0=cert_q[rows], mode=job.ik_mode, tol=1e-6,
+    batch = ik_many(job.robot, T, base=job.base, tip=job.frame, q0=cert_q[rows], mode=job.ik_mode, tol=1e-6,
                     restarts=max(job.ik_restarts, 10), time_budget=max(job.ik_time_budget, 0.05),
                     seed=job.seed + FP_STREAM)
     success = np.array(batch.success, dtype=bool)

@@ -1,7 +1,7 @@
 """Reachability maps on disk: written safely, read back validated as a whole (docs/architecture.md, "Reachability maps").
 
 A map is a Zarr (v3) folder: a root ``zarr.json`` whose attributes hold the
-settings (``format`` is :data:`manipkit.analysis.reachmap.FORMAT`) and one
+settings (``format`` is :data:`manipkit.analysis.reachmap.constants.FORMAT`) and one
 array folder per array of :data:`MAP_ARRAYS`, each a ``zarr.json`` and its
 chunks under ``c/`` (regular chunk grid, ``/`` chunk keys, codecs ``bytes``
 then ``zstd``). Every chunk is written, even one that holds only the fill
@@ -15,7 +15,7 @@ map holding nothing but a map's own files (:func:`writable_map_path`): it is
 renamed aside, the new map renamed in, and the old one removed; a folder with
 anything else in it, a file or a symbolic link is refused, never emptied.
 
-**Reading** (:func:`load_map`) checks everything before any array is
+**Reading** (:func:`read_map`) checks everything before any array is
 decoded: every entry of the folder is a folder or a regular file of a map
 (no symbolic link, FIFO or stray file), every ``zarr.json`` is JSON of at
 most :data:`MAX_JSON_DEPTH` levels and ``MAX_TABLE_BYTES``; the attributes
@@ -46,15 +46,29 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.analysis.reachmap.constants import (
+    FORMAT,
+    HOW_IK,
+    HOW_NONE,
+    HOW_SAMPLE,
+    MAX_BINS,
+    MAX_GRID_BYTES,
+    MAX_MAP_FILES,
+    MAX_VOXEL,
+    METHODS,
+    MIN_VOXEL,
+    map_bytes,
+)
+from manipkit.analysis.reachmap.orientations import planar_orientations, spatial_orientations
 from manipkit.errors import InputFileError, OutputError
 from manipkit.inputs import MAX_TABLE_BYTES, read_text
 from manipkit.outputs import cannot_write
 from manipkit.text import printable
 
 if TYPE_CHECKING:
-    from manipkit.analysis.reachmap import ReachMap
+    from manipkit.analysis.reachmap.map import ReachMap
 
-__all__ = ["MAP_ARRAYS", "MAX_JSON_DEPTH", "load_map", "resume_folder", "save_map", "writable_map_path",
+__all__ = ["MAP_ARRAYS", "MAX_JSON_DEPTH", "read_map", "resume_folder", "save_map", "writable_map_path",
            "zstd_content_size"]
 
 #: The arrays of a map and their data types; the last two only in a map built with the manipulability overlay.
@@ -111,7 +125,7 @@ def writable_map_path(path) -> Path:
 def resume_folder(path) -> Path:
     """The hidden sibling ``.NAME.partial`` of the map folder ``path``: where a build of it keeps finished blocks.
 
-    (:mod:`manipkit.analysis.blockstore`; the command line removes it once the map is saved.)
+    (:mod:`manipkit.analysis.reachmap.blockstore`; the command line removes it once the map is saved.)
 
     >>> resume_folder("maps/iiwa.zarr").as_posix()
     'maps/.iiwa.zarr.partial'
@@ -205,8 +219,6 @@ def _settle_zarr() -> None:
 
 def _is_map(path: Path) -> bool:
     """Whether ``path/zarr.json`` says it is a manipkit map (its attributes' ``format``)."""
-    from manipkit.analysis.reachmap import FORMAT
-
     try:
         meta = _read_json(path / "zarr.json")
         return isinstance(meta, dict) and isinstance(meta.get("attributes"), dict) and \
@@ -234,8 +246,6 @@ def _read_json(path: Path):
 
 def _check_entries(path: Path) -> None:
     """Every entry under ``path`` is one of a map's: zarr.json, the array folders, their zarr.json and chunks."""
-    from manipkit.analysis.reachmap import MAX_MAP_FILES
-
     count = 0
 
     def entry(full: Path, folder: bool) -> None:
@@ -278,16 +288,17 @@ def _check_entries(path: Path) -> None:
 # Reading
 
 
-def load_map(path) -> ReachMap:
-    """The map stored in the folder ``path`` by :func:`save_map`, validated as a whole (module docstring).
+def read_map(path) -> dict:
+    """The fields of the map stored in the folder ``path`` by :func:`save_map`, validated as a whole (module docstring).
+
+    A dict of :class:`~manipkit.analysis.reachmap.map.ReachMap`'s fields by name
+    (:func:`manipkit.analysis.reachmap.map.load` makes the map of them).
 
     Raises
     ------
     InputFileError
         No such folder, not a manipkit reachability map, or a map that fails a check (named).
     """
-    from manipkit.analysis.reachmap import FORMAT, ReachMap
-
     path = Path(path)
     shown = printable(str(path))
     if not path.is_dir():
@@ -315,10 +326,12 @@ def load_map(path) -> ReachMap:
         raise InputFileError(f"{invalid}: {exc}; rebuild it with 'manipkit reachmap'") from None
     except OSError as exc:
         raise InputFileError(f"{shown}: cannot be read ({exc.strerror or exc})") from None
-    return ReachMap(arrays["reach"], a["origin"], a["axes"], a["voxel"], a["orientations"], a["method"], a["robot"],
-                    a["frame"], a["base"], a["joint_names"], arrays["voxel_q"], arrays["ik_keys"], arrays["ik_q"],
-                    a["settings"], arrays.get("manipulability"), arrays.get("manipulability_mean"), arrays["cert_keys"],
-                    arrays["cert_q"])
+    return {"reach": arrays["reach"], "origin": a["origin"], "axes": a["axes"], "voxel": a["voxel"],
+            "orientations": a["orientations"], "method": a["method"], "robot": a["robot"], "frame": a["frame"],
+            "base": a["base"], "joint_names": a["joint_names"], "voxel_q": arrays["voxel_q"],
+            "ik_keys": arrays["ik_keys"], "ik_q": arrays["ik_q"], "settings": a["settings"],
+            "manipulability": arrays.get("manipulability"), "manipulability_mean": arrays.get("manipulability_mean"),
+            "cert_keys": arrays["cert_keys"], "cert_q": arrays["cert_q"]}
 
 
 def _real(value, what: str, low: float = -math.inf, high: float = math.inf) -> float:
@@ -363,7 +376,7 @@ def _names(value) -> bool:
     return isinstance(value, list) and len(value) <= 16 and all(isinstance(v, str) for v in value)
 
 
-#: The build's record that the summary prints (reachquery.checks_lines): whole numbers, shares and the checks' tables.
+#: The build's record that the summary prints (query.checks_lines): whole numbers, shares and the checks' tables.
 _WHOLE_SETTINGS = ("samples", "seed", "samples_used", "blocks", "fill_passes")
 _SHARE_SETTINGS = ("converge", "checked_threshold")
 _CHECKS = {"completeness": (("n", "hits"), ("rate", "low", "high")),
@@ -405,9 +418,6 @@ def _checked_build_record(settings: dict) -> None:
 
 def _checked_attributes(meta) -> dict:
     """The root attributes as Python values, every one checked (types, finite, ranges, kinds, consistency)."""
-    from manipkit.analysis.orientations import planar_orientations, spatial_orientations
-    from manipkit.analysis.reachmap import MAX_BINS, MAX_VOXEL, METHODS, MIN_VOXEL
-
     if meta.get("zarr_format") != 3 or meta.get("node_type") != "group" or meta.get("consolidated_metadata"):
         raise _Invalid("its zarr.json is not the plain Zarr v3 group manipkit writes")
     a = meta["attributes"]
@@ -483,8 +493,6 @@ def _array_meta(path: Path, name: str) -> tuple[tuple[int, ...], tuple[int, ...]
 
 def _read_arrays(path: Path, a: dict) -> dict:
     """Every array of the map, shapes checked against the attributes and the memory bound before any is read."""
-    from manipkit.analysis.reachmap import MAX_GRID_BYTES, map_bytes
-
     names = [name for name in MAP_ARRAYS if (path / name).exists()]
     overlay = [name for name in ("manipulability", "manipulability_mean") if name in names]
     missing = [name for name in ("reach", "voxel_q", "ik_keys", "ik_q", "cert_keys", "cert_q") if name not in names]
@@ -585,8 +593,6 @@ def _read_array(folder: Path, name: str, shape: tuple[int, ...], chunk: tuple[in
 
 def _check_contents(arrays: dict) -> None:
     """Reach codes, IK keys (sorted, unique, in range, marked HOW_IK) and finite values."""
-    from manipkit.analysis.reachmap import HOW_IK, HOW_NONE, HOW_SAMPLE
-
     reach, keys = arrays["reach"], arrays["ik_keys"]
     if reach.size and int(reach.max()) > max(HOW_NONE, HOW_SAMPLE, HOW_IK):
         raise _Invalid(f"reach holds the code {int(reach.max())}; codes are {HOW_NONE}, {HOW_SAMPLE} and {HOW_IK}")

@@ -3,7 +3,7 @@
 :func:`manipkit.analysis.reachmap.build` makes one :class:`MapJob` (the
 robot, the grid and its orientation bins, the sampling box of the chain
 joints, the IK settings) and the stages of
-:mod:`manipkit.analysis.reachstages` run blocks of it: FK samples seeded
+:mod:`manipkit.analysis.reachmap.stages` run blocks of it: FK samples seeded
 ``[seed, 0, block]`` (:func:`sample_block`) and IK targets seeded
 ``seed + 1 + block`` (:func:`ik_block`), so a block's result depends on
 its number only, never on where or when it ran. Keys of voxel-bins are
@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.orientations import OrientationSet
+from manipkit.analysis.reachmap.orientations import OrientationSet
 
 if TYPE_CHECKING:
     from manipkit.kinematics.collisions import CollisionSettings
@@ -85,7 +85,7 @@ def sample_block(job: MapJob, block: int, known: tuple[np.ndarray, np.ndarray] |
 
     ``stats``: per voxel (best, sum, count) of the manipulability index of the
     block's samples in it, or None when the map is built without it.
-    ``known``: the round's snapshot (:mod:`manipkit.analysis.reachstages`): (voxel-bins reached, voxels reached),
+    ``known``: the round's snapshot (:mod:`manipkit.analysis.reachmap.stages`): (voxel-bins reached, voxels reached),
     each bit-packed (``numpy.packbits``, flat keys and flat voxel indices).
     Keys reached before are left out of ``keys`` and, without the
     statistics, voxels reached before out of ``voxels`` (merging them would
@@ -138,7 +138,7 @@ def ik_block(job: MapJob, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tupl
     """Block ``block`` of IK targets: (block, success mask, configurations), by :func:`ik_many` seeded per block."""
     from manipkit.kinematics.ik_many import ik_many
 
-    batch = ik_many(job.robot, T, job.base, job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
+    batch = ik_many(job.robot, T, base=job.base, tip=job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
                     restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block,
                     threads=1 if _in_dask_worker() else None)  # a cluster runs one block per core already
     success = np.array(batch.success, dtype=bool)
