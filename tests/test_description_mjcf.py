@@ -177,7 +177,7 @@ def test_geoms_become_collision_shapes_and_disabled_pairs(features):
     root = ET.fromstring(robot.urdf)
     shapes = {link.get("name"): [c.find("geometry")[0].tag for c in link.findall("collision")]
               for link in root.iter("link")}
-    assert shapes["base"] == ["capsule"] and shapes["link2"] == ["box"] and shapes["link3"] == ["sphere"]
+    assert shapes["base"] == ["cylinder", "sphere", "sphere"] and shapes["link2"] == ["box"] and shapes["link3"] == ["sphere"]
     link3 = next(link for link in root.iter("link") if link.get("name") == "link3")
     assert link3.find("collision/geometry/sphere").get("radius") == "0.04"  # the ellipsoid's largest semi-axis
     model = mujoco.MjModel.from_xml_path(str(features))

@@ -447,20 +447,23 @@ def _geoms(link_elements: dict, model, missing: dict, present: dict) -> None:
         elif kind == G.mjGEOM_BOX:
             shape = ("box", {"size": _numbers(2 * size)})
         elif kind in (G.mjGEOM_CYLINDER, G.mjGEOM_CAPSULE):
-            shape = ("cylinder" if kind == G.mjGEOM_CYLINDER else "capsule",
-                     {"radius": repr(float(size[0])), "length": repr(float(2 * size[1]))})
+            shape = ("cylinder", {"radius": repr(float(size[0])), "length": repr(float(2 * size[1]))})
         else:
             continue  # a plane, height field or signed-distance field: no URDF form
+        pieces = [(T, shape)]
+        if kind == G.mjGEOM_CAPSULE:  # urdfdom has no capsule: the cylinder and a sphere on each end, exactly
+            ball = ("sphere", {"radius": repr(float(size[0]))})
+            pieces += [(T @ _transform((0.0, 0.0, side * size[1])), ball) for side in (-1.0, 1.0)]
         roles = []
         if model.geom_group[g] <= 2:
             roles.append("visual")
         if model.geom_contype[g] or model.geom_conaffinity[g]:
             roles.append("collision")
         for role in roles:
-            element = ET.SubElement(link_elements[model.geom_bodyid[g]], role)
-            ET.SubElement(element, "origin", **_origin(T))
-            geometry = ET.SubElement(element, "geometry")
-            ET.SubElement(geometry, shape[0], **shape[1])
+            for T_piece, (tag, attributes) in pieces:
+                element = ET.SubElement(link_elements[model.geom_bodyid[g]], role)
+                ET.SubElement(element, "origin", **_origin(T_piece))
+                ET.SubElement(ET.SubElement(element, "geometry"), tag, **attributes)
 
 
 def mjcf_disabled_pairs(model) -> dict[tuple[str, str], str]:
