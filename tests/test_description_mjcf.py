@@ -282,3 +282,15 @@ def test_is_mjcf_reads_the_root_element(tmp_path, features):
     urdf.write_text('<robot name="r"><link name="a"/></robot>')
     assert is_mjcf(features) and not is_mjcf(urdf)
     assert manipkit.load(urdf).frame_names == ("a",)  # a URDF named .xml is read as URDF
+
+
+def test_an_include_too_large_is_refused_before_anything_reads_it(tmp_path):
+    from manipkit.errors import InputFileError
+    from manipkit.inputs import MAX_DESCRIPTION_BYTES
+
+    with open(tmp_path / "big.xml", "wb") as stream:
+        stream.truncate(MAX_DESCRIPTION_BYTES + 1)  # sparse: no disk space taken
+    path = tmp_path / "arm.xml"
+    path.write_text('<mujoco>\n<include file="big.xml"/>\n<worldbody/></mujoco>')
+    with pytest.raises(InputFileError, match=r"^arm.xml:2: <include file=\"big.xml\">: robot file .*big.xml is 67,108,865 bytes, above the limit"):
+        manipkit.load(path)

@@ -49,7 +49,8 @@ Read limits, as for URDF (:mod:`manipkit.description.access`): before MuJoCo
 opens anything, every ``<include>`` (and ``<model>`` asset) file is found,
 checked with :func:`manipkit.inputs.check_input_file` and must lie inside
 what the description may read; the files together are bounded by
-:data:`MAX_MJCF_FILES` and :data:`manipkit.inputs.MAX_DESCRIPTION_BYTES`; a mesh
+:data:`MAX_MJCF_FILES` and :data:`manipkit.inputs.MAX_DESCRIPTION_BYTES`, and the
+bodies they make (``<replicate>`` copies counted) by :data:`MAX_MJCF_BODIES`; a mesh
 file outside is refused; texture, height-field and skin files are dropped
 unread. Compiler errors become one line naming the file.
 """
@@ -66,10 +67,13 @@ from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
 from manipkit.spatial.rotations import matrix_from_axis_angle, rpy_from_matrix
 from manipkit.spatial.transforms import transform_from_xyz_quaternion
 
-__all__ = ["MAX_MJCF_FILES", "compile_mjcf", "is_mjcf", "mjcf_disabled_pairs", "mjcf_files", "mjcf_urdf"]
+__all__ = ["MAX_MJCF_BODIES", "MAX_MJCF_FILES", "compile_mjcf", "is_mjcf", "mjcf_disabled_pairs", "mjcf_files", "mjcf_urdf"]
 
 #: Most files (the top file and its includes) one MJCF description may read.
 MAX_MJCF_FILES = 200
+#: Most bodies an MJCF description may make, counting each ``<replicate count="N">`` copy (arms have tens,
+#: scenes hundreds; nested replicates multiply, so a small file could ask the compiler for millions).
+MAX_MJCF_BODIES = 10_000
 #: Radius (m) of the sphere a missing mesh is replaced by before compiling (its pose is all that is kept).
 _PLACEHOLDER_RADIUS = 1e-3
 _MARK = "manipkit_missing_mesh_"
@@ -119,7 +123,7 @@ def mjcf_files(path: str | os.PathLike, *, allow_read=()) -> list[Path]:
 
     top = Path(os.path.abspath(path))
     policy = ReadPolicy(top, None, allow_read)
-    files, todo, total = [top], [top], 0
+    files, todo, total, bodies = [top], [top], 0, 0
     parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True, huge_tree=False)
     while todo:
         current = todo.pop()
@@ -132,6 +136,7 @@ def mjcf_files(path: str | os.PathLike, *, allow_read=()) -> list[Path]:
             root = etree.parse(str(current), parser).getroot()
         except etree.XMLSyntaxError as exc:
             raise DescriptionError(f"{current.name}:{exc.lineno}: malformed XML: {exc.msg}") from None
+        bodies += _body_count(root, current.name, bodies)
         for element in root.iter("include", "model"):
             name = element.get("file")
             if not name:
@@ -150,7 +155,7 @@ def mjcf_files(path: str | os.PathLike, *, allow_read=()) -> list[Path]:
                                            "MuJoCo refuses repeated includes")
                 continue
             try:
-                check_input_file(included, what="MJCF include", max_bytes=MAX_DESCRIPTION_BYTES)
+                check_input_file(included, what="robot file", max_bytes=MAX_DESCRIPTION_BYTES)
             except InputFileError as exc:
                 raise InputFileError(f"{where}: {exc}") from None
             files.append(included)
@@ -158,6 +163,25 @@ def mjcf_files(path: str | os.PathLike, *, allow_read=()) -> list[Path]:
             if len(files) > MAX_MJCF_FILES:
                 raise DescriptionError(f"{top.name}: more than {MAX_MJCF_FILES} included files")
     return files
+
+
+def _body_count(root, where: str, before: int) -> int:
+    """The bodies ``root`` makes (each ``<replicate>`` copy counted), or a one-line error above :data:`MAX_MJCF_BODIES`."""
+    total = 0
+    for body in root.iter("body"):
+        copies = 1
+        for ancestor in body.iterancestors("replicate"):
+            try:
+                copies *= max(int(ancestor.get("count", "1")), 1)
+            except ValueError:
+                continue  # not a number: the compiler's error
+        total += copies
+        if before + total > MAX_MJCF_BODIES:
+            replicated = f" (<replicate> at line {next(body.iterancestors('replicate')).sourceline} makes {copies} copies)" \
+                if copies > 1 else ""
+            raise DescriptionError(f"{where}:{body.sourceline}: more than {MAX_MJCF_BODIES} bodies{replicated}; "
+                                   "manipkit reads robots, which have tens")
+    return total
 
 
 def compile_mjcf(path: str | os.PathLike, *, allow_read=()):
