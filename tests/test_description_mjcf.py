@@ -123,7 +123,7 @@ FEATURES = """<mujoco model="features">
       <frame pos="0 0 0.2" axisangle="1 1 0 40">
         <body name="link2" xyaxes="0 1 0 -1 0 1">
           <joint name="j2" pos="0.05 0 0" ref="-15"/>
-          <joint name="s2" type="slide" axis="1 0 0" range="-0.1 0.2" pos="0 0.03 0"/>
+          <joint name="s2" type="slide" axis="1 0 0" range="-0.1 0.2" pos="0 0.03 0" ref="0.05"/>
           <geom type="box" size="0.01 0.02 0.03" contype="2" conaffinity="2"/>
           <body name="link3" pos="0 0 0.3" zaxis="0 1 1">
             <joint name="j3" type="hinge" axis="1 0 0" pos="0 0 -0.1" limited="false"/>
@@ -165,7 +165,7 @@ def test_joint_ref_is_the_value_at_the_written_pose(features):
     model = mujoco.MjModel.from_xml_path(str(features))
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    q = robot.q(j1=math.radians(30), j2=math.radians(-15))
+    q = robot.q(j1=math.radians(30), j2=math.radians(-15), s2=0.05)
     np.testing.assert_allclose(robot.transform("world", "link3", q)[:3, 3], data.xpos[model.body("link3").id],
                                atol=1e-15)
 
@@ -294,3 +294,36 @@ def test_an_include_too_large_is_refused_before_anything_reads_it(tmp_path):
     path.write_text('<mujoco>\n<include file="big.xml"/>\n<worldbody/></mujoco>')
     with pytest.raises(InputFileError, match=r"^arm.xml:2: <include file=\"big.xml\">: robot file .*big.xml is 67,108,865 bytes, above the limit"):
         manipkit.load(path)
+
+
+@needs_menagerie
+def test_warnings_name_the_mjcf_file_and_line_of_the_body():
+    scene = manipkit.load(MENAGERIE / "universal_robots_ur5e" / "scene.xml")
+    # line 64 of the included ur5e.xml: <body name="base" quat="1 0 0 1">
+    assert scene.mesh_warnings[0].startswith("ur5e.xml:64: link 'base' mesh ")
+
+
+def test_a_capsule_is_its_cylinder_and_two_spheres_at_mujocos_end_points(tmp_path):
+    path = tmp_path / "capsule.xml"
+    path.write_text('<mujoco><worldbody><body name="b"><joint name="j" range="-1 1"/>'
+                    '<geom type="capsule" fromto="0.1 0.2 0.3 0.4 -0.1 0.5" size="0.03"/></body></worldbody></mujoco>')
+    from xml.etree import ElementTree as ET
+
+    from manipkit.spatial import transform_from_xyz_rpy
+
+    link = ET.fromstring(manipkit.load(path).urdf).find("link[@name='b']")
+    pieces = {}
+    for collision in link.findall("collision"):
+        origin, shape = collision.find("origin"), collision.find("geometry")[0]
+        T = transform_from_xyz_rpy([float(v) for v in origin.get("xyz").split()],
+                                   [float(v) for v in origin.get("rpy").split()])
+        pieces.setdefault(shape.tag, []).append((T, shape.attrib))
+    (T_cylinder, cylinder), = pieces["cylinder"]
+    ends = sorted(tuple(T[:3, 3]) for T, _ in pieces["sphere"])
+    # fromto: the capsule's segment runs from (0.1, 0.2, 0.3) to (0.4, -0.1, 0.5), radius 0.03
+    np.testing.assert_allclose(ends, [(0.1, 0.2, 0.3), (0.4, -0.1, 0.5)], atol=1e-12)
+    assert float(cylinder["radius"]) == 0.03 and all(float(a["radius"]) == 0.03 for _, a in pieces["sphere"])
+    assert float(cylinder["length"]) == pytest.approx(math.dist((0.1, 0.2, 0.3), (0.4, -0.1, 0.5)), abs=1e-12)
+    np.testing.assert_allclose(T_cylinder[:3, 3], (0.25, 0.05, 0.4), atol=1e-12)
+    direction = np.subtract((0.4, -0.1, 0.5), (0.1, 0.2, 0.3)) / float(cylinder["length"])
+    assert abs(T_cylinder[:3, 2] @ direction) == pytest.approx(1.0, abs=1e-12)  # its z axis along the segment

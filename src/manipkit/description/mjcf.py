@@ -67,7 +67,10 @@ from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
 from manipkit.spatial.rotations import matrix_from_axis_angle, rpy_from_matrix
 from manipkit.spatial.transforms import transform_from_xyz_quaternion
 
-__all__ = ["MAX_MJCF_BODIES", "MAX_MJCF_FILES", "compile_mjcf", "is_mjcf", "mjcf_disabled_pairs", "mjcf_files", "mjcf_urdf"]
+__all__ = [
+    "MAX_MJCF_BODIES", "MAX_MJCF_FILES", "compile_mjcf", "is_mjcf", "mjcf_disabled_pairs", "mjcf_files", "mjcf_locator",
+    "mjcf_urdf",
+]
 
 #: Most files (the top file and its includes) one MJCF description may read.
 MAX_MJCF_FILES = 200
@@ -182,6 +185,33 @@ def _body_count(root, where: str, before: int) -> int:
             raise DescriptionError(f"{where}:{body.sourceline}: more than {MAX_MJCF_BODIES} bodies{replicated}; "
                                    "manipkit reads robots, which have tens")
     return total
+
+
+def mjcf_locator(path: str | os.PathLike, *, allow_read=()):
+    """``locate(tag, name)`` for :func:`manipkit.description.validate.check_urdf`: where a link or joint is written.
+
+    A URDF link is an MJCF ``<body>`` or ``<site>``, a URDF joint a ``<joint>`` or
+    ``<freejoint>`` of that name; the answer is ``"FILE.xml:LINE"`` in the file
+    or its includes, or None (an unnamed body, a joint manipkit added).
+    """
+    import re
+
+    try:
+        files = mjcf_files(path, allow_read=allow_read)
+    except (DescriptionError, InputFileError, ReadNotAllowedError, OSError):
+        files = []
+    texts = {file: file.read_text(encoding="utf-8", errors="replace") for file in files}
+    tags = {"link": ("body", "site"), "joint": ("joint", "freejoint")}
+
+    def locate(tag: str, name: str) -> str | None:
+        pattern = re.compile(rf"<(?:{'|'.join(tags.get(tag, (tag,)))})\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']")
+        for file, text in texts.items():
+            found = pattern.search(text)
+            if found:
+                return f"{file.name}:{text.count(chr(10), 0, found.start()) + 1}"
+        return None
+
+    return locate
 
 
 def compile_mjcf(path: str | os.PathLike, *, allow_read=()):
