@@ -327,3 +327,28 @@ def test_a_capsule_is_its_cylinder_and_two_spheres_at_mujocos_end_points(tmp_pat
     np.testing.assert_allclose(T_cylinder[:3, 3], (0.25, 0.05, 0.4), atol=1e-12)
     direction = np.subtract((0.4, -0.1, 0.5), (0.1, 0.2, 0.3)) / float(cylinder["length"])
     assert abs(T_cylinder[:3, 2] @ direction) == pytest.approx(1.0, abs=1e-12)  # its z axis along the segment
+
+
+@needs_menagerie
+def test_collision_geoms_give_mujocos_distances():
+    # MuJoCo's mj_geomDistance over the same body pairs (colliding geoms, not parent and child) is the second
+    # source; cylinders are convex shapes to both (GJK/EPA in coal and in MuJoCo), so they agree to about 1e-6
+    from manipkit.kinematics.collisions import collisions
+
+    path = MENAGERIE / "universal_robots_ur5e" / "ur5e.xml"
+    robot, model = manipkit.load(path), mujoco_model(path)
+    data = mujoco.MjData(model)
+    colliding = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+    for q in robot.sample_q(20, seed=7):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        best = (math.inf, None)
+        for g1 in colliding:
+            for g2 in colliding:
+                a, b = model.geom_bodyid[g1], model.geom_bodyid[g2]
+                if a < b and model.body_parentid[b] != a:
+                    distance = mujoco.mj_geomDistance(model, data, g1, g2, 10.0, None)
+                    best = min(best, (distance, (model.body(a).name, model.body(b).name)))
+        report = collisions(robot, q)
+        assert sorted(best[1]) == sorted((report.min_distance.link1, report.min_distance.link2))
+        assert abs(report.min_distance.distance - best[0]) < 1e-5, (best, report.min_distance)
