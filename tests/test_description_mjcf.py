@@ -352,3 +352,15 @@ def test_collision_geoms_give_mujocos_distances():
         report = collisions(robot, q)
         assert sorted(best[1]) == sorted((report.min_distance.link1, report.min_distance.link2))
         assert abs(report.min_distance.distance - best[0]) < 1e-5, (best, report.min_distance)
+
+
+def test_mujocos_contact_rules_are_an_allowed_collision_source(features):
+    from manipkit.kinematics.collisions import CollisionChecker
+
+    robot = manipkit.load(features)
+    disabled = mjcf_disabled_pairs(features)
+    everything = CollisionChecker(robot).pairs
+    as_mujoco = CollisionChecker(robot, srdf=disabled).pairs
+    # base-link3 and the three pairs with side would be checked; MuJoCo's rules leave out all four
+    assert set(everything) == {("base", "link3"), ("base", "side"), ("link2", "side"), ("link3", "side")}
+    assert as_mujoco == ()

@@ -43,7 +43,8 @@ quaternions are (w, x, y, z), URDF ``rpy`` is R = Rz(yaw) Ry(pitch) Rx(roll)):
   pipeline warns about it and the viewer draws the link another way, as for URDF.
 - The pairs MuJoCo never tests for contact (``contype``/``conaffinity`` bits
   never meeting, parent and child bodies, ``<exclude>``) are
-  :func:`mjcf_disabled_pairs`.
+  :func:`mjcf_disabled_pairs`, in the form the collision checks take as ``srdf=``
+  (not the commands' default: they treat an MJCF arm as a URDF without SRDF).
 
 Read limits, as for URDF (:mod:`manipkit.description.access`): before MuJoCo
 opens anything, every ``<include>`` (and ``<model>`` asset) file is found,
@@ -520,8 +521,14 @@ def _geoms(link_elements: dict, model, missing: dict, present: dict) -> None:
                 ET.SubElement(ET.SubElement(element, "geometry"), tag, **attributes)
 
 
-def mjcf_disabled_pairs(model) -> dict[tuple[str, str], str]:
+def mjcf_disabled_pairs(model, *, allow_read=()) -> dict[tuple[str, str], str]:
     """Body pairs (sorted link names) MuJoCo never tests for contact, with the reason.
+
+    ``model`` is a compiled ``mujoco.MjModel`` or the path of an MJCF file (compiled by
+    :func:`compile_mjcf`). The answer is what ``srdf=`` of
+    :class:`manipkit.kinematics.collisions.CollisionChecker` and
+    :func:`manipkit.kinematics.collisions.collisions` take, so MuJoCo's own rules can
+    be the allowed-collision source (the commands do not use it by default).
 
     A pair is tested when some geom of one and some geom of the other have
     ``(contype_a & conaffinity_b) or (contype_b & conaffinity_a)``, the two
@@ -537,6 +544,8 @@ def mjcf_disabled_pairs(model) -> dict[tuple[str, str], str]:
     """
     import mujoco
 
+    if isinstance(model, (str, os.PathLike)):
+        model = compile_mjcf(model, allow_read=allow_read)[0]
     links = body_names(model)
     colliding: dict[int, list[tuple[int, int]]] = {}
     for g in range(model.ngeom):
