@@ -364,3 +364,16 @@ def test_mujocos_contact_rules_are_an_allowed_collision_source(features):
     # base-link3 and the three pairs with side would be checked; MuJoCo's rules leave out all four
     assert set(everything) == {("base", "link3"), ("base", "side"), ("link2", "side"), ("link3", "side")}
     assert as_mujoco == ()
+
+
+def test_a_mesh_outside_the_folder_is_refused_unless_allowed(tmp_path):
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "tet.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    (tmp_path / "robot").mkdir()
+    path = tmp_path / "robot" / "arm.xml"
+    path.write_text('<mujoco><compiler meshdir="../meshes"/><asset><mesh name="tet" file="tet.obj"/></asset>'
+                    '<worldbody><body name="b"><joint name="j" range="-1 1"/><geom type="mesh" mesh="tet"/></body>'
+                    '</worldbody></mujoco>')
+    with pytest.raises(ReadNotAllowedError, match=r"^arm.xml: mesh 'tet': .*tet.obj is outside what arm.xml may read"):
+        manipkit.load(path)
+    assert not manipkit.load(path, allow_read=tmp_path / "meshes").mesh_warnings
