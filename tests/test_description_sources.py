@@ -46,7 +46,7 @@ def test_missing_file_is_named():
 def test_file_of_wrong_kind_is_rejected(tmp_path):
     path = tmp_path / "robot.txt"
     path.write_text("<robot/>")
-    with pytest.raises(UnknownRobotError, match="give a .urdf or .xacro file"):
+    with pytest.raises(UnknownRobotError, match="give a .urdf, .xacro or MJCF .xml file"):
         resolve_robot(path)
 
 

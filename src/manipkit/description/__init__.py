@@ -4,6 +4,7 @@
 - :mod:`~manipkit.description.packages`: ROS packages without ROS (:class:`PackageResolver`).
 - :mod:`~manipkit.description.access`: what a description may read (:class:`ReadPolicy`, ``--allow-read``).
 - :mod:`~manipkit.description.xacro`: description files to URDF text (:func:`describe`, :func:`urdf_text`).
+- :mod:`~manipkit.description.mjcf`: MuJoCo MJCF files compiled by MuJoCo, written out as URDF text (:func:`mjcf_urdf`).
 - :mod:`~manipkit.description.validate`: checks before a model is built (:func:`check_urdf`).
 - :mod:`~manipkit.description.meshes`: mesh URIs to files (:func:`mesh_path`); links whose meshes are missing drawn
   another way (:func:`visual_urdf`).
@@ -12,7 +13,7 @@
 Imports only :mod:`manipkit.spatial` and :mod:`manipkit.errors`; Pinocchio is
 not loaded here (that is :mod:`manipkit.kinematics`). The names below load
 their module on first use, so importing this package costs nothing and lxml,
-xacro, yourdfpy and matplotlib load only when needed (docs/architecture.md).
+xacro, mujoco, yourdfpy and matplotlib load only when needed (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "manipkit.description.xacro",
         "XacroExpansion", "describe", "expand_xacro", "urdf_text", "xacro_arg_declarations", "xacro_locator",
     ),
+    **homes_of("manipkit.description.mjcf", "mjcf_disabled_pairs", "mjcf_urdf"),
     **homes_of("manipkit.description.validate", "CheckedURDF", "check_urdf", "package_uri_warnings"),
     **homes_of("manipkit.description.meshes", "MissingMeshWarning", "MissingMeshes", "mesh_path", "urdf_with_mesh_paths",
                "visual_urdf"),

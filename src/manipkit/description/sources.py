@@ -8,7 +8,8 @@ A robot is named in one of three ways:
   the PyPI distribution ``example-robot-data`` installs under
   ``cmeel.prefix/share/example-robot-data/robots/`` (it ships no Python
   loader, so they are found through ``importlib.metadata``);
-- a path to a ``.urdf`` or ``.xacro`` file.
+- a path to a ``.urdf`` or ``.xacro`` file, or a MuJoCo MJCF ``.xml`` file
+  (read through MuJoCo's compiler: :mod:`~manipkit.description.mjcf`).
 
 :func:`resolve_robot` turns a name into a :class:`RobotSource`, and
 :func:`resolve_dh_table` a DH table name into its file. The rest of the way to
@@ -49,6 +50,7 @@ __all__ = [
 ]
 
 DEFAULT_ROBOT = "course_arm"
+_SUFFIXES = (".urdf", ".xacro", ".xml")  # a description file by path: URDF, xacro, MJCF
 
 #: example-robot-data arms known by a short name: file under the
 #: distribution's ``robots/`` folder, and the frame used as ``ee_link``.
@@ -75,7 +77,7 @@ class RobotSource:
     name : str
         Short name (bundled or example-robot-data name, or the file stem).
     path : Path
-        The ``.urdf`` or ``.xacro`` file.
+        The ``.urdf``, ``.xacro`` or MJCF ``.xml`` file.
     origin : str
         ``"bundled"``, ``"example-robot-data"`` or ``"file"``.
     ee_frame : str or None
@@ -90,6 +92,11 @@ class RobotSource:
     @property
     def is_xacro(self) -> bool:
         return self.path.suffix == ".xacro"
+
+    @property
+    def is_mjcf(self) -> bool:
+        """A ``.xml`` file: MuJoCo MJCF (compiled by MuJoCo; a ``<robot>`` root is read as URDF)."""
+        return self.path.suffix == ".xml"
 
 
 # --------------------------------------------------------------------------
@@ -172,13 +179,13 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
     spec : str or path-like, optional
         Bundled name, example-robot-data name (short arm name such as
         ``panda`` or any URDF file stem such as ``talos_reduced``), or a path
-        to a ``.urdf`` / ``.xacro`` file. Defaults to :data:`DEFAULT_ROBOT`.
+        to a ``.urdf`` / ``.xacro`` / MJCF ``.xml`` file. Defaults to :data:`DEFAULT_ROBOT`.
 
     Raises
     ------
     UnknownRobotError
         When nothing matches (the message lists the closest known names), the
-        name is empty, or the path is a folder or not a .urdf/.xacro file; ``spec``
+        name is empty, or the path is a folder or not a .urdf/.xacro/.xml file; ``spec``
         is not a str or path, or holds a NUL byte.
     InputFileError
         The path is a FIFO, device or socket, a symlink loop, not readable,
@@ -197,7 +204,7 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
     if not text.strip():
         raise UnknownRobotError(
             f"the robot name is empty; give a bundled name ({', '.join(bundled)}), an example-robot-data name "
-            "(see `manipkit robots`) or a path to a .urdf/.xacro file"
+            "(see `manipkit robots`) or a path to a .urdf/.xacro/.xml (MJCF) file"
         )
     if text in bundled:
         return RobotSource(text, bundled[text], "bundled")
@@ -209,12 +216,12 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
         return RobotSource(text, urdfs[text], "example-robot-data")
 
     path = Path(text).expanduser()
-    looks_like_path = os.sep in text or path.suffix in (".urdf", ".xacro")
+    looks_like_path = os.sep in text or path.suffix in _SUFFIXES
     mode = _file_mode(path, what="robot file", strict=looks_like_path)
     if mode is not None and stat.S_ISDIR(mode):
-        raise UnknownRobotError(f"{text} is a folder; give a .urdf or .xacro file inside it")
-    if mode is not None and stat.S_ISREG(mode) and path.suffix not in (".urdf", ".xacro"):
-        raise UnknownRobotError(f"{text}: not a robot description; give a .urdf or .xacro file")
+        raise UnknownRobotError(f"{text} is a folder; give a .urdf, .xacro or MJCF .xml file inside it")
+    if mode is not None and stat.S_ISREG(mode) and path.suffix not in _SUFFIXES:
+        raise UnknownRobotError(f"{text}: not a robot description; give a .urdf, .xacro or MJCF .xml file")
     if mode is not None:  # a regular file (size checked), or a FIFO, device or socket (refused)
         path = check_input_file(path, what="robot file", max_bytes=MAX_DESCRIPTION_BYTES)
         return RobotSource(path.name.split(".")[0], path.resolve(), "file")
@@ -226,7 +233,7 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
     hint = f"did you mean {', '.join(close)}? " if close else ""
     raise UnknownRobotError(
         f"unknown robot '{text}'; {hint}bundled: {', '.join(bundled)}; "
-        f"example-robot-data: {', '.join(arms)} (see `manipkit robots`), or a path to a .urdf/.xacro file"
+        f"example-robot-data: {', '.join(arms)} (see `manipkit robots`), or a path to a .urdf/.xacro/.xml (MJCF) file"
     )
 
 

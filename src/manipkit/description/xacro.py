@@ -91,14 +91,22 @@ def describe(
     *,
     allow_read: tuple[Path, ...] = (),
 ) -> XacroExpansion:
-    """As :func:`urdf_text`, with the xacro arguments the files declare (empty for plain URDF)."""
+    """As :func:`urdf_text`, with the xacro arguments the files declare (empty for plain URDF and MJCF).
+
+    A MuJoCo MJCF ``.xml`` file is compiled by MuJoCo and written out as URDF
+    (:func:`manipkit.description.mjcf.mjcf_urdf`).
+    """
     xacro_args = {k: str(v) for k, v in (xacro_args or {}).items()}
     if not source.is_xacro:
         if xacro_args:
             raise DescriptionError(
-                f"{source.path.name} is plain URDF; xacro arguments "
+                f"{source.path.name} is {'an MJCF file' if source.is_mjcf else 'plain URDF'}; xacro arguments "
                 f"({', '.join(xacro_args)}) only apply to .xacro files"
             )
+        if source.is_mjcf:  # MuJoCo's compiler, written out as URDF (manipkit.description.mjcf)
+            from manipkit.description.mjcf import mjcf_urdf
+
+            return XacroExpansion(mjcf_urdf(source.path, allow_read=allow_read), {})
         return XacroExpansion(_read_description(source.path), {})
     resolver = PackageResolver(dict(package_dirs or {}), near=source.path)
     return expand_xacro(source.path, xacro_args, resolver, allow_read=allow_read)

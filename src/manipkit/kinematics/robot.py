@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.description.access import ReadPolicy, allowed_folders
+from manipkit.description.mjcf import mjcf_locator
 from manipkit.description.packages import PackageResolver, check_package_dirs
 from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
@@ -221,7 +222,8 @@ class Robot:
         if source is None:
             source = RobotSource("robot", Path("<string>"), "string")
         where = source.path.name
-        locate = xacro_locator(source.path) if source.is_xacro and source.path.is_file() else None
+        locate = (xacro_locator(source.path) if source.is_xacro else mjcf_locator(source.path, allow_read=allow_read)
+                  if source.is_mjcf else None) if source.path.is_file() else None
         checked = check_urdf(text, where, locate=locate)
         warnings = list(checked.warnings)
         near = source.path if source.path.is_file() else None

@@ -7,7 +7,8 @@ The rule, in order (the first that applies wins; :func:`choose_tool_frame`):
 3. a link named the way users name an arm's tool frame (:data:`TOOL_FRAME_NAMES`:
    ``tool0``, ``flange``, ``*_tcp``, ``*_hand_tcp``, ``end_effector_link``,
    ``*_ee_link``, ``link_eef``, ``*_tool_link``, ``*_tool_frame``,
-   ``*_grasping_frame``, ``*_gripper_tip``, ``*_hand``): of several, the one
+   ``*_grasping_frame``, ``*_gripper_tip``, ``*_hand``; MuJoCo MJCF's tool sites
+   ``pinch_site`` and ``attachment_site``): of several, the one
    farthest down the arm (most movable joints above it, then most links),
    so a gripper's TCP wins over the flange it hangs from; a tie is broken
    by the order of the list, then by name;
@@ -34,9 +35,9 @@ __all__ = ["FINGER_JOINTS", "TOOL_FRAME_NAMES", "choose_tool_frame", "tool_frame
 #: Link names of an arm's tool frame, as regular expressions on the name after its last ``/``
 #: (Interbotix writes ``wx250s/ee_gripper_link``), in the order that breaks a tie.
 TOOL_FRAME_NAMES = (
-    r"(.*_)?hand_tcp", r"(.*_)?tcp", r"(.*_)?grasping_frame", r"(.*_)?gripper_tip", r"(.*_)?tool_frame",
+    r"(.*_)?hand_tcp", r"(.*_)?tcp", r"(.*_)?pinch_site", r"(.*_)?grasping_frame", r"(.*_)?gripper_tip", r"(.*_)?tool_frame",
     r"ee_gripper_link", r"tool0", r"(.*_)?tool_link", r"(.*_)?ee_link", r"end_effector_link", r"(.*_)?link_eef",
-    r"(.*_)?eef", r"(.*_)?flange", r"(.*_)?hand",
+    r"(.*_)?eef", r"(.*_)?flange", r"(.*_)?attachment_site", r"(.*_)?hand",
 )
 _PATTERNS = tuple(re.compile(pattern, re.IGNORECASE) for pattern in TOOL_FRAME_NAMES)
 _SHOWN = "tool0, flange, *_tcp, *_tool_link, link_eef, ..."

@@ -104,7 +104,7 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--robot", default=None, metavar="R",
         help="bundled name (course_arm, iiwa14, ...), example-robot-data name (panda, ur5, ...) "
-        "or a .urdf/.xacro path (default: course_arm)",
+        "or a .urdf/.xacro/MJCF .xml path (default: course_arm)",
     )
     parser.add_argument(
         "--arg", action="append", default=[], metavar="KEY:=VALUE",

@@ -96,7 +96,7 @@ def register(commands) -> None:
     show.add_argument("map", type=Path, metavar="MAP", help="a map folder written by 'manipkit reachmap -o MAP'")
     _add_show_options(show)
     show.add_argument("--robot", metavar="R", help="the robot whose meshes --view and --view-html draw: a bundled or "
-                      "example-robot-data name or a .urdf/.xacro path (default: the robot name the map stores)")
+                      "example-robot-data name or a .urdf/.xacro/MJCF .xml path (default: the robot name the map stores)")
     show.add_argument("--arg", action="append", metavar="KEY:=VALUE", help="xacro argument of --robot (repeatable)")
     show.add_argument("--package-dir", action="append", metavar="NAME=DIR", help="folder of a ROS package (repeatable)")
     show.add_argument("--allow-read", action="append", metavar="DIR",

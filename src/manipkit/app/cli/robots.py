@@ -31,7 +31,7 @@ def run_robots(args) -> int:
     import manipkit
     from manipkit.description.sources import bundled_robots, example_robot_data_arms
 
-    table = Table(title="robots (--robot NAME); any .urdf/.xacro path works too")
+    table = Table(title="robots (--robot NAME); any .urdf/.xacro/MJCF .xml path works too")
     for column in ("name", "from", "DOF", "base_link", "ee_link", "file"):
         table.add_column(column)
     entries = [(name, "bundled") for name in bundled_robots()] + [(name, "example-robot-data") for name in example_robot_data_arms()]
