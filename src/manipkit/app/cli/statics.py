@@ -1,0 +1,204 @@
+"""``manipkit torques`` (static joint torques with a payload and wrenches) and ``manipkit payload`` (capacity).
+
+The numbers come from :mod:`manipkit.statics` (docs/architecture.md): ``tau =
+g(q) - sum J^T w``, the torque each motor must produce to hold the arm still
+(Pinocchio's ``computeStaticTorque``), each wrench applied *on* the robot (a
+force pushing the tool down is ``0,0,-5,0,0,0``); per joint the effort limit
+from the URDF and the margin ``100 (1 - |tau| / limit)`` percent.
+"""
+
+from __future__ import annotations
+
+import math
+
+from manipkit.app.cli.common import (
+    EXIT_OK,
+    UsageError,
+    add_joint_options,
+    add_robot_options,
+    alias_lines,
+    check_precision,
+    is_number,
+    joint_vector,
+    load_robot,
+    print_json,
+    q_text,
+)
+from manipkit.text import number_text, printable
+
+__all__ = ["parse_payload", "parse_triple", "parse_wrench", "register", "run_payload", "run_torques",
+           "torques_json"]
+
+CONVENTION = ("tau = g(q) - sum J^T w: the torque each motor produces to hold still (N m, N for prismatic joints); "
+              "wrenches act on the robot")
+
+
+def register(commands) -> None:
+    """Add ``manipkit torques`` and ``manipkit payload`` to the subparsers ``commands``."""
+    tor = commands.add_parser("torques", help="static joint torques holding the arm, a payload and wrenches still")
+    _common(tor)
+    tor.add_argument("--payload", default=None, metavar="MASS[@X,Y,Z]",
+                     help="a payload of MASS kg added to the tip link, its centre of gravity at X,Y,Z m from the "
+                          "tip's origin in the tip frame's axes (default 0,0,0)")
+    tor.add_argument("--wrench", action="append", default=[], metavar="FX,FY,FZ,TX,TY,TZ@FRAME",
+                     help="a wrench (N, N m) applied on the robot at FRAME's origin (default: the tip), components "
+                          "in the base frame's axes unless --wrench-axes frame (repeatable)")
+    tor.add_argument("--wrench-axes", choices=("base", "frame"), default="base",
+                     help="axes of the --wrench components: the base frame's (default) or FRAME's own")
+    tor.add_argument("--precision", type=int, default=6, metavar="N", help="decimals printed (default 6)")
+    tor.set_defaults(run=run_torques)
+
+    pay = commands.add_parser("payload", help="the largest payload mass the arm holds still at a pose")
+    _common(pay)
+    pay.add_argument("--cog", default="0,0,0", metavar="X,Y,Z",
+                     help="the payload's centre of gravity from the tip's origin, in the tip frame's axes, m "
+                          "(default 0,0,0)")
+    pay.set_defaults(run=run_payload)
+
+
+def _common(parser) -> None:
+    add_robot_options(parser)
+    add_joint_options(parser)
+    parser.add_argument("--frame", default="ee_link", metavar="F", help="the tip of the chain (default ee_link)")
+    parser.add_argument("--base", default="base_link", metavar="B", help="the base of the chain (default base_link)")
+    parser.add_argument("--gravity", default="0,0,-9.81", metavar="GX,GY,GZ",
+                        help="gravity in the root link's axes, m/s^2 (default 0,0,-9.81)")
+    parser.add_argument("--format", choices=("text", "json"), default="text")
+
+
+def parse_triple(text: str, option: str) -> tuple[float, float, float]:
+    """``X,Y,Z`` -> three finite floats, or a one-line :class:`UsageError` naming ``option``.
+
+    Examples
+    --------
+    >>> parse_triple("0,0.1,-2", "--cog")
+    (0.0, 0.1, -2.0)
+    """
+    return tuple(_numbers(text, option, 3, "X,Y,Z"))
+
+
+def _numbers(text: str, option: str, count: int, form: str) -> list[float]:
+    parts = [part.strip() for part in text.split(",")]
+    if len(parts) != count or not all(is_number(part) for part in parts) or not all(
+            math.isfinite(float(part)) for part in parts):
+        raise UsageError(f"{option} {printable(text)}: give {count} finite numbers as {form}")
+    return [float(part) for part in parts]
+
+
+def parse_payload(text: str):
+    """``MASS[@X,Y,Z]`` -> :class:`manipkit.statics.torques.Payload` (mass >= 0 kg, CoG in the tip's axes, m).
+
+    Examples
+    --------
+    >>> parse_payload("2.5@0,0,0.1").mass
+    2.5
+    """
+    from manipkit.statics.torques import Payload
+
+    mass_text, sep, cog_text = text.partition("@")
+    mass_text = mass_text.strip()
+    if not is_number(mass_text) or not math.isfinite(float(mass_text)) or float(mass_text) < 0:
+        raise UsageError(f"--payload {printable(text)}: give MASS[@X,Y,Z] with a finite mass >= 0 kg "
+                         "(e.g. --payload 2.5@0,0,0.1)")
+    cog = parse_triple(cog_text, "--payload ...@") if sep else (0.0, 0.0, 0.0)
+    return Payload(float(mass_text), cog)
+
+
+def parse_wrench(text: str, axes: str):
+    """``FX,FY,FZ,TX,TY,TZ[@FRAME]`` -> :class:`manipkit.statics.torques.Wrench` (N, N m; FRAME default ee_link)."""
+    from manipkit.statics.torques import Wrench
+
+    values, sep, frame = text.partition("@")
+    if sep and not frame.strip():
+        raise UsageError(f"--wrench {printable(text)}: name the frame after @ (FX,FY,FZ,TX,TY,TZ@FRAME)")
+    numbers = _numbers(values, "--wrench", 6, "FX,FY,FZ,TX,TY,TZ[@FRAME] (N, N m)")
+    return Wrench(numbers, frame.strip() if sep else "ee_link", axes)
+
+
+def _chain_and_q(args):
+    robot = load_robot(args)
+    chain = robot.chain(args.base, args.frame)  # unknown frames fail before the joint values are read
+    q = joint_vector(robot, args)
+    return robot, chain, q
+
+
+def torques_json(robot, chain, q, answer) -> dict:
+    """The answer of ``manipkit torques`` as a JSON-ready dict (NaN limits and margins as null)."""
+    def listed(values):
+        return [float(v) if math.isfinite(v) else None for v in values]
+
+    return {
+        "robot": robot.name, "base": chain.base, "tip": chain.tip, "q": robot.as_dict(q),
+        "convention": CONVENTION, "gravity_vector": answer.gravity_vector.tolist(),
+        "joint_names": list(answer.joint_names), "tau": answer.tau.tolist(), "gravity": answer.gravity.tolist(),
+        "payload": answer.payload.tolist(), "wrench": answer.wrench.tolist(),
+        "effort_limit": listed(answer.effort_limit), "margin": listed(answer.margin),
+        "saturating": answer.saturating_joint, "over_limit": [n for n, o in zip(answer.joint_names, answer.over_limit)
+                                                             if o],
+    }
+
+
+def run_torques(args) -> int:
+    """Print the static torques per joint (text table or the JSON of :func:`torques_json`)."""
+    from manipkit.statics.torques import static_torques
+
+    check_precision(args.precision)
+    gravity = parse_triple(args.gravity, "--gravity")
+    payload = parse_payload(args.payload) if args.payload is not None else None
+    wrenches = [parse_wrench(text, args.wrench_axes) for text in args.wrench]
+    robot, chain, q = _chain_and_q(args)
+    for wrench in wrenches:
+        robot.frame(wrench.frame)  # an unknown frame: one line naming the closest ones
+    answer = static_torques(chain, q, payload=payload, wrench=wrenches, gravity=gravity, q_rest=q)
+    data = torques_json(robot, chain, q, answer)
+    if args.format == "json":
+        print_json(data)
+        return EXIT_OK
+    p = args.precision
+    lines = [f"robot: {robot.name} ({robot.source.path})", *alias_lines(robot, args.base, args.frame),
+             f"chain {chain.base} -> {chain.tip}; joints (rad/m): {q_text(data['q'], p) or 'none'}",
+             f"gravity (m/s^2, root link's axes): {' '.join(number_text(v, p) for v in data['gravity_vector'])}",
+             CONVENTION]
+    header = ("joint", "tau", "gravity", "payload", "wrench", "limit", "margin %")
+    rows = [(name, *(number_text(v, p) for v in (data["tau"][k], data["gravity"][k], data["payload"][k],
+                                                   data["wrench"][k])),
+             "none" if data["effort_limit"][k] is None else number_text(data["effort_limit"][k], p),
+             "-" if data["margin"][k] is None else number_text(data["margin"][k], 1))
+            for k, name in enumerate(data["joint_names"])]
+    widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header))]
+    lines += ["  ".join(cell.rjust(w) if i else cell.ljust(w) for i, (cell, w) in enumerate(zip(row, widths)))
+              for row in [header, *rows]]
+    saturating = data["saturating"]
+    lines.append("no joint of the chain has an effort limit" if saturating is None else
+                 f"least margin: {saturating}" + (f"; over the limit: {', '.join(data['over_limit'])}"
+                                                 if data["over_limit"] else ""))
+    print("\n".join(lines))
+    return EXIT_OK
+
+
+def run_payload(args) -> int:
+    """Print the largest payload mass at the pose, and the joint that saturates."""
+    from manipkit.statics.capacity import payload_capacity
+
+    gravity = parse_triple(args.gravity, "--gravity")
+    cog = parse_triple(args.cog, "--cog")
+    robot, chain, q = _chain_and_q(args)
+    cap = payload_capacity(chain, q, cog=cog, gravity=gravity, q_rest=q)
+    max_mass = float(cap.max_mass)
+    data = {"robot": robot.name, "base": chain.base, "tip": chain.tip, "q": robot.as_dict(q), "cog": list(cog),
+            "gravity_vector": list(gravity), "max_mass": max_mass if math.isfinite(max_mass) else None,
+            "unbounded": not math.isfinite(max_mass), "saturating": cap.saturating_joint,
+            "gravity_saturates": bool(cap.gravity_saturates), "convention": CONVENTION}
+    if args.format == "json":
+        print_json(data)
+        return EXIT_OK
+    print(f"robot: {robot.name} ({robot.source.path})")
+    print(f"chain {chain.base} -> {chain.tip}; joints (rad/m): {q_text(data['q'], 6) or 'none'}")
+    print(f"payload centre of gravity (m, tip frame's axes): {' '.join(number_text(v, 6) for v in cog)}")
+    if data["gravity_saturates"]:
+        print(f"max payload: 0 kg: the arm's own weight alone saturates {data['saturating']}")
+    elif data["unbounded"]:
+        print("max payload: unbounded: no joint with an effort limit feels a payload at this CoG")
+    else:
+        print(f"max payload: {number_text(max_mass, 6)} kg ({data['saturating']} reaches its effort limit)")
+    return EXIT_OK
