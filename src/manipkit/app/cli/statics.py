@@ -100,7 +100,11 @@ def parse_payload(text: str):
     if not is_number(mass_text) or not math.isfinite(float(mass_text)) or float(mass_text) < 0:
         raise UsageError(f"--payload {printable(text)}: give MASS[@X,Y,Z] with a finite mass >= 0 kg "
                          "(e.g. --payload 2.5@0,0,0.1)")
-    cog = parse_triple(cog_text, "--payload ...@") if sep else (0.0, 0.0, 0.0)
+    try:
+        cog = parse_triple(cog_text, "--payload") if sep else (0.0, 0.0, 0.0)
+    except UsageError:
+        raise UsageError(f"--payload {printable(text)}: give the centre of gravity after @ as 3 finite numbers "
+                         "X,Y,Z (m, tip frame's axes), e.g. --payload 2.5@0,0,0.1") from None
     return Payload(float(mass_text), cog)
 
 
