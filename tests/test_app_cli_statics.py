@@ -88,3 +88,16 @@ def test_payload_json_round_trips_through_torques(iiwa14):
 def test_malformed_values_get_one_line_and_exit_2(args, fragment):
     result = run(*args, "--robot", "iiwa14", status=2)
     assert result.stderr.count("\n") == 1 and fragment in result.stderr, result.stderr
+
+
+def test_payload_diagram_writes_a_png_and_prints_its_data(tmp_path, iiwa14):
+    from manipkit.statics.diagram import payload_diagram
+
+    png = tmp_path / "diagram.png"
+    report = json.loads(run("payload", "--robot", "iiwa14", "--diagram", str(png), "--samples", "40", "--steps", "3",
+                            "--max-offset", "0.2", "--format", "json").stdout)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert report["offsets"] == [0.0, 0.1, 0.2] and report["configurations"] == 40
+    expected = payload_diagram(iiwa14, [0.0, 0.1, 0.2], samples=40, seed=0)
+    np.testing.assert_allclose(report["worst_mass"], expected.worst, rtol=0, atol=1e-12)
+    assert report["worst_joint"] == list(expected.worst_joint)

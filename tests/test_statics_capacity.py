@@ -90,3 +90,20 @@ def test_a_capacity_needs_effort_limits(course_arm):
 def test_bad_effort_limits_are_refused(iiwa14, effort, error):
     with pytest.raises(OptionError, match=error):
         payload_capacity(iiwa14, iiwa14.q(), effort=effort)
+
+
+def test_the_diagram_is_the_worst_capacity_over_the_configurations(iiwa14):
+    from manipkit.statics.diagram import payload_diagram
+
+    chain = iiwa14.chain("base_link", "ee_link")
+    Q = chain.sample(60, seed=7)
+    offsets = [0.0, 0.1, 0.25]
+    diagram = payload_diagram(chain, offsets, Q=Q, direction=(0, 1, 1))
+    for d, worst, median, joint, where in zip(offsets, diagram.worst, diagram.median, diagram.worst_joint,
+                                              diagram.worst_configuration):
+        cap = payload_capacity(chain, Q, cog=d * np.array([0, 1, 1]) / np.sqrt(2))
+        i = int(np.argmin(cap.max_mass))
+        assert abs(worst - cap.max_mass[i]) < 1e-12 and abs(median - np.median(cap.max_mass)) < 1e-12
+        assert joint == chain.joint_names[int(cap.saturating[i])]
+        np.testing.assert_array_equal(where, Q[i])
+    assert list(diagram.worst) == sorted(diagram.worst, reverse=True)

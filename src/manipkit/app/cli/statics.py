@@ -53,6 +53,17 @@ def register(commands) -> None:
     pay.add_argument("--cog", default="0,0,0", metavar="X,Y,Z",
                      help="the payload's centre of gravity from the tip's origin, in the tip frame's axes, m "
                           "(default 0,0,0)")
+    pay.add_argument("--diagram", default=None, metavar="PNG",
+                     help="draw the largest payload against the CoG offset along --direction, worst case over "
+                          "--samples configurations, into PNG (the data goes to stdout); --q and --cog are not used")
+    pay.add_argument("--direction", default="0,0,1", metavar="X,Y,Z",
+                     help="the diagram's offset direction in the tip frame's axes (default 0,0,1)")
+    pay.add_argument("--max-offset", type=float, default=0.3, metavar="M",
+                     help="the diagram's largest offset, m (default 0.3)")
+    pay.add_argument("--steps", type=int, default=16, metavar="K", help="offsets drawn, 0 to --max-offset (default 16)")
+    pay.add_argument("--samples", type=int, default=1000, metavar="N",
+                     help="configurations sampled inside the limits for the diagram (default 1000)")
+    pay.add_argument("--seed", type=int, default=0, help="seed of the sampler (default 0)")
     pay.set_defaults(run=run_payload)
 
 
@@ -186,6 +197,8 @@ def run_payload(args) -> int:
 
     gravity = parse_triple(args.gravity, "--gravity")
     cog = parse_triple(args.cog, "--cog")
+    if args.diagram is not None:
+        return _run_diagram(args, gravity)
     robot, chain, q = _chain_and_q(args)
     cap = payload_capacity(chain, q, cog=cog, gravity=gravity, q_rest=q)
     max_mass = float(cap.max_mass)
@@ -205,4 +218,36 @@ def run_payload(args) -> int:
         print("max payload: unbounded: no joint with an effort limit feels a payload at this CoG")
     else:
         print(f"max payload: {number_text(max_mass, 6)} kg ({data['saturating']} reaches its effort limit)")
+    return EXIT_OK
+
+
+def _run_diagram(args, gravity) -> int:
+    import numpy as np
+
+    from manipkit import bounds
+    from manipkit.outputs import writable_path
+    from manipkit.statics.diagram import draw_payload_diagram, payload_diagram
+
+    direction = parse_triple(args.direction, "--direction")
+    if not (math.isfinite(args.max_offset) and args.max_offset > 0):
+        raise UsageError(f"--max-offset {args.max_offset}: give a distance > 0 (m)")
+    steps = bounds.count(args.steps, "--steps", minimum=2, maximum=1000, error=UsageError)
+    samples = bounds.count(args.samples, "--samples", minimum=1, error=UsageError)
+    writable_path(args.diagram)
+    robot = load_robot(args)
+    chain = robot.chain(args.base, args.frame)
+    diagram = payload_diagram(chain, np.linspace(0.0, args.max_offset, steps), samples=samples, seed=args.seed,
+                              direction=direction, gravity=gravity)
+    draw_payload_diagram(diagram, args.diagram)
+    data = {**diagram.as_dict(), "png": str(args.diagram), "seed": args.seed}
+    if args.format == "json":
+        print_json(data)
+        return EXIT_OK
+    print(f"robot: {robot.name} ({robot.source.path}); chain {chain.base} -> {chain.tip}")
+    print(f"largest payload held still against the CoG offset along {args.direction} (tip frame's axes), "
+          f"over {diagram.configurations} configurations sampled inside the limits (seed {args.seed}); "
+          f"drawn in {printable(args.diagram)}")
+    print(f"{'offset m':>9}  {'worst kg':>10}  {'median kg':>10}  saturating at the worst")
+    for d, worst, median, joint in zip(diagram.offsets, diagram.worst, diagram.median, diagram.worst_joint):
+        print(f"{d:9.4f}  {number_text(worst, 3):>10}  {number_text(median, 3):>10}  {joint or 'none'}")
     return EXIT_OK
