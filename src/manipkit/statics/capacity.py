@@ -66,6 +66,8 @@ class PayloadCapacity:
         ``b`` and ``a`` of the module's ``tau(m) = a + m b``.
     lower, upper : ndarray (n,)
         The limits used (NaN: none).
+    inertia_grade : str
+        The robot's inertia-audit grade (:func:`manipkit.statics.audit.inertia_grade`).
     """
 
     max_mass: np.ndarray
@@ -76,6 +78,7 @@ class PayloadCapacity:
     unloaded: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+    inertia_grade: str = ""
 
     @property
     def saturating_joint(self) -> str | None:
@@ -140,7 +143,7 @@ def payload_capacity(robot: Robot | Chain, q, *, cog=(0.0, 0.0, 0.0), wrench=Non
         raise OptionError(f"lever_tol={lever_tol!r}: give a tolerance >= 0 (N m per kg)")
     unloaded = unit.gravity + unit.wrench
     m, k, over = capacity_from_parts(unloaded, unit.payload, lower, upper, lever_tol=lever_tol)
-    return PayloadCapacity(m, k, over, unit.joint_names, unit.payload, unloaded, lower, upper)
+    return PayloadCapacity(m, k, over, unit.joint_names, unit.payload, unloaded, lower, upper, unit.inertia_grade)
 
 
 def _limits(effort, urdf: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

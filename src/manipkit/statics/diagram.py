@@ -64,6 +64,8 @@ class PayloadDiagram:
     configurations : int
         How many configurations each point is the worst over.
     robot, base, tip : str
+    inertia_grade : str
+        The robot's inertia-audit grade (:func:`manipkit.statics.audit.inertia_grade`).
     """
 
     offsets: np.ndarray
@@ -76,6 +78,7 @@ class PayloadDiagram:
     robot: str
     base: str
     tip: str
+    inertia_grade: str = ""
 
     def as_dict(self) -> dict:
         """JSON-ready (``null`` for an unbounded mass)."""
@@ -85,7 +88,8 @@ class PayloadDiagram:
         return {"robot": self.robot, "base": self.base, "tip": self.tip, "direction": self.direction.tolist(),
                 "configurations": self.configurations, "offsets": self.offsets.tolist(),
                 "worst_mass": finite(self.worst), "median_mass": finite(self.median),
-                "worst_joint": list(self.worst_joint), "worst_configuration": self.worst_configuration.tolist()}
+                "worst_joint": list(self.worst_joint), "worst_configuration": self.worst_configuration.tolist(),
+                "inertia_grade": self.inertia_grade}
 
 
 def payload_diagram(robot: Robot | Chain, offsets, *, Q=None, samples: int = 1000, seed=0, direction=(0.0, 0.0, 1.0),
@@ -117,7 +121,8 @@ def payload_diagram(robot: Robot | Chain, offsets, *, Q=None, samples: int = 100
     if np.isnan(limits).all():
         raise OptionError(f"no effort limit on any joint of the chain {chain.base} -> {chain.tip}: a payload "
                           "diagram needs them (URDF <limit effort=...>)")
-    unloaded = static_torques(chain, Q, gravity=gravity).gravity
+    plain = static_torques(chain, Q, gravity=gravity)
+    unloaded = plain.gravity
     whole = np.ascontiguousarray(np.broadcast_to(chain.robot.q(), (Q.shape[0], len(chain.robot.joint_names))))
     whole[:, chain.columns] = Q
     g_base = gravity_in_base(chain, whole, gravity)
@@ -132,7 +137,7 @@ def payload_diagram(robot: Robot | Chain, offsets, *, Q=None, samples: int = 100
         joints.append(None if k[i] < 0 else chain.joint_names[int(k[i])])
     name = chain.robot.name
     return PayloadDiagram(offsets, np.array(worst), np.array(median), np.array(where), tuple(joints), direction,
-                          int(Q.shape[0]), name, chain.base, chain.tip)
+                          int(Q.shape[0]), name, chain.base, chain.tip, plain.inertia_grade)
 
 
 def draw_payload_diagram(diagram: PayloadDiagram, path, *, dpi: int = 120) -> None:

@@ -53,6 +53,7 @@ from manipkit.errors import OptionError
 from manipkit.kinematics.chain import chain_of
 from manipkit.kinematics.fk_kernel import ChainStep
 from manipkit.kinematics.jacobian import JacobianProgram
+from manipkit.statics.audit import inertia_grade
 from manipkit.text import repr_text
 
 if TYPE_CHECKING:
@@ -180,6 +181,9 @@ class StaticTorques:
     base, tip : str
     gravity_vector : ndarray, shape (3,)
         In the root link's axes (m/s^2).
+    inertia_grade : str
+        The robot's grade from the inertia audit (:func:`manipkit.statics.audit.inertia_grade`): "A" nothing
+        found, "B" warnings, "C" errors that make these torques wrong.
     """
 
     joint_names: tuple
@@ -193,6 +197,7 @@ class StaticTorques:
     base: str
     tip: str
     gravity_vector: np.ndarray
+    inertia_grade: str = ""
 
     @property
     def saturating_joint(self) -> str | None:
@@ -392,5 +397,5 @@ def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, w
     return StaticTorques(
         chain.joint_names, tau.reshape(shape), tau_g.reshape(shape), tau_p.reshape(shape), tau_w.reshape(shape),
         limits, margin.reshape(shape), saturating.reshape(lead), chain.base, chain.tip,
-        _vector(gravity, 3, "gravity"),
+        _vector(gravity, 3, "gravity"), inertia_grade(chain.robot),
     )

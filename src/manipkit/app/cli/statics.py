@@ -18,16 +18,18 @@ from manipkit.app.cli.common import (
     add_robot_options,
     alias_lines,
     check_precision,
+    command_line,
     is_number,
     joint_vector,
     load_robot,
     print_json,
     q_text,
+    robot_words,
 )
 from manipkit.text import number_text, printable
 
-__all__ = ["parse_payload", "parse_triple", "parse_wrench", "register", "run_payload", "run_torques",
-           "torques_json"]
+__all__ = ["grade_line", "parse_payload", "parse_triple", "parse_wrench", "register", "run_inertia", "run_payload",
+           "run_torques", "torques_json"]
 
 CONVENTION = ("tau = g(q) - sum J^T w: the torque each motor produces to hold still (N m, N for prismatic joints); "
               "wrenches act on the robot")
@@ -65,6 +67,13 @@ def register(commands) -> None:
                      help="configurations sampled inside the limits for the diagram (default 1000)")
     pay.add_argument("--seed", type=int, default=0, help="seed of the sampler (default 0)")
     pay.set_defaults(run=run_payload)
+
+    audit = commands.add_parser("inertia", help="audit the description's masses, inertias and effort limits")
+    add_robot_options(audit)
+    audit.add_argument("--no-geometry", action="store_true",
+                       help="skip the checks against the collision geometry (no meshes are read)")
+    audit.add_argument("--format", choices=("text", "json"), default="text")
+    audit.set_defaults(run=run_inertia)
 
 
 def _common(parser) -> None:
@@ -150,7 +159,27 @@ def torques_json(robot, chain, q, answer) -> dict:
         "effort_limit": listed(answer.effort_limit), "margin": listed(answer.margin),
         "saturating": answer.saturating_joint, "over_limit": [n for n, o in zip(answer.joint_names, answer.over_limit)
                                                              if o],
+        "inertia_grade": answer.inertia_grade,
     }
+
+
+def _audit(robot):
+    from manipkit.statics.audit import inertia_audit
+
+    return inertia_audit(robot)
+
+
+def grade_line(robot, args=None, audit=None) -> str:
+    """``inertia grade: B (0 errors, 2 warnings ...)``: the audit's grade, said with every torque and payload answer;
+    with ``args``, the command that lists the findings."""
+    audit = _audit(robot) if audit is None else audit
+    if audit.grade == "A":
+        return "inertia grade: A (the inertia audit found nothing)"
+    errors = sum(f.severity == "error" for f in audit.findings)
+    warnings = len(audit.findings) - errors
+    listed = "" if args is None else f"; {command_line('manipkit', 'inertia', *robot_words(args, robot))} lists them"
+    return (f"inertia grade: {audit.grade} ({errors} error{'s' * (errors != 1)}, {warnings} "
+            f"warning{'s' * (warnings != 1)} about the description's inertias and effort limits{listed})")
 
 
 def run_torques(args) -> int:
@@ -173,7 +202,7 @@ def run_torques(args) -> int:
     lines = [f"robot: {robot.name} ({robot.source.path})", *alias_lines(robot, args.base, args.frame),
              f"chain {chain.base} -> {chain.tip}; joints (rad/m): {q_text(data['q'], p) or 'none'}",
              f"gravity (m/s^2, root link's axes): {' '.join(number_text(v, p) for v in data['gravity_vector'])}",
-             CONVENTION]
+             CONVENTION, grade_line(robot, args)]
     header = ("joint", "tau", "gravity", "payload", "wrench", "limit", "margin %")
     rows = [(name, *(number_text(v, p) for v in (data["tau"][k], data["gravity"][k], data["payload"][k],
                                                    data["wrench"][k])),
@@ -205,13 +234,15 @@ def run_payload(args) -> int:
     data = {"robot": robot.name, "base": chain.base, "tip": chain.tip, "q": robot.as_dict(q), "cog": list(cog),
             "gravity_vector": list(gravity), "max_mass": max_mass if math.isfinite(max_mass) else None,
             "unbounded": not math.isfinite(max_mass), "saturating": cap.saturating_joint,
-            "gravity_saturates": bool(cap.gravity_saturates), "convention": CONVENTION}
+            "gravity_saturates": bool(cap.gravity_saturates), "convention": CONVENTION,
+            "inertia_grade": cap.inertia_grade}
     if args.format == "json":
         print_json(data)
         return EXIT_OK
     print(f"robot: {robot.name} ({robot.source.path})")
     print(f"chain {chain.base} -> {chain.tip}; joints (rad/m): {q_text(data['q'], 6) or 'none'}")
     print(f"payload centre of gravity (m, tip frame's axes): {' '.join(number_text(v, 6) for v in cog)}")
+    print(grade_line(robot, args))
     if data["gravity_saturates"]:
         print(f"max payload: 0 kg: the arm's own weight alone saturates {data['saturating']}")
     elif data["unbounded"]:
@@ -247,7 +278,28 @@ def _run_diagram(args, gravity) -> int:
     print(f"largest payload held still against the CoG offset along {args.direction} (tip frame's axes), "
           f"over {diagram.configurations} configurations sampled inside the limits (seed {args.seed}); "
           f"drawn in {printable(args.diagram)}")
+    print(grade_line(robot, args))
     print(f"{'offset m':>9}  {'worst kg':>10}  {'median kg':>10}  saturating at the worst")
     for d, worst, median, joint in zip(diagram.offsets, diagram.worst, diagram.median, diagram.worst_joint):
         print(f"{d:9.4f}  {number_text(worst, 3):>10}  {number_text(median, 3):>10}  {joint or 'none'}")
+    return EXIT_OK
+
+
+def run_inertia(args) -> int:
+    """Print the inertia audit: one line (text) or one record (JSON, with the grade) per finding."""
+    from manipkit.statics.audit import inertia_audit
+
+    robot = load_robot(args)
+    audit = inertia_audit(robot, geometry=not args.no_geometry)
+    if args.format == "json":
+        data = audit.as_dict()
+        data["findings"] = [{**record, "grade": audit.grade} for record in data["findings"]]
+        print_json(data)
+        return EXIT_OK
+    print(f"robot: {robot.name} ({robot.source.path}); {audit.links_checked} links checked")
+    if not audit.geometry_checked:
+        print(f"collision geometry not checked: {printable(audit.geometry_note)}")
+    for finding in audit.findings:
+        print(f"{finding.severity}: {finding.link}: {finding.check}: {finding.message}")
+    print(grade_line(robot, audit=audit))
     return EXIT_OK
