@@ -13,5 +13,6 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.statics.torques", "Payload", "StaticTorques", "Wrench", "static_torques"),
     **homes_of("manipkit.statics.capacity", "PayloadCapacity", "payload_capacity"),
     **homes_of("manipkit.statics.audit", "Finding", "InertiaAudit", "inertia_audit"),
+    **homes_of("manipkit.statics.dynamics", "TrajectoryTorques", "trajectory_torques"),
     **homes_of("manipkit.statics.diagram", "PayloadDiagram", "draw_payload_diagram", "payload_diagram"),
 })

@@ -28,7 +28,7 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import number_text, printable
 
-__all__ = ["grade_line", "parse_payload", "parse_triple", "parse_wrench", "register", "run_inertia", "run_payload",
+__all__ = ["MAX_TRAJECTORY_BYTES", "grade_line", "parse_payload", "read_trajectory", "parse_triple", "parse_wrench", "register", "run_inertia", "run_payload",
            "run_torques", "torques_json"]
 
 CONVENTION = ("tau = g(q) - sum J^T w: the torque each motor produces to hold still (N m, N for prismatic joints); "
@@ -47,6 +47,10 @@ def register(commands) -> None:
                           "in the base frame's axes unless --wrench-axes frame (repeatable)")
     tor.add_argument("--wrench-axes", choices=("base", "frame"), default="base",
                      help="axes of the --wrench components: the base frame's (default) or FRAME's own")
+    tor.add_argument("--trajectory", default=None, metavar="CSV",
+                     help="inverse dynamics (RNEA) along a trajectory instead: a CSV with a header of t (s, "
+                          "optional), joint names (q), NAME.qd and NAME.qdd columns (columns not given are 0); "
+                          "--q sets the joints the file leaves out")
     tor.add_argument("--precision", type=int, default=6, metavar="N", help="decimals printed (default 6)")
     tor.set_defaults(run=run_torques)
 
@@ -191,6 +195,10 @@ def run_torques(args) -> int:
     payload = parse_payload(args.payload) if args.payload is not None else None
     wrenches = [parse_wrench(text, args.wrench_axes) for text in args.wrench]
     robot, chain, q = _chain_and_q(args)
+    if args.trajectory is not None:
+        if wrenches:
+            raise UsageError("--wrench is for static torques; --trajectory takes no wrench")
+        return _run_trajectory(args, robot, chain, q, payload, gravity)
     for wrench in wrenches:
         robot.frame(wrench.frame)  # an unknown frame: one line naming the closest ones
     answer = static_torques(chain, q, payload=payload, wrench=wrenches, gravity=gravity, q_rest=q)
@@ -302,4 +310,95 @@ def run_inertia(args) -> int:
     for finding in audit.findings:
         print(f"{finding.severity}: {finding.link}: {finding.check}: {finding.message}")
     print(grade_line(robot, audit=audit))
+    return EXIT_OK
+
+
+#: The largest trajectory file read (bytes).
+MAX_TRAJECTORY_BYTES = 64 << 20
+
+
+def read_trajectory(path, chain, rest) -> tuple:
+    """(times or None, Q, Qd, Qdd) (T, n) from a trajectory CSV (header: ``t``, ``NAME``, ``NAME.qd``, ``NAME.qdd``).
+
+    Lines starting with ``#`` and blank lines are skipped; a position column the header leaves out holds ``rest``
+    (the chain vector of ``--q``), a rate column is 0. Messages name the file and line.
+    """
+    import csv
+
+    import numpy as np
+
+    from manipkit.inputs import read_text
+
+    where = f"trajectory file {printable(str(path))}"
+    text = read_text(path, what="trajectory file", max_bytes=MAX_TRAJECTORY_BYTES)
+    lines = [(k + 1, row) for k, row in enumerate(csv.reader(text.splitlines()))
+             if row and any(cell.strip() for cell in row) and not row[0].lstrip().startswith("#")]
+    if not lines:
+        raise UsageError(f"{where}: no header row; give t,NAME,...,NAME.qd,NAME.qdd")
+    header = [cell.strip() for cell in lines[0][1]]
+    names = chain.joint_names
+    known = {"t", *names, *(f"{n}.qd" for n in names), *(f"{n}.qdd" for n in names)}
+    unknown = [cell for cell in header if cell not in known]
+    if unknown or len(set(header)) != len(header):
+        what = f"unknown column {printable(unknown[0])}" if unknown else "a column given twice"
+        raise UsageError(f"{where} line {lines[0][0]}: {what}; the columns are t, the chain's joints "
+                         f"({', '.join(names)}), NAME.qd and NAME.qdd")
+    if len(lines) < 2:
+        raise UsageError(f"{where}: a header but no samples")
+    values = np.zeros((len(lines) - 1, len(header)))
+    for r, (number, row) in enumerate(lines[1:]):
+        cells = [cell.strip() for cell in row]
+        if len(cells) != len(header) or not all(is_number(c) and math.isfinite(float(c)) for c in cells):
+            raise UsageError(f"{where} line {number}: give {len(header)} finite numbers, one per header column")
+        values[r] = [float(c) for c in cells]
+    column = {name: k for k, name in enumerate(header)}
+
+    def block(suffix: str, fill) -> np.ndarray:
+        return np.stack([values[:, column[f"{n}{suffix}"]] if f"{n}{suffix}" in column else
+                         np.full(len(values), fill[k]) for k, n in enumerate(names)], axis=-1)
+
+    zeros = [0.0] * chain.n
+    times = values[:, column["t"]] if "t" in column else None
+    return times, block("", rest), block(".qd", zeros), block(".qdd", zeros)
+
+
+def _run_trajectory(args, robot, chain, q, payload, gravity) -> int:
+    from manipkit.statics.dynamics import trajectory_torques
+
+    times, Q, Qd, Qdd = read_trajectory(args.trajectory, chain, q[chain.columns])
+    answer = trajectory_torques(chain, Q, Qd, Qdd, times=times, payload=payload, gravity=gravity, q_rest=q)
+    first = answer.first_over
+    data = {
+        "robot": robot.name, "base": chain.base, "tip": chain.tip, "joint_names": list(answer.joint_names),
+        "convention": "tau = M(q) qdd + C(q, qd) qd + g(q) (pinocchio.rnea): the torque each motor produces",
+        "samples": len(answer.times), "times": answer.times.tolist(), "tau": answer.tau.tolist(),
+        "gravity": answer.gravity.tolist(), "inertial": answer.inertial.tolist(),
+        "coriolis": answer.coriolis.tolist(),
+        "effort_limit": [float(v) if math.isfinite(v) else None for v in answer.effort_limit],
+        "peak": answer.peak.tolist(),
+        "share": {k: [float(v) if math.isfinite(v) else None for v in vals] for k, vals in answer.share.items()},
+        "first_over": None if first is None else {"sample": first[0], "time": float(answer.times[first[0]]),
+                                                  "joint": first[1]},
+        "inertia_grade": _audit(robot).grade,
+    }
+    if args.format == "json":
+        print_json(data)
+        return EXIT_OK
+    p = args.precision
+    print(f"robot: {robot.name} ({robot.source.path}); chain {chain.base} -> {chain.tip}")
+    print(f"{data['convention']}; {data['samples']} samples")
+    print(grade_line(robot, args))
+    header = ("joint", "peak |tau|", "limit", "gravity %", "inertial %", "coriolis %")
+    rows = [(name, number_text(data["peak"][k], p),
+             "none" if data["effort_limit"][k] is None else number_text(data["effort_limit"][k], p),
+             *("-" if data["share"][part][k] is None else f"{100 * data['share'][part][k]:.1f}"
+               for part in ("gravity", "inertial", "coriolis")))
+            for k, name in enumerate(data["joint_names"])]
+    widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header))]
+    for row in [header, *rows]:
+        print("  ".join(cell.rjust(w) if i else cell.ljust(w) for i, (cell, w) in enumerate(zip(row, widths))))
+    if first is None:
+        print("no torque exceeds its effort limit along the trajectory")
+    else:
+        print(f"first over its effort limit: {first[1]} at sample {first[0]} (t = {number_text(data['first_over']['time'], p)})")
     return EXIT_OK
