@@ -101,3 +101,44 @@ def test_payload_diagram_writes_a_png_and_prints_its_data(tmp_path, iiwa14):
     expected = payload_diagram(iiwa14, [0.0, 0.1, 0.2], samples=40, seed=0)
     np.testing.assert_allclose(report["worst_mass"], expected.worst, rtol=0, atol=1e-12)
     assert report["worst_joint"] == list(expected.worst_joint)
+
+
+def test_torques_band_and_explain_match_the_library(panda):
+    from manipkit.statics.sensitivity import gravity_contributions, torque_band
+    from manipkit.statics.torques import Wrench
+
+    q = panda.q(panda_joint2=0.5, panda_joint4=-1.5)
+    report = json.loads(run("torques", "--robot", "panda", "--q", "panda_joint2=0.5", "panda_joint4=-1.5",
+                            "--wrench", "0,0,-5,0,0,0", "--band", "10", "--explain", "--format", "json").stdout)
+    band = torque_band(panda, q, percent=10)
+    wrench = static_torques(panda, q, wrench=Wrench((0, 0, -5, 0, 0, 0))).wrench
+    np.testing.assert_allclose(report["band"]["tau_low"], band.low + wrench, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(report["band"]["tau_high"], band.high + wrench, rtol=0, atol=1e-12)
+    parts = gravity_contributions(panda, q)
+    assert [p["link"] for p in report["explain"]["gravity_by_body"]] == [link for link, _, _ in parts]
+    np.testing.assert_allclose(report["explain"]["total_gravity"], report["gravity"], rtol=0, atol=1e-10)
+    item = report["explain"]["wrenches"][0]
+    np.testing.assert_allclose(np.add(item["force_part"], item["moment_part"]), report["wrench"], rtol=0, atol=1e-12)
+    text = run("torques", "--robot", "panda", "--q", "panda_joint2=0.5", "--explain").stdout
+    assert "gravity torque by body (N m;" in text and "panda_leftfinger" in text
+
+
+def test_payload_band_brackets_the_capacity():
+    report = json.loads(run("payload", "--robot", "iiwa14", "--q", "iiwa_joint_2=0.5", "--cog", "0,0,0.1",
+                            "--band", "10", "--format", "json").stdout)
+    assert report["band"]["max_mass_low"] <= report["max_mass"] <= report["band"]["max_mass_high"]
+
+
+def test_force_capacity_json_round_trips(iiwa14):
+    from manipkit.statics.torques import Wrench
+
+    report = json.loads(run("force-capacity", "--robot", "iiwa14", "--q", "iiwa_joint_2=0.5", "iiwa_joint_4=-1",
+                            "--direction", "0,0,-1", "--direction", "1,1,0", "--format", "json").stdout)
+    assert report["kind"] == "force" and report["unit"] == "N" and len(report["max_along"]) == 2
+    q = iiwa14.q(iiwa_joint_2=0.5, iiwa_joint_4=-1)
+    for d, t, joint in zip(report["directions"], report["max_along"], report["saturating"]):
+        at = static_torques(iiwa14, q, wrench=Wrench(np.concatenate([-t * np.array(d), np.zeros(3)])))
+        k = at.joint_names.index(joint)
+        assert abs(abs(at.tau[k]) - at.effort_limit[k]) < 1e-9
+    result = run("force-capacity", "--robot", "iiwa14", "--direction", "0,0,0", status=2)
+    assert "give a direction that is not zero" in result.stderr

@@ -14,5 +14,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.statics.capacity", "PayloadCapacity", "payload_capacity"),
     **homes_of("manipkit.statics.audit", "Finding", "InertiaAudit", "inertia_audit"),
     **homes_of("manipkit.statics.dynamics", "TrajectoryTorques", "trajectory_torques"),
+    **homes_of("manipkit.statics.sensitivity", "TorqueBand", "gravity_contributions", "torque_band"),
+    **homes_of("manipkit.statics.capability", "ForceCapacity", "force_capacity"),
     **homes_of("manipkit.statics.diagram", "PayloadDiagram", "draw_payload_diagram", "payload_diagram"),
 })

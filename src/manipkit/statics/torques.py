@@ -60,8 +60,8 @@ if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["GRAVITY", "Payload", "StaticTorques", "Wrench", "WRENCH_AXES", "effort_limits", "gravity_in_base",
-           "lumped_bodies", "margins", "payload_torques", "static_torques", "wrench_torques"]
+__all__ = ["GRAVITY", "Payload", "StaticTorques", "Wrench", "WRENCH_AXES", "chain_bodies", "effort_limits",
+           "gravity_in_base", "lumped_bodies", "point_program", "whole_rows", "margins", "payload_torques", "static_torques", "wrench_torques"]
 
 GRAVITY = (0.0, 0.0, -9.81)
 WRENCH_AXES = ("base", "frame")
@@ -232,14 +232,14 @@ def _chain_joint_ids(chain: Chain) -> list[tuple[int, int]]:
     return list(zip(owners, positions))
 
 
-def lumped_bodies(chain: Chain, q_rest=None) -> list[tuple[int, float, np.ndarray]]:
-    """The bodies moved by the chain's joints, lumped per joint: (position in ``chain.steps``, mass, CoG) each.
+def chain_bodies(chain: Chain, q_rest=None) -> list[tuple[int, str, float, np.ndarray]]:
+    """Every body moved by the chain's joints: (position in ``chain.steps`` of its joint, link, mass, CoG) each.
 
-    Every Pinocchio body (a joint's links, fixed children merged) below a
-    chain joint is given to the deepest chain joint above it; its centre of
-    gravity is written in that joint's frame (m), with the joints off the
-    chain at ``q_rest`` (a whole-robot vector; default the robot's defaults).
-    Massless lumps are left out. Base to tip.
+    A body is Pinocchio's: a link with the links fixed to it merged, named by
+    that link. Each is given to the deepest chain joint above it (a finger's
+    body to the joint carrying the hand); its centre of gravity is written in
+    that joint's frame (m), with the joints off the chain at ``q_rest`` (a
+    whole-robot vector; default the robot's defaults). Massless bodies are left out. Base to tip.
     """
     import pinocchio as pin
 
@@ -250,7 +250,11 @@ def lumped_bodies(chain: Chain, q_rest=None) -> list[tuple[int, float, np.ndarra
     last_step = {}
     for joint_id, position in _chain_joint_ids(chain):
         last_step[joint_id] = position  # a floating or planar joint's last coordinate carries its body
-    lumps: dict[int, list] = {}
+    link_of = {}
+    for frame in model.frames:
+        if frame.type == pin.FrameType.BODY:
+            link_of.setdefault(frame.parentJoint, frame.name)
+    bodies = []
     for body in range(1, model.njoints):
         inertia = model.inertias[body]
         if inertia.mass <= 0:
@@ -258,20 +262,28 @@ def lumped_bodies(chain: Chain, q_rest=None) -> list[tuple[int, float, np.ndarra
         owner = next((j for j in reversed(list(model.supports[body])) if j in last_step), None)
         if owner is None:  # not moved by the chain's joints
             continue
-        centre = data.oMi[owner].actInv(data.oMi[body].act(inertia.lever))
-        lump = lumps.setdefault(owner, [0.0, np.zeros(3)])
-        lump[0] += inertia.mass
-        lump[1] = lump[1] + inertia.mass * np.asarray(centre)
-    return [(last_step[j], m, first / m) for j, (m, first) in sorted(lumps.items(), key=lambda kv: last_step[kv[0]])]
+        centre = np.asarray(data.oMi[owner].actInv(data.oMi[body].act(inertia.lever)))
+        bodies.append((last_step[owner], link_of.get(body, model.names[body]), float(inertia.mass), centre))
+    return sorted(bodies, key=lambda b: b[0])
 
 
-def _point_program(chain: Chain, position: int, point) -> JacobianProgram:
+def lumped_bodies(chain: Chain, q_rest=None) -> list[tuple[int, float, np.ndarray]]:
+    """:func:`chain_bodies` lumped per chain joint: (position in ``chain.steps``, mass, CoG in its frame), base to tip."""
+    lumps: dict[int, list] = {}
+    for position, _, mass, centre in chain_bodies(chain, q_rest):
+        lump = lumps.setdefault(position, [0.0, np.zeros(3)])
+        lump[0] += mass
+        lump[1] = lump[1] + mass * centre
+    return [(position, m, first / m) for position, (m, first) in sorted(lumps.items())]
+
+
+def point_program(chain: Chain, position: int, point) -> JacobianProgram:
     """The compiled Jacobian of a point fixed after step ``position`` of the chain (offset ``point`` in its frame)."""
     steps = list(chain.steps[:position + 1]) + [ChainStep(np.eye(3), np.asarray(point, dtype=float), -1, False, None)]
     return JacobianProgram.from_steps(steps, len(chain.robot.joint_names))
 
 
-def _whole_rows(chain: Chain, Q, q_rest) -> tuple[np.ndarray, tuple]:
+def whole_rows(chain: Chain, Q, q_rest) -> tuple[np.ndarray, tuple]:
     """(whole-robot rows (N, n_robot), the leading shape) for chain vectors ``Q`` (..., n)."""
     Q = chain.rows(Q)
     lead = Q.shape[:-1]
@@ -301,7 +313,7 @@ def _weight_torques(program: JacobianProgram, whole, columns, mass: float, g_bas
 
 def payload_torques(chain: Chain, whole, payload: Payload, g_base) -> np.ndarray:
     """The payload's part of ``tau`` (N, n): its weight at its CoG, held by the chain."""
-    program = _point_program(chain, len(chain.steps) - 1, payload.cog)  # after the tip's own placement
+    program = point_program(chain, len(chain.steps) - 1, payload.cog)  # after the tip's own placement
     return _weight_torques(program, whole, chain.columns, payload.mass, g_base)
 
 
@@ -372,12 +384,12 @@ def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, w
     array([-2., -1.])
     """
     chain = chain_of(robot, "static_torques", base=base, tip=tip)
-    whole, lead = _whole_rows(chain, q, q_rest)
+    whole, lead = whole_rows(chain, q, q_rest)
     whole = np.ascontiguousarray(whole)
     g_base = gravity_in_base(chain, whole, gravity)
     tau_g = np.zeros((whole.shape[0], chain.n))
     for position, mass, centre in lumped_bodies(chain, q_rest):
-        tau_g += _weight_torques(_point_program(chain, position, centre), whole, chain.columns, mass, g_base)
+        tau_g += _weight_torques(point_program(chain, position, centre), whole, chain.columns, mass, g_base)
     tau_p = np.zeros_like(tau_g)
     if payload is not None:
         if not isinstance(payload, Payload):

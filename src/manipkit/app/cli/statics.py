@@ -28,8 +28,8 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import number_text, printable
 
-__all__ = ["MAX_TRAJECTORY_BYTES", "grade_line", "parse_payload", "read_trajectory", "parse_triple", "parse_wrench", "register", "run_inertia", "run_payload",
-           "run_torques", "torques_json"]
+__all__ = ["MAX_TRAJECTORY_BYTES", "grade_line", "parse_payload", "parse_triple", "parse_wrench", "read_trajectory",
+           "register", "run_force_capacity", "run_inertia", "run_payload", "run_torques", "torques_json"]
 
 CONVENTION = ("tau = g(q) - sum J^T w: the torque each motor produces to hold still (N m, N for prismatic joints); "
               "wrenches act on the robot")
@@ -51,6 +51,9 @@ def register(commands) -> None:
                      help="inverse dynamics (RNEA) along a trajectory instead: a CSV with a header of t (s, "
                           "optional), joint names (q), NAME.qd and NAME.qdd columns (columns not given are 0); "
                           "--q sets the joints the file leaves out")
+    _band_option(tor)
+    tor.add_argument("--explain", action="store_true",
+                     help="also show each body's part of each joint's gravity torque and each wrench's J^T columns")
     tor.add_argument("--precision", type=int, default=6, metavar="N", help="decimals printed (default 6)")
     tor.set_defaults(run=run_torques)
 
@@ -70,7 +73,18 @@ def register(commands) -> None:
     pay.add_argument("--samples", type=int, default=1000, metavar="N",
                      help="configurations sampled inside the limits for the diagram (default 1000)")
     pay.add_argument("--seed", type=int, default=0, help="seed of the sampler (default 0)")
+    _band_option(pay)
     pay.set_defaults(run=run_payload)
+
+    force = commands.add_parser("force-capacity",
+                                help="the largest force (or moment) the tool can apply, the arm's weight held first")
+    _common(force)
+    force.add_argument("--kind", choices=("force", "moment"), default="force",
+                       help="force at the tip's origin (N) or moment (N m), never mixed (default force)")
+    force.add_argument("--direction", action="append", default=[], metavar="X,Y,Z",
+                       help="a direction in the base frame's axes (repeatable; default +-x, +-y, +-z)")
+    force.add_argument("--payload", default=None, metavar="MASS[@X,Y,Z]", help="a payload held as well (as torques)")
+    force.set_defaults(run=run_force_capacity)
 
     audit = commands.add_parser("inertia", help="audit the description's masses, inertias and effort limits")
     add_robot_options(audit)
@@ -78,6 +92,12 @@ def register(commands) -> None:
                        help="skip the checks against the collision geometry (no meshes are read)")
     audit.add_argument("--format", choices=("text", "json"), default="text")
     audit.set_defaults(run=run_inertia)
+
+
+def _band_option(parser) -> None:
+    parser.add_argument("--band", type=float, default=None, metavar="PERCENT",
+                        help="also the interval with every body's mass and CoG off by up to PERCENT %% (the CoG by "
+                             "PERCENT %% of its distance from its joint, along each axis)")
 
 
 def _common(parser) -> None:
@@ -203,6 +223,14 @@ def run_torques(args) -> int:
         robot.frame(wrench.frame)  # an unknown frame: one line naming the closest ones
     answer = static_torques(chain, q, payload=payload, wrench=wrenches, gravity=gravity, q_rest=q)
     data = torques_json(robot, chain, q, answer)
+    band = _band(args, chain, q, gravity, payload)
+    if band is not None:
+        data["band"] = {"percent": band.percent, "gravity_low": band.low.tolist(), "gravity_high": band.high.tolist(),
+                        "tau_low": (band.low + answer.payload + answer.wrench).tolist(),
+                        "tau_high": (band.high + answer.payload + answer.wrench).tolist()}
+    explained = _explain(chain, q, gravity, wrenches) if args.explain else None
+    if explained is not None:
+        data["explain"] = explained
     if args.format == "json":
         print_json(data)
         return EXIT_OK
@@ -224,8 +252,60 @@ def run_torques(args) -> int:
     lines.append("no joint of the chain has an effort limit" if saturating is None else
                  f"least margin: {saturating}" + (f"; over the limit: {', '.join(data['over_limit'])}"
                                                  if data["over_limit"] else ""))
+    if band is not None:
+        lines.append(f"with masses and CoGs off by up to {number_text(band.percent, 3)} %, tau lies in:")
+        lines += [f"  {name}: [{number_text(lo, p)}, {number_text(hi, p)}]"
+                  for name, lo, hi in zip(data["joint_names"], data["band"]["tau_low"], data["band"]["tau_high"])]
+    if explained is not None:
+        lines += _explain_lines(explained, data["joint_names"], p)
     print("\n".join(lines))
     return EXIT_OK
+
+
+def _band(args, chain, q, gravity, payload):
+    if args.band is None:
+        return None
+    from manipkit.statics.sensitivity import torque_band
+
+    return torque_band(chain, q, percent=args.band, payload=payload, gravity=gravity, q_rest=q)
+
+
+def _explain(chain, q, gravity, wrenches) -> dict:
+    """Each body's part of the gravity torques, and per wrench the Jacobian columns and the -J^T w terms."""
+    import numpy as np
+
+    from manipkit.statics.sensitivity import gravity_contributions
+
+    robot = chain.robot
+    parts = [{"link": link, "mass": mass, "torque": torque.tolist()}
+             for link, mass, torque in gravity_contributions(chain, q, gravity=gravity, q_rest=q)]
+    columns = []
+    for wrench in wrenches:
+        reference = "local" if wrench.axes == "frame" else "base"
+        J = robot.jacobian(q, base=chain.base, tip=wrench.frame, reference=reference)[:, chain.columns]
+        columns.append({"frame": wrench.frame, "axes": wrench.axes, "wrench": wrench.wrench.tolist(),
+                        "jacobian_columns": J.T.tolist(), "force_part": (-(J[:3].T @ wrench.force)).tolist(),
+                        "moment_part": (-(J[3:].T @ wrench.moment)).tolist()})
+    return {"gravity_by_body": parts, "wrenches": columns, "total_gravity": np.sum(
+        [part["torque"] for part in parts], axis=0).tolist() if parts else [0.0] * chain.n}
+
+
+def _explain_lines(explained: dict, joints, p: int) -> list[str]:
+    lines = ["gravity torque by body (N m; positive turns the joint the positive way about its axis; "
+             "each body weighs only on the joints above it):"]
+    width = max([len(part["link"]) for part in explained["gravity_by_body"]] + [4])
+    lines.append(" " * (width + 12) + "  ".join(f"{name:>14}" for name in joints))
+    for part in explained["gravity_by_body"]:
+        lines.append(f"{part['link']:<{width}} {number_text(part['mass'], 3):>7} kg "
+                     + "  ".join(f"{number_text(v, p):>14}" for v in part["torque"]))
+    for item in explained["wrenches"]:
+        axes = "the base frame's" if item["axes"] == "base" else f"{item['frame']}'s own"
+        lines.append(f"wrench {', '.join(number_text(v, p) for v in item['wrench'])} (N, N m) on the robot at "
+                     f"{item['frame']}, {axes} axes: tau_k = -(J_v,k . f) - (J_w,k . n)")
+        for name, col, fp, mp in zip(joints, item["jacobian_columns"], item["force_part"], item["moment_part"]):
+            lines.append(f"  {name}: J_k = ({', '.join(number_text(v, p) for v in col)}) (m/rad, 1); "
+                         f"-J_v.f = {number_text(fp, p)} N m, -J_w.n = {number_text(mp, p)} N m")
+    return lines
 
 
 def run_payload(args) -> int:
@@ -244,6 +324,10 @@ def run_payload(args) -> int:
             "unbounded": not math.isfinite(max_mass), "saturating": cap.saturating_joint,
             "gravity_saturates": bool(cap.gravity_saturates), "convention": CONVENTION,
             "inertia_grade": cap.inertia_grade}
+    band = _band(args, chain, q, gravity, _payload_at(cog))
+    if band is not None:
+        data["band"] = {"percent": band.percent, "max_mass_low": band.capacity_low,
+                        "max_mass_high": band.capacity_high}
     if args.format == "json":
         print_json(data)
         return EXIT_OK
@@ -257,6 +341,58 @@ def run_payload(args) -> int:
         print("max payload: unbounded: no joint with an effort limit feels a payload at this CoG")
     else:
         print(f"max payload: {number_text(max_mass, 6)} kg ({data['saturating']} reaches its effort limit)")
+    if band is not None:
+        print(f"with masses and CoGs off by up to {number_text(band.percent, 3)} %: between "
+              f"{number_text(band.capacity_low, 6)} and {number_text(band.capacity_high, 6)} kg (an outer bound)")
+    return EXIT_OK
+
+
+def _payload_at(cog):
+    from manipkit.statics.torques import Payload
+
+    return Payload(1.0, cog)
+
+
+def run_force_capacity(args) -> int:
+    """Print the largest force (moment) along each direction and the ellipsoid, the weight held first."""
+    from manipkit.statics.capability import force_capacity
+
+    gravity = parse_triple(args.gravity, "--gravity")
+    payload = parse_payload(args.payload) if args.payload is not None else None
+    directions = [parse_triple(text, "--direction") for text in args.direction] or None
+    if directions is not None and any(d == (0.0, 0.0, 0.0) for d in directions):
+        raise UsageError("--direction 0,0,0: give a direction that is not zero")
+    robot, chain, q = _chain_and_q(args)
+    cap = force_capacity(chain, q, kind=args.kind, directions=directions, payload=payload, gravity=gravity, q_rest=q)
+    unit = "N" if cap.kind == "force" else "N m"
+
+    def finite(v):
+        return float(v) if math.isfinite(v) else None
+
+    data = {"robot": robot.name, "base": chain.base, "tip": chain.tip, "q": robot.as_dict(q), "kind": cap.kind,
+            "unit": unit, "directions": cap.directions.tolist(), "max_along": [finite(v) for v in cap.along],
+            "saturating": list(cap.saturating), "ellipsoid_centre": cap.centre.tolist(),
+            "ellipsoid_axes": cap.axes.T.tolist(), "ellipsoid_radii": [finite(v) for v in cap.radii],
+            "ellipsoid_empty": cap.empty, "inertia_grade": _audit(robot).grade,
+            "convention": "applied by the tool on the environment; motors produce g(q) + J^T f within +-effort"}
+    if args.format == "json":
+        print_json(data)
+        return EXIT_OK
+    print(f"robot: {robot.name} ({robot.source.path}); chain {chain.base} -> {chain.tip}")
+    print(f"the largest {cap.kind} ({unit}) the tool applies at {chain.tip}'s origin, in the base frame's axes, with "
+          "the arm's weight" + (" and the payload" if payload is not None else "") + " held first:")
+    print(grade_line(robot, args))
+    for d, t, joint in zip(cap.directions, cap.along, cap.saturating):
+        amount = "unbounded" if not math.isfinite(t) else f"{number_text(t, 3)} {unit} ({joint} at its limit)"
+        print(f"  along ({', '.join(number_text(v, 3) for v in d)}): {amount}")
+    if cap.empty:
+        print("ellipsoid: empty (the weight alone uses the whole torque budget)")
+    else:
+        print(f"ellipsoid ||diag(1/effort) (g + J^T f)|| <= 1: centre ({', '.join(number_text(v, 3) for v in cap.centre)})"
+              f" {unit}")
+        for axis, radius in zip(cap.axes.T, cap.radii):
+            size = "unbounded" if not math.isfinite(radius) else f"{number_text(radius, 3)} {unit}"
+            print(f"  semi-axis {size} along ({', '.join(number_text(v, 3) for v in axis)})")
     return EXIT_OK
 
 
