@@ -27,10 +27,12 @@ Conventions (docs/architecture.md), restated:
 
 How it is computed: the bodies moved by the chain are lumped per chain joint
 (everything rigidly attached after it, fingers included at ``q_rest``: mass
-and centre of gravity in that joint's frame); then ``g(q) = -sum_s m_s
-J_s(q)^T g`` with ``J_s`` the compiled point Jacobian of each lumped centre
-(:class:`manipkit.kinematics.jacobian.JacobianProgram`, batched, no Python loop
-over configurations). Tested against Pinocchio to 1e-10.
+and centre of gravity in that joint's frame); then one compiled pass per
+configuration (:mod:`manipkit.statics.gravity_kernel`) adds the lumps up from
+the tip and takes each joint's moment of their weight (and the payload's),
+``g(q) = -sum_s m_s J_s(q)^T g``; a wrench's part is ``-J^T w`` from the
+compiled Jacobians. No Python loop over configurations. Tested against
+Pinocchio to 1e-10.
 
 Examples
 --------
@@ -51,8 +53,8 @@ import numpy as np
 
 from manipkit.errors import OptionError
 from manipkit.kinematics.chain import chain_of
-from manipkit.kinematics.fk_kernel import ChainStep
-from manipkit.kinematics.jacobian import JacobianProgram
+from manipkit.kinematics.fk_kernel import ChainStep, z_to_axis
+from manipkit.kinematics.jacobian import BLOCK, JacobianProgram
 from manipkit.statics.audit import inertia_grade
 from manipkit.text import repr_text
 
@@ -277,6 +279,43 @@ def lumped_bodies(chain: Chain, q_rest=None) -> list[tuple[int, float, np.ndarra
     return [(position, m, first / m) for position, (m, first) in sorted(lumps.items())]
 
 
+def _gravity_program(chain: Chain, q_rest) -> tuple:
+    """(program, masses (S,), first moments (S, 3)) for the compiled gravity loop (:mod:`manipkit.statics.gravity_kernel`)."""
+    program = JacobianProgram.from_steps(chain.steps, len(chain.robot.joint_names))
+    joint_steps = [k for k, step in enumerate(chain.steps) if step.index >= 0]
+    masses, moments = np.zeros(len(joint_steps)), np.zeros((len(joint_steps), 3))
+    for position, mass, centre in lumped_bodies(chain, q_rest):
+        k = joint_steps.index(position)
+        masses[k] = mass  # the program turns each joint frame by A (its axis onto z): the CoG in those axes is A^T c
+        moments[k] = mass * (z_to_axis(chain.steps[position].axis).T @ centre)
+    return program, masses, moments
+
+
+def _gravity_and_payload(chain: Chain, whole: np.ndarray, g_base: np.ndarray, payload, q_rest) -> tuple:
+    """(g(q) (N, n), the payload's part (N, n)) from one compiled pass per row (chain columns)."""
+    from manipkit.statics.gravity_kernel import gravity_rows_kernel
+
+    program, masses, moments = _gravity_program(chain, q_rest)
+    n_robot = len(chain.robot.joint_names)
+    tau, tau_p = np.zeros((whole.shape[0], n_robot)), np.zeros((whole.shape[0], n_robot))
+    mass = 0.0 if payload is None else payload.mass
+    cog = np.zeros(3) if payload is None else payload.cog
+    revolute = program.kinds == 0
+    g_base = np.ascontiguousarray(g_base)
+    kernel = gravity_rows_kernel()
+    for start in range(0, whole.shape[0], BLOCK):
+        block = whole[start:start + BLOCK]
+        tan_half = np.ascontiguousarray((block[:, program.columns[revolute]] * (0.5 * program.scales[revolute])
+                                         + 0.5 * program.offsets[revolute]).T)
+        np.tan(tan_half, out=tan_half)
+        values = np.ascontiguousarray((block[:, program.columns[~revolute]] * program.scales[~revolute]
+                                       + program.offsets[~revolute]).T)
+        kernel(tan_half, values, program.rotations, program.translations, program.identity, program.kinds,
+               program.rows, program.columns, program.scales, masses, moments, mass, cog, g_base[start:start + BLOCK],
+               tau[start:start + BLOCK], tau_p[start:start + BLOCK])
+    return tau[:, chain.columns], tau_p[:, chain.columns]
+
+
 def point_program(chain: Chain, position: int, point) -> JacobianProgram:
     """The compiled Jacobian of a point fixed after step ``position`` of the chain (offset ``point`` in its frame)."""
     steps = list(chain.steps[:position + 1]) + [ChainStep(np.eye(3), np.asarray(point, dtype=float), -1, False, None)]
@@ -346,9 +385,12 @@ def margins(tau: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """(margin percent (..., n), index of the least margin (...,), -1 without limits) for torques against limits."""
     with np.errstate(invalid="ignore", divide="ignore"):
         margin = 100.0 * (1.0 - np.abs(tau) / limits)
-    if not np.isfinite(limits).any():
+    limited = np.isfinite(limits)
+    if not limited.any():
         return margin, np.full(tau.shape[:-1], -1, dtype=np.intp)
-    return margin, np.nanargmin(np.where(np.isnan(margin), np.inf, margin), axis=-1)
+    if limited.all():
+        return margin, np.argmin(margin, axis=-1)
+    return margin, np.argmin(np.where(limited, margin, np.inf), axis=-1)
 
 
 def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, wrench=None, gravity=GRAVITY,
@@ -387,15 +429,9 @@ def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, w
     whole, lead = whole_rows(chain, q, q_rest)
     whole = np.ascontiguousarray(whole)
     g_base = gravity_in_base(chain, whole, gravity)
-    tau_g = np.zeros((whole.shape[0], chain.n))
-    for position, mass, centre in lumped_bodies(chain, q_rest):
-        tau_g += _weight_torques(point_program(chain, position, centre), whole, chain.columns, mass, g_base)
-    tau_p = np.zeros_like(tau_g)
-    if payload is not None:
-        if not isinstance(payload, Payload):
-            raise OptionError(f"payload {repr_text(payload)}: give a manipkit.statics.Payload(mass, cog)")
-        if payload.mass > 0:
-            tau_p = payload_torques(chain, whole, payload, g_base)
+    if payload is not None and not isinstance(payload, Payload):
+        raise OptionError(f"payload {repr_text(payload)}: give a manipkit.statics.Payload(mass, cog)")
+    tau_g, tau_p = _gravity_and_payload(chain, whole, g_base, payload, q_rest)
     tau_w = np.zeros_like(tau_g)
     wrenches = () if wrench is None else (wrench,) if isinstance(wrench, Wrench) else tuple(wrench)
     for w in wrenches:
