@@ -47,6 +47,7 @@ MISSING_FOLDER_COMMANDS = {
     "dh to-urdf": ("dh", "to-urdf", "iiwa14_seed004", "-o", "{out}.urdf"),
     "workspace --plot": ("workspace", "--robot", "planar_2r", "--plot", "{out}.png"),
     "view --static": ("view", "--static", "{out}.html"),
+    "payload --diagram": ("payload", "--robot", "iiwa14", "--diagram", "{out}.png"),
 }
 
 

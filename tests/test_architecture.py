@@ -27,8 +27,9 @@ ALLOWED = {
     "dh": BOTTOM | {"inputs", "spatial"},
     "closed_form": BOTTOM | {"inputs", "spatial", "dh"},
     "ik": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form"},
-    "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik"},
-    "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "analysis"},
+    "statics": BOTTOM | {"spatial", "kinematics"},
+    "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "statics"},
+    "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "statics", "analysis"},
 }
 #: One module of a layer another layer may import beside ALLOWED (docs/architecture.md, "Layers"): the closed forms'
 #: compiled check runs the chain's own FK program, one row at a time (fk_kernel: numpy, errors, kernels only).

@@ -24,6 +24,7 @@ def test_the_notebooks_exist():
         "09_reach_maps.ipynb",
         "10_closed_form_real_arms.ipynb",
         "11_collisions.ipynb",
+        "12_statics.ipynb",
     ]
 
 

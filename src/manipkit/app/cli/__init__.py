@@ -59,6 +59,7 @@ def _main_parser() -> argparse.ArgumentParser:
         robots,
         rot,
         singularities,
+        statics,
         tf,
         tree,
         velocity,
@@ -68,8 +69,8 @@ def _main_parser() -> argparse.ArgumentParser:
 
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    groups = (tf, robots, tree, dh, ik, family, velocity, singularities, workspace, reachmap, collisions, view,
-              rot)  # `manipkit --help` order
+    groups = (tf, robots, tree, dh, ik, family, velocity, singularities, statics, workspace, reachmap, collisions,
+              view, rot)  # `manipkit --help` order
     for group in groups:
         group.register(commands)
     return parser
