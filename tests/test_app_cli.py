@@ -86,7 +86,7 @@ def test_manipkit_tf_is_tf_between():
 def test_alias_resolution_is_said(tmp_path):
     out = run_cli("tf-between", "base_link", "ee_link", "--robot", "panda", status=0).stdout
     assert "frame base_link = panda_link0, the root link" in out
-    assert "frame ee_link = panda_hand_tcp, the end effector declared for panda" in out
+    assert "frame ee_link = panda_hand_tcp, the end effector declared in panda.srdf" in out  # example-robot-data's SRDF
 
 
 def test_xacro_args_on_the_command_line():

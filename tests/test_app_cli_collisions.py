@@ -13,7 +13,7 @@ import pytest
 from cli_helper import run_cli
 
 import manipkit
-from manipkit.kinematics.collisions import collisions, read_srdf
+from manipkit.kinematics.collisions import CollisionChecker, collisions, read_srdf
 
 BAD = Path(__file__).parent / "bad_inputs" / "collisions"
 
@@ -56,11 +56,13 @@ def test_panda_json_agrees_with_pinocchio_and_coal(panda, q, colliding):
 
 
 def test_text_names_the_pairs_and_the_closest_one(panda):
-    result = run_cli("manipkit", "collisions", "--robot", "panda", status=0)
+    result = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", "none", "--geometry", "hulls",
+                     "--q", "panda_joint4=-3", status=0)
     lines = result.stdout.splitlines()
-    report = collisions(panda)
-    assert lines[0] == (f"robot panda: IN COLLISION ({len(report.pairs)} pairs in contact; {report.checked} link pairs "
-                        "checked, hulls geometry)")
+    report = CollisionChecker(panda, srdf="none", skip_home_contacts=True).report({"panda_joint4": -3.0})
+    assert report.checked == collisions(panda, srdf="none").checked - 3  # the 3 pairs touching at home left out
+    assert lines[0] == (f"robot panda: IN COLLISION ({len(report.pairs)} pairs in contact; {report.checked} link "
+                        "pairs checked, hulls geometry)")
     first = report.pairs[0]
     assert lines[1] == f"  {first.link1} - {first.link2}: penetration {-first.distance:.4f} m"
     assert f"closest pair: {first.link1} - {first.link2}, distance {first.distance:.4f} m" in lines
@@ -87,7 +89,7 @@ def test_acm_writes_the_srdf_and_checks_it(tmp_path):
     out = tmp_path / "course_arm.srdf"
     result = run_cli("manipkit", "acm", "--robot", "course_arm", "-o", out, "--samples", "300", status=0)
     lines = result.stdout.splitlines()
-    assert lines[0] == f"robot course_arm: 15 link pairs, 300 samples, hulls geometry; wrote {out}"
+    assert lines[0] == f"robot course_arm: 15 link pairs, 300 samples, meshes geometry; wrote {out}"
     assert lines[1].startswith("disabled: 5 Adjacent, ")
     assert lines[2].startswith("check: no enabled pair is in contact at the default pose")
     course_arm = manipkit.load("course_arm")
@@ -128,7 +130,8 @@ def test_an_srdf_that_leaves_pairs_touching_at_the_default_pose_is_warned_about(
                 or 'link1="panda_link5" link2="panda_hand"' in x)
     srdf = tmp_path / "edited.srdf"
     srdf.write_text(shipped.replace(line, ""))
-    result = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", srdf, "--q", "panda_joint1=1", status=0)
+    result = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", srdf, "--q", "panda_joint1=1",
+                     "--geometry", "hulls", status=0)
     assert result.stderr == (f"warning: {srdf} leaves 1 pair in contact at the default pose with hulls geometry "
                              "(panda_link5 - panda_hand); was it made for other geometry? "
                              "`manipkit acm --geometry hulls` makes one for it\n")

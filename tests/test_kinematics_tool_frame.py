@@ -93,3 +93,18 @@ def test_two_arms_tie_by_name_and_say_so():
     names = ["torso", "l_a", "l_tool_frame", "r_a", "r_tool_frame"]
     name, reason = choose_tool_frame(names, [-1, 0, 1, 0, 3], [False, True, False, True, False])
     assert name == "l_tool_frame" and "also r_tool_frame at the same depth (--tip chooses)" in reason
+
+
+def test_an_srdf_end_effector_comes_first_then_the_deepest_chain_tip():
+    # base - link1 - link6 (arm, 2 joints) - end_effector (fixed) ; link6 - finger (1 joint)
+    names = ["base", "link1", "link6", "j2_end_effector", "finger"]
+    parents, movable = [-1, 0, 1, 2, 2], [False, True, True, False, True]
+    assert choose_tool_frame(names, parents, movable)[0] == "j2_end_effector"  # *_end_effector joins the name rule
+    tips = ("link6", "finger", "link1")  # one <end_effector parent_link>, then two chain tips
+    assert choose_tool_frame(names, parents, movable, srdf_tips=tips, srdf_ends=1, srdf="a.srdf") == (
+        "link6", "link6, the end effector declared in a.srdf")
+    chains = choose_tool_frame(names, parents, movable, srdf_tips=("link1", "link6"), srdf="a.srdf")
+    assert chains == ("link6", "link6, the planning group's tip declared in a.srdf")  # 2 joints above beat 1
+    # a link named ee_link is the name itself, never overridden
+    assert choose_tool_frame([*names, "ee_link"], [*parents, 0], [*movable, False], srdf_tips=tips, srdf_ends=1)[0] \
+        == "ee_link"

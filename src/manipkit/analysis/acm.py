@@ -36,7 +36,7 @@ from manipkit.errors import OptionError
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["REASONS", "CollisionMatrix", "allowed_collision_matrix", "srdf_text"]
+__all__ = ["REASONS", "CollisionMatrix", "MatrixComparison", "allowed_collision_matrix", "compare_matrix", "srdf_text"]
 
 #: The reasons a pair is disabled, in the order the rules run (MoveIt's names).
 REASONS = ("Adjacent", "Default", "Always", "Never")
@@ -155,6 +155,64 @@ def allowed_collision_matrix(robot: Robot, *, samples: int = 10_000, seed: int =
     return CollisionMatrix(robot.name, geometry, int(samples), seed, float(always),
                            MappingProxyType(dict(sorted(disabled.items()))), enabled,
                            MappingProxyType(counts), default_contacts)
+
+
+@dataclass(frozen=True)
+class MatrixComparison:
+    """A matrix compared pair by pair with an SRDF's ``<disable_collisions>`` (:func:`compare_matrix`).
+
+    Attributes
+    ----------
+    srdf : str
+        The SRDF compared with.
+    total : int
+        Pairs compared: every pair of links with collision geometry.
+    agree : int
+        Pairs both disable, or both check.
+    same_reason : int
+        Of ``agree``, the disabled pairs with the same reason in both.
+    differences : tuple of (str, str, str, str, str)
+        (link1, link2, ours, theirs, why) of each pair one disables and the other checks; ours and theirs are
+        a reason of :data:`REASONS` (theirs may be ``User``) or ``"checked"``.
+    """
+
+    srdf: str
+    total: int
+    agree: int
+    same_reason: int
+    differences: tuple
+
+
+def compare_matrix(matrix: CollisionMatrix, disabled: Mapping, srdf: str) -> MatrixComparison:
+    """``matrix`` against ``disabled`` (an SRDF's pairs: (link1, link2) sorted -> reason, read from ``srdf``).
+
+    The reason given for a difference is the count behind our rule: a pair
+    we check was in contact in some samples (so it is not ``Never``); a pair
+    we disable as ``Never`` was in contact in none of ours, and one disabled
+    as ``Default`` is in contact at the home configuration.
+    """
+    pairs = list(matrix.disabled) + list(matrix.enabled)
+    agree = same = 0
+    differences = []
+    for pair in sorted(pairs):
+        ours, theirs = matrix.disabled.get(pair, "checked"), disabled.get(pair, "checked")
+        if (ours == "checked") == (theirs == "checked"):
+            agree += 1
+            same += ours == theirs and ours != "checked"
+            continue
+        count = matrix.contacts.get(pair)
+        if ours == "checked":
+            why = f"in contact in {count} of {matrix.samples} samples with {matrix.geometry}, so not Never"
+        elif ours == "Never":
+            why = f"in contact in none of {matrix.samples} samples with {matrix.geometry}"
+        elif ours == "Default":
+            why = f"in contact at the home configuration with {matrix.geometry}"
+        elif ours == "Always":
+            why = f"in contact in {count} of {matrix.samples} samples with {matrix.geometry}"
+        else:
+            why = "joined by a joint (links without geometry passed through)"
+        differences.append((*pair, ours, theirs, why))
+    return MatrixComparison(srdf, len(pairs), agree, same, tuple(differences))
 
 
 def srdf_text(matrix: CollisionMatrix) -> str:

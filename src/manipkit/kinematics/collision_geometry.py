@@ -78,6 +78,11 @@ class CollisionGeometry:
     adjacent: frozenset
 
     @property
+    def has_meshes(self) -> bool:
+        """Whether some object is a mesh (``"meshes"``) or a mesh's hull (``"hulls"``): the two kinds then differ."""
+        return any(isinstance(obj.geometry, (*_BVH_TYPES, coal.ConvexBase)) for obj in self.model.geometryObjects)
+
+    @property
     def link_names(self) -> tuple[str, ...]:
         """The links that have collision geometry, in model order (each once)."""
         return tuple(dict.fromkeys(self.links))

@@ -34,7 +34,6 @@ Conventions (docs/architecture.md, "Collisions"):
 
 from __future__ import annotations
 
-import difflib
 import os
 import threading
 import weakref
@@ -46,6 +45,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from manipkit.description.srdf import Srdf
 from manipkit.errors import CollisionError
 from manipkit.kinematics.collision_geometry import (  # the geometry's names stay importable from here, as before
     GEOMETRIES,
@@ -64,6 +64,7 @@ __all__ = [
     "GEOMETRIES",
     "MAX_THREADS",
     "MIN_ROWS_PER_THREAD",
+    "NO_SRDF",
     "CollisionChecker",
     "CollisionGeometry",
     "CollisionReport",
@@ -73,7 +74,9 @@ __all__ = [
     "collision_free",
     "collision_geometry",
     "collisions",
+    "other_geometry",
     "read_srdf",
+    "resolve_srdf",
     "srdf_check",
     "thread_count",
 ]
@@ -83,8 +86,8 @@ FLOOR = "floor"
 #: A link closer to the floor than this (m) at the default configuration stands on it (wheels) and is not checked
 #: against it; one deeper in it is.
 RESTING = 1e-3
-#: Largest SRDF file read (bytes).
-MAX_SRDF_BYTES = 16 * 1024 * 1024
+#: ``srdf=`` of no SRDF at all (``--srdf none``); ``srdf=None`` is the SRDF the robot ships.
+NO_SRDF = "none"
 #: Most threads of one batched check (each holds a copy of Pinocchio's workspaces).
 MAX_THREADS = 64
 #: Fewest configurations per thread of a batched check (about 10 ms of work): waking a second thread costs from
@@ -102,44 +105,40 @@ _CACHE_LOCK = threading.Lock()
 def read_srdf(path: str | os.PathLike, robot: Robot) -> dict[tuple[str, str], str]:
     """The ``<disable_collisions link1= link2= reason=/>`` of an SRDF file: link pair (sorted) -> reason.
 
+    Read by :func:`manipkit.description.srdf.read_srdf_file` (bounded in size, no entities).
+
     Raises
     ------
     CollisionError
         The file is not XML, an element lacks ``link1``/``link2``, or names a
-        link the robot does not have (the message names the element's line,
-        the link and the closest link names).
+        link the robot does not have (the message names the element, the
+        link, quoted with a bounded prefix, and the closest link names).
     InputFileError
         The file cannot be read (missing, a folder, too large).
     """
-    import xml.etree.ElementTree as ET
+    from manipkit.description.srdf import check_srdf_links, read_srdf_file
 
-    from manipkit.inputs.files import read_text
+    srdf = read_srdf_file(path)
+    check_srdf_links(Srdf(srdf.path, srdf.robot, srdf.disabled, ()), robot.frame_names, robot.name)
+    return srdf.pairs()
 
-    text = read_text(path, what="SRDF file", max_bytes=MAX_SRDF_BYTES)
-    where = printable(str(path))
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise CollisionError(f"{where}: not a valid SRDF (XML): {exc}; an SRDF is <robot> with "
-                             "<disable_collisions link1=... link2=... reason=.../> elements") from None
-    if root.tag != "robot":
-        raise CollisionError(f"{where}: the root element is <{printable(root.tag)}>; an SRDF's is <robot>")
-    links = set(robot.frame_names)
-    disabled = {}
-    for number, element in enumerate(root.iter("disable_collisions"), 1):
-        names = [element.get("link1"), element.get("link2")]
-        if None in names:
-            raise CollisionError(f"{where}: <disable_collisions> number {number} needs both link1 and link2")
-        for name in names:
-            if name not in links:
-                close = difflib.get_close_matches(name, sorted(links), n=3, cutoff=0.5)
-                hint = f"did you mean {', '.join(close)}? " if close else ""
-                raise CollisionError(
-                    f"{where}: <disable_collisions> number {number} names link '{printable(name)}', which robot "
-                    f"'{robot.name}' does not have; {hint}(is this SRDF for another robot?)"
-                )
-        disabled[link_pair(*names)] = element.get("reason") or "User"
-    return disabled
+
+def resolve_srdf(robot: Robot, srdf) -> tuple[dict[tuple[str, str], str], str]:
+    """The pairs ``srdf=`` disables and where they come from: (pairs, file or ``""``).
+
+    ``srdf`` is None (the default everywhere: the SRDF the robot ships,
+    :attr:`Robot.srdf <manipkit.kinematics.robot.Robot>`, else none),
+    :data:`NO_SRDF` (``"none"``: no SRDF), a path, or pairs as a dict
+    (link pair -> reason; an empty one is no SRDF).
+    """
+    if srdf is None:
+        shipped = getattr(robot, "srdf", None)
+        return ({}, "") if shipped is None else (shipped.pairs(), str(shipped.path))
+    if isinstance(srdf, dict):
+        return dict(srdf), ""
+    if isinstance(srdf, str) and srdf.strip().lower() == NO_SRDF:
+        return {}, ""
+    return read_srdf(srdf, robot), str(srdf)
 
 
 # ----------------------------------------------------------------------
@@ -186,6 +185,10 @@ class CollisionReport:
         The frame of the witness points (the root link).
     geometry : str
         ``"hulls"`` or ``"meshes"``.
+    srdf : str
+        The SRDF whose ``<disable_collisions>`` pairs were not checked (``""``: none).
+    default_contacts : tuple of (str, str)
+        Without SRDF pairs: the pairs left out because they are in contact at the home configuration.
     """
 
     robot: str
@@ -196,6 +199,8 @@ class CollisionReport:
     pairs: tuple[LinkPair, ...]
     min_distance: LinkPair | None
     checked: int
+    srdf: str = ""
+    default_contacts: tuple = ()
 
     def as_dict(self) -> dict:
         """JSON-safe: ``in_collision``, ``pairs``, ``min_distance`` (and the robot, geometry, frame, pair count)."""
@@ -203,7 +208,8 @@ class CollisionReport:
             "robot": self.robot, "geometry": self.geometry, "frame": self.base, "in_collision": self.in_collision,
             "pairs": [p.as_dict() for p in self.pairs],
             "min_distance": None if self.min_distance is None else self.min_distance.as_dict(),
-            "checked_pairs": self.checked,
+            "checked_pairs": self.checked, "srdf": self.srdf or None,
+            "left_out_in_contact_at_home": [list(p) for p in self.default_contacts],
         }
 
 
@@ -220,9 +226,11 @@ class CollisionChecker:
     robot : Robot
     geometry : str, keyword-only
         ``"hulls"`` (default) or ``"meshes"``.
-    srdf : path-like or dict, optional
+    srdf : path-like, dict or "none", optional
         An SRDF file whose ``<disable_collisions>`` pairs are not checked, or
-        such pairs as a dict (link pair -> reason).
+        such pairs as a dict (link pair -> reason); default (None): the SRDF
+        the robot ships (:attr:`Robot.srdf <manipkit.kinematics.robot.Robot>`);
+        ``"none"`` (:data:`NO_SRDF`) or an empty dict: none.
     floor : float or None
         The floor's height ``z`` (m) in the root link's frame; None: no floor.
     world : sequence of (name, coal geometry, T_base_object), optional
@@ -232,18 +240,22 @@ class CollisionChecker:
         default: every pair that can come into contact less the disabled ones.
     self_collisions : bool, keyword-only
         False: check the links against the floor and the world only.
+    skip_home_contacts : bool, keyword-only
+        With no SRDF pairs (none given or shipped, or an SRDF that disables
+        none), leave out the pairs in contact at the home configuration
+        (``robot.q()``) too, as MoveIt's Setup Assistant disables them
+        ("Default"); they are :attr:`default_contacts`. The command line does
+        (``manipkit collisions``, ``ik --collisions``, reach maps, the viewer);
+        default False: every pair the SRDF leaves is checked.
 
     Pinocchio's workspaces are the calling thread's, so threads may share a checker.
     """
 
     def __init__(self, robot: Robot, *, geometry: str = "hulls", srdf=None, floor: float | None = None,
-                 world=(), pairs=None, self_collisions: bool = True):
+                 world=(), pairs=None, self_collisions: bool = True, skip_home_contacts: bool = False):
         self.robot = robot
         self.geometry = collision_geometry(robot, geometry)
-        if srdf is None or isinstance(srdf, dict):
-            self.disabled = dict(srdf or {})
-        else:
-            self.disabled = read_srdf(srdf, robot)
+        self.disabled, self.srdf = resolve_srdf(robot, srdf)
         if floor is not None and not np.isfinite(floor):
             raise CollisionError(f"floor {floor}: give a finite height in metres, or no floor")
         self.floor = None if floor is None else float(floor)
@@ -261,8 +273,13 @@ class CollisionChecker:
             model.addGeometryObject(pin.GeometryObject(f"manipkit_world/{name}", 0, 0, placement, shape))
             links.append(name)
         obstacles = {name for name, _, _ in extra}
+        self.default_contacts: tuple[tuple[str, str], ...] = ()
         if pairs is None:
             wanted = [p for p in self.geometry.candidate_pairs() if p not in self.disabled] if self_collisions else []
+            if wanted and not self.disabled and skip_home_contacts:  # as MoveIt's Setup Assistant, without an SRDF
+                home = CollisionChecker(robot, geometry=geometry, pairs=wanted).pairs_in_contact(robot.q())
+                self.default_contacts = tuple(p for p in wanted if p in home)
+                wanted = [p for p in wanted if p not in home]
             resting = self._resting_on_floor() if self.floor is not None else set()
             wanted += [(link, name) for name in obstacles for link in self.geometry.link_names
                        if not (name == FLOOR and link in resting)]
@@ -317,7 +334,8 @@ class CollisionChecker:
         q = robot.q() if q is None else robot.q(q)
         data = self._data
         if not self._pair_links:
-            return CollisionReport(robot.name, self.geometry.geometry, self.base, tuple(q), False, (), None, 0)
+            return CollisionReport(robot.name, self.geometry.geometry, self.base, tuple(q), False, (), None, 0,
+                                   self.srdf, self.default_contacts)
         configuration = robot.pinocchio_configuration(q)
         pin.computeCollisions(robot.model, robot.data, self.model, data, configuration, False)
         pin.computeDistances(robot.model, robot.data, self.model, data, configuration)
@@ -339,7 +357,25 @@ class CollisionChecker:
         colliding = tuple(p for p in ordered if (p.link1, p.link2) in contact)
         closest = colliding[0] if colliding else ordered[0]
         return CollisionReport(robot.name, self.geometry.geometry, self.base, tuple(float(v) for v in q),
-                               bool(colliding), colliding, closest, len(self.pairs))
+                               bool(colliding), colliding, closest, len(self.pairs), self.srdf,
+                               self.default_contacts)
+
+    def distances(self, q=None) -> dict[tuple[str, str], float]:
+        """Every checked pair's distance at ``q`` (m; negative: penetration depth; 0 for meshes in contact), by pair."""
+        robot = self.robot
+        q = robot.q() if q is None else robot.q(q)
+        data = self._data
+        configuration = robot.pinocchio_configuration(q)
+        pin.computeCollisions(robot.model, robot.data, self.model, data, configuration, False)
+        pin.computeDistances(robot.model, robot.data, self.model, data, configuration)
+        found: dict[tuple[str, str], float] = {}
+        for k, (a, b) in enumerate(self._pair_links):
+            distance = float(data.distanceResults[k].min_distance)
+            if data.collisionResults[k].isCollision():
+                distance = min(distance, 0.0)
+            key = link_pair(a, b)
+            found[key] = min(found.get(key, np.inf), distance)
+        return found
 
     @staticmethod
     def _in_base(point) -> tuple[float, float, float]:
@@ -435,6 +471,8 @@ class CollisionSettings:
         Pairs not checked (an SRDF's ``<disable_collisions>``: link1, link2, reason).
     srdf : str
         Where ``disabled`` came from (a path, or ``""``), recorded in metadata.
+    skip_home_contacts : bool
+        As :class:`CollisionChecker`'s: without SRDF pairs, leave out the pairs in contact at home.
     """
 
     self_collisions: bool = True
@@ -442,10 +480,11 @@ class CollisionSettings:
     geometry: str = "hulls"
     disabled: tuple = ()
     srdf: str = ""
+    skip_home_contacts: bool = False
 
     @classmethod
     def parse(cls, robot: Robot, what: str, *, floor: float | None = 0.0, geometry: str = "hulls",
-              srdf=None) -> CollisionSettings | None:
+              srdf=None, skip_home_contacts: bool = False) -> CollisionSettings | None:
         """Settings from ``what`` (``"self"``, ``"floor"``, ``"self,floor"`` or ``"none"``: None).
 
         The floor is at ``floor`` (m, root frame) when ``what`` names it.
@@ -459,9 +498,10 @@ class CollisionSettings:
         if "floor" in words and (floor is None or not np.isfinite(floor)):
             raise CollisionError(f"collisions '{printable(str(what))}' needs a floor height in metres, not {floor}")
         collision_geometry(robot, geometry)  # CollisionError now, before a long build
-        disabled = () if srdf is None else tuple(sorted((a, b, r) for (a, b), r in read_srdf(srdf, robot).items()))
-        return cls("self" in words, float(floor) if "floor" in words else None, geometry, disabled,
-                   "" if srdf is None else str(srdf))
+        pairs, source = resolve_srdf(robot, srdf)
+        disabled = tuple(sorted((a, b, r) for (a, b), r in pairs.items()))
+        return cls("self" in words, float(floor) if "floor" in words else None, geometry, disabled, source,
+                   bool(skip_home_contacts))
 
     def checker(self, robot: Robot) -> CollisionChecker:
         """The :class:`CollisionChecker` of these settings for ``robot``, built once per robot (and process)."""
@@ -469,7 +509,8 @@ class CollisionSettings:
             checker = _CHECKER_CACHE.get(robot, {}).get(self)
         if checker is None:
             checker = CollisionChecker(robot, geometry=self.geometry, srdf={(a, b): r for a, b, r in self.disabled},
-                                       floor=self.floor, self_collisions=self.self_collisions)
+                                       floor=self.floor, self_collisions=self.self_collisions,
+                                       skip_home_contacts=self.skip_home_contacts)
             with _CACHE_LOCK:
                 checker = _CHECKER_CACHE.setdefault(robot, {}).setdefault(self, checker)
         return checker
@@ -511,7 +552,7 @@ _CHECKER_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Robot
 
 
 def _without_cached_guesses(data: pin.GeometryData) -> pin.GeometryData:
-    """``data`` with coal's cached GJK guess off for every pair: each query starts afresh.
+    """``data`` with coal's cached GJK guess off for every pair (each query starts afresh), and contacts on.
 
     Pinocchio turns the cache on; with it a query starts from the previous
     configuration's answer, and coal's GJK then misses (or invents) contacts
@@ -525,6 +566,10 @@ def _without_cached_guesses(data: pin.GeometryData) -> pin.GeometryData:
         warnings.simplefilter("ignore", DeprecationWarning)
         for request in (*data.collisionRequests, *data.distanceRequests):
             request.enable_cached_gjk_guess = False
+    for request in data.collisionRequests:
+        # Pinocchio turns contacts off; coal's boolean-only path then misses deep overlaps of some shapes
+        # (measured: two OMY-3M cylinders 18.8 mm into each other reported apart; coal.collide with contacts: hit)
+        request.enable_contact = True
     return data
 
 
@@ -550,9 +595,11 @@ def collisions(robot: Robot, q=None, *, srdf=None, floor: float | None = None, w
     robot : Robot
     q : array_like or dict, optional
         Anything ``robot.q`` takes; default: the robot's default configuration.
-    srdf : path-like, optional
+    srdf : path-like or "none", optional
         An SRDF whose ``<disable_collisions>`` pairs are not checked (adjacent
-        and rigidly joined links never are).
+        and rigidly joined links never are); default: the SRDF the robot
+        ships, if any (:func:`resolve_srdf`); without one, the pairs in
+        contact at the home configuration are not checked either.
     floor : float or None, keyword-only
         Height ``z`` (m) of the floor in the root link's frame; None: no floor.
     world : path-like, optional
@@ -587,6 +634,26 @@ def srdf_check(robot: Robot, srdf, *, geometry: str = "hulls") -> tuple[LinkPair
     ``geometry``. ``manipkit collisions --srdf`` warns with these pairs.
     """
     return CollisionChecker(robot, geometry=geometry, srdf=srdf).report().pairs
+
+
+def other_geometry(checker: CollisionChecker, q=None) -> tuple[str, dict[tuple[str, str], float]] | None:
+    """The same pairs checked with the other kind of geometry (hulls for meshes, meshes for hulls) at ``q``.
+
+    Returns (the other kind, {pair: distance (m)}) for the checker's pairs
+    between links and with the floor (not with a world's obstacles), or None
+    when the robot has no meshes (both kinds are the same shapes). A hull
+    contains its mesh, so a pair's hull distance is at most its mesh
+    distance: hulls can report a contact the meshes do not have, never the
+    other way round.
+    """
+    if not checker.geometry.has_meshes:
+        return None
+    kind = "hulls" if checker.geometry.geometry == "meshes" else "meshes"
+    names = set(checker.geometry.link_names) | ({FLOOR} if checker.floor is not None else set())
+    pairs = [p for p in checker.pairs if p[0] in names and p[1] in names]
+    if not pairs:
+        return kind, {}
+    return kind, CollisionChecker(checker.robot, geometry=kind, floor=checker.floor, pairs=pairs).distances(q)
 
 
 def collision_free(robot: Robot, Q, *, srdf=None, floor: float | None = None, world=None, geometry: str = "hulls",

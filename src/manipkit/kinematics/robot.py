@@ -34,6 +34,7 @@ from manipkit.description.access import ReadPolicy, allowed_folders
 from manipkit.description.mjcf import mjcf_locator
 from manipkit.description.packages import PackageResolver, check_package_dirs
 from manipkit.description.sources import RobotSource, resolve_robot
+from manipkit.description.srdf import shipped_srdf
 from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
 from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
@@ -165,7 +166,14 @@ class Robot:
         #: The link ``base_link`` means everywhere (CLI, :meth:`fk`'s default base, listings): the link
         #: named ``base_link`` if there is one, else the root link.
         self.base_link = "base_link" if "base_link" in self._frame_ids else self.root_link
-        self.ee_frame, self.ee_reason = tool_frame_of(model, self._frame_ids, source.ee_frame, source.name)
+        #: The SRDF the description ships (:func:`manipkit.description.srdf.shipped_srdf`), or None: its
+        #: ``<disable_collisions>`` are the collision checks' default and its group tip ``ee_link``'s first choice.
+        self.srdf, notes = shipped_srdf(source.path, self.name, self.frame_names,
+                                        PackageResolver(dict(self.package_dirs), near=source.path))
+        #: Without :attr:`srdf`: why each SRDF for this robot's name was passed over (it names another link).
+        self.srdf_notes: tuple[str, ...] = () if self.srdf is not None else notes
+        self.ee_frame, self.ee_reason = tool_frame_of(model, self._frame_ids, source.ee_frame, source.name,
+                                                      srdf=self.srdf)
         # Limits widened by LIMIT_TOLERANCE, for the quick check of check_limits
         self._lower_ok = np.array([j.lower for j in self.joints], dtype=float) - LIMIT_TOLERANCE
         self._upper_ok = np.array([j.upper for j in self.joints], dtype=float) + LIMIT_TOLERANCE

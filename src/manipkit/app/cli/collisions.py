@@ -21,7 +21,7 @@ from manipkit.app.cli.common import (
     print_json,
     warn,
 )
-from manipkit.app.collision_text import collision_lines
+from manipkit.app.collision_text import collision_lines, geometry_lines, left_out_lines
 from manipkit.text import printable
 
 __all__ = ["add_collision_options", "add_collision_set_options", "collision_checker", "collision_set", "parse_floor",
@@ -34,14 +34,16 @@ def register(commands) -> None:
         "collisions", help="self-collision (and floor, world) check of one configuration: pairs in contact, closest pair")
     add_robot_options(parser)
     add_joint_options(parser)
-    add_collision_options(parser)
+    add_collision_options(parser, geometry="meshes")
     parser.add_argument("--precision", type=int, default=4, metavar="N", help="decimals printed (default 4)")
     parser.add_argument("--format", choices=("text", "json"), default="text")
     parser.set_defaults(run=run_collisions)
 
     acm = commands.add_parser("acm", help="allowed-collision matrix (MoveIt's rules) written as an SRDF")
     add_robot_options(acm)
-    _add_geometry_option(acm)
+    _add_geometry_option(acm, "meshes")
+    acm.add_argument("--srdf", default=None, metavar="FILE|none",
+                     help="the SRDF to compare with, pair by pair (default: the one the robot ships; none: no comparison)")
     acm.add_argument("-o", "--output", required=True, metavar="FILE", help="the SRDF to write")
     acm.add_argument("--samples", type=int, default=10_000, metavar="N",
                      help="random configurations checked (default 10000)")
@@ -53,11 +55,15 @@ def register(commands) -> None:
     acm.set_defaults(run=run_acm)
 
 
-def add_collision_options(parser) -> None:
-    """``--geometry``, ``--srdf``, ``--floor`` and ``--world`` (read by :func:`collision_checker`)."""
-    _add_geometry_option(parser)
-    parser.add_argument("--srdf", default=None, metavar="FILE",
-                        help="SRDF whose <disable_collisions> pairs are not checked (adjacent links never are)")
+#: The help of ``--srdf``: what the default is.
+_SRDF_HELP = ("SRDF whose <disable_collisions> pairs are not checked (default: the one the robot ships, beside "
+              "it, in the workspace's *_moveit_config package or in example-robot-data; none: no SRDF)")
+
+
+def add_collision_options(parser, *, geometry: str = "hulls") -> None:
+    """``--geometry`` (default ``geometry``), ``--srdf``, ``--floor`` and ``--world`` (read by :func:`collision_checker`)."""
+    _add_geometry_option(parser, geometry)
+    parser.add_argument("--srdf", default=None, metavar="FILE|none", help=_SRDF_HELP)
     parser.add_argument("--floor", default="none", metavar="Z|none",
                         help="floor height z (m) in the root link's frame, or none (default: none)")
     parser.add_argument("--world", default=None, metavar="FILE",
@@ -71,9 +77,8 @@ def add_collision_set_options(parser, *, what: str) -> None:
                         help=f"{what}: self-collision and/or the floor (default none)")
     parser.add_argument("--floor", type=_floor_option, default=0.0, metavar="Z|none",
                         help="with --collisions floor: floor height (m) in the root link's frame (default 0)")
-    parser.add_argument("--srdf", default=None, metavar="FILE",
-                        help="with --collisions: SRDF whose <disable_collisions> pairs are not checked")
-    _add_geometry_option(parser)
+    parser.add_argument("--srdf", default=None, metavar="FILE|none", help=f"with --collisions: {_SRDF_HELP}")
+    _add_geometry_option(parser, "hulls")
 
 
 def collision_set(args) -> dict:
@@ -84,7 +89,8 @@ def collision_set(args) -> dict:
     """
     if args.collisions.strip().lower() == "none" and args.srdf is not None:
         raise UsageError("--srdf applies with --collisions self, floor or self,floor")
-    return {"what": args.collisions, "floor": args.floor, "geometry": args.geometry, "srdf": args.srdf}
+    return {"what": args.collisions, "floor": args.floor, "geometry": args.geometry, "srdf": args.srdf,
+            "skip_home_contacts": True}
 
 
 def _floor_option(text: str) -> float | None:
@@ -106,20 +112,24 @@ def collision_checker(robot, args):
     from manipkit.kinematics.collisions import CollisionChecker, srdf_check
     from manipkit.kinematics.world import read_world
 
-    if args.srdf is not None:
-        touching = srdf_check(robot, args.srdf, geometry=args.geometry)
+    srdf = args.srdf if args.srdf is not None else (None if robot.srdf is None else robot.srdf.path)
+    if srdf is not None and str(srdf).strip().lower() != "none":
+        touching = srdf_check(robot, srdf, geometry=args.geometry)
         if touching:
             pairs = ", ".join(f"{p.link1} - {p.link2}" for p in touching)
-            warn(f"{args.srdf} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact at the "
-                 f"default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
+            warn(f"{printable(str(srdf))} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact "
+                 f"at the default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
                  f"`manipkit acm --geometry {args.geometry}` makes one for it")
     world = () if args.world is None else read_world(args.world)
-    return CollisionChecker(robot, geometry=args.geometry, srdf=args.srdf, floor=parse_floor(args.floor), world=world)
+    return CollisionChecker(robot, geometry=args.geometry, srdf=args.srdf, floor=parse_floor(args.floor), world=world,
+                            skip_home_contacts=True)
 
 
-def _add_geometry_option(parser) -> None:
-    parser.add_argument("--geometry", default="hulls", metavar="hulls|meshes",
-                        help="collision meshes as convex hulls (default, fast) or as meshes")
+def _add_geometry_option(parser, default: str) -> None:
+    other = "hulls" if default == "meshes" else "meshes"
+    parser.add_argument("--geometry", default=default, metavar="hulls|meshes",
+                        help=f"collision meshes as convex hulls (fast, conservative) or as meshes (exact); "
+                             f"default {default}, the output says how {other} differ")
 
 
 def parse_floor(text: str) -> float | None:
@@ -146,20 +156,41 @@ def run_collisions(args) -> int:
     robot = load_robot(args, mesh_warnings=False)  # a missing collision mesh is the error; visual meshes are not used
     q = joint_vector(robot, args)
     floor = parse_floor(args.floor)
-    report = collision_checker(robot, args).report(q)
+    from manipkit.kinematics.collisions import other_geometry
+
+    checker = collision_checker(robot, args)
+    report = checker.report(q)
+    distances = checker.distances(q)
+    other = other_geometry(checker, q)
     if args.format == "json":
-        print_json({**report.as_dict(), "q": dict(zip(robot.joint_names, map(float, q)))})
+        compared = None if other is None else {
+            "geometry": other[0], "in_contact": [list(p) for p, d in other[1].items() if d <= 0],
+            "distances": [{"link1": a, "link2": b, report.geometry: distances[(a, b)], other[0]: d}
+                          for (a, b), d in other[1].items()]}
+        print_json({**report.as_dict(), "disabled_pairs": len(checker.disabled), "other_geometry": compared,
+                    "q": dict(zip(robot.joint_names, map(float, q)))})
         return EXIT_OK
-    for line in collision_lines(report, floor=floor, precision=args.precision):
+    lines = collision_lines(report, floor=floor, precision=args.precision)
+    lines += left_out_lines(report, disabled=len(checker.disabled), notes=robot.srdf_notes if args.srdf is None else ())
+    lines += geometry_lines(report.geometry, distances, other, precision=args.precision)
+    for line in lines:
         print(line)
     return EXIT_OK
 
 
+def _comparison_srdf(robot, srdf):
+    """The SRDF ``acm --srdf`` compares with: the file given, the one the robot ships (default), or None (``none``)."""
+    if srdf is None:
+        return None if robot.srdf is None else robot.srdf.path
+    return None if srdf.strip().lower() == "none" else srdf
+
+
 def run_acm(args) -> int:
     """Make the allowed-collision matrix, write it as an SRDF, check it at the default pose and say so."""
-    from manipkit.analysis.acm import REASONS, allowed_collision_matrix, srdf_text
+    from manipkit.analysis.acm import REASONS, allowed_collision_matrix, compare_matrix, srdf_text
+    from manipkit.app.collision_text import comparison_lines
     from manipkit.app.progress import progress_bar
-    from manipkit.kinematics.collisions import MAX_THREADS, collisions
+    from manipkit.kinematics.collisions import MAX_THREADS, collisions, read_srdf
     from manipkit.outputs import writable_path, write_text
 
     if not 1 <= args.samples <= 10_000_000:
@@ -181,6 +212,10 @@ def run_acm(args) -> int:
           f"wrote {printable(str(args.output))}")
     print("disabled: " + ", ".join(f"{counts[r]} {r}" for r in REASONS) + f"; enabled (checked): {len(matrix.enabled)}")
     # The check reads the file back, as every other command would (--srdf), and checks the default pose.
+    compare = _comparison_srdf(robot, args.srdf)
+    if compare is not None:
+        for line in comparison_lines(compare_matrix(matrix, read_srdf(compare, robot), str(compare))):
+            print(line)
     report = collisions(robot, srdf=args.output, geometry=args.geometry)
     if report.in_collision:
         pairs = ", ".join(f"{p.link1} - {p.link2}" for p in report.pairs)

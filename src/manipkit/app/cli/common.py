@@ -34,6 +34,7 @@ __all__ = [
     "UsageError",
     "add_joint_options",
     "alias_lines",
+    "alias_rules",
     "add_robot_options",
     "check_angles",
     "check_precision",
@@ -169,13 +170,19 @@ def alias_lines(robot: Robot, *frames: str) -> list[str]:
     it stands for and the rule that chose it (issue 25: ``ik`` printed "frame
     ee_link" while that was a finger).
     """
-    lines = []
+    return [f"frame {alias} = {rule['rule']}" for alias, rule in alias_rules(robot, *frames).items()]
+
+
+def alias_rules(robot: Robot, *frames: str) -> dict[str, dict[str, str]]:
+    """``{alias: {"link": resolved link, "rule": the rule that chose it, in words}}`` for each alias among ``frames``
+    (JSON outputs: ``tf-between --format json``)."""
+    rules = {}
     for alias in dict.fromkeys(frames):  # once when both are the same alias
         resolved = robot.frame(alias)
         if resolved != alias:
             reason = robot.ee_reason if alias == "ee_link" else f"{resolved}, the root link"
-            lines.append(f"frame {alias} = {reason}")
-    return lines
+            rules[alias] = {"link": resolved, "rule": reason}
+    return rules
 
 
 def lock_values(items: list[str], robot: Robot, *, degrees: bool = False) -> dict[str, float]:

@@ -331,7 +331,7 @@ def run_base_placement(args) -> int:
     checked = (reach_map.settings.get("collisions") or {}).get("checked")
     collisions = None if not checked else CollisionSettings.parse(
         robot, ",".join(checked), floor=reach_map.settings["collisions"].get("floor") or 0.0,
-        geometry=reach_map.settings["collisions"].get("geometry", "hulls"), srdf=reach_map.settings["collisions"].get("srdf"))
+        geometry=reach_map.settings["collisions"].get("geometry", "hulls"), srdf=reach_map.settings["collisions"].get("srdf") or "none")
     chosen = confirm_placement(reach_map, result, robot, mount=mount, collisions=collisions)
     if args.format == "json":
         print_json({"robot": robot.name, "floor_frame": floor, "x": chosen.x, "y": chosen.y, "yaw": chosen.yaw,

@@ -25,6 +25,7 @@ from manipkit.app.cli.common import (
     add_joint_options,
     add_robot_options,
     alias_lines,
+    alias_rules,
     check_precision,
     check_tolerance,
     joint_vector,
@@ -127,6 +128,7 @@ def run_tf(args) -> int:
 
     report = pose_report(robot, source, target, q, T=T)
     if args.format == "json":
+        report.update(alias_rules(robot, source, target))  # "ee_link": {"link": ..., "rule": ...}
         if comparison is not None:
             report["compare"] = {
                 "file": str(args.compare),

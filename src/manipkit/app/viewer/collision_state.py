@@ -72,7 +72,7 @@ class CollisionView:
 
 
 def collision_view(robot: Robot, what: str = "self", *, floor: float | None = 0.0, geometry: str = "hulls",
-                   srdf=None) -> CollisionView | None:
+                   srdf=None, skip_home_contacts: bool = False) -> CollisionView | None:
     """What a view of ``robot`` checks: ``what`` is ``"self"``, ``"floor"``, ``"self,floor"`` or ``"none"`` (None).
 
     Arguments as :meth:`CollisionSettings.parse` (``floor``: height in metres
@@ -87,7 +87,8 @@ def collision_view(robot: Robot, what: str = "self", *, floor: float | None = 0.
         ``geometry``, an SRDF that cannot be read or names unknown links.
     """
     try:
-        settings = CollisionSettings.parse(robot, what, floor=floor, geometry=geometry, srdf=srdf)
+        settings = CollisionSettings.parse(robot, what, floor=floor, geometry=geometry, srdf=srdf,
+                                           skip_home_contacts=skip_home_contacts)
     except CollisionError as exc:
         if geometry not in GEOMETRIES:
             raise
