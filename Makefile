@@ -1,5 +1,5 @@
 # manipkit: `make demo` installs manipkit and prints the course arm's base -> ee transform (nothing compiled);
-# `make test` sets up the test tools and runs the whole test suite.
+# `make test` sets up the test tools and runs the whole test suite; `make docs` builds the site into site/.
 # The numba kernels compile on their first use, one line on stderr saying which and about how long, and are
 # kept in ~/.cache/manipkit/kernels (or NUMBA_CACHE_DIR) for later runs; `make kernels` compiles them all ahead.
 
@@ -8,11 +8,12 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 BASE   := $(VENV)/.installed-base
 STAMP  := $(VENV)/.installed
+DOCS   := $(VENV)/.installed-docs
 
 CHROMIUM := /usr/bin/chromium
 DOT      := /usr/bin/dot
 
-.PHONY: setup demo test lint browser notebooks clean kernels
+.PHONY: setup demo test lint browser notebooks clean docs kernels
 
 setup: $(STAMP)
 
@@ -61,7 +62,16 @@ notebooks: setup
 	$(BIN)/jupyter lab notebooks/
 
 clean:
-	rm -rf $(VENV) .pytest_cache build dist
+	rm -rf $(VENV) .pytest_cache build dist site
+
+# The documentation site (MkDocs, mkdocstrings' numpy docstrings, the command-line reference generated from
+# the parsers) into site/; --strict: any warning fails the build.
+$(DOCS): $(BASE)
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	touch $(DOCS)
+
+docs: $(DOCS)
+	$(BIN)/mkdocs build --strict
 
 # Side-by-side speed comparisons with Robotics Toolbox, ikpy, kinpy and Pinocchio (minutes):
 # installs the bench extra, prints the table, writes benchmarks/results.json and results.png and

@@ -235,6 +235,8 @@ class CollisionChecker:
     self_collisions : bool, keyword-only
         False: check the links against the floor and the world only.
 
+    Notes
+    -----
     Pinocchio's workspaces are the calling thread's, so threads may share a checker.
     """
 
