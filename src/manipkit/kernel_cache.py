@@ -182,11 +182,11 @@ KERNEL_NOTES = {
     "fk_kernel": ("the batched forward kinematics", 1),
     "jacobian": ("the batched Jacobian", 2),
     "manipulability": ("the manipulability indices", 1),
-    "ik_kernel": ("the numerical IK", 10),
-    "ik_many": ("the numerical IK of many targets", 12),
-    "arms_kernel": ("the closed-form IK of 6R arms (UR and OPW families)", 90),
-    "chain_batch": ("the closed-form IK of many targets", 90),
-    "srs_kernel": ("the closed-form IK of 7R arms with an arm angle", 40),
+    "ik_kernel": ("the numerical IK", 8),
+    "ik_many": ("the numerical IK of many targets", 10),
+    "arms_kernel": ("the closed-form IK of 6R arms (UR and OPW families)", 95),
+    "chain_batch": ("the closed-form IK of many targets", 95),
+    "srs_kernel": ("the closed-form IK of 7R arms with an arm angle", 15),
 }
 #: Compiles shorter than this (s) are not worth a line: the command answers about as soon as it would have.
 QUIET_BELOW = 3
@@ -196,7 +196,7 @@ def compile_note(name: str, folder: Path | None) -> str:
     """The one line said before a kernel (``module.function``) is compiled for its first use; "" for a short one.
 
     >>> compile_note("ik_kernel.lm_attempt", Path("/home/ada/.cache/manipkit/kernels"))
-    'manipkit: compiling the numerical IK (ik_kernel.lm_attempt) for its first use, about 10 s; kept in /home/ada/.cache/manipkit/kernels for later runs'
+    'manipkit: compiling the numerical IK (ik_kernel.lm_attempt) for its first use, about 8 s; kept in /home/ada/.cache/manipkit/kernels for later runs'
     >>> compile_note("fk_kernel._poses", None)
     ''
     """
@@ -204,7 +204,7 @@ def compile_note(name: str, folder: Path | None) -> str:
     if seconds is not None and seconds < QUIET_BELOW:
         return ""
     about = ("a few seconds or more" if seconds is None else
-             f"about {seconds} s" if seconds < 90 else f"about {round(seconds / 60)} min")
+             f"about {seconds} s" if seconds < 120 else f"about {round(seconds / 60)} min")
     where = f"kept in {folder} for later runs" if folder is not None else "in memory for this run only"
     return f"manipkit: compiling {words} ({name}) for its first use, {about}; {where}"
 
