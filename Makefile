@@ -1,28 +1,41 @@
-# manipkit: `make demo` sets up and prints the course arm's base -> ee transform;
-# `make test` sets up and runs the whole test suite.
+# manipkit: `make demo` installs manipkit and prints the course arm's base -> ee transform (nothing compiled);
+# `make test` sets up the test tools and runs the whole test suite; `make docs` builds the site into site/.
+# The numba kernels compile on their first use, one line on stderr saying which and about how long, and are
+# kept in ~/.cache/manipkit/kernels (or NUMBA_CACHE_DIR) for later runs; `make kernels` compiles them all ahead.
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV   := .venv
 BIN    := $(VENV)/bin
+BASE   := $(VENV)/.installed-base
 STAMP  := $(VENV)/.installed
+DOCS   := $(VENV)/.installed-docs
 
 CHROMIUM := /usr/bin/chromium
 DOT      := /usr/bin/dot
 
-.PHONY: setup demo test lint browser notebooks clean
+.PHONY: setup demo test lint browser notebooks clean docs kernels
 
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+# manipkit itself, as `pip install manipkit` would install it: what `make demo` needs, nothing compiled
+$(BASE): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e .
+	touch $(BASE)
+
+# and the test tools (the dev extra)
+$(STAMP): $(BASE)
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
-	$(BIN)/python -m manipkit.kinematics.ik_kernel   # compile the IK kernel once (numba caches it on disk)
-	$(BIN)/python -m manipkit.closed_form.arms_kernel   # and the closed forms' kernels
 	touch $(STAMP)
 
-demo: setup
+demo: $(BASE)
 	$(BIN)/tf-between base_link ee_link --robot course_arm
+
+# Every kernel compiled ahead (about 3 minutes on 2 cores), for a machine image or CI; never needed: each
+# kernel compiles on its first use otherwise.
+kernels: $(BASE)
+	$(BIN)/python -c "from manipkit.kinematics.ik_kernel import warm_up; warm_up()"
+	$(BIN)/python -c "from manipkit.closed_form.arms_kernel import warm_up; warm_up()"
 
 # The viewer tests drive Debian's Chromium (headless); the tree tests render DOT with Graphviz.
 # Both are installed when missing.
@@ -49,7 +62,16 @@ notebooks: setup
 	$(BIN)/jupyter lab notebooks/
 
 clean:
-	rm -rf $(VENV) .pytest_cache build dist
+	rm -rf $(VENV) .pytest_cache build dist site
+
+# The documentation site (MkDocs, mkdocstrings' numpy docstrings, the command-line reference generated from
+# the parsers) into site/; --strict: any warning fails the build.
+$(DOCS): $(BASE)
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	touch $(DOCS)
+
+docs: $(DOCS)
+	$(BIN)/mkdocs build --strict
 
 # Side-by-side speed comparisons with Robotics Toolbox, ikpy, kinpy and Pinocchio (minutes):
 # installs the bench extra, prints the table, writes benchmarks/results.json and results.png and

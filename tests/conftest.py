@@ -17,6 +17,10 @@ import os
 import pytest
 from hypothesis import settings
 
+# The line a first compile prints on stderr (manipkit.kernel_cache.compile_note) would land in whichever test
+# compiles a kernel first and change what it sees; tests/test_kernel_cache.py checks the line itself.
+os.environ.setdefault("MANIPKIT_COMPILE_NOTE", "0")
+
 settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.register_profile("explore", derandomize=False, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))

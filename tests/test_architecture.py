@@ -16,7 +16,8 @@ BOTTOM = {"errors", "exports", "text", "outputs", "bounds", "kernels"}  # module
 ALLOWED = {
     "errors": set(),
     "exports": set(),
-    "kernels": set(),  # compiling numba kernels (standard library; numba inside functions)
+    "kernels": {"kernel_cache"},  # compiling numba kernels (standard library; numba inside functions)
+    "kernel_cache": set(),  # where the kernels' cache lives and what it trusts (standard library)
     "text": set(),
     "outputs": {"errors", "text"},
     "bounds": {"errors", "text"},  # the bounds of every number and count

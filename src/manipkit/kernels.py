@@ -4,12 +4,17 @@ Every compiled function of manipkit (the batched FK and IK of
 :mod:`manipkit.kinematics`, the closed forms of :mod:`manipkit.closed_form`)
 is made here, so it sits below both layers: numba's on-disk cache when it
 works, else compiled in memory with one :class:`KernelCacheWarning` (a
-read-only install with a read-only home, a full disk); a cache file that
-cannot be read (a truncated file) is recompiled and written again; the cache
-key holds a digest of the package's source (:func:`sources_digest`), so a
-kernel is compiled again when a kernel it calls changes. numba is
-imported on the first compile, never when this module is imported.
-Standard library only (numba inside the functions).
+read-only install with a read-only home, a full disk, a cache folder or file
+others can write: :mod:`manipkit.kernel_cache` says where the cache lives and
+what it trusts); a cache file that cannot be read (a truncated file) is
+recompiled and written again; the cache key holds a digest of the package's
+source (:func:`sources_digest`), so a kernel is compiled again when a kernel
+it calls changes. A kernel compiled for its first use says so in one line on
+stderr (:func:`manipkit.kernel_cache.compile_note`; ``MANIPKIT_COMPILE_NOTE=0``
+silences it), and processes compiling the same kernel at once wait for the
+first one's file instead of compiling it twice. numba is imported on the first
+compile, never when this module is imported. Standard library only (numba
+inside the functions).
 """
 
 from __future__ import annotations
@@ -17,10 +22,14 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import sys
 import warnings
 from pathlib import Path
 
-__all__ = ["KERNEL_MARKERS", "KernelCacheWarning", "compile_kernel", "kernel_sources", "lazy_kernel", "sources_digest"]
+from manipkit import kernel_cache
+
+__all__ = ["KERNEL_MARKERS", "KernelCacheWarning", "UntrustedCacheError", "compile_kernel", "kernel_sources", "lazy_kernel",
+           "sources_digest"]
 
 
 class KernelCacheWarning(UserWarning):
@@ -101,14 +110,63 @@ def _package_digest() -> str:
 
 @functools.cache
 def _source_keyed_cache():
-    """numba's ``FunctionCache`` with the package's :func:`sources_digest` in every index key."""
-    from numba.core.caching import FunctionCache
+    """numba's ``FunctionCache`` in :func:`manipkit.kernel_cache.cache_root`, checked, keyed by :func:`sources_digest`."""
+    from numba.core.caching import CompileResultCacheImpl, FunctionCache, UserProvidedCacheLocator
+
+    class TrustedLocator(UserProvidedCacheLocator):
+        """numba's locator for a folder of the user's choosing, put in the checked cache root (made 0700)."""
+
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            self._cache_path = str(kernel_cache.cache_root() / self.get_suitable_cache_subpath(py_file))
+
+        def ensure_cache_path(self):
+            kernel_cache.make_private_folder(Path(self._cache_path))
+            problem = kernel_cache.untrusted_folder(Path(self._cache_path), kernel_cache.cache_root())
+            if problem:
+                raise UntrustedCacheError(problem)
+            super().ensure_cache_path()  # numba's own check that a file can be written there
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            locator = cls(py_func, py_file)
+            locator.ensure_cache_path()  # raises: numba's other locators (__pycache__, ...) are never tried
+            return locator
+
+    class TrustedImpl(CompileResultCacheImpl):
+        _locator_classes = [TrustedLocator]
 
     class SourceKeyedCache(FunctionCache):
+        _impl_class = TrustedImpl
+
         def _index_key(self, sig, codegen):
             return (*super()._index_key(sig, codegen), _package_digest())
 
     return SourceKeyedCache
+
+
+class UntrustedCacheError(PermissionError):
+    """The kernels' cache folder or one of its files is not the user's alone (:mod:`manipkit.kernel_cache`)."""
+
+
+#: The outermost kernel being compiled in this process: [(its cache, signature, lock)] (numba compiles one at a time).
+_compiling: list = []
+
+
+def _kernel_name(py_func) -> str:
+    return f"{Path(py_func.__code__.co_filename).stem}.{py_func.__qualname__}"
+
+
+def _say_compiling(py_func, folder) -> None:
+    """The one line on stderr before an outermost kernel compiles, if it takes a while (``MANIPKIT_COMPILE_NOTE=0``: none)."""
+    note = kernel_cache.compile_note(_kernel_name(py_func), kernel_cache.cache_root() if folder is not None else None)
+    if note and os.environ.get("MANIPKIT_COMPILE_NOTE", "1") != "0" and sys.stderr is not None:
+        print(note, file=sys.stderr, flush=True)
+
+
+def _compile_ended(cache, sig) -> None:
+    if _compiling and _compiling[0][:2] == (cache, sig):
+        kernel_cache.release_lock(_compiling.pop()[2])
 
 
 class _ForgivingCache:
@@ -117,10 +175,11 @@ class _ForgivingCache:
     numba raises when no cache folder is writable ("no locator available"),
     when a file cannot be saved (a full disk) and when a cache file does not
     unpickle (a truncated file); each of these would end the run. Here: no
-    usable folder or a failed save -> the kernel stays compiled in memory
-    (one warning); an unreadable entry -> the index is rewritten empty
-    (``flush``) and the kernel recompiled, so the next save replaces the bad
-    file. Implements the interface numba's dispatcher calls on ``_cache``.
+    usable folder, a folder or file others could have written, or a failed
+    save -> the kernel stays compiled in memory (one warning); an unreadable
+    entry -> the index is rewritten empty (``flush``) and the kernel
+    recompiled, so the next save replaces the bad file. Implements the
+    interface numba's dispatcher calls on ``_cache``.
     """
 
     def __init__(self, py_func):
@@ -131,13 +190,22 @@ class _ForgivingCache:
     def _cache(self):
         if self._disk is None and self._usable:
             try:
-                self._disk = _source_keyed_cache()(self._py_func)
+                disk = _source_keyed_cache()(self._py_func)
+                problem = _untrusted_files(disk.cache_path)  # before numba unpickles anything there
+                if problem:
+                    raise UntrustedCacheError(problem)
+                self._disk = disk
             except (RuntimeError, OSError) as exc:  # no writable folder for the cache: numba's RuntimeError
                 self._give_up(exc)
         return self._disk
 
     def _give_up(self, exc: BaseException) -> None:
         self._usable, self._disk = False, None
+        if isinstance(exc, UntrustedCacheError):
+            _warn_cache(f"the compiled kernels' cache is not used: {exc} (a file there could run code as you); "
+                        "they are compiled in memory for this run; remove it, or set NUMBA_CACHE_DIR to a folder "
+                        "only you can write")
+            return
         _warn_cache(
             f"the compiled kernels cannot use numba's disk cache ({_reason(exc)}); they are compiled in memory "
             "for this run (a few seconds each run); set NUMBA_CACHE_DIR to a writable folder to cache them"
@@ -149,6 +217,19 @@ class _ForgivingCache:
 
     def load_overload(self, sig, target_context):
         cache = self._cache()
+        found = self._load(cache, sig, target_context)
+        if found is None and not _compiling:  # an outermost kernel to compile (its callees load inside)
+            folder = Path(cache.cache_path) if cache is not None else None
+            lock = kernel_cache.hold_lock(folder, _kernel_name(self._py_func)) if folder is not None else None
+            _compiling.append((self, sig, lock))
+            found = self._load(self._disk, sig, target_context)  # another process may have made it meanwhile
+            if found is not None:
+                _compile_ended(self, sig)
+            else:
+                _say_compiling(self._py_func, folder)
+        return found
+
+    def _load(self, cache, sig, target_context):
         if cache is None:
             return None
         try:
@@ -164,12 +245,14 @@ class _ForgivingCache:
 
     def save_overload(self, sig, data):
         cache = self._cache()
-        if cache is None:
-            return
         try:
-            cache.save_overload(sig, data)
+            if cache is not None:
+                cache.save_overload(sig, data)
+                kernel_cache.tighten(Path(cache.cache_path))
         except Exception as exc:  # a full disk, a folder made read-only, a corrupt index: keep it in memory
             self._give_up(exc)
+        finally:
+            _compile_ended(self, sig)
 
     def enable(self):
         self._usable = True
@@ -184,6 +267,20 @@ class _ForgivingCache:
                 cache.flush()
             except OSError as exc:
                 self._give_up(exc)
+
+
+#: The cache folders whose files were checked in this process (the folders are the user's alone, so what is
+#: added later was written by the user's own processes).
+_checked: set = set()
+
+
+def _untrusted_files(folder: str) -> str:
+    if folder in _checked:
+        return ""
+    problem = kernel_cache.untrusted_files(Path(folder))
+    if not problem:
+        _checked.add(folder)
+    return problem
 
 
 def lazy_kernel(py_func, **options):

@@ -248,6 +248,8 @@ class CollisionChecker:
         (``manipkit collisions``, ``ik --collisions``, reach maps, the viewer);
         default False: every pair the SRDF leaves is checked.
 
+    Notes
+    -----
     Pinocchio's workspaces are the calling thread's, so threads may share a checker.
     """
 

@@ -36,7 +36,7 @@ from manipkit.errors import ManipkitError, OutputError
 from manipkit.outputs import cannot_write
 from manipkit.text import printable, printable_lines
 
-__all__ = ["main", "run_command", "tf_between_main"]
+__all__ = ["main", "parsers", "run_command", "tf_between_main"]
 
 
 def main(argv=None) -> int:
@@ -47,6 +47,11 @@ def main(argv=None) -> int:
 def tf_between_main(argv=None) -> int:
     """``tf-between SOURCE TARGET [options]``."""
     return run_command(tf_parser("tf-between"), argv, run_tf)
+
+
+def parsers() -> dict[str, argparse.ArgumentParser]:
+    """The two programs' parsers by name (``manipkit``, ``tf-between``): what the command-line reference documents."""
+    return {"tf-between": tf_parser("tf-between"), "manipkit": _main_parser()}
 
 
 def _main_parser() -> argparse.ArgumentParser:
