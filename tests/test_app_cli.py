@@ -431,3 +431,22 @@ def test_an_unknown_argument_points_to_the_help_of_the_command_given_it(argv, pr
     result = run_cli("manipkit", *argv)
     assert result.returncode == 2
     assert result.stderr == f"{prog}: error: unrecognized arguments: {argv[-1] if prog != 'manipkit' else '--bogus'} (see {prog} --help)\n"
+
+
+def test_every_command_names_a_chains_tip_with_tip_and_keeps_frame_as_its_alias():
+    # One flag for the chain's tip everywhere (ik, jacobian, dexterity, reachmap, torques, family, dh): --tip,
+    # with --frame accepted where it was the spelling, both filling the same option.
+    import argparse
+
+    from manipkit.app.cli import parsers
+
+    main = parsers()["manipkit"]
+    commands = next(a for a in main._actions if isinstance(a, argparse._SubParsersAction)).choices
+    for name, parser in commands.items():
+        options = {s: a for a in parser._actions for s in a.option_strings}
+        if "--frame" in options:
+            assert "--tip" in options and options["--frame"] is options["--tip"], name
+            assert options["--tip"].dest == "tip", name
+    both = [run_cli("manipkit", "jacobian", "--robot", "planar_2r", flag, "link2", "--format", "json", status=0).stdout
+            for flag in ("--tip", "--frame")]
+    assert both[0] == both[1]

@@ -138,7 +138,8 @@ def test_the_layout_names_every_module():
     words = set(re.findall(r"[A-Za-z_]+", layout))
     package = ROOT / "src" / "manipkit"
     modules = [p for p in package.glob("*.py") if p.stem != "__init__"]
-    for folder in ("spatial", "inputs", "description", "kinematics", "dh", "closed_form", "analysis", "app"):
+    for folder in ("spatial", "inputs", "description", "kinematics", "dh", "closed_form", "ik", "statics", "analysis",
+                   "analysis/reachmap", "app"):
         modules += [p for p in (package / folder).glob("*.py") if p.stem not in ("__init__", "__main__")]
     missing = sorted(str(p.relative_to(package)) for p in modules if p.stem not in words)
     assert not missing, f"README.md's layout does not name: {', '.join(missing)}"

@@ -20,7 +20,7 @@ __all__ = ["present_map", "register", "run_base_placement", "run_reachmap", "run
 
 
 def _add_map_options(parser, *, voxel: float, orientations: str | None, samples: int, converge: float) -> None:
-    parser.add_argument("--frame", default="ee_link", help="tool frame (default ee_link)")
+    parser.add_argument("--tip", "--frame", dest="tip", default="ee_link", help="tool frame (default ee_link)")
     parser.add_argument("--voxel", type=float, default=voxel, metavar="M", help=f"voxel edge in metres (default {voxel})")
     parser.add_argument("--orientations", default=orientations, metavar="N|DIRxROLL",
                         help="approach directions (x rolls) of a spatial arm, turns of a planar one "
@@ -47,7 +47,7 @@ _BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "workers": None,
 #: The options only a build reads: given before ``show``, they would do nothing.
 _BUILD_ONLY = ("output", "base", "frame", "voxel", "orientations", "method", "samples", "seed", "collisions", "floor",
                "srdf", "geometry", "converge", "workers", "scheduler", "no_manipulability")
-_USAGE = """manipkit reachmap [--robot R] [--base FRAME] [--frame FRAME] [BUILD OPTIONS] -o MAP [SHOW OPTIONS]
+_USAGE = """manipkit reachmap [--robot R] [--base FRAME] [--tip FRAME] [BUILD OPTIONS] -o MAP [SHOW OPTIONS]
        manipkit reachmap show MAP [SHOW OPTIONS] [--robot R]
 SHOW OPTIONS: [--plot FILE.png] [--plot-manipulability FILE.png] [--view] [--view-html FILE.html] [--format text|json]"""
 
@@ -126,7 +126,7 @@ def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=N
     collisions = CollisionSettings.parse(robot, **collision_set(args))
     with progress_bar() as progress, warnings.catch_warnings():
         warnings.showwarning = _note_or_warning
-        return build(robot.chain(base, args.frame), voxel=args.voxel, orientations=args.orientations, method=args.method,
+        return build(robot.chain(base, args.tip), voxel=args.voxel, orientations=args.orientations, method=args.method,
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      manipulability=manipulability, progress=progress, collisions=collisions,
                      converge=args.converge, resume_dir=resume_dir)
@@ -314,9 +314,9 @@ def run_base_placement(args) -> int:
         if reach_map.robot != robot.name:
             raise UsageError(f"--map {args.map} is a map of '{printable(reach_map.robot)}', not of '{robot.name}'; "
                              "give its --robot")
-        if robot.frame(args.frame) != reach_map.frame:
+        if robot.frame(args.tip) != reach_map.frame:
             raise UsageError(f"--map {args.map} is a map of '{printable(reach_map.frame)}', not of "
-                             f"'{robot.frame(args.frame)}'; give --frame {printable(reach_map.frame)} or build a map "
+                             f"'{robot.frame(args.tip)}'; give --tip {printable(reach_map.frame)} or build a map "
                              "of that frame")
         given = [name for name, default in _BUILD_DEFAULTS.items() if getattr(args, name) != default]
         if given:

@@ -103,7 +103,7 @@ def _band_option(parser) -> None:
 def _common(parser) -> None:
     add_robot_options(parser)
     add_joint_options(parser)
-    parser.add_argument("--frame", default="ee_link", metavar="F", help="the tip of the chain (default ee_link)")
+    parser.add_argument("--tip", "--frame", dest="tip", default="ee_link", metavar="F", help="the tip of the chain (default ee_link)")
     parser.add_argument("--base", default="base_link", metavar="B", help="the base of the chain (default base_link)")
     parser.add_argument("--gravity", default="0,0,-9.81", metavar="GX,GY,GZ",
                         help="gravity in the root link's axes, m/s^2 (default 0,0,-9.81)")
@@ -165,7 +165,7 @@ def parse_wrench(text: str, axes: str):
 
 def _chain_and_q(args):
     robot = load_robot(args)
-    chain = robot.chain(args.base, args.frame)  # unknown frames fail before the joint values are read
+    chain = robot.chain(args.base, args.tip)  # unknown frames fail before the joint values are read
     q = joint_vector(robot, args)
     return robot, chain, q
 
@@ -235,7 +235,7 @@ def run_torques(args) -> int:
         print_json(data)
         return EXIT_OK
     p = args.precision
-    lines = [f"robot: {robot.name} ({robot.source.path})", *alias_lines(robot, args.base, args.frame),
+    lines = [f"robot: {robot.name} ({robot.source.path})", *alias_lines(robot, args.base, args.tip),
              f"chain {chain.base} -> {chain.tip}; joints (rad/m): {q_text(data['q'], p) or 'none'}",
              f"gravity (m/s^2, root link's axes): {' '.join(number_text(v, p) for v in data['gravity_vector'])}",
              CONVENTION, grade_line(robot, args)]
@@ -410,7 +410,7 @@ def _run_diagram(args, gravity) -> int:
     samples = bounds.count(args.samples, "--samples", minimum=1, error=UsageError)
     writable_path(args.diagram)
     robot = load_robot(args)
-    chain = robot.chain(args.base, args.frame)
+    chain = robot.chain(args.base, args.tip)
     diagram = payload_diagram(chain, np.linspace(0.0, args.max_offset, steps), samples=samples, seed=args.seed,
                               direction=direction, gravity=gravity)
     draw_payload_diagram(diagram, args.diagram)

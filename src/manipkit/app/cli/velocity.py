@@ -41,7 +41,7 @@ def register(commands) -> None:
     jac = commands.add_parser("jacobian", help="the frame Jacobian at one configuration, its manipulability and singular values")
     add_robot_options(jac)
     add_joint_options(jac)
-    jac.add_argument("--frame", default="ee_link", metavar="F", help="frame whose velocity is given (default ee_link)")
+    jac.add_argument("--tip", "--frame", dest="tip", default="ee_link", metavar="F", help="frame whose velocity is given (default ee_link)")
     jac.add_argument("--base", default="base_link", metavar="B", help="frame it moves relative to (default base_link)")
     jac.add_argument("--reference", choices=("base", "local"), default="base",
                      help="axes of the rows: the base frame's (RTB jacob0) or the frame's own (RTB jacobe); default base")
@@ -57,7 +57,7 @@ def register(commands) -> None:
     dex = commands.add_parser("dexterity", help="global conditioning index: mean inverse condition number over the joint space")
     add_robot_options(dex)
     dex.add_argument("--samples", type=int, default=100_000, metavar="N", help="configurations sampled (default 100000)")
-    dex.add_argument("--frame", default="ee_link", metavar="F", help="frame of the Jacobian (default ee_link)")
+    dex.add_argument("--tip", "--frame", dest="tip", default="ee_link", metavar="F", help="frame of the Jacobian (default ee_link)")
     dex.add_argument("--base", default="base_link", metavar="B", help="base of the Jacobian (default base_link)")
     dex.add_argument("--axes", default="all", metavar="ROWS",
                      help="rows used: all, trans, rot or names such as vx,vy,wz (default all)")
@@ -142,12 +142,12 @@ def run_jacobian(args) -> int:
         raise UsageError(f"--singular-tol {short_text(args.singular_tol)}: give a tolerance >= 0")
     robot = load_robot(args)
     # unknown frames, or a base that is not above the frame (ChainError: swap them), fail before the joint values are read
-    chain = robot.chain(args.base, args.frame)
+    chain = robot.chain(args.base, args.tip)
     q = joint_vector(robot, args)
     report = jacobian_report(chain, q[chain.columns], reference=args.reference, length=args.length,
                              tol=args.singular_tol)
     answer = jacobian_json(robot, q, report)
-    answer["frame"], answer["base"] = args.frame, args.base  # as given (aliases such as ee_link kept)
+    answer["frame"], answer["base"] = args.tip, args.base  # as given (aliases such as ee_link kept)
     if args.format == "json":
         print_json(answer)
     else:
@@ -197,12 +197,12 @@ def run_dexterity(args) -> int:
     _check_length(args.length)
     axes = parse_axes(args.axes)
     robot = load_robot(args)
-    robot.frame(args.frame), robot.frame(args.base)
+    robot.frame(args.tip), robot.frame(args.base)
     from manipkit.app.progress import progress_bar
 
     length = args.length if mixes_units(axes) else None
     with progress_bar(None if args.progress == "auto" else args.progress == "yes") as progress:
-        gci = global_conditioning_index(robot.chain(args.base, args.frame), args.samples, axes=axes, length=length,
+        gci = global_conditioning_index(robot.chain(args.base, args.tip), args.samples, axes=axes, length=length,
                                         seed=args.seed, confidence=args.confidence, progress=progress)
     if args.format == "json":
         print_json({
