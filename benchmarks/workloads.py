@@ -151,7 +151,6 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
     import pinocchio as pin
 
     import manipkit
-    from manipkit.kinematics.fk_kernel import chain_fk_for
 
     robot = manipkit.load(robot_name)
     root, ee = robot.root_link, robot.frame("ee_link")
@@ -172,16 +171,17 @@ def fk_workload(robot_name: str, *, n_single: int = 1000, n_batch: int = 100_000
 
     # ours, batched: Robot.fk and the kernel alone, checked against Pinocchio
     T_ours = robot.fk(Q, tip=ee)
-    kernel = chain_fk_for(robot, ee)
-    T_kernel = kernel.transforms(Q)
+    chain = robot.chain(root, ee)
+    kernel, Q_chain = chain.compiled_fk, np.ascontiguousarray(Q[:, chain.columns])  # the chain's program, chain rows
+    T_kernel = kernel.transforms(Q_chain)
     err_fk, err_kernel = max_error(T_ours, T_pin), max_error(T_kernel, T_pin)
     fk_ok, kernel_ok = err_fk <= KERNEL_TOL, err_kernel <= KERNEL_TOL
     rows.append(row("fk_batch", robot_name, "manipkit Robot.fk(Q, tip=frame)", per_item(lambda: robot.fk(Q, tip=ee), n_batch, repeats=repeats)
                     if fk_ok else None, unit="config", n=n_batch, ours=True, status="ok" if fk_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_fk:.1e} over {n_batch} (<= {KERNEL_TOL:g})"))
     out = np.empty_like(T_kernel)
-    rows.append(row("fk_batch", robot_name, "manipkit.kinematics.fk_kernel.ChainFK (kernel alone)",
-                    per_item(lambda: kernel.transforms(Q, out=out), n_batch, repeats=repeats) if kernel_ok else None,
+    rows.append(row("fk_batch", robot_name, "manipkit.kernels.fk.ChainFK (kernel alone)",
+                    per_item(lambda: kernel.transforms(Q_chain, out=out), n_batch, repeats=repeats) if kernel_ok else None,
                     unit="config", n=n_batch, status="ok" if kernel_ok else "wrong",
                     check=f"max |T - Pinocchio| = {err_kernel:.1e} over {n_batch} (<= {KERNEL_TOL:g})",
                     note=f"compiled loop: {kernel.n_ops} multiplications per configuration besides cos/sin"))
@@ -952,7 +952,7 @@ def analytic_workload(robot_name: str = "ur5", *, n_single: int = 1000, n_batch:
         note="chain_ik behind the robot, frames and family lookup (kept per robot, frames and options after the "
              "first call: the target is checked and solved on every call)"))
 
-    from manipkit.kinematics.fk_kernel import thread_count
+    from manipkit.kernels.fk import thread_count
 
     def batched(compiled, threads):
         batch = chain_ik_many(chain, T[:n_batch], family=family, compiled=compiled, threads=threads)
@@ -1002,7 +1002,7 @@ def srs_workload(*, n_single: int = 200, n_batch: int = 10_000, repeats: int = 5
     import manipkit
     from manipkit.ik.chain_ik import chain_ik, chain_ik_many, srs_arm_angle
     from manipkit.ik.families import chain_family
-    from manipkit.kinematics.fk_kernel import thread_count
+    from manipkit.kernels.fk import thread_count
 
     robot = manipkit.load("iiwa14")
     chain = robot.chain("base_link", "ee_link")

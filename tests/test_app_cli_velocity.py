@@ -218,6 +218,12 @@ def test_a_frame_relative_to_itself_moves_with_no_joint():
     assert report["rank"] == report["generic_rank"] == 0 and report["singular"] is False
 
 
-def test_a_base_below_the_frame_is_one_line_saying_to_swap_them():
-    result = run("jacobian", "--robot", "planar_2r", "--base", "ee_link", "--frame", "base_link", status=2)
-    assert result.stderr.count("\n") == 1 and "swap them (base='base_link', tip='ee_link')" in result.stderr
+def test_a_base_below_the_frame_gives_the_jacobian_of_the_chain_up_the_tree():
+    # planar 2R, unit links, q = 0: seen from ee_link (at x = 2), base_link sits at -2 along ee_link's x. Turning
+    # joint 2 by +w turns the base by -w about z around joint 2 (1 m behind ee_link): its origin moves at
+    # (0, +1, 0) and spins at -1; joint 1 turns it by -w about its own origin: no velocity, spin -1. Columns in
+    # the robot's joint order (joint1, joint2); the chain lists its entries base to tip, up from ee_link.
+    report = jacobian_json("--robot", "planar_2r", "--base", "ee_link", "--frame", "base_link", "--q", "joint1=0",
+                           "--q", "joint2=0")
+    assert report["chain_joints"] == ["joint2", "joint1"] and report["joints"] == ["joint1", "joint2"]
+    np.testing.assert_allclose(report["jacobian"], [[0, 0], [0, 1], [0, 0], [0, 0], [0, 0], [-1, -1]], atol=1e-12)

@@ -43,9 +43,73 @@ def test_joint_names_are_the_joints_between_the_frames(load_robot):
     assert still.jacobians(np.zeros((3, 0))).shape == (3, 6, 0) and still.fk(np.zeros((3, 0))).shape == (3, 4, 4)
 
 
-def test_a_base_below_the_tip_is_refused_with_the_swap(load_robot):
-    with pytest.raises(ChainError, match="swap them"):
-        load_robot("iiwa14").chain("iiwa_link_5", "iiwa_link_2")
+def pinocchio_T(robot, base, tip, q):
+    """``oMf[base]^-1 oMf[tip]`` by Pinocchio directly (its own Data), for a whole-robot vector ``q``."""
+    import pinocchio as pin
+
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(q))
+    return (data.oMf[robot.model.getFrameId(base)].inverse() * data.oMf[robot.model.getFrameId(tip)]).homogeneous
+
+
+def twist_by_central_differences(chain, q, h=1e-6):
+    """(6, n) columns ``(dp/dq_k, w_k)`` of ``T_base_tip = chain.fk(q)``: ``w_k`` the vee of ``dR/dq_k R^T``
+    (the tip's angular velocity relative to the base, base axes), both by central differences of the chain's FK."""
+    R = chain.fk(q)[:3, :3]
+    J = np.zeros((6, chain.n))
+    for k in range(chain.n):
+        step = np.zeros(chain.n)
+        step[k] = h
+        T_plus, T_minus = chain.fk(q + step), chain.fk(q - step)
+        J[:3, k] = (T_plus[:3, 3] - T_minus[:3, 3]) / (2 * h)
+        W = (T_plus[:3, :3] - T_minus[:3, :3]) / (2 * h) @ R.T
+        J[3:, k] = W[2, 1], W[0, 2], W[1, 0]
+    return J
+
+
+@pytest.mark.parametrize("name, base, tip, joints", [
+    ("panda", "panda_leftfinger", "panda_rightfinger", ("panda_finger_joint1",)),  # up one finger, down the other
+    ("mobile_manipulator", "lidar_link", "ee_link",  # up from the lidar to base_link, down the arm
+     ("arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")),
+    ("mobile_manipulator", "left_wheel_link", "ee_link",  # up a wheel: its joint is inverted
+     ("left_wheel_joint", "arm_base_joint", "shoulder_joint", "bottom_wrist_joint", "elbow_joint", "top_wrist_joint")),
+    ("iiwa14", "iiwa_link_5", "iiwa_link_2", ("iiwa_joint_5", "iiwa_joint_4", "iiwa_joint_3")),  # up only
+])
+def test_a_chain_between_any_two_frames_equals_pinocchio(load_robot, name, base, tip, joints):
+    robot = load_robot(name)
+    chain = robot.chain(base, tip)
+    assert isinstance(chain, Chain) and chain.joint_names == joints
+    Q = np.vstack([robot.sample_q(40, seed=11), np.random.default_rng(12).uniform(-7, 7, (10, len(robot.joints)))])
+    expected = np.array([pinocchio_T(robot, base, tip, q) for q in Q])
+    assert np.abs(chain.fk(Q[:, chain.columns]) - expected).max() < 1e-12
+    assert np.abs(robot.fk(Q, base=base, tip=tip) - expected).max() < 1e-12
+    assert np.abs(np.array([robot.transform(base, tip, q, check_limits=False) for q in Q]) - expected).max() < 1e-12
+    assert np.abs(chain.compiled_fk.transforms(np.ascontiguousarray(Q[:, chain.columns])) - expected).max() < 1e-12
+
+
+@pytest.mark.parametrize("name, base, tip", [
+    ("panda", "panda_leftfinger", "panda_rightfinger"),
+    ("mobile_manipulator", "lidar_link", "ee_link"),
+    ("mobile_manipulator", "left_wheel_link", "ee_link"),
+    ("iiwa14", "iiwa_link_5", "iiwa_link_2"),
+])
+def test_the_jacobian_of_an_up_then_down_chain_is_the_tips_twist_relative_to_the_base(load_robot, name, base, tip):
+    # Column k: d/dq_k of T_base_tip as (velocity of the tip's origin, angular velocity of the tip), both relative to
+    # the base and in the base's axes; "local": the same twist in the tip's axes.
+    robot = load_robot(name)
+    chain = robot.chain(base, tip)
+    for q in chain.sample(6, seed=13):
+        J = chain.jacobian(q)
+        np.testing.assert_allclose(J, twist_by_central_differences(chain, q), rtol=0, atol=1e-7)
+        R = chain.fk(q)[:3, :3]
+        np.testing.assert_allclose(chain.jacobian(q, reference="local"), np.vstack([R.T @ J[:3], R.T @ J[3:]]),
+                                   rtol=0, atol=1e-12)
+    # the finger to finger chain by hand: both finger frames keep the hand's axes; the left finger sits at y = +q, the
+    # right at y = -q (panda_finger_joint2 mimics joint1 along -y), so T_left_right is a shift by (0, -2 q, 0) and
+    # the one column is (0, -2, 0, 0, 0, 0)
+    if name == "panda":
+        np.testing.assert_allclose(chain.fk([0.01])[:3, 3], [0.0, -0.02, 0.0], atol=1e-12)
+        np.testing.assert_allclose(chain.jacobian([0.01])[:, 0], [0.0, -2.0, 0.0, 0.0, 0.0, 0.0], atol=1e-12)
 
 
 @pytest.mark.parametrize("name, base, tip", [
@@ -153,13 +217,11 @@ def test_check_limits_names_the_joint(load_robot):
     assert np.array_equal(chain.clamp(chain.q(iiwa_joint_2=2.5))[1], chain.upper[1])
 
 
-def test_old_chain_forms_warn_and_return_the_steps(load_robot):
+def test_a_chain_takes_two_frames_and_always_returns_a_chain(load_robot):
     robot = load_robot("iiwa14")
-    with pytest.warns(DeprecationWarning, match="robot.chain\\(base, tip\\)"):
-        steps = robot.chain("ee_link")
-    assert steps == list(robot.chain(robot.root_link, "ee_link").steps)
-    with pytest.warns(DeprecationWarning):
-        assert robot.chain(frame="ee_link", base="iiwa_link_2") == list(robot.chain("iiwa_link_2", "ee_link").steps)
+    with pytest.raises(TypeError):
+        robot.chain("ee_link")  # the 0.1 one-frame form (the steps from the root) is gone
+    assert isinstance(robot.chain(robot.root_link, "ee_link"), Chain)
 
 
 def test_two_threads_get_right_answers_at_once(load_robot):
@@ -200,7 +262,6 @@ def test_every_function_taking_one_q_takes_it_by_name(load_robot):
 
 def test_ik_takes_a_chain_for_its_robot_and_frames(load_robot):
     import manipkit
-    from manipkit.errors import ChainError
     from manipkit.kinematics.ik_many import ik_many
 
     robot = load_robot("mobile_manipulator")

@@ -397,18 +397,17 @@ def test_a_single_answer_and_a_miss_are_results_like_any_other(robots):
                                                       abs=1e-12)
 
 
-def test_the_old_frame_keyword_still_names_the_tip_with_a_warning(robots):
+def test_the_0_1_frame_keyword_is_gone(robots):
     robot = robots["iiwa14"]
     q = robot.sample_q(1, seed=44)[0]
     T = robot.transform("iiwa_link_2", "iiwa_link_6", q)
-    with pytest.warns(DeprecationWarning, match="manipkit API: ik"):
-        old = ik(robot, T, base="iiwa_link_2", frame="iiwa_link_6", q0=q)
-    new = ik(robot, T, "iiwa_link_2", "iiwa_link_6", q0=q)
-    assert old.success and np.array_equal(old.q, new.q)
-    with pytest.warns(DeprecationWarning):
-        assert ik_solver(robot, frame="iiwa_link_6") is ik_solver(robot, "base_link", "iiwa_link_6")
-    with pytest.warns(DeprecationWarning), pytest.raises(TypeError, match="give the tip once"):
-        ik(robot, T, tip="iiwa_link_5", frame="iiwa_link_6")
+    for call in (lambda: ik(robot, T, base="iiwa_link_2", frame="iiwa_link_6", q0=q),
+                 lambda: ik_solver(robot, frame="iiwa_link_6")):
+        with pytest.raises(TypeError, match="frame"):
+            call()
+    result = ik(robot, T, "iiwa_link_2", "iiwa_link_6", q0=q)
+    assert result.success
+    assert np.abs(robot.transform("iiwa_link_2", "iiwa_link_6", result.q) - T).max() < 1e-9
 
 
 def test_two_threads_solving_on_one_robot_get_their_own_answers(robots):

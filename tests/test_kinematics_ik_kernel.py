@@ -17,7 +17,7 @@ import pinocchio as pin
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_kinematics_fk_kernel import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
+from test_kernels_fk import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 import manipkit
 from manipkit.kinematics.ik import ik, ik_solver

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
+from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError, UnknownFrameError
 from manipkit.kinematics.ik_many import MIN_TARGETS_PER_THREAD, _blocks, _on_threads, ik_many, target_seeds
 from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
@@ -193,15 +193,16 @@ def test_targets_are_checked_as_ik_checks_them(iiwa14):
         ik_many(iiwa14, np.stack([T, bad]))
 
 
-def test_the_old_positional_start_and_frame_keyword_still_work_with_a_warning(course_arm):
+def test_the_0_1_positional_start_and_frame_keyword_are_gone(course_arm):
     Q_true = course_arm.sample_q(5, seed=9)
     T = course_arm.fk(Q_true, base="base_link", tip="ee_link")
-    with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
-        old = ik_many(course_arm, T, Q_true)  # the start as the third positional argument, as in 0.1
-    assert np.array_equal(old.q, ik_many(course_arm, T, q0=Q_true).q) and (old.attempts == 1).all()
-    with pytest.warns(DeprecationWarning, match="manipkit API: ik_many"):
-        framed = ik_many(course_arm, T, frame="ee_link", q0=Q_true)
-    assert np.array_equal(framed.q, old.q)
+    with pytest.raises(TypeError, match="frame"):
+        ik_many(course_arm, T, frame="ee_link", q0=Q_true)
+    with pytest.raises(UnknownFrameError):  # a start as the third argument is a base frame now, and not a name
+        ik_many(course_arm, T, Q_true)
+    batch = ik_many(course_arm, T, q0=Q_true)
+    assert batch.success.all() and (batch.attempts == 1).all()
+    assert np.abs(course_arm.fk(batch.q, base="base_link", tip="ee_link") - T).max() < 1e-9
 
 
 @settings(max_examples=8, deadline=None)

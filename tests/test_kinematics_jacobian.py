@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 
 import manipkit
 from manipkit.errors import JointValueError, ManipkitError, UnknownFrameError
-from manipkit.kinematics.jacobian import JacobianProgram, jacobian, jacobians, mass_matrix, rpy_rate_matrix
+from manipkit.kernels.program import JacobianProgram
+from manipkit.kinematics.jacobian import jacobian, jacobians, mass_matrix, rpy_rate_matrix
 from manipkit.spatial.rotations import matrix_from_rpy, rpy_from_matrix
 
 ROBOTS = ["planar_2r", "planar_3r", "course_arm", "scara", "stanford_arm", "elbow_arm", "iiwa14",
@@ -84,7 +85,7 @@ def test_batched_equals_single(load_robot, name):
 
 
 def test_more_rows_than_one_block_of_the_kernel(iiwa14):
-    from manipkit.kinematics.jacobian import BLOCK
+    from manipkit.kernels.program import BLOCK
 
     Q = iiwa14.sample_q(BLOCK + 3, seed=6)
     J = jacobians(iiwa14, Q)
@@ -120,7 +121,7 @@ def relative_jacobian_from_pinocchio(robot, q, frame, base, reference):
 @pytest.mark.parametrize(("name", "frame", "base"), [
     ("iiwa14", "ee_link", "iiwa_link_3"),  # base above the frame: one chain
     ("mobile_manipulator", "ee_link", "base_link"),  # a real base_link below the root
-    ("panda", "panda_rightfinger", "panda_leftfinger"),  # another branch: two chains combined
+    ("panda", "panda_rightfinger", "panda_leftfinger"),  # another branch: one chain, up and down
     ("iiwa14", "iiwa_link_2", "ee_link"),  # base below the frame
     ("ur5", "ee_link", "shoulder_link"),
 ])

@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 import yourdfpy
 
-from manipkit.errors import ChainError, DescriptionError, IKOptionError, JointValueError
+from manipkit.errors import DescriptionError, IKOptionError, JointValueError
 from manipkit.kinematics.ik import ik
 from manipkit.kinematics.robot import Robot
 
@@ -305,8 +305,9 @@ def test_the_package_root_lists_its_api_without_importing_pinocchio():
     assert out.strip() == "False"
 
 
-def test_ik_refuses_a_base_that_a_solved_leader_moves():
-    # j1 (above link a) is the leader of j2 (below it): solving for j1 from base 'a' would move the base itself
+def test_ik_from_a_base_that_a_solved_leader_moves_solves_the_chain_below_it():
+    # j1 (above link a) is the leader of j2 (below it): T_a_tip depends on q1 through the mimic j2 only (j1 moves a
+    # and everything below it alike), so the chain a -> tip solves for q1 (its one entry for j2) and q3
     urdf = _urdf(
         f"""<joint name="j1" type="revolute"><parent link="base_link"/><child link="a"/><axis xyz="0 0 1"/>{LIMIT}</joint>
 <joint name="j2" type="revolute"><parent link="a"/><child link="b"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}
@@ -315,10 +316,14 @@ def test_ik_refuses_a_base_that_a_solved_leader_moves():
         "base_link a b tip",
     )
     robot = Robot.from_urdf(urdf)
+    assert robot.chain("a", "tip").joint_names == ("j1", "j3")
+    # hand: in a, j2's origin is (1, 0, 0) and the tip (1 + cos q1, sin q1, 0) (j3 only turns the tip)
     T = robot.transform("a", "tip", [0.3, 0.2])
-    with pytest.raises(ChainError, match="joint 'j1' moves 'a' \\(it lies above it\\)"):
-        ik(robot, T, "a", "tip", mode="position")
-    # from base_link (above j1) it solves; hand: j2's origin at angle q1, the tip's at 2 q1 (j3 only turns the tip)
+    np.testing.assert_allclose(T[:3, 3], [1 + math.cos(0.3), math.sin(0.3), 0], atol=1e-12)
+    result = ik(robot, T, "a", "tip", mode="position", restarts=20)
+    assert result.success
+    np.testing.assert_allclose(robot.transform("a", "tip", result.q)[:3, 3], T[:3, 3], atol=1e-9)
+    # from base_link (above j1): j2's origin at angle q1, the tip's at 2 q1
     target = robot.transform("base_link", "tip", [0.3, 0.2])
     np.testing.assert_allclose(target[:3, 3], [math.cos(0.3) + math.cos(0.6), math.sin(0.3) + math.sin(0.6), 0],
                                atol=1e-12)

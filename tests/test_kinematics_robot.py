@@ -80,27 +80,33 @@ def pinocchio_poses(robot, base, frame, Q):
     return np.array([robot.transform(base, frame, q, check_limits=False) for q in Q])
 
 
+def is_above(robot, base, frame) -> bool:
+    """The base's parent joint supports the frame (Pinocchio's model): the chain has no step up from the base."""
+    model = robot.model
+    return model.frames[robot.frame_id(base)].parentJoint in model.supports[model.frames[robot.frame_id(frame)].parentJoint]
+
+
 @pytest.mark.parametrize("name, base", [("mobile_manipulator", "arm_base"), ("iiwa14", "iiwa_link_3")])
 def test_fk_from_a_link_above_the_frame_runs_one_chain_equal_to_pinocchio(loaded, name, base):
     robot = loaded[name]
-    frame_id, base_id = robot.frame_id("ee_link"), robot.frame_id(base)
-    assert robot._is_above(base_id, frame_id)
+    assert is_above(robot, base, "ee_link")
     Q = np.vstack([robot.sample_q(300, seed=21), np.random.default_rng(22).uniform(-20, 20, (20, len(robot.joints)))])
     T = robot.fk(Q, base=base, tip="ee_link")
-    assert (frame_id, base_id) in robot._fk_kernels  # the kernel of the chain base -> ee_link ran
+    chain = robot.chain(base, "ee_link")  # the program of the chain base -> ee_link ran, on its columns
+    assert np.array_equal(T, chain.program.fk.transforms(np.ascontiguousarray(Q[:, chain.columns])))
     # tan(q/2) vs Pinocchio's sin/cos at |q| up to 20 rad: a few ulps of 20, well inside 1e-12
     assert np.abs(T - pinocchio_poses(robot, base, "ee_link", Q)).max() < 1e-12
 
 
 @pytest.mark.parametrize("name", ["mobile_manipulator", "iiwa14"])
 def test_fk_between_every_pair_of_frames_equals_pinocchio(loaded, name):
-    """Bases above the frame (one chain), equal to it, below it or on another branch (two chains composed)."""
+    """Bases above the frame, equal to it, below it or on another branch: one chain each (up, then down)."""
     robot = loaded[name]
     Q = robot.sample_q(20, seed=23)
     paths = set()
     for base in robot.frame_names:
         for frame in robot.frame_names:
-            paths.add(robot._is_above(robot.frame_id(base), robot.frame_id(frame)))
+            paths.add(is_above(robot, base, frame))
             T = robot.fk(Q, base=base, tip=frame)
             assert np.abs(T - pinocchio_poses(robot, base, frame, Q)).max() < 1e-12, (base, frame)
     assert paths == {True, False}
@@ -218,28 +224,36 @@ def test_transform_direction_is_pose_of_target_in_source(loaded):
 
 
 # --------------------------------------------------------------------------
-# The public chain: Robot.chain, Robot.chain_fk, ChainStep
+# The public chain: Robot.chain, ChainStep
 
 
-def test_chain_steps_multiply_to_the_pose_pinocchio_gives(loaded):
-    from manipkit.kinematics.fk_kernel import ChainStep
+@pytest.mark.parametrize("name, base, tip", [
+    ("mobile_manipulator", None, "ee_link"), ("mobile_manipulator", "arm_base", "ee_link"),
+    ("mobile_manipulator", "ee_link", "arm_base"),  # up only: every joint inverted
+    ("mobile_manipulator", "left_wheel_link", "ee_link"),  # up a wheel, down the arm
+    ("panda", "panda_leftfinger", "panda_rightfinger"),  # up one finger, down the other (a mimic joint)
+])
+def test_chain_steps_multiply_to_the_pose_pinocchio_gives(loaded, name, base, tip):
+    from manipkit.kernels.fk import ChainStep
     from manipkit.spatial.rotations import matrix_from_axis_angle
 
-    robot = loaded["mobile_manipulator"]
-    q = robot.sample_q(1, seed=31)[0]
-    for base in (None, "arm_base"):
+    robot = loaded[name]
+    base = base or robot.root_link
+    assert is_above(robot, base, tip) == (base in (robot.root_link, "arm_base"))
+    for q in robot.sample_q(3, seed=31):
         T = np.eye(4)
-        for step in robot.chain(base or robot.root_link, "ee_link").steps:
+        for step in robot.chain(base, tip).steps:
             assert isinstance(step, ChainStep)
             placement = np.eye(4)
             placement[:3, :3], placement[:3, 3] = step.rotation, step.translation
             motion = np.eye(4)
+            value = step.scale * q[step.index] + step.offset if step.index >= 0 else 0.0
             if step.index >= 0 and step.prismatic:
-                motion[:3, 3] = q[step.index] * step.axis
+                motion[:3, 3] = value * step.axis
             elif step.index >= 0:
-                motion[:3, :3] = matrix_from_axis_angle(step.axis, q[step.index])
+                motion[:3, :3] = matrix_from_axis_angle(step.axis, value)
             T = T @ placement @ motion
-        expected = robot.transform(base or robot.root_link, "ee_link", q, check_limits=False)
+        expected = robot.transform(base, tip, q, check_limits=False)
         assert np.abs(T - expected).max() < 1e-12, base
 
 
@@ -252,19 +266,26 @@ def test_chain_is_shared_and_read_only(loaded):
     assert robot.chain("base_link", "ee_link").steps[0] is steps[0]
 
 
-def test_chain_from_a_base_below_the_frame_says_to_swap(loaded):
-    from manipkit.errors import ChainError
+def test_chain_from_a_base_below_the_frame_is_the_inverse_chain(loaded):
+    robot = loaded["iiwa14"]
+    down, up = robot.chain("iiwa_link_2", "iiwa_link_5"), robot.chain("iiwa_link_5", "iiwa_link_2")
+    assert up.joint_names == ("iiwa_joint_5", "iiwa_joint_4", "iiwa_joint_3")  # base to tip: up from link 5
+    Q = robot.sample_q(30, seed=32)
+    T_up = robot.fk(Q, base="iiwa_link_5", tip="iiwa_link_2")
+    assert np.abs(T_up @ robot.fk(Q, base="iiwa_link_2", tip="iiwa_link_5") - np.eye(4)).max() < 1e-12
+    assert np.abs(T_up - pinocchio_poses(robot, "iiwa_link_5", "iiwa_link_2", Q)).max() < 1e-12
+    assert down.joint_names == ("iiwa_joint_3", "iiwa_joint_4", "iiwa_joint_5")
 
-    with pytest.raises(ChainError, match="swap them"):
-        loaded["iiwa14"].chain("iiwa_link_5", "iiwa_link_2")
 
-
-def test_chain_fk_is_the_kernel_fk_runs(loaded):
+def test_fk_runs_the_chains_one_program(loaded):
     robot = loaded["iiwa14"]
     Q = robot.sample_q(5, seed=32)
-    assert robot.chain_fk("ee_link") is robot.chain_fk("ee_link", "base_link")
-    assert np.array_equal(robot.chain_fk("ee_link").transforms(Q), robot.fk(Q, tip="ee_link"))
-    assert np.array_equal(robot.chain_fk("ee_link", "iiwa_link_3").transforms(Q), robot.fk(Q, base="iiwa_link_3", tip="ee_link"))
+    chain = robot.chain("base_link", "ee_link")
+    assert chain.compiled_fk is chain.program.fk and robot.chain("base_link", "ee_link") is chain
+    assert np.array_equal(chain.program.fk.transforms(Q), robot.fk(Q, tip="ee_link"))
+    chain3 = robot.chain("iiwa_link_3", "ee_link")
+    assert np.array_equal(chain3.program.fk.transforms(np.ascontiguousarray(Q[:, chain3.columns])),
+                          robot.fk(Q, base="iiwa_link_3", tip="ee_link"))
 
 
 # ---------------------------------------------------------------- issue 15: API faults and long chains

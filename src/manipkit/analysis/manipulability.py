@@ -54,7 +54,7 @@ import numpy as np
 
 from manipkit.bounds import length as bounded_length
 from manipkit.errors import OptionError, SingularityError
-from manipkit.kinematics.fk_kernel import lazy_kernel
+from manipkit.kernels.compile import lazy_kernel
 
 __all__ = [
     "AXES", "METHODS", "Ellipsoid", "MixedUnitsWarning", "condition_number", "force_ellipsoid", "manipulability",

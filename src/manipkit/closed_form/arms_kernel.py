@@ -525,7 +525,7 @@ def warm_up() -> None:
     # the solve-and-check loops, on a chain of seven joints about z (only the argument types matter here)
     from manipkit.closed_form.check_kernel import row_tables
     from manipkit.closed_form.srs_kernel import solve_check_srs
-    from manipkit.kinematics.fk_kernel import ChainStep
+    from manipkit.kernels.fk import ChainStep
 
     floats, ints = row_tables([ChainStep(np.eye(3), np.array([0.0, 0.0, 0.1]), k, False, np.array(z))
                                for k in range(7)], np.arange(7))

@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlined_kernel, sqrt, wrap_by_selects
-from manipkit.kinematics.fk_kernel import pose_rows_kernel, row_tables
+from manipkit.kernels.fk import pose_rows_kernel, row_tables
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
 __all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",

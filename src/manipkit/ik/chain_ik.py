@@ -719,7 +719,7 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     solver = f"ik.chain_ik_many ({family.kind})"
     if compiled and (family.kind in (UR, OPW) or (srs and not family.reversed)):
         from manipkit.ik.chain_batch import checked_many
-        from manipkit.kinematics.fk_kernel import thread_count
+        from manipkit.kernels.fk import thread_count
 
         Q, count, success, residuals = checked_many(
             chain, compiled_arm(chain, arm), T, check, thread_count(threads), arm_angles=psi,

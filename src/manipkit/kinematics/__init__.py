@@ -14,7 +14,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.kinematics.robot", "Robot", "load"),
     **homes_of("manipkit.kinematics.chain", "Chain", "JointAxes"),
     **homes_of("manipkit.kinematics.jacobian", "jacobian", "jacobians"),
-    **homes_of("manipkit.kinematics.ik", "ik", "ik_solver", "IKSolver", "IKSolutions"),
+    **homes_of("manipkit.kinematics.ik", "ik", "ik_solver", "IKSolver"),
     **homes_of("manipkit.kinematics.ik_many", "ik_many"),
     **homes_of("manipkit.ik.result", "IKResult", "IKBatch"),
     **homes_of("manipkit.kinematics.collisions", "collisions", "collision_free", "CollisionChecker", "CollisionReport"),

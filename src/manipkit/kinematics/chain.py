@@ -38,7 +38,6 @@ True
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -47,15 +46,15 @@ import numpy as np
 
 from manipkit.bounds import MAX_COUNT, count
 from manipkit.errors import ChainError, JointLimitError, JointValueError, OptionError
-from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
+from manipkit.kernels.fk import ChainFK, ChainStep
+from manipkit.kernels.program import ChainProgram
 from manipkit.spatial.rotations import matrix_from_axis_angle
 from manipkit.text import repr_text
 
 if TYPE_CHECKING:
-    from manipkit.kinematics.jacobian import JacobianProgram
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_of", "chain_steps", "robot_and_frames", "sample_between", "sampling_bounds", "frame_arguments", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_columns", "chain_of", "chain_steps", "robot_and_frames", "sample_between", "sampling_bounds", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -114,11 +113,19 @@ class Chain:
     steps : tuple of ChainStep
         ``T_base_tip = S_0 S_1 ... S_m``; a joint step's ``index`` is its
         column of the *robot's* joint vector, as in
-        :class:`manipkit.kinematics.fk_kernel.ChainStep`.
+        :class:`manipkit.kernels.fk.ChainStep`. From a base on another
+        branch than the tip, the steps go up from the base to the link where
+        the two branches meet (each joint on the way inverted: its motion
+        undone, ``scale`` and ``offset`` negated, then its placement), then
+        down to the tip.
+    program : manipkit.kernels.program.ChainProgram
+        The chain's one compiled program (the same steps on chain vectors):
+        FK, Jacobians, the IK packing and the closed forms' row tables all
+        run on it.
     """
 
     __slots__ = ("robot", "base", "tip", "joint_names", "joints", "columns", "lower", "upper", "steps",
-                 "_fk", "_jacobian", "_angular", "_continuous", "_local_steps")
+                 "program", "_angular", "_continuous")
 
     def __init__(self, robot: Robot, base: str, tip: str, steps: tuple[ChainStep, ...]):
         columns = list(dict.fromkeys(step.index for step in steps if step.index >= 0))  # base to tip, each once
@@ -141,9 +148,7 @@ class Chain:
         set_(self, "upper", _read_only(np.array([j.upper for j in self.joints], dtype=float)))
         set_(self, "_angular", _read_only(np.array([j.is_angular for j in self.joints], dtype=bool)))
         set_(self, "_continuous", _read_only(np.array([j.type == "continuous" for j in self.joints], dtype=bool)))
-        set_(self, "_local_steps", local_steps)
-        set_(self, "_fk", ChainFK(local_steps, len(columns)))
-        set_(self, "_jacobian", None)  # JacobianProgram, prepared on first use (imports the Jacobian module)
+        set_(self, "program", ChainProgram(local_steps, len(columns)))
 
     def __setattr__(self, name, value):
         raise AttributeError(f"a Chain is immutable: cannot set '{name}' (build another with robot.chain(base, tip))")
@@ -171,7 +176,7 @@ class Chain:
         """The chain's prepared batched FK on chain vectors (what :meth:`fk` runs): ``compiled_fk.transforms(Q,
         out=...)`` is :meth:`fk` without its checks, for rows (N, n), finite and C-contiguous, that a compiled
         caller made itself (the closed forms' batch puts its answers through it)."""
-        return self._fk
+        return self.program.fk
 
     # ------------------------------------------------------------------
     # Joint vectors
@@ -304,15 +309,27 @@ class Chain:
         Q = self.rows(Q)
         lead = Q.shape[:-1]
         flat = np.ascontiguousarray(Q.reshape(math.prod(lead), self.n))  # not -1: a chain may have no joints
-        return self._fk.transforms(flat).reshape(*lead, 4, 4)
+        return self.program.fk.transforms(flat).reshape(*lead, 4, 4)
 
     def jacobians(self, Q, *, reference: str = "base") -> np.ndarray:
-        """Geometric Jacobians (..., 6, n) of the tip relative to the base (rows vx vy vz wx wy wz; compiled)."""
+        """Geometric Jacobians (..., 6, n) of the tip relative to the base (rows vx vy vz wx wy wz; compiled).
+
+        ``J qdot = (v, w)``: ``v`` the velocity of the tip's origin relative
+        to the base frame (the time derivative of the translation of
+        ``T_base_tip``), ``w`` the tip's angular velocity relative to the
+        base (``dR/dt R^T = [w]x``, ``R`` the rotation of ``T_base_tip``),
+        both in the base's axes (``reference="base"``) or the tip's
+        (``"local"``); column ``k`` is ``d/dq_k`` of ``T_base_tip`` as that
+        twist. The same meaning for every chain: base above the tip, or on
+        another branch (a finger seen from the other finger): a joint on the
+        way up from the base moves the base, so its column is the negated
+        motion it gives the base, seen from the base.
+        """
         if reference not in REFERENCES:
             raise OptionError(f"reference={reference!r} is not one of 'base', 'local'")
         Q = self.rows(Q)
         lead = Q.shape[:-1]
-        J, _, _ = self._program().run(np.ascontiguousarray(Q.reshape(math.prod(lead), self.n)), local=reference == "local")
+        J, _, _ = self.program.jacobian.run(np.ascontiguousarray(Q.reshape(math.prod(lead), self.n)), local=reference == "local")
         return J.reshape(*lead, 6, self.n)
 
     def jacobian(self, q=None, *, reference: str = "base") -> np.ndarray:
@@ -331,15 +348,6 @@ class Chain:
                [ 1.,  1.]])
         """
         return self.jacobians(self.q(q)[None], reference=reference)[0]
-
-    def _program(self) -> JacobianProgram:
-        program = self._jacobian
-        if program is None:
-            from manipkit.kinematics.jacobian import JacobianProgram
-
-            program = JacobianProgram.from_steps(self._local_steps, self.n)
-            object.__setattr__(self, "_jacobian", program)  # a cache of derived data: the chain's meaning is unchanged
-        return program
 
     def axes(self, q=None) -> JointAxes:
         """Every joint's axis and a point on it, in the base frame, at ``q`` (default: the robot's defaults).
@@ -360,7 +368,7 @@ class Chain:
         q = self.q(q)
         R, p = np.eye(3), np.zeros(3)
         joint, direction, point, prismatic, scale = [], [], [], [], []
-        for step in self._local_steps:
+        for step in self.program.steps:
             p = p + R @ step.translation
             R = R @ step.rotation
             if step.index < 0:
@@ -381,30 +389,6 @@ class Chain:
             _read_only(np.array(point).reshape(-1, 3)), _read_only(np.array(prismatic, dtype=bool)),
             _read_only(np.array(scale, dtype=float)),
         )
-
-
-def frame_arguments(what: str, legacy: tuple, base, tip, frame, *, default_base, default_tip, stacklevel: int = 3) -> tuple:
-    """(base, tip) from a call's frame arguments: the one naming rule of the public API.
-
-    New code names the frames ``base=`` and ``tip=``. For one release the
-    old forms still work, with a ``DeprecationWarning`` whose message starts
-    ``manipkit API:``: the keyword ``frame=`` (the tip), and the old
-    positional order ``(frame, base)`` passed as ``legacy`` (kept in its old
-    meaning, never swapped).
-    """
-    if legacy or frame is not None:
-        if len(legacy) > 2 or (legacy and (frame is not None or tip is not None)) or (len(legacy) == 2 and base is not None):
-            raise TypeError(f"{what}: give the frames as base=... and tip=..., got {len(legacy)} positional frame(s)")
-        warnings.warn(
-            f"manipkit API: {what}(..., frame, base) is now {what}(..., base=..., tip=...) (base first, as "
-            "tf-between SOURCE TARGET); the old form goes in the next release", DeprecationWarning, stacklevel=stacklevel,
-        )
-        if frame is not None and tip is not None:
-            raise TypeError(f"{what}: give the tip once (tip=), not also frame=")
-        tip = frame if frame is not None else legacy[0]
-        if len(legacy) == 2:
-            base = legacy[1]
-    return (default_base if base is None else base), (default_tip if tip is None else tip)
 
 
 def sampling_bounds(lower, upper) -> tuple[np.ndarray, np.ndarray]:
@@ -433,31 +417,31 @@ def chain_of(subject, what: str, legacy: tuple = (), *, base=None, tip=None, fra
     """The :class:`Chain` a solver or an analysis works on: the one place a robot and two frames become a chain.
 
     ``subject`` is a Chain (then no frames may be given: it has its own) or a
-    Robot, whose ``chain(base, tip)`` is taken with the frames named by the one
-    rule (:func:`frame_arguments`; defaults ``base_link`` and ``ee_link``).
+    Robot, whose ``chain(base, tip)`` is taken (defaults ``base_link`` and
+    ``ee_link``). Frames are named ``base=`` and ``tip=`` only: the 0.1 forms
+    (positional frames passed on as ``legacy``, the tip as ``frame=``) raise
+    ``TypeError`` saying so.
     """
+    if legacy or frame is not None:
+        raise TypeError(f"{what}: give the frames as base=... and tip=... (base first, as tf-between SOURCE TARGET)")
     if isinstance(subject, Chain):
-        if legacy or base is not None or tip is not None or frame is not None:
+        if base is not None or tip is not None:
             raise ChainError(f"{what}: a chain has its own frames ({subject.base} -> {subject.tip}); give base= and "
                              "tip= only with a robot")
         return subject
-    base, tip = frame_arguments(what, legacy, base, tip, frame, default_base="base_link", default_tip="ee_link",
-                                stacklevel=4)
-    return subject.chain(base, tip)
+    return subject.chain("base_link" if base is None else base, "ee_link" if tip is None else tip)
 
 
-def robot_and_frames(subject, what: str, *, base=None, tip=None, frame=None) -> tuple:
+def robot_and_frames(subject, what: str, *, base=None, tip=None) -> tuple:
     """(robot, base, tip) for a function that takes a robot and two frames, or a :class:`Chain` instead.
 
     A chain gives its robot and frames (none may be given besides); a robot
-    keeps the frames named by the one rule (:func:`frame_arguments`).
+    keeps the frames given (defaults ``base_link`` and ``ee_link``).
     """
     if isinstance(subject, Chain):
-        chain = chain_of(subject, what, base=base, tip=tip, frame=frame)
+        chain = chain_of(subject, what, base=base, tip=tip)
         return chain.robot, chain.base, chain.tip
-    base, tip = frame_arguments(what, (), base, tip, frame, default_base="base_link", default_tip="ee_link",
-                                stacklevel=4)
-    return subject, base, tip
+    return subject, ("base_link" if base is None else base), ("ee_link" if tip is None else tip)
 
 
 def chain_steps(model, columns: dict, frame_id: int, base_id: int | None) -> list[ChainStep]:
@@ -467,11 +451,16 @@ def chain_steps(model, columns: dict, frame_id: int, base_id: int | None) -> lis
     the joints supporting a frame: each joint step is the joint's placement
     in its parent joint's frame, then its motion; a floating or planar joint
     is one step per coordinate (its placement on the first); the frame's own
-    placement closes the chain (a fixed step, ``index`` -1). From a base above
-    the root, the chain opens with the base's inverse placement
-    ``[R^T, -R^T p]`` and holds the joints below the base's parent joint.
-    ``columns`` maps a Pinocchio joint id to its ``(column, scale, offset,
-    kind, axis)`` motions (:class:`manipkit.kinematics.joints.JointLayout`).
+    placement closes the chain (a fixed step, ``index`` -1). From a base,
+    ``T_base_frame = T_j_base^-1 T_j_frame`` with ``j`` the deepest joint
+    supporting both frames (where their branches meet): the chain opens with
+    the base's inverse placement ``[R^T, -R^T p]``, then goes up to ``j``,
+    each joint on the way inverted (``(M J(v))^-1 = J(-v) M^-1``: its
+    motions in reverse order with ``scale`` and ``offset`` negated, then its
+    inverse placement as a fixed step), then down from ``j`` to the frame.
+    A base above the frame (or off its path by fixed joints only) has no
+    step up. ``columns`` maps a Pinocchio joint id to its ``(column, scale,
+    offset, kind, axis)`` motions (:class:`manipkit.kinematics.joints.JointLayout`).
     """
     frame = model.frames[frame_id]
     support = list(model.supports[frame.parentJoint])  # joint ids, universe (0) first
@@ -479,9 +468,19 @@ def chain_steps(model, columns: dict, frame_id: int, base_id: int | None) -> lis
         below, steps = support[1:], []
     else:
         base = model.frames[base_id]
-        below = support[support.index(base.parentJoint) + 1 :]
+        base_support = list(model.supports[base.parentJoint])
+        shared = 0
+        while shared < min(len(support), len(base_support)) and support[shared] == base_support[shared]:
+            shared += 1
+        below = support[shared:]
         R, p = base.placement.rotation, base.placement.translation
         steps = [_fixed_step(R.T, -R.T @ p)]
+        for joint_id in reversed(base_support[shared:]):  # up from the base's joint to where the branches meet
+            for column, scale, offset, kind, axis in reversed(columns[joint_id]):
+                steps.append(ChainStep(_IDENTITY, _ZERO, column, kind == "prismatic", axis, -scale, -offset))
+            placement = model.jointPlacements[joint_id]
+            R, p = placement.rotation, placement.translation
+            steps.append(_fixed_step(R.T, -R.T @ p))
     for joint_id in below:
         placement = model.jointPlacements[joint_id]
         rotation, translation = _read_only_copy(placement.rotation), _read_only_copy(placement.translation)
@@ -503,6 +502,14 @@ def _fixed_step(rotation, translation) -> ChainStep:
 def _chain_of(robot: Robot, base: str, tip: str) -> Chain:
     """Unpickling: the robot's own chain object."""
     return robot.chain(base, tip)
+
+
+def chain_columns(Q: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The chain's columns of whole-robot rows ``Q`` (N, n_robot): a view when they are one ascending run (an arm's
+    chain is usually the whole robot), else a gathered copy."""
+    if columns.size and np.array_equal(columns, np.arange(columns[0], columns[0] + columns.size)):
+        return Q[:, int(columns[0]) : int(columns[0]) + columns.size]
+    return Q[:, columns]
 
 
 def joint_array(values) -> np.ndarray:

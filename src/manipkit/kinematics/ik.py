@@ -6,9 +6,7 @@ Conventions (docs/architecture.md), restated:
   ``ik(robot, target, base, tip)``. ``target`` is ``T_base_tip``: the wanted
   pose of ``tip`` expressed in ``base``, a 4x4 homogeneous matrix in metres,
   the same direction as ``robot.transform(base, tip, q)`` and
-  ``tf2_echo base tip``. (``frame=``, the tip's old keyword, works for one
-  release with a DeprecationWarning, by
-  :func:`manipkit.kinematics.chain.frame_arguments`.)
+  ``tf2_echo base tip``.
 - Joint vectors have one value per movable joint, in ``robot.joint_names``
   order (radians or metres). Only the joints of ``robot.chain(base, tip)``
   are varied; every other joint keeps its value from ``q0`` (or its default:
@@ -67,16 +65,15 @@ import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKFailure, IKResult, tolerances
-from manipkit.kinematics.chain import frame_arguments, robot_and_frames, sampling_bounds
+from manipkit.kernels.program import IKProgram
+from manipkit.kinematics.chain import robot_and_frames, sampling_bounds
 from manipkit.kinematics.ik_kernel import (
     MODE_CODES,
     SHRINK_MIN,
     STALL_GAIN,
     STALL_WINDOW,
-    IKProgram,
     error_and_jacobian,
     lm_attempt,
-    pack_chain,
 )
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
@@ -85,7 +82,7 @@ from manipkit.text import repr_text, short_text
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["AXES", "DISTINCT_TOL", "IKOptionError", "IKResult", "IKSolutions", "IKSolver", "MODES", "check_budget",
+__all__ = ["AXES", "DISTINCT_TOL", "IKOptionError", "IKResult", "IKSolver", "MODES", "check_budget",
            "ik", "ik_solver"]
 
 MODES = ("pose", "position", "position+axis")
@@ -97,10 +94,6 @@ SOLVER_NAME = "kinematics.ik"
 #: The result's ``mode`` (:data:`manipkit.ik.result.MODES`) for each numerical mode.
 RESULT_MODES = {"pose": SPATIAL_POSE, "position": SPATIAL_POSITION, "position+axis": SPATIAL_POINTING}
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-
-#: The name of the ``all=True`` answer in 0.1: now the one :class:`~manipkit.ik.result.IKResult`
-#: (goes in the next release).
-IKSolutions = IKResult
 
 
 def ik(
@@ -119,7 +112,6 @@ def ik(
     all: bool = False,
     damping: float = 1e-1,
     free=(),
-    frame: str | None = None,
     collision_free=False,
 ) -> IKResult:
     """Joint values that put ``tip`` at ``target`` (T_base_tip), by damped least squares.
@@ -167,8 +159,6 @@ def ik(
     free : sequence of str, keyword-only
         Floating or planar joints to solve for too (their coordinates);
         by default they stay where ``q0`` puts them (the identity).
-    frame : str, keyword-only
-        The old name of ``tip`` (one release, with a DeprecationWarning).
     collision_free : bool or CollisionChecker, keyword-only
         Accept only answers that are not in collision (True: the robot
         against itself, adjacent and rigidly joined links skipped; or a
@@ -216,7 +206,7 @@ def ik(
     True
     """
     # Over 80 lines: the docstring (every option and the conventions) is nearly all of it.
-    robot, base, tip = robot_and_frames(robot, "ik", base=base, tip=tip, frame=frame)
+    robot, base, tip = robot_and_frames(robot, "ik", base=base, tip=tip)
     solver = ik_solver(robot, base, tip, mode=mode, axis=axis, free=tuple(free))
     checker = None
     if collision_free is True:
@@ -235,15 +225,14 @@ _SOLVERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def ik_solver(robot: Robot, base: str | None = None, tip: str | None = None, *, mode: str = "pose", axis: str = "z",
-              free: tuple[str, ...] = (), frame: str | None = None) -> IKSolver:
+              free: tuple[str, ...] = ()) -> IKSolver:
     """The prepared :class:`IKSolver` for a robot, frame pair (base first) and mode: built once, cached per robot.
 
     The cached solver holds nothing of any call, so it is shared by every
     caller and thread. ``robot`` may also be a :class:`~manipkit.kinematics.chain.Chain`
-    (its base and tip are then the frames). ``frame=`` is the old name of
-    ``tip`` (one release).
+    (its base and tip are then the frames).
     """
-    robot, base, tip = robot_and_frames(robot, "ik_solver", base=base, tip=tip, frame=frame)
+    robot, base, tip = robot_and_frames(robot, "ik_solver", base=base, tip=tip)
     free = tuple(sorted(set(free)))
     key = (robot.frame(tip), robot.frame(base), mode, axis, free)
     per_robot = _SOLVERS.setdefault(robot, {})
@@ -254,10 +243,10 @@ def ik_solver(robot: Robot, base: str | None = None, tip: str | None = None, *, 
 
 
 class _Goal(NamedTuple):
-    """Everything of one solve (never stored on the shared solver): the target in the root's axes, the whole
+    """Everything of one solve (never stored on the shared solver): the target T_base_tip, the whole
     start vector (joints off the chain keep its values) and the values of the joints that are not solved for."""
 
-    T_root_target: np.ndarray
+    T_target: np.ndarray
     p_target: np.ndarray
     R_target: np.ndarray
     q_full: np.ndarray
@@ -280,7 +269,7 @@ class IKSolver:
     ----------
     robot : manipkit.kinematics.robot.Robot
     base, tip : str
-        As in :func:`ik` (``frame=``: the old name of ``tip``, one release).
+        As in :func:`ik`.
     mode, axis, free : keyword-only
         As in :func:`ik`.
 
@@ -296,20 +285,18 @@ class IKSolver:
 
     Notes
     -----
-    Error, expressed in the axes of the model root, with the target brought
-    there as ``T_root_target = T_root_base @ T_base_target`` (constant during
-    a solve: no chain joint lies above ``base``)::
+    Error of ``T_base_tip`` (the chain's program, base to tip), in the
+    base's axes::
 
         e_pos = p_target - p                (m)
-        e_rot = log3(R_target @ R.T)        (rad, rotation vector in root axes)
+        e_rot = log3(R_target @ R.T)        (rad, rotation vector in base axes)
 
-    Its Jacobian is Pinocchio's ``LOCAL_WORLD_ALIGNED`` frame Jacobian
-    (linear rows: velocity of the frame origin; angular rows: angular
-    velocity; both in root axes), restricted to the chain's columns and
-    computed by :func:`manipkit.kinematics.ik_kernel.chain_pose_jacobian`: at the
-    solution ``de/dq = -J`` exactly (tested by finite differences). Residuals
-    do not depend on the axes they are measured in, so they equal those of
-    ``T_base_tip``. For ``"position+axis"`` the rotation error is
+    Its Jacobian is the chain's (:meth:`Chain.jacobian
+    <manipkit.kinematics.chain.Chain.jacobian>`, reference ``"base"``: linear
+    rows the velocity of the tip's origin, angular rows its angular velocity,
+    both relative to the base and in its axes), restricted to the solved
+    entries and computed by :func:`manipkit.kinematics.ik_kernel.chain_pose_jacobian`:
+    at the solution ``de/dq = -J`` exactly (tested by finite differences). For ``"position+axis"`` the rotation error is
     ``angle * unit(a x t)`` (``a`` the frame's axis, ``t`` the target's) and
     its rows are ``P @ J_w`` with ``P = I - a a^T``: spin about ``a`` does
     not count, 2 of the 3 rows carry information (5 equations).
@@ -335,8 +322,8 @@ class IKSolver:
 
 
     def __init__(self, robot: Robot, base: str | None = None, tip: str | None = None, *, mode: str = "pose",
-                 axis: str = "z", free: tuple[str, ...] = (), frame: str | None = None):
-        base, tip = frame_arguments("IKSolver", (), base, tip, frame, default_base="base_link", default_tip="ee_link")
+                 axis: str = "z", free: tuple[str, ...] = ()):
+        base, tip = ("base_link" if base is None else base), ("ee_link" if tip is None else tip)
         if mode not in MODES:
             raise IKOptionError(f"unknown IK mode '{mode}'; modes: {', '.join(MODES)}")
         if axis not in AXES:
@@ -374,43 +361,34 @@ class IKSolver:
         self._robot_lower = np.array([j.lower for j in robot.joints], dtype=float)
         self._robot_upper = np.array([j.upper for j in robot.joints], dtype=float)
 
-        # The compiled iteration's view of the chain, root to tip (manipkit.kinematics.ik_kernel).
-        steps = robot.chain(robot.root_link, self.tip).steps
-        geometry, kinds = pack_chain(steps, self.columns)
-        # A solved joint must not also move the base: the target is placed in the root once per solve.
-        joint_steps = [k for k, step in enumerate(steps) if step.index >= 0]
-        n_below = sum(1 for step in chain.steps if step.index >= 0)
-        moves_base = [k for k in joint_steps[: len(joint_steps) - n_below] if kinds[k, 1] >= 0]
-        if moves_base:
-            name = robot.joint_names[steps[moves_base[0]].index]
-            raise ChainError(
-                f"robot '{robot.name}': joint '{name}' moves '{self.base}' (it lies above it) and, through a mimic "
-                f"joint, the chain from '{self.base}' to '{self.tip}'; IK from this base cannot solve for it: "
-                f"choose a base above '{name}'"
-            )
+        # The compiled iteration runs on the chain's program (base to tip: targets are T_base_tip as given).
+        steps = chain.program.steps
+        geometry, kinds = chain.program.ik_tables  # one row per joint step, in order, then the tip
+        solved_position = np.full(chain.n, -1, dtype=np.int64)  # chain entry -> position among the solved, or -1
+        solved_position[solved] = np.arange(int(solved.sum()))
+        kinds = kinds.copy()
+        kinds[:-1, 1] = solved_position[kinds[:-1, 1]]
+        joint_steps = [step for step in steps if step.index >= 0]  # the kernel's joint rows, in their order
         # Reach bound: the frame origin stays within this distance of the first solved joint's origin.
-        solved_steps = [k for k, step in enumerate(steps) if step.index >= 0 and kinds[k, 1] >= 0]
-        reach = sum(float(np.linalg.norm(step.translation)) for step in steps[solved_steps[0] + 1 :])
-        for k in solved_steps:
-            if steps[k].prismatic:
-                joint = robot.joints[steps[k].index]
-                reach += abs(steps[k].scale) * max(abs(joint.lower), abs(joint.upper)) + abs(steps[k].offset)
+        first = next(k for k, step in enumerate(steps) if step.index >= 0 and solved[step.index])
+        reach = sum(float(np.linalg.norm(step.translation)) for step in steps[first + 1 :])
+        for step in steps[first:]:
+            if step.index >= 0 and solved[step.index] and step.prismatic:
+                joint = chain.joints[step.index]
+                reach += abs(step.scale) * max(abs(joint.lower), abs(joint.upper)) + abs(step.offset)
         self.reach = reach
-        self._first_joint = robot.model.getJointId(robot.joints[steps[solved_steps[0]].index].joint)
-        not_solved = [k for k, step in enumerate(steps) if step.index >= 0 and kinds[k, 1] < 0]
+        # the first solved joint's row of chain.axes: its origin, in the base, is the centre of the reach bound
+        self._first_step_row = next(k for k, step in enumerate(joint_steps) if step is steps[first])
+        self._base_id = robot.frame_id(self.base)
+        not_solved = [k for k, step in enumerate(joint_steps) if not solved[step.index]]
         self.program = IKProgram(
             geometry, kinds, MODE_CODES[mode], AXES.index(axis), lower, upper, sample_low, sample_high, wrap,
-            fixed_steps=np.array(not_solved, dtype=np.intp),  # joints above the base, fixed coordinates
-            fixed_columns=np.array([steps[k].index for k in not_solved], dtype=np.intp),
-            fixed_scale=np.array([steps[k].scale for k in not_solved], dtype=float),
-            fixed_offset=np.array([steps[k].offset for k in not_solved], dtype=float),
-            n_steps=len(steps), base_is_root=self.base == robot.root_link,
+            fixed_steps=np.array(not_solved, dtype=np.intp),  # floating and planar coordinates not freed
+            fixed_columns=chain.columns[[joint_steps[k].index for k in not_solved]].astype(np.intp),
+            fixed_scale=np.array([joint_steps[k].scale for k in not_solved], dtype=float),
+            fixed_offset=np.array([joint_steps[k].offset for k in not_solved], dtype=float),
+            n_steps=geometry.shape[0],
         )
-
-    @property
-    def frame(self) -> str:
-        """The old name of :attr:`tip` (one release)."""
-        return self.tip
 
     def __repr__(self) -> str:
         return (
@@ -484,16 +462,11 @@ class IKSolver:
         """The per-call state of a solve for ``target`` from ``q0`` (checked as :func:`ik` checks them)."""
         q_full = self._start_vector(q0)
         T_base_target = self._target_matrix(target)
-        # Target in root axes: T_root_target = T_root_base @ T_base_target (off-chain joints at q_full).
-        if self.program.base_is_root:
-            T_root_target = T_base_target
-        else:
-            T_root_target = self.robot.transform(self.robot.root_link, self.base, q_full, check_limits=False) @ T_base_target
         q_fixed = np.zeros(self.program.n_steps)
         if self.program.fixed_steps.size:
             q_fixed[self.program.fixed_steps] = self.program.fixed_scale * q_full[self.program.fixed_columns] + self.program.fixed_offset
-        return _Goal(T_root_target, np.ascontiguousarray(T_root_target[:3, 3]),
-                     np.ascontiguousarray(T_root_target[:3, :3]), q_full, q_fixed)
+        return _Goal(T_base_target, np.ascontiguousarray(T_base_target[:3, 3]),
+                     np.ascontiguousarray(T_base_target[:3, :3]), q_full, q_fixed)
 
     def _result(self, goal: _Goal, found, best, iterations: int, attempts: int) -> IKResult:
         """The :class:`IKResult` of a solve: the distinct answers found, else the closest attempt and why it fails."""
@@ -552,9 +525,9 @@ class IKSolver:
         """(position, rotation) residuals at chain values ``x``: Pinocchio's FK (the thread's own workspace),
         measured by :func:`manipkit.spatial.transforms.pose_residuals` (see :func:`ik`)."""
         data = self.robot.data
-        pin.forwardKinematics(self._model, data, self._configuration(self._full_q(goal.q_full, x)))
-        T_root_tip = pin.updateFramePlacement(self._model, data, self._frame_id).homogeneous
-        pos, rot = pose_residuals(goal.T_root_target, T_root_tip, mode=self.mode, axis=self.axis, project=False)
+        pin.framesForwardKinematics(self._model, data, self._configuration(self._full_q(goal.q_full, x)))
+        T_base_tip = data.oMf[self._base_id].actInv(data.oMf[self._frame_id]).homogeneous
+        pos, rot = pose_residuals(goal.T_target, T_base_tip, mode=self.mode, axis=self.axis, project=False)
         return float(pos), float(rot)
 
     # ------------------------------------------------------------------
@@ -609,10 +582,8 @@ class IKSolver:
     def _failure(self, goal: _Goal, pos, rot, attempts) -> tuple[str, float]:
         """(why no solution, how far out of the reach bound the target is (m), 0 when not out of it)."""
         residual = f"best residual {pos:.3g} m" + ("" if self.mode == "position" else f", {rot:.3g} rad")
-        # Origin of the first solved joint: the chain does not move it (Pinocchio, the thread's workspace).
-        model, data, first = self._model, self.robot.data, self._first_joint
-        pin.forwardKinematics(model, data, self._configuration(goal.q_full))
-        center = (data.oMi[model.parents[first]] * model.jointPlacements[first]).translation
+        # Origin of the first solved joint, in the base: the solved joints do not move it.
+        center = self.chain.axes(goal.q_full[self.chain.columns]).point[self._first_step_row]
         distance = float(np.linalg.norm(goal.p_target - center))
         if distance > self.reach:
             joint = self.joint_names[0]

@@ -8,17 +8,18 @@ a start to convergence, runs as one machine-code loop.
 
 Conventions:
 
-- The chain is the list of Pinocchio joints from the model root to the tip
-  frame (:meth:`manipkit.kinematics.robot.Robot.chain`), packed by :func:`pack_chain`:
+- The chain is the steps of a :class:`manipkit.kinematics.chain.Chain`, base
+  to tip, packed by :func:`manipkit.kernels.program.pack_chain` (the chain's
+  program: ``chain.program.ik_tables``):
   row ``k`` of ``geometry`` is the placement of joint ``k`` in its parent
   joint's frame (``R`` row-major, 9 numbers; ``t``, 3 numbers, metres) and
   the joint's unit axis in its own frame (3 numbers); the last row is the tip
   frame's placement in the last joint's frame (axis unused).
 - ``kinds[k] = (kind, column)``: kind 0 revolute, 1 prismatic, -1 the tip;
-  column is the joint's position in the solved vector ``x`` (the chain between
-  the IK base and the tip), or -1 for a joint above the base, which keeps the
+  column is the joint's position in the solved vector ``x``, or -1 for a
+  joint not solved for (a floating coordinate not freed), which keeps the
   value ``q_fixed[k]`` during a solve.
-- Poses and Jacobians are expressed in the axes of the model root. The
+- Poses and Jacobians are expressed in the axes of the chain's base. The
   Jacobian is the ``LOCAL_WORLD_ALIGNED`` frame Jacobian of Pinocchio (linear
   rows: velocity of the tip's origin; angular rows: angular velocity), so
   column ``j`` of a revolute joint with axis ``z_j`` through ``o_j`` is
@@ -29,97 +30,36 @@ Conventions:
 
 Each piece (``chain_pose_jacobian``, ``log3``, ``solve_linear``) is a plain
 function, tested on its own against Pinocchio and numpy. Each is compiled by
-:func:`manipkit.kinematics.fk_kernel.compile_kernel` on first use: cached on disk
+:func:`manipkit.kernels.compile.compile_kernel` on first use: cached on disk
 by numba where that works, else compiled in memory with one warning.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
-from manipkit.kinematics.fk_kernel import ChainStep, compile_kernel
+from manipkit.kernels.compile import compile_kernel
+from manipkit.kernels.fk import ChainStep
+from manipkit.kernels.program import pack_chain
 
 __all__ = [
-    "IKProgram", "MODE_CODES", "SHRINK_MIN", "STALL_GAIN", "STALL_WINDOW", "chain_pose_jacobian", "error_and_jacobian",
-    "lm_attempt", "log3", "pack_chain", "solve_linear", "warm_up",
+    "MODE_CODES", "SHRINK_MIN", "STALL_GAIN", "STALL_WINDOW", "chain_pose_jacobian", "error_and_jacobian",
+    "lm_attempt", "log3", "solve_linear", "warm_up",
 ]
 
 MODE_CODES = {"pose": 0, "position": 1, "position+axis": 2}
 #: The stall rule of an attempt (IKSolver's docstring): stop when the cost fell by less than 1 - STALL_GAIN over
 #: the last STALL_WINDOW iterations; the damping shrinks by at most SHRINK_MIN per accepted step.
 STALL_WINDOW, STALL_GAIN, SHRINK_MIN = 8, 0.9, 0.1
-
-
-@dataclass(frozen=True, eq=False)
-class IKProgram:
-    """One chain and mode prepared for the compiled iteration (built by :class:`manipkit.kinematics.ik.IKSolver`).
-
-    ``geometry``, ``kinds``: :func:`pack_chain` of the chain from the root to
-    the tip; ``mode_code``, ``axis_index``: the mode and pointing axis;
-    ``lower``, ``upper`` (rad or m), ``sample_low``, ``sample_high`` (where
-    random starts are drawn: continuous joints in [-pi, pi]) and ``wrap``
-    (continuous joints, wrapped to (-pi, pi]) of the solved joints, in their
-    order; the steps not solved for (joints above the base, fixed floating
-    coordinates) read ``fixed_scale * q[fixed_columns] + fixed_offset`` at
-    ``fixed_steps`` of the ``n_steps``; ``base_is_root``: targets need no
-    change of axes. Read by :meth:`~manipkit.kinematics.ik.IKSolver.solve` and
-    :func:`manipkit.kinematics.ik_many.ik_many` alike.
-    """
-
-    geometry: np.ndarray
-    kinds: np.ndarray
-    mode_code: int
-    axis_index: int
-    lower: np.ndarray
-    upper: np.ndarray
-    sample_low: np.ndarray
-    sample_high: np.ndarray
-    wrap: np.ndarray
-    fixed_steps: np.ndarray
-    fixed_columns: np.ndarray
-    fixed_scale: np.ndarray
-    fixed_offset: np.ndarray
-    n_steps: int
-    base_is_root: bool
-
-    @property
-    def has_cs(self) -> bool:
-        """Some solved joint is continuous (its answers are wrapped)."""
-        return bool(self.wrap.any())
-_REVOLUTE, _PRISMATIC, _TIP = 0, 1, -1
+_REVOLUTE, _PRISMATIC, _TIP = 0, 1, -1  # the kinds of manipkit.kernels.program.pack_chain
 _TWO_PI = 2.0 * math.pi
-
-
-def pack_chain(steps: Sequence[ChainStep], chain_user_columns) -> tuple[np.ndarray, np.ndarray]:
-    """(geometry (S+1, 17) float, kinds (S+1, 2) int) of root-to-tip ``steps`` for the kernel.
-
-    ``steps`` are :class:`manipkit.kinematics.fk_kernel.ChainStep` (the last one, index -1,
-    is the tip); ``chain_user_columns[j]`` is the position in the robot's
-    joint vector of the ``j``-th solved joint. A row is the step's rotation
-    (9, row-major), translation (3), axis (3), then the ``scale`` and
-    ``offset`` of its joint value (a mimic joint reads its leader's column).
-    """
-    column_of = {int(user): j for j, user in enumerate(chain_user_columns)}
-    geometry = np.zeros((len(steps), 17))
-    kinds = np.full((len(steps), 2), -1, dtype=np.int64)
-    for k, step in enumerate(steps):
-        geometry[k, :9] = np.asarray(step.rotation, dtype=float).ravel()
-        geometry[k, 9:12] = np.asarray(step.translation, dtype=float)
-        if step.index >= 0:
-            geometry[k, 12:15] = np.asarray(step.axis, dtype=float)
-            geometry[k, 15:17] = (step.scale, step.offset)
-            kinds[k, 0] = _PRISMATIC if step.prismatic else _REVOLUTE
-            kinds[k, 1] = column_of.get(int(step.index), -1)
-    return geometry, kinds
 
 
 @compile_kernel
 def chain_pose_jacobian(x, q_fixed, geometry, kinds, R, p, J):
-    """Pose of the tip in the root (``R`` 3x3, ``p`` 3) and its Jacobian ``J`` (6 x n) at ``x``, in place.
+    """Pose of the tip in the base (``R`` 3x3, ``p`` 3) and its Jacobian ``J`` (6 x n) at ``x``, in place.
 
     ``x`` holds the solved joints (by column), ``q_fixed`` the values of the
     joints above the base (by step). A step's joint value is

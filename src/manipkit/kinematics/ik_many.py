@@ -50,8 +50,10 @@ from numba import objmode  # this module is only imported to run its kernel (kin
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik.result import IKBatch, tolerances
+from manipkit.kernels.compile import lazy_kernel
+from manipkit.kernels.fk import thread_count
+from manipkit.kernels.program import LMOptions
 from manipkit.kinematics.chain import robot_and_frames
-from manipkit.kinematics.fk_kernel import lazy_kernel, thread_count
 from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
 from manipkit.kinematics.ik_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
 from manipkit.spatial.rotations import wrap_angle
@@ -75,10 +77,13 @@ def _now() -> float:
     return time.perf_counter()
 
 
-def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_targets, mode, axis_index, lower, upper,
-                low, high, wrap, tol_position, tol_rotation, max_iters, restarts, budget, tau, stall_window, stall_gain,
-                shrink_min, X_out, iterations_out, attempts_out):
+def _solve_many(X0, has_start, seeds, Q_fixed, R_targets, p_targets, program, options, X_out, iterations_out,
+                attempts_out):
     """Every target's attempts in one loop: ``lm_attempt`` from ``X0[i]``, then seeded random starts.
+
+    ``program`` is the chain's packed IK program (:class:`manipkit.kernels.program.IKProgram`),
+    ``options`` the settings (:class:`manipkit.kernels.program.LMOptions`); the
+    per-target arrays come first, the outputs last.
 
     Keeps per target the attempt of least cost in ``X_out``; stops a target
     at the first attempt within tolerance (as the kernel measures it; FK
@@ -93,6 +98,9 @@ def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_tar
     :mod:`~manipkit.kinematics.ik_kernel` compiles it again.
     """
     n_targets, n = X0.shape
+    P, o = program, options
+    budget, restarts, low, high = o.budget, o.restarts, P.sample_low, P.sample_high
+    tol_position, tol_rotation = o.tol_position, o.tol_rotation
     x = np.empty(n)
     start = np.empty(n)
     t0 = 0.0
@@ -118,9 +126,10 @@ def _solve_many(X0, has_start, seeds, Q_fixed, geometry, kinds, R_targets, p_tar
                     seeded = True
                 for j in range(n):
                     start[j] = low[j] + np.random.random() * (high[j] - low[j])
-            cost, pos, rot, its = lm_attempt(start, Q_fixed[i], geometry, kinds, R_targets[i], p_targets[i], mode,
-                                             axis_index, lower, upper, wrap, tol_position, tol_rotation, max_iters,
-                                             tau, stall_window, stall_gain, shrink_min, x)
+            cost, pos, rot, its = lm_attempt(start, Q_fixed[i], P.geometry, P.kinds, R_targets[i], p_targets[i],
+                                             P.mode_code, P.axis_index, P.lower, P.upper, P.wrap, tol_position,
+                                             tol_rotation, o.max_iters, o.tau, o.stall_window, o.stall_gain,
+                                             o.shrink_min, x)
             total += its
             used += 1
             if cost < best:
@@ -191,7 +200,6 @@ def ik_many(
     seed: int = 0,
     damping: float = 1e-1,
     threads: int | None = None,
-    frame: str | None = None,
 ) -> IKBatch:
     """Solve ``N`` IK targets in one compiled call; success by FK of every answer.
 
@@ -207,8 +215,7 @@ def ik_many(
         First start per target (one vector for all, or one row each), in
         ``robot.joint_names`` order, clamped into the limits; also the values
         of the joints off the chain. Default: a random first start, off-chain
-        joints at their defaults. (Given as the third positional argument, as
-        in 0.1, it still works for one release, with a DeprecationWarning.)
+        joints at their defaults.
     mode, axis : str, keyword-only
         As in :func:`manipkit.kinematics.ik.ik`.
     tol : float or (float, float), keyword-only
@@ -226,11 +233,9 @@ def ik_many(
         Initial Levenberg-Marquardt damping (see :class:`manipkit.kinematics.ik.IKSolver`).
     threads : int, keyword-only, optional
         Most threads solving at once (default: the cores this process may
-        run on, at most :data:`manipkit.kinematics.fk_kernel.MAX_THREADS`). Fewer are used when the batch
+        run on, at most :data:`manipkit.kernels.fk.MAX_THREADS`). Fewer are used when the batch
         is small (:data:`MIN_TARGETS_PER_THREAD` targets per thread at
         least); the answers do not depend on it.
-    frame : str, keyword-only
-        The old name of ``tip`` (one release, with a DeprecationWarning).
 
     Returns
     -------
@@ -262,13 +267,7 @@ def ik_many(
     (True, True)
     """
     # Over 80 lines: the docstring (every option and the conventions) is most of it.
-    if base is not None and not isinstance(base, str):  # ik_many(robot, T, q0) as in 0.1
-        warnings.warn("manipkit API: ik_many(robot, T, q0) is now ik_many(robot, T, base, tip, q0=q0); the start as "
-                      "the third positional argument goes in the next release", DeprecationWarning, stacklevel=2)
-        if q0 is not None:
-            raise IKOptionError("ik_many: q0 given twice (as the third argument and as q0=)")
-        base, q0 = None, base
-    robot, base, tip = robot_and_frames(robot, "ik_many", base=base, tip=tip, frame=frame)
+    robot, base, tip = robot_and_frames(robot, "ik_many", base=base, tip=tip)
     solver = ik_solver(robot, base, tip, mode=mode, axis=axis)
     tol_position, tol_rotation = tolerances(tol)
     check_budget(max_iters, restarts, damping)
@@ -355,27 +354,25 @@ def _on_threads(solve_block, first: int, n_targets: int, threads: int) -> None:
 
 def _run(solver, T_base: np.ndarray, Q_full: np.ndarray, has_start: bool, tol, budget, seed: int, threads: int = 1):
     """The compiled loop over every target, on up to ``threads`` threads: (X (N, n), iterations (N,), attempts (N,))."""
-    robot = solver.robot
     n_targets = T_base.shape[0]
-    # Targets in the axes of the model root: T_root_target = T_root_base @ T_base_target.
-    T_root = T_base if solver.program.base_is_root else robot.fk(Q_full, base=robot.root_link, tip=solver.base) @ T_base
     Q_fixed = np.zeros((n_targets, solver.program.n_steps))
     if solver.program.fixed_steps.size:
-        # joints not solved for (above the base, mimics of them, fixed floating coordinates): scale * q + offset
+        # joints not solved for (floating and planar coordinates not freed): scale * q + offset
         Q_fixed[:, solver.program.fixed_steps] = solver.program.fixed_scale * Q_full[:, solver.program.fixed_columns] + solver.program.fixed_offset
     X = np.empty((n_targets, solver.columns.size))
     iterations = np.zeros(n_targets, dtype=np.int64)
     attempts = np.zeros(n_targets, dtype=np.int64)
     max_iters, restarts, time_budget, damping = budget
     X0, seeds = np.ascontiguousarray(Q_full[:, solver.columns]), target_seeds(seed, n_targets)
-    R_root, p_root = np.ascontiguousarray(T_root[:, :3, :3]), np.ascontiguousarray(T_root[:, :3, 3])
+    # the chain's program runs base to tip: the targets T_base_tip as given
+    R_root, p_root = np.ascontiguousarray(T_base[:, :3, :3]), np.ascontiguousarray(T_base[:, :3, 3])
     program, kernel = solver.program, _kernel()
+    options = LMOptions(float(tol[0]), float(tol[1]), int(max_iters), int(restarts), float(time_budget), float(damping),
+                        STALL_WINDOW, STALL_GAIN, SHRINK_MIN)
 
     def solve_block(a: int, b: int) -> None:  # row slices of C-contiguous arrays: views, written in place
-        kernel(X0[a:b], has_start, seeds[a:b], Q_fixed[a:b], program.geometry, program.kinds, R_root[a:b], p_root[a:b],
-               program.mode_code, program.axis_index, program.lower, program.upper, program.sample_low,
-               program.sample_high, program.wrap, tol[0], tol[1], max_iters, restarts, time_budget, damping,
-               STALL_WINDOW, STALL_GAIN, SHRINK_MIN, X[a:b], iterations[a:b], attempts[a:b])
+        kernel(X0[a:b], has_start, seeds[a:b], Q_fixed[a:b], R_root[a:b], p_root[a:b], program, options, X[a:b],
+               iterations[a:b], attempts[a:b])
 
     if n_targets:
         done = _compile_here(solve_block, time_budget > 0.0)

@@ -22,7 +22,6 @@ import difflib
 import math
 import os
 import threading
-import warnings as python_warnings
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
@@ -37,17 +36,16 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.srdf import shipped_srdf
 from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
-from manipkit.errors import ChainError, DescriptionError, JointLimitError, JointValueError, UnknownFrameError
+from manipkit.errors import DescriptionError, JointLimitError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import (
     LIMIT_TOLERANCE,
     Chain,
+    chain_columns,
     chain_steps,
-    frame_arguments,
     joint_array,
     sample_between,
     sampling_bounds,
 )
-from manipkit.kinematics.fk_kernel import ChainFK, ChainStep
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.kinematics.tool_frame import tool_frame_of
 from manipkit.text import repr_text, short_text
@@ -178,8 +176,6 @@ class Robot:
         self._lower_ok = np.array([j.lower for j in self.joints], dtype=float) - LIMIT_TOLERANCE
         self._upper_ok = np.array([j.upper for j in self.joints], dtype=float) + LIMIT_TOLERANCE
         # Caches of derived, never-changing data (a race builds one twice, harmlessly):
-        self._chains: dict[tuple, list[ChainStep]] = {}  # (frame id, base id or None) -> steps
-        self._fk_kernels: dict[tuple, ChainFK] = {}  # (frame id, base id or None) -> batched FK, built on first use
         self._chain_objects: dict[tuple[str, str], Chain] = {}  # (base link, tip link) -> Chain
         self._frozen = True
 
@@ -191,7 +187,7 @@ class Robot:
     def __getstate__(self) -> dict:
         """For pickling (Dask workers): the model and what was derived from it, without the caches and workspaces."""
         state = dict(self.__dict__)
-        for name in ("_workspace", "_chains", "_fk_kernels", "_chain_objects"):
+        for name in ("_workspace", "_chain_objects"):
             state.pop(name)
         state["xacro_args"] = dict(self.xacro_args)
         return state
@@ -200,7 +196,7 @@ class Robot:
         state["xacro_args"] = MappingProxyType(state["xacro_args"])
         for name, value in state.items():
             object.__setattr__(self, name, value)
-        for name in ("_chains", "_fk_kernels", "_chain_objects"):
+        for name in ("_chain_objects",):
             object.__setattr__(self, name, {})
         object.__setattr__(self, "_workspace", threading.local())
 
@@ -315,8 +311,7 @@ class Robot:
     def chain_joints(self, base: str, tip: str) -> tuple[str, ...]:
         """``robot.chain(base, tip).joint_names``: the entries of ``q`` that move ``tip`` relative to ``base``, base first.
 
-        Raises :class:`ChainError` if ``tip`` is not below ``base`` (saying
-        whether to swap them or that they are on different branches).
+        Any two frames (:meth:`chain`).
         """
         return self.chain(base, tip).joint_names
 
@@ -506,19 +501,22 @@ class Robot:
     # Kinematics
     # ------------------------------------------------------------------
 
-    def transform(self, base: str | None = None, tip: str | None = None, q=None, *, check_limits: bool = True,
-                  source: str | None = None, target: str | None = None) -> np.ndarray:
+    def transform(self, base: str | None = None, tip: str | None = None, q=None, *, check_limits: bool = True
+                  ) -> np.ndarray:
         """T_base_tip: the pose of ``tip`` expressed in ``base``.
 
-        Computed by Pinocchio's forward kinematics. Same direction as
+        Computed by Pinocchio's forward kinematics of the whole robot,
+        ``oMf[base]^-1 oMf[tip]`` (one configuration: no compiled program to
+        load, so ``tf-between`` starts without numba; the independent
+        reference every test holds :meth:`Chain.fk
+        <manipkit.kinematics.chain.Chain.fk>` to). Same direction as
         ``tf2_echo base tip`` and ``tf-between BASE TIP``.
 
         Parameters
         ----------
         base, tip : str
             Frame names (or the aliases ``base_link``, ``ee_link``); any two
-            frames, on one branch or not. ``source=`` and ``target=`` (their
-            old names) work for one release with a ``DeprecationWarning``.
+            frames, on one branch or not.
         q : array_like or dict, optional
             Anything :meth:`q` takes: values in joint order, or by name
             (joints not given at their default); default: every joint at 0.
@@ -531,10 +529,6 @@ class Robot:
         -------
         T : ndarray, shape (4, 4)
         """
-        if source is not None or target is not None:
-            python_warnings.warn("manipkit API: transform(source=, target=) is now transform(base, tip)",
-                                 DeprecationWarning, stacklevel=2)
-            base, tip = (base if source is None else source), (tip if target is None else target)
         source_id, target_id = self.frame_id(base), self.frame_id(tip)
         q = self.check_limits(q) if check_limits else self._check_q(q)
         data = self.data
@@ -543,8 +537,8 @@ class Robot:
         T_root_target = data.oMf[target_id]
         return (T_root_source.actInv(T_root_target)).homogeneous.copy()
 
-    def jacobian(self, q=None, *legacy, base: str | None = None, tip: str | None = None, reference: str = "base",
-                 representation: str = "geometric", frame: str | None = None) -> np.ndarray:
+    def jacobian(self, q=None, *, base: str | None = None, tip: str | None = None, reference: str = "base",
+                 representation: str = "geometric") -> np.ndarray:
         """The frame Jacobian (6, n): :func:`manipkit.kinematics.jacobian.jacobian` (rows vx vy vz wx wy wz).
 
         ``reference="base"``: expressed in the base frame's axes (Pinocchio
@@ -552,25 +546,21 @@ class Robot:
         ``"local"``: in the frame's own axes (Pinocchio LOCAL, RTB ``jacobe``).
         Columns follow :attr:`joint_names` (a mimic joint adds to its leader's);
         ``robot.chain(base, tip).jacobian(q)`` has the chain's columns only.
-        Frames by keyword, ``base="base_link"``, ``tip="ee_link"`` by default
-        (the old ``frame=`` and positional ``(q, frame, base)`` work for one
-        release with a ``DeprecationWarning``).
+        Frames by keyword, ``base="base_link"``, ``tip="ee_link"`` by default.
         """
         from manipkit.kinematics.jacobian import jacobian
 
-        base, tip = frame_arguments("jacobian", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
         q = None if q is None else self._check_q(q)
         return jacobian(self, q, base=base, tip=tip, reference=reference, representation=representation)
 
-    def jacobians(self, Q, *legacy, base: str | None = None, tip: str | None = None, reference: str = "base",
-                  representation: str = "geometric", frame: str | None = None) -> np.ndarray:
+    def jacobians(self, Q, *, base: str | None = None, tip: str | None = None, reference: str = "base",
+                  representation: str = "geometric") -> np.ndarray:
         """Frame Jacobians (N, 6, n) for many joint vectors: :func:`manipkit.kinematics.jacobian.jacobians` (compiled).
 
         Frames as :meth:`jacobian`.
         """
         from manipkit.kinematics.jacobian import jacobians
 
-        base, tip = frame_arguments("jacobians", legacy, base, tip, frame, default_base="base_link", default_tip="ee_link")
         return jacobians(self, Q, base=base, tip=tip, reference=reference, representation=representation)
 
     def visual_model(self, *, missing_meshes: str = "error") -> pin.GeometryModel:
@@ -624,18 +614,18 @@ class Robot:
         pin.updateGeometryPlacements(self.model, data, geometry_model, geometry_data, self.pinocchio_configuration(q))
         return [placement.homogeneous.copy() for placement in geometry_data.oMg]
 
-    def fk(self, Q, *legacy, base: str | None = None, tip: str | None = None, frame: str | None = None) -> np.ndarray:
-        """Poses of ``tip`` in ``base`` for many joint vectors at once (vectorised, no Python loop over Q).
+    def fk(self, Q, *, base: str | None = None, tip: str | None = None) -> np.ndarray:
+        """Poses of ``tip`` in ``base`` for many joint vectors at once: ``robot.chain(base, tip)``'s compiled FK.
 
         Parameters
         ----------
         Q : array_like, shape (..., n)
-            Joint vectors in :attr:`joint_names` order.
+            Joint vectors in :attr:`joint_names` order (whole-robot rows).
         base, tip : str, keyword-only
             The frame the poses are expressed in (default ``base_link``, i.e.
             :attr:`base_link`, as everywhere else) and the frame posed
-            (default ``ee_link``). The old ``fk(Q, frame, base)`` and
-            ``frame=`` work for one release with a ``DeprecationWarning``.
+            (default ``ee_link``): any two frames (on different branches, the
+            chain goes up from the base and down to the tip).
 
         Returns
         -------
@@ -643,13 +633,10 @@ class Robot:
 
         Notes
         -----
-        Computed by :class:`manipkit.kinematics.fk_kernel.ChainFK` kernels (equal to
-        Pinocchio to about 1e-15). When ``base`` is above ``frame`` in the
-        link tree (the arm base of a mobile manipulator, an intermediate link
-        of the same chain), one kernel runs over the joints between them;
-        otherwise T_base_frame = T_root_base^-1 T_root_frame from two kernels.
+        The chain's program (:class:`manipkit.kernels.fk.ChainFK`, equal to
+        Pinocchio to about 1e-15) runs on the chain's columns of ``Q``.
         """
-        base, frame = frame_arguments("fk", legacy, base, tip, frame, default_base=self.base_link, default_tip=EE_ALIAS)
+        chain = self.chain(self.base_link if base is None else base, EE_ALIAS if tip is None else tip)
         Q = joint_array(Q)
         if Q.shape[-1:] != (len(self.joints),):
             raise JointValueError(
@@ -659,46 +646,30 @@ class Robot:
         if not np.all(np.isfinite(Q)):
             raise JointValueError("joint values must be finite numbers")
         lead = Q.shape[:-1]
-        flat = Q.reshape(int(np.prod(lead)), len(self.joints))  # also for robots without movable joints
-        frame_id = self.frame_id(frame)
-        base_id = None if self.frame(base) == self.root_link else self.frame_id(base)
-        if base_id is None or self._is_above(base_id, frame_id):
-            # One kernel over the chain from the base down to the frame.
-            return self._chain_fk_by_id(frame_id, base_id).transforms(flat).reshape(*lead, 4, 4)
-        # Base on another branch (or below the frame): T_base_frame = T_root_base^-1 T_root_frame.
-        T = self._chain_fk_by_id(frame_id).transforms(flat)
-        T_root_base = self._chain_fk_by_id(base_id).transforms(flat)
-        R_base_t = np.swapaxes(T_root_base[:, :3, :3], -1, -2)
-        T[:, :3, 3] = np.einsum("nij,nj->ni", R_base_t, T[:, :3, 3] - T_root_base[:, :3, 3])
-        T[:, :3, :3] = R_base_t @ T[:, :3, :3]
-        return T.reshape(*lead, 4, 4)
+        flat = Q.reshape(math.prod(lead), len(self.joints))  # also for robots without movable joints
+        return chain.program.fk.transforms(chain_columns(flat, chain.columns)).reshape(*lead, 4, 4)
 
-    def chain(self, base=None, tip=None, *, frame=None) -> Chain | list[ChainStep]:
+    def chain(self, base: str, tip: str) -> Chain:
         """The :class:`~manipkit.kinematics.chain.Chain` of the joints that move ``tip`` relative to ``base``.
 
         Built once per (base, tip) and shared: the same call returns the same
         immutable object. Frames in the order of ``tf-between SOURCE TARGET``
-        (base first); aliases ``base_link`` and ``ee_link`` allowed.
-
-        ``base`` may hang off the path by fixed joints only (ur5's ``base``
-        beside ``base_link``); equal frames, or frames with only fixed joints
-        between them, give a chain with no joints.
+        (base first); aliases ``base_link`` and ``ee_link`` allowed. Any two
+        frames make a chain: the base above the tip, below it, or on another
+        branch (then the chain goes up from the base to the link where the
+        branches meet and down to the tip: finger to finger); equal frames,
+        or frames with only fixed joints between them, give a chain with no
+        joints.
 
         Parameters
         ----------
         base, tip : str
-            Link names. ``frame=`` (the tip's old keyword) works for one
-            release with a ``DeprecationWarning``; so does the old one-argument
-            form ``chain(frame)`` (the chain from the root link); both return
-            the chain's ``steps`` as a list, as they did.
+            Link names.
 
         Raises
         ------
         UnknownFrameError
             A frame the robot does not have.
-        ChainError
-            ``tip`` is not below ``base`` (the message says to swap them, or
-            that they are on different branches).
 
         Examples
         --------
@@ -708,84 +679,14 @@ class Robot:
         >>> [step.index for step in robot.chain("base_link", "ee_link").steps]
         [0, 1, -1]
         """
-        if frame is not None or tip is None:
-            if frame is None and base is None:
-                raise ChainError("robot.chain(base, tip) takes two frames, base first: robot.chain('base_link', 'ee_link')")
-            python_warnings.warn(
-                "robot.chain(frame, base=None) is now robot.chain(base, tip), base first as in tf-between; "
-                "the old form goes in the next release", DeprecationWarning, stacklevel=2,
-            )
-            tip = frame if frame is not None else base
-            base = self.root_link if frame is None or base is None else base
-            return list(self.chain(base, tip).steps)  # the old return value: the steps
         key = (self.frame(base), self.frame(tip))
         chain = self._chain_objects.get(key)
         if chain is None:
-            frame_id, base_id = self._chain_ids(key[1], key[0])
-            chain = Chain(self, key[0], key[1], tuple(self._chain_by_id(frame_id, base_id)))
-            chain = self._chain_objects.setdefault(key, chain)
+            frame_id = self.frame_id(key[1])
+            base_id = None if key[0] == self.root_link else self.frame_id(key[0])
+            steps = tuple(chain_steps(self.model, self._layout.columns, frame_id, base_id))
+            chain = self._chain_objects.setdefault(key, Chain(self, key[0], key[1], steps))
         return chain
-
-    def chain_fk(self, frame: str, base: str | None = None) -> ChainFK:
-        """The batched FK behind :meth:`fk` (built once): ``chain_fk(frame, base).transforms(Q)`` is T_base_frame (N, 4, 4).
-
-        Rows of ``Q`` are whole-robot vectors; ``robot.chain(base, tip).fk``
-        takes chain vectors (or whole-robot ones) and is what new code uses.
-        """
-        return self._chain_fk_by_id(*self._chain_ids(frame, base))
-
-    def _chain_ids(self, frame: str, base: str | None) -> tuple[int, int | None]:
-        """(frame id, base id or None for the root), after checking that the base is above the frame."""
-        frame_id = self.frame_id(frame)
-        if base is None or self.frame(base) == self.root_link:
-            return frame_id, None
-        base_id = self.frame_id(base)
-        if not self._is_above(base_id, frame_id):
-            self._refuse_chain(base, frame)
-            raise ChainError(f"robot '{self.name}': '{self.frame(base)}' is not above '{self.frame(frame)}'")
-        return frame_id, base_id
-
-    def _refuse_chain(self, base: str, tip: str) -> None:
-        """:class:`ChainError` saying why ``tip`` is not below ``base`` (swap them, or different branches)."""
-        base_name, tip_name = self.frame(base), self.frame(tip)
-        base_joint = self.model.frames[self.frame_id(base_name)].parentJoint
-        tip_joint = self.model.frames[self.frame_id(tip_name)].parentJoint
-        tip_support = list(self.model.supports[tip_joint])
-        if base_joint not in tip_support:
-            if tip_joint in self.model.supports[base_joint]:
-                hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
-            else:
-                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.base_link}'"
-            raise ChainError(
-                f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
-                f"(a movable joint lies on the way up from '{base_name}'); {hint}"
-            )
-
-    def _is_above(self, base_id: int, frame_id: int) -> bool:
-        """Whether T_base_frame depends only on joints between the two frames (see :meth:`chain`).
-
-        True when the base frame's parent joint supports the frame: the base
-        is an ancestor of the frame, or hangs off its path by fixed joints
-        only (equal frames included).
-        """
-        base_joint = self.model.frames[base_id].parentJoint
-        return base_joint in self.model.supports[self.model.frames[frame_id].parentJoint]
-
-    def _chain_by_id(self, frame_id: int, base_id: int | None = None) -> list[ChainStep]:
-        """:meth:`chain` by Pinocchio frame ids (``base_id`` None: the root link), cached."""
-        key = (frame_id, base_id)
-        if key not in self._chains:
-            steps = chain_steps(self.model, self._layout.columns, frame_id, base_id)
-            self._chains[key] = steps
-        return self._chains[key]
-
-    def _chain_fk_by_id(self, frame_id: int, base_id: int | None = None) -> ChainFK:
-        """:meth:`chain_fk` by Pinocchio frame ids, cached (the hot path of :meth:`fk`)."""
-        key = (frame_id, base_id)
-        kernel = self._fk_kernels.get(key)
-        if kernel is None:
-            kernel = self._fk_kernels[key] = ChainFK(self._chain_by_id(frame_id, base_id), len(self.joints))
-        return kernel
 
 
 def _joint_number(name: str, value) -> float:

@@ -82,7 +82,7 @@ _NEAREST = None
 def nearest_direction(v, directions) -> np.ndarray:
     """(...,) index of the direction (rows of ``directions``, (M, 3)) with the largest dot product with each ``v`` (..., 3).
 
-    Compiled (numba, :func:`manipkit.kinematics.fk_kernel.compile_kernel`): the
+    Compiled (numba, :func:`manipkit.kernels.compile.compile_kernel`): the
     same answer as ``argmax(v @ directions.T)`` without its (N, M) matrix.
 
     >>> int(nearest_direction(np.array([0.1, 0.0, 1.0]), np.eye(3)))
@@ -90,7 +90,7 @@ def nearest_direction(v, directions) -> np.ndarray:
     """
     global _NEAREST
     if _NEAREST is None:
-        from manipkit.kinematics.fk_kernel import compile_kernel
+        from manipkit.kernels.compile import compile_kernel
 
         _NEAREST = compile_kernel(_nearest_rows)
     v = np.asarray(v, dtype=float)

@@ -1,8 +1,9 @@
 """Compiling numba kernels, once per process and cached on disk where that works: :func:`compile_kernel`.
 
-Every compiled function of manipkit (the batched FK and IK of
-:mod:`manipkit.kinematics`, the closed forms of :mod:`manipkit.closed_form`)
-is made here, so it sits below both layers: numba's on-disk cache when it
+Every compiled function of manipkit (a chain's program in
+:mod:`manipkit.kernels.fk` and :mod:`manipkit.kernels.program`, the IK
+iteration of :mod:`manipkit.kinematics`, the closed forms of
+:mod:`manipkit.closed_form`) is made here, so it sits below those layers: numba's on-disk cache when it
 works, else compiled in memory with one :class:`KernelCacheWarning` (a
 read-only install with a read-only home, a full disk, a cache folder or file
 others can write: :mod:`manipkit.kernel_cache` says where the cache lives and
@@ -105,7 +106,7 @@ def sources_digest(root: str | os.PathLike) -> str:
 
 @functools.cache
 def _package_digest() -> str:
-    return sources_digest(Path(__file__).resolve().parent)
+    return sources_digest(Path(__file__).resolve().parents[1])  # the whole package: every module with kernels
 
 
 @functools.cache

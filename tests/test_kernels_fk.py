@@ -1,4 +1,4 @@
-"""manipkit.kinematics.fk_kernel: the compiled batched FK equals Pinocchio's forward kinematics to 1e-12.
+"""manipkit.kernels.fk: the compiled batched FK equals Pinocchio's forward kinematics to 1e-12.
 
 The second source is Pinocchio itself (``robot.transform``, i.e.
 ``framesForwardKinematics``), one configuration at a time; the chains cover
@@ -16,10 +16,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.kinematics.fk_kernel import ChainFK, chain_fk, chain_fk_for
+from manipkit.kernels.fk import ChainFK, chain_fk
 from manipkit.kinematics.robot import Robot
 
 TOL = 1e-12
+
+
+def chain_fk_for(robot, frame):
+    """The batched FK of the chain root -> ``frame`` on whole-robot rows: a ChainFK of the chain's own steps (they
+    index the robot's joint vector), so the kernel is checked on every robot's columns, mimic leaders included."""
+    return ChainFK(robot.chain(robot.root_link, frame).steps, len(robot.joint_names))
 
 
 def pinocchio_poses(robot, frame, Q):
@@ -152,7 +158,8 @@ def test_importing_the_module_does_not_import_numba():
     import subprocess
     import sys
 
-    code = "import sys, manipkit.kinematics.fk_kernel, manipkit.kinematics.robot; print('numba' in sys.modules)"
+    code = ("import sys, manipkit.kernels.fk, manipkit.kernels.program, manipkit.kinematics.robot; "
+            "print('numba' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
 
 

@@ -2,15 +2,14 @@
 
 Conventions (docs/architecture.md), restated:
 
-- ``Q`` has one row per configuration and one column per movable joint of the
-  robot, in ``robot.joint_names`` order (radians, metres); only the chain's
-  columns are read.
-- The result is ``T_root_frame``, shape (N, 4, 4): the pose of the chain's
-  tip frame in the frame the chain starts from (the root link, or a base
-  frame above the tip: :meth:`manipkit.kinematics.robot.Robot.chain`), for
-  each row of ``Q``.
+- ``Q`` has one row per configuration and one column per joint value the
+  steps index (a :class:`manipkit.kinematics.chain.Chain`'s program: its
+  chain vector, radians and metres).
+- The result is ``T_base_tip``, shape (N, 4, 4): the pose of the chain's
+  tip frame in its base frame, for each row of ``Q``.
 - A chain is a list of :class:`ChainStep`: constant placements and the
-  joints between them, from the base (or root) down to the frame.
+  joints between them, from the base to the tip (up the tree from the base
+  and down again, when base and tip are on different branches).
 
 How it is fast (:class:`ChainFK`): a chain is a product of constant
 placements ``X_k = [C_k, t_k]`` and joint motions,
@@ -48,10 +47,10 @@ and the loop compiled (or loaded from numba's cache) when a :class:`ChainFK`
 first runs, not when this module is imported.
 
 The compiled kernels (this loop and those of :mod:`manipkit.kinematics.ik_kernel`)
-are made by :func:`compile_kernel`: numba's on-disk cache when it works, else
-compiled in memory with one :class:`KernelCacheWarning` (a read-only install
-with a read-only home, a full disk); a cache file that cannot be read (a
-truncated file) is recompiled and written again.
+are made by :func:`manipkit.kernels.compile.compile_kernel`: numba's on-disk
+cache when it works, else compiled in memory with one warning. numpy, numba
+and :mod:`manipkit.errors` only: a :class:`manipkit.kinematics.chain.Chain`
+builds its program here (:mod:`manipkit.kernels.program`).
 
 The answer equals Pinocchio's ``framesForwardKinematics`` to about 1e-15
 (tested to 1e-12): placement entries within 1e-14 of 0 or +-1 are taken as
@@ -59,11 +58,14 @@ exactly that (a URDF ``rpy`` of 1.5707963 leaves 6e-17 where 0 is meant).
 
 Examples
 --------
+A planar 2R arm with unit links (joint 2 one metre out along x, the tip one
+metre further):
+
 >>> import numpy as np
->>> import manipkit
->>> robot = manipkit.load("planar_2r")
->>> fk = chain_fk_for(robot, "ee_link")
->>> T = fk.transforms(np.array([[0.0, np.pi / 2]]))
+>>> z = np.array([0.0, 0.0, 1.0])
+>>> steps = [ChainStep(np.eye(3), np.zeros(3), 0, False, z), ChainStep(np.eye(3), np.array([1.0, 0, 0]), 1, False, z),
+...          ChainStep(np.eye(3), np.array([1.0, 0, 0]), -1, False, None)]
+>>> T = ChainFK(steps, 2).transforms(np.array([[0.0, np.pi / 2]]))
 >>> np.round(T[0, :2, 3], 12)
 array([1., 1.])
 """
@@ -74,19 +76,15 @@ import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from manipkit.errors import ChainError, IKOptionError, JointValueError
-from manipkit.kernels import KernelCacheWarning, compile_kernel, lazy_kernel
-
-if TYPE_CHECKING:
-    from manipkit.kinematics.robot import Robot
+from manipkit.kernels.compile import lazy_kernel
 
 __all__ = [
-    "ChainFK", "ChainStep", "KernelCacheWarning", "chain_fk", "chain_fk_for", "compile_kernel", "lazy_kernel",
-    "snap_placement", "thread_count", "z_to_axis",
+    "MAX_THREADS", "ChainFK", "ChainStep", "chain_fk", "pose_rows", "pose_rows_kernel", "row_tables", "snap_placement",
+    "thread_count", "z_to_axis",
 ]
 
 #: Most threads a compiled batch (``ik_many``, ``chain_ik_many``) uses by default: the cores it may run on, up to this.
@@ -391,9 +389,6 @@ def _poses(tan_half, values, R0, p0, joints, shifts, mixes, mixed, out_cols, out
 
 
 
-# Compiling the kernels: manipkit.kernels (compile_kernel, lazy_kernel), shared with closed_form
-
-
 # error_model="numpy": a float division by zero gives inf instead of raising; the check for it would keep LLVM
 # from vectorising the loops (a division by 1 + t^2 >= 1 never takes it anyway)
 # nogil: the loop touches no Python object, so threads (the closed forms' batched check) may run it at once
@@ -405,16 +400,14 @@ _kernel = lazy_kernel(_poses, error_model="numpy", nogil=True)
 
 
 class ChainFK:
-    """Batched FK of one chain (root to a frame), prepared once, then run on any number of rows.
+    """Batched FK of one chain (base to tip), prepared once, then run on any number of rows.
 
     Parameters
     ----------
     steps : sequence of ChainStep
-        The chain from the root (or a base frame) down to the frame, as
-        :meth:`manipkit.kinematics.robot.Robot.chain` returns it; see also
-        :func:`chain_fk_for`.
+        The chain from the base to the tip (``Chain.program.steps``).
     n_joints : int
-        Columns of ``Q`` (all of the robot's movable joints).
+        Columns of ``Q`` (the joint values the steps index).
     block : int, keyword-only
         Rows per numpy ``tan`` call (cache-sized; the answer does not depend on it).
 
@@ -426,13 +419,13 @@ class ChainFK:
     Examples
     --------
     >>> import manipkit
-    >>> robot = manipkit.load("iiwa14")
-    >>> fk = chain_fk_for(robot, "ee_link")
-    >>> Q = robot.sample_q(1000, seed=0)
+    >>> chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    >>> fk = ChainFK(chain.program.steps, chain.n)
+    >>> Q = chain.sample(1000, seed=0)
     >>> T_base_ee = fk.transforms(Q)
     >>> T_base_ee.shape
     (1000, 4, 4)
-    >>> bool(np.allclose(T_base_ee[7], robot.transform("base_link", "ee_link", Q[7]), atol=1e-12))
+    >>> bool(np.allclose(T_base_ee[7], chain.robot.transform("base_link", "ee_link", chain.full(Q[7])), atol=1e-12))
     True
     """
 
@@ -566,15 +559,6 @@ def chain_fk(steps: Sequence[ChainStep], Q, *, n_joints: int | None = None) -> t
     return ChainFK(steps, Q.shape[1] if n_joints is None else n_joints).rotations_translations(Q)
 
 
-def chain_fk_for(robot: Robot, frame: str) -> ChainFK:
-    """The prepared :class:`ChainFK` from ``robot``'s root link to ``frame`` (rows of Q in ``robot.joint_names`` order).
-
-    The one :meth:`manipkit.kinematics.robot.Robot.fk` uses (built once per
-    robot and frame): :meth:`manipkit.kinematics.robot.Robot.chain_fk`.
-    """
-    return robot.chain_fk(frame)
-
-
 # --------------------------------------------------------------------------
 # One configuration at a time, from inside another compiled loop (the closed forms' check of every branch)
 
@@ -690,5 +674,3 @@ def pose_rows(Q, present, floats, ints, states, out):
 
 
 pose_rows_kernel = lazy_kernel(pose_rows, error_model="numpy")
-
-__all__ += ["pose_rows", "pose_rows_kernel", "row_tables"]
