@@ -152,7 +152,7 @@ def test_spatial_hybrid_map_ik_cells_and_samples_check_by_fk(iiwa14):
         voxel, b = divmod(int(key), m.orientations.size)
         T = iiwa14.transform("base_link", "ee_link", q)
         assert np.linalg.norm(T[:3, 3] - centres[voxel]) < 1e-9 and np.abs(T[:3, :3] - bins[b]).max() < 1e-9
-        assert iiwa14.outside_limits(q) == []
+        assert not iiwa14.outside_limits(q).any()
     sampled = np.argwhere(m.how == HOW_SAMPLE)
     for i, j, k in sampled[rng.choice(len(sampled), size=40, replace=False)]:
         T = iiwa14.transform("base_link", "ee_link", m.voxel_q[i, j, k])

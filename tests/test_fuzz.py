@@ -435,7 +435,7 @@ def _check_robot(robot: Robot, seed: int, text: str) -> None:
 
     sampled = robot.sample_q(3, seed=seed)
     assert np.all(np.isfinite(sampled)), f"sample_q gave non-finite values {sampled}"
-    assert not [line for q in sampled for line in robot.outside_limits(q)], "sample_q left the limits"
+    assert not robot.outside_limits(sampled).any(), "sample_q left the limits"
 
     try:
         urdf = _yourdfpy(text)

@@ -38,7 +38,7 @@ def axis_angle_between(u, v):
 
 
 def within_limits(robot, q):
-    return robot.outside_limits(q) == []
+    return not robot.outside_limits(q).any()
 
 
 def solve_random_reachable(robot, n, *, seed):

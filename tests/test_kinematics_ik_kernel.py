@@ -224,7 +224,7 @@ def test_random_chains_ik_from_a_nearby_start(joints, mode):
         T = robot.transform(robot.root_link, tip, q_true)
         q0 = q_true + 1e-3 * np.random.default_rng(i).standard_normal(q_true.size)
         result = ik(robot, T, robot.root_link, tip, mode=mode, q0=q0, restarts=0)
-        assert robot.outside_limits(result.q) == []
+        assert not robot.outside_limits(result.q).any()
         _, J, _ = kernel_pose_jacobian(robot, tip, robot.root_link, q_true)
         sigma = np.linalg.svd(J[:rows], compute_uv=False)
         well_conditioned = sigma.size >= rows and sigma[rows - 1] >= 0.05

@@ -170,9 +170,17 @@ def test_continuous_joint_takes_angles_beyond_pi(loaded):
 
 def test_outside_limits_names_the_joint_and_limits(loaded):
     robot = loaded["iiwa14"]
-    lines = robot.outside_limits(robot.q(iiwa_joint_2=2.5))
+    q = robot.q(iiwa_joint_2=2.5)
     # iiwa14's joint 2 limit is +-120 deg = +-2.0944 rad (shared/reference)
-    assert lines == ["joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)"]
+    assert robot.outside_limits(q).tolist() == [False, True, False, False, False, False, False]
+    assert [str(e) for e in robot.limit_violations(q)] == [
+        "joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)"]
+    chain = robot.chain("base_link", "ee_link")  # the same rule, one implementation (JointSpace), on chain vectors
+    assert np.array_equal(chain.outside_limits(q), robot.outside_limits(q))
+    assert [str(e) for e in chain.limit_violations(q)] == [str(e) for e in robot.limit_violations(q)]
+    Q = np.random.default_rng(3).uniform(-3, 3, (50, 7))
+    assert np.array_equal(robot.within_limits(Q), chain.within_limits(Q)) and not robot.within_limits(Q).all()
+    assert np.array_equal(robot.clamp(Q), chain.clamp(Q))
 
 
 def test_base_link_alias_is_the_root_of_a_robot_without_such_link():

@@ -89,7 +89,68 @@ class JointAxes:
     scale: np.ndarray
 
 
-class Chain:
+class JointSpace:
+    """The joint-space API, defined once for a :class:`manipkit.kinematics.robot.Robot` (whole-robot vectors,
+    :attr:`Robot.joint_names <manipkit.kinematics.robot.Robot.joint_names>` order) and a :class:`Chain` (chain
+    vectors): limits, the test against them, clamping, sampling.
+
+    A class using it has ``joints``, ``lower``, ``upper`` (rad or m; infinite
+    for a continuous joint) and the validators ``q`` (one vector, checked)
+    and ``rows`` (many, checked), and ``_checked`` (``q`` without a copy
+    where the input is already a vector). A value counts as inside its limits up to
+    :data:`LIMIT_TOLERANCE` beyond them (printed values round-trip).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> robot = manipkit.load("iiwa14")
+    >>> q = robot.q(iiwa_joint_2=2.5)  # joint 2 is limited to +-120 deg (2.0944 rad)
+    >>> robot.outside_limits(q).nonzero()[0].tolist(), bool(robot.within_limits(robot.clamp(q)))
+    ([1], True)
+    >>> chain = robot.chain("base_link", "ee_link")
+    >>> chain.outside_limits(q[chain.columns]).nonzero()[0].tolist()
+    [1]
+    """
+
+    __slots__ = ()
+
+    def outside_limits(self, Q) -> np.ndarray:
+        """Boolean (..., n): which entries of the vectors ``Q`` lie outside their limits (by more than 1e-12)."""
+        Q = self.rows(Q)
+        return (Q < self.lower - LIMIT_TOLERANCE) | (Q > self.upper + LIMIT_TOLERANCE)
+
+    def within_limits(self, Q) -> np.ndarray:
+        """Boolean (...,): every entry of each vector inside its limits (continuous joints always are)."""
+        return ~self.outside_limits(Q).any(axis=-1)
+
+    def limit_violations(self, q) -> list[JointLimitError]:
+        """One :class:`JointLimitError` per entry of the vector ``q`` outside its limits, in order (not raised)."""
+        q = self.q(q)
+        return [JointLimitError(j.name, float(q[k]), j.lower, j.upper, "rad" if j.is_angular else "m")
+                for k in np.flatnonzero(self.outside_limits(q)) for j in (self.joints[k],)]
+
+    def check_limits(self, q) -> np.ndarray:
+        """The vector of ``q`` (checked by ``q``) when inside the limits, else the :class:`JointLimitError` of the first
+        entry outside (its name, value and limits)."""
+        q = self._checked(q)
+        if ((q < self.lower - LIMIT_TOLERANCE) | (q > self.upper + LIMIT_TOLERANCE)).any():
+            raise self.limit_violations(q)[0]
+        return q
+
+    def clamp(self, Q) -> np.ndarray:
+        """The vectors ``Q`` moved to the nearest values inside the limits (a copy)."""
+        return np.minimum(np.maximum(self.rows(Q), self.lower), self.upper)
+
+    def sample(self, n: int, *, seed=0) -> np.ndarray:
+        """``n`` vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]), shape (n, len(joints)).
+
+        Reproducible: the same ``seed`` (an int or a sequence of ints, as
+        ``numpy.random.default_rng`` takes) gives the same rows.
+        """
+        return sample_between(*sampling_bounds(self.lower, self.upper), n, seed)
+
+
+class Chain(JointSpace):
     """The independent joints that move ``tip`` relative to ``base``, with their limits and compiled kinematics.
 
     Build it with :meth:`manipkit.kinematics.robot.Robot.chain` (``robot.chain(base, tip)``);
@@ -258,36 +319,8 @@ class Chain:
         whole[self.columns] = self.q(q)
         return whole
 
-    def sample(self, n: int, *, seed=0) -> np.ndarray:
-        """``n`` chain vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]), shape (n, len(chain)).
-
-        Reproducible: the same ``seed`` (an int or a sequence of ints, as
-        ``numpy.random.default_rng`` takes) gives the same rows.
-        """
-        return sample_between(*sampling_bounds(self.lower, self.upper), n, seed)
-
-    def outside_limits(self, Q) -> np.ndarray:
-        """Boolean (..., n): which entries of chain vectors ``Q`` lie outside their limits (by more than 1e-12)."""
-        Q = self.rows(Q)
-        return (Q < self.lower - LIMIT_TOLERANCE) | (Q > self.upper + LIMIT_TOLERANCE)
-
-    def within_limits(self, Q) -> np.ndarray:
-        """Boolean (...,): every entry of each chain vector inside its limits (continuous joints always are)."""
-        return ~self.outside_limits(Q).any(axis=-1)
-
-    def check_limits(self, q) -> np.ndarray:
-        """The chain vector of ``q`` when inside the limits, else :class:`JointLimitError` naming the first joint outside."""
-        q = self.q(q)
-        outside = self.outside_limits(q)
-        if outside.any():
-            k = int(np.flatnonzero(outside)[0])
-            j = self.joints[k]
-            raise JointLimitError(j.name, float(q[k]), j.lower, j.upper, "rad" if j.is_angular else "m")
-        return q
-
-    def clamp(self, Q) -> np.ndarray:
-        """Chain vectors moved to the nearest values inside the limits (a copy)."""
-        return np.minimum(np.maximum(self.rows(Q), self.lower), self.upper)
+    def _checked(self, q) -> np.ndarray:
+        return self.q(q)
 
     def as_dict(self, q) -> dict[str, float]:
         """Joint name -> value for one chain vector."""

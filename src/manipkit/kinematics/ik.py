@@ -525,8 +525,9 @@ class IKSolver:
         """(position, rotation) residuals at chain values ``x``: Pinocchio's FK (the thread's own workspace),
         measured by :func:`manipkit.spatial.transforms.pose_residuals` (see :func:`ik`)."""
         data = self.robot.data
-        pin.framesForwardKinematics(self._model, data, self._configuration(self._full_q(goal.q_full, x)))
-        T_base_tip = data.oMf[self._base_id].actInv(data.oMf[self._frame_id]).homogeneous
+        pin.forwardKinematics(self._model, data, self._configuration(self._full_q(goal.q_full, x)))
+        T_root_tip = pin.updateFramePlacement(self._model, data, self._frame_id)  # two frames, not every frame
+        T_base_tip = pin.updateFramePlacement(self._model, data, self._base_id).actInv(T_root_tip).homogeneous
         pos, rot = pose_residuals(goal.T_target, T_base_tip, mode=self.mode, axis=self.axis, project=False)
         return float(pos), float(rot)
 

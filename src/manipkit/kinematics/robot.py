@@ -36,15 +36,14 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.srdf import shipped_srdf
 from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
-from manipkit.errors import DescriptionError, JointLimitError, JointValueError, UnknownFrameError
+from manipkit.errors import DescriptionError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import (
     LIMIT_TOLERANCE,
     Chain,
+    JointSpace,
     chain_columns,
     chain_steps,
     joint_array,
-    sample_between,
-    sampling_bounds,
 )
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.kinematics.tool_frame import tool_frame_of
@@ -99,7 +98,7 @@ def load(robot: str | os.PathLike | None = None, *, package_dirs: dict | None = 
     return Robot.from_urdf(text, source=source, package_dirs=package_dirs, xacro_args=used, allow_read=allowed)
 
 
-class Robot:
+class Robot(JointSpace):
     """A robot model, immutable: the Pinocchio model, its joints and frames, and the chains between frames.
 
     Build it with :func:`load`. ``model`` is Pinocchio's; :attr:`data` is a
@@ -172,9 +171,12 @@ class Robot:
         self.srdf_notes: tuple[str, ...] = () if self.srdf is not None else notes
         self.ee_frame, self.ee_reason = tool_frame_of(model, self._frame_ids, source.ee_frame, source.name,
                                                       srdf=self.srdf)
-        # Limits widened by LIMIT_TOLERANCE, for the quick check of check_limits
-        self._lower_ok = np.array([j.lower for j in self.joints], dtype=float) - LIMIT_TOLERANCE
-        self._upper_ok = np.array([j.upper for j in self.joints], dtype=float) + LIMIT_TOLERANCE
+        #: Joint limits (rad or m; infinite for a continuous joint), in :attr:`joint_names` order, read-only;
+        #: the joint-space API (limits, clamp, sampling) is :class:`manipkit.kinematics.chain.JointSpace`'s.
+        self.lower = np.array([j.lower for j in self.joints], dtype=float)
+        self.upper = np.array([j.upper for j in self.joints], dtype=float)
+        self.lower.setflags(write=False)
+        self.upper.setflags(write=False)
         # Caches of derived, never-changing data (a race builds one twice, harmlessly):
         self._chain_objects: dict[tuple[str, str], Chain] = {}  # (base link, tip link) -> Chain
         self._frozen = True
@@ -316,14 +318,9 @@ class Robot:
         return self.chain(base, tip).joint_names
 
     def sample_q(self, n: int, *, seed: int = 0) -> np.ndarray:
-        """``n`` joint vectors drawn uniformly inside the limits (continuous joints: [-pi, pi]).
-
-        Returns
-        -------
-        Q : ndarray, shape (n, len(joint_names))
-        """
-        bounds = sampling_bounds([j.lower for j in self.joints], [j.upper for j in self.joints])
-        return sample_between(*bounds, n, seed)
+        """``n`` whole-robot joint vectors inside the limits: :meth:`JointSpace.sample
+        <manipkit.kinematics.chain.JointSpace.sample>` (continuous joints: [-pi, pi]), shape (n, len(joint_names))."""
+        return self.sample(n, seed=seed)
 
     # ------------------------------------------------------------------
     # Joint vectors
@@ -420,51 +417,21 @@ class Robot:
         q = self._check_q(q)
         return {name: float(value) for name, value in zip(self.joint_names, q)}
 
-    def outside_limits(self, q) -> list[str]:
-        """One line per joint of ``q`` outside its limits (empty when all are inside): :meth:`limit_violations` as text."""
-        return [str(violation) for violation in self.limit_violations(q)]
+    def rows(self, Q) -> np.ndarray:
+        """Many whole-robot joint vectors (..., n) from ``Q``, checked (finite reals, one per joint); a dict by name is
+        one vector, as :meth:`q` takes it."""
+        if isinstance(Q, Mapping):
+            return self.q(Q)
+        Q = joint_array(Q)
+        if Q.ndim == 0 or Q.shape[-1] != len(self.joints):
+            raise JointValueError(f"robot '{self.name}' needs {len(self.joints)} joint values per configuration "
+                                  f"({', '.join(self.joint_names) or 'none'}), got shape {Q.shape}")
+        if not np.all(np.isfinite(Q)):
+            raise JointValueError("joint values must be finite numbers")
+        return Q
 
-    def limit_violations(self, q) -> list[JointLimitError]:
-        """One :class:`JointLimitError` per joint of ``q`` outside its limits, in joint order (not raised)."""
-        q = self._check_q(q)
-        return [
-            JointLimitError(j.name, float(value), j.lower, j.upper, "m" if not j.is_angular else "rad")
-            for j, value in zip(self.joints, q)
-            if not (j.lower - LIMIT_TOLERANCE <= value <= j.upper + LIMIT_TOLERANCE)
-        ]
-
-    def check_limits(self, q) -> np.ndarray:
-        """``q`` itself when every value is inside its joint's limits, else :class:`JointLimitError`.
-
-        :meth:`transform` makes this check by default (``check_limits=False``
-        skips it); :meth:`q` and :meth:`fk` take values outside the limits and
-        compute the pose the joints would have. The error names the
-        first joint outside its limits, its value and the limits:
-        ``joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits
-        [-2.0944, 2.0944] rad)``.
-
-        Examples
-        --------
-        >>> robot = load("iiwa14")
-        >>> robot.check_limits(robot.q(iiwa_joint_2=2.5))
-        Traceback (most recent call last):
-        ...
-        manipkit.errors.JointLimitError: joint 'iiwa_joint_2' = 2.5 is above its upper limit 2.0944 (limits [-2.0944, 2.0944] rad)
-        """
-        q = self._check_q(q)
-        if ((q < self._lower_ok) | (q > self._upper_ok)).any():  # the common case, all inside, in two comparisons
-            raise self.limit_violations(q)[0]
-        return q
-
-    def clamp(self, q) -> np.ndarray:
-        """``q`` with every value moved to the nearest value inside its joint's limits (a copy).
-
-        Works on one joint vector (n,) or many (..., n), or joint values by name (a dict, as :meth:`q`).
-        """
-        Q = np.array(self.q(q) if isinstance(q, Mapping) else joint_array(q))
-        lower = np.array([j.lower for j in self.joints], dtype=float)
-        upper = np.array([j.upper for j in self.joints], dtype=float)
-        return np.minimum(np.maximum(Q, lower), upper)
+    def _checked(self, q) -> np.ndarray:
+        return self._check_q(q)
 
     def _check_q(self, q) -> np.ndarray:
         """A joint vector from anything :meth:`q` takes (None: the default), checked for length and finiteness."""
