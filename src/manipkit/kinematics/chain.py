@@ -47,14 +47,13 @@ import numpy as np
 from manipkit.bounds import MAX_COUNT, count
 from manipkit.errors import ChainError, JointLimitError, JointValueError, OptionError
 from manipkit.kernels.fk import ChainFK, ChainStep
-from manipkit.kernels.program import ChainProgram
 from manipkit.spatial.rotations import matrix_from_axis_angle
 from manipkit.text import repr_text
 
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_columns", "chain_of", "chain_steps", "robot_and_frames", "sample_between", "sampling_bounds", "joint_array"]
+__all__ = ["Chain", "JointAxes", "LIMIT_TOLERANCE", "REFERENCES", "chain_columns", "chain_of", "limits_ok", "chain_steps", "robot_and_frames", "sample_between", "sampling_bounds", "joint_array"]
 
 #: A joint value this far outside its limit still counts as inside (printed values round-trip).
 LIMIT_TOLERANCE = 1e-12
@@ -89,6 +88,11 @@ class JointAxes:
     scale: np.ndarray
 
 
+def limits_ok(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) widened by :data:`LIMIT_TOLERANCE`: what :class:`JointSpace` tests values against."""
+    return np.asarray(lower, dtype=float) - LIMIT_TOLERANCE, np.asarray(upper, dtype=float) + LIMIT_TOLERANCE
+
+
 class JointSpace:
     """The joint-space API, defined once for a :class:`manipkit.kinematics.robot.Robot` (whole-robot vectors,
     :attr:`Robot.joint_names <manipkit.kinematics.robot.Robot.joint_names>` order) and a :class:`Chain` (chain
@@ -96,7 +100,8 @@ class JointSpace:
 
     A class using it has ``joints``, ``lower``, ``upper`` (rad or m; infinite
     for a continuous joint) and the validators ``q`` (one vector, checked)
-    and ``rows`` (many, checked), and ``_checked`` (``q`` without a copy
+    and ``rows`` (many, checked), ``_limits_ok`` (the limits widened by
+    :data:`LIMIT_TOLERANCE`, made once: :func:`limits_ok`), and ``_checked`` (``q`` without a copy
     where the input is already a vector). A value counts as inside its limits up to
     :data:`LIMIT_TOLERANCE` beyond them (printed values round-trip).
 
@@ -117,7 +122,8 @@ class JointSpace:
     def outside_limits(self, Q) -> np.ndarray:
         """Boolean (..., n): which entries of the vectors ``Q`` lie outside their limits (by more than 1e-12)."""
         Q = self.rows(Q)
-        return (Q < self.lower - LIMIT_TOLERANCE) | (Q > self.upper + LIMIT_TOLERANCE)
+        lower_ok, upper_ok = self._limits_ok
+        return (Q < lower_ok) | (Q > upper_ok)
 
     def within_limits(self, Q) -> np.ndarray:
         """Boolean (...,): every entry of each vector inside its limits (continuous joints always are)."""
@@ -133,7 +139,8 @@ class JointSpace:
         """The vector of ``q`` (checked by ``q``) when inside the limits, else the :class:`JointLimitError` of the first
         entry outside (its name, value and limits)."""
         q = self._checked(q)
-        if ((q < self.lower - LIMIT_TOLERANCE) | (q > self.upper + LIMIT_TOLERANCE)).any():
+        lower_ok, upper_ok = self._limits_ok
+        if ((q < lower_ok) | (q > upper_ok)).any():  # the common case, all inside, in two comparisons
             raise self.limit_violations(q)[0]
         return q
 
@@ -186,7 +193,7 @@ class Chain(JointSpace):
     """
 
     __slots__ = ("robot", "base", "tip", "joint_names", "joints", "columns", "lower", "upper", "steps",
-                 "program", "_angular", "_continuous")
+                 "program", "_angular", "_continuous", "_limits_ok")
 
     def __init__(self, robot: Robot, base: str, tip: str, steps: tuple[ChainStep, ...]):
         columns = list(dict.fromkeys(step.index for step in steps if step.index >= 0))  # base to tip, each once
@@ -209,7 +216,10 @@ class Chain(JointSpace):
         set_(self, "upper", _read_only(np.array([j.upper for j in self.joints], dtype=float)))
         set_(self, "_angular", _read_only(np.array([j.is_angular for j in self.joints], dtype=bool)))
         set_(self, "_continuous", _read_only(np.array([j.type == "continuous" for j in self.joints], dtype=bool)))
+        from manipkit.kernels.program import ChainProgram  # on the first chain: tf-between builds none
+
         set_(self, "program", ChainProgram(local_steps, len(columns)))
+        set_(self, "_limits_ok", limits_ok(self.lower, self.upper))
 
     def __setattr__(self, name, value):
         raise AttributeError(f"a Chain is immutable: cannot set '{name}' (build another with robot.chain(base, tip))")

@@ -44,6 +44,7 @@ from manipkit.kinematics.chain import (
     chain_columns,
     chain_steps,
     joint_array,
+    limits_ok,
 )
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.kinematics.tool_frame import tool_frame_of
@@ -177,6 +178,7 @@ class Robot(JointSpace):
         self.upper = np.array([j.upper for j in self.joints], dtype=float)
         self.lower.setflags(write=False)
         self.upper.setflags(write=False)
+        self._limits_ok = limits_ok(self.lower, self.upper)
         # Caches of derived, never-changing data (a race builds one twice, harmlessly):
         self._chain_objects: dict[tuple[str, str], Chain] = {}  # (base link, tip link) -> Chain
         self._frozen = True
