@@ -267,9 +267,7 @@ def test_functions_stay_under_80_lines_or_say_why(path):
 
 #: Import circles whose modules others are changing: each entry is the modules of one circle; a circle among them
 #: (or among a part of them) passes. Delete an entry when its work lands (test_every_circle_in_transit_is_still_there).
-KNOWN_CYCLES_IN_TRANSIT: set[frozenset[str]] = {
-    frozenset({"manipkit.kinematics.chain", "manipkit.kinematics.jacobian"}),  # issue 35, being removed
-}
+KNOWN_CYCLES_IN_TRANSIT: set[frozenset[str]] = set()
 
 
 def module_name(path: Path, root: Path = PACKAGE) -> str:
