@@ -483,17 +483,19 @@ def test_ellipsoid_follows_the_joints_and_the_frames(robots):
     assert np.abs(state.ellipsoid_placement()[:3, 3] - robot.transform("base_link", "top_wrist", state.q)[:3, 3]).max() < 1e-12
 
 
-def test_frames_that_are_no_chain_or_fixed_together_say_so_and_draw_no_ellipsoid(robots):
-    # A below B (ee_link above bicep is the wrong way round): there is no chain A -> B, so no Jacobian report;
-    # the readout says which order would do, the scene hides the ellipsoid, the snapshot stays JSON
-    state = ViewerState(robots["course_arm"], frames=("ee_link", "bicep"), overlay=Overlay(True))
+def test_frames_up_the_tree_have_an_ellipsoid_and_fixed_together_say_so_and_draw_none(robots):
+    # A below B (ee_link, then bicep up the arm) is a chain too (issue 35): the Jacobian of bicep relative to
+    # ee_link, drawn at bicep; frames fixed together have none, and the readout says so
+    robot = robots["course_arm"]
+    state = ViewerState(robot, frames=("ee_link", "bicep"), overlay=Overlay(True))
     report = state.ellipsoid()
-    assert "swap them (base='bicep', tip='ee_link')" in report["error"]
-    assert state.ellipsoid_placement() is None
-    assert ELLIPSOID_PATH not in state.scene_placements() and state.scene_visibility() == {ELLIPSOID_PATH: False}
-    snapshot = state.snapshot()
-    assert snapshot["ellipsoid_text"].startswith("no Jacobian of bicep relative to ee_link: ")
-    json.dumps(snapshot, allow_nan=False)
+    chain = robot.chain("ee_link", "bicep")
+    assert "error" not in report and chain.joint_names == ("top_wrist_joint", "elbow_joint", "bottom_wrist_joint")
+    J = chain.jacobian(state.q[chain.columns])
+    assert np.abs(np.array(report["radii"]) - velocity_ellipsoid(J).radii).max() < 1e-12
+    assert np.abs(state.ellipsoid_placement()[:3, 3] - robot.transform("base_link", "bicep", state.q)[:3, 3]).max() < 1e-12
+    assert state.scene_visibility() == {ELLIPSOID_PATH: True}
+    json.dumps(state.snapshot(), allow_nan=False)
     state.set_frames("ee_link", "ee_link")  # a chain without joints: nothing moves, nothing to draw
     assert state.ellipsoid()["error"] == "no joint moves ee_link relative to ee_link"
     assert state.scene_visibility() == {ELLIPSOID_PATH: False}

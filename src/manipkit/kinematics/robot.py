@@ -36,7 +36,7 @@ from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.srdf import shipped_srdf
 from manipkit.description.validate import cap_warnings, check_urdf, package_uri_warnings
 from manipkit.description.xacro import describe, xacro_locator
-from manipkit.errors import DescriptionError, JointValueError, UnknownFrameError
+from manipkit.errors import ChainError, DescriptionError, JointValueError, UnknownFrameError
 from manipkit.kinematics.chain import (
     LIMIT_TOLERANCE,
     Chain,
@@ -313,11 +313,28 @@ class Robot(JointSpace):
         return self._frame_ids[self.frame(name)]
 
     def chain_joints(self, base: str, tip: str) -> tuple[str, ...]:
-        """``robot.chain(base, tip).joint_names``: the entries of ``q`` that move ``tip`` relative to ``base``, base first.
+        """The joints of the serial chain *down* the link tree from ``base`` to ``tip``, base first (what a DH table
+        reads): ``robot.chain(base, tip).joint_names`` when ``tip`` is below ``base``.
 
-        Any two frames (:meth:`chain`).
+        Raises
+        ------
+        ChainError
+            ``tip`` is not below ``base`` (the message says to swap them, or that they are on different
+            branches); :meth:`chain` itself takes any two frames.
         """
-        return self.chain(base, tip).joint_names
+        base_name, tip_name = self.frame(base), self.frame(tip)
+        base_joint = self.model.frames[self.frame_id(base_name)].parentJoint
+        tip_joint = self.model.frames[self.frame_id(tip_name)].parentJoint
+        if base_joint not in self.model.supports[tip_joint]:
+            if tip_joint in self.model.supports[base_joint]:
+                hint = f"'{base_name}' is below '{tip_name}': swap them (base='{tip_name}', tip='{base_name}')"
+            else:
+                hint = f"they are on different branches; choose a base above '{tip_name}', such as '{self.base_link}'"
+            raise ChainError(
+                f"robot '{self.name}': tip '{tip_name}' is not below base '{base_name}' in the link tree "
+                f"(a movable joint lies on the way up from '{base_name}'); {hint}"
+            )
+        return self.chain(base_name, tip_name).joint_names
 
     def sample_q(self, n: int, *, seed: int = 0) -> np.ndarray:
         """``n`` whole-robot joint vectors inside the limits: :meth:`JointSpace.sample
