@@ -379,7 +379,7 @@ class IKSolver:
         self.reach = reach
         # the first solved joint's row of chain.axes: its origin, in the base, is the centre of the reach bound
         self._first_step_row = next(k for k, step in enumerate(joint_steps) if step is steps[first])
-        self._base_id = robot.frame_id(self.base)
+        self._base_id = None if self.base == robot.root_link else robot.frame_id(self.base)
         not_solved = [k for k, step in enumerate(joint_steps) if not solved[step.index]]
         self.program = IKProgram(
             geometry, kinds, MODE_CODES[mode], AXES.index(axis), lower, upper, sample_low, sample_high, wrap,
@@ -526,8 +526,11 @@ class IKSolver:
         measured by :func:`manipkit.spatial.transforms.pose_residuals` (see :func:`ik`)."""
         data = self.robot.data
         pin.forwardKinematics(self._model, data, self._configuration(self._full_q(goal.q_full, x)))
-        T_root_tip = pin.updateFramePlacement(self._model, data, self._frame_id)  # two frames, not every frame
-        T_base_tip = pin.updateFramePlacement(self._model, data, self._base_id).actInv(T_root_tip).homogeneous
+        T_root_tip = pin.updateFramePlacement(self._model, data, self._frame_id)  # one or two frames, not every frame
+        if self._base_id is None:  # the base is the root link: T_base_tip is T_root_tip
+            T_base_tip = T_root_tip.homogeneous
+        else:
+            T_base_tip = pin.updateFramePlacement(self._model, data, self._base_id).actInv(T_root_tip).homogeneous
         pos, rot = pose_residuals(goal.T_target, T_base_tip, mode=self.mode, axis=self.axis, project=False)
         return float(pos), float(rot)
 
