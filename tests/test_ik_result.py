@@ -51,7 +51,6 @@ def every_kind_of_answer(robot):
 def test_every_solver_answers_with_the_one_class(elbow):
     for name, answer in every_kind_of_answer(elbow):
         assert type(answer) is IKResult, name
-    assert ClosedFormSolutions is IKResult  # the old name, for one release
     assert not hasattr(manipkit.kinematics.ik, "IKSolutions")  # numerical IK's 0.1 alias is gone
     assert manipkit.IKResult is IKResult and manipkit.IKBatch is IKBatch
 

@@ -20,8 +20,9 @@ from hypothesis import strategies as st
 from test_kernels_fk import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 import manipkit
+from manipkit.kernels.program import pack_chain
 from manipkit.kinematics.ik import ik, ik_solver
-from manipkit.kinematics.ik_kernel import chain_pose_jacobian, log3, pack_chain, solve_linear
+from manipkit.kinematics.ik_kernel import chain_pose_jacobian, log3, solve_linear
 from manipkit.spatial.rotations import matrix_from_axis_angle, rotation_angle_between
 
 # A chain with what the bundled arms lack: tilted revolute, continuous and prismatic axes

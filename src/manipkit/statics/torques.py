@@ -52,9 +52,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.errors import OptionError
+from manipkit.kernels.fk import ChainStep, z_to_axis
+from manipkit.kernels.program import BLOCK, JacobianProgram
 from manipkit.kinematics.chain import chain_of
-from manipkit.kinematics.fk_kernel import ChainStep, z_to_axis
-from manipkit.kinematics.jacobian import BLOCK, JacobianProgram
 from manipkit.statics.audit import inertia_grade
 from manipkit.text import repr_text
 
