@@ -164,7 +164,7 @@ def test_the_check_line_of_ik_loads_the_same_robot_and_lands_on_the_target():
 
 def test_ik_names_the_link_ee_link_stands_for():
     result = run_cli("manipkit", "ik", "--robot", "panda", "--xyz", "0.4", "0.1", "0.5", "--position-only")
-    assert "frame ee_link = panda_hand_tcp, the end effector declared for panda" in result.stdout
+    assert "frame ee_link = panda_hand_tcp, the end effector declared in panda.srdf" in result.stdout
 
 
 @pytest.mark.skipif(not XARM.is_file(), reason="the shared real-world workspace is not here")

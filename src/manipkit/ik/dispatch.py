@@ -239,7 +239,7 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
 
 def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None, method: str = "auto",
             mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
-            restarts: int = 0, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, time_budget=None,
+            restarts: int = 20, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, time_budget=None,
             threads=None) -> IKBatch:
     """:func:`ik` for a stack of targets ``(N, 4, 4)`` in one compiled call: an :class:`IKBatch`.
 

@@ -45,7 +45,7 @@ _BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "workers": None,
 
 
 #: The options only a build reads: given before ``show``, they would do nothing.
-_BUILD_ONLY = ("output", "base", "frame", "voxel", "orientations", "method", "samples", "seed", "collisions", "floor",
+_BUILD_ONLY = ("output", "base", "tip", "voxel", "orientations", "method", "samples", "seed", "collisions", "floor",
                "srdf", "geometry", "converge", "workers", "scheduler", "no_manipulability")
 _USAGE = """manipkit reachmap [--robot R] [--base FRAME] [--tip FRAME] [BUILD OPTIONS] -o MAP [SHOW OPTIONS]
        manipkit reachmap show MAP [SHOW OPTIONS] [--robot R]
