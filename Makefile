@@ -34,7 +34,7 @@ demo: $(BASE)
 # Every kernel compiled ahead (about 3 minutes on 2 cores), for a machine image or CI; never needed: each
 # kernel compiles on its first use otherwise.
 kernels: $(BASE)
-	$(BIN)/python -c "from manipkit.kinematics.ik_kernel import warm_up; warm_up()"
+	$(BIN)/python -c "from manipkit.ik.lm_kernel import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.arms_kernel import warm_up; warm_up()"
 
 # The viewer tests drive Debian's Chromium (headless); the tree tests render DOT with Graphviz.

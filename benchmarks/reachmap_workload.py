@@ -83,7 +83,7 @@ def _random_rotations(n: int, rng) -> np.ndarray:
 
 def ik_many_rows(robot, robot_name: str, ik_targets: int, *, repeats: int = 3) -> list[dict]:
     """The ``ik_many`` rows: solves per second on 2 threads and on 1, in turns in one run, answers compared."""
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     Q_true = robot.sample_q(ik_targets, seed=21)
     targets = robot.fk(Q_true, base="base_link", tip="ee_link")
@@ -120,7 +120,7 @@ def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> lis
     """The ``reachmap_agreement`` rows of the map ``one``: its yes (``query``) first, then the plain voxel-bin answer."""
     from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD
     from manipkit.analysis.reachmap.query import query_answer
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     rng = np.random.default_rng(5)
     fk_poses = robot.fk(robot.sample_q(labelled, seed=99), base=one.base, tip=one.frame)

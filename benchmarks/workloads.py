@@ -262,7 +262,7 @@ def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, se
     first ``n_slow`` targets.
     """
     import manipkit
-    from manipkit.kinematics.ik import ik
+    from manipkit.ik.numerical import ik
 
     robot = manipkit.load(robot_name)
     root = robot.root_link

@@ -27,7 +27,7 @@ from manipkit.analysis.reachmap.placement import base_placement, confirm_placeme
 from manipkit.analysis.reachmap.query import support_score
 from manipkit.analysis.reachmap.stages import wilson
 from manipkit.closed_form.planar import ik_3r, ik_3r_batch
-from manipkit.kinematics.ik_many import ik_many
+from manipkit.ik.numerical_many import ik_many
 
 VOXEL = 0.1
 

@@ -87,7 +87,7 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
     # (the confirmed count may be far lower: the placement grid need not hold the hidden placement, and a full pose
     # off it is often out of this arm's reach; test_analysis_reachmap_certified checks one on the grid)
     # the printed confirmed count equals an independent IK count (random starts only, full pose) from the printed placement
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     T_B = np.linalg.inv(placement_transforms(out["x"], out["y"], out["yaw"])) @ T
     independent = ik_many(robot, T_B, "base_footprint", "ee_link", mode="pose", tol=1e-6, restarts=100, seed=5)

@@ -19,10 +19,10 @@ import pytest
 import manipkit
 from manipkit.closed_form import decoupled, planar, planar_modes
 from manipkit.errors import ClosedFormIKError, IKOptionError, PlanarArmError
+from manipkit.ik.numerical import ik
+from manipkit.ik.numerical_many import ik_many
 from manipkit.ik.result import MODES, IKBatch, IKResult, tolerances
 from manipkit.ik.textbook import analytic_ik
-from manipkit.kinematics.ik import ik
-from manipkit.kinematics.ik_many import ik_many
 
 BATCH_FIELDS = ("solutions", "labels", "count", "success", "residual_position", "residual_rotation", "residuals", "q",
                 "q_residuals", "mode", "solver", "joint_names", "outside_by", "iterations", "attempts")
@@ -51,7 +51,7 @@ def every_kind_of_answer(robot):
 def test_every_solver_answers_with_the_one_class(elbow):
     for name, answer in every_kind_of_answer(elbow):
         assert type(answer) is IKResult, name
-    assert not hasattr(manipkit.kinematics.ik, "IKSolutions")  # numerical IK's 0.1 alias is gone
+    assert not hasattr(manipkit.ik.numerical, "IKSolutions")  # numerical IK's 0.1 alias is gone
     assert manipkit.IKResult is IKResult and manipkit.IKBatch is IKBatch
 
 

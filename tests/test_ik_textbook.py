@@ -13,9 +13,9 @@ import pytest
 
 import manipkit
 from manipkit.errors import IKOptionError, InvalidTransformError, ManipkitError
+from manipkit.ik.numerical import ik
 from manipkit.ik.result import IKResult
 from manipkit.ik.textbook import ANALYTIC_SOLVERS, analytic_ik, analytic_ik_many
-from manipkit.kinematics.ik import ik
 
 
 @pytest.fixture(scope="module")

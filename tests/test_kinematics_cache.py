@@ -207,8 +207,8 @@ def test_analytic_ik_in_a_read_only_install_needs_no_kernel(read_only_install):
 
 
 def test_a_kernel_is_compiled_again_when_a_kernel_it_calls_changes(tmp_path):
-    # numba keys a cached kernel by its own file; ik_many's loop calls ik_kernel's iteration, so a change to
-    # ik_kernel.py alone must not leave the old iteration running from the cache (kernels.sources_digest).
+    # numba keys a cached kernel by its own file; the batch loop calls the LM iteration (ik.lm_kernel), so a change to
+    # lm_kernel.py alone must not leave the old iteration running from the cache (kernels.sources_digest).
     # Processes are the point: the cache is what one run leaves for the next.
     shutil.copytree(REPO / "src", tmp_path / "src", ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(REPO / "robots", tmp_path / "robots")
@@ -221,13 +221,13 @@ def test_a_kernel_is_compiled_again_when_a_kernel_it_calls_changes(tmp_path):
         result = subprocess.run([sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True,
                                 timeout=600)
         assert result.returncode == 0 and result.stdout.strip().endswith("True"), result.stderr[-2000:]
-        return any("data saved" in line and "ik_many._solve_many" in line for line in result.stdout.splitlines())
+        return any("data saved" in line and "numerical_many._solve_many" in line for line in result.stdout.splitlines())
 
     assert solve_many_saved()  # compiled and saved
     assert not solve_many_saved()  # read back
-    with open(tmp_path / "src" / "manipkit" / "kinematics" / "ik_kernel.py", "a", encoding="utf-8") as kernel:
+    with open(tmp_path / "src" / "manipkit" / "ik" / "lm_kernel.py", "a", encoding="utf-8") as kernel:
         kernel.write("\n# changed\n")
-    assert solve_many_saved()  # ik_many.py did not change, yet its loop is compiled again
+    assert solve_many_saved()  # numerical_many.py did not change, yet its loop is compiled again
 
 
 def test_the_sources_digest_covers_kernel_modules_and_their_imports_only(tmp_path):

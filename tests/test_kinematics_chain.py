@@ -262,7 +262,7 @@ def test_every_function_taking_one_q_takes_it_by_name(load_robot):
 
 def test_ik_takes_a_chain_for_its_robot_and_frames(load_robot):
     import manipkit
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     robot = load_robot("mobile_manipulator")
     chain = robot.chain("arm_base", "ee_link")

@@ -11,7 +11,7 @@ import pytest
 import yourdfpy
 
 from manipkit.errors import DescriptionError, IKOptionError, JointValueError
-from manipkit.kinematics.ik import ik
+from manipkit.ik.numerical import ik
 from manipkit.kinematics.robot import Robot
 
 LIMIT = '<limit lower="-2" upper="2" effort="1" velocity="1"/>'

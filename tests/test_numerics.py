@@ -40,7 +40,7 @@ from manipkit.closed_form.decoupled import elbow_dh_table, ik_elbow, ik_stanford
 from manipkit.closed_form.planar import fk_2r, fk_3r, ik_2r, ik_3r
 from manipkit.description.sources import bundled_dh_tables
 from manipkit.dh import dh_fk, load_dh
-from manipkit.kinematics.ik import ik
+from manipkit.ik.numerical import ik
 from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
 SCALES = [10.0**k for k in range(-6, 4)]  # 1e-6 m .. 1e3 m

@@ -18,7 +18,10 @@ import types
 from manipkit.exports import homes_of, lazy_exports
 
 __all__, _getattr, __dir__ = lazy_exports(__name__, {
-    **homes_of("manipkit.ik.result", "IKBatch", "IKResult", "tolerances"),
+    **homes_of("manipkit.ik.result", "IKBatch", "IKFailure", "IKResult", "tolerances"),
+    **homes_of("manipkit.ik.dispatch", "ik_many"),
+    **homes_of("manipkit.ik.families", "Family", "chain_family"),
+    **homes_of("manipkit.ik.numerical", "IKSolver", "ik_solver"),
 })
 
 

@@ -175,7 +175,7 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
         branch is nearest to.
     restarts, seed, max_iters, damping, free : keyword-only
         Numerical IK's budget and floating joints
-        (:func:`manipkit.kinematics.ik.ik`).
+        (:func:`manipkit.ik.numerical.ik`).
     collisions : bool or CollisionChecker, keyword-only
         Mark each solution ``collides`` (with ``clearance``): True checks the
         robot against itself; a checker brings its SRDF, floor and world.
@@ -225,7 +225,7 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
 
             result = mark_collisions(result, mark, drop=avoid is not None)
         return result if all else _one(result, robot, base, tip, q0)
-    from manipkit.kinematics.ik import ik as numerical_ik
+    from manipkit.ik.numerical import ik as numerical_ik
 
     result = numerical_ik(robot, target, base, tip, mode=mode, axis=axis, q0=q0, tol=tol, max_iters=max_iters,
                           restarts=restarts, seed=seed, all=all, damping=damping, free=tuple(free),
@@ -247,7 +247,7 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     gives every branch per target: 8 slots, NaN where a branch does not
     exist (:func:`manipkit.ik.chain_ik.chain_ik_many`; ``arm_angle`` one or
     one per target for a 7R SRS arm). Numerical IK gives one slot per target
-    (:func:`manipkit.kinematics.ik_many.ik_many`; ``q0`` one start for all or
+    (:func:`manipkit.ik.numerical_many.ik_many`; ``q0`` one start for all or
     one per target, ``restarts`` per target). ``method``, ``failure_kinds``
     and :meth:`IKBatch.reason` say, per target, which ran and why one failed.
 
@@ -270,7 +270,7 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
 
         return analytic_ik_many(robot, targets, base, tip, tol=tol, family_tol=family_tol, lock=lock,
                                 arm_angle=arm_angle)
-    from manipkit.kinematics.ik_many import ik_many as numerical_many
+    from manipkit.ik.numerical_many import ik_many as numerical_many
 
     return numerical_many(robot, targets, base, tip, q0=q0, mode=mode, axis=axis, tol=tol, max_iters=max_iters,
                           restarts=restarts, seed=seed, damping=damping, time_budget=time_budget, threads=threads)

@@ -1,10 +1,10 @@
 """One answer type for every IK solver: :class:`IKResult` for one target, :class:`IKBatch` for many.
 
-Numerical IK (:func:`manipkit.kinematics.ik.ik`, with or without
+Numerical IK (:func:`manipkit.ik.numerical.ik`, with or without
 ``all=True``), the closed forms (:mod:`manipkit.closed_form.planar`,
 :mod:`manipkit.closed_form.planar_modes`, :mod:`manipkit.closed_form.decoupled`
 and :func:`manipkit.ik.textbook.analytic_ik`) all return an
-:class:`IKResult`; batched numerical IK (:func:`manipkit.kinematics.ik_many.ik_many`)
+:class:`IKResult`; batched numerical IK (:func:`manipkit.ik.numerical_many.ik_many`)
 and the planar batch solvers (``ik_2r_batch``, ``ik_3r_batch``) return an
 :class:`IKBatch`, with the same field names and leading target axes
 (docs/architecture.md, "IK results"). This module sits beside ``errors.py``
@@ -207,7 +207,7 @@ class IKResult:
     mode : str
         What was asked, one of :data:`MODES`.
     solver : str
-        The function that answered, e.g. ``"planar.ik_2r"``, ``"kinematics.ik"``.
+        The function that answered, e.g. ``"planar.ik_2r"``, ``"ik.numerical"``.
     joint_names : tuple of str
         The joints the columns stand for (``()`` when the solver has no names for them).
     free_parameter : str
@@ -532,7 +532,7 @@ class IKResult:
 class IKBatch:
     """IK answers for many targets at once: the fields of :class:`IKResult` with leading target axes ``(...)``.
 
-    From :func:`manipkit.kinematics.ik_many.ik_many` (targets ``(N,)``, one
+    From :func:`manipkit.ik.numerical_many.ik_many` (targets ``(N,)``, one
     slot: ``k = 1``) and the planar batch solvers
     (:func:`manipkit.closed_form.planar.ik_2r_batch`, ``ik_3r_batch``:
     targets of any shape ``(...)``, two slots). Immutable; arrays read-only.

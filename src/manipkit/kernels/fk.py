@@ -46,7 +46,7 @@ numpy on blocks of rows, the rest in the compiled loop. numba is imported
 and the loop compiled (or loaded from numba's cache) when a :class:`ChainFK`
 first runs, not when this module is imported.
 
-The compiled kernels (this loop and those of :mod:`manipkit.kinematics.ik_kernel`)
+The compiled kernels (this loop and those of :mod:`manipkit.ik.lm_kernel`)
 are made by :func:`manipkit.kernels.compile.compile_kernel`: numba's on-disk
 cache when it works, else compiled in memory with one warning. numpy, numba
 and :mod:`manipkit.errors` only: a :class:`manipkit.kinematics.chain.Chain`

@@ -7,7 +7,7 @@ computation on the chain runs on it:
 - ``program.fk``: the batched FK (:class:`manipkit.kernels.fk.ChainFK`);
 - ``program.jacobian``: the batched geometric Jacobian (:class:`JacobianProgram`);
 - ``program.ik_tables``: the chain packed for the Levenberg-Marquardt kernel
-  of :mod:`manipkit.kinematics.ik_kernel` (:func:`pack_chain`);
+  of :mod:`manipkit.ik.lm_kernel` (:func:`pack_chain`);
 - ``program.row_tables``: the FK program packed for one configuration at a
   time inside another compiled loop (:func:`manipkit.kernels.fk.row_tables`,
   the closed forms' check).
@@ -285,11 +285,11 @@ _jacobian_kernel = lazy_kernel(_jacobian_rows, error_model="numpy")
 
 
 class IKProgram(NamedTuple):
-    """One chain and mode prepared for the compiled iteration (built by :class:`manipkit.kinematics.ik.IKSolver`).
+    """One chain and mode prepared for the compiled iteration (built by :class:`manipkit.ik.numerical.IKSolver`).
 
     A named tuple, so that a compiled loop takes the whole program as one
     argument (numba types a named tuple of arrays and numbers as one value):
-    ``manipkit.kinematics.ik_many``'s loop does.
+    ``manipkit.ik.numerical_many``'s loop does.
 
     ``geometry``, ``kinds``: the chain program's :attr:`ChainProgram.ik_tables`
     (base to tip, targets are ``T_base_tip``), with ``kinds[:, 1]`` the
@@ -301,8 +301,8 @@ class IKProgram(NamedTuple):
     steps not solved for (floating coordinates not freed) read
     ``fixed_scale * q[fixed_columns] + fixed_offset`` (``q`` a chain vector)
     at ``fixed_steps`` of the ``n_steps``. Read by
-    :meth:`~manipkit.kinematics.ik.IKSolver.solve` and
-    :func:`manipkit.kinematics.ik_many.ik_many` alike.
+    :meth:`~manipkit.ik.numerical.IKSolver.solve` and
+    :func:`manipkit.ik.numerical_many.ik_many` alike.
     """
 
     geometry: np.ndarray
@@ -329,7 +329,7 @@ class IKProgram(NamedTuple):
 class LMOptions(NamedTuple):
     """The Levenberg-Marquardt settings of a batch in one argument of a compiled function: tolerances (m, rad),
     iterations per attempt, restarts per target, the time budget per target (s, 0: none), the initial damping and
-    the stall rule (``manipkit.kinematics.ik_kernel.STALL_WINDOW``, ``STALL_GAIN``, ``SHRINK_MIN``)."""
+    the stall rule (``manipkit.ik.lm_kernel.STALL_WINDOW``, ``STALL_GAIN``, ``SHRINK_MIN``)."""
 
     tol_position: float
     tol_rotation: float

@@ -1,5 +1,5 @@
 """Kinematics of a loaded robot: :class:`Robot` (Pinocchio), the joint vector (mimic, floating and planar joints),
-batched FK, Jacobians, numerical IK (one target, or many in one compiled call), collision geometry and checks
+batched FK, Jacobians, collision geometry and checks
 (Pinocchio + coal) against the robot itself, the floor and a world file.
 
 The modules load on first use (Pinocchio here, numba in the compiled kernels),
@@ -14,9 +14,6 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.kinematics.robot", "Robot", "load"),
     **homes_of("manipkit.kinematics.chain", "Chain", "JointAxes"),
     **homes_of("manipkit.kinematics.jacobian", "jacobian", "jacobians"),
-    **homes_of("manipkit.kinematics.ik", "ik", "ik_solver", "IKSolver"),
-    **homes_of("manipkit.kinematics.ik_many", "ik_many"),
-    **homes_of("manipkit.ik.result", "IKResult", "IKBatch"),
     **homes_of("manipkit.kinematics.collisions", "collisions", "collision_free", "CollisionChecker", "CollisionReport"),
     **homes_of("manipkit.kinematics.collision_geometry", "collision_geometry"),
     **homes_of("manipkit.kinematics.world", "read_world"),

@@ -58,7 +58,7 @@ Grid: voxel ``(i, j, k)`` has its centre at ``origin + axes @ ((i, j, k) *
 voxel)`` in ``base`` (metres); ``axes`` is the identity for a spatial arm,
 and ``(u, v, a)`` for a planar one (``a`` its joint axis; the grid has one
 layer, ``k = 0``, in the plane the tool moves in). The grid covers the
-reach bound of :class:`manipkit.kinematics.ik.IKSolver` around the first
+reach bound of :class:`manipkit.ik.numerical.IKSolver` around the first
 chain joint.
 
 Maps are stored in Zarr (a folder): arrays ``reach`` (chunked), ``voxel_q``,
@@ -306,8 +306,8 @@ def build(
     ((19, 19, 1), 1.0, 0.0)
     """
     # Over 80 lines: the docstring is most of it; the rest reads best as the steps in order.
+    from manipkit.ik.numerical import ik_solver
     from manipkit.kinematics.chain import chain_of
-    from manipkit.kinematics.ik import ik_solver
 
     _check_options(voxel, orientations, method, samples, workers, scheduler, block_samples, seed, ik_tol, ik_restarts,
                    ik_time_budget)

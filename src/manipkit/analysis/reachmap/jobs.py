@@ -136,7 +136,7 @@ def packed_bit(packed: np.ndarray, index: np.ndarray) -> np.ndarray:
 
 def ik_block(job: MapJob, block: int, T: np.ndarray, Q_seed: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
     """Block ``block`` of IK targets: (block, success mask, configurations), by :func:`ik_many` seeded per block."""
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     batch = ik_many(job.robot, T, base=job.base, tip=job.frame, q0=Q_seed, mode=job.ik_mode, tol=job.ik_tol,
                     restarts=job.ik_restarts, time_budget=job.ik_time_budget, seed=job.seed + 1 + block,

@@ -191,7 +191,7 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
         except Exception as exc:  # noqa: BLE001 - said as one line: the caller gives the robot
             raise ReachMapError(f"confirm needs the robot the map is of ('{printable(reach_map.robot)}' did not load: "
                                 f"{printable(str(exc))[:120]}); pass robot=") from None
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     flat_T, flat_seed = T.reshape(-1, 4, 4), certificate.reshape(-1, n)
     q0 = np.where(np.isnan(flat_seed), robot.q(), flat_seed)

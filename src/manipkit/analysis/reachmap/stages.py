@@ -321,7 +321,7 @@ def false_positive_bound(job, cert_keys: np.ndarray, cert_q: np.ndarray, n: int,
     drawn pose is checked). Returns ``{"drawn", "n"`` (poses IK checked),
     ``"failed", "rate", "high", "mode"}``.
     """
-    from manipkit.kinematics.ik_many import ik_many
+    from manipkit.ik.numerical_many import ik_many
 
     rng = np.random.default_rng([job.seed, FP_STREAM])
     n = min(n, len(cert_keys))

@@ -3,7 +3,7 @@
 The target T_base_frame is built from ``--xyz`` (m) and ``--rpy`` (URDF
 convention, R = Rz(yaw) Ry(pitch) Rx(roll)) or ``--quat`` (x, y, z, w) by
 :mod:`manipkit.spatial.transforms`; the solvers are
-:func:`manipkit.kinematics.ik.ik` and :func:`manipkit.ik.textbook.analytic_ik`
+:func:`manipkit.ik.numerical.ik` and :func:`manipkit.ik.textbook.analytic_ik`
 (docs/architecture.md). Exit status 1 when no solution reaches the target.
 
 ``--tol`` sets the residual tolerance (one number for m and rad, or two:
@@ -256,7 +256,7 @@ def run_ik(args) -> int:
     closest configuration a numerical search found, which is printed too),
     and the solver's note.
     """
-    from manipkit.kinematics.ik import MAX_RESTARTS
+    from manipkit.ik.numerical import MAX_RESTARTS
 
     check_precision(args.precision)
     if not 0 <= args.restarts <= MAX_RESTARTS:

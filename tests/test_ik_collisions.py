@@ -16,9 +16,9 @@ from cli_helper import run_cli
 
 import manipkit
 from manipkit.ik.collision_marks import mark_collisions
+from manipkit.ik.numerical import ik
 from manipkit.ik.textbook import analytic_ik
 from manipkit.kinematics.collisions import CollisionChecker
-from manipkit.kinematics.ik import ik
 from manipkit.kinematics.robot import Robot
 
 # A block (0.4 x 0.4 x 0.1, top at z = 0.1), a post on it up to z = 0.3 (beside the turning axis), and a rod turning

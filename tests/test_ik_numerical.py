@@ -1,4 +1,4 @@
-"""manipkit.kinematics.ik: numerical IK checked against forward kinematics.
+"""manipkit.ik.numerical: numerical IK checked against forward kinematics.
 
 Independent sources: reachable targets are made by the numpy chain of
 ``Robot.fk`` at random joint values (so a solution is known to exist), and
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from manipkit.errors import InvalidTransformError, JointValueError
+from manipkit.ik.numerical import IKOptionError, ik, ik_solver
 from manipkit.ik.result import IKResult
-from manipkit.kinematics.ik import IKOptionError, ik, ik_solver
 from manipkit.spatial.rotations import rot_x, rotation_angle_between
 
 
@@ -377,7 +377,7 @@ def test_all_solutions_are_one_result_with_the_shared_fields(robots):
     assert found.solutions.shape == (found.count, 7) and not found.solutions.flags.writeable
     assert np.array_equal(found.solutions[0], found.q)
     assert found.residuals.shape == (found.count, 2) and np.all(found.residuals <= 1e-10)
-    assert found.mode == "spatial pose (x, y, z, R)" and found.solver == "kinematics.ik" and found.attempts == 6
+    assert found.mode == "spatial pose (x, y, z, R)" and found.solver == "ik.numerical" and found.attempts == 6
     for q, residuals in zip(found.solutions, found.residuals):  # each row's residuals are those of its FK
         assert residuals == pytest.approx(pose_error(robot, robot.root_link, "ee_link", q, T), abs=1e-12)
 
@@ -493,7 +493,7 @@ def test_html_repr_shows_the_answer_or_the_closest_failed_attempt(robots):
         assert rows[0] == ["#", "label", *robot.joint_names, "position (m)", "rotation (rad)", "success"]
         assert rows[1][:2] == [index, label] and rows[1][-1] == success
         assert f"success: {success}" in root.find("table/caption").text
-        assert "numerical IK (kinematics.ik)" in root.find("table/caption").text
+        assert "numerical IK (ik.numerical)" in root.find("table/caption").text
         shown = result.q if result.success else result.closest  # a failure shows the closest configuration
         residuals = result.q_residuals if result.success else result.closest_residuals
         np.testing.assert_allclose([float(v) for v in rows[1][2:9]], shown, rtol=1e-5, atol=1e-6)

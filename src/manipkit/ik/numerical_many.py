@@ -1,16 +1,16 @@
 """Batched inverse kinematics: many targets in one compiled call, each confirmed by FK.
 
 :func:`ik_many` solves ``N`` targets ``T_base_frame`` (N, 4, 4) with the
-Levenberg-Marquardt attempt of :mod:`manipkit.kinematics.ik_kernel`
-(:func:`~manipkit.kinematics.ik_kernel.lm_attempt`, the algorithm documented in
-:class:`manipkit.kinematics.ik.IKSolver`), looping over targets and their
+Levenberg-Marquardt attempt of :mod:`manipkit.ik.lm_kernel`
+(:func:`~manipkit.ik.lm_kernel.lm_attempt`, the algorithm documented in
+:class:`manipkit.ik.numerical.IKSolver`), looping over targets and their
 restarts inside one numba function, so no Python runs between targets. The
 function runs without the GIL, so a large batch is cut into contiguous blocks
 of targets solved on a few threads at once (``threads``, default every core):
 each target draws its starts from its own seed and uses nothing of another
 target, so the answers are the same bit for bit on any number of threads.
 
-Conventions (docs/architecture.md), as in :func:`manipkit.kinematics.ik.ik`:
+Conventions (docs/architecture.md), as in :func:`manipkit.ik.numerical.ik`:
 
 - Frames come base first: ``ik_many(robot, T, base, tip)``. ``T`` holds
   ``T_base_tip``: the wanted pose of ``tip`` in ``base`` (metres), the
@@ -49,13 +49,13 @@ import numpy as np
 from numba import objmode  # this module is only imported to run its kernel (kinematics/__init__ does not import it)
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
+from manipkit.ik.lm_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
+from manipkit.ik.numerical import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
 from manipkit.ik.result import IKBatch, tolerances
 from manipkit.kernels.compile import lazy_kernel
 from manipkit.kernels.fk import thread_count
 from manipkit.kernels.program import LMOptions
 from manipkit.kinematics.chain import robot_and_frames
-from manipkit.kinematics.ik import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
-from manipkit.kinematics.ik_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
@@ -95,7 +95,7 @@ def _solve_many(X0, has_start, seeds, Q_fixed, R_targets, p_targets, program, op
     depend on the thread that solves it. ``lm_attempt`` is compiled into
     it: its disk cache is keyed by the whole package's source
     (:func:`manipkit.kernels.sources_digest`), so a change to
-    :mod:`~manipkit.kinematics.ik_kernel` compiles it again.
+    :mod:`~manipkit.ik.lm_kernel` compiles it again.
     """
     n_targets, n = X0.shape
     P, o = program, options
@@ -210,14 +210,14 @@ def ik_many(
         Targets ``T_base_tip`` (metres). Mode ``"position"`` also takes (N, 3).
     base, tip : str
         Base and tip frames, base first (default ``base_link`` and
-        ``ee_link``), as in :func:`manipkit.kinematics.ik.ik`.
+        ``ee_link``), as in :func:`manipkit.ik.numerical.ik`.
     q0 : array_like, shape (n,) or (N, n), keyword-only, optional
         First start per target (one vector for all, or one row each), in
         ``robot.joint_names`` order, clamped into the limits; also the values
         of the joints off the chain. Default: a random first start, off-chain
         joints at their defaults.
     mode, axis : str, keyword-only
-        As in :func:`manipkit.kinematics.ik.ik`.
+        As in :func:`manipkit.ik.numerical.ik`.
     tol : float or (float, float), keyword-only
         Position (m) and rotation (rad) tolerance.
     max_iters : int, keyword-only
@@ -230,7 +230,7 @@ def ik_many(
         Seed of the random starts (:func:`target_seeds`: target ``i`` draws
         the same starts in any batch of the same seed).
     damping : float, keyword-only
-        Initial Levenberg-Marquardt damping (see :class:`manipkit.kinematics.ik.IKSolver`).
+        Initial Levenberg-Marquardt damping (see :class:`manipkit.ik.numerical.IKSolver`).
     threads : int, keyword-only, optional
         Most threads solving at once (default: the cores this process may
         run on, at most :data:`manipkit.kernels.fk.MAX_THREADS`). Fewer are used when the batch
@@ -286,7 +286,7 @@ def ik_many(
     success = (pos <= tol_position) & (rot <= tol_rotation)
     solutions = np.where(success[:, None], Q_full, np.nan)[:, None, :]
     return IKBatch(
-        solutions, success.astype(float), labels=("",), mode=RESULT_MODES[mode], solver="kinematics.ik_many",
+        solutions, success.astype(float), labels=("",), mode=RESULT_MODES[mode], solver="ik.numerical_many",
         joint_names=robot.joint_names, q=Q_full, success=success,
         residual_position=np.where(success, pos, np.nan)[:, None], residual_rotation=np.where(success, rot, np.nan)[:, None],
         q_residuals=np.column_stack([pos, rot]), iterations=iterations, attempts=attempts,

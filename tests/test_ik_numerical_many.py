@@ -1,4 +1,4 @@
-"""manipkit.kinematics.ik_many: batched IK, every answer checked by Pinocchio.
+"""manipkit.ik.numerical_many: batched IK, every answer checked by Pinocchio.
 
 Independent sources: reachable targets come from FK of random in-limit
 configurations (a solution exists); every answer is re-measured with
@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError, UnknownFrameError
-from manipkit.kinematics.ik_many import MIN_TARGETS_PER_THREAD, _blocks, _on_threads, ik_many, target_seeds
+from manipkit.ik.numerical_many import MIN_TARGETS_PER_THREAD, _blocks, _on_threads, ik_many, target_seeds
 from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
 

@@ -1,4 +1,4 @@
-"""The Levenberg-Marquardt iteration of :mod:`manipkit.kinematics.ik`, compiled with numba for one serial chain.
+"""The Levenberg-Marquardt iteration of :mod:`manipkit.ik.numerical`, compiled with numba for one serial chain.
 
 Why compiled: an IK solve takes 10-20 iterations, and each needs the chain's
 pose, its Jacobian, a 6 x n product and an n x n solve. The arithmetic is
@@ -26,7 +26,7 @@ Conventions:
   ``(z_j x (p - o_j), z_j)``, of a prismatic joint ``(z_j, 0)``.
 - The error of mode ``"pose"`` is ``(p_target - p, log3(R_target R^T))``;
   the algorithm, the limits, the stall test and the damping rule are those
-  documented in :class:`manipkit.kinematics.ik.IKSolver`.
+  documented in :class:`manipkit.ik.numerical.IKSolver`.
 
 Each piece (``chain_pose_jacobian``, ``log3``, ``solve_linear``) is a plain
 function, tested on its own against Pinocchio and numpy. Each is compiled by
@@ -304,7 +304,7 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
              tol_position, tol_rotation, max_iters, tau, stall_window, stall_gain, shrink_min, x_out):
     """One Levenberg-Marquardt run from ``x0`` into ``x_out``: returns (cost, pos, rot, iterations).
 
-    The algorithm of :class:`manipkit.kinematics.ik.IKSolver` (damped normal equations,
+    The algorithm of :class:`manipkit.ik.numerical.IKSolver` (damped normal equations,
     Nielsen's damping update, limits by projection with an active set, the
     stall test), step for step.
     """
@@ -448,11 +448,11 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
 
 
 def warm_up() -> None:
-    """Compile (or load from numba's on-disk cache) every kernel :mod:`manipkit.kinematics.ik` calls.
+    """Compile (or load from numba's on-disk cache) every kernel :mod:`manipkit.ik.numerical` calls.
 
-    ``make setup`` runs it (``python -m manipkit.kinematics.ik_kernel``), so the first IK
+    ``make setup`` runs it (``python -m manipkit.ik.lm_kernel``), so the first IK
     solve of a new installation does not pay the few seconds of compilation.
-    The argument types are those :class:`manipkit.kinematics.ik.IKSolver` passes.
+    The argument types are those :class:`manipkit.ik.numerical.IKSolver` passes.
     """
     steps = [ChainStep(np.eye(3), np.zeros(3), 0, False, np.array([0.0, 0.0, 1.0])),
              ChainStep(np.eye(3), np.array([1.0, 0.0, 0.0]), -1, False, None)]

@@ -41,7 +41,7 @@ Pinocchio's ``LOCAL_WORLD_ALIGNED`` frame Jacobian; each step is projected
 into the joint limits; random restarts inside the limits (reproducible from
 ``seed``) until a solution is found.
 
-Speed: the iteration runs as compiled code (:mod:`manipkit.kinematics.ik_kernel`, numba),
+Speed: the iteration runs as compiled code (:mod:`manipkit.ik.lm_kernel`, numba),
 with the chain's pose and Jacobian computed there (tested equal to
 Pinocchio's); Pinocchio then measures the residuals of every answer, so
 ``success`` never rests on the compiled code alone. The first solve in a
@@ -64,10 +64,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
-from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKFailure, IKResult, tolerances
-from manipkit.kernels.program import IKProgram
-from manipkit.kinematics.chain import robot_and_frames, sampling_bounds
-from manipkit.kinematics.ik_kernel import (
+from manipkit.ik.lm_kernel import (
     MODE_CODES,
     SHRINK_MIN,
     STALL_GAIN,
@@ -75,6 +72,9 @@ from manipkit.kinematics.ik_kernel import (
     error_and_jacobian,
     lm_attempt,
 )
+from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKFailure, IKResult, tolerances
+from manipkit.kernels.program import IKProgram
+from manipkit.kinematics.chain import robot_and_frames, sampling_bounds
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals
 from manipkit.text import repr_text, short_text
@@ -90,7 +90,7 @@ AXES = ("x", "y", "z")
 DISTINCT_TOL = 1e-6  # rad (or m): solutions closer than this are the same solution
 TARGET_TOL = 1e-6  # how far a target may be from a rigid transform (check_transform's tol)
 NEAR_MISS = 1e-5  # m and rad: a failed best residual below this is called close in the failure message
-SOLVER_NAME = "kinematics.ik"
+SOLVER_NAME = "ik.numerical"
 #: The result's ``mode`` (:data:`manipkit.ik.result.MODES`) for each numerical mode.
 RESULT_MODES = {"pose": SPATIAL_POSE, "position": SPATIAL_POSITION, "position+axis": SPATIAL_POINTING}
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
@@ -295,7 +295,7 @@ class IKSolver:
     <manipkit.kinematics.chain.Chain.jacobian>`, reference ``"base"``: linear
     rows the velocity of the tip's origin, angular rows its angular velocity,
     both relative to the base and in its axes), restricted to the solved
-    entries and computed by :func:`manipkit.kinematics.ik_kernel.chain_pose_jacobian`:
+    entries and computed by :func:`manipkit.ik.lm_kernel.chain_pose_jacobian`:
     at the solution ``de/dq = -J`` exactly (tested by finite differences). For ``"position+axis"`` the rotation error is
     ``angle * unit(a x t)`` (``a`` the frame's axis, ``t`` the target's) and
     its rows are ``P @ J_w`` with ``P = I - a a^T``: spin about ``a`` does
@@ -493,7 +493,7 @@ class IKSolver:
     def _attempt(self, goal: _Goal, x0, tol_position, tol_rotation, max_iters, tau):
         """One Levenberg-Marquardt run from ``x0``: (x, cost, residual_position, residual_rotation, iterations).
 
-        The iteration runs compiled (:func:`manipkit.kinematics.ik_kernel.lm_attempt`);
+        The iteration runs compiled (:func:`manipkit.ik.lm_kernel.lm_attempt`);
         the residuals it reports are then measured again by Pinocchio at the
         answer, and those are the ones returned (success is never taken from
         the kernel's word alone).

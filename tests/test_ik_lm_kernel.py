@@ -1,4 +1,4 @@
-"""manipkit.kinematics.ik_kernel: each compiled piece against an independent source.
+"""manipkit.ik.lm_kernel: each compiled piece against an independent source.
 
 - ``chain_pose_jacobian`` against Pinocchio's ``framesForwardKinematics`` and
   its ``LOCAL_WORLD_ALIGNED`` frame Jacobian, on robots with revolute,
@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 from test_kernels_fk import chain_urdf, joint_strategy  # the random-chain generator of the FK kernel's tests
 
 import manipkit
+from manipkit.ik.lm_kernel import chain_pose_jacobian, log3, solve_linear
+from manipkit.ik.numerical import ik, ik_solver
 from manipkit.kernels.program import pack_chain
-from manipkit.kinematics.ik import ik, ik_solver
-from manipkit.kinematics.ik_kernel import chain_pose_jacobian, log3, solve_linear
 from manipkit.spatial.rotations import matrix_from_axis_angle, rotation_angle_between
 
 # A chain with what the bundled arms lack: tilted revolute, continuous and prismatic axes
