@@ -92,7 +92,7 @@ def test_a_chain_or_a_robot_with_its_frames_give_the_same_index(load_robot):
     by_chain = global_conditioning_index(chain, 3000, length=0.3, seed=2)
     by_robot = global_conditioning_index(robot, 3000, base="arm_base", tip="ee_link", length=0.3, seed=2)
     assert by_chain == by_robot and (by_chain.base, by_chain.frame) == ("arm_base", "ee_link")
-    with pytest.raises(TypeError, match="base=... and tip="):  # the 0.1 positional frame, base: gone
+    with pytest.raises(TypeError, match="positional argument"):  # the 0.1 positional frame, base: gone
         global_conditioning_index(robot, 3000, "ee_link", "arm_base", length=0.3, seed=2)
 
 

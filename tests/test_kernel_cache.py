@@ -245,9 +245,9 @@ def test_the_note_says_once_what_is_compiled_and_a_second_run_says_nothing(tiny_
     quiet = _tiny(_environment(tmp_path / "other", tmp_path, MANIPKIT_COMPILE_NOTE="0"), tmp_path, tiny_module)
     assert quiet.stderr == "", quiet.stderr
     # the real kernels' notes name what they compute; a compile of about a second says nothing
-    assert kernel_cache.compile_note("ik_many._solve_many", None).startswith(
-        "manipkit: compiling the numerical IK of many targets (ik_many._solve_many) for its first use, about")
-    assert kernel_cache.compile_note("fk_kernel._poses", None) == ""
+    assert kernel_cache.compile_note("numerical_many._solve_many", None).startswith(
+        "manipkit: compiling the numerical IK of many targets (numerical_many._solve_many) for its first use, about")
+    assert kernel_cache.compile_note("fk._poses", None) == ""
 
 
 def test_untrusted_folder_allows_a_private_folder_below_a_sticky_one(tmp_path):

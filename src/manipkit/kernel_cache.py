@@ -179,11 +179,13 @@ def tighten(folder: Path, prefix: str = "") -> None:
 #: calls) takes on an idle 2-core machine, in seconds: module (the file's name) -> (words, seconds). Measured
 #: with an empty cache, one command at a time (the table in docs/site/guides/kernels.md).
 KERNEL_NOTES = {
-    "fk_kernel": ("the batched forward kinematics", 1),
+    "fk": ("the batched forward kinematics", 1),
+    "program": ("the batched Jacobian", 2),
     "jacobian": ("the batched Jacobian", 2),
     "manipulability": ("the manipulability indices", 1),
-    "ik_kernel": ("the numerical IK", 8),
-    "ik_many": ("the numerical IK of many targets", 10),
+    "gravity_kernel": ("the batched static torques", 2),
+    "lm_kernel": ("the numerical IK", 8),
+    "numerical_many": ("the numerical IK of many targets", 10),
     "arms_kernel": ("the closed-form IK of 6R arms (UR and OPW families)", 95),
     "chain_batch": ("the closed-form IK of many targets", 95),
     "srs_kernel": ("the closed-form IK of 7R arms with an arm angle", 15),
@@ -195,9 +197,9 @@ QUIET_BELOW = 3
 def compile_note(name: str, folder: Path | None) -> str:
     """The one line said before a kernel (``module.function``) is compiled for its first use; "" for a short one.
 
-    >>> compile_note("ik_kernel.lm_attempt", Path("/home/ada/.cache/manipkit/kernels"))
-    'manipkit: compiling the numerical IK (ik_kernel.lm_attempt) for its first use, about 8 s; kept in /home/ada/.cache/manipkit/kernels for later runs'
-    >>> compile_note("fk_kernel._poses", None)
+    >>> compile_note("lm_kernel.lm_attempt", Path("/home/ada/.cache/manipkit/kernels"))
+    'manipkit: compiling the numerical IK (lm_kernel.lm_attempt) for its first use, about 8 s; kept in /home/ada/.cache/manipkit/kernels for later runs'
+    >>> compile_note("fk._poses", None)
     ''
     """
     words, seconds = KERNEL_NOTES.get(name.split(".")[0], ("compiled code", None))

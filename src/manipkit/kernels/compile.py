@@ -90,7 +90,7 @@ def sources_digest(root: str | os.PathLike) -> str:
 
     numba keys a cached kernel by its own function's bytecode and its file's
     time stamp, not by the kernels it calls in other modules: after a change
-    to ``ik_kernel.py`` alone, ``ik_many``'s cached loop would go on running
+    to ``lm_kernel.py`` alone, ``numerical_many``'s cached loop would go on running
     the old iteration. manipkit's kernels are keyed by this digest of every
     module with compiled code, and of what those modules import (constants
     are frozen into a compiled kernel), so such a change compiles them again;
