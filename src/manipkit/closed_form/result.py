@@ -4,7 +4,7 @@ Planar 2R/3R (:mod:`manipkit.closed_form.planar`, :mod:`manipkit.closed_form.pla
 decoupled arms (:mod:`manipkit.closed_form.decoupled`) and the bundled-robot
 binding (:func:`manipkit.ik.textbook.analytic_ik`) all return
 :class:`manipkit.ik.result.IKResult`, the type numerical IK returns too
-(docs/architecture.md, "IK results"); the planar batch solvers return
+(docs/site/internals/ik-results.md); the planar batch solvers return
 :class:`manipkit.ik.result.IKBatch`, as ``ik_many`` does.
 
 What a solver solves, and what was asked, is one of four modes

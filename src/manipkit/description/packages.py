@@ -6,7 +6,7 @@ from folders on disk, as ROS would and then from manipkit's built-ins:
 ``--package-dir``, the workspace around the description file (every
 ``package.xml`` by its ``<name>``, as colcon and catkin index them),
 ``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH``, then the bundled robots and
-example-robot-data (docs/architecture.md, "Loading descriptions").
+example-robot-data (docs/site/internals/loading.md).
 :func:`workspace_root` finds the workspace, :func:`package_index` indexes the
 packages below one folder; :func:`split_package_uri` reads a ``package://`` URI.
 """

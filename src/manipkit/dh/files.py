@@ -1,4 +1,4 @@
-"""DH table files: read and write the YAML format (docs/architecture.md, "DH table files").
+"""DH table files: read and write the YAML format (docs/site/internals/dh-files.md).
 
 :func:`load_dh` and :func:`dh_from_yaml` read a table (the format is in
 :func:`load_dh`'s docstring), :func:`save_dh` and :func:`yaml_from_dh` write

@@ -7,7 +7,7 @@ and :func:`manipkit.ik.textbook.analytic_ik`) all return an
 :class:`IKResult`; batched numerical IK (:func:`manipkit.ik.numerical_many.ik_many`)
 and the planar batch solvers (``ik_2r_batch``, ``ik_3r_batch``) return an
 :class:`IKBatch`, with the same field names and leading target axes
-(docs/architecture.md, "IK results"). This module sits beside ``errors.py``
+(docs/site/internals/ik-results.md). This module sits beside ``errors.py``
 and ``text.py``, below kinematics and closed_form, so both use it; it
 imports numpy, errors and text only. :func:`tolerances` is the one parser of
 residual tolerances.

@@ -5,7 +5,7 @@ DH tables, ``--compare`` matrices, ``--q-file`` tables, YAML loaded from
 xacro) goes through :func:`check_input_file` (and :func:`read_text` when it
 is read whole), so a FIFO, a device, a folder or a huge file is refused
 before any parser sees it, with :class:`~manipkit.errors.InputFileError`
-naming the file and what would be valid (docs/architecture.md, "Limits").
+naming the file and what would be valid (docs/site/internals/limits.md).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Reachability maps of any arm: build one, save and load it, ask it about poses, picture it, place a base with it.
 
-(docs/architecture.md, "Reachability maps".) The modules, each importing
+(docs/site/internals/reach-maps.md.) The modules, each importing
 only those listed before it:
 
 - :mod:`~manipkit.analysis.reachmap.constants`: the reach codes, methods,

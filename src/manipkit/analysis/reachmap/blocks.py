@@ -1,4 +1,4 @@
-"""Blocks of work run here or on a Dask cluster, and merged in block order (docs/architecture.md, "Reachability maps").
+"""Blocks of work run here or on a Dask cluster, and merged in block order (docs/site/internals/reach-maps.md).
 
 :class:`BlockRunner` runs ``fn(job, *arguments)`` for each block: here, one
 after the other, on a new ``distributed.LocalCluster`` (``workers``) or on a

@@ -1,6 +1,6 @@
 """Finished blocks of a long build saved as they finish, read back when the same build runs again (resuming).
 
-(docs/architecture.md, "Reachability maps".) A :class:`BlockStore` is a
+(docs/site/internals/reach-maps.md.) A :class:`BlockStore` is a
 folder that holds the results of one build's blocks, under the
 **fingerprint** of that build (a SHA-256 of everything that determines its
 results, canonical JSON): ``blocks.json`` (:data:`STORE_FORMAT`, the

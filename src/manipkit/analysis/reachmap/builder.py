@@ -10,7 +10,7 @@ is the fraction of its bins reached (0..1): the **reachable workspace** is
 and the bins turns about its axis, the spatial form of the planar annuli of
 :mod:`manipkit.closed_form.planar_workspace`).
 
-Methods (docs/architecture.md, "Reachability maps"):
+Methods (docs/site/internals/reach-maps.md):
 
 - ``"fk"``: random configurations, uniform inside the limits (continuous
   joints in [-pi, pi]), in blocks of ``block_samples``; each block's

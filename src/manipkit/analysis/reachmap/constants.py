@@ -1,6 +1,6 @@
 """What a reachability map is made of and bounded by: reach codes, methods, the format, every bound, and their checks.
 
-(docs/architecture.md, "Reachability maps".) The bottom of
+(docs/site/internals/reach-maps.md.) The bottom of
 :mod:`manipkit.analysis.reachmap`: the package's modules read their codes
 and bounds here, and this module imports none of them.
 

@@ -1,6 +1,6 @@
 """The reachability map: :class:`ReachMap` (the grid, the orientation bins, how each voxel-bin was reached) and :func:`load`.
 
-(docs/architecture.md, "Reachability maps"; built by
+(docs/site/internals/reach-maps.md; built by
 :func:`manipkit.analysis.reachmap.builder.build`.) Voxel ``(i, j, k)`` has
 its centre at ``origin + axes @ ((i, j, k) * voxel)`` in ``base`` (metres);
 ``axes`` is the identity for a spatial arm and ``(u, v, a)`` for a planar one

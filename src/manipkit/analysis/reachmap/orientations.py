@@ -1,6 +1,6 @@
 """Orientation bins of a reachability map: approach directions times rolls, or turns about a planar arm's axis.
 
-Conventions (docs/architecture.md, "Reachability maps"):
+Conventions (docs/site/internals/reach-maps.md):
 
 - Rotations are ``R_base_frame`` (3x3, columns the frame's axes in the base
   frame). The **approach axis** is the frame's z axis (column 2), as in

@@ -1,6 +1,6 @@
 """Inverse reachability: where to put a mobile base so the arm reaches the most target poses.
 
-Frames (docs/architecture.md, "Reachability maps"):
+Frames (docs/site/internals/reach-maps.md):
 
 - ``F``: the floor (world) frame the targets are given in, z up.
 - ``P``: the robot's floor frame (its root, ``base_footprint`` for a mobile

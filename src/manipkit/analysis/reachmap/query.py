@@ -1,6 +1,6 @@
 """What a reachability map answers for a pose, and the exact answer by IK from the bin's certificate.
 
-(docs/architecture.md, "Reachability maps".) A map is certain at its
+(docs/site/internals/reach-maps.md.) A map is certain at its
 resolution: whether the **voxel** holding the position and the **orientation
 bin** holding the rotation were reached (``bin_reached``; a configuration
 whose FK lands in that voxel-bin is stored). The bin is the approach-axis

@@ -1,6 +1,6 @@
 """Resuming a reach map's build: what its saved blocks are keyed by, and the checks a saved block must pass.
 
-(docs/architecture.md, "Reachability maps".) :func:`manipkit.analysis.reachmap.build`
+(docs/site/internals/reach-maps.md.) :func:`manipkit.analysis.reachmap.build`
 with ``resume_dir`` keeps its finished blocks in a
 :class:`manipkit.analysis.reachmap.blockstore.BlockStore` under the fingerprint of
 :func:`build_settings` (the robot's description text, base, frame, every

@@ -1,6 +1,6 @@
 """The stages of a reachability map build: sampling until it converges, IK fill passes, and the map's own checks.
 
-(docs/architecture.md, "Reachability maps"; :func:`manipkit.analysis.reachmap.build` runs them in this order.)
+(docs/site/internals/reach-maps.md; :func:`manipkit.analysis.reachmap.build` runs them in this order.)
 
 - **Certificates**: every reached voxel-bin keeps one configuration whose FK
   lands in it (voxel and orientation bin): the first sample in block order,

@@ -1,4 +1,4 @@
-"""Reachability maps on disk: written safely, read back validated as a whole (docs/architecture.md, "Reachability maps").
+"""Reachability maps on disk: written safely, read back validated as a whole (docs/site/internals/reach-maps.md).
 
 A map is a Zarr (v3) folder: a root ``zarr.json`` whose attributes hold the
 settings (``format`` is :data:`manipkit.analysis.reachmap.constants.FORMAT`) and one

@@ -1,7 +1,7 @@
 """``manipkit reachmap`` (a reachability map of any arm, saved as Zarr) and ``manipkit base-placement``.
 
 The map and the placement search come from :mod:`manipkit.analysis.reachmap`
-and :mod:`manipkit.analysis.reachmap.placement` (docs/architecture.md, "Reachability maps").
+and :mod:`manipkit.analysis.reachmap.placement` (docs/site/internals/reach-maps.md).
 """
 
 from __future__ import annotations
