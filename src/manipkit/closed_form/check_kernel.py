@@ -10,7 +10,7 @@ solved and checked without leaving machine code:
 - :func:`chain_row`: solved angles -> a chain vector, each revolute entry
   moved by whole turns to its in-limit value nearest 0;
 - the chain's forward kinematics by
-  :func:`manipkit.kinematics.fk_kernel.pose_rows` (the program of the chain's
+  :func:`manipkit.kernels.fk.pose_rows` (the program of the chain's
   own compiled FK, one row at a time, a target's branches sharing their
   first joints' part: the true chain, not the solver's ideal arm);
 - :func:`pose_residual`: the compiled twin of
@@ -21,7 +21,7 @@ solved and checked without leaving machine code:
   a target that is not is projected in numpy first.
 
 Importing this module imports numba. It reads the chain's FK program from
-:mod:`manipkit.kinematics.fk_kernel`, the one module of the kinematics layer
+:mod:`manipkit.kernels.fk`, the chain programs of the kernels layer
 the closed forms may import (numpy and the kernels only; docs/architecture.md,
 "Layers").
 """
@@ -170,7 +170,7 @@ def packed_row(rows, t, k, solved, packed, index, count):
 def check_rows(rows, valid, T_target, floats, ints, limits, states, reached, residuals, within):
     """``residuals[k]`` (position m, rotation rad) and ``within[k]`` (every entry inside the chain's limits
     ``limits`` (2, n) to LIMIT_TOL: ``Chain.within_limits``) of every chain vector ``rows[k]`` with ``valid[k]``
-    against ``T_target``, by the chain's FK (:func:`manipkit.kinematics.fk_kernel.pose_rows`, tables ``floats``,
+    against ``T_target``, by the chain's FK (:func:`manipkit.kernels.fk.pose_rows`, tables ``floats``,
     ``ints``, ``states`` (m + 1, 4, 3) scratch; ``reached`` (k, 4, 4) written: branches sharing their first joints
     share that part of the FK) and :func:`pose_residual`."""
     pose_rows(rows, valid, floats, ints, states, reached)

@@ -5,7 +5,7 @@ Targets are cut into contiguous blocks; each block is solved and aliased by
 target at its own arm angle:
 :func:`manipkit.closed_form.srs_kernel.solve_srs_rows_into`; compiled, no GIL),
 its non-empty slots alone are put through the chain's compiled FK
-(``chain.compiled_fk``: :class:`manipkit.kinematics.fk_kernel.ChainFK`, whose loop
+(``chain.compiled_fk``: :class:`manipkit.kernels.fk.ChainFK`, whose loop
 runs without the GIL too) and measured by
 :func:`manipkit.closed_form.arms_kernel.measure_at` (``pose_residuals``'
 compiled twin). Up to ``threads`` threads of a pool take blocks at once

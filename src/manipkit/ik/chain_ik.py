@@ -32,8 +32,8 @@ standing for a one-parameter family: ``count`` is infinite, ``free_joints``
 and ``free_parameter`` name the joint held at its ``q0`` value, and
 ``family`` says which combination is determined.
 
-Given a chain object; never imports the kinematics layer (its compiled check reads the chain's FK program from
-``kinematics.fk_kernel``, the one module it may: docs/architecture.md, "Layers").
+Given a chain object (the ik layer sits above kinematics); the pure math it hands arrays to is
+:mod:`manipkit.closed_form`, and its compiled check runs the chain's FK program (:mod:`manipkit.kernels.fk`).
 """
 
 from __future__ import annotations
@@ -152,7 +152,7 @@ _ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def compiled_arm(chain: Chain, arm: IdealArm) -> tuple:
     """The constants the compiled solve-and-check loop takes for ``chain`` solved on ``arm`` (UR or OPW family):
     the ideal arm, its label axes, the joint map and limits and the chain's FK program
-    (:func:`manipkit.kinematics.fk_kernel.row_tables`); made once per chain and family (both immutable) and kept."""
+    (:func:`manipkit.kernels.fk.row_tables`); made once per chain and family (both immutable) and kept."""
     return _compiled_entry(chain, arm)[1]
 
 
