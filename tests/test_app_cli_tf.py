@@ -28,7 +28,9 @@ CSV_ROWS = int(os.environ.get("MANIPKIT_Q_FILE_ROWS", 100_000))
 JSONL_ROWS = int(os.environ.get("MANIPKIT_Q_FILE_ROWS", 40_000))
 SHORT_ROWS = 1_000  # the file whose peak is the process's own (the imports, the robot): about 230 MB here
 PEAK_MEMORY_LIMIT_KB = 500 * 1024
-MEMORY_GROWTH_LIMIT_KB = 30 * 1024
+#: Growth allowed from the short file to the long one, per format: half of what reading the long file whole adds
+#: (CSV about 60 MB, JSON Lines about 200 MB); a streamed run was seen at +30 MB for JSON Lines once under load.
+MEMORY_GROWTH_LIMIT_KB = {"csv": 30 * 1024, "jsonl": 100 * 1024}
 
 
 def run_process(*args, timeout=120):
@@ -218,7 +220,7 @@ def test_a_long_q_file_streams_in_bounded_memory(output_format, rows, tmp_path):
     short_kb, _, _ = _q_file_poses(output_format, SHORT_ROWS, tmp_path)
     peak_kb, Q, lines = _q_file_poses(output_format, rows, tmp_path)
     assert peak_kb < PEAK_MEMORY_LIMIT_KB, f"peak {peak_kb / 1024:.0f} MB"
-    assert peak_kb - short_kb < MEMORY_GROWTH_LIMIT_KB, f"{short_kb / 1024:.0f} MB, then {peak_kb / 1024:.0f} MB"
+    assert peak_kb - short_kb < MEMORY_GROWTH_LIMIT_KB[output_format], f"{short_kb / 1024:.0f} MB, then {peak_kb / 1024:.0f} MB"
     for index in (0, len(Q) // 2, len(Q) - 1):  # spot checks against the independent chain of tests/reference.py
         q = np.round(Q[index], 6)
         if output_format == "csv":
