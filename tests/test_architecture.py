@@ -29,8 +29,11 @@ ALLOWED = {
     "closed_form": BOTTOM | {"inputs", "spatial", "dh"},
     "ik": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form"},
     "statics": BOTTOM | {"spatial", "kinematics"},
-    "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "statics"},
-    "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "statics", "analysis"},
+    "paths": BOTTOM | {"inputs", "spatial", "description", "kinematics", "ik"},  # task paths over every IK branch
+    "analysis": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "statics",
+                          "paths"},
+    "app": BOTTOM | {"inputs", "spatial", "description", "kinematics", "dh", "closed_form", "ik", "statics", "paths",
+                     "analysis"},
 }
 #: One module of a layer another layer may import beside ALLOWED (docs/architecture.md, "Layers").
 NARROW = {  # in transit (issue 35): the textbook closed forms build the one result type, which lives a layer up
