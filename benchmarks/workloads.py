@@ -335,6 +335,7 @@ def ik_workload(robot_name: str, *, n_targets: int = 1000, n_slow: int = 200, se
 def planar_workload(*, n_targets: int = 1_000_000, repeats: int = 5, n_scalar: int = 2000, seed: int = 5) -> list[dict]:
     """ik_2r_batch and ik_3r_batch over ``n_targets`` reachable targets; every solution checked by FK."""
     from manipkit.closed_form import planar
+    from manipkit.ik import planar as planar_ik
 
     rng = np.random.default_rng(seed)
     rows = []
@@ -361,9 +362,9 @@ def planar_workload(*, n_targets: int = 1_000_000, repeats: int = 5, n_scalar: i
         return float(np.nanmax(err)), float(np.mean(result.count >= 1))
 
     for name, solve, scalar, targets, checker in (
-        ("2R", lambda: planar.ik_2r_batch(xy, l1, l2), lambda i: planar.ik_2r(xy[i, 0], xy[i, 1], l1, l2), xy, check_2r),
-        ("3R", lambda: planar.ik_3r_batch(poses, l1, l2, l3),
-         lambda i: planar.ik_3r(poses[i, 0], poses[i, 1], poses[i, 2], l1, l2, l3), poses, check_3r),
+        ("2R", lambda: planar_ik.ik_2r_batch(xy, l1, l2), lambda i: planar_ik.ik_2r(xy[i, 0], xy[i, 1], l1, l2), xy, check_2r),
+        ("3R", lambda: planar_ik.ik_3r_batch(poses, l1, l2, l3),
+         lambda i: planar_ik.ik_3r(poses[i, 0], poses[i, 1], poses[i, 2], l1, l2, l3), poses, check_3r),
     ):
         err, solved = checker(solve(), targets)
         ok = err <= PLANAR_TOL and solved == 1.0

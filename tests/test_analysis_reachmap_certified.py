@@ -3,7 +3,7 @@
 Independent sources:
 
 - The planar 3R (4, 2, 1) dexterous annulus 3 <= r <= 5 (derived in
-  test_analysis_reachmap.py) and the closed-form IK ``closed_form.planar.ik_3r``,
+  test_analysis_reachmap.py) and the closed-form IK ``ik.planar.ik_3r``,
   which does not use the map.
 - FK of the 3R by its position formula (the URDF's comment), not the FK kernel.
 - Fresh FK samples from a seed the build never used, and IK from the test.
@@ -26,8 +26,8 @@ from manipkit.analysis.reachmap.orientations import spatial_orientations
 from manipkit.analysis.reachmap.placement import base_placement, confirm_placement, placement_transforms
 from manipkit.analysis.reachmap.query import support_score
 from manipkit.analysis.reachmap.stages import wilson
-from manipkit.closed_form.planar import ik_3r, ik_3r_batch
 from manipkit.ik.numerical_many import ik_many
+from manipkit.ik.planar import ik_3r, ik_3r_batch
 
 VOXEL = 0.1
 

@@ -2,9 +2,9 @@
 
 import pytest
 
+from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import tolerance_pair
 from manipkit.errors import ClosedFormIKError, IKOptionError
-from manipkit.ik.result import tolerances
 
 
 @pytest.mark.parametrize("tol", [1e-9, 1, (1e-6, 1e-3), [1e-6, 1e-3], (2, 3.0), True])

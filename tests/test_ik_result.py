@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 
 import manipkit
-from manipkit.closed_form import decoupled, planar, planar_modes
+from manipkit.bounds import tolerances
 from manipkit.errors import ClosedFormIKError, IKOptionError, PlanarArmError
+from manipkit.ik import decoupled, planar, planar_modes
 from manipkit.ik.numerical import ik
 from manipkit.ik.numerical_many import ik_many
-from manipkit.ik.result import MODES, IKBatch, IKResult, tolerances
+from manipkit.ik.result import MODES, IKBatch, IKResult
 from manipkit.ik.textbook import analytic_ik
 
 BATCH_FIELDS = ("solutions", "labels", "count", "success", "residual_position", "residual_rotation", "residuals", "q",

@@ -36,11 +36,13 @@ import pinocchio as pin
 import pytest
 
 import manipkit
-from manipkit.closed_form.decoupled import elbow_dh_table, ik_elbow, ik_stanford, stanford_dh_table
-from manipkit.closed_form.planar import fk_2r, fk_3r, ik_2r, ik_3r
+from manipkit.closed_form.arm_tables import elbow_dh_table, stanford_dh_table
+from manipkit.closed_form.planar import fk_2r, fk_3r
 from manipkit.description.sources import bundled_dh_tables
 from manipkit.dh import dh_fk, load_dh
+from manipkit.ik.decoupled import ik_elbow, ik_stanford
 from manipkit.ik.numerical import ik
+from manipkit.ik.planar import ik_2r, ik_3r
 from manipkit.spatial.rotations import rot_z, rotation_angle_between
 
 SCALES = [10.0**k for k in range(-6, 4)]  # 1e-6 m .. 1e3 m

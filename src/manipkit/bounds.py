@@ -16,7 +16,8 @@ by a count nobody could wait for:
   arm's reach has more cells than memory.
 - :data:`MAX_COUNT`: samples, restarts, configurations in one call.
 
-:func:`length` and :func:`count` check one value and raise the error class
+:func:`tolerances` is the one parser of IK residual tolerances (a number or a
+(position m, rotation rad) pair). :func:`length` and :func:`count` check one value and raise the error class
 the caller names (each layer has its own), with the bound in the message.
 """
 
@@ -26,10 +27,12 @@ import math
 import numbers
 import operator
 
-from manipkit.errors import ManipkitError, OptionError
+import numpy as np
+
+from manipkit.errors import IKOptionError, ManipkitError, OptionError
 from manipkit.text import repr_text, short_text
 
-__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MIN_LENGTH", "count", "length"]
+__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MIN_LENGTH", "count", "length", "tolerances"]
 
 MAX_ANGLE = 1e6
 MAX_LENGTH = 1e6
@@ -91,3 +94,35 @@ def count(value, what: str, *, minimum: int = 1, maximum: int = MAX_COUNT,
     if number is None or not minimum <= number <= maximum:
         raise error(f"{what} {repr_text(value, 40)}: give a whole number from {minimum} to {maximum}")
     return number
+
+
+def tolerances(tol, *, error: type[Exception] = IKOptionError, what: str = "tol", pair: bool = True,
+               zero: bool = False) -> tuple[float, float]:
+    """``(position m, rotation rad)`` from one number (both) or a pair, or ``error`` naming ``what``.
+
+    The one parser of tolerances in manipkit's IK. Each must be finite and
+    positive (``zero=True``: >= 0); ``pair=False`` takes one number only.
+
+    Examples
+    --------
+    >>> tolerances(1e-9), tolerances((1e-6, 1e-3))
+    ((1e-09, 1e-09), (1e-06, 0.001))
+    >>> tolerances(0.0)
+    Traceback (most recent call last):
+    ...
+    manipkit.errors.IKOptionError: tol must be a positive number or (position m, rotation rad), got 0.0
+    """
+    if type(tol) is float and tol > 0.0 and math.isfinite(tol):  # the common case, fast
+        return tol, tol
+    try:
+        values = np.atleast_1d(np.asarray(tol, dtype=float))
+    except (TypeError, ValueError):
+        values = np.zeros(0)
+    shapes = ((1,), (2,)) if pair else ((1,),)
+    bad = values.shape not in shapes or np.ndim(tol) > 1 or not np.all(np.isfinite(values))
+    if bad or np.any(values < 0.0) or (not zero and np.any(values == 0.0)):
+        least = "a number >= 0" if zero else "a positive number"
+        if pair:
+            raise error(f"{what} must be {least} or (position m, rotation rad), got {tol!r:.60}")
+        raise error(f"{what} = {tol!r:.60} must be {least}")
+    return float(values[0]), float(values[-1])

@@ -4,7 +4,7 @@ Conventions (docs/architecture.md): standard DH (Spong),
 ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``; metres and radians. At
 their default parameters the tables are the bundled ``robots/dh/*.yaml``
 tables and agree with the bundled ``robots/*.urdf.xacro`` descriptions.
-:mod:`manipkit.closed_form.decoupled` solves them.
+:mod:`manipkit.ik.decoupled` solves them.
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
+from manipkit.bounds import tolerances
 from manipkit.errors import ClosedFormIKError, PlanarArmError
-from manipkit.ik.result import tolerances
 from manipkit.text import short_text
 
 __all__ = ["NOISE", "arm_angles", "as_float", "finite_array", "link_length", "quantity_text", "tolerance", "tolerance_pair"]

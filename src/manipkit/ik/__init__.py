@@ -6,8 +6,9 @@ calls :func:`manipkit.ik.dispatch.ik` (the module is callable), and
 ``manipkit.ik.IKResult`` is the one answer type of every solver.
 
 Above :mod:`manipkit.kinematics` and :mod:`manipkit.closed_form`: the closed
-forms here read a chain's axes and hand arrays to the pure math below
-(docs/architecture.md, "Layers").
+forms here read a chain's axes and hand arrays to the pure math below, and the
+textbook arms' solvers (planar 2R/3R, SCARA, Stanford, elbow) turn the pure
+math's rows into checked results (docs/architecture.md, "Layers").
 """
 
 from __future__ import annotations
@@ -18,10 +19,13 @@ import types
 from manipkit.exports import homes_of, lazy_exports
 
 __all__, _getattr, __dir__ = lazy_exports(__name__, {
-    **homes_of("manipkit.ik.result", "IKBatch", "IKFailure", "IKResult", "tolerances"),
+    **homes_of("manipkit.ik.result", "IKBatch", "IKFailure", "IKResult"),
     **homes_of("manipkit.ik.dispatch", "ik_many"),
     **homes_of("manipkit.ik.families", "Family", "chain_family"),
     **homes_of("manipkit.ik.numerical", "IKSolver", "ik_solver"),
+    **homes_of("manipkit.ik.planar", "ik_2r", "ik_2r_batch", "ik_3r", "ik_3r_batch"),
+    **homes_of("manipkit.ik.planar_modes", "ik_2r_pose", "ik_3r_position"),
+    **homes_of("manipkit.ik.decoupled", "ik_elbow", "ik_scara", "ik_stanford", "wrist_center"),
 })
 
 

@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.bounds import tolerances
 from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
 from manipkit.closed_form.checks import arm_angles, quantity_text, tolerance_pair
 from manipkit.closed_form.srs import solve_srs_many
@@ -60,7 +61,7 @@ from manipkit.ik.families import (
     common_point,
     reversed_geometry,
 )
-from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only, tolerances
+from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 

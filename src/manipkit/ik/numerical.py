@@ -63,6 +63,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from manipkit.bounds import tolerances
 from manipkit.errors import ChainError, IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik.lm_kernel import (
     MODE_CODES,
@@ -72,7 +73,7 @@ from manipkit.ik.lm_kernel import (
     error_and_jacobian,
     lm_attempt,
 )
-from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKFailure, IKResult, tolerances
+from manipkit.ik.result import SPATIAL_POINTING, SPATIAL_POSE, SPATIAL_POSITION, IKFailure, IKResult
 from manipkit.kernels.program import IKProgram
 from manipkit.kinematics.chain import robot_and_frames, sampling_bounds
 from manipkit.spatial.rotations import wrap_angle

@@ -48,10 +48,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import objmode  # this module is only imported to run its kernel (kinematics/__init__ does not import it)
 
+from manipkit.bounds import tolerances
 from manipkit.errors import IKOptionError, InvalidTransformError, JointValueError
 from manipkit.ik.lm_kernel import SHRINK_MIN, STALL_GAIN, STALL_WINDOW, lm_attempt
 from manipkit.ik.numerical import RESULT_MODES, TARGET_TOL, check_budget, ik_solver
-from manipkit.ik.result import IKBatch, tolerances
+from manipkit.ik.result import IKBatch
 from manipkit.kernels.compile import lazy_kernel
 from manipkit.kernels.fk import thread_count
 from manipkit.kernels.program import LMOptions

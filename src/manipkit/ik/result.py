@@ -1,16 +1,16 @@
 """One answer type for every IK solver: :class:`IKResult` for one target, :class:`IKBatch` for many.
 
 Numerical IK (:func:`manipkit.ik.numerical.ik`, with or without
-``all=True``), the closed forms (:mod:`manipkit.closed_form.planar`,
-:mod:`manipkit.closed_form.planar_modes`, :mod:`manipkit.closed_form.decoupled`
+``all=True``), the closed forms (:mod:`manipkit.ik.planar`,
+:mod:`manipkit.ik.planar_modes`, :mod:`manipkit.ik.decoupled`
 and :func:`manipkit.ik.textbook.analytic_ik`) all return an
 :class:`IKResult`; batched numerical IK (:func:`manipkit.ik.numerical_many.ik_many`)
 and the planar batch solvers (``ik_2r_batch``, ``ik_3r_batch``) return an
 :class:`IKBatch`, with the same field names and leading target axes
 (docs/site/internals/ik-results.md). This module sits beside ``errors.py``
 and ``text.py``, below kinematics and closed_form, so both use it; it
-imports numpy, errors and text only. :func:`tolerances` is the one parser of
-residual tolerances.
+imports numpy, errors and text only. :func:`manipkit.bounds.tolerances` is the
+one parser of residual tolerances.
 
 Conventions: metres and radians; solutions are joint vectors in
 ``joint_names`` order (a robot's whole joint vector for numerical IK and
@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.errors import ClosedFormIKError
 from manipkit.text import short_text
 
 __all__ = [
@@ -46,7 +46,6 @@ __all__ = [
     "IKResult",
     "failure_of",
     "read_only",
-    "tolerances",
 ]
 
 PLANAR_POSITION = "planar position (x, y)"
@@ -68,38 +67,6 @@ def read_only(array, shape_tail: tuple[int, ...] = ()) -> np.ndarray:
         copy = copy.reshape((0,) + tuple(shape_tail))
     copy.setflags(write=False)
     return copy
-
-
-def tolerances(tol, *, error: type[Exception] = IKOptionError, what: str = "tol", pair: bool = True,
-               zero: bool = False) -> tuple[float, float]:
-    """``(position m, rotation rad)`` from one number (both) or a pair, or ``error`` naming ``what``.
-
-    The one parser of tolerances in manipkit's IK. Each must be finite and
-    positive (``zero=True``: >= 0); ``pair=False`` takes one number only.
-
-    Examples
-    --------
-    >>> tolerances(1e-9), tolerances((1e-6, 1e-3))
-    ((1e-09, 1e-09), (1e-06, 0.001))
-    >>> tolerances(0.0)
-    Traceback (most recent call last):
-    ...
-    manipkit.errors.IKOptionError: tol must be a positive number or (position m, rotation rad), got 0.0
-    """
-    if type(tol) is float and tol > 0.0 and math.isfinite(tol):  # the common case, fast
-        return tol, tol
-    try:
-        values = np.atleast_1d(np.asarray(tol, dtype=float))
-    except (TypeError, ValueError):
-        values = np.zeros(0)
-    shapes = ((1,), (2,)) if pair else ((1,),)
-    bad = values.shape not in shapes or np.ndim(tol) > 1 or not np.all(np.isfinite(values))
-    if bad or np.any(values < 0.0) or (not zero and np.any(values == 0.0)):
-        least = "a number >= 0" if zero else "a positive number"
-        if pair:
-            raise error(f"{what} must be {least} or (position m, rotation rad), got {tol!r:.60}")
-        raise error(f"{what} = {tol!r:.60} must be {least}")
-    return float(values[0]), float(values[-1])
 
 
 #: How an IK answer can fail (:attr:`IKFailure.kind`): the target lies beyond what the chain can reach (or a
@@ -132,7 +99,7 @@ class IKFailure:
 
     Examples
     --------
-    >>> from manipkit.closed_form.planar import ik_2r
+    >>> from manipkit.ik.planar import ik_2r
     >>> failure = ik_2r(3.0, 0.0, 1.0, 1.0).failure
     >>> failure.kind, dict(failure.values)["outside_by"]
     ('unreachable', 1.0)
@@ -181,7 +148,7 @@ class IKResult:
         closed-form angles wrapped to (-pi, pi]; m for a prismatic joint), in
         the solver's documented order: the closed forms list their branches
         in a fixed order (planar: elbow-down first; decoupled: see
-        :mod:`manipkit.closed_form.decoupled`), numerical IK in the order
+        :mod:`manipkit.ik.decoupled`), numerical IK in the order
         found (``all=True``: pairwise distinct, angles compared modulo 2 pi).
         For a family (``count`` infinite) a row holds one representative (the
         free joint at 0), or the members at a few sampled values of a free
@@ -272,7 +239,7 @@ class IKResult:
 
     Examples
     --------
-    >>> from manipkit.closed_form.planar import ik_2r
+    >>> from manipkit.ik.planar import ik_2r
     >>> result = ik_2r(0.0, 1.5, 1.0, 1.0)
     >>> result.success, result.count, result.labels, result.reason
     (True, 2, ('elbow-down', 'elbow-up'), '')
@@ -358,7 +325,7 @@ class IKResult:
 
         Examples
         --------
-        >>> from manipkit.closed_form.planar import ik_2r
+        >>> from manipkit.ik.planar import ik_2r
         >>> chain_rows = ik_2r(0.0, 1.5, 1.0, 1.0)
         >>> rows = np.hstack([chain_rows.solutions, np.zeros((2, 1))])
         >>> rows.setflags(write=False)
@@ -382,7 +349,7 @@ class IKResult:
 
         Examples
         --------
-        >>> from manipkit.closed_form.planar import ik_2r
+        >>> from manipkit.ik.planar import ik_2r
         >>> both = ik_2r(0.0, 1.5, 1.0, 1.0)
         >>> up = both.take([1])
         >>> up.labels, up.count, bool((up.q == both.solutions[1]).all())
@@ -534,7 +501,7 @@ class IKBatch:
 
     From :func:`manipkit.ik.numerical_many.ik_many` (targets ``(N,)``, one
     slot: ``k = 1``) and the planar batch solvers
-    (:func:`manipkit.closed_form.planar.ik_2r_batch`, ``ik_3r_batch``:
+    (:func:`manipkit.ik.planar.ik_2r_batch`, ``ik_3r_batch``:
     targets of any shape ``(...)``, two slots). Immutable; arrays read-only.
 
     Attributes

@@ -1,7 +1,7 @@
 """Closed-form IK of the bundled textbook arms, bound to their robot objects: :func:`analytic_ik`.
 
-The solvers themselves (:mod:`manipkit.closed_form.planar`,
-:mod:`manipkit.closed_form.decoupled`) work on numbers and DH tables; this
+The solvers themselves (:mod:`manipkit.ik.planar`,
+:mod:`manipkit.ik.decoupled`) work on numbers and DH tables; this
 module reads a loaded robot's xacro arguments (link lengths, offsets,
 prismatic limits), calls the matching solver and checks every solution
 through the robot's own URDF model. It takes the robot object and never
@@ -21,13 +21,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.closed_form import decoupled, planar, planar_modes
+from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text, tolerance_pair
-from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik import decoupled, planar, planar_modes
 from manipkit.ik.chain_ik import chain_ik_many, single_solver
 from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
-from manipkit.ik.result import IKBatch, IKResult, tolerances
+from manipkit.ik.result import (
+    PLANAR_POSE,
+    PLANAR_POSITION,
+    SPATIAL_POSE,
+    SPATIAL_POSITION,
+    IKBatch,
+    IKResult,
+    read_only,
+)
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
@@ -44,7 +52,7 @@ class AnalyticSolver:
     Attributes
     ----------
     solves : tuple of str
-        The modes (:data:`manipkit.closed_form.result.MODES`) the solver
+        The modes (:data:`manipkit.ik.result.MODES`) the solver
         answers; a position mode whose result is a family says so here too.
     planar : bool
         A planar arm: it moves in the x-y plane of ``base_link``, its tool
@@ -186,7 +194,7 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     IKResult
         manipkit's one IK result type (:class:`manipkit.ik.result.IKResult`):
         ``solver`` names the function used; ``mode`` what was asked (one of
-        :data:`manipkit.closed_form.result.MODES`); ``solutions`` are joint
+        :data:`manipkit.ik.result.MODES`); ``solutions`` are joint
         vectors in ``robot.joint_names`` order, with the residuals of the
         URDF; ``count``, ``note``, ``reason``, ``labels``, ``unmet`` and the
         family fields are the solver's.

@@ -42,9 +42,9 @@ def register(commands) -> None:
 
 def run_family(args) -> int:
     """Print the family, its evidence and whether ``ik --analytic`` solves it."""
+    from manipkit.bounds import tolerances
     from manipkit.errors import ManipkitError
     from manipkit.ik.families import FAMILY_TOL, chain_family
-    from manipkit.ik.result import tolerances
 
     try:
         tol = FAMILY_TOL if args.tol is None else tolerances(tuple(args.tol))

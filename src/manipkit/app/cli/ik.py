@@ -158,7 +158,7 @@ def _precision_note(args, mode: str, position: float, rotation: float) -> str | 
 def _tolerance(args) -> tuple[float, float] | None:
     """--tol as (position m, rotation rad), read by the one tolerance parser (:func:`manipkit.ik.result.tolerances`),
     or None for the solvers' default."""
-    from manipkit.ik.result import tolerances
+    from manipkit.bounds import tolerances
 
     if args.tol is None:
         return None

@@ -26,15 +26,12 @@ from manipkit.closed_form.planar import (
     chain_points,
     fk_2r,
     fk_3r,
-    ik_2r,
-    ik_2r_batch,
-    ik_3r,
-    ik_3r_batch,
     se2_3r,
     workspace_2r,
     workspace_3r,
 )
 from manipkit.errors import ManipkitError
+from manipkit.ik.planar import ik_2r, ik_2r_batch, ik_3r, ik_3r_batch
 from manipkit.ik.result import IKResult
 
 PI = math.pi
@@ -694,7 +691,8 @@ def test_ik_batch_large_input_in_blocks_equals_small_pieces():
 
 def test_batch_helpers_wrap_third_joint_and_wrist_point_exactly():
     # private helpers of the fast batch pass, at edges random targets do not reach
-    from manipkit.closed_form.planar import _third_joint, _wrist
+    from manipkit.closed_form.planar import _third_joint
+    from manipkit.closed_form.planar import wrist_point as _wrist
 
     # q3 = phi - q1 - q2 for phi, q1, q2 in (-pi, pi] lies in [-3 pi, 3 pi]; it equals -3 pi exactly
     # for phi just above -pi and q1 = q2 = pi (-pi + ulp - pi rounds to -2 pi), and must read +pi

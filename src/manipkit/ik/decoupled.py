@@ -59,7 +59,7 @@ singularity (z6 parallel to z3, theta5 = 0 or pi) only ``theta4 + theta6``
 theta4 = 0, and ``theta4 = t`` with ``theta6 = theta6_row - t`` (theta5 = 0)
 or ``theta6 = theta6_row + t`` (theta5 = pi) gives the same pose for every t.
 
-Modes (:mod:`manipkit.closed_form.result`): the Stanford and elbow arms solve
+Modes (:data:`manipkit.ik.result.MODES`): the Stanford and elbow arms solve
 a spatial pose only (``mode="pose"``). The SCARA solves a spatial pose with
 its tool vertical (``mode="pose"``: x, y, z and the tool's heading; a tilted
 tool is named with its tilt in ``unmet``) and a spatial position
@@ -79,6 +79,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from manipkit.bounds import tolerances
 from manipkit.closed_form import planar as planar_ik  # its solution labels (a local 'planar' is an ik_2r result)
 from manipkit.closed_form.arm_tables import (
     ELBOW_VARIABLES,
@@ -92,11 +93,10 @@ from manipkit.closed_form.arm_tables import (
     stanford_dh_table,
 )
 from manipkit.closed_form.checks import finite_array, quantity_text
-from manipkit.closed_form.planar import ik_2r
-from manipkit.closed_form.result import SPATIAL_POSE, SPATIAL_POSITION, read_only
 from manipkit.dh.table import DHTable, dh_fk
 from manipkit.errors import ClosedFormIKError
-from manipkit.ik.result import IKResult, tolerances
+from manipkit.ik.planar import ik_2r
+from manipkit.ik.result import SPATIAL_POSE, SPATIAL_POSITION, IKResult, read_only
 from manipkit.spatial.euler import euler_zyz_from_matrix
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, wrap_angle
 from manipkit.spatial.transforms import check_transform, pose_residuals

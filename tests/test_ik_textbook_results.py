@@ -25,15 +25,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.closed_form import decoupled, planar, planar_modes
-from manipkit.closed_form.result import (
+from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik import decoupled, planar, planar_modes
+from manipkit.ik.result import (
     PLANAR_POSE,
     PLANAR_POSITION,
     SPATIAL_POSE,
     SPATIAL_POSITION,
+    IKResult,
 )
-from manipkit.errors import ClosedFormIKError, IKOptionError
-from manipkit.ik.result import IKResult
 from manipkit.ik.textbook import ANALYTIC_SOLVERS, analytic_ik
 
 TOL = 1e-9

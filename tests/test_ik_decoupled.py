@@ -1,4 +1,4 @@
-"""manipkit.closed_form.decoupled: closed-form IK of the SCARA, Stanford arm and elbow arm, checked through the URDF.
+"""manipkit.ik.decoupled: closed-form IK of the SCARA, Stanford arm and elbow arm, checked through the URDF.
 
 The targets are made by the bundled URDF models' forward kinematics (Pinocchio's
 model, `Robot.fk`) at random joint values inside the limits, and every solution is
@@ -18,7 +18,11 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.closed_form.decoupled import (
+from manipkit.description.sources import bundled_dh_tables
+from manipkit.dh import dh_fk, load_dh
+from manipkit.dh.check import check_dh
+from manipkit.errors import ClosedFormIKError, InvalidTransformError, ManipkitError
+from manipkit.ik.decoupled import (
     elbow_dh_table,
     ik_elbow,
     ik_scara,
@@ -27,10 +31,6 @@ from manipkit.closed_form.decoupled import (
     stanford_dh_table,
     wrist_center,
 )
-from manipkit.description.sources import bundled_dh_tables
-from manipkit.dh import dh_fk, load_dh
-from manipkit.dh.check import check_dh
-from manipkit.errors import ClosedFormIKError, InvalidTransformError, ManipkitError
 from manipkit.ik.result import IKResult
 from manipkit.spatial.rotations import rot_x, rot_y, rot_z, rotation_angle_between
 

@@ -24,10 +24,10 @@ from dataclasses import replace
 import numpy as np
 
 from manipkit.closed_form.checks import finite_array, link_length, quantity_text, tolerance
-from manipkit.closed_form.planar import FOLDED, checked_solutions, ik_2r, ik_3r, planar_target
-from manipkit.closed_form.result import PLANAR_POSE, PLANAR_POSITION, read_only
+from manipkit.closed_form.planar import FOLDED, planar_target
 from manipkit.errors import PlanarArmError
-from manipkit.ik.result import IKResult
+from manipkit.ik.planar import checked_solutions, ik_2r, ik_3r
+from manipkit.ik.result import PLANAR_POSE, PLANAR_POSITION, IKResult, read_only
 from manipkit.spatial.rotations import wrap_angle
 
 __all__ = ["ik_2r_pose", "ik_3r_position"]
