@@ -227,3 +227,19 @@ def test_a_base_below_the_frame_gives_the_jacobian_of_the_chain_up_the_tree():
                            "--q", "joint2=0")
     assert report["chain_joints"] == ["joint2", "joint1"] and report["joints"] == ["joint1", "joint2"]
     np.testing.assert_allclose(report["jacobian"], [[0, 0], [0, 1], [0, 0], [0, 0], [0, 0], [-1, -1]], atol=1e-12)
+
+
+def test_the_text_matrix_has_the_chains_own_columns_only(panda):
+    # The panda's finger joint does not move panda_hand_tcp relative to panda_link0: the text shows the seven arm
+    # columns, each equal to Pinocchio's column of that joint (the JSON keeps one column per robot joint).
+    q = panda.sample_q(1, seed=4)[0]
+    text = run("jacobian", "--robot", "panda", "--q", *q, "--precision", "9").stdout.splitlines()
+    header = next(line for line in text if line.lstrip().startswith("panda_joint1"))
+    assert header.split() == [f"panda_joint{i}" for i in range(1, 8)]
+    rows = [line.split() for line in text if line[:2] in ("vx", "vy", "vz", "wx", "wy", "wz")]
+    shown = np.array([[float(v) for v in row[1:]] for row in rows])
+    config = panda.pinocchio_configuration(q)
+    expected = pin.computeFrameJacobian(panda.model, panda.model.createData(), config, panda.frame_id("ee_link"),
+                                        pin.LOCAL_WORLD_ALIGNED)
+    arm = [panda.joint_names.index(f"panda_joint{i}") for i in range(1, 8)]
+    np.testing.assert_allclose(shown, expected[:, arm], atol=1e-9)

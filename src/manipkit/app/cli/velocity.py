@@ -167,8 +167,9 @@ def _jacobian_lines(robot, answer: dict, report, precision: int) -> list[str]:
         f"Jacobian of {names[0]} relative to {names[1]}, in {REFERENCE_NAMES[answer['reference']]}",
         "rows: velocity of the frame's origin (m/s), angular velocity (rad/s), per unit joint rate (rad/s or m/s)",
     ]
-    cells = [[number_text(value, precision) for value in row] for row in answer["jacobian"]]
-    joints = answer["joints"]
+    # the chain's own columns, in chain order (the JSON keeps one column per robot joint, 0 off the chain)
+    cells = [[number_text(value, precision) for value in row] for row in report.jacobian]
+    joints = list(report.chain.joint_names)
     widths = [max([len(name)] + [len(row[j]) for row in cells]) for j, name in enumerate(joints)]
     lines.append("    " + "  ".join(name.rjust(width) for name, width in zip(joints, widths)))
     for label, row in zip(ROW_NAMES, cells):
