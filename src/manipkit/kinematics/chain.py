@@ -456,17 +456,13 @@ def sample_between(low, high, n: int, seed=0) -> np.ndarray:
     return low * (1.0 - u) + high * u  # not low + (high - low) u: high - low may overflow
 
 
-def chain_of(subject, what: str, legacy: tuple = (), *, base=None, tip=None, frame=None) -> Chain:
+def chain_of(subject, what: str, *, base=None, tip=None) -> Chain:
     """The :class:`Chain` a solver or an analysis works on: the one place a robot and two frames become a chain.
 
     ``subject`` is a Chain (then no frames may be given: it has its own) or a
     Robot, whose ``chain(base, tip)`` is taken (defaults ``base_link`` and
-    ``ee_link``). Frames are named ``base=`` and ``tip=`` only: the 0.1 forms
-    (positional frames passed on as ``legacy``, the tip as ``frame=``) raise
-    ``TypeError`` saying so.
+    ``ee_link``); ``what`` names the caller in the error.
     """
-    if legacy or frame is not None:
-        raise TypeError(f"{what}: give the frames as base=... and tip=... (base first, as tf-between SOURCE TARGET)")
     if isinstance(subject, Chain):
         if base is not None or tip is not None:
             raise ChainError(f"{what}: a chain has its own frames ({subject.base} -> {subject.tip}); give base= and "
