@@ -230,21 +230,26 @@ def test_a_kernel_is_compiled_again_when_a_kernel_it_calls_changes(tmp_path):
     assert solve_many_saved()  # numerical_many.py did not change, yet its loop is compiled again
 
 
-def test_the_sources_digest_covers_kernel_modules_and_their_imports_only(tmp_path):
-    from manipkit.kernels import kernel_sources, sources_digest
+def test_the_sources_digest_covers_a_kernels_module_and_what_it_compiles_from_only(tmp_path):
+    from manipkit.kernels import kernel_closure, sources_digest
 
     root = tmp_path / "manipkit"
     (root / "sub").mkdir(parents=True)
     (root / "consts.py").write_text("N = 8\n")
-    (root / "sub" / "k.py").write_text("from manipkit.consts import N\nf = compile_kernel(g)\n")
+    (root / "inner.py").write_text("from manipkit.consts import N\n@inlined_kernel\ndef h(): pass\n")
+    (root / "sub" / "k.py").write_text("from manipkit.inner import h\nf = compile_kernel(g)\n")
+    (root / "other.py").write_text("from manipkit.consts import N\nf = compile_kernel(o)\n")
     (root / "cli.py").write_text("print('help')\n")
-    assert kernel_sources(root) == [root / "consts.py", root / "sub" / "k.py"]
-    first = sources_digest(root)
-    assert sources_digest(root) == first
+    kernel = root / "sub" / "k.py"
+    # k.py, the kernel module it imports, and what that one imports in turn; not the other kernel, not the CLI
+    assert kernel_closure(kernel, root) == [root / "consts.py", root / "inner.py", kernel]
+    first = sources_digest(kernel, root)
+    assert sources_digest(kernel, root) == first
     (root / "cli.py").write_text("print('other help')\n")  # not compiled, imported by no kernel: same key
-    assert sources_digest(root) == first
-    (root / "consts.py").write_text("N = 9\n")  # a constant a kernel reads at compile time: a new key
-    assert sources_digest(root) != first
-    second = sources_digest(root)
-    (root / "sub" / "k.py").write_text("from manipkit.consts import N\nf = compile_kernel(h)\n")
-    assert sources_digest(root) != second
+    (root / "other.py").write_text("from manipkit.consts import N\nf = compile_kernel(p)\n")  # another kernel
+    assert sources_digest(kernel, root) == first
+    (root / "consts.py").write_text("N = 9\n")  # a constant the inlined callee reads at compile time: a new key
+    assert sources_digest(kernel, root) != first
+    second = sources_digest(kernel, root)
+    (root / "sub" / "k.py").write_text("from manipkit.inner import h\nf = compile_kernel(q)\n")
+    assert sources_digest(kernel, root) != second

@@ -9,7 +9,7 @@ from __future__ import annotations
 from manipkit.exports import homes_of, lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
-    **homes_of("manipkit.kernels.compile", "KERNEL_MARKERS", "KernelCacheWarning", "compile_kernel", "kernel_sources",
+    **homes_of("manipkit.kernels.compile", "KERNEL_MARKERS", "KernelCacheWarning", "compile_kernel", "kernel_closure",
                "lazy_kernel", "sources_digest"),
     **homes_of("manipkit.kernels.fk", "MAX_THREADS", "ChainFK", "ChainStep", "chain_fk", "pose_rows", "pose_rows_kernel",
                "row_tables", "snap_placement", "thread_count", "z_to_axis"),

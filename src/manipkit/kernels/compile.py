@@ -8,9 +8,9 @@ works, else compiled in memory with one :class:`KernelCacheWarning` (a
 read-only install with a read-only home, a full disk, a cache folder or file
 others can write: :mod:`manipkit.kernel_cache` says where the cache lives and
 what it trusts); a cache file that cannot be read (a truncated file) is
-recompiled and written again; the cache key holds a digest of the package's
-source (:func:`sources_digest`), so a kernel is compiled again when a kernel
-it calls changes. A kernel compiled for its first use says so in one line on
+recompiled and written again; the cache key holds a digest of the kernel's
+own module and what it reads at compile time (:func:`sources_digest`), so a
+kernel is compiled again when a kernel it calls changes, and only then. A kernel compiled for its first use says so in one line on
 stderr (:func:`manipkit.kernel_cache.compile_note`; ``MANIPKIT_COMPILE_NOTE=0``
 silences it), and processes compiling the same kernel at once wait for the
 first one's file instead of compiling it twice. numba is imported on the first
@@ -29,8 +29,8 @@ from pathlib import Path
 
 from manipkit import kernel_cache
 
-__all__ = ["KERNEL_MARKERS", "KernelCacheWarning", "UntrustedCacheError", "compile_kernel", "kernel_sources", "lazy_kernel",
-           "sources_digest"]
+__all__ = ["KERNEL_MARKERS", "KernelCacheWarning", "UntrustedCacheError", "compile_kernel", "kernel_closure",
+           "lazy_kernel", "sources_digest"]
 
 
 class KernelCacheWarning(UserWarning):
@@ -59,59 +59,84 @@ KERNEL_MARKERS = (b"compile_kernel(", b"lazy_kernel(", b"@inlined_kernel")
 
 
 def _imported_files(path: Path, root: Path) -> set[Path]:
-    """The files under ``root`` that ``path`` imports from its own package (``from manipkit.x.y import ...``)."""
+    """The files under ``root`` that ``path`` imports from its own package (``from manipkit.x.y import ...``;
+    ``from manipkit.x import y`` names the module ``y`` when there is one, not the package's ``__init__``)."""
     import ast
 
     package = root.name
+
+    def module_file(name: str) -> Path | None:
+        parts = name.split(".")
+        if parts[0] != package:
+            return None
+        for candidate in (root.joinpath(*parts[1:]).with_suffix(".py"), root.joinpath(*parts[1:], "__init__.py")):
+            if candidate.is_file():
+                return candidate
+        return None
+
     found = set()
     for node in ast.walk(ast.parse(path.read_bytes())):
-        names = [node.module] if isinstance(node, ast.ImportFrom) and node.module and not node.level else (
-            [alias.name for alias in node.names] if isinstance(node, ast.Import) else [])
-        for name in names:
-            parts = name.split(".")
-            if parts[0] != package:
+        if isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            submodules = [module_file(f"{node.module}.{alias.name}") for alias in node.names]
+            if all(submodules):
+                found.update(submodules)
                 continue
-            for candidate in (root.joinpath(*parts[1:]).with_suffix(".py"), root.joinpath(*parts[1:], "__init__.py")):
-                if candidate.is_file():
-                    found.add(candidate)
+            names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        else:
+            continue
+        found.update(file for file in map(module_file, names) if file is not None)
     return found
 
 
-def kernel_sources(root: str | os.PathLike) -> list[Path]:
-    """The modules under ``root`` with compiled code (they call :func:`compile_kernel` or :func:`lazy_kernel`),
-    and the package modules each of them imports (constants read at compile time), sorted."""
+def kernel_closure(module: str | os.PathLike, root: str | os.PathLike) -> list[Path]:
+    """The files a kernel in ``module`` depends on at compile time, sorted: ``module`` itself, the package modules
+    it imports (constants are frozen into a compiled kernel), and, through each of those with compiled code
+    (:data:`KERNEL_MARKERS`), the modules they import in turn (a kernel it calls, inlined or not)."""
     base = Path(root)
-    kernels = {path for path in base.rglob("*.py") if any(m in path.read_bytes() for m in KERNEL_MARKERS)}
-    return sorted(kernels.union(*(_imported_files(path, base) for path in kernels)))
+    start = Path(module)
+    seen, todo = {start}, [start]
+    while todo:
+        for path in _imported_files(todo.pop(), base):
+            if path not in seen:
+                seen.add(path)
+                data = path.read_bytes()
+                # through kernel modules, not through this machinery (its imports say where the cache lives)
+                if any(marker in data for marker in KERNEL_MARKERS) and b"def compile_kernel(" not in data:
+                    todo.append(path)
+    return sorted(seen)
 
 
-def sources_digest(root: str | os.PathLike) -> str:
-    """SHA-256 (hex) of the kernel modules under ``root`` (:func:`kernel_sources`: relative path and bytes, sorted).
+def sources_digest(module: str | os.PathLike, root: str | os.PathLike) -> str:
+    """SHA-256 (hex) of what a kernel in ``module`` is compiled from (:func:`kernel_closure`: relative path and
+    bytes, sorted).
 
     numba keys a cached kernel by its own function's bytecode and its file's
     time stamp, not by the kernels it calls in other modules: after a change
     to ``lm_kernel.py`` alone, ``numerical_many``'s cached loop would go on running
-    the old iteration. manipkit's kernels are keyed by this digest of every
-    module with compiled code, and of what those modules import (constants
-    are frozen into a compiled kernel), so such a change compiles them again;
-    a change anywhere else (a docstring of the CLI) does not.
+    the old iteration. manipkit's kernels are keyed by this digest of the
+    kernel's module, of what it imports, and of what the kernel modules among
+    those import, so such a change compiles them again; a change anywhere else
+    (a docstring of the CLI, another kernel's module) does not.
     """
     digest = hashlib.sha256()
     base = Path(root)
-    for path in kernel_sources(base):
+    for path in kernel_closure(module, base):
         digest.update(str(path.relative_to(base)).encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
 @functools.cache
-def _package_digest() -> str:
-    return sources_digest(Path(__file__).resolve().parents[1])  # the whole package: every module with kernels
+def _module_digest(module: str) -> str:
+    return sources_digest(module, Path(__file__).resolve().parents[1])  # the package is the root
 
 
 @functools.cache
 def _source_keyed_cache():
-    """numba's ``FunctionCache`` in :func:`manipkit.kernel_cache.cache_root`, checked, keyed by :func:`sources_digest`."""
+    """numba's ``FunctionCache`` in :func:`manipkit.kernel_cache.cache_root`, checked, keyed by :func:`sources_digest`
+    of the kernel's module."""
     from numba.core.caching import CompileResultCacheImpl, FunctionCache, UserProvidedCacheLocator
 
     class TrustedLocator(UserProvidedCacheLocator):
@@ -141,7 +166,7 @@ def _source_keyed_cache():
         _impl_class = TrustedImpl
 
         def _index_key(self, sig, codegen):
-            return (*super()._index_key(sig, codegen), _package_digest())
+            return (*super()._index_key(sig, codegen), _module_digest(self._py_func.__code__.co_filename))
 
     return SourceKeyedCache
 
