@@ -324,6 +324,29 @@ def test_dh_show_prints_the_boxed_table_and_symbolic_transform():
     assert "c₁ + c₁₂" in out and "s₁ + s₁₂" in out
 
 
+def test_dh_gravity_prints_the_textbook_torques_of_a_vertical_2r():
+    # planar_2r (unit links, standard DH), y up, point masses m1, m2 at the link ends (the DH frames' origins):
+    # V = g (m1 s_1 + m2 (s_1 + s_12)), so g1 = g (m1 c_1 + m2 c_1 + m2 c_12) and g2 = g m2 c_12.
+    out = run_cli("manipkit", "dh", "gravity", "planar_2r", "--mass", "m1", "m2", "--up", "y", status=0).stdout
+    assert "gravity -g along y" in out and "g⋅(c₁⋅m₁ + c₁⋅m₂ + c₁₂⋅m₂)" in out and "c₁₂⋅g⋅m₂" in out
+    # numbers, masses 1 and 2 kg at mid-links (-0.5, 0, 0) in each DH frame, g = 9.81:
+    # g1 = 9.81 (1 * 0.5 + 2 * 1) c_1 + 9.81 * 2 * 0.5 c_12 = 24.525 c_1 + 9.81 c_12, g2 = 9.81 c_12.
+    out = run_cli("manipkit", "dh", "gravity", "planar_2r", "--mass", "1", "2", "--cog", "-0.5", "0", "0", "--cog",
+                  "-0.5", "0", "0", "--gravity", "0", "-9.81", "0", status=0).stdout
+    assert "24.525⋅c₁ + 9.81⋅c₁₂" in out and "9.81⋅c₁₂" in out
+
+
+@pytest.mark.parametrize("args, message", [
+    (("--mass", "1"), "masses: give 2 values"),
+    (("--mass", "1", "-2"), "mass 2 = -2 kg: give a mass >= 0 kg"),
+    (("--mass", "1", "2", "--gravity", "0", "nan", "0"), "give a finite number"),
+    (("--mass", "1", "m 2"), "mass 2 'm 2': give a number or a symbol name"),
+])
+def test_dh_gravity_refuses_bad_input_in_one_line(args, message):
+    result = run_cli("manipkit", "dh", "gravity", "planar_2r", *args, status=2)
+    assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
 def test_dh_show_latex():
     out = run_cli("manipkit", "dh", "show", "iiwa14_seed004", "--latex", status=0).stdout
     assert "\\begin{bmatrix}" in out or "\\left[" in out

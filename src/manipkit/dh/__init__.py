@@ -12,6 +12,9 @@ modified DH (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``
   :func:`html_dh_table`, :func:`latex_dh_table` (Jupyter's views).
 - :mod:`~manipkit.dh.symbolic`: :func:`dh_symbols`, :func:`dh_fk_symbolic`,
   :func:`shorthand`, :func:`format_symbolic` (forward kinematics in SymPy).
+- :mod:`~manipkit.dh.symbolic_jacobian`: :func:`dh_jacobian_symbolic`, the frames and the
+  geometric Jacobian in SymPy; :mod:`~manipkit.dh.symbolic_statics`: :func:`dh_gravity_symbolic`,
+  the gravity torques g(q) with point masses.
 - :mod:`~manipkit.dh.to_urdf`: :func:`urdf_from_dh`, a URDF whose chain equals the table's
   (:func:`save_urdf` writes it).
 - :mod:`~manipkit.dh.from_urdf`: :func:`dh_from_urdf_chain`, the table of a robot's chain.
@@ -39,6 +42,8 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "manipkit.dh.symbolic",
         "dh_fk_symbolic", "dh_length_symbols", "dh_symbols", "format_symbolic", "shorthand",
     ),
+    **homes_of("manipkit.dh.symbolic_jacobian", "dh_frames_symbolic", "dh_jacobian_symbolic"),
+    **homes_of("manipkit.dh.symbolic_statics", "dh_gravity_symbolic"),
     **homes_of("manipkit.dh.from_urdf", "dh_from_urdf_chain"),
     **homes_of("manipkit.dh.text", "format_dh_table", "html_dh_table", "latex_dh_table"),
     **homes_of("manipkit.dh.entries", "reverse_joint"),

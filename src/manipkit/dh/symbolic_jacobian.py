@@ -46,7 +46,7 @@ from manipkit.dh.symbolic import (
 from manipkit.dh.table import DHRow, DHTable
 from manipkit.errors import DHDerivationError
 
-__all__ = ["JACOBIAN_ROWS", "dh_jacobian_symbolic", "format_jacobian", "jacobian_determinant", "length_symbols"]
+__all__ = ["JACOBIAN_ROWS", "dh_frames_symbolic", "dh_jacobian_symbolic", "format_jacobian", "jacobian_determinant", "length_symbols"]
 
 JACOBIAN_ROWS = ("vx", "vy", "vz", "wx", "wy", "wz")
 """Row labels of a geometric Jacobian: linear velocity, then angular velocity."""
@@ -129,6 +129,28 @@ def _placement(table: DHTable, which: str, simplify):
     return dh_fk_symbolic(carrier, symbols=[q0], simplify=simplify).subs(q0, 0)
 
 
+def dh_frames_symbolic(table: DHTable, *, lengths: Mapping[str, object] | None = None, symbols=None,
+                       simplify: bool = True) -> list:
+    """The DH frames of a table in SymPy: ``[F_0, ..., F_n]``, ``F_0 = base`` and ``F_i = base A_1 ... A_i``.
+
+    Each a (4, 4) ``sympy.Matrix`` in the joint symbols (:func:`manipkit.dh.symbolic.dh_symbols`; default
+    ``q1 ... qn``), lengths chosen as symbols by ``lengths`` (:func:`length_symbols`), angle sums folded after
+    each product when ``simplify`` (SymPy's ``TR10i``). The tool is not included. Bounded as
+    :func:`manipkit.dh.symbolic.dh_fk_symbolic` is (``MAX_SYMBOLIC_OPS`` after each row).
+    """
+    import sympy
+    from sympy.simplify.fu import TR10i
+
+    q = dh_symbols(table.n, symbols)
+    chosen = length_symbols(table, lengths)
+    frames = [_placement(table, "base", simplify)]
+    for i in range(table.n):
+        product = frames[-1] * _row_matrix(table, i, q[i], chosen, simplify)
+        check_symbolic_size(product, MAX_SYMBOLIC_OPS, table, f"row {i + 1}")  # as dh_fk_symbolic: stop before it explodes
+        frames.append(product.applyfunc(lambda e: TR10i(sympy.expand(e))) if simplify else product)
+    return frames
+
+
 def dh_jacobian_symbolic(
     table: DHTable,
     *,
@@ -194,17 +216,11 @@ def dh_jacobian_symbolic(
     if table.n > max_rows:
         raise DHDerivationError(f"DH table '{table.name}': {table.n} rows, above the limit of {max_rows} rows for a "
                                 "symbolic Jacobian; use the numeric Jacobian of the robot instead")
-    q = dh_symbols(table.n, symbols)
-    chosen = length_symbols(table, lengths)
+    frames = dh_frames_symbolic(table, lengths=lengths, symbols=symbols, simplify=simplify)
 
     def fold(M):
         return M.applyfunc(lambda e: TR10i(sympy.expand(e))) if simplify else M
 
-    frames = [_placement(table, "base", simplify)]  # F_0 = base, F_i = base A_1 ... A_i
-    for i in range(table.n):
-        product = frames[-1] * _row_matrix(table, i, q[i], chosen, simplify)
-        check_symbolic_size(product, MAX_SYMBOLIC_OPS, table, f"row {i + 1}")  # as dh_fk_symbolic: stop before it explodes
-        frames.append(fold(product))
     if point is None:
         p = fold(frames[-1] * _placement(table, "tool", simplify))[:3, 3]
     elif isinstance(point, int | np.integer) and 0 <= point <= table.n:

@@ -30,14 +30,27 @@ __all__ = ["register", "run_dh_check", "run_dh_from_urdf", "run_dh_show", "run_d
 
 
 def register(commands) -> None:
-    """Add ``manipkit dh`` and its four commands to the subparsers ``commands``."""
-    dh = commands.add_parser("dh", help="DH tables: show, check against a URDF, to-urdf, from-urdf")
+    """Add ``manipkit dh`` and its five commands to the subparsers ``commands``."""
+    dh = commands.add_parser("dh", help="DH tables: show, gravity, check against a URDF, to-urdf, from-urdf")
     dh_commands = dh.add_subparsers(dest="dh_command", required=True, metavar="COMMAND", parser_class=Parser)
     show = dh_commands.add_parser("show", help="print a DH table (and its symbolic T_base_tool)")
     show.add_argument("table", metavar="TABLE", help="a bundled table name (e.g. iiwa14_seed004) or a .yaml file")
     show.add_argument("--symbolic", action="store_true", help="also print T_base_tool with SymPy (c_i/s_i shorthand)")
     show.add_argument("--latex", action="store_true", help="print the symbolic transform as LaTeX")
     show.set_defaults(run=run_dh_show)
+    gravity = dh_commands.add_parser("gravity", help="the gravity torques g(q) of a DH table with point masses (SymPy)")
+    gravity.add_argument("table", metavar="TABLE", help="a bundled table name or a .yaml file")
+    gravity.add_argument("--mass", nargs="+", required=True, metavar="M",
+                         help="one mass per row: kg, or a symbol name (m1 m2 ...)")
+    gravity.add_argument("--cog", nargs=3, action="append", default=None, metavar=("X", "Y", "Z"),
+                         help="a link's centre in its DH frame (m or symbol names), once per row in row order "
+                              "(default each frame's origin)")
+    gravity.add_argument("--up", choices=("x", "y", "z"), default="z",
+                         help="the base axis pointing up: gravity is -g along it, g a symbol (default z)")
+    gravity.add_argument("--gravity", nargs=3, type=float, default=None, metavar=("GX", "GY", "GZ"),
+                         help="gravity in the base frame as numbers (m/s^2), instead of --up")
+    gravity.add_argument("--latex", action="store_true", help="print g(q) as LaTeX")
+    gravity.set_defaults(run=run_dh_gravity)
     check = dh_commands.add_parser("check", help="compare a DH table with a robot's URDF chain, with a diagnosis")
     check.add_argument("table", metavar="TABLE", help="a bundled table name or a .yaml file")
     add_robot_options(check)
@@ -77,6 +90,36 @@ def run_dh_show(args) -> int:
         label = f"T_base_tool of {table.name or 'the table'} (c_i = cos q_i, s_i = sin q_i):"
         print(label if not args.latex else f"% {label}")
         print(dh.format_symbolic(dh.shorthand(T), latex=args.latex))
+    return EXIT_OK
+
+
+def _symbolic_value(text: str):
+    """A number when the text is one (so 1.5 stays 1.5, not a symbol), else the text (a symbol name)."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def run_dh_gravity(args) -> int:
+    """Print g(q) = dV/dq of the table with a point mass on each link (:func:`manipkit.dh.dh_gravity_symbolic`)."""
+    from manipkit import dh
+    from manipkit.description.sources import resolve_dh_table
+
+    table = dh.load_dh(resolve_dh_table(args.table))
+    centres = None if args.cog is None else [[_symbolic_value(v) for v in cog] for cog in args.cog]
+    if args.gravity is not None:
+        gravity = list(args.gravity)
+        down = f"({', '.join(short_text(v) for v in gravity)}) m/s^2"
+    else:
+        gravity = ["-g" if axis == args.up else 0 for axis in "xyz"]
+        down = f"-g along {args.up}"
+    tau = dh.dh_gravity_symbolic(table, [_symbolic_value(m) for m in args.mass], centres=centres, gravity=gravity)
+    where = "at each DH frame's origin" if centres is None else "at the given centres in their DH frames"
+    label = (f"g(q) of {table.name or 'the table'}: the torque (N m) or force (N) each joint holds still, "
+             f"point masses {where}, gravity {down} in the base frame (c_i = cos q_i, s_i = sin q_i):")
+    print(label if not args.latex else f"% {label}")
+    print(dh.format_symbolic(dh.shorthand(tau), latex=args.latex, name="g"))
     return EXIT_OK
 
 
