@@ -22,7 +22,7 @@ from manipkit.errors import OptionError
 from manipkit.paths.poses import MAX_WAYPOINTS, PosePath, interpolate_poses
 from manipkit.text import printable
 
-__all__ = ["PROFILES", "Trajectory", "ctraj", "jtraj", "mstraj", "trapezoidal"]
+__all__ = ["PROFILES", "Trajectory", "ctraj", "jtraj", "mstraj", "trapezoidal", "values_per_item"]
 
 #: The time scalings :func:`ctraj` takes.
 PROFILES = ("trapezoidal", "quintic")
@@ -279,13 +279,14 @@ def _mrange(start: float, stop: float, step: float) -> np.ndarray:
     return np.arange(round(start / step), round(stop / step) + 1) * step
 
 
-def _per_segment(value, what: str, count: int, *, positive: bool) -> np.ndarray:
+def values_per_item(value, what: str, count: int, *, item: str = "joint", positive: bool = True) -> np.ndarray:
+    """``value`` as a float vector (count,): one number for all or one per ``item``, finite, positive (or, with
+    ``positive=False``, non-negative); else :class:`~manipkit.errors.OptionError` naming ``what`` and the index."""
     array = _joints(value, what)
     if array.size == 1:
         array = np.full(count, float(array[0]))
     if len(array) != count:
-        raise OptionError(f"{what} has {len(array)} values; give one, or one per {'segment' if what != 'qdmax' else 'joint'}"
-                          f" ({count})")
+        raise OptionError(f"{what} has {len(array)} values; give one number or one per {item} ({count})")
     bad = array <= 0.0 if positive else array < 0.0
     if bad.any():
         index = int(np.argmax(bad))
@@ -403,12 +404,12 @@ def _mstraj_arguments(via, dt, tacc, qdmax, tsegment, q0, qd0, qdf):
     segments, n = targets.shape
     if segments == 0:
         raise OptionError("via: one point gives no segment; give at least two via points (or q0 and one)")
-    step = float(_per_segment(dt, "dt", 1, positive=True)[0])
+    step = float(values_per_item(dt, "dt", 1, item="step")[0])
     if (qdmax is None) == (tsegment is None):
         raise OptionError("mstraj: give exactly one of qdmax (speed limits) and tsegment (segment times)")
-    limits = _per_segment(qdmax, "qdmax", n, positive=True) if qdmax is not None else None
-    durations = _per_segment(tsegment, "tsegment", segments, positive=True) if tsegment is not None else None
-    blends = _per_segment(tacc, "tacc", segments, positive=False)
+    limits = values_per_item(qdmax, "qdmax", n) if qdmax is not None else None
+    durations = values_per_item(tsegment, "tsegment", segments, item="segment") if tsegment is not None else None
+    blends = values_per_item(tacc, "tacc", segments, item="segment", positive=False)
     velocity = np.zeros(n) if qd0 is None else _joints(qd0, "qd0", n)
     final_velocity = np.zeros(n) if qdf is None else _joints(qdf, "qdf", n)
     return start, targets, step, limits, durations, blends, velocity, final_velocity
