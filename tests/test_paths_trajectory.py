@@ -171,6 +171,8 @@ def test_mstraj_bad_arguments_are_one_line(kwargs, message):
     (lambda: jtraj([0.0], [1.0], 1), "give a whole number from 2"),
     (lambda: jtraj([0.0], [1.0], [0.0, 1.0, 1.0]), r"t\[2\] = 1 is not after t\[1\] = 1"),
     (lambda: trapezoidal([0.0], [1.0], 10**8), "give a whole number from 2 to 10000000"),
+    (lambda: jtraj([0.0], [1.0], 5.0), "t 5.0: give a count of samples"),
+    (lambda: mstraj([[0.0], [1.0]], 1e-7, 0.0, qdmax=1e-3), "mstraj: samples"),
 ])
 def test_bad_trajectory_arguments_are_one_line(call, message):
     with pytest.raises(OptionError, match=message) as info:

@@ -85,6 +85,9 @@ def _times(t, what: str = "t") -> tuple[np.ndarray, bool]:
     if isinstance(t, (int, np.integer)) and not isinstance(t, bool):
         return np.arange(bounds.count(t, f"{what} (a count of samples)", minimum=2, maximum=MAX_WAYPOINTS,
                                       error=OptionError), dtype=float), False
+    if np.ndim(t) == 0:
+        raise OptionError(f"{what} {printable(repr(t))[:40]}: give a count of samples (an int, at least 2) or a time "
+                          "vector in seconds")
     times = _joints(t, what)
     bounds.count(len(times), f"{what}: samples", minimum=2, maximum=MAX_WAYPOINTS, error=OptionError)
     steps = np.diff(times)
@@ -351,7 +354,7 @@ def mstraj(via, dt: float, tacc, *, qdmax=None, tsegment=None, q0=None, qd0=None
         via, dt, tacc, qdmax, tsegment, q0, qd0, qdf)
     segments, n = targets.shape
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    previous, blend_from, half = start, start, 0.0
+    previous, blend_from, half, samples = start, start, 0.0, 0
     for seg in range(segments):
         target = targets[seg]
         blend = math.ceil(blends[seg] / step) * step
@@ -363,12 +366,13 @@ def mstraj(via, dt: float, tacc, *, qdmax=None, tsegment=None, q0=None, qd0=None
             duration = max(float(needed.max()), 2.0 * blend)
         else:
             duration = float(durations[seg])
-        linear_times = _mrange(half + step, duration - half, step)
-        if len(linear_times) == 0:
+        linear_count = round((duration - half) / step) - round((half + step) / step) + 1  # _mrange's length
+        if linear_count <= 0:
             raise OptionError(f"mstraj segment {seg}: {duration:g} s leaves no time for its linear part after blends of "
                               f"{half:g} s at each end; give a longer tsegment or a tacc of at least 2 dt")
-        bounds.count(sum(len(p[0]) for p in parts) + len(linear_times) + round(blend_time / step) + 1,
-                     "mstraj: samples", maximum=MAX_WAYPOINTS, error=OptionError)
+        samples += linear_count + round(blend_time / step) + 1
+        bounds.count(samples, "mstraj: samples", maximum=MAX_WAYPOINTS, error=OptionError)  # before allocating
+        linear_times = _mrange(half + step, duration - half, step)
         cruise = dq / duration
         if blend_time > 0.0:
             joined = jtraj(blend_from, previous + half * cruise, _mrange(0.0, blend_time, step),
@@ -382,6 +386,7 @@ def mstraj(via, dt: float, tacc, *, qdmax=None, tsegment=None, q0=None, qd0=None
         parts.append((linear, np.broadcast_to(cruise, linear.shape), np.zeros_like(linear)))
         previous, blend_from, velocity = target, linear[-1], cruise
     if half > 0.0:
+        bounds.count(samples + round(half / step), "mstraj: samples", maximum=MAX_WAYPOINTS, error=OptionError)
         joined = jtraj(blend_from, previous, _mrange(0.0, half, step), qd0=velocity, qd1=final_velocity)
         parts.append((joined.q[1:], joined.qd[1:], joined.qdd[1:]))
     q, qd, qdd = (np.concatenate([p[i] for p in parts]) for i in range(3))
