@@ -8,9 +8,12 @@ the ``toppra`` package (the ``paths`` extra; imported inside the function).
 
 TOPP-RA enforces the limits at the points of a grid along the path. Between grid points the velocity and
 acceleration of the sampled result can exceed them by a little (the path's tangent turns between grid
-points), so the result is checked on a finer sampling of every grid interval and, where it would exceed a
-limit, slowed down uniformly in time by the worst ratio (velocities scale by ``1/r``, accelerations by
-``1/r^2``): the answer stays within every limit, and ``time_dilation`` says by how much it was stretched.
+points), so the result is checked on a finer sampling of every grid interval (:data:`CHECK_SUBDIVISIONS`).
+Intervals that exceed a limit by more than :data:`REFINE_TOL` are split in four and TOPP-RA is solved again
+(at most :data:`REFINEMENTS` times); what is left over is removed by slowing the whole motion down
+uniformly in time by the worst ratio ``r`` (velocities scale by ``1/r``, accelerations by ``1/r^2``). The
+answer stays within every limit on the checked samples, and ``time_dilation`` says by how much it was
+stretched (measured: 1.00001 to 1.0001 on smooth 60-waypoint paths).
 
 Conventions: joint arrays ``(N, n)`` in the chain's joint order (rad or m), times in seconds, limits per
 joint (rad/s, rad/s^2; m/s, m/s^2 for prismatic joints), tool speed in m/s: the speed of the tip frame's
