@@ -78,6 +78,8 @@ def test_slowdowns_say_which_limit_binds_on_which_segment():
     assert by_segment[(0, "velocity")] == pytest.approx(4.75 / 5.25, abs=grid / 5.25)
     assert by_segment[(1, "acceleration")] == pytest.approx(0.5 / 5.25, abs=grid / 5.25)
     assert "waypoints 0-1: slide's velocity limit binds" in "\n".join(result.explain())
+    # one joint: the spline through collinear waypoints is the line itself
+    assert result.path_deviation < 1e-14 and "strays at most" in result.explain()[1]
 
 
 # --------------------------------------------------------------------------

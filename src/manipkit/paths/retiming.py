@@ -134,11 +134,13 @@ class RetimeResult:
             object.__setattr__(self, name, array)
 
     def explain(self) -> list[str]:
-        """The result in words: duration, stretch, and where which limit binds."""
+        """The result in words: duration, stretch, the spline's deviation, and where which limit binds."""
         lines = [f"{self.duration:.6g} s through {len(self.waypoint_times)} waypoints, rest to rest"]
         if self.time_dilation > 1.0:
             lines.append(f"{100 * (self.time_dilation - 1.0):.2g} % longer than TOPP-RA's answer, to stay within the limits "
                          "between its grid points")
+        lines.append(f"the spline through the waypoints strays at most {self.path_deviation:.3g} (joint-space norm, rad or "
+                     "m) from the straight joint steps between them")
         lines += [slowdown.text() for slowdown in self.slowdowns]
         return lines
 
