@@ -7,6 +7,19 @@ order (radians or metres); times in seconds.
 
 from __future__ import annotations
 
-from manipkit.exports import lazy_exports
+from manipkit.exports import homes_of, lazy_exports
 
-__all__, __getattr__, __dir__ = lazy_exports(__name__, {})
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    **homes_of(
+        "manipkit.paths.retiming",
+        "BIND_TOL", "CHECK_SUBDIVISIONS", "GRID_POINTS", "MAX_GRID_POINTS", "REFINEMENTS", "REFINE_TOL", "RetimeResult",
+        "Slowdown", "retime",
+    ),
+    **homes_of("manipkit.paths.trajectory", "PROFILES", "Trajectory", "ctraj", "jtraj", "mstraj", "trapezoidal",
+               "values_per_item"),
+    **homes_of(
+        "manipkit.paths.poses",
+        "COLLINEAR_TOL", "MAX_POSE_FILE_BYTES", "MAX_WAYPOINTS", "POSE_CSV_COLUMNS", "QUATERNION_NORM_TOL",
+        "RIGID_TOL", "PosePath", "arc_poses", "interpolate_poses", "line_poses", "read_pose_path",
+    ),
+})
