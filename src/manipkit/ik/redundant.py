@@ -191,9 +191,7 @@ class _Solver:
             return self._per_value(values)
         if not self.labels:
             self.labels = list(batch.labels)
-        Q = np.where(np.isnan(Q).any(axis=-1, keepdims=True), np.nan, Q)
-        Q = self._polished(Q)
-        return Q, self._ok(Q)
+        return self._checked(Q, np.array(batch.residual_position), np.array(batch.residual_rotation))
 
     def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ik = self.ik
@@ -211,7 +209,8 @@ class _Solver:
         for i, found in enumerate(rows):
             for label, q in found.items():
                 Q[i, self.labels.index(label)] = q
-        return Q, self._ok(Q)
+        position, rotation, _ = self._residuals(Q)
+        return self._checked(Q, position, rotation)
 
     def _residuals(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, rotation, reached poses) of rows ``Q`` (..., 7) by the chain's FK (NaN rows: measured at 0)."""
@@ -222,36 +221,44 @@ class _Solver:
         position, rotation = pose_residuals(np.broadcast_to(self.T, reached.shape), reached)
         return position, rotation, reached
 
-    def _polished(self, Q: np.ndarray) -> np.ndarray:
-        """``Q`` with the rows that miss the target by more than ``POLISH_TO`` and less than :data:`POLISH_BELOW` moved by
-        Newton steps on the true chain (the batched closed forms solve the nearest ideal arm of a calibrated one
-        and do not refine): the locked joint held, all seven joints for the arm angle (least-norm steps)."""
-        out = Q.copy()
+    def _checked(self, Q: np.ndarray, position: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(Q, ok)``: the rows that miss the target by more than :data:`POLISH_TO` and less than
+        :data:`POLISH_BELOW` moved by Newton steps on the true chain (the batched closed forms solve the nearest
+        ideal arm of a calibrated one and do not refine; their residuals, per slot by the chain's FK, say which),
+        then ``ok`` (N, B): the row exists, reaches the target within ``tol`` and lies inside the joint limits."""
+        exists = ~np.isnan(Q).any(axis=-1)
+        Q = np.where(exists[..., None], Q, np.nan)
+        position = np.where(exists, position, np.inf)
+        rotation = np.where(exists, rotation, np.inf)
+        worst = np.maximum(position, rotation)
+        polish = exists & (worst > POLISH_TO) & (worst < POLISH_BELOW)
+        if polish.any():
+            rows = self._polished(Q[polish])
+            Q[polish] = rows
+            position[polish], rotation[polish], _ = self._residuals(rows)
+        slack = 1e-12
+        filled = np.where(exists[..., None], Q, 0.0)
+        inside = ((filled >= self.chain.lower - slack) & (filled <= self.chain.upper + slack)).all(axis=-1)
+        return Q, exists & (position <= self.tol[0]) & (rotation <= self.tol[1]) & inside
+
+    def _polished(self, rows: np.ndarray) -> np.ndarray:
+        """Rows (m, 7) moved by Newton steps on the true chain: the locked joint held, all seven joints for the arm
+        angle (least-norm steps), until each misses the target by at most :data:`POLISH_TO`."""
+        out = rows.copy()
         free = np.array([c for c in range(7) if c != self.parameter.column], dtype=np.intp)
         for _ in range(POLISH_STEPS):
             position, rotation, reached = self._residuals(out)
-            worst = np.maximum(position, rotation)
-            todo = ~np.isnan(out).any(axis=-1) & (worst > POLISH_TO) & (worst < POLISH_BELOW)
+            todo = np.maximum(position, rotation) > POLISH_TO
             if not todo.any():
                 break
-            rows, R = out[todo], reached[todo]
+            moving, R = out[todo], reached[todo]
             Re = self.T[:3, :3] @ np.swapaxes(R[:, :3, :3], -1, -2)
             turn = 0.5 * np.stack([Re[:, 2, 1] - Re[:, 1, 2], Re[:, 0, 2] - Re[:, 2, 0], Re[:, 1, 0] - Re[:, 0, 1]], -1)
             error = np.concatenate([self.T[:3, 3] - R[:, :3, 3], turn], axis=-1)
-            J = self.chain.jacobians(rows)[:, :, free]
-            rows[:, free] += np.einsum("kij,kj->ki", np.linalg.pinv(J), error)
-            out[todo] = rows
+            J = self.chain.jacobians(moving)[:, :, free]
+            moving[:, free] += np.einsum("kij,kj->ki", np.linalg.pinv(J), error)
+            out[todo] = moving
         return out
-
-    def _ok(self, Q: np.ndarray) -> np.ndarray:
-        """(N, B): the row exists, reaches the target by the chain's FK within ``tol`` and lies inside the limits."""
-        exists = ~np.isnan(Q).any(axis=-1)
-        filled = np.where(exists[..., None], Q, 0.0)
-        position, rotation, _ = self._residuals(Q)
-        reached = (position <= self.tol[0]) & (rotation <= self.tol[1])
-        slack = 1e-12
-        inside = ((filled >= self.chain.lower - slack) & (filled <= self.chain.upper + slack)).all(axis=-1)
-        return exists & reached & inside
 
 
 def _pad(ok: np.ndarray, width: int) -> np.ndarray:
