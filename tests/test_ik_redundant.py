@@ -201,3 +201,37 @@ def test_clearance_ranks_by_the_checker_and_marks_each_row():
 def test_a_chain_with_no_closed_form_per_value_gets_no_ranked_set():
     ur5 = manipkit.load("ur5")
     assert redundancy(ur5, "base_link", "tool0") is None
+
+
+def test_a_locked_joint_in_the_middle_is_solved_per_value_by_the_dispatcher_with_lock():
+    # the rule picks an end joint on every arm here; a middle joint takes the other path (ik with lock= per
+    # value), which a general 6R solver in the dispatcher serves: the iiwa14 with joint 3 locked is a 6R arm
+    from manipkit.ik.redundant import Redundancy, ranked_set
+
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    T = target_of(robot, CASES["iiwa14"])
+    joint = chain.joints[2]
+    parameter = Redundancy("lock", joint.name, joint.lower, joint.upper, 2, "spherical wrist, two intersecting")
+    answer = ranked_set(robot, T, "base_link", "ee_link", solvers=(manipkit.ik, manipkit.ik_many),
+                        parameter=parameter, count=8, step=0.25)
+    assert len(answer.solutions) == 8 and answer.parameter == "iiwa_joint_3 (locked)"
+    Q = answer.solutions[:, chain.columns]
+    assert np.allclose(Q[:, 2], answer.parameter_values, atol=0)
+    for q in answer.solutions:
+        position, rotation = pose_error(pinocchio_pose(robot, "base_link", "ee_link", q), T)
+        assert position < 1e-10 and rotation < 1e-10
+    assert np.all(Q >= chain.lower - 1e-12) and np.all(Q <= chain.upper + 1e-12)
+    # every interval end inside the parameter's range is a limit crossing: just outside it, the branch's
+    # solution (by the per-value path) breaks a limit or does not exist, and just inside it, it is feasible
+    checked = 0
+    for branch, low, high in answer.intervals:
+        for end, outward in ((low, -1e-5), (high, 1e-5)):
+            if joint.lower + 1e-6 < end < joint.upper - 1e-6:
+                outside = manipkit.ik(robot, T, all=True, lock={joint.name: end + outward})
+                rows = [ok for label, ok in zip(outside.labels, outside.within_limits) if label == branch]
+                assert not any(rows), (branch, end)
+                inside = manipkit.ik(robot, T, all=True, lock={joint.name: end - outward})
+                assert any(ok for label, ok in zip(inside.labels, inside.within_limits) if label == branch)
+                checked += 1
+    assert checked >= 2

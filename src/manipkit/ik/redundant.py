@@ -185,6 +185,9 @@ class _Solver:
             targets = self.T @ np.linalg.inv(A) if self.parameter.column == 6 else np.linalg.inv(A) @ self.T
             batch = ik_many(self.robot, targets, base=sub_base, tip=sub_tip, tol=self.tol,
                             family_tol=self.family_tol)
+            if batch.method != "closed_form":  # a solver of the 6R arm that ik answers and ik_many does not batch
+                self.sub = None
+                return self._per_value(values)
             Q6 = np.asarray(batch.solutions, dtype=float)
             Q = np.insert(Q6, self.parameter.column, values[:, None], axis=2)
         else:
