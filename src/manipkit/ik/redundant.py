@@ -31,8 +31,10 @@ per value), followed across the sweep by that label. Feasible intervals: the
 parameter is swept at steps of at most ``step`` (rad; both ends included),
 a sample is feasible for a branch when the branch exists there, passes the
 forward-kinematics check and lies inside every joint limit; each change
-between two samples is bracketed and bisected to :data:`PARAMETER_TOL`
-(endpoints are the feasible side of the last bracket). A feasible stretch or
+between two samples is bracketed and narrowed (false position on the
+branch's limit margin, Illinois variant, else bisection) to :data:`PARAMETER_TOL`
+or until a joint at the feasible end is within :data:`MARGIN_TOL` of its
+limit (endpoints are the feasible side of the last bracket). A feasible stretch or
 a gap shorter than a step between two samples can be missed.
 
 The set: ``count`` values spread over the intervals of every branch (each
@@ -72,8 +74,12 @@ DEFAULT_COUNT = 16
 MAX_SOLUTIONS = 10_000
 #: How the set is ordered, best first (see the module docstring).
 RANKS = ("limits", "manipulability", "clearance")
-#: Bisection of a limit crossing stops when its bracket is narrower than this (rad).
+#: A limit crossing is narrowed until its bracket is narrower than this (rad) ...
 PARAMETER_TOL = 1e-7
+#: ... or its feasible end has a joint within this (rad or m) of its limit.
+MARGIN_TOL = 1e-10
+#: A joint this far (rad or m) past its limit still counts as inside (rounding).
+LIMIT_SLACK = 1e-12
 #: The widest step (rad) of the sweep over the parameter.
 SWEEP_STEP = 2.0 * math.pi / 128
 _INSET = 0.01  # the spread's ends, as a fraction of an interval inside it
@@ -149,7 +155,7 @@ def redundancy(robot, base: str, tip: str, *, family_tol=FAMILY_TOL) -> Redundan
 class _Solver:
     """Every branch of the chain at many values of the parameter, through the one dispatcher.
 
-    ``solve(values)`` -> ``(Q, ok)``: ``Q`` (N, B, 7) chain vectors (NaN where a branch does not exist),
+    ``solve(values)`` -> ``(Q, ok, margin)``: ``Q`` (N, B, 7) chain vectors (NaN where a branch does not exist),
     ``ok`` (N, B) the branch exists, passes the FK check and lies inside the joint limits; ``labels`` the B
     branches' names (the per-value path adds branches as new labels appear).
     """
@@ -171,7 +177,7 @@ class _Solver:
                     robot.chain(self.sub[0], self.sub[1]).n != 6:
                 self.sub = None  # a chain whose links do not split there: solve with lock= per value
 
-    def solve(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def solve(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ik_many = self.ik_many
         values = np.asarray(values, dtype=float)
         n = len(values)
@@ -196,7 +202,7 @@ class _Solver:
             self.labels = list(batch.labels)
         return self._checked(Q, np.array(batch.residual_position), np.array(batch.residual_rotation))
 
-    def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ik = self.ik
         rows = []
         for value in values:
@@ -224,25 +230,28 @@ class _Solver:
         position, rotation = pose_residuals(np.broadcast_to(self.T, reached.shape), reached)
         return position, rotation, reached
 
-    def _checked(self, Q: np.ndarray, position: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(Q, ok)``: the rows that miss the target by more than :data:`POLISH_TO` and less than
+    def _checked(self, Q: np.ndarray, position: np.ndarray, rotation: np.ndarray) -> tuple:
+        """``(Q, ok, margin)``: the rows that miss the target by more than :data:`POLISH_TO` and less than
         :data:`POLISH_BELOW` moved by Newton steps on the true chain (the batched closed forms solve the nearest
         ideal arm of a calibrated one and do not refine; their residuals, per slot by the chain's FK, say which),
-        then ``ok`` (N, B): the row exists, reaches the target within ``tol`` and lies inside the joint limits."""
+        then ``ok`` (N, B): the row exists, reaches the target within ``tol`` and lies inside the joint limits,
+        and ``margin`` (N, B): its joints' least distance to a limit (rad; negative outside; NaN where it does
+        not exist or does not reach the target)."""
         exists = ~np.isnan(Q).any(axis=-1)
         Q = np.where(exists[..., None], Q, np.nan)
-        position = np.where(exists, position, np.inf)
-        rotation = np.where(exists, rotation, np.inf)
+        position = np.where(exists, np.nan_to_num(position, nan=np.inf), np.inf)
+        rotation = np.where(exists, np.nan_to_num(rotation, nan=np.inf), np.inf)
         worst = np.maximum(position, rotation)
         polish = exists & (worst > POLISH_TO) & (worst < POLISH_BELOW)
         if polish.any():
             rows = self._polished(Q[polish])
             Q[polish] = rows
             position[polish], rotation[polish], _ = self._residuals(rows)
-        slack = 1e-12
         filled = np.where(exists[..., None], Q, 0.0)
-        inside = ((filled >= self.chain.lower - slack) & (filled <= self.chain.upper + slack)).all(axis=-1)
-        return Q, exists & (position <= self.tol[0]) & (rotation <= self.tol[1]) & inside
+        reached = exists & (position <= self.tol[0]) & (rotation <= self.tol[1])
+        margin = np.minimum(filled - self.chain.lower, self.chain.upper - filled).min(axis=-1)
+        margin = np.where(reached, margin, np.nan)
+        return Q, reached & (margin >= -LIMIT_SLACK), margin
 
     def _polished(self, rows: np.ndarray) -> np.ndarray:
         """Rows (m, 7) moved by Newton steps on the true chain: the locked joint held, all seven joints for the arm
@@ -270,13 +279,19 @@ def _pad(ok: np.ndarray, width: int) -> np.ndarray:
 
 
 def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list[tuple[int, float, float]]:
-    """(branch, low, high) of every feasible interval, low to high per branch in branch order."""
+    """(branch, low, high) of every feasible interval, low to high per branch in branch order.
+
+    Every change of feasibility between two neighbouring samples is a bracket, narrowed in rounds (all brackets'
+    next values solved in one call): by the Illinois variant of false position on the branch's limit margin
+    (its joints' least distance to a limit, rad; negative outside) while both ends have one, else by bisection,
+    until the bracket is narrower than :data:`PARAMETER_TOL` or the feasible end lies within :data:`MARGIN_TOL`
+    of a limit.
+    """
     samples = max(2, math.ceil((upper - lower) / step) + 1)
     values = np.linspace(lower, upper, samples)
-    _, ok = solver.solve(values)
+    _, ok, margin = solver.solve(values)
     B = ok.shape[1]
-    # brackets: (branch, outside value, inside value, which end) for every change between neighbours
-    runs = []
+    runs = []  # [branch, first sample, last sample, low, high]
     for b in range(B):
         column = ok[:, b]
         i = 0
@@ -289,25 +304,44 @@ def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list
                 j += 1
             runs.append([b, i, j, values[i], values[j]])
             i = j + 1
-    brackets = []  # [run index, end (0 low, 1 high), outside, inside]
-    for r, (_, i, j, _, _) in enumerate(runs):
+    brackets = []  # [run, end (0 low, 1 high), outside, inside, margin outside, margin inside, side kept last]
+    for r, (b, i, j, _, _) in enumerate(runs):
         if i > 0:
-            brackets.append([r, 0, values[i - 1], values[i]])
+            brackets.append([r, 0, values[i - 1], values[i], margin[i - 1, b], margin[i, b], 0])
         if j < samples - 1:
-            brackets.append([r, 1, values[j + 1], values[j]])
-    if brackets:
-        rounds = max(0, math.ceil(math.log2(max(step, 1e-300) / PARAMETER_TOL)))
-        for _ in range(rounds):
-            mids = np.array([0.5 * (o + n) for _, _, o, n in brackets])
-            _, ok_mid = solver.solve(mids)
-            ok_mid = _pad(ok_mid, max(len(solver.labels), B))
-            for k, bracket in enumerate(brackets):
-                if ok_mid[k, runs[bracket[0]][0]]:
-                    bracket[3] = mids[k]
-                else:
-                    bracket[2] = mids[k]
-        for r, end, _, inside in brackets:
-            runs[r][3 + end] = inside
+            brackets.append([r, 1, values[j + 1], values[j], margin[j + 1, b], margin[j, b], 0])
+    for _ in range(max(0, math.ceil(math.log2(max(step, 1e-300) / PARAMETER_TOL)))):
+        active = [k for k, (_, _, out, inn, _, g_in, _) in enumerate(brackets)
+                  if abs(out - inn) > PARAMETER_TOL and not (g_in <= MARGIN_TOL)]
+        if not active:
+            break
+        trial = []
+        for k in active:
+            _, _, out, inn, g_out, g_in, _ = brackets[k]
+            if math.isfinite(g_out) and math.isfinite(g_in) and g_in > g_out:
+                t = min(max(g_in / (g_in - g_out), 0.01), 0.99)  # false position, kept off the ends
+                trial.append(inn + t * (out - inn))
+            else:
+                trial.append(0.5 * (out + inn))
+        _, ok_at, margin_at = solver.solve(np.array(trial))
+        width = max(len(solver.labels), B)
+        ok_at, margin_at = _pad(ok_at, width), np.pad(margin_at, ((0, 0), (0, width - margin_at.shape[1])),
+                                                          constant_values=np.nan)
+        for index, k in enumerate(active):
+            bracket = brackets[k]
+            b = runs[bracket[0]][0]
+            if ok_at[index, b]:
+                bracket[3], bracket[5] = trial[index], margin_at[index, b]
+                if bracket[6] == 1:  # the outside end kept twice running: halve its margin (Illinois)
+                    bracket[4] *= 0.5
+                bracket[6] = 1
+            else:
+                bracket[2], bracket[4] = trial[index], margin_at[index, b]
+                if bracket[6] == -1:
+                    bracket[5] *= 0.5
+                bracket[6] = -1
+    for r, end, _, inside, *_ in brackets:
+        runs[r][3 + end] = inside
     return [(b, float(low), float(high)) for b, _, _, low, high in sorted(runs, key=lambda run: (run[0], run[3]))]
 
 
@@ -442,7 +476,7 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
     labels_all = list(solver.labels)
     rows, labels, values = [], [], []
     if chosen:
-        Q, ok = solver.solve(np.array([v for _, v in chosen]))
+        Q, ok, _ = solver.solve(np.array([v for _, v in chosen]))
         ok = _pad(ok, len(solver.labels))
         for k, (branch, value) in enumerate(chosen):
             if branch < Q.shape[1] and ok[k, branch]:
@@ -461,7 +495,7 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
     note = (f"{len(Q)} solution(s) across the self-motion of {parameter.label}, spread over {len(found)} feasible "
             f"interval(s) of {len({b for b, _, _ in found})} branch(es) (total {spans:.6g} rad of "
             f"[{parameter.lower:.6g}, {parameter.upper:.6g}]; sweep step {min(step, parameter.upper - parameter.lower):.3g} "
-            f"rad, crossings bisected to {PARAMETER_TOL:g} rad), ranked by {rank} (best first)")
+            f"rad, crossings narrowed to {PARAMETER_TOL:g} rad), ranked by {rank} (best first)")
     if not len(Q):
         note = (f"no solution inside the joint limits at any value of {parameter.label} on "
                 f"[{parameter.lower:.6g}, {parameter.upper:.6g}] (swept at {step:.3g} rad)")
