@@ -235,3 +235,20 @@ def test_a_locked_joint_in_the_middle_is_solved_per_value_by_the_dispatcher_with
                 assert any(ok for label, ok in zip(inside.labels, inside.within_limits) if label == branch)
                 checked += 1
     assert checked >= 2
+
+
+def test_no_solution_says_whether_the_pose_is_out_of_reach_or_the_limits_forbid_it():
+    from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+    robot = manipkit.load("panda")
+    far = manipkit.ik(robot, transform_from_xyz_rpy([2.0, 0.0, 0.0], [0.0, 0.0, 0.0]), all=True)
+    assert not far.success and far.failure.kind == "unreachable" and "no branch reaches" in far.reason
+    # an iiwa14 pose whose shoulder-to-wrist distance needs |joint 4| = 2.5 rad (an SRS arm's elbow angle is fixed
+    # by that distance), past its limit of 2.0944: reachable, but every solution breaks a limit
+    iiwa = manipkit.load("iiwa14")
+    chain = iiwa.chain("base_link", "ee_link")
+    assert chain.upper[3] < 2.5
+    T = chain.fk(np.array([0.0, 0.3, 0.0, 2.5, 0.0, 1.0, 0.3]))
+    blocked = manipkit.ik(iiwa, T, all=True)
+    assert not blocked.success and blocked.failure.kind == "joint_limits", blocked.reason
+    assert "breaks a joint limit" in blocked.reason

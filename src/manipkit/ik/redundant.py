@@ -64,7 +64,7 @@ import numpy as np
 from manipkit.bounds import count as bounded_count
 from manipkit.errors import IKOptionError
 from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
-from manipkit.ik.result import SPATIAL_POSE, IKResult, tolerances
+from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, tolerances
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -170,6 +170,7 @@ class _Solver:
         self.tol, self.family_tol = tol, family_tol
         self.chain = robot.chain(base, tip)
         self.labels: list[str] = []
+        self.reached_any = False  # some branch reached the target at some value (inside the limits or not)
         self.sub = None
         if parameter.kind == "lock" and parameter.column in (0, 6):
             joint = self.chain.joints[parameter.column]
@@ -255,6 +256,7 @@ class _Solver:
         reached = exists & (position <= self.tol[0]) & (rotation <= self.tol[1])
         margin = np.minimum(filled - self.chain.lower, self.chain.upper - filled).min(axis=-1)
         margin = np.where(reached, margin, np.nan)
+        self.reached_any = self.reached_any or bool(reached.any())
         return Q, reached & (margin >= -LIMIT_SLACK), margin
 
     def _polished(self, rows: np.ndarray) -> np.ndarray:
@@ -500,16 +502,21 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
             f"interval(s) of {len({b for b, _, _ in found})} branch(es) (total {spans:.6g} rad of "
             f"[{parameter.lower:.6g}, {parameter.upper:.6g}]; sweep step {min(step, parameter.upper - parameter.lower):.3g} "
             f"rad, crossings narrowed to {PARAMETER_TOL:g} rad), ranked by {rank} (best first)")
+    failure = None
     if not len(Q):
-        note = (f"no solution inside the joint limits at any value of {parameter.label} on "
-                f"[{parameter.lower:.6g}, {parameter.upper:.6g}] (swept at {step:.3g} rad)")
+        where = f"at any value of {parameter.label} on [{parameter.lower:.6g}, {parameter.upper:.6g}] (swept at {step:.3g} rad)"
+        if solver.reached_any:
+            note = f"every solution breaks a joint limit {where}"
+            failure = IKFailure("joint_limits", note)
+        else:
+            note = f"no branch reaches the target {where}"
     result = IKResult(whole, tuple(labels[i] for i in order), len(Q), note, position[order], rotation[order],
                       mode=SPATIAL_POSE, solver="ik.redundant", joint_names=tuple(robot.joint_names),
                       within_limits=np.ones(len(Q), dtype=bool), method="closed_form",
                       arm_family=(f"7R, {parameter.family}" if parameter.kind == "arm_angle"
                                   else f"7R, {parameter.family} with {parameter.name} locked"),
                       parameter=parameter.label, parameter_values=np.array(values)[order] if values else np.zeros(0),
-                      intervals=intervals, ranked_by=rank, scores=score[order])
+                      intervals=intervals, ranked_by=rank, scores=score[order], failure=failure)
     if checker is not None:
         from manipkit.ik.collision_marks import mark_collisions
 
