@@ -252,3 +252,19 @@ def test_no_solution_says_whether_the_pose_is_out_of_reach_or_the_limits_forbid_
     blocked = manipkit.ik(iiwa, T, all=True)
     assert not blocked.success and blocked.failure.kind == "joint_limits", blocked.reason
     assert "breaks a joint limit" in blocked.reason
+
+
+def test_collision_free_drops_the_rows_in_collision_and_says_so_when_none_is_left():
+    from manipkit.kinematics.collisions import CollisionChecker
+
+    robot = manipkit.load("panda")
+    T = target_of(robot, CASES["panda"])
+    checker = CollisionChecker(robot)
+    free = manipkit.ik(robot, T, all=True, count=6, collision_free=checker)
+    assert free.success and not any(free.collides)
+    assert len(free.parameter_values) == len(free.scores) == len(free.labels) == len(free.solutions)
+    # a floor above the arm's base: every configuration is in collision with it
+    floored = CollisionChecker(robot, floor=0.3)
+    blocked = manipkit.ik(robot, T, all=True, count=4, collision_free=floored)
+    assert not blocked.success and blocked.failure.kind == "collision"
+    assert len(blocked.parameter_values) == len(blocked.scores) == 0

@@ -521,10 +521,13 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
         from manipkit.ik.collision_marks import mark_collisions
 
         marked = mark_collisions(result, checker)
-        if drop_collisions and any(marked.collides):
-            kept = marked.take(np.array([not c for c in marked.collides], dtype=bool))
-            result = replace(kept, note=f"{kept.note}; {len(marked.solutions) - len(kept.solutions)} in collision "
-                                        "dropped") if kept.success else kept
+        keep = np.array([not c for c in marked.collides], dtype=bool)
+        if drop_collisions and keep.any() and not keep.all():
+            kept = marked.take(keep)
+            result = replace(kept, note=f"{kept.note}; {int((~keep).sum())} in collision dropped")
+        elif drop_collisions and len(keep) and not keep.any():  # every row collides: the collision failure
+            result = replace(mark_collisions(result, checker, drop=True), parameter_values=np.zeros(0),
+                             scores=np.zeros(0))
         else:
             result = marked
     return result
