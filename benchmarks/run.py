@@ -198,6 +198,7 @@ def goals(rows: list[dict]) -> list[dict]:
     _collision_goals(rows, goal)
     _closed_form_goals(rows, goal)
     _statics_goals(rows, goal)
+    _redundant_goals(rows, goal)
     cold = _find(rows, "cold_start", "-", "manipkit tf-between")
     bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
     if cold and cold["median_s"]:
@@ -307,6 +308,16 @@ def _statics_goals(rows: list[dict], goal) -> None:
              "Pinocchio computeStaticTorque", f"{loop['ratio']:.1f}x", loop["ratio"] >= 10,
              f"{loop['ratio'] / 10:.1f}x the goal; timed in turns" if loop["ratio"] >= 10
              else f"missed by {10 / loop['ratio']:.1f}x; timed in turns")
+
+
+def _redundant_goals(rows: list[dict], goal) -> None:
+    """Issue 36: a 7R arm's ranked set (16 solutions across the self-motion) in at most 1 ms per pose."""
+    for arm in ("panda", "iiwa14"):
+        ranked = _find(rows, "redundant", arm, "manipkit ik --all on a 7R")
+        if ranked and ranked["median_s"]:
+            ms = ranked["median_s"] * 1e3
+            goal(f"7R ranked set, {arm}: <= 1 ms per pose", f"{ms:.3g} ms", ms <= 1.0,
+                 "met" if ms <= 1.0 else f"missed by {ms:.3g}x; {ranked['note']}")
 
 
 def _closed_form_goals(rows: list[dict], goal) -> None:
