@@ -22,7 +22,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "collisions", "analytic", "statics")
+WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "collisions", "analytic", "statics",
+             "redundant")
 ROBOTS = ("iiwa14", "panda")
 
 FULL = {
@@ -39,6 +40,7 @@ FULL = {
                        fixed_samples=1_000_000),
     "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
     "statics": dict(n_batch=100_000, loop_subset=5000, rounds=5),
+    "redundant": dict(n_poses=50, rounds=3),
 }
 QUICK = {
     "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
@@ -54,6 +56,7 @@ QUICK = {
                        fixed_samples=5000),
     "analytic": dict(n_single=10, n_batch=50, repeats=1),
     "statics": dict(n_batch=300, loop_subset=50, rounds=1),
+    "redundant": dict(n_poses=2, rounds=1),
 }
 GROUP_LABELS = {
     "fk_single": "FK, one configuration",
@@ -74,6 +77,7 @@ GROUP_LABELS = {
     "reachmap_collisions": "reachability map, collision-free only",
     "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
     "statics": "static torques with a payload, batch",
+    "redundant": "7R ranked set across the self-motion (ik --all), per pose",
 }
 #: The workload (``--only`` name) that measures each group of rows.
 STEP_OF_GROUP = {
@@ -81,6 +85,7 @@ STEP_OF_GROUP = {
     "jacobian": "jacobian", "gci": "gci", "reachmap_fk": "reachmap", "reachmap_hybrid": "reachmap",
     "reachmap_agreement": "reachmap", "reachmap_dask": "reachmap", "ik_many": "reachmap", "collisions": "collisions",
     "acm": "collisions", "reachmap_collisions": "collisions", "analytic": "analytic", "statics": "statics",
+    "redundant": "redundant",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
               "map": "map", "pose": "pose"}
@@ -193,6 +198,7 @@ def goals(rows: list[dict]) -> list[dict]:
     _collision_goals(rows, goal)
     _closed_form_goals(rows, goal)
     _statics_goals(rows, goal)
+    _redundant_goals(rows, goal)
     cold = _find(rows, "cold_start", "-", "manipkit tf-between")
     bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
     if cold and cold["median_s"]:
@@ -302,6 +308,16 @@ def _statics_goals(rows: list[dict], goal) -> None:
              "Pinocchio computeStaticTorque", f"{loop['ratio']:.1f}x", loop["ratio"] >= 10,
              f"{loop['ratio'] / 10:.1f}x the goal; timed in turns" if loop["ratio"] >= 10
              else f"missed by {10 / loop['ratio']:.1f}x; timed in turns")
+
+
+def _redundant_goals(rows: list[dict], goal) -> None:
+    """Issue 36: a 7R arm's ranked set (16 solutions across the self-motion) in at most 1 ms per pose."""
+    for arm in ("panda", "iiwa14"):
+        ranked = _find(rows, "redundant", arm, "manipkit ik --all on a 7R")
+        if ranked and ranked["median_s"]:
+            ms = ranked["median_s"] * 1e3
+            goal(f"7R ranked set, {arm}: <= 1 ms per pose", f"{ms:.3g} ms", ms <= 1.0,
+                 "met" if ms <= 1.0 else f"missed by {ms:.3g}x; {ranked['note']}")
 
 
 def _closed_form_goals(rows: list[dict], goal) -> None:
@@ -551,6 +567,12 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         from benchmarks.statics_workload import statics_workload
 
         steps.append(("static torques iiwa14", lambda: statics_workload("iiwa14", **sizes["statics"])))
+    if "redundant" in only:
+        from benchmarks.redundant_workload import redundant_workload
+
+        for robot in ("panda", "iiwa14"):
+            steps.append((f"7R ranked set {robot}",
+                          lambda robot=robot: redundant_workload(robot, **sizes["redundant"])))
     date = dt.datetime.now().astimezone().isoformat(timespec="seconds")
     for label, step in steps:
         t = time.perf_counter()

@@ -43,8 +43,8 @@ def assert_lands(robot, base, tip, Q, T, tol=1e-9):
 
 
 def rows_of(payload: dict, robot) -> np.ndarray:
-    return np.array([[row[name] for name in robot.joint_names] for row in payload["solutions"]]).reshape(
-        -1, len(robot.joint_names))
+    """Whole-robot rows of the JSON solutions (which hold the chain's own joints; the others at their defaults)."""
+    return np.array([robot.q(row) for row in payload["solutions"]]).reshape(-1, len(robot.joint_names))
 
 
 def cli_solutions(robot_words, base, tip, T, *extra):
@@ -100,11 +100,14 @@ def test_python_and_the_command_give_the_same_closed_form_solutions(case):
 
 
 def test_a_numerical_only_arm_gives_the_same_solutions_in_python_and_the_command():
+    # the Panda's 7R chain has a ranked set with all=True (tests/test_ik_redundant.py): numerical IK by name here
     panda = manipkit.load("panda")
     chain = panda.chain("panda_link0", "panda_hand")
     T = target_from_rpy(chain.fk(chain.sample(1, seed=4)[0]))
-    python = manipkit.ik(panda, T, base="panda_link0", tip="panda_hand", all=True, restarts=8, seed=2)
-    payload, _ = cli_solutions(["--robot", "panda"], "panda_link0", "panda_hand", T, "--restarts", "8", "--seed", "2")
+    python = manipkit.ik(panda, T, base="panda_link0", tip="panda_hand", all=True, restarts=8, seed=2,
+                         method="numerical")
+    payload, _ = cli_solutions(["--robot", "panda"], "panda_link0", "panda_hand", T, "--restarts", "8", "--seed", "2",
+                               "--method", "numerical")
     assert python.method == payload["method"] == "numerical"
     assert payload["arm_family"] is None and python.arm_family == ""
     assert len(python.solutions) == len(payload["solutions"]) >= 1

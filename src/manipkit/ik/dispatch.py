@@ -130,10 +130,26 @@ def _one(result: IKResult, robot, base: str, tip: str, q0) -> IKResult:
     return result.take([best])
 
 
+def _ranked(robot, base: str, tip: str, *, method: str, all: bool, mode: str, lock, arm_angle, free, family_tol,
+            closed: bool, count, rank):
+    """The redundancy parameter when ``ik`` answers with a 7R arm's ranked set (``all``, ``method`` "auto", a pose,
+    no lock, arm angle or free joints, no closed form as asked), else None; ``count``/``rank`` given otherwise: refused."""
+    parameter = None
+    if all and method == "auto" and mode == "pose" and not lock and arm_angle is None and not free and not closed:
+        from manipkit.ik.redundant import redundancy
+
+        parameter = redundancy(robot, base, tip, family_tol=family_tol)
+    if parameter is None and (count is not None or rank is not None):
+        raise IKOptionError("count= and rank= choose a 7R arm's ranked set across its self-motion: all=True, "
+                            "method='auto', a pose, without lock= or arm_angle=, on a 7R chain with a closed form "
+                            "per value of its arm angle or of a locked joint")
+    return parameter
+
+
 def ik(subject, target, *, base: str | None = None, tip: str | None = None, method: str = "auto", all: bool = False,
        mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
        restarts: int = 50, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, free=(), collisions=None,
-       collision_free=False) -> IKResult:
+       collision_free=False, count=None, rank=None) -> IKResult:
     """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, else a
     numerical search; one result type either way.
 
@@ -182,6 +198,12 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
     collision_free : bool or CollisionChecker, keyword-only
         Keep only solutions not in collision (numerical IK searches on past
         them); with none left, ``failure.kind == "collision"`` names the pairs.
+    count, rank : int, str, keyword-only
+        A 7R arm with ``all=True`` and neither ``lock`` nor ``arm_angle``
+        (``method="auto"``): ``count`` solutions spread across the
+        self-motion, ranked by ``rank`` (``"limits"``, ``"manipulability"``,
+        ``"clearance"``): :func:`manipkit.ik.redundant.ranked_set`; refused
+        for any other question.
 
     Returns
     -------
@@ -215,6 +237,13 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
                                   arm_angle=arm_angle, free=free)
     avoid = _checker(robot, collision_free)
     mark = avoid if avoid is not None else _checker(robot, collisions)
+    ranked = _ranked(robot, base, tip, method=method, all=all, mode=mode, lock=lock, arm_angle=arm_angle, free=free,
+                     family_tol=family_tol, closed=closed, count=count, rank=rank)
+    if ranked is not None:
+        from manipkit.ik.redundant import ranked_set
+
+        return ranked_set(robot, target, base, tip, solvers=(ik, ik_many), parameter=ranked, count=count, rank=rank,
+                          tol=tol, family_tol=family_tol, q0=q0, checker=mark, drop_collisions=avoid is not None)
     if closed:
         from manipkit.ik.textbook import analytic_ik
 

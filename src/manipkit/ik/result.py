@@ -221,6 +221,19 @@ class IKResult:
     clearance : ndarray, shape (k,), or None
         With ``collides``: per row, the distance (m) of the closest checked
         pair (negative: penetration depth; inf when no pair is checked).
+    parameter : str
+        A 7R arm's ranked set (:mod:`manipkit.ik.redundant`): the redundancy
+        parameter in words (``"psi (arm angle)"``, ``"panda_joint7 (locked)"``),
+        else ``""``; ``labels`` are then the branches.
+    parameter_values : ndarray, shape (k,), or None
+        Per row, the parameter's value (rad); None outside a ranked set.
+    intervals : tuple of (str, float, float)
+        Every branch's feasible intervals of the parameter (branch, low, high; rad).
+    ranked_by : str
+        The criterion the rows are ordered by, best first (``"limits"``,
+        ``"manipulability"``, ``"clearance"``), else ``""``.
+    scores : ndarray, shape (k,), or None
+        Per row, the value of ``ranked_by`` (larger is better).
 
     method : str
         ``"closed_form"`` (every branch from the geometry or a textbook
@@ -272,6 +285,11 @@ class IKResult:
     refined: np.ndarray | None = None
     collides: tuple[bool, ...] = ()
     clearance: np.ndarray | None = None
+    parameter: str = ""
+    parameter_values: np.ndarray | None = None
+    intervals: tuple[tuple[str, float, float], ...] = ()
+    ranked_by: str = ""
+    scores: np.ndarray | None = None
     method: str = "closed_form"
     arm_family: str = ""
     failure: IKFailure | None = None
@@ -279,8 +297,8 @@ class IKResult:
     def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
                  joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
                  side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None,
-                 within_limits=None, refined=None, collides=(), clearance=None, method="closed_form", arm_family="",
-                 failure=None):
+                 within_limits=None, refined=None, collides=(), clearance=None, parameter="", parameter_values=None,
+                 intervals=(), ranked_by="", scores=None, method="closed_form", arm_family="", failure=None):
         # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
         # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
         fields = dict(locals())
@@ -344,8 +362,8 @@ class IKResult:
 
     def take(self, rows) -> IKResult:
         """This answer with only ``rows`` (indices or a boolean mask) of its solutions, every per-row field
-        (labels, residuals, within_limits, refined, collides, clearance) following them; ``count`` becomes the
-        number kept (a family keeps ``inf`` while a row is left).
+        (labels, residuals, within_limits, refined, collides, clearance, parameter_values, scores) following
+        them; ``count`` becomes the number kept (a family keeps ``inf`` while a row is left).
 
         Examples
         --------
@@ -363,13 +381,15 @@ class IKResult:
             refined=None if self.refined is None else self.refined[index],
             collides=tuple(self.collides[i] for i in index) if self.collides else (),
             clearance=None if self.clearance is None else self.clearance[index],
+            parameter_values=None if self.parameter_values is None else self.parameter_values[index],
+            scores=None if self.scores is None else self.scores[index],
         )
         count = self.count if math.isinf(self.count) and len(index) else len(index)
         return replace(self, count=count, **per_row)
 
     def __post_init__(self):
         for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
-                     "clearance"):
+                     "clearance", "parameter_values", "scores"):
             value = getattr(self, name)
             if value is not None and (not isinstance(value, np.ndarray) or value.flags.writeable):
                 object.__setattr__(self, name, read_only(value))  # arrays of a result are read-only copies

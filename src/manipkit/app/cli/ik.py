@@ -37,7 +37,7 @@ from manipkit.app.cli.common import (
     robot_words,
 )
 from manipkit.errors import ManipkitError
-from manipkit.text import short_text
+from manipkit.text import number_text, short_text
 
 if TYPE_CHECKING:
     import numpy as np
@@ -71,6 +71,12 @@ def register(commands) -> None:
                          "(a 7R arm as a 6R one)")
     ik.add_argument("--arm-angle", type=float, default=None, metavar="PSI",
                     help="closed form of a 7R SRS arm (iiwa14): the arm angle (rad, or deg with --deg)")
+    ik.add_argument("--count", default=None, metavar="N",
+                    help="a 7R arm with --all (no --lock/--arm-angle): how many solutions to spread across its "
+                         "self-motion (default 16)")
+    ik.add_argument("--rank", default=None, metavar="CRITERION",
+                    help="a 7R arm with --all: order the solutions by limits (default), manipulability or "
+                         "clearance (with --collisions or --collision-free)")
     ik.add_argument("--seed-q", action="extend", nargs="+", default=[], metavar="NAME=VALUE", help="starting joint values")
     ik.add_argument("--deg", action="store_true", help="--rpy and --seed-q angles in degrees; solutions stay in radians")
     ik.add_argument("--clamp", action="store_true", help="clamp --seed-q values outside the joint limits (else an error)")
@@ -210,12 +216,26 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> IKResult:
               all=args.all, mode=mode, axis=args.axis or "z", q0=q0, lock=lock_values(args.lock, robot, degrees=args.deg) or None,
               arm_angle=arm_angle, restarts=args.restarts, seed=args.seed, free=tuple(args.free),
               collisions=checker if args.collisions and not args.collision_free else None,
-              collision_free=checker if args.collision_free else False, **({} if tol is None else {"tol": tol}))
+              collision_free=checker if args.collision_free else False, count=_count(args.count), rank=args.rank,
+              **({} if tol is None else {"tol": tol}))
+
+
+def _count(text: str | None):
+    """--count as a number for the library's bounds check (:func:`manipkit.ik.redundant.check_options`), or None."""
+    if text is None:
+        return None
+    try:
+        return float(text) if any(c in text for c in ".eE") else int(text)
+    except ValueError:
+        raise UsageError(f"--count {text}: give a whole number of solutions") from None
 
 
 def _header(args, result: IKResult) -> str:
     """The first line: which solver answered (the result's ``method`` and ``arm_family``), how many solutions."""
     frames = f"frame {args.tip} in {args.base}"
+    if result.parameter:
+        return (f"closed form ({result.arm_family}, {frames}): {len(result.solutions)} solution(s) across the "
+                f"self-motion of {result.parameter}, ranked by {result.ranked_by} (best first)\nmode: {result.mode}")
     if result.method == "closed_form":
         found = len(result.solutions)
         count = (f"infinitely many solutions (free: {result.free_parameter}), {found} listed" if result.infinite
@@ -278,20 +298,21 @@ def run_ik(args) -> int:
                          "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
                          "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
-        print_json(_json_answer(robot, target, mode, result, residuals, notes))
+        print_json(_json_answer(robot, robot.chain(args.base, args.tip), target, mode, result, residuals, notes))
     else:
         _print_answer(args, robot, result, residuals, notes)
     return EXIT_OK if result.success else EXIT_MISMATCH
 
 
-def _json_answer(robot: Robot, target, mode: str, result: IKResult, residuals, notes: list[str]) -> dict:
+def _json_answer(robot: Robot, chain, target, mode: str, result: IKResult, residuals, notes: list[str]) -> dict:
+    """The answer as JSON; ``solutions`` hold the chain's own joints (base to tip), as the text rows."""
     return {
         "robot": robot.name,
         "method": result.method,
         "arm_family": result.arm_family or None,
         "mode": mode,
         "target": target.tolist(),
-        "solutions": [robot.as_dict(q) for q in result.solutions],
+        "solutions": [chain.as_dict(q[chain.columns]) for q in result.solutions],
         "labels": list(result.labels),
         "closed_form_mode": result.mode if result.method == "closed_form" else None,
         "within_limits": None if result.within_limits is None else result.within_limits.tolist(),
@@ -306,21 +327,37 @@ def _json_answer(robot: Robot, target, mode: str, result: IKResult, residuals, n
         "notes": notes,
         **({"collides": list(result.collides), "clearance": [float(c) for c in result.clearance]}
            if result.clearance is not None else {}),
+        **({"parameter": result.parameter, "parameter_values": result.parameter_values.tolist(),
+            "intervals": [{"branch": b, "low": low, "high": high} for b, low, high in result.intervals],
+            "ranked_by": result.ranked_by, "scores": result.scores.tolist()} if result.parameter else {}),
     }
 
 
 def _print_answer(args, robot: Robot, result: IKResult, residuals, notes: list[str]) -> None:
+    """The text answer; rows and the check line hold the chain's own joints (the others do not move the tip)."""
+    chain = robot.chain(args.base, args.tip)
+
+    def own(q) -> dict[str, float]:
+        return chain.as_dict(q[chain.columns])
+
     print(_header(args, result))
     for line in alias_lines(robot, args.base, args.tip):
         print(line)
+    for branch, low, high in result.intervals:
+        print(f"feasible: [{branch}] {result.parameter.split(' ')[0]} from {number_text(low, args.precision)} "
+              f"to {number_text(high, args.precision)} rad")
     within = [True] * len(result.solutions) if result.within_limits is None else result.within_limits.tolist()
     for index, (label, q, inside) in enumerate(zip(result.labels, result.solutions, within), start=1):
+        if result.parameter:
+            value, score = float(result.parameter_values[index - 1]), float(result.scores[index - 1])
+            label = (f"{label}; {result.parameter.split(' ')[0]} = {number_text(value, args.precision)}; "
+                     f"{result.ranked_by} {short_text(score, 4)}")
         print(f"{index}. {('[' + label + '] ') if label else ''}{'' if inside else '(outside the joint limits) '}"
-              f"{q_text(robot.as_dict(q), args.precision)}" + _collision_text(result, index - 1))
+              f"{q_text(own(q), args.precision)}" + _collision_text(result, index - 1))
     if result.closest is not None:
         collided = result.failure is not None and result.failure.kind == "collision"
         what = "in collision" if collided else "does not reach the target"
-        print(f"best found ({what}): {q_text(robot.as_dict(result.closest), args.precision)}")
+        print(f"best found ({what}): {q_text(own(result.closest), args.precision)}")
     if residuals is not None:
         print(f"residual: position {short_text(residuals[0], 3)} m, rotation {short_text(residuals[1], 3)} rad")
     for note in notes:
@@ -329,7 +366,7 @@ def _print_answer(args, robot: Robot, result: IKResult, residuals, notes: list[s
         inside = [q for q, ok in zip(result.solutions, within) if ok]
         if inside:  # tf-between refuses values outside the limits: the check uses one inside them
             check = command_line("tf-between", args.base, args.tip, *robot_words(args, robot),
-                                 *exact_q_words(robot.as_dict(inside[0])))
+                                 *exact_q_words(own(inside[0])))
             print(f"check one with: {check}")
         else:
             print("no solution inside the joint limits, so none to check with tf-between (it refuses values "
