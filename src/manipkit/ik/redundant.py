@@ -62,9 +62,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.bounds import count as bounded_count
+from manipkit.bounds import tolerances
 from manipkit.errors import IKOptionError
 from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
-from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, tolerances
+from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
