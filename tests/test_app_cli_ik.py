@@ -210,3 +210,15 @@ def test_family_prints_an_ik_command_that_loads_the_same_robot_and_refuses_a_loc
                            "--lock iiwa_joint_3=0.2 --xyz X Y Z")
     refused = run_cli("manipkit", "family", "--robot", "iiwa14", "--lock", "iiwa_joint_3=nan")
     assert refused.returncode == 2 and "--lock iiwa_joint_3=nan: give JOINT=VALUE with a finite number" in refused.stderr
+
+
+def test_the_header_says_when_the_one_branch_shown_is_outside_the_limits():
+    # A Panda pose (found by a random search) where every branch of the closed form with joint 7 locked at
+    # 0.5 rad break a joint limit: --all shows that premise; without --all the one row shown is a branch outside
+    # the limits and the header must not call it "inside the joint limits".
+    pose = ("--robot", "panda", "--xyz", "-0.2403", "-0.0928", "0.1227", "--rpy", "-2.25430034", "1.02374649",
+            "0.88313707", "--lock", "panda_joint7=0.5")
+    every = json.loads(run_cli("manipkit", "ik", *pose, "--all", "--format", "json", status=0).stdout)
+    assert every["solutions"] and not any(every["within_limits"])
+    header = run_cli("manipkit", "ik", *pose, status=0).stdout.splitlines()[0]
+    assert "outside the joint limits: no branch is inside them" in header and "(the first branch inside" not in header

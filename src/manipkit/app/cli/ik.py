@@ -241,8 +241,10 @@ def _header(args, result: IKResult) -> str:
         count = (f"infinitely many solutions (free: {result.free_parameter}), {found} listed" if result.infinite
                  else f"{found} solution(s)")
         if not args.all and found == 1:
+            inside = result.within_limits is None or all(result.within_limits)
             chosen = "the branch nearest --seed-q" if args.seed_q else "the first branch"
-            count += f" ({chosen} inside the joint limits; --all lists every branch)"
+            where = "inside the joint limits" if inside else "outside the joint limits: no branch is inside them"
+            count += f" ({chosen} {where}; --all lists every branch)"
         return f"closed form ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
     outcome = "success" if result.success else "FAILED"
     return (f"numerical IK ({result.mode}, {frames}): {outcome}; {len(result.solutions)} solution(s), "
