@@ -55,7 +55,7 @@ import numpy as np
 
 from manipkit.errors import ClosedFormIKError
 
-__all__ = ["General6R", "Roots", "poe_fk", "prepare", "rr_sides", "solve"]
+__all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_way"]
 
 TWO_PI = 2.0 * math.pi
 _GRID = np.array([0.0, TWO_PI / 3.0, 2.0 * TWO_PI / 3.0])
@@ -179,6 +179,24 @@ def prepare(direction, point) -> General6R:
     return General6R(h, q, size, origin, x6, o, P, N, R_grid, b_grid, rank)
 
 
+def prepared(direction, point) -> General6R:
+    """:func:`prepare`, made once per distinct arrays and kept (the 64 made last): keyed on their bytes."""
+    h = np.ascontiguousarray(direction, dtype=float)
+    q = np.ascontiguousarray(point, dtype=float)
+    key = (h.shape, h.tobytes(), q.shape, q.tobytes())
+    arm = _PREPARED.get(key)
+    if arm is None:
+        arm = prepare(h, q)
+        if len(_PREPARED) >= 64:
+            _PREPARED.pop(next(iter(_PREPARED)), None)
+        _PREPARED[key] = arm
+    return arm
+
+
+#: (shapes and bytes of direction and point) -> their General6R (oldest dropped first).
+_PREPARED: dict = {}
+
+
 def _scaled_target(arm: General6R, g: np.ndarray, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) of target ``g`` in the arm's scaled frame (origin on axis 1, lengths / size)."""
     R = g[:3, :3]
@@ -295,7 +313,7 @@ def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -
         omega = w * np.where(sin > 1e-12, angle / np.maximum(sin, 1e-300), 1.0)[:, None]
         dp = G[:3, 3] - F[:, :3, 3]
         residual = np.linalg.norm(dp, axis=1) + np.linalg.norm(omega, axis=1)
-        if _ == iterations or residual.max() < 1e-14:
+        if _ == iterations or residual.max() < 1e-13:
             break
         # spatial Jacobian at the tip point: columns (h_i x (tip - point_i), h_i) of the moved axes
         J = np.empty((len(theta), 6, 6))
@@ -384,10 +402,77 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
         theta, residual = theta[keep], residual[keep]
     else:
         theta, residual = np.zeros((0, 6)), np.zeros(0)
-    rows, kept = [], []
-    for row, r in sorted(zip(theta.tolist(), residual.tolist())):
-        if any(np.max(np.abs(_wrap(np.array(row) - np.array(other_row)))) <= 1e-7 for other_row in rows):
-            continue
-        rows.append(row)
-        kept.append(r)
-    return Roots(np.array(rows, dtype=float).reshape(-1, 6), np.array(kept), int(near.sum()), eigen, score)
+    order = np.lexsort(theta.T[::-1])
+    theta, residual = theta[order], residual[order]
+    same = np.all(np.abs(_wrap(theta[:, None, :] - theta[None, :, :])) <= 1e-7, axis=-1)
+    first = ~np.any(np.tril(same, -1), axis=1)  # a row equal to an earlier one is that one
+    rows, kept = theta[first], residual[first]
+    return Roots(rows.reshape(-1, 6), kept, int(near.sum()), eigen, score)
+
+
+#: The ways the loop can be eliminated: (shift, reverse). The loop ``E_1 ... E_6 = g`` is also
+#: ``E_{k+1} ... E_6 F_1 ... F_k = g`` with ``F_i = g^-1 E_i g`` (the rotation about axis i moved by ``g^-1``), and
+#: read tip to base ``E_6^-1 ... E_1^-1 = g^-1``: twelve eliminations, each with other joints on each side. Special
+#: arms (axes 1, 2 meeting and 2, 3 parallel, as the xArm6 has) make some of them degenerate for every target.
+WAYS = tuple((shift, reverse) for reverse in (False, True) for shift in range(6))
+
+
+def _shifted(h: np.ndarray, p: np.ndarray, g: np.ndarray, shift: int, reverse: bool):
+    """(directions, points, target) of the loop eliminated the way ``(shift, reverse)``."""
+    if shift:
+        gi = np.linalg.inv(g)
+        h = np.concatenate([h[shift:], h[:shift] @ gi[:3, :3].T])
+        p = np.concatenate([p[shift:], p[:shift] @ gi[:3, :3].T + gi[:3, 3]])
+    if reverse:
+        return -h[::-1], p[::-1], np.linalg.inv(g)
+    return h, p, g
+
+
+def solve_way(direction, point, g, way: tuple[int, bool], **options) -> Roots:
+    """:func:`solve` of ``g = E_1 ... E_6`` (axes ``direction``, ``point`` (6, 3)) eliminated the way ``way``
+    (:data:`WAYS`); angles in the chain's order. ClosedFormIKError when that way is degenerate here."""
+    shift, reverse = way
+    h, p, target = _shifted(np.asarray(direction, dtype=float), np.asarray(point, dtype=float),
+                            np.asarray(g, dtype=float), shift, reverse)
+    arm = prepared(h, p) if shift == 0 else prepare(h, p)  # a shifted way's axes move with the target
+    roots = solve(arm, target, **options)
+    theta = roots.theta[:, ::-1] if reverse else roots.theta
+    theta = np.roll(theta, shift, axis=1)
+    return Roots(theta, roots.residual, roots.candidates, roots.eigen, roots.conditioning)
+
+
+def ranked_ways(direction, point, *, trials: int = 4, seed: int = 0) -> tuple[tuple[int, bool], ...]:
+    """The ways (:data:`WAYS`) that eliminate this arm, best first: each solved for the poses of ``trials`` random
+    configurations, kept when it finds every one of them, ranked by its worst conditioning (kept per arrays)."""
+    h = np.ascontiguousarray(direction, dtype=float)
+    p = np.ascontiguousarray(point, dtype=float)
+    key = (h.tobytes(), p.tobytes(), trials, seed)
+    cached = _RANKED.get(key)
+    if cached is not None:
+        return cached
+    rng = np.random.default_rng(seed)
+    thetas = rng.uniform(-np.pi, np.pi, (trials, 6))
+    scores = []
+    for way in WAYS:
+        worst = np.inf
+        for theta in thetas:
+            try:
+                roots = solve_way(h, p, poe_fk(h, p, theta), way)
+            except ClosedFormIKError:
+                worst = 0.0
+                break
+            if not len(roots.theta) or np.abs(_wrap(roots.theta - theta)).max(axis=1).min() > 1e-7:
+                worst = 0.0
+                break
+            worst = min(worst, roots.conditioning)
+        if worst > 0.0:
+            scores.append((-worst * (10.0 if way[0] == 0 else 1.0), way))  # shift 0 is cheaper (kept prepared)
+    ranked = tuple(way for *_, way in sorted(scores))
+    if len(_RANKED) >= 64:
+        _RANKED.pop(next(iter(_RANKED)), None)
+    _RANKED[key] = ranked
+    return ranked
+
+
+#: (bytes of the arrays, trials, seed) -> their ranked ways.
+_RANKED: dict = {}
