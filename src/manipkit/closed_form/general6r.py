@@ -297,11 +297,15 @@ def _joints_456(arm: General6R, Q: np.ndarray, theta123: np.ndarray, R: np.ndarr
     return theta
 
 
+#: (scaled m + rad) candidates starting farther than this from the target are dropped before Newton
+_FAR = 0.5
+
+
 def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
     """Newton steps on the (scaled) product of exponentials for every row of ``theta`` (k, 6); (theta, residual)."""
     h, p = arm.h, arm.p
     for _ in range(iterations + 1):
-        frames = [np.broadcast_to(np.eye(4), (len(theta), 4, 4))]
+        frames = [np.broadcast_to(np.eye(4), (len(theta), 4, 4)).copy()]
         for i in range(6):
             frames.append(frames[-1] @ _motions(h[i], p[i], theta[:, i]))
         F = frames[-1]
@@ -313,7 +317,13 @@ def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -
         omega = w * np.where(sin > 1e-12, angle / np.maximum(sin, 1e-300), 1.0)[:, None]
         dp = G[:3, 3] - F[:, :3, 3]
         residual = np.linalg.norm(dp, axis=1) + np.linalg.norm(omega, axis=1)
-        if _ == iterations or residual.max() < 1e-13:
+        if _ == 0:  # a start half the arm's size or half a radian away is no root of this target: not polished
+            near = residual < _FAR
+            if not near.all():
+                theta, residual, dp, omega = theta[near], residual[near], dp[near], omega[near]
+                frames = [frame[near] if frame.ndim == 3 and len(frame) == len(near) else frame for frame in frames]
+                F = frames[-1]
+        if _ == iterations or not len(theta) or residual.max() < 1e-13:
             break
         # spatial Jacobian at the tip point: columns (h_i x (tip - point_i), h_i) of the moved axes
         J = np.empty((len(theta), 6, 6))
