@@ -58,6 +58,7 @@ from manipkit.errors import ClosedFormIKError
 __all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_way"]
 
 TWO_PI = 2.0 * math.pi
+_EYE3 = np.eye(3)
 _GRID = np.array([0.0, TWO_PI / 3.0, 2.0 * TWO_PI / 3.0])
 #: basis (1, cos t, sin t) at the three grid angles; its inverse interpolates one joint exactly
 _V1 = np.stack([np.ones(3), np.cos(_GRID), np.sin(_GRID)], axis=1)
@@ -76,11 +77,18 @@ def _skew(k: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` over the last axis (np.cross without its axis handling: this runs in every solve)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _rotations(h: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``R(h, t)`` (..., 3, 3) for one unit axis and angles ``t`` (...)."""
-    K = _skew(h)
+    """``R(h, t) = cos t I + sin t [h]x + (1 - cos t) h h^T`` (..., 3, 3) for one unit axis and angles ``t`` (...)."""
     t = np.asarray(t, dtype=float)[..., None, None]
-    return np.eye(3) + np.sin(t) * K + (1.0 - np.cos(t)) * (K @ K)
+    c = np.cos(t)
+    return c * _EYE3 + np.sin(t) * _skew(h) + (1.0 - c) * np.outer(h, h)
 
 
 def _motions(h: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -88,7 +96,7 @@ def _motions(h: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
     R = _rotations(h, t)
     E = np.zeros(R.shape[:-2] + (4, 4))
     E[..., :3, :3] = R
-    E[..., :3, 3] = p - np.einsum("...ij,j->...i", R, p)
+    E[..., :3, 3] = p - R @ p
     E[..., 3, 3] = 1.0
     return E
 
@@ -104,11 +112,11 @@ def poe_fk(direction: np.ndarray, point: np.ndarray, theta: np.ndarray) -> np.nd
 
 def _foot(h_a: np.ndarray, p_a: np.ndarray, h_b: np.ndarray, p_b: np.ndarray) -> np.ndarray:
     """The point on line a nearest line b (its own point when they are parallel)."""
-    n = np.cross(h_a, h_b)
+    n = _cross(h_a, h_b)
     nn = float(n @ n)
     if nn < 1e-12:
         return p_a.copy()
-    return p_a + (np.cross(p_b - p_a, h_b) @ n) / nn * h_a
+    return p_a + (_cross(p_b - p_a, h_b) @ n) / nn * h_a
 
 
 def rr_sides(p: np.ndarray, line: np.ndarray) -> np.ndarray:
@@ -116,7 +124,7 @@ def rr_sides(p: np.ndarray, line: np.ndarray) -> np.ndarray:
     (p.p) l - 2 (p.l) p."""
     pp = np.sum(p * p, axis=-1, keepdims=True)
     pl = np.sum(p * line, axis=-1, keepdims=True)
-    return np.concatenate([p, line, pp, pl, np.cross(p, line), pp * line - 2.0 * pl * p], axis=-1)
+    return np.concatenate([p, line, pp, pl, _cross(p, line), pp * line - 2.0 * pl * p], axis=-1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,10 +298,10 @@ def _joints_456(arm: General6R, Q: np.ndarray, theta123: np.ndarray, R: np.ndarr
     G[:3, :3], G[:3, 3] = R, t
     rest = np.linalg.inv(poe_fk(arm.h[:5], arm.p[:5], theta[:, :5])) @ G  # E_6 (k, 4, 4)
     h6 = arm.h[5]
-    u = np.cross(h6, np.eye(3)[int(np.argmin(np.abs(h6)))])
+    u = _cross(h6, np.eye(3)[int(np.argmin(np.abs(h6)))])
     u /= np.linalg.norm(u)
     v = rest[:, :3, :3] @ u
-    theta[:, 5] = np.arctan2(np.cross(u, v) @ h6, v @ u)
+    theta[:, 5] = np.arctan2(_cross(u, v) @ h6, v @ u)
     return theta
 
 
@@ -332,7 +340,7 @@ def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -
             Ri, ti = frames[i][:, :3, :3], frames[i][:, :3, 3]
             hi = Ri @ h[i]
             pi = np.einsum("kij,j->ki", Ri, p[i]) + ti
-            J[:, :3, i] = np.cross(hi, tip - pi)
+            J[:, :3, i] = _cross(hi, tip - pi)
             J[:, 3:, i] = hi
         error = np.concatenate([dp, omega], axis=1)
         theta = theta + np.einsum("kij,kj->ki", np.linalg.pinv(J, rcond=1e-12), error)

@@ -176,8 +176,8 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
        mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
        restarts: int = 50, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, free=(), collisions=None,
        collision_free=False) -> IKResult:
-    """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, else a
-    numerical search; one result type either way.
+    """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, every
+    isolated solution by elimination for another 6R chain's pose, else a numerical search; one result type.
 
     Parameters
     ----------

@@ -154,7 +154,11 @@ def _refine(chain: Chain, T: np.ndarray, q: np.ndarray, steps: int, tol: float) 
 
 
 def _distinct(rows: list[np.ndarray], q: np.ndarray) -> bool:
-    return all(float(np.abs(np.pi - np.mod(np.pi - (q - row), TWO_PI)).max()) > 1e-9 for row in rows)
+    """``q`` differs from every row (modulo 2 pi) by more than 1e-9 in some joint."""
+    if not rows:
+        return True
+    gap = np.abs(np.pi - np.mod(np.pi - (q - np.asarray(rows)), TWO_PI))
+    return bool(np.all(gap.max(axis=1) > 1e-9))
 
 
 def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20) -> IKResult:
