@@ -217,3 +217,31 @@ def test_cli_family_names_the_general_6r_class_with_the_evidence():
     assert answer["class"] == "general 6R" and answer["family"] == "none" and "Raghavan-Roth" in answer["general_6r"]
     ur5 = json.loads(run_cli("manipkit", "family", "--robot", "ur5", "--tip", "tool0", "--format", "json").stdout)
     assert ur5["class"] == "three parallel, two intersecting" and ur5["general_6r"] is None
+
+
+def test_on_a_ur5_the_elimination_gives_the_closed_form_s_branches():
+    """An independent source: the UR closed form. method='algebraic' on the same chain must give the same set."""
+    ur5 = manipkit.load("ur5")
+    chain = ur5.chain("base_link", "tool0")
+    for q in chain.sample(30, seed=6):
+        T = chain.fk(q)
+        closed = manipkit.ik(ur5, T, tip="tool0", all=True)
+        algebraic = manipkit.ik(ur5, T, tip="tool0", all=True, method="algebraic")
+        assert algebraic.method == "algebraic" and closed.method == "closed_form"
+        assert len(algebraic.solutions) == len(closed.solutions) >= 2
+        for row in closed.solutions:
+            assert np.abs(wrapped(algebraic.solutions - row)).max(axis=1).min() < 1e-8
+
+
+def test_a_singular_target_is_a_family_with_the_free_joint_named():
+    """UR5 with wrist_2 = 0: axis 6 along axes 2, 3, 4, a one-parameter family (the closed form names wrist_3_joint);
+    every elimination is degenerate there, so the answer is what numerical IK finds, marked as a family."""
+    ur5 = manipkit.load("ur5")
+    chain = ur5.chain("base_link", "tool0")
+    T = chain.fk([0.1, -1.0, 1.2, -0.3, 0.0, 0.5])
+    closed = manipkit.ik(ur5, T, tip="tool0", all=True)
+    assert math.isinf(closed.count) and closed.free_parameter == "wrist_3_joint"
+    result = manipkit.ik(ur5, T, tip="tool0", all=True, method="algebraic")
+    assert math.isinf(result.count) and "wrist_3_joint" in result.free_parameter
+    assert "completeness not proven" in result.note and result.failure is None
+    assert pinocchio_miss(ur5, "base_link", "tool0", result.solutions, T) < 1e-9

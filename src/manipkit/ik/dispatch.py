@@ -132,7 +132,7 @@ def _general_answer(robot, target, base: str, tip: str, tol, family_tol) -> IKRe
     Q = np.repeat(np.asarray(robot.q(), dtype=float)[None], len(result.solutions), axis=0)
     Q[:, chain.columns] = result.solutions
     Q.setflags(write=False)
-    return result.with_rows(Q, robot.joint_names, ())
+    return result.with_rows(Q, robot.joint_names, tuple(int(chain.columns[j]) for j in result.free_joints))
 
 
 def _checker(robot, given) -> CollisionChecker | None:

@@ -32,9 +32,12 @@ which a search from starts is not.
 
 Covered: chains of exactly 6 revolute joints (one axis each: no mimic
 joints). Prismatic joints are not covered (:class:`IKOptionError`; numerical
-IK answers them). A target reached by a continuum (a singular target, where
-the elimination is degenerate both ways) gets no rows and a failure of kind
-``"singular"``.
+IK answers them). At a target where every elimination is degenerate (a
+singular target, reached by a continuum) the rows are those numerical IK finds
+from 50 starts (the note says completeness is not proven there), ``count``
+infinite with the free joint named (the one moving most along the Jacobian's
+null direction at a singular member); with no singular member, no rows and a
+failure of kind ``"singular"``.
 """
 
 from __future__ import annotations
@@ -161,6 +164,41 @@ def _distinct(rows: list[np.ndarray], q: np.ndarray) -> bool:
     return bool(np.all(gap.max(axis=1) > 1e-9))
 
 
+def _singular_family(chain: Chain, T: np.ndarray, check: tuple[float, float], reasons: list[str]) -> IKResult | None:
+    """The answer at a target where every elimination is degenerate: the distinct solutions numerical IK finds from
+    50 starts, those at a singular configuration standing for a one-parameter family (``count`` inf, the free joint
+    named as the one moving most along the Jacobian's null direction); None when none is singular (then the
+    degeneracy is no continuum, and the failure says so)."""
+    from manipkit.ik.numerical import ik as numerical_ik
+
+    found = numerical_ik(chain.robot, T, chain.base, chain.tip, tol=check, restarts=50, all=True)
+    rows = np.asarray(found.solutions, dtype=float)[:, chain.columns]
+    names = tuple(chain.joint_names)
+    free, texts = [], []
+    for q in rows:
+        _, sigma, Vt = np.linalg.svd(chain.jacobian(q))
+        if sigma[-1] > 1e-6 * sigma[0]:
+            continue
+        direction = Vt[-1] / np.max(np.abs(Vt[-1]))
+        free.append(int(np.argmax(np.abs(direction))))
+        texts.append(", ".join(f"{names[i]} {direction[i]:+.3g}" for i in np.flatnonzero(np.abs(direction) > 1e-6)))
+    if not free:
+        return None
+    free_joints = tuple(sorted(set(free)))
+    words = (f"singular target: {len(rows)} solution(s) found by numerical IK from 50 starts (the elimination is "
+             f"degenerate every way: {reasons[0]}; completeness not proven), {len(free)} of them on a one-parameter "
+             f"family moving along the Jacobian's null direction ({texts[0]}), {names[free[0]]} most")
+    position, rotation = (np.atleast_1d(e) for e in pose_residuals(T, chain.fk(rows), project=False))
+    within = np.asarray(chain.within_limits(rows), dtype=bool).reshape(-1)
+    within.setflags(write=False)
+    return IKResult(read_only(rows), ("",) * len(rows), math.inf, words, read_only(position), read_only(rotation),
+                    mode=SPATIAL_POSE, solver="ik.general6r", joint_names=names,
+                    free_parameter=", ".join(names[j] for j in free_joints),
+                    family=f"{names[free[0]]} free with the others along the null direction ({texts[0]})",
+                    free_joints=free_joints, within_limits=within, refined=read_only(np.zeros(len(rows))),
+                    method=ALGEBRAIC, arm_family=GENERAL_6R, iterations=found.iterations, attempts=found.attempts)
+
+
 def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20) -> IKResult:
     """Every isolated IK solution of a 6R ``chain`` for ``T_base_tip = target``, by algebraic elimination.
 
@@ -183,8 +221,10 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     IKResult
         ``method`` ``"algebraic"``, ``arm_family`` ``"general 6R"``; rows are chain vectors in
         ``chain.joint_names`` order, pairwise distinct modulo 2 pi, sorted; ``within_limits`` and ``refined``
-        per row; ``count`` the rows (every isolated solution), ``failure`` of kind ``"singular"`` when the
-        elimination is degenerate (a continuum), else ``"unreachable"`` when no root reaches the target.
+        per row; ``count`` the rows (every isolated solution). Where the elimination is degenerate every way (a
+        singular target): the solutions numerical IK finds from 50 starts, ``count`` inf when some lie on a
+        one-parameter family (``free_parameter`` the joint moving most along it); ``failure`` of kind
+        ``"singular"`` when none does, else ``"unreachable"`` when no root reaches the target.
 
     Raises
     ------
@@ -257,6 +297,10 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
         parts.append(f"{rejected} root(s) dropped: after refinement FK missed by up to {worst:.3g} (m or rad), "
                      f"beyond tol ({check[0]:.3g} m, {check[1]:.3g} rad)")
     failure = None
+    if not len(Q) and not candidates and len(reasons) == len(ways):
+        family = _singular_family(chain, T_check, check, reasons)
+        if family is not None:
+            return family
     if not len(Q):
         if not candidates and len(reasons) == len(ways):
             why = reasons[0] if reasons else "no way of eliminating this arm's loop is regular"
