@@ -245,3 +245,9 @@ def test_a_singular_target_is_a_family_with_the_free_joint_named():
     assert math.isinf(result.count) and "wrist_3_joint" in result.free_parameter
     assert "completeness not proven" in result.note and result.failure is None
     assert pinocchio_miss(ur5, "base_link", "tool0", result.solutions, T) < 1e-9
+
+
+@needs_xarm
+def test_asking_the_xarm6_for_a_closed_form_points_to_the_algebraic_method(xarm6):
+    with pytest.raises(IKOptionError, match="method 'algebraic' .* every isolated solution of this 6R chain"):
+        manipkit.ik(xarm6, np.eye(4), method="closed_form")
