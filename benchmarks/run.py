@@ -23,7 +23,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 WORKLOADS = ("fk", "ik", "planar", "cold", "viewer", "jacobian", "gci", "reachmap", "collisions", "analytic", "statics",
-             "redundant")
+             "redundant", "general6r")
 ROBOTS = ("iiwa14", "panda")
 
 FULL = {
@@ -41,6 +41,7 @@ FULL = {
     "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
     "statics": dict(n_batch=100_000, loop_subset=5000, rounds=5),
     "redundant": dict(n_poses=50, rounds=3),
+    "general6r": dict(n_poses=500, rounds=5),
 }
 QUICK = {
     "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
@@ -57,6 +58,7 @@ QUICK = {
     "analytic": dict(n_single=10, n_batch=50, repeats=1),
     "statics": dict(n_batch=300, loop_subset=50, rounds=1),
     "redundant": dict(n_poses=2, rounds=1),
+    "general6r": dict(n_poses=10, rounds=1),
 }
 GROUP_LABELS = {
     "fk_single": "FK, one configuration",
@@ -78,6 +80,7 @@ GROUP_LABELS = {
     "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
     "statics": "static torques with a payload, batch",
     "redundant": "7R ranked set across the self-motion (ik --all), per pose",
+    "general6r": "general 6R IK (xArm6): every solution vs one numerical solve",
 }
 #: The workload (``--only`` name) that measures each group of rows.
 STEP_OF_GROUP = {
@@ -86,6 +89,7 @@ STEP_OF_GROUP = {
     "reachmap_agreement": "reachmap", "reachmap_dask": "reachmap", "ik_many": "reachmap", "collisions": "collisions",
     "acm": "collisions", "reachmap_collisions": "collisions", "analytic": "analytic", "statics": "statics",
     "redundant": "redundant",
+    "general6r": "general6r",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
               "map": "map", "pose": "pose"}
@@ -199,6 +203,7 @@ def goals(rows: list[dict]) -> list[dict]:
     _closed_form_goals(rows, goal)
     _statics_goals(rows, goal)
     _redundant_goals(rows, goal)
+    _general6r_goals(rows, goal)
     cold = _find(rows, "cold_start", "-", "manipkit tf-between")
     bare = _find(rows, "cold_start", "-", 'python -c "import pinocchio"')
     if cold and cold["median_s"]:
@@ -298,6 +303,29 @@ def _collision_goals(rows: list[dict], goal) -> None:
         if filtered and filtered["median_s"] and filtered["n"] >= 1_000_000:
             goal(f"iiwa14 map at 0.1 m filtered for self and floor collisions: <= 2x the unfiltered time ({how})",
                  f"{filtered['slowdown']:.2f}x", filtered["slowdown"] <= 2.0, filtered["check"])
+
+
+def _general6r_goals(rows: list[dict], goal) -> None:
+    """Issue 36: every solution of a general 6R arm (xArm6) per pose at most 3x one numerical solve of manipkit and
+    at least 5x faster than ssik, in the same run."""
+    ours = _find(rows, "general6r", "xarm6", "manipkit ik(all=True)")
+    numerical = _find(rows, "general6r", "xarm6", "manipkit ik(method='numerical')")
+    ssik = _find(rows, "general6r", "xarm6", "ssik")
+    if not (ours and ours["median_s"]):
+        return
+    us = ours["median_s"] * 1e6
+    if numerical and numerical["median_s"]:
+        ratio = ours["median_s"] / numerical["median_s"]
+        goal("general 6R IK, xArm6: every solution at most 3x one numerical solve", f"{ratio:.1f}x ({us:.0f} us vs "
+             f"{numerical['median_s'] * 1e6:.0f} us)", ratio <= 3.0,
+             f"{3.0 / ratio:.1f}x under the bound" if ratio <= 3.0 else f"missed by {ratio / 3.0:.1f}x")
+    if ssik and ssik["median_s"]:
+        ratio = ssik["median_s"] / ours["median_s"]
+        goal("general 6R IK, xArm6: at least 5x faster than ssik", f"{ratio:.1f}x ({us:.0f} us vs "
+             f"{ssik['median_s'] * 1e6:.0f} us)", ratio >= 5.0,
+             f"{ratio / 5.0:.1f}x the goal" if ratio >= 5.0 else f"missed by {5.0 / ratio:.1f}x")
+    else:
+        goal("general 6R IK, xArm6: at least 5x faster than ssik", None, None, ssik["note"] if ssik else "not measured")
 
 
 def _statics_goals(rows: list[dict], goal) -> None:
@@ -573,6 +601,10 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         for robot in ("panda", "iiwa14"):
             steps.append((f"7R ranked set {robot}",
                           lambda robot=robot: redundant_workload(robot, **sizes["redundant"])))
+    if "general6r" in only:
+        from benchmarks.bench_general6r import general6r_workload
+
+        steps.append(("general 6R IK xarm6", lambda: general6r_workload(**sizes["general6r"])))
     date = dt.datetime.now().astimezone().isoformat(timespec="seconds")
     for label, step in steps:
         t = time.perf_counter()

@@ -15,8 +15,13 @@ which axes count as parallel or meeting.
 
 Which solver answers (``method="auto"``): the closed form wherever the chain
 has one for the question (a bundled textbook arm, or a 6R/7R family found in
-its geometry: :func:`manipkit.ik.textbook.closed_form_solves`), else numerical
-IK; the result's ``method`` says which ran, ``arm_family`` the family.
+its geometry: :func:`manipkit.ik.textbook.closed_form_solves`); a chain of 6
+revolute joints with none gets every isolated solution by algebraic
+elimination (:mod:`manipkit.ik.general6r`: ``method`` ``"algebraic"``,
+``arm_family`` ``"general 6R"``; ``method="algebraic"`` asks for it on any 6R
+chain and refuses others); else numerical IK; the result's ``method`` says
+which ran, ``arm_family`` the family. ``ik_many`` has no algebraic path
+(a general 6R arm's batch is searched numerically).
 ``method="closed_form"`` refuses a chain without one (the message gives the
 geometric evidence); ``method="numerical"`` always searches. Options a
 solver cannot honour are refused in one line (:class:`manipkit.errors.IKOptionError`),
@@ -40,8 +45,8 @@ if TYPE_CHECKING:
 
 __all__ = ["METHODS", "ik", "ik_many", "robot_and_frames"]
 
-#: The ``method`` a caller may ask for; a result's ``method`` is one of the last two.
-METHODS = ("auto", "closed_form", "numerical")
+#: The ``method`` a caller may ask for; a result's ``method`` is one of the last three.
+METHODS = ("auto", "closed_form", "numerical", "algebraic")
 #: The ``mode`` vocabulary of the dispatcher (what must match); the results say it in words
 #: (:data:`manipkit.ik.result.MODES`).
 ASKED_MODES = ("pose", "position", "position+axis")
@@ -91,6 +96,43 @@ def _closed_form_applies(robot, base: str, tip: str, *, method: str, mode: str, 
         raise IKOptionError(closed_form_refusal(robot, base, tip, mode=mode, family_tol=family_tol, lock=lock,
                                                 arm_angle=arm_angle))
     return False
+
+
+def _general_applies(robot, base: str, tip: str, *, method: str, mode: str, family_tol, lock, arm_angle,
+                     free) -> bool:
+    """Whether the general 6R elimination answers (``method`` "algebraic": always, else IKOptionError saying why it
+    cannot; "auto": a 6R revolute chain with no closed-form family, for a pose without options it cannot honour)."""
+    from manipkit.ik.general6r import general_refusal, general_solves
+
+    chain = robot.chain(base, tip)
+    if method != "algebraic":
+        return method == "auto" and mode == "pose" and not lock and arm_angle is None and not free and \
+            general_solves(chain, family_tol=family_tol)
+    held = [name for name, given in (("lock", bool(lock)), ("arm_angle", arm_angle is not None), ("free", bool(free)))
+            if given]
+    if held or mode != "pose":
+        what = f"{held[0]}=" if held else f"mode {mode!r}"
+        raise IKOptionError(f"the general 6R solver (method='algebraic') solves a pose of 6 revolute joints; it does "
+                            f"not take {what}: leave it out, or use method='auto'")
+    refusal = general_refusal(chain, family_tol=family_tol)
+    if refusal:
+        raise IKOptionError(refusal)
+    return True
+
+
+def _general_answer(robot, target, base: str, tip: str, tol, family_tol) -> IKResult:
+    """Every isolated solution of the 6R chain (:func:`manipkit.ik.general6r.general_ik`), rows as whole-robot
+    vectors (the off-chain joints at their defaults, as the closed forms give them)."""
+    from manipkit.ik.general6r import general_ik
+
+    chain = robot.chain(base, tip)
+    result = general_ik(chain, target, tol=tol, family_tol=family_tol)
+    if tuple(chain.joint_names) == tuple(robot.joint_names):
+        return result
+    Q = np.repeat(np.asarray(robot.q(), dtype=float)[None], len(result.solutions), axis=0)
+    Q[:, chain.columns] = result.solutions
+    Q.setflags(write=False)
+    return result.with_rows(Q, robot.joint_names, tuple(int(chain.columns[j]) for j in result.free_joints))
 
 
 def _checker(robot, given) -> CollisionChecker | None:
@@ -150,8 +192,8 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
        mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
        restarts: int = 50, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, free=(), collisions=None,
        collision_free=False, count=None, rank=None) -> IKResult:
-    """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, else a
-    numerical search; one result type either way.
+    """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, every
+    isolated solution by elimination for another 6R chain's pose, else a numerical search; one result type.
 
     Parameters
     ----------
@@ -162,8 +204,11 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
         ``"position"`` uses its translation only.
     base, tip : str, keyword-only
         Base and tip frames, base first (defaults ``base_link`` and ``ee_link``).
-    method : {"auto", "closed_form", "numerical"}, keyword-only
-        ``"auto"``: the closed form wherever the chain has one for ``mode``.
+    method : {"auto", "closed_form", "numerical", "algebraic"}, keyword-only
+        ``"auto"``: the closed form wherever the chain has one for ``mode``,
+        else for a pose of a 6R revolute chain the algebraic elimination
+        (every isolated solution), else numerical IK. ``"algebraic"``: the
+        elimination on any 6R revolute chain (others refused).
     all : bool, keyword-only
         Every solution: every closed-form branch in the solver's documented
         order (shoulder, elbow, wrist; 2*pi aliases of wide joints where the
@@ -233,8 +278,11 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
     robot, base, tip = robot_and_frames(subject, base, tip)
     _check_choice("method", method, METHODS)
     _check_choice("mode", mode, ASKED_MODES)
-    closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
-                                  arm_angle=arm_angle, free=free)
+    closed = method != "algebraic" and _closed_form_applies(robot, base, tip, method=method, mode=mode,
+                                                            family_tol=family_tol, lock=lock, arm_angle=arm_angle,
+                                                            free=free)
+    general = not closed and _general_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol,
+                                              lock=lock, arm_angle=arm_angle, free=free)
     avoid = _checker(robot, collision_free)
     mark = avoid if avoid is not None else _checker(robot, collisions)
     ranked = _ranked(robot, base, tip, method=method, all=all, mode=mode, lock=lock, arm_angle=arm_angle, free=free,
@@ -244,11 +292,12 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
 
         return ranked_set(robot, target, base, tip, solvers=(ik, ik_many), parameter=ranked, count=count, rank=rank,
                           tol=tol, family_tol=family_tol, q0=q0, checker=mark, drop_collisions=avoid is not None)
-    if closed:
+    if closed or general:
         from manipkit.ik.textbook import analytic_ik
 
-        result = analytic_ik(robot, target, base, tip, mode=mode, tol=tol, family_tol=family_tol, lock=lock,
-                             arm_angle=arm_angle)
+        result = (_general_answer(robot, target, base, tip, tol, family_tol) if general else
+                  analytic_ik(robot, target, base, tip, mode=mode, tol=tol, family_tol=family_tol, lock=lock,
+                              arm_angle=arm_angle))
         if mark is not None:
             from manipkit.ik.collision_marks import mark_collisions
 
@@ -292,6 +341,9 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     robot, base, tip = robot_and_frames(subject, base, tip)
     _check_choice("method", method, METHODS)
     _check_choice("mode", mode, ASKED_MODES)
+    if method == "algebraic":
+        raise IKOptionError("ik_many has no algebraic path: the general 6R elimination answers one target per call "
+                            "(ik(..., method='algebraic')); use method='auto' or 'numerical' for a batch")
     closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
                                   arm_angle=arm_angle, free=())
     if closed:

@@ -56,8 +56,9 @@ SPATIAL_POINTING = "spatial position and pointing axis (x, y, z, axis)"
 #: What a solver can be asked to meet: the ``mode`` of every result. The closed forms solve the first four;
 #: numerical IK solves the spatial ones (its ``mode="pose"``, ``"position"``, ``"position+axis"``).
 MODES = (PLANAR_POSITION, PLANAR_POSE, SPATIAL_POSITION, SPATIAL_POSE, SPATIAL_POINTING)
-#: How an answer was found (:attr:`IKResult.method`): every branch in closed form, or a numerical search.
-METHODS = ("closed_form", "numerical")
+#: How an answer was found (:attr:`IKResult.method`): every branch in closed form, a numerical search, or every
+#: isolated solution of a general 6R chain by algebraic elimination (:mod:`manipkit.ik.general6r`).
+METHODS = ("closed_form", "numerical", "algebraic")
 
 
 def read_only(array, shape_tail: tuple[int, ...] = ()) -> np.ndarray:
@@ -237,7 +238,9 @@ class IKResult:
 
     method : str
         ``"closed_form"`` (every branch from the geometry or a textbook
-        solver) or ``"numerical"`` (a search from starts): :data:`METHODS`.
+        solver), ``"numerical"`` (a search from starts) or ``"algebraic"``
+        (every isolated solution of a general 6R chain from an eigenvalue
+        problem, :mod:`manipkit.ik.general6r`): :data:`METHODS`.
     arm_family : str
         With a closed form from the chain's geometry: the family of the arm
         (``"three parallel, two intersecting"``, ``"spherical wrist"``, the

@@ -325,9 +325,11 @@ def _geometric_chain(robot: Robot, base: str, tip: str, mode: str, family_tol, n
         if named:
             raise IKOptionError(f"the closed form of {robot.source.name} solves base_link -> ee_link, not {base} -> {tip}, "
                                 f"and that chain has none from its geometry ({family.note}); use numerical IK for other frames")
+        six_r = len(family.geometry.columns) == 6 and not family.geometry.prismatic.any()
         raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}): {family.note}; "
                             f"the bundled textbook arms {', '.join(ANALYTIC_SOLVERS)} have named solvers; "
-                            "use numerical IK otherwise")
+                            + ("method 'algebraic' (ik --method algebraic) gives every isolated solution of this 6R "
+                               "chain" if six_r else "use numerical IK otherwise"))
     if family.kind == SRS and arm_angle is None:
         raise IKOptionError(f"no closed-form solver for robot '{robot.name}' ({base} -> {tip}) without an arm angle: "
                             f"it is a 7R arm ({SRS}) with a family of solutions per target; give arm_angle (rad; "

@@ -40,6 +40,23 @@ def register(commands) -> None:
     parser.set_defaults(run=run_family)
 
 
+def _general_evidence(chain, family, tol) -> tuple[str, str] | None:
+    """("general 6R", the evidence in words) for a 6R revolute chain with no closed-form family, else None."""
+    from manipkit.ik.general6r import GENERAL_6R, general_solves, general_ways
+
+    if family.kind != "none" or family.locked or not general_solves(chain, family_tol=tol):
+        return None
+    ways = general_ways(chain, family_tol=tol)
+    if not ways:
+        return GENERAL_6R, ("6 revolute joints, no closed-form family (the misses above); no elimination of its loop "
+                            "is regular: ik answers numerically")
+    shift, reverse = ways[0]
+    how = ("the loop split as E4 E5 = (E1 E2 E3)^-1 g E6^-1" if shift == 0 else
+           f"the loop turned by {shift} joint(s) before the split") + (", read tip to base" if reverse else "")
+    return GENERAL_6R, (f"6 revolute joints, no closed-form family (the misses above); solved by Raghavan-Roth "
+                        f"elimination, {how} ({len(ways)} of 12 ways regular on this arm)")
+
+
 def run_family(args) -> int:
     """Print the family, its evidence and whether ``ik --analytic`` solves it."""
     from manipkit.bounds import tolerances
@@ -63,10 +80,12 @@ def run_family(args) -> int:
             opw = opw_parameters(chain, family=family)
         except ManipkitError as exc:
             opw_note = str(exc)
+    general = _general_evidence(chain, family, tol)
     if args.format == "json":
         print_json({
             "robot": robot.name, "base": chain.base, "tip": chain.tip, "joints": list(chain.joint_names),
             "family": family.kind, "reversed": family.reversed, "solved": family.solved,
+            "class": general[0] if general else family.kind, "general_6r": general[1] if general else None,
             "evidence": [{"kind": r.kind, "axes": list(r.axes), "miss": r.miss, "angle": r.angle,
                           "point": list(r.point) or None} for r in family.evidence],
             "tol": list(family.tol), "deviation": family.deviation, "note": family.note,
@@ -80,6 +99,11 @@ def run_family(args) -> int:
     print(str(family))
     if opw is not None or opw_note:
         print(f"  {opw if opw is not None else opw_note}")
+    if general:
+        command = command_line("manipkit", "ik", "--all", *robot_words(args, robot), "--base", chain.base, "--tip",
+                               chain.tip)
+        print(f"class: {general[0]}: {general[1]}")
+        print(f"algebraic: {command} --xyz X Y Z --rpy R P Y gives every isolated solution")
     if family.solved:
         command = command_line("manipkit", "ik", "--analytic", *robot_words(args, robot), "--base", chain.base,
                                "--tip", chain.tip, *(["--lock", *(f"{name}={value!r}" for name, value in lock.items())] if lock else []))

@@ -60,8 +60,9 @@ def register(commands) -> None:
     orientation.add_argument("--quat", type=_number, nargs=4, metavar=("X", "Y", "Z", "W"), help="target orientation as a quaternion (x, y, z, w)")
     ik.add_argument("--position-only", action="store_true", help="ignore the orientation (default when none is given)")
     ik.add_argument("--axis", choices=("x", "y", "z"), default=None, help="match only this axis of the frame to the target's (position + pointing)")
-    ik.add_argument("--method", choices=("auto", "closed_form", "numerical"), default="auto",
-                    help="auto (default): the closed form wherever the chain has one, else numerical IK")
+    ik.add_argument("--method", choices=("auto", "closed_form", "numerical", "algebraic"), default="auto",
+                    help="auto (default): the closed form wherever the chain has one, else for a pose of a 6R arm "
+                         "every isolated solution by algebraic elimination, else numerical IK")
     ik.add_argument("--analytic", action="store_true", help="the same as --method closed_form: the bundled textbook arms' named "
                          "solvers, or any 6R chain with a spherical wrist or three parallel axes (found from its geometry)")
     ik.add_argument("--all", action="store_true", help="every solution: every closed-form branch, or every distinct solution "
@@ -246,6 +247,13 @@ def _header(args, result: IKResult) -> str:
             where = "inside the joint limits" if inside else "outside the joint limits: no branch is inside them"
             count += f" ({chosen} {where}; --all lists every branch)"
         return f"closed form ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
+    if result.method == "algebraic":
+        found = len(result.solutions)
+        count = f"{found} solution(s)" + (" (every isolated solution)" if args.all else "")
+        if not args.all and found == 1:
+            chosen = "the solution nearest --seed-q" if args.seed_q else "the first solution"
+            count += f" ({chosen} inside the joint limits; --all lists every solution)"
+        return f"algebraic elimination ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
     outcome = "success" if result.success else "FAILED"
     return (f"numerical IK ({result.mode}, {frames}): {outcome}; {len(result.solutions)} solution(s), "
             f"{result.iterations} iterations from {result.attempts} start(s)")

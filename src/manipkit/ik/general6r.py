@@ -1,0 +1,319 @@
+"""Every isolated IK solution of a 6R chain with no closed-form family: :func:`general_ik`.
+
+The chain (``robot.chain(base, tip)``: 6 revolute joints, Pieper or not:
+the xArm6, a Kinova Jaco, a FANUC CRX) is read as its product of
+exponentials at the reference configuration ``q0``
+(:attr:`manipkit.ik.families.Family.geometry`: the axes in the base frame
+and ``M = T_base_tip(q0)``); :mod:`manipkit.closed_form.general6r` gives
+every isolated root of ``T M^-1 = E_1 ... E_6`` by the Raghavan-Roth
+elimination (prepared once per chain and kept). Each root is then:
+
+- mapped to joint values ``q = q0 + angle / scale`` and each joint to its
+  alias ``q + 2 pi k`` inside the limits nearest 0, as the closed forms do
+  (a joint spanning more than 2 pi has others: the note says so); a row
+  outside the limits is kept and marked (``within_limits`` False);
+- checked by the chain's own forward kinematics (``chain.fk``); a row that
+  misses by more than ``tol`` is moved by Newton steps on the chain
+  (``refined`` says how far) and dropped if it still misses (``rejected``).
+
+Near-double roots (two solutions merging at a singular configuration, where
+other eigenvalue solvers lose them) are kept: the elimination takes nearly
+real eigenvalues as candidates and the polishing decides. When the
+elimination read base to tip is poorly conditioned at a target, it is solved
+read tip to base too and the rows are merged.
+
+What ``result.method`` says: ``"algebraic"`` (:data:`ALGEBRAIC`), with
+``arm_family`` ``"general 6R"``. Not ``"closed_form"``: the closed forms
+give each branch by explicit formulas and name it (shoulder, elbow, wrist);
+this answer comes from an eigenvalue problem, lists every isolated solution
+without branch names, and a caller filtering on ``"closed_form"`` should not
+take it for one. Not ``"numerical"``: it is complete (every isolated root),
+which a search from starts is not.
+
+Covered: chains of exactly 6 revolute joints (one axis each: no mimic
+joints). Prismatic joints are not covered (:class:`IKOptionError`; numerical
+IK answers them). At a target where every elimination is degenerate (a
+singular target, reached by a continuum) the rows are those numerical IK finds
+from 50 starts (the note says completeness is not proven there), ``count``
+infinite with the free joint named (the one moving most along the Jacobian's
+null direction at a singular member); with no singular member, no rows and a
+failure of kind ``"singular"``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.closed_form.checks import quantity_text
+from manipkit.closed_form.general6r import ranked_ways, solve_way
+from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik.families import FAMILY_TOL, NONE, chain_family
+from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only, tolerances
+from manipkit.spatial.rotations import axis_angle_from_matrix
+from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
+
+if TYPE_CHECKING:
+    from manipkit.kinematics.chain import Chain
+
+__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "general_ik", "general_refusal", "general_solves", "general_ways"]
+
+#: ``IKResult.method`` of this solver's answers.
+ALGEBRAIC = "algebraic"
+#: ``IKResult.arm_family`` of this solver's answers, and the class ``manipkit family`` names.
+GENERAL_6R = "general 6R"
+#: Residual (m and rad) within which a row's forward kinematics must reach the target.
+CHECK_TOL = 1e-10
+TWO_PI = 2.0 * math.pi
+#: below this conditioning of the base-to-tip elimination the tip-to-base one is solved too
+_POOR = 1e-6
+
+
+def general_refusal(chain: Chain, *, family_tol=FAMILY_TOL) -> str:
+    """``""`` when :func:`general_ik` takes ``chain``; else one line saying why not."""
+    names = ", ".join(chain.joint_names) or "no joints"
+    if chain.n != 6:
+        return (f"the general 6R solver takes a chain of 6 joints; {chain.base} -> {chain.tip} has {chain.n} "
+                f"({names}): choose frames with 6 joints between them, or use numerical IK")
+    try:
+        family = chain_family(chain, tol=family_tol)
+    except ClosedFormIKError as exc:
+        return f"the general 6R solver cannot read the chain {chain.base} -> {chain.tip}: {exc}"
+    prismatic = [chain.joint_names[int(c)] for c, p in zip(family.geometry.columns, family.geometry.prismatic) if p]
+    if prismatic:
+        return (f"the general 6R solver covers 6 revolute joints; {', '.join(prismatic)} "
+                f"{'is' if len(prismatic) == 1 else 'are'} prismatic (not covered): use numerical IK")
+    return ""
+
+
+def general_solves(chain: Chain, *, family_tol=FAMILY_TOL) -> bool:
+    """Whether ``method="auto"`` answers ``chain`` with :func:`general_ik`: 6 revolute joints and no closed-form
+    family within ``family_tol`` (a chain with one gets its closed form)."""
+    if chain.n != 6 or general_refusal(chain, family_tol=family_tol):
+        return False
+    return chain_family(chain, tol=family_tol).kind == NONE
+
+
+def general_ways(chain: Chain, *, family_tol=FAMILY_TOL) -> tuple[tuple[int, bool], ...]:
+    """The ways ``(shift, reversed)`` the chain's loop eliminates regularly, best first
+    (:func:`manipkit.closed_form.general6r.ranked_ways`: tried once per chain's axes and kept)."""
+    return _ways(chain, family_tol)[1]
+
+
+def _ways(chain: Chain, family_tol) -> tuple:
+    """(geometry, the ways its loop eliminates, best first) of ``chain``: found once per chain's axes."""
+    geometry = chain_family(chain, tol=family_tol).geometry
+    return geometry, ranked_ways(geometry.direction, geometry.point)
+
+
+def _roots(geometry, ways: tuple, g: np.ndarray) -> tuple[np.ndarray, list[str], int]:
+    """(angles (k, 6) in chain order, why a way failed at this target, candidates tried) of ``g = T M^-1``: the
+    best way, and the next ones while the elimination is poorly conditioned (their rows merged)."""
+    thetas, reasons, candidates = [], [], 0
+    for way in ways:
+        try:
+            roots = solve_way(geometry.direction, geometry.point, g, way, tol=1e-8)
+        except ClosedFormIKError as exc:
+            reasons.append(str(exc))
+            continue
+        candidates += roots.candidates
+        thetas.append(roots.theta)
+        if roots.conditioning >= _POOR:
+            break
+    theta = np.concatenate(thetas) if thetas else np.zeros((0, 6))
+    return theta, reasons, candidates
+
+
+def _nearest_zero_alias(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Each angle of rows Q (k, n) moved by whole turns to its value inside [lower, upper] nearest 0 (wrapped to
+    (-pi, pi] when no alias is inside)."""
+    wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
+    best = wrapped.copy()
+    done = (wrapped >= lower - 1e-12) & (wrapped <= upper + 1e-12)
+    for turns in (1, -1, 2, -2, 3, -3):
+        moved = wrapped + turns * TWO_PI
+        take = ~done & (moved >= lower - 1e-12) & (moved <= upper + 1e-12)
+        best[take] = moved[take]
+        done |= take
+    return best
+
+
+def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
+    """(6,) the spatial error of ``reached`` to ``T``: position difference and the rotation vector of ``R_T R^T``."""
+    axis, angle = axis_angle_from_matrix(T[:3, :3] @ reached[:3, :3].T, check=False)
+    return np.concatenate([T[:3, 3] - reached[:3, 3], np.asarray(axis) * float(angle)])
+
+
+def _refine(chain: Chain, T: np.ndarray, q: np.ndarray, steps: int, tol: float) -> np.ndarray:
+    """``q`` after at most ``steps`` Gauss-Newton steps (least squares on the chain's Jacobian) towards ``T``."""
+    for _ in range(steps):
+        error = _pose_error(T, chain.fk(q))
+        if float(np.abs(error).max()) <= tol:
+            break
+        q = q + np.linalg.lstsq(chain.jacobian(q), error, rcond=None)[0]
+    return q
+
+
+def _distinct(rows: list[np.ndarray], q: np.ndarray) -> bool:
+    """``q`` differs from every row (modulo 2 pi) by more than 1e-9 in some joint."""
+    if not rows:
+        return True
+    gap = np.abs(np.pi - np.mod(np.pi - (q - np.asarray(rows)), TWO_PI))
+    return bool(np.all(gap.max(axis=1) > 1e-9))
+
+
+def _singular_family(chain: Chain, T: np.ndarray, check: tuple[float, float], reasons: list[str]) -> IKResult | None:
+    """The answer at a target where every elimination is degenerate: the distinct solutions numerical IK finds from
+    50 starts, those at a singular configuration standing for a one-parameter family (``count`` inf, the free joint
+    named as the one moving most along the Jacobian's null direction); None when none is singular (then the
+    degeneracy is no continuum, and the failure says so)."""
+    from manipkit.ik.numerical import ik as numerical_ik
+
+    found = numerical_ik(chain.robot, T, chain.base, chain.tip, tol=check, restarts=50, all=True)
+    rows = np.asarray(found.solutions, dtype=float)[:, chain.columns]
+    names = tuple(chain.joint_names)
+    free, texts = [], []
+    for q in rows:
+        _, sigma, Vt = np.linalg.svd(chain.jacobian(q))
+        if sigma[-1] > 1e-6 * sigma[0]:
+            continue
+        direction = Vt[-1] / np.max(np.abs(Vt[-1]))
+        free.append(int(np.argmax(np.abs(direction))))
+        texts.append(", ".join(f"{names[i]} {direction[i]:+.3g}" for i in np.flatnonzero(np.abs(direction) > 1e-6)))
+    if not free:
+        return None
+    free_joints = tuple(sorted(set(free)))
+    words = (f"singular target: {len(rows)} solution(s) found by numerical IK from 50 starts (the elimination is "
+             f"degenerate every way: {reasons[0]}; completeness not proven), {len(free)} of them on a one-parameter "
+             f"family moving along the Jacobian's null direction ({texts[0]}), {names[free[0]]} most")
+    position, rotation = (np.atleast_1d(e) for e in pose_residuals(T, chain.fk(rows), project=False))
+    within = np.asarray(chain.within_limits(rows), dtype=bool).reshape(-1)
+    within.setflags(write=False)
+    return IKResult(read_only(rows), ("",) * len(rows), math.inf, words, read_only(position), read_only(rotation),
+                    mode=SPATIAL_POSE, solver="ik.general6r", joint_names=names,
+                    free_parameter=", ".join(names[j] for j in free_joints),
+                    family=f"{names[free[0]]} free with the others along the null direction ({texts[0]})",
+                    free_joints=free_joints, within_limits=within, refined=read_only(np.zeros(len(rows))),
+                    method=ALGEBRAIC, arm_family=GENERAL_6R, iterations=found.iterations, attempts=found.attempts)
+
+
+def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20) -> IKResult:
+    """Every isolated IK solution of a 6R ``chain`` for ``T_base_tip = target``, by algebraic elimination.
+
+    Parameters
+    ----------
+    chain : manipkit.kinematics.chain.Chain
+        ``robot.chain(base, tip)`` with 6 revolute joints.
+    target : array_like, shape (4, 4)
+        ``T_base_tip`` (metres).
+    tol : float or (float, float), keyword-only
+        Residual (m, rad) every row's forward kinematics must reach; rows missing by more than this or
+        :data:`CHECK_TOL` are refined by Newton steps on the chain, and dropped if they still miss ``tol``.
+    family_tol : float or (float, float), keyword-only
+        The tolerance the chain's axes are read with (:func:`~manipkit.ik.families.chain_family`).
+    max_iters : int, keyword-only
+        Newton steps at most per refined row.
+
+    Returns
+    -------
+    IKResult
+        ``method`` ``"algebraic"``, ``arm_family`` ``"general 6R"``; rows are chain vectors in
+        ``chain.joint_names`` order, pairwise distinct modulo 2 pi, sorted; ``within_limits`` and ``refined``
+        per row; ``count`` the rows (every isolated solution). Where the elimination is degenerate every way (a
+        singular target): the solutions numerical IK finds from 50 starts, ``count`` inf when some lie on a
+        one-parameter family (``free_parameter`` the joint moving most along it); ``failure`` of kind
+        ``"singular"`` when none does, else ``"unreachable"`` when no root reaches the target.
+
+    Raises
+    ------
+    IKOptionError
+        The chain is not 6 revolute joints (the message says what it has).
+    InvalidTransformError
+        ``target`` is not a 4x4 homogeneous transform.
+
+    Examples
+    --------
+    >>> import manipkit, numpy as np
+    >>> robot = manipkit.load("ur5")  # a closed-form arm, solved here by the elimination for the example
+    >>> chain = robot.chain("base_link", "tool0")
+    >>> every = general_ik(chain, chain.fk([0.1, -1.0, 1.2, -0.3, 1.0, 0.5]))
+    >>> every.method, every.arm_family, len(every.solutions), bool(every.residual_position.max() < 1e-10)
+    ('algebraic', 'general 6R', 8, True)
+    """
+    # Over 80 lines: the parts of one honest answer (solve, map, check, refine, limits, note) in order.
+    refusal = general_refusal(chain, family_tol=family_tol)
+    if refusal:
+        raise IKOptionError(refusal)
+    check = tolerances(tol, error=IKOptionError, what="tol")
+    T = check_transform(target, what="IK target")
+    T_check = np.array(T, dtype=float)
+    T_check[:3, :3] = projected_rotation(T_check[:3, :3])
+    geometry, ways = _ways(chain, family_tol)
+    g = T_check @ invert_transform(geometry.M, check=False)
+    theta, reasons, candidates = _roots(geometry, ways, g)
+    columns = geometry.columns
+    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
+    Q = np.broadcast_to(geometry.q0, (len(theta), chain.n)).copy()
+    Q[:, columns] = geometry.q0[columns] + theta / geometry.scale
+    Q = _nearest_zero_alias(Q, lower, upper)
+    rows, refined, residuals, rejected, worst = [], [], [], 0, 0.0
+    if len(Q):
+        position, rotation = (np.atleast_1d(e) for e in pose_residuals(T_check, chain.fk(Q), project=False))
+    polish = (min(check[0], CHECK_TOL), min(check[1], CHECK_TOL))  # rows are refined to this, dropped beyond check
+    for k, q in enumerate(Q):
+        p_err, r_err, moved = float(position[k]), float(rotation[k]), 0.0
+        if p_err > polish[0] or r_err > polish[1]:
+            better = _refine(chain, T_check, q, max_iters, min(0.1 * min(check), 1e-12))
+            moved = float(np.abs(better - q).max())
+            q = _nearest_zero_alias(better[None], lower, upper)[0]
+            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
+        if p_err > check[0] or r_err > check[1]:
+            rejected += 1
+            worst = max(worst, p_err, r_err)
+            continue
+        if _distinct(rows, q):
+            rows.append(q)
+            refined.append(moved)
+            residuals.append((p_err, r_err))
+    order = sorted(range(len(rows)), key=lambda i: tuple(rows[i]))
+    n = chain.n
+    Q = np.array([rows[i] for i in order], dtype=float).reshape(-1, n)
+    residual = np.array([residuals[i] for i in order], dtype=float).reshape(-1, 2)
+    within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(Q) else np.zeros(0, dtype=bool)
+    within.setflags(write=False)
+    parts = [f"{len(Q)} solution(s) of the general 6R elimination (every isolated solution; "
+             f"{candidates} real eigenvalue candidate(s))"]
+    if len(Q) and not within.all():
+        parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
+    if any(m > 0 for m in refined):
+        parts.append(f"refined by Newton on the chain (largest step {quantity_text(max(refined))})")
+    wide = [chain.joint_names[c] for c in columns.tolist()
+            if np.isfinite(upper[c]) and upper[c] - lower[c] > TWO_PI + 1e-9]
+    if wide and len(Q):
+        parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
+    if rejected:
+        parts.append(f"{rejected} root(s) dropped: after refinement FK missed by up to {worst:.3g} (m or rad), "
+                     f"beyond tol ({check[0]:.3g} m, {check[1]:.3g} rad)")
+    failure = None
+    if not len(Q) and not candidates and len(reasons) == len(ways):
+        family = _singular_family(chain, T_check, check, reasons)
+        if family is not None:
+            return family
+    if not len(Q):
+        if not candidates and len(reasons) == len(ways):
+            why = reasons[0] if reasons else "no way of eliminating this arm's loop is regular"
+            words = (f"no solution listed: the elimination is degenerate every way ({why}); the target is "
+                     "reached by a continuum of solutions or the arm is special; numerical IK finds members")
+            failure = IKFailure("singular", words)
+        else:
+            words = (f"no solution: none of the {candidates} real root(s) of the elimination reaches the target "
+                     "(out of reach, or an orientation the arm cannot take there)")
+            failure = IKFailure("unreachable", words)
+        parts = [words] + parts[1:]
+    return IKResult(read_only(Q, (n,)), ("",) * len(Q), len(Q), "; ".join(parts), read_only(residual[:, 0]),
+                    read_only(residual[:, 1]), mode=SPATIAL_POSE, solver="ik.general6r",
+                    joint_names=tuple(chain.joint_names), rejected=rejected, within_limits=within,
+                    refined=read_only(np.array(refined, dtype=float)[order] if refined else np.zeros(0)),
+                    method=ALGEBRAIC, arm_family=GENERAL_6R, failure=failure)

@@ -1,0 +1,253 @@
+"""Every isolated IK solution of a general 6R chain (manipkit.ik.general6r) through the one dispatcher and the CLI.
+
+Arms: the real UFactory xArm6 of ../shared/realworld/ws_more (axes 4, 5, 6 miss
+meeting by 51 mm, 5 and 6 by 38 mm: no closed form), loaded as its users load
+it (skipped when the workspace is not here); random DH arms written to URDF by
+manipkit.dh.urdf_from_dh. (The Kinova Jaco2 j2n6 is not in ../shared/realworld.)
+Every row is checked by Pinocchio's forward kinematics (``robot.transform``),
+completeness against manipkit's own numerical IK from many random starts.
+
+``MANIPKIT_GENERAL6R_POSES=10000`` (and ``MANIPKIT_GENERAL6R_COMPLETENESS=200``)
+runs the long versions of the two xArm6 sweeps (minutes; the project has no
+slow-test marker and ``make fuzz`` runs only tests/test_fuzz.py).
+"""
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helper import run_cli
+
+import manipkit
+from manipkit.dh import DHRow, DHTable, urdf_from_dh
+from manipkit.errors import IKOptionError
+from manipkit.ik.general6r import general_ik, general_solves
+from manipkit.kinematics.robot import Robot
+
+REALWORLD = next((base / "shared" / "realworld" for base in Path(__file__).resolve().parents[2:4]
+                  if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
+XARM = REALWORLD / "ws_more" / "src" / "xarm_ros2" / "xarm_description" / "urdf" / "xarm_device.urdf.xacro"
+needs_xarm = pytest.mark.skipif(not XARM.is_file(), reason=f"the shared real-world workspace is not here ({XARM})")
+POSES = int(os.environ.get("MANIPKIT_GENERAL6R_POSES", "1000"))
+COMPLETENESS = int(os.environ.get("MANIPKIT_GENERAL6R_COMPLETENESS", "20"))
+
+
+@pytest.fixture(scope="module")
+def xarm6():
+    return manipkit.load(XARM, dof="6", robot_type="xarm")
+
+
+def wrapped(a):
+    return np.pi - np.mod(np.pi - np.asarray(a), 2 * np.pi)
+
+
+def pinocchio_miss(robot, base, tip, rows, T) -> float:
+    """The largest entry of |T_reached - T| over the rows, by Pinocchio (robot.transform)."""
+    return max((float(np.abs(robot.transform(base, tip, q, check_limits=False) - T).max()) for q in rows), default=0.0)
+
+
+def random_dh_robot(seed: int) -> Robot:
+    rng = np.random.default_rng(seed)
+    rows = [DHRow(float(rng.uniform(-0.4, 0.4)), float(rng.uniform(-math.pi, math.pi)), float(rng.uniform(-0.4, 0.4)),
+                  0.0, qlim=(-math.pi, math.pi)) for _ in range(6)]
+    return Robot.from_urdf(urdf_from_dh(DHTable(rows, "standard", f"random{seed}")))
+
+
+@needs_xarm
+def test_xarm6_is_named_general_6r_and_auto_uses_the_elimination(xarm6):
+    chain = xarm6.chain("base_link", "ee_link")
+    assert general_solves(chain)
+    q = chain.sample(1, seed=4)[0]
+    result = manipkit.ik(xarm6, chain.fk(q), all=True)
+    assert (result.method, result.arm_family, result.solver) == ("algebraic", "general 6R", "ik.general6r")
+    assert np.abs(wrapped(result.solutions - q)).max(axis=1).min() < 1e-7
+    one = manipkit.ik(xarm6, chain.fk(q), q0=q)  # all=False: the in-limit solution nearest q0 is q itself
+    assert one.method == "algebraic" and len(one.solutions) == 1
+    assert np.abs(wrapped(one.q - q)).max() < 1e-7 and bool(one.within_limits[0])
+
+
+@needs_xarm
+def test_xarm6_every_solution_lands_and_the_generating_configuration_is_found(xarm6):
+    chain = xarm6.chain("base_link", "ee_link")
+    Q = chain.sample(POSES, seed=21)
+    found, worst, rows = 0, 0.0, 0
+    for q in Q:
+        T = chain.fk(q)
+        result = general_ik(chain, T)
+        rows += len(result.solutions)
+        worst = max(worst, pinocchio_miss(xarm6, "base_link", "ee_link", result.solutions, T))
+        if len(result.solutions) and np.abs(wrapped(result.solutions - q)).max(axis=1).min() < 1e-7:
+            found += 1
+    assert worst < 1e-10
+    assert found >= 0.999 * POSES, f"{POSES - found} of {POSES} generating configurations missing"
+    assert rows <= 16 * POSES
+
+
+def _numerical_solutions(robot, T, restarts, seed):
+    found = manipkit.ik(robot, T, method="numerical", all=True, restarts=restarts, seed=seed, tol=1e-10)
+    return found.solutions
+
+
+@needs_xarm
+def test_xarm6_no_solution_found_by_a_many_start_search_is_missing(xarm6):
+    chain = xarm6.chain("base_link", "ee_link")
+    missing, searched = [], 0
+    for k, q in enumerate(chain.sample(COMPLETENESS, seed=5)):
+        T = chain.fk(q)
+        every = general_ik(chain, T).solutions
+        for row in _numerical_solutions(xarm6, T, 200, k):
+            searched += 1
+            if not len(every) or np.abs(wrapped(every - row)).max(axis=1).min() > 1e-6:
+                missing.append((k, row))
+    assert searched >= COMPLETENESS  # the search found something to compare
+    assert not missing, f"{len(missing)} of {searched} numerically found solutions missing, e.g. {missing[0]}"
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_dh_arms_through_the_dispatcher(seed):
+    robot = random_dh_robot(seed)
+    chain = robot.chain("base_link", "ee_link")
+    assert general_solves(chain)
+    found, worst = 0, 0.0
+    Q = chain.sample(100, seed=seed)
+    for q in Q:
+        T = chain.fk(q)
+        result = manipkit.ik(robot, T, all=True)
+        assert result.method == "algebraic"
+        worst = max(worst, pinocchio_miss(robot, "base_link", "ee_link", result.solutions, T))
+        found += bool(len(result.solutions)) and np.abs(wrapped(result.solutions - q)).max(axis=1).min() < 1e-7
+    assert worst < 1e-10 and found == len(Q)
+    T = chain.fk(Q[0])
+    every = manipkit.ik(robot, T, all=True).solutions
+    for row in _numerical_solutions(robot, T, 200, seed):
+        assert np.abs(wrapped(every - row)).max(axis=1).min() < 1e-6
+
+
+def _det_j(chain, q):
+    return float(np.linalg.det(chain.jacobian(q)))
+
+
+@needs_xarm
+def test_xarm6_double_root_at_a_singular_configuration_is_kept(xarm6):
+    """A configuration with det J = 0 inside the limits (found by bisection on joint 3): its pose has a double root
+    there, and just beside it two close real roots; both must be in the answer (ssik lost such roots, #528)."""
+    chain = xarm6.chain("base_link", "ee_link")
+    rng = np.random.default_rng(8)
+    for _ in range(50):
+        q = chain.sample(1, seed=int(rng.integers(1 << 30)))[0]
+        grid = np.linspace(chain.lower[2] + 0.01, chain.upper[2] - 0.01, 121)
+        values = [_det_j(chain, np.r_[q[:2], t, q[3:]]) for t in grid]
+        change = np.flatnonzero(np.sign(values[:-1]) != np.sign(values[1:]))
+        if len(change):
+            break
+    lo, hi = grid[change[0]], grid[change[0] + 1]
+    sign = np.sign(_det_j(chain, np.r_[q[:2], lo, q[3:]]))
+    for _ in range(70):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if np.sign(_det_j(chain, np.r_[q[:2], mid, q[3:]])) == sign else (lo, mid)
+    star = np.r_[q[:2], 0.5 * (lo + hi), q[3:]]
+    assert abs(_det_j(chain, star)) < 1e-9
+    result = general_ik(chain, chain.fk(star))
+    assert np.abs(wrapped(result.solutions - star)).max(axis=1).min() < 1e-5
+    assert pinocchio_miss(xarm6, "base_link", "ee_link", result.solutions, chain.fk(star)) < 1e-10
+    beside = star + np.r_[0, 0, 1e-4, 0, 0, 0]
+    result = general_ik(chain, chain.fk(beside))
+    close = np.abs(wrapped(result.solutions - star)).max(axis=1) < 5e-3
+    assert close.sum() >= 2, f"{int(close.sum())} root(s) beside the fold, 2 expected"
+
+
+@needs_xarm
+def test_wrong_chains_are_refused_in_one_line(xarm6):
+    five = xarm6.chain("base_link", "link5")
+    with pytest.raises(IKOptionError, match="takes a chain of 6 joints; .* has 5"):
+        general_ik(five, five.fk(np.zeros(5)))
+    with pytest.raises(IKOptionError, match="has 5"):
+        manipkit.ik(xarm6, five.fk(np.zeros(5)), tip="link5", method="algebraic")
+    with pytest.raises(IKOptionError, match="no algebraic path"):
+        manipkit.ik_many(xarm6, np.eye(4)[None], method="algebraic")
+    with pytest.raises(IKOptionError, match="does not take lock="):
+        manipkit.ik(xarm6, np.eye(4), method="algebraic", lock={"joint1": 0.0})
+
+
+def test_eight_joints_and_prismatic_joints_are_refused():
+    rows = [DHRow(0.1, 1.0, 0.1, 0.0) for _ in range(8)]
+    robot = Robot.from_urdf(urdf_from_dh(DHTable(rows, "standard", "eight")))
+    with pytest.raises(IKOptionError, match="has 8"):
+        manipkit.ik(robot, np.eye(4), method="algebraic")
+    rows = [DHRow(0.1, 1.0, 0.1, 0.0, type="prismatic" if k == 2 else "revolute") for k in range(6)]
+    robot = Robot.from_urdf(urdf_from_dh(DHTable(rows, "standard", "rprrrr")))
+    with pytest.raises(IKOptionError, match="joint_3 is prismatic"):
+        manipkit.ik(robot, np.eye(4), method="algebraic")
+    assert manipkit.ik(robot, robot.transform("base_link", "ee_link", np.full(6, 0.2)), restarts=5).method == "numerical"
+
+
+def _xarm_words():
+    return ["--robot", str(XARM), "--arg", "dof:=6", "--arg", "robot_type:=xarm"]
+
+
+@needs_xarm
+def test_cli_ik_all_prints_the_algebraic_answer_and_json_equals_the_python_call(xarm6):
+    words = ["--xyz", "0.35", "0.05", "0.25", "--rpy", "3.0", "0.2", "0.1"]
+    text = run_cli("manipkit", "ik", *_xarm_words(), *words, "--all")
+    assert text.returncode == 0, text.stderr
+    assert text.stdout.startswith("algebraic elimination (general 6R, frame ee_link in base_link): ")
+    as_json = run_cli("manipkit", "ik", *_xarm_words(), *words, "--all", "--format", "json")
+    answer = json.loads(as_json.stdout)
+    from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+    python = manipkit.ik(xarm6, transform_from_xyz_rpy([0.35, 0.05, 0.25], [3.0, 0.2, 0.1]), all=True)
+    assert (answer["method"], answer["arm_family"]) == ("algebraic", "general 6R")
+    assert len(answer["solutions"]) == len(python.solutions) >= 2
+    for row, q in zip(answer["solutions"], python.solutions):
+        assert [row[name] for name in xarm6.joint_names] == q.tolist()
+    assert answer["within_limits"] == python.within_limits.tolist()
+    assert f"{len(python.solutions)} solution(s) (every isolated solution)" in text.stdout
+
+
+@needs_xarm
+def test_cli_family_names_the_general_6r_class_with_the_evidence():
+    text = run_cli("manipkit", "family", *_xarm_words())
+    assert text.returncode == 0, text.stderr
+    assert "family: none" in text.stdout and "axes 4, 5, 6 meet at" in text.stdout
+    assert "class: general 6R: 6 revolute joints, no closed-form family" in text.stdout
+    answer = json.loads(run_cli("manipkit", "family", *_xarm_words(), "--format", "json").stdout)
+    assert answer["class"] == "general 6R" and answer["family"] == "none" and "Raghavan-Roth" in answer["general_6r"]
+    ur5 = json.loads(run_cli("manipkit", "family", "--robot", "ur5", "--tip", "tool0", "--format", "json").stdout)
+    assert ur5["class"] == "three parallel, two intersecting" and ur5["general_6r"] is None
+
+
+def test_on_a_ur5_the_elimination_gives_the_closed_form_s_branches():
+    """An independent source: the UR closed form. method='algebraic' on the same chain must give the same set."""
+    ur5 = manipkit.load("ur5")
+    chain = ur5.chain("base_link", "tool0")
+    for q in chain.sample(30, seed=6):
+        T = chain.fk(q)
+        closed = manipkit.ik(ur5, T, tip="tool0", all=True)
+        algebraic = manipkit.ik(ur5, T, tip="tool0", all=True, method="algebraic")
+        assert algebraic.method == "algebraic" and closed.method == "closed_form"
+        assert len(algebraic.solutions) == len(closed.solutions) >= 2
+        for row in closed.solutions:
+            assert np.abs(wrapped(algebraic.solutions - row)).max(axis=1).min() < 1e-8
+
+
+def test_a_singular_target_is_a_family_with_the_free_joint_named():
+    """UR5 with wrist_2 = 0: axis 6 along axes 2, 3, 4, a one-parameter family (the closed form names wrist_3_joint);
+    every elimination is degenerate there, so the answer is what numerical IK finds, marked as a family."""
+    ur5 = manipkit.load("ur5")
+    chain = ur5.chain("base_link", "tool0")
+    T = chain.fk([0.1, -1.0, 1.2, -0.3, 0.0, 0.5])
+    closed = manipkit.ik(ur5, T, tip="tool0", all=True)
+    assert math.isinf(closed.count) and closed.free_parameter == "wrist_3_joint"
+    result = manipkit.ik(ur5, T, tip="tool0", all=True, method="algebraic")
+    assert math.isinf(result.count) and "wrist_3_joint" in result.free_parameter
+    assert "completeness not proven" in result.note and result.failure is None
+    assert pinocchio_miss(ur5, "base_link", "tool0", result.solutions, T) < 1e-9
+
+
+@needs_xarm
+def test_asking_the_xarm6_for_a_closed_form_points_to_the_algebraic_method(xarm6):
+    with pytest.raises(IKOptionError, match="method 'algebraic' .* every isolated solution of this 6R chain"):
+        manipkit.ik(xarm6, np.eye(4), method="closed_form")
