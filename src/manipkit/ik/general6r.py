@@ -47,11 +47,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.general6r import ranked_ways, solve_way
 from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.ik.families import FAMILY_TOL, NONE, chain_family
-from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only, tolerances
+from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
