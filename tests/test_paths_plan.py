@@ -1,0 +1,172 @@
+"""plan_path (manipkit.paths.plan) on hand cases derived here, on the UR5 and the iiwa14.
+
+Geometry used in the derivations (the UR5 of example-robot-data, base_link -> tool0): joints 2, 3 and 4 are
+parallel (axis y of their links), with a2 = 0.425 m and a3 = 0.39225 m between them; joint 5 (wrist_2) at 0
+puts axes 4 and 6 in line (the wrist singularity); the tool's z axis is joint 6's axis. Every number the tests
+check is measured independently: forward kinematics of the returned joints (compiled FK, equal to Pinocchio),
+joint steps against the URDF velocity limits, collisions by coal at samples finer than the planner's.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.paths.plan import plan_path, velocity_limits
+from manipkit.spatial.transforms import pose_residuals
+
+Q_SINGULAR = np.array([0.3, -1.2, 1.4, -1.8, 0.0, 0.2])  # wrist_2 = 0: the wrist singularity, shoulder "A" (q1 = 0.3)
+OFFSETS = -0.045 + 0.01 * np.arange(10)  # waypoints 1 cm apart; the singular pose (s = 0) lies between 4 and 5
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    return manipkit.load("ur5")
+
+
+def limited(robot, **limits):
+    """The robot with joint limits replaced (joint=(lower, upper), rad): the same geometry and velocity limits."""
+    text = robot.urdf
+    for joint, (lower, upper) in limits.items():
+        text, count = re.subn(rf'(<joint name="{joint}".*?<limit[^/]*?)lower="[^"]*" upper="[^"]*"',
+                              rf'\1lower="{lower!r}" upper="{upper!r}"', text, count=1, flags=re.S)
+        assert count == 1, joint
+    return manipkit.kinematics.robot.Robot.from_urdf(text)
+
+
+def line_through(chain, q, direction, offsets):
+    """Poses T(q) moved by s * direction (base frame, m) for s in offsets: a straight line, orientation fixed."""
+    T = chain.fk(q)
+    poses = np.repeat(T[None], len(offsets), axis=0)
+    poses[:, :3, 3] += np.asarray(offsets)[:, None] * np.asarray(direction, dtype=float)
+    return poses
+
+
+def assert_follows(plan, chain, poses, dt=None):
+    """Every waypoint reached by FK to 1e-9 (m, rad); every step inside the scaled velocity bound."""
+    position, rotation = pose_residuals(poses, chain.fk(plan.q))
+    assert position.max() <= 1e-9 and rotation.max() <= 1e-9
+    assert np.all(plan.q >= chain.lower - 1e-12) and np.all(plan.q <= chain.upper + 1e-12)
+    if dt is not None:
+        steps = np.abs(np.diff(plan.q, axis=0))
+        assert np.all(steps <= dt * velocity_limits(chain) * (1 + 1e-12))
+        assert plan.max_velocity_ratio == pytest.approx((steps / (dt * velocity_limits(chain))).max(), rel=1e-12)
+
+
+def test_line_one_branch_can_follow(ur5):
+    # Limits elbow and wrist_2 in [0, pi] leave one branch per shoulder: "A" (q1 = 0.3) and "B" (q1 near -2.5).
+    # The line runs along base y through the pose at Q_SINGULAR, so A's wrist_2 passes through 0 between
+    # waypoints 4 and 5: A's continuous branch goes on with wrist_2 < 0 (outside the limits), its in-limit
+    # branch there has wrist_1 and wrist_3 turned by about pi: a step of about pi in 0.1 s (1 cm at 0.1 m/s) against
+    # 0.32 rad allowed (3.2 rad/s). B's wrist_2 stays near +-2.8, far from 0: only B follows the line.
+    robot = limited(ur5, elbow_joint=(0.0, math.pi), wrist_2_joint=(0.0, math.pi))
+    chain = robot.chain("base_link", "tool0")
+    poses = line_through(chain, Q_SINGULAR, [0, 1, 0], OFFSETS)
+    plan = plan_path(chain, poses, speed=0.1)
+    assert plan.feasible and plan.first_failure is None
+    assert np.all(np.abs(np.abs(plan.q[:, 4]) - 2.8) < 0.1)  # shoulder B's wrist, far from singular
+    assert np.all(np.abs(plan.q[:, 0] + 2.5) < 0.1)  # shoulder B (as the value nearest 0 of its aliases)
+    assert_follows(plan, chain, poses, dt=np.full(9, 0.1)[:, None])
+    died = {f.kind: f for f in plan.failures[5]}
+    assert died["velocity"].ratio > 5 and died["velocity"].joint in chain.joint_names
+    assert plan.cost == pytest.approx(np.abs(np.diff(plan.q, axis=0)).sum(), abs=1e-9)
+
+
+def test_only_the_singular_branch_cannot_follow_then_one_reconfiguration(ur5):
+    # The same line with shoulder_pan limited to [-0.7, 1.3] (shoulder A only): no branch follows, and the first
+    # waypoint where every candidate is dead is 5 (past the singularity), by velocity. With breaks allowed the
+    # fewest is 1: the arm resumes at waypoint 5 in the flipped wrist.
+    robot = limited(ur5, shoulder_pan_joint=(-0.7, 1.3), elbow_joint=(0.0, math.pi), wrist_2_joint=(0.0, math.pi))
+    chain = robot.chain("base_link", "tool0")
+    poses = line_through(chain, Q_SINGULAR, [0, 1, 0], OFFSETS)
+    plan = plan_path(chain, poses, speed=0.1)
+    assert not plan.feasible and plan.first_failure == 5 and plan.q is None
+    # at every waypoint the branches of the other elbow, the other wrist and shoulder B are outside the limits;
+    # at 5 the one in-limit branch left is reached from 4 only by the wrist's half turn
+    assert [f.kind for f in plan.failures[5]] == ["joint_limits", "velocity"]
+    assert all([f.kind for f in plan.failures[i]] == ["joint_limits"] for i in range(5))
+    again = plan_path(chain, poses, speed=0.1, reconfigure=True)
+    assert again.feasible and again.reconfigurations == (5,)
+    assert_follows(again, chain, poses)
+    assert again.q[4, 4] > 0 and again.q[5, 4] > 0 and abs(again.q[5, 3] - again.q[4, 3]) > 2.5  # wrist turned
+
+
+def test_line_leaving_the_reach_fails_where_derived(ur5):
+    # At Q_EXTENDED the elbow is straight (elbow_joint = 0): the points on axes 2 and 4 are a2 + a3 = 0.81725 m
+    # apart across the plane of the arm. Moving the tool, orientation fixed, by s along that segment's direction
+    # (in the arm's plane, so the shoulder angle and the wrist stay) makes the distance a2 + a3 + s: reachable
+    # for s <= 0 only. Waypoints at s = -0.045 + 0.01 k: the first unreachable is k = 5.
+    chain = ur5.chain("base_link", "tool0")
+    q_extended = np.array([0.3, -0.5, 0.0, -1.0, math.pi / 2, 0.4])
+    T2 = ur5.transform("base_link", "upper_arm_link", q_extended)
+    T4 = ur5.transform("base_link", "wrist_1_link", q_extended)
+    axis = T2[:3, :3] @ chain.joints[1].axis
+    v = T4[:3, 3] - T2[:3, 3]
+    v -= (v @ axis) * axis
+    assert np.linalg.norm(v) == pytest.approx(0.425 + 0.39225, abs=1e-9)
+    poses = line_through(chain, q_extended, v / np.linalg.norm(v), OFFSETS)
+    plan = plan_path(chain, poses)
+    assert not plan.feasible and plan.first_failure == 5
+    assert [f.kind for f in plan.failures[5]] == ["unreachable"] and plan.failures[5][0].count == 1
+    assert all(not any(f.kind == "unreachable" for f in plan.failures[i]) for i in range(5))
+
+
+def test_tool_free_about_its_axis(ur5):
+    # wrist_3 limited to [-0.1, 0.1] rad. Turning the target about the tool's z (joint 6's axis) by theta turns
+    # wrist_3 by theta and leaves the other joints; with 10 deg samples (0.1745 rad < the 0.2 rad window) every
+    # branch has a sample whose wrist_3 lands inside. With the orientation fixed no branch is inside: waypoint 0
+    # fails on joint limits.
+    robot = limited(ur5, wrist_3_joint=(-0.1, 0.1))
+    chain = robot.chain("base_link", "tool0")
+    q = np.array([0.3, -1.2, 1.4, -1.8, -1.2, 1.0])
+    poses = line_through(chain, q, [1, 0, 0], 0.01 * np.arange(8))
+    every = manipkit.ik_many(ur5.chain("base_link", "tool0"), poses).solutions
+    assert np.nanmin(np.abs(every[..., 5])) > 0.1  # precondition: no branch inside [-0.1, 0.1]
+    fixed = plan_path(chain, poses)
+    assert not fixed.feasible and fixed.first_failure == 0 and fixed.failures[0][0].kind == "joint_limits"
+    assert fixed.failures[0][0].joint == "wrist_3_joint"
+    free = plan_path(chain, poses, free_axis="z", free_step=math.radians(10))
+    assert free.feasible and free.resolution["tool_angles"] == 36
+    turned = np.stack([T @ manipkit.spatial.transforms.transform_from_xyz_rpy([0, 0, 0], [0, 0, a])
+                       for T, a in zip(poses, free.tool_angles)])
+    position, rotation = pose_residuals(turned, chain.fk(free.q))
+    assert position.max() <= 1e-9 and rotation.max() <= 1e-9
+    # and the tool's z axis (the task's axis) is where the path wants it
+    assert np.abs(chain.fk(free.q)[:, :3, 2] - poses[:, :3, 2]).max() <= 1e-9
+
+
+def test_iiwa14_line_on_arm_angle_samples():
+    # The iiwa14 is a 7R SRS arm: no finite set of branches; the planner solves it in closed form at arm angles
+    # sampled every 10 deg (36 samples x 8 branches per waypoint) and picks a path over them.
+    robot = manipkit.load("iiwa14")
+    chain = robot.chain("base_link", "ee_link")
+    q = np.array([0.2, 0.5, 0.1, -1.2, 0.3, 0.8, 0.1])
+    poses = line_through(chain, q, [0, 0, 1], 0.01 * np.arange(6))
+    plan = plan_path(chain, poses, speed=0.05)
+    assert plan.feasible and plan.resolution["arm_angles"] == 36 and plan.resolution["samples"] == 36
+    assert_follows(plan, chain, poses, dt=np.full(5, 0.2)[:, None])
+    grid = -math.pi + math.radians(10) * np.arange(36)
+    assert np.all(np.min(np.abs(plan.arm_angles[:, None] - grid[None]), axis=1) <= 1e-12)
+
+
+def test_bad_inputs_are_one_line_errors(ur5):
+    chain = ur5.chain("base_link", "tool0")
+    poses = line_through(chain, Q_SINGULAR, [0, 1, 0], OFFSETS)
+    bad = poses.copy()
+    bad[3, 0, 0] = np.nan
+    with pytest.raises(manipkit.errors.ManipkitError, match=r"\[3\]"):
+        plan_path(chain, bad)
+    with pytest.raises(manipkit.errors.ManipkitError, match="speed"):
+        plan_path(chain, poses, speed=0.0)
+    with pytest.raises(manipkit.errors.ManipkitError, match="free_axis"):
+        plan_path(chain, poses, free_axis="w")
+    with pytest.raises(manipkit.errors.ManipkitError, match="free_step"):
+        plan_path(chain, poses, free_axis="z", free_step=0.0)
+    reflected = poses.copy()
+    reflected[:, :3, 0] *= -1
+    with pytest.raises(manipkit.errors.ManipkitError):
+        plan_path(chain, reflected)
