@@ -92,3 +92,24 @@ def test_bad_pose_files_are_one_line(tmp_path, row):
     path.write_text("x,y,z,qx,qy,qz,qw\n0.4,0.1,0.4,1,0,0,0\n" + row + "\n")
     result = run_cli("manipkit", "path", "--robot", "ur5", "--tip", "tool0", "--poses", str(path), status=2)
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_world_box_is_planned_around(tmp_path):
+    # A 6 cm box on the elbow of the least-motion plan at its middle waypoint (as in test_paths_plan): with
+    # --collision-free the command plans around it; the joints it prints are clear of the box by coal.
+    from manipkit.kinematics.collisions import CollisionChecker
+    from manipkit.kinematics.world import read_world
+
+    robot = manipkit.load("ur5")
+    first = json.loads(run_cli("manipkit", "path", "--robot", "ur5", "--tip", "tool0", *LINE, "--speed", "0.1",
+                               "--format", "json").stdout)
+    elbow = robot.transform("base_link", "forearm_link", first["q"][5])[:3, 3]
+    world = tmp_path / "world.yaml"
+    world.write_text(f"obstacles:\n  - name: box\n    box: [0.06, 0.06, 0.06]\n    xyz: {elbow.tolist()}\n")
+    result = run_cli("manipkit", "path", "--robot", "ur5", "--tip", "tool0", *LINE, "--speed", "0.1",
+                     "--collision-free", "--world", str(world))
+    assert "collisions: waypoints and steps" in result.stdout and "FEASIBLE" in result.stdout
+    answer = json.loads(run_cli("manipkit", "path", "--robot", "ur5", "--tip", "tool0", *LINE, "--speed", "0.1",
+                                "--collision-free", "--world", str(world), "--format", "json").stdout)
+    checker = CollisionChecker(robot, world=read_world(world), skip_home_contacts=True)
+    assert checker.in_collision(np.array(first["q"])).any() and not checker.in_collision(np.array(answer["q"])).any()

@@ -170,3 +170,33 @@ def test_bad_inputs_are_one_line_errors(ur5):
     reflected[:, :3, 0] *= -1
     with pytest.raises(manipkit.errors.ManipkitError):
         plan_path(chain, reflected)
+
+
+def test_best_branch_through_a_box_is_avoided(ur5, tmp_path):
+    # The least-motion plan of this line keeps the elbow up; a 6 cm box centred on its elbow (forearm_link's
+    # origin) at the middle waypoint blocks that branch (and its 2 pi aliases, the same link placements). The
+    # plan with collisions takes another branch; checked here by coal at samples 0.1 deg apart along every step,
+    # ten times finer than the planner's 1 deg.
+    from manipkit.kinematics.collisions import CollisionChecker
+    from manipkit.kinematics.world import read_world
+    from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+    chain = ur5.chain("base_link", "tool0")
+    poses = np.stack([transform_from_xyz_rpy([x, 0.1, 0.4], [3.14159, 0, 0]) for x in np.linspace(0.4, 0.5, 11)])
+    best = plan_path(chain, poses, speed=0.1)
+    elbow = ur5.transform("base_link", "forearm_link", best.q[5])[:3, 3]
+    world = tmp_path / "world.yaml"
+    world.write_text(f"obstacles:\n  - name: box\n    box: [0.06, 0.06, 0.06]\n    xyz: {elbow.tolist()}\n")
+    checker = CollisionChecker(ur5, world=read_world(world), skip_home_contacts=True)
+    assert checker.in_collision(best.q).any()
+    plan = plan_path(chain, poses, speed=0.1, collisions=checker)
+    assert plan.feasible and plan.replans >= 1
+    assert np.sign(plan.q[5, 2]) != np.sign(best.q[5, 2])  # the other elbow
+    assert plan.cost > best.cost
+    assert_follows(plan, chain, poses)
+    dense = [q0 + s * (q1 - q0) for q0, q1 in zip(plan.q[:-1], plan.q[1:]) for s in
+             np.linspace(0, 1, int(np.ceil(np.abs(q1 - q0).max() / math.radians(0.1))) + 1)]
+    assert not checker.in_collision(np.array(dense)).any()
+    died = [f for fs in plan.failures for f in fs if f.kind == "collision"]
+    assert died and died[0].pairs and "box" in died[0].pairs[0]
+    assert plan.collision_checks >= len(poses)  # every waypoint, then the samples of the steps
