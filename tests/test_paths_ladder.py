@@ -112,3 +112,21 @@ def test_progress_reaches_the_total():
     calls = []
     solve_ladder([[[0.0]]] * 5, [[1.0]] * 4, progress=lambda stage, done, total: calls.append((stage, done, total)))
     assert calls[-1] == ("ladder", 4, 4)
+
+
+def test_sparse_edges_equal_the_dense_block(monkeypatch):
+    # Selective bounds (0.05 against values spread over 2) take the sparse path (windows by binary search);
+    # with it switched off the dense block must give the same path, cost and failure records.
+    rng = np.random.default_rng(7)
+    rungs = [np.cumsum(rng.normal(0, 0.02, (60, 3)), axis=0) + rng.uniform(-1, 1, (60, 3)) for _ in range(8)]
+    rungs = [np.vstack([r, rungs[0][:5] + 0.01 * i]) for i, r in enumerate(rungs)]  # five slow tracks
+    bounds = np.full((7, 3), 0.05)
+    sparse = solve_ladder(rungs, bounds, forbidden={2: [(0, 0)]})
+    monkeypatch.setattr(ladder_module, "_sparse_reduce", lambda *args: None)
+    dense = solve_ladder(rungs, bounds, forbidden={2: [(0, 0)]})
+    assert sparse.feasible and sparse.cost == pytest.approx(dense.cost, abs=1e-12)
+    assert sparse.choice.tolist() == dense.choice.tolist()
+    for x, y in zip(sparse.blocked, dense.blocked):
+        assert x.rung == y.rung
+        np.testing.assert_allclose(x.ratio, y.ratio)
+        assert x.joint.tolist() == y.joint.tolist()

@@ -104,52 +104,124 @@ def _rung_arrays(rungs, n: int) -> list[np.ndarray]:
     return out
 
 
-def _reduce(Q_prev, B_prev, M_prev, Q_next, bound, weights, forbid):
+def _reduce(Q_prev, B_prev, M_prev, Q_next, bound, weights, forbid, breaks: bool):
     """Per candidate of the next rung: best (breaks, motion, predecessor) over allowed edges, and the best ratio and
-    its joint over reached predecessors. Slices of predecessors keep the block under :data:`BLOCK_ENTRIES`."""
+    its joint over reached predecessors. Joint by joint on (k_prev, k_next) blocks (a reduction over a short
+    trailing axis is slow in numpy); slices of predecessors keep a block under :data:`BLOCK_ENTRIES`."""
     k_prev, n = Q_prev.shape
     k_next = len(Q_next)
-    inv = np.where(np.isfinite(bound), 1.0 / np.where(bound > 0, bound, 1.0), 0.0)
-    inv = np.where(bound > 0, inv, np.inf)  # a bound of 0 allows no motion at all
+    with np.errstate(divide="ignore"):
+        inv = np.where(np.isfinite(bound), 1.0 / bound, 0.0)  # a bound of 0 allows no motion: inv = inf
     best_B = np.full(k_next, np.inf)
     best_M = np.full(k_next, np.inf)
     best_a = np.full(k_next, -1, dtype=np.intp)
     best_ratio = np.full(k_next, np.inf)
-    best_joint = np.full(k_next, -1, dtype=np.intp)
-    rows = max(1, BLOCK_ENTRIES // max(1, k_next * n))
+    ratio_a = np.full(k_next, -1, dtype=np.intp)
+    rows = max(1, BLOCK_ENTRIES // max(1, k_next * 4))
+    columns = np.arange(k_next)
     for start in range(0, k_prev, rows):
         stop = min(k_prev, start + rows)
-        D = np.abs(Q_next[None, :, :] - Q_prev[start:stop, None, :])  # (a, b, n)
-        with np.errstate(invalid="ignore"):
-            R = D * inv  # 0 * inf -> nan: no motion on a joint that may not move is allowed
-        R = np.where(D == 0.0, 0.0, R)
-        ratio = R.max(axis=2) if n else np.zeros(D.shape[:2])
-        live = np.isfinite(M_prev[start:stop])[:, None]
-        ok = (ratio <= 1.0) & live
+        ratio = np.zeros((stop - start, k_next))
+        motion = np.zeros((stop - start, k_next))
+        for j in range(n):
+            d = np.abs(Q_next[None, :, j] - Q_prev[start:stop, j, None])
+            if inv[j]:
+                with np.errstate(invalid="ignore"):
+                    r = d * inv[j]
+                if not np.isfinite(inv[j]):
+                    r[d == 0.0] = 0.0
+                np.maximum(ratio, r, out=ratio)
+            motion += weights[j] * d if weights[j] != 1.0 else d
+        dead = ~np.isfinite(M_prev[start:stop])
+        ratio[dead] = np.inf
         if forbid is not None:
             f = forbid[(forbid[:, 0] >= start) & (forbid[:, 0] < stop)]
-            ok[f[:, 0] - start, f[:, 1]] = False
-            ratio = ratio.copy()
             ratio[f[:, 0] - start, f[:, 1]] = np.inf
-        motion = D @ weights  # (a, b)
-        Bm = np.where(ok, B_prev[start:stop, None], np.inf)
-        bmin = Bm.min(axis=0)
-        Mm = np.where(ok & (Bm == bmin[None, :]), M_prev[start:stop, None] + motion, np.inf)
+        ok = ratio <= 1.0
+        if breaks:
+            Bm = np.where(ok, B_prev[start:stop, None], np.inf)
+            bmin = Bm.min(axis=0)
+            ok &= Bm == bmin[None, :]
+        else:
+            bmin = np.where(ok.any(axis=0), 0.0, np.inf)
+        Mm = np.where(ok, M_prev[start:stop, None] + motion, np.inf)
         a = Mm.argmin(axis=0)
-        mmin = Mm[a, np.arange(k_next)]
+        mmin = Mm[a, columns]
         better = (bmin < best_B) | ((bmin == best_B) & (mmin < best_M))
         best_B = np.where(better, bmin, best_B)
         best_M = np.where(better, mmin, best_M)
         best_a = np.where(better, a + start, best_a)
-        rl = np.where(live, ratio, np.inf)
-        ra = rl.argmin(axis=0)
-        rmin = rl[ra, np.arange(k_next)]
+        ra = ratio.argmin(axis=0)
+        rmin = ratio[ra, columns]
         closer = rmin < best_ratio
-        if closer.any() and n:
-            joints = R[ra, np.arange(k_next)].argmax(axis=1)
-            best_joint = np.where(closer, joints, best_joint)
         best_ratio = np.where(closer, rmin, best_ratio)
+        ratio_a = np.where(closer, ra + start, ratio_a)
+    best_joint = np.full(k_next, -1, dtype=np.intp)
+    known = ratio_a >= 0
+    if known.any() and n:
+        per_joint = np.abs(Q_next[known] - Q_prev[ratio_a[known]]) * inv
+        per_joint[np.isnan(per_joint)] = 0.0
+        best_joint[known] = per_joint.argmax(axis=1)
     return best_B, best_M, best_a, best_ratio, best_joint
+
+
+def _sparse_reduce(Q_prev, B_prev, M_prev, Q_next, bound, weights, forbid, breaks: bool):
+    """:func:`_reduce` by the edges that can pass only, or None when too many can: the candidates of both rungs
+    sorted by the most selective joint, each predecessor's window ``|dq_j| <= bound_j`` found by binary search,
+    the full rule checked on those pairs; the best step into a candidate with no allowed edge is then found on the
+    dense block of those candidates alone."""
+    k_prev, n = Q_prev.shape
+    k_next = len(Q_next)
+    finite = np.flatnonzero(np.isfinite(bound))
+    if not len(finite) or not n:
+        return None
+    spread = np.ptp(Q_next[:, finite], axis=0) + 1e-300
+    j = int(finite[np.argmin(bound[finite] / spread)])
+    live = np.flatnonzero(np.isfinite(M_prev))
+    order = np.argsort(Q_next[:, j], kind="stable")
+    values = Q_next[order, j]
+    lo = np.searchsorted(values, Q_prev[live, j] - bound[j], side="left")
+    hi = np.searchsorted(values, Q_prev[live, j] + bound[j], side="right")
+    counts = hi - lo
+    total = int(counts.sum())
+    if total > max(1, k_prev * k_next) // 4:
+        return None
+    a = np.repeat(live, counts)
+    b = order[np.repeat(lo, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)]
+    D = np.abs(Q_next[b] - Q_prev[a])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        over = np.where(D == 0.0, 0.0, D / bound)
+    ok = over.max(axis=1) <= 1.0 if total else np.zeros(0, dtype=bool)
+    if forbid is not None and total:
+        ok &= ~np.isin(a * k_next + b, forbid[:, 0] * k_next + forbid[:, 1])
+    a, b, cost = a[ok], b[ok], M_prev[a[ok]] + D[ok] @ weights
+    brk = B_prev[a] if breaks else np.zeros(len(a))
+    first = np.lexsort((a, cost, brk, b))
+    b_sorted = b[first]
+    head = np.ones(len(first), dtype=bool)
+    head[1:] = b_sorted[1:] != b_sorted[:-1]
+    pick = first[head]
+    best_B = np.full(k_next, np.inf)
+    best_M = np.full(k_next, np.inf)
+    best_a = np.full(k_next, -1, dtype=np.intp)
+    best_B[b[pick]], best_M[b[pick]], best_a[b[pick]] = brk[pick], cost[pick], a[pick]
+    ratio = np.full(k_next, np.inf)
+    joint = np.full(k_next, -1, dtype=np.intp)
+    stuck = np.flatnonzero(~np.isfinite(best_M))
+    if len(stuck):
+        _, _, _, ratio[stuck], joint[stuck] = _reduce(Q_prev, B_prev, M_prev, Q_next[stuck], bound, weights,
+                                                      _renumbered(forbid, stuck), breaks)
+    return best_B, best_M, best_a, ratio, joint
+
+
+def _renumbered(forbid, columns: np.ndarray):
+    """Forbidden edges ``(a, b)`` into the candidates ``columns``, with ``b`` renumbered as their position there."""
+    if forbid is None:
+        return None
+    where = np.full(int(max(forbid[:, 1].max(), columns.max())) + 1, -1, dtype=np.intp)
+    where[columns] = np.arange(len(columns))
+    kept = forbid[where[forbid[:, 1]] >= 0]
+    return np.column_stack([kept[:, 0], where[kept[:, 1]]]) if len(kept) else None
 
 
 def solve_ladder(rungs, step_bounds, *, weights=None, penalties=None, forbidden=None, reconfigure: bool = False,
@@ -210,7 +282,10 @@ def solve_ladder(rungs, step_bounds, *, weights=None, penalties=None, forbidden=
         forbid = forbidden.get(i)
         forbid = None if forbid is None or len(forbid) == 0 else np.asarray(forbid, dtype=np.intp).reshape(-1, 2)
         if len(Q_prev) and len(Q_next):
-            nb, nm, na, ratio, joint = _reduce(Q_prev, B, M, Q_next, bounds[i], w, forbid)
+            answer = _sparse_reduce(Q_prev, B, M, Q_next, bounds[i], w, forbid, reconfigure)
+            if answer is None:
+                answer = _reduce(Q_prev, B, M, Q_next, bounds[i], w, forbid, reconfigure)
+            nb, nm, na, ratio, joint = answer
         else:
             k = len(Q_next)
             nb, nm, na = np.full(k, np.inf), np.full(k, np.inf), np.full(k, -1, dtype=np.intp)
