@@ -200,3 +200,28 @@ def test_best_branch_through_a_box_is_avoided(ur5, tmp_path):
     died = [f for fs in plan.failures for f in fs if f.kind == "collision"]
     assert died and died[0].pairs and "box" in died[0].pairs[0]
     assert plan.collision_checks >= len(poses)  # every waypoint, then the samples of the steps
+
+
+def test_running_out_of_replans_proves_nothing(ur5, tmp_path):
+    # The box case with no re-plan allowed: the first path collides and nothing is left to try it again: the plan
+    # is not feasible, names no failing waypoint and says it is unfinished.
+    from manipkit.kinematics.collisions import CollisionChecker
+    from manipkit.kinematics.world import world_obstacles
+    from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+    chain = ur5.chain("base_link", "tool0")
+    poses = np.stack([transform_from_xyz_rpy([x, 0.1, 0.4], [3.14159, 0, 0]) for x in np.linspace(0.4, 0.5, 11)])
+    best = plan_path(chain, poses, speed=0.1)
+    elbow = ur5.transform("base_link", "forearm_link", best.q[5])[:3, 3]
+    world = world_obstacles({"obstacles": [{"name": "box", "box": [0.06] * 3, "xyz": elbow.tolist()}]})
+    checker = CollisionChecker(ur5, world=world, skip_home_contacts=True)
+    plan = plan_path(chain, poses, speed=0.1, collisions=checker, max_replans=0)
+    assert not plan.feasible and plan.first_failure is None and plan.resolution["unfinished"]
+
+
+def test_progress_names_the_ik_and_ladder_stages(ur5):
+    chain = ur5.chain("base_link", "tool0")
+    calls = []
+    plan_path(chain, line_through(chain, Q_SINGULAR, [0, 1, 0], OFFSETS), speed=0.1,
+              progress=lambda stage, done, total: calls.append((stage, done, total)))
+    assert ("IK", 10, 10) in calls and ("ladder", 9, 9) in calls

@@ -93,7 +93,8 @@ class PathPlan:
     failures : tuple of tuple of BranchFailure
         Per waypoint, why candidates died there (empty where none did).
     first_failure : int or None
-        The first waypoint where every candidate is dead (None when feasible).
+        The first waypoint where every candidate is dead (None when feasible, or when ``max_replans`` ran out
+        before a path cleared its checks: ``resolution["unfinished"]``, nothing proven).
     reconfigurations : tuple of int
         With ``reconfigure``: the waypoints where the arm resumes after a break (retract, reconfigure, resume).
     cost : float or None
@@ -325,6 +326,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     checked_vertices: set = set()
     checked_steps: set = set()
     checks = points = replans = 0
+    changed = False
     for replans in range(max_replans + 1):  # noqa: B007 (the count is reported)
         ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
                               reconfigure=reconfigure, progress=progress)
@@ -380,10 +382,11 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         "cost": "summed joint motion (rad or m)" if w is None else "weighted summed joint motion",
         "path_tol": list(path_tol), "depth": depth, "collision_step": None if checker is None else collision_step,
         "ik_calls": rungs.ik_calls, "velocity_scale": scale, "timed": dt is not None,
+        "unfinished": bool(changed),
     }
     common = dict(joint_names=tuple(chain.joint_names), t=times, failures=failures, resolution=resolution,
                   collision_checks=checks, deviation_points=points, replans=replans)
-    if not ladder.feasible:
+    if not ladder.feasible or changed:  # changed: the last path failed a check and max_replans ran out
         return PathPlan(False, None, first_failure=ladder.first_dead, reconfigurations=(), cost=None,
                         max_velocity_ratio=None, **common)
     ratio = None

@@ -242,6 +242,9 @@ def plan_text(plan, *, robot: str, base: str, tip: str, speed=None, written=None
         lines.append("end:   " + " ".join(f"{n}={short_text(float(v), 6)}" for n, v in zip(plan.joint_names, plan.q[-1])))
         if written:
             lines.append(f"joint path written to {printable(str(written))}")
+    elif plan.first_failure is None:
+        lines.append(f"NOT FOUND: {plan.replans} re-plans ran out before a path cleared its checks (nothing is "
+                     "proven: a path may exist)")
     else:
         i = plan.first_failure
         lines.append(f"NOT FEASIBLE: no candidate survives at waypoint {i} (counting from 0)")
