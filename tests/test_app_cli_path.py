@@ -113,3 +113,10 @@ def test_world_box_is_planned_around(tmp_path):
                                 "--collision-free", "--world", str(world), "--format", "json").stdout)
     checker = CollisionChecker(robot, world=read_world(world), skip_home_contacts=True)
     assert checker.in_collision(np.array(first["q"])).any() and not checker.in_collision(np.array(answer["q"])).any()
+
+
+def test_output_into_a_missing_folder_is_refused_before_planning(tmp_path):
+    out = tmp_path / "no_such_folder" / "trajectory.csv"
+    result = run_cli("manipkit", "path", "--robot", "ur5", "--tip", "tool0", *LINE, "-o", str(out), status=2)
+    assert len(result.stderr.strip().splitlines()) == 1 and "cannot write" in result.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -91,7 +91,9 @@ class PathPlan:
     t : ndarray, shape (N,), or None
         Time at each waypoint (s): the given ``t``, or from ``speed``; None when neither was given.
     failures : tuple of tuple of BranchFailure
-        Per waypoint, why candidates died there (empty where none did).
+        Per waypoint, why candidates died there (empty where none did). Past ``first_failure`` only the reasons
+        found at the waypoint itself are listed (unreachable, joint limits, near-singular): no path reaches it
+        to die of a step.
     first_failure : int or None
         The first waypoint where every candidate is dead (None when feasible, or when ``max_replans`` ran out
         before a path cleared its checks: ``resolution["unfinished"]``, nothing proven).
