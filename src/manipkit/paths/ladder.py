@@ -208,20 +208,22 @@ def _sparse_reduce(Q_prev, B_prev, M_prev, Q_next, bound, weights, forbid, break
     ratio = np.full(k_next, np.inf)
     joint = np.full(k_next, -1, dtype=np.intp)
     stuck = np.flatnonzero(~np.isfinite(best_M))
-    if len(stuck):
-        _, _, _, ratio[stuck], joint[stuck] = _reduce(Q_prev, B_prev, M_prev, Q_next[stuck], bound, weights,
-                                                      _renumbered(forbid, stuck), breaks)
+    if len(stuck) and len(live):  # the best step into each stuck candidate, from the live predecessors only
+        _, _, _, ratio[stuck], joint[stuck] = _reduce(Q_prev[live], B_prev[live], M_prev[live], Q_next[stuck],
+                                                      bound, weights, _renumbered(forbid, live, stuck), breaks)
     return best_B, best_M, best_a, ratio, joint
 
 
-def _renumbered(forbid, columns: np.ndarray):
-    """Forbidden edges ``(a, b)`` into the candidates ``columns``, with ``b`` renumbered as their position there."""
+def _renumbered(forbid, rows: np.ndarray, columns: np.ndarray):
+    """Forbidden edges ``(a, b)`` among predecessors ``rows`` and candidates ``columns``, numbered by their positions
+    there (None when none is left)."""
     if forbid is None:
         return None
-    where = np.full(int(max(forbid[:, 1].max(), columns.max())) + 1, -1, dtype=np.intp)
-    where[columns] = np.arange(len(columns))
-    kept = forbid[where[forbid[:, 1]] >= 0]
-    return np.column_stack([kept[:, 0], where[kept[:, 1]]]) if len(kept) else None
+    size = int(max(forbid.max(), rows.max(initial=0), columns.max(initial=0))) + 1
+    row_at, column_at = np.full(size, -1, dtype=np.intp), np.full(size, -1, dtype=np.intp)
+    row_at[rows], column_at[columns] = np.arange(len(rows)), np.arange(len(columns))
+    kept = forbid[(row_at[forbid[:, 0]] >= 0) & (column_at[forbid[:, 1]] >= 0)]
+    return np.column_stack([row_at[kept[:, 0]], column_at[kept[:, 1]]]) if len(kept) else None
 
 
 def solve_ladder(rungs, step_bounds, *, weights=None, penalties=None, forbidden=None, reconfigure: bool = False,
