@@ -225,3 +225,28 @@ def test_progress_names_the_ik_and_ladder_stages(ur5):
     plan_path(chain, line_through(chain, Q_SINGULAR, [0, 1, 0], OFFSETS), speed=0.1,
               progress=lambda stage, done, total: calls.append((stage, done, total)))
     assert ("IK", 10, 10) in calls and ("ladder", 9, 9) in calls
+
+
+def test_near_singular_candidates_are_dropped_and_named(ur5):
+    # Shoulder A only (as above): its wrist_2 passes 0 between waypoints 4 and 5, where axes 4 and 6 line up and
+    # the Jacobian loses rank (its smallest singular value is 0 at Q_SINGULAR). One branch is inside the limits
+    # at each waypoint; a tolerance of 0.02 drops it where its smallest singular value (numpy's SVD of its
+    # Jacobian, computed here from the in-limit IK rows) is below 0.02: the first such waypoint is the first
+    # failure, and each record carries the value found.
+    robot = limited(ur5, shoulder_pan_joint=(-0.7, 1.3), elbow_joint=(0.0, math.pi), wrist_2_joint=(0.0, math.pi))
+    chain = robot.chain("base_link", "tool0")
+    assert np.linalg.svd(chain.jacobians(Q_SINGULAR), compute_uv=False)[-1] <= 1e-12
+    poses = line_through(chain, Q_SINGULAR, [0, 1, 0], OFFSETS)
+    rows = manipkit.ik_many(chain, poses).solutions
+    sigma = {}
+    for i, Q in enumerate(rows):
+        inside = [q for q in Q if np.all(np.isfinite(q)) and np.all(q >= chain.lower) and np.all(q <= chain.upper)]
+        assert len(inside) == 1
+        sigma[i] = np.linalg.svd(chain.jacobians(inside[0]), compute_uv=False)[-1]
+    low = sorted(i for i in sigma if sigma[i] < 0.02)
+    assert low and low[0] > 0 and low[-1] < 9  # some waypoints near the singular pose, not the ends
+    plan = plan_path(chain, poses, speed=0.1, singular_tol=0.02)
+    near = {i: f for i, fs in enumerate(plan.failures) for f in fs if f.kind == "near_singular"}
+    assert sorted(near) == low and not plan.feasible and plan.first_failure == low[0]
+    for i in low:
+        assert near[i].ratio == pytest.approx(sigma[i], rel=1e-9)

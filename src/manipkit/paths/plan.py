@@ -309,6 +309,8 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     penalties = [np.zeros(len(Q)) for Q in rungs.Q]
     singular = [None] * N
     if singular_tol is not None:
+        if not (math.isfinite(float(singular_tol)) and float(singular_tol) > 0):
+            raise OptionError(f"singular_tol {short_text(float(singular_tol))}: give a positive singular value")
         for i, Q in enumerate(rungs.Q):
             if len(Q):
                 sigma = np.linalg.svd(chain.jacobians(Q), compute_uv=False)[:, -1]

@@ -59,6 +59,8 @@ def register(commands) -> None:
                       help="one value per IK branch (the dispatcher's), not every in-limit q + 2 pi k")
     path.add_argument("--path-tol", type=float, nargs=2, default=(1e-3, 1.0), metavar=("M", "DEG"),
                       help="how far a joint-interpolated point between waypoints may be from the path (default 1e-3 m, 1 deg)")
+    path.add_argument("--singular-tol", type=float, default=None, metavar="SIGMA",
+                      help="drop candidates whose Jacobian's smallest singular value is below SIGMA (m/rad, rad/rad)")
     path.add_argument("--reconfigure", action="store_true",
                       help="allow breaks (retract, reconfigure, resume): the fewest, and where")
     path.add_argument("--collision-free", action="store_true",
@@ -153,7 +155,8 @@ def run_path(args) -> int:
                          free_range=free_range, arm_angle_step=parse_angle(args.arm_angle_step, "--arm-angle-step"),
                          aliases=not args.no_aliases, reconfigure=args.reconfigure, collisions=checker,
                          collision_step=parse_angle(args.collision_step, "--collision-step"),
-                         path_tol=(position_tol, math.radians(angle_tol)), q0=q0, progress=progress)
+                         path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0,
+                         progress=progress)
     if args.output is not None and plan.feasible:
         from manipkit.outputs import write_text
 
