@@ -42,8 +42,8 @@ def test_hand_ladder_one_joint():
     assert result.feasible and result.choice.tolist() == [0, 0, 0]
     assert result.cost == pytest.approx(0.2, abs=1e-15)
     assert result.reached[1].tolist() == [True, False]
-    # candidate 2.0 at rung 1: its best step in is from 0.0 (3.0 is not reached at rung 0? it is: both are
-    # starts) -> from 3.0, |2 - 3| = 1 = 2 x the bound; from 0.0, 4 x. The record keeps the smaller: 2.
+    # candidate 2.0 at rung 1: both rung-0 candidates are starts; from 3.0 the step is |2 - 3| = 1, 2 x the
+    # bound; from 0.0 it is 4 x. The record keeps the smaller: 2, on joint 0.
     block = next(b for b in result.blocked if b.rung == 1)
     assert block.ratio[1] == pytest.approx(2.0) and block.joint[1] == 0
 
