@@ -250,3 +250,16 @@ def test_near_singular_candidates_are_dropped_and_named(ur5):
     assert sorted(near) == low and not plan.feasible and plan.first_failure == low[0]
     for i in low:
         assert near[i].ratio == pytest.approx(sigma[i], rel=1e-9)
+
+
+def test_a_chain_without_a_closed_form_is_planned_on_numerical_solutions():
+    # The Panda's offsets leave it without a closed form: every distinct solution numerical IK finds from 20
+    # restarts is a candidate; the plan says so and lands on every waypoint by FK.
+    robot = manipkit.load("panda")
+    chain = robot.chain("panda_link0", "panda_hand_tcp")
+    q = np.array([0.1, -0.4, 0.2, -2.0, 0.1, 1.8, 0.6])
+    poses = line_through(chain, q, [0, 0, 1], 0.01 * np.arange(3))
+    plan = plan_path(chain, poses, restarts=8)
+    assert plan.feasible and "numerical" in plan.resolution["method"]
+    position, rotation = pose_residuals(poses, chain.fk(plan.q))
+    assert position.max() <= 1e-9 and rotation.max() <= 1e-9
