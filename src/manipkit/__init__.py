@@ -42,6 +42,7 @@ _LAZY = {
     "singular_families": "manipkit.analysis.singularities",
     "singular_family_at": "manipkit.analysis.singularities",
     "ik_many": "manipkit.ik.dispatch",
+    "plan_path": "manipkit.paths.plan",
     "collisions": "manipkit.kinematics.collisions",
     "collision_free": "manipkit.kinematics.collisions",
     "matrix_from_rpy": "manipkit.spatial.rotations",

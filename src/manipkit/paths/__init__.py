@@ -22,4 +22,6 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "COLLINEAR_TOL", "MAX_POSE_FILE_BYTES", "MAX_WAYPOINTS", "POSE_CSV_COLUMNS", "QUATERNION_NORM_TOL",
         "RIGID_TOL", "PosePath", "arc_poses", "interpolate_poses", "line_poses", "read_pose_path",
     ),
+    **homes_of("manipkit.paths.plan", "BranchFailure", "PathPlan", "plan_path"),
+    **homes_of("manipkit.paths.ladder", "LadderResult", "solve_ladder"),
 })

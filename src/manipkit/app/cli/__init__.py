@@ -15,7 +15,7 @@ and the limits, unless ``--clamp`` is given.
 One module per command group, each with ``register(commands)`` adding its
 subparser(s) and the ``run_*`` functions they call: :mod:`.tf`,
 :mod:`.robots` (robots, frames), :mod:`.tree`, :mod:`.dh`, :mod:`.ik`, :mod:`.family`,
-:mod:`.workspace`, :mod:`.collisions` (collisions, acm), :mod:`.view`; the options they share are in
+:mod:`.workspace`, :mod:`.collisions` (collisions, acm), :mod:`.path`, :mod:`.view`; the options they share are in
 :mod:`.common`. How to add a command: docs/architecture.md.
 
 argparse (standard library) is used rather than click/typer so that
@@ -60,6 +60,7 @@ def _main_parser() -> argparse.ArgumentParser:
         dh,
         family,
         ik,
+        path,
         reachmap,
         robots,
         rot,
@@ -75,7 +76,7 @@ def _main_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="manipkit", description="Manipulator kinematics from URDF/xacro, without ROS.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     groups = (tf, robots, tree, dh, ik, family, velocity, singularities, statics, workspace, reachmap, collisions,
-              view, rot)  # `manipkit --help` order
+              path, view, rot)  # `manipkit --help` order
     for group in groups:
         group.register(commands)
     return parser

@@ -1,0 +1,261 @@
+"""``manipkit path``: can the arm follow this tool path, on which IK branches, and if not, where and why.
+
+The poses come from a file (``--poses FILE``: CSV ``x,y,z,qx,qy,qz,qw[,t]`` or
+YAML, :func:`manipkit.paths.poses.read_pose_path`) or a straight line
+(``--line X Y Z R P Y X Y Z R P Y --step M``, rpy in the URDF convention,
+:func:`manipkit.paths.poses.line_poses`); the plan is
+:func:`manipkit.paths.plan.plan_path` (docs/site/guides/paths.md). Exit
+status 0 when the path can be followed, 1 when it cannot (the output says
+where and why), 2 for a usage error.
+"""
+
+from __future__ import annotations
+
+import math
+
+from manipkit.app.cli.common import (
+    EXIT_MISMATCH,
+    EXIT_OK,
+    UsageError,
+    add_joint_options,
+    add_robot_options,
+    alias_lines,
+    joint_vector,
+    load_robot,
+    print_json,
+)
+from manipkit.text import printable, short_text
+
+__all__ = ["parse_angle", "plan_text", "register", "run_path", "trajectory_csv"]
+
+
+def register(commands) -> None:
+    """Add ``manipkit path`` to the subparsers ``commands``."""
+    path = commands.add_parser("path", help="can the arm follow a tool path: every IK branch, the best joint path, "
+                                            "or where and why not")
+    add_robot_options(path)
+    path.add_argument("--tip", "--frame", dest="tip", default="ee_link", help="frame that follows the path (default ee_link)")
+    path.add_argument("--base", default="base_link", help="frame the poses are given in (default base_link)")
+    source = path.add_mutually_exclusive_group(required=True)
+    source.add_argument("--poses", metavar="FILE", help="CSV (x,y,z,qx,qy,qz,qw and optional t) or YAML pose file")
+    source.add_argument("--line", type=float, nargs=12, metavar="V",
+                        help="a straight line: X Y Z R P Y of the start then of the end (m; rpy rad, or deg with --deg)")
+    path.add_argument("--step", type=float, default=None, metavar="M", help="with --line: largest distance between "
+                                                                            "waypoints (m)")
+    path.add_argument("--speed", type=float, default=None, metavar="M/S",
+                      help="tool speed along the path (m/s): times the steps, which must fit the joints' velocity "
+                           "limits (a file's t is used otherwise)")
+    path.add_argument("--velocity-scale", type=float, default=1.0, metavar="S",
+                      help="fraction of each joint's URDF velocity limit a step may use (default 1)")
+    path.add_argument("--free-axis", choices=("x", "y", "z"), default=None,
+                      help="the tool axis the task leaves free: the tool may turn about it")
+    path.add_argument("--free-step", default=None, metavar="ANGLE", help="with --free-axis: the angle step, e.g. "
+                                                                         "10deg or 0.17 (rad; default 10deg)")
+    path.add_argument("--free-range", nargs=2, default=None, metavar=("LOW", "HIGH"),
+                      help="with --free-axis: the range of tool angles, e.g. -90deg 90deg (default a full turn)")
+    path.add_argument("--arm-angle-step", default="10deg", metavar="ANGLE",
+                      help="7R SRS arms (iiwa14): the arm angle sampled over a full turn at this step (default 10deg)")
+    path.add_argument("--no-aliases", action="store_true",
+                      help="one value per IK branch (the dispatcher's), not every in-limit q + 2 pi k")
+    path.add_argument("--path-tol", type=float, nargs=2, default=(1e-3, 1.0), metavar=("M", "DEG"),
+                      help="how far a joint-interpolated point between waypoints may be from the path (default 1e-3 m, 1 deg)")
+    path.add_argument("--singular-tol", type=float, default=None, metavar="SIGMA",
+                      help="drop candidates whose Jacobian's smallest singular value is below SIGMA (m/rad, rad/rad)")
+    path.add_argument("--reconfigure", action="store_true",
+                      help="allow breaks (retract, reconfigure, resume): the fewest, and where")
+    path.add_argument("--collision-free", action="store_true",
+                      help="check the path's waypoints and steps for collisions (self, --floor, --world) and plan around them")
+    path.add_argument("--collision-step", default="1deg", metavar="ANGLE",
+                      help="with --collision-free: steps are checked at samples this far apart in every joint (default 1deg)")
+    from manipkit.app.cli.collisions import add_collision_options
+
+    add_collision_options(path)
+    add_joint_options(path)
+    path.add_argument("--format", choices=("text", "json"), default="text")
+    path.add_argument("-o", "--output", default=None, metavar="FILE", help="write the joint path as CSV (t, joints)")
+    path.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
+                      help="progress bars on stderr (auto: when it is a terminal)")
+    path.set_defaults(run=run_path)
+
+
+def parse_angle(text: str, option: str, *, degrees: bool = False) -> float:
+    """An angle option in radians: ``10deg``, ``0.5rad``, or a bare number (rad; deg with ``degrees``)."""
+    word = str(text).strip().lower()
+    unit_deg = degrees
+    for suffix, is_deg in (("deg", True), ("rad", False)):
+        if word.endswith(suffix):
+            word, unit_deg = word[: -len(suffix)].strip(), is_deg
+            break
+    try:
+        value = float(word)
+    except ValueError:
+        raise UsageError(f"{option} {printable(str(text))[:40]}: give an angle, e.g. 10deg or 0.17 (rad)") from None
+    if not math.isfinite(value):
+        raise UsageError(f"{option} {printable(str(text))[:40]}: give a finite angle")
+    return math.radians(value) if unit_deg else value
+
+
+def _poses(args):
+    """(poses (N, 4, 4), t or None) from --poses or --line."""
+    import numpy as np
+
+    from manipkit.paths.poses import line_poses, read_pose_path
+    from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+    if args.poses is not None:
+        if args.step is not None:
+            raise UsageError("--step applies to --line; a pose file gives its own waypoints")
+        path = read_pose_path(args.poses)
+        return np.asarray(path.poses), None if path.t is None else np.asarray(path.t)
+    values = args.line
+    if not all(math.isfinite(v) for v in values):
+        raise UsageError("--line: give 12 finite numbers (X Y Z R P Y of the start, then of the end)")
+    if args.step is None:
+        raise UsageError("--line needs --step M, the largest distance between waypoints (m)")
+    rpy = [math.radians(v) if args.deg else v for v in values[3:6] + values[9:12]]
+    T0 = transform_from_xyz_rpy(values[0:3], rpy[0:3])
+    T1 = transform_from_xyz_rpy(values[6:9], rpy[3:6])
+    return line_poses(T0, T1, step=args.step), None
+
+
+def _checker(robot, args):
+    if not args.collision_free:
+        if args.world is not None:
+            raise UsageError("--world applies with --collision-free (the path is checked against it then)")
+        return None
+    from manipkit.app.cli.collisions import collision_checker
+
+    return collision_checker(robot, args)
+
+
+def run_path(args) -> int:
+    """Plan the path and print the plan (text or JSON), optionally writing the joint path (``-o``)."""
+    from manipkit.app.progress import progress_bar
+    from manipkit.paths.plan import plan_path
+
+    robot = load_robot(args)
+    poses, t = _poses(args)
+    if args.speed is not None and t is not None:
+        t = None  # --speed given: it times the steps, not the file's t
+    checker = _checker(robot, args)
+    q0 = joint_vector(robot, args) if args.q else None
+    free_step = None if args.free_step is None else parse_angle(args.free_step, "--free-step", degrees=args.deg)
+    free_range = None if args.free_range is None else tuple(
+        parse_angle(v, "--free-range", degrees=args.deg) for v in args.free_range)
+    if args.free_axis is None and (free_step is not None or free_range is not None):
+        raise UsageError("--free-step and --free-range apply with --free-axis x|y|z")
+    position_tol, angle_tol = args.path_tol
+    if args.output is not None:
+        from manipkit.outputs import writable_path
+
+        writable_path(args.output, inputs=[args.poses, args.world])
+    with progress_bar({"yes": True, "no": False, "auto": None}[args.progress]) as progress:
+        plan = plan_path(robot, poses, base=args.base, tip=args.tip, t=t, speed=args.speed,
+                         velocity_scale=args.velocity_scale, free_axis=args.free_axis, free_step=free_step,
+                         free_range=free_range, arm_angle_step=parse_angle(args.arm_angle_step, "--arm-angle-step"),
+                         aliases=not args.no_aliases, reconfigure=args.reconfigure, collisions=checker,
+                         collision_step=parse_angle(args.collision_step, "--collision-step"),
+                         path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0,
+                         progress=progress)
+    if args.output is not None and plan.feasible:
+        from manipkit.outputs import write_text
+
+        write_text(args.output, trajectory_csv(plan), inputs=[args.poses, args.world])
+    if args.format == "json":
+        print_json(plan.as_dict())
+    else:
+        for line in alias_lines(robot, args.base, args.tip):
+            print(line)
+        print(plan_text(plan, robot=robot.name, base=args.base, tip=args.tip, speed=args.speed,
+                        written=args.output if plan.feasible else None))
+    return EXIT_OK if plan.feasible else EXIT_MISMATCH
+
+
+def trajectory_csv(plan) -> str:
+    """The joint path as CSV: a header ``waypoint[,t],<joint names>`` and one row per waypoint (rad or m, s)."""
+    head = ["waypoint"] + (["t"] if plan.t is not None else []) + list(plan.joint_names)
+    lines = [",".join(head)]
+    for i, q in enumerate(plan.q):
+        row = [str(i)] + ([repr(float(plan.t[i]))] if plan.t is not None else []) + [repr(float(v)) for v in q]
+        lines.append(",".join(row))
+    return "\n".join(lines) + "\n"
+
+
+def _failure_words(record, names_of_kind: dict) -> str:
+    what = names_of_kind[record.kind]
+    text = f"{record.count} {what}"
+    if record.kind == "velocity":
+        text += f" (best step: {record.joint} at {short_text(record.ratio, 3)} x its velocity limit)"
+    elif record.kind == "joint_limits" and record.joint:
+        text += f" (most often {record.joint})"
+    elif record.kind == "collision" and record.pairs:
+        text += " (" + ", ".join(f"{a} - {b}" for a, b in record.pairs[:3]) + ")"
+    elif record.kind == "near_singular":
+        text += f" (smallest singular value {short_text(record.ratio, 3)})"
+    return text
+
+
+KIND_WORDS = {
+    "unreachable": "target sample(s) with no IK branch (unreachable)",
+    "joint_limits": "branch(es) outside a joint's limits",
+    "collision": "candidate(s) in collision",
+    "near_singular": "candidate(s) near a singularity",
+    "velocity": "candidate(s) with every step in too fast for a joint's velocity limit",
+    "deviation": "candidate(s) whose every step in leaves the path between waypoints",
+}
+
+
+def plan_text(plan, *, robot: str, base: str, tip: str, speed=None, written=None) -> str:
+    """The plan in words: what was planned, at what resolution, optimal for which cost, where and why it fails."""
+    r = plan.resolution
+    lines = [f"path of {r['waypoints']} waypoints for frame {tip} in {base} on {robot} "
+             f"({len(plan.joint_names)} joints)"]
+    samples = [f"{r['tool_angles']} tool angle(s) about the free axis"] if r["tool_angles"] > 1 else []
+    if r["arm_angles"]:
+        samples.append(f"{r['arm_angles']} arm angle(s)")
+    lines.append(f"searched: {r['method']}{' at ' + ' x '.join(samples) if samples else ''}, "
+                 f"{'with every in-limit 2 pi alias' if r['aliases'] else 'one value per branch (no 2 pi aliases)'}: "
+                 f"{r['candidates']} candidates, {r['edges']} edges evaluated (none stored)")
+    if not r["timed"]:
+        lines.append("timing: none given (no --speed, no t): steps are not bounded by the joints' velocity limits")
+    elif speed is not None:
+        lines.append(f"timing: tool at {short_text(speed)} m/s; each step within {short_text(r['velocity_scale'])} "
+                     "x every joint's URDF velocity limit")
+    else:
+        lines.append(f"timing: the file's t; each step within {short_text(r['velocity_scale'])} x every joint's URDF "
+                     "velocity limit")
+    tol = r["path_tol"]
+    lines.append(f"between waypoints: {2 ** r['depth'] - 1} joint-interpolated points per step must lie within "
+                 f"{short_text(tol[0])} m and {short_text(math.degrees(tol[1]))} deg of the path "
+                 f"({plan.deviation_points} checked)")
+    if r["collision_step"] is not None:
+        lines.append(f"collisions: waypoints and steps (samples {short_text(math.degrees(r['collision_step']))} deg "
+                     f"apart in every joint) checked: {plan.collision_checks} configurations, "
+                     f"{plan.replans} re-plan(s)")
+    if plan.feasible:
+        lines.append(f"FEASIBLE: the least {r['cost']} over these candidates, {short_text(plan.cost, 6)} "
+                     "(optimal for that cost at this resolution)")
+        if plan.max_velocity_ratio is not None:
+            lines.append(f"fastest joint step: {short_text(100 * plan.max_velocity_ratio, 4)}% of its allowed speed")
+        if plan.reconfigurations:
+            where = ", ".join(str(i) for i in plan.reconfigurations)
+            lines.append(f"{len(plan.reconfigurations)} reconfiguration(s) (retract, reconfigure, resume), the fewest "
+                         f"possible: resuming at waypoint(s) {where}")
+        lines.append("start: " + " ".join(f"{n}={short_text(float(v), 6)}" for n, v in zip(plan.joint_names, plan.q[0])))
+        lines.append("end:   " + " ".join(f"{n}={short_text(float(v), 6)}" for n, v in zip(plan.joint_names, plan.q[-1])))
+        if written:
+            lines.append(f"joint path written to {printable(str(written))}")
+    elif plan.first_failure is None:
+        lines.append(f"NOT FOUND: {plan.replans} re-plans ran out before a path cleared its checks (nothing is "
+                     "proven: a path may exist)")
+    else:
+        i = plan.first_failure
+        lines.append(f"NOT FEASIBLE: no candidate survives at waypoint {i} (counting from 0)")
+        for record in plan.failures[i]:
+            lines.append(f"  waypoint {i}: " + _failure_words(record, KIND_WORDS))
+    earlier = [(i, f) for i, fs in enumerate(plan.failures) for f in fs if plan.feasible or i != plan.first_failure]
+    if earlier:
+        lines.append(f"candidates that died along the way: at {len({i for i, _ in earlier})} waypoint(s), first:")
+        for i, record in earlier[:5]:
+            lines.append(f"  waypoint {i}: " + _failure_words(record, KIND_WORDS))
+    return "\n".join(lines)

@@ -1,0 +1,470 @@
+"""Can a chain follow a tool path, on which IK branches, and if not, where and why: :func:`plan_path`.
+
+Conventions (docs/architecture.md): ``poses`` are ``T_base_tip`` (N, 4, 4),
+metres; joint paths ``q`` are (N, n) in the chain's joint order (rad or m);
+times in seconds; velocity limits are the URDF ``<limit velocity>`` (rad/s or
+m/s) times ``velocity_scale``.
+
+The plan is a ladder (:mod:`manipkit.paths.ladder`): at every waypoint every
+IK branch the one dispatcher gives (:mod:`manipkit.paths.rungs`), their
+in-limit 2*pi aliases, each tool rotation about a free axis and, for a 7R SRS
+arm, each sampled arm angle; an edge between consecutive waypoints is allowed
+when every joint's step fits its velocity limit for the time between them;
+the path of least summed joint motion is found by dynamic programming and is
+optimal for that cost over those candidates (the stated resolution). The
+chosen steps are then checked between the waypoints (:mod:`manipkit.paths.steps`:
+on the tool path within ``path_tol``, and, with ``collisions``, free of
+contact at samples ``collision_step`` apart); what fails is taken out and the
+ladder solved again, until the path is clear or no path is left.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from manipkit import bounds
+from manipkit.errors import OptionError
+from manipkit.paths.ladder import solve_ladder
+from manipkit.paths.poses import PosePath
+from manipkit.paths.rungs import AXES, alias_group, build_rungs, ik_source, tool_rotations
+from manipkit.paths.steps import deviating_steps, step_samples
+from manipkit.text import short_text
+
+__all__ = ["FAILURE_KINDS", "BranchFailure", "PathPlan", "plan_path", "velocity_limits"]
+
+#: Why candidates at a waypoint died: no IK branch reaches the target; a branch has no value inside a joint's
+#: limits; the configuration (or every allowed step into it) is in collision; the configuration is within the
+#: singularity tolerance; every step into it from a live candidate is faster than a joint's velocity limit; every
+#: step into it fast enough leaves the tool path between the waypoints.
+ONE_DEGREE = math.pi / 180.0
+TEN_DEGREES = math.pi / 18.0
+FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "near_singular", "velocity", "deviation")
+
+
+@dataclass(frozen=True)
+class BranchFailure:
+    """Why ``count`` candidates (IK branches, aliases and samples) at one waypoint died, as data.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`FAILURE_KINDS`.
+    count : int
+        How many candidates (``unreachable``: target samples with no branch) died this way.
+    joint : str
+        ``joint_limits``: the joint most often outside its limits; ``velocity``: the joint of the best step's
+        largest ratio; ``near_singular``: the joint with the largest share of the least singular direction.
+    ratio : float
+        ``velocity``: the smallest, over live predecessors, of the step's largest ``|dq_j| / (v_j dt)``
+        (above 1); ``near_singular``: the smallest singular value found; else 0.
+    pairs : tuple of (str, str)
+        ``collision``: link pairs found in contact.
+    """
+
+    kind: str
+    count: int
+    joint: str = ""
+    ratio: float = 0.0
+    pairs: tuple[tuple[str, str], ...] = ()
+
+    def as_dict(self) -> dict:
+        """JSON-safe: every field (pairs as lists)."""
+        return {"kind": self.kind, "count": self.count, "joint": self.joint or None, "ratio": float(self.ratio),
+                "pairs": [list(p) for p in self.pairs]}
+
+
+@dataclass(frozen=True)
+class PathPlan:
+    """The answer of :func:`plan_path`: the joint path, or where and why there is none.
+
+    Attributes
+    ----------
+    feasible : bool
+        A joint path follows every waypoint (with ``reconfigure``: possibly with breaks).
+    q : ndarray, shape (N, n), or None
+        The joint path in ``joint_names`` order (rad or m); None when infeasible.
+    joint_names : tuple of str
+        The chain's joints.
+    t : ndarray, shape (N,), or None
+        Time at each waypoint (s): the given ``t``, or from ``speed``; None when neither was given.
+    failures : tuple of tuple of BranchFailure
+        Per waypoint, why candidates died there (empty where none did). Past ``first_failure`` only the reasons
+        found at the waypoint itself are listed (unreachable, joint limits, near-singular): no path reaches it
+        to die of a step.
+    first_failure : int or None
+        The first waypoint where every candidate is dead (None when feasible, or when ``max_replans`` ran out
+        before a path cleared its checks: ``resolution["unfinished"]``, nothing proven).
+    reconfigurations : tuple of int
+        With ``reconfigure``: the waypoints where the arm resumes after a break (retract, reconfigure, resume).
+    cost : float or None
+        The path's cost: summed ``w_j |dq_j|`` over its steps (rad or m), plus penalties; None when infeasible.
+    max_velocity_ratio : float or None
+        Largest ``|dq_j| / (velocity_scale v_j dt)`` over the path's steps (<= 1 on a plan); None without timing.
+    tool_angles : ndarray, shape (N,), or None
+        With a free axis: the chosen rotation of the tool about it at each waypoint (rad).
+    arm_angles : ndarray, shape (N,), or None
+        For a 7R SRS arm: the arm angle sample of each waypoint's solution (rad).
+    targets : ndarray, shape (N, 4, 4), or None
+        The pose the tip reaches at each waypoint (the path pose turned about the free axis).
+    resolution : dict
+        What was searched: ``waypoints``, ``samples`` per waypoint, ``tool_angles``, ``arm_angles``,
+        ``aliases``, ``candidates``, ``edges`` (evaluated, none stored), ``method`` (in words), ``cost`` (in
+        words), ``path_tol`` (m, rad), ``depth``, ``collision_step`` (rad or m, or None), ``ik_calls``.
+    collision_checks : int
+        Configurations put through the collision checker (vertices and step samples, over every re-plan).
+    deviation_points : int
+        Joint-interpolated points checked against the tool path.
+    replans : int
+        How many times the ladder was solved again after taking out what failed a check.
+    """
+
+    feasible: bool
+    q: np.ndarray | None
+    joint_names: tuple[str, ...]
+    t: np.ndarray | None
+    failures: tuple[tuple[BranchFailure, ...], ...]
+    first_failure: int | None
+    reconfigurations: tuple[int, ...]
+    cost: float | None
+    max_velocity_ratio: float | None
+    tool_angles: np.ndarray | None = None
+    arm_angles: np.ndarray | None = None
+    targets: np.ndarray | None = field(default=None, repr=False)
+    resolution: dict = field(default_factory=dict)
+    collision_checks: int = 0
+    deviation_points: int = 0
+    replans: int = 0
+
+    def as_dict(self) -> dict:
+        """The JSON contract of ``manipkit path --format json`` (the keys the issue names, in order)."""
+        return {
+            "feasible": self.feasible,
+            "joint_names": list(self.joint_names),
+            "q": None if self.q is None else self.q.tolist(),
+            "t": None if self.t is None else self.t.tolist(),
+            "failures": [[f.as_dict() for f in waypoint] for waypoint in self.failures],
+            "first_failure": self.first_failure,
+            "reconfigurations": list(self.reconfigurations),
+            "cost": self.cost,
+            "max_velocity_ratio": self.max_velocity_ratio,
+        }
+
+
+def velocity_limits(chain) -> np.ndarray:
+    """Each chain joint's URDF velocity limit (rad/s or m/s), inf where the description gives none (0 or missing)."""
+    model = chain.robot.model
+    out = []
+    for joint in chain.joints:
+        limit = float(model.velocityLimit[model.joints[model.getJointId(joint.name)].idx_v])
+        out.append(limit if math.isfinite(limit) and limit > 0 else math.inf)
+    return np.array(out)
+
+
+def _step_times(T: np.ndarray, t, speed, angular_speed) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(times (N,), dt (N - 1,)), from ``t`` or from the tool's speeds; (None, None) without timing."""
+    N = len(T)
+    if t is not None:
+        if speed is not None or angular_speed is not None:
+            raise OptionError("give the times t or a speed, not both")
+        times = np.array(PosePath(T, t).t)  # checked there: one time per waypoint, finite, increasing
+        return times, np.diff(times)
+    if speed is None and angular_speed is None:
+        return None, None
+    dt = np.zeros(N - 1)
+    if speed is not None:
+        speed = bounds.length(speed, "speed (m/s)")
+        dt = np.maximum(dt, np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1) / speed)
+    if angular_speed is not None:
+        angular_speed = bounds.length(angular_speed, "angular_speed (rad/s)")
+        from manipkit.spatial.rotations import rotation_angle_between
+
+        turn = rotation_angle_between(T[:-1, :3, :3], T[1:, :3, :3], check=False) if N > 1 else np.zeros(0)
+        dt = np.maximum(dt, np.asarray(turn) / angular_speed)
+    return np.concatenate([[0.0], np.cumsum(dt)]), dt
+
+
+def _free_angles(free_axis, free_step, free_range) -> np.ndarray:
+    if free_axis is None:
+        if free_step is not None or free_range is not None:
+            raise OptionError("free_step and free_range need free_axis ('x', 'y' or 'z')")
+        return np.zeros(1)
+    if free_axis not in AXES:
+        raise OptionError(f"free_axis {str(free_axis)[:20]!r}: give 'x', 'y' or 'z' (the tool axis left free)")
+    step = math.radians(10.0) if free_step is None else float(free_step)
+    if not (math.isfinite(step) and 1e-6 <= step <= 2 * math.pi):
+        raise OptionError(f"free_step {short_text(step)} rad: give a step from 1e-6 rad to 2 pi")
+    low, high = (-math.pi, math.pi) if free_range is None else (float(free_range[0]), float(free_range[1]))
+    if not (math.isfinite(low) and math.isfinite(high) and low <= high and high - low <= 2 * math.pi + 1e-12):
+        raise OptionError(f"free_range ({short_text(low)}, {short_text(high)}) rad: give low <= high, at most a turn")
+    full = high - low >= 2 * math.pi - 1e-12
+    count = int(math.floor((high - low) / step + 1e-9)) + (0 if full else 1)
+    bounds.count(count, "tool angles", maximum=100_000)
+    return low + step * np.arange(count)
+
+
+def _pairs_words(checker, rows) -> tuple[tuple[str, str], ...]:
+    found: dict = {}
+    for q in rows[:3]:
+        for pair in sorted(checker.pairs_in_contact(q)):
+            found[pair] = None
+    return tuple(found)
+
+
+def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None, t=None, speed=None,
+              angular_speed=None, velocity_scale: float = 1.0, free_axis: str | None = None, free_step=None,
+              free_range=None, arm_angle_step: float = TEN_DEGREES, aliases: bool = True,
+              reconfigure: bool = False, collisions=None, collision_step: float = ONE_DEGREE,
+              path_tol=(1e-3, ONE_DEGREE), depth: int = 4, weights=None, singular_tol: float | None = None,
+              tol: float = 1e-9, q0=None, restarts: int = 20, seed: int = 0, max_replans: int = 10_000,
+              progress=None) -> PathPlan:
+    """Plan a joint path that puts ``tip`` on every pose of ``poses``, over every IK branch, or say where and why
+    none exists.
+
+    Parameters
+    ----------
+    subject : Robot or Chain
+        The robot (with ``base`` and ``tip``, defaults ``base_link`` and ``ee_link``), or a chain.
+    poses : array_like, shape (N, 4, 4)
+        ``T_base_tip`` at each waypoint (metres).
+    t : array_like, shape (N,), optional
+        Time at each waypoint (s, increasing); or ``speed`` (m/s of the tip's origin) and/or
+        ``angular_speed`` (rad/s of its rotation), each step taking the longer of the two. Without either,
+        steps are not bounded by the velocity limits (the path check still refuses jumps off the path).
+    velocity_scale : float
+        Fraction of each joint's URDF velocity limit a step may use (0 < scale; 1: the limit).
+    free_axis : {"x", "y", "z"}, optional
+        The tool axis the task leaves free: the tip may turn about it; ``free_step`` (rad, default 10 deg)
+        over ``free_range`` (low, high) rad (default a full turn).
+    arm_angle_step : float
+        7R SRS arms (iiwa14): the arm angle is sampled over a full turn at this step (rad).
+    aliases : bool
+        Every in-limit ``q + 2 pi k`` of every branch (default); False: the dispatcher's one value per branch.
+    reconfigure : bool
+        Allow breaks (retract, reconfigure, resume): the fewest breaks first, then the least motion.
+    collisions : bool or CollisionChecker, optional
+        Check the chosen path's waypoints and steps (samples at most ``collision_step`` apart, rad or m, in
+        every joint) and re-plan around contacts; True: the robot against itself.
+    path_tol : float or (float, float)
+        How far (m, rad) a joint-interpolated point of a step may be from the tool path; ``depth`` levels of
+        midpoints are checked per step.
+    weights : array_like, shape (n,), optional
+        Cost weight of each joint's motion (default 1).
+    singular_tol : float, optional
+        Candidates whose Jacobian's smallest singular value is below it are dropped (``near_singular``).
+    tol : float
+        IK residual tolerance (m and rad) of every candidate, by forward kinematics.
+    q0 : array_like, optional
+        The whole robot's joint values off the chain (collision checks); default the robot's defaults.
+    progress : callable, optional
+        ``progress(stage, done, total)`` for the IK and ladder stages.
+
+    Returns
+    -------
+    PathPlan
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> ur5 = manipkit.load("ur5")
+    >>> chain = ur5.chain("base_link", "tool0")
+    >>> T0 = chain.fk([0.3, -1.2, 1.4, -1.8, -1.5, 0.2])
+    >>> poses = np.repeat(T0[None], 5, axis=0)
+    >>> poses[:, 2, 3] += np.linspace(0.0, 0.04, 5)
+    >>> plan = plan_path(chain, poses, speed=0.05)
+    >>> plan.feasible, plan.q.shape, plan.first_failure
+    (True, (5, 6), None)
+    """
+    # Over 80 lines: the docstring is half of it; the rest is the one loop of solve, check and re-plan.
+    from manipkit.ik.dispatch import robot_and_frames
+
+    robot, base, tip = robot_and_frames(subject, base, tip)
+    chain = robot.chain(base, tip)
+    T = np.array(PosePath(poses).poses)  # checked there: a stack of rigid transforms, at most MAX_WAYPOINTS
+    N, n = len(T), chain.n
+    times, dt = _step_times(T, t, speed, angular_speed)
+    scale = float(velocity_scale)
+    if not (math.isfinite(scale) and 0.0 < scale <= 1e6):
+        raise OptionError(f"velocity_scale {short_text(scale)}: give a positive fraction of the URDF limits")
+    angles = _free_angles(free_axis, free_step, free_range)
+    path_tol = (float(path_tol), float(path_tol)) if np.ndim(path_tol) == 0 else tuple(map(float, path_tol))
+    if not all(math.isfinite(v) and v > 0 for v in path_tol):
+        raise OptionError(f"path_tol {path_tol}: give positive tolerances (m, rad)")
+    bounds.count(depth, "depth", minimum=1, maximum=20)
+    source = ik_source(robot, base, tip)
+    psi = None
+    if source == "srs":
+        step = float(arm_angle_step)
+        if not (math.isfinite(step) and 1e-4 <= step <= 2 * math.pi):
+            raise OptionError(f"arm_angle_step {short_text(step)} rad: give a step from 1e-4 rad to 2 pi")
+        psi = -math.pi + step * np.arange(int(math.floor(2 * math.pi / step + 1e-9)))
+    rotations = tool_rotations(free_axis, angles)
+    rungs = build_rungs(chain, T, rotations, source=source, arm_angles=psi, tol=tol, aliases=aliases,
+                        restarts=restarts, seed=seed, progress=progress)
+    limits = velocity_limits(chain)
+    step_bounds = np.full((max(N - 1, 0), n), np.inf) if dt is None else dt[:, None] * limits[None, :] * scale
+    w = None if weights is None else np.asarray(weights, dtype=float).reshape(n)
+    penalties = [np.zeros(len(Q)) for Q in rungs.Q]
+    singular = [None] * N
+    if singular_tol is not None:
+        if not (math.isfinite(float(singular_tol)) and float(singular_tol) > 0):
+            raise OptionError(f"singular_tol {short_text(float(singular_tol))}: give a positive singular value")
+        for i, Q in enumerate(rungs.Q):
+            if len(Q):
+                sigma = np.linalg.svd(chain.jacobians(Q), compute_uv=False)[:, -1]
+                singular[i] = sigma
+                penalties[i] = np.where(sigma < singular_tol, np.inf, penalties[i])
+    checker = None
+    if collisions is True:
+        from manipkit.kinematics.collisions import CollisionChecker
+
+        checker = CollisionChecker(robot)
+    elif collisions not in (None, False):
+        checker = collisions
+    whole = robot.q() if q0 is None else robot.q(q0)
+    forbidden: dict[int, list] = {}
+    step_reason: dict[int, set] = {}
+    collided: dict[int, list] = {}
+    checked_vertices: set = set()
+    checked_steps: set = set()
+    checks = points = replans = 0
+    changed = False
+    for replans in range(max_replans + 1):  # noqa: B007 (the count is reported)
+        ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
+                              reconfigure=reconfigure, progress=progress)
+        if not ladder.feasible:
+            break
+        choice = ladder.choice
+        Q = np.stack([rungs.Q[i][choice[i]] for i in range(N)])
+        targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // (len(psi) if psi is not None else 1)]
+        changed = False
+        if checker is not None:
+            new = [i for i in range(N) if (i, choice[i]) not in checked_vertices]
+            rows = np.repeat(whole[None], len(new), axis=0)
+            rows[:, chain.columns] = Q[new]
+            hits = checker.in_collision(rows) if new else np.zeros(0, dtype=bool)
+            checks += len(new)
+            checked_vertices.update((i, choice[i]) for i in new)
+            for i, hit, row in zip(new, hits, rows):
+                if hit:
+                    penalties[i][alias_group(rungs, i, choice[i])] = np.inf
+                    collided.setdefault(i, []).append(_pairs_words(checker, row[None]))
+                    changed = True
+        if changed:
+            continue
+        live = [i for i in range(N - 1) if i not in ladder.breaks and (i, choice[i], choice[i + 1]) not in checked_steps]
+        if live:
+            idx = np.array(live)
+            bad, _, count = deviating_steps(chain, Q, targets, tol=path_tol, depth=depth, steps=idx)
+            points += count
+            for i in idx[bad[idx]]:
+                forbidden.setdefault(int(i), []).extend(_same_steps(rungs, int(i), choice[i], choice[i + 1]))
+                step_reason.setdefault(int(i), set()).add(("deviation", ()))
+                changed = True
+            if checker is not None:
+                clear = idx[~bad[idx]]
+                samples, owner = step_samples(Q, clear, collision_step)
+                rows = np.repeat(whole[None], len(samples), axis=0)
+                rows[:, chain.columns] = samples
+                hits = checker.in_collision(rows) if len(samples) else np.zeros(0, dtype=bool)
+                checks += len(samples)
+                for i in np.unique(owner[hits]):
+                    forbidden.setdefault(int(i), []).extend(_same_steps(rungs, int(i), choice[i], choice[i + 1]))
+                    pairs = _pairs_words(checker, rows[hits & (owner == i)])
+                    step_reason.setdefault(int(i), set()).add(("collision", pairs))
+                    changed = True
+            checked_steps.update((i, choice[i], choice[i + 1]) for i in live if not bad[i])
+        if not changed:
+            break
+    failures = _failures(chain, rungs, ladder, penalties, singular, singular_tol, collided, step_reason)
+    resolution = {
+        "waypoints": N, "samples": rungs.samples, "tool_angles": len(angles),
+        "arm_angles": 0 if psi is None else len(psi), "aliases": bool(aliases),
+        "candidates": int(sum(len(Q) for Q in rungs.Q)), "edges": ladder.edges, "method": rungs.method,
+        "cost": "summed joint motion (rad or m)" if w is None else "weighted summed joint motion",
+        "path_tol": list(path_tol), "depth": depth, "collision_step": None if checker is None else collision_step,
+        "ik_calls": rungs.ik_calls, "velocity_scale": scale, "timed": dt is not None,
+        "unfinished": bool(changed),
+    }
+    common = dict(joint_names=tuple(chain.joint_names), t=times, failures=failures, resolution=resolution,
+                  collision_checks=checks, deviation_points=points, replans=replans)
+    if not ladder.feasible or changed:  # changed: the last path failed a check and max_replans ran out
+        return PathPlan(False, None, first_failure=ladder.first_dead, reconfigurations=(), cost=None,
+                        max_velocity_ratio=None, **common)
+    ratio = None
+    if dt is not None and N > 1:
+        steps = np.abs(np.diff(Q, axis=0)) / (dt[:, None] * limits[None, :] * scale)
+        steps[list(ladder.breaks)] = 0.0
+        ratio = float(np.nan_to_num(steps, nan=0.0).max())
+    if aliases:
+        Q = _nearest_zero(Q, chain)
+    sample = np.stack([rungs.sample[i][choice[i]] for i in range(N)])
+    P = 1 if psi is None else len(psi)
+    Q.setflags(write=False)
+    return PathPlan(True, Q, first_failure=None, reconfigurations=tuple(i + 1 for i in ladder.breaks),
+                    cost=ladder.cost, max_velocity_ratio=ratio,
+                    tool_angles=None if free_axis is None else angles[sample // P],
+                    arm_angles=None if psi is None else psi[sample % P], targets=targets, **common)
+
+
+def _same_steps(rungs, i: int, a: int, b: int) -> list[tuple[int, int]]:
+    """Every step from waypoint ``i`` to ``i + 1`` between aliases of ``a`` and of ``b`` with the same joint motion
+    as ``a -> b`` (the same step moved by whole turns: it leaves the path, or collides, exactly as ``a -> b``)."""
+    A, B = alias_group(rungs, i, a), alias_group(rungs, i + 1, b)
+    dq = rungs.Q[i + 1][b] - rungs.Q[i][a]
+    same = np.abs(rungs.Q[i + 1][B][None, :, :] - rungs.Q[i][A][:, None, :] - dq).max(axis=2) <= 1e-9
+    return [(int(A[x]), int(B[y])) for x, y in zip(*np.nonzero(same))]
+
+
+def _nearest_zero(Q: np.ndarray, chain) -> np.ndarray:
+    """``Q`` with each angular joint's whole column moved by the ``2 pi k`` that brings its mean nearest 0 while
+    every value stays inside the limits: the same poses, the same steps and cost (the path's aliases are
+    candidates too), the one a user expects among equally good ones."""
+    Q = Q.copy()
+    for j, joint in enumerate(chain.joints):
+        if not joint.is_angular:
+            continue
+        for k in sorted(range(-3, 4), key=lambda k: abs(Q[:, j].mean() + 2 * math.pi * k)):
+            moved = Q[:, j] + 2 * math.pi * k
+            if moved.min() >= chain.lower[j] and moved.max() <= chain.upper[j]:
+                Q[:, j] = moved
+                break
+    return Q
+
+
+def _failures(chain, rungs, ladder, penalties, singular, singular_tol, collided, step_reason):
+    """Per waypoint, the :class:`BranchFailure` records of the candidates that died there."""
+    names = chain.joint_names
+    blocked = {block.rung: block for block in ladder.blocked}
+    out = []
+    for i in range(len(rungs.Q)):
+        records = []
+        if rungs.unreachable[i]:
+            records.append(BranchFailure("unreachable", int(rungs.unreachable[i])))
+        if rungs.limits[i]:
+            records.append(BranchFailure("joint_limits", int(rungs.limits[i]), joint=rungs.limit_joint[i]))
+        if singular[i] is not None:
+            low = singular[i] < singular_tol
+            if low.any():
+                records.append(BranchFailure("near_singular", int(low.sum()), ratio=float(singular[i][low].min())))
+        if i in collided:
+            pairs = tuple(dict.fromkeys(p for found in collided[i] for p in found))
+            records.append(BranchFailure("collision", len(collided[i]), pairs=pairs))
+        block = blocked.get(i)
+        if block is not None:
+            stuck = np.isfinite(block.ratio) | np.isinf(block.ratio)
+            fast = stuck & np.isfinite(block.ratio) & (block.ratio > 1.0)
+            if fast.any():
+                k = int(np.flatnonzero(fast)[np.argmin(block.ratio[fast])])
+                records.append(BranchFailure("velocity", int(fast.sum()), joint=names[int(block.joint[k])],
+                                             ratio=float(block.ratio[k])))
+            cut = stuck & ~fast
+            if cut.any():
+                reasons = step_reason.get(i - 1, set())
+                pairs = tuple(dict.fromkeys(p for kind, found in reasons if kind == "collision" for p in found))
+                kind = "collision" if pairs else "deviation"
+                records.append(BranchFailure(kind, int(cut.sum()), pairs=pairs))
+        out.append(tuple(records))
+    return tuple(out)

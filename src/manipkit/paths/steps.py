@@ -1,0 +1,69 @@
+"""Checks of a chosen joint path between its waypoints: it stays on the tool path, and it does not collide.
+
+A step from ``q_a`` (at pose ``T_a``) to ``q_b`` (at ``T_b``) is executed as
+the joint-space straight line ``q(s) = q_a + s (q_b - q_a)``, ``s`` in
+[0, 1]. :func:`deviating_steps` checks it as MoveIt 2's precision check of a
+Cartesian path does: the forward kinematics of the joint midpoint must lie
+within ``tol`` (m, rad) of the Cartesian midpoint of the two poses (position
+interpolated linearly, rotation along the geodesic), and each half is
+checked again, recursively, to ``depth`` levels (``2**depth - 1`` points per
+step, all of them checked). A branch flip hidden between two waypoints (a wrist turning half a
+turn and back) leaves the path at some midpoint and fails. :func:`step_samples`
+gives the configurations a step passes through at most ``joint_step`` (rad
+or m, the largest joint change) apart, for collision checks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.spatial.transforms import pose_residuals
+
+__all__ = ["deviating_steps", "step_samples"]
+
+
+def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, float], depth: int = 4,
+                    steps=None) -> tuple[np.ndarray, np.ndarray, int]:
+    """Which steps of the joint path ``Q`` (N, n) between target poses ``T`` (N, 4, 4) leave the tool path.
+
+    Every point a recursive midpoint check to ``depth`` levels would visit is checked: the fractions
+    ``k / 2**depth``, ``k = 1 .. 2**depth - 1``, of each step in ``steps`` (default all), the joint-interpolated
+    configuration's forward kinematics against :func:`manipkit.paths.poses.interpolate_poses` at the same fraction.
+    Returns ``(bad (N - 1,) bool, worst (N - 1, 2) (position m, rotation rad) of the worst point, points
+    checked)``; a step is bad when some point is farther than ``tol`` (position m, rotation rad).
+    """
+    from manipkit.paths.poses import interpolate_poses
+
+    N = len(Q)
+    bad = np.zeros(max(N - 1, 0), dtype=bool)
+    worst = np.zeros((max(N - 1, 0), 2))
+    steps = np.arange(N - 1) if steps is None else np.asarray(steps, dtype=np.intp)
+    if N < 2 or not len(steps):
+        return bad, worst, 0
+    s = np.arange(1, 2 ** depth) / 2 ** depth
+    wanted = np.stack([interpolate_poses(T[i], T[i + 1], s) for i in steps])  # (m, p, 4, 4)
+    q = Q[steps, None, :] + s[None, :, None] * (Q[steps + 1] - Q[steps])[:, None, :]
+    position, rotation = pose_residuals(wanted, chain.fk(q), project=False)
+    worst[steps, 0] = position.max(axis=1)
+    worst[steps, 1] = rotation.max(axis=1)
+    bad[steps] = (worst[steps, 0] > tol[0]) | (worst[steps, 1] > tol[1])
+    return bad, worst, int(position.size)
+
+
+def step_samples(Q: np.ndarray, steps: np.ndarray, joint_step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Configurations inside the steps ``steps`` (indices ``i``: from ``Q[i]`` to ``Q[i + 1]``), at most
+    ``joint_step`` apart in every joint (the ends excluded): ``(rows (M, n), step of each row (M,))``."""
+    rows, owner = [], []
+    for i in steps:
+        span = float(np.abs(Q[i + 1] - Q[i]).max())
+        pieces = max(1, math.ceil(span / joint_step))
+        if pieces < 2:
+            continue
+        s = np.arange(1, pieces) / pieces
+        rows.append(Q[i] + s[:, None] * (Q[i + 1] - Q[i]))
+        owner.append(np.full(len(s), i, dtype=np.intp))
+    if not rows:
+        return np.zeros((0, Q.shape[1])), np.zeros(0, dtype=np.intp)
+    return np.concatenate(rows), np.concatenate(owner)
