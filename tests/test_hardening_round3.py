@@ -74,3 +74,56 @@ def test_mesh_references_are_the_files_the_loaders_read():
     assert mesh_references(HERE / "texture_environ.dae") == [("texture <init_from>", "/proc/self/environ", True)]
     assert mesh_references(HERE / "obj_mtllib_passwd.obj") == [("mtllib", "/etc/passwd", False)]
     assert mesh_references(HERE / "flat.stl") == []
+
+
+@pytest.mark.parametrize("geometry", ["hulls", "meshes"])
+def test_a_flat_collision_mesh_is_a_thin_plate_not_a_crash(tmp_path, geometry):
+    """flat.stl: a 0.1 m square plate at z = 0 of upper_arm, which is 0.3 m above base_link at q = 0; base_link's
+    box (0.05 m high, centred) tops at z = 0.025, so the distance is 0.275 m by hand. Hull building segfaulted."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")}
+    result = subprocess.run([str(Path(sys.executable).parent / "manipkit"), "collisions", "--robot",
+                             str(HERE / "flat_mesh.urdf"), "--geometry", geometry], capture_output=True, text=True,
+                            cwd=tmp_path, env=env, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "closest pair: base_link - upper_arm, distance 0.2750 m" in result.stdout
+    assert result.stderr == ""
+
+
+def _chain(path: Path, joints: int, namespace: str = "") -> Path:
+    """A URDF chain of ``joints`` fixed joints, 1 mm apart along z (elements in ``namespace`` if given)."""
+    ns = f' xmlns="{namespace}"' if namespace else ""
+    rows = ['<robot name="deep">', '<link name="l0"/>']
+    rows += [f'<link name="l{i}"{ns}/><joint name="j{i}" type="fixed"{ns}><parent link="l{i - 1}"/>'
+             f'<child link="l{i}"/><origin xyz="0 0 0.001"/></joint>' for i in range(1, joints + 1)]
+    path.write_text("\n".join(rows + ["</robot>\n"]))
+    return path
+
+
+def _manipkit_limited(tmp_path, *args, stack_kb: int = 4096):
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")}
+    command = ["/bin/bash", "-c", f'ulimit -s {stack_kb} && exec "$@"', "bash",
+               str(Path(sys.executable).parent / "manipkit"), *map(str, args)]
+    return subprocess.run(command, capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600)
+
+
+def test_the_deepest_chain_allowed_loads_under_a_4_mb_stack(tmp_path):
+    """2000 joints (MAX_TREE_DEPTH) segfaulted Pinocchio's recursive parser on a 4 MB main-thread stack; it runs
+    on a thread with its own stack now. T_l0_l2000 is 2000 x 1 mm = 2 m along z, by hand."""
+    result = _manipkit_limited(tmp_path, "tf", "l0", "l2000", "--robot", _chain(tmp_path / "deep.urdf", 2000),
+                               "--format", "json")
+    assert result.returncode == 0, result.stderr[-500:]
+    matrix = json.loads(result.stdout)["matrix"]
+    assert matrix[2][3] == pytest.approx(2.0, abs=1e-9) and matrix[0][3] == 0.0
+
+
+def test_a_namespaced_4000_deep_chain_is_refused_not_a_segfault(tmp_path):
+    result = _manipkit_limited(tmp_path, "frames", "--robot", _chain(tmp_path / "ns.urdf", 4000, "urn:x"))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr[-500:]
+    assert "link 'l4000' is 4000 joints below root 'l0'; manipkit loads trees up to 2000 joints deep" in result.stderr
+

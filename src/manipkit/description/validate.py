@@ -308,6 +308,7 @@ class _Checker:
             raise DescriptionError(f"{location}: malformed XML: {reason}") from None
         except ValueError as exc:  # e.g. NUL bytes lxml refuses before parsing
             raise DescriptionError(f"{self.where}: not XML text ({exc})") from None
+        self.unnamespaced(root)
         if not isinstance(root.tag, str) or root.tag != "robot":
             tag = root.tag if isinstance(root.tag, str) else "?"
             hint = " (this looks like an SDF model; manipkit reads URDF)" if tag == "sdf" else ""
@@ -328,6 +329,15 @@ class _Checker:
                 "read '&name;' literally); write the values out (or use xacro properties in a .xacro file)"
             )
         return root
+
+    def unnamespaced(self, root) -> None:
+        """Read elements in a default XML namespace (``<link xmlns="urn:x">``) by their local names, as
+        Pinocchio's parser (not namespace-aware) reads them: otherwise ``{urn:x}link`` would pass every check
+        here unseen and still be loaded. Prefixed elements (``<x:link>``) stay apart: to Pinocchio their name
+        is ``x:link``, no URDF element."""
+        for element in root.iter():
+            if isinstance(element.tag, str) and element.tag.startswith("{") and element.prefix is None:
+                element.tag = _local(element.tag)
 
     def named(self, root, tag: str) -> dict:
         named: dict[str, object] = {}

@@ -573,6 +573,7 @@ class Robot(JointSpace):
         import warnings
 
         from manipkit.description.meshes import MissingMeshWarning, visual_urdf
+        from manipkit.kinematics.joints import native_call
 
         near = self.source.path if self.source.path.exists() else None
         resolver = PackageResolver(dict(self.package_dirs), near=near)
@@ -582,7 +583,8 @@ class Robot(JointSpace):
         if missing is not None:
             warnings.warn(missing.message(self.name), MissingMeshWarning, stacklevel=2)
         try:
-            return pin.buildGeomFromUrdfString(self.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
+            return native_call(pin.buildGeomFromUrdfString, self.model, text, pin.GeometryType.VISUAL,
+                               package_dirs=package_dirs)[0]  # a sized stack; coal's raw lines captured
         except (ValueError, RuntimeError) as exc:
             raise DescriptionError(
                 f"{self.name}: Pinocchio cannot load the visual geometry: {' '.join(str(exc).split())}"
