@@ -33,7 +33,7 @@ import warnings
 from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser, warn
 from manipkit.app.cli.tf import run_tf, tf_parser
 from manipkit.errors import ManipkitError, OutputError
-from manipkit.outputs import cannot_write
+from manipkit.outputs import cannot_write, refusing_inputs
 from manipkit.text import printable, printable_lines
 
 __all__ = ["main", "parsers", "run_command", "tf_between_main"]
@@ -94,7 +94,7 @@ def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
     """
     stdout = sys.stdout  # None when the process was started with stdout closed (``>&-``)
     sys.stdout = _GuardedStdout(stdout)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), refusing_inputs():  # no output written over a file the command reads
         warnings.showwarning = _warning_line
         return _run_guarded(parser, argv, runner, stdout)
 
