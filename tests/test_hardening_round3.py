@@ -127,3 +127,31 @@ def test_a_namespaced_4000_deep_chain_is_refused_not_a_segfault(tmp_path):
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr[-500:]
     assert "link 'l4000' is 4000 joints below root 'l0'; manipkit loads trees up to 2000 joints deep" in result.stderr
 
+
+def test_did_you_mean_is_bounded_in_time_for_a_200000_character_near_miss():
+    """41-51 s before (difflib over 200,000 characters); the name is quoted by a bounded prefix."""
+    import time
+
+    started = time.monotonic()
+    result = run_cli("manipkit", "tf", "base_link", "shoulder_link" + "x" * 200_000)
+    assert time.monotonic() - started < 10
+    assert result.returncode == 2 and result.stderr.count("\n") == 1 and len(result.stderr) < 2000
+    assert "has no frame 'shoulder_linkxxx" in result.stderr and "(200,013 characters)" in result.stderr
+
+
+def test_world_numbers_as_yaml_reads_them(tmp_path):
+    """YAML 1.1 reads 1e-3 as text; it is a number (a 1 mm sphere)."""
+    from manipkit.kinematics.world import read_world
+
+    path = tmp_path / "w.yaml"
+    path.write_text("obstacles:\n  - {name: b, sphere: 1e-3, xyz: [1e-1, 0, -2E+0]}\n")
+    (name, shape, T), = read_world(path)
+    assert name == "b" and shape.radius == 0.001 and list(T[:3, 3]) == [0.1, 0.0, -2.0]
+
+
+def test_an_obstacle_far_away_named_like_nothing_is_not_in_collision(tmp_path):
+    """A 1 cm sphere 8 m away is free of the arm (before, named like a link it reported IN COLLISION)."""
+    path = tmp_path / "w.yaml"
+    path.write_text("obstacles:\n  - {name: far_ball, sphere: 0.01, xyz: [8, 0, 0]}\n")
+    result = run_cli("manipkit", "collisions", "--robot", "course_arm", "--world", path, "--format", "json", status=0)
+    assert json.loads(result.stdout)["in_collision"] is False

@@ -27,7 +27,6 @@ a count (:func:`cap_warnings`).
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import re
@@ -38,7 +37,7 @@ from typing import TYPE_CHECKING
 from manipkit.bounds import MAX_ANGLE, MAX_LENGTH
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import DescriptionError, PackageNotFoundError
-from manipkit.text import UNPRINTABLE, printable, short_text
+from manipkit.text import UNPRINTABLE, close_matches, printable, short_text
 
 if TYPE_CHECKING:
     from manipkit.description.access import ReadPolicy
@@ -452,7 +451,7 @@ class _Checker:
         if not kind:
             self.fail(joint, f"{what} has no type attribute; valid types: {supported}")
         if kind not in JOINT_TYPES:
-            close = difflib.get_close_matches(kind.lower(), JOINT_TYPES, n=1, cutoff=0.6)
+            close = close_matches(kind.lower(), JOINT_TYPES, n=1, cutoff=0.6)
             hint = f"did you mean {close[0]}? " if close else ""
             self.fail(joint, f"{what} has type '{kind}'; {hint}valid types: {supported}")
         ends = {}
@@ -462,7 +461,7 @@ class _Checker:
                 self.fail(joint if element is None else element, f"{what} has no <{role} link=\"...\"/>", joint)
             link = element.get("link")
             if link not in links:
-                close = difflib.get_close_matches(link, list(links), n=2, cutoff=0.6)
+                close = close_matches(link, list(links), n=2, cutoff=0.6)
                 hint = f"did you mean {', '.join(close)}? " if close else ""
                 listed = ", ".join(list(links)[:12]) + (", ..." if len(links) > 12 else "")
                 self.fail(element, f"{what} {role} link '{link}' does not exist; {hint}links are: {listed}", joint)
@@ -498,7 +497,7 @@ class _Checker:
                 self.fail(mimic, f"{what} <mimic joint=\"{target}\">: a joint cannot mimic itself; name the joint "
                           f"'{name}' follows, or remove the <mimic>", joint)
             elif not target or target not in joints:
-                close = difflib.get_close_matches(target or "", list(joints), n=1, cutoff=0.6)
+                close = close_matches(target or "", list(joints), n=1, cutoff=0.6)
                 hint = f" (did you mean {close[0]}?)" if close else ""
                 self.fail(mimic, f"{what} <mimic joint=\"{target or ''}\">: no such joint{hint}; a mimic names the "
                           f"joint '{name}' follows", joint)
