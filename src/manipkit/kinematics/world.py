@@ -162,7 +162,9 @@ def _numbers(value, count: int, label: str, *, bound: float, positive: bool = Fa
             number = float(v)
         except OverflowError:  # an integer of 400 digits
             number = math.inf
-        if not (math.isfinite(number) and abs(number) <= bound):
+        if math.isnan(number) or (math.isinf(number) and isinstance(v, float)):
+            raise CollisionError(f"{label}: '{_quoted(v)}' is not a finite number")
+        if not abs(number) <= bound:
             raise CollisionError(f"{label}: {_quoted(v)} is beyond +-{bound:g} (a finite number of "
                                  f"{'metres' if bound == MAX_LENGTH else 'radians'} within the bounds of manipkit)")
         if positive and number < MIN_LENGTH:
