@@ -155,3 +155,59 @@ def test_an_obstacle_far_away_named_like_nothing_is_not_in_collision(tmp_path):
     path.write_text("obstacles:\n  - {name: far_ball, sphere: 0.01, xyz: [8, 0, 0]}\n")
     result = run_cli("manipkit", "collisions", "--robot", "course_arm", "--world", path, "--format", "json", status=0)
     assert json.loads(result.stdout)["in_collision"] is False
+
+
+def _manipkit_env(tmp_path, *args, env=None, shell_prefix=""):
+    import subprocess
+    import sys
+
+    full = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src"), **(env or {})}
+    command = ["/bin/bash", "-c", f'{shell_prefix}exec "$@"', "bash", str(Path(sys.executable).parent / "manipkit"),
+               *map(str, args)]
+    return subprocess.run(command, capture_output=True, text=True, cwd=tmp_path, env=full, timeout=600)
+
+
+def _one_line(result, fragment):
+    assert result.returncode == 2, result.stderr[-800:]
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith("manipkit: error: "), result.stderr[-800:]
+    assert fragment in result.stderr and "Traceback" not in result.stdout + result.stderr
+
+
+@pytest.mark.parametrize("name, value, module", [("NUMBA_NUM_THREADS", "0", "numba"),
+                                                 ("MPLBACKEND", "bogus", "matplotlib")])
+def test_a_bogus_library_environment_variable_is_one_line(tmp_path, name, value, module):
+    result = _manipkit_env(tmp_path, "tf", "base_link", "ee_link", "--robot", "planar_2r", env={name: value})
+    _one_line(result, f"environment variable {name}='{value}' is refused by {module} (")
+
+
+def test_frames_into_a_closed_pipe_ends_quietly(tmp_path):
+    """`frames | head -1` exited 1 with no message (rich raises SystemExit(1) on a closed pipe)."""
+    result = _manipkit_env(tmp_path, "frames", "--robot", "panda", shell_prefix="set -o pipefail; ")
+    assert result.returncode == 0
+    import subprocess
+
+    piped = subprocess.run(f'"{Path(os.sys.executable).parent / "manipkit"}" frames --robot panda | head -1; '
+                           'echo "status=${PIPESTATUS[0]}"', shell=True, executable="/bin/bash", capture_output=True,
+                           text=True, cwd=tmp_path, timeout=300,
+                           env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")})
+    assert piped.stdout.strip().endswith("status=0") and piped.stderr == "", piped.stderr
+
+
+def test_an_output_name_of_300_characters_is_one_line(tmp_path):
+    result = run_cli("manipkit", "tree", "--robot", "planar_2r", "-o", tmp_path / ("a" * 300 + ".png"))
+    _one_line(result, "the file name is 304 bytes, more than the 255 this file system takes")
+
+
+def test_workers_under_a_low_open_file_limit_is_one_line(tmp_path):
+    result = _manipkit_env(tmp_path, "reachmap", "--robot", "planar_2r", "--samples", "2000", "--voxel", "0.25",
+                           "--orientations", "1", "--workers", "2", "-o", tmp_path / "m.zarr", shell_prefix="ulimit -n 40 && ")
+    _one_line(result, "--workers 2 needs about 192 open files and the limit is 40 (ulimit -n)")
+
+
+def test_a_deep_blocks_json_in_a_resume_folder_is_not_an_internal_error(tmp_path):
+    from manipkit.analysis.reachmap.blockstore import _read_table  # the reader under test
+
+    folder = tmp_path / "blocks"
+    folder.mkdir()
+    (folder / "blocks.json").write_text("[" * 100_000 + "]" * 100_000)
+    assert _read_table(folder) is None  # not a store's table (RecursionError before)

@@ -95,7 +95,15 @@ def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike
         raise OutputError(f"cannot write {printable(path)}: a file name cannot hold a NUL character")
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
+    longest = _name_max(folder)
+    if len(os.fsencode(path.name)) > longest:
+        raise OutputError(f"cannot write {printable(str(path))[:120]}...: the file name is "
+                          f"{len(os.fsencode(path.name))} bytes, more than the {longest} this file system takes")
+    try:
+        is_folder = path.is_dir()
+    except OSError as exc:  # a path too long as a whole (ENAMETOOLONG), a loop
+        raise cannot_write(path, exc) from None
+    if is_folder:
         raise OutputError(f"cannot write {printable(path)}: it is a folder; give a file name")
     if not folder.is_dir():
         raise OutputError(f"cannot write {printable(path)}: no such folder {printable(folder)}")
@@ -113,6 +121,14 @@ def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike
             raise OutputError(f"cannot write {printable(path)}: the command reads it (it is one of its "
                                   "inputs); give another output file name")
     return path
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) the file system of ``folder`` takes (255 where it does not say)."""
+    try:
+        return int(os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
 
 
 def _same_file(path: Path, other) -> bool:
