@@ -43,6 +43,8 @@ MAX_NAME_CHARS = 100
 _QUOTED = 40
 #: Most YAML nodes in a world document (an alias tree of 2 kB names 2**60 nodes: refused, not walked).
 _MAX_NODES = 100_000
+#: Deepest nesting of a world document (an obstacle is 3 levels deep).
+_MAX_DEPTH = 100
 #: Shape keys and what their value is.
 SHAPES = {"box": "[x, y, z] sizes", "sphere": "a radius", "cylinder": "[radius, length]"}
 _KEYS = {"name", "xyz", "rpy", *SHAPES}
@@ -65,15 +67,30 @@ def read_world(path: str | os.PathLike) -> list[tuple[str, object, np.ndarray]]:
 
     where = printable(str(path))
     text = read_text(path, what="world file", max_bytes=MAX_WORLD_BYTES)
+    class Loader(yaml.SafeLoader):
+        """PyYAML's safe loader, refusing nesting deeper than :data:`_MAX_DEPTH` as it composes (it recurses)."""
+
+        depth = 0
+
+        def compose_node(self, parent, index):
+            self.depth += 1
+            if self.depth > _MAX_DEPTH:
+                raise CollisionError(f"{where}: YAML nested more than {_MAX_DEPTH} levels deep; a world file is a "
+                                     "list of obstacles")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
     try:
-        loader = yaml.SafeLoader(text)
+        loader = Loader(text)
         try:
             node = loader.get_single_node()
+            if node is not None:
+                _count_nodes(node, where)  # before anything is built from it: an alias tree is refused here
+            document = loader.construct_document(node) if node is not None else None
         finally:
             loader.dispose()
-        if node is not None:
-            _count_nodes(node, where)  # before anything is built from it: an alias tree is refused here
-        document = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise CollisionError(f"{where}: not valid YAML: {' '.join(str(exc).split())[:200]}") from None
     except RecursionError:
