@@ -84,7 +84,9 @@ bench: setup
 # Fuzz the description loaders with 10,000 mutated URDF and 10,000 mutated xacro cases, and the
 # xacro expression evaluator with 10,000 random expression trees of allowed and forbidden nodes
 # twice (tests/test_fuzz.py; `make test` runs 300 of each): about 15 minutes. A failing case's shrunk
-# input is written to /tmp/manipkit_fuzz_failure.urdf (or /tmp/manipkit_fuzz_failure_xacro/).
+# input is written to /tmp/manipkit_fuzz_failure.urdf (or /tmp/manipkit_fuzz_failure_xacro/). Then 1,000 cases
+# each of collision mesh vertices, world files and namespaced URDF (tests/test_fuzz_hostile.py, issue 40).
 .PHONY: fuzz
 fuzz: setup
 	HYPOTHESIS_PROFILE=explore MANIPKIT_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest tests/test_fuzz.py -q --hypothesis-show-statistics -k "mutated or xacro_expression"
+	MANIPKIT_FUZZ_EXAMPLES=1000 $(BIN)/python -m pytest tests/test_fuzz_hostile.py -q --hypothesis-show-statistics

@@ -110,7 +110,7 @@ def test_read_matrix_short_row_is_named(tmp_path):
 
 def test_read_matrix_non_numeric_entry_is_named(tmp_path):
     path = write(tmp_path, "hand.txt", "1 0 0 0.1\n0 1 cos(q1) 0\n0 0 1 0\n0 0 0 1\n")
-    assert read_error(path) == f"{path}: row 2, entry 3 is 'cos(q1)', not a number"
+    assert read_error(path) == f"{path}: row 2, entry 3 (7 characters) is not a number"
 
 
 def test_read_matrix_empty_csv_field_is_named(tmp_path):
@@ -141,14 +141,14 @@ def test_read_matrix_binary_text_file(tmp_path):
 
 def test_read_matrix_json_without_matrix_key(tmp_path):
     path = write(tmp_path, "hand.json", json.dumps({"T": EXPECTED.tolist()}))
-    assert read_error(path) == f'{path}: JSON object has no key "matrix" (keys: T)'
+    assert read_error(path) == f'{path}: JSON object has no key "matrix" (it has 1 other keys)'
 
 
 def test_read_matrix_json_string_entry(tmp_path):
     rows = EXPECTED.tolist()
     rows[1][2] = "s1"
     path = write(tmp_path, "hand.json", json.dumps(rows))
-    assert read_error(path) == f'{path}: row 2, entry 3 is "s1", not a number'
+    assert read_error(path) == f'{path}: row 2, entry 3 is a text, not a number'
 
 
 def test_read_matrix_json_ragged_rows(tmp_path):
@@ -238,3 +238,14 @@ def test_read_matrix_takes_a_3x3_only_when_asked(tmp_path):
     flat.write_text("1 0\n0 1\n")
     with pytest.raises(InvalidTransformError, match="expected a 4x4 transform or a 3x3 rotation"):
         read_matrix(flat, rotation=True)
+
+
+def test_read_matrix_never_quotes_the_file_text(tmp_path):
+    """Issue 40: /proc/self/environ given as a matrix file was echoed whole in the error line."""
+    path = write(tmp_path, "environ.txt", "SECRET=hunter2\0PATH=/usr/bin\n1 0 0 0\n")
+    message = read_error(path)
+    assert message == f"{path}: row 1, entry 1 (21 characters) is not a number"  # after "SECRET=", read as an assignment
+    json_path = write(tmp_path, "env.json", json.dumps({"SECRET": "hunter2"}))
+    assert "SECRET" not in read_error(json_path) and "hunter2" not in read_error(json_path)
+    listed = write(tmp_path, "list.json", json.dumps(["hunter2"]))
+    assert "hunter2" not in read_error(listed)

@@ -15,6 +15,11 @@ by a count nobody could wait for:
   grid step, a characteristic length): a nanometre; below it a grid over an
   arm's reach has more cells than memory.
 - :data:`MAX_COUNT`: samples, restarts, configurations in one call.
+- :data:`MAX_MESH_BYTES`, :data:`MAX_TEXTURE_BYTES`: a mesh file, and a file
+  a mesh names (a DAE texture, an OBJ material library); real robot meshes
+  are a few MB, and the viewer holds each base64 encoded in memory several times.
+- :data:`MAX_MESH_VERTICES`: vertices of one collision mesh given to coal
+  (qhull's hull of a 10-million-vertex mesh outlasts any wait).
 
 :func:`tolerances` is the one parser of IK residual tolerances (a number or a
 (position m, rotation rad) pair). :func:`length` and :func:`count` check one value and raise the error class
@@ -32,12 +37,16 @@ import numpy as np
 from manipkit.errors import IKOptionError, ManipkitError, OptionError
 from manipkit.text import repr_text, short_text
 
-__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MIN_LENGTH", "count", "length", "tolerances"]
+__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MAX_MESH_BYTES", "MAX_MESH_VERTICES", "MAX_TEXTURE_BYTES",
+           "MIN_LENGTH", "count", "length", "tolerances"]
 
 MAX_ANGLE = 1e6
 MAX_LENGTH = 1e6
 MIN_LENGTH = 1e-9
 MAX_COUNT = 10_000_000
+MAX_MESH_BYTES = 256 << 20
+MAX_TEXTURE_BYTES = 32 << 20
+MAX_MESH_VERTICES = 2_000_000
 
 
 def length(value, what: str, *, positive: bool = True, error: type[ManipkitError] = OptionError) -> float:

@@ -9,10 +9,16 @@ static viewer pages) goes through :func:`writing` or :func:`write_text`
   over the target only when complete: a full disk or an error leaves the old
   file (or nothing), never a truncated one;
 - a symbolic link at the output path is replaced by the file, not followed
-  into another folder (a device or a pipe the user names, ``/dev/stdout``,
-  is written in place);
-- an output that is one of the command's inputs (``inputs=``) is refused
-  before anything is written;
+  into another folder; a device or a pipe the user names (``/dev/null``, a
+  FIFO, ``/dev/stdout`` and other links into ``/dev`` or ``/proc``) is
+  written as a stream, in place, never renamed over; a FIFO no process reads
+  is refused at once (:class:`~manipkit.errors.OutputError`), not waited on;
+- a file replaced keeps its mode (a 0600 file stays 0600); a new one gets
+  the mode ``open()`` would give it;
+- an output that is one of the command's inputs (``inputs=``, or, while
+  :func:`refusing_inputs` is in force, as in every command line, any file read
+  through :func:`manipkit.inputs.check_input_file`: the robot, an SRDF, a mesh)
+  is refused before anything is written;
 - a missing folder, a path that is a folder, no permission or a full disk
   give :class:`~manipkit.errors.OutputError` ``cannot write PATH: reason``
   (docs/architecture.md, "Errors and messages").
@@ -21,6 +27,7 @@ static viewer pages) goes through :func:`writing` or :func:`write_text`
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import stat
 import tempfile
@@ -31,7 +38,30 @@ from pathlib import Path
 from manipkit.errors import OutputError
 from manipkit.text import printable
 
-__all__ = ["cannot_write", "writable_path", "write_text", "writing"]
+__all__ = ["cannot_write", "is_stream", "note_input", "refusing_inputs", "writable_path", "write_text", "writing"]
+
+_READ: set[tuple[int, int]] = set()  # (device, inode) of each file noted as read while refusing_inputs is in force
+_REFUSING: list[bool] = []
+
+
+@contextlib.contextmanager
+def refusing_inputs():
+    """Within this block (a command line), :func:`writable_path` refuses every file :func:`note_input` noted."""
+    _REFUSING.append(True)
+    try:
+        yield
+    finally:
+        _REFUSING.pop()
+        if not _REFUSING:
+            _READ.clear()
+
+
+def note_input(path: str | os.PathLike) -> None:
+    """Remember that ``path`` is an input (the same file by any name) while :func:`refusing_inputs` is in force."""
+    if _REFUSING:
+        with contextlib.suppress(OSError, ValueError):
+            info = os.stat(path)
+            _READ.add((info.st_dev, info.st_ino))
 
 
 def cannot_write(path: str | os.PathLike, exc: OSError) -> OutputError:
@@ -65,7 +95,15 @@ def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike
         raise OutputError(f"cannot write {printable(path)}: a file name cannot hold a NUL character")
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
+    longest = _name_max(folder)
+    if len(os.fsencode(path.name)) > longest:
+        raise OutputError(f"cannot write {printable(str(path))[:120]}...: the file name is "
+                          f"{len(os.fsencode(path.name))} bytes, more than the {longest} this file system takes")
+    try:
+        is_folder = path.is_dir()
+    except OSError as exc:  # a path too long as a whole (ENAMETOOLONG), a loop
+        raise cannot_write(path, exc) from None
+    if is_folder:
         raise OutputError(f"cannot write {printable(path)}: it is a folder; give a file name")
     if not folder.is_dir():
         raise OutputError(f"cannot write {printable(path)}: no such folder {printable(folder)}")
@@ -75,7 +113,22 @@ def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike
                 f"cannot write {printable(path)}: it is the command's input {printable(source)}; "
                 "give another output file name"
             )
+    if _READ:
+        info = None
+        with contextlib.suppress(OSError, ValueError):
+            info = os.stat(path)
+        if info is not None and stat.S_ISREG(info.st_mode) and (info.st_dev, info.st_ino) in _READ:
+            raise OutputError(f"cannot write {printable(path)}: the command reads it (it is one of its "
+                                  "inputs); give another output file name")
     return path
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) the file system of ``folder`` takes (255 where it does not say)."""
+    try:
+        return int(os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
 
 
 def _same_file(path: Path, other) -> bool:
@@ -101,12 +154,17 @@ def writing(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | Non
     ('ok', ['x.txt'])
     """
     path = writable_path(path, inputs=inputs)
-    if _is_special(path):  # a device or pipe the user named (/dev/stdout, a FIFO): written in place
-        try:
-            yield path
-        except OSError as exc:
-            raise cannot_write(path, exc) from None
+    if is_stream(path):  # a device or pipe the user named (/dev/stdout, a FIFO): written in place
+        with _reader_checked(path):
+            try:
+                yield path
+            except OSError as exc:
+                raise cannot_write(path, exc) from None
         return
+    try:
+        kept = stat.S_IMODE(os.lstat(path).st_mode) if stat.S_ISREG(os.lstat(path).st_mode) else None
+    except OSError:
+        kept = None  # a new file (or a symbolic link, replaced): the mode a new file gets
     folder = path.parent if str(path.parent) else Path(".")
     try:
         handle, name = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:64]}.", suffix=f".part{path.suffix[:16]}")
@@ -116,7 +174,7 @@ def writing(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | Non
     temporary = Path(name)
     try:
         yield temporary
-        os.chmod(temporary, _new_file_mode())
+        os.chmod(temporary, _new_file_mode() if kept is None else kept)
         os.replace(temporary, path)  # replaces a symbolic link at ``path``, never follows it
     except OSError as exc:
         raise cannot_write(path, exc) from None
@@ -125,13 +183,50 @@ def writing(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | Non
             temporary.unlink()
 
 
-def _is_special(path: Path) -> bool:
-    """An existing output that is neither a regular file nor a symbolic link: a device, a FIFO, a socket."""
+def is_stream(path: str | os.PathLike) -> bool:
+    """An existing output written as a stream: a device, a FIFO, a socket, or a symbolic link to one or into
+    ``/dev`` or ``/proc`` (``/dev/stdout`` -> ``/proc/self/fd/1``, whatever fd 1 is)."""
     try:
         mode = os.lstat(path).st_mode
     except OSError:
         return False
-    return not (stat.S_ISREG(mode) or stat.S_ISLNK(mode))
+    if stat.S_ISREG(mode):
+        return False
+    if not stat.S_ISLNK(mode):
+        return True
+    # /dev/stdout -> /proc/self/fd/1 -> wherever fd 1 is (a terminal, a pipe, or a regular file: > out.txt):
+    # a link that is, or points, into /dev or /proc is a stream whatever it ends at
+    steps = [os.path.abspath(path), os.path.join(os.path.dirname(os.path.abspath(path)), os.readlink(path))]
+    if any(step.startswith(("/dev/", "/proc/")) for step in steps):
+        return True
+    try:
+        return not stat.S_ISREG(os.stat(path).st_mode)  # a link to a device or FIFO elsewhere
+    except OSError:
+        return False  # a dangling link: replaced by the file
+
+
+@contextlib.contextmanager
+def _reader_checked(path: Path):
+    """For a FIFO: refuse at once when no process reads it (instead of blocking forever in ``open``), and hold
+    it open for writing while the block runs (so the writer's own ``open`` does not wait either)."""
+    try:
+        is_fifo = stat.S_ISFIFO(os.stat(path).st_mode)
+    except OSError:
+        is_fifo = False
+    if not is_fifo:
+        yield
+        return
+    try:
+        held = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise OutputError(f"cannot write {printable(path)}: it is a FIFO (named pipe) that no process is "
+                              "reading; start the reader first (cat FIFO &)") from None
+        raise cannot_write(path, exc) from None
+    try:
+        yield
+    finally:
+        os.close(held)
 
 
 _UMASK_LOCK = threading.Lock()
@@ -166,5 +261,6 @@ def write_text(
         with open(target, "w", encoding=encoding) as stream:
             stream.write(text)
             stream.flush()
-            os.fsync(stream.fileno())
+            if stat.S_ISREG(os.fstat(stream.fileno()).st_mode):  # /dev/null, a FIFO or a terminal cannot fsync
+                os.fsync(stream.fileno())
     return Path(path)

@@ -25,10 +25,12 @@ from collections.abc import Callable, Iterable
 
 __all__ = [
     "UNPRINTABLE",
+    "close_matches",
     "near_text",
     "number_text",
     "printable",
     "printable_lines",
+    "quoted_name",
     "repr_text",
     "short_text",
     "trimmed_text",
@@ -169,3 +171,37 @@ def printable_lines(text) -> str:
     'a\\tb\\nc\\\\x0dd'
     """
     return _UNPRINTABLE_IN_LINES.sub(_escaped, str(text))
+
+
+#: Longest name :func:`close_matches` compares (longer names, given or known, get no suggestion): difflib's
+#: cost grows with the product of the lengths (a 200,000-character near miss took 41 s).
+MAX_MATCHED_CHARS = 200
+
+
+def close_matches(name, known, n: int = 3, cutoff: float = 0.5) -> list[str]:
+    """The "did you mean" candidates for ``name`` among ``known`` (:func:`difflib.get_close_matches`), bounded
+    in time: names longer than :data:`MAX_MATCHED_CHARS`, and more than 10,000 candidates, are not compared.
+
+    >>> close_matches("shouldr", ["shoulder", "elbow"])
+    ['shoulder']
+    >>> close_matches("x" * 200_000, ["x"])
+    []
+    """
+    import difflib
+    import itertools
+
+    name = str(name)
+    if len(name) > MAX_MATCHED_CHARS:
+        return []
+    candidates = [k for k in itertools.islice(known, 10_000) if isinstance(k, str) and len(k) <= MAX_MATCHED_CHARS]
+    return difflib.get_close_matches(name, candidates, n=n, cutoff=cutoff)
+
+
+def quoted_name(name, limit: int = 60) -> str:
+    """``'name'`` for a message: printable, and a long one cut, with its length (a 10 MB name is never echoed).
+
+    >>> quoted_name("a" * 100, 10)
+    "'aaaaaaaaaa...' (100 characters)"
+    """
+    text = printable(name)
+    return f"'{text}'" if len(text) <= limit else f"'{text[:limit]}...' ({len(str(name)):,} characters)"

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from manipkit.errors import DescriptionError, ReadNotAllowedError
+from manipkit.text import printable
 
 if TYPE_CHECKING:
     from manipkit.description.packages import PackageResolver
@@ -109,13 +110,13 @@ class ReadPolicy:
         """Nothing if ``path`` may be read, else :class:`~manipkit.errors.ReadNotAllowedError` naming it."""
         if self.allows(path):
             return
-        shown = os.path.abspath(path)
-        real = os.path.realpath(path)
+        shown = printable(os.path.abspath(path))[:300]
+        real = printable(os.path.realpath(path))[:300]
         via = f" (a link to {real})" if real != shown else ""
         raise ReadNotAllowedError(
             f"{what}: {shown}{via} is outside what {self.description.name} may read (its own folder "
             f"{description_tree(self.description)}, its packages and --package-dir folders); if you trust it, "
-            f"allow it with --allow-read {os.path.dirname(real) or real} (allow_read= in manipkit.load)"
+            f"allow it with --allow-read {printable(os.path.dirname(os.path.realpath(path)))[:300] or real} (allow_read= in manipkit.load)"
         )
 
 

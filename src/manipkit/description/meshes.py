@@ -28,15 +28,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
+from manipkit.bounds import MAX_MESH_BYTES, MAX_TEXTURE_BYTES
 from manipkit.description.packages import PACKAGE_SCHEME, missing_in_package_hint, split_package_uri
-from manipkit.errors import OptionError, PackageNotFoundError
+from manipkit.errors import DescriptionError, InputFileError, OptionError, PackageNotFoundError
+from manipkit.text import printable
 
 if TYPE_CHECKING:
     from manipkit.description.access import ReadPolicy
     from manipkit.description.packages import PackageResolver
 
-__all__ = ["MISSING_MESHES", "SKELETON_COLOUR", "MissingMeshWarning", "MissingMeshes", "VisualURDF", "mesh_path",
-           "mesh_search_paths", "urdf_with_mesh_paths", "visual_urdf"]
+__all__ = ["MISSING_MESHES", "SKELETON_COLOUR", "MissingMeshWarning", "MissingMeshes", "VisualURDF",
+           "check_mesh_file", "mesh_path", "mesh_references", "mesh_search_paths", "urdf_with_mesh_paths",
+           "visual_urdf"]
 
 #: What :func:`visual_urdf` does with a mesh file it cannot find: raise, or draw the link another way.
 MISSING_MESHES = ("error", "draw")
@@ -142,7 +145,7 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
                                        + missing_in_package_hint(resolver, package, resolver.find(package)))
         if policy is not None:
             policy.check(path, where)
-        return path
+        return check_mesh_file(path, where, policy)
     if "://" in uri and not uri.startswith("file://"):
         raise PackageNotFoundError(f"{where}: only package://, file:// and file paths are supported")
     searched = mesh_search_paths(uri, resolver, relative_to=relative_to)
@@ -152,8 +155,95 @@ def mesh_path(uri: str, resolver: PackageResolver, *, relative_to: str | os.Path
         if policy is not None and not policy.allows(candidate):
             continue  # the current folder, outside what the description may read
         if candidate.is_file():
-            return candidate.resolve()
+            return check_mesh_file(candidate.resolve(), where, policy)
     raise PackageNotFoundError(f"{where} not found; looked at {', '.join(map(str, searched))}")
+
+
+def check_mesh_file(path: Path, where: str, policy: ReadPolicy | None = None) -> Path:
+    """``path`` if the mesh file and every file it names may be read: the one check before a mesh loader runs.
+
+    Pinocchio's meshcat loader reads the textures a DAE names
+    (``<library_images>``/``<init_from>``, relative to the DAE's folder) and
+    embeds them in the page or scene; assimp (coal's loader) reads the
+    material libraries an OBJ names (``mtllib``). So each named file (:func:`mesh_references`)
+    must exist (a DAE texture; an OBJ material library may be absent, nothing is read then), be a regular
+    file of at most :data:`~manipkit.bounds.MAX_TEXTURE_BYTES`, and lie inside ``policy``; the mesh
+    itself is a regular file of at most :data:`~manipkit.bounds.MAX_MESH_BYTES`.
+
+    Raises
+    ------
+    InputFileError
+        The mesh or a file it names is not a regular file, or too large.
+    ReadNotAllowedError
+        A file the mesh names lies outside ``policy`` (the message names the mesh and the file, never its text).
+    DescriptionError
+        A DAE names a texture that does not exist, or an empty ``<init_from>``.
+    """
+    from manipkit.inputs import check_input_file
+
+    try:
+        check_input_file(path, what="mesh file", max_bytes=MAX_MESH_BYTES)
+    except InputFileError as exc:
+        raise InputFileError(f"{where}: {printable(exc)}") from None
+    for kind, named, required in mesh_references(path):
+        shown = printable(named)[:200]
+        if not named.strip():
+            raise DescriptionError(f"{where}: {path.name} has an empty {kind}; remove it or name a file")
+        target = Path(named)
+        target = target if target.is_absolute() else path.parent / target
+        if policy is not None:
+            policy.check(target, f"{where}: {path.name} {kind} {shown}")
+        if not os.path.lexists(target) and not required:
+            continue
+        if not target.exists():
+            raise DescriptionError(f"{where}: {path.name} {kind} {shown} does not exist")
+        try:
+            check_input_file(target, what=kind.split()[0], max_bytes=MAX_TEXTURE_BYTES)
+        except InputFileError as exc:
+            raise InputFileError(f"{where}: {path.name} names a {printable(exc)[:400]}") from None
+    return path
+
+
+def mesh_references(path: str | os.PathLike) -> list[tuple[str, str, bool]]:
+    """The files a mesh file names for its loaders to read: ``(kind, name as written, required)`` each.
+
+    A DAE's ``<init_from>`` inside ``<library_images>`` (parsed as Pinocchio's
+    meshcat loader parses it, any namespace; required: that loader fails on a
+    missing one) and an OBJ's ``mtllib`` names (not required). STL names nothing.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> obj = Path(tempfile.mkdtemp()) / "a.obj"
+    >>> _ = obj.write_text("mtllib ../../x.mtl\\nv 0 0 0\\n")
+    >>> mesh_references(obj)
+    [('mtllib', '../../x.mtl', False)]
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".obj":
+        found = []
+        with open(path, "rb") as stream:
+            for raw in stream:
+                line = raw.decode("utf-8", "replace").strip()
+                if line.startswith("mtllib") and line[6:7] in (" ", "\t"):
+                    found += [("mtllib", name, False) for name in line[7:].split()]  # assimp: one or more names
+        return found
+    if suffix != ".dae":
+        return []
+    import xml.etree.ElementTree as ET
+
+    found, depth = [], 0
+    try:
+        for event, element in ET.iterparse(path, events=("start", "end")):
+            tag = element.tag if isinstance(element.tag, str) else ""
+            if "library_images" in tag:
+                depth += 1 if event == "start" else -1
+            elif event == "end" and depth > 0 and "init_from" in tag:
+                found.append(("texture <init_from>", element.text or "", True))
+    except ET.ParseError as exc:
+        raise DescriptionError(f"{printable(path)}: not a readable COLLADA (DAE) file: {printable(exc)[:200]}") from None
+    return found
 
 
 def mesh_search_paths(uri: str, resolver: PackageResolver, *, relative_to: str | os.PathLike) -> list[Path]:

@@ -234,6 +234,7 @@ def compile_mjcf(path: str | os.PathLike, *, allow_read=()):
     import mujoco
 
     from manipkit.description.access import ReadPolicy
+    from manipkit.description.meshes import check_mesh_file
 
     path = Path(os.path.abspath(path))
     mjcf_files(path, allow_read=allow_read)
@@ -251,6 +252,7 @@ def compile_mjcf(path: str | os.PathLike, *, allow_read=()):
         if file.is_file():
             policy.check(file, f"{path.name}: mesh '{mesh.name}'")
             check_input_file(file, what="mesh file", max_bytes=MAX_DESCRIPTION_BYTES)
+            check_mesh_file(file, f"{path.name}: mesh '{mesh.name}'", policy)  # and the files it names
             present[mesh.name] = str(file)
             continue
         for geom in spec.geoms:

@@ -23,7 +23,6 @@ Pinocchio model from the text of these files.
 
 from __future__ import annotations
 
-import difflib
 import errno
 import os
 import stat
@@ -33,7 +32,7 @@ from pathlib import Path
 
 from manipkit.errors import UnknownRobotError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, MAX_TABLE_BYTES, check_input_file
-from manipkit.text import repr_text
+from manipkit.text import close_matches, repr_text
 
 __all__ = [
     "DEFAULT_ROBOT",
@@ -229,7 +228,7 @@ def resolve_robot(spec: str | os.PathLike | None = None) -> RobotSource:
         raise UnknownRobotError(f"robot file not found: {text}")
 
     known = list(bundled) + list(arms) + list(urdfs)
-    close = difflib.get_close_matches(text, known, n=4, cutoff=0.5)
+    close = close_matches(text, known, n=4, cutoff=0.5)
     hint = f"did you mean {', '.join(close)}? " if close else ""
     raise UnknownRobotError(
         f"unknown robot '{text}'; {hint}bundled: {', '.join(bundled)}; "
@@ -260,7 +259,7 @@ def resolve_dh_table(spec: str | os.PathLike) -> Path:
     path = Path(text).expanduser()
     if text.strip() and _file_mode(path, what="DH table", strict=True) is not None:
         return check_input_file(path, what="DH table", max_bytes=MAX_TABLE_BYTES)  # a folder, FIFO, huge file: refused
-    close = difflib.get_close_matches(text, list(tables), n=3, cutoff=0.5)
+    close = close_matches(text, list(tables), n=3, cutoff=0.5)
     hint = f"did you mean {', '.join(close)}? " if close else ""
     raise UnknownRobotError(
         f"DH table not found: {text}; {hint}bundled tables: {', '.join(tables) or 'none'}, or a path to a .yaml file"

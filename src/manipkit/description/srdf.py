@@ -28,14 +28,13 @@ then by path. At most :data:`MAX_SRDF_CANDIDATES` files are read.
 
 from __future__ import annotations
 
-import difflib
 import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
 from manipkit.errors import CollisionError, InputFileError
-from manipkit.text import printable, repr_text
+from manipkit.text import close_matches, printable, quoted_name, repr_text
 
 __all__ = ["MAX_SRDF_BYTES", "MAX_SRDF_CANDIDATES", "MAX_SRDF_DEPTH", "Srdf", "check_srdf_links", "parse_srdf",
            "read_srdf_file", "shipped_srdf"]
@@ -159,14 +158,11 @@ def check_srdf_links(srdf: Srdf, links, robot: str) -> None:
 
 
 def _quoted(name: str) -> str:
-    text = printable(name)
-    return f"'{text}'" if len(text) <= QUOTE_CHARS else f"'{text[:QUOTE_CHARS]}...' ({len(name):,} characters)"
+    return quoted_name(name, QUOTE_CHARS)
 
 
 def _close(name: str, known: set[str]) -> str:
-    if len(name) > 4 * QUOTE_CHARS:
-        return ""
-    close = difflib.get_close_matches(name, sorted(known), n=3, cutoff=0.5)
+    close = close_matches(name, sorted(known), n=3, cutoff=0.5)
     return f"did you mean {', '.join(close)}? " if close else ""
 
 

@@ -27,7 +27,6 @@ a count (:func:`cap_warnings`).
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import re
@@ -38,7 +37,7 @@ from typing import TYPE_CHECKING
 from manipkit.bounds import MAX_ANGLE, MAX_LENGTH
 from manipkit.description.packages import PACKAGE_SCHEME, split_package_uri
 from manipkit.errors import DescriptionError, PackageNotFoundError
-from manipkit.text import UNPRINTABLE, printable, short_text
+from manipkit.text import UNPRINTABLE, close_matches, printable, short_text
 
 if TYPE_CHECKING:
     from manipkit.description.access import ReadPolicy
@@ -308,6 +307,7 @@ class _Checker:
             raise DescriptionError(f"{location}: malformed XML: {reason}") from None
         except ValueError as exc:  # e.g. NUL bytes lxml refuses before parsing
             raise DescriptionError(f"{self.where}: not XML text ({exc})") from None
+        self.unnamespaced(root)
         if not isinstance(root.tag, str) or root.tag != "robot":
             tag = root.tag if isinstance(root.tag, str) else "?"
             hint = " (this looks like an SDF model; manipkit reads URDF)" if tag == "sdf" else ""
@@ -328,6 +328,15 @@ class _Checker:
                 "read '&name;' literally); write the values out (or use xacro properties in a .xacro file)"
             )
         return root
+
+    def unnamespaced(self, root) -> None:
+        """Read elements in a default XML namespace (``<link xmlns="urn:x">``) by their local names, as
+        Pinocchio's parser (not namespace-aware) reads them: otherwise ``{urn:x}link`` would pass every check
+        here unseen and still be loaded. Prefixed elements (``<x:link>``) stay apart: to Pinocchio their name
+        is ``x:link``, no URDF element."""
+        for element in root.iter():
+            if isinstance(element.tag, str) and element.tag.startswith("{") and element.prefix is None:
+                element.tag = _local(element.tag)
 
     def named(self, root, tag: str) -> dict:
         named: dict[str, object] = {}
@@ -442,7 +451,7 @@ class _Checker:
         if not kind:
             self.fail(joint, f"{what} has no type attribute; valid types: {supported}")
         if kind not in JOINT_TYPES:
-            close = difflib.get_close_matches(kind.lower(), JOINT_TYPES, n=1, cutoff=0.6)
+            close = close_matches(kind.lower(), JOINT_TYPES, n=1, cutoff=0.6)
             hint = f"did you mean {close[0]}? " if close else ""
             self.fail(joint, f"{what} has type '{kind}'; {hint}valid types: {supported}")
         ends = {}
@@ -452,7 +461,7 @@ class _Checker:
                 self.fail(joint if element is None else element, f"{what} has no <{role} link=\"...\"/>", joint)
             link = element.get("link")
             if link not in links:
-                close = difflib.get_close_matches(link, list(links), n=2, cutoff=0.6)
+                close = close_matches(link, list(links), n=2, cutoff=0.6)
                 hint = f"did you mean {', '.join(close)}? " if close else ""
                 listed = ", ".join(list(links)[:12]) + (", ..." if len(links) > 12 else "")
                 self.fail(element, f"{what} {role} link '{link}' does not exist; {hint}links are: {listed}", joint)
@@ -488,7 +497,7 @@ class _Checker:
                 self.fail(mimic, f"{what} <mimic joint=\"{target}\">: a joint cannot mimic itself; name the joint "
                           f"'{name}' follows, or remove the <mimic>", joint)
             elif not target or target not in joints:
-                close = difflib.get_close_matches(target or "", list(joints), n=1, cutoff=0.6)
+                close = close_matches(target or "", list(joints), n=1, cutoff=0.6)
                 hint = f" (did you mean {close[0]}?)" if close else ""
                 self.fail(mimic, f"{what} <mimic joint=\"{target or ''}\">: no such joint{hint}; a mimic names the "
                           f"joint '{name}' follows", joint)

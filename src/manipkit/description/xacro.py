@@ -16,7 +16,6 @@ them, so importing this module stays cheap (docs/architecture.md).
 from __future__ import annotations
 
 import contextlib
-import difflib
 import os
 import re
 import time
@@ -28,6 +27,7 @@ from manipkit.description.packages import WARNING_REGISTRY, PackageResolver, mis
 from manipkit.description.sources import RobotSource
 from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError, ReadNotAllowedError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
+from manipkit.text import close_matches
 
 __all__ = [
     "EXPANSION_SECONDS",
@@ -495,7 +495,7 @@ def _xacro_error(exc: BaseException, path: Path, missing: list, resolver: Packag
         name = match.group(1)
         location = at(pattern=r"<xacro:" + re.escape(name) + r"\b")
         known = _xacro_macro_names(files)
-        close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+        close = close_matches(name, known, n=1, cutoff=0.5)
         hint = f"did you mean {close[0]}? " if close else ""
         return DescriptionError(f"{location}: unknown xacro macro '{name}'; {hint}macros: {', '.join(known) or 'none defined'}")
     match = re.search(r"Undefined parameters? \[(.*)\]", text)

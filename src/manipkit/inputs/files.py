@@ -16,6 +16,7 @@ import stat
 from pathlib import Path
 
 from manipkit.errors import InputFileError
+from manipkit.outputs import note_input
 
 __all__ = [
     "MAX_DESCRIPTION_BYTES",
@@ -91,6 +92,7 @@ def check_input_file(path: str | os.PathLike, *, what: str, max_bytes: int | Non
         raise _too_large(what, path, info.st_size, max_bytes)
     if not os.access(path, os.R_OK):
         raise InputFileError(f"{what} {path}: permission denied (not readable)")
+    note_input(path)  # a command line never writes its output over a file it reads (manipkit.outputs)
     return path
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from manipkit.errors import InputFileError, InvalidTransformError
 from manipkit.inputs.files import MAX_MATRIX_BYTES, check_input_file
+from manipkit.text import printable
 
 __all__ = ["read_matrix"]
 
@@ -69,20 +70,21 @@ def read_matrix(path: str | os.PathLike, *, rotation: bool = False) -> np.ndarra
     >>> read_matrix(path)[0]
     array([1.   , 0.   , 0.   , 0.172])
     """
-    name = os.fspath(path)
-    if not os.path.lexists(name):
+    path = os.fspath(path)
+    name = printable(path)  # for messages; the file is opened by its own name
+    if not os.path.lexists(path):
         raise InvalidTransformError(f"{name}: no such file")
-    if os.path.isdir(name):
+    if os.path.isdir(path):
         raise InvalidTransformError(f"{name}: is a folder, expected a matrix file")
     try:  # a FIFO, device, symlink loop or huge file is refused here, before anything reads it
-        check_input_file(name, what="matrix file", max_bytes=MAX_MATRIX_BYTES)
+        check_input_file(path, what="matrix file", max_bytes=MAX_MATRIX_BYTES)
     except InputFileError as exc:
         raise InvalidTransformError(str(exc)) from None
-    suffix = os.path.splitext(name)[1].lower()
+    suffix = os.path.splitext(path)[1].lower()
     try:
         if suffix in (".npy", ".npz"):
-            return _finite(_read_npy(name, rotation), name)
-        with open(name, "rb") as stream:
+            return _finite(_read_npy(path, rotation), name)
+        with open(path, "rb") as stream:
             text = stream.read(MAX_MATRIX_BYTES + 1).decode("utf-8").removeprefix("\ufeff")
     except OSError as exc:
         raise InvalidTransformError(f"{name}: cannot read ({exc.strerror or exc})") from None
@@ -130,17 +132,17 @@ def _rows_from_json(text: str, name: str) -> list[list]:
         raise InvalidTransformError(f"{name}: JSON nested too deeply; expected rows like [[1, 0, 0, 0], ...]") from None
     if isinstance(data, dict):
         if "matrix" not in data:
-            keys = ", ".join(map(str, list(data)[:8])) or "none"
-            raise InvalidTransformError(f'{name}: JSON object has no key "matrix" (keys: {keys})')
+            raise InvalidTransformError(f'{name}: JSON object has no key "matrix" (it has {len(data)} other keys)')
         data = data["matrix"]
     if not isinstance(data, list) or not all(isinstance(row, list) for row in data):
-        got = json.dumps(data)[:60]
+        got = "a list with entries that are not rows" if isinstance(data, list) else f"a JSON {type(data).__name__}"
         raise InvalidTransformError(f"{name}: expected a list of rows like [[1, 0, 0, 0], ...], got {got}")
     rows = []
     for number, row in enumerate(data, start=1):
         for column, value in enumerate(row, start=1):
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                what = json.dumps(value)
+                what = "a list" if isinstance(value, list) else "an object" if isinstance(value, dict) else (
+                    "a text" if isinstance(value, str) else json.dumps(value))  # null, true, false
                 raise InvalidTransformError(f"{name}: row {number}, entry {column} is {what}, not a number")
         rows.append([float(value) for value in row])
     return rows
@@ -173,7 +175,8 @@ def _rows_from_text(text: str, name: str) -> list[list[float]]:
             try:
                 row.append(float(token))
             except ValueError:
-                message = f"{name}: row {number}, entry {column} is '{token}', not a number"
+                # the entry itself is not quoted: the file may be anything (/proc/self/environ), and its text is not ours to show
+                message = f"{name}: row {number}, entry {column} ({len(token)} characters) is not a number"
                 raise InvalidTransformError(message) from None
         rows.append(row)
     return rows

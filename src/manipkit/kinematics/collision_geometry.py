@@ -9,6 +9,11 @@ geometry are :mod:`manipkit.kinematics.collisions`:
   viewer finds its meshes. ``geometry="hulls"`` (the default) replaces every
   mesh by its convex hull (coal's qhull); ``"meshes"`` keeps the triangles.
   Boxes, cylinders, spheres and capsules stay what they are.
+- Every mesh is checked before coal builds anything from it (:func:`_checked_mesh`):
+  finite vertices, at most :data:`~manipkit.bounds.MAX_MESH_VERTICES`, an extent in
+  at least two directions (a point or a line, e.g. ``scale="0 0 0"``, is refused). A flat
+  mesh (a thin plate, or ``scale="1 1 0"``) has no convex hull of its own: it is kept as
+  its triangles, which coal checks exactly (qhull crashed the process on one).
 - A robot without ``<collision>`` elements, or whose collision meshes are
   missing, has no collision geometry: :class:`~manipkit.errors.CollisionError`
   names what is missing.
@@ -25,8 +30,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import coal
+import numpy as np
 import pinocchio as pin
 
+from manipkit.bounds import MAX_MESH_VERTICES
 from manipkit.errors import CollisionError, DescriptionError
 from manipkit.text import printable
 
@@ -131,6 +138,7 @@ def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
     from manipkit.description.access import ReadPolicy
     from manipkit.description.meshes import urdf_with_mesh_paths
     from manipkit.description.packages import PackageResolver
+    from manipkit.kinematics.joints import native_call
 
     root = ET.fromstring(robot.urdf)
     if not any(link.find("collision") is not None for link in root.iter("link")):
@@ -147,7 +155,9 @@ def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
     except DescriptionError as exc:
         raise CollisionError(f"robot '{robot.name}': collision geometry unavailable: {exc}") from None
     try:
-        model = pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.COLLISION, package_dirs=package_dirs)
+        # on a sized stack; coal's raw "eigen: too many iterations" lines for a NaN mesh (refused below) captured
+        model, _ = native_call(pin.buildGeomFromUrdfString, robot.model, text, pin.GeometryType.COLLISION,
+                               package_dirs=package_dirs)
     except (ValueError, RuntimeError) as exc:
         raise CollisionError(
             f"robot '{robot.name}': Pinocchio cannot load the collision geometry: {' '.join(str(exc).split())}"
@@ -156,13 +166,46 @@ def _build_geometry(robot: Robot, geometry: str) -> CollisionGeometry:
     for obj in model.geometryObjects:
         links.append(robot.model.frames[obj.parentFrame].name)
         bodies.append(int(obj.parentJoint))
-        if geometry == "hulls" and isinstance(obj.geometry, _BVH_TYPES):
-            obj.geometry = _hull(obj.geometry, robot.name, links[-1])
+        if isinstance(obj.geometry, _BVH_TYPES):
+            solid = _checked_mesh(obj.geometry, f"robot '{robot.name}': link '{printable(links[-1])}'")
+            if geometry == "hulls" and solid:
+                obj.geometry = _hull(obj.geometry, robot.name, links[-1])
     return CollisionGeometry(robot.name, geometry, model, tuple(links), tuple(bodies),
                              adjacent_links(root, set(links)))
 
 
 _BVH_TYPES = tuple(getattr(coal, name) for name in ("BVHModelOBBRSS", "BVHModelOBB", "BVHModelAABB") if hasattr(coal, name))
+
+
+#: An extent (m) at or below this is none: the mesh is flat in that direction.
+_FLAT = 1e-9
+
+
+def _checked_mesh(mesh, where: str) -> bool:
+    """Whether a loaded collision mesh (coal BVH, scale applied) is a solid; False for a flat one (a thin plate).
+
+    Raises
+    ------
+    CollisionError
+        No vertices, more than :data:`~manipkit.bounds.MAX_MESH_VERTICES`, a vertex that is not finite (NaN,
+        inf), or an extent in fewer than two directions (a point or a line: ``scale="0 0 0"``, one vertex).
+    """
+    count = int(mesh.num_vertices)
+    if count > MAX_MESH_VERTICES:
+        raise CollisionError(f"{where}: its collision mesh has {count} vertices, above the limit of "
+                             f"{MAX_MESH_VERTICES}; simplify it (or give a primitive shape)")
+    vertices = np.asarray(mesh.vertices(), dtype=float).reshape(-1, 3) if count else np.zeros((0, 3))
+    if not len(vertices):
+        raise CollisionError(f"{where}: its collision mesh has no vertices")
+    finite = np.isfinite(vertices).all(axis=1)
+    if not finite.all():
+        raise CollisionError(f"{where}: its collision mesh has {int((~finite).sum())} vertices that are not finite "
+                             f"(NaN or inf; the first is vertex {int(np.argmin(finite))}); fix the mesh file")
+    extent = vertices.max(axis=0) - vertices.min(axis=0)
+    if int((extent > _FLAT).sum()) < 2:
+        raise CollisionError(f"{where}: its collision mesh spans {' x '.join(f'{e:.3g}' for e in extent)} m, a point "
+                             "or a line, not a surface (a mesh scale of 0?); give a non-zero scale or another shape")
+    return bool((extent > _FLAT).all())
 
 
 def _hull(mesh, robot_name: str, link: str):

@@ -269,6 +269,12 @@ class CollisionChecker:
             T_root_floor = np.eye(4)
             T_root_floor[2, 3] = self.floor
             extra.append((FLOOR, coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0), T_root_floor))
+        frames = set(robot.frame_names) | {FLOOR}
+        for name, _, _ in world:  # pairs are named by their two sides: an obstacle is never taken for a link
+            if name in frames:
+                raise CollisionError(f"world obstacle '{printable(str(name))[:100]}' has the name of "
+                                     f"{'the floor' if name == FLOOR else f'a frame of robot {robot.name!r}'}; "
+                                     "give the obstacle another name")
         extra += list(world)
         for name, shape, T_root_object in extra:
             placement = pin.SE3(np.asarray(T_root_object, dtype=float))

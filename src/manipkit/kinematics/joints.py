@@ -25,8 +25,10 @@ handles both, and leaves Pinocchio's own algorithms an independent check.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,6 +44,7 @@ __all__ = [
     "build_model",
     "joint_kind_axis",
     "joint_layout",
+    "native_call",
     "root_link",
 ]
 
@@ -426,15 +429,47 @@ def build_model(text: str) -> tuple[pin.Model | None, list[str]]:
     in manipkit's one-line error or in the robot's warnings instead of raw on
     the terminal.
     """
+    model, failure = None, None
+    try:
+        model, output = native_call(pin.buildModelFromXML, text, mimic=False)
+    except (ValueError, RuntimeError) as exc:
+        failure, output = " ".join(str(exc).split()), getattr(exc, "native_output", "")
+    messages = [" ".join(line.replace("Error:", "").split()) for line in output.splitlines() if line.strip()]
+    if model is None and failure and not messages:
+        messages = [failure]
+    return model, messages
+
+
+#: Stack (bytes) of the thread :func:`native_call` runs Pinocchio's parsers on. They recurse once per joint
+#: (about 2.2 kB a level, measured: 3,800 levels crashed an 8 MB stack); 64 MB holds the 2,000 joints
+#: :data:`manipkit.description.validate.MAX_TREE_DEPTH` allows whatever ``ulimit -s`` the main thread has.
+NATIVE_STACK_BYTES = 64 << 20
+_NATIVE_LOCK = threading.Lock()
+
+
+def native_call(function, *args, **kwargs):
+    """``function(*args, **kwargs)`` (a Pinocchio or coal parser) on a thread with a :data:`NATIVE_STACK_BYTES`
+    stack, with what its C++ code writes to file descriptor 2 captured: ``(value, output)``.
+
+    An exception it raises is raised here, with the output as its ``native_output`` attribute. Calls are
+    one at a time (file descriptor 2 is the process's); Python's ``sys.stderr`` is flushed first.
+    """
     import sys
     import tempfile
 
-    model, failure = None, None
-    try:
-        sys.stderr.flush()
-    except (AttributeError, ValueError, OSError):
-        pass
-    with tempfile.TemporaryFile(mode="w+b") as captured:
+    outcome: dict = {}
+
+    def run():
+        try:
+            outcome["value"] = function(*args, **kwargs)
+        except BaseException as exc:  # handed to the caller's thread
+            outcome["error"] = exc
+
+    with _NATIVE_LOCK, tempfile.TemporaryFile(mode="w+b") as captured:
+        try:
+            sys.stderr.flush()
+        except (AttributeError, ValueError, OSError):
+            pass
         try:
             saved = os.dup(2)
         except OSError:  # no file descriptor 2: nothing to capture
@@ -442,17 +477,22 @@ def build_model(text: str) -> tuple[pin.Model | None, list[str]]:
         try:
             if saved is not None:
                 os.dup2(captured.fileno(), 2)
+            previous = threading.stack_size(NATIVE_STACK_BYTES)
             try:
-                model = pin.buildModelFromXML(text, mimic=False)
-            except (ValueError, RuntimeError) as exc:
-                failure = " ".join(str(exc).split())
+                worker = threading.Thread(target=run, name="native-parser", daemon=True)
+                worker.start()
+            finally:
+                threading.stack_size(previous)
+            worker.join()
         finally:
             if saved is not None:
                 os.dup2(saved, 2)
                 os.close(saved)
         captured.seek(0)
         output = captured.read().decode("utf-8", errors="replace")
-    messages = [" ".join(line.replace("Error:", "").split()) for line in output.splitlines() if line.strip()]
-    if model is None and failure and not messages:
-        messages = [failure]
-    return model, messages
+    if "error" in outcome:
+        error = outcome["error"]
+        with contextlib.suppress(AttributeError, TypeError):
+            error.native_output = output
+        raise error
+    return outcome["value"], output

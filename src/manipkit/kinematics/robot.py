@@ -18,7 +18,6 @@ Conventions (docs/architecture.md):
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import threading
@@ -48,7 +47,7 @@ from manipkit.kinematics.chain import (
 )
 from manipkit.kinematics.joints import Joint, Mimic, build_model, joint_layout, root_link
 from manipkit.kinematics.tool_frame import tool_frame_of
-from manipkit.text import repr_text, short_text
+from manipkit.text import close_matches, quoted_name, repr_text, short_text
 
 __all__ = ["BASE_ALIASES", "EE_ALIAS", "LIMIT_TOLERANCE", "MAX_DEGREES_OF_FREEDOM", "Joint", "Mimic", "Robot", "load"]
 
@@ -300,11 +299,11 @@ class Robot(JointSpace):
             return self.root_link
         if name == EE_ALIAS:
             return self.ee_frame
-        close = difflib.get_close_matches(name, self.frame_names, n=3, cutoff=0.5)
+        close = close_matches(name, self.frame_names, n=3, cutoff=0.5)
         hint = f"did you mean {', '.join(close)}? " if close else ""
         listed = ", ".join(self.frame_names[:15]) + (", ..." if len(self.frame_names) > 15 else "")
         raise UnknownFrameError(
-            f"robot '{self.name}' has no frame '{name}'; {hint}frames: {listed} "
+            f"robot '{self.name}' has no frame {quoted_name(name, 200)}; {hint}frames: {listed} "
             f"(also base_link, ee_link; `manipkit frames` lists all)"
         )
 
@@ -424,10 +423,10 @@ class Robot(JointSpace):
                     f"joint '{name}' mimics '{mimic.leader}' ({short_text(mimic.multiplier)} x {mimic.leader} + "
                     f"{short_text(mimic.offset)}); give a value to '{mimic.leader}' instead"
                 )
-            close = difflib.get_close_matches(str(name), self.joint_names, n=1, cutoff=0.5)
+            close = close_matches(name, self.joint_names, n=1, cutoff=0.5)
             hint = f"did you mean {close[0]}? " if close else ""
             raise JointValueError(
-                f"robot '{self.name}' has no joint '{name}'; {hint}joints: {', '.join(self.joint_names) or 'none'}"
+                f"robot '{self.name}' has no joint {quoted_name(name, 200)}; {hint}joints: {', '.join(self.joint_names) or 'none'}"
             )
         return [(self._joint_index[name], _joint_number(name, value))]
 
@@ -573,6 +572,7 @@ class Robot(JointSpace):
         import warnings
 
         from manipkit.description.meshes import MissingMeshWarning, visual_urdf
+        from manipkit.kinematics.joints import native_call
 
         near = self.source.path if self.source.path.exists() else None
         resolver = PackageResolver(dict(self.package_dirs), near=near)
@@ -582,7 +582,8 @@ class Robot(JointSpace):
         if missing is not None:
             warnings.warn(missing.message(self.name), MissingMeshWarning, stacklevel=2)
         try:
-            return pin.buildGeomFromUrdfString(self.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
+            return native_call(pin.buildGeomFromUrdfString, self.model, text, pin.GeometryType.VISUAL,
+                               package_dirs=package_dirs)[0]  # a sized stack; coal's raw lines captured
         except (ValueError, RuntimeError) as exc:
             raise DescriptionError(
                 f"{self.name}: Pinocchio cannot load the visual geometry: {' '.join(str(exc).split())}"

@@ -224,7 +224,7 @@ def _read_table(folder: Path) -> dict | None:
         if not stat.S_ISREG(os.lstat(path).st_mode) or os.lstat(path).st_size > MAX_TABLE_BYTES:
             return None
         table = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # RecursionError: a tampered table nested thousands deep
         return None
     if not isinstance(table, dict) or table.get("format") != STORE_FORMAT or \
             not isinstance(table.get("fingerprint"), str) or not isinstance(table.get("settings"), dict):

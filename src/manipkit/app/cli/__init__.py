@@ -26,14 +26,15 @@ commands, and ``tf-between`` imports no other command's module.
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import sys
 import warnings
 
-from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser, warn
+from manipkit.app.cli.common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, Parser, UsageError, warn
 from manipkit.app.cli.tf import run_tf, tf_parser
 from manipkit.errors import ManipkitError, OutputError
-from manipkit.outputs import cannot_write
+from manipkit.outputs import cannot_write, refusing_inputs
 from manipkit.text import printable, printable_lines
 
 __all__ = ["main", "parsers", "run_command", "tf_between_main"]
@@ -95,7 +96,7 @@ def run_command(parser: argparse.ArgumentParser, argv, runner=None) -> int:
     """
     stdout = sys.stdout  # None when the process was started with stdout closed (``>&-``)
     sys.stdout = _GuardedStdout(stdout)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), refusing_inputs():  # no output written over a file the command reads
         warnings.showwarning = _warning_line
         return _run_guarded(parser, argv, runner, stdout)
 
@@ -105,9 +106,28 @@ def _warning_line(message, category, filename, lineno, file=None, line=None) -> 
     warn(str(message))
 
 
+def _environment_problem() -> str | None:
+    """What is wrong with an environment variable a library reads at import, before the command runs (a
+    bogus ``MPLBACKEND`` or ``NUMBA_NUM_THREADS`` made every plot or kernel an internal error)."""
+    checks = (("NUMBA_NUM_THREADS", "numba"), ("MPLBACKEND", "matplotlib"))
+    for name, module in checks:
+        if name not in os.environ:
+            continue
+        try:
+            __import__(module)  # only when the variable is set: the import is what reads it
+        except (ValueError, KeyError, TypeError, ImportError) as exc:
+            value = printable(os.environ[name])[:40]
+            reason = printable(" ".join(str(exc).split()))[:160]
+            return f"environment variable {name}={value!r} is refused by {module} ({reason}); unset it or fix it"
+    return None
+
+
 def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
     try:
         args = parser.parse_args(argv)
+        problem = _environment_problem()
+        if problem is not None:
+            raise UsageError(problem)
         status = (runner or args.run)(args)
         sys.stdout.flush()  # inside the try: a write that fails shows here, not at interpreter exit
         return status
@@ -119,7 +139,18 @@ def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
         return 130
     except BrokenPipeError:
         return EXIT_OK
+    except SystemExit as exc:  # rich's console ends a closed pipe (| head -1) with SystemExit(1): quiet, as above
+        if isinstance(exc.__context__, BrokenPipeError):
+            return EXIT_OK
+        raise
     except Exception as exc:  # a bug: short message, no traceback, exit 1
+        if (isinstance(exc, OSError) and exc.errno in (errno.EMFILE, errno.ENFILE, errno.EAGAIN, errno.ENOMEM)) or (
+                isinstance(exc, RuntimeError) and "can't start new thread" in str(exc)):
+            # not a bug: the system refused a resource (no file descriptors or threads left)
+            _tell(f"{parser.prog}: error: the system refused a resource ({getattr(exc, 'strerror', None) or exc}); "
+                  "raise the limit "
+                  "(ulimit -n for open files, ulimit -u for threads) or give fewer --workers")
+            return EXIT_USAGE
         detail = printable(" ".join(str(exc).split())[:300])
         _tell(
             f"{parser.prog}: internal error ({type(exc).__name__}: {detail}); this is a bug in manipkit, "

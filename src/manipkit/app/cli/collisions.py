@@ -190,8 +190,9 @@ def run_acm(args) -> int:
     from manipkit.analysis.acm import REASONS, allowed_collision_matrix, compare_matrix, srdf_text
     from manipkit.app.collision_text import comparison_lines
     from manipkit.app.progress import progress_bar
+    from manipkit.description.srdf import parse_srdf
     from manipkit.kinematics.collisions import MAX_THREADS, collisions, read_srdf
-    from manipkit.outputs import writable_path, write_text
+    from manipkit.outputs import is_stream, writable_path, write_text
 
     if not 1 <= args.samples <= 10_000_000:
         raise UsageError(f"--samples {args.samples}: give a whole number from 1 to 10000000")
@@ -205,7 +206,8 @@ def run_acm(args) -> int:
     with progress_bar(enabled) as progress:
         matrix = allowed_collision_matrix(robot, samples=args.samples, seed=args.seed, geometry=args.geometry,
                                           workers=args.workers, progress=progress)
-    write_text(args.output, srdf_text(matrix))
+    text = srdf_text(matrix)
+    write_text(args.output, text)
     counts = matrix.counts()
     total = len(matrix.disabled) + len(matrix.enabled)
     print(f"robot {robot.name}: {total} link pairs, {matrix.samples} samples, {matrix.geometry} geometry; "
@@ -216,7 +218,9 @@ def run_acm(args) -> int:
     if compare is not None:
         for line in comparison_lines(compare_matrix(matrix, read_srdf(compare, robot), str(compare))):
             print(line)
-    report = collisions(robot, srdf=args.output, geometry=args.geometry)
+    # a stream (/dev/stdout, a FIFO) cannot be read back: its text is checked instead
+    written = parse_srdf(text, str(args.output)).pairs() if is_stream(args.output) else args.output
+    report = collisions(robot, srdf=written, geometry=args.geometry)
     if report.in_collision:
         pairs = ", ".join(f"{p.link1} - {p.link2}" for p in report.pairs)
         print(f"check FAILED: enabled pairs in contact at the default pose: {pairs}")

@@ -331,7 +331,8 @@ def run_base_placement(args) -> int:
     checked = (reach_map.settings.get("collisions") or {}).get("checked")
     collisions = None if not checked else CollisionSettings.parse(
         robot, ",".join(checked), floor=reach_map.settings["collisions"].get("floor") or 0.0,
-        geometry=reach_map.settings["collisions"].get("geometry", "hulls"), srdf=reach_map.settings["collisions"].get("srdf") or "none")
+        geometry=reach_map.settings["collisions"].get("geometry", "hulls"),
+        srdf=_map_srdf(robot, reach_map.settings["collisions"].get("srdf") or "none", args.map))
     chosen = confirm_placement(reach_map, result, robot, mount=mount, collisions=collisions)
     if args.format == "json":
         print_json({"robot": robot.name, "floor_frame": floor, "x": chosen.x, "y": chosen.y, "yaw": chosen.yaw,
@@ -347,3 +348,23 @@ def run_base_placement(args) -> int:
         if args.plot is not None:
             print(f"wrote {printable(str(args.plot))} (the map's count, not IK's)")
     return EXIT_OK
+
+
+def _map_srdf(robot, srdf: str, map_path) -> str:
+    """The SRDF a map was built with, if the robot's description may read it (its read policy,
+    :mod:`manipkit.description.access`): a map is data, and the path it records is no licence to read a file."""
+    if srdf == "none" or map_path is None:
+        return srdf  # a map built just now: the user's own --srdf
+    from manipkit.description.access import ReadPolicy
+    from manipkit.description.packages import PackageResolver
+
+    shipped = getattr(robot, "srdf", None)
+    if shipped is not None and Path(srdf) == Path(shipped.path):
+        return srdf
+    near = robot.source.path if robot.source.path.exists() else None
+    if near is None:
+        raise UsageError(f"--map {printable(map_path)} names the SRDF {printable(srdf)[:200]}, and robot "
+                         f"'{robot.name}' has no description folder it may lie in; rebuild the map")
+    ReadPolicy(near, PackageResolver(dict(robot.package_dirs), near=near), robot.allow_read).check(
+        srdf, f"--map {printable(map_path)}: its SRDF")
+    return srdf

@@ -18,7 +18,9 @@ import atexit
 import contextlib
 import io
 import math
+import os
 import queue
+import shutil
 import subprocess
 import sys
 import threading
@@ -319,6 +321,9 @@ class MeshcatScene:
         if self._proc.poll() is None:
             self._proc.kill()
             self._proc.wait(timeout=10)
+        with contextlib.suppress(OSError):
+            self._proc.stdin.close()
+        shutil.rmtree(getattr(self._proc, "private_folder", ""), ignore_errors=True)
 
     def __enter__(self):
         return self
@@ -328,17 +333,23 @@ class MeshcatScene:
 
 
 def _start_meshcat_server(timeout: float = 30.0):
-    """Start ``python -m meshcat.servers.zmqserver``; returns (process, zmq_url, web_url).
+    """Start :mod:`manipkit.app.viewer.meshcat_server`; returns (process, zmq_url, web_url).
 
     Started here rather than by ``meshcat.Visualizer()`` so that its output is
     drained (a long session cannot fill a pipe) and the viewer owns its
-    lifetime; it runs in its own session so a notebook interrupt leaves it be.
+    lifetime: the server listens on loopback only, takes scene commands on a
+    private ``ipc://`` socket, and exits when this process does (its stdin is
+    a pipe from here). It runs in its own session so a notebook interrupt leaves it be.
     """
+    from manipkit.app.viewer.meshcat_server import private_zmq_url
+
+    zmq_url, folder = private_zmq_url()
     proc = subprocess.Popen(
-        [sys.executable, "-u", "-m", "meshcat.servers.zmqserver"],
-        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+        [sys.executable, "-u", "-m", "manipkit.app.viewer.meshcat_server", zmq_url, str(os.getpid())],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
         text=True, start_new_session=True,
     )
+    proc.private_folder = folder  # removed by MeshcatScene.close
     lines: queue.Queue = queue.Queue()
 
     def drain():
