@@ -123,7 +123,8 @@ def sources_digest(module: str | os.PathLike, root: str | os.PathLike) -> str:
     digest = hashlib.sha256()
     base = Path(root)
     for path in kernel_closure(module, base):
-        digest.update(str(path.relative_to(base)).encode() + b"\0")
+        name = path.relative_to(base) if path.is_relative_to(base) else path  # a kernel outside the package: itself
+        digest.update(str(name).encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()
 
