@@ -31,8 +31,8 @@ $(STAMP): $(BASE)
 demo: $(BASE)
 	$(BIN)/tf-between base_link ee_link --robot course_arm
 
-# Every kernel compiled ahead (about 3 minutes on 2 cores), for a machine image or CI; never needed: each
-# kernel compiles on its first use otherwise.
+# Every kernel compiled ahead (a few minutes on 2 cores; each 6R family's closed form about a minute of it), for
+# a machine image or CI; never needed: each kernel compiles on its first use otherwise.
 kernels: $(BASE)
 	$(BIN)/python -c "from manipkit.ik.lm_kernel import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.arms_kernel import warm_up; warm_up()"

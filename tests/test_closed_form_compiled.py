@@ -397,3 +397,25 @@ def test_branches_share_the_angles_the_tables_say_they_share(name):
         for b in angles:
             if a < b and a % 6 == b % 6:
                 assert not np.array_equal(random_lanes[a], random_lanes[b]), (a, b)
+
+
+def test_each_family_compiles_only_its_own_lanes():
+    """The loops of a family (arms_kernel.family_kernels) reach the lanes only through their globals, which hold
+    that family's lanes and code; so a UR arm's first solve never compiles the OPW lanes (nothing compiled here)."""
+    from manipkit.closed_form import arms_kernel, arms_lanes
+
+    lanes = {"ur_one", "ur_chunk", "opw_one", "opw_chunk"}
+    for code, family in arms_kernel.FAMILY_NAMES.items():
+        kernels = arms_kernel.family_kernels(code)
+        assert kernels is arms_kernel.family_kernels(code)  # made once
+        for name in ("solve_all", "labels", "solve_rows_all", "solve_check_one"):
+            function = getattr(kernels, name).py_func
+            assert function.__qualname__ == f"_{name}_{family}"
+            assert not lanes & set(function.__code__.co_names)  # no family's lanes named in the code itself
+            scope = function.__globals__
+            assert scope["KIND"] == code and scope["_target"].py_func.__globals__ is scope
+            assert scope["lanes_one"] is getattr(arms_lanes, f"{family}_one")
+            assert scope["lanes_chunk"] is getattr(arms_lanes, f"{family}_chunk")
+    ur, opw = arms_kernel.family_kernels(0), arms_kernel.family_kernels(1)
+    assert ur.solve_check_one is not opw.solve_check_one
+    assert arms_kernel.KIND_CODES == {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}

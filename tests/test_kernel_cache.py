@@ -248,6 +248,11 @@ def test_the_note_says_once_what_is_compiled_and_a_second_run_says_nothing(tiny_
     assert kernel_cache.compile_note("numerical_many._solve_many", None).startswith(
         "manipkit: compiling the numerical IK of many targets (numerical_many._solve_many) for its first use, about")
     assert kernel_cache.compile_note("fk._poses", None) == ""
+    # a kernel with a note of its own (the closed forms, one per family) wins over its module's
+    ur = kernel_cache.compile_note("arms_kernel._solve_check_one_ur", None)
+    assert "UR" in ur and "OPW" not in ur and "(arms_kernel._solve_check_one_ur)" in ur, ur
+    assert "spherical-wrist" in kernel_cache.compile_note("arms_kernel._solve_rows_all_opw", None)
+    assert kernel_cache.compile_note("arms_kernel._rows", None) == ""  # the row loop: about a second
 
 
 def test_untrusted_folder_allows_a_private_folder_below_a_sticky_one(tmp_path):

@@ -18,7 +18,11 @@ command before it. Not run: commands on the reader's own files (``~/...``, or
 repository's root in the output is shown as ``...`` (the reader's clone is
 elsewhere). The working folder holds a ``docs/`` folder with a copy of the
 repository's ``docs/examples`` (the files the tour reads), so what the tour
-writes never lands in the repository.
+writes never lands in the repository. The documentation site's examples
+(tests/test_docs_site.py) run by the same rules (:func:`run_step`).
+
+The README is a front page: at most about 250 lines, and every file it links
+exists (the manual is the site, docs/site/).
 """
 
 from __future__ import annotations
@@ -53,9 +57,10 @@ def tour() -> list[tuple[int, str, list[str]]]:
     return steps
 
 
-def runnable(command: str, shown: list[str]) -> bool:
+def runnable(command: str, shown: list[str], need_output: bool = True) -> bool:
+    """Whether the tests run ``command`` (shown with output ``shown``; none shown: not run, unless not ``need_output``)."""
     words = shlex.split(command, comments=True)
-    if not words or words[0] not in PROGRAMS or not shown:
+    if not words or words[0] not in PROGRAMS or (need_output and not shown):
         return False
     if any(word.startswith("~") or word == "..." for word in words) or any(slow in command for slow in SLOW):
         return False
@@ -79,36 +84,48 @@ def matches(shown: list[str], printed: list[str]) -> bool:
 STEPS = tour()
 
 
+def new_session(tmp_path: Path) -> dict:
+    """A working folder for a run of examples (``docs/examples`` copied in) and the last command's exit status."""
+    shutil.copytree(ROOT / "docs" / "examples", tmp_path / "docs" / "examples")
+    return {"cwd": tmp_path, "status": None}
+
+
+def run_step(session: dict, command: str, shown: list[str]) -> str:
+    """Run one ``$`` line of an example in ``session``: "" when what it printed matches ``shown``, else the account.
+
+    ``cat FILE`` writes ``shown`` to FILE; ``echo $?`` checks the last exit status; any other command runs in
+    process (:func:`cli_helper.run_cli`) in the session's folder."""
+    words = shlex.split(command, comments=True)
+    cwd = session["cwd"]
+    if words[0] == "cat":
+        (cwd / words[1]).write_text("\n".join(shown) + "\n", encoding="utf-8")
+        return ""
+    if words[0] == "echo":
+        assert words[1:] == ["$?"] and session["status"] is not None
+        return "" if [str(session["status"])] == shown else f"exit status {session['status']}"
+    result = run_cli(words[0], *words[1:], cwd=cwd)
+    session["status"] = result.returncode
+    printed = [line for line in (result.stdout + result.stderr).replace(str(ROOT), SHOWN_ROOT).splitlines() if line.strip()]
+    if matches(shown, printed):
+        return ""
+    return "--- shown:\n" + "\n".join(shown) + "\n--- the command printed:\n" + "\n".join(printed)
+
+
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     """The one working folder of the tour and the exit status of the last command."""
-    cwd = tmp_path_factory.mktemp("tour")
-    shutil.copytree(ROOT / "docs" / "examples", cwd / "docs" / "examples")
-    return {"cwd": cwd, "status": None}
+    return new_session(tmp_path_factory.mktemp("tour"))
 
 
 def test_the_tour_has_commands_to_check():
-    assert sum(runnable(command, shown) for _, command, shown in STEPS) >= 25
+    assert sum(runnable(command, shown) for _, command, shown in STEPS) >= 8
 
 
 @pytest.mark.parametrize(("number", "command", "shown"), [s for s in STEPS if runnable(s[1], s[2])],
                          ids=[f"README.md:{s[0]}" for s in STEPS if runnable(s[1], s[2])])
 def test_the_readme_shows_what_the_command_prints(session, number, command, shown):
-    words = shlex.split(command, comments=True)
-    cwd = session["cwd"]
-    if words[0] == "cat":
-        (cwd / words[1]).write_text("\n".join(shown) + "\n", encoding="utf-8")
-        return
-    if words[0] == "echo":
-        assert words[1:] == ["$?"] and session["status"] is not None
-        assert [str(session["status"])] == shown
-        return
-    words = [str(Path(w).expanduser()) if w.startswith("~") else w for w in words]
-    result = run_cli(words[0], *words[1:], cwd=cwd)
-    session["status"] = result.returncode
-    printed = [line for line in (result.stdout + result.stderr).replace(str(ROOT), SHOWN_ROOT).splitlines() if line.strip()]
-    assert matches(shown, printed), (f"README.md:{number}: {command}\n--- the README shows:\n" + "\n".join(shown)
-                                     + "\n--- the command printed:\n" + "\n".join(printed))
+    problem = run_step(session, command, shown)
+    assert not problem, f"README.md:{number}: {command}\n{problem}"
 
 
 @pytest.mark.parametrize(("shown", "printed", "ok"), [
@@ -131,15 +148,19 @@ def test_commands_on_the_readers_own_files_and_the_viewer_are_not_run():
     assert not runnable("manipkit reachmap --robot iiwa14 --voxel 0.05 --orientations 200 --samples 1000000 -o m", ["x"])
 
 
-def test_the_layout_names_every_module():
+def test_the_readme_is_a_front_page():
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 250, f"README.md has {len(lines)} lines: move the detail into docs/site/"
+    assert lines[2].lstrip().startswith("make demo") and lines[3].lstrip().startswith("make test")
+
+
+#: Links the README keeps to pages others are writing (not there yet on every branch).
+PLANNED = ("docs/site/guides/security.md",)
+
+
+def test_every_file_the_readme_links_exists():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    layout = text[text.index("## Layout"):]
-    layout = layout[:layout.index("\n## ", 1)] if "\n## " in layout[1:] else layout
-    words = set(re.findall(r"[A-Za-z_]+", layout))
-    package = ROOT / "src" / "manipkit"
-    modules = [p for p in package.glob("*.py") if p.stem != "__init__"]
-    for folder in ("spatial", "inputs", "description", "kinematics", "dh", "closed_form", "ik", "statics", "analysis",
-                   "analysis/reachmap", "app"):
-        modules += [p for p in (package / folder).glob("*.py") if p.stem not in ("__init__", "__main__")]
-    missing = sorted(str(p.relative_to(package)) for p in modules if p.stem not in words)
-    assert not missing, f"README.md's layout does not name: {', '.join(missing)}"
+    targets = [t for t in re.findall(r"\]\(([^)#]+)\)", text) if "://" not in t]
+    assert len(targets) >= 10
+    missing = [t for t in targets if not (ROOT / t).exists() and t not in PLANNED]
+    assert not missing, f"README.md links to missing files: {missing}"

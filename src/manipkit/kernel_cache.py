@@ -176,8 +176,10 @@ def tighten(folder: Path, prefix: str = "") -> None:
 
 
 #: What the kernels of a module compute and about how long compiling the outermost one (with the kernels it
-#: calls) takes on an idle 2-core machine, in seconds: module (the file's name) -> (words, seconds). Measured
-#: with an empty cache, one command at a time (the table in docs/site/guides/kernels.md).
+#: calls) takes on an idle 2-core machine, in seconds: module (the file's name) -> (words, seconds), or
+#: ``module.function`` for one kernel whose cost differs from its module's (looked up first). Measured with an
+#: empty cache, one command at a time (the table in docs/site/guides/kernels.md); the closed forms' per-family
+#: kernels as the compile's CPU seconds, one kernel per process (docs/site/internals/kernels.md).
 KERNEL_NOTES = {
     "fk": ("the batched forward kinematics", 1),
     "program": ("the batched Jacobian", 2),
@@ -186,8 +188,13 @@ KERNEL_NOTES = {
     "gravity_kernel": ("the batched static torques", 2),
     "lm_kernel": ("the numerical IK", 8),
     "numerical_many": ("the numerical IK of many targets", 10),
-    "arms_kernel": ("the closed-form IK of 6R arms (UR and OPW families)", 95),
-    "chain_batch": ("the closed-form IK of many targets", 95),
+    "arms_kernel": ("the closed-form IK's rows, residuals and labels", 2),
+    "arms_kernel._solve_check_one_ur": ("the closed-form IK of UR-type arms", 52),
+    "arms_kernel._solve_check_one_opw": ("the closed-form IK of spherical-wrist (OPW) arms", 59),
+    "arms_kernel._solve_rows_all_ur": ("the closed-form IK of many targets of UR-type arms", 44),
+    "arms_kernel._solve_rows_all_opw": ("the closed-form IK of many targets of spherical-wrist (OPW) arms", 54),
+    "arms_kernel._solve_all_ur": ("the branches of UR-type arms for many targets", 42),
+    "arms_kernel._solve_all_opw": ("the branches of spherical-wrist (OPW) arms for many targets", 40),
     "srs_kernel": ("the closed-form IK of 7R arms with an arm angle", 15),
 }
 #: Compiles shorter than this (s) are not worth a line: the command answers about as soon as it would have.
@@ -202,7 +209,7 @@ def compile_note(name: str, folder: Path | None) -> str:
     >>> compile_note("fk._poses", None)
     ''
     """
-    words, seconds = KERNEL_NOTES.get(name.split(".")[0], ("compiled code", None))
+    words, seconds = KERNEL_NOTES.get(name) or KERNEL_NOTES.get(name.split(".")[0], ("compiled code", None))
     if seconds is not None and seconds < QUIET_BELOW:
         return ""
     about = ("a few seconds or more" if seconds is None else

@@ -24,12 +24,19 @@ a tangency agree to about 1e-11 rad (their sensitivity there).
 
 Each function is compiled by :func:`manipkit.kernels.compile_kernel` (numba's
 disk cache where it works); importing this module imports numba, so the
-closed forms import it inside the functions that use it.
+closed forms import it inside the functions that use it. The loops that run a
+family's lanes are compiled once per family (:func:`family_kernels`, chosen
+at the first call for a chain of that family): the family is a constant of
+each compiled loop, which then holds only its own family's lanes, so the
+first solve of a UR arm does not also compile the OPW lanes (each family's
+loop compiles in about half the time of one loop holding both).
 """
 
 from __future__ import annotations
 
 import math
+import threading
+import types
 
 import numpy as np
 
@@ -73,13 +80,29 @@ from manipkit.closed_form.subproblems_kernel import sub as _sub
 from manipkit.closed_form.subproblems_kernel import wrap as _wrap
 from manipkit.closed_form.subproblems_kernel import wrap_by_selects as _wrap_by_selects
 
-__all__ = ["KIND_CODES", "MARGIN", "SLOTS", "branch_labels", "chain_rows", "measure_at", "measure_many", "solve_check_one",
-           "solve_many", "solve_rows_into", "solve_rows_many", "warm_up"]
+__all__ = ["FAMILY_NAMES", "KIND_CODES", "MARGIN", "SLOTS", "branch_labels", "chain_rows", "family_kernels", "measure_at",
+           "measure_many", "solve_check_one", "solve_many", "solve_rows_into", "solve_rows_many", "warm_up"]
 
 #: Branch slots per target (``4 shoulder + 2 elbow + wrist``).
 SLOTS = 8
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
+#: Family code -> the short name its compiled loops carry (``_solve_check_one_ur``, ...) and its lanes' prefix in
+#: :mod:`manipkit.closed_form.arms_lanes` (``ur_one``, ``ur_chunk``).
+FAMILY_NAMES = {0: "ur", 1: "opw"}
+#: The family's code, in the per-family loops (:func:`family_kernels` sets it in each one's globals; this
+#: module's own value is never compiled).
+KIND = -1
+
+
+def lanes_one(K, R, t, out):
+    """The family's one-target lanes (``arms_lanes.ur_one`` or ``opw_one``, set per family by family_kernels)."""
+    raise NotImplementedError("compiled per family: see family_kernels")
+
+
+def lanes_chunk(K, G, out):
+    """The family's chunk of lanes (``arms_lanes.ur_chunk`` or ``opw_chunk``, set per family by family_kernels)."""
+    raise NotImplementedError("compiled per family: see family_kernels")
 
 
 @inlined_kernel
@@ -180,25 +203,22 @@ def _lane_answer(kind, H, out, n, L, theta, valid, near):
     return handed_back
 
 
-@inlined_kernel
-def _target(kind, K, H, g, out, theta, valid, near):
-    """One target ``g`` (4, 4, in the solve frame) of either family, solved as one lane (``out`` (ENTRIES,):
-    scratch) into theta (8, 6), valid (8,), near (8,); True when the reference must decide."""
+def _target(K, H, g, out, theta, valid, near):
+    """One target ``g`` (4, 4, in the solve frame) of the family, solved as one lane (``out`` (ENTRIES,):
+    scratch) into theta (8, 6), valid (8,), near (8,); True when the reference must decide. Per family,
+    inlined."""
     R = (g[0, 0], g[0, 1], g[0, 2], g[1, 0], g[1, 1], g[1, 2], g[2, 0], g[2, 1], g[2, 2])
     t = (g[0, 3], g[1, 3], g[2, 3])
-    if kind == 0:
-        ur_one(K, R, t, out)
-    else:
-        opw_one(K, R, t, out)
-    _lane_angles(kind, out, 1)
-    return _lane_answer(kind, H, out, 0, 1, theta, valid, near)
+    lanes_one(K, R, t, out)
+    _lane_angles(KIND, out, 1)
+    return _lane_answer(KIND, H, out, 0, 1, theta, valid, near)
 
 
-@compile_kernel
-def _solve_all(kind, H, P, c, scale, G, theta, valid, near, fallback):
+def _solve_all(H, P, c, scale, G, theta, valid, near, fallback):
+    """Every target of ``G`` by _target (per family)."""
     K, out = arm_tuple(H, P, c, scale), np.empty(ENTRIES)
     for n in range(G.shape[0]):
-        fallback[n] = _target(kind, K, H, G[n], out, theta[n], valid[n], near[n])
+        fallback[n] = _target(K, H, G[n], out, theta[n], valid[n], near[n])
 
 
 def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale: float, g: np.ndarray):
@@ -218,8 +238,8 @@ def solve_many(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, scale
     near = np.zeros((N, SLOTS), dtype=np.bool_)
     fallback = np.zeros(N, dtype=np.bool_)
     c = (float(wrist[0]), float(wrist[1]), float(wrist[2]))
-    _solve_all(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float), c,
-               float(scale), g, theta, valid, near, fallback)
+    family_kernels(KIND_CODES[kind]).solve_all(np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float),
+                                               c, float(scale), g, theta, valid, near, fallback)
     return theta, valid, near, fallback
 
 
@@ -248,9 +268,9 @@ def chain_rows(theta: np.ndarray, valid: np.ndarray, q0: np.ndarray, columns: np
     return out
 
 
-@compile_kernel
-def _labels(kind, H, P, c, s, reference, up, g, theta, out):
-    """out[r] = (front, elbow above, no flip) of each row of theta (k, 6), as chain_ik's _labels computes them."""
+def _labels(H, P, c, s, reference, up, g, theta, out):
+    """out[r] = (front, elbow above, no flip) of each row of theta (k, 6), as chain_ik's _labels computes them
+    (per family)."""
     h0, h1, h2 = _row(H, 0), _row(H, 1), _row(H, 2)
     p0, p1, p2, p3 = _row(P, 0), _row(P, 1), _row(P, 2), _row(P, 3)
     w = _add(_mv(g[:3, :3], c), (g[0, 3], g[1, 3], g[2, 3]))
@@ -263,7 +283,7 @@ def _labels(kind, H, P, c, s, reference, up, g, theta, out):
         shoulder = _move(h0, p0, c1, s1, s)
         elbow = _move(h0, p0, c1, s1, _move(h1, p1, c2, s2, p2))
         wrist = w
-        if kind == 0:
+        if KIND == 0:
             c3, s3 = math.cos(t3), math.sin(t3)
             wrist = _move(h0, p0, c1, s1, _move(h1, p1, c2, s2, _move(h2, p2, c3, s3, p3)))
         normal = _rotate(h0, c1, s1, h1)
@@ -283,7 +303,7 @@ def branch_labels(kind: str, h: np.ndarray, p: np.ndarray, wrist: np.ndarray, sh
     """(k, 3) bool: front, elbow above the shoulder-wrist line, no wrist flip, of rows ``theta`` (k, 6) (solve
     direction) for one target ``g`` (4, 4): chain_ik's labels, compiled (``reference``, ``up``: its axes)."""
     out = np.zeros((len(theta), 3), dtype=np.bool_)
-    _labels(KIND_CODES[kind], np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float),
+    family_kernels(KIND_CODES[kind]).labels(np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(p, dtype=float),
             tuple(float(v) for v in wrist), tuple(float(v) for v in shoulder), tuple(float(v) for v in reference),
             tuple(float(v) for v in up), np.ascontiguousarray(g, dtype=float), np.ascontiguousarray(theta, dtype=float),
             out)
@@ -306,14 +326,14 @@ def _solved_target(T, M_inv, reverse, g):
         g[3, 0], g[3, 1], g[3, 2], g[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@compile_kernel
-def _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, states, reached, out,
+def _checked_target(K, H, M_inv, reverse, T, q0, columns, solved, limits, floats, ints, g, states, reached, out,
                     theta, valid, near, rows, residuals, within):
     """One target: every branch solved (as _solve_all), then each valid one's chain row, FK on the true chain,
     residual and limits (check_kernel); True when the reference must decide (nothing else is written then).
-    ``solved`` (3, m): joint scales, lower and upper limits of the solved columns; ``limits`` (2, n): the chain's."""
+    ``solved`` (3, m): joint scales, lower and upper limits of the solved columns; ``limits`` (2, n): the chain's.
+    Per family."""
     _solved_target(T, M_inv, reverse, g)
-    if _target(kind, K, H, g, out, theta, valid, near):
+    if _target(K, H, g, out, theta, valid, near):
         return True
     for k in range(theta.shape[0]):
         if valid[k]:
@@ -327,8 +347,10 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
     packed in order into ``packed`` (M, n) with their slot ``index`` (M,) (``8 target + slot``); returns M.
 
     Targets go through the lanes in chunks of LANES (:func:`manipkit.closed_form.arms_lanes.ur_chunk`, ``opw_chunk``:
-    on vector registers), a short last chunk padded with copies of its last target (their answers not read)."""
-    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
+    on vector registers), a short last chunk padded with copies of its last target (their answers not read).
+    Per family (nogil: chain_ik_many runs it on blocks of targets from several threads at once, each block its own
+    rows)."""
+    _, H, P, points, scale, M_inv, reverse, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
     K = arm_tuple(H, P, _row(points, 0), scale)
     g = np.empty((4, 4))
     chunk, out = np.empty(12 * LANES), np.empty(ENTRIES * LANES)
@@ -345,12 +367,9 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
             for i in range(3):
                 for j in range(4):
                     chunk[(4 * i + j) * LANES + lane] = g[i, j]
-        if kind == 0:
-            ur_chunk(K, chunk, out)
-        else:
-            opw_chunk(K, chunk, out)
-        _lane_angles(kind, out, LANES)
-        _lane_rows(kind, H, out, reverse, q0, columns, solved, values, odd)
+        lanes_chunk(K, chunk, out)
+        _lane_angles(KIND, out, LANES)
+        _lane_rows(KIND, H, out, reverse, q0, columns, solved, values, odd)
         for lane in range(used):
             n = start + lane
             project[n] = not exact_rotation(T[n])
@@ -358,7 +377,7 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
             if plain:
                 fallback[n] = _lane_flags(out, lane, LANES, valid_k)
             else:
-                fallback[n] = _lane_answer(kind, H, out, lane, LANES, theta, valid_k, near)
+                fallback[n] = _lane_answer(KIND, H, out, lane, LANES, theta, valid_k, near)
             for k in range(SLOTS):  # rows[n, k, j] indexed whole: a view rows[n] per target costs two atomic counts
                 valid[n, k] = valid_k[k]
                 made = valid_k[k] and not fallback[n]
@@ -371,10 +390,6 @@ def _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, pack
                     chain_row(theta, k, reverse, q0, columns, solved, rows[n])
                 count = packed_row(rows, n, k, made, packed, index, count)
     return count
-
-
-# nogil: chain_ik_many runs it on blocks of targets from several threads at once (each block its own rows)
-_solve_rows_all = compile_kernel(_solve_rows_all, nogil=True)
 
 
 def _measure_at(T, reached, index, position_tol, rotation_tol, residuals, success):
@@ -418,12 +433,11 @@ def _measure_all(T, reached, rows, position_tol, rotation_tol, residuals, succes
                     success[n] = True
 
 
-@compile_kernel
 def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
     """_checked_target for one target (the chain's constants packed by check_kernel.pack_arm), its rows kept,
     ordered and coded as chain_ik answers (:func:`manipkit.closed_form.check_kernel.kept_rows`; code ``4 back + 2
-    elbow down + wrist flip``); no rows when the general path must answer."""
-    kind, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints = arm_constants(arm_reals, arm_ints)
+    elbow down + wrist flip``); no rows when the general path must answer. Per family."""
+    _, H, P, points, scale, M_inv, reverse, q0, columns, solved, limits, floats, ints = arm_constants(arm_reals, arm_ints)
     m, n = H.shape[0], q0.shape[0]
     theta, valid, near = np.zeros((SLOTS, m)), np.zeros(SLOTS, dtype=np.bool_), np.zeros(SLOTS, dtype=np.bool_)
     rows, residuals, within = np.full((SLOTS, n), np.nan), np.full((SLOTS, 2), np.nan), np.zeros(SLOTS, dtype=np.bool_)
@@ -431,11 +445,11 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
     g, states, reached = np.empty((4, 4)), np.empty((ints[0] + 1, 4, 3)), np.empty((SLOTS, 4, 4))
     c = _row(points, 0)
     K = arm_tuple(H, P, c, scale)
-    if not plain_target(T) or _checked_target(kind, K, H, M_inv, reverse, T, q0, columns, solved, limits, floats,
+    if not plain_target(T) or _checked_target(K, H, M_inv, reverse, T, q0, columns, solved, limits, floats,
                                               ints, g, states, reached, np.empty(ENTRIES), theta, valid, near, rows,
                                               residuals, within):
         return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
-    _labels(kind, H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
+    _labels(H, P, c, _row(points, 1), _row(points, 2), _row(points, 3), g, theta, bits)
     for k in range(SLOTS):
         codes[k] = 4 * (not bits[k, 0]) + 2 * (not bits[k, 1]) + (not bits[k, 2])
     return kept_rows(valid, rows, residuals, within, codes, codes, position_tol, rotation_tol)
@@ -455,8 +469,8 @@ def solve_rows_many(prepared: tuple, T: np.ndarray):
     valid = np.zeros((N, SLOTS), dtype=np.bool_)
     fallback, project = np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_)
     rows = np.empty((N, SLOTS, n))
-    _solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows, np.empty((SLOTS * N, n)),
-                    np.empty(SLOTS * N, dtype=np.int64))
+    family_kernels(int(arm_ints[0])).solve_rows_all(arm_reals, arm_ints, T, valid, fallback, project, rows,
+                                                    np.empty((SLOTS * N, n)), np.empty(SLOTS * N, dtype=np.int64))
     return valid, fallback, project, rows
 
 
@@ -466,7 +480,8 @@ def solve_rows_into(prepared: tuple, T: np.ndarray, valid: np.ndarray, fallback:
     (N,) bool, rows (N, 8, n) float), without the GIL: each thread of a batch passes its own block of targets.
     The rows that are not NaN are also copied, in order, into ``packed`` (at least (8 N, n)), with their slot
     ``8 target + k`` in ``index`` (int64): returns how many, M (``packed[:M]`` is what the check puts through FK)."""
-    return _solve_rows_all(prepared[0], prepared[1], T, valid, fallback, project, rows, packed, index)
+    return family_kernels(int(prepared[1][0])).solve_rows_all(prepared[0], prepared[1], T, valid, fallback, project,
+                                                              rows, packed, index)
 
 
 def measure_at(T: np.ndarray, reached: np.ndarray, index: np.ndarray, tol: tuple[float, float], residuals: np.ndarray,
@@ -505,36 +520,73 @@ def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
     reference must decide, ``T`` is not a transform check_transform takes as is with a rotation block exact to
     1e-12, or a row misses ``tol`` (m, rad)).
     """
-    answer = _solve_check_one(prepared[0], prepared[1], T, tol[0], tol[1])
+    answer = family_kernels(int(prepared[1][0])).solve_check_one(prepared[0], prepared[1], T, tol[0], tol[1])
     return answer if len(answer[0]) else None
 
 
-def warm_up() -> None:
-    """Compile (or load from numba's on-disk cache) every kernel here, with the argument types chain_ik passes.
+#: The per-family functions, in the order family_kernels compiles them (a later one calls the earlier ones by name):
+#: (name, numba options; None: inlined into its callers).
+_PER_FAMILY = (("_target", None), ("_solve_all", {}), ("_labels", {}), ("_checked_target", {}),
+               ("_solve_rows_all", {"nogil": True}), ("_solve_check_one", {}))
+_families: dict = {}
+_families_lock = threading.Lock()
 
-    ``make setup`` runs it (``python -m manipkit.closed_form.arms_kernel``): compiling them takes about 3 minutes,
-    which the first closed-form solve of a new installation would otherwise pay.
+
+def family_kernels(code: int) -> types.SimpleNamespace:
+    """The compiled loops of the family with code ``code`` (a value of :data:`KIND_CODES`), made on first use.
+
+    Each of the functions in ``_PER_FAMILY`` is made again with globals in which :data:`KIND` is ``code`` and
+    :func:`lanes_one`, :func:`lanes_chunk` are that family's lanes (``arms_lanes.ur_one``, ...), named
+    ``<function>_<family>`` (``_solve_check_one_ur``): so each compiled loop holds one family's lanes, and
+    numba's disk cache keeps each family's under its own name. Returns a namespace of the dispatchers
+    (``solve_all``, ``labels``, ``solve_rows_all``, ``solve_check_one``; compiled on their first call).
     """
-    z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
-    h = np.array([z, y, y, y, z, y])
-    p = np.array([[0.0, 0.0, 0.1], [0.0, 0.1, 0.1], [0.4, 0.1, 0.1], [0.8, 0.1, 0.1], [0.8, 0.2, 0.1], [0.8, 0.2, 0.0]])
-    g = np.eye(4)[None]
-    theta, valid, _, _ = solve_many("three parallel, two intersecting", h, p, p[5], 1.0, g)
-    chain_rows(theta, valid, np.zeros(6), np.arange(6), np.ones(6), np.full(6, -np.pi), np.full(6, np.pi))
-    branch_labels("three parallel, two intersecting", h, p, p[5], p[1], np.array([1.0, 0.0, 0.0]), h[0], g[0], theta[0])
-    # the solve-and-check loops, on a chain of seven joints about z (only the argument types matter here)
+    made = _families.get(code)
+    if made is not None:
+        return made
+    with _families_lock:
+        if code not in _families:
+            family = FAMILY_NAMES[code]
+            one, chunk = {0: (ur_one, ur_chunk), 1: (opw_one, opw_chunk)}[code]
+            scope = dict(globals(), KIND=code, lanes_one=one, lanes_chunk=chunk)
+            for name, options in _PER_FAMILY:
+                source = globals()[name]
+                function = types.FunctionType(source.__code__, scope, f"{name}_{family}", source.__defaults__)
+                function.__qualname__, function.__doc__ = f"{name}_{family}", source.__doc__
+                scope[name] = inlined_kernel(function) if options is None else compile_kernel(function, **options)
+            _families[code] = types.SimpleNamespace(**{name.lstrip("_"): scope[name] for name, _ in _PER_FAMILY})
+    return _families[code]
+
+
+def warm_up(kinds=tuple(KIND_CODES)) -> None:
+    """Compile (or load from numba's on-disk cache) every kernel here, for the families ``kinds`` (keys of
+    :data:`KIND_CODES`; default both), with the argument types chain_ik passes.
+
+    ``make kernels`` runs it (``python -m manipkit.closed_form.arms_kernel``), so that no first closed-form solve
+    pays for it; each family compiles on its first use otherwise.
+    """
     from manipkit.closed_form.check_kernel import row_tables
     from manipkit.closed_form.srs_kernel import solve_check_srs
     from manipkit.kernels.fk import ChainStep
 
+    z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
+    h = np.array([z, y, y, y, z, y])
+    p = np.array([[0.0, 0.0, 0.1], [0.0, 0.1, 0.1], [0.4, 0.1, 0.1], [0.8, 0.1, 0.1], [0.8, 0.2, 0.1], [0.8, 0.2, 0.0]])
+    g = np.eye(4)[None]
+    # the solve-and-check loops, on a chain of seven joints about z (only the argument types matter here)
     floats, ints = row_tables([ChainStep(np.eye(3), np.array([0.0, 0.0, 0.1]), k, False, np.array(z))
                                for k in range(7)], np.arange(7))
     h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
     limits = np.full(7, np.pi)
-    prepared = pack_arm(0, h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7), np.arange(7),
-                        np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats, ints)
-    solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
-    rows = solve_rows_many(prepared, g)[-1]
+    for kind in kinds:
+        theta, valid, _, _ = solve_many(kind, h, p, p[5], 1.0, g)
+        chain_rows(theta, valid, np.zeros(6), np.arange(6), np.ones(6), np.full(6, -np.pi), np.full(6, np.pi))
+        branch_labels(kind, h, p, p[5], p[1], np.array([1.0, 0.0, 0.0]), h[0], g[0], theta[0])
+        prepared = pack_arm(KIND_CODES[kind], h7, p7, np.array([z, y, z, y]), 1.0, np.eye(4), False, np.zeros(7),
+                            np.arange(7), np.array([np.ones(7), -limits, limits]), np.array([-limits, limits]), floats,
+                            ints)
+        solve_check_one(prepared, np.eye(4), (1e-10, 1e-10))
+        rows = solve_rows_many(prepared, g)[-1]
     measure_many(g, np.repeat(g[:, None], SLOTS, axis=1), rows, (1e-10, 1e-10))
     measure_at(g, np.repeat(g, SLOTS, axis=0), np.arange(SLOTS, dtype=np.int64), (1e-10, 1e-10),
                np.empty((1, SLOTS, 2)),
