@@ -3,7 +3,8 @@ numerical solve of the same pose, timed in turns.
 
 Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`), workload ``redundant``, per arm (Panda:
 its last joint locked and swept, each value solved by the closed form of the 6R arm it leaves; iiwa14: the SRS arm
-angle swept): the ranked set of 16 solutions (sweep at 2 pi / 128 rad, crossings bisected to 1e-7 rad, ranked by
+angle swept; the Sawyer of the shared Menagerie copy, a general 7R: its last joint locked and swept, each value
+solved by the general 6R elimination, ``SAWYER``): the ranked set of 16 solutions (sweep at 2 pi / 128 rad, crossings bisected to 1e-7 rad, ranked by
 the distance to the limits) on ``n_poses`` poses (FK of seeded random configurations inside the limits), against
 ``manipkit.ik(arm, T, method="numerical")`` (one solution, restarts until one converges) on the same poses. Every
 ranked row is checked by Pinocchio's FK to 1e-10 and every numerical answer to ``IK_ACCEPT`` first; rows with a
@@ -19,6 +20,8 @@ from benchmarks.workloads import IK_ACCEPT, in_turns, row
 __all__ = ["redundant_workload"]
 
 RANKED_ACCEPT = 1e-10  # every row of the ranked set lands by Pinocchio to this (m and rad)
+#: (path, base, tip) of the general 7R arm timed when the shared workspace is here
+SAWYER = ("/work/shared/realworld/menagerie/rethink_robotics_sawyer/sawyer.xml", "base", "right_l6")
 
 
 def _pinocchio_errors(robot, chain, Q, T) -> float:
@@ -39,14 +42,18 @@ def _pinocchio_errors(robot, chain, Q, T) -> float:
     return worst
 
 
-def redundant_workload(robot_name: str, *, n_poses: int = 50, rounds: int = 3, seed: int = 36) -> list[dict]:
+def redundant_workload(robot_name: str, *, n_poses: int = 50, rounds: int = 3, seed: int = 36, base: str = "base_link",
+                       tip: str = "ee_link", label: str | None = None) -> list[dict]:
+    """Rows for ``robot_name`` (a name or a path; ``label`` names it in the rows) between ``base`` and ``tip``."""
     import manipkit
 
     robot = manipkit.load(robot_name)
-    chain = robot.chain("base_link", "ee_link")
+    chain = robot.chain(base, tip)
+    frames = dict(base=base, tip=tip)
+    robot_name = label or robot_name
     targets = chain.fk(chain.sample(n_poses, seed=seed))
-    ranked = [manipkit.ik(robot, T, all=True) for T in targets]
-    numerical = [manipkit.ik(robot, T, method="numerical") for T in targets]
+    ranked = [manipkit.ik(robot, T, all=True, **frames) for T in targets]
+    numerical = [manipkit.ik(robot, T, method="numerical", **frames) for T in targets]
     ranked_error = max((_pinocchio_errors(robot, chain, r.solutions, T) for r, T in zip(ranked, targets)), default=0.0)
     numerical_error = max(_pinocchio_errors(robot, chain, r.solutions[:1], T) for r, T in zip(numerical, targets))
     counts = [len(r.solutions) for r in ranked]
@@ -66,8 +73,8 @@ def redundant_workload(robot_name: str, *, n_poses: int = 50, rounds: int = 3, s
             return np.array(seconds)
         return once
 
-    timers = {"ranked": timed(lambda T: manipkit.ik(robot, T, all=True)),
-              "numerical": timed(lambda T: manipkit.ik(robot, T, method="numerical"))}
+    timers = {"ranked": timed(lambda T: manipkit.ik(robot, T, all=True, **frames)),
+              "numerical": timed(lambda T: manipkit.ik(robot, T, method="numerical", **frames))}
     times = in_turns(timers, rounds) if ok else {"ranked": None, "numerical": None}
     ratio = (f"; ranked set / one numerical solve = {np.median(times['ranked']) / np.median(times['numerical']):.3g} "
              "(medians, same poses, timed in turns)" if ok else "")

@@ -340,7 +340,7 @@ def _statics_goals(rows: list[dict], goal) -> None:
 
 def _redundant_goals(rows: list[dict], goal) -> None:
     """Issue 36: a 7R arm's ranked set (16 solutions across the self-motion) in at most 1 ms per pose."""
-    for arm in ("panda", "iiwa14"):
+    for arm in ("panda", "iiwa14", "sawyer"):
         ranked = _find(rows, "redundant", arm, "manipkit ik --all on a 7R")
         if ranked and ranked["median_s"]:
             ms = ranked["median_s"] * 1e3
@@ -596,11 +596,15 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
 
         steps.append(("static torques iiwa14", lambda: statics_workload("iiwa14", **sizes["statics"])))
     if "redundant" in only:
-        from benchmarks.redundant_workload import redundant_workload
+        from benchmarks.redundant_workload import SAWYER, redundant_workload
 
         for robot in ("panda", "iiwa14"):
             steps.append((f"7R ranked set {robot}",
                           lambda robot=robot: redundant_workload(robot, **sizes["redundant"])))
+        if Path(SAWYER[0]).is_file():  # a general 7R (seconds per pose): a tenth of the poses
+            few = dict(sizes["redundant"], n_poses=max(2, sizes["redundant"]["n_poses"] // 10))
+            steps.append(("7R ranked set sawyer", lambda: redundant_workload(SAWYER[0], base=SAWYER[1], tip=SAWYER[2],
+                                                                             label="sawyer", **few)))
     if "general6r" in only:
         from benchmarks.bench_general6r import general6r_workload
 

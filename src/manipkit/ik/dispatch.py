@@ -19,13 +19,15 @@ its geometry: :func:`manipkit.ik.textbook.closed_form_solves`); a chain of 6
 revolute joints with none gets every isolated solution by algebraic
 elimination (:mod:`manipkit.ik.general6r`: ``method`` ``"algebraic"``,
 ``arm_family`` ``"general 6R"``; ``method="algebraic"`` asks for it on any 6R
-chain and refuses others); else numerical IK; the result's ``method`` says
+chain and refuses others), and so does a 7R revolute chain with one joint
+locked (``lock=``) that no closed form holds; else numerical IK; the result's ``method`` says
 which ran, ``arm_family`` the family. ``ik_many`` has no algebraic path
 (a general 6R arm's batch is searched numerically).
 ``method="closed_form"`` refuses a chain without one (the message gives the
 geometric evidence); ``method="numerical"`` always searches. Options a
 solver cannot honour are refused in one line (:class:`manipkit.errors.IKOptionError`),
-never dropped: ``lock`` and ``arm_angle`` only by the closed forms, ``axis``
+never dropped: ``lock`` only by the closed forms and the general 6R solver (one joint of a 7R chain),
+``arm_angle`` only by the closed forms, ``axis``
 (mode ``"position+axis"``) and ``free`` only by numerical IK.
 """
 
@@ -92,6 +94,11 @@ def _closed_form_applies(robot, base: str, tip: str, *, method: str, mode: str, 
         return False
     if closed_form_solves(robot, base, tip, mode=mode, family_tol=family_tol, lock=lock, arm_angle=arm_angle):
         return True
+    if method == "auto" and held == ["lock"] and mode == "pose":
+        from manipkit.ik.general6r import general_solves
+
+        if general_solves(robot.chain(base, tip), family_tol=family_tol, lock=lock):
+            return False  # a general 7R with one joint locked: the elimination holds it
     if method == "closed_form" or held:  # the closed form was asked for, by name or by its options: say why not
         raise IKOptionError(closed_form_refusal(robot, base, tip, mode=mode, family_tol=family_tol, lock=lock,
                                                 arm_angle=arm_angle))
@@ -106,27 +113,26 @@ def _general_applies(robot, base: str, tip: str, *, method: str, mode: str, fami
 
     chain = robot.chain(base, tip)
     if method != "algebraic":
-        return method == "auto" and mode == "pose" and not lock and arm_angle is None and not free and \
-            general_solves(chain, family_tol=family_tol)
-    held = [name for name, given in (("lock", bool(lock)), ("arm_angle", arm_angle is not None), ("free", bool(free)))
-            if given]
+        return method == "auto" and mode == "pose" and arm_angle is None and not free and \
+            general_solves(chain, family_tol=family_tol, lock=lock)
+    held = [name for name, given in (("arm_angle", arm_angle is not None), ("free", bool(free))) if given]
     if held or mode != "pose":
         what = f"{held[0]}=" if held else f"mode {mode!r}"
-        raise IKOptionError(f"the general 6R solver (method='algebraic') solves a pose of 6 revolute joints; it does "
-                            f"not take {what}: leave it out, or use method='auto'")
-    refusal = general_refusal(chain, family_tol=family_tol)
+        raise IKOptionError(f"the general 6R solver (method='algebraic') solves a pose of 6 revolute joints (or 7 "
+                            f"with one locked); it does not take {what}: leave it out, or use method='auto'")
+    refusal = general_refusal(chain, family_tol=family_tol, lock=lock)
     if refusal:
         raise IKOptionError(refusal)
     return True
 
 
-def _general_answer(robot, target, base: str, tip: str, tol, family_tol) -> IKResult:
-    """Every isolated solution of the 6R chain (:func:`manipkit.ik.general6r.general_ik`), rows as whole-robot
-    vectors (the off-chain joints at their defaults, as the closed forms give them)."""
+def _general_answer(robot, target, base: str, tip: str, tol, family_tol, lock) -> IKResult:
+    """Every isolated solution of the 6R chain, or the 7R chain with ``lock`` (:func:`manipkit.ik.general6r.general_ik`),
+    rows as whole-robot vectors (the off-chain joints at their defaults, as the closed forms give them)."""
     from manipkit.ik.general6r import general_ik
 
     chain = robot.chain(base, tip)
-    result = general_ik(chain, target, tol=tol, family_tol=family_tol)
+    result = general_ik(chain, target, tol=tol, family_tol=family_tol, lock=lock)
     if tuple(chain.joint_names) == tuple(robot.joint_names):
         return result
     Q = np.repeat(np.asarray(robot.q(), dtype=float)[None], len(result.solutions), axis=0)
@@ -184,7 +190,8 @@ def _ranked(robot, base: str, tip: str, *, method: str, all: bool, mode: str, lo
     if parameter is None and (count is not None or rank is not None):
         raise IKOptionError("count= and rank= choose a 7R arm's ranked set across its self-motion: all=True, "
                             "method='auto', a pose, without lock= or arm_angle=, on a 7R chain with a closed form "
-                            "per value of its arm angle or of a locked joint")
+                            "per value of its arm angle or of a locked joint, or a general 7R whose end joint locked "
+                            "leaves a 6R arm the elimination solves")
     return parameter
 
 
@@ -227,7 +234,9 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
         meeting when its closed-form family is found.
     lock : dict of str to float, keyword-only
         Closed forms: joints held at a value (a 7R arm solved as the 6R arm
-        of the others); refused where no closed form can hold them.
+        of the others); on a 7R revolute chain whose locked 6R arm has no
+        closed form, one joint held by the general 6R elimination (every
+        isolated solution, ``method`` ``"algebraic"``); refused elsewhere.
     arm_angle : float or array_like, keyword-only
         Closed forms of 7R SRS arms (iiwa14): the arm angle (rad).
     q0 : array_like or dict, keyword-only
@@ -295,7 +304,7 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
     if closed or general:
         from manipkit.ik.textbook import analytic_ik
 
-        result = (_general_answer(robot, target, base, tip, tol, family_tol) if general else
+        result = (_general_answer(robot, target, base, tip, tol, family_tol, lock) if general else
                   analytic_ik(robot, target, base, tip, mode=mode, tol=tol, family_tol=family_tol, lock=lock,
                               arm_angle=arm_angle))
         if mark is not None:

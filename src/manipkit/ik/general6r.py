@@ -30,8 +30,23 @@ without branch names, and a caller filtering on ``"closed_form"`` should not
 take it for one. Not ``"numerical"``: it is complete (every isolated root),
 which a search from starts is not.
 
+A 7R chain with one joint locked (``lock={name: value}``, rad: a general 7R
+arm such as the Sawyer, solved at one value of its redundancy) is the 6R
+chain of the others: the locked joint's motion ``E_k`` at its value folds
+into the geometry (:func:`locked_geometry`), rows are 7-joint chain vectors
+with the locked joint at exactly its value, and Newton refinement moves the
+other six only. What is kept across locked values: the 7R chain's axes
+(:func:`~manipkit.ik.families.chain_family`, once), and the ranking of the
+elimination's ways, found once per (chain, locked joint) at the joint's
+reference value and reused for every value (the solve falls back along it
+where a way is degenerate or poorly conditioned). Locking the last joint
+folds it into ``M`` and the first into the target, so the six axes, and the
+elimination prepared on them, are the same arrays at every value; a joint in
+the middle moves the axes on one side of it, which the elimination prepares
+again per value (under a millisecond).
+
 Covered: chains of exactly 6 revolute joints (one axis each: no mimic
-joints). Prismatic joints are not covered (:class:`IKOptionError`; numerical
+joints), or 7 with one locked. Prismatic joints are not covered (:class:`IKOptionError`; numerical
 IK answers them). At a target where every elimination is degenerate (a
 singular target, reached by a continuum) the rows are those numerical IK finds
 from 50 starts (the note says completeness is not proven there), ``count``
@@ -51,7 +66,7 @@ from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.general6r import ranked_ways, solve_way
 from manipkit.errors import ClosedFormIKError, IKOptionError
-from manipkit.ik.families import FAMILY_TOL, NONE, chain_family
+from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
 from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
@@ -59,7 +74,8 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "general_ik", "general_refusal", "general_solves", "general_ways"]
+__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "general_ik", "general_refusal", "general_solves", "general_ways",
+           "locked_geometry"]
 
 #: ``IKResult.method`` of this solver's answers.
 ALGEBRAIC = "algebraic"
@@ -72,29 +88,39 @@ TWO_PI = 2.0 * math.pi
 _POOR = 1e-6
 
 
-def general_refusal(chain: Chain, *, family_tol=FAMILY_TOL) -> str:
-    """``""`` when :func:`general_ik` takes ``chain``; else one line saying why not."""
+def general_refusal(chain: Chain, *, family_tol=FAMILY_TOL, lock=None) -> str:
+    """``""`` when :func:`general_ik` takes ``chain`` (with ``lock``); else one line saying why not."""
     names = ", ".join(chain.joint_names) or "no joints"
-    if chain.n != 6:
+    lock = dict(lock or {})
+    if lock and (chain.n != 7 or len(lock) != 1):
+        return (f"the general 6R solver does not take lock= here: it holds exactly one joint of a 7-joint chain; "
+                f"{chain.base} -> {chain.tip} has {chain.n} joint(s) ({names}) and {len(lock)} locked")
+    if not lock and chain.n != 6:
         return (f"the general 6R solver takes a chain of 6 joints; {chain.base} -> {chain.tip} has {chain.n} "
-                f"({names}): choose frames with 6 joints between them, or use numerical IK")
-    try:
+                f"({names}): choose frames with 6 joints between them, lock one of 7 (lock=), or use numerical IK")
+    unknown = [name for name in lock if name not in chain.joint_names]
+    if unknown:
+        return (f"cannot lock '{unknown[0]}': it is not a joint of the chain {chain.base} -> {chain.tip} ({names})")
+    try:  # the unlocked chain's axes (read once per chain): which joints are prismatic does not depend on a value
         family = chain_family(chain, tol=family_tol)
     except ClosedFormIKError as exc:
         return f"the general 6R solver cannot read the chain {chain.base} -> {chain.tip}: {exc}"
     prismatic = [chain.joint_names[int(c)] for c, p in zip(family.geometry.columns, family.geometry.prismatic) if p]
+    value = next(iter(lock.values()), 0.0)
+    if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(float(value)):
+        return f"cannot lock '{next(iter(lock))}' at {value!r:.40}: give a finite value (rad)"
     if prismatic:
-        return (f"the general 6R solver covers 6 revolute joints; {', '.join(prismatic)} "
+        return (f"the general 6R solver covers revolute joints; {', '.join(prismatic)} "
                 f"{'is' if len(prismatic) == 1 else 'are'} prismatic (not covered): use numerical IK")
     return ""
 
 
-def general_solves(chain: Chain, *, family_tol=FAMILY_TOL) -> bool:
-    """Whether ``method="auto"`` answers ``chain`` with :func:`general_ik`: 6 revolute joints and no closed-form
-    family within ``family_tol`` (a chain with one gets its closed form)."""
-    if chain.n != 6 or general_refusal(chain, family_tol=family_tol):
+def general_solves(chain: Chain, *, family_tol=FAMILY_TOL, lock=None) -> bool:
+    """Whether ``method="auto"`` answers ``chain`` with :func:`general_ik`: 6 revolute joints (or 7 with one
+    locked) and no closed-form family within ``family_tol`` (a chain with one gets its closed form)."""
+    if chain.n != (7 if lock else 6) or general_refusal(chain, family_tol=family_tol, lock=lock):
         return False
-    return chain_family(chain, tol=family_tol).kind == NONE
+    return chain_family(chain, tol=family_tol, lock=lock or None).kind == NONE
 
 
 def general_ways(chain: Chain, *, family_tol=FAMILY_TOL) -> tuple[tuple[int, bool], ...]:
@@ -107,6 +133,61 @@ def _ways(chain: Chain, family_tol) -> tuple:
     """(geometry, the ways its loop eliminates, best first) of ``chain``: found once per chain's axes."""
     geometry = chain_family(chain, tol=family_tol).geometry
     return geometry, ranked_ways(geometry.direction, geometry.point)
+
+
+def locked_geometry(chain: Chain, name: str, value: float, *, family_tol=FAMILY_TOL) -> tuple[Geometry, np.ndarray]:
+    """(the 6R geometry, ``L``) of the 7R ``chain`` with joint ``name`` locked at ``value`` (rad):
+    ``T_base_tip = L E'_1 ... E'_6 M'`` with the six other joints' axes and ``M'`` of the returned geometry.
+
+    With ``E_k`` the locked joint's motion at its value in the 7R product ``T = E_1 ... E_7 M`` (axes at the
+    reference configuration ``q0``): for a joint in the first half, ``E_1 ... E_k = E_k (E_k^-1 E_1 E_k) ...``,
+    so ``L = E_k`` and the axes before it are moved by ``E_k^-1``; otherwise ``... E_k ... E_7 = ... (E_k E_j
+    E_k^-1) ... E_k``, so ``L = I``, the axes after it are moved by ``E_k`` and ``M' = E_k M``. The first and the
+    last joint move no axis. ``q0`` of the geometry holds ``value`` in the locked column.
+    """
+    from manipkit.closed_form.general6r import poe_fk
+
+    base = chain_family(chain, tol=family_tol).geometry
+    column = chain.joint_names.index(name)
+    k = int(np.flatnonzero(base.columns == column)[0])
+    angle = float(base.scale[k]) * (float(value) - float(base.q0[column]))
+    E = poe_fk(base.direction[k:k + 1], base.point[k:k + 1], np.array([angle]))
+    h, p = base.direction.copy(), base.point.copy()
+    L, M = np.eye(4), base.M
+    side = np.arange(k) if k < 3 else np.arange(k + 1, len(h))
+    move = invert_transform(E, check=False) if k < 3 else E
+    if len(side):
+        h[side] = h[side] @ move[:3, :3].T
+        p[side] = p[side] @ move[:3, :3].T + move[:3, 3]
+    if k < 3:
+        L = E
+    else:
+        M = E @ base.M
+    keep = np.array([i for i in range(len(h)) if i != k], dtype=np.intp)
+    q0 = base.q0.copy()
+    q0[column] = float(value)
+    geometry = Geometry(h[keep], p[keep], base.scale[keep], base.prismatic[keep], q0, M, base.columns[keep])
+    return geometry, L
+
+
+def _locked_ways(chain: Chain, name: str, family_tol) -> tuple:
+    """The ways of the 7R ``chain`` with ``name`` locked, ranked once at the joint's reference value and kept."""
+    key = (id(chain), name, repr(family_tol))
+    cached = _LOCKED_WAYS.get(key)
+    if cached is not None and cached[0] is chain:
+        return cached[1]
+    base = chain_family(chain, tol=family_tol).geometry
+    reference = float(base.q0[chain.joint_names.index(name)])
+    geometry, _ = locked_geometry(chain, name, reference, family_tol=family_tol)
+    ways = ranked_ways(geometry.direction, geometry.point)
+    if len(_LOCKED_WAYS) >= 64:
+        _LOCKED_WAYS.pop(next(iter(_LOCKED_WAYS)), None)
+    _LOCKED_WAYS[key] = (chain, ways)  # the chain is held, so its id is not reused while the entry lives
+    return ways
+
+
+#: (id(chain), locked joint, family_tol) -> (chain, its ranked ways).
+_LOCKED_WAYS: dict = {}
 
 
 def _roots(geometry, ways: tuple, g: np.ndarray) -> tuple[np.ndarray, list[str], int]:
@@ -147,13 +228,15 @@ def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
     return np.concatenate([T[:3, 3] - reached[:3, 3], np.asarray(axis) * float(angle)])
 
 
-def _refine(chain: Chain, T: np.ndarray, q: np.ndarray, steps: int, tol: float) -> np.ndarray:
-    """``q`` after at most ``steps`` Gauss-Newton steps (least squares on the chain's Jacobian) towards ``T``."""
+def _refine(chain: Chain, T: np.ndarray, q: np.ndarray, steps: int, tol: float, columns: np.ndarray) -> np.ndarray:
+    """``q`` after at most ``steps`` Gauss-Newton steps (least squares on the chain's Jacobian columns ``columns``,
+    the others held) towards ``T``."""
+    q = q.copy()
     for _ in range(steps):
         error = _pose_error(T, chain.fk(q))
         if float(np.abs(error).max()) <= tol:
             break
-        q = q + np.linalg.lstsq(chain.jacobian(q), error, rcond=None)[0]
+        q[columns] += np.linalg.lstsq(chain.jacobian(q)[:, columns], error, rcond=None)[0]
     return q
 
 
@@ -200,13 +283,15 @@ def _singular_family(chain: Chain, T: np.ndarray, check: tuple[float, float], re
                     method=ALGEBRAIC, arm_family=GENERAL_6R, iterations=found.iterations, attempts=found.attempts)
 
 
-def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20) -> IKResult:
-    """Every isolated IK solution of a 6R ``chain`` for ``T_base_tip = target``, by algebraic elimination.
+def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20,
+               lock=None) -> IKResult:
+    """Every isolated IK solution of a 6R ``chain`` (or a 7R one with a joint locked) for ``T_base_tip = target``,
+    by algebraic elimination.
 
     Parameters
     ----------
     chain : manipkit.kinematics.chain.Chain
-        ``robot.chain(base, tip)`` with 6 revolute joints.
+        ``robot.chain(base, tip)`` with 6 revolute joints, or 7 with ``lock``.
     target : array_like, shape (4, 4)
         ``T_base_tip`` (metres).
     tol : float or (float, float), keyword-only
@@ -216,6 +301,9 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
         The tolerance the chain's axes are read with (:func:`~manipkit.ik.families.chain_family`).
     max_iters : int, keyword-only
         Newton steps at most per refined row.
+    lock : dict of str to float, keyword-only
+        On a 7R chain, the one joint held and its value (rad): the 6R chain of the others is solved
+        (:func:`locked_geometry`); every row holds the locked joint at exactly this value.
 
     Returns
     -------
@@ -230,7 +318,7 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     Raises
     ------
     IKOptionError
-        The chain is not 6 revolute joints (the message says what it has).
+        The chain is not 6 revolute joints, or 7 with one locked (the message says what it has).
     InvalidTransformError
         ``target`` is not a 4x4 homogeneous transform.
 
@@ -244,21 +332,31 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     ('algebraic', 'general 6R', 8, True)
     """
     # Over 80 lines: the parts of one honest answer (solve, map, check, refine, limits, note) in order.
-    refusal = general_refusal(chain, family_tol=family_tol)
+    refusal = general_refusal(chain, family_tol=family_tol, lock=lock)
     if refusal:
         raise IKOptionError(refusal)
     check = tolerances(tol, error=IKOptionError, what="tol")
     T = check_transform(target, what="IK target")
     T_check = np.array(T, dtype=float)
     T_check[:3, :3] = projected_rotation(T_check[:3, :3])
-    geometry, ways = _ways(chain, family_tol)
-    g = T_check @ invert_transform(geometry.M, check=False)
+    held = None  # (column, value) of a locked joint
+    if lock:
+        (name, value), = dict(lock).items()
+        held = (chain.joint_names.index(name), float(value))
+        geometry, L = locked_geometry(chain, name, held[1], family_tol=family_tol)
+        ways = _locked_ways(chain, name, family_tol)
+        g = invert_transform(L, check=False) @ T_check @ invert_transform(geometry.M, check=False)
+    else:
+        geometry, ways = _ways(chain, family_tol)
+        g = T_check @ invert_transform(geometry.M, check=False)
     theta, reasons, candidates = _roots(geometry, ways, g)
     columns = geometry.columns
     lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
     Q = np.broadcast_to(geometry.q0, (len(theta), chain.n)).copy()
     Q[:, columns] = geometry.q0[columns] + theta / geometry.scale
     Q = _nearest_zero_alias(Q, lower, upper)
+    if held is not None:
+        Q[:, held[0]] = held[1]  # the locked joint at exactly its value, not an alias
     rows, refined, residuals, rejected, worst = [], [], [], 0, 0.0
     if len(Q):
         position, rotation = (np.atleast_1d(e) for e in pose_residuals(T_check, chain.fk(Q), project=False))
@@ -266,9 +364,11 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     for k, q in enumerate(Q):
         p_err, r_err, moved = float(position[k]), float(rotation[k]), 0.0
         if p_err > polish[0] or r_err > polish[1]:
-            better = _refine(chain, T_check, q, max_iters, min(0.1 * min(check), 1e-12))
+            better = _refine(chain, T_check, q, max_iters, min(0.1 * min(check), 1e-12), columns)
             moved = float(np.abs(better - q).max())
             q = _nearest_zero_alias(better[None], lower, upper)[0]
+            if held is not None:
+                q[held[0]] = held[1]
             p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
@@ -298,7 +398,9 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
         parts.append(f"{rejected} root(s) dropped: after refinement FK missed by up to {worst:.3g} (m or rad), "
                      f"beyond tol ({check[0]:.3g} m, {check[1]:.3g} rad)")
     failure = None
-    if not len(Q) and not candidates and len(reasons) == len(ways):
+    if held is not None:
+        parts[0] += f" with {chain.joint_names[held[0]]} locked at {held[1]:.6g} rad"
+    if not len(Q) and not candidates and len(reasons) == len(ways) and held is None:
         family = _singular_family(chain, T_check, check, reasons)
         if family is not None:
             return family

@@ -16,9 +16,17 @@ The parameter (the rule of :func:`redundancy`):
   the one dispatcher (``method="auto"``): the first of the last joint, the
   first joint, then the others from the tip whose locked 6R arm the
   dispatcher solves in closed form (Panda, FR3, xArm7: the last joint,
-  within its limits). A chain with none gets no ranked set (numerical
-  restarts answer, as before); a general 6R solver in the dispatcher
-  makes the last joint qualify without a change here.
+  within its limits);
+- a general 7R arm (no joint leaves a closed form: the Sawyer, a Kinova
+  Gen3, a Flexiv Rizon): the last joint, else the first, whose locked 6R
+  arm the general 6R elimination solves (:func:`manipkit.ik.general6r.general_ik`
+  with ``lock=``; its ways eliminate regularly). An end joint because locking
+  it moves no axis of the other six (it folds into the tip pose or the
+  target), so the 6R arm is the same at every value: the dispatcher's choice
+  of solver holds for all of them (each value is solved with
+  ``method="algebraic"``, without classifying the chain again) and the
+  elimination's preparation is shared. A chain where neither qualifies gets
+  no ranked set (numerical restarts answer, as before).
 
 The inner solve is always the dispatcher: :func:`manipkit.ik.dispatch.ik_many`
 (batched, one call per sweep or bisection round) for the SRS arm angle and
@@ -27,7 +35,15 @@ moved by the locked joint's transform), :func:`manipkit.ik.dispatch.ik` with
 ``lock=`` per value for a locked joint in the middle.
 
 Branches are the closed form's branches (its slot labels, or its row labels
-per value), followed across the sweep by that label. Feasible intervals: the
+per value), followed across the sweep by that label. The elimination names
+no branches: its rows are labelled ``"root 1"``, ``"root 2"``, ... by
+nearest-neighbour continuation (each value's rows matched to the tracks'
+rows at the nearest solved values, interpolated between two, largest joint
+difference modulo 2 pi, among the tracks with a row at the nearest value
+solved on either side; rows left over start new tracks). These
+labels are continuation tracks, not geometric branches: a track ends where
+two roots merge (a fold of the self-motion), and two tracks crossing near one
+value may swap. Feasible intervals: the
 parameter is swept at steps of at most ``step`` (rad; both ends included),
 a sample is feasible for a branch when the branch exists there, passes the
 forward-kinematics check and lies inside every joint limit; each change
@@ -55,6 +71,7 @@ closest checked pair of a collision checker (negative: penetration).
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -65,6 +82,7 @@ from manipkit.bounds import count as bounded_count
 from manipkit.bounds import tolerances
 from manipkit.errors import IKOptionError
 from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
+from manipkit.ik.general6r import ALGEBRAIC, GENERAL_6R, general_solves, locked_geometry
 from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult
 
 if TYPE_CHECKING:
@@ -151,10 +169,96 @@ def redundancy(robot, base: str, tip: str, *, family_tol=FAMILY_TOL) -> Redundan
                 if kind:
                     found = Redundancy("lock", joint.name, float(joint.lower), float(joint.upper), column, kind)
                     break
+            for column in (6, 0) if found is None else ():
+                joint = chain.joints[column]
+                lock = {joint.name: float(np.clip(0.0, joint.lower, joint.upper))}
+                if general_solves(chain, family_tol=family_tol, lock=lock) and \
+                        _eliminates(chain, joint.name, family_tol):
+                    found = Redundancy("lock", joint.name, float(joint.lower), float(joint.upper), column, GENERAL_6R)
+                    break
     if len(_REDUNDANCY) >= 64:
         _REDUNDANCY.clear()
     _REDUNDANCY[key] = (chain, found)
     return found
+
+
+def _eliminates(chain: Chain, name: str, family_tol) -> bool:
+    """Whether the 7R ``chain`` with ``name`` locked has a regular way of elimination (ranked once per axes)."""
+    from manipkit.closed_form.general6r import ranked_ways
+
+    geometry, _ = locked_geometry(chain, name, 0.0, family_tol=family_tol)
+    return bool(ranked_ways(geometry.direction, geometry.point))
+
+
+class _Tracks:
+    """Nearest-neighbour continuation of unlabelled rows (the general 6R elimination's) across parameter values:
+    :meth:`assign` gives each row of one value the index of its track (new tracks numbered on).
+
+    The tracks alive at a value are those with a row at the nearest value solved below it or above it; each of
+    the value's rows joins the alive track whose expected row (interpolated between its rows either side, else its
+    nearest) is closest (largest joint difference modulo 2 pi; pairs taken closest first, one row per track), and
+    rows left over start new tracks (roots born in pairs at a fold); alive tracks left over end there.
+    """
+
+    def __init__(self):
+        self.solved: list[float] = []  # every value solved, ascending
+        self.values: list[list[float]] = []  # per track: the values it has a row at, ascending
+        self.rows: list[list[np.ndarray]] = []  # per track: its row at each of them
+
+    def _predicted(self, t: int, value: float) -> np.ndarray:
+        """Track ``t``'s row expected at ``value``: interpolated between its samples either side, else its nearest."""
+        values, rows = self.values[t], self.rows[t]
+        i = bisect.bisect_left(values, value)
+        if i < len(values) and values[i] == value:
+            return rows[i]
+        if 0 < i < len(values):
+            v0, v1 = values[i - 1], values[i]
+            return rows[i - 1] + (value - v0) / (v1 - v0) * _wrapped(rows[i] - rows[i - 1])
+        return rows[min(i, len(values) - 1)]
+
+    def _alive(self, value: float) -> list[int]:
+        """The tracks with a row at the nearest solved value below or above ``value`` (or at ``value``)."""
+        i = bisect.bisect_left(self.solved, value)
+        near = {self.solved[k] for k in (i - 1, i) if 0 <= k < len(self.solved)}
+        if i < len(self.solved) and self.solved[i] == value:
+            near = {value}
+        alive = []
+        for t, values in enumerate(self.values):
+            if any(values[j] in near for j in {min(bisect.bisect_left(values, v), len(values) - 1) for v in near}):
+                alive.append(t)
+        return alive
+
+    def assign(self, value: float, rows: np.ndarray) -> list[int]:
+        value = float(value)
+        out = [-1] * len(rows)
+        alive = self._alive(value) if len(rows) else []
+        if alive:
+            guesses = np.array([self._predicted(t, value) for t in alive])  # (alive, n)
+            gap = np.abs(_wrapped(rows[:, None, :] - guesses[None])).max(axis=-1)  # (rows, alive)
+            used = set()
+            for flat in np.argsort(gap, axis=None, kind="stable"):
+                r, a = divmod(int(flat), gap.shape[1])
+                if out[r] < 0 and a not in used:
+                    out[r] = alive[a]
+                    used.add(a)
+        for r in range(len(rows)):
+            if out[r] < 0:
+                self.values.append([])
+                self.rows.append([])
+                out[r] = len(self.values) - 1
+            i = bisect.bisect_left(self.values[out[r]], value)
+            if i < len(self.values[out[r]]) and self.values[out[r]][i] == value:
+                continue  # solved at this value before: the track keeps its row
+            self.values[out[r]].insert(i, value)
+            self.rows[out[r]].insert(i, np.array(rows[r], dtype=float))
+        i = bisect.bisect_left(self.solved, value)
+        if not (i < len(self.solved) and self.solved[i] == value):
+            self.solved.insert(i, value)
+        return out
+
+
+def _wrapped(d: np.ndarray) -> np.ndarray:
+    return np.pi - np.mod(np.pi - d, 2.0 * np.pi)
 
 
 class _Solver:
@@ -173,7 +277,8 @@ class _Solver:
         self.labels: list[str] = []
         self.reached_any = False  # some branch reached the target at some value (inside the limits or not)
         self.sub = None
-        if parameter.kind == "lock" and parameter.column in (0, 6):
+        self.tracks = _Tracks() if parameter.family == GENERAL_6R else None
+        if parameter.kind == "lock" and parameter.column in (0, 6) and self.tracks is None:
             joint = self.chain.joints[parameter.column]
             if parameter.column == 6:  # T = T_base_parent(q1..q6) T_parent_tip(q7)
                 self.sub = (base, joint.parent, robot.chain(joint.parent, tip))
@@ -211,11 +316,16 @@ class _Solver:
     def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ik = self.ik
         rows = []
+        method = "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm at every value
         for value in values:
-            result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, tol=self.tol,
+            result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, tol=self.tol, method=method,
                         family_tol=self.family_tol, lock={self.parameter.name: float(value)})
+            labels = result.labels
+            if self.tracks is not None:
+                chain_rows = np.asarray(result.solutions, dtype=float)[:, self.chain.columns]
+                labels = [f"root {t + 1}" for t in self.tracks.assign(float(value), chain_rows)]
             found = {}
-            for label, q in zip(result.labels, result.solutions):
+            for label, q in zip(labels, result.solutions):
                 if label not in self.labels:
                     self.labels.append(label)
                 found.setdefault(label, q[self.chain.columns])
@@ -513,7 +623,8 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
             note = f"no branch reaches the target {where}"
     result = IKResult(whole, tuple(labels[i] for i in order), len(Q), note, position[order], rotation[order],
                       mode=SPATIAL_POSE, solver="ik.redundant", joint_names=tuple(robot.joint_names),
-                      within_limits=np.ones(len(Q), dtype=bool), method="closed_form",
+                      within_limits=np.ones(len(Q), dtype=bool),
+                      method=ALGEBRAIC if parameter.family == GENERAL_6R else "closed_form",
                       arm_family=(f"7R, {parameter.family}" if parameter.kind == "arm_angle"
                                   else f"7R, {parameter.family} with {parameter.name} locked"),
                       parameter=parameter.label, parameter_values=np.array(values)[order] if values else np.zeros(0),

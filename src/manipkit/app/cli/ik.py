@@ -69,7 +69,7 @@ def register(commands) -> None:
                          "numerical IK finds within the restart budget")
     ik.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
                     help="closed form: hold these joints at a value (rad, or deg with --deg) and solve the others "
-                         "(a 7R arm as a 6R one)")
+                         "(a 7R arm as a 6R one; a general 7R with one joint locked: every solution by elimination)")
     ik.add_argument("--arm-angle", type=float, default=None, metavar="PSI",
                     help="closed form of a 7R SRS arm (iiwa14): the arm angle (rad, or deg with --deg)")
     ik.add_argument("--count", default=None, metavar="N",
@@ -235,7 +235,8 @@ def _header(args, result: IKResult) -> str:
     """The first line: which solver answered (the result's ``method`` and ``arm_family``), how many solutions."""
     frames = f"frame {args.tip} in {args.base}"
     if result.parameter:
-        return (f"closed form ({result.arm_family}, {frames}): {len(result.solutions)} solution(s) across the "
+        solver = "algebraic elimination" if result.method == "algebraic" else "closed form"
+        return (f"{solver} ({result.arm_family}, {frames}): {len(result.solutions)} solution(s) across the "
                 f"self-motion of {result.parameter}, ranked by {result.ranked_by} (best first)\nmode: {result.mode}")
     if result.method == "closed_form":
         found = len(result.solutions)
