@@ -9,12 +9,14 @@ the Dask runner and the per-voxel reduction. Local clusters are real
 ``distributed.LocalCluster``s, as the reach map's own tests start them.
 """
 
+import json
 import warnings
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 
-from manipkit.analysis.reachmap import build, capacity_at, load, payload_map
+from manipkit.analysis.reachmap import base_placement, build, capacity_at, confirm_placement, load, payload_map
 from manipkit.analysis.reachmap.blockstore import ResumeNote
 from manipkit.errors import InputFileError, ReachMapError
 from manipkit.statics.capacity import payload_capacity
@@ -26,7 +28,7 @@ COG_2R = (0.1, 0.05, 0.0)  # m, in ee_link's axes
 MAP_2R = {"voxel": 0.25, "orientations": 8, "samples": 20_000, "holdout": 0, "fp_checks": 0}
 
 
-def hand_capacity_2r(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def hand_capacity_2r(q: np.ndarray, effort=EFFORT_2R, cog=COG_2R) -> tuple[np.ndarray, np.ndarray]:
     """(m_max kg, saturating joint) of the planar 2R, derived by hand.
 
     Its URDF: 1 kg at the middle of each 1 m link and 1 g at the tip (ee_link's inertial).
@@ -35,18 +37,18 @@ def hand_capacity_2r(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     about z at the point (ox, oy) moves a point (x, y) by (-(y - oy), x - ox),
     so joint j holds tau_j = g sum_{i after j} m_i (x_i - ox_j). The CoMs are
     at x = 0.5 c1, c1 + 0.5 c12 and (the 1 g) c1 + c12; the payload at the tip (c1 + c12, s1 + s12)
-    plus R(q1 + q2) (0.1, 0.05): x_p = c1 + c12 + 0.1 c12 - 0.05 s12. Joint 2
+    plus R(q1 + q2) (cx, cy): x_p = c1 + c12 + cx c12 - cy s12. Joint 2
     sits at x = c1. Torque per kg b_j = g (x_p - ox_j); torque unloaded a_j.
     """
     c1, c12, s12 = np.cos(q[:, 0]), np.cos(q[:, 0] + q[:, 1]), np.sin(q[:, 0] + q[:, 1])
     x1, x2, x_tip = 0.5 * c1, c1 + 0.5 * c12, c1 + c12
-    xp = c1 + c12 + COG_2R[0] * c12 - COG_2R[1] * s12
+    xp = c1 + c12 + cog[0] * c12 - cog[1] * s12
     a = np.stack([G * (x1 + x2 + 0.001 * x_tip), G * (x2 - c1 + 0.001 * (x_tip - c1))], axis=1)
     b = np.stack([G * xp, G * (xp - c1)], axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        bound = np.where(b > 0, (EFFORT_2R - a) / b, (-EFFORT_2R - a) / b)
+        bound = np.where(b > 0, (effort - a) / b, (-effort - a) / b)
     bound = np.where(np.abs(b) > 1e-12, bound, np.inf)
-    over = np.abs(a) > EFFORT_2R
+    over = np.abs(a) > effort
     bound = np.where(over, 0.0, bound)
     return bound.min(axis=1), np.where(over.any(axis=1), np.argmax(over, axis=1), np.argmin(bound, axis=1))
 
@@ -185,3 +187,44 @@ def test_bad_input_is_refused_before_any_block(planar_2r, iiwa14, map_2r):
         payload_map(map_2r, planar_2r, block=0)
     with pytest.raises(ReachMapError, match="no payload layer"):
         capacity_at(map_2r, np.eye(4))
+
+
+def test_base_placement_counts_only_the_targets_whose_bin_holds_the_mass(planar_2r, map_2r, layer_2r):
+    rows = np.arange(0, len(map_2r.cert_q), 7)
+    targets = planar_2r.fk(map_2r.cert_q[rows], base="base_link", tip="ee_link")  # each in its own voxel-bin
+    hand, _ = hand_capacity_2r(map_2r.cert_q[rows])
+    mass = 2.0
+    assert 0 < (hand >= mass).sum() < len(rows)
+    xs, ys, yaws = [0.0, 10.0], [0.0], [0.0]  # 10 m away reaches nothing
+    plain = base_placement(layer_2r, targets, xs=xs, ys=ys, yaws=yaws, threshold=0.0)
+    loaded = base_placement(layer_2r, targets, xs=xs, ys=ys, yaws=yaws, threshold=0.0, payload=mass)
+    assert plain.scores[:, 0, 0].tolist() == [len(rows), 0]
+    assert loaded.scores[:, 0, 0].tolist() == [int((hand >= mass).sum()), 0]
+    assert "carrying 2 kg" in loaded.summary()
+    chosen = confirm_placement(layer_2r, loaded, planar_2r, candidates=1)
+    assert chosen.payload == mass and 0 < chosen.confirmed.sum() <= len(rows)
+    held, _ = hand_capacity_2r(chosen.q)  # IK's own configurations, by hand
+    assert np.array_equal(chosen.confirmed, chosen.confirmed & (held >= mass))
+    assert "holding 2 kg there" in chosen.summary()
+    with pytest.raises(ReachMapError, match="no payload layer"):
+        base_placement(map_2r, targets, xs=xs, ys=ys, yaws=yaws, payload=mass)
+
+
+def test_the_command_line_builds_the_layer_and_says_where_it_carries_the_mass(planar_2r, tmp_path):
+    path = tmp_path / "m.zarr"
+    common = ("--robot", "planar_2r", "--voxel", "0.25", "--orientations", "8", "--samples", "20000")
+    out = run_cli("manipkit", "reachmap", *common, "-o", path, "--payload", "0.5@0.1,0.05,0", "--gravity",
+                  "0,-9.81,0", "--format", "json", status=0).stdout
+    answer = json.loads(out)["payload"]
+    saved = load(path)
+    hand, _ = hand_capacity_2r(saved.cert_q, effort=np.array([10.0, 10.0]))  # the URDF's 10 N m limits
+    voxels = saved.cert_keys // saved.orientations.size
+    assert answer["voxels_carrying"] == np.unique(voxels[hand >= 0.5]).size > 0
+    assert answer["reachable_voxels"] == np.unique(voxels).size and answer["mass"] == 0.5
+    assert answer["cog"] == [0.1, 0.05, 0.0] and answer["gravity"] == [0.0, -9.81, 0.0]
+    text = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5@0.1,0.05,0", status=0).stdout
+    assert f"0.5 kg carried in {answer['voxels_carrying']} of {answer['reachable_voxels']} reachable voxels" in text
+    other = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5", status=2)
+    assert other.stderr.count("\n") == 1 and "payload layer for the CoG 0.1,0.05,0" in other.stderr
+    bad = run_cli("manipkit", "reachmap", *common, "-o", tmp_path / "n.zarr", "--payload", "1@0,nan,0", status=2)
+    assert bad.stderr.count("\n") == 1 and not (tmp_path / "n.zarr").exists()

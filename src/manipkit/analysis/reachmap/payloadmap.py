@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from manipkit.analysis.reachmap.map import ReachMap
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "payload_block", "payload_map"]
+__all__ = ["PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "capacity_of", "payload_block", "payload_map"]
 
 PAYLOAD_BLOCK = 1 << 16  # configurations per block (about 20 ms of static torques for a 7-joint arm)
 PAYLOAD_FORMAT = "manipkit-payload-1"
@@ -111,6 +111,29 @@ def _settings(job: PayloadJob, reach_map: ReachMap, block: int) -> dict:
             "block": block, "certificates_sha256": certs}
 
 
+def _root_gravity(robot: Robot, base: str, g_base: np.ndarray) -> np.ndarray:
+    """Gravity (m/s^2) in the root link's axes from the map's base frame's (the base's rotation at the defaults)."""
+    return robot.transform(robot.root_link, base)[:3, :3] @ g_base
+
+
+def capacity_of(reach_map: ReachMap, robot: Robot, Q) -> np.ndarray:
+    """(N,) kg: the capacity at configurations ``Q`` (N, n) for the map's payload layer (its CoG, gravity, limits).
+
+    Raises :class:`ReachMapError` when the map has no payload layer or ``robot`` is not the map's.
+    """
+    from manipkit.statics.capacity import payload_capacity
+
+    layer = reach_map.payload
+    if layer is None:
+        raise ReachMapError("the map has no payload layer: add one with payload_map(map, robot, cog=...)")
+    if robot.name != reach_map.robot or tuple(robot.joint_names) != tuple(reach_map.joint_names):
+        raise ReachMapError(f"the map is of '{printable(reach_map.robot)}'; the robot given is "
+                            f"'{printable(robot.name)}': give the map's robot")
+    cap = payload_capacity(robot, Q, cog=layer.cog, gravity=_root_gravity(robot, reach_map.base, layer.gravity),
+                           effort=np.stack([layer.lower, layer.upper]), base=reach_map.base, tip=reach_map.frame)
+    return np.asarray(cap.max_mass, dtype=float)
+
+
 def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, -9.81), effort=None,
                 workers: int | None = None, scheduler: str | None = None, progress=None, block: int = PAYLOAD_BLOCK,
                 resume_dir: str | Path | None = None) -> ReachMap:
@@ -177,7 +200,7 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
     if isinstance(block, bool) or not isinstance(block, numbers.Integral) or not 1 <= block <= MAX_PAYLOAD_BLOCK:
         raise ReachMapError(f"block {printable(repr(block))[:40]}: give a whole number from 1 to {MAX_PAYLOAD_BLOCK}")
     check_workers(workers)
-    g_root = robot.transform(robot.root_link, reach_map.base)[:3, :3] @ g_base
+    g_root = _root_gravity(robot, reach_map.base, g_base)
     probe = payload_capacity(robot, robot.q(), cog=cog, gravity=g_root, effort=effort, base=reach_map.base,
                              tip=reach_map.frame)  # the limits, and every option checked before a block runs
     job = PayloadJob(robot, reach_map.base, reach_map.frame, cog, g_root, np.stack([probe.lower, probe.upper]))
