@@ -164,6 +164,12 @@ def test_the_layer_is_saved_with_the_map_and_read_back_checked(map_2r, layer_2r,
     arrays["payload_worst"][:] = worst
     with pytest.raises(InputFileError, match="payload_best and payload_worst are not"):
         load(path)
+    import shutil
+
+    broken = layer_2r.save(tmp_path / "b.zarr")
+    shutil.rmtree(broken / "payload_bins")
+    with pytest.raises(InputFileError, match="a payload layer needs its attribute and every one of its arrays"):
+        load(broken)
 
 
 def test_carrying_a_mass_counts_the_voxels_whose_best_capacity_holds_it(map_2r, layer_2r):
