@@ -40,6 +40,7 @@ FULL = {
                        fixed_samples=1_000_000),
     "analytic": dict(n_single=1000, n_batch=10_000, repeats=5),
     "statics": dict(n_batch=100_000, loop_subset=5000, rounds=5),
+    "payload_map": dict(voxel=0.05, directions=200, samples=10_000_000, rounds=3),
     "redundant": dict(n_poses=50, rounds=3),
     "general6r": dict(n_poses=500, rounds=5),
 }
@@ -57,6 +58,7 @@ QUICK = {
                        fixed_samples=5000),
     "analytic": dict(n_single=10, n_batch=50, repeats=1),
     "statics": dict(n_batch=300, loop_subset=50, rounds=1),
+    "payload_map": dict(voxel=0.3, directions=8, samples=5000, rounds=1, checked=50),
     "redundant": dict(n_poses=2, rounds=1),
     "general6r": dict(n_poses=10, rounds=1),
 }
@@ -79,6 +81,7 @@ GROUP_LABELS = {
     "reachmap_collisions": "reachability map, collision-free only",
     "analytic": "closed-form IK of 6R arms, from the URDF (every branch)",
     "statics": "static torques with a payload, batch",
+    "reachmap_payload": "payload map vs the reach map of the same grid",
     "redundant": "7R ranked set across the self-motion (ik --all), per pose",
     "general6r": "general 6R IK (xArm6): every solution vs one numerical solve",
 }
@@ -88,7 +91,7 @@ STEP_OF_GROUP = {
     "jacobian": "jacobian", "gci": "gci", "reachmap_fk": "reachmap", "reachmap_hybrid": "reachmap",
     "reachmap_agreement": "reachmap", "reachmap_dask": "reachmap", "ik_many": "reachmap", "collisions": "collisions",
     "acm": "collisions", "reachmap_collisions": "collisions", "analytic": "analytic", "statics": "statics",
-    "redundant": "redundant",
+    "reachmap_payload": "statics", "redundant": "redundant",
     "general6r": "general6r",
 }
 UNIT_LABEL = {"call": "call", "config": "config", "solve": "solve", "target": "target", "run": "run", "move": "move",
@@ -336,6 +339,14 @@ def _statics_goals(rows: list[dict], goal) -> None:
              "Pinocchio computeStaticTorque", f"{loop['ratio']:.1f}x", loop["ratio"] >= 10,
              f"{loop['ratio'] / 10:.1f}x the goal; timed in turns" if loop["ratio"] >= 10
              else f"missed by {10 / loop['ratio']:.1f}x; timed in turns")
+    layer = _find(rows, "reachmap_payload", "iiwa14", "manipkit payload_map")
+    built = _find(rows, "reachmap_payload", "iiwa14", "manipkit reachmap.build")
+    if layer and layer["median_s"] and built and built.get("voxel_bins", 0) >= 100_000:  # not the quick run's map
+        total = layer["map_and_payload_over_map"]
+        goal("payload map, iiwa14: the map and its payload layer at most 2x the reach map of the same grid",
+             f"{total:.2f}x (the layer alone {layer['payload_over_map']:.3f}x)", total <= 2.0,
+             f"{2.0 / total:.1f}x under the bound; timed in turns" if total <= 2.0
+             else f"missed by {total / 2.0:.1f}x; timed in turns")
 
 
 def _redundant_goals(rows: list[dict], goal) -> None:
@@ -592,9 +603,10 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
                       lambda: w.srs_workload(n_single=min(200, sizes["analytic"]["n_single"]),
                                              n_batch=sizes["analytic"]["n_batch"], repeats=sizes["analytic"]["repeats"])))
     if "statics" in only:
-        from benchmarks.statics_workload import statics_workload
+        from benchmarks.statics_workload import payload_map_workload, statics_workload
 
         steps.append(("static torques iiwa14", lambda: statics_workload("iiwa14", **sizes["statics"])))
+        steps.append(("payload map iiwa14", lambda: payload_map_workload("iiwa14", **sizes["payload_map"])))
     if "redundant" in only:
         from benchmarks.redundant_workload import SAWYER, redundant_workload
 

@@ -7,15 +7,24 @@ Rows as in :mod:`benchmarks.workloads` (:func:`benchmarks.workloads.row`), workl
 tip's body (the same question asked of Pinocchio directly). Every answer of the loop's subset is checked against
 manipkit's to 1e-10 first; a row with wrong answers gets no time. The two are timed in turns (``in_turns``), so a
 change in the machine's load falls on both; the loop's time is per configuration over ``loop_subset`` rows.
+
+Workload ``reachmap_payload`` (:func:`payload_map_workload`): the payload layer of a reach map
+(:func:`manipkit.analysis.reachmap.payload_map`, best and worst capacity per voxel) against the reach map of the same
+grid (``build``, method ``fk``, ``samples`` samples, here on one core), timed in turns in one run; the payload row
+carries ``payload_over_map`` (the layer's time over the map's) and ``map_and_payload_over_map`` (a payload map from
+nothing: the map and its layer, over the map alone; issue 37's goal is at most 2). Its check: ``checked`` stored
+capacities recomputed one configuration at a time by ``payload_capacity``, equal to the bit.
 """
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
 from benchmarks.workloads import in_turns, max_error, row
 
-__all__ = ["statics_workload"]
+__all__ = ["payload_map_workload", "statics_workload"]
 
 
 def statics_workload(robot_name: str = "iiwa14", *, n_batch: int = 100_000, loop_subset: int = 5000, rounds: int = 5,
@@ -61,8 +70,48 @@ def statics_workload(robot_name: str = "iiwa14", *, n_batch: int = 100_000, loop
 
 
 def _seconds(fn) -> float:
-    import time
-
     start = time.perf_counter()
     fn()
     return time.perf_counter() - start
+
+
+def payload_map_workload(robot_name: str = "iiwa14", *, voxel: float = 0.05, directions: int = 200,
+                         samples: int = 10_000_000, rounds: int = 3, checked: int = 500) -> list[dict]:
+    import manipkit
+    from manipkit.analysis.reachmap import build, payload_map
+    from manipkit.statics.capacity import payload_capacity
+
+    robot = manipkit.load(robot_name)
+    cog = (0.0, 0.02, 0.1)
+    options = dict(voxel=voxel, orientations=directions, samples=samples, holdout=0, fp_checks=0)
+    built = {}
+
+    def map_once(r):
+        start = time.perf_counter()
+        built["map"] = build(robot, **options)
+        return time.perf_counter() - start
+
+    def payload_once(r):
+        start = time.perf_counter()
+        built["layer"] = payload_map(built["map"], robot, cog=cog)
+        return time.perf_counter() - start
+
+    times = in_turns({"map": map_once, "payload": payload_once}, rounds)
+    reach_map, layer = built["map"], built["layer"].payload
+    rows = np.random.default_rng(37).choice(len(reach_map.cert_q), size=min(checked, len(reach_map.cert_q)),
+                                            replace=False)
+    again = np.array([float(payload_capacity(robot, reach_map.cert_q[i], cog=cog).max_mass) for i in rows])
+    ok = np.array_equal(again, layer.bins[rows])
+    check = (f"{len(rows)} stored capacities recomputed one configuration at a time by payload_capacity: "
+             f"{'equal' if ok else 'NOT equal'}")
+    m, p = float(np.median(times["map"])), float(np.median(times["payload"]))
+    grid = f"{'x'.join(map(str, reach_map.shape))} voxels of {voxel:g} m, {directions} directions"
+    return [
+        row("reachmap_payload", robot_name, "manipkit reachmap.build (fk), one core", times["map"], unit="map", n=1,
+            ours=True, status="ok", check="the reach map the layer is on", note=f"{grid}, {samples} samples",
+            voxel_bins=int(len(reach_map.cert_q))),
+        row("reachmap_payload", robot_name, "manipkit payload_map on it (best and worst capacity per voxel)",
+            times["payload"] if ok else None, unit="map", n=1, ours=True, status="ok" if ok else "wrong", check=check,
+            note=f"{len(reach_map.cert_q)} configurations (one per reached voxel-bin), CoG {cog} m; timed in turns "
+                 f"with the map", payload_over_map=p / m, map_and_payload_over_map=(m + p) / m),
+    ]

@@ -37,7 +37,7 @@ def test_quick_run_covers_every_workload(quick_run):
     assert {r["workload"] for r in results["rows"]} == {"fk_single", "fk_batch", "ik", "planar", "cold_start", "viewer", "jacobian", "gci",
                                                           "reachmap_fk", "reachmap_hybrid", "ik_many", "reachmap_agreement",
                                                           "reachmap_dask", "collisions", "acm", "reachmap_collisions",
-                                                          "analytic", "statics", "redundant", "general6r"}
+                                                          "analytic", "statics", "reachmap_payload", "redundant", "general6r"}
     assert {r["robot"] for r in results["rows"] if r["workload"] in ("fk_batch", "ik")} == {"iiwa14", "panda"}
 
 

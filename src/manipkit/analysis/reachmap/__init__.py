@@ -9,6 +9,8 @@ only those listed before it:
   (approach directions times rolls, or turns about a planar arm's axis).
 - :mod:`~manipkit.analysis.reachmap.query`: what a map answers for a pose
   (:class:`QueryAnswer`, the support score, IK from the bin's certificate).
+- :mod:`~manipkit.analysis.reachmap.payload`: the payload layer of a map
+  (:class:`PayloadLayer`: best and worst capacity per voxel) and :func:`capacity_at`.
 - :mod:`~manipkit.analysis.reachmap.store`: map folders (Zarr) written
   safely and read back validated.
 - :mod:`~manipkit.analysis.reachmap.map`: the map, :class:`ReachMap`, and :func:`load`.
@@ -19,6 +21,8 @@ only those listed before it:
   :mod:`~manipkit.analysis.reachmap.resume`: one block of a build, the
   stages in order, and what a resumed build's saved blocks are keyed by.
 - :mod:`~manipkit.analysis.reachmap.builder`: :func:`build`, the map of a chain.
+- :mod:`~manipkit.analysis.reachmap.payloadmap`: :func:`payload_map`, the
+  payload layer of a map, in blocks (here or on Dask), resumable.
 - :mod:`~manipkit.analysis.reachmap.plot`: :func:`plot_reachmap`, slices as pictures.
 - :mod:`~manipkit.analysis.reachmap.placement`: :func:`base_placement`,
   inverse reachability (where to put a mobile base).
@@ -45,6 +49,8 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of("manipkit.analysis.reachmap.query", "QueryAnswer"),
     **homes_of("manipkit.analysis.reachmap.orientations", "OrientationSet"),
     **homes_of("manipkit.analysis.reachmap.plot", "plot_reachmap"),
+    **homes_of("manipkit.analysis.reachmap.payload", "PayloadLayer", "capacity_at"),
+    **homes_of("manipkit.analysis.reachmap.payloadmap", "payload_map"),
     **homes_of(
         "manipkit.analysis.reachmap.placement",
         "BasePlacement", "base_placement", "confirm_placement", "placement_transforms", "plot_base_placement",

@@ -39,6 +39,7 @@ from manipkit.text import printable, short_text
 
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap.orientations import OrientationSet
+    from manipkit.analysis.reachmap.payload import PayloadLayer
     from manipkit.kinematics.robot import Robot
 
 __all__ = ["ReachMap", "load"]
@@ -78,6 +79,10 @@ class ReachMap:
         when the map was built with ``manipulability=False``.
     manipulability_mean : ndarray, shape (nx, ny, nz), or None
         The mean over those configurations.
+    payload : PayloadLayer or None
+        Per voxel the best and worst payload capacity (kg) for one CoG and
+        gravity (:mod:`manipkit.analysis.reachmap.payload`; added by
+        :func:`manipkit.analysis.reachmap.payloadmap.payload_map`), or None.
     """
 
     reach: np.ndarray
@@ -98,6 +103,7 @@ class ReachMap:
     manipulability_mean: np.ndarray | None = None
     cert_keys: np.ndarray | None = None
     cert_q: np.ndarray | None = None
+    payload: PayloadLayer | None = None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -204,6 +210,7 @@ class ReachMap:
             f"({printable(str(self.settings.get('samples', 0)))} samples, seed {printable(str(self.settings.get('seed', 0)))})",
             *self.checks_text(),
             *([self.manipulability_text()] if self.manipulability is not None else []),
+            *([self.payload_text()] if self.payload is not None else []),
             *([_collisions_text(self.settings["collisions"])] if self.settings.get("collisions") else []),
         ])
 
@@ -233,6 +240,25 @@ class ReachMap:
                 f"({', '.join(short_text(v, 4) for v in where)}) m; mean over the reachable voxels "
                 f"{short_text(float(np.nanmean(self.manipulability_mean)), 4)}")
 
+    def payload_text(self, mass: float | None = None) -> str:
+        """One line about the payload layer: its CoG and gravity, the largest best capacity, and with ``mass`` (kg)
+        the voxels whose best (some reached bin) and worst (every reached bin) capacity is at least ``mass``."""
+        layer = self.payload
+        cog = ", ".join(short_text(v, 4) for v in layer.cog)
+        g = ", ".join(short_text(v, 4) for v in layer.gravity)
+        reached = ~np.isnan(layer.best)
+        top = float(np.nanmax(layer.best)) if reached.any() else math.nan
+        head = (f"payload (CoG ({cog}) m in {printable(self.frame)}'s axes, gravity ({g}) m/s^2 in "
+                f"{printable(self.base)}, the configuration stored per voxel-bin): ")
+        if mass is None:
+            return head + (f"the largest capacity {short_text(top, 4)} kg" if reached.any() else "no voxel reached")
+        cell = self.voxel ** (2 if self.orientations.kind == "planar" else 3)
+        unit = "m^2" if self.orientations.kind == "planar" else "m^3"
+        some, every = int(layer.carries(mass).sum()), int(layer.carries_everywhere(mass).sum())
+        return (head + f"{short_text(float(mass), 4)} kg carried in {some} of {int(reached.sum())} reachable voxels "
+                f"({short_text(some * cell, 4)} {unit}) in at least one orientation bin, in {every} in every reached "
+                f"bin ({short_text(self.voxel)} m voxels, {self.orientations.size} orientation bins)")
+
     def save(self, path) -> Path:
         """Write the map to the Zarr folder ``path`` (replacing a map there; never another folder); returns it.
 
@@ -247,6 +273,7 @@ class ReachMap:
             "origin": self.origin.tolist(), "axes": self.axes.tolist(), "method": self.method,
             "orientations": self.orientations.attrs(), "joint_names": list(self.joint_names),
             "settings": json.loads(json.dumps(self.settings)),
+            **({"payload": self.payload.attrs()} if self.payload is not None else {}),
         }
 
 

@@ -21,6 +21,15 @@ the number of targets the map says yes to from it, at the map's resolution
 for every full target pose from each (seeded from the bin's certificate,
 confirmed by FK, collision-free when collisions are given): the placement
 chosen is the one with the most targets IK confirms.
+
+**Carrying a payload** (``payload=MASS``, kg; the map needs a payload layer,
+:func:`manipkit.analysis.reachmap.payloadmap.payload_map`): a target counts
+only when the map says yes to it and the configuration stored for its
+voxel-bin holds ``MASS`` at the layer's CoG
+(:func:`manipkit.analysis.reachmap.payload.capacity_at`), so placements are
+ranked by the share of targets reachable while carrying the mass; and
+:func:`confirm_placement` counts an IK answer only when it holds the mass too
+(:func:`manipkit.analysis.reachmap.payloadmap.capacity_of`).
 """
 
 from __future__ import annotations
@@ -66,6 +75,8 @@ class BasePlacement:
         ``T_F_target``.
     threshold : float
         The least support a counted target had (:meth:`ReachMap.query`; 0: every target in a reached voxel-bin).
+    payload : float or None
+        kg: a counted target's voxel-bin also holds this payload (module docstring); None: no payload asked.
     """
 
     xs: np.ndarray
@@ -74,6 +85,7 @@ class BasePlacement:
     scores: np.ndarray
     targets: np.ndarray
     threshold: float = DEFAULT_THRESHOLD
+    payload: float | None = None
 
     @property
     def best(self) -> tuple[float, float, float, int]:
@@ -84,9 +96,10 @@ class BasePlacement:
     def summary(self) -> str:
         """One line: the best placement and how many targets the map says it reaches."""
         x, y, yaw, score = self.best
+        carrying = "" if self.payload is None else f" carrying {short_text(self.payload, 4)} kg"
         return (f"best base placement x {short_text(x, 4)} m, y {short_text(y, 4)} m, yaw "
-                f"{short_text(math.degrees(yaw), 4)} deg: the map says yes to {score} of {len(self.targets)} targets "
-                f"({len(self.xs)}x{len(self.ys)}x{len(self.yaws)} placements tried)")
+                f"{short_text(math.degrees(yaw), 4)} deg: the map says yes to {score} of {len(self.targets)} targets"
+                f"{carrying} ({len(self.xs)}x{len(self.ys)}x{len(self.yaws)} placements tried)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,13 +130,15 @@ class ConfirmedPlacement:
     map_score: int
     resolution: str
     candidates: int
+    payload: float | None = None
 
     def summary(self) -> str:
         """Two lines: the placement and the targets IK confirms; the map's estimate and what it means."""
         n = len(self.confirmed)
+        carrying = "" if self.payload is None else f", holding {short_text(self.payload, 4)} kg there"
         return (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
                 f"{short_text(math.degrees(self.yaw), 4)} deg: IK confirms {int(self.confirmed.sum())} of {n} targets "
-                f"(full pose, by FK; best of the map's {self.candidates} best-scored placements)\n"
+                f"(full pose, by FK{carrying}; best of the map's {self.candidates} best-scored placements)\n"
                 f"the map estimates {self.map_score} of {n} from there, counting the targets it says yes to; a yes "
                 f"means: {self.resolution}")
 
@@ -134,8 +149,9 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
 
     ``robot`` is the robot the map is of; ``mount`` as in :func:`base_placement`;
     ``collisions`` (:class:`manipkit.kinematics.collisions.CollisionSettings`)
-    counts only collision-free answers. Ties go to the higher map score, then
-    to the first in x, y, yaw order.
+    counts only collision-free answers; with ``result.payload`` (kg) an answer
+    counts only when it also holds that payload (the map's payload layer's CoG,
+    gravity and limits). Ties go to the higher map score, then to the first in x, y, yaw order.
     """
     from manipkit.analysis.reachmap.query import query_answer, resolution_text
 
@@ -151,9 +167,15 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
         T_B_target = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(x, y, yaw)) @ result.targets
         answer = query_answer(reach_map, T_B_target, confirm=True, robot=robot, tol=tol, restarts=restarts, seed=seed,
                               collisions=collisions)
-        if best is None or answer.confirmed.sum() > best.confirmed.sum():
-            best = ConfirmedPlacement(x, y, yaw, answer.confirmed, answer.q, int(flat[rank]),
-                                      resolution_text(reach_map, threshold=result.threshold), len(order))
+        confirmed = np.array(answer.confirmed, dtype=bool)
+        if result.payload is not None and confirmed.any():
+            from manipkit.analysis.reachmap.payloadmap import capacity_of
+
+            confirmed[confirmed] = capacity_of(reach_map, robot, answer.q[confirmed]) >= result.payload
+        if best is None or confirmed.sum() > best.confirmed.sum():
+            best = ConfirmedPlacement(x, y, yaw, confirmed, answer.q, int(flat[rank]),
+                                      resolution_text(reach_map, threshold=result.threshold), len(order),
+                                      result.payload)
     return best
 
 
@@ -181,7 +203,7 @@ def reach_radius(reach_map: ReachMap) -> float:
 
 
 def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, step: float | None = None,
-                   mount=None, threshold: float = DEFAULT_THRESHOLD) -> BasePlacement:
+                   mount=None, threshold: float = DEFAULT_THRESHOLD, payload: float | None = None) -> BasePlacement:
     """Score floor placements ``(x, y, yaw)`` by the targets the arm reaches from each.
 
     Parameters
@@ -203,6 +225,9 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
         A target counts when the map says yes to it with this threshold
         (:meth:`ReachMap.query`: its voxel-bin reached and its support at
         least ``threshold``; 0: every target in a reached voxel-bin).
+    payload : float, optional
+        kg: count a target only when its voxel-bin's stored configuration also
+        holds this payload (the map's payload layer; module docstring).
 
     Returns
     -------
@@ -235,6 +260,13 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
                             "shape (K, 4, 4)")
     mount = np.eye(4) if mount is None else finite_array(mount, "mount", (4, 4), "the 4x4 T_P_B")
     threshold = check_threshold(threshold)
+    if payload is not None:
+        if isinstance(payload, bool) or not isinstance(payload, numbers.Real) or not 0 <= payload < math.inf:
+            raise ReachMapError(f"payload {repr_text(payload)}: give the mass to carry, a finite number >= 0 kg")
+        if reach_map.payload is None:
+            raise ReachMapError("payload: the map has no payload layer; add one with "
+                                "manipkit.reachmap.payload_map(map, robot, cog=...)")
+        payload = float(payload)
     if mount.shape != (4, 4):
         raise ReachMapError(f"mount has shape {mount.shape}; give one 4x4 transform T_P_B")
     for name, values in (("targets", T[:, :3, 3]), ("mount", mount[:3, 3]), ("xs", xs), ("ys", ys)):
@@ -283,9 +315,13 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
             T_P_F[..., :3, :3] = R_t
             T_P_F[..., :3, 3] = -np.einsum("...ij,...j->...i", R_t, T_F_P[..., :3, 3])
             T_B_target = mount_inv @ T_P_F[..., None, :, :] @ T  # (batch, K, 4, 4)
-            scores.reshape(-1, len(yaws))[start:start + batch, k] = reach_map.query(T_B_target, threshold=threshold).sum(
-                axis=-1)
-    return BasePlacement(xs, ys, yaws, scores, T, threshold)
+            yes = reach_map.query(T_B_target, threshold=threshold)
+            if payload is not None:
+                from manipkit.analysis.reachmap.payload import capacity_at
+
+                yes &= capacity_at(reach_map, T_B_target) >= payload  # NaN (not reached) holds nothing
+            scores.reshape(-1, len(yaws))[start:start + batch, k] = yes.sum(axis=-1)
+    return BasePlacement(xs, ys, yaws, scores, T, threshold, payload)
 
 
 def plot_base_placement(result: BasePlacement, path, *, title: str | None = None) -> None:

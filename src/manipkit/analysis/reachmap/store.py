@@ -60,6 +60,7 @@ from manipkit.analysis.reachmap.constants import (
     map_bytes,
 )
 from manipkit.analysis.reachmap.orientations import planar_orientations, spatial_orientations
+from manipkit.analysis.reachmap.payload import PAYLOAD_ARRAYS, PayloadInvalid, layer_from_stored
 from manipkit.errors import InputFileError, OutputError
 from manipkit.inputs import MAX_TABLE_BYTES, read_text
 from manipkit.outputs import cannot_write
@@ -71,9 +72,11 @@ if TYPE_CHECKING:
 __all__ = ["MAP_ARRAYS", "MAX_JSON_DEPTH", "read_map", "resume_folder", "save_map", "writable_map_path",
            "zstd_content_size"]
 
-#: The arrays of a map and their data types; the last two only in a map built with the manipulability overlay.
+#: The arrays of a map and their data types; the manipulability ones only in a map built with the overlay, the
+#: payload ones only in a map with a payload layer (:mod:`manipkit.analysis.reachmap.payload`).
 MAP_ARRAYS = {"reach": "uint8", "voxel_q": "float64", "ik_keys": "int64", "ik_q": "float64",
-              "cert_keys": "int64", "cert_q": "float64", "manipulability": "float64", "manipulability_mean": "float64"}
+              "cert_keys": "int64", "cert_q": "float64", "manipulability": "float64", "manipulability_mean": "float64",
+              **PAYLOAD_ARRAYS}
 MAX_JSON_DEPTH = 32  # nesting of a map's metadata (manipkit writes 4)
 MAX_NAME_CHARS = 1000  # a robot, frame or joint name
 MAX_JOINTS = 1000
@@ -177,6 +180,12 @@ def _write_arrays(reach_map: ReachMap, folder: Path) -> None:
     if reach_map.manipulability is not None:
         root.create_array("manipulability", data=reach_map.manipulability, chunks=chunk[:3], **options)
         root.create_array("manipulability_mean", data=reach_map.manipulability_mean, chunks=chunk[:3], **options)
+    if reach_map.payload is not None:
+        layer = reach_map.payload
+        for name, values in (("payload_best", layer.best), ("payload_worst", layer.worst),
+                             ("payload_saturating", layer.saturating.astype(np.int64))):
+            root.create_array(name, data=values, chunks=chunk[:3], **options)
+        root.create_array("payload_bins", data=layer.bins, chunks=(cert_rows,), **options)
     root.attrs.update(reach_map.attrs())
 
 
@@ -322,7 +331,9 @@ def read_map(path) -> dict:
         a = _checked_attributes(meta)
         arrays = _read_arrays(path, a)
         _check_contents(arrays)
-    except _Invalid as exc:
+        payload = None if "payload" not in a else layer_from_stored(
+            a["payload"], arrays, arrays["cert_keys"], a["orientations"].size, a["joint_names"])
+    except (_Invalid, PayloadInvalid) as exc:
         raise InputFileError(f"{invalid}: {exc}; rebuild it with 'manipkit reachmap'") from None
     except OSError as exc:
         raise InputFileError(f"{shown}: cannot be read ({exc.strerror or exc})") from None
@@ -331,7 +342,7 @@ def read_map(path) -> dict:
             "base": a["base"], "joint_names": a["joint_names"], "voxel_q": arrays["voxel_q"],
             "ik_keys": arrays["ik_keys"], "ik_q": arrays["ik_q"], "settings": a["settings"],
             "manipulability": arrays.get("manipulability"), "manipulability_mean": arrays.get("manipulability_mean"),
-            "cert_keys": arrays["cert_keys"], "cert_q": arrays["cert_q"]}
+            "cert_keys": arrays["cert_keys"], "cert_q": arrays["cert_q"], "payload": payload}
 
 
 def _real(value, what: str, low: float = -math.inf, high: float = math.inf) -> float:
@@ -465,6 +476,8 @@ def _checked_attributes(meta) -> dict:
         raise _Invalid(f"settings.collisions must be a table of {', '.join(sorted(_COLLISION_KEYS))}")
     _checked_build_record(settings)
     out["settings"] = dict(settings)
+    if "payload" in a:
+        out["payload"] = a["payload"]  # checked with its arrays (payload.layer_from_stored)
     return out
 
 
@@ -498,13 +511,18 @@ def _read_arrays(path: Path, a: dict) -> dict:
     missing = [name for name in ("reach", "voxel_q", "ik_keys", "ik_q", "cert_keys", "cert_q") if name not in names]
     if missing or len(overlay) == 1:
         raise _Invalid(f"array {(missing or ['manipulability', 'manipulability_mean'])[0]} is missing")
+    layer = [name for name in PAYLOAD_ARRAYS if name in names]
+    if layer and len(layer) != len(PAYLOAD_ARRAYS) or bool(layer) != ("payload" in a):
+        raise _Invalid("a payload layer needs its attribute and every one of its arrays "
+                       f"({', '.join(PAYLOAD_ARRAYS)})")
     metas = {name: _array_meta(path, name) for name in names}
     shape, n_joints, n_bins = metas["reach"][0], len(a["joint_names"]), a["orientations"].size
     grid = shape[:3]
     K = metas["ik_keys"][0][0] if len(metas["ik_keys"][0]) == 1 else -1
     C = metas["cert_keys"][0][0] if len(metas["cert_keys"][0]) == 1 else -1
     expected = {"reach": grid + (n_bins,), "voxel_q": grid + (n_joints,), "ik_keys": (K,), "ik_q": (K, n_joints),
-                "cert_keys": (C,), "cert_q": (C, n_joints), "manipulability": grid, "manipulability_mean": grid}
+                "cert_keys": (C,), "cert_q": (C, n_joints), "manipulability": grid, "manipulability_mean": grid,
+                "payload_best": grid, "payload_worst": grid, "payload_saturating": grid, "payload_bins": (C,)}
     if len(shape) != 4 or shape[3] != n_bins or any(metas[n][0] != expected[n] for n in names) or min(K, C) < 0:
         raise _Invalid(f"array shapes that disagree with the attributes (reach {shape}, {n_bins} orientation bins, "
                        f"{n_joints} joints)")

@@ -46,10 +46,11 @@ _BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "workers": None,
 
 #: The options only a build reads: given before ``show``, they would do nothing.
 _BUILD_ONLY = ("output", "base", "tip", "voxel", "orientations", "method", "samples", "seed", "collisions", "floor",
-               "srdf", "geometry", "converge", "workers", "scheduler", "no_manipulability")
+               "srdf", "geometry", "converge", "workers", "scheduler", "no_manipulability", "gravity")
 _USAGE = """manipkit reachmap [--robot R] [--base FRAME] [--tip FRAME] [BUILD OPTIONS] -o MAP [SHOW OPTIONS]
        manipkit reachmap show MAP [SHOW OPTIONS] [--robot R]
-SHOW OPTIONS: [--plot FILE.png] [--plot-manipulability FILE.png] [--view] [--view-html FILE.html] [--format text|json]"""
+SHOW OPTIONS: [--plot FILE.png] [--plot-manipulability FILE.png] [--view] [--view-html FILE.html] [--format text|json]
+              [--payload MASS[@X,Y,Z]]"""
 
 
 def _add_show_options(parser, **default) -> None:
@@ -61,6 +62,14 @@ def _add_show_options(parser, **default) -> None:
     parser.add_argument("--view-html", type=Path, metavar="FILE.html",
                         help="write the meshcat view as a standalone HTML file", **default)
     parser.add_argument("--format", choices=("text", "json"), help="text (default) or json", **default)
+    parser.add_argument("--payload", metavar="MASS[@X,Y,Z]", help="where the arm carries MASS kg, its centre of "
+                        "gravity at X,Y,Z m in the tip frame's axes (default 0,0,0): a build adds the payload layer "
+                        "for that CoG to the map; show answers from the layer a map holds", **default)
+
+
+def _add_payload_build_options(parser) -> None:
+    parser.add_argument("--gravity", default="0,0,-9.81", metavar="GX,GY,GZ",
+                        help="gravity for --payload in the map's base frame, m/s^2 (default 0,0,-9.81)")
 
 
 def register(commands) -> None:
@@ -83,6 +92,7 @@ def register(commands) -> None:
                        help="Zarr folder to write (needed to build)")
     reach.add_argument("--no-manipulability", action="store_true",
                        help="skip the manipulability overlay (no Jacobians: about half the FK-stage time)")
+    _add_payload_build_options(reach)
     _add_show_options(reach, default=None)
     reach.set_defaults(run=run_reachmap, format="text", view=False)
     build_defaults = {name: reach.get_default(name) for name in _BUILD_ONLY}
@@ -115,6 +125,10 @@ def register(commands) -> None:
     place.add_argument("--yaws", type=int, default=16, metavar="N", help="headings tried (default 16)")
     place.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw the heat map")
     place.add_argument("--format", choices=("text", "json"), default="text")
+    place.add_argument("--payload", default=None, metavar="MASS[@X,Y,Z]",
+                       help="count a target only where the arm also holds MASS kg (CoG X,Y,Z m in the tip frame's "
+                            "axes; the map's payload layer, added for that CoG when it has none)")
+    _add_payload_build_options(place)
     place.set_defaults(run=run_base_placement)
 
 
@@ -130,6 +144,26 @@ def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=N
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      manipulability=manipulability, progress=progress, collisions=collisions,
                      converge=args.converge, resume_dir=resume_dir)
+
+
+def _payload_spec(args):
+    """(Payload of --payload, gravity of --gravity (3,) m/s^2) or None without --payload; one line, exit 2, if bad."""
+    if getattr(args, "payload", None) is None:
+        return None
+    from manipkit.app.cli.statics import parse_payload, parse_triple
+
+    return parse_payload(args.payload), parse_triple(getattr(args, "gravity", "0,0,-9.81"), "--gravity")
+
+
+def _with_payload(reach_map, robot, args, load_spec, *, resume_dir=None):
+    """The map with its payload layer for ``load_spec`` (:func:`_payload_spec`), built with a progress bar."""
+    from manipkit.analysis.reachmap.payloadmap import payload_map
+    from manipkit.app.progress import progress_bar
+
+    with progress_bar() as progress, warnings.catch_warnings():
+        warnings.showwarning = _note_or_warning
+        return payload_map(reach_map, robot, cog=load_spec[0].cog, gravity=load_spec[1], workers=args.workers,
+                           scheduler=args.scheduler, progress=progress, resume_dir=resume_dir)
 
 
 def _note_or_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -181,19 +215,25 @@ def run_reachmap(args) -> int:
         parse_orientations(args.orientations)
     robot = load_robot(args, mesh_warnings=False) if args.view or args.view_html else load_robot(args)
     visual = _visual(robot, args)
+    load_spec = _payload_spec(args)
     blocks = resume_folder(args.output)
+    payload_blocks = blocks.with_name(f".{args.output.name}.payload.partial")
     try:
         reach_map = _build(robot, args, args.base, manipulability=not args.no_manipulability, resume_dir=blocks)
+        if load_spec is not None:
+            reach_map = _with_payload(reach_map, robot, args, load_spec, resume_dir=payload_blocks)
     except KeyboardInterrupt:
-        kept = len(list(blocks.glob("*.npz"))) if blocks.is_dir() else 0
-        if kept:
-            print(f"{kept} finished block(s) kept in {printable(str(blocks))}: the same command resumes from them",
-                  file=sys.stderr, flush=True)
-        else:  # interrupted before a block finished: nothing to resume from
-            remove_store(blocks)
+        for folder in (blocks, payload_blocks):
+            kept = len(list(folder.glob("*.npz"))) if folder.is_dir() else 0
+            if kept:
+                print(f"{kept} finished block(s) kept in {printable(str(folder))}: the same command resumes from "
+                      "them", file=sys.stderr, flush=True)
+            else:  # interrupted before a block finished: nothing to resume from
+                remove_store(folder)
         raise
     reach_map.save(args.output)
     remove_store(blocks)
+    remove_store(payload_blocks)
     present_map(reach_map, args, robot=robot, visual=visual, map_path=args.output, written=[args.output, *pictures])
     return EXIT_OK
 
@@ -208,7 +248,16 @@ def run_reachmap_show(args) -> int:
         raise UsageError(f"{option} sets how a map is built; 'reachmap show' shows a saved map as it was built: "
                          "leave it out")
     pictures = _checked_pictures(args)
+    load_spec = _payload_spec(args)
     reach_map = load(args.map)
+    if load_spec is not None:
+        layer = reach_map.payload
+        cog = load_spec[0].cog
+        if layer is None or not layer.same_load(cog, layer.gravity):
+            held = "no payload layer" if layer is None else \
+                f"a payload layer for the CoG {','.join(short_text(v) for v in layer.cog)}"
+            raise UsageError(f"--payload: {printable(str(args.map))} holds {held}; build it with 'manipkit reachmap "
+                             f"... --payload {printable(args.payload)} -o MAP'")
     if args.plot_manipulability is not None and reach_map.manipulability is None:
         raise UsageError(f"--plot-manipulability: {printable(str(args.map))} was built without the manipulability "
                          "overlay (--no-manipulability); drop --plot-manipulability")
@@ -259,6 +308,7 @@ def present_map(reach_map, args, *, robot, visual, map_path: Path, written: list
 
         write_reachmap_html(reach_map, args.view_html, robot=robot, visual=visual)
     best = reach_map.best_manipulability()
+    mass = _payload_spec(args)[0].mass if getattr(args, "payload", None) is not None else None
     if args.format == "json":
         print_json({
             "robot": reach_map.robot, "frame": reach_map.frame, "base": reach_map.base, "method": reach_map.method,
@@ -269,15 +319,30 @@ def present_map(reach_map, args, *, robot, visual, map_path: Path, written: list
                 "samples_used", "converged", "fill_passes", "completeness", "false_positive")},
             "collisions": reach_map.settings.get("collisions"),
             **({"best_manipulability": best[0], "best_manipulability_at": best[1].tolist()} if best else {}),
+            **({"payload": _payload_json(reach_map, mass)} if reach_map.payload is not None else {}),
             **{name: str(path) for name, path in (("plot", args.plot), ("plot_manipulability", args.plot_manipulability),
                                                   ("view_html", args.view_html)) if path is not None},
         })
     else:
         print(reach_map.summary())
+        if mass is not None:
+            print(reach_map.payload_text(mass))
         if written:
             print(f"wrote {', '.join(printable(str(p)) for p in written)}")
     if args.view:
         _serve_view(reach_map, robot, visual)
+
+
+def _payload_json(reach_map, mass) -> dict:
+    """The payload layer's settings and, with ``mass`` (kg), the voxels carrying it (counts of voxels; inf as None)."""
+    import numpy as np
+
+    layer = reach_map.payload
+    top = float(np.nanmax(layer.best)) if (~np.isnan(layer.best)).any() else None
+    return {**layer.attrs(), "largest_capacity": top if top is None or math.isfinite(top) else None,
+            **({} if mass is None else {"mass": mass, "voxels_carrying": int(layer.carries(mass).sum()),
+                                        "voxels_carrying_in_every_bin": int(layer.carries_everywhere(mass).sum()),
+                                        "reachable_voxels": int(reach_map.reachable.sum()), "voxel": reach_map.voxel})}
 
 
 def _serve_view(reach_map, robot, visual) -> None:
@@ -307,6 +372,7 @@ def run_base_placement(args) -> int:
     if args.step is not None and not (math.isfinite(args.step) and MIN_VOXEL <= args.step <= MAX_VOXEL):
         raise UsageError(f"--step {args.step}: give the grid step in metres, from {MIN_VOXEL:g} to {MAX_VOXEL:g}")
     targets = read_targets(args.targets)
+    load_spec = _payload_spec(args)
     robot = load_robot(args)
     floor = robot.frame(args.floor_frame) if args.floor_frame is not None else robot.root_link
     if args.map is not None:
@@ -324,8 +390,12 @@ def run_base_placement(args) -> int:
                              "apply: leave it out")
     else:
         reach_map = _build(robot, args, floor)
+    if load_spec is not None and (reach_map.payload is None or not reach_map.payload.same_load(load_spec[0].cog,
+                                                                                               load_spec[1])):
+        reach_map = _with_payload(reach_map, robot, args, load_spec)
     mount = robot.transform(floor, reach_map.base)
-    result = base_placement(reach_map, targets, yaws=args.yaws, step=args.step, mount=mount)
+    result = base_placement(reach_map, targets, yaws=args.yaws, step=args.step, mount=mount,
+                            payload=None if load_spec is None else load_spec[0].mass)
     if args.plot is not None:
         plot_base_placement(result, args.plot, title=f"{robot.name}: the map's count of targets from each floor position")
     checked = (reach_map.settings.get("collisions") or {}).get("checked")
@@ -339,6 +409,7 @@ def run_base_placement(args) -> int:
                     "confirmed": int(chosen.confirmed.sum()), "confirmed_targets": chosen.confirmed.tolist(),
                     "map_estimate": chosen.map_score, "map_estimate_means": chosen.resolution,
                     "collision_free": collisions is not None, "targets": len(targets),
+                    "payload": None if load_spec is None else load_spec[0].mass,
                     **({"plot": str(args.plot)} if args.plot is not None else {})})
     else:
         print(f"robot {printable(robot.name)}: {printable(floor)} placed on the floor, map of "

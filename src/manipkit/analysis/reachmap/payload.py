@@ -1,0 +1,219 @@
+"""A reach map's payload layer: per voxel the best and worst payload capacity, and what a pose can carry.
+
+(docs/site/guides/reach.md; built by :func:`manipkit.analysis.reachmap.payloadmap.payload_map`.)
+The layer is computed at the configurations the map stores, one per reached
+voxel-bin (its certificate, ``ReachMap.cert_q``: the first FK sample that
+landed in the bin, or the IK answer that filled it): for each, the largest
+payload mass (kg) whose centre of gravity sits at ``cog`` (m, in the tip
+frame's axes) that every chain joint holds against gravity ``gravity``
+(m/s^2, in the map's base frame) within its effort limits
+(:func:`manipkit.statics.capacity.payload_capacity`, closed form: the torque is
+affine in the mass). Per voxel, over its reached orientation bins:
+
+- ``best`` (kg): the largest capacity; ``worst`` (kg): the smallest;
+- ``saturating``: the chain joint (index into ``joints``) that reaches its
+  limit at the worst capacity (-1: none, the capacity is unbounded, or the
+  voxel is not reached);
+- NaN in ``best`` and ``worst`` where the map reached nothing; 0 where the
+  arm's own weight already saturates a joint; ``inf`` where no joint bounds
+  the mass (every lever arm vanishes).
+
+``bins`` keeps the capacity of every certificate (aligned with
+``cert_keys``), so a pose is answered at the map's resolution (its voxel and
+orientation bin): :func:`capacity_at`. The capacity is that of one stored
+configuration per voxel-bin, not the best over every IK branch of every pose
+in the bin: another configuration in the same bin may carry more or less.
+
+Stored in the map's Zarr folder as arrays ``payload_best``,
+``payload_worst``, ``payload_saturating`` and ``payload_bins`` and the
+attribute ``payload`` (:meth:`PayloadLayer.attrs`), read back validated
+(:func:`layer_from_stored`).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.analysis.reachmap.constants import finite_array
+
+if TYPE_CHECKING:
+    from manipkit.analysis.reachmap.map import ReachMap
+
+__all__ = ["PAYLOAD_ARRAYS", "PayloadInvalid", "PayloadLayer", "capacity_at", "checked_attrs", "layer_from_stored",
+           "per_voxel"]
+
+#: The arrays of a payload layer in a map's folder and their data types.
+PAYLOAD_ARRAYS = {"payload_best": "float64", "payload_worst": "float64", "payload_saturating": "int64",
+                  "payload_bins": "float64"}
+MAX_G = 1e3  # m/s^2: the largest gravity a stored layer may name
+
+
+class PayloadInvalid(ValueError):
+    """What is wrong with a stored payload layer (the store names the map)."""
+
+
+@dataclass(frozen=True, eq=False)
+class PayloadLayer:
+    """A reach map's payload layer (the module docstring says what each entry means).
+
+    Attributes
+    ----------
+    best, worst : ndarray, shape (nx, ny, nz)
+        kg: the largest and smallest capacity over the voxel's reached bins (NaN: not reached; inf: unbounded).
+    saturating : ndarray of int64, shape (nx, ny, nz)
+        The joint (index into ``joints``) saturating at ``worst`` (-1: none).
+    bins : ndarray, shape (C,)
+        kg: the capacity at each certificate of the map, aligned with ``ReachMap.cert_keys``.
+    cog : ndarray, shape (3,)
+        m: the payload's centre of gravity from the tip's origin, in the tip frame's axes.
+    gravity : ndarray, shape (3,)
+        m/s^2, in the map's base frame.
+    joints : tuple of str
+        The chain joints, in the order ``saturating`` indexes.
+    lower, upper : ndarray, shape (len(joints),)
+        The effort limits used (N m or N; NaN: none).
+    inertia_grade : str
+        The robot's inertia-audit grade when the layer was built (:func:`manipkit.statics.audit.inertia_grade`).
+    """
+
+    best: np.ndarray
+    worst: np.ndarray
+    saturating: np.ndarray
+    bins: np.ndarray
+    cog: np.ndarray
+    gravity: np.ndarray
+    joints: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    inertia_grade: str = ""
+
+    def carries(self, mass: float) -> np.ndarray:
+        """(nx, ny, nz) bool: voxels where the best capacity is at least ``mass`` (kg): some reached orientation bin
+        of the voxel holds it at its stored configuration."""
+        return np.nan_to_num(self.best, nan=-1.0) >= float(mass)
+
+    def carries_everywhere(self, mass: float) -> np.ndarray:
+        """(nx, ny, nz) bool: voxels where the worst capacity is at least ``mass`` (kg): every reached bin holds it."""
+        return np.nan_to_num(self.worst, nan=-1.0) >= float(mass)
+
+    def same_load(self, cog, gravity) -> bool:
+        """Whether the layer was built for this CoG (m, tip axes) and gravity (m/s^2, base frame), to 1e-12."""
+        return bool(np.allclose(self.cog, np.asarray(cog, dtype=float), rtol=0, atol=1e-12)
+                    and np.allclose(self.gravity, np.asarray(gravity, dtype=float), rtol=0, atol=1e-12))
+
+    def attrs(self) -> dict:
+        """The layer's settings as JSON-ready values (NaN limits as None): the map's ``payload`` attribute."""
+        def listed(values):
+            return [None if math.isnan(v) else float(v) for v in np.asarray(values, dtype=float)]
+
+        return {"cog": listed(self.cog), "gravity": listed(self.gravity), "joints": list(self.joints),
+                "lower": listed(self.lower), "upper": listed(self.upper), "inertia_grade": self.inertia_grade,
+                "configurations": "certificates"}
+
+
+def capacity_at(reach_map: ReachMap, T) -> np.ndarray:
+    """(...,) kg: the stored capacity of each pose's voxel-bin (``T`` (..., 4, 4), ``T_base_frame``); NaN where the
+    voxel-bin was not reached or the pose is outside the grid.
+
+    The voxel-bin is the pose's voxel and orientation bin (the map's
+    resolution, :meth:`ReachMap.resolution`); the capacity is its
+    certificate's. Raises :class:`~manipkit.errors.ReachMapError` for poses
+    that are not finite (..., 4, 4) and :class:`~manipkit.errors.ReachMapError`
+    when the map has no payload layer.
+    """
+    from manipkit.errors import ReachMapError
+
+    layer = reach_map.payload
+    if layer is None:
+        raise ReachMapError("the map has no payload layer: add one with manipkit.reachmap.payload_map(map, robot, "
+                            "cog=...) or 'manipkit reachmap ... --payload MASS@X,Y,Z'")
+    T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
+    ijk, inside = reach_map.voxel_of(T[..., :3, 3])
+    flat = np.ravel_multi_index(tuple(np.moveaxis(np.where(inside[..., None], ijk, 0), -1, 0)), reach_map.shape)
+    keys = flat * reach_map.orientations.size + reach_map.orientations.bin_of(T[..., :3, :3])
+    cert = reach_map.cert_keys
+    if len(cert) == 0:
+        return np.full(keys.shape, np.nan)
+    row = np.clip(np.searchsorted(cert, keys), 0, len(cert) - 1)
+    return np.where(inside & (cert[row] == keys), layer.bins[row], np.nan)
+
+
+def _vector(value, what: str, n: int, *, nullable: bool = False, bound: float = math.inf) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != n:
+        raise PayloadInvalid(f"payload.{what} must be a list of {n} numbers")
+    out = []
+    for v in value:
+        if v is None and nullable:
+            out.append(math.nan)
+        elif isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or abs(v) > bound:
+            raise PayloadInvalid(f"payload.{what} holds {v!r:.40}; it must hold finite numbers"
+                                 + (" or null" if nullable else ""))
+        else:
+            out.append(float(v))
+    return np.array(out)
+
+
+def checked_attrs(a, joint_names: tuple[str, ...]) -> dict:
+    """The ``payload`` attribute of a stored map, every entry checked (raises :class:`PayloadInvalid`)."""
+    if not isinstance(a, dict) or a.get("configurations") != "certificates":
+        raise PayloadInvalid("payload must be the table manipkit writes (configurations: certificates)")
+    joints = a.get("joints")
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j in joint_names for j in joints):
+        raise PayloadInvalid("payload.joints must name joints of the map's robot")
+    n = len(joints)
+    grade = a.get("inertia_grade", "")
+    if not isinstance(grade, str) or len(grade) > 8:
+        raise PayloadInvalid("payload.inertia_grade must be a short name")
+    lower, upper = _vector(a.get("lower"), "lower", n, nullable=True), _vector(a.get("upper"), "upper", n, nullable=True)
+    if np.any(lower >= upper):
+        raise PayloadInvalid("payload.lower must be below payload.upper")
+    return {"cog": _vector(a.get("cog"), "cog", 3, bound=1e6), "gravity": _vector(a.get("gravity"), "gravity", 3,
+                                                                                    bound=MAX_G),
+            "joints": tuple(joints), "lower": lower, "upper": upper, "inertia_grade": grade}
+
+
+def layer_from_stored(attrs, arrays: dict, cert_keys: np.ndarray, n_bins: int, joint_names) -> PayloadLayer:
+    """The layer of a stored map from its ``payload`` attribute and arrays, checked against its certificates.
+
+    ``bins`` must be >= 0 (inf allowed) at every certificate; ``best`` and
+    ``worst`` must be the largest and smallest of them per voxel (NaN exactly
+    where no voxel-bin is reached), and ``saturating`` a joint index or -1.
+    Raises :class:`PayloadInvalid` naming what is wrong.
+    """
+    a = checked_attrs(attrs, tuple(joint_names))
+    best, worst, sat, bins = (arrays[name] for name in PAYLOAD_ARRAYS)
+    if bins.shape != cert_keys.shape or np.isnan(bins).any() or (bins < 0).any():
+        raise PayloadInvalid("payload_bins must hold a capacity >= 0 kg for each certificate")
+    expected_best, expected_worst, _ = per_voxel(cert_keys, bins, np.zeros(bins.shape, dtype=np.int64), n_bins,
+                                                 best.size)
+    same = np.array_equal(expected_best, best.reshape(-1), equal_nan=True) and \
+        np.array_equal(expected_worst, worst.reshape(-1), equal_nan=True)
+    if not same:
+        raise PayloadInvalid("payload_best and payload_worst are not the largest and smallest capacity of each "
+                             "voxel's certificates")
+    if sat.size and (sat.min() < -1 or sat.max() >= len(a["joints"])):
+        raise PayloadInvalid("payload_saturating holds values that are not a joint index or -1")
+    return PayloadLayer(best, worst, sat, bins, **a)
+
+
+def per_voxel(cert_keys: np.ndarray, capacity: np.ndarray, saturating: np.ndarray, n_bins: int, n_voxels: int):
+    """(best, worst, saturating of the worst) per voxel (flat) of capacities per certificate (keys increasing).
+
+    NaN (and -1) where a voxel has no certificate; the worst's joint is the
+    first certificate in key order with the smallest capacity.
+    """
+    best, worst = np.full(n_voxels, np.nan), np.full(n_voxels, np.nan)
+    sat = np.full(n_voxels, -1, dtype=np.int64)
+    voxels = cert_keys // n_bins
+    if voxels.size:
+        np.fmax.at(best, voxels, capacity)
+        order = np.lexsort((capacity, voxels))  # stable: equal capacities stay in key order
+        first = order[np.flatnonzero(np.diff(voxels[order], prepend=-1))]
+        worst[voxels[first]] = capacity[first]
+        sat[voxels[first]] = saturating[first]
+    return best, worst, sat

@@ -1,0 +1,228 @@
+"""Build a reach map's payload layer in blocks, here or on Dask, resumable: :func:`payload_map`.
+
+(docs/site/guides/reach.md.) What the layer holds is
+:mod:`manipkit.analysis.reachmap.payload`'s. The map's certificates
+(``cert_q``, one configuration per reached voxel-bin, in key order) are cut
+into blocks of ``block`` configurations; each block's capacities come from
+:func:`manipkit.statics.capacity.payload_capacity` (batched static torques,
+compiled) run by the map's own :class:`~manipkit.analysis.reachmap.blocks.BlockRunner`
+(here, ``workers=N`` on a new ``distributed.LocalCluster``, or
+``scheduler=`` a running one) and merged in block order, so the layer is
+the same bits however the blocks ran. With ``resume_dir`` the finished
+blocks are kept in a :class:`~manipkit.analysis.reachmap.blockstore.BlockStore`
+under the fingerprint of everything that determines them (the robot's
+description, the chain, the CoG, gravity, limits, block size, the map's
+certificates and the source of the modules that compute a block), and an
+interrupted build run again reads them back.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import numbers
+from dataclasses import dataclass, replace
+from functools import partial
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from manipkit.analysis.reachmap.payload import PayloadLayer, per_voxel
+from manipkit.errors import ReachMapError
+from manipkit.text import printable
+
+if TYPE_CHECKING:
+    from manipkit.analysis.reachmap.map import ReachMap
+    from manipkit.kinematics.robot import Robot
+
+__all__ = ["PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "capacity_of", "payload_block", "payload_map"]
+
+PAYLOAD_BLOCK = 1 << 16  # configurations per block (about 20 ms of static torques for a 7-joint arm)
+PAYLOAD_FORMAT = "manipkit-payload-1"
+MAX_PAYLOAD_BLOCK = 1 << 22
+
+
+@dataclass(frozen=True, eq=False)
+class PayloadJob:
+    """What a worker needs to compute a block of capacities (pickled once per run)."""
+
+    robot: Robot
+    base: str
+    frame: str
+    cog: np.ndarray
+    gravity: np.ndarray  # m/s^2 in the root link's axes (what static_torques takes)
+    effort: np.ndarray  # (2, n): lower, upper
+
+
+def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """Block ``block``: (block, capacity kg (N,), saturating joint (N,), -1 none) at the configurations ``Q`` (N, n)."""
+    from manipkit.statics.capacity import payload_capacity
+
+    cap = payload_capacity(job.robot, Q, cog=job.cog, gravity=job.gravity, effort=job.effort, base=job.base,
+                           tip=job.frame)
+    return block, np.asarray(cap.max_mass, dtype=float), np.asarray(cap.saturating, dtype=np.int64)
+
+
+def _check_block(job: PayloadJob, n_joints: int, result, arguments: tuple) -> str | None:
+    """payload_block's (block, capacity, saturating) for the block ``arguments``."""
+    if not isinstance(result, tuple) or len(result) != 3 or result[0] != arguments[0]:
+        return "not the result of this payload block"
+    _, cap, sat = result
+    n = len(arguments[1])
+    if not (isinstance(cap, np.ndarray) and cap.dtype == float and cap.shape == (n,) and not np.isnan(cap).any()
+            and bool(np.all(cap >= 0))):
+        return "its capacities are not (N,) numbers >= 0 kg"
+    if not (isinstance(sat, np.ndarray) and sat.dtype == np.int64 and sat.shape == (n,)
+            and bool(np.all((sat >= -1) & (sat < n_joints)))):
+        return "its saturating joints are not joint indices or -1"
+    return None
+
+
+def _vector3(value, name: str, what: str) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        v = np.zeros(0)
+    if v.shape != (3,) or not np.isfinite(v).all():
+        raise ReachMapError(f"{name} {printable(repr(value))[:60]}: give {what}, 3 finite numbers")
+    return v
+
+
+def _code_digest() -> str:
+    from manipkit.analysis.reachmap import payload
+    from manipkit.statics import capacity, gravity_kernel, torques
+
+    digest = hashlib.sha256()
+    for module in (payload, capacity, torques, gravity_kernel):
+        digest.update(Path(module.__file__).read_bytes())
+    digest.update(Path(__file__).read_bytes())
+    return digest.hexdigest()
+
+
+def _settings(job: PayloadJob, reach_map: ReachMap, block: int) -> dict:
+    import manipkit
+
+    certs = hashlib.sha256(reach_map.cert_keys.astype(np.int64).tobytes() + reach_map.cert_q.tobytes()).hexdigest()
+    return {"payload_format": PAYLOAD_FORMAT, "manipkit": manipkit.__version__, "code_sha256": _code_digest(),
+            "robot": job.robot.name, "description_sha256": hashlib.sha256(job.robot.urdf.encode()).hexdigest(),
+            "base": job.base, "frame": job.frame, "cog": job.cog.tolist(), "gravity": job.gravity.tolist(),
+            "effort": [[None if math.isnan(v) else v for v in row] for row in job.effort.tolist()],
+            "block": block, "certificates_sha256": certs}
+
+
+def _root_gravity(robot: Robot, base: str, g_base: np.ndarray) -> np.ndarray:
+    """Gravity (m/s^2) in the root link's axes from the map's base frame's (the base's rotation at the defaults)."""
+    return robot.transform(robot.root_link, base)[:3, :3] @ g_base
+
+
+def capacity_of(reach_map: ReachMap, robot: Robot, Q) -> np.ndarray:
+    """(N,) kg: the capacity at configurations ``Q`` (N, n) for the map's payload layer (its CoG, gravity, limits).
+
+    Raises :class:`ReachMapError` when the map has no payload layer or ``robot`` is not the map's.
+    """
+    from manipkit.statics.capacity import payload_capacity
+
+    layer = reach_map.payload
+    if layer is None:
+        raise ReachMapError("the map has no payload layer: add one with payload_map(map, robot, cog=...)")
+    if robot.name != reach_map.robot or tuple(robot.joint_names) != tuple(reach_map.joint_names):
+        raise ReachMapError(f"the map is of '{printable(reach_map.robot)}'; the robot given is "
+                            f"'{printable(robot.name)}': give the map's robot")
+    cap = payload_capacity(robot, Q, cog=layer.cog, gravity=_root_gravity(robot, reach_map.base, layer.gravity),
+                           effort=np.stack([layer.lower, layer.upper]), base=reach_map.base, tip=reach_map.frame)
+    return np.asarray(cap.max_mass, dtype=float)
+
+
+def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, -9.81), effort=None,
+                workers: int | None = None, scheduler: str | None = None, progress=None, block: int = PAYLOAD_BLOCK,
+                resume_dir: str | Path | None = None) -> ReachMap:
+    """The map with its payload layer (``reach_map.payload``, :class:`~manipkit.analysis.reachmap.payload.PayloadLayer`).
+
+    A function of a built map rather than an option of
+    :func:`~manipkit.analysis.reachmap.builder.build`: a saved map gets a
+    layer without being rebuilt, one map serves several CoGs and limits, and a
+    map's build (and the fingerprint its resumed blocks are kept under) does
+    not depend on a payload.
+
+    Parameters
+    ----------
+    reach_map : ReachMap
+        A map of ``robot`` (its name and joints must match).
+    robot : Robot
+        The robot the map is of: its masses, CoGs and effort limits are used.
+    cog : (3,) float
+        The payload's centre of gravity from the tip's origin, in the tip frame's axes (m).
+    gravity : (3,) float
+        m/s^2 in the map's base frame (``reach_map.base``; turned into the
+        root link's axes with the base's rotation at the robot's default configuration).
+    effort : None, (n,) or ((n,), (n,))
+        The chain joints' limits as :func:`manipkit.statics.capacity.payload_capacity` takes them (default the URDF's).
+    workers, scheduler, progress
+        As :func:`~manipkit.analysis.reachmap.builder.build` (``progress(stage, done, total)`` in blocks).
+    block : int
+        Configurations per block.
+    resume_dir : path, optional
+        Keep finished blocks there; an interrupted build run again with the same arguments reads them back.
+
+    Returns
+    -------
+    ReachMap
+        ``dataclasses.replace(reach_map, payload=layer)`` (saved with the map: :meth:`ReachMap.save`).
+
+    Raises
+    ------
+    ReachMapError
+        A map of another robot, a CoG or gravity that is not 3 finite numbers, a block size outside 1..MAX_PAYLOAD_BLOCK.
+    OptionError
+        No chain joint has an effort limit, or ``effort`` of the wrong shape (checked before any block runs).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> from manipkit.analysis.reachmap import build
+    >>> robot = manipkit.load("planar_2r")
+    >>> m = payload_map(build(robot, voxel=0.25, orientations=4, samples=5000), robot, gravity=(0, -9.81, 0),
+    ...                 effort=[40.0, 20.0])
+    >>> layer = m.payload
+    >>> bool(np.nanmax(layer.best) >= np.nanmax(layer.worst)), layer.joints
+    (True, ('joint1', 'joint2'))
+    """
+    # Over 80 lines: the docstring is most of it; the rest is the checks, the blocks and the merge in order.
+    from manipkit.analysis.reachmap.blocks import BlockRunner, check_workers, in_block_order
+    from manipkit.statics.capacity import payload_capacity
+
+    if robot.name != reach_map.robot or tuple(robot.joint_names) != tuple(reach_map.joint_names):
+        raise ReachMapError(f"the map is of '{printable(reach_map.robot)}' ({len(reach_map.joint_names)} joints); "
+                            f"the robot given is '{printable(robot.name)}': give the map's robot")
+    cog = _vector3(cog, "cog", "the payload's centre of gravity in the tip frame's axes (m)")
+    g_base = _vector3(gravity, "gravity", "gravity in the map's base frame (m/s^2)")
+    if isinstance(block, bool) or not isinstance(block, numbers.Integral) or not 1 <= block <= MAX_PAYLOAD_BLOCK:
+        raise ReachMapError(f"block {printable(repr(block))[:40]}: give a whole number from 1 to {MAX_PAYLOAD_BLOCK}")
+    check_workers(workers)
+    g_root = _root_gravity(robot, reach_map.base, g_base)
+    probe = payload_capacity(robot, robot.q(), cog=cog, gravity=g_root, effort=effort, base=reach_map.base,
+                             tip=reach_map.frame)  # the limits, and every option checked before a block runs
+    job = PayloadJob(robot, reach_map.base, reach_map.frame, cog, g_root, np.stack([probe.lower, probe.upper]))
+    n = len(probe.joint_names)
+    store = None
+    if resume_dir is not None:
+        from manipkit.analysis.reachmap.blockstore import open_store
+
+        store = open_store(resume_dir, _settings(job, reach_map, int(block)),
+                           {"payload_block": partial(_check_block, job, n)})
+    Q = reach_map.cert_q
+    blocks = [(b, Q[s:s + block]) for b, s in enumerate(range(0, len(Q), block))]
+    caps, sats = [np.zeros(0)], [np.zeros(0, dtype=np.int64)]
+    with BlockRunner(workers, scheduler, progress, store) as runner:
+        if blocks:
+            for _, cap, sat in in_block_order(runner.run(payload_block, job, blocks, "payload capacity")):
+                caps.append(cap)
+                sats.append(sat)
+    cap, sat = np.concatenate(caps), np.concatenate(sats)
+    best, worst, worst_joint = per_voxel(reach_map.cert_keys, cap, sat, reach_map.orientations.size,
+                                         math.prod(reach_map.shape))
+    layer = PayloadLayer(best.reshape(reach_map.shape), worst.reshape(reach_map.shape),
+                         worst_joint.reshape(reach_map.shape), cap, cog, g_base, tuple(probe.joint_names),
+                         probe.lower, probe.upper, probe.inertia_grade)
+    return replace(reach_map, payload=layer)
