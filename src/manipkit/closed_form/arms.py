@@ -36,7 +36,12 @@ import numpy as np
 
 from manipkit.closed_form.subproblems import rotate, sp1, sp2, sp3, sp4
 
-__all__ = ["Branches", "rotation_matrix", "solve_6r"]
+__all__ = ["ELBOW_TIE", "Branches", "rotation_matrix", "solve_6r"]
+
+#: How close to the shoulder-wrist line (relative to their distance) an elbow counts as on it when branches are
+#: named: "elbow up" on the compiled and the numpy path alike, since two branches meet there and the sign of a
+#: rounding error would otherwise pick the name.
+ELBOW_TIE = 1e-9
 
 OPW = "spherical wrist, two parallel"
 UR = "three parallel, two intersecting"

@@ -40,6 +40,7 @@ import types
 
 import numpy as np
 
+from manipkit.closed_form.arms import ELBOW_TIE
 from manipkit.closed_form.arms_lanes import (
     ENTRIES,
     LANES,
@@ -85,6 +86,7 @@ __all__ = ["FAMILY_NAMES", "KIND_CODES", "MARGIN", "SLOTS", "branch_labels", "ch
 
 #: Branch slots per target (``4 shoulder + 2 elbow + wrist``).
 SLOTS = 8
+
 #: Family kind -> the code the compiled loop takes.
 KIND_CODES = {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
 #: Family code -> the short name its compiled loops carry (``_solve_check_one_ur``, ...) and its lanes' prefix in
@@ -294,7 +296,8 @@ def _labels(H, P, c, s, reference, up, g, theta, out):
         length = _dot(line, line)
         along = _dot(offset, line) / length if length > 0.0 else 0.0
         offset = (offset[0] - along * line[0], offset[1] - along * line[1], offset[2] - along * line[2])
-        out[r, 1] = _dot(offset, up) >= 0.0
+        # an elbow within ELBOW_TIE of the line (straight, where two branches meet) counts as up on both paths
+        out[r, 1] = _dot(offset, up) >= -ELBOW_TIE * math.sqrt(length)
         out[r, 2] = theta[r, 4] >= 0.0
 
 

@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.bounds import tolerances
-from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
+from manipkit.closed_form.arms import ELBOW_TIE, Branches, rotation_matrix, solve_6r
 from manipkit.closed_form.checks import arm_angles, quantity_text, tolerance_pair
 from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
@@ -321,7 +321,7 @@ def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray, compiled: bool = Fa
     line, offset = in_plane(wrist - shoulder_point), in_plane(elbow - shoulder_point)
     length = np.sum(line * line, axis=-1, keepdims=True)
     offset = offset - np.where(length > 0.0, np.sum(offset * line, axis=-1, keepdims=True) / np.where(length > 0, length, 1.0), 0.0) * line
-    above = offset @ up >= 0.0
+    above = offset @ up >= -ELBOW_TIE * np.sqrt(length[:, 0])  # on the line: up, as the compiled labels say
     return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t[4] >= 0.0 else 'wrist flip'}"
             for f, a, t in zip(front, above, theta)]
 
