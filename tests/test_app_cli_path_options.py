@@ -7,6 +7,7 @@ FK against the requested tool speed; the arc's waypoints against the circle deri
 from __future__ import annotations
 
 import json
+import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -86,6 +87,38 @@ def test_without_retime_json_has_no_trajectory():
 
 
 # --------------------------------------------------------------------------
+# --arc
+
+ARC = ["--arc", "0.4", "0.1", "0.4", "3.14159", "0", "0", "0.5", "0.2", "0.4", "3.14159", "0", "0",
+       "0.6", "0.1", "0.4", "3.14159", "0", "0", "--step", "0.01"]
+
+
+def test_arc_waypoints_lie_on_the_circle_derived_by_hand(ur5):
+    # (0.4, 0.1), (0.5, 0.2), (0.6, 0.1) at z = 0.4: equidistant 0.1 m from (0.5, 0.1), so that is the centre and
+    # 0.1 m the radius; start at angle pi, via at pi/2, end at 0 (about +z, clockwise from above). Each quarter is
+    # 0.1 pi / 2 = 0.157 m long: 16 arcs of at most 0.01 m, 33 waypoints, the via the 17th (index 16).
+    _, chain, _ = ur5
+    result = run_cli(*UR5, *ARC, "--speed", "0.1", "--format", "json")
+    assert result.returncode == 0, result.stderr
+    answer = json.loads(result.stdout)
+    q = np.array(answer["q"])
+    assert q.shape == (33, 6)
+    T = chain.fk(q)
+    p = T[:, :3, 3]
+    np.testing.assert_allclose(np.linalg.norm(p[:, :2] - [0.5, 0.1], axis=1), 0.1, atol=1e-9)
+    np.testing.assert_allclose(p[:, 2], 0.4, atol=1e-9)
+    angle = np.arctan2(p[:, 1] - 0.1, p[:, 0] - 0.5)
+    np.testing.assert_allclose(angle, np.pi - np.arange(33) * (np.pi / 32), atol=1e-9)
+    np.testing.assert_allclose(p[16], [0.5, 0.2, 0.4], atol=1e-9)
+    # one orientation all along (the three poses share it): rpy (3.14159, 0, 0), tool z down (R_x(a) e_z = (0, -sin a, cos a))
+    np.testing.assert_allclose(T[:, :3, 2], np.broadcast_to([0, -math.sin(3.14159), math.cos(3.14159)], (33, 3)),
+                               atol=1e-9)
+    # times: 0.1 pi / 32 m between waypoints at 0.1 m/s, along the chord's length
+    chord = 2 * 0.1 * math.sin(np.pi / 64)
+    np.testing.assert_allclose(np.diff(answer["t"]), chord / 0.1, rtol=1e-9)
+
+
+# --------------------------------------------------------------------------
 # bad input: one line, exit 2
 
 
@@ -100,3 +133,19 @@ def test_bad_new_options_are_one_line(extra, message):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+@pytest.mark.parametrize("arc, message", [
+    ("0.4 0.1 0.4 3.14159 0 0 0.5 0.1 0.4 3.14159 0 0 0.6 0.1 0.4 3.14159 0 0", "the three positions are collinear"),
+    ("0.4 0.1 0.4 3.14159 0 0 0.5 0.2 0.4 3.14159 0 0 0.6 0.1 nan 3.14159 0 0", "--arc: give 18 finite numbers"),
+])
+def test_bad_arcs_are_one_line(arc, message):
+    result = run_cli(*UR5, "--arc", *arc.split(), "--step", "0.01")
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_an_arc_needs_a_step():
+    result = run_cli(*UR5, *ARC[:-2])
+    assert result.returncode == 2 and "--arc needs --step M" in result.stderr

@@ -3,7 +3,8 @@
 The poses come from a file (``--poses FILE``: CSV ``x,y,z,qx,qy,qz,qw[,t]`` or
 YAML, :func:`manipkit.paths.poses.read_pose_path`) or a straight line
 (``--line X Y Z R P Y X Y Z R P Y --step M``, rpy in the URDF convention,
-:func:`manipkit.paths.poses.line_poses`); the plan is
+:func:`manipkit.paths.poses.line_poses`) or a circular arc (``--arc`` start, via,
+end, :func:`manipkit.paths.poses.arc_poses`); the plan is
 :func:`manipkit.paths.plan.plan_path` (docs/site/guides/paths.md). Exit
 status 0 when the path can be followed, 1 when it cannot (the output says
 where and why), 2 for a usage error.
@@ -40,8 +41,10 @@ def register(commands) -> None:
     source.add_argument("--poses", metavar="FILE", help="CSV (x,y,z,qx,qy,qz,qw and optional t) or YAML pose file")
     source.add_argument("--line", type=float, nargs=12, metavar="V",
                         help="a straight line: X Y Z R P Y of the start then of the end (m; rpy rad, or deg with --deg)")
-    path.add_argument("--step", type=float, default=None, metavar="M", help="with --line: largest distance between "
-                                                                            "waypoints (m)")
+    source.add_argument("--arc", type=float, nargs=18, metavar="V",
+                        help="a circular arc: X Y Z R P Y of the start, of a point it passes (via), of the end")
+    path.add_argument("--step", type=float, default=None, metavar="M", help="with --line or --arc: largest distance "
+                                                                            "between waypoints (m, along the path)")
     path.add_argument("--speed", type=float, default=None, metavar="M/S",
                       help="tool speed along the path (m/s): times the steps, which must fit the joints' velocity "
                            "limits (a file's t is used otherwise)")
@@ -103,26 +106,27 @@ def parse_angle(text: str, option: str, *, degrees: bool = False) -> float:
 
 
 def _poses(args):
-    """(poses (N, 4, 4), t or None) from --poses or --line."""
+    """(poses (N, 4, 4), t or None) from --poses, --line or --arc."""
     import numpy as np
 
-    from manipkit.paths.poses import line_poses, read_pose_path
+    from manipkit.paths.poses import arc_poses, line_poses, read_pose_path
     from manipkit.spatial.transforms import transform_from_xyz_rpy
 
     if args.poses is not None:
         if args.step is not None:
-            raise UsageError("--step applies to --line; a pose file gives its own waypoints")
+            raise UsageError("--step applies to --line and --arc; a pose file gives its own waypoints")
         path = read_pose_path(args.poses)
         return np.asarray(path.poses), None if path.t is None else np.asarray(path.t)
-    values = args.line
+    option, values = ("--line", args.line) if args.line is not None else ("--arc", args.arc)
     if not all(math.isfinite(v) for v in values):
-        raise UsageError("--line: give 12 finite numbers (X Y Z R P Y of the start, then of the end)")
+        raise UsageError(f"{option}: give {len(values)} finite numbers (X Y Z R P Y of each pose)")
     if args.step is None:
-        raise UsageError("--line needs --step M, the largest distance between waypoints (m)")
-    rpy = [math.radians(v) if args.deg else v for v in values[3:6] + values[9:12]]
-    T0 = transform_from_xyz_rpy(values[0:3], rpy[0:3])
-    T1 = transform_from_xyz_rpy(values[6:9], rpy[3:6])
-    return line_poses(T0, T1, step=args.step), None
+        raise UsageError(f"{option} needs --step M, the largest distance between waypoints (m)")
+    ends = [transform_from_xyz_rpy(values[k:k + 3], [math.radians(v) if args.deg else v for v in values[k + 3:k + 6]])
+            for k in range(0, len(values), 6)]
+    if option == "--arc":
+        return arc_poses(*ends, step=args.step), None
+    return line_poses(*ends, step=args.step), None
 
 
 def _checker(robot, args):
