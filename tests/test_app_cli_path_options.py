@@ -119,6 +119,66 @@ def test_arc_waypoints_lie_on_the_circle_derived_by_hand(ur5):
 
 
 # --------------------------------------------------------------------------
+# --plot and --map: PNG files, and the map's data (stored in the PNG) against the report
+
+PNG = b"\x89PNG\r\n\x1a\n"
+OUT_OF_REACH = ["--line", "0.5", "0.1", "0.4", "3.14159", "0", "0", "1.0", "0.1", "0.4", "3.14159", "0", "0",
+                "--step", "0.05", "--speed", "0.1", "--free-axis", "x", "--free-step", "30deg"]
+
+
+def map_data(path):
+    from PIL import Image
+
+    from manipkit.app.path_plots import MAP_KEY
+
+    with Image.open(path) as image:
+        assert image.format == "PNG" and image.size[0] > 300
+        return json.loads(image.text[MAP_KEY])
+
+
+def test_the_map_of_a_line_out_of_reach_matches_the_report(tmp_path):
+    # 0.5 m to 1.0 m out along x at 5 cm: the UR5 (about 0.95 m from shoulder to tool0 stretched) loses the line
+    chart, plot = tmp_path / "map.png", tmp_path / "joints.png"
+    result = run_cli(*UR5, *OUT_OF_REACH, "--map", str(chart), "--plot", str(plot), "--format", "json")
+    assert result.returncode == 1
+    answer = json.loads(result.stdout)
+    assert chart.read_bytes()[:8] == PNG and not plot.exists()  # no joint path: no joint plot
+    data = map_data(chart)
+    kinds, cells = data["kinds"], np.array(data["cells"])
+    assert data["angles_deg"] == pytest.approx(-180 + 30 * np.arange(12))
+    assert cells.shape == (11, 12)
+    for i, records in enumerate(answer["failures"]):
+        unreachable = sum(r["count"] for r in records if r["kind"] == "unreachable")
+        assert (cells[i] == kinds.index("unreachable")).sum() == unreachable
+    alive = (cells >= kinds.index("reached")).any(axis=1)
+    first = answer["first_failure"]
+    assert first is not None and alive[:first].all() and not alive[first:].any()
+
+
+def test_a_feasible_map_marks_the_chosen_tool_angle_and_the_joint_plot_is_a_png(tmp_path):
+    chart, plot = tmp_path / "map.png", tmp_path / "joints.png"
+    args = [*LINE, "--speed", "0.1", "--free-axis", "z", "--free-step", "45deg"]
+    result = run_cli(*UR5, *args, "--retime", "--map", str(chart), "--plot", str(plot))
+    assert result.returncode == 0, result.stderr
+    assert f"joint plot written to {plot}" in result.stdout and f"feasibility map written to {chart}" in result.stdout
+    assert plot.read_bytes()[:8] == PNG and chart.read_bytes()[:8] == PNG
+    data = map_data(chart)
+    cells = np.array(data["cells"])
+    chosen = cells == data["kinds"].index("chosen")
+    assert (chosen.sum(axis=1) == 1).all()
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    from manipkit.paths import line_poses, plan_path
+    from manipkit.spatial.transforms import transform_from_xyz_rpy
+
+    poses = line_poses(transform_from_xyz_rpy([0.4, 0.1, 0.4], [3.14159, 0, 0]),
+                       transform_from_xyz_rpy([0.5, 0.1, 0.4], [3.14159, 0, 0]), step=0.01)
+    plan = plan_path(chain, poses, speed=0.1, free_axis="z", free_step=math.radians(45))
+    angles = np.array(data["angles_deg"])[np.argmax(chosen, axis=1)]
+    np.testing.assert_allclose(angles, np.degrees(plan.tool_angles), atol=1e-9)
+    np.testing.assert_array_equal(cells, plan.feasibility)
+
+
+# --------------------------------------------------------------------------
 # bad input: one line, exit 2
 
 
@@ -127,6 +187,9 @@ def test_arc_waypoints_lie_on_the_circle_derived_by_hand(ur5):
     (["--speed", "0.1", "--acceleration-scale", "2"], "--acceleration-scale applies with --retime"),
     (["--speed", "0.1", "--retime", "--acceleration-scale", "0"], "--acceleration-scale 0: give a positive factor"),
     (["--speed", "0.1", "--retime", "--reconfigure"], "--retime with --reconfigure"),
+    (["--map", "m.png"], "--map draws waypoint x tool angle: give --free-axis x|y|z"),
+    (["--plot", "joints.svg"], "--plot joints.svg: give a .png file name"),
+    (["--plot", "same.png", "--map", "same.png", "--free-axis", "z"], "--plot and --map name the same file"),
 ])
 def test_bad_new_options_are_one_line(extra, message):
     result = run_cli(*UR5, *LINE, *extra)

@@ -80,6 +80,10 @@ def register(commands) -> None:
     path.add_argument("--acceleration-scale", type=float, default=None, metavar="S",
                       help="with --retime: each joint's acceleration limit is S x its velocity limit per 0.5 s "
                            "(a URDF gives none; default 1)")
+    path.add_argument("--plot", default=None, metavar="FILE.png",
+                      help="draw the joints along the path between their limits, and the singularity margin")
+    path.add_argument("--map", default=None, metavar="FILE.png",
+                      help="with --free-axis: draw the waypoint x tool angle feasibility map, coloured by kind")
     path.add_argument("--format", choices=("text", "json"), default="text")
     path.add_argument("-o", "--output", default=None, metavar="FILE",
                       help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
@@ -157,6 +161,7 @@ def run_path(args) -> int:
         raise UsageError("--free-step and --free-range apply with --free-axis x|y|z")
     position_tol, angle_tol = args.path_tol
     _check_retime(args)
+    _check_pictures(args)
     if args.output is not None:
         from manipkit.outputs import writable_path
 
@@ -180,6 +185,7 @@ def run_path(args) -> int:
 
         csv = trajectory_csv(plan) if motion is None else motion_csv(motion, robot.chain(args.base, args.tip))
         write_text(args.output, csv, inputs=[args.poses, args.world])
+    drawn = _draw(args, plan, motion, robot)
     if args.format == "json":
         answer = plan.as_dict()
         if args.retime:
@@ -194,6 +200,8 @@ def run_path(args) -> int:
                         written=args.output if plan.feasible and motion is None else None))
         if motion is not None:
             print(motion_text(motion, speed=args.speed, written=args.output))
+        for line in drawn:
+            print(line)
     return EXIT_OK if plan.feasible else EXIT_MISMATCH
 
 
@@ -210,6 +218,40 @@ def _check_retime(args) -> None:
     scale = args.acceleration_scale
     if scale is not None and not (math.isfinite(scale) and 0 < scale <= 1e6):
         raise UsageError(f"--acceleration-scale {short_text(scale)}: give a positive factor")
+
+
+def _check_pictures(args) -> None:
+    """Usage errors of --plot and --map, before any planning."""
+    from manipkit.outputs import writable_path
+
+    if args.map is not None and args.free_axis is None:
+        raise UsageError("--map draws waypoint x tool angle: give --free-axis x|y|z")
+    for option, name in (("--plot", args.plot), ("--map", args.map)):
+        if name is not None:
+            if not str(name).lower().endswith(".png"):
+                raise UsageError(f"{option} {printable(str(name))[:60]}: give a .png file name")
+            writable_path(name, inputs=[args.poses, args.world, args.output])
+    if args.plot is not None and args.plot == args.map:
+        raise UsageError("--plot and --map name the same file")
+
+
+def _draw(args, plan, motion, robot) -> list[str]:
+    """Write the pictures asked for; the lines that say so (the joint plot only of a feasible plan)."""
+    from manipkit.app import path_plots
+
+    lines = []
+    inputs = [args.poses, args.world]
+    if args.plot is not None and plan.feasible:
+        path_plots.joint_plot(plan, robot.chain(args.base, args.tip), args.plot, motion=motion, inputs=inputs,
+                              title=f"{robot.name}: {args.tip} along the path")
+        lines.append(f"joint plot written to {printable(str(args.plot))}")
+    elif args.plot is not None:
+        lines.append(f"no joint plot: no joint path ({printable(str(args.plot))} not written)")
+    if args.map is not None:
+        path_plots.feasibility_map(plan, args.map, free_axis=args.free_axis, inputs=inputs,
+                                   title=f"{robot.name}: {args.tip}, waypoint x tool angle about {args.free_axis}")
+        lines.append(f"feasibility map written to {printable(str(args.map))}")
+    return lines
 
 
 def motion_csv(motion, chain) -> str:
