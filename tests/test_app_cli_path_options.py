@@ -65,7 +65,10 @@ def test_retime_text_and_csv(tmp_path, ur5):
     assert result.returncode == 0, result.stderr
     text = result.stdout
     assert "RETIMED (TOPP-RA): " in text and " s through 11 waypoints in order, rest to rest" in text
-    assert "where it slows down" in text and "waypoints 1-2: the tool speed limit binds for 100 % of the time" in text
+    assert "where it slows down (12 (segment, limit) pair(s) bind, over 10 of 10 segment(s)):" in text
+    # the tool speed binds all along but where the arm speeds up and brakes (the acceleration limits, first and last)
+    assert "    the tool speed limit binds on waypoints 0-10 for " in text
+    assert "    shoulder_lift_joint's acceleration limit binds on waypoints 0-1 for " in text
     assert f"trajectory (t, q, qd, qdd) written to {out}" in text
     rows = out.read_text().splitlines()
     head = rows[0].split(",")
@@ -212,3 +215,16 @@ def test_bad_arcs_are_one_line(arc, message):
 def test_an_arc_needs_a_step():
     result = run_cli(*UR5, *ARC[:-2])
     assert result.returncode == 2 and "--arc needs --step M" in result.stderr
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--step", "0"], "step 0: give a length in metres"),
+    (["--step", "0.01", "--plot", "/nonexistent/x.png"], "cannot write /nonexistent/x.png: no such folder"),
+    (["--step", "0.01", "--speed", "0", "--retime"], "speed (m/s) 0: give a length in metres"),
+    (["--step", "0.01", "--speed", "0.1", "--retime", "--acceleration-scale", "nan"], "--acceleration-scale nan"),
+])
+def test_more_bad_input_on_an_arc_is_one_line(extra, message):
+    result = run_cli(*UR5, *ARC[:-2], *extra)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
