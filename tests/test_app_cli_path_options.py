@@ -65,6 +65,8 @@ def test_retime_text_and_csv(tmp_path, ur5):
     assert result.returncode == 0, result.stderr
     text = result.stdout
     assert "RETIMED (TOPP-RA): " in text and " s through 11 waypoints in order, rest to rest" in text
+    assert ("  limits: 1 x each joint's URDF velocity limit v; acceleration 1 x v / 0.5 s (the URDF gives none); "
+            "tool at most 0.1 m/s") in text
     assert "where it slows down (12 (segment, limit) pair(s) bind, over 10 of 10 segment(s)):" in text
     # the tool speed binds all along but where the arm speeds up and brakes (the acceleration limits, first and last)
     assert "    the tool speed limit binds on waypoints 0-10 for " in text

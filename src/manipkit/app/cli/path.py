@@ -199,7 +199,8 @@ def run_path(args) -> int:
         print(plan_text(plan, robot=robot.name, base=args.base, tip=args.tip, speed=args.speed,
                         written=args.output if plan.feasible and motion is None else None))
         if motion is not None:
-            print(motion_text(motion, speed=args.speed, written=args.output))
+            print(motion_text(motion, speed=args.speed, written=args.output, velocity_scale=args.velocity_scale,
+                              acceleration_scale=1.0 if args.acceleration_scale is None else args.acceleration_scale))
         for line in drawn:
             print(line)
     return EXIT_OK if plan.feasible else EXIT_MISMATCH
@@ -266,10 +267,16 @@ def motion_csv(motion, chain) -> str:
     return "\n".join(lines) + "\n"
 
 
-def motion_text(motion, *, speed, written=None, most: int = 8) -> str:
+def motion_text(motion, *, speed, written=None, most: int = 8, velocity_scale: float = 1.0,
+                acceleration_scale: float = 1.0) -> str:
     """The retimed motion in words: how long, within what, and where and why it slows down."""
+    from manipkit.paths.timing import ACCELERATION_TIME
+
     lines = [f"RETIMED (TOPP-RA): {short_text(motion.duration, 6)} s through {len(motion.waypoint_times)} waypoints in "
              f"order, rest to rest, {len(motion.t)} samples"]
+    lines.append(f"  limits: {short_text(velocity_scale)} x each joint's URDF velocity limit v; acceleration "
+                 f"{short_text(acceleration_scale)} x v / {short_text(ACCELERATION_TIME)} s (the URDF gives none); "
+                 f"tool at most {short_text(speed)} m/s")
     tool = "" if motion.max_tool_speed is None else (f", tool speed at most {short_text(motion.max_tool_speed, 4)} "
                                                      f"m/s (asked {short_text(speed)})")
     lines.append(f"  peaks: {short_text(100 * motion.max_velocity_ratio, 4)}% of a velocity limit, "
