@@ -230,3 +230,10 @@ def test_more_bad_input_on_an_arc_is_one_line(extra, message):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_retiming_a_single_waypoint_is_one_line():
+    point = ["0.4", "0.1", "0.4", "3.14159", "0", "0"]
+    result = run_cli(*UR5, "--line", *point, *point, "--step", "0.01", "--speed", "0.1", "--retime")
+    assert result.returncode == 2
+    assert result.stderr.strip() == "manipkit: error: the path has one waypoint: there is no motion to retime"

@@ -65,7 +65,7 @@ def retime_plan(plan, chain, *, speed: float | None = None, velocity_scale: floa
     Raises
     ------
     OptionError
-        An infeasible plan, one with breaks, a joint without a URDF velocity limit, or bad limits.
+        An infeasible plan, one of a single waypoint, one with breaks, a joint without a URDF velocity limit, or bad limits.
 
     Examples
     --------
@@ -87,6 +87,8 @@ def retime_plan(plan, chain, *, speed: float | None = None, velocity_scale: floa
     if plan.reconfigurations:
         raise OptionError(f"the plan breaks at waypoint(s) {', '.join(map(str, plan.reconfigurations))} (retract, "
                           "reconfigure): retime each piece, plan.q[a:b], on its own")
+    if len(plan.q) < 2:
+        raise OptionError("the path has one waypoint: there is no motion to retime")
     if tuple(chain.joint_names) != tuple(plan.joint_names):
         raise OptionError("the chain's joints are not the plan's: give the chain the plan was made for")
     scale = plan.resolution.get("velocity_scale", 1.0) if velocity_scale is None else float(velocity_scale)
