@@ -25,6 +25,7 @@ def test_the_notebooks_exist():
         "10_closed_form_real_arms.ipynb",
         "11_collisions.ipynb",
         "12_statics.ipynb",
+        "13_task_paths.ipynb",
     ]
 
 

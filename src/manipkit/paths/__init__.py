@@ -23,5 +23,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "RIGID_TOL", "PosePath", "arc_poses", "interpolate_poses", "line_poses", "read_pose_path",
     ),
     **homes_of("manipkit.paths.plan", "BranchFailure", "PathPlan", "plan_path"),
+    **homes_of("manipkit.paths.timing", "ACCELERATION_TIME", "default_acceleration_limits", "retime_plan",
+               "trajectory_dict"),
     **homes_of("manipkit.paths.ladder", "LadderResult", "solve_ladder"),
 })

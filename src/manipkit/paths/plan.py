@@ -33,7 +33,7 @@ from manipkit.paths.rungs import AXES, alias_group, build_rungs, ik_source, tool
 from manipkit.paths.steps import deviating_steps, step_samples
 from manipkit.text import short_text
 
-__all__ = ["FAILURE_KINDS", "BranchFailure", "PathPlan", "plan_path", "velocity_limits"]
+__all__ = ["FAILURE_KINDS", "FEASIBILITY_KINDS", "BranchFailure", "PathPlan", "plan_path", "velocity_limits"]
 
 #: Why candidates at a waypoint died: no IK branch reaches the target; a branch has no value inside a joint's
 #: limits; the configuration (or every allowed step into it) is in collision; the configuration is within the
@@ -42,6 +42,13 @@ __all__ = ["FAILURE_KINDS", "BranchFailure", "PathPlan", "plan_path", "velocity_
 ONE_DEGREE = math.pi / 180.0
 TEN_DEGREES = math.pi / 18.0
 FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "near_singular", "velocity", "deviation")
+#: The cells of :attr:`PathPlan.feasibility` (waypoint x tool angle), worst first; a cell is the best of its
+#: candidates: no IK branch reaches the target; branches do, none inside the joint limits; every candidate is
+#: near-singular; every one is (found) in collision; none is reached from the start by allowed steps (the steps
+#: in leave the path or collide, or nothing before is reached); the best step in is too fast for a joint's velocity
+#: limit; reached from the start by allowed steps; the tool angle the plan takes.
+FEASIBILITY_KINDS = ("unreachable", "joint_limits", "near_singular", "collision", "cut_off", "velocity", "reached",
+                     "chosen")
 
 
 @dataclass(frozen=True)
@@ -119,6 +126,12 @@ class PathPlan:
         Joint-interpolated points checked against the tool path.
     replans : int
         How many times the ladder was solved again after taking out what failed a check.
+    feasibility : ndarray of int8, shape (N, A), or None
+        Per waypoint and tool angle (``free_angles``; one column without a free axis), the index in
+        :data:`FEASIBILITY_KINDS` of the best its candidates (over every branch, alias and arm angle) reach,
+        as the last ladder solved saw them: the data of the feasibility map.
+    free_angles : ndarray, shape (A,), or None
+        The sampled tool angles about the free axis (rad); ``[0.0]`` without one.
     """
 
     feasible: bool
@@ -137,6 +150,8 @@ class PathPlan:
     collision_checks: int = 0
     deviation_points: int = 0
     replans: int = 0
+    feasibility: np.ndarray | None = field(default=None, repr=False)
+    free_angles: np.ndarray | None = field(default=None, repr=False)
 
     def as_dict(self) -> dict:
         """The JSON contract of ``manipkit path --format json`` (the keys the issue names, in order)."""
@@ -388,8 +403,11 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         "ik_calls": rungs.ik_calls, "velocity_scale": scale, "timed": dt is not None,
         "unfinished": bool(changed),
     }
+    P = 1 if psi is None else len(psi)
+    cells = _feasibility(rungs, ladder, penalties, singular, singular_tol, len(angles), P)
     common = dict(joint_names=tuple(chain.joint_names), t=times, failures=failures, resolution=resolution,
-                  collision_checks=checks, deviation_points=points, replans=replans)
+                  collision_checks=checks, deviation_points=points, replans=replans, feasibility=cells,
+                  free_angles=angles)
     if not ladder.feasible or changed:  # changed: the last path failed a check and max_replans ran out
         return PathPlan(False, None, first_failure=ladder.first_dead, reconfigurations=(), cost=None,
                         max_velocity_ratio=None, **common)
@@ -401,12 +419,35 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     if aliases:
         Q = _nearest_zero(Q, chain)
     sample = np.stack([rungs.sample[i][choice[i]] for i in range(N)])
-    P = 1 if psi is None else len(psi)
+    cells[np.arange(N), sample // P] = FEASIBILITY_KINDS.index("chosen")
     Q.setflags(write=False)
     return PathPlan(True, Q, first_failure=None, reconfigurations=tuple(i + 1 for i in ladder.breaks),
                     cost=ladder.cost, max_velocity_ratio=ratio,
                     tool_angles=None if free_axis is None else angles[sample // P],
                     arm_angles=None if psi is None else psi[sample % P], targets=targets, **common)
+
+
+def _feasibility(rungs, ladder, penalties, singular, singular_tol, A: int, P: int) -> np.ndarray:
+    """(N, A) int8: per waypoint and tool angle, the best :data:`FEASIBILITY_KINDS` index of its candidates."""
+    kinds = {name: k for k, name in enumerate(FEASIBILITY_KINDS)}
+    N = len(rungs.Q)
+    reachable = (np.ones((N, A * P), dtype=bool) if rungs.reachable is None else rungs.reachable).reshape(N, A, P)
+    cells = np.where(reachable.any(axis=2), kinds["joint_limits"], kinds["unreachable"]).astype(np.int8)
+    blocked = {block.rung: block for block in ladder.blocked}
+    for i in range(N):
+        if not len(rungs.Q[i]):
+            continue
+        code = np.full(len(rungs.Q[i]), kinds["cut_off"], dtype=np.int8)
+        block = blocked.get(i)
+        if block is not None:
+            code[np.isfinite(block.ratio) & (block.ratio > 1.0)] = kinds["velocity"]
+        code[np.isinf(penalties[i])] = kinds["collision"]
+        if singular[i] is not None:
+            code[singular[i] < singular_tol] = kinds["near_singular"]
+        if i < len(ladder.reached):
+            code[np.asarray(ladder.reached[i], dtype=bool)] = kinds["reached"]
+        np.maximum.at(cells[i], rungs.sample[i] // P, code)
+    return cells
 
 
 def _same_steps(rungs, i: int, a: int, b: int) -> list[tuple[int, int]]:

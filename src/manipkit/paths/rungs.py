@@ -52,6 +52,8 @@ class Rungs:
         What produced the branches, in words.
     ik_calls : int
         How many targets were handed to the IK dispatcher.
+    reachable : ndarray of bool, shape (N, samples), or None
+        Per waypoint and target sample, whether some IK branch reaches it (the feasibility map's data).
     """
 
     Q: tuple[np.ndarray, ...]
@@ -63,6 +65,7 @@ class Rungs:
     samples: int
     method: str
     ik_calls: int
+    reachable: np.ndarray | None = None
 
 
 def tool_rotations(axis: str | None, angles) -> np.ndarray:
@@ -173,6 +176,7 @@ def build_rungs(chain, poses: np.ndarray, turns: np.ndarray, *, source: str, arm
     unreachable = np.zeros(N, dtype=np.intp)
     limits = np.zeros(N, dtype=np.intp)
     limit_joint = []
+    reachable = np.zeros((N, A * P), dtype=bool)
     step = max(1, block // max(1, A * P)) if source != "numerical" else 1
     for start in range(0, N, step):
         stop = min(N, start + step)
@@ -181,7 +185,8 @@ def build_rungs(chain, poses: np.ndarray, turns: np.ndarray, *, source: str, arm
         m, S, k, n = Q.shape
         for w in range(m):
             i = start + w
-            unreachable[i] = int((~ok[w].any(axis=1)).sum())
+            reachable[i] = ok[w].any(axis=1)
+            unreachable[i] = int((~reachable[i]).sum())
             flat = Q[w].reshape(S * k, n)
             keep = ok[w].reshape(S * k)
             idx = np.flatnonzero(keep)
@@ -198,7 +203,7 @@ def build_rungs(chain, poses: np.ndarray, turns: np.ndarray, *, source: str, arm
     what = {"closed_form": "every closed-form branch", "srs": f"every closed-form branch at {P} arm angles",
             "numerical": f"every distinct solution numerical IK found from {restarts} restarts"}[source]
     return Rungs(tuple(Qs), tuple(samples), tuple(slots), unreachable, limits, tuple(limit_joint), A * P, what,
-                 N * A * P if source != "numerical" else N * A)
+                 N * A * P if source != "numerical" else N * A, reachable)
 
 
 def alias_group(rungs: Rungs, i: int, a: int) -> np.ndarray:

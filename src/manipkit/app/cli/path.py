@@ -3,7 +3,8 @@
 The poses come from a file (``--poses FILE``: CSV ``x,y,z,qx,qy,qz,qw[,t]`` or
 YAML, :func:`manipkit.paths.poses.read_pose_path`) or a straight line
 (``--line X Y Z R P Y X Y Z R P Y --step M``, rpy in the URDF convention,
-:func:`manipkit.paths.poses.line_poses`); the plan is
+:func:`manipkit.paths.poses.line_poses`) or a circular arc (``--arc`` start, via,
+end, :func:`manipkit.paths.poses.arc_poses`); the plan is
 :func:`manipkit.paths.plan.plan_path` (docs/site/guides/paths.md). Exit
 status 0 when the path can be followed, 1 when it cannot (the output says
 where and why), 2 for a usage error.
@@ -26,7 +27,7 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import printable, short_text
 
-__all__ = ["parse_angle", "plan_text", "register", "run_path", "trajectory_csv"]
+__all__ = ["motion_csv", "motion_text", "parse_angle", "plan_text", "register", "run_path", "trajectory_csv"]
 
 
 def register(commands) -> None:
@@ -40,8 +41,10 @@ def register(commands) -> None:
     source.add_argument("--poses", metavar="FILE", help="CSV (x,y,z,qx,qy,qz,qw and optional t) or YAML pose file")
     source.add_argument("--line", type=float, nargs=12, metavar="V",
                         help="a straight line: X Y Z R P Y of the start then of the end (m; rpy rad, or deg with --deg)")
-    path.add_argument("--step", type=float, default=None, metavar="M", help="with --line: largest distance between "
-                                                                            "waypoints (m)")
+    source.add_argument("--arc", type=float, nargs=18, metavar="V",
+                        help="a circular arc: X Y Z R P Y of the start, of a point it passes (via), of the end")
+    path.add_argument("--step", type=float, default=None, metavar="M", help="with --line or --arc: largest distance "
+                                                                            "between waypoints (m, along the path)")
     path.add_argument("--speed", type=float, default=None, metavar="M/S",
                       help="tool speed along the path (m/s): times the steps, which must fit the joints' velocity "
                            "limits (a file's t is used otherwise)")
@@ -71,8 +74,19 @@ def register(commands) -> None:
 
     add_collision_options(path)
     add_joint_options(path)
+    path.add_argument("--retime", action="store_true",
+                      help="with --speed: the fastest motion through every waypoint in order within the joints' "
+                           "velocity and acceleration limits and the tool speed (TOPP-RA)")
+    path.add_argument("--acceleration-scale", type=float, default=None, metavar="S",
+                      help="with --retime: each joint's acceleration limit is S x its velocity limit per 0.5 s "
+                           "(a URDF gives none; default 1)")
+    path.add_argument("--plot", default=None, metavar="FILE.png",
+                      help="draw the joints along the path between their limits, and the singularity margin")
+    path.add_argument("--map", default=None, metavar="FILE.png",
+                      help="with --free-axis: draw the waypoint x tool angle feasibility map, coloured by kind")
     path.add_argument("--format", choices=("text", "json"), default="text")
-    path.add_argument("-o", "--output", default=None, metavar="FILE", help="write the joint path as CSV (t, joints)")
+    path.add_argument("-o", "--output", default=None, metavar="FILE",
+                      help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
     path.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
                       help="progress bars on stderr (auto: when it is a terminal)")
     path.set_defaults(run=run_path)
@@ -96,26 +110,27 @@ def parse_angle(text: str, option: str, *, degrees: bool = False) -> float:
 
 
 def _poses(args):
-    """(poses (N, 4, 4), t or None) from --poses or --line."""
+    """(poses (N, 4, 4), t or None) from --poses, --line or --arc."""
     import numpy as np
 
-    from manipkit.paths.poses import line_poses, read_pose_path
+    from manipkit.paths.poses import arc_poses, line_poses, read_pose_path
     from manipkit.spatial.transforms import transform_from_xyz_rpy
 
     if args.poses is not None:
         if args.step is not None:
-            raise UsageError("--step applies to --line; a pose file gives its own waypoints")
+            raise UsageError("--step applies to --line and --arc; a pose file gives its own waypoints")
         path = read_pose_path(args.poses)
         return np.asarray(path.poses), None if path.t is None else np.asarray(path.t)
-    values = args.line
+    option, values = ("--line", args.line) if args.line is not None else ("--arc", args.arc)
     if not all(math.isfinite(v) for v in values):
-        raise UsageError("--line: give 12 finite numbers (X Y Z R P Y of the start, then of the end)")
+        raise UsageError(f"{option}: give {len(values)} finite numbers (X Y Z R P Y of each pose)")
     if args.step is None:
-        raise UsageError("--line needs --step M, the largest distance between waypoints (m)")
-    rpy = [math.radians(v) if args.deg else v for v in values[3:6] + values[9:12]]
-    T0 = transform_from_xyz_rpy(values[0:3], rpy[0:3])
-    T1 = transform_from_xyz_rpy(values[6:9], rpy[3:6])
-    return line_poses(T0, T1, step=args.step), None
+        raise UsageError(f"{option} needs --step M, the largest distance between waypoints (m)")
+    ends = [transform_from_xyz_rpy(values[k:k + 3], [math.radians(v) if args.deg else v for v in values[k + 3:k + 6]])
+            for k in range(0, len(values), 6)]
+    if option == "--arc":
+        return arc_poses(*ends, step=args.step), None
+    return line_poses(*ends, step=args.step), None
 
 
 def _checker(robot, args):
@@ -145,6 +160,8 @@ def run_path(args) -> int:
     if args.free_axis is None and (free_step is not None or free_range is not None):
         raise UsageError("--free-step and --free-range apply with --free-axis x|y|z")
     position_tol, angle_tol = args.path_tol
+    _check_retime(args)
+    _check_pictures(args)
     if args.output is not None:
         from manipkit.outputs import writable_path
 
@@ -157,18 +174,155 @@ def run_path(args) -> int:
                          collision_step=parse_angle(args.collision_step, "--collision-step"),
                          path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0,
                          progress=progress)
+    motion = None
+    if args.retime and plan.feasible:
+        from manipkit.paths.timing import retime_plan
+
+        scale = 1.0 if args.acceleration_scale is None else args.acceleration_scale
+        motion = retime_plan(plan, robot.chain(args.base, args.tip), speed=args.speed, acceleration_scale=scale)
     if args.output is not None and plan.feasible:
         from manipkit.outputs import write_text
 
-        write_text(args.output, trajectory_csv(plan), inputs=[args.poses, args.world])
+        csv = trajectory_csv(plan) if motion is None else motion_csv(motion, robot.chain(args.base, args.tip))
+        write_text(args.output, csv, inputs=[args.poses, args.world])
+    drawn = _draw(args, plan, motion, robot)
     if args.format == "json":
-        print_json(plan.as_dict())
+        answer = plan.as_dict()
+        if args.retime:
+            from manipkit.paths.timing import trajectory_dict
+
+            answer["trajectory"] = None if motion is None else trajectory_dict(motion)
+        print_json(answer)
     else:
         for line in alias_lines(robot, args.base, args.tip):
             print(line)
         print(plan_text(plan, robot=robot.name, base=args.base, tip=args.tip, speed=args.speed,
-                        written=args.output if plan.feasible else None))
+                        written=args.output if plan.feasible and motion is None else None))
+        if motion is not None:
+            print(motion_text(motion, speed=args.speed, written=args.output, velocity_scale=args.velocity_scale,
+                              acceleration_scale=1.0 if args.acceleration_scale is None else args.acceleration_scale))
+        for line in drawn:
+            print(line)
     return EXIT_OK if plan.feasible else EXIT_MISMATCH
+
+
+def _check_retime(args) -> None:
+    """Usage errors of --retime and --acceleration-scale, before any planning."""
+    if not args.retime:
+        if args.acceleration_scale is not None:
+            raise UsageError("--acceleration-scale applies with --retime")
+        return
+    if args.speed is None:
+        raise UsageError("--retime needs --speed M/S, the tool speed the motion may not exceed")
+    if args.reconfigure:
+        raise UsageError("--retime with --reconfigure: a path with breaks is retimed piece by piece (in Python)")
+    scale = args.acceleration_scale
+    if scale is not None and not (math.isfinite(scale) and 0 < scale <= 1e6):
+        raise UsageError(f"--acceleration-scale {short_text(scale)}: give a positive factor")
+
+
+def _check_pictures(args) -> None:
+    """Usage errors of --plot and --map, before any planning."""
+    from manipkit.outputs import writable_path
+
+    if args.map is not None and args.free_axis is None:
+        raise UsageError("--map draws waypoint x tool angle: give --free-axis x|y|z")
+    for option, name in (("--plot", args.plot), ("--map", args.map)):
+        if name is not None:
+            if not str(name).lower().endswith(".png"):
+                raise UsageError(f"{option} {printable(str(name))[:60]}: give a .png file name")
+            writable_path(name, inputs=[args.poses, args.world, args.output])
+    if args.plot is not None and args.plot == args.map:
+        raise UsageError("--plot and --map name the same file")
+
+
+def _draw(args, plan, motion, robot) -> list[str]:
+    """Write the pictures asked for; the lines that say so (the joint plot only of a feasible plan)."""
+    from manipkit.app import path_plots
+
+    lines = []
+    inputs = [args.poses, args.world]
+    if args.plot is not None and plan.feasible:
+        path_plots.joint_plot(plan, robot.chain(args.base, args.tip), args.plot, motion=motion, inputs=inputs,
+                              title=f"{robot.name}: {args.tip} along the path")
+        lines.append(f"joint plot written to {printable(str(args.plot))}")
+    elif args.plot is not None:
+        lines.append(f"no joint plot: no joint path ({printable(str(args.plot))} not written)")
+    if args.map is not None:
+        path_plots.feasibility_map(plan, args.map, free_axis=args.free_axis, inputs=inputs,
+                                   title=f"{robot.name}: {args.tip}, waypoint x tool angle about {args.free_axis}")
+        lines.append(f"feasibility map written to {printable(str(args.map))}")
+    return lines
+
+
+def motion_csv(motion, chain) -> str:
+    """The retimed trajectory as CSV: ``t[s]``, then ``q.<joint>[rad]``, ``qd.<joint>[rad/s]``,
+    ``qdd.<joint>[rad/s^2]`` for every joint in chain order (m for a prismatic joint), one row per sample."""
+    units = ["rad" if joint.is_angular else "m" for joint in chain.joints]
+    head = ["t[s]"] + [f"{kind}.{name}[{unit}{suffix}]" for kind, suffix in (("q", ""), ("qd", "/s"), ("qdd", "/s^2"))
+                       for name, unit in zip(motion.joint_names, units)]
+    lines = [",".join(head)]
+    for row in zip(motion.t, motion.q, motion.qd, motion.qdd):
+        lines.append(",".join([repr(float(row[0]))] + [repr(float(v)) for part in row[1:] for v in part]))
+    return "\n".join(lines) + "\n"
+
+
+def motion_text(motion, *, speed, written=None, most: int = 8, velocity_scale: float = 1.0,
+                acceleration_scale: float = 1.0) -> str:
+    """The retimed motion in words: how long, within what, and where and why it slows down."""
+    from manipkit.paths.timing import ACCELERATION_TIME
+
+    lines = [f"RETIMED (TOPP-RA): {short_text(motion.duration, 6)} s through {len(motion.waypoint_times)} waypoints in "
+             f"order, rest to rest, {len(motion.t)} samples"]
+    lines.append(f"  limits: {short_text(velocity_scale)} x each joint's URDF velocity limit v; acceleration "
+                 f"{short_text(acceleration_scale)} x v / {short_text(ACCELERATION_TIME)} s (the URDF gives none); "
+                 f"tool at most {short_text(speed)} m/s")
+    tool = "" if motion.max_tool_speed is None else (f", tool speed at most {short_text(motion.max_tool_speed, 4)} "
+                                                     f"m/s (asked {short_text(speed)})")
+    lines.append(f"  peaks: {short_text(100 * motion.max_velocity_ratio, 4)}% of a velocity limit, "
+                 f"{short_text(100 * motion.max_acceleration_ratio, 4)}% of an acceleration limit{tool}")
+    for line in motion.explain()[1:]:
+        if not line.startswith("waypoints "):
+            lines.append("  " + line)
+    slow = motion.slowdowns
+    runs = _binding_runs(motion)
+    lines.append(f"  where it slows down ({len(slow)} (segment, limit) pair(s) bind, over "
+                 f"{len({s.segment for s in slow})} of {len(motion.waypoint_times) - 1} segment(s)):" if slow
+                 else "  no limit binds")
+    for words in runs[:most]:
+        lines.append("    " + words)
+    if len(runs) > most:
+        lines.append(f"    ... and {len(runs) - most} more (--format json: trajectory.slowdowns)")
+    if written:
+        lines.append(f"trajectory (t, q, qd, qdd) written to {printable(str(written))}")
+    return "\n".join(lines)
+
+
+def _binding_runs(motion) -> list[str]:
+    """Each binding limit over runs of consecutive segments, in words, longest binding time first: "the tool
+    speed limit binds on waypoints 0-10 for 95 % of their time"."""
+    import numpy as np
+
+    seconds = np.diff(np.asarray(motion.waypoint_times))
+    found: dict = {}
+    for item in motion.slowdowns:
+        found.setdefault((item.limit, item.joint), []).append(item)
+    runs = []
+    for (limit, joint), items in found.items():
+        items = sorted(items, key=lambda item: item.segment)
+        start = 0
+        for k in range(1, len(items) + 1):
+            if k == len(items) or items[k].segment != items[k - 1].segment + 1:
+                run = items[start:k]
+                first, last = run[0].segment, run[-1].segment
+                span = float(seconds[first:last + 1].sum())
+                bound = sum(item.share * float(seconds[item.segment]) for item in run)
+                what = "the tool speed" if joint is None else f"{joint}'s {limit}"
+                share = 100 * bound / span if span > 0 else 100.0
+                runs.append((-bound, first, f"{what} limit binds on waypoints {first}-{last + 1} for "
+                                            f"{share:.0f} % of their {short_text(span, 3)} s"))
+                start = k
+    return [words for _, _, words in sorted(runs)]
 
 
 def trajectory_csv(plan) -> str:
