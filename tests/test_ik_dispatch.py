@@ -149,7 +149,7 @@ def test_options_a_solver_cannot_honour_are_refused_in_one_line():
     panda = manipkit.load("panda")
     T = panda.transform("base_link", "ee_link", panda.q())
     with pytest.raises(IKOptionError, match="no closed-form solver for robot 'panda'"):
-        manipkit.ik(panda, T, lock={"panda_joint1": 0.0})
+        manipkit.ik(panda, T, lock={"panda_joint1": 0.0, "panda_joint3": 0.1})  # one lock: the general 6R answers
     with pytest.raises(IKOptionError, match="no closed-form solver"):
         manipkit.ik(panda, T, method="closed_form")
     ur5 = manipkit.load("ur5")
@@ -160,7 +160,7 @@ def test_options_a_solver_cannot_honour_are_refused_in_one_line():
         manipkit.ik(ur5, T, tip="tool0", method="closed_form", mode="position+axis")
     with pytest.raises(IKOptionError, match="method must be one of auto, closed_form, numerical"):
         manipkit.ik(ur5, T, method="fast")
-    for args in (["--lock", "panda_joint1=0"], ["--method", "closed_form"]):
+    for args in (["--lock", "panda_joint1=0", "panda_joint3=0.1"], ["--method", "closed_form"]):
         result = run_cli("manipkit", "ik", "--robot", "panda", "--xyz", "0.4", "0.1", "0.5", "--rpy", "3.14", "0", "0",
                          *args)
         assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr

@@ -238,23 +238,18 @@ def _header(args, result: IKResult) -> str:
         solver = "algebraic elimination" if result.method == "algebraic" else "closed form"
         return (f"{solver} ({result.arm_family}, {frames}): {len(result.solutions)} solution(s) across the "
                 f"self-motion of {result.parameter}, ranked by {result.ranked_by} (best first)\nmode: {result.mode}")
-    if result.method == "closed_form":
-        found = len(result.solutions)
+    if result.method in ("closed_form", "algebraic"):
+        closed = result.method == "closed_form"
+        found, noun = len(result.solutions), "branch" if closed else "solution"
         count = (f"infinitely many solutions (free: {result.free_parameter}), {found} listed" if result.infinite
-                 else f"{found} solution(s)")
+                 else f"{found} solution(s)" + ("" if closed or not args.all else " (every isolated solution)"))
         if not args.all and found == 1:
             inside = result.within_limits is None or all(result.within_limits)
-            chosen = "the branch nearest --seed-q" if args.seed_q else "the first branch"
-            where = "inside the joint limits" if inside else "outside the joint limits: no branch is inside them"
-            count += f" ({chosen} {where}; --all lists every branch)"
-        return f"closed form ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
-    if result.method == "algebraic":
-        found = len(result.solutions)
-        count = f"{found} solution(s)" + (" (every isolated solution)" if args.all else "")
-        if not args.all and found == 1:
-            chosen = "the solution nearest --seed-q" if args.seed_q else "the first solution"
-            count += f" ({chosen} inside the joint limits; --all lists every solution)"
-        return f"algebraic elimination ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
+            chosen = f"the {noun} nearest --seed-q" if args.seed_q else f"the first {noun}"
+            where = "inside the joint limits" if inside else f"outside the joint limits: no {noun} is inside them"
+            count += f" ({chosen} {where}; --all lists every {noun})"
+        solver = "closed form" if closed else "algebraic elimination"
+        return f"{solver} ({result.arm_family}, {frames}): {count}\nmode: {result.mode}"
     outcome = "success" if result.success else "FAILED"
     return (f"numerical IK ({result.mode}, {frames}): {outcome}; {len(result.solutions)} solution(s), "
             f"{result.iterations} iterations from {result.attempts} start(s)")
