@@ -613,7 +613,8 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         for robot in ("panda", "iiwa14"):
             steps.append((f"7R ranked set {robot}",
                           lambda robot=robot: redundant_workload(robot, **sizes["redundant"])))
-        if Path(SAWYER[0]).is_file():  # a general 7R (seconds per pose): a tenth of the poses
+        if Path(SAWYER[0]).is_file() and sizes["redundant"]["n_poses"] >= 20:  # a general 7R (seconds per pose):
+            # a tenth of the poses, and none in a quick run (2 poses would take about as long as the rest of it)
             few = dict(sizes["redundant"], n_poses=max(2, sizes["redundant"]["n_poses"] // 10))
             steps.append(("7R ranked set sawyer", lambda: redundant_workload(SAWYER[0], base=SAWYER[1], tip=SAWYER[2],
                                                                              label="sawyer", **few)))
