@@ -154,13 +154,9 @@ def test_the_readme_is_a_front_page():
     assert lines[2].lstrip().startswith("make demo") and lines[3].lstrip().startswith("make test")
 
 
-#: Links the README keeps to pages others are writing (not there yet on every branch).
-PLANNED = ("docs/site/guides/security.md",)
-
-
 def test_every_file_the_readme_links_exists():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     targets = [t for t in re.findall(r"\]\(([^)#]+)\)", text) if "://" not in t]
     assert len(targets) >= 10
-    missing = [t for t in targets if not (ROOT / t).exists() and t not in PLANNED]
+    missing = [t for t in targets if not (ROOT / t).exists()]
     assert not missing, f"README.md links to missing files: {missing}"
