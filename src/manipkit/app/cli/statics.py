@@ -404,8 +404,7 @@ def _run_diagram(args, gravity) -> int:
     from manipkit.statics.diagram import draw_payload_diagram, payload_diagram
 
     direction = parse_triple(args.direction, "--direction")
-    if not (math.isfinite(args.max_offset) and args.max_offset > 0):
-        raise UsageError(f"--max-offset {args.max_offset}: give a distance > 0 (m)")
+    bounds.length(args.max_offset, "--max-offset", error=UsageError)
     steps = bounds.count(args.steps, "--steps", minimum=2, maximum=1000, error=UsageError)
     samples = bounds.count(args.samples, "--samples", minimum=1, error=UsageError)
     writable_path(args.diagram)
