@@ -194,7 +194,7 @@ def test_a_feasible_map_marks_the_chosen_tool_angle_and_the_joint_plot_is_a_png(
     (["--speed", "0.1", "--retime", "--reconfigure"], "--retime with --reconfigure"),
     (["--map", "m.png"], "--map draws waypoint x tool angle: give --free-axis x|y|z"),
     (["--plot", "joints.svg"], "--plot joints.svg: give a .png file name"),
-    (["--plot", "same.png", "--map", "same.png", "--free-axis", "z"], "--plot and --map name the same file"),
+    (["--plot", "same.png", "--map", "same.png", "--free-axis", "z"], "--plot same.png and --map same.png name the same file"),
 ])
 def test_bad_new_options_are_one_line(extra, message):
     result = run_cli(*UR5, *LINE, *extra)

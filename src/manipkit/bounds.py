@@ -11,6 +11,7 @@ by a count nobody could wait for:
 - :data:`MAX_LENGTH` (m): lengths, offsets, prismatic limits, characteristic
   lengths; two finite offsets near 1.7e308 would sum to infinity, and no arm
   is a thousand kilometres long.
+- :data:`MAX_MASS` (kg): a payload or a point mass given by a user.
 - :data:`MIN_LENGTH` (m): the smallest positive length-like step (a voxel, a
   grid step, a characteristic length): a nanometre; below it a grid over an
   arm's reach has more cells than memory.
@@ -37,11 +38,14 @@ import numpy as np
 from manipkit.errors import IKOptionError, ManipkitError, OptionError
 from manipkit.text import repr_text, short_text
 
-__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MAX_MESH_BYTES", "MAX_MESH_VERTICES", "MAX_TEXTURE_BYTES",
+__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MAX_MASS", "MAX_MESH_BYTES", "MAX_MESH_VERTICES", "MAX_TEXTURE_BYTES",
            "MIN_LENGTH", "count", "length", "tolerances"]
 
 MAX_ANGLE = 1e6
 MAX_LENGTH = 1e6
+#: Largest mass a user may give (kg): a point mass, a payload; the same 1e6 as lengths, so that their
+#: products (torques, moments) stay far inside the float range.
+MAX_MASS = 1e6
 MIN_LENGTH = 1e-9
 MAX_COUNT = 10_000_000
 MAX_MESH_BYTES = 256 << 20

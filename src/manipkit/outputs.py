@@ -38,7 +38,7 @@ from pathlib import Path
 from manipkit.errors import OutputError
 from manipkit.text import printable
 
-__all__ = ["cannot_write", "is_stream", "note_input", "refusing_inputs", "writable_path", "write_text", "writing"]
+__all__ = ["cannot_write", "distinct_outputs", "is_stream", "note_input", "refusing_inputs", "writable_path", "write_text", "writing"]
 
 _READ: set[tuple[int, int]] = set()  # (device, inode) of each file noted as read while refusing_inputs is in force
 _REFUSING: list[bool] = []
@@ -121,6 +121,40 @@ def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike
             raise OutputError(f"cannot write {printable(path)}: the command reads it (it is one of its "
                                   "inputs); give another output file name")
     return path
+
+
+def distinct_outputs(outputs: Iterable[tuple[str, str | os.PathLike | None]]) -> None:
+    """Refuse two outputs of one command that name the same file (the second written would replace the first).
+
+    ``outputs`` are ``(option, path)`` pairs (``path`` None when not asked for). Streams (``/dev/stdout``,
+    ``/dev/null``, a FIFO) may be shared. The same file by any name: an existing file by its identity,
+    a new one by its absolute path with symbolic links resolved.
+
+    Raises
+    ------
+    OutputError
+        ``OPTION A and OPTION B name the same file PATH``.
+
+    Examples
+    --------
+    >>> distinct_outputs([("-o", "a.csv"), ("--plot", "./a.csv")])
+    Traceback (most recent call last):
+    ...
+    manipkit.errors.OutputError: -o a.csv and --plot ./a.csv name the same file; give each output its own name
+    """
+    seen: list[tuple[str, str | os.PathLike, str]] = []
+    for option, path in outputs:
+        if path is None or is_stream(path):
+            continue
+        try:
+            key = os.path.realpath(path)
+        except (OSError, ValueError):
+            continue
+        for other_option, other, other_key in seen:
+            if key == other_key or _same_file(Path(path), other):
+                raise OutputError(f"{other_option} {printable(str(other))[:120]} and {option} "
+                                  f"{printable(str(path))[:120]} name the same file; give each output its own name")
+        seen.append((option, path, key))
 
 
 def _name_max(folder: Path) -> int:

@@ -25,6 +25,7 @@ from collections.abc import Callable, Iterable
 
 __all__ = [
     "UNPRINTABLE",
+    "clipped_text",
     "close_matches",
     "near_text",
     "number_text",
@@ -195,6 +196,16 @@ def close_matches(name, known, n: int = 3, cutoff: float = 0.5) -> list[str]:
         return []
     candidates = [k for k in itertools.islice(known, 10_000) if isinstance(k, str) and len(k) <= MAX_MATCHED_CHARS]
     return difflib.get_close_matches(name, candidates, n=n, cutoff=cutoff)
+
+
+def clipped_text(text, limit: int = 60) -> str:
+    """``text`` for a message: printable, and a long one cut, with its length (a value typed by a user, echoed).
+
+    >>> clipped_text("9" * 400, 10)
+    '9999999999... (400 characters)'
+    """
+    shown = printable(text)
+    return shown if len(shown) <= limit else f"{shown[:limit]}... ({len(str(text)):,} characters)"
 
 
 def quoted_name(name, limit: int = 60) -> str:

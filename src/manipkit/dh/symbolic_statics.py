@@ -23,23 +23,31 @@ mass). SymPy is imported inside the function.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 
+from manipkit import bounds
 from manipkit.dh.symbolic import MAX_SYMBOLIC_ROWS, dh_symbols
 from manipkit.dh.symbolic_jacobian import dh_frames_symbolic
 from manipkit.dh.table import DHTable
 from manipkit.errors import DHDerivationError
 from manipkit.text import short_text
 
-__all__ = ["dh_gravity_symbolic"]
+__all__ = ["MAX_SYMBOL_NAME", "dh_gravity_symbolic"]
+
+#: Longest symbol name taken for a mass or a centre coordinate (it is printed in every entry of g(q)).
+MAX_SYMBOL_NAME = 40
 
 
-def _symbolic(value, what: str):
-    """A SymPy value from a number, a SymPy expression, or a symbol name (real)."""
+def _symbolic(value, what: str, limit: float | None = None, unit: str = ""):
+    """A SymPy value from a number (``|value| <= limit``), a SymPy expression, or a symbol name (real)."""
     import sympy
 
     if isinstance(value, str):
         name = value.removeprefix("-")
+        if len(name) > MAX_SYMBOL_NAME:
+            raise DHDerivationError(f"{what} {value[:40]!r}... ({len(value):,} characters): give a symbol name of at "
+                                    f"most {MAX_SYMBOL_NAME} characters")
         if not name.isidentifier():
             raise DHDerivationError(f"{what} {value[:40]!r}: give a number or a symbol name (letters, digits, _; "
                                     "a leading - for its negative)")
@@ -51,7 +59,29 @@ def _symbolic(value, what: str):
         raise DHDerivationError(f"{what} {str(value)[:40]!r}: give a number or a symbol name") from None
     if made.is_number and not made.is_finite:
         raise DHDerivationError(f"{what} {str(value)[:40]!r}: give a finite number")
+    if limit is not None and made.is_number and abs(made) > limit:
+        raise DHDerivationError(f"{what} {short_text(float(made))}: give a value within {limit:g} {unit}")
     return made
+
+
+def _check_no_shared_symbols(masses, centres, g_vec, q, lengths) -> None:
+    """Refuse a mass or centre named like a joint variable, a gravity symbol or a kept link length: SymPy would
+    take them for one symbol (a mass ``q1`` differentiated as the joint angle, a mass ``g`` squared)."""
+    taken = {str(s): "a joint variable" for s in q}
+    taken.update({str(s): "a link length symbol" for s in (lengths or {}).values()})
+    taken.update({str(s): "a symbol of gravity" for s in g_vec.free_symbols})
+    for what, values in (("mass", masses), ("centre", centres)):
+        for i, value in enumerate(values):
+            for symbol in sorted(_free_symbols(value), key=str):
+                role = taken.get(str(symbol)) or (
+                    "the printed shorthand of a cosine or sine" if re.fullmatch(r"[cs]\d+", str(symbol)) else None)
+                if role is not None:
+                    raise DHDerivationError(f"{what} {i + 1}: the name {str(symbol)!r} is {role} of "
+                                            "this derivation; give the mass or centre another name")
+
+
+def _free_symbols(value) -> set:
+    return set(getattr(value, "free_symbols", ()))
 
 
 def dh_gravity_symbolic(table: DHTable, masses: Sequence, *, centres: Sequence | None = None,
@@ -109,7 +139,7 @@ def dh_gravity_symbolic(table: DHTable, masses: Sequence, *, centres: Sequence |
                                 "rows for symbolic gravity torques; use manipkit.statics.static_torques instead")
     if isinstance(masses, str) or len(masses) != table.n:
         raise DHDerivationError(f"masses: give {table.n} values, one per row of '{table.name}' (numbers or names)")
-    m = [_symbolic(value, f"mass {i + 1}") for i, value in enumerate(masses)]
+    m = [_symbolic(value, f"mass {i + 1}", bounds.MAX_MASS, "kg") for i, value in enumerate(masses)]
     for i, mass in enumerate(m):
         if mass.is_number and mass < 0:
             raise DHDerivationError(f"mass {i + 1} = {short_text(float(mass))} kg: give a mass >= 0 kg")
@@ -122,7 +152,7 @@ def dh_gravity_symbolic(table: DHTable, masses: Sequence, *, centres: Sequence |
         for i, point in enumerate(centres):
             if isinstance(point, str) or len(point) != 3:
                 raise DHDerivationError(f"centre {i + 1}: give three coordinates (x, y, z) in DH frame {i + 1}")
-            c.append(sympy.Matrix([_symbolic(v, f"centre {i + 1} coordinate") for v in point]))
+            c.append(sympy.Matrix([_symbolic(v, f"centre {i + 1} coordinate", bounds.MAX_LENGTH, "m") for v in point]))
     if gravity is None:
         g_vec = sympy.Matrix([0, 0, -sympy.Symbol("g", real=True)])
     else:
@@ -130,6 +160,7 @@ def dh_gravity_symbolic(table: DHTable, masses: Sequence, *, centres: Sequence |
             raise DHDerivationError("gravity: give three components (m/s^2) in the base frame's axes")
         g_vec = sympy.Matrix([_symbolic(v, "gravity component") for v in gravity])
     q = dh_symbols(table.n, symbols)
+    _check_no_shared_symbols(m, c, g_vec, q, lengths)
     frames = dh_frames_symbolic(table, lengths=lengths, symbols=symbols, simplify=simplify)
     V = sympy.S.Zero
     for i in range(table.n):

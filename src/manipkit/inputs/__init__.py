@@ -7,6 +7,7 @@
 - :mod:`manipkit.inputs.matrices`: :func:`read_matrix`, a hand-written 4x4
   (or 3x3) in the formats people paste.
 - :mod:`manipkit.inputs.poses`: :func:`read_targets`, target poses for base placement.
+- :mod:`manipkit.inputs.yamls`: :func:`load_yaml`, YAML bounded in depth and size (aliases counted).
 
 The input layer sits on :mod:`manipkit.spatial` (a pose read from a file is
 checked as a transform) and below every layer that reads files
@@ -24,4 +25,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     ),
     **homes_of("manipkit.inputs.matrices", "read_matrix"),
     **homes_of("manipkit.inputs.poses", "read_targets"),
+    **homes_of("manipkit.inputs.yamls", "load_yaml"),
 })

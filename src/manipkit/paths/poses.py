@@ -28,6 +28,7 @@ import numpy as np
 from manipkit import bounds
 from manipkit.errors import InputFileError, InvalidTransformError, OptionError
 from manipkit.inputs.files import read_text
+from manipkit.inputs.yamls import load_yaml
 from manipkit.spatial.rotations import (
     axis_angle_from_matrix,
     matrix_from_axis_angle,
@@ -312,14 +313,7 @@ def _csv_rows_one_by_one(body: str, header: list[str], name: str, where) -> np.n
 
 def _read_yaml(text: str, name: str):
     """xyz, rotations, t and a function naming waypoint i, from YAML text (a list of waypoint mappings)."""
-    import yaml
-
-    try:
-        document = yaml.safe_load(text)  # aliases share objects; the file size bounds the count of entries
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        raise InputFileError(f"{name}: malformed YAML{at}: {getattr(exc, 'problem', None) or 'cannot be parsed'}") from None
+    document = load_yaml(text, name, error=InputFileError)
     if isinstance(document, dict) and set(document) == {"poses"}:
         document = document["poses"]
     if not isinstance(document, list):

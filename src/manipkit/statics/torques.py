@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit import bounds
 from manipkit.errors import OptionError
 from manipkit.kernels.fk import ChainStep, z_to_axis
 from manipkit.kernels.program import BLOCK, JacobianProgram
@@ -113,8 +114,14 @@ class Payload:
             raise OptionError(f"payload mass {repr_text(self.mass)}: give a number of kg >= 0") from None
         if not (math.isfinite(mass) and mass >= 0):
             raise OptionError(f"payload mass {repr_text(self.mass)} kg: give a finite mass >= 0")
+        if mass > bounds.MAX_MASS:
+            raise OptionError(f"payload mass {repr_text(mass)} kg: give a mass up to {bounds.MAX_MASS:g} kg")
         object.__setattr__(self, "mass", mass)
-        object.__setattr__(self, "cog", _vector(self.cog, 3, "payload centre of gravity"))
+        cog = _vector(self.cog, 3, "payload centre of gravity")
+        if np.abs(cog).max() > bounds.MAX_LENGTH:
+            raise OptionError(f"payload centre of gravity {repr_text(cog.tolist())} m: give coordinates within "
+                              f"{bounds.MAX_LENGTH:g} m")
+        object.__setattr__(self, "cog", cog)
         if self.inertia is not None:
             inertia = _vector(self.inertia, 9, "payload inertia").reshape(3, 3)
             if not np.allclose(inertia, inertia.T, atol=1e-12) or np.linalg.eigvalsh(inertia).min() < -1e-12:

@@ -192,6 +192,7 @@ def lock_values(items: list[str], robot: Robot, *, degrees: bool = False) -> dic
         if not is_number(text) or not math.isfinite(float(text)):
             raise UsageError(f"--lock {name}={text}: give JOINT=VALUE with a finite number, e.g. "
                              f"--lock {robot.joint_names[-1] if robot.joint_names else 'joint'}=0.3")
+        check_angles(f"--lock {printable(name)[:60]}", [float(text)], degrees=degrees)
         pairs[name] = math.radians(float(text)) if degrees else float(text)
     return pairs
 

@@ -211,6 +211,7 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> IKResult:
     if arm_angle is not None:
         if not math.isfinite(arm_angle):
             raise UsageError(f"--arm-angle {arm_angle}: give a finite angle")
+        check_angles("--arm-angle", [arm_angle], degrees=args.deg)
         arm_angle = math.radians(arm_angle) if args.deg else arm_angle
     q0 = joint_vector(robot, args, option="--seed-q", items=args.seed_q) if args.seed_q else None
     return ik(robot, target, base=args.base, tip=args.tip, method="closed_form" if args.analytic else args.method,

@@ -223,7 +223,7 @@ def _check_retime(args) -> None:
 
 def _check_pictures(args) -> None:
     """Usage errors of --plot and --map, before any planning."""
-    from manipkit.outputs import writable_path
+    from manipkit.outputs import distinct_outputs, writable_path
 
     if args.map is not None and args.free_axis is None:
         raise UsageError("--map draws waypoint x tool angle: give --free-axis x|y|z")
@@ -232,8 +232,7 @@ def _check_pictures(args) -> None:
             if not str(name).lower().endswith(".png"):
                 raise UsageError(f"{option} {printable(str(name))[:60]}: give a .png file name")
             writable_path(name, inputs=[args.poses, args.world, args.output])
-    if args.plot is not None and args.plot == args.map:
-        raise UsageError("--plot and --map name the same file")
+    distinct_outputs([("-o", args.output), ("--plot", args.plot), ("--map", args.map)])
 
 
 def _draw(args, plan, motion, robot) -> list[str]:

@@ -26,7 +26,7 @@ from manipkit.app.cli.common import (
     q_text,
     robot_words,
 )
-from manipkit.text import number_text, printable
+from manipkit.text import clipped_text, number_text, printable
 
 __all__ = ["MAX_TRAJECTORY_BYTES", "grade_line", "parse_payload", "parse_triple", "parse_wrench", "read_trajectory",
            "register", "run_force_capacity", "run_inertia", "run_payload", "run_torques", "torques_json"]
@@ -125,7 +125,7 @@ def _numbers(text: str, option: str, count: int, form: str) -> list[float]:
     parts = [part.strip() for part in text.split(",")]
     if len(parts) != count or not all(is_number(part) for part in parts) or not all(
             math.isfinite(float(part)) for part in parts):
-        raise UsageError(f"{option} {printable(text)}: give {count} finite numbers as {form}")
+        raise UsageError(f"{option} {clipped_text(text)}: give {count} finite numbers as {form}")
     return [float(part) for part in parts]
 
 
@@ -142,12 +142,12 @@ def parse_payload(text: str):
     mass_text, sep, cog_text = text.partition("@")
     mass_text = mass_text.strip()
     if not is_number(mass_text) or not math.isfinite(float(mass_text)) or float(mass_text) < 0:
-        raise UsageError(f"--payload {printable(text)}: give MASS[@X,Y,Z] with a finite mass >= 0 kg "
+        raise UsageError(f"--payload {clipped_text(text)}: give MASS[@X,Y,Z] with a finite mass >= 0 kg "
                          "(e.g. --payload 2.5@0,0,0.1)")
     try:
         cog = parse_triple(cog_text, "--payload") if sep else (0.0, 0.0, 0.0)
     except UsageError:
-        raise UsageError(f"--payload {printable(text)}: give the centre of gravity after @ as 3 finite numbers "
+        raise UsageError(f"--payload {clipped_text(text)}: give the centre of gravity after @ as 3 finite numbers "
                          "X,Y,Z (m, tip frame's axes), e.g. --payload 2.5@0,0,0.1") from None
     return Payload(float(mass_text), cog)
 
@@ -158,7 +158,7 @@ def parse_wrench(text: str, axes: str):
 
     values, sep, frame = text.partition("@")
     if sep and not frame.strip():
-        raise UsageError(f"--wrench {printable(text)}: name the frame after @ (FX,FY,FZ,TX,TY,TZ@FRAME)")
+        raise UsageError(f"--wrench {clipped_text(text)}: name the frame after @ (FX,FY,FZ,TX,TY,TZ@FRAME)")
     numbers = _numbers(values, "--wrench", 6, "FX,FY,FZ,TX,TY,TZ[@FRAME] (N, N m)")
     return Wrench(numbers, frame.strip() if sep else "ee_link", axes)
 
@@ -404,8 +404,7 @@ def _run_diagram(args, gravity) -> int:
     from manipkit.statics.diagram import draw_payload_diagram, payload_diagram
 
     direction = parse_triple(args.direction, "--direction")
-    if not (math.isfinite(args.max_offset) and args.max_offset > 0):
-        raise UsageError(f"--max-offset {args.max_offset}: give a distance > 0 (m)")
+    bounds.length(args.max_offset, "--max-offset", error=UsageError)
     steps = bounds.count(args.steps, "--steps", minimum=2, maximum=1000, error=UsageError)
     samples = bounds.count(args.samples, "--samples", minimum=1, error=UsageError)
     writable_path(args.diagram)
