@@ -557,3 +557,79 @@ def test_real_ur_ros1_with_a_missing_parameters_file_gives_one_located_line():
     assert empty == ("tf-between: error: ur_common.xacro:32: xacro expression "
                      "${xacro.load_yaml(joint_limits_parameters_file)}: xacro.load_yaml of an empty file name; give the "
                      "YAML file (an argument holding its path left empty?)\n")
+
+
+# --------------------------------------------------------------------------
+# Threads: one thread's expansion never governs another's
+# --------------------------------------------------------------------------
+
+
+def test_an_evaluation_in_one_thread_lends_no_deadline_to_another():
+    """CI failed once with ``${width}: evaluation took more than 2 s`` on a plain load: the deadline of an
+    evaluation under way was module-global, so another thread's evaluation met a deadline measured on the first
+    thread's CPU clock. Here a worker thread stays inside an evaluation (its name lookup waits) while this thread
+    asks how much time it has and evaluates an expression of its own."""
+    import threading
+
+    inside, release = threading.Event(), threading.Event()
+
+    def lookup(name):
+        inside.set()
+        release.wait(10)
+        return 1.0
+
+    worker = threading.Thread(target=lambda: expressions.evaluate(
+        "w", lookup, allowed_call=lambda value: False, attribute=lambda v, n: None, item=lambda c, k: c[k]))
+    worker.start()
+    try:
+        assert inside.wait(10)
+        assert expressions.remaining_time() == math.inf  # no evaluation under way in this thread
+        assert evaluate_expression("2 * 0.5", {}) == 1.0
+    finally:
+        release.set()
+        worker.join(10)
+    assert not worker.is_alive()
+
+
+def test_robots_loaded_in_threads_expand_as_in_one_thread():
+    """xacro keeps its state in module globals; four threads loading xacro robots at once get, robot by robot,
+    the URDF text and the included files one thread gets."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    names = ["planar_2r", "course_arm", "iiwa14", "stanford_arm"]
+    alone = {name: describe(resolve_robot(name), {}, {}) for name in names}
+    with ThreadPoolExecutor(4) as pool:
+        together = list(pool.map(lambda name: (name, describe(resolve_robot(name), {}, {})), names * 3))
+    for name, (text, declared) in together:
+        assert text == alone[name][0] and declared == alone[name][1]
+
+
+def test_a_read_policy_in_one_thread_does_not_check_another_threads_reads(tmp_path):
+    """The read policy of an expansion under way governs the reads of that expansion's thread only."""
+    import threading
+
+    from manipkit.description.access import ReadPolicy, check_readable, reading_under
+    from manipkit.description.packages import PackageResolver
+    from manipkit.errors import ReadNotAllowedError
+
+    description = tmp_path / "robot" / "r.urdf"
+    description.parent.mkdir()
+    description.write_text("<robot name='r'/>")
+    outside = tmp_path / "elsewhere.stl"
+    outside.write_text("solid")
+    policy = ReadPolicy(description, PackageResolver({}, near=description), ())
+    with reading_under(policy):
+        with pytest.raises(ReadNotAllowedError):
+            check_readable(outside, "mesh")  # this thread's expansion may not read it
+        errors = []
+        other = threading.Thread(target=lambda: _record(errors, check_readable, outside, "mesh"))
+        other.start()
+        other.join(10)
+    assert errors == []
+
+
+def _record(errors, function, *args):
+    try:
+        function(*args)
+    except Exception as exc:  # noqa: BLE001 - the test asserts there is none
+        errors.append(exc)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -124,21 +125,29 @@ def _inside(path: str, folder: str) -> bool:
     return path == folder or path.startswith(folder.rstrip(os.sep) + os.sep)
 
 
-_policies: list[ReadPolicy] = []
+_local = threading.local()  # each thread's stack of policies: an expansion in one thread never checks another's reads
+
+
+def _policies() -> list[ReadPolicy]:
+    if not hasattr(_local, "policies"):
+        _local.policies = []
+    return _local.policies
 
 
 @contextlib.contextmanager
 def reading_under(policy: ReadPolicy):
     """Within this block :func:`check_readable` checks against ``policy`` (an expansion's files)."""
-    _policies.append(policy)
+    policies = _policies()
+    policies.append(policy)
     try:
         yield policy
     finally:
-        _policies.pop()
+        policies.pop()
 
 
 def check_readable(path: str | os.PathLike, what: str) -> None:
     """Refuse (:class:`~manipkit.errors.ReadNotAllowedError`) reading ``path`` unless the policy in force
     allows it; nothing is checked outside :func:`reading_under`."""
-    if _policies:
-        _policies[-1].check(path, what)
+    policies = _policies()
+    if policies:
+        policies[-1].check(path, what)

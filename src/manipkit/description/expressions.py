@@ -48,6 +48,7 @@ import contextlib
 import html
 import math
 import operator
+import threading
 import time
 from collections.abc import Callable
 
@@ -261,30 +262,42 @@ class _OutOfExpansionTime(Exception):
 # machine (a test run beside others) made a plain ${name} exceed 2 s of wall time; an expression that computes
 # forever still uses CPU and is stopped. The whole expansion's budget stays wall time (time.monotonic), so a
 # hostile description is stopped after 30 s however busy the machine is.
-_deadline: list[float] = []  # the deadline of the outermost evaluation under way (nested ones share it)
-_outer: list[tuple[float, str]] = []  # (deadline, reason) of the expansion under way (expansion_deadline)
+# Both are kept per thread: thread_time is the calling thread's clock, and an evaluation under way in one thread
+# (a robot loaded in a worker thread) must neither lend its deadline to another thread nor be cleared by it.
+_local = threading.local()
+
+
+def _budgets() -> tuple[list[float], list[tuple[float, str]]]:
+    """This thread's (deadline of the outermost evaluation under way, nested ones share it; (deadline, reason)
+    of each expansion under way, :func:`expansion_deadline`)."""
+    if not hasattr(_local, "deadline"):
+        _local.deadline, _local.outer = [], []
+    return _local.deadline, _local.outer
 
 
 def remaining_time() -> float:
     """Seconds left in the evaluation under way (``inf`` when none is)."""
-    return _deadline[0] - time.thread_time() if _deadline else math.inf
+    deadline, _ = _budgets()
+    return deadline[0] - time.thread_time() if deadline else math.inf
 
 
 @contextlib.contextmanager
 def expansion_deadline(deadline: float, reason: str):
     """Within this block no evaluation runs past ``deadline`` (``time.monotonic()``), refused with ``reason``:
     the budget of a whole expansion, which every evaluation (and every YAML file read) counts against."""
-    _outer.append((deadline, reason))
+    _, outer = _budgets()
+    outer.append((deadline, reason))
     try:
         yield
     finally:
-        _outer.pop()
+        outer.pop()
 
 
 def _check_time() -> None:
-    if _outer and time.monotonic() > _outer[-1][0]:  # the expansion's budget first: it is the one that ends everything
-        raise _OutOfExpansionTime(_outer[-1][1])
-    if _deadline and time.thread_time() > _deadline[0]:
+    deadline, outer = _budgets()
+    if outer and time.monotonic() > outer[-1][0]:  # the expansion's budget first: it is the one that ends everything
+        raise _OutOfExpansionTime(outer[-1][1])
+    if deadline and time.thread_time() > deadline[0]:
         raise _Refused(f"evaluation took more than {TIME_BUDGET_S:g} s (the time budget)")
 
 
@@ -487,9 +500,10 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         the evaluation itself (``name 'x' is not defined``, ``division by zero``), as
         one line ``xacro expression ${EXPR}: REASON``.
     """
-    outermost = not _deadline
+    deadline, _ = _budgets()
+    outermost = not deadline
     if outermost:
-        _deadline.append(time.thread_time() + TIME_BUDGET_S)
+        deadline.append(time.thread_time() + TIME_BUDGET_S)
     try:
         tree = parse_expression(expression)
         evaluator = _Evaluator(lookup, allowed_call, attribute, item)
@@ -516,4 +530,4 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
         raise expression_error(expression, error_reason(exc), kind=kind, error_class=kept) from None
     finally:
         if outermost:
-            _deadline.clear()
+            deadline.clear()

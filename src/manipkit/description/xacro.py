@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -50,6 +51,10 @@ MAX_TEXT_CHARACTERS = 4 * 1024 * 1024
 MAX_EXPANDED_CHARACTERS = 4 * MAX_DESCRIPTION_BYTES
 #: Seconds one xacro expansion may take (real descriptions take well under one).
 EXPANSION_SECONDS = 30.0
+
+# xacro keeps its state in module globals (the files included, the functions patched by _xacro_hooks) and an
+# expansion redirects the process's stdout and stderr, so one expansion runs at a time in a process.
+_EXPANDING = threading.Lock()
 
 
 class XacroExpansion(NamedTuple):
@@ -195,25 +200,27 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver, *,
     _read_description(path)
     missing: list[tuple[str, PackageNotFoundError]] = []
     environment: list[str] = []
-    xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
     stderr = _BoundedOutput()
     policy = ReadPolicy(path, resolver, allow_read)
-    try:
-        # xacro's own messages go to stderr, which is captured; Python warnings (a package found twice
-        # during $(find)) are recorded instead and issued once each after a successful expansion (_reissue);
-        # an error is one line, and names the package folder it concerns itself
-        with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing, environment), \
-                reading_under(policy), contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
-            warnings.simplefilter("always")
-            document = xacro.process_file(str(path), mappings=dict(args))
-    except Exception as exc:  # xacro raises many kinds; all are description errors (one line: no warnings)
-        raise _xacro_error(exc, path, missing, resolver) from None
+    with _EXPANDING:  # held until the error, if any, is made: it reads xacro's file and macro stacks
+        try:
+            # xacro's own messages go to stderr, which is captured; Python warnings (a package found twice
+            # during $(find)) are recorded instead and issued once each after a successful expansion (_reissue);
+            # an error is one line, and names the package folder it concerns itself
+            with warnings.catch_warnings(record=True) as caught, _xacro_hooks(path, resolver, missing, environment), \
+                    reading_under(policy), contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stderr):
+                warnings.simplefilter("always")
+                xacro.all_includes.clear()  # xacro appends every file it includes (module-global)
+                document = xacro.process_file(str(path), mappings=dict(args))
+                included = list(xacro.all_includes)
+        except Exception as exc:  # xacro raises many kinds; all are description errors (one line: no warnings)
+            raise _xacro_error(exc, path, missing, resolver) from None
     _reissue(caught)
     if environment:
         names = ", ".join(dict.fromkeys(environment))
         warnings.warn(f"{path.name}: reads environment variable(s) {names} ($(env)/$(optenv)); their values "
                       "become part of the description (link names, paths)", UserWarning, stacklevel=2)
-    files = [path, *(Path(f) for f in xacro.all_includes)]
+    files = [path, *(Path(f) for f in included)]
     _remember_files(path, files)
     # xacro ignores arguments nobody declared or reads; here they are an error (a typo would pass silently).
     # `$(arg NAME)` without a declaration is valid xacro: the argument must then be given.
