@@ -14,7 +14,7 @@ and axis ``z_k`` (base frame) and the lumps' first moments; a backward pass adds
 and ``F_k`` (kg m) of everything after joint ``k``, and the torque holding them is ``-z_k . ((F_k - M_k o_k) x g)``
 for a revolute joint and ``-M_k z_k . g`` for a prismatic one (``tau = g(q) = dV/dq``, the static convention of
 :mod:`manipkit.statics.torques`), added to the step's column times its scale (a mimic joint's multiplier). The
-sines and cosines come from :func:`sincos_into` (fdlibm's polynomials, on the CPU's vector lanes). The loops run
+sines and cosines come from :func:`sincos_into` (the C library's, one compiled loop per chunk). The loops run
 without the GIL, so threads may take blocks of rows at once (:func:`static_blocks`).
 """
 
@@ -26,7 +26,7 @@ import numpy as np
 
 from manipkit.kernels import compile_kernel, lazy_kernel
 
-__all__ = ["CHUNK", "MIN_ROWS_PER_THREAD", "REDUCTION_LIMIT", "STATIC_BLOCK", "gravity_rows", "gravity_rows_kernel",
+__all__ = ["CHUNK", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "gravity_rows", "gravity_rows_kernel",
            "margin_rows", "margin_rows_kernel", "sincos_into", "static_blocks"]
 
 _REVOLUTE = 0
@@ -39,45 +39,12 @@ MIN_ROWS_PER_THREAD = 4096
 #: 42 KiB for 7 joints: in L1 and L2 until the rows' pass reads them).
 CHUNK = 256
 
-# fdlibm's __kernel_sin and __kernel_cos (Sun Microsystems, k_sin.c, k_cos.c): on [-pi/4, pi/4], within 1 ulp
-_S1, _S2, _S3, _S4, _S5, _S6 = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
-                                2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10)
-_C1, _C2, _C3, _C4, _C5, _C6 = (4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05,
-                                -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11)
-# fdlibm's e_rem_pio2.c: 2/pi, pi/2's first 33 bits and the rest
-_INVPIO2, _PIO2_1, _PIO2_1T = 6.36619772367581382433e-01, 1.57079632673412561417e+00, 6.07710050650619224932e-11
-#: |x| (rad) up to which :func:`sincos_into` reduces by ``x - n pi/2`` with ``n pi/2``'s first 33 bits exact (``n``
-#: under 2^20); beyond it (past ``bounds.MAX_ANGLE``) it calls the C library.
-REDUCTION_LIMIT = 1.6e6
-
-
 def _sincos_into(x, sines, cosines):
-    """``sines[i] = sin(x[i])``, ``cosines[i] = cos(x[i])`` (rad) for every entry of ``x`` (1-D), within about 1 ulp
-    of the C library's (``x`` finite).
-
-    ``x = n pi/2 + r`` (``n`` the nearest whole number, ``r`` in [-pi/4, pi/4] from pi/2 in two parts), fdlibm's
-    polynomials for sin r and cos r, then the quadrant ``n mod 4`` picks and signs them: no branch, so the loop runs
-    on the CPU's vector lanes (about 5 ns per angle for both, against 15-40 ns for one libm call).
-    """
+    """``sines[i] = sin(x[i])``, ``cosines[i] = cos(x[i])`` (rad) for every entry of ``x`` (1-D): the C
+    library's sine and cosine, in one compiled loop over a chunk of joint values."""
     for i in range(x.shape[0]):
-        v = x[i]
-        fn = math.floor(v * _INVPIO2 + 0.5)
-        r = (v - fn * _PIO2_1) - fn * _PIO2_1T
-        z = r * r
-        sin_r = r + z * r * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
-        hz = 0.5 * z
-        w = 1.0 - hz
-        cos_r = w + (((1.0 - w) - hz) + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6))))))
-        n = np.int64(fn)
-        odd = (n & 1) == 1
-        a = cos_r if odd else sin_r
-        b = sin_r if odd else cos_r
-        sines[i] = -a if (n & 2) == 2 else a
-        cosines[i] = -b if ((n + 1) & 2) == 2 else b
-    for i in range(x.shape[0]):  # a scan the branch predictor takes for free
-        if abs(x[i]) > REDUCTION_LIMIT:
-            sines[i] = math.sin(x[i])
-            cosines[i] = math.cos(x[i])
+        sines[i] = math.sin(x[i])
+        cosines[i] = math.cos(x[i])
 
 
 #: :func:`_sincos_into` compiled (a dispatcher other kernels call; numba on this module's import).
