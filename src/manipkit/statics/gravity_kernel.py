@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from manipkit.kernels import compile_kernel, lazy_kernel
+from manipkit.kernels.blocks import run_blocks
 
 __all__ = ["CHUNK", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "gravity_rows", "gravity_rows_kernel",
            "margin_rows", "margin_rows_kernel", "sincos_into", "static_blocks"]
@@ -163,16 +164,6 @@ margin_rows_kernel = lazy_kernel(margin_rows, error_model="numpy", nogil=True)
 
 def static_blocks(work, n_rows: int, threads: int) -> None:
     """``work(start, stop)`` on the blocks of :data:`STATIC_BLOCK` rows covering ``0 .. n_rows``, on up to ``threads``
-    threads (one when there are fewer than :data:`MIN_ROWS_PER_THREAD` rows per thread). Every row's numbers come
-    from that row alone, so they are the same bits on any number of threads. An error is raised here."""
-    blocks = [(a, min(a + STATIC_BLOCK, n_rows)) for a in range(0, n_rows, STATIC_BLOCK)]
-    used = max(1, min(threads, n_rows // MIN_ROWS_PER_THREAD, len(blocks)))
-    if used == 1:
-        for a, b in blocks:
-            work(a, b)
-        return
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(max_workers=used, thread_name_prefix="manipkit-static_torques") as pool:
-        for future in [pool.submit(work, a, b) for a, b in blocks]:
-            future.result()
+    threads (one when there are fewer than :data:`MIN_ROWS_PER_THREAD` rows per thread): :func:`run_blocks`."""
+    run_blocks(work, n_rows, block=STATIC_BLOCK, min_rows_per_thread=MIN_ROWS_PER_THREAD, threads=threads,
+               name="static_torques")
