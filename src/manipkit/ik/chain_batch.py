@@ -22,10 +22,11 @@ checked the same way.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from manipkit.kernels.blocks import run_blocks
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -42,22 +43,9 @@ BLOCK = 1024
 
 def _run_blocks(work, n_targets: int, threads: int) -> None:
     """``work(start, stop)`` on the blocks of :data:`BLOCK` targets covering ``0 .. n_targets``, on up to
-    ``threads`` threads. An error cancels the blocks not started; those running finish, then it is raised here."""
-    blocks = [(a, min(a + BLOCK, n_targets)) for a in range(0, n_targets, BLOCK)]
-    used = max(1, min(threads, n_targets // MIN_TARGETS_PER_THREAD, len(blocks)))
-    if used == 1:
-        for a, b in blocks:
-            work(a, b)
-        return
-    with ThreadPoolExecutor(max_workers=used, thread_name_prefix="manipkit-chain_ik_many") as pool:
-        futures = [pool.submit(work, a, b) for a, b in blocks]
-        try:
-            for future in futures:
-                future.result()
-        except BaseException:  # also a Ctrl-C while waiting: nothing new starts
-            for future in futures:
-                future.cancel()
-            raise
+    ``threads`` threads (:func:`~manipkit.kernels.blocks.run_blocks`)."""
+    run_blocks(work, n_targets, block=BLOCK, min_rows_per_thread=MIN_TARGETS_PER_THREAD, threads=threads,
+               name="chain_ik_many")
 
 
 def _check(chain: Chain, T: np.ndarray, project: np.ndarray, packed: np.ndarray, index: np.ndarray,

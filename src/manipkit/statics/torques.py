@@ -46,6 +46,7 @@ True
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -54,7 +55,7 @@ import numpy as np
 from manipkit import bounds
 from manipkit.errors import OptionError
 from manipkit.kernels.fk import ChainStep, z_to_axis
-from manipkit.kernels.program import BLOCK, JacobianProgram
+from manipkit.kernels.program import JacobianProgram
 from manipkit.kinematics.chain import chain_of
 from manipkit.statics.audit import inertia_grade
 from manipkit.text import repr_text
@@ -286,41 +287,56 @@ def lumped_bodies(chain: Chain, q_rest=None) -> list[tuple[int, float, np.ndarra
     return [(position, m, first / m) for position, (m, first) in sorted(lumps.items())]
 
 
-def _gravity_program(chain: Chain, q_rest) -> tuple:
-    """(program, masses (S,), first moments (S, 3)) for the compiled gravity loop (:mod:`manipkit.statics.gravity_kernel`)."""
-    program = JacobianProgram.from_steps(chain.steps, len(chain.robot.joint_names))
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # robot -> {(base, tip, rest): tables}
+
+
+def _gravity_tables(chain: Chain, q_rest) -> tuple:
+    """The arguments of :func:`manipkit.statics.gravity_kernel.gravity_rows` that do not change per row, for the
+    chain with the joints off it at ``q_rest``: made once per (chain, rest) and kept (robots are immutable)."""
+    robot = chain.robot
+    key = (chain.base, chain.tip, None if q_rest is None else robot.q(q_rest).tobytes())
+    per_robot = _TABLES.setdefault(robot, {})
+    tables = per_robot.get(key)
+    if tables is not None:
+        return tables
+    program = chain.program.jacobian  # the chain's steps on chain vectors
     joint_steps = [k for k, step in enumerate(chain.steps) if step.index >= 0]
     masses, moments = np.zeros(len(joint_steps)), np.zeros((len(joint_steps), 3))
     for position, mass, centre in lumped_bodies(chain, q_rest):
         k = joint_steps.index(position)
         masses[k] = mass  # the program turns each joint frame by A (its axis onto z): the CoG in those axes is A^T c
         moments[k] = mass * (z_to_axis(chain.steps[position].axis).T @ centre)
-    return program, masses, moments
+    tables = (program.rotations, program.translations, program.identity, program.kinds, program.columns,
+              program.scales, program.offsets, masses, moments)
+    return per_robot.setdefault(key, tables)
 
 
-def _gravity_and_payload(chain: Chain, whole: np.ndarray, g_base: np.ndarray, payload, q_rest) -> tuple:
-    """(g(q) (N, n), the payload's part (N, n)) from one compiled pass per row (chain columns)."""
-    from manipkit.statics.gravity_kernel import gravity_rows_kernel
+def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_w, limits, q_rest) -> tuple:
+    """(g(q), the payload's part, tau, margin (N, n), saturating (N,)) for chain vectors ``Q`` (N, n): one compiled
+    pass per row, the rows cut into blocks taken by threads (:func:`manipkit.statics.gravity_kernel.static_blocks`).
+    ``tau_w`` (N, n) or None is the wrenches' part, added to ``tau``."""
+    from manipkit.kernels import thread_count
+    from manipkit.statics.gravity_kernel import gravity_rows_kernel, margin_rows_kernel, static_blocks
 
-    program, masses, moments = _gravity_program(chain, q_rest)
-    n_robot = len(chain.robot.joint_names)
-    tau, tau_p = np.zeros((whole.shape[0], n_robot)), np.zeros((whole.shape[0], n_robot))
+    tables = _gravity_tables(chain, q_rest)
+    n_rows = Q.shape[0]
+    tau_g, tau_p, tau = np.empty((n_rows, chain.n)), np.empty((n_rows, chain.n)), np.empty((n_rows, chain.n))
+    margin, saturating = np.empty((n_rows, chain.n)), np.empty(n_rows, dtype=np.intp)
     mass = 0.0 if payload is None else payload.mass
     cog = np.zeros(3) if payload is None else payload.cog
-    revolute = program.kinds == 0
-    g_base = np.ascontiguousarray(g_base)
-    kernel = gravity_rows_kernel()
-    for start in range(0, whole.shape[0], BLOCK):
-        block = whole[start:start + BLOCK]
-        tan_half = np.ascontiguousarray((block[:, program.columns[revolute]] * (0.5 * program.scales[revolute])
-                                         + 0.5 * program.offsets[revolute]).T)
-        np.tan(tan_half, out=tan_half)
-        values = np.ascontiguousarray((block[:, program.columns[~revolute]] * program.scales[~revolute]
-                                       + program.offsets[~revolute]).T)
-        kernel(tan_half, values, program.rotations, program.translations, program.identity, program.kinds,
-               program.rows, program.columns, program.scales, masses, moments, mass, cog, g_base[start:start + BLOCK],
-               tau[start:start + BLOCK], tau_p[start:start + BLOCK])
-    return tau[:, chain.columns], tau_p[:, chain.columns]
+    one_g = g_base.shape[0] == 1
+    gravity_kernel, margin_kernel = gravity_rows_kernel(), margin_rows_kernel()
+
+    def work(start: int, stop: int) -> None:
+        rows = slice(start, stop)
+        gravity_kernel(Q[rows], *tables, mass, cog, g_base if one_g else g_base[rows], tau_g[rows], tau_p[rows])
+        np.add(tau_g[rows], tau_p[rows], out=tau[rows])
+        if tau_w is not None:
+            tau[rows] += tau_w[rows]
+        margin_kernel(tau[rows], limits, margin[rows], saturating[rows])
+
+    static_blocks(work, n_rows, thread_count(None))
+    return tau_g, tau_p, tau, margin, saturating
 
 
 def point_program(chain: Chain, position: int, point) -> JacobianProgram:
@@ -389,15 +405,18 @@ def effort_limits(chain: Chain) -> np.ndarray:
 
 
 def margins(tau: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(margin percent (..., n), index of the least margin (...,), -1 without limits) for torques against limits."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        margin = 100.0 * (1.0 - np.abs(tau) / limits)
-    limited = np.isfinite(limits)
-    if not limited.any():
-        return margin, np.full(tau.shape[:-1], -1, dtype=np.intp)
-    if limited.all():
-        return margin, np.argmin(margin, axis=-1)
-    return margin, np.argmin(np.where(limited, margin, np.inf), axis=-1)
+    """(margin percent (..., n), index of the least margin (...,), -1 without limits) for torques against limits.
+
+    ``margin = 100 (1 - |tau| / limit)``, NaN where the limit is NaN; the least margin is sought among the joints with
+    a finite limit (the first one on a tie). Compiled (:func:`manipkit.statics.gravity_kernel.margin_rows`).
+    """
+    from manipkit.statics.gravity_kernel import margin_rows_kernel
+
+    tau = np.asarray(tau, dtype=float)
+    flat = np.ascontiguousarray(tau.reshape(-1, tau.shape[-1]))
+    margin, saturating = np.empty_like(flat), np.empty(flat.shape[0], dtype=np.intp)
+    margin_rows_kernel()(flat, np.ascontiguousarray(limits, dtype=float), margin, saturating)
+    return margin.reshape(tau.shape), saturating.reshape(tau.shape[:-1])
 
 
 def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, wrench=None, gravity=GRAVITY,
@@ -433,24 +452,30 @@ def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, w
     array([-2., -1.])
     """
     chain = chain_of(robot, "static_torques", base=base, tip=tip)
-    whole, lead = whole_rows(chain, q, q_rest)
-    whole = np.ascontiguousarray(whole)
-    g_base = gravity_in_base(chain, whole, gravity)
     if payload is not None and not isinstance(payload, Payload):
         raise OptionError(f"payload {repr_text(payload)}: give a manipkit.statics.Payload(mass, cog)")
-    tau_g, tau_p = _gravity_and_payload(chain, whole, g_base, payload, q_rest)
-    tau_w = np.zeros_like(tau_g)
     wrenches = () if wrench is None else (wrench,) if isinstance(wrench, Wrench) else tuple(wrench)
     for w in wrenches:
         if not isinstance(w, Wrench):
             raise OptionError(f"wrench {repr_text(w)}: give a manipkit.statics.Wrench(wrench, frame)")
-        tau_w += wrench_torques(chain, whole, w)
-    tau = tau_g + tau_p + tau_w
+    Q = chain.rows(q)
+    lead = Q.shape[:-1]
+    Q = np.ascontiguousarray(Q.reshape(-1, chain.n), dtype=float)
+    g = _vector(gravity, 3, "gravity")
+    whole = None
+    if wrenches or chain.base != chain.robot.root_link:  # the whole robot's rows: the base's turn, the wrench frames
+        whole = np.ascontiguousarray(whole_rows(chain, Q, q_rest)[0])
+    g_base = g[None] if whole is None else np.ascontiguousarray(gravity_in_base(chain, whole, g))
+    tau_w = None
+    for w in wrenches:
+        part = wrench_torques(chain, whole, w)
+        tau_w = part if tau_w is None else tau_w + part
     limits = effort_limits(chain)
-    margin, saturating = margins(tau, limits)
+    tau_g, tau_p, tau, margin, saturating = _static_parts(chain, Q, g_base, payload, tau_w, limits, q_rest)
+    if tau_w is None:
+        tau_w = np.zeros(tau.shape)  # calloc: no pass over the rows
     shape = (*lead, chain.n)
     return StaticTorques(
         chain.joint_names, tau.reshape(shape), tau_g.reshape(shape), tau_p.reshape(shape), tau_w.reshape(shape),
-        limits, margin.reshape(shape), saturating.reshape(lead), chain.base, chain.tip,
-        _vector(gravity, 3, "gravity"), inertia_grade(chain.robot),
+        limits, margin.reshape(shape), saturating.reshape(lead), chain.base, chain.tip, g, inertia_grade(chain.robot),
     )
