@@ -27,6 +27,7 @@ from manipkit.app.cli.common import (
     alias_lines,
     check_angles,
     check_precision,
+    command_chain,
     command_line,
     exact_q_words,
     joint_vector,
@@ -289,6 +290,7 @@ def run_ik(args) -> int:
     if not 0 <= args.restarts <= MAX_RESTARTS:
         raise UsageError(f"--restarts {args.restarts}: give a whole number from 0 to {MAX_RESTARTS}")
     robot = load_robot(args)
+    chain = command_chain(robot, args.base, args.tip)
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
     mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
@@ -299,13 +301,13 @@ def run_ik(args) -> int:
         note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
-        joints = robot.chain(args.base, args.tip).n
+        joints = chain.n
         if mode == "pose" and joints < 6:
             notes.append(f"the chain {args.base} -> {args.tip} has {joints} joint{'s' * (joints != 1)}, fewer than "
                          "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
                          "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
-        print_json(_json_answer(robot, robot.chain(args.base, args.tip), target, mode, result, residuals, notes))
+        print_json(_json_answer(robot, chain, target, mode, result, residuals, notes))
     else:
         _print_answer(args, robot, result, residuals, notes)
     return EXIT_OK if result.success else EXIT_MISMATCH
