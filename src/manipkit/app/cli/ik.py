@@ -250,8 +250,8 @@ def _header(args, result: IKResult) -> str:
                  else f"{found} solution(s)" + ("" if closed or not args.all else " (every isolated solution)"))
         aliases = 0 if result.alias_of is None else int((result.alias_of >= 0).sum())
         if aliases:
-            count += (f": {found - aliases} {'branches' if closed else 'solutions'} and {aliases} 2 pi alias(es) of "
-                      "them (--no-aliases lists those only)")
+            kind = "branches" if closed else "solutions"
+            count += f": {found - aliases} {kind} and {aliases} 2 pi alias(es) of them (--no-aliases: the {kind} only)"
         if not args.all and found == 1:
             inside = result.within_limits is None or all(result.within_limits)
             chosen = f"the {noun} nearest --seed-q" if args.seed_q else f"the first {noun}"
