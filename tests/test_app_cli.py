@@ -473,3 +473,47 @@ def test_every_command_names_a_chains_tip_with_tip_and_keeps_frame_as_its_alias(
     both = [run_cli("manipkit", "jacobian", "--robot", "planar_2r", flag, "link2", "--format", "json", status=0).stdout
             for flag in ("--tip", "--frame")]
     assert both[0] == both[1]
+
+
+# ur5 (example-robot-data): wrist_3_link-tool0_fixed_joint is fixed, origin xyz 0 0.0823 0, rpy -pi/2 0 0: no joint
+# joins wrist_3_link and tool0. Every command about a chain refuses the pair in one line (issue 38).
+NO_JOINT_COMMANDS = [
+    ["jacobian"],
+    ["dexterity"],
+    ["ik", "--xyz", "0", "0.0823", "0"],
+    ["ik", "--all", "--xyz", "0", "0.0823", "0"],
+    ["family"],
+    ["torques"],
+    ["payload"],
+    ["force-capacity"],
+    ["path", "--line", *["0"] * 12],
+    ["reachmap", "-o", "MAP"],
+]
+
+
+@pytest.mark.parametrize("command", NO_JOINT_COMMANDS, ids=lambda c: " ".join(c[:2]))
+def test_every_chain_command_refuses_frames_fixed_to_each_other(command, tmp_path):
+    words = [str(tmp_path / "map") if w == "MAP" else w for w in command]
+    result = run_cli("manipkit", *words, "--robot", "ur5", "--base", "wrist_3_link", "--tip", "tool0", status=2)
+    assert result.stdout == "" and result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    assert result.stderr == (
+        "manipkit: error: robot 'ur5': base wrist_3_link and tip tool0 are fixed to each other, joined by no joint, "
+        "so there is no chain to move; give a base and a tip with a joint between them (`tf-between wrist_3_link "
+        "tool0` gives their fixed transform)\n")
+    assert not (tmp_path / "map").exists()
+
+
+def test_an_alias_in_the_refusal_names_its_link():
+    # the panda's ee_link is panda_hand_tcp (its own tool frame); relative to itself it is the same frame
+    result = run_cli("manipkit", "jacobian", "--robot", "panda", "--base", "ee_link", "--tip", "panda_hand_tcp",
+                     status=2)
+    assert "base ee_link (panda_hand_tcp) and tip panda_hand_tcp are the same frame, joined by no joint" in (
+        result.stderr)
+
+
+def test_tf_between_frames_fixed_to_each_other_is_still_their_fixed_transform():
+    # not a chain command: T_wrist_3_link_tool0 is the joint's origin, xyz (0, 0.0823, 0), Rx(-pi/2), at any q
+    out = tf_json("wrist_3_link", "tool0", "--robot", "ur5", "--q", "wrist_3_joint=1.2")
+    c, s = np.cos(-np.pi / 2), np.sin(-np.pi / 2)
+    expected = [[1, 0, 0, 0], [0, c, -s, 0.0823], [0, s, c, 0], [0, 0, 0, 1]]
+    np.testing.assert_allclose(out["matrix"], expected, atol=1e-11)

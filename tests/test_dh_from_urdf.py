@@ -9,6 +9,7 @@ inline robots are also compared with tables derived by hand in the comments.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -645,10 +646,43 @@ def test_twists_written_as_1_571_snap_to_90_deg_and_the_table_passes_dh_check_at
     moved = dict(derived.moved)
     assert moved["axis of j2"] == pytest.approx(math.hypot(e, e), rel=1e-6)
     out = tmp_path / "doosan.yaml"
-    cli = run_cli("manipkit", "dh", "from-urdf", "--robot", path, "--base", "link0", "--tip", "tool", "-o", out)
+    # snapping asked for by --tol (issue 38: without it, a table this far off is derived exactly instead)
+    cli = run_cli("manipkit", "dh", "from-urdf", "--robot", path, "--base", "link0", "--tip", "tool", "-o", out,
+                  "--tol", "1e-3")
     assert cli.returncode == 0, cli.stderr
     assert "snapped to multiples of 90 deg within 0.001 rad: axis of j2 by 0.0165 deg" in cli.stdout
     check = run_cli("manipkit", "dh", "check", out, "--robot", path, "--base", "link0", "--tip", "tool", "--tol", "1e-3")
     assert check.returncode == 0, check.stdout
     strict = run_cli("manipkit", "dh", "check", out, "--robot", path, "--base", "link0", "--tip", "tool", "--tol", "1e-6")
     assert strict.returncode == 1  # the snapped table is not the description: the check says so at 1e-6
+
+
+_XARM = next((base / "shared" / "realworld" / "ws_more" / "src" / "xarm_ros2" / "xarm_description" / "urdf"
+              / "xarm_device.urdf.xacro" for base in Path(__file__).resolve().parents[2:4]
+              if (base / "shared" / "realworld").is_dir()), None)
+
+
+@pytest.mark.parametrize("robot", [
+    ["--robot", "course_arm"],  # snapped, 2.7e-6 m off: the default now derives it exactly
+    ["--robot", "ur5"],  # snapped by 6e-10 deg: within 1e-9, kept
+    ["--robot", "iiwa14"],
+    ["--robot", "panda"],
+    pytest.param(["--robot", str(_XARM), "--arg", "dof:=6", "--base", "world", "--tip", "link_eef"], id="xarm6",
+                 marks=pytest.mark.skipif(_XARM is None, reason="the shared real-world workspace is not here")),
+], ids=lambda r: r[1] if len(r) == 2 else "xarm6")
+def test_a_table_from_urdf_passes_dh_check_of_the_same_robot_by_default(robot, tmp_path):
+    # issue 38: dh from-urdf's default snapping (0.001 rad) wrote a course_arm table 2.7e-6 m off, which dh check
+    # of the same robot then failed at its default 1e-9. The check is the independent source: 1000 configurations
+    # of the URDF through Pinocchio against the table's own DH product.
+    table = tmp_path / "table.yaml"
+    derived = run_cli("manipkit", "dh", "from-urdf", *robot, "-o", str(table), status=0).stdout
+    checked = run_cli("manipkit", "dh", "check", str(table), *robot, status=0).stdout
+    assert "PASS (within 1e-09)" in checked
+    if robot[1] == "course_arm":
+        assert "not snapped: snapping within 0.001 rad would leave the table 2.7e-06 m" in derived
+
+
+def test_an_explicit_tol_still_snaps(tmp_path):
+    table = tmp_path / "table.yaml"
+    run_cli("manipkit", "dh", "from-urdf", "--robot", "course_arm", "--tol", "0.001", "-o", str(table), status=0)
+    assert "FAIL" in run_cli("manipkit", "dh", "check", str(table), "--robot", "course_arm", status=1).stdout

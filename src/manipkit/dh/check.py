@@ -70,8 +70,11 @@ from manipkit.spatial.transforms import invert_transform, pose_residuals
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["RECONCILE_TOL", "SCREW_TOL", "DHCheck", "check_dh", "screws"]
+__all__ = ["CHECK_TOL", "RECONCILE_TOL", "SCREW_TOL", "DHCheck", "check_dh", "screws"]
 
+#: The tolerance (m and rad) a table passes ``check_dh`` within by default; ``dh from-urdf`` keeps its snapping
+#: by default only when the snapped table stays within it.
+CHECK_TOL = 1e-9
 SCREW_TOL = 1e-6  # screws equal within this (axis direction and moment)
 RECONCILE_TOL = 1e-8  # home poses, and a base or tool transform and the identity, are equal within this (each entry)
 
@@ -119,7 +122,7 @@ class DHCheck:
 
 
 def check_dh(table: DHTable, robot: Robot, *, base: str = "base_link", tip: str = "ee_link",
-             samples: int = 1000, tol: float = 1e-9, seed: int = 0) -> DHCheck:
+             samples: int = 1000, tol: float = CHECK_TOL, seed: int = 0) -> DHCheck:
     """Compare a DH table's FK with a robot's URDF chain from ``base`` to ``tip``.
 
     Parameters

@@ -85,7 +85,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 # DHDerivationError is re-exported: manipkit 0.1 offered it here (manipkit.dh_from_urdf)
-__all__ = ["MAX_SNAP", "DHDerivation", "DHDerivationError", "check_snap", "derive_dh", "dh_from_urdf_chain"]
+__all__ = ["DEFAULT_SNAP", "MAX_SNAP", "DHDerivation", "DHDerivationError", "check_snap", "derive_dh", "dh_from_urdf_chain"]
 
 _ZERO_SNAP = 1e-12  # parameters below this are rounding noise and written as 0
 
@@ -320,6 +320,8 @@ def _derivation(robot: Robot, base: str, tip: str, convention: str, tol: float, 
 
 #: Largest snapping tolerance (rad): 22.5 deg, half way between multiples of 45 deg.
 MAX_SNAP = math.pi / 8
+#: ``derive_dh``'s snapping tolerance (rad) by default: 0.057 deg.
+DEFAULT_SNAP = 1e-3
 
 
 def check_snap(snap, what: str) -> float:
@@ -357,7 +359,7 @@ class DHDerivation:
 
 
 def derive_dh(robot: Robot, base: str = "base_link", tip: str = "ee_link", *, convention: str = "standard",
-              snap: float = 1e-3, samples: int = 200, seed: int = 0) -> DHDerivation:
+              snap: float = DEFAULT_SNAP, samples: int = 200, seed: int = 0) -> DHDerivation:
     """:func:`dh_from_urdf_chain` with snapping, what it moved, and the table checked against the URDF.
 
     ``snap`` (rad, default 1e-3: 0.057 deg) is the tolerance within which axes

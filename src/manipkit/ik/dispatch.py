@@ -198,7 +198,7 @@ def _ranked(robot, base: str, tip: str, *, method: str, all: bool, mode: str, lo
 def ik(subject, target, *, base: str | None = None, tip: str | None = None, method: str = "auto", all: bool = False,
        mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
        restarts: int = 50, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, free=(), collisions=None,
-       collision_free=False, count=None, rank=None) -> IKResult:
+       collision_free=False, count=None, rank=None, aliases: bool = True) -> IKResult:
     """Joint values that put ``tip`` at ``target`` (T_base_tip): the closed form where the chain has one, every
     isolated solution by elimination for another 6R chain's pose, else a numerical search; one result type.
 
@@ -218,11 +218,17 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
         elimination on any 6R revolute chain (others refused).
     all : bool, keyword-only
         Every solution: every closed-form branch in the solver's documented
-        order (shoulder, elbow, wrist; 2*pi aliases of wide joints where the
-        limits allow), or every distinct solution numerical restarts find
-        (which proves nothing about those it did not find). ``False``: one
-        solution, the in-limit branch nearest ``q0`` (the first in order
-        without ``q0``), or the first numerical solution found.
+        order (shoulder, elbow, wrist), then every other in-limit 2 pi alias
+        of each branch where a joint's range spans more than a full turn
+        (``alias_of`` names its branch row; :mod:`manipkit.ik.aliases`), or
+        every distinct solution numerical restarts find (which proves nothing
+        about those it did not find). ``False``: one solution, the in-limit
+        branch nearest ``q0`` (the first in order without ``q0``), or the
+        first numerical solution found.
+    aliases : bool, keyword-only
+        With ``all=True`` and a closed form or the general 6R elimination:
+        list the 2 pi aliases after the branches (default), or ``False`` the
+        branches only (each joint at its in-limit value nearest 0).
     mode : {"pose", "position", "position+axis"}, keyword-only
         What must match: the 6D pose, the origin, or the origin and the
         direction of the tip's ``axis`` (numerical IK only).
@@ -277,9 +283,12 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
     >>> import manipkit
     >>> ur5 = manipkit.load("ur5")
     >>> T = ur5.transform("base_link", "tool0", [0.1, -1.0, 1.2, -0.3, 1.0, 0.5])
-    >>> every = manipkit.ik(ur5, T, tip="tool0", all=True)
+    >>> every = manipkit.ik(ur5, T, tip="tool0", all=True, aliases=False)
     >>> every.method, every.arm_family, len(every.solutions)
     ('closed_form', 'three parallel, two intersecting', 8)
+    >>> with_aliases = manipkit.ik(ur5, T, tip="tool0", all=True)  # five joints of +-2 pi: 2**5 rows per branch
+    >>> len(with_aliases.solutions), int((with_aliases.alias_of == -1).sum())
+    (256, 8)
     >>> manipkit.ik(ur5, T, tip="tool0", method="numerical").method
     'numerical'
     """
@@ -311,7 +320,13 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
             from manipkit.ik.collision_marks import mark_collisions
 
             result = mark_collisions(result, mark, drop=avoid is not None)
-        return result if all else _one(result, robot, base, tip, q0)
+        if not all:
+            return _one(result, robot, base, tip, q0)
+        if not aliases:
+            return result
+        from manipkit.ik.aliases import with_aliases
+
+        return with_aliases(result, robot.chain(base, tip), target, held=tuple(lock or ()))
     from manipkit.ik.numerical import ik as numerical_ik
 
     result = numerical_ik(robot, target, base, tip, mode=mode, axis=axis, q0=q0, tol=tol, max_iters=max_iters,

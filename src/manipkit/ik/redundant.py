@@ -318,7 +318,7 @@ class _Solver:
         rows = []
         method = "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm at every value
         for value in values:
-            result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, tol=self.tol, method=method,
+            result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, aliases=False, tol=self.tol, method=method,
                         family_tol=self.family_tol, lock={self.parameter.name: float(value)})
             labels = result.labels
             if self.tracks is not None:

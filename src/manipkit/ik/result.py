@@ -248,6 +248,13 @@ class IKResult:
     failure : IKFailure or None
         None with a solution; else why there is none, as data (kind, joints
         or pairs concerned, numbers), from which :attr:`reason` is worded.
+    alias_of : ndarray of int, shape (k,), or None
+        ``all=True`` with a closed form or the general 6R elimination
+        (:func:`manipkit.ik.aliases.with_aliases`): per row, -1 for a
+        branch's own row (each joint at its in-limit value nearest 0), else
+        the row of the branch it is a 2 pi alias of (the same link
+        placements, other joint values inside the limits); None when the
+        solver lists no aliases (numerical IK, ``all=False``, ``aliases=False``).
 
     Properties: ``q`` (the first solution, or None: the same for every
     method), ``q_residuals``, ``success``, ``reason`` (``""`` on success,
@@ -296,12 +303,14 @@ class IKResult:
     method: str = "closed_form"
     arm_family: str = ""
     failure: IKFailure | None = None
+    alias_of: np.ndarray | None = None
 
     def __init__(self, solutions, labels, count, note, residual_position, residual_rotation, mode="", solver="",
                  joint_names=(), free_parameter="", family="", free_joints=(), unmet=(), rejected=0, outside_by=0.0,
                  side="", iterations=0, attempts=0, closest=None, closest_residuals=None, family_function=None,
                  within_limits=None, refined=None, collides=(), clearance=None, parameter="", parameter_values=None,
-                 intervals=(), ranked_by="", scores=None, method="closed_form", arm_family="", failure=None):
+                 intervals=(), ranked_by="", scores=None, method="closed_form", arm_family="", failure=None,
+                 alias_of=None):
         # The fields in their declared order with the same defaults; written into the instance's __dict__ at once
         # (a frozen dataclass's generated __init__ sets them one by one: 4 us of each numerical solve).
         fields = dict(locals())
@@ -366,7 +375,8 @@ class IKResult:
     def take(self, rows) -> IKResult:
         """This answer with only ``rows`` (indices or a boolean mask) of its solutions, every per-row field
         (labels, residuals, within_limits, refined, collides, clearance, parameter_values, scores) following
-        them; ``count`` becomes the number kept (a family keeps ``inf`` while a row is left).
+        them; ``count`` becomes the number kept (a family keeps ``inf`` while a row is left). ``alias_of``
+        follows too, renumbered: an alias whose branch row is not kept becomes -1 (a row of its own).
 
         Examples
         --------
@@ -386,6 +396,7 @@ class IKResult:
             clearance=None if self.clearance is None else self.clearance[index],
             parameter_values=None if self.parameter_values is None else self.parameter_values[index],
             scores=None if self.scores is None else self.scores[index],
+            alias_of=None if self.alias_of is None else _renumbered(self.alias_of, index),
         )
         count = self.count if math.isinf(self.count) and len(index) else len(index)
         return replace(self, count=count, **per_row)
@@ -400,6 +411,11 @@ class IKResult:
             within = np.array(self.within_limits, dtype=bool).reshape(-1)
             within.setflags(write=False)
             object.__setattr__(self, "within_limits", within)
+        if self.alias_of is not None and (not isinstance(self.alias_of, np.ndarray) or self.alias_of.dtype != np.intp
+                                           or self.alias_of.flags.writeable):
+            alias_of = np.array(self.alias_of, dtype=np.intp).reshape(-1)
+            alias_of.setflags(write=False)
+            object.__setattr__(self, "alias_of", alias_of)
         if self.solutions.ndim != 2:
             raise ValueError(f"IKResult.solutions must have shape (k, n), got {self.solutions.shape}")
         if self.method not in METHODS:
@@ -517,6 +533,12 @@ class IKResult:
             lines.append(f"<p>{html.escape(self.note)}</p>")
         return "\n".join(lines)
 
+
+def _renumbered(alias_of: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``alias_of`` of the rows ``index`` kept, as rows of the kept ones (-1 where the branch row is not kept)."""
+    new = np.full(len(alias_of), -1, dtype=np.intp)
+    new[index] = np.arange(len(index))
+    return np.where(alias_of[index] >= 0, new[np.maximum(alias_of[index], 0)], -1)
 
 
 class IKBatch:

@@ -15,12 +15,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from manipkit.bounds import MAX_ANGLE  # the largest angle (rad) a command takes: one rule, manipkit.bounds
-from manipkit.errors import JointLimitError, ManipkitError
+from manipkit.errors import ChainError, JointLimitError, ManipkitError
 from manipkit.text import number_text, printable, short_text
 
 if TYPE_CHECKING:
     import numpy as np
 
+    from manipkit.kinematics.chain import Chain
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "check_angles",
     "check_precision",
     "check_tolerance",
+    "command_chain",
     "command_line",
     "exact_q_words",
     "joint_vector",
@@ -161,6 +163,41 @@ def robot_words(args, robot: Robot) -> list[str]:
     for item in getattr(args, "allow_read", None) or []:
         words += ["--allow-read", str(item)]
     return words
+
+
+def command_chain(robot: Robot, base: str, tip: str) -> Chain:
+    """``robot.chain(base, tip)`` for a command about a chain (``--base``, ``--tip``), refused when no joint joins them.
+
+    The one place the command line turns its two frames into a chain. Equal
+    frames, or frames with only fixed joints between them, make a chain with
+    no joints: the library answers for it (an identity pose, a (6, 0)
+    Jacobian), but a command about a chain (ik, jacobian, dexterity, family,
+    path, reachmap, base-placement, torques, payload, force-capacity) would
+    print an empty answer ("rank 0 of 0", "condition number inf"), so it is
+    refused in one line naming the two frames. ``tf-between`` is no chain
+    command: the transform between two fixed frames is an answer.
+
+    Raises
+    ------
+    UnknownFrameError
+        A frame the robot does not have.
+    ChainError
+        No joint between ``base`` and ``tip``.
+    """
+    chain = robot.chain(base, tip)
+    if chain.n == 0:
+        def named(frame: str, link: str) -> str:
+            return printable(frame) if frame == link else f"{printable(frame)} ({printable(link)})"
+
+        if chain.base == chain.tip:
+            frames = f"base {named(base, chain.base)} and tip {named(tip, chain.tip)} are the same frame"
+            fixed = ""
+        else:
+            frames = f"base {named(base, chain.base)} and tip {named(tip, chain.tip)} are fixed to each other"
+            fixed = f" (`tf-between {printable(chain.base)} {printable(chain.tip)}` gives their fixed transform)"
+        raise ChainError(f"robot '{printable(robot.name)}': {frames}, joined by no joint, so there is no chain to "
+                         f"move; give a base and a tip with a joint between them{fixed}")
+    return chain
 
 
 def alias_lines(robot: Robot, *frames: str) -> list[str]:

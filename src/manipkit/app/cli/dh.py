@@ -57,7 +57,7 @@ def register(commands) -> None:
     check.add_argument("--base", default="base_link", help="URDF frame of the table's base (default base_link)")
     check.add_argument("--tip", default="ee_link", help="URDF frame of the table's tool (default ee_link)")
     check.add_argument("--samples", type=int, default=1000, metavar="N", help="configurations within the limits (default 1000, fixed seed)")
-    check.add_argument("--tol", type=float, default=1e-9, help="pass tolerance, m and rad (default 1e-9)")
+    check.add_argument("--tol", type=float, default=None, help="pass tolerance, m and rad (default 1e-9, dh.check.CHECK_TOL)")
     check.add_argument("--format", choices=("text", "json"), default="text")
     check.add_argument("--fix", type=Path, default=None, metavar="FILE.yaml",
                        help="when the diagnosis finds a corrected table that passes, write it here")
@@ -71,9 +71,10 @@ def register(commands) -> None:
     from_urdf.add_argument("--base", default="base_link", help="URDF frame of the table's base (default base_link)")
     from_urdf.add_argument("--tip", default="ee_link", help="URDF frame of the table's tool (default ee_link)")
     from_urdf.add_argument("--convention", choices=("standard", "modified"), default="standard")
-    from_urdf.add_argument("--tol", type=float, default=1e-3, metavar="RAD",
+    from_urdf.add_argument("--tol", type=float, default=None, metavar="RAD",
                            help="snap joint axes and angles within RAD of multiples of 90 deg (a description that "
-                                "writes pi as 3.1415926); 0 derives the exact table (default 0.001)")
+                                "writes pi as 3.1415926); 0 derives the exact table (default: 0.001 where the snapped "
+                                "table still passes dh check's default 1e-9 m and rad, else 0)")
     from_urdf.add_argument("-o", "--output", type=Path, default=None, metavar="FILE.yaml", help="also save the table")
     from_urdf.set_defaults(run=run_dh_from_urdf)
 
@@ -128,8 +129,9 @@ def run_dh_check(args) -> int:
     from manipkit import dh
     from manipkit.app.dh_text import diagnosis_lines, fix_reason
     from manipkit.description.sources import resolve_dh_table
-    from manipkit.dh.check import check_dh
+    from manipkit.dh.check import CHECK_TOL, check_dh
 
+    args.tol = CHECK_TOL if args.tol is None else args.tol
     if args.fix is not None:
         writable_path(args.fix, inputs=(args.table, args.robot))  # before the robot is loaded
     path = resolve_dh_table(args.table)
@@ -203,17 +205,28 @@ def run_dh_from_urdf(args) -> int:
     made: the command that makes it again and how far it is from the URDF.
     """
     from manipkit import dh
-    from manipkit.dh.from_urdf import check_snap, derive_dh
+    from manipkit.dh.check import CHECK_TOL
+    from manipkit.dh.from_urdf import DEFAULT_SNAP, check_snap, derive_dh
 
     if args.output is not None:
         writable_path(args.output, inputs=(args.robot,))  # before the robot is loaded
-    check_snap(args.tol, "--tol")
+    if args.tol is not None:
+        check_snap(args.tol, "--tol")
     robot = load_robot(args)
-    derived = derive_dh(robot, args.base, args.tip, convention=args.convention, snap=args.tol)
-    table, summary = derived.table, snap_summary(derived)
+    snap = DEFAULT_SNAP if args.tol is None else args.tol
+    derived = derive_dh(robot, args.base, args.tip, convention=args.convention, snap=snap)
+    unsnapped = ""
+    if args.tol is None and max(derived.position_error, derived.rotation_error) > CHECK_TOL and derived.moved:
+        # snapped, the table would fail `dh check` of the same robot at its default: the exact table instead
+        unsnapped = (f"not snapped: snapping within {short_text(snap)} rad would leave the table "
+                     f"{short_text(derived.position_error, 2)} m and {short_text(derived.rotation_error, 2)} rad off, "
+                     f"beyond dh check's default {short_text(CHECK_TOL)} (--tol {short_text(snap)} snaps anyway); ")
+        snap = 0.0
+        derived = derive_dh(robot, args.base, args.tip, convention=args.convention, snap=snap)
+    table, summary = derived.table, unsnapped + snap_summary(derived)
     if args.output is not None:
         derived_by = command_line("manipkit", "dh", "from-urdf", *robot_words(args, robot), "--base", args.base,
-                                  "--tip", args.tip, "--convention", args.convention, "--tol", repr(args.tol))
+                                  "--tip", args.tip, "--convention", args.convention, "--tol", repr(snap))
         header = (
             f"{table.convention} DH table of {robot.name} from {robot.frame(args.base)} to {robot.frame(args.tip)}, "
             f"rows = joints {', '.join(robot.chain_joints(args.base, args.tip))};\n"

@@ -13,6 +13,7 @@ from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
     add_robot_options,
+    command_chain,
     command_line,
     load_robot,
     lock_values,
@@ -69,7 +70,7 @@ def run_family(args) -> int:
         raise UsageError(f"--tol {' '.join(short_text(t) for t in args.tol)}: give one or two positive numbers "
                          "(distance m, angle rad)") from None
     robot = load_robot(args)
-    chain = robot.chain(args.base, args.tip)
+    chain = command_chain(robot, args.base, args.tip)
     lock = lock_values(args.lock, robot)
     family = chain_family(chain, tol=tol, lock=lock)
     opw, opw_note = None, ""

@@ -27,6 +27,7 @@ from manipkit.app.cli.common import (
     alias_lines,
     check_angles,
     check_precision,
+    command_chain,
     command_line,
     exact_q_words,
     joint_vector,
@@ -65,8 +66,11 @@ def register(commands) -> None:
                          "every isolated solution by algebraic elimination, else numerical IK")
     ik.add_argument("--analytic", action="store_true", help="the same as --method closed_form: the bundled textbook arms' named "
                          "solvers, or any 6R chain with a spherical wrist or three parallel axes (found from its geometry)")
-    ik.add_argument("--all", action="store_true", help="every solution: every closed-form branch, or every distinct solution "
-                         "numerical IK finds within the restart budget")
+    ik.add_argument("--all", action="store_true", help="every solution: every closed-form branch and its in-limit 2 pi "
+                         "aliases, or every distinct solution numerical IK finds within the restart budget")
+    ik.add_argument("--no-aliases", action="store_true",
+                    help="with --all: the closed-form branches only, each joint at its in-limit value nearest 0 "
+                         "(default: also every other value q + 2 pi k inside the limits of a joint wider than 2 pi)")
     ik.add_argument("--lock", action="extend", nargs="+", default=[], metavar="JOINT=VALUE",
                     help="closed form: hold these joints at a value (rad, or deg with --deg) and solve the others "
                          "(a 7R arm as a 6R one; a general 7R with one joint locked: every solution by elimination)")
@@ -219,7 +223,7 @@ def _solve(args, robot: Robot, target: np.ndarray, mode: str) -> IKResult:
               arm_angle=arm_angle, restarts=args.restarts, seed=args.seed, free=tuple(args.free),
               collisions=checker if args.collisions and not args.collision_free else None,
               collision_free=checker if args.collision_free else False, count=_count(args.count), rank=args.rank,
-              **({} if tol is None else {"tol": tol}))
+              aliases=not args.no_aliases, **({} if tol is None else {"tol": tol}))
 
 
 def _count(text: str | None):
@@ -244,6 +248,10 @@ def _header(args, result: IKResult) -> str:
         found, noun = len(result.solutions), "branch" if closed else "solution"
         count = (f"infinitely many solutions (free: {result.free_parameter}), {found} listed" if result.infinite
                  else f"{found} solution(s)" + ("" if closed or not args.all else " (every isolated solution)"))
+        aliases = 0 if result.alias_of is None else int((result.alias_of >= 0).sum())
+        if aliases:
+            kind = "branches" if closed else "solutions"
+            count += f": {found - aliases} {kind} and {aliases} 2 pi alias(es) of them (--no-aliases: the {kind} only)"
         if not args.all and found == 1:
             inside = result.within_limits is None or all(result.within_limits)
             chosen = f"the {noun} nearest --seed-q" if args.seed_q else f"the first {noun}"
@@ -289,6 +297,7 @@ def run_ik(args) -> int:
     if not 0 <= args.restarts <= MAX_RESTARTS:
         raise UsageError(f"--restarts {args.restarts}: give a whole number from 0 to {MAX_RESTARTS}")
     robot = load_robot(args)
+    chain = command_chain(robot, args.base, args.tip)
     target = _ik_target(args)
     oriented = args.rpy is not None or args.quat is not None
     mode = "position" if args.position_only or not oriented else ("position+axis" if args.axis else "pose")
@@ -299,13 +308,13 @@ def run_ik(args) -> int:
         note = _precision_note(args, mode, *map(float, result.closest_residuals))
         if note:
             notes.append(note)
-        joints = robot.chain(args.base, args.tip).n
+        joints = chain.n
         if mode == "pose" and joints < 6:
             notes.append(f"the chain {args.base} -> {args.tip} has {joints} joint{'s' * (joints != 1)}, fewer than "
                          "the 6 a full pose needs, so most poses are out of its reach: ask for the position only "
                          "(--position-only) or the position and the tool's axis (--axis z)")
     if args.format == "json":
-        print_json(_json_answer(robot, robot.chain(args.base, args.tip), target, mode, result, residuals, notes))
+        print_json(_json_answer(robot, chain, target, mode, result, residuals, notes))
     else:
         _print_answer(args, robot, result, residuals, notes)
     return EXIT_OK if result.success else EXIT_MISMATCH
@@ -323,6 +332,7 @@ def _json_answer(robot: Robot, chain, target, mode: str, result: IKResult, resid
         "labels": list(result.labels),
         "closed_form_mode": result.mode if result.method == "closed_form" else None,
         "within_limits": None if result.within_limits is None else result.within_limits.tolist(),
+        "alias_of": None if result.alias_of is None else [None if a < 0 else a for a in result.alias_of.tolist()],
         "refined": None if result.refined is None else result.refined.tolist(),
         "count": "inf" if result.infinite else result.count,
         "free_parameter": result.free_parameter or None,
@@ -359,6 +369,8 @@ def _print_answer(args, robot: Robot, result: IKResult, residuals, notes: list[s
             value, score = float(result.parameter_values[index - 1]), float(result.scores[index - 1])
             label = (f"{label}; {result.parameter.split(' ')[0]} = {number_text(value, args.precision)}; "
                      f"{result.ranked_by} {short_text(score, 4)}")
+        if result.alias_of is not None and result.alias_of[index - 1] >= 0:
+            label = f"{label}; 2 pi alias of {int(result.alias_of[index - 1]) + 1}"
         print(f"{index}. {('[' + label + '] ') if label else ''}{'' if inside else '(outside the joint limits) '}"
               f"{q_text(own(q), args.precision)}" + _collision_text(result, index - 1))
     if result.closest is not None:

@@ -21,6 +21,7 @@ from manipkit.app.cli.common import (
     add_joint_options,
     add_robot_options,
     alias_lines,
+    command_chain,
     joint_vector,
     load_robot,
     print_json,
@@ -149,6 +150,7 @@ def run_path(args) -> int:
     from manipkit.paths.plan import plan_path
 
     robot = load_robot(args)
+    chain = command_chain(robot, args.base, args.tip)
     poses, t = _poses(args)
     if args.speed is not None and t is not None:
         t = None  # --speed given: it times the steps, not the file's t
@@ -179,11 +181,11 @@ def run_path(args) -> int:
         from manipkit.paths.timing import retime_plan
 
         scale = 1.0 if args.acceleration_scale is None else args.acceleration_scale
-        motion = retime_plan(plan, robot.chain(args.base, args.tip), speed=args.speed, acceleration_scale=scale)
+        motion = retime_plan(plan, chain, speed=args.speed, acceleration_scale=scale)
     if args.output is not None and plan.feasible:
         from manipkit.outputs import write_text
 
-        csv = trajectory_csv(plan) if motion is None else motion_csv(motion, robot.chain(args.base, args.tip))
+        csv = trajectory_csv(plan) if motion is None else motion_csv(motion, chain)
         write_text(args.output, csv, inputs=[args.poses, args.world])
     drawn = _draw(args, plan, motion, robot)
     if args.format == "json":

@@ -12,7 +12,15 @@ import warnings
 from pathlib import Path
 
 from manipkit.app.cli.collisions import add_collision_set_options, collision_set
-from manipkit.app.cli.common import EXIT_OK, UsageError, add_robot_options, load_robot, print_json, warn
+from manipkit.app.cli.common import (
+    EXIT_OK,
+    UsageError,
+    add_robot_options,
+    command_chain,
+    load_robot,
+    print_json,
+    warn,
+)
 from manipkit.outputs import writable_path
 from manipkit.text import printable, short_text
 
@@ -140,7 +148,7 @@ def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=N
     collisions = CollisionSettings.parse(robot, **collision_set(args))
     with progress_bar() as progress, warnings.catch_warnings():
         warnings.showwarning = _note_or_warning
-        return build(robot.chain(base, args.tip), voxel=args.voxel, orientations=args.orientations, method=args.method,
+        return build(command_chain(robot, base, args.tip), voxel=args.voxel, orientations=args.orientations, method=args.method,
                      samples=args.samples, workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      manipulability=manipulability, progress=progress, collisions=collisions,
                      converge=args.converge, resume_dir=resume_dir)

@@ -18,6 +18,7 @@ from manipkit.app.cli.common import (
     add_robot_options,
     alias_lines,
     check_precision,
+    command_chain,
     command_line,
     is_number,
     joint_vector,
@@ -165,7 +166,7 @@ def parse_wrench(text: str, axes: str):
 
 def _chain_and_q(args):
     robot = load_robot(args)
-    chain = robot.chain(args.base, args.tip)  # unknown frames fail before the joint values are read
+    chain = command_chain(robot, args.base, args.tip)  # unknown or unjoined frames fail before the joint values
     q = joint_vector(robot, args)
     return robot, chain, q
 
@@ -409,7 +410,7 @@ def _run_diagram(args, gravity) -> int:
     samples = bounds.count(args.samples, "--samples", minimum=1, error=UsageError)
     writable_path(args.diagram)
     robot = load_robot(args)
-    chain = robot.chain(args.base, args.tip)
+    chain = command_chain(robot, args.base, args.tip)
     diagram = payload_diagram(chain, np.linspace(0.0, args.max_offset, steps), samples=samples, seed=args.seed,
                               direction=direction, gravity=gravity)
     draw_payload_diagram(diagram, args.diagram)

@@ -20,6 +20,7 @@ from manipkit.app.cli.common import (
     add_joint_options,
     add_robot_options,
     check_precision,
+    command_chain,
     joint_vector,
     load_robot,
     print_json,
@@ -141,8 +142,7 @@ def run_jacobian(args) -> int:
     if not (math.isfinite(args.singular_tol) and args.singular_tol >= 0):
         raise UsageError(f"--singular-tol {short_text(args.singular_tol)}: give a tolerance >= 0")
     robot = load_robot(args)
-    # unknown frames, or a base that is not above the frame (ChainError: swap them), fail before the joint values are read
-    chain = robot.chain(args.base, args.tip)
+    chain = command_chain(robot, args.base, args.tip)  # unknown frames, or none joined by a joint: before the q
     q = joint_vector(robot, args)
     report = jacobian_report(chain, q[chain.columns], reference=args.reference, length=args.length,
                              tol=args.singular_tol)
@@ -198,12 +198,12 @@ def run_dexterity(args) -> int:
     _check_length(args.length)
     axes = parse_axes(args.axes)
     robot = load_robot(args)
-    robot.frame(args.tip), robot.frame(args.base)
+    chain = command_chain(robot, args.base, args.tip)
     from manipkit.app.progress import progress_bar
 
     length = args.length if mixes_units(axes) else None
     with progress_bar(None if args.progress == "auto" else args.progress == "yes") as progress:
-        gci = global_conditioning_index(robot.chain(args.base, args.tip), args.samples, axes=axes, length=length,
+        gci = global_conditioning_index(chain, args.samples, axes=axes, length=length,
                                         seed=args.seed, confidence=args.confidence, progress=progress)
     if args.format == "json":
         print_json({
