@@ -148,6 +148,10 @@ def run_path(args) -> int:
     from manipkit.app.progress import progress_bar
     from manipkit.paths.plan import plan_path
 
+    if args.speed is not None:
+        from manipkit import bounds
+
+        bounds.speed(args.speed, "--speed", error=UsageError)
     robot = load_robot(args)
     poses, t = _poses(args)
     if args.speed is not None and t is not None:
