@@ -424,3 +424,18 @@ def test_far_positions_are_refused_or_simply_outside(tiny, tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no "invalid value encountered in cast"
         assert tiny.index_at([1e300, -1e300, 0.0]) == 0.0 and tiny.query(far[0]) is False
+
+
+def test_a_local_cluster_runs_no_preload_the_dask_config_names(planar_2r, tmp_path):
+    # what a hostile DASK_CONFIG file, ~/.config/dask yaml or DASK_DISTRIBUTED__*__PRELOAD variable gives: preload
+    # scripts in dask's config (files and variables are merged into dask.config when dask is imported)
+    import dask
+
+    ran = tmp_path / "RAN"
+    script = tmp_path / "evil_preload.py"
+    script.write_text(f"open({str(ran)!r}, 'a').write('ran\\n')\n")
+    hostile = {f"distributed.{part}.preload": [str(script)] for part in ("scheduler", "worker", "nanny")}
+    with dask.config.set(hostile):
+        answer = build(planar_2r, voxel=0.5, orientations=4, samples=500, block_samples=500, workers=1)
+    assert answer.reachable.any()
+    assert not ran.exists(), "a preload script named by the Dask config ran"

@@ -222,7 +222,7 @@ def test_an_arc_needs_a_step():
 @pytest.mark.parametrize("extra, message", [
     (["--step", "0"], "step 0: give a length in metres"),
     (["--step", "0.01", "--plot", "/nonexistent/x.png"], "cannot write /nonexistent/x.png: no such folder"),
-    (["--step", "0.01", "--speed", "0", "--retime"], "speed (m/s) 0: give a length in metres"),
+    (["--step", "0.01", "--speed", "0", "--retime"], "--speed 0: give a speed in m/s from 1e-09 to 1e+06"),
     (["--step", "0.01", "--speed", "0.1", "--retime", "--acceleration-scale", "nan"], "--acceleration-scale nan"),
 ])
 def test_more_bad_input_on_an_arc_is_one_line(extra, message):

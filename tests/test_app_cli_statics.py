@@ -129,6 +129,19 @@ def test_payload_band_brackets_the_capacity():
     assert report["band"]["max_mass_low"] <= report["max_mass"] <= report["band"]["max_mass_high"]
 
 
+def test_payload_band_of_an_unbounded_capacity_is_said_true_and_valid_json():
+    # planar_2r's joints turn about z, the default gravity's line: a payload loads no joint (checked independently
+    # below by the static torques of a 10 kg payload), so neither end of the band is a number of kg
+    import manipkit
+
+    robot = manipkit.load("planar_2r")
+    assert np.abs(static_torques(robot, robot.q(), payload=Payload(10.0, (0.0, 0.0, 0.0))).payload).max() < 1e-12
+    text = run("payload", "--robot", "planar_2r", "--band", "10").stdout
+    assert "inf" not in text and "off by up to 10.000 %: unbounded as well" in text, text
+    report = json.loads(run("payload", "--robot", "planar_2r", "--band", "10", "--format", "json").stdout)
+    assert report["unbounded"] and report["band"]["max_mass_low"] is None and report["band"]["unbounded_high"]
+
+
 def test_force_capacity_json_round_trips(iiwa14):
     from manipkit.statics.torques import Wrench
 

@@ -96,3 +96,12 @@ def test_a_fifo_with_a_reader_gets_everything(tmp_path):
         os.close(fd)
     reader.join(timeout=10)
     assert got == [b"y" * 100_000]
+
+
+def test_an_output_onto_the_file_stdout_is_redirected_to_is_refused(tmp_path):
+    # run_cli gives the command a regular file as descriptor 1, as `manipkit ... -o /dev/stdout > out.txt` does:
+    # before, the CSV was written from offset 0 and the report printed over it (measured: 8 report lines, no CSV)
+    result = run_cli("manipkit", "path", "--robot", "ur5", "--line", "0.4", "0", "0.3", "0", "0", "0", "0.4", "0.05",
+                     "0.3", "0", "0", "0", "--step", "0.02", "-o", "/dev/stdout", cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == "", result.stdout
+    assert result.stderr.count("\n") == 1 and "it is the file stdout is redirected to" in result.stderr, result.stderr

@@ -170,7 +170,7 @@ def test_tool_speed_is_never_exceeded_by_pinocchio_fk(ur5_chain):
     ({"acceleration_limits": float("nan")}, r"acceleration_limits\[0\] is nan; give finite numbers"),
     ({"acceleration_limits": [1.0, 1.0, 1.0]}, r"acceleration_limits has 3 values; give one number or one per joint \(2\)"),
     ({"tool_speed": 0.5}, "tool_speed needs the chain"),
-    ({"tool_speed": 0.0}, "tool_speed 0: give a length in metres"),
+    ({"tool_speed": 0.0}, "tool_speed 0: give a speed in m/s from 1e-09"),
     ({"dt": 0}, "dt 0"),
     ({"q": [[0.0, np.nan], [1.0, 1.0]]}, r"q\[0, 1\] is nan"),
     ({"q": [[0.0, 0.0]]}, "q: waypoints 1: give a whole number from 2"),

@@ -12,6 +12,10 @@ by a count nobody could wait for:
   lengths; two finite offsets near 1.7e308 would sum to infinity, and no arm
   is a thousand kilometres long.
 - :data:`MAX_MASS` (kg): a payload or a point mass given by a user.
+- :data:`MIN_SPEED`, :data:`MAX_SPEED` (m/s or rad/s), :data:`MIN_DURATION`, :data:`MAX_DURATION` (s): a
+  tool speed and a sample interval, over the same 1e-9 to 1e6 range as lengths.
+- :data:`MAX_GRAVITY` (m/s^2): a gravity vector's magnitude; 1e3 is a hundred
+  times the Earth's, beyond any planet or centrifuge an arm is held in.
 - :data:`MIN_LENGTH` (m): the smallest positive length-like step (a voxel, a
   grid step, a characteristic length): a nanometre; below it a grid over an
   arm's reach has more cells than memory.
@@ -24,7 +28,8 @@ by a count nobody could wait for:
 
 :func:`tolerances` is the one parser of IK residual tolerances (a number or a
 (position m, rotation rad) pair). :func:`length` and :func:`count` check one value and raise the error class
-the caller names (each layer has its own), with the bound in the message.
+the caller names (each layer has its own), with the bound in the message; :func:`speed` and :func:`duration` do
+the same for speeds and times, :func:`gravity` for a gravity vector.
 """
 
 from __future__ import annotations
@@ -38,8 +43,9 @@ import numpy as np
 from manipkit.errors import IKOptionError, ManipkitError, OptionError
 from manipkit.text import repr_text, short_text
 
-__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_LENGTH", "MAX_MASS", "MAX_MESH_BYTES", "MAX_MESH_VERTICES", "MAX_TEXTURE_BYTES",
-           "MIN_LENGTH", "count", "length", "tolerances"]
+__all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_DURATION", "MAX_GRAVITY", "MAX_LENGTH", "MAX_MASS", "MAX_MESH_BYTES",
+           "MAX_MESH_VERTICES", "MAX_SPEED", "MAX_TEXTURE_BYTES", "MIN_DURATION", "MIN_LENGTH", "MIN_SPEED", "count",
+           "duration", "gravity", "length", "speed", "tolerances"]
 
 MAX_ANGLE = 1e6
 MAX_LENGTH = 1e6
@@ -47,6 +53,9 @@ MAX_LENGTH = 1e6
 #: products (torques, moments) stay far inside the float range.
 MAX_MASS = 1e6
 MIN_LENGTH = 1e-9
+MIN_SPEED, MAX_SPEED = 1e-9, 1e6
+MIN_DURATION, MAX_DURATION = 1e-9, 1e6
+MAX_GRAVITY = 1e3
 MAX_COUNT = 10_000_000
 MAX_MESH_BYTES = 256 << 20
 MAX_TEXTURE_BYTES = 32 << 20
@@ -68,15 +77,67 @@ def length(value, what: str, *, positive: bool = True, error: type[ManipkitError
     ...
     manipkit.errors.OptionError: --voxel 1e+300: give a length in metres from 1e-09 to 1e+06
     """
+    if positive:
+        return _bounded(value, what, "a length in metres", "metres", MIN_LENGTH, MAX_LENGTH, error)
+    return _bounded(value, what, "a length in metres", "metres", None, MAX_LENGTH, error)
+
+
+def speed(value, what: str, *, unit: str = "m/s", error: type[ManipkitError] = OptionError) -> float:
+    """``value`` as a positive speed in ``unit`` (m/s or rad/s) in ``[MIN_SPEED, MAX_SPEED]``, else ``error``.
+
+    Examples
+    --------
+    >>> speed(1e-300, "--speed")
+    Traceback (most recent call last):
+    ...
+    manipkit.errors.OptionError: --speed 1e-300: give a speed in m/s from 1e-09 to 1e+06
+    """
+    return _bounded(value, what, f"a speed in {unit}", unit, MIN_SPEED, MAX_SPEED, error)
+
+
+def duration(value, what: str, *, error: type[ManipkitError] = OptionError) -> float:
+    """``value`` as a positive time in seconds in ``[MIN_DURATION, MAX_DURATION]``, else ``error`` naming ``what``."""
+    return _bounded(value, what, "a time in seconds", "seconds", MIN_DURATION, MAX_DURATION, error)
+
+
+def _bounded(value, what, quantity, unit, low, high, error) -> float:
+    """``value`` as a float in ``[low, high]`` (``low`` None: ``|value| <= high``), else one line naming
+    ``what``, ``quantity`` ("a speed in m/s") and the bounds."""
     try:
         number = float(value)
     except (TypeError, ValueError, OverflowError):
-        raise error(f"{what} {repr_text(value, 40)}: give a number of metres") from None
-    low = MIN_LENGTH if positive else -MAX_LENGTH
-    if not (math.isfinite(number) and low <= number <= MAX_LENGTH):
-        valid = f"from {short_text(MIN_LENGTH)} to {short_text(MAX_LENGTH)}" if positive else f"within +-{short_text(MAX_LENGTH)}"
-        raise error(f"{what} {short_text(number)}: give a length in metres {valid}")
+        raise error(f"{what} {repr_text(value, 40)}: give a number of {unit}") from None
+    if not (math.isfinite(number) and (-high if low is None else low) <= number <= high):
+        valid = f"within +-{short_text(high)}" if low is None else f"from {short_text(low)} to {short_text(high)}"
+        raise error(f"{what} {short_text(number)}: give {quantity} {valid}")
     return number
+
+
+def gravity(values, what: str, *, direction: bool = False, error: type[ManipkitError] = OptionError) -> np.ndarray:
+    """``values`` as a (3,) gravity vector (m/s^2): finite, magnitude at most :data:`MAX_GRAVITY`; with
+    ``direction`` (a payload's weight needs one) not all zero. Else ``error`` naming ``what``.
+
+    Examples
+    --------
+    >>> gravity((0, 0, -9.81), "--gravity").tolist()
+    [0.0, 0.0, -9.81]
+    >>> gravity((0, 0, 1e300), "--gravity")
+    Traceback (most recent call last):
+    ...
+    manipkit.errors.OptionError: --gravity [0, 0, 1e+300]: give 3 finite numbers (m/s^2), magnitude at most 1000
+    """
+    try:
+        g = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError, OverflowError):
+        g = np.zeros(0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        magnitude = float(np.linalg.norm(g)) if g.size == 3 else math.nan
+    if not (g.size == 3 and np.all(np.isfinite(g)) and magnitude <= MAX_GRAVITY):
+        shown = "[" + ", ".join(short_text(float(v)) for v in g[:3]) + "]" if g.size == 3 else repr_text(values, 40)
+        raise error(f"{what} {shown}: give 3 finite numbers (m/s^2), magnitude at most {short_text(MAX_GRAVITY)}")
+    if direction and magnitude == 0.0:
+        raise error(f"{what} [0, 0, 0]: give a gravity that is not zero (a payload's weight needs a direction)")
+    return g
 
 
 def count(value, what: str, *, minimum: int = 1, maximum: int = MAX_COUNT,

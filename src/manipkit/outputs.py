@@ -12,7 +12,8 @@ static viewer pages) goes through :func:`writing` or :func:`write_text`
   into another folder; a device or a pipe the user names (``/dev/null``, a
   FIFO, ``/dev/stdout`` and other links into ``/dev`` or ``/proc``) is
   written as a stream, in place, never renamed over; a FIFO no process reads
-  is refused at once (:class:`~manipkit.errors.OutputError`), not waited on;
+  is refused at once (:class:`~manipkit.errors.OutputError`), not waited on; so is a stream that is the
+  regular file stdout is redirected to (``-o /dev/stdout > out.txt``), which the report would overwrite;
 - a file replaced keeps its mode (a 0600 file stays 0600); a new one gets
   the mode ``open()`` would give it;
 - an output that is one of the command's inputs (``inputs=``, or, while
@@ -113,6 +114,9 @@ def writable_path(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike
                 f"cannot write {printable(path)}: it is the command's input {printable(source)}; "
                 "give another output file name"
             )
+    if is_stream(path) and _is_redirected_stdout(path):
+        raise OutputError(f"cannot write {printable(path)}: it is the file stdout is redirected to, where the "
+                          "command prints its report too (one would overwrite the other); give -o FILE instead")
     if _READ:
         info = None
         with contextlib.suppress(OSError, ValueError):
@@ -155,6 +159,16 @@ def distinct_outputs(outputs: Iterable[tuple[str, str | os.PathLike | None]]) ->
                 raise OutputError(f"{other_option} {printable(str(other))[:120]} and {option} "
                                   f"{printable(str(path))[:120]} name the same file; give each output its own name")
         seen.append((option, path, key))
+
+
+def _is_redirected_stdout(path: Path) -> bool:
+    """``path`` is the regular file descriptor 1 writes to (``-o /dev/stdout > out.txt``): a second writer into
+    it would start at offset 0 over the first, so the two outputs would overwrite each other."""
+    try:
+        target, out = os.stat(path), os.fstat(1)
+    except OSError:
+        return False
+    return stat.S_ISREG(out.st_mode) and (target.st_dev, target.st_ino) == (out.st_dev, out.st_ino)
 
 
 def _name_max(folder: Path) -> int:

@@ -190,10 +190,10 @@ def _step_times(T: np.ndarray, t, speed, angular_speed) -> tuple[np.ndarray | No
         return None, None
     dt = np.zeros(N - 1)
     if speed is not None:
-        speed = bounds.length(speed, "speed (m/s)")
+        speed = bounds.speed(speed, "speed")
         dt = np.maximum(dt, np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1) / speed)
     if angular_speed is not None:
-        angular_speed = bounds.length(angular_speed, "angular_speed (rad/s)")
+        angular_speed = bounds.speed(angular_speed, "angular_speed", unit="rad/s")
         from manipkit.spatial.rotations import rotation_angle_between
 
         turn = rotation_angle_between(T[:-1, :3, :3], T[1:, :3, :3], check=False) if N > 1 else np.zeros(0)

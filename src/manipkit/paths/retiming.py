@@ -274,9 +274,9 @@ def _arguments(q, velocity_limits, acceleration_limits, tool_speed, chain, dt, j
     n = Q.shape[1]
     vmax = values_per_item(velocity_limits, "velocity_limits", n)
     amax = values_per_item(acceleration_limits, "acceleration_limits", n)
-    step = bounds.length(dt, "dt", error=OptionError)
+    step = bounds.duration(dt, "dt", error=OptionError)
     if tool_speed is not None:
-        tool_speed = bounds.length(tool_speed, "tool_speed", error=OptionError)
+        tool_speed = bounds.speed(tool_speed, "tool_speed", error=OptionError)
         if chain is None:
             raise OptionError("tool_speed needs the chain (chain=robot.chain(base, tip)) to measure the tool's speed")
     if chain is not None and len(chain.joint_names) != n:

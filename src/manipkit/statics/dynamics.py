@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit import bounds
 from manipkit.errors import OptionError
 from manipkit.kinematics.chain import chain_of, joint_array
 from manipkit.statics.torques import GRAVITY, Payload, effort_limits
@@ -107,9 +108,7 @@ def trajectory_torques(robot: Robot | Chain, Q, Qd, Qdd, *, times=None, payload:
     times = np.arange(len(Q), dtype=float) if times is None else np.asarray(times, dtype=float).reshape(-1)
     if times.shape != (len(Q),) or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
         raise OptionError(f"times: give {len(Q)} finite, increasing times (s), one per sample")
-    g = np.asarray(gravity, dtype=float).reshape(-1)
-    if g.shape != (3,) or not np.all(np.isfinite(g)):
-        raise OptionError("gravity: give 3 finite numbers (m/s^2, root link's axes)")
+    g = bounds.gravity(gravity, "gravity")
     model = _model_with(chain, payload, g)
     data = model.createData()
     robot = chain.robot

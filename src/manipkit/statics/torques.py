@@ -359,7 +359,7 @@ def whole_rows(chain: Chain, Q, q_rest) -> tuple[np.ndarray, tuple]:
 
 def gravity_in_base(chain: Chain, whole: np.ndarray, gravity) -> np.ndarray:
     """The gravity vector (N, 3) in the chain base's axes, from ``gravity`` in the root link's axes."""
-    g = _vector(gravity, 3, "gravity")
+    g = bounds.gravity(_vector(gravity, 3, "gravity"), "gravity")
     robot = chain.robot
     if chain.base == robot.root_link:
         return np.broadcast_to(g, (whole.shape[0], 3))

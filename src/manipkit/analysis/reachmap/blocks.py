@@ -50,7 +50,11 @@ DASK_LOGGERS = ("distributed", "tornado", "asyncio")
 # each worker about 5 % of a core while they wait; measured, these settings cut that about fourfold.
 LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
                         "distributed.admin.system-monitor.interval": "2s",
-                        "distributed.worker.memory.monitor-interval": "1s"}
+                        "distributed.worker.memory.monitor-interval": "1s",
+                        # the cluster manipkit starts runs no code the environment names (a DASK_CONFIG file,
+                        # ~/.config/dask, DASK_* variables): no preload script or its arguments, on any server
+                        **{f"distributed.{part}.{key}": [] for part in ("scheduler", "worker", "nanny", "client")
+                           for key in ("preload", "preload-argv")}}
 # A call's blocks go to a cluster a few to a task (a task costs the scheduler and client, in this process, about
 # 4 ms): at least TASKS_PER_CORE tasks per worker thread, so the work is still shared out evenly, and at most
 # BLOCKS_PER_TASK blocks in one.
@@ -233,8 +237,8 @@ class BlockRunner:
         self.quiet.enter_context(dask.config.set({"temporary-directory": self.scratch,  # the scheduler's and nannies'
                                                   "distributed.worker.multiprocessing-method": "forkserver",
                                                   **LOCAL_CLUSTER_CONFIG}))
-        self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True,
-                                    dashboard_address=None, silence_logs=logging.CRITICAL, local_directory=self.scratch)
+        self.cluster = LocalCluster(n_workers=int(self.workers), threads_per_worker=1, processes=True, host="127.0.0.1",
+                                    scheduler_port=0, dashboard_address=None, silence_logs=logging.CRITICAL, local_directory=self.scratch)
         self.client = Client(self.cluster)
         self.cores = int(self.workers)
 

@@ -110,7 +110,9 @@ def run_dh_gravity(args) -> int:
     table = dh.load_dh(resolve_dh_table(args.table))
     centres = None if args.cog is None else [[_symbolic_value(v) for v in cog] for cog in args.cog]
     if args.gravity is not None:
-        gravity = list(args.gravity)
+        from manipkit import bounds
+
+        gravity = bounds.gravity(args.gravity, "--gravity", error=UsageError).tolist()
         down = f"({', '.join(short_text(v) for v in gravity)}) m/s^2"
     else:
         gravity = ["-g" if axis == args.up else 0 for axis in "xyz"]

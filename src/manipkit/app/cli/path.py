@@ -149,6 +149,10 @@ def run_path(args) -> int:
     from manipkit.app.progress import progress_bar
     from manipkit.paths.plan import plan_path
 
+    if args.speed is not None:
+        from manipkit import bounds
+
+        bounds.speed(args.speed, "--speed", error=UsageError)
     robot = load_robot(args)
     chain = command_chain(robot, args.base, args.tip)
     poses, t = _poses(args)

@@ -158,9 +158,9 @@ def _payload_spec(args):
     """(Payload of --payload, gravity of --gravity (3,) m/s^2) or None without --payload; one line, exit 2, if bad."""
     if getattr(args, "payload", None) is None:
         return None
-    from manipkit.app.cli.statics import parse_payload, parse_triple
+    from manipkit.app.cli.statics import parse_gravity, parse_payload
 
-    return parse_payload(args.payload), parse_triple(getattr(args, "gravity", "0,0,-9.81"), "--gravity")
+    return parse_payload(args.payload), parse_gravity(getattr(args, "gravity", "0,0,-9.81"), direction=True)
 
 
 def _with_payload(reach_map, robot, args, load_spec, *, resume_dir=None):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+from manipkit import bounds
 from manipkit.app.cli.common import (
     EXIT_OK,
     UsageError,
@@ -29,7 +30,7 @@ from manipkit.app.cli.common import (
 )
 from manipkit.text import clipped_text, number_text, printable
 
-__all__ = ["MAX_TRAJECTORY_BYTES", "grade_line", "parse_payload", "parse_triple", "parse_wrench", "read_trajectory",
+__all__ = ["MAX_TRAJECTORY_BYTES", "band_words", "grade_line", "parse_gravity", "parse_payload", "parse_triple", "parse_wrench", "read_trajectory",
            "register", "run_force_capacity", "run_inertia", "run_payload", "run_torques", "torques_json"]
 
 CONVENTION = ("tau = g(q) - sum J^T w: the torque each motor produces to hold still (N m, N for prismatic joints); "
@@ -60,20 +61,20 @@ def register(commands) -> None:
 
     pay = commands.add_parser("payload", help="the largest payload mass the arm holds still at a pose")
     _common(pay)
-    pay.add_argument("--cog", default="0,0,0", metavar="X,Y,Z",
+    pay.add_argument("--cog", default=None, metavar="X,Y,Z",
                      help="the payload's centre of gravity from the tip's origin, in the tip frame's axes, m "
                           "(default 0,0,0)")
     pay.add_argument("--diagram", default=None, metavar="PNG",
                      help="draw the largest payload against the CoG offset along --direction, worst case over "
-                          "--samples configurations, into PNG (the data goes to stdout); --q and --cog are not used")
-    pay.add_argument("--direction", default="0,0,1", metavar="X,Y,Z",
+                          "--samples configurations, into PNG (the data goes to stdout); --q and --cog are refused with it")
+    pay.add_argument("--direction", default=None, metavar="X,Y,Z",
                      help="the diagram's offset direction in the tip frame's axes (default 0,0,1)")
-    pay.add_argument("--max-offset", type=float, default=0.3, metavar="M",
+    pay.add_argument("--max-offset", type=float, default=None, metavar="M",
                      help="the diagram's largest offset, m (default 0.3)")
-    pay.add_argument("--steps", type=int, default=16, metavar="K", help="offsets drawn, 0 to --max-offset (default 16)")
-    pay.add_argument("--samples", type=int, default=1000, metavar="N",
+    pay.add_argument("--steps", type=int, default=None, metavar="K", help="offsets drawn, 0 to --max-offset (default 16)")
+    pay.add_argument("--samples", type=int, default=None, metavar="N",
                      help="configurations sampled inside the limits for the diagram (default 1000)")
-    pay.add_argument("--seed", type=int, default=0, help="seed of the sampler (default 0)")
+    pay.add_argument("--seed", type=int, default=None, help="with --diagram: seed of the sampler (default 0)")
     _band_option(pay)
     pay.set_defaults(run=run_payload)
 
@@ -120,6 +121,18 @@ def parse_triple(text: str, option: str) -> tuple[float, float, float]:
     (0.0, 0.1, -2.0)
     """
     return tuple(_numbers(text, option, 3, "X,Y,Z"))
+
+
+def parse_gravity(text: str, *, direction: bool = False) -> tuple[float, float, float]:
+    """``--gravity GX,GY,GZ`` (m/s^2) within :func:`manipkit.bounds.gravity` (``direction``: not zero), or one line.
+
+    Examples
+    --------
+    >>> parse_gravity("0,0,-9.81")
+    (0.0, 0.0, -9.81)
+    """
+    values = parse_triple(text, "--gravity")
+    return tuple(float(v) for v in bounds.gravity(values, "--gravity", direction=direction, error=UsageError))
 
 
 def _numbers(text: str, option: str, count: int, form: str) -> list[float]:
@@ -212,7 +225,7 @@ def run_torques(args) -> int:
     from manipkit.statics.torques import static_torques
 
     check_precision(args.precision)
-    gravity = parse_triple(args.gravity, "--gravity")
+    gravity = parse_gravity(args.gravity)
     payload = parse_payload(args.payload) if args.payload is not None else None
     wrenches = [parse_wrench(text, args.wrench_axes) for text in args.wrench]
     robot, chain, q = _chain_and_q(args)
@@ -313,10 +326,20 @@ def run_payload(args) -> int:
     """Print the largest payload mass at the pose, and the joint that saturates."""
     from manipkit.statics.capacity import payload_capacity
 
-    gravity = parse_triple(args.gravity, "--gravity")
-    cog = parse_triple(args.cog, "--cog")
+    gravity = parse_gravity(args.gravity, direction=True)
+    given = [option for option, value in (("--direction", args.direction), ("--max-offset", args.max_offset),
+                                          ("--steps", args.steps), ("--samples", args.samples), ("--seed", args.seed))
+             if value is not None]
+    if args.diagram is None and given:
+        raise UsageError(f"{given[0]} applies to the payload diagram: give --diagram PNG, or leave {given[0]} out")
     if args.diagram is not None:
+        refused = [option for option, value in (("--q", args.q), ("--cog", args.cog), ("--band", args.band))
+                   if value not in (None, [])]
+        if refused:
+            raise UsageError(f"{refused[0]} with --diagram: the diagram samples configurations and offsets along "
+                             "--direction itself; leave it out")
         return _run_diagram(args, gravity)
+    cog = parse_triple(args.cog or "0,0,0", "--cog")
     robot, chain, q = _chain_and_q(args)
     cap = payload_capacity(chain, q, cog=cog, gravity=gravity, q_rest=q)
     max_mass = float(cap.max_mass)
@@ -327,8 +350,10 @@ def run_payload(args) -> int:
             "inertia_grade": cap.inertia_grade}
     band = _band(args, chain, q, gravity, _payload_at(cog))
     if band is not None:
-        data["band"] = {"percent": band.percent, "max_mass_low": band.capacity_low,
-                        "max_mass_high": band.capacity_high}
+        data["band"] = {"percent": band.percent, **{f"max_mass_{end}": value if math.isfinite(value) else None
+                                                    for end, value in (("low", band.capacity_low),
+                                                                       ("high", band.capacity_high))},
+                        "unbounded_high": not math.isfinite(band.capacity_high)}
     if args.format == "json":
         print_json(data)
         return EXIT_OK
@@ -343,9 +368,20 @@ def run_payload(args) -> int:
     else:
         print(f"max payload: {number_text(max_mass, 6)} kg ({data['saturating']} reaches its effort limit)")
     if band is not None:
-        print(f"with masses and CoGs off by up to {number_text(band.percent, 3)} %: between "
-              f"{number_text(band.capacity_low, 6)} and {number_text(band.capacity_high, 6)} kg (an outer bound)")
+        print(f"with masses and CoGs off by up to {number_text(band.percent, 3)} %: {band_words(band)}")
     return EXIT_OK
+
+
+def band_words(band) -> str:
+    """The capacity interval of ``band`` in words, true when an end is unbounded (no joint with an effort limit
+    feels the payload, ``inf``): "between 2.1 and 2.6 kg (an outer bound)", "at least 2.1 kg, possibly unbounded".
+    """
+    low, high = band.capacity_low, band.capacity_high
+    if math.isinf(low):
+        return "unbounded as well (no joint with an effort limit feels a payload at this CoG)"
+    if math.isinf(high):
+        return f"at least {number_text(low, 6)} kg, possibly unbounded (an outer bound)"
+    return f"between {number_text(low, 6)} and {number_text(high, 6)} kg (an outer bound)"
 
 
 def _payload_at(cog):
@@ -358,7 +394,7 @@ def run_force_capacity(args) -> int:
     """Print the largest force (moment) along each direction and the ellipsoid, the weight held first."""
     from manipkit.statics.capability import force_capacity
 
-    gravity = parse_triple(args.gravity, "--gravity")
+    gravity = parse_gravity(args.gravity)
     payload = parse_payload(args.payload) if args.payload is not None else None
     directions = [parse_triple(text, "--direction") for text in args.direction] or None
     if directions is not None and any(d == (0.0, 0.0, 0.0) for d in directions):
@@ -400,14 +436,18 @@ def run_force_capacity(args) -> int:
 def _run_diagram(args, gravity) -> int:
     import numpy as np
 
-    from manipkit import bounds
     from manipkit.outputs import writable_path
     from manipkit.statics.diagram import draw_payload_diagram, payload_diagram
 
+    args.direction = "0,0,1" if args.direction is None else args.direction
+    args.max_offset = 0.3 if args.max_offset is None else args.max_offset
+    args.seed = 0 if args.seed is None else args.seed
     direction = parse_triple(args.direction, "--direction")
+    if direction == (0.0, 0.0, 0.0):
+        raise UsageError("--direction 0,0,0: give a direction that is not zero")
     bounds.length(args.max_offset, "--max-offset", error=UsageError)
-    steps = bounds.count(args.steps, "--steps", minimum=2, maximum=1000, error=UsageError)
-    samples = bounds.count(args.samples, "--samples", minimum=1, error=UsageError)
+    steps = bounds.count(16 if args.steps is None else args.steps, "--steps", minimum=2, maximum=1000, error=UsageError)
+    samples = bounds.count(1000 if args.samples is None else args.samples, "--samples", minimum=1, error=UsageError)
     writable_path(args.diagram)
     robot = load_robot(args)
     chain = command_chain(robot, args.base, args.tip)
