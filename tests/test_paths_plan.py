@@ -263,3 +263,18 @@ def test_a_chain_without_a_closed_form_is_planned_on_numerical_solutions():
     assert plan.feasible and "numerical" in plan.resolution["method"]
     position, rotation = pose_residuals(poses, chain.fk(plan.q))
     assert position.max() <= 1e-9 and rotation.max() <= 1e-9
+
+
+def test_step_samples_beyond_the_bound_are_refused_before_they_are_made():
+    """Two configurations a whole turn apart in one joint, sampled 1e-6 rad apart, would be 6.3 million rows:
+    refused in one line (OptionError) instead of allocated."""
+    from manipkit.errors import OptionError
+    from manipkit.paths.steps import MAX_STEP_SAMPLES, step_samples
+
+    Q = np.array([[0.0, 0.0], [2 * np.pi, 0.0]])
+    assert 2 * np.pi / 1e-6 > MAX_STEP_SAMPLES
+    with pytest.raises(OptionError, match="give a larger collision step"):
+        step_samples(Q, np.array([0]), 1e-6)
+    rows, owner = step_samples(Q, np.array([0]), np.pi / 2)  # a quarter turn apart: the 3 inner samples
+    np.testing.assert_allclose(rows[:, 0], [np.pi / 2, np.pi, 3 * np.pi / 2])
+    assert owner.tolist() == [0, 0, 0]

@@ -338,6 +338,10 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         checker = CollisionChecker(robot)
     elif collisions not in (None, False):
         checker = collisions
+    if checker is not None:
+        step = float(collision_step)
+        if not (math.isfinite(step) and 1e-4 <= step <= 2 * math.pi):
+            raise OptionError(f"collision_step {short_text(step)} rad: give a step from 1e-4 rad to 2 pi")
     whole = robot.q() if q0 is None else robot.q(q0)
     forbidden: dict[int, list] = {}
     step_reason: dict[int, set] = {}

@@ -19,9 +19,15 @@ import math
 
 import numpy as np
 
+from manipkit.errors import OptionError
 from manipkit.spatial.transforms import pose_residuals
+from manipkit.text import short_text
 
-__all__ = ["deviating_steps", "step_samples"]
+__all__ = ["MAX_STEP_SAMPLES", "deviating_steps", "step_samples"]
+
+#: The most configurations the steps of one path are sampled at for collision checks (112 MB of rows for
+#: a 7-joint arm; each is a collision check of some microseconds).
+MAX_STEP_SAMPLES = 2_000_000
 
 
 def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, float], depth: int = 4,
@@ -55,9 +61,13 @@ def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, fl
 def step_samples(Q: np.ndarray, steps: np.ndarray, joint_step: float) -> tuple[np.ndarray, np.ndarray]:
     """Configurations inside the steps ``steps`` (indices ``i``: from ``Q[i]`` to ``Q[i + 1]``), at most
     ``joint_step`` apart in every joint (the ends excluded): ``(rows (M, n), step of each row (M,))``."""
+    spans = [float(np.abs(Q[i + 1] - Q[i]).max()) for i in steps]
+    total = sum(max(1, math.ceil(span / joint_step)) - 1 for span in spans)
+    if total > MAX_STEP_SAMPLES:
+        raise OptionError(f"checking the steps {short_text(joint_step)} rad apart takes {total} samples, more than "
+                          f"{MAX_STEP_SAMPLES}: give a larger collision step")
     rows, owner = [], []
-    for i in steps:
-        span = float(np.abs(Q[i + 1] - Q[i]).max())
+    for i, span in zip(steps, spans):
         pieces = max(1, math.ceil(span / joint_step))
         if pieces < 2:
             continue
