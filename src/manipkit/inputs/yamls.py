@@ -21,6 +21,7 @@ caller's ``error`` class.
 
 from __future__ import annotations
 
+import math
 import re
 
 from manipkit.text import printable
@@ -70,9 +71,14 @@ def _loader_class(where: str, error: type[Exception], max_depth: int, max_nodes:
     def construct_integer(loader, node):
         if len(node.value) > LONGEST_INTEGER:
             try:
-                return float(node.value.replace("_", ""))  # inf beyond the float range: refused where a number is due
+                value = float(node.value.replace("_", ""))
             except ValueError:  # hexadecimal, octal or base 60: the text, refused where a number is due
                 return loader.construct_scalar(node)
+            if math.isinf(value):  # not inf: the file holds no infinity, but an integer beyond every float
+                digits = sum(c.isdigit() for c in node.value)
+                raise error(f"{where}: line {node.start_mark.line + 1}: an integer of {digits} digits, beyond the "
+                            "range of numbers (about 1.8e308)")
+            return value
         return yaml.SafeLoader.construct_yaml_int(loader, node)
 
     BoundedLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)

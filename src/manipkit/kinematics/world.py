@@ -61,56 +61,13 @@ def read_world(path: str | os.PathLike) -> list[tuple[str, object, np.ndarray]]:
     InputFileError
         The file cannot be read (missing, a folder, too large).
     """
-    import yaml
-
     from manipkit.inputs.files import read_text
+    from manipkit.inputs.yamls import load_yaml
 
     where = printable(str(path))
     text = read_text(path, what="world file", max_bytes=MAX_WORLD_BYTES)
-    class Loader(yaml.SafeLoader):
-        """PyYAML's safe loader, refusing nesting deeper than :data:`_MAX_DEPTH` as it composes (it recurses)."""
-
-        depth = 0
-
-        def compose_node(self, parent, index):
-            self.depth += 1
-            if self.depth > _MAX_DEPTH:
-                raise CollisionError(f"{where}: YAML nested more than {_MAX_DEPTH} levels deep; a world file is a "
-                                     "list of obstacles")
-            try:
-                return super().compose_node(parent, index)
-            finally:
-                self.depth -= 1
-
-    try:
-        loader = Loader(text)
-        try:
-            node = loader.get_single_node()
-            if node is not None:
-                _count_nodes(node, where)  # before anything is built from it: an alias tree is refused here
-            document = loader.construct_document(node) if node is not None else None
-        finally:
-            loader.dispose()
-    except yaml.YAMLError as exc:
-        raise CollisionError(f"{where}: not valid YAML: {' '.join(str(exc).split())[:200]}") from None
-    except RecursionError:
-        raise CollisionError(f"{where}: YAML nested too deeply; a world file is a list of obstacles") from None
+    document = load_yaml(text, where, error=CollisionError, max_depth=_MAX_DEPTH, max_nodes=_MAX_NODES)
     return world_obstacles(document, where=where)
-
-
-def _count_nodes(root, where: str) -> None:
-    """Refuse a YAML node graph of more than :data:`_MAX_NODES` nodes counted with repetition (aliases
-    counted each time they are used), walked without recursion and stopped at the bound."""
-    stack, seen = [root], 0
-    while stack:
-        node = stack.pop()
-        seen += 1
-        if seen > _MAX_NODES:
-            raise CollisionError(f"{where}: the YAML document has more than {_MAX_NODES} values (counting each "
-                                 "use of an alias); a world file is a short list of obstacles")
-        if isinstance(node.value, list):
-            for item in node.value:
-                stack.extend(item if isinstance(item, tuple) else (item,))
 
 
 def world_obstacles(document, *, where: str = "world") -> list[tuple[str, object, np.ndarray]]:
