@@ -5,7 +5,10 @@ torque is affine in the mass: ``m_max = min_j (limit_j - g_j(q)) / (dtau_j/dm)``
 with the gravity torques of its point masses written out), and
 :func:`manipkit.statics.capacity.payload_capacity` called at each stored
 configuration one voxel at a time (iiwa14), independently of the blocks,
-the Dask runner and the per-voxel reduction. Local clusters are real
+the Dask runner and the per-voxel reduction; for the UR5 (a closed-form
+family), every solution :func:`manipkit.ik` lists one pose at a time
+(``all=True, aliases=False``), weighed by ``payload_capacity``, against the
+layer's best and worst over branches. Local clusters are real
 ``distributed.LocalCluster``s, as the reach map's own tests start them.
 """
 
@@ -16,6 +19,7 @@ import numpy as np
 import pytest
 from cli_helper import run_cli
 
+import manipkit
 from manipkit.analysis.reachmap import base_placement, build, capacity_at, confirm_placement, load, payload_map
 from manipkit.analysis.reachmap.blockstore import ResumeNote
 from manipkit.errors import InputFileError, ReachMapError
@@ -112,6 +116,67 @@ def test_every_voxel_of_an_iiwa14_map_against_payload_capacity_recomputed(iiwa14
         assert layer.saturating.reshape(-1)[v] == worst_joints[-1]
     assert 30.0 < np.nanmax(layer.best) < np.inf and len(set(worst_joints)) >= 2
     assert layer.joints == tuple(iiwa14.joint_names)
+
+
+UR5_COG = (0.02, -0.03, 0.08)  # m, in ee_link's axes
+
+
+@pytest.fixture(scope="module")
+def ur5_maps(load_robot):
+    """(robot, map, the layer over every closed-form branch, the layer of the stored configurations alone)."""
+    ur5 = load_robot("ur5")
+    reach_map = build(ur5, voxel=0.25, orientations=8, samples=20_000, holdout=0, fp_checks=0)
+    return (ur5, reach_map, payload_map(reach_map, ur5, cog=UR5_COG, block=500),
+            payload_map(reach_map, ur5, cog=UR5_COG, branches=False))
+
+
+def test_the_ur5_layer_is_the_best_and_worst_over_every_closed_form_branch(ur5_maps):
+    ur5, reach_map, every, stored = ur5_maps
+    layer = every.payload
+    assert layer.configurations == "branches" and stored.payload.configurations == "certificates"
+    voxels = reach_map.cert_keys // reach_map.orientations.size
+    counts = np.bincount(voxels)
+    chosen = np.flatnonzero(counts >= 3)[::40][:6]  # a few voxels of several bins each
+    assert len(chosen) >= 4
+    saturating_checked = 0
+    for v in chosen:
+        caps, joints = [], []
+        for q in reach_map.cert_q[voxels == v]:  # each bin's pose, every branch the dispatcher lists
+            T = ur5.transform(reach_map.base, reach_map.frame, q)
+            answer = manipkit.ik(ur5, T, base=reach_map.base, tip=reach_map.frame, all=True, aliases=False)
+            assert answer.method == "closed_form"
+            cap = payload_capacity(ur5, answer.solutions[answer.within_limits], cog=UR5_COG)
+            caps.append(cap.max_mass)
+            joints.append(cap.saturating)
+        caps, joints = np.concatenate(caps), np.concatenate(joints)
+        flat = np.unravel_index(v, reach_map.shape)
+        assert layer.best[flat] == pytest.approx(caps.max(), rel=1e-9)
+        assert layer.worst[flat] == pytest.approx(caps.min(), rel=1e-9)
+        if np.ptp(np.sort(caps)[:2]) > 1e-6:  # a unique worst: its joint is defined
+            assert layer.saturating[flat] == joints[np.argmin(caps)]
+            saturating_checked += 1
+    assert saturating_checked >= 2
+
+
+def test_every_branch_widens_the_range_of_the_stored_configurations(ur5_maps, tmp_path):
+    _, reach_map, every, stored = ur5_maps
+    new, old = every.payload, stored.payload
+    reached = ~np.isnan(old.best)
+    assert np.array_equal(reached, ~np.isnan(new.best))
+    assert np.all(new.best[reached] >= old.best[reached]) and np.all(new.worst[reached] <= old.worst[reached])
+    assert np.mean(new.best[reached] > old.best[reached] * (1 + 1e-6)) > 0.3  # other branches do differ
+    assert np.all(new.bins_worst <= old.bins) and np.all(old.bins <= new.bins)
+    again = load(every.save(tmp_path / "ur5.zarr")).payload
+    assert again.configurations == "branches" and again.bins_worst.tobytes() == new.bins_worst.tobytes()
+    assert "branches: every closed-form branch" in every.payload_text()
+    assert "branches: 1 per voxel-bin (numerical)" in stored.payload_text()
+
+
+def test_an_srs_arm_without_an_arm_angle_keeps_the_stored_configuration(iiwa14):
+    reach_map = build(iiwa14, voxel=0.4, orientations=4, samples=2000, holdout=0, fp_checks=0)
+    layer = payload_map(reach_map, iiwa14).payload
+    assert layer.configurations == "certificates" and layer.attrs()["configurations"] == "certificates"
+    np.testing.assert_array_equal(layer.bins, payload_capacity(iiwa14, reach_map.cert_q).max_mass)
 
 
 def test_one_worker_process_or_two_give_the_same_layer(planar_2r, map_2r, layer_2r):
@@ -228,7 +293,9 @@ def test_the_command_line_builds_the_layer_and_says_where_it_carries_the_mass(pl
     assert answer["voxels_carrying"] == np.unique(voxels[hand >= 0.5]).size > 0
     assert answer["reachable_voxels"] == np.unique(voxels).size and answer["mass"] == 0.5
     assert answer["cog"] == [0.1, 0.05, 0.0] and answer["gravity"] == [0.0, -9.81, 0.0]
+    assert answer["configurations"] == "certificates"  # the planar 2R's map: no closed-form family
     text = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5@0.1,0.05,0", status=0).stdout
+    assert "branches: 1 per voxel-bin (numerical)" in text
     assert f"0.5 kg carried in {answer['voxels_carrying']} of {answer['reachable_voxels']} reachable voxels" in text
     other = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5", status=2)
     assert other.stderr.count("\n") == 1 and "payload layer for the CoG 0.1,0.05,0" in other.stderr

@@ -33,6 +33,7 @@ from manipkit.analysis.reachmap.constants import (
     check_threshold,
     finite_array,
 )
+from manipkit.analysis.reachmap.payload import CONFIGURATIONS
 from manipkit.analysis.reachmap.query import checks_lines, query_answer, resolution_text, support_score
 from manipkit.analysis.reachmap.store import read_map, save_map
 from manipkit.text import printable, short_text
@@ -249,7 +250,7 @@ class ReachMap:
         reached = ~np.isnan(layer.best)
         top = float(np.nanmax(layer.best)) if reached.any() else math.nan
         head = (f"payload (CoG ({cog}) m in {printable(self.frame)}'s axes, gravity ({g}) m/s^2 in "
-                f"{printable(self.base)}, the configuration stored per voxel-bin): ")
+                f"{printable(self.base)}; {CONFIGURATIONS[layer.configurations]}): ")
         if mass is None:
             return head + (f"the largest capacity {short_text(top, 4)} kg" if reached.any() else "no voxel reached")
         cell = self.voxel ** (2 if self.orientations.kind == "planar" else 3)

@@ -1,14 +1,24 @@
 """A reach map's payload layer: per voxel the best and worst payload capacity, and what a pose can carry.
 
 (docs/site/guides/reach.md; built by :func:`manipkit.analysis.reachmap.payloadmap.payload_map`.)
-The layer is computed at the configurations the map stores, one per reached
-voxel-bin (its certificate, ``ReachMap.cert_q``: the first FK sample that
-landed in the bin, or the IK answer that filled it): for each, the largest
-payload mass (kg) whose centre of gravity sits at ``cog`` (m, in the tip
-frame's axes) that every chain joint holds against gravity ``gravity``
-(m/s^2, in the map's base frame) within its effort limits
+Each reached voxel-bin stores one configuration (its certificate,
+``ReachMap.cert_q``: the first FK sample that landed in the bin, or the IK
+answer that filled it) and so one pose, the certificate's FK pose. The layer's
+``configurations`` says which configurations of that pose are weighed:
+
+- ``"branches"`` (a chain with a closed-form family, not a 7R SRS arm): the
+  certificate and every closed-form branch of its pose inside the joint
+  limits (:func:`manipkit.ik.dispatch.ik_many`, FK residual within 1e-6 m and
+  rad; the 2 pi aliases of a branch hold the same torques and are not listed);
+- ``"certificates"`` (numerical IK only): the certificate alone, one per bin.
+
+At each configuration the capacity is the largest payload mass (kg) whose
+centre of gravity sits at ``cog`` (m, in the tip frame's axes) that every
+chain joint holds against gravity ``gravity`` (m/s^2, in the map's base
+frame) within its effort limits
 (:func:`manipkit.statics.capacity.payload_capacity`, closed form: the torque is
-affine in the mass). Per voxel, over its reached orientation bins:
+affine in the mass). Per voxel, over its reached orientation bins and their
+configurations:
 
 - ``best`` (kg): the largest capacity; ``worst`` (kg): the smallest;
 - ``saturating``: the chain joint (index into ``joints``) that reaches its
@@ -18,14 +28,15 @@ affine in the mass). Per voxel, over its reached orientation bins:
   arm's own weight already saturates a joint; ``inf`` where no joint bounds
   the mass (every lever arm vanishes).
 
-``bins`` keeps the capacity of every certificate (aligned with
-``cert_keys``), so a pose is answered at the map's resolution (its voxel and
-orientation bin): :func:`capacity_at`. The capacity is that of one stored
-configuration per voxel-bin, not the best over every IK branch of every pose
-in the bin: another configuration in the same bin may carry more or less.
+``bins`` and ``bins_worst`` keep the largest and smallest capacity of each
+voxel-bin (aligned with ``cert_keys``; equal with ``"certificates"``), so a
+pose is answered at the map's resolution (its voxel and orientation bin):
+:func:`capacity_at` gives ``bins``, what the bin's pose carries on its best
+branch. Other poses in the same bin may carry more or less.
 
 Stored in the map's Zarr folder as arrays ``payload_best``,
-``payload_worst``, ``payload_saturating`` and ``payload_bins`` and the
+``payload_worst``, ``payload_saturating``, ``payload_bins`` and
+``payload_bins_worst`` and the
 attribute ``payload`` (:meth:`PayloadLayer.attrs`), read back validated
 (:func:`layer_from_stored`).
 """
@@ -44,12 +55,15 @@ from manipkit.analysis.reachmap.constants import finite_array
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap.map import ReachMap
 
-__all__ = ["PAYLOAD_ARRAYS", "PayloadInvalid", "PayloadLayer", "capacity_at", "checked_attrs", "layer_from_stored",
-           "per_voxel"]
+__all__ = ["CONFIGURATIONS", "PAYLOAD_ARRAYS", "PayloadInvalid", "PayloadLayer", "capacity_at", "checked_attrs",
+           "layer_from_stored", "per_voxel"]
 
 #: The arrays of a payload layer in a map's folder and their data types.
 PAYLOAD_ARRAYS = {"payload_best": "float64", "payload_worst": "float64", "payload_saturating": "int64",
-                  "payload_bins": "float64"}
+                  "payload_bins": "float64", "payload_bins_worst": "float64"}
+#: What a layer's ``configurations`` may be (module docstring), and how the command line says it.
+CONFIGURATIONS = {"branches": "branches: every closed-form branch in the joint limits of each voxel-bin's pose",
+                  "certificates": "branches: 1 per voxel-bin (numerical), its stored configuration"}
 MAX_G = 1e3  # m/s^2: the largest gravity a stored layer may name
 
 
@@ -67,8 +81,8 @@ class PayloadLayer:
         kg: the largest and smallest capacity over the voxel's reached bins (NaN: not reached; inf: unbounded).
     saturating : ndarray of int64, shape (nx, ny, nz)
         The joint (index into ``joints``) saturating at ``worst`` (-1: none).
-    bins : ndarray, shape (C,)
-        kg: the capacity at each certificate of the map, aligned with ``ReachMap.cert_keys``.
+    bins, bins_worst : ndarray, shape (C,)
+        kg: the largest and smallest capacity of each voxel-bin, aligned with ``ReachMap.cert_keys``.
     cog : ndarray, shape (3,)
         m: the payload's centre of gravity from the tip's origin, in the tip frame's axes.
     gravity : ndarray, shape (3,)
@@ -79,6 +93,8 @@ class PayloadLayer:
         The effort limits used (N m or N; NaN: none).
     inertia_grade : str
         The robot's inertia-audit grade when the layer was built (:func:`manipkit.statics.audit.inertia_grade`).
+    configurations : {"branches", "certificates"}
+        Which configurations of each bin's pose were weighed (module docstring).
     """
 
     best: np.ndarray
@@ -91,14 +107,21 @@ class PayloadLayer:
     lower: np.ndarray
     upper: np.ndarray
     inertia_grade: str = ""
+    bins_worst: np.ndarray | None = None
+    configurations: str = "certificates"
+
+    def __post_init__(self):
+        if self.bins_worst is None:
+            object.__setattr__(self, "bins_worst", self.bins)
 
     def carries(self, mass: float) -> np.ndarray:
         """(nx, ny, nz) bool: voxels where the best capacity is at least ``mass`` (kg): some reached orientation bin
-        of the voxel holds it at its stored configuration."""
+        of the voxel holds it on some weighed configuration."""
         return np.nan_to_num(self.best, nan=-1.0) >= float(mass)
 
     def carries_everywhere(self, mass: float) -> np.ndarray:
-        """(nx, ny, nz) bool: voxels where the worst capacity is at least ``mass`` (kg): every reached bin holds it."""
+        """(nx, ny, nz) bool: voxels where the worst capacity is at least ``mass`` (kg): every reached bin holds it on
+        every weighed configuration."""
         return np.nan_to_num(self.worst, nan=-1.0) >= float(mass)
 
     def same_load(self, cog, gravity) -> bool:
@@ -113,11 +136,11 @@ class PayloadLayer:
 
         return {"cog": listed(self.cog), "gravity": listed(self.gravity), "joints": list(self.joints),
                 "lower": listed(self.lower), "upper": listed(self.upper), "inertia_grade": self.inertia_grade,
-                "configurations": "certificates"}
+                "configurations": self.configurations}
 
 
 def capacity_at(reach_map: ReachMap, T) -> np.ndarray:
-    """(...,) kg: the stored capacity of each pose's voxel-bin (``T`` (..., 4, 4), ``T_base_frame``); NaN where the
+    """(...,) kg: the stored (best) capacity of each pose's voxel-bin (``T`` (..., 4, 4), ``T_base_frame``); NaN where the
     voxel-bin was not reached or the pose is outside the grid.
 
     The voxel-bin is the pose's voxel and orientation bin (the map's
@@ -160,8 +183,9 @@ def _vector(value, what: str, n: int, *, nullable: bool = False, bound: float = 
 
 def checked_attrs(a, joint_names: tuple[str, ...]) -> dict:
     """The ``payload`` attribute of a stored map, every entry checked (raises :class:`PayloadInvalid`)."""
-    if not isinstance(a, dict) or a.get("configurations") != "certificates":
-        raise PayloadInvalid("payload must be the table manipkit writes (configurations: certificates)")
+    if not isinstance(a, dict) or a.get("configurations") not in CONFIGURATIONS:
+        raise PayloadInvalid(f"payload must be the table manipkit writes (configurations: "
+                             f"{' or '.join(CONFIGURATIONS)})")
     joints = a.get("joints")
     if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j in joint_names for j in joints):
         raise PayloadInvalid("payload.joints must name joints of the map's robot")
@@ -174,23 +198,30 @@ def checked_attrs(a, joint_names: tuple[str, ...]) -> dict:
         raise PayloadInvalid("payload.lower must be below payload.upper")
     return {"cog": _vector(a.get("cog"), "cog", 3, bound=1e6), "gravity": _vector(a.get("gravity"), "gravity", 3,
                                                                                     bound=MAX_G),
-            "joints": tuple(joints), "lower": lower, "upper": upper, "inertia_grade": grade}
+            "joints": tuple(joints), "lower": lower, "upper": upper, "inertia_grade": grade,
+            "configurations": a["configurations"]}
 
 
 def layer_from_stored(attrs, arrays: dict, cert_keys: np.ndarray, n_bins: int, joint_names) -> PayloadLayer:
     """The layer of a stored map from its ``payload`` attribute and arrays, checked against its certificates.
 
-    ``bins`` must be >= 0 (inf allowed) at every certificate; ``best`` and
-    ``worst`` must be the largest and smallest of them per voxel (NaN exactly
-    where no voxel-bin is reached), and ``saturating`` a joint index or -1.
+    ``bins_worst`` must be >= 0 (inf allowed) at every certificate, ``bins``
+    at least that (equal for ``"certificates"``); ``best`` and ``worst`` must
+    be the largest of ``bins`` and the smallest of ``bins_worst`` per voxel
+    (NaN exactly where no voxel-bin is reached), and ``saturating`` a joint
+    index or -1.
     Raises :class:`PayloadInvalid` naming what is wrong.
     """
     a = checked_attrs(attrs, tuple(joint_names))
-    best, worst, sat, bins = (arrays[name] for name in PAYLOAD_ARRAYS)
-    if bins.shape != cert_keys.shape or np.isnan(bins).any() or (bins < 0).any():
-        raise PayloadInvalid("payload_bins must hold a capacity >= 0 kg for each certificate")
+    best, worst, sat, bins, bins_worst = (arrays[name] for name in PAYLOAD_ARRAYS)
+    if bins_worst.shape != cert_keys.shape or np.isnan(bins_worst).any() or (bins_worst < 0).any():
+        raise PayloadInvalid("payload_bins_worst must hold a capacity >= 0 kg for each certificate")
+    if bins.shape != cert_keys.shape or np.isnan(bins).any() or (bins < bins_worst).any() or \
+            (a["configurations"] == "certificates" and not np.array_equal(bins, bins_worst)):
+        raise PayloadInvalid("payload_bins must hold, for each certificate, a capacity >= payload_bins_worst (equal "
+                             "to it when one configuration per bin is weighed)")
     expected_best, expected_worst, _ = per_voxel(cert_keys, bins, np.zeros(bins.shape, dtype=np.int64), n_bins,
-                                                 best.size)
+                                                 best.size, worst_capacity=bins_worst)
     same = np.array_equal(expected_best, best.reshape(-1), equal_nan=True) and \
         np.array_equal(expected_worst, worst.reshape(-1), equal_nan=True)
     if not same:
@@ -198,22 +229,26 @@ def layer_from_stored(attrs, arrays: dict, cert_keys: np.ndarray, n_bins: int, j
                              "voxel's certificates")
     if sat.size and (sat.min() < -1 or sat.max() >= len(a["joints"])):
         raise PayloadInvalid("payload_saturating holds values that are not a joint index or -1")
-    return PayloadLayer(best, worst, sat, bins, **a)
+    return PayloadLayer(best, worst, sat, bins, bins_worst=bins_worst, **a)
 
 
-def per_voxel(cert_keys: np.ndarray, capacity: np.ndarray, saturating: np.ndarray, n_bins: int, n_voxels: int):
+def per_voxel(cert_keys: np.ndarray, capacity: np.ndarray, saturating: np.ndarray, n_bins: int, n_voxels: int, *,
+              worst_capacity: np.ndarray | None = None):
     """(best, worst, saturating of the worst) per voxel (flat) of capacities per certificate (keys increasing).
 
-    NaN (and -1) where a voxel has no certificate; the worst's joint is the
-    first certificate in key order with the smallest capacity.
+    ``capacity`` is each voxel-bin's largest, ``worst_capacity`` its smallest
+    (default the same) with ``saturating`` the joint there. NaN (and -1) where
+    a voxel has no certificate; the worst's joint is the first certificate in
+    key order with the smallest capacity.
     """
+    worst_capacity = capacity if worst_capacity is None else worst_capacity
     best, worst = np.full(n_voxels, np.nan), np.full(n_voxels, np.nan)
     sat = np.full(n_voxels, -1, dtype=np.int64)
     voxels = cert_keys // n_bins
     if voxels.size:
         np.fmax.at(best, voxels, capacity)
-        order = np.lexsort((capacity, voxels))  # stable: equal capacities stay in key order
+        order = np.lexsort((worst_capacity, voxels))  # stable: equal capacities stay in key order
         first = order[np.flatnonzero(np.diff(voxels[order], prepend=-1))]
-        worst[voxels[first]] = capacity[first]
+        worst[voxels[first]] = worst_capacity[first]
         sat[voxels[first]] = saturating[first]
     return best, worst, sat

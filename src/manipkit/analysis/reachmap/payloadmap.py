@@ -3,11 +3,17 @@
 (docs/site/guides/reach.md.) What the layer holds is
 :mod:`manipkit.analysis.reachmap.payload`'s. The map's certificates
 (``cert_q``, one configuration per reached voxel-bin, in key order) are cut
-into blocks of ``block`` configurations; each block's capacities come from
+into blocks of ``block`` configurations. For a chain with a closed-form
+family (not a 7R SRS arm, whose branches need an arm angle) each block's
+poses (FK of its certificates) are solved for every branch at once
+(:func:`manipkit.ik.dispatch.ik_many`, compiled), the branches inside the
+joint limits kept with the certificate; otherwise the certificate alone is
+weighed. Each block's capacities come from
 :func:`manipkit.statics.capacity.payload_capacity` (batched static torques,
-compiled) run by the map's own :class:`~manipkit.analysis.reachmap.blocks.BlockRunner`
-(here, ``workers=N`` on a new ``distributed.LocalCluster``, or
-``scheduler=`` a running one) and merged in block order, so the layer is
+compiled), reduced per voxel-bin to its largest and smallest, run by the
+map's own :class:`~manipkit.analysis.reachmap.blocks.BlockRunner` (here,
+``workers=N`` on a new ``distributed.LocalCluster``, or ``scheduler=`` a
+running one) and merged in block order, so the layer is
 the same bits however the blocks ran. With ``resume_dir`` the finished
 blocks are kept in a :class:`~manipkit.analysis.reachmap.blockstore.BlockStore`
 under the fingerprint of everything that determines them (the robot's
@@ -36,10 +42,12 @@ if TYPE_CHECKING:
     from manipkit.analysis.reachmap.map import ReachMap
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "capacity_of", "payload_block", "payload_map"]
+__all__ = ["BRANCH_TOL", "PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "branch_rows", "capacity_of",
+           "configurations_of", "payload_block", "payload_map"]
 
 PAYLOAD_BLOCK = 1 << 16  # configurations per block (about 20 ms of static torques for a 7-joint arm)
-PAYLOAD_FORMAT = "manipkit-payload-1"
+PAYLOAD_FORMAT = "manipkit-payload-2"
+BRANCH_TOL = 1e-6  # m and rad: a closed-form branch counts when FK puts the tip this close to the bin's pose
 MAX_PAYLOAD_BLOCK = 1 << 22
 
 
@@ -53,26 +61,79 @@ class PayloadJob:
     cog: np.ndarray
     gravity: np.ndarray  # m/s^2 in the root link's axes (what static_torques takes)
     effort: np.ndarray  # (2, n): lower, upper
+    configurations: str = "certificates"  # or "branches" (payload.CONFIGURATIONS)
 
 
-def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
-    """Block ``block``: (block, capacity kg (N,), saturating joint (N,), -1 none) at the configurations ``Q`` (N, n)."""
+def configurations_of(robot: Robot, base: str, tip: str) -> str:
+    """``"branches"`` when the chain ``base -> tip`` has a closed-form family whose every branch of a pose
+    :func:`manipkit.ik.dispatch.ik_many` lists (not a 7R SRS arm: its branches need an arm angle), else
+    ``"certificates"`` (the stored configuration alone)."""
+    from manipkit.errors import ClosedFormIKError
+    from manipkit.ik.families import SRS, chain_family
+
+    try:
+        family = chain_family(robot.chain(base, tip))
+    except ClosedFormIKError:
+        return "certificates"
+    return "branches" if family.solved and family.kind != SRS else "certificates"
+
+
+def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float = BRANCH_TOL
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(rows (N, 1 + k, n), kept (N, 1 + k) bool): chain vectors, per configuration of ``Q`` (N, n_robot,
+    whole-robot vectors) itself, then every other closed-form branch of its pose ``T_base_tip``.
+
+    A branch is kept when it exists, lies inside the joint limits, FK puts
+    ``tip`` within ``tol`` (m and rad) of the pose, and it is not the
+    configuration itself (every joint within ``tol`` of it, modulo 2 pi: the
+    branch the configuration is on, weighed once). Rows not kept hold the
+    configuration.
+    """
+    from manipkit.ik.dispatch import ik_many
+
+    chain = robot.chain(base, tip)
+    q = np.asarray(Q, dtype=float)[:, chain.columns]
+    batch = ik_many(robot, chain.fk(q), base=base, tip=tip, method="closed_form", tol=tol)
+    S = np.asarray(batch.solutions, dtype=float)
+    with np.errstate(invalid="ignore"):
+        found = ~np.isnan(S).any(axis=-1) & (np.asarray(batch.residual_position) <= tol) & \
+            (np.asarray(batch.residual_rotation) <= tol)
+    S = np.where(found[..., None], S, q[:, None])
+    turn = S - q[:, None]
+    turn -= 2 * np.pi * np.round(turn / (2 * np.pi))  # the difference modulo 2 pi, in [-pi, pi]
+    found &= chain.within_limits(S) & (np.abs(turn) > tol).any(axis=-1)
+    return np.concatenate([q[:, None], S], axis=1), np.concatenate([np.ones((len(q), 1), dtype=bool), found], axis=1)
+
+
+def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """Block ``block``: (block, largest capacity kg (N,), smallest (N,), the joint saturating at the smallest (N,),
+    -1 none) per voxel-bin of the certificates ``Q`` (N, n) over the configurations ``job.configurations`` names."""
     from manipkit.statics.capacity import payload_capacity
 
-    cap = payload_capacity(job.robot, Q, cog=job.cog, gravity=job.gravity, effort=job.effort, base=job.base,
-                           tip=job.frame)
-    return block, np.asarray(cap.max_mass, dtype=float), np.asarray(cap.saturating, dtype=np.int64)
+    if job.configurations == "certificates":
+        rows, kept = Q[:, None], np.ones((len(Q), 1), dtype=bool)
+    else:
+        rows, kept = branch_rows(job.robot, job.base, job.frame, Q)
+    cap = payload_capacity(job.robot, rows[kept], cog=job.cog, gravity=job.gravity, effort=job.effort,
+                           base=job.base, tip=job.frame)
+    mass = np.full(kept.shape, np.nan)
+    mass[kept] = np.asarray(cap.max_mass, dtype=float)
+    joint = np.full(kept.shape, -1, dtype=np.int64)
+    joint[kept] = np.asarray(cap.saturating, dtype=np.int64)
+    at_worst = np.argmin(np.where(kept, mass, np.inf), axis=1)  # the first kept row (the certificate) on ties
+    picked = np.arange(len(Q))
+    return block, np.nanmax(mass, axis=1), mass[picked, at_worst], joint[picked, at_worst]
 
 
 def _check_block(job: PayloadJob, n_joints: int, result, arguments: tuple) -> str | None:
-    """payload_block's (block, capacity, saturating) for the block ``arguments``."""
-    if not isinstance(result, tuple) or len(result) != 3 or result[0] != arguments[0]:
+    """payload_block's (block, best, worst, saturating) for the block ``arguments``."""
+    if not isinstance(result, tuple) or len(result) != 4 or result[0] != arguments[0]:
         return "not the result of this payload block"
-    _, cap, sat = result
+    _, best, cap, sat = result
     n = len(arguments[1])
-    if not (isinstance(cap, np.ndarray) and cap.dtype == float and cap.shape == (n,) and not np.isnan(cap).any()
-            and bool(np.all(cap >= 0))):
-        return "its capacities are not (N,) numbers >= 0 kg"
+    if not all(isinstance(c, np.ndarray) and c.dtype == float and c.shape == (n,) and not np.isnan(c).any()
+               and bool(np.all(c >= 0)) for c in (best, cap)) or bool(np.any(best < cap)):
+        return "its capacities are not (N,) numbers >= 0 kg, the best at least the worst"
     if not (isinstance(sat, np.ndarray) and sat.dtype == np.int64 and sat.shape == (n,)
             and bool(np.all((sat >= -1) & (sat < n_joints)))):
         return "its saturating joints are not joint indices or -1"
@@ -108,7 +169,7 @@ def _settings(job: PayloadJob, reach_map: ReachMap, block: int) -> dict:
             "robot": job.robot.name, "description_sha256": hashlib.sha256(job.robot.urdf.encode()).hexdigest(),
             "base": job.base, "frame": job.frame, "cog": job.cog.tolist(), "gravity": job.gravity.tolist(),
             "effort": [[None if math.isnan(v) else v for v in row] for row in job.effort.tolist()],
-            "block": block, "certificates_sha256": certs}
+            "block": block, "certificates_sha256": certs, "configurations": job.configurations}
 
 
 def _root_gravity(robot: Robot, base: str, g_base: np.ndarray) -> np.ndarray:
@@ -135,8 +196,8 @@ def capacity_of(reach_map: ReachMap, robot: Robot, Q) -> np.ndarray:
 
 
 def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, -9.81), effort=None,
-                workers: int | None = None, scheduler: str | None = None, progress=None, block: int = PAYLOAD_BLOCK,
-                resume_dir: str | Path | None = None) -> ReachMap:
+                branches: bool = True, workers: int | None = None, scheduler: str | None = None, progress=None,
+                block: int = PAYLOAD_BLOCK, resume_dir: str | Path | None = None) -> ReachMap:
     """The map with its payload layer (``reach_map.payload``, :class:`~manipkit.analysis.reachmap.payload.PayloadLayer`).
 
     A function of a built map rather than an option of
@@ -158,6 +219,10 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
         root link's axes with the base's rotation at the robot's default configuration).
     effort : None, (n,) or ((n,), (n,))
         The chain joints' limits as :func:`manipkit.statics.capacity.payload_capacity` takes them (default the URDF's).
+    branches : bool
+        True: for a chain with a closed-form family (:func:`configurations_of`) weigh every branch of each bin's
+        pose inside the joint limits, with the stored configuration; False, or a chain without one: the stored
+        configuration alone. The layer's ``configurations`` says which was done.
     workers, scheduler, progress
         As :func:`~manipkit.analysis.reachmap.builder.build` (``progress(stage, done, total)`` in blocks).
     block : int
@@ -203,7 +268,9 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
     g_root = _root_gravity(robot, reach_map.base, g_base)
     probe = payload_capacity(robot, robot.q(), cog=cog, gravity=g_root, effort=effort, base=reach_map.base,
                              tip=reach_map.frame)  # the limits, and every option checked before a block runs
-    job = PayloadJob(robot, reach_map.base, reach_map.frame, cog, g_root, np.stack([probe.lower, probe.upper]))
+    configurations = configurations_of(robot, reach_map.base, reach_map.frame) if branches else "certificates"
+    job = PayloadJob(robot, reach_map.base, reach_map.frame, cog, g_root, np.stack([probe.lower, probe.upper]),
+                     configurations)
     n = len(probe.joint_names)
     store = None
     if resume_dir is not None:
@@ -213,16 +280,17 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
                            {"payload_block": partial(_check_block, job, n)})
     Q = reach_map.cert_q
     blocks = [(b, Q[s:s + block]) for b, s in enumerate(range(0, len(Q), block))]
-    caps, sats = [np.zeros(0)], [np.zeros(0, dtype=np.int64)]
+    tops, caps, sats = [np.zeros(0)], [np.zeros(0)], [np.zeros(0, dtype=np.int64)]
     with BlockRunner(workers, scheduler, progress, store) as runner:
         if blocks:
-            for _, cap, sat in in_block_order(runner.run(payload_block, job, blocks, "payload capacity")):
+            for _, top, cap, sat in in_block_order(runner.run(payload_block, job, blocks, "payload capacity")):
+                tops.append(top)
                 caps.append(cap)
                 sats.append(sat)
-    cap, sat = np.concatenate(caps), np.concatenate(sats)
-    best, worst, worst_joint = per_voxel(reach_map.cert_keys, cap, sat, reach_map.orientations.size,
-                                         math.prod(reach_map.shape))
+    top, cap, sat = np.concatenate(tops), np.concatenate(caps), np.concatenate(sats)
+    best, worst, worst_joint = per_voxel(reach_map.cert_keys, top, sat, reach_map.orientations.size,
+                                         math.prod(reach_map.shape), worst_capacity=cap)
     layer = PayloadLayer(best.reshape(reach_map.shape), worst.reshape(reach_map.shape),
-                         worst_joint.reshape(reach_map.shape), cap, cog, g_base, tuple(probe.joint_names),
-                         probe.lower, probe.upper, probe.inertia_grade)
+                         worst_joint.reshape(reach_map.shape), top, cog, g_base, tuple(probe.joint_names),
+                         probe.lower, probe.upper, probe.inertia_grade, bins_worst=cap, configurations=configurations)
     return replace(reach_map, payload=layer)

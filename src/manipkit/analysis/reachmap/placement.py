@@ -24,9 +24,9 @@ chosen is the one with the most targets IK confirms.
 
 **Carrying a payload** (``payload=MASS``, kg; the map needs a payload layer,
 :func:`manipkit.analysis.reachmap.payloadmap.payload_map`): a target counts
-only when the map says yes to it and the configuration stored for its
-voxel-bin holds ``MASS`` at the layer's CoG
-(:func:`manipkit.analysis.reachmap.payload.capacity_at`), so placements are
+only when the map says yes to it and its voxel-bin holds ``MASS`` at the
+layer's CoG on its best weighed configuration (the stored one, or the best
+closed-form branch of its pose: :func:`manipkit.analysis.reachmap.payload.capacity_at`), so placements are
 ranked by the share of targets reachable while carrying the mass; and
 :func:`confirm_placement` counts an IK answer only when it holds the mass too
 (:func:`manipkit.analysis.reachmap.payloadmap.capacity_of`).

@@ -186,6 +186,7 @@ def _write_arrays(reach_map: ReachMap, folder: Path) -> None:
                              ("payload_saturating", layer.saturating.astype(np.int64))):
             root.create_array(name, data=values, chunks=chunk[:3], **options)
         root.create_array("payload_bins", data=layer.bins, chunks=(cert_rows,), **options)
+        root.create_array("payload_bins_worst", data=layer.bins_worst, chunks=(cert_rows,), **options)
     root.attrs.update(reach_map.attrs())
 
 
@@ -522,7 +523,8 @@ def _read_arrays(path: Path, a: dict) -> dict:
     C = metas["cert_keys"][0][0] if len(metas["cert_keys"][0]) == 1 else -1
     expected = {"reach": grid + (n_bins,), "voxel_q": grid + (n_joints,), "ik_keys": (K,), "ik_q": (K, n_joints),
                 "cert_keys": (C,), "cert_q": (C, n_joints), "manipulability": grid, "manipulability_mean": grid,
-                "payload_best": grid, "payload_worst": grid, "payload_saturating": grid, "payload_bins": (C,)}
+                "payload_best": grid, "payload_worst": grid, "payload_saturating": grid, "payload_bins": (C,),
+                "payload_bins_worst": (C,)}
     if len(shape) != 4 or shape[3] != n_bins or any(metas[n][0] != expected[n] for n in names) or min(K, C) < 0:
         raise _Invalid(f"array shapes that disagree with the attributes (reach {shape}, {n_bins} orientation bins, "
                        f"{n_joints} joints)")
