@@ -339,7 +339,7 @@ def test_dh_gravity_prints_the_textbook_torques_of_a_vertical_2r():
 @pytest.mark.parametrize("args, message", [
     (("--mass", "1"), "masses: give 2 values"),
     (("--mass", "1", "-2"), "mass 2 = -2 kg: give a mass >= 0 kg"),
-    (("--mass", "1", "2", "--gravity", "0", "nan", "0"), "give a finite number"),
+    (("--mass", "1", "2", "--gravity", "0", "nan", "0"), "--gravity [0, nan, 0]: give 3 finite numbers (m/s^2)"),
     (("--mass", "1", "m 2"), "mass 2 'm 2': give a number or a symbol name"),
 ])
 def test_dh_gravity_refuses_bad_input_in_one_line(args, message):

@@ -123,7 +123,8 @@ def test_family_finds_the_ur_geometry():
 
 def ik_all(robot, base, tip, T) -> list[np.ndarray]:
     x, y, z, w = quaternion_from_matrix(T[:3, :3])
-    shown = json.loads(run_cli("manipkit", "ik", "--all", "--robot", robot, "--base", base, "--frame", tip,
+    # the branches (--no-aliases): the same eight on both descriptions, whatever their joint ranges allow
+    shown = json.loads(run_cli("manipkit", "ik", "--all", "--no-aliases", "--robot", robot, "--base", base, "--frame", tip,
                                "--xyz", *T[:3, 3], "--quat", x, y, z, w, "--format", "json", status=0).stdout)
     return [np.array(list(solution.values())) for solution in shown["solutions"]]
 
