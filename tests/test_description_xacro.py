@@ -633,3 +633,21 @@ def _record(errors, function, *args):
         function(*args)
     except Exception as exc:  # noqa: BLE001 - the test asserts there is none
         errors.append(exc)
+
+
+def test_an_expansion_that_fills_one_element_past_the_bound_is_refused(tmp_path, monkeypatch):
+    """minidom inserts by a linear search of the parent's children (n^2 / 2 steps for n nodes, outside eval_all's
+    checks), so the children one element gets are bounded: 8 doubling macros make 2^8 = 256 links (and 256 text
+    nodes between them, fewer here: the body has none) in <robot>, past a bound of 100."""
+    from manipkit.description import xacro as description_xacro
+
+    monkeypatch.setattr(description_xacro, "MAX_XACRO_CHILDREN", 100)
+    macros = "".join(f'<xacro:macro name="m{k}"><xacro:m{k - 1}/><xacro:m{k - 1}/></xacro:macro>' for k in range(1, 9))
+    path = tmp_path / "doubling.urdf.xacro"
+    path.write_text(HEAD + '<xacro:macro name="m0"><link name="l"/></xacro:macro>' + macros + "<xacro:m8/></robot>")
+    with pytest.raises(DescriptionError, match=r"doubling.urdf.xacro: xacro expansion put more than 100 nodes in one "
+                                               r"<xacro:macro>, the limit"):  # a macro's body
+        describe(resolve_robot(str(path)), {}, {})
+    monkeypatch.setattr(description_xacro, "MAX_XACRO_CHILDREN", 1000)  # 256 fit: expanded as xacro does
+    text, _ = describe(resolve_robot(str(path)), {}, {})
+    assert text.count("<link") == 256

@@ -32,6 +32,7 @@ from manipkit.text import close_matches
 
 __all__ = [
     "EXPANSION_SECONDS",
+    "MAX_XACRO_CHILDREN",
     "MAX_EXPANDED_CHARACTERS",
     "MAX_TEXT_CHARACTERS",
     "MAX_XACRO_ELEMENTS",
@@ -49,6 +50,9 @@ MAX_XACRO_ELEMENTS = 500_000
 MAX_TEXT_CHARACTERS = 4 * 1024 * 1024
 #: Most characters all the evaluations of one expansion may make together.
 MAX_EXPANDED_CHARACTERS = 4 * MAX_DESCRIPTION_BYTES
+#: Most child nodes (elements, text, comments) an expansion may give one element: a robot of
+#: ``validate.MAX_LINKS`` links and joints has about 20,000 with the text between them.
+MAX_XACRO_CHILDREN = 50_000
 #: Seconds one xacro expansion may take (real descriptions take well under one).
 EXPANSION_SECONDS = 30.0
 
@@ -287,7 +291,8 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
             raise
 
     originals = {name: getattr(xacro, name)
-                 for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all", "check_attrs")}
+                 for name in ("eval_extension", "safe_eval", "parse", "eval_text", "eval_all", "check_attrs",
+                              "replace_node")}
     patched = []  # (substitution_args module, its own _eval_find, _eval_env, _eval_optenv), once patched
     deadline = time.monotonic() + EXPANSION_SECONDS
     counts = {"elements": 0, "characters": 0}
@@ -348,6 +353,21 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
             raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
         return originals["eval_all"](node, macros, symbols)
 
+    def replace_node(node, by, content_only=False):  # a macro's expansion put in place of its call
+        # minidom finds each insertion point by a linear search of the parent's children, so filling one parent
+        # with n nodes costs n^2 / 2 steps, none of them in eval_all: without this bound a doubling macro ran far
+        # past the time limit between two checks (100 s and more on a loaded machine)
+        parent = node.parentNode
+        docs = [] if by is None else by if isinstance(by, list) else [by]
+        adding = sum(len(doc.childNodes) for doc in docs) if content_only else len(docs)
+        if parent is not None and len(parent.childNodes) + adding > MAX_XACRO_CHILDREN:
+            raise DescriptionError(f"{path.name}: xacro expansion put more than {MAX_XACRO_CHILDREN} nodes in one "
+                                   f"<{getattr(parent, 'tagName', 'document')[:40]}>, the limit (macros that call "
+                                   "each other many times over?)")
+        if time.monotonic() > deadline:
+            raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
+        return originals["replace_node"](node, by, content_only)
+
     def check_attrs(tag, required, optional):  # <xacro:arg name="x"/>: a required argument, used when given
         if tag.tagName == "xacro:arg" and "default" in required and not tag.hasAttribute("default"):
             name = tag.getAttribute("name")
@@ -363,7 +383,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
 
     assert MAX_SIZE <= MAX_TEXT_CHARACTERS  # an expression's value always fits in one text
     hooks = {"eval_extension": eval_extension, "safe_eval": safe_eval, "parse": parse, "eval_text": eval_text,
-             "eval_all": eval_all, "check_attrs": check_attrs}
+             "eval_all": eval_all, "check_attrs": check_attrs, "replace_node": replace_node}
     for name, hook in hooks.items():
         setattr(xacro, name, hook)
     try:
