@@ -28,7 +28,7 @@ from manipkit.app.cli.common import (
     q_text,
     robot_words,
 )
-from manipkit.text import clipped_text, number_text, printable
+from manipkit.text import clipped_text, number_text, printable, short_text
 
 __all__ = ["MAX_TRAJECTORY_BYTES", "band_words", "grade_line", "parse_gravity", "parse_payload", "parse_triple", "parse_wrench", "read_trajectory",
            "register", "run_force_capacity", "run_inertia", "run_payload", "run_torques", "torques_json"]
@@ -439,28 +439,28 @@ def _run_diagram(args, gravity) -> int:
     from manipkit.outputs import writable_path
     from manipkit.statics.diagram import draw_payload_diagram, payload_diagram
 
-    args.direction = "0,0,1" if args.direction is None else args.direction
-    args.max_offset = 0.3 if args.max_offset is None else args.max_offset
-    args.seed = 0 if args.seed is None else args.seed
-    direction = parse_triple(args.direction, "--direction")
+    # the defaults --help states; given without --diagram, these options are refused by run_payload
+    direction = parse_triple("0,0,1" if args.direction is None else args.direction, "--direction")
     if direction == (0.0, 0.0, 0.0):
         raise UsageError("--direction 0,0,0: give a direction that is not zero")
-    bounds.length(args.max_offset, "--max-offset", error=UsageError)
+    max_offset = bounds.length(0.3 if args.max_offset is None else args.max_offset, "--max-offset", error=UsageError)
+    seed = 0 if args.seed is None else args.seed
     steps = bounds.count(16 if args.steps is None else args.steps, "--steps", minimum=2, maximum=1000, error=UsageError)
     samples = bounds.count(1000 if args.samples is None else args.samples, "--samples", minimum=1, error=UsageError)
     writable_path(args.diagram)
     robot = load_robot(args)
     chain = command_chain(robot, args.base, args.tip)
-    diagram = payload_diagram(chain, np.linspace(0.0, args.max_offset, steps), samples=samples, seed=args.seed,
+    diagram = payload_diagram(chain, np.linspace(0.0, max_offset, steps), samples=samples, seed=seed,
                               direction=direction, gravity=gravity)
     draw_payload_diagram(diagram, args.diagram)
-    data = {**diagram.as_dict(), "png": str(args.diagram), "seed": args.seed}
+    data = {**diagram.as_dict(), "png": str(args.diagram), "seed": seed}
     if args.format == "json":
         print_json(data)
         return EXIT_OK
     print(f"robot: {robot.name} ({robot.source.path}); chain {chain.base} -> {chain.tip}")
-    print(f"largest payload held still against the CoG offset along {args.direction} (tip frame's axes), "
-          f"over {diagram.configurations} configurations sampled inside the limits (seed {args.seed}); "
+    along = ",".join(short_text(v) for v in direction)
+    print(f"largest payload held still against the CoG offset along {along} (tip frame's axes), "
+          f"over {diagram.configurations} configurations sampled inside the limits (seed {seed}); "
           f"drawn in {printable(args.diagram)}")
     print(grade_line(robot, args))
     print(f"{'offset m':>9}  {'worst kg':>10}  {'median kg':>10}  saturating at the worst")
