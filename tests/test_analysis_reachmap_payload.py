@@ -169,7 +169,7 @@ def test_every_branch_widens_the_range_of_the_stored_configurations(ur5_maps, tm
     again = load(every.save(tmp_path / "ur5.zarr")).payload
     assert again.configurations == "branches" and again.bins_worst.tobytes() == new.bins_worst.tobytes()
     assert "branches: every closed-form branch" in every.payload_text()
-    assert "branches: 1 per voxel-bin (numerical)" in stored.payload_text()
+    assert "branches: 1 per voxel-bin, its stored configuration" in stored.payload_text()
 
 
 def test_an_srs_arm_without_an_arm_angle_keeps_the_stored_configuration(iiwa14):
@@ -295,7 +295,7 @@ def test_the_command_line_builds_the_layer_and_says_where_it_carries_the_mass(pl
     assert answer["cog"] == [0.1, 0.05, 0.0] and answer["gravity"] == [0.0, -9.81, 0.0]
     assert answer["configurations"] == "certificates"  # the planar 2R's map: no closed-form family
     text = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5@0.1,0.05,0", status=0).stdout
-    assert "branches: 1 per voxel-bin (numerical)" in text
+    assert "branches: 1 per voxel-bin, its stored configuration" in text
     assert f"0.5 kg carried in {answer['voxels_carrying']} of {answer['reachable_voxels']} reachable voxels" in text
     other = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5", status=2)
     assert other.stderr.count("\n") == 1 and "payload layer for the CoG 0.1,0.05,0" in other.stderr

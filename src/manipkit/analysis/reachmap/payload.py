@@ -63,7 +63,7 @@ PAYLOAD_ARRAYS = {"payload_best": "float64", "payload_worst": "float64", "payloa
                   "payload_bins": "float64", "payload_bins_worst": "float64"}
 #: What a layer's ``configurations`` may be (module docstring), and how the command line says it.
 CONFIGURATIONS = {"branches": "branches: every closed-form branch in the joint limits of each voxel-bin's pose",
-                  "certificates": "branches: 1 per voxel-bin (numerical), its stored configuration"}
+                  "certificates": "branches: 1 per voxel-bin, its stored configuration (no branches weighed)"}
 MAX_G = 1e3  # m/s^2: the largest gravity a stored layer may name
 
 
