@@ -45,12 +45,18 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import gc
 import html
 import math
 import operator
 import threading
 import time
 from collections.abc import Callable
+
+try:
+    import resource
+except ImportError:  # not on Windows: the thread's CPU time is the clock there
+    resource = None
 
 import simpleeval
 
@@ -258,13 +264,41 @@ class _OutOfExpansionTime(Exception):
     is to blame)."""
 
 
-# One expression's budget is CPU time of the expanding thread (time.thread_time), not wall time: a loaded
-# machine (a test run beside others) made a plain ${name} exceed 2 s of wall time; an expression that computes
-# forever still uses CPU and is stopped. The whole expansion's budget stays wall time (time.monotonic), so a
-# hostile description is stopped after 30 s however busy the machine is.
-# Both are kept per thread: thread_time is the calling thread's clock, and an evaluation under way in one thread
-# (a robot loaded in a worker thread) must neither lend its deadline to another thread nor be cleared by it.
+# One expression's budget is the expanding thread's own computing time, not wall time: a loaded machine (a test
+# run beside others) made a plain ${name} exceed 2 s of wall time, and later 2 s of thread CPU time (time spent in
+# the kernel on the thread's behalf, reclaiming memory for it, or in a garbage collection of everything the process
+# holds, which the expression did not cause). So the clock is the thread's user CPU time (getrusage RUSAGE_THREAD)
+# less the garbage collections run on it; an expression that computes forever still spends it and is stopped. The
+# whole expansion's budget stays wall time (time.monotonic), so a hostile description is stopped after 30 s
+# however busy the machine is.
+# Both are kept per thread: the clock is the calling thread's, and an evaluation under way in one thread (a robot
+# loaded in a worker thread) must neither lend its deadline to another thread nor be cleared by it.
 _local = threading.local()
+
+
+def _collection_seconds() -> float:
+    """Seconds of garbage collection this thread has run so far (counted by :func:`_count_collection`)."""
+    return getattr(_local, "collected", 0.0)
+
+
+def _count_collection(phase: str, info: dict) -> None:
+    if phase == "start":
+        _local.collecting = time.perf_counter()
+    elif hasattr(_local, "collecting"):
+        _local.collected = _collection_seconds() + time.perf_counter() - _local.collecting
+        del _local.collecting
+
+
+gc.callbacks.append(_count_collection)
+
+
+def _computing_time() -> float:
+    """This thread's user CPU seconds less its garbage collections: the clock of one expression's budget."""
+    try:
+        used = resource.getrusage(resource.RUSAGE_THREAD).ru_utime
+    except (AttributeError, OSError):  # no per-thread usage on this platform (no resource, no RUSAGE_THREAD)
+        used = time.thread_time()
+    return used - _collection_seconds()
 
 
 def _budgets() -> tuple[list[float], list[tuple[float, str]]]:
@@ -278,7 +312,7 @@ def _budgets() -> tuple[list[float], list[tuple[float, str]]]:
 def remaining_time() -> float:
     """Seconds left in the evaluation under way (``inf`` when none is)."""
     deadline, _ = _budgets()
-    return deadline[0] - time.thread_time() if deadline else math.inf
+    return deadline[0] - _computing_time() if deadline else math.inf
 
 
 @contextlib.contextmanager
@@ -297,7 +331,7 @@ def _check_time() -> None:
     deadline, outer = _budgets()
     if outer and time.monotonic() > outer[-1][0]:  # the expansion's budget first: it is the one that ends everything
         raise _OutOfExpansionTime(outer[-1][1])
-    if deadline and time.thread_time() > deadline[0]:
+    if deadline and _computing_time() > deadline[0]:
         raise _Refused(f"evaluation took more than {TIME_BUDGET_S:g} s (the time budget)")
 
 
@@ -503,7 +537,7 @@ def evaluate(expression: str, lookup: Callable[[str], object], *, allowed_call: 
     deadline, _ = _budgets()
     outermost = not deadline
     if outermost:
-        deadline.append(time.thread_time() + TIME_BUDGET_S)
+        deadline.append(_computing_time() + TIME_BUDGET_S)
     try:
         tree = parse_expression(expression)
         evaluator = _Evaluator(lookup, allowed_call, attribute, item)
