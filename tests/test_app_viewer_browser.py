@@ -17,6 +17,7 @@ measured slider-to-readout round trips.
 """
 
 import json
+import math
 import queue
 import signal
 import socket
@@ -479,6 +480,43 @@ def test_static_view_frames_the_whole_arm_from_above_with_the_floor_under_its_ba
     assert np.degrees(np.arcsin(offset[1] / np.linalg.norm(offset))) == pytest.approx(30.0, abs=1e-6)
     for shot in ("no_robot", "no_floor"):
         shots[shot].unlink()
+
+
+def test_path_view_draws_the_tool_path_and_moves_the_arm_along_it(browser, tmp_path):
+    """`manipkit path --view-html`: the page draws the path (its pixels go when the path folder is hidden) and
+    the animation moves the arm (the picture at the start and at the end of the clip differ where the arm is)."""
+    path = tmp_path / "path.html"
+    run_cli("manipkit", "path", "--robot", "ur5", "--tip", "tool0", "--line", "0.4", "0.25", "0.4", "3.14159", "0",
+            "0", "0.5", "-0.25", "0.25", "3.14159", "0", "0", "--step", "0.02", "--speed", "0.1", "--view-html", path,
+            status=0)
+    page = browser.new_page()
+    try:
+        page.goto(path.as_uri())
+        frame = page.main_frame
+        wait_for_scene(frame, visual_count("ur5"))
+        frame.wait_for_function("() => viewer.animator.actions.length > 0", timeout=20_000)
+        duration = frame.evaluate("() => { viewer.animator.pause(); viewer.animator.seek(0); "
+                                  "return viewer.animator.duration; }")
+        frame.wait_for_timeout(300)
+        shots = {name: ARTIFACTS / f"path_view_{name}.png" for name in ("start", "no_path", "end")}
+        page.screenshot(path=shots["start"])
+        set_visible(frame, "/meshcat/path", False)
+        page.screenshot(path=shots["no_path"])
+        set_visible(frame, "/meshcat/path", True)
+        frame.evaluate("t => viewer.animator.seek(t)", duration)
+        frame.wait_for_timeout(300)
+        page.screenshot(path=shots["end"])
+    finally:
+        page.close()
+    # 0.5 m at 0.1 m/s along x and z: the clip lasts as long as the planned motion
+    assert duration == pytest.approx(math.sqrt(0.1 ** 2 + 0.5 ** 2 + 0.15 ** 2) / 0.1, rel=1e-6)
+    start = image(shots["start"])
+    assert start.std() > 10, "the page looks blank"
+    path_pixels = changed_pixels(start, image(shots["no_path"])).mean()
+    moved = changed_pixels(start, image(shots["end"])).mean()
+    assert path_pixels > 0.0003, f"the path covers {path_pixels:.3%} of the picture"
+    assert moved > 0.002, f"start and end differ on {moved:.3%} of the picture: the arm did not move"
+    shots["no_path"].unlink()
 
 
 REALWORLD_ABB = next((base / "shared" / "realworld" / "ws_ros1" / "src" / "abb" for base in Path(__file__).resolve().parents[2:4]

@@ -85,6 +85,9 @@ def register(commands) -> None:
                       help="draw the joints along the path between their limits, and the singularity margin")
     path.add_argument("--map", default=None, metavar="FILE.png",
                       help="with --free-axis: draw the waypoint x tool angle feasibility map, coloured by kind")
+    path.add_argument("--view-html", default=None, metavar="FILE.html",
+                      help="write a standalone meshcat page: the tool path drawn, the arm animated along the joint "
+                           "path (on a path that fails: the path, its first failure marked, the arm at rest)")
     path.add_argument("--format", choices=("text", "json"), default="text")
     path.add_argument("-o", "--output", default=None, metavar="FILE",
                       help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
@@ -153,7 +156,7 @@ def run_path(args) -> int:
         from manipkit import bounds
 
         bounds.speed(args.speed, "--speed", error=UsageError)
-    robot = load_robot(args)
+    robot = load_robot(args, mesh_warnings=args.view_html is None)  # the page's visuals say what is missing, once
     chain = command_chain(robot, args.base, args.tip)
     poses, t = _poses(args)
     if args.speed is not None and t is not None:
@@ -192,6 +195,8 @@ def run_path(args) -> int:
         csv = trajectory_csv(plan) if motion is None else motion_csv(motion, chain)
         write_text(args.output, csv, inputs=[args.poses, args.world])
     drawn = _draw(args, plan, motion, robot)
+    if args.view_html is not None:
+        drawn.append(_view_html(args, plan, poses, robot, chain, q0))
     if args.format == "json":
         answer = plan.as_dict()
         if args.retime:
@@ -228,7 +233,7 @@ def _check_retime(args) -> None:
 
 
 def _check_pictures(args) -> None:
-    """Usage errors of --plot and --map, before any planning."""
+    """Usage errors of --plot, --map and --view-html, before any planning."""
     from manipkit.outputs import distinct_outputs, writable_path
 
     if args.map is not None and args.free_axis is None:
@@ -238,7 +243,9 @@ def _check_pictures(args) -> None:
             if not str(name).lower().endswith(".png"):
                 raise UsageError(f"{option} {printable(str(name))[:60]}: give a .png file name")
             writable_path(name, inputs=[args.poses, args.world, args.output])
-    distinct_outputs([("-o", args.output), ("--plot", args.plot), ("--map", args.map)])
+    if args.view_html is not None:
+        writable_path(args.view_html, inputs=[args.poses, args.world, args.output])
+    distinct_outputs([("-o", args.output), ("--plot", args.plot), ("--map", args.map), ("--view-html", args.view_html)])
 
 
 def _draw(args, plan, motion, robot) -> list[str]:
@@ -258,6 +265,24 @@ def _draw(args, plan, motion, robot) -> list[str]:
                                    title=f"{robot.name}: {args.tip}, waypoint x tool angle about {args.free_axis}")
         lines.append(f"feasibility map written to {printable(str(args.map))}")
     return lines
+
+
+def _view_html(args, plan, poses, robot, chain, q0) -> str:
+    """Write the --view-html page: the path, and the arm along the plan's joint path (whole-robot rows: the chain's
+    joints from the plan, the others at --q or their defaults) at the waypoint times; the line that says so."""
+    from manipkit.app.viewer.path_scene import UNTIMED_STEP, write_path_html
+
+    name = printable(str(args.view_html))
+    inputs = [args.poses, args.world]
+    if not plan.feasible:
+        write_path_html(robot, args.view_html, poses, base=args.base, tip=args.tip, q=q0,
+                        first_failure=plan.first_failure, inputs=inputs)
+        failed = "" if plan.first_failure is None else f", waypoint {plan.first_failure} marked red"
+        return f"path view written to {name} (the path only{failed}: no joint path to animate)"
+    rows = [chain.full(q, q0) for q in plan.q]
+    write_path_html(robot, args.view_html, poses, rows, base=args.base, tip=args.tip, times=plan.t, inputs=inputs)
+    timing = "at the waypoint times" if plan.t is not None else f"{short_text(UNTIMED_STEP)} s per waypoint (untimed)"
+    return f"path view written to {name} (the arm along the joint path, {timing}, in a loop)"
 
 
 def motion_csv(motion, chain) -> str:

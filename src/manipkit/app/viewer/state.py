@@ -280,16 +280,17 @@ class ViewerState:
         root = self.robot.root_link
         return {path: self.robot.transform(root, frame, self._q, check_limits=False) for path, frame in zip(TRIAD_PATHS, self._frames)}
 
-    def geometry_placements(self, visual_model) -> dict[str, np.ndarray]:
+    def geometry_placements(self, visual_model, *, scaled: bool = True) -> dict[str, np.ndarray]:
         """Scene path -> T_root_geometry (4x4, mesh scale applied to the rotation columns) of each visual.
 
         ``visual_model`` is the Pinocchio ``GeometryModel`` from :func:`visual_model`.
         The placements are :meth:`Robot.geometry_placements` (Pinocchio's, in
-        the robot's root link); only the mesh scale is added here.
+        the robot's root link); only the mesh scale is added here (``scaled=False``:
+        not even that, the rigid placement, as an animation keyframe wants it).
         """
         placements = self.robot.geometry_placements(visual_model, self._q)
         return {
-            f"{VISUALS_ROOT}/{geometry.name}": T * np.append(geometry.meshScale, 1.0)  # T @ diag(scale, 1)
+            f"{VISUALS_ROOT}/{geometry.name}": T * np.append(geometry.meshScale, 1.0) if scaled else T  # T @ diag(s, 1)
             for geometry, T in zip(visual_model.geometryObjects, placements)
         }
 
