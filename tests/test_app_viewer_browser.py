@@ -519,6 +519,36 @@ def test_path_view_draws_the_tool_path_and_moves_the_arm_along_it(browser, tmp_p
     shots["no_path"].unlink()
 
 
+def test_path_view_live_shows_the_same_scene_until_stopped(browser):
+    """`manipkit path --view`: the scene served by its own meshcat server, the arm animated; SIGTERM stops it."""
+    proc = subprocess.Popen([str(BIN / "manipkit"), "path", "--robot", "ur5", "--tip", "tool0", "--line", "0.4", "0.1",
+                             "0.4", "3.14159", "0", "0", "0.5", "0.1", "0.4", "3.14159", "0", "0", "--step", "0.02",
+                             "--speed", "0.1", "--view"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            if line.startswith("meshcat scene: "):
+                break
+        assert lines and lines[-1].startswith("meshcat scene: http://127.0.0.1:"), "".join(lines) + proc.stderr.read()
+        assert proc.stdout.readline() == ("the arm along the joint path, at the waypoint times, in a loop (meshcat's "
+                                          "controls: Animations); Ctrl-C stops\n")
+        page = browser.new_page()
+        try:
+            page.goto(lines[-1].split(": ", 1)[1].strip())
+            frame = page.main_frame
+            wait_for_scene(frame, visual_count("ur5"))
+            frame.wait_for_function("() => viewer.animator.actions.length > 0", timeout=20_000)
+            duration = frame.evaluate("() => viewer.animator.duration")
+            page.screenshot(path=ARTIFACTS / "path_view_live.png")
+        finally:
+            page.close()
+        assert duration == pytest.approx(0.1 / 0.1, rel=1e-6)  # 0.1 m at 0.1 m/s
+    finally:
+        status = stop(proc)
+    assert status == 0 and proc.stdout.read().strip().endswith("viewer stopped")
+
+
 REALWORLD_ABB = next((base / "shared" / "realworld" / "ws_ros1" / "src" / "abb" for base in Path(__file__).resolve().parents[2:4]
                       if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
 

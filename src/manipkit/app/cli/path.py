@@ -88,6 +88,8 @@ def register(commands) -> None:
     path.add_argument("--view-html", default=None, metavar="FILE.html",
                       help="write a standalone meshcat page: the tool path drawn, the arm animated along the joint "
                            "path (on a path that fails: the path, its first failure marked, the arm at rest)")
+    path.add_argument("--view", action="store_true",
+                      help="show the same scene as --view-html in meshcat, live, until Ctrl-C")
     path.add_argument("--format", choices=("text", "json"), default="text")
     path.add_argument("-o", "--output", default=None, metavar="FILE",
                       help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
@@ -156,7 +158,7 @@ def run_path(args) -> int:
         from manipkit import bounds
 
         bounds.speed(args.speed, "--speed", error=UsageError)
-    robot = load_robot(args, mesh_warnings=args.view_html is None)  # the page's visuals say what is missing, once
+    robot = load_robot(args, mesh_warnings=args.view_html is None and not args.view)  # the views say it, once
     chain = command_chain(robot, args.base, args.tip)
     poses, t = _poses(args)
     if args.speed is not None and t is not None:
@@ -214,6 +216,8 @@ def run_path(args) -> int:
                               acceleration_scale=1.0 if args.acceleration_scale is None else args.acceleration_scale))
         for line in drawn:
             print(line)
+    if args.view:
+        _serve_view(args, plan, poses, robot, chain, q0)
     return EXIT_OK if plan.feasible else EXIT_MISMATCH
 
 
@@ -267,22 +271,49 @@ def _draw(args, plan, motion, robot) -> list[str]:
     return lines
 
 
-def _view_html(args, plan, poses, robot, chain, q0) -> str:
-    """Write the --view-html page: the path, and the arm along the plan's joint path (whole-robot rows: the chain's
-    joints from the plan, the others at --q or their defaults) at the waypoint times; the line that says so."""
-    from manipkit.app.viewer.path_scene import UNTIMED_STEP, write_path_html
-
-    name = printable(str(args.view_html))
-    inputs = [args.poses, args.world]
+def _path_picture(args, plan, poses, chain, q0) -> dict:
+    """What the path's meshcat scene is handed (:func:`manipkit.app.viewer.path_scene.path_scene`): the poses and,
+    on a plan, its whole-robot rows (the chain's joints from the plan, the others at --q or their defaults) and
+    times; on a failed plan, the pose at rest and the first failure."""
     if not plan.feasible:
-        write_path_html(robot, args.view_html, poses, base=args.base, tip=args.tip, q=q0,
-                        first_failure=plan.first_failure, inputs=inputs)
+        return {"poses": poses, "base": args.base, "tip": args.tip, "q": q0, "first_failure": plan.first_failure}
+    return {"poses": poses, "rows": [chain.full(q, q0) for q in plan.q], "base": args.base, "tip": args.tip,
+            "times": plan.t}
+
+
+def _picture_words(plan) -> str:
+    """What the path's scene shows, in words."""
+    from manipkit.app.viewer.path_scene import UNTIMED_STEP
+
+    if not plan.feasible:
         failed = "" if plan.first_failure is None else f", waypoint {plan.first_failure} marked red"
-        return f"path view written to {name} (the path only{failed}: no joint path to animate)"
-    rows = [chain.full(q, q0) for q in plan.q]
-    write_path_html(robot, args.view_html, poses, rows, base=args.base, tip=args.tip, times=plan.t, inputs=inputs)
+        return f"the path only{failed}: no joint path to animate"
     timing = "at the waypoint times" if plan.t is not None else f"{short_text(UNTIMED_STEP)} s per waypoint (untimed)"
-    return f"path view written to {name} (the arm along the joint path, {timing}, in a loop)"
+    return f"the arm along the joint path, {timing}, in a loop"
+
+
+def _view_html(args, plan, poses, robot, chain, q0) -> str:
+    """Write the --view-html page; the line that says so."""
+    from manipkit.app.viewer.path_scene import write_path_html
+
+    write_path_html(robot, args.view_html, **_path_picture(args, plan, poses, chain, q0), inputs=[args.poses, args.world])
+    return f"path view written to {printable(str(args.view_html))} ({_picture_words(plan)})"
+
+
+def _serve_view(args, plan, poses, robot, chain, q0) -> None:
+    """Show the path's scene in its own meshcat server until Ctrl-C or SIGTERM (its lines on stderr after JSON)."""
+    import sys
+
+    from manipkit.app.viewer.path_scene import path_scene
+    from manipkit.app.viewer.reachmap_scene import serve_until_stopped
+
+    stream = sys.stderr if args.format == "json" else sys.stdout
+    scene = path_scene(robot, **_path_picture(args, plan, poses, chain, q0))
+    print(f"meshcat scene: {scene.url}", file=stream, flush=True)
+    controls = " (meshcat's controls: Animations)" if plan.feasible else ""
+    print(f"{_picture_words(plan)}{controls}; Ctrl-C stops", file=stream, flush=True)
+    serve_until_stopped(scene)
+    print("viewer stopped", file=stream, flush=True)
 
 
 def motion_csv(motion, chain) -> str:
