@@ -12,7 +12,8 @@ static_<robot>.png (the --static export), framing_<robot>_shown.png (the opening
 without its mesh files), viewer_ellipsoid.png (the manipulability
 ellipsoid overlay), viewer_collision_free.png and viewer_collision.png (the
 course arm before and after its shoulder folds into the base, links in
-contact red); viewer_round_trip.json holds the
+contact red), path_view_start.png and path_view_end.png (`path --view-html`: the arm at the start and the end
+of its animation along the tool path), path_view_live.png (`path --view`); viewer_round_trip.json holds the
 measured slider-to-readout round trips.
 """
 

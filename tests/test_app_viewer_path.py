@@ -118,9 +118,9 @@ def test_every_keyframe_places_each_link_where_robot_transform_puts_it(ur5, plan
         for T, row in zip(drawn, rows):
             expected = ur5.transform(ur5.root_link, frame.name, row) @ T_frame_geometry
             np.testing.assert_allclose(T, expected, atol=1e-9)
-    _, base = frames["/meshcat/manipkit/frame_a"]
-    for T, row in zip(base, rows):
-        np.testing.assert_allclose(T, ur5.transform(ur5.root_link, "base_link", row), atol=1e-9)
+    for path in ("/meshcat/manipkit/frame_a", "/meshcat/path"):  # the base's triad, and the path drawn in the base
+        for T, row in zip(frames[path][1], rows):
+            np.testing.assert_allclose(T, ur5.transform(ur5.root_link, "base_link", row), atol=1e-9)
     # the arm starts on the first row: its placements as drawn (mesh scale on the columns) are the first keyframe's
     placed = {c["path"]: np.array(c["matrix"]).reshape(4, 4).T for c in commands if c["type"] == "set_transform"}
     for geometry in visual.geometryObjects:
