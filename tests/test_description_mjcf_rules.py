@@ -184,7 +184,7 @@ def test_cli_names_the_mjcf_rules_and_srdf_overrides(tmp_path):
     result = run_cli("manipkit", "collisions", "--robot", str(path), "--format", "json")
     assert result.returncode == 0, result.stderr
     answer = json.loads(result.stdout)
-    assert answer["srdf"] == str(path) and answer["disabled_pairs"] == 11
+    assert answer["srdf"] == str(path) and answer["srdf_kind"] == "mjcf" and answer["disabled_pairs"] == 11
     robot = manipkit.load(path)
     ours = CollisionChecker(robot).pairs
     assert answer["checked_pairs"] == len(ours)
@@ -200,6 +200,8 @@ def test_cli_names_the_mjcf_rules_and_srdf_overrides(tmp_path):
     assert result.returncode == 0, result.stderr
     out = result.stdout
     assert f"SRDF {srdf}: its 1 <disable_collisions> pair is not checked" in out
+    result = run_cli("manipkit", "collisions", "--robot", str(path), "--srdf", str(srdf), "--format", "json")
+    assert json.loads(result.stdout)["srdf_kind"] == "srdf"
     assert set(CollisionChecker(robot, srdf=str(srdf)).pairs) == set(CollisionChecker(robot, srdf="none").pairs) - {("a", "c")}
     # --srdf naming the MJCF itself is its rules (as the default)
     assert set(CollisionChecker(robot, srdf=str(path)).pairs) == set(ours)

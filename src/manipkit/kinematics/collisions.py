@@ -218,12 +218,16 @@ class CollisionReport:
     default_contacts: tuple = ()
 
     def as_dict(self) -> dict:
-        """JSON-safe: ``in_collision``, ``pairs``, ``min_distance`` (and the robot, geometry, frame, pair count)."""
+        """JSON-safe: ``in_collision``, ``pairs``, ``min_distance`` (and the robot, geometry, frame, pair count,
+        the file of the disabled pairs, ``srdf``, and its kind, ``srdf_kind``: ``"srdf"``, ``"mjcf"`` or None)."""
+        from manipkit.description.mjcf import is_mjcf
+
+        kind = None if not self.srdf else "mjcf" if is_mjcf(self.srdf) else "srdf"
         return {
             "robot": self.robot, "geometry": self.geometry, "frame": self.base, "in_collision": self.in_collision,
             "pairs": [p.as_dict() for p in self.pairs],
             "min_distance": None if self.min_distance is None else self.min_distance.as_dict(),
-            "checked_pairs": self.checked, "srdf": self.srdf or None,
+            "checked_pairs": self.checked, "srdf": self.srdf or None, "srdf_kind": kind,
             "left_out_in_contact_at_home": [list(p) for p in self.default_contacts],
         }
 
