@@ -132,7 +132,7 @@ def test_an_srdf_that_leaves_pairs_touching_at_the_default_pose_is_warned_about(
     srdf.write_text(shipped.replace(line, ""))
     result = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", srdf, "--q", "panda_joint1=1",
                      "--geometry", "hulls", status=0)
-    assert result.stderr == (f"warning: {srdf} leaves 1 pair in contact at the default pose with hulls geometry "
+    assert result.stderr == (f"warning: SRDF {srdf} leaves 1 pair in contact at the default pose with hulls geometry "
                              "(panda_link5 - panda_hand); was it made for other geometry? "
                              "`manipkit acm --geometry hulls` makes one for it\n")
     quiet = run_cli("manipkit", "collisions", "--robot", "panda", "--srdf", panda.source.path.parents[1] / "srdf" /

@@ -359,11 +359,13 @@ def test_mujocos_contact_rules_are_an_allowed_collision_source(features):
 
     robot = manipkit.load(features)
     disabled = mjcf_disabled_pairs(features)
-    everything = CollisionChecker(robot).pairs
+    everything = CollisionChecker(robot, srdf="none").pairs
     as_mujoco = CollisionChecker(robot, srdf=disabled).pairs
-    # base-link3 and the three pairs with side would be checked; MuJoCo's rules leave out all four
+    # base-link3 and the three pairs with side would be checked; MuJoCo's rules leave out all four,
+    # and they are the default of a robot loaded from MJCF
     assert set(everything) == {("base", "link3"), ("base", "side"), ("link2", "side"), ("link3", "side")}
-    assert as_mujoco == ()
+    assert as_mujoco == () and CollisionChecker(robot).pairs == ()
+    assert robot.srdf.kind == "mjcf" and robot.srdf.pairs() == disabled
 
 
 def test_a_mesh_outside_the_folder_is_refused_unless_allowed(tmp_path):

@@ -175,7 +175,7 @@ def test_acm_is_compared_with_the_shipped_srdf_pair_by_pair(tmp_path, name, srdf
     everything = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
     differ = [p for p in everything if (p in ours) != (p in theirs)]
     same = sum(1 for p in everything if p in ours and p in theirs and ours[p] == theirs[p])
-    assert (f"compared with {srdf}: {len(everything) - len(differ)} of {len(everything)} pairs agree (disabled in "
+    assert (f"compared with SRDF {srdf}: {len(everything) - len(differ)} of {len(everything)} pairs agree (disabled in "
             f"both or checked in both; {same} disabled for the same reason)") in text
     Q = robot.sample_q(samples, seed=0)  # the samples acm checks (seed 0, its default)
     for a, b in differ:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from manipkit.description.mjcf import is_mjcf, rules_source_text
 from manipkit.text import number_text, printable, short_text
 
 if TYPE_CHECKING:
@@ -45,11 +46,16 @@ def collision_lines(report: CollisionReport, *, floor: float | None = None, prec
 
 
 def left_out_lines(report: CollisionReport, *, disabled: int, notes=()) -> list[str]:
-    """What was not checked and why: the SRDF's ``disabled`` pairs (and its file), and, with no SRDF pairs, the
+    """What was not checked and why: the SRDF's ``disabled`` pairs (and its file; an MJCF file: its contact
+    rules, :func:`~manipkit.description.mjcf.rules_source_text`), and, with no SRDF pairs, the
     pairs in contact at the home configuration, as MoveIt's Setup Assistant leaves them out; ``notes``: why
     SRDFs found for the robot were not used (:attr:`Robot.srdf_notes <manipkit.kinematics.robot.Robot>`)."""
     lines = [] if report.srdf else [f"SRDF found but not used: {note}" for note in notes]
-    if report.srdf:
+    if report.srdf and is_mjcf(report.srdf):
+        lines.append(f"allowed pairs: {rules_source_text(report.srdf)}: the {disabled} pair"
+                     f"{'s' if disabled != 1 else ''} MuJoCo never tests {'are' if disabled != 1 else 'is'} not "
+                     "checked (--srdf FILE: an SRDF's pairs instead; --srdf none: none)")
+    elif report.srdf:
         lines.append(f"SRDF {printable(report.srdf)}: its {disabled} <disable_collisions> pair"
                      f"{'s are' if disabled != 1 else ' is'} not checked (--srdf none: no SRDF)")
     if not disabled:
@@ -92,7 +98,7 @@ def geometry_lines(geometry: str, distances: dict, other, *, precision: int = 4)
 
 def comparison_lines(comparison) -> list[str]:
     """An :class:`~manipkit.analysis.acm.MatrixComparison` in words: agreement, then each difference and why."""
-    lines = [f"compared with {printable(comparison.srdf)}: {comparison.agree} of {comparison.total} pairs agree "
+    lines = [f"compared with {rules_source_text(comparison.srdf)}: {comparison.agree} of {comparison.total} pairs agree "
              f"(disabled in both or checked in both; {comparison.same_reason} disabled for the same reason)"]
     for a, b, ours, theirs, why in comparison.differences:
         lines.append(f"  {a} - {b}: ours {ours}, theirs {printable(theirs)}: {why}")

@@ -33,7 +33,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "manipkit.description.xacro",
         "XacroExpansion", "describe", "expand_xacro", "urdf_text", "xacro_arg_declarations", "xacro_locator",
     ),
-    **homes_of("manipkit.description.mjcf", "mjcf_disabled_pairs", "mjcf_urdf"),
+    **homes_of("manipkit.description.mjcf", "mjcf_disabled_pairs", "mjcf_rules", "mjcf_urdf", "rules_source_text"),
     **homes_of("manipkit.description.validate", "CheckedURDF", "check_urdf", "package_uri_warnings"),
     **homes_of("manipkit.description.meshes", "MissingMeshWarning", "MissingMeshes", "mesh_path", "urdf_with_mesh_paths",
                "visual_urdf"),

@@ -42,9 +42,12 @@ quaternions are (w, x, y, z), URDF ``rpy`` is R = Rz(yaw) Ry(pitch) Rx(roll)):
   before compiling and written to the URDF as the missing file, so the URDF
   pipeline warns about it and the viewer draws the link another way, as for URDF.
 - The pairs MuJoCo never tests for contact (``contype``/``conaffinity`` bits
-  never meeting, parent and child bodies, ``<exclude>``) are
-  :func:`mjcf_disabled_pairs`, in the form the collision checks take as ``srdf=``
-  (not the commands' default: they treat an MJCF arm as a URDF without SRDF).
+  never meeting, parent and child bodies, ``<exclude>``; a ``<pair>`` is always
+  tested) are :func:`mjcf_disabled_pairs`, in the form the collision checks take
+  as ``srdf=``; they are a robot loaded from MJCF's default disabled pairs
+  (:func:`mjcf_rules`, as the SRDF a URDF ships), and the outputs name them
+  (:func:`rules_source_text`). A geom a ``<pair>`` names is collision geometry
+  even with ``contype`` and ``conaffinity`` 0.
 
 Read limits, as for URDF (:mod:`manipkit.description.access`): before MuJoCo
 opens anything, every ``<include>`` (and ``<model>`` asset) file is found,
@@ -70,7 +73,7 @@ from manipkit.spatial.transforms import transform_from_xyz_quaternion
 
 __all__ = [
     "MAX_MJCF_BODIES", "MAX_MJCF_FILES", "compile_mjcf", "is_mjcf", "mjcf_disabled_pairs", "mjcf_files", "mjcf_locator",
-    "mjcf_urdf",
+    "mjcf_rules", "mjcf_urdf", "rules_source_text",
 ]
 
 #: Most files (the top file and its includes) one MJCF description may read.
@@ -514,7 +517,7 @@ def _geoms(link_elements: dict, model, missing: dict, present: dict) -> None:
         roles = []
         if model.geom_group[g] <= 2:
             roles.append("visual")
-        if model.geom_contype[g] or model.geom_conaffinity[g]:
+        if model.geom_contype[g] or model.geom_conaffinity[g] or _in_pair(model, g):
             roles.append("collision")
         for role in roles:
             for T_piece, (tag, attributes) in pieces:
@@ -529,14 +532,19 @@ def mjcf_disabled_pairs(model, *, allow_read=()) -> dict[tuple[str, str], str]:
     ``model`` is a compiled ``mujoco.MjModel`` or the path of an MJCF file (compiled by
     :func:`compile_mjcf`). The answer is what ``srdf=`` of
     :class:`manipkit.kinematics.collisions.CollisionChecker` and
-    :func:`manipkit.kinematics.collisions.collisions` take, so MuJoCo's own rules can
-    be the allowed-collision source (the commands do not use it by default).
+    :func:`manipkit.kinematics.collisions.collisions` take; for a robot loaded from
+    MJCF it is the default (:func:`mjcf_rules`, :attr:`Robot.srdf <manipkit.kinematics.robot.Robot>`).
 
-    A pair is tested when some geom of one and some geom of the other have
-    ``(contype_a & conaffinity_b) or (contype_b & conaffinity_a)``, the two
-    bodies are not parent and child (MuJoCo's ``filterparent``; the world's
-    children excepted) and no ``<exclude>`` names them. Bodies without colliding
-    geoms are left out.
+    MuJoCo's rule (``mj_collision``): two geoms are tested when
+    ``(contype_a & conaffinity_b) or (contype_b & conaffinity_a)``, their bodies are
+    not welded together (no joint between them), not parent and child (``filterparent``,
+    on unless ``<option><flag filterparent="disable">``; the world's children excepted:
+    MuJoCo compares weld bodies, and a body welded to the world is never filtered as a
+    child) and no ``<contact><exclude>`` names the two bodies. A ``<contact><pair>`` is
+    tested whatever those rules say; with ``<flag contact="disable">`` or
+    ``constraint="disable"`` nothing is. A body pair is tested when some pair of their
+    geoms is (the collision check then tests every geom of the two links: at least what
+    MuJoCo does). Bodies without colliding geoms are left out.
 
     >>> import mujoco
     >>> m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><body name="a"><joint/><geom size=".1"/>'
@@ -549,14 +557,18 @@ def mjcf_disabled_pairs(model, *, allow_read=()) -> dict[tuple[str, str], str]:
     if isinstance(model, (str, os.PathLike)):
         model = compile_mjcf(model, allow_read=allow_read)[0]
     links = body_names(model)
+    paired = {tuple(sorted((int(model.geom_bodyid[g1]), int(model.geom_bodyid[g2]))))
+              for g1, g2 in zip(model.pair_geom1, model.pair_geom2)}
     colliding: dict[int, list[tuple[int, int]]] = {}
     for g in range(model.ngeom):
-        if model.geom_contype[g] or model.geom_conaffinity[g]:
+        if model.geom_contype[g] or model.geom_conaffinity[g] or _in_pair(model, g):
             colliding.setdefault(int(model.geom_bodyid[g]), []).append(
                 (int(model.geom_contype[g]), int(model.geom_conaffinity[g])))
     excluded = {tuple(sorted((int(b1), int(b2)))) for b1, b2 in
                 zip(model.exclude_signature >> 16, model.exclude_signature & 0xFFFF)} if model.nexclude else set()
-    filterparent = not (model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+    flags = mujoco.mjtDisableBit
+    no_contacts = model.opt.disableflags & (flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT)
+    filterparent = not (model.opt.disableflags & flags.mjDSBL_FILTERPARENT)
     weld = [int(w) for w in model.body_weldid]
     weld_parent = [weld[int(model.body_parentid[w])] for w in weld]
     pairs = {}
@@ -565,7 +577,11 @@ def mjcf_disabled_pairs(model, *, allow_read=()) -> dict[tuple[str, str], str]:
         for b in bodies[i + 1:]:
             key = tuple(sorted((links[a], links[b])))
             wa, wb = weld[a], weld[b]
-            if wa == wb:
+            if no_contacts:
+                pairs[key] = "contacts disabled (<option><flag contact/constraint=\"disable\">)"
+            elif (a, b) in paired:
+                continue  # an explicit <contact><pair>: tested whatever the filters say
+            elif wa == wb:
                 pairs[key] = "rigidly attached (no joint between them)"
             elif (a, b) in excluded:
                 pairs[key] = "<exclude> in the description"
@@ -574,3 +590,36 @@ def mjcf_disabled_pairs(model, *, allow_read=()) -> dict[tuple[str, str], str]:
             elif not any(ta & cb or tb & ca for ta, ca in colliding[a] for tb, cb in colliding[b]):
                 pairs[key] = "contype/conaffinity never meet"
     return pairs
+
+
+def _in_pair(model, g: int) -> bool:
+    """Whether geom ``g`` is named by a ``<contact><pair>`` (then it collides whatever its contype/conaffinity)."""
+    return bool(model.npair) and bool(np.any(model.pair_geom1 == g) or np.any(model.pair_geom2 == g))
+
+
+def mjcf_rules(path: str | os.PathLike, robot: str, *, allow_read=()):
+    """The allowed-collision pairs of the MJCF file ``path`` (:func:`mjcf_disabled_pairs`) as an
+    :class:`~manipkit.description.srdf.Srdf` of :attr:`~manipkit.description.srdf.Srdf.kind` ``"mjcf"``
+    for robot ``robot``: no tips, its pairs sorted. A robot loaded from MJCF takes these as its default
+    disabled pairs, as a URDF robot takes the SRDF it ships."""
+    from manipkit.description.srdf import Srdf
+
+    pairs = mjcf_disabled_pairs(path, allow_read=allow_read)
+    return Srdf(Path(path), robot, tuple(sorted((a, b, reason) for (a, b), reason in pairs.items())), (),
+                kind="mjcf")
+
+
+def rules_source_text(source: str) -> str:
+    """Where disabled pairs came from, in words: ``source`` is a file (an SRDF, or an MJCF whose rules
+    :func:`mjcf_disabled_pairs` reads) or ``""`` (none: ``""``). The one wording of the outputs.
+
+    >>> rules_source_text("arm.srdf")
+    'SRDF arm.srdf'
+    """
+    from manipkit.text import printable
+
+    if not source:
+        return ""
+    if is_mjcf(source):
+        return f"the MJCF's contype/conaffinity and <exclude> rules ({printable(Path(source).name)})"
+    return f"SRDF {printable(source)}"

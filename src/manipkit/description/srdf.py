@@ -66,6 +66,9 @@ class Srdf:
         group's ``<chain tip_link>``, in file order, each once.
     end_effectors : int
         How many of ``tips`` (the first ones) are ``<end_effector parent_link>``.
+    kind : str
+        ``"srdf"`` (an SRDF file), or ``"mjcf"``: the pairs an MJCF file's contact rules exclude
+        (:func:`manipkit.description.mjcf.mjcf_rules`; ``path`` is the MJCF file, ``tips`` empty).
     """
 
     path: Path
@@ -73,6 +76,7 @@ class Srdf:
     disabled: tuple[tuple[str, str, str], ...]
     tips: tuple[str, ...]
     end_effectors: int = 0
+    kind: str = "srdf"
 
     def pairs(self) -> dict[tuple[str, str], str]:
         """The disabled pairs: (link1, link2) sorted -> reason."""
@@ -144,12 +148,14 @@ def check_srdf_links(srdf: Srdf, links, robot: str) -> None:
     """Nothing if every link ``srdf`` names is in ``links``, else :class:`CollisionError` naming the first
     unknown one (quoted, at most :data:`QUOTE_CHARS` characters), the closest link names and the robot."""
     known = set(links)
+    element = "<disable_collisions>" if srdf.kind == "srdf" else "the pair its contact rules disable,"
     for number, (a, b, _) in enumerate(srdf.disabled, 1):
         for name in (a, b):
             if name not in known:
-                raise CollisionError(f"{printable(str(srdf.path))}: <disable_collisions> number {number} names link "
+                raise CollisionError(f"{printable(str(srdf.path))}: {element} number {number} names link "
                                      f"{_quoted(name)}, which robot '{printable(robot)}' does not have; "
-                                     f"{_close(name, known)}(is this SRDF for another robot?)")
+                                     f"{_close(name, known)}(is this {'SRDF' if srdf.kind == 'srdf' else 'file'} "
+                                     "for another robot?)")
     for name in srdf.tips:
         if name not in known:
             raise CollisionError(f"{printable(str(srdf.path))}: a group or end effector names link {_quoted(name)}, "

@@ -105,7 +105,11 @@ _CACHE_LOCK = threading.Lock()
 def read_srdf(path: str | os.PathLike, robot: Robot) -> dict[tuple[str, str], str]:
     """The ``<disable_collisions link1= link2= reason=/>`` of an SRDF file: link pair (sorted) -> reason.
 
-    Read by :func:`manipkit.description.srdf.read_srdf_file` (bounded in size, no entities).
+    Read by :func:`manipkit.description.srdf.read_srdf_file` (bounded in size, no entities). An MJCF
+    file (:func:`manipkit.description.mjcf.is_mjcf`) gives instead the pairs its contact rules exclude
+    (:func:`manipkit.description.mjcf.mjcf_disabled_pairs`; the robot's own description: the pairs read
+    when it was loaded, :attr:`Robot.srdf <manipkit.kinematics.robot.Robot>`), compiled within what the
+    robot may read (``allow_read``).
 
     Raises
     ------
@@ -116,10 +120,17 @@ def read_srdf(path: str | os.PathLike, robot: Robot) -> dict[tuple[str, str], st
     InputFileError
         The file cannot be read (missing, a folder, too large).
     """
+    from manipkit.description.mjcf import is_mjcf, mjcf_rules
     from manipkit.description.srdf import check_srdf_links, read_srdf_file
 
-    srdf = read_srdf_file(path)
-    check_srdf_links(Srdf(srdf.path, srdf.robot, srdf.disabled, ()), robot.frame_names, robot.name)
+    if is_mjcf(path):
+        own = getattr(robot, "srdf", None)
+        if own is not None and own.kind == "mjcf" and os.path.realpath(own.path) == os.path.realpath(path):
+            return own.pairs()
+        srdf = mjcf_rules(path, robot.name, allow_read=getattr(robot, "allow_read", ()))
+    else:
+        srdf = read_srdf_file(path)
+    check_srdf_links(Srdf(srdf.path, srdf.robot, srdf.disabled, (), kind=srdf.kind), robot.frame_names, robot.name)
     return srdf.pairs()
 
 
@@ -127,9 +138,12 @@ def resolve_srdf(robot: Robot, srdf) -> tuple[dict[tuple[str, str], str], str]:
     """The pairs ``srdf=`` disables and where they come from: (pairs, file or ``""``).
 
     ``srdf`` is None (the default everywhere: the SRDF the robot ships,
-    :attr:`Robot.srdf <manipkit.kinematics.robot.Robot>`, else none),
-    :data:`NO_SRDF` (``"none"``: no SRDF), a path, or pairs as a dict
-    (link pair -> reason; an empty one is no SRDF).
+    :attr:`Robot.srdf <manipkit.kinematics.robot.Robot>`, for a robot loaded
+    from MJCF its file's contact rules; else none), :data:`NO_SRDF`
+    (``"none"``: no SRDF), a path (an SRDF, or an MJCF file: its rules,
+    :func:`read_srdf`), or pairs as a dict (link pair -> reason; an empty one
+    is no SRDF). The file is named in words by
+    :func:`manipkit.description.mjcf.rules_source_text`.
     """
     if srdf is None:
         shipped = getattr(robot, "srdf", None)
@@ -186,7 +200,8 @@ class CollisionReport:
     geometry : str
         ``"hulls"`` or ``"meshes"``.
     srdf : str
-        The SRDF whose ``<disable_collisions>`` pairs were not checked (``""``: none).
+        The file whose disabled pairs were not checked: an SRDF (its ``<disable_collisions>``) or an MJCF
+        (its contact rules); ``""``: none.
     default_contacts : tuple of (str, str)
         Without SRDF pairs: the pairs left out because they are in contact at the home configuration.
     """
@@ -203,12 +218,16 @@ class CollisionReport:
     default_contacts: tuple = ()
 
     def as_dict(self) -> dict:
-        """JSON-safe: ``in_collision``, ``pairs``, ``min_distance`` (and the robot, geometry, frame, pair count)."""
+        """JSON-safe: ``in_collision``, ``pairs``, ``min_distance`` (and the robot, geometry, frame, pair count,
+        the file of the disabled pairs, ``srdf``, and its kind, ``srdf_kind``: ``"srdf"``, ``"mjcf"`` or None)."""
+        from manipkit.description.mjcf import is_mjcf
+
+        kind = None if not self.srdf else "mjcf" if is_mjcf(self.srdf) else "srdf"
         return {
             "robot": self.robot, "geometry": self.geometry, "frame": self.base, "in_collision": self.in_collision,
             "pairs": [p.as_dict() for p in self.pairs],
             "min_distance": None if self.min_distance is None else self.min_distance.as_dict(),
-            "checked_pairs": self.checked, "srdf": self.srdf or None,
+            "checked_pairs": self.checked, "srdf": self.srdf or None, "srdf_kind": kind,
             "left_out_in_contact_at_home": [list(p) for p in self.default_contacts],
         }
 

@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.description.access import ReadPolicy, allowed_folders
-from manipkit.description.mjcf import mjcf_locator
+from manipkit.description.mjcf import mjcf_locator, mjcf_rules
 from manipkit.description.packages import PackageResolver, check_package_dirs
 from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.srdf import shipped_srdf
@@ -165,8 +165,13 @@ class Robot(JointSpace):
         self.base_link = "base_link" if "base_link" in self._frame_ids else self.root_link
         #: The SRDF the description ships (:func:`manipkit.description.srdf.shipped_srdf`), or None: its
         #: ``<disable_collisions>`` are the collision checks' default and its group tip ``ee_link``'s first choice.
-        self.srdf, notes = shipped_srdf(source.path, self.name, self.frame_names,
-                                        PackageResolver(dict(self.package_dirs), near=source.path))
+        #: A robot loaded from MJCF has instead its file's contact rules (:func:`manipkit.description.mjcf.mjcf_rules`,
+        #: ``kind`` ``"mjcf"``): MuJoCo's own allowed-collision source for it.
+        if source.is_mjcf and source.path.is_file():
+            self.srdf, notes = mjcf_rules(source.path, self.name, allow_read=self.allow_read), ()
+        else:
+            self.srdf, notes = shipped_srdf(source.path, self.name, self.frame_names,
+                                            PackageResolver(dict(self.package_dirs), near=source.path))
         #: Without :attr:`srdf`: why each SRDF for this robot's name was passed over (it names another link).
         self.srdf_notes: tuple[str, ...] = () if self.srdf is not None else notes
         self.ee_frame, self.ee_reason = tool_frame_of(model, self._frame_ids, source.ee_frame, source.name,

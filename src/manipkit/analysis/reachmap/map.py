@@ -36,6 +36,7 @@ from manipkit.analysis.reachmap.constants import (
 from manipkit.analysis.reachmap.payload import CONFIGURATIONS
 from manipkit.analysis.reachmap.query import checks_lines, query_answer, resolution_text, support_score
 from manipkit.analysis.reachmap.store import read_map, save_map
+from manipkit.description.mjcf import rules_source_text
 from manipkit.text import printable, short_text
 
 if TYPE_CHECKING:
@@ -280,7 +281,7 @@ class ReachMap:
 
 def _collisions_text(c: dict) -> str:
     floor = f", floor at z = {short_text(c['floor'])} m" if c.get("floor") is not None else ""
-    srdf = f", {c['disabled_pairs']} pairs disabled by {c['srdf']}" if c.get("srdf") else ""
+    srdf = f", {c['disabled_pairs']} pairs disabled by {rules_source_text(c['srdf'])}" if c.get("srdf") else ""
     return f"collision-free only: {' and '.join(c['checked'])} ({c['geometry']} geometry{floor}{srdf})"
 
 

@@ -43,7 +43,8 @@ def register(commands) -> None:
     add_robot_options(acm)
     _add_geometry_option(acm, "meshes")
     acm.add_argument("--srdf", default=None, metavar="FILE|none",
-                     help="the SRDF to compare with, pair by pair (default: the one the robot ships; none: no comparison)")
+                     help="the SRDF to compare with, pair by pair (default: the one the robot ships, or an MJCF "
+                          "robot's contact rules; none: no comparison)")
     acm.add_argument("-o", "--output", required=True, metavar="FILE", help="the SRDF to write")
     acm.add_argument("--samples", type=int, default=10_000, metavar="N",
                      help="random configurations checked (default 10000)")
@@ -57,7 +58,8 @@ def register(commands) -> None:
 
 #: The help of ``--srdf``: what the default is.
 _SRDF_HELP = ("SRDF whose <disable_collisions> pairs are not checked (default: the one the robot ships, beside "
-              "it, in the workspace's *_moveit_config package or in example-robot-data; none: no SRDF)")
+              "it, in the workspace's *_moveit_config package or in example-robot-data; a robot loaded from MJCF: "
+              "its contype/conaffinity and <exclude> rules; an MJCF file: its rules; none: no SRDF)")
 
 
 def add_collision_options(parser, *, geometry: str = "hulls") -> None:
@@ -109,6 +111,7 @@ def collision_checker(robot, args):
     An SRDF that leaves pairs touching at the default pose with this
     geometry is warned about (a matrix is validated, not trusted).
     """
+    from manipkit.description.mjcf import rules_source_text
     from manipkit.kinematics.collisions import CollisionChecker, srdf_check
     from manipkit.kinematics.world import read_world
 
@@ -117,7 +120,7 @@ def collision_checker(robot, args):
         touching = srdf_check(robot, srdf, geometry=args.geometry)
         if touching:
             pairs = ", ".join(f"{p.link1} - {p.link2}" for p in touching)
-            warn(f"{printable(str(srdf))} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact "
+            warn(f"{rules_source_text(str(srdf))} leaves {len(touching)} pair{'s' if len(touching) != 1 else ''} in contact "
                  f"at the default pose with {args.geometry} geometry ({pairs}); was it made for other geometry? "
                  f"`manipkit acm --geometry {args.geometry}` makes one for it")
     world = () if args.world is None else read_world(args.world)
