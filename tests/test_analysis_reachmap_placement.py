@@ -155,3 +155,25 @@ def test_confirm_mode_is_the_full_pose_unless_the_arm_has_fewer_than_6_joints(ma
     with pytest.raises(ReachMapError, match="candidates 0: give a whole number from 1 to 1000"):
         confirm_placement(map_2r, base_placement(map_2r, np.eye(4)[None], xs=[0.0], ys=[0.0], yaws=[0.0]),
                           planar_2r, candidates=0)
+
+
+def test_a_6r_arm_is_confirmed_on_the_full_pose_by_its_closed_form(load_robot):
+    # ur5: 6 joints, so IK matches the full pose, through the dispatcher's closed form (8 branches per target); the
+    # answer kept per target is the first branch within tol, and it must land on the target by FK
+    from manipkit.ik.numerical_many import ik_many
+
+    ur5 = load_robot("ur5")
+    reach_map = build(ur5, base="base_link", voxel=0.1, orientations=50, samples=200_000)
+    targets = placement_transforms(0.4, 0.2, 0.3) @ ur5.fk(ur5.sample_q(6, seed=2), base="base_link", tip="ee_link")
+    found = base_placement(reach_map, targets, yaws=8)
+    chosen = confirm_placement(reach_map, found, ur5, candidates=5)
+    assert chosen.mode == "pose" and chosen.pose_confirmed is None and chosen.candidates == 5
+    T_B = np.linalg.inv(placement_transforms(chosen.x, chosen.y, chosen.yaw)) @ targets
+    for q, target in zip(chosen.q[chosen.confirmed], T_B[chosen.confirmed]):
+        reached = ur5.transform("base_link", "ee_link", q)
+        assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 1e-6
+        assert np.abs(reached[:3, :3] - target[:3, :3]).max() < 1e-6
+    independent = ik_many(ur5, T_B, "base_link", "ee_link", mode="pose", tol=1e-6, restarts=100, seed=11)
+    assert int(chosen.confirmed.sum()) == int(independent.success.sum()) == int(chosen.tried[:, 4].max())
+    assert int(chosen.confirmed.sum()) >= 5  # a 6R arm reaches full poses from placements off the true one
+    assert "IK confirms" in chosen.summary() and "(full pose, by FK;" in chosen.summary()
