@@ -137,6 +137,14 @@ def test_base_placement_of_full_poses_from_an_off_grid_base_is_confirmed_by_ik(l
     assert reached_from_true == 8
     assert out["confirmed"] == independent(printed, "position+axis") >= reached_from_true
     assert out["confirmed_full_pose"] == independent(printed, "pose")  # said, not hidden: off the exact base
+    # refined off the grid (the base pose and the arm's joints searched together): the full poses, all 8 as from the
+    # true base; the true base and the refined one put the arm's first axis (0.05 m behind the base centre) at the
+    # same floor point (the arm's first joint is continuous, so the heading about it is free)
+    refined = out["refined"]
+    found = placement_transforms(refined["x"], refined["y"], refined["yaw"])
+    assert refined["confirmed_full_pose"] == independent(found, "pose") == 8
+    axis = robot.transform("base_footprint", "arm_base")[:, 3]
+    np.testing.assert_allclose((found @ axis)[:2], (true_base @ axis)[:2], atol=1e-6)
 
 
 @pytest.mark.parametrize(

@@ -55,12 +55,17 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CONFIRM_MODES", "DEFAULT_CANDIDATES", "MAX_CANDIDATES", "BasePlacement", "ConfirmedPlacement", "base_placement",
-    "confirm_mode", "confirm_placement", "placement_transforms", "plot_base_placement", "reach_radius",
+    "REFINE_ITERATIONS", "REFINE_TOL", "confirm_mode", "confirm_placement", "placement_transforms",
+    "plot_base_placement", "reach_radius", "refine_placement",
 ]
 
 MAX_POSES = 50_000_000  # placements x targets a search may test
 MAX_YAWS = 3600  # headings a search tries (a tenth of a degree apart)
 BATCH_POSES = 1 << 17  # placement-target pairs tested at once (about 16 MB of poses)
+REFINE_ITERATIONS = 100  # Gauss-Newton steps at most
+REFINE_TOL = 1e-9  # m and rad: the largest residual at which the search stops
+_STEP = 1e-7  # forward-difference step (m, rad)
+_DAMPING = 1e-3  # Levenberg-Marquardt damping of the normal equations
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,6 +137,10 @@ class ConfirmedPlacement:
         ``mode`` other than ``"pose"``: per target, IK of the full pose from this placement reached it.
     tried : ndarray, shape (candidates, 5)
         Per placement IK was run from, in the map's order: x, y, yaw, the map's count, IK's count.
+    refined : tuple (x, y, yaw, pose_confirmed) or None
+        ``mode`` other than ``"pose"`` and a full pose unconfirmed: the placement :func:`refine_placement` found
+        from this one (off the grid) and, per target, whether IK of the full pose from it reached it; None when
+        not searched or when it confirms no more full poses than this placement.
     """
 
     x: float
@@ -147,6 +156,7 @@ class ConfirmedPlacement:
     axis: str = "z"
     pose_confirmed: np.ndarray | None = None
     tried: np.ndarray | None = None
+    refined: tuple | None = None
 
     def summary(self) -> str:
         """Two lines: the placement and the targets IK confirms; the map's estimate and what it means."""
@@ -154,12 +164,18 @@ class ConfirmedPlacement:
         carrying = "" if self.payload is None else f", holding {short_text(self.payload, 4)} kg there"
         what = "full pose" if self.mode == "pose" else f"position and the direction of the tool's {self.axis} axis"
         full = "" if self.pose_confirmed is None else f"; the full pose: {int(self.pose_confirmed.sum())} of {n}"
-        return (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
+        text = (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
                 f"{short_text(math.degrees(self.yaw), 4)} deg: IK confirms {int(self.confirmed.sum())} of {n} targets "
                 f"({what}, by FK{carrying}{full}; the most IK confirms from the map's {self.candidates} best-scored "
                 f"placements)\n"
                 f"the map estimates {self.map_score} of {n} from there, counting the targets it says yes to; a yes "
                 f"means: {self.resolution}")
+        if self.refined is not None:
+            x, y, yaw, confirmed = self.refined
+            text += (f"\nrefined off the grid (the base pose and the arm's joints searched together from there): x "
+                     f"{short_text(x, 4)} m, y {short_text(y, 4)} m, yaw {short_text(math.degrees(yaw), 4)} deg, "
+                     f"from which IK confirms the full pose of {int(confirmed.sum())} of {n} targets (by FK{carrying})")
+        return text
 
 
 CONFIRM_MODES = ("auto", "pose", "position+axis")
@@ -200,7 +216,10 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
     picks (``mode``). The chosen placement is the one with the most targets
     IK confirms; ties go to the higher map score, then to the map's order.
     With a mode other than ``"pose"``, the full pose is also tried from the
-    chosen placement (``pose_confirmed``).
+    chosen placement (``pose_confirmed``), and where IK misses some full
+    poses, from the placement :func:`refine_placement` finds off the grid
+    from the chosen one (``refined``, kept when IK confirms more full poses
+    from it).
 
     ``robot`` is the robot the map is of; ``mount`` as in :func:`base_placement`;
     ``collisions`` (:class:`manipkit.kinematics.collisions.CollisionSettings`)
@@ -236,10 +255,21 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
     counts = confirmed.sum(axis=1)
     best = int(np.lexsort((np.arange(len(order)), -flat[order], -counts))[0])
     pose_confirmed = None if mode == "pose" else confirm(T_B_target[best], "pose")[0]
+    refined = None
+    if pose_confirmed is not None and not pose_confirmed.all() and confirmed[best].any():
+        chain = robot.chain(reach_map.base, reach_map.frame)
+        keep = confirmed[best]  # the targets whose position and axis IK matched: their answers start the search
+        found, _, _ = refine_placement(chain, result.targets[keep], (x[best], y[best], yaw[best]),
+                                       q[best][keep][:, chain.columns], mount=mount)
+        T_B_found = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(*found)) @ result.targets
+        found_confirmed = confirm(T_B_found, "pose")[0]
+        if found_confirmed.sum() > pose_confirmed.sum():
+            refined = (float(found[0]), float(found[1]), float(math.remainder(found[2], 2 * math.pi)),
+                       found_confirmed)
     tried = np.column_stack([x, y, yaw, flat[order], counts]).astype(float)
     return ConfirmedPlacement(float(x[best]), float(y[best]), float(yaw[best]), confirmed[best], q[best],
                               int(flat[order[best]]), resolution_text(reach_map, threshold=result.threshold),
-                              len(order), result.payload, mode, "z", pose_confirmed, tried)
+                              len(order), result.payload, mode, "z", pose_confirmed, tried, refined)
 
 
 def placement_transforms(x, y, yaw) -> np.ndarray:
@@ -385,6 +415,56 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
                 yes &= capacity_at(reach_map, T_B_target) >= payload  # NaN (not reached) holds nothing
             scores.reshape(-1, len(yaws))[start:start + batch, k] = yes.sum(axis=-1)
     return BasePlacement(xs, ys, yaws, scores, T, threshold, payload)
+
+
+def _residuals(chain, mount_inv: np.ndarray, targets: np.ndarray, placement: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """(K, 6): per target, FK's position error (m) and rotation error (rad, small) from ``placement``."""
+    T_B = mount_inv @ np.linalg.inv(placement_transforms(*placement)) @ targets
+    reached = chain.fk(Q)
+    R = np.swapaxes(T_B[:, :3, :3], -1, -2) @ reached[:, :3, :3]
+    rotation = 0.5 * np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=-1)
+    return np.concatenate([reached[:, :3, 3] - T_B[:, :3, 3], rotation], axis=-1)
+
+
+def refine_placement(chain, targets, placement, Q, *, mount=None, iterations: int = REFINE_ITERATIONS,
+                     tol: float = REFINE_TOL) -> tuple[np.ndarray, np.ndarray, float]:
+    """(placement (3,), Q (K, n), largest residual): the floor placement and joint values that best put ``chain``'s
+    tip on the full poses ``targets`` (K, 4, 4) ``T_F_target``, from ``placement`` (x, y, yaw) and ``Q`` (K, n, chain
+    order); ``mount`` is ``T_P_B`` (default identity).
+
+    An arm of 5 joints reaches a 5-dimensional set of poses, so the full
+    poses of several targets are reachable only from exact placements, which
+    a grid does not hold. This searches the placement and every target's
+    joint values together (``3 + n K`` unknowns, ``6 K`` equations) by damped
+    Gauss-Newton (Levenberg-Marquardt), the Jacobian by forward differences;
+    target k's residual is its position error (m) and the rotation error
+    ``vee(R_target^T R - R^T R_target) / 2`` (rad when small, zero where the
+    rotations agree). The answer is only a candidate: what counts is what IK
+    then confirms from it (:func:`confirm_placement`).
+    """
+    mount_inv = np.eye(4) if mount is None else np.linalg.inv(np.asarray(mount, dtype=float))
+    targets = np.asarray(targets, dtype=float)
+    p, Q = np.array(placement, dtype=float), np.array(Q, dtype=float)
+    K, n = Q.shape
+    r = _residuals(chain, mount_inv, targets, p, Q)
+    for _ in range(iterations):
+        if np.abs(r).max() < tol:
+            break
+        J = np.zeros((K, 6, 3 + n * K))
+        for a in range(3):
+            moved = p.copy()
+            moved[a] += _STEP
+            J[:, :, a] = (_residuals(chain, mount_inv, targets, moved, Q) - r) / _STEP
+        for j in range(n):  # joint j of every target at once: target k's residual depends on its own joints only
+            moved = Q.copy()
+            moved[:, j] += _STEP
+            J[np.arange(K), :, 3 + n * np.arange(K) + j] = ((_residuals(chain, mount_inv, targets, p, moved) - r)
+                                                              / _STEP)
+        J = J.reshape(6 * K, 3 + n * K)
+        step = np.linalg.solve(J.T @ J + _DAMPING * np.eye(J.shape[1]), -J.T @ r.reshape(-1))
+        p, Q = p + step[:3], Q + step[3:].reshape(K, n)
+        r = _residuals(chain, mount_inv, targets, p, Q)
+    return p, Q, float(np.abs(r).max())
 
 
 def plot_base_placement(result: BasePlacement, path, *, title: str | None = None) -> None:

@@ -433,6 +433,10 @@ def run_base_placement(args) -> int:
                     "ik_mode": chosen.mode, "ik_axis": None if chosen.mode == "pose" else chosen.axis,
                     "confirmed": int(chosen.confirmed.sum()), "confirmed_targets": chosen.confirmed.tolist(),
                     "confirmed_full_pose": int(full.sum()), "candidates": chosen.candidates,
+                    "refined": None if chosen.refined is None else {
+                        "x": chosen.refined[0], "y": chosen.refined[1], "yaw": chosen.refined[2],
+                        "confirmed_full_pose": int(chosen.refined[3].sum()),
+                        "confirmed_full_pose_targets": chosen.refined[3].tolist()},
                     "candidates_tried": [{"x": x, "y": y, "yaw": yaw, "map_estimate": int(score), "confirmed": int(n)}
                                          for x, y, yaw, score, n in chosen.tried.tolist()],
                     "map_estimate": chosen.map_score, "map_estimate_means": chosen.resolution,
