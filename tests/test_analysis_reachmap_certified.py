@@ -125,9 +125,11 @@ def test_mobile_placement_confirmed_count_equals_independent_ik(load_robot):
     targets = hidden @ robot.fk(robot.sample_q(8, seed=4), base="base_footprint", tip="ee_link")
     found = base_placement(reach_map, targets, xs=np.arange(0.0, 4.01, 0.25), ys=np.arange(-1.0, 3.01, 0.25), yaws=4)
     chosen = confirm_placement(reach_map, found, robot)
-    # independent: IK from the printed placement, random starts only (not the map's certificates), full pose
+    # independent: IK from the printed placement, random starts only (not the map's certificates), in the mode IK
+    # matched (a 5-joint arm: the position and the tool's z axis)
+    assert chosen.mode == "position+axis"
     T_B = np.linalg.inv(placement_transforms(chosen.x, chosen.y, chosen.yaw)) @ targets
-    independent = ik_many(robot, T_B, "base_footprint", "ee_link", mode="pose", tol=1e-6, restarts=100, seed=99)
+    independent = ik_many(robot, T_B, "base_footprint", "ee_link", mode=chosen.mode, tol=1e-6, restarts=100, seed=99)
     assert int(chosen.confirmed.sum()) == int(np.sum(independent.success))
     assert chosen.confirmed.sum() >= 6  # the hidden placement reaches all 8 exactly; one 0.25 m grid point of it
     assert "IK confirms" in chosen.summary() and "the map estimates" in chosen.summary()

@@ -109,3 +109,71 @@ def test_the_map_estimate_counts_targets_by_the_query_rule_and_says_so(map_2r, p
     assert "the map estimates" in text and "its support is at least 0.65" in text and "voxel-bin was reached" in text
     with pytest.raises(ReachMapError, match="threshold -0.1: give the least support"):
         base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0], threshold=-0.1)
+
+
+def test_ik_re_scores_the_maps_best_placements_by_hand(map_2r, planar_2r):
+    # The 2R (1, 1) reaches exactly the disc r <= 2 about its base, so from a placement p a target t is reachable
+    # iff |t - p| <= 2: the count by hand. Four targets 2.04 m from the origin (0.04 m outside the disc, inside
+    # reached 0.1 m voxels) and one 2.036 m out: the map (threshold 0, the plain voxel-bin answer) says yes to all
+    # five from the origin, where IK can reach none. Every distance is at least 0.036 m from 2. On this planar arm
+    # the tool's z axis is the plane's normal, so "position+axis" asks for the position alone.
+    points = np.array([(2.04, 0.0), (-2.04, 0.0), (0.0, 2.04), (0.0, -2.04), (1.44, 1.44)])
+    targets = np.tile(np.eye(4), (len(points), 1, 1))
+    targets[:, :2, 3] = points
+    xs, ys = np.array([-0.3, 0.0, 0.3, 0.6]), np.array([0.0, 0.3])
+    found = base_placement(map_2r, targets, xs=xs, ys=ys, yaws=[0.0], threshold=0.0)
+    distance = np.hypot(points[:, 0] - xs[:, None, None], points[:, 1] - ys[None, :, None])  # (x, y, target)
+    assert np.abs(distance - 2.0).min() > 0.035
+    by_hand = (distance <= 2.0).sum(axis=-1)
+    assert found.scores[1, 0, 0] == 5 and by_hand[1, 0] == 0  # the map's best placement reaches nothing
+    chosen = confirm_placement(map_2r, found, planar_2r, candidates=8, mode="position+axis")
+    assert chosen.mode == "position+axis" and chosen.candidates == 8
+    for x, y, _, map_count, ik_count in chosen.tried:  # IK's count from every candidate is the count by hand
+        i, j = int(np.flatnonzero(np.isclose(xs, x))[0]), int(np.flatnonzero(np.isclose(ys, y))[0])
+        assert ik_count == by_hand[i, j] and map_count == found.scores[i, j, 0]
+    assert int(chosen.confirmed.sum()) == by_hand.max() == 3
+    # the most by hand: (0.3, 0.3) and (0.6, 0.3), both scored 3 by the map; the tie goes to the map's order
+    assert (chosen.x, chosen.y) == (0.3, 0.3) and chosen.map_score == 3
+    T_B = np.linalg.inv(placement_transforms(chosen.x, chosen.y, chosen.yaw)) @ targets
+    for q, target, yes in zip(chosen.q, T_B, chosen.confirmed):  # every confirmed answer lands by FK
+        if yes:
+            assert np.linalg.norm(planar_2r.transform("base_link", "ee_link", q)[:3, 3] - target[:3, 3]) < 1e-6
+    assert chosen.confirmed.tolist() == (distance[2, 1] <= 2.0).tolist()
+    assert "IK confirms 3 of 5 targets (position and the direction of the tool's z axis" in chosen.summary()
+    assert "the map estimates 3 of 5 from there" in chosen.summary()
+    only_the_map = confirm_placement(map_2r, found, planar_2r, candidates=1, mode="position+axis")
+    assert (only_the_map.x, only_the_map.y, int(only_the_map.confirmed.sum())) == (0.0, 0.0, 0)
+
+
+def test_confirm_mode_is_the_full_pose_unless_the_arm_has_fewer_than_6_joints(map_2r, planar_2r):
+    from manipkit.analysis.reachmap.placement import confirm_mode
+
+    assert confirm_mode(map_2r, planar_2r) == "pose"  # planar: its pose is its in-plane position and turn
+    assert confirm_mode(map_2r, planar_2r, "position+axis") == "position+axis"
+    with pytest.raises(ReachMapError, match="mode 'axis': give one of auto, pose, position\\+axis"):
+        confirm_mode(map_2r, planar_2r, "axis")
+    with pytest.raises(ReachMapError, match="candidates 0: give a whole number from 1 to 1000"):
+        confirm_placement(map_2r, base_placement(map_2r, np.eye(4)[None], xs=[0.0], ys=[0.0], yaws=[0.0]),
+                          planar_2r, candidates=0)
+
+
+def test_a_6r_arm_is_confirmed_on_the_full_pose_by_its_closed_form(load_robot):
+    # ur5: 6 joints, so IK matches the full pose, through the dispatcher's closed form (8 branches per target); the
+    # answer kept per target is the first branch within tol, and it must land on the target by FK
+    from manipkit.ik.numerical_many import ik_many
+
+    ur5 = load_robot("ur5")
+    reach_map = build(ur5, base="base_link", voxel=0.1, orientations=50, samples=200_000)
+    targets = placement_transforms(0.4, 0.2, 0.3) @ ur5.fk(ur5.sample_q(6, seed=2), base="base_link", tip="ee_link")
+    found = base_placement(reach_map, targets, yaws=8)
+    chosen = confirm_placement(reach_map, found, ur5, candidates=5)
+    assert chosen.mode == "pose" and chosen.pose_confirmed is None and chosen.candidates == 5
+    T_B = np.linalg.inv(placement_transforms(chosen.x, chosen.y, chosen.yaw)) @ targets
+    for q, target in zip(chosen.q[chosen.confirmed], T_B[chosen.confirmed]):
+        reached = ur5.transform("base_link", "ee_link", q)
+        assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 1e-6
+        assert np.abs(reached[:3, :3] - target[:3, :3]).max() < 1e-6
+    independent = ik_many(ur5, T_B, "base_link", "ee_link", mode="pose", tol=1e-6, restarts=100, seed=11)
+    assert int(chosen.confirmed.sum()) == int(independent.success.sum()) == int(chosen.tried[:, 4].max())
+    assert int(chosen.confirmed.sum()) >= 5  # a 6R arm reaches full poses from placements off the true one
+    assert "IK confirms" in chosen.summary() and "(full pose, by FK;" in chosen.summary()

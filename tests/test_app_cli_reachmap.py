@@ -84,17 +84,67 @@ def test_base_placement_finds_the_placement_the_targets_were_made_from(load_robo
                          "--map", tmp_path / "mm.zarr", "--yaws", "4", "--plot", tmp_path / "bp.png", "--format", "json",
                          status=0).stdout)
     assert out["targets"] == 6 and out["map_estimate"] >= 5 and "any roll" in out["map_estimate_means"]
-    # (the confirmed count may be far lower: the placement grid need not hold the hidden placement, and a full pose
-    # off it is often out of this arm's reach; test_analysis_reachmap_certified checks one on the grid)
-    # the printed confirmed count equals an independent IK count (random starts only, full pose) from the printed placement
+    # a 5-joint arm: IK matches the position and the tool's z axis (a full pose only from an exact placement)
+    assert out["ik_mode"] == "position+axis" and out["ik_axis"] == "z" and out["candidates"] == 20
+    # the printed confirmed count equals an independent IK count (random starts only) from the printed placement
     from manipkit.ik.numerical_many import ik_many
 
     T_B = np.linalg.inv(placement_transforms(out["x"], out["y"], out["yaw"])) @ T
-    independent = ik_many(robot, T_B, "base_footprint", "ee_link", mode="pose", tol=1e-6, restarts=100, seed=5)
+    independent = ik_many(robot, T_B, "base_footprint", "ee_link", mode="position+axis", tol=1e-6, restarts=100,
+                          seed=5)
     assert out["confirmed"] == int(np.sum(independent.success)) == sum(out["confirmed_targets"])
+    assert out["confirmed"] == max(row["confirmed"] for row in out["candidates_tried"])
     # the best placement reaches as many as the true one: it lies within the arm's reach (< 1 m) of every target
     assert np.hypot(T[:, 0, 3] - out["x"], T[:, 1, 3] - out["y"]).max() < 1.0
     assert (tmp_path / "bp.png").stat().st_size > 10_000
+
+
+def test_base_placement_of_full_poses_from_an_off_grid_base_is_confirmed_by_ik(load_robot, tmp_path):
+    # The testers' case (issue 39): 8 full poses made by the mobile manipulator's 5-joint arm (arm_base, shoulder,
+    # bottom_wrist, elbow, top_wrist) from a base pose off the search's grid (yaw 40 deg; the 16 headings are
+    # 22.5 deg apart), base-placement run as a user runs it (its own map). Ranked by the map alone it printed a
+    # placement from which IK confirmed 0 of 8 full poses: a 5-joint arm reaches a 5-dimensional set of poses, so
+    # only the exact base reaches them. IK now re-scores the map's best placements in the mode the arm allows, the
+    # position and the tool's z axis, and the printed placement must reach as many as the true base does.
+    robot = load_robot("mobile_manipulator")
+    assert len(robot.chain("base_footprint", "ee_link").joint_names) == 5
+    true_base = placement_transforms(1.3, -0.7, math.radians(40.0))
+    T = true_base @ robot.fk(robot.sample_q(8, seed=1), base="base_footprint", tip="ee_link")
+    from manipkit.spatial.rotations import rpy_from_matrix
+
+    lines = [" ".join(repr(float(v)) for v in [*pose[:3, 3], *rpy_from_matrix(pose[:3, :3])]) for pose in T]
+    (tmp_path / "targets.txt").write_text("\n".join(lines) + "\n")
+    out = json.loads(run_cli("manipkit", "base-placement", "--robot", "mobile_manipulator", "--targets",
+                             tmp_path / "targets.txt", "--format", "json", status=0).stdout)
+    assert out["ik_mode"] == "position+axis" and out["targets"] == 8
+    from manipkit.ik.numerical_many import ik_many
+
+    def independent(T_F_P, mode):
+        """Targets IK reaches from the floor placement T_F_P (random starts, not the map's seeds), each checked by FK."""
+        T_B = np.linalg.inv(T_F_P) @ T
+        batch = ik_many(robot, T_B, "base_footprint", "ee_link", mode=mode, tol=1e-6, restarts=100, seed=7)
+        for q, target in zip(batch.q[batch.success], T_B[batch.success]):
+            reached = robot.transform("base_footprint", "ee_link", q)
+            assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 1e-6
+            assert math.acos(min(1.0, float(reached[:3, 2] @ target[:3, 2]))) < 1e-5
+            if mode == "pose":
+                assert np.abs(reached[:3, :3] - target[:3, :3]).max() < 1e-5
+        return int(batch.success.sum())
+
+    printed = placement_transforms(out["x"], out["y"], out["yaw"])
+    assert independent(true_base, "pose") == 8  # full poses of this arm from the true base
+    reached_from_true = independent(true_base, "position+axis")
+    assert reached_from_true == 8
+    assert out["confirmed"] == independent(printed, "position+axis") >= reached_from_true
+    assert out["confirmed_full_pose"] == independent(printed, "pose")  # said, not hidden: off the exact base
+    # refined off the grid (the base pose and the arm's joints searched together): the full poses, all 8 as from the
+    # true base; the true base and the refined one put the arm's first axis (0.05 m behind the base centre) at the
+    # same floor point (the arm's first joint is continuous, so the heading about it is free)
+    refined = out["refined"]
+    found = placement_transforms(refined["x"], refined["y"], refined["yaw"])
+    assert refined["confirmed_full_pose"] == independent(found, "pose") == 8
+    axis = robot.transform("base_footprint", "arm_base")[:, 3]
+    np.testing.assert_allclose((found @ axis)[:2], (true_base @ axis)[:2], atol=1e-6)
 
 
 @pytest.mark.parametrize(

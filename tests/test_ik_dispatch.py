@@ -211,3 +211,17 @@ def test_a_batch_says_per_target_which_method_ran_and_why_one_failed():
     assert dict(numerical.failure(1).values)["position"] > 1.0  # the best it found is over a metre off
     for i in (0, 2):
         assert_lands(ur5, "base_link", "tool0", closed.solutions[i][np.isfinite(closed.solutions[i]).all(axis=1)], T[i])
+
+
+@pytest.mark.parametrize("name", ["planar_2r", "scara", "stanford_arm"])
+def test_a_batch_on_a_textbook_arm_with_a_named_solver_is_solved_numerically(name):
+    # their closed forms are named one-target solvers, not the chain's geometric family: ik_many used to refuse them
+    robot = manipkit.load(name)
+    chain = robot.chain("base_link", "ee_link")
+    T = chain.fk(chain.sample(4, seed=2))
+    batch = manipkit.ik_many(robot, T, restarts=20)
+    assert batch.method == "numerical" and batch.success.all()
+    for q, target in zip(batch.q, T):
+        assert_lands(robot, "base_link", "ee_link", q[None], target)
+    with pytest.raises(IKOptionError, match="no closed-form solver"):
+        manipkit.ik_many(robot, T, method="closed_form")

@@ -339,6 +339,19 @@ def ik(subject, target, *, base: str | None = None, tip: str | None = None, meth
     return result
 
 
+def _batch_closed_form(robot, base: str, tip: str, *, family_tol, lock) -> bool:
+    """Whether the batch closed form answers these frames: the chain's geometric family has a solver
+    (:func:`manipkit.ik.textbook.analytic_ik_many`); the named solvers of the textbook arms (planar, SCARA,
+    Stanford) answer one target per call (:func:`ik`)."""
+    from manipkit.errors import ClosedFormIKError
+    from manipkit.ik.families import chain_family
+
+    try:
+        return chain_family(robot.chain(base, tip), tol=family_tol, lock=lock).solved
+    except ClosedFormIKError:
+        return False
+
+
 def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None, method: str = "auto",
             mode: str = "pose", axis: str = "z", tol=1e-9, family_tol=FAMILY_TOL, lock=None, arm_angle=None, q0=None,
             restarts: int = 20, seed: int = 0, max_iters: int = 100, damping: float = 1e-1, time_budget=None,
@@ -349,6 +362,9 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     gives every branch per target: 8 slots, NaN where a branch does not
     exist (:func:`manipkit.ik.chain_ik.chain_ik_many`; ``arm_angle`` one or
     one per target for a 7R SRS arm). Numerical IK gives one slot per target
+    (also for the textbook arms whose closed form is a named solver, not the
+    chain's geometric family: planar, SCARA, Stanford; ``method="closed_form"``
+    says so and refuses)
     (:func:`manipkit.ik.numerical_many.ik_many`; ``q0`` one start for all or
     one per target, ``restarts`` per target). ``method``, ``failure_kinds``
     and :meth:`IKBatch.reason` say, per target, which ran and why one failed.
@@ -370,6 +386,8 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
                             "(ik(..., method='algebraic')); use method='auto' or 'numerical' for a batch")
     closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
                                   arm_angle=arm_angle, free=())
+    if closed and method == "auto" and not _batch_closed_form(robot, base, tip, family_tol=family_tol, lock=lock):
+        closed = False  # a textbook arm's named solver answers one target per call: the batch is numerical
     if closed:
         from manipkit.ik.textbook import analytic_ik_many
 

@@ -17,10 +17,14 @@ target's voxel-bin was reached and its support is at least ``threshold``;
 0 counts every target in a reached voxel-bin). The score of a placement is
 the number of targets the map says yes to from it, at the map's resolution
 (its voxel and orientation bins, roll or any roll: an estimate).
-:func:`confirm_placement` then takes the best-scored placements and runs IK
-for every full target pose from each (seeded from the bin's certificate,
-confirmed by FK, collision-free when collisions are given): the placement
-chosen is the one with the most targets IK confirms.
+:func:`confirm_placement` then re-scores the map's ``candidates`` best
+placements (default :data:`DEFAULT_CANDIDATES`) by IK of every target from
+each (the one dispatcher, seeded from the bin's certificate, confirmed by FK,
+collision-free when collisions are given): the placement chosen is the one
+with the most targets IK confirms, not the one the map scores highest. IK
+matches the full pose, or for an arm of fewer than 6 joints the position and
+the approach (z) axis (:func:`confirm_mode`): such an arm reaches a full pose
+only from exact placements, which a grid does not hold.
 
 **Carrying a payload** (``payload=MASS``, kg; the map needs a payload layer,
 :func:`manipkit.analysis.reachmap.payloadmap.payload_map`): a target counts
@@ -50,13 +54,18 @@ if TYPE_CHECKING:
     from manipkit.analysis.reachmap.map import ReachMap
 
 __all__ = [
-    "BasePlacement", "ConfirmedPlacement", "base_placement", "confirm_placement", "placement_transforms",
-    "plot_base_placement", "reach_radius",
+    "CONFIRM_MODES", "DEFAULT_CANDIDATES", "MAX_CANDIDATES", "BasePlacement", "ConfirmedPlacement", "base_placement",
+    "REFINE_ITERATIONS", "REFINE_TOL", "confirm_mode", "confirm_placement", "placement_transforms",
+    "plot_base_placement", "reach_radius", "refine_placement",
 ]
 
 MAX_POSES = 50_000_000  # placements x targets a search may test
 MAX_YAWS = 3600  # headings a search tries (a tenth of a degree apart)
 BATCH_POSES = 1 << 17  # placement-target pairs tested at once (about 16 MB of poses)
+REFINE_ITERATIONS = 100  # Gauss-Newton steps at most
+REFINE_TOL = 1e-9  # m and rad: the largest residual at which the search stops
+_STEP = 1e-7  # forward-difference step (m, rad)
+_DAMPING = 1e-3  # Levenberg-Marquardt damping of the normal equations
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,7 +120,7 @@ class ConfirmedPlacement:
     x, y, yaw : float
         The placement (m, m, rad) of the robot's floor frame.
     confirmed : ndarray of bool, shape (K,)
-        Per target: IK of the full pose from this placement reached it (FK residuals within ``tol``).
+        Per target: IK from this placement reached it in ``mode`` (FK residuals within ``tol``).
     q : ndarray, shape (K, n)
         IK's configurations (meaningful where ``confirmed``).
     map_score : int
@@ -120,6 +129,18 @@ class ConfirmedPlacement:
         What the map's yes means (:func:`manipkit.analysis.reachmap.query.resolution_text`).
     candidates : int
         Placements IK was run from (the best-scored by the map).
+    payload : float or None
+        kg an answer also held (the map's payload layer), or None.
+    mode, axis : str
+        What IK matched (:func:`confirm_mode`): ``"pose"``, or ``"position+axis"`` (the origin and the tip's ``axis``).
+    pose_confirmed : ndarray of bool, shape (K,), or None
+        ``mode`` other than ``"pose"``: per target, IK of the full pose from this placement reached it.
+    tried : ndarray, shape (candidates, 5)
+        Per placement IK was run from, in the map's order: x, y, yaw, the map's count, IK's count.
+    refined : tuple (x, y, yaw, pose_confirmed) or None
+        ``mode`` other than ``"pose"`` and a full pose unconfirmed: the placement :func:`refine_placement` found
+        from this one (off the grid) and, per target, whether IK of the full pose from it reached it; None when
+        not searched or when it confirms no more full poses than this placement.
     """
 
     x: float
@@ -131,52 +152,124 @@ class ConfirmedPlacement:
     resolution: str
     candidates: int
     payload: float | None = None
+    mode: str = "pose"
+    axis: str = "z"
+    pose_confirmed: np.ndarray | None = None
+    tried: np.ndarray | None = None
+    refined: tuple | None = None
 
     def summary(self) -> str:
         """Two lines: the placement and the targets IK confirms; the map's estimate and what it means."""
         n = len(self.confirmed)
         carrying = "" if self.payload is None else f", holding {short_text(self.payload, 4)} kg there"
-        return (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
+        what = "full pose" if self.mode == "pose" else f"position and the direction of the tool's {self.axis} axis"
+        full = "" if self.pose_confirmed is None else f"; the full pose: {int(self.pose_confirmed.sum())} of {n}"
+        text = (f"base placement x {short_text(self.x, 4)} m, y {short_text(self.y, 4)} m, yaw "
                 f"{short_text(math.degrees(self.yaw), 4)} deg: IK confirms {int(self.confirmed.sum())} of {n} targets "
-                f"(full pose, by FK{carrying}; best of the map's {self.candidates} best-scored placements)\n"
+                f"({what}, by FK{carrying}{full}; the most IK confirms from the map's {self.candidates} best-scored "
+                f"placements)\n"
                 f"the map estimates {self.map_score} of {n} from there, counting the targets it says yes to; a yes "
                 f"means: {self.resolution}")
+        if self.refined is not None:
+            x, y, yaw, confirmed = self.refined
+            text += (f"\nrefined off the grid (the base pose and the arm's joints searched together from there): x "
+                     f"{short_text(x, 4)} m, y {short_text(y, 4)} m, yaw {short_text(math.degrees(yaw), 4)} deg, "
+                     f"from which IK confirms the full pose of {int(confirmed.sum())} of {n} targets (by FK{carrying})")
+        return text
 
 
-def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, mount=None, candidates: int = 5,
-                      collisions=None, tol: float = 1e-6, restarts: int = 20, seed: int = 0) -> ConfirmedPlacement:
-    """IK of every target's full pose from the ``candidates`` best-scored placements; the one IK confirms most.
+CONFIRM_MODES = ("auto", "pose", "position+axis")
+DEFAULT_CANDIDATES = 20  # placements re-scored by IK: the map's best, in its order
+MAX_CANDIDATES = 1000
+
+
+def confirm_mode(reach_map: ReachMap, robot, mode: str = "auto") -> str:
+    """What IK must match for a target to count: ``"pose"``, or ``"position+axis"`` (the origin and the z axis).
+
+    ``"auto"``: the full pose when the map's chain (``robot``, from the map's
+    base to its frame) has 6 joints or more, or
+    the map is planar (a planar arm's pose is its in-plane position and
+    turn); else ``"position+axis"`` along the tool's z axis, the map's
+    approach axis: an arm of 5 joints reaches only a 5-dimensional set of
+    poses, so from any floor placement but an exact one a target's full pose
+    is out of its reach, while its position and approach axis (5 numbers)
+    are not.
+    """
+    if mode not in CONFIRM_MODES:
+        raise ReachMapError(f"mode {repr_text(mode)}: give one of {', '.join(CONFIRM_MODES)}")
+    if mode != "auto":
+        return mode
+    if reach_map.orientations.kind == "planar" or len(robot.chain(reach_map.base, reach_map.frame).joint_names) >= 6:
+        return "pose"
+    return "position+axis"
+
+
+def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, mount=None,
+                      candidates: int = DEFAULT_CANDIDATES, mode: str = "auto", collisions=None, tol: float = 1e-6,
+                      restarts: int = 20, seed: int = 0) -> ConfirmedPlacement:
+    """Re-score the map's ``candidates`` best placements by the targets IK confirms from each; the one it confirms most.
+
+    The map pre-filters and orders (its count, then x, y, yaw order); IK
+    (the one dispatcher, :func:`manipkit.analysis.reachmap.query.query_answer`
+    seeded from the bins' certificates) is run for every target from each of
+    the ``candidates`` best, all in one batch, in the mode :func:`confirm_mode`
+    picks (``mode``). The chosen placement is the one with the most targets
+    IK confirms; ties go to the higher map score, then to the map's order.
+    With a mode other than ``"pose"``, the full pose is also tried from the
+    chosen placement (``pose_confirmed``), and where IK misses some full
+    poses, from the placement :func:`refine_placement` finds off the grid
+    from the chosen one (``refined``, kept when IK confirms more full poses
+    from it).
 
     ``robot`` is the robot the map is of; ``mount`` as in :func:`base_placement`;
     ``collisions`` (:class:`manipkit.kinematics.collisions.CollisionSettings`)
     counts only collision-free answers; with ``result.payload`` (kg) an answer
     counts only when it also holds that payload (the map's payload layer's CoG,
-    gravity and limits). Ties go to the higher map score, then to the first in x, y, yaw order.
+    gravity and limits).
     """
     from manipkit.analysis.reachmap.query import query_answer, resolution_text
 
-    if isinstance(candidates, bool) or not isinstance(candidates, numbers.Integral) or not 1 <= candidates <= 1000:
-        raise ReachMapError(f"candidates {repr_text(candidates)}: give a whole number from 1 to 1000")
+    if isinstance(candidates, bool) or not isinstance(candidates, numbers.Integral) or \
+            not 1 <= candidates <= MAX_CANDIDATES:
+        raise ReachMapError(f"candidates {repr_text(candidates)}: give a whole number from 1 to {MAX_CANDIDATES}")
+    mode = confirm_mode(reach_map, robot, mode)
     mount = np.eye(4) if mount is None else finite_array(mount, "mount", (4, 4), "the 4x4 T_P_B")
     flat = result.scores.reshape(-1)
     order = np.argsort(-flat, kind="stable")[:candidates]
-    best = None
-    for rank in order:
-        i, j, k = np.unravel_index(int(rank), result.scores.shape)
-        x, y, yaw = float(result.xs[i]), float(result.ys[j]), float(result.yaws[k])
-        T_B_target = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(x, y, yaw)) @ result.targets
-        answer = query_answer(reach_map, T_B_target, confirm=True, robot=robot, tol=tol, restarts=restarts, seed=seed,
-                              collisions=collisions)
+    i, j, k = np.unravel_index(order, result.scores.shape)
+    x, y, yaw = result.xs[i], result.ys[j], result.yaws[k]
+    T_B_P = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(x, y, yaw))  # (candidates, 4, 4)
+    T_B_target = T_B_P[:, None] @ result.targets  # (candidates, K, 4, 4)
+
+    def confirm(T, how):
+        answer = query_answer(reach_map, T, confirm=True, robot=robot, tol=tol, restarts=restarts, seed=seed,
+                              collisions=collisions, mode=how)
         confirmed = np.array(answer.confirmed, dtype=bool)
         if result.payload is not None and confirmed.any():
             from manipkit.analysis.reachmap.payloadmap import capacity_of
 
             confirmed[confirmed] = capacity_of(reach_map, robot, answer.q[confirmed]) >= result.payload
-        if best is None or confirmed.sum() > best.confirmed.sum():
-            best = ConfirmedPlacement(x, y, yaw, confirmed, answer.q, int(flat[rank]),
-                                      resolution_text(reach_map, threshold=result.threshold), len(order),
-                                      result.payload)
-    return best
+        return confirmed, answer.q
+
+    confirmed, q = confirm(T_B_target, mode)
+    counts = confirmed.sum(axis=1)
+    best = int(np.lexsort((np.arange(len(order)), -flat[order], -counts))[0])
+    pose_confirmed = None if mode == "pose" else confirm(T_B_target[best], "pose")[0]
+    refined = None
+    if pose_confirmed is not None and not pose_confirmed.all() and confirmed[best].any():
+        chain = robot.chain(reach_map.base, reach_map.frame)
+        keep = confirmed[best]  # the targets whose position and axis IK matched: their answers start the search
+        found, _, _ = refine_placement(chain, result.targets[keep], (x[best], y[best], yaw[best]),
+                                       q[best][keep][:, chain.columns], mount=mount)
+        T_B_found = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(*found)) @ result.targets
+        found_confirmed = confirm(T_B_found, "pose")[0]
+        if found_confirmed.sum() > pose_confirmed.sum():
+            refined = (float(found[0]), float(found[1]), float(math.remainder(found[2], 2 * math.pi)),
+                       found_confirmed)
+    tried = np.column_stack([x, y, yaw, flat[order], counts]).astype(float)
+    return ConfirmedPlacement(float(x[best]), float(y[best]), float(yaw[best]), confirmed[best], q[best],
+                              int(flat[order[best]]), resolution_text(reach_map, threshold=result.threshold),
+                              len(order), result.payload, mode, "z", pose_confirmed, tried, refined)
 
 
 def placement_transforms(x, y, yaw) -> np.ndarray:
@@ -322,6 +415,56 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
                 yes &= capacity_at(reach_map, T_B_target) >= payload  # NaN (not reached) holds nothing
             scores.reshape(-1, len(yaws))[start:start + batch, k] = yes.sum(axis=-1)
     return BasePlacement(xs, ys, yaws, scores, T, threshold, payload)
+
+
+def _residuals(chain, mount_inv: np.ndarray, targets: np.ndarray, placement: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """(K, 6): per target, FK's position error (m) and rotation error (rad, small) from ``placement``."""
+    T_B = mount_inv @ np.linalg.inv(placement_transforms(*placement)) @ targets
+    reached = chain.fk(Q)
+    R = np.swapaxes(T_B[:, :3, :3], -1, -2) @ reached[:, :3, :3]
+    rotation = 0.5 * np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=-1)
+    return np.concatenate([reached[:, :3, 3] - T_B[:, :3, 3], rotation], axis=-1)
+
+
+def refine_placement(chain, targets, placement, Q, *, mount=None, iterations: int = REFINE_ITERATIONS,
+                     tol: float = REFINE_TOL) -> tuple[np.ndarray, np.ndarray, float]:
+    """(placement (3,), Q (K, n), largest residual): the floor placement and joint values that best put ``chain``'s
+    tip on the full poses ``targets`` (K, 4, 4) ``T_F_target``, from ``placement`` (x, y, yaw) and ``Q`` (K, n, chain
+    order); ``mount`` is ``T_P_B`` (default identity).
+
+    An arm of 5 joints reaches a 5-dimensional set of poses, so the full
+    poses of several targets are reachable only from exact placements, which
+    a grid does not hold. This searches the placement and every target's
+    joint values together (``3 + n K`` unknowns, ``6 K`` equations) by damped
+    Gauss-Newton (Levenberg-Marquardt), the Jacobian by forward differences;
+    target k's residual is its position error (m) and the rotation error
+    ``vee(R_target^T R - R^T R_target) / 2`` (rad when small, zero where the
+    rotations agree). The answer is only a candidate: what counts is what IK
+    then confirms from it (:func:`confirm_placement`).
+    """
+    mount_inv = np.eye(4) if mount is None else np.linalg.inv(np.asarray(mount, dtype=float))
+    targets = np.asarray(targets, dtype=float)
+    p, Q = np.array(placement, dtype=float), np.array(Q, dtype=float)
+    K, n = Q.shape
+    r = _residuals(chain, mount_inv, targets, p, Q)
+    for _ in range(iterations):
+        if np.abs(r).max() < tol:
+            break
+        J = np.zeros((K, 6, 3 + n * K))
+        for a in range(3):
+            moved = p.copy()
+            moved[a] += _STEP
+            J[:, :, a] = (_residuals(chain, mount_inv, targets, moved, Q) - r) / _STEP
+        for j in range(n):  # joint j of every target at once: target k's residual depends on its own joints only
+            moved = Q.copy()
+            moved[:, j] += _STEP
+            J[np.arange(K), :, 3 + n * np.arange(K) + j] = ((_residuals(chain, mount_inv, targets, p, moved) - r)
+                                                              / _STEP)
+        J = J.reshape(6 * K, 3 + n * K)
+        step = np.linalg.solve(J.T @ J + _DAMPING * np.eye(J.shape[1]), -J.T @ r.reshape(-1))
+        p, Q = p + step[:3], Q + step[3:].reshape(K, n)
+        r = _residuals(chain, mount_inv, targets, p, Q)
+    return p, Q, float(np.abs(r).max())
 
 
 def plot_base_placement(result: BasePlacement, path, *, title: str | None = None) -> None:

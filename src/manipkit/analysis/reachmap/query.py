@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["QueryAnswer", "bin_text", "checks_lines", "query_answer", "resolution_text", "support_score"]
+__all__ = ["QueryAnswer", "bin_text", "checks_lines", "first_confirmed", "query_answer", "resolution_text", "support_score"]
 
 
 
@@ -153,14 +153,22 @@ def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
 
 def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD,
                  confirm: bool = False, robot: Robot | None = None, tol: float = 1e-6, restarts: int = 20,
-                 seed: int = 0, collisions: CollisionSettings | None = None) -> QueryAnswer:
+                 seed: int = 0, collisions: CollisionSettings | None = None, mode: str = "pose",
+                 axis: str = "z") -> QueryAnswer:
     """The map's answer for poses ``T`` (..., 4, 4) ``T_base_frame`` and, with ``confirm``, IK's for the exact poses.
 
     ``reachable`` is ``bin_reached and score >= threshold`` (the module
     docstring); ``interpolate=False`` makes it ``bin_reached`` (threshold 0).
     ``robot``: the robot the map is of (default: loaded by the map's robot
     name, which works for bundled and example-robot-data robots). ``tol``:
-    position (m) and rotation (rad) residual of a confirmed answer.
+    position (m) and rotation (rad) residual of a confirmed answer. ``mode``
+    and ``axis``: what IK must match (:func:`manipkit.ik`: ``"pose"``, the
+    full pose; ``"position+axis"``, the origin and the direction of the tip's
+    ``axis``, what an arm of fewer than 6 joints can match). IK is the one
+    dispatcher's :func:`manipkit.ik.dispatch.ik_many` (the closed form where
+    the chain has one for ``mode``, every branch; numerical IK seeded from the
+    certificate otherwise); a target is confirmed by the first answer within
+    ``tol`` (and collision-free when ``collisions`` are given).
     """
     threshold = check_threshold(threshold) if interpolate else 0.0
     T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
@@ -191,16 +199,29 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
         except Exception as exc:  # noqa: BLE001 - said as one line: the caller gives the robot
             raise ReachMapError(f"confirm needs the robot the map is of ('{printable(reach_map.robot)}' did not load: "
                                 f"{printable(str(exc))[:120]}); pass robot=") from None
-    from manipkit.ik.numerical_many import ik_many
+    from manipkit.ik.dispatch import ik_many
 
     flat_T, flat_seed = T.reshape(-1, 4, 4), certificate.reshape(-1, n)
     q0 = np.where(np.isnan(flat_seed), robot.q(), flat_seed)
-    batch = ik_many(robot, flat_T, base=reach_map.base, tip=reach_map.frame, q0=q0, mode="pose", tol=tol,
+    batch = ik_many(robot, flat_T, base=reach_map.base, tip=reach_map.frame, q0=q0, mode=mode, axis=axis, tol=tol,
                     restarts=restarts, seed=seed)
-    confirmed = np.array(batch.success, dtype=bool)
-    if collisions is not None and confirmed.any():
-        confirmed[confirmed] = collisions.free(robot, batch.q[confirmed])
-    return QueryAnswer(**answer, confirmed=confirmed.reshape(T.shape[:-2]), q=batch.q.reshape(T.shape[:-2] + (-1,)))
+    confirmed, q = first_confirmed(batch, tol, robot, collisions)
+    return QueryAnswer(**answer, confirmed=confirmed.reshape(T.shape[:-2]), q=q.reshape(T.shape[:-2] + (-1,)))
+
+
+def first_confirmed(batch, tol: float, robot: Robot, collisions: CollisionSettings | None = None):
+    """(confirmed (N,), q (N, n)) of an :class:`manipkit.ik.result.IKBatch` of N targets: per target the first slot
+    whose FK residuals are within ``tol`` (m, rad) and, with ``collisions``, collision-free; ``q`` is that slot (else
+    the batch's closest configuration ``batch.q``, NaN for a closed form)."""
+    solutions = np.asarray(batch.solutions)
+    ok = (np.asarray(batch.residual_position) <= tol) & (np.asarray(batch.residual_rotation) <= tol)
+    if collisions is not None and ok.any():
+        ok[ok] = collisions.free(robot, solutions[ok])
+    confirmed = ok.any(axis=-1)
+    q = np.array(batch.q, dtype=float)
+    first = np.argmax(ok, axis=-1)
+    q[confirmed] = solutions[confirmed, first[confirmed]]
+    return confirmed, q
 
 
 def checks_lines(reach_map: ReachMap) -> list[str]:

@@ -131,6 +131,12 @@ def register(commands) -> None:
     _add_map_options(place, **_PLACEMENT_MAP)
     place.add_argument("--step", type=float, default=None, metavar="M", help="grid step of the floor positions (default: the voxel)")
     place.add_argument("--yaws", type=int, default=16, metavar="N", help="headings tried (default 16)")
+    place.add_argument("--candidates", type=int, default=20, metavar="K",
+                       help="the map's K best-scored placements re-scored by IK; the one IK confirms most is printed "
+                            "(default 20)")
+    place.add_argument("--ik-mode", choices=("auto", "pose", "position+axis"), default="auto",
+                       help="what IK must match: the full pose, or the position and the tool's z axis (auto: the "
+                            "full pose for an arm of 6 joints or more, else position+axis)")
     place.add_argument("--plot", type=Path, default=None, metavar="FILE.png", help="draw the heat map")
     place.add_argument("--format", choices=("text", "json"), default="text")
     place.add_argument("--payload", default=None, metavar="MASS[@X,Y,Z]",
@@ -369,7 +375,13 @@ def run_base_placement(args) -> int:
     """Score floor placements by the targets reached; print the best (text or JSON); draw the heat map."""
     from manipkit.analysis.reachmap.constants import MAX_VOXEL, MIN_VOXEL
     from manipkit.analysis.reachmap.map import load
-    from manipkit.analysis.reachmap.placement import MAX_YAWS, base_placement, confirm_placement, plot_base_placement
+    from manipkit.analysis.reachmap.placement import (
+        MAX_CANDIDATES,
+        MAX_YAWS,
+        base_placement,
+        confirm_placement,
+        plot_base_placement,
+    )
     from manipkit.inputs.poses import read_targets
     from manipkit.kinematics.collisions import CollisionSettings
 
@@ -377,6 +389,8 @@ def run_base_placement(args) -> int:
         writable_path(args.plot)
     if not 1 <= args.yaws <= MAX_YAWS:
         raise UsageError(f"--yaws {args.yaws}: give from 1 to {MAX_YAWS} headings")
+    if not 1 <= args.candidates <= MAX_CANDIDATES:
+        raise UsageError(f"--candidates {args.candidates}: give from 1 to {MAX_CANDIDATES} placements to re-score by IK")
     if args.step is not None and not (math.isfinite(args.step) and MIN_VOXEL <= args.step <= MAX_VOXEL):
         raise UsageError(f"--step {args.step}: give the grid step in metres, from {MIN_VOXEL:g} to {MAX_VOXEL:g}")
     targets = read_targets(args.targets)
@@ -411,10 +425,20 @@ def run_base_placement(args) -> int:
         robot, ",".join(checked), floor=reach_map.settings["collisions"].get("floor") or 0.0,
         geometry=reach_map.settings["collisions"].get("geometry", "hulls"),
         srdf=_map_srdf(robot, reach_map.settings["collisions"].get("srdf") or "none", args.map))
-    chosen = confirm_placement(reach_map, result, robot, mount=mount, collisions=collisions)
+    chosen = confirm_placement(reach_map, result, robot, mount=mount, collisions=collisions,
+                               candidates=args.candidates, mode=args.ik_mode)
     if args.format == "json":
+        full = chosen.confirmed if chosen.pose_confirmed is None else chosen.pose_confirmed
         print_json({"robot": robot.name, "floor_frame": floor, "x": chosen.x, "y": chosen.y, "yaw": chosen.yaw,
+                    "ik_mode": chosen.mode, "ik_axis": None if chosen.mode == "pose" else chosen.axis,
                     "confirmed": int(chosen.confirmed.sum()), "confirmed_targets": chosen.confirmed.tolist(),
+                    "confirmed_full_pose": int(full.sum()), "candidates": chosen.candidates,
+                    "refined": None if chosen.refined is None else {
+                        "x": chosen.refined[0], "y": chosen.refined[1], "yaw": chosen.refined[2],
+                        "confirmed_full_pose": int(chosen.refined[3].sum()),
+                        "confirmed_full_pose_targets": chosen.refined[3].tolist()},
+                    "candidates_tried": [{"x": x, "y": y, "yaw": yaw, "map_estimate": int(score), "confirmed": int(n)}
+                                         for x, y, yaw, score, n in chosen.tried.tolist()],
                     "map_estimate": chosen.map_score, "map_estimate_means": chosen.resolution,
                     "collision_free": collisions is not None, "targets": len(targets),
                     "payload": None if load_spec is None else load_spec[0].mass,
