@@ -26,6 +26,7 @@ def test_the_notebooks_exist():
         "11_collisions.ipynb",
         "12_statics.ipynb",
         "13_task_paths.ipynb",
+        "14_every_solution.ipynb",
     ]
 
 

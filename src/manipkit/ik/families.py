@@ -21,10 +21,11 @@ the middle of the limits when zero is outside them), as
   (so the bundled textbook arms are found by geometry) but solved by the
   named solvers of :mod:`manipkit.ik.textbook`.
 
-Two axes *meet* when the distance between their lines is within the
-distance tolerance; they are *parallel* when the angle between them is
-within the angle tolerance; three axes meet when the point nearest all
-three lies within the distance tolerance of each. Every relation found is
+Axes *meet* when the point nearest all of them (least squares) lies
+within the distance tolerance of each: for two axes that is half the
+distance between their lines (two lines 1.5 mm apart meet within 1 mm);
+they are *parallel* when the angle between them is within the angle
+tolerance. Every relation found is
 kept as :class:`Relation` evidence with the measured miss distance and
 angle, so a calibrated description (axes missing by 1e-4) says how far it
 is from the ideal arm it is solved on.
@@ -50,6 +51,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FAMILY_TOL",
+    "IDEAL_TOL",
     "SOLVED",
     "Family",
     "Geometry",
@@ -62,6 +64,8 @@ __all__ = [
 
 #: Default tolerance (m, rad) within which axes count as meeting or parallel.
 FAMILY_TOL = (1e-3, 1e-3)
+#: A relation holding to this (m or rad) holds exactly: the arm is its family's ideal arm, nothing snapped.
+IDEAL_TOL = 1e-12
 OPW = "spherical wrist, two parallel"
 UR = "three parallel, two intersecting"
 SPHERICAL_12 = "spherical wrist, two intersecting"
@@ -152,8 +156,9 @@ class Family:
         Joints held at a value (``chain_family(..., lock=...)``); the family is that of the others.
 
     ``ideal`` is True when every relation holds to 1e-12 (no refinement
-    needed); ``deviation`` is the largest miss (m) or angle (rad) of the
-    evidence: how far the nearest ideal arm is.
+    needed); ``snap`` is the evidence that does not (the relations the
+    nearest ideal arm makes exact); ``deviation`` is the largest miss (m) or
+    angle (rad) of the evidence: how far the nearest ideal arm is.
     """
 
     kind: str
@@ -175,8 +180,14 @@ class Family:
         return max((max(r.miss, r.angle) for r in self.evidence), default=0.0)
 
     @property
+    def snap(self) -> tuple[Relation, ...]:
+        """The evidence that holds only within the tolerance (a miss or angle over 1e-12): what the ideal arm
+        the closed form is solved on changes. Empty for an ideal arm (and for ``"none"``)."""
+        return tuple(r for r in self.evidence if max(r.miss, r.angle) > IDEAL_TOL)
+
+    @property
     def ideal(self) -> bool:
-        return self.deviation <= 1e-12
+        return not self.snap
 
     def __str__(self) -> str:
         lines = [f"family: {self.kind}{' (read tip to base)' if self.reversed else ''}"]

@@ -58,6 +58,25 @@ def _general_evidence(chain, family, tol) -> tuple[str, str] | None:
                         f"elimination, {how} ({len(ways)} of 12 ways regular on this arm)")
 
 
+def snap_words(family) -> str:
+    """The ``snap:`` line of a family found within its tolerance: which relations the ideal arm makes exact, by how much.
+
+    "none" when every relation holds to ``IDEAL_TOL`` (the arm is its family's ideal arm).
+    """
+    from manipkit.closed_form.checks import quantity_text
+
+    if not family.snap:
+        return "snap: none (every relation of the family holds to 1e-12)"
+    parts = [f"axes {', '.join(map(str, r.axes))} " + (f"miss a common point by {quantity_text(r.miss)} m"
+                                                        if r.kind == "meet" else
+                                                        f"are off parallel by {quantity_text(r.angle)} rad")
+             for r in family.snap]
+    tol = f"{quantity_text(family.tol[0])} m, {quantity_text(family.tol[1])} rad"
+    how = ("; solved in closed form on that ideal arm, each branch checked by FK on this chain and refined by Newton "
+           "where it misses") if family.solved else ""
+    return f"snap: {'; '.join(parts)} (within the tolerance {tol}; the nearest ideal arm makes them exact){how}"
+
+
 def run_family(args) -> int:
     """Print the family, its evidence and whether ``ik --analytic`` solves it."""
     from manipkit.bounds import tolerances
@@ -90,6 +109,7 @@ def run_family(args) -> int:
             "evidence": [{"kind": r.kind, "axes": list(r.axes), "miss": r.miss, "angle": r.angle,
                           "point": list(r.point) or None} for r in family.evidence],
             "tol": list(family.tol), "deviation": family.deviation, "note": family.note,
+            "snap": [{"kind": r.kind, "axes": list(r.axes), "miss": r.miss, "angle": r.angle} for r in family.snap],
             "opw": None if opw is None else {
                 **{name: getattr(opw, name) for name in ("a1", "a2", "b", "c1", "c2", "c3", "c4")},
                 "offsets": list(opw.offsets), "sign_corrections": list(opw.sign_corrections), "fk_error": opw.fk_error},
@@ -98,6 +118,8 @@ def run_family(args) -> int:
         return EXIT_OK
     print(f"chain {chain.base} -> {chain.tip}: {', '.join(chain.joint_names) or 'no joints'}")
     print(str(family))
+    if family.kind != "none":
+        print(snap_words(family))
     if opw is not None or opw_note:
         print(f"  {opw if opw is not None else opw_note}")
     if general:
@@ -108,7 +130,5 @@ def run_family(args) -> int:
     if family.solved:
         command = command_line("manipkit", "ik", "--analytic", *robot_words(args, robot), "--base", chain.base,
                                "--tip", chain.tip, *(["--lock", *(f"{name}={value!r}" for name, value in lock.items())] if lock else []))
-        print(f"closed form: {command} --xyz X Y Z --rpy R P Y gives every branch"
-              + ("" if family.ideal else f" (solved on the ideal arm {short_text(family.deviation, 3)} away, "
-                                          "then refined on this chain)"))
+        print(f"closed form: {command} --xyz X Y Z --rpy R P Y gives every branch")
     return EXIT_OK
