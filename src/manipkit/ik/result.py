@@ -401,6 +401,44 @@ class IKResult:
         count = self.count if math.isinf(self.count) and len(index) else len(index)
         return replace(self, count=count, **per_row)
 
+    def extended(self, other: IKResult, *, labels: tuple[str, ...], note: str) -> IKResult:
+        """This answer's rows, then ``other``'s (the same joint order and mode), with ``labels`` for ``other``'s rows
+        and ``note`` as the note; every per-row field follows its rows (``alias_of`` -1 for ``other``'s), ``count``
+        counts every row, every other field is this answer's.
+
+        Examples
+        --------
+        >>> from manipkit.ik.planar import ik_2r
+        >>> both = ik_2r(0.0, 1.5, 1.0, 1.0)
+        >>> joined = both.take([0]).extended(both.take([1]), labels=("found again",), note="two")
+        >>> joined.labels, joined.count, bool((joined.solutions == both.solutions).all())
+        (('elbow-down', 'found again'), 2, True)
+        """
+        if other.solutions.shape[1:] != self.solutions.shape[1:] or len(labels) != len(other.solutions):
+            raise ValueError(f"IKResult.extended: rows of shape {other.solutions.shape} with {len(labels)} labels "
+                             f"cannot follow rows of shape {self.solutions.shape}")
+
+        def joined(name, default):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            if mine is None and theirs is None:
+                return None
+            mine = np.full(len(self.solutions), default) if mine is None else mine
+            theirs = np.full(len(other.solutions), default) if theirs is None else theirs
+            return np.concatenate([mine, theirs])
+
+        alias_of = None if self.alias_of is None else np.concatenate(
+            [self.alias_of, np.full(len(other.solutions), -1, dtype=np.intp)])
+        collides = (tuple(self.collides) or (False,) * len(self.solutions)) + \
+            (tuple(other.collides) or (False,) * len(other.solutions)) if (self.collides or other.collides) else ()
+        return replace(self, solutions=np.concatenate([self.solutions, other.solutions]),
+                       labels=tuple(self.labels) + tuple(labels), count=len(self.solutions) + len(other.solutions),
+                       note=note, residual_position=np.concatenate([self.residual_position, other.residual_position]),
+                       residual_rotation=np.concatenate([self.residual_rotation, other.residual_rotation]),
+                       within_limits=joined("within_limits", True), refined=joined("refined", 0.0),
+                       collides=collides, clearance=joined("clearance", np.nan),
+                       parameter_values=joined("parameter_values", np.nan), scores=joined("scores", np.nan),
+                       alias_of=alias_of)
+
     def __post_init__(self):
         for name in ("solutions", "residual_position", "residual_rotation", "closest", "closest_residuals", "refined",
                      "clearance", "parameter_values", "scores"):
