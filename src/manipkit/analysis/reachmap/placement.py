@@ -166,7 +166,7 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
         x, y, yaw = float(result.xs[i]), float(result.ys[j]), float(result.yaws[k])
         T_B_target = np.linalg.inv(mount) @ np.linalg.inv(placement_transforms(x, y, yaw)) @ result.targets
         answer = query_answer(reach_map, T_B_target, confirm=True, robot=robot, tol=tol, restarts=restarts, seed=seed,
-                              collisions=collisions)
+                              collisions=collisions, refine=False)
         confirmed = np.array(answer.confirmed, dtype=bool)
         if result.payload is not None and confirmed.any():
             from manipkit.analysis.reachmap.payloadmap import capacity_of
