@@ -84,6 +84,8 @@ def test_hand_case_straight_up(iiwa14, map_iiwa):
                           map_iiwa.orientations.bin_of(np.stack([T_up, above])[:, :3, :3]))
     assert 0.0 < score[1] < 1.0  # in the boundary band: decided by IK
     assert map_iiwa.query(T_up, robot=iiwa14) is True and map_iiwa.query(above, robot=iiwa14) is False
+    # numerical IK with many restarts agrees with the hand derivation: no configuration reaches ``above``
+    assert not np.asarray(ik_many(iiwa14, above[None], mode="position+axis", restarts=200, tol=1e-9).success).any()
 
 
 def dexterous_share(reach_map):

@@ -192,6 +192,8 @@ def refined_answer(reach_map: ReachMap, T: np.ndarray, value: np.ndarray, bins: 
     reaches the pose to ``tol`` (m and rad). Elsewhere (support 0 or 1)
     ``value`` stands. A yes in the band is thus proved; a no in it is IK
     failing from up to 8 nearby starts, which does not prove a pose unreachable.
+    The IK answers are not checked for collisions: on a map built collision-free
+    a refined yes in the band means reachable, not reachable collision-free.
     """
     from manipkit.ik.numerical_many import ik_many
 
