@@ -78,7 +78,7 @@ def test_planar_2r_map_is_the_disc_of_radius_l1_plus_l2(planar_2r):
 
 
 def test_fk_marks_are_the_documented_samples_binned_by_hand(planar_3r):
-    m = build(planar_3r, voxel=VOXEL, orientations=8, samples=10000, block_samples=4096, seed=3)
+    m = build(planar_3r, voxel=VOXEL, orientations=8, samples=10000, block_samples=4096, seed=3, method="fk")
     expected = np.zeros_like(m.reach)
     for block in range(3):
         n = min(4096, 10000 - block * 4096)
@@ -97,7 +97,8 @@ def test_fk_marks_are_the_documented_samples_binned_by_hand(planar_3r):
 def test_many_rounds_keep_every_bins_and_voxels_first_sample(planar_3r):
     # 40 blocks of 250 run in three rounds (16, 16, 8); each block leaves out what earlier rounds reached. The
     # map must still be every sample binned by hand, with each voxel's and each voxel-bin's first sample stored.
-    m = build(planar_3r, voxel=VOXEL, orientations=8, samples=10000, block_samples=250, seed=4, manipulability=False)
+    m = build(planar_3r, voxel=VOXEL, orientations=8, samples=10000, block_samples=250, seed=4, manipulability=False,
+              method="fk")
     t = -math.pi + np.concatenate([np.random.default_rng([4, 0, b]).random((250, 3)) for b in range(40)]) * 2 * math.pi
     a1, a12, a123 = t[:, 0], t[:, 0] + t[:, 1], t.sum(axis=1)
     i = np.rint((4 * np.cos(a1) + 2 * np.cos(a12) + np.cos(a123) - m.origin[0]) / VOXEL).astype(int)

@@ -61,7 +61,7 @@ def test_reachmap_without_manipulability(tmp_path):
 def test_reachmap_text_summary(tmp_path):
     out = run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.25", "--orientations", "4", "--samples", "5000",
               "-o", tmp_path / "m.zarr", status=0).stdout
-    assert out.startswith("reachability map of planar_2r: ee_link in base_link, method fk\n")
+    assert out.startswith("reachability map of planar_2r: ee_link in base_link, method hybrid\n")  # a planar default
     assert "grid 19x19x1 voxels of 0.25 m" in out and out.rstrip().endswith(f"wrote {tmp_path / 'm.zarr'}")
     # planar 2R (1, 1): the index |sin q2| peaks at 1 (elbow square, r = sqrt 2); 5000 samples come within 1e-3
     line = next(x for x in out.splitlines() if x.startswith("manipulability (Yoshikawa, the plane's translation rows)"))

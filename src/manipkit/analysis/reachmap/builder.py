@@ -184,7 +184,7 @@ def _check_options(voxel, orientations, method, samples, workers, scheduler, blo
                    ik_restarts=2, ik_time_budget=0.02) -> None:
     """Every option of :func:`build` in its range, before anything is allocated or started (bounds in the message)."""
     _real("voxel", voxel, MIN_VOXEL, MAX_VOXEL, "the voxel edge in metres (0.05)")
-    if method not in METHODS:
+    if method is not None and method not in METHODS:
         raise ReachMapError(f"unknown method '{printable(str(method)[:40])}'; methods: {', '.join(METHODS)}")
     _whole("samples", samples, 1, MAX_SAMPLES, "random configurations")
     _whole("block_samples", block_samples, 1, MAX_BLOCK_SAMPLES, "samples per task")
@@ -220,7 +220,7 @@ def build(
     tip: str | None = None,
     voxel: float = 0.05,
     orientations: int | tuple[int, int] | str | None = None,
-    method: str = "fk",
+    method: str | None = None,
     samples: int = DEFAULT_SAMPLES,
     workers: int | None = None,
     scheduler: str | None = None,
@@ -252,6 +252,8 @@ def build(
         ``(directions, rolls)`` / ``"DIRxROLL"``; planar arm: ``N`` turns
         about its axis. Default: 200 directions, or 36 turns.
     method : {"fk", "hybrid"}, keyword-only
+        Default: ``"hybrid"`` for a planar arm (its IK fill is cheap and marks
+        the whole dexterous annulus of the planar 3R), ``"fk"`` for a spatial one.
     samples : int, keyword-only
         Random configurations for the FK stage.
     workers : int, keyword-only, optional
@@ -322,6 +324,7 @@ def build(
     axes_k, origins_k, prismatic = joint_axes.direction, joint_axes.point, joint_axes.prismatic.tolist()
     T_tip = chain.fk(chain.q())
     planar = _planar_axis(axes_k, prismatic)
+    method = method if method is not None else ("hybrid" if planar is not None else "fk")
     spec = orientations if orientations is not None else (36 if planar is not None else 200)
     spec = parse_orientations(spec) if isinstance(spec, str) else spec
     n_dir, n_roll = (spec, 1) if isinstance(spec, int) else (int(spec[0]), int(spec[1]))

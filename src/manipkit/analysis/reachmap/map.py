@@ -29,12 +29,19 @@ from manipkit.analysis.reachmap.constants import (
     HOW_IK,
     HOW_NONE,
     HOW_SAMPLE,
-    PLANAR_TILT_TOL,
     check_threshold,
     finite_array,
 )
 from manipkit.analysis.reachmap.payload import CONFIGURATIONS
-from manipkit.analysis.reachmap.query import checks_lines, query_answer, resolution_text, support_score
+from manipkit.analysis.reachmap.query import (
+    checks_lines,
+    in_plane,
+    map_robot,
+    query_answer,
+    refined_answer,
+    resolution_text,
+    support_score,
+)
 from manipkit.analysis.reachmap.store import read_map, save_map
 from manipkit.description.mjcf import rules_source_text
 from manipkit.text import printable, short_text
@@ -158,7 +165,7 @@ class ReachMap:
         return float(value) if value.ndim == 0 else value
 
     def query(self, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD, confirm: bool = False,
-              detail: bool = False, robot: Robot | None = None):
+              detail: bool = False, robot: Robot | None = None, refine: bool | None = None):
         """Whether the map says each pose ``T`` (..., 4, 4), ``T_base_frame``, is reachable.
 
         A yes means: the pose's voxel-bin was reached (:meth:`resolution`: the
@@ -175,23 +182,32 @@ class ReachMap:
         is a :class:`manipkit.analysis.reachmap.query.QueryAnswer` (both answers,
         the score, voxel, bins, the bin's certificate; with ``confirm`` IK of
         the exact pose from that certificate, confirmed by FK; ``robot`` the map's robot).
+        **Refined** (``refine``; default: whenever ``robot`` is given): a pose
+        in the boundary band (support strictly between 0 and 1) is answered by
+        IK of the exact pose from the certificates of the reached voxel-bins
+        around it, yes only where FK of an in-limit answer reaches it to 1e-9
+        (:func:`manipkit.analysis.reachmap.query.refined_answer`); deep inside
+        (support 1) yes and far outside (support 0) no as above. ``refine=True``
+        without ``robot`` loads the map's robot by name.
         For a planar map the pose must also keep the frame's axis along the
         arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
         A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4), or a ``threshold``
         outside [0, 1], is a :class:`ReachMapError`.
         """
         if confirm or detail:
-            return query_answer(self, T, interpolate=interpolate, threshold=threshold, confirm=confirm, robot=robot)
+            return query_answer(self, T, interpolate=interpolate, threshold=threshold, confirm=confirm, robot=robot,
+                                refine=refine)
         threshold = check_threshold(threshold)
         T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
         if self.orientations.kind == "planar":
-            cos_tilt = (T[..., :3, :3] @ self.orientations.tool_axis) @ self.orientations.axis
-            inside = inside & (cos_tilt >= math.cos(min(math.pi / self.orientations.size, PLANAR_TILT_TOL)))
+            inside = inside & in_plane(self, T)
         value = inside & (self.reach[ijk[..., 0], ijk[..., 1], ijk[..., 2], bins] > HOW_NONE)
         if interpolate and threshold > 0.0:
             value = value & (support_score(self, T[..., :3, 3], bins) >= threshold)
+        if robot is not None if refine is None else refine:
+            value = refined_answer(self, T, value, np.asarray(bins), map_robot(self, robot))
         return bool(value) if value.ndim == 0 else value
 
     def summary(self) -> str:

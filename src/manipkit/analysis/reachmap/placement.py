@@ -243,7 +243,7 @@ def confirm_placement(reach_map: ReachMap, result: BasePlacement, robot, *, moun
 
     def confirm(T, how):
         answer = query_answer(reach_map, T, confirm=True, robot=robot, tol=tol, restarts=restarts, seed=seed,
-                              collisions=collisions, mode=how)
+                              collisions=collisions, mode=how, refine=False)
         confirmed = np.array(answer.confirmed, dtype=bool)
         if result.payload is not None and confirmed.any():
             from manipkit.analysis.reachmap.payloadmap import capacity_of

@@ -35,7 +35,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD, HOW_NONE, check_threshold, finite_array
+from manipkit.analysis.reachmap.constants import (
+    DEFAULT_THRESHOLD,
+    HOW_NONE,
+    PLANAR_TILT_TOL,
+    check_threshold,
+    finite_array,
+)
 from manipkit.errors import ReachMapError
 from manipkit.text import printable, short_text
 
@@ -44,7 +50,10 @@ if TYPE_CHECKING:
     from manipkit.kinematics.collisions import CollisionSettings
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["QueryAnswer", "bin_text", "checks_lines", "first_confirmed", "query_answer", "resolution_text", "support_score"]
+__all__ = [
+    "QueryAnswer", "bin_text", "checks_lines", "corner_keys", "first_confirmed", "in_plane", "map_robot",
+    "query_answer", "refined_answer", "resolution_text", "support_score",
+]
 
 
 
@@ -118,19 +127,18 @@ def resolution_text(reach_map: ReachMap, *, threshold: float = DEFAULT_THRESHOLD
             f"orientation bin at the {corners} by distance); query(T, interpolate=False) answers for the voxel-bin alone")
 
 
-def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
-    """(...,) support of each position ``xyz`` (..., 3, in ``base``, m) in its orientation bin ``bins`` (...,), 0..1.
+def corner_keys(reach_map: ReachMap, xyz, bins) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The voxel-bins around each position ``xyz`` (..., 3, in ``base``, m) in its orientation bin ``bins`` (...,).
 
-    The trilinear blend of the reached flags (1 reached, 0 not) at the 8
-    voxel centres around the position in bin ``bins`` (bilinear over 4 on a
-    planar map's one layer, where a point must lie within half a voxel of
-    the plane); centres outside the grid count as 0. At a voxel centre it is
-    that voxel-bin's flag; it is 1 where all 8 are reached, 0 where none is.
+    Returns ``(keys, weights, inside)``, each (..., 8) (4 used on a planar
+    map's one layer, the other 4 of weight 0): the flat voxel-bin index (into
+    ``reach.reshape(-1)``) of each of the 8 voxel centres around the point,
+    its trilinear weight (they sum to 1), and whether that centre is in the
+    grid (a planar map's point must also lie within half a voxel of the plane).
     """
     shape = reach_map.shape
     local = (np.asarray(xyz, dtype=float) - reach_map.origin) @ reach_map.axes / reach_map.voxel
     local = np.clip(local, -2.0, np.array(shape) + 1.0)  # a point farther out has every corner outside already
-    flat_reach = reach_map.reach.reshape(-1)
     strides = (shape[1] * shape[2] * reach_map.orientations.size, shape[2] * reach_map.orientations.size,
                reach_map.orientations.size)
     # per axis, the two layers around the point (one on a planar map's single layer): flat offset, weight, inside
@@ -138,23 +146,92 @@ def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
     for axis, n in enumerate(shape):
         u = local[..., axis]
         if n == 1:  # a planar map's one layer: no neighbours across the plane
-            layers.append([(0, np.ones_like(u), np.rint(u) == 0)])
+            layers.append([(np.zeros(u.shape, dtype=np.int64), np.ones_like(u), np.rint(u) == 0),
+                           (np.zeros(u.shape, dtype=np.int64), np.zeros_like(u), np.zeros(u.shape, dtype=bool))])
             continue
         low = np.floor(u)
         frac = u - low
         layers.append([(np.clip(low + step, 0, n - 1).astype(np.int64) * strides[axis], weight,
                         (low + step >= 0) & (low + step < n)) for step, weight in ((0, 1.0 - frac), (1, frac))])
-    score = np.zeros(local.shape[:-1])
+    keys, weights, inside = [], [], []
     for (ox, wx, ix), (oy, wy, iy), (oz, wz, iz) in itertools.product(*layers):
-        reached = flat_reach[ox + oy + oz + bins] > 0
-        score += np.where(ix & iy & iz & reached, wx * wy * wz, 0.0)
-    return np.clip(score, 0.0, 1.0)
+        keys.append(ox + oy + oz + bins)
+        weights.append(wx * wy * wz)
+        inside.append(ix & iy & iz)
+    return np.stack(keys, axis=-1), np.stack(weights, axis=-1), np.stack(inside, axis=-1)
+
+
+def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
+    """(...,) support of each position ``xyz`` (..., 3, in ``base``, m) in its orientation bin ``bins`` (...,), 0..1.
+
+    The trilinear blend of the reached flags (1 reached, 0 not) at the 8
+    voxel centres around the position in bin ``bins`` (bilinear over 4 on a
+    planar map's one layer, where a point must lie within half a voxel of
+    the plane); centres outside the grid count as 0 (:func:`corner_keys`). At
+    a voxel centre it is that voxel-bin's flag; it is 1 where all 8 are
+    reached, 0 where none is.
+    """
+    keys, weights, inside = corner_keys(reach_map, xyz, np.asarray(bins))
+    reached = inside & (reach_map.reach.reshape(-1)[keys] > HOW_NONE)
+    return np.clip(np.where(reached, weights, 0.0).sum(axis=-1), 0.0, 1.0)
+
+
+def refined_answer(reach_map: ReachMap, T: np.ndarray, value: np.ndarray, bins: np.ndarray, robot: Robot, *,
+                   tol: float = 1e-9, restarts: int = 4, seed: int = 0) -> np.ndarray:
+    """The map's answer ``value`` (...,) for poses ``T`` (..., 4, 4), decided by IK in the boundary band.
+
+    **Refine near the boundary**: a pose whose support (:func:`support_score`)
+    is strictly between 0 and 1 lies where reached and unreached voxel-bins
+    of its orientation bin meet, which is where a blended answer says yes to
+    poses no configuration reaches and no to poses one does. There the
+    answer is IK of the exact pose in the mode the map was built in (the
+    settings' ``ik_mode``: ``position+axis`` for a map of any roll), started
+    from the certificate (a stored configuration whose FK lands in the
+    voxel-bin) of each reached voxel-bin around it, ``restarts`` random
+    restarts after each; yes only where FK of an answer within the limits
+    reaches the pose to ``tol`` (m and rad). Elsewhere (support 0 or 1)
+    ``value`` stands. A yes in the band is thus proved; a no in it is IK
+    failing from up to 8 nearby starts, which does not prove a pose unreachable.
+    The IK answers are not checked for collisions: on a map built collision-free
+    a refined yes in the band means reachable, not reachable collision-free.
+    """
+    from manipkit.ik.numerical_many import ik_many
+
+    if reach_map.cert_keys is None or not reach_map.cert_keys.size:
+        return value
+    keys, _, inside = corner_keys(reach_map, T[..., :3, 3], bins)
+    reached = inside & (reach_map.reach.reshape(-1)[keys] > HOW_NONE)
+    score = support_score(reach_map, T[..., :3, 3], bins)
+    band = (score > 0.0) & (score < 1.0) & reached.any(axis=-1)
+    if reach_map.orientations.kind == "planar":  # a tool tilted out of the plane is never reached
+        band &= in_plane(reach_map, T)
+    if not band.any():
+        return value
+    pose, corner = np.nonzero(reached.reshape(-1, keys.shape[-1]) & band.reshape(-1, 1))
+    flat_keys = keys.reshape(-1, keys.shape[-1])[pose, corner]
+    rows = np.clip(np.searchsorted(reach_map.cert_keys, flat_keys), 0, reach_map.cert_keys.size - 1)
+    has = reach_map.cert_keys[rows] == flat_keys
+    pose, rows = pose[has], rows[has]
+    batch = ik_many(robot, T.reshape(-1, 4, 4)[pose], base=reach_map.base, tip=reach_map.frame,
+                    q0=reach_map.cert_q[rows], mode=reach_map.settings.get("ik_mode", "pose"), tol=tol,
+                    restarts=restarts, seed=seed)
+    proved = np.zeros(band.size, dtype=bool)
+    np.logical_or.at(proved, pose, np.asarray(batch.success, dtype=bool))
+    return np.where(band, proved.reshape(band.shape), value)
+
+
+def in_plane(reach_map: ReachMap, T: np.ndarray) -> np.ndarray:
+    """(...,) bool: a planar map's poses ``T`` keep the tool's axis along the arm's axis (to :data:`PLANAR_TILT_TOL`,
+    or half a bin if less)."""
+    o = reach_map.orientations
+    cos_tilt = (T[..., :3, :3] @ o.tool_axis) @ o.axis
+    return cos_tilt >= math.cos(min(math.pi / o.size, PLANAR_TILT_TOL))
 
 
 def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD,
                  confirm: bool = False, robot: Robot | None = None, tol: float = 1e-6, restarts: int = 20,
                  seed: int = 0, collisions: CollisionSettings | None = None, mode: str = "pose",
-                 axis: str = "z") -> QueryAnswer:
+                 axis: str = "z", refine: bool | None = None) -> QueryAnswer:
     """The map's answer for poses ``T`` (..., 4, 4) ``T_base_frame`` and, with ``confirm``, IK's for the exact poses.
 
     ``reachable`` is ``bin_reached and score >= threshold`` (the module
@@ -169,6 +246,8 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
     the chain has one for ``mode``, every branch; numerical IK seeded from the
     certificate otherwise); a target is confirmed by the first answer within
     ``tol`` (and collision-free when ``collisions`` are given).
+    ``refine`` (default: when ``robot`` is given): ``reachable`` decided by IK
+    in the boundary band (:func:`refined_answer`).
     """
     threshold = check_threshold(threshold) if interpolate else 0.0
     T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
@@ -177,6 +256,9 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
     bins = np.asarray(reach_map.orientations.bin_of(T[..., :3, :3]))
     score = support_score(reach_map, T[..., :3, 3], bins)
     reachable = bin_reached & (score >= threshold)
+    if robot is not None if refine is None else refine:
+        robot = map_robot(reach_map, robot)
+        reachable = refined_answer(reach_map, T, reachable, bins, robot)
     o = reach_map.orientations
     direction, roll = (bins, None) if o.kind == "planar" or o.n_rolls == 1 else np.divmod(bins, o.n_rolls)
     n = len(reach_map.joint_names)
@@ -191,14 +273,7 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
                   resolution=resolution_text(reach_map, threshold=threshold), certificate=certificate)
     if not confirm:
         return QueryAnswer(**answer)
-    if robot is None:
-        import manipkit
-
-        try:
-            robot = manipkit.load(reach_map.robot)
-        except Exception as exc:  # noqa: BLE001 - said as one line: the caller gives the robot
-            raise ReachMapError(f"confirm needs the robot the map is of ('{printable(reach_map.robot)}' did not load: "
-                                f"{printable(str(exc))[:120]}); pass robot=") from None
+    robot = map_robot(reach_map, robot)
     from manipkit.ik.dispatch import ik_many
 
     flat_T, flat_seed = T.reshape(-1, 4, 4), certificate.reshape(-1, n)
@@ -222,6 +297,20 @@ def first_confirmed(batch, tol: float, robot: Robot, collisions: CollisionSettin
     first = np.argmax(ok, axis=-1)
     q[confirmed] = solutions[confirmed, first[confirmed]]
     return confirmed, q
+
+
+def map_robot(reach_map: ReachMap, robot: Robot | None) -> Robot:
+    """``robot``, or the robot the map is of loaded by its name (bundled and example-robot-data robots), else a
+    :class:`ReachMapError` asking for ``robot=``."""
+    if robot is not None:
+        return robot
+    import manipkit
+
+    try:
+        return manipkit.load(reach_map.robot)
+    except Exception as exc:  # noqa: BLE001 - said as one line: the caller gives the robot
+        raise ReachMapError(f"IK of the exact pose needs the robot the map is of ('{printable(reach_map.robot)}' did "
+                            f"not load: {printable(str(exc))[:120]}); pass robot=") from None
 
 
 def checks_lines(reach_map: ReachMap) -> list[str]:

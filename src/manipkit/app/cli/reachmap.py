@@ -33,8 +33,9 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
     parser.add_argument("--orientations", default=orientations, metavar="N|DIRxROLL",
                         help="approach directions (x rolls) of a spatial arm, turns of a planar one "
                         f"(default {orientations or '200, or 36 for a planar arm'})")
-    parser.add_argument("--method", choices=("fk", "hybrid"), default="fk",
-                        help="fk: random samples only; hybrid: then IK on the unmarked cells next to marked ones")
+    parser.add_argument("--method", choices=("fk", "hybrid"), default=None,
+                        help="fk: random samples only; hybrid: then IK on the unmarked cells next to marked ones "
+                        "(default hybrid for a planar arm, fk otherwise)")
     parser.add_argument("--samples", type=int, default=samples, metavar="N", help=f"random configurations (default {samples})")
     parser.add_argument("--seed", type=int, default=0, help="seed of every block (same seed, same map)")
     add_collision_set_options(parser, what="count only samples and IK answers free of collisions")
@@ -48,7 +49,7 @@ def _add_map_options(parser, *, voxel: float, orientations: str | None, samples:
 
 _PLACEMENT_MAP = {"voxel": 0.05, "orientations": "50", "samples": 500_000, "converge": 0.001}  # base-placement's map
 #: Settings of a map being built: with --map, the map's own apply and these must be left at their defaults.
-_BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": "fk", "seed": 0, "workers": None, "scheduler": None, "collisions": "none",
+_BUILD_DEFAULTS = {**_PLACEMENT_MAP, "method": None, "seed": 0, "workers": None, "scheduler": None, "collisions": "none",
                    "floor": 0.0, "srdf": None, "geometry": "hulls"}
 
 
