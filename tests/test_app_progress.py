@@ -35,6 +35,6 @@ def test_the_reach_map_build_reports_its_blocks(planar_2r):
     from manipkit.analysis.reachmap import build
 
     calls = []
-    build(planar_2r, voxel=0.2, orientations=1, samples=3000, block_samples=1000,
+    build(planar_2r, method="fk", voxel=0.2, orientations=1, samples=3000, block_samples=1000,
           progress=lambda stage, done, total: calls.append((stage, done, total)))
     assert calls == [("FK samples", d, 3) for d in range(4)]
