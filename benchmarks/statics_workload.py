@@ -110,7 +110,7 @@ def payload_map_workload(robot_name: str = "iiwa14", *, voxel: float = 0.05, dir
     else:  # the stored configuration is one of the bin's branches: its capacity lies in the bin's range
         ok = bool(np.all((layer.bins_worst[rows] <= again) & (again <= layer.bins[rows])))
         check = (f"{len(rows)} stored configurations' capacities, one at a time by payload_capacity: "
-                 f"{'inside' if ok else 'NOT inside'} their bins' worst..best over every closed-form branch")
+                 f"{'inside' if ok else 'NOT inside'} their bins' worst..best over the weighed branches")
     m, p = float(np.median(times["map"])), float(np.median(times["payload"]))
     grid = f"{'x'.join(map(str, reach_map.shape))} voxels of {voxel:g} m, {directions} directions"
     return [

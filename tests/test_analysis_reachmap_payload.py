@@ -105,7 +105,7 @@ def test_one_voxel_by_hand(planar_2r, map_2r, layer_2r):
 def test_every_voxel_of_an_iiwa14_map_against_payload_capacity_recomputed(iiwa14):
     reach_map = build(iiwa14, voxel=0.2, orientations=20, samples=20_000, holdout=0, fp_checks=0)
     cog = (0.02, -0.03, 0.08)
-    layer = payload_map(reach_map, iiwa14, cog=cog, block=1000).payload
+    layer = payload_map(reach_map, iiwa14, cog=cog, block=1000, branches=False).payload  # the stored ones alone
     voxels = reach_map.cert_keys // reach_map.orientations.size
     worst_joints = []
     for v in np.unique(voxels):
@@ -172,11 +172,50 @@ def test_every_branch_widens_the_range_of_the_stored_configurations(ur5_maps, tm
     assert "branches: 1 per voxel-bin, its stored configuration" in stored.payload_text()
 
 
-def test_an_srs_arm_without_an_arm_angle_keeps_the_stored_configuration(iiwa14):
-    reach_map = build(iiwa14, voxel=0.4, orientations=4, samples=2000, holdout=0, fp_checks=0)
-    layer = payload_map(reach_map, iiwa14).payload
-    assert layer.configurations == "certificates" and layer.attrs()["configurations"] == "certificates"
-    np.testing.assert_array_equal(layer.bins, payload_capacity(iiwa14, reach_map.cert_q).max_mass)
+IIWA_COG = (0.02, -0.03, 0.08)  # m, in the tip frame's axes
+
+
+def test_an_srs_arm_weighs_every_branch_at_the_stored_configuration_s_arm_angle(iiwa14, tmp_path):
+    """The iiwa14 (7R SRS: its pose has a self-motion, its closed form needs an arm angle) used to weigh the
+    stored configuration alone; now each bin's pose is solved at the stored configuration's own arm angle and every
+    in-limit branch there (up to 8) is weighed. Recomputed here one bin at a time by manipkit.ik(all=True) at that
+    angle and payload_capacity of each in-limit solution."""
+    from manipkit.ik.chain_ik import srs_arm_angle
+
+    reach_map = build(iiwa14, voxel=0.3, orientations=8, samples=5000, holdout=0, fp_checks=0)
+    every = payload_map(reach_map, iiwa14, cog=IIWA_COG, block=300)
+    layer, stored = every.payload, payload_map(reach_map, iiwa14, cog=IIWA_COG, branches=False).payload
+    assert layer.configurations == "arm_angle_branches" and layer.attrs()["configurations"] == "arm_angle_branches"
+    assert stored.configurations == "certificates"
+    assert "at each voxel-bin's stored configuration's arm angle (not the whole self-motion)" in every.payload_text()
+    chain = iiwa14.chain(reach_map.base, reach_map.frame)
+    voxels = reach_map.cert_keys // reach_map.orientations.size
+    chosen = np.flatnonzero(np.bincount(voxels) >= 2)[::7][:6]
+    assert len(chosen) >= 4
+    wider = 0
+    for v in chosen:
+        caps = []
+        for q in reach_map.cert_q[voxels == v]:
+            psi = srs_arm_angle(chain, q[chain.columns])
+            T = iiwa14.transform(reach_map.base, reach_map.frame, q)
+            answer = manipkit.ik(iiwa14, T, base=reach_map.base, tip=reach_map.frame, arm_angle=psi, all=True,
+                                 aliases=False)
+            assert answer.method == "closed_form" and len(answer.solutions) <= 8
+            branch_caps = payload_capacity(iiwa14, answer.solutions[answer.within_limits], cog=IIWA_COG).max_mass
+            own = float(payload_capacity(iiwa14, q, cog=IIWA_COG).max_mass)
+            assert branch_caps.min() - 1e-9 <= own <= branch_caps.max() + 1e-9  # q is one of its branches
+            caps.append(branch_caps)
+            wider += int(len(branch_caps) > 1)
+        caps = np.concatenate(caps)
+        flat = np.unravel_index(v, reach_map.shape)
+        assert layer.best[flat] == pytest.approx(caps.max(), rel=1e-9, abs=1e-9)
+        assert layer.worst[flat] == pytest.approx(caps.min(), rel=1e-9, abs=1e-9)
+    assert wider >= 4  # the bins checked do have other in-limit branches
+    reached = ~np.isnan(stored.best)
+    assert np.all(layer.best[reached] >= stored.best[reached]) and np.all(layer.worst[reached] <= stored.worst[reached])
+    assert np.all(layer.bins_worst <= stored.bins) and np.all(stored.bins <= layer.bins)
+    again = load(every.save(tmp_path / "iiwa14.zarr")).payload
+    assert again.configurations == "arm_angle_branches" and again.bins.tobytes() == layer.bins.tobytes()
 
 
 def test_one_worker_process_or_two_give_the_same_layer(planar_2r, map_2r, layer_2r):

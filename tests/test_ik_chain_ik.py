@@ -430,6 +430,21 @@ def test_an_iiwa14_configuration_with_the_elbow_straight_is_found_at_its_own_arm
         assert any(same_modulo_2pi(s, q) for s in result.solutions), q
 
 
+def test_the_arm_angles_of_a_stack_are_each_row_s_own():
+    """srs_arm_angle of (N, n) rows, one vectorised pass, against one row at a time (elbow straight included), and
+    each row is listed by the closed form at its angle."""
+    from manipkit.ik.chain_ik import srs_arm_angle
+
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    Q = chain.sample(40, seed=3)
+    Q[::5, 3] = 0.0
+    psi = srs_arm_angle(chain, Q)
+    assert psi.shape == (40,)
+    np.testing.assert_allclose(psi, [srs_arm_angle(chain, q) for q in Q], rtol=0, atol=1e-12)
+    for q, angle in zip(Q, psi):
+        assert any(same_modulo_2pi(s, q) for s in chain_ik(chain, chain.fk(q), arm_angle=float(angle)).solutions)
+
+
 def test_an_srs_arm_without_an_arm_angle_says_what_to_give():
     chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
     with pytest.raises(ClosedFormIKError, match="give arm_angle"):

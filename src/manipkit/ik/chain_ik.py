@@ -759,8 +759,9 @@ def _reference_rows(chain: Chain, arm: IdealArm, T: np.ndarray, psi: np.ndarray 
     return reference.valid, (reference.free >= 0).any(axis=-1), rows
 
 
-def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:
-    """The arm angle (rad) of configuration ``q`` of a 7R SRS chain, as :func:`chain_ik`'s ``arm_angle`` takes it.
+def srs_arm_angle(chain: Chain, q, *, family: Family | None = None):
+    """The arm angle (rad) of configuration ``q`` of a 7R SRS chain, as :func:`chain_ik`'s ``arm_angle`` takes it:
+    a float for ``q`` (n,), an (N,) array for the rows of ``q`` (N, n) (one vectorised pass).
 
     The rotation about the shoulder-wrist line that takes the reference
     plane (joint 3 at its reference value) to the elbow's plane at ``q``;
@@ -773,24 +774,26 @@ def srs_arm_angle(chain: Chain, q, *, family: Family | None = None) -> float:
     h, p = arm.h, arm.p
     geometry = family.geometry
     q = np.asarray(q, dtype=float)
-    theta = geometry.scale * (q[geometry.columns] - geometry.q0[geometry.columns])
-    T = np.asarray(chain.fk(q))
-    g = T @ invert_transform(geometry.M)
+    rows = np.atleast_2d(q)
+    theta = geometry.scale * (rows[:, geometry.columns] - geometry.q0[geometry.columns])
+    g = np.asarray(chain.fk(rows)).reshape(-1, 4, 4) @ invert_transform(geometry.M)
     S, c = arm.points["shoulder"], arm.points["wrist"]
-    v = g[:3, :3] @ c + g[:3, 3] - S
-    v = v / np.linalg.norm(v)
-    u = p[3] + rotate(h[3], theta[3], c - p[3]) - S
-    t2, minus1 = sp2(h[1], u, h[0], v * np.linalg.norm(u)).theta[0]
-    R_ref = rotation_matrix(h[0], -minus1) @ rotation_matrix(h[1], t2)
-    R_shoulder = rotation_matrix(h[0], theta[0]) @ rotation_matrix(h[1], theta[1]) @ rotation_matrix(h[2], theta[2])
-    best = None
+    v = g[:, :3, :3] @ c + g[:, :3, 3] - S
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    u = p[3] + rotate(h[3], theta[:, 3], c - p[3]) - S
+    axes = np.broadcast_to(h[1], u.shape), np.broadcast_to(h[0], u.shape)
+    first = sp2(axes[0], u, axes[1], v * np.linalg.norm(u, axis=-1, keepdims=True)).theta[:, 0]
+    R_ref = rotation_matrix(h[0], -first[:, 1]) @ rotation_matrix(h[1], first[:, 0])
+    R_shoulder = rotation_matrix(h[0], theta[:, 0]) @ rotation_matrix(h[1], theta[:, 1]) @ \
+        rotation_matrix(h[2], theta[:, 2])
+    gaps, angles = [], []
     # R_ref u = |u| v and R_shoulder u = |u| v at q, so the first turn fixes v; the second (joint 3 turned by pi)
     # does so only with the elbow straight (u along axis 3), where it must not win by rounding: its psi lists q's
     # twin with t3 + pi, not q
-    for D in (R_shoulder @ R_ref.T, R_shoulder @ rotation_matrix(h[2], np.pi) @ R_ref.T):
-        gap = float(np.linalg.norm(D @ v - v))
-        w = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]])
-        angle = math.atan2(0.5 * float(v @ w), 0.5 * (float(np.trace(D)) - 1.0))
-        if best is None or gap < best[0] - 1e-9:
-            best = (gap, angle)
-    return best[1]
+    for D in (R_shoulder @ np.swapaxes(R_ref, -1, -2),
+              R_shoulder @ rotation_matrix(h[2], np.pi) @ np.swapaxes(R_ref, -1, -2)):
+        gaps.append(np.linalg.norm(np.einsum("nij,nj->ni", D, v) - v, axis=-1))
+        w = np.stack([D[:, 2, 1] - D[:, 1, 2], D[:, 0, 2] - D[:, 2, 0], D[:, 1, 0] - D[:, 0, 1]], axis=-1)
+        angles.append(np.arctan2(0.5 * np.sum(v * w, axis=-1), 0.5 * (np.trace(D, axis1=-2, axis2=-1) - 1.0)))
+    psi = np.where(gaps[1] < gaps[0] - 1e-9, angles[1], angles[0])
+    return float(psi[0]) if q.ndim == 1 else psi

@@ -10,7 +10,14 @@ answer that filled it) and so one pose, the certificate's FK pose. The layer's
   certificate and every closed-form branch of its pose inside the joint
   limits (:func:`manipkit.ik.dispatch.ik_many`, FK residual within 1e-6 m and
   rad; the 2 pi aliases of a branch hold the same torques and are not listed);
-- ``"certificates"`` (numerical IK only): the certificate alone, one per bin.
+- ``"arm_angle_branches"`` (a 7R SRS arm, whose pose has a one-parameter
+  self-motion): the certificate and every closed-form branch (up to 8) of its
+  pose at the certificate's own arm angle
+  (:func:`manipkit.ik.chain_ik.srs_arm_angle`) inside the joint limits, as
+  for ``"branches"``; the rest of the self-motion (other arm angles) is not
+  weighed;
+- ``"certificates"`` (numerical IK only, or ``branches=False``): the
+  certificate alone, one per bin.
 
 At each configuration the capacity is the largest payload mass (kg) whose
 centre of gravity sits at ``cog`` (m, in the tip frame's axes) that every
@@ -63,6 +70,8 @@ PAYLOAD_ARRAYS = {"payload_best": "float64", "payload_worst": "float64", "payloa
                   "payload_bins": "float64", "payload_bins_worst": "float64"}
 #: What a layer's ``configurations`` may be (module docstring), and how the command line says it.
 CONFIGURATIONS = {"branches": "branches: every closed-form branch in the joint limits of each voxel-bin's pose",
+                  "arm_angle_branches": "branches: every closed-form branch in the joint limits at each voxel-bin's "
+                                        "stored configuration's arm angle (not the whole self-motion)",
                   "certificates": "branches: 1 per voxel-bin, its stored configuration (no branches weighed)"}
 MAX_G = 1e3  # m/s^2: the largest gravity a stored layer may name
 
@@ -93,7 +102,7 @@ class PayloadLayer:
         The effort limits used (N m or N; NaN: none).
     inertia_grade : str
         The robot's inertia-audit grade when the layer was built (:func:`manipkit.statics.audit.inertia_grade`).
-    configurations : {"branches", "certificates"}
+    configurations : {"branches", "arm_angle_branches", "certificates"}
         Which configurations of each bin's pose were weighed (module docstring).
     """
 

@@ -4,11 +4,12 @@
 :mod:`manipkit.analysis.reachmap.payload`'s. The map's certificates
 (``cert_q``, one configuration per reached voxel-bin, in key order) are cut
 into blocks of ``block`` configurations. For a chain with a closed-form
-family (not a 7R SRS arm, whose branches need an arm angle) each block's
-poses (FK of its certificates) are solved for every branch at once
-(:func:`manipkit.ik.dispatch.ik_many`, compiled), the branches inside the
-joint limits kept with the certificate; otherwise the certificate alone is
-weighed. Each block's capacities come from
+family each block's poses (FK of its certificates) are solved for every
+branch at once (:func:`manipkit.ik.dispatch.ik_many`, compiled; a 7R SRS
+arm's at each certificate's own arm angle,
+:func:`manipkit.ik.chain_ik.srs_arm_angle`, vectorised), the branches inside
+the joint limits kept with the certificate; otherwise the certificate alone
+is weighed. Each block's capacities come from
 :func:`manipkit.statics.capacity.payload_capacity` (batched static torques,
 compiled), reduced per voxel-bin to its largest and smallest, run by the
 map's own :class:`~manipkit.analysis.reachmap.blocks.BlockRunner` (here,
@@ -46,7 +47,7 @@ __all__ = ["BRANCH_TOL", "PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "branc
            "configurations_of", "payload_block", "payload_map"]
 
 PAYLOAD_BLOCK = 1 << 16  # configurations per block (about 20 ms of static torques for a 7-joint arm)
-PAYLOAD_FORMAT = "manipkit-payload-2"
+PAYLOAD_FORMAT = "manipkit-payload-3"  # 3: a 7R SRS arm weighs its branches at the arm angle
 BRANCH_TOL = 1e-6  # m and rad: a closed-form branch counts when FK puts the tip this close to the bin's pose
 MAX_PAYLOAD_BLOCK = 1 << 22
 
@@ -61,13 +62,13 @@ class PayloadJob:
     cog: np.ndarray
     gravity: np.ndarray  # m/s^2 in the root link's axes (what static_torques takes)
     effort: np.ndarray  # (2, n): lower, upper
-    configurations: str = "certificates"  # or "branches" (payload.CONFIGURATIONS)
+    configurations: str = "certificates"  # or "branches", "arm_angle_branches" (payload.CONFIGURATIONS)
 
 
 def configurations_of(robot: Robot, base: str, tip: str) -> str:
     """``"branches"`` when the chain ``base -> tip`` has a closed-form family whose every branch of a pose
-    :func:`manipkit.ik.dispatch.ik_many` lists (not a 7R SRS arm: its branches need an arm angle), else
-    ``"certificates"`` (the stored configuration alone)."""
+    :func:`manipkit.ik.dispatch.ik_many` lists, ``"arm_angle_branches"`` for a 7R SRS arm (every branch at the
+    stored configuration's arm angle), else ``"certificates"`` (the stored configuration alone)."""
     from manipkit.errors import ClosedFormIKError
     from manipkit.ik.families import SRS, chain_family
 
@@ -75,13 +76,17 @@ def configurations_of(robot: Robot, base: str, tip: str) -> str:
         family = chain_family(robot.chain(base, tip))
     except ClosedFormIKError:
         return "certificates"
-    return "branches" if family.solved and family.kind != SRS else "certificates"
+    if not family.solved:
+        return "certificates"
+    return "arm_angle_branches" if family.kind == SRS else "branches"
 
 
-def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float = BRANCH_TOL
-                ) -> tuple[np.ndarray, np.ndarray]:
+def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float = BRANCH_TOL,
+                at_arm_angle: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(rows (N, 1 + k, n), kept (N, 1 + k) bool): chain vectors, per configuration of ``Q`` (N, n_robot,
-    whole-robot vectors) itself, then every other closed-form branch of its pose ``T_base_tip``.
+    whole-robot vectors) itself, then every other closed-form branch of its pose ``T_base_tip`` (with
+    ``at_arm_angle``, a 7R SRS chain's: the branches at the configuration's own arm angle,
+    :func:`manipkit.ik.chain_ik.srs_arm_angle`).
 
     A branch is kept when it exists, lies inside the joint limits, FK puts
     ``tip`` within ``tol`` (m and rad) of the pose, and it is not the
@@ -93,7 +98,12 @@ def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float 
 
     chain = robot.chain(base, tip)
     q = np.asarray(Q, dtype=float)[:, chain.columns]
-    batch = ik_many(robot, chain.fk(q), base=base, tip=tip, method="closed_form", tol=tol)
+    psi = None
+    if at_arm_angle:
+        from manipkit.ik.chain_ik import srs_arm_angle
+
+        psi = srs_arm_angle(chain, q)
+    batch = ik_many(robot, chain.fk(q), base=base, tip=tip, method="closed_form", tol=tol, arm_angle=psi)
     S = np.asarray(batch.solutions, dtype=float)
     with np.errstate(invalid="ignore"):
         found = ~np.isnan(S).any(axis=-1) & (np.asarray(batch.residual_position) <= tol) & \
@@ -113,7 +123,8 @@ def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.n
     if job.configurations == "certificates":
         rows, kept = Q[:, None], np.ones((len(Q), 1), dtype=bool)
     else:
-        rows, kept = branch_rows(job.robot, job.base, job.frame, Q)
+        rows, kept = branch_rows(job.robot, job.base, job.frame, Q,
+                                 at_arm_angle=job.configurations == "arm_angle_branches")
     cap = payload_capacity(job.robot, rows[kept], cog=job.cog, gravity=job.gravity, effort=job.effort,
                            base=job.base, tip=job.frame)
     mass = np.full(kept.shape, np.nan)
@@ -221,7 +232,8 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
         The chain joints' limits as :func:`manipkit.statics.capacity.payload_capacity` takes them (default the URDF's).
     branches : bool
         True: for a chain with a closed-form family (:func:`configurations_of`) weigh every branch of each bin's
-        pose inside the joint limits, with the stored configuration; False, or a chain without one: the stored
+        pose inside the joint limits, with the stored configuration (a 7R SRS arm: every branch at the stored
+        configuration's arm angle, not the whole self-motion); False, or a chain without one: the stored
         configuration alone. The layer's ``configurations`` says which was done.
     workers, scheduler, progress
         As :func:`~manipkit.analysis.reachmap.builder.build` (``progress(stage, done, total)`` in blocks).
