@@ -95,6 +95,9 @@ def register(commands) -> None:
                       help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
     path.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
                       help="progress bars on stderr (auto: when it is a terminal)")
+    from manipkit.app.cli.path_place import add_place_options
+
+    add_place_options(path)
     path.set_defaults(run=run_path)
 
 
@@ -151,6 +154,7 @@ def _checker(robot, args):
 
 def run_path(args) -> int:
     """Plan the path and print the plan (text or JSON), optionally writing the joint path (``-o``)."""
+    from manipkit.analysis.reachmap.pathplace import shifted_poses
     from manipkit.app.progress import progress_bar
     from manipkit.paths.plan import plan_path
 
@@ -161,6 +165,10 @@ def run_path(args) -> int:
     robot = load_robot(args, mesh_warnings=args.view_html is None and not args.view)  # the views say it, once
     chain = command_chain(robot, args.base, args.tip)
     poses, t = _poses(args)
+    if args.offset is not None:
+        from manipkit.app.cli.path_place import offset_of
+
+        poses = shifted_poses(poses, offset_of(args))
     if args.speed is not None and t is not None:
         t = None  # --speed given: it times the steps, not the file's t
     checker = _checker(robot, args)
@@ -177,6 +185,13 @@ def run_path(args) -> int:
         from manipkit.outputs import writable_path
 
         writable_path(args.output, inputs=[args.poses, args.world])
+    if not args.place and any(v is not None for v in (args.place_x, args.place_y, args.place_z, args.place_yaw,
+                                                      args.reach_map, args.workers)):
+        raise UsageError("--place-x/-y/-z/-yaw, --reach-map and --workers apply with --place")
+    if args.place:
+        from manipkit.app.cli.path_place import run_place
+
+        return run_place(args, robot, poses, t=t, checker=checker, q0=q0, free_step=free_step, free_range=free_range)
     with progress_bar({"yes": True, "no": False, "auto": None}[args.progress]) as progress:
         plan = plan_path(robot, poses, base=args.base, tip=args.tip, t=t, speed=args.speed,
                          velocity_scale=args.velocity_scale, free_axis=args.free_axis, free_step=free_step,
