@@ -95,8 +95,8 @@ def test_cli_reports_the_region_and_the_printed_command_plans_the_best(case, cap
     line = [*start[:3, 3], *rpy_from_matrix(start[:3, :3]), *end[:3, 3], *rpy_from_matrix(end[:3, :3])]
     axis = "xy"[k]
     low, high, step = grid_along(k, sign)[k]
-    argv = ["path", "--robot", "ur5", "--tip", "tool0", "--line", *map(repr, map(float, line)), "--step", "0.01",
-            "--place", f"--place-{axis}", repr(low), repr(high), repr(step), "--format", "json"]
+    argv = ["path", "--robot", "ur5", "--tip", "tool0", "--line", *(f"{v:.15f}" for v in line), "--step", "0.01",
+            "--place", f"--place-{axis}", *(f"{v:.15f}" for v in (low, high, step)), "--format", "json"]
     assert main(argv) == 0
     answer = json.loads(capsys.readouterr().out)
     assert answer["candidates"] == 8 and answer["feasible"] == 3

@@ -15,7 +15,7 @@ import shlex
 from manipkit.app.cli.common import EXIT_MISMATCH, EXIT_OK, UsageError, print_json
 from manipkit.text import short_text
 
-__all__ = ["add_place_options", "offset_of", "place_text", "reproduce_command", "run_place"]
+__all__ = ["add_place_options", "check_place_options", "offset_of", "place_text", "reproduce_command", "run_place"]
 
 #: Options of the search, with how many values each takes: left out of the command that plans one offset.
 SEARCH_OPTIONS = {"--place": 0, "--place-x": 3, "--place-y": 3, "--place-z": 3, "--place-yaw": 3,
@@ -66,14 +66,27 @@ def reproduce_command(args, offset) -> str:
             continue
         words.append(word)
     yaw = math.degrees(offset[3]) if args.deg else offset[3]
-    words += ["--offset", *(repr(float(v)) for v in (*offset[:3], yaw))]
+    words += ["--offset", *(_fixed(v) for v in (*offset[:3], yaw))]
     return shlex.join(["manipkit", *words])
 
 
-def run_place(args, robot, poses, *, t, checker, q0, free_step, free_range) -> int:
-    """Search the offsets of ``--place-*`` and print the region, the best offset and the command that plans it."""
+def _fixed(value) -> str:
+    """``value`` in fixed notation to 1e-15 (argparse takes ``-1e-05`` for an option, ``-0.00001`` for a number)."""
+    text = f"{float(value):.15f}".rstrip("0").rstrip(".")
+    return "0" if text in ("", "-0") else text
+
+
+def check_place_options(args) -> None:
+    """The grid, the screen and ``--workers`` apply with ``--place`` only (one line, exit 2)."""
+    if not args.place and any(v is not None for v in (args.place_x, args.place_y, args.place_z, args.place_yaw,
+                                                      args.reach_map, args.workers)):
+        raise UsageError("--place-x/-y/-z/-yaw, --reach-map and --workers apply with --place")
+
+
+def run_place(args, robot, poses, options: dict) -> int:
+    """Search the offsets of ``--place-*`` with the plan ``options`` of :func:`manipkit.paths.plan.plan_path` and
+    print the region, the best offset and the command that plans it."""
     from manipkit.analysis.reachmap.pathplace import offset_grid, place_path
-    from manipkit.app.cli.path import parse_angle
     from manipkit.app.progress import progress_bar
 
     for option in ("retime", "plot", "map", "view_html", "output"):
@@ -93,15 +106,9 @@ def run_place(args, robot, poses, *, t, checker, q0, free_step, free_range) -> i
         from manipkit.analysis.reachmap.map import load
 
         reach_map = load(args.reach_map)
-    position_tol, angle_tol = args.path_tol
     with progress_bar({"yes": True, "no": False, "auto": None}[args.progress]) as progress:
         result = place_path(robot, poses, base=args.base, tip=args.tip, offsets=offsets, reach_map=reach_map,
-                            share=args.reach_share, workers=args.workers, progress=progress, t=t, speed=args.speed,
-                            velocity_scale=args.velocity_scale, free_axis=args.free_axis, free_step=free_step,
-                            free_range=free_range, arm_angle_step=parse_angle(args.arm_angle_step, "--arm-angle-step"),
-                            aliases=not args.no_aliases, reconfigure=args.reconfigure, collisions=checker,
-                            collision_step=parse_angle(args.collision_step, "--collision-step"),
-                            path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0)
+                            share=args.reach_share, workers=args.workers, progress=progress, **options)
     best = result.best
     command = None if best is None else reproduce_command(args, result.offsets[best])
     if args.format == "json":
