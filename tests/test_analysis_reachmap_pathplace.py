@@ -118,3 +118,34 @@ def test_cli_reports_the_region_and_the_printed_command_plans_the_best(case, cap
 def test_bad_grids_are_one_line_errors(ranges, words):
     with pytest.raises(ReachMapError, match=words):
         offset_grid(*ranges)
+
+
+class HalfSpaceMap:
+    """A stand-in reach map of tool0 in base_link that says yes to a pose iff its position along u is at most
+    ``bound`` (m): the screen's rule is tested on its own, apart from any map's resolution."""
+
+    base, frame = "base_link", "tool0"
+
+    def __init__(self, u, bound):
+        self.u, self.bound = np.asarray(u, dtype=float), bound
+
+    def query(self, T, *, threshold):
+        return np.asarray(T)[..., :3, 3] @ self.u <= self.bound
+
+
+def test_the_reach_map_screen_drops_candidates_below_the_share(case):
+    robot, chain, poses, k, sign = case
+    offsets = offset_grid(*grid_along(k, sign))
+    u = np.zeros(3)
+    u[k] = sign
+    along = sign * offsets[:, k]
+    top = float((poses[:, :3, 3] @ u).max())
+    yes_map = HalfSpaceMap(u, top - 0.07)  # every waypoint yes only for shifts d <= -0.07: -0.1 and -0.08
+    result = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, reach_map=yes_map, share=1.0)
+    counts = [(shifted_poses(poses, o)[:, :3, 3] @ u <= top - 0.07).sum() for o in offsets]
+    assert result.screened.tolist() == counts
+    assert np.array_equal(result.planned, along <= -0.07 + 1e-12)
+    assert np.array_equal(result.feasible, result.planned)  # both kept ones lie inside the derived bound
+    assert result.as_dict()["screened_out"] == 6
+    with pytest.raises(ReachMapError, match="the reach map is of tool0 in base_link"):
+        place_path(robot, poses, base="base_link", tip="ee_link", offsets=offsets, reach_map=yes_map)
