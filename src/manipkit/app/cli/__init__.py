@@ -125,6 +125,7 @@ def _environment_problem() -> str | None:
 def _run_guarded(parser: argparse.ArgumentParser, argv, runner, stdout) -> int:
     try:
         args = parser.parse_args(argv)
+        args.command_line = list(sys.argv[1:] if argv is None else argv)  # what a printed command repeats
         problem = _environment_problem()
         if problem is not None:
             raise UsageError(problem)

@@ -95,6 +95,9 @@ def register(commands) -> None:
                       help="write the joint path as CSV (t, joints); with --retime the trajectory (t, q, qd, qdd)")
     path.add_argument("--progress", choices=("yes", "no", "auto"), default="auto",
                       help="progress bars on stderr (auto: when it is a terminal)")
+    from manipkit.app.cli.path_place import add_place_options
+
+    add_place_options(path)
     path.set_defaults(run=run_path)
 
 
@@ -151,6 +154,8 @@ def _checker(robot, args):
 
 def run_path(args) -> int:
     """Plan the path and print the plan (text or JSON), optionally writing the joint path (``-o``)."""
+    from manipkit.analysis.reachmap.pathplace import shifted_poses
+    from manipkit.app.cli.path_place import check_place_options, offset_of
     from manipkit.app.progress import progress_bar
     from manipkit.paths.plan import plan_path
 
@@ -161,6 +166,8 @@ def run_path(args) -> int:
     robot = load_robot(args, mesh_warnings=args.view_html is None and not args.view)  # the views say it, once
     chain = command_chain(robot, args.base, args.tip)
     poses, t = _poses(args)
+    if args.offset is not None:
+        poses = shifted_poses(poses, offset_of(args))
     if args.speed is not None and t is not None:
         t = None  # --speed given: it times the steps, not the file's t
     checker = _checker(robot, args)
@@ -177,14 +184,19 @@ def run_path(args) -> int:
         from manipkit.outputs import writable_path
 
         writable_path(args.output, inputs=[args.poses, args.world])
+    check_place_options(args)
+    options = dict(t=t, speed=args.speed, velocity_scale=args.velocity_scale, free_axis=args.free_axis,
+                   free_step=free_step, free_range=free_range,
+                   arm_angle_step=parse_angle(args.arm_angle_step, "--arm-angle-step"), aliases=not args.no_aliases,
+                   reconfigure=args.reconfigure, collisions=checker,
+                   collision_step=parse_angle(args.collision_step, "--collision-step"),
+                   path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0)
+    if args.place:
+        from manipkit.app.cli.path_place import run_place
+
+        return run_place(args, robot, poses, options)
     with progress_bar({"yes": True, "no": False, "auto": None}[args.progress]) as progress:
-        plan = plan_path(robot, poses, base=args.base, tip=args.tip, t=t, speed=args.speed,
-                         velocity_scale=args.velocity_scale, free_axis=args.free_axis, free_step=free_step,
-                         free_range=free_range, arm_angle_step=parse_angle(args.arm_angle_step, "--arm-angle-step"),
-                         aliases=not args.no_aliases, reconfigure=args.reconfigure, collisions=checker,
-                         collision_step=parse_angle(args.collision_step, "--collision-step"),
-                         path_tol=(position_tol, math.radians(angle_tol)), singular_tol=args.singular_tol, q0=q0,
-                         progress=progress)
+        plan = plan_path(robot, poses, base=args.base, tip=args.tip, progress=progress, **options)
     motion = None
     if args.retime and plan.feasible:
         from manipkit.paths.timing import retime_plan

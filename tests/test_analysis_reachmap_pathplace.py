@@ -1,0 +1,151 @@
+"""Where to put the part (manipkit.analysis.reachmap.pathplace, ``manipkit path --place``) on a hand case.
+
+The case (the UR5 of example-robot-data, base_link -> tool0): at Q_EXTENDED the shoulder lift and the elbow are
+0, so the upper arm and the forearm lie straight along one horizontal direction u of the base, and the points on
+joint axes 2 and 4 are a2 + a3 = 0.81725 m apart (the reach of the planar 2R of joints 2 and 3). A straight line
+of the tool along u, orientation fixed, at s = -0.045 + 0.01 k (k = 0..9) from that pose, puts the wrist
+a2 + a3 + s from axis 2: it is reachable for s <= 0 only. Moved by dx along u the line is reachable at every
+waypoint iff 0.045 + dx <= 0, i.e. dx <= -0.045 (the shift keeps the wrist in the arm's plane: u is
+perpendicular to axis 2). On the grid dx = -0.1, -0.08, ..., 0.04 the feasible offsets are -0.1, -0.08, -0.06.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.analysis.reachmap.pathplace import offset_grid, place_path, shifted_poses
+from manipkit.app.cli import main
+from manipkit.errors import ReachMapError
+from manipkit.paths.plan import plan_path
+from manipkit.spatial.rotations import rpy_from_matrix
+from manipkit.spatial.transforms import pose_residuals
+
+Q_EXTENDED = np.array([0.0, 0.0, 0.0, -np.pi / 2, np.pi / 2, 0.0])
+S = -0.045 + 0.01 * np.arange(10)
+REACH = 0.425 + 0.39225  # a2 + a3 (m)
+
+
+@pytest.fixture(scope="module")
+def case():
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    T2 = robot.transform("base_link", "upper_arm_link", Q_EXTENDED)
+    T4 = robot.transform("base_link", "wrist_1_link", Q_EXTENDED)
+    axis = T2[:3, :3] @ chain.joints[1].axis
+    v = T4[:3, 3] - T2[:3, 3]
+    v -= (v @ axis) * axis
+    assert np.linalg.norm(v) == pytest.approx(REACH, abs=1e-9)
+    u = v / np.linalg.norm(v)
+    k = int(np.argmax(np.abs(u)))
+    assert abs(u[k]) == pytest.approx(1.0, abs=1e-12) and abs(u @ axis) < 1e-12  # u is a base axis, x or y
+    T = chain.fk(Q_EXTENDED)
+    poses = np.repeat(T[None], len(S), axis=0)
+    poses[:, :3, 3] += S[:, None] * u
+    return robot, chain, poses, k, float(np.sign(u[k]))
+
+
+def grid_along(k, sign):
+    """Offsets d = -0.1 + 0.02 j (j = 0..7) along u, written as a range on base axis k."""
+    spec = sorted((sign * -0.1, sign * 0.04))
+    ranges = [None, None]
+    ranges[k] = (spec[0], spec[1], 0.02)
+    return ranges
+
+
+def test_feasible_region_is_the_derived_bound_and_the_best_plan_checks_out(case):
+    robot, chain, poses, k, sign = case
+    offsets = offset_grid(*grid_along(k, sign))
+    assert len(offsets) == 8
+    result = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets)
+    along = sign * offsets[:, k]  # the shift along u
+    assert np.array_equal(result.feasible, along + S.max() <= 0)  # dx <= -0.045: -0.1, -0.08, -0.06
+    assert result.feasible.sum() == 3
+    best = result.best
+    assert best is not None and result.feasible[best]
+    costs = result.cost[result.feasible]
+    assert result.cost[best] == costs.min()
+    # independent: plan the shifted poses directly and check every waypoint by FK
+    shifted = shifted_poses(poses, offsets[best])
+    plan = plan_path(chain, shifted)
+    assert plan.feasible and plan.cost == pytest.approx(result.cost[best], abs=1e-12)
+    position, rotation = pose_residuals(shifted, chain.fk(plan.q))
+    assert position.max() <= 1e-9 and rotation.max() <= 1e-9
+    # and every infeasible candidate fails where the reach says: the first waypoint with a2 + a3 + s + d > a2 + a3
+    for i in np.flatnonzero(~result.feasible):
+        assert result.first_failure[i] == int(np.argmax(S + along[i] > 0))
+
+
+def test_one_and_two_workers_give_the_same_answer(case):
+    robot, _, poses, k, sign = case
+    offsets = offset_grid(*grid_along(k, sign))[::2]  # 4 candidates, one per block on 2 workers or here
+    here = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=1)
+    two = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=2)
+    assert here.as_dict() == two.as_dict()
+    assert here.feasible.any() and not here.feasible.all()
+
+
+def test_cli_reports_the_region_and_the_printed_command_plans_the_best(case, capsys):
+    _, chain, poses, k, sign = case
+    start, end = poses[0], poses[-1]
+    line = [*start[:3, 3], *rpy_from_matrix(start[:3, :3]), *end[:3, 3], *rpy_from_matrix(end[:3, :3])]
+    axis = "xy"[k]
+    low, high, step = grid_along(k, sign)[k]
+    argv = ["path", "--robot", "ur5", "--tip", "tool0", "--line", *(f"{v:.15f}" for v in line), "--step", "0.01",
+            "--place", f"--place-{axis}", *(f"{v:.15f}" for v in (low, high, step)), "--format", "json"]
+    assert main(argv) == 0
+    answer = json.loads(capsys.readouterr().out)
+    assert answer["candidates"] == 8 and answer["feasible"] == 3
+    bound = answer["region"][axis]
+    assert sign * min(bound, key=lambda v: -sign * v) == pytest.approx(-0.06, abs=1e-12)
+    words = shlex.split(answer["command"])
+    assert words[0] == "manipkit" and "--place" not in words and "--offset" in words
+    assert main(words[1:]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["feasible"] and plan["cost"] == pytest.approx(answer["best"]["cost"], abs=1e-9)
+    assert np.asarray(plan["q"]).shape == (len(poses), 6)
+
+
+@pytest.mark.parametrize("ranges, words", [
+    (((0.0, 1.0, 0.0), None, None, None), "step 0"),
+    (((0.0, 1e3, 1e-3), (0.0, 1e3, 1e-3), None, None), "more than 100000"),
+    (((1.0, 0.0, 0.1), None, None, None), "the range is empty"),
+])
+def test_bad_grids_are_one_line_errors(ranges, words):
+    with pytest.raises(ReachMapError, match=words):
+        offset_grid(*ranges)
+
+
+class HalfSpaceMap:
+    """A stand-in reach map of tool0 in base_link that says yes to a pose iff its position along u is at most
+    ``bound`` (m): the screen's rule is tested on its own, apart from any map's resolution."""
+
+    base, frame = "base_link", "tool0"
+
+    def __init__(self, u, bound):
+        self.u, self.bound = np.asarray(u, dtype=float), bound
+
+    def query(self, T, *, threshold):
+        return np.asarray(T)[..., :3, 3] @ self.u <= self.bound
+
+
+def test_the_reach_map_screen_drops_candidates_below_the_share(case):
+    robot, chain, poses, k, sign = case
+    offsets = offset_grid(*grid_along(k, sign))
+    u = np.zeros(3)
+    u[k] = sign
+    along = sign * offsets[:, k]
+    top = float((poses[:, :3, 3] @ u).max())
+    yes_map = HalfSpaceMap(u, top - 0.07)  # every waypoint yes only for shifts d <= -0.07: -0.1 and -0.08
+    result = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, reach_map=yes_map, share=1.0)
+    counts = [(shifted_poses(poses, o)[:, :3, 3] @ u <= top - 0.07).sum() for o in offsets]
+    assert result.screened.tolist() == counts
+    assert np.array_equal(result.planned, along <= -0.07 + 1e-12)
+    assert np.array_equal(result.feasible, result.planned)  # both kept ones lie inside the derived bound
+    assert result.as_dict()["screened_out"] == 6
+    with pytest.raises(ReachMapError, match="the reach map is of tool0 in base_link"):
+        place_path(robot, poses, base="base_link", tip="ee_link", offsets=offsets, reach_map=yes_map)
