@@ -1,4 +1,4 @@
-"""The compiled loops of the static torques: gravity on a chain's lumped bodies and a payload, one pass per row,
+"""The compiled loops of the static torques: gravity on a chain's lumped bodies and a payload, 256 rows at a time,
 and the margins against the effort limits.
 
 Numbers in, numbers out (numpy and :mod:`manipkit.kernels` only, so that a change to the statics modules around it
