@@ -170,6 +170,26 @@ def test_equals_pinocchio_compute_static_torque(load_robot, name):
         np.testing.assert_allclose(plain.gravity, answer.gravity, rtol=0, atol=0)
 
 
+@pytest.mark.parametrize("name", ["iiwa14", "panda", "ur5"])
+def test_a_batch_across_lanes_equals_pinocchio_row_by_row(load_robot, name):
+    # 601 rows: two full lanes of the kernel and a partial one (the lanes' count is not a divisor)
+    from manipkit.statics.gravity_kernel import LANES
+
+    robot = load_robot(name)
+    chain = robot.chain("base_link", "ee_link")
+    Q = chain.sample(601, seed=5)
+    assert Q.shape[0] % LANES != 0
+    payload = Payload(1.7, (0.01, 0.02, -0.05))
+    batch = static_torques(chain, Q, payload=payload)
+    for i in range(0, 601, 37):
+        tau_pin, g_pin = pinocchio_static_torque(robot, chain, Q[i], payload, chain.tip, np.zeros(6))
+        np.testing.assert_allclose(batch.tau[i], tau_pin, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(batch.gravity[i], g_pin, rtol=0, atol=1e-10)
+    last = Q.shape[0] - 1
+    tau_pin, _ = pinocchio_static_torque(robot, chain, Q[last], payload, chain.tip, np.zeros(6))
+    np.testing.assert_allclose(batch.tau[last], tau_pin, rtol=0, atol=1e-10)
+
+
 def test_batched_rows_equal_one_at_a_time(iiwa14):
     chain = iiwa14.chain("base_link", "ee_link")
     Q = chain.sample(40, seed=1)

@@ -27,8 +27,8 @@ Conventions (docs/architecture.md), restated:
 
 How it is computed: the bodies moved by the chain are lumped per chain joint
 (everything rigidly attached after it, fingers included at ``q_rest``: mass
-and centre of gravity in that joint's frame); then one compiled pass per
-configuration (:mod:`manipkit.statics.gravity_kernel`) adds the lumps up from
+and centre of gravity in that joint's frame); then a compiled pass over 256
+configurations at a time (:mod:`manipkit.statics.gravity_kernel`) adds the lumps up from
 the tip and takes each joint's moment of their weight (and the payload's),
 ``g(q) = -sum_s m_s J_s(q)^T g``; a wrench's part is ``-J^T w`` from the
 compiled Jacobians. No Python loop over configurations. Tested against
@@ -312,11 +312,12 @@ def _gravity_tables(chain: Chain, q_rest) -> tuple:
 
 
 def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_w, limits, q_rest) -> tuple:
-    """(g(q), the payload's part, tau, margin (N, n), saturating (N,)) for chain vectors ``Q`` (N, n): one compiled
-    pass per row, the rows cut into blocks taken by threads (:func:`manipkit.statics.gravity_kernel.static_blocks`).
+    """(g(q), the payload's part, tau, margin (N, n), saturating (N,)) for chain vectors ``Q`` (N, n): the compiled
+    gravity pass (256 rows at a time), the rows cut into blocks taken by threads
+    (:func:`manipkit.statics.gravity_kernel.static_blocks`).
     ``tau_w`` (N, n) or None is the wrenches' part, added to ``tau``."""
     from manipkit.kernels import thread_count
-    from manipkit.statics.gravity_kernel import gravity_rows_kernel, margin_rows_kernel, static_blocks
+    from manipkit.statics.gravity_kernel import gravity_rows_kernel, joint_cos_sin, margin_rows_kernel, static_blocks
 
     tables = _gravity_tables(chain, q_rest)
     n_rows = Q.shape[0]
@@ -329,7 +330,9 @@ def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_
 
     def work(start: int, stop: int) -> None:
         rows = slice(start, stop)
-        gravity_kernel(Q[rows], *tables, mass, cog, g_base if one_g else g_base[rows], tau_g[rows], tau_p[rows])
+        cos_q, sin_q = joint_cos_sin(Q[rows], tables[4], tables[5], tables[6])
+        gravity_kernel(Q[rows], cos_q, sin_q, *tables, mass, cog, g_base if one_g else g_base[rows], tau_g[rows],
+                       tau_p[rows])
         np.add(tau_g[rows], tau_p[rows], out=tau[rows])
         if tau_w is not None:
             tau[rows] += tau_w[rows]
