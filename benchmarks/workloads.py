@@ -833,7 +833,7 @@ def _ikgeo_rows(robot_name: str, chain, family, Q: np.ndarray, T: np.ndarray, n_
     except ImportError:
         return [(None, partial(row, "analytic", robot_name, f"{label} (ik-geo)", unit="pose", status="missing",
                                note="ik-geo is not installed (pip install ik-geo)"))]
-    from manipkit.ik.chain_ik import ideal_arm
+    from manipkit.ik.ideal_arm import ideal_arm
 
     maker = IKGEO_FAMILIES.get(family.kind)
     if maker is None or family.reversed:

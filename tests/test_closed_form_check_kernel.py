@@ -221,7 +221,7 @@ def test_srs_at_an_arm_angle_equals_the_reference():
         for s in fast.solutions:
             pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(chain.full(s)))
             assert np.abs(data.oMf[robot.frame_id("ee_link")].homogeneous - T).max() < 1e-10
-    from manipkit.ik.chain_ik import compiled_arm, ideal_arm
+    from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
 
     prepared = compiled_arm(chain, ideal_arm(family))
     T = chain.fk(Q[0])

@@ -24,8 +24,9 @@ from hypothesis import strategies as st
 import manipkit
 from manipkit.closed_form.arms import solve_6r
 from manipkit.closed_form.arms_kernel import chain_rows, solve_many
-from manipkit.ik.chain_ik import chain_ik, chain_ik_many, ideal_arm
+from manipkit.ik.chain_ik import chain_ik, chain_ik_many
 from manipkit.ik.families import chain_family
+from manipkit.ik.ideal_arm import ideal_arm
 
 REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" / "src" for base in Path(__file__).resolve().parents[2:4]
                   if (base / "shared" / "realworld").is_dir()), Path("/nonexistent"))
@@ -169,7 +170,7 @@ def test_chain_rows_take_the_in_limit_alias_nearest_zero():
 
 def test_solve_rows_into_packs_the_non_empty_rows_in_order_and_measure_at_equals_measure_many():
     from manipkit.closed_form.arms_kernel import measure_at, measure_many, solve_rows_into, solve_rows_many
-    from manipkit.ik.chain_ik import compiled_arm
+    from manipkit.ik.ideal_arm import compiled_arm
 
     chain = manipkit.load("ur5").chain("base_link", "tool0")
     prepared = compiled_arm(chain, ideal_arm(chain_family(chain)))
@@ -292,7 +293,7 @@ def test_chunks_of_lanes_give_the_one_target_answers_bit_for_bit(name):
     bit, on a count of targets that is no multiple of 64, with random, singular, straight-elbow and unreachable
     targets among them. Rows compared through chain_rows, the batch's own aliasing."""
     from manipkit.closed_form.arms_kernel import solve_rows_many
-    from manipkit.ik.chain_ik import compiled_arm
+    from manipkit.ik.ideal_arm import compiled_arm
 
     robot, base, tip = load(name)
     chain = robot.chain(base, tip)

@@ -277,7 +277,7 @@ def test_irb2400_wrist_centre_on_axis_1_is_a_family_free_in_joint_1():
     """By hand: with the wrist centre on axis 1 (and no lateral offset, b = 0), turning joint 1 keeps it there, so
     joint 1 is free; for each of its values two elbows and two wrists remain: 4 rows, each a family, both shoulder
     choices being members of the same families."""
-    from manipkit.ik.chain_ik import ideal_arm
+    from manipkit.ik.ideal_arm import ideal_arm
     from manipkit.spatial.rotations import matrix_from_rpy
 
     chain = load_realworld(IRB2400).chain("base_link", "tool0")
@@ -366,7 +366,7 @@ def test_the_arms_of_the_second_workspace_land_every_branch_by_pinocchio(relativ
     file path as their users load them: every branch of 25 random in-limit configurations' poses lands by
     Pinocchio to 1e-10 and the generating configuration is among them; the batch's slots land too, except the
     xArm's, which are not refined and whose residuals say how far they miss (Pinocchio's miss, to 1e-12)."""
-    from manipkit.ik.chain_ik import ideal_arm
+    from manipkit.ik.ideal_arm import ideal_arm
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -485,7 +485,8 @@ def previous_batch(chain, T, check=(1e-10, 1e-10)):
     """The batched check as it was before it ran in blocks on threads (one solve, chain.fk of every slot with the
     empty ones filled by 0, measure_many): (solutions, count, success, residuals) to compare bit for bit."""
     from manipkit.closed_form.arms_kernel import measure_many, solve_rows_many
-    from manipkit.ik.chain_ik import _projected_target, _reference_rows, compiled_arm, ideal_arm
+    from manipkit.ik.chain_ik import _projected_target, _reference_rows
+    from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
 
     arm = ideal_arm(chain_family(chain))
     valid, fallback, project, Q = solve_rows_many(compiled_arm(chain, arm), T)

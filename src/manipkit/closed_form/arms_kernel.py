@@ -461,7 +461,7 @@ def _solve_check_one(arm_reals, arm_ints, T, position_tol, rotation_tol):
 def solve_rows_many(prepared: tuple, T: np.ndarray):
     """Every branch of targets ``T`` (N, 4, 4) (``T_base_tip``) as chain vectors, in one compiled loop.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns (valid (N, 8), fallback (N,),
+    ``prepared``: the chain's constants (``ik.ideal_arm.compiled_arm``). Returns (valid (N, 8), fallback (N,),
     project (N,), rows (N, 8, n): chain vectors with the in-limit aliases nearest 0, NaN where not valid). Targets
     with ``fallback`` have NaN rows (the reference solves them); ``project``: a target whose rotation block is not
     a rotation to 1e-12 (measure against its projection).
@@ -515,7 +515,7 @@ def solve_check_one(prepared: tuple, T: np.ndarray, tol: tuple[float, float]):
     measured (as :func:`solve_rows_many` and :func:`measure_many`), labelled (:func:`branch_labels`), and kept as
     ``chain_ik`` keeps rows (repeats modulo 2 pi dropped, ordered front, elbow up, no flip first), in one call.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``: :func:`~manipkit.closed_form.check_kernel.
+    ``prepared``: the chain's constants (``ik.ideal_arm.compiled_arm``: :func:`~manipkit.closed_form.check_kernel.
     pack_arm`'s two arrays). Returns (block (k, n + 2), within (k,), codes) as
     :func:`~manipkit.closed_form.check_kernel.kept_rows` gives them (chain vectors and their position and rotation
     residuals, within limits, the rows' codes ``4 back + 2 elbow down + wrist flip`` as one number:

@@ -166,7 +166,7 @@ def solve_check_srs(prepared: tuple, T: np.ndarray, arm_angle: float, tol: tuple
     """Every branch of an SRS arm for one target ``T`` (4, 4, float, C-contiguous) at ``arm_angle`` (rad), checked
     on the true chain and kept as ``chain_ik`` keeps rows, in one compiled call.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``). Returns None when the general path must
+    ``prepared``: the chain's constants (``ik.ideal_arm.compiled_arm``). Returns None when the general path must
     answer (the reference must decide, ``T`` is not a transform with a rotation block exact to 1e-12, or a row
     misses ``tol`` (m, rad)); else (block, within, codes) as :func:`manipkit.closed_form.arms_kernel.solve_check_one`
     gives them (codes ``4 elbow - + 2 shoulder - + wrist flip``).
@@ -216,7 +216,7 @@ def solve_srs_rows_into(prepared: tuple, T: np.ndarray, arm_angles: np.ndarray, 
     wrist`` solved; fallback (N,): handed back to the numpy reference, its rows NaN; project (N,): a rotation
     block not exact to 1e-12, measured against its projection; rows (N, 8, n): the in-limit aliases nearest 0, NaN
     where not valid; the rows that are not NaN copied in order into ``packed`` with their slot ``8 t + k`` in
-    ``index``; returns how many). ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``), the
+    ``index``; returns how many). ``prepared``: the chain's constants (``ik.ideal_arm.compiled_arm``), the
     family solved base to tip. The same rows bit for bit as :func:`solve_check_srs` checks for one target.
     """
     return _srs_rows_all(prepared[0], prepared[1], T, arm_angles, valid, fallback, project, rows, packed, index)

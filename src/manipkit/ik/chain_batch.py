@@ -69,7 +69,7 @@ def checked_many(chain: Chain, prepared: tuple, T: np.ndarray, check: tuple[floa
     """``chain_ik_many`` of the UR, OPW and SRS families: every branch of targets ``T`` (N, 4, 4) solved, aliased,
     put through the chain's FK and measured against ``check`` (m, rad), in blocks on up to ``threads`` threads.
 
-    ``prepared``: the chain's constants (``chain_ik``'s ``compiled_arm``); ``arm_angles`` (N,, rad): a 7R SRS
+    ``prepared``: the chain's constants (``ik.ideal_arm.compiled_arm``); ``arm_angles`` (N,, rad): a 7R SRS
     arm's, one per target (None for the 6R families); ``reference``: indices (K,) of targets -> (valid (K, 8),
     free (K,): a free angle, rows (K, 8, n)) by the numpy reference, for the targets the compiled loop hands back;
     ``projected`` as :func:`_check` takes it. Returns (rows (N, 8, n), count (N,), success (N,), residuals

@@ -39,7 +39,6 @@ Given a chain object (the ik layer sits above kinematics); the pure math it hand
 from __future__ import annotations
 
 import math
-import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -50,17 +49,8 @@ from manipkit.closed_form.checks import arm_angles, quantity_text, tolerance_pai
 from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
-from manipkit.ik.families import (
-    FAMILY_TOL,
-    OPW,
-    SPHERICAL_12,
-    SRS,
-    UR,
-    Family,
-    chain_family,
-    common_point,
-    reversed_geometry,
-)
+from manipkit.ik.families import FAMILY_TOL, OPW, SRS, UR, Family, chain_family
+from manipkit.ik.ideal_arm import IdealArm, compiled_arm, compiled_entry, ideal_arm, wide_joints
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
@@ -68,123 +58,12 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "IdealArm", "SingleSolver", "chain_ik", "chain_ik_many", "ideal_arm", "single_solver",
-           "solve_branches", "srs_arm_angle"]
+__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "single_solver", "solve_branches",
+           "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
 TWO_PI = 2.0 * math.pi
-
-
-class IdealArm:
-    """The nearest ideal arm of a family: axes made exactly parallel or concurrent, in the solve direction.
-
-    ``h``, ``p`` (6, 3): directions and points; ``points``: the wrist centre
-    (and shoulder point) the solver needs; ``moved``: the largest change of
-    an axis (m for a point, rad for a direction) from the measured chain.
-    """
-
-    __slots__ = ("family", "h", "p", "points", "moved", "M_inv", "scale", "label_axes", "__weakref__")
-
-    def __init__(self, family: Family):
-        geometry = reversed_geometry(family.geometry) if family.reversed else family.geometry
-        h, p = geometry.direction.copy(), geometry.point.copy()
-        moved = 0.0
-        points = {}
-        if family.kind in (OPW, SPHERICAL_12):
-            c, miss = common_point(h[3:6], p[3:6])
-            p[3:6] = c
-            points["wrist"] = c
-            moved = max(moved, miss)
-        if family.kind == OPW:
-            moved = max(moved, _align(h, (1, 2)))
-        if family.kind == UR:
-            moved = max(moved, _align(h, (1, 2, 3)))
-            c, miss = common_point(h[4:6], p[4:6])
-            p[4:6] = c
-            points["wrist"] = c
-            moved = max(moved, miss)
-        if family.kind == SRS:
-            s, miss_s = common_point(h[0:3], p[0:3])
-            c, miss_w = common_point(h[4:7], p[4:7])
-            p[0:3], p[4:7] = s, c
-            points["shoulder"], points["wrist"] = s, c
-            moved = max(moved, miss_s, miss_w)
-        if family.kind == SPHERICAL_12:
-            s, miss = common_point(h[0:2], p[0:2])
-            p[0:2] = s
-            points["shoulder"] = s
-            moved = max(moved, miss)
-        self.family, self.h, self.p, self.points, self.moved = family, h, p, points, moved
-        self.M_inv = invert_transform(family.geometry.M, check=False)  # g = T M^-1, once per arm
-        # the arm's size as arms.solve_6r takes it (m, at least 1)
-        self.scale = max(1.0, float(np.max(np.abs(p))) + float(np.linalg.norm(points.get("wrist", np.zeros(3)))))
-        self.label_axes = _label_axes(h, p, points["wrist"]) if "wrist" in points else None
-
-
-def _align(h: np.ndarray, indices: tuple[int, ...]) -> float:
-    """Make the axes ``indices`` of ``h`` exactly parallel (their signed mean); the largest angle turned (rad)."""
-    first = h[indices[0]]
-    signs = [1.0 if h[i] @ first >= 0 else -1.0 for i in indices]
-    mean = sum(s * h[i] for s, i in zip(signs, indices))
-    mean = mean / np.linalg.norm(mean)
-    turned = 0.0
-    for s, i in zip(signs, indices):
-        turned = max(turned, math.atan2(float(np.linalg.norm(np.cross(h[i], s * mean))), float(h[i] @ (s * mean))))
-        h[i] = s * mean
-    return turned
-
-
-def ideal_arm(family: Family) -> IdealArm:
-    """The nearest ideal arm of ``family`` (see :class:`IdealArm`), made once per family and kept;
-    :class:`ClosedFormIKError` if it has no solver."""
-    if not family.solved:
-        raise ClosedFormIKError(family.note)
-    arm = _ARMS.get(family)
-    if arm is None:
-        arm = _ARMS[family] = IdealArm(family)
-    return arm
-
-
-#: Family -> its ideal arm (a Family is immutable; an arm is made once and read by every call after).
-_ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def compiled_arm(chain: Chain, arm: IdealArm) -> tuple:
-    """The constants the compiled solve-and-check loop takes for ``chain`` solved on ``arm`` (UR or OPW family):
-    the ideal arm, its label axes, the joint map and limits and the chain's FK program
-    (:func:`manipkit.kernels.fk.row_tables`); made once per chain and family (both immutable) and kept."""
-    return _compiled_entry(chain, arm)[1]
-
-
-def _compiled_entry(chain: Chain, arm: IdealArm) -> tuple:
-    """The entry of :data:`_COMPILED` for ``chain`` and ``arm``, made on first use."""
-    cached = _COMPILED.get(arm)
-    if cached is None or cached[0] is not chain:
-        cached = _COMPILED[arm] = (chain, _compiled_constants(chain, arm),
-                                   _wide_joints(chain, arm.family.geometry.columns), {}, {})
-    return cached
-
-
-def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
-    """The two arrays :func:`compiled_arm` keeps (:func:`manipkit.closed_form.check_kernel.pack_arm`)."""
-    from manipkit.closed_form.arms_kernel import KIND_CODES
-    from manipkit.closed_form.check_kernel import pack_arm, row_tables
-
-    geometry = arm.family.geometry
-    columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
-    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
-    floats, ints = row_tables(chain.steps, chain.columns)
-    return pack_arm(KIND_CODES.get(arm.family.kind, -1), arm.h, arm.p,
-                    np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float),
-                    float(arm.scale), arm.M_inv, bool(arm.family.reversed), np.asarray(geometry.q0, dtype=float),
-                    columns, np.array([geometry.scale, lower[columns], upper[columns]], dtype=float),
-                    np.array([lower, upper]), floats, ints)
-
-
-#: IdealArm -> (chain, constants of the compiled loop, the solved joints spanning more than 2 pi, the notes of its
-#: single calls by their rows' within_limits (bytes), their labels by the kernel's number of the codes): once per chain.
-_COMPILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _solved_direction(arm: IdealArm, T: np.ndarray) -> np.ndarray:
@@ -270,17 +149,6 @@ def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
     Q = np.broadcast_to(geometry.q0, (*theta.shape[:-1], len(geometry.q0))).copy()
     Q[..., geometry.columns] = geometry.q0[geometry.columns] + theta / geometry.scale
     return Q
-
-
-def _label_axes(h: np.ndarray, p: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(reference, up) of the labels of an arm (axes h, p; wrist centre c): "front" is the side of axis 1 along
-    ``reference`` (the wrist centre's side at q0, across axis 2), "above" is along ``up`` (axis 1 turned to point up
-    the base z)."""
-    reference = c - p[0] - ((c - p[0]) @ h[0]) * h[0]
-    reference = reference - (reference @ h[1]) * h[1]
-    if np.linalg.norm(reference) < 1e-9:
-        reference = np.cross(h[0], h[1])
-    return reference, (h[0] if h[0][2] >= 0.0 else -h[0])
 
 
 def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray, compiled: bool = False) -> list[str]:
@@ -456,7 +324,7 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     if any(m > 0 for m in refined):
         parts.append(f"refined by Newton on the true chain (ideal arm {quantity_text(arm.moved)} m/rad away, "
                      f"largest step {quantity_text(max(refined))})")
-    wide = _wide_joints(chain, geometry.columns)
+    wide = wide_joints(chain, geometry.columns)
     if wide and len(rows):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
     if family.kind == SRS:
@@ -524,7 +392,7 @@ class SingleSolver:
         one check_transform accepts as is with a rotation block exact to 1e-12: ``plain_target``), or a row misses
         ``check`` (refined by Newton there). ``T``: a C-contiguous float (4, 4) array."""
         if self.entry is None:
-            self.entry = _compiled_entry(self.chain, self.arm)[1:]
+            self.entry = compiled_entry(self.chain, self.arm)[1:]
         prepared, wide, notes, words = self.entry
         family = self.family
         kernels = _KERNELS or _load_kernels()
@@ -616,13 +484,6 @@ _WORDS = tuple(f"{'back' if c & 4 else 'front'}, {'elbow down' if c & 2 else 'el
 _REVERSED_WORDS = tuple(w + " (read tip to base)" for w in _WORDS)
 _SRS_WORDS = tuple(f"elbow {'-' if c & 4 else '+'}, shoulder {'-' if c & 2 else '+'}, "
                    f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
-
-
-def _wide_joints(chain: Chain, columns: np.ndarray) -> list[str]:
-    """The solved joints whose range spans more than 2 pi (each has a second alias inside its limits)."""
-    lower, upper = np.asarray(chain.lower, dtype=float)[columns], np.asarray(chain.upper, dtype=float)[columns]
-    wide = (upper - lower > TWO_PI + 1e-9) & np.isfinite(upper)
-    return [chain.joint_names[k] for k, w in zip(columns.tolist(), wide.tolist()) if w]
 
 
 def _label_order(label: str) -> tuple[bool, bool, bool]:

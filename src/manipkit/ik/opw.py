@@ -33,8 +33,8 @@ import numpy as np
 from manipkit.closed_form.arms import rotation_matrix
 from manipkit.closed_form.checks import quantity_text
 from manipkit.errors import ClosedFormIKError
-from manipkit.ik.chain_ik import ideal_arm
 from manipkit.ik.families import OPW, Family, chain_family
+from manipkit.ik.ideal_arm import ideal_arm
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
