@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import manipkit
-from manipkit.closed_form.check_kernel import exact_rotation, pose_residual, pose_rows, row_tables
+from manipkit.closed_form.check_kernel import exact_rotation, pose_residual, pose_rows
 from manipkit.ik.chain_ik import chain_ik, chain_ik_many
 from manipkit.ik.families import chain_family
 from manipkit.spatial.rotations import matrix_from_axis_angle
@@ -65,7 +65,7 @@ def test_exact_rotation_decides_as_projected_rotation(axis, angle, off, reflect)
 def test_pose_rows_equal_the_chain_fk_and_pinocchio(name, base, tip):
     robot = manipkit.load(name)
     chain = robot.chain(base, tip)
-    floats, ints = row_tables(chain.steps, chain.columns)
+    floats, ints = chain.program.row_tables
     Q = chain.sample(50, seed=4)
     states, reached = np.empty((ints[0] + 1, 4, 3)), np.full((50, 4, 4), 7.0)
     present = np.arange(50) % 5 != 3  # rows not present are not written
@@ -89,7 +89,7 @@ def test_pose_rows_sharing_first_joints_give_each_rows_pose_alone_bit_for_bit(ar
     bit, those of each row put through alone."""
     name, base, tip = arm
     chain = manipkit.load(name).chain(base, tip)
-    floats, ints = row_tables(chain.steps, chain.columns)
+    floats, ints = chain.program.row_tables
     sources = chain.sample(4, seed=seed)
     sources[3, : chain.n // 2] = 0.0
     Q = np.array([np.concatenate([sources[a, :j], sources[(a + 1) % 4, j:]]) for a, j in recipe])

@@ -25,7 +25,7 @@ import manipkit
 from manipkit.closed_form.arms import solve_6r
 from manipkit.closed_form.arms_kernel import chain_rows, solve_many
 from manipkit.ik.chain_ik import chain_ik, chain_ik_many
-from manipkit.ik.families import chain_family
+from manipkit.ik.families import SRS, chain_family
 from manipkit.ik.ideal_arm import ideal_arm
 
 REALWORLD = next((base / "shared" / "realworld" / "ws_ros1" / "src" for base in Path(__file__).resolve().parents[2:4]
@@ -326,7 +326,7 @@ def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
     a third (values up to 5 pi), values inside (-pi, pi], wrapped by selects and left to chain_row all occur, and
     every row equals chain_rows' (the one-target aliasing) bit for bit."""
     from manipkit.closed_form.arms_kernel import KIND_CODES, solve_rows_many
-    from manipkit.closed_form.check_kernel import pack_arm, row_tables
+    from manipkit.closed_form.check_kernel import pack_arm
 
     robot, base, tip = load(name)
     chain = robot.chain(base, tip)
@@ -339,7 +339,7 @@ def test_the_batch_rows_equal_chain_rows_with_offsets_and_scales(name):
     scale[2] = -scale[2]
     scale[4] = 0.2 * scale[4]
     lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
-    floats, ints = row_tables(chain.steps, chain.columns)
+    floats, ints = chain.program.row_tables
     points = np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float)
     prepared = pack_arm(KIND_CODES[arm.family.kind], arm.h, arm.p, points, float(arm.scale), arm.M_inv,
                         bool(arm.family.reversed), q0, columns, np.array([scale, lower[columns], upper[columns]]),
@@ -420,3 +420,49 @@ def test_each_family_compiles_only_its_own_lanes():
     ur, opw = arms_kernel.family_kernels(0), arms_kernel.family_kernels(1)
     assert ur.solve_check_one is not opw.solve_check_one
     assert arms_kernel.KIND_CODES == {"three parallel, two intersecting": 0, "spherical wrist, two parallel": 1}
+
+
+@pytest.mark.parametrize("name", ["ur5", "irb2400", "kinova", "iiwa14"])
+def test_the_compiled_check_runs_the_chain_program_and_measures_as_pinocchio(name):
+    """The compiled loops' constants (``compiled_arm``) carry the chain's own FK program, packed once per chain
+    (``chain.program.row_tables``, the same arrays every call), and the residuals the compiled check reports, single
+    (``chain_ik``: ``pose_rows`` inside the loop) and batched (``chain_ik_many``: the chain's batched FK), equal those
+    of Pinocchio's FK of every row to 1e-12 (iiwa14: a 7R SRS arm, each target at its own arm angle)."""
+    from manipkit.ik.chain_ik import srs_arm_angle
+    from manipkit.ik.ideal_arm import compiled_arm
+    from manipkit.spatial.transforms import pose_residuals
+
+    robot, base, tip = (manipkit.load("iiwa14"), "base_link", "ee_link") if name == "iiwa14" else load(name)
+    chain = robot.chain(base, tip)
+    family = chain_family(chain)
+    floats, ints = chain.program.row_tables
+    assert chain.program.row_tables[0] is floats  # packed once, kept
+    arm_reals, arm_ints = compiled_arm(chain, ideal_arm(family))
+    assert np.array_equal(arm_reals[-len(floats):], floats) and np.array_equal(arm_ints[-len(ints):], ints)
+    Q = chain.sample(40, seed=3)
+    T = chain.fk(Q)
+    psi = np.array([srs_arm_angle(chain, q, family=family) for q in Q]) if family.kind == SRS else None
+    data = robot.model.createData()
+
+    def pinocchio_residuals(target, rows):
+        reached = []
+        for q in rows:
+            pin.framesForwardKinematics(robot.model, data, robot.pinocchio_configuration(chain.full(q)))
+            reached.append(np.linalg.inv(data.oMf[robot.frame_id(base)].homogeneous)
+                           @ data.oMf[robot.frame_id(tip)].homogeneous)
+        return np.stack(pose_residuals(target, np.array(reached), project=False), axis=-1)
+
+    measured = 0
+    for k in range(len(Q)):
+        result = chain_ik(chain, T[k], family=family, **({} if psi is None else {"arm_angle": float(psi[k])}))
+        assert result.success
+        expected = pinocchio_residuals(T[k], result.solutions)
+        assert np.abs(np.stack([result.residual_position, result.residual_rotation], axis=-1) - expected).max() < 1e-12
+        measured += len(result.solutions)
+    batch = chain_ik_many(chain, T, family=family, **({} if psi is None else {"arm_angle": psi}))
+    for k in range(len(Q)):
+        present = ~np.isnan(batch.solutions[k, :, 0])
+        assert present.any()
+        expected = pinocchio_residuals(T[k], batch.solutions[k, present])
+        assert np.abs(batch.residuals[k, present] - expected).max() < 1e-12
+    assert measured >= 4 * len(Q)

@@ -568,17 +568,17 @@ def warm_up(kinds=tuple(KIND_CODES)) -> None:
     ``make kernels`` runs it (``python -m manipkit.closed_form.arms_kernel``), so that no first closed-form solve
     pays for it; each family compiles on its first use otherwise.
     """
-    from manipkit.closed_form.check_kernel import row_tables
     from manipkit.closed_form.srs_kernel import solve_check_srs
     from manipkit.kernels.fk import ChainStep
+    from manipkit.kernels.program import ChainProgram
 
     z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
     h = np.array([z, y, y, y, z, y])
     p = np.array([[0.0, 0.0, 0.1], [0.0, 0.1, 0.1], [0.4, 0.1, 0.1], [0.8, 0.1, 0.1], [0.8, 0.2, 0.1], [0.8, 0.2, 0.0]])
     g = np.eye(4)[None]
     # the solve-and-check loops, on a chain of seven joints about z (only the argument types matter here)
-    floats, ints = row_tables([ChainStep(np.eye(3), np.array([0.0, 0.0, 0.1]), k, False, np.array(z))
-                               for k in range(7)], np.arange(7))
+    floats, ints = ChainProgram([ChainStep(np.eye(3), np.array([0.0, 0.0, 0.1]), k, False, np.array(z))
+                                 for k in range(7)], 7).row_tables
     h7, p7 = np.vstack([h, [z]]), np.vstack([p, [[0.8, 0.2, -0.1]]])
     limits = np.full(7, np.pi)
     for kind in kinds:

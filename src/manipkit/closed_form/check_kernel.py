@@ -33,11 +33,11 @@ import math
 import numpy as np
 
 from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlined_kernel, sqrt, wrap_by_selects
-from manipkit.kernels.fk import pose_rows_kernel, row_tables
+from manipkit.kernels.fk import pose_rows_kernel
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
 __all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",
-           "packed_row", "plain_target", "pose_residual", "pose_residual_parts", "pose_rows", "row_tables", "wrap_angle", "wrap_angle_by_selects"]
+           "packed_row", "plain_target", "pose_residual", "pose_residual_parts", "pose_rows", "wrap_angle", "wrap_angle_by_selects"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12
@@ -263,8 +263,9 @@ def pack_arm(kind: int, h: np.ndarray, p: np.ndarray, points: np.ndarray, scale:
     label reference and label up; ``scale``: the arm's size; ``M_inv`` (4, 4); ``reverse``: solved tip to base;
     ``q0`` (n,): the reference configuration; ``columns`` (m,): the solved chain columns; ``solved`` (3, m): their
     scales, lower and upper limits; ``limits`` (2, n): the chain's; ``floats``, ``ints``: the chain's FK program
-    (:func:`row_tables`). ``arm_ints = [kind, reverse, m, n, columns..., ints...]``, ``arm_reals = [scale, h, p,
-    points, M_inv, q0, solved, limits, floats...]`` (each row-major).
+    (``ChainProgram.row_tables``: :func:`manipkit.kernels.fk.row_tables`). ``arm_ints = [kind, reverse, m, n,
+    columns..., ints...]``, ``arm_reals = [scale, h, p, points, M_inv, q0, solved, limits, floats...]`` (each
+    row-major).
     """
     m, n = len(h), len(q0)
     arm_reals = np.concatenate([[float(scale)], np.ravel(h), np.ravel(p), np.ravel(points), np.ravel(M_inv), q0,

@@ -4,7 +4,8 @@
 closed forms of :mod:`manipkit.closed_form` solve: the family's axes at
 ``q0`` made exactly parallel or concurrent, in the solve direction.
 :func:`compiled_arm` packs it with the chain's joint map and limits and the
-chain's FK program (:func:`manipkit.kernels.fk.row_tables`) into the two flat arrays
+chain's own FK program (``chain.program.row_tables``, packed once per chain
+by :class:`manipkit.kernels.program.ChainProgram`) into the two flat arrays
 the compiled solve-and-check loops take
 (:func:`manipkit.closed_form.check_kernel.pack_arm`), once per chain and
 family. Used by :mod:`manipkit.ik.chain_ik` (single and batched calls).
@@ -108,8 +109,8 @@ _ARMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def compiled_arm(chain: Chain, arm: IdealArm) -> tuple:
     """The constants the compiled solve-and-check loop takes for ``chain`` solved on ``arm`` (UR or OPW family):
-    the ideal arm, its label axes, the joint map and limits and the chain's FK program
-    (:func:`manipkit.kernels.fk.row_tables`); made once per chain and family (both immutable) and kept."""
+    the ideal arm, its label axes, the joint map and limits and the chain's FK program (``chain.program.row_tables``,
+    packed once per chain); made once per chain and family (both immutable) and kept."""
     return compiled_entry(chain, arm)[1]
 
 
@@ -126,12 +127,12 @@ def compiled_entry(chain: Chain, arm: IdealArm) -> tuple:
 def _compiled_constants(chain: Chain, arm: IdealArm) -> tuple:
     """The two arrays :func:`compiled_arm` keeps (:func:`manipkit.closed_form.check_kernel.pack_arm`)."""
     from manipkit.closed_form.arms_kernel import KIND_CODES
-    from manipkit.closed_form.check_kernel import pack_arm, row_tables
+    from manipkit.closed_form.check_kernel import pack_arm
 
     geometry = arm.family.geometry
     columns = np.ascontiguousarray(geometry.columns, dtype=np.int64)
     lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
-    floats, ints = row_tables(chain.steps, chain.columns)
+    floats, ints = chain.program.row_tables
     return pack_arm(KIND_CODES.get(arm.family.kind, -1), arm.h, arm.p,
                     np.array([arm.points["wrist"], arm.points.get("shoulder", arm.p[1]), *arm.label_axes], dtype=float),
                     float(arm.scale), arm.M_inv, bool(arm.family.reversed), np.asarray(geometry.q0, dtype=float),

@@ -563,26 +563,20 @@ def chain_fk(steps: Sequence[ChainStep], Q, *, n_joints: int | None = None) -> t
 # One configuration at a time, from inside another compiled loop (the closed forms' check of every branch)
 
 
-def row_tables(steps: Sequence[ChainStep], columns: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-    """The program of :class:`ChainFK` for ``steps`` packed as (floats, ints), for :func:`pose_rows`.
+def row_tables(fk: ChainFK) -> tuple[np.ndarray, np.ndarray]:
+    """The program of the batched FK ``fk`` packed as (floats, ints), for :func:`pose_rows`.
 
-    ``steps`` index the robot's joint vector (as ``Chain.steps``); the rows
-    :func:`pose_rows` takes are chain vectors, entry ``k`` being robot column
-    ``columns[k]`` (``Chain.columns``). The same preparation as
-    :class:`ChainFK` (axes turned to z, rotations split about z, signed
-    permutations as labels), laid out in two flat arrays so a compiled caller
-    passes the chain in two arguments. ``ints``: ``[m, n_rev, n_pri]``, then
-    ``joints`` (m, 4), ``mixed`` (m,), ``out_cols`` (3), the revolute then
-    prismatic entries of the chain vector; ``floats``: ``R0`` (9), ``p0``
-    (3), ``out_signs`` (3), ``shifts`` (m, 3), ``mixes`` (m, 3, 3), then the
-    revolute joints' half scales and half offsets, the prismatic joints'
-    scales and offsets (the joint value rules of :class:`ChainFK`).
+    The rows :func:`pose_rows` takes are the rows ``fk`` takes (a chain's:
+    chain vectors). The preparation is ``fk``'s own (axes turned to z,
+    rotations split about z, signed permutations as labels), laid out in two
+    flat arrays so a compiled caller passes the chain in two arguments; a
+    chain packs it once (``ChainProgram.row_tables``). ``ints``: ``[m, n_rev,
+    n_pri]``, then ``joints`` (m, 4), ``mixed`` (m,), ``out_cols`` (3), the
+    revolute then prismatic entries of the joint vector; ``floats``: ``R0``
+    (9), ``p0`` (3), ``out_signs`` (3), ``shifts`` (m, 3), ``mixes`` (m, 3,
+    3), then the revolute joints' half scales and half offsets, the prismatic
+    joints' scales and offsets (the joint value rules of :class:`ChainFK`).
     """
-    position = {int(column): k for k, column in enumerate(columns)}
-    steps = tuple(step if step.index < 0 else ChainStep(step.rotation, step.translation, position[step.index],
-                                                        step.prismatic, step.axis, step.scale, step.offset)
-                  for step in steps)
-    fk = ChainFK(steps, len(position))
     P = fk._program
     m = P.joints.shape[0]
     ints = np.concatenate([[m, fk.n_revolute, fk.n_prismatic], P.joints.reshape(-1), P.mixed.astype(np.int64),

@@ -111,8 +111,9 @@ class ChainProgram:
 
     @property
     def row_tables(self) -> tuple[np.ndarray, np.ndarray]:
-        """(floats, ints) of :func:`manipkit.kernels.fk.row_tables` for chain vectors (read-only)."""
-        return self._get("rows", lambda: _read_only(row_tables(self.steps, range(self.n))))
+        """(floats, ints) of :func:`manipkit.kernels.fk.row_tables`: :attr:`fk`'s program packed for
+        :func:`manipkit.kernels.fk.pose_rows` on chain vectors (read-only)."""
+        return self._get("rows", lambda: _read_only(row_tables(self.fk)))
 
 
 def _read_only(arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
