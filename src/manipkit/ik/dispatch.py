@@ -168,8 +168,11 @@ def _snapped_6r(robot, base: str, tip: str, *, mode: str, family_tol, lock, arm_
 
 def _with_elimination(closed: IKResult, general: IKResult, chain) -> IKResult:
     """The closed form's rows, then each row of the general 6R elimination that none of them is (to
-    :data:`SAME_ROW_TOL`, modulo 2 pi on the chain's joints), labelled :data:`ELIMINATION_LABEL`; ``closed`` as it
+    :data:`SAME_ROW_TOL`, modulo 2 pi on the chain's joints), labelled :data:`ELIMINATION_LABEL` (numbered ``#1``,
+    ``#2``, ... when more than one: :func:`~manipkit.ik.branch_names.numbered`); ``closed`` as it
     is when the elimination adds nothing or the answer is a family."""
+    from manipkit.ik.branch_names import numbered
+
     if closed.infinite or general.infinite or not len(general.solutions):
         return closed
     whole = closed.solutions.shape[1] != chain.n
@@ -185,8 +188,8 @@ def _with_elimination(closed: IKResult, general: IKResult, chain) -> IKResult:
     added = general.take(fresh)
     note = (f"{closed.note}; the arm is its family's only within the tolerance, so every solution was also sought by "
             f"the general 6R elimination: {len(fresh)} more it found are listed after the closed form's "
-            f"{len(closed.solutions)} (labelled '{ELIMINATION_LABEL}')")
-    return closed.extended(added, labels=(ELIMINATION_LABEL,) * len(fresh), note=note)
+            f"{len(closed.solutions)} (labelled '{ELIMINATION_LABEL}'{', numbered' if len(fresh) > 1 else ''})")
+    return closed.extended(added, labels=numbered((ELIMINATION_LABEL,) * len(fresh)), note=note)
 
 
 def _checker(robot, given) -> CollisionChecker | None:
@@ -413,7 +416,8 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     The closed form (``method`` "auto" where the chain has one for a pose)
     gives every branch per target: 8 slots, NaN where a branch does not
     exist (:func:`manipkit.ik.chain_ik.chain_ik_many`; ``arm_angle`` one or
-    one per target for a 7R SRS arm). Numerical IK gives one slot per target
+    one per target for a 7R SRS arm; :meth:`IKBatch.branch_labels` names a
+    target's slots as :func:`ik` labels its rows). Numerical IK gives one slot per target
     (also for the textbook arms whose closed form is a named solver, not the
     chain's geometric family: planar, SCARA, Stanford; ``method="closed_form"``
     says so and refuses)
