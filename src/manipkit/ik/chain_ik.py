@@ -24,7 +24,10 @@ the numpy reference; ``compiled=False``: the reference alone); each is then:
   the wrist centre on the side of axis 1 where it is at ``q0``, or the
   other; elbow: above or below the shoulder-wrist line, "above" along axis
   1 turned to point up the base z; wrist: the angle of the middle wrist
-  joint from ``q0`` >= 0 or < 0).
+  joint from ``q0`` >= 0 or < 0), rows sharing these words numbered
+  ``#1``, ``#2`` in slot order: :mod:`manipkit.ik.branch_names`, the one
+  rule, which :meth:`IKBatch.branch_labels` of :func:`chain_ik_many` applies
+  to each target's slots too.
 
 A singular target (the wrist's first and last axes aligned, the wrist
 centre on axis 1, axis 6 along the parallel axes of a UR arm) gives rows
@@ -44,11 +47,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.bounds import tolerances
-from manipkit.closed_form.arms import ELBOW_TIE, Branches, rotation_matrix, solve_6r
+from manipkit.closed_form.arms import Branches, rotation_matrix, solve_6r
 from manipkit.closed_form.checks import arm_angles, quantity_text, tolerance_pair
 from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
+from manipkit.ik.branch_names import REVERSED, SRS_WORDS, WORDS, branch_names, label_order, numbered
 from manipkit.ik.families import FAMILY_TOL, OPW, SRS, UR, Family, chain_family
 from manipkit.ik.ideal_arm import IdealArm, compiled_arm, compiled_entry, ideal_arm, wide_joints
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
@@ -151,47 +155,6 @@ def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
     return Q
 
 
-def _labels(arm: IdealArm, g: np.ndarray, theta: np.ndarray, compiled: bool = False) -> list[str]:
-    """Shoulder, elbow and wrist of each branch (rows of angles (k, n) in the solve direction), as words."""
-    h, p = arm.h, arm.p
-    kind = arm.family.kind
-    if kind == SRS:  # the arm angle is given: the elbow's sign, the shoulder's and the wrist's split name a branch
-        return [f"elbow {'+' if t[3] >= 0 else '-'}, shoulder {'+' if t[1] >= 0 else '-'}, "
-                f"{'no flip' if t[5] >= 0 else 'wrist flip'}" for t in theta]
-    c = arm.points["wrist"]
-    s = arm.points.get("shoulder", p[1])
-    reference, up = arm.label_axes
-    if compiled and kind in (UR, OPW):
-        from manipkit.closed_form.arms_kernel import branch_labels
-
-        bits = branch_labels(kind, h, p, c, s, reference, up, g, theta).tolist()
-        return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t else 'wrist flip'}"
-                for f, a, t in bits]
-    w = g[:3, :3] @ c + g[:3, 3]
-    w1 = p[0] + rotate(h[0], -theta[:, 0], w - p[0])  # (k, 3)
-    front = (w1 - p[0]) @ reference >= 0.0
-    E1 = rotation_matrix(h[0], theta[:, 0])  # (k, 3, 3)
-
-    def turned(x):
-        return p[0] + np.einsum("kij,kj->ki", E1, np.broadcast_to(x - p[0], (len(theta), 3)))
-
-    shoulder_point = turned(s)
-    elbow = turned(p[1] + rotate(h[1], theta[:, 1], p[2] - p[1]))
-    wrist = np.broadcast_to(w, elbow.shape)
-    if kind == UR:  # the point on axis 4, moved
-        E3p4 = p[2] + rotate(h[2], theta[:, 2], p[3] - p[2])
-        wrist = turned(p[1] + rotate(h[1], theta[:, 1], E3p4 - p[1]))
-    normal = E1 @ h[1]  # the arm's plane is normal to axis 2: compare within it
-
-    def in_plane(x):
-        return x - np.sum(x * normal, axis=-1, keepdims=True) * normal
-
-    line, offset = in_plane(wrist - shoulder_point), in_plane(elbow - shoulder_point)
-    length = np.sum(line * line, axis=-1, keepdims=True)
-    offset = offset - np.where(length > 0.0, np.sum(offset * line, axis=-1, keepdims=True) / np.where(length > 0, length, 1.0), 0.0) * line
-    above = offset @ up >= -ELBOW_TIE * np.sqrt(length[:, 0])  # on the line: up, as the compiled labels say
-    return [f"{'front' if f else 'back'}, {'elbow up' if a else 'elbow down'}, {'no flip' if t[4] >= 0.0 else 'wrist flip'}"
-            for f, a, t in zip(front, above, theta)]
 
 
 def _family_text(names: tuple[str, ...], free: int, kind: str) -> str:
@@ -305,9 +268,8 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
         refined.append(moved)
         residual_rows.append((p_err, r_err))
     if labels:
-        words = _labels(arm, g[0], branches.theta[0, labels], compiled)
-        labels = [w + (" (read tip to base)" if family.reversed else "") for w in words]
-    order = sorted(range(len(rows)), key=lambda i: _label_order(labels[i]))  # front, elbow up, no flip first
+        labels = branch_names(arm, g[0], branches.theta[0, labels], compiled)
+    order = sorted(range(len(rows)), key=lambda i: label_order(labels[i]))  # front, elbow up, no flip first
     rows, labels, free_of, refined, residual_rows = ([seq[i] for i in order]
                                                      for seq in (rows, labels, free_of, refined, residual_rows))
     n = len(names)
@@ -406,8 +368,8 @@ class SingleSolver:
         count = len(within)
         labels = words.get(named)
         if labels is None:  # a new order of branches on this arm: worded once (at most 8 distinct codes, 0..7 each)
-            table = _SRS_WORDS if srs else _REVERSED_WORDS if family.reversed else _WORDS
-            labels = tuple(table[code] for code in kernels[2](named))
+            table, suffix = SRS_WORDS if srs else WORDS, REVERSED if family.reversed else ""
+            labels = numbered(table[code] + suffix for code in kernels[2](named))
             if len(words) < 4096:
                 words[named] = labels
         key = within.tobytes()  # the note depends on the count of rows and of those outside the limits
@@ -477,17 +439,6 @@ def _load_kernels() -> list:
     return _KERNELS
 
 
-#: The labels of the compiled paths by code (4 back + 2 elbow down + wrist flip; SRS: 4 elbow - + 2 shoulder - +
-#: wrist flip), the words of _labels.
-_WORDS = tuple(f"{'back' if c & 4 else 'front'}, {'elbow down' if c & 2 else 'elbow up'}, "
-               f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
-_REVERSED_WORDS = tuple(w + " (read tip to base)" for w in _WORDS)
-_SRS_WORDS = tuple(f"elbow {'-' if c & 4 else '+'}, shoulder {'-' if c & 2 else '+'}, "
-                   f"{'wrist flip' if c & 1 else 'no flip'}" for c in range(8))
-
-
-def _label_order(label: str) -> tuple[bool, bool, bool]:
-    return ("back" in label, "elbow down" in label, "wrist flip" in label)
 
 
 def _same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> bool:
@@ -589,7 +540,7 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
             projected=_projected_target)
         return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
                        success=success, residual_position=residuals[..., 0], residual_rotation=residuals[..., 1],
-                       q_residuals=residuals[..., 0, :], limit=check)
+                       q_residuals=residuals[..., 0, :], limit=check, name=_namer(arm, T, Q))
     theta, branches, _ = _branches(arm, T, psi, compiled=compiled)
     geometry = family.geometry
     Q = _aliases(chain, _joint_values(geometry, theta), geometry.columns)
@@ -604,7 +555,30 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
         return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
 
     return IKBatch(Q, count, labels=slots, mode=SPATIAL_POSE, solver=solver, joint_names=tuple(chain.joint_names),
-                   measure=measure, limit=check)
+                   measure=measure, limit=check, name=_namer(arm, T, Q))
+
+
+def _namer(arm: IdealArm, T: np.ndarray, Q: np.ndarray):
+    """``IKBatch.branch_labels``' callable: flat target index -> the names of its slots (``""`` where empty) by
+    :func:`~manipkit.ik.branch_names.branch_names`, from the slots' rows ``Q`` (N, 8, n) and targets ``T`` (N, 4, 4)
+    as :func:`chain_ik` names that target's rows."""
+    geometry = arm.family.geometry
+    columns = geometry.columns
+
+    def name(index: int) -> tuple[str, ...]:
+        rows = Q[index]
+        filled = np.flatnonzero(~np.isnan(rows).any(axis=-1))
+        names = [""] * len(rows)
+        if len(filled):
+            theta = (rows[filled][:, columns] - geometry.q0[columns]) * geometry.scale  # chain order, any alias
+            if arm.family.reversed and arm.family.kind != SRS:
+                theta = theta[:, ::-1]  # the solve direction, as _branches turns it
+            g = _solved_direction(arm, T[index][None])[0]
+            for slot, label in zip(filled.tolist(), branch_names(arm, g, theta)):
+                names[slot] = label
+        return tuple(names)
+
+    return name
 
 
 def _reference_rows(chain: Chain, arm: IdealArm, T: np.ndarray, psi: np.ndarray | None

@@ -595,7 +595,9 @@ class IKBatch:
         or for infinitely many the representative with q1 = 0), slot 1
         elbow-up. ``ik_many``: slot 0 holds the solution where there is one.
     labels : tuple of str, shape (k,)
-        The slots' names (``("elbow-down", "elbow-up")``; ``("",)`` for numerical IK).
+        The slots' names (``("elbow-down", "elbow-up")``; ``("",)`` for numerical IK;
+        the closed form's 8 slots: the solver's choices, ``"shoulder a, elbow b, wrist a"``). The branch a
+        slot holds at one target, named as the single call names it: :meth:`branch_labels`.
     count : ndarray of float, shape (...)
         0.0, 1.0, 2.0 or ``inf`` per target (float so ``inf`` fits).
     success : ndarray of bool, shape (...)
@@ -629,12 +631,13 @@ class IKBatch:
     """
 
     __slots__ = ("solutions", "labels", "count", "mode", "solver", "joint_names", "q", "outside_by", "iterations",
-                 "attempts", "method", "_given", "_measure", "_limit", "_measured", "_kinds")
+                 "attempts", "method", "_given", "_measure", "_limit", "_measured", "_kinds", "_name")
 
     def __init__(self, solutions, count, *, labels: tuple[str, ...], mode: str, solver: str = "",
                  joint_names: tuple[str, ...] = (), q=None, success=None, residual_position=None,
                  residual_rotation=None, q_residuals=None, measure: Callable | None = None, limit=(0.0, 0.0),
-                 outside_by=None, iterations=None, attempts=None, method: str = "closed_form", failure_kinds=None):
+                 outside_by=None, iterations=None, attempts=None, method: str = "closed_form", failure_kinds=None,
+                 name: Callable | None = None):
         if method not in METHODS:
             raise ValueError(f"IKBatch.method must be one of {', '.join(METHODS)}, got {method!r}")
         set_ = object.__setattr__
@@ -658,6 +661,7 @@ class IKBatch:
         set_(self, "_measure", measure)
         set_(self, "_limit", limit)
         set_(self, "_measured", None)
+        set_(self, "_name", name)
 
     def __setattr__(self, name, value):
         raise AttributeError(f"an IKBatch is immutable: cannot set '{name}'")
@@ -752,6 +756,16 @@ class IKBatch:
         else:
             message = "no slot reaches the target within the tolerance"
         return IKFailure(kind, message, values=tuple(values))
+
+    def branch_labels(self, index: int) -> tuple[str, ...]:
+        """Target ``index``'s (flat, over the leading axes) slots named as the single call names the same rows: per
+        slot, its branch name (:func:`manipkit.ik.branch_names.branch_names`: ``manipkit.ik(..., all=True)`` of that
+        target labels its rows so), ``""`` where the slot is empty; :attr:`labels` for a batch without such names
+        (numerical IK, the planar solvers). Computed per call, from the rows: a closed-form batch does not name the
+        branches of every target unless asked."""
+        if self._name is None:
+            return self.labels
+        return self._name(int(index))
 
     def reason(self, index) -> str:
         """Why target ``index`` has no solution, in one sentence with its numbers; ``""`` where it succeeded."""

@@ -41,7 +41,7 @@ from manipkit.spatial.transforms import check_transform, pose_residuals
 if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many", "closed_form_refusal",
+__all__ = ["ANALYTIC_SOLVERS", "AnalyticSolver", "analytic_ik", "analytic_ik_many", "checked_targets", "closed_form_refusal",
            "closed_form_solves", "named_family"]
 
 
@@ -389,6 +389,15 @@ def _planned(plan: tuple, target, arm_angle) -> IKResult:
 _PLANS: dict = {}
 
 
+def checked_targets(targets) -> np.ndarray:
+    """``targets`` as a float array (..., 4, 4) of finite numbers, else :class:`IKOptionError` in one line (the
+    closed-form batches' check; each target's rotation block is checked where it is solved)."""
+    T = np.asarray(targets, dtype=float)
+    if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
+        raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
+    return T
+
+
 def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = "ee_link", *, tol=1e-9,
                      family_tol=FAMILY_TOL, lock=None, arm_angle=None) -> IKBatch:
     """Every closed-form branch for many targets ``T_base_tip`` (N, 4, 4) at once, from the chain's geometry.
@@ -413,9 +422,7 @@ def analytic_ik_many(robot: Robot, targets, base: str = "base_link", tip: str = 
     ((3, 8, 6), True)
     """
     chain, family = _geometric_chain(robot, base, tip, "pose", family_tol, named=False, lock=lock, arm_angle=arm_angle)
-    T = np.asarray(targets, dtype=float)
-    if T.ndim < 2 or T.shape[-2:] != (4, 4) or not np.all(np.isfinite(T)):
-        raise IKOptionError(f"targets must be finite 4x4 transforms, shape (N, 4, 4); got shape {T.shape}")
+    T = checked_targets(targets)
     try:
         return chain_ik_many(chain, T.reshape(-1, 4, 4), family=family, check_tol=tolerance_pair(tol), arm_angle=arm_angle)
     except ClosedFormIKError as exc:  # an arm angle that is not one number or one per target
