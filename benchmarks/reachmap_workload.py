@@ -39,10 +39,13 @@ LocalCluster of 1 and of 2 worker processes. Rows as in
   success by FK at 1e-9. Recall = reachable-labelled poses the map calls
   reachable; false-positive rate = unreachable-labelled poses it calls
   reachable (issue 24's wording), also as a share of all labelled poses;
-  both also per set. Two rows: the map's yes (``query``: voxel-bin reached
-  and support at least the default threshold; its row also tabulates
-  ``AGREEMENT_THRESHOLDS``) and the plain voxel-bin answer
-  (``interpolate=False``). IK failing does not prove a pose unreachable,
+  both also per set (``false_positive`` is of the unreachable-labelled
+  poses, ``false_positive_of`` says so). Three rows: the default answer
+  (``query``: refined, the poses of support strictly between 0 and 1
+  decided by IK of the exact pose, ``decided_by_ik`` of them), the map's
+  unrefined yes (``refine=False``: voxel-bin reached and support at least
+  the default threshold; its row also tabulates ``AGREEMENT_THRESHOLDS``)
+  and the plain voxel-bin answer (``interpolate=False``). IK failing does not prove a pose unreachable,
   so a false positive may be a pose IK missed.
 - ``ik_many``: solves per second on iiwa14 (FK of random configurations,
   random first starts) on 2 threads and on 1, timed in turns in one run
@@ -117,7 +120,8 @@ def ik_many_rows(robot, robot_name: str, ik_targets: int, *, repeats: int = 3) -
 
 
 def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> list[dict]:
-    """The ``reachmap_agreement`` rows of the map ``one``: its yes (``query``) first, then the plain voxel-bin answer."""
+    """The ``reachmap_agreement`` rows of the map ``one``: its default (refined) yes, its unrefined yes, the voxel-bin
+    answer."""
     from manipkit.analysis.reachmap.constants import DEFAULT_THRESHOLD
     from manipkit.analysis.reachmap.query import query_answer
     from manipkit.ik.numerical_many import ik_many
@@ -135,18 +139,22 @@ def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> lis
     seconds_label = time.perf_counter() - start
     labels = np.concatenate([np.ones(labelled, dtype=bool), np.array(batch.success, dtype=bool)])
     poses = np.concatenate([fk_poses, random_poses])
-    answer = query_answer(one, poses)  # both answers and the score, to tabulate thresholds on the same poses
+    answer = query_answer(one, poses, refine=False)  # both answers and the score, to tabulate thresholds on the poses
     completeness = one.settings["completeness"]
     sweep = {f"{t:g}": {"false_positive_share_of_all": float((answer.bin_reached & (answer.score >= t) & ~labels).mean()),
                         "recall": float((answer.bin_reached & (answer.score >= t))[labels].mean())}
              for t in AGREEMENT_THRESHOLDS}
     rows = []
-    for interpolate, how in ((True, f"ReachMap.query (voxel-bin reached and support >= {DEFAULT_THRESHOLD:g})"),
-                             (False, "ReachMap.query(interpolate=False) (voxel-bin reached)")):
+    refined = query_answer(one, poses, robot=robot)  # which poses IK decided
+    for interpolate, refine, how in (
+            (True, None, "ReachMap.query (default: refined, IK of the exact pose where 0 < support < 1)"),
+            (True, False, f"ReachMap.query(refine=False) (voxel-bin reached and support >= {DEFAULT_THRESHOLD:g})"),
+            (False, False, "ReachMap.query(interpolate=False) (voxel-bin reached)")):
         start = time.perf_counter()
-        says = one.query(poses, interpolate=interpolate)
+        says = one.query(poses, interpolate=interpolate, refine=refine)
         seconds_query = time.perf_counter() - start
-        same = bool(np.array_equal(says, answer.reachable if interpolate else answer.bin_reached))
+        same = bool(np.array_equal(says, refined.reachable if refine is None else answer.reachable if interpolate
+                                   else answer.bin_reached))
         recall = float(says[labels].mean())
         false_positive = float(says[~labels].mean()) if (~labels).any() else 0.0
         rows.append(row("reachmap_agreement", robot_name, f"map (fk, converged) vs IK labels: {how}",
@@ -156,8 +164,10 @@ def agreement_rows(robot, robot_name: str, one, labelled: int, what: str) -> lis
                         recall_fk_poses=float(says[:labelled].mean()),
                         recall_random_reachable=float(says[labelled:][labels[labelled:]].mean()),
                         random_poses_reachable=float(labels[labelled:].mean()), label_seconds=seconds_label,
+                        false_positive_of="unreachable-labelled poses", unreachable_labelled=int((~labels).sum()),
                         threshold=DEFAULT_THRESHOLD if interpolate else 0.0, status="ok" if same else "wrong",
-                        **({"thresholds": sweep} if interpolate else {}),
+                        **({"thresholds": sweep} if interpolate and refine is False else {}),
+                        **({"decided_by_ik": int(refined.decided_by_ik.sum())} if refine is None else {}),
                         check=f"labels: ik_many mode {mode}, {LABEL_RESTARTS} restarts, tol 1e-9 (success by FK); "
                               f"query equals query_answer's {'reachable' if interpolate else 'bin_reached'}: {same}",
                         note=f"{labelled} FK poses of random configurations + {labelled} random poses in the grid box; "

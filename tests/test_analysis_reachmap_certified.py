@@ -76,9 +76,9 @@ def test_held_out_completeness_agrees_with_fresh_fk_poses_within_its_interval(pl
     assert c["n"] == 20_000 and c["low"] <= c["rate"] <= c["high"]
     Q = planar_3r.sample_q(20_000, seed=12345)  # a stream the build does not use
     T = planar_3r.fk(Q, base="base_link", tip="ee_link")
-    # completeness is of the map's yes (query at the default threshold, recorded as checked_threshold)
+    # completeness is of the map's unrefined yes (query(refine=False) at the default threshold, checked_threshold)
     assert map_3r.settings["checked_threshold"] == DEFAULT_THRESHOLD
-    fresh = float(np.mean(map_3r.query(T)))
+    fresh = float(np.mean(map_3r.query(T, refine=False)))
     low, high = wilson(int(round(fresh * len(Q))), len(Q))
     assert max(low, c["low"]) <= min(high, c["high"])  # the two 95 % intervals overlap
     f = map_3r.settings["false_positive"]
@@ -183,7 +183,7 @@ def test_the_interpolated_yes_has_fewer_false_positives_than_the_bin_answer_by_c
     r, a, phi = 7.5 * np.sqrt(rng.random(n)), rng.random(n) * 2 * math.pi, rng.uniform(-math.pi, math.pi, n)
     x, y = r * np.cos(a), r * np.sin(a)
     truth = ik_3r_batch(np.column_stack([x, y, phi]), 4.0, 2.0, 1.0).count > 0
-    answer = map_3r.query(planar_poses(x, y, phi), detail=True)
+    answer = map_3r.query(planar_poses(x, y, phi), detail=True, refine=False)  # the map's own rule
     assert answer.threshold == DEFAULT_THRESHOLD and not (answer.reachable & ~answer.bin_reached).any()
     fp_bin, fp_yes = int((answer.bin_reached & ~truth).sum()), int((answer.reachable & ~truth).sum())
     recall_bin, recall_yes = answer.bin_reached[truth].mean(), answer.reachable[truth].mean()

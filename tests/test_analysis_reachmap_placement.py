@@ -97,7 +97,7 @@ def test_the_map_estimate_counts_targets_by_the_query_rule_and_says_so(map_2r, p
     targets[:, 0, 3], targets[:, 1, 3] = r * np.cos(a), r * np.sin(a)
     found = base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0])
     plain = base_placement(map_2r, targets, xs=[0.0], ys=[0.0], yaws=[0.0], threshold=0.0)
-    yes, bin_yes = map_2r.query(targets), map_2r.query(targets, interpolate=False)
+    yes, bin_yes = map_2r.query(targets, refine=False), map_2r.query(targets, interpolate=False)
     assert found.threshold == DEFAULT_THRESHOLD and plain.threshold == 0.0
     assert int(found.scores[0, 0, 0]) == int(yes.sum()) and int(plain.scores[0, 0, 0]) == int(bin_yes.sum())
     beyond = r > 2.0

@@ -14,12 +14,14 @@ Independent sources:
   0.42 + 0.40 m of the upper arm and forearm.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from benchmarks.reachmap_workload import _random_rotations
 from manipkit.analysis.reachmap import build
-from manipkit.analysis.reachmap.query import support_score
+from manipkit.analysis.reachmap.query import UnrefinedWarning, answer_text, support_score
 from manipkit.ik.numerical_many import ik_many
 
 SEED, N_RANDOM, N_FK = 11, 2400, 400
@@ -46,7 +48,7 @@ def labelled(iiwa14, map_iiwa):
 
 def test_refined_yes_is_rarely_wrong_and_misses_little(iiwa14, map_iiwa, labelled):
     T, truth = labelled
-    plain, refined = map_iiwa.query(T), map_iiwa.query(T, robot=iiwa14)
+    plain, refined = map_iiwa.query(T, refine=False), map_iiwa.query(T, robot=iiwa14)
     unreachable = ~truth
     assert unreachable.sum() > 1500 and truth.sum() > 150  # about 13 % of random poses in the box are reachable
     false_yes, recall = (refined & unreachable).sum() / unreachable.sum(), refined[truth].mean()
@@ -59,6 +61,41 @@ def test_refined_yes_is_rarely_wrong_and_misses_little(iiwa14, map_iiwa, labelle
     assert map_iiwa.query(T_fk, robot=iiwa14).mean() >= 0.98
 
 
+def test_the_default_answer_is_the_refined_one_where_the_robot_loads(iiwa14, map_iiwa, labelled):
+    T, truth = labelled
+    assert map_iiwa.robot == "iiwa14"  # a bundled name: the default answer loads it and refines
+    default = map_iiwa.query(T)  # no robot passed
+    assert np.array_equal(default, map_iiwa.query(T, robot=iiwa14))
+    unreachable = ~truth
+    assert (default & unreachable).sum() / unreachable.sum() <= 0.01 and default[truth].mean() >= 0.98
+    answer = map_iiwa.query(T, detail=True)
+    assert np.array_equal(answer.reachable, default) and answer.unrefined_because == ""
+    band = (answer.score > 0.0) & (answer.score < 1.0)
+    assert np.array_equal(answer.decided_by_ik, band) and band.sum() > 20
+    assert answer_text(map_iiwa, answer).startswith(f"decided by IK near the boundary: {band.sum()} of {len(T)} poses")
+    # the map's own rule, asked for: unrefined (support >= threshold, or the voxel-bin alone)
+    plain = map_iiwa.query(T, refine=False)
+    assert np.array_equal(map_iiwa.query(T, threshold=0.65), plain) and (plain & unreachable).sum() > (
+        default & unreachable).sum()
+    assert map_iiwa.query(T, detail=True, refine=False).decided_by_ik is None
+
+
+@pytest.mark.parametrize("change", [{"robot": "no_such_robot_38"}, {"robot": "/nonexistent/arm_38.urdf"}, "shuffled"])
+def test_a_map_whose_robot_does_not_load_gives_its_unrefined_estimate_and_says_so(map_iiwa, labelled, change):
+    T, _ = labelled
+    # an unknown name; a file path (a map's is never read); the iiwa14 by name, but FK of it does not put the
+    # map's certificates in their voxel-bins (here: certificates shuffled), as with another robot of that name
+    change = {"cert_q": map_iiwa.cert_q[::-1].copy()} if change == "shuffled" else change
+    elsewhere = dataclasses.replace(map_iiwa, **change)
+    with pytest.warns(UnrefinedWarning, match=r"the map's unrefined estimate, not decided by IK .*measured error: "
+                      r"completeness: of a held-out sample of 2000 reachable poses"):
+        said = elsewhere.query(T[:200])
+    assert np.array_equal(said, map_iiwa.query(T[:200], refine=False))
+    with pytest.warns(UnrefinedWarning):
+        answer = elsewhere.query(T[:200], detail=True)
+    assert answer.decided_by_ik is None and "did not load by its name" in answer_text(elsewhere, answer)
+
+
 def test_refinement_changes_only_the_boundary_band(iiwa14, map_iiwa, labelled):
     T, _ = labelled
     answer = map_iiwa.query(T, detail=True)
@@ -66,7 +103,7 @@ def test_refinement_changes_only_the_boundary_band(iiwa14, map_iiwa, labelled):
     outside = (answer.score == 0.0) | (answer.score == 1.0)
     assert np.array_equal(refined.reachable[outside], answer.reachable[outside])
     assert np.array_equal(refined.bin_reached, answer.bin_reached)
-    assert np.array_equal(map_iiwa.query(T, robot=iiwa14, refine=False), map_iiwa.query(T))
+    assert np.array_equal(map_iiwa.query(T, robot=iiwa14, refine=False), map_iiwa.query(T, refine=False))
     # every yes in the band is a pose IK reaches (labels from 50 random restarts, independent of the map)
     band = ~outside & refined.reachable
     again = ik_many(iiwa14, T[band], mode="position+axis", restarts=200, tol=1e-9, seed=3)

@@ -386,3 +386,43 @@ def test_a_build_writes_nowhere_but_beside_its_output(tmp_path, monkeypatch):
     run_cli("manipkit", "reachmap", "--robot", "planar_2r", "--voxel", "0.5", "--samples", "500", "-o",
             "maps/m.zarr", status=0)
     assert sorted(os.listdir(tmp_path)) == ["maps"] and os.listdir(tmp_path / "maps") == ["m.zarr"]
+
+
+def test_reachmap_query_decides_the_boundary_band_by_ik_by_default(map_3r, tmp_path):
+    folder, _ = map_3r
+    # by hand: the planar 3R (4, 2, 1) reaches (x, y, phi) iff its wrist point (x, y) - 1 (cos phi, sin phi) lies in
+    # 2 <= r <= 6 (4 - 2 to 4 + 2); poses 0.1 on either side of both circles, and some deep inside at r = 4
+    rng = np.random.default_rng(1)
+    lines, truth = [], []
+    for radius, reachable in ((5.9, True), (6.1, False), (2.1, True), (1.9, False), (4.0, True)):
+        for a, phi in rng.uniform(-math.pi, math.pi, (8, 2)).tolist():
+            x, y = radius * math.cos(a) + math.cos(phi), radius * math.sin(a) + math.sin(phi)
+            lines.append(f"{x!r} {y!r} 0 0 0 {phi!r}")
+            truth.append(reachable)
+    (tmp_path / "t.txt").write_text("\n".join(lines) + "\n")
+    truth = np.array(truth)
+    reach_map = load(folder / "p3r.zarr")
+    out = run_cli("manipkit", "reachmap", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt", status=0).stdout
+    rows = [x for x in out.splitlines() if x.startswith("pose ")]
+    said = np.array([x.split(": ")[1].startswith("reachable") for x in rows])
+    by_ik = np.array(["decided by IK;" in x for x in rows])
+    assert len(rows) == 40 and 0 < by_ik.sum() < 40
+    assert f"decided by IK near the boundary: {by_ik.sum()} of 40 poses" in out.splitlines()[-1]
+    assert np.array_equal(said[by_ik], truth[by_ik])  # IK's answers are the hand derivation's
+    from manipkit.inputs.poses import read_targets
+
+    plain = reach_map.query(read_targets(tmp_path / "t.txt"), refine=False)
+    assert np.array_equal(said[~by_ik], plain[~by_ik]) and (said != truth).sum() < (plain != truth).sum()
+    data = json.loads(run_cli("manipkit", "reachmap", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt",
+                              "--format", "json", status=0).stdout)
+    assert data["refined"] and data["decided_by_ik"] == by_ik.sum() and data["poses_total"] == 40
+    assert [p["reachable"] for p in data["poses"]] == said.tolist()
+    unrefined = run_cli("manipkit", "reachmap", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt",
+                        "--no-refine", status=0).stdout
+    assert "decided by IK;" not in unrefined and "decided by map;" in unrefined
+    assert ("the map's unrefined estimate, not decided by IK (refinement turned off: refine=False, or --no-refine on the "
+            "command line); measured "
+            "error: completeness: of a held-out sample of") in unrefined.splitlines()[-1]
+    assert sum(": reachable (" in x for x in unrefined.splitlines()) == plain.sum()
+    run_cli("manipkit", "reachmap", "--voxel", "0.1", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt",
+            status=2)

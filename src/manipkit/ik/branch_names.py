@@ -69,7 +69,7 @@ def label_order(label: str) -> tuple[bool, bool, bool]:
 def branch_words(arm, g: np.ndarray, theta: np.ndarray, compiled: bool = False) -> list[str]:
     """Shoulder, elbow and wrist of each branch, as words (the module's rule, before :func:`numbered`).
 
-    ``arm``: the family's :class:`~manipkit.ik.chain_ik.IdealArm`; ``g`` (4, 4): the target as the solver takes
+    ``arm``: the family's :class:`~manipkit.ik.ideal_arm.IdealArm`; ``g`` (4, 4): the target as the solver takes
     it (``T M^-1``, inverted for a reversed family); ``theta`` (k, n): the branches' angles (rad) in the solve
     direction, any 2 pi alias. ``compiled``: the UR and OPW words by the compiled kernel (the same words).
     """

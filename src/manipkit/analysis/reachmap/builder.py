@@ -412,9 +412,12 @@ def build(
                          tuple(robot.joint_names), voxel_q.reshape(*shape, -1), ik_keys, ik_q, settings,
                          best.reshape(shape) if manipulability else None,
                          mean.reshape(shape) if manipulability else None, cert_keys, cert_q)
-    # the map's own checks measure its yes (query: voxel-bin reached and support >= DEFAULT_THRESHOLD)
-    checks = {"completeness": stages.holdout_completeness(job, reach, int(holdout), unchecked.query),
-              "false_positive": stages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks),
-                                                                 unchecked.query),
+    # the map's own checks measure its unrefined yes (voxel-bin reached and support >= DEFAULT_THRESHOLD), the
+    # estimate a query gives without the robot's IK (refine=False)
+    def unrefined(T):
+        return unchecked.query(T, refine=False)
+
+    checks = {"completeness": stages.holdout_completeness(job, reach, int(holdout), unrefined),
+              "false_positive": stages.false_positive_bound(job, cert_keys, cert_q, int(fp_checks), unrefined),
               "checked_threshold": DEFAULT_THRESHOLD}
     return replace(unchecked, settings={**settings, **checks})

@@ -36,8 +36,8 @@ from manipkit.analysis.reachmap.payload import CONFIGURATIONS
 from manipkit.analysis.reachmap.query import (
     checks_lines,
     in_plane,
-    map_robot,
     query_answer,
+    refine_robot,
     refined_answer,
     resolution_text,
     support_score,
@@ -164,11 +164,30 @@ class ReachMap:
         value = np.where(inside, self.index[ijk[..., 0], ijk[..., 1], ijk[..., 2]], 0.0)
         return float(value) if value.ndim == 0 else value
 
-    def query(self, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD, confirm: bool = False,
+    def query(self, T, *, interpolate: bool = True, threshold: float | None = None, confirm: bool = False,
               detail: bool = False, robot: Robot | None = None, refine: bool | None = None):
         """Whether the map says each pose ``T`` (..., 4, 4), ``T_base_frame``, is reachable.
 
-        A yes means: the pose's voxel-bin was reached (:meth:`resolution`: the
+        **By default the answer is refined**: deep inside the reached set
+        (support 1, below) yes, far from it (support 0) no, and a pose in the
+        boundary band (support strictly between 0 and 1) answered by IK of the
+        exact pose (the dispatcher's batch: the closed form where the chain
+        has one for the map's IK mode, else numerical IK from the certificates
+        of the reached voxel-bins around it), yes only where FK of an in-limit
+        answer reaches it to 1e-9
+        (:func:`manipkit.analysis.reachmap.query.refined_answer`). The IK is
+        of ``robot``, else of the map's robot loaded by the name it stores (a
+        bundled or example-robot-data name; a file path a map names is never
+        read: :func:`manipkit.analysis.reachmap.query.robot_by_name`).
+        On the iiwa14's 5 cm map this says yes to 0.39 % of unreachable
+        poses (recall 99.96 %) where the unrefined estimate says 1.76 % (96.0 %).
+
+        **The map's unrefined estimate** (``refine=False``; also where the
+        robot does not load, with an
+        :class:`~manipkit.analysis.reachmap.query.UnrefinedWarning` giving the
+        map's measured error; also when ``interpolate=False`` or a
+        ``threshold`` asks for the map's own rule, unless ``refine=True``): a
+        yes means the pose's voxel-bin was reached (:meth:`resolution`: the
         voxel, the approach-axis bin and the roll bin, or any roll) **and** its
         support is at least ``threshold`` (default
         :data:`manipkit.analysis.reachmap.query.DEFAULT_THRESHOLD`, 0.65): the trilinear blend of the reached
@@ -178,17 +197,12 @@ class ReachMap:
         voxel-bin counts whenever any part of it is reached, which near the
         edge of the reach says yes to poses no configuration reaches).
         ``interpolate=False`` (or ``threshold=0``) answers for the voxel-bin
-        alone, the certified answer. With ``detail`` or ``confirm`` the answer
+        alone, the certified answer. ``refine=True`` without ``robot`` loads
+        the map's robot by name or path, and raises if it does not load.
+        With ``detail`` or ``confirm`` the answer
         is a :class:`manipkit.analysis.reachmap.query.QueryAnswer` (both answers,
-        the score, voxel, bins, the bin's certificate; with ``confirm`` IK of
-        the exact pose from that certificate, confirmed by FK; ``robot`` the map's robot).
-        **Refined** (``refine``; default: whenever ``robot`` is given): a pose
-        in the boundary band (support strictly between 0 and 1) is answered by
-        IK of the exact pose from the certificates of the reached voxel-bins
-        around it, yes only where FK of an in-limit answer reaches it to 1e-9
-        (:func:`manipkit.analysis.reachmap.query.refined_answer`); deep inside
-        (support 1) yes and far outside (support 0) no as above. ``refine=True``
-        without ``robot`` loads the map's robot by name.
+        the score, voxel, bins, the bin's certificate, which poses IK decided;
+        with ``confirm`` IK of the exact pose from that certificate, confirmed by FK).
         For a planar map the pose must also keep the frame's axis along the
         arm's axis ``a`` (to :data:`PLANAR_TILT_TOL`, or half a bin if less): a tilted tool is never reached.
         A ``T`` that is not numbers, holds NaN or infinity, or is not (..., 4, 4), or a ``threshold``
@@ -197,7 +211,8 @@ class ReachMap:
         if confirm or detail:
             return query_answer(self, T, interpolate=interpolate, threshold=threshold, confirm=confirm, robot=robot,
                                 refine=refine)
-        threshold = check_threshold(threshold)
+        asked_rule = not interpolate or threshold is not None
+        threshold = DEFAULT_THRESHOLD if threshold is None else check_threshold(threshold)
         T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
         ijk, inside = self.voxel_of(T[..., :3, 3])
         bins = self.orientations.bin_of(T[..., :3, :3])
@@ -206,8 +221,9 @@ class ReachMap:
         value = inside & (self.reach[ijk[..., 0], ijk[..., 1], ijk[..., 2], bins] > HOW_NONE)
         if interpolate and threshold > 0.0:
             value = value & (support_score(self, T[..., :3, 3], bins) >= threshold)
-        if robot is not None if refine is None else refine:
-            value = refined_answer(self, T, value, np.asarray(bins), map_robot(self, robot))
+        refiner = refine_robot(self, robot, refine, asked_rule=asked_rule)[0]
+        if refiner is not None:
+            value = refined_answer(self, T, value, np.asarray(bins), refiner)
         return bool(value) if value.ndim == 0 else value
 
     def summary(self) -> str:

@@ -408,7 +408,7 @@ def base_placement(reach_map: ReachMap, targets, *, xs=None, ys=None, yaws=16, s
             T_P_F[..., :3, :3] = R_t
             T_P_F[..., :3, 3] = -np.einsum("...ij,...j->...i", R_t, T_F_P[..., :3, 3])
             T_B_target = mount_inv @ T_P_F[..., None, :, :] @ T  # (batch, K, 4, 4)
-            yes = reach_map.query(T_B_target, threshold=threshold)
+            yes = reach_map.query(T_B_target, threshold=threshold, refine=False)
             if payload is not None:
                 from manipkit.analysis.reachmap.payload import capacity_at
 

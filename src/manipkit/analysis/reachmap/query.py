@@ -18,6 +18,11 @@ layer; centres outside the grid count as unreached), so it is 1 deep inside
 the reached set, 0 far from it, and falls across its edge. A yes means
 ``bin_reached and score >= threshold`` (default :data:`DEFAULT_THRESHOLD`);
 ``threshold=0`` or ``interpolate=False`` is the plain voxel-bin answer.
+That is the map's **unrefined estimate**. The **default** answer refines it:
+the poses of support strictly between 0 and 1 (:func:`boundary_band`) are
+decided by IK of the exact pose (:func:`refined_answer`) with the robot
+given, else the map's robot loaded by its name (:func:`refine_robot`,
+:func:`robot_by_name`); :func:`answer_text` says which answer it is.
 :func:`query_answer` says which bins, per pose, and with
 ``confirm=True`` runs IK for the **exact** pose (mode ``"pose"``) from the
 certificate of the pose's voxel-bin (a configuration whose FK lands in it),
@@ -30,6 +35,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import weakref
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -51,8 +57,9 @@ if TYPE_CHECKING:
     from manipkit.kinematics.robot import Robot
 
 __all__ = [
-    "QueryAnswer", "bin_text", "checks_lines", "corner_keys", "first_confirmed", "in_plane", "map_robot",
-    "query_answer", "refined_answer", "resolution_text", "support_score",
+    "CERTIFICATES_CHECKED", "QueryAnswer", "UnrefinedWarning", "answer_text", "bin_text", "boundary_band",
+    "certificates_landing", "checks_lines", "corner_keys", "first_confirmed", "in_plane", "map_robot", "measured_error", "query_answer", "refine_robot", "refined_answer",
+    "resolution_text", "robot_by_name", "support_score", "unrefined_text",
 ]
 
 
@@ -87,6 +94,11 @@ class QueryAnswer:
         ``confirm=True``: IK reached the exact pose (FK residuals within ``tol``).
     q : ndarray, shape (..., n), or None
         ``confirm=True``: IK's answers (meaningful where ``confirmed``).
+    decided_by_ik : ndarray of bool, shape (...), or None
+        The poses whose ``reachable`` IK decided (the boundary band, :func:`refined_answer`); None when the answer
+        is the map's unrefined estimate.
+    unrefined_because : str
+        Why the answer is the map's unrefined estimate ("" when refined).
     """
 
     reachable: np.ndarray
@@ -101,6 +113,8 @@ class QueryAnswer:
     certificate: np.ndarray
     confirmed: np.ndarray | None = None
     q: np.ndarray | None = None
+    decided_by_ik: np.ndarray | None = None
+    unrefined_because: str = ""
 
 
 def bin_text(reach_map: ReachMap) -> str:
@@ -176,6 +190,20 @@ def support_score(reach_map: ReachMap, xyz, bins) -> np.ndarray:
     return np.clip(np.where(reached, weights, 0.0).sum(axis=-1), 0.0, 1.0)
 
 
+def boundary_band(reach_map: ReachMap, T: np.ndarray, bins: np.ndarray):
+    """(band, keys, reached) of poses ``T`` (..., 4, 4) in orientation bins ``bins`` (...,): ``band`` (...,) the poses
+    of support strictly between 0 and 1 with a reached voxel-bin around them (a planar map's also in the plane), the
+    ones :func:`refined_answer` decides by IK; ``keys`` and ``reached`` (..., 8) the corner voxel-bins
+    (:func:`corner_keys`) and which of them were reached."""
+    keys, _, inside = corner_keys(reach_map, T[..., :3, 3], bins)
+    reached = inside & (reach_map.reach.reshape(-1)[keys] > HOW_NONE)
+    score = support_score(reach_map, T[..., :3, 3], bins)
+    band = (score > 0.0) & (score < 1.0) & reached.any(axis=-1)
+    if reach_map.orientations.kind == "planar":  # a tool tilted out of the plane is never reached
+        band &= in_plane(reach_map, T)
+    return band, keys, reached
+
+
 def refined_answer(reach_map: ReachMap, T: np.ndarray, value: np.ndarray, bins: np.ndarray, robot: Robot, *,
                    tol: float = 1e-9, restarts: int = 4, seed: int = 0) -> np.ndarray:
     """The map's answer ``value`` (...,) for poses ``T`` (..., 4, 4), decided by IK in the boundary band.
@@ -183,28 +211,28 @@ def refined_answer(reach_map: ReachMap, T: np.ndarray, value: np.ndarray, bins: 
     **Refine near the boundary**: a pose whose support (:func:`support_score`)
     is strictly between 0 and 1 lies where reached and unreached voxel-bins
     of its orientation bin meet, which is where a blended answer says yes to
-    poses no configuration reaches and no to poses one does. There the
-    answer is IK of the exact pose in the mode the map was built in (the
-    settings' ``ik_mode``: ``position+axis`` for a map of any roll), started
-    from the certificate (a stored configuration whose FK lands in the
-    voxel-bin) of each reached voxel-bin around it, ``restarts`` random
-    restarts after each; yes only where FK of an answer within the limits
-    reaches the pose to ``tol`` (m and rad). Elsewhere (support 0 or 1)
-    ``value`` stands. A yes in the band is thus proved; a no in it is IK
-    failing from up to 8 nearby starts, which does not prove a pose unreachable.
+    poses no configuration reaches and no to poses one does
+    (:func:`boundary_band`). There the answer is IK of the exact pose in the
+    mode the map was built in (the settings' ``ik_mode``: ``position+axis``
+    for a map of any roll) by the one dispatcher's batch
+    (:func:`manipkit.ik.dispatch.ik_many`, method ``"auto"``): the closed
+    form where the chain has one for that mode (every branch; a UR arm's map
+    of rolls, mode ``pose``), else numerical IK started from the certificate
+    (a stored configuration whose FK lands in the voxel-bin) of each reached
+    voxel-bin around it, ``restarts`` random restarts after each. Yes only
+    where FK of an answer inside the joint limits reaches the pose to ``tol``
+    (m and rad). Elsewhere (support 0 or 1) ``value`` stands. A yes in the
+    band is thus proved; a no in it is the closed form finding no in-limit
+    branch, or numerical IK failing from up to 8 nearby starts, which does
+    not prove a pose unreachable.
     The IK answers are not checked for collisions: on a map built collision-free
     a refined yes in the band means reachable, not reachable collision-free.
     """
-    from manipkit.ik.numerical_many import ik_many
+    from manipkit.ik.dispatch import ik_many
 
     if reach_map.cert_keys is None or not reach_map.cert_keys.size:
         return value
-    keys, _, inside = corner_keys(reach_map, T[..., :3, 3], bins)
-    reached = inside & (reach_map.reach.reshape(-1)[keys] > HOW_NONE)
-    score = support_score(reach_map, T[..., :3, 3], bins)
-    band = (score > 0.0) & (score < 1.0) & reached.any(axis=-1)
-    if reach_map.orientations.kind == "planar":  # a tool tilted out of the plane is never reached
-        band &= in_plane(reach_map, T)
+    band, keys, reached = boundary_band(reach_map, T, bins)
     if not band.any():
         return value
     pose, corner = np.nonzero(reached.reshape(-1, keys.shape[-1]) & band.reshape(-1, 1))
@@ -212,11 +240,15 @@ def refined_answer(reach_map: ReachMap, T: np.ndarray, value: np.ndarray, bins: 
     rows = np.clip(np.searchsorted(reach_map.cert_keys, flat_keys), 0, reach_map.cert_keys.size - 1)
     has = reach_map.cert_keys[rows] == flat_keys
     pose, rows = pose[has], rows[has]
-    batch = ik_many(robot, T.reshape(-1, 4, 4)[pose], base=reach_map.base, tip=reach_map.frame,
+    batch = ik_many(robot, T.reshape(-1, 4, 4)[pose], base=reach_map.base, tip=reach_map.frame, method="auto",
                     q0=reach_map.cert_q[rows], mode=reach_map.settings.get("ik_mode", "pose"), tol=tol,
                     restarts=restarts, seed=seed)
+    solutions = np.asarray(batch.solutions)
+    ok = (np.asarray(batch.residual_position) <= tol) & (np.asarray(batch.residual_rotation) <= tol)
+    if ok.any():  # a closed form's branches are every solution, in limits or not
+        ok[ok] = robot.chain(reach_map.base, reach_map.frame).within_limits(solutions[ok])
     proved = np.zeros(band.size, dtype=bool)
-    np.logical_or.at(proved, pose, np.asarray(batch.success, dtype=bool))
+    np.logical_or.at(proved, pose, ok.any(axis=-1))
     return np.where(band, proved.reshape(band.shape), value)
 
 
@@ -228,14 +260,18 @@ def in_plane(reach_map: ReachMap, T: np.ndarray) -> np.ndarray:
     return cos_tilt >= math.cos(min(math.pi / o.size, PLANAR_TILT_TOL))
 
 
-def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold: float = DEFAULT_THRESHOLD,
+def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold: float | None = None,
                  confirm: bool = False, robot: Robot | None = None, tol: float = 1e-6, restarts: int = 20,
                  seed: int = 0, collisions: CollisionSettings | None = None, mode: str = "pose",
                  axis: str = "z", refine: bool | None = None) -> QueryAnswer:
     """The map's answer for poses ``T`` (..., 4, 4) ``T_base_frame`` and, with ``confirm``, IK's for the exact poses.
 
     ``reachable`` is ``bin_reached and score >= threshold`` (the module
-    docstring); ``interpolate=False`` makes it ``bin_reached`` (threshold 0).
+    docstring; ``threshold`` default :data:`DEFAULT_THRESHOLD`), decided by
+    IK in the boundary band when refined (``refine``, :func:`refine_robot`:
+    by default whenever the robot is given or the map's robot loads by its
+    name and neither ``interpolate=False`` nor a ``threshold`` is given);
+    ``interpolate=False`` makes it ``bin_reached`` (threshold 0).
     ``robot``: the robot the map is of (default: loaded by the map's robot
     name, which works for bundled and example-robot-data robots). ``tol``:
     position (m) and rotation (rad) residual of a confirmed answer. ``mode``
@@ -246,19 +282,24 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
     the chain has one for ``mode``, every branch; numerical IK seeded from the
     certificate otherwise); a target is confirmed by the first answer within
     ``tol`` (and collision-free when ``collisions`` are given).
-    ``refine`` (default: when ``robot`` is given): ``reachable`` decided by IK
-    in the boundary band (:func:`refined_answer`).
+    ``decided_by_ik`` says which poses IK decided, ``unrefined_because`` why
+    none did (:func:`answer_text` says it in words).
     """
-    threshold = check_threshold(threshold) if interpolate else 0.0
+    asked_rule = not interpolate or threshold is not None
+    threshold = (DEFAULT_THRESHOLD if threshold is None else check_threshold(threshold)) if interpolate else 0.0
     T = finite_array(T, "T", (4, 4), "poses (..., 4, 4) T_base_frame")
     bin_reached = np.asarray(reach_map.query(T, interpolate=False))
     ijk, inside = reach_map.voxel_of(T[..., :3, 3])
     bins = np.asarray(reach_map.orientations.bin_of(T[..., :3, :3]))
     score = support_score(reach_map, T[..., :3, 3], bins)
     reachable = bin_reached & (score >= threshold)
-    if robot is not None if refine is None else refine:
-        robot = map_robot(reach_map, robot)
-        reachable = refined_answer(reach_map, T, reachable, bins, robot)
+    refiner, because = refine_robot(reach_map, robot, refine, asked_rule=asked_rule)
+    decided = None
+    if refiner is not None:
+        reachable = refined_answer(reach_map, T, reachable, bins, refiner)
+        decided = boundary_band(reach_map, T, bins)[0] if reach_map.cert_keys is not None and \
+            reach_map.cert_keys.size else np.zeros(reachable.shape, dtype=bool)
+        robot = refiner
     o = reach_map.orientations
     direction, roll = (bins, None) if o.kind == "planar" or o.n_rolls == 1 else np.divmod(bins, o.n_rolls)
     n = len(reach_map.joint_names)
@@ -270,7 +311,8 @@ def query_answer(reach_map: ReachMap, T, *, interpolate: bool = True, threshold:
         certificate[found] = reach_map.cert_q[rows[found]]
     answer = dict(reachable=reachable, bin_reached=bin_reached, score=score, threshold=threshold, voxel=ijk,
                   inside=inside, direction=direction, roll=roll,
-                  resolution=resolution_text(reach_map, threshold=threshold), certificate=certificate)
+                  resolution=resolution_text(reach_map, threshold=threshold), certificate=certificate,
+                  decided_by_ik=decided, unrefined_because=because)
     if not confirm:
         return QueryAnswer(**answer)
     robot = map_robot(reach_map, robot)
@@ -297,6 +339,125 @@ def first_confirmed(batch, tol: float, robot: Robot, collisions: CollisionSettin
     first = np.argmax(ok, axis=-1)
     q[confirmed] = solutions[confirmed, first[confirmed]]
     return confirmed, q
+
+
+class UnrefinedWarning(UserWarning):
+    """A map's default answer is its unrefined estimate: the map's robot did not load by the name it stores."""
+
+
+#: The robots loaded by the names maps store, (robot or None, why not) per name; and per map object, the answer of
+#: :func:`robot_by_name` (its chain and certificates checked), kept while the map lives.
+_LOADED: dict[str, tuple[Robot | None, str]] = {}
+_CHECKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def robot_by_name(reach_map: ReachMap) -> tuple[Robot | None, str]:
+    """(the map's robot, "") loaded by the name the map stores, or (None, why not); loaded once per name, checked
+    once per map.
+
+    Only a bundled or example-robot-data name loads: a map is a file from
+    anywhere, and a file path it names is never read (pass ``robot=``). The
+    robot must have the map's chain: ``base`` to ``frame`` with the map's
+    joint names, in order, and put the map's certificates back in their
+    voxel-bins (FK of up to :data:`CERTIFICATES_CHECKED` of them, spread over
+    the map; at least 95 %, a bin edge aside): another robot of the same name
+    would not.
+    """
+    if reach_map in _CHECKED:
+        return _CHECKED[reach_map]
+    import manipkit
+    from manipkit.description.sources import resolve_robot
+    from manipkit.errors import ManipkitError
+
+    name = printable(reach_map.robot)
+    try:
+        if reach_map.robot not in _LOADED:
+            try:
+                if resolve_robot(reach_map.robot).origin == "file":
+                    raise ReachMapError("the name is a file path, which a map is never trusted to name")
+                _LOADED[reach_map.robot] = (manipkit.load(reach_map.robot), "")
+            except ManipkitError as exc:
+                _LOADED[reach_map.robot] = (None, printable(str(exc))[:200])
+        robot, because = _LOADED[reach_map.robot]
+        if robot is None:
+            raise ReachMapError(because)
+        names = tuple(robot.chain(reach_map.base, reach_map.frame).joint_names)
+        if names != tuple(reach_map.joint_names):
+            raise ReachMapError(f"its chain's joints {names} are not the map's {tuple(reach_map.joint_names)}")
+        landed = certificates_landing(reach_map, robot)
+        if landed < 0.95:
+            raise ReachMapError(f"FK of the robot of that name puts {100 * landed:.0f} % of the map's checked "
+                                "certificates in their voxel-bins: not the robot the map was built of")
+        answer = (robot, "")
+    except ManipkitError as exc:
+        answer = (None, f"the map's robot '{name}' did not load by its name ({printable(str(exc))[:200]})")
+    _CHECKED[reach_map] = answer
+    return answer
+
+
+#: How many of a map's certificates :func:`robot_by_name` checks by FK against the robot it loads.
+CERTIFICATES_CHECKED = 100
+
+
+def certificates_landing(reach_map: ReachMap, robot: Robot) -> float:
+    """The share of up to :data:`CERTIFICATES_CHECKED` of the map's certificates (evenly spread over ``cert_keys``)
+    whose FK by ``robot`` (``base`` to ``frame``) lands in the voxel-bin it certifies (1.0 for a map without any)."""
+    if reach_map.cert_keys is None or not reach_map.cert_keys.size:
+        return 1.0
+    rows = np.unique(np.linspace(0, reach_map.cert_keys.size - 1, CERTIFICATES_CHECKED).astype(np.int64))
+    T = robot.fk(reach_map.cert_q[rows], base=reach_map.base, tip=reach_map.frame)
+    ijk, inside = reach_map.voxel_of(T[:, :3, 3])
+    keys = np.ravel_multi_index(tuple(ijk.T), reach_map.shape) * reach_map.orientations.size \
+        + np.asarray(reach_map.orientations.bin_of(T[:, :3, :3]))
+    return float(np.mean(inside & (keys == reach_map.cert_keys[rows])))
+
+
+def refine_robot(reach_map: ReachMap, robot: Robot | None, refine: bool | None, *,
+                 asked_rule: bool = False) -> tuple[Robot | None, str]:
+    """(the robot whose IK decides the boundary band, "") or (None, why the answer is the map's unrefined estimate).
+
+    ``refine=False``: none. ``refine=True``: ``robot``, else the map's robot
+    (:func:`map_robot`, a :class:`ReachMapError` when it does not load).
+    ``refine=None`` (the default): none when the map's own rule was asked for
+    (``asked_rule``: ``interpolate=False`` or a ``threshold``); else ``robot``,
+    else the map's robot by its name (:func:`robot_by_name`), else none, with
+    an :class:`UnrefinedWarning` saying so and the map's measured error.
+    """
+    if refine is False:
+        return None, "refinement turned off: refine=False, or --no-refine on the command line"
+    if refine is None and asked_rule:
+        return None, "interpolate=False or a threshold asked for the map's own rule"
+    if robot is not None or refine:
+        return map_robot(reach_map, robot), ""
+    loaded, because = robot_by_name(reach_map)
+    if loaded is None:
+        import warnings
+
+        warnings.warn(f"{unrefined_text(reach_map, because)}; pass robot= to decide the boundary band by IK",
+                      UnrefinedWarning, stacklevel=3)
+    return loaded, because
+
+
+def measured_error(reach_map: ReachMap) -> str:
+    """The map's unrefined answer's error as its build measured it (held-out completeness, false positives), in
+    words, or that it was not measured."""
+    said = [line for line in checks_lines(reach_map) if line.startswith(("completeness", "false positives"))]
+    return "; ".join(said) if said else "its error was not measured (built with holdout=0 and fp_checks=0)"
+
+
+def unrefined_text(reach_map: ReachMap, because: str) -> str:
+    """The map's unrefined estimate, why (``because``) and its measured error, in words."""
+    return f"the map's unrefined estimate, not decided by IK ({because}); measured error: {measured_error(reach_map)}"
+
+
+def answer_text(reach_map: ReachMap, answer: QueryAnswer) -> str:
+    """Which answer ``answer.reachable`` is, in words: decided by IK near the boundary for N of M poses, or the map's
+    unrefined estimate with why and its measured error."""
+    if answer.decided_by_ik is None:
+        return unrefined_text(reach_map, answer.unrefined_because)
+    n, m = int(answer.decided_by_ik.sum()), int(answer.decided_by_ik.size)
+    return (f"decided by IK near the boundary: {n} of {m} poses (support strictly between 0 and 1; IK of the exact "
+            f"pose, yes only where FK lands on it to 1e-9); the rest by the map (support 1: yes, 0: no)")
 
 
 def map_robot(reach_map: ReachMap, robot: Robot | None) -> Robot:
@@ -340,5 +501,6 @@ def checks_lines(reach_map: ReachMap) -> list[str]:
                     f"and IK ({printable(str(f['mode']))}) failed on {f['failed']} of those")
         lines.append(f"false positives: {said}: at most {short_text(100 * f['high'], 3)} % (95 % bound; an IK "
                      "failure need not be unreachable)")
-    lines.append(f"a yes means: {resolution_text(reach_map)}")
+    lines.append(f"a yes means: {resolution_text(reach_map)} (the map's unrefined estimate; query(T) and 'manipkit "
+                 "reachmap query' decide the poses of support strictly between 0 and 1 by IK of the exact pose)")
     return lines

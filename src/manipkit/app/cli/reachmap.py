@@ -24,7 +24,7 @@ from manipkit.app.cli.common import (
 from manipkit.outputs import writable_path
 from manipkit.text import printable, short_text
 
-__all__ = ["present_map", "register", "run_base_placement", "run_reachmap", "run_reachmap_show"]
+__all__ = ["present_map", "register", "run_base_placement", "run_reachmap", "run_reachmap_query", "run_reachmap_show"]
 
 
 def _add_map_options(parser, *, voxel: float, orientations: str | None, samples: int, converge: float) -> None:
@@ -58,6 +58,7 @@ _BUILD_ONLY = ("output", "base", "tip", "voxel", "orientations", "method", "samp
                "srdf", "geometry", "converge", "workers", "scheduler", "no_manipulability", "gravity")
 _USAGE = """manipkit reachmap [--robot R] [--base FRAME] [--tip FRAME] [BUILD OPTIONS] -o MAP [SHOW OPTIONS]
        manipkit reachmap show MAP [SHOW OPTIONS] [--robot R]
+       manipkit reachmap query MAP --targets FILE [--robot R] [--no-refine] [--format text|json]
 SHOW OPTIONS: [--plot FILE.png] [--plot-manipulability FILE.png] [--view] [--view-html FILE.html] [--format text|json]
               [--payload MASS[@X,Y,Z]]"""
 
@@ -105,8 +106,8 @@ def register(commands) -> None:
     _add_show_options(reach, default=None)
     reach.set_defaults(run=run_reachmap, format="text", view=False)
     build_defaults = {name: reach.get_default(name) for name in _BUILD_ONLY}
-    shows = reach.add_subparsers(dest="reachmap_command", metavar="show", parser_class=Parser,
-                                 title="show a saved map instead of building one")
+    shows = reach.add_subparsers(dest="reachmap_command", metavar="show|query", parser_class=Parser,
+                                 title="show or query a saved map instead of building one")
     show = shows.add_parser("show", prog="manipkit reachmap show", help="print the summary of the map MAP, draw its slices, show its 3D view",
                             argument_default=argparse.SUPPRESS,
                             description="Load a map saved by 'manipkit reachmap -o MAP' (no robot needed) and print "
@@ -114,13 +115,9 @@ def register(commands) -> None:
                             "load the map's robot by its name for the meshes, or the one --robot gives).")
     show.add_argument("map", type=Path, metavar="MAP", help="a map folder written by 'manipkit reachmap -o MAP'")
     _add_show_options(show)
-    show.add_argument("--robot", metavar="R", help="the robot whose meshes --view and --view-html draw: a bundled or "
-                      "example-robot-data name or a .urdf/.xacro/MJCF .xml path (default: the robot name the map stores)")
-    show.add_argument("--arg", action="append", metavar="KEY:=VALUE", help="xacro argument of --robot (repeatable)")
-    show.add_argument("--package-dir", action="append", metavar="NAME=DIR", help="folder of a ROS package (repeatable)")
-    show.add_argument("--allow-read", action="append", metavar="DIR",
-                      help="let the description read files in DIR (repeatable)")
+    _add_map_robot_options(show, "whose meshes --view and --view-html draw")
     show.set_defaults(run=run_reachmap_show, build_defaults=build_defaults)
+    _add_query_parser(shows, build_defaults)
 
     place = commands.add_parser("base-placement", help="floor positions (x, y, yaw) of a mobile base scored by targets reached")
     add_robot_options(place)
@@ -145,6 +142,38 @@ def register(commands) -> None:
                             "axes; the map's payload layer, added for that CoG when it has none)")
     _add_payload_build_options(place)
     place.set_defaults(run=run_base_placement)
+
+
+def _add_map_robot_options(parser, what: str) -> None:
+    """``--robot`` (the robot ``what``; default: the name the map stores), ``--arg``, ``--package-dir``, ``--allow-read``
+    of a command on a saved map."""
+    parser.add_argument("--robot", metavar="R", help=f"the robot {what}: a bundled or example-robot-data name or a "
+                        ".urdf/.xacro/MJCF .xml path (default: the robot name the map stores)")
+    parser.add_argument("--arg", action="append", metavar="KEY:=VALUE", help="xacro argument of --robot (repeatable)")
+    parser.add_argument("--package-dir", action="append", metavar="NAME=DIR", help="folder of a ROS package (repeatable)")
+    parser.add_argument("--allow-read", action="append", metavar="DIR",
+                        help="let the description read files in DIR (repeatable)")
+
+
+def _add_query_parser(shows, build_defaults: dict) -> None:
+    """``manipkit reachmap query MAP --targets FILE``: the map's answer per pose, refined by IK near the boundary."""
+    import argparse
+
+    query = shows.add_parser(
+        "query", prog="manipkit reachmap query", help="whether the map MAP says each target pose is reachable",
+        argument_default=argparse.SUPPRESS,
+        description="Answer for each target pose (T_base_frame in the map's base frame) whether it is reachable: "
+        "yes deep inside the map's reached set, no far from it, and near the boundary (support strictly between 0 "
+        "and 1) decided by IK of the exact pose, with the map's robot loaded by the name it stores (or --robot). "
+        "--no-refine, or a map whose robot does not load, gives the map's unrefined estimate and its measured error.")
+    query.add_argument("map", type=Path, metavar="MAP", help="a map folder written by 'manipkit reachmap -o MAP'")
+    query.add_argument("--targets", type=Path, required=True, metavar="FILE",
+                       help="target poses in the map's base frame: lines of x y z roll pitch yaw, or 4x4 matrices")
+    query.add_argument("--no-refine", action="store_true", default=False,
+                       help="the map's own answer (voxel-bin reached and support >= 0.65), no IK")
+    query.add_argument("--format", choices=("text", "json"), default="text", help="text (default) or json")
+    _add_map_robot_options(query, "whose IK decides the boundary band")
+    query.set_defaults(run=run_reachmap_query, build_defaults=build_defaults, robot=None)
 
 
 def _build(robot, args, base: str, *, manipulability: bool = False, resume_dir=None):
@@ -257,11 +286,7 @@ def run_reachmap_show(args) -> int:
     """Load the map ``MAP`` (validated; no robot needed) and present it as its build did (:func:`present_map`)."""
     from manipkit.analysis.reachmap.map import load
 
-    given = [name for name, default in args.build_defaults.items() if getattr(args, name) != default]
-    if given:
-        option = "-o" if given[0] == "output" else f"--{given[0].replace('_', '-')}"
-        raise UsageError(f"{option} sets how a map is built; 'reachmap show' shows a saved map as it was built: "
-                         "leave it out")
+    _refuse_build_options(args, "'reachmap show' shows a saved map as it was built")
     pictures = _checked_pictures(args)
     load_spec = _payload_spec(args)
     reach_map = load(args.map)
@@ -281,6 +306,48 @@ def run_reachmap_show(args) -> int:
         robot = _map_robot(args, reach_map)
         visual = _visual(robot, args)
     present_map(reach_map, args, robot=robot, visual=visual, map_path=args.map, written=pictures)
+    return EXIT_OK
+
+
+def _refuse_build_options(args, what: str) -> None:
+    """One line, exit 2, when an option only a build reads was given before ``show``/``query`` (``what`` says why)."""
+    given = [name for name, default in args.build_defaults.items() if getattr(args, name, default) != default]
+    if given:
+        option = "-o" if given[0] == "output" else f"--{given[0].replace('_', '-')}"
+        raise UsageError(f"{option} sets how a map is built; {what}: leave it out")
+
+
+def run_reachmap_query(args) -> int:
+    """Answer the targets of ``--targets`` from the map ``MAP``: refined by IK near the boundary where the map's robot
+    (or ``--robot``) loads, else (or ``--no-refine``) the map's unrefined estimate, said with its measured error."""
+    from manipkit.analysis.reachmap.map import load
+    from manipkit.analysis.reachmap.query import UnrefinedWarning, answer_text
+    from manipkit.inputs.poses import read_targets
+
+    _refuse_build_options(args, "'reachmap query' answers from a saved map")
+    targets = read_targets(args.targets)
+    reach_map = load(args.map)
+    robot = _map_robot(args, reach_map) if args.robot is not None and not args.no_refine else None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnrefinedWarning)  # the answer's own line says it, with the measured error
+        answer = reach_map.query(targets, detail=True, robot=robot, refine=False if args.no_refine else None)
+    said = answer_text(reach_map, answer)
+    decided = answer.decided_by_ik
+    how = ["IK" if decided is not None and decided[k] else "map" for k in range(len(targets))]
+    if args.format == "json":
+        print_json({"map": str(args.map), "robot": reach_map.robot, "base": reach_map.base, "frame": reach_map.frame,
+                    "refined": decided is not None, "decided_by_ik": None if decided is None else int(decided.sum()),
+                    "poses_total": len(targets), "answer": said,
+                    "poses": [{"reachable": bool(answer.reachable[k]), "decided_by": how[k],
+                               "support": float(answer.score[k]), "voxel_bin_reached": bool(answer.bin_reached[k])}
+                              for k in range(len(targets))]})
+        return EXIT_OK
+    print(f"reach map of {printable(reach_map.robot)}: {printable(reach_map.frame)} in {printable(reach_map.base)}, "
+          f"{len(targets)} target pose(s) from {printable(str(args.targets))}")
+    for k in range(len(targets)):
+        print(f"pose {k + 1}: {'reachable' if answer.reachable[k] else 'not reachable'} (decided by {how[k]}; support "
+              f"{short_text(float(answer.score[k]), 3)})")
+    print(f"{int(answer.reachable.sum())} of {len(targets)} poses reachable; {said}")
     return EXIT_OK
 
 
