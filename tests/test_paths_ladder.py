@@ -81,17 +81,6 @@ def test_equals_exhaustive_search(seed):
         assert got[0] == pytest.approx(expected, abs=1e-12)  # the returned path is allowed and costs that
 
 
-def test_sliced_blocks_give_the_same_answer(monkeypatch):
-    rng = np.random.default_rng(3)
-    rungs = [rng.uniform(-1, 1, (40, 3)) for _ in range(6)]
-    bounds = np.full((5, 3), 0.8)
-    whole = solve_ladder(rungs, bounds)
-    monkeypatch.setattr(ladder_module, "BLOCK_ENTRIES", 7 * 40 * 3)  # 7 predecessors at a time
-    sliced = solve_ladder(rungs, bounds)
-    assert whole.feasible == sliced.feasible
-    assert whole.cost == sliced.cost and whole.choice.tolist() == sliced.choice.tolist()
-
-
 def test_reconfigure_takes_the_fewest_breaks():
     # Joint values 0, 0.1 | 5, 5.1 | 10: two jumps no step can make: the fewest breaks is 2, before rungs 2 and 4.
     rungs = [[[0.0]], [[0.1]], [[5.0]], [[5.1]], [[10.0]]]
@@ -122,7 +111,7 @@ def test_sparse_edges_equal_the_dense_block(monkeypatch):
     rungs = [np.vstack([r, rungs[0][:5] + 0.01 * i]) for i, r in enumerate(rungs)]  # five slow tracks
     bounds = np.full((7, 3), 0.05)
     sparse = solve_ladder(rungs, bounds, forbidden={2: [(0, 0)]})
-    monkeypatch.setattr(ladder_module, "_sparse_reduce", lambda *args: None)
+    monkeypatch.setattr(ladder_module, "SPARSE_SHARE", -1.0)  # every pair, read as |dq| inv <= 1
     dense = solve_ladder(rungs, bounds, forbidden={2: [(0, 0)]})
     assert sparse.feasible and sparse.cost == pytest.approx(dense.cost, abs=1e-12)
     assert sparse.choice.tolist() == dense.choice.tolist()
@@ -130,3 +119,52 @@ def test_sparse_edges_equal_the_dense_block(monkeypatch):
         assert x.rung == y.rung
         np.testing.assert_allclose(x.ratio, y.ratio)
         assert x.joint.tolist() == y.joint.tolist()
+
+
+def brute_force_blocks(rungs, bounds, forbidden):
+    """Per rung, for each candidate no allowed edge reaches: the least over reached predecessors of the step's
+    largest |dq_j| / bound_j (forbidden edges excluded), the lowest predecessor on a tie, and its joint; by a
+    forward pass written here (every pair, no windows)."""
+    reached = [np.ones(len(rungs[0]), dtype=bool)]
+    out = {}
+    for i in range(len(rungs) - 1):
+        prev, nxt = np.asarray(rungs[i]), np.asarray(rungs[i + 1])
+        ok = np.zeros(len(nxt), dtype=bool)
+        ratio, joint = np.full(len(nxt), np.inf), np.full(len(nxt), -1)
+        for b in range(len(nxt)):
+            for a in range(len(prev)):
+                if not reached[i][a] or (a, b) in forbidden.get(i, ()):
+                    continue
+                r = np.abs(nxt[b] - prev[a]) / bounds[i]
+                if r.max() <= 1.0:
+                    ok[b] = True
+                if r.max() < ratio[b]:
+                    ratio[b], joint[b] = r.max(), int(r.argmax())
+        stuck = ~ok
+        if stuck.any():
+            out[i + 1] = (np.where(stuck, ratio, np.nan), np.where(stuck, joint, -1))
+        reached.append(ok)
+    return out
+
+
+@pytest.mark.parametrize("share", [0.25, -1.0])
+@pytest.mark.parametrize("seed", range(6))
+def test_blocked_records_equal_a_plain_search(monkeypatch, seed, share):
+    # Tight bounds leave candidates unreached; each one's record (best ratio in, its joint) must be what every
+    # pair gives, with the windows of the selective joint (share 0.25) and on every pair (share -1).
+    monkeypatch.setattr(ladder_module, "SPARSE_SHARE", share)
+    rng = np.random.default_rng(100 + seed)
+    N, n = 6, 3
+    rungs = [rng.uniform(-1, 1, (int(rng.integers(5, 30)), n)) for _ in range(N)]
+    rungs = [np.vstack([r, 0.02 * i + np.zeros((1, n))]) for i, r in enumerate(rungs)]  # one slow track survives
+    bounds = rng.uniform(0.1, 0.5, (N - 1, n))
+    forbidden = {i: [(int(rng.integers(len(rungs[i]))), int(rng.integers(len(rungs[i + 1]))))
+                     for _ in range(5)] for i in range(N - 1)}
+    expected = brute_force_blocks(rungs, bounds, forbidden)
+    result = solve_ladder(rungs, bounds, forbidden=forbidden)
+    assert result.feasible
+    assert {block.rung for block in result.blocked} == set(expected)
+    for block in result.blocked:
+        ratio, joint = expected[block.rung]
+        np.testing.assert_allclose(block.ratio, ratio, rtol=1e-12)
+        assert block.joint.tolist() == joint.tolist()

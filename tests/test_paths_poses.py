@@ -201,3 +201,18 @@ def test_arc_through_collinear_points_is_refused():
         arc_poses(pose([0, 0, 0]), pose([0.1, 0.1, 0.1]), pose([0.3, 0.3, 0.3]), step=0.01)
     with pytest.raises(OptionError, match="T0 and T1 are the same"):
         arc_poses(pose([0, 0, 0]), pose([0.1, 0, 0]), pose([0, 0, 0]), step=0.01)
+
+
+def test_pose_steps_equal_each_step_alone():
+    # interpolate_pose_steps (all steps at once, as the path check takes them) against interpolate_poses step by
+    # step: the same bits.
+    import manipkit
+    from manipkit.paths.poses import interpolate_pose_steps
+
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    T = chain.fk(chain.sample(40, seed=5))
+    s = np.arange(1, 16) / 16
+    together = interpolate_pose_steps(T, np.arange(39), s)
+    assert together.shape == (39, 15, 4, 4)
+    for i in range(39):
+        assert np.array_equal(together[i], interpolate_poses(T[i], T[i + 1], s))

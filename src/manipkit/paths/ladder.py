@@ -11,11 +11,13 @@ q_a|_j`` plus the vertex penalty of ``b``; a path's cost is the sum over its
 edges (plus the first vertex's penalty).
 
 :func:`solve_ladder` finds the path of least cost through every rung, or
-proves there is none: rung by rung, a ``(k_prev, k_next)`` block of edge
-costs is computed (vectorised numpy), reduced to the best predecessor of
-each candidate, and dropped; only the costs so far and the back-pointers are
-kept (memory ``O(sum k_i)``, not the ``O(sum k_i k_{i+1})`` edges a stored
-graph holds). The answer is optimal for the stated cost over the candidates
+proves there is none: rung by rung, each candidate's best predecessor is
+found by a compiled loop over the edges that can pass
+(:mod:`manipkit.paths.ladder_kernel`: the next rung sorted by its most
+selective joint, each predecessor's window of allowed steps found by binary
+search), no edge kept; only the costs so far and the back-pointers are kept
+(memory ``O(sum k_i)``, not the ``O(sum k_i k_{i+1})`` edges a stored graph
+holds). The answer is optimal for the stated cost over the candidates
 given: it is exactly the dynamic program's, not a heuristic.
 
 With ``reconfigure=True`` a *break* may be taken between any two rungs (the
@@ -33,8 +35,9 @@ import numpy as np
 
 __all__ = ["LadderResult", "StepBlock", "solve_ladder"]
 
-#: Above this many entries (k_prev * k_next * n) a rung's block of edges is reduced in slices of predecessors.
-BLOCK_ENTRIES = 4_000_000
+#: The windows of steps that can pass (by the most selective joint) are searched pair by pair when they hold at most
+#: this share of a rung's pairs; above it, every pair is.
+SPARSE_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -105,125 +108,21 @@ def _rung_arrays(rungs, n: int) -> list[np.ndarray]:
 
 
 def _reduce(Q_prev, B_prev, M_prev, Q_next, bound, weights, forbid, breaks: bool):
-    """Per candidate of the next rung: best (breaks, motion, predecessor) over allowed edges, and the best ratio and
-    its joint over reached predecessors. Joint by joint on (k_prev, k_next) blocks (a reduction over a short
-    trailing axis is slow in numpy); slices of predecessors keep a block under :data:`BLOCK_ENTRIES`."""
-    k_prev, n = Q_prev.shape
+    """Per candidate of the next rung: best (breaks, motion, predecessor) over allowed edges, and, for those with
+    none, the best ratio and its joint over reached predecessors: the compiled
+    :func:`manipkit.paths.ladder_kernel.reduce_rung` (windows of steps that can pass when they hold at most
+    :data:`SPARSE_SHARE` of the pairs)."""
+    from manipkit.paths.ladder_kernel import reduce_rung_kernel
+
     k_next = len(Q_next)
-    with np.errstate(divide="ignore"):
-        inv = np.where(np.isfinite(bound), 1.0 / bound, 0.0)  # a bound of 0 allows no motion: inv = inf
-    best_B = np.full(k_next, np.inf)
-    best_M = np.full(k_next, np.inf)
-    best_a = np.full(k_next, -1, dtype=np.intp)
-    best_ratio = np.full(k_next, np.inf)
-    ratio_a = np.full(k_next, -1, dtype=np.intp)
-    rows = max(1, BLOCK_ENTRIES // max(1, k_next * 4))
-    columns = np.arange(k_next)
-    for start in range(0, k_prev, rows):
-        stop = min(k_prev, start + rows)
-        ratio = np.zeros((stop - start, k_next))
-        motion = np.zeros((stop - start, k_next))
-        for j in range(n):
-            d = np.abs(Q_next[None, :, j] - Q_prev[start:stop, j, None])
-            if inv[j]:
-                with np.errstate(invalid="ignore"):
-                    r = d * inv[j]
-                if not np.isfinite(inv[j]):
-                    r[d == 0.0] = 0.0
-                np.maximum(ratio, r, out=ratio)
-            motion += weights[j] * d if weights[j] != 1.0 else d
-        dead = ~np.isfinite(M_prev[start:stop])
-        ratio[dead] = np.inf
-        if forbid is not None:
-            f = forbid[(forbid[:, 0] >= start) & (forbid[:, 0] < stop)]
-            ratio[f[:, 0] - start, f[:, 1]] = np.inf
-        ok = ratio <= 1.0
-        if breaks:
-            Bm = np.where(ok, B_prev[start:stop, None], np.inf)
-            bmin = Bm.min(axis=0)
-            ok &= Bm == bmin[None, :]
-        else:
-            bmin = np.where(ok.any(axis=0), 0.0, np.inf)
-        Mm = np.where(ok, M_prev[start:stop, None] + motion, np.inf)
-        a = Mm.argmin(axis=0)
-        mmin = Mm[a, columns]
-        better = (bmin < best_B) | ((bmin == best_B) & (mmin < best_M))
-        best_B = np.where(better, bmin, best_B)
-        best_M = np.where(better, mmin, best_M)
-        best_a = np.where(better, a + start, best_a)
-        ra = ratio.argmin(axis=0)
-        rmin = ratio[ra, columns]
-        closer = rmin < best_ratio
-        best_ratio = np.where(closer, rmin, best_ratio)
-        ratio_a = np.where(closer, ra + start, ratio_a)
-    best_joint = np.full(k_next, -1, dtype=np.intp)
-    known = ratio_a >= 0
-    if known.any() and n:
-        per_joint = np.abs(Q_next[known] - Q_prev[ratio_a[known]]) * inv
-        per_joint[np.isnan(per_joint)] = 0.0
-        best_joint[known] = per_joint.argmax(axis=1)
-    return best_B, best_M, best_a, best_ratio, best_joint
-
-
-def _sparse_reduce(Q_prev, B_prev, M_prev, Q_next, bound, weights, forbid, breaks: bool):
-    """:func:`_reduce` by the edges that can pass only, or None when too many can: the candidates of both rungs
-    sorted by the most selective joint, each predecessor's window ``|dq_j| <= bound_j`` found by binary search,
-    the full rule checked on those pairs; the best step into a candidate with no allowed edge is then found on the
-    dense block of those candidates alone."""
-    k_prev, n = Q_prev.shape
-    k_next = len(Q_next)
-    finite = np.flatnonzero(np.isfinite(bound))
-    if not len(finite) or not n:
-        return None
-    spread = np.ptp(Q_next[:, finite], axis=0) + 1e-300
-    j = int(finite[np.argmin(bound[finite] / spread)])
-    live = np.flatnonzero(np.isfinite(M_prev))
-    order = np.argsort(Q_next[:, j], kind="stable")
-    values = Q_next[order, j]
-    lo = np.searchsorted(values, Q_prev[live, j] - bound[j], side="left")
-    hi = np.searchsorted(values, Q_prev[live, j] + bound[j], side="right")
-    counts = hi - lo
-    total = int(counts.sum())
-    if total > max(1, k_prev * k_next) // 4:
-        return None
-    a = np.repeat(live, counts)
-    b = order[np.repeat(lo, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)]
-    D = np.abs(Q_next[b] - Q_prev[a])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        over = np.where(D == 0.0, 0.0, D / bound)
-    ok = over.max(axis=1) <= 1.0 if total else np.zeros(0, dtype=bool)
-    if forbid is not None and total:
-        ok &= ~np.isin(a * k_next + b, forbid[:, 0] * k_next + forbid[:, 1])
-    a, b, cost = a[ok], b[ok], M_prev[a[ok]] + D[ok] @ weights
-    brk = B_prev[a] if breaks else np.zeros(len(a))
-    first = np.lexsort((a, cost, brk, b))
-    b_sorted = b[first]
-    head = np.ones(len(first), dtype=bool)
-    head[1:] = b_sorted[1:] != b_sorted[:-1]
-    pick = first[head]
-    best_B = np.full(k_next, np.inf)
-    best_M = np.full(k_next, np.inf)
-    best_a = np.full(k_next, -1, dtype=np.intp)
-    best_B[b[pick]], best_M[b[pick]], best_a[b[pick]] = brk[pick], cost[pick], a[pick]
-    ratio = np.full(k_next, np.inf)
-    joint = np.full(k_next, -1, dtype=np.intp)
-    stuck = np.flatnonzero(~np.isfinite(best_M))
-    if len(stuck) and len(live):  # the best step into each stuck candidate, from the live predecessors only
-        _, _, _, ratio[stuck], joint[stuck] = _reduce(Q_prev[live], B_prev[live], M_prev[live], Q_next[stuck],
-                                                      bound, weights, _renumbered(forbid, live, stuck), breaks)
-    return best_B, best_M, best_a, ratio, joint
-
-
-def _renumbered(forbid, rows: np.ndarray, columns: np.ndarray):
-    """Forbidden edges ``(a, b)`` among predecessors ``rows`` and candidates ``columns``, numbered by their positions
-    there (None when none is left)."""
-    if forbid is None:
-        return None
-    size = int(max(forbid.max(), rows.max(initial=0), columns.max(initial=0))) + 1
-    row_at, column_at = np.full(size, -1, dtype=np.intp), np.full(size, -1, dtype=np.intp)
-    row_at[rows], column_at[columns] = np.arange(len(rows)), np.arange(len(columns))
-    kept = forbid[(row_at[forbid[:, 0]] >= 0) & (column_at[forbid[:, 1]] >= 0)]
-    return np.column_stack([row_at[kept[:, 0]], column_at[kept[:, 1]]]) if len(kept) else None
+    keys = np.zeros(0, dtype=np.int64) if forbid is None else np.unique(
+        forbid[:, 0].astype(np.int64) * k_next + forbid[:, 1])
+    out = (np.empty(k_next), np.empty(k_next), np.empty(k_next, dtype=np.intp), np.empty(k_next),
+           np.empty(k_next, dtype=np.intp))
+    reduce_rung_kernel()(np.ascontiguousarray(Q_prev), B_prev, M_prev, np.ascontiguousarray(Q_next),
+                         np.ascontiguousarray(bound), np.ascontiguousarray(weights), keys, bool(breaks),
+                         float(SPARSE_SHARE), *out)
+    return out
 
 
 def solve_ladder(rungs, step_bounds, *, weights=None, penalties=None, forbidden=None, reconfigure: bool = False,
@@ -284,10 +183,7 @@ def solve_ladder(rungs, step_bounds, *, weights=None, penalties=None, forbidden=
         forbid = forbidden.get(i)
         forbid = None if forbid is None or len(forbid) == 0 else np.asarray(forbid, dtype=np.intp).reshape(-1, 2)
         if len(Q_prev) and len(Q_next):
-            answer = _sparse_reduce(Q_prev, B, M, Q_next, bounds[i], w, forbid, reconfigure)
-            if answer is None:
-                answer = _reduce(Q_prev, B, M, Q_next, bounds[i], w, forbid, reconfigure)
-            nb, nm, na, ratio, joint = answer
+            nb, nm, na, ratio, joint = _reduce(Q_prev, B, M, Q_next, bounds[i], w, forbid, reconfigure)
         else:
             k = len(Q_next)
             nb, nm, na = np.full(k, np.inf), np.full(k, np.inf), np.full(k, -1, dtype=np.intp)

@@ -47,6 +47,7 @@ __all__ = [
     "RIGID_TOL",
     "PosePath",
     "arc_poses",
+    "interpolate_pose_steps",
     "interpolate_poses",
     "line_poses",
     "read_pose_path",
@@ -404,13 +405,38 @@ def interpolate_poses(T0, T1, s) -> np.ndarray:
     """
     T0 = check_transform(T0, what="T0")
     T1 = check_transform(T1, what="T1")
+    return interpolate_pose_steps(np.stack([T0, T1]), [0], s)[0]
+
+
+def interpolate_pose_steps(T, steps, s) -> np.ndarray:
+    """:func:`interpolate_poses` on many steps of a path at once: between ``T[i]`` and ``T[i + 1]`` for each ``i`` of
+    ``steps``, at the same fractions ``s``.
+
+    Parameters
+    ----------
+    T : ndarray, shape (N, 4, 4)
+        ``T_base_tip`` along a path, already checked as rigid transforms (not checked here).
+    steps : array_like of int, shape (m,)
+        The steps (``i``: from ``T[i]`` to ``T[i + 1]``).
+    s : array_like, shape (p,)
+        Fractions of each step.
+
+    Returns
+    -------
+    ndarray, shape (m, p, 4, 4)
+        Position linear, rotation ``R_i expm(s log(R_i^T R_{i+1}))`` (angle in [0, pi]).
+    """
+    T = np.asarray(T, dtype=float)
+    steps = np.asarray(steps, dtype=np.intp).reshape(-1)
     s = np.atleast_1d(np.asarray(s, dtype=float))
-    axis, angle = axis_angle_from_matrix(T0[:3, :3].T @ T1[:3, :3], check=False)
-    T = np.zeros((len(s), 4, 4))
-    T[:, :3, :3] = T0[:3, :3] @ matrix_from_axis_angle(axis, s * angle)
-    T[:, :3, 3] = (1.0 - s)[:, None] * T0[:3, 3] + s[:, None] * T1[:3, 3]
-    T[:, 3, 3] = 1.0
-    return T
+    T0, T1 = T[steps], T[steps + 1]
+    axis, angle = axis_angle_from_matrix(np.swapaxes(T0[:, :3, :3], -1, -2) @ T1[:, :3, :3], check=False)
+    out = np.zeros((len(steps), len(s), 4, 4))
+    out[:, :, :3, :3] = T0[:, None, :3, :3] @ matrix_from_axis_angle(axis[:, None, :],
+                                                                     s[None, :] * np.reshape(angle, (-1, 1)))
+    out[:, :, :3, 3] = (1.0 - s)[None, :, None] * T0[:, None, :3, 3] + s[None, :, None] * T1[:, None, :3, 3]
+    out[:, :, 3, 3] = 1.0
+    return out
 
 
 def _angle_step(angle_step) -> float | None:

@@ -36,11 +36,12 @@ def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, fl
 
     Every point a recursive midpoint check to ``depth`` levels would visit is checked: the fractions
     ``k / 2**depth``, ``k = 1 .. 2**depth - 1``, of each step in ``steps`` (default all), the joint-interpolated
-    configuration's forward kinematics against :func:`manipkit.paths.poses.interpolate_poses` at the same fraction.
+    configuration's forward kinematics against :func:`manipkit.paths.poses.interpolate_poses` at the same fraction
+    (all steps at once: :func:`manipkit.paths.poses.interpolate_pose_steps`).
     Returns ``(bad (N - 1,) bool, worst (N - 1, 2) (position m, rotation rad) of the worst point, points
     checked)``; a step is bad when some point is farther than ``tol`` (position m, rotation rad).
     """
-    from manipkit.paths.poses import interpolate_poses
+    from manipkit.paths.poses import interpolate_pose_steps
 
     N = len(Q)
     bad = np.zeros(max(N - 1, 0), dtype=bool)
@@ -49,7 +50,7 @@ def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, fl
     if N < 2 or not len(steps):
         return bad, worst, 0
     s = np.arange(1, 2 ** depth) / 2 ** depth
-    wanted = np.stack([interpolate_poses(T[i], T[i + 1], s) for i in steps])  # (m, p, 4, 4)
+    wanted = interpolate_pose_steps(T, steps, s)  # (m, p, 4, 4)
     q = Q[steps, None, :] + s[None, :, None] * (Q[steps + 1] - Q[steps])[:, None, :]
     position, rotation = pose_residuals(wanted, chain.fk(q), project=False)
     worst[steps, 0] = position.max(axis=1)
