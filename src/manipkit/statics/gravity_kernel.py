@@ -28,9 +28,8 @@ import numpy as np
 from manipkit.kernels import lazy_kernel
 from manipkit.kernels.blocks import run_blocks
 
-__all__ = ["LANES", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "gravity_rows", "gravity_rows_kernel", "joint_cos_sin",
-           "margin_rows",
-           "margin_rows_kernel", "static_blocks"]
+__all__ = ["LANES", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "capacity_rows", "capacity_rows_kernel", "gravity_rows",
+           "gravity_rows_kernel", "joint_cos_sin", "margin_rows", "margin_rows_kernel", "static_blocks"]
 
 _REVOLUTE = 0
 #: Rows taken together by :func:`gravity_rows` (structure of arrays: the per-step records, about 170 kB for 7 joints).
@@ -155,9 +154,41 @@ def margin_rows(tau, limits, margin, saturating):
         saturating[n] = best_k
 
 
+def capacity_rows(unloaded, per_kg, lower, upper, lever_tol, max_mass, saturating, over):
+    """The payload capacity of each row of ``tau(m) = unloaded + m per_kg`` (N, n) against ``lower``, ``upper`` (n,)
+    (NaN: no limit): ``max_mass`` (N,) kg, ``saturating`` (N,) (-1: none) and ``over`` (N,) (the torque without a
+    payload already outside a limit), written; the rule of :func:`manipkit.statics.capacity.capacity_from_parts`,
+    one pass per row with numpy's answers to the bit (``min``/``argmin`` take the first NaN, ``maximum(m, 0)``).
+    """
+    n_joints = unloaded.shape[1]
+    for r in range(unloaded.shape[0]):
+        best, best_k, first_over = np.inf, 0, -1
+        for k in range(n_joints):
+            a, b, lo, up = unloaded[r, k], per_kg[r, k], lower[k], upper[k]
+            limited = not (math.isnan(lo) or math.isnan(up))
+            if limited and (a > up or a < lo):
+                bound = 0.0
+                if first_over < 0:
+                    first_over = k
+            elif limited and abs(b) > lever_tol:
+                bound = (up - a) / b if b > 0 else (lo - a) / b
+            else:
+                bound = np.inf
+            if math.isnan(bound):
+                if not math.isnan(best):
+                    best, best_k = bound, k
+            elif bound < best:
+                best, best_k = bound, k
+        over[r] = first_over >= 0
+        k_sat = first_over if first_over >= 0 else best_k
+        saturating[r] = -1 if math.isinf(best) else k_sat
+        max_mass[r] = best if best > 0.0 or math.isnan(best) else 0.0
+
+
 # nogil: static_blocks runs them on blocks of rows from several threads at once (each block its own rows)
 gravity_rows_kernel = lazy_kernel(gravity_rows, error_model="numpy", nogil=True)
 margin_rows_kernel = lazy_kernel(margin_rows, error_model="numpy", nogil=True)
+capacity_rows_kernel = lazy_kernel(capacity_rows, error_model="numpy", nogil=True)
 
 
 def static_blocks(work, n_rows: int, threads: int) -> None:
