@@ -107,3 +107,36 @@ def test_the_diagram_is_the_worst_capacity_over_the_configurations(iiwa14):
         assert joint == chain.joint_names[int(cap.saturating[i])]
         np.testing.assert_array_equal(where, Q[i])
     assert list(diagram.worst) == sorted(diagram.worst, reverse=True)
+
+
+def _capacity_numpy(a, b, lower, upper, lever_tol=1e-12):
+    """The module's rule written with numpy over whole arrays (the compiled pass must give these numbers to the bit)."""
+    limited = ~np.isnan(lower) & ~np.isnan(upper)
+    over = limited & ((a > upper) | (a < lower))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = np.where(b > 0, (upper - a) / b, (lower - a) / b)
+    bound = np.where(limited & (np.abs(b) > lever_tol), bound, np.inf)
+    bound = np.where(over, 0.0, bound)
+    saturating = np.where(over.any(axis=-1), np.argmax(over, axis=-1), np.argmin(bound, axis=-1))
+    max_mass = np.min(bound, axis=-1)
+    return np.maximum(max_mass, 0.0), np.where(np.isinf(max_mass), -1, saturating), over.any(axis=-1)
+
+
+@pytest.mark.parametrize("lever_tol", [1e-12, 0.0, 0.5])
+def test_capacity_from_parts_is_the_numpy_rule_to_the_bit(lever_tol):
+    """Random rows with the edge cases mixed in: a torque at its limit (a tie), no lever, a lever under lever_tol,
+    NaN and inf torques, signed zeros, a joint without limits, asymmetric limits."""
+    rng = np.random.default_rng(37)
+    a, b = rng.normal(0, 50, (20000, 7)), rng.normal(0, 5, (20000, 7))
+    for array, value, share in ((b, 0.0, 0.1), (b, 1e-13, 0.01), (b, np.nan, 0.001), (a, np.nan, 0.001),
+                                (a, np.inf, 0.001), (a, -0.0, 0.01), (b, -0.0, 0.01), (a, 40.0, 0.02)):
+        array[rng.random(array.shape) < share] = value
+    limits = np.array([320.0, 320.0, 176.0, 176.0, 110.0, 40.0, 40.0])
+    for lower, upper in ((-limits, limits), (-0.5 * limits, limits),
+                         (np.where(np.arange(7) == 2, np.nan, -limits), np.where(np.arange(7) == 2, np.nan, limits))):
+        ours = capacity_from_parts(a, b, lower, upper, lever_tol=lever_tol)
+        for got, want in zip(ours, _capacity_numpy(a, b, lower, upper, lever_tol)):
+            assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+        one = capacity_from_parts(a[3], b[3], lower, upper, lever_tol=lever_tol)  # one row: numpy scalars
+        assert [x.tobytes() for x in one] == [np.asarray(x).tobytes() for x in _capacity_numpy(a[3], b[3], lower,
+                                                                                                upper, lever_tol)]

@@ -88,7 +88,9 @@ class PayloadCapacity:
 
 
 def capacity_from_parts(unloaded, per_kg, lower, upper, *, lever_tol: float = LEVER_TOL):
-    """(max_mass, saturating, gravity_saturates) from ``tau(m) = unloaded + m per_kg`` and limits (NaN: none).
+    """(max_mass, saturating, gravity_saturates) from ``tau(m) = unloaded + m per_kg`` (..., n) and limits ``lower``,
+    ``upper`` (n,) (NaN: none): one compiled pass over the rows
+    (:func:`manipkit.statics.gravity_kernel.capacity_rows`, the module's rule).
 
     Examples
     --------
@@ -97,19 +99,18 @@ def capacity_from_parts(unloaded, per_kg, lower, upper, *, lever_tol: float = LE
     >>> float(m), int(k), bool(over)
     (6.0, 0, False)
     """
+    from manipkit.statics.gravity_kernel import capacity_rows_kernel
+
     a, b = np.asarray(unloaded, dtype=float), np.asarray(per_kg, dtype=float)
-    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    limited = ~np.isnan(lower) & ~np.isnan(upper)
-    over = limited & ((a > upper) | (a < lower))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = np.where(b > 0, (upper - a) / b, (lower - a) / b)
-    bound = np.where(limited & (np.abs(b) > lever_tol), bound, np.inf)
-    bound = np.where(over, 0.0, bound)
-    first_over = np.argmax(over, axis=-1)
-    saturating = np.where(over.any(axis=-1), first_over, np.argmin(bound, axis=-1))
-    max_mass = np.min(bound, axis=-1) if bound.shape[-1] else np.full(bound.shape[:-1], np.inf)
-    saturating = np.where(np.isinf(max_mass), -1, saturating)
-    return np.maximum(max_mass, 0.0), saturating, over.any(axis=-1)
+    shape = np.broadcast_shapes(a.shape, b.shape)
+    n, rows = shape[-1], math.prod(shape[:-1])
+    lower, upper = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (n,))) for x in (lower, upper))
+    a, b = (np.ascontiguousarray(np.broadcast_to(x, shape).reshape(rows, n)) for x in (a, b))
+    max_mass, saturating, over = np.empty(rows), np.empty(rows, dtype=np.intp), np.empty(rows, dtype=np.bool_)
+    capacity_rows_kernel()(a, b, lower, upper, float(lever_tol), max_mass, saturating, over)
+    if len(shape) == 1:  # one row: numpy scalars, as numpy's reductions give them
+        return max_mass[0], saturating.reshape(()), over[0]
+    return max_mass.reshape(shape[:-1]), saturating.reshape(shape[:-1]), over.reshape(shape[:-1])
 
 
 def payload_capacity(robot: Robot | Chain, q, *, cog=(0.0, 0.0, 0.0), wrench=None, gravity=GRAVITY,
@@ -141,7 +142,7 @@ def payload_capacity(robot: Robot | Chain, q, *, cog=(0.0, 0.0, 0.0), wrench=Non
     lever_tol = float(lever_tol)
     if not (math.isfinite(lever_tol) and lever_tol >= 0):
         raise OptionError(f"lever_tol={lever_tol!r}: give a tolerance >= 0 (N m per kg)")
-    unloaded = unit.gravity + unit.wrench
+    unloaded = unit.gravity + unit.wrench if wrench is not None else unit.gravity  # no wrench: its part is 0
     m, k, over = capacity_from_parts(unloaded, unit.payload, lower, upper, lever_tol=lever_tol)
     return PayloadCapacity(m, k, over, unit.joint_names, unit.payload, unloaded, lower, upper, unit.inertia_grade)
 

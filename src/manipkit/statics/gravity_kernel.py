@@ -15,7 +15,7 @@ and axis ``z_k`` (base frame) and the lumps' first moments; a backward pass adds
 and ``F_k`` (kg m) of everything after joint ``k``, and the torque holding them is ``-z_k . ((F_k - M_k o_k) x g)``
 for a revolute joint and ``-M_k z_k . g`` for a prismatic one (``tau = g(q) = dV/dq``, the static convention of
 :mod:`manipkit.statics.torques`), added to the step's column times its scale (a mimic joint's multiplier). The
-sines and cosines come from one numpy ``tan(q/2)`` per block (:func:`joint_cos_sin`). The loops run
+sines and cosines come from one numpy ``tan(q/2)`` per block (:func:`joint_tan_half`), turned into them in the loop. The loops run
 without the GIL, so threads may take blocks of rows at once (:func:`static_blocks`).
 """
 
@@ -28,9 +28,8 @@ import numpy as np
 from manipkit.kernels import lazy_kernel
 from manipkit.kernels.blocks import run_blocks
 
-__all__ = ["LANES", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "gravity_rows", "gravity_rows_kernel", "joint_cos_sin",
-           "margin_rows",
-           "margin_rows_kernel", "static_blocks"]
+__all__ = ["LANES", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "capacity_rows", "capacity_rows_kernel", "gravity_rows",
+           "gravity_rows_kernel", "joint_tan_half", "margin_rows", "margin_rows_kernel", "static_blocks"]
 
 _REVOLUTE = 0
 #: Rows taken together by :func:`gravity_rows` (structure of arrays: the per-step records, about 170 kB for 7 joints).
@@ -42,19 +41,21 @@ STATIC_BLOCK = 8192
 MIN_ROWS_PER_THREAD = 4096
 
 
-def gravity_rows(Q, cos_q, sin_q, rotations, translations, identity, kinds, columns, scales, offsets, masses,
+def gravity_rows(Q, tan_half, rotations, translations, identity, kinds, columns, scales, offsets, masses,
                  moments, payload_mass, payload_cog, g, tau, tau_payload):
     """Fill ``tau`` (N, n) and ``tau_payload`` (N, n) (overwritten) for the chain vectors ``Q`` (N, n).
 
-    ``cos_q`` and ``sin_q`` (N, n_steps) are the cosine and sine of each step's joint value (:func:`joint_cos_sin`;
-    read for revolute steps only). ``g`` (G, 3) is gravity in the chain base's axes (m/s^2): one row for every
-    configuration (G = 1) or one per row. Structure of arrays: :data:`LANES` rows at a time, every step a loop
+    ``tan_half`` (N, n_steps) is ``tan(v / 2)`` of each step's joint value ``v`` (:func:`joint_tan_half`; read for
+    revolute steps only), turned into its cosine and sine here: ``cos = 2 / (1 + t^2) - 1``, ``sin = 2 t / (1 + t^2)``
+    (the FK kernel's rule; a few ulp from ``cos``/``sin``). ``g`` (G, 3) is gravity in the chain base's axes
+    (m/s^2): one row for every configuration (G = 1) or one per row. Structure of arrays: :data:`LANES` rows at a time, every step a loop
     across those rows (the pose product ``R`` (9, LANES) and ``p`` (3, LANES) stay in L1). Over 80 lines: the forward
     and the backward pass belong together (the per-step records live between them).
     """
     n_steps = kinds.shape[0]
     n_joints = tau.shape[1]
     R, P = np.empty((9, LANES)), np.empty((3, LANES))
+    cos_b, sin_b = np.empty(LANES), np.empty(LANES)
     origins, axes, first = np.empty((n_steps, 3, LANES)), np.empty((n_steps, 3, LANES)), np.empty((n_steps, 3, LANES))
     c0, c1, c2 = payload_cog[0], payload_cog[1], payload_cog[2]
     for start in range(0, Q.shape[0], LANES):
@@ -83,9 +84,13 @@ def gravity_rows(Q, cos_q, sin_q, rotations, translations, identity, kinds, colu
                     origins[k, i, b] = P[i, b]
                     axes[k, i, b] = R[3 * i + 2, b]
             if kinds[k] == _REVOLUTE:  # R <- R Rz(q)
+                for b in range(nb):
+                    t = tan_half[start + b, k]
+                    w = 2.0 / (1.0 + t * t)
+                    cos_b[b], sin_b[b] = w - 1.0, t * w
                 for i in range(3):
                     for b in range(nb):
-                        cq, sq = cos_q[start + b, k], sin_q[start + b, k]
+                        cq, sq = cos_b[b], sin_b[b]
                         x, y = R[3 * i, b], R[3 * i + 1, b]
                         R[3 * i, b], R[3 * i + 1, b] = x * cq + y * sq, y * cq - x * sq
             else:  # p <- p + q z (a mimic joint's value scaled)
@@ -130,13 +135,10 @@ def gravity_rows(Q, cos_q, sin_q, rotations, translations, identity, kinds, colu
                     tau_payload[start + b, col] -= sc * payload_mass * zg
 
 
-def joint_cos_sin(Q, columns, scales, offsets) -> tuple:
-    """(cos, sin) (N, n_steps) of every step's joint value ``scale * Q[:, column] + offset``, from one numpy
-    ``t = tan(v / 2)`` on the whole block: ``cos = 2 / (1 + t^2) - 1``, ``sin = 2 t / (1 + t^2)`` (the FK kernel's
-    rule; a few ulp from ``cos``/``sin``)."""
-    t = np.tan(0.5 * (Q[:, columns] * scales + offsets))
-    w = 2.0 / (1.0 + t * t)
-    return w - 1.0, t * w
+def joint_tan_half(Q, columns, scales, offsets) -> np.ndarray:
+    """``tan(v / 2)`` (N, n_steps) of every step's joint value ``v = scale * Q[:, column] + offset``: one numpy
+    ``tan`` on the whole block (the FK kernel's rule), the half-angle tangent :func:`gravity_rows` takes."""
+    return np.tan(0.5 * (Q[:, columns] * scales + offsets))
 
 
 def margin_rows(tau, limits, margin, saturating):
@@ -155,9 +157,41 @@ def margin_rows(tau, limits, margin, saturating):
         saturating[n] = best_k
 
 
+def capacity_rows(unloaded, per_kg, lower, upper, lever_tol, max_mass, saturating, over):
+    """The payload capacity of each row of ``tau(m) = unloaded + m per_kg`` (N, n) against ``lower``, ``upper`` (n,)
+    (NaN: no limit): ``max_mass`` (N,) kg, ``saturating`` (N,) (-1: none) and ``over`` (N,) (the torque without a
+    payload already outside a limit), written; the rule of :func:`manipkit.statics.capacity.capacity_from_parts`,
+    one pass per row with numpy's answers to the bit (``min``/``argmin`` take the first NaN, ``maximum(m, 0)``).
+    """
+    n_joints = unloaded.shape[1]
+    for r in range(unloaded.shape[0]):
+        best, best_k, first_over = np.inf, 0, -1
+        for k in range(n_joints):
+            a, b, lo, up = unloaded[r, k], per_kg[r, k], lower[k], upper[k]
+            limited = not (math.isnan(lo) or math.isnan(up))
+            if limited and (a > up or a < lo):
+                bound = 0.0
+                if first_over < 0:
+                    first_over = k
+            elif limited and abs(b) > lever_tol:
+                bound = (up - a) / b if b > 0 else (lo - a) / b
+            else:
+                bound = np.inf
+            if math.isnan(bound):
+                if not math.isnan(best):
+                    best, best_k = bound, k
+            elif bound < best:
+                best, best_k = bound, k
+        over[r] = first_over >= 0
+        k_sat = first_over if first_over >= 0 else best_k
+        saturating[r] = -1 if math.isinf(best) else k_sat
+        max_mass[r] = best if best > 0.0 or math.isnan(best) else 0.0
+
+
 # nogil: static_blocks runs them on blocks of rows from several threads at once (each block its own rows)
 gravity_rows_kernel = lazy_kernel(gravity_rows, error_model="numpy", nogil=True)
 margin_rows_kernel = lazy_kernel(margin_rows, error_model="numpy", nogil=True)
+capacity_rows_kernel = lazy_kernel(capacity_rows, error_model="numpy", nogil=True)
 
 
 def static_blocks(work, n_rows: int, threads: int) -> None:

@@ -317,7 +317,7 @@ def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_
     (:func:`manipkit.statics.gravity_kernel.static_blocks`).
     ``tau_w`` (N, n) or None is the wrenches' part, added to ``tau``."""
     from manipkit.kernels import thread_count
-    from manipkit.statics.gravity_kernel import gravity_rows_kernel, joint_cos_sin, margin_rows_kernel, static_blocks
+    from manipkit.statics.gravity_kernel import gravity_rows_kernel, joint_tan_half, margin_rows_kernel, static_blocks
 
     tables = _gravity_tables(chain, q_rest)
     n_rows = Q.shape[0]
@@ -330,9 +330,8 @@ def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_
 
     def work(start: int, stop: int) -> None:
         rows = slice(start, stop)
-        cos_q, sin_q = joint_cos_sin(Q[rows], tables[4], tables[5], tables[6])
-        gravity_kernel(Q[rows], cos_q, sin_q, *tables, mass, cog, g_base if one_g else g_base[rows], tau_g[rows],
-                       tau_p[rows])
+        gravity_kernel(Q[rows], joint_tan_half(Q[rows], tables[4], tables[5], tables[6]), *tables, mass, cog,
+                       g_base if one_g else g_base[rows], tau_g[rows], tau_p[rows])
         np.add(tau_g[rows], tau_p[rows], out=tau[rows])
         if tau_w is not None:
             tau[rows] += tau_w[rows]

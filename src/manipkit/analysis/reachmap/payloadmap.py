@@ -36,7 +36,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from manipkit.analysis.reachmap.payload import PayloadLayer, per_voxel
+from manipkit.analysis.reachmap.payload_kernel import kept_branches_kernel, per_bin_kernel
 from manipkit.errors import ReachMapError
+from manipkit.kinematics.chain import limits_ok
 from manipkit.text import printable
 
 if TYPE_CHECKING:
@@ -104,15 +106,12 @@ def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float 
 
         psi = srs_arm_angle(chain, q)
     batch = ik_many(robot, chain.fk(q), base=base, tip=tip, method="closed_form", tol=tol, arm_angle=psi)
-    S = np.asarray(batch.solutions, dtype=float)
-    with np.errstate(invalid="ignore"):
-        found = ~np.isnan(S).any(axis=-1) & (np.asarray(batch.residual_position) <= tol) & \
-            (np.asarray(batch.residual_rotation) <= tol)
-    S = np.where(found[..., None], S, q[:, None])
-    turn = S - q[:, None]
-    turn -= 2 * np.pi * np.round(turn / (2 * np.pi))  # the difference modulo 2 pi, in [-pi, pi]
-    found &= chain.within_limits(S) & (np.abs(turn) > tol).any(axis=-1)
-    return np.concatenate([q[:, None], S], axis=1), np.concatenate([np.ones((len(q), 1), dtype=bool), found], axis=1)
+    S = np.ascontiguousarray(batch.solutions, dtype=float)
+    rows, kept = np.empty((len(q), 1 + S.shape[1], chain.n)), np.empty((len(q), 1 + S.shape[1]), dtype=bool)
+    kept_branches_kernel()(np.ascontiguousarray(q), S, np.ascontiguousarray(batch.residual_position, dtype=float),
+                           np.ascontiguousarray(batch.residual_rotation, dtype=float), float(tol),
+                           *limits_ok(chain.lower, chain.upper), rows, kept)
+    return rows, kept
 
 
 def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
@@ -127,13 +126,10 @@ def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.n
                                  at_arm_angle=job.configurations == "arm_angle_branches")
     cap = payload_capacity(job.robot, rows[kept], cog=job.cog, gravity=job.gravity, effort=job.effort,
                            base=job.base, tip=job.frame)
-    mass = np.full(kept.shape, np.nan)
-    mass[kept] = np.asarray(cap.max_mass, dtype=float)
-    joint = np.full(kept.shape, -1, dtype=np.int64)
-    joint[kept] = np.asarray(cap.saturating, dtype=np.int64)
-    at_worst = np.argmin(np.where(kept, mass, np.inf), axis=1)  # the first kept row (the certificate) on ties
-    picked = np.arange(len(Q))
-    return block, np.nanmax(mass, axis=1), mass[picked, at_worst], joint[picked, at_worst]
+    best, worst, joint = np.empty(len(Q)), np.empty(len(Q)), np.empty(len(Q), dtype=np.int64)
+    per_bin_kernel()(kept, np.ascontiguousarray(cap.max_mass, dtype=float),
+                     np.ascontiguousarray(cap.saturating, dtype=np.int64), best, worst, joint)
+    return block, best, worst, joint  # the worst: the first kept row (the certificate) on ties
 
 
 def _check_block(job: PayloadJob, n_joints: int, result, arguments: tuple) -> str | None:
@@ -162,11 +158,11 @@ def _vector3(value, name: str, what: str) -> np.ndarray:
 
 
 def _code_digest() -> str:
-    from manipkit.analysis.reachmap import payload
+    from manipkit.analysis.reachmap import payload, payload_kernel
     from manipkit.statics import capacity, gravity_kernel, torques
 
     digest = hashlib.sha256()
-    for module in (payload, capacity, torques, gravity_kernel):
+    for module in (payload, payload_kernel, capacity, torques, gravity_kernel):
         digest.update(Path(module.__file__).read_bytes())
     digest.update(Path(__file__).read_bytes())
     return digest.hexdigest()
