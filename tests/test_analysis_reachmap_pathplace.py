@@ -149,3 +149,35 @@ def test_the_reach_map_screen_drops_candidates_below_the_share(case):
     assert result.as_dict()["screened_out"] == 6
     with pytest.raises(ReachMapError, match="the reach map is of tool0 in base_link"):
         place_path(robot, poses, base="base_link", tip="ee_link", offsets=offsets, reach_map=yes_map)
+
+
+def _line_words(poses) -> list[str]:
+    """``--line`` of the case's first and last pose (X Y Z R P Y each, rad), written to 1e-15."""
+    start, end = poses[0], poses[-1]
+    values = [*start[:3, 3], *rpy_from_matrix(start[:3, :3]), *end[:3, 3], *rpy_from_matrix(end[:3, :3])]
+    return ["--line", *(f"{v:.15f}" for v in values)]
+
+
+def test_cli_workers_give_the_same_printed_answer_as_here(case):
+    """``--place --workers 2`` from the command line on a real LocalCluster: the same printed lines as without.
+
+    A subprocess with a timeout because a hang is the point: a review saw this command start its cluster and
+    print nothing in minutes. The cause was not the cluster: the grid it ran holds offsets whose untimed plan
+    re-solves its ladder thousands of times (minutes in a worker as here); this grid's 8 plan in seconds."""
+    import os
+    import subprocess
+    import sys
+
+    _, _, poses, k, sign = case
+    low, high, step = grid_along(k, sign)[k]
+    argv = [sys.executable, "-m", "manipkit.app.cli", "path", "--robot", "ur5", "--tip", "tool0", *_line_words(poses),
+            "--step", "0.01", "--place", f"--place-{'xy'[k]}", *(f"{v:.15f}" for v in (low, high, step))]
+    env = {**os.environ, "MANIPKIT_COMPILE_NOTE": "0"}
+    runs = [subprocess.run(argv + extra, capture_output=True, text=True, timeout=600, env=env, stdin=subprocess.DEVNULL)
+            for extra in ([], ["--workers", "2"])]
+    for run in runs:
+        assert run.returncode == 0, run.stderr
+    here, two = (run.stdout for run in runs)
+    assert here == two
+    assert "planned: 8; feasible: 3" in here and "plan it: manipkit path" in here
+

@@ -36,7 +36,8 @@ def add_place_options(path) -> None:
     path.add_argument("--reach-share", type=float, default=1.0, metavar="S",
                       help="with --reach-map: the share of waypoints (0..1, default 1)")
     path.add_argument("--workers", type=int, default=None, metavar="N",
-                      help="with --place: not available yet from the command line (place_path(..., workers=N) in Python)")
+                      help="with --place: plan the candidates on a local Dask cluster of N worker processes "
+                           "(default: here); the answer is the same for any N")
     path.add_argument("--offset", type=float, nargs=4, default=None, metavar=("DX", "DY", "DZ", "YAW"),
                       help="move the path by this offset (m in the base frame; yaw about its z, rad or deg with --deg)")
 
@@ -95,11 +96,6 @@ def run_place(args, robot, poses, options: dict) -> int:
                              "command for the best offset")
     if args.view or args.offset is not None:
         raise UsageError("--view and --offset apply to one plan, not to --place")
-    if args.workers is not None:
-        # From the command line the search on a local cluster did not finish (the cluster started, no block came
-        # back in minutes); the library's place_path(..., workers=N) is tested on a LocalCluster. Refused until found.
-        raise UsageError("--workers with --place is not available yet: leave it out (the candidates are planned "
-                         "here), or call manipkit.analysis.reachmap.pathplace.place_path(..., workers=N)")
     ranges = [args.place_x, args.place_y, args.place_z, args.place_yaw]
     if all(r is None for r in ranges):
         raise UsageError("--place needs a grid: give at least one of --place-x/-y/-z/-yaw MIN MAX STEP")
