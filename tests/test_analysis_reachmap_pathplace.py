@@ -20,6 +20,7 @@ import pytest
 import manipkit
 from manipkit.analysis.reachmap.pathplace import offset_grid, place_path, shifted_poses
 from manipkit.app.cli import main
+from manipkit.app.cli.path_place import full_option
 from manipkit.errors import ReachMapError
 from manipkit.paths.plan import plan_path
 from manipkit.spatial.rotations import rpy_from_matrix
@@ -181,3 +182,27 @@ def test_cli_workers_give_the_same_printed_answer_as_here(case):
     assert here == two
     assert "planned: 8; feasible: 3" in here and "plan it: manipkit path" in here
 
+
+def test_the_printed_command_spells_out_abbreviated_options(case, capsys):
+    """argparse takes ``--place-ya`` for ``--place-yaw`` and ``--ti`` for ``--tip``: the printed command drops the
+    first with the search options and names the second whole, and it plans the best offset at the same cost."""
+    _, _, poses, k, sign = case
+    low, high, step = grid_along(k, sign)[k]
+    argv = ["path", "--robot", "ur5", "--ti", "tool0", *_line_words(poses), "--step", "0.01", "--place",
+            f"--place-{'xy'[k]}", *(f"{v:.15f}" for v in (low, high, step)), "--place-ya", "0", "0", "0.1",
+            "--format", "json"]
+    assert main(argv) == 0
+    answer = json.loads(capsys.readouterr().out)
+    assert answer["feasible"] == 3
+    words = shlex.split(answer["command"])
+    assert "--place-ya" not in words and "--ti" not in words and words[words.index("--tip") + 1] == "tool0"
+    assert main(words[1:]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["feasible"] and plan["cost"] == pytest.approx(answer["best"]["cost"], abs=1e-12)
+
+
+@pytest.mark.parametrize("word, full", [("--reach-m=maps/ur5", "--reach-map=maps/ur5"), ("--reach-m", "--reach-map"),
+                                        ("--place-x", "--place-x"), ("-0.3", "-0.3"), ("--pla", "--pla")])
+def test_full_option_spells_out_a_unique_prefix_only(word, full):
+    names = {"--place", "--place-x", "--place-yaw", "--reach-map", "--reach-share"}
+    assert full_option(word, names) == full
