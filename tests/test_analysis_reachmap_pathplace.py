@@ -206,3 +206,49 @@ def test_the_printed_command_spells_out_abbreviated_options(case, capsys):
 def test_full_option_spells_out_a_unique_prefix_only(word, full):
     names = {"--place", "--place-x", "--place-yaw", "--reach-map", "--reach-share"}
     assert full_option(word, names) == full
+
+
+def test_yaw_about_the_base_z_changes_only_the_first_joint(case):
+    """Yaw offsets (about base z, the UR5's first joint axis): ``Rz(yaw) @ T`` is reached by the same joints with
+    q1 + yaw (FK of the first joint composes with Rz(yaw); q1 has range 4 pi, so an alias stays in limits), so
+    at every yaw the plan is feasible exactly when it is at yaw 0, at the same cost (the summed |dq| of q1 + yaw
+    is that of q1; equal-cost branches may swap), and an infeasible line fails at the same waypoint. Moved in by 0.08 along u the line is
+    feasible (0.045 - 0.08 < 0); as it is, waypoint 5 (s = 0.005 > 0) is the first out of reach."""
+    robot, chain, poses, k, sign = case
+    u = np.zeros(3)
+    u[k] = sign
+    inside = poses.copy()
+    inside[:, :3, 3] -= 0.08 * u
+    offsets = offset_grid(yaw=(-3.0, 3.0, 1.0))
+    assert len(offsets) == 7
+    feasible = place_path(robot, inside, base="base_link", tip="tool0", offsets=offsets)
+    assert feasible.feasible.all()
+    assert np.allclose(feasible.cost, feasible.cost[0], rtol=0, atol=1e-9)
+    plan0 = plan_path(chain, inside)
+    for yaw in offsets[:, 3]:  # the yaw-0 plan with q1 + yaw follows the turned path (FK, independent of the search)
+        q = plan0.q.copy()
+        q[:, 0] += yaw
+        position, rotation = pose_residuals(shifted_poses(inside, (0, 0, 0, yaw)), chain.fk(q))
+        assert position.max() <= 1e-9 and rotation.max() <= 1e-9
+    out = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets)
+    assert not out.feasible.any()
+    assert out.first_failure.tolist() == [5] * 7 == [int(np.argmax(S > 0))] * 7
+
+
+def test_cli_place_yaw_in_degrees(case, capsys):
+    """``--deg --place-yaw 0 90 45`` on the line moved in by 0.08 along u (feasible at every yaw, previous test):
+    the feasible offsets' yaws are 0, pi/4, pi/2 rad, at one cost."""
+    _, _, poses, k, sign = case
+    inside = poses.copy()
+    inside[:, k, 3] -= 0.08 * sign
+    line = _line_words(inside)
+    line[4:7] = [f"{np.degrees(float(v)):.15f}" for v in line[4:7]]  # --deg: the R P Y of --line in degrees too
+    line[10:13] = [f"{np.degrees(float(v)):.15f}" for v in line[10:13]]
+    argv = ["path", "--robot", "ur5", "--tip", "tool0", *line, "--step", "0.01", "--place", "--deg",
+            "--place-yaw", "0", "90", "45", "--format", "json"]
+    assert main(argv) == 0
+    answer = json.loads(capsys.readouterr().out)
+    assert answer["candidates"] == 3 and answer["feasible"] == 3
+    rows = np.array(answer["feasible_offsets"])
+    assert np.allclose(rows[:, 3], [0.0, np.pi / 4, np.pi / 2], rtol=0, atol=1e-12)
+    assert np.allclose(rows[:, 4], rows[0, 4], rtol=0, atol=1e-9)
