@@ -252,3 +252,44 @@ def test_cli_place_yaw_in_degrees(case, capsys):
     rows = np.array(answer["feasible_offsets"])
     assert np.allclose(rows[:, 3], [0.0, np.pi / 4, np.pi / 2], rtol=0, atol=1e-12)
     assert np.allclose(rows[:, 4], rows[0, 4], rtol=0, atol=1e-9)
+
+
+def test_cli_screens_with_a_saved_reach_map(case, tmp_path, capsys):
+    """A real map (``manipkit reachmap --tip tool0`` at 0.1 m, 20 directions, 200000 FK samples) screens the line
+    moved along u by d = -0.2 .. 1.0 every 0.1. A bound by hand: consecutive link origins of the chain are a
+    fixed distance apart (each joint turns about an axis through its child's origin), so tool0 is never farther
+    from the base origin than L, the sum of those distances; a yes needs a reached voxel centre within one voxel
+    on each axis of the position (0.173 m), and a reached voxel's centre is within half a diagonal (0.087 m) of a
+    sample: so an offset whose waypoints all lie farther than L + 0.26 m is dropped. The screen only drops (the
+    feasible offsets are among the unscreened search's, d <= -0.045), and the count printed is that of the
+    loaded map's own query."""
+    from manipkit.analysis.reachmap.map import load
+
+    robot, _, poses, k, sign = case
+    links = ["base_link", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
+             "wrist_3_link", "tool0"]
+    L = sum(np.linalg.norm(robot.transform(a, b, Q_EXTENDED)[:3, 3]) for a, b in zip(links, links[1:]))
+    folder = tmp_path / "ur5_tool0"
+    assert main(["reachmap", "--robot", "ur5", "--tip", "tool0", "--voxel", "0.1", "--orientations", "20",
+                 "--samples", "200000", "--method", "fk", "-o", str(folder)]) == 0
+    capsys.readouterr()
+    spec = sorted((sign * -0.2, sign * 1.0))
+    argv = ["path", "--robot", "ur5", "--tip", "tool0", *_line_words(poses), "--step", "0.01", "--place",
+            f"--place-{'xy'[k]}", f"{spec[0]:.15f}", f"{spec[1]:.15f}", "0.1", "--reach-map", str(folder),
+            "--format", "json"]
+    status = main(argv)
+    answer = json.loads(capsys.readouterr().out)
+    offsets = offset_grid(*[(spec[0], spec[1], 0.1) if i == k else None for i in range(2)])
+    along = sign * offsets[:, k]
+    reach_map = load(str(folder))
+    counts = np.array([reach_map.query(shifted_poses(poses, o), threshold=0.65).sum() for o in offsets])
+    kept = counts >= len(poses)
+    assert answer["candidates"] == 13 and answer["screened_out"] == int((~kept).sum())
+    nearest = np.array([np.linalg.norm(shifted_poses(poses, o)[:, :3, 3], axis=1).min() for o in offsets])
+    far = nearest > L + 0.26
+    assert far.any() and not kept[far].any()
+    unscreened = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets)
+    assert np.array_equal(unscreened.feasible, along <= -0.045)
+    listed = {round(row[k], 9) for row in answer["feasible_offsets"]}
+    assert listed <= {round(v, 9) for v in offsets[unscreened.feasible, k]}
+    assert status == (0 if listed else 1)
