@@ -15,7 +15,8 @@ import shlex
 from manipkit.app.cli.common import EXIT_MISMATCH, EXIT_OK, UsageError, print_json
 from manipkit.text import short_text
 
-__all__ = ["add_place_options", "check_place_options", "offset_of", "place_text", "reproduce_command", "run_place"]
+__all__ = ["add_place_options", "check_place_options", "full_option", "offset_of", "place_text", "reproduce_command",
+           "run_place"]
 
 #: Options of the search, with how many values each takes: left out of the command that plans one offset.
 SEARCH_OPTIONS = {"--place": 0, "--place-x": 3, "--place-y": 3, "--place-z": 3, "--place-yaw": 3,
@@ -36,9 +37,13 @@ def add_place_options(path) -> None:
     path.add_argument("--reach-share", type=float, default=1.0, metavar="S",
                       help="with --reach-map: the share of waypoints (0..1, default 1)")
     path.add_argument("--workers", type=int, default=None, metavar="N",
-                      help="with --place: not available yet from the command line (place_path(..., workers=N) in Python)")
+                      help="with --place: plan the candidates on a local Dask cluster of N worker processes "
+                           "(default: here); the answer is the same for any N")
     path.add_argument("--offset", type=float, nargs=4, default=None, metavar=("DX", "DY", "DZ", "YAW"),
                       help="move the path by this offset (m in the base frame; yaw about its z, rad or deg with --deg)")
+    # every option name of `manipkit path` (added last, so all are there): argparse's list of them is only in
+    # `_actions` (docs/hooks.py reads it too); the printed command spells out what the user abbreviated
+    path.set_defaults(option_names=frozenset(s for action in path._actions for s in action.option_strings))
 
 
 def _yaw(value: float, args) -> float:
@@ -53,9 +58,24 @@ def offset_of(args) -> tuple[float, float, float, float]:
     return dx, dy, dz, _yaw(yaw, args)
 
 
+def full_option(word: str, names) -> str:
+    """``word`` with the option it abbreviates spelt out (``--reach-m=DIR`` -> ``--reach-map=DIR``): argparse
+    takes a unique prefix of a long option, and a printed command must name it whole, so that it is dropped
+    with the search options and reads the same should another option of that prefix be added. Words that are
+    not an abbreviation of one of ``names`` are returned as they are."""
+    name, sep, value = word.partition("=")
+    if not name.startswith("--") or name in names:
+        return word
+    matches = [option for option in names if option.startswith(name)]
+    return matches[0] + sep + value if len(matches) == 1 else word
+
+
 def reproduce_command(args, offset) -> str:
-    """The ``manipkit`` command line of this run without the search options, with ``--offset`` of ``offset``."""
-    words, given, skip = [], list(getattr(args, "command_line", [])), 0
+    """The ``manipkit`` command line of this run without the search options, with ``--offset`` of ``offset``;
+    options the user abbreviated are spelt out (:func:`full_option`)."""
+    names = getattr(args, "option_names", frozenset())
+    words, skip = [], 0
+    given = [full_option(word, names) for word in getattr(args, "command_line", [])]
     for word in given:
         if skip:
             skip -= 1
@@ -95,11 +115,6 @@ def run_place(args, robot, poses, options: dict) -> int:
                              "command for the best offset")
     if args.view or args.offset is not None:
         raise UsageError("--view and --offset apply to one plan, not to --place")
-    if args.workers is not None:
-        # From the command line the search on a local cluster did not finish (the cluster started, no block came
-        # back in minutes); the library's place_path(..., workers=N) is tested on a LocalCluster. Refused until found.
-        raise UsageError("--workers with --place is not available yet: leave it out (the candidates are planned "
-                         "here), or call manipkit.analysis.reachmap.pathplace.place_path(..., workers=N)")
     ranges = [args.place_x, args.place_y, args.place_z, args.place_yaw]
     if all(r is None for r in ranges):
         raise UsageError("--place needs a grid: give at least one of --place-x/-y/-z/-yaw MIN MAX STEP")
