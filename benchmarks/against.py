@@ -409,7 +409,8 @@ def table_rows(labels: dict, checks: dict, taken: dict, cold: tuple[dict, str, b
 
 
 def markdown(rows: list[dict], ref: str, sha: str, rounds: int, runs: int) -> str:
-    lines = [f"| row | {ref} ({sha[:7]}) | working tree | new/old | per-round new/old | verdict |",
+    name = ref if sha.startswith(ref) else f"{ref} ({sha[:7]})"
+    lines = [f"| row | {name} | working tree | new/old | per-round new/old | verdict |",
              "|---|---|---|---|---|---|"]
     for r in rows:
         if not r["ok"]:
