@@ -252,3 +252,15 @@ def test_compare_with_a_3x3_rotation_compares_rotations_only(tmp_path):
     result = run_cli("tf-between", "base_link", "ee_link", "--compare", exact)
     assert result.returncode == 1 and "the rotation DOES NOT AGREE with the model" in result.stdout
     assert "rotation error: 0.000210459 deg" in result.stdout
+
+
+def test_the_command_line_starts_without_numpy_or_importlib_metadata():
+    """``tf-between`` imports numpy itself, with OpenBLAS on one thread (``tf._import_numpy_with_one_blas_thread``),
+    which only works if importing the command line has not loaded numpy already; and loading a bundled robot does
+    not import ``importlib.metadata`` (about 50 ms). A fresh interpreter is the point: this one has both loaded."""
+    code = ("import sys; import manipkit.app.cli, manipkit.app.cli.tf, manipkit.app.cli.common; "
+            "print('numpy' in sys.modules); "
+            "from manipkit.description.sources import example_robot_data_dir; example_robot_data_dir(); "
+            "print('importlib.metadata' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "False"]

@@ -253,3 +253,19 @@ def test_a_package_xml_above_the_table_limit_is_not_read(tmp_path):
         resolver.find("my_pkg")
     (folder / "package.xml").write_text("<package><name>my_pkg</name></package>")
     assert PackageResolver(near=tmp_path / "ws" / "robot.urdf").find("my_pkg") == folder.resolve()
+
+
+def test_the_example_robot_data_folder_is_the_one_importlib_metadata_locates(monkeypatch, tmp_path):
+    """The ``sys.path`` scan finds the folder ``importlib.metadata`` gives; with no dist-info on the path the
+    answer falls back to ``importlib.metadata``, which finds none either (None)."""
+    from importlib import metadata
+
+    example_robot_data_dir.cache_clear()
+    try:
+        dist = metadata.distribution("example-robot-data")
+        assert example_robot_data_dir() == Path(dist.locate_file("cmeel.prefix/share/example-robot-data"))
+        example_robot_data_dir.cache_clear()
+        monkeypatch.setattr("sys.path", [str(tmp_path)])
+        assert example_robot_data_dir() is None
+    finally:
+        example_robot_data_dir.cache_clear()

@@ -37,11 +37,13 @@ from __future__ import annotations
 import math
 import numbers
 import operator
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from manipkit.errors import IKOptionError, ManipkitError, OptionError
 from manipkit.text import repr_text, short_text
+
+if TYPE_CHECKING:  # numpy is imported where it is used: a command's start (tf-between) need not load it here
+    import numpy as np
 
 __all__ = ["MAX_ANGLE", "MAX_COUNT", "MAX_DURATION", "MAX_GRAVITY", "MAX_LENGTH", "MAX_MASS", "MAX_MESH_BYTES",
            "MAX_MESH_VERTICES", "MAX_SPEED", "MAX_TEXTURE_BYTES", "MIN_DURATION", "MIN_LENGTH", "MIN_SPEED", "count",
@@ -126,6 +128,8 @@ def gravity(values, what: str, *, direction: bool = False, error: type[ManipkitE
     ...
     manipkit.errors.OptionError: --gravity [0, 0, 1e+300]: give 3 finite numbers (m/s^2), magnitude at most 1000
     """
+    import numpy as np
+
     try:
         g = np.asarray(values, dtype=float).reshape(-1)
     except (TypeError, ValueError, OverflowError):
@@ -188,6 +192,8 @@ def tolerances(tol, *, error: type[Exception] = IKOptionError, what: str = "tol"
     """
     if type(tol) is float and tol > 0.0 and math.isfinite(tol):  # the common case, fast
         return tol, tol
+    import numpy as np
+
     try:
         values = np.atleast_1d(np.asarray(tol, dtype=float))
     except (TypeError, ValueError):

@@ -133,7 +133,23 @@ def example_robot_data_dir() -> Path | None:
 
     This folder is also what ``package://example-robot-data/...`` means.
     Returns None when example-robot-data is not installed.
+
+    The distribution's ``dist-info`` folder is looked for on ``sys.path``
+    first, as :mod:`importlib.metadata` finds it (its files are located from
+    the folder holding it); only where none is found is
+    :mod:`importlib.metadata` itself asked (it costs about 50 ms to import, a
+    fifth of ``tf-between``'s start).
     """
+    import sys
+
+    for entry in sys.path:
+        try:
+            found = sorted(Path(entry or ".").glob("example_robot_data-*.dist-info"))
+        except OSError:
+            continue
+        if found:
+            path = Path(entry or ".") / "cmeel.prefix" / "share" / "example-robot-data"
+            return path if path.is_dir() else None
     from importlib import metadata
 
     try:
