@@ -423,6 +423,6 @@ def test_reachmap_query_decides_the_boundary_band_by_ik_by_default(map_3r, tmp_p
     assert ("the map's unrefined estimate, not decided by IK (refinement turned off: refine=False, or --no-refine on the "
             "command line); measured "
             "error: completeness: of a held-out sample of") in unrefined.splitlines()[-1]
-    assert sum(": reachable (" in x for x in unrefined.splitlines()) == plain.sum()
+    assert sum(": reachable by the map (" in x for x in unrefined.splitlines()) == plain.sum()
     run_cli("manipkit", "reachmap", "--voxel", "0.1", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt",
             status=2)

@@ -344,10 +344,12 @@ def run_reachmap_query(args) -> int:
         return EXIT_OK
     print(f"reach map of {printable(reach_map.robot)}: {printable(reach_map.frame)} in {printable(reach_map.base)}, "
           f"{len(targets)} target pose(s) from {printable(str(args.targets))}")
+    words = {("IK", True): "reachable", ("IK", False): "not reached by IK from nearby starts",
+             ("map", True): "reachable by the map", ("map", False): "not reachable by the map"}
     for k in range(len(targets)):
-        print(f"pose {k + 1}: {'reachable' if answer.reachable[k] else 'not reachable'} (decided by {how[k]}; support "
+        print(f"pose {k + 1}: {words[how[k], bool(answer.reachable[k])]} (decided by {how[k]}; support "
               f"{short_text(float(answer.score[k]), 3)})")
-    print(f"{int(answer.reachable.sum())} of {len(targets)} poses reachable; {said}")
+    print(f"yes to {int(answer.reachable.sum())} of {len(targets)} poses; {said}")
     return EXIT_OK
 
 
