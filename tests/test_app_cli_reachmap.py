@@ -426,3 +426,13 @@ def test_reachmap_query_decides_the_boundary_band_by_ik_by_default(map_3r, tmp_p
     assert sum(": reachable by the map (" in x for x in unrefined.splitlines()) == plain.sum()
     run_cli("manipkit", "reachmap", "--voxel", "0.1", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt",
             status=2)
+
+
+def test_reachmap_query_refuses_a_robot_with_no_refine_in_one_line(map_3r, tmp_path):
+    # --robot asks for IK refinement by that robot, --no-refine for none: the two cannot both be meant
+    folder, _ = map_3r
+    (tmp_path / "t.txt").write_text("5 0 0 0 0 0\n")
+    result = run_cli("manipkit", "reachmap", "query", folder / "p3r.zarr", "--targets", tmp_path / "t.txt",
+                     "--robot", "planar_3r", "--no-refine", status=2)
+    line, = result.stderr.strip().splitlines()
+    assert "--robot" in line and "--no-refine" in line and "give one of them" in line and not result.stdout

@@ -325,9 +325,12 @@ def run_reachmap_query(args) -> int:
     from manipkit.inputs.poses import read_targets
 
     _refuse_build_options(args, "'reachmap query' answers from a saved map")
+    if args.no_refine and args.robot is not None:
+        raise UsageError("--robot loads the robot whose IK refines the answer, and --no-refine turns that off: give "
+                         "one of them")
     targets = read_targets(args.targets)
     reach_map = load(args.map)
-    robot = _map_robot(args, reach_map) if args.robot is not None and not args.no_refine else None
+    robot = _map_robot(args, reach_map) if args.robot is not None else None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnrefinedWarning)  # the answer's own line says it, with the measured error
         answer = reach_map.query(targets, detail=True, robot=robot, refine=False if args.no_refine else None)
