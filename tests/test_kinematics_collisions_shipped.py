@@ -191,3 +191,20 @@ def test_acm_is_compared_with_the_shipped_srdf_pair_by_pair(tmp_path, name, srdf
                             "samples with meshes, so not Never")
     if name == "panda":
         assert differ == []  # Franka's matrix, made with these meshes, is ours pair by pair
+
+
+TM5 = WS_NEW / "tmr_ros1/tm_description/xacro/tm5-900.urdf.xacro"
+
+
+@pytest.mark.skipif(not TM5.is_file(), reason="the shared workspace ws_new is not on this machine")
+def test_an_arm_whose_collision_meshes_are_not_shipped_is_refused_in_one_line():
+    # ws_new's tm_description ships the TM5-900's xacro but not its meshes/ folder: the URDF's first collision mesh
+    # (link_0's, read here from the expanded URDF by a regular expression) resolves to a path that does not exist
+    urdf = manipkit.load(TM5).urdf
+    mesh = re.search(r"<collision>.*?<mesh\s+filename=\"package://tm_description/([^\"]+)\"", urdf, re.S).group(1)
+    resolved = TM5.parents[1] / mesh
+    assert not resolved.exists()
+    result = run_cli("manipkit", "collisions", "--robot", TM5, status=2)
+    line, = result.stderr.strip().splitlines()
+    assert "collision geometry unavailable" in line and "'link_0'" in line and str(resolved) in line
+    assert "does not exist" in line and not result.stdout
