@@ -31,7 +31,6 @@ import contextlib
 import errno
 import os
 import stat
-import tempfile
 import threading
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -195,6 +194,7 @@ def writing(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | Non
     still works); it is renamed over ``path`` when the block ends without
     error and removed otherwise. OSError -> OutputError.
 
+    >>> import tempfile
     >>> folder = Path(tempfile.mkdtemp())
     >>> with writing(folder / "x.txt") as target:
     ...     _ = target.write_text("ok")
@@ -214,6 +214,8 @@ def writing(path: str | os.PathLike, *, inputs: Iterable[str | os.PathLike | Non
     except OSError:
         kept = None  # a new file (or a symbolic link, replaced): the mode a new file gets
     folder = path.parent if str(path.parent) else Path(".")
+    import tempfile  # here, not at the top: tf-between's start-up never writes a file
+
     try:
         handle, name = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:64]}.", suffix=f".part{path.suffix[:16]}")
     except OSError as exc:

@@ -29,7 +29,6 @@ then by path. At most :data:`MAX_SRDF_CANDIDATES` files are read.
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -108,6 +107,8 @@ def parse_srdf(text: str, where: str) -> Srdf:
         line = text[: min(i for i in (text.find("<!DOCTYPE"), text.find("<!ENTITY")) if i >= 0)].count("\n") + 1
         raise CollisionError(f"{shown}:{line}: <!DOCTYPE>/<!ENTITY> declarations: an SRDF has none (MoveIt does "
                              "not expand them); remove them")
+    import xml.etree.ElementTree as ET  # here, not at the top: only a robot that ships an SRDF parses one
+
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:

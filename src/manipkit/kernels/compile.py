@@ -21,7 +21,6 @@ inside the functions).
 from __future__ import annotations
 
 import functools
-import hashlib
 import os
 import sys
 import warnings
@@ -120,6 +119,8 @@ def sources_digest(module: str | os.PathLike, root: str | os.PathLike) -> str:
     those import, so such a change compiles them again; a change anywhere else
     (a docstring of the CLI, another kernel's module) does not.
     """
+    import hashlib  # here, not at the top: commands that compile nothing do not load OpenSSL
+
     digest = hashlib.sha256()
     base = Path(root)
     for path in kernel_closure(module, base):

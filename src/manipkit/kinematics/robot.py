@@ -29,7 +29,6 @@ import numpy as np
 import pinocchio as pin
 
 from manipkit.description.access import ReadPolicy, allowed_folders
-from manipkit.description.mjcf import mjcf_locator, mjcf_rules
 from manipkit.description.packages import PackageResolver, check_package_dirs
 from manipkit.description.sources import RobotSource, resolve_robot
 from manipkit.description.srdf import shipped_srdf
@@ -168,6 +167,8 @@ class Robot(JointSpace):
         #: A robot loaded from MJCF has instead its file's contact rules (:func:`manipkit.description.mjcf.mjcf_rules`,
         #: ``kind`` ``"mjcf"``): MuJoCo's own allowed-collision source for it.
         if source.is_mjcf and source.path.is_file():
+            from manipkit.description.mjcf import mjcf_rules  # here: MuJoCo's loader is only for MJCF files
+
             self.srdf, notes = mjcf_rules(source.path, self.name, allow_read=self.allow_read), ()
         else:
             self.srdf, notes = shipped_srdf(source.path, self.name, self.frame_names,
@@ -234,8 +235,13 @@ class Robot(JointSpace):
         if source is None:
             source = RobotSource("robot", Path("<string>"), "string")
         where = source.path.name
-        locate = (xacro_locator(source.path) if source.is_xacro else mjcf_locator(source.path, allow_read=allow_read)
-                  if source.is_mjcf else None) if source.path.is_file() else None
+        locate = None
+        if source.path.is_file() and source.is_xacro:
+            locate = xacro_locator(source.path)
+        elif source.path.is_file() and source.is_mjcf:
+            from manipkit.description.mjcf import mjcf_locator  # here: MuJoCo's loader is only for MJCF files
+
+            locate = mjcf_locator(source.path, allow_read=allow_read)
         checked = check_urdf(text, where, locate=locate)
         warnings = list(checked.warnings)
         near = source.path if source.path.is_file() else None
