@@ -37,7 +37,7 @@ from manipkit.kinematics.collisions import CollisionChecker
 from manipkit.paths.plan import plan_path, velocity_limits
 from manipkit.paths.rungs import build_rungs, tool_rotations
 
-__all__ = ["circle_poses", "greedy_track", "main"]
+__all__ = ["circle_poses", "completion_workload", "greedy_track", "main", "random_lines"]
 
 
 def circle_poses(centre, radius: float, n: int) -> np.ndarray:
@@ -147,11 +147,12 @@ def speed_workload(waypoints: int, step_deg: float, repeats: int = 3) -> dict:
     return row
 
 
-def completion_workload(paths: int, seed: int = 0) -> dict:
-    chain = manipkit.load("ur5").chain("base_link", "tool0")
+def random_lines(chain, paths: int, seed: int = 0):
+    """Random UR5 lines (20 waypoints, 1 cm apart, from FK of a random in-limit configuration, in a random
+    direction, at a random speed in [0.05, 0.3] m/s) that :func:`plan_path` finds feasible, drawn until ``paths``
+    are found or ``20 * paths`` tried; yields ``(q0, poses, speed, tried)``."""
     rng = np.random.default_rng(seed)
     done = tried = 0
-    greedy = 0
     while done < paths and tried < 20 * paths:
         tried += 1
         q0 = chain.sample(1, seed=int(rng.integers(2**31)))[0]
@@ -162,6 +163,14 @@ def completion_workload(paths: int, seed: int = 0) -> dict:
         poses[:, :3, 3] += 0.01 * np.arange(20)[:, None] * direction
         if not plan_path(chain, poses, speed=speed).feasible:
             continue
+        done += 1
+        yield q0, poses, speed, tried
+
+
+def completion_workload(paths: int, seed: int = 0) -> dict:
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    done = tried = greedy = 0
+    for q0, poses, speed, tried in random_lines(chain, paths, seed):
         done += 1
         greedy += greedy_track(chain, poses, q0, speed) == len(poses)
     return {"workload": "completion", "paths": done, "tried": tried, "plan_completed": 1.0 if done else None,

@@ -1,0 +1,135 @@
+"""Task paths (issue 39): other libraries' Cartesian planners beside plan_path on the same UR5 lines.
+
+    make peers                                              # the peers' own venvs (never manipkit's)
+    .venv/bin/python -m benchmarks.bench_path_peers [--quick] [--paths 200]
+
+Each peer runs in its own venv (``PEERS`` below: the venv's python and the runner script) as a subprocess, fed the
+same poses through a file, since a peer may bring its own Pinocchio/coal/eigenpy. The lines are
+:func:`benchmarks.bench_paths.random_lines` (20 waypoints, 1 cm apart, random speed; those plan_path finds
+feasible), from the generating configuration. manipkit checks every peer's output itself: a path is completed
+when every waypoint is reached by some configuration of the peer's joint trajectory whose pose (the chain's FK,
+Pinocchio's model) lands within 1e-6 m and 1e-6 rad of it, in order. Its cost is the summed joint motion
+(sum over samples and joints of |dq|, rad) from the first waypoint's configuration to the last's; ours is
+plan_path's ``cost`` on the same waypoints. Time per path: plan_path's wall time in this process, the peer's as
+its runner measured its ``plan`` call (import and model loading left out on both sides).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import manipkit
+from manipkit.paths.plan import plan_path
+from manipkit.spatial.transforms import pose_residuals
+
+from .bench_paths import random_lines
+
+__all__ = ["PEERS", "check_peer_path", "main", "run_peer"]
+
+HERE = Path(__file__).resolve().parent
+PEERS = {"roboplan": (Path(os.environ.get("ROBOPLAN_VENV", "/work/peers-venv-rp")) / "bin" / "python",
+                      HERE / "peer_roboplan.py")}
+TOL = 1e-6  # m and rad: a waypoint is reached when a configuration's FK lands this close
+
+
+def check_peer_path(chain, poses: np.ndarray, Q: np.ndarray, tol: float = TOL) -> dict:
+    """Check a peer's joint trajectory ``Q`` (M, n) against ``poses`` (N, 4, 4) by the chain's FK.
+
+    Waypoint i is reached at the first sample after waypoint i-1's whose pose is within ``tol`` (m and rad);
+    ``reached`` counts the waypoints reached in order, ``worst`` is the smallest error (m, rad: the larger of the
+    two) at the first waypoint not reached, ``cost`` the summed |dq| (rad) from the first waypoint's sample to the
+    last's (None unless all are reached)."""
+    if not len(Q):
+        return {"reached": 0, "completed": False, "cost": None, "worst": None}
+    T = chain.fk(np.asarray(Q, float))
+    start, marks = 0, []
+    for pose in poses:
+        position, rotation = pose_residuals(pose, T[start:])
+        error = np.maximum(position, rotation)
+        hits = np.flatnonzero(error <= tol)
+        if not len(hits):
+            return {"reached": len(marks), "completed": False, "cost": None, "worst": float(error.min())}
+        start += int(hits[0])
+        marks.append(start)
+    cost = float(np.abs(np.diff(Q[marks[0]:marks[-1] + 1], axis=0)).sum())
+    return {"reached": len(marks), "completed": True, "cost": cost, "worst": 0.0}
+
+
+def run_peer(name: str, lines, chain, urdf: str, python: Path | None = None, script: Path | None = None):
+    """Run peer ``name``'s runner on ``lines`` (q0, poses, speed) in its own python; returns per path
+    ``(Q, seconds, error)``, or None with the reason when the peer's python is missing."""
+    python, script = python or PEERS[name][0], script or PEERS[name][1]
+    if not Path(python).exists():
+        return None, f"{python} missing (make peers)"
+    with tempfile.TemporaryDirectory() as folder:
+        source, target = Path(folder, "in.npz"), Path(folder, "out.npz")
+        arrays = {"urdf": urdf, "base": chain.base, "tip": chain.tip, "joint_names": np.array(chain.joint_names),
+                  "paths": len(lines)}
+        for k, (q0, poses, speed) in enumerate(lines):
+            arrays.update({f"q0_{k}": q0, f"poses_{k}": poses, f"speed_{k}": speed})
+        np.savez(source, **arrays)
+        done = subprocess.run([str(python), str(script), str(source), str(target)], capture_output=True, text=True,
+                              check=False)
+        if done.returncode:
+            return None, (done.stderr.strip().splitlines() or ["exit status %d" % done.returncode])[-1]
+        out = np.load(target)
+        return [(out[f"q_{k}"], float(out[f"seconds_{k}"]), str(out[f"error_{k}"])) for k in range(len(lines))], ""
+
+
+def compare(paths: int, seed: int = 0) -> list[dict]:
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    lines, ours = [], []
+    for q0, poses, speed, _ in random_lines(chain, paths, seed):
+        start = time.perf_counter()
+        plan = plan_path(chain, poses, speed=speed)
+        ours.append((time.perf_counter() - start, plan.cost))
+        lines.append((q0, poses, speed))
+    rows = [{"planner": "manipkit plan_path", "paths": len(lines), "completed": 1.0,
+             "median_s": float(np.median([s for s, _ in ours])), "cost": float(sum(c for _, c in ours))}]
+    for name in PEERS:
+        answers, why = run_peer(name, lines, chain, str(robot.source.path))
+        if answers is None:
+            rows.append({"planner": name, "paths": len(lines), "error": why})
+            continue
+        checks = [check_peer_path(chain, poses, Q) for (_, poses, _), (Q, _, _) in zip(lines, answers)]
+        both = [(c["cost"], cost) for c, (_, cost) in zip(checks, ours) if c["completed"]]
+        below = [peer - mine for peer, mine in both if peer < mine - 1e-9]
+        worst = [c["worst"] for c in checks if not c["completed"] and c["worst"] is not None]
+        errors = sorted({e for _, _, e in answers if e})
+        rows.append({"planner": name, "paths": len(lines),
+                     "completed": sum(c["completed"] for c in checks) / len(lines),
+                     "waypoints_reached": sum(c["reached"] for c in checks) / (len(lines) * len(lines[0][1])),
+                     "median_s": float(np.median([s for _, s, _ in answers])),
+                     "cost_completed": float(sum(p for p, _ in both)), "ours_on_those": float(sum(m for _, m in both)),
+                     "below_ours": len(below), "median_miss": float(np.median(worst)) if worst else None,
+                     "errors": errors[:3]})
+    return rows
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="5 paths (seconds)")
+    parser.add_argument("--paths", type=int, default=200)
+    parser.add_argument("--out", default=None, help="write the rows as JSON here")
+    args = parser.parse_args(argv)
+    rows = compare(5 if args.quick else args.paths)
+    for row in rows:
+        print(json.dumps(row))
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as stream:
+            json.dump(rows, stream, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
