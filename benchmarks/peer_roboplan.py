@@ -2,7 +2,7 @@
 
     PEER_PYTHON benchmarks/peer_roboplan.py IN.npz OUT.npz
 
-IN holds ``urdf`` (path), ``base``, ``tip`` (frame names), ``joint_names``, and per path ``poses_K`` (N, 4, 4),
+IN holds ``urdf`` (path), ``package_paths`` (where ``package://`` meshes resolve), ``base``, ``tip`` (frame names), ``joint_names``, and per path ``poses_K`` (N, 4, 4),
 ``q0_K`` (n,) and ``speed_K`` (m/s); ``paths`` is their count. OUT holds per path ``q_K`` (M, n): every sample of
 the joint trajectory the planner returned (joint_names order; empty when it raised), ``seconds_K`` (the wall time
 of its ``plan`` call) and ``error_K`` (the exception text, or ""). Nothing is checked here: the caller checks the
@@ -27,7 +27,7 @@ def main(argv=None) -> int:
     data = np.load(source)
     base, tip = str(data["base"]), str(data["tip"])
     names = [str(name) for name in data["joint_names"]]
-    scene = Scene("ur5", loadUrdfSceneDescription(str(data["urdf"])))
+    scene = Scene("ur5", loadUrdfSceneDescription(str(data["urdf"]), [str(p) for p in data["package_paths"]]))
     scene.addGroupFromChain("arm", base, tip)
     out = {}
     for k in range(int(data["paths"])):
