@@ -84,7 +84,7 @@ def run_peer(name: str, lines, chain, urdf: str, python: Path | None = None, scr
         done = subprocess.run([str(python), str(script), str(source), str(target)], capture_output=True, text=True,
                               check=False)
         if done.returncode:
-            return None, (done.stderr.strip().splitlines() or ["exit status %d" % done.returncode])[-1]
+            return None, (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
         out = np.load(target)
         return [(out[f"q_{k}"], float(out[f"seconds_{k}"]), str(out[f"error_{k}"])) for k in range(len(lines))], ""
 

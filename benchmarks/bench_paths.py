@@ -170,8 +170,8 @@ def random_lines(chain, paths: int, seed: int = 0):
 def completion_workload(paths: int, seed: int = 0) -> dict:
     chain = manipkit.load("ur5").chain("base_link", "tool0")
     done = tried = greedy = 0
-    for q0, poses, speed, tried in random_lines(chain, paths, seed):
-        done += 1
+    for q0, poses, speed, count in random_lines(chain, paths, seed):
+        done, tried = done + 1, count
         greedy += greedy_track(chain, poses, q0, speed) == len(poses)
     return {"workload": "completion", "paths": done, "tried": tried, "plan_completed": 1.0 if done else None,
             "greedy_completed": greedy / done if done else None}
