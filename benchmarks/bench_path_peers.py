@@ -38,9 +38,11 @@ __all__ = ["PEERS", "check_peer_path", "main", "run_peer"]
 
 HERE = Path(__file__).resolve().parent
 PEERS = {"roboplan": (Path(os.environ.get("ROBOPLAN_VENV", "/work/peers-venv-rp")) / "bin" / "python",
-                      HERE / "peer_roboplan.py")}
+                      HERE / "peer_roboplan.py"),
+         "tesseract descartes": (Path(os.environ.get("TESSERACT_VENV", "/work/peers-venv")) / "bin" / "python",
+                                 HERE / "peer_tesseract.py")}
 TOL = (1e-6, 1e-6)  # m, rad: a waypoint is reached when a configuration's FK lands this close
-OWN_TOL = {"roboplan": (5e-3, 1e-2)}  # each peer's own default path tolerance (m, rad), reported beside ours
+OWN_TOL = {"roboplan": (5e-3, 1e-2)}  # a peer's own default path tolerance (m, rad), reported beside ours
 
 
 def check_peer_path(chain, poses: np.ndarray, Q: np.ndarray, tol=TOL) -> dict:
@@ -84,7 +86,8 @@ def run_peer(name: str, lines, chain, urdf: str, python: Path | None = None, scr
         done = subprocess.run([str(python), str(script), str(source), str(target)], capture_output=True, text=True,
                               check=False)
         if done.returncode:
-            return None, (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+            lines_of = [line for line in done.stderr.splitlines() if "error" in line.lower() or "exception" in line.lower()]
+            return None, (lines_of or done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1].strip()
         out = np.load(target)
         return [(out[f"q_{k}"], float(out[f"seconds_{k}"]), str(out[f"error_{k}"])) for k in range(len(lines))], ""
 
@@ -109,7 +112,7 @@ def compare(paths: int, seed: int = 0) -> list[dict]:
         both = [(c["cost"], cost) for c, (_, cost) in zip(checks, ours) if c["completed"]]
         below = [peer - mine for peer, mine in both if peer < mine - 1e-9]
         worst = [c["worst"] for c in checks if not c["completed"] and c["worst"] is not None]
-        own = OWN_TOL.get(name)
+        own = OWN_TOL.get(name, TOL)
         loose = [check_peer_path(chain, poses, Q, own) for (_, poses, _), (Q, _, _) in zip(lines, answers)]
         both_own = [(c["cost"], cost) for c, (_, cost) in zip(loose, ours) if c["completed"]]
         errors = sorted({e for _, _, e in answers if e})
