@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 
 import manipkit
-from manipkit.paths.plan import plan_path
+from manipkit.paths.plan import plan_path, velocity_limits
 from manipkit.spatial.transforms import pose_residuals
 
 from .bench_paths import random_lines
 
-__all__ = ["PEERS", "check_peer_path", "main", "run_peer"]
+__all__ = ["PEERS", "check_peer_path", "main", "run_peer", "velocity_ratio"]
 
 HERE = Path(__file__).resolve().parent
 PEERS = {"roboplan": (Path(os.environ.get("ROBOPLAN_VENV", "/work/peers-venv-rp")) / "bin" / "python",
@@ -66,7 +66,15 @@ def check_peer_path(chain, poses: np.ndarray, Q: np.ndarray, tol=TOL) -> dict:
         start += int(hits[0])
         marks.append(start)
     cost = float(np.abs(np.diff(Q[marks[0]:marks[-1] + 1], axis=0)).sum())
-    return {"reached": len(marks), "completed": True, "cost": cost, "worst": 0.0}
+    return {"reached": len(marks), "completed": True, "cost": cost, "worst": 0.0, "marks": marks}
+
+
+def velocity_ratio(chain, poses: np.ndarray, Q: np.ndarray, marks, speed: float) -> float:
+    """Largest ``|dq_j| / (v_j dt)`` between consecutive waypoints' samples of ``Q`` (``dt``: the step's length
+    over ``speed``, ``v_j`` the URDF velocity limits): plan_path's edge rule, which a peer's path may break."""
+    dq = np.abs(np.diff(np.asarray(Q)[marks], axis=0))
+    dt = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1) / speed
+    return float((dq / (velocity_limits(chain) * dt[:, None])).max())
 
 
 def run_peer(name: str, lines, chain, urdf: str, python: Path | None = None, script: Path | None = None):
@@ -111,6 +119,9 @@ def compare(paths: int, seed: int = 0) -> list[dict]:
         checks = [check_peer_path(chain, poses, Q) for (_, poses, _), (Q, _, _) in zip(lines, answers)]
         both = [(c["cost"], cost) for c, (_, cost) in zip(checks, ours) if c["completed"]]
         below = [peer - mine for peer, mine in both if peer < mine - 1e-9]
+        fast = [velocity_ratio(chain, poses, Q, c["marks"], speed) > 1 + 1e-9
+                for c, (_, poses, speed), (Q, _, _) in zip(checks, lines, answers) if c["completed"]]
+        below_fast = sum(f for f, (peer, mine) in zip(fast, both) if peer < mine - 1e-9)
         worst = [c["worst"] for c in checks if not c["completed"] and c["worst"] is not None]
         own = OWN_TOL.get(name, TOL)
         loose = [check_peer_path(chain, poses, Q, own) for (_, poses, _), (Q, _, _) in zip(lines, answers)]
@@ -125,7 +136,8 @@ def compare(paths: int, seed: int = 0) -> list[dict]:
                      "waypoints_reached": sum(c["reached"] for c in checks) / (len(lines) * len(lines[0][1])),
                      "median_s": float(np.median([s for _, s, _ in answers])),
                      "cost_completed": float(sum(p for p, _ in both)), "ours_on_those": float(sum(m for _, m in both)),
-                     "below_ours": len(below), "median_miss": float(np.median(worst)) if worst else None,
+                     "below_ours": len(below), "below_ours_over_velocity": below_fast,
+                     "over_velocity": sum(fast), "median_miss": float(np.median(worst)) if worst else None,
                      "errors": errors[:3]})
     return rows
 
