@@ -81,6 +81,17 @@ bench: setup
 	$(BIN)/python -m pip install --quiet -e '.[bench]'
 	$(BIN)/python -m benchmarks
 
+# The task-path planners of roboplan and Tesseract (Descartes) beside plan_path on the same UR5 lines
+# (benchmarks/bench_path_peers.py, about two minutes). Each peer gets its own venv under .peers/, since roboplan
+# brings its own Pinocchio/coal/eigenpy wheels: never installed into .venv, never part of `make test`.
+.PHONY: peers
+peers: setup
+	test -x .peers/roboplan/bin/python || $(PYTHON) -m venv .peers/roboplan
+	.peers/roboplan/bin/python -m pip install --quiet roboplan==0.7.0
+	test -x .peers/tesseract/bin/python || $(PYTHON) -m venv .peers/tesseract
+	.peers/tesseract/bin/python -m pip install --quiet tesseract-robotics==0.5.1
+	$(BIN)/python -m benchmarks.bench_path_peers
+
 # Fuzz the description loaders with 10,000 mutated URDF and 10,000 mutated xacro cases, and the
 # xacro expression evaluator with 10,000 random expression trees of allowed and forbidden nodes
 # twice (tests/test_fuzz.py; `make test` runs 300 of each): about 15 minutes. A failing case's shrunk

@@ -37,9 +37,10 @@ from .bench_paths import random_lines
 __all__ = ["PEERS", "check_peer_path", "main", "run_peer", "velocity_ratio"]
 
 HERE = Path(__file__).resolve().parent
-PEERS = {"roboplan": (Path(os.environ.get("ROBOPLAN_VENV", "/work/peers-venv-rp")) / "bin" / "python",
+VENVS = HERE.parent / ".peers"  # made by `make peers`; ROBOPLAN_VENV / TESSERACT_VENV name others
+PEERS = {"roboplan": (Path(os.environ.get("ROBOPLAN_VENV", VENVS / "roboplan")) / "bin" / "python",
                       HERE / "peer_roboplan.py"),
-         "tesseract descartes": (Path(os.environ.get("TESSERACT_VENV", "/work/peers-venv")) / "bin" / "python",
+         "tesseract descartes": (Path(os.environ.get("TESSERACT_VENV", VENVS / "tesseract")) / "bin" / "python",
                                  HERE / "peer_tesseract.py")}
 TOL = (1e-6, 1e-6)  # m, rad: a waypoint is reached when a configuration's FK lands this close
 OWN_TOL = {"roboplan": (5e-3, 1e-2)}  # a peer's own default path tolerance (m, rad), reported beside ours
@@ -100,19 +101,30 @@ def run_peer(name: str, lines, chain, urdf: str, python: Path | None = None, scr
         return [(out[f"q_{k}"], float(out[f"seconds_{k}"]), str(out[f"error_{k}"])) for k in range(len(lines))], ""
 
 
-def compare(paths: int, seed: int = 0) -> list[dict]:
+def compare(paths: int, seed: int = 0, rounds: int = 3) -> list[dict]:
+    """plan_path and every peer on the same lines, timed in turns: ``rounds`` rounds, each timing plan_path on
+    every line then each peer's process on every line; a path's time is the median of its rounds."""
     robot = manipkit.load("ur5")
     chain = robot.chain("base_link", "tool0")
-    lines, ours = [], []
-    for q0, poses, speed, _ in random_lines(chain, paths, seed):
-        start = time.perf_counter()
-        plan = plan_path(chain, poses, speed=speed)
-        ours.append((time.perf_counter() - start, plan.cost))
-        lines.append((q0, poses, speed))
-    rows = [{"planner": "manipkit plan_path", "paths": len(lines), "completed": 1.0,
+    lines = [(q0, poses, speed) for q0, poses, speed, _ in random_lines(chain, paths, seed)]
+    ours_s, peer_s, answers_of = [], {name: [] for name in PEERS}, {}
+    for _ in range(rounds):
+        times, costs = [], []
+        for _, poses, speed in lines:
+            start = time.perf_counter()
+            plan = plan_path(chain, poses, speed=speed)
+            times.append(time.perf_counter() - start)
+            costs.append(plan.cost)
+        ours_s.append(times)
+        for name in PEERS:
+            answers_of[name] = run_peer(name, lines, chain, str(robot.source.path))
+            if answers_of[name][0] is not None:
+                peer_s[name].append([s for _, s, _ in answers_of[name][0]])
+    ours = list(zip(np.median(ours_s, axis=0), costs))
+    rows = [{"planner": "manipkit plan_path", "paths": len(lines), "completed": 1.0, "rounds": rounds,
              "median_s": float(np.median([s for s, _ in ours])), "cost": float(sum(c for _, c in ours))}]
     for name in PEERS:
-        answers, why = run_peer(name, lines, chain, str(robot.source.path))
+        answers, why = answers_of[name]
         if answers is None:
             rows.append({"planner": name, "paths": len(lines), "error": why})
             continue
@@ -134,7 +146,7 @@ def compare(paths: int, seed: int = 0) -> list[dict]:
                      "cost_own_tol": float(sum(p for p, _ in both_own)),
                      "ours_on_those_own_tol": float(sum(m for _, m in both_own)),
                      "waypoints_reached": sum(c["reached"] for c in checks) / (len(lines) * len(lines[0][1])),
-                     "median_s": float(np.median([s for _, s, _ in answers])),
+                     "median_s": float(np.median(np.median(peer_s[name], axis=0))),
                      "cost_completed": float(sum(p for p, _ in both)), "ours_on_those": float(sum(m for _, m in both)),
                      "below_ours": len(below), "below_ours_over_velocity": below_fast,
                      "over_velocity": sum(fast), "median_miss": float(np.median(worst)) if worst else None,
@@ -146,9 +158,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="5 paths (seconds)")
     parser.add_argument("--paths", type=int, default=200)
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of plan_path and the peers, in turns")
     parser.add_argument("--out", default=None, help="write the rows as JSON here")
     args = parser.parse_args(argv)
-    rows = compare(5 if args.quick else args.paths)
+    rows = compare(5 if args.quick else args.paths, rounds=max(1, args.rounds))
     for row in rows:
         print(json.dumps(row))
     if args.out:
