@@ -6,7 +6,9 @@
 Each peer runs in its own venv (``PEERS`` below: the venv's python and the runner script) as a subprocess, fed the
 same poses through a file, since a peer may bring its own Pinocchio/coal/eigenpy. The lines are
 :func:`benchmarks.bench_paths.random_lines` (20 waypoints, 1 cm apart, random speed; those plan_path finds
-feasible), from the generating configuration. manipkit checks every peer's output itself: a path is completed
+feasible), from the generating configuration; then the bench's circle of 1000 waypoints (radius 0.15 m, tool down,
+0.1 m/s) with the tool fixed (8 candidates a rung: the 36 tool angles of bench_paths would give Descartes, which
+stores its edges, 288^2 x 999 = 83 M of them), roboplan started from plan_path's first configuration. manipkit checks every peer's output itself: a path is completed
 when every waypoint is reached by some configuration of the peer's joint trajectory whose pose (the chain's FK,
 Pinocchio's model) lands within 1e-6 m and 1e-6 rad of it, in order. Its cost is the summed joint motion
 (sum over samples and joints of |dq|, rad) from the first waypoint's configuration to the last's; ours is
@@ -32,7 +34,7 @@ import manipkit
 from manipkit.paths.plan import plan_path, velocity_limits
 from manipkit.spatial.transforms import pose_residuals
 
-from .bench_paths import random_lines
+from .bench_paths import circle_poses, random_lines
 
 __all__ = ["PEERS", "check_peer_path", "main", "run_peer", "velocity_ratio"]
 
@@ -101,12 +103,12 @@ def run_peer(name: str, lines, chain, urdf: str, python: Path | None = None, scr
         return [(out[f"q_{k}"], float(out[f"seconds_{k}"]), str(out[f"error_{k}"])) for k in range(len(lines))], ""
 
 
-def compare(paths: int, seed: int = 0, rounds: int = 3) -> list[dict]:
-    """plan_path and every peer on the same lines, timed in turns: ``rounds`` rounds, each timing plan_path on
-    every line then each peer's process on every line; a path's time is the median of its rounds."""
+def compare(lines, workload: str, rounds: int = 3) -> list[dict]:
+    """plan_path and every peer on the same ``lines`` ((q0, poses, speed) on the UR5, base_link -> tool0), timed
+    in turns: ``rounds`` rounds, each timing plan_path on every line then each peer's process on every line; a
+    path's time is the median of its rounds."""
     robot = manipkit.load("ur5")
     chain = robot.chain("base_link", "tool0")
-    lines = [(q0, poses, speed) for q0, poses, speed, _ in random_lines(chain, paths, seed)]
     ours_s, peer_s, answers_of = [], {name: [] for name in PEERS}, {}
     for _ in range(rounds):
         times, costs = [], []
@@ -121,12 +123,12 @@ def compare(paths: int, seed: int = 0, rounds: int = 3) -> list[dict]:
             if answers_of[name][0] is not None:
                 peer_s[name].append([s for _, s, _ in answers_of[name][0]])
     ours = list(zip(np.median(ours_s, axis=0), costs))
-    rows = [{"planner": "manipkit plan_path", "paths": len(lines), "completed": 1.0, "rounds": rounds,
+    rows = [{"workload": workload, "planner": "manipkit plan_path", "paths": len(lines), "completed": 1.0, "rounds": rounds,
              "median_s": float(np.median([s for s, _ in ours])), "cost": float(sum(c for _, c in ours))}]
     for name in PEERS:
         answers, why = answers_of[name]
         if answers is None:
-            rows.append({"planner": name, "paths": len(lines), "error": why})
+            rows.append({"workload": workload, "planner": name, "paths": len(lines), "error": why})
             continue
         checks = [check_peer_path(chain, poses, Q) for (_, poses, _), (Q, _, _) in zip(lines, answers)]
         both = [(c["cost"], cost) for c, (_, cost) in zip(checks, ours) if c["completed"]]
@@ -139,7 +141,7 @@ def compare(paths: int, seed: int = 0, rounds: int = 3) -> list[dict]:
         loose = [check_peer_path(chain, poses, Q, own) for (_, poses, _), (Q, _, _) in zip(lines, answers)]
         both_own = [(c["cost"], cost) for c, (_, cost) in zip(loose, ours) if c["completed"]]
         errors = sorted({e for _, _, e in answers if e})
-        rows.append({"planner": name, "paths": len(lines),
+        rows.append({"workload": workload, "planner": name, "paths": len(lines),
                      "completed": sum(c["completed"] for c in checks) / len(lines),
                      "raised": sum(bool(e) for _, _, e in answers) / len(lines),
                      "own_tol": own, "completed_own_tol": sum(c["completed"] for c in loose) / len(lines),
@@ -161,7 +163,12 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=3, help="rounds of plan_path and the peers, in turns")
     parser.add_argument("--out", default=None, help="write the rows as JSON here")
     args = parser.parse_args(argv)
-    rows = compare(5 if args.quick else args.paths, rounds=max(1, args.rounds))
+    chain = manipkit.load("ur5").chain("base_link", "tool0")
+    rounds = max(1, args.rounds)
+    lines = [(q0, poses, speed) for q0, poses, speed, _ in random_lines(chain, 5 if args.quick else args.paths)]
+    circle = circle_poses((0.45, 0.1, 0.3), 0.15, 50 if args.quick else 1000)
+    start = plan_path(chain, circle, speed=0.1).q[0]  # roboplan needs a start: our plan's, at waypoint 0
+    rows = compare(lines, "random lines", rounds) + compare([(start, circle, 0.1)], "circle, fixed tool", rounds)
     for row in rows:
         print(json.dumps(row))
     if args.out:
