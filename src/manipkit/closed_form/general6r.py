@@ -167,9 +167,10 @@ def prepare(direction, point) -> General6R:
     h = h / np.linalg.norm(h, axis=1, keepdims=True)
     size = max(1e-3, float(np.max(np.linalg.norm(q - q.mean(axis=0), axis=1))))
     origin = q[0].copy()
+    R_grid, b_unit, o_unit = _grid_123(h[:4], q[:4] - origin)
     q = (q - origin) / size  # origin on axis 1, unit size: every quantity O(1)
     x6 = _foot(h[5], q[5], h[4], q[4])
-    o = _foot(h[2], q[2], h[3], q[3])
+    o, b_grid = o_unit / size, b_unit / size  # translations are linear in the points
     t45 = np.array([(a, b) for a in _GRID for b in _GRID])  # (9, 2), joint 4 slow
     E = _motions(h[3], q[3], t45[:, 0]) @ _motions(h[4], q[4], t45[:, 1])
     pl = E[:, :3, :3] @ x6 + E[:, :3, 3] - o
@@ -180,11 +181,33 @@ def prepare(direction, point) -> General6R:
     if rank < 8:
         raise ClosedFormIKError(f"the joints 4-5 side has rank {rank} < 8 (axes 4 and 5 in a special position)")
     N = U[:, 8:].T  # (6, 14)
+    return General6R(h, q, size, origin, x6, o, P, N, R_grid, b_grid, rank)
+
+
+def _grid_123(h: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(R_grid, b_grid, o) of :class:`General6R` before the division by the size, from axes 1-4 ``h``, ``q`` (4, 3)
+    (points relative to axis 1's): kept per arrays (the 64 made last), since a shifted way (:func:`solve_way`) keeps
+    axes 1-4 while its axes 5 and 6 move with every target."""
+    key = (h.tobytes(), q.tobytes())
+    grid = _GRIDS.get(key)
+    if grid is not None:
+        return grid
+    o = _foot(h[2], q[2], h[3], q[3])
     t123 = np.array([(a, b, c) for a in _GRID for b in _GRID for c in _GRID])  # (27, 3), joint 1 slowest
     F = _motions(h[0], q[0], t123[:, 0]) @ _motions(h[1], q[1], t123[:, 1]) @ _motions(h[2], q[2], t123[:, 2])
     R_grid = np.transpose(F[:, :3, :3], (0, 2, 1))
     b_grid = -np.einsum("kij,kj->ki", R_grid, F[:, :3, 3]) - o
-    return General6R(h, q, size, origin, x6, o, P, N, R_grid, b_grid, rank)
+    grid = (R_grid, b_grid, o)
+    for array in grid:
+        array.setflags(write=False)
+    if len(_GRIDS) >= 64:
+        _GRIDS.pop(next(iter(_GRIDS)), None)
+    _GRIDS[key] = grid
+    return grid
+
+
+#: (bytes of axes 1-4 and their points) -> their joints 1-3 grid (oldest dropped first).
+_GRIDS: dict = {}
 
 
 def prepared(direction, point) -> General6R:
