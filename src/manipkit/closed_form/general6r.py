@@ -370,7 +370,8 @@ def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -
     return _wrap(theta), residual
 
 
-def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3) -> Roots:
+def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3,
+          compiled: bool = True) -> Roots:
     """Every isolated solution ``theta`` (k, 6) of ``g = E_1(t_1) ... E_6(t_6)`` (4x4, the base frame of ``prepare``).
 
     Parameters
@@ -385,6 +386,9 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
         Newton steps on every candidate.
     imaginary : float, keyword-only
         Eigenvalues with ``|Im x| <= imaginary (1 + |x|)`` are candidates (a near-double root's pair is kept).
+    compiled : bool, keyword-only
+        Polish the candidates by the compiled kernel (:mod:`manipkit.closed_form.general6r_kernel`, numba,
+        compiled on first use); False: by the numpy reference here (the same steps, within rounding).
 
     Returns
     -------
@@ -438,7 +442,12 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
     G[:3, :3], G[:3, 3] = R, t
     if len(x):
         theta = _joints_456(arm, Q, theta123, R, t)
-        theta, residual = _polish(arm, G, theta, iterations)
+        if compiled:
+            from manipkit.closed_form.general6r_kernel import polish_rows
+
+            theta, residual = polish_rows(arm.h, arm.p, G, theta, iterations=iterations, far=_FAR)
+        else:
+            theta, residual = _polish(arm, G, theta, iterations)
         keep = residual <= tol
         theta, residual = theta[keep], residual[keep]
     else:
