@@ -370,6 +370,26 @@ def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -
     return _wrap(theta), residual
 
 
+def _best_pencil(K: np.ndarray) -> tuple:
+    """(conditioning, eigen, multiplied, M) of the best conditioned of the three pencils of the six equations K."""
+    best = None
+    for eigen, multiplied in ((2, 0), (0, 1), (1, 0)):
+        M = _pencil(K, eigen, multiplied)
+        score = _conditioning(M)
+        if best is None or score > best[0]:
+            best = (score, eigen, multiplied, M)
+    return best
+
+
+def _polished(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int, compiled: bool):
+    """:func:`_polish`, or its compiled twin (:func:`manipkit.closed_form.general6r_kernel.polish_rows`)."""
+    if not compiled:
+        return _polish(arm, G, theta, iterations)
+    from manipkit.closed_form.general6r_kernel import polish_rows
+
+    return polish_rows(arm.h, arm.p, G, theta, iterations=iterations, far=_FAR)
+
+
 def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3,
           compiled: bool = True) -> Roots:
     """Every isolated solution ``theta`` (k, 6) of ``g = E_1(t_1) ... E_6(t_6)`` (4x4, the base frame of ``prepare``).
@@ -405,13 +425,7 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
     R, t = _scaled_target(arm, g, arm.origin)
     six, Q = _equations(arm, R, t)
     K = _half_angle(six)
-    best = None
-    for eigen, multiplied in ((2, 0), (0, 1), (1, 0)):
-        M = _pencil(K, eigen, multiplied)
-        score = _conditioning(M)
-        if best is None or score > best[0]:
-            best = (score, eigen, multiplied, M)
-    score, eigen, multiplied, M = best
+    score, eigen, multiplied, M = _best_pencil(K)
     if not score > 1e-13:
         raise ClosedFormIKError(f"the elimination is degenerate at this target (conditioning {score:.2g}): "
                                 "a continuum of solutions, or a special arm")
@@ -442,12 +456,7 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
     G[:3, :3], G[:3, 3] = R, t
     if len(x):
         theta = _joints_456(arm, Q, theta123, R, t)
-        if compiled:
-            from manipkit.closed_form.general6r_kernel import polish_rows
-
-            theta, residual = polish_rows(arm.h, arm.p, G, theta, iterations=iterations, far=_FAR)
-        else:
-            theta, residual = _polish(arm, G, theta, iterations)
+        theta, residual = _polished(arm, G, theta, iterations, compiled)
         keep = residual <= tol
         theta, residual = theta[keep], residual[keep]
     else:
