@@ -104,9 +104,19 @@ def _motions(h: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
 def poe_fk(direction: np.ndarray, point: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """``E_1(t_1) ... E_6(t_6)`` (..., 4, 4) for angles ``theta`` (..., 6): the product of exponentials."""
     theta = np.asarray(theta, dtype=float)
-    G = np.broadcast_to(np.eye(4), theta.shape[:-1] + (4, 4)).copy()
-    for i in range(theta.shape[-1]):
-        G = G @ _motions(direction[i], point[i], theta[..., i])
+    h = np.asarray(direction, dtype=float)[:theta.shape[-1]]
+    p = np.asarray(point, dtype=float)[:theta.shape[-1]]
+    K = np.zeros((len(h), 3, 3))  # [h_i]x
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -h[:, 2], h[:, 1], -h[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = h[:, 2], -h[:, 1], h[:, 0]
+    c, s = np.cos(theta)[..., None, None], np.sin(theta)[..., None, None]
+    E = np.zeros(theta.shape + (4, 4))  # every joint's motion at once: (..., n, 4, 4)
+    E[..., :3, :3] = c * _EYE3 + s * K + (1.0 - c) * (h[:, :, None] * h[:, None, :])
+    E[..., :3, 3] = p - np.einsum("...ij,...j->...i", E[..., :3, :3], np.broadcast_to(p, theta.shape + (3,)))
+    E[..., 3, 3] = 1.0
+    G = E[..., 0, :, :]
+    for i in range(1, theta.shape[-1]):
+        G = G @ E[..., i, :, :]
     return G
 
 
