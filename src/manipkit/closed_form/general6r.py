@@ -42,7 +42,9 @@ The elimination (Raghavan and Roth 1993, as reformulated by Manocha and Canny
    is below ``tol``; candidates that land on the same configuration are one.
 
 Lengths are scaled by the arm's size inside (the equations mix m and m^2).
-numpy only; the caller (:mod:`manipkit.ik.general6r`) maps angles to joint
+numpy, but for the root polishing of step 5, compiled by numba on first use
+(:mod:`manipkit.closed_form.general6r_kernel`; ``solve(compiled=False)`` runs the
+numpy reference of the same steps). The caller (:mod:`manipkit.ik.general6r`) maps angles to joint
 values and checks every row by the chain's own forward kinematics.
 """
 
