@@ -106,7 +106,7 @@ def general6r_workload(*, n_poses: int = 200, rounds: int = 5, seed: int = 17) -
                 solutions_per_pose=float(np.mean([len(a.solutions) for a in answers])),
                 check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating configuration among the "
                       f"answers: {found:.1%}; method {', '.join(sorted(method))}",
-                note="every isolated solution, limits marked; Python and numpy (not compiled)"),
+                note="every isolated solution, limits marked; numpy, its root polishing compiled"),
             row("general6r", "xarm6", "manipkit ik(method='numerical'), one solution", times["numerical"],
                 unit="pose", n=n_poses, success=solved,
                 check=f"solved {solved:.1%} (residual checked by FK in the solver)",

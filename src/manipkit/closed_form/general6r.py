@@ -42,7 +42,9 @@ The elimination (Raghavan and Roth 1993, as reformulated by Manocha and Canny
    is below ``tol``; candidates that land on the same configuration are one.
 
 Lengths are scaled by the arm's size inside (the equations mix m and m^2).
-numpy only; the caller (:mod:`manipkit.ik.general6r`) maps angles to joint
+numpy, but for the root polishing of step 5, compiled by numba on first use
+(:mod:`manipkit.closed_form.general6r_kernel`; ``solve(compiled=False)`` runs the
+numpy reference of the same steps). The caller (:mod:`manipkit.ik.general6r`) maps angles to joint
 values and checks every row by the chain's own forward kinematics.
 """
 
@@ -104,9 +106,19 @@ def _motions(h: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
 def poe_fk(direction: np.ndarray, point: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """``E_1(t_1) ... E_6(t_6)`` (..., 4, 4) for angles ``theta`` (..., 6): the product of exponentials."""
     theta = np.asarray(theta, dtype=float)
-    G = np.broadcast_to(np.eye(4), theta.shape[:-1] + (4, 4)).copy()
-    for i in range(theta.shape[-1]):
-        G = G @ _motions(direction[i], point[i], theta[..., i])
+    h = np.asarray(direction, dtype=float)[:theta.shape[-1]]
+    p = np.asarray(point, dtype=float)[:theta.shape[-1]]
+    K = np.zeros((len(h), 3, 3))  # [h_i]x
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -h[:, 2], h[:, 1], -h[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = h[:, 2], -h[:, 1], h[:, 0]
+    c, s = np.cos(theta)[..., None, None], np.sin(theta)[..., None, None]
+    E = np.zeros(theta.shape + (4, 4))  # every joint's motion at once: (..., n, 4, 4)
+    E[..., :3, :3] = c * _EYE3 + s * K + (1.0 - c) * (h[:, :, None] * h[:, None, :])
+    E[..., :3, 3] = p - np.einsum("...ij,...j->...i", E[..., :3, :3], np.broadcast_to(p, theta.shape + (3,)))
+    E[..., 3, 3] = 1.0
+    G = E[..., 0, :, :]
+    for i in range(1, theta.shape[-1]):
+        G = G @ E[..., i, :, :]
     return G
 
 
@@ -167,9 +179,10 @@ def prepare(direction, point) -> General6R:
     h = h / np.linalg.norm(h, axis=1, keepdims=True)
     size = max(1e-3, float(np.max(np.linalg.norm(q - q.mean(axis=0), axis=1))))
     origin = q[0].copy()
+    R_grid, b_unit, o_unit = _grid_123(h[:4], q[:4] - origin)
     q = (q - origin) / size  # origin on axis 1, unit size: every quantity O(1)
     x6 = _foot(h[5], q[5], h[4], q[4])
-    o = _foot(h[2], q[2], h[3], q[3])
+    o, b_grid = o_unit / size, b_unit / size  # translations are linear in the points
     t45 = np.array([(a, b) for a in _GRID for b in _GRID])  # (9, 2), joint 4 slow
     E = _motions(h[3], q[3], t45[:, 0]) @ _motions(h[4], q[4], t45[:, 1])
     pl = E[:, :3, :3] @ x6 + E[:, :3, 3] - o
@@ -180,11 +193,33 @@ def prepare(direction, point) -> General6R:
     if rank < 8:
         raise ClosedFormIKError(f"the joints 4-5 side has rank {rank} < 8 (axes 4 and 5 in a special position)")
     N = U[:, 8:].T  # (6, 14)
+    return General6R(h, q, size, origin, x6, o, P, N, R_grid, b_grid, rank)
+
+
+def _grid_123(h: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(R_grid, b_grid, o) of :class:`General6R` before the division by the size, from axes 1-4 ``h``, ``q`` (4, 3)
+    (points relative to axis 1's): kept per arrays (the 64 made last), since a shifted way (:func:`solve_way`) keeps
+    axes 1-4 while its axes 5 and 6 move with every target."""
+    key = (h.tobytes(), q.tobytes())
+    grid = _GRIDS.get(key)
+    if grid is not None:
+        return grid
+    o = _foot(h[2], q[2], h[3], q[3])
     t123 = np.array([(a, b, c) for a in _GRID for b in _GRID for c in _GRID])  # (27, 3), joint 1 slowest
     F = _motions(h[0], q[0], t123[:, 0]) @ _motions(h[1], q[1], t123[:, 1]) @ _motions(h[2], q[2], t123[:, 2])
     R_grid = np.transpose(F[:, :3, :3], (0, 2, 1))
     b_grid = -np.einsum("kij,kj->ki", R_grid, F[:, :3, 3]) - o
-    return General6R(h, q, size, origin, x6, o, P, N, R_grid, b_grid, rank)
+    grid = (R_grid, b_grid, o)
+    for array in grid:
+        array.setflags(write=False)
+    if len(_GRIDS) >= 64:
+        _GRIDS.pop(next(iter(_GRIDS)), None)
+    _GRIDS[key] = grid
+    return grid
+
+
+#: (bytes of axes 1-4 and their points) -> their joints 1-3 grid (oldest dropped first).
+_GRIDS: dict = {}
 
 
 def prepared(direction, point) -> General6R:
@@ -347,7 +382,28 @@ def _polish(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int) -
     return _wrap(theta), residual
 
 
-def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3) -> Roots:
+def _best_pencil(K: np.ndarray) -> tuple:
+    """(conditioning, eigen, multiplied, M) of the best conditioned of the three pencils of the six equations K."""
+    best = None
+    for eigen, multiplied in ((2, 0), (0, 1), (1, 0)):
+        M = _pencil(K, eigen, multiplied)
+        score = _conditioning(M)
+        if best is None or score > best[0]:
+            best = (score, eigen, multiplied, M)
+    return best
+
+
+def _polished(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int, compiled: bool):
+    """:func:`_polish`, or its compiled twin (:func:`manipkit.closed_form.general6r_kernel.polish_rows`)."""
+    if not compiled:
+        return _polish(arm, G, theta, iterations)
+    from manipkit.closed_form.general6r_kernel import polish_rows
+
+    return polish_rows(arm.h, arm.p, G, theta, iterations=iterations, far=_FAR)
+
+
+def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3,
+          compiled: bool = True) -> Roots:
     """Every isolated solution ``theta`` (k, 6) of ``g = E_1(t_1) ... E_6(t_6)`` (4x4, the base frame of ``prepare``).
 
     Parameters
@@ -362,6 +418,9 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
         Newton steps on every candidate.
     imaginary : float, keyword-only
         Eigenvalues with ``|Im x| <= imaginary (1 + |x|)`` are candidates (a near-double root's pair is kept).
+    compiled : bool, keyword-only
+        Polish the candidates by the compiled kernel (:mod:`manipkit.closed_form.general6r_kernel`, numba,
+        compiled on first use); False: by the numpy reference here (the same steps, within rounding).
 
     Returns
     -------
@@ -378,13 +437,7 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
     R, t = _scaled_target(arm, g, arm.origin)
     six, Q = _equations(arm, R, t)
     K = _half_angle(six)
-    best = None
-    for eigen, multiplied in ((2, 0), (0, 1), (1, 0)):
-        M = _pencil(K, eigen, multiplied)
-        score = _conditioning(M)
-        if best is None or score > best[0]:
-            best = (score, eigen, multiplied, M)
-    score, eigen, multiplied, M = best
+    score, eigen, multiplied, M = _best_pencil(K)
     if not score > 1e-13:
         raise ClosedFormIKError(f"the elimination is degenerate at this target (conditioning {score:.2g}): "
                                 "a continuum of solutions, or a special arm")
@@ -415,7 +468,7 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
     G[:3, :3], G[:3, 3] = R, t
     if len(x):
         theta = _joints_456(arm, Q, theta123, R, t)
-        theta, residual = _polish(arm, G, theta, iterations)
+        theta, residual = _polished(arm, G, theta, iterations, compiled)
         keep = residual <= tol
         theta, residual = theta[keep], residual[keep]
     else:
