@@ -280,7 +280,7 @@ def _spherical_12(h, p, c, s, g, tol) -> Branches:
     reach_fail = ~np.any(_count_valid(third.count), axis=-1)
     wrist_fail = np.any(arm_ok.reshape(N, -1), axis=-1) & ~np.any(valid.reshape(N, -1), axis=-1)
     miss = {"shoulder": np.where(~reach_fail & ~np.any(arm_ok.reshape(N, -1), axis=-1), np.max(pair.miss.reshape(N, -1), axis=-1), 0.0),
-            "reach": np.where(reach_fail, np.min(third.miss, axis=-1), 0.0),
+            "reach": np.where(reach_fail, third.miss, 0.0),
             "orientation": np.where(wrist_fail, 1.0, 0.0)}
     return Branches(theta.reshape(N, 8, 6), valid.reshape(N, 8), free.reshape(N, 8), miss, valid.reshape(N, 8))
 

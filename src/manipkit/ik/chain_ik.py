@@ -53,7 +53,7 @@ from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik.branch_names import REVERSED, SRS_WORDS, WORDS, branch_names, label_order, numbered
-from manipkit.ik.families import FAMILY_TOL, OPW, SRS, UR, Family, chain_family
+from manipkit.ik.families import FAMILY_TOL, OPW, SPHERICAL_12, SRS, UR, Family, chain_family
 from manipkit.ik.ideal_arm import IdealArm, compiled_arm, compiled_entry, ideal_arm, wide_joints
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
@@ -78,18 +78,27 @@ def _solved_direction(arm: IdealArm, T: np.ndarray) -> np.ndarray:
 
 def solve_branches(arm: IdealArm, g: np.ndarray, *, compiled: bool = True) -> Branches:
     """Every branch of ``arm`` for targets ``g`` (N, 4, 4): the compiled loop for the UR and OPW families
-    (:mod:`manipkit.closed_form.arms_kernel`), the numpy reference for its hand-backs and for the other families.
+    (:mod:`manipkit.closed_form.arms_kernel`) and for "spherical wrist, two intersecting"
+    (:mod:`manipkit.closed_form.spherical12_kernel`), the numpy reference for their hand-backs and for the other
+    families.
 
     The two give the same branches (tested); ``compiled=False`` is the reference alone."""
     kind = arm.family.kind
-    if not compiled or kind not in (UR, OPW):
+    if not compiled or kind not in (UR, OPW, SPHERICAL_12):
         return solve_6r(kind, arm.h, arm.p, g, arm.points)
-    from manipkit.closed_form.arms_kernel import solve_many
+    if kind == SPHERICAL_12:
+        from manipkit.closed_form.spherical12_kernel import solve_spherical_12_many
 
-    theta, valid, near, fallback = solve_many(kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+        theta, valid, miss, fallback = solve_spherical_12_many(arm.h, arm.p, arm.points["wrist"],
+                                                                arm.points["shoulder"], g)
+        near = valid.copy()
+    else:
+        from manipkit.closed_form.arms_kernel import solve_many
+
+        theta, valid, near, fallback = solve_many(kind, arm.h, arm.p, arm.points["wrist"], arm.scale, g)
+        miss = {"shoulder": np.zeros(len(g)), "reach": np.zeros(len(g)), "orientation": np.zeros(len(g))}
     N = len(g)
     free = np.full((N, 8), -1)
-    miss = {"shoulder": np.zeros(N), "reach": np.zeros(N), "orientation": np.zeros(N)}
     if fallback.any():
         rows = np.flatnonzero(fallback)
         reference = solve_6r(kind, arm.h, arm.p, g[rows], arm.points)

@@ -59,7 +59,8 @@ xArm7: 1e-6 m) are polished by Newton steps on the true chain.
 
 The set: ``count`` values spread over the intervals of every branch (each
 interval gets a share proportional to its length, at least one while the
-count allows, longest first; inside it, one at the middle or ``k >= 2``
+count allows, longest first, lengths taken to :data:`PARAMETER_TOL` and
+equal ones in interval order; inside it, one at the middle or ``k >= 2``
 evenly from 1 % inside one end to 1 % inside the other), each solved and
 checked by forward kinematics of the whole chain, then ordered by ``rank``
 (:data:`RANKS`, best first): ``"limits"`` the smallest distance of a joint
@@ -466,7 +467,9 @@ def _spread(intervals: list[tuple[int, float, float]], count: int) -> list[tuple
     """(branch, value) of ``count`` values over ``intervals`` (the module docstring's rule)."""
     if not intervals:
         return []
-    lengths = np.array([high - low for _, low, high in intervals])
+    # lengths on a grid of PARAMETER_TOL (the ends are known to that much): intervals of one length (the two
+    # branches of a wrist flip share their limits) get their shares by their order, not by rounding noise
+    lengths = np.round(np.array([high - low for _, low, high in intervals]) / PARAMETER_TOL) * PARAMETER_TOL
     order = np.argsort(-lengths, kind="stable")
     share = np.zeros(len(intervals), dtype=int)
     share[order[:min(count, len(intervals))]] = 1
