@@ -30,7 +30,7 @@ from manipkit.errors import OptionError
 from manipkit.paths.ladder import solve_ladder
 from manipkit.paths.poses import PosePath
 from manipkit.paths.rungs import AXES, alias_group, build_rungs, ik_source, tool_rotations
-from manipkit.paths.steps import deviating_steps, step_samples
+from manipkit.paths.steps import deviating_pairs, deviating_steps, step_samples
 from manipkit.text import short_text
 
 __all__ = ["FAILURE_KINDS", "FEASIBILITY_KINDS", "BranchFailure", "PathPlan", "plan_path", "velocity_limits"]
@@ -350,14 +350,17 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     checked_steps: set = set()
     checks = points = replans = 0
     changed = False
+    swept: set = set()  # steps i whose every velocity-allowed pair of candidates was checked for deviation
+    P = 1 if psi is None else len(psi)
     for replans in range(max_replans + 1):  # noqa: B007 (the count is reported)
         ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
                               reconfigure=reconfigure, progress=progress)
         if not ladder.feasible:
+            changed = False  # proven blocked: what was taken out leaves no path (not unfinished)
             break
         choice = ladder.choice
         Q = np.stack([rungs.Q[i][choice[i]] for i in range(N)])
-        targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // (len(psi) if psi is not None else 1)]
+        targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // P]
         changed = False
         if checker is not None:
             new = [i for i in range(N) if (i, choice[i]) not in checked_vertices]
@@ -376,10 +379,19 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         live = [i for i in range(N - 1) if i not in ladder.breaks and (i, choice[i], choice[i + 1]) not in checked_steps]
         if live:
             idx = np.array(live)
-            bad, _, count = deviating_steps(chain, Q, targets, tol=path_tol, depth=depth, steps=idx)
-            points += count
+            unknown = np.array([i not in swept for i in live], dtype=bool)
+            bad = np.zeros(max(N - 1, 0), dtype=bool)
+            if unknown.any():
+                bad, _, count = deviating_steps(chain, Q, targets, tol=path_tol, depth=depth, steps=idx[unknown])
+                points += count
             for i in idx[bad[idx]]:
-                forbidden.setdefault(int(i), []).extend(_same_steps(rungs, int(i), choice[i], choice[i + 1]))
+                # the first time a step between these two rungs leaves the path, every pair of them the velocity
+                # bound lets pass is checked at once: at most one deviation re-plan per rung pair
+                pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, int(i), step_bounds[i],
+                                                     ladder.reached[i], penalties[i + 1], P, path_tol, depth)
+                points += count
+                swept.add(int(i))
+                forbidden.setdefault(int(i), []).extend(pairs)
                 step_reason.setdefault(int(i), set()).add(("deviation", ()))
                 changed = True
             if checker is not None:
@@ -407,7 +419,6 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         "ik_calls": rungs.ik_calls, "velocity_scale": scale, "timed": dt is not None,
         "unfinished": bool(changed),
     }
-    P = 1 if psi is None else len(psi)
     cells = _feasibility(rungs, ladder, penalties, singular, singular_tol, len(angles), P)
     common = dict(joint_names=tuple(chain.joint_names), t=times, failures=failures, resolution=resolution,
                   collision_checks=checks, deviation_points=points, replans=replans, feasibility=cells,
@@ -452,6 +463,27 @@ def _feasibility(rungs, ladder, penalties, singular, singular_tol, A: int, P: in
             code[np.asarray(ladder.reached[i], dtype=bool)] = kinds["reached"]
         np.maximum.at(cells[i], rungs.sample[i] // P, code)
     return cells
+
+
+def _deviating_rung_pairs(chain, rungs, T, rotations, i: int, bound, reached, penalty, P: int, path_tol,
+                          depth: int) -> tuple[list[tuple[int, int]], int]:
+    """Every pair ``(a, b)`` from rung ``i`` to rung ``i + 1`` that leaves the tool path between them
+    (:func:`manipkit.paths.steps.deviating_pairs`), among the pairs the ladder could use: ``a`` reached (what is
+    taken out only ever shrinks the reached set), ``b`` valid and every joint's step inside ``bound`` (the rule of
+    :func:`manipkit.paths.ladder.solve_ladder`). Returns ``(pairs, points checked)``."""
+    Qa, Qb = rungs.Q[i], rungs.Q[i + 1]
+    A = np.flatnonzero(reached)
+    B = np.flatnonzero(np.isfinite(penalty))
+    if not len(A) or not len(B):
+        return [], 0
+    d = np.abs(Qb[B][None, :, :] - Qa[A][:, None, :])
+    fits = ((d == 0.0) | (d <= bound[None, None, :] * (1.0 + 1e-12))).all(axis=2)  # a superset of the ladder's rule
+    x, y = np.nonzero(fits)
+    a, b = A[x], B[y]
+    Ta = T[i] @ rotations[rungs.sample[i][a] // P]
+    Tb = T[i + 1] @ rotations[rungs.sample[i + 1][b] // P]
+    bad, _, count = deviating_pairs(chain, Qa[a], Qb[b], Ta, Tb, tol=path_tol, depth=depth)
+    return [(int(p), int(q)) for p, q in zip(a[bad], b[bad])], count
 
 
 def _same_steps(rungs, i: int, a: int, b: int) -> list[tuple[int, int]]:
