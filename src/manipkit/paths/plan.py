@@ -38,10 +38,11 @@ __all__ = ["FAILURE_KINDS", "FEASIBILITY_KINDS", "BranchFailure", "PathPlan", "p
 #: Why candidates at a waypoint died: no IK branch reaches the target; a branch has no value inside a joint's
 #: limits; the configuration (or every allowed step into it) is in collision; the configuration is within the
 #: singularity tolerance; every step into it from a live candidate is faster than a joint's velocity limit; every
-#: step into it fast enough leaves the tool path between the waypoints.
+#: step into it fast enough leaves the tool path between the waypoints; ``max_replans`` ran out while the last path
+#: still failed a check here (nothing is proven: a path may exist; ``count`` is the re-plans done).
 ONE_DEGREE = math.pi / 180.0
 TEN_DEGREES = math.pi / 18.0
-FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "near_singular", "velocity", "deviation")
+FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "near_singular", "velocity", "deviation", "unfinished")
 #: The cells of :attr:`PathPlan.feasibility` (waypoint x tool angle), worst first; a cell is the best of its
 #: candidates: no IK branch reaches the target; branches do, none inside the joint limits; every candidate is
 #: near-singular; every one is (found) in collision; none is reached from the start by allowed steps (the steps
@@ -60,7 +61,8 @@ class BranchFailure:
     kind : str
         One of :data:`FAILURE_KINDS`.
     count : int
-        How many candidates (``unreachable``: target samples with no branch) died this way.
+        How many candidates (``unreachable``: target samples with no branch) died this way; ``unfinished``: the
+        re-plans done before ``max_replans`` ran out.
     joint : str
         ``joint_limits``: the joint most often outside its limits; ``velocity``: the joint of the best step's
         largest ratio; ``near_singular``: the joint with the largest share of the least singular direction.
@@ -362,6 +364,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         Q = np.stack([rungs.Q[i][choice[i]] for i in range(N)])
         targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // P]
         changed = False
+        failed_at = N
         if checker is not None:
             new = [i for i in range(N) if (i, choice[i]) not in checked_vertices]
             rows = np.repeat(whole[None], len(new), axis=0)
@@ -374,6 +377,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                     penalties[i][alias_group(rungs, i, choice[i])] = np.inf
                     collided.setdefault(i, []).append(_pairs_words(checker, row[None]))
                     changed = True
+                    failed_at = min(failed_at, i)
         if changed:
             continue
         live = [i for i in range(N - 1) if i not in ladder.breaks and (i, choice[i], choice[i + 1]) not in checked_steps]
@@ -394,6 +398,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                 forbidden.setdefault(int(i), []).extend(pairs)
                 step_reason.setdefault(int(i), set()).add(("deviation", ()))
                 changed = True
+                failed_at = min(failed_at, int(i) + 1)
             if checker is not None:
                 clear = idx[~bad[idx]]
                 samples, owner = step_samples(Q, clear, collision_step)
@@ -406,10 +411,14 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                     pairs = _pairs_words(checker, rows[hits & (owner == i)])
                     step_reason.setdefault(int(i), set()).add(("collision", pairs))
                     changed = True
+                    failed_at = min(failed_at, int(i) + 1)
             checked_steps.update((i, choice[i], choice[i + 1]) for i in live if not bad[i])
         if not changed:
             break
     failures = _failures(chain, rungs, ladder, penalties, singular, singular_tol, collided, step_reason)
+    if changed:  # max_replans ran out: say so where the last path failed its check
+        failures = tuple(records + ((BranchFailure("unfinished", replans),) if i == failed_at else ())
+                         for i, records in enumerate(failures))
     resolution = {
         "waypoints": N, "samples": rungs.samples, "tool_angles": len(angles),
         "arm_angles": 0 if psi is None else len(psi), "aliases": bool(aliases),

@@ -1,0 +1,105 @@
+"""Deviation re-planning of :func:`manipkit.paths.plan.plan_path` (issue 39): eager per rung pair, and said when unfinished.
+
+The planner checks a chosen step between waypoints for deviation (the joint-interpolated points at ``k / 16``,
+``k = 1..15``, within ``path_tol`` of the Cartesian path); the first time a step between two rungs deviates, every
+pair of their candidates the velocity bound lets pass is checked at once and the deviating ones forbidden, so the
+deviation re-plans are at most one per rung pair. Checked here against a brute force written in the test: every
+edge of the ladder checked for deviation up front (its own interpolation: position linear, rotation
+``R_a expm(s log(R_a^T R_b))``, distance by the rotation angle ``arccos((tr R - 1) / 2)``), then a plain dynamic
+program over the candidates.
+
+The cases (UR5 of example-robot-data, base_link -> tool0) are lines of 6 waypoints near the wrist singularity
+(q5 near 0), found by a seeded search: ``FEASIBLE`` needs a re-plan (its cheapest path flips the wrist between
+waypoints) and stays feasible; ``BLOCKED`` (q5 = 0.03) is feasible without the check and proven blocked with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import manipkit
+from manipkit.paths.plan import FAILURE_KINDS, plan_path
+from manipkit.paths.poses import interpolate_poses
+from manipkit.paths.rungs import build_rungs, ik_source, tool_rotations
+
+Q_FEASIBLE = np.array([-0.7905, -1.1109, 0.8564, -1.9693, 0.1026, 1.2386])
+D_FEASIBLE = np.array([-0.08217015, 0.01053751, -0.07334831])
+
+
+@pytest.fixture(scope="module")
+def chain():
+    return manipkit.load("ur5").chain("base_link", "tool0")
+
+
+def line(chain, q, displacement, n=6):
+    T0 = chain.fk(q)
+    poses = np.repeat(T0[None], n, axis=0)
+    poses[:, :3, 3] += np.linspace(0.0, 1.0, n)[:, None] * np.asarray(displacement)
+    return poses
+
+
+def leaves_path(chain, qa, qb, Ta, Tb, tol=(1e-3, np.pi / 180), depth=4) -> bool:
+    """The step qa -> qb leaves the path Ta -> Tb at one of the fractions k / 2**depth (written out here)."""
+    for k in range(1, 2 ** depth):
+        s = k / 2 ** depth
+        T = chain.fk(qa + s * (qb - qa))
+        wanted = interpolate_poses(Ta, Tb, [s])[0]
+        position = np.linalg.norm(T[:3, 3] - wanted[:3, 3])
+        cos = (np.trace(wanted[:3, :3].T @ T[:3, :3]) - 1.0) / 2.0
+        if position > tol[0] or np.arccos(np.clip(cos, -1.0, 1.0)) > tol[1]:
+            return True
+    return False
+
+
+def brute_force(chain, poses, *, aliases):
+    """Every edge checked for deviation up front, then the dynamic program: (feasible, cost)."""
+    rungs = build_rungs(chain, poses, tool_rotations(None, np.zeros(1)), source=ik_source(chain.robot, chain.base,
+                        chain.tip), arm_angles=None, tol=1e-9, aliases=aliases, restarts=20, seed=0)
+    cost = np.zeros(len(rungs.Q[0]))
+    for i in range(len(poses) - 1):
+        Qa, Qb = rungs.Q[i], rungs.Q[i + 1]
+        nxt = np.full(len(Qb), np.inf)
+        for a in range(len(Qa)):
+            if not np.isfinite(cost[a]):
+                continue
+            for b in range(len(Qb)):
+                if not leaves_path(chain, Qa[a], Qb[b], poses[i], poses[i + 1]):
+                    nxt[b] = min(nxt[b], cost[a] + np.abs(Qb[b] - Qa[a]).sum())
+        cost = nxt
+    best = float(cost.min()) if len(cost) else np.inf
+    return bool(np.isfinite(best)), best
+
+
+@pytest.mark.parametrize("aliases", [False, True])
+def test_the_plan_is_the_brute_force_over_every_checked_edge(chain, aliases):
+    poses = line(chain, Q_FEASIBLE, D_FEASIBLE)
+    plan = plan_path(chain, poses, aliases=aliases)
+    feasible, cost = brute_force(chain, poses, aliases=aliases)
+    assert feasible and plan.feasible
+    assert plan.cost == pytest.approx(cost, abs=1e-9)
+    # the path takes none of the deviating steps: the brute force's own check on every step of it
+    assert not any(leaves_path(chain, plan.q[i], plan.q[i + 1], poses[i], poses[i + 1]) for i in range(5))
+    assert 1 <= plan.replans <= len(poses) - 1  # at most one deviation re-plan per rung pair
+
+
+def test_without_the_check_the_cheapest_path_leaves_the_path(chain):
+    # the case needs the check: the least motion over the candidates, steps unchecked, is cheaper and deviates
+    poses = line(chain, Q_FEASIBLE, D_FEASIBLE)
+    loose = plan_path(chain, poses, aliases=False, path_tol=10.0)
+    plan = plan_path(chain, poses, aliases=False)
+    assert loose.replans == 0 and loose.cost < plan.cost - 1e-6
+    assert any(leaves_path(chain, loose.q[i], loose.q[i + 1], poses[i], poses[i + 1]) for i in range(5))
+
+
+def test_running_out_of_replans_is_reported_as_unfinished(chain):
+    poses = line(chain, Q_FEASIBLE, D_FEASIBLE)
+    plan = plan_path(chain, poses, aliases=False, max_replans=0)
+    assert not plan.feasible and plan.first_failure is None and plan.resolution["unfinished"]
+    records = [(i, f) for i, waypoint in enumerate(plan.failures) for f in waypoint if f.kind == "unfinished"]
+    assert "unfinished" in FAILURE_KINDS
+    assert len(records) == 1 and records[0][1].count == 0
+    # where the cheapest (unchecked) path first leaves the path: the waypoint its deviating step enters
+    loose = plan_path(chain, poses, aliases=False, path_tol=10.0)
+    first = next(i for i in range(5) if leaves_path(chain, loose.q[i], loose.q[i + 1], poses[i], poses[i + 1]))
+    assert records[0][0] == first + 1
