@@ -10,7 +10,7 @@ program over the candidates.
 
 The cases (UR5 of example-robot-data, base_link -> tool0) are lines of 6 waypoints near the wrist singularity
 (q5 near 0), found by a seeded search: ``FEASIBLE`` needs a re-plan (its cheapest path flips the wrist between
-waypoints) and stays feasible; ``BLOCKED`` (q5 = 0.03) is feasible without the check and proven blocked with it.
+waypoints) and stays feasible; ``BLOCKED`` is feasible without the check and proven blocked with it.
 """
 
 from __future__ import annotations
@@ -25,6 +25,8 @@ from manipkit.paths.rungs import build_rungs, ik_source, tool_rotations
 
 Q_FEASIBLE = np.array([-0.7905, -1.1109, 0.8564, -1.9693, 0.1026, 1.2386])
 D_FEASIBLE = np.array([-0.08217015, 0.01053751, -0.07334831])
+Q_BLOCKED = np.array([0.4627, 0.8718, 0.687, -2.5369, 0.1296, 0.8291])
+D_BLOCKED = np.array([-0.11476894, -0.07634195, -0.11589982])
 
 
 @pytest.fixture(scope="module")
@@ -53,10 +55,12 @@ def leaves_path(chain, qa, qb, Ta, Tb, tol=(1e-3, np.pi / 180), depth=4) -> bool
 
 
 def brute_force(chain, poses, *, aliases):
-    """Every edge checked for deviation up front, then the dynamic program: (feasible, cost)."""
+    """Every edge checked for deviation up front, then the dynamic program: (feasible, cost, first rung none of
+    whose candidates is reached or None)."""
     rungs = build_rungs(chain, poses, tool_rotations(None, np.zeros(1)), source=ik_source(chain.robot, chain.base,
                         chain.tip), arm_angles=None, tol=1e-9, aliases=aliases, restarts=20, seed=0)
     cost = np.zeros(len(rungs.Q[0]))
+    first_dead = None if len(cost) else 0
     for i in range(len(poses) - 1):
         Qa, Qb = rungs.Q[i], rungs.Q[i + 1]
         nxt = np.full(len(Qb), np.inf)
@@ -67,15 +71,17 @@ def brute_force(chain, poses, *, aliases):
                 if not leaves_path(chain, Qa[a], Qb[b], poses[i], poses[i + 1]):
                     nxt[b] = min(nxt[b], cost[a] + np.abs(Qb[b] - Qa[a]).sum())
         cost = nxt
+        if first_dead is None and not np.isfinite(cost).any():
+            first_dead = i + 1
     best = float(cost.min()) if len(cost) else np.inf
-    return bool(np.isfinite(best)), best
+    return bool(np.isfinite(best)), best, first_dead
 
 
 @pytest.mark.parametrize("aliases", [False, True])
 def test_the_plan_is_the_brute_force_over_every_checked_edge(chain, aliases):
     poses = line(chain, Q_FEASIBLE, D_FEASIBLE)
     plan = plan_path(chain, poses, aliases=aliases)
-    feasible, cost = brute_force(chain, poses, aliases=aliases)
+    feasible, cost, _ = brute_force(chain, poses, aliases=aliases)
     assert feasible and plan.feasible
     assert plan.cost == pytest.approx(cost, abs=1e-9)
     # the path takes none of the deviating steps: the brute force's own check on every step of it
@@ -103,3 +109,16 @@ def test_running_out_of_replans_is_reported_as_unfinished(chain):
     loose = plan_path(chain, poses, aliases=False, path_tol=10.0)
     first = next(i for i in range(5) if leaves_path(chain, loose.q[i], loose.q[i + 1], poses[i], poses[i + 1]))
     assert records[0][0] == first + 1
+
+
+def test_a_path_blocked_after_replans_is_proven_blocked_not_unfinished(chain):
+    poses = line(chain, Q_BLOCKED, D_BLOCKED)
+    assert plan_path(chain, poses, aliases=False, path_tol=10.0).feasible  # blocked only by the deviation check
+    plan = plan_path(chain, poses, aliases=False)
+    feasible, _, first_dead = brute_force(chain, poses, aliases=False)
+    assert not feasible and first_dead is not None
+    assert not plan.feasible and plan.replans >= 1
+    assert plan.first_failure == first_dead  # exact: the first waypoint the brute force reaches no candidate of
+    assert plan.resolution["unfinished"] is False
+    assert not any(f.kind == "unfinished" for waypoint in plan.failures for f in waypoint)
+    assert any(f.kind == "deviation" for f in plan.failures[first_dead])
