@@ -15,7 +15,13 @@ optimal for that cost over those candidates (the stated resolution). The
 chosen steps are then checked between the waypoints (:mod:`manipkit.paths.steps`:
 on the tool path within ``path_tol``, and, with ``collisions``, free of
 contact at samples ``collision_step`` apart); what fails is taken out and the
-ladder solved again, until the path is clear or no path is left.
+ladder solved again, until the path is clear or no path is left. The first
+time a chosen step between rungs ``i`` and ``i + 1`` leaves the path, every
+pair of their candidates the velocity bound lets pass is checked at once
+(:func:`manipkit.paths.steps.deviating_pairs`) and the deviating ones are
+forbidden: at most one deviation re-plan per rung pair. Collisions stay lazy
+(only the chosen path's vertices and steps). When ``max_replans`` runs out
+the plan is not feasible and says so: an ``unfinished`` failure record.
 """
 
 from __future__ import annotations
