@@ -25,6 +25,8 @@ from manipkit.paths.rungs import build_rungs, ik_source, tool_rotations
 
 Q_FEASIBLE = np.array([-0.7905, -1.1109, 0.8564, -1.9693, 0.1026, 1.2386])
 D_FEASIBLE = np.array([-0.08217015, 0.01053751, -0.07334831])
+Q_TIMED = np.array([-4.55270912, -3.74961081, 1.85088472, -2.39144618, -3.76915605, -1.26757838])
+D_TIMED = np.array([-0.25011738, -0.06922526, 0.13415508])
 Q_BLOCKED = np.array([0.4627, 0.8718, 0.687, -2.5369, 0.1296, 0.8291])
 D_BLOCKED = np.array([-0.11476894, -0.07634195, -0.11589982])
 
@@ -54,21 +56,25 @@ def leaves_path(chain, qa, qb, Ta, Tb, tol=(1e-3, np.pi / 180), depth=4) -> bool
     return False
 
 
-def brute_force(chain, poses, *, aliases):
+def brute_force(chain, poses, *, aliases, speed=None):
     """Every edge checked for deviation up front, then the dynamic program: (feasible, cost, first rung none of
     whose candidates is reached or None)."""
     rungs = build_rungs(chain, poses, tool_rotations(None, np.zeros(1)), source=ik_source(chain.robot, chain.base,
                         chain.tip), arm_angles=None, tol=1e-9, aliases=aliases, restarts=20, seed=0)
+    model = chain.robot.model  # the UR5's 6 joints are the model's 6 velocity entries, in chain order
+    limits = np.array([model.velocityLimit[model.joints[model.getJointId(name)].idx_v] for name in chain.joint_names])
     cost = np.zeros(len(rungs.Q[0]))
     first_dead = None if len(cost) else 0
     for i in range(len(poses) - 1):
         Qa, Qb = rungs.Q[i], rungs.Q[i + 1]
         nxt = np.full(len(Qb), np.inf)
+        dt = np.inf if speed is None else np.linalg.norm(poses[i + 1, :3, 3] - poses[i, :3, 3]) / speed
         for a in range(len(Qa)):
             if not np.isfinite(cost[a]):
                 continue
             for b in range(len(Qb)):
-                if not leaves_path(chain, Qa[a], Qb[b], poses[i], poses[i + 1]):
+                if (speed is None or (np.abs(Qb[b] - Qa[a]) <= limits * dt).all()) and not leaves_path(
+                        chain, Qa[a], Qb[b], poses[i], poses[i + 1]):
                     nxt[b] = min(nxt[b], cost[a] + np.abs(Qb[b] - Qa[a]).sum())
         cost = nxt
         if first_dead is None and not np.isfinite(cost).any():
@@ -122,3 +128,14 @@ def test_a_path_blocked_after_replans_is_proven_blocked_not_unfinished(chain):
     assert plan.resolution["unfinished"] is False
     assert not any(f.kind == "unfinished" for waypoint in plan.failures for f in waypoint)
     assert any(f.kind == "deviation" for f in plan.failures[first_dead])
+
+
+def test_first_failure_is_exact_when_steps_leave_the_path(chain):
+    # timed at 0.2 m/s: every candidate of waypoint 4 is cut off (too fast, or every step in leaves the path); main
+    # named waypoint 5, the deviating steps into 4 never having been chosen
+    poses = line(chain, Q_TIMED, D_TIMED)
+    plan = plan_path(chain, poses, speed=0.2, aliases=False)
+    feasible, _, first_dead = brute_force(chain, poses, aliases=False, speed=0.2)
+    assert not feasible and not plan.feasible
+    assert plan.first_failure == first_dead == 4
+    assert plan.resolution["unfinished"] is False

@@ -359,13 +359,29 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     checks = points = replans = 0
     changed = False
     swept: set = set()  # steps i whose every velocity-allowed pair of candidates was checked for deviation
+    failed_at = N
     P = 1 if psi is None else len(psi)
     for replans in range(max_replans + 1):  # noqa: B007 (the count is reported)
         ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
                               reconfigure=reconfigure, progress=progress)
         if not ladder.feasible:
-            changed = False  # proven blocked: what was taken out leaves no path (not unfinished)
-            break
+            # before naming first_dead, every rung pair before it is checked for deviation: what reached it on
+            # the way might have needed a step that leaves the path (first_failure exact, not a later waypoint)
+            changed = False
+            for i in range(min(ladder.first_dead, N - 1)):
+                if i not in swept:
+                    pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, i, step_bounds[i],
+                                                         ladder.reached[i], penalties[i + 1], P, path_tol, depth)
+                    points += count
+                    swept.add(i)
+                    if pairs:
+                        forbidden.setdefault(i, []).extend(pairs)
+                        step_reason.setdefault(i, set()).add(("deviation", ()))
+                        changed = True
+            if changed:
+                failed_at = ladder.first_dead
+                continue
+            break  # proven blocked: what was taken out leaves no path (not unfinished)
         choice = ladder.choice
         Q = np.stack([rungs.Q[i][choice[i]] for i in range(N)])
         targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // P]
@@ -439,7 +455,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                   collision_checks=checks, deviation_points=points, replans=replans, feasibility=cells,
                   free_angles=angles)
     if not ladder.feasible or changed:  # changed: the last path failed a check and max_replans ran out
-        return PathPlan(False, None, first_failure=ladder.first_dead, reconfigurations=(), cost=None,
+        return PathPlan(False, None, first_failure=None if changed else ladder.first_dead, reconfigurations=(), cost=None,
                         max_velocity_ratio=None, **common)
     ratio = None
     if dt is not None and N > 1:
