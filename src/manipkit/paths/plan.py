@@ -365,21 +365,32 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
                               reconfigure=reconfigure, progress=progress)
         if not ladder.feasible:
-            # before naming first_dead, every rung pair before it is checked for deviation: what reached it on
-            # the way might have needed a step that leaves the path (first_failure exact, not a later waypoint)
+            # before naming first_dead, the best path to the rung before it is checked for deviation (a clean one
+            # proves that rung reached, so first_failure is exact); a step of it that leaves the path sweeps its
+            # rung pair and the ladder is solved again
             changed = False
-            for i in range(min(ladder.first_dead, N - 1)):
-                if i not in swept:
-                    pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, i, step_bounds[i],
-                                                         ladder.reached[i], penalties[i + 1], P, path_tol, depth)
+            k = ladder.first_dead
+            if k > 1:
+                part = solve_ladder(rungs.Q[:k], step_bounds[:k - 1], weights=w, penalties=penalties[:k],
+                                    forbidden={i: f for i, f in forbidden.items() if i < k - 1},
+                                    reconfigure=reconfigure)
+                Qk = np.stack([rungs.Q[i][part.choice[i]] for i in range(k)])
+                Tk = T[:k] @ rotations[np.stack([rungs.sample[i][part.choice[i]] for i in range(k)]) // P]
+                steps = np.array([i for i in range(k - 1) if i not in swept and i not in part.breaks], dtype=np.intp)
+                bad = np.zeros(k - 1, dtype=bool)
+                if len(steps):
+                    bad, _, count = deviating_steps(chain, Qk, Tk, tol=path_tol, depth=depth, steps=steps)
                     points += count
-                    swept.add(i)
-                    if pairs:
-                        forbidden.setdefault(i, []).extend(pairs)
-                        step_reason.setdefault(i, set()).add(("deviation", ()))
-                        changed = True
+                for i in np.flatnonzero(bad):
+                    pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, int(i), step_bounds[i],
+                                                         part.reached[i], penalties[i + 1], P, path_tol, depth)
+                    points += count
+                    swept.add(int(i))
+                    forbidden.setdefault(int(i), []).extend(pairs)
+                    step_reason.setdefault(int(i), set()).add(("deviation", ()))
+                    changed = True
             if changed:
-                failed_at = ladder.first_dead
+                failed_at = k
                 continue
             break  # proven blocked: what was taken out leaves no path (not unfinished)
         choice = ladder.choice
