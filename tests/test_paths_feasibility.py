@@ -2,7 +2,10 @@
 
 An iiwa14 line pushed out along x until the arm stretches: with ``singular_tol`` the stretched waypoint's
 candidates are near-singular, past it nothing reaches. The cells must agree with ``failures`` and
-``first_failure`` (which the ladder computes its own way) and with the sampled tool angles.
+``first_failure`` (which the ladder computes its own way) and with the sampled tool angles. The path check is
+loosened (``path_tol`` 10): at 1 mm and 1 deg every step from waypoint 0 to 1 fast enough leaves the path (least
+worst point 1.04 x the tolerance over the 3513 allowed pairs, checked point by point by hand), so waypoint 1 would
+die first and the stretched waypoint would not be reached.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ def stretched():
     T1 = T0.copy()
     T1[0, 3] += 0.4
     return plan_path(chain, line_poses(T0, T1, step=0.05), speed=0.1, free_axis="z", free_step=np.radians(60),
-                     arm_angle_step=np.radians(30), singular_tol=0.05)
+                     arm_angle_step=np.radians(30), singular_tol=0.05, path_tol=10.0)
 
 
 def test_cells_agree_with_first_failure_and_the_failures(stretched):

@@ -20,8 +20,8 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of(
         "manipkit.paths.poses",
         "COLLINEAR_TOL", "MAX_POSE_FILE_BYTES", "MAX_WAYPOINTS", "POSE_CSV_COLUMNS", "QUATERNION_NORM_TOL",
-        "RIGID_TOL", "PosePath", "arc_poses", "interpolate_pose_steps", "interpolate_poses", "line_poses",
-        "read_pose_path",
+        "RIGID_TOL", "PosePath", "arc_poses", "interpolate_pose_pairs", "interpolate_pose_steps", "interpolate_poses",
+        "line_poses", "read_pose_path",
     ),
     **homes_of("manipkit.paths.plan", "BranchFailure", "PathPlan", "plan_path"),
     **homes_of("manipkit.paths.timing", "ACCELERATION_TIME", "default_acceleration_limits", "retime_plan",

@@ -15,7 +15,13 @@ optimal for that cost over those candidates (the stated resolution). The
 chosen steps are then checked between the waypoints (:mod:`manipkit.paths.steps`:
 on the tool path within ``path_tol``, and, with ``collisions``, free of
 contact at samples ``collision_step`` apart); what fails is taken out and the
-ladder solved again, until the path is clear or no path is left.
+ladder solved again, until the path is clear or no path is left. The first
+time a chosen step between rungs ``i`` and ``i + 1`` leaves the path, every
+pair of their candidates the velocity bound lets pass is checked at once
+(:func:`manipkit.paths.steps.deviating_pairs`) and the deviating ones are
+forbidden: at most one deviation re-plan per rung pair. Collisions stay lazy
+(only the chosen path's vertices and steps). When ``max_replans`` runs out
+the plan is not feasible and says so: an ``unfinished`` failure record.
 """
 
 from __future__ import annotations
@@ -30,7 +36,7 @@ from manipkit.errors import OptionError
 from manipkit.paths.ladder import solve_ladder
 from manipkit.paths.poses import PosePath
 from manipkit.paths.rungs import AXES, alias_group, build_rungs, ik_source, tool_rotations
-from manipkit.paths.steps import deviating_steps, step_samples
+from manipkit.paths.steps import deviating_pairs, deviating_steps, step_samples
 from manipkit.text import short_text
 
 __all__ = ["FAILURE_KINDS", "FEASIBILITY_KINDS", "BranchFailure", "PathPlan", "plan_path", "velocity_limits"]
@@ -38,10 +44,11 @@ __all__ = ["FAILURE_KINDS", "FEASIBILITY_KINDS", "BranchFailure", "PathPlan", "p
 #: Why candidates at a waypoint died: no IK branch reaches the target; a branch has no value inside a joint's
 #: limits; the configuration (or every allowed step into it) is in collision; the configuration is within the
 #: singularity tolerance; every step into it from a live candidate is faster than a joint's velocity limit; every
-#: step into it fast enough leaves the tool path between the waypoints.
+#: step into it fast enough leaves the tool path between the waypoints; ``max_replans`` ran out while the last path
+#: still failed a check here (nothing is proven: a path may exist; ``count`` is the re-plans done).
 ONE_DEGREE = math.pi / 180.0
 TEN_DEGREES = math.pi / 18.0
-FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "near_singular", "velocity", "deviation")
+FAILURE_KINDS = ("unreachable", "joint_limits", "collision", "near_singular", "velocity", "deviation", "unfinished")
 #: The cells of :attr:`PathPlan.feasibility` (waypoint x tool angle), worst first; a cell is the best of its
 #: candidates: no IK branch reaches the target; branches do, none inside the joint limits; every candidate is
 #: near-singular; every one is (found) in collision; none is reached from the start by allowed steps (the steps
@@ -60,7 +67,8 @@ class BranchFailure:
     kind : str
         One of :data:`FAILURE_KINDS`.
     count : int
-        How many candidates (``unreachable``: target samples with no branch) died this way.
+        How many candidates (``unreachable``: target samples with no branch) died this way; ``unfinished``: the
+        re-plans done before ``max_replans`` ran out.
     joint : str
         ``joint_limits``: the joint most often outside its limits; ``velocity``: the joint of the best step's
         largest ratio; ``near_singular``: the joint with the largest share of the least singular direction.
@@ -350,15 +358,46 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     checked_steps: set = set()
     checks = points = replans = 0
     changed = False
+    swept: set = set()  # steps i whose every velocity-allowed pair of candidates was checked for deviation
+    failed_at = N
+    P = 1 if psi is None else len(psi)
     for replans in range(max_replans + 1):  # noqa: B007 (the count is reported)
         ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
                               reconfigure=reconfigure, progress=progress)
         if not ladder.feasible:
-            break
+            # before naming first_dead, the best path to the rung before it is checked for deviation (a clean one
+            # proves that rung reached, so first_failure is exact); a step of it that leaves the path sweeps its
+            # rung pair and the ladder is solved again
+            changed = False
+            k = ladder.first_dead
+            if k > 1:
+                part = solve_ladder(rungs.Q[:k], step_bounds[:k - 1], weights=w, penalties=penalties[:k],
+                                    forbidden={i: f for i, f in forbidden.items() if i < k - 1},
+                                    reconfigure=reconfigure)
+                Qk = np.stack([rungs.Q[i][part.choice[i]] for i in range(k)])
+                Tk = T[:k] @ rotations[np.stack([rungs.sample[i][part.choice[i]] for i in range(k)]) // P]
+                steps = np.array([i for i in range(k - 1) if i not in swept and i not in part.breaks], dtype=np.intp)
+                bad = np.zeros(k - 1, dtype=bool)
+                if len(steps):
+                    bad, _, count = deviating_steps(chain, Qk, Tk, tol=path_tol, depth=depth, steps=steps)
+                    points += count
+                for i in np.flatnonzero(bad):
+                    pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, int(i), step_bounds[i],
+                                                         part.reached[i], penalties[i + 1], P, path_tol, depth)
+                    points += count
+                    swept.add(int(i))
+                    forbidden.setdefault(int(i), []).extend(pairs)
+                    step_reason.setdefault(int(i), set()).add(("deviation", ()))
+                    changed = True
+            if changed:
+                failed_at = k
+                continue
+            break  # proven blocked: what was taken out leaves no path (not unfinished)
         choice = ladder.choice
         Q = np.stack([rungs.Q[i][choice[i]] for i in range(N)])
-        targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // (len(psi) if psi is not None else 1)]
+        targets = T @ rotations[np.stack([rungs.sample[i][choice[i]] for i in range(N)]) // P]
         changed = False
+        failed_at = N
         if checker is not None:
             new = [i for i in range(N) if (i, choice[i]) not in checked_vertices]
             rows = np.repeat(whole[None], len(new), axis=0)
@@ -371,17 +410,28 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                     penalties[i][alias_group(rungs, i, choice[i])] = np.inf
                     collided.setdefault(i, []).append(_pairs_words(checker, row[None]))
                     changed = True
+                    failed_at = min(failed_at, i)
         if changed:
             continue
         live = [i for i in range(N - 1) if i not in ladder.breaks and (i, choice[i], choice[i + 1]) not in checked_steps]
         if live:
             idx = np.array(live)
-            bad, _, count = deviating_steps(chain, Q, targets, tol=path_tol, depth=depth, steps=idx)
-            points += count
+            unknown = np.array([i not in swept for i in live], dtype=bool)
+            bad = np.zeros(max(N - 1, 0), dtype=bool)
+            if unknown.any():
+                bad, _, count = deviating_steps(chain, Q, targets, tol=path_tol, depth=depth, steps=idx[unknown])
+                points += count
             for i in idx[bad[idx]]:
-                forbidden.setdefault(int(i), []).extend(_same_steps(rungs, int(i), choice[i], choice[i + 1]))
+                # the first time a step between these two rungs leaves the path, every pair of them the velocity
+                # bound lets pass is checked at once: at most one deviation re-plan per rung pair
+                pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, int(i), step_bounds[i],
+                                                     ladder.reached[i], penalties[i + 1], P, path_tol, depth)
+                points += count
+                swept.add(int(i))
+                forbidden.setdefault(int(i), []).extend(pairs)
                 step_reason.setdefault(int(i), set()).add(("deviation", ()))
                 changed = True
+                failed_at = min(failed_at, int(i) + 1)
             if checker is not None:
                 clear = idx[~bad[idx]]
                 samples, owner = step_samples(Q, clear, collision_step)
@@ -394,10 +444,14 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                     pairs = _pairs_words(checker, rows[hits & (owner == i)])
                     step_reason.setdefault(int(i), set()).add(("collision", pairs))
                     changed = True
+                    failed_at = min(failed_at, int(i) + 1)
             checked_steps.update((i, choice[i], choice[i + 1]) for i in live if not bad[i])
         if not changed:
             break
     failures = _failures(chain, rungs, ladder, penalties, singular, singular_tol, collided, step_reason)
+    if changed:  # max_replans ran out: say so where the last path failed its check
+        failures = tuple(records + ((BranchFailure("unfinished", replans),) if i == failed_at else ())
+                         for i, records in enumerate(failures))
     resolution = {
         "waypoints": N, "samples": rungs.samples, "tool_angles": len(angles),
         "arm_angles": 0 if psi is None else len(psi), "aliases": bool(aliases),
@@ -407,13 +461,12 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
         "ik_calls": rungs.ik_calls, "velocity_scale": scale, "timed": dt is not None,
         "unfinished": bool(changed),
     }
-    P = 1 if psi is None else len(psi)
     cells = _feasibility(rungs, ladder, penalties, singular, singular_tol, len(angles), P)
     common = dict(joint_names=tuple(chain.joint_names), t=times, failures=failures, resolution=resolution,
                   collision_checks=checks, deviation_points=points, replans=replans, feasibility=cells,
                   free_angles=angles)
     if not ladder.feasible or changed:  # changed: the last path failed a check and max_replans ran out
-        return PathPlan(False, None, first_failure=ladder.first_dead, reconfigurations=(), cost=None,
+        return PathPlan(False, None, first_failure=None if changed else ladder.first_dead, reconfigurations=(), cost=None,
                         max_velocity_ratio=None, **common)
     ratio = None
     if dt is not None and N > 1:
@@ -452,6 +505,27 @@ def _feasibility(rungs, ladder, penalties, singular, singular_tol, A: int, P: in
             code[np.asarray(ladder.reached[i], dtype=bool)] = kinds["reached"]
         np.maximum.at(cells[i], rungs.sample[i] // P, code)
     return cells
+
+
+def _deviating_rung_pairs(chain, rungs, T, rotations, i: int, bound, reached, penalty, P: int, path_tol,
+                          depth: int) -> tuple[list[tuple[int, int]], int]:
+    """Every pair ``(a, b)`` from rung ``i`` to rung ``i + 1`` that leaves the tool path between them
+    (:func:`manipkit.paths.steps.deviating_pairs`), among the pairs the ladder could use: ``a`` reached (what is
+    taken out only ever shrinks the reached set), ``b`` valid and every joint's step inside ``bound`` (the rule of
+    :func:`manipkit.paths.ladder.solve_ladder`). Returns ``(pairs, points checked)``."""
+    Qa, Qb = rungs.Q[i], rungs.Q[i + 1]
+    A = np.flatnonzero(reached)
+    B = np.flatnonzero(np.isfinite(penalty))
+    if not len(A) or not len(B):
+        return [], 0
+    d = np.abs(Qb[B][None, :, :] - Qa[A][:, None, :])
+    fits = ((d == 0.0) | (d <= bound[None, None, :] * (1.0 + 1e-12))).all(axis=2)  # a superset of the ladder's rule
+    x, y = np.nonzero(fits)
+    a, b = A[x], B[y]
+    Ta = T[i] @ rotations[rungs.sample[i][a] // P]
+    Tb = T[i + 1] @ rotations[rungs.sample[i + 1][b] // P]
+    bad, _, count = deviating_pairs(chain, Qa[a], Qb[b], Ta, Tb, tol=path_tol, depth=depth)
+    return [(int(p), int(q)) for p, q in zip(a[bad], b[bad])], count
 
 
 def _same_steps(rungs, i: int, a: int, b: int) -> list[tuple[int, int]]:

@@ -47,6 +47,7 @@ __all__ = [
     "RIGID_TOL",
     "PosePath",
     "arc_poses",
+    "interpolate_pose_pairs",
     "interpolate_pose_steps",
     "interpolate_poses",
     "line_poses",
@@ -428,10 +429,30 @@ def interpolate_pose_steps(T, steps, s) -> np.ndarray:
     """
     T = np.asarray(T, dtype=float)
     steps = np.asarray(steps, dtype=np.intp).reshape(-1)
+    return interpolate_pose_pairs(T[steps], T[steps + 1], s)
+
+
+def interpolate_pose_pairs(T0, T1, s) -> np.ndarray:
+    """:func:`interpolate_poses` on many pairs of poses at once: between ``T0[m]`` and ``T1[m]`` for each ``m``, at
+    the same fractions ``s`` (the rule of :func:`interpolate_pose_steps`, for pairs that are not consecutive).
+
+    Parameters
+    ----------
+    T0, T1 : ndarray, shape (m, 4, 4)
+        ``T_base_tip`` at ``s = 0`` and ``s = 1``, already checked as rigid transforms (not checked here).
+    s : array_like, shape (p,)
+        Fractions of each pair.
+
+    Returns
+    -------
+    ndarray, shape (m, p, 4, 4)
+        Position linear, rotation ``R0 expm(s log(R0^T R1))`` (angle in [0, pi]).
+    """
+    T0 = np.asarray(T0, dtype=float).reshape(-1, 4, 4)
+    T1 = np.asarray(T1, dtype=float).reshape(-1, 4, 4)
     s = np.atleast_1d(np.asarray(s, dtype=float))
-    T0, T1 = T[steps], T[steps + 1]
     axis, angle = axis_angle_from_matrix(np.swapaxes(T0[:, :3, :3], -1, -2) @ T1[:, :3, :3], check=False)
-    out = np.zeros((len(steps), len(s), 4, 4))
+    out = np.zeros((len(T0), len(s), 4, 4))
     out[:, :, :3, :3] = T0[:, None, :3, :3] @ matrix_from_axis_angle(axis[:, None, :],
                                                                      s[None, :] * np.reshape(angle, (-1, 1)))
     out[:, :, :3, 3] = (1.0 - s)[None, :, None] * T0[:, None, :3, 3] + s[None, :, None] * T1[:, None, :3, 3]

@@ -2,8 +2,9 @@
 
 A step from ``q_a`` (at pose ``T_a``) to ``q_b`` (at ``T_b``) is executed as
 the joint-space straight line ``q(s) = q_a + s (q_b - q_a)``, ``s`` in
-[0, 1]. :func:`deviating_steps` checks it as MoveIt 2's precision check of a
-Cartesian path does: the forward kinematics of the joint midpoint must lie
+[0, 1]. :func:`deviating_steps` (and :func:`deviating_pairs`, on any pairs of
+candidates at once) checks it as MoveIt 2's precision check of a Cartesian
+path does: the forward kinematics of the joint midpoint must lie
 within ``tol`` (m, rad) of the Cartesian midpoint of the two poses (position
 interpolated linearly, rotation along the geodesic), and each half is
 checked again, recursively, to ``depth`` levels (``2**depth - 1`` points per
@@ -23,11 +24,14 @@ from manipkit.errors import OptionError
 from manipkit.spatial.transforms import pose_residuals
 from manipkit.text import short_text
 
-__all__ = ["MAX_STEP_SAMPLES", "deviating_steps", "step_samples"]
+__all__ = ["MAX_STEP_SAMPLES", "PAIR_CHUNK", "deviating_pairs", "deviating_steps", "step_samples"]
 
 #: The most configurations the steps of one path are sampled at for collision checks (112 MB of rows for
 #: a 7-joint arm; each is a collision check of some microseconds).
 MAX_STEP_SAMPLES = 2_000_000
+#: How many candidate pairs :func:`deviating_pairs` checks at once (each pair's ``2**depth - 1`` target poses and
+#: configurations are held together: 4096 pairs at depth 4 are about 8 MB of poses).
+PAIR_CHUNK = 4096
 
 
 def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, float], depth: int = 4,
@@ -41,22 +45,42 @@ def deviating_steps(chain, Q: np.ndarray, T: np.ndarray, *, tol: tuple[float, fl
     Returns ``(bad (N - 1,) bool, worst (N - 1, 2) (position m, rotation rad) of the worst point, points
     checked)``; a step is bad when some point is farther than ``tol`` (position m, rotation rad).
     """
-    from manipkit.paths.poses import interpolate_pose_steps
-
     N = len(Q)
     bad = np.zeros(max(N - 1, 0), dtype=bool)
     worst = np.zeros((max(N - 1, 0), 2))
     steps = np.arange(N - 1) if steps is None else np.asarray(steps, dtype=np.intp)
     if N < 2 or not len(steps):
         return bad, worst, 0
+    bad[steps], worst[steps], count = deviating_pairs(chain, Q[steps], Q[steps + 1], T[steps], T[steps + 1],
+                                                      tol=tol, depth=depth)
+    return bad, worst, count
+
+
+def deviating_pairs(chain, Qa: np.ndarray, Qb: np.ndarray, Ta: np.ndarray, Tb: np.ndarray, *,
+                    tol: tuple[float, float], depth: int = 4) -> tuple[np.ndarray, np.ndarray, int]:
+    """Which steps ``Qa[m] -> Qb[m]`` (m, n) between target poses ``Ta[m] -> Tb[m]`` (m, 4, 4) leave the tool path:
+    :func:`deviating_steps`' rule on any pairs at once (every pair of candidates between two rungs that the
+    velocity bound lets pass, checked before the ladder first uses them), ``PAIR_CHUNK`` pairs at a time.
+
+    At the fractions ``k / 2**depth``, ``k = 1 .. 2**depth - 1``, the joint-interpolated configuration's forward
+    kinematics against :func:`manipkit.paths.poses.interpolate_pose_pairs`. Returns ``(bad (m,) bool, worst (m, 2)
+    (position m, rotation rad) of the worst point, points checked)``; a pair is bad when some point is farther
+    than ``tol`` (position m, rotation rad).
+    """
+    from manipkit.paths.poses import interpolate_pose_pairs
+
+    m = len(Qa)
+    worst = np.zeros((m, 2))
     s = np.arange(1, 2 ** depth) / 2 ** depth
-    wanted = interpolate_pose_steps(T, steps, s)  # (m, p, 4, 4)
-    q = Q[steps, None, :] + s[None, :, None] * (Q[steps + 1] - Q[steps])[:, None, :]
-    position, rotation = pose_residuals(wanted, chain.fk(q), project=False)
-    worst[steps, 0] = position.max(axis=1)
-    worst[steps, 1] = rotation.max(axis=1)
-    bad[steps] = (worst[steps, 0] > tol[0]) | (worst[steps, 1] > tol[1])
-    return bad, worst, int(position.size)
+    for start in range(0, m, PAIR_CHUNK):
+        part = slice(start, min(start + PAIR_CHUNK, m))
+        wanted = interpolate_pose_pairs(Ta[part], Tb[part], s)  # (chunk, p, 4, 4)
+        q = Qa[part, None, :] + s[None, :, None] * (Qb[part] - Qa[part])[:, None, :]
+        position, rotation = pose_residuals(wanted, chain.fk(q), project=False)
+        worst[part, 0] = position.max(axis=1)
+        worst[part, 1] = rotation.max(axis=1)
+    bad = (worst[:, 0] > tol[0]) | (worst[:, 1] > tol[1])
+    return bad, worst, int(m * len(s))
 
 
 def step_samples(Q: np.ndarray, steps: np.ndarray, joint_step: float) -> tuple[np.ndarray, np.ndarray]:

@@ -429,6 +429,7 @@ KIND_WORDS = {
     "near_singular": "candidate(s) near a singularity",
     "velocity": "candidate(s) with every step in too fast for a joint's velocity limit",
     "deviation": "candidate(s) whose every step in leaves the path between waypoints",
+    "unfinished": "re-plan(s) done when max_replans ran out, the last path failing a check here",
 }
 
 
