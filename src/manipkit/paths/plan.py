@@ -361,6 +361,18 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
     swept: set = set()  # steps i whose every velocity-allowed pair of candidates was checked for deviation
     failed_at = N
     P = 1 if psi is None else len(psi)
+
+    def sweep(i: int, reached) -> int:
+        """The first time a step between rungs i and i + 1 leaves the path, every pair of their candidates the
+        velocity bound lets pass is checked at once and the deviating ones forbidden (at most one deviation
+        re-plan per rung pair); the interpolated points checked."""
+        pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, i, step_bounds[i], reached,
+                                             penalties[i + 1], P, path_tol, depth)
+        swept.add(i)
+        forbidden.setdefault(i, []).extend(pairs)
+        step_reason.setdefault(i, set()).add(("deviation", ()))
+        return count
+
     for replans in range(max_replans + 1):  # noqa: B007 (the count is reported)
         ladder = solve_ladder(rungs.Q, step_bounds, weights=w, penalties=penalties, forbidden=forbidden,
                               reconfigure=reconfigure, progress=progress)
@@ -382,12 +394,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                     bad, _, count = deviating_steps(chain, Qk, Tk, tol=path_tol, depth=depth, steps=steps)
                     points += count
                 for i in np.flatnonzero(bad):
-                    pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, int(i), step_bounds[i],
-                                                         part.reached[i], penalties[i + 1], P, path_tol, depth)
-                    points += count
-                    swept.add(int(i))
-                    forbidden.setdefault(int(i), []).extend(pairs)
-                    step_reason.setdefault(int(i), set()).add(("deviation", ()))
+                    points += sweep(int(i), part.reached[i])
                     changed = True
             if changed:
                 failed_at = k
@@ -422,14 +429,7 @@ def plan_path(subject, poses, *, base: str | None = None, tip: str | None = None
                 bad, _, count = deviating_steps(chain, Q, targets, tol=path_tol, depth=depth, steps=idx[unknown])
                 points += count
             for i in idx[bad[idx]]:
-                # the first time a step between these two rungs leaves the path, every pair of them the velocity
-                # bound lets pass is checked at once: at most one deviation re-plan per rung pair
-                pairs, count = _deviating_rung_pairs(chain, rungs, T, rotations, int(i), step_bounds[i],
-                                                     ladder.reached[i], penalties[i + 1], P, path_tol, depth)
-                points += count
-                swept.add(int(i))
-                forbidden.setdefault(int(i), []).extend(pairs)
-                step_reason.setdefault(int(i), set()).add(("deviation", ()))
+                points += sweep(int(i), ladder.reached[i])
                 changed = True
                 failed_at = min(failed_at, int(i) + 1)
             if checker is not None:
