@@ -81,6 +81,17 @@ def test_feasible_region_is_the_derived_bound_and_the_best_plan_checks_out(case)
         assert result.first_failure[i] == int(np.argmax(S + along[i] > 0))
 
 
+def test_progress_counts_every_planned_candidate(case):
+    # one call before the first and one after each planned candidate, here and on a cluster alike
+    robot, _, poses, k, sign = case
+    offsets = offset_grid(*grid_along(k, sign))[::2]
+    for workers in (None, 2):
+        calls: list = []
+        place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=workers,
+                   progress=lambda stage, done, total, calls=calls: calls.append((stage, done, total)))
+        assert calls == [("candidates planned", done, len(offsets)) for done in range(len(offsets) + 1)]
+
+
 def test_one_and_two_workers_give_the_same_answer(case):
     robot, _, poses, k, sign = case
     offsets = offset_grid(*grid_along(k, sign))[::2]  # 4 candidates, one per block on 2 workers or here

@@ -39,7 +39,7 @@ __all__ = ["AXES", "MAX_OFFSETS", "PathPlacement", "offset_grid", "offset_transf
 
 AXES = ("x", "y", "z", "yaw")
 MAX_OFFSETS = 100_000  # candidates a search may plan (each is a whole ladder)
-BLOCK_CANDIDATES = 4  # candidates per block
+BLOCK_CANDIDATES = 1  # candidates per block: one, so that progress counts candidates (each is a whole ladder)
 
 
 def _count(axis: str, spec) -> int:
@@ -189,8 +189,8 @@ def place_path(robot, poses, *, base: str, tip: str, offsets, reach_map=None, sh
 
     ``reach_map`` (of ``tip`` in ``base``) screens candidates: only those whose shifted waypoints the map says
     yes to in at least ``share`` (0..1) of the waypoints are planned. ``workers`` starts a Dask
-    ``LocalCluster`` of that many processes (None: plan here); ``progress(stage, done, total)`` is called per
-    block. ``plan_options`` go to :func:`manipkit.paths.plan.plan_path` (not ``progress``).
+    ``LocalCluster`` of that many processes (None: plan here); ``progress("candidates planned", done, total)`` is
+    called after each planned candidate. ``plan_options`` go to :func:`manipkit.paths.plan.plan_path` (not ``progress``).
     """
     check_workers(workers)
     offsets = np.asarray(offsets, dtype=float)
@@ -220,6 +220,6 @@ def place_path(robot, poses, *, base: str, tip: str, offsets, reach_map=None, sh
     if blocks:
         with BlockRunner(workers, None, progress) as runner:
             arguments = [(b, idx, offsets[idx]) for b, idx in enumerate(blocks)]
-            for _, idx, ok, c, f in in_block_order(runner.run(plan_block, job, arguments, "candidate blocks")):
+            for _, idx, ok, c, f in in_block_order(runner.run(plan_block, job, arguments, "candidates planned")):
                 feasible[idx], cost[idx], first[idx] = ok, c, f
     return PathPlacement(offsets, screened, planned, feasible, cost, first, len(poses), float(share))
