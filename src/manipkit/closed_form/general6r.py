@@ -76,7 +76,11 @@ _COLUMNS = [(i, j) for i in range(4) for j in range(3)]
 
 
 def _skew(k: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    """``[k]x`` (..., 3, 3) for vectors ``k`` (..., 3)."""
+    K = np.zeros(k.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
+    return K
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -87,18 +91,21 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _rotations(h: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``R(h, t) = cos t I + sin t [h]x + (1 - cos t) h h^T`` (..., 3, 3) for one unit axis and angles ``t`` (...)."""
+    """``R(h, t) = cos t I + sin t [h]x + (1 - cos t) h h^T`` (..., 3, 3) for unit axes ``h`` (3,) or (n, 3) and
+    angles ``t`` (...) broadcast against them (``t`` (..., n) with n axes: one rotation per axis)."""
+    h = np.asarray(h, dtype=float)
     t = np.asarray(t, dtype=float)[..., None, None]
     c = np.cos(t)
-    return c * _EYE3 + np.sin(t) * _skew(h) + (1.0 - c) * np.outer(h, h)
+    return c * _EYE3 + np.sin(t) * _skew(h) + (1.0 - c) * (h[..., :, None] * h[..., None, :])
 
 
 def _motions(h: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``E(t)`` (..., 4, 4): the rotation by ``t`` about the line through ``p`` along ``h``."""
+    """``E(t)`` (..., 4, 4): the rotation by ``t`` about the line through ``p`` along ``h`` (one line, or n lines
+    ``h``, ``p`` (n, 3) against ``t`` (..., n))."""
     R = _rotations(h, t)
     E = np.zeros(R.shape[:-2] + (4, 4))
     E[..., :3, :3] = R
-    E[..., :3, 3] = p - R @ p
+    E[..., :3, 3] = p - (R @ p[..., None])[..., 0]
     E[..., 3, 3] = 1.0
     return E
 
@@ -106,16 +113,8 @@ def _motions(h: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
 def poe_fk(direction: np.ndarray, point: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """``E_1(t_1) ... E_6(t_6)`` (..., 4, 4) for angles ``theta`` (..., 6): the product of exponentials."""
     theta = np.asarray(theta, dtype=float)
-    h = np.asarray(direction, dtype=float)[:theta.shape[-1]]
-    p = np.asarray(point, dtype=float)[:theta.shape[-1]]
-    K = np.zeros((len(h), 3, 3))  # [h_i]x
-    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -h[:, 2], h[:, 1], -h[:, 0]
-    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = h[:, 2], -h[:, 1], h[:, 0]
-    c, s = np.cos(theta)[..., None, None], np.sin(theta)[..., None, None]
-    E = np.zeros(theta.shape + (4, 4))  # every joint's motion at once: (..., n, 4, 4)
-    E[..., :3, :3] = c * _EYE3 + s * K + (1.0 - c) * (h[:, :, None] * h[:, None, :])
-    E[..., :3, 3] = p - np.einsum("...ij,...j->...i", E[..., :3, :3], np.broadcast_to(p, theta.shape + (3,)))
-    E[..., 3, 3] = 1.0
+    n = theta.shape[-1]
+    E = _motions(np.asarray(direction, dtype=float)[:n], np.asarray(point, dtype=float)[:n], theta)  # (..., n, 4, 4)
     G = E[..., 0, :, :]
     for i in range(1, theta.shape[-1]):
         G = G @ E[..., i, :, :]
