@@ -211,25 +211,38 @@ def test_analytic_ik_in_a_read_only_install_needs_no_kernel(read_only_install):
 def test_a_kernel_is_compiled_again_when_a_kernel_it_calls_changes(tmp_path):
     # numba keys a cached kernel by its own file; the batch loop calls the LM iteration (ik.lm_kernel), so a change to
     # lm_kernel.py alone must not leave the old iteration running from the cache (kernels.sources_digest).
-    # Processes are the point: the cache is what one run leaves for the next.
+    # Processes are the point: the cache is what one run leaves for the next. The runs compile a two-module probe
+    # put into a copy of the package (a kernel calling a compiled function of another module, as numerical_many
+    # calls lm_kernel's) through the same compile_kernel and cache; that the real loop's key covers lm_kernel.py
+    # is checked on the package itself.
+    from manipkit.kernels import kernel_closure
+
+    package = REPO / "src" / "manipkit"
+    assert package / "ik" / "lm_kernel.py" in kernel_closure(package / "ik" / "numerical_many.py", package)
     shutil.copytree(REPO / "src", tmp_path / "src", ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copytree(REPO / "robots", tmp_path / "robots")
+    copy = tmp_path / "src" / "manipkit"
+    (copy / "probe_callee.py").write_text("from manipkit.kernels.compile import compile_kernel\n\n\n"
+                                          "@compile_kernel\ndef step(x):\n    return 2.0 * x\n")
+    (copy / "probe_kernel.py").write_text("from manipkit.kernels.compile import lazy_kernel\n"
+                                          "from manipkit.probe_callee import step\n\n\n"
+                                          "def twice(x):\n    return step(step(x))\n\n\nkernel = lazy_kernel(twice)\n")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "NUMBA_DEBUG_CACHE": "1",
            "PYTHONPATH": str(tmp_path / "src")}
-    script = ("import manipkit\nrobot = manipkit.load('iiwa14')\n"
-              "batch = manipkit.ik_many(robot, robot.fk(robot.sample_q(50, seed=1)))\nprint(batch.success.all())\n")
+    script = "from manipkit.probe_kernel import kernel\nprint('answer', kernel()(1.5))\n"
 
-    def solve_many_saved() -> bool:
+    def run() -> tuple[float, bool]:
+        """The probe's answer and whether its kernel was compiled and saved in this process."""
         result = subprocess.run([sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True,
                                 timeout=600)
-        assert result.returncode == 0 and result.stdout.strip().endswith("True"), result.stderr[-2000:]
-        return any("data saved" in line and "numerical_many._solve_many" in line for line in result.stdout.splitlines())
+        assert result.returncode == 0, result.stderr[-2000:]
+        lines = result.stdout.splitlines()
+        answer = float(next(line for line in lines if line.startswith("answer")).split()[1])
+        return answer, any("data saved" in line and "probe_kernel.twice" in line for line in lines)
 
-    assert solve_many_saved()  # compiled and saved
-    assert not solve_many_saved()  # read back
-    with open(tmp_path / "src" / "manipkit" / "ik" / "lm_kernel.py", "a", encoding="utf-8") as kernel:
-        kernel.write("\n# changed\n")
-    assert solve_many_saved()  # numerical_many.py did not change, yet its loop is compiled again
+    assert run() == (6.0, True)  # 2 * (2 * 1.5), compiled and saved
+    assert run() == (6.0, False)  # read back
+    (copy / "probe_callee.py").write_text((copy / "probe_callee.py").read_text().replace("2.0 * x", "3.0 * x"))
+    assert run() == (13.5, True)  # probe_kernel.py did not change, yet its kernel is compiled again: 3 * (3 * 1.5)
 
 
 def test_the_sources_digest_covers_a_kernels_module_and_what_it_compiles_from_only(tmp_path):
