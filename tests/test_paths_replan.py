@@ -43,21 +43,25 @@ def line(chain, q, displacement, n=6):
     return poses
 
 
-def leaves_path(chain, qa, qb, Ta, Tb, tol=(1e-3, np.pi / 180), depth=4) -> bool:
-    """The step qa -> qb leaves the path Ta -> Tb at one of the fractions k / 2**depth (written out here)."""
-    for k in range(1, 2 ** depth):
-        s = k / 2 ** depth
-        T = chain.fk(qa + s * (qb - qa))
-        wanted = interpolate_poses(Ta, Tb, [s])[0]
-        position = np.linalg.norm(T[:3, 3] - wanted[:3, 3])
-        cos = (np.trace(wanted[:3, :3].T @ T[:3, :3]) - 1.0) / 2.0
-        if position > tol[0] or np.arccos(np.clip(cos, -1.0, 1.0)) > tol[1]:
-            return True
-    return False
+def deviating(chain, Qa, Qb, Ta, Tb, tol=(1e-3, np.pi / 180), depth=4) -> np.ndarray:
+    """(len(Qa), len(Qb)) bools: the step Qa[a] -> Qb[b] leaves the path Ta -> Tb at one of the fractions
+    k / 2**depth, k = 1 .. 2**depth - 1 (written out here; every pair's joint-space straight line by FK)."""
+    s = np.arange(1, 2 ** depth) / 2 ** depth
+    Q = Qa[:, None, None, :] + s[None, None, :, None] * (Qb[None, :, None, :] - Qa[:, None, None, :])
+    T = chain.fk(Q.reshape(-1, Qa.shape[1])).reshape(len(Qa), len(Qb), len(s), 4, 4)
+    wanted = interpolate_poses(Ta, Tb, s)  # (len(s), 4, 4)
+    position = np.linalg.norm(T[..., :3, 3] - wanted[:, :3, 3], axis=-1)
+    cos = (np.einsum("fji,abfji->abf", wanted[:, :3, :3], T[..., :3, :3]) - 1.0) / 2.0
+    return ((position > tol[0]) | (np.arccos(np.clip(cos, -1.0, 1.0)) > tol[1])).any(axis=-1)
+
+
+def leaves_path(chain, qa, qb, Ta, Tb) -> bool:
+    """The one step qa -> qb leaves the path Ta -> Tb (:func:`deviating`)."""
+    return bool(deviating(chain, np.atleast_2d(qa), np.atleast_2d(qb), Ta, Tb)[0, 0])
 
 
 def brute_force(chain, poses, *, aliases, speed=None):
-    """Every edge checked for deviation up front, then the dynamic program: (feasible, cost, first rung none of
+    """Every edge checked for speed and deviation, then the dynamic program: (feasible, cost, first rung none of
     whose candidates is reached or None)."""
     rungs = build_rungs(chain, poses, tool_rotations(None, np.zeros(1)), source=ik_source(chain.robot, chain.base,
                         chain.tip), arm_angles=None, tol=1e-9, aliases=aliases, restarts=20, seed=0)
@@ -67,16 +71,11 @@ def brute_force(chain, poses, *, aliases, speed=None):
     first_dead = None if len(cost) else 0
     for i in range(len(poses) - 1):
         Qa, Qb = rungs.Q[i], rungs.Q[i + 1]
-        nxt = np.full(len(Qb), np.inf)
         dt = np.inf if speed is None else np.linalg.norm(poses[i + 1, :3, 3] - poses[i, :3, 3]) / speed
-        for a in range(len(Qa)):
-            if not np.isfinite(cost[a]):
-                continue
-            for b in range(len(Qb)):
-                if (speed is None or (np.abs(Qb[b] - Qa[a]) <= limits * dt).all()) and not leaves_path(
-                        chain, Qa[a], Qb[b], poses[i], poses[i + 1]):
-                    nxt[b] = min(nxt[b], cost[a] + np.abs(Qb[b] - Qa[a]).sum())
-        cost = nxt
+        motion = np.abs(Qb[None, :, :] - Qa[:, None, :])  # (a, b, joint)
+        allowed = (motion <= limits * dt).all(axis=-1) & ~deviating(chain, Qa, Qb, poses[i], poses[i + 1])
+        through = np.where(allowed, cost[:, None] + motion.sum(axis=-1), np.inf)  # (a, b)
+        cost = through.min(axis=0) if len(Qa) else np.full(len(Qb), np.inf)
         if first_dead is None and not np.isfinite(cost).any():
             first_dead = i + 1
     best = float(cost.min()) if len(cost) else np.inf
