@@ -48,7 +48,7 @@ QUICK = {
     "fk": dict(n_single=20, n_batch=300, repeats=2, loop_subset=20),
     "ik": dict(n_targets=5, n_slow=2),
     "planar": dict(n_targets=2000, repeats=1, n_scalar=20),
-    "cold": dict(runs=1),
+    "cold": dict(runs=1, warm=False),
     "viewer": dict(moves=3),
     "jacobian": dict(n_batch=300, repeats=2, loop_subset=50, rtb_subset=20),
     "gci": dict(samples=2000, repeats=1),

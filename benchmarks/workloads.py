@@ -391,8 +391,11 @@ def _time_process(argv: list[str], env: dict) -> float:
     return elapsed
 
 
-def cold_start_workload(*, runs: int = 15) -> list[dict]:
-    """``tf-between base_link ee_link`` as a fresh process, against bare imports; interleaved runs, median."""
+def cold_start_workload(*, runs: int = 15, warm: bool = True) -> list[dict]:
+    """``tf-between base_link ee_link`` as a fresh process, against bare imports; interleaved runs, median.
+
+    ``warm``: run each command once untimed first (the file cache); a quick run skips it.
+    """
     import manipkit
 
     # Bytecode as an installed package has it: the warm-up run writes the .pyc files (a shell that sets
@@ -419,7 +422,7 @@ def cold_start_workload(*, runs: int = 15) -> list[dict]:
     err = max_error(shown, expected) if shown is not None else math.inf
     ok = err <= 1e-9
     times = {name: [] for name in commands}
-    for argv in commands.values():  # warm the file cache once
+    for argv in commands.values() if warm else ():  # warm the file cache once
         _time_process(argv, env)
     for _ in range(runs):
         for name, argv in commands.items():
