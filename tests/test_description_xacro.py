@@ -292,6 +292,31 @@ def test_garbage_collection_during_an_evaluation_is_not_counted_against_its_budg
         evaluate_expression("[heavy for i in python.range(3)]", _table_with("heavy", lambda: _compute_for(0.3)))
 
 
+def test_a_collection_that_waits_for_the_processor_takes_off_only_the_cpu_it_used(monkeypatch):
+    # On a loaded machine a collection waits for the processor: wall time the thread did not compute in. The
+    # budget's clock is the thread's CPU, so only a collection's CPU comes off it; taking its wall time off let an
+    # expression computing 0.3 s run on unrefused (a hostile comprehension ran 30 s at a load of 6). Here each
+    # collection sleeps 0.1 s (a callback after the clock's own) between computing 0.05 s: 0.3 s of CPU against
+    # 0.6 s of waits, refused under a 0.1 s budget.
+    def waiting(phase, info):
+        if phase == "start":
+            time.sleep(0.1)
+
+    def compute_and_collect():
+        for _ in range(6):
+            _compute_for(0.05)
+            gc.collect()
+        return 1
+
+    monkeypatch.setattr(expressions, "TIME_BUDGET_S", 0.1)
+    gc.callbacks.append(waiting)
+    try:
+        with pytest.raises(DescriptionError, match=r"evaluation took more than 0.1 s \(the time budget\)"):
+            evaluate_expression("[heavy for i in python.range(3)]", _table_with("heavy", compute_and_collect))
+    finally:
+        gc.callbacks.remove(waiting)
+
+
 def test_a_refused_expression_in_a_file_names_the_file_and_line(tmp_path):
     path = tmp_path / "arm.urdf.xacro"
     path.write_text(HEAD + '<link name="a"/>\n<link name="${().__class__.__name__}"/>\n</robot>\n')

@@ -282,23 +282,29 @@ def _collection_seconds() -> float:
 
 
 def _count_collection(phase: str, info: dict) -> None:
+    # on the budget's own clock (this thread's user CPU): wall time would count the collection's waits for the
+    # processor too, and on a loaded machine take more off the budget than the collection used
     if phase == "start":
-        _local.collecting = time.perf_counter()
+        _local.collecting = _thread_user_seconds()
     elif hasattr(_local, "collecting"):
-        _local.collected = _collection_seconds() + time.perf_counter() - _local.collecting
+        _local.collected = _collection_seconds() + _thread_user_seconds() - _local.collecting
         del _local.collecting
 
 
 gc.callbacks.append(_count_collection)
 
 
+def _thread_user_seconds() -> float:
+    """This thread's user CPU seconds."""
+    try:
+        return resource.getrusage(resource.RUSAGE_THREAD).ru_utime
+    except (AttributeError, OSError):  # no per-thread usage on this platform (no resource, no RUSAGE_THREAD)
+        return time.thread_time()
+
+
 def _computing_time() -> float:
     """This thread's user CPU seconds less its garbage collections: the clock of one expression's budget."""
-    try:
-        used = resource.getrusage(resource.RUSAGE_THREAD).ru_utime
-    except (AttributeError, OSError):  # no per-thread usage on this platform (no resource, no RUSAGE_THREAD)
-        used = time.thread_time()
-    return used - _collection_seconds()
+    return _thread_user_seconds() - _collection_seconds()
 
 
 def _budgets() -> tuple[list[float], list[tuple[float, str]]]:
