@@ -164,8 +164,9 @@ def test_wrong_chains_are_refused_in_one_line(xarm6):
     five = xarm6.chain("base_link", "link5")
     with pytest.raises(IKOptionError, match="takes a chain of 6 joints; .* has 5"):
         general_ik(five, five.fk(np.zeros(5)))
-    with pytest.raises(IKOptionError, match="has 5"):
+    with pytest.raises(IKOptionError, match="has 5") as refused:
         manipkit.ik(xarm6, five.fk(np.zeros(5)), tip="link5", method="algebraic")
+    assert "lock" not in str(refused.value)  # locking a joint makes 6 of 7 only, not of 5
     with pytest.raises(IKOptionError, match="no algebraic path"):
         manipkit.ik_many(xarm6, np.eye(4)[None], method="algebraic")
     with pytest.raises(IKOptionError, match="does not take lock="):

@@ -79,7 +79,7 @@ def test_the_algebraic_method_takes_one_lock_and_refuses_others(sawyer):
         manipkit.ik(sawyer, T, base=BASE, tip=TIP, method="algebraic", lock={"right_j2": 0.1, "right_j3": 0.2})
     with pytest.raises(IKOptionError, match="not a joint"):
         manipkit.ik(sawyer, T, base=BASE, tip=TIP, method="algebraic", lock={"elbow": 0.1})
-    with pytest.raises(IKOptionError, match="lock one of 7"):
+    with pytest.raises(IKOptionError, match="lock one of the 7"):
         manipkit.ik(sawyer, T, base=BASE, tip=TIP, method="algebraic")
     with pytest.raises(IKOptionError, match="arm_angle"):
         manipkit.ik(sawyer, T, base=BASE, tip=TIP, method="algebraic", lock={"right_j2": 0.1}, arm_angle=0.2)

@@ -96,8 +96,9 @@ def general_refusal(chain: Chain, *, family_tol=FAMILY_TOL, lock=None) -> str:
         return (f"the general 6R solver does not take lock= here: it holds exactly one joint of a 7-joint chain; "
                 f"{chain.base} -> {chain.tip} has {chain.n} joint(s) ({names}) and {len(lock)} locked")
     if not lock and chain.n != 6:
+        ways = "choose frames with 6 joints between them, " + ("lock one of the 7 (lock=), " if chain.n == 7 else "")
         return (f"the general 6R solver takes a chain of 6 joints; {chain.base} -> {chain.tip} has {chain.n} "
-                f"({names}): choose frames with 6 joints between them, lock one of 7 (lock=), or use numerical IK")
+                f"({names}): {ways}or use numerical IK")
     unknown = [name for name in lock if name not in chain.joint_names]
     if unknown:
         return (f"cannot lock '{unknown[0]}': it is not a joint of the chain {chain.base} -> {chain.tip} ({names})")
