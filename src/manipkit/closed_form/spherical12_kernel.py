@@ -38,7 +38,7 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["solve_spherical_12_many", "warm_up"]
+__all__ = ["solve_spherical_12_many", "solve_target", "warm_up"]
 
 #: A subproblem-2 pair missing by more (relative to its vector's length) is left to the reference, which accepts up
 #: to sqrt(1e-12) = 1e-6: every pair kept here is far inside that.
@@ -53,7 +53,7 @@ def _back(h0, h1, h2, c1, s1, c2, s2, c3, s3, x):
 
 
 @compile_kernel
-def _target(H, P, c, s, R, t, theta, valid, miss):
+def solve_target(H, P, c, s, R, t, theta, valid, miss):
     """One target ``g = (R, t)`` into theta (8, 6), valid (8,) and miss (3,): the reference's misses (shoulder and
     reach in m, orientation 1 or 0) where no branch exists, else 0; True when the reference must answer it."""
     # Over 80 lines: the whole sequence of one target, kept in one place so the slots read as the reference's.
@@ -132,9 +132,9 @@ def _target(H, P, c, s, R, t, theta, valid, miss):
 
 @compile_kernel
 def _solve_all(H, P, c, s, G, theta, valid, miss, fallback):
-    """Every target ``G[i]`` by :func:`_target`: theta (N, 8, 6), valid (N, 8), miss (N, 3), fallback (N,)."""
+    """Every target ``G[i]`` by :func:`solve_target`: theta (N, 8, 6), valid (N, 8), miss (N, 3), fallback (N,)."""
     for i in range(G.shape[0]):
-        fallback[i] = _target(H, P, c, s, G[i, :3, :3], (G[i, 0, 3], G[i, 1, 3], G[i, 2, 3]), theta[i], valid[i],
+        fallback[i] = solve_target(H, P, c, s, G[i, :3, :3], (G[i, 0, 3], G[i, 1, 3], G[i, 2, 3]), theta[i], valid[i],
                               miss[i])
 
 

@@ -85,6 +85,7 @@ from manipkit.errors import IKOptionError
 from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
 from manipkit.ik.general6r import ALGEBRAIC, GENERAL_6R, general_solves, locked_geometry
 from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult
+from manipkit.spatial.transforms import invert_transform
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -300,7 +301,8 @@ class _Solver:
         elif self.sub is not None:
             sub_base, sub_tip, moving = self.sub
             A = moving.fk(values[:, None])
-            targets = self.T @ np.linalg.inv(A) if self.parameter.column == 6 else np.linalg.inv(A) @ self.T
+            inverse = invert_transform(A, check=False)  # A is an FK pose: rigid
+            targets = self.T @ inverse if self.parameter.column == 6 else inverse @ self.T
             batch = ik_many(self.robot, targets, base=sub_base, tip=sub_tip, tol=self.tol,
                             family_tol=self.family_tol)
             if batch.method != "closed_form":  # a solver of the 6R arm that ik answers and ik_many does not batch
@@ -391,9 +393,117 @@ class _Solver:
         return out
 
 
+class _Compiled:
+    """The sweep, narrowing and rows of a chain whose end joint is locked over a 6R arm "spherical wrist, two
+    intersecting" in one compiled call per pose (:mod:`manipkit.ik.redundant_kernel`; the same answers as
+    :class:`_Solver` and :func:`_intervals`, tested): :meth:`of` gives it for a solver where it applies."""
+
+    #: id of the 7R chain -> (chain, family_tol, the constants or None where it does not apply)
+    _PREPARED: dict = {}
+
+    def __init__(self, solver: _Solver, prepared: tuple):
+        from manipkit.ik.redundant_kernel import pack_settings
+
+        self.solver = solver
+        self.arm, self.constants = prepared
+        self.settings = pack_settings(solver.tol, PARAMETER_TOL, MARGIN_TOL, LIMIT_SLACK, POLISH_TO, POLISH_BELOW)
+        self.known = (np.zeros(0), np.zeros((0, 8, 6)), np.zeros((0, 8), dtype=bool))
+
+    @classmethod
+    def of(cls, solver: _Solver) -> _Compiled | None:
+        """The compiled path for ``solver``, or None: a locked end joint whose 6R arm the dispatcher's batch answers
+        by the compiled "spherical wrist, two intersecting" (asked once per chain: one target through
+        ``ik_many``)."""
+        from manipkit.ik.families import SPHERICAL_12
+
+        if solver.sub is None or solver.parameter.kind != "lock" or solver.tracks is not None:
+            return None
+        key = (id(solver.chain), repr(solver.family_tol), solver.parameter.column)
+        cached = cls._PREPARED.get(key)
+        if cached is None or cached[0] is not solver.chain:
+            from manipkit.ik.chain_ik import slot_labels
+            from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
+
+            sub_base, sub_tip, moving = solver.sub
+            sub = solver.robot.chain(sub_base, sub_tip)
+            family = chain_family(sub, tol=solver.family_tol)
+            prepared = None
+            if family.kind == SPHERICAL_12 and not family.snap:
+                probe = solver.ik_many(solver.robot, sub.fk(np.zeros((1, sub.n))), base=sub_base, tip=sub_tip,
+                                       tol=solver.tol, family_tol=solver.family_tol)
+                if probe.method == "closed_form" and probe.solver == f"ik.chain_ik_many ({SPHERICAL_12})" and \
+                        tuple(probe.labels) == slot_labels(family):
+                    arm = ideal_arm(family)
+                    moving_floats, moving_ints = moving.program.row_tables
+                    prepared = (arm, (*compiled_arm(sub, arm), moving_floats, moving_ints,
+                                      int(solver.parameter.column),
+                                      np.array([solver.chain.lower, solver.chain.upper], dtype=float)),
+                                list(probe.labels))
+            if len(cls._PREPARED) >= 64:
+                cls._PREPARED.clear()
+            cached = cls._PREPARED[key] = (solver.chain, solver.family_tol, prepared)
+        if cached[2] is None:
+            return None
+        arm, constants, labels = cached[2]
+        if not solver.labels:
+            solver.labels = list(labels)
+        return cls(solver, (arm, constants))
+
+    def _run(self, kernel, *head):
+        """``kernel(*head, T, constants..., known...)`` until it answers: each target it hands back is solved by the
+        numpy reference and added to the known answers; None when it says to answer the pose in Python."""
+        from manipkit.closed_form.arms import solve_6r
+        from manipkit.ik.families import SPHERICAL_12
+        from manipkit.ik.redundant_kernel import DONE, PYTHON
+
+        T = np.ascontiguousarray(self.solver.T, dtype=float)
+        for _ in range(64):
+            out = kernel(*head, T, *self.constants, self.settings, *self.known)
+            status, asked, g = out[0], out[-2], out[-1]
+            if status == DONE:
+                return out
+            if status == PYTHON:
+                return None
+            arm = self.arm
+            reference = solve_6r(SPHERICAL_12, arm.h, arm.p, np.array(g)[None], arm.points)
+            values, theta, valid = self.known
+            self.known = (np.append(values, asked), np.concatenate([theta, np.nan_to_num(reference.theta)]),
+                          np.concatenate([valid, reference.valid]))
+        return None
+
+    def intervals(self, lower: float, upper: float, step: float) -> list[tuple[int, float, float]] | None:
+        """:func:`_intervals` of the solver's pose (None: answer it in Python)."""
+        from manipkit.ik.redundant_kernel import locked_intervals
+
+        values, rounds = _sweep(lower, upper, step)
+        out = self._run(locked_intervals, values, rounds)
+        if out is None:
+            return None
+        _, runs, reached, _, _ = out
+        self.solver.reached_any = self.solver.reached_any or bool(reached)
+        return [(int(b), float(low), float(high)) for b, low, high in sorted(runs.tolist(), key=lambda r: (r[0], r[1]))]
+
+    def rows(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, None] | None:
+        """``(Q, ok, None)`` of :meth:`_Solver.solve` at ``values`` (None: answer them in Python)."""
+        from manipkit.ik.redundant_kernel import locked_rows
+
+        out = self._run(locked_rows, np.ascontiguousarray(values, dtype=float))
+        if out is None:
+            return None
+        _, Q, ok, reached, _, _ = out
+        self.solver.reached_any = self.solver.reached_any or bool(reached)
+        return Q, ok, None
+
+
 def _pad(ok: np.ndarray, width: int) -> np.ndarray:
     """``ok`` (N, b) widened to (N, width) with False (branches first seen later)."""
     return np.pad(ok, ((0, 0), (0, width - ok.shape[1])))
+
+
+def _sweep(lower: float, upper: float, step: float) -> tuple[np.ndarray, int]:
+    """(the sweep's values, both ends included, at steps of at most ``step``; the narrowing's most rounds)."""
+    samples = max(2, math.ceil((upper - lower) / step) + 1)
+    return np.linspace(lower, upper, samples), max(0, math.ceil(math.log2(max(step, 1e-300) / PARAMETER_TOL)))
 
 
 def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list[tuple[int, float, float]]:
@@ -405,8 +515,8 @@ def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list
     until the bracket is narrower than :data:`PARAMETER_TOL` or the feasible end lies within :data:`MARGIN_TOL`
     of a limit.
     """
-    samples = max(2, math.ceil((upper - lower) / step) + 1)
-    values = np.linspace(lower, upper, samples)
+    values, rounds = _sweep(lower, upper, step)
+    samples = len(values)
     _, ok, margin = solver.solve(values)
     B = ok.shape[1]
     runs = []  # [branch, first sample, last sample, low, high]
@@ -428,7 +538,7 @@ def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list
             brackets.append([r, 0, values[i - 1], values[i], margin[i - 1, b], margin[i, b], 0])
         if j < samples - 1:
             brackets.append([r, 1, values[j + 1], values[j], margin[j + 1, b], margin[j, b], 0])
-    for _ in range(max(0, math.ceil(math.log2(max(step, 1e-300) / PARAMETER_TOL)))):
+    for _ in range(rounds):
         active = [k for k, (_, _, out, inn, _, g_in, _) in enumerate(brackets)
                   if abs(out - inn) > PARAMETER_TOL and not (g_in <= MARGIN_TOL)]
         if not active:
@@ -532,7 +642,7 @@ def check_options(count, rank) -> tuple[int, str]:
 
 def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter: Redundancy | None = None,
                count=None, rank=None, tol=1e-9, family_tol=FAMILY_TOL, step: float = SWEEP_STEP, q0=None,
-               checker=None, drop_collisions: bool = False) -> IKResult:
+               checker=None, drop_collisions: bool = False, compiled: bool = True) -> IKResult:
     """``count`` solutions of the 7R chain ``base -> tip`` for ``target`` (T_base_tip, 4x4, m) spread across its
     self-motion and ranked (the module docstring: parameter, intervals, spread, criteria).
 
@@ -559,6 +669,10 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
         Values of the joints off the chain (rows are whole-robot vectors).
     checker : CollisionChecker, optional
         Marks ``collides`` and ``clearance`` per row; ``drop_collisions`` keeps the collision-free rows only.
+    compiled : bool
+        A locked end joint over a 6R arm "spherical wrist, two intersecting" (Panda, FR3): the sweep, narrowing and
+        rows in one compiled call per pose (:mod:`manipkit.ik.redundant_kernel`); False: through the dispatcher
+        round by round (the reference; the same answers, tested).
 
     Returns
     -------
@@ -591,12 +705,18 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
     T = np.array(check_transform(target), dtype=float)
     solver = _Solver(robot, T, base, tip, parameter, tol, family_tol, solvers)
     chain = solver.chain
-    found = _intervals(solver, parameter.lower, parameter.upper, float(step))
+    fast = _Compiled.of(solver) if compiled else None
+    found = None if fast is None else fast.intervals(parameter.lower, parameter.upper, float(step))
+    if found is None:
+        fast = None
+        found = _intervals(solver, parameter.lower, parameter.upper, float(step))
     chosen = _spread(found, count)
     labels_all = list(solver.labels)
     rows, labels, values = [], [], []
     if chosen:
-        Q, ok, _ = solver.solve(np.array([v for _, v in chosen]))
+        at = np.array([v for _, v in chosen])
+        answered = None if fast is None else fast.rows(at)
+        Q, ok, _ = solver.solve(at) if answered is None else answered
         ok = _pad(ok, len(solver.labels))
         for k, (branch, value) in enumerate(chosen):
             if branch < Q.shape[1] and ok[k, branch]:

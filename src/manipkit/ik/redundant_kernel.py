@@ -1,0 +1,269 @@
+"""The sweep and narrowing of a 7R ranked set (:mod:`manipkit.ik.redundant`), compiled, for an end joint locked
+over a 6R arm "spherical wrist, two intersecting" (Panda, FR3): one call per pose.
+
+What :mod:`manipkit.ik.redundant` does through the dispatcher round by round (``_Solver.solve`` over
+:func:`manipkit.ik.chain_ik.chain_ik_many`, then ``_intervals``), in one loop of machine code, with the same
+operations in the same order:
+
+- at a value ``v`` of the locked joint, the 6R arm's target (``T A(v)^-1`` for the last joint, ``A(v)^-1 T`` for
+  the first; ``A`` by the locked joint's own FK program), solved as
+  :func:`~manipkit.ik.chain_ik.chain_ik_many` solves it: ``g = target M^-1`` (inverted for a family solved tip to
+  base), every branch by :func:`manipkit.closed_form.spherical12_kernel.solve_target`, each to a chain vector
+  (:func:`manipkit.closed_form.check_kernel.chain_row`: in-limit aliases nearest 0), checked by the 6R chain's FK
+  (:func:`~manipkit.closed_form.check_kernel.pose_rows`, :func:`~manipkit.closed_form.check_kernel.pose_residual`);
+  a branch is feasible where it exists, reaches the target within ``tol`` and lies inside every joint limit, and
+  its margin is its joints' least distance to a limit (rad; NaN where it does not reach);
+- the sweep over ``values``, the runs of feasible samples per branch, and each run's end bracketed and narrowed
+  by the Illinois variant of false position on the margin, else bisection (``redundant._intervals``' rule: each
+  bracket's steps depend on its own results only, so bracket after bracket here gives the rounds' values).
+
+The reference's hand-backs stay the reference's: a target the compiled closed form hands back (near a threshold)
+stops the loop with status :data:`REFERENCE` and its ``g``; the caller solves ``g`` by the numpy reference and
+calls again with that answer among ``known`` (values bit for bit the same on every call, so the loop comes back to
+the same place). A row that would be polished (missing the target by more than ``POLISH_TO`` and less than
+``POLISH_BELOW``) or a target whose rotation is not exact stops it with :data:`PYTHON`: the caller answers the
+pose the way it did before. Importing this module imports numba.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.closed_form.check_kernel import arm_constants, chain_row, exact_rotation, pose_residual, pose_rows
+from manipkit.closed_form.spherical12_kernel import solve_target
+from manipkit.closed_form.subproblems_kernel import compile_kernel
+
+__all__ = ["DONE", "PYTHON", "REFERENCE", "SLOTS", "locked_intervals", "locked_rows", "pack_settings"]
+
+#: Statuses of a call: answered; a target for the numpy reference (its ``g`` returned); answer the pose in Python.
+DONE, REFERENCE, PYTHON = 0, 1, 2
+#: Branches of the 6R closed form (its slots).
+SLOTS = 8
+
+
+def pack_settings(tol: tuple[float, float], parameter_tol: float, margin_tol: float, limit_slack: float,
+                  polish_to: float, polish_below: float) -> np.ndarray:
+    """The numbers of the ranked set's rule as the loop reads them (the constants of :mod:`manipkit.ik.redundant`,
+    given by it): residual tolerance (m, rad), bracket width, margin at a limit, limit slack, polish bounds."""
+    return np.array([tol[0], tol[1], parameter_tol, margin_tol, limit_slack, polish_to, polish_below], dtype=float)
+
+
+@compile_kernel
+def _rigid_inverse(T, out):
+    """``out`` (4, 4) = ``[[R^T, -R^T t], [0, 0, 0, 1]]`` of ``T`` (as ``spatial.transforms.invert_transform``)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = T[j, i]
+    for i in range(3):
+        out[i, 3] = -(out[i, 0] * T[0, 3] + out[i, 1] * T[1, 3] + out[i, 2] * T[2, 3])
+        out[3, i] = 0.0
+    out[3, 3] = 1.0
+
+
+@compile_kernel
+def _product(A, B, out):
+    """``out`` (4, 4) = ``A @ B`` (4, 4 each; ``out`` neither of them)."""
+    for i in range(4):
+        for j in range(4):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j] + A[i, 3] * B[3, j]
+
+
+@compile_kernel
+def _solve_value(value, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings, known_values,
+                 known_theta, known_valid, work, Q, ok, margin, g):
+    """Every branch at ``value`` of the locked joint: ``Q`` (8, 7) chain vectors (NaN where none), ``ok`` (8,),
+    ``margin`` (8,); returns (status, some branch reached the target). ``g`` (4, 4) is the solved target (the one to
+    hand to the reference when the status is :data:`REFERENCE`)."""
+    # Over 80 lines: one value's solve, chain rows, FK check and limit margins, in the reference's order.
+    _, H, P, points, _, M_inv, reverse, q0, columns, solved, _, floats, ints = arm_constants(arm_reals, arm_ints)
+    theta, valid, miss, rows, reached, states, moving_states, locked, present, scratch = work
+    one, inverse, target, solve = scratch[0:1], scratch[1], scratch[2], scratch[3]
+    # the locked joint's transform A(value), then the 6R arm's target
+    locked[0, 0] = value
+    pose_rows(locked, present, moving_floats, moving_ints, moving_states, one)
+    _rigid_inverse(one[0], inverse)
+    if column == 0:
+        _product(inverse, T, target)
+    else:
+        _product(T, inverse, target)
+    if not exact_rotation(target):
+        return PYTHON, False
+    _product(target, M_inv, solve)
+    if reverse:
+        _rigid_inverse(solve, g)
+    else:
+        for i in range(4):
+            for j in range(4):
+                g[i, j] = solve[i, j]
+    known = -1
+    for k in range(known_values.shape[0]):
+        if known_values[k] == value and math.copysign(1.0, known_values[k]) == math.copysign(1.0, value):
+            known = k
+            break
+    if known >= 0:
+        for s in range(SLOTS):
+            valid[s] = known_valid[known, s]
+            for j in range(6):
+                theta[s, j] = known_theta[known, s, j]
+    else:
+        c = (points[0, 0], points[0, 1], points[0, 2])
+        s_ = (points[1, 0], points[1, 1], points[1, 2])
+        if solve_target(H, P, c, s_, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid, miss):
+            return REFERENCE, False
+    for s in range(SLOTS):
+        if valid[s]:
+            chain_row(theta, s, reverse, q0, columns, solved, rows)
+        else:
+            for j in range(rows.shape[1]):
+                rows[s, j] = np.nan
+    pose_rows(rows, valid, floats, ints, states, reached)
+    any_reached = False
+    n = Q.shape[1]
+    for s in range(SLOTS):
+        margin[s] = np.nan
+        ok[s] = False
+        if not valid[s]:
+            for j in range(n):
+                Q[s, j] = np.nan
+            continue
+        at = 0
+        for j in range(n):
+            if j == column:
+                Q[s, j] = value
+            else:
+                Q[s, j] = rows[s, at]
+                at += 1
+        position, rotation = pose_residual(target, reached[s])
+        worst = max(position, rotation)
+        if worst > settings[5] and worst < settings[6]:
+            return PYTHON, False  # a row the reference polishes by Newton steps
+        if position <= settings[0] and rotation <= settings[1]:
+            least = np.inf
+            for j in range(n):
+                least = min(least, min(Q[s, j] - limits[0, j], limits[1, j] - Q[s, j]))
+            margin[s] = least
+            ok[s] = least >= -settings[4]
+            any_reached = True
+    return DONE, any_reached
+
+
+@compile_kernel
+def _work(arm_ints, moving_ints):
+    """Scratch of :func:`_solve_value`: theta (8, m), valid (8,), miss (3,), rows (8, m), reached (8, 4, 4), the 6R
+    chain's and the locked joint's FK states, the locked joint's row (1, 1) and its mask (1,), four (4, 4)."""
+    m = arm_ints[2]
+    steps = arm_ints[4 + m]  # the 6R chain's FK program: its first int is its joint steps
+    return (np.empty((SLOTS, m)), np.zeros(SLOTS, dtype=np.bool_), np.zeros(3), np.empty((SLOTS, m)),
+            np.empty((SLOTS, 4, 4)), np.empty((steps + 1, 4, 3)), np.empty((moving_ints[0] + 1, 4, 3)),
+            np.empty((1, 1)), np.ones(1, dtype=np.bool_), np.empty((4, 4, 4)))
+
+
+@compile_kernel
+def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
+                     known_values, known_theta, known_valid):
+    """The feasible intervals of every branch over the sweep ``values`` (ascending, the parameter's range), each
+    crossing narrowed in at most ``rounds`` steps.
+
+    Returns (status, runs (R, 3): branch, low, high in the order of the branches then of the runs, reached: some
+    branch reached the target at some value, the value and g (4, 4) its solved target where the loop stopped when
+    the status is not :data:`DONE`).
+    """
+    # Over 80 lines: the sweep, the runs and the narrowing of every bracket, as redundant._intervals has them.
+    samples = values.shape[0]
+    n = limits.shape[1]
+    work = _work(arm_ints, moving_ints)
+    Q = np.empty((SLOTS, n))
+    ok_at = np.zeros(SLOTS, dtype=np.bool_)
+    margin_at = np.empty(SLOTS)
+    g = np.empty((4, 4))
+    ok = np.zeros((samples, SLOTS), dtype=np.bool_)
+    margin = np.empty((samples, SLOTS))
+    reached_any = False
+    for i in range(samples):
+        status, reached = _solve_value(values[i], T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits,
+                                       settings, known_values, known_theta, known_valid, work, Q, ok_at, margin_at, g)
+        if status != DONE:
+            return status, np.empty((0, 3)), reached_any, values[i], g
+        reached_any = reached_any or reached
+        for b in range(SLOTS):
+            ok[i, b] = ok_at[b]
+            margin[i, b] = margin_at[b]
+    # runs of feasible samples: [branch, first sample, last sample]
+    first = np.empty(SLOTS * samples, dtype=np.int64)
+    last = np.empty(SLOTS * samples, dtype=np.int64)
+    branch = np.empty(SLOTS * samples, dtype=np.int64)
+    count = 0
+    for b in range(SLOTS):
+        i = 0
+        while i < samples:
+            if not ok[i, b]:
+                i += 1
+                continue
+            j = i
+            while j + 1 < samples and ok[j + 1, b]:
+                j += 1
+            branch[count], first[count], last[count] = b, i, j
+            count += 1
+            i = j + 1
+    runs = np.empty((count, 3))
+    parameter_tol, margin_tol = settings[2], settings[3]
+    for r in range(count):
+        b, i, j = branch[r], first[r], last[r]
+        runs[r, 0], runs[r, 1], runs[r, 2] = b, values[i], values[j]
+        for end in range(2):
+            if (end == 0 and i == 0) or (end == 1 and j == samples - 1):
+                continue
+            outside = values[i - 1] if end == 0 else values[j + 1]
+            inside = values[i] if end == 0 else values[j]
+            g_out = margin[i - 1, b] if end == 0 else margin[j + 1, b]
+            g_in = margin[i, b] if end == 0 else margin[j, b]
+            kept = 0
+            for _ in range(rounds):
+                if not (abs(outside - inside) > parameter_tol and not (g_in <= margin_tol)):
+                    break
+                if math.isfinite(g_out) and math.isfinite(g_in) and g_in > g_out:
+                    t = min(max(g_in / (g_in - g_out), 0.01), 0.99)  # false position, kept off the ends
+                    trial = inside + t * (outside - inside)
+                else:
+                    trial = 0.5 * (outside + inside)
+                status, reached = _solve_value(trial, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+                                               limits, settings, known_values, known_theta, known_valid, work, Q,
+                                               ok_at, margin_at, g)
+                if status != DONE:
+                    return status, np.empty((0, 3)), reached_any, trial, g
+                reached_any = reached_any or reached
+                if ok_at[b]:
+                    inside, g_in = trial, margin_at[b]
+                    if kept == 1:  # the outside end kept twice running: halve its margin (Illinois)
+                        g_out *= 0.5
+                    kept = 1
+                else:
+                    outside, g_out = trial, margin_at[b]
+                    if kept == -1:
+                        g_in *= 0.5
+                    kept = -1
+            runs[r, 1 + end] = inside
+    return DONE, runs, reached_any, np.nan, g
+
+
+@compile_kernel
+def locked_rows(values, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings, known_values,
+                known_theta, known_valid):
+    """Every branch at each of ``values``: (status, Q (k, 8, n), ok (k, 8), reached, value, g), stopping and handing
+    back as :func:`locked_intervals` does."""
+    n = limits.shape[1]
+    work = _work(arm_ints, moving_ints)
+    Q = np.empty((values.shape[0], SLOTS, n))
+    ok = np.zeros((values.shape[0], SLOTS), dtype=np.bool_)
+    margin = np.empty(SLOTS)
+    g = np.empty((4, 4))
+    reached_any = False
+    for i in range(values.shape[0]):
+        status, reached = _solve_value(values[i], T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits,
+                                       settings, known_values, known_theta, known_valid, work, Q[i], ok[i], margin, g)
+        if status != DONE:
+            return status, Q, ok, reached_any, values[i], g
+        reached_any = reached_any or reached
+    return DONE, Q, ok, reached_any, np.nan, g
