@@ -3,10 +3,12 @@ reference's answers (arms.solve_6r), and the Panda's ranked set built on it is t
 
 The 6R arm is the Panda's with its last joint locked, solved at every value of its ranked set's sweep and
 narrowing. Compared with the reference: the valid slots, their angles (modulo 2 pi, to 1e-9 rad), the misses and
-which targets are handed back; then the whole ranked set of 200 random Panda poses with the compiled path against
-the same set with the reference alone (``solve_branches(..., compiled=False)``): the same scores in the same
-order, rows, labels and parameter values to 1e-9 (rows of one score, to rounding, in either order), the same
-intervals, every row landing by Pinocchio's own FK to 1e-10.
+which targets are handed back; then the whole ranked set of 200 random Panda poses with the compiled path (the
+sweep, narrowing and rows in one compiled call per pose, ik.redundant_kernel, over the compiled closed form)
+against the same set with the reference alone (the dispatcher round by round, ``ranked_set(..., compiled=False)``,
+over ``solve_branches(..., compiled=False)``): the same scores in the same order, rows, labels and parameter values
+to 1e-9 (rows of one score, to rounding, in either order), the same intervals, every row landing by Pinocchio's own
+FK to 1e-10.
 """
 
 import math
@@ -16,9 +18,12 @@ import pinocchio as pin
 import pytest
 
 import manipkit
+import manipkit.closed_form.arms as arms_module
 import manipkit.ik.chain_ik as chain_ik_module
 from manipkit.closed_form.arms import SPHERICAL_12, solve_6r
 from manipkit.closed_form.spherical12_kernel import solve_spherical_12_many
+from manipkit.ik.dispatch import ik, ik_many
+from manipkit.ik.redundant import ranked_set
 
 POSES = 200
 
@@ -45,7 +50,8 @@ def pose_error(A, B):
 
 
 def swept_calls(robot, targets):
-    """Every (arm, g) the ranked sets of ``targets`` hand to the closed form (the sweep and the narrowing)."""
+    """Every (arm, g) the ranked sets of ``targets`` hand to the closed form (the sweep and the narrowing, through
+    the dispatcher: ``ranked_set(..., compiled=False)``)."""
     calls = []
     original = chain_ik_module.solve_branches
 
@@ -56,7 +62,7 @@ def swept_calls(robot, targets):
     chain_ik_module.solve_branches = recording
     try:
         for T in targets:
-            manipkit.ik(robot, T, all=True)
+            ranked_set(robot, T, "base_link", "ee_link", solvers=(ik, ik_many), compiled=False)
     finally:
         chain_ik_module.solve_branches = original
     return calls
@@ -116,16 +122,32 @@ def tie_groups(scores, tol=1e-9):
     return [tuple(g) for g in groups]
 
 
-def test_the_pandas_ranked_sets_are_the_references_on_random_poses(panda):
-    robot, chain = panda
-    targets = chain.fk(chain.sample(POSES, seed=36))
-    compiled = [manipkit.ik(robot, T, all=True) for T in targets]
+def reference_sets(robot, targets):
+    """The ranked sets of ``targets`` by the reference alone: the sweep through the dispatcher round by round
+    (``ranked_set(..., compiled=False)``) over the numpy closed form (``solve_branches(..., compiled=False)``)."""
     original = chain_ik_module.solve_branches
     chain_ik_module.solve_branches = lambda arm, g, *, compiled=True: original(arm, g, compiled=False)
     try:
-        reference = [manipkit.ik(robot, T, all=True) for T in targets]
+        return [ranked_set(robot, T, "base_link", "ee_link", solvers=(ik, ik_many), compiled=False) for T in targets]
     finally:
         chain_ik_module.solve_branches = original
+
+
+def test_the_pandas_ranked_sets_are_the_references_on_random_poses(panda, monkeypatch):
+    robot, chain = panda
+    targets = chain.fk(chain.sample(POSES, seed=36))
+    manipkit.ik(robot, targets[0], all=True)  # the compiled path's one probe of the dispatcher per chain
+    dispatched, handed_back = [], []
+    original = chain_ik_module.solve_branches
+    monkeypatch.setattr(chain_ik_module, "solve_branches", lambda arm, g, *, compiled=True: dispatched.append(g)
+                        or original(arm, g, compiled=compiled))
+    reference_6r = arms_module.solve_6r
+    monkeypatch.setattr(arms_module, "solve_6r", lambda *args: handed_back.append(args) or reference_6r(*args))
+    compiled = [manipkit.ik(robot, T, all=True) for T in targets]  # the sweep compiled: ik.redundant_kernel
+    monkeypatch.undo()
+    assert not dispatched  # one compiled call per pose, no round through the dispatcher
+    assert handed_back  # some targets near a threshold of the compiled closed form went to the numpy reference
+    reference = reference_sets(robot, targets)
     rows = 0
     for T, new, old in zip(targets, compiled, reference):
         assert new.ranked_by == old.ranked_by
@@ -150,3 +172,16 @@ def test_the_pandas_ranked_sets_are_the_references_on_random_poses(panda):
             assert pose_error(pinocchio_pose(robot, q), T) <= 1e-10
         rows += len(new.solutions)
     assert rows >= 16 * POSES // 2
+
+
+def test_a_target_whose_rotation_is_not_exact_gets_the_references_ranked_set(panda):
+    # check_transform takes a rotation block off by up to 1e-6; the compiled sweep takes exact ones (1e-12) only
+    # and answers any other pose the way the reference does (the dispatcher round by round)
+    robot, chain = panda
+    T = chain.fk(chain.sample(1, seed=5))[0]
+    T[:3, :3] *= 1.0 + 1e-9
+    new = manipkit.ik(robot, T, all=True)
+    old = ranked_set(robot, T, "base_link", "ee_link", solvers=(ik, ik_many), compiled=False)
+    assert len(new.solutions) == len(old.solutions) >= 16
+    np.testing.assert_array_equal(new.solutions, old.solutions)
+    assert new.intervals == old.intervals and new.labels == old.labels
