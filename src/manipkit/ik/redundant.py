@@ -729,7 +729,8 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
                           else (np.zeros(0), np.zeros(0)))
     score = scores(chain, Q, rank, checker=checker, q_rest=rest) if len(Q) else np.zeros(0)
     order = np.argsort(-score, kind="stable")
-    whole = np.array([chain.full(q, rest) for q in Q[order]]).reshape(-1, len(robot.joint_names))
+    whole = np.repeat(np.asarray(robot.q() if rest is None else rest, dtype=float)[None], len(Q), axis=0)
+    whole[:, chain.columns] = Q[order]  # chain.full of each row (its rows are checked finite)
     intervals = tuple((labels_all[b], low, high) for b, low, high in found)
     spans = sum(high - low for _, low, high in found)
     note = (f"{len(Q)} solution(s) across the self-motion of {parameter.label}, spread over {len(found)} feasible "

@@ -33,7 +33,7 @@ import numpy as np
 
 from manipkit.closed_form.check_kernel import arm_constants, chain_row, exact_rotation, pose_residual, pose_rows
 from manipkit.closed_form.spherical12_kernel import solve_target
-from manipkit.closed_form.subproblems_kernel import compile_kernel
+from manipkit.closed_form.subproblems_kernel import compile_kernel, inlined_kernel
 
 __all__ = ["DONE", "PYTHON", "REFERENCE", "SLOTS", "locked_intervals", "locked_rows", "pack_settings"]
 
@@ -50,7 +50,7 @@ def pack_settings(tol: tuple[float, float], parameter_tol: float, margin_tol: fl
     return np.array([tol[0], tol[1], parameter_tol, margin_tol, limit_slack, polish_to, polish_below], dtype=float)
 
 
-@compile_kernel
+@inlined_kernel
 def _rigid_inverse(T, out):
     """``out`` (4, 4) = ``[[R^T, -R^T t], [0, 0, 0, 1]]`` of ``T`` (as ``spatial.transforms.invert_transform``)."""
     for i in range(3):
@@ -62,7 +62,7 @@ def _rigid_inverse(T, out):
     out[3, 3] = 1.0
 
 
-@compile_kernel
+@inlined_kernel
 def _product(A, B, out):
     """``out`` (4, 4) = ``A @ B`` (4, 4 each; ``out`` neither of them)."""
     for i in range(4):
@@ -71,14 +71,16 @@ def _product(A, B, out):
 
 
 @compile_kernel
-def _solve_value(value, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings, known_values,
-                 known_theta, known_valid, work, Q, ok, margin, g):
-    """Every branch at ``value`` of the locked joint: ``Q`` (8, 7) chain vectors (NaN where none), ``ok`` (8,),
-    ``margin`` (8,); returns (status, some branch reached the target). ``g`` (4, 4) is the solved target (the one to
-    hand to the reference when the status is :data:`REFERENCE`)."""
+def _solve_value(value, slot, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
+                 known_values, known_theta, known_valid, work, Q, ok, margin, g):
+    """Every branch at ``value`` of the locked joint (``slot`` >= 0: that branch only, the others left out as
+    not ok): ``Q`` (8, 7) chain vectors (NaN where none), ``ok`` (8,), ``margin`` (8,); returns (status, some branch
+    reached the target). ``g`` (4, 4) is the solved target (the one to hand to the reference when the status is
+    :data:`REFERENCE`). A branch's row, check and margin are its own (the FK of each row is that row's alone), so
+    one branch alone is what it is among all eight."""
     # Over 80 lines: one value's solve, chain rows, FK check and limit margins, in the reference's order.
     _, H, P, points, _, M_inv, reverse, q0, columns, solved, _, floats, ints = arm_constants(arm_reals, arm_ints)
-    theta, valid, miss, rows, reached, states, moving_states, locked, present, scratch = work
+    theta, valid, miss, rows, reached, states, moving_states, locked, present, scratch, wanted = work
     one, inverse, target, solve = scratch[0:1], scratch[1], scratch[2], scratch[3]
     # the locked joint's transform A(value), then the 6R arm's target
     locked[0, 0] = value
@@ -113,18 +115,19 @@ def _solve_value(value, T, arm_reals, arm_ints, moving_floats, moving_ints, colu
         if solve_target(H, P, c, s_, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid, miss):
             return REFERENCE, False
     for s in range(SLOTS):
-        if valid[s]:
+        wanted[s] = valid[s] and (slot < 0 or s == slot)
+        if wanted[s]:
             chain_row(theta, s, reverse, q0, columns, solved, rows)
         else:
             for j in range(rows.shape[1]):
                 rows[s, j] = np.nan
-    pose_rows(rows, valid, floats, ints, states, reached)
+    pose_rows(rows, wanted, floats, ints, states, reached)
     any_reached = False
     n = Q.shape[1]
     for s in range(SLOTS):
         margin[s] = np.nan
         ok[s] = False
-        if not valid[s]:
+        if not wanted[s]:
             for j in range(n):
                 Q[s, j] = np.nan
             continue
@@ -152,12 +155,13 @@ def _solve_value(value, T, arm_reals, arm_ints, moving_floats, moving_ints, colu
 @compile_kernel
 def _work(arm_ints, moving_ints):
     """Scratch of :func:`_solve_value`: theta (8, m), valid (8,), miss (3,), rows (8, m), reached (8, 4, 4), the 6R
-    chain's and the locked joint's FK states, the locked joint's row (1, 1) and its mask (1,), four (4, 4)."""
+    chain's and the locked joint's FK states, the locked joint's row (1, 1) and its mask (1,), four (4, 4), the rows
+    checked (8,)."""
     m = arm_ints[2]
     steps = arm_ints[4 + m]  # the 6R chain's FK program: its first int is its joint steps
     return (np.empty((SLOTS, m)), np.zeros(SLOTS, dtype=np.bool_), np.zeros(3), np.empty((SLOTS, m)),
             np.empty((SLOTS, 4, 4)), np.empty((steps + 1, 4, 3)), np.empty((moving_ints[0] + 1, 4, 3)),
-            np.empty((1, 1)), np.ones(1, dtype=np.bool_), np.empty((4, 4, 4)))
+            np.empty((1, 1)), np.ones(1, dtype=np.bool_), np.empty((4, 4, 4)), np.zeros(SLOTS, dtype=np.bool_))
 
 
 @compile_kernel
@@ -182,8 +186,9 @@ def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, movi
     margin = np.empty((samples, SLOTS))
     reached_any = False
     for i in range(samples):
-        status, reached = _solve_value(values[i], T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits,
-                                       settings, known_values, known_theta, known_valid, work, Q, ok_at, margin_at, g)
+        status, reached = _solve_value(values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+                                       limits, settings, known_values, known_theta, known_valid, work, Q, ok_at,
+                                       margin_at, g)
         if status != DONE:
             return status, np.empty((0, 3)), reached_any, values[i], g
         reached_any = reached_any or reached
@@ -228,7 +233,9 @@ def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, movi
                     trial = inside + t * (outside - inside)
                 else:
                     trial = 0.5 * (outside + inside)
-                status, reached = _solve_value(trial, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+                # the bracket's own branch only: whether any branch reaches the target is known from the sweep (a
+                # bracket ends a run of feasible samples)
+                status, reached = _solve_value(trial, b, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
                                                limits, settings, known_values, known_theta, known_valid, work, Q,
                                                ok_at, margin_at, g)
                 if status != DONE:
@@ -261,8 +268,9 @@ def locked_rows(values, T, arm_reals, arm_ints, moving_floats, moving_ints, colu
     g = np.empty((4, 4))
     reached_any = False
     for i in range(values.shape[0]):
-        status, reached = _solve_value(values[i], T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits,
-                                       settings, known_values, known_theta, known_valid, work, Q[i], ok[i], margin, g)
+        status, reached = _solve_value(values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+                                       limits, settings, known_values, known_theta, known_valid, work, Q[i], ok[i],
+                                       margin, g)
         if status != DONE:
             return status, Q, ok, reached_any, values[i], g
         reached_any = reached_any or reached
