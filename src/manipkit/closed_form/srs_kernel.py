@@ -51,7 +51,7 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["solve_check_srs", "solve_srs_rows_into"]
+__all__ = ["solve_check_srs", "solve_srs_rows_into", "solve_srs_target"]
 
 PAIR_MISS = 1e-10  # a subproblem-2 pair missing by more is left to the reference (it accepts up to sqrt(1e-12))
 
@@ -70,7 +70,7 @@ def _shoulder(v, pc, ps, h0, c1, s1, h1, ca, sa, x):
 
 
 @compile_kernel
-def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
+def solve_srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
     """One target (``R``, ``t`` of ``g``) at the arm angle (cos ``pc``, sin ``ps``) into theta (8, 7), valid (8,);
     True when the reference must decide."""
     # Over 80 lines: the reference's elbow, shoulder and wrist stages and their slots, in its order.
@@ -150,7 +150,7 @@ def _srs_check_one(arm_reals, arm_ints, T, psi, position_tol, rotation_tol):
     for i in range(4):  # g = T M^-1
         for j in range(4):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
-    if not plain_target(T) or _srs_target(H, P, row(points, 1), row(points, 0), math.cos(psi), math.sin(psi),
+    if not plain_target(T) or solve_srs_target(H, P, row(points, 1), row(points, 0), math.cos(psi), math.sin(psi),
                                           g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
         return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     for k in range(theta.shape[0]):
@@ -192,7 +192,7 @@ def _srs_rows_all(arm_reals, arm_ints, T, arm_angles, valid, fallback, project, 
             valid_k[k] = False
         project[t] = not exact_rotation(T[t])
         angle = arm_angles[t]
-        fallback[t] = _srs_target(H, P, S, c, math.cos(angle), math.sin(angle), g[:3, :3],
+        fallback[t] = solve_srs_target(H, P, S, c, math.cos(angle), math.sin(angle), g[:3, :3],
                                   (g[0, 3], g[1, 3], g[2, 3]), theta, valid_k)
         for k in range(8):
             valid[t, k] = valid_k[k]

@@ -394,89 +394,111 @@ class _Solver:
 
 
 class _Compiled:
-    """The sweep, narrowing and rows of a chain whose end joint is locked over a 6R arm "spherical wrist, two
-    intersecting" in one compiled call per pose (:mod:`manipkit.ik.redundant_kernel`; the same answers as
-    :class:`_Solver` and :func:`_intervals`, tested): :meth:`of` gives it for a solver where it applies."""
+    """The sweep, narrowing and rows of a pose in one compiled call (:mod:`manipkit.ik.redundant_kernel`; the same
+    answers as :class:`_Solver` and :func:`_intervals`, tested) where the dispatcher's batch answers each value by a
+    compiled closed form: a 7R SRS arm's arm angle, or an end joint locked over a 6R arm "spherical wrist, two
+    intersecting". :meth:`of` gives it for a solver where it applies."""
 
-    #: id of the 7R chain -> (chain, family_tol, the constants or None where it does not apply)
+    #: (id of the 7R chain, family_tol) -> (chain, (kind, ideal arm, constants, slot labels) or None)
     _PREPARED: dict = {}
 
     def __init__(self, solver: _Solver, prepared: tuple):
         from manipkit.ik.redundant_kernel import pack_settings
 
         self.solver = solver
-        self.arm, self.constants = prepared
+        self.kind, self.arm, self.constants, _ = prepared
         self.settings = pack_settings(solver.tol, PARAMETER_TOL, MARGIN_TOL, LIMIT_SLACK, POLISH_TO, POLISH_BELOW)
-        self.known = (np.zeros(0), np.zeros((0, 8, 6)), np.zeros((0, 8), dtype=bool))
+        m = len(self.arm.h)
+        self.known = (np.zeros(0), np.zeros((0, 8, m)), np.zeros((0, 8), dtype=bool))
 
     @classmethod
     def of(cls, solver: _Solver) -> _Compiled | None:
-        """The compiled path for ``solver``, or None: a locked end joint whose 6R arm the dispatcher's batch answers
-        by the compiled "spherical wrist, two intersecting" (asked once per chain: one target through
-        ``ik_many``)."""
-        from manipkit.ik.families import SPHERICAL_12
-
-        if solver.sub is None or solver.parameter.kind != "lock" or solver.tracks is not None:
-            return None
-        key = (id(solver.chain), repr(solver.family_tol), solver.parameter.column)
+        """The compiled path for ``solver``, or None (asked once per chain, by one target through ``ik_many``)."""
+        key = (id(solver.chain), repr(solver.family_tol))
         cached = cls._PREPARED.get(key)
         if cached is None or cached[0] is not solver.chain:
-            from manipkit.ik.chain_ik import slot_labels
-            from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
-
-            sub_base, sub_tip, moving = solver.sub
-            sub = solver.robot.chain(sub_base, sub_tip)
-            family = chain_family(sub, tol=solver.family_tol)
-            prepared = None
-            if family.kind == SPHERICAL_12 and not family.snap:
-                probe = solver.ik_many(solver.robot, sub.fk(np.zeros((1, sub.n))), base=sub_base, tip=sub_tip,
-                                       tol=solver.tol, family_tol=solver.family_tol)
-                if probe.method == "closed_form" and probe.solver == f"ik.chain_ik_many ({SPHERICAL_12})" and \
-                        tuple(probe.labels) == slot_labels(family):
-                    arm = ideal_arm(family)
-                    moving_floats, moving_ints = moving.program.row_tables
-                    prepared = (arm, (*compiled_arm(sub, arm), moving_floats, moving_ints,
-                                      int(solver.parameter.column),
-                                      np.array([solver.chain.lower, solver.chain.upper], dtype=float)),
-                                list(probe.labels))
             if len(cls._PREPARED) >= 64:
                 cls._PREPARED.clear()
-            cached = cls._PREPARED[key] = (solver.chain, solver.family_tol, prepared)
-        if cached[2] is None:
+            cached = cls._PREPARED[key] = (solver.chain, cls._prepared(solver))
+        if cached[1] is None:
             return None
-        arm, constants, labels = cached[2]
         if not solver.labels:
-            solver.labels = list(labels)
-        return cls(solver, (arm, constants))
+            solver.labels = list(cached[1][3])
+        return cls(solver, cached[1])
+
+    @staticmethod
+    def _prepared(solver: _Solver) -> tuple | None:
+        """(kind, ideal arm, the kernel's constants, slot labels) of the solver's chain, or None."""
+        from manipkit.ik.chain_ik import slot_labels
+        from manipkit.ik.families import SPHERICAL_12
+        from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
+        from manipkit.ik.redundant_kernel import ARM_ANGLE, LOCKED
+
+        parameter, chain = solver.parameter, solver.chain
+        if parameter.kind == "arm_angle":
+            kind, sub, frames, arm_angle = ARM_ANGLE, chain, (solver.base, solver.tip), [0.0]
+            moving = (np.zeros(0), np.zeros(1, dtype=np.int64))  # no locked joint: an empty FK program
+            column = -1
+        elif solver.sub is not None and solver.tracks is None:
+            kind, frames, arm_angle = LOCKED, solver.sub[:2], None
+            sub = solver.robot.chain(*frames)
+            moving, column = solver.sub[2].program.row_tables, int(parameter.column)
+        else:
+            return None
+        family = chain_family(sub, tol=solver.family_tol)
+        wanted = SRS if kind == ARM_ANGLE else SPHERICAL_12
+        if family.kind != wanted or family.snap or (kind == ARM_ANGLE and family.reversed):
+            return None
+        probe = solver.ik_many(solver.robot, sub.fk(np.zeros((1, sub.n))), base=frames[0], tip=frames[1],
+                               tol=solver.tol, family_tol=solver.family_tol, arm_angle=arm_angle)
+        if probe.method != "closed_form" or probe.solver != f"ik.chain_ik_many ({wanted})" or \
+                tuple(probe.labels) != slot_labels(family):
+            return None
+        arm = ideal_arm(family)
+        return (kind, arm, (*compiled_arm(sub, arm), *moving, column,
+                            np.array([chain.lower, chain.upper], dtype=float)), tuple(probe.labels))
+
+    def _reference(self, g: np.ndarray, value: float):
+        """The numpy reference's branches (theta (1, 8, m), valid (1, 8)) of the solve target ``g`` at ``value``."""
+        from manipkit.ik.redundant_kernel import ARM_ANGLE
+
+        arm = self.arm
+        if self.kind == ARM_ANGLE:
+            from manipkit.closed_form.srs import solve_srs_many
+
+            branches = solve_srs_many(arm.h, arm.p, g[None], arm.points, np.array([value]))
+        else:
+            from manipkit.closed_form.arms import solve_6r
+            from manipkit.ik.families import SPHERICAL_12
+
+            branches = solve_6r(SPHERICAL_12, arm.h, arm.p, g[None], arm.points)
+        return branches.theta, branches.valid
 
     def _run(self, kernel, *head):
-        """``kernel(*head, T, constants..., known...)`` until it answers: each target it hands back is solved by the
-        numpy reference and added to the known answers; None when it says to answer the pose in Python."""
-        from manipkit.closed_form.arms import solve_6r
-        from manipkit.ik.families import SPHERICAL_12
+        """``kernel(kind, *head, T, constants..., known...)`` until it answers: each target it hands back is solved
+        by the numpy reference and added to the known answers; None when it says to answer the pose in Python."""
         from manipkit.ik.redundant_kernel import DONE, PYTHON
 
         T = np.ascontiguousarray(self.solver.T, dtype=float)
         for _ in range(64):
-            out = kernel(*head, T, *self.constants, self.settings, *self.known)
+            out = kernel(self.kind, *head, T, *self.constants, self.settings, *self.known)
             status, asked, g = out[0], out[-2], out[-1]
             if status == DONE:
                 return out
             if status == PYTHON:
                 return None
-            arm = self.arm
-            reference = solve_6r(SPHERICAL_12, arm.h, arm.p, np.array(g)[None], arm.points)
-            values, theta, valid = self.known
-            self.known = (np.append(values, asked), np.concatenate([theta, np.nan_to_num(reference.theta)]),
-                          np.concatenate([valid, reference.valid]))
+            theta, valid = self._reference(np.array(g), float(asked))
+            values, thetas, valids = self.known
+            self.known = (np.append(values, asked), np.concatenate([thetas, np.nan_to_num(theta)]),
+                          np.concatenate([valids, valid]))
         return None
 
     def intervals(self, lower: float, upper: float, step: float) -> list[tuple[int, float, float]] | None:
         """:func:`_intervals` of the solver's pose (None: answer it in Python)."""
-        from manipkit.ik.redundant_kernel import locked_intervals
+        from manipkit.ik.redundant_kernel import sweep_intervals
 
         values, rounds = _sweep(lower, upper, step)
-        out = self._run(locked_intervals, values, rounds)
+        out = self._run(sweep_intervals, values, rounds)
         if out is None:
             return None
         _, runs, reached, _, _ = out
@@ -485,9 +507,9 @@ class _Compiled:
 
     def rows(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, None] | None:
         """``(Q, ok, None)`` of :meth:`_Solver.solve` at ``values`` (None: answer them in Python)."""
-        from manipkit.ik.redundant_kernel import locked_rows
+        from manipkit.ik.redundant_kernel import sweep_rows
 
-        out = self._run(locked_rows, np.ascontiguousarray(values, dtype=float))
+        out = self._run(sweep_rows, np.ascontiguousarray(values, dtype=float))
         if out is None:
             return None
         _, Q, ok, reached, _, _ = out

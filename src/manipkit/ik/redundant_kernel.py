@@ -33,10 +33,14 @@ import numpy as np
 
 from manipkit.closed_form.check_kernel import arm_constants, chain_row, exact_rotation, pose_residual, pose_rows
 from manipkit.closed_form.spherical12_kernel import solve_target
+from manipkit.closed_form.srs_kernel import solve_srs_target
 from manipkit.closed_form.subproblems_kernel import compile_kernel, inlined_kernel
 
-__all__ = ["DONE", "PYTHON", "REFERENCE", "SLOTS", "locked_intervals", "locked_rows", "pack_settings"]
+__all__ = ["ARM_ANGLE", "DONE", "LOCKED", "PYTHON", "REFERENCE", "SLOTS", "sweep_intervals", "sweep_rows",
+           "pack_settings"]
 
+#: The parameter: an end joint locked over a 6R arm "spherical wrist, two intersecting"; a 7R SRS arm's arm angle.
+LOCKED, ARM_ANGLE = 0, 1
 #: Statuses of a call: answered; a target for the numpy reference (its ``g`` returned); answer the pose in Python.
 DONE, REFERENCE, PYTHON = 0, 1, 2
 #: Branches of the 6R closed form (its slots).
@@ -71,10 +75,10 @@ def _product(A, B, out):
 
 
 @compile_kernel
-def _solve_value(value, slot, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
+def _solve_value(kind, value, slot, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
                  known_values, known_theta, known_valid, work, Q, ok, margin, g):
-    """Every branch at ``value`` of the locked joint (``slot`` >= 0: that branch only, the others left out as
-    not ok): ``Q`` (8, 7) chain vectors (NaN where none), ``ok`` (8,), ``margin`` (8,); returns (status, some branch
+    """Every branch at ``value`` of the parameter (``kind``: :data:`LOCKED` or :data:`ARM_ANGLE`; ``slot`` >= 0:
+    that branch only, the others left out as not ok): ``Q`` (8, 7) chain vectors (NaN where none), ``ok`` (8,), ``margin`` (8,); returns (status, some branch
     reached the target). ``g`` (4, 4) is the solved target (the one to hand to the reference when the status is
     :data:`REFERENCE`). A branch's row, check and margin are its own (the FK of each row is that row's alone), so
     one branch alone is what it is among all eight."""
@@ -82,23 +86,30 @@ def _solve_value(value, slot, T, arm_reals, arm_ints, moving_floats, moving_ints
     _, H, P, points, _, M_inv, reverse, q0, columns, solved, _, floats, ints = arm_constants(arm_reals, arm_ints)
     theta, valid, miss, rows, reached, states, moving_states, locked, present, scratch, wanted = work
     one, inverse, target, solve = scratch[0:1], scratch[1], scratch[2], scratch[3]
-    # the locked joint's transform A(value), then the 6R arm's target
-    locked[0, 0] = value
-    pose_rows(locked, present, moving_floats, moving_ints, moving_states, one)
-    _rigid_inverse(one[0], inverse)
-    if column == 0:
-        _product(inverse, T, target)
-    else:
-        _product(T, inverse, target)
-    if not exact_rotation(target):
-        return PYTHON, False
-    _product(target, M_inv, solve)
-    if reverse:
-        _rigid_inverse(solve, g)
-    else:
+    if kind == ARM_ANGLE:  # the target itself, g = T M^-1 (srs_kernel's rows)
         for i in range(4):
             for j in range(4):
-                g[i, j] = solve[i, j]
+                target[i, j] = T[i, j]
+        if not exact_rotation(target):
+            return PYTHON, False
+        _product(target, M_inv, g)
+    else:  # the locked joint's transform A(value), then the 6R arm's target
+        locked[0, 0] = value
+        pose_rows(locked, present, moving_floats, moving_ints, moving_states, one)
+        _rigid_inverse(one[0], inverse)
+        if column == 0:
+            _product(inverse, T, target)
+        else:
+            _product(T, inverse, target)
+        if not exact_rotation(target):
+            return PYTHON, False
+        _product(target, M_inv, solve)
+        if reverse:
+            _rigid_inverse(solve, g)
+        else:
+            for i in range(4):
+                for j in range(4):
+                    g[i, j] = solve[i, j]
     known = -1
     for k in range(known_values.shape[0]):
         if known_values[k] == value and math.copysign(1.0, known_values[k]) == math.copysign(1.0, value):
@@ -107,8 +118,14 @@ def _solve_value(value, slot, T, arm_reals, arm_ints, moving_floats, moving_ints
     if known >= 0:
         for s in range(SLOTS):
             valid[s] = known_valid[known, s]
-            for j in range(6):
+            for j in range(theta.shape[1]):
                 theta[s, j] = known_theta[known, s, j]
+    elif kind == ARM_ANGLE:
+        for s in range(SLOTS):
+            valid[s] = False
+        if solve_srs_target(H, P, (points[1, 0], points[1, 1], points[1, 2]), (points[0, 0], points[0, 1], points[0, 2]),
+                            math.cos(value), math.sin(value), g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
+            return REFERENCE, False
     else:
         c = (points[0, 0], points[0, 1], points[0, 2])
         s_ = (points[1, 0], points[1, 1], points[1, 2])
@@ -165,7 +182,7 @@ def _work(arm_ints, moving_ints):
 
 
 @compile_kernel
-def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
+def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
                      known_values, known_theta, known_valid):
     """The feasible intervals of every branch over the sweep ``values`` (ascending, the parameter's range), each
     crossing narrowed in at most ``rounds`` steps.
@@ -186,7 +203,7 @@ def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, movi
     margin = np.empty((samples, SLOTS))
     reached_any = False
     for i in range(samples):
-        status, reached = _solve_value(values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+        status, reached = _solve_value(kind, values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
                                        limits, settings, known_values, known_theta, known_valid, work, Q, ok_at,
                                        margin_at, g)
         if status != DONE:
@@ -235,7 +252,7 @@ def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, movi
                     trial = 0.5 * (outside + inside)
                 # the bracket's own branch only: whether any branch reaches the target is known from the sweep (a
                 # bracket ends a run of feasible samples)
-                status, reached = _solve_value(trial, b, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+                status, reached = _solve_value(kind, trial, b, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
                                                limits, settings, known_values, known_theta, known_valid, work, Q,
                                                ok_at, margin_at, g)
                 if status != DONE:
@@ -256,10 +273,10 @@ def locked_intervals(values, rounds, T, arm_reals, arm_ints, moving_floats, movi
 
 
 @compile_kernel
-def locked_rows(values, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings, known_values,
+def sweep_rows(kind, values, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings, known_values,
                 known_theta, known_valid):
     """Every branch at each of ``values``: (status, Q (k, 8, n), ok (k, 8), reached, value, g), stopping and handing
-    back as :func:`locked_intervals` does."""
+    back as :func:`sweep_intervals` does."""
     n = limits.shape[1]
     work = _work(arm_ints, moving_ints)
     Q = np.empty((values.shape[0], SLOTS, n))
@@ -268,7 +285,7 @@ def locked_rows(values, T, arm_reals, arm_ints, moving_floats, moving_ints, colu
     g = np.empty((4, 4))
     reached_any = False
     for i in range(values.shape[0]):
-        status, reached = _solve_value(values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+        status, reached = _solve_value(kind, values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
                                        limits, settings, known_values, known_theta, known_valid, work, Q[i], ok[i],
                                        margin, g)
         if status != DONE:
