@@ -112,6 +112,10 @@ _INSET = 0.01  # the spread's ends, as a fraction of an interval inside it
 POLISH_BELOW = 1e-3
 POLISH_TO = 1e-12  # (m, rad) what the polish aims at (the closed forms' own rows are near 1e-15)
 POLISH_STEPS = 8
+#: The compiled sweep's calls per pose at most (each after the numpy reference answered what it handed back: the
+#: sweep's at once, then a narrowing round's; at most 20 rounds narrow a step of SWEEP_STEP to PARAMETER_TOL);
+#: beyond, the pose is answered through the dispatcher round by round.
+HAND_BACKS = 32
 
 
 @dataclass(frozen=True)
@@ -458,20 +462,21 @@ class _Compiled:
         return (kind, arm, (*compiled_arm(sub, arm), *moving, column,
                             np.array([chain.lower, chain.upper], dtype=float)), tuple(probe.labels))
 
-    def _reference(self, g: np.ndarray, value: float):
-        """The numpy reference's branches (theta (1, 8, m), valid (1, 8)) of the solve target ``g`` at ``value``."""
+    def _reference(self, g: np.ndarray, values: np.ndarray):
+        """The numpy reference's branches (theta (k, 8, m), valid (k, 8)) of solve targets ``g`` (k, 4, 4) at
+        ``values`` (k,)."""
         from manipkit.ik.redundant_kernel import ARM_ANGLE
 
         arm = self.arm
         if self.kind == ARM_ANGLE:
             from manipkit.closed_form.srs import solve_srs_many
 
-            branches = solve_srs_many(arm.h, arm.p, g[None], arm.points, np.array([value]))
+            branches = solve_srs_many(arm.h, arm.p, g, arm.points, values)
         else:
             from manipkit.closed_form.arms import solve_6r
             from manipkit.ik.families import SPHERICAL_12
 
-            branches = solve_6r(SPHERICAL_12, arm.h, arm.p, g[None], arm.points)
+            branches = solve_6r(SPHERICAL_12, arm.h, arm.p, g, arm.points)
         return branches.theta, branches.valid
 
     def _run(self, kernel, *head):
@@ -480,16 +485,16 @@ class _Compiled:
         from manipkit.ik.redundant_kernel import DONE, PYTHON
 
         T = np.ascontiguousarray(self.solver.T, dtype=float)
-        for _ in range(64):
+        for _ in range(HAND_BACKS):
             out = kernel(self.kind, *head, T, *self.constants, self.settings, *self.known)
             status, asked, g = out[0], out[-2], out[-1]
             if status == DONE:
                 return out
             if status == PYTHON:
                 return None
-            theta, valid = self._reference(np.array(g), float(asked))
+            theta, valid = self._reference(np.array(g), np.array(asked))
             values, thetas, valids = self.known
-            self.known = (np.append(values, asked), np.concatenate([thetas, np.nan_to_num(theta)]),
+            self.known = (np.concatenate([values, asked]), np.concatenate([thetas, np.nan_to_num(theta)]),
                           np.concatenate([valids, valid]))
         return None
 

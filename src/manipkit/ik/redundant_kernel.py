@@ -14,13 +14,13 @@ operations in the same order:
   a branch is feasible where it exists, reaches the target within ``tol`` and lies inside every joint limit, and
   its margin is its joints' least distance to a limit (rad; NaN where it does not reach);
 - the sweep over ``values``, the runs of feasible samples per branch, and each run's end bracketed and narrowed
-  by the Illinois variant of false position on the margin, else bisection (``redundant._intervals``' rule: each
-  bracket's steps depend on its own results only, so bracket after bracket here gives the rounds' values).
+  in rounds by the Illinois variant of false position on the margin, else bisection (``redundant._intervals``'
+  rule; a step at a bracket checks that bracket's branch only).
 
 The reference's hand-backs stay the reference's: a target the compiled closed form hands back (near a threshold)
-stops the loop with status :data:`REFERENCE` and its ``g``; the caller solves ``g`` by the numpy reference and
-calls again with that answer among ``known`` (values bit for bit the same on every call, so the loop comes back to
-the same place). A row that would be polished (missing the target by more than ``POLISH_TO`` and less than
+is handed back with status :data:`REFERENCE` and its ``g`` (the sweep's all at once, then a narrowing round's at its
+end); the caller solves them by the numpy reference and calls again with those answers among ``known``
+(values bit for bit the same on every call, so the loop comes back to the same place). A row that would be polished (missing the target by more than ``POLISH_TO`` and less than
 ``POLISH_BELOW``) or a target whose rotation is not exact stops it with :data:`PYTHON`: the caller answers the
 pose the way it did before. Importing this module imports numba.
 """
@@ -188,8 +188,9 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
     crossing narrowed in at most ``rounds`` steps.
 
     Returns (status, runs (R, 3): branch, low, high in the order of the branches then of the runs, reached: some
-    branch reached the target at some value, the value and g (4, 4) its solved target where the loop stopped when
-    the status is not :data:`DONE`).
+    branch reached the target at some value, asked (k,) and their g (k, 4, 4): with status :data:`REFERENCE` the
+    values the numpy reference must answer (every such sample of the sweep at once, else those of the narrowing's
+    round where the loop stopped)).
     """
     # Over 80 lines: the sweep, the runs and the narrowing of every bracket, as redundant._intervals has them.
     samples = values.shape[0]
@@ -201,17 +202,26 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
     g = np.empty((4, 4))
     ok = np.zeros((samples, SLOTS), dtype=np.bool_)
     margin = np.empty((samples, SLOTS))
+    asked, asked_g = np.empty(samples), np.empty((samples, 4, 4))
+    count_asked = 0
     reached_any = False
     for i in range(samples):
         status, reached = _solve_value(kind, values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
                                        limits, settings, known_values, known_theta, known_valid, work, Q, ok_at,
                                        margin_at, g)
-        if status != DONE:
-            return status, np.empty((0, 3)), reached_any, values[i], g
+        if status == PYTHON:
+            return status, np.empty((0, 3)), reached_any, asked[:0], asked_g[:0]
+        if status == REFERENCE:  # every sample the reference must answer, asked at once
+            asked[count_asked] = values[i]
+            asked_g[count_asked] = g
+            count_asked += 1
+            continue
         reached_any = reached_any or reached
         for b in range(SLOTS):
             ok[i, b] = ok_at[b]
             margin[i, b] = margin_at[b]
+    if count_asked:
+        return REFERENCE, np.empty((0, 3)), reached_any, asked[:count_asked], asked_g[:count_asked]
     # runs of feasible samples: [branch, first sample, last sample]
     first = np.empty(SLOTS * samples, dtype=np.int64)
     last = np.empty(SLOTS * samples, dtype=np.int64)
@@ -230,65 +240,95 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
             count += 1
             i = j + 1
     runs = np.empty((count, 3))
-    parameter_tol, margin_tol = settings[2], settings[3]
+    # brackets: [run, end (0 low, 1 high)] and their outside, inside, margins there and the side kept last
+    run_of, end_of = np.empty(2 * count, dtype=np.int64), np.empty(2 * count, dtype=np.int64)
+    outside, inside = np.empty(2 * count), np.empty(2 * count)
+    g_out, g_in = np.empty(2 * count), np.empty(2 * count)
+    kept = np.zeros(2 * count, dtype=np.int64)
+    brackets = 0
     for r in range(count):
         b, i, j = branch[r], first[r], last[r]
         runs[r, 0], runs[r, 1], runs[r, 2] = b, values[i], values[j]
-        for end in range(2):
-            if (end == 0 and i == 0) or (end == 1 and j == samples - 1):
+        if i > 0:
+            run_of[brackets], end_of[brackets] = r, 0
+            outside[brackets], inside[brackets] = values[i - 1], values[i]
+            g_out[brackets], g_in[brackets] = margin[i - 1, b], margin[i, b]
+            brackets += 1
+        if j < samples - 1:
+            run_of[brackets], end_of[brackets] = r, 1
+            outside[brackets], inside[brackets] = values[j + 1], values[j]
+            g_out[brackets], g_in[brackets] = margin[j + 1, b], margin[j, b]
+            brackets += 1
+    parameter_tol, margin_tol = settings[2], settings[3]
+    asked = np.empty(max(brackets, 1))
+    asked_g = np.empty((max(brackets, 1), 4, 4))
+    for _ in range(rounds):  # every active bracket one step per round, as redundant._intervals' rounds
+        stepped = 0
+        for k in range(brackets):
+            if not (abs(outside[k] - inside[k]) > parameter_tol and not (g_in[k] <= margin_tol)):
                 continue
-            outside = values[i - 1] if end == 0 else values[j + 1]
-            inside = values[i] if end == 0 else values[j]
-            g_out = margin[i - 1, b] if end == 0 else margin[j + 1, b]
-            g_in = margin[i, b] if end == 0 else margin[j, b]
-            kept = 0
-            for _ in range(rounds):
-                if not (abs(outside - inside) > parameter_tol and not (g_in <= margin_tol)):
-                    break
-                if math.isfinite(g_out) and math.isfinite(g_in) and g_in > g_out:
-                    t = min(max(g_in / (g_in - g_out), 0.01), 0.99)  # false position, kept off the ends
-                    trial = inside + t * (outside - inside)
-                else:
-                    trial = 0.5 * (outside + inside)
-                # the bracket's own branch only: whether any branch reaches the target is known from the sweep (a
-                # bracket ends a run of feasible samples)
-                status, reached = _solve_value(kind, trial, b, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
-                                               limits, settings, known_values, known_theta, known_valid, work, Q,
-                                               ok_at, margin_at, g)
-                if status != DONE:
-                    return status, np.empty((0, 3)), reached_any, trial, g
-                reached_any = reached_any or reached
-                if ok_at[b]:
-                    inside, g_in = trial, margin_at[b]
-                    if kept == 1:  # the outside end kept twice running: halve its margin (Illinois)
-                        g_out *= 0.5
-                    kept = 1
-                else:
-                    outside, g_out = trial, margin_at[b]
-                    if kept == -1:
-                        g_in *= 0.5
-                    kept = -1
-            runs[r, 1 + end] = inside
-    return DONE, runs, reached_any, np.nan, g
+            stepped += 1
+            if math.isfinite(g_out[k]) and math.isfinite(g_in[k]) and g_in[k] > g_out[k]:
+                t = min(max(g_in[k] / (g_in[k] - g_out[k]), 0.01), 0.99)  # false position, kept off the ends
+                trial = inside[k] + t * (outside[k] - inside[k])
+            else:
+                trial = 0.5 * (outside[k] + inside[k])
+            b = branch[run_of[k]]
+            # the bracket's own branch only: whether any branch reaches the target is known from the sweep (a
+            # bracket ends a run of feasible samples)
+            status, reached = _solve_value(kind, trial, b, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+                                           limits, settings, known_values, known_theta, known_valid, work, Q, ok_at,
+                                           margin_at, g)
+            if status == PYTHON:
+                return status, np.empty((0, 3)), reached_any, asked[:0], asked_g[:0]
+            if status == REFERENCE:  # this round's hand-backs are asked together, at its end
+                asked[count_asked] = trial
+                asked_g[count_asked] = g
+                count_asked += 1
+                continue
+            reached_any = reached_any or reached
+            if ok_at[b]:
+                inside[k], g_in[k] = trial, margin_at[b]
+                if kept[k] == 1:  # the outside end kept twice running: halve its margin (Illinois)
+                    g_out[k] *= 0.5
+                kept[k] = 1
+            else:
+                outside[k], g_out[k] = trial, margin_at[b]
+                if kept[k] == -1:
+                    g_in[k] *= 0.5
+                kept[k] = -1
+        if count_asked:
+            return REFERENCE, np.empty((0, 3)), reached_any, asked[:count_asked], asked_g[:count_asked]
+        if stepped == 0:
+            break
+    for k in range(brackets):
+        runs[run_of[k], 1 + end_of[k]] = inside[k]
+    return DONE, runs, reached_any, asked[:0], asked_g[:0]
 
 
 @compile_kernel
 def sweep_rows(kind, values, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings, known_values,
                 known_theta, known_valid):
-    """Every branch at each of ``values``: (status, Q (k, 8, n), ok (k, 8), reached, value, g), stopping and handing
-    back as :func:`sweep_intervals` does."""
+    """Every branch at each of ``values``: (status, Q (k, 8, n), ok (k, 8), reached, asked, their g), handing back
+    every value the reference must answer at once as :func:`sweep_intervals`' sweep does."""
     n = limits.shape[1]
     work = _work(arm_ints, moving_ints)
     Q = np.empty((values.shape[0], SLOTS, n))
     ok = np.zeros((values.shape[0], SLOTS), dtype=np.bool_)
     margin = np.empty(SLOTS)
     g = np.empty((4, 4))
+    asked, asked_g = np.empty(values.shape[0]), np.empty((values.shape[0], 4, 4))
+    count = 0
     reached_any = False
     for i in range(values.shape[0]):
         status, reached = _solve_value(kind, values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
                                        limits, settings, known_values, known_theta, known_valid, work, Q[i], ok[i],
                                        margin, g)
-        if status != DONE:
-            return status, Q, ok, reached_any, values[i], g
+        if status == PYTHON:
+            return status, Q, ok, reached_any, asked[:0], asked_g[:0]
+        if status == REFERENCE:
+            asked[count] = values[i]
+            asked_g[count] = g
+            count += 1
         reached_any = reached_any or reached
-    return DONE, Q, ok, reached_any, np.nan, g
+    return DONE if count == 0 else REFERENCE, Q, ok, reached_any, asked[:count], asked_g[:count]
