@@ -727,7 +727,7 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
         if parameter is None:
             raise IKOptionError(f"the chain {base} -> {tip} has no redundancy parameter with a closed form "
                                 "(a 7R arm of revolute joints whose arm angle or one locked joint leaves a solved arm)")
-    from manipkit.spatial.transforms import check_transform, pose_residuals
+    from manipkit.spatial.transforms import check_transform, pose_residuals, projected_rotation
 
     T = np.array(check_transform(target), dtype=float)
     solver = _Solver(robot, T, base, tip, parameter, tol, family_tol, solvers)
@@ -752,8 +752,11 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
                 values.append(value)
     Q = np.array(rows, dtype=float).reshape(-1, 7)
     rest = None if q0 is None else robot.q(q0)
-    position, rotation = (pose_residuals(np.broadcast_to(T, (len(Q), 4, 4)), chain.fk(Q)) if len(Q)
-                          else (np.zeros(0), np.zeros(0)))
+    # the target's rotation projected once where it is not exact (pose_residuals' rule; FK poses are rotations)
+    reference = T.copy()
+    reference[:3, :3] = projected_rotation(T[:3, :3])
+    position, rotation = (pose_residuals(np.broadcast_to(reference, (len(Q), 4, 4)), chain.fk(Q), project=False)
+                          if len(Q) else (np.zeros(0), np.zeros(0)))
     score = scores(chain, Q, rank, checker=checker, q_rest=rest) if len(Q) else np.zeros(0)
     order = np.argsort(-score, kind="stable")
     whole = np.repeat(np.asarray(robot.q() if rest is None else rest, dtype=float)[None], len(Q), axis=0)

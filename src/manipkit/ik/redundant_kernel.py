@@ -75,17 +75,17 @@ def _product(A, B, out):
 
 
 @compile_kernel
-def _solve_value(kind, value, slot, T, arm_reals, arm_ints, moving_floats, moving_ints, column, limits, settings,
+def _solve_value(kind, value, slot, T, arm, arm_ints, moving_floats, moving_ints, column, limits, settings,
                  known_values, known_theta, known_valid, work, Q, ok, margin, g):
     """Every branch at ``value`` of the parameter (``kind``: :data:`LOCKED` or :data:`ARM_ANGLE`; ``slot`` >= 0:
-    that branch only, the others left out as not ok): ``Q`` (8, 7) chain vectors (NaN where none), ``ok`` (8,), ``margin`` (8,); returns (status, some branch
-    reached the target). ``g`` (4, 4) is the solved target (the one to hand to the reference when the status is
+    that branch only, the others left out as not ok; ``arm``: :func:`_arm`'s constants): ``Q`` (8, 7) chain vectors
+    (NaN where none), ``ok`` (8,), ``margin`` (8,); returns (status, some branch reached the target). ``g`` (4, 4) is the solved target (the one to hand to the reference when the status is
     :data:`REFERENCE`). A branch's row, check and margin are its own (the FK of each row is that row's alone), so
     one branch alone is what it is among all eight."""
     # Over 80 lines: one value's solve, chain rows, FK check and limit margins, in the reference's order.
-    _, H, P, points, _, M_inv, reverse, q0, columns, solved, _, floats, ints = arm_constants(arm_reals, arm_ints)
-    theta, valid, miss, rows, reached, states, moving_states, locked, present, scratch, wanted = work
-    one, inverse, target, solve = scratch[0:1], scratch[1], scratch[2], scratch[3]
+    H, P, points, M_inv, reverse, q0, columns, solved, floats, ints = arm
+    theta, valid, miss, rows, reached, states, moving_states, locked, present, scratch, wanted, views = work
+    one, inverse, target, solve = views
     if kind == ARM_ANGLE:  # the target itself, g = T M^-1 (srs_kernel's rows)
         for i in range(4):
             for j in range(4):
@@ -124,12 +124,13 @@ def _solve_value(kind, value, slot, T, arm_reals, arm_ints, moving_floats, movin
         for s in range(SLOTS):
             valid[s] = False
         if solve_srs_target(H, P, (points[1, 0], points[1, 1], points[1, 2]), (points[0, 0], points[0, 1], points[0, 2]),
-                            math.cos(value), math.sin(value), g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
+                            math.cos(value), math.sin(value), g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid,
+                            slot):
             return REFERENCE, False
     else:
         c = (points[0, 0], points[0, 1], points[0, 2])
         s_ = (points[1, 0], points[1, 1], points[1, 2])
-        if solve_target(H, P, c, s_, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid, miss):
+        if solve_target(H, P, c, s_, g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid, miss, slot):
             return REFERENCE, False
     for s in range(SLOTS):
         wanted[s] = valid[s] and (slot < 0 or s == slot)
@@ -173,12 +174,21 @@ def _solve_value(kind, value, slot, T, arm_reals, arm_ints, moving_floats, movin
 def _work(arm_ints, moving_ints):
     """Scratch of :func:`_solve_value`: theta (8, m), valid (8,), miss (3,), rows (8, m), reached (8, 4, 4), the 6R
     chain's and the locked joint's FK states, the locked joint's row (1, 1) and its mask (1,), four (4, 4), the rows
-    checked (8,)."""
+    checked (8,), and the four's views (made once: a view costs its reference counts on every call)."""
     m = arm_ints[2]
     steps = arm_ints[4 + m]  # the 6R chain's FK program: its first int is its joint steps
+    scratch = np.empty((4, 4, 4))
     return (np.empty((SLOTS, m)), np.zeros(SLOTS, dtype=np.bool_), np.zeros(3), np.empty((SLOTS, m)),
             np.empty((SLOTS, 4, 4)), np.empty((steps + 1, 4, 3)), np.empty((moving_ints[0] + 1, 4, 3)),
-            np.empty((1, 1)), np.ones(1, dtype=np.bool_), np.empty((4, 4, 4)), np.zeros(SLOTS, dtype=np.bool_))
+            np.empty((1, 1)), np.ones(1, dtype=np.bool_), scratch, np.zeros(SLOTS, dtype=np.bool_),
+            (scratch[0:1], scratch[1], scratch[2], scratch[3]))
+
+
+@compile_kernel
+def _arm(arm_reals, arm_ints):
+    """The constants :func:`_solve_value` reads, unpacked once per call of the loop (:func:`arm_constants`)."""
+    _, H, P, points, _, M_inv, reverse, q0, columns, solved, _, floats, ints = arm_constants(arm_reals, arm_ints)
+    return H, P, points, M_inv, reverse, q0, columns, solved, floats, ints
 
 
 @compile_kernel
@@ -196,6 +206,7 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
     samples = values.shape[0]
     n = limits.shape[1]
     work = _work(arm_ints, moving_ints)
+    arm = _arm(arm_reals, arm_ints)
     Q = np.empty((SLOTS, n))
     ok_at = np.zeros(SLOTS, dtype=np.bool_)
     margin_at = np.empty(SLOTS)
@@ -206,7 +217,7 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
     count_asked = 0
     reached_any = False
     for i in range(samples):
-        status, reached = _solve_value(kind, values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+        status, reached = _solve_value(kind, values[i], -1, T, arm, arm_ints, moving_floats, moving_ints, column,
                                        limits, settings, known_values, known_theta, known_valid, work, Q, ok_at,
                                        margin_at, g)
         if status == PYTHON:
@@ -276,7 +287,7 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
             b = branch[run_of[k]]
             # the bracket's own branch only: whether any branch reaches the target is known from the sweep (a
             # bracket ends a run of feasible samples)
-            status, reached = _solve_value(kind, trial, b, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+            status, reached = _solve_value(kind, trial, b, T, arm, arm_ints, moving_floats, moving_ints, column,
                                            limits, settings, known_values, known_theta, known_valid, work, Q, ok_at,
                                            margin_at, g)
             if status == PYTHON:
@@ -313,6 +324,7 @@ def sweep_rows(kind, values, T, arm_reals, arm_ints, moving_floats, moving_ints,
     every value the reference must answer at once as :func:`sweep_intervals`' sweep does."""
     n = limits.shape[1]
     work = _work(arm_ints, moving_ints)
+    arm = _arm(arm_reals, arm_ints)
     Q = np.empty((values.shape[0], SLOTS, n))
     ok = np.zeros((values.shape[0], SLOTS), dtype=np.bool_)
     margin = np.empty(SLOTS)
@@ -321,7 +333,7 @@ def sweep_rows(kind, values, T, arm_reals, arm_ints, moving_floats, moving_ints,
     count = 0
     reached_any = False
     for i in range(values.shape[0]):
-        status, reached = _solve_value(kind, values[i], -1, T, arm_reals, arm_ints, moving_floats, moving_ints, column,
+        status, reached = _solve_value(kind, values[i], -1, T, arm, arm_ints, moving_floats, moving_ints, column,
                                        limits, settings, known_values, known_theta, known_valid, work, Q[i], ok[i],
                                        margin, g)
         if status == PYTHON:
