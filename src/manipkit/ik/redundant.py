@@ -524,7 +524,7 @@ class _Compiled:
 
 def _pad(ok: np.ndarray, width: int) -> np.ndarray:
     """``ok`` (N, b) widened to (N, width) with False (branches first seen later)."""
-    return np.pad(ok, ((0, 0), (0, width - ok.shape[1])))
+    return ok if ok.shape[1] >= width else np.pad(ok, ((0, 0), (0, width - ok.shape[1])))
 
 
 def _sweep(lower: float, upper: float, step: float) -> tuple[np.ndarray, int]:
