@@ -28,11 +28,18 @@ The parameter (the rule of :func:`redundancy`):
   elimination's preparation is shared. A chain where neither qualifies gets
   no ranked set (numerical restarts answer, as before).
 
-The inner solve is always the dispatcher: :func:`manipkit.ik.dispatch.ik_many`
+The inner solve is the dispatcher's: :func:`manipkit.ik.dispatch.ik_many`
 (batched, one call per sweep or bisection round) for the SRS arm angle and
 for a locked end joint (solved as the 6R sub-chain it leaves, the target
-moved by the locked joint's transform), :func:`manipkit.ik.dispatch.ik` with
-``lock=`` per value for a locked joint in the middle.
+moved by the locked joint's transform, inverted as a rigid transform),
+:func:`manipkit.ik.dispatch.ik` with ``lock=`` per value for a locked joint
+in the middle. Where the dispatcher's batch answers each value by a compiled
+closed form (the SRS arm angle; an end joint locked over "spherical wrist,
+two intersecting": iiwa14, Panda, FR3; asked once per chain), the sweep, the
+narrowing and the chosen rows run instead in one compiled call per pose
+(:mod:`manipkit.ik.redundant_kernel`, the same closed forms, checks and rule;
+``ranked_set(..., compiled=False)`` keeps the rounds through the dispatcher,
+the reference).
 
 Branches are the closed form's branches (its slot labels, or its row labels
 per value), followed across the sweep by that label. The elimination names
@@ -462,27 +469,10 @@ class _Compiled:
         return (kind, arm, (*compiled_arm(sub, arm), *moving, column,
                             np.array([chain.lower, chain.upper], dtype=float)), tuple(probe.labels))
 
-    def _reference(self, g: np.ndarray, values: np.ndarray):
-        """The numpy reference's branches (theta (k, 8, m), valid (k, 8)) of solve targets ``g`` (k, 4, 4) at
-        ``values`` (k,)."""
-        from manipkit.ik.redundant_kernel import ARM_ANGLE
-
-        arm = self.arm
-        if self.kind == ARM_ANGLE:
-            from manipkit.closed_form.srs import solve_srs_many
-
-            branches = solve_srs_many(arm.h, arm.p, g, arm.points, values)
-        else:
-            from manipkit.closed_form.arms import solve_6r
-            from manipkit.ik.families import SPHERICAL_12
-
-            branches = solve_6r(SPHERICAL_12, arm.h, arm.p, g, arm.points)
-        return branches.theta, branches.valid
-
     def _run(self, kernel, *head):
         """``kernel(kind, *head, T, constants..., known...)`` until it answers: each target it hands back is solved
         by the numpy reference and added to the known answers; None when it says to answer the pose in Python."""
-        from manipkit.ik.redundant_kernel import DONE, PYTHON
+        from manipkit.ik.redundant_kernel import DONE, PYTHON, reference_branches
 
         T = np.ascontiguousarray(self.solver.T, dtype=float)
         for _ in range(HAND_BACKS):
@@ -492,7 +482,7 @@ class _Compiled:
                 return out
             if status == PYTHON:
                 return None
-            theta, valid = self._reference(np.array(g), np.array(asked))
+            theta, valid = reference_branches(self.kind, self.arm, np.array(g), np.array(asked))
             values, thetas, valids = self.known
             self.known = (np.concatenate([values, asked]), np.concatenate([thetas, np.nan_to_num(theta)]),
                           np.concatenate([valids, valid]))

@@ -1,28 +1,31 @@
-"""The sweep and narrowing of a 7R ranked set (:mod:`manipkit.ik.redundant`), compiled, for an end joint locked
-over a 6R arm "spherical wrist, two intersecting" (Panda, FR3): one call per pose.
+"""The sweep and narrowing of a 7R ranked set (:mod:`manipkit.ik.redundant`), compiled: one call per pose.
 
-What :mod:`manipkit.ik.redundant` does through the dispatcher round by round (``_Solver.solve`` over
-:func:`manipkit.ik.chain_ik.chain_ik_many`, then ``_intervals``), in one loop of machine code, with the same
-operations in the same order:
+Two kinds of parameter (:data:`LOCKED`, :data:`ARM_ANGLE`): an end joint locked over a 6R arm "spherical wrist,
+two intersecting" (Panda, FR3), and a 7R SRS arm's arm angle (iiwa14). What :mod:`manipkit.ik.redundant` does
+through the dispatcher round by round (``_Solver.solve`` over :func:`manipkit.ik.chain_ik.chain_ik_many`, then
+``_intervals``), in one loop of machine code, with the same operations in the same order:
 
 - at a value ``v`` of the locked joint, the 6R arm's target (``T A(v)^-1`` for the last joint, ``A(v)^-1 T`` for
-  the first; ``A`` by the locked joint's own FK program), solved as
+  the first; ``A`` by the locked joint's own FK program, inverted as a rigid transform), solved as
   :func:`~manipkit.ik.chain_ik.chain_ik_many` solves it: ``g = target M^-1`` (inverted for a family solved tip to
-  base), every branch by :func:`manipkit.closed_form.spherical12_kernel.solve_target`, each to a chain vector
-  (:func:`manipkit.closed_form.check_kernel.chain_row`: in-limit aliases nearest 0), checked by the 6R chain's FK
-  (:func:`~manipkit.closed_form.check_kernel.pose_rows`, :func:`~manipkit.closed_form.check_kernel.pose_residual`);
-  a branch is feasible where it exists, reaches the target within ``tol`` and lies inside every joint limit, and
-  its margin is its joints' least distance to a limit (rad; NaN where it does not reach);
+  base), every branch by :func:`manipkit.closed_form.spherical12_kernel.solve_target`; at an arm angle ``psi``,
+  ``g = T M^-1`` and every branch by :func:`manipkit.closed_form.srs_kernel.solve_srs_target` (as
+  ``srs_kernel``'s rows); each branch to a chain vector (:func:`manipkit.closed_form.check_kernel.chain_row`:
+  in-limit aliases nearest 0), checked by the chain's FK program (:func:`~manipkit.closed_form.check_kernel.pose_rows`,
+  :func:`~manipkit.closed_form.check_kernel.pose_residual`) against the target solved; a branch is feasible where
+  it exists, reaches the target within ``tol`` and lies inside every joint limit, and its margin is its joints'
+  least distance to a limit (rad; NaN where it does not reach);
 - the sweep over ``values``, the runs of feasible samples per branch, and each run's end bracketed and narrowed
   in rounds by the Illinois variant of false position on the margin, else bisection (``redundant._intervals``'
-  rule; a step at a bracket checks that bracket's branch only).
+  rule; a step at a bracket checks that bracket's branch only: each row's check is its own).
 
-The reference's hand-backs stay the reference's: a target the compiled closed form hands back (near a threshold)
-is handed back with status :data:`REFERENCE` and its ``g`` (the sweep's all at once, then a narrowing round's at its
-end); the caller solves them by the numpy reference and calls again with those answers among ``known``
-(values bit for bit the same on every call, so the loop comes back to the same place). A row that would be polished (missing the target by more than ``POLISH_TO`` and less than
-``POLISH_BELOW``) or a target whose rotation is not exact stops it with :data:`PYTHON`: the caller answers the
-pose the way it did before. Importing this module imports numba.
+The reference's hand-backs stay the reference's: the targets the compiled closed form hands back (near a
+threshold) come back with status :data:`REFERENCE`, their values and ``g`` (the sweep's all at once, then a
+narrowing round's at its end); the caller solves them by the numpy reference and calls again with those answers
+among ``known`` (the values are the same bits on every call, so the loop comes back to the same place). A row that
+would be polished (missing the target by more than ``POLISH_TO`` and less than ``POLISH_BELOW``) or a target whose
+rotation is not exact stops it with :data:`PYTHON`: the caller answers the pose the way it did before. Importing
+this module imports numba.
 """
 
 from __future__ import annotations
@@ -36,14 +39,14 @@ from manipkit.closed_form.spherical12_kernel import solve_target
 from manipkit.closed_form.srs_kernel import solve_srs_target
 from manipkit.closed_form.subproblems_kernel import compile_kernel, inlined_kernel
 
-__all__ = ["ARM_ANGLE", "DONE", "LOCKED", "PYTHON", "REFERENCE", "SLOTS", "sweep_intervals", "sweep_rows",
-           "pack_settings"]
+__all__ = ["ARM_ANGLE", "DONE", "LOCKED", "PYTHON", "REFERENCE", "SLOTS", "pack_settings", "reference_branches",
+           "sweep_intervals", "sweep_rows"]
 
 #: The parameter: an end joint locked over a 6R arm "spherical wrist, two intersecting"; a 7R SRS arm's arm angle.
 LOCKED, ARM_ANGLE = 0, 1
 #: Statuses of a call: answered; a target for the numpy reference (its ``g`` returned); answer the pose in Python.
 DONE, REFERENCE, PYTHON = 0, 1, 2
-#: Branches of the 6R closed form (its slots).
+#: Branches of the closed forms (their slots).
 SLOTS = 8
 
 
@@ -52,6 +55,21 @@ def pack_settings(tol: tuple[float, float], parameter_tol: float, margin_tol: fl
     """The numbers of the ranked set's rule as the loop reads them (the constants of :mod:`manipkit.ik.redundant`,
     given by it): residual tolerance (m, rad), bracket width, margin at a limit, limit slack, polish bounds."""
     return np.array([tol[0], tol[1], parameter_tol, margin_tol, limit_slack, polish_to, polish_below], dtype=float)
+
+
+def reference_branches(kind: int, arm, g: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The numpy reference's branches (theta (k, 8, m), valid (k, 8)) of the solve targets ``g`` (k, 4, 4) a call
+    handed back at ``values`` (k,): :func:`manipkit.closed_form.srs.solve_srs_many` at those arm angles, else
+    :func:`manipkit.closed_form.arms.solve_6r` of the 6R arm (``arm``: the ideal arm, ``ik.ideal_arm.IdealArm``)."""
+    if kind == ARM_ANGLE:
+        from manipkit.closed_form.srs import solve_srs_many
+
+        branches = solve_srs_many(arm.h, arm.p, g, arm.points, values)
+    else:
+        from manipkit.closed_form.arms import SPHERICAL_12, solve_6r
+
+        branches = solve_6r(SPHERICAL_12, arm.h, arm.p, g, arm.points)
+    return branches.theta, branches.valid
 
 
 @inlined_kernel
