@@ -410,7 +410,7 @@ class _Compiled:
     compiled closed form: a 7R SRS arm's arm angle, or an end joint locked over a 6R arm "spherical wrist, two
     intersecting". :meth:`of` gives it for a solver where it applies."""
 
-    #: (id of the 7R chain, family_tol) -> (chain, (kind, ideal arm, constants, slot labels) or None)
+    #: (id of the 7R chain, family_tol, parameter) -> (chain, (kind, ideal arm, constants, slot labels) or None)
     _PREPARED: dict = {}
 
     def __init__(self, solver: _Solver, prepared: tuple):
@@ -425,7 +425,7 @@ class _Compiled:
     @classmethod
     def of(cls, solver: _Solver) -> _Compiled | None:
         """The compiled path for ``solver``, or None (asked once per chain, by one target through ``ik_many``)."""
-        key = (id(solver.chain), repr(solver.family_tol))
+        key = (id(solver.chain), repr(solver.family_tol), solver.parameter)
         cached = cls._PREPARED.get(key)
         if cached is None or cached[0] is not solver.chain:
             if len(cls._PREPARED) >= 64:
