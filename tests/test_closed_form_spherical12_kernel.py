@@ -3,22 +3,19 @@ reference's answers (arms.solve_6r), and the Panda's ranked set built on it is t
 
 The 6R arm is the Panda's with its last joint locked, solved at every value of its ranked set's sweep and
 narrowing. Compared with the reference: the valid slots, their angles (modulo 2 pi, to 1e-9 rad), the misses and
-which targets are handed back; then the whole ranked set of 200 random Panda poses with the compiled path against
-the same set with the reference alone (``solve_branches(..., compiled=False)``): the same scores in the same
-order, rows, labels and parameter values to 1e-9 (rows of one score, to rounding, in either order), the same
-intervals, every row landing by Pinocchio's own FK to 1e-10.
+which targets are handed back. The whole ranked set built on it (compiled with its sweep: ik.redundant_kernel) is
+compared with the reference alone in tests/test_ik_redundant_kernel.py.
 """
 
-import math
-
 import numpy as np
-import pinocchio as pin
 import pytest
 
 import manipkit
 import manipkit.ik.chain_ik as chain_ik_module
 from manipkit.closed_form.arms import SPHERICAL_12, solve_6r
 from manipkit.closed_form.spherical12_kernel import solve_spherical_12_many
+from manipkit.ik.dispatch import ik, ik_many
+from manipkit.ik.redundant import ranked_set
 
 POSES = 200
 
@@ -29,23 +26,9 @@ def panda():
     return robot, robot.chain("base_link", "ee_link")
 
 
-def pinocchio_pose(robot, q):
-    """T_base_link_ee_link by Pinocchio itself (forwardKinematics + updateFramePlacements)."""
-    model, data = robot.model, robot.model.createData()
-    pin.forwardKinematics(model, data, robot.pinocchio_configuration(q))
-    pin.updateFramePlacements(model, data)
-    placement = lambda name: data.oMf[model.getFrameId(robot.frame(name))].homogeneous  # noqa: E731
-    return np.linalg.inv(placement("base_link")) @ placement("ee_link")
-
-
-def pose_error(A, B):
-    R = A[:3, :3].T @ B[:3, :3]
-    sine = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    return max(float(np.linalg.norm(A[:3, 3] - B[:3, 3])), float(math.atan2(sine, (np.trace(R) - 1.0) / 2.0)))
-
-
 def swept_calls(robot, targets):
-    """Every (arm, g) the ranked sets of ``targets`` hand to the closed form (the sweep and the narrowing)."""
+    """Every (arm, g) the ranked sets of ``targets`` hand to the closed form (the sweep and the narrowing, through
+    the dispatcher: ``ranked_set(..., compiled=False)``)."""
     calls = []
     original = chain_ik_module.solve_branches
 
@@ -56,7 +39,7 @@ def swept_calls(robot, targets):
     chain_ik_module.solve_branches = recording
     try:
         for T in targets:
-            manipkit.ik(robot, T, all=True)
+            ranked_set(robot, T, "base_link", "ee_link", solvers=(ik, ik_many), compiled=False)
     finally:
         chain_ik_module.solve_branches = original
     return calls
@@ -103,50 +86,3 @@ def test_a_batch_reports_each_targets_own_reach_miss():
     _, valid, miss, fallback = solve_spherical_12_many(h, p, points["wrist"], points["shoulder"], g)
     assert not fallback.any() and not valid.any()
     np.testing.assert_allclose(miss["reach"], alone, atol=1e-12)
-
-
-def tie_groups(scores, tol=1e-9):
-    """Index groups of consecutive ``scores`` (best first) within ``tol`` of the group's first."""
-    groups = []
-    for i, score in enumerate(scores):
-        if groups and abs(scores[groups[-1][0]] - score) <= tol:
-            groups[-1].append(i)
-        else:
-            groups.append([i])
-    return [tuple(g) for g in groups]
-
-
-def test_the_pandas_ranked_sets_are_the_references_on_random_poses(panda):
-    robot, chain = panda
-    targets = chain.fk(chain.sample(POSES, seed=36))
-    compiled = [manipkit.ik(robot, T, all=True) for T in targets]
-    original = chain_ik_module.solve_branches
-    chain_ik_module.solve_branches = lambda arm, g, *, compiled=True: original(arm, g, compiled=False)
-    try:
-        reference = [manipkit.ik(robot, T, all=True) for T in targets]
-    finally:
-        chain_ik_module.solve_branches = original
-    rows = 0
-    for T, new, old in zip(targets, compiled, reference):
-        assert new.ranked_by == old.ranked_by
-        assert len(new.solutions) == len(old.solutions)
-        np.testing.assert_allclose(new.scores, old.scores, rtol=0, atol=1e-9)
-        # rows of one score (a wrist flip leaves the joint nearest its limit where it was: the same score to
-        # rounding) are ranked in either order; each such group holds the same rows, labels and values
-        for group in tie_groups(old.scores):
-            assert sorted(new.labels[i] for i in group) == sorted(old.labels[i] for i in group)
-            matched = [min(group, key=lambda j: (new.labels[j] != old.labels[i],
-                                                 abs(new.parameter_values[j] - old.parameter_values[i])))
-                       for i in group]
-            assert sorted(matched) == list(group)
-            for i, j in zip(group, matched):
-                assert new.labels[j] == old.labels[i]
-                np.testing.assert_allclose(new.solutions[j], old.solutions[i], rtol=0, atol=1e-9)
-                assert abs(new.parameter_values[j] - old.parameter_values[i]) <= 1e-9
-        assert [i[0] for i in new.intervals] == [i[0] for i in old.intervals]
-        np.testing.assert_allclose([i[1:] for i in new.intervals], [i[1:] for i in old.intervals], rtol=0,
-                                   atol=1e-9)
-        for q in new.solutions:
-            assert pose_error(pinocchio_pose(robot, q), T) <= 1e-10
-        rows += len(new.solutions)
-    assert rows >= 16 * POSES // 2

@@ -38,7 +38,7 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["solve_spherical_12_many", "warm_up"]
+__all__ = ["solve_spherical_12_many", "solve_target", "warm_up"]
 
 #: A subproblem-2 pair missing by more (relative to its vector's length) is left to the reference, which accepts up
 #: to sqrt(1e-12) = 1e-6: every pair kept here is far inside that.
@@ -53,9 +53,11 @@ def _back(h0, h1, h2, c1, s1, c2, s2, c3, s3, x):
 
 
 @compile_kernel
-def _target(H, P, c, s, R, t, theta, valid, miss):
+def solve_target(H, P, c, s, R, t, theta, valid, miss, wanted):
     """One target ``g = (R, t)`` into theta (8, 6), valid (8,) and miss (3,): the reference's misses (shoulder and
-    reach in m, orientation 1 or 0) where no branch exists, else 0; True when the reference must answer it."""
+    reach in m, orientation 1 or 0) where no branch exists, else 0; True when the reference must answer it.
+    ``wanted`` >= 0: only that slot's angles are written (every slot is still solved and decided, so ``valid``,
+    ``miss`` and the answer are the same; the other slots' angles are left out)."""
     # Over 80 lines: the whole sequence of one target, kept in one place so the slots read as the reference's.
     h0, h1, h2, h3, h4, h5 = row(H, 0), row(H, 1), row(H, 2), row(H, 3), row(H, 4), row(H, 5)
     p2 = row(P, 2)
@@ -114,14 +116,16 @@ def _target(H, P, c, s, R, t, theta, valid, miss):
                 turned = rotate(h4, c5, -s5, rotate(h3, c4, s4, rv))
                 c6, s6, _, _ = sp1(h5, v, turned)
                 slot = 4 * a + 2 * e + b
+                valid[slot] = True
+                any_valid = True
+                if wanted >= 0 and slot != wanted:
+                    continue
                 theta[slot, 0] = atan2(-sq, cq)
                 theta[slot, 1] = atan2(s2, c2)
                 theta[slot, 2] = atan2(s3, c3)
                 theta[slot, 3] = atan2(-s4, c4)
                 theta[slot, 4] = atan2(s5, c5)
                 theta[slot, 5] = atan2(s6, c6)
-                valid[slot] = True
-                any_valid = True
     if not any_valid:
         if arm_any:
             miss[2] = 1.0  # the arm is solved and the wrist rotation is not reached
@@ -132,10 +136,10 @@ def _target(H, P, c, s, R, t, theta, valid, miss):
 
 @compile_kernel
 def _solve_all(H, P, c, s, G, theta, valid, miss, fallback):
-    """Every target ``G[i]`` by :func:`_target`: theta (N, 8, 6), valid (N, 8), miss (N, 3), fallback (N,)."""
+    """Every target ``G[i]`` by :func:`solve_target`: theta (N, 8, 6), valid (N, 8), miss (N, 3), fallback (N,)."""
     for i in range(G.shape[0]):
-        fallback[i] = _target(H, P, c, s, G[i, :3, :3], (G[i, 0, 3], G[i, 1, 3], G[i, 2, 3]), theta[i], valid[i],
-                              miss[i])
+        fallback[i] = solve_target(H, P, c, s, G[i, :3, :3], (G[i, 0, 3], G[i, 1, 3], G[i, 2, 3]), theta[i], valid[i],
+                              miss[i], -1)
 
 
 def solve_spherical_12_many(h: np.ndarray, p: np.ndarray, wrist: np.ndarray, shoulder: np.ndarray, g: np.ndarray

@@ -51,7 +51,7 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["solve_check_srs", "solve_srs_rows_into"]
+__all__ = ["solve_check_srs", "solve_srs_rows_into", "solve_srs_target"]
 
 PAIR_MISS = 1e-10  # a subproblem-2 pair missing by more is left to the reference (it accepts up to sqrt(1e-12))
 
@@ -70,9 +70,10 @@ def _shoulder(v, pc, ps, h0, c1, s1, h1, ca, sa, x):
 
 
 @compile_kernel
-def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
+def solve_srs_target(H, P, S, c, pc, ps, R, t, theta, valid, wanted):
     """One target (``R``, ``t`` of ``g``) at the arm angle (cos ``pc``, sin ``ps``) into theta (8, 7), valid (8,);
-    True when the reference must decide."""
+    True when the reference must decide. ``wanted`` >= 0: only that slot's angles are written (every slot is
+    still solved and decided, so ``valid`` and the answer are the same; the other slots' angles are left out)."""
     # Over 80 lines: the reference's elbow, shoulder and wrist stages and their slots, in its order.
     h0, h1, h2, h3, h4, h5, h6 = row(H, 0), row(H, 1), row(H, 2), row(H, 3), row(H, 4), row(H, 5), row(H, 6)
     p3 = row(P, 3)
@@ -128,10 +129,12 @@ def _srs_target(H, P, S, c, pc, ps, R, t, theta, valid):
                     return True
                 c7, s7, _, _ = sp1(h6, v6, rotate(h5, c6, -s6, rotate(h4, cw, sw, rv)))
                 slot = 4 * e + 2 * s + w
+                valid[slot] = True
+                if wanted >= 0 and slot != wanted:
+                    continue
                 theta[slot, 0], theta[slot, 1], theta[slot, 2] = atan2(-sm, cm), atan2(s2, c2), atan2(s3, c3)
                 theta[slot, 3], theta[slot, 4] = atan2(s4, c4), atan2(-sw, cw)
                 theta[slot, 5], theta[slot, 6] = atan2(s6, c6), atan2(s7, c7)
-                valid[slot] = True
     return False
 
 
@@ -150,8 +153,8 @@ def _srs_check_one(arm_reals, arm_ints, T, psi, position_tol, rotation_tol):
     for i in range(4):  # g = T M^-1
         for j in range(4):
             g[i, j] = T[i, 0] * M_inv[0, j] + T[i, 1] * M_inv[1, j] + T[i, 2] * M_inv[2, j] + T[i, 3] * M_inv[3, j]
-    if not plain_target(T) or _srs_target(H, P, row(points, 1), row(points, 0), math.cos(psi), math.sin(psi),
-                                          g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid):
+    if not plain_target(T) or solve_srs_target(H, P, row(points, 1), row(points, 0), math.cos(psi), math.sin(psi),
+                                          g[:3, :3], (g[0, 3], g[1, 3], g[2, 3]), theta, valid, -1):
         return np.empty((0, n + 2)), np.empty(0, dtype=np.bool_), 0
     for k in range(theta.shape[0]):
         if valid[k]:
@@ -192,8 +195,8 @@ def _srs_rows_all(arm_reals, arm_ints, T, arm_angles, valid, fallback, project, 
             valid_k[k] = False
         project[t] = not exact_rotation(T[t])
         angle = arm_angles[t]
-        fallback[t] = _srs_target(H, P, S, c, math.cos(angle), math.sin(angle), g[:3, :3],
-                                  (g[0, 3], g[1, 3], g[2, 3]), theta, valid_k)
+        fallback[t] = solve_srs_target(H, P, S, c, math.cos(angle), math.sin(angle), g[:3, :3],
+                                  (g[0, 3], g[1, 3], g[2, 3]), theta, valid_k, -1)
         for k in range(8):
             valid[t, k] = valid_k[k]
             made = valid_k[k] and not fallback[t]

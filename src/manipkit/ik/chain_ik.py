@@ -62,7 +62,7 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "single_solver", "solve_branches",
+__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "single_solver", "slot_labels", "solve_branches",
            "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
@@ -511,6 +511,13 @@ def _unmet(branches: Branches, rejected: int) -> tuple[tuple, str]:
     return (), f"every branch missed the target by more than check_tol ({rejected} dropped)"
 
 
+def slot_labels(family: Family) -> tuple[str, ...]:
+    """The names of :func:`chain_ik_many`'s 8 slots, slot ``4 a + 2 b + c`` first choice ``a``: ``"shoulder a,
+    elbow b, wrist a"`` (a 7R SRS arm: ``"elbow a, shoulder b, wrist a"``)."""
+    words = ("elbow", "shoulder", "wrist") if family.kind == SRS else ("shoulder", "elbow", "wrist")
+    return tuple(f"{words[0]} {a}, {words[1]} {b}, {words[2]} {c}" for a in "ab" for b in "ab" for c in "ab")
+
+
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,
                   lock=None, arm_angle=None, compiled: bool = True, threads: int | None = None) -> IKBatch:
     """Every branch for many targets ``(N, 4, 4)`` at once (compiled): an :class:`IKBatch` of 8 slots.
@@ -536,8 +543,7 @@ def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FA
     T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     srs = family.kind == SRS
     psi = arm_angles(arm_angle, len(T)) if srs else None  # ClosedFormIKError: none given, or not one per target
-    words = (("elbow", "shoulder", "wrist") if srs else ("shoulder", "elbow", "wrist"))
-    slots = tuple(f"{words[0]} {a}, {words[1]} {b}, {words[2]} {c}" for a in "ab" for b in "ab" for c in "ab")
+    slots = slot_labels(family)
     solver = f"ik.chain_ik_many ({family.kind})"
     if compiled and (family.kind in (UR, OPW) or (srs and not family.reversed)):
         from manipkit.ik.chain_batch import checked_many

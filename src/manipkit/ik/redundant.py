@@ -28,11 +28,18 @@ The parameter (the rule of :func:`redundancy`):
   elimination's preparation is shared. A chain where neither qualifies gets
   no ranked set (numerical restarts answer, as before).
 
-The inner solve is always the dispatcher: :func:`manipkit.ik.dispatch.ik_many`
+The inner solve is the dispatcher's: :func:`manipkit.ik.dispatch.ik_many`
 (batched, one call per sweep or bisection round) for the SRS arm angle and
 for a locked end joint (solved as the 6R sub-chain it leaves, the target
-moved by the locked joint's transform), :func:`manipkit.ik.dispatch.ik` with
-``lock=`` per value for a locked joint in the middle.
+moved by the locked joint's transform, inverted as a rigid transform),
+:func:`manipkit.ik.dispatch.ik` with ``lock=`` per value for a locked joint
+in the middle. Where the dispatcher's batch answers each value by a compiled
+closed form (the SRS arm angle; an end joint locked over "spherical wrist,
+two intersecting": iiwa14, Panda, FR3; asked once per chain), the sweep, the
+narrowing and the chosen rows run instead in one compiled call per pose
+(:mod:`manipkit.ik.redundant_kernel`, the same closed forms, checks and rule;
+``ranked_set(..., compiled=False)`` keeps the rounds through the dispatcher,
+the reference).
 
 Branches are the closed form's branches (its slot labels, or its row labels
 per value), followed across the sweep by that label. The elimination names
@@ -85,6 +92,7 @@ from manipkit.errors import IKOptionError
 from manipkit.ik.families import FAMILY_TOL, SRS, chain_family
 from manipkit.ik.general6r import ALGEBRAIC, GENERAL_6R, general_solves, locked_geometry
 from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult
+from manipkit.spatial.transforms import invert_transform
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -111,6 +119,10 @@ _INSET = 0.01  # the spread's ends, as a fraction of an interval inside it
 POLISH_BELOW = 1e-3
 POLISH_TO = 1e-12  # (m, rad) what the polish aims at (the closed forms' own rows are near 1e-15)
 POLISH_STEPS = 8
+#: The compiled sweep's calls per pose at most (each after the numpy reference answered what it handed back: the
+#: sweep's at once, then a narrowing round's; at most 20 rounds narrow a step of SWEEP_STEP to PARAMETER_TOL);
+#: beyond, the pose is answered through the dispatcher round by round.
+HAND_BACKS = 32
 
 
 @dataclass(frozen=True)
@@ -300,7 +312,8 @@ class _Solver:
         elif self.sub is not None:
             sub_base, sub_tip, moving = self.sub
             A = moving.fk(values[:, None])
-            targets = self.T @ np.linalg.inv(A) if self.parameter.column == 6 else np.linalg.inv(A) @ self.T
+            inverse = invert_transform(A, check=False)  # A is an FK pose: rigid
+            targets = self.T @ inverse if self.parameter.column == 6 else inverse @ self.T
             batch = ik_many(self.robot, targets, base=sub_base, tip=sub_tip, tol=self.tol,
                             family_tol=self.family_tol)
             if batch.method != "closed_form":  # a solver of the 6R arm that ik answers and ik_many does not batch
@@ -391,9 +404,123 @@ class _Solver:
         return out
 
 
+class _Compiled:
+    """The sweep, narrowing and rows of a pose in one compiled call (:mod:`manipkit.ik.redundant_kernel`; the same
+    answers as :class:`_Solver` and :func:`_intervals`, tested) where the dispatcher's batch answers each value by a
+    compiled closed form: a 7R SRS arm's arm angle, or an end joint locked over a 6R arm "spherical wrist, two
+    intersecting". :meth:`of` gives it for a solver where it applies."""
+
+    #: (id of the 7R chain, family_tol, parameter) -> (chain, (kind, ideal arm, constants, slot labels) or None)
+    _PREPARED: dict = {}
+
+    def __init__(self, solver: _Solver, prepared: tuple):
+        from manipkit.ik.redundant_kernel import pack_settings
+
+        self.solver = solver
+        self.kind, self.arm, self.constants, _ = prepared
+        self.settings = pack_settings(solver.tol, PARAMETER_TOL, MARGIN_TOL, LIMIT_SLACK, POLISH_TO, POLISH_BELOW)
+        m = len(self.arm.h)
+        self.known = (np.zeros(0), np.zeros((0, 8, m)), np.zeros((0, 8), dtype=bool))
+
+    @classmethod
+    def of(cls, solver: _Solver) -> _Compiled | None:
+        """The compiled path for ``solver``, or None (asked once per chain, by one target through ``ik_many``)."""
+        key = (id(solver.chain), repr(solver.family_tol), solver.parameter)
+        cached = cls._PREPARED.get(key)
+        if cached is None or cached[0] is not solver.chain:
+            if len(cls._PREPARED) >= 64:
+                cls._PREPARED.clear()
+            cached = cls._PREPARED[key] = (solver.chain, cls._prepared(solver))
+        if cached[1] is None:
+            return None
+        if not solver.labels:
+            solver.labels = list(cached[1][3])
+        return cls(solver, cached[1])
+
+    @staticmethod
+    def _prepared(solver: _Solver) -> tuple | None:
+        """(kind, ideal arm, the kernel's constants, slot labels) of the solver's chain, or None."""
+        from manipkit.ik.chain_ik import slot_labels
+        from manipkit.ik.families import SPHERICAL_12
+        from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
+        from manipkit.ik.redundant_kernel import ARM_ANGLE, LOCKED
+
+        parameter, chain = solver.parameter, solver.chain
+        if parameter.kind == "arm_angle":
+            kind, sub, frames, arm_angle = ARM_ANGLE, chain, (solver.base, solver.tip), [0.0]
+            moving = (np.zeros(0), np.zeros(1, dtype=np.int64))  # no locked joint: an empty FK program
+            column = -1
+        elif solver.sub is not None and solver.tracks is None:
+            kind, frames, arm_angle = LOCKED, solver.sub[:2], None
+            sub = solver.robot.chain(*frames)
+            moving, column = solver.sub[2].program.row_tables, int(parameter.column)
+        else:
+            return None
+        family = chain_family(sub, tol=solver.family_tol)
+        wanted = SRS if kind == ARM_ANGLE else SPHERICAL_12
+        if family.kind != wanted or family.snap or (kind == ARM_ANGLE and family.reversed):
+            return None
+        probe = solver.ik_many(solver.robot, sub.fk(np.zeros((1, sub.n))), base=frames[0], tip=frames[1],
+                               tol=solver.tol, family_tol=solver.family_tol, arm_angle=arm_angle)
+        if probe.method != "closed_form" or probe.solver != f"ik.chain_ik_many ({wanted})" or \
+                tuple(probe.labels) != slot_labels(family):
+            return None
+        arm = ideal_arm(family)
+        return (kind, arm, (*compiled_arm(sub, arm), *moving, column,
+                            np.array([chain.lower, chain.upper], dtype=float)), tuple(probe.labels))
+
+    def _run(self, kernel, *head):
+        """``kernel(kind, *head, T, constants..., known...)`` until it answers: each target it hands back is solved
+        by the numpy reference and added to the known answers; None when it says to answer the pose in Python."""
+        from manipkit.ik.redundant_kernel import DONE, PYTHON, reference_branches
+
+        T = np.ascontiguousarray(self.solver.T, dtype=float)
+        for _ in range(HAND_BACKS):
+            out = kernel(self.kind, *head, T, *self.constants, self.settings, *self.known)
+            status, asked, g = out[0], out[-2], out[-1]
+            if status == DONE:
+                return out
+            if status == PYTHON:
+                return None
+            theta, valid = reference_branches(self.kind, self.arm, np.array(g), np.array(asked))
+            values, thetas, valids = self.known
+            self.known = (np.concatenate([values, asked]), np.concatenate([thetas, np.nan_to_num(theta)]),
+                          np.concatenate([valids, valid]))
+        return None
+
+    def intervals(self, lower: float, upper: float, step: float) -> list[tuple[int, float, float]] | None:
+        """:func:`_intervals` of the solver's pose (None: answer it in Python)."""
+        from manipkit.ik.redundant_kernel import sweep_intervals
+
+        values, rounds = _sweep(lower, upper, step)
+        out = self._run(sweep_intervals, values, rounds)
+        if out is None:
+            return None
+        _, runs, reached, _, _ = out
+        self.solver.reached_any = self.solver.reached_any or bool(reached)
+        return [(int(b), float(low), float(high)) for b, low, high in sorted(runs.tolist(), key=lambda r: (r[0], r[1]))]
+
+    def rows(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, None] | None:
+        """``(Q, ok, None)`` of :meth:`_Solver.solve` at ``values`` (None: answer them in Python)."""
+        from manipkit.ik.redundant_kernel import sweep_rows
+
+        out = self._run(sweep_rows, np.ascontiguousarray(values, dtype=float))
+        if out is None:
+            return None
+        _, Q, ok, reached, _, _ = out
+        self.solver.reached_any = self.solver.reached_any or bool(reached)
+        return Q, ok, None
+
+
 def _pad(ok: np.ndarray, width: int) -> np.ndarray:
     """``ok`` (N, b) widened to (N, width) with False (branches first seen later)."""
-    return np.pad(ok, ((0, 0), (0, width - ok.shape[1])))
+    return ok if ok.shape[1] >= width else np.pad(ok, ((0, 0), (0, width - ok.shape[1])))
+
+
+def _sweep(lower: float, upper: float, step: float) -> tuple[np.ndarray, int]:
+    """(the sweep's values, both ends included, at steps of at most ``step``; the narrowing's most rounds)."""
+    samples = max(2, math.ceil((upper - lower) / step) + 1)
+    return np.linspace(lower, upper, samples), max(0, math.ceil(math.log2(max(step, 1e-300) / PARAMETER_TOL)))
 
 
 def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list[tuple[int, float, float]]:
@@ -405,8 +532,8 @@ def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list
     until the bracket is narrower than :data:`PARAMETER_TOL` or the feasible end lies within :data:`MARGIN_TOL`
     of a limit.
     """
-    samples = max(2, math.ceil((upper - lower) / step) + 1)
-    values = np.linspace(lower, upper, samples)
+    values, rounds = _sweep(lower, upper, step)
+    samples = len(values)
     _, ok, margin = solver.solve(values)
     B = ok.shape[1]
     runs = []  # [branch, first sample, last sample, low, high]
@@ -428,7 +555,7 @@ def _intervals(solver: _Solver, lower: float, upper: float, step: float) -> list
             brackets.append([r, 0, values[i - 1], values[i], margin[i - 1, b], margin[i, b], 0])
         if j < samples - 1:
             brackets.append([r, 1, values[j + 1], values[j], margin[j + 1, b], margin[j, b], 0])
-    for _ in range(max(0, math.ceil(math.log2(max(step, 1e-300) / PARAMETER_TOL)))):
+    for _ in range(rounds):
         active = [k for k, (_, _, out, inn, _, g_in, _) in enumerate(brackets)
                   if abs(out - inn) > PARAMETER_TOL and not (g_in <= MARGIN_TOL)]
         if not active:
@@ -532,7 +659,7 @@ def check_options(count, rank) -> tuple[int, str]:
 
 def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter: Redundancy | None = None,
                count=None, rank=None, tol=1e-9, family_tol=FAMILY_TOL, step: float = SWEEP_STEP, q0=None,
-               checker=None, drop_collisions: bool = False) -> IKResult:
+               checker=None, drop_collisions: bool = False, compiled: bool = True) -> IKResult:
     """``count`` solutions of the 7R chain ``base -> tip`` for ``target`` (T_base_tip, 4x4, m) spread across its
     self-motion and ranked (the module docstring: parameter, intervals, spread, criteria).
 
@@ -559,6 +686,10 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
         Values of the joints off the chain (rows are whole-robot vectors).
     checker : CollisionChecker, optional
         Marks ``collides`` and ``clearance`` per row; ``drop_collisions`` keeps the collision-free rows only.
+    compiled : bool
+        A locked end joint over a 6R arm "spherical wrist, two intersecting" (Panda, FR3): the sweep, narrowing and
+        rows in one compiled call per pose (:mod:`manipkit.ik.redundant_kernel`); False: through the dispatcher
+        round by round (the reference; the same answers, tested).
 
     Returns
     -------
@@ -586,17 +717,23 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
         if parameter is None:
             raise IKOptionError(f"the chain {base} -> {tip} has no redundancy parameter with a closed form "
                                 "(a 7R arm of revolute joints whose arm angle or one locked joint leaves a solved arm)")
-    from manipkit.spatial.transforms import check_transform, pose_residuals
+    from manipkit.spatial.transforms import check_transform, pose_residuals, projected_rotation
 
     T = np.array(check_transform(target), dtype=float)
     solver = _Solver(robot, T, base, tip, parameter, tol, family_tol, solvers)
     chain = solver.chain
-    found = _intervals(solver, parameter.lower, parameter.upper, float(step))
+    fast = _Compiled.of(solver) if compiled else None
+    found = None if fast is None else fast.intervals(parameter.lower, parameter.upper, float(step))
+    if found is None:
+        fast = None
+        found = _intervals(solver, parameter.lower, parameter.upper, float(step))
     chosen = _spread(found, count)
     labels_all = list(solver.labels)
     rows, labels, values = [], [], []
     if chosen:
-        Q, ok, _ = solver.solve(np.array([v for _, v in chosen]))
+        at = np.array([v for _, v in chosen])
+        answered = None if fast is None else fast.rows(at)
+        Q, ok, _ = solver.solve(at) if answered is None else answered
         ok = _pad(ok, len(solver.labels))
         for k, (branch, value) in enumerate(chosen):
             if branch < Q.shape[1] and ok[k, branch]:
@@ -605,11 +742,15 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
                 values.append(value)
     Q = np.array(rows, dtype=float).reshape(-1, 7)
     rest = None if q0 is None else robot.q(q0)
-    position, rotation = (pose_residuals(np.broadcast_to(T, (len(Q), 4, 4)), chain.fk(Q)) if len(Q)
-                          else (np.zeros(0), np.zeros(0)))
+    # the target's rotation projected once where it is not exact (pose_residuals' rule; FK poses are rotations)
+    reference = T.copy()
+    reference[:3, :3] = projected_rotation(T[:3, :3])
+    position, rotation = (pose_residuals(np.broadcast_to(reference, (len(Q), 4, 4)), chain.fk(Q), project=False)
+                          if len(Q) else (np.zeros(0), np.zeros(0)))
     score = scores(chain, Q, rank, checker=checker, q_rest=rest) if len(Q) else np.zeros(0)
     order = np.argsort(-score, kind="stable")
-    whole = np.array([chain.full(q, rest) for q in Q[order]]).reshape(-1, len(robot.joint_names))
+    whole = np.repeat(np.asarray(robot.q() if rest is None else rest, dtype=float)[None], len(Q), axis=0)
+    whole[:, chain.columns] = Q[order]  # chain.full of each row (its rows are checked finite)
     intervals = tuple((labels_all[b], low, high) for b, low, high in found)
     spans = sum(high - low for _, low, high in found)
     note = (f"{len(Q)} solution(s) across the self-motion of {parameter.label}, spread over {len(found)} feasible "
