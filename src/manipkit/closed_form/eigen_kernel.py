@@ -304,7 +304,7 @@ def null_vector(L, out):
                     L[i, j] -= f * L[c, j]
     for i in range(n):
         out[i] = 1.0 + 0.0j
-    for sweep in range(2):
+    for _sweep in range(2):
         for c in range(n):  # the row swaps, then L y = b, then U x = y
             if piv[c] != c:
                 out[c], out[piv[c]] = out[piv[c]], out[c]

@@ -57,7 +57,8 @@ import numpy as np
 
 from manipkit.errors import ClosedFormIKError
 
-__all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_way"]
+__all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_targets",
+           "solve_way"]
 
 TWO_PI = 2.0 * math.pi
 _EYE3 = np.eye(3)
@@ -281,13 +282,16 @@ def _pencil(K: np.ndarray, eigen: int, multiplied: int) -> np.ndarray:
 
 
 def _conditioning(M: np.ndarray) -> float:
-    """How far the matrix polynomial is from singular: sigma_min / sigma_max at a value of its variable (no root
-    there but by coincidence)."""
-    worst = np.inf
-    for x in (_PROBE,):
-        s = np.linalg.svd(M[0] + x * M[1] + x * x * M[2], compute_uv=False)
-        worst = min(worst, s[-1] / s[0])
-    return float(worst)
+    """How far the matrix polynomial is from singular: the reciprocal condition number in the 1-norm,
+    ``1 / (|L|_1 |L^-1|_1)``, of ``L = M(x)`` at a value of its variable (no root there but by coincidence); 0 when
+    ``L`` is exactly singular. (Within a factor 12 of sigma_min / sigma_max; the compiled twin computes the same from
+    the inverse it needs anyway.)"""
+    L = M[0] + _PROBE * M[1] + _PROBE * _PROBE * M[2]
+    try:
+        inverse = np.linalg.inv(L)
+    except np.linalg.LinAlgError:
+        return 0.0
+    return float(1.0 / (np.abs(L).sum(axis=0).max() * np.abs(inverse).sum(axis=0).max()))
 
 
 @dataclass(frozen=True)
@@ -498,14 +502,71 @@ def _shifted(h: np.ndarray, p: np.ndarray, g: np.ndarray, shift: int, reverse: b
     return h, p, g
 
 
-def solve_way(direction, point, g, way: tuple[int, bool], **options) -> Roots:
+#: The interpolation grid, matrices, Moebius shifts and probe, as the compiled elimination takes them.
+_CONSTANTS = (_GRID, np.ascontiguousarray(_V2_INV), np.ascontiguousarray(_V3_INV), _SHIFTS, _PROBE)
+
+
+def _way_error(status: np.ndarray) -> str:
+    """The ClosedFormIKError message of a way the compiled elimination could not solve (its status row)."""
+    code, value = int(status[0]), float(status[1])
+    if code == 1:
+        return f"the joints 4-5 side has rank {int(value)} < 8 (axes 4 and 5 in a special position)"
+    if code == 2:
+        return (f"the elimination is degenerate at this target (conditioning {value:.2g}): a continuum of solutions, "
+                "or a special arm")
+    return "the eigenvalue iteration did not converge at this target"
+
+
+def solve_targets(direction, point, G, ways, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3,
+                  poor: float = 0.0, threads: int = 1, block: int = 16) -> tuple:
+    """Every isolated solution of each target ``G`` (n, 4, 4) of ``g = E_1 ... E_6`` by the ways ``ways`` (W, 2) in
+    turn (the next one while the last solved is conditioned below ``poor``), compiled
+    (:func:`manipkit.closed_form.general6r_kernel.solve_targets`): the steps of :func:`solve_way` for each way, with
+    the options of :func:`solve`, in blocks of ``block`` targets on up to ``threads`` threads.
+
+    Returns (rows (n, 24 W, 6) PoE angles in chain order wrapped to (-pi, pi], each way's rows sorted and distinct
+    to 1e-7 rad, appended way after way; residual (n, 24 W); count (n,) rows written; status (n, W, 4): per way
+    (0 solved, 1 rank below 8, 2 every pencil singular, 3 no convergence, -1 not tried; the rank or conditioning;
+    candidates; the eigenvalue's joint)). Each target's numbers come from it alone: the same on any thread count.
+    """
+    from manipkit.closed_form.general6r_kernel import solve_targets as kernel
+    from manipkit.kernels.blocks import run_blocks
+
+    G = np.ascontiguousarray(np.asarray(G, dtype=float).reshape(-1, 4, 4))
+    ways = np.asarray([(int(shift), int(bool(reverse))) for shift, reverse in ways], dtype=np.int64).reshape(-1, 2)
+    n, width = len(G), 24 * len(ways)
+    rows, residual = np.zeros((n, width, 6)), np.zeros((n, width))
+    count, status = np.zeros(n, dtype=np.int64), np.zeros((n, len(ways), 4))
+    h = np.ascontiguousarray(direction, dtype=float)
+    p = np.ascontiguousarray(point, dtype=float)
+
+    def work(a: int, b: int) -> None:
+        kernel(h, p, G[a:b], ways, _CONSTANTS, tol=tol, iterations=iterations, imaginary=imaginary, far=_FAR,
+               poor=poor, rows=rows[a:b], res=residual[a:b], count=count[a:b], status=status[a:b])
+
+    run_blocks(work, n, block=block, min_rows_per_thread=block, threads=threads, name="general6r")
+    return rows, residual, count, status
+
+
+def solve_way(direction, point, g, way: tuple[int, bool], *, compiled: bool = True, **options) -> Roots:
     """:func:`solve` of ``g = E_1 ... E_6`` (axes ``direction``, ``point`` (6, 3)) eliminated the way ``way``
-    (:data:`WAYS`); angles in the chain's order. ClosedFormIKError when that way is degenerate here."""
+    (:data:`WAYS`); angles in the chain's order. ClosedFormIKError when that way is degenerate here.
+
+    ``compiled`` True: the whole elimination compiled (:func:`solve_targets`; the same steps, within rounding);
+    False: the numpy reference (:func:`solve` with ``compiled=False``)."""
+    if compiled:
+        rows, residual, count, status = solve_targets(direction, point, np.asarray(g, dtype=float)[None], [way],
+                                                      **options)
+        if status[0, 0, 0] != 0:
+            raise ClosedFormIKError(_way_error(status[0, 0]))
+        k = int(count[0])
+        return Roots(rows[0, :k].copy(), residual[0, :k].copy(), int(status[0, 0, 2]), int(status[0, 0, 3]),
+                     float(status[0, 0, 1]))
     shift, reverse = way
     h, p, target = _shifted(np.asarray(direction, dtype=float), np.asarray(point, dtype=float),
                             np.asarray(g, dtype=float), shift, reverse)
     arm = prepared(h, p) if shift == 0 else prepare(h, p)  # a shifted way's axes move with the target
-    roots = solve(arm, target, **options)
+    roots = solve(arm, target, compiled=False, **options)
     theta = roots.theta[:, ::-1] if reverse else roots.theta
     theta = np.roll(theta, shift, axis=1)
     return Roots(theta, roots.residual, roots.candidates, roots.eigen, roots.conditioning)
