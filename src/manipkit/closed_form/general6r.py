@@ -58,7 +58,7 @@ import numpy as np
 from manipkit.errors import ClosedFormIKError
 
 __all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_targets",
-           "solve_way"]
+           "solve_way", "way_reason"]
 
 TWO_PI = 2.0 * math.pi
 _EYE3 = np.eye(3)
@@ -506,8 +506,8 @@ def _shifted(h: np.ndarray, p: np.ndarray, g: np.ndarray, shift: int, reverse: b
 _CONSTANTS = (_GRID, np.ascontiguousarray(_V2_INV), np.ascontiguousarray(_V3_INV), _SHIFTS, _PROBE)
 
 
-def _way_error(status: np.ndarray) -> str:
-    """The ClosedFormIKError message of a way the compiled elimination could not solve (its status row)."""
+def way_reason(status: np.ndarray) -> str:
+    """The ClosedFormIKError message of a way :func:`solve_targets` could not solve (its status row (4,))."""
     code, value = int(status[0]), float(status[1])
     if code == 1:
         return f"the joints 4-5 side has rank {int(value)} < 8 (axes 4 and 5 in a special position)"
@@ -558,7 +558,7 @@ def solve_way(direction, point, g, way: tuple[int, bool], *, compiled: bool = Tr
         rows, residual, count, status = solve_targets(direction, point, np.asarray(g, dtype=float)[None], [way],
                                                       **options)
         if status[0, 0, 0] != 0:
-            raise ClosedFormIKError(_way_error(status[0, 0]))
+            raise ClosedFormIKError(way_reason(status[0, 0]))
         k = int(count[0])
         return Roots(rows[0, :k].copy(), residual[0, :k].copy(), int(status[0, 0, 2]), int(status[0, 0, 3]),
                      float(status[0, 0, 1]))

@@ -64,7 +64,7 @@ import numpy as np
 
 from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text
-from manipkit.closed_form.general6r import ranked_ways, solve_way
+from manipkit.closed_form.general6r import ranked_ways, solve_targets, way_reason
 from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
 from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only
@@ -190,36 +190,45 @@ def _locked_ways(chain: Chain, name: str, family_tol) -> tuple:
 _LOCKED_WAYS: dict = {}
 
 
-def _roots(geometry, ways: tuple, g: np.ndarray) -> tuple[np.ndarray, list[str], int]:
-    """(angles (k, 6) in chain order, why a way failed at this target, candidates tried) of ``g = T M^-1``: the
-    best way, and the next ones while the elimination is poorly conditioned (their rows merged)."""
-    thetas, reasons, candidates = [], [], 0
-    for way in ways:
-        try:
-            roots = solve_way(geometry.direction, geometry.point, g, way, tol=1e-8)
-        except ClosedFormIKError as exc:
-            reasons.append(str(exc))
-            continue
-        candidates += roots.candidates
-        thetas.append(roots.theta)
-        if roots.conditioning >= _POOR:
-            break
-    theta = np.concatenate(thetas) if thetas else np.zeros((0, 6))
-    return theta, reasons, candidates
+def _eliminated(geometry, ways: tuple, g: np.ndarray, threads: int) -> tuple:
+    """(angles (N, 24 W, 6) in chain order, rows written (N,), status (N, W, 4)) of targets ``g = T M^-1``
+    (N, 4, 4): the best way, and the next ones while the elimination is poorly conditioned (their rows appended),
+    compiled (:func:`manipkit.closed_form.general6r.solve_targets`)."""
+    rows, _, count, status = solve_targets(geometry.direction, geometry.point, g, ways, tol=1e-8, poor=_POOR,
+                                           threads=threads)
+    return rows, count, status
+
+
+def _reasons(status: np.ndarray) -> list[str]:
+    """Why each way that failed at one target failed (its status rows (W, 4))."""
+    return [way_reason(row) for row in status if row[0] > 0]
+
+
+#: The whole turns tried by :func:`_nearest_zero_alias`, nearest 0 first.
+_TURNS = TWO_PI * np.array([0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0])
 
 
 def _nearest_zero_alias(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """Each angle of rows Q (k, n) moved by whole turns to its value inside [lower, upper] nearest 0 (wrapped to
     (-pi, pi] when no alias is inside)."""
     wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
-    best = wrapped.copy()
-    done = (wrapped >= lower - 1e-12) & (wrapped <= upper + 1e-12)
-    for turns in (1, -1, 2, -2, 3, -3):
-        moved = wrapped + turns * TWO_PI
-        take = ~done & (moved >= lower - 1e-12) & (moved <= upper + 1e-12)
-        best[take] = moved[take]
-        done |= take
-    return best
+    moved = wrapped[..., None] + _TURNS  # (k, n, 7)
+    inside = (moved >= (lower - 1e-12)[:, None]) & (moved <= (upper + 1e-12)[:, None])
+    first = np.argmax(inside, axis=-1)[..., None]
+    return np.where(inside.any(axis=-1), np.take_along_axis(moved, first, axis=-1)[..., 0], wrapped)
+
+
+def _measured(chain: Chain, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position m (M,), rotation rad (M,)) of rows ``Q`` (M, n) against targets ``T`` (M, 4, 4): the chain's compiled
+    FK and ``pose_residuals(project=False)``'s compiled twin (:func:`manipkit.closed_form.arms_kernel.measure_many`)."""
+    from manipkit.closed_form.arms_kernel import measure_many
+
+    if not len(Q):
+        return np.zeros(0), np.zeros(0)
+    Q = np.ascontiguousarray(Q, dtype=float)
+    reached = chain.compiled_fk.transforms(Q)
+    residuals, _ = measure_many(T, reached[:, None], Q[:, None], (0.0, 0.0))
+    return residuals[:, 0, 0].copy(), residuals[:, 0, 1].copy()
 
 
 def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
@@ -331,7 +340,6 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     >>> every.method, every.arm_family, len(every.solutions), bool(every.residual_position.max() < 1e-10)
     ('algebraic', 'general 6R', 8, True)
     """
-    # Over 80 lines: the parts of one honest answer (solve, map, check, refine, limits, note) in order.
     refusal = general_refusal(chain, family_tol=family_tol, lock=lock)
     if refusal:
         raise IKOptionError(refusal)
@@ -339,6 +347,14 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     T = check_transform(target, what="IK target")
     T_check = np.array(T, dtype=float)
     T_check[:3, :3] = projected_rotation(T_check[:3, :3])
+    geometry, ways, held, g = _setup(chain, T_check[None], lock, family_tol)
+    theta, count, status = _eliminated(geometry, ways, g, 1)
+    checked = _checked_rows(chain, geometry, T_check[None], theta, count, status, held, check, max_iters)
+    return _answer(chain, T_check, checked, 0, status[0], ways, held, check, geometry.columns)
+
+
+def _setup(chain: Chain, T_check: np.ndarray, lock, family_tol) -> tuple:
+    """(geometry, ways, held (column, value) or None, ``g = L^-1 T M^-1`` (N, 4, 4)) of targets ``T_check``."""
     held = None  # (column, value) of a locked joint
     if lock:
         (name, value), = dict(lock).items()
@@ -349,47 +365,84 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     else:
         geometry, ways = _ways(chain, family_tol)
         g = T_check @ invert_transform(geometry.M, check=False)
-    theta, reasons, candidates = _roots(geometry, ways, g)
+    return geometry, ways, held, np.ascontiguousarray(g)
+
+
+def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray, count: np.ndarray,
+                  status: np.ndarray, held, check: tuple[float, float], max_iters: int) -> tuple:
+    """The elimination's angles of targets ``T_check`` (N, 4, 4) as checked chain rows: (rows (M, n) sorted by
+    target then joint values, ``start`` (N + 1,) where each target's rows begin, residuals (M, 2), refined (M,),
+    rejected (N,), worst miss of the rejected (N,)).
+
+    Each row: ``q = q0 + angle / scale``, each joint at its in-limit alias nearest 0, the locked joint at its
+    value; measured by the chain's FK; one that misses by more than ``tol`` or :data:`CHECK_TOL` is refined by
+    Newton steps on the chain and dropped if it still misses ``check``; a row equal (1e-9, modulo 2 pi) to an
+    earlier one of its target is that one. All targets' rows go through one FK call."""
+    n_targets, n = len(T_check), chain.n
+    owner = np.repeat(np.arange(n_targets), count)
+    angles = theta[np.arange(theta.shape[1])[None, :] < count[:, None]]  # (M, 6) in target order
     columns = geometry.columns
-    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
-    Q = np.broadcast_to(geometry.q0, (len(theta), chain.n)).copy()
-    Q[:, columns] = geometry.q0[columns] + theta / geometry.scale
+    lower, upper = chain.lower, chain.upper
+    Q = np.empty((len(angles), n))
+    Q[:] = geometry.q0
+    Q[:, columns] = geometry.q0[columns] + angles / geometry.scale
     Q = _nearest_zero_alias(Q, lower, upper)
     if held is not None:
         Q[:, held[0]] = held[1]  # the locked joint at exactly its value, not an alias
-    rows, refined, residuals, rejected, worst = [], [], [], 0, 0.0
-    if len(Q):
-        position, rotation = (np.atleast_1d(e) for e in pose_residuals(T_check, chain.fk(Q), project=False))
+    refined = np.zeros(len(Q))
+    position, rotation = _measured(chain, T_check[owner], Q)
     polish = (min(check[0], CHECK_TOL), min(check[1], CHECK_TOL))  # rows are refined to this, dropped beyond check
-    for k, q in enumerate(Q):
-        p_err, r_err, moved = float(position[k]), float(rotation[k]), 0.0
-        if p_err > polish[0] or r_err > polish[1]:
-            better = _refine(chain, T_check, q, max_iters, min(0.1 * min(check), 1e-12), columns)
-            moved = float(np.abs(better - q).max())
-            q = _nearest_zero_alias(better[None], lower, upper)[0]
-            if held is not None:
-                q[held[0]] = held[1]
-            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
-        if p_err > check[0] or r_err > check[1]:
-            rejected += 1
-            worst = max(worst, p_err, r_err)
-            continue
-        if _distinct(rows, q):
-            rows.append(q)
-            refined.append(moved)
-            residuals.append((p_err, r_err))
-    order = sorted(range(len(rows)), key=lambda i: tuple(rows[i]))
+    for k in np.flatnonzero((position > polish[0]) | (rotation > polish[1])):
+        target = T_check[owner[k]]
+        better = _refine(chain, target, Q[k], max_iters, min(0.1 * min(check), 1e-12), columns)
+        refined[k] = float(np.abs(better - Q[k]).max())
+        q = _nearest_zero_alias(better[None], lower, upper)[0]
+        if held is not None:
+            q[held[0]] = held[1]
+        Q[k] = q
+        (position[k],), (rotation[k],) = _measured(chain, target[None], q[None])
+    keep = (position <= check[0]) & (rotation <= check[1])
+    rejected = np.bincount(owner[~keep], minlength=n_targets)
+    worst = np.zeros(n_targets)
+    np.maximum.at(worst, owner[~keep], np.maximum(position, rotation)[~keep])
+    # each way's rows are distinct (1e-7 rad); rows of two ways, or a refined row, may repeat an earlier row
+    again = ((status[:, :, 0] == 0).sum(axis=1) > 1) | (np.bincount(owner[refined > 0], minlength=n_targets) > 0)
+    for t in np.flatnonzero(again):
+        mine = np.flatnonzero((owner == t) & keep)
+        gap = np.abs(np.pi - np.mod(np.pi - (Q[mine][:, None, :] - Q[mine][None, :, :]), TWO_PI)).max(axis=2)
+        kept: list[int] = []
+        for i in range(len(mine)):
+            if all(gap[i, j] > 1e-9 for j in kept):
+                kept.append(i)
+            else:
+                keep[mine[i]] = False
+    order = np.lexsort((*Q.T[::-1], owner))
+    order = order[keep[order]]
+    start = np.searchsorted(owner[order], np.arange(n_targets + 1))
+    return (Q[order], start, np.stack([position[order], rotation[order]], axis=1), refined[order], rejected, worst)
+
+
+def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: np.ndarray, ways: tuple, held,
+            check: tuple[float, float], columns: np.ndarray) -> IKResult:
+    """The IKResult of target ``t`` (``T_check`` its pose) of :func:`_checked_rows`' ``checked`` (its ways'
+    ``status`` (W, 4); ``columns`` the solved joints' columns)."""
+    # Over 80 lines: the parts of one honest answer (rows, limits, note, failure) in order.
+    rows, start, residuals, refined_all, rejected_all, worst_all = checked
+    a, b = int(start[t]), int(start[t + 1])
+    Q, residual, refined = rows[a:b], residuals[a:b], refined_all[a:b]
+    rejected, worst = int(rejected_all[t]), float(worst_all[t])
+    reasons = _reasons(status)
+    candidates = int(status[status[:, 0] == 0, 2].sum())
+    upper, lower = np.asarray(chain.upper, dtype=float), np.asarray(chain.lower, dtype=float)
     n = chain.n
-    Q = np.array([rows[i] for i in order], dtype=float).reshape(-1, n)
-    residual = np.array([residuals[i] for i in order], dtype=float).reshape(-1, 2)
     within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(Q) else np.zeros(0, dtype=bool)
     within.setflags(write=False)
     parts = [f"{len(Q)} solution(s) of the general 6R elimination (every isolated solution; "
              f"{candidates} real eigenvalue candidate(s))"]
     if len(Q) and not within.all():
         parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
-    if any(m > 0 for m in refined):
-        parts.append(f"refined by Newton on the chain (largest step {quantity_text(max(refined))})")
+    if (refined > 0).any():
+        parts.append(f"refined by Newton on the chain (largest step {quantity_text(float(refined.max()))})")
     wide = [chain.joint_names[c] for c in columns.tolist()
             if np.isfinite(upper[c]) and upper[c] - lower[c] > TWO_PI + 1e-9]
     if wide and len(Q):
@@ -415,8 +468,9 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
                      "(out of reach, or an orientation the arm cannot take there)")
             failure = IKFailure("unreachable", words)
         parts = [words] + parts[1:]
-    return IKResult(read_only(Q, (n,)), ("",) * len(Q), len(Q), "; ".join(parts), read_only(residual[:, 0]),
-                    read_only(residual[:, 1]), mode=SPATIAL_POSE, solver="ik.general6r",
+    Q = np.array(Q, dtype=float).reshape(-1, n)
+    return IKResult(read_only(Q, (n,)), ("",) * len(Q), len(Q), "; ".join(parts), read_only(residual[:, 0].copy()),
+                    read_only(residual[:, 1].copy()), mode=SPATIAL_POSE, solver="ik.general6r",
                     joint_names=tuple(chain.joint_names), rejected=rejected, within_limits=within,
-                    refined=read_only(np.array(refined, dtype=float)[order] if refined else np.zeros(0)),
-                    method=ALGEBRAIC, arm_family=GENERAL_6R, failure=failure)
+                    refined=read_only(np.array(refined, dtype=float)), method=ALGEBRAIC, arm_family=GENERAL_6R,
+                    failure=failure)
