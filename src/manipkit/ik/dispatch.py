@@ -486,9 +486,14 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     robot, base, tip = robot_and_frames(subject, base, tip)
     _check_choice("method", method, METHODS)
     _check_choice("mode", mode, ASKED_MODES)
-    if method == "algebraic":
-        raise IKOptionError("ik_many has no algebraic path: the general 6R elimination answers one target per call "
-                            "(ik(..., method='algebraic')); use method='auto' or 'numerical' for a batch")
+    if method == "algebraic" and lock:
+        raise IKOptionError("ik_many's general 6R elimination takes no lock= (ik(..., lock=...) does); leave it out")
+    if (method == "algebraic" or (method == "auto" and q0 is None and not lock)) and _general_applies(
+            robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock, arm_angle=arm_angle,
+            free=()):
+        from manipkit.ik.general6r import general_ik_many
+
+        return general_ik_many(robot.chain(base, tip), targets, tol=tol, family_tol=family_tol, threads=threads)
     closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
                                   arm_angle=arm_angle, free=())
     if closed and method == "auto" and not _batch_closed_form(robot, base, tip, family_tol=family_tol, lock=lock):

@@ -67,15 +67,15 @@ from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.general6r import ranked_ways, solve_targets, way_reason
 from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
-from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only
+from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKFailure, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "general_ik", "general_refusal", "general_solves", "general_ways",
-           "locked_geometry"]
+__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "SLOTS", "general_ik", "general_ik_many", "general_refusal",
+           "general_solves", "general_ways", "locked_geometry"]
 
 #: ``IKResult.method`` of this solver's answers.
 ALGEBRAIC = "algebraic"
@@ -474,3 +474,74 @@ def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: n
                     joint_names=tuple(chain.joint_names), rejected=rejected, within_limits=within,
                     refined=read_only(np.array(refined, dtype=float)), method=ALGEBRAIC, arm_family=GENERAL_6R,
                     failure=failure)
+
+
+#: Slots of :func:`general_ik_many`'s batch: a 6R arm has at most 16 isolated solutions (more where a target has
+#: more rows, joints spanning more than a turn aside: the batch lists no 2 pi aliases).
+SLOTS = 16
+
+
+def general_ik_many(chain: Chain, targets, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20,
+                    threads=None) -> IKBatch:
+    """:func:`general_ik` for a stack of targets ``T_base_tip`` (N, 4, 4): every isolated solution of each, compiled
+    over the targets in blocks on up to ``threads`` threads (None: the cores this process may use).
+
+    Each target's rows are those of ``general_ik(chain, target)`` (the same numbers: the same compiled elimination
+    of that target alone and the same checks, all targets' rows through one FK call), in slots ``0 .. k-1`` of
+    :data:`SLOTS` (more when a target has more), NaN after; ``count`` inf where a target is reached by a
+    continuum (those targets are answered by :func:`general_ik` itself, numerical IK from 50 starts).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> chain = manipkit.load("ur5").chain("base_link", "tool0")  # a closed-form arm, solved by the elimination here
+    >>> batch = general_ik_many(chain, chain.fk(chain.sample(3, seed=1)))
+    >>> batch.method, batch.solutions.shape[0], batch.count.tolist(), bool(batch.success.all())
+    ('algebraic', 3, [8.0, 8.0, 8.0], True)
+    """
+    from manipkit.ik.textbook import checked_targets
+    from manipkit.kernels import thread_count
+
+    refusal = general_refusal(chain, family_tol=family_tol)
+    if refusal:
+        raise IKOptionError(refusal)
+    check = tolerances(tol, error=IKOptionError, what="tol")
+    T = checked_targets(targets)
+    shape = T.shape[:-2]
+    flat = T.reshape(-1, 4, 4)
+    T_check = np.array(flat, dtype=float)
+    T_check[:, :3, :3] = projected_rotation(flat[:, :3, :3])
+    for i in np.flatnonzero(np.any(T_check[:, :3, :3] != flat[:, :3, :3], axis=(1, 2))):
+        T_check[i] = check_transform(flat[i], what=f"IK target {i}")  # not a rotation to 1e-12: checked, projected
+        T_check[i, :3, :3] = projected_rotation(T_check[i, :3, :3])
+    geometry, ways, held, g = _setup(chain, T_check, None, family_tol)
+    theta, count, status = _eliminated(geometry, ways, g, thread_count(threads))
+    rows, start, residuals, _, _, _ = _checked_rows(chain, geometry, T_check, theta, count, status, held, check,
+                                                    max_iters)
+    per = np.diff(start)
+    answers: dict[int, IKResult] = {}
+    for t in np.flatnonzero(per == 0):  # no row: a degenerate target is a family (or a failure) of general_ik's
+        if not (status[t, :, 0] == 0).any() and (status[t, :, 0] > 0).sum() == len(ways):
+            answers[t] = general_ik(chain, flat[t], tol=tol, family_tol=family_tol, max_iters=max_iters)
+    k = max([SLOTS, int(per.max(initial=0)), *(len(a.solutions) for a in answers.values())])
+    n_targets, n = len(flat), chain.n
+    Q, position, rotation = np.full((n_targets, k, n), np.nan), np.full((n_targets, k), np.nan), np.full(
+        (n_targets, k), np.nan)
+    slot = np.arange(len(rows)) - np.repeat(start[:-1], per)
+    owner = np.repeat(np.arange(n_targets), per)
+    Q[owner, slot], position[owner, slot], rotation[owner, slot] = rows, residuals[:, 0], residuals[:, 1]
+    counts = per.astype(float)
+    kinds = np.where(per > 0, "", "unreachable").astype(object)
+    for t, answer in answers.items():
+        m = len(answer.solutions)
+        Q[t, :m], position[t, :m], rotation[t, :m] = (answer.solutions, answer.residual_position,
+                                                      answer.residual_rotation)
+        counts[t] = answer.count
+        kinds[t] = answer.failure.kind if answer.failure is not None else ""
+    success = np.any((position <= check[0]) & (rotation <= check[1]), axis=1)
+    q_residuals = np.stack([position[:, 0], rotation[:, 0]], axis=-1)
+    return IKBatch(Q.reshape(*shape, k, n), counts.reshape(shape), labels=tuple(f"row {j + 1}" for j in range(k)),
+                   mode=SPATIAL_POSE, solver="ik.general6r", joint_names=tuple(chain.joint_names),
+                   success=success.reshape(shape), residual_position=position.reshape(*shape, k),
+                   residual_rotation=rotation.reshape(*shape, k), q_residuals=q_residuals.reshape(*shape, 2),
+                   method=ALGEBRAIC, failure_kinds=np.asarray(kinds, dtype=str).reshape(shape))
