@@ -18,7 +18,6 @@ turns from its value.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
@@ -27,12 +26,12 @@ import numpy as np
 
 from manipkit.ik.result import PLANAR_POSITION, SPATIAL_POSITION, IKResult
 from manipkit.kinematics.chain import limits_ok
-from manipkit.spatial.transforms import check_transform, pose_residuals
+from manipkit.spatial.transforms import check_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["MAX_ALIAS_ROWS", "MAX_TURNS", "alias_rows", "with_aliases"]
+__all__ = ["MAX_ALIAS_ROWS", "MAX_TURNS", "alias_rows", "measured_rows", "with_aliases"]
 
 TWO_PI = 2.0 * math.pi
 #: The most whole turns an alias is from the value it aliases (a range of +-3 full turns is covered).
@@ -81,19 +80,38 @@ def alias_rows(Q, lower, upper, aliased, *, limit: int | None = None) -> tuple[n
     turns = np.where(aliased[:, None], _TURNS[None, :], np.where(_TURNS == 0, 0.0, np.nan)[None, :])  # (n, T)
     values = Q[:, :, None] + TWO_PI * turns[None]  # (m, n, T); NaN: a turn an entry does not take
     inside = (values >= low[None, :, None]) & (values <= high[None, :, None])
-    rows, origin = [], []
-    room = math.inf if limit is None else limit
-    for r in np.flatnonzero(inside.any(axis=2).all(axis=1)):
-        if room <= 0:
-            break
-        combos = list(itertools.islice(itertools.product(*(values[r, j][inside[r, j]] for j in range(n))),
-                                       None if math.isinf(room) else int(room)))
-        rows.append(np.array(combos, dtype=float).reshape(-1, n))
-        origin.append(np.full(len(combos), r, dtype=np.intp))
-        room -= len(combos)
-    if not rows:
+    counts = inside.sum(axis=2)  # (m, n): each entry's values inside, in the order of _TURNS
+    totals = np.prod(counts, axis=1)  # a row with an entry that has none: 0 combinations
+    if limit is not None:  # the first `limit` rows: whole rows' combinations until the room runs out
+        before = np.cumsum(totals) - totals
+        totals = np.clip(limit - before, 0, totals)
+    origin = np.repeat(np.arange(m, dtype=np.intp), totals)
+    if not len(origin):
         return np.zeros((0, n)), np.zeros(0, dtype=np.intp)
-    return np.concatenate(rows), np.concatenate(origin)
+    # the combination index within its row, as itertools.product counts: the last entry's choice changes fastest
+    index = np.arange(len(origin)) - np.repeat(np.cumsum(totals) - totals, totals)
+    first = np.argsort(~inside, axis=2, kind="stable")  # (m, n, T): the inside turns first, in their order
+    stride = np.ones((m, n), dtype=np.int64)  # entry j's stride: the product of the later entries' counts
+    if n > 1:
+        stride[:, :-1] = np.cumprod(counts[:, :0:-1], axis=1)[:, ::-1]
+    digit = (index[:, None] // stride[origin]) % counts[origin]
+    turn = np.take_along_axis(first[origin], digit[:, :, None], axis=2)[:, :, 0]
+    rows = np.take_along_axis(values[origin], turn[:, :, None], axis=2)[:, :, 0]
+    return rows, origin
+
+
+def measured_rows(chain: Chain, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position m (M,), rotation rad (M,)) of chain rows ``Q`` (M, n) against targets ``T`` (M, 4, 4) whose rotation
+    blocks are rotations: the chain's compiled FK and ``pose_residuals(project=False)``'s compiled twin
+    (:func:`manipkit.closed_form.arms_kernel.measure_many`), without numpy's per-call cost on a few rows."""
+    from manipkit.closed_form.arms_kernel import measure_many
+
+    if not len(Q):
+        return np.zeros(0), np.zeros(0)
+    Q = np.ascontiguousarray(Q, dtype=float)
+    reached = chain.compiled_fk.transforms(Q)
+    residuals, _ = measure_many(np.ascontiguousarray(T, dtype=float), reached[:, None], Q[:, None], (0.0, 0.0))
+    return residuals[:, 0, 0].copy(), residuals[:, 0, 1].copy()
 
 
 def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult:
@@ -150,8 +168,13 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
     of = inside[origin[fresh]]
     Q = np.array(result.solutions[of], dtype=float)
     Q[:, columns] = chain_rows
-    mode = "position" if result.mode in (PLANAR_POSITION, SPATIAL_POSITION) else "pose"
-    position, rotation = pose_residuals(check_transform(target, what="IK target"), chain.fk(chain_rows), mode=mode)
+    T = check_transform(target, what="IK target")
+    if result.mode in (PLANAR_POSITION, SPATIAL_POSITION):
+        position, rotation = pose_residuals(T, chain.fk(chain_rows), mode="position")
+    else:
+        T = np.array(T, dtype=float)
+        T[:3, :3] = projected_rotation(T[:3, :3])
+        position, rotation = measured_rows(chain, np.broadcast_to(T, (len(chain_rows), 4, 4)), chain_rows)
     extra = result.take(of)
     note = (f"{result.note}; listed after the {k} branch row(s): their {len(of)} other in-limit 2 pi alias(es) "
             "(alias_of names each one's branch)")

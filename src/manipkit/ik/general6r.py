@@ -66,6 +66,7 @@ from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.general6r import ranked_ways, solve_targets, way_reason
 from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik.aliases import measured_rows
 from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKFailure, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix
@@ -216,19 +217,6 @@ def _nearest_zero_alias(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> 
     inside = (moved >= (lower - 1e-12)[:, None]) & (moved <= (upper + 1e-12)[:, None])
     first = np.argmax(inside, axis=-1)[..., None]
     return np.where(inside.any(axis=-1), np.take_along_axis(moved, first, axis=-1)[..., 0], wrapped)
-
-
-def _measured(chain: Chain, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(position m (M,), rotation rad (M,)) of rows ``Q`` (M, n) against targets ``T`` (M, 4, 4): the chain's compiled
-    FK and ``pose_residuals(project=False)``'s compiled twin (:func:`manipkit.closed_form.arms_kernel.measure_many`)."""
-    from manipkit.closed_form.arms_kernel import measure_many
-
-    if not len(Q):
-        return np.zeros(0), np.zeros(0)
-    Q = np.ascontiguousarray(Q, dtype=float)
-    reached = chain.compiled_fk.transforms(Q)
-    residuals, _ = measure_many(T, reached[:, None], Q[:, None], (0.0, 0.0))
-    return residuals[:, 0, 0].copy(), residuals[:, 0, 1].copy()
 
 
 def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
@@ -390,7 +378,7 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
     if held is not None:
         Q[:, held[0]] = held[1]  # the locked joint at exactly its value, not an alias
     refined = np.zeros(len(Q))
-    position, rotation = _measured(chain, T_check[owner], Q)
+    position, rotation = measured_rows(chain, T_check[owner], Q)
     polish = (min(check[0], CHECK_TOL), min(check[1], CHECK_TOL))  # rows are refined to this, dropped beyond check
     for k in np.flatnonzero((position > polish[0]) | (rotation > polish[1])):
         target = T_check[owner[k]]
@@ -400,7 +388,7 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
         if held is not None:
             q[held[0]] = held[1]
         Q[k] = q
-        (position[k],), (rotation[k],) = _measured(chain, target[None], q[None])
+        (position[k],), (rotation[k],) = measured_rows(chain, target[None], q[None])
     keep = (position <= check[0]) & (rotation <= check[1])
     rejected = np.bincount(owner[~keep], minlength=n_targets)
     worst = np.zeros(n_targets)
