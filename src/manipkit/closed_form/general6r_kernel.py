@@ -39,6 +39,7 @@ def _polish_one(K, H, h, p, G, q, iterations, far, stop, Rf, tf, E, J, error):
     work arrays (frames ``Rf`` (7, 3, 3), ``tf`` (7, 3), ``E`` (3, 3), ``J`` (6, 6), ``error`` (6,))."""
     # Over 80 lines: FK, its residual, the Jacobian and the step of one Newton iteration, written out for numba.
     value = 0.0
+    step = np.zeros(6)
     for it in range(iterations + 1):
         for a in range(3):
             for b in range(3):
@@ -94,10 +95,45 @@ def _polish_one(K, H, h, p, G, q, iterations, far, stop, Rf, tf, E, J, error):
             J[1, i] = hi2 * r0 - hi0 * r2
             J[2, i] = hi0 * r1 - hi1 * r0
             J[3, i], J[4, i], J[5, i] = hi0, hi1, hi2
-        step = np.linalg.pinv(J, 1e-12) @ error
+        if not _solve6(J, error, step):  # J nearly singular (a near-double root): its pseudo-inverse, as numpy's
+            step[:] = np.linalg.pinv(J, 1e-12) @ error
         for i in range(6):
             q[i] += step[i]
     return True, value
+
+
+@compile_kernel
+def _solve6(J, e, x):
+    """``x = J^-1 e`` (6 x 6, Gaussian elimination with partial pivoting; ``J`` kept); False when a pivot is below
+    1e-10 of the largest entry (then the caller takes the pseudo-inverse)."""
+    a = J.copy()
+    b = e.copy()
+    big = 0.0
+    for i in range(6):
+        for j in range(6):
+            big = max(big, abs(a[i, j]))
+    for c in range(6):
+        best = c
+        for i in range(c + 1, 6):
+            if abs(a[i, c]) > abs(a[best, c]):
+                best = i
+        if not abs(a[best, c]) > 1e-10 * big:
+            return False
+        if best != c:
+            for j in range(6):
+                a[c, j], a[best, j] = a[best, j], a[c, j]
+            b[c], b[best] = b[best], b[c]
+        for i in range(c + 1, 6):
+            f = a[i, c] / a[c, c]
+            for j in range(c, 6):
+                a[i, j] -= f * a[c, j]
+            b[i] -= f * b[c]
+    for i in range(5, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, 6):
+            acc -= a[i, j] * x[j]
+        x[i] = acc / a[i, i]
+    return True
 
 
 @compile_kernel

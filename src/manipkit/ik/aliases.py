@@ -95,8 +95,8 @@ def alias_rows(Q, lower, upper, aliased, *, limit: int | None = None) -> tuple[n
     if n > 1:
         stride[:, :-1] = np.cumprod(counts[:, :0:-1], axis=1)[:, ::-1]
     digit = (index[:, None] // stride[origin]) % counts[origin]
-    turn = np.take_along_axis(first[origin], digit[:, :, None], axis=2)[:, :, 0]
-    rows = np.take_along_axis(values[origin], turn[:, :, None], axis=2)[:, :, 0]
+    entry = np.arange(n)[None, :]
+    rows = values[origin[:, None], entry, first[origin[:, None], entry, digit]]
     return rows, origin
 
 
@@ -175,19 +175,19 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
         T = np.array(T, dtype=float)
         T[:3, :3] = projected_rotation(T[:3, :3])
         position, rotation = measured_rows(chain, np.broadcast_to(T, (len(chain_rows), 4, 4)), chain_rows)
-    extra = result.take(of)
+    labels = result.labels
     note = (f"{result.note}; listed after the {k} branch row(s): their {len(of)} other in-limit 2 pi alias(es) "
             "(alias_of names each one's branch)")
     if left_out:
         note += f"; more beyond the first {MAX_ALIAS_ROWS} are left out (aliases=False lists the branches only)"
     per_row = dict(
         solutions=np.concatenate([result.solutions, Q]),
-        labels=result.labels + extra.labels,
+        labels=labels + tuple(labels[i] for i in of),  # each alias carries its branch's per-row fields
         residual_position=np.concatenate([result.residual_position, np.atleast_1d(position)]),
         residual_rotation=np.concatenate([result.residual_rotation, np.atleast_1d(rotation)]),
         within_limits=None if result.within_limits is None else np.concatenate([within, np.ones(len(of), bool)]),
-        refined=None if result.refined is None else np.concatenate([result.refined, extra.refined]),
-        collides=result.collides + extra.collides if result.collides else (),
-        clearance=None if result.clearance is None else np.concatenate([result.clearance, extra.clearance]),
+        refined=None if result.refined is None else np.concatenate([result.refined, result.refined[of]]),
+        collides=result.collides + tuple(result.collides[i] for i in of) if result.collides else (),
+        clearance=None if result.clearance is None else np.concatenate([result.clearance, result.clearance[of]]),
     )
     return replace(result, count=k + len(of), note=note, alias_of=np.concatenate([branch, of]), **per_row)
