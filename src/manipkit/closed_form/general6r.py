@@ -544,7 +544,10 @@ def solve_targets(direction, point, G, ways, *, tol: float = 1e-9, iterations: i
         kernel(h, p, G[a:b], ways, _CONSTANTS, tol=tol, iterations=iterations, imaginary=imaginary, far=_FAR,
                poor=poor, rows=rows[a:b], res=residual[a:b], count=count[a:b], status=status[a:b])
 
-    run_blocks(work, n, block=block, min_rows_per_thread=block, threads=threads, name="general6r")
+    if n <= block or threads <= 1:
+        work(0, n)  # one block, or one thread: no pool
+    else:
+        run_blocks(work, n, block=block, min_rows_per_thread=block, threads=threads, name="general6r")
     return rows, residual, count, status
 
 

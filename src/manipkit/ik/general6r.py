@@ -390,11 +390,14 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
         Q[k] = q
         (position[k],), (rotation[k],) = measured_rows(chain, target[None], q[None])
     keep = (position <= check[0]) & (rotation <= check[1])
-    rejected = np.bincount(owner[~keep], minlength=n_targets)
-    worst = np.zeros(n_targets)
-    np.maximum.at(worst, owner[~keep], np.maximum(position, rotation)[~keep])
+    rejected, worst = np.zeros(n_targets, dtype=np.intp), np.zeros(n_targets)
+    if not keep.all():
+        rejected = np.bincount(owner[~keep], minlength=n_targets)
+        np.maximum.at(worst, owner[~keep], np.maximum(position, rotation)[~keep])
     # each way's rows are distinct (1e-7 rad); rows of two ways, or a refined row, may repeat an earlier row
-    again = ((status[:, :, 0] == 0).sum(axis=1) > 1) | (np.bincount(owner[refined > 0], minlength=n_targets) > 0)
+    again = (status[:, :, 0] == 0).sum(axis=1) > 1
+    if refined.any():
+        again |= np.bincount(owner[refined > 0], minlength=n_targets) > 0
     for t in np.flatnonzero(again):
         mine = np.flatnonzero((owner == t) & keep)
         gap = np.abs(np.pi - np.mod(np.pi - (Q[mine][:, None, :] - Q[mine][None, :, :]), TWO_PI)).max(axis=2)
