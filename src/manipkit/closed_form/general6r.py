@@ -58,7 +58,7 @@ import numpy as np
 from manipkit.errors import ClosedFormIKError
 
 __all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_targets",
-           "solve_way", "way_reason"]
+           "solve_way", "warm_up", "way_reason"]
 
 TWO_PI = 2.0 * math.pi
 _EYE3 = np.eye(3)
@@ -610,3 +610,15 @@ def ranked_ways(direction, point, *, trials: int = 4, seed: int = 0) -> tuple[tu
 
 #: (bytes of the arrays, trials, seed) -> their ranked ways.
 _RANKED: dict = {}
+
+
+def warm_up() -> None:
+    """Compile (or load from the kernel cache) the compiled elimination (:func:`solve_targets`) and the numpy
+    reference's compiled polishing, with the types the solvers pass (``make kernels``)."""
+    from manipkit.closed_form.general6r_kernel import warm_up as warm_polishing
+
+    warm_polishing()
+    rng = np.random.default_rng(0)
+    h = rng.normal(size=(6, 3))
+    p = rng.normal(size=(6, 3))
+    solve_targets(h, p, poe_fk(h, p, rng.uniform(-3.0, 3.0, 6))[None], [(0, False)])
