@@ -215,8 +215,7 @@ def _nearest_zero_alias(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> 
     wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
     moved = wrapped[..., None] + _TURNS  # (k, n, 7)
     inside = (moved >= (lower - 1e-12)[:, None]) & (moved <= (upper + 1e-12)[:, None])
-    first = np.argmax(inside, axis=-1)[..., None]
-    return np.where(inside.any(axis=-1), np.take_along_axis(moved, first, axis=-1)[..., 0], wrapped)
+    return np.where(inside.any(axis=-1), wrapped + _TURNS[np.argmax(inside, axis=-1)], wrapped)
 
 
 def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
