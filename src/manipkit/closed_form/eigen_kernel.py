@@ -3,7 +3,7 @@
 
 LAPACK's routines pay a fixed cost per call (workspace queries, blocking)
 that dominates on the 12 x 12 and 24 x 24 matrices of the general 6R
-elimination (a 24 x 24 ``dgeev`` about 120 us here, against about 25 us for
+elimination (a 24 x 24 ``dgeev`` about 120 us here, against about 36 us for
 these loops); these are the textbook algorithms written out for numba:
 
 - :func:`eigenvalues`: every eigenvalue of a real square matrix, by

@@ -42,10 +42,13 @@ The elimination (Raghavan and Roth 1993, as reformulated by Manocha and Canny
    is below ``tol``; candidates that land on the same configuration are one.
 
 Lengths are scaled by the arm's size inside (the equations mix m and m^2).
-numpy, but for the root polishing of step 5, compiled by numba on first use
-(:mod:`manipkit.closed_form.general6r_kernel`; ``solve(compiled=False)`` runs the
-numpy reference of the same steps). The caller (:mod:`manipkit.ik.general6r`) maps angles to joint
-values and checks every row by the chain's own forward kinematics.
+:func:`prepare` and :func:`solve` are the numpy reference (:func:`solve` polishes by the compiled
+:func:`~manipkit.closed_form.general6r_kernel.polish_rows` unless ``compiled=False``);
+:func:`solve_targets` (and :func:`solve_way`, by default) runs every step of every way of a stack of targets
+compiled by numba (:mod:`manipkit.closed_form.general6r_kernel`, its eigenvalues from
+:mod:`manipkit.closed_form.eigen_kernel`; the same rows within rounding, tested). The caller
+(:mod:`manipkit.ik.general6r`) maps angles to joint values and checks every row by the chain's own forward
+kinematics.
 """
 
 from __future__ import annotations

@@ -1,11 +1,20 @@
-"""The general 6R elimination's root polishing, compiled: :func:`polish_rows`.
+"""The general 6R elimination compiled: the whole elimination of a stack of targets (:func:`solve_targets`) and
+the root polishing alone (:func:`polish_rows`).
+
+:func:`solve_targets` runs the steps of ``manipkit.closed_form.general6r.solve`` (module docstring there) for
+each target and each way of eliminating the loop, without the GIL; the pencils' conditioning is the reciprocal
+1-norm condition number of ``M(x)`` at the probe (as the reference's), the joints 4-5 null space a pivoted
+Householder QR, the eigenvalues :func:`manipkit.closed_form.eigen_kernel.eigenvalues`, each candidate's monomial
+vector the null vector of the matrix polynomial at its eigenvalue (inverse iteration). The polishing below
+serves both.
 
 What ``manipkit.closed_form.general6r`` does to every candidate root in
 numpy (its reference, ``solve(..., compiled=False)``): Newton steps on the
 product of exponentials ``g = E_1(t_1) ... E_6(t_6)`` (each ``E_i`` the
 rotation by ``t_i`` rad about the line through ``p[i]`` along the unit
-``h[i]``, in the arm's scaled base frame), the step the pseudo-inverse
-(``rcond`` 1e-12) of the spatial Jacobian at the tip point times the error
+``h[i]``, in the arm's scaled base frame), the step the spatial Jacobian at the tip point solved against the
+error by elimination with partial pivoting (its pseudo-inverse, ``rcond`` 1e-12, where a pivot is below 1e-10 of
+its largest entry, as at a near-double root) for the error
 ``(t_g - t, rotation vector of R_g R^T)``. The residual is the norm of the
 position error (in units of the arm's size) plus the rotation angle (rad).
 A start whose residual is ``far`` or more is no root of this target and is

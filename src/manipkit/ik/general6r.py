@@ -1,4 +1,5 @@
-"""Every isolated IK solution of a 6R chain with no closed-form family: :func:`general_ik`.
+"""Every isolated IK solution of a 6R chain with no closed-form family: :func:`general_ik`, and of a stack of
+targets: :func:`general_ik_many`.
 
 The chain (``robot.chain(base, tip)``: 6 revolute joints, Pieper or not:
 the xArm6, a Kinova Jaco, a FANUC CRX) is read as its product of
@@ -6,13 +7,14 @@ exponentials at the reference configuration ``q0``
 (:attr:`manipkit.ik.families.Family.geometry`: the axes in the base frame
 and ``M = T_base_tip(q0)``); :mod:`manipkit.closed_form.general6r` gives
 every isolated root of ``T M^-1 = E_1 ... E_6`` by the Raghavan-Roth
-elimination (prepared once per chain and kept). Each root is then:
+elimination, compiled (the ways of eliminating it ranked once per chain and kept; a batch's targets in blocks on
+threads). Each root is then:
 
 - mapped to joint values ``q = q0 + angle / scale`` and each joint to its
   alias ``q + 2 pi k`` inside the limits nearest 0, as the closed forms do
   (a joint spanning more than 2 pi has others: the note says so); a row
   outside the limits is kept and marked (``within_limits`` False);
-- checked by the chain's own forward kinematics (``chain.fk``); a row that
+- checked by the chain's own forward kinematics (its compiled FK, every row of every target at once); a row that
   misses by more than ``tol`` is moved by Newton steps on the chain
   (``refined`` says how far) and dropped if it still misses (``rejected``).
 
@@ -20,7 +22,7 @@ Near-double roots (two solutions merging at a singular configuration, where
 other eigenvalue solvers lose them) are kept: the elimination takes nearly
 real eigenvalues as candidates and the polishing decides. When the
 elimination read base to tip is poorly conditioned at a target, it is solved
-read tip to base too and the rows are merged.
+read tip to base too and the rows are merged. A batch gives each target the rows the single call gives it.
 
 What ``result.method`` says: ``"algebraic"`` (:data:`ALGEBRAIC`), with
 ``arm_family`` ``"general 6R"``. Not ``"closed_form"``: the closed forms
