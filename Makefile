@@ -37,6 +37,7 @@ kernels: $(BASE)
 	$(BIN)/python -c "from manipkit.ik.lm_kernel import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.arms_kernel import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.general6r import warm_up; warm_up()"
+	$(BIN)/python -c "from manipkit.ik.aliases import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.spherical12_kernel import warm_up; warm_up()"
 
 # The viewer tests drive Debian's Chromium (headless); the tree tests render DOT with Graphviz.

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.ik.aliases_kernel import fresh_aliases
 from manipkit.ik.result import PLANAR_POSITION, SPATIAL_POSITION, IKResult
 from manipkit.kinematics.chain import limits_ok
 from manipkit.spatial.transforms import check_transform, pose_residuals, projected_rotation
@@ -31,7 +32,7 @@ from manipkit.spatial.transforms import check_transform, pose_residuals, project
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["MAX_ALIAS_ROWS", "MAX_TURNS", "alias_rows", "measured_rows", "with_aliases"]
+__all__ = ["MAX_ALIAS_ROWS", "MAX_TURNS", "alias_rows", "measured_rows", "warm_up", "with_aliases"]
 
 TWO_PI = 2.0 * math.pi
 #: The most whole turns an alias is from the value it aliases (a range of +-3 full turns is covered).
@@ -74,30 +75,23 @@ def alias_rows(Q, lower, upper, aliased, *, limit: int | None = None) -> tuple[n
     ([[0.0, 0.0], [-6.283185, 0.0]], [0, 0])
     """
     Q = np.asarray(Q, dtype=float).reshape(len(Q), -1)
-    m, n = Q.shape
     low, high = limits_ok(lower, upper)
-    aliased = np.asarray(aliased, dtype=bool) & np.isfinite(low) & np.isfinite(high)
-    turns = np.where(aliased[:, None], _TURNS[None, :], np.where(_TURNS == 0, 0.0, np.nan)[None, :])  # (n, T)
-    values = Q[:, :, None] + TWO_PI * turns[None]  # (m, n, T); NaN: a turn an entry does not take
-    inside = (values >= low[None, :, None]) & (values <= high[None, :, None])
-    counts = inside.sum(axis=2)  # (m, n): each entry's values inside, in the order of _TURNS
-    totals = np.prod(counts, axis=1)  # a row with an entry that has none: 0 combinations
-    if limit is not None:  # the first `limit` rows: whole rows' combinations until the room runs out
-        before = np.cumsum(totals) - totals
-        totals = np.clip(limit - before, 0, totals)
-    origin = np.repeat(np.arange(m, dtype=np.intp), totals)
-    if not len(origin):
-        return np.zeros((0, n)), np.zeros(0, dtype=np.intp)
-    # the combination index within its row, as itertools.product counts: the last entry's choice changes fastest
-    index = np.arange(len(origin)) - np.repeat(np.cumsum(totals) - totals, totals)
-    first = np.argsort(~inside, axis=2, kind="stable")  # (m, n, T): the inside turns first, in their order
-    stride = np.ones((m, n), dtype=np.int64)  # entry j's stride: the product of the later entries' counts
-    if n > 1:
-        stride[:, :-1] = np.cumprod(counts[:, :0:-1], axis=1)[:, ::-1]
-    digit = (index[:, None] // stride[origin]) % counts[origin]
-    entry = np.arange(n)[None, :]
-    rows = values[origin[:, None], entry, first[origin[:, None], entry, digit]]
+    rows, origin, _ = _fresh_aliases(Q, low, high, aliased, limit, np.zeros((0, Q.shape[1])), None)
     return rows, origin
+
+
+
+
+def _fresh_aliases(Q, low, high, aliased, limit, listed, cap):
+    """:func:`manipkit.ik.aliases_kernel.fresh_aliases` with the aliased entries those with finite limits, ``limit``
+    and ``cap`` None for none:
+    (rows (r, n), their rows of ``Q`` (r,), how many fresh ones there are, counted up to ``cap + 1``)."""
+    aliased = np.asarray(aliased, dtype=bool) & np.isfinite(low) & np.isfinite(high)
+    unbounded = np.iinfo(np.int64).max // 2
+    return fresh_aliases()(np.ascontiguousarray(Q, dtype=float), np.ascontiguousarray(low, dtype=float),
+                           np.ascontiguousarray(high, dtype=float), aliased, _TURNS,
+                           unbounded if limit is None else int(limit), np.ascontiguousarray(listed, dtype=float),
+                           unbounded if cap is None else int(cap))
 
 
 def measured_rows(chain: Chain, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -156,16 +150,14 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
     turned = np.where(aliased, np.abs(np.remainder(turned + math.pi, TWO_PI) - math.pi), np.abs(turned))
     leader = np.argmax(turned.max(axis=2) <= 1e-9, axis=1)
     leaders = np.flatnonzero(leader == np.arange(len(own)))
-    values, origin = alias_rows(own[leaders], chain.lower, chain.upper, aliased, limit=MAX_ALIAS_ROWS + len(own) + 1)
-    origin = leaders[origin]
-    listed = np.abs(values[:, None, :] - own[None, :, :]).max(axis=2) <= 1e-9  # (r, rows): already a branch row
-    fresh = np.flatnonzero(~listed.any(axis=1))
-    left_out = len(fresh) > MAX_ALIAS_ROWS
-    fresh = fresh[:MAX_ALIAS_ROWS]
-    if not len(fresh):
+    # every alias of the leaders (the first MAX_ALIAS_ROWS + rows + 1), less those equal to a branch row (to 1e-9)
+    low, high = limits_ok(chain.lower, chain.upper)
+    chain_rows, origin, fresh = _fresh_aliases(own[leaders], low, high, aliased, MAX_ALIAS_ROWS + len(own) + 1, own,
+                                               MAX_ALIAS_ROWS)
+    left_out = fresh > MAX_ALIAS_ROWS
+    if not len(chain_rows):
         return replace(result, alias_of=branch)
-    chain_rows = values[fresh]
-    of = inside[origin[fresh]]
+    of = inside[leaders[origin]]
     Q = np.array(result.solutions[of], dtype=float)
     Q[:, columns] = chain_rows
     T = check_transform(target, what="IK target")
@@ -191,3 +183,9 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
         clearance=None if result.clearance is None else np.concatenate([result.clearance, result.clearance[of]]),
     )
     return replace(result, count=k + len(of), note=note, alias_of=np.concatenate([branch, of]), **per_row)
+
+
+def warm_up() -> None:
+    """Compile (or load from the kernel cache) the aliases' kernel with the types :func:`with_aliases` passes
+    (``make kernels``)."""
+    alias_rows(np.zeros((1, 2)), [-7.0, -1.0], [7.0, 1.0], [True, True])
