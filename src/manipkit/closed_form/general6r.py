@@ -53,6 +53,7 @@ kinematics.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -520,6 +521,13 @@ def way_reason(status: np.ndarray) -> str:
     return "the eigenvalue iteration did not converge at this target"
 
 
+@functools.lru_cache(maxsize=64)
+def _way_array(ways: tuple) -> np.ndarray:
+    """``ways`` ((shift, reverse), ...) as the (W, 2) int64 array the compiled elimination takes (kept; writable, as
+    numba types a read-only array apart, but never written)."""
+    return np.array([(shift, int(reverse)) for shift, reverse in ways], dtype=np.int64).reshape(-1, 2)
+
+
 def solve_targets(direction, point, G, ways, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3,
                   poor: float = 0.0, threads: int = 1, block: int = 16) -> tuple:
     """Every isolated solution of each target ``G`` (n, 4, 4) of ``g = E_1 ... E_6`` by the ways ``ways`` (W, 2) in
@@ -536,7 +544,7 @@ def solve_targets(direction, point, G, ways, *, tol: float = 1e-9, iterations: i
     from manipkit.kernels.blocks import run_blocks
 
     G = np.ascontiguousarray(np.asarray(G, dtype=float).reshape(-1, 4, 4))
-    ways = np.asarray([(int(shift), int(bool(reverse))) for shift, reverse in ways], dtype=np.int64).reshape(-1, 2)
+    ways = _way_array(tuple((int(shift), bool(reverse)) for shift, reverse in ways))
     n, width = len(G), 24 * len(ways)
     rows, residual = np.zeros((n, width, 6)), np.zeros((n, width))
     count, status = np.zeros(n, dtype=np.int64), np.zeros((n, len(ways), 4))

@@ -174,12 +174,12 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
         note += f"; more beyond the first {MAX_ALIAS_ROWS} are left out (aliases=False lists the branches only)"
     per_row = dict(
         solutions=np.concatenate([result.solutions, Q]),
-        labels=labels + tuple(labels[i] for i in of),  # each alias carries its branch's per-row fields
+        labels=labels + tuple([labels[i] for i in of.tolist()]),  # each alias carries its branch's per-row fields
         residual_position=np.concatenate([result.residual_position, np.atleast_1d(position)]),
         residual_rotation=np.concatenate([result.residual_rotation, np.atleast_1d(rotation)]),
         within_limits=None if result.within_limits is None else np.concatenate([within, np.ones(len(of), bool)]),
         refined=None if result.refined is None else np.concatenate([result.refined, result.refined[of]]),
-        collides=result.collides + tuple(result.collides[i] for i in of) if result.collides else (),
+        collides=result.collides + tuple([result.collides[i] for i in of.tolist()]) if result.collides else (),
         clearance=None if result.clearance is None else np.concatenate([result.clearance, result.clearance[of]]),
     )
     return replace(result, count=k + len(of), note=note, alias_of=np.concatenate([branch, of]), **per_row)
