@@ -322,3 +322,21 @@ def test_batch_of_a_random_arm_matches_general_ik_with_a_shaped_stack():
         single = general_ik(chain, T[index]).solutions
         rows = batch.solutions[index]
         assert np.abs(rows[:len(single)] - single).max(initial=0.0) <= 1e-9 and np.isnan(rows[len(single):]).all()
+
+
+def test_batch_answers_a_singular_target_as_the_single_call_does():
+    """A UR5 batch by the elimination (method='algebraic') with a singular target (wrist_2 = 0, every elimination
+    degenerate) between two regular ones: the singular one counts inf with the single call's rows (numerical IK's
+    family members), the others their 8 branches; all succeed, every row landing by Pinocchio."""
+    ur5 = manipkit.load("ur5")
+    chain = ur5.chain("base_link", "tool0")
+    Q = np.array([[0.3, -1.2, 1.0, -0.5, 0.8, 0.2], [0.1, -1.0, 1.2, -0.3, 0.0, 0.5], [-0.4, -0.9, 1.4, 0.6, -1.1, 1.0]])
+    T = chain.fk(Q)
+    batch = manipkit.ik_many(ur5, T, tip="tool0", method="algebraic")
+    single = manipkit.ik(ur5, T[1], tip="tool0", all=True, method="algebraic", aliases=False)
+    assert batch.method == "algebraic" and batch.count[0] == 8 and batch.count[2] == 8 and math.isinf(batch.count[1])
+    rows = batch.solutions[1][~np.isnan(batch.solutions[1, :, 0])]
+    assert np.abs(rows - single.solutions[:, chain.columns]).max() <= 1e-9 and bool(batch.success.all())
+    for i in range(3):
+        found = batch.solutions[i][~np.isnan(batch.solutions[i, :, 0])]
+        assert pinocchio_miss(ur5, "base_link", "tool0", found, T[i]) < 1e-9
