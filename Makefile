@@ -36,7 +36,8 @@ demo: $(BASE)
 kernels: $(BASE)
 	$(BIN)/python -c "from manipkit.ik.lm_kernel import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.arms_kernel import warm_up; warm_up()"
-	$(BIN)/python -c "from manipkit.closed_form.general6r_kernel import warm_up; warm_up()"
+	$(BIN)/python -c "from manipkit.closed_form.general6r import warm_up; warm_up()"
+	$(BIN)/python -c "from manipkit.ik.aliases import warm_up; warm_up()"
 	$(BIN)/python -c "from manipkit.closed_form.spherical12_kernel import warm_up; warm_up()"
 	$(BIN)/python -c "import manipkit; r = manipkit.load('panda'); c = r.chain('base_link', 'ee_link'); \
 		manipkit.ik(r, c.fk(c.sample(1)[0]), all=True)"  # a 7R ranked set's compiled sweep (ik.redundant_kernel)

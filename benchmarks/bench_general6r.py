@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import peers as peer_adapters
-from benchmarks.workloads import IK_ACCEPT, calls_timed, in_turns, row
+from benchmarks.workloads import IK_ACCEPT, batch_timed, calls_timed, in_turns, row
 
 __all__ = ["XARM6", "general6r_workload"]
 
@@ -74,7 +74,8 @@ def _ssik(robot, chain, T, Q, rounds, timers) -> list:
 
 def general6r_workload(*, n_poses: int = 200, rounds: int = 5, seed: int = 17) -> list[dict]:
     """Rows of workload ``general6r``: manipkit's every-solution call (``ik(all=True)``, the algebraic
-    elimination), one numerical solve of manipkit (``ik(method="numerical")``) and ssik, per pose."""
+    elimination), its batch (``ik_many`` of all the targets on 2 threads), one numerical solve of manipkit
+    (``ik(method="numerical")``) and ssik, per pose."""
     import manipkit
 
     robot = _xarm6()
@@ -90,12 +91,18 @@ def general6r_workload(*, n_poses: int = 200, rounds: int = 5, seed: int = 17) -
     found = float(np.mean([len(a.solutions) and _wrapped_gap(a.solutions, q).max(axis=1).min() < 1e-7
                            for a, q in zip(answers, Q)]))
     method = {a.method for a in answers}
+    batch = manipkit.ik_many(robot, T, threads=2)
+    single = [manipkit.ik(robot, target, all=True, aliases=False).solutions[:, chain.columns] for target in T]
+    same = all(np.array_equal(b[~np.isnan(b[:, 0])], s) for b, s in zip(batch.solutions, single))
+    batch_worst = max((float(np.abs(robot.transform("base_link", "ee_link", q, check_limits=False) - target).max())
+                       for b, target in zip(batch.solutions, T) for q in b[~np.isnan(b[:, 0])]), default=0.0)
     numerical = [manipkit.ik(robot, target, method="numerical") for target in T]
     solved = float(np.mean([a.success for a in numerical]))
     timers = {
         "ours": lambda r: calls_timed(lambda target: manipkit.ik(robot, target, all=True), list(T[r::rounds])),
         "numerical": lambda r: calls_timed(lambda target: manipkit.ik(robot, target, method="numerical"),
                                            list(T[r::rounds])),
+        "batch": lambda r: np.array([batch_timed(lambda: manipkit.ik_many(robot, T, threads=2), len(T))]),
     }
     pending = _ssik(robot, chain, T, Q, rounds, timers)
     times = in_turns(timers, rounds)
@@ -107,6 +114,14 @@ def general6r_workload(*, n_poses: int = 200, rounds: int = 5, seed: int = 17) -
                 check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating configuration among the "
                       f"answers: {found:.1%}; method {', '.join(sorted(method))}",
                 note="every isolated solution, limits marked; numpy, its root polishing compiled"),
+            row("general6r", "xarm6", "manipkit ik_many, every solution, 2 threads (algebraic elimination)",
+                times["batch"] if same and batch_worst <= 1e-10 and batch.method == "algebraic" else None,
+                unit="pose", n=n_poses, ours=True,
+                status="ok" if same and batch_worst <= 1e-10 and batch.method == "algebraic" else "wrong",
+                max_fk_error=batch_worst, solutions_per_pose=float(np.mean(batch.count)),
+                check=f"each target's rows those of ik(all=True, aliases=False): {'yes' if same else 'NO'}; "
+                      f"Pinocchio FK of every row: max error {batch_worst:.1e}; method {batch.method}",
+                note="the whole batch of targets per call, 2 pi aliases not listed; compiled, blocks of 16 on threads"),
             row("general6r", "xarm6", "manipkit ik(method='numerical'), one solution", times["numerical"],
                 unit="pose", n=n_poses, success=solved,
                 check=f"solved {solved:.1%} (residual checked by FK in the solver)",

@@ -157,3 +157,29 @@ def test_near_double_roots_are_kept():
 def test_bad_arrays_are_refused():
     with pytest.raises(ClosedFormIKError, match="6 joint axes"):
         general6r.prepare(np.eye(3)[[0, 1, 2, 0, 1]], np.zeros((5, 3)))
+
+
+def test_compiled_eigenvalues_inverse_and_null_vector_match_numpy():
+    """closed_form.eigen_kernel against numpy: every eigenvalue of 300 random real matrices (sizes 2-24, rows scaled
+    over 6 decades, as the elimination's companion matrices are) to 1e-11 relative, matched one to one; a 12 x 12
+    inverse; the null vector of A - lambda I at an eigenvalue lambda (complex)."""
+    from manipkit.closed_form.eigen_kernel import eigenvalues, inverse, null_vector
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        n = int(rng.integers(2, 25))
+        A = rng.normal(size=(n, n)) * 10.0 ** rng.uniform(-3, 3, size=(n, 1))
+        wr, wi = np.empty(n), np.empty(n)
+        assert eigenvalues(A, wr, wi)
+        reference = list(np.linalg.eigvals(A))
+        for z in wr + 1j * wi:
+            k = int(np.argmin([abs(r - z) for r in reference]))
+            assert abs(reference.pop(k) - z) <= 1e-11 * (1.0 + abs(z))
+    A = rng.normal(size=(12, 12))
+    out = np.empty((12, 12))
+    assert inverse(A, out) and np.abs(out @ A - np.eye(12)).max() < 1e-12
+    assert not inverse(np.zeros((3, 3)), np.empty((3, 3)))
+    lam = np.linalg.eigvals(A)[0]
+    u = np.empty(12, dtype=complex)
+    null_vector((A - lam * np.eye(12)).astype(complex), u)
+    assert np.abs((A - lam * np.eye(12)) @ u).max() < 1e-12 and np.isclose(np.abs(u).max(), 1.0)

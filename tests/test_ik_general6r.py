@@ -167,8 +167,10 @@ def test_wrong_chains_are_refused_in_one_line(xarm6):
     with pytest.raises(IKOptionError, match="has 5") as refused:
         manipkit.ik(xarm6, five.fk(np.zeros(5)), tip="link5", method="algebraic")
     assert "lock" not in str(refused.value)  # locking a joint makes 6 of 7 only, not of 5
-    with pytest.raises(IKOptionError, match="no algebraic path"):
-        manipkit.ik_many(xarm6, np.eye(4)[None], method="algebraic")
+    with pytest.raises(IKOptionError, match="has 5"):
+        manipkit.ik_many(xarm6, five.fk(np.zeros((1, 5))), tip="link5", method="algebraic")
+    with pytest.raises(IKOptionError, match="takes no lock="):
+        manipkit.ik_many(xarm6, np.eye(4)[None], method="algebraic", lock={"joint1": 0.0})
     with pytest.raises(IKOptionError, match="does not take lock="):
         manipkit.ik(xarm6, np.eye(4), method="algebraic", lock={"joint1": 0.0})
 
@@ -254,9 +256,10 @@ def test_asking_the_xarm6_for_a_closed_form_points_to_the_algebraic_method(xarm6
         manipkit.ik(xarm6, np.eye(4), method="closed_form")
 
 
-def test_compiled_polishing_gives_the_numpy_reference_solutions_on_640_solves():
-    """The compiled root polishing (closed_form.general6r_kernel) against the numpy reference (compiled=False):
-    the same rows to 1e-9 rad on 4 random DH arms x 160 poses, each row landing by Pinocchio's FK to 1e-10."""
+def test_compiled_elimination_gives_the_numpy_reference_solutions_on_640_solves():
+    """The compiled elimination (closed_form.general6r_kernel: prepare, equations, pencil, eigenvalues, joints,
+    polishing) against the numpy reference (compiled=False): the same rows to 1e-9 rad on 4 random DH arms x 160
+    poses, each row landing by Pinocchio's FK to 1e-10."""
     from manipkit.closed_form.general6r import solve_way
     from manipkit.ik.families import chain_family
     from manipkit.ik.general6r import general_ways
@@ -281,3 +284,60 @@ def test_compiled_polishing_gives_the_numpy_reference_solutions_on_640_solves():
             solves += 1
             rows_seen += len(rows)
     assert solves == 640 and rows_seen > 640
+
+
+@needs_xarm
+def test_batch_gives_the_single_calls_rows_on_200_xarm6_poses(xarm6):
+    """ik_many on the xArm6 (the compiled elimination over a stack, on 2 threads): per target the same rows as
+    ik(all=True, aliases=False) to 1e-9 rad, each landing by Pinocchio's FK to 1e-10, the generating configuration
+    among them for every target; 1 and 2 threads give the same bits. (Before, the batch was numerical: 1 slot.)"""
+    chain = xarm6.chain("base_link", "ee_link")
+    Q = chain.sample(200, seed=17)
+    T = chain.fk(Q)
+    batch = manipkit.ik_many(xarm6, T, threads=2)
+    assert batch.method == "algebraic" and batch.solutions.shape[0] == 200 and bool(batch.success.all())
+    assert np.array_equal(manipkit.ik_many(xarm6, T, threads=1).solutions, batch.solutions, equal_nan=True)
+    assert np.array_equal(manipkit.ik_many(xarm6, T, method="algebraic").solutions, batch.solutions, equal_nan=True)
+    for i, (q, target) in enumerate(zip(Q, T)):
+        single = manipkit.ik(xarm6, target, all=True, aliases=False).solutions[:, chain.columns]
+        rows = batch.solutions[i][~np.isnan(batch.solutions[i, :, 0])]
+        assert rows.shape == single.shape and batch.count[i] == len(single)
+        assert np.abs(rows - single).max(initial=0.0) <= 1e-9
+        assert pinocchio_miss(xarm6, "base_link", "ee_link", rows, target) <= 1e-10
+        assert np.abs(wrapped(rows - q)).max(axis=1).min() <= 1e-7
+    position = batch.residual_position[~np.isnan(batch.residual_position)]
+    assert position.max() <= 1e-10
+
+
+def test_batch_of_a_random_arm_matches_general_ik_with_a_shaped_stack():
+    """general_ik_many on a random DH arm: targets (2, 5, 4, 4) keep their shape, each target's rows are
+    general_ik's, in its order, NaN after them."""
+    from manipkit.ik.general6r import general_ik_many
+
+    robot = random_dh_robot(101)
+    chain = robot.chain(robot.base_link, "ee_link")
+    T = chain.fk(chain.sample(10, seed=4)).reshape(2, 5, 4, 4)
+    batch = general_ik_many(chain, T)
+    assert batch.solutions.shape[:2] == (2, 5) and batch.count.shape == (2, 5)
+    for index in np.ndindex(2, 5):
+        single = general_ik(chain, T[index]).solutions
+        rows = batch.solutions[index]
+        assert np.abs(rows[:len(single)] - single).max(initial=0.0) <= 1e-9 and np.isnan(rows[len(single):]).all()
+
+
+def test_batch_answers_a_singular_target_as_the_single_call_does():
+    """A UR5 batch by the elimination (method='algebraic') with a singular target (wrist_2 = 0, every elimination
+    degenerate) between two regular ones: the singular one counts inf with the single call's rows (numerical IK's
+    family members), the others their 8 branches; all succeed, every row landing by Pinocchio."""
+    ur5 = manipkit.load("ur5")
+    chain = ur5.chain("base_link", "tool0")
+    Q = np.array([[0.3, -1.2, 1.0, -0.5, 0.8, 0.2], [0.1, -1.0, 1.2, -0.3, 0.0, 0.5], [-0.4, -0.9, 1.4, 0.6, -1.1, 1.0]])
+    T = chain.fk(Q)
+    batch = manipkit.ik_many(ur5, T, tip="tool0", method="algebraic")
+    single = manipkit.ik(ur5, T[1], tip="tool0", all=True, method="algebraic", aliases=False)
+    assert batch.method == "algebraic" and batch.count[0] == 8 and batch.count[2] == 8 and math.isinf(batch.count[1])
+    rows = batch.solutions[1][~np.isnan(batch.solutions[1, :, 0])]
+    assert np.abs(rows - single.solutions[:, chain.columns]).max() <= 1e-9 and bool(batch.success.all())
+    for i in range(3):
+        found = batch.solutions[i][~np.isnan(batch.solutions[i, :, 0])]
+        assert pinocchio_miss(ur5, "base_link", "tool0", found, T[i]) < 1e-9

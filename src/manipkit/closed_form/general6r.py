@@ -42,14 +42,18 @@ The elimination (Raghavan and Roth 1993, as reformulated by Manocha and Canny
    is below ``tol``; candidates that land on the same configuration are one.
 
 Lengths are scaled by the arm's size inside (the equations mix m and m^2).
-numpy, but for the root polishing of step 5, compiled by numba on first use
-(:mod:`manipkit.closed_form.general6r_kernel`; ``solve(compiled=False)`` runs the
-numpy reference of the same steps). The caller (:mod:`manipkit.ik.general6r`) maps angles to joint
-values and checks every row by the chain's own forward kinematics.
+:func:`prepare` and :func:`solve` are the numpy reference (:func:`solve` polishes by the compiled
+:func:`~manipkit.closed_form.general6r_kernel.polish_rows` unless ``compiled=False``);
+:func:`solve_targets` (and :func:`solve_way`, by default) runs every step of every way of a stack of targets
+compiled by numba (:mod:`manipkit.closed_form.general6r_kernel`, its eigenvalues from
+:mod:`manipkit.closed_form.eigen_kernel`; the same rows within rounding, tested). The caller
+(:mod:`manipkit.ik.general6r`) maps angles to joint values and checks every row by the chain's own forward
+kinematics.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -57,7 +61,8 @@ import numpy as np
 
 from manipkit.errors import ClosedFormIKError
 
-__all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_way"]
+__all__ = ["WAYS", "General6R", "Roots", "poe_fk", "prepare", "prepared", "ranked_ways", "rr_sides", "solve", "solve_targets",
+           "solve_way", "warm_up", "way_reason"]
 
 TWO_PI = 2.0 * math.pi
 _EYE3 = np.eye(3)
@@ -281,13 +286,16 @@ def _pencil(K: np.ndarray, eigen: int, multiplied: int) -> np.ndarray:
 
 
 def _conditioning(M: np.ndarray) -> float:
-    """How far the matrix polynomial is from singular: sigma_min / sigma_max at a value of its variable (no root
-    there but by coincidence)."""
-    worst = np.inf
-    for x in (_PROBE,):
-        s = np.linalg.svd(M[0] + x * M[1] + x * x * M[2], compute_uv=False)
-        worst = min(worst, s[-1] / s[0])
-    return float(worst)
+    """How far the matrix polynomial is from singular: the reciprocal condition number in the 1-norm,
+    ``1 / (|L|_1 |L^-1|_1)``, of ``L = M(x)`` at a value of its variable (no root there but by coincidence); 0 when
+    ``L`` is exactly singular. (Within a factor 12 of sigma_min / sigma_max; the compiled twin computes the same from
+    the inverse it needs anyway.)"""
+    L = M[0] + _PROBE * M[1] + _PROBE * _PROBE * M[2]
+    try:
+        inverse = np.linalg.inv(L)
+    except np.linalg.LinAlgError:
+        return 0.0
+    return float(1.0 / (np.abs(L).sum(axis=0).max() * np.abs(inverse).sum(axis=0).max()))
 
 
 @dataclass(frozen=True)
@@ -498,14 +506,81 @@ def _shifted(h: np.ndarray, p: np.ndarray, g: np.ndarray, shift: int, reverse: b
     return h, p, g
 
 
-def solve_way(direction, point, g, way: tuple[int, bool], **options) -> Roots:
+#: The interpolation grid, matrices, Moebius shifts and probe, as the compiled elimination takes them.
+_CONSTANTS = (_GRID, np.ascontiguousarray(_V2_INV), np.ascontiguousarray(_V3_INV), _SHIFTS, _PROBE)
+
+
+def way_reason(status: np.ndarray) -> str:
+    """The ClosedFormIKError message of a way :func:`solve_targets` could not solve (its status row (4,))."""
+    code, value = int(status[0]), float(status[1])
+    if code == 1:
+        return f"the joints 4-5 side has rank {int(value)} < 8 (axes 4 and 5 in a special position)"
+    if code == 2:
+        return (f"the elimination is degenerate at this target (conditioning {value:.2g}): a continuum of solutions, "
+                "or a special arm")
+    return "the eigenvalue iteration did not converge at this target"
+
+
+@functools.lru_cache(maxsize=64)
+def _way_array(ways: tuple) -> np.ndarray:
+    """``ways`` ((shift, reverse), ...) as the (W, 2) int64 array the compiled elimination takes (kept; writable, as
+    numba types a read-only array apart, but never written)."""
+    return np.array([(shift, int(reverse)) for shift, reverse in ways], dtype=np.int64).reshape(-1, 2)
+
+
+def solve_targets(direction, point, G, ways, *, tol: float = 1e-9, iterations: int = 6, imaginary: float = 1e-3,
+                  poor: float = 0.0, threads: int = 1, block: int = 16) -> tuple:
+    """Every isolated solution of each target ``G`` (n, 4, 4) of ``g = E_1 ... E_6`` by the ways ``ways`` (W, 2) in
+    turn (the next one while the last solved is conditioned below ``poor``), compiled
+    (:func:`manipkit.closed_form.general6r_kernel.solve_targets`): the steps of :func:`solve_way` for each way, with
+    the options of :func:`solve`, in blocks of ``block`` targets on up to ``threads`` threads.
+
+    Returns (rows (n, 24 W, 6) PoE angles in chain order wrapped to (-pi, pi], each way's rows sorted and distinct
+    to 1e-7 rad, appended way after way; residual (n, 24 W); count (n,) rows written; status (n, W, 4): per way
+    (0 solved, 1 rank below 8, 2 every pencil singular, 3 no convergence, -1 not tried; the rank or conditioning;
+    candidates; the eigenvalue's joint)). Each target's numbers come from it alone: the same on any thread count.
+    """
+    from manipkit.closed_form.general6r_kernel import solve_targets as kernel
+    from manipkit.kernels.blocks import run_blocks
+
+    G = np.ascontiguousarray(np.asarray(G, dtype=float).reshape(-1, 4, 4))
+    ways = _way_array(tuple((int(shift), bool(reverse)) for shift, reverse in ways))
+    n, width = len(G), 24 * len(ways)
+    rows, residual = np.zeros((n, width, 6)), np.zeros((n, width))
+    count, status = np.zeros(n, dtype=np.int64), np.zeros((n, len(ways), 4))
+    h = np.ascontiguousarray(direction, dtype=float)
+    p = np.ascontiguousarray(point, dtype=float)
+
+    def work(a: int, b: int) -> None:
+        kernel(h, p, G[a:b], ways, _CONSTANTS, tol=tol, iterations=iterations, imaginary=imaginary, far=_FAR,
+               poor=poor, rows=rows[a:b], res=residual[a:b], count=count[a:b], status=status[a:b])
+
+    if n <= block or threads <= 1:
+        work(0, n)  # one block, or one thread: no pool
+    else:
+        run_blocks(work, n, block=block, min_rows_per_thread=block, threads=threads, name="general6r")
+    return rows, residual, count, status
+
+
+def solve_way(direction, point, g, way: tuple[int, bool], *, compiled: bool = True, **options) -> Roots:
     """:func:`solve` of ``g = E_1 ... E_6`` (axes ``direction``, ``point`` (6, 3)) eliminated the way ``way``
-    (:data:`WAYS`); angles in the chain's order. ClosedFormIKError when that way is degenerate here."""
+    (:data:`WAYS`); angles in the chain's order. ClosedFormIKError when that way is degenerate here.
+
+    ``compiled`` True: the whole elimination compiled (:func:`solve_targets`; the same steps, within rounding);
+    False: the numpy reference (:func:`solve` with ``compiled=False``)."""
+    if compiled:
+        rows, residual, count, status = solve_targets(direction, point, np.asarray(g, dtype=float)[None], [way],
+                                                      **options)
+        if status[0, 0, 0] != 0:
+            raise ClosedFormIKError(way_reason(status[0, 0]))
+        k = int(count[0])
+        return Roots(rows[0, :k].copy(), residual[0, :k].copy(), int(status[0, 0, 2]), int(status[0, 0, 3]),
+                     float(status[0, 0, 1]))
     shift, reverse = way
     h, p, target = _shifted(np.asarray(direction, dtype=float), np.asarray(point, dtype=float),
                             np.asarray(g, dtype=float), shift, reverse)
     arm = prepared(h, p) if shift == 0 else prepare(h, p)  # a shifted way's axes move with the target
-    roots = solve(arm, target, **options)
+    roots = solve(arm, target, compiled=False, **options)
     theta = roots.theta[:, ::-1] if reverse else roots.theta
     theta = np.roll(theta, shift, axis=1)
     return Roots(theta, roots.residual, roots.candidates, roots.eigen, roots.conditioning)
@@ -546,3 +621,15 @@ def ranked_ways(direction, point, *, trials: int = 4, seed: int = 0) -> tuple[tu
 
 #: (bytes of the arrays, trials, seed) -> their ranked ways.
 _RANKED: dict = {}
+
+
+def warm_up() -> None:
+    """Compile (or load from the kernel cache) the compiled elimination (:func:`solve_targets`) and the numpy
+    reference's compiled polishing, with the types the solvers pass (``make kernels``)."""
+    from manipkit.closed_form.general6r_kernel import warm_up as warm_polishing
+
+    warm_polishing()
+    rng = np.random.default_rng(0)
+    h = rng.normal(size=(6, 3))
+    p = rng.normal(size=(6, 3))
+    solve_targets(h, p, poe_fk(h, p, rng.uniform(-3.0, 3.0, 6))[None], [(0, False)])

@@ -18,21 +18,21 @@ turns from its value.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from manipkit.ik.aliases_kernel import fresh_aliases
 from manipkit.ik.result import PLANAR_POSITION, SPATIAL_POSITION, IKResult
 from manipkit.kinematics.chain import limits_ok
-from manipkit.spatial.transforms import check_transform, pose_residuals
+from manipkit.spatial.transforms import check_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["MAX_ALIAS_ROWS", "MAX_TURNS", "alias_rows", "with_aliases"]
+__all__ = ["MAX_ALIAS_ROWS", "MAX_TURNS", "alias_rows", "measured_rows", "warm_up", "with_aliases"]
 
 TWO_PI = 2.0 * math.pi
 #: The most whole turns an alias is from the value it aliases (a range of +-3 full turns is covered).
@@ -75,25 +75,37 @@ def alias_rows(Q, lower, upper, aliased, *, limit: int | None = None) -> tuple[n
     ([[0.0, 0.0], [-6.283185, 0.0]], [0, 0])
     """
     Q = np.asarray(Q, dtype=float).reshape(len(Q), -1)
-    m, n = Q.shape
     low, high = limits_ok(lower, upper)
+    rows, origin, _ = _fresh_aliases(Q, low, high, aliased, limit, np.zeros((0, Q.shape[1])), None)
+    return rows, origin
+
+
+
+
+def _fresh_aliases(Q, low, high, aliased, limit, listed, cap):
+    """:func:`manipkit.ik.aliases_kernel.fresh_aliases` with the aliased entries those with finite limits, ``limit``
+    and ``cap`` None for none:
+    (rows (r, n), their rows of ``Q`` (r,), how many fresh ones there are, counted up to ``cap + 1``)."""
     aliased = np.asarray(aliased, dtype=bool) & np.isfinite(low) & np.isfinite(high)
-    turns = np.where(aliased[:, None], _TURNS[None, :], np.where(_TURNS == 0, 0.0, np.nan)[None, :])  # (n, T)
-    values = Q[:, :, None] + TWO_PI * turns[None]  # (m, n, T); NaN: a turn an entry does not take
-    inside = (values >= low[None, :, None]) & (values <= high[None, :, None])
-    rows, origin = [], []
-    room = math.inf if limit is None else limit
-    for r in np.flatnonzero(inside.any(axis=2).all(axis=1)):
-        if room <= 0:
-            break
-        combos = list(itertools.islice(itertools.product(*(values[r, j][inside[r, j]] for j in range(n))),
-                                       None if math.isinf(room) else int(room)))
-        rows.append(np.array(combos, dtype=float).reshape(-1, n))
-        origin.append(np.full(len(combos), r, dtype=np.intp))
-        room -= len(combos)
-    if not rows:
-        return np.zeros((0, n)), np.zeros(0, dtype=np.intp)
-    return np.concatenate(rows), np.concatenate(origin)
+    unbounded = np.iinfo(np.int64).max // 2
+    return fresh_aliases()(np.ascontiguousarray(Q, dtype=float), np.ascontiguousarray(low, dtype=float),
+                           np.ascontiguousarray(high, dtype=float), aliased, _TURNS,
+                           unbounded if limit is None else int(limit), np.ascontiguousarray(listed, dtype=float),
+                           unbounded if cap is None else int(cap))
+
+
+def measured_rows(chain: Chain, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position m (M,), rotation rad (M,)) of chain rows ``Q`` (M, n) against targets ``T`` (M, 4, 4) whose rotation
+    blocks are rotations: the chain's compiled FK and ``pose_residuals(project=False)``'s compiled twin
+    (:func:`manipkit.closed_form.arms_kernel.measure_many`), without numpy's per-call cost on a few rows."""
+    from manipkit.closed_form.arms_kernel import measure_many
+
+    if not len(Q):
+        return np.zeros(0), np.zeros(0)
+    Q = np.ascontiguousarray(Q, dtype=float)
+    reached = chain.compiled_fk.transforms(Q)
+    residuals, _ = measure_many(np.ascontiguousarray(T, dtype=float), reached[:, None], Q[:, None], (0.0, 0.0))
+    return residuals[:, 0, 0].copy(), residuals[:, 0, 1].copy()
 
 
 def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult:
@@ -138,33 +150,42 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
     turned = np.where(aliased, np.abs(np.remainder(turned + math.pi, TWO_PI) - math.pi), np.abs(turned))
     leader = np.argmax(turned.max(axis=2) <= 1e-9, axis=1)
     leaders = np.flatnonzero(leader == np.arange(len(own)))
-    values, origin = alias_rows(own[leaders], chain.lower, chain.upper, aliased, limit=MAX_ALIAS_ROWS + len(own) + 1)
-    origin = leaders[origin]
-    listed = np.abs(values[:, None, :] - own[None, :, :]).max(axis=2) <= 1e-9  # (r, rows): already a branch row
-    fresh = np.flatnonzero(~listed.any(axis=1))
-    left_out = len(fresh) > MAX_ALIAS_ROWS
-    fresh = fresh[:MAX_ALIAS_ROWS]
-    if not len(fresh):
+    # every alias of the leaders (the first MAX_ALIAS_ROWS + rows + 1), less those equal to a branch row (to 1e-9)
+    low, high = limits_ok(chain.lower, chain.upper)
+    chain_rows, origin, fresh = _fresh_aliases(own[leaders], low, high, aliased, MAX_ALIAS_ROWS + len(own) + 1, own,
+                                               MAX_ALIAS_ROWS)
+    left_out = fresh > MAX_ALIAS_ROWS
+    if not len(chain_rows):
         return replace(result, alias_of=branch)
-    chain_rows = values[fresh]
-    of = inside[origin[fresh]]
+    of = inside[leaders[origin]]
     Q = np.array(result.solutions[of], dtype=float)
     Q[:, columns] = chain_rows
-    mode = "position" if result.mode in (PLANAR_POSITION, SPATIAL_POSITION) else "pose"
-    position, rotation = pose_residuals(check_transform(target, what="IK target"), chain.fk(chain_rows), mode=mode)
-    extra = result.take(of)
+    T = check_transform(target, what="IK target")
+    if result.mode in (PLANAR_POSITION, SPATIAL_POSITION):
+        position, rotation = pose_residuals(T, chain.fk(chain_rows), mode="position")
+    else:
+        T = np.array(T, dtype=float)
+        T[:3, :3] = projected_rotation(T[:3, :3])
+        position, rotation = measured_rows(chain, np.broadcast_to(T, (len(chain_rows), 4, 4)), chain_rows)
+    labels = result.labels
     note = (f"{result.note}; listed after the {k} branch row(s): their {len(of)} other in-limit 2 pi alias(es) "
             "(alias_of names each one's branch)")
     if left_out:
         note += f"; more beyond the first {MAX_ALIAS_ROWS} are left out (aliases=False lists the branches only)"
     per_row = dict(
         solutions=np.concatenate([result.solutions, Q]),
-        labels=result.labels + extra.labels,
+        labels=labels + tuple([labels[i] for i in of.tolist()]),  # each alias carries its branch's per-row fields
         residual_position=np.concatenate([result.residual_position, np.atleast_1d(position)]),
         residual_rotation=np.concatenate([result.residual_rotation, np.atleast_1d(rotation)]),
         within_limits=None if result.within_limits is None else np.concatenate([within, np.ones(len(of), bool)]),
-        refined=None if result.refined is None else np.concatenate([result.refined, extra.refined]),
-        collides=result.collides + extra.collides if result.collides else (),
-        clearance=None if result.clearance is None else np.concatenate([result.clearance, extra.clearance]),
+        refined=None if result.refined is None else np.concatenate([result.refined, result.refined[of]]),
+        collides=result.collides + tuple([result.collides[i] for i in of.tolist()]) if result.collides else (),
+        clearance=None if result.clearance is None else np.concatenate([result.clearance, result.clearance[of]]),
     )
     return replace(result, count=k + len(of), note=note, alias_of=np.concatenate([branch, of]), **per_row)
+
+
+def warm_up() -> None:
+    """Compile (or load from the kernel cache) the aliases' kernel with the types :func:`with_aliases` passes
+    (``make kernels``)."""
+    alias_rows(np.zeros((1, 2)), [-7.0, -1.0], [7.0, 1.0], [True, True])

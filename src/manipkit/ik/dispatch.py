@@ -21,9 +21,11 @@ elimination (:mod:`manipkit.ik.general6r`: ``method`` ``"algebraic"``,
 ``arm_family`` ``"general 6R"``; ``method="algebraic"`` asks for it on any 6R
 chain and refuses others), and so does a 7R revolute chain with one joint
 locked (``lock=``) that no closed form holds; else numerical IK; the result's ``method`` says
-which ran, ``arm_family`` the family. ``ik_many`` has no algebraic path
-(a general 6R arm's batch is searched numerically), except on a 6R arm that
-has its family only within ``family_tol`` (snapped): there each target gets
+which ran, ``arm_family`` the family. ``ik_many`` batches the elimination
+(``method`` "algebraic", or "auto" without ``q0`` or ``lock`` on a chain the
+single call answers by it: :func:`manipkit.ik.general6r.general_ik_many`,
+each target the single call's rows without aliases); on a 6R arm that
+has its family only within ``family_tol`` (snapped) each target gets
 the single call's rows, the closed form refined and the elimination's.
 ``method="closed_form"`` refuses a chain without one (the message gives the
 geometric evidence); ``method="numerical"`` always searches. Options a
@@ -466,7 +468,12 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     (:func:`_snapped_many`: refined on the true chain, and every row the
     general 6R elimination adds; 16 slots; 30-35 ms per target measured on
     a loaded 2-core machine, against 0.006 ms for the ideal arm's unrefined
-    rows). Numerical IK gives one slot per target
+    rows). A 6R chain with no closed form (``method`` "auto" without ``q0``
+    or ``lock``, or "algebraic") gets every isolated solution of each target
+    by the compiled general 6R elimination on ``threads`` threads
+    (:func:`manipkit.ik.general6r.general_ik_many`: ``method`` "algebraic",
+    16 slots, each target's rows those of ``ik(..., all=True,
+    aliases=False)``). Numerical IK gives one slot per target
     (also for the textbook arms whose closed form is a named solver, not the
     chain's geometric family: planar, SCARA, Stanford; ``method="closed_form"``
     says so and refuses)
@@ -486,9 +493,14 @@ def ik_many(subject, targets, *, base: str | None = None, tip: str | None = None
     robot, base, tip = robot_and_frames(subject, base, tip)
     _check_choice("method", method, METHODS)
     _check_choice("mode", mode, ASKED_MODES)
-    if method == "algebraic":
-        raise IKOptionError("ik_many has no algebraic path: the general 6R elimination answers one target per call "
-                            "(ik(..., method='algebraic')); use method='auto' or 'numerical' for a batch")
+    if method == "algebraic" and lock:
+        raise IKOptionError("ik_many's general 6R elimination takes no lock= (ik(..., lock=...) does); leave it out")
+    if (method == "algebraic" or (method == "auto" and q0 is None and not lock)) and _general_applies(
+            robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock, arm_angle=arm_angle,
+            free=()):
+        from manipkit.ik.general6r import general_ik_many
+
+        return general_ik_many(robot.chain(base, tip), targets, tol=tol, family_tol=family_tol, threads=threads)
     closed = _closed_form_applies(robot, base, tip, method=method, mode=mode, family_tol=family_tol, lock=lock,
                                   arm_angle=arm_angle, free=())
     if closed and method == "auto" and not _batch_closed_form(robot, base, tip, family_tol=family_tol, lock=lock):

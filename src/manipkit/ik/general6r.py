@@ -1,4 +1,5 @@
-"""Every isolated IK solution of a 6R chain with no closed-form family: :func:`general_ik`.
+"""Every isolated IK solution of a 6R chain with no closed-form family: :func:`general_ik`, and of a stack of
+targets: :func:`general_ik_many`.
 
 The chain (``robot.chain(base, tip)``: 6 revolute joints, Pieper or not:
 the xArm6, a Kinova Jaco, a FANUC CRX) is read as its product of
@@ -6,13 +7,14 @@ exponentials at the reference configuration ``q0``
 (:attr:`manipkit.ik.families.Family.geometry`: the axes in the base frame
 and ``M = T_base_tip(q0)``); :mod:`manipkit.closed_form.general6r` gives
 every isolated root of ``T M^-1 = E_1 ... E_6`` by the Raghavan-Roth
-elimination (prepared once per chain and kept). Each root is then:
+elimination, compiled (the ways of eliminating it ranked once per chain and kept; a batch's targets in blocks on
+threads). Each root is then:
 
 - mapped to joint values ``q = q0 + angle / scale`` and each joint to its
   alias ``q + 2 pi k`` inside the limits nearest 0, as the closed forms do
   (a joint spanning more than 2 pi has others: the note says so); a row
   outside the limits is kept and marked (``within_limits`` False);
-- checked by the chain's own forward kinematics (``chain.fk``); a row that
+- checked by the chain's own forward kinematics (its compiled FK, every row of every target at once); a row that
   misses by more than ``tol`` is moved by Newton steps on the chain
   (``refined`` says how far) and dropped if it still misses (``rejected``).
 
@@ -20,7 +22,7 @@ Near-double roots (two solutions merging at a singular configuration, where
 other eigenvalue solvers lose them) are kept: the elimination takes nearly
 real eigenvalues as candidates and the polishing decides. When the
 elimination read base to tip is poorly conditioned at a target, it is solved
-read tip to base too and the rows are merged.
+read tip to base too and the rows are merged. A batch gives each target the rows the single call gives it.
 
 What ``result.method`` says: ``"algebraic"`` (:data:`ALGEBRAIC`), with
 ``arm_family`` ``"general 6R"``. Not ``"closed_form"``: the closed forms
@@ -64,18 +66,19 @@ import numpy as np
 
 from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text
-from manipkit.closed_form.general6r import ranked_ways, solve_way
+from manipkit.closed_form.general6r import ranked_ways, solve_targets, way_reason
 from manipkit.errors import ClosedFormIKError, IKOptionError
+from manipkit.ik.aliases import measured_rows
 from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
-from manipkit.ik.result import SPATIAL_POSE, IKFailure, IKResult, read_only
+from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKFailure, IKResult, read_only
 from manipkit.spatial.rotations import axis_angle_from_matrix
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "general_ik", "general_refusal", "general_solves", "general_ways",
-           "locked_geometry"]
+__all__ = ["ALGEBRAIC", "CHECK_TOL", "GENERAL_6R", "SLOTS", "general_ik", "general_ik_many", "general_refusal",
+           "general_solves", "general_ways", "locked_geometry"]
 
 #: ``IKResult.method`` of this solver's answers.
 ALGEBRAIC = "algebraic"
@@ -191,36 +194,31 @@ def _locked_ways(chain: Chain, name: str, family_tol) -> tuple:
 _LOCKED_WAYS: dict = {}
 
 
-def _roots(geometry, ways: tuple, g: np.ndarray) -> tuple[np.ndarray, list[str], int]:
-    """(angles (k, 6) in chain order, why a way failed at this target, candidates tried) of ``g = T M^-1``: the
-    best way, and the next ones while the elimination is poorly conditioned (their rows merged)."""
-    thetas, reasons, candidates = [], [], 0
-    for way in ways:
-        try:
-            roots = solve_way(geometry.direction, geometry.point, g, way, tol=1e-8)
-        except ClosedFormIKError as exc:
-            reasons.append(str(exc))
-            continue
-        candidates += roots.candidates
-        thetas.append(roots.theta)
-        if roots.conditioning >= _POOR:
-            break
-    theta = np.concatenate(thetas) if thetas else np.zeros((0, 6))
-    return theta, reasons, candidates
+def _eliminated(geometry, ways: tuple, g: np.ndarray, threads: int) -> tuple:
+    """(angles (N, 24 W, 6) in chain order, rows written (N,), status (N, W, 4)) of targets ``g = T M^-1``
+    (N, 4, 4): the best way, and the next ones while the elimination is poorly conditioned (their rows appended),
+    compiled (:func:`manipkit.closed_form.general6r.solve_targets`)."""
+    rows, _, count, status = solve_targets(geometry.direction, geometry.point, g, ways, tol=1e-8, poor=_POOR,
+                                           threads=threads)
+    return rows, count, status
+
+
+def _reasons(status: np.ndarray) -> list[str]:
+    """Why each way that failed at one target failed (its status rows (W, 4))."""
+    return [way_reason(row) for row in status if row[0] > 0]
+
+
+#: The whole turns tried by :func:`_nearest_zero_alias`, nearest 0 first.
+_TURNS = TWO_PI * np.array([0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0])
 
 
 def _nearest_zero_alias(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """Each angle of rows Q (k, n) moved by whole turns to its value inside [lower, upper] nearest 0 (wrapped to
     (-pi, pi] when no alias is inside)."""
     wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
-    best = wrapped.copy()
-    done = (wrapped >= lower - 1e-12) & (wrapped <= upper + 1e-12)
-    for turns in (1, -1, 2, -2, 3, -3):
-        moved = wrapped + turns * TWO_PI
-        take = ~done & (moved >= lower - 1e-12) & (moved <= upper + 1e-12)
-        best[take] = moved[take]
-        done |= take
-    return best
+    moved = wrapped[..., None] + _TURNS  # (k, n, 7)
+    inside = (moved >= (lower - 1e-12)[:, None]) & (moved <= (upper + 1e-12)[:, None])
+    return np.where(inside.any(axis=-1), wrapped + _TURNS[np.argmax(inside, axis=-1)], wrapped)
 
 
 def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
@@ -332,7 +330,6 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     >>> every.method, every.arm_family, len(every.solutions), bool(every.residual_position.max() < 1e-10)
     ('algebraic', 'general 6R', 8, True)
     """
-    # Over 80 lines: the parts of one honest answer (solve, map, check, refine, limits, note) in order.
     refusal = general_refusal(chain, family_tol=family_tol, lock=lock)
     if refusal:
         raise IKOptionError(refusal)
@@ -340,6 +337,14 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     T = check_transform(target, what="IK target")
     T_check = np.array(T, dtype=float)
     T_check[:3, :3] = projected_rotation(T_check[:3, :3])
+    geometry, ways, held, g = _setup(chain, T_check[None], lock, family_tol)
+    theta, count, status = _eliminated(geometry, ways, g, 1)
+    checked = _checked_rows(chain, geometry, T_check[None], theta, count, status, held, check, max_iters)
+    return _answer(chain, T_check, checked, 0, status[0], ways, held, check, geometry.columns)
+
+
+def _setup(chain: Chain, T_check: np.ndarray, lock, family_tol) -> tuple:
+    """(geometry, ways, held (column, value) or None, ``g = L^-1 T M^-1`` (N, 4, 4)) of targets ``T_check``."""
     held = None  # (column, value) of a locked joint
     if lock:
         (name, value), = dict(lock).items()
@@ -350,47 +355,87 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     else:
         geometry, ways = _ways(chain, family_tol)
         g = T_check @ invert_transform(geometry.M, check=False)
-    theta, reasons, candidates = _roots(geometry, ways, g)
+    return geometry, ways, held, np.ascontiguousarray(g)
+
+
+def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray, count: np.ndarray,
+                  status: np.ndarray, held, check: tuple[float, float], max_iters: int) -> tuple:
+    """The elimination's angles of targets ``T_check`` (N, 4, 4) as checked chain rows: (rows (M, n) sorted by
+    target then joint values, ``start`` (N + 1,) where each target's rows begin, residuals (M, 2), refined (M,),
+    rejected (N,), worst miss of the rejected (N,)).
+
+    Each row: ``q = q0 + angle / scale``, each joint at its in-limit alias nearest 0, the locked joint at its
+    value; measured by the chain's FK; one that misses by more than ``tol`` or :data:`CHECK_TOL` is refined by
+    Newton steps on the chain and dropped if it still misses ``check``; a row equal (1e-9, modulo 2 pi) to an
+    earlier one of its target is that one. All targets' rows go through one FK call."""
+    n_targets, n = len(T_check), chain.n
+    owner = np.repeat(np.arange(n_targets), count)
+    angles = theta[np.arange(theta.shape[1])[None, :] < count[:, None]]  # (M, 6) in target order
     columns = geometry.columns
-    lower, upper = np.asarray(chain.lower, dtype=float), np.asarray(chain.upper, dtype=float)
-    Q = np.broadcast_to(geometry.q0, (len(theta), chain.n)).copy()
-    Q[:, columns] = geometry.q0[columns] + theta / geometry.scale
+    lower, upper = chain.lower, chain.upper
+    Q = np.empty((len(angles), n))
+    Q[:] = geometry.q0
+    Q[:, columns] = geometry.q0[columns] + angles / geometry.scale
     Q = _nearest_zero_alias(Q, lower, upper)
     if held is not None:
         Q[:, held[0]] = held[1]  # the locked joint at exactly its value, not an alias
-    rows, refined, residuals, rejected, worst = [], [], [], 0, 0.0
-    if len(Q):
-        position, rotation = (np.atleast_1d(e) for e in pose_residuals(T_check, chain.fk(Q), project=False))
+    refined = np.zeros(len(Q))
+    position, rotation = measured_rows(chain, T_check[owner], Q)
     polish = (min(check[0], CHECK_TOL), min(check[1], CHECK_TOL))  # rows are refined to this, dropped beyond check
-    for k, q in enumerate(Q):
-        p_err, r_err, moved = float(position[k]), float(rotation[k]), 0.0
-        if p_err > polish[0] or r_err > polish[1]:
-            better = _refine(chain, T_check, q, max_iters, min(0.1 * min(check), 1e-12), columns)
-            moved = float(np.abs(better - q).max())
-            q = _nearest_zero_alias(better[None], lower, upper)[0]
-            if held is not None:
-                q[held[0]] = held[1]
-            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
-        if p_err > check[0] or r_err > check[1]:
-            rejected += 1
-            worst = max(worst, p_err, r_err)
-            continue
-        if _distinct(rows, q):
-            rows.append(q)
-            refined.append(moved)
-            residuals.append((p_err, r_err))
-    order = sorted(range(len(rows)), key=lambda i: tuple(rows[i]))
+    for k in np.flatnonzero((position > polish[0]) | (rotation > polish[1])):
+        target = T_check[owner[k]]
+        better = _refine(chain, target, Q[k], max_iters, min(0.1 * min(check), 1e-12), columns)
+        refined[k] = float(np.abs(better - Q[k]).max())
+        q = _nearest_zero_alias(better[None], lower, upper)[0]
+        if held is not None:
+            q[held[0]] = held[1]
+        Q[k] = q
+        (position[k],), (rotation[k],) = measured_rows(chain, target[None], q[None])
+    keep = (position <= check[0]) & (rotation <= check[1])
+    rejected, worst = np.zeros(n_targets, dtype=np.intp), np.zeros(n_targets)
+    if not keep.all():
+        rejected = np.bincount(owner[~keep], minlength=n_targets)
+        np.maximum.at(worst, owner[~keep], np.maximum(position, rotation)[~keep])
+    # each way's rows are distinct (1e-7 rad); rows of two ways, or a refined row, may repeat an earlier row
+    again = (status[:, :, 0] == 0).sum(axis=1) > 1
+    if refined.any():
+        again |= np.bincount(owner[refined > 0], minlength=n_targets) > 0
+    for t in np.flatnonzero(again):
+        mine = np.flatnonzero((owner == t) & keep)
+        gap = np.abs(np.pi - np.mod(np.pi - (Q[mine][:, None, :] - Q[mine][None, :, :]), TWO_PI)).max(axis=2)
+        kept: list[int] = []
+        for i in range(len(mine)):
+            if all(gap[i, j] > 1e-9 for j in kept):
+                kept.append(i)
+            else:
+                keep[mine[i]] = False
+    order = np.lexsort((*Q.T[::-1], owner))
+    order = order[keep[order]]
+    start = np.searchsorted(owner[order], np.arange(n_targets + 1))
+    return (Q[order], start, np.stack([position[order], rotation[order]], axis=1), refined[order], rejected, worst)
+
+
+def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: np.ndarray, ways: tuple, held,
+            check: tuple[float, float], columns: np.ndarray) -> IKResult:
+    """The IKResult of target ``t`` (``T_check`` its pose) of :func:`_checked_rows`' ``checked`` (its ways'
+    ``status`` (W, 4); ``columns`` the solved joints' columns)."""
+    # Over 80 lines: the parts of one honest answer (rows, limits, note, failure) in order.
+    rows, start, residuals, refined_all, rejected_all, worst_all = checked
+    a, b = int(start[t]), int(start[t + 1])
+    Q, residual, refined = rows[a:b], residuals[a:b], refined_all[a:b]
+    rejected, worst = int(rejected_all[t]), float(worst_all[t])
+    reasons = _reasons(status)
+    candidates = int(status[status[:, 0] == 0, 2].sum())
+    upper, lower = np.asarray(chain.upper, dtype=float), np.asarray(chain.lower, dtype=float)
     n = chain.n
-    Q = np.array([rows[i] for i in order], dtype=float).reshape(-1, n)
-    residual = np.array([residuals[i] for i in order], dtype=float).reshape(-1, 2)
     within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(Q) else np.zeros(0, dtype=bool)
     within.setflags(write=False)
     parts = [f"{len(Q)} solution(s) of the general 6R elimination (every isolated solution; "
              f"{candidates} real eigenvalue candidate(s))"]
     if len(Q) and not within.all():
         parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
-    if any(m > 0 for m in refined):
-        parts.append(f"refined by Newton on the chain (largest step {quantity_text(max(refined))})")
+    if (refined > 0).any():
+        parts.append(f"refined by Newton on the chain (largest step {quantity_text(float(refined.max()))})")
     wide = [chain.joint_names[c] for c in columns.tolist()
             if np.isfinite(upper[c]) and upper[c] - lower[c] > TWO_PI + 1e-9]
     if wide and len(Q):
@@ -416,8 +461,80 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
                      "(out of reach, or an orientation the arm cannot take there)")
             failure = IKFailure("unreachable", words)
         parts = [words] + parts[1:]
-    return IKResult(read_only(Q, (n,)), ("",) * len(Q), len(Q), "; ".join(parts), read_only(residual[:, 0]),
-                    read_only(residual[:, 1]), mode=SPATIAL_POSE, solver="ik.general6r",
+    Q = np.array(Q, dtype=float).reshape(-1, n)
+    return IKResult(read_only(Q, (n,)), ("",) * len(Q), len(Q), "; ".join(parts), read_only(residual[:, 0].copy()),
+                    read_only(residual[:, 1].copy()), mode=SPATIAL_POSE, solver="ik.general6r",
                     joint_names=tuple(chain.joint_names), rejected=rejected, within_limits=within,
-                    refined=read_only(np.array(refined, dtype=float)[order] if refined else np.zeros(0)),
-                    method=ALGEBRAIC, arm_family=GENERAL_6R, failure=failure)
+                    refined=read_only(np.array(refined, dtype=float)), method=ALGEBRAIC, arm_family=GENERAL_6R,
+                    failure=failure)
+
+
+#: Slots of :func:`general_ik_many`'s batch: a 6R arm has at most 16 isolated solutions (more where a target has
+#: more rows, joints spanning more than a turn aside: the batch lists no 2 pi aliases).
+SLOTS = 16
+
+
+def general_ik_many(chain: Chain, targets, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, max_iters: int = 20,
+                    threads=None) -> IKBatch:
+    """:func:`general_ik` for a stack of targets ``T_base_tip`` (N, 4, 4): every isolated solution of each, compiled
+    over the targets in blocks on up to ``threads`` threads (None: the cores this process may use).
+
+    Each target's rows are those of ``general_ik(chain, target)`` (the same numbers: the same compiled elimination
+    of that target alone and the same checks, all targets' rows through one FK call), in slots ``0 .. k-1`` of
+    :data:`SLOTS` (more when a target has more), NaN after; ``count`` inf where a target is reached by a
+    continuum (those targets are answered by :func:`general_ik` itself, numerical IK from 50 starts).
+
+    Examples
+    --------
+    >>> import manipkit
+    >>> chain = manipkit.load("ur5").chain("base_link", "tool0")  # a closed-form arm, solved by the elimination here
+    >>> batch = general_ik_many(chain, chain.fk(chain.sample(3, seed=1)))
+    >>> batch.method, batch.solutions.shape[0], batch.count.tolist(), bool(batch.success.all())  # as the closed form
+    ('algebraic', 3, [8.0, 6.0, 4.0], True)
+    """
+    from manipkit.ik.textbook import checked_targets
+    from manipkit.kernels import thread_count
+
+    refusal = general_refusal(chain, family_tol=family_tol)
+    if refusal:
+        raise IKOptionError(refusal)
+    check = tolerances(tol, error=IKOptionError, what="tol")
+    T = checked_targets(targets)
+    shape = T.shape[:-2]
+    flat = T.reshape(-1, 4, 4)
+    T_check = np.array(flat, dtype=float)
+    T_check[:, :3, :3] = projected_rotation(flat[:, :3, :3])
+    for i in np.flatnonzero(np.any(T_check[:, :3, :3] != flat[:, :3, :3], axis=(1, 2))):
+        T_check[i] = check_transform(flat[i], what=f"IK target {i}")  # not a rotation to 1e-12: checked, projected
+        T_check[i, :3, :3] = projected_rotation(T_check[i, :3, :3])
+    geometry, ways, held, g = _setup(chain, T_check, None, family_tol)
+    theta, count, status = _eliminated(geometry, ways, g, thread_count(threads))
+    rows, start, residuals, _, _, _ = _checked_rows(chain, geometry, T_check, theta, count, status, held, check,
+                                                    max_iters)
+    per = np.diff(start)
+    answers: dict[int, IKResult] = {}
+    for t in np.flatnonzero(per == 0):  # no row: a degenerate target is a family (or a failure) of general_ik's
+        if not (status[t, :, 0] == 0).any() and (status[t, :, 0] > 0).sum() == len(ways):
+            answers[t] = general_ik(chain, flat[t], tol=tol, family_tol=family_tol, max_iters=max_iters)
+    k = max([SLOTS, int(per.max(initial=0)), *(len(a.solutions) for a in answers.values())])
+    n_targets, n = len(flat), chain.n
+    Q, position, rotation = np.full((n_targets, k, n), np.nan), np.full((n_targets, k), np.nan), np.full(
+        (n_targets, k), np.nan)
+    slot = np.arange(len(rows)) - np.repeat(start[:-1], per)
+    owner = np.repeat(np.arange(n_targets), per)
+    Q[owner, slot], position[owner, slot], rotation[owner, slot] = rows, residuals[:, 0], residuals[:, 1]
+    counts = per.astype(float)
+    kinds = np.where(per > 0, "", "unreachable").astype(object)
+    for t, answer in answers.items():
+        m = len(answer.solutions)
+        Q[t, :m], position[t, :m], rotation[t, :m] = (answer.solutions, answer.residual_position,
+                                                      answer.residual_rotation)
+        counts[t] = answer.count
+        kinds[t] = answer.failure.kind if answer.failure is not None else ""
+    success = np.any((position <= check[0]) & (rotation <= check[1]), axis=1)
+    q_residuals = np.stack([position[:, 0], rotation[:, 0]], axis=-1)
+    return IKBatch(Q.reshape(*shape, k, n), counts.reshape(shape), labels=tuple(f"row {j + 1}" for j in range(k)),
+                   mode=SPATIAL_POSE, solver="ik.general6r", joint_names=tuple(chain.joint_names),
+                   success=success.reshape(shape), residual_position=position.reshape(*shape, k),
+                   residual_rotation=rotation.reshape(*shape, k), q_residuals=q_residuals.reshape(*shape, 2),
+                   method=ALGEBRAIC, failure_kinds=np.asarray(kinds, dtype=str).reshape(shape))

@@ -321,6 +321,8 @@ def projected_rotation(M: np.ndarray) -> np.ndarray:
 
     Blocks with an entry that is not finite come back as all ``nan``.
     """
+    if type(M) is np.ndarray and M.shape == (3, 3) and M.dtype == np.float64 and _exact_rotation(M.tolist()):
+        return M  # one block, a rotation: the same test in plain floats, in a microsecond instead of ~20
     finite = np.all(np.isfinite(M), axis=(-2, -1))
     clean = np.where(finite[..., None, None], M, 0.0)
     deviation = np.max(np.abs(np.swapaxes(clean, -1, -2) @ clean - np.eye(3)), axis=(-2, -1))

@@ -1,0 +1,95 @@
+"""The 2 pi aliases of IK rows, compiled: :func:`fresh_aliases` (``manipkit.ik.aliases`` calls it).
+
+Every combination of each row's in-limit values ``q + 2 pi k`` (``k`` from the turns given, in their order), in
+``itertools.product``'s order, less those equal (to 1e-9, every entry) to a row already listed; a Python loop
+per row and numpy on arrays of a few rows cost more than the rows themselves. numpy only here (numba on first
+use, through :func:`manipkit.kernels.lazy_kernel`), so the kernel's cache key does not move with the IK layer.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from manipkit.kernels import lazy_kernel
+
+__all__ = ["fresh_aliases"]
+
+TWO_PI = 2.0 * math.pi
+
+
+def _fresh_aliases(Q, low, high, aliased, turns, limit, listed, cap):
+    """The combinations of :func:`manipkit.ik.aliases.alias_rows` (``limit`` of them at most, rows of ``Q`` in turn, each entry's whole
+    ``turns`` in their order), less those within
+    1e-9 (every entry) of a row of ``listed``: (the first ``cap`` of them (r, n), their rows of ``Q``, how many there
+    are, counted up to ``cap + 1``)."""
+    # Over 80 lines: itertools.product's order over each row's inside values, written out for numba.
+    m, n = Q.shape
+    T = turns.shape[0]
+    values = np.empty((m, n, T))  # each entry's values inside the limits, in the order of the turns
+    counts = np.zeros((m, n), dtype=np.int64)
+    for r in range(m):
+        for j in range(n):
+            for t in range(T):
+                if turns[t] != 0.0 and not aliased[j]:
+                    continue
+                v = Q[r, j] + TWO_PI * turns[t]
+                if v >= low[j] and v <= high[j]:
+                    values[r, j, counts[r, j]] = v
+                    counts[r, j] += 1
+    room = limit
+    total = 0
+    for r in range(m):
+        combos = 1
+        for j in range(n):
+            combos *= counts[r, j]
+        combos = min(combos, max(room, 0))
+        total += combos
+        room -= combos
+    out = np.empty((min(total, cap + 1), n))
+    origin = np.empty(min(total, cap + 1), dtype=np.intp)
+    digit = np.zeros(n, dtype=np.int64)
+    row = np.empty(n)
+    found = 0
+    room = limit
+    for r in range(m):
+        combos = 1
+        for j in range(n):
+            combos *= counts[r, j]
+        combos = min(combos, max(room, 0))
+        room -= combos
+        for j in range(n):
+            digit[j] = 0
+        for _ in range(combos):
+            for j in range(n):
+                row[j] = values[r, j, digit[j]]
+            fresh = True
+            for s in range(listed.shape[0]):
+                close = True
+                for j in range(n):
+                    if not abs(row[j] - listed[s, j]) <= 1e-9:
+                        close = False
+                        break
+                if close:
+                    fresh = False
+                    break
+            if fresh:
+                if found < out.shape[0]:
+                    out[found] = row
+                    origin[found] = r
+                found += 1
+                if found > cap:
+                    return out[:cap], origin[:cap], found
+            j = n - 1  # the next combination: the last entry's choice changes fastest
+            while j >= 0:
+                digit[j] += 1
+                if digit[j] < counts[r, j]:
+                    break
+                digit[j] = 0
+                j -= 1
+    return out[:found], origin[:found], found
+
+
+
+fresh_aliases = lazy_kernel(_fresh_aliases)
