@@ -140,6 +140,14 @@ def _aliases(chain: Chain, Q: np.ndarray, columns: np.ndarray) -> np.ndarray:
 
 
 def _log(R: np.ndarray) -> np.ndarray:
+    """The rotation vector (axis times angle, rad) of ``R``: from its skew part, ``sin(angle) axis``, below 120
+    degrees (where that part fixes the axis well; the polishing's starts are near their targets), else from
+    :func:`~manipkit.spatial.rotations.axis_angle_from_matrix`."""
+    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    if c > -0.5:
+        v = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        s = math.sqrt(v @ v)
+        return v if s < 1e-12 else v * (math.atan2(s, c) / s)  # below 1e-12 rad, sin(angle) = angle to 1e-36
     axis, angle = axis_angle_from_matrix(R, check=False)
     return np.asarray(axis) * float(angle)
 
