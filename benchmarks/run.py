@@ -610,7 +610,7 @@ def run(only=WORKLOADS, robots=ROBOTS, quick=False, log=print) -> dict:
         from benchmarks.statics_workload import payload_map_workload, statics_workload
 
         steps.append(("static torques iiwa14", lambda: statics_workload("iiwa14", **sizes["statics"])))
-        for arm in ("iiwa14", "ur5"):  # the stored configurations alone (an SRS arm), every closed-form branch (UR)
+        for arm in ("iiwa14", "ur5"):  # an SRS arm (at its own arm angles, then its self-motion), a UR's branches
             steps.append((f"payload map {arm}", lambda arm=arm: payload_map_workload(arm, **sizes["payload_map"])))
     if "redundant" in only:
         from benchmarks.redundant_workload import SAWYER, redundant_workload
