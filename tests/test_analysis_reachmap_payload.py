@@ -176,14 +176,14 @@ IIWA_COG = (0.02, -0.03, 0.08)  # m, in the tip frame's axes
 
 
 def test_an_srs_arm_weighs_every_branch_at_the_stored_configuration_s_arm_angle(iiwa14, tmp_path):
-    """The iiwa14 (7R SRS: its pose has a self-motion, its closed form needs an arm angle) used to weigh the
-    stored configuration alone; now each bin's pose is solved at the stored configuration's own arm angle and every
-    in-limit branch there (up to 8) is weighed. Recomputed here one bin at a time by manipkit.ik(all=True) at that
+    """The iiwa14 (7R SRS: its pose has a self-motion, its closed form needs an arm angle) with arm_angles=0: each
+    bin's pose is solved at the stored configuration's own arm angle and every in-limit branch there (up to 8) is
+    weighed. Recomputed here one bin at a time by manipkit.ik(all=True) at that
     angle and payload_capacity of each in-limit solution."""
     from manipkit.ik.chain_ik import srs_arm_angle
 
     reach_map = build(iiwa14, voxel=0.3, orientations=8, samples=5000, holdout=0, fp_checks=0)
-    every = payload_map(reach_map, iiwa14, cog=IIWA_COG, block=300)
+    every = payload_map(reach_map, iiwa14, cog=IIWA_COG, block=300, arm_angles=0)
     layer, stored = every.payload, payload_map(reach_map, iiwa14, cog=IIWA_COG, branches=False).payload
     assert layer.configurations == "arm_angle_branches" and layer.attrs()["configurations"] == "arm_angle_branches"
     assert stored.configurations == "certificates"
@@ -333,6 +333,7 @@ def test_the_command_line_builds_the_layer_and_says_where_it_carries_the_mass(pl
     assert answer["reachable_voxels"] == np.unique(voxels).size and answer["mass"] == 0.5
     assert answer["cog"] == [0.1, 0.05, 0.0] and answer["gravity"] == [0.0, -9.81, 0.0]
     assert answer["configurations"] == "certificates"  # the planar 2R's map: no closed-form family
+    assert answer["arm_angles"] == 0 and answer["arm_angle_step_rad"] is None  # and no self-motion sampled
     text = run_cli("manipkit", "reachmap", "show", path, "--payload", "0.5@0.1,0.05,0", status=0).stdout
     assert "branches: 1 per voxel-bin, its stored configuration" in text
     assert f"0.5 kg carried in {answer['voxels_carrying']} of {answer['reachable_voxels']} reachable voxels" in text
@@ -340,3 +341,52 @@ def test_the_command_line_builds_the_layer_and_says_where_it_carries_the_mass(pl
     assert other.stderr.count("\n") == 1 and "payload layer for the CoG 0.1,0.05,0" in other.stderr
     bad = run_cli("manipkit", "reachmap", *common, "-o", tmp_path / "n.zarr", "--payload", "1@0,nan,0", status=2)
     assert bad.stderr.count("\n") == 1 and not (tmp_path / "n.zarr").exists()
+    bad = run_cli("manipkit", "reachmap", *common, "-o", tmp_path / "a.zarr", "--payload", "1", "--arm-angles", "-1",
+                  status=2)
+    assert bad.stderr.count("\n") == 1 and "arm_angles -1" in bad.stderr and not (tmp_path / "a.zarr").exists()
+
+
+def test_an_srs_arm_s_layer_ranges_over_sampled_arm_angles_of_its_self_motion(iiwa14, tmp_path):
+    """The default iiwa14 layer ("self_motion") weighs every in-limit branch at the stored configuration's arm angle
+    and at K = 4 arm angles -pi + 2 pi j / K: its best is at least the fixed-angle layer's, its worst at most, and
+    both equal a brute force over the same angles here, one bin at a time by manipkit.ik(all=True, arm_angle=psi)
+    and payload_capacity of each in-limit solution."""
+    from manipkit.ik.chain_ik import srs_arm_angle
+
+    K = 4
+    reach_map = build(iiwa14, voxel=0.3, orientations=8, samples=5000, holdout=0, fp_checks=0)
+    moving = payload_map(reach_map, iiwa14, cog=IIWA_COG, block=300, arm_angles=K)
+    layer, fixed = moving.payload, payload_map(reach_map, iiwa14, cog=IIWA_COG, block=300, arm_angles=0).payload
+    assert layer.configurations == "self_motion" and layer.arm_angles == K
+    assert layer.attrs()["arm_angles"] == K and layer.attrs()["arm_angle_step_rad"] == pytest.approx(np.pi / 2)
+    assert "at its stored configuration's arm angle and at 4 arm angles 90 deg apart" in moving.payload_text()
+    reached = ~np.isnan(fixed.best)
+    assert np.array_equal(reached, ~np.isnan(layer.best))
+    assert np.all(layer.best[reached] >= fixed.best[reached]) and np.all(layer.worst[reached] <= fixed.worst[reached])
+    assert np.all(layer.bins >= fixed.bins) and np.all(layer.bins_worst <= fixed.bins_worst)
+    assert np.mean(layer.bins > fixed.bins * (1 + 1e-6)) > 0.2  # the self-motion does carry more
+    chain = iiwa14.chain(reach_map.base, reach_map.frame)
+    grid = [-np.pi + 2 * np.pi * j / K for j in range(K)]  # the samples, written out
+    voxels = reach_map.cert_keys // reach_map.orientations.size
+    chosen = np.flatnonzero(np.bincount(voxels) >= 2)[::7][:5]
+    assert len(chosen) >= 4
+    for v in chosen:
+        caps = []
+        for q in reach_map.cert_q[voxels == v]:
+            T = iiwa14.transform(reach_map.base, reach_map.frame, q)
+            caps.append(np.atleast_1d(payload_capacity(iiwa14, q, cog=IIWA_COG).max_mass))  # the stored one
+            for psi in [srs_arm_angle(chain, q[chain.columns]), *grid]:
+                answer = manipkit.ik(iiwa14, T, base=reach_map.base, tip=reach_map.frame, arm_angle=psi, all=True,
+                                     aliases=False)
+                inside = answer.solutions[answer.within_limits] if len(answer.solutions) else np.zeros((0, 7))
+                if len(inside):
+                    caps.append(np.atleast_1d(payload_capacity(iiwa14, inside, cog=IIWA_COG).max_mass))
+        caps = np.concatenate(caps)
+        flat = np.unravel_index(v, reach_map.shape)
+        assert layer.best[flat] == pytest.approx(caps.max(), rel=1e-9, abs=1e-9)
+        assert layer.worst[flat] == pytest.approx(caps.min(), rel=1e-9, abs=1e-9)
+    again = load(moving.save(tmp_path / "iiwa14.zarr")).payload
+    assert again.configurations == "self_motion" and again.arm_angles == K
+    assert again.bins.tobytes() == layer.bins.tobytes()
+    with pytest.raises(ReachMapError, match="arm_angles"):
+        payload_map(reach_map, iiwa14, cog=IIWA_COG, arm_angles=-1)

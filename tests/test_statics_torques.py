@@ -274,3 +274,56 @@ def test_a_wrench_frame_that_does_not_exist_is_named(iiwa14):
 def test_a_gravity_that_is_not_three_finite_numbers_is_refused(iiwa14):
     with pytest.raises(ManipkitError, match="gravity"):
         static_torques(iiwa14, iiwa14.q(), gravity=(0, 0, float("inf")))
+
+
+def prismatic_mimic_arm() -> str:
+    """Four joints, every kind the gravity pass meets: revolute, prismatic (a turned placement before it), a revolute
+    mimic of the first (x -2 + 0.3: the leader's column gets the scaled sum), a prismatic mimic of the second, with
+    CoGs off every axis."""
+    def link(name, mass, xyz):
+        return (f'<link name="{name}"><inertial><origin xyz="{xyz}"/><mass value="{mass}"/>'
+                '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>')
+
+    def joint(name, kind, parent, child, xyz, rpy, axis, extra=""):
+        return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+                f'<origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>'
+                f'<limit lower="-2" upper="2" effort="80" velocity="1"/>{extra}</joint>')
+
+    return ('<robot name="mixed"><link name="base_link"/>' + link("a", 2.0, "0.1 0.02 0.3")
+            + link("b", 1.5, "0.05 -0.1 0.2") + link("c", 1.2, "0.2 0.1 -0.05") + link("d", 0.7, "-0.03 0.04 0.1")
+            + '<link name="ee_link"/>'
+            + joint("j1", "revolute", "base_link", "a", "0 0 0.3", "0 0 0", "0 0 1")
+            + joint("j2", "prismatic", "a", "b", "0.2 0 0.4", "0.4 -0.3 0.2", "0.6 0 0.8")
+            + joint("j3", "revolute", "b", "c", "0 0.3 0.1", "1.5707963 0 0", "0 1 0",
+                    '<mimic joint="j1" multiplier="-2" offset="0.3"/>')
+            + joint("j4", "prismatic", "c", "d", "0.25 0 0", "0 0.5 0", "1 0 0", '<mimic joint="j2" multiplier="0.5"/>')
+            + '<joint name="tool" type="fixed"><parent link="d"/><child link="ee_link"/>'
+            '<origin xyz="0.05 0.02 0.1" rpy="0.2 0.1 -0.4"/></joint></robot>')
+
+
+def test_prismatic_and_mimic_steps_equal_pinocchio_across_lanes(tmp_path):
+    # the lanes' recursion on every step kind: a prismatic step moves the first moment by M d z, a mimic step adds
+    # its scaled torque to its leader's column; Pinocchio (mimic joints independent) folded by the velocity map
+    from manipkit.statics.gravity_kernel import LANES
+    from manipkit.statics.torques import margins
+
+    path = tmp_path / "mixed.urdf"
+    path.write_text(prismatic_mimic_arm())
+    robot = manipkit.load(str(path))
+    chain = robot.chain("base_link", "ee_link")
+    assert chain.n == 2 and len(chain.steps) > chain.n
+    Q = chain.sample(2 * LANES + 7, seed=11)
+    payload = Payload(1.3, (0.02, -0.05, 0.07))
+    batch = static_torques(chain, Q, payload=payload)
+    for i in range(0, len(Q), 9):
+        tau_pin, g_pin = pinocchio_static_torque(robot, chain, Q[i], payload, chain.tip, np.zeros(6))
+        np.testing.assert_allclose(batch.tau[i], tau_pin, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(batch.gravity[i], g_pin, rtol=0, atol=1e-10)
+    assert np.abs(batch.payload).max() > 0.1
+    np.testing.assert_array_equal(batch.tau, batch.gravity + batch.payload)
+    # the margins of the lanes are the rule of margins(), and the formula written here
+    margin, saturating = margins(batch.tau, batch.effort_limit)
+    np.testing.assert_array_equal(batch.margin, margin)
+    np.testing.assert_array_equal(batch.saturating, saturating)
+    np.testing.assert_array_equal(margin, 100.0 * (1.0 - np.abs(batch.tau) / 80.0))
+    np.testing.assert_array_equal(saturating, np.argmin(margin, axis=1))

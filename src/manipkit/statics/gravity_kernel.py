@@ -1,4 +1,4 @@
-"""The compiled loops of the static torques: gravity on a chain's lumped bodies and a payload, 256 rows at a time,
+"""The compiled loops of the static torques: gravity on a chain's lumped bodies and a payload, 64 rows at a time,
 and the margins against the effort limits.
 
 Numbers in, numbers out (numpy and :mod:`manipkit.kernels` only, so that a change to the statics modules around it
@@ -10,13 +10,17 @@ the program's frame after that joint, whose axes are the joint frame's turned by
 (``payload_mass``, CoG ``payload_cog`` in the tip frame) hangs after the last placement.
 
 For :data:`LANES` configurations at a time (:func:`gravity_rows`, structure of arrays, each step a loop across
-the configurations), with no Python per row: a forward pass records each joint's origin ``o_k``
-and axis ``z_k`` (base frame) and the lumps' first moments; a backward pass adds them up from the tip, ``M_k`` (kg)
-and ``F_k`` (kg m) of everything after joint ``k``, and the torque holding them is ``-z_k . ((F_k - M_k o_k) x g)``
-for a revolute joint and ``-M_k z_k . g`` for a prismatic one (``tau = g(q) = dV/dq``, the static convention of
-:mod:`manipkit.statics.torques`), added to the step's column times its scale (a mimic joint's multiplier). The
-sines and cosines come from one numpy ``tan(q/2)`` per block (:func:`joint_tan_half`), turned into them in the loop. The loops run
-without the GIL, so threads may take blocks of rows at once (:func:`static_blocks`).
+the configurations), with no Python per row, the recursion of the composite body in each joint's own frame: a
+forward pass turns gravity into every joint frame, ``g_k = Rz(q_k)^T C_k^T g_(k-1)`` (``C_k`` the constant placement
+before joint ``k``); a backward pass carries from the tip the mass ``M_k`` (kg) of everything after joint ``k``, its
+first moment ``F_k`` (kg m) about joint ``k``'s origin and the payload's CoG ``r_k`` (m), both in joint ``k``'s axes
+(``F_(k-1) = h_(k-1) + M_k t_k + C_k Rz(q_k) F_k``, ``r_(k-1) = t_k + C_k Rz(q_k) r_k``), and the torque holding them
+is ``-(F_k x g_k)_z`` for a revolute joint and ``-M_k (g_k)_z`` for a prismatic one (``tau = g(q) = dV/dq``, the
+static convention of :mod:`manipkit.statics.torques`), the payload's ``-m (r_k x g_k)_z`` and ``-m (g_k)_z``, added to
+the step's column times its scale (a mimic joint's multiplier). Only 3-vectors are turned (no pose product). The
+margins against the effort limits are :func:`margin_rows`, also in lanes. The sines and cosines come from one numpy
+``tan(q/2)`` per block (:func:`joint_tan_half`), turned into them in the loop. The loops run without the GIL, so
+threads may take blocks of rows at once (:func:`static_blocks`).
 """
 
 from __future__ import annotations
@@ -32,9 +36,10 @@ __all__ = ["LANES", "MIN_ROWS_PER_THREAD", "STATIC_BLOCK", "capacity_rows", "cap
            "gravity_rows_kernel", "joint_tan_half", "margin_rows", "margin_rows_kernel", "static_blocks"]
 
 _REVOLUTE = 0
-#: Rows taken together by :func:`gravity_rows` (structure of arrays: the per-step records, about 170 kB for 7 joints).
-LANES = 256
-#: Rows per block of :func:`static_blocks` (the block's rows and answers, about 0.5 MB for 7 joints, stay in L2).
+#: Rows taken together by :func:`gravity_rows` (structure of arrays: the per-step records, about 25 kB for 7 joints,
+#: stay in L1; 64 measured faster than 128 or 256).
+LANES = 64
+#: Rows per block of :func:`static_blocks` (the block's rows and answers, about 2 MB for 7 joints, stay in L2).
 STATIC_BLOCK = 8192
 #: Fewest rows per thread: a smaller batch runs on the calling thread alone (a thread's start, about 0.1 ms, is worth
 #: about 1000 rows).
@@ -42,119 +47,155 @@ MIN_ROWS_PER_THREAD = 4096
 
 
 def gravity_rows(Q, tan_half, rotations, translations, identity, kinds, columns, scales, offsets, masses,
-                 moments, payload_mass, payload_cog, g, tau, tau_payload):
-    """Fill ``tau`` (N, n) and ``tau_payload`` (N, n) (overwritten) for the chain vectors ``Q`` (N, n).
+                 moments, payload_mass, payload_cog, g, tau_w, tau_g, tau_p, tau):
+    """Fill ``tau_g`` (N, n), ``tau_p`` (N, n) and ``tau = tau_g + tau_p (+ tau_w)`` (overwritten) for the chain
+    vectors ``Q`` (N, n).
 
-    ``tan_half`` (N, n_steps) is ``tan(v / 2)`` of each step's joint value ``v`` (:func:`joint_tan_half`; read for
+    ``tan_half`` (n_steps, N) is ``tan(v / 2)`` of each step's joint value ``v`` (:func:`joint_tan_half`; read for
     revolute steps only), turned into its cosine and sine here: ``cos = 2 / (1 + t^2) - 1``, ``sin = 2 t / (1 + t^2)``
     (the FK kernel's rule; a few ulp from ``cos``/``sin``). ``g`` (G, 3) is gravity in the chain base's axes
-    (m/s^2): one row for every configuration (G = 1) or one per row. Structure of arrays: :data:`LANES` rows at a time, every step a loop
-    across those rows (the pose product ``R`` (9, LANES) and ``p`` (3, LANES) stay in L1). Over 80 lines: the forward
-    and the backward pass belong together (the per-step records live between them).
+    (m/s^2): one row for every configuration (G = 1) or one per row. ``tau_w`` (N, n) is the wrenches' part added to
+    ``tau``, or (0, n) for none. Structure of arrays: :data:`LANES` rows at a time, every step a loop across those rows. Over 80 lines: the forward and the
+    backward pass belong together (the per-step records live between them).
     """
     n_steps = kinds.shape[0]
     n_joints = tau.shape[1]
-    R, P = np.empty((9, LANES)), np.empty((3, LANES))
-    cos_b, sin_b = np.empty(LANES), np.empty(LANES)
-    origins, axes, first = np.empty((n_steps, 3, LANES)), np.empty((n_steps, 3, LANES)), np.empty((n_steps, 3, LANES))
-    c0, c1, c2 = payload_cog[0], payload_cog[1], payload_cog[2]
+    down = np.empty((n_steps, 3, LANES))  # gravity in each joint's frame
+    cos_k, sin_k = np.empty((n_steps, LANES)), np.empty((n_steps, LANES))  # a prismatic step's value in cos_k
+    G, F, r = np.empty((3, LANES)), np.empty((3, LANES)), np.empty((3, LANES))
+    acc_g, acc_p = np.empty((n_joints, LANES)), np.empty((n_joints, LANES))
+    last = n_steps - 1
+    C = rotations[n_steps]  # the payload's CoG in the last joint's frame: r = t_tip + C_tip c
+    r_tip = np.empty(3)
+    for i in range(3):
+        r_tip[i] = translations[n_steps, i] + (C[i, 0] * payload_cog[0] + C[i, 1] * payload_cog[1]
+                                               + C[i, 2] * payload_cog[2])
+    one_g = g.shape[0] == 1
+    with_w = tau_w.shape[0] > 0
     for start in range(0, Q.shape[0], LANES):
         nb = min(LANES, Q.shape[0] - start)
-        for b in range(nb):
-            for i in range(9):
-                R[i, b] = 1.0 if i % 4 == 0 else 0.0
-            P[0, b], P[1, b], P[2, b] = 0.0, 0.0, 0.0
-        for k in range(n_steps + 1):
-            t0, t1, t2 = translations[k, 0], translations[k, 1], translations[k, 2]
-            for i in range(3):  # p <- p + R t
-                for b in range(nb):
-                    P[i, b] += R[3 * i, b] * t0 + R[3 * i + 1, b] * t1 + R[3 * i + 2, b] * t2
-            if not identity[k]:  # R <- R C
-                C = rotations[k]
-                for i in range(3):
-                    for b in range(nb):
-                        x, y, z = R[3 * i, b], R[3 * i + 1, b], R[3 * i + 2, b]
-                        R[3 * i, b] = x * C[0, 0] + y * C[1, 0] + z * C[2, 0]
-                        R[3 * i + 1, b] = x * C[0, 1] + y * C[1, 1] + z * C[2, 1]
-                        R[3 * i + 2, b] = x * C[0, 2] + y * C[1, 2] + z * C[2, 2]
-            if k == n_steps:
-                break
-            for i in range(3):
-                for b in range(nb):
-                    origins[k, i, b] = P[i, b]
-                    axes[k, i, b] = R[3 * i + 2, b]
-            if kinds[k] == _REVOLUTE:  # R <- R Rz(q)
-                for b in range(nb):
-                    t = tan_half[start + b, k]
-                    w = 2.0 / (1.0 + t * t)
-                    cos_b[b], sin_b[b] = w - 1.0, t * w
-                for i in range(3):
-                    for b in range(nb):
-                        cq, sq = cos_b[b], sin_b[b]
-                        x, y = R[3 * i, b], R[3 * i + 1, b]
-                        R[3 * i, b], R[3 * i + 1, b] = x * cq + y * sq, y * cq - x * sq
-            else:  # p <- p + q z (a mimic joint's value scaled)
-                col, sc, off = columns[k], scales[k], offsets[k]
-                for i in range(3):
-                    for b in range(nb):
-                        P[i, b] += (Q[start + b, col] * sc + off) * R[3 * i + 2, b]
-            m, h0, h1, h2 = masses[k], moments[k, 0], moments[k, 1], moments[k, 2]
-            for i in range(3):
-                for b in range(nb):
-                    first[k, i, b] = m * P[i, b] + R[3 * i, b] * h0 + R[3 * i + 1, b] * h1 + R[3 * i + 2, b] * h2
-        for i in range(3):  # P <- the payload's first moment (kg m)
+        for i in range(3):
             for b in range(nb):
-                P[i, b] = payload_mass * (P[i, b] + R[3 * i, b] * c0 + R[3 * i + 1, b] * c1 + R[3 * i + 2, b] * c2)
+                G[i, b] = g[0, i] if one_g else g[start + b, i]
+        for k in range(n_steps):  # forward: G <- Rz(q_k)^T C_k^T G, gravity in joint k's frame
+            if not identity[k]:
+                C = rotations[k]
+                for b in range(nb):
+                    x, y, z = G[0, b], G[1, b], G[2, b]
+                    G[0, b] = C[0, 0] * x + C[1, 0] * y + C[2, 0] * z
+                    G[1, b] = C[0, 1] * x + C[1, 1] * y + C[2, 1] * z
+                    G[2, b] = C[0, 2] * x + C[1, 2] * y + C[2, 2] * z
+            if kinds[k] == _REVOLUTE:
+                for b in range(nb):
+                    t = tan_half[k, start + b]
+                    w = 2.0 / (1.0 + t * t)
+                    cq, sq = w - 1.0, t * w
+                    cos_k[k, b], sin_k[k, b] = cq, sq
+                    x, y = G[0, b], G[1, b]
+                    G[0, b], G[1, b] = cq * x + sq * y, cq * y - sq * x
+            else:  # a translation: gravity's axes stay
+                col, sc, off = columns[k], scales[k], offsets[k]
+                for b in range(nb):
+                    cos_k[k, b] = Q[start + b, col] * sc + off
+            for i in range(3):
+                for b in range(nb):
+                    down[k, i, b] = G[i, b]
+        for i in range(3):
+            for b in range(nb):
+                F[i, b] = moments[last, i]
+                r[i, b] = r_tip[i]
+        for j in range(n_joints):
+            for b in range(nb):
+                acc_g[j, b] = 0.0
+                acc_p[j, b] = 0.0
+        M = masses[last]
+        for k in range(last, -1, -1):  # backward: F, r in joint k's frame, M the mass after joint k
+            col, sc = columns[k], scales[k]
+            if kinds[k] == _REVOLUTE:
+                for b in range(nb):
+                    gx, gy = down[k, 0, b], down[k, 1, b]
+                    acc_g[col, b] -= sc * (F[0, b] * gy - F[1, b] * gx)
+                    acc_p[col, b] -= sc * payload_mass * (r[0, b] * gy - r[1, b] * gx)
+            else:
+                for b in range(nb):
+                    gz = down[k, 2, b]
+                    acc_g[col, b] -= sc * M * gz
+                    acc_p[col, b] -= sc * payload_mass * gz
+            if k == 0:
+                break
+            if kinds[k] == _REVOLUTE:  # into joint k's placement frame: v <- Rz(q_k) v
+                for b in range(nb):
+                    cq, sq = cos_k[k, b], sin_k[k, b]
+                    x, y = F[0, b], F[1, b]
+                    F[0, b], F[1, b] = cq * x - sq * y, sq * x + cq * y
+                    x, y = r[0, b], r[1, b]
+                    r[0, b], r[1, b] = cq * x - sq * y, sq * x + cq * y
+            else:  # v <- v + value z (the first moment: M value z)
+                for b in range(nb):
+                    F[2, b] += M * cos_k[k, b]
+                    r[2, b] += cos_k[k, b]
+            if not identity[k]:  # then into joint k-1's frame: v <- C_k v + t_k
+                C = rotations[k]
+                for b in range(nb):
+                    x, y, z = F[0, b], F[1, b], F[2, b]
+                    F[0, b] = C[0, 0] * x + C[0, 1] * y + C[0, 2] * z
+                    F[1, b] = C[1, 0] * x + C[1, 1] * y + C[1, 2] * z
+                    F[2, b] = C[2, 0] * x + C[2, 1] * y + C[2, 2] * z
+                    x, y, z = r[0, b], r[1, b], r[2, b]
+                    r[0, b] = C[0, 0] * x + C[0, 1] * y + C[0, 2] * z
+                    r[1, b] = C[1, 0] * x + C[1, 1] * y + C[1, 2] * z
+                    r[2, b] = C[2, 0] * x + C[2, 1] * y + C[2, 2] * z
+            for i in range(3):  # F_(k-1) = h_(k-1) + M_k t_k + (turned F_k)
+                t, h = translations[k, i], moments[k - 1, i]
+                for b in range(nb):
+                    F[i, b] += M * t + h
+                    r[i, b] += t
+            M += masses[k - 1]
         for b in range(nb):
             for j in range(n_joints):
-                tau[start + b, j] = 0.0
-                tau_payload[start + b, j] = 0.0
-        total_m = 0.0
-        for k in range(n_steps - 1, -1, -1):
-            total_m += masses[k]
-            if k < n_steps - 1:  # F_k: the first moments of everything after joint k
-                for i in range(3):
-                    for b in range(nb):
-                        first[k, i, b] += first[k + 1, i, b]
-            col, sc = columns[k], scales[k]
-            for b in range(nb):
-                row = start + b if g.shape[0] > 1 else 0
-                g0, g1, g2 = g[row, 0], g[row, 1], g[row, 2]
-                z0, z1, z2 = axes[k, 0, b], axes[k, 1, b], axes[k, 2, b]
-                if kinds[k] == _REVOLUTE:
-                    o0, o1, o2 = origins[k, 0, b], origins[k, 1, b], origins[k, 2, b]
-                    a0, a1, a2 = first[k, 0, b] - total_m * o0, first[k, 1, b] - total_m * o1, first[k, 2, b] - total_m * o2
-                    e0, e1, e2 = P[0, b] - payload_mass * o0, P[1, b] - payload_mass * o1, P[2, b] - payload_mass * o2
-                    tau[start + b, col] -= sc * (z0 * (a1 * g2 - a2 * g1) + z1 * (a2 * g0 - a0 * g2)
-                                                 + z2 * (a0 * g1 - a1 * g0))
-                    tau_payload[start + b, col] -= sc * (z0 * (e1 * g2 - e2 * g1) + z1 * (e2 * g0 - e0 * g2)
-                                                         + z2 * (e0 * g1 - e1 * g0))
-                else:
-                    zg = z0 * g0 + z1 * g1 + z2 * g2
-                    tau[start + b, col] -= sc * total_m * zg
-                    tau_payload[start + b, col] -= sc * payload_mass * zg
+                a, p = acc_g[j, b], acc_p[j, b]
+                tau_g[start + b, j] = a
+                tau_p[start + b, j] = p
+                tau[start + b, j] = a + p + tau_w[start + b, j] if with_w else a + p
 
 
 def joint_tan_half(Q, columns, scales, offsets) -> np.ndarray:
-    """``tan(v / 2)`` (N, n_steps) of every step's joint value ``v = scale * Q[:, column] + offset``: one numpy
-    ``tan`` on the whole block (the FK kernel's rule), the half-angle tangent :func:`gravity_rows` takes."""
-    return np.tan(0.5 * (Q[:, columns] * scales + offsets))
+    """``tan(v / 2)`` (n_steps, N) of every step's joint value ``v = scale * Q[:, column] + offset``, one row per step
+    (the lanes' layout): one numpy ``tan`` on the whole block (the FK kernel's rule, ``v / 2`` as ``q (scale / 2) +
+    offset / 2``, the same bits), the half-angle tangent :func:`gravity_rows` takes."""
+    in_order = columns.shape[0] == Q.shape[1] and bool(np.all(columns == np.arange(Q.shape[1])))
+    out = np.multiply((Q if in_order else Q[:, columns]).T, (0.5 * scales)[:, None])  # a chain's own vectors: no copy
+    if np.any(offsets):
+        out += (0.5 * offsets)[:, None]
+    return np.tan(out, out=out)
 
 
 def margin_rows(tau, limits, margin, saturating):
     """``margin = 100 (1 - |tau| / limits)`` (N, n) percent (NaN where the limit is NaN) and ``saturating`` (N,): the
     first joint of least margin among those with a finite limit, -1 when none has one (the rule of
-    :func:`manipkit.statics.torques.margins`)."""
+    :func:`manipkit.statics.torques.margins`), written; :data:`LANES` rows at a time turned into lanes, so that each
+    joint's division and comparison run across the rows."""
     n_joints = tau.shape[1]
-    for n in range(tau.shape[0]):
-        best, best_k = np.inf, -1
+    lanes, best = np.empty((n_joints, LANES)), np.empty(LANES)
+    for start in range(0, tau.shape[0], LANES):
+        nb = min(LANES, tau.shape[0] - start)
+        for b in range(nb):
+            best[b] = np.inf
+            saturating[start + b] = -1
+            for k in range(n_joints):
+                lanes[k, b] = tau[start + b, k]
         for k in range(n_joints):
             limit = limits[k]
-            value = 100.0 * (1.0 - abs(tau[n, k]) / limit)  # NaN for a NaN limit
-            margin[n, k] = value
-            if math.isfinite(limit) and (best_k < 0 or value < best):
-                best, best_k = value, k
-        saturating[n] = best_k
+            limited = math.isfinite(limit)
+            for b in range(nb):
+                value = 100.0 * (1.0 - abs(lanes[k, b]) / limit)  # NaN for a NaN limit
+                lanes[k, b] = value
+                if limited and (saturating[start + b] < 0 or value < best[b]):
+                    best[b] = value
+                    saturating[start + b] = k
+        for b in range(nb):
+            for k in range(n_joints):
+                margin[start + b, k] = lanes[k, b]
 
 
 def capacity_rows(unloaded, per_kg, lower, upper, lever_tol, max_mass, saturating, over):

@@ -27,10 +27,10 @@ Conventions (docs/architecture.md), restated:
 
 How it is computed: the bodies moved by the chain are lumped per chain joint
 (everything rigidly attached after it, fingers included at ``q_rest``: mass
-and centre of gravity in that joint's frame); then a compiled pass over 256
-configurations at a time (:mod:`manipkit.statics.gravity_kernel`) adds the lumps up from
-the tip and takes each joint's moment of their weight (and the payload's),
-``g(q) = -sum_s m_s J_s(q)^T g``; a wrench's part is ``-J^T w`` from the
+and centre of gravity in that joint's frame); then a compiled pass over 64
+configurations at a time (:mod:`manipkit.statics.gravity_kernel`) turns gravity into each
+joint's frame, adds the lumps up from the tip in those frames and takes each joint's moment
+of their weight (and the payload's), ``g(q) = -sum_s m_s J_s(q)^T g``; a wrench's part is ``-J^T w`` from the
 compiled Jacobians. No Python loop over configurations. Tested against
 Pinocchio to 1e-10.
 
@@ -45,6 +45,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -184,10 +185,11 @@ class StaticTorques:
     effort_limit : ndarray, shape (n,)
         The URDF's ``effort`` per joint (NaN where none is given, or 0).
     margin : ndarray
-        ``100 (1 - |tau| / effort_limit)`` percent (NaN where no limit); negative when over the limit.
+        ``100 (1 - |tau| / effort_limit)`` percent (NaN where no limit); negative when over the limit. Computed
+        from ``tau`` on first use (:func:`margins`), so a batch that never asks does not pay for it.
     saturating : ndarray of int
         (...,) the joint with the least margin (the first to saturate as the load grows), -1 when no joint has a
-        limit; :attr:`saturating_joint` names it for one configuration.
+        limit; :attr:`saturating_joint` names it for one configuration. Computed with ``margin``.
     base, tip : str
     gravity_vector : ndarray, shape (3,)
         In the root link's axes (m/s^2).
@@ -202,12 +204,24 @@ class StaticTorques:
     payload: np.ndarray
     wrench: np.ndarray
     effort_limit: np.ndarray
-    margin: np.ndarray
-    saturating: np.ndarray
     base: str
     tip: str
     gravity_vector: np.ndarray
     inertia_grade: str = ""
+
+    @functools.cached_property
+    def _margins(self) -> tuple[np.ndarray, np.ndarray]:
+        return margins(self.tau, self.effort_limit)
+
+    @property
+    def margin(self) -> np.ndarray:
+        """``100 (1 - |tau| / effort_limit)`` (..., n) percent, NaN where no limit (computed on first use)."""
+        return self._margins[0]
+
+    @property
+    def saturating(self) -> np.ndarray:
+        """(...,) the joint of least margin among those with a limit, -1 when none has one (on first use)."""
+        return self._margins[1]
 
     @property
     def saturating_joint(self) -> str | None:
@@ -311,34 +325,31 @@ def _gravity_tables(chain: Chain, q_rest) -> tuple:
     return per_robot.setdefault(key, tables)
 
 
-def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_w, limits, q_rest) -> tuple:
-    """(g(q), the payload's part, tau, margin (N, n), saturating (N,)) for chain vectors ``Q`` (N, n): the compiled
-    gravity pass (256 rows at a time), the rows cut into blocks taken by threads
-    (:func:`manipkit.statics.gravity_kernel.static_blocks`).
-    ``tau_w`` (N, n) or None is the wrenches' part, added to ``tau``."""
+def _static_parts(chain: Chain, Q: np.ndarray, g_base: np.ndarray, payload, tau_w, q_rest) -> tuple:
+    """(g(q), the payload's part, tau) (N, n) each for chain vectors ``Q`` (N, n): the compiled gravity pass
+    (:mod:`manipkit.statics.gravity_kernel`), the rows cut into blocks taken by threads
+    (:func:`manipkit.statics.gravity_kernel.static_blocks`). ``tau_w`` (N, n) or None is the wrenches' part, added to
+    ``tau``."""
     from manipkit.kernels import thread_count
-    from manipkit.statics.gravity_kernel import gravity_rows_kernel, joint_tan_half, margin_rows_kernel, static_blocks
+    from manipkit.statics.gravity_kernel import gravity_rows_kernel, joint_tan_half, static_blocks
 
     tables = _gravity_tables(chain, q_rest)
     n_rows = Q.shape[0]
     tau_g, tau_p, tau = np.empty((n_rows, chain.n)), np.empty((n_rows, chain.n)), np.empty((n_rows, chain.n))
-    margin, saturating = np.empty((n_rows, chain.n)), np.empty(n_rows, dtype=np.intp)
     mass = 0.0 if payload is None else payload.mass
     cog = np.zeros(3) if payload is None else payload.cog
     one_g = g_base.shape[0] == 1
-    gravity_kernel, margin_kernel = gravity_rows_kernel(), margin_rows_kernel()
+    no_w = np.empty((0, chain.n))
+    gravity_kernel = gravity_rows_kernel()
 
     def work(start: int, stop: int) -> None:
         rows = slice(start, stop)
         gravity_kernel(Q[rows], joint_tan_half(Q[rows], tables[4], tables[5], tables[6]), *tables, mass, cog,
-                       g_base if one_g else g_base[rows], tau_g[rows], tau_p[rows])
-        np.add(tau_g[rows], tau_p[rows], out=tau[rows])
-        if tau_w is not None:
-            tau[rows] += tau_w[rows]
-        margin_kernel(tau[rows], limits, margin[rows], saturating[rows])
+                       g_base if one_g else g_base[rows], no_w if tau_w is None else tau_w[rows],
+                       tau_g[rows], tau_p[rows], tau[rows])
 
     static_blocks(work, n_rows, thread_count(None))
-    return tau_g, tau_p, tau, margin, saturating
+    return tau_g, tau_p, tau
 
 
 def point_program(chain: Chain, position: int, point) -> JacobianProgram:
@@ -472,12 +483,11 @@ def static_torques(robot: Robot | Chain, q, *, payload: Payload | None = None, w
     for w in wrenches:
         part = wrench_torques(chain, whole, w)
         tau_w = part if tau_w is None else tau_w + part
-    limits = effort_limits(chain)
-    tau_g, tau_p, tau, margin, saturating = _static_parts(chain, Q, g_base, payload, tau_w, limits, q_rest)
+    tau_g, tau_p, tau = _static_parts(chain, Q, g_base, payload, tau_w, q_rest)
     if tau_w is None:
         tau_w = np.zeros(tau.shape)  # calloc: no pass over the rows
     shape = (*lead, chain.n)
     return StaticTorques(
         chain.joint_names, tau.reshape(shape), tau_g.reshape(shape), tau_p.reshape(shape), tau_w.reshape(shape),
-        limits, margin.reshape(shape), saturating.reshape(lead), chain.base, chain.tip, g, inertia_grade(chain.robot),
+        effort_limits(chain), chain.base, chain.tip, g, inertia_grade(chain.robot),
     )

@@ -32,7 +32,6 @@ from manipkit.analysis.reachmap.constants import (
     check_threshold,
     finite_array,
 )
-from manipkit.analysis.reachmap.payload import CONFIGURATIONS
 from manipkit.analysis.reachmap.query import (
     checks_lines,
     in_plane,
@@ -283,7 +282,7 @@ class ReachMap:
         reached = ~np.isnan(layer.best)
         top = float(np.nanmax(layer.best)) if reached.any() else math.nan
         head = (f"payload (CoG ({cog}) m in {printable(self.frame)}'s axes, gravity ({g}) m/s^2 in "
-                f"{printable(self.base)}; {CONFIGURATIONS[layer.configurations]}): ")
+                f"{printable(self.base)}; {layer.configurations_text()}): ")
         if mass is None:
             return head + (f"the largest capacity {short_text(top, 4)} kg" if reached.any() else "no voxel reached")
         cell = self.voxel ** (2 if self.orientations.kind == "planar" else 3)

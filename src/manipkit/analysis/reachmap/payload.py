@@ -10,11 +10,18 @@ answer that filled it) and so one pose, the certificate's FK pose. The layer's
   certificate and every closed-form branch of its pose inside the joint
   limits (:func:`manipkit.ik.dispatch.ik_many`, FK residual within 1e-6 m and
   rad; the 2 pi aliases of a branch hold the same torques and are not listed);
-- ``"arm_angle_branches"`` (a 7R SRS arm, whose pose has a one-parameter
-  self-motion): the certificate and every closed-form branch (up to 8) of its
-  pose at the certificate's own arm angle
-  (:func:`manipkit.ik.chain_ik.srs_arm_angle`) inside the joint limits, as
-  for ``"branches"``; the rest of the self-motion (other arm angles) is not
+- ``"self_motion"`` (a 7R SRS arm, whose pose has a one-parameter
+  self-motion, the default): the certificate and every closed-form branch (up
+  to 8) of its pose inside the joint limits, as for ``"branches"``, at the
+  certificate's own arm angle (:func:`manipkit.ik.chain_ik.srs_arm_angle`)
+  and at ``arm_angles`` more arm angles ``psi_j = -pi + 2 pi j / arm_angles``
+  (j = 0 .. arm_angles - 1; rad, the resolution ``2 pi / arm_angles``): a
+  branch counts at a sampled angle only where it exists and lies inside the
+  limits, so the samples weighed are the grid's points in each branch's
+  feasible intervals (a feasible stretch shorter than a step can fall between
+  two and be missed);
+- ``"arm_angle_branches"`` (a 7R SRS arm with ``arm_angles=0``): the same at
+  the certificate's own arm angle only; the rest of the self-motion is not
   weighed;
 - ``"certificates"`` (numerical IK only, or ``branches=False``): the
   certificate alone, one per bin.
@@ -62,18 +69,28 @@ from manipkit.analysis.reachmap.constants import finite_array
 if TYPE_CHECKING:
     from manipkit.analysis.reachmap.map import ReachMap
 
-__all__ = ["CONFIGURATIONS", "PAYLOAD_ARRAYS", "PayloadInvalid", "PayloadLayer", "capacity_at", "checked_attrs",
-           "layer_from_stored", "per_voxel"]
+__all__ = ["CONFIGURATIONS", "MAX_ARM_ANGLES", "PAYLOAD_ARRAYS", "PayloadInvalid", "PayloadLayer", "arm_angle_grid",
+           "capacity_at", "checked_attrs", "layer_from_stored", "per_voxel"]
 
 #: The arrays of a payload layer in a map's folder and their data types.
 PAYLOAD_ARRAYS = {"payload_best": "float64", "payload_worst": "float64", "payload_saturating": "int64",
                   "payload_bins": "float64", "payload_bins_worst": "float64"}
 #: What a layer's ``configurations`` may be (module docstring), and how the command line says it.
 CONFIGURATIONS = {"branches": "branches: every closed-form branch in the joint limits of each voxel-bin's pose",
+                  "self_motion": "branches: every closed-form branch in the joint limits of each voxel-bin's pose at "
+                                 "its stored configuration's arm angle and at {arm_angles} arm angles {step} deg "
+                                 "apart over the self-motion",
                   "arm_angle_branches": "branches: every closed-form branch in the joint limits at each voxel-bin's "
                                         "stored configuration's arm angle (not the whole self-motion)",
                   "certificates": "branches: 1 per voxel-bin, its stored configuration (no branches weighed)"}
 MAX_G = 1e3  # m/s^2: the largest gravity a stored layer may name
+#: The most arm angles a layer samples over the self-motion (a resolution of 0.35 deg).
+MAX_ARM_ANGLES = 1024
+
+
+def arm_angle_grid(arm_angles: int) -> np.ndarray:
+    """The arm angles (rad) a ``"self_motion"`` layer samples: ``-pi + 2 pi j / arm_angles``, j = 0 .. arm_angles - 1."""
+    return -math.pi + 2.0 * math.pi * np.arange(arm_angles) / arm_angles
 
 
 class PayloadInvalid(ValueError):
@@ -102,8 +119,11 @@ class PayloadLayer:
         The effort limits used (N m or N; NaN: none).
     inertia_grade : str
         The robot's inertia-audit grade when the layer was built (:func:`manipkit.statics.audit.inertia_grade`).
-    configurations : {"branches", "arm_angle_branches", "certificates"}
+    configurations : {"branches", "self_motion", "arm_angle_branches", "certificates"}
         Which configurations of each bin's pose were weighed (module docstring).
+    arm_angles : int
+        ``"self_motion"``: the arm angles sampled besides the stored configuration's own (the resolution is
+        ``2 pi / arm_angles`` rad, :func:`arm_angle_grid`); 0 otherwise.
     """
 
     best: np.ndarray
@@ -118,10 +138,16 @@ class PayloadLayer:
     inertia_grade: str = ""
     bins_worst: np.ndarray | None = None
     configurations: str = "certificates"
+    arm_angles: int = 0
 
     def __post_init__(self):
         if self.bins_worst is None:
             object.__setattr__(self, "bins_worst", self.bins)
+
+    def configurations_text(self) -> str:
+        """Which configurations were weighed, in words (:data:`CONFIGURATIONS`, the arm angles' count and step)."""
+        step = 360.0 / self.arm_angles if self.arm_angles else 0.0
+        return CONFIGURATIONS[self.configurations].format(arm_angles=self.arm_angles, step=f"{step:g}")
 
     def carries(self, mass: float) -> np.ndarray:
         """(nx, ny, nz) bool: voxels where the best capacity is at least ``mass`` (kg): some reached orientation bin
@@ -145,7 +171,8 @@ class PayloadLayer:
 
         return {"cog": listed(self.cog), "gravity": listed(self.gravity), "joints": list(self.joints),
                 "lower": listed(self.lower), "upper": listed(self.upper), "inertia_grade": self.inertia_grade,
-                "configurations": self.configurations}
+                "configurations": self.configurations, "arm_angles": self.arm_angles,
+                "arm_angle_step_rad": 2.0 * math.pi / self.arm_angles if self.arm_angles else None}
 
 
 def capacity_at(reach_map: ReachMap, T) -> np.ndarray:
@@ -205,7 +232,13 @@ def checked_attrs(a, joint_names: tuple[str, ...]) -> dict:
     lower, upper = _vector(a.get("lower"), "lower", n, nullable=True), _vector(a.get("upper"), "upper", n, nullable=True)
     if np.any(lower >= upper):
         raise PayloadInvalid("payload.lower must be below payload.upper")
-    return {"cog": _vector(a.get("cog"), "cog", 3, bound=1e6), "gravity": _vector(a.get("gravity"), "gravity", 3,
+    arm_angles = a.get("arm_angles", 0)
+    sampled = a["configurations"] == "self_motion"
+    if isinstance(arm_angles, bool) or not isinstance(arm_angles, int) or \
+            not (1 <= arm_angles <= MAX_ARM_ANGLES if sampled else arm_angles == 0):
+        raise PayloadInvalid(f"payload.arm_angles must be a whole number from 1 to {MAX_ARM_ANGLES} for "
+                             "\"self_motion\", 0 otherwise")
+    return {"arm_angles": arm_angles, "cog": _vector(a.get("cog"), "cog", 3, bound=1e6), "gravity": _vector(a.get("gravity"), "gravity", 3,
                                                                                     bound=MAX_G),
             "joints": tuple(joints), "lower": lower, "upper": upper, "inertia_grade": grade,
             "configurations": a["configurations"]}

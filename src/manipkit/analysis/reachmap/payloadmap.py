@@ -7,7 +7,9 @@ into blocks of ``block`` configurations. For a chain with a closed-form
 family each block's poses (FK of its certificates) are solved for every
 branch at once (:func:`manipkit.ik.dispatch.ik_many`, compiled; a 7R SRS
 arm's at each certificate's own arm angle,
-:func:`manipkit.ik.chain_ik.srs_arm_angle`, vectorised), the branches inside
+:func:`manipkit.ik.chain_ik.srs_arm_angle`, vectorised, then at each of
+``arm_angles`` sampled arm angles over its self-motion, one solve of the
+block per angle, :func:`manipkit.analysis.reachmap.payload.arm_angle_grid`), the branches inside
 the joint limits kept with the certificate; otherwise the certificate alone
 is weighed. Each block's capacities come from
 :func:`manipkit.statics.capacity.payload_capacity` (batched static torques,
@@ -35,7 +37,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.analysis.reachmap.payload import PayloadLayer, per_voxel
+from manipkit.analysis.reachmap.payload import MAX_ARM_ANGLES, PayloadLayer, arm_angle_grid, per_voxel
 from manipkit.analysis.reachmap.payload_kernel import kept_branches_kernel, per_bin_kernel
 from manipkit.errors import ReachMapError
 from manipkit.kinematics.chain import limits_ok
@@ -45,11 +47,14 @@ if TYPE_CHECKING:
     from manipkit.analysis.reachmap.map import ReachMap
     from manipkit.kinematics.robot import Robot
 
-__all__ = ["BRANCH_TOL", "PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "branch_rows", "capacity_of",
+__all__ = ["ARM_ANGLES", "BRANCH_TOL", "PAYLOAD_BLOCK", "PAYLOAD_FORMAT", "PayloadJob", "branch_rows", "capacity_of",
            "configurations_of", "payload_block", "payload_map"]
 
 PAYLOAD_BLOCK = 1 << 16  # configurations per block (about 20 ms of static torques for a 7-joint arm)
-PAYLOAD_FORMAT = "manipkit-payload-3"  # 3: a 7R SRS arm weighs its branches at the arm angle
+PAYLOAD_FORMAT = "manipkit-payload-4"  # 4: a 7R SRS arm's self-motion sampled at arm_angles arm angles
+#: Arm angles a 7R SRS arm's layer samples over its self-motion by default, besides each certificate's own (45 deg
+#: apart; each costs about one more solve and one more capacity of every branch of the block).
+ARM_ANGLES = 8
 BRANCH_TOL = 1e-6  # m and rad: a closed-form branch counts when FK puts the tip this close to the bin's pose
 MAX_PAYLOAD_BLOCK = 1 << 22
 
@@ -64,13 +69,15 @@ class PayloadJob:
     cog: np.ndarray
     gravity: np.ndarray  # m/s^2 in the root link's axes (what static_torques takes)
     effort: np.ndarray  # (2, n): lower, upper
-    configurations: str = "certificates"  # or "branches", "arm_angle_branches" (payload.CONFIGURATIONS)
+    configurations: str = "certificates"  # or "branches", "self_motion", "arm_angle_branches" (payload.CONFIGURATIONS)
+    arm_angles: int = 0  # "self_motion": the arm angles sampled (payload.arm_angle_grid)
 
 
-def configurations_of(robot: Robot, base: str, tip: str) -> str:
+def configurations_of(robot: Robot, base: str, tip: str, arm_angles: int = ARM_ANGLES) -> str:
     """``"branches"`` when the chain ``base -> tip`` has a closed-form family whose every branch of a pose
-    :func:`manipkit.ik.dispatch.ik_many` lists, ``"arm_angle_branches"`` for a 7R SRS arm (every branch at the
-    stored configuration's arm angle), else ``"certificates"`` (the stored configuration alone)."""
+    :func:`manipkit.ik.dispatch.ik_many` lists; for a 7R SRS arm ``"self_motion"`` (every branch at the stored
+    configuration's arm angle and at ``arm_angles`` sampled ones), or ``"arm_angle_branches"`` with
+    ``arm_angles=0`` (at the stored one only); else ``"certificates"`` (the stored configuration alone)."""
     from manipkit.errors import ClosedFormIKError
     from manipkit.ik.families import SRS, chain_family
 
@@ -80,15 +87,17 @@ def configurations_of(robot: Robot, base: str, tip: str) -> str:
         return "certificates"
     if not family.solved:
         return "certificates"
-    return "arm_angle_branches" if family.kind == SRS else "branches"
+    if family.kind != SRS:
+        return "branches"
+    return "self_motion" if arm_angles else "arm_angle_branches"
 
 
 def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float = BRANCH_TOL,
-                at_arm_angle: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                at_arm_angle: bool = False, arm_angle: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(rows (N, 1 + k, n), kept (N, 1 + k) bool): chain vectors, per configuration of ``Q`` (N, n_robot,
     whole-robot vectors) itself, then every other closed-form branch of its pose ``T_base_tip`` (with
     ``at_arm_angle``, a 7R SRS chain's: the branches at the configuration's own arm angle,
-    :func:`manipkit.ik.chain_ik.srs_arm_angle`).
+    :func:`manipkit.ik.chain_ik.srs_arm_angle`, or at ``arm_angle`` (rad) when given).
 
     A branch is kept when it exists, lies inside the joint limits, FK puts
     ``tip`` within ``tol`` (m and rad) of the pose, and it is not the
@@ -101,7 +110,9 @@ def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float 
     chain = robot.chain(base, tip)
     q = np.asarray(Q, dtype=float)[:, chain.columns]
     psi = None
-    if at_arm_angle:
+    if at_arm_angle and arm_angle is not None:
+        psi = np.full(len(q), float(arm_angle))
+    elif at_arm_angle:
         from manipkit.ik.chain_ik import srs_arm_angle
 
         psi = srs_arm_angle(chain, q)
@@ -117,19 +128,32 @@ def branch_rows(robot: Robot, base: str, tip: str, Q: np.ndarray, *, tol: float 
 def payload_block(job: PayloadJob, block: int, Q: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
     """Block ``block``: (block, largest capacity kg (N,), smallest (N,), the joint saturating at the smallest (N,),
     -1 none) per voxel-bin of the certificates ``Q`` (N, n) over the configurations ``job.configurations`` names."""
+    at_arm_angle = job.configurations in ("arm_angle_branches", "self_motion")
+    sampled = arm_angle_grid(job.arm_angles) if job.configurations == "self_motion" else ()
+    best, worst, joint = _block_range(job, Q, at_arm_angle, None)  # the certificates' own arm angles first
+    for psi in sampled:  # then each sampled arm angle: the block's range widened by its branches
+        top, low, low_joint = _block_range(job, Q, True, float(psi))
+        best = np.fmax(best, top)  # NaN only where both are (numpy.nanmax's rule)
+        lower = ~np.isnan(worst) & (np.isnan(low) | (low < worst))  # per_bin's rule: the first NaN, else the smallest
+        worst, joint = np.where(lower, low, worst), np.where(lower, low_joint, joint)
+    return block, best, worst, joint  # the worst: the first kept row (the certificate) on ties
+
+
+def _block_range(job: PayloadJob, Q: np.ndarray, at_arm_angle: bool, arm_angle: float | None) -> tuple:
+    """(largest capacity (N,), smallest (N,), the joint saturating at the smallest (N,)) over the certificates ``Q``
+    and, unless ``job.configurations`` is ``"certificates"``, their kept branches (at ``arm_angle`` when given)."""
     from manipkit.statics.capacity import payload_capacity
 
     if job.configurations == "certificates":
         rows, kept = Q[:, None], np.ones((len(Q), 1), dtype=bool)
     else:
-        rows, kept = branch_rows(job.robot, job.base, job.frame, Q,
-                                 at_arm_angle=job.configurations == "arm_angle_branches")
+        rows, kept = branch_rows(job.robot, job.base, job.frame, Q, at_arm_angle=at_arm_angle, arm_angle=arm_angle)
     cap = payload_capacity(job.robot, rows[kept], cog=job.cog, gravity=job.gravity, effort=job.effort,
                            base=job.base, tip=job.frame)
     best, worst, joint = np.empty(len(Q)), np.empty(len(Q)), np.empty(len(Q), dtype=np.int64)
     per_bin_kernel()(kept, np.ascontiguousarray(cap.max_mass, dtype=float),
                      np.ascontiguousarray(cap.saturating, dtype=np.int64), best, worst, joint)
-    return block, best, worst, joint  # the worst: the first kept row (the certificate) on ties
+    return best, worst, joint
 
 
 def _check_block(job: PayloadJob, n_joints: int, result, arguments: tuple) -> str | None:
@@ -176,7 +200,8 @@ def _settings(job: PayloadJob, reach_map: ReachMap, block: int) -> dict:
             "robot": job.robot.name, "description_sha256": hashlib.sha256(job.robot.urdf.encode()).hexdigest(),
             "base": job.base, "frame": job.frame, "cog": job.cog.tolist(), "gravity": job.gravity.tolist(),
             "effort": [[None if math.isnan(v) else v for v in row] for row in job.effort.tolist()],
-            "block": block, "certificates_sha256": certs, "configurations": job.configurations}
+            "block": block, "certificates_sha256": certs, "configurations": job.configurations,
+            "arm_angles": job.arm_angles}
 
 
 def _root_gravity(robot: Robot, base: str, g_base: np.ndarray) -> np.ndarray:
@@ -203,8 +228,9 @@ def capacity_of(reach_map: ReachMap, robot: Robot, Q) -> np.ndarray:
 
 
 def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, -9.81), effort=None,
-                branches: bool = True, workers: int | None = None, scheduler: str | None = None, progress=None,
-                block: int = PAYLOAD_BLOCK, resume_dir: str | Path | None = None) -> ReachMap:
+                branches: bool = True, arm_angles: int = ARM_ANGLES, workers: int | None = None,
+                scheduler: str | None = None, progress=None, block: int = PAYLOAD_BLOCK,
+                resume_dir: str | Path | None = None) -> ReachMap:
     """The map with its payload layer (``reach_map.payload``, :class:`~manipkit.analysis.reachmap.payload.PayloadLayer`).
 
     A function of a built map rather than an option of
@@ -229,8 +255,13 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
     branches : bool
         True: for a chain with a closed-form family (:func:`configurations_of`) weigh every branch of each bin's
         pose inside the joint limits, with the stored configuration (a 7R SRS arm: every branch at the stored
-        configuration's arm angle, not the whole self-motion); False, or a chain without one: the stored
-        configuration alone. The layer's ``configurations`` says which was done.
+        configuration's arm angle and at ``arm_angles`` arm angles over its self-motion); False, or a chain without
+        one: the stored configuration alone. The layer's ``configurations`` (and ``arm_angles``) say which was done.
+    arm_angles : int
+        A 7R SRS arm's self-motion: the arm angles sampled besides each stored configuration's own,
+        ``-pi + 2 pi j / arm_angles`` (a resolution of ``2 pi / arm_angles`` rad; default 8, 45 deg), each
+        branch weighed where it lies inside the limits there; 0 weighs the stored configuration's arm angle alone.
+        Each sample costs about one more solve and capacity of the block. Ignored by other chains.
     workers, scheduler, progress
         As :func:`~manipkit.analysis.reachmap.builder.build` (``progress(stage, done, total)`` in blocks).
     block : int
@@ -272,13 +303,19 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
     g_base = _vector3(gravity, "gravity", "gravity in the map's base frame (m/s^2)")
     if isinstance(block, bool) or not isinstance(block, numbers.Integral) or not 1 <= block <= MAX_PAYLOAD_BLOCK:
         raise ReachMapError(f"block {printable(repr(block))[:40]}: give a whole number from 1 to {MAX_PAYLOAD_BLOCK}")
+    if isinstance(arm_angles, bool) or not isinstance(arm_angles, numbers.Integral) or \
+            not 0 <= arm_angles <= MAX_ARM_ANGLES:
+        raise ReachMapError(f"arm_angles {printable(repr(arm_angles))[:40]}: give a whole number of arm angles from 0 "
+                            f"to {MAX_ARM_ANGLES}")
     check_workers(workers)
     g_root = _root_gravity(robot, reach_map.base, g_base)
     probe = payload_capacity(robot, robot.q(), cog=cog, gravity=g_root, effort=effort, base=reach_map.base,
                              tip=reach_map.frame)  # the limits, and every option checked before a block runs
-    configurations = configurations_of(robot, reach_map.base, reach_map.frame) if branches else "certificates"
+    configurations = configurations_of(robot, reach_map.base, reach_map.frame, int(arm_angles)) if branches \
+        else "certificates"
+    sampled = int(arm_angles) if configurations == "self_motion" else 0
     job = PayloadJob(robot, reach_map.base, reach_map.frame, cog, g_root, np.stack([probe.lower, probe.upper]),
-                     configurations)
+                     configurations, sampled)
     n = len(probe.joint_names)
     store = None
     if resume_dir is not None:
@@ -300,5 +337,6 @@ def payload_map(reach_map: ReachMap, robot: Robot, *, cog=(0.0, 0.0, 0.0), gravi
                                          math.prod(reach_map.shape), worst_capacity=cap)
     layer = PayloadLayer(best.reshape(reach_map.shape), worst.reshape(reach_map.shape),
                          worst_joint.reshape(reach_map.shape), top, cog, g_base, tuple(probe.joint_names),
-                         probe.lower, probe.upper, probe.inertia_grade, bins_worst=cap, configurations=configurations)
+                         probe.lower, probe.upper, probe.inertia_grade, bins_worst=cap, configurations=configurations,
+                         arm_angles=sampled)
     return replace(reach_map, payload=layer)

@@ -80,6 +80,9 @@ def _add_show_options(parser, **default) -> None:
 def _add_payload_build_options(parser) -> None:
     parser.add_argument("--gravity", default="0,0,-9.81", metavar="GX,GY,GZ",
                         help="gravity for --payload in the map's base frame, m/s^2 (default 0,0,-9.81)")
+    parser.add_argument("--arm-angles", type=int, default=None, metavar="N",
+                        help="a 7R SRS arm's payload layer: arm angles sampled over the self-motion besides each "
+                             "stored configuration's own, 360/N deg apart (default 8; 0: its own alone)")
 
 
 def register(commands) -> None:
@@ -201,13 +204,14 @@ def _payload_spec(args):
 
 def _with_payload(reach_map, robot, args, load_spec, *, resume_dir=None):
     """The map with its payload layer for ``load_spec`` (:func:`_payload_spec`), built with a progress bar."""
-    from manipkit.analysis.reachmap.payloadmap import payload_map
+    from manipkit.analysis.reachmap.payloadmap import ARM_ANGLES, payload_map
     from manipkit.app.progress import progress_bar
 
     with progress_bar() as progress, warnings.catch_warnings():
         warnings.showwarning = _note_or_warning
         return payload_map(reach_map, robot, cog=load_spec[0].cog, gravity=load_spec[1], workers=args.workers,
-                           scheduler=args.scheduler, progress=progress, resume_dir=resume_dir)
+                           scheduler=args.scheduler, progress=progress, resume_dir=resume_dir,
+                           arm_angles=ARM_ANGLES if args.arm_angles is None else args.arm_angles)
 
 
 def _note_or_warning(message, category, filename, lineno, file=None, line=None) -> None:
