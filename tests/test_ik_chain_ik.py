@@ -445,6 +445,36 @@ def test_the_arm_angles_of_a_stack_are_each_row_s_own():
         assert any(same_modulo_2pi(s, q) for s in chain_ik(chain, chain.fk(q), arm_angle=float(angle)).solutions)
 
 
+def test_the_compiled_arm_angles_are_the_reference_s():
+    """From ARM_ANGLES_COMPILED_FROM rows on srs_arm_angle takes the compiled pass: against the numpy reference on
+    3,000 iiwa14 rows (random; the elbow straight, where the second shoulder turn fixes v too; q2 = q4 = 0, the
+    wrist centre on axis 1, where subproblem 2 is free and the pass must hand the row back), and each compiled
+    angle lists its row by the closed form."""
+    from manipkit.closed_form.srs_kernel import arm_angles_into
+    from manipkit.ik.chain_ik import ARM_ANGLES_COMPILED_FROM, _arm_angles, srs_arm_angle
+    from manipkit.ik.families import chain_family
+    from manipkit.ik.ideal_arm import compiled_arm, ideal_arm
+
+    chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
+    family = chain_family(chain)
+    arm = ideal_arm(family)
+    Q = chain.sample(3000, seed=41)
+    Q[:500, 3] = 0.0
+    Q[500:600, 1] = Q[500:600, 3] = 0.0
+    assert len(Q) >= ARM_ANGLES_COMPILED_FROM
+    psi = srs_arm_angle(chain, Q)
+    reference = _arm_angles(chain, arm, family, Q)
+    gap = np.abs(np.remainder(psi - reference + np.pi, 2 * np.pi) - np.pi)
+    # the angle's own sensitivity: about 1e-15 rad; near the shoulder's singularity up to about 1e-13
+    assert gap.max() < 1e-12 and np.median(gap) < 1e-15
+    compiled, fallback = np.empty(len(Q)), np.empty(len(Q), dtype=bool)
+    arm_angles_into(compiled_arm(chain, arm), np.ascontiguousarray(chain.fk(Q)), Q, compiled, fallback)
+    assert fallback[500:600].all() and not fallback[:500].any() and fallback.sum() < 150
+    assert np.isnan(compiled[fallback]).all() and np.array_equal(compiled[~fallback], psi[~fallback])
+    for q, angle in zip(Q[~fallback][::60], psi[~fallback][::60]):  # the handed-back rows are singular targets
+        assert any(same_modulo_2pi(s, q) for s in chain_ik(chain, chain.fk(q), arm_angle=float(angle)).solutions)
+
+
 def test_an_srs_arm_without_an_arm_angle_says_what_to_give():
     chain = manipkit.load("iiwa14").chain("base_link", "ee_link")
     with pytest.raises(ClosedFormIKError, match="give arm_angle"):

@@ -196,6 +196,7 @@ KERNEL_NOTES = {
     "arms_kernel._solve_all_ur": ("the branches of UR-type arms for many targets", 42),
     "arms_kernel._solve_all_opw": ("the branches of spherical-wrist (OPW) arms for many targets", 40),
     "srs_kernel": ("the closed-form IK of 7R arms with an arm angle", 15),
+    "srs_kernel._arm_angles_all": ("the arm angles of 7R SRS configurations", 2),
     "ladder_kernel": ("the task path ladder's dynamic program", 4),  # CPU s, measured on a shared machine
 }
 #: Compiles shorter than this (s) are not worth a line: the command answers about as soon as it would have.

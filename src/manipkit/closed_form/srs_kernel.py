@@ -51,9 +51,12 @@ from manipkit.closed_form.subproblems_kernel import (
     sub,
 )
 
-__all__ = ["solve_check_srs", "solve_srs_rows_into", "solve_srs_target"]
+__all__ = ["arm_angles_into", "solve_check_srs", "solve_srs_rows_into", "solve_srs_target"]
 
 PAIR_MISS = 1e-10  # a subproblem-2 pair missing by more is left to the reference (it accepts up to sqrt(1e-12))
+#: The arm angle's choice between the two shoulder turns (the second only with the elbow straight) is the
+#: reference's ``gap' < gap - 1e-9``; within this much of that threshold the reference decides.
+CHOICE_MARGIN = 1e-12
 
 
 @compile_kernel
@@ -223,3 +226,83 @@ def solve_srs_rows_into(prepared: tuple, T: np.ndarray, arm_angles: np.ndarray, 
     family solved base to tip. The same rows bit for bit as :func:`solve_check_srs` checks for one target.
     """
     return _srs_rows_all(prepared[0], prepared[1], T, arm_angles, valid, fallback, project, rows, packed, index)
+
+
+@compile_kernel
+def _turns(h0, c0, s0, h1, c1, s1, h2, c2, s2, x):
+    """R(h0, t0) R(h1, t1) R(h2, t2) x (cos, sin of each angle given)."""
+    return rotate(h0, c0, s0, rotate(h1, c1, s1, rotate(h2, c2, s2, x)))
+
+
+@compile_kernel
+def _arm_angles_all(arm_reals, arm_ints, T, Q, psi, fallback):
+    """psi (N,) and fallback (N,) for the configurations ``Q`` (N, n) with FK ``T`` (N, 4, 4); see
+    :func:`arm_angles_into`."""
+    _, H, P, points, _, M_inv, _, q0, columns, solved, _, _, _ = arm_constants(arm_reals, arm_ints)
+    h0, h1, h2, h3 = row(H, 0), row(H, 1), row(H, 2), row(H, 3)
+    p3 = row(P, 3)
+    S, c = row(points, 1), row(points, 0)
+    e = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    angle, g, D = np.empty(4), np.empty((3, 4)), np.empty((3, 3))
+    gaps, values = np.empty(2), np.empty(2)
+    for t in range(T.shape[0]):
+        psi[t] = np.nan
+        fallback[t] = True
+        for i in range(4):
+            angle[i] = solved[0, i] * (Q[t, columns[i]] - q0[columns[i]])
+        for i in range(3):  # g = T M^-1 (its last row is not needed)
+            for j in range(4):
+                g[i, j] = (T[t, i, 0] * M_inv[0, j] + T[t, i, 1] * M_inv[1, j] + T[t, i, 2] * M_inv[2, j]
+                           + T[t, i, 3] * M_inv[3, j])
+        # the wrist centre g c, and v its direction from the shoulder S
+        wc = (g[0, 0] * c[0] + g[0, 1] * c[1] + g[0, 2] * c[2] + g[0, 3] - S[0],
+              g[1, 0] * c[0] + g[1, 1] * c[1] + g[1, 2] * c[2] + g[1, 3] - S[1],
+              g[2, 0] * c[0] + g[2, 1] * c[1] + g[2, 2] * c[2] + g[2, 3] - S[2])
+        length = norm(wc)
+        if length <= MARGIN:
+            continue
+        v = (wc[0] / length, wc[1] / length, wc[2] / length)
+        # the elbow at q: u, the wrist centre's offset from S with joint 4 at its angle
+        u = sub(add(p3, rotate(h3, math.cos(angle[3]), math.sin(angle[3]), sub(c, p3))), S)
+        size = norm(u)
+        target = (v[0] * size, v[1] * size, v[2] * size)
+        # the reference shoulder: R(h1, a) u = R(h0, b) target (subproblem 2, its first pair)
+        ca, sa, _, _, count_r, _, unsure_r = sp4(h0, h1, u, dot(h0, target))
+        if unsure_r or count_r == 0.0:
+            continue
+        cb, sb, size_b, miss_b = sp1(h0, target, rotate(h1, ca, sa, u))
+        if size_b <= MARGIN or miss_b > PAIR_MISS * max(1.0, size):
+            continue
+        c0, s0, c1, s1, c2, s2 = (math.cos(angle[0]), math.sin(angle[0]), math.cos(angle[1]), math.sin(angle[1]),
+                                  math.cos(angle[2]), math.sin(angle[2]))
+        for turn in range(2):  # D = R_shoulder R_ref^T, then R_shoulder R(h2, pi) R_ref^T (sum of column products)
+            D[:] = 0.0
+            for i in range(3):
+                ref = rotate(h0, cb, -sb, rotate(h1, ca, sa, e[i]))
+                base = e[i] if turn == 0 else rotate(h2, -1.0, 0.0, e[i])
+                col = _turns(h0, c0, s0, h1, c1, s1, h2, c2, s2, base)
+                for r in range(3):
+                    for k in range(3):
+                        D[r, k] += col[r] * ref[k]
+            Dv = mv(D, v)
+            gaps[turn] = norm(sub(Dv, v))
+            w = (D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1])
+            values[turn] = atan2(0.5 * dot(v, w), 0.5 * (D[0, 0] + D[1, 1] + D[2, 2] - 1.0))
+        choice = gaps[1] - (gaps[0] - 1e-9)
+        if abs(choice) <= CHOICE_MARGIN:
+            continue
+        psi[t] = values[1] if choice < 0.0 else values[0]
+        fallback[t] = False
+
+
+def arm_angles_into(prepared: tuple, T: np.ndarray, Q: np.ndarray, psi: np.ndarray, fallback: np.ndarray) -> None:
+    """The arm angles (rad) of the chain configurations ``Q`` (N, n) of a 7R SRS chain into ``psi`` (N,), as
+    :func:`manipkit.ik.chain_ik.srs_arm_angle` (the numpy reference) computes them: the turn about the
+    shoulder-wrist line taking the reference plane to the elbow's plane; ``T`` (N, 4, 4): the chain's FK of ``Q``.
+
+    ``prepared``: the chain's constants (``ik.ideal_arm.compiled_arm``), a family solved base to tip. A
+    configuration where a decision comes near its threshold (the wrist centre at the shoulder, subproblem 2
+    near tangent or free, the two shoulder turns' gaps near the reference's 1e-9 choice) is marked in
+    ``fallback`` (N,) with ``psi`` NaN: the reference answers it.
+    """
+    _arm_angles_all(prepared[0], prepared[1], T, Q, psi, fallback)

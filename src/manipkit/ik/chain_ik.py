@@ -624,14 +624,39 @@ def srs_arm_angle(chain: Chain, q, *, family: Family | None = None):
     The rotation about the shoulder-wrist line that takes the reference
     plane (joint 3 at its reference value) to the elbow's plane at ``q``;
     ``chain_ik(chain, chain.fk(q), arm_angle=srs_arm_angle(chain, q))`` lists ``q``.
+
+    From :data:`ARM_ANGLES_COMPILED_FROM` rows on, one compiled pass
+    (:func:`manipkit.closed_form.srs_kernel.arm_angles_into`) answers the rows
+    away from its thresholds and this numpy pass the rest; both give the same
+    angle to rounding (about 1e-15 rad; up to about 1e-13 rad near the
+    shoulder's singularity, the wrist centre near axis 1).
     """
     family = chain_family(chain) if family is None else family
     if family.kind != SRS:
         raise ClosedFormIKError(f"an arm angle belongs to a 7R SRS chain; this chain is '{family.kind}'")
     arm = ideal_arm(family)
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 2 and len(q) >= ARM_ANGLES_COMPILED_FROM and not family.reversed:
+        from manipkit.closed_form.srs_kernel import arm_angles_into
+
+        rows = np.ascontiguousarray(q)
+        psi, fallback = np.empty(len(rows)), np.empty(len(rows), dtype=bool)
+        arm_angles_into(compiled_arm(chain, arm), np.ascontiguousarray(chain.fk(rows)), rows, psi, fallback)
+        if fallback.any():
+            psi[fallback] = _arm_angles(chain, arm, family, rows[fallback])
+        return psi
+    return _arm_angles(chain, arm, family, q)
+
+
+#: From this many configurations on, :func:`srs_arm_angle` takes the compiled pass (below it the pass's call and
+#: first compile would cost more than the numpy pass saves).
+ARM_ANGLES_COMPILED_FROM = 64
+
+
+def _arm_angles(chain: Chain, arm: IdealArm, family: Family, q: np.ndarray):
+    """:func:`srs_arm_angle` by numpy (the reference): a float for ``q`` (n,), (N,) for ``q`` (N, n)."""
     h, p = arm.h, arm.p
     geometry = family.geometry
-    q = np.asarray(q, dtype=float)
     rows = np.atleast_2d(q)
     theta = geometry.scale * (rows[:, geometry.columns] - geometry.q0[geometry.columns])
     g = np.asarray(chain.fk(rows)).reshape(-1, 4, 4) @ invert_transform(geometry.M)
