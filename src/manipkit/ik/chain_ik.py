@@ -53,10 +53,11 @@ from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik.branch_names import REVERSED, SRS_WORDS, WORDS, branch_names, label_order, numbered
+from manipkit.ik.chain_newton import newton_rows
 from manipkit.ik.families import FAMILY_TOL, OPW, SPHERICAL_12, SRS, UR, Family, chain_family
 from manipkit.ik.ideal_arm import IdealArm, compiled_arm, compiled_entry, ideal_arm, wide_joints
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
-from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
+from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
@@ -137,32 +138,6 @@ def _aliases(chain: Chain, Q: np.ndarray, columns: np.ndarray) -> np.ndarray:
         found |= inside
     Q[..., columns] = best
     return Q
-
-
-def _log(R: np.ndarray) -> np.ndarray:
-    """The rotation vector (axis times angle, rad) of ``R``: from its skew part, ``sin(angle) axis``, below 120
-    degrees (where that part fixes the axis well; the polishing's starts are near their targets), else from
-    :func:`~manipkit.spatial.rotations.axis_angle_from_matrix`."""
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    if c > -0.5:
-        v = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-        s = math.sqrt(v @ v)
-        return v if s < 1e-12 else v * (math.atan2(s, c) / s)  # below 1e-12 rad, sin(angle) = angle to 1e-36
-    axis, angle = axis_angle_from_matrix(R, check=False)
-    return np.asarray(axis) * float(angle)
-
-
-def _newton(chain: Chain, T: np.ndarray, q: np.ndarray, columns: np.ndarray, max_iters: int, tol: float) -> np.ndarray:
-    """``q`` moved by Newton steps on the chain's FK and Jacobian (the solved ``columns`` only: locked joints stay)
-    until the pose error is below ``tol``."""
-    q = q.copy()
-    for _ in range(max_iters):
-        reached = chain.fk(q)
-        error = np.concatenate([T[:3, 3] - reached[:3, 3], _log(T[:3, :3] @ reached[:3, :3].T)])
-        if np.max(np.abs(error)) <= tol:
-            break
-        q[columns] += np.linalg.lstsq(chain.jacobian(q)[:, columns], error, rcond=None)[0]
-    return q
 
 
 def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
@@ -260,13 +235,18 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     worst = [0.0, 0.0]  # the largest position (m) and rotation (rad) miss of a dropped branch
     free_slots = branches.free[0].tolist()
     same = _pairwise_same(candidates)  # (k, k): equal modulo 2 pi (rows moved by Newton are compared again)
+    steps = np.zeros(len(candidates))
+    miss = np.flatnonzero((np.array(position) > check[0]) | (np.array(rotation) > check[1]))
+    if len(miss):  # refined on the true chain, all in one compiled call, then measured again by its FK
+        better = newton_rows(geometry, T, candidates[miss], iterations=max_iters)
+        steps[miss] = np.abs(better - candidates[miss]).max(axis=1)
+        candidates = candidates.copy()
+        candidates[miss] = _aliases(chain, better, geometry.columns)
+        again = pose_residuals(T_check, chain.fk(candidates[miss]), project=False)
+        for k, i in enumerate(miss.tolist()):
+            position[i], rotation[i] = float(np.atleast_1d(again[0])[k]), float(np.atleast_1d(again[1])[k])
     for index, (q, slot, p_err, r_err) in enumerate(zip(candidates, slots.tolist(), position, rotation)):
-        moved = 0.0
-        if p_err > check[0] or r_err > check[1]:
-            better = _newton(chain, T, q, geometry.columns, max_iters, min(0.1 * min(check), 1e-12))
-            moved = float(np.max(np.abs(better - q)))
-            q = _aliases(chain, better, geometry.columns)
-            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
+        moved = float(steps[index])
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
             worst = [max(worst[0], float(p_err)), max(worst[1], float(r_err))]
