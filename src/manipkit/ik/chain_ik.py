@@ -63,8 +63,8 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "single_solver", "slot_labels", "solve_branches",
-           "srs_arm_angle"]
+__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "refined_many", "single_solver", "slot_labels",
+           "solve_branches", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
@@ -504,6 +504,63 @@ def slot_labels(family: Family) -> tuple[str, ...]:
     elbow b, wrist a"`` (a 7R SRS arm: ``"elbow a, shoulder b, wrist a"``)."""
     words = ("elbow", "shoulder", "wrist") if family.kind == SRS else ("shoulder", "elbow", "wrist")
     return tuple(f"{words[0]} {a}, {words[1]} {b}, {words[2]} {c}" for a in "ab" for b in "ab" for c in "ab")
+
+
+def refined_many(chain: Chain, targets, *, family: Family, check_tol=CHECK_TOL, max_iters: int = 20) -> IKBatch:
+    """:func:`chain_ik` of many 6R targets ``(N, 4, 4)`` in 8 slots (slot order, as :func:`chain_ik_many`): per target
+    the rows ``chain_ik(chain, T, family=family, check_tol=check_tol)`` gives (a snapped arm's answers).
+
+    Each exact branch and each just off a tangency (``Branches.near``) of the nearest ideal arm, at its in-limit
+    alias nearest 0, measured by the chain's FK; those that miss ``check_tol`` refined by Newton steps on the true
+    chain (:func:`manipkit.ik.chain_newton.newton_rows`, every target's rows in one compiled call) and measured
+    again; NaN where still missing, and where a row equals (modulo 2 pi, 1e-9) an earlier slot's of its target
+    with the same free joint. ``count`` infinite where a slot is a one-parameter family;
+    :meth:`IKBatch.branch_labels` names each target's rows as :func:`chain_ik` does (from the ideal arm's branches).
+    """
+    arm = ideal_arm(family)
+    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    theta, branches, g = _branches(arm, T)
+    geometry = family.geometry
+    near = np.asarray(branches.near, dtype=bool)
+    Q = np.where(near[..., None], _aliases(chain, _joint_values(geometry, np.nan_to_num(theta)), geometry.columns),
+                 np.nan)
+    T_check = _projected_target(T)
+    position, rotation = np.full(near.shape, np.inf), np.full(near.shape, np.inf)
+    if near.any():
+        position[near], rotation[near] = pose_residuals(T_check[np.nonzero(near)[0]], chain.fk(Q[near]),
+                                                        project=False)
+    miss = near & ((position > check[0]) | (rotation > check[1]))
+    if miss.any():
+        owner = np.nonzero(miss)[0]
+        better = newton_rows(geometry, T[owner], Q[miss], iterations=max_iters)
+        Q[miss] = _aliases(chain, better, geometry.columns)
+        position[miss], rotation[miss] = pose_residuals(T_check[owner], chain.fk(Q[miss]), project=False)
+    kept = near & (position <= check[0]) & (rotation <= check[1])
+    free = np.where(branches.free >= 0, 5 - branches.free if family.reversed else branches.free, -1)
+    for s in range(1, Q.shape[1]):  # a slot repeating an earlier kept one of its target (the same free joint)
+        gap = np.abs(np.pi - np.mod(np.pi - (Q[:, s:s + 1] - Q[:, :s]), TWO_PI)).max(axis=-1)  # (N, s)
+        kept[:, s] &= ~((gap <= 1e-9) & kept[:, :s] & (free[:, :s] == free[:, s:s + 1])).any(axis=-1)
+    Q = np.where(kept[..., None], Q, np.nan)
+    count = np.where((kept & (free >= 0)).any(axis=-1), np.inf, kept.sum(axis=-1).astype(float))
+
+    def measure(solutions):
+        missing = np.isnan(solutions).any(axis=-1)
+        filled = np.where(missing[..., None], 0.0, solutions)
+        position, rotation = pose_residuals(T_check[:, None], chain.fk(filled), project=False)
+        return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
+
+    def name(index: int) -> tuple[str, ...]:  # as chain_ik: the ideal arm's branches of the kept slots
+        slots = np.flatnonzero(kept[index])
+        names = [""] * Q.shape[1]
+        for slot, label in zip(slots.tolist(), branch_names(arm, g[index], branches.theta[index, slots])
+                               if len(slots) else ()):
+            names[slot] = label
+        return tuple(names)
+
+    return IKBatch(Q, count, labels=slot_labels(family), mode=SPATIAL_POSE,
+                   solver=f"ik.chain_ik refined ({family.kind})", joint_names=tuple(chain.joint_names),
+                   measure=measure, limit=check, name=name)
 
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,

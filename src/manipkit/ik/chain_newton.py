@@ -4,8 +4,11 @@ compiled polisher (:mod:`manipkit.closed_form.newton_kernel`).
 A chain of revolute joints is exactly the product of exponentials of its axes at the reference configuration
 ``q0`` (:class:`manipkit.ik.families.Geometry`, measured on the chain itself, locked joints folded in):
 ``T_base_tip(q) = E_1 ... E_n M``, ``E_i`` the rotation by ``scale[i] (q[c_i] - q0[c_i])`` about the i-th
-axis. A row ``q`` is polished towards ``T`` as the angles ``theta = scale (q - q0)`` towards ``g = T M^-1``; the
-locked joints (no axis) stay. The caller checks the result by the chain's own FK (the polisher's residual is the
+axis. A row ``q`` is polished towards ``T`` as the angles ``theta = scale (q - q0)`` of the same product written in
+the tip's frame at ``q0``, ``M^-1 T(q) = (M^-1 E_1 M) ... (M^-1 E_n M)``, towards ``g = M^-1 T``: the error is
+then the tip's own (its position and rotation errors in those axes), so each step is the step of Newton on the
+chain's pose error (for seven joints its least-norm step, the same in any axes). The locked joints (no axis)
+stay. The caller checks the result by the chain's own FK (the polisher's residual is the
 product's, within rounding of it).
 """
 
@@ -50,9 +53,10 @@ def newton_rows(geometry: Geometry, T: np.ndarray, Q: np.ndarray, *, iterations:
         return Q
     columns, scale = geometry.columns, geometry.scale
     theta = scale * (Q[:, columns] - geometry.q0[columns])
-    g = np.asarray(T, dtype=float) @ invert_transform(geometry.M, check=False)
-    out, _, _ = polish_targets(geometry.direction, geometry.point, np.broadcast_to(g, (len(Q), 4, 4)), theta,
-                               iterations=iterations, far=np.inf, stop=stop)
+    R, t = geometry.M[:3, :3], geometry.M[:3, 3]  # the axes in the tip's frame at q0: T = M (M^-1 E_1 M) ... M^-1 T
+    g = invert_transform(geometry.M, check=False) @ np.asarray(T, dtype=float)
+    out, _, _ = polish_targets(geometry.direction @ R, (geometry.point - t) @ R, np.broadcast_to(g, (len(Q), 4, 4)),
+                               theta, iterations=iterations, far=np.inf, stop=stop)
     step = np.pi - np.mod(np.pi - (out - theta), 2.0 * np.pi)  # the move, from the wrapped answer
     Q[:, columns] += step / scale
     return Q
