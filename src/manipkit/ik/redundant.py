@@ -60,9 +60,10 @@ or until a joint at the feasible end is within :data:`MARGIN_TOL` of its
 limit (endpoints are the feasible side of the last bracket). A feasible stretch or
 a gap shorter than a step between two samples can be missed; an interval of
 ``psi`` through +-pi is listed as two (one at each end); a wide joint's other
-2 pi aliases are not branches of their own. Rows of the batched closed forms
-that miss the target (a calibrated arm solved on its nearest ideal arm, the
-xArm7: 1e-6 m) are polished by Newton steps on the true chain.
+2 pi aliases are not branches of their own. Rows that miss the target by a
+little (a calibrated arm's arm angle solved on its nearest ideal arm) are
+polished by Newton steps on the true chain; a snapped 6R arm's (the xArm7's
+with its last joint locked) come refined from the dispatcher's batch.
 
 The set: ``count`` values spread over the intervals of every branch (each
 interval gets a share proportional to its length, at least one while the
@@ -385,22 +386,21 @@ class _Solver:
         return Q, reached & (margin >= -LIMIT_SLACK), margin
 
     def _polished(self, rows: np.ndarray) -> np.ndarray:
-        """Rows (m, 7) moved by Newton steps on the true chain: the locked joint held, all seven joints for the arm
-        angle (least-norm steps), until each misses the target by at most :data:`POLISH_TO`."""
-        out = rows.copy()
-        free = np.array([c for c in range(7) if c != self.parameter.column], dtype=np.intp)
-        for _ in range(POLISH_STEPS):
-            position, rotation, reached = self._residuals(out)
-            todo = np.maximum(position, rotation) > POLISH_TO
-            if not todo.any():
-                break
-            moving, R = out[todo], reached[todo]
-            Re = self.T[:3, :3] @ np.swapaxes(R[:, :3, :3], -1, -2)
-            turn = 0.5 * np.stack([Re[:, 2, 1] - Re[:, 1, 2], Re[:, 0, 2] - Re[:, 2, 0], Re[:, 1, 0] - Re[:, 0, 1]], -1)
-            error = np.concatenate([self.T[:3, 3] - R[:, :3, 3], turn], axis=-1)
-            J = self.chain.jacobians(moving)[:, :, free]
-            moving[:, free] += np.einsum("kij,kj->ki", np.linalg.pinv(J), error)
-            out[todo] = moving
+        """Rows (m, 7) moved by at most :data:`POLISH_STEPS` Newton steps on the true chain by the one polisher
+        (:func:`manipkit.ik.chain_newton.newton_rows`): all seven joints for the arm angle (least-norm steps), else
+        the locked joint held (the six others' product at its value, :func:`manipkit.ik.general6r.locked_geometry`)."""
+        from manipkit.ik.chain_newton import newton_rows
+
+        if self.parameter.kind == "arm_angle":
+            geometry = chain_family(self.chain, tol=self.family_tol).geometry
+            return newton_rows(geometry, self.T, rows, iterations=POLISH_STEPS)
+        out = np.array(rows, dtype=float)
+        column = self.parameter.column
+        for value in np.unique(out[:, column]):
+            mine = out[:, column] == value
+            geometry, L = locked_geometry(self.chain, self.parameter.name, float(value), family_tol=self.family_tol)
+            out[mine] = newton_rows(geometry, invert_transform(L, check=False) @ self.T, out[mine],
+                                    iterations=POLISH_STEPS)
         return out
 
 
