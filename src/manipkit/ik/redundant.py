@@ -23,14 +23,16 @@ The parameter (the rule of :func:`redundancy`):
   with ``lock=``; its ways eliminate regularly). An end joint because locking
   it moves no axis of the other six (it folds into the tip pose or the
   target), so the 6R arm is the same at every value: the dispatcher's choice
-  of solver holds for all of them (each value is solved with
-  ``method="algebraic"``, without classifying the chain again) and the
-  elimination's preparation is shared. A chain where neither qualifies gets
+  of solver holds for all of them, and a round's values are solved in one
+  batch of the compiled elimination (``ik_many`` on the 6R sub-chain the
+  locked joint leaves, :func:`manipkit.ik.general6r.general_ik_many`: each
+  value's rows those of ``ik(..., lock=, method="algebraic")``, which answers
+  per value where the links do not split there). A chain where neither qualifies gets
   no ranked set (numerical restarts answer, as before).
 
 The inner solve is the dispatcher's: :func:`manipkit.ik.dispatch.ik_many`
 (batched, one call per sweep or bisection round) for the SRS arm angle and
-for a locked end joint (solved as the 6R sub-chain it leaves, the target
+for a locked end joint, a general 7R's too (solved as the 6R sub-chain it leaves, the target
 moved by the locked joint's transform, inverted as a rigid transform),
 :func:`manipkit.ik.dispatch.ik` with ``lock=`` per value for a locked joint
 in the middle. Where the dispatcher's batch answers each value by a compiled
@@ -292,7 +294,7 @@ class _Solver:
         self.reached_any = False  # some branch reached the target at some value (inside the limits or not)
         self.sub = None
         self.tracks = _Tracks() if parameter.family == GENERAL_6R else None
-        if parameter.kind == "lock" and parameter.column in (0, 6) and self.tracks is None:
+        if parameter.kind == "lock" and parameter.column in (0, 6):
             joint = self.chain.joints[parameter.column]
             if parameter.column == 6:  # T = T_base_parent(q1..q6) T_parent_tip(q7)
                 self.sub = (base, joint.parent, robot.chain(joint.parent, tip))
@@ -317,11 +319,13 @@ class _Solver:
             targets = self.T @ inverse if self.parameter.column == 6 else inverse @ self.T
             batch = ik_many(self.robot, targets, base=sub_base, tip=sub_tip, tol=self.tol,
                             family_tol=self.family_tol)
-            if batch.method != "closed_form":  # a solver of the 6R arm that ik answers and ik_many does not batch
-                self.sub = None
-                return self._per_value(values)
             Q6 = np.asarray(batch.solutions, dtype=float)
             Q = np.insert(Q6, self.parameter.column, values[:, None], axis=2)
+            if self.tracks is not None and batch.method == ALGEBRAIC:  # the elimination batched over the values
+                return self._tracked(values, [rows[~np.isnan(rows).any(axis=-1)] for rows in Q])
+            if batch.method != "closed_form" or self.tracks is not None:  # a solver ik answers, ik_many does not batch
+                self.sub = None
+                return self._per_value(values)
         else:
             return self._per_value(values)
         if not self.labels:
@@ -330,20 +334,31 @@ class _Solver:
 
     def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ik = self.ik
-        rows = []
+        answers = []
         method = "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm at every value
         for value in values:
             result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, aliases=False, tol=self.tol, method=method,
                         family_tol=self.family_tol, lock={self.parameter.name: float(value)})
-            labels = result.labels
-            if self.tracks is not None:
-                chain_rows = np.asarray(result.solutions, dtype=float)[:, self.chain.columns]
-                labels = [f"root {t + 1}" for t in self.tracks.assign(float(value), chain_rows)]
+            answers.append((np.asarray(result.solutions, dtype=float)[:, self.chain.columns], result.labels))
+        if self.tracks is not None:
+            return self._tracked(values, [rows for rows, _ in answers])
+        return self._labelled(values, answers)
+
+    def _tracked(self, values: np.ndarray, rows: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_labelled` of each value's rows (chain vectors) labelled by their continuation tracks, the values
+        taken in order (the tracks' rule, :class:`_Tracks`)."""
+        return self._labelled(values, [(Q, [f"root {t + 1}" for t in self.tracks.assign(float(value), Q)])
+                                       for value, Q in zip(values, rows)])
+
+    def _labelled(self, values: np.ndarray, answers: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(Q, ok, margin)`` of :meth:`solve` from each value's (chain rows, labels): a label's first row."""
+        rows = []
+        for chain_rows, labels in answers:
             found = {}
-            for label, q in zip(labels, result.solutions):
+            for label, q in zip(labels, chain_rows):
                 if label not in self.labels:
                     self.labels.append(label)
-                found.setdefault(label, q[self.chain.columns])
+                found.setdefault(label, q)
             rows.append(found)
         Q = np.full((len(values), len(self.labels), 7), np.nan)
         for i, found in enumerate(rows):
