@@ -220,6 +220,7 @@ class _Tracks:
         self.solved: list[float] = []  # every value solved, ascending
         self.values: list[list[float]] = []  # per track: the values it has a row at, ascending
         self.rows: list[list[np.ndarray]] = []  # per track: its row at each of them
+        self.members: list[set[float]] = []  # per track: the values it has a row at, as a set
 
     def _predicted(self, t: int, value: float) -> np.ndarray:
         """Track ``t``'s row expected at ``value``: interpolated between its samples either side, else its nearest."""
@@ -238,11 +239,7 @@ class _Tracks:
         near = {self.solved[k] for k in (i - 1, i) if 0 <= k < len(self.solved)}
         if i < len(self.solved) and self.solved[i] == value:
             near = {value}
-        alive = []
-        for t, values in enumerate(self.values):
-            if any(values[j] in near for j in {min(bisect.bisect_left(values, v), len(values) - 1) for v in near}):
-                alive.append(t)
-        return alive
+        return [t for t, members in enumerate(self.members) if any(v in members for v in near)]
 
     def assign(self, value: float, rows: np.ndarray) -> list[int]:
         value = float(value)
@@ -261,11 +258,13 @@ class _Tracks:
             if out[r] < 0:
                 self.values.append([])
                 self.rows.append([])
+                self.members.append(set())
                 out[r] = len(self.values) - 1
             i = bisect.bisect_left(self.values[out[r]], value)
             if i < len(self.values[out[r]]) and self.values[out[r]][i] == value:
                 continue  # solved at this value before: the track keeps its row
             self.values[out[r]].insert(i, value)
+            self.members[out[r]].add(value)
             self.rows[out[r]].insert(i, np.array(rows[r], dtype=float))
         i = bisect.bisect_left(self.solved, value)
         if not (i < len(self.solved) and self.solved[i] == value):
