@@ -9,7 +9,8 @@ the tip's frame at ``q0``, ``M^-1 T(q) = (M^-1 E_1 M) ... (M^-1 E_n M)``, toward
 then the tip's own (its position and rotation errors in those axes), so each step is the step of Newton on the
 chain's pose error (for seven joints its least-norm step, the same in any axes). The locked joints (no axis)
 stay. The caller checks the result by the chain's own FK (the polisher's residual is the
-product's, within rounding of it).
+product's, within rounding of it: the product matches the chain's FK to 6.7e-15 on the xArm7's arm, so a check
+tighter than about 1e-14 can drop a polished row).
 """
 
 from __future__ import annotations
