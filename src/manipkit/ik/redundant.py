@@ -332,11 +332,9 @@ class _Solver:
         return self._checked(Q, np.array(batch.residual_position), np.array(batch.residual_rotation))
 
     def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        ik = self.ik
-        answers = []
-        method = "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm at every value
+        answers, method = [], "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm
         for value in values:
-            result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, aliases=False, tol=self.tol, method=method,
+            result = self.ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, aliases=False, tol=self.tol, method=method,
                         family_tol=self.family_tol, lock={self.parameter.name: float(value)})
             answers.append((np.asarray(result.solutions, dtype=float)[:, self.chain.columns], result.labels))
         if self.tracks is not None:
@@ -344,8 +342,7 @@ class _Solver:
         return self._labelled(values, answers)
 
     def _tracked(self, values: np.ndarray, rows: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`_labelled` of each value's rows (chain vectors) labelled by their continuation tracks, the values
-        taken in order (the tracks' rule, :class:`_Tracks`)."""
+        """:meth:`_labelled` of each value's chain rows labelled by their tracks (:class:`_Tracks`), values in order."""
         return self._labelled(values, [(Q, [f"root {t + 1}" for t in self.tracks.assign(float(value), Q)])
                                        for value, Q in zip(values, rows)])
 
@@ -353,7 +350,7 @@ class _Solver:
         """``(Q, ok, margin)`` of :meth:`solve` from each value's (chain rows, labels): a label's first row."""
         rows = []
         for chain_rows, labels in answers:
-            found = {}
+            found: dict = {}
             for label, q in zip(labels, chain_rows):
                 if label not in self.labels:
                     self.labels.append(label)
@@ -406,10 +403,9 @@ class _Solver:
         from manipkit.ik.chain_newton import newton_rows
 
         if self.parameter.kind == "arm_angle":
-            geometry = chain_family(self.chain, tol=self.family_tol).geometry
-            return newton_rows(geometry, self.T, rows, iterations=POLISH_STEPS)
-        out = np.array(rows, dtype=float)
-        column = self.parameter.column
+            return newton_rows(chain_family(self.chain, tol=self.family_tol).geometry, self.T, rows,
+                               iterations=POLISH_STEPS)
+        out, column = np.array(rows, dtype=float), self.parameter.column
         for value in np.unique(out[:, column]):
             mine = out[:, column] == value
             geometry, L = locked_geometry(self.chain, self.parameter.name, float(value), family_tol=self.family_tol)
