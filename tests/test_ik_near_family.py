@@ -231,12 +231,15 @@ def test_the_batch_on_a_snapped_arm_finds_every_solution_the_single_call_finds()
     by_elimination = 0
     for i, (q, target) in enumerate(zip(Q, T)):
         single = manipkit.ik(robot, target, all=True, aliases=False)
-        rows = batch.solutions[i][~np.isnan(batch.solutions[i, :, 0])]
-        names = [name for name in batch.branch_labels(i) if name]
-        assert names == list(single.labels)
+        filled = ~np.isnan(batch.solutions[i, :, 0])
+        rows = batch.solutions[i][filled]
+        names = [name for name, full in zip(batch.branch_labels(i), filled) if full]
+        assert all(batch.branch_labels(i)[j] == "" for j in np.flatnonzero(~filled))  # empty slots have no name
+        assert sorted(names) == sorted(single.labels)  # the batch keeps slot order, the single call its label order
         assert len(rows) == len(single.solutions)
-        for s in single.solutions:  # every row of the single call is in the batch
-            assert np.abs(wrapped(rows - s)).max(axis=1).min() < 1e-9
+        for s, label in zip(single.solutions, single.labels):  # every row of the single call, with its name
+            j = int(np.argmin(np.abs(wrapped(rows - s)).max(axis=1)))
+            assert np.abs(wrapped(rows[j] - s)).max() < 1e-9 and names[j] == label
         for s in rows:  # and every row of the batch lands on the true chain, by Pinocchio's FK
             assert np.abs(robot.transform("base_link", "ee_link", s, check_limits=False) - target).max() < 1e-10
         assert np.abs(wrapped(rows - q)).max(axis=1).min() < 1e-7  # the generating configuration among them

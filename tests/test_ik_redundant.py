@@ -268,3 +268,44 @@ def test_collision_free_drops_the_rows_in_collision_and_says_so_when_none_is_lef
     blocked = manipkit.ik(robot, T, all=True, count=4, collision_free=floored)
     assert not blocked.success and blocked.failure.kind == "collision"
     assert len(blocked.parameter_values) == len(blocked.scores) == 0
+
+
+def test_the_xarm7s_branches_are_its_closed_forms_not_row_positions():
+    # the xArm7's locked 6R arm is its family's only within the tolerance: its ranked set used to follow each value's
+    # answer by row position ("row 1", "row 2", ...); now by the closed form's branch slots, as the Panda's
+    from manipkit.ik.chain_ik import slot_labels
+    from manipkit.ik.families import chain_family
+
+    robot = manipkit.load("xarm7")
+    chain = robot.chain("base_link", "ee_link")
+    sub = robot.chain("base_link", chain.joints[6].parent)
+    family = chain_family(sub)
+    assert family.snap
+    answer = manipkit.ik(robot, target_of(robot, CASES["xarm7"]), all=True)
+    assert len(answer.solutions) == 16
+    assert set(answer.labels) <= set(slot_labels(family)) and {b for b, _, _ in answer.intervals} <= set(slot_labels(family))
+    batch = manipkit.ik_many(robot, sub.fk(sub.sample(3, seed=2)), base=sub.base, tip=sub.tip)
+    assert batch.labels[:8] == slot_labels(family)
+
+
+def test_a_calibrated_srs_arm_s_rows_are_polished_on_the_true_chain():
+    # an iiwa14 whose joint 6 sits 2e-5 m off the wrist centre: SRS only within the family tolerance, so the arm
+    # angle's closed form solves the nearest ideal arm and every row is polished on the true chain (seven joints,
+    # least-norm steps of the one polisher) before it is checked
+    from manipkit.ik.families import chain_family
+    from manipkit.kinematics.robot import Robot
+
+    text = manipkit.load("iiwa14").urdf
+    written = 'rpy="1.5707963267948966 0 0" xyz="0 0 0.2155"'
+    assert text.count(written) == 2  # joints 4 and 6
+    at = text.rindex(written)
+    robot = Robot.from_urdf(text[:at] + 'rpy="1.5707963267948966 0 0" xyz="2e-05 0 0.2155"' + text[at + len(written):])
+    chain = robot.chain("base_link", "ee_link")
+    family = chain_family(chain)
+    assert family.kind == chain_family(manipkit.load("iiwa14").chain("base_link", "ee_link")).kind and family.snap
+    T = target_of(robot, CASES["iiwa14"])
+    answer = manipkit.ik(robot, T, all=True)
+    assert answer.parameter == "psi (arm angle)" and len(answer.solutions) == 16
+    for q in answer.solutions:
+        position, rotation = pose_error(pinocchio_pose(robot, "base_link", "ee_link", q), T)
+        assert position < 1e-10 and rotation < 1e-10

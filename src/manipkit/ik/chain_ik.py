@@ -53,17 +53,18 @@ from manipkit.closed_form.srs import solve_srs_many
 from manipkit.closed_form.subproblems import rotate, sp2
 from manipkit.errors import ClosedFormIKError
 from manipkit.ik.branch_names import REVERSED, SRS_WORDS, WORDS, branch_names, label_order, numbered
+from manipkit.ik.chain_newton import newton_rows
 from manipkit.ik.families import FAMILY_TOL, OPW, SPHERICAL_12, SRS, UR, Family, chain_family
 from manipkit.ik.ideal_arm import IdealArm, compiled_arm, compiled_entry, ideal_arm, wide_joints
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
-from manipkit.spatial.rotations import axis_angle_from_matrix, wrap_angle
+from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "single_solver", "slot_labels", "solve_branches",
-           "srs_arm_angle"]
+__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "refined_many", "single_solver", "slot_labels",
+           "solve_branches", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
 CHECK_TOL = 1e-10
@@ -137,32 +138,6 @@ def _aliases(chain: Chain, Q: np.ndarray, columns: np.ndarray) -> np.ndarray:
         found |= inside
     Q[..., columns] = best
     return Q
-
-
-def _log(R: np.ndarray) -> np.ndarray:
-    """The rotation vector (axis times angle, rad) of ``R``: from its skew part, ``sin(angle) axis``, below 120
-    degrees (where that part fixes the axis well; the polishing's starts are near their targets), else from
-    :func:`~manipkit.spatial.rotations.axis_angle_from_matrix`."""
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    if c > -0.5:
-        v = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-        s = math.sqrt(v @ v)
-        return v if s < 1e-12 else v * (math.atan2(s, c) / s)  # below 1e-12 rad, sin(angle) = angle to 1e-36
-    axis, angle = axis_angle_from_matrix(R, check=False)
-    return np.asarray(axis) * float(angle)
-
-
-def _newton(chain: Chain, T: np.ndarray, q: np.ndarray, columns: np.ndarray, max_iters: int, tol: float) -> np.ndarray:
-    """``q`` moved by Newton steps on the chain's FK and Jacobian (the solved ``columns`` only: locked joints stay)
-    until the pose error is below ``tol``."""
-    q = q.copy()
-    for _ in range(max_iters):
-        reached = chain.fk(q)
-        error = np.concatenate([T[:3, 3] - reached[:3, 3], _log(T[:3, :3] @ reached[:3, :3].T)])
-        if np.max(np.abs(error)) <= tol:
-            break
-        q[columns] += np.linalg.lstsq(chain.jacobian(q)[:, columns], error, rcond=None)[0]
-    return q
 
 
 def _joint_values(geometry, theta: np.ndarray) -> np.ndarray:
@@ -260,13 +235,18 @@ def _general(chain: Chain, arm: IdealArm, target, check: tuple[float, float], ma
     worst = [0.0, 0.0]  # the largest position (m) and rotation (rad) miss of a dropped branch
     free_slots = branches.free[0].tolist()
     same = _pairwise_same(candidates)  # (k, k): equal modulo 2 pi (rows moved by Newton are compared again)
+    steps = np.zeros(len(candidates))
+    miss = np.flatnonzero((np.array(position) > check[0]) | (np.array(rotation) > check[1]))
+    if len(miss):  # refined on the true chain, all in one compiled call, then measured again by its FK
+        better = newton_rows(geometry, T, candidates[miss], iterations=max_iters)
+        steps[miss] = np.abs(better - candidates[miss]).max(axis=1)
+        candidates = candidates.copy()
+        candidates[miss] = _aliases(chain, better, geometry.columns)
+        again = pose_residuals(T_check, chain.fk(candidates[miss]), project=False)
+        for k, i in enumerate(miss.tolist()):
+            position[i], rotation[i] = float(np.atleast_1d(again[0])[k]), float(np.atleast_1d(again[1])[k])
     for index, (q, slot, p_err, r_err) in enumerate(zip(candidates, slots.tolist(), position, rotation)):
-        moved = 0.0
-        if p_err > check[0] or r_err > check[1]:
-            better = _newton(chain, T, q, geometry.columns, max_iters, min(0.1 * min(check), 1e-12))
-            moved = float(np.max(np.abs(better - q)))
-            q = _aliases(chain, better, geometry.columns)
-            p_err, r_err = (float(e) for e in pose_residuals(T_check, chain.fk(q), project=False))
+        moved = float(steps[index])
         if p_err > check[0] or r_err > check[1]:
             rejected += 1
             worst = [max(worst[0], float(p_err)), max(worst[1], float(r_err))]
@@ -524,6 +504,63 @@ def slot_labels(family: Family) -> tuple[str, ...]:
     elbow b, wrist a"`` (a 7R SRS arm: ``"elbow a, shoulder b, wrist a"``)."""
     words = ("elbow", "shoulder", "wrist") if family.kind == SRS else ("shoulder", "elbow", "wrist")
     return tuple(f"{words[0]} {a}, {words[1]} {b}, {words[2]} {c}" for a in "ab" for b in "ab" for c in "ab")
+
+
+def refined_many(chain: Chain, targets, *, family: Family, check_tol=CHECK_TOL, max_iters: int = 20) -> IKBatch:
+    """:func:`chain_ik` of many 6R targets ``(N, 4, 4)`` in 8 slots (slot order, as :func:`chain_ik_many`): per target
+    the rows ``chain_ik(chain, T, family=family, check_tol=check_tol)`` gives (a snapped arm's answers).
+
+    Each exact branch and each just off a tangency (``Branches.near``) of the nearest ideal arm, at its in-limit
+    alias nearest 0, measured by the chain's FK; those that miss ``check_tol`` refined by Newton steps on the true
+    chain (:func:`manipkit.ik.chain_newton.newton_rows`, every target's rows in one compiled call) and measured
+    again; NaN where still missing, and where a row equals (modulo 2 pi, 1e-9) an earlier slot's of its target
+    with the same free joint. ``count`` infinite where a slot is a one-parameter family;
+    :meth:`IKBatch.branch_labels` names each target's rows as :func:`chain_ik` does (from the ideal arm's branches).
+    """
+    arm = ideal_arm(family)
+    check = tolerances(check_tol, error=ClosedFormIKError, what="check_tol")
+    T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    theta, branches, g = _branches(arm, T)
+    geometry = family.geometry
+    near = np.asarray(branches.near, dtype=bool)
+    Q = np.where(near[..., None], _aliases(chain, _joint_values(geometry, np.nan_to_num(theta)), geometry.columns),
+                 np.nan)
+    T_check = _projected_target(T)
+    position, rotation = np.full(near.shape, np.inf), np.full(near.shape, np.inf)
+    if near.any():
+        position[near], rotation[near] = pose_residuals(T_check[np.nonzero(near)[0]], chain.fk(Q[near]),
+                                                        project=False)
+    miss = near & ((position > check[0]) | (rotation > check[1]))
+    if miss.any():
+        owner = np.nonzero(miss)[0]
+        better = newton_rows(geometry, T[owner], Q[miss], iterations=max_iters)
+        Q[miss] = _aliases(chain, better, geometry.columns)
+        position[miss], rotation[miss] = pose_residuals(T_check[owner], chain.fk(Q[miss]), project=False)
+    kept = near & (position <= check[0]) & (rotation <= check[1])
+    free = np.where(branches.free >= 0, 5 - branches.free if family.reversed else branches.free, -1)
+    for s in range(1, Q.shape[1]):  # a slot repeating an earlier kept one of its target (the same free joint)
+        gap = np.abs(np.pi - np.mod(np.pi - (Q[:, s:s + 1] - Q[:, :s]), TWO_PI)).max(axis=-1)  # (N, s)
+        kept[:, s] &= ~((gap <= 1e-9) & kept[:, :s] & (free[:, :s] == free[:, s:s + 1])).any(axis=-1)
+    Q = np.where(kept[..., None], Q, np.nan)
+    count = np.where((kept & (free >= 0)).any(axis=-1), np.inf, kept.sum(axis=-1).astype(float))
+
+    def measure(solutions):
+        missing = np.isnan(solutions).any(axis=-1)
+        filled = np.where(missing[..., None], 0.0, solutions)
+        position, rotation = pose_residuals(T_check[:, None], chain.fk(filled), project=False)
+        return np.where(missing, np.nan, position), np.where(missing, np.nan, rotation)
+
+    def name(index: int) -> tuple[str, ...]:  # as chain_ik: the ideal arm's branches of the kept slots
+        slots = np.flatnonzero(kept[index])
+        names = [""] * Q.shape[1]
+        for slot, label in zip(slots.tolist(), branch_names(arm, g[index], branches.theta[index, slots])
+                               if len(slots) else ()):
+            names[slot] = label
+        return tuple(names)
+
+    return IKBatch(Q, count, labels=slot_labels(family), mode=SPATIAL_POSE,
+                   solver=f"ik.chain_ik refined ({family.kind})", joint_names=tuple(chain.joint_names),
+                   measure=measure, limit=check, name=name)
 
 
 def chain_ik_many(chain: Chain, targets, *, family: Family | None = None, tol=FAMILY_TOL, check_tol=CHECK_TOL,

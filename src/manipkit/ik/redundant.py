@@ -23,14 +23,16 @@ The parameter (the rule of :func:`redundancy`):
   with ``lock=``; its ways eliminate regularly). An end joint because locking
   it moves no axis of the other six (it folds into the tip pose or the
   target), so the 6R arm is the same at every value: the dispatcher's choice
-  of solver holds for all of them (each value is solved with
-  ``method="algebraic"``, without classifying the chain again) and the
-  elimination's preparation is shared. A chain where neither qualifies gets
+  of solver holds for all of them, and a round's values are solved in one
+  batch of the compiled elimination (``ik_many`` on the 6R sub-chain the
+  locked joint leaves, :func:`manipkit.ik.general6r.general_ik_many`: each
+  value's rows those of ``ik(..., lock=, method="algebraic")``, which answers
+  per value where the links do not split there). A chain where neither qualifies gets
   no ranked set (numerical restarts answer, as before).
 
 The inner solve is the dispatcher's: :func:`manipkit.ik.dispatch.ik_many`
 (batched, one call per sweep or bisection round) for the SRS arm angle and
-for a locked end joint (solved as the 6R sub-chain it leaves, the target
+for a locked end joint, a general 7R's too (solved as the 6R sub-chain it leaves, the target
 moved by the locked joint's transform, inverted as a rigid transform),
 :func:`manipkit.ik.dispatch.ik` with ``lock=`` per value for a locked joint
 in the middle. Where the dispatcher's batch answers each value by a compiled
@@ -60,9 +62,10 @@ or until a joint at the feasible end is within :data:`MARGIN_TOL` of its
 limit (endpoints are the feasible side of the last bracket). A feasible stretch or
 a gap shorter than a step between two samples can be missed; an interval of
 ``psi`` through +-pi is listed as two (one at each end); a wide joint's other
-2 pi aliases are not branches of their own. Rows of the batched closed forms
-that miss the target (a calibrated arm solved on its nearest ideal arm, the
-xArm7: 1e-6 m) are polished by Newton steps on the true chain.
+2 pi aliases are not branches of their own. Rows that miss the target by a
+little (a calibrated arm's arm angle solved on its nearest ideal arm) are
+polished by Newton steps on the true chain; a snapped 6R arm's (the xArm7's
+with its last joint locked) come refined from the dispatcher's batch.
 
 The set: ``count`` values spread over the intervals of every branch (each
 interval gets a share proportional to its length, at least one while the
@@ -217,6 +220,7 @@ class _Tracks:
         self.solved: list[float] = []  # every value solved, ascending
         self.values: list[list[float]] = []  # per track: the values it has a row at, ascending
         self.rows: list[list[np.ndarray]] = []  # per track: its row at each of them
+        self.members: list[set[float]] = []  # per track: the values it has a row at, as a set
 
     def _predicted(self, t: int, value: float) -> np.ndarray:
         """Track ``t``'s row expected at ``value``: interpolated between its samples either side, else its nearest."""
@@ -235,11 +239,7 @@ class _Tracks:
         near = {self.solved[k] for k in (i - 1, i) if 0 <= k < len(self.solved)}
         if i < len(self.solved) and self.solved[i] == value:
             near = {value}
-        alive = []
-        for t, values in enumerate(self.values):
-            if any(values[j] in near for j in {min(bisect.bisect_left(values, v), len(values) - 1) for v in near}):
-                alive.append(t)
-        return alive
+        return [t for t, members in enumerate(self.members) if any(v in members for v in near)]
 
     def assign(self, value: float, rows: np.ndarray) -> list[int]:
         value = float(value)
@@ -258,11 +258,13 @@ class _Tracks:
             if out[r] < 0:
                 self.values.append([])
                 self.rows.append([])
+                self.members.append(set())
                 out[r] = len(self.values) - 1
             i = bisect.bisect_left(self.values[out[r]], value)
             if i < len(self.values[out[r]]) and self.values[out[r]][i] == value:
                 continue  # solved at this value before: the track keeps its row
             self.values[out[r]].insert(i, value)
+            self.members[out[r]].add(value)
             self.rows[out[r]].insert(i, np.array(rows[r], dtype=float))
         i = bisect.bisect_left(self.solved, value)
         if not (i < len(self.solved) and self.solved[i] == value):
@@ -291,7 +293,7 @@ class _Solver:
         self.reached_any = False  # some branch reached the target at some value (inside the limits or not)
         self.sub = None
         self.tracks = _Tracks() if parameter.family == GENERAL_6R else None
-        if parameter.kind == "lock" and parameter.column in (0, 6) and self.tracks is None:
+        if parameter.kind == "lock" and parameter.column in (0, 6):
             joint = self.chain.joints[parameter.column]
             if parameter.column == 6:  # T = T_base_parent(q1..q6) T_parent_tip(q7)
                 self.sub = (base, joint.parent, robot.chain(joint.parent, tip))
@@ -316,11 +318,13 @@ class _Solver:
             targets = self.T @ inverse if self.parameter.column == 6 else inverse @ self.T
             batch = ik_many(self.robot, targets, base=sub_base, tip=sub_tip, tol=self.tol,
                             family_tol=self.family_tol)
-            if batch.method != "closed_form":  # a solver of the 6R arm that ik answers and ik_many does not batch
-                self.sub = None
-                return self._per_value(values)
             Q6 = np.asarray(batch.solutions, dtype=float)
             Q = np.insert(Q6, self.parameter.column, values[:, None], axis=2)
+            if self.tracks is not None and batch.method == ALGEBRAIC:  # the elimination batched over the values
+                return self._tracked(values, [rows[~np.isnan(rows).any(axis=-1)] for rows in Q])
+            if batch.method != "closed_form" or self.tracks is not None:  # a solver ik answers, ik_many does not batch
+                self.sub = None
+                return self._per_value(values)
         else:
             return self._per_value(values)
         if not self.labels:
@@ -328,21 +332,29 @@ class _Solver:
         return self._checked(Q, np.array(batch.residual_position), np.array(batch.residual_rotation))
 
     def _per_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        ik = self.ik
-        rows = []
-        method = "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm at every value
+        answers, method = [], "auto" if self.tracks is None else ALGEBRAIC  # an end joint: the same 6R arm
         for value in values:
-            result = ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, aliases=False, tol=self.tol, method=method,
+            result = self.ik(self.robot, self.T, base=self.base, tip=self.tip, all=True, aliases=False, tol=self.tol, method=method,
                         family_tol=self.family_tol, lock={self.parameter.name: float(value)})
-            labels = result.labels
-            if self.tracks is not None:
-                chain_rows = np.asarray(result.solutions, dtype=float)[:, self.chain.columns]
-                labels = [f"root {t + 1}" for t in self.tracks.assign(float(value), chain_rows)]
-            found = {}
-            for label, q in zip(labels, result.solutions):
+            answers.append((np.asarray(result.solutions, dtype=float)[:, self.chain.columns], result.labels))
+        if self.tracks is not None:
+            return self._tracked(values, [rows for rows, _ in answers])
+        return self._labelled(values, answers)
+
+    def _tracked(self, values: np.ndarray, rows: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_labelled` of each value's chain rows labelled by their tracks (:class:`_Tracks`), values in order."""
+        return self._labelled(values, [(Q, [f"root {t + 1}" for t in self.tracks.assign(float(value), Q)])
+                                       for value, Q in zip(values, rows)])
+
+    def _labelled(self, values: np.ndarray, answers: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(Q, ok, margin)`` of :meth:`solve` from each value's (chain rows, labels): a label's first row."""
+        rows = []
+        for chain_rows, labels in answers:
+            found: dict = {}
+            for label, q in zip(labels, chain_rows):
                 if label not in self.labels:
                     self.labels.append(label)
-                found.setdefault(label, q[self.chain.columns])
+                found.setdefault(label, q)
             rows.append(found)
         Q = np.full((len(values), len(self.labels), 7), np.nan)
         for i, found in enumerate(rows):
@@ -385,22 +397,20 @@ class _Solver:
         return Q, reached & (margin >= -LIMIT_SLACK), margin
 
     def _polished(self, rows: np.ndarray) -> np.ndarray:
-        """Rows (m, 7) moved by Newton steps on the true chain: the locked joint held, all seven joints for the arm
-        angle (least-norm steps), until each misses the target by at most :data:`POLISH_TO`."""
-        out = rows.copy()
-        free = np.array([c for c in range(7) if c != self.parameter.column], dtype=np.intp)
-        for _ in range(POLISH_STEPS):
-            position, rotation, reached = self._residuals(out)
-            todo = np.maximum(position, rotation) > POLISH_TO
-            if not todo.any():
-                break
-            moving, R = out[todo], reached[todo]
-            Re = self.T[:3, :3] @ np.swapaxes(R[:, :3, :3], -1, -2)
-            turn = 0.5 * np.stack([Re[:, 2, 1] - Re[:, 1, 2], Re[:, 0, 2] - Re[:, 2, 0], Re[:, 1, 0] - Re[:, 0, 1]], -1)
-            error = np.concatenate([self.T[:3, 3] - R[:, :3, 3], turn], axis=-1)
-            J = self.chain.jacobians(moving)[:, :, free]
-            moving[:, free] += np.einsum("kij,kj->ki", np.linalg.pinv(J), error)
-            out[todo] = moving
+        """Rows (m, 7) moved by at most :data:`POLISH_STEPS` Newton steps on the true chain by the one polisher
+        (:func:`manipkit.ik.chain_newton.newton_rows`): all seven joints for the arm angle (least-norm steps), else
+        the locked joint held (the six others' product at its value, :func:`manipkit.ik.general6r.locked_geometry`)."""
+        from manipkit.ik.chain_newton import newton_rows
+
+        if self.parameter.kind == "arm_angle":
+            return newton_rows(chain_family(self.chain, tol=self.family_tol).geometry, self.T, rows,
+                               iterations=POLISH_STEPS)
+        out, column = np.array(rows, dtype=float), self.parameter.column
+        for value in np.unique(out[:, column]):
+            mine = out[:, column] == value
+            geometry, L = locked_geometry(self.chain, self.parameter.name, float(value), family_tol=self.family_tol)
+            out[mine] = newton_rows(geometry, invert_transform(L, check=False) @ self.T, out[mine],
+                                    iterations=POLISH_STEPS)
         return out
 
 
