@@ -119,25 +119,40 @@ def solve_srs_target(H, P, S, c, pc, ps, R, t, theta, valid, wanted):
         cwa, swa, cwb, swb, count_w, _, unsure_w = sp4(h5, h4, x6, dot(h5, h6))
         if unsure_w or count_w == 0.0:
             return True
+        # the wrist's two pairs do not depend on the shoulder's: solved once per elbow, each angle's atan2 once
+        wrist_a, wrist_b = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)  # t5, t6, t7 of each wrist pair
+        for w in range(2):
+            cw, sw = (cwa, swa) if w == 0 else (cwb, swb)  # the angle -t5
+            c6, s6, size6, miss6 = sp1(h5, h6, rotate(h4, cw, sw, x6))
+            if size6 <= MARGIN or (w == 0 and miss6 > PAIR_MISS):
+                return True
+            c7, s7, _, _ = sp1(h6, v6, rotate(h5, c6, -s6, rotate(h4, cw, sw, rv)))
+            if wanted < 0 or (wanted // 4 == e and wanted % 2 == w):
+                angles = (atan2(-sw, cw), atan2(s6, c6), atan2(s7, c7))
+                if w == 0:
+                    wrist_a = angles
+                else:
+                    wrist_b = angles
+        t4 = atan2(s4, c4)
         for s in range(2):
             cm, sm = (cma, sma) if s == 0 else (cmb, smb)
             c2, s2, size2, miss2 = sp1(h1, h2, rotate(h0, cm, sm, x))
             if size2 <= MARGIN or (s == 0 and miss2 > PAIR_MISS):
                 return True
             c3, s3, _, _ = sp1(h2, v2, rotate(h1, c2, -s2, rotate(h0, cm, sm, turned_v2)))
+            if wanted >= 0 and wanted // 2 != 2 * e + s:
+                for w in range(2):
+                    valid[4 * e + 2 * s + w] = True
+                continue
+            t1, t2, t3 = atan2(-sm, cm), atan2(s2, c2), atan2(s3, c3)
             for w in range(2):
-                cw, sw = (cwa, swa) if w == 0 else (cwb, swb)  # the angle -t5
-                c6, s6, size6, miss6 = sp1(h5, h6, rotate(h4, cw, sw, x6))
-                if size6 <= MARGIN or (w == 0 and miss6 > PAIR_MISS):
-                    return True
-                c7, s7, _, _ = sp1(h6, v6, rotate(h5, c6, -s6, rotate(h4, cw, sw, rv)))
                 slot = 4 * e + 2 * s + w
                 valid[slot] = True
                 if wanted >= 0 and slot != wanted:
                     continue
-                theta[slot, 0], theta[slot, 1], theta[slot, 2] = atan2(-sm, cm), atan2(s2, c2), atan2(s3, c3)
-                theta[slot, 3], theta[slot, 4] = atan2(s4, c4), atan2(-sw, cw)
-                theta[slot, 5], theta[slot, 6] = atan2(s6, c6), atan2(s7, c7)
+                theta[slot, 0], theta[slot, 1], theta[slot, 2], theta[slot, 3] = t1, t2, t3, t4
+                t5, t6, t7 = wrist_a if w == 0 else wrist_b
+                theta[slot, 4], theta[slot, 5], theta[slot, 6] = t5, t6, t7
     return False
 
 
