@@ -95,6 +95,9 @@ FUZZ_TIMEOUT = pytest.mark.timeout(max(300, int(EXAMPLES * 0.5)))
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 MOVABLE = ("revolute", "continuous", "prismatic")
+# The entries of a floating or planar joint in the joint vector (manipkit's documented naming, ``<joint>.<coordinate>``;
+# URDF gives a floating joint six degrees of freedom and a planar one three: two translations in the plane, one turn)
+COORDINATES = {"floating": ("x", "y", "z", "roll", "pitch", "yaw"), "planar": ("x", "y", "yaw")}
 # A number as URDF (urdfdom, via std::istringstream in the C locale) reads one:
 # ASCII digits, optional sign, point and exponent; no nan, inf, hex, '_' or other scripts.
 NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
@@ -320,6 +323,10 @@ def spec_fk(spec: Spec, values: dict[str, float], link: str) -> np.ndarray:
             motion[:3, :3] = _matrix_from_axis_angle(joint.axis, values[joint.name])
         elif joint.type == "prismatic":
             motion[:3, 3] = joint.axis * values[joint.name]
+        elif joint.type in COORDINATES:  # floating: Trans(x, y, z) Rz(yaw) Ry(pitch) Rx(roll); planar: Trans(x, y) Rz(yaw)
+            at = {c: values[f"{joint.name}.{c}"] for c in COORDINATES[joint.type]}
+            motion[:3, :3] = _matrix_from_rpy(at.get("roll", 0.0), at.get("pitch", 0.0), at["yaw"])
+            motion[:3, 3] = at["x"], at["y"], at.get("z", 0.0)
         T = T @ step @ motion
     return T
 
@@ -419,8 +426,16 @@ def _check_robot(robot: Robot, seed: int, text: str) -> None:
     assert not spec.problems, "model built from an invalid description: " + "; ".join(spec.problems[:4])
 
     movable = {name: j for name, j in spec.joints.items() if j.type in MOVABLE}
-    assert set(robot.joint_names) == set(movable), f"joints {robot.joint_names} != movable joints {sorted(movable)}"
+    entries = {f"{name}.{c}": j for name, j in spec.joints.items() for c in COORDINATES.get(j.type, ())}
+    assert set(robot.joint_names) == set(movable) | set(entries), (
+        f"joints {robot.joint_names} != movable joints {sorted(movable)} and coordinates {sorted(entries)}")
     for joint in robot.joints:
+        if joint.name in entries:  # one coordinate of a floating or planar joint: its type and ends are the joint's
+            declared = entries[joint.name]
+            assert (joint.type, joint.parent, joint.child) == (declared.type, declared.parent, declared.child), (
+                f"coordinate '{joint.name}': {joint.type} {joint.parent} -> {joint.child}, "
+                f"declared {declared.type} {declared.parent} -> {declared.child}")
+            continue
         declared = movable[joint.name]
         assert (joint.type, joint.parent, joint.child) == (declared.type, declared.parent, declared.child), (
             f"joint '{joint.name}': {joint.type} {joint.parent} -> {joint.child}, "
@@ -452,16 +467,21 @@ def _check_robot(robot: Robot, seed: int, text: str) -> None:
 
     Q = np.vstack([robot.q(), _joint_values(robot, np.random.default_rng(seed), 3)])
     batched = {frame: robot.fk(Q, base=robot.root_link, tip=frame) for frame in robot.frame_names}
+    # yourdfpy takes a floating or planar joint's value as one matrix or vector of its own: it judges the trees
+    # without them, the hand-composed FK every tree
+    judged_by_yourdfpy = not entries
     for q_index, q in enumerate(Q):
         values = {name: float(value) for name, value in zip(robot.joint_names, q)}
-        urdf.update_cfg(values)
+        if judged_by_yourdfpy:
+            urdf.update_cfg(values)
         for frame in robot.frame_names:
             T = robot.transform(robot.root_link, frame, q, check_limits=False)
             assert np.all(np.isfinite(T)), f"non-finite FK of '{frame}' at q = {q.tolist()}: {T.tolist()}"
             references = (
                 (batched[frame][q_index], "Robot.fk", 0.0),
                 (spec_fk(spec, values, frame), "the text composed by hand", 0.0),
-                (urdf.get_transform(frame_to=frame, frame_from=spec.root), "yourdfpy", snap),
+                *(((urdf.get_transform(frame_to=frame, frame_from=spec.root), "yourdfpy", snap),)
+                  if judged_by_yourdfpy else ()),
             )
             for other, who, slack in references:
                 rotation = float(np.abs(T[:3, :3] - other[:3, :3]).max())
@@ -1333,6 +1353,13 @@ FOUND = [
     _found("unterminated_comment", '<robot name="r"><link name="a"/><!--\x80 s',
         "libxml2's message carries the offending source after a newline ('Comment not terminated \\n<!--'): "
         "the error was two lines"),
+    _found("floating_and_planar_joints", _two_links(
+        '<joint name="f" type="floating"><parent link="a"/><child link="b"/></joint>'
+        '<joint name="p" type="planar"><parent link="b"/><child link="c"/><axis xyz="0 0 1"/></joint>'
+        '<joint name="j" type="revolute"><parent link="c"/><child link="d"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>', links=("a", "b", "c", "d")),
+        "the judge counted revolute, continuous and prismatic joints only, while a floating joint has six entries "
+        "and a planar one three (f.x ... f.yaw, p.x, p.y, p.yaw): a mutation to 'floating' failed the judge"),
 ]
 
 
