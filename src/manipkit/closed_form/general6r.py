@@ -43,7 +43,7 @@ The elimination (Raghavan and Roth 1993, as reformulated by Manocha and Canny
 
 Lengths are scaled by the arm's size inside (the equations mix m and m^2).
 :func:`prepare` and :func:`solve` are the numpy reference (:func:`solve` polishes by the compiled
-:func:`~manipkit.closed_form.general6r_kernel.polish_rows` unless ``compiled=False``);
+:func:`~manipkit.closed_form.newton_kernel.polish_rows` unless ``compiled=False``);
 :func:`solve_targets` (and :func:`solve_way`, by default) runs every step of every way of a stack of targets
 compiled by numba (:mod:`manipkit.closed_form.general6r_kernel`, its eigenvalues from
 :mod:`manipkit.closed_form.eigen_kernel`; the same rows within rounding, tested). The caller
@@ -401,10 +401,10 @@ def _best_pencil(K: np.ndarray) -> tuple:
 
 
 def _polished(arm: General6R, G: np.ndarray, theta: np.ndarray, iterations: int, compiled: bool):
-    """:func:`_polish`, or its compiled twin (:func:`manipkit.closed_form.general6r_kernel.polish_rows`)."""
+    """:func:`_polish`, or its compiled twin (:func:`manipkit.closed_form.newton_kernel.polish_rows`)."""
     if not compiled:
         return _polish(arm, G, theta, iterations)
-    from manipkit.closed_form.general6r_kernel import polish_rows
+    from manipkit.closed_form.newton_kernel import polish_rows
 
     return polish_rows(arm.h, arm.p, G, theta, iterations=iterations, far=_FAR)
 
@@ -426,7 +426,7 @@ def solve(arm: General6R, g, *, tol: float = 1e-9, iterations: int = 6, imaginar
     imaginary : float, keyword-only
         Eigenvalues with ``|Im x| <= imaginary (1 + |x|)`` are candidates (a near-double root's pair is kept).
     compiled : bool, keyword-only
-        Polish the candidates by the compiled kernel (:mod:`manipkit.closed_form.general6r_kernel`, numba,
+        Polish the candidates by the compiled kernel (:mod:`manipkit.closed_form.newton_kernel`, numba,
         compiled on first use); False: by the numpy reference here (the same steps, within rounding).
 
     Returns
@@ -626,7 +626,7 @@ _RANKED: dict = {}
 def warm_up() -> None:
     """Compile (or load from the kernel cache) the compiled elimination (:func:`solve_targets`) and the numpy
     reference's compiled polishing, with the types the solvers pass (``make kernels``)."""
-    from manipkit.closed_form.general6r_kernel import warm_up as warm_polishing
+    from manipkit.closed_form.newton_kernel import warm_up as warm_polishing
 
     warm_polishing()
     rng = np.random.default_rng(0)

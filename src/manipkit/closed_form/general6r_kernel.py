@@ -6,13 +6,13 @@ each target and each way of eliminating the loop, without the GIL; the pencils' 
 Householder QR, the eigenvalues :func:`manipkit.closed_form.eigen_kernel.eigenvalues`, each candidate's monomial
 vector the null vector of the matrix polynomial at its eigenvalue (inverse iteration). Every candidate root is
 polished by Newton steps on the product of exponentials in the arm's scaled base frame
-(:func:`manipkit.closed_form.newton_kernel.polish_one`, the one polisher, which the numpy reference
-``manipkit.closed_form.general6r`` calls as :func:`polish_rows`, re-exported here for it: the reference stops
-when every row is below ``stop``, the kernel row by row; both are within rounding of each other, tested).
+(:func:`manipkit.closed_form.newton_kernel.polish_one`, the one polisher; the numpy reference
+``manipkit.closed_form.general6r`` calls it as :func:`manipkit.closed_form.newton_kernel.polish_rows`: the reference
+stops when every row is below ``stop``, the kernel row by row; both are within rounding of each other, tested).
 
 Importing this module imports numba; the kernel compiles on its first use
-through the project's kernel cache (:func:`manipkit.kernels.compile_kernel`),
-and ``warm_up`` (the polisher's, re-exported) compiles the polisher ahead (``make kernels``).
+through the project's kernel cache (:func:`manipkit.kernels.compile_kernel`);
+``manipkit.closed_form.general6r.warm_up`` compiles it ahead (``make kernels``).
 """
 
 from __future__ import annotations
@@ -22,10 +22,10 @@ import math
 import numpy as np
 
 from manipkit.closed_form.eigen_kernel import eigenvalues, inverse, null_vector
-from manipkit.closed_form.newton_kernel import axis_products, polish_one, polish_rows, warm_up
+from manipkit.closed_form.newton_kernel import axis_products, polish_one
 from manipkit.closed_form.subproblems_kernel import compile_kernel
 
-__all__ = ["polish_rows", "solve_targets", "warm_up"]
+__all__ = ["solve_targets"]
 
 TWO_PI = 2.0 * math.pi
 

@@ -63,7 +63,7 @@ from manipkit.spatial.transforms import check_transform, invert_transform, pose_
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
 
-__all__ = ["CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "refined_many", "single_solver", "slot_labels",
+__all__ = ["ARM_ANGLES_COMPILED_FROM", "CHECK_TOL", "SingleSolver", "chain_ik", "chain_ik_many", "refined_many", "single_solver", "slot_labels",
            "solve_branches", "srs_arm_angle"]
 
 #: Residual (m and rad) within which a row's forward kinematics must reach the target.
@@ -654,7 +654,7 @@ def _reference_rows(chain: Chain, arm: IdealArm, T: np.ndarray, psi: np.ndarray 
     return reference.valid, (reference.free >= 0).any(axis=-1), rows
 
 
-def srs_arm_angle(chain: Chain, q, *, family: Family | None = None):
+def srs_arm_angle(chain: Chain, q, *, family: Family | None = None, compiled: bool = True):
     """The arm angle (rad) of configuration ``q`` of a 7R SRS chain, as :func:`chain_ik`'s ``arm_angle`` takes it:
     a float for ``q`` (n,), an (N,) array for the rows of ``q`` (N, n) (one vectorised pass).
 
@@ -666,14 +666,15 @@ def srs_arm_angle(chain: Chain, q, *, family: Family | None = None):
     (:func:`manipkit.closed_form.srs_kernel.arm_angles_into`) answers the rows
     away from its thresholds and this numpy pass the rest; both give the same
     angle to rounding (about 1e-15 rad; up to about 1e-13 rad near the
-    shoulder's singularity, the wrist centre near axis 1).
+    shoulder's singularity, the wrist centre near axis 1). ``compiled=False``:
+    the numpy pass alone (the reference).
     """
     family = chain_family(chain) if family is None else family
     if family.kind != SRS:
         raise ClosedFormIKError(f"an arm angle belongs to a 7R SRS chain; this chain is '{family.kind}'")
     arm = ideal_arm(family)
     q = np.asarray(q, dtype=float)
-    if q.ndim == 2 and len(q) >= ARM_ANGLES_COMPILED_FROM and not family.reversed:
+    if compiled and q.ndim == 2 and len(q) >= ARM_ANGLES_COMPILED_FROM and not family.reversed:
         from manipkit.closed_form.srs_kernel import arm_angles_into
 
         rows = np.ascontiguousarray(q)

@@ -220,7 +220,8 @@ def _snapped_many(robot, targets, base: str, tip: str, *, tol, family_tol) -> IK
     T = checked_targets(targets)
     flat = T.reshape(-1, 4, 4)
     check = tolerances(tol, error=IKOptionError)
-    closed = refined_many(chain, flat, family=chain_family(chain, tol=family_tol), check_tol=check)
+    family = chain_family(chain, tol=family_tol)
+    closed = refined_many(chain, flat, family=family, check_tol=check)
     general = general_ik_many(chain, flat, tol=tol, family_tol=family_tol)
     Qc, Qg = np.asarray(closed.solutions), np.asarray(general.solutions)
     known = ~np.isnan(Qc).any(axis=-1)  # (N, 8)
@@ -253,8 +254,8 @@ def _snapped_many(robot, targets, base: str, tip: str, *, tol, family_tol) -> IK
 
     labels = tuple(closed.labels) + tuple(f"{ELIMINATION_LABEL} {j + 1}" for j in range(k - width))
     return IKBatch(Q.reshape(*T.shape[:-2], k, chain.n), count, labels=labels, mode=SPATIAL_POSE,
-                   solver=f"ik_many (the {closed.solver.split('(')[-1].rstrip(')')} closed form refined on the true "
-                   "chain, and the general 6R elimination)", joint_names=tuple(chain.joint_names), measure=measure,
+                   solver=f"ik_many (the {family.kind} closed form refined on the true chain, and the "
+                   "general 6R elimination)", joint_names=tuple(chain.joint_names), measure=measure,
                    limit=check, name=name)
 
 
