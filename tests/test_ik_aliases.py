@@ -112,3 +112,53 @@ def test_a_result_with_every_row_outside_the_limits_gets_no_aliases():
     T[:3, :3] = matrix_from_rpy([-2.25430034, 1.02374649, 0.88313707])
     result = manipkit.ik(panda, T, all=True, lock={"panda_joint7": 0.5})
     assert len(result.solutions) and not result.within_limits.any() and (result.alias_of == -1).all()
+
+
+def test_the_compiled_nearest_zero_and_leaders_are_the_numpy_rules():
+    """``aliases_kernel.nearest_zero_into`` (the general 6R rows' alias nearest 0) and ``leading_rows`` (rows equal
+    modulo 2 pi to an earlier one) give, bit for bit, what the numpy formulas they replaced gave: wrap to (-pi, pi]
+    by ``pi - mod(pi - q, 2 pi)``, then the first of the turns 0, 1, -1, 2, -2, 3, -3 inside the limits (1e-12
+    widened); a row is a leader when no earlier row is within 1e-9 in every entry (aliased ones modulo 2 pi)."""
+    from manipkit.ik.aliases_kernel import leading_rows, nearest_zero_into
+
+    rng = np.random.default_rng(5)
+    Q = rng.uniform(-20.0, 20.0, (4000, 6))
+    Q[:50] = rng.choice([math.pi, -math.pi, 0.0, -0.0, TWO_PI, 3 * math.pi, 1e-300], (50, 6))  # the edges of the wrap
+    lower = np.array([-TWO_PI, -math.pi, -2.0, -3 * TWO_PI, -0.1, -math.pi])
+    upper = np.array([TWO_PI, math.pi, 2.0, 3 * TWO_PI, 0.1, math.pi])
+    Q[50:60] = np.where(rng.random((10, 6)) < 0.5, lower, upper)  # on the limits themselves
+    turns = TWO_PI * np.array([0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0])
+    wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
+    moved = wrapped[..., None] + turns
+    inside = (moved >= (lower - 1e-12)[:, None]) & (moved <= (upper + 1e-12)[:, None])
+    want = np.where(inside.any(axis=-1), wrapped + turns[np.argmax(inside, axis=-1)], wrapped)
+    got = Q.copy()
+    nearest_zero_into()(got, np.arange(6), lower - 1e-12, upper + 1e-12, turns / TWO_PI)
+    assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
+    aliased = np.array([True, True, False, True, True, False])
+    for _ in range(200):
+        own = rng.choice([0.0, 1.0, 1.0 + TWO_PI, 1.0 + 5e-10, 1.0 + 2e-9, -1.0], (rng.integers(1, 9), 6))
+        turned = own[:, None, :] - own[None, :, :]
+        turned = np.where(aliased, np.abs(np.remainder(turned + math.pi, TWO_PI) - math.pi), np.abs(turned))
+        leader = np.argmax(turned.max(axis=2) <= 1e-9, axis=1)
+        assert np.array_equal(leading_rows()(own, aliased), leader == np.arange(len(own)))
+
+
+def test_measured_rows_are_pinocchios_residuals():
+    """``aliases.measured_rows`` (the chain's FK program and the compiled residual, one call) against Pinocchio's FK
+    (``robot.transform``) and ``pose_residuals``, row by row, with and without an owner per row."""
+    from manipkit.ik.aliases import measured_rows
+    from manipkit.spatial.transforms import pose_residuals
+
+    robot = manipkit.load("ur5")
+    chain = robot.chain("base_link", "tool0")
+    Q = chain.sample(40, seed=3)
+    T = chain.fk(chain.sample(5, seed=4))
+    owner = np.arange(40) % 5
+    position, rotation = measured_rows(chain, T, Q, owner)
+    for k in range(40):
+        want = pose_residuals(T[owner[k]], robot.transform("base_link", "tool0", Q[k]), project=False)
+        assert abs(position[k] - float(want[0])) < 1e-14 and abs(rotation[k] - float(want[1])) < 1e-14
+    same = measured_rows(chain, T[owner], Q)
+    assert np.array_equal(same[0], position) and np.array_equal(same[1], rotation)
+    assert measured_rows(chain, T, Q[:0])[0].shape == (0,)

@@ -125,6 +125,43 @@ def test_a_result_of_checked_rows_equals_the_constructors_and_cannot_be_changed(
         IKResult.of_checked_rows(*args[:5], refined, refined, mode=MODES[3], solver="s", joint_names=())
 
 
+def _same_fields(a, b) -> None:
+    for name in IKResult.__dataclass_fields__:
+        x, y = getattr(a, name), getattr(b, name)
+        if isinstance(x, np.ndarray):
+            assert isinstance(y, np.ndarray) and x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True), name
+            assert not x.flags.writeable, name
+        else:
+            assert x == y, name
+
+
+@pytest.mark.parametrize("changes", [
+    {"solver": "other"},
+    {"note": "n", "count": 7},
+    {"solutions": np.zeros((0, 3)), "labels": (), "residual_position": np.zeros(0), "residual_rotation": np.zeros(0),
+     "within_limits": np.zeros(0, dtype=bool), "refined": np.zeros(0)},  # no rows: the failure is derived again
+    {"alias_of": [-1, 0, 0], "within_limits": [1, 0, 1]},  # lists and ints: copied into read-only typed arrays
+    {"solutions": np.ones((3, 3)), "scores": np.arange(3.0)},  # writable arrays: copied, read-only
+])
+def test_replaced_is_dataclasses_replace(changes):
+    """IKResult.replaced(**changes) (the fast form every IK module uses) is dataclasses.replace(result, **changes),
+    field for field (the failure derived from the fields again where it is derived); an unknown name is a
+    TypeError, as replace raises."""
+    from dataclasses import replace
+
+    block = np.arange(9, dtype=float).reshape(3, 3)
+    result = IKResult(block, ("a", "b", "c"), 3, "note", np.zeros(3), np.zeros(3), mode=MODES[3], solver="s",
+                      joint_names=("j1", "j2", "j3"), within_limits=np.ones(3, dtype=bool), refined=np.zeros(3))
+    fast, slow = result.replaced(**changes), replace(result, **changes)
+    _same_fields(fast, slow)
+    assert type(fast) is IKResult and fast.reason == slow.reason and repr(fast) == repr(slow)
+    assert result.solutions is block or np.array_equal(result.solutions, block)  # the original is not changed
+    with pytest.raises(TypeError, match="no field 'colour'"):
+        result.replaced(colour="red")
+    with pytest.raises(TypeError):
+        replace(result, colour="red")
+
+
 def test_members_of_a_result_that_is_no_family_is_an_error():
     with pytest.raises(ClosedFormIKError, match="not a family"):
         planar.ik_2r(1.0, 1.0, 1.0, 1.0).members([0.0])

@@ -62,6 +62,7 @@ from manipkit.closed_form.check_kernel import (
     exact_rotation,
     in_limit_alias,
     kept_rows,
+    measure_rows,
     pack_arm,
     packed_row,
     plain_target,
@@ -595,6 +596,7 @@ def warm_up(kinds=tuple(KIND_CODES)) -> None:
                np.empty((1, SLOTS, 2)),
                np.empty(1, dtype=np.bool_))
     solve_check_srs(prepared, np.eye(4), 0.3, (1e-10, 1e-10))
+    measure_rows(np.zeros((1, 7)), g, np.zeros(1, dtype=np.intp), floats, ints, np.empty((1, 2)))
 
 
 if __name__ == "__main__":

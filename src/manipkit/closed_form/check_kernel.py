@@ -36,7 +36,8 @@ from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlin
 from manipkit.kernels.fk import pose_rows_kernel
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "pack_arm",
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "measure_rows",
+           "pack_arm",
            "packed_row", "plain_target", "pose_residual", "pose_residual_parts", "pose_rows", "wrap_angle", "wrap_angle_by_selects"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
@@ -182,6 +183,20 @@ def check_rows(rows, valid, T_target, floats, ints, limits, states, reached, res
                 if rows[k, j] < limits[0, j] - LIMIT_TOL or rows[k, j] > limits[1, j] + LIMIT_TOL:
                     inside = False
             within[k] = inside
+
+
+@compile_kernel
+def measure_rows(Q, T, owner, floats, ints, residuals):
+    """``residuals[k]`` (position m, rotation rad) of chain vector ``Q[k]`` (M, n) against ``T[owner[k]]`` ((N, 4, 4),
+    rotation blocks that are rotations): the chain's FK (:func:`manipkit.kernels.fk.pose_rows`, tables ``floats``,
+    ``ints`` of ``chain.program.row_tables``) and :func:`pose_residual`, in one compiled call."""
+    count = Q.shape[0]
+    states = np.empty((ints[0] + 1, 4, 3))
+    reached = np.empty((count, 4, 4))
+    present = np.ones(count, dtype=np.bool_)
+    pose_rows(Q, present, floats, ints, states, reached)
+    for k in range(count):
+        residuals[k, 0], residuals[k, 1] = pose_residual(T[owner[k]], reached[k])
 
 
 @compile_kernel

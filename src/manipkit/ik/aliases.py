@@ -19,12 +19,11 @@ turns from its value.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from manipkit.ik.aliases_kernel import fresh_aliases
+from manipkit.ik.aliases_kernel import fresh_aliases, leading_rows
 from manipkit.ik.result import PLANAR_POSITION, SPATIAL_POSITION, IKResult
 from manipkit.kinematics.chain import limits_ok
 from manipkit.spatial.transforms import check_transform, pose_residuals, projected_rotation
@@ -94,18 +93,21 @@ def _fresh_aliases(Q, low, high, aliased, limit, listed, cap):
                            unbounded if cap is None else int(cap))
 
 
-def measured_rows(chain: Chain, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(position m (M,), rotation rad (M,)) of chain rows ``Q`` (M, n) against targets ``T`` (M, 4, 4) whose rotation
-    blocks are rotations: the chain's compiled FK and ``pose_residuals(project=False)``'s compiled twin
-    (:func:`manipkit.closed_form.arms_kernel.measure_many`), without numpy's per-call cost on a few rows."""
-    from manipkit.closed_form.arms_kernel import measure_many
+def measured_rows(chain: Chain, T: np.ndarray, Q: np.ndarray, owner: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(position m (M,), rotation rad (M,)) of chain rows ``Q`` (M, n) against targets ``T`` (N, 4, 4) whose rotation
+    blocks are rotations, row ``k`` against ``T[owner[k]]`` (``owner`` None: ``T[k]``): the chain's FK program and
+    ``pose_residuals(project=False)``'s compiled twin in one compiled call
+    (:func:`manipkit.closed_form.check_kernel.measure_rows`), without numpy's per-call cost on a few rows."""
+    from manipkit.closed_form.check_kernel import measure_rows
 
-    if not len(Q):
-        return np.zeros(0), np.zeros(0)
-    Q = np.ascontiguousarray(Q, dtype=float)
-    reached = chain.compiled_fk.transforms(Q)
-    residuals, _ = measure_many(np.ascontiguousarray(T, dtype=float), reached[:, None], Q[:, None], (0.0, 0.0))
-    return residuals[:, 0, 0].copy(), residuals[:, 0, 1].copy()
+    residuals = np.empty((len(Q), 2))
+    if len(Q):
+        floats, ints = chain.program.row_tables
+        owner = np.arange(len(Q)) if owner is None else np.ascontiguousarray(owner, dtype=np.intp)
+        measure_rows(np.ascontiguousarray(Q, dtype=float), np.ascontiguousarray(T, dtype=float), owner, floats, ints,
+                     residuals)
+    return residuals[:, 0], residuals[:, 1]
 
 
 def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult:
@@ -135,28 +137,26 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
     k = len(result.solutions)
     branch = np.full(k, -1, dtype=np.intp)
     if not k or result.infinite:
-        return replace(result, alias_of=branch)
+        return result.replaced(alias_of=branch)
     whole = result.solutions.shape[1] != chain.n
     columns = chain.columns if whole else np.arange(chain.n)
-    aliased = np.array([j.is_angular and j.coordinate is None and j.type != "continuous" and j.name not in held
-                        for j in chain.joints], dtype=bool)
+    aliased = chain.aliasable.copy()  # writable, as the kernels were compiled for
+    if held:
+        aliased &= np.array([name not in held for name in chain.joint_names], dtype=bool)
     within = np.ones(k, dtype=bool) if result.within_limits is None else np.asarray(result.within_limits)
     inside = np.flatnonzero(within)
     if not len(inside):  # no row inside the limits: none is aliased
-        return replace(result, alias_of=branch)
+        return result.replaced(alias_of=branch)
     own = result.solutions[inside][:, columns]
     # Rows equal modulo 2 pi (a doubled branch) have the same aliases: the first of them, its leader, lists them.
-    turned = own[:, None, :] - own[None, :, :]
-    turned = np.where(aliased, np.abs(np.remainder(turned + math.pi, TWO_PI) - math.pi), np.abs(turned))
-    leader = np.argmax(turned.max(axis=2) <= 1e-9, axis=1)
-    leaders = np.flatnonzero(leader == np.arange(len(own)))
+    leaders = np.flatnonzero(leading_rows()(np.ascontiguousarray(own, dtype=float), aliased))
     # every alias of the leaders (the first MAX_ALIAS_ROWS + rows + 1), less those equal to a branch row (to 1e-9)
     low, high = limits_ok(chain.lower, chain.upper)
     chain_rows, origin, fresh = _fresh_aliases(own[leaders], low, high, aliased, MAX_ALIAS_ROWS + len(own) + 1, own,
                                                MAX_ALIAS_ROWS)
     left_out = fresh > MAX_ALIAS_ROWS
     if not len(chain_rows):
-        return replace(result, alias_of=branch)
+        return result.replaced(alias_of=branch)
     of = inside[leaders[origin]]
     Q = np.array(result.solutions[of], dtype=float)
     Q[:, columns] = chain_rows
@@ -166,7 +166,7 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
     else:
         T = np.array(T, dtype=float)
         T[:3, :3] = projected_rotation(T[:3, :3])
-        position, rotation = measured_rows(chain, np.broadcast_to(T, (len(chain_rows), 4, 4)), chain_rows)
+        position, rotation = measured_rows(chain, T[None], chain_rows, np.zeros(len(chain_rows), dtype=np.intp))
     labels = result.labels
     note = (f"{result.note}; listed after the {k} branch row(s): their {len(of)} other in-limit 2 pi alias(es) "
             "(alias_of names each one's branch)")
@@ -182,10 +182,14 @@ def with_aliases(result: IKResult, chain: Chain, target, *, held=()) -> IKResult
         collides=result.collides + tuple([result.collides[i] for i in of.tolist()]) if result.collides else (),
         clearance=None if result.clearance is None else np.concatenate([result.clearance, result.clearance[of]]),
     )
-    return replace(result, count=k + len(of), note=note, alias_of=np.concatenate([branch, of]), **per_row)
+    return result.replaced(count=k + len(of), note=note, alias_of=np.concatenate([branch, of]), **per_row)
 
 
 def warm_up() -> None:
-    """Compile (or load from the kernel cache) the aliases' kernel with the types :func:`with_aliases` passes
-    (``make kernels``)."""
+    """Compile (or load from the kernel cache) the aliases' kernels with the types :func:`with_aliases` and the
+    general 6R rows pass (``make kernels``)."""
+    from manipkit.ik.aliases_kernel import nearest_zero_into
+
     alias_rows(np.zeros((1, 2)), [-7.0, -1.0], [7.0, 1.0], [True, True])
+    leading_rows()(np.zeros((2, 2)), np.ones(2, dtype=bool))
+    nearest_zero_into()(np.zeros((1, 2)), np.arange(2), np.full(2, -7.0), np.full(2, 7.0), np.zeros(1))

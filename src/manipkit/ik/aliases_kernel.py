@@ -14,7 +14,7 @@ import numpy as np
 
 from manipkit.kernels import lazy_kernel
 
-__all__ = ["fresh_aliases"]
+__all__ = ["fresh_aliases", "leading_rows", "nearest_zero_into"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -92,4 +92,42 @@ def _fresh_aliases(Q, low, high, aliased, turns, limit, listed, cap):
 
 
 
+def _leading_rows(Q, aliased):
+    """Each row of ``Q`` (k, n) equal to no earlier row (every entry within 1e-9, the ``aliased`` ones modulo 2 pi):
+    a bool (k,) mask, True for the first of equal rows (an earlier row need not be a leader itself)."""
+    m, n = Q.shape
+    lead = np.ones(m, dtype=np.bool_)
+    for r in range(m):
+        for s in range(r):
+            same = True
+            for j in range(n):
+                gap = Q[r, j] - Q[s, j]
+                if aliased[j]:
+                    gap = abs((gap + math.pi) % TWO_PI - math.pi)  # numpy's remainder: the sign of the divisor
+                if not abs(gap) <= 1e-9:
+                    same = False
+                    break
+            if same:
+                lead[r] = False
+                break
+    return lead
+
+
+def _nearest_zero_into(Q, columns, low, high, turns):
+    """Each entry ``Q[:, columns[c]]`` (Q (k, n), written) wrapped to (-pi, pi], then moved by the first of the whole
+    ``turns`` (in their order) that puts it inside ``[low[c], high[c]]`` (kept wrapped when none does)."""
+    for r in range(Q.shape[0]):
+        for c in range(columns.shape[0]):
+            j = columns[c]
+            wrapped = math.pi - (math.pi - Q[r, j]) % TWO_PI  # numpy's mod: the sign of the divisor
+            Q[r, j] = wrapped
+            for t in range(turns.shape[0]):
+                v = wrapped + TWO_PI * turns[t]
+                if v >= low[c] and v <= high[c]:
+                    Q[r, j] = v
+                    break
+
+
 fresh_aliases = lazy_kernel(_fresh_aliases)
+nearest_zero_into = lazy_kernel(_nearest_zero_into)
+leading_rows = lazy_kernel(_leading_rows)

@@ -27,13 +27,12 @@ def mark_collisions(result: IKResult, checker: CollisionChecker, *, drop: bool =
     solution in collision, there is none left: ``reason`` names the deepest
     pair of the first, and ``closest`` is that configuration.
     """
-    from dataclasses import replace
 
     reports = [checker.report(q) for q in result.solutions]
     collides = tuple(r.in_collision for r in reports)
     clearance = np.array([np.inf if r.min_distance is None else r.min_distance.distance for r in reports])
     if not drop or not any(collides):
-        return replace(result, collides=collides, clearance=clearance)
+        return result.replaced(collides=collides, clearance=clearance)
     keep = np.array([not c for c in collides], dtype=bool)
     rows = result.solutions[keep]
     labels = tuple(label for label, k in zip(result.labels, keep) if k)
@@ -45,11 +44,12 @@ def mark_collisions(result: IKResult, checker: CollisionChecker, *, drop: bool =
                   refined=None if result.refined is None else result.refined[keep])  # per-row fields follow the rows
     if keep.any():
         note = f"{result.note}; {int((~keep).sum())} in collision dropped" if result.note else ""
-        return replace(result, note=note, **common)
+        return result.replaced(note=note, **common)
     first = reports[0].pairs[0]
     depth = f"penetration {short_text(-first.distance, 3)} m" if first.distance < 0 else "touching"
     reason = (f"every solution is in collision ({len(reports)}); the first: {first.link1} - {first.link2} ({depth})")
     failure = IKFailure("collision", reason, pairs=tuple((p.link1, p.link2) for p in reports[0].pairs),
                         values=(("distance", float(first.distance)),))
-    return replace(result, note=reason, closest=result.solutions[0], failure=failure,
-                   closest_residuals=np.array([result.residual_position[0], result.residual_rotation[0]]), **common)
+    closest_residuals = np.array([result.residual_position[0], result.residual_rotation[0]])
+    return result.replaced(note=reason, closest=result.solutions[0], failure=failure,
+                           closest_residuals=closest_residuals, **common)

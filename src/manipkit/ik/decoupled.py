@@ -75,7 +75,7 @@ modules).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -397,8 +397,8 @@ def ik_scara(T, *, a1: float = 0.35, a2: float = 0.25, d1: float = 0.4, d4: floa
     if sampled.family:
         family += "; " + sampled.family
     free = ", ".join(dict.fromkeys(["theta4", *filter(None, sampled.free_parameter.split(", "))]))
-    return replace(sampled, count=math.inf, free_parameter=free, family=family, family_function=members,
-                   note=sampled.note.replace(" solutions:", " sampled solutions:", 1) + "; " + family)
+    return sampled.replaced(count=math.inf, free_parameter=free, family=family, family_function=members,
+                            note=sampled.note.replace(" solutions:", " sampled solutions:", 1) + "; " + family)
 
 
 def _scara(table: DHTable, T: np.ndarray, R: np.ndarray, p: np.ndarray, theta4_values, tol: tuple[float, float],

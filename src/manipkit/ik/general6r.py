@@ -69,8 +69,10 @@ from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.general6r import ranked_ways, solve_targets, way_reason
 from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.ik.aliases import measured_rows
+from manipkit.ik.aliases_kernel import nearest_zero_into
 from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKFailure, IKResult, read_only
+from manipkit.kinematics.chain import limits_ok
 from manipkit.spatial.rotations import axis_angle_from_matrix
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
@@ -93,8 +95,14 @@ _POOR = 1e-6
 
 def general_refusal(chain: Chain, *, family_tol=FAMILY_TOL, lock=None) -> str:
     """``""`` when :func:`general_ik` takes ``chain`` (with ``lock``); else one line saying why not."""
+    if not lock:
+        return _unlocked(chain, family_tol)[1]
+    return _refusal(chain, family_tol, dict(lock))
+
+
+def _refusal(chain: Chain, family_tol, lock: dict) -> str:
+    """:func:`general_refusal` of ``chain`` with ``lock`` (a dict, empty for none)."""
     names = ", ".join(chain.joint_names) or "no joints"
-    lock = dict(lock or {})
     if lock and (chain.n != 7 or len(lock) != 1):
         return (f"the general 6R solver does not take lock= here: it holds exactly one joint of a 7-joint chain; "
                 f"{chain.base} -> {chain.tip} has {chain.n} joint(s) ({names}) and {len(lock)} locked")
@@ -109,11 +117,13 @@ def general_refusal(chain: Chain, *, family_tol=FAMILY_TOL, lock=None) -> str:
         family = chain_family(chain, tol=family_tol)
     except ClosedFormIKError as exc:
         return f"the general 6R solver cannot read the chain {chain.base} -> {chain.tip}: {exc}"
-    prismatic = [chain.joint_names[int(c)] for c, p in zip(family.geometry.columns, family.geometry.prismatic) if p]
-    value = next(iter(lock.values()), 0.0)
-    if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(float(value)):
-        return f"cannot lock '{next(iter(lock))}' at {value!r:.40}: give a finite value (rad)"
-    if prismatic:
+    if lock:
+        value = next(iter(lock.values()))
+        if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(float(value)):
+            return f"cannot lock '{next(iter(lock))}' at {value!r:.40}: give a finite value (rad)"
+    if family.geometry.prismatic.any():
+        prismatic = [chain.joint_names[int(c)] for c, p in zip(family.geometry.columns, family.geometry.prismatic)
+                     if p]
         return (f"the general 6R solver covers revolute joints; {', '.join(prismatic)} "
                 f"{'is' if len(prismatic) == 1 else 'are'} prismatic (not covered): use numerical IK")
     return ""
@@ -135,8 +145,30 @@ def general_ways(chain: Chain, *, family_tol=FAMILY_TOL) -> tuple[tuple[int, boo
 
 def _ways(chain: Chain, family_tol) -> tuple:
     """(geometry, the ways its loop eliminates, best first) of ``chain``: found once per chain's axes."""
-    geometry = chain_family(chain, tol=family_tol).geometry
-    return geometry, ranked_ways(geometry.direction, geometry.point)
+    return _unlocked(chain, family_tol)[2:4]
+
+
+def _unlocked(chain: Chain, family_tol) -> tuple:
+    """(chain, its refusal without a lock, geometry, ways, ``M^-1``), made once per (chain, ``family_tol``) and
+    kept (the geometry and ways None where the chain is refused): what every call on the chain reads again."""
+    key = (id(chain), repr(family_tol))
+    cached = _UNLOCKED.get(key)
+    if cached is not None and cached[0] is chain:
+        return cached
+    refusal = _refusal(chain, family_tol, {})
+    entry = (chain, refusal, None, None, None)
+    if not refusal:
+        geometry = chain_family(chain, tol=family_tol).geometry
+        ways = ranked_ways(geometry.direction, geometry.point)
+        entry = (chain, refusal, geometry, ways, invert_transform(geometry.M, check=False))
+    if len(_UNLOCKED) >= 64:
+        _UNLOCKED.pop(next(iter(_UNLOCKED)), None)
+    _UNLOCKED[key] = entry  # the chain is held, so its id is not reused while the entry lives
+    return entry
+
+
+#: (id(chain), repr(family_tol)) -> :func:`_unlocked`'s entry.
+_UNLOCKED: dict = {}
 
 
 def locked_geometry(chain: Chain, name: str, value: float, *, family_tol=FAMILY_TOL) -> tuple[Geometry, np.ndarray]:
@@ -209,16 +241,17 @@ def _reasons(status: np.ndarray) -> list[str]:
 
 
 #: The whole turns tried by :func:`_nearest_zero_alias`, nearest 0 first.
-_TURNS = TWO_PI * np.array([0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0])
+_TURNS = np.array([0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0])
 
 
-def _nearest_zero_alias(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """Each angle of rows Q (k, n) moved by whole turns to its value inside [lower, upper] nearest 0 (wrapped to
-    (-pi, pi] when no alias is inside)."""
-    wrapped = np.pi - np.mod(np.pi - Q, TWO_PI)
-    moved = wrapped[..., None] + _TURNS  # (k, n, 7)
-    inside = (moved >= (lower - 1e-12)[:, None]) & (moved <= (upper + 1e-12)[:, None])
-    return np.where(inside.any(axis=-1), wrapped + _TURNS[np.argmax(inside, axis=-1)], wrapped)
+def _nearest_zero_alias(Q: np.ndarray, chain: Chain) -> np.ndarray:
+    """Each angle of rows Q (k, n) moved by whole turns (:data:`_TURNS`, in order) to its first value inside the
+    chain's limits (within ``LIMIT_TOLERANCE``), wrapped to (-pi, pi] when no alias is inside: a new array, compiled
+    (:func:`manipkit.ik.aliases_kernel.nearest_zero_into`)."""
+    Q = np.array(Q, dtype=float, order="C")
+    low, high = limits_ok(chain.lower, chain.upper)
+    nearest_zero_into()(Q, np.arange(Q.shape[1]), low, high, _TURNS)
+    return Q
 
 
 def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
@@ -353,8 +386,8 @@ def _setup(chain: Chain, T_check: np.ndarray, lock, family_tol) -> tuple:
         ways = _locked_ways(chain, name, family_tol)
         g = invert_transform(L, check=False) @ T_check @ invert_transform(geometry.M, check=False)
     else:
-        geometry, ways = _ways(chain, family_tol)
-        g = T_check @ invert_transform(geometry.M, check=False)
+        _, _, geometry, ways, M_inv = _unlocked(chain, family_tol)
+        g = T_check @ M_inv
     return geometry, ways, held, np.ascontiguousarray(g)
 
 
@@ -362,7 +395,7 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
                   status: np.ndarray, held, check: tuple[float, float], max_iters: int) -> tuple:
     """The elimination's angles of targets ``T_check`` (N, 4, 4) as checked chain rows: (rows (M, n) sorted by
     target then joint values, ``start`` (N + 1,) where each target's rows begin, residuals (M, 2), refined (M,),
-    rejected (N,), worst miss of the rejected (N,)).
+    within the limits (M,), rejected (N,), worst miss of the rejected (N,)).
 
     Each row: ``q = q0 + angle / scale``, each joint at its in-limit alias nearest 0, the locked joint at its
     value; measured by the chain's FK; one that misses by more than ``tol`` or :data:`CHECK_TOL` is refined by
@@ -372,21 +405,20 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
     owner = np.repeat(np.arange(n_targets), count)
     angles = theta[np.arange(theta.shape[1])[None, :] < count[:, None]]  # (M, 6) in target order
     columns = geometry.columns
-    lower, upper = chain.lower, chain.upper
     Q = np.empty((len(angles), n))
     Q[:] = geometry.q0
     Q[:, columns] = geometry.q0[columns] + angles / geometry.scale
-    Q = _nearest_zero_alias(Q, lower, upper)
+    Q = _nearest_zero_alias(Q, chain)
     if held is not None:
         Q[:, held[0]] = held[1]  # the locked joint at exactly its value, not an alias
     refined = np.zeros(len(Q))
-    position, rotation = measured_rows(chain, T_check[owner], Q)
+    position, rotation = measured_rows(chain, T_check, Q, owner)
     polish = (min(check[0], CHECK_TOL), min(check[1], CHECK_TOL))  # rows are refined to this, dropped beyond check
     for k in np.flatnonzero((position > polish[0]) | (rotation > polish[1])):
         target = T_check[owner[k]]
         better = _refine(chain, target, Q[k], max_iters, min(0.1 * min(check), 1e-12), columns)
         refined[k] = float(np.abs(better - Q[k]).max())
-        q = _nearest_zero_alias(better[None], lower, upper)[0]
+        q = _nearest_zero_alias(better[None], chain)[0]
         if held is not None:
             q[held[0]] = held[1]
         Q[k] = q
@@ -412,7 +444,10 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
     order = np.lexsort((*Q.T[::-1], owner))
     order = order[keep[order]]
     start = np.searchsorted(owner[order], np.arange(n_targets + 1))
-    return (Q[order], start, np.stack([position[order], rotation[order]], axis=1), refined[order], rejected, worst)
+    Q = Q[order]
+    low, high = limits_ok(chain.lower, chain.upper)  # as chain.within_limits tests them
+    within = ((Q >= low) & (Q <= high)).all(axis=1)
+    return (Q, start, np.stack([position[order], rotation[order]], axis=1), refined[order], within, rejected, worst)
 
 
 def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: np.ndarray, ways: tuple, held,
@@ -420,24 +455,22 @@ def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: n
     """The IKResult of target ``t`` (``T_check`` its pose) of :func:`_checked_rows`' ``checked`` (its ways'
     ``status`` (W, 4); ``columns`` the solved joints' columns)."""
     # Over 80 lines: the parts of one honest answer (rows, limits, note, failure) in order.
-    rows, start, residuals, refined_all, rejected_all, worst_all = checked
+    rows, start, residuals, refined_all, within_all, rejected_all, worst_all = checked
     a, b = int(start[t]), int(start[t + 1])
     Q, residual, refined = rows[a:b], residuals[a:b], refined_all[a:b]
     rejected, worst = int(rejected_all[t]), float(worst_all[t])
-    reasons = _reasons(status)
+    reasons = _reasons(status) if len(status) > 1 or status[0, 0] > 0 else []
     candidates = int(status[status[:, 0] == 0, 2].sum())
-    upper, lower = np.asarray(chain.upper, dtype=float), np.asarray(chain.lower, dtype=float)
     n = chain.n
-    within = np.asarray(chain.within_limits(Q), dtype=bool).reshape(-1) if len(Q) else np.zeros(0, dtype=bool)
-    within.setflags(write=False)
+    within = within_all[a:b]
     parts = [f"{len(Q)} solution(s) of the general 6R elimination (every isolated solution; "
              f"{candidates} real eigenvalue candidate(s))"]
     if len(Q) and not within.all():
         parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
     if (refined > 0).any():
         parts.append(f"refined by Newton on the chain (largest step {quantity_text(float(refined.max()))})")
-    wide = [chain.joint_names[c] for c in columns.tolist()
-            if np.isfinite(upper[c]) and upper[c] - lower[c] > TWO_PI + 1e-9]
+    span = chain.upper[columns] - chain.lower[columns]  # inf - inf is nan for a continuous joint: not wide
+    wide = [chain.joint_names[c] for c in columns[span > TWO_PI + 1e-9].tolist() if np.isfinite(chain.upper[c])]
     if wide and len(Q):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
     if rejected:
@@ -461,6 +494,13 @@ def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: n
                      "(out of reach, or an orientation the arm cannot take there)")
             failure = IKFailure("unreachable", words)
         parts = [words] + parts[1:]
+    if len(Q) and failure is None:  # fresh arrays of this call: read-only as they are, without the constructor's copies
+        arrays = [Q.copy(), residual[:, 0].copy(), residual[:, 1].copy(), within.copy(), refined.copy()]
+        for array in arrays:
+            array.setflags(write=False)
+        return IKResult.of_checked_rows(arrays[0], ("",) * len(Q), "; ".join(parts), *arrays[1:], mode=SPATIAL_POSE,
+                                        solver="ik.general6r", joint_names=tuple(chain.joint_names),
+                                        arm_family=GENERAL_6R, method=ALGEBRAIC, rejected=rejected)
     Q = np.array(Q, dtype=float).reshape(-1, n)
     return IKResult(read_only(Q, (n,)), ("",) * len(Q), len(Q), "; ".join(parts), read_only(residual[:, 0].copy()),
                     read_only(residual[:, 1].copy()), mode=SPATIAL_POSE, solver="ik.general6r",
@@ -509,7 +549,7 @@ def general_ik_many(chain: Chain, targets, *, tol=CHECK_TOL, family_tol=FAMILY_T
         T_check[i, :3, :3] = projected_rotation(T_check[i, :3, :3])
     geometry, ways, held, g = _setup(chain, T_check, None, family_tol)
     theta, count, status = _eliminated(geometry, ways, g, thread_count(threads))
-    rows, start, residuals, _, _, _ = _checked_rows(chain, geometry, T_check, theta, count, status, held, check,
+    rows, start, residuals, _, _, _, _ = _checked_rows(chain, geometry, T_check, theta, count, status, held, check,
                                                     max_iters)
     per = np.diff(start)
     answers: dict[int, IKResult] = {}

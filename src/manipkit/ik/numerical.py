@@ -444,11 +444,10 @@ class IKSolver:
     def _with_collisions(self, goal: _Goal, result: IKResult, reports, colliding) -> IKResult:
         """``result`` with ``collides`` and ``clearance`` per solution; with none found but some in collision, the
         first of those as ``closest`` and a reason naming its deepest pair."""
-        from dataclasses import replace
 
         clearance = np.array([math.inf if r.min_distance is None else r.min_distance.distance for r in reports])
         if result.success or not colliding:
-            return replace(result, collides=(False,) * len(reports), clearance=clearance)
+            return result.replaced(collides=(False,) * len(reports), clearance=clearance)
         x, pos, rot, report = colliding[0]
         pair = report.pairs[0]
         depth = f"penetration {short_text(-pair.distance, 3)} m" if pair.distance < 0 else "touching"
@@ -456,8 +455,8 @@ class IKSolver:
                   f"{pair.link2} ({depth})")
         failure = IKFailure("collision", reason, pairs=tuple((p.link1, p.link2) for p in report.pairs),
                             values=(("distance", float(pair.distance)),))
-        return replace(result, note=reason, unmet=(), outside_by=0.0, side="", closest=self._full_q(goal.q_full, x),
-                       closest_residuals=np.array([pos, rot]), collides=(), clearance=None, failure=failure)
+        return result.replaced(note=reason, unmet=(), outside_by=0.0, side="", closest=self._full_q(goal.q_full, x),
+                               closest_residuals=np.array([pos, rot]), collides=(), clearance=None, failure=failure)
 
     def goal(self, target, q0=None) -> _Goal:
         """The per-call state of a solve for ``target`` from ``q0`` (checked as :func:`ik` checks them)."""

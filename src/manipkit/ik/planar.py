@@ -13,7 +13,6 @@ solves a planar position (x, y), :func:`ik_3r` a planar pose (x, y, phi); the ot
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
@@ -276,8 +275,8 @@ def _planar_result(rows, case: int, reason: str, lengths, target, outside, side,
     if checked.rejected:
         reason += "; " + checked.note
     unmet = (("position", float(outside)),) if outside > 0.0 else ()
-    return replace(
-        checked, count=math.inf if free else checked.count, note=reason, free_parameter="q1" if free else "",
+    return checked.replaced(
+        count=math.inf if free else checked.count, note=reason, free_parameter="q1" if free else "",
         free_joints=(0,) if free else (), outside_by=float(outside), side=side or "", mode=mode, solver=solver,
         unmet=unmet,
     )

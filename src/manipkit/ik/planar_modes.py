@@ -19,7 +19,6 @@ checked by the forward kinematics of the arm's DH table
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
@@ -73,15 +72,15 @@ def ik_2r_pose(x, y, phi, l1, l2, *, tol: float = 1e-12) -> IKResult:
     position = ik_2r(x, y, l1, l2, tol=tol)
     l1, l2, x, y = float(l1), float(l2), float(x), float(y)
     if not position.success:
-        return replace(position, mode=PLANAR_POSE, solver="planar.ik_2r_pose")
+        return position.replaced(mode=PLANAR_POSE, solver="planar.ik_2r_pose")
     rows, labels = position.solutions, position.labels
     if position.infinite:  # at the base with l1 = l2: q2 = pi, and phi = q1 + pi fixes q1
         rows, labels = read_only([[float(wrap_angle(phi - math.pi)), math.pi]], (2,)), (FOLDED,)
     target = planar_target(x, y, phi)
     result = checked_solutions(rows, labels, (l1, l2), target, pose=True, tol=tol)
     if result.success:
-        return replace(result, note=f"{result.count} solution(s): {position.note}; the tool angle matches phi",
-                       mode=PLANAR_POSE, solver="planar.ik_2r_pose")
+        return result.replaced(note=f"{result.count} solution(s): {position.note}; the tool angle matches phi",
+                               mode=PLANAR_POSE, solver="planar.ik_2r_pose")
     headings = wrap_angle(rows[:, 0] + rows[:, 1])
     errors = np.abs(wrap_angle(headings - phi))
     miss = float(errors.min())
@@ -183,11 +182,11 @@ def ik_3r_position(x, y, l1, l2, l3, *, samples: int = 4, tol: float = 1e-12) ->
     family = (f"the tool angle phi is free ({arcs}); for each, up to 2 solutions (elbow-down, elbow-up) of the "
               "wrist point (x - l3 cos phi, y - l3 sin phi), q3 = phi - q1 - q2; result.members(phis) gives them")
     if not sampled.success:  # reachable by the bounds, yet no sampled member passed the FK check: say so, no family
-        return replace(sampled, note=f"no solution: {where}: no sampled tool angle gave a solution that passed the "
-                       f"forward-kinematics check ({sampled.note})", solver="planar.ik_3r_position")
+        return sampled.replaced(note=f"no solution: {where}: no sampled tool angle gave a solution that passed the "
+                                f"forward-kinematics check ({sampled.note})", solver="planar.ik_3r_position")
     reason = f"infinitely many solutions: {where}, position only: {family}; {sampled.count} sampled"
-    return replace(sampled, count=math.inf, note=reason, free_parameter="phi", family=family,
-                   family_function=members, solver="planar.ik_3r_position")
+    return sampled.replaced(count=math.inf, note=reason, free_parameter="phi", family=family,
+                            family_function=members, solver="planar.ik_3r_position")
 
 
 def _members_3r(x: float, y: float, values, lengths, tol: float) -> IKResult:
@@ -201,5 +200,5 @@ def _members_3r(x: float, y: float, values, lengths, tol: float) -> IKResult:
         rows.extend(member.solutions)
         labels.extend(f"phi = {quantity_text(float(phi))}, {label}" for label in member.labels)
     result = checked_solutions(read_only(rows, (3,)), tuple(labels), lengths, planar_target(x, y), pose=False, tol=tol)
-    return replace(result, note=f"{result.count} solution(s) at {phis.size} tool angle(s) phi", mode=PLANAR_POSITION,
-                   solver="planar.ik_3r_position")
+    return result.replaced(note=f"{result.count} solution(s) at {phis.size} tool angle(s) phi", mode=PLANAR_POSITION,
+                           solver="planar.ik_3r_position")

@@ -84,7 +84,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -790,10 +790,10 @@ def ranked_set(robot, target, base: str, tip: str, *, solvers: tuple, parameter:
         keep = np.array([not c for c in marked.collides], dtype=bool)
         if drop_collisions and keep.any() and not keep.all():
             kept = marked.take(keep)
-            result = replace(kept, note=f"{kept.note}; {int((~keep).sum())} in collision dropped")
+            result = kept.replaced(note=f"{kept.note}; {int((~keep).sum())} in collision dropped")
         elif drop_collisions and len(keep) and not keep.any():  # every row collides: the collision failure
-            result = replace(mark_collisions(result, checker, drop=True), parameter_values=np.zeros(0),
-                             scores=np.zeros(0))
+            result = mark_collisions(result, checker, drop=True).replaced(parameter_values=np.zeros(0),
+                                                                          scores=np.zeros(0))
         else:
             result = marked
     return result

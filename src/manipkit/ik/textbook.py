@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -89,7 +89,7 @@ def _planar_3r(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -
 def _scara(T: np.ndarray, args: dict, mode: str, samples: int, tol: float) -> IKResult:
     kwargs = {name: float(args[name]) for name in ("a1", "a2", "d1", "d4")}
     result = decoupled.ik_scara(T, d3_limits=(0.0, float(args["d3_max"])), mode=mode, samples=samples, tol=tol, **kwargs)
-    return replace(result, solver="decoupled.ik_scara")
+    return result.replaced(solver="decoupled.ik_scara")
 
 
 def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[..., IKResult]:
@@ -98,7 +98,7 @@ def _decoupled(function: str, names: tuple[str, ...], limits=None) -> Callable[.
         kwargs["tol"] = tol
         if limits is not None:
             kwargs["d3_limits"] = limits(args)
-        return replace(getattr(decoupled, function)(T, **kwargs), solver=f"decoupled.{function}")
+        return getattr(decoupled, function)(T, **kwargs).replaced(solver=f"decoupled.{function}")
 
     return solve
 
@@ -254,8 +254,8 @@ def analytic_ik(robot: Robot, target, base: str = "base_link", tip: str = "ee_li
     family_function = None
     if result.family_function is not None:
         def family_function(values, _solve=result.family_function):
-            return replace(_verified(robot, T, _solve(values), mode == "pose", tol), mode=asked)
-    return replace(checked, mode=asked, family_function=family_function, arm_family=named_family(robot.source.name))
+            return _verified(robot, T, _solve(values), mode == "pose", tol).replaced(mode=asked)
+    return checked.replaced(mode=asked, family_function=family_function, arm_family=named_family(robot.source.name))
 
 
 def _off_plane(robot: Robot, T: np.ndarray, mode: str, tol: tuple[float, float]) -> list[tuple[str, float, str]]:
@@ -298,8 +298,7 @@ def _verified(robot: Robot, T: np.ndarray, result: IKResult, pose: bool, tol: tu
                    f"tol {' m, '.join(quantity_text(t) for t in tol)} rad) and were dropped")
     kept = int(np.count_nonzero(keep))
     count = result.count if math.isinf(result.count) and kept else kept
-    return replace(
-        result,
+    return result.replaced(
         solutions=read_only(Q[keep], (n,)),
         labels=tuple(result.labels[i] for i, k in zip(rows, keep) if k),
         residual_position=read_only(position[keep]),

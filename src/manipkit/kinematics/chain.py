@@ -178,6 +178,10 @@ class Chain(JointSpace):
         Where each entry sits in a whole-robot vector (``robot.joint_names``).
     lower, upper : ndarray, shape (n,)
         Joint limits (rad or m; infinite for a continuous joint).
+    aliasable : ndarray of bool, shape (n,)
+        The revolute joints with finite limits (not continuous, not a coordinate of a floating or planar
+        joint): ``q`` and ``q + 2 pi k`` place every link alike and may both be inside the limits (the
+        entries :mod:`manipkit.ik.aliases` moves by whole turns).
     steps : tuple of ChainStep
         ``T_base_tip = S_0 S_1 ... S_m``; a joint step's ``index`` is its
         column of the *robot's* joint vector, as in
@@ -193,7 +197,7 @@ class Chain(JointSpace):
     """
 
     __slots__ = ("robot", "base", "tip", "joint_names", "joints", "columns", "lower", "upper", "steps",
-                 "program", "_angular", "_continuous", "_limits_ok")
+                 "program", "aliasable", "_angular", "_continuous", "_limits_ok")
 
     def __init__(self, robot: Robot, base: str, tip: str, steps: tuple[ChainStep, ...]):
         columns = list(dict.fromkeys(step.index for step in steps if step.index >= 0))  # base to tip, each once
@@ -216,6 +220,9 @@ class Chain(JointSpace):
         set_(self, "upper", _read_only(np.array([j.upper for j in self.joints], dtype=float)))
         set_(self, "_angular", _read_only(np.array([j.is_angular for j in self.joints], dtype=bool)))
         set_(self, "_continuous", _read_only(np.array([j.type == "continuous" for j in self.joints], dtype=bool)))
+        set_(self, "aliasable", _read_only(np.array(
+            [j.is_angular and j.coordinate is None and j.type != "continuous" for j in self.joints], dtype=bool)
+            & np.isfinite(self.lower) & np.isfinite(self.upper)))
         from manipkit.kernels.program import ChainProgram  # on the first chain: tf-between builds none
 
         set_(self, "program", ChainProgram(local_steps, len(columns)))
