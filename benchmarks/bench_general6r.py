@@ -113,7 +113,7 @@ def general6r_workload(*, n_poses: int = 200, rounds: int = 5, seed: int = 17) -
                 solutions_per_pose=float(np.mean([len(a.solutions) for a in answers])),
                 check=f"Pinocchio FK of every answer: max error {worst:.1e}; generating configuration among the "
                       f"answers: {found:.1%}; method {', '.join(sorted(method))}",
-                note="every isolated solution, limits marked; numpy, its root polishing compiled"),
+                note="every isolated solution, limits marked; the elimination, the rows' check and their aliases compiled"),
             row("general6r", "xarm6", "manipkit ik_many, every solution, 2 threads (algebraic elimination)",
                 times["batch"] if same and batch_worst <= 1e-10 and batch.method == "algebraic" else None,
                 unit="pose", n=n_poses, ours=True,
