@@ -39,9 +39,10 @@ into the geometry (:func:`locked_geometry`), rows are 7-joint chain vectors
 with the locked joint at exactly its value, and Newton refinement moves the
 other six only. What is kept across locked values: the 7R chain's axes
 (:func:`~manipkit.ik.families.chain_family`, once), and the ranking of the
-elimination's ways, found once per (chain, locked joint) at the joint's
-reference value and reused for every value (the solve falls back along it
-where a way is degenerate or poorly conditioned). Locking the last joint
+elimination's ways, found once per (chain, locked joint) at two generic
+values of the joint (not its reference value, often special: the Panda's
+joint 2 at 0 is a continuum) and reused for every value (the solve falls back
+along it where a way is degenerate or poorly conditioned). Locking the last joint
 folds it into ``M`` and the first into the target, so the six axes, and the
 elimination prepared on them, are the same arrays at every value; a joint in
 the middle moves the axes on one side of it, which the elimination prepares
@@ -207,15 +208,27 @@ def locked_geometry(chain: Chain, name: str, value: float, *, family_tol=FAMILY_
 
 
 def _locked_ways(chain: Chain, name: str, family_tol) -> tuple:
-    """The ways of the 7R ``chain`` with ``name`` locked, ranked once at the joint's reference value and kept."""
+    """The ways of the 7R ``chain`` with ``name`` locked, ranked once and kept: those that eliminate the 6R arm at
+    two generic values of the joint (:data:`_GENERIC` of its range, or of a radian from its reference value when
+    unbounded), in the order found at the first, then those that work at one of them.
+
+    Not at the reference value: it is often special (the Panda's joint 2 at 0 puts joints 1 and 3 on one line, a
+    continuum, where no way is regular, although every other value of it has isolated solutions)."""
     key = (id(chain), name, repr(family_tol))
     cached = _LOCKED_WAYS.get(key)
     if cached is not None and cached[0] is chain:
         return cached[1]
-    base = chain_family(chain, tol=family_tol).geometry
-    reference = float(base.q0[chain.joint_names.index(name)])
-    geometry, _ = locked_geometry(chain, name, reference, family_tol=family_tol)
-    ways = ranked_ways(geometry.direction, geometry.point)
+    column = chain.joint_names.index(name)
+    lower, upper = float(chain.lower[column]), float(chain.upper[column])
+    reference = float(chain_family(chain, tol=family_tol).geometry.q0[column])
+    bounded = math.isfinite(lower) and math.isfinite(upper) and upper > lower
+    found = []
+    for fraction in _GENERIC:
+        value = lower + fraction * (upper - lower) if bounded else reference + fraction
+        geometry, _ = locked_geometry(chain, name, value, family_tol=family_tol)
+        found.append(ranked_ways(geometry.direction, geometry.point))
+    both = [way for way in found[0] if way in found[1]]
+    ways = tuple(dict.fromkeys(both + list(found[0]) + list(found[1])))  # at both values first, then at one
     if len(_LOCKED_WAYS) >= 64:
         _LOCKED_WAYS.pop(next(iter(_LOCKED_WAYS)), None)
     _LOCKED_WAYS[key] = (chain, ways)  # the chain is held, so its id is not reused while the entry lives
@@ -224,6 +237,8 @@ def _locked_ways(chain: Chain, name: str, family_tol) -> tuple:
 
 #: (id(chain), locked joint, family_tol) -> (chain, its ranked ways).
 _LOCKED_WAYS: dict = {}
+#: Where in a locked joint's range its ways are ranked (the golden section: no symmetric or round value).
+_GENERIC = (0.381966, 0.618034)
 
 
 def _eliminated(geometry, ways: tuple, g: np.ndarray, threads: int) -> tuple:
@@ -459,7 +474,7 @@ def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: n
     a, b = int(start[t]), int(start[t + 1])
     Q, residual, refined = rows[a:b], residuals[a:b], refined_all[a:b]
     rejected, worst = int(rejected_all[t]), float(worst_all[t])
-    reasons = _reasons(status) if len(status) > 1 or status[0, 0] > 0 else []
+    reasons = _reasons(status)
     candidates = int(status[status[:, 0] == 0, 2].sum())
     n = chain.n
     within = within_all[a:b]
