@@ -392,3 +392,25 @@ def test_the_panda_with_any_of_its_first_five_joints_locked(joint):
             assert len(found)  # the search found something to compare
             gaps = np.abs(wrapped(found[:, None, :] - rows[None, :, :])).max(axis=2).min(axis=1)
             assert (gaps < 1e-6).all(), f"{int((gaps >= 1e-6).sum())} of {len(found)} searched solutions missing"
+
+
+@pytest.mark.parametrize("lock", [None, "panda_joint3"])
+def test_rows_refined_on_the_chain_land_and_are_the_unrefined_rows(lock):
+    """A tolerance below what the elimination's polishing reaches (2e-15) sends rows through the refinement
+    (newton_kernel.polish_targets on the chain's axes towards g): each refined row is marked (``refined`` > 0),
+    lands by Pinocchio to 1e-14 (its residual measured to within 2e-15), and is the row the default tolerance
+    gives, to 1e-9 rad. On a random DH arm (general 6R) and on the Panda with joint 3 locked (g = L^-1 T M^-1)."""
+    robot = random_dh_robot(2) if lock is None else manipkit.load("panda")
+    chain = robot.chain("base_link", "ee_link")
+    refined_rows = 0
+    for k, q in enumerate(chain.sample(12, seed=81)):
+        T = chain.fk(q)
+        held = {lock: float(q[chain.joint_names.index(lock)])} if lock else None
+        tight = general_ik(chain, T, tol=2e-15, lock=held)
+        plain = general_ik(chain, T, lock=held)
+        assert len(tight.solutions) == len(plain.solutions), k
+        assert np.abs(wrapped(tight.solutions - plain.solutions)).max(initial=0.0) < 1e-9
+        refined_rows += int((tight.refined > 0).sum())
+        assert (tight.residual_position <= 2e-15).all() and (tight.residual_rotation <= 2e-15).all()
+        assert pinocchio_miss(robot, chain.base, chain.tip, [chain.full(s) for s in tight.solutions], T) < 1e-14
+    assert refined_rows > 10  # the refinement ran

@@ -68,13 +68,13 @@ import numpy as np
 from manipkit.bounds import tolerances
 from manipkit.closed_form.checks import quantity_text
 from manipkit.closed_form.general6r import ranked_ways, solve_targets, way_reason
+from manipkit.closed_form.newton_kernel import polish_targets
 from manipkit.errors import ClosedFormIKError, IKOptionError
 from manipkit.ik.aliases import measured_rows
 from manipkit.ik.aliases_kernel import nearest_zero_into
 from manipkit.ik.families import FAMILY_TOL, NONE, Geometry, chain_family
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKFailure, IKResult, read_only
 from manipkit.kinematics.chain import limits_ok
-from manipkit.spatial.rotations import axis_angle_from_matrix
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
 if TYPE_CHECKING:
@@ -269,24 +269,6 @@ def _nearest_zero_alias(Q: np.ndarray, chain: Chain) -> np.ndarray:
     return Q
 
 
-def _pose_error(T: np.ndarray, reached: np.ndarray) -> np.ndarray:
-    """(6,) the spatial error of ``reached`` to ``T``: position difference and the rotation vector of ``R_T R^T``."""
-    axis, angle = axis_angle_from_matrix(T[:3, :3] @ reached[:3, :3].T, check=False)
-    return np.concatenate([T[:3, 3] - reached[:3, 3], np.asarray(axis) * float(angle)])
-
-
-def _refine(chain: Chain, T: np.ndarray, q: np.ndarray, steps: int, tol: float, columns: np.ndarray) -> np.ndarray:
-    """``q`` after at most ``steps`` Gauss-Newton steps (least squares on the chain's Jacobian columns ``columns``,
-    the others held) towards ``T``."""
-    q = q.copy()
-    for _ in range(steps):
-        error = _pose_error(T, chain.fk(q))
-        if float(np.abs(error).max()) <= tol:
-            break
-        q[columns] += np.linalg.lstsq(chain.jacobian(q)[:, columns], error, rcond=None)[0]
-    return q
-
-
 def _distinct(rows: list[np.ndarray], q: np.ndarray) -> bool:
     """``q`` differs from every row (modulo 2 pi) by more than 1e-9 in some joint."""
     if not rows:
@@ -387,7 +369,7 @@ def general_ik(chain: Chain, target, *, tol=CHECK_TOL, family_tol=FAMILY_TOL, ma
     T_check[:3, :3] = projected_rotation(T_check[:3, :3])
     geometry, ways, held, g = _setup(chain, T_check[None], lock, family_tol)
     theta, count, status = _eliminated(geometry, ways, g, 1)
-    checked = _checked_rows(chain, geometry, T_check[None], theta, count, status, held, check, max_iters)
+    checked = _checked_rows(chain, geometry, T_check[None], g, theta, count, status, held, check, max_iters)
     return _answer(chain, T_check, checked, 0, status[0], ways, held, check, geometry.columns)
 
 
@@ -406,7 +388,7 @@ def _setup(chain: Chain, T_check: np.ndarray, lock, family_tol) -> tuple:
     return geometry, ways, held, np.ascontiguousarray(g)
 
 
-def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray, count: np.ndarray,
+def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, g: np.ndarray, theta: np.ndarray, count: np.ndarray,
                   status: np.ndarray, held, check: tuple[float, float], max_iters: int) -> tuple:
     """The elimination's angles of targets ``T_check`` (N, 4, 4) as checked chain rows: (rows (M, n) sorted by
     target then joint values, ``start`` (N + 1,) where each target's rows begin, residuals (M, 2), refined (M,),
@@ -414,8 +396,9 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
 
     Each row: ``q = q0 + angle / scale``, each joint at its in-limit alias nearest 0, the locked joint at its
     value; measured by the chain's FK; one that misses by more than ``tol`` or :data:`CHECK_TOL` is refined by
-    Newton steps on the chain and dropped if it still misses ``check``; a row equal (1e-9, modulo 2 pi) to an
-    earlier one of its target is that one. All targets' rows go through one FK call."""
+    Newton steps on the chain (the one polisher, :func:`manipkit.closed_form.newton_kernel.polish_targets`, on the
+    chain's own axes towards its ``g = L^-1 T M^-1``) and dropped if it still misses ``check``; a row equal (1e-9,
+    modulo 2 pi) to an earlier one of its target is that one. All targets' rows go through one FK call."""
     n_targets, n = len(T_check), chain.n
     owner = np.repeat(np.arange(n_targets), count)
     angles = theta[np.arange(theta.shape[1])[None, :] < count[:, None]]  # (M, 6) in target order
@@ -429,15 +412,20 @@ def _checked_rows(chain: Chain, geometry, T_check: np.ndarray, theta: np.ndarray
     refined = np.zeros(len(Q))
     position, rotation = measured_rows(chain, T_check, Q, owner)
     polish = (min(check[0], CHECK_TOL), min(check[1], CHECK_TOL))  # rows are refined to this, dropped beyond check
-    for k in np.flatnonzero((position > polish[0]) | (rotation > polish[1])):
-        target = T_check[owner[k]]
-        better = _refine(chain, target, Q[k], max_iters, min(0.1 * min(check), 1e-12), columns)
-        refined[k] = float(np.abs(better - Q[k]).max())
-        q = _nearest_zero_alias(better[None], chain)[0]
+    missing = np.flatnonzero((position > polish[0]) | (rotation > polish[1]))
+    if len(missing):
+        begun = geometry.scale * (Q[missing][:, columns] - geometry.q0[columns])  # the angles of the product
+        moved, _, _ = polish_targets(geometry.direction, geometry.point, g[owner[missing]], begun,
+                                     iterations=max_iters, far=math.inf, stop=min(0.1 * min(check), 1e-12))
+        step = (np.pi - np.mod(np.pi - (moved - begun), TWO_PI)) / geometry.scale  # each joint's move, unwrapped
+        refined[missing] = np.abs(step).max(axis=1)
+        better = Q[missing]
+        better[:, columns] += step
+        better = _nearest_zero_alias(better, chain)
         if held is not None:
-            q[held[0]] = held[1]
-        Q[k] = q
-        (position[k],), (rotation[k],) = measured_rows(chain, target[None], q[None])
+            better[:, held[0]] = held[1]
+        Q[missing] = better
+        position[missing], rotation[missing] = measured_rows(chain, T_check, better, owner[missing])
     keep = (position <= check[0]) & (rotation <= check[1])
     rejected, worst = np.zeros(n_targets, dtype=np.intp), np.zeros(n_targets)
     if not keep.all():
@@ -564,7 +552,7 @@ def general_ik_many(chain: Chain, targets, *, tol=CHECK_TOL, family_tol=FAMILY_T
         T_check[i, :3, :3] = projected_rotation(T_check[i, :3, :3])
     geometry, ways, held, g = _setup(chain, T_check, None, family_tol)
     theta, count, status = _eliminated(geometry, ways, g, thread_count(threads))
-    rows, start, residuals, _, _, _, _ = _checked_rows(chain, geometry, T_check, theta, count, status, held, check,
+    rows, start, residuals, _, _, _, _ = _checked_rows(chain, geometry, T_check, g, theta, count, status, held, check,
                                                     max_iters)
     per = np.diff(start)
     answers: dict[int, IKResult] = {}
