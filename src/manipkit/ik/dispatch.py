@@ -170,6 +170,14 @@ def _snapped_6r(robot, base: str, tip: str, *, mode: str, family_tol, lock, arm_
     return bool(chain_family(chain, tol=family_tol).snap)
 
 
+def _fresh(new: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Boolean (..., m): each row of ``new`` (..., m, n) that is no row of ``known`` (..., k, n), to
+    :data:`SAME_ROW_TOL` in every joint modulo 2 pi (the rule by which the elimination's rows join a closed form's,
+    one call or a batch); a NaN row of ``new`` is not fresh, a NaN row of ``known`` equals nothing."""
+    gap = np.abs(np.remainder(new[..., :, None, :] - known[..., None, :, :] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
+    return ~np.isnan(new).any(axis=-1) & ~(gap <= SAME_ROW_TOL).any(axis=-1)
+
+
 def _with_elimination(closed: IKResult, general: IKResult, chain) -> IKResult:
     """The closed form's rows, then each row of the general 6R elimination that none of them is (to
     :data:`SAME_ROW_TOL`, modulo 2 pi on the chain's joints), labelled :data:`ELIMINATION_LABEL` (numbered ``#1``,
@@ -181,12 +189,7 @@ def _with_elimination(closed: IKResult, general: IKResult, chain) -> IKResult:
         return closed
     whole = closed.solutions.shape[1] != chain.n
     columns = chain.columns if whole else np.arange(chain.n)
-    new = general.solutions[:, columns]
-    if len(closed.solutions):
-        gap = np.abs(np.remainder(new[:, None, :] - closed.solutions[:, columns][None] + np.pi, 2 * np.pi) - np.pi)
-        fresh = np.flatnonzero(gap.max(axis=2).min(axis=1) > SAME_ROW_TOL)
-    else:
-        fresh = np.arange(len(new))
+    fresh = np.flatnonzero(_fresh(general.solutions[:, columns], closed.solutions[:, columns]))
     if not len(fresh):
         return closed
     added = general.take(fresh)
@@ -225,8 +228,7 @@ def _snapped_many(robot, targets, base: str, tip: str, *, tol, family_tol) -> IK
     general = general_ik_many(chain, flat, tol=tol, family_tol=family_tol)
     Qc, Qg = np.asarray(closed.solutions), np.asarray(general.solutions)
     known = ~np.isnan(Qc).any(axis=-1)  # (N, 8)
-    gap = np.abs(np.remainder(Qg[:, :, None, :] - Qc[:, None, :, :] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
-    fresh = ~np.isnan(Qg).any(axis=-1) & ~(known[:, None, :] & (gap <= SAME_ROW_TOL)).any(axis=-1)  # (N, 16)
+    fresh = _fresh(Qg, Qc)  # (N, 16)
     fresh &= (np.isfinite(np.asarray(closed.count)) & np.isfinite(np.asarray(general.count))).reshape(-1)[:, None]
     extra = fresh.sum(axis=1)
     width = Qc.shape[1]
