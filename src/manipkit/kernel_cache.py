@@ -198,6 +198,9 @@ KERNEL_NOTES = {
     "srs_kernel": ("the closed-form IK of 7R arms with an arm angle", 15),
     "srs_kernel._arm_angles_all": ("the arm angles of 7R SRS configurations", 2),
     "ladder_kernel": ("the task path ladder's dynamic program", 4),  # CPU s, measured on a shared machine
+    "general6r_kernel": ("the general 6R elimination", 30),  # with its eigenvalues and polisher; a shared machine
+    "aliases_kernel": ("the 2 pi aliases of IK rows", 2),
+    "check_kernel.measure_rows": ("the forward kinematics and residuals of IK rows", 2),
 }
 #: Compiles shorter than this (s) are not worth a line: the command answers about as soon as it would have.
 QUIET_BELOW = 3
