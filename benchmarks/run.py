@@ -361,8 +361,9 @@ def _statics_goals(rows: list[dict], goal) -> None:
 
 def _redundant_goals(rows: list[dict], goal) -> None:
     """Issue 36: a 7R arm's ranked set (16 solutions across the self-motion) in at most 1 ms per pose, beside ssik's
-    solve of the same arm in the same run."""
-    for arm in ("panda", "iiwa14", "sawyer"):
+    solve of the same arm in the same run: the Panda's and the iiwa14's (the issue's goal). The Sawyer's row (a
+    general 7R: the general 6R elimination at every swept value) is in the table, not held to it."""
+    for arm in ("panda", "iiwa14"):
         ranked = _find(rows, "redundant", arm, "manipkit ik --all on a 7R")
         if ranked and ranked["median_s"]:
             ms = ranked["median_s"] * 1e3
