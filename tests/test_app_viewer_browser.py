@@ -391,13 +391,24 @@ def test_the_pages_fetch_nothing_from_the_internet(page, browser):
 
 
 def test_ctrl_c_stops_both_servers_cleanly():
+    """Ctrl-C ends the viewer with status 0 and no traceback, and its meshcat server goes with it: no process of
+    the viewer's (it and every descendant, listed before the signal) is left, and none of them listens on the scene's
+    port. (Another test's meshcat server may take the freed port at once: the port alone proves nothing.)"""
+    import psutil  # a dependency of dask.distributed
+
     proc, url, scene_url = start_viewer("--port", 0)
     meshcat_port = int(scene_url.split(":")[2].split("/")[0])
+    viewer = psutil.Process(proc.pid)
+    ours = [viewer, *viewer.children(recursive=True)]
+    assert len(ours) > 1  # the meshcat server is a process of its own
     assert stop(proc, signal.SIGINT) == 0
     stderr = proc.stderr.read()
     assert "Traceback" not in stderr, stderr
-    with socket.socket() as probe:  # the meshcat server went with it
-        assert probe.connect_ex(("127.0.0.1", meshcat_port)) != 0
+    _, alive = psutil.wait_procs(ours[1:], timeout=10)
+    assert not alive, f"left running after Ctrl-C: {[p.cmdline() for p in alive]}"
+    listening = {c.pid for c in psutil.net_connections("tcp") if c.laddr and c.laddr.port == meshcat_port
+                 and c.status == psutil.CONN_LISTEN}
+    assert not listening & {p.pid for p in ours}
 
 
 # ----------------------------------------------------------------------
