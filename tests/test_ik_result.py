@@ -115,6 +115,11 @@ def test_a_result_of_checked_rows_equals_the_constructors_and_cannot_be_changed(
         else:
             assert a == b, name
     assert fast.success and fast.q_residuals.tolist() == normal.q_residuals.tolist() and repr(fast) == repr(normal)
+    algebraic = IKResult.of_checked_rows(*args, mode=MODES[3], solver="s", joint_names=("j1", "j2", "j3"),
+                                         method="algebraic", rejected=2, arm_family="general 6R")
+    assert (algebraic.method, algebraic.rejected, algebraic.arm_family) == ("algebraic", 2, "general 6R")
+    with pytest.raises(ValueError, match="a method of"):
+        IKResult.of_checked_rows(*args, mode=MODES[3], solver="s", joint_names=(), method="guessed")
     with pytest.raises(AttributeError):
         fast.count = 2
     with pytest.raises(ValueError):

@@ -36,9 +36,8 @@ from manipkit.closed_form.subproblems_kernel import atan2, compile_kernel, inlin
 from manipkit.kernels.fk import pose_rows_kernel
 from manipkit.spatial.transforms import EXACT_ROTATION_TOL
 
-__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias", "kept_rows", "measure_rows",
-           "pack_arm",
-           "packed_row", "plain_target", "pose_residual", "pose_residual_parts", "pose_rows", "wrap_angle", "wrap_angle_by_selects"]
+__all__ = ["LIMIT_TOL", "arm_constants", "chain_row", "check_rows", "codes_of", "exact_rotation", "in_limit_alias",
+           "kept_rows", "measure_rows", "pack_arm", "packed_row", "plain_target", "pose_residual", "pose_residual_parts", "pose_rows", "wrap_angle", "wrap_angle_by_selects"]
 
 #: A joint value this far outside a limit counts as inside (the chain's LIMIT_TOLERANCE, chain_ik's aliases).
 LIMIT_TOL = 1e-12

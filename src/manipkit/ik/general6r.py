@@ -140,13 +140,9 @@ def general_solves(chain: Chain, *, family_tol=FAMILY_TOL, lock=None) -> bool:
 
 def general_ways(chain: Chain, *, family_tol=FAMILY_TOL) -> tuple[tuple[int, bool], ...]:
     """The ways ``(shift, reversed)`` the chain's loop eliminates regularly, best first
-    (:func:`manipkit.closed_form.general6r.ranked_ways`: tried once per chain's axes and kept)."""
-    return _ways(chain, family_tol)[1]
-
-
-def _ways(chain: Chain, family_tol) -> tuple:
-    """(geometry, the ways its loop eliminates, best first) of ``chain``: found once per chain's axes."""
-    return _unlocked(chain, family_tol)[2:4]
+    (:func:`manipkit.closed_form.general6r.ranked_ways`: tried once per chain's axes and kept); ``()`` for a chain
+    the solver refuses (:func:`general_refusal`)."""
+    return _unlocked(chain, family_tol)[3] or ()
 
 
 def _unlocked(chain: Chain, family_tol) -> tuple:
@@ -472,8 +468,8 @@ def _answer(chain: Chain, T_check: np.ndarray, checked: tuple, t: int, status: n
         parts.append(f"{int((~within).sum())} outside the joint limits (marked, not dropped)")
     if (refined > 0).any():
         parts.append(f"refined by Newton on the chain (largest step {quantity_text(float(refined.max()))})")
-    span = chain.upper[columns] - chain.lower[columns]  # inf - inf is nan for a continuous joint: not wide
-    wide = [chain.joint_names[c] for c in columns[span > TWO_PI + 1e-9].tolist() if np.isfinite(chain.upper[c])]
+    span = chain.upper[columns] - chain.lower[columns]
+    wide = [chain.joint_names[c] for c in columns[chain.aliasable[columns] & (span > TWO_PI + 1e-9)].tolist()]
     if wide and len(Q):
         parts.append(f"{', '.join(wide)} span more than 2 pi: each also has the alias q +- 2 pi where inside its limits")
     if rejected:
