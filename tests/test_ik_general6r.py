@@ -398,19 +398,25 @@ def test_the_panda_with_any_of_its_first_five_joints_locked(joint):
 def test_rows_refined_on_the_chain_land_and_are_the_unrefined_rows(lock):
     """A tolerance below what the elimination's polishing reaches (2e-15) sends rows through the refinement
     (newton_kernel.polish_targets on the chain's axes towards g): each refined row is marked (``refined`` > 0),
-    lands by Pinocchio to 1e-14 (its residual measured to within 2e-15), and is the row the default tolerance
-    gives, to 1e-9 rad. On a random DH arm (general 6R) and on the Panda with joint 3 locked (g = L^-1 T M^-1)."""
+    lands by Pinocchio to 1e-14 (its residual measured to within 2e-15), and is a row the default tolerance
+    gives, to 1e-9 rad. 2e-15 rad is about nine ulps of a rotation angle, so a row may stay above it on one
+    machine's floating point and not another's: such a row is counted in ``rejected``, never returned, and the
+    returned rows with the rejected ones are the default tolerance's rows. On a random DH arm (general 6R) and
+    on the Panda with joint 3 locked (g = L^-1 T M^-1)."""
     robot = random_dh_robot(2) if lock is None else manipkit.load("panda")
     chain = robot.chain("base_link", "ee_link")
-    refined_rows = 0
+    refined_rows = rejected_rows = plain_rows = 0
     for k, q in enumerate(chain.sample(12, seed=81)):
         T = chain.fk(q)
         held = {lock: float(q[chain.joint_names.index(lock)])} if lock else None
         tight = general_ik(chain, T, tol=2e-15, lock=held)
         plain = general_ik(chain, T, lock=held)
-        assert len(tight.solutions) == len(plain.solutions), k
-        assert np.abs(wrapped(tight.solutions - plain.solutions)).max(initial=0.0) < 1e-9
+        assert len(tight.solutions) + tight.rejected == len(plain.solutions), k
+        gaps = np.abs(wrapped(tight.solutions[:, None, :] - plain.solutions[None, :, :])).max(axis=2, initial=0.0)
+        assert (gaps.min(axis=1, initial=0.0) < 1e-9).all(), k
         refined_rows += int((tight.refined > 0).sum())
+        rejected_rows, plain_rows = rejected_rows + tight.rejected, plain_rows + len(plain.solutions)
         assert (tight.residual_position <= 2e-15).all() and (tight.residual_rotation <= 2e-15).all()
         assert pinocchio_miss(robot, chain.base, chain.tip, [chain.full(s) for s in tight.solutions], T) < 1e-14
     assert refined_rows > 10  # the refinement ran
+    assert rejected_rows <= plain_rows // 20  # and brought all but a few rows to 2e-15
