@@ -5,6 +5,7 @@ Each source file is parsed with ``ast`` (nothing is imported); imports under
 """
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -39,6 +40,12 @@ ALLOWED = {
 NARROW: set[tuple[str, str]] = set()
 MAX_MODULE_LINES = 800
 SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p.name != "__init__.py" or p.parent != PACKAGE)
+
+
+@functools.cache
+def parsed(path: Path) -> ast.Module:
+    """The parsed source of ``path``, once a session: every rule reads the same tree and none changes it."""
+    return ast.parse(path.read_text())
 
 
 def layer_of(path: Path) -> str:
@@ -117,7 +124,7 @@ def ids(paths):
 def test_imports_run_down_the_layers(path):
     layer = layer_of(path)
     crossings = []
-    for module, _, line in runtime_imports(ast.parse(path.read_text()), path):
+    for module, _, line in runtime_imports(parsed(path), path):
         parts = module.split(".")
         if parts[0] != "manipkit" or len(parts) < 2:
             continue
@@ -131,7 +138,7 @@ def test_imports_run_down_the_layers(path):
 def test_no_private_name_from_another_module(path):
     found = []
     own_module = ".".join([*package_of(path), path.stem])
-    for module, names, line in runtime_imports(ast.parse(path.read_text()), path):
+    for module, names, line in runtime_imports(parsed(path), path):
         parts = module.split(".")
         if parts[0] != "manipkit" or len(parts) < 2 or module == own_module:
             continue
@@ -147,7 +154,7 @@ def test_public_module_declares_all_and_stays_small(path):
     text = path.read_text()
     assert len(text.splitlines()) <= MAX_MODULE_LINES
     if not path.name.startswith("_") or path.name == "__init__.py":
-        tree = ast.parse(text)
+        tree = parsed(path)
         assigned = {t.id for node in tree.body if isinstance(node, ast.Assign) for t in node.targets
                     if isinstance(t, ast.Name)}
         assert "__all__" in assigned or path.name in ("__init__.py", "__main__.py")
@@ -174,7 +181,7 @@ def test_a_crossing_is_caught():
 @pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
 def test_user_errors_raise_a_subclass_not_the_base(path):
     """Every user error is a ManipkitError subclass that says what kind it is (errors.py); none raises the base."""
-    found = [node.lineno for node in ast.walk(ast.parse(path.read_text()))
+    found = [node.lineno for node in ast.walk(parsed(path))
              if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call)
              and isinstance(node.exc.func, ast.Name) and node.exc.func.id == "ManipkitError"]
     assert not found, f"raise ManipkitError(...) at lines {found}: raise the subclass for its kind (errors.py)"
@@ -238,7 +245,7 @@ def private_names_defined(tree: ast.Module) -> set[str]:
 @pytest.mark.parametrize("path", SOURCES, ids=ids(SOURCES))
 def test_no_private_attribute_of_another_module(path):
     """``obj._x`` only where this module defines ``_x`` (its own classes): another module's privates are not an API."""
-    tree = ast.parse(path.read_text())
+    tree = parsed(path)
     own = private_names_defined(tree)
     where = str(path.relative_to(PACKAGE))
     found = sorted({
@@ -260,7 +267,7 @@ def test_functions_stay_under_80_lines_or_say_why(path):
     """A function over 80 lines carries a comment 'Over 80 lines: <why>' (docs/architecture.md)."""
     lines = path.read_text().splitlines()
     long = [f"{node.name} (line {node.lineno}, {node.end_lineno - node.lineno + 1} lines)"
-            for node in ast.walk(ast.parse("\n".join(lines)))
+            for node in ast.walk(parsed(path))
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 80
             and not any("Over 80 lines:" in line for line in lines[node.lineno - 1:node.end_lineno])]
     assert not long, f"functions over 80 lines without a reason: {', '.join(long)}"
@@ -284,7 +291,7 @@ def lazy_table(init: Path) -> dict[str, str]:
     if init.parent == PACKAGE:
         return LAZY
     homes = {}
-    for node in ast.walk(ast.parse(init.read_text())):
+    for node in ast.walk(parsed(init)):
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "homes_of":
             module, *names = (arg.value for arg in node.args)
             homes.update(dict.fromkeys(names, module))
@@ -318,7 +325,7 @@ def import_graph(root: Path = PACKAGE) -> dict[str, set[str]]:
     graph = {}
     for name, path in paths.items():
         targets = set()
-        for module, names, _ in runtime_imports(ast.parse(path.read_text()), path):
+        for module, names, _ in runtime_imports(parsed(path), path):
             if module == "manipkit" or module.startswith("manipkit."):
                 targets.update(home(module, n) for n in names or [None])
         graph[name] = targets - {None, name}
@@ -382,16 +389,21 @@ def circle_text(graph: dict[str, set[str]], component: list[str]) -> str:
     return " <-> ".join(component)  # not reached: a component of two or more nodes has a circle through each
 
 
-def test_no_two_modules_import_each_other():
+@pytest.fixture(scope="module")
+def graph():
+    """The package's import graph, read once for the two tests that walk it."""
+    return import_graph()
+
+
+def test_no_two_modules_import_each_other(graph):
     """No module imports itself through others: a circle is reported as the chain of modules around it."""
-    graph = import_graph()
     circles = [c for c in strongly_connected(graph) if not any(set(c) <= known for known in KNOWN_CYCLES_IN_TRANSIT)]
     assert not circles, "import circles: " + "; ".join(circle_text(graph, c) for c in circles)
 
 
-def test_every_circle_in_transit_is_still_there():
+def test_every_circle_in_transit_is_still_there(graph):
     """An entry of KNOWN_CYCLES_IN_TRANSIT whose circle is gone is deleted, so it cannot hide a new one."""
-    components = strongly_connected(import_graph())
+    components = strongly_connected(graph)
     gone = [sorted(known) for known in KNOWN_CYCLES_IN_TRANSIT if not any(set(c) <= known for c in components)]
     assert not gone, f"these circles are gone: delete them from KNOWN_CYCLES_IN_TRANSIT: {gone}"
 
