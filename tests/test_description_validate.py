@@ -208,13 +208,16 @@ def test_mimic_of_a_missing_joint_is_an_error():
 
 def test_unresolved_package_mesh_is_a_warning_naming_the_uri_and_the_places_searched(tmp_path):
     mesh = '<visual><geometry><mesh filename="package://no_such_pkg/meshes/arm.stl"/></geometry></visual>'
-    path = tmp_path / "meshy.urdf"
+    # In a workspace of its own (tmp_path/src): another test's package in the shared temporary folder
+    # would otherwise make that folder the workspace searched (PackageResolver's order, place 2).
+    (tmp_path / "src").mkdir()
+    path = tmp_path / "src" / "meshy.urdf"
     path.write_text(urdf(LINKS[0], arm_link(mesh), joint()))
     robot = manipkit.load(path)
     assert len(robot.warnings) == 1
     warning = robot.warnings[0]
     assert warning.startswith("meshy.urdf:3: link 'arm' mesh package://no_such_pkg/meshes/arm.stl: package 'no_such_pkg' not found")
-    assert str(tmp_path) in warning and "--package-dir no_such_pkg=DIR" in warning
+    assert f"the workspace {tmp_path / 'src'}" in warning and "--package-dir no_such_pkg=DIR" in warning
     assert "kinematics do not need meshes; the viewer does" in warning
     assert robot.transform("base", "arm", [0.3]).shape == (4, 4)  # kinematics still answer
 
