@@ -87,6 +87,7 @@ class ReadPolicy:
         self.description = Path(description)
         self.resolver = resolver
         self.allow_read = allowed_folders(allow_read)  # a folder or several; never a string taken apart
+        self.read: list[str] = []  # every path checked and allowed, in order: what the expansion read
 
     def roots(self) -> list[Path]:
         """The readable folders, as given (symbolic links kept): own tree, packages, allowed folders."""
@@ -110,6 +111,7 @@ class ReadPolicy:
     def check(self, path: str | os.PathLike, what: str) -> None:
         """Nothing if ``path`` may be read, else :class:`~manipkit.errors.ReadNotAllowedError` naming it."""
         if self.allows(path):
+            self.read.append(os.fspath(path))
             return
         shown = printable(os.path.abspath(path))[:300]
         real = printable(os.path.realpath(path))[:300]

@@ -140,9 +140,25 @@ def read_srdf_file(path: str | os.PathLike) -> Srdf:
     CollisionError
         As :func:`parse_srdf`.
     """
+    import hashlib
+
     from manipkit.inputs.files import read_text
 
-    return parse_srdf(read_text(path, what="SRDF file", max_bytes=MAX_SRDF_BYTES), str(path))
+    # A robot's load looks for its SRDF among every SRDF beside it (example-robot-data ships 38): each text is
+    # parsed once a process (a Srdf is immutable); the file is read each time, so a changed file is parsed again.
+    text = read_text(path, what="SRDF file", max_bytes=MAX_SRDF_BYTES)
+    key = (os.fspath(path), hashlib.sha256(text.encode("utf-8", "surrogatepass")).digest())
+    if key not in _PARSED:
+        _PARSED[key] = parse_srdf(text, str(path))
+        while len(_PARSED) > _KEPT_SRDF:
+            del _PARSED[next(iter(_PARSED))]
+    return _PARSED[key]
+
+
+#: SRDF texts parsed in this process: (path as given, SHA-256 of the text) -> Srdf, at most _KEPT_SRDF (the oldest
+#: go).
+_PARSED: dict[tuple, Srdf] = {}
+_KEPT_SRDF = 512
 
 
 def check_srdf_links(srdf: Srdf, links, robot: str) -> None:

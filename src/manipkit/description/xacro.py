@@ -27,7 +27,7 @@ from typing import NamedTuple
 from manipkit.description.packages import WARNING_REGISTRY, PackageResolver, missing_in_package_hint
 from manipkit.description.sources import RobotSource
 from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError, ReadNotAllowedError
-from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file
+from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file, file_digest
 from manipkit.text import close_matches
 
 __all__ = [
@@ -202,6 +202,10 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver, *,
     from manipkit.description.access import ReadPolicy, reading_under
 
     _read_description(path)
+    key = _expansion_key(path, args, resolver, allow_read)
+    kept = _kept_expansion(key, resolver)
+    if kept is not None:
+        return kept
     missing: list[tuple[str, PackageNotFoundError]] = []
     environment: list[str] = []
     stderr = _BoundedOutput()
@@ -226,14 +230,84 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver, *,
                       "become part of the description (link names, paths)", UserWarning, stacklevel=2)
     files = [path, *(Path(f) for f in included)]
     _remember_files(path, files)
-    # xacro ignores arguments nobody declared or reads; here they are an error (a typo would pass silently).
-    # `$(arg NAME)` without a declaration is valid xacro: the argument must then be given.
+    digests = _digests([os.fspath(path), *policy.read])
+    expansion = XacroExpansion(document.toxml(), _declared_arguments(path, args, files))
+    if not (caught or environment or missing) and not _find_in_files(files, pattern=_GLOB_INCLUDE):
+        _keep_expansion(key, digests, resolver.found(), files, expansion)
+    return expansion
+
+
+def _declared_arguments(path: Path, args: dict[str, str], files: list[Path]) -> dict[str, str]:
+    """The arguments ``files`` declare (name: default); an argument given that none declares or reads is an error.
+
+    xacro ignores arguments nobody declared or reads; here they are an error (a typo would pass silently).
+    ``$(arg NAME)`` without a declaration is valid xacro: the argument must then be given.
+    """
     declared = xacro_arg_declarations(files)
     unknown = sorted(set(args) - set(declared) - _arg_uses(files))
     if unknown:
         valid = ", ".join(f"{k} (default {v})" for k, v in declared.items()) or "none"
         raise DescriptionError(f"{path.name}: unknown xacro argument {', '.join(unknown)}; declared: {valid}")
-    return XacroExpansion(document.toxml(), declared)
+    return declared
+
+
+#: Expansions kept in this process, at most _KEPT_EXPANSIONS (the oldest go): a notebook or a session of tests
+#: loads the same robot again and again, and the expansion is most of a load (25 ms of the course arm's 28 ms).
+#: Key: the file (as given and its real path), the arguments, the package folders given, the folders allowed and
+#: the working folder; value: the digest of every file the expansion read (includes, YAML: each file the read
+#: policy allowed), the packages it found and where, the files to remember and the expansion. Kept only when the
+#: expansion warned nothing, read no environment variable and included no wildcard pattern (a new file could
+#: match it); used only while every file read holds the same bytes and the caller's resolver finds every
+#: package in the same folder.
+_EXPANSIONS: dict[tuple, tuple] = {}
+_KEPT_EXPANSIONS = 64
+_GLOB_INCLUDE = r"<[\w:]*include\b[^>]*\bfilename\s*=\s*[\"'][^\"']*[*?\[]"
+
+
+def _digests(files) -> tuple | None:
+    """(path, SHA-256 of its bytes) of each of ``files`` once, or None when one cannot be read as an input."""
+    try:
+        return tuple((file, file_digest(file, what="xacro file", max_bytes=MAX_DESCRIPTION_BYTES))
+                     for file in dict.fromkeys(files))
+    except InputFileError:
+        return None
+
+
+def _expansion_key(path: Path, args: dict[str, str], resolver: PackageResolver, allow_read) -> tuple:
+    from manipkit.description.access import allowed_folders
+
+    return (os.fspath(path), os.path.realpath(path), os.getcwd(), tuple(sorted(args.items())),
+            tuple(sorted((name, os.fspath(folder)) for name, folder in resolver.package_dirs.items())),
+            tuple(os.fspath(folder) for folder in allowed_folders(allow_read)))
+
+
+def _kept_expansion(key: tuple, resolver: PackageResolver) -> XacroExpansion | None:
+    from manipkit.outputs import note_input
+
+    kept = _EXPANSIONS.get(key)
+    if kept is None:
+        return None
+    digests, found, files, expansion = kept
+    if _digests(file for file, _ in digests) != digests:
+        return None
+    try:
+        if any(resolver.find(name) != folder for name, folder in found.items()):
+            return None
+    except PackageNotFoundError:
+        return None
+    for file, _ in digests:
+        note_input(file)  # as reading it would (manipkit.outputs)
+    _remember_files(Path(key[0]), files)
+    return XacroExpansion(expansion.text, dict(expansion.declared))
+
+
+def _keep_expansion(key: tuple, digests: tuple | None, found: dict, files: list[Path], expansion: XacroExpansion):
+    if digests is None:
+        return
+    _EXPANSIONS.pop(key, None)
+    _EXPANSIONS[key] = (digests, dict(found), list(files), XacroExpansion(expansion.text, dict(expansion.declared)))
+    while len(_EXPANSIONS) > _KEPT_EXPANSIONS:
+        del _EXPANSIONS[next(iter(_EXPANSIONS))]
 
 
 #: Most characters of what xacro prints during one expansion (``xacro.message``, ``xacro.warning``) that are

@@ -2,8 +2,9 @@
 
 - :mod:`manipkit.inputs.files`: :func:`check_input_file` and :func:`read_text`,
   which every file read on a user's behalf goes through (descriptions, xacro
-  includes, DH tables, ``--q-file`` tables, YAML loaded from xacro), and the
-  size limits.
+  includes, DH tables, ``--q-file`` tables, YAML loaded from xacro), the
+  size limits, and :func:`file_digest`, which tells a memo of what was read
+  from a file whether the file still holds the same.
 - :mod:`manipkit.inputs.matrices`: :func:`read_matrix`, a hand-written 4x4
   (or 3x3) in the formats people paste.
 - :mod:`manipkit.inputs.poses`: :func:`read_targets`, target poses for base placement.
@@ -21,7 +22,7 @@ from manipkit.exports import homes_of, lazy_exports
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     **homes_of(
         "manipkit.inputs.files",
-        "MAX_DESCRIPTION_BYTES", "MAX_MATRIX_BYTES", "MAX_TABLE_BYTES", "check_input_file", "read_text",
+        "MAX_DESCRIPTION_BYTES", "MAX_MATRIX_BYTES", "MAX_TABLE_BYTES", "check_input_file", "file_digest", "read_text",
     ),
     **homes_of("manipkit.inputs.matrices", "read_matrix"),
     **homes_of("manipkit.inputs.poses", "read_targets"),

@@ -23,6 +23,7 @@ __all__ = [
     "MAX_MATRIX_BYTES",
     "MAX_TABLE_BYTES",
     "check_input_file",
+    "file_digest",
     "read_text",
 ]
 
@@ -117,3 +118,23 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int, encoding: s
         return data.decode(encoding).removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         raise InputFileError(f"{what} {path}: not {encoding} text (byte {exc.start}: {data[exc.start:exc.start + 1]!r})") from None
+
+
+def file_digest(path: str | os.PathLike, *, what: str, max_bytes: int) -> bytes:
+    """The SHA-256 digest of a checked input file's bytes (:func:`check_input_file`): what tells a memo of what
+    was read from the file whether the file still holds the same (a rewrite within one clock tick keeps its
+    modification time; its bytes tell).
+
+    Raises
+    ------
+    InputFileError
+        As :func:`check_input_file`, or the file cannot be read.
+    """
+    import hashlib
+
+    path = check_input_file(path, what=what, max_bytes=max_bytes)
+    try:
+        with open(path, "rb") as stream:
+            return hashlib.file_digest(stream, "sha256").digest()
+    except OSError as exc:
+        raise InputFileError(f"{what} {path}: cannot be read ({exc.strerror or exc})") from None
