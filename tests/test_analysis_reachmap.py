@@ -190,13 +190,15 @@ def test_one_worker_process_or_two_give_the_same_map(planar_3r, map_3r):
     assert local.manipulability_mean.tobytes() == map_3r.manipulability_mean.tobytes()
 
 
-def test_an_existing_scheduler_gives_the_same_map(planar_3r):
+def test_an_existing_scheduler_gives_the_same_map(planar_3r, map_3r):
     from distributed import LocalCluster
 
-    here = build(planar_3r, voxel=VOXEL, orientations=8, samples=SAMPLES, block_samples=4096)
+    here = map_3r  # built here with these options (a planar arm's default method is "hybrid", as map_3r's)
+    assert here.method == "hybrid"
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         there = build(planar_3r, voxel=VOXEL, orientations=8, samples=SAMPLES, block_samples=4096,
                       scheduler=cluster.scheduler_address)
+    assert there.method == here.method
     np.testing.assert_array_equal(there.reach, here.reach)
     np.testing.assert_array_equal(there.voxel_q, here.voxel_q)
 
