@@ -7,6 +7,7 @@ byte, for the builds on clusters.
 """
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -49,20 +50,30 @@ class RecordingRunner(BlockRunner):
         return super().submit(fn, job, argument_lists, desc)
 
 
-def test_each_round_is_given_the_bins_known_before_the_round_ahead_of_it(planar_3r, monkeypatch):
-    monkeypatch.setattr(builder, "BlockRunner", RecordingRunner)
-    RecordingRunner.handed = []
-    reach_map = builder.build(planar_3r.chain("base_link", "ee_link"), **SETTINGS)
+@pytest.fixture(scope="module")
+def recorded(planar_3r):
+    """The map built here with SETTINGS by a :class:`RecordingRunner`, and the blocks it was handed: one build for
+    the test of the snapshots and the reference of the builds on workers (the runner only records)."""
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        monkeypatch.setattr(builder, "BlockRunner", RecordingRunner)
+        RecordingRunner.handed = []
+        reach_map = builder.build(planar_3r.chain("base_link", "ee_link"), **SETTINGS)
+        handed = list(RecordingRunner.handed)
+    return reach_map, handed
+
+
+def test_each_round_is_given_the_bins_known_before_the_round_ahead_of_it(recorded):
+    reach_map, handed = recorded
     blocks = reach_map.settings["blocks"]
     assert reach_map.settings["converged"] and blocks > 3 * ROUND_BLOCKS and blocks % ROUND_BLOCKS != 0
-    job = RecordingRunner.handed[0][0]
-    numbers = [arguments[0] for _, arguments in RecordingRunner.handed]
+    job = handed[0][0]
+    numbers = [arguments[0] for _, arguments in handed]
     rounds = -(-blocks // ROUND_BLOCKS)
     assert numbers == list(range((rounds + 1) * ROUND_BLOCKS))  # the round after the stopping one was handed out too
     n_keys = int(np.prod(reach_map.shape)) * reach_map.orientations.size
     reached, reached_voxels = np.zeros(n_keys, dtype=bool), np.zeros(n_keys // reach_map.orientations.size, dtype=bool)
     for k in range(rounds + 1):
-        snapshots = [arguments[1] for _, arguments in RecordingRunner.handed[k * ROUND_BLOCKS:(k + 1) * ROUND_BLOCKS]]
+        snapshots = [arguments[1] for _, arguments in handed[k * ROUND_BLOCKS:(k + 1) * ROUND_BLOCKS]]
         assert all(s is snapshots[0] for s in snapshots)  # one object per round: sent to a cluster once
         if k < 2:
             assert snapshots[0] is None
@@ -74,9 +85,9 @@ def test_each_round_is_given_the_bins_known_before_the_round_ahead_of_it(planar_
             assert snapshots[0][1].tobytes() == np.packbits(reached_voxels).tobytes()
 
 
-def test_the_map_is_the_same_here_and_on_one_two_and_three_workers(planar_3r, tmp_path):
+def test_the_map_is_the_same_here_and_on_one_two_and_three_workers(planar_3r, recorded, tmp_path):
     chain = planar_3r.chain("base_link", "ee_link")
-    here = builder.build(chain, **SETTINGS)
+    here = recorded[0]  # built here with SETTINGS
     files = {path.relative_to(tmp_path / "here"): path.read_bytes()
              for path in sorted(here.save(tmp_path / "here").rglob("*")) if path.is_file()}
     assert here.settings["blocks"] > 3 * ROUND_BLOCKS
