@@ -16,6 +16,7 @@ import shlex
 
 import numpy as np
 import pytest
+from cli_helper import run_cli
 
 import manipkit
 from manipkit.analysis.reachmap.pathplace import offset_grid, place_path, shifted_poses
@@ -81,22 +82,32 @@ def test_feasible_region_is_the_derived_bound_and_the_best_plan_checks_out(case)
         assert result.first_failure[i] == int(np.argmax(S + along[i] > 0))
 
 
-def test_progress_counts_every_planned_candidate(case):
-    # one call before the first and one after each planned candidate, here and on a cluster alike
+def _planned(case, workers):
+    """place_path of the case on every other offset of the grid (4 candidates, one per block on 2 workers or here)
+    with ``workers``: (the answer, the progress calls it made)."""
     robot, _, poses, k, sign = case
     offsets = offset_grid(*grid_along(k, sign))[::2]
-    for workers in (None, 2):
-        calls: list = []
-        place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=workers,
-                   progress=lambda stage, done, total, calls=calls: calls.append((stage, done, total)))
-        assert calls == [("candidates planned", done, len(offsets)) for done in range(len(offsets) + 1)]
+    calls: list = []
+    result = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=workers,
+                        progress=lambda stage, done, total: calls.append((stage, done, total)))
+    return result, calls
 
 
-def test_one_and_two_workers_give_the_same_answer(case):
-    robot, _, poses, k, sign = case
-    offsets = offset_grid(*grid_along(k, sign))[::2]  # 4 candidates, one per block on 2 workers or here
-    here = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=1)
-    two = place_path(robot, poses, base="base_link", tip="tool0", offsets=offsets, workers=2)
+@pytest.fixture(scope="module")
+def on_two_workers(case):
+    """:func:`_planned` on a LocalCluster of 2 workers: one cluster for the progress test and the 1-or-2 test."""
+    return _planned(case, 2)
+
+
+def test_progress_counts_every_planned_candidate(case, on_two_workers):
+    # one call before the first and one after each planned candidate, here and on a cluster alike
+    for result, calls in (_planned(case, None), on_two_workers):
+        assert calls == [("candidates planned", done, len(result.offsets)) for done in range(len(result.offsets) + 1)]
+
+
+def test_one_and_two_workers_give_the_same_answer(case, on_two_workers):
+    here, _ = _planned(case, 1)
+    two, _ = on_two_workers
     assert here.as_dict() == two.as_dict()
     assert here.feasible.any() and not here.feasible.all()
 
@@ -173,20 +184,22 @@ def _line_words(poses) -> list[str]:
 def test_cli_workers_give_the_same_printed_answer_as_here(case):
     """``--place --workers 2`` from the command line on a real LocalCluster: the same printed lines as without.
 
-    A subprocess with a timeout because a hang is the point: a review saw this command start its cluster and
-    print nothing in minutes. The cause was not the cluster: the grid it ran holds offsets whose untimed plan
-    re-solves its ladder thousands of times (minutes in a worker as here); this grid's 8 plan in seconds."""
+    The run with ``--workers 2`` is a subprocess with a timeout because a hang is the point: a review saw this
+    command start its cluster and print nothing in minutes. The cause was not the cluster: the grid it ran holds
+    offsets whose untimed plan re-solves its ladder thousands of times (minutes in a worker as here); this grid's 8
+    plan in seconds. The run without (the reference, no cluster) runs in this process (tests/cli_helper.py)."""
     import os
     import subprocess
     import sys
 
     _, _, poses, k, sign = case
     low, high, step = grid_along(k, sign)[k]
-    argv = [sys.executable, "-m", "manipkit.app.cli", "path", "--robot", "ur5", "--tip", "tool0", *_line_words(poses),
-            "--step", "0.01", "--place", f"--place-{'xy'[k]}", *(f"{v:.15f}" for v in (low, high, step))]
+    words = ["path", "--robot", "ur5", "--tip", "tool0", *_line_words(poses), "--step", "0.01", "--place",
+             f"--place-{'xy'[k]}", *(f"{v:.15f}" for v in (low, high, step))]
     env = {**os.environ, "MANIPKIT_COMPILE_NOTE": "0"}
-    runs = [subprocess.run(argv + extra, capture_output=True, text=True, timeout=600, env=env, stdin=subprocess.DEVNULL)
-            for extra in ([], ["--workers", "2"])]
+    runs = [run_cli("manipkit", *words, env={"MANIPKIT_COMPILE_NOTE": "0"}),
+            subprocess.run([sys.executable, "-m", "manipkit.app.cli", *words, "--workers", "2"], capture_output=True,
+                           text=True, timeout=600, env=env, stdin=subprocess.DEVNULL)]
     for run in runs:
         assert run.returncode == 0, run.stderr
     here, two = (run.stdout for run in runs)
