@@ -28,19 +28,18 @@ def aliases(q, lower, upper):
 
 
 def plain_dp(rungs, bound):
-    """Least sum |dq| through the rungs with |dq_j| <= bound[i][j] on every step; inf when no path."""
-    cost = [0.0] * len(rungs[0])
+    """Least sum |dq| through the rungs with |dq_j| <= bound[i][j] on every step; inf when no path.
+
+    Every pair of consecutive rungs is tried (numpy over the pairs of one step, no pruning)."""
+    width = len(bound[0])
+    cost = np.zeros(len(rungs[0]))
     for i in range(1, len(rungs)):
-        new = []
-        for b in rungs[i]:
-            best = math.inf
-            for a, c in zip(rungs[i - 1], cost):
-                d = [abs(x - y) for x, y in zip(b, a)]
-                if c < math.inf and all(dj <= bj for dj, bj in zip(d, bound[i - 1])):
-                    best = min(best, c + sum(d))
-            new.append(best)
-        cost = new
-    return min(cost, default=math.inf)
+        a = np.asarray(rungs[i - 1], dtype=float).reshape(-1, width)
+        b = np.asarray(rungs[i], dtype=float).reshape(-1, width)
+        d = np.abs(b[:, None, :] - a[None, :, :])  # d[new, old, joint]
+        allowed = (d <= np.asarray(bound[i - 1])).all(axis=2) & np.isfinite(cost)[None, :]
+        cost = np.where(allowed, cost[None, :] + d.sum(axis=2), math.inf).min(axis=1, initial=math.inf)
+    return float(cost.min(initial=math.inf))
 
 
 @pytest.fixture(scope="module")
