@@ -5,7 +5,9 @@ this process (tests/cli_helper.py). A case about the process itself, marked
 ``subprocess: memory``, ``time``, ``hang`` or ``crash`` (a bomb, a device
 read forever, a recursion that could crash the interpreter), runs as a
 subprocess of the installed entry point with at most ``MEMORY_LIMIT`` bytes
-of address space and ``timeout`` seconds (default 120); those subprocesses
+of address space and ``timeout`` seconds (default 120), at the niceness
+``nice`` (default 0: a case that runs until a wall-clock limit stops it
+needs the time, not the CPU the other tests are using); those subprocesses
 start a few at a time as soon as the first case is checked, and run while
 the other cases run here. A user error must exit with status 2, print
 exactly one line on stderr naming the problem (the case's fragment), and
@@ -30,7 +32,7 @@ BIN = Path(sys.executable).parent
 CASES = [case for path in sorted(HERE.glob("cases*.yaml")) for case in yaml.safe_load(path.read_text())]
 MEMORY_LIMIT = 4 << 30  # bytes of address space per case: a bomb must be refused, not run out of memory
 KEYS = {"name", "argv", "expect"}
-OPTIONAL_KEYS = {"timeout", "forbid", "subprocess"}
+OPTIONAL_KEYS = {"timeout", "forbid", "subprocess", "nice"}
 SUBPROCESS_REASONS = {"memory", "time", "hang", "crash"}
 
 
@@ -48,7 +50,8 @@ def _run_case_in_process(case, folder: Path):
 def _run_case_in_subprocess(case, folder: Path) -> subprocess.CompletedProcess:
     command, *args = _argv(case, folder)
     # bash sets the limit and becomes the command (exec): no preexec_fn, which is unsafe while other threads run
-    limited = ["/bin/bash", "-c", f'ulimit -v {MEMORY_LIMIT // 1024} && exec "$@"', "bash", str(BIN / command), *args]
+    limited = ["/bin/bash", "-c", f'ulimit -v {MEMORY_LIMIT // 1024} && exec nice -n {int(case.get("nice", 0))} "$@"',
+               "bash", str(BIN / command), *args]
     try:
         try:
             result = subprocess.run(limited, capture_output=True, text=True, cwd=folder, timeout=case.get("timeout", 120))
@@ -103,6 +106,7 @@ def test_corpus_has_at_least_30_cases_with_unique_names():
         assert KEYS <= set(case) <= KEYS | OPTIONAL_KEYS and case["argv"][0] in ("tf-between", "manipkit"), case
         assert case.get("subprocess", "memory") in SUBPROCESS_REASONS, case
         assert "timeout" not in case or "subprocess" in case, f"{case['name']}: a timeout only bounds a subprocess"
+        assert "nice" not in case or "subprocess" in case, f"{case['name']}: a niceness only lowers a subprocess"
 
 
 def test_every_description_file_is_used_by_a_case():
