@@ -9,6 +9,14 @@ returns a shared, immutable :class:`manipkit.Robot` (the model/data split:
 nothing a test does changes a Robot), and the fixtures ``course_arm``,
 ``iiwa14``, ``planar_2r``, ``planar_3r`` and ``panda`` name the ones most
 files use.
+
+``tmp_path`` is one folder deeper than pytest's (``.../test_name0/t``): a
+test that makes its folder a ROS package would otherwise make pytest's
+shared base folder a workspace (the outermost run of folders holding
+packages, :class:`manipkit.description.packages.PackageResolver`), so every
+other test's files would be indexed with it, and a test's package search,
+warnings and messages would depend on which tests ran before it in the
+same worker.
 """
 
 import functools
@@ -24,6 +32,14 @@ os.environ.setdefault("MANIPKIT_COMPILE_NOTE", "0")
 settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.register_profile("explore", derandomize=False, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+@pytest.fixture
+def tmp_path(tmp_path):
+    """pytest's ``tmp_path`` one level down: a package made here is not beside another test's folder."""
+    folder = tmp_path / "t"
+    folder.mkdir()
+    return folder
 
 
 @functools.cache
