@@ -13,13 +13,14 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "manipkit"
 
 # layer -> the manipkit layers it may import at run time (docs/architecture.md, "Layers")
-BOTTOM = {"errors", "exports", "text", "outputs", "bounds", "kernels"}  # modules beside errors.py that every layer may use
+BOTTOM = {"errors", "exports", "text", "memo", "outputs", "bounds", "kernels"}  # modules beside errors.py that every layer may use
 ALLOWED = {
     "errors": set(),
     "exports": set(),
     "kernels": {"errors", "exports", "kernel_cache"},  # compiling numba kernels, a chain's compiled program (numpy, numba)
     "kernel_cache": set(),  # where the kernels' cache lives and what it trusts (standard library)
     "text": set(),
+    "memo": set(),  # the one rule by which a table kept for the process stays bounded
     "outputs": {"errors", "text"},
     "bounds": {"errors", "text"},  # the bounds of every number and count
     "spatial": BOTTOM,

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from manipkit.errors import CollisionError, InputFileError
+from manipkit.memo import keep
 from manipkit.text import close_matches, printable, quoted_name, repr_text
 
 __all__ = ["MAX_SRDF_BYTES", "MAX_SRDF_CANDIDATES", "MAX_SRDF_DEPTH", "Srdf", "check_srdf_links", "parse_srdf",
@@ -148,11 +149,8 @@ def read_srdf_file(path: str | os.PathLike) -> Srdf:
     # parsed once a process (a Srdf is immutable); the file is read each time, so a changed file is parsed again.
     text = read_text(path, what="SRDF file", max_bytes=MAX_SRDF_BYTES)
     key = (os.fspath(path), hashlib.sha256(text.encode("utf-8", "surrogatepass")).digest())
-    if key not in _PARSED:
-        _PARSED[key] = parse_srdf(text, str(path))
-        while len(_PARSED) > _KEPT_SRDF:
-            del _PARSED[next(iter(_PARSED))]
-    return _PARSED[key]
+    parsed = _PARSED.get(key)
+    return parsed if parsed is not None else keep(_PARSED, key, parse_srdf(text, str(path)), limit=_KEPT_SRDF)
 
 
 #: SRDF texts parsed in this process: (path as given, SHA-256 of the text) -> Srdf, at most _KEPT_SRDF (the oldest

@@ -28,6 +28,7 @@ from manipkit.description.packages import WARNING_REGISTRY, PackageResolver, mis
 from manipkit.description.sources import RobotSource
 from manipkit.errors import DescriptionError, InputFileError, ManipkitError, PackageNotFoundError, ReadNotAllowedError
 from manipkit.inputs import MAX_DESCRIPTION_BYTES, check_input_file, file_digest
+from manipkit.memo import keep
 from manipkit.text import close_matches
 
 __all__ = [
@@ -304,10 +305,8 @@ def _kept_expansion(key: tuple, resolver: PackageResolver) -> XacroExpansion | N
 def _keep_expansion(key: tuple, digests: tuple | None, found: dict, files: list[Path], expansion: XacroExpansion):
     if digests is None:
         return
-    _EXPANSIONS.pop(key, None)
-    _EXPANSIONS[key] = (digests, dict(found), list(files), XacroExpansion(expansion.text, dict(expansion.declared)))
-    while len(_EXPANSIONS) > _KEPT_EXPANSIONS:
-        del _EXPANSIONS[next(iter(_EXPANSIONS))]
+    keep(_EXPANSIONS, key, (digests, dict(found), list(files), XacroExpansion(expansion.text, dict(expansion.declared))),
+         limit=_KEPT_EXPANSIONS)
 
 
 #: Most characters of what xacro prints during one expansion (``xacro.message``, ``xacro.warning``) that are
@@ -506,11 +505,7 @@ _EXPANDED_FILES: dict[Path, list[Path]] = {}  # top-level xacro file -> the file
 
 
 def _remember_files(path: Path, files: list[Path]) -> None:
-    key = path.resolve()
-    _EXPANDED_FILES.pop(key, None)
-    _EXPANDED_FILES[key] = [f if f.is_absolute() else Path.cwd() / f for f in files]
-    while len(_EXPANDED_FILES) > 64:
-        del _EXPANDED_FILES[next(iter(_EXPANDED_FILES))]
+    keep(_EXPANDED_FILES, path.resolve(), [f if f.is_absolute() else Path.cwd() / f for f in files], limit=64)
 
 
 def _read_description(path: Path) -> str:

@@ -57,6 +57,7 @@ from manipkit.ik.chain_newton import newton_rows
 from manipkit.ik.families import FAMILY_TOL, OPW, SPHERICAL_12, SRS, UR, Family, chain_family
 from manipkit.ik.ideal_arm import IdealArm, compiled_arm, compiled_entry, ideal_arm, wide_joints
 from manipkit.ik.result import SPATIAL_POSE, IKBatch, IKResult, read_only
+from manipkit.memo import keep
 from manipkit.spatial.rotations import wrap_angle
 from manipkit.spatial.transforms import check_transform, invert_transform, pose_residuals, projected_rotation
 
@@ -388,13 +389,8 @@ def single_solver(chain: Chain, family: Family) -> SingleSolver:
     key = (id(chain), id(family))
     solver = _SOLVERS.get(key)
     if solver is None or solver.chain is not chain or solver.family is not family:
-        solver = SingleSolver(chain, family)
-        if len(_SOLVERS) >= 64:
-            try:
-                _SOLVERS.pop(next(iter(_SOLVERS)), None)
-            except (StopIteration, RuntimeError):  # another thread emptied or changed it meanwhile: nothing to drop
-                pass
-        _SOLVERS[key] = solver  # holds the chain and family, so their ids are not reused while the entry lives
+        # the solver holds the chain and family, so their ids are not reused while the entry lives
+        solver = keep(_SOLVERS, key, SingleSolver(chain, family), limit=64)
     return solver
 
 

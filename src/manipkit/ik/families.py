@@ -45,6 +45,7 @@ import numpy as np
 
 from manipkit.closed_form.checks import quantity_text, tolerance_pair
 from manipkit.errors import ClosedFormIKError
+from manipkit.memo import keep
 
 if TYPE_CHECKING:
     from manipkit.kinematics.chain import Chain
@@ -336,13 +337,8 @@ def chain_family(chain: Chain, *, tol=FAMILY_TOL, lock=None) -> Family:
     if cached is not None and cached[0] is chain:
         return cached[1]
     family = _chain_family(chain, tol, lock)
-    if key is not None:
-        if len(_FAMILIES) >= _MAX_CACHED:
-            try:
-                _FAMILIES.pop(next(iter(_FAMILIES)), None)
-            except (StopIteration, RuntimeError):  # another thread emptied or changed it meanwhile: nothing to drop
-                pass
-        _FAMILIES[key] = (chain, family)  # the chain is held, so its id is not reused while the entry lives
+    if key is not None:  # the chain is held, so its id is not reused while the entry lives
+        keep(_FAMILIES, key, (chain, family), limit=_MAX_CACHED)
     return family
 
 

@@ -36,6 +36,7 @@ from manipkit.ik.result import (
     IKResult,
     read_only,
 )
+from manipkit.memo import keep
 from manipkit.spatial.transforms import check_transform, pose_residuals
 
 if TYPE_CHECKING:
@@ -356,11 +357,9 @@ def _geometric(robot: Robot, target, base: str, tip: str, mode: str, tol, family
     plan = (robot, solver, check, whole)
     if lock is None:
         try:
-            key = (id(robot), base, tip, mode, tol, family_tol, arm_angle is None)
-            if len(_PLANS) >= 64:
-                _PLANS.pop(next(iter(_PLANS)), None)
-            _PLANS[key] = plan  # holds the robot, so its id is not reused while the entry lives
-        except (TypeError, StopIteration, RuntimeError):  # not a key; another thread changed the table meanwhile
+            # the plan holds the robot, so its id is not reused while the entry lives
+            keep(_PLANS, (id(robot), base, tip, mode, tol, family_tol, arm_angle is None), plan, limit=64)
+        except TypeError:  # not a key (a tolerance that cannot be hashed): not kept
             pass
     return _planned(plan, target, arm_angle)
 
