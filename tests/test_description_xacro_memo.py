@@ -152,3 +152,16 @@ def test_an_srdf_rewritten_at_once_with_the_same_size_is_parsed_again(tmp_path):
     srdf.write_text(rule.format("c"))
     os.utime(srdf, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
     assert read_srdf_file(srdf).disabled == (("b", "c", "Adjacent"),)
+
+
+def test_a_load_from_a_deleted_working_folder_answers_and_keeps_nothing(tmp_path, monkeypatch, expansions):
+    """The kept expansion's key holds the working folder; where it is gone (os.getcwd() raises) the load still
+    answers, as xacro alone does, and nothing is kept: each load expands again."""
+    path = _arm(tmp_path / "robot", _link("0.5 1 1"))
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    assert _box(describe(resolve_robot(path)).text) == "0.5 1 1"
+    assert _box(describe(resolve_robot(path)).text) == "0.5 1 1"
+    assert len(expansions) == 2

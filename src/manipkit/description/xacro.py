@@ -197,6 +197,10 @@ def expand_xacro(path: Path, args: dict[str, str], resolver: PackageResolver, *,
     PyYAML, ~8 ms) only when it meets the first ``$(...)``, so the patch is
     applied at that moment too: a file without substitutions (the course arm)
     never pays for the import.
+
+    An expansion is kept for the process and given again while nothing it
+    depends on changed (:data:`_EXPANSIONS` says what); the copy returned is
+    the caller's own.
     """
     import xacro
 
@@ -274,10 +278,15 @@ def _digests(files) -> tuple | None:
         return None
 
 
-def _expansion_key(path: Path, args: dict[str, str], resolver: PackageResolver, allow_read) -> tuple:
+def _expansion_key(path: Path, args: dict[str, str], resolver: PackageResolver, allow_read) -> tuple | None:
+    """What a kept expansion is found by (see _EXPANSIONS); None where there is no working folder (deleted): not kept."""
     from manipkit.description.access import allowed_folders
 
-    return (os.fspath(path), os.path.realpath(path), os.getcwd(), tuple(sorted(args.items())),
+    try:
+        cwd = os.getcwd()
+    except OSError:
+        return None
+    return (os.fspath(path), os.path.realpath(path), cwd, tuple(sorted(args.items())),
             tuple(sorted((name, os.fspath(folder)) for name, folder in resolver.package_dirs.items())),
             tuple(os.fspath(folder) for folder in allowed_folders(allow_read)))
 
@@ -285,7 +294,7 @@ def _expansion_key(path: Path, args: dict[str, str], resolver: PackageResolver, 
 def _kept_expansion(key: tuple, resolver: PackageResolver) -> XacroExpansion | None:
     from manipkit.outputs import note_input
 
-    kept = _EXPANSIONS.get(key)
+    kept = _EXPANSIONS.get(key) if key is not None else None
     if kept is None:
         return None
     digests, found, files, expansion = kept
@@ -303,7 +312,7 @@ def _kept_expansion(key: tuple, resolver: PackageResolver) -> XacroExpansion | N
 
 
 def _keep_expansion(key: tuple, digests: tuple | None, found: dict, files: list[Path], expansion: XacroExpansion):
-    if digests is None:
+    if key is None or digests is None:
         return
     keep(_EXPANSIONS, key, (digests, dict(found), list(files), XacroExpansion(expansion.text, dict(expansion.declared))),
          limit=_KEPT_EXPANSIONS)
