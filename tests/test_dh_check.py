@@ -232,6 +232,17 @@ def test_screws_of_a_planar_arm_match_the_hand_values(planar_3r):
     S = screws(lambda q: dh_fk(DHTable(PLANAR_3R, "standard"), q), 3)
     expected = np.array([[0, 0, 1, 0, 0, 0], [0, 0, 1, 0, -4, 0], [0, 0, 1, 0, -6, 0]], dtype=float)
     assert np.abs(S - expected).max() < 1e-9
+    S = screws(lambda Q: dh_fk(DHTable(PLANAR_3R, "standard"), Q), 3, vectorised=True)  # one call, 7 poses
+    assert np.abs(S - expected).max() < 1e-9
+
+
+def test_screws_from_a_vectorised_fk_are_those_of_one_pose_at_a_time(iiwa14):
+    # one call of Robot.fk for the 15 poses (vectorised=True), or Robot.transform pose by pose: the same axes
+    q0 = np.array([0.3, -0.5, 0.2, 1.1, -0.4, 0.6, 0.1])
+    one = screws(lambda q: iiwa14.transform("base_link", "ee_link", q), 7, q0)
+    many = screws(lambda Q: iiwa14.fk(Q, base="base_link", tip="ee_link"), 7, q0, vectorised=True)
+    assert np.abs(one - many).max() < 1e-9  # the differences' own error: about 1e-10 at the step 1e-5
+    assert np.allclose(np.linalg.norm(one[:, :3], axis=1), 1.0, atol=1e-9)  # revolute: unit axes
 
 
 def test_tip_not_below_base_is_a_clear_error(planar_3r):

@@ -186,13 +186,19 @@ def _urdf_fk(robot: Robot, base: str, tip: str, index: list[int]):
 # --------------------------------------------------------------------------
 
 
-def screws(fk, n: int, q0=None, *, step: float = 1e-5) -> np.ndarray:
+def screws(fk, n: int, q0=None, *, step: float = 1e-5, vectorised: bool = False) -> np.ndarray:
     """Spatial screw axes of a chain at ``q0`` (default zero), in the chain's base frame.
+
+    Central differences of step ``step`` about ``q0``: the FK at ``q0`` and
+    with each joint stepped up and down, 2n + 1 poses.
 
     Parameters
     ----------
     fk : callable
-        ``fk(q) -> (4, 4)`` homogeneous transform for q of shape (n,).
+        ``fk(q) -> (4, 4)`` homogeneous transform for q of shape (n,); with
+        ``vectorised``, ``fk(Q) -> (m, 4, 4)`` for Q of shape (m, n), called
+        once for all 2n + 1 poses (as :func:`manipkit.dh.dh_fk` and
+        ``Robot.fk`` can be).
     n : int
         Number of joints.
 
@@ -203,14 +209,11 @@ def screws(fk, n: int, q0=None, *, step: float = 1e-5) -> np.ndarray:
         ``(0, direction)`` for prismatic ones; ``[S_i] = dT/dq_i T^-1``.
     """
     q0 = np.zeros(n) if q0 is None else np.asarray(q0, dtype=float)
-    T_inv = invert_transform(fk(q0), check=False)
-    result = np.empty((n, 6))
-    for i in range(n):
-        e = np.zeros(n)
-        e[i] = step
-        twist = (fk(q0 + e) - fk(q0 - e)) / (2 * step) @ T_inv
-        result[i] = [twist[2, 1], twist[0, 2], twist[1, 0], *twist[:3, 3]]
-    return result
+    E = step * np.eye(n)
+    Q = np.concatenate([q0[None, :], q0 + E, q0 - E])  # q0, then each joint stepped up, then each stepped down
+    T = fk(Q) if vectorised else np.array([fk(q) for q in Q]).reshape(len(Q), 4, 4)
+    twist = (T[1:n + 1] - T[n + 1:]) / (2 * step) @ invert_transform(T[0], check=False)
+    return np.column_stack([twist[:, 2, 1], twist[:, 0, 2], twist[:, 1, 0], twist[:, :3, 3]])
 
 
 def _screw_line(S):
@@ -261,7 +264,7 @@ def _diagnose(table, urdf_fk, joints, Q, tol, max_position, max_rotation, derive
 
     full = [c for c in fit.base_and_tool(table) if c.residual <= limit][:1]  # stage 1: the simplest one
     full += [c for c in fit.single_entries() if c.residual <= limit]  # stage 2: every entry that alone explains it
-    S_u, S_d = screws(urdf_fk, n), screws(dh, n)
+    S_u, S_d = screws(urdf_fk, n, vectorised=True), screws(dh, n, vectorised=True)
     axes = tuple(_compare_axes(i + 1, S_u[i], S_d[i]) for i in range(n))
     signs = np.array([-1.0 if a.relation == "reversed" else 1.0 for a in axes])
     if not full:  # stage 2b: one length and a base or tool transform
@@ -509,7 +512,7 @@ def _snapped_entry(entry: str, value: float) -> float:
 
 def _precise_screws(fk, n: int, q0) -> np.ndarray:
     """:func:`screws` with Richardson extrapolation of two steps (error about 1e-12 instead of 1e-10)."""
-    return (4.0 * screws(fk, n, q0, step=5e-4) - screws(fk, n, q0, step=1e-3)) / 3.0
+    return (4.0 * screws(fk, n, q0, step=5e-4, vectorised=True) - screws(fk, n, q0, step=1e-3, vectorised=True)) / 3.0
 
 
 def _differences(table: DHTable, other: DHTable) -> tuple[EntryChange | EndChange, ...]:
@@ -597,10 +600,10 @@ def _fit_offsets(S_u, dh, signs, n, grid: int = 72):
         def mismatch(angle, i=i):
             trial = offsets.copy()
             trial[i] = angle
-            S = screws(dh, n, trial) * signs[:, None]
+            S = screws(dh, n, trial, vectorised=True) * signs[:, None]
             return float(np.abs(S[i + 1:] - S_u[i + 1:]).sum(axis=1)[0])
 
-        S_now = screws(dh, n, offsets) * signs[:, None]
+        S_now = screws(dh, n, offsets, vectorised=True) * signs[:, None]
         if np.abs(S_now[i + 1] - S_u[i + 1]).max() < SCREW_TOL:
             continue
         angles = np.linspace(-math.pi, math.pi, grid, endpoint=False)
