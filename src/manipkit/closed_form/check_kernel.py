@@ -249,7 +249,8 @@ def kept_rows(valid, rows, residuals, within, keys, codes, position_tol, rotatio
     named, digit = 0, 1
     for a in range(count):
         k = order[a]
-        block[a, :n] = rows[k]
+        for i in range(n):  # copies by loops (internals/kernels.md, "Copies by loops")
+            block[a, i] = rows[k, i]
         block[a, n], block[a, n + 1] = residuals[k, 0], residuals[k, 1]
         inside[a] = within[k]
         named += (codes[k] + 1) * digit

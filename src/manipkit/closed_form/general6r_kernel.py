@@ -339,8 +339,10 @@ def _solve(h_in, p_in, g, grid, V2_INV, V3_INV, shifts, probe, tol, iterations, 
         value = _rcond(lead, inv)
         if value > score:
             score, eigen, multiplied = value, e_joint, m_joint
-            best_M[:] = M
-            best_inv[:] = inv
+            for a in range(12):  # copies by loops (internals/kernels.md, "Copies by loops")
+                for c in range(12):
+                    best_M[0, a, c], best_M[1, a, c], best_M[2, a, c] = M[0, a, c], M[1, a, c], M[2, a, c]
+                    best_inv[a, c] = inv[a, c]
     info[1], info[3] = score, eigen
     if not score > 1e-13:
         info[0] = 2.0
@@ -430,7 +432,10 @@ def _solve(h_in, p_in, g, grid, V2_INV, V3_INV, shifts, probe, tol, iterations, 
         for j in range(1, 5):
             _motion(h[j], p[j], theta[j], Er, Eb)
             _compose(Fr, Fb, Er, Eb, Tr, Tb)
-            Fr[:], Fb[:] = Tr, Tb
+            for a in range(3):  # copies by loops (internals/kernels.md, "Copies by loops")
+                Fb[a] = Tb[a]
+                for c in range(3):
+                    Fr[a, c] = Tr[a, c]
         v = np.zeros(3)  # R_rest u with R_rest = F^T R_g, the rotation E_6 must make
         for a in range(3):
             acc = 0.0
@@ -517,9 +522,9 @@ def _solve_ways(h0, p0, g, ways, grid, V2_INV, V3_INV, shifts, probe, tol, itera
                 for a in range(3):
                     h[i, a], h[5 - i, a] = -h[5 - i, a], -h[i, a]
                     p[i, a], p[5 - i, a] = p[5 - i, a], p[i, a]
-            target[:] = gi
-        else:
-            target[:] = g
+        for a in range(4):  # copies by loops (internals/kernels.md, "Copies by loops")
+            for c in range(4):
+                target[a, c] = gi[a, c] if reverse else g[a, c]
         n = _solve(h, p, target, grid, V2_INV, V3_INV, shifts, probe, tol, iterations, imaginary, far, way_rows,
                    way_res, info)
         for c in range(4):

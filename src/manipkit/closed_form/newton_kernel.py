@@ -99,9 +99,13 @@ def polish_one(K, H, h, p, G, q, iterations, far, stop, Rf, tf, E, J, error):
             J[2, i] = hi0 * r1 - hi1 * r0
             J[3, i], J[4, i], J[5, i] = hi0, hi1, hi2
         if n != 6:  # seven joints: the least-norm step
-            step[:] = np.linalg.pinv(J) @ error
+            least_norm = np.linalg.pinv(J) @ error
+            for i in range(n):  # copies by loops (internals/kernels.md, "Copies by loops")
+                step[i] = least_norm[i]
         elif not _solve6(J, error, step):  # J nearly singular (a near-double root): its pseudo-inverse, as numpy's
-            step[:] = np.linalg.pinv(J, 1e-12) @ error
+            least_norm = np.linalg.pinv(J, 1e-12) @ error
+            for i in range(n):
+                step[i] = least_norm[i]
         for i in range(n):
             q[i] += step[i]
     return True, value

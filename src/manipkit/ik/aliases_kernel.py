@@ -76,7 +76,8 @@ def _fresh_aliases(Q, low, high, aliased, turns, limit, listed, cap):
                     break
             if fresh:
                 if found < out.shape[0]:
-                    out[found] = row
+                    for j in range(n):  # copies by loops (internals/kernels.md, "Copies by loops")
+                        out[found, j] = row[j]
                     origin[found] = r
                 found += 1
                 if found > cap:

@@ -299,6 +299,16 @@ def _error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, a
     return pos, angle
 
 
+
+@compile_kernel
+def _copy_square(src, dst):
+    """``dst[:, :] = src`` for two n x n arrays, by loops (docs/site/internals/kernels.md, "Copies by loops")."""
+    n = src.shape[0]
+    for i in range(n):
+        for j in range(n):
+            dst[i, j] = src[i, j]
+
+
 @compile_kernel
 def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_index, lower, upper, wrap,
              tol_position, tol_rotation, max_iters, tau, stall_window, stall_gain, shrink_min, x_out):
@@ -377,10 +387,11 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
             lam_min = 1e-12 * scale  # J^T J is singular for redundant arms: keep the system regular
         elif lam < lam_min:
             lam = lam_min
-        M[:, :] = A
-        for i in range(n):
+        for i in range(n):  # copies by loops (internals/kernels.md, "Copies by loops")
+            for j in range(n):
+                M[i, j] = A[i, j]
             M[i, i] += lam
-        M_work[:, :] = M
+        _copy_square(M, M_work)
         if not solve_linear(M_work, g, h):
             break
         clipped_any = False
@@ -397,7 +408,7 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
                     M[j, j] += 1e12 * (scale + lam)  # a stiff diagonal pins it: the others get the reduced step
                     blocked_any = True
             if blocked_any:
-                M_work[:, :] = M
+                _copy_square(M, M_work)
                 if not solve_linear(M_work, g, h):
                     break
                 for j in range(n):
@@ -443,7 +454,8 @@ def lm_attempt(x0, q_fixed, geometry, kinds, R_target, p_target, mode, axis_inde
             if lam > 1e20:
                 break
         history[iterations] = cost
-    x_out[:] = x
+    for j in range(n):
+        x_out[j] = x[j]
     return cost, pos, rot, iterations
 
 

@@ -92,6 +92,14 @@ def _product(A, B, out):
             out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j] + A[i, 3] * B[3, j]
 
 
+@inlined_kernel
+def _keep_pose(poses, k, g):
+    """``poses[k] = g`` (a 4x4), by loops (docs/site/internals/kernels.md, "Copies by loops")."""
+    for a in range(4):
+        for c in range(4):
+            poses[k, a, c] = g[a, c]
+
+
 @compile_kernel
 def _solve_value(kind, value, slot, T, arm, arm_ints, moving_floats, moving_ints, column, limits, settings,
                  known_values, known_theta, known_valid, work, Q, ok, margin, g):
@@ -242,7 +250,7 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
             return status, np.empty((0, 3)), reached_any, asked[:0], asked_g[:0]
         if status == REFERENCE:  # every sample the reference must answer, asked at once
             asked[count_asked] = values[i]
-            asked_g[count_asked] = g
+            _keep_pose(asked_g, count_asked, g)
             count_asked += 1
             continue
         reached_any = reached_any or reached
@@ -312,7 +320,7 @@ def sweep_intervals(kind, values, rounds, T, arm_reals, arm_ints, moving_floats,
                 return status, np.empty((0, 3)), reached_any, asked[:0], asked_g[:0]
             if status == REFERENCE:  # this round's hand-backs are asked together, at its end
                 asked[count_asked] = trial
-                asked_g[count_asked] = g
+                _keep_pose(asked_g, count_asked, g)
                 count_asked += 1
                 continue
             reached_any = reached_any or reached
@@ -358,7 +366,7 @@ def sweep_rows(kind, values, T, arm_reals, arm_ints, moving_floats, moving_ints,
             return status, Q, ok, reached_any, asked[:0], asked_g[:0]
         if status == REFERENCE:
             asked[count] = values[i]
-            asked_g[count] = g
+            _keep_pose(asked_g, count, g)
             count += 1
         reached_any = reached_any or reached
     return DONE if count == 0 else REFERENCE, Q, ok, reached_any, asked[:count], asked_g[:count]
