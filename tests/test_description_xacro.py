@@ -718,3 +718,49 @@ def test_an_expansion_that_fills_one_element_past_the_bound_is_refused(tmp_path,
     monkeypatch.setattr(description_xacro, "MAX_XACRO_CHILDREN", 1000)  # 256 fit: expanded as xacro does
     text, _ = describe(resolve_robot(str(path)), {}, {})
     assert text.count("<link") == 256
+
+
+def _wide_macro(tmp_path: Path, links: int) -> Path:
+    """One macro call that puts ``links`` links (and the text between them) in <robot> in one insertion."""
+    body = "\n".join(f'<link name="l{i}"/>' for i in range(links))
+    path = tmp_path / "wide.urdf.xacro"
+    path.write_text(HEAD + f'<xacro:macro name="wide">\n{body}\n</xacro:macro>\n<xacro:wide/>\n</robot>')
+    return path
+
+
+def test_a_long_insertion_expands_as_xacro_itself_expands_it(tmp_path, monkeypatch):
+    # 2,000 links and 2,001 texts in one call: manipkit inserts them itself (with the clock read between them)
+    path = _wide_macro(tmp_path, 2000)
+    expected = _xacro_itself(path, {}, {}, monkeypatch)
+    monkeypatch.undo()
+    assert expected is not None and expected.count("<link") == 2000
+    assert describe(resolve_robot(str(path)), {}, {}).text == expected
+
+
+def test_a_long_insertion_stops_within_256_nodes_once_the_expansion_is_out_of_time(tmp_path, monkeypatch):
+    """A clock that jumps past the 30 s limit at the 300th node inserted: the one call inserting 4,001 nodes (before
+    this, xacro's own loop, which reads no clock) stops by the next reading, at most 256 nodes on."""
+    from xml.dom import minidom
+
+    from manipkit.description import xacro as description_xacro
+
+    path = _wide_macro(tmp_path, 2000)
+    inserted, offset = [0], [0.0]
+    insert_before = minidom.Node.insertBefore
+
+    def counting(self, new_child, ref_child):
+        inserted[0] += 1
+        if inserted[0] == 300:
+            offset[0] = 1e6  # s: far past any deadline
+        return insert_before(self, new_child, ref_child)
+
+    class Clock:  # the expansion module's time.monotonic, jumped forward
+        @staticmethod
+        def monotonic():
+            return time.monotonic() + offset[0]
+
+    monkeypatch.setattr(minidom.Node, "insertBefore", counting)
+    monkeypatch.setattr(description_xacro, "time", Clock)
+    with pytest.raises(DescriptionError, match=r"wide.urdf.xacro: xacro expansion took more than 30 s, the limit"):
+        describe(resolve_robot(str(path)), {}, {})
+    assert 300 <= inserted[0] <= 300 + 256
