@@ -17,6 +17,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import manipkit
 from manipkit.description import expressions, xacro
@@ -110,6 +112,14 @@ def test_measure_walks_a_long_chain_of_slices_without_recursion():
     size, depth, _ = measure(_slices(20_000))  # (a chain of 475,000 crashes CPython when it is freed)
     assert depth == MAX_VALUE_DEPTH + 1 and size < 10 * MAX_VALUE_DEPTH  # stopped past the bound
 
+
+
+@given(st.one_of(st.text(max_size=40), st.floats(allow_nan=True, allow_infinity=True)))
+def test_a_text_or_float_measures_as_its_one_item_dict_less_the_dict(value):
+    # measure returns a str or a float at once; the dict {value: None} goes through the walk, which adds the dict
+    # (1), None (1, depth 1) and nests value one level down: the same value must come out of both.
+    size, depth, bits = measure({value: None})
+    assert measure(value) == (size - 2, depth - 1, bits)
 
 def test_text_estimate_bounds_the_real_length_from_above():
     for value in ["abc", "a'b\\c", "\x00\u202e", 2 ** 3000, -1.5e300, [1, "x", None, (2.5, {"k": b"\x00"})],
