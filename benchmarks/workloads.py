@@ -16,6 +16,7 @@ except the cold-start and viewer workloads, which time separate processes.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import gc
 import json
@@ -66,10 +67,25 @@ def row(workload, robot, tool, times=None, *, unit, n=0, ours=False, status="ok"
     }
 
 
+def _thaw() -> None:
+    gc.unfreeze()
+    gc.collect()
+
+
 @contextlib.contextmanager
 def no_gc():
+    """No garbage collection inside the block, entered after a collection.
+
+    What survives the collection is frozen (``gc.freeze``), so the next block's collection scans only what was
+    made since: a full collection of this process took about 0.1 s, 45 of them 4.5 s of a quick run. At exit
+    everything is thawed and collected, so that extension modules find their objects freed (nanobind reports
+    those it finds alive as leaks).
+    """
     enabled = gc.isenabled()
     gc.collect()
+    if not gc.get_freeze_count():
+        atexit.register(_thaw)
+    gc.freeze()
     gc.disable()
     try:
         yield
