@@ -299,7 +299,6 @@ def _error_and_jacobian(x, q_fixed, geometry, kinds, R_target, p_target, mode, a
     return pos, angle
 
 
-
 @compile_kernel
 def _copy_square(src, dst):
     """``dst[:, :] = src`` for two n x n arrays, by loops (docs/site/internals/kernels.md, "Copies by loops")."""
