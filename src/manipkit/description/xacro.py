@@ -379,6 +379,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
                               "replace_node")}
     patched = []  # (substitution_args module, its own _eval_find, _eval_env, _eval_optenv), once patched
     deadline = time.monotonic() + EXPANSION_SECONDS
+    out_of_time = f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit"
     counts = {"elements": 0, "characters": 0}
 
     def eval_extension(text: str):  # every $(...)
@@ -434,7 +435,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
             raise DescriptionError(f"{path.name}: xacro expansion made more than {MAX_XACRO_ELEMENTS} elements, "
                                    "the limit (macros that call each other many times over?)")
         if time.monotonic() > deadline:
-            raise DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
+            raise DescriptionError(out_of_time)
         return originals["eval_all"](node, macros, symbols)
 
     def replace_node(node, by, content_only=False):  # a macro's expansion put in place of its call
@@ -448,9 +449,8 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
             raise DescriptionError(f"{path.name}: xacro expansion put more than {MAX_XACRO_CHILDREN} nodes in one "
                                    f"<{getattr(parent, 'tagName', 'document')[:40]}>, the limit (macros that call "
                                    "each other many times over?)")
-        out_of_time = DescriptionError(f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, the limit")
         if time.monotonic() > deadline:
-            raise out_of_time
+            raise DescriptionError(out_of_time)
         if parent is None or adding <= _INSERTIONS_PER_CHECK:
             return originals["replace_node"](node, by, content_only)
         # xacro.xmlutils.replace_node's own steps, with the clock read between them: one call filling a parent
@@ -458,7 +458,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
         nodes = [child for doc in docs for child in list(doc.childNodes)] if content_only else docs
         for k, child in enumerate(nodes):
             if k % _INSERTIONS_PER_CHECK == 0 and time.monotonic() > deadline:
-                raise out_of_time
+                raise DescriptionError(out_of_time)
             parent.insertBefore(child, node)
         parent.removeChild(node)
 
@@ -481,8 +481,7 @@ def _xacro_hooks(path: Path, resolver: PackageResolver, missing: list, environme
     for name, hook in hooks.items():
         setattr(xacro, name, hook)
     try:
-        with expansion_deadline(deadline, f"{path.name}: xacro expansion took more than {EXPANSION_SECONDS:g} s, "
-                                          "the limit"):
+        with expansion_deadline(deadline, out_of_time):
             yield
     finally:
         for name, original in originals.items():
