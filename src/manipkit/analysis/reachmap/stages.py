@@ -286,31 +286,32 @@ def holdout_completeness(job, reach: np.ndarray, n: int, says_yes=None) -> dict:
 
 def poses_in_bins(job, keys: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """One pose (N, 4, 4) drawn inside each voxel-bin ``keys``: uniform in the voxel (in the plane of a planar map),
-    an orientation inside the bin (a random turn of the bin's centre, redrawn until it falls in the bin)."""
+    an orientation inside the bin (a random turn of the bin's centre, redrawn until it falls in the bin, at most
+    :data:`ROTATION_TRIES` times, else the centre). The poses still without one are redrawn together, a round at a time."""
     from manipkit.spatial.rotations import matrix_from_axis_angle
 
-    B = job.orientations.size
-    voxels, bins = np.divmod(keys, B)
+    o = job.orientations
+    voxels, bins = np.divmod(keys, o.size)
     ijk = np.stack(np.unravel_index(voxels, job.shape), axis=-1).astype(float)
     offset = rng.random((len(keys), 3)) - 0.5
-    if job.orientations.kind == "planar":
+    if o.kind == "planar":
         offset[:, 2] = 0.0
     T = np.tile(np.eye(4), (len(keys), 1, 1))
     T[:, :3, 3] = job.origin + ((ijk + offset) * job.voxel) @ job.axes.T
-    rotations = job.orientations.rotations()
-    o = job.orientations
+    centres = o.rotations()[bins]
+    T[:, :3, :3] = centres
     spread = math.pi / o.size if o.kind == "planar" else max(2.5 / math.sqrt(o.n_directions), math.pi / o.n_rolls)
-    for i, b in enumerate(bins):
-        R = rotations[b]
-        for _ in range(ROTATION_TRIES):
-            axis = o.axis if o.kind == "planar" else rng.normal(size=3)
-            turn = matrix_from_axis_angle(axis / np.linalg.norm(axis), (2 * rng.random() - 1) * spread) @ rotations[b]
-            if o.n_rolls == 1 and o.kind == "spatial":  # any roll: a random one
-                turn = turn @ matrix_from_axis_angle(np.array([0.0, 0.0, 1.0]), rng.uniform(-math.pi, math.pi))
-            if o.bin_of(turn) == b:
-                R = turn
-                break
-        T[i, :3, :3] = R
+    pending = np.arange(len(keys))
+    for _ in range(ROTATION_TRIES):
+        if not len(pending):
+            break
+        axes = np.broadcast_to(o.axis, (len(pending), 3)) if o.kind == "planar" else rng.normal(size=(len(pending), 3))
+        turn = matrix_from_axis_angle(axes, (2 * rng.random(len(pending)) - 1) * spread) @ centres[pending]
+        if o.n_rolls == 1 and o.kind == "spatial":  # any roll: a random one
+            turn = turn @ matrix_from_axis_angle([0.0, 0.0, 1.0], rng.uniform(-math.pi, math.pi, len(pending)))
+        inside = o.bin_of(turn) == bins[pending]
+        T[pending[inside], :3, :3] = turn[inside]
+        pending = pending[~inside]
     return T
 
 
