@@ -561,6 +561,37 @@ def test_example_robot_data_meshes_resolve_to_files(robots):
         assert Path(geometry.meshPath).is_absolute() and Path(geometry.meshPath).is_file(), geometry.meshPath
 
 
+def test_dae_visuals_are_sent_as_coloured_triangles_and_tinted_by_sending_them_again(robots):
+    """Every Panda visual (DAE) reaches meshcat as coloured triangles, never as the file's text; a tint sends
+    the same triangles in the collision colour, and untinting them sends them in their own colours again."""
+    from manipkit.app.viewer.scene import COLLISION_COLOUR, MeshcatScene
+    from manipkit.description.mesh_colours import coloured_triangles
+
+    visual = visual_model(robots["panda"])
+    paths = {f"{VISUALS_ROOT}/{g.name}": g for g in visual.geometryObjects}
+    with MeshcatScene(visual, robots["panda"].model) as scene:
+        assert set(scene.visualizer.coloured) == set(paths)
+        for path, geometry in paths.items():
+            sent, expected = scene.visualizer.coloured[path], coloured_triangles(geometry.meshPath, geometry.meshColor)
+            np.testing.assert_array_equal(sent.vertices, expected.vertices.astype(np.float32))
+            np.testing.assert_array_equal(sent.faces, expected.faces)
+        shown = {c["path"]: c["object"] for c in meshcat_commands(scene.static_html()) if c["type"] == "set_object"}
+        for path in paths:
+            assert shown[f"/meshcat/{path}"]["object"]["type"] == "Mesh", path  # not "_meshfile_object" (a file)
+            assert [g["type"] for g in shown[f"/meshcat/{path}"]["geometries"]] == ["BufferGeometry"], path
+        commands = []
+        send = scene.viewer.window.send
+        scene.viewer.window.send = lambda command: (commands.append(command), send(command))[1]
+        path = f"{VISUALS_ROOT}/panda_link3_0"
+        scene.draw({path: np.eye(4)}, tinted={path: True})
+        scene.draw({path: np.eye(4)}, tinted={path: False})
+    tinted, untinted = (c.object for c in commands if type(c).__name__ == "SetObject" and c.path.lower() == "/meshcat/" + path)
+    assert tinted.geometry is untinted.geometry is scene.visualizer.coloured[path]
+    red = tuple(int(v * 255) for v in COLLISION_COLOUR[:3])
+    assert tinted.material.color == red[0] * 65536 + red[1] * 256 + red[2] and not tinted.material.vertexColors
+    assert untinted.material.vertexColors and untinted.material.color == 0xFFFFFF
+
+
 def test_unresolved_package_mesh_names_the_uri_and_the_places_searched(tmp_path):
     robot = manipkit.load(one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl"))
     with pytest.raises(PackageNotFoundError) as error:

@@ -8,12 +8,14 @@
 - :mod:`~manipkit.description.validate`: checks before a model is built (:func:`check_urdf`).
 - :mod:`~manipkit.description.meshes`: mesh URIs to files (:func:`mesh_path`); links whose meshes are missing drawn
   another way (:func:`visual_urdf`).
+- :mod:`~manipkit.description.mesh_colours`: a DAE visual mesh as triangles with a colour per vertex, what the
+  viewer sends (:func:`coloured_triangles`).
 - :mod:`~manipkit.description.tree`: the link tree as text, DOT and an image (:func:`tree_text`).
 
 Imports only :mod:`manipkit.spatial` and :mod:`manipkit.errors`; Pinocchio is
 not loaded here (that is :mod:`manipkit.kinematics`). The names below load
 their module on first use, so importing this package costs nothing and lxml,
-xacro, mujoco, yourdfpy and matplotlib load only when needed (docs/architecture.md).
+xacro, mujoco, yourdfpy, pycollada and matplotlib load only when needed (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     ),
     **homes_of("manipkit.description.mjcf", "mjcf_disabled_pairs", "mjcf_rules", "mjcf_urdf", "rules_source_text"),
     **homes_of("manipkit.description.validate", "CheckedURDF", "check_urdf", "package_uri_warnings"),
+    **homes_of("manipkit.description.mesh_colours", "ColouredMesh", "coloured_triangles"),
     **homes_of("manipkit.description.meshes", "MissingMeshWarning", "MissingMeshes", "mesh_path", "urdf_with_mesh_paths",
                "visual_urdf"),
     **homes_of("manipkit.description.tree", "parse_structure", "tree_dot", "tree_text", "write_tree_image"),

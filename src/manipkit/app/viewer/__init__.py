@@ -11,7 +11,8 @@ Four layers, each usable on its own (docs/architecture.md, "app"):
   report at each pose, the scene tints the links in contact.
 - :mod:`.scene`: :func:`visual_model` (the robot's visual geometry) and
   :class:`MeshcatScene`, a thin adapter that starts a meshcat server and
-  draws the placements it is given, with a triad at A and at B.
+  draws the placements it is given, with a triad at A and at B; its
+  visualizer (:mod:`.coloured_meshes`) sends a DAE visual as coloured triangles.
 - :mod:`.server`: :class:`ViewerServer` serves the control page
   (``page.html``) and wires it to a state and a scene, answering only that
   page's own requests (its Host, its Origin, the session token); :func:`open_view`

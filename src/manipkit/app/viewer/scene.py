@@ -3,7 +3,8 @@
 :func:`visual_model` loads the robot's ``<visual>`` geometry (meshes
 resolved first) as a Pinocchio ``GeometryModel``; :class:`MeshcatScene`
 starts a meshcat server, loads that geometry through Pinocchio's
-``MeshcatVisualizer`` and draws the placements :class:`ViewerState`
+``MeshcatVisualizer`` (a DAE visual as coloured triangles:
+:mod:`manipkit.app.viewer.coloured_meshes`) and draws the placements :class:`ViewerState`
 computes, plus a triad at A and at B, and tints the visuals of links in
 collision (:data:`COLLISION_COLOUR`) until they are free. It computes nothing itself.
 
@@ -192,7 +193,8 @@ class MeshcatScene:
             warnings.filterwarnings("ignore", message=r"zmq\.eventloop\.ioloop is deprecated")
             import meshcat
             import meshcat.geometry as mg
-            from pinocchio.visualize import MeshcatVisualizer
+
+            from manipkit.app.viewer.coloured_meshes import Visualizer
 
         self._proc, zmq_url, self.url = _start_meshcat_server()
         self._closed = False
@@ -200,7 +202,7 @@ class MeshcatScene:
         try:
             with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints its URL; the caller decides
                 self.viewer = meshcat.Visualizer(zmq_url=zmq_url)
-            self.visualizer = MeshcatVisualizer(model, visual_model=visual)
+            self.visualizer = Visualizer(model, visual_model=visual)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 self.visualizer.initViewer(viewer=self.viewer)
@@ -273,10 +275,15 @@ class MeshcatScene:
         """Draw the visual at ``path`` in :data:`COLLISION_COLOUR`, or in its own colours again.
 
         Its own colours: the URDF's colour, as Pinocchio's visualizer set it
-        (8 bits a channel, opaque unless the alpha says otherwise); a COLLADA
-        mesh drawn with the file's own materials is loaded again instead.
+        (8 bits a channel, opaque unless the alpha says otherwise); a DAE drawn
+        as coloured triangles is sent again, in red or in its vertex colours; a
+        COLLADA mesh drawn from its file is loaded again.
         """
         self._tinted[path] = tint
+        if path in self.visualizer.coloured:  # a DAE drawn as coloured triangles: the same triangles, in red or not
+            self.visualizer.draw_coloured(path, COLLISION_COLOUR if tint else None)
+            self._sent.pop(path, None)  # the fresh object is placed by this draw's placements
+            return
         if tint:
             self.viewer[path].set_property("color", list(COLLISION_COLOUR))
             return
