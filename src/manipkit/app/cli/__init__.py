@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import functools
 import os
 import sys
 import warnings
@@ -55,7 +56,10 @@ def parsers() -> dict[str, argparse.ArgumentParser]:
     return {"tf-between": tf_parser("tf-between"), "manipkit": _main_parser()}
 
 
+@functools.cache
 def _main_parser() -> argparse.ArgumentParser:
+    """The ``manipkit`` parser, built once per process (about 18 ms: 396 options), then reused: parsing leaves a
+    parser as it was, and every value it holds (the ``run`` functions, choices, defaults) is fixed when it is built."""
     from manipkit.app.cli import (
         collisions,
         dh,
