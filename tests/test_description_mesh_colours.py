@@ -163,6 +163,10 @@ def test_a_colour_outside_0_1_is_clamped_as_the_browser_clamps_it(tmp_path):
     np.testing.assert_array_equal(mesh.colours, [[1.0, 0.0, 0.5]] * 3)
 
 
+def test_a_file_gone_since_the_load_is_left_to_the_file(tmp_path):
+    assert coloured_triangles(tmp_path / "gone.dae") is None
+
+
 @pytest.mark.parametrize("text", ["", "not xml at all", "<COLLADA/>", TRIANGLE.format(**PLAIN)[:700]],
                          ids=["empty", "text", "no-scene", "truncated"])
 def test_a_file_pycollada_cannot_read_is_left_to_the_file(tmp_path, text):

@@ -76,7 +76,10 @@ def coloured_triangles(path: str | os.PathLike, default_rgba=(1.0, 1.0, 1.0, 1.0
         Vertices in metres in the file's frame (``<unit meter>`` applied, node
         transforms applied, the URDF's scale not). None: see the module docstring.
     """
-    data = Path(path).read_bytes()
+    try:
+        data = Path(path).read_bytes()
+    except OSError:  # gone since the loader checked it: Pinocchio's loading says so
+        return None
     if b"<!DOCTYPE" in data or b"<!ENTITY" in data:
         return None
     try:
