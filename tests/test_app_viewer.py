@@ -592,6 +592,25 @@ def test_dae_visuals_are_sent_as_coloured_triangles_and_tinted_by_sending_them_a
     assert untinted.material.vertexColors and untinted.material.color == 0xFFFFFF
 
 
+def test_a_dae_given_a_urdf_colour_keeps_its_files_colours_as_meshcat_drew_it():
+    """The Unitree Z1's URDF gives each DAE visual a colour (Pinocchio's overrideMaterial); meshcat's DAE loader
+    never applied it (it takes the file's materials, main.min.js's "_meshfile_object"), so the triangles keep the
+    file's colours: vertex colours, as coloured_triangles reads them."""
+    from manipkit.app.viewer.scene import MeshcatScene
+    from manipkit.description.mesh_colours import coloured_triangles
+
+    robot = manipkit.load("z1")
+    visual = visual_model(robot)
+    assert all(g.overrideMaterial and g.meshPath.lower().endswith(".dae") for g in visual.geometryObjects)
+    with MeshcatScene(visual, robot.model) as scene:
+        shown = {c["path"]: c["object"] for c in meshcat_commands(scene.static_html()) if c["type"] == "set_object"}
+        for geometry in visual.geometryObjects:
+            drawn = shown[f"/meshcat/{VISUALS_ROOT}/{geometry.name}"]
+            assert drawn["materials"][0]["vertexColors"], geometry.name
+            colours = scene.visualizer.coloured[f"{VISUALS_ROOT}/{geometry.name}"].colours
+            np.testing.assert_array_equal(colours, coloured_triangles(geometry.meshPath).colours.astype(np.float32))
+
+
 def test_unresolved_package_mesh_names_the_uri_and_the_places_searched(tmp_path):
     robot = manipkit.load(one_mesh_urdf(tmp_path, "package://no_such_pkg/meshes/arm.stl"))
     with pytest.raises(PackageNotFoundError) as error:

@@ -4,8 +4,7 @@
 :class:`Visualizer` sends its arrays (a three.js ``BufferGeometry`` with a
 position and a colour per vertex, drawn with vertex colours; three.js computes the normals) where
 Pinocchio's visualizer would send the file's text, and Pinocchio's own loading
-otherwise (STL, OBJ, shapes, a DAE it cannot draw so, a visual whose URDF
-material overrides the file's). Imported when a scene starts (it imports meshcat
+otherwise (STL, OBJ, shapes, a DAE it cannot draw so). Imported when a scene starts (it imports meshcat
 and ``pinocchio.visualize``).
 """
 
@@ -43,9 +42,11 @@ class ColouredTriangles(mg.Geometry):
 class Visualizer(MeshcatVisualizer):
     """``pinocchio.visualize.MeshcatVisualizer`` that draws what it can of DAE visuals as coloured triangles.
 
-    ``coloured`` maps each scene path drawn so to its geometry;
-    :meth:`draw_coloured` draws it again in its own colours or in one colour
-    (a tint), the same triangles either way.
+    ``coloured`` maps each scene path drawn so to its geometry; :meth:`draw_coloured`
+    draws it again in its own colours or in one colour (a tint), the same
+    triangles either way. A URDF colour given to a DAE visual does not change
+    its colours: meshcat's loader of a DAE file never applied it (it takes the
+    file's materials), so the picture stays what it was.
     """
 
     def __init__(self, *args, **kwargs):
@@ -54,8 +55,7 @@ class Visualizer(MeshcatVisualizer):
 
     def loadViewerGeometryObject(self, geometry_object, geometry_type, color=None):  # noqa: N802 - Pinocchio's name
         path = self.getViewerNodeName(geometry_object, geometry_type)
-        if path not in self.coloured and color is None and not geometry_object.overrideMaterial \
-                and str(geometry_object.meshPath).lower().endswith(".dae"):
+        if path not in self.coloured and color is None and str(geometry_object.meshPath).lower().endswith(".dae"):
             mesh = coloured_triangles(geometry_object.meshPath, geometry_object.meshColor)
             if mesh is not None:
                 self.coloured[path] = ColouredTriangles(mesh)
