@@ -17,10 +17,12 @@ DOT      := /usr/bin/dot
 
 setup: $(STAMP)
 
-# manipkit itself, as `pip install manipkit` would install it: what `make demo` needs, nothing compiled
+# manipkit itself, as `pip install manipkit` would install it: what `make demo` needs, nothing compiled. Not even
+# bytecode: pip's compiling every module of the ~60 packages took about 45 s of a 114 s `make demo`, and Python
+# writes the bytecode of what a command imports when it first imports it (as `make test` and `make bench` let it).
 $(BASE): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet --no-compile -e .
 	touch $(BASE)
 
 # and the test tools (the dev extra)
@@ -87,7 +89,7 @@ docs: $(DOCS)
 .PHONY: bench
 bench: setup
 	$(BIN)/python -m pip install --quiet -e '.[bench]'
-	$(BIN)/python -m benchmarks
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m benchmarks  # the cold starts timed with bytecode, as users have it
 
 # The task-path planners of roboplan and Tesseract (Descartes) beside plan_path on the same UR5 lines
 # (benchmarks/bench_path_peers.py, about two minutes). Each peer gets its own venv under .peers/, since roboplan
