@@ -37,14 +37,19 @@ import numpy as np
 from manipkit.errors import ReachMapError
 from manipkit.text import printable
 
-__all__ = ["SCHEDULER_TIMEOUT_S", "Batch", "BlockRunner", "check_workers", "in_block_order", "max_workers", "probe_scheduler",
-           "run_blocks"]
+__all__ = ["FORK_SERVER_PRELOAD", "SCHEDULER_TIMEOUT_S", "Batch", "BlockRunner", "check_workers", "in_block_order",
+           "max_workers", "probe_scheduler", "run_blocks"]
 
 SCHEDULER_TIMEOUT_S = 10.0  # seconds a scheduler has to accept the connection and answer its first message
 WORKERS_PER_CORE = 4  # local worker processes per core, at most (each is single-threaded and CPU-bound)
 MAX_WORKERS = 64  # local worker processes, at most, whatever the machine
 POLL_S = 0.02  # seconds between looks at finished blocks (and at a recorded Ctrl-C)
 DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+#: What multiprocessing's fork server imports once, before it forks the LocalCluster's workers
+#: (:func:`_forkserver_ignoring_sigint`): Dask's own choice, "distributed" (Dask sets it only when the server is
+#: already running, started by that function), and what every block's job needs unpickled. Each worker otherwise
+#: imported them itself: about 0.6 s of CPU a worker (3.5 of 20 s in a test that starts 1, 2 and 3 workers).
+FORK_SERVER_PRELOAD = ("distributed", "numpy", "pinocchio", "manipkit.kinematics.robot", "manipkit.analysis.reachmap.jobs")
 # A local cluster has no dashboard: its monitors (the workers' sampling profiler every 10 ms, each server's
 # event-loop tick every 20 ms, the system monitor, the nannies' memory checks every 100 ms) cost this process and
 # each worker about 5 % of a core while they wait; measured, these settings cut that about fourfold.
@@ -141,13 +146,6 @@ def _quiet_dask():
     finally:
         for logger, was in zip(loggers, disabled):
             logger.disabled = was
-
-
-#: What multiprocessing's fork server imports once, before it forks the LocalCluster's workers: Dask's own
-#: choice ("distributed", which Dask sets too late here, the server being started above first) and what every
-#: block's job needs unpickled. Each worker otherwise imported them itself: about 0.6 s of CPU a worker
-#: (3.5 of 20 s in a test that starts 1, 2 and 3 workers).
-FORK_SERVER_PRELOAD = ("distributed", "numpy", "pinocchio", "manipkit.kinematics.robot", "manipkit.analysis.reachmap.jobs")
 
 
 def _forkserver_ignoring_sigint() -> None:
